@@ -1,0 +1,197 @@
+"""The record engine (the paper's Algorithm 1), for a robot's own main loop or as a ready loop.
+
+:meth:`Recorder.step` runs exactly one cycle, for robots that own their loop;
+:meth:`Recorder.run` is the loop itself: wait for the heartbeat, fold the sensor
+samples into the robot state, step, act. Like py_trees' ``tick`` and ``tick_tock``.
+"""
+
+from __future__ import annotations
+
+import logging
+import subprocess
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any, NamedTuple
+
+import msgspec
+
+from beatlog._version import __version__
+from beatlog.engine.cycle import CycleExecutor
+from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
+from beatlog.log.writer import SessionLogWriter
+from beatlog.model.behavior import System
+from beatlog.model.clock import DEFAULT_PERIOD_NS, LiveHeartbeat
+from beatlog.model.context import Outputs
+from beatlog.model.inbox import Sample
+from beatlog.model.random import RecordingRandom
+from beatlog.model.robot import Robot
+from beatlog.model.state import state_schema, state_type_name
+
+__all__ = ["RecordSummary", "Recorder", "software_version"]
+
+_log = logging.getLogger(__name__)
+
+
+class RecordSummary(NamedTuple):
+    """What a recording run produced."""
+
+    cycles: int
+    robot_time_ns: int
+    overruns: int
+    error: str | None
+    """Why the log stopped being written (e.g. disk full); the robot kept running."""
+
+
+def software_version(directory: Path | None = None) -> str:
+    """``git describe`` of the working tree, or ``"unknown"`` outside a git checkout."""
+    try:
+        described = subprocess.run(
+            ["git", "describe", "--always", "--dirty", "--tags"],  # noqa: S607
+            cwd=directory,
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=False,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return described.stdout.strip() or "unknown"
+
+
+class Recorder:
+    """Records a system's session into a ``.beatlog`` file; a context manager.
+
+    :param system_ref: the ``module:factory`` that built the system, kept in the header
+        so reports can print a command that replays the log.
+    :param seed: seed of the random source; a fresh one from the OS when None.
+    :param log_samples: also log the raw sensor samples folded into each robot state.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        system: System,
+        *,
+        robot_id: str = "robot",
+        system_ref: str = "",
+        period_ns: int = DEFAULT_PERIOD_NS,
+        seed: int | None = None,
+        flush_interval_s: float = 1.0,
+        fsync: bool = False,
+        log_samples: bool = False,
+        software: str | None = None,
+        start_time_ns: int | None = None,
+    ) -> None:
+        self.period_ns = period_ns
+        self.random = RecordingRandom(seed)
+        self._executor = CycleExecutor(system, self.random)
+        self._log_samples = log_samples
+        self._overruns = 0
+        self._warned = False
+        header = SessionHeader(
+            format_version=FORMAT_VERSION,
+            beatlog_version=__version__,
+            robot_id=robot_id,
+            software_version=software if software is not None else software_version(),
+            system=system_ref,
+            period_ns=period_ns,
+            start_time_ns=time.time_ns() if start_time_ns is None else start_time_ns,
+            robot_state_type=state_type_name(system.robot_state),
+            robot_state_schema=state_schema(system.robot_state),
+            behaviors=list(self._executor.behavior_ids),
+            random_seed=self.random.seed,
+            samples_logged=log_samples,
+            flush_interval_ns=int(flush_interval_s * 1e9),
+        )
+        self._writer = SessionLogWriter(
+            path, header, flush_interval_s=flush_interval_s, fsync=fsync
+        )
+
+    @property
+    def cycles(self) -> int:
+        """Cycles stepped so far."""
+        return self._executor.context.cycle + 1
+
+    @property
+    def robot_time_ns(self) -> int:
+        """Robot time so far: the sum of the heartbeat intervals."""
+        return self._executor.clock.now_ns
+
+    @property
+    def error(self) -> str | None:
+        """Why writing the log failed, if it did; the control loop is never stopped by it."""
+        error = self._writer.error
+        return None if error is None else f"{type(error).__name__}: {error}"
+
+    def step(self, interval_ns: int, state: msgspec.Struct, samples: Sequence[Sample] = ()) -> Outputs:
+        """Run one cycle with heartbeat interval HB_t and robot state RS_t; log it.
+
+        Returns the outputs the behaviors emitted. Never blocks on disk.
+        """
+        executor = self._executor
+        changes = executor.step(interval_ns, state)
+        context = executor.context
+        self._writer.append(
+            context.time_ns,
+            interval_ns,
+            state,
+            changes,
+            self.random.take(),
+            context.outputs,
+            samples if self._log_samples else (),
+        )
+        if self._writer.error is not None and not self._warned:
+            self._warned = True
+            _log.error("recording stopped at cycle %d: %s", context.cycle, self.error)
+        return context.outputs
+
+    def run(
+        self,
+        robot: Robot,
+        *,
+        duration_s: float,
+        heartbeat: LiveHeartbeat | None = None,
+        on_cycle: Callable[[int], Any] | None = None,
+    ) -> RecordSummary:
+        """Run the robot in real time on a live heartbeat for ``duration_s`` of robot time."""
+        clock = heartbeat or LiveHeartbeat(self.period_ns)
+        until_ns = int(duration_s * 1e9)
+        state: msgspec.Struct | None = None
+        robot.start()
+        try:
+            clock.start()
+            while self.robot_time_ns < until_ns:
+                interval = clock.wait()
+                samples = robot.inbox.drain()
+                state = robot.perceive(state, samples)
+                robot.act(self.step(interval, state, samples))
+                if on_cycle is not None:
+                    on_cycle(self.cycles)
+        finally:
+            robot.stop()
+            self._overruns = clock.overruns
+        return RecordSummary(self.cycles, self.robot_time_ns, clock.overruns, self.error)
+
+    def close(self, *, error: str | None = None) -> None:
+        """Close the log with its end record."""
+        self._writer.close(
+            SessionEnd(
+                cycles=self.cycles,
+                robot_time_ns=self.robot_time_ns,
+                overruns=self._overruns,
+                error=error,
+            )
+        )
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close(error=None if exc is None else f"{type(exc).__name__}: {exc}")

@@ -1,0 +1,104 @@
+"""The verdict of a replay: pass, or the first divergence with everything needed to read it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import StrEnum
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from beatlog.log.reader import LogStatus
+
+__all__ = ["Divergence", "DivergenceKind", "DrawReport", "ReplayResult", "StateChange"]
+
+
+class DivergenceKind(StrEnum):
+    """How a replayed cycle differed from the recording."""
+
+    STATE_CHANGES = "state changes"
+    """The behaviors changed state differently (BS'_t != BS_t)."""
+    OUTPUTS = "outputs"
+    """The behaviors reported different outputs, e.g. motor commands."""
+    RANDOM_OVERDRAWN = "random overdrawn"
+    """The behaviors drew more random numbers than were recorded."""
+    RANDOM_UNDERDRAWN = "random underdrawn"
+    """The behaviors drew fewer random numbers than were recorded."""
+    RANDOM_MISMATCH = "random mismatch"
+    """The behaviors drew a different kind or shape of random number."""
+    EXCEPTION = "exception"
+    """Behavior code raised an exception."""
+    LOG_ENDED = "log ended"
+    """The log ends early: it was truncated before the recording closed it."""
+
+
+class StateChange(NamedTuple):
+    """A behavior's state change in one cycle."""
+
+    behavior: str
+    before: Any
+    after: Any
+
+    def __str__(self) -> str:
+        return f"{self.behavior}: {self.before!r} -> {self.after!r}"
+
+
+class DrawReport(NamedTuple):
+    """A random number in a divergence report, with the behavior that drew it."""
+
+    behavior: str
+    kind: str
+    value: Any
+
+
+@dataclass(frozen=True)
+class Divergence:
+    """The first cycle where replay differed from the recording, and why."""
+
+    kind: DivergenceKind
+    cycle: int
+    time_ns: int
+    message: str
+    behavior: str | None = None
+    expected: tuple[StateChange, ...] = ()
+    actual: tuple[StateChange, ...] = ()
+    expected_outputs: dict[str, Any] = field(default_factory=dict)
+    actual_outputs: dict[str, Any] = field(default_factory=dict)
+    robot_state: dict[str, Any] = field(default_factory=dict)
+    random_recorded: tuple[DrawReport, ...] = ()
+    random_drawn: tuple[DrawReport, ...] = ()
+    traceback: str | None = None
+
+    @property
+    def time_s(self) -> float:
+        """Robot time of the diverging cycle in seconds."""
+        return self.time_ns / 1e9
+
+
+@dataclass(frozen=True)
+class ReplayResult:
+    """What replaying one session log against a system gave."""
+
+    log: Path
+    ok: bool
+    cycles: int
+    """Cycles replayed."""
+    robot_time_ns: int
+    wall_time_s: float
+    status: LogStatus | None
+    """How the log ended; None when replay stopped at a divergence before reading it all."""
+    divergence: Divergence | None
+    """The first divergence, or None when the replay passed."""
+    divergent_cycles: int
+    """Cycles that diverged; more than one only when replay was told to keep going."""
+    reproduce: str
+    """A command that replays this log again."""
+
+    @property
+    def robot_time_s(self) -> float:
+        """Robot time replayed in seconds."""
+        return self.robot_time_ns / 1e9
+
+    @property
+    def speedup(self) -> float:
+        """Robot time replayed per second of wall time (× real time)."""
+        return self.robot_time_s / self.wall_time_s if self.wall_time_s > 0 else float("inf")

@@ -1,0 +1,48 @@
+"""The exceptions beatlog raises for bad input; programming errors stay ordinary exceptions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = [
+    "BeatlogError",
+    "CorruptLogError",
+    "LogError",
+    "NotABeatlogError",
+    "SchemaMismatchError",
+    "SystemLoadError",
+    "UnsupportedVersionError",
+]
+
+
+class BeatlogError(Exception):
+    """Root of every error caused by input a user gave (a file, an option, a factory name)."""
+
+
+class LogError(BeatlogError):
+    """A session log that cannot be read; the message names the file and the problem."""
+
+    def __init__(self, path: str | Path, problem: str) -> None:
+        self.path = Path(path)
+        self.problem = problem
+        super().__init__(f"{self.path}: {problem}")
+
+
+class NotABeatlogError(LogError):
+    """The file is missing, empty, not MCAP, or MCAP written by another tool."""
+
+
+class UnsupportedVersionError(LogError):
+    """The log was written with a newer format version than this beatlog reads."""
+
+
+class CorruptLogError(LogError):
+    """A record inside the log is damaged (bad CRC, bad payload) before its end."""
+
+
+class SchemaMismatchError(LogError):
+    """The log's robot state cannot be decoded into the system's robot state type."""
+
+
+class SystemLoadError(BeatlogError):
+    """A ``module:factory`` reference that cannot be imported or does not build a system."""

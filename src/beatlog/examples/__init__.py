@@ -1,0 +1,1 @@
+"""Example robots that ship with beatlog, for the demo, the docs and the tests."""

@@ -1,0 +1,121 @@
+"""The behavior protocol any architecture can implement, and a built-in priority arbiter.
+
+A system exposes a catalogue of behaviors, each with an observable ``state``, and an
+``update`` that runs one cycle. After each update the engine diffs every state in
+catalogue order; the changes are BS_t, the ordered list of (behavior, before, after).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, Generic, Protocol, TypeVar, runtime_checkable
+
+import msgspec
+
+from beatlog.model.context import Context, Outputs
+
+__all__ = ["Behavior", "BehaviorState", "PlainBehavior", "PriorityArbiter", "System"]
+
+BehaviorState = str | int | bool | None
+"""What a behavior's observable state may be: a name, a number or a flag (Enums of str/int fit)."""
+
+RS = TypeVar("RS", bound=msgspec.Struct)
+RS_contra = TypeVar("RS_contra", bound=msgspec.Struct, contravariant=True)
+
+
+@runtime_checkable
+class Behavior(Protocol):
+    """Anything whose state the engine can observe after each cycle."""
+
+    @property
+    def state(self) -> BehaviorState:
+        """The current state, compared after every cycle."""
+        ...
+
+
+@runtime_checkable
+class System(Protocol):
+    """The behavior software under test: what record and replay drive, cycle by cycle."""
+
+    @property
+    def robot_state(self) -> type[msgspec.Struct]:
+        """The robot state type RS this system reads."""
+        ...
+
+    @property
+    def behaviors(self) -> Mapping[str, Behavior]:
+        """The behavior catalogue: stable ids (names or paths) to behaviors, in a fixed order."""
+        ...
+
+    def update(self, state: Any, context: Context) -> None:
+        """Update every behavior for one heartbeat from the robot state RS_t."""
+        ...
+
+
+class PlainBehavior(Protocol[RS_contra]):
+    """A behavior for the priority arbiter: it steps and may ask for control."""
+
+    @property
+    def name(self) -> str:
+        """The behavior's id in the catalogue."""
+        ...
+
+    @property
+    def state(self) -> BehaviorState:
+        """The current state, compared after every cycle."""
+        ...
+
+    def step(self, state: RS_contra, context: Context) -> Outputs | None:
+        """Run one cycle; return the outputs it wants applied, or None to stay passive."""
+        ...
+
+
+class PriorityArbiter(Generic[RS]):
+    """Subsumption-style arbitration: every behavior steps, the highest-priority one that
+    asks for control wins, and its outputs are emitted.
+
+    The arbiter is itself a behavior whose state is the name of the winner (``"idle"``
+    when none asks), so a change of control is a state change in the log.
+    """
+
+    def __init__(
+        self,
+        behaviors: Sequence[PlainBehavior[RS]],
+        *,
+        robot_state: type[RS],
+        name: str = "arbiter",
+    ) -> None:
+        self.name = name
+        self.state: BehaviorState = "idle"
+        self._robot_state = robot_state
+        self._children = tuple(behaviors)
+        catalogue: dict[str, Behavior] = {name: self}
+        for behavior in self._children:
+            if behavior.name in catalogue:
+                raise ValueError(f"two behaviors are named {behavior.name!r}")
+            catalogue[behavior.name] = behavior
+        self._catalogue = catalogue
+
+    @property
+    def robot_state(self) -> type[RS]:
+        """The robot state type the behaviors read."""
+        return self._robot_state
+
+    @property
+    def behaviors(self) -> Mapping[str, Behavior]:
+        """The arbiter first, then its behaviors from highest to lowest priority."""
+        return self._catalogue
+
+    def update(self, state: RS, context: Context) -> None:
+        """Step every behavior in priority order and emit the winner's outputs."""
+        winner: PlainBehavior[RS] | None = None
+        command: Outputs | None = None
+        for actor, behavior in enumerate(self._children, start=1):
+            context.actor = actor
+            proposal = behavior.step(state, context)
+            if winner is None and proposal is not None:
+                winner, command = behavior, proposal
+        context.actor = 0
+        self.state = "idle" if winner is None else winner.name
+        if command:
+            context.outputs.update(command)

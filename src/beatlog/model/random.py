@@ -1,0 +1,240 @@
+"""The random source: the only randomness behaviors use.
+
+Live, it draws from a seeded numpy generator and records every value (RN_t). In
+replay it hands back the recorded values; drawing more, fewer or a different kind
+than was recorded is a divergence that names the cycle and the behavior.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from enum import StrEnum
+from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
+
+import numpy as np
+import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from beatlog.model.context import Context
+
+__all__ = [
+    "Draw",
+    "DrawKind",
+    "RandomMismatch",
+    "RandomSource",
+    "RecordingRandom",
+    "ReplayRandom",
+]
+
+T = TypeVar("T")
+
+
+class DrawKind(StrEnum):
+    """What a behavior asked the random source for."""
+
+    RANDOM = "random"
+    """A float in [0, 1)."""
+    UNIFORM = "uniform"
+    """A float in [a, b)."""
+    GAUSS = "gauss"
+    """A normally distributed float."""
+    RANDINT = "randint"
+    """An int in [a, b], both ends included."""
+    CHOICE = "choice"
+    """An element of a sequence; the index is recorded."""
+    UNIFORM_ARRAY = "uniform_array"
+    """A numpy array of uniform floats."""
+    NORMAL_ARRAY = "normal_array"
+    """A numpy array of normal floats."""
+    INTEGERS_ARRAY = "integers_array"
+    """A numpy array of ints in [low, high)."""
+
+
+class Draw(NamedTuple):
+    """One random number drawn in a cycle: who drew it, what kind, and the value."""
+
+    actor: int
+    kind: str
+    value: Any
+
+
+class RandomMismatch(BaseException):
+    """Raised inside behavior code when a replayed draw does not match the recording.
+
+    It derives from BaseException so that a behavior's ``except Exception`` cannot
+    swallow it; the source also remembers the mismatch in case it is swallowed anyway.
+    """
+
+    def __init__(self, problem: str, actor: int, *, overdrawn: bool) -> None:
+        super().__init__(problem)
+        self.problem = problem
+        self.actor = actor
+        self.overdrawn = overdrawn
+
+
+def _pack_array(array: npt.NDArray[Any]) -> tuple[str, list[int], bytes]:
+    little = array.astype(array.dtype.newbyteorder("<"), copy=False)
+    return (little.dtype.str, list(array.shape), little.tobytes())
+
+
+def _unpack_array(value: Any) -> npt.NDArray[Any]:
+    dtype, shape, data = value
+    return np.frombuffer(data, dtype=np.dtype(dtype)).reshape(shape).copy()
+
+
+class RandomSource(ABC):
+    """Random numbers for behaviors, attributed to the behavior that draws them."""
+
+    def __init__(self) -> None:
+        self._context: Context | None = None
+
+    def bind(self, context: Context) -> None:
+        """Attach the context whose ``actor`` names the drawing behavior."""
+        self._context = context
+
+    @property
+    def _actor(self) -> int:
+        return -1 if self._context is None else self._context.actor
+
+    @abstractmethod
+    def _scalar(self, kind: DrawKind, a: float, b: float) -> Any: ...
+
+    @abstractmethod
+    def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any: ...
+
+    def random(self) -> float:
+        """A float in [0, 1)."""
+        return float(self._scalar(DrawKind.RANDOM, 0.0, 1.0))
+
+    def uniform(self, a: float, b: float) -> float:
+        """A float in [a, b)."""
+        return float(self._scalar(DrawKind.UNIFORM, a, b))
+
+    def gauss(self, mu: float = 0.0, sigma: float = 1.0) -> float:
+        """A normally distributed float with mean ``mu`` and deviation ``sigma``."""
+        return float(self._scalar(DrawKind.GAUSS, mu, sigma))
+
+    def randint(self, a: int, b: int) -> int:
+        """An int in [a, b], both ends included (like ``random.randint``)."""
+        return int(self._scalar(DrawKind.RANDINT, a, b))
+
+    def choice(self, seq: Sequence[T]) -> T:
+        """An element of a non-empty sequence."""
+        if not seq:
+            raise IndexError("cannot choose from an empty sequence")
+        index = int(self._scalar(DrawKind.CHOICE, 0, len(seq)))
+        return seq[index]
+
+    def uniform_array(
+        self, low: float, high: float, shape: int | tuple[int, ...]
+    ) -> npt.NDArray[np.float64]:
+        """A float array of uniform values in [low, high)."""
+        return self._array(DrawKind.UNIFORM_ARRAY, low, high, _shape(shape))  # type: ignore[no-any-return]
+
+    def normal_array(
+        self, loc: float, scale: float, shape: int | tuple[int, ...]
+    ) -> npt.NDArray[np.float64]:
+        """A float array of normal values."""
+        return self._array(DrawKind.NORMAL_ARRAY, loc, scale, _shape(shape))  # type: ignore[no-any-return]
+
+    def integers_array(
+        self, low: int, high: int, shape: int | tuple[int, ...]
+    ) -> npt.NDArray[np.int64]:
+        """An int array of values in [low, high)."""
+        return self._array(DrawKind.INTEGERS_ARRAY, low, high, _shape(shape))  # type: ignore[no-any-return]
+
+
+def _shape(shape: int | tuple[int, ...]) -> tuple[int, ...]:
+    return (shape,) if isinstance(shape, int) else tuple(shape)
+
+
+class RecordingRandom(RandomSource):
+    """Draws from a PCG64 generator and keeps every value drawn in the current cycle."""
+
+    def __init__(self, seed: int | None = None) -> None:
+        super().__init__()
+        self.seed = seed if seed is not None else int(np.random.SeedSequence().entropy)  # type: ignore[arg-type]
+        self._gen = np.random.Generator(np.random.PCG64(self.seed))
+        self.draws: list[Draw] = []
+
+    def take(self) -> list[Draw]:
+        """Hand over this cycle's draws (RN_t) and start an empty list for the next."""
+        draws, self.draws = self.draws, []
+        return draws
+
+    def _scalar(self, kind: DrawKind, a: float, b: float) -> Any:
+        gen = self._gen
+        value: Any
+        if kind is DrawKind.RANDOM:
+            value = float(gen.random())
+        elif kind is DrawKind.UNIFORM:
+            value = float(gen.uniform(a, b))
+        elif kind is DrawKind.GAUSS:
+            value = float(gen.normal(a, b))
+        elif kind is DrawKind.RANDINT:
+            value = int(gen.integers(int(a), int(b), endpoint=True))
+        else:
+            value = int(gen.integers(0, int(b)))
+        self.draws.append(Draw(self._actor, kind.value, value))
+        return value
+
+    def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
+        gen = self._gen
+        array: npt.NDArray[Any]
+        if kind is DrawKind.UNIFORM_ARRAY:
+            array = gen.uniform(a, b, shape)
+        elif kind is DrawKind.NORMAL_ARRAY:
+            array = gen.normal(a, b, shape)
+        else:
+            array = gen.integers(int(a), int(b), shape, dtype=np.int64)
+        self.draws.append(Draw(self._actor, kind.value, _pack_array(array)))
+        return array
+
+
+class ReplayRandom(RandomSource):
+    """Returns the values recorded in RN_t, checking kind and count as it goes."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.recorded: Sequence[Draw] = ()
+        self.drawn: list[Draw] = []
+        self.mismatch: RandomMismatch | None = None
+
+    def load(self, recorded: Sequence[Draw]) -> None:
+        """Set the draws recorded for the next cycle."""
+        self.recorded = recorded
+        if self.drawn:
+            self.drawn = []
+        self.mismatch = None
+
+    def _next(self, kind: DrawKind) -> Any:
+        index = len(self.drawn)
+        actor = self._actor
+        if index >= len(self.recorded):
+            self._fail(
+                f"drew {kind.value} #{index + 1} but only {index} were recorded",
+                actor,
+                overdrawn=True,
+            )
+        draw = self.recorded[index]
+        if draw.kind != kind.value:
+            self._fail(f"drew {kind.value} #{index + 1} where {draw.kind} was recorded", actor)
+        self.drawn.append(Draw(actor, kind.value, draw.value))
+        return draw.value
+
+    def _fail(self, problem: str, actor: int, *, overdrawn: bool = False) -> None:
+        self.mismatch = RandomMismatch(problem, actor, overdrawn=overdrawn)
+        raise self.mismatch
+
+    def _scalar(self, kind: DrawKind, a: float, b: float) -> Any:
+        value = self._next(kind)
+        if kind is DrawKind.CHOICE and not 0 <= value < b:
+            self._fail(f"recorded choice index {value} is out of range for {int(b)} items", self._actor)
+        return value
+
+    def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
+        array = _unpack_array(self._next(kind))
+        if array.shape != shape:
+            self._fail(f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor)
+        return array

@@ -1,0 +1,27 @@
+"""The robot state RS: a light, typed store of the latest sensor data and derived variables."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import msgspec
+
+__all__ = ["RobotState", "state_schema", "state_type_name"]
+
+
+class RobotState(msgspec.Struct, kw_only=True):
+    """Base for a robot's state struct; subclass it with typed fields.
+
+    Keep it light, as the paper asks: a brightness level, not the camera image.
+    Fields need defaults if logs recorded before the field existed must still load.
+    """
+
+
+def state_schema(state_type: type[msgspec.Struct]) -> dict[str, Any]:
+    """The JSON schema of a robot state type, embedded in every session log header."""
+    return msgspec.json.schema(state_type)
+
+
+def state_type_name(state_type: type[Any]) -> str:
+    """The dotted name of a robot state type, for headers and messages."""
+    return f"{state_type.__module__}.{state_type.__qualname__}"
