@@ -34,7 +34,7 @@ def load_factory(reference: str) -> Any:
         return factory
     try:
         return factory()
-    except Exception as exc:  # noqa: BLE001 - the user's factory failing is bad input here
+    except Exception as exc:
         raise SystemLoadError(
             f"{reference!r}: the factory raised {type(exc).__name__}: {exc}"
         ) from None

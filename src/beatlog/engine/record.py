@@ -125,7 +125,9 @@ class Recorder:
         error = self._writer.error
         return None if error is None else f"{type(error).__name__}: {error}"
 
-    def step(self, interval_ns: int, state: msgspec.Struct, samples: Sequence[Sample] = ()) -> Outputs:
+    def step(
+        self, interval_ns: int, state: msgspec.Struct, samples: Sequence[Sample] = ()
+    ) -> Outputs:
         """Run one cycle with heartbeat interval HB_t and robot state RS_t; log it.
 
         Returns the outputs the behaviors emitted. Never blocks on disk.

@@ -123,7 +123,7 @@ class _Judge:
                 changes = step(record.hb_ns, state)
             except RandomMismatch:
                 pass
-            except Exception as exc:  # noqa: BLE001 - behavior code failing is a verdict
+            except Exception as exc:
                 failure = exc
             if (
                 changes is not None
@@ -171,7 +171,9 @@ class _Judge:
     def _named(self, raw_changes: msgspec.Raw) -> list[StateChange]:
         names = self.header.behaviors
         recorded = msgspec.msgpack.decode(raw_changes, type=list[StateChangeRecord])
-        return [StateChange(_name(names, index), before, after) for index, before, after in recorded]
+        return [
+            StateChange(_name(names, index), before, after) for index, before, after in recorded
+        ]
 
     def _named_actual(self, changes: list[StateChangeRecord]) -> list[StateChange]:
         names = self.executor.behavior_ids

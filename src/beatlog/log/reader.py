@@ -63,7 +63,7 @@ class _Versioned(msgspec.Struct):
     format_version: int
 
 
-class _Truncated(Exception):
+class _TruncatedError(Exception):
     """Internal: the file ends, or its last record is cut off, before the log was closed."""
 
 
@@ -188,7 +188,7 @@ class SessionLogReader:
                     yield topic, record
                 elif isinstance(record, Channel):
                     self._channels[record.id] = record.topic
-        except _Truncated as cut:
+        except _TruncatedError as cut:
             self._status = LogStatus(False, self._cycles, str(cut))
             return
         if self._end is None:
@@ -205,23 +205,23 @@ class SessionLogReader:
         while not self._footer:
             head = file.read(9)
             if not head:
-                raise _Truncated("the recording stopped before the log was closed")
+                raise _TruncatedError("the recording stopped before the log was closed")
             if len(head) < 9:
-                raise _Truncated(f"the last record is cut off at byte {offset}")
+                raise _TruncatedError(f"the last record is cut off at byte {offset}")
             opcode, length = struct.unpack("<BQ", head)
             end = offset + 9 + length
             if opcode == 0 and not head.strip(b"\0") and not file.read().strip(b"\0"):
-                raise _Truncated(f"zero-filled from byte {offset} (power loss?)")
+                raise _TruncatedError(f"zero-filled from byte {offset} (power loss?)")
             if end > size:
                 if opcode in _KNOWN_OPCODES and length <= _MAX_CHUNK_BYTES:
-                    raise _Truncated(f"the last record is cut off at byte {offset}")
+                    raise _TruncatedError(f"the last record is cut off at byte {offset}")
                 raise CorruptLogError(self.path, f"damaged record at byte {offset}")
             body = file.read(length)
             try:
                 records = self._parse(opcode, body)
-            except Exception as exc:  # noqa: BLE001 - mcap and zstd raise many kinds on bad bytes
+            except Exception as exc:
                 if end == size:
-                    raise _Truncated(f"the last record is damaged at byte {offset}") from None
+                    raise _TruncatedError(f"the last record is damaged at byte {offset}") from None
                 raise CorruptLogError(
                     self.path, f"damaged record at byte {offset}: {exc}"
                 ) from None

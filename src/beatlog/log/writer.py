@@ -22,6 +22,7 @@ from typing import IO, Any, Final
 import msgspec
 from mcap.writer import CompressionType, Writer
 
+from beatlog.errors import LogError
 from beatlog.log.format import (
     CYCLES_TOPIC,
     END_TOPIC,
@@ -67,7 +68,7 @@ class SessionLogWriter:
         if flush_interval_s <= 0:
             raise ValueError(f"flush interval must be positive, got {flush_interval_s}")
         self.path = Path(output) if isinstance(output, str | Path) else None
-        self._file: IO[bytes] = open(output, "wb") if isinstance(output, str | Path) else output  # noqa: SIM115
+        self._file = self._open(output)
         self._fsync = fsync
         self._flush_interval_ns = int(flush_interval_s * 1e9)
         self._batch_cycles = batch_cycles
@@ -96,14 +97,21 @@ class SessionLogWriter:
                 (END_TOPIC, SessionEnd),
             )
         }
-        self._mcap.add_message(
-            self._channels[HEADER_TOPIC], 0, self._encoder.encode(header), 0
-        )
+        self._mcap.add_message(self._channels[HEADER_TOPIC], 0, self._encoder.encode(header), 0)
         self._flush()
         self._thread = threading.Thread(target=self._run, name="beatlog-writer", daemon=True)
         self._thread.start()
 
-    def append(
+    @staticmethod
+    def _open(output: str | Path | IO[bytes]) -> IO[bytes]:
+        if not isinstance(output, str | Path):
+            return output
+        try:
+            return open(output, "wb")  # noqa: SIM115 - closed by close()
+        except OSError as exc:
+            raise LogError(output, f"cannot write: {exc.strerror}") from None
+
+    def append(  # noqa: PLR0917 - positional on purpose: it runs every cycle
         self,
         time_ns: int,
         hb_ns: int,
@@ -174,7 +182,7 @@ class SessionLogWriter:
             return
         try:
             write(*args)
-        except Exception as exc:  # noqa: BLE001 - any write failure must spare the control loop
+        except Exception as exc:
             self.error = exc
 
     def _write_batch(self, pending: list[tuple[int, bytes]]) -> None:
@@ -187,16 +195,19 @@ class SessionLogWriter:
         pending.clear()
 
     def _flush(self) -> None:
-        self._mcap.flush()
+        self._mcap.flush()  # type: ignore[no-untyped-call]
         if self._fsync:
             os.fsync(self._file.fileno())
 
     def _finish(self, end: SessionEnd | None) -> None:
         if end is not None:
             self._mcap.add_message(
-                self._channels[END_TOPIC], end.robot_time_ns, self._encoder.encode(end), end.robot_time_ns
+                self._channels[END_TOPIC],
+                end.robot_time_ns,
+                self._encoder.encode(end),
+                end.robot_time_ns,
             )
-        self._mcap.finish()
+        self._mcap.finish()  # type: ignore[no-untyped-call]
         self._file.flush()
         if self._fsync:
             os.fsync(self._file.fileno())

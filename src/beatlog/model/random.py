@@ -7,6 +7,7 @@ than was recorded is a divergence that names the cycle and the behavior.
 
 from __future__ import annotations
 
+import secrets
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from enum import StrEnum
@@ -154,7 +155,7 @@ class RecordingRandom(RandomSource):
 
     def __init__(self, seed: int | None = None) -> None:
         super().__init__()
-        self.seed = seed if seed is not None else int(np.random.SeedSequence().entropy)  # type: ignore[arg-type]
+        self.seed = seed if seed is not None else secrets.randbits(63)
         self._gen = np.random.Generator(np.random.PCG64(self.seed))
         self.draws: list[Draw] = []
 
@@ -230,11 +231,15 @@ class ReplayRandom(RandomSource):
     def _scalar(self, kind: DrawKind, a: float, b: float) -> Any:
         value = self._next(kind)
         if kind is DrawKind.CHOICE and not 0 <= value < b:
-            self._fail(f"recorded choice index {value} is out of range for {int(b)} items", self._actor)
+            self._fail(
+                f"recorded choice index {value} is out of range for {int(b)} items", self._actor
+            )
         return value
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
         array = _unpack_array(self._next(kind))
         if array.shape != shape:
-            self._fail(f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor)
+            self._fail(
+                f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
+            )
         return array

@@ -108,9 +108,7 @@ class Wander:
 
 def system(avoid_distance: float = AVOID_DISTANCE) -> PriorityArbiter[RoverState]:
     """The rover's behavior system: escape > avoid > wander."""
-    return PriorityArbiter(
-        [Escape(), Avoid(avoid_distance), Wander()], robot_state=RoverState
-    )
+    return PriorityArbiter([Escape(), Avoid(avoid_distance), Wander()], robot_state=RoverState)
 
 
 def changed_system() -> PriorityArbiter[RoverState]:

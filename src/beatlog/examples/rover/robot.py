@@ -158,8 +158,13 @@ def record_lockstep(
     now_ns = 0
     state: RoverState | None = None
     with Recorder(
-        path, chosen, robot_id="rover-lockstep", system_ref="beatlog.examples.rover:system",
-        period_ns=period_ns, seed=seed, software="lockstep",
+        path,
+        chosen,
+        robot_id="rover-lockstep",
+        system_ref="beatlog.examples.rover:system",
+        period_ns=period_ns,
+        seed=seed,
+        software="lockstep",
         start_time_ns=0,
     ) as recorder:
         while now_ns < duration_s * 1e9:

@@ -29,7 +29,7 @@ class World:
     turn_rate: float = 0.0
     bumped: bool = False
     obstacles: list[tuple[float, float, float]] = field(
-        default_factory=lambda: [(3.2, 3.1, 0.45), (4.6, 1.4, 0.35), (2.0, 4.9, 0.4)]
+        default_factory=lambda: [(2.4, 3.05, 0.4), (4.6, 1.4, 0.35), (4.2, 4.6, 0.45)]
     )
 
     def command(self, speed: float, turn_rate: float) -> None:

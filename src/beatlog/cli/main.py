@@ -1,0 +1,192 @@
+"""The ``beatlog`` command: a thin shell over the library.
+
+Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
+input (one line on stderr naming the file and the problem, never a traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
+
+import msgspec
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from beatlog._version import __version__
+from beatlog.cli.render import render_replay, render_summary
+from beatlog.engine.loading import load_factory
+from beatlog.engine.record import Recorder
+from beatlog.engine.replay import replay
+from beatlog.errors import BeatlogError
+from beatlog.log.summary import summarize
+from beatlog.model.robot import Robot
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+class _UsageError(BeatlogError):
+    """A bad option or argument."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line and exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        raise _UsageError(f"{message} (see '{self.prog} --help')")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="beatlog",
+        description="Record robot sessions and replay them as deterministic test cases.",
+    )
+    parser.add_argument("--version", action="version", version=f"beatlog {__version__}")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    record = commands.add_parser("record", help="run a robot in real time and record a session")
+    record.add_argument("--robot", required=True, metavar="MODULE:FACTORY", help="robot factory")
+    record.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
+    record.add_argument(
+        "--duration", type=_positive_float, required=True, help="robot time to record (s)"
+    )
+    record.add_argument("--period-ms", type=_positive_float, default=30.0, help="heartbeat period")
+    record.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
+    record.add_argument("--robot-id", default="robot", help="name of the robot in the header")
+    record.add_argument(
+        "--system-ref",
+        default="",
+        metavar="MODULE:FACTORY",
+        help="the system factory replay should use, written into the header",
+    )
+    record.add_argument("--log-samples", action="store_true", help="also log raw sensor samples")
+    record.add_argument(
+        "--flush-interval", type=_positive_float, default=1.0, help="seconds between flushes"
+    )
+    record.add_argument("--fsync", action="store_true", help="fsync at every flush")
+    record.add_argument("--force", action="store_true", help="overwrite an existing log")
+
+    play = commands.add_parser("replay", help="replay a session log and give a verdict")
+    play.add_argument("log", type=Path)
+    play.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
+    play.add_argument("--keep-going", action="store_true", help="count every diverging cycle")
+    play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
+    play.add_argument("--json", action="store_true", help="print the result as JSON")
+
+    show = commands.add_parser("show", help="describe a session log")
+    show.add_argument("log", type=Path)
+
+    demo = commands.add_parser("demo", help="record, replay and break the example rover")
+    demo.add_argument("--duration", type=_positive_float, default=6.0, help="seconds to record")
+    demo.add_argument(
+        "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
+    )
+    return parser
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return value
+
+
+def _record(args: argparse.Namespace, console: Console) -> int:
+    robot = load_factory(args.robot)
+    if not isinstance(robot, Robot):
+        raise _UsageError(f"{args.robot!r}: built a {type(robot).__name__}, not a robot")
+    output: Path = args.output
+    if output.exists() and not args.force:
+        raise _UsageError(f"{output}: already exists; recordings are immutable (use --force)")
+    if not output.parent.is_dir():
+        raise _UsageError(f"{output}: directory {output.parent} does not exist")
+    with (
+        Recorder(
+            output,
+            robot.system,
+            robot_id=args.robot_id,
+            system_ref=args.system_ref,
+            period_ns=int(args.period_ms * 1e6),
+            seed=args.seed,
+            flush_interval_s=args.flush_interval,
+            fsync=args.fsync,
+            log_samples=args.log_samples,
+        ) as recorder,
+        _progress(console) as progress,
+    ):
+        total = int(args.duration * 1e3 / args.period_ms)
+        task = progress.add_task("recording", total=total)
+        summary = recorder.run(
+            robot,
+            duration_s=args.duration,
+            on_cycle=lambda cycles: progress.update(task, completed=cycles),
+        )
+    console.print(
+        f"recorded {summary.cycles} cycles ({summary.robot_time_ns / 1e9:.2f} s, "
+        f"{summary.overruns} overruns) to {output}"
+    )
+    if summary.error is not None:
+        console.print(f"[red]recording failed: {summary.error}; the log is valid up to there")
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _progress(console: Console) -> Progress:
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed} cycles"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    )
+
+
+def _replay(args: argparse.Namespace, console: Console) -> int:
+    result = replay(
+        args.log, args.system, keep_going=args.keep_going, allow_truncated=args.allow_truncated
+    )
+    if args.json:
+        sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
+    else:
+        console.print(render_replay(result))
+    return EXIT_OK if result.ok else EXIT_FAILED
+
+
+def _show(args: argparse.Namespace, console: Console) -> int:
+    console.print(render_summary(summarize(args.log)))
+    return EXIT_OK
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the CLI; returns the exit code (the console script exits with it)."""
+    console = Console()
+    try:
+        args = _parser().parse_args(argv)
+        if args.command == "record":
+            return _record(args, console)
+        if args.command == "replay":
+            return _replay(args, console)
+        if args.command == "show":
+            return _show(args, console)
+        from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs the rover
+
+        return run_demo(console, duration_s=args.duration, out=args.out)
+    except BeatlogError as exc:
+        print(f"beatlog: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("beatlog: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

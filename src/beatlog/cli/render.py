@@ -1,0 +1,150 @@
+"""Turns results into rich renderables; nothing here decides a verdict or exits."""
+
+from __future__ import annotations
+
+import datetime as dt
+from typing import Any
+
+from rich.console import Group, RenderableType
+from rich.panel import Panel
+from rich.table import Table
+from rich.text import Text
+
+from beatlog.engine.verdict import Divergence, DivergenceKind, DrawReport, ReplayResult, StateChange
+from beatlog.log.summary import LogSummary
+
+__all__ = ["render_replay", "render_summary"]
+
+
+def render_replay(result: ReplayResult) -> RenderableType:
+    """A pass line, or the first divergence in one screen."""
+    figures = (
+        f"{result.cycles} cycles, {result.robot_time_s:.1f} s robot time "
+        f"in {result.wall_time_s:.3f} s ({result.speedup:,.0f}× real time)"
+    )
+    status = "" if result.status is None else f"; log {result.status.describe()}"
+    if result.ok:
+        return Text.assemble(("PASS ", "bold green"), f"{result.log}  {figures}{status}")
+    divergence = result.divergence
+    assert divergence is not None
+    parts: list[RenderableType] = [
+        Text.assemble(("FAIL ", "bold red"), f"{result.log}  {figures}{status}"),
+        _divergence(divergence),
+    ]
+    if result.divergent_cycles > 1:
+        parts.append(Text(f"{result.divergent_cycles} cycles diverged in all.", style="yellow"))
+    parts.append(Text.assemble(("reproduce: ", "dim"), result.reproduce))
+    return Group(*parts)
+
+
+def _divergence(divergence: Divergence) -> RenderableType:
+    title = (
+        f"first divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, "
+        f"{divergence.kind.value}"
+    )
+    parts: list[RenderableType] = [Text(divergence.message, style="bold")]
+    if divergence.expected or divergence.actual:
+        parts.append(
+            _side_by_side("behavior state changes", divergence.expected, divergence.actual)
+        )
+    completed = divergence.kind in (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
+    if completed and divergence.expected_outputs != divergence.actual_outputs:
+        parts.append(
+            _side_by_side(
+                "outputs",
+                _items(divergence.expected_outputs),
+                _items(divergence.actual_outputs),
+            )
+        )
+    if divergence.random_recorded or divergence.random_drawn:
+        parts.append(
+            _side_by_side("random numbers", divergence.random_recorded, divergence.random_drawn)
+        )
+    if divergence.robot_state:
+        parts.append(_robot_state(divergence.robot_state))
+    if divergence.traceback:
+        parts.append(Text(divergence.traceback.rstrip(), style="red"))
+    return Panel(Group(*parts), title=title, title_align="left", border_style="red")
+
+
+def _items(values: dict[str, Any]) -> list[str]:
+    return [f"{name} = {value!r}" for name, value in values.items()]
+
+
+def _cell(item: StateChange | DrawReport | str) -> str:
+    if isinstance(item, DrawReport):
+        return f"{item.behavior}: {item.kind} {item.value!r}"
+    return str(item)
+
+
+def _side_by_side(
+    what: str,
+    expected: Any,
+    actual: Any,
+) -> Table:
+    table = Table(title=what, title_justify="left", expand=True)
+    table.add_column("recorded", style="green", ratio=1)
+    table.add_column("replayed", style="red", ratio=1)
+    rows = max(len(expected), len(actual))
+    for row in range(rows):
+        want = _cell(expected[row]) if row < len(expected) else ""
+        got = _cell(actual[row]) if row < len(actual) else ""
+        table.add_row(want or "—", got or "—", style=None if want == got else "bold")
+    if not rows:
+        table.add_row("—", "—")
+    return table
+
+
+def _robot_state(state: dict[str, Any]) -> Table:
+    table = Table(title="robot state RS_t", title_justify="left", show_header=False, expand=True)
+    table.add_column("field", style="cyan")
+    table.add_column("value")
+    for name, value in state.items():
+        table.add_row(name, repr(value))
+    return table
+
+
+def render_summary(summary: LogSummary) -> RenderableType:
+    """The header and figures of a log, for ``beatlog show``."""
+    header = summary.header
+    about = Table(show_header=False, box=None)
+    about.add_column(style="cyan")
+    about.add_column()
+    started = dt.datetime.fromtimestamp(header.start_time_ns / 1e9, tz=dt.UTC)
+    overruns = "unknown (no end record)" if summary.end is None else str(summary.end.overruns)
+    rows = [
+        ("log", str(summary.path)),
+        ("status", summary.status.describe()),
+        ("robot", header.robot_id),
+        ("software", header.software_version),
+        ("system", header.system or "(not recorded)"),
+        ("recorded", f"{started:%Y-%m-%d %H:%M:%S} UTC with beatlog {header.beatlog_version}"),
+        ("duration", f"{summary.robot_time_ns / 1e9:.3f} s robot time"),
+        ("cycles", str(summary.cycles)),
+        (
+            "heartbeat",
+            f"period {header.period_ns / 1e6:g} ms; mean {summary.heartbeat_mean_ms:.3f} ms, "
+            f"p99 {summary.heartbeat_p99_ms:.3f} ms, max {summary.heartbeat_max_ms:.3f} ms",
+        ),
+        ("overruns", f"{overruns}; {summary.late_beats} beats later than 1.5 periods"),
+        ("robot state", header.robot_state_type),
+        ("random numbers", _counts(summary.random_draws) or "none"),
+    ]
+    if summary.end is not None and summary.end.error:
+        rows.append(("recording error", summary.end.error))
+    for name, value in rows:
+        about.add_row(name, value)
+    behaviors = Table(title="behaviors", title_justify="left")
+    behaviors.add_column("id")
+    behaviors.add_column("behavior")
+    behaviors.add_column("state changes", justify="right")
+    for index, (name, count) in enumerate(summary.transitions.items()):
+        behaviors.add_row(str(index), name, str(count))
+    return Group(about, behaviors)
+
+
+def _counts(counts: dict[str, int]) -> str:
+    total = sum(counts.values())
+    if not total:
+        return ""
+    return f"{total} ({', '.join(f'{kind} {n}' for kind, n in counts.items())})"
