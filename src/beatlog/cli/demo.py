@@ -30,9 +30,11 @@ def run_demo(console: Console, *, duration_s: float, out: Path) -> int:
         f"The rover drives for {duration_s:g} s in real time on a 30 ms heartbeat; its range, "
         "bump and odometry drivers run in their own threads."
     )
-    with Recorder(log, robot.system, robot_id="demo-rover", system_ref=SYSTEM) as recorder:
-        with console.status("recording…"):
-            recorder.run(robot, duration_s=duration_s)
+    with (
+        Recorder(log, robot.system, robot_id="demo-rover", system_ref=SYSTEM) as recorder,
+        console.status("recording…"),
+    ):
+        recorder.run(robot, duration_s=duration_s)
     console.print(render_summary(summarize(log)))
 
     console.print(Rule("2. replay it as a deterministic test case"))

@@ -107,7 +107,7 @@ class SessionLogWriter:
         if not isinstance(output, str | Path):
             return output
         try:
-            return open(output, "wb")  # noqa: SIM115 - closed by close()
+            return open(output, "wb")
         except OSError as exc:
             raise LogError(output, f"cannot write: {exc.strerror}") from None
 

@@ -1,0 +1,96 @@
+"""Factories shared by the tests: a tiny system and logs recorded from it in tmp_path."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import pytest
+
+from beatlog.engine.record import Recorder
+from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.context import Context, Outputs
+from beatlog.model.state import RobotState
+
+PERIOD_NS = 30_000_000
+
+
+class Probe(RobotState, kw_only=True):
+    """A robot state with one range reading and a float that may hold NaN or inf."""
+
+    distance: float = 1.0
+    reading: float = 0.0
+
+
+class Near:
+    """Goes 'near' when the distance drops below a threshold; asks for control then."""
+
+    name = "near"
+
+    def __init__(self, threshold: float = 0.5) -> None:
+        self.state: BehaviorState = "far"
+        self.threshold = threshold
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = "near" if rs.distance < self.threshold else "far"
+        return {"speed": 0.0} if self.state == "near" else None
+
+
+class Dice:
+    """Draws one uniform number every ``every`` cycles; its state is the parity of a die."""
+
+    name = "dice"
+
+    def __init__(self, every: int = 5, draws: int = 1) -> None:
+        self.state: BehaviorState = "even"
+        self.every = every
+        self.draws = draws
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if ctx.cycle % self.every == 0:
+            for _ in range(self.draws):
+                roll = ctx.random.randint(1, 6)
+            self.state = "odd" if roll % 2 else "even"
+        return {"speed": 0.5, "time": ctx.time}
+
+
+def probe_system(threshold: float = 0.5, *, every: int = 5, draws: int = 1) -> PriorityArbiter[Probe]:
+    """A two-behavior system: near (priority) and dice (random)."""
+    return PriorityArbiter([Near(threshold), Dice(every, draws)], robot_state=Probe)
+
+
+def distances(cycles: int) -> list[float]:
+    """A distance profile that approaches and leaves an obstacle twice."""
+    return [abs(((t % 100) - 50) / 50) for t in range(cycles)]
+
+
+RecordFn = Callable[..., Path]
+
+
+@pytest.fixture
+def record_probe(tmp_path: Path) -> RecordFn:
+    """Record a probe session of ``cycles`` cycles and return its path."""
+
+    def record(
+        cycles: int = 300,
+        *,
+        name: str = "probe.beatlog",
+        states: Sequence[Probe] | None = None,
+        seed: int = 7,
+        **options: object,
+    ) -> Path:
+        path = tmp_path / name
+        feed = states if states is not None else [Probe(distance=d) for d in distances(cycles)]
+        with Recorder(
+            path,
+            probe_system(),
+            seed=seed,
+            system_ref="tests.conftest:probe_system",
+            software="test",
+            **options,  # type: ignore[arg-type]
+        ) as recorder:
+            for t, state in enumerate(feed):
+                recorder.step(PERIOD_NS + (t % 3) * 1000, state)
+        return path
+
+    return record
