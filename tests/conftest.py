@@ -54,7 +54,9 @@ class Dice:
         return {"speed": 0.5, "time": ctx.time}
 
 
-def probe_system(threshold: float = 0.5, *, every: int = 5, draws: int = 1) -> PriorityArbiter[Probe]:
+def probe_system(
+    threshold: float = 0.5, *, every: int = 5, draws: int = 1
+) -> PriorityArbiter[Probe]:
     """A two-behavior system: near (priority) and dice (random)."""
     return PriorityArbiter([Near(threshold), Dice(every, draws)], robot_state=Probe)
 

@@ -29,7 +29,15 @@ class World:
     turn_rate: float = 0.0
     bumped: bool = False
     obstacles: list[tuple[float, float, float]] = field(
-        default_factory=lambda: [(2.4, 3.05, 0.4), (4.6, 1.4, 0.35), (4.2, 4.6, 0.45)]
+        default_factory=lambda: [
+            (2.4, 3.05, 0.4),
+            (4.6, 1.4, 0.35),
+            (4.2, 4.6, 0.45),
+            (1.5, 1.4, 0.04),
+            (3.9, 3.1, 0.04),
+            (2.8, 5.0, 0.04),
+            (1.2, 4.6, 0.04),
+        ]
     )
 
     def command(self, speed: float, turn_rate: float) -> None:

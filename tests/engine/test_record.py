@@ -1,0 +1,127 @@
+"""Recording (Algorithm 1): from a robot's own loop with step, or the ready loop run."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import msgspec
+import pytest
+
+from beatlog import replay
+from beatlog.engine.record import Recorder
+from beatlog.log.reader import SessionLogReader
+from beatlog.model.clock import LiveHeartbeat
+from beatlog.model.context import Outputs
+from beatlog.model.inbox import Sample, SensorInbox
+from tests.conftest import PERIOD_NS, Probe, probe_system
+
+
+def test_step_returns_outputs_and_the_header_describes_the_session(tmp_path: Path) -> None:
+    log = tmp_path / "s.beatlog"
+    with Recorder(
+        log, probe_system(), robot_id="dog-7", seed=99, period_ns=PERIOD_NS, software="v1.2"
+    ) as recorder:
+        outputs = recorder.step(PERIOD_NS, Probe(distance=0.2))
+        assert outputs == {"speed": 0.0}
+        recorder.step(PERIOD_NS, Probe(distance=0.9))
+        assert recorder.cycles == 2
+    with SessionLogReader(log) as reader:
+        header = reader.header
+        cycles = list(reader.cycles())
+        assert reader.status.complete
+        assert reader.end is not None
+        assert reader.end.cycles == 2
+    assert header.robot_id == "dog-7"
+    assert header.random_seed == 99
+    assert header.software_version == "v1.2"
+    assert header.behaviors == ["arbiter", "near", "dice"]
+    assert header.robot_state_type == "tests.conftest.Probe"
+    assert set(header.robot_state_schema["$defs"]["Probe"]["properties"]) == {
+        "distance",
+        "reading",
+    }
+    assert [c.hb_ns for c in cycles] == [PERIOD_NS, PERIOD_NS]
+
+
+class PushRobot:
+    """A robot whose 'driver' is the perception step itself: one sample per beat."""
+
+    def __init__(self) -> None:
+        self.system = probe_system()
+        self.inbox = SensorInbox()
+        self.started = self.stopped = False
+        self.acted: list[Outputs] = []
+        self.beats = 0
+
+    def start(self) -> None:
+        self.started = True
+
+    def stop(self) -> None:
+        self.stopped = True
+
+    def perceive(self, previous: Any | None, samples: Sequence[Sample]) -> Probe:
+        self.beats += 1
+        self.inbox.push("range", 1.0 - self.beats / 20)
+        distance = samples[-1].value if samples else 1.0
+        return Probe(distance=distance)
+
+    def act(self, outputs: Outputs) -> None:
+        self.acted.append(dict(outputs))
+
+
+def test_run_loops_on_a_live_heartbeat_and_logs_samples(tmp_path: Path) -> None:
+    log = tmp_path / "live.beatlog"
+    robot = PushRobot()
+    with Recorder(log, robot.system, period_ns=2_000_000, log_samples=True, software="t") as rec:
+        summary = rec.run(robot, duration_s=0.03, heartbeat=LiveHeartbeat(2_000_000))
+    assert robot.started
+    assert robot.stopped
+    assert summary.cycles == len(robot.acted) >= 1
+    assert summary.robot_time_ns >= 30_000_000
+    with SessionLogReader(log) as reader:
+        cycles = list(reader.cycles())
+    assert len(cycles) == summary.cycles
+    logged = msgspec.msgpack.decode(cycles[1].samples, type=list[Sample])
+    assert [s.sensor for s in logged] == ["range"]
+    assert replay(log, probe_system()).ok
+
+
+def test_a_write_failure_never_stops_the_control_loop(tmp_path: Path) -> None:
+    log = tmp_path / "full.beatlog"
+    with Recorder(log, probe_system(), flush_interval_s=0.01, software="t") as recorder:
+        recorder.step(PERIOD_NS, Probe())
+
+        def disk_full(*args: object) -> None:
+            raise OSError(28, "No space left on device")
+
+        recorder._writer._mcap.add_message = disk_full  # type: ignore[method-assign,assignment]
+        for _ in range(50):
+            recorder.step(PERIOD_NS, Probe())
+    assert recorder.cycles == 51
+    assert recorder.error is not None
+    assert "No space left" in recorder.error
+    with SessionLogReader(log) as reader:
+        kept = list(reader.cycles())
+        assert not reader.status.complete
+    assert len(kept) <= 1
+
+
+def test_an_exception_in_behavior_code_while_recording_is_kept_in_the_end_record(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "crash.beatlog"
+
+    def crash() -> None:
+        with Recorder(log, probe_system(), software="t") as recorder:
+            recorder.step(PERIOD_NS, Probe())
+            recorder.step(PERIOD_NS, None)  # type: ignore[arg-type]
+
+    with pytest.raises(AttributeError):
+        crash()
+    with SessionLogReader(log) as reader:
+        assert len(list(reader.cycles())) == 1
+        assert reader.end is not None
+        assert reader.end.error is not None
+        assert reader.end.error.startswith("AttributeError")

@@ -1,0 +1,219 @@
+"""Replay (Algorithm 2): a recorded session passes until the behaviors change, and then
+fails at exactly the first cycle that differs, saying what differed."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from beatlog import DivergenceKind, StateChange, replay
+from beatlog.engine.record import Recorder
+from beatlog.errors import SchemaMismatchError
+from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.context import Context, Outputs
+from beatlog.model.state import RobotState
+from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
+
+
+def first_cycle_below(threshold: float, cycles: int = 300) -> int:
+    return next(t for t, d in enumerate(distances(cycles)) if d < threshold)
+
+
+def test_a_recorded_session_replays_and_passes(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    result = replay(log, probe_system())
+    assert result.ok
+    assert result.divergence is None
+    assert result.cycles == 300
+    assert result.robot_time_ns == sum(PERIOD_NS + (t % 3) * 1000 for t in range(300))
+    assert result.status is not None
+    assert result.status.complete
+
+
+def test_a_system_given_by_reference_replays_too(record_probe: RecordFn) -> None:
+    result = replay(record_probe(50), "tests.conftest:probe_system")
+    assert result.ok
+    assert "--system tests.conftest:probe_system" in result.reproduce
+
+
+def test_a_changed_behavior_fails_at_the_first_cycle_it_acts_differently(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    result = replay(log, probe_system(threshold=0.6))
+    divergence = result.divergence
+    assert not result.ok
+    assert divergence is not None
+    expected_cycle = first_cycle_below(0.6)
+    assert expected_cycle < first_cycle_below(0.5)
+    assert divergence.kind is DivergenceKind.STATE_CHANGES
+    assert divergence.cycle == expected_cycle
+    assert result.cycles == expected_cycle + 1
+    assert divergence.time_ns == sum(PERIOD_NS + (t % 3) * 1000 for t in range(expected_cycle + 1))
+    assert divergence.expected == ()
+    assert divergence.actual == (
+        StateChange("arbiter", "dice", "near"),
+        StateChange("near", "far", "near"),
+    )
+    assert divergence.behavior == "arbiter"
+    assert divergence.robot_state["distance"] == distances(300)[expected_cycle]
+    assert divergence.expected_outputs != divergence.actual_outputs
+
+
+def test_drawing_more_random_numbers_than_recorded_is_caught(record_probe: RecordFn) -> None:
+    result = replay(record_probe(50), probe_system(draws=2))
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.RANDOM_OVERDRAWN
+    assert divergence.cycle == 0
+    assert divergence.behavior == "dice"
+    assert [d.kind for d in divergence.random_recorded] == ["randint"]
+    assert [d.behavior for d in divergence.random_drawn] == ["dice"]
+
+
+def test_drawing_fewer_random_numbers_than_recorded_is_caught(record_probe: RecordFn) -> None:
+    result = replay(record_probe(50), probe_system(every=10))
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.RANDOM_UNDERDRAWN
+    assert divergence.cycle == 5
+    assert divergence.behavior == "dice"
+    assert "drew 0 random numbers where 1 were recorded" in divergence.message
+
+
+class Fragile(Dice):
+    """Dice that breaks on a close obstacle."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if rs.distance < 0.3:
+            raise ZeroDivisionError("fragile dice")
+        return super().step(rs, ctx)
+
+
+def test_an_exception_in_behavior_code_is_a_verdict_with_the_users_traceback(
+    record_probe: RecordFn,
+) -> None:
+    system = PriorityArbiter([Near(), Fragile()], robot_state=Probe)
+    result = replay(record_probe(300), system)
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.EXCEPTION
+    assert divergence.cycle == first_cycle_below(0.3)
+    assert divergence.behavior == "dice"
+    assert divergence.traceback is not None
+    assert "test_replay.py" in divergence.traceback
+    assert 'raise ZeroDivisionError("fragile dice")' in divergence.traceback
+    assert "engine/cycle.py" not in divergence.traceback
+
+
+class Louder(Dice):
+    """Dice that asks for a different speed: only its outputs change."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        outputs = super().step(rs, ctx)
+        assert outputs is not None
+        return {**outputs, "speed": 0.75}
+
+
+def test_changed_outputs_alone_are_a_divergence(record_probe: RecordFn) -> None:
+    result = replay(record_probe(20), PriorityArbiter([Near(), Louder()], robot_state=Probe))
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.OUTPUTS
+    assert divergence.cycle == 0
+    assert divergence.expected_outputs["speed"] == 0.5
+    assert divergence.actual_outputs["speed"] == 0.75
+
+
+def test_keep_going_counts_every_diverging_cycle(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    first = replay(log, probe_system(threshold=0.6))
+    every = replay(log, probe_system(threshold=0.6), keep_going=True)
+    assert every.cycles == 300
+    assert every.divergence == first.divergence
+    assert first.divergent_cycles == 1
+    assert every.divergent_cycles > 1
+
+
+def test_the_same_log_replays_to_the_same_result_every_time(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    for threshold in (0.5, 0.6):
+        first = replay(log, probe_system(threshold))
+        second = replay(log, probe_system(threshold))
+        assert dataclasses.replace(first, wall_time_s=0) == dataclasses.replace(
+            second, wall_time_s=0
+        )
+
+
+class Die(Dice):
+    name = "die"
+
+
+def test_a_renamed_behavior_is_compared_by_name(record_probe: RecordFn) -> None:
+    result = replay(record_probe(50), PriorityArbiter([Near(), Die()], robot_state=Probe))
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.STATE_CHANGES
+    assert divergence.cycle == 0
+    assert StateChange("arbiter", "idle", "dice") in divergence.expected
+    assert StateChange("arbiter", "idle", "die") in divergence.actual
+
+
+class Other(RobotState, kw_only=True):
+    distance: str = "far"
+
+
+class Unused:
+    name = "unused"
+    state: BehaviorState = "idle"
+
+    def step(self, rs: Other, ctx: Context) -> Outputs | None:
+        return None
+
+
+def test_a_robot_state_that_does_not_fit_the_system_is_bad_input(record_probe: RecordFn) -> None:
+    log = record_probe(5)
+    with pytest.raises(SchemaMismatchError, match=r"probe\.beatlog: robot state of cycle 0"):
+        replay(log, PriorityArbiter([Unused()], robot_state=Other))
+
+
+class Clocked:
+    """Reports time and dt as outputs so the test can see what behaviors were told."""
+
+    name = "clocked"
+    state: BehaviorState = "on"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        return {"time_ns": ctx.time_ns, "dt": ctx.dt, "cycle": ctx.cycle}
+
+
+def test_behaviors_see_the_recorded_heartbeat_time(tmp_path: Path, record_probe: RecordFn) -> None:
+    log = tmp_path / "clocked.beatlog"
+    intervals = [30_000_000, 31_500_000, 29_000_000, 45_000_000]
+    seen = []
+    with Recorder(log, PriorityArbiter([Clocked()], robot_state=Probe), software="t") as rec:
+        for interval in intervals:
+            seen.append(dict(rec.step(interval, Probe())))
+    assert [s["time_ns"] for s in seen] == [30_000_000, 61_500_000, 90_500_000, 135_500_000]
+    assert seen[3]["dt"] == 0.045
+    assert replay(log, PriorityArbiter([Clocked()], robot_state=Probe)).ok
+
+
+def test_a_truncated_log_fails_as_ending_early_unless_allowed(record_probe: RecordFn) -> None:
+    log = record_probe(300, flush_interval_s=1.0)
+    data = log.read_bytes()
+    cut = log.with_name("cut.beatlog")
+    cut.write_bytes(data[: len(data) - 200])
+    result = replay(cut, probe_system())
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.LOG_ENDED
+    assert result.status is not None
+    assert not result.status.complete
+    assert divergence.cycle == result.status.cycles
+    assert "truncated at cycle" in divergence.message
+    allowed = replay(cut, probe_system(), allow_truncated=True)
+    assert allowed.ok
+    assert allowed.cycles == result.cycles
