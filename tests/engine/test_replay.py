@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from beatlog import DivergenceKind, StateChange, replay
@@ -217,3 +218,21 @@ def test_a_truncated_log_fails_as_ending_early_unless_allowed(record_probe: Reco
     allowed = replay(cut, probe_system(), allow_truncated=True)
     assert allowed.ok
     assert allowed.cycles == result.cycles
+
+
+class Numpy:
+    """Emits numpy values, as behaviors doing vector maths do."""
+
+    name = "numpy"
+    state: BehaviorState = "on"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        return {"gain": np.float32(rs.distance), "wheels": np.arange(2, dtype=np.int64)}
+
+
+def test_numpy_outputs_are_recorded_and_compared(tmp_path: Path) -> None:
+    log = tmp_path / "numpy.beatlog"
+    with Recorder(log, PriorityArbiter([Numpy()], robot_state=Probe), software="t") as rec:
+        for distance in (0.25, 0.5, 1.0):
+            rec.step(PERIOD_NS, Probe(distance=distance))
+    assert replay(log, PriorityArbiter([Numpy()], robot_state=Probe)).ok

@@ -26,7 +26,13 @@ from beatlog.engine.verdict import (
     StateChange,
 )
 from beatlog.errors import SchemaMismatchError
-from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, SessionHeader
+from beatlog.log.format import (
+    EMPTY_LIST,
+    EMPTY_MAP,
+    CycleRecord,
+    SessionHeader,
+    payload_encoder,
+)
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
@@ -103,7 +109,7 @@ class _Judge:
         self._same_catalogue = self.executor.behavior_ids == header.behaviors
         self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
         self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
-        self._encoder = msgspec.msgpack.Encoder()
+        self._encoder = payload_encoder()
 
     def run(self, batch: Sequence[CycleRecord]) -> bool:
         """Replay a batch of cycles; True when replay should stop at a divergence."""

@@ -30,6 +30,7 @@ __all__ = [
     "CycleRecord",
     "SessionEnd",
     "SessionHeader",
+    "payload_encoder",
 ]
 
 FORMAT_VERSION = 1
@@ -46,6 +47,19 @@ EMPTY_LIST = msgspec.Raw(b"\x90")
 """An empty msgpack array: no state changes, no draws, no samples."""
 EMPTY_MAP = msgspec.Raw(b"\x80")
 """An empty msgpack map: no outputs."""
+
+
+def _encode_array_like(obj: Any) -> Any:
+    """Encode numpy scalars and arrays that behaviors may put into states or outputs."""
+    tolist = getattr(obj, "tolist", None)
+    if tolist is None:
+        raise TypeError(f"cannot record a value of type {type(obj).__name__}")
+    return tolist()
+
+
+def payload_encoder() -> msgspec.msgpack.Encoder:
+    """The one msgpack encoder for log payloads; replay encodes with it too, to compare bytes."""
+    return msgspec.msgpack.Encoder(enc_hook=_encode_array_like)
 
 
 class SessionHeader(msgspec.Struct, kw_only=True):

@@ -32,19 +32,12 @@ from beatlog.log.format import (
     CycleRecord,
     SessionEnd,
     SessionHeader,
+    payload_encoder,
 )
 
 __all__ = ["SessionLogWriter"]
 
 _CLOSE: Final = object()
-
-
-def _encode_array_like(obj: Any) -> Any:
-    """Encode numpy scalars and arrays that behaviors may put into outputs or samples."""
-    tolist = getattr(obj, "tolist", None)
-    if tolist is None:
-        raise TypeError(f"cannot record a value of type {type(obj).__name__}")
-    return tolist()
 
 
 class SessionLogWriter:
@@ -72,7 +65,7 @@ class SessionLogWriter:
         self._fsync = fsync
         self._flush_interval_ns = int(flush_interval_s * 1e9)
         self._batch_cycles = batch_cycles
-        self._encoder = msgspec.msgpack.Encoder(enc_hook=_encode_array_like)
+        self._encoder = payload_encoder()
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self.error: BaseException | None = None
         self.cycles_written = 0
