@@ -98,11 +98,11 @@ class Wander:
 
     def step(self, rs: RoverState, ctx: Context) -> Outputs | None:
         if ctx.time_ns >= self._segment_end_ns:
-            random = ctx.random
-            veer = random.random() < 0.4
-            self._turn_rate = random.gauss(0.0, 0.5) if veer else 0.0
+            chance = ctx.random
+            veer = chance.random() < 0.4
+            self._turn_rate = chance.gauss(0.0, 0.5) if veer else 0.0
             self.state = "veering" if veer else "straight"
-            self._segment_end_ns = ctx.time_ns + int(random.uniform(1.0, 3.0) * 1e9)
+            self._segment_end_ns = ctx.time_ns + int(chance.uniform(1.0, 3.0) * 1e9)
         return _drive(self._speed, self._turn_rate)
 
 
