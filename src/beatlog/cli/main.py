@@ -7,6 +7,7 @@ input (one line on stderr naming the file and the problem, never a traceback).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -166,11 +167,25 @@ def _show(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK
 
 
+def _import_from_working_directory() -> None:
+    """Let MODULE:FACTORY name a module of the working directory, as ``python -m`` does.
+
+    The console script's ``sys.path`` starts with its own bin directory, so without
+    this ``beatlog replay x.beatlog --system tests.robot:system`` (the reproduce
+    command replay prints) fails to import from a project's root.
+    """
+    cwd = os.getcwd()
+    if "" not in sys.path and cwd not in sys.path:
+        sys.path.insert(0, cwd)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
     console = Console()
     try:
         args = _parser().parse_args(argv)
+        if args.command in ("record", "replay"):
+            _import_from_working_directory()
         if args.command == "record":
             return _record(args, console)
         if args.command == "replay":

@@ -210,7 +210,7 @@ class SessionLogReader:
                 raise _TruncatedError(f"the last record is cut off at byte {offset}")
             opcode, length = struct.unpack("<BQ", head)
             end = offset + 9 + length
-            if opcode == 0 and not head.strip(b"\0") and not file.read().strip(b"\0"):
+            if opcode == 0 and not head.strip(b"\0") and self._zero_filled_from(offset):
                 raise _TruncatedError(f"zero-filled from byte {offset} (power loss?)")
             if end > size:
                 if opcode in _KNOWN_OPCODES and length <= _MAX_CHUNK_BYTES:
@@ -222,6 +222,11 @@ class SessionLogReader:
             except Exception as exc:
                 if end == size:
                     raise _TruncatedError(f"the last record is damaged at byte {offset}") from None
+                if self._zero_filled_from(end):
+                    raise _TruncatedError(
+                        f"the last record is damaged at byte {offset}, zero-filled after it "
+                        "(power loss?)"
+                    ) from None
                 raise CorruptLogError(
                     self.path, f"damaged record at byte {offset}: {exc}"
                 ) from None
@@ -230,6 +235,19 @@ class SessionLogReader:
                 first = False
             yield from records
             offset = end
+
+    def _zero_filled_from(self, start: int) -> bool:
+        """Whether every byte from ``start`` to the end of the file is zero (power loss)."""
+        file = self._file
+        position = file.tell()
+        file.seek(start)
+        try:
+            while block := file.read(1 << 20):
+                if block.strip(b"\0"):
+                    return False
+            return True
+        finally:
+            file.seek(position)
 
     def _check_profile(self, records: list[McapRecord]) -> None:
         header = records[0] if records else None

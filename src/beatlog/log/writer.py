@@ -10,6 +10,7 @@ to the failure.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import threading
@@ -73,6 +74,19 @@ class SessionLogWriter:
         self._closed = False
 
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
+        try:
+            self._start(header)
+        except OSError as exc:
+            if self.path is not None:
+                with contextlib.suppress(OSError):
+                    self._file.close()
+            problem = f"cannot write: {exc.strerror or exc}"
+            raise LogError(self.path or "<output>", problem) from None
+        self._thread = threading.Thread(target=self._run, name="beatlog-writer", daemon=True)
+        self._thread.start()
+
+    def _start(self, header: SessionHeader) -> None:
+        """Write the MCAP header, the channels and the session header, and flush them."""
         self._mcap.start(profile=PROFILE, library=f"beatlog {header.beatlog_version}")
         self._channels = {
             topic: self._mcap.register_channel(
@@ -92,8 +106,6 @@ class SessionLogWriter:
         }
         self._mcap.add_message(self._channels[HEADER_TOPIC], 0, self._encoder.encode(header), 0)
         self._flush()
-        self._thread = threading.Thread(target=self._run, name="beatlog-writer", daemon=True)
-        self._thread.start()
 
     @staticmethod
     def _open(output: str | Path | IO[bytes]) -> IO[bytes]:

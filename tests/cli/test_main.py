@@ -1,0 +1,489 @@
+"""The ``beatlog`` command: verdicts as exit codes, and one clean line for every bad input."""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import json
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import NamedTuple
+
+import pytest
+from mcap.writer import Writer
+
+from beatlog.cli.main import main
+from beatlog.log.reader import SessionLogReader
+from beatlog.log.summary import summarize
+from beatlog.log.writer import SessionLogWriter
+from beatlog.model.behavior import PriorityArbiter
+from tests.conftest import Probe, RecordFn, distances, probe_system
+from tests.log.test_format import session_header
+
+PROBE = "tests.conftest:probe_system"
+CHANGED = "tests.cli.test_main:changed_probe"
+
+
+def changed_probe() -> PriorityArbiter[Probe]:
+    """The probe with its near behavior reacting 10 cm earlier: a behavior change."""
+    return probe_system(0.6)
+
+
+def not_a_system() -> dict[str, object]:
+    return {"robot_state": Probe, "behaviors": {}}
+
+
+def broken_factory() -> PriorityArbiter[Probe]:
+    raise RuntimeError("the arena map is missing")
+
+
+FIRST_CHANGED_CYCLE = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
+"""The first cycle where the changed probe's near behavior sees the obstacle first."""
+
+
+class Run(NamedTuple):
+    code: int
+    out: str
+    err: str
+
+
+@pytest.fixture(autouse=True)
+def wide_plain_console(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Rich wraps at 80 columns when not on a terminal; long tmp paths would be split."""
+    monkeypatch.setenv("COLUMNS", "200")
+    monkeypatch.delenv("FORCE_COLOR", raising=False)
+
+
+@pytest.fixture
+def beatlog(capsys: pytest.CaptureFixture[str]) -> Callable[..., Run]:
+    def run(*args: str | Path) -> Run:
+        code = main([str(arg) for arg in args])
+        captured = capsys.readouterr()
+        return Run(code, captured.out, captured.err)
+
+    return run
+
+
+@pytest.fixture
+def record_chunked(record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch) -> RecordFn:
+    """Like ``record_probe``, but with a chunk every 10 cycles, so a cut keeps most cycles."""
+    monkeypatch.setattr(
+        "beatlog.engine.record.SessionLogWriter",
+        functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
+    )
+    return record_probe
+
+
+def assert_one_line_error(run: Run, *fragments: str) -> None:
+    assert run.code == 2
+    assert run.out == ""
+    assert run.err.startswith("beatlog: error: ")
+    assert run.err.endswith("\n")
+    assert run.err.count("\n") == 1, run.err
+    assert "Traceback" not in run.err
+    for fragment in fragments:
+        assert fragment in run.err
+
+
+# replay
+
+
+def test_replay_passes_a_log_against_the_system_that_recorded_it(
+    beatlog: Callable[..., Run], record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", PROBE)
+
+    assert run.code == 0
+    assert run.out.startswith(f"PASS {log}  300 cycles, 9.0 s robot time")
+    assert "log complete" in run.out
+    assert run.err == ""
+
+
+def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
+    beatlog: Callable[..., Run], record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", CHANGED)
+
+    assert run.code == 1
+    assert run.out.startswith(f"FAIL {log}")
+    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
+    assert "behavior state changes differ from the recording" in run.out
+    assert f"reproduce: beatlog replay {log} --system {CHANGED}" in run.out
+    assert run.err == ""
+
+
+def test_replay_json_reports_the_divergence_for_machines(
+    beatlog: Callable[..., Run], record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", CHANGED, "--json")
+
+    assert run.code == 1
+    result = json.loads(run.out)
+    assert result["ok"] is False
+    assert result["log"] == str(log)
+    assert result["divergence"]["cycle"] == FIRST_CHANGED_CYCLE
+    assert result["divergence"]["kind"] == "state changes"
+    assert result["divergence"]["robot_state"]["distance"] == distances(300)[FIRST_CHANGED_CYCLE]
+    assert result["divergent_cycles"] == 1
+
+
+def test_replay_json_of_a_pass(beatlog: Callable[..., Run], record_probe: RecordFn) -> None:
+    run = beatlog("replay", record_probe(300), "--system", PROBE, "--json")
+
+    assert run.code == 0
+    result = json.loads(run.out)
+    assert result["ok"] is True
+    assert result["cycles"] == 300
+    assert result["divergence"] is None
+    assert result["status"] == [True, 300, None]
+
+
+def test_replay_keep_going_counts_every_diverging_cycle(
+    beatlog: Callable[..., Run], record_probe: RecordFn
+) -> None:
+    """A cycle diverges when near is in another state, or changes state at another time."""
+    recorded = [d < 0.5 for d in distances(300)]
+    changed = [d < 0.6 for d in distances(300)]
+    diverging = sum(
+        1
+        for t in range(300)
+        if recorded[t] != changed[t] or flips(recorded)[t] != flips(changed)[t]
+    )
+
+    run = beatlog("replay", record_probe(300), "--system", CHANGED, "--keep-going", "--json")
+
+    assert run.code == 1
+    result = json.loads(run.out)
+    assert result["cycles"] == 300
+    assert result["divergence"]["cycle"] == FIRST_CHANGED_CYCLE
+    assert result["divergent_cycles"] == diverging
+
+
+def flips(near: list[bool]) -> list[bool]:
+    """Whether near changed state in each cycle; it starts far."""
+    return [now != before for before, now in zip([False, *near], near, strict=False)]
+
+
+def cut_in_half(log: Path) -> Path:
+    data = log.read_bytes()
+    log.write_bytes(data[: len(data) // 2])
+    return log
+
+
+def test_a_truncated_log_fails_replay_unless_allowed(
+    beatlog: Callable[..., Run], record_chunked: RecordFn
+) -> None:
+    log = cut_in_half(record_chunked(300))
+    with SessionLogReader(log) as reader:
+        kept = sum(1 for _ in reader.cycles())
+    assert 0 < kept < 300
+
+    failed = beatlog("replay", log, "--system", PROBE)
+    allowed = beatlog("replay", log, "--system", PROBE, "--allow-truncated")
+
+    assert failed.code == 1
+    assert f"first divergence: cycle {kept}," in failed.out
+    assert "log ended" in failed.out
+    assert f"the log ends early (truncated at cycle {kept}:" in failed.out
+    assert allowed.code == 0
+    assert allowed.out.startswith(f"PASS {log}  {kept} cycles")
+    assert f"log truncated at cycle {kept}" in allowed.out
+
+
+# show
+
+
+def about_rows(out: str) -> dict[str, str]:
+    """The name-value lines ``show`` prints above its behaviors table."""
+    about = itertools.takewhile(lambda line: line.strip() != "behaviors", out.splitlines())
+    pairs = (line.strip().partition("  ") for line in about)
+    return {name: value.strip() for name, _, value in pairs}
+
+
+def table_rows(out: str) -> list[list[str]]:
+    """The cells of each row of the behaviors table."""
+    rows = [line for line in out.splitlines() if line.startswith("│")]
+    return [[cell.strip() for cell in row.split("│")[1:-1]] for row in rows]
+
+
+def test_show_describes_a_log(beatlog: Callable[..., Run], record_probe: RecordFn) -> None:
+    log = record_probe(300, robot_id="probe-1")
+    summary = summarize(log)
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    about = about_rows(run.out)
+    assert about["log"] == str(log)
+    assert about["status"] == "complete"
+    assert about["robot"] == "probe-1"
+    assert about["cycles"] == "300"
+    assert "60 (randint 60)" in run.out
+    assert table_rows(run.out) == [
+        [str(index), name, str(count)]
+        for index, (name, count) in enumerate(summary.transitions.items())
+    ]
+    assert [row[1] for row in table_rows(run.out)] == ["arbiter", "near", "dice"]
+
+
+def test_show_says_a_cut_off_log_is_truncated(
+    beatlog: Callable[..., Run], record_chunked: RecordFn
+) -> None:
+    log = cut_in_half(record_chunked(300))
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    assert "truncated at cycle" in run.out
+    assert "unknown (no end record)" in run.out
+
+
+# bad input: one line on stderr naming the file and the problem
+
+
+def missing(tmp_path: Path) -> Path:
+    return tmp_path / "missing.beatlog"
+
+
+def empty(tmp_path: Path) -> Path:
+    path = tmp_path / "empty.beatlog"
+    path.write_bytes(b"")
+    return path
+
+
+def garbage(tmp_path: Path) -> Path:
+    path = tmp_path / "garbage.beatlog"
+    path.write_bytes(b"\x00\xff not a log \xfe" * 100)
+    return path
+
+
+def foreign(tmp_path: Path) -> Path:
+    path = tmp_path / "bag.mcap"
+    with path.open("wb") as file:
+        writer = Writer(file)
+        writer.start(profile="ros2", library="rosbag2")
+        writer.finish()  # type: ignore[no-untyped-call]
+    return path
+
+
+def cut_before_header(tmp_path: Path) -> Path:
+    path = tmp_path / "cut.beatlog"
+    SessionLogWriter(path, session_header()).close()
+    path.write_bytes(path.read_bytes()[:100])
+    return path
+
+
+def directory(tmp_path: Path) -> Path:
+    path = tmp_path / "logs"
+    path.mkdir()
+    return path
+
+
+BAD_LOGS = [
+    pytest.param(missing, "no such file", id="missing"),
+    pytest.param(empty, "empty file", id="empty"),
+    pytest.param(garbage, "not a session log", id="garbage"),
+    pytest.param(foreign, "profile 'ros2'", id="foreign-mcap"),
+    pytest.param(cut_before_header, "cut off before its session header", id="cut-before-header"),
+    pytest.param(directory, "is a directory", id="directory"),
+]
+
+
+@pytest.mark.parametrize(("make", "problem"), BAD_LOGS)
+@pytest.mark.parametrize("command", [["show"], ["replay", "--system", PROBE]])
+def test_a_bad_log_is_one_line_naming_the_file(
+    beatlog: Callable[..., Run],
+    tmp_path: Path,
+    make: Callable[[Path], Path],
+    problem: str,
+    command: list[str],
+) -> None:
+    log = make(tmp_path)
+
+    run = beatlog(command[0], log, *command[1:])
+
+    assert_one_line_error(run, f"{log}: ", problem)
+
+
+@pytest.mark.parametrize(
+    ("reference", "problem"),
+    [
+        ("tests.conftest", "expected module:factory"),
+        ("tests.no_such_module:system", "cannot import tests.no_such_module"),
+        ("tests.conftest:no_such_factory", "tests.conftest has no no_such_factory"),
+        ("tests.cli.test_main:not_a_system", "built a dict, not a system"),
+        ("tests.cli.test_main:broken_factory", "raised RuntimeError: the arena map is missing"),
+    ],
+)
+def test_a_bad_system_reference_is_one_line_naming_it(
+    beatlog: Callable[..., Run], record_probe: RecordFn, reference: str, problem: str
+) -> None:
+    run = beatlog("replay", record_probe(10), "--system", reference)
+
+    assert_one_line_error(run, f"'{reference}': ", problem)
+
+
+@pytest.mark.parametrize(
+    ("args", "problem"),
+    [
+        (["replay", "x.beatlog", "--system", PROBE, "--frobnicate"], "--frobnicate"),
+        (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "soon"], "'soon'"),
+        (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "-1"], "'-1'"),
+        (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "0"], "'0'"),
+        (["record", "--robot", "r:robot", "--duration", "1"], "-o/--output"),
+        (["replay", "x.beatlog"], "--system"),
+        (["play", "x.beatlog"], "'play'"),
+        ([], "command"),
+    ],
+    ids=[
+        "unknown-flag",
+        "non-numeric-duration",
+        "negative-duration",
+        "zero-duration",
+        "no-output",
+        "no-system",
+        "unknown-command",
+        "no-command",
+    ],
+)
+def test_a_bad_option_is_one_line_pointing_at_help(
+    beatlog: Callable[..., Run], args: list[str], problem: str
+) -> None:
+    run = beatlog(*args)
+
+    assert_one_line_error(run, problem, "--help')")
+
+
+def test_record_refuses_to_overwrite_a_log(
+    beatlog: Callable[..., Run], record_probe: RecordFn
+) -> None:
+    log = record_probe(10)
+    before = log.read_bytes()
+
+    run = beatlog("record", "--robot", "beatlog.examples.rover:robot", "-o", log, "--duration", 1)
+
+    assert_one_line_error(run, f"{log}: already exists", "--force")
+    assert log.read_bytes() == before
+
+
+def test_record_into_a_missing_directory_is_one_line(
+    beatlog: Callable[..., Run], tmp_path: Path
+) -> None:
+    out = tmp_path / "nowhere" / "rover.beatlog"
+
+    run = beatlog("record", "--robot", "beatlog.examples.rover:robot", "-o", out, "--duration", 1)
+
+    assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
+
+
+def test_record_needs_a_robot_not_a_system(beatlog: Callable[..., Run], tmp_path: Path) -> None:
+    out = tmp_path / "probe.beatlog"
+
+    run = beatlog("record", "--robot", PROBE, "-o", out, "--duration", 1)
+
+    assert_one_line_error(run, f"'{PROBE}': built a PriorityArbiter, not a robot")
+    assert not out.exists()
+
+
+def test_a_system_in_the_working_directory_can_be_named(
+    beatlog: Callable[..., Run],
+    record_probe: RecordFn,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """As with ``python -m``, the console script imports from where it is run."""
+    log = record_probe(30)
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "probe_under_test.py").write_text(
+        "from tests.conftest import probe_system as system\n"
+    )
+    monkeypatch.chdir(project)
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", str(project))])
+    monkeypatch.delitem(sys.modules, "probe_under_test", raising=False)
+
+    run = beatlog("replay", log, "--system", "probe_under_test:system")
+
+    assert run.code == 0, run.err
+    assert run.out.startswith("PASS")
+
+
+def test_the_console_script_reports_a_missing_file_in_one_line(tmp_path: Path) -> None:
+    script = shutil.which("beatlog", path=str(Path(sys.executable).parent))
+    command = [script] if script else [sys.executable, "-m", "beatlog.cli.main"]
+    log = tmp_path / "missing.beatlog"
+
+    done = subprocess.run(
+        [*command, "show", str(log)], capture_output=True, text=True, timeout=60, check=False
+    )
+
+    assert done.returncode == 2
+    assert done.stdout == ""
+    assert done.stderr == f"beatlog: error: {log}: no such file\n"
+
+
+# record: real time
+
+
+@pytest.mark.slow
+def test_record_writes_a_complete_log_that_replays(
+    beatlog: Callable[..., Run], tmp_path: Path
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    recorded = beatlog(
+        "record",
+        "--robot",
+        "beatlog.examples.rover:robot",
+        "-o",
+        out,
+        "--duration",
+        0.5,
+        "--seed",
+        11,
+        "--robot-id",
+        "rover-1",
+        "--system-ref",
+        "beatlog.examples.rover:system",
+    )
+
+    assert recorded.code == 0, recorded.err
+    assert f"to {out}" in recorded.out
+    with SessionLogReader(out) as reader:
+        cycles = sum(1 for _ in reader.cycles())
+        assert reader.status.complete
+        assert reader.end is not None
+        assert reader.end.cycles == cycles > 0
+        assert reader.end.robot_time_ns >= 500_000_000
+        assert reader.header.robot_id == "rover-1"
+        assert reader.header.random_seed == 11
+    assert f"recorded {cycles} cycles" in recorded.out
+    replayed = beatlog("replay", out, "--system", "beatlog.examples.rover:system")
+    assert replayed.code == 0, replayed.out
+
+
+@pytest.mark.slow
+def test_the_demo_records_and_replays_the_rover(
+    beatlog: Callable[..., Run], tmp_path: Path
+) -> None:
+    run = beatlog("demo", "--duration", 0.3, "--out", tmp_path / "demo")
+
+    log = tmp_path / "demo" / "rover.beatlog"
+    assert run.code == 0, run.out
+    assert f"PASS {log}" in run.out
+    assert f"The log is kept at {log}" in run.out
+    with SessionLogReader(log) as reader:
+        cycles = sum(1 for _ in reader.cycles())
+        assert reader.status.complete
+        assert reader.end is not None
+        assert reader.end.cycles == cycles > 0
+        assert reader.end.robot_time_ns >= 300_000_000

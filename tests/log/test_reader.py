@@ -1,0 +1,369 @@
+"""Reading session logs: complete, cut off, zero-filled, damaged, foreign or from the future."""
+
+from __future__ import annotations
+
+import struct
+import tracemalloc
+from collections.abc import Callable
+from pathlib import Path
+from typing import NamedTuple
+
+import msgspec
+import pytest
+from mcap.opcode import Opcode
+from mcap.writer import Writer
+
+from beatlog.errors import (
+    CorruptLogError,
+    LogError,
+    NotABeatlogError,
+    UnsupportedVersionError,
+)
+from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
+from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog.log.writer import SessionLogWriter
+from tests.conftest import PERIOD_NS, Probe
+from tests.log.test_format import session_header
+
+CYCLES = 200
+CYCLES_PER_CHUNK = 10
+MAGIC_LENGTH = 8
+RECORD_HEAD = 9
+CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8
+"""Where a zstd chunk's compressed records start, from the start of its record."""
+
+
+class Record(NamedTuple):
+    """A top-level MCAP record: where it starts, its opcode and its body length."""
+
+    offset: int
+    opcode: int
+    length: int
+
+    @property
+    def end(self) -> int:
+        return self.offset + RECORD_HEAD + self.length
+
+
+def top_level_records(data: bytes) -> list[Record]:
+    records = []
+    offset = MAGIC_LENGTH
+    while offset < len(data) - MAGIC_LENGTH:
+        opcode, length = struct.unpack_from("<BQ", data, offset)
+        records.append(Record(offset, opcode, length))
+        offset = records[-1].end
+    return records
+
+
+def chunks(data: bytes) -> list[Record]:
+    return [r for r in top_level_records(data) if r.opcode == Opcode.CHUNK]
+
+
+def write_chunked_log(path: Path, cycles: int = CYCLES) -> Path:
+    """A complete log in many small chunks: the header, one chunk per 10 cycles, the end."""
+    writer = SessionLogWriter(
+        path,
+        session_header(behaviors=["near"]),
+        batch_cycles=CYCLES_PER_CHUNK,
+        chunk_size=1,
+        flush_interval_s=60.0,
+    )
+    for t in range(cycles):
+        changes = [(0, "far", "near")] if t % 7 == 0 else []
+        draws = [(0, "random", t / cycles)] if t % 3 == 0 else []
+        state = Probe(distance=1.0 - t / cycles, reading=float(t))
+        writer.append((t + 1) * PERIOD_NS, PERIOD_NS + t, state, changes, draws, {"t": t})
+    writer.close(SessionEnd(cycles=cycles, robot_time_ns=cycles * PERIOD_NS))
+    return path
+
+
+class Original(NamedTuple):
+    data: bytes
+    cycles: list[bytes]
+    """Each cycle encoded, to compare byte for byte."""
+    header_end: int
+    cycle_chunks: list[Record]
+    footer: Record
+
+
+def read_all(path: Path) -> tuple[list[CycleRecord], LogStatus]:
+    with SessionLogReader(path) as reader:
+        cycles = list(reader.cycles())
+        return cycles, reader.status
+
+
+def encoded(cycles: list[CycleRecord]) -> list[bytes]:
+    return [msgspec.msgpack.encode(cycle) for cycle in cycles]
+
+
+@pytest.fixture(scope="module")
+def original(tmp_path_factory: pytest.TempPathFactory) -> Original:
+    path = write_chunked_log(tmp_path_factory.mktemp("original") / "chunked.beatlog")
+    data = path.read_bytes()
+    cycles, status = read_all(path)
+    assert status.complete
+    assert len(cycles) == CYCLES
+    all_chunks = chunks(data)
+    assert len(all_chunks) == 1 + CYCLES // CYCLES_PER_CHUNK + 1, "header, cycles, end"
+    [footer] = [r for r in top_level_records(data) if r.opcode == Opcode.FOOTER]
+    return Original(data, encoded(cycles), all_chunks[0].end, all_chunks[1:-1], footer)
+
+
+def write(path: Path, data: bytes) -> Path:
+    path.write_bytes(data)
+    return path
+
+
+# A complete log
+
+
+def test_a_complete_log_reads_every_cycle_and_says_complete(
+    tmp_path: Path, original: Original
+) -> None:
+    log = write(tmp_path / "copy.beatlog", original.data)
+
+    with SessionLogReader(log) as reader:
+        batches = list(reader.batches())
+        status, end = reader.status, reader.end
+
+    assert [len(batch) for batch in batches] == [CYCLES_PER_CHUNK] * (CYCLES // CYCLES_PER_CHUNK)
+    assert encoded([cycle for batch in batches for cycle in batch]) == original.cycles
+    assert status == LogStatus(complete=True, cycles=CYCLES)
+    assert status.describe() == "complete"
+    assert end == SessionEnd(cycles=CYCLES, robot_time_ns=CYCLES * PERIOD_NS)
+
+
+def test_the_status_is_unknown_until_the_cycles_have_been_read(
+    tmp_path: Path, original: Original
+) -> None:
+    with SessionLogReader(write(tmp_path / "copy.beatlog", original.data)) as reader:
+        with pytest.raises(RuntimeError, match="only after reading"):
+            _ = reader.status
+        assert reader.header.behaviors == ["near"]
+
+
+# Files that are not session logs
+
+
+def missing(tmp_path: Path) -> Path:
+    return tmp_path / "missing.beatlog"
+
+
+def directory(tmp_path: Path) -> Path:
+    path = tmp_path / "logs.beatlog"
+    path.mkdir()
+    return path
+
+
+def empty(tmp_path: Path) -> Path:
+    return write(tmp_path / "empty.beatlog", b"")
+
+
+def garbage(tmp_path: Path) -> Path:
+    return write(tmp_path / "garbage.beatlog", b"GIF89a this is a picture, not a log\n" * 20)
+
+
+@pytest.mark.parametrize(
+    ("make", "problem"),
+    [
+        (missing, "no such file"),
+        (directory, "is a directory"),
+        (empty, "empty file"),
+        (garbage, "not an MCAP file"),
+    ],
+)
+def test_a_file_that_is_not_a_session_log_is_named_in_the_error(
+    tmp_path: Path, make: Callable[[Path], Path], problem: str
+) -> None:
+    path = make(tmp_path)
+
+    with pytest.raises(NotABeatlogError) as raised:
+        SessionLogReader(path)
+
+    assert raised.value.path == path
+    assert str(raised.value).startswith(f"{path}: ")
+    assert problem in str(raised.value)
+
+
+def write_foreign_mcap(path: Path, profile: str) -> Path:
+    with path.open("wb") as file:
+        writer = Writer(file)
+        writer.start(profile=profile, library="rosbag2")
+        schema = writer.register_schema("std_msgs/String", "ros2msg", b"string data")
+        channel = writer.register_channel("/chatter", "cdr", schema)
+        writer.add_message(channel, 1, b"\x00\x01\x00\x00hello", 1)
+        writer.finish()  # type: ignore[no-untyped-call]
+    return path
+
+
+def test_an_mcap_file_from_another_tool_is_rejected_naming_its_profile(tmp_path: Path) -> None:
+    path = write_foreign_mcap(tmp_path / "bag.mcap", "ros2")
+
+    with pytest.raises(NotABeatlogError) as raised:
+        SessionLogReader(path)
+
+    assert str(raised.value).startswith(f"{path}: ")
+    assert "profile 'ros2'" in str(raised.value)
+    assert "not a beatlog session log" in str(raised.value)
+
+
+def test_a_log_from_a_newer_format_version_asks_for_an_upgrade(tmp_path: Path) -> None:
+    path = tmp_path / "future.beatlog"
+    SessionLogWriter(path, session_header(format_version=FORMAT_VERSION + 1)).close()
+
+    with pytest.raises(UnsupportedVersionError) as raised:
+        SessionLogReader(path)
+
+    assert isinstance(raised.value, LogError)
+    assert str(raised.value).startswith(f"{path}: ")
+    assert f"format version {FORMAT_VERSION + 1}" in str(raised.value)
+    assert "upgrade beatlog" in str(raised.value)
+
+
+# Damage before the end
+
+
+@pytest.mark.parametrize("where", ["first", "middle", "last"])
+def test_damage_inside_an_early_chunk_is_an_error_not_a_wrong_result(
+    tmp_path: Path, original: Original, where: str
+) -> None:
+    third = original.cycle_chunks[2]
+    start, stop = third.offset + CHUNK_DATA_START, third.end - 1
+    position = {"first": start, "middle": (start + stop) // 2, "last": stop}[where]
+    damaged = bytearray(original.data)
+    damaged[position] ^= 0xFF
+    log = write(tmp_path / "damaged.beatlog", bytes(damaged))
+
+    read: list[CycleRecord] = []
+    with SessionLogReader(log) as reader, pytest.raises(CorruptLogError) as raised:
+        read.extend(reader.cycles())
+
+    assert str(raised.value).startswith(f"{log}: damaged record at byte {third.offset}")
+    assert encoded(read) == original.cycles[: 2 * CYCLES_PER_CHUNK]
+
+
+def with_record_head(data: bytes, at: int, opcode: int, length: int) -> bytes:
+    return data[:at] + struct.pack("<BQ", opcode, length) + data[at + RECORD_HEAD :]
+
+
+def claim_a_huge_record(original: Original) -> tuple[bytes, int]:
+    at = original.header_end
+    return with_record_head(original.data, at, Opcode.MESSAGE_INDEX, 2**62), at
+
+
+def claim_a_huge_unknown_record(original: Original) -> tuple[bytes, int]:
+    at = original.cycle_chunks[0].offset
+    return with_record_head(original.data, at, 0x42, 2**62), at
+
+
+def claim_a_huge_chunk_content(original: Original) -> tuple[bytes, int]:
+    at = original.cycle_chunks[0].offset
+    size_field = at + RECORD_HEAD + 16
+    data = original.data
+    return data[:size_field] + struct.pack("<Q", 2**62) + data[size_field + 8 :], at
+
+
+@pytest.mark.parametrize(
+    "hostile", [claim_a_huge_record, claim_a_huge_unknown_record, claim_a_huge_chunk_content]
+)
+def test_a_hostile_length_is_rejected_without_allocating_it(
+    tmp_path: Path, original: Original, hostile: Callable[[Original], tuple[bytes, int]]
+) -> None:
+    data, at = hostile(original)
+    log = write(tmp_path / "hostile.beatlog", data)
+
+    tracemalloc.start()
+    try:
+        with SessionLogReader(log) as reader, pytest.raises(CorruptLogError) as raised:
+            list(reader.cycles())
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+
+    assert str(raised.value).startswith(f"{log}: damaged record at byte {at}")
+    assert peak < 10 * 2**20
+
+
+# Truncation: kill -9 and power loss
+
+
+def cut_points(first: int, last: int, count: int = 40) -> list[int]:
+    """``count`` offsets spread evenly from ``first`` to ``last``, both included."""
+    return [first + (last - first) * i // (count - 1) for i in range(count)]
+
+
+def cycles_flushed_before(original: Original, offset: int) -> int:
+    """The cycles in the chunks that were completely on disk before ``offset``."""
+    return CYCLES_PER_CHUNK * sum(1 for chunk in original.cycle_chunks if chunk.end <= offset)
+
+
+def assert_truncated_prefix(original: Original, log: Path, cut: int) -> None:
+    cycles, status = read_all(log)
+
+    assert len(cycles) == cycles_flushed_before(original, cut) <= CYCLES
+    assert encoded(cycles) == original.cycles[: len(cycles)]
+    assert not status.complete
+    assert status.cycles == len(cycles)
+    assert status.describe().startswith(f"truncated at cycle {len(cycles)}: ")
+
+
+@pytest.mark.parametrize("sample", range(40))
+def test_a_log_cut_anywhere_reads_up_to_its_last_flushed_batch(
+    tmp_path: Path, original: Original, sample: int
+) -> None:
+    cut = cut_points(original.header_end + 1, original.footer.end - 1)[sample]
+    log = write(tmp_path / "cut.beatlog", original.data[:cut])
+
+    assert_truncated_prefix(original, log, cut)
+
+
+def test_a_log_cut_right_after_its_header_is_truncated_at_cycle_zero(
+    tmp_path: Path, original: Original
+) -> None:
+    log = write(tmp_path / "cut.beatlog", original.data[: original.header_end])
+
+    cycles, status = read_all(log)
+
+    assert cycles == []
+    assert status == LogStatus(False, 0, "the recording stopped before the log was closed")
+    assert status.describe().startswith("truncated at cycle 0: ")
+
+
+@pytest.mark.parametrize("keep", [MAGIC_LENGTH, MAGIC_LENGTH + 20, "inside the header chunk"])
+def test_a_log_cut_before_its_header_is_complete_cannot_be_read(
+    tmp_path: Path, original: Original, keep: int | str
+) -> None:
+    cut = original.header_end - 1 if isinstance(keep, str) else keep
+    log = write(tmp_path / "cut.beatlog", original.data[:cut])
+
+    with pytest.raises(CorruptLogError) as raised:
+        SessionLogReader(log)
+
+    assert str(raised.value) == f"{log}: cut off before its session header"
+
+
+@pytest.mark.parametrize("sample", range(40))
+def test_a_log_with_a_zero_filled_tail_reads_as_truncated(
+    tmp_path: Path, original: Original, sample: int
+) -> None:
+    """Power loss: the file has its full length, but its last blocks were never written."""
+    zeros_from = cut_points(original.header_end, original.footer.offset)[sample]
+    data = original.data
+    log = write(tmp_path / "zeroed.beatlog", data[:zeros_from] + bytes(len(data) - zeros_from))
+
+    assert_truncated_prefix(original, log, zeros_from)
+
+
+def test_zeros_from_a_record_boundary_say_where_the_zeros_start(
+    tmp_path: Path, original: Original
+) -> None:
+    boundary = original.cycle_chunks[5].offset
+    data = original.data
+    log = write(tmp_path / "zeroed.beatlog", data[:boundary] + bytes(len(data) - boundary))
+
+    cycles, status = read_all(log)
+
+    assert encoded(cycles) == original.cycles[: 5 * CYCLES_PER_CHUNK]
+    assert status.describe() == (
+        f"truncated at cycle {5 * CYCLES_PER_CHUNK}: zero-filled from byte {boundary} (power loss?)"
+    )
