@@ -44,7 +44,7 @@ def main() -> None:
     sink: queue.SimpleQueue[object] = queue.SimpleQueue()
     state = RoverState()
     outputs = {"speed": 0.35, "turn_rate": 0.0}
-    cycle = (30_000_000, state, [(1, "clear", "turning_left")], [], outputs, [])
+    cycle: tuple[object, ...] = (30_000_000, state, [(1, "clear", "turning_left")], [], outputs, [])
 
     def record_cycle() -> None:
         sink.put((0, encoder.encode(cycle)))
