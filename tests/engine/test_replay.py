@@ -11,7 +11,9 @@ import pytest
 
 from beatlog import DivergenceKind, StateChange, replay
 from beatlog.engine.record import Recorder
-from beatlog.errors import SchemaMismatchError
+from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.format import FORMAT_VERSION, SessionHeader
+from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
@@ -236,3 +238,42 @@ def test_numpy_outputs_are_recorded_and_compared(tmp_path: Path) -> None:
         for distance in (0.25, 0.5, 1.0):
             rec.step(PERIOD_NS, Probe(distance=distance))
     assert replay(log, PriorityArbiter([Numpy()], robot_state=Probe)).ok
+
+
+def test_damaged_random_numbers_in_a_log_are_bad_input(tmp_path: Path) -> None:
+    log = tmp_path / "hostile.beatlog"
+    system = probe_system()
+    header = SessionHeader(
+        format_version=FORMAT_VERSION,
+        beatlog_version="test",
+        robot_id="r",
+        software_version="t",
+        system="",
+        period_ns=PERIOD_NS,
+        start_time_ns=0,
+        robot_state_type="tests.conftest.Probe",
+        robot_state_schema={},
+        behaviors=list(system.behaviors),
+    )
+    with SessionLogWriter(log, header) as writer:
+        writer.append(PERIOD_NS, PERIOD_NS, Probe(), [], ["not a draw"], {})
+    with pytest.raises(CorruptLogError, match="damaged random numbers in cycle"):
+        replay(log, system)
+
+
+class Unrecordable(Dice):
+    """Emits an output that cannot be put into a log."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        super().step(rs, ctx)
+        return {"speed": object()}
+
+
+def test_an_output_that_cannot_be_logged_is_a_verdict(record_probe: RecordFn) -> None:
+    result = replay(record_probe(5), PriorityArbiter([Near(), Unrecordable()], robot_state=Probe))
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.EXCEPTION
+    assert "cannot record a value of type object" in divergence.message
+    assert "reproduce" not in divergence.message
+    assert "MODULE:FACTORY" not in result.reproduce

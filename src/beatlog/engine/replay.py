@@ -25,7 +25,7 @@ from beatlog.engine.verdict import (
     ReplayResult,
     StateChange,
 )
-from beatlog.errors import SchemaMismatchError
+from beatlog.errors import BeatlogError, CorruptLogError, SchemaMismatchError
 from beatlog.log.format import (
     EMPTY_LIST,
     EMPTY_MAP,
@@ -90,6 +90,7 @@ def replay(
 
 
 def _reproduce_command(log: Path, reference: str) -> str:
+    reference = reference or "MODULE:FACTORY"
     return f"beatlog replay {shlex.quote(str(log))} --system {shlex.quote(reference)}"
 
 
@@ -109,11 +110,12 @@ class _Judge:
         self._same_catalogue = self.executor.behavior_ids == header.behaviors
         self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
         self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
+        self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
+        self._outputs_decoder = msgspec.msgpack.Decoder(dict[str, Any])
         self._encoder = payload_encoder()
 
     def run(self, batch: Sequence[CycleRecord]) -> bool:
         """Replay a batch of cycles; True when replay should stop at a divergence."""
-        decode_draws = self._draws_decoder.decode
         encode = self._encoder.encode
         random = self.random
         step = self.executor.step
@@ -122,31 +124,36 @@ class _Judge:
         raw = msgspec.Raw
         for record in batch:
             state = self._state(record)
-            random.load(() if record.rn == EMPTY_LIST else decode_draws(record.rn))
+            random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
             changes: list[StateChangeRecord] | None = None
             failure: Exception | None = None
             try:
                 changes = step(record.hb_ns, state)
+                if (
+                    random.mismatch is None
+                    and len(random.drawn) == len(random.recorded)
+                    and (
+                        (
+                            record.bs == EMPTY_LIST
+                            if not changes
+                            else record.bs == raw(encode(changes))
+                        )
+                        if same_catalogue
+                        else self._named(record.bs) == self._named_actual(changes)
+                    )
+                    and (
+                        record.out == EMPTY_MAP
+                        if not context.outputs
+                        else record.out == raw(encode(context.outputs))
+                    )
+                ):
+                    continue
             except RandomMismatch:
                 pass
-            except Exception as exc:
+            except BeatlogError:
+                raise
+            except Exception as exc:  # behavior code failing is a verdict, not a crash
                 failure = exc
-            if (
-                changes is not None
-                and random.mismatch is None
-                and len(random.drawn) == len(random.recorded)
-                and (
-                    (record.bs == EMPTY_LIST if not changes else record.bs == raw(encode(changes)))
-                    if same_catalogue
-                    else self._named(record.bs) == self._named_actual(changes)
-                )
-                and (
-                    record.out == EMPTY_MAP
-                    if not context.outputs
-                    else record.out == raw(encode(context.outputs))
-                )
-            ):
-                continue
             self._diverge(record, state, changes, failure)
             if not self._keep_going:
                 return True
@@ -162,6 +169,17 @@ class _Judge:
                 f"{self.executor.system.robot_state.__name__}: {exc}",
             ) from None
 
+    def _decode(self, data: msgspec.Raw, decode: Any, what: str) -> Any:
+        try:
+            return decode(data)
+        except msgspec.DecodeError as exc:
+            raise CorruptLogError(
+                self.path, f"damaged {what} in cycle {self.executor.context.cycle}: {exc}"
+            ) from None
+
+    def _draws(self, data: msgspec.Raw) -> list[Draw]:
+        return self._decode(data, self._draws_decoder.decode, "random numbers")  # type: ignore[no-any-return]
+
     def log_ended(self, why: str) -> None:
         """Record that the log stopped before the recording closed it."""
         context = self.executor.context
@@ -176,7 +194,7 @@ class _Judge:
 
     def _named(self, raw_changes: msgspec.Raw) -> list[StateChange]:
         names = self.header.behaviors
-        recorded = msgspec.msgpack.decode(raw_changes, type=list[StateChangeRecord])
+        recorded = self._decode(raw_changes, self._changes_decoder.decode, "state changes")
         return [
             StateChange(_name(names, index), before, after) for index, before, after in recorded
         ]
@@ -202,7 +220,7 @@ class _Judge:
         random = self.random
         expected = self._named(record.bs)
         actual = self._named_actual(changes or [])
-        expected_outputs = msgspec.msgpack.decode(record.out, type=dict[str, Any])
+        expected_outputs = self._decode(record.out, self._outputs_decoder.decode, "outputs")
         mismatch = random.mismatch
         behavior: str | None = None
         trace: str | None = None
