@@ -10,6 +10,7 @@ __all__ = [
     "LogError",
     "NotABeatlogError",
     "SchemaMismatchError",
+    "SpecError",
     "SystemLoadError",
     "UnsupportedVersionError",
 ]
@@ -46,3 +47,12 @@ class SchemaMismatchError(LogError):
 
 class SystemLoadError(BeatlogError):
     """A ``module:factory`` reference that cannot be imported or does not build a system."""
+
+
+class SpecError(BeatlogError):
+    """A DTC spec (``*.dtc.toml``) that cannot be read; the message names the file and key."""
+
+    def __init__(self, path: str | Path, problem: str) -> None:
+        self.path = Path(path)
+        self.problem = problem
+        super().__init__(f"{self.path}: {problem}")

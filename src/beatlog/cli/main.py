@@ -9,22 +9,28 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
 import msgspec
-from rich.console import Console
+from rich.console import Console, Group, RenderableType
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.text import Text
 
 from beatlog._version import __version__
-from beatlog.cli.render import render_replay, render_summary
+from beatlog.cli.render import plain_text, render_replay, render_suite, render_summary
 from beatlog.engine.loading import load_factory
 from beatlog.engine.record import Recorder
 from beatlog.engine.replay import replay
 from beatlog.errors import BeatlogError
 from beatlog.log.summary import summarize
 from beatlog.model.robot import Robot
+from beatlog.suite.junit import write_junit
+from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
+from beatlog.suite.spec import discover_specs, select_specs
 
 __all__ = ["main"]
 
@@ -79,6 +85,18 @@ def _parser() -> argparse.ArgumentParser:
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
+    test = commands.add_parser("test", help="run DTC specs (*.dtc.toml) in parallel")
+    test.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
+    test.add_argument(
+        "-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1, help="worker processes"
+    )
+    test.add_argument("-k", dest="select", metavar="NAME", help="only DTCs whose name matches")
+    test.add_argument(
+        "--tag", action="append", default=[], help="only DTCs with this tag (repeatable)"
+    )
+    test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
+    test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
+
     show = commands.add_parser("show", help="describe a session log")
     show.add_argument("log", type=Path)
 
@@ -97,6 +115,16 @@ def _positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1: {text!r}")
     return value
 
 
@@ -162,6 +190,61 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK if result.ok else EXIT_FAILED
 
 
+def _test(args: argparse.Namespace, console: Console) -> int:
+    specs = select_specs(discover_specs(args.paths), pattern=args.select, tags=args.tag)
+    if not specs:
+        where = " ".join(str(path) for path in args.paths)
+        raise _UsageError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
+    progress = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total} DTCs"),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    )
+    started = time.perf_counter()
+    cycles = 0
+
+    def report(outcome: SpecOutcome) -> None:
+        nonlocal cycles
+        cycles += outcome.result.cycles if outcome.result else 0
+        rate = f"{cycles / max(time.perf_counter() - started, 1e-9):,.0f} cycles/s"
+        progress.update(task, advance=1, rate=rate)
+        if outcome.verdict is not Verdict.PASSED:
+            progress.console.print(_describe(outcome))
+
+    with progress:
+        task = progress.add_task("replaying", total=len(specs), rate="")
+        outcomes = run_suite(specs, jobs=args.jobs, fail_fast=args.fail_fast, on_outcome=report)
+    wall = time.perf_counter() - started
+    console.print(render_suite(outcomes))
+    if args.junit_xml is not None:
+        write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))
+    counts = Counter(outcome.verdict for outcome in outcomes)
+    skipped = len(specs) - len(outcomes)
+    console.print(
+        f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
+        + (f", {counts[Verdict.ERROR]} errors" if counts[Verdict.ERROR] else "")
+        + (f", {skipped} not run" if skipped else "")
+        + f" in {wall:.2f} s ({cycles:,} cycles)"
+    )
+    if counts[Verdict.ERROR]:
+        return EXIT_USAGE
+    return EXIT_FAILED if counts[Verdict.FAILED] else EXIT_OK
+
+
+def _describe(outcome: SpecOutcome) -> RenderableType:
+    if outcome.result is None:
+        return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.name}: {outcome.error}")
+    return Group(
+        Text.assemble(("DTC ", "bold"), f"{outcome.spec.name} ({outcome.spec.path})"),
+        render_replay(outcome.result),
+        Text.assemble(("rerun this DTC: ", "dim"), f"beatlog test {outcome.spec.path}"),
+    )
+
+
 def _show(args: argparse.Namespace, console: Console) -> int:
     console.print(render_summary(summarize(args.log)))
     return EXIT_OK
@@ -184,12 +267,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     console = Console()
     try:
         args = _parser().parse_args(argv)
-        if args.command in ("record", "replay"):
+        if args.command in ("record", "replay", "test"):
             _import_from_working_directory()
         if args.command == "record":
             return _record(args, console)
         if args.command == "replay":
             return _replay(args, console)
+        if args.command == "test":
+            return _test(args, console)
         if args.command == "show":
             return _show(args, console)
         from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs the rover

@@ -3,17 +3,20 @@
 from __future__ import annotations
 
 import datetime as dt
+import io
+from collections.abc import Sequence
 from typing import Any
 
-from rich.console import Group, RenderableType
+from rich.console import Console, Group, RenderableType
 from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
 from beatlog.engine.verdict import Divergence, DivergenceKind, DrawReport, ReplayResult, StateChange
 from beatlog.log.summary import LogSummary
+from beatlog.suite.runner import SpecOutcome, Verdict
 
-__all__ = ["render_replay", "render_summary"]
+__all__ = ["plain_text", "render_replay", "render_suite", "render_summary"]
 
 
 def render_replay(result: ReplayResult) -> RenderableType:
@@ -148,3 +151,34 @@ def _counts(counts: dict[str, int]) -> str:
     if not total:
         return ""
     return f"{total} ({', '.join(f'{kind} {n}' for kind, n in counts.items())})"
+
+
+def render_suite(outcomes: Sequence[SpecOutcome]) -> RenderableType:
+    """The summary table of a suite run, one row per DTC."""
+    table = Table(title="DTC suite", title_justify="left")
+    for column in ("DTC", "verdict", "cycles", "robot time", "wall", "first divergence"):
+        table.add_column(column, justify="right" if column in ("cycles", "wall") else "left")
+    styles = {Verdict.PASSED: "green", Verdict.FAILED: "red", Verdict.ERROR: "magenta"}
+    for outcome in outcomes:
+        result = outcome.result
+        divergence = result.divergence if result else None
+        table.add_row(
+            outcome.spec.name,
+            Text(outcome.verdict.value, style=styles[outcome.verdict]),
+            str(result.cycles) if result else "—",
+            f"{result.robot_time_s:.1f} s" if result else "—",
+            f"{outcome.wall_time_s:.2f} s",
+            (
+                f"cycle {divergence.cycle}, {divergence.kind.value}"
+                if divergence
+                else (outcome.error or "")
+            ),
+        )
+    return table
+
+
+def plain_text(renderable: RenderableType, *, width: int = 100) -> str:
+    """A renderable as plain text, for JUnit reports and pytest failure messages."""
+    console = Console(file=io.StringIO(), width=width, color_system=None, force_terminal=False)
+    console.print(renderable)
+    return console.file.getvalue()  # type: ignore[attr-defined, no-any-return]

@@ -1,0 +1,41 @@
+"""JUnit XML for CI systems: one testcase per DTC, failures with the first divergence."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from beatlog.suite.runner import SpecOutcome, Verdict
+
+__all__ = ["write_junit"]
+
+
+def write_junit(
+    path: Path, outcomes: Sequence[SpecOutcome], *, describe: Callable[[SpecOutcome], str]
+) -> None:
+    """Write ``outcomes`` as a JUnit testsuite; ``describe`` gives a failure's text."""
+    suite = ET.Element(
+        "testsuite",
+        name="beatlog",
+        tests=str(len(outcomes)),
+        failures=str(sum(o.verdict is Verdict.FAILED for o in outcomes)),
+        errors=str(sum(o.verdict is Verdict.ERROR for o in outcomes)),
+        time=f"{sum(o.wall_time_s for o in outcomes):.3f}",
+    )
+    for outcome in outcomes:
+        case = ET.SubElement(
+            suite,
+            "testcase",
+            classname=str(outcome.spec.path.parent),
+            name=outcome.spec.name,
+            file=str(outcome.spec.path),
+            time=f"{outcome.wall_time_s:.3f}",
+        )
+        if outcome.verdict is Verdict.FAILED:
+            divergence = outcome.result.divergence if outcome.result else None
+            message = divergence.message if divergence else "diverged"
+            ET.SubElement(case, "failure", message=message).text = describe(outcome)
+        elif outcome.verdict is Verdict.ERROR:
+            ET.SubElement(case, "error", message=outcome.error or "error").text = outcome.error
+    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)

@@ -1,0 +1,135 @@
+"""DTC specs: one small TOML file per deterministic test case, as the paper prescribes.
+
+A spec names the test case, says what it is for and how it was recorded (the
+procedure a person or a scenario script followed), and points at its session log and
+the system factory to replay it against::
+
+    name = "avoid-pole"
+    purpose = "The rover turns away from a pole in its path."
+    procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
+    log = "avoid-pole.beatlog"            # relative to this file
+    system = "beatlog.examples.rover:system"
+    tags = ["obstacles"]
+    allow_truncated = false
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import re
+import tomllib
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import msgspec
+
+from beatlog.errors import SpecError
+
+__all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
+
+SPEC_SUFFIX = ".dtc.toml"
+
+
+class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
+    name: str
+    purpose: str
+    procedure: list[str]
+    log: str
+    system: str
+    tags: list[str] = []
+    allow_truncated: bool = False
+
+
+@dataclass(frozen=True)
+class DtcSpec:
+    """A loaded DTC spec with its log path resolved against the spec's folder."""
+
+    path: Path
+    name: str
+    purpose: str
+    procedure: tuple[str, ...]
+    log: Path
+    system: str
+    tags: tuple[str, ...] = ()
+    allow_truncated: bool = False
+
+
+def load_spec(path: str | Path) -> DtcSpec:
+    """Read and validate one spec; problems raise :class:`SpecError` naming file and key."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SpecError(path, "no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(path, f"cannot read: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(path, f"not valid TOML: {exc}") from None
+    try:
+        spec = msgspec.convert(data, _SpecFile)
+    except msgspec.ValidationError as exc:
+        raise SpecError(path, _explain(str(exc))) from None
+    if not spec.name.strip():
+        raise SpecError(path, "key 'name': must not be empty")
+    if ":" not in spec.system:
+        raise SpecError(path, f"key 'system': expected module:factory, got {spec.system!r}")
+    return DtcSpec(
+        path=path,
+        name=spec.name,
+        purpose=spec.purpose,
+        procedure=tuple(spec.procedure),
+        log=(path.parent / spec.log),
+        system=spec.system,
+        tags=tuple(spec.tags),
+        allow_truncated=spec.allow_truncated,
+    )
+
+
+def _explain(message: str) -> str:
+    """Turn msgspec's ``... - at `$.key[0]` `` into ``key 'key[0]': ...``."""
+    match = re.fullmatch(r"(.*) - at `\$\.?(.*)`", message)
+    if match:
+        problem, key = match.groups()
+        return f"key {key!r}: {problem[0].lower()}{problem[1:]}"
+    unknown = re.fullmatch(r"Object contains unknown field `(.*)`", message)
+    if unknown:
+        return f"unknown key {unknown.group(1)!r}"
+    missing = re.fullmatch(r"Object missing required field `(.*)`", message)
+    if missing:
+        return f"missing key {missing.group(1)!r}"
+    return message
+
+
+def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:
+    """Every spec in the given files and folders (recursively), sorted by path."""
+    found: list[Path] = []
+    for given in map(Path, paths):
+        if given.is_dir():
+            found.extend(given.rglob(f"*{SPEC_SUFFIX}"))
+        elif given.name.endswith(SPEC_SUFFIX):
+            found.append(given)
+        elif not given.exists():
+            raise SpecError(given, "no such file or folder")
+        else:
+            raise SpecError(given, f"not a DTC spec (expected a *{SPEC_SUFFIX} file)")
+    specs = [load_spec(path) for path in sorted(set(found))]
+    seen: dict[str, Path] = {}
+    for spec in specs:
+        if spec.name in seen:
+            raise SpecError(spec.path, f"name {spec.name!r} is already used by {seen[spec.name]}")
+        seen[spec.name] = spec.path
+    return specs
+
+
+def select_specs(
+    specs: Sequence[DtcSpec], *, pattern: str | None = None, tags: Sequence[str] = ()
+) -> list[DtcSpec]:
+    """Specs whose name matches ``pattern`` (a substring or glob) and that carry every tag."""
+    chosen = list(specs)
+    if pattern:
+        glob = pattern if any(c in pattern for c in "*?[") else f"*{pattern}*"
+        chosen = [spec for spec in chosen if fnmatch.fnmatchcase(spec.name, glob)]
+    return [spec for spec in chosen if set(tags) <= set(spec.tags)]
