@@ -12,6 +12,8 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 
+pytest_plugins = ["pytester"]
+
 PERIOD_NS = 30_000_000
 
 
@@ -96,3 +98,8 @@ def record_probe(tmp_path: Path) -> RecordFn:
         return path
 
     return record
+
+
+def probe_system_changed() -> PriorityArbiter[Probe]:
+    """The probe system with ``near`` reacting earlier: a deliberate behavior change."""
+    return probe_system(threshold=0.6)

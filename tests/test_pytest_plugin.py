@@ -1,0 +1,93 @@
+"""The pytest plugin: *.dtc.toml files are collected as tests named after their spec."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import RecordFn
+
+
+def spec_text(name: str, log: Path, system: str = "tests.conftest:probe_system") -> str:
+    return (
+        f'name = "{name}"\n'
+        'purpose = "The probe stops near obstacles."\n'
+        'procedure = ["Drive the probe towards a wall and back."]\n'
+        f'log = "{log}"\n'
+        f'system = "{system}"\n'
+        'tags = ["probe"]\n'
+    )
+
+
+@pytest.fixture
+def log(record_probe: RecordFn) -> Path:
+    return record_probe(200)
+
+
+def test_a_passing_dtc_is_one_passing_test_named_after_its_spec(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    result = pytester.runpytest("-v")
+    result.assert_outcomes(passed=1)
+    result.stdout.fnmatch_lines(["*approach.dtc.toml::approach-wall PASSED*"])
+
+
+def test_a_diverging_dtc_fails_with_its_first_divergence(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    changed = "tests.conftest:probe_system_changed"
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log, changed))
+    result = pytester.runpytest()
+    result.assert_outcomes(failed=1)
+    result.stdout.fnmatch_lines(
+        [
+            "*first divergence: cycle 21, t = *state changes*",
+            "*arbiter: 'dice' -> 'near'*",
+            "rerun this DTC: beatlog test *approach.dtc.toml",
+        ]
+    )
+    result.stdout.no_fnmatch_line("*Traceback*")
+
+
+def test_a_bad_spec_is_a_collection_error_naming_the_key(pytester: pytest.Pytester) -> None:
+    pytester.makefile(".dtc.toml", broken='name = "x"\npurpose = "y"\n')
+    result = pytester.runpytest()
+    result.assert_outcomes(errors=1)
+    result.stdout.fnmatch_lines(["*broken.dtc.toml: missing key 'procedure'*"])
+    result.stdout.no_fnmatch_line("*Traceback*")
+
+
+def test_collection_can_be_turned_off(pytester: pytest.Pytester, log: Path) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    pytester.makeini("[pytest]\nbeatlog_collect = false\n")
+    result = pytester.runpytest()
+    assert result.ret == pytest.ExitCode.NO_TESTS_COLLECTED
+
+
+def test_dtcs_are_selected_by_tag_and_marker(pytester: pytest.Pytester, log: Path) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    pytester.makepyfile(test_other="def test_other():\n    pass\n")
+    pytester.runpytest("--strict-markers", "-m", "dtc", "-k", "probe").assert_outcomes(
+        passed=1, deselected=1
+    )
+
+
+def test_the_fixture_replays_a_log_in_an_ordinary_test(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    pytester.makepyfile(
+        test_replays=f"""
+        from tests.conftest import probe_system
+
+        def test_passes(beatlog_replay):
+            assert beatlog_replay({str(log)!r}, probe_system()).cycles == 200
+
+        def test_diverges(beatlog_replay):
+            beatlog_replay({str(log)!r}, probe_system(threshold=0.6))
+        """
+    )
+    result = pytester.runpytest()
+    result.assert_outcomes(passed=1, failed=1)
+    result.stdout.fnmatch_lines(["*first divergence: cycle 21*"])
