@@ -70,7 +70,6 @@ class SessionLogWriter:
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self.error: BaseException | None = None
         self.cycles_written = 0
-        self._cycles_queued = 0
         self._closed = False
 
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
@@ -135,7 +134,6 @@ class SessionLogWriter:
             return
         payload = self._encoder.encode((hb_ns, state, changes, draws, outputs, samples))
         self._queue.put((time_ns, payload))
-        self._cycles_queued += 1
 
     def close(self, end: SessionEnd | None = None) -> None:
         """Write what is queued and the end record, then finish and close the file."""

@@ -38,4 +38,5 @@ def write_junit(
             ET.SubElement(case, "failure", message=message).text = describe(outcome)
         elif outcome.verdict is Verdict.ERROR:
             ET.SubElement(case, "error", message=outcome.error or "error").text = outcome.error
+    path.parent.mkdir(parents=True, exist_ok=True)  # as pytest's --junit-xml does
     ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)

@@ -79,7 +79,10 @@ def run_suite(
             pending: set[Future[SpecOutcome]] = {pool.submit(run_spec, spec) for spec in specs}
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                if any(done(future.result()) for future in finished):
+                # Record every finished outcome before deciding to stop: any() over a
+                # generator would drop the ones after the first failure.
+                stops = [done(future.result()) for future in finished]
+                if any(stops):
                     for future in pending:
                         future.cancel()
                     break

@@ -108,14 +108,18 @@ def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:
     found: list[Path] = []
     for given in map(Path, paths):
         if given.is_dir():
-            found.extend(given.rglob(f"*{SPEC_SUFFIX}"))
+            found.extend(path for path in given.rglob(f"*{SPEC_SUFFIX}") if path.is_file())
         elif given.name.endswith(SPEC_SUFFIX):
             found.append(given)
         elif not given.exists():
             raise SpecError(given, "no such file or folder")
         else:
             raise SpecError(given, f"not a DTC spec (expected a *{SPEC_SUFFIX} file)")
-    specs = [load_spec(path) for path in sorted(set(found))]
+    # One spec named twice (``specs`` and ``/abs/specs/a.dtc.toml``) is loaded once.
+    unique: dict[Path, Path] = {}
+    for path in sorted(found):
+        unique.setdefault(path.resolve(), path)
+    specs = [load_spec(path) for path in unique.values()]
     seen: dict[str, Path] = {}
     for spec in specs:
         if spec.name in seen:
