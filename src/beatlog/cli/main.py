@@ -191,9 +191,12 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
 
 
 def _test(args: argparse.Namespace, console: Console) -> int:
-    specs = select_specs(discover_specs(args.paths), pattern=args.select, tags=args.tag)
+    found = discover_specs(args.paths)
+    specs = select_specs(found, pattern=args.select, tags=args.tag)
     if not specs:
         where = " ".join(str(path) for path in args.paths)
+        if found:
+            raise _UsageError(f"none of the {len(found)} DTC specs in {where} match -k/--tag")
         raise _UsageError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
     progress = Progress(
         TextColumn("{task.description}"),
@@ -221,12 +224,15 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     wall = time.perf_counter() - started
     console.print(render_suite(outcomes))
     if args.junit_xml is not None:
-        write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))
+        try:
+            write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))
+        except OSError as exc:
+            raise _UsageError(f"{args.junit_xml}: cannot write: {exc.strerror}") from None
     counts = Counter(outcome.verdict for outcome in outcomes)
     skipped = len(specs) - len(outcomes)
     console.print(
         f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
-        + (f", {counts[Verdict.ERROR]} errors" if counts[Verdict.ERROR] else "")
+        + _plural(counts[Verdict.ERROR], "error")
         + (f", {skipped} not run" if skipped else "")
         + f" in {wall:.2f} s ({cycles:,} cycles)"
     )
@@ -235,13 +241,19 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     return EXIT_FAILED if counts[Verdict.FAILED] else EXIT_OK
 
 
+def _plural(count: int, noun: str) -> str:
+    return f", {count} {noun}{'' if count == 1 else 's'}" if count else ""
+
+
 def _describe(outcome: SpecOutcome) -> RenderableType:
     if outcome.result is None:
         return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.name}: {outcome.error}")
     return Group(
         Text.assemble(("DTC ", "bold"), f"{outcome.spec.name} ({outcome.spec.path})"),
         render_replay(outcome.result),
-        Text.assemble(("rerun this DTC: ", "dim"), f"beatlog test {outcome.spec.path}"),
+        Text.assemble(
+            ("rerun this DTC: ", "dim"), f"beatlog test {outcome.spec.path}", overflow="ignore"
+        ),
     )
 
 

@@ -36,7 +36,7 @@ def render_replay(result: ReplayResult) -> RenderableType:
     ]
     if result.divergent_cycles > 1:
         parts.append(Text(f"{result.divergent_cycles} cycles diverged in all.", style="yellow"))
-    parts.append(Text.assemble(("reproduce: ", "dim"), result.reproduce))
+    parts.append(Text.assemble(("reproduce: ", "dim"), result.reproduce, overflow="ignore"))
     return Group(*parts)
 
 
@@ -180,5 +180,5 @@ def render_suite(outcomes: Sequence[SpecOutcome]) -> RenderableType:
 def plain_text(renderable: RenderableType, *, width: int = 100) -> str:
     """A renderable as plain text, for JUnit reports and pytest failure messages."""
     console = Console(file=io.StringIO(), width=width, color_system=None, force_terminal=False)
-    console.print(renderable)
+    console.print(renderable, crop=False)
     return console.file.getvalue()  # type: ignore[attr-defined, no-any-return]

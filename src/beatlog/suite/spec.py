@@ -108,7 +108,11 @@ def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:
     found: list[Path] = []
     for given in map(Path, paths):
         if given.is_dir():
-            found.extend(path for path in given.rglob(f"*{SPEC_SUFFIX}") if path.is_file())
+            found.extend(
+                path
+                for path in given.rglob(f"*{SPEC_SUFFIX}")
+                if path.is_file() and not _hidden(path.relative_to(given))
+            )
         elif given.name.endswith(SPEC_SUFFIX):
             found.append(given)
         elif not given.exists():
@@ -117,15 +121,20 @@ def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:
             raise SpecError(given, f"not a DTC spec (expected a *{SPEC_SUFFIX} file)")
     # One spec named twice (``specs`` and ``/abs/specs/a.dtc.toml``) is loaded once.
     unique: dict[Path, Path] = {}
-    for path in sorted(found):
+    for path in found:
         unique.setdefault(path.resolve(), path)
-    specs = [load_spec(path) for path in unique.values()]
+    specs = [load_spec(path) for path in sorted(unique.values())]
     seen: dict[str, Path] = {}
     for spec in specs:
         if spec.name in seen:
             raise SpecError(spec.path, f"name {spec.name!r} is already used by {seen[spec.name]}")
         seen[spec.name] = spec.path
     return specs
+
+
+def _hidden(relative: Path) -> bool:
+    """Whether a path found under a folder lies in a hidden folder (.git, .venv, ...)."""
+    return any(part.startswith(".") for part in relative.parts[:-1])
 
 
 def select_specs(

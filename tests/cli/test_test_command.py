@@ -1,0 +1,288 @@
+"""``beatlog test``: run a folder of DTC specs, exit 0/1/2, and say how to rerun a failure."""
+
+from __future__ import annotations
+
+import re
+import sys
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from beatlog.cli.main import main
+from tests.cli.test_main import Run, assert_one_line_error
+from tests.conftest import RecordFn
+from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+
+BeatlogTest = Callable[..., Run]
+
+
+@pytest.fixture(autouse=True)
+def wide_plain_console(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Rich wraps at 80 columns when not on a terminal; long tmp paths would be split."""
+    monkeypatch.setenv("COLUMNS", "200")
+    monkeypatch.delenv("FORCE_COLOR", raising=False)
+
+
+@pytest.fixture
+def beatlog_test(capsys: pytest.CaptureFixture[str]) -> BeatlogTest:
+    """``beatlog test -j 1 ARGS``: one worker unless a test asks for more (a pool costs ~0.5 s)."""
+
+    def run(*args: str | Path) -> Run:
+        code = main(["test", "-j", "1", *(str(arg) for arg in args)])
+        captured = capsys.readouterr()
+        return Run(code, captured.out, captured.err)
+
+    return run
+
+
+@pytest.fixture
+def log(record_probe: RecordFn) -> Path:
+    return record_probe(300)
+
+
+@pytest.fixture
+def specs(tmp_path: Path) -> Path:
+    return tmp_path / "specs"
+
+
+def closing_line(run: Run) -> str:
+    """The last line: the counts, the wall time and the cycles replayed."""
+    return run.out.rstrip("\n").splitlines()[-1]
+
+
+def assert_counts(run: Run, counts: str, cycles: int) -> None:
+    assert re.fullmatch(rf"{counts} in \d+\.\d\d s \({cycles:,} cycles\)", closing_line(run)), (
+        closing_line(run)
+    )
+
+
+def test_a_suite_that_replays_as_recorded_passes(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    write_spec(specs / "night", "avoid-pole-at-night", log)
+
+    run = beatlog_test(specs)
+
+    assert run.code == 0
+    assert run.err == ""
+    assert "DTC suite" in run.out
+    assert re.search(r"avoid-pole\s+│ passed\s+│\s+300 │ 9\.0 s", run.out)
+    assert re.search(r"avoid-pole-at-night\s+│ passed", run.out)
+    assert "rerun this DTC" not in run.out
+    assert_counts(run, "2 passed, 0 failed", 600)
+
+
+def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    earlier = write_spec(specs, "avoid-pole-earlier", log, CHANGED)
+
+    run = beatlog_test(specs)
+
+    assert run.code == 1
+    assert run.err == ""
+    assert f"DTC avoid-pole-earlier ({earlier})" in run.out
+    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
+    assert "behavior state changes differ from the recording" in run.out
+    assert f"rerun this DTC: beatlog test {earlier}" in run.out
+    assert re.search(
+        rf"avoid-pole-earlier\s+│ failed .* cycle {FIRST_CHANGED_CYCLE}, state", run.out
+    )
+    assert_counts(run, "1 passed, 1 failed", 300 + FIRST_CHANGED_CYCLE + 1)
+
+
+def test_the_rerun_command_runs_just_that_dtc(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    earlier = write_spec(specs, "avoid-pole-earlier", log, CHANGED)
+    rerun = re.search(r"rerun this DTC: beatlog test (\S+)", beatlog_test(specs).out)
+    assert rerun is not None
+
+    run = beatlog_test(rerun.group(1))
+
+    assert rerun.group(1) == str(earlier)
+    assert run.code == 1
+    assert_counts(run, "0 passed, 1 failed", FIRST_CHANGED_CYCLE + 1)
+
+
+def test_a_dtc_that_cannot_run_is_an_error_exit_2(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    write_spec(specs, "avoid-pole-earlier", log, CHANGED)
+    lost = write_spec(specs, "lost", tmp_path / "lost.beatlog")
+
+    run = beatlog_test(specs)
+
+    assert run.code == 2
+    assert run.err == ""
+    assert f"ERROR lost: {lost.parent / '..' / 'lost.beatlog'}: no such file" in run.out
+    assert re.search(r"lost\s+│ error\s+│\s+— │ —", run.out)
+    assert_counts(run, "1 passed, 1 failed, 1 error", 300 + FIRST_CHANGED_CYCLE + 1)
+
+
+def test_dash_k_runs_the_dtcs_whose_name_matches(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    write_spec(specs, "avoid-wall", log)
+    write_spec(specs, "dock", log, CHANGED)
+
+    by_substring = beatlog_test(specs, "-k", "avoid")
+    by_glob = beatlog_test(specs, "-k", "*wall")
+
+    assert by_substring.code == 0
+    assert_counts(by_substring, "2 passed, 0 failed", 600)
+    assert "dock" not in by_substring.out
+    assert by_glob.code == 0
+    assert_counts(by_glob, "1 passed, 0 failed", 300)
+    assert "avoid-wall" in by_glob.out
+    assert "avoid-pole" not in by_glob.out
+
+
+def test_tags_run_the_dtcs_that_carry_every_tag_given(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log, tags=["obstacles", "smoke"])
+    write_spec(specs, "avoid-wall", log, CHANGED, tags=["obstacles"])
+    write_spec(specs, "dock", log, tags=["smoke"])
+
+    obstacles = beatlog_test(specs, "--tag", "obstacles")
+    smoke_obstacles = beatlog_test(specs, "--tag", "smoke", "--tag", "obstacles")
+
+    assert obstacles.code == 1
+    assert_counts(obstacles, "1 passed, 1 failed", 300 + FIRST_CHANGED_CYCLE + 1)
+    assert "dock" not in obstacles.out
+    assert smoke_obstacles.code == 0
+    assert_counts(smoke_obstacles, "1 passed, 0 failed", 300)
+    assert "avoid-pole" in smoke_obstacles.out
+
+
+def test_fail_fast_stops_at_the_first_failure_and_counts_what_did_not_run(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "a-avoid-pole", log)
+    write_spec(specs, "b-avoid-pole-earlier", log, CHANGED)
+    write_spec(specs, "c-dock", log)
+    write_spec(specs, "d-dock-earlier", log, CHANGED)
+
+    run = beatlog_test(specs, "--fail-fast")
+
+    assert run.code == 1
+    assert "DTC b-avoid-pole-earlier" in run.out
+    assert "c-dock" not in run.out
+    assert "d-dock-earlier" not in run.out
+    assert_counts(run, "1 passed, 1 failed, 2 not run", 300 + FIRST_CHANGED_CYCLE + 1)
+
+
+def test_junit_xml_reports_every_dtc_for_ci(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    wall = write_spec(specs, "avoid-wall", log, CHANGED)
+    report = tmp_path / "reports" / "dtc.xml"
+
+    run = beatlog_test(specs, "--junit-xml", report)
+
+    assert run.code == 1
+    suite = ET.parse(report).getroot()
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("2", "1", "0")
+    cases = suite.findall("testcase")
+    assert [case.get("name") for case in cases] == ["avoid-pole", "avoid-wall"]
+    failure = cases[1].find("failure")
+    assert failure is not None
+    assert failure.get("message") == "behavior state changes differ from the recording"
+    assert failure.text is not None
+    text = " ".join(failure.text.split())  # the report is wrapped at 100 columns
+    assert f"DTC avoid-wall ({wall})" in text
+    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in text
+    assert "rerun this DTC: beatlog test" in text
+    assert "\x1b[" not in failure.text  # no terminal colors in a CI report
+
+
+def test_worker_processes_give_the_same_verdicts(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    earlier = write_spec(specs, "avoid-pole-earlier", log, CHANGED)
+    write_spec(specs, "dock", log)
+
+    run = beatlog_test(specs, "-j", "2")
+
+    assert run.code == 1
+    assert f"rerun this DTC: beatlog test {earlier}" in run.out
+    assert_counts(run, "2 passed, 1 failed", 600 + FIRST_CHANGED_CYCLE + 1)
+
+
+def test_the_current_folder_is_searched_by_default(
+    beatlog_test: BeatlogTest,
+    specs: Path,
+    log: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    monkeypatch.chdir(specs.parent)
+    monkeypatch.setattr(sys, "path", list(sys.path))  # main() adds the working folder
+
+    run = beatlog_test()
+
+    assert run.code == 0
+    assert_counts(run, "1 passed, 0 failed", 300)
+
+
+# bad input: exit 2 and one line on stderr
+
+
+def test_a_folder_without_specs_is_a_usage_error(beatlog_test: BeatlogTest, specs: Path) -> None:
+    specs.mkdir()
+
+    run = beatlog_test(specs)
+
+    assert_one_line_error(run, f"no DTC specs to run in {specs}", "(looked for *.dtc.toml)")
+
+
+def test_a_selection_that_matches_nothing_is_a_usage_error(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+
+    by_name = beatlog_test(specs, "-k", "dock")
+    by_tag = beatlog_test(specs, "--tag", "night")
+
+    assert_one_line_error(by_name, f"none of the 1 DTC specs in {specs} match -k/--tag")
+    assert_one_line_error(by_tag, f"none of the 1 DTC specs in {specs} match -k/--tag")
+
+
+def test_a_bad_spec_is_one_line_naming_the_file_and_key(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    bad = write_spec(specs, "dock", log, tags="docking")
+
+    run = beatlog_test(specs)
+
+    assert_one_line_error(run, f"{bad}: key 'tags': expected `array`, got `str`")
+
+
+def test_a_path_that_does_not_exist_is_one_line(beatlog_test: BeatlogTest, tmp_path: Path) -> None:
+    run = beatlog_test(tmp_path / "nowhere")
+
+    assert_one_line_error(run, f"{tmp_path / 'nowhere'}: no such file or folder")
+
+
+@pytest.mark.parametrize(
+    ("jobs", "problem"), [("0", "must be at least 1: '0'"), ("x", "not a whole number: 'x'")]
+)
+def test_jobs_must_be_a_positive_whole_number(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, jobs: str, problem: str
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+
+    run = beatlog_test(specs, "-j", jobs)
+
+    assert_one_line_error(run, "argument -j/--jobs", problem)

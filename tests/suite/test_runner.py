@@ -1,0 +1,202 @@
+"""The suite runner: one verdict per spec, in spec order, sequential or in worker processes."""
+
+from __future__ import annotations
+
+import concurrent.futures
+import functools
+from collections.abc import Iterable
+from pathlib import Path
+
+import pytest
+
+from beatlog.engine.verdict import DivergenceKind
+from beatlog.log.writer import SessionLogWriter
+from beatlog.suite import runner
+from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
+from beatlog.suite.spec import DtcSpec, load_spec
+from tests.conftest import RecordFn
+from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+
+
+@pytest.fixture
+def log(record_probe: RecordFn) -> Path:
+    return record_probe(300)
+
+
+def dtc(folder: Path, name: str, log: Path, system: str = PROBE, **extra: object) -> DtcSpec:
+    """Write a spec and load it back, as discovery would."""
+    return load_spec(write_spec(folder, name, log, system, **extra))
+
+
+def verdicts(outcomes: Iterable[SpecOutcome]) -> list[tuple[str, Verdict]]:
+    return [(outcome.spec.name, outcome.verdict) for outcome in outcomes]
+
+
+# run_spec
+
+
+def test_a_spec_replayed_against_its_own_system_passes(tmp_path: Path, log: Path) -> None:
+    spec = dtc(tmp_path, "avoid-pole", log)
+
+    outcome = run_spec(spec)
+
+    assert outcome.spec == spec
+    assert outcome.verdict is Verdict.PASSED
+    assert outcome.result is not None
+    assert outcome.result.ok
+    assert outcome.result.cycles == 300
+    assert outcome.error is None
+    assert outcome.wall_time_s > 0
+
+
+def test_a_changed_system_fails_at_the_first_divergence(tmp_path: Path, log: Path) -> None:
+    outcome = run_spec(dtc(tmp_path, "avoid-pole", log, CHANGED))
+
+    assert outcome.verdict is Verdict.FAILED
+    assert outcome.result is not None
+    assert not outcome.result.ok
+    divergence = outcome.result.divergence
+    assert divergence is not None
+    assert divergence.cycle == FIRST_CHANGED_CYCLE
+    assert divergence.kind is DivergenceKind.STATE_CHANGES
+    assert outcome.error is None
+
+
+def test_a_missing_log_is_an_error_not_a_failure(tmp_path: Path) -> None:
+    spec = dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
+
+    outcome = run_spec(spec)
+
+    assert outcome.verdict is Verdict.ERROR
+    assert outcome.result is None
+    assert outcome.error == f"{tmp_path / 'lost.beatlog'}: no such file"
+
+
+def test_a_system_that_cannot_be_imported_is_an_error(tmp_path: Path, log: Path) -> None:
+    outcome = run_spec(dtc(tmp_path, "ghost", log, "tests.no_such_module:system"))
+
+    assert outcome.verdict is Verdict.ERROR
+    assert outcome.result is None
+    assert outcome.error is not None
+    assert outcome.error.startswith("'tests.no_such_module:system': cannot import")
+
+
+def test_a_truncated_log_passes_only_when_the_spec_allows_it(
+    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A log cut off mid-session (the robot lost power) keeps its complete cycles."""
+    monkeypatch.setattr(
+        "beatlog.engine.record.SessionLogWriter",
+        functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
+    )
+    log = record_probe(300)
+    data = log.read_bytes()
+    log.write_bytes(data[: len(data) // 2])
+
+    strict = run_spec(dtc(tmp_path, "strict", log))
+    lenient = run_spec(dtc(tmp_path, "lenient", log, allow_truncated=True))
+
+    assert strict.verdict is Verdict.FAILED
+    assert strict.result is not None
+    assert strict.result.divergence is not None
+    assert strict.result.divergence.kind is DivergenceKind.LOG_ENDED
+    assert lenient.verdict is Verdict.PASSED
+    assert lenient.result is not None
+    assert 0 < lenient.result.cycles < 300
+
+
+# run_suite
+
+
+@pytest.fixture
+def mixed_suite(tmp_path: Path, log: Path) -> list[DtcSpec]:
+    """Five specs in path order: two pass, two fail, one cannot run."""
+    specs = tmp_path / "specs"
+    return [
+        dtc(specs, "a-pass", log),
+        dtc(specs, "b-fail", log, CHANGED),
+        dtc(specs, "c-error", tmp_path / "lost.beatlog"),
+        dtc(specs, "d-pass", log),
+        dtc(specs, "e-fail", log, CHANGED),
+    ]
+
+
+EXPECTED = [
+    ("a-pass", Verdict.PASSED),
+    ("b-fail", Verdict.FAILED),
+    ("c-error", Verdict.ERROR),
+    ("d-pass", Verdict.PASSED),
+    ("e-fail", Verdict.FAILED),
+]
+
+
+def test_a_suite_gives_one_outcome_per_spec_in_spec_order(mixed_suite: list[DtcSpec]) -> None:
+    seen: list[SpecOutcome] = []
+
+    outcomes = run_suite(mixed_suite, on_outcome=seen.append)
+
+    assert verdicts(outcomes) == EXPECTED
+    assert seen == outcomes
+
+
+def test_worker_processes_give_the_same_verdicts_in_spec_order(
+    mixed_suite: list[DtcSpec],
+) -> None:
+    seen: list[SpecOutcome] = []
+
+    sequential = run_suite(mixed_suite, jobs=1)
+    parallel = run_suite(mixed_suite, jobs=2, on_outcome=seen.append)
+
+    assert verdicts(parallel) == verdicts(sequential) == EXPECTED
+    assert [o.spec for o in parallel] == mixed_suite
+    assert sorted(verdicts(seen)) == EXPECTED  # once per spec, in the order they finished
+    failed = parallel[1].result
+    assert failed is not None
+    assert failed.divergence is not None
+    assert failed.divergence.cycle == FIRST_CHANGED_CYCLE
+    assert parallel[2].error == sequential[2].error
+
+
+def test_an_empty_suite_runs_nothing() -> None:
+    assert run_suite([], jobs=4) == []
+
+
+def test_fail_fast_stops_after_the_first_failure(mixed_suite: list[DtcSpec]) -> None:
+    seen: list[SpecOutcome] = []
+
+    outcomes = run_suite(mixed_suite, fail_fast=True, on_outcome=seen.append)
+
+    assert verdicts(outcomes) == [("a-pass", Verdict.PASSED), ("b-fail", Verdict.FAILED)]
+    assert seen == outcomes
+
+
+def test_fail_fast_also_stops_at_an_error(mixed_suite: list[DtcSpec]) -> None:
+    without_failures = [spec for spec in mixed_suite if "fail" not in spec.name]
+
+    outcomes = run_suite(without_failures, fail_fast=True)
+
+    assert verdicts(outcomes) == [("a-pass", Verdict.PASSED), ("c-error", Verdict.ERROR)]
+
+
+Futures = set[concurrent.futures.Future[SpecOutcome]]
+
+
+def test_fail_fast_in_workers_keeps_outcomes_that_finished_with_the_failure(
+    mixed_suite: list[DtcSpec], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A spec that finished in the same wait as the first failure still gets its verdict."""
+
+    def wait_for_all_failures_first(
+        futures: Futures, return_when: str
+    ) -> tuple[list[concurrent.futures.Future[SpecOutcome]], Futures]:
+        finished, pending = concurrent.futures.wait(futures)
+        passed_last = sorted(finished, key=lambda f: f.result().verdict is Verdict.PASSED)
+        return passed_last, pending
+
+    monkeypatch.setattr(runner, "wait", wait_for_all_failures_first)
+    seen: list[SpecOutcome] = []
+
+    outcomes = run_suite(mixed_suite[:2], jobs=2, fail_fast=True, on_outcome=seen.append)
+
+    assert verdicts(outcomes) == EXPECTED[:2]
+    assert sorted(verdicts(seen)) == EXPECTED[:2]

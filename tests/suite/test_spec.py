@@ -1,0 +1,304 @@
+"""DTC specs: one TOML file per test case, validated with errors that name file and key.
+
+The helpers here (``write_spec``, ``PROBE``, ``CHANGED``) are shared by the other
+suite tests and the ``beatlog test`` command tests.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from beatlog.errors import SpecError
+from beatlog.model.behavior import PriorityArbiter
+from beatlog.suite.spec import DtcSpec, discover_specs, load_spec, select_specs
+from tests.conftest import Probe, RecordFn, distances, probe_system
+
+PROBE = "tests.conftest:probe_system"
+CHANGED = "tests.suite.test_spec:changed_probe"
+
+
+def changed_probe() -> PriorityArbiter[Probe]:
+    """The probe with its near behavior reacting 10 cm earlier: a behavior change."""
+    return probe_system(0.6)
+
+
+FIRST_CHANGED_CYCLE = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
+"""The first cycle where the changed probe's near behavior sees the obstacle first."""
+
+
+def toml_value(value: object) -> str:
+    """Enough TOML for specs: booleans, numbers, strings and arrays of them."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)  # a TOML basic string for everything a test writes
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(item) for item in value) + "]"
+    raise TypeError(f"no TOML for {value!r}")
+
+
+def write_spec(
+    folder: Path,
+    name: str,
+    log: Path | str,
+    system: str = PROBE,
+    /,
+    **extra: object,
+) -> Path:
+    """Write ``<folder>/<name>.dtc.toml`` and return its path.
+
+    A ``Path`` log is written relative to the spec's folder, as a user would; a ``str``
+    log is written verbatim. ``extra`` adds or replaces keys (even ``name``, ``log`` and
+    ``system``); ``None`` leaves a key out.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    keys: dict[str, object] = {
+        "name": name,
+        "purpose": f"The probe replays {name} as recorded.",
+        "procedure": ["Drive the probe toward the pole and back, twice."],
+        "log": os.path.relpath(log, folder) if isinstance(log, Path) else log,
+        "system": system,
+        **extra,
+    }
+    path = folder / f"{name}.dtc.toml"
+    path.write_text(
+        "".join(
+            f"{key} = {toml_value(value)}\n" for key, value in keys.items() if value is not None
+        ),
+        encoding="utf-8",
+    )
+    return path
+
+
+# load_spec
+
+
+def test_a_valid_spec_loads_with_its_log_resolved_against_the_spec_folder(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+    path = write_spec(
+        tmp_path / "specs" / "obstacles",
+        "avoid-pole",
+        log,
+        tags=["obstacles", "smoke"],
+        allow_truncated=True,
+    )
+
+    spec = load_spec(path)
+
+    assert spec.path == path
+    assert spec.name == "avoid-pole"
+    assert spec.purpose == "The probe replays avoid-pole as recorded."
+    assert spec.procedure == ("Drive the probe toward the pole and back, twice.",)
+    assert spec.log == path.parent / ".." / ".." / log.name
+    assert spec.log.resolve() == log.resolve()
+    assert spec.system == PROBE
+    assert spec.tags == ("obstacles", "smoke")
+    assert spec.allow_truncated is True
+
+
+def test_tags_and_allow_truncated_are_optional(tmp_path: Path) -> None:
+    spec = load_spec(write_spec(tmp_path, "plain", "probe.beatlog"))
+
+    assert spec.log == tmp_path / "probe.beatlog"
+    assert spec.tags == ()
+    assert spec.allow_truncated is False
+
+
+def assert_spec_error(path: Path, *fragments: str) -> None:
+    with pytest.raises(SpecError) as raised:
+        load_spec(path)
+    message = str(raised.value)
+    assert message.startswith(f"{path}: ")
+    assert "\n" not in message
+    for fragment in fragments:
+        assert fragment in message, message
+
+
+def test_a_missing_spec_file_is_a_spec_error(tmp_path: Path) -> None:
+    assert_spec_error(tmp_path / "gone.dtc.toml", "no such file")
+
+
+def test_invalid_toml_is_a_spec_error_with_the_line(tmp_path: Path) -> None:
+    path = tmp_path / "broken.dtc.toml"
+    path.write_text('name = "unterminated\n', encoding="utf-8")
+
+    assert_spec_error(path, "not valid TOML", "line 1")
+
+
+@pytest.mark.parametrize("key", ["name", "purpose", "procedure", "log", "system"])
+def test_every_required_key_must_be_there(tmp_path: Path, key: str) -> None:
+    path = write_spec(tmp_path, "incomplete", "probe.beatlog", **{key: None})
+
+    assert_spec_error(path, f"missing key {key!r}")
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "where", "problem"),
+    [
+        ("procedure", "Drive toward the pole.", "key 'procedure'", "expected `array`, got `str`"),
+        ("procedure", ["Drive toward the pole.", 30], "key 'procedure[1]'", "expected `str`"),
+        ("tags", "obstacles", "key 'tags'", "expected `array`, got `str`"),
+        ("allow_truncated", "yes", "key 'allow_truncated'", "expected `bool`, got `str`"),
+    ],
+    ids=["procedure-as-string", "procedure-item-not-string", "tags-not-list", "bool-as-string"],
+)
+def test_a_wrong_type_names_the_key(
+    tmp_path: Path, key: str, value: object, where: str, problem: str
+) -> None:
+    path = write_spec(tmp_path, "typo", "probe.beatlog", **{key: value})
+
+    assert_spec_error(path, where, problem)
+
+
+def test_an_unknown_key_is_rejected_so_typos_do_not_pass_silently(tmp_path: Path) -> None:
+    path = write_spec(tmp_path, "typo", "probe.beatlog", allow_truncate=True)
+
+    assert_spec_error(path, "unknown key 'allow_truncate'")
+
+
+def test_an_empty_name_is_rejected(tmp_path: Path) -> None:
+    path = write_spec(tmp_path, "blank", "probe.beatlog", name="  ")
+
+    assert_spec_error(path, "key 'name'", "must not be empty")
+
+
+def test_a_system_without_a_colon_is_rejected(tmp_path: Path) -> None:
+    path = write_spec(tmp_path, "no-factory", "probe.beatlog", system="tests.conftest")
+
+    assert_spec_error(path, "key 'system'", "expected module:factory", "'tests.conftest'")
+
+
+# discover_specs
+
+
+def test_discovery_finds_specs_in_folders_recursively_sorted_by_path(tmp_path: Path) -> None:
+    specs = tmp_path / "specs"
+    write_spec(specs / "b", "zeta", "z.beatlog")
+    write_spec(specs / "a" / "deep", "beta", "b.beatlog")
+    write_spec(specs, "alpha", "a.beatlog")
+    write_spec(specs / ".venv" / "lib", "vendored", "v.beatlog")  # hidden folders are skipped
+    (specs / "notes.toml").write_text('name = "not a spec"\n', encoding="utf-8")
+    (specs / "dir.dtc.toml").mkdir()  # a folder that merely looks like a spec
+
+    found = discover_specs([specs])
+
+    assert [spec.path.relative_to(specs).as_posix() for spec in found] == [
+        "a/deep/beta.dtc.toml",
+        "alpha.dtc.toml",
+        "b/zeta.dtc.toml",
+    ]
+    assert [spec.name for spec in found] == ["beta", "alpha", "zeta"]
+
+
+def test_discovery_accepts_a_spec_file_directly(tmp_path: Path) -> None:
+    wanted = write_spec(tmp_path, "wanted", "w.beatlog")
+    write_spec(tmp_path, "other", "o.beatlog")
+
+    assert [spec.name for spec in discover_specs([wanted])] == ["wanted"]
+
+
+def test_a_spec_given_twice_runs_once(tmp_path: Path) -> None:
+    path = write_spec(tmp_path / "specs", "once", "o.beatlog")
+    elsewhere = tmp_path / "specs" / ".." / "specs" / "once.dtc.toml"
+
+    found = discover_specs([tmp_path / "specs", path, elsewhere])
+
+    assert [spec.path for spec in found] == [path]
+
+
+def test_a_missing_path_is_a_spec_error(tmp_path: Path) -> None:
+    with pytest.raises(SpecError, match="no such file or folder") as raised:
+        discover_specs([tmp_path / "nowhere"])
+
+    assert raised.value.path == tmp_path / "nowhere"
+
+
+def test_a_file_that_is_not_a_spec_is_a_spec_error(tmp_path: Path, record_probe: RecordFn) -> None:
+    log = record_probe(10)
+
+    with pytest.raises(SpecError, match=r"not a DTC spec \(expected a \*\.dtc\.toml file\)"):
+        discover_specs([log])
+
+
+def test_two_specs_with_the_same_name_are_an_error_naming_both(tmp_path: Path) -> None:
+    first = write_spec(tmp_path / "a", "avoid-pole", "a.beatlog")
+    second = write_spec(tmp_path / "b", "avoid-pole", "b.beatlog")
+
+    with pytest.raises(SpecError) as raised:
+        discover_specs([tmp_path])
+
+    message = str(raised.value)
+    assert message.startswith(f"{second}: ")
+    assert "name 'avoid-pole' is already used by" in message
+    assert str(first) in message
+
+
+def test_a_bad_spec_stops_discovery(tmp_path: Path) -> None:
+    write_spec(tmp_path, "good", "g.beatlog")
+    bad = write_spec(tmp_path, "bad", "b.beatlog", system=None)
+
+    with pytest.raises(SpecError, match="missing key 'system'") as raised:
+        discover_specs([tmp_path])
+
+    assert raised.value.path == bad
+
+
+# select_specs
+
+
+def spec(name: str, *tags: str) -> DtcSpec:
+    return DtcSpec(
+        path=Path(f"{name}.dtc.toml"),
+        name=name,
+        purpose="",
+        procedure=(),
+        log=Path("x.beatlog"),
+        system=PROBE,
+        tags=tags,
+    )
+
+
+SUITE = [
+    spec("avoid-pole", "obstacles", "smoke"),
+    spec("avoid-wall", "obstacles"),
+    spec("dock", "smoke"),
+    spec("dock-at-night", "night"),
+]
+
+
+def names(specs: list[DtcSpec]) -> list[str]:
+    return [spec.name for spec in specs]
+
+
+def test_selection_without_a_pattern_or_tags_keeps_every_spec_in_order() -> None:
+    assert names(select_specs(SUITE)) == names(SUITE)
+
+
+def test_a_plain_pattern_selects_by_substring() -> None:
+    assert names(select_specs(SUITE, pattern="avoid")) == ["avoid-pole", "avoid-wall"]
+    assert names(select_specs(SUITE, pattern="dock")) == ["dock", "dock-at-night"]
+
+
+def test_a_glob_pattern_must_match_the_whole_name() -> None:
+    assert names(select_specs(SUITE, pattern="dock*")) == ["dock", "dock-at-night"]
+    assert names(select_specs(SUITE, pattern="*pole")) == ["avoid-pole"]
+    assert names(select_specs(SUITE, pattern="avoid-?all")) == ["avoid-wall"]
+    assert names(select_specs(SUITE, pattern="pole*")) == []
+
+
+def test_tags_select_specs_that_carry_every_tag() -> None:
+    assert names(select_specs(SUITE, tags=["smoke"])) == ["avoid-pole", "dock"]
+    assert names(select_specs(SUITE, tags=["obstacles", "smoke"])) == ["avoid-pole"]
+    assert names(select_specs(SUITE, tags=["night", "smoke"])) == []
+
+
+def test_a_pattern_and_tags_both_apply() -> None:
+    assert names(select_specs(SUITE, pattern="dock", tags=["night"])) == ["dock-at-night"]
