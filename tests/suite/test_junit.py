@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.cli.render import plain_text, render_replay
+from beatlog.report.console import plain_text, render_replay
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, run_spec
 from beatlog.suite.spec import load_spec

@@ -7,11 +7,11 @@ from pathlib import Path
 from rich.console import Console
 from rich.rule import Rule
 
-from beatlog.cli.render import render_replay, render_summary
 from beatlog.engine.record import Recorder
 from beatlog.engine.replay import replay
 from beatlog.examples.rover import RoverRobot
 from beatlog.log.summary import summarize
+from beatlog.report.console import render_replay, render_summary
 
 __all__ = ["run_demo"]
 

@@ -21,13 +21,13 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from beatlog._version import __version__
-from beatlog.cli.render import plain_text, render_replay, render_suite, render_summary
 from beatlog.engine.loading import load_factory
 from beatlog.engine.record import Recorder
 from beatlog.engine.replay import replay
 from beatlog.errors import BeatlogError
 from beatlog.log.summary import summarize
 from beatlog.model.robot import Robot
+from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import discover_specs, select_specs

@@ -1,4 +1,4 @@
-"""Turns results into rich renderables; nothing here decides a verdict or exits."""
+"""Turns results into rich renderables for the terminal, pytest and JUnit; it decides nothing."""
 
 from __future__ import annotations
 

@@ -1,0 +1,36 @@
+"""The console report: a pass in one line, a failure in one screen."""
+
+from __future__ import annotations
+
+from beatlog import replay
+from beatlog.log.summary import summarize
+from beatlog.report.console import plain_text, render_replay, render_summary
+from tests.conftest import RecordFn, probe_system
+
+
+def test_a_pass_is_one_verdict_line(record_probe: RecordFn) -> None:
+    text = plain_text(render_replay(replay(record_probe(50), probe_system())), width=400)
+    assert text.startswith("PASS ")
+    assert "50 cycles" in text
+    assert "log complete" in text
+    assert text.count("\n") == 1
+
+
+def test_a_failure_shows_cycle_changes_state_and_an_unwrapped_command(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300, name="a-rather-long-name-for-a-session-log-" * 3 + ".beatlog")
+    text = plain_text(render_replay(replay(log, probe_system(threshold=0.6))), width=80)
+    assert "first divergence: cycle 21" in text
+    assert "arbiter: 'dice' -> 'near'" in text
+    assert "robot state RS_t" in text
+    (command,) = [line for line in text.splitlines() if line.startswith("reproduce: ")]
+    assert command.endswith("--system tests.conftest:probe_system")
+    assert len(text.splitlines()) < 50
+
+
+def test_the_summary_names_every_behavior(record_probe: RecordFn) -> None:
+    text = plain_text(render_summary(summarize(record_probe(100))))
+    for name in ("arbiter", "near", "dice"):
+        assert name in text
+    assert "complete" in text
