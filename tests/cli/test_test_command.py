@@ -276,7 +276,7 @@ def test_a_path_that_does_not_exist_is_one_line(beatlog_test: BeatlogTest, tmp_p
 
 
 @pytest.mark.parametrize(
-    ("jobs", "problem"), [("0", "must be at least 1: '0'"), ("x", "not a whole number: 'x'")]
+    ("jobs", "problem"), [("0", "must be positive: '0'"), ("x", "not a whole number: 'x'")]
 )
 def test_jobs_must_be_a_positive_whole_number(
     beatlog_test: BeatlogTest, specs: Path, log: Path, jobs: str, problem: str
