@@ -135,7 +135,12 @@ def test_keep_going_counts_every_diverging_cycle(record_probe: RecordFn) -> None
     first = replay(log, probe_system(threshold=0.6))
     every = replay(log, probe_system(threshold=0.6), keep_going=True)
     assert every.cycles == 300
-    assert every.divergence == first.divergence
+    assert every.divergence is not None
+    assert first.divergence is not None
+    assert dataclasses.replace(every.divergence, context=()) == dataclasses.replace(
+        first.divergence, context=()
+    )
+    assert first.divergence.context[: len(every.divergence.context)] == every.divergence.context
     assert first.divergent_cycles == 1
     assert every.divergent_cycles > 1
 
@@ -277,3 +282,21 @@ def test_an_output_that_cannot_be_logged_is_a_verdict(record_probe: RecordFn) ->
     assert "cannot record a value of type object" in divergence.message
     assert "reproduce" not in divergence.message
     assert "MODULE:FACTORY" not in result.reproduce
+
+
+def test_a_divergence_shows_the_cycles_around_it(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    divergence = replay(log, probe_system(threshold=0.6), context_cycles=30).divergence
+    assert divergence is not None
+    cycles = [row.cycle for row in divergence.context]
+    assert cycles == sorted(cycles)
+    assert divergence.cycle in cycles
+    assert all(abs(cycle - divergence.cycle) <= 30 for cycle in cycles)
+    before = [row for row in divergence.context if row.cycle < divergence.cycle]
+    after = [row for row in divergence.context if row.cycle > divergence.cycle]
+    assert before
+    assert all(row.expected == row.actual for row in before)
+    assert any(row.expected != row.actual for row in after)
+    intervals = [PERIOD_NS + (t % 3) * 1000 for t in range(300)]
+    for row in divergence.context:
+        assert row.time_ns == sum(intervals[: row.cycle + 1])

@@ -250,9 +250,7 @@ def _describe(outcome: SpecOutcome) -> RenderableType:
     return Group(
         Text.assemble(("DTC ", "bold"), f"{outcome.spec.name} ({outcome.spec.path})"),
         render_replay(outcome.result),
-        Text.assemble(
-            ("rerun this DTC: ", "dim"), f"beatlog test {outcome.spec.path}", overflow="ignore"
-        ),
+        Text.assemble(("rerun this DTC: ", "dim"), f"beatlog test {outcome.spec.path}"),
     )
 
 
@@ -275,7 +273,7 @@ def _import_from_working_directory() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
-    console = Console()
+    console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
     try:
         args = _parser().parse_args(argv)
         if args.command in ("record", "replay", "test"):

@@ -7,10 +7,13 @@ state changes and outputs with the recorded ones, byte for byte.
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import shlex
 import time
 import traceback
-from collections.abc import Sequence
+from collections import deque
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +22,7 @@ import msgspec
 from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
 from beatlog.engine.loading import load_system
 from beatlog.engine.verdict import (
+    ContextRow,
     Divergence,
     DivergenceKind,
     DrawReport,
@@ -49,13 +53,15 @@ def replay(
     *,
     keep_going: bool = False,
     allow_truncated: bool = False,
+    context_cycles: int = 5,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference).
 
     Stops at the first divergence unless ``keep_going`` is set, in which case it
     replays every cycle and counts the ones that diverged. A truncated log fails
     with a LOG_ENDED divergence after its last complete cycle unless
-    ``allow_truncated`` is set.
+    ``allow_truncated`` is set. The divergence carries the state changes of up to
+    ``context_cycles`` cycles before and after it.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type.
@@ -64,23 +70,28 @@ def replay(
     if isinstance(system, str):
         system = load_system(system)
     with SessionLogReader(log) as reader:
-        judge = _Judge(reader.header, system, reader.path, keep_going=keep_going)
+        judge = _Judge(
+            reader.header, system, reader.path, keep_going=keep_going, context=context_cycles
+        )
         started = time.perf_counter()
         status = None
-        for batch in reader.batches():
-            if judge.run(batch):
+        batches = reader.batches()
+        for batch in batches:
+            stop = judge.run(batch)
+            if stop is not None:
+                wall = time.perf_counter() - started
+                judge.follow(batch[stop + 1 :], batches)
                 break
         else:
             status = reader.status
             if not status.complete and not allow_truncated:
                 judge.log_ended(status.describe())
-        wall = time.perf_counter() - started
-    executor = judge.executor
+            wall = time.perf_counter() - started
     return ReplayResult(
         log=Path(log),
         ok=judge.divergence is None,
-        cycles=executor.context.cycle + 1,
-        robot_time_ns=executor.clock.now_ns,
+        cycles=judge.cycles,
+        robot_time_ns=judge.robot_time_ns,
         wall_time_s=wall,
         status=status,
         divergence=judge.divergence,
@@ -98,15 +109,24 @@ class _Judge:
     """Replays cycles and keeps the first divergence; the hot loop lives in :meth:`run`."""
 
     def __init__(
-        self, header: SessionHeader, system: System, path: Path, *, keep_going: bool
+        self,
+        header: SessionHeader,
+        system: System,
+        path: Path,
+        *,
+        keep_going: bool,
+        context: int,
     ) -> None:
         self.header = header
         self._keep_going = keep_going
+        self._context = context
+        self._recent: deque[CycleRecord] = deque(maxlen=context + 1)
         self.path = path
         self.random = ReplayRandom()
         self.executor = CycleExecutor(system, self.random)
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
+        self._stopped_at: tuple[int, int] | None = None
         self._same_catalogue = self.executor.behavior_ids == header.behaviors
         self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
         self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
@@ -114,15 +134,26 @@ class _Judge:
         self._outputs_decoder = msgspec.msgpack.Decoder(dict[str, Any])
         self._encoder = payload_encoder()
 
-    def run(self, batch: Sequence[CycleRecord]) -> bool:
-        """Replay a batch of cycles; True when replay should stop at a divergence."""
+    @property
+    def cycles(self) -> int:
+        """Cycles judged: up to the divergence that stopped replay, or all of them."""
+        return self._stopped_at[0] if self._stopped_at else self.executor.context.cycle + 1
+
+    @property
+    def robot_time_ns(self) -> int:
+        """Robot time judged, matching :attr:`cycles`."""
+        return self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
+
+    def run(self, batch: Sequence[CycleRecord]) -> int | None:
+        """Replay a batch of cycles; the index of the cycle where replay stops, if it does."""
+        remember = self._recent.append
         encode = self._encoder.encode
         random = self.random
         step = self.executor.step
         context = self.executor.context
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
-        for record in batch:
+        for index, record in enumerate(batch):
             state = self._state(record)
             random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
             changes: list[StateChangeRecord] | None = None
@@ -147,6 +178,7 @@ class _Judge:
                         else record.out == raw(encode(context.outputs))
                     )
                 ):
+                    remember(record)
                     continue
             except RandomMismatch:
                 pass
@@ -154,10 +186,55 @@ class _Judge:
                 raise
             except Exception as exc:  # behavior code failing is a verdict, not a crash
                 failure = exc
+            first = self.divergence is None
             self._diverge(record, state, changes, failure)
+            remember(record)
+            if first and self._keep_going:
+                self._add_context([])
             if not self._keep_going:
-                return True
-        return False
+                self._stopped_at = (context.cycle + 1, context.time_ns)
+                return index
+        return None
+
+    def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
+        """Replay a few cycles past the divergence to show what happened next."""
+        rows: list[ContextRow] = []
+        for record in itertools.islice(itertools.chain(rest, *batches), self._context):
+            state = self._state(record)
+            self.random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
+            try:
+                changes = self.executor.step(record.hb_ns, state)
+            except (Exception, RandomMismatch):  # the first divergence is already reported
+                break
+            rows.append(self._row(record, changes))
+        self._add_context(rows)
+
+    def _row(self, record: CycleRecord, changes: list[StateChangeRecord]) -> ContextRow:
+        context = self.executor.context
+        return ContextRow(
+            context.cycle,
+            context.time_ns,
+            tuple(self._named(record.bs)),
+            tuple(self._named_actual(changes)),
+        )
+
+    def _add_context(self, after: list[ContextRow]) -> None:
+        divergence = self.divergence
+        if divergence is None:
+            return
+        recent = list(self._recent)  # the cycles before the divergence, then the divergence
+        time_ns = divergence.time_ns
+        before: list[ContextRow] = []
+        for offset in range(1, len(recent)):
+            time_ns -= recent[-offset].hb_ns
+            expected = tuple(self._named(recent[-offset - 1].bs))
+            before.append(ContextRow(divergence.cycle - offset, time_ns, expected, expected))
+        here = ContextRow(
+            divergence.cycle, divergence.time_ns, divergence.expected, divergence.actual
+        )
+        rows = [*reversed(before), here, *after]
+        context = tuple(row for row in rows if row is here or row.expected or row.actual)
+        self.divergence = dataclasses.replace(divergence, context=context)
 
     def _state(self, record: CycleRecord) -> Any:
         try:

@@ -9,7 +9,14 @@ from typing import Any, NamedTuple
 
 from beatlog.log.reader import LogStatus
 
-__all__ = ["Divergence", "DivergenceKind", "DrawReport", "ReplayResult", "StateChange"]
+__all__ = [
+    "ContextRow",
+    "Divergence",
+    "DivergenceKind",
+    "DrawReport",
+    "ReplayResult",
+    "StateChange",
+]
 
 
 class DivergenceKind(StrEnum):
@@ -50,6 +57,15 @@ class DrawReport(NamedTuple):
     value: Any
 
 
+class ContextRow(NamedTuple):
+    """One cycle around a divergence: what was recorded and what replay did."""
+
+    cycle: int
+    time_ns: int
+    expected: tuple[StateChange, ...]
+    actual: tuple[StateChange, ...]
+
+
 @dataclass(frozen=True)
 class Divergence:
     """The first cycle where replay differed from the recording, and why."""
@@ -67,6 +83,8 @@ class Divergence:
     random_recorded: tuple[DrawReport, ...] = ()
     random_drawn: tuple[DrawReport, ...] = ()
     traceback: str | None = None
+    context: tuple[ContextRow, ...] = ()
+    """The cycles before and after the divergence that changed any behavior state."""
 
     @property
     def time_s(self) -> float:

@@ -36,7 +36,7 @@ def render_replay(result: ReplayResult) -> RenderableType:
     ]
     if result.divergent_cycles > 1:
         parts.append(Text(f"{result.divergent_cycles} cycles diverged in all.", style="yellow"))
-    parts.append(Text.assemble(("reproduce: ", "dim"), result.reproduce, overflow="ignore"))
+    parts.append(Text.assemble(("reproduce: ", "dim"), result.reproduce))
     return Group(*parts)
 
 
@@ -63,6 +63,8 @@ def _divergence(divergence: Divergence) -> RenderableType:
         parts.append(
             _side_by_side("random numbers", divergence.random_recorded, divergence.random_drawn)
         )
+    if len(divergence.context) > 1:
+        parts.append(_context(divergence))
     if divergence.robot_state:
         parts.append(_robot_state(divergence.robot_state))
     if divergence.traceback:
@@ -95,6 +97,24 @@ def _side_by_side(
         table.add_row(want or "—", got or "—", style=None if want == got else "bold")
     if not rows:
         table.add_row("—", "—")
+    return table
+
+
+def _context(divergence: Divergence) -> Table:
+    table = Table(title="state changes around it", title_justify="left", expand=True)
+    table.add_column("cycle", justify="right")
+    table.add_column("t (s)", justify="right")
+    table.add_column("recorded", style="green", ratio=1)
+    table.add_column("replayed", style="red", ratio=1)
+    for row in divergence.context:
+        here = row.cycle == divergence.cycle
+        table.add_row(
+            f"▶ {row.cycle}" if here else str(row.cycle),
+            f"{row.time_ns / 1e9:.3f}",
+            "\n".join(map(str, row.expected)) or "—",
+            "\n".join(map(str, row.actual)) or "—",
+            style="bold" if here or row.expected != row.actual else "dim",
+        )
     return table
 
 
@@ -179,6 +199,8 @@ def render_suite(outcomes: Sequence[SpecOutcome]) -> RenderableType:
 
 def plain_text(renderable: RenderableType, *, width: int = 100) -> str:
     """A renderable as plain text, for JUnit reports and pytest failure messages."""
-    console = Console(file=io.StringIO(), width=width, color_system=None, force_terminal=False)
-    console.print(renderable, crop=False)
+    console = Console(
+        file=io.StringIO(), width=width, color_system=None, force_terminal=False, soft_wrap=True
+    )
+    console.print(renderable)
     return console.file.getvalue()  # type: ignore[attr-defined, no-any-return]
