@@ -34,3 +34,10 @@ def test_the_summary_names_every_behavior(record_probe: RecordFn) -> None:
     for name in ("arbiter", "near", "dice"):
         assert name in text
     assert "complete" in text
+
+
+def test_the_cycles_around_a_divergence_are_a_table(record_probe: RecordFn) -> None:
+    result = replay(record_probe(300), probe_system(threshold=0.6), context_cycles=40)
+    text = plain_text(render_replay(result))
+    assert "state changes around it" in text
+    assert "▶ 21" in text
