@@ -199,7 +199,9 @@ class _Judge:
     def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
         """Replay a few cycles past the divergence to show what happened next."""
         rows: list[ContextRow] = []
-        for record in itertools.islice(itertools.chain(rest, *batches), self._context):
+        for record in itertools.islice(
+            itertools.chain(rest, itertools.chain.from_iterable(batches)), self._context
+        ):
             state = self._state(record)
             self.random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
             try:
