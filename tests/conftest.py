@@ -103,3 +103,14 @@ def record_probe(tmp_path: Path) -> RecordFn:
 def probe_system_changed() -> PriorityArbiter[Probe]:
     """The probe system with ``near`` reacting earlier: a deliberate behavior change."""
     return probe_system(threshold=0.6)
+
+
+class Close(Near):
+    """``near`` under a new name: a rename that changes no behavior."""
+
+    name = "close"
+
+
+def probe_system_renamed() -> PriorityArbiter[Probe]:
+    """The probe system with ``near`` renamed to ``close``."""
+    return PriorityArbiter([Close(), Dice()], robot_state=Probe)

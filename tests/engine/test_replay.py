@@ -10,14 +10,25 @@ import numpy as np
 import pytest
 
 from beatlog import DivergenceKind, StateChange, replay
+from beatlog.engine.compare import Comparison
 from beatlog.engine.record import Recorder
+from beatlog.engine.trace import replayed_trace
 from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
-from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
+from tests.conftest import (
+    PERIOD_NS,
+    Dice,
+    Near,
+    Probe,
+    RecordFn,
+    distances,
+    probe_system,
+    probe_system_renamed,
+)
 
 
 def first_cycle_below(threshold: float, cycles: int = 300) -> int:
@@ -300,3 +311,74 @@ def test_a_divergence_shows_the_cycles_around_it(record_probe: RecordFn) -> None
     intervals = [PERIOD_NS + (t % 3) * 1000 for t in range(300)]
     for row in divergence.context:
         assert row.time_ns == sum(intervals[: row.cycle + 1])
+
+
+def test_a_renamed_behavior_fails_and_the_rename_is_proposed(record_probe: RecordFn) -> None:
+    result = replay(record_probe(300), probe_system_renamed())
+    assert result.divergence is not None
+    assert result.divergence.kind is DivergenceKind.STATE_CHANGES
+    assert result.divergence.proposed_renames == {"near": "close"}
+
+
+def test_a_renamed_behavior_passes_under_the_rename(record_probe: RecordFn) -> None:
+    result = replay(
+        record_probe(300), probe_system_renamed(), comparison=Comparison(renames={"near": "close"})
+    )
+    assert result.ok, result.divergence
+
+
+def test_a_real_change_under_new_names_proposes_no_rename(record_probe: RecordFn) -> None:
+    system = probe_system_renamed()
+    system.behaviors["close"].threshold = 0.6  # type: ignore[attr-defined]
+    result = replay(record_probe(300), system)
+    assert result.divergence is not None
+    assert result.divergence.proposed_renames == {}
+
+
+def test_an_ignored_behavior_may_change(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    changed = replay(log, probe_system(threshold=0.6), comparison=Comparison(
+        ignore_behaviors=frozenset({"near", "arbiter"}), ignore_fields=("speed", "time")
+    ))  # fmt: skip
+    assert changed.ok, changed.divergence
+    assert not replay(log, probe_system(threshold=0.6)).ok
+
+
+def test_an_output_tolerance_accepts_a_small_drift(record_probe: RecordFn) -> None:
+    class Drifting(Dice):
+        def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+            outputs = super().step(rs, ctx)
+            assert outputs is not None
+            return {**outputs, "speed": outputs["speed"] + 1e-9}
+
+    log = record_probe(100)
+    system = PriorityArbiter([Near(), Drifting()], robot_state=Probe)
+    result = replay(log, system, comparison=Comparison(tolerance={"speed": 1e-6}))
+    assert result.ok, result.divergence
+    strict = replay(log, PriorityArbiter([Near(), Drifting()], robot_state=Probe))
+    assert strict.divergence is not None
+    assert strict.divergence.kind is DivergenceKind.OUTPUTS
+
+
+def test_an_approved_baseline_replaces_the_recorded_state_changes(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    new = replayed_trace(log, probe_system(threshold=0.6))
+    baseline: dict[int, list[StateChange]] = {}
+    for traced in new.changes:
+        baseline.setdefault(traced.cycle, []).append(traced.change)
+    assert replay(log, probe_system(threshold=0.6), expected=baseline).ok
+    old = replay(log, probe_system(), expected=baseline)
+    assert old.divergence is not None
+    assert old.divergence.message == "behavior state changes differ from the approved baseline"
+    assert old.divergence.cycle == first_cycle_below(0.6)
+
+
+def test_a_baseline_naming_unknown_behaviors_fails_naming_them(record_probe: RecordFn) -> None:
+    log = record_probe(50)
+    baseline: dict[int, list[StateChange]] = {3: [StateChange("ghost", "a", "b")]}
+    for traced in replayed_trace(log, probe_system()).changes:
+        baseline.setdefault(traced.cycle, []).append(traced.change)
+    result = replay(log, probe_system(), expected=baseline)
+    assert result.divergence is not None
+    assert result.divergence.cycle == 3
+    assert StateChange("ghost", "a", "b") in result.divergence.expected

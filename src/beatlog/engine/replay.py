@@ -13,14 +13,16 @@ import shlex
 import time
 import traceback
 from collections import deque
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import msgspec
 
+from beatlog.engine.compare import Comparison
 from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
 from beatlog.engine.loading import load_system
+from beatlog.engine.renames import propose_renames
 from beatlog.engine.verdict import (
     ContextRow,
     Divergence,
@@ -54,6 +56,8 @@ def replay(
     keep_going: bool = False,
     allow_truncated: bool = False,
     context_cycles: int = 5,
+    comparison: Comparison | None = None,
+    expected: Mapping[int, Sequence[StateChange]] | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference).
 
@@ -63,6 +67,13 @@ def replay(
     ``allow_truncated`` is set. The divergence carries the state changes of up to
     ``context_cycles`` cycles before and after it.
 
+    ``comparison`` says what counts as the same (renames, ignored behaviors and output
+    fields, tolerances; exact by default). ``expected`` replaces the recorded state
+    changes with an approved baseline (cycle → changes); the recording's random
+    numbers and robot states are still used, and outputs are then not compared.
+    When the behaviors differ from what was expected only by a consistent renaming,
+    the divergence proposes the rename map.
+
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type.
     """
@@ -71,11 +82,17 @@ def replay(
         system = load_system(system)
     with SessionLogReader(log) as reader:
         judge = _Judge(
-            reader.header, system, reader.path, keep_going=keep_going, context=context_cycles
+            reader.header,
+            system,
+            reader.path,
+            keep_going=keep_going,
+            context=context_cycles,
+            comparison=comparison or Comparison(),
+            expected=expected,
         )
         started = time.perf_counter()
         status = None
-        batches = reader.batches()
+        batches = judge.expected_batches(reader.batches())
         for batch in batches:
             stop = judge.run(batch)
             if stop is not None:
@@ -116,8 +133,11 @@ class _Judge:
         *,
         keep_going: bool,
         context: int,
+        comparison: Comparison,
+        expected: Mapping[int, Sequence[StateChange]] | None,
     ) -> None:
         self.header = header
+        self.comparison = comparison
         self._keep_going = keep_going
         self._context = context
         self._recent: deque[CycleRecord] = deque(maxlen=context + 1)
@@ -127,12 +147,58 @@ class _Judge:
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
         self._stopped_at: tuple[int, int] | None = None
-        self._same_catalogue = self.executor.behavior_ids == header.behaviors
+        self._encoder = payload_encoder()
+        self._baseline: dict[int, msgspec.Raw] | None = None
+        self.expected_names = list(header.behaviors)
+        if expected is not None:
+            self._baseline = self._encode_baseline(expected)
+        self._same_catalogue = self.executor.behavior_ids == self.expected_names
         self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
         self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
         self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
         self._outputs_decoder = msgspec.msgpack.Decoder(dict[str, Any])
-        self._encoder = payload_encoder()
+
+    def _encode_baseline(
+        self, expected: Mapping[int, Sequence[StateChange]]
+    ) -> dict[int, msgspec.Raw]:
+        """Encode an approved baseline like recorded state changes, by the system's catalogue.
+
+        Behaviors the baseline names but the system lacks get indices past its catalogue.
+        """
+        names = list(self.executor.behavior_ids)
+        index = {name: position for position, name in enumerate(names)}
+        encoded: dict[int, msgspec.Raw] = {}
+        for cycle, changes in expected.items():
+            records: list[StateChangeRecord] = []
+            for behavior, before, after in changes:
+                if behavior not in index:
+                    index[behavior] = len(names)
+                    names.append(behavior)
+                records.append((index[behavior], before, after))
+            if records:
+                encoded[cycle] = msgspec.Raw(self._encoder.encode(records))
+        self.expected_names = names
+        return encoded
+
+    def expected_batches(
+        self, batches: Iterator[Sequence[CycleRecord]]
+    ) -> Iterator[Sequence[CycleRecord]]:
+        """The log's batches, with an approved baseline's state changes in place of BS_t."""
+        baseline = self._baseline
+        if baseline is None:
+            yield from batches
+            return
+        cycle = 0
+        for batch in batches:
+            for record in batch:
+                record.bs = baseline.get(cycle, EMPTY_LIST)
+                cycle += 1
+            yield batch
+
+    @property
+    def against(self) -> str:
+        """What replay is judged against, for messages."""
+        return "the recording" if self._baseline is None else "the approved baseline"
 
     @property
     def cycles(self) -> int:
@@ -152,6 +218,7 @@ class _Judge:
         step = self.executor.step
         context = self.executor.context
         same_catalogue = self._same_catalogue
+        outputs_compared = self._baseline is None
         raw = msgspec.Raw
         for index, record in enumerate(batch):
             state = self._state(record)
@@ -167,15 +234,18 @@ class _Judge:
                         (
                             record.bs == EMPTY_LIST
                             if not changes
-                            else record.bs == raw(encode(changes))
+                            else same_catalogue and record.bs == raw(encode(changes))
                         )
-                        if same_catalogue
-                        else self._named(record.bs) == self._named_actual(changes)
+                        or self._changes_agree(record.bs, changes)
                     )
                     and (
-                        record.out == EMPTY_MAP
-                        if not context.outputs
-                        else record.out == raw(encode(context.outputs))
+                        not outputs_compared
+                        or (
+                            record.out == EMPTY_MAP
+                            if not context.outputs
+                            else record.out == raw(encode(context.outputs))
+                        )
+                        or self._outputs_agree(record.out, context.outputs)
                     )
                 ):
                     remember(record)
@@ -197,19 +267,36 @@ class _Judge:
         return None
 
     def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
-        """Replay a few cycles past the divergence to show what happened next."""
+        """Replay past the divergence: a few cycles to show what happened next, or the
+        whole rest of the log when the divergence looks like a renamed behavior."""
+        suspect = self._rename_suspected()
         rows: list[ContextRow] = []
         for record in itertools.islice(
-            itertools.chain(rest, itertools.chain.from_iterable(batches)), self._context
+            itertools.chain(rest, itertools.chain.from_iterable(batches)),
+            None if suspect else self._context,
         ):
             state = self._state(record)
             self.random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
             try:
                 changes = self.executor.step(record.hb_ns, state)
             except (Exception, RandomMismatch):  # the first divergence is already reported
+                suspect = False
                 break
             rows.append(self._row(record, changes))
-        self._add_context(rows)
+        self._add_context(rows[: self._context])
+        if suspect and self.divergence is not None:
+            kept = self.comparison.kept
+            cycles = [(self.divergence.expected, self.divergence.actual)]
+            cycles.extend((row.expected, row.actual) for row in rows)
+            renames = propose_renames((kept(want), kept(got)) for want, got in cycles)
+            self.divergence = dataclasses.replace(self.divergence, proposed_renames=renames)
+
+    def _rename_suspected(self) -> bool:
+        """Whether the divergence is in state changes and expected behaviors are missing."""
+        if self.divergence is None or self.divergence.kind is not DivergenceKind.STATE_CHANGES:
+            return False
+        rename = self.comparison.rename
+        return not {rename(name) for name in self.expected_names} <= set(self.executor.behavior_ids)
 
     def _row(self, record: CycleRecord, changes: list[StateChangeRecord]) -> ContextRow:
         context = self.executor.context
@@ -271,11 +358,21 @@ class _Judge:
             )
         self.divergent_cycles += 1
 
+    def _changes_agree(self, raw_changes: msgspec.Raw, changes: list[StateChangeRecord]) -> bool:
+        return self.comparison.changes_agree(self._named(raw_changes), self._named_actual(changes))
+
+    def _outputs_agree(self, raw_outputs: msgspec.Raw, outputs: dict[str, Any]) -> bool:
+        expected = self._decode(raw_outputs, self._outputs_decoder.decode, "outputs")
+        return self.comparison.outputs_agree(expected, outputs)
+
     def _named(self, raw_changes: msgspec.Raw) -> list[StateChange]:
-        names = self.header.behaviors
+        """Expected state changes in current names."""
+        names = self.expected_names
+        renamed = self.comparison.renamed
         recorded = self._decode(raw_changes, self._changes_decoder.decode, "state changes")
         return [
-            StateChange(_name(names, index), before, after) for index, before, after in recorded
+            renamed(StateChange(_name(names, index), before, after))
+            for index, before, after in recorded
         ]
 
     def _named_actual(self, changes: list[StateChangeRecord]) -> list[StateChange]:
@@ -324,10 +421,11 @@ class _Judge:
                 f"drew {len(random.drawn)} random numbers where {len(random.recorded)} were "
                 f"recorded; the next recorded one was a {missing.kind} drawn by {behavior}"
             )
-        elif expected != actual:
+        elif not self.comparison.changes_agree(expected, actual):
             kind = DivergenceKind.STATE_CHANGES
-            message = "behavior state changes differ from the recording"
-            behavior = _first_differing_behavior(expected, actual)
+            message = f"behavior state changes differ from {self.against}"
+            kept = self.comparison.kept
+            behavior = _first_differing_behavior(kept(expected), kept(actual))
         else:
             kind = DivergenceKind.OUTPUTS
             message = "outputs differ from the recording"

@@ -1,0 +1,117 @@
+"""How strictly replay judges a cycle: exact by default, or with a spec's allowances.
+
+A spec may rename behaviors (so a renamed behavior needs no re-recording), ignore
+some behaviors' state changes or some output fields, and give a float tolerance per
+output field. Replay first compares bytes; only a cycle whose bytes differ is judged
+again here, so the allowances cost nothing while a DTC passes.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import msgspec
+
+from beatlog.engine.verdict import StateChange
+
+__all__ = ["Comparison"]
+
+_SORTED = msgspec.msgpack.Encoder(order="sorted")
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """What counts as "the same" when a replayed cycle is judged against the expected one.
+
+    ``renames`` maps an old name to the current one; it applies to behavior names and to
+    states that name a behavior (an arbiter's winner). ``ignore_fields`` are output
+    names or globs; ``tolerance`` gives the largest absolute difference accepted per
+    output field (lists of numbers are compared element by element).
+    """
+
+    renames: Mapping[str, str] = field(default_factory=dict)
+    ignore_behaviors: frozenset[str] = frozenset()
+    ignore_fields: tuple[str, ...] = ()
+    tolerance: Mapping[str, float] = field(default_factory=dict)
+
+    def rename(self, name: str) -> str:
+        """The current name of a behavior recorded as ``name``."""
+        return self.renames.get(name, name)
+
+    def renamed(self, change: StateChange) -> StateChange:
+        """An expected state change under the behavior's current name."""
+        if not self.renames:
+            return change
+        return change._replace(behavior=self.rename(change.behavior))
+
+    def changes_agree(self, expected: Sequence[StateChange], actual: Sequence[StateChange]) -> bool:
+        """Whether the state changes are the same once ignored behaviors are dropped.
+
+        ``expected`` is under current names (see :meth:`renamed`). States compare as
+        they encode (``True`` is not ``1``); a state that names a renamed behavior, such
+        as an arbiter's winner, may carry either name.
+        """
+        want, got = self.kept(expected), self.kept(actual)
+        return len(want) == len(got) and all(
+            w.behavior == g.behavior
+            and self._same_state(w.before, g.before)
+            and self._same_state(w.after, g.after)
+            for w, g in zip(want, got, strict=True)
+        )
+
+    def _same_state(self, expected: Any, actual: Any) -> bool:
+        if isinstance(expected, str) and isinstance(actual, str):
+            return expected == actual or self.rename(expected) == actual
+        return _SORTED.encode(expected) == _SORTED.encode(actual)
+
+    def kept(self, changes: Iterable[StateChange]) -> list[StateChange]:
+        """The state changes of behaviors that are not ignored."""
+        ignored = self.ignore_behaviors
+        return [change for change in changes if change.behavior not in ignored]
+
+    def outputs_agree(self, expected: Mapping[str, Any], actual: Mapping[str, Any]) -> bool:
+        """Whether the outputs are the same field by field, bit for bit unless tolerated."""
+        wanted, got = self._fields(expected), self._fields(actual)
+        if wanted.keys() != got.keys():
+            return False
+        for name, value in wanted.items():
+            tolerance = self.tolerance.get(name)
+            if tolerance is None:
+                if _SORTED.encode(value) != _SORTED.encode(got[name]):
+                    return False
+            elif not _within(value, got[name], tolerance):
+                return False
+        return True
+
+    def _fields(self, outputs: Mapping[str, Any]) -> dict[str, Any]:
+        patterns = self.ignore_fields
+        return {
+            name: value
+            for name, value in outputs.items()
+            if not any(fnmatch.fnmatchcase(name, pattern) for pattern in patterns)
+        }
+
+
+def _within(expected: Any, actual: Any, tolerance: float) -> bool:
+    if isinstance(expected, Sequence) and not isinstance(expected, str):
+        return (
+            isinstance(actual, Sequence)
+            and not isinstance(actual, str)
+            and len(expected) == len(actual)
+            and all(_within(e, a, tolerance) for e, a in zip(expected, actual, strict=True))
+        )
+    if _number(expected) and _number(actual):
+        if expected == actual:
+            return True
+        if math.isnan(expected) or math.isnan(actual):
+            return math.isnan(expected) and math.isnan(actual)
+        return bool(abs(expected - actual) <= tolerance)
+    return _SORTED.encode(expected) == _SORTED.encode(actual)
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)

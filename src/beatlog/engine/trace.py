@@ -1,0 +1,123 @@
+"""Whole-session traces of behavior state changes: the recorded one and a replayed one.
+
+Replay stops at the first divergence; re-baselining an intended change and proposing
+a rename need the whole trace instead, so these walk every cycle of a log.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import msgspec
+
+from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
+from beatlog.engine.verdict import StateChange
+from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.format import EMPTY_LIST, CycleRecord
+from beatlog.log.reader import SessionLogReader
+from beatlog.model.behavior import System
+from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
+
+__all__ = ["ReplayedTrace", "TracedChange", "recorded_trace", "replayed_trace"]
+
+
+class TracedChange(NamedTuple):
+    """A state change at a cycle of the session."""
+
+    cycle: int
+    time_ns: int
+    change: StateChange
+
+
+@dataclass(frozen=True)
+class ReplayedTrace:
+    """The state changes a system makes over a whole session log."""
+
+    changes: tuple[TracedChange, ...]
+    cycles: int
+    """Cycles replayed."""
+    stopped: str | None
+    """Why replay stopped before the end of the log (the behaviors raised or drew
+    random numbers the log does not have), or None when it replayed every cycle."""
+
+
+def recorded_trace(log: str | Path) -> list[TracedChange]:
+    """Every state change the log recorded, named by the log's behavior catalogue."""
+    decode = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
+    with SessionLogReader(log) as reader:
+        names = reader.header.behaviors
+        changes: list[TracedChange] = []
+        time_ns = 0
+        for cycle, record in enumerate(_records(reader)):
+            time_ns += record.hb_ns
+            if record.bs != EMPTY_LIST:
+                for index, before, after in _decoded(reader.path, cycle, decode, record.bs):
+                    name = names[index] if 0 <= index < len(names) else f"#{index}"
+                    changes.append(TracedChange(cycle, time_ns, StateChange(name, before, after)))
+    return changes
+
+
+def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
+    """Replay every cycle of ``log`` on ``system`` and collect its state changes.
+
+    Replay uses the recording's heartbeats, robot states and random numbers; it stops
+    early when the behaviors raise or draw random numbers the log does not have.
+    """
+    random = ReplayRandom()
+    executor = CycleExecutor(system, random)
+    names = executor.behavior_ids
+    decode_state = msgspec.msgpack.Decoder(system.robot_state).decode
+    decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
+    changes: list[TracedChange] = []
+    stopped: str | None = None
+    cycles = 0
+    with SessionLogReader(log) as reader:
+        for record in _records(reader):
+            state = _decoded(reader.path, cycles, decode_state, record.rs, SchemaMismatchError)
+            random.load(
+                ()
+                if record.rn == EMPTY_LIST
+                else _decoded(reader.path, cycles, decode_draws, record.rn)
+            )
+            try:
+                stepped = executor.step(record.hb_ns, state)
+            except RandomMismatch as mismatch:
+                stopped = f"cycle {cycles}: {mismatch.problem}"
+                break
+            except Exception as exc:  # behavior code failing ends the trace, it is reported
+                stopped = f"cycle {cycles}: {type(exc).__name__}: {exc}"
+                break
+            if len(random.drawn) != len(random.recorded):
+                stopped = (
+                    f"cycle {cycles}: drew {len(random.drawn)} random numbers where "
+                    f"{len(random.recorded)} were recorded"
+                )
+                break
+            time_ns = executor.context.time_ns
+            changes.extend(
+                TracedChange(cycles, time_ns, StateChange(names[index], before, after))
+                for index, before, after in stepped
+            )
+            cycles += 1
+    return ReplayedTrace(tuple(changes), cycles, stopped)
+
+
+def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:
+    return itertools.chain.from_iterable(reader.batches())
+
+
+def _decoded(
+    path: Path,
+    cycle: int,
+    decode: Any,
+    data: msgspec.Raw,
+    error: type[CorruptLogError | SchemaMismatchError] = CorruptLogError,
+) -> Any:
+    try:
+        return decode(data)
+    except msgspec.DecodeError as exc:
+        raise error(path, f"cannot decode cycle {cycle}: {exc}") from None

@@ -1,0 +1,43 @@
+"""Whole-session traces: the recorded one, and a replayed one that never stops early."""
+
+from __future__ import annotations
+
+from beatlog.engine.trace import recorded_trace, replayed_trace
+from beatlog.engine.verdict import StateChange
+from tests.conftest import RecordFn, probe_system, probe_system_renamed
+
+
+def test_replaying_the_recorded_system_gives_the_recorded_trace(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    recorded = recorded_trace(log)
+    replayed = replayed_trace(log, probe_system())
+    assert replayed.stopped is None
+    assert replayed.cycles == 300
+    assert list(replayed.changes) == recorded
+    assert recorded[0].change.behavior in {"arbiter", "near", "dice"}
+    assert [c.cycle for c in recorded] == sorted(c.cycle for c in recorded)
+
+
+def test_a_changed_system_is_traced_to_the_end(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    replayed = replayed_trace(log, probe_system(threshold=0.6))
+    assert replayed.stopped is None
+    assert replayed.cycles == 300
+    assert list(replayed.changes) != recorded_trace(log)
+
+
+def test_a_renamed_system_traces_its_new_names(record_probe: RecordFn) -> None:
+    replayed = replayed_trace(record_probe(100), probe_system_renamed())
+    behaviors = {traced.change.behavior for traced in replayed.changes}
+    assert "close" in behaviors
+    assert "near" not in behaviors
+    assert StateChange("arbiter", "dice", "close") in [t.change for t in replayed.changes]
+
+
+def test_a_trace_stops_where_the_behaviors_draw_numbers_the_log_lacks(
+    record_probe: RecordFn,
+) -> None:
+    replayed = replayed_trace(record_probe(100), probe_system(draws=2))
+    assert replayed.stopped is not None
+    assert replayed.stopped.startswith("cycle 0:")
+    assert replayed.cycles == 0
