@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = [
+    "BaselineError",
     "BeatlogError",
     "CorruptLogError",
     "LogError",
@@ -56,3 +57,7 @@ class SpecError(BeatlogError):
         self.path = Path(path)
         self.problem = problem
         super().__init__(f"{self.path}: {problem}")
+
+
+class BaselineError(SpecError):
+    """An approved or pending baseline of a spec that cannot be read or no longer fits."""

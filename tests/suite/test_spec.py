@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.engine.compare import Comparison
 from beatlog.errors import SpecError
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.suite.spec import DtcSpec, discover_specs, load_spec, select_specs
@@ -31,7 +32,7 @@ FIRST_CHANGED_CYCLE = next(t for t, d in enumerate(distances(300)) if (d < 0.6) 
 
 
 def toml_value(value: object) -> str:
-    """Enough TOML for specs: booleans, numbers, strings and arrays of them."""
+    """Enough TOML for specs: booleans, numbers, strings, arrays and inline tables."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, int | float):
@@ -40,6 +41,9 @@ def toml_value(value: object) -> str:
         return json.dumps(value)  # a TOML basic string for everything a test writes
     if isinstance(value, list):
         return "[" + ", ".join(toml_value(item) for item in value) + "]"
+    if isinstance(value, dict):
+        items = (f"{json.dumps(key)} = {toml_value(item)}" for key, item in value.items())
+        return "{ " + ", ".join(items) + " }"
     raise TypeError(f"no TOML for {value!r}")
 
 
@@ -174,6 +178,67 @@ def test_a_system_without_a_colon_is_rejected(tmp_path: Path) -> None:
     path = write_spec(tmp_path, "no-factory", "probe.beatlog", system="tests.conftest")
 
     assert_spec_error(path, "key 'system'", "expected module:factory", "'tests.conftest'")
+
+
+def test_comparison_allowances_load_into_the_spec(tmp_path: Path) -> None:
+    path = write_spec(
+        tmp_path,
+        "lenient",
+        "probe.beatlog",
+        renames={"near": "close"},
+        ignore_behaviors=["dice"],
+        ignore_fields=["debug_*"],
+        tolerance={"speed": 1e-9},
+    )
+
+    comparison = load_spec(path).comparison
+
+    assert comparison.renames == {"near": "close"}
+    assert comparison.ignore_behaviors == frozenset({"dice"})
+    assert comparison.ignore_fields == ("debug_*",)
+    assert comparison.tolerance == {"speed": 1e-9}
+
+
+def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
+    assert load_spec(write_spec(tmp_path, "exact", "probe.beatlog")).comparison == Comparison()
+
+
+@pytest.mark.parametrize(
+    ("extra", "fragments"),
+    [
+        ({"tolerance": {"speed": -1.0}}, ("key 'tolerance.speed'", "finite number >= 0")),
+        ({"tolerance": {"speed": "tiny"}}, ("key 'tolerance.*'", "expected `float`")),
+        ({"renames": {"a": "c", "b": "c"}}, ("key 'renames'", "'a' and 'b' are both renamed")),
+        ({"renames": {"a": 1}}, ("key 'renames.*'", "expected `str`")),
+        ({"ignore_behaviors": "dice"}, ("key 'ignore_behaviors'", "expected `array`")),
+    ],
+    ids=["negative-tolerance", "tolerance-not-number", "renames-not-one-to-one",
+         "rename-not-string", "ignore-not-list"],
+)  # fmt: skip
+def test_bad_allowances_name_the_key(
+    tmp_path: Path, extra: dict[str, object], fragments: tuple[str, ...]
+) -> None:
+    assert_spec_error(write_spec(tmp_path, "bad", "probe.beatlog", **extra), *fragments)
+
+
+def test_project_renames_come_from_pyproject_and_the_spec_adds_to_them(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[project]\nname = "robot"\n\n[tool.beatlog.renames]\nnear = "close"\nold = "new"\n',
+        encoding="utf-8",
+    )
+    path = write_spec(tmp_path / "specs", "renamed", "probe.beatlog", renames={"old": "newer"})
+
+    assert load_spec(path).comparison.renames == {"near": "close", "old": "newer"}
+
+
+def test_bad_project_renames_name_the_pyproject(tmp_path: Path) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text("[tool.beatlog]\nrenames = 3\n", encoding="utf-8")
+    path = write_spec(tmp_path / "specs", "renamed", "probe.beatlog")
+
+    with pytest.raises(SpecError) as raised:
+        load_spec(path)
+    assert str(raised.value).startswith(f"{pyproject}: key 'tool.beatlog.renames'")
 
 
 # discover_specs

@@ -21,6 +21,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from beatlog._version import __version__
+from beatlog.cli.baselines import approve, report_orphans, review, write_pending
 from beatlog.engine.loading import load_factory
 from beatlog.engine.record import Recorder
 from beatlog.engine.replay import replay
@@ -97,6 +98,16 @@ def _parser() -> argparse.ArgumentParser:
     )
     test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
     test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
+    test.add_argument(
+        "--update",
+        action="store_true",
+        help="write the new state changes of failed DTCs to pending files for review",
+    )
+
+    check = commands.add_parser("review", help="show pending baseline changes; accept or reject")
+    check.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
+    accept = commands.add_parser("approve", help="accept the pending baselines of DTC specs")
+    accept.add_argument("paths", nargs="+", type=Path, help="specs or folders")
 
     show = commands.add_parser("show", help="describe a session log")
     show.add_argument("log", type=Path)
@@ -219,9 +230,18 @@ def _test(args: argparse.Namespace, console: Console) -> int:
 
     with progress:
         task = progress.add_task("replaying", total=len(specs), rate="")
-        outcomes = run_suite(specs, jobs=args.jobs, fail_fast=args.fail_fast, on_outcome=report)
+        outcomes = run_suite(
+            specs,
+            jobs=args.jobs,
+            fail_fast=args.fail_fast,
+            update=args.update,
+            on_outcome=report,
+        )
     wall = time.perf_counter() - started
     console.print(render_suite(outcomes))
+    if args.update:
+        write_pending(outcomes, console)
+    report_orphans(args.paths, console)
     if args.junit_xml is not None:
         try:
             write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))
@@ -276,7 +296,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
     try:
         args = _parser().parse_args(argv)
-        if args.command in ("record", "replay", "test"):
+        if args.command in ("record", "replay", "test", "review", "approve"):
             _import_from_working_directory()
         if args.command == "record":
             return _record(args, console)
@@ -286,6 +306,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _test(args, console)
         if args.command == "show":
             return _show(args, console)
+        if args.command == "review":
+            review(args.paths, console)
+            return EXIT_OK
+        if args.command == "approve":
+            approve(args.paths, console)
+            return EXIT_OK
         from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs the rover
 
         return run_demo(console, duration_s=args.duration, out=args.out)

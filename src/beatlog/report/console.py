@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import datetime as dt
 import io
+import json
 from collections.abc import Sequence
 from typing import Any
 
@@ -46,6 +47,8 @@ def _divergence(divergence: Divergence) -> RenderableType:
         f"{divergence.kind.value}"
     )
     parts: list[RenderableType] = [Text(divergence.message, style="bold")]
+    if divergence.proposed_renames:
+        parts.append(_rename_proposal(divergence.proposed_renames))
     if divergence.expected or divergence.actual:
         parts.append(
             _side_by_side("behavior state changes", divergence.expected, divergence.actual)
@@ -70,6 +73,17 @@ def _divergence(divergence: Divergence) -> RenderableType:
     if divergence.traceback:
         parts.append(Text(divergence.traceback.rstrip(), style="red"))
     return Panel(Group(*parts), title=title, title_align="left", border_style="red")
+
+
+def _rename_proposal(renames: dict[str, str]) -> Text:
+    pairs = ", ".join(f"{old} → {new}" for old, new in renames.items())
+    table = ", ".join(f"{json.dumps(old)} = {json.dumps(new)}" for old, new in renames.items())
+    return Text.assemble(
+        ("The whole trace differs only by renamed behaviors: ", "yellow"),
+        pairs,
+        ("\nIf intended, add to the spec: ", "yellow"),
+        f"renames = {{ {table} }}",
+    )
 
 
 def _items(values: dict[str, Any]) -> list[str]:
@@ -184,7 +198,10 @@ def render_suite(outcomes: Sequence[SpecOutcome]) -> RenderableType:
         divergence = result.divergence if result else None
         table.add_row(
             outcome.spec.name,
-            Text(outcome.verdict.value, style=styles[outcome.verdict]),
+            Text(
+                outcome.verdict.value + (" (approved baseline)" if outcome.baseline else ""),
+                style=styles[outcome.verdict],
+            ),
             str(result.cycles) if result else "—",
             f"{result.robot_time_s:.1f} s" if result else "—",
             f"{outcome.wall_time_s:.2f} s",

@@ -8,10 +8,14 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from enum import StrEnum
+from pathlib import Path
 
+from beatlog.engine.loading import load_system
 from beatlog.engine.replay import replay
-from beatlog.engine.verdict import ReplayResult
-from beatlog.errors import BeatlogError
+from beatlog.engine.trace import TracedChange, replayed_trace
+from beatlog.engine.verdict import DivergenceKind, ReplayResult
+from beatlog.errors import BaselineError, BeatlogError
+from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.spec import DtcSpec
 
 __all__ = ["SpecOutcome", "Verdict", "run_spec", "run_suite"]
@@ -21,9 +25,9 @@ class Verdict(StrEnum):
     """How one DTC ended."""
 
     PASSED = "passed"
-    """Replay gave the recorded behavior state changes and outputs."""
+    """Replay gave the expected behavior state changes (and the recorded outputs)."""
     FAILED = "failed"
-    """Replay diverged from the recording."""
+    """Replay diverged from the recording or the approved baseline."""
     ERROR = "error"
     """The DTC could not run: its log or system is bad input."""
 
@@ -37,17 +41,67 @@ class SpecOutcome:
     result: ReplayResult | None
     error: str | None
     wall_time_s: float
+    baseline: Path | None = None
+    """The approved baseline judged against, when there is one."""
+    update: tuple[TracedChange, ...] | None = None
+    """The new expected state changes, when asked to update and the DTC failed."""
+    update_refused: str | None = None
+    """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
 
 
-def run_spec(spec: DtcSpec) -> SpecOutcome:
-    """Replay one spec's log against its system."""
+_UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
+
+
+def run_spec(spec: DtcSpec, *, update: bool = False) -> SpecOutcome:
+    """Replay one spec's log against its system, judged against its approved baseline
+    if it has one; with ``update``, a failure also traces the new state changes."""
     started = time.perf_counter()
+    baseline = expected_path(spec.path)
     try:
-        result = replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+        expected = None
+        if baseline.exists():
+            approved = read_baseline(baseline)
+            if approved.log_digest != log_digest(spec.log):
+                raise BaselineError(
+                    baseline, f"approved for another recording than {spec.log.name}; delete it"
+                )
+            expected = approved.by_cycle()
+        result = replay(
+            spec.log,
+            spec.system,
+            allow_truncated=spec.allow_truncated,
+            comparison=spec.comparison,
+            expected=expected,
+        )
+        changes, refused = None, None
+        if update and result.divergence is not None:
+            changes, refused = _new_expectation(spec, result)
     except BeatlogError as exc:
         return SpecOutcome(spec, Verdict.ERROR, None, str(exc), time.perf_counter() - started)
-    verdict = Verdict.PASSED if result.ok else Verdict.FAILED
-    return SpecOutcome(spec, verdict, result, None, time.perf_counter() - started)
+    return SpecOutcome(
+        spec,
+        Verdict.PASSED if result.ok else Verdict.FAILED,
+        result,
+        None,
+        time.perf_counter() - started,
+        baseline=baseline if expected is not None else None,
+        update=changes,
+        update_refused=refused,
+    )
+
+
+def _new_expectation(
+    spec: DtcSpec, result: ReplayResult
+) -> tuple[tuple[TracedChange, ...] | None, str | None]:
+    """The whole new trace of state changes, or why the recording cannot give one."""
+    assert result.divergence is not None
+    kind = result.divergence.kind
+    if kind not in _UPDATABLE:
+        return None, f"a divergence in {kind} cannot be re-baselined: re-record the session"
+    trace = replayed_trace(spec.log, load_system(spec.system))
+    if trace.stopped is not None:
+        return None, f"replay cannot go on past {trace.stopped}: re-record the session"
+    return trace.changes, None
 
 
 def run_suite(
@@ -55,28 +109,33 @@ def run_suite(
     *,
     jobs: int = 1,
     fail_fast: bool = False,
+    update: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
 
     With ``fail_fast`` the first failure or error cancels the specs not yet started.
+    With ``update`` each failure carries its new expected state changes (nothing is
+    written here: see :mod:`beatlog.suite.baseline`).
     """
-    outcomes: dict[DtcSpec, SpecOutcome] = {}
+    outcomes: dict[Path, SpecOutcome] = {}
 
     def done(outcome: SpecOutcome) -> bool:
-        outcomes[outcome.spec] = outcome
+        outcomes[outcome.spec.path] = outcome
         if on_outcome is not None:
             on_outcome(outcome)
         return fail_fast and outcome.verdict is not Verdict.PASSED
 
     if jobs <= 1 or len(specs) <= 1:
         for spec in specs:
-            if done(run_spec(spec)):
+            if done(run_spec(spec, update=update)):
                 break
     else:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=min(jobs, len(specs)), mp_context=context) as pool:
-            pending: set[Future[SpecOutcome]] = {pool.submit(run_spec, spec) for spec in specs}
+            pending: set[Future[SpecOutcome]] = {
+                pool.submit(run_spec, spec, update=update) for spec in specs
+            }
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 # Record every finished outcome before deciding to stop: any() over a
@@ -86,4 +145,4 @@ def run_suite(
                     for future in pending:
                         future.cancel()
                     break
-    return [outcomes[spec] for spec in specs if spec in outcomes]
+    return [outcomes[spec.path] for spec in specs if spec.path in outcomes]

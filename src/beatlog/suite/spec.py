@@ -11,19 +11,32 @@ the system factory to replay it against::
     system = "beatlog.examples.rover:system"
     tags = ["obstacles"]
     allow_truncated = false
+    renames = { avoid = "avoid_obstacle" }  # behaviors renamed since recording: old = new
+    ignore_behaviors = ["blink"]            # their state changes are not compared
+    ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
+
+    [tolerance]                             # largest accepted difference per output field
+    wheel_speed = 1e-9
+
+Renames that hold for every spec go into the project's ``pyproject.toml``, under
+``[tool.beatlog.renames]``; a spec's own renames come on top.
 """
 
 from __future__ import annotations
 
 import fnmatch
+import functools
+import math
 import re
 import tomllib
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import msgspec
 
+from beatlog.engine.compare import Comparison
 from beatlog.errors import SpecError
 
 __all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
@@ -39,6 +52,14 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     system: str
     tags: list[str] = []
     allow_truncated: bool = False
+    renames: dict[str, str] = {}
+    ignore_behaviors: list[str] = []
+    ignore_fields: list[str] = []
+    tolerance: dict[str, float] = {}
+
+
+class _ProjectFile(msgspec.Struct):
+    renames: dict[str, str] = {}
 
 
 @dataclass(frozen=True)
@@ -53,6 +74,8 @@ class DtcSpec:
     system: str
     tags: tuple[str, ...] = ()
     allow_truncated: bool = False
+    comparison: Comparison = field(default_factory=Comparison)
+    """What counts as the same when this DTC is judged (renames, ignores, tolerances)."""
 
 
 def load_spec(path: str | Path) -> DtcSpec:
@@ -76,6 +99,14 @@ def load_spec(path: str | Path) -> DtcSpec:
         raise SpecError(path, "key 'name': must not be empty")
     if ":" not in spec.system:
         raise SpecError(path, f"key 'system': expected module:factory, got {spec.system!r}")
+    renames = {**_project_renames(path.resolve().parent), **spec.renames}
+    _check_one_to_one(path, "renames", spec.renames)
+    _check_one_to_one(path, "renames", renames)
+    for name, tolerance in spec.tolerance.items():
+        if not (math.isfinite(tolerance) and tolerance >= 0):
+            raise SpecError(
+                path, f"key 'tolerance.{name}': expected a finite number >= 0, got {tolerance}"
+            )
     return DtcSpec(
         path=path,
         name=spec.name,
@@ -85,21 +116,62 @@ def load_spec(path: str | Path) -> DtcSpec:
         system=spec.system,
         tags=tuple(spec.tags),
         allow_truncated=spec.allow_truncated,
+        comparison=Comparison(
+            renames=renames,
+            ignore_behaviors=frozenset(spec.ignore_behaviors),
+            ignore_fields=tuple(spec.ignore_fields),
+            tolerance=spec.tolerance,
+        ),
     )
 
 
-def _explain(message: str) -> str:
+def _check_one_to_one(path: Path, key: str, renames: Mapping[str, str]) -> None:
+    seen: dict[str, str] = {}
+    for old, new in renames.items():
+        if new in seen:
+            raise SpecError(
+                path, f"key {key!r}: {seen[new]!r} and {old!r} are both renamed to {new!r}"
+            )
+        seen[new] = old
+
+
+@functools.cache
+def _project_renames(folder: Path) -> dict[str, str]:
+    """``[tool.beatlog.renames]`` of the nearest ``pyproject.toml`` at or above ``folder``."""
+    for candidate in (folder, *folder.parents):
+        pyproject = candidate / "pyproject.toml"
+        if pyproject.is_file():
+            return _read_project(pyproject).renames
+    return {}
+
+
+def _read_project(path: Path) -> _ProjectFile:
+    try:
+        data: dict[str, Any] = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise SpecError(path, f"cannot read: {exc}") from None
+    section = data.get("tool", {}).get("beatlog", {})
+    try:
+        project = msgspec.convert(section, _ProjectFile)
+    except msgspec.ValidationError as exc:
+        raise SpecError(path, _explain(str(exc), prefix="tool.beatlog.")) from None
+    _check_one_to_one(path, "tool.beatlog.renames", project.renames)
+    return project
+
+
+def _explain(message: str, prefix: str = "") -> str:
     """Turn msgspec's ``... - at `$.key[0]` `` into ``key 'key[0]': ...``."""
     match = re.fullmatch(r"(.*) - at `\$\.?(.*)`", message)
     if match:
         problem, key = match.groups()
-        return f"key {key!r}: {problem[0].lower()}{problem[1:]}"
+        key = key.replace("[...]", ".*")  # a value of a table
+        return f"key {prefix + key!r}: {problem[0].lower()}{problem[1:]}"
     unknown = re.fullmatch(r"Object contains unknown field `(.*)`", message)
     if unknown:
-        return f"unknown key {unknown.group(1)!r}"
+        return f"unknown key {prefix + unknown.group(1)!r}"
     missing = re.fullmatch(r"Object missing required field `(.*)`", message)
     if missing:
-        return f"missing key {missing.group(1)!r}"
+        return f"missing key {prefix + missing.group(1)!r}"
     return message
 
 
