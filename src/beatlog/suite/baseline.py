@@ -9,7 +9,7 @@ so a re-baseline reads as a diff in code review::
     # beatlog expected state changes, format 1
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
-    #   cycle      time  behavior: before -> after
+    #  cycle      time  behavior: before -> after
          12     0.360  "avoid": "idle" -> "turning"
 
 Behavior names and states are JSON, so loading a baseline never evaluates anything.
@@ -118,7 +118,7 @@ def write_baseline(
         _MAGIC,
         f"# spec {spec_name}",
         f"# log {log.name} sha256 {log_digest(log)}",
-        "#    cycle      time  behavior: before -> after",
+        "#  cycle      time  behavior: before -> after",
         *format_changes(changes),
     ]
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)

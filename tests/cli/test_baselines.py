@@ -1,0 +1,223 @@
+"""The re-baselining workflow from the command line: update, review, approve — and the
+promises around it: a failure never overwrites an accepted baseline, CI never writes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from rich.console import Console
+
+from beatlog.cli.baselines import review
+from beatlog.model.behavior import PriorityArbiter
+from beatlog.suite.baseline import expected_path, pending_path, read_baseline
+from tests.cli.test_main import Run, assert_one_line_error
+from tests.cli.test_test_command import BeatlogTest
+from tests.conftest import Probe, RecordFn, probe_system
+from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+
+FARTHER = "tests.cli.test_baselines:farther_probe"
+
+
+def farther_probe() -> PriorityArbiter[Probe]:
+    """A second intended change on top of CHANGED: near reacts earlier still."""
+    return probe_system(0.7)
+
+
+@pytest.fixture(autouse=True)
+def not_ci_and_wide(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("CI", raising=False)
+    monkeypatch.setenv("COLUMNS", "200")
+    monkeypatch.delenv("FORCE_COLOR", raising=False)
+
+
+@pytest.fixture
+def beatlog(capsys: pytest.CaptureFixture[str]) -> BeatlogTest:
+    """Any ``beatlog`` command, in process (``test`` with one worker)."""
+    from beatlog.cli.main import main  # noqa: PLC0415
+
+    def run(*args: str | Path) -> Run:
+        argv = [str(arg) for arg in args]
+        if argv[0] == "test":
+            argv[1:1] = ["-j", "1"]
+        code = main(argv)
+        captured = capsys.readouterr()
+        return Run(code, captured.out, captured.err)
+
+    return run
+
+
+@pytest.fixture
+def spec(tmp_path: Path, record_probe: RecordFn) -> Path:
+    """A spec whose behaviors changed on purpose since the recording."""
+    return write_spec(tmp_path / "specs", "avoid-pole", record_probe(300), CHANGED)
+
+
+def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
+    beatlog: BeatlogTest, spec: Path
+) -> None:
+    updated = beatlog("test", "--update", spec)
+    assert updated.code == 1
+    assert f"pending {pending_path(spec)}" in updated.out
+    assert not expected_path(spec).exists()
+    pending = read_baseline(pending_path(spec))
+    assert any(change.cycle == FIRST_CHANGED_CYCLE for change in pending.changes)
+
+    approved = beatlog("approve", spec)
+    assert approved.code == 0
+    assert "approved avoid-pole" in approved.out
+    assert not pending_path(spec).exists()
+    assert read_baseline(expected_path(spec)).changes == pending.changes
+
+    rerun = beatlog("test", spec)
+    assert rerun.code == 0, rerun.out
+    assert "passed (approved baseline)" in rerun.out
+
+
+def test_a_failing_run_never_overwrites_the_accepted_baseline(
+    beatlog: BeatlogTest, spec: Path
+) -> None:
+    beatlog("test", "--update", spec)
+    beatlog("approve", spec)
+    accepted = expected_path(spec).read_bytes()
+    write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog", FARTHER)
+
+    failed = beatlog("test", "--update", spec)
+
+    assert failed.code == 1
+    assert "differ from the approved baseline" in failed.out
+    assert expected_path(spec).read_bytes() == accepted
+    assert pending_path(spec).exists()
+
+
+def test_nothing_is_written_when_ci_is_set(
+    beatlog: BeatlogTest, spec: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("CI", "true")
+
+    updated = beatlog("test", "--update", spec)
+    assert updated.code == 1
+    assert "CI is set: no pending baselines written" in updated.out
+    assert not pending_path(spec).exists()
+
+    monkeypatch.delenv("CI")
+    beatlog("test", "--update", spec)
+    monkeypatch.setenv("CI", "1")
+    assert_one_line_error(beatlog("approve", spec), "CI is set")
+    assert pending_path(spec).exists()
+    assert not expected_path(spec).exists()
+
+
+def test_a_stale_pending_file_goes_when_the_dtc_passes(
+    beatlog: BeatlogTest, spec: Path, record_probe: RecordFn
+) -> None:
+    beatlog("test", "--update", spec)
+    write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog")  # change undone
+
+    run = beatlog("test", "--update", spec)
+
+    assert run.code == 0
+    assert f"removed stale {pending_path(spec)}" in run.out
+    assert not pending_path(spec).exists()
+
+
+def test_approve_without_anything_pending_is_a_usage_error(
+    beatlog: BeatlogTest, spec: Path
+) -> None:
+    assert_one_line_error(beatlog("approve", spec), str(spec), "nothing pending to approve")
+
+
+def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
+    beatlog: BeatlogTest, spec: Path
+) -> None:
+    beatlog("test", "--update", spec)
+
+    run = beatlog("review", spec.parent)
+
+    assert run.code == 0
+    assert "recorded (probe.beatlog)" in run.out
+    lines = run.out.splitlines()
+    assert "--- recorded (probe.beatlog)" in lines
+    assert "+++ pending" in lines
+    assert any(line.startswith(f"+{FIRST_CHANGED_CYCLE:>8}") for line in lines)
+    assert f"left pending: accept with beatlog approve {spec}" in run.out
+    assert pending_path(spec).exists()
+
+
+@pytest.mark.parametrize(("answer", "accepted"), [("accept", True), ("reject", False)])
+def test_review_accepts_or_rejects_what_the_reviewer_says(
+    beatlog: BeatlogTest, spec: Path, answer: str, *, accepted: bool
+) -> None:
+    beatlog("test", "--update", spec)
+    questions: list[str] = []
+
+    def ask(question: str) -> str:
+        questions.append(question)
+        return answer
+
+    counts = review([spec.parent], Console(width=200), ask=ask)
+
+    assert questions == ["accept the new expectation of avoid-pole?"]
+    assert counts == ((1, 0, 0) if accepted else (0, 1, 0))
+    assert not pending_path(spec).exists()
+    assert expected_path(spec).exists() is accepted
+
+
+def test_orphaned_baselines_are_named(beatlog: BeatlogTest, spec: Path) -> None:
+    beatlog("test", "--update", spec)
+    beatlog("approve", spec)
+    orphan = spec.with_name("renamed-away.dtc.expected")
+    expected_path(spec).rename(orphan)
+
+    run = beatlog("test", spec.parent)
+
+    assert f"orphaned baseline {orphan}: no spec beside it" in run.out
+
+
+def test_a_baseline_made_from_another_recording_is_an_error(
+    beatlog: BeatlogTest, spec: Path, record_probe: RecordFn
+) -> None:
+    beatlog("test", "--update", spec)
+    beatlog("approve", spec)
+    record_probe(200, name="rerecorded.beatlog").replace(spec.parent.parent / "probe.beatlog")
+
+    run = beatlog("test", spec)
+
+    assert run.code == 2
+    assert f"{expected_path(spec)}: approved for another recording than probe.beatlog" in run.out
+
+
+def test_a_divergence_in_random_numbers_cannot_be_rebaselined(
+    beatlog: BeatlogTest, spec: Path
+) -> None:
+    write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog",
+               "tests.cli.test_baselines:greedy_probe")  # fmt: skip
+
+    run = beatlog("test", "--update", spec)
+
+    assert run.code == 1
+    assert "not updated avoid-pole: a divergence in random overdrawn cannot be re-baselined" in (
+        run.out
+    )
+    assert not pending_path(spec).exists()
+
+
+def greedy_probe() -> PriorityArbiter[Probe]:
+    """A probe that draws two random numbers where one was recorded."""
+    return probe_system(draws=2)
+
+
+def test_a_renamed_behavior_gets_a_rename_proposal_and_the_spec_rename_fixes_it(
+    beatlog: BeatlogTest, spec: Path
+) -> None:
+    log = spec.parent.parent / "probe.beatlog"
+    write_spec(spec.parent, "avoid-pole", log, "tests.conftest:probe_system_renamed")
+
+    failed = beatlog("test", spec)
+    assert failed.code == 1
+    assert "differs only by renamed behaviors: near → close" in failed.out
+    assert 'renames = { "near" = "close" }' in failed.out
+
+    write_spec(spec.parent, "avoid-pole", log, "tests.conftest:probe_system_renamed",
+               renames={"near": "close"})  # fmt: skip
+    assert beatlog("test", spec).code == 0
