@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from beatlog.engine.trace import recorded_trace, replayed_trace
+from beatlog import replay
+from beatlog.engine.trace import fields_read, recorded_trace, replayed_trace
 from beatlog.engine.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
 
@@ -41,3 +42,15 @@ def test_a_trace_stops_where_the_behaviors_draw_numbers_the_log_lacks(
     assert replayed.stopped is not None
     assert replayed.stopped.startswith("cycle 0:")
     assert replayed.cycles == 0
+
+
+def test_the_fields_read_in_a_cycle_are_named_in_order(record_probe: RecordFn) -> None:
+    log = record_probe(100)
+    assert fields_read(log, probe_system(), 10) == ("distance",)
+    assert fields_read(log, probe_system(), 1000) == ()
+
+
+def test_a_diverging_replay_by_reference_names_the_fields_read(record_probe: RecordFn) -> None:
+    result = replay(record_probe(300), "tests.suite.test_spec:changed_probe")
+    assert result.divergence is not None
+    assert result.divergence.fields_read == ("distance",)

@@ -41,3 +41,19 @@ def test_the_cycles_around_a_divergence_are_a_table(record_probe: RecordFn) -> N
     text = plain_text(render_replay(result))
     assert "state changes around it" in text
     assert "▶ 21" in text
+
+
+def test_a_failure_shows_only_the_robot_state_fields_read(record_probe: RecordFn) -> None:
+    result = replay(record_probe(300), "tests.suite.test_spec:changed_probe")
+    text = plain_text(render_replay(result), width=120)
+    assert "robot state RS_t, fields read in this cycle" in text
+    assert "distance" in text
+    assert "reading" not in text
+    assert "1 more field not read" in text
+
+
+def test_a_rename_proposal_gives_the_line_for_the_spec(record_probe: RecordFn) -> None:
+    result = replay(record_probe(300), "tests.conftest:probe_system_renamed")
+    text = plain_text(render_replay(result), width=200)
+    assert "differs only by renamed behaviors: near → close" in text
+    assert 'add to the spec: renames = { "near" = "close" }' in text

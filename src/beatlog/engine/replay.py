@@ -23,6 +23,7 @@ from beatlog.engine.compare import Comparison
 from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
 from beatlog.engine.loading import load_system
 from beatlog.engine.renames import propose_renames
+from beatlog.engine.trace import fields_read
 from beatlog.engine.verdict import (
     ContextRow,
     Divergence,
@@ -72,7 +73,8 @@ def replay(
     changes with an approved baseline (cycle → changes); the recording's random
     numbers and robot states are still used, and outputs are then not compared.
     When the behaviors differ from what was expected only by a consistent renaming,
-    the divergence proposes the rename map.
+    the divergence proposes the rename map. Given a ``module:factory`` reference, the
+    divergence also names the robot-state fields the behaviors read in that cycle.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type.
@@ -104,14 +106,18 @@ def replay(
             if not status.complete and not allow_truncated:
                 judge.log_ended(status.describe())
             wall = time.perf_counter() - started
+    divergence = judge.divergence
+    if divergence is not None and reference and divergence.kind is not DivergenceKind.LOG_ENDED:
+        read = fields_read(log, load_system(reference), divergence.cycle)
+        divergence = dataclasses.replace(divergence, fields_read=read)
     return ReplayResult(
         log=Path(log),
-        ok=judge.divergence is None,
+        ok=divergence is None,
         cycles=judge.cycles,
         robot_time_ns=judge.robot_time_ns,
         wall_time_s=wall,
         status=status,
-        divergence=judge.divergence,
+        divergence=divergence,
         divergent_cycles=judge.divergent_cycles,
         reproduce=_reproduce_command(Path(log), reference or reader.header.system),
     )

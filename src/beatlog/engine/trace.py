@@ -22,7 +22,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 
-__all__ = ["ReplayedTrace", "TracedChange", "recorded_trace", "replayed_trace"]
+__all__ = ["ReplayedTrace", "TracedChange", "fields_read", "recorded_trace", "replayed_trace"]
 
 
 class TracedChange(NamedTuple):
@@ -67,43 +67,88 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     Replay uses the recording's heartbeats, robot states and random numbers; it stops
     early when the behaviors raise or draw random numbers the log does not have.
     """
-    random = ReplayRandom()
-    executor = CycleExecutor(system, random)
-    names = executor.behavior_ids
-    decode_state = msgspec.msgpack.Decoder(system.robot_state).decode
-    decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
+    replayer = _Replayer(system)
+    names = replayer.executor.behavior_ids
+    random = replayer.random
     changes: list[TracedChange] = []
     stopped: str | None = None
     cycles = 0
     with SessionLogReader(log) as reader:
-        for record in _records(reader):
-            state = _decoded(reader.path, cycles, decode_state, record.rs, SchemaMismatchError)
-            random.load(
-                ()
-                if record.rn == EMPTY_LIST
-                else _decoded(reader.path, cycles, decode_draws, record.rn)
-            )
+        for cycle, record, state in replayer.cycles(reader):
             try:
-                stepped = executor.step(record.hb_ns, state)
+                stepped = replayer.executor.step(record.hb_ns, state)
             except RandomMismatch as mismatch:
-                stopped = f"cycle {cycles}: {mismatch.problem}"
+                stopped = f"cycle {cycle}: {mismatch.problem}"
                 break
             except Exception as exc:  # behavior code failing ends the trace, it is reported
-                stopped = f"cycle {cycles}: {type(exc).__name__}: {exc}"
+                stopped = f"cycle {cycle}: {type(exc).__name__}: {exc}"
                 break
             if len(random.drawn) != len(random.recorded):
                 stopped = (
-                    f"cycle {cycles}: drew {len(random.drawn)} random numbers where "
+                    f"cycle {cycle}: drew {len(random.drawn)} random numbers where "
                     f"{len(random.recorded)} were recorded"
                 )
                 break
-            time_ns = executor.context.time_ns
+            time_ns = replayer.executor.context.time_ns
             changes.extend(
-                TracedChange(cycles, time_ns, StateChange(names[index], before, after))
+                TracedChange(cycle, time_ns, StateChange(names[index], before, after))
                 for index, before, after in stepped
             )
             cycles += 1
     return ReplayedTrace(tuple(changes), cycles, stopped)
+
+
+class _ReadTracker:
+    """Stands in for a robot state and notes which fields the behaviors read."""
+
+    def __init__(self, state: Any) -> None:
+        self._state = state
+        self.read: dict[str, None] = {}
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._state, name)
+        self.read[name] = None
+        return value
+
+
+def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
+    """The robot-state fields a fresh ``system`` reads in ``cycle`` of ``log``, in order.
+
+    Replays the cycles before it as recorded; empty when replay cannot get there or
+    the behaviors do not accept the stand-in state.
+    """
+    replayer = _Replayer(system)
+    with SessionLogReader(log) as reader:
+        for index, record, state in itertools.islice(replayer.cycles(reader), cycle + 1):
+            tracker = _ReadTracker(state) if index == cycle else None
+            try:
+                replayer.executor.step(record.hb_ns, tracker or state)
+            except (Exception, RandomMismatch):  # the diverging cycle may raise: keep its reads
+                if tracker is None:
+                    return ()
+            if tracker is not None:
+                return tuple(tracker.read)
+    return ()
+
+
+class _Replayer:
+    """A system replayed cycle by cycle: yields each cycle's RS_t with RN_t loaded."""
+
+    def __init__(self, system: System) -> None:
+        self.random = ReplayRandom()
+        self.executor = CycleExecutor(system, self.random)
+        self._state = msgspec.msgpack.Decoder(system.robot_state).decode
+        self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
+
+    def cycles(self, reader: SessionLogReader) -> Iterator[tuple[int, CycleRecord, Any]]:
+        for cycle, record in enumerate(_records(reader)):
+            state = _decoded(reader.path, cycle, self._state, record.rs, SchemaMismatchError)
+            self.random.load(
+                ()
+                if record.rn == EMPTY_LIST
+                else _decoded(reader.path, cycle, self._draws, record.rn)
+            )
+            yield cycle, record, state
 
 
 def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:

@@ -85,6 +85,8 @@ class Divergence:
     traceback: str | None = None
     context: tuple[ContextRow, ...] = ()
     """The cycles before and after the divergence that changed any behavior state."""
+    fields_read: tuple[str, ...] = ()
+    """The robot-state fields the behaviors read in the diverging cycle (empty: unknown)."""
     proposed_renames: dict[str, str] = field(default_factory=dict)
     """Old → new behavior names, when the whole trace differs only by this renaming."""
 

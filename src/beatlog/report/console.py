@@ -69,7 +69,7 @@ def _divergence(divergence: Divergence) -> RenderableType:
     if len(divergence.context) > 1:
         parts.append(_context(divergence))
     if divergence.robot_state:
-        parts.append(_robot_state(divergence.robot_state))
+        parts.append(_robot_state(divergence.robot_state, divergence.fields_read))
     if divergence.traceback:
         parts.append(Text(divergence.traceback.rstrip(), style="red"))
     return Panel(Group(*parts), title=title, title_align="left", border_style="red")
@@ -132,12 +132,19 @@ def _context(divergence: Divergence) -> Table:
     return table
 
 
-def _robot_state(state: dict[str, Any]) -> Table:
-    table = Table(title="robot state RS_t", title_justify="left", show_header=False, expand=True)
+def _robot_state(state: dict[str, Any], read: Sequence[str]) -> Table:
+    """RS_t: the fields the behaviors read in the cycle when known, else all of them."""
+    shown = [name for name in read if name in state] or list(state)
+    title = "robot state RS_t" + (", fields read in this cycle" if read else "")
+    table = Table(title=title, title_justify="left", show_header=False, expand=True)
     table.add_column("field", style="cyan")
     table.add_column("value")
-    for name, value in state.items():
-        table.add_row(name, repr(value))
+    for name in shown:
+        table.add_row(name, repr(state[name]))
+    if len(shown) < len(state):
+        hidden = len(state) - len(shown)
+        more = f"{hidden} more field{'' if hidden == 1 else 's'} not read"
+        table.add_row("", Text(more, style="dim"))
     return table
 
 
