@@ -27,6 +27,7 @@ from beatlog.engine.replay import replay
 from beatlog.errors import BeatlogError
 from beatlog.log.summary import summarize
 from beatlog.model.robot import Robot
+from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
@@ -97,6 +98,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
     test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
+    test.add_argument(
+        "--audit",
+        action="store_true",
+        help="also replay each DTC twice with different hash seeds, watching for wall-clock "
+        "reads and global random calls",
+    )
 
     show = commands.add_parser("show", help="describe a session log")
     show.add_argument("log", type=Path)
@@ -219,9 +226,13 @@ def _test(args: argparse.Namespace, console: Console) -> int:
 
     with progress:
         task = progress.add_task("replaying", total=len(specs), rate="")
-        outcomes = run_suite(specs, jobs=args.jobs, fail_fast=args.fail_fast, on_outcome=report)
+        outcomes = run_suite(
+            specs, jobs=args.jobs, fail_fast=args.fail_fast, audit=args.audit, on_outcome=report
+        )
     wall = time.perf_counter() - started
     console.print(render_suite(outcomes))
+    if args.audit:
+        console.print(render_audit(outcomes))
     if args.junit_xml is not None:
         try:
             write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))
@@ -237,7 +248,8 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     )
     if counts[Verdict.ERROR]:
         return EXIT_USAGE
-    return EXIT_FAILED if counts[Verdict.FAILED] else EXIT_OK
+    unsound = any(outcome.audit_findings for outcome in outcomes)
+    return EXIT_FAILED if counts[Verdict.FAILED] or unsound else EXIT_OK
 
 
 def _plural(count: int, noun: str) -> str:

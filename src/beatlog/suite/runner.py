@@ -9,6 +9,8 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from dataclasses import dataclass
 from enum import StrEnum
 
+from beatlog.engine.audit import AuditReport
+from beatlog.engine.audit import audit as audit_replay
 from beatlog.engine.replay import replay
 from beatlog.engine.verdict import ReplayResult
 from beatlog.errors import BeatlogError
@@ -37,17 +39,29 @@ class SpecOutcome:
     result: ReplayResult | None
     error: str | None
     wall_time_s: float
+    audit: AuditReport | None = None
+    """The determinism audit, when one was asked for and the DTC could run."""
+
+    @property
+    def audit_findings(self) -> int:
+        """What the determinism audit found; 0 without an audit."""
+        return self.audit.problems if self.audit is not None else 0
 
 
-def run_spec(spec: DtcSpec) -> SpecOutcome:
-    """Replay one spec's log against its system."""
+def run_spec(spec: DtcSpec, *, audit: bool = False) -> SpecOutcome:
+    """Replay one spec's log against its system; with ``audit``, audit its determinism too."""
     started = time.perf_counter()
     try:
         result = replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+        report = (
+            audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+            if audit
+            else None
+        )
     except BeatlogError as exc:
         return SpecOutcome(spec, Verdict.ERROR, None, str(exc), time.perf_counter() - started)
     verdict = Verdict.PASSED if result.ok else Verdict.FAILED
-    return SpecOutcome(spec, verdict, result, None, time.perf_counter() - started)
+    return SpecOutcome(spec, verdict, result, None, time.perf_counter() - started, report)
 
 
 def run_suite(
@@ -55,11 +69,13 @@ def run_suite(
     *,
     jobs: int = 1,
     fail_fast: bool = False,
+    audit: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
 
-    With ``fail_fast`` the first failure or error cancels the specs not yet started.
+    With ``fail_fast`` the first failure or error cancels the specs not yet started;
+    with ``audit`` each worker also audits its spec's determinism.
     """
     outcomes: dict[DtcSpec, SpecOutcome] = {}
 
@@ -71,12 +87,14 @@ def run_suite(
 
     if jobs <= 1 or len(specs) <= 1:
         for spec in specs:
-            if done(run_spec(spec)):
+            if done(run_spec(spec, audit=audit)):
                 break
     else:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=min(jobs, len(specs)), mp_context=context) as pool:
-            pending: set[Future[SpecOutcome]] = {pool.submit(run_spec, spec) for spec in specs}
+            pending: set[Future[SpecOutcome]] = {
+                pool.submit(run_spec, spec, audit=audit) for spec in specs
+            }
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 # Record every finished outcome before deciding to stop: any() over a
