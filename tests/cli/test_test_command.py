@@ -13,6 +13,7 @@ import pytest
 from beatlog.cli.main import main
 from tests.cli.test_main import Run, assert_one_line_error
 from tests.conftest import RecordFn
+from tests.engine.audit_fixtures import leaks, leaky_system, record_session
 from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
 BeatlogTest = Callable[..., Run]
@@ -286,3 +287,44 @@ def test_jobs_must_be_a_positive_whole_number(
     run = beatlog_test(specs, "-j", jobs)
 
     assert_one_line_error(run, "argument -j/--jobs", problem)
+
+
+# --audit: the determinism audit
+
+
+def test_audit_names_every_leak_and_fails_the_run(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
+) -> None:
+    leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
+    leaky = write_spec(specs, "leaky", leaky_log, "tests.engine.audit_fixtures:leaky_system")
+    write_spec(specs, "avoid-pole", log)
+    report = tmp_path / "dtc.xml"
+
+    unaudited = beatlog_test(specs)
+    run = beatlog_test(specs, "--audit", "--junit-xml", report)
+
+    assert unaudited.code == 0
+    assert "determinism audit" not in unaudited.out
+    assert run.code == 1
+    assert run.err == ""
+    assert f"AUDIT leaky ({leaky})" in run.out
+    assert "AUDIT avoid-pole" not in run.out
+    for call, site in leaks():
+        assert re.search(rf"{re.escape(call)}\s+│ {re.escape(site)}\s+│\s+20 │", run.out), call
+    assert f"determinism audit: {len(leaks())} findings in 1 of 2 DTCs" in run.out
+    assert_counts(run, "2 passed, 0 failed", 320)
+    (failure,) = ET.parse(report).getroot().findall("testcase/failure")
+    assert failure.get("message") == f"determinism audit: {len(leaks())} findings"
+
+
+def test_audit_of_a_sound_suite_passes(beatlog_test: BeatlogTest, specs: Path, log: Path) -> None:
+    write_spec(specs, "avoid-pole", log)
+
+    run = beatlog_test(specs, "--audit")
+
+    assert run.code == 0
+    assert (
+        "determinism audit: no findings in 1 DTC (each replayed with PYTHONHASHSEED=1 and 2)"
+        in run.out
+    )
+    assert_counts(run, "1 passed, 0 failed", 300)

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
+from beatlog.engine.audit import AuditReport, Finding, SeedRun
 from beatlog.report.console import plain_text, render_replay
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, run_spec
@@ -137,3 +139,41 @@ def test_an_empty_run_is_an_empty_testsuite(tmp_path: Path) -> None:
     suite = read_report(report)
     assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("0", "0", "0")
     assert suite.findall("testcase") == []
+
+
+# the determinism audit
+
+UNSOUND = AuditReport(
+    findings=(Finding("time.monotonic", "behaviors.py:12 in Wander.step", 300),),
+    runs=(SeedRun(1, True, 300, None, None, "ab"), SeedRun(2, True, 300, None, None, "ab")),
+    hash_seed_dependence="the replay depends on the hash seed: ...",
+)
+SOUND = dataclasses.replace(UNSOUND, findings=(), hash_seed_dependence=None)
+
+
+def test_audit_findings_are_a_failure_of_their_own(
+    tmp_path: Path, outcomes: list[SpecOutcome]
+) -> None:
+    passed, failed, error = outcomes
+    audited = [
+        dataclasses.replace(passed, audit=UNSOUND),
+        dataclasses.replace(failed, audit=UNSOUND),
+        error,
+        dataclasses.replace(passed, audit=SOUND),
+    ]
+    report = tmp_path / "report.xml"
+
+    write_junit(report, audited, describe=describe)
+
+    suite = read_report(report)
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("4", "2", "1")
+    cases = suite.findall("testcase")
+    (finding,) = cases[0].findall("failure")
+    assert finding.get("type") == "determinism audit"
+    assert finding.get("message") == "determinism audit: 2 findings"
+    assert finding.text == (
+        "time.monotonic at behaviors.py:12 in Wander.step (300 times)\n"
+        "the replay depends on the hash seed: ..."
+    )
+    assert [f.get("type") for f in cases[1].findall("failure")] == [None, "determinism audit"]
+    assert list(cases[3]) == []  # an audit that found nothing adds nothing

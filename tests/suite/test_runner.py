@@ -15,6 +15,7 @@ from beatlog.suite import runner
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn
+from tests.engine.audit_fixtures import leaks, leaky_system, record_session
 from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 
 
@@ -200,3 +201,33 @@ def test_fail_fast_in_workers_keeps_outcomes_that_finished_with_the_failure(
 
     assert verdicts(outcomes) == EXPECTED[:2]
     assert sorted(verdicts(seen)) == EXPECTED[:2]
+
+
+# the determinism audit
+
+
+def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> None:
+    leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
+    specs = tmp_path / "specs"
+    suite = [
+        dtc(specs, "leaky", leaky_log, "tests.engine.audit_fixtures:leaky_system"),
+        dtc(specs, "probe", log),
+        dtc(specs, "lost", tmp_path / "lost.beatlog"),
+    ]
+
+    unaudited = run_spec(suite[0])
+    leaky, probe, lost = run_suite(suite, jobs=2, audit=True)
+
+    assert unaudited.audit is None
+    assert unaudited.audit_findings == 0
+    assert verdicts([leaky, probe, lost]) == [
+        ("leaky", Verdict.PASSED),  # the verdict is the replay's; the audit is apart
+        ("probe", Verdict.PASSED),
+        ("lost", Verdict.ERROR),
+    ]
+    assert leaky.audit is not None
+    assert [finding.call for finding in leaky.audit.findings] == [call for call, _ in leaks()]
+    assert leaky.audit_findings == len(leaks())
+    assert probe.audit is not None
+    assert probe.audit.ok
+    assert lost.audit is None

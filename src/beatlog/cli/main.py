@@ -28,6 +28,7 @@ from beatlog.engine.replay import replay
 from beatlog.errors import BeatlogError
 from beatlog.log.summary import summarize
 from beatlog.model.robot import Robot
+from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
@@ -102,6 +103,12 @@ def _parser() -> argparse.ArgumentParser:
         "--update",
         action="store_true",
         help="write the new state changes of failed DTCs to pending files for review",
+    )
+    test.add_argument(
+        "--audit",
+        action="store_true",
+        help="also replay each DTC twice with different hash seeds, watching for wall-clock "
+        "reads and global random calls",
     )
 
     check = commands.add_parser("review", help="show pending baseline changes; accept or reject")
@@ -235,10 +242,13 @@ def _test(args: argparse.Namespace, console: Console) -> int:
             jobs=args.jobs,
             fail_fast=args.fail_fast,
             update=args.update,
+            audit=args.audit,
             on_outcome=report,
         )
     wall = time.perf_counter() - started
     console.print(render_suite(outcomes))
+    if args.audit:
+        console.print(render_audit(outcomes))
     if args.update:
         write_pending(outcomes, console)
     report_orphans(args.paths, console)
@@ -257,7 +267,8 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     )
     if counts[Verdict.ERROR]:
         return EXIT_USAGE
-    return EXIT_FAILED if counts[Verdict.FAILED] else EXIT_OK
+    unsound = any(outcome.audit_findings for outcome in outcomes)
+    return EXIT_FAILED if counts[Verdict.FAILED] or unsound else EXIT_OK
 
 
 def _plural(count: int, noun: str) -> str:

@@ -1,5 +1,6 @@
-"""The record and replay engines and the verdict a replay gives."""
+"""The record and replay engines, the verdict a replay gives and the determinism audit."""
 
+from beatlog.engine.audit import AuditReport, Finding, SeedRun, audit
 from beatlog.engine.cycle import CycleExecutor
 from beatlog.engine.loading import load_factory, load_system
 from beatlog.engine.record import Recorder, RecordSummary
@@ -13,14 +14,18 @@ from beatlog.engine.verdict import (
 )
 
 __all__ = [
+    "AuditReport",
     "CycleExecutor",
     "Divergence",
     "DivergenceKind",
     "DrawReport",
+    "Finding",
     "RecordSummary",
     "Recorder",
     "ReplayResult",
+    "SeedRun",
     "StateChange",
+    "audit",
     "load_factory",
     "load_system",
     "replay",

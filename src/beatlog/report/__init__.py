@@ -1,5 +1,6 @@
-"""Reports for people: replay verdicts, log summaries and suite results as rich renderables."""
+"""Reports for people: replay verdicts, log summaries, suite results and determinism audits."""
 
+from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
 
-__all__ = ["plain_text", "render_replay", "render_suite", "render_summary"]
+__all__ = ["plain_text", "render_audit", "render_replay", "render_suite", "render_summary"]

@@ -1,4 +1,8 @@
-"""JUnit XML for CI systems: one testcase per DTC, failures with the first divergence."""
+"""JUnit XML for CI systems: one testcase per DTC, failures with the first divergence.
+
+A DTC whose determinism audit found something gets a failure of its own, typed
+``determinism audit``, that lists the findings.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +23,7 @@ def write_junit(
         "testsuite",
         name="beatlog",
         tests=str(len(outcomes)),
-        failures=str(sum(o.verdict is Verdict.FAILED for o in outcomes)),
+        failures=str(sum(o.verdict is Verdict.FAILED or o.audit_findings > 0 for o in outcomes)),
         errors=str(sum(o.verdict is Verdict.ERROR for o in outcomes)),
         time=f"{sum(o.wall_time_s for o in outcomes):.3f}",
     )
@@ -38,5 +42,10 @@ def write_junit(
             ET.SubElement(case, "failure", message=message).text = describe(outcome)
         elif outcome.verdict is Verdict.ERROR:
             ET.SubElement(case, "error", message=outcome.error or "error").text = outcome.error
+        audit = outcome.audit
+        if audit is not None and not audit.ok:
+            message = f"determinism audit: {audit.summary()}"
+            failure = ET.SubElement(case, "failure", type="determinism audit", message=message)
+            failure.text = "\n".join(audit.lines())
     path.parent.mkdir(parents=True, exist_ok=True)  # as pytest's --junit-xml does
     ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
+from beatlog.engine.audit import AuditReport
+from beatlog.engine.audit import audit as audit_replay
 from beatlog.engine.loading import load_system
 from beatlog.engine.replay import replay
 from beatlog.engine.trace import TracedChange, replayed_trace
@@ -48,13 +50,22 @@ class SpecOutcome:
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
 
+    audit: AuditReport | None = None
+    """The determinism audit, when one was asked for and the DTC could run."""
+
+    @property
+    def audit_findings(self) -> int:
+        """What the determinism audit found; 0 without an audit."""
+        return self.audit.problems if self.audit is not None else 0
+
 
 _UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
 
 
-def run_spec(spec: DtcSpec, *, update: bool = False) -> SpecOutcome:
+def run_spec(spec: DtcSpec, *, update: bool = False, audit: bool = False) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one; with ``update``, a failure also traces the new state changes."""
+    if it has one; with ``update``, a failure also traces the new state changes; with
+    ``audit``, its determinism is audited too."""
     started = time.perf_counter()
     baseline = expected_path(spec.path)
     try:
@@ -76,6 +87,11 @@ def run_spec(spec: DtcSpec, *, update: bool = False) -> SpecOutcome:
         changes, refused = None, None
         if update and result.divergence is not None:
             changes, refused = _new_expectation(spec, result)
+        report = (
+            audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+            if audit
+            else None
+        )
     except BeatlogError as exc:
         return SpecOutcome(spec, Verdict.ERROR, None, str(exc), time.perf_counter() - started)
     return SpecOutcome(
@@ -87,6 +103,7 @@ def run_spec(spec: DtcSpec, *, update: bool = False) -> SpecOutcome:
         baseline=baseline if expected is not None else None,
         update=changes,
         update_refused=refused,
+        audit=report,
     )
 
 
@@ -110,13 +127,15 @@ def run_suite(
     jobs: int = 1,
     fail_fast: bool = False,
     update: bool = False,
+    audit: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
 
     With ``fail_fast`` the first failure or error cancels the specs not yet started.
     With ``update`` each failure carries its new expected state changes (nothing is
-    written here: see :mod:`beatlog.suite.baseline`).
+    written here: see :mod:`beatlog.suite.baseline`); with ``audit`` each worker also
+    audits its spec's determinism.
     """
     outcomes: dict[Path, SpecOutcome] = {}
 
@@ -128,13 +147,13 @@ def run_suite(
 
     if jobs <= 1 or len(specs) <= 1:
         for spec in specs:
-            if done(run_spec(spec, update=update)):
+            if done(run_spec(spec, update=update, audit=audit)):
                 break
     else:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=min(jobs, len(specs)), mp_context=context) as pool:
             pending: set[Future[SpecOutcome]] = {
-                pool.submit(run_spec, spec, update=update) for spec in specs
+                pool.submit(run_spec, spec, update=update, audit=audit) for spec in specs
             }
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)

@@ -1,0 +1,272 @@
+"""The determinism audit: does a DTC's replay depend on anything but its log and code?
+
+:func:`audit` replays a log twice, each time in a fresh interpreter with its own
+``PYTHONHASHSEED``. During each replay a :class:`~beatlog.engine.leaks.LeakWatch`
+turns the wall-clock reads and global random calls the system makes while it updates
+into findings that name the call site, and every cycle's behavior states and outputs
+are hashed. The two replays must agree on the verdict and on every cycle; where they
+do not, set or dict order of strings leaks into the behaviors' decisions.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from beatlog.engine.leaks import Finding, LeakWatch
+from beatlog.engine.loading import load_system
+from beatlog.engine.replay import replay
+from beatlog.engine.verdict import DivergenceKind
+from beatlog.errors import BeatlogError
+from beatlog.log.format import payload_encoder
+from beatlog.model.behavior import Behavior, System
+from beatlog.model.context import Context
+
+__all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
+
+_CYCLE_DIGEST_SIZE = 8
+_CHILD = "import sys; sys.path[:] = sys.argv[2:]; from beatlog.engine.audit import _serve; _serve()"
+"""A fresh interpreter that imports what this one imports (``sys.path`` passed along)."""
+
+
+@dataclass(frozen=True)
+class SeedRun:
+    """One audited replay, in a fresh interpreter with ``PYTHONHASHSEED`` set."""
+
+    hash_seed: int
+    ok: bool
+    cycles: int
+    divergence_cycle: int | None
+    divergence_kind: DivergenceKind | None
+    digest: str
+    """blake2b of every replayed cycle's behavior states and outputs."""
+
+    def describe(self) -> str:
+        """``passed`` or where it diverged."""
+        if self.ok:
+            return "passed"
+        kind = self.divergence_kind.value if self.divergence_kind else "?"
+        return f"diverged at cycle {self.divergence_cycle} ({kind})"
+
+
+@dataclass(frozen=True)
+class AuditReport:
+    """What the audit of one log found; it is clean when there is nothing to report."""
+
+    findings: tuple[Finding, ...]
+    """Wall-clock reads and global random calls, by call and site (the larger count of the runs)."""
+    runs: tuple[SeedRun, SeedRun]
+    hash_seed_dependence: str | None
+    """How the two runs differed, or None when they agree in every cycle."""
+
+    @property
+    def problems(self) -> int:
+        """Findings plus one if the replay depends on the hash seed."""
+        return len(self.findings) + (self.hash_seed_dependence is not None)
+
+    @property
+    def ok(self) -> bool:
+        """Whether the audit found nothing."""
+        return self.problems == 0
+
+    def summary(self) -> str:
+        """``no findings``, ``1 finding`` or ``N findings``."""
+        return f"{self.problems or 'no'} finding{'' if self.problems == 1 else 's'}"
+
+    def lines(self) -> list[str]:
+        """Every problem in one line each, for reports."""
+        lines = [
+            f"{finding.call} at {finding.site} ({_times(finding.count)})"
+            for finding in self.findings
+        ]
+        if self.hash_seed_dependence is not None:
+            lines.append(self.hash_seed_dependence)
+        return lines
+
+
+def _times(count: int) -> str:
+    return "once" if count == 1 else f"{count:,} times"
+
+
+def audit(
+    log: str | Path,
+    system: str,
+    *,
+    allow_truncated: bool = False,
+    hash_seeds: tuple[int, int] = (1, 2),
+) -> AuditReport:
+    """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash seed.
+
+    Both replays run at once, each in a fresh interpreter that imports from this one's
+    ``sys.path``; each replays every cycle, diverging or not, so the runs compare in
+    full.
+
+    :raises beatlog.errors.BeatlogError: the log or the system is bad input.
+    """
+    request = msgspec.json.encode(_Request(str(log), system, allow_truncated)).decode()
+    children = [
+        subprocess.Popen(
+            [sys.executable, "-c", _CHILD, request, *sys.path],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            env={**os.environ, "PYTHONHASHSEED": str(seed)},
+        )
+        for seed in hash_seeds
+    ]
+    outputs = [child.communicate() for child in children]  # all of them, before judging any
+    first, second = (
+        _answer(seed, child.returncode, *output)
+        for seed, child, output in zip(hash_seeds, children, outputs, strict=True)
+    )
+    runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
+    return AuditReport(
+        findings=_merge(first.findings, second.findings),
+        runs=runs,
+        hash_seed_dependence=_compare(runs, first.trace, second.trace),
+    )
+
+
+class _Request(msgspec.Struct, array_like=True):
+    log: str
+    system: str
+    allow_truncated: bool
+
+
+class _Answer(msgspec.Struct, kw_only=True):
+    """What a child replay tells its parent, as JSON on its own stdout."""
+
+    ok: bool = False
+    cycles: int = 0
+    divergence_cycle: int | None = None
+    divergence_kind: DivergenceKind | None = None
+    trace: bytes = b""
+    """Every cycle's digest, one after the other."""
+    findings: list[Finding] = msgspec.field(default_factory=list)
+    error: str | None = None
+    """Bad input (log or system) that stopped the replay."""
+
+
+def _answer(seed: int, returncode: int, out: bytes, err: bytes) -> _Answer:
+    if returncode != 0:
+        raise RuntimeError(
+            f"the audit replay with PYTHONHASHSEED={seed} crashed (exit {returncode}):\n"
+            + err.decode(errors="replace")
+        )
+    answer = msgspec.json.decode(out, type=_Answer)
+    if answer.error is not None:
+        raise BeatlogError(answer.error)
+    return answer
+
+
+def _seed_run(seed: int, answer: _Answer) -> SeedRun:
+    return SeedRun(
+        hash_seed=seed,
+        ok=answer.ok,
+        cycles=answer.cycles,
+        divergence_cycle=answer.divergence_cycle,
+        divergence_kind=answer.divergence_kind,
+        digest=hashlib.blake2b(answer.trace, digest_size=16).hexdigest(),
+    )
+
+
+def _merge(*runs: list[Finding]) -> tuple[Finding, ...]:
+    counts: dict[tuple[str, str], int] = {}
+    for findings in runs:
+        for finding in findings:
+            key = (finding.call, finding.site)
+            counts[key] = max(counts.get(key, 0), finding.count)
+    return tuple(Finding(call, site, count) for (call, site), count in counts.items())
+
+
+def _compare(runs: tuple[SeedRun, SeedRun], first: bytes, second: bytes) -> str | None:
+    a, b = runs
+    verdicts = (a.ok, a.divergence_cycle, a.divergence_kind)
+    if verdicts != (b.ok, b.divergence_cycle, b.divergence_kind):
+        return (
+            f"the replay depends on the hash seed: PYTHONHASHSEED={a.hash_seed} "
+            f"{a.describe()}, PYTHONHASHSEED={b.hash_seed} {b.describe()}"
+        )
+    if first == second:
+        return None
+    cycle = next(
+        (
+            offset // _CYCLE_DIGEST_SIZE
+            for offset in range(0, min(len(first), len(second)), _CYCLE_DIGEST_SIZE)
+            if first[offset : offset + _CYCLE_DIGEST_SIZE]
+            != second[offset : offset + _CYCLE_DIGEST_SIZE]
+        ),
+        min(len(first), len(second)) // _CYCLE_DIGEST_SIZE,
+    )
+    return (
+        f"the replay depends on the hash seed: with PYTHONHASHSEED={a.hash_seed} and "
+        f"{b.hash_seed} the behavior states and outputs differ from cycle {cycle}"
+    )
+
+
+class _AuditedSystem:
+    """A system whose every update is watched for leaks and hashed into a trace."""
+
+    def __init__(self, system: System, watch: LeakWatch) -> None:
+        self._system = system
+        self._watch = watch
+        self._behaviors = list(system.behaviors.values())
+        self._encode = payload_encoder().encode
+        self.trace: list[bytes] = []
+
+    @property
+    def robot_state(self) -> type[msgspec.Struct]:
+        return self._system.robot_state
+
+    @property
+    def behaviors(self) -> Mapping[str, Behavior]:
+        return self._system.behaviors
+
+    def update(self, state: Any, context: Context) -> None:
+        try:
+            with self._watch:
+                self._system.update(state, context)
+        finally:  # a cycle that raised is part of the trace too
+            self.trace.append(self._digest(context))
+
+    def _digest(self, context: Context) -> bytes:
+        try:
+            data = self._encode(([b.state for b in self._behaviors], context.outputs))
+        except (TypeError, msgspec.EncodeError):  # unloggable outputs: replay reports them
+            data = b""
+        return hashlib.blake2b(data, digest_size=_CYCLE_DIGEST_SIZE).digest()
+
+
+def _replay_watched(request: _Request) -> _Answer:
+    watch = LeakWatch()
+    system = _AuditedSystem(load_system(request.system), watch)
+    result = replay(request.log, system, keep_going=True, allow_truncated=request.allow_truncated)
+    divergence = result.divergence
+    return _Answer(
+        ok=result.ok,
+        cycles=result.cycles,
+        divergence_cycle=divergence.cycle if divergence else None,
+        divergence_kind=divergence.kind if divergence else None,
+        trace=b"".join(system.trace),
+        findings=watch.findings(),
+    )
+
+
+def _serve() -> None:
+    """The child's side: replay the request in argv, answer as JSON on stdout."""
+    request = msgspec.json.decode(sys.argv[1], type=_Request)
+    answer_fd = os.dup(1)
+    os.dup2(2, 1)  # what behaviors print must not corrupt the answer
+    try:
+        answer = _replay_watched(request)
+    except BeatlogError as exc:
+        answer = _Answer(error=str(exc))
+    with os.fdopen(answer_fd, "wb") as out:
+        out.write(msgspec.json.encode(answer))

@@ -1,0 +1,323 @@
+"""Catches behavior code reading the wall clock or a global random number generator.
+
+A :class:`LeakWatch` is entered around a system's update in an audited replay. Its
+profile hook sees every call of a builtin and of a Python function, so it catches
+``time.monotonic`` or ``random.choice`` however a behavior module bound them
+(``from time import monotonic`` included). numpy's compiled functions are invisible to
+profiling, so a trace hook follows the lines of user code instead and notices when
+numpy's global generator moved. Every call is attributed to the nearest frame of
+user code: not beatlog's own (except its examples), not the standard library, not an
+installed package; or, when no user code is on the way (a system that is itself an
+installed package), to the nearest frame of an installed package.
+
+Watched: ``time.time``, ``monotonic``, ``perf_counter``, ``process_time``,
+``thread_time``, ``clock_gettime`` and their ``_ns`` forms; ``now``, ``utcnow`` and
+``today`` of ``datetime.datetime`` and ``datetime.date``; every method of the global
+``random`` instance (``random.random``, ``random.choice``, ``random.seed``, ...);
+numpy's global generator (``np.random.rand``, ``np.random.seed``, ..., reported as
+``numpy.random`` once per line of user code that moved it, so not at all in a system
+with no user code; a legacy ``np.random.normal`` that returns its cached second value
+moves nothing and goes uncounted); ``os.urandom``
+(so ``secrets`` too); ``uuid.uuid1`` and ``uuid.uuid4``. Not watched: the forms of
+``time.localtime``, ``gmtime``, ``ctime`` and ``strftime`` that read the clock when
+given no time (their arguments are invisible to a profile hook), unseeded private
+generators (``random.Random()``, ``np.random.default_rng()``), other threads, and the
+clock reads of the ``logging`` package (record timestamps reach no decision).
+"""
+
+from __future__ import annotations
+
+import collections
+import ctypes
+import datetime as dt
+import enum
+import logging
+import os
+import random
+import site
+import sys
+import sysconfig
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from types import CodeType, FrameType, TracebackType
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Finding", "LeakWatch"]
+
+_CLOCKS = frozenset(
+    f"{name}{suffix}"
+    for name in (
+        "time",
+        "monotonic",
+        "perf_counter",
+        "process_time",
+        "thread_time",
+        "clock_gettime",
+    )
+    for suffix in ("", "_ns")
+)
+_NOW = frozenset({"now", "utcnow", "today"})
+_URANDOM_OWNER = getattr(os.urandom, "__self__", None)
+_MT19937_POSITION = 624 * 4
+"""Offset of ``pos`` after the 624-word key in numpy's ``mt19937_state``."""
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A call that made replay depend on the wall clock or a global random generator."""
+
+    call: str
+    """What was called, e.g. ``time.monotonic`` or ``random.choice``."""
+    site: str
+    """Where user code made the call: ``file:line in function``."""
+    count: int
+    """How many times it was called during replay."""
+
+
+class _Origin(enum.Enum):
+    """Who wrote the code a frame runs."""
+
+    USER = enum.auto()
+    """The code under test: a finding's site."""
+    LIBRARY = enum.auto()
+    """An installed package: a site only when no user code called it."""
+    EXEMPT = enum.auto()
+    """beatlog itself or the standard library."""
+
+
+_BEATLOG_DIR = str(Path(__file__).resolve().parent.parent) + os.sep
+_EXAMPLES_DIR = _BEATLOG_DIR + "examples" + os.sep
+
+
+def _prefixes(*paths: str) -> tuple[str, ...]:
+    return tuple(str(Path(path).resolve()) + os.sep for path in paths if path)
+
+
+def _package_dir(module: Any) -> str:
+    return str(Path(module.__file__).resolve().parent) + os.sep
+
+
+class _Origins:
+    """Classifies source files by origin, once per file."""
+
+    def __init__(self) -> None:
+        paths = sysconfig.get_paths()
+        self._beatlog = _BEATLOG_DIR
+        self._examples = _EXAMPLES_DIR
+        self._libraries = _prefixes(
+            paths["purelib"], paths["platlib"], *site.getsitepackages(), site.getusersitepackages()
+        )
+        self._stdlib = _prefixes(paths["stdlib"], paths["platstdlib"])
+        self._logging = _package_dir(logging)
+        self._known: dict[str, _Origin] = {}
+
+    def of(self, code: CodeType) -> _Origin:
+        filename = code.co_filename
+        origin = self._known.get(filename)
+        if origin is None:
+            origin = self._known[filename] = self._classify(filename)
+        return origin
+
+    def _classify(self, filename: str) -> _Origin:
+        if filename.startswith("<"):  # frozen modules, exec'd strings
+            return _Origin.EXEMPT
+        path = str(Path(filename).resolve())
+        if path.startswith(self._examples):
+            return _Origin.USER
+        if path.startswith(self._beatlog):
+            return _Origin.EXEMPT
+        if path.startswith(self._libraries):
+            return _Origin.LIBRARY
+        if path.startswith(self._stdlib):
+            return _Origin.EXEMPT
+        return _Origin.USER
+
+    def is_logging(self, code: CodeType) -> bool:
+        return code.co_filename.startswith(self._logging)
+
+
+class _GlobalNumpyGenerator:
+    """Notices when numpy's global generator draws, is seeded or is replaced."""
+
+    def __init__(self) -> None:
+        self._legacy: Any = np.random.mtrand._rand  # behind np.random.rand & co
+        self._bit_generator: Any = None
+        self._key0: ctypes.c_uint32 | None = None
+        self._position: ctypes.c_int | None = None
+        self._mark = self._read()
+
+    def moved(self) -> bool:
+        """Whether the generator moved since the last call."""
+        mark = self._read()
+        if mark == self._mark:
+            return False
+        self._mark = mark
+        return True
+
+    def _read(self) -> tuple[object, ...]:
+        bit_generator = self._legacy._bit_generator
+        if bit_generator is not self._bit_generator:
+            self._attach(bit_generator)
+        if self._position is not None and self._key0 is not None:
+            # MT19937, numpy's default: its position in place, without copying the state.
+            # A draw of a whole key's length regenerates the key, so key[0] changes too.
+            return bit_generator, self._position.value, self._key0.value
+        return bit_generator, repr(bit_generator.state)
+
+    def _attach(self, bit_generator: Any) -> None:
+        self._bit_generator = bit_generator
+        self._key0 = self._position = None
+        if isinstance(bit_generator, np.random.MT19937):
+            address = bit_generator.ctypes.state_address
+            self._key0 = ctypes.c_uint32.from_address(address)
+            self._position = ctypes.c_int.from_address(address + _MT19937_POSITION)
+
+
+Where = tuple[CodeType, int]
+
+
+def _site(where: Where) -> str:
+    code, line = where
+    return f"{code.co_filename}:{line} in {code.co_qualname}"
+
+
+class LeakWatch:
+    """Counts wall-clock reads and global random calls made by code called inside it.
+
+    Enter it around each update of the system under test; calls made directly by the
+    frame that enters it, or outside it, are not counted.
+    """
+
+    def __init__(self) -> None:
+        self._origins = _Origins()
+        self._python_calls = _python_calls()
+        self._counts: collections.Counter[tuple[str, str]] = collections.Counter()
+        self._numpy: _GlobalNumpyGenerator | None = None
+        self._boundary: FrameType | None = None
+        self._inside: FrameType | None = None
+        self._where: Where | None = None
+        self._saved: tuple[Any, Any] = (None, None)
+
+    def findings(self) -> list[Finding]:
+        """What was caught so far, in the order first seen."""
+        return [Finding(call, site, count) for (call, site), count in self._counts.items()]
+
+    def __enter__(self) -> LeakWatch:
+        self._boundary = sys._getframe(1)  # the frame that runs the update
+        if self._numpy is None:
+            self._numpy = _GlobalNumpyGenerator()
+        else:
+            self._numpy.moved()  # draws between updates are the framework's or the test's
+        self._inside = None
+        self._where = None
+        self._saved = (sys.getprofile(), sys.gettrace())
+        sys.settrace(self._trace)
+        sys.setprofile(self._profile)
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        profile, trace = self._saved
+        sys.setprofile(profile)
+        sys.settrace(trace)
+        self._boundary = None
+
+    def _profile(self, frame: FrameType, event: str, arg: Any) -> None:
+        if event == "c_call":
+            if self._inside is None:
+                call = _builtin_call(arg)
+                if call is not None:
+                    self._count(call, frame)
+        elif event == "call":
+            if self._inside is None:
+                call = self._python_call(frame)
+                if call is not None:
+                    self._inside = frame  # its own calls (getrandbits, urandom) are not counted
+                    if frame.f_back is not None:
+                        self._count(call, frame.f_back)
+        elif event == "return" and frame is self._inside:
+            self._inside = None
+
+    def _python_call(self, frame: FrameType) -> str | None:
+        call = self._python_calls.get(frame.f_code)
+        if call is not None and call.startswith("random."):
+            return call if frame.f_locals.get("self") is random._inst else None
+        return call
+
+    def _trace(self, frame: FrameType, event: str, arg: Any) -> Any:
+        if self._origins.of(frame.f_code) is not _Origin.USER:
+            return None
+        self._check_numpy()
+        self._where = (frame.f_code, frame.f_lineno)
+        return self._trace_lines
+
+    def _trace_lines(self, frame: FrameType, event: str, arg: Any) -> Any:
+        if event == "line":
+            self._check_numpy()
+            self._where = (frame.f_code, frame.f_lineno)
+        elif event == "return":
+            self._check_numpy()
+            if frame.f_back is not None:
+                self._where = self._nearest(frame.f_back)
+        return self._trace_lines
+
+    def _check_numpy(self) -> None:
+        assert self._numpy is not None
+        if self._numpy.moved() and self._where is not None:
+            self._counts["numpy.random", _site(self._where)] += 1
+
+    def _count(self, call: str, caller: FrameType) -> None:
+        if self._origins.is_logging(caller.f_code):
+            return
+        where = self._nearest(caller)
+        if where is not None:
+            self._counts[call, _site(where)] += 1
+
+    def _nearest(self, frame: FrameType | None) -> Where | None:
+        """The nearest user frame below the boundary, else the nearest installed package's."""
+        library: Where | None = None
+        while frame is not None and frame is not self._boundary:
+            origin = self._origins.of(frame.f_code)
+            if origin is _Origin.USER:
+                return frame.f_code, frame.f_lineno
+            if origin is _Origin.LIBRARY and library is None:
+                library = frame.f_code, frame.f_lineno
+            frame = frame.f_back
+        return library
+
+
+def _builtin_call(function: Any) -> str | None:
+    """The name of a watched builtin, or None; runs for every builtin call, so it is lean."""
+    owner = getattr(function, "__self__", None)
+    if owner is None:
+        return None
+    name: str = function.__name__
+    if owner is time:
+        return f"time.{name}" if name in _CLOCKS else None
+    if owner is random._inst:  # behind random.random & co
+        return f"random.{name}"
+    if owner is _URANDOM_OWNER:
+        return "os.urandom" if name == "urandom" else None
+    if isinstance(owner, type) and name in _NOW and issubclass(owner, dt.date):
+        return f"{owner.__module__}.{owner.__qualname__}.{name}"
+    return None
+
+
+def _python_calls() -> dict[CodeType, str]:
+    """The watched Python functions by code object: methods of ``random.Random``, uuids."""
+    calls = {
+        member.__code__: f"random.{name}"
+        for name, member in vars(random.Random).items()
+        if callable(member) and hasattr(member, "__code__")
+    }
+    calls[uuid.uuid1.__code__] = "uuid.uuid1"
+    calls[uuid.uuid4.__code__] = "uuid.uuid4"
+    return calls

@@ -1,0 +1,126 @@
+"""Behaviors that break the determinism discipline, for the audit tests.
+
+Each leak is one line ending in ``# leak: CALL``; the tests find the lines by it.
+They live in a module of their own so the audit's fresh interpreters can import them.
+"""
+
+from __future__ import annotations
+
+import datetime
+import inspect
+import logging
+import random
+import secrets
+import sys
+import time
+import uuid
+from datetime import datetime as wall_datetime
+from pathlib import Path
+from time import monotonic
+
+import numpy as np
+
+from beatlog.engine.record import Recorder
+from beatlog.model.behavior import PriorityArbiter, System
+from beatlog.model.context import Context, Outputs
+from tests.conftest import PERIOD_NS, Probe
+
+HEADINGS = ("left", "right", "straight", "back")
+
+
+class Leaky:
+    """Reads the wall clock and global generators every cycle, one call a line.
+
+    Its own state stays put, so its replays pass: only the audit catches it.
+    """
+
+    name = "leaky"
+    state = "calm"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        print("leaky steps")  # what behaviors print must not confuse the audit
+        monotonic()  # leak: time.monotonic
+        time.time()  # leak: time.time
+        time.perf_counter_ns()  # leak: time.perf_counter_ns
+        wall_datetime.now()  # leak: datetime.datetime.now
+        datetime.date.today()  # leak: datetime.date.today
+        random.random()  # leak: random.random
+        random.choice(["left", "right"])  # leak: random.choice
+        random.shuffle([1, 2, 3])  # leak: random.shuffle
+        np.random.rand()  # leak: numpy.random
+        secrets.token_hex(4)  # leak: os.urandom
+        uuid.uuid4()  # leak: uuid.uuid4
+        return None
+
+
+def leaks() -> list[tuple[str, str]]:
+    """(call, site) of every line of :meth:`Leaky.step` marked ``# leak: CALL``, in order."""
+    lines, first = inspect.getsourcelines(Leaky.step)
+    return [
+        (text.split("# leak: ")[1].strip(), f"{__file__}:{first + offset} in Leaky.step")
+        for offset, text in enumerate(lines)
+        if "# leak: " in text
+    ]
+
+
+class Disciplined:
+    """Uses only the context for time and chance, and logs, which is no leak."""
+
+    name = "disciplined"
+    state = "calm"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        logging.getLogger(__name__).debug("t = %s", ctx.time)
+        private = random.Random(ctx.cycle).random() + np.random.default_rng(ctx.cycle).random()
+        self.state = "calm" if ctx.random.random() + private < 1.5 else "excited"
+        return {"t": ctx.time}
+
+
+class Unordered:
+    """Picks a heading by set order of strings, which follows the hash seed."""
+
+    name = "unordered"
+    state = "left"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = list(set(HEADINGS))[ctx.cycle % len(HEADINGS)]
+        return None
+
+
+def record_session(path: Path, system: System, cycles: int = 20) -> Path:
+    """Record ``cycles`` cycles of ``system`` at a steady heartbeat and return the log."""
+    with Recorder(path, system, seed=3, software="test") as recorder:
+        for _ in range(cycles):
+            recorder.step(PERIOD_NS, Probe())
+    return path
+
+
+def leaky_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Leaky()], robot_state=Probe)
+
+
+def unordered_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Unordered()], robot_state=Probe)
+
+
+class Scripted:
+    """Goes through the given headings: what :class:`Unordered` did under some hash seed."""
+
+    name = "unordered"
+    state = "left"
+
+    def __init__(self, headings: list[str]) -> None:
+        self.headings = headings
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = self.headings[ctx.cycle % len(self.headings)]
+        return None
+
+
+def scripted_system(headings: list[str]) -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Scripted(headings)], robot_state=Probe)
+
+
+def exiting_system() -> PriorityArbiter[Probe]:
+    """A factory that ends the interpreter: the audit's replay dies without an answer."""
+    sys.exit(70)

@@ -1,0 +1,117 @@
+"""The determinism audit: two replays in fresh interpreters with different hash seeds."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from beatlog.engine.audit import AuditReport, Finding, audit
+from beatlog.engine.verdict import DivergenceKind
+from beatlog.errors import BeatlogError
+from beatlog.examples.rover import record_lockstep
+from tests.engine.audit_fixtures import (
+    HEADINGS,
+    leaks,
+    leaky_system,
+    record_session,
+    scripted_system,
+)
+
+FIXTURES = "tests.engine.audit_fixtures"
+
+
+def set_order(hash_seed: int) -> list[str]:
+    """The order a set of the headings iterates in under ``PYTHONHASHSEED=hash_seed``."""
+    shown = subprocess.run(
+        [sys.executable, "-c", "import sys; print(*set(sys.argv[1:]))", *HEADINGS],
+        env={**os.environ, "PYTHONHASHSEED": str(hash_seed)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return shown.stdout.split()
+
+
+def test_every_leak_is_a_finding_with_its_site_and_count(tmp_path: Path) -> None:
+    log = record_session(tmp_path / "leaky.beatlog", leaky_system(), cycles=20)
+
+    report = audit(log, f"{FIXTURES}:leaky_system")
+
+    assert report.findings == tuple(Finding(call, site, 20) for call, site in leaks())
+    assert [(run.hash_seed, run.ok, run.cycles) for run in report.runs] == [
+        (1, True, 20),
+        (2, True, 20),
+    ]
+    assert report.hash_seed_dependence is None
+    assert not report.ok
+    assert report.problems == len(leaks())
+    assert report.summary() == f"{len(leaks())} findings"
+    call, site = leaks()[0]
+    assert report.lines()[0] == f"{call} at {site} (20 times)"
+    assert pickle.loads(pickle.dumps(report)) == report  # it travels from suite workers
+
+
+def test_the_example_rover_is_deterministic(tmp_path: Path) -> None:
+    log = tmp_path / "rover.beatlog"
+    recorded = record_lockstep(log, duration_s=3.0, seed=1)
+
+    report = audit(log, "beatlog.examples.rover:system")
+
+    assert report == AuditReport(findings=(), runs=report.runs, hash_seed_dependence=None)
+    assert report.ok
+    assert report.summary() == "no findings"
+    assert report.lines() == []
+    first, second = report.runs
+    assert first.ok
+    assert first.cycles == second.cycles == recorded.cycles
+    assert first.digest == second.digest
+
+
+def test_a_replay_that_passes_under_one_hash_seed_only_depends_on_it(tmp_path: Path) -> None:
+    one, two = set_order(1), set_order(2)
+    differs = next(cycle for cycle, (a, b) in enumerate(zip(one, two, strict=True)) if a != b)
+    log = record_session(tmp_path / "unordered.beatlog", scripted_system(one))
+
+    report = audit(log, f"{FIXTURES}:unordered_system")
+
+    assert report.hash_seed_dependence == (
+        "the replay depends on the hash seed: PYTHONHASHSEED=1 passed, "
+        f"PYTHONHASHSEED=2 diverged at cycle {differs} (state changes)"
+    )
+    assert report.runs[1].divergence_kind is DivergenceKind.STATE_CHANGES
+    assert report.findings == ()
+    assert report.problems == 1
+
+
+def test_replays_that_diverge_alike_are_still_compared_cycle_by_cycle(tmp_path: Path) -> None:
+    one, two = set_order(1), set_order(2)
+    differs = next(cycle for cycle, (a, b) in enumerate(zip(one, two, strict=True)) if a != b)
+    neither = [*one[:differs], "sideways", *one[differs + 1 :]]
+    log = record_session(tmp_path / "unordered.beatlog", scripted_system(neither))
+
+    report = audit(log, f"{FIXTURES}:unordered_system")
+
+    assert [run.describe() for run in report.runs] == [
+        f"diverged at cycle {differs} (state changes)"
+    ] * 2
+    assert report.hash_seed_dependence == (
+        "the replay depends on the hash seed: with PYTHONHASHSEED=1 and 2 the behavior "
+        f"states and outputs differ from cycle {differs}"
+    )
+
+
+def test_bad_input_is_a_beatlog_error_naming_the_file(tmp_path: Path) -> None:
+    with pytest.raises(BeatlogError, match=f"^{tmp_path / 'lost.beatlog'}: no such file"):
+        audit(tmp_path / "lost.beatlog", f"{FIXTURES}:leaky_system")
+
+
+def test_a_replay_that_dies_is_a_loud_error(tmp_path: Path) -> None:
+    log = record_session(tmp_path / "leaky.beatlog", leaky_system())
+
+    with pytest.raises(RuntimeError, match=r"PYTHONHASHSEED=1 crashed \(exit 70\)"):
+        audit(log, f"{FIXTURES}:exiting_system")
