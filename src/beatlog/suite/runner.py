@@ -49,7 +49,6 @@ class SpecOutcome:
     """The new expected state changes, when asked to update and the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
-
     audit: AuditReport | None = None
     """The determinism audit, when one was asked for and the DTC could run."""
 
