@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from beatlog.engine.replay import replay
+from beatlog.engine.timeline import Timeline, report_timelines
 from beatlog.engine.verdict import ReplayResult
 from beatlog.errors import BeatlogError
 from beatlog.suite.spec import DtcSpec
@@ -37,17 +38,21 @@ class SpecOutcome:
     result: ReplayResult | None
     error: str | None
     wall_time_s: float
+    timelines: tuple[Timeline, ...] = ()
+    """Behavior activity for charts, when the suite was run with ``timelines``."""
 
 
-def run_spec(spec: DtcSpec) -> SpecOutcome:
-    """Replay one spec's log against its system."""
+def run_spec(spec: DtcSpec, *, timelines: bool = False) -> SpecOutcome:
+    """Replay one spec's log against its system; with ``timelines``, also chart what it did."""
     started = time.perf_counter()
     try:
         result = replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+        wall = time.perf_counter() - started
+        drawn = report_timelines(spec.log, spec.system, result.divergence) if timelines else ()
     except BeatlogError as exc:
         return SpecOutcome(spec, Verdict.ERROR, None, str(exc), time.perf_counter() - started)
     verdict = Verdict.PASSED if result.ok else Verdict.FAILED
-    return SpecOutcome(spec, verdict, result, None, time.perf_counter() - started)
+    return SpecOutcome(spec, verdict, result, None, wall, drawn)
 
 
 def run_suite(
@@ -56,10 +61,12 @@ def run_suite(
     jobs: int = 1,
     fail_fast: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
+    timelines: bool = False,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
 
     With ``fail_fast`` the first failure or error cancels the specs not yet started.
+    With ``timelines`` each worker also builds its DTC's timeline for charts.
     """
     outcomes: dict[DtcSpec, SpecOutcome] = {}
 
@@ -71,12 +78,14 @@ def run_suite(
 
     if jobs <= 1 or len(specs) <= 1:
         for spec in specs:
-            if done(run_spec(spec)):
+            if done(run_spec(spec, timelines=timelines)):
                 break
     else:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=min(jobs, len(specs)), mp_context=context) as pool:
-            pending: set[Future[SpecOutcome]] = {pool.submit(run_spec, spec) for spec in specs}
+            pending: set[Future[SpecOutcome]] = {
+                pool.submit(run_spec, spec, timelines=timelines) for spec in specs
+            }
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
                 # Record every finished outcome before deciding to stop: any() over a
