@@ -270,6 +270,22 @@ def test_a_window_keeps_only_that_stretch_of_robot_time(record_probe: RecordFn) 
     assert_tiles(late.lanes[0].expected, 6_000_000_000, 7_000_000_000)
 
 
+def test_a_report_marks_the_verdicts_divergence_even_one_the_timeline_cannot_see(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    log.write_bytes(log.read_bytes()[:-200])  # cut off: replay fails as ending early
+    divergence = replay(log, probe_system()).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.LOG_ENDED
+    assert build_timeline(log, probe_system()).divergence is None
+
+    close_up, whole = report_timelines(log, "tests.conftest:probe_system", divergence)
+
+    mark = Mark(divergence.cycle, divergence.time_ns, DivergenceKind.LOG_ENDED)
+    assert close_up.divergence == whole.divergence == mark
+
+
 def test_a_passing_dtc_gets_just_the_whole_session(record_probe: RecordFn) -> None:
     (whole,) = report_timelines(record_probe(50), "tests.conftest:probe_system", None)
 

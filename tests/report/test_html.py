@@ -18,7 +18,7 @@ from matplotlib.image import imread
 
 from beatlog.engine.record import Recorder
 from beatlog.examples.rover import record_lockstep
-from beatlog.report.html import render_html, write_html
+from beatlog.report.html import write_html
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import PERIOD_NS, Probe
@@ -180,10 +180,6 @@ def test_the_page_needs_nothing_but_itself(report: Report) -> None:
     assert len(ids) == len(set(ids))  # charts on one page never share an id
     used = re.findall(r'(?:url\(#|href="#)([^")]+)', page)
     assert set(used) <= set(ids)
-
-
-def test_the_report_renders_the_same_outcomes_the_same_way(report: Report) -> None:
-    assert render_html(report.outcomes) == report.page
 
 
 def test_an_unwritable_report_is_an_os_error(report: Report, tmp_path: Path) -> None:

@@ -9,6 +9,7 @@ robot-state fields along the way. Long sessions are downsampled so a chart of a
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -152,15 +153,27 @@ def build_timeline(
 
 
 def report_timelines(
-    log: str | Path, system: str, divergence: Divergence | None
+    log: str | Path,
+    system: str,
+    divergence: Divergence | None,
+    *,
+    expected: Mapping[int, Sequence[StateChange]] | None = None,
 ) -> tuple[Timeline, ...]:
     """What a report draws for one DTC: if it diverged, a close-up of :data:`CLOSE_UP_NS`
-    either side of the first divergence at full detail; then the whole session."""
-    whole = build_timeline(log, system)
+    either side of the first divergence at full detail; then the whole session.
+
+    The charts mark ``divergence``, the replay's verdict, whatever comparison gave it
+    (a log that ends early, a tolerance), rather than the timeline's own exact check.
+    """
+    mark = (
+        None if divergence is None else Mark(divergence.cycle, divergence.time_ns, divergence.kind)
+    )
+    whole = dataclasses.replace(build_timeline(log, system, expected=expected), divergence=mark)
     if divergence is None:
         return (whole,)
     window = (divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS)
-    return build_timeline(log, system, window_ns=window), whole
+    close_up = build_timeline(log, system, expected=expected, window_ns=window)
+    return dataclasses.replace(close_up, divergence=mark), whole
 
 
 class _LaneBuilder:
