@@ -8,6 +8,7 @@ __all__ = [
     "BaselineError",
     "BeatlogError",
     "CorruptLogError",
+    "FieldError",
     "LogError",
     "NotABeatlogError",
     "SchemaMismatchError",
@@ -44,6 +45,11 @@ class CorruptLogError(LogError):
 
 class SchemaMismatchError(LogError):
     """The log's robot state cannot be decoded into the system's robot state type."""
+
+
+class FieldError(BeatlogError):
+    """A robot-state field named for a chart that the session's robot state lacks or that
+    is not a number; the message names the log."""
 
 
 class SystemLoadError(BeatlogError):

@@ -12,6 +12,7 @@ import pytest
 
 from beatlog.cli.main import main
 from tests.cli.test_main import Run, assert_one_line_error
+from tests.cli.test_plot_command import hide_matplotlib
 from tests.conftest import RecordFn
 from tests.engine.audit_fixtures import leaks, leaky_system, record_session
 from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, write_spec
@@ -204,6 +205,53 @@ def test_junit_xml_reports_every_dtc_for_ci(
     assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in text
     assert "rerun this DTC: beatlog test" in text
     assert "\x1b[" not in failure.text  # no terminal colors in a CI report
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"], ids=["in-process", "workers"])
+def test_html_reports_every_dtc_with_its_charts(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path, jobs: str
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    earlier = write_spec(specs, "avoid-pole-earlier", log, CHANGED)
+    report = tmp_path / "reports" / "dtc.html"
+    report.parent.mkdir()
+
+    run = beatlog_test(specs, "--html", report, "-j", jobs)
+
+    assert run.code == 1
+    assert run.err == ""
+    page = report.read_text(encoding="utf-8")
+    assert "1 passed, 1 failed" in page
+    assert f"First divergence: cycle {FIRST_CHANGED_CYCLE}," in page
+    assert f"Rerun just this DTC: <code>beatlog test {earlier}</code>" in page
+    assert page.count("<svg") == 3  # a pass: the session; a failure: a close-up and the session
+
+
+def test_an_unwritable_html_report_is_one_line_naming_it(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    report = tmp_path / "no" / "such" / "folder" / "dtc.html"
+
+    run = beatlog_test(specs, "--html", report)
+
+    assert run.code == 2
+    assert run.err == f"beatlog: error: {report}: cannot write: No such file or directory\n"
+
+
+def test_without_matplotlib_html_says_which_extra_to_install_before_running(
+    beatlog_test: BeatlogTest,
+    specs: Path,
+    log: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    hide_matplotlib(monkeypatch)
+
+    run = beatlog_test(specs, "--html", tmp_path / "dtc.html")
+
+    assert_one_line_error(run, 'test --html needs matplotlib (pip install "beatlog[plot]")')
 
 
 def test_worker_processes_give_the_same_verdicts(

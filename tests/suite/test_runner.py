@@ -106,6 +106,22 @@ def test_a_truncated_log_passes_only_when_the_spec_allows_it(
     assert 0 < lenient.result.cycles < 300
 
 
+def test_timelines_for_reports_are_built_only_when_asked(tmp_path: Path, log: Path) -> None:
+    passing = dtc(tmp_path, "avoid-pole", log)
+    failing = dtc(tmp_path, "avoid-pole-earlier", log, CHANGED)
+    lost = dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
+
+    assert run_spec(passing).timelines == ()
+    (whole,) = run_spec(passing, timelines=True).timelines
+    close_up, whole_failing = run_spec(failing, timelines=True).timelines
+    assert run_spec(lost, timelines=True).timelines == ()
+
+    assert (whole.cycles, whole.divergence) == (300, None)
+    assert whole_failing.divergence is not None
+    assert whole_failing.divergence.cycle == FIRST_CHANGED_CYCLE
+    assert close_up.end_ns < whole_failing.end_ns
+
+
 # run_suite
 
 

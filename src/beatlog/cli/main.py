@@ -25,6 +25,7 @@ from beatlog.cli.baselines import approve, report_orphans, review, write_pending
 from beatlog.engine.loading import load_factory
 from beatlog.engine.record import Recorder
 from beatlog.engine.replay import replay
+from beatlog.engine.timeline import build_timeline
 from beatlog.errors import BeatlogError
 from beatlog.log.summary import summarize
 from beatlog.model.robot import Robot
@@ -100,6 +101,9 @@ def _parser() -> argparse.ArgumentParser:
     test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
     test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
     test.add_argument(
+        "--html", type=Path, metavar="FILE", help="write an HTML report with timeline charts"
+    )
+    test.add_argument(
         "--update",
         action="store_true",
         help="write the new state changes of failed DTCs to pending files for review",
@@ -118,6 +122,22 @@ def _parser() -> argparse.ArgumentParser:
 
     show = commands.add_parser("show", help="describe a session log")
     show.add_argument("log", type=Path)
+
+    plot = commands.add_parser("plot", help="draw a PNG timeline of a session log")
+    plot.add_argument("log", type=Path)
+    plot.add_argument("-o", "--output", required=True, type=Path, metavar="FILE.png")
+    plot.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="also replay against this system and draw what it did (default: the recording only)",
+    )
+    plot.add_argument(
+        "--field",
+        action="append",
+        dest="fields",
+        metavar="NAME",
+        help="robot-state field to draw (repeatable; default: the first few numeric ones)",
+    )
 
     demo = commands.add_parser("demo", help="record, replay and break the example rover")
     demo.add_argument("--duration", type=_positive_float, default=6.0, help="seconds to record")
@@ -235,6 +255,8 @@ def _test(args: argparse.Namespace, console: Console) -> int:
         if outcome.verdict is not Verdict.PASSED:
             progress.console.print(_describe(outcome))
 
+    if args.html is not None:
+        _need_matplotlib("test --html")
     with progress:
         task = progress.add_task("replaying", total=len(specs), rate="")
         outcomes = run_suite(
@@ -243,6 +265,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
             fail_fast=args.fail_fast,
             update=args.update,
             audit=args.audit,
+            timelines=args.html is not None,
             on_outcome=report,
         )
     wall = time.perf_counter() - started
@@ -257,6 +280,13 @@ def _test(args: argparse.Namespace, console: Console) -> int:
             write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))
         except OSError as exc:
             raise _UsageError(f"{args.junit_xml}: cannot write: {exc.strerror}") from None
+    if args.html is not None:
+        from beatlog.report.html import write_html  # noqa: PLC0415 - matplotlib is optional
+
+        try:
+            write_html(outcomes, args.html)
+        except OSError as exc:
+            raise _UsageError(f"{args.html}: cannot write: {exc.strerror}") from None
     counts = Counter(outcome.verdict for outcome in outcomes)
     skipped = len(specs) - len(outcomes)
     console.print(
@@ -290,6 +320,33 @@ def _show(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK
 
 
+def _plot(args: argparse.Namespace, console: Console) -> int:
+    _need_matplotlib("plot")
+    from beatlog.report.chart import write_png  # noqa: PLC0415 - matplotlib is optional
+
+    timeline = build_timeline(args.log, args.system, fields=args.fields)
+    try:
+        write_png(timeline, args.output)
+    except OSError as exc:
+        raise _UsageError(f"{args.output}: cannot write: {exc.strerror}") from None
+    mark = timeline.divergence
+    console.print(
+        f"drew {timeline.cycles} cycles of {args.log} to {args.output}"
+        + ("" if mark is None else f"; first divergence at cycle {mark.cycle} ({mark.kind})"),
+        markup=False,
+        highlight=False,
+    )
+    return EXIT_OK
+
+
+def _need_matplotlib(command: str) -> None:
+    """Charts need the optional ``plot`` extra; say so in one line when it is missing."""
+    try:
+        import matplotlib  # noqa: F401, PLC0415
+    except ModuleNotFoundError:
+        raise _UsageError(f'{command} needs matplotlib (pip install "beatlog[plot]")') from None
+
+
 def _import_from_working_directory() -> None:
     """Let MODULE:FACTORY name a module of the working directory, as ``python -m`` does.
 
@@ -307,7 +364,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
     try:
         args = _parser().parse_args(argv)
-        if args.command in ("record", "replay", "test", "review", "approve"):
+        if args.command in ("record", "replay", "test", "review", "approve", "plot"):
             _import_from_working_directory()
         if args.command == "record":
             return _record(args, console)
@@ -323,6 +380,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "approve":
             approve(args.paths, console)
             return EXIT_OK
+        if args.command == "plot":
+            return _plot(args, console)
         from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs the rover
 
         return run_demo(console, duration_s=args.duration, out=args.out)

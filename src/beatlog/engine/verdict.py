@@ -56,6 +56,9 @@ class DrawReport(NamedTuple):
     kind: str
     value: Any
 
+    def __str__(self) -> str:
+        return f"{self.behavior}: {self.kind} {self.value!r}"
+
 
 class ContextRow(NamedTuple):
     """One cycle around a divergence: what was recorded and what replay did."""

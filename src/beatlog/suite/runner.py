@@ -14,6 +14,7 @@ from beatlog.engine.audit import AuditReport
 from beatlog.engine.audit import audit as audit_replay
 from beatlog.engine.loading import load_system
 from beatlog.engine.replay import replay
+from beatlog.engine.timeline import Timeline, report_timelines
 from beatlog.engine.trace import TracedChange, replayed_trace
 from beatlog.engine.verdict import DivergenceKind, ReplayResult
 from beatlog.errors import BaselineError, BeatlogError
@@ -51,6 +52,8 @@ class SpecOutcome:
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
     """The determinism audit, when one was asked for and the DTC could run."""
+    timelines: tuple[Timeline, ...] = ()
+    """Behavior activity for charts, when the suite was run with ``timelines``."""
 
     @property
     def audit_findings(self) -> int:
@@ -61,10 +64,13 @@ class SpecOutcome:
 _UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
 
 
-def run_spec(spec: DtcSpec, *, update: bool = False, audit: bool = False) -> SpecOutcome:
+def run_spec(
+    spec: DtcSpec, *, update: bool = False, audit: bool = False, timelines: bool = False
+) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one; with ``update``, a failure also traces the new state changes; with
-    ``audit``, its determinism is audited too."""
+    if it has one. With ``update`` a failure also traces the new state changes, with
+    ``audit`` its determinism is audited, with ``timelines`` what it did is charted;
+    the outcome's wall time is the replay's alone."""
     started = time.perf_counter()
     baseline = expected_path(spec.path)
     try:
@@ -83,6 +89,7 @@ def run_spec(spec: DtcSpec, *, update: bool = False, audit: bool = False) -> Spe
             comparison=spec.comparison,
             expected=expected,
         )
+        wall = time.perf_counter() - started
         changes, refused = None, None
         if update and result.divergence is not None:
             changes, refused = _new_expectation(spec, result)
@@ -91,6 +98,11 @@ def run_spec(spec: DtcSpec, *, update: bool = False, audit: bool = False) -> Spe
             if audit
             else None
         )
+        drawn = (
+            report_timelines(spec.log, spec.system, result.divergence, expected=expected)
+            if timelines
+            else ()
+        )
     except BeatlogError as exc:
         return SpecOutcome(spec, Verdict.ERROR, None, str(exc), time.perf_counter() - started)
     return SpecOutcome(
@@ -98,11 +110,12 @@ def run_spec(spec: DtcSpec, *, update: bool = False, audit: bool = False) -> Spe
         Verdict.PASSED if result.ok else Verdict.FAILED,
         result,
         None,
-        time.perf_counter() - started,
+        wall,
         baseline=baseline if expected is not None else None,
         update=changes,
         update_refused=refused,
         audit=report,
+        timelines=drawn,
     )
 
 
@@ -127,6 +140,7 @@ def run_suite(
     fail_fast: bool = False,
     update: bool = False,
     audit: bool = False,
+    timelines: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
@@ -134,7 +148,8 @@ def run_suite(
     With ``fail_fast`` the first failure or error cancels the specs not yet started.
     With ``update`` each failure carries its new expected state changes (nothing is
     written here: see :mod:`beatlog.suite.baseline`); with ``audit`` each worker also
-    audits its spec's determinism.
+    audits its spec's determinism; with ``timelines`` it
+    builds its DTC's timelines for charts.
     """
     outcomes: dict[Path, SpecOutcome] = {}
 
@@ -146,13 +161,14 @@ def run_suite(
 
     if jobs <= 1 or len(specs) <= 1:
         for spec in specs:
-            if done(run_spec(spec, update=update, audit=audit)):
+            if done(run_spec(spec, update=update, audit=audit, timelines=timelines)):
                 break
     else:
         context = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=min(jobs, len(specs)), mp_context=context) as pool:
             pending: set[Future[SpecOutcome]] = {
-                pool.submit(run_spec, spec, update=update, audit=audit) for spec in specs
+                pool.submit(run_spec, spec, update=update, audit=audit, timelines=timelines)
+                for spec in specs
             }
             while pending:
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)

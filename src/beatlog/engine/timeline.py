@@ -1,0 +1,457 @@
+"""Timelines for reports: when each behavior was in which state, recorded and replayed.
+
+:func:`build_timeline` reads a session log and, given a system, replays it the way
+the replay engine does, but instead of stopping at the first divergence it keeps
+every cycle's expected and actual behavior state changes, and samples numeric
+robot-state fields along the way. Long sessions are downsampled so a chart of a
+35,000-cycle log stays small. Without a system it only reads the log: no code runs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import msgspec
+import numpy as np
+import numpy.typing as npt
+
+from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
+from beatlog.engine.loading import load_system
+from beatlog.engine.verdict import Divergence, DivergenceKind, StateChange
+from beatlog.errors import BeatlogError, CorruptLogError, FieldError, SchemaMismatchError
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.log.reader import SessionLogReader
+from beatlog.model.behavior import BehaviorState, System
+from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
+
+__all__ = [
+    "CLOSE_UP_NS",
+    "DEFAULT_FIELDS",
+    "BehaviorLane",
+    "Interval",
+    "Mark",
+    "Signal",
+    "Timeline",
+    "build_timeline",
+    "report_timelines",
+]
+
+DEFAULT_FIELDS = 4
+"""How many numeric robot-state fields a timeline samples when none are named."""
+CLOSE_UP_NS = 3_000_000_000
+"""A report's close-up shows this much robot time either side of the first divergence."""
+
+
+class Interval(NamedTuple):
+    """A behavior in one state from ``start_ns`` to ``end_ns`` (robot time)."""
+
+    start_ns: int
+    end_ns: int
+    state: BehaviorState
+    flicker: int = 0
+    """State changes folded into this interval by downsampling; ``state`` is then the last."""
+
+
+class BehaviorLane(NamedTuple):
+    """One behavior's states over the session: as recorded (expected) and as replayed."""
+
+    behavior: str
+    expected: tuple[Interval, ...]
+    actual: tuple[Interval, ...]
+    """Empty when the timeline was built without a system."""
+
+
+class Signal(NamedTuple):
+    """A numeric robot-state field sampled per cycle (NaN where it was not a number)."""
+
+    field: str
+    time_ns: tuple[int, ...]
+    value: tuple[float, ...]
+
+
+class Mark(NamedTuple):
+    """The first cycle where replay differed from the expected trace."""
+
+    cycle: int
+    time_ns: int
+    kind: DivergenceKind
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """Behavior activity and robot-state signals of one session, ready to draw."""
+
+    log: Path
+    cycles: int
+    """Cycles read from the log."""
+    start_ns: int
+    """Robot time where the timeline starts: 0, or the start of a close-up."""
+    end_ns: int
+    """Robot time where it ends: the session's end, or the end of a close-up."""
+    lanes: tuple[BehaviorLane, ...]
+    signals: tuple[Signal, ...]
+    replayed: bool
+    """Whether a system was replayed, so lanes have actual intervals."""
+    replayed_until_ns: int
+    """Actual intervals end here: the session's end, or where replay could not go on."""
+    divergence: Mark | None
+
+
+def build_timeline(
+    log: str | Path,
+    system: System | str | None = None,
+    *,
+    fields: Sequence[str] | None = None,
+    expected: Mapping[int, Sequence[StateChange]] | None = None,
+    max_points: int = 2000,
+    window_ns: tuple[int, int] | None = None,
+) -> Timeline:
+    """The timeline of ``log``, replayed against ``system`` if one is given.
+
+    ``fields`` names the robot-state fields to sample (default: the first
+    :data:`DEFAULT_FIELDS` numeric ones). ``expected`` replaces the recorded state
+    changes (cycle to changes, e.g. an approved baseline). Intervals shorter than the
+    timeline's length / ``max_points`` are folded together and signals keep the
+    minimum and maximum of as many buckets, so a chart stays small. Replay stops at
+    an exception or a random-number mismatch; the actual lanes end there.
+    ``window_ns`` (start, end) keeps only that stretch of robot time, for a close-up.
+
+    :raises beatlog.errors.LogError: the log cannot be read or does not fit the system.
+    :raises beatlog.errors.FieldError: a named field is missing or not a number.
+    """
+    if isinstance(system, str):
+        system = load_system(system)
+    with SessionLogReader(log) as reader:
+        collector = _Collector(reader.header.behaviors, system, reader.path, expected)
+        sampler = _Sampler(reader.path, fields)
+        for batch in reader.batches():
+            sampler.run(batch)
+            collector.run(batch)
+            if window_ns is not None and collector.time_ns >= window_ns[1]:
+                break
+    start, end = 0, collector.time_ns
+    if window_ns is not None:
+        start, end = max(window_ns[0], 0), min(window_ns[1], end)
+    resolution = (end - start) // max(max_points, 1)
+    return Timeline(
+        log=Path(log),
+        cycles=collector.cycle + 1,
+        start_ns=start,
+        end_ns=end,
+        lanes=collector.lanes(start, end, resolution),
+        signals=sampler.signals(start, end, max_points),
+        replayed=system is not None,
+        replayed_until_ns=min(collector.replayed_until_ns, end),
+        divergence=collector.divergence,
+    )
+
+
+def report_timelines(
+    log: str | Path,
+    system: str,
+    divergence: Divergence | None,
+    *,
+    expected: Mapping[int, Sequence[StateChange]] | None = None,
+) -> tuple[Timeline, ...]:
+    """What a report draws for one DTC: if it diverged, a close-up of :data:`CLOSE_UP_NS`
+    either side of the first divergence at full detail; then the whole session.
+
+    The charts mark ``divergence``, the replay's verdict, whatever comparison gave it
+    (a log that ends early, a tolerance), rather than the timeline's own exact check.
+    """
+    mark = (
+        None if divergence is None else Mark(divergence.cycle, divergence.time_ns, divergence.kind)
+    )
+    whole = dataclasses.replace(build_timeline(log, system, expected=expected), divergence=mark)
+    if divergence is None:
+        return (whole,)
+    window = (divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS)
+    close_up = build_timeline(log, system, expected=expected, window_ns=window)
+    return dataclasses.replace(close_up, divergence=mark), whole
+
+
+class _LaneBuilder:
+    """Closes an interval at each state change of one behavior."""
+
+    def __init__(self, initial: BehaviorState) -> None:
+        self.state = initial
+        self.start_ns = 0
+        self.changed = False
+        self.intervals: list[Interval] = []
+
+    def change(self, time_ns: int, change: StateChange) -> None:
+        if not self.changed:  # the recorded state before the first change beats any guess
+            self.state = change.before
+            self.changed = True
+        if time_ns > self.start_ns:
+            self.intervals.append(Interval(self.start_ns, time_ns, self.state))
+        self.state = change.after
+        self.start_ns = time_ns
+
+    def close(self, start_ns: int, end_ns: int, resolution_ns: int) -> tuple[Interval, ...]:
+        """The intervals from ``start_ns`` to ``end_ns``, cut at both ends."""
+        intervals = [*self.intervals, Interval(self.start_ns, end_ns, self.state)]
+        return _coarsen(
+            [
+                interval._replace(start_ns=max(interval.start_ns, start_ns), end_ns=stop)
+                for interval in intervals
+                if (stop := min(interval.end_ns, end_ns)) > max(interval.start_ns, start_ns)
+            ],
+            resolution_ns,
+        )
+
+
+def _coarsen(intervals: Sequence[Interval], resolution_ns: int) -> tuple[Interval, ...]:
+    """Fold each run of intervals shorter than ``resolution_ns`` into one flickering one."""
+    folded: list[Interval] = []
+    previous_short = False
+    for interval in intervals:
+        short = interval.end_ns - interval.start_ns < resolution_ns
+        if short and previous_short:
+            last = folded[-1]
+            folded[-1] = Interval(last.start_ns, interval.end_ns, interval.state, last.flicker + 1)
+        else:
+            folded.append(interval)
+        previous_short = short
+    return tuple(folded)
+
+
+class _Collector:
+    """Replays cycles and keeps every state change, expected and actual."""
+
+    def __init__(
+        self,
+        catalogue: Sequence[str],
+        system: System | None,
+        path: Path,
+        expected: Mapping[int, Sequence[StateChange]] | None,
+    ) -> None:
+        self.path = path
+        self.cycle = -1
+        self.time_ns = 0
+        self.divergence: Mark | None = None
+        self._catalogue = list(catalogue)
+        self._override = expected
+        self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
+        self._expected: dict[str, _LaneBuilder] = {}
+        self._actual: dict[str, _LaneBuilder] = {}
+        initial: dict[str, BehaviorState] = {}
+        self._replay: _Replayer | None = None
+        if system is not None:
+            initial = {name: b.state for name, b in system.behaviors.items()}
+            self._actual = {name: _LaneBuilder(state) for name, state in initial.items()}
+            self._replay = _Replayer(system, path)
+        for name in [*self._catalogue, *initial]:
+            self._expected.setdefault(name, _LaneBuilder(initial.get(name)))
+        self._stopped_ns: int | None = None
+
+    @property
+    def replayed_until_ns(self) -> int:
+        return self.time_ns if self._stopped_ns is None else self._stopped_ns
+
+    def run(self, batch: Sequence[CycleRecord]) -> None:
+        replay = self._replay
+        override = self._override
+        for record in batch:
+            self.cycle += 1
+            previous_ns = self.time_ns
+            self.time_ns += record.hb_ns
+            if override is not None:
+                expected = list(override.get(self.cycle, ()))
+            elif record.bs == EMPTY_LIST:
+                expected = []
+            else:
+                expected = self._recorded(record.bs)
+            self._add(self._expected, expected)
+            if replay is None or self._stopped_ns is not None:
+                continue
+            actual, problem = replay.step(record)
+            if actual is None:
+                self._stopped_ns = previous_ns
+            else:
+                self._add(self._actual, actual)
+                if problem is not DivergenceKind.RANDOM_UNDERDRAWN and expected != actual:
+                    problem = DivergenceKind.STATE_CHANGES
+            if problem is not None and self.divergence is None:
+                self.divergence = Mark(self.cycle, self.time_ns, problem)
+
+    def _add(self, lanes: dict[str, _LaneBuilder], changes: Sequence[StateChange]) -> None:
+        for change in changes:
+            lane = lanes.get(change.behavior)
+            if lane is None:
+                lane = lanes[change.behavior] = _LaneBuilder(None)
+            lane.change(self.time_ns, change)
+
+    def _recorded(self, raw: msgspec.Raw) -> list[StateChange]:
+        try:
+            changes = self._changes_decoder.decode(raw)
+        except msgspec.DecodeError as exc:
+            raise CorruptLogError(
+                self.path, f"damaged state changes in cycle {self.cycle}: {exc}"
+            ) from None
+        names = self._catalogue
+        return [
+            StateChange(names[index] if 0 <= index < len(names) else f"#{index}", before, after)
+            for index, before, after in changes
+        ]
+
+    def lanes(self, start_ns: int, end_ns: int, resolution_ns: int) -> tuple[BehaviorLane, ...]:
+        names = list(self._expected) + [n for n in self._actual if n not in self._expected]
+        empty = _LaneBuilder(None)
+        replayed_ns = min(self.replayed_until_ns, end_ns)
+        return tuple(
+            BehaviorLane(
+                name,
+                self._expected.get(name, empty).close(start_ns, end_ns, resolution_ns),
+                self._actual[name].close(start_ns, replayed_ns, resolution_ns)
+                if name in self._actual
+                else (),
+            )
+            for name in names
+        )
+
+
+class _Replayer:
+    """Runs the system on one recorded cycle and says whether it kept to the recording."""
+
+    def __init__(self, system: System, path: Path) -> None:
+        self.path = path
+        self.random = ReplayRandom()
+        self.executor = CycleExecutor(system, self.random)
+        self._names = self.executor.behavior_ids
+        self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
+        self._state_type = system.robot_state.__name__
+        self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
+        self._encoder = payload_encoder()
+
+    def step(self, record: CycleRecord) -> tuple[list[StateChange] | None, DivergenceKind | None]:
+        """The cycle's actual state changes (None when replay cannot go on) and any problem."""
+        cycle = self.executor.context.cycle + 1
+        random = self.random
+        try:
+            state = self._state_decoder.decode(record.rs)
+        except msgspec.DecodeError as exc:
+            raise SchemaMismatchError(
+                self.path,
+                f"robot state of cycle {cycle} does not fit {self._state_type}: {exc}",
+            ) from None
+        try:
+            random.load(() if record.rn == EMPTY_LIST else self._draws_decoder.decode(record.rn))
+        except msgspec.DecodeError as exc:
+            raise CorruptLogError(
+                self.path, f"damaged random numbers in cycle {cycle}: {exc}"
+            ) from None
+        try:
+            changes = self.executor.step(record.hb_ns, state)
+        except RandomMismatch as mismatch:
+            return None, _random_kind(mismatch)
+        except BeatlogError:
+            raise
+        except Exception:  # behavior code failing ends the actual trace, not the report
+            return None, DivergenceKind.EXCEPTION
+        if random.mismatch is not None:
+            return None, _random_kind(random.mismatch)
+        actual = [StateChange(self._names[i], before, after) for i, before, after in changes]
+        if len(random.drawn) < len(random.recorded):
+            return actual, DivergenceKind.RANDOM_UNDERDRAWN
+        outputs = self.executor.context.outputs
+        recorded_out = record.out
+        if recorded_out != (
+            EMPTY_MAP if not outputs else msgspec.Raw(self._encoder.encode(outputs))
+        ):
+            return actual, DivergenceKind.OUTPUTS
+        return actual, None
+
+
+def _random_kind(mismatch: RandomMismatch) -> DivergenceKind:
+    return DivergenceKind.RANDOM_OVERDRAWN if mismatch.overdrawn else DivergenceKind.RANDOM_MISMATCH
+
+
+class _Sampler:
+    """Samples numeric robot-state fields per cycle, read from the log without any code."""
+
+    def __init__(self, path: Path, fields: Sequence[str] | None) -> None:
+        self.path = path
+        self._asked = fields
+        self._fields: list[str] | None = None
+        self._decoder = msgspec.msgpack.Decoder()
+        self._time_ns: list[int] = []
+        self._values: list[list[float]] = []
+        self._now_ns = 0
+
+    def run(self, batch: Sequence[CycleRecord]) -> None:
+        for record in batch:
+            self._now_ns += record.hb_ns
+            try:
+                state = self._decoder.decode(record.rs)
+            except msgspec.DecodeError as exc:
+                raise CorruptLogError(
+                    self.path, f"damaged robot state in cycle {len(self._time_ns)}: {exc}"
+                ) from None
+            if not isinstance(state, dict):
+                state = {}
+            if self._fields is None:
+                self._fields = self._choose(state)
+                self._values = [[] for _ in self._fields]
+            self._time_ns.append(self._now_ns)
+            for name, values in zip(self._fields, self._values, strict=True):
+                values.append(_number(state.get(name)))
+
+    def _choose(self, state: dict[str, Any]) -> list[str]:
+        numeric = [name for name, value in state.items() if not math.isnan(_number(value))]
+        if self._asked is None:
+            return numeric[:DEFAULT_FIELDS]
+        known = ", ".join(numeric) or "none"
+        for name in self._asked:
+            if name not in state:
+                raise FieldError(
+                    f"{self.path}: the robot state has no field {name!r} (numeric fields: {known})"
+                )
+            if name not in numeric:
+                raise FieldError(
+                    f"{self.path}: robot-state field {name!r} is a {type(state[name]).__name__}, "
+                    f"not a number (numeric fields: {known})"
+                )
+        return list(dict.fromkeys(self._asked))
+
+    def signals(self, start_ns: int, end_ns: int, max_points: int) -> tuple[Signal, ...]:
+        times = np.array(self._time_ns, dtype=np.int64)
+        inside = (times >= start_ns) & (times <= end_ns)
+        times = times[inside]
+        result = []
+        for name, values in zip(self._fields or (), self._values, strict=True):
+            series = np.array(values, dtype=np.float64)[inside]
+            keep = _extremes(series, max_points)
+            result.append(Signal(name, tuple(times[keep].tolist()), tuple(series[keep].tolist())))
+        return tuple(result)
+
+
+def _number(value: Any) -> float:
+    if isinstance(value, int | float):
+        return float(value)
+    return math.nan
+
+
+def _extremes(series: npt.NDArray[np.float64], buckets: int) -> npt.NDArray[np.intp]:
+    """Indices of each bucket's minimum and maximum, in order: a chart of them looks the same."""
+    if len(series) <= 2 * buckets:
+        return np.arange(len(series))
+    missing = np.isnan(series)
+    low = np.where(missing, np.inf, series)
+    high = np.where(missing, -np.inf, series)
+    edges = np.linspace(0, len(series), buckets + 1).astype(np.intp)
+    keep = [
+        index
+        for start, end in itertools.pairwise(edges.tolist())
+        for index in (
+            start + int(np.argmin(low[start:end])),
+            start + int(np.argmax(high[start:end])),
+        )
+    ]
+    return np.unique(np.array(keep, dtype=np.intp))

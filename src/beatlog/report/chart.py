@@ -1,0 +1,209 @@
+"""Draws a timeline with matplotlib: behavior lanes (recorded vs replayed) over robot-state
+signals, the first divergence marked. One drawing for both ``beatlog plot`` (PNG) and the
+HTML report (inline SVG). Needs the ``plot`` extra; figures are drawn without pyplot, so
+no display or interactive backend is ever touched.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+from typing import Any
+
+from matplotlib import colormaps, rc_context
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+from beatlog.engine.timeline import Interval, Timeline
+from beatlog.model.behavior import BehaviorState
+
+__all__ = ["WIDTH_PX", "chart_size", "draw_timeline", "svg_markup", "write_png"]
+
+WIDTH_PX = 1200
+DPI = 100
+_ROW_PX = 22
+_SIGNAL_PX = 100
+_FRAME_PX = 170
+"""Title, legend, time axis and margins."""
+_LABEL_SHARE = 0.04
+"""An interval at least this share of the session wide gets its state written in it."""
+_MAX_LEGEND = 24
+_DIVERGENCE_COLOR = "#d62728"
+_NOT_REPLAYED_COLOR = "#bbbbbb"
+
+
+def chart_size(timeline: Timeline) -> tuple[int, int]:
+    """The chart's width and height in pixels: a row per lane, a strip per signal."""
+    return WIDTH_PX, _rows(timeline) * _ROW_PX + len(timeline.signals) * _SIGNAL_PX + _FRAME_PX
+
+
+def _rows(timeline: Timeline) -> int:
+    return max(len(timeline.lanes) * (2 if timeline.replayed else 1), 1)
+
+
+def draw_timeline(timeline: Timeline, *, title: str | None = None) -> Figure:
+    """The chart as a matplotlib figure of :func:`chart_size`."""
+    with rc_context({"text.parse_math": False}):  # a "$" in a name is text, not TeX
+        return _draw(timeline, title)
+
+
+def _draw(timeline: Timeline, title: str | None) -> Figure:
+    width, height = chart_size(timeline)
+    figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI, layout="constrained")
+    lanes_px = _rows(timeline) * _ROW_PX + 30
+    axes = figure.subplots(
+        1 + len(timeline.signals),
+        1,
+        sharex=True,
+        squeeze=False,
+        height_ratios=[lanes_px] + [_SIGNAL_PX] * len(timeline.signals),
+    )[:, 0]
+    start_s = timeline.start_ns / 1e9
+    end_s = max(timeline.end_ns / 1e9, start_s + 1e-3)
+    colors = _state_colors(timeline)
+    _draw_lanes(axes[0], timeline, colors, end_s - start_s)
+    for ax, signal in zip(axes[1:], timeline.signals, strict=True):
+        ax.plot(
+            [t / 1e9 for t in signal.time_ns], signal.value, drawstyle="steps-post", linewidth=1
+        )
+        ax.set_ylabel(signal.field, rotation=0, ha="right", va="center")
+        ax.grid(True, alpha=0.3)
+    mark = timeline.divergence
+    if mark is not None and timeline.start_ns <= mark.time_ns <= timeline.end_ns:
+        for ax in axes:
+            ax.axvline(mark.time_ns / 1e9, color=_DIVERGENCE_COLOR, linewidth=1.5)
+        axes[0].plot(
+            mark.time_ns / 1e9,
+            0.6,
+            marker="v",
+            markersize=9,
+            color=_DIVERGENCE_COLOR,
+            clip_on=False,
+        )
+        axes[0].set_title(
+            f"first divergence: cycle {mark.cycle}, t = {mark.time_ns / 1e9:.3f} s "
+            f"({mark.kind.value})",
+            loc="right",
+            color=_DIVERGENCE_COLOR,
+            fontsize=10,
+        )
+    axes[-1].set_xlim(start_s, end_s)
+    axes[-1].set_xlabel("robot time (s)")
+    figure.suptitle(title or f"{timeline.log.name}: {timeline.cycles} cycles")
+    handles = [Patch(facecolor=color, label=label) for label, color in colors.items()]
+    if handles:
+        figure.legend(
+            handles=handles[:_MAX_LEGEND],
+            loc="outside lower center",
+            ncols=min(len(handles), 8),
+            fontsize=8,
+            title="behavior states",
+            title_fontsize=8,
+        )
+    return figure
+
+
+def _label(state: BehaviorState) -> str:
+    return str(state)
+
+
+def _state_colors(timeline: Timeline) -> dict[str, Any]:
+    """One color per state name, in order of first appearance, the same in every lane."""
+    palette = colormaps["tab20"].colors  # type: ignore[attr-defined]
+    colors: dict[str, Any] = {}
+    for lane in timeline.lanes:
+        for interval in (*lane.expected, *lane.actual):
+            label = _label(interval.state)
+            if label not in colors:
+                colors[label] = palette[len(colors) % len(palette)]
+    return colors
+
+
+def _draw_lanes(ax: Axes, timeline: Timeline, colors: dict[str, Any], duration_s: float) -> None:
+    ticks: list[float] = []
+    labels: list[str] = []
+    row = 0
+    for lane in timeline.lanes:
+        rows = [(f"{lane.behavior}: recorded", lane.expected)]
+        if timeline.replayed:
+            rows.append(("replayed", lane.actual))
+        for label, intervals in rows:
+            _draw_row(ax, -row, intervals, colors, duration_s)
+            ticks.append(-row)
+            labels.append(label)
+            row += 1
+        if timeline.replayed and timeline.replayed_until_ns < timeline.end_ns:
+            start = timeline.replayed_until_ns / 1e9
+            ax.broken_barh(
+                [(start, timeline.end_ns / 1e9 - start)],
+                (-row + 1 - 0.4, 0.8),
+                facecolors="none",
+                edgecolors=_NOT_REPLAYED_COLOR,
+                hatch="xx",
+            )
+    ax.set_yticks(ticks, labels, fontsize=8)
+    ax.set_ylim(-max(row, 1) + 0.4, 0.6)
+    ax.set_title("behavior states", loc="left", fontsize=10)
+
+
+def _draw_row(
+    ax: Axes, y: float, intervals: tuple[Interval, ...], colors: dict[str, Any], duration_s: float
+) -> None:
+    for flickering in (False, True):
+        chosen = [i for i in intervals if (i.flicker > 0) is flickering]
+        if not chosen:
+            continue
+        ax.broken_barh(
+            [(i.start_ns / 1e9, (i.end_ns - i.start_ns) / 1e9) for i in chosen],
+            (y - 0.4, 0.8),
+            facecolors=[colors[_label(i.state)] for i in chosen],
+            edgecolors="white" if flickering else "none",
+            hatch="////" if flickering else None,
+        )
+    for interval in intervals:
+        width_s = (interval.end_ns - interval.start_ns) / 1e9
+        if width_s >= _LABEL_SHARE * duration_s and not interval.flicker:
+            ax.text(
+                interval.start_ns / 1e9 + width_s / 2,
+                y,
+                _label(interval.state),
+                ha="center",
+                va="center",
+                fontsize=7,
+                clip_on=True,
+            )
+
+
+def write_png(timeline: Timeline, path: str | Path, *, title: str | None = None) -> None:
+    """Draw the timeline into a PNG file of :func:`chart_size`.
+
+    :raises OSError: the file cannot be written.
+    """
+    draw_timeline(timeline, title=title).savefig(path, format="png", dpi=DPI)
+
+
+def svg_markup(timeline: Timeline, *, title: str | None = None, id_prefix: str = "chart") -> str:
+    """The timeline as an ``<svg>`` element to inline in a page; text stays text.
+
+    Matplotlib escapes every text it writes, so state and field names cannot inject
+    markup. Its element ids (some derived from memory addresses) are renamed in order
+    to ``<id_prefix>-1``, ``-2``, ...: the same timeline gives the same SVG, and charts
+    with different prefixes can share a page.
+    """
+    buffer = io.StringIO()
+    with rc_context({"svg.fonttype": "none"}):
+        draw_timeline(timeline, title=title).savefig(
+            buffer, format="svg", dpi=DPI, metadata={"Date": None}
+        )
+    markup = buffer.getvalue()
+    markup = markup[markup.index("<svg") :]
+    names: dict[str, str] = {}
+    for name in _ID.findall(markup):
+        names.setdefault(name, f"{id_prefix}-{len(names) + 1}")
+    return _ID_USE.sub(lambda use: f"{use[1]}{names.get(use[2], use[2])}{use[3]}", markup)
+
+
+_ID = re.compile(r'\bid="([^"]+)"')
+_ID_USE = re.compile(r'(\bid="|url\(#|href="#)([^")]+)([")])')

@@ -1,0 +1,273 @@
+"""Writes a suite's outcomes as one self-contained HTML page: no scripts, no network.
+
+A summary table on top, then one section per DTC: its verdict, the first divergence
+(cycle, time, what changed, the command that reruns just that DTC) and its timeline
+chart as inline SVG, with the details below. Every piece of user data (names,
+messages, states, values) is escaped.
+"""
+
+from __future__ import annotations
+
+import html
+import shlex
+from collections import Counter
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from beatlog._version import __version__
+from beatlog.engine.timeline import Timeline
+from beatlog.engine.verdict import Divergence, DrawReport, StateChange
+from beatlog.report.chart import svg_markup
+from beatlog.suite.runner import SpecOutcome, Verdict
+
+__all__ = ["render_html", "write_html"]
+
+_CSS = """
+body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 1260px;
+  padding: 0 1em; color: #222; }
+h1 { margin-bottom: 0.2em; }
+table { border-collapse: collapse; margin: 0.6em 0; }
+th, td { border: 1px solid #ddd; padding: 0.2em 0.6em; text-align: left; vertical-align: top; }
+th { background: #f4f4f4; }
+caption { text-align: left; font-weight: 600; padding: 0.3em 0; }
+td.number { text-align: right; }
+code, pre, td.value { font-family: ui-monospace, monospace; font-size: 13px; }
+pre { background: #f8f8f8; padding: 0.6em; overflow-x: auto; }
+section.dtc { border-top: 3px solid #ccc; margin-top: 2em; padding-top: 0.5em; }
+section.failed { border-color: #d62728; }
+section.passed { border-color: #2ca02c; }
+section.error { border-color: #9467bd; }
+.verdict { font-weight: 700; text-transform: uppercase; }
+.passed .verdict, tr.passed .verdict { color: #2ca02c; }
+.failed .verdict, tr.failed .verdict { color: #d62728; }
+.error .verdict, tr.error .verdict { color: #9467bd; }
+.divergence { background: #fff5f5; border-left: 4px solid #d62728; padding: 0.4em 1em; }
+tr.differs td { font-weight: 700; }
+tr.here td { background: #ffe8e8; }
+figure.timeline { margin: 1em 0; }
+figure.timeline svg { max-width: 100%; height: auto; }
+dl.facts { display: grid; grid-template-columns: max-content auto; gap: 0.1em 1em; }
+dl.facts dt { color: #666; }
+dl.facts dd { margin: 0; }
+"""
+
+
+def write_html(
+    outcomes: Sequence[SpecOutcome], path: str | Path, *, title: str = "beatlog DTC report"
+) -> None:
+    """Write the report of ``outcomes`` to ``path`` (UTF-8).
+
+    :raises OSError: the file cannot be written.
+    """
+    Path(path).write_text(render_html(outcomes, title=title), encoding="utf-8")
+
+
+def render_html(outcomes: Sequence[SpecOutcome], *, title: str = "beatlog DTC report") -> str:
+    """The report as a string: a summary, then a section per DTC."""
+    counts = _counts(outcomes)
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{_e(title)}: {_e(counts)}</title>",
+        f"<style>{_CSS}</style></head><body>",
+        f"<h1>{_e(title)}</h1>",
+        f'<p class="counts">{_e(counts)}, {_cycles(outcomes)} cycles replayed '
+        f"(beatlog {_e(__version__)})</p>",
+        _summary_table(outcomes),
+    ]
+    parts.extend(_section(index, outcome) for index, outcome in enumerate(outcomes, start=1))
+    parts.append("</body></html>\n")
+    return "\n".join(parts)
+
+
+def _e(value: object) -> str:
+    """Escape any value for element content and quoted attributes."""
+    return html.escape(str(value), quote=True)
+
+
+def _counts(outcomes: Sequence[SpecOutcome]) -> str:
+    counts = Counter(outcome.verdict for outcome in outcomes)
+    text = f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
+    errors = counts[Verdict.ERROR]
+    return text + (f", {errors} error{'' if errors == 1 else 's'}" if errors else "")
+
+
+def _cycles(outcomes: Sequence[SpecOutcome]) -> str:
+    return f"{sum(o.result.cycles for o in outcomes if o.result):,}"
+
+
+def _summary_table(outcomes: Sequence[SpecOutcome]) -> str:
+    rows = []
+    for index, outcome in enumerate(outcomes, start=1):
+        result = outcome.result
+        divergence = result.divergence if result else None
+        if divergence is not None:
+            first = f"cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, {divergence.kind}"
+        else:
+            first = outcome.error or ""
+        rows.append(
+            _row(
+                [
+                    f'<a href="#dtc-{index}">{_e(outcome.spec.name)}</a>',
+                    f'<span class="verdict">{_e(outcome.verdict)}</span>',
+                    _e(result.cycles) if result else "—",
+                    f"{result.robot_time_s:.1f} s" if result else "—",
+                    f"{outcome.wall_time_s:.2f} s",
+                    _e(first),
+                ],
+                css=outcome.verdict.value,
+            )
+        )
+    head = _row(["DTC", "verdict", "cycles", "robot time", "wall", "first divergence"], cell="th")
+    return f'<table class="suite"><thead>{head}</thead><tbody>{"".join(rows)}</tbody></table>'
+
+
+def _row(cells: Iterable[str], *, cell: str = "td", css: str = "") -> str:
+    """A table row of cells that are already markup."""
+    attribute = f' class="{css}"' if css else ""
+    return f"<tr{attribute}>" + "".join(f"<{cell}>{c}</{cell}>" for c in cells) + "</tr>"
+
+
+def _section(index: int, outcome: SpecOutcome) -> str:
+    spec = outcome.spec
+    verdict = outcome.verdict
+    parts = [
+        f'<section class="dtc {verdict.value}" id="dtc-{index}">',
+        f'<h2><span class="verdict">{_e(verdict)}</span> {_e(spec.name)}</h2>',
+        f'<p class="purpose">{_e(spec.purpose)}</p>',
+    ]
+    rerun = f"beatlog test {shlex.quote(str(spec.path))}"
+    result = outcome.result
+    if result is None:
+        parts.append(f'<p class="error">{_e(outcome.error)}</p>')
+    elif result.divergence is not None:
+        parts.append(_divergence(result.divergence, rerun))
+    close_ups = len(outcome.timelines) - 1  # report_timelines puts any close-up first
+    parts.extend(
+        _figure(spec.name, timeline, close_up=chart < close_ups, ids=f"dtc{index}-chart{chart + 1}")
+        for chart, timeline in enumerate(outcome.timelines)
+    )
+    if result is not None and result.divergence is not None:
+        parts.append(_details(result.divergence))
+    facts = [
+        ("spec", str(spec.path)),
+        ("procedure", " / ".join(spec.procedure)),
+        ("log", str(spec.log)),
+        ("system", spec.system),
+        ("tags", ", ".join(spec.tags) or "—"),
+        ("wall time", f"{outcome.wall_time_s:.3f} s"),
+        ("rerun", rerun),
+    ]
+    if result is not None:
+        facts[5:5] = [
+            ("cycles", f"{result.cycles:,}"),
+            ("robot time", f"{result.robot_time_s:.3f} s"),
+            ("log status", result.status.describe() if result.status else "not read to its end"),
+            ("replay", result.reproduce),
+        ]
+    items = "".join(f"<dt>{_e(name)}</dt><dd>{_e(value)}</dd>" for name, value in facts)
+    parts.append(f'<dl class="facts">{items}</dl></section>')
+    return "\n".join(parts)
+
+
+def _figure(name: str, timeline: Timeline, *, close_up: bool, ids: str) -> str:
+    start_s, end_s = timeline.start_ns / 1e9, timeline.end_ns / 1e9
+    if close_up:
+        title = f"{name}: close-up of the first divergence, {start_s:.3f}–{end_s:.3f} s"
+    else:
+        title = f"{name}: the whole session, {timeline.cycles:,} cycles, {end_s:.1f} s"
+    caption = "Behavior states as recorded and as replayed, with robot-state fields" + (
+        "; the red line marks the first divergence." if timeline.divergence else "."
+    )
+    return (
+        f'<figure class="timeline">{svg_markup(timeline, title=title, id_prefix=ids)}'
+        f"<figcaption>{_e(caption)}</figcaption></figure>"
+    )
+
+
+def _divergence(divergence: Divergence, rerun: str) -> str:
+    """The part to read first: where, why, what changed, how to rerun."""
+    parts = [
+        '<div class="divergence">',
+        f"<h3>First divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s "
+        f"— {_e(divergence.kind)}</h3>",
+        f'<p class="message">{_e(divergence.message)}</p>',
+    ]
+    if divergence.expected or divergence.actual:
+        parts.append(
+            _side_by_side("behavior state changes", divergence.expected, divergence.actual)
+        )
+    parts.append(f'<p class="rerun">Rerun just this DTC: <code>{_e(rerun)}</code></p></div>')
+    return "\n".join(parts)
+
+
+def _details(divergence: Divergence) -> str:
+    parts = []
+    if divergence.expected_outputs or divergence.actual_outputs:
+        parts.append(
+            _side_by_side(
+                "outputs",
+                _items(divergence.expected_outputs),
+                _items(divergence.actual_outputs),
+            )
+        )
+    if divergence.random_recorded or divergence.random_drawn:
+        parts.append(
+            _side_by_side("random numbers", divergence.random_recorded, divergence.random_drawn)
+        )
+    if divergence.context:
+        parts.append(_context(divergence))
+    if divergence.robot_state:
+        rows = "".join(
+            _row([_e(name), f'<span class="value">{_e(repr(value))}</span>'])
+            for name, value in divergence.robot_state.items()
+        )
+        parts.append(
+            f'<table class="robot-state"><caption>robot state RS_t</caption>{rows}</table>'
+        )
+    if divergence.traceback:
+        parts.append(f'<pre class="traceback">{_e(divergence.traceback)}</pre>')
+    return "\n".join(parts)
+
+
+def _items(values: dict[str, Any]) -> list[str]:
+    return [f"{name} = {value!r}" for name, value in values.items()]
+
+
+def _side_by_side(
+    what: str,
+    expected: Sequence[StateChange | DrawReport | str],
+    actual: Sequence[StateChange | DrawReport | str],
+) -> str:
+    rows = []
+    for row in range(max(len(expected), len(actual), 1)):
+        want = str(expected[row]) if row < len(expected) else "—"
+        got = str(actual[row]) if row < len(actual) else "—"
+        rows.append(_row([_e(want), _e(got)], css="" if want == got else "differs"))
+    head = _row(["recorded", "replayed"], cell="th")
+    return f"<table><caption>{_e(what)}</caption>{head}{''.join(rows)}</table>"
+
+
+def _context(divergence: Divergence) -> str:
+    rows = []
+    for row in divergence.context:
+        here = row.cycle == divergence.cycle
+        css = "here" if here else ("differs" if row.expected != row.actual else "")
+        rows.append(
+            _row(
+                [
+                    f"▶ {row.cycle}" if here else str(row.cycle),
+                    f"{row.time_ns / 1e9:.3f}",
+                    "<br>".join(_e(change) for change in row.expected) or "—",
+                    "<br>".join(_e(change) for change in row.actual) or "—",
+                ],
+                css=css,
+            )
+        )
+    head = _row(["cycle", "t (s)", "recorded", "replayed"], cell="th")
+    return (
+        f'<table class="context"><caption>state changes around it</caption>{head}'
+        f"{''.join(rows)}</table>"
+    )

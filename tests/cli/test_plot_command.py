@@ -1,0 +1,131 @@
+"""``beatlog plot``: a PNG timeline of a session, and one clean line for every bad input."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from beatlog import replay
+from beatlog.cli.main import main
+from tests.cli.test_main import CHANGED, PROBE, Run, assert_one_line_error, changed_probe
+from tests.conftest import RecordFn
+from tests.report.test_chart import png_size
+
+Plot = Callable[..., Run]
+
+
+@pytest.fixture
+def plot(capsys: pytest.CaptureFixture[str]) -> Plot:
+    def run(*args: str | Path) -> Run:
+        code = main(["plot", *(str(arg) for arg in args)])
+        captured = capsys.readouterr()
+        return Run(code, captured.out, captured.err)
+
+    return run
+
+
+@pytest.fixture
+def log(record_probe: RecordFn) -> Path:
+    return record_probe(300)
+
+
+def test_plot_draws_the_recording_without_running_any_code(
+    plot: Plot, log: Path, tmp_path: Path
+) -> None:
+    png = tmp_path / "session.png"
+
+    run = plot(log, "-o", png)
+
+    assert run.code == 0
+    assert run.err == ""
+    assert run.out == f"drew 300 cycles of {log} to {png}\n"
+    width, height = png_size(png)
+    assert (width, height) == (1200, 3 * 22 + 2 * 100 + 170)  # 3 lanes, 2 numeric fields
+
+
+def test_plot_with_a_system_also_draws_the_replay_and_names_the_first_divergence(
+    plot: Plot, log: Path, tmp_path: Path
+) -> None:
+    png = tmp_path / "changed.png"
+    divergence = replay(log, changed_probe()).divergence
+    assert divergence is not None
+
+    run = plot(log, "-o", png, "--system", CHANGED, "--field", "distance")
+
+    assert run.code == 0
+    assert run.out == (
+        f"drew 300 cycles of {log} to {png}; "
+        f"first divergence at cycle {divergence.cycle} (state changes)\n"
+    )
+    assert png_size(png) == (1200, 6 * 22 + 1 * 100 + 170)  # recorded and replayed rows
+
+
+def test_plot_of_a_passing_replay_names_no_divergence(
+    plot: Plot, log: Path, tmp_path: Path
+) -> None:
+    run = plot(log, "-o", tmp_path / "pass.png", "--system", PROBE)
+
+    assert run.code == 0
+    assert "divergence" not in run.out
+
+
+# bad input: exit 2 and one line on stderr
+
+
+def test_a_field_the_robot_state_lacks_is_one_line(plot: Plot, log: Path, tmp_path: Path) -> None:
+    png = tmp_path / "x.png"
+
+    run = plot(log, "-o", png, "--field", "speed")
+
+    assert_one_line_error(
+        run, f"{log}: the robot state has no field 'speed' (numeric fields: distance, reading)"
+    )
+    assert not png.exists()
+
+
+def test_an_unwritable_picture_is_one_line_naming_it(plot: Plot, log: Path, tmp_path: Path) -> None:
+    png = tmp_path / "no" / "such" / "folder" / "x.png"
+
+    run = plot(log, "-o", png)
+
+    assert_one_line_error(run, f"{png}: cannot write: No such file or directory")
+
+
+def test_a_missing_log_is_one_line(plot: Plot, tmp_path: Path) -> None:
+    run = plot(tmp_path / "lost.beatlog", "-o", tmp_path / "x.png")
+
+    assert_one_line_error(run, f"{tmp_path / 'lost.beatlog'}: no such file")
+
+
+def test_a_bad_system_is_one_line(plot: Plot, log: Path, tmp_path: Path) -> None:
+    run = plot(log, "-o", tmp_path / "x.png", "--system", "tests.nowhere:system")
+
+    assert_one_line_error(run, "'tests.nowhere:system': cannot import tests.nowhere")
+
+
+def test_the_output_is_required(plot: Plot, log: Path) -> None:
+    run = plot(log)
+
+    assert_one_line_error(run, "the following arguments are required: -o/--output")
+
+
+def hide_matplotlib(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make ``import matplotlib`` fail as it does where the plot extra is not installed."""
+    for name in [name for name in sys.modules if name.startswith("matplotlib")]:
+        monkeypatch.setitem(sys.modules, name, None)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    for name in ("beatlog.report.chart", "beatlog.report.html"):
+        monkeypatch.delitem(sys.modules, name, raising=False)
+
+
+def test_without_matplotlib_plot_says_which_extra_to_install(
+    plot: Plot, log: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    hide_matplotlib(monkeypatch)
+
+    run = plot(log, "-o", tmp_path / "x.png")
+
+    assert_one_line_error(run, 'plot needs matplotlib (pip install "beatlog[plot]")')

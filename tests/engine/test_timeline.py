@@ -1,0 +1,299 @@
+"""Timelines: every behavior's states over a session, recorded and replayed, for charts."""
+
+from __future__ import annotations
+
+import itertools
+import pickle
+from collections.abc import Sequence
+from pathlib import Path
+
+import pytest
+
+from beatlog import replay
+from beatlog.engine.record import Recorder
+from beatlog.engine.timeline import (
+    CLOSE_UP_NS,
+    Interval,
+    Mark,
+    Timeline,
+    build_timeline,
+    report_timelines,
+)
+from beatlog.engine.verdict import DivergenceKind, StateChange
+from beatlog.errors import FieldError, NotABeatlogError
+from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.context import Context, Outputs
+from beatlog.model.state import RobotState
+from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, distances, probe_system
+from tests.engine.test_replay import Fragile, first_cycle_below
+
+
+def cycle_times(cycles: int) -> list[int]:
+    """The robot time at the end of each cycle of a probe recording."""
+    times, now = [], 0
+    for t in range(cycles):
+        now += PERIOD_NS + (t % 3) * 1000
+        times.append(now)
+    return times
+
+
+def states(intervals: Sequence[Interval]) -> list[BehaviorState]:
+    return [interval.state for interval in intervals]
+
+
+def assert_tiles(intervals: Sequence[Interval], start_ns: int, end_ns: int) -> None:
+    """The intervals cover [start, end] without gaps or overlaps."""
+    assert intervals[0].start_ns == start_ns
+    assert intervals[-1].end_ns == end_ns
+    for before, after in itertools.pairwise(intervals):
+        assert before.end_ns == after.start_ns
+        assert before.start_ns < before.end_ns
+
+
+def lane(timeline: Timeline, behavior: str) -> tuple[tuple[Interval, ...], tuple[Interval, ...]]:
+    found = {lane.behavior: lane for lane in timeline.lanes}[behavior]
+    return found.expected, found.actual
+
+
+def test_a_passing_replay_gives_the_same_lanes_recorded_and_replayed(
+    record_probe: RecordFn,
+) -> None:
+    timeline = build_timeline(record_probe(300), probe_system())
+
+    times = cycle_times(300)
+    assert (timeline.cycles, timeline.start_ns, timeline.end_ns) == (300, 0, times[-1])
+    assert timeline.replayed
+    assert timeline.replayed_until_ns == times[-1]
+    assert timeline.divergence is None
+    assert [lane.behavior for lane in timeline.lanes] == ["arbiter", "near", "dice"]
+    for found in timeline.lanes:
+        assert found.expected == found.actual
+        assert_tiles(found.expected, 0, times[-1])
+    near, _ = lane(timeline, "near")
+    below = [d < 0.5 for d in distances(300)]
+    flips = [t for t in range(1, 300) if below[t] != below[t - 1]]
+    assert [interval.start_ns for interval in near[1:]] == [times[t] for t in flips]
+    assert states(near) == ["far", "near"] * (len(near) // 2) + ["far"] * (len(near) % 2)
+
+
+def test_a_changed_behavior_is_marked_where_replay_first_differs_and_followed_to_the_end(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    divergence = replay(log, probe_system(threshold=0.6)).divergence
+    assert divergence is not None
+
+    timeline = build_timeline(log, probe_system(threshold=0.6))
+
+    assert timeline.divergence == Mark(
+        divergence.cycle, divergence.time_ns, DivergenceKind.STATE_CHANGES
+    )
+    expected, actual = lane(timeline, "near")
+    assert expected != actual
+    assert actual[1].start_ns == divergence.time_ns
+    assert expected[1].start_ns > divergence.time_ns
+    assert timeline.replayed_until_ns == timeline.end_ns
+    assert_tiles(actual, 0, timeline.end_ns)
+
+
+def test_without_a_system_only_the_recording_is_read(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+
+    recorded = build_timeline(log)
+    replayed = build_timeline(log, "tests.conftest:probe_system")
+
+    assert not recorded.replayed
+    assert recorded.divergence is None
+    assert all(found.actual == () for found in recorded.lanes)
+    assert [found.expected for found in recorded.lanes] == [
+        found.expected for found in replayed.lanes
+    ]
+    assert recorded.signals == replayed.signals
+
+
+def test_an_exception_ends_the_replayed_lanes_but_not_the_recorded_ones(
+    record_probe: RecordFn,
+) -> None:
+    cycle = first_cycle_below(0.3)
+
+    timeline = build_timeline(
+        record_probe(300), PriorityArbiter([Near(), Fragile()], robot_state=Probe)
+    )
+
+    times = cycle_times(300)
+    assert timeline.divergence == Mark(cycle, times[cycle], DivergenceKind.EXCEPTION)
+    assert timeline.replayed_until_ns == times[cycle - 1]
+    for found in timeline.lanes:
+        assert found.expected[-1].end_ns == times[-1]
+        assert found.actual[-1].end_ns == times[cycle - 1]
+
+
+@pytest.mark.parametrize(
+    ("system", "kind", "cycle", "replayed_to_the_end"),
+    [
+        (probe_system(draws=2), DivergenceKind.RANDOM_OVERDRAWN, 0, False),
+        (probe_system(every=10), DivergenceKind.RANDOM_UNDERDRAWN, 5, True),
+    ],
+    ids=["overdrawn", "underdrawn"],
+)
+def test_random_numbers_that_do_not_match_are_marked(
+    record_probe: RecordFn,
+    system: PriorityArbiter[Probe],
+    kind: DivergenceKind,
+    cycle: int,
+    replayed_to_the_end: bool,
+) -> None:
+    timeline = build_timeline(record_probe(50), system)
+
+    assert timeline.divergence == Mark(cycle, cycle_times(50)[cycle], kind)
+    # Drawing too many stops replay at once; drawing too few leaves it able to go on.
+    assert (timeline.replayed_until_ns == timeline.end_ns) is replayed_to_the_end
+
+
+def test_an_approved_baseline_replaces_the_recording_as_the_expected_trace(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    times = cycle_times(300)
+    baseline = {3: [StateChange("near", "far", "near")]}
+
+    recorded_only = build_timeline(log, expected=baseline)
+    replayed = build_timeline(log, probe_system(), expected=baseline)
+
+    near, _ = lane(recorded_only, "near")
+    assert near == (Interval(0, times[3], "far"), Interval(times[3], times[-1], "near"))
+    arbiter, _ = lane(recorded_only, "arbiter")
+    assert arbiter == (Interval(0, times[-1], None),)  # no system: its first state is unknown
+    arbiter, _ = lane(replayed, "arbiter")
+    assert arbiter == (Interval(0, times[-1], "idle"),)  # the system's own first state
+    assert replayed.divergence == Mark(0, times[0], DivergenceKind.STATE_CHANGES)
+
+
+def test_numeric_robot_state_fields_are_sampled_every_cycle(record_probe: RecordFn) -> None:
+    timeline = build_timeline(record_probe(300))
+
+    assert [signal.field for signal in timeline.signals] == ["distance", "reading"]
+    distance = timeline.signals[0]
+    assert distance.time_ns == tuple(cycle_times(300))
+    assert distance.value == tuple(distances(300))
+    assert build_timeline(record_probe(300), fields=["reading"]).signals[0].field == "reading"
+
+
+class Moody(RobotState, kw_only=True):
+    mood: str = "calm"
+    level: int = 0
+    bumped: bool = False
+
+
+class Quiet:
+    name = "quiet"
+    state: BehaviorState = "idle"
+
+    def step(self, rs: Moody, ctx: Context) -> Outputs | None:
+        return None
+
+
+@pytest.fixture
+def moody_log(tmp_path: Path) -> Path:
+    log = tmp_path / "moody.beatlog"
+    with Recorder(log, PriorityArbiter([Quiet()], robot_state=Moody), software="t") as recorder:
+        for t in range(10):
+            recorder.step(PERIOD_NS, Moody(level=t, bumped=t % 2 == 1))
+    return log
+
+
+def test_flags_are_drawn_as_zero_and_one_and_text_fields_are_left_out(moody_log: Path) -> None:
+    timeline = build_timeline(moody_log)
+
+    assert [signal.field for signal in timeline.signals] == ["level", "bumped"]
+    assert timeline.signals[1].value == (0.0, 1.0) * 5
+
+
+@pytest.mark.parametrize(
+    ("field", "problem"),
+    [
+        ("speed", "the robot state has no field 'speed' (numeric fields: level, bumped)"),
+        ("mood", "robot-state field 'mood' is a str, not a number (numeric fields: level, bumped)"),
+    ],
+)
+def test_a_field_that_cannot_be_drawn_is_bad_input_naming_the_log(
+    moody_log: Path, field: str, problem: str
+) -> None:
+    with pytest.raises(FieldError) as raised:
+        build_timeline(moody_log, fields=["level", field])
+
+    assert str(raised.value) == f"{moody_log}: {problem}"
+
+
+def test_a_missing_log_is_bad_input(tmp_path: Path) -> None:
+    with pytest.raises(NotABeatlogError, match="no such file"):
+        build_timeline(tmp_path / "lost.beatlog")
+
+
+def test_a_long_session_is_downsampled_to_a_few_points_per_pixel(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    full = build_timeline(log, probe_system())
+
+    small = build_timeline(log, probe_system(), max_points=20)
+
+    dice, _ = lane(small, "dice")
+    full_dice, _ = lane(full, "dice")
+    assert len(dice) < len(full_dice) / 2
+    assert any(interval.flicker for interval in dice)
+    assert sum(interval.flicker + 1 for interval in dice) == len(full_dice)
+    assert_tiles(dice, 0, full.end_ns)
+    distance = small.signals[0]
+    assert len(distance.value) <= 40
+    assert min(distance.value) == min(distances(300))
+    assert max(distance.value) == max(distances(300))
+    assert list(distance.time_ns) == sorted(distance.time_ns)
+
+
+def test_a_window_keeps_only_that_stretch_of_robot_time(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    divergence = replay(log, probe_system(threshold=0.6)).divergence
+    assert divergence is not None
+
+    close_up, whole = report_timelines(log, "tests.suite.test_spec:changed_probe", divergence)
+
+    assert whole.start_ns == 0
+    assert close_up.start_ns == max(divergence.time_ns - CLOSE_UP_NS, 0)
+    assert close_up.end_ns == divergence.time_ns + CLOSE_UP_NS
+    assert close_up.cycles < whole.cycles
+    assert close_up.divergence == whole.divergence
+    for found in close_up.lanes:
+        assert_tiles(found.expected, close_up.start_ns, close_up.end_ns)
+        assert_tiles(found.actual, close_up.start_ns, close_up.end_ns)
+    assert close_up.signals[0].time_ns[-1] <= close_up.end_ns
+    late = build_timeline(log, window_ns=(6_000_000_000, 7_000_000_000))
+    assert late.signals[0].time_ns[0] >= 6_000_000_000
+    assert_tiles(late.lanes[0].expected, 6_000_000_000, 7_000_000_000)
+
+
+def test_a_report_marks_the_verdicts_divergence_even_one_the_timeline_cannot_see(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    log.write_bytes(log.read_bytes()[:-200])  # cut off: replay fails as ending early
+    divergence = replay(log, probe_system()).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.LOG_ENDED
+    assert build_timeline(log, probe_system()).divergence is None
+
+    close_up, whole = report_timelines(log, "tests.conftest:probe_system", divergence)
+
+    mark = Mark(divergence.cycle, divergence.time_ns, DivergenceKind.LOG_ENDED)
+    assert close_up.divergence == whole.divergence == mark
+
+
+def test_a_passing_dtc_gets_just_the_whole_session(record_probe: RecordFn) -> None:
+    (whole,) = report_timelines(record_probe(50), "tests.conftest:probe_system", None)
+
+    assert whole.divergence is None
+    assert whole.cycles == 50
+
+
+def test_a_timeline_survives_the_trip_from_a_worker_process(record_probe: RecordFn) -> None:
+    timeline = build_timeline(record_probe(300), probe_system(threshold=0.6))
+
+    assert pickle.loads(pickle.dumps(timeline)) == timeline

@@ -1,0 +1,241 @@
+"""The HTML report: one self-contained page, a summary, then each DTC with its timeline.
+
+The last test opens the page in headless Chromium and checks the charts are drawn.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+from io import BytesIO
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+from beatlog.engine.record import Recorder
+from beatlog.examples.rover import record_lockstep
+from beatlog.report.html import write_html
+from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
+from beatlog.suite.spec import DtcSpec, load_spec
+from tests.conftest import PERIOD_NS, Probe
+from tests.report.test_chart import HOSTILE, hostile_system
+from tests.suite.test_spec import write_spec
+
+ROVER = "beatlog.examples.rover:system"
+ROVER_CHANGED = "beatlog.examples.rover:changed_system"
+HOSTILE_SYSTEM = "tests.report.test_chart:hostile_system"
+IMG = "<img src=x onerror=alert(1)>"
+
+
+class Report(NamedTuple):
+    outcomes: list[SpecOutcome]
+    page: str
+    path: Path
+
+
+def dtc(folder: Path, file: str, log: Path, system: str, /, **extra: object) -> DtcSpec:
+    """Write ``<file>.dtc.toml`` (named ``file`` unless ``name`` says otherwise) and load it."""
+    return load_spec(write_spec(folder, file, log, system, **extra))
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory: pytest.TempPathFactory) -> Report:
+    """A suite of four DTCs (pass, fail, error, hostile names), run once for the module."""
+    folder = tmp_path_factory.mktemp("html")
+    rover = folder / "rover.beatlog"
+    record_lockstep(rover, duration_s=10.0, seed=0)
+    hostile = folder / "hostile.beatlog"
+    with Recorder(hostile, hostile_system(), software="t") as recorder:
+        for t in range(40):
+            recorder.step(PERIOD_NS, Probe(distance=abs(20 - t) / 20))
+    specs = [
+        dtc(folder, "wander", rover, ROVER),
+        dtc(folder, "avoid-earlier", rover, ROVER_CHANGED, purpose="Avoid turns 10 cm earlier."),
+        dtc(folder, "lost", folder / "lost.beatlog", ROVER),
+        dtc(
+            folder,
+            "hostile",
+            hostile,
+            HOSTILE_SYSTEM,
+            name=HOSTILE,
+            purpose=IMG,
+            procedure=[IMG, "</dd></dl><h1>injected</h1>"],
+            tags=["<i>"],
+        ),
+    ]
+    outcomes = run_suite(specs, timelines=True)
+    path = folder / "report.html"
+    write_html(outcomes, path)
+    return Report(outcomes, path.read_text(encoding="utf-8"), path)
+
+
+def section(page: str, index: int) -> str:
+    """The markup of the ``index``-th DTC's section (from 1)."""
+    start = page.index(f'id="dtc-{index}"')
+    return page[start : page.index("</section>", start)]
+
+
+def test_the_report_opens_with_the_counts_and_a_row_per_dtc(report: Report) -> None:
+    assert [o.verdict for o in report.outcomes] == [
+        Verdict.PASSED,
+        Verdict.FAILED,
+        Verdict.ERROR,
+        Verdict.PASSED,
+    ]
+    page = report.page
+    assert page.startswith("<!DOCTYPE html>")
+    assert "<title>beatlog DTC report: 2 passed, 1 failed, 1 error</title>" in page
+    summary = page[page.index('<table class="suite">') : page.index("</table>")]
+    assert re.findall(r'<a href="#(dtc-\d)">([^<]*)</a>', summary) == [
+        ("dtc-1", "wander"),
+        ("dtc-2", "avoid-earlier"),
+        ("dtc-3", "lost"),
+        ("dtc-4", "&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;"),
+    ]
+    failed = report.outcomes[1].result
+    assert failed is not None
+    assert failed.divergence is not None
+    assert f"cycle {failed.divergence.cycle}, t = {failed.divergence.time_s:.3f} s" in summary
+
+
+def test_a_failure_reads_in_one_screen_then_shows_a_close_up_and_the_whole_session(
+    report: Report,
+) -> None:
+    outcome = report.outcomes[1]
+    assert outcome.result is not None
+    divergence = outcome.result.divergence
+    assert divergence is not None
+    failed = section(report.page, 2)
+
+    headline = (
+        f"First divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s "
+        f"— {divergence.kind}"
+    )
+    rerun = f"Rerun just this DTC: <code>beatlog test {outcome.spec.path}</code>"
+    order = [
+        '<section class="dtc failed"',
+        '<span class="verdict">failed</span> avoid-earlier',
+        "Avoid turns 10 cm earlier.",
+        headline,
+        divergence.message,
+        "arbiter: &#x27;wander&#x27; -&gt; &#x27;avoid&#x27;",
+        rerun,
+        "avoid-earlier: close-up of the first divergence",
+        "avoid-earlier: the whole session",
+        "<caption>state changes around it</caption>",
+        "<caption>robot state RS_t</caption>",
+    ]
+    positions = [failed.find(text) if text != order[0] else 0 for text in order]
+    assert -1 not in positions, [text for text, at in zip(order, positions, strict=True) if at < 0]
+    assert positions == sorted(positions)
+    assert failed.count("<svg") == 2
+    assert failed.count(f"first divergence: cycle {divergence.cycle}") == 2
+
+
+def test_a_pass_gets_its_timeline_and_no_divergence(report: Report) -> None:
+    passed = section(report.page, 1)
+
+    assert passed.count("<svg") == 1
+    assert "wander: the whole session" in passed
+    assert "First divergence" not in passed
+    assert "wander: recorded" in passed
+
+
+def test_an_error_says_why_and_draws_nothing(report: Report) -> None:
+    error = section(report.page, 3)
+
+    assert '<p class="error">' in error
+    assert "lost.beatlog: no such file" in error
+    assert "<svg" not in error
+
+
+def test_user_data_is_text_everywhere_never_markup(report: Report) -> None:
+    page = report.page
+
+    assert "<script" not in page
+    assert "<img" not in page
+    assert "<i>" not in page
+    assert "<h1>injected" not in page
+    assert page.count("<h1>") == 1
+    hostile = section(page, 4)
+    assert "&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;" in hostile
+    assert "&lt;img src=x onerror=alert(1)&gt;" in hostile
+    assert "&lt;b&gt;near&lt;/b&gt;" in hostile  # a state, drawn in the chart
+
+
+def test_the_page_needs_nothing_but_itself(report: Report) -> None:
+    page = report.page
+
+    assert " src=" not in page.replace("&lt;img src=", "")
+    assert "<link" not in page
+    assert "@import" not in page
+    links = re.findall(r'href="([^"]*)"', page)  # the summary's and the charts' own markers
+    assert links[:4] == [f"#dtc-{n}" for n in range(1, 5)]
+    assert all(link.startswith("#") for link in links)
+    ids = re.findall(r'\bid="([^"]+)"', page)
+    assert len(ids) == len(set(ids))  # charts on one page never share an id
+    used = re.findall(r'(?:url\(#|href="#)([^")]+)', page)
+    assert set(used) <= set(ids)
+
+
+def test_an_unwritable_report_is_an_os_error(report: Report, tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError):
+        write_html(report.outcomes[2:3], tmp_path / "no" / "such" / "folder" / "report.html")
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+
+
+def test_chromium_draws_every_chart(report: Report) -> None:
+    """Open the page in headless Chromium: every chart has its size, lanes and colors."""
+    if CHROMIUM is None or CHROMEDRIVER is None:
+        reason = "needs chromium and chromedriver (apt-get install chromium chromium-driver)"
+        if os.environ.get("BEATLOG_REQUIRE_BROWSER") == "1":
+            pytest.fail(f"BEATLOG_REQUIRE_BROWSER=1 but {reason}")
+        pytest.skip(reason)
+    from selenium import webdriver  # noqa: PLC0415 - only this test needs a browser
+    from selenium.webdriver.chrome.service import Service  # noqa: PLC0415
+    from selenium.webdriver.common.by import By  # noqa: PLC0415
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for argument in ("--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1300,900"):
+        options.add_argument(argument)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    driver = webdriver.Chrome(options=options, service=Service(executable_path=CHROMEDRIVER))
+    try:
+        driver.get(report.path.as_uri())
+        charts = driver.find_elements(By.CSS_SELECTOR, "figure.timeline svg")
+        drawn = [
+            driver.execute_script(
+                "const box = arguments[0].getBoundingClientRect();"
+                "return {width: box.width, height: box.height,"
+                " bars: arguments[0].querySelectorAll('path').length,"
+                " texts: [...arguments[0].querySelectorAll('text')].map(t => t.textContent)};",
+                chart,
+            )
+            for chart in charts
+        ]
+        driver.execute_script("arguments[0].scrollIntoView()", charts[1])
+        pixels = imread(BytesIO(charts[1].screenshot_as_png))
+        console = driver.get_log("browser")  # type: ignore[no-untyped-call]
+        errors = [entry for entry in console if entry["level"] == "SEVERE"]
+    finally:
+        driver.quit()
+
+    assert len(drawn) == 4  # wander, avoid-earlier's close-up and whole session, hostile
+    for chart in drawn:
+        assert chart["width"] > 600
+        assert chart["height"] > 200
+        assert chart["bars"] > 20
+    assert "wander: recorded" in drawn[0]["texts"]
+    assert "replayed" in drawn[0]["texts"]
+    assert any(text.startswith("first divergence: cycle") for text in drawn[1]["texts"])
+    colors = np.unique(pixels.reshape(-1, pixels.shape[-1]), axis=0)
+    assert len(colors) > 20
+    assert errors == []
