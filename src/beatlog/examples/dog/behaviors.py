@@ -82,7 +82,8 @@ class Tuning:
     stuck_s: float = 2.0
     chin_shake_s: float = 1.2
     sit_min_s: float = 2.0
-    sit_max_s: float = 4.0
+    sit_extra_s: float = 2.0
+    """Sitting lasts the minimum plus a random extra of up to this."""
     lie_s: float = 3.0
     low_battery: float = 20.0
     full_battery: float = 90.0
@@ -290,7 +291,7 @@ class HeadPat(_TouchResponse):
         return rs.touch_head
 
     def _duration_s(self, ctx: Context) -> float:
-        return ctx.random.uniform(self._t.sit_min_s, self._t.sit_max_s)
+        return self._t.sit_min_s + ctx.random.uniform(0.0, self._t.sit_extra_s)
 
     def _respond(self, ctx: Context) -> Outputs:
         return _pose("sit")

@@ -53,20 +53,23 @@ _decode = msgspec.json.Decoder(RemoteCommand).decode
 class RemoteServer:
     """Accepts remote-control clients on a loopback port; a context manager.
 
-    :param port: the TCP port, or 0 for one the OS picks (read :attr:`port` after start).
+    :param port: the TCP port, or 0 for one the OS picks (:attr:`port` once started).
     """
 
     def __init__(self, inbox: SensorInbox, *, port: int = 0, host: str = "127.0.0.1") -> None:
         self.inbox = inbox
         self.rejected = 0
-        self._socket = socket.create_server((host, port))
-        self._socket.settimeout(0.1)
-        self.port: int = self._socket.getsockname()[1]
+        self.port = port
+        self._host = host
+        self._socket: socket.socket | None = None
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
 
     def start(self) -> None:
-        """Start accepting clients in a background thread."""
+        """Open the port and accept clients in a background thread."""
+        self._socket = socket.create_server((self._host, self.port))
+        self._socket.settimeout(0.1)
+        self.port = self._socket.getsockname()[1]
         self._stop.clear()
         thread = threading.Thread(target=self._accept, name="dog-remote", daemon=True)
         self._threads = [thread]
@@ -77,7 +80,9 @@ class RemoteServer:
         self._stop.set()
         for thread in list(self._threads):
             thread.join()
-        self._socket.close()
+        if self._socket is not None:
+            self._socket.close()
+            self._socket = None
 
     def __enter__(self) -> RemoteServer:
         self.start()
@@ -92,6 +97,7 @@ class RemoteServer:
         self.stop()
 
     def _accept(self) -> None:
+        assert self._socket is not None
         while not self._stop.is_set():
             try:
                 connection, _address = self._socket.accept()
@@ -108,6 +114,7 @@ class RemoteServer:
     def _serve(self, connection: socket.socket) -> None:
         connection.settimeout(0.1)
         pending = b""
+        overlong = False  # dropping the rest of a line that grew too long
         with connection:
             while not self._stop.is_set():
                 try:
@@ -121,9 +128,13 @@ class RemoteServer:
                 pending += chunk
                 *lines, pending = pending.split(b"\n")
                 for line in lines:
-                    self._receive(line)
+                    if overlong:
+                        overlong = False
+                    else:
+                        self._receive(line)
                 if len(pending) > MAX_LINE:
-                    self.rejected += 1
+                    self.rejected += not overlong
+                    overlong = True
                     pending = b""
 
     def _receive(self, line: bytes) -> None:

@@ -31,11 +31,17 @@ from beatlog.model.behavior import System
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
 
-__all__ = ["SYSTEM_REF", "DogRobot", "act_on", "record_live", "robot"]
+__all__ = ["REMOTE_PORT", "SYSTEM_REF", "DogRobot", "act_on", "record_live", "robot"]
 
 SYSTEM_REF = "beatlog.examples.dog:system"
+REMOTE_PORT = 5555
+"""The remote-control port of the robot that ``beatlog record`` builds."""
+FREE = Scenario("free", "The dog on its own, for a person to watch and drive.", 60.0)
 MAX_CATCH_UP_STEPS = 25
 """Physics steps run back to back at most when the thread fell behind (50 ms)."""
+SWITCH_INTERVAL_S = 0.0005
+"""While the dog runs, threads hand over the GIL this often (Python's default is 5 ms),
+so ten busy threads do not delay the heartbeat by whole milliseconds."""
 
 
 def act_on(world: DogWorld, inbox: SensorInbox, outputs: Outputs, stamp_ns: int) -> None:
@@ -76,6 +82,7 @@ class DogRobot:
         self._clients: list[subprocess.Popen[bytes]] = []
         self._seed = seed
         self.physics_steps = 0
+        self._switch_interval = sys.getswitchinterval()
 
     def start(self) -> None:
         """Start physics, the sensor drivers, the remote-control server and the tester."""
@@ -96,6 +103,8 @@ class DogRobot:
             for (sensor, rate), seed in zip(SENSOR_RATES_HZ.items(), seeds, strict=True)
         ]
         self._threads = threads
+        self._switch_interval = sys.getswitchinterval()
+        sys.setswitchinterval(SWITCH_INTERVAL_S)
         self.remote.start()
         for thread in threads:
             thread.start()
@@ -108,6 +117,7 @@ class DogRobot:
         for client in self._clients:
             client.wait()
         self.remote.stop()
+        sys.setswitchinterval(self._switch_interval)
 
     def perceive(self, previous: Any | None, samples: Sequence[Sample]) -> DogState:
         """The perception step (see :func:`beatlog.examples.dog.perception.perceive`)."""
@@ -160,8 +170,9 @@ class DogRobot:
 
 
 def robot() -> DogRobot:
-    """Factory for ``beatlog record --robot beatlog.examples.dog.robot:robot`` (the demo)."""
-    return DogRobot()
+    """Factory for ``beatlog record --robot beatlog.examples.dog.robot:robot``: the dog on
+    its own in the arena, with its remote control on port :data:`REMOTE_PORT`."""
+    return DogRobot(FREE, remote_port=REMOTE_PORT)
 
 
 def record_live(

@@ -63,7 +63,7 @@ class SensorReader:
 
     @staticmethod
     def _range(value: float, noise: np.random.Generator) -> float:
-        if value < 0.0:
+        if value < 0.0 or value >= MAX_RANGE:  # nothing within reach
             return MAX_RANGE
         return round(min(MAX_RANGE, max(0.0, value + float(noise.normal(0.0, 0.005)))), 3)
 
