@@ -101,8 +101,8 @@ def _parser() -> argparse.ArgumentParser:
     show = commands.add_parser("show", help="describe a session log")
     show.add_argument("log", type=Path)
 
-    demo = commands.add_parser("demo", help="record, replay and break the example rover")
-    demo.add_argument("--duration", type=_positive_float, default=6.0, help="seconds to record")
+    demo = commands.add_parser("demo", help="record and replay the robot dog, then its suite")
+    demo.add_argument("--duration", type=_positive_float, default=20.0, help="seconds to record")
     demo.add_argument(
         "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
     )
@@ -286,7 +286,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _test(args, console)
         if args.command == "show":
             return _show(args, console)
-        from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs the rover
+        from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs MuJoCo
 
         return run_demo(console, duration_s=args.duration, out=args.out)
     except BeatlogError as exc:
