@@ -472,18 +472,21 @@ def test_record_writes_a_complete_log_that_replays(
 
 
 @pytest.mark.slow
-def test_the_demo_records_and_replays_the_rover(
+def test_the_demo_records_and_replays_the_dog_then_its_suite(
     beatlog: Callable[..., Run], tmp_path: Path
 ) -> None:
-    run = beatlog("demo", "--duration", 0.3, "--out", tmp_path / "demo")
+    run = beatlog("demo", "--duration", 0.5, "--out", tmp_path / "demo")
 
-    log = tmp_path / "demo" / "rover.beatlog"
+    log = tmp_path / "demo" / "dog.beatlog"
     assert run.code == 0, run.out
     assert f"PASS {log}" in run.out
-    assert f"The log is kept at {log}" in run.out
+    assert "15 DTCs recorded on the dog" in run.out
+    assert "15 passed, 0 failed" in run.out
+    assert f"The demo log is kept at {log}" in run.out
     with SessionLogReader(log) as reader:
         cycles = sum(1 for _ in reader.cycles())
+        assert reader.header.system == "beatlog.examples.dog:system"
         assert reader.status.complete
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
-        assert reader.end.robot_time_ns >= 300_000_000
+        assert reader.end.robot_time_ns >= 500_000_000

@@ -139,8 +139,8 @@ def _parser() -> argparse.ArgumentParser:
         help="robot-state field to draw (repeatable; default: the first few numeric ones)",
     )
 
-    demo = commands.add_parser("demo", help="record, replay and break the example rover")
-    demo.add_argument("--duration", type=_positive_float, default=6.0, help="seconds to record")
+    demo = commands.add_parser("demo", help="record and replay the robot dog, then its suite")
+    demo.add_argument("--duration", type=_positive_float, default=20.0, help="seconds to record")
     demo.add_argument(
         "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
     )
@@ -382,7 +382,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_OK
         if args.command == "plot":
             return _plot(args, console)
-        from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs the rover
+        from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs MuJoCo
 
         return run_demo(console, duration_s=args.duration, out=args.out)
     except BeatlogError as exc:

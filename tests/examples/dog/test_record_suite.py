@@ -1,0 +1,36 @@
+"""Re-recording the suite: specs written for each scenario load as DTC specs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from beatlog.examples.dog.record_suite import main, spec_text
+from beatlog.examples.dog.scenarios import SUITE, scenario
+from beatlog.suite.spec import load_spec
+
+
+@pytest.mark.parametrize("case", SUITE, ids=lambda case: case.name)
+def test_every_scenario_gives_a_valid_spec(case: object, tmp_path: Path) -> None:
+    assert case in SUITE
+    chosen = scenario(getattr(case, "name", ""))
+    path = tmp_path / f"{chosen.name}.dtc.toml"
+    path.write_text(spec_text(chosen, f"{chosen.name}.beatlog"), encoding="utf-8")
+    spec = load_spec(path)
+    assert spec.name == chosen.name
+    assert spec.purpose == chosen.purpose
+    assert list(spec.procedure) == chosen.procedure()
+    assert spec.log == tmp_path / f"{chosen.name}.beatlog"
+    assert spec.system == "beatlog.examples.dog:system"
+    assert spec.tags == chosen.tags
+
+
+def test_an_unknown_case_is_a_usage_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([str(tmp_path), "--only", "fetch"])
+    assert exit_info.value.code == 2
+    assert "no scenario named 'fetch'" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())

@@ -1,0 +1,40 @@
+"""The committed 15-DTC suite: it passes, and a change to any single behavior fails it."""
+
+from __future__ import annotations
+
+import pytest
+
+from beatlog import replay
+from beatlog.examples.dog import SUITE_DIR
+from beatlog.examples.dog.behaviors import CHANGES, changed_system
+from beatlog.examples.dog.scenarios import SUITE
+from beatlog.log.summary import summarize
+from beatlog.suite.runner import Verdict, run_suite
+from beatlog.suite.spec import discover_specs
+
+SPECS = discover_specs([SUITE_DIR])
+SHORTEST_FIRST = sorted(SPECS, key=lambda spec: spec.log.stat().st_size)
+
+
+def test_the_suite_has_a_spec_and_a_log_for_every_scenario_within_20_mb() -> None:
+    assert sorted(spec.name for spec in SPECS) == sorted(case.name for case in SUITE)
+    assert sum(spec.log.stat().st_size for spec in SPECS) <= 20 * 2**20
+    for spec in SPECS:
+        summary = summarize(spec.log)
+        assert 30.0 <= summary.robot_time_ns / 1e9 <= 180.5, spec.name
+        assert summary.status.complete, spec.name
+
+
+def test_every_dtc_passes_against_the_current_behaviors() -> None:
+    outcomes = run_suite(SPECS)
+    assert [o.spec.name for o in outcomes if o.verdict is not Verdict.PASSED] == []
+
+
+@pytest.mark.parametrize("behavior", sorted(CHANGES))
+def test_a_change_to_any_single_behavior_fails_at_least_one_dtc(behavior: str) -> None:
+    for spec in SHORTEST_FIRST:
+        result = replay(spec.log, changed_system(behavior), context_cycles=0)
+        if not result.ok:
+            assert result.divergence is not None
+            return
+    pytest.fail(f"no DTC notices a change to {behavior}: {CHANGES[behavior]}")

@@ -1,0 +1,113 @@
+"""The MuJoCo world: sensors see walls and touches, the battery drains and charges, the
+dog falls when pushed and gets up."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from beatlog.examples.dog.gait import Motion
+from beatlog.examples.dog.sensors import MAX_RANGE, SensorReader
+from beatlog.examples.dog.world import CHARGER, Battery, DogWorld
+
+
+def run(world: DogWorld, seconds: float) -> None:
+    for _ in range(int(seconds / world.timestep)):
+        world.step()
+
+
+@pytest.fixture
+def noise() -> np.random.Generator:
+    return np.random.default_rng(0)
+
+
+def test_the_front_range_finder_sees_the_wall_ahead(noise: np.random.Generator) -> None:
+    world = DogWorld(x=3.0, y=2.0, heading=0.0)  # the east wall's face is at x = 4
+    run(world, 0.2)
+    reader = SensorReader(world)
+    left, front, right = reader.read("range", noise)
+    nose_x = world.pose[0] + 0.175 + 0.046
+    assert front == pytest.approx(4.0 - nose_x, abs=0.03)
+    world_away = DogWorld(x=2.0, y=2.0, heading=math.pi / 2 + 0.3)
+    run(world_away, 0.2)
+    assert SensorReader(world_away).read("range", noise)[1] == MAX_RANGE
+    assert left > front
+    assert right > front
+
+
+@pytest.mark.parametrize(("part", "index"), [("head", 0), ("back", 1), ("chin", 2)])
+def test_a_touch_registers_on_its_sensor_only(
+    part: str, index: int, noise: np.random.Generator
+) -> None:
+    world = DogWorld()
+    run(world, 0.3)
+    reader = SensorReader(world)
+    assert reader.read("touch", noise) == (0.0, 0.0, 0.0, 0.0)
+    world.touch(part, 0.2)
+    run(world, 0.1)
+    forces = reader.read("touch", noise)
+    assert forces[index] > 1.0
+    assert all(force == 0.0 for i, force in enumerate(forces) if i != index)
+    run(world, 0.2)
+    assert reader.read("touch", noise)[index] == 0.0
+
+
+def test_a_box_placed_against_the_nose_presses_the_nose_sensor(
+    noise: np.random.Generator,
+) -> None:
+    world = DogWorld(x=1.0, y=2.0)
+    run(world, 0.3)
+    world.place("box1", world.pose[0] + 0.36, world.pose[1])  # 1 cm into the nose
+    run(world, 0.05)
+    assert SensorReader(world).read("touch", noise)[3] > 1.0
+
+
+def test_the_battery_drains_faster_walking_and_charges_on_the_pad() -> None:
+    idle, walking = Battery(level=0.5), Battery(level=0.5)
+    idle.update(10.0, walking=False, docked=False)
+    walking.update(10.0, walking=True, docked=False)
+    assert walking.level < idle.level < 0.5
+    walking.update(10.0, walking=False, docked=True)
+    assert walking.charging
+    assert walking.level > 0.5
+
+
+def test_a_drained_battery_reads_low_and_lying_on_the_pad_charges_it(
+    noise: np.random.Generator,
+) -> None:
+    world = DogWorld(x=CHARGER[0], y=CHARGER[1], battery=0.3)
+    world.drain(0.01)
+    run(world, 1.0)
+    level, charging = SensorReader(world).read("battery", noise)
+    assert level < 29.5
+    assert not charging
+    world.command("lie")
+    run(world, 1.0)
+    assert world.docked
+    assert SensorReader(world).read("battery", noise)[1]
+
+
+def test_pushed_over_the_accelerometer_says_so_and_the_get_up_motion_rights_it(
+    noise: np.random.Generator,
+) -> None:
+    world = DogWorld()
+    run(world, 0.3)
+    world.push(1)
+    run(world, 1.5)
+    assert world.upright < 0.5
+    _ax, _ay, az, _gyro = SensorReader(world).read("imu", noise)
+    assert az < 5.0
+    world.command("getup")
+    run(world, 2.0)
+    world.command("stand")
+    run(world, 1.0)
+    assert world.upright > 0.95
+    assert SensorReader(world).read("imu", noise)[2] > 9.0
+
+
+def test_an_unknown_motion_stands_still() -> None:
+    world = DogWorld()
+    world.command("dance", 1.0, 1.0)
+    assert world.motion is Motion.STAND
