@@ -21,14 +21,15 @@ import msgspec
 import numpy as np
 import numpy.typing as npt
 
-from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
+from beatlog.engine.cycle import StateChangeRecord
 from beatlog.engine.loading import load_system
+from beatlog.engine.trace import ReplayInputs
 from beatlog.engine.verdict import Divergence, DivergenceKind, StateChange
-from beatlog.errors import BeatlogError, CorruptLogError, FieldError, SchemaMismatchError
+from beatlog.errors import BeatlogError, CorruptLogError, FieldError
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, System
-from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
+from beatlog.model.random import RandomMismatch
 
 __all__ = [
     "CLOSE_UP_NS",
@@ -322,31 +323,16 @@ class _Replayer:
 
     def __init__(self, system: System, path: Path) -> None:
         self.path = path
-        self.random = ReplayRandom()
-        self.executor = CycleExecutor(system, self.random)
+        self.inputs = ReplayInputs(system)
+        self.random = self.inputs.random
+        self.executor = self.inputs.executor
         self._names = self.executor.behavior_ids
-        self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
-        self._state_type = system.robot_state.__name__
-        self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
         self._encoder = payload_encoder()
 
     def step(self, record: CycleRecord) -> tuple[list[StateChange] | None, DivergenceKind | None]:
         """The cycle's actual state changes (None when replay cannot go on) and any problem."""
-        cycle = self.executor.context.cycle + 1
         random = self.random
-        try:
-            state = self._state_decoder.decode(record.rs)
-        except msgspec.DecodeError as exc:
-            raise SchemaMismatchError(
-                self.path,
-                f"robot state of cycle {cycle} does not fit {self._state_type}: {exc}",
-            ) from None
-        try:
-            random.load(() if record.rn == EMPTY_LIST else self._draws_decoder.decode(record.rn))
-        except msgspec.DecodeError as exc:
-            raise CorruptLogError(
-                self.path, f"damaged random numbers in cycle {cycle}: {exc}"
-            ) from None
+        state = self.inputs.load(self.path, self.executor.context.cycle + 1, record)
         try:
             changes = self.executor.step(record.hb_ns, state)
         except RandomMismatch as mismatch:

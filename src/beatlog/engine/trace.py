@@ -22,7 +22,14 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 
-__all__ = ["ReplayedTrace", "TracedChange", "fields_read", "recorded_trace", "replayed_trace"]
+__all__ = [
+    "ReplayInputs",
+    "ReplayedTrace",
+    "TracedChange",
+    "fields_read",
+    "recorded_trace",
+    "replayed_trace",
+]
 
 
 class TracedChange(NamedTuple):
@@ -55,7 +62,13 @@ def recorded_trace(log: str | Path) -> list[TracedChange]:
         for cycle, record in enumerate(_records(reader)):
             time_ns += record.hb_ns
             if record.bs != EMPTY_LIST:
-                for index, before, after in _decoded(reader.path, cycle, decode, record.bs):
+                try:
+                    recorded = decode(record.bs)
+                except msgspec.DecodeError as exc:
+                    raise CorruptLogError(
+                        reader.path, f"damaged state changes in cycle {cycle}: {exc}"
+                    ) from None
+                for index, before, after in recorded:
                     name = names[index] if 0 <= index < len(names) else f"#{index}"
                     changes.append(TracedChange(cycle, time_ns, StateChange(name, before, after)))
     return changes
@@ -67,7 +80,7 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     Replay uses the recording's heartbeats, robot states and random numbers; it stops
     early when the behaviors raise or draw random numbers the log does not have.
     """
-    replayer = _Replayer(system)
+    replayer = ReplayInputs(system)
     names = replayer.executor.behavior_ids
     random = replayer.random
     changes: list[TracedChange] = []
@@ -117,7 +130,7 @@ def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
     Replays the cycles before it as recorded; empty when replay cannot get there or
     the behaviors do not accept the stand-in state.
     """
-    replayer = _Replayer(system)
+    replayer = ReplayInputs(system)
     with SessionLogReader(log) as reader:
         for index, record, state in itertools.islice(replayer.cycles(reader), cycle + 1):
             tracker = _ReadTracker(state) if index == cycle else None
@@ -131,38 +144,35 @@ def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
     return ()
 
 
-class _Replayer:
-    """A system replayed cycle by cycle: yields each cycle's RS_t with RN_t loaded."""
+class ReplayInputs:
+    """A system set up for replay, and each recorded cycle's RS_t decoded with RN_t loaded."""
 
     def __init__(self, system: System) -> None:
         self.random = ReplayRandom()
         self.executor = CycleExecutor(system, self.random)
+        self._state_type = system.robot_state.__name__
         self._state = msgspec.msgpack.Decoder(system.robot_state).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
 
+    def load(self, path: Path, cycle: int, record: CycleRecord) -> Any:
+        """RS_t of ``record``, with its random numbers loaded for the behaviors to draw."""
+        try:
+            state = self._state(record.rs)
+        except msgspec.DecodeError as exc:
+            raise SchemaMismatchError(
+                path, f"robot state of cycle {cycle} does not fit {self._state_type}: {exc}"
+            ) from None
+        try:
+            self.random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
+        except msgspec.DecodeError as exc:
+            raise CorruptLogError(path, f"damaged random numbers in cycle {cycle}: {exc}") from None
+        return state
+
     def cycles(self, reader: SessionLogReader) -> Iterator[tuple[int, CycleRecord, Any]]:
+        """Every cycle of the log with its RS_t, ready to step."""
         for cycle, record in enumerate(_records(reader)):
-            state = _decoded(reader.path, cycle, self._state, record.rs, SchemaMismatchError)
-            self.random.load(
-                ()
-                if record.rn == EMPTY_LIST
-                else _decoded(reader.path, cycle, self._draws, record.rn)
-            )
-            yield cycle, record, state
+            yield cycle, record, self.load(reader.path, cycle, record)
 
 
 def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:
     return itertools.chain.from_iterable(reader.batches())
-
-
-def _decoded(
-    path: Path,
-    cycle: int,
-    decode: Any,
-    data: msgspec.Raw,
-    error: type[CorruptLogError | SchemaMismatchError] = CorruptLogError,
-) -> Any:
-    try:
-        return decode(data)
-    except msgspec.DecodeError as exc:
-        raise error(path, f"cannot decode cycle {cycle}: {exc}") from None

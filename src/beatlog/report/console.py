@@ -13,7 +13,7 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from beatlog.engine.verdict import Divergence, DivergenceKind, DrawReport, ReplayResult, StateChange
+from beatlog.engine.verdict import Divergence, DivergenceKind, ReplayResult
 from beatlog.log.summary import LogSummary
 from beatlog.suite.runner import SpecOutcome, Verdict
 
@@ -90,12 +90,6 @@ def _items(values: dict[str, Any]) -> list[str]:
     return [f"{name} = {value!r}" for name, value in values.items()]
 
 
-def _cell(item: StateChange | DrawReport | str) -> str:
-    if isinstance(item, DrawReport):
-        return f"{item.behavior}: {item.kind} {item.value!r}"
-    return str(item)
-
-
 def _side_by_side(
     what: str,
     expected: Any,
@@ -106,8 +100,8 @@ def _side_by_side(
     table.add_column("replayed", style="red", ratio=1)
     rows = max(len(expected), len(actual))
     for row in range(rows):
-        want = _cell(expected[row]) if row < len(expected) else ""
-        got = _cell(actual[row]) if row < len(actual) else ""
+        want = str(expected[row]) if row < len(expected) else ""
+        got = str(actual[row]) if row < len(actual) else ""
         table.add_row(want or "—", got or "—", style=None if want == got else "bold")
     if not rows:
         table.add_row("—", "—")
