@@ -166,7 +166,7 @@ class BareContext:
 class BareInputs:
     """Every cycle's heartbeat interval and decoded robot state, and all draws in order."""
 
-    hb_ns: list[int]
+    heartbeat_ns: list[int]
     states: list[RoverState]
     draws: list[float]
 
@@ -178,9 +178,9 @@ def load_bare_inputs(path: Path) -> BareInputs:
     inputs = BareInputs([], [], [])
     with SessionLogReader(path) as reader:
         for record in reader.cycles():
-            inputs.hb_ns.append(record.hb_ns)
-            inputs.states.append(decode_state(record.rs))
-            inputs.draws.extend(draw.value for draw in decode_draws(record.rn))
+            inputs.heartbeat_ns.append(record.heartbeat_ns)
+            inputs.states.append(decode_state(record.robot_state))
+            inputs.draws.extend(draw.value for draw in decode_draws(record.random_numbers))
     return inputs
 
 
@@ -191,7 +191,7 @@ def run_bare(inputs: BareInputs) -> System:
     bare = BareContext(BareRandom(inputs.draws))
     context = cast(Context, bare)
     time_ns = 0
-    for cycle, (hb_ns, state) in enumerate(zip(inputs.hb_ns, inputs.states, strict=True)):
+    for cycle, (hb_ns, state) in enumerate(zip(inputs.heartbeat_ns, inputs.states, strict=True)):
         time_ns += hb_ns
         bare.cycle = cycle
         bare.time_ns = time_ns
@@ -238,7 +238,7 @@ def read_log(path: Path) -> int:
     with SessionLogReader(path) as reader:
         for batch in reader.batches():
             for record in batch:
-                decode(record.rs)
+                decode(record.robot_state)
             cycles += len(batch)
     return cycles
 
@@ -257,7 +257,7 @@ def read_plain(blob: bytes) -> int:
     )
     decode = msgspec.msgpack.Decoder(RoverState).decode
     for record in records:
-        decode(record.rs)
+        decode(record.robot_state)
     return len(records)
 
 

@@ -67,7 +67,7 @@ def pinned_to_one_core() -> set[int] | None:
 
 def heartbeat_figures(log: Path) -> dict[str, float]:
     with SessionLogReader(log) as reader:
-        intervals = np.array([cycle.hb_ns for cycle in reader.cycles()]) / 1e6
+        intervals = np.array([cycle.heartbeat_ns for cycle in reader.cycles()]) / 1e6
         overruns = reader.end.overruns if reader.end else -1
     return {
         "cycles": len(intervals),

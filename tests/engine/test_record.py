@@ -42,7 +42,7 @@ def test_step_returns_outputs_and_the_header_describes_the_session(tmp_path: Pat
         "distance",
         "reading",
     }
-    assert [c.hb_ns for c in cycles] == [PERIOD_NS, PERIOD_NS]
+    assert [c.heartbeat_ns for c in cycles] == [PERIOD_NS, PERIOD_NS]
 
 
 class PushRobot:

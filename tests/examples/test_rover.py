@@ -78,6 +78,6 @@ def test_a_live_session_records_in_real_time_and_replays(tmp_path: Path) -> None
     assert summary.error is None
     assert summary.cycles >= 40
     with SessionLogReader(log) as reader:
-        intervals = [c.hb_ns for c in reader.cycles()]
+        intervals = [c.heartbeat_ns for c in reader.cycles()]
     assert math.isclose(sum(intervals) / len(intervals), 30e6, rel_tol=0.2)
     assert replay(log, system()).ok

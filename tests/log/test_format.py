@@ -97,7 +97,7 @@ def test_a_special_float_in_the_robot_state_round_trips_bit_for_bit(
         recorder.step(PERIOD_NS, Probe(distance=1.0, reading=value))
 
     [cycle] = read_cycles(log)
-    state = msgspec.msgpack.decode(cycle.rs, type=Probe)
+    state = msgspec.msgpack.decode(cycle.robot_state, type=Probe)
 
     assert bits(state.reading) == bits(value)
     assert math.copysign(1.0, state.reading) == math.copysign(1.0, value)
@@ -110,7 +110,7 @@ def test_a_special_float_in_the_outputs_round_trips_bit_for_bit(
     log = write_log(tmp_path / "special.beatlog", [Gauge()], [{"reading": value}])
 
     [cycle] = read_cycles(log)
-    outputs = msgspec.msgpack.decode(cycle.out, type=dict[str, float])
+    outputs = msgspec.msgpack.decode(cycle.outputs, type=dict[str, float])
 
     assert bits(outputs["reading"]) == bits(value)
     assert math.copysign(1.0, outputs["reading"]) == math.copysign(1.0, value)
@@ -122,8 +122,8 @@ def test_big_and_small_ints_round_trip_exactly_in_state_and_outputs(tmp_path: Pa
 
     cycles = read_cycles(log)
 
-    assert [msgspec.msgpack.decode(c.rs, type=Gauge).count for c in cycles] == INTS
-    assert [msgspec.msgpack.decode(c.out)["count"] for c in cycles] == INTS
+    assert [msgspec.msgpack.decode(c.robot_state, type=Gauge).count for c in cycles] == INTS
+    assert [msgspec.msgpack.decode(c.outputs)["count"] for c in cycles] == INTS
 
 
 def test_unicode_strings_round_trip_exactly_in_state_and_outputs(tmp_path: Path) -> None:
@@ -132,8 +132,8 @@ def test_unicode_strings_round_trip_exactly_in_state_and_outputs(tmp_path: Path)
 
     cycles = read_cycles(log)
 
-    assert [msgspec.msgpack.decode(c.rs, type=Gauge).label for c in cycles] == STRINGS
-    assert [msgspec.msgpack.decode(c.out) for c in cycles] == [{s: s} for s in STRINGS]
+    assert [msgspec.msgpack.decode(c.robot_state, type=Gauge).label for c in cycles] == STRINGS
+    assert [msgspec.msgpack.decode(c.outputs) for c in cycles] == [{s: s} for s in STRINGS]
 
 
 def test_the_header_round_trips_with_the_catalogue_and_robot_state_schema(
@@ -159,11 +159,11 @@ def test_the_header_round_trips_with_the_catalogue_and_robot_state_schema(
 
 def test_a_cycle_record_is_a_msgpack_array_of_its_six_parts() -> None:
     record = CycleRecord(
-        hb_ns=PERIOD_NS,
-        rs=msgspec.Raw(msgspec.msgpack.encode({"distance": 1.0})),
-        bs=EMPTY_LIST,
-        rn=EMPTY_LIST,
-        out=EMPTY_MAP,
+        heartbeat_ns=PERIOD_NS,
+        robot_state=msgspec.Raw(msgspec.msgpack.encode({"distance": 1.0})),
+        state_changes=EMPTY_LIST,
+        random_numbers=EMPTY_LIST,
+        outputs=EMPTY_MAP,
         samples=EMPTY_LIST,
     )
 

@@ -23,9 +23,9 @@ def changes_and_draws_in(log: Path) -> tuple[Counter[str], Counter[str]]:
     with SessionLogReader(log) as reader:
         names = reader.header.behaviors
         for cycle in reader.cycles():
-            for index, _before, _after in msgspec.msgpack.decode(cycle.bs):
+            for index, _before, _after in msgspec.msgpack.decode(cycle.state_changes):
                 changes[names[index]] += 1
-            for _actor, kind, _value in msgspec.msgpack.decode(cycle.rn):
+            for _actor, kind, _value in msgspec.msgpack.decode(cycle.random_numbers):
                 draws[kind] += 1
     return changes, draws
 

@@ -47,7 +47,7 @@ def append_probe(writer: SessionLogWriter, t: int) -> None:
 
 
 def readings(cycles: list[CycleRecord]) -> list[float]:
-    return [msgspec.msgpack.decode(cycle.rs, type=Probe).reading for cycle in cycles]
+    return [msgspec.msgpack.decode(cycle.robot_state, type=Probe).reading for cycle in cycles]
 
 
 def read_all(path: Path) -> tuple[list[CycleRecord], LogStatus]:
@@ -131,8 +131,8 @@ def test_a_cycle_is_encoded_when_appended_so_later_changes_do_not_leak_in(
 
     [cycle], _ = read_all(log)
 
-    assert msgspec.msgpack.decode(cycle.rs, type=Probe).distance == 0.7
-    assert msgspec.msgpack.decode(cycle.out) == {"speed": 0.5}
+    assert msgspec.msgpack.decode(cycle.robot_state, type=Probe).distance == 0.7
+    assert msgspec.msgpack.decode(cycle.outputs) == {"speed": 0.5}
 
 
 def test_numpy_values_in_outputs_are_recorded_as_plain_values(tmp_path: Path) -> None:
@@ -143,7 +143,7 @@ def test_numpy_values_in_outputs_are_recorded_as_plain_values(tmp_path: Path) ->
 
     [cycle], _ = read_all(log)
 
-    assert msgspec.msgpack.decode(cycle.out) == {"gain": 0.5, "count": 3, "wheels": [1.5, -2.0]}
+    assert msgspec.msgpack.decode(cycle.outputs) == {"gain": 0.5, "count": 3, "wheels": [1.5, -2.0]}
 
 
 def test_a_value_that_cannot_be_recorded_is_refused_at_once(tmp_path: Path) -> None:

@@ -197,7 +197,7 @@ class _Judge:
         cycle = 0
         for batch in batches:
             for record in batch:
-                record.bs = baseline.get(cycle, EMPTY_LIST)
+                record.state_changes = baseline.get(cycle, EMPTY_LIST)
                 cycle += 1
             yield batch
 
@@ -228,30 +228,32 @@ class _Judge:
         raw = msgspec.Raw
         for index, record in enumerate(batch):
             state = self._state(record)
-            random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
+            random.load(
+                () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
+            )
             changes: list[StateChangeRecord] | None = None
             failure: Exception | None = None
             try:
-                changes = step(record.hb_ns, state)
+                changes = step(record.heartbeat_ns, state)
                 if (
                     random.mismatch is None
                     and len(random.drawn) == len(random.recorded)
                     and (
                         (
-                            record.bs == EMPTY_LIST
+                            record.state_changes == EMPTY_LIST
                             if not changes
-                            else same_catalogue and record.bs == raw(encode(changes))
+                            else same_catalogue and record.state_changes == raw(encode(changes))
                         )
-                        or self._changes_agree(record.bs, changes)
+                        or self._changes_agree(record.state_changes, changes)
                     )
                     and (
                         not outputs_compared
                         or (
-                            record.out == EMPTY_MAP
+                            record.outputs == EMPTY_MAP
                             if not context.outputs
-                            else record.out == raw(encode(context.outputs))
+                            else record.outputs == raw(encode(context.outputs))
                         )
-                        or self._outputs_agree(record.out, context.outputs)
+                        or self._outputs_agree(record.outputs, context.outputs)
                     )
                 ):
                     remember(record)
@@ -282,9 +284,11 @@ class _Judge:
             None if suspect else self._context,
         ):
             state = self._state(record)
-            self.random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
+            self.random.load(
+                () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
+            )
             try:
-                changes = self.executor.step(record.hb_ns, state)
+                changes = self.executor.step(record.heartbeat_ns, state)
             except (Exception, RandomMismatch):  # the first divergence is already reported
                 suspect = False
                 break
@@ -309,7 +313,7 @@ class _Judge:
         return ContextRow(
             context.cycle,
             context.time_ns,
-            tuple(self._named(record.bs)),
+            tuple(self._named(record.state_changes)),
             tuple(self._named_actual(changes)),
         )
 
@@ -321,8 +325,8 @@ class _Judge:
         time_ns = divergence.time_ns
         before: list[ContextRow] = []
         for offset in range(1, len(recent)):
-            time_ns -= recent[-offset].hb_ns
-            expected = tuple(self._named(recent[-offset - 1].bs))
+            time_ns -= recent[-offset].heartbeat_ns
+            expected = tuple(self._named(recent[-offset - 1].state_changes))
             before.append(ContextRow(divergence.cycle - offset, time_ns, expected, expected))
         here = ContextRow(
             divergence.cycle, divergence.time_ns, divergence.expected, divergence.actual
@@ -333,7 +337,7 @@ class _Judge:
 
     def _state(self, record: CycleRecord) -> Any:
         try:
-            return self._state_decoder.decode(record.rs)
+            return self._state_decoder.decode(record.robot_state)
         except msgspec.DecodeError as exc:
             raise SchemaMismatchError(
                 self.path,
@@ -400,9 +404,9 @@ class _Judge:
             return
         context = self.executor.context
         random = self.random
-        expected = self._named(record.bs)
+        expected = self._named(record.state_changes)
         actual = self._named_actual(changes or [])
-        expected_outputs = self._decode(record.out, self._outputs_decoder.decode, "outputs")
+        expected_outputs = self._decode(record.outputs, self._outputs_decoder.decode, "outputs")
         mismatch = random.mismatch
         behavior: str | None = None
         trace: str | None = None

@@ -262,13 +262,13 @@ class _Collector:
         for record in batch:
             self.cycle += 1
             previous_ns = self.time_ns
-            self.time_ns += record.hb_ns
+            self.time_ns += record.heartbeat_ns
             if override is not None:
                 expected = list(override.get(self.cycle, ()))
-            elif record.bs == EMPTY_LIST:
+            elif record.state_changes == EMPTY_LIST:
                 expected = []
             else:
-                expected = self._recorded(record.bs)
+                expected = self._recorded(record.state_changes)
             self._add(self._expected, expected)
             if replay is None or self._stopped_ns is not None:
                 continue
@@ -334,7 +334,7 @@ class _Replayer:
         random = self.random
         state = self.inputs.load(self.path, self.executor.context.cycle + 1, record)
         try:
-            changes = self.executor.step(record.hb_ns, state)
+            changes = self.executor.step(record.heartbeat_ns, state)
         except RandomMismatch as mismatch:
             return None, _random_kind(mismatch)
         except BeatlogError:
@@ -347,7 +347,7 @@ class _Replayer:
         if len(random.drawn) < len(random.recorded):
             return actual, DivergenceKind.RANDOM_UNDERDRAWN
         outputs = self.executor.context.outputs
-        recorded_out = record.out
+        recorded_out = record.outputs
         if recorded_out != (
             EMPTY_MAP if not outputs else msgspec.Raw(self._encoder.encode(outputs))
         ):
@@ -373,9 +373,9 @@ class _Sampler:
 
     def run(self, batch: Sequence[CycleRecord]) -> None:
         for record in batch:
-            self._now_ns += record.hb_ns
+            self._now_ns += record.heartbeat_ns
             try:
-                state = self._decoder.decode(record.rs)
+                state = self._decoder.decode(record.robot_state)
             except msgspec.DecodeError as exc:
                 raise CorruptLogError(
                     self.path, f"damaged robot state in cycle {len(self._time_ns)}: {exc}"

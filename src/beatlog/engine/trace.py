@@ -60,10 +60,10 @@ def recorded_trace(log: str | Path) -> list[TracedChange]:
         changes: list[TracedChange] = []
         time_ns = 0
         for cycle, record in enumerate(_records(reader)):
-            time_ns += record.hb_ns
-            if record.bs != EMPTY_LIST:
+            time_ns += record.heartbeat_ns
+            if record.state_changes != EMPTY_LIST:
                 try:
-                    recorded = decode(record.bs)
+                    recorded = decode(record.state_changes)
                 except msgspec.DecodeError as exc:
                     raise CorruptLogError(
                         reader.path, f"damaged state changes in cycle {cycle}: {exc}"
@@ -89,7 +89,7 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     with SessionLogReader(log) as reader:
         for cycle, record, state in replayer.cycles(reader):
             try:
-                stepped = replayer.executor.step(record.hb_ns, state)
+                stepped = replayer.executor.step(record.heartbeat_ns, state)
             except RandomMismatch as mismatch:
                 stopped = f"cycle {cycle}: {mismatch.problem}"
                 break
@@ -135,7 +135,7 @@ def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
         for index, record, state in itertools.islice(replayer.cycles(reader), cycle + 1):
             tracker = _ReadTracker(state) if index == cycle else None
             try:
-                replayer.executor.step(record.hb_ns, tracker or state)
+                replayer.executor.step(record.heartbeat_ns, tracker or state)
             except (Exception, RandomMismatch):  # the diverging cycle may raise: keep its reads
                 if tracker is None:
                     return ()
@@ -157,13 +157,15 @@ class ReplayInputs:
     def load(self, path: Path, cycle: int, record: CycleRecord) -> Any:
         """RS_t of ``record``, with its random numbers loaded for the behaviors to draw."""
         try:
-            state = self._state(record.rs)
+            state = self._state(record.robot_state)
         except msgspec.DecodeError as exc:
             raise SchemaMismatchError(
                 path, f"robot state of cycle {cycle} does not fit {self._state_type}: {exc}"
             ) from None
         try:
-            self.random.load(() if record.rn == EMPTY_LIST else self._draws(record.rn))
+            self.random.load(
+                () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
+            )
         except msgspec.DecodeError as exc:
             raise CorruptLogError(path, f"damaged random numbers in cycle {cycle}: {exc}") from None
         return state

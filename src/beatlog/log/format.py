@@ -86,16 +86,17 @@ class SessionHeader(msgspec.Struct, kw_only=True):
 class CycleRecord(msgspec.Struct, array_like=True):
     """One heartbeat t of the session log: SL_t = (HB_t, RS_t, BS_t, RN_t) plus outputs.
 
-    ``bs`` is a list of ``[behavior index, before, after]``; ``rn`` a list of
-    ``[actor index, kind, value]``; ``out`` a map of output name to value;
-    ``samples`` the raw sensor samples folded into ``rs`` when sample logging is on.
+    ``state_changes`` is a list of ``[behavior index, before, after]``;
+    ``random_numbers`` a list of ``[actor index, kind, value, params]``; ``outputs`` a
+    map of output name to value; ``samples`` the raw sensor samples folded into
+    ``robot_state`` when sample logging is on.
     """
 
-    hb_ns: int
-    rs: msgspec.Raw
-    bs: msgspec.Raw
-    rn: msgspec.Raw
-    out: msgspec.Raw
+    heartbeat_ns: int
+    robot_state: msgspec.Raw
+    state_changes: msgspec.Raw
+    random_numbers: msgspec.Raw
+    outputs: msgspec.Raw
     samples: msgspec.Raw
 
 

@@ -60,12 +60,14 @@ def summarize(path: str | Path) -> LogSummary:
         draws = Counter[str]()
         for batch in reader.batches():
             for cycle in batch:
-                intervals.append(cycle.hb_ns)
+                intervals.append(cycle.heartbeat_ns)
                 try:
-                    if cycle.bs != EMPTY_LIST:
-                        transitions.update(c.behavior for c in changes_decoder.decode(cycle.bs))
-                    if cycle.rn != EMPTY_LIST:
-                        draws.update(d.kind for d in draws_decoder.decode(cycle.rn))
+                    if cycle.state_changes != EMPTY_LIST:
+                        transitions.update(
+                            c.behavior for c in changes_decoder.decode(cycle.state_changes)
+                        )
+                    if cycle.random_numbers != EMPTY_LIST:
+                        draws.update(d.kind for d in draws_decoder.decode(cycle.random_numbers))
                 except msgspec.DecodeError as exc:
                     raise CorruptLogError(
                         reader.path, f"damaged cycle {len(intervals) - 1}: {exc}"

@@ -46,7 +46,7 @@ def test_a_live_session_with_a_remote_client_records_and_replays(tmp_path: Path)
     assert replay(log, SYSTEM_REF).ok
     with SessionLogReader(log) as reader:
         cycles = list(reader.cycles())
-    assert sum(c.hb_ns for c in cycles) / len(cycles) == pytest.approx(30e6, rel=0.2)
+    assert sum(c.heartbeat_ns for c in cycles) / len(cycles) == pytest.approx(30e6, rel=0.2)
     assert dog.remote.rejected == 0
     assert not dog.remote._threads[0].is_alive()
 

@@ -38,7 +38,7 @@ def measured_intervals(logs: Sequence[str | Path]) -> list[int]:
     intervals: list[int] = []
     for log in logs:
         with SessionLogReader(log) as reader:
-            intervals.extend(cycle.hb_ns for cycle in reader.cycles())
+            intervals.extend(cycle.heartbeat_ns for cycle in reader.cycles())
     return intervals
 
 
