@@ -328,7 +328,6 @@ def live_recording(path: Path, seconds: float) -> tuple[LiveRun, list[int]]:
         append = writer.append
 
         def timed_append(
-            time_ns: int,
             hb_ns: int,
             state: msgspec.Struct,
             changes: Sequence[Any],
@@ -337,7 +336,7 @@ def live_recording(path: Path, seconds: float) -> tuple[LiveRun, list[int]]:
             samples: Sequence[Any] = (),
         ) -> None:
             started = time.perf_counter_ns()
-            append(time_ns, hb_ns, state, changes, draws, outputs, samples)
+            append(hb_ns, state, changes, draws, outputs, samples)
             appends.append(time.perf_counter_ns() - started)
 
         writer.append = timed_append  # type: ignore[method-assign]
@@ -352,9 +351,9 @@ def hot_append(path: Path, cycles: int = 10_000) -> list[int]:
     times: list[int] = []
     with Recorder(path, system(), system_ref=SYSTEM_REF, seed=1, software="bench") as recorder:
         append = recorder._writer.append
-        for cycle in range(cycles):
+        for _ in range(cycles):
             started = time.perf_counter_ns()
-            append(cycle * DEFAULT_PERIOD_NS, DEFAULT_PERIOD_NS, state, [], [], outputs)
+            append(DEFAULT_PERIOD_NS, state, [], [], outputs)
             times.append(time.perf_counter_ns() - started)
     return times
 

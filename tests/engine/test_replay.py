@@ -272,7 +272,7 @@ def test_damaged_random_numbers_in_a_log_are_bad_input(tmp_path: Path) -> None:
         behaviors=list(system.behaviors),
     )
     with SessionLogWriter(log, header) as writer:
-        writer.append(PERIOD_NS, PERIOD_NS, Probe(), [], ["not a draw"], {})
+        writer.append(PERIOD_NS, Probe(), [], ["not a draw"], {})
     with pytest.raises(CorruptLogError, match="damaged random numbers in cycle"):
         replay(log, system)
 

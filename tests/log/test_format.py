@@ -78,8 +78,8 @@ def session_header(**changes: Any) -> SessionHeader:
 def write_log(path: Path, states: list[msgspec.Struct], outputs: list[dict[str, Any]]) -> Path:
     """Write one cycle per state with the matching outputs; returns the path."""
     with SessionLogWriter(path, session_header()) as writer:
-        for t, (state, out) in enumerate(zip(states, outputs, strict=True)):
-            writer.append((t + 1) * PERIOD_NS, PERIOD_NS, state, [], [], out)
+        for state, out in zip(states, outputs, strict=True):
+            writer.append(PERIOD_NS, state, [], [], out)
     return path
 
 

@@ -72,8 +72,8 @@ def write_chunked_log(path: Path, cycles: int = CYCLES) -> Path:
         changes = [(0, "far", "near")] if t % 7 == 0 else []
         draws = [(0, "random", t / cycles)] if t % 3 == 0 else []
         state = Probe(distance=1.0 - t / cycles, reading=float(t))
-        writer.append((t + 1) * PERIOD_NS, PERIOD_NS + t, state, changes, draws, {"t": t})
-    writer.close(SessionEnd(cycles=cycles, robot_time_ns=cycles * PERIOD_NS))
+        writer.append(PERIOD_NS + t, state, changes, draws, {"t": t})
+    writer.close(SessionEnd(cycles=cycles, robot_time_ns=cycles * PERIOD_NS + sum(range(cycles))))
     return path
 
 
@@ -130,7 +130,7 @@ def test_a_complete_log_reads_every_cycle_and_says_complete(
     assert encoded([cycle for batch in batches for cycle in batch]) == original.cycles
     assert status == LogStatus(complete=True, cycles=CYCLES)
     assert status.describe() == "complete"
-    assert end == SessionEnd(cycles=CYCLES, robot_time_ns=CYCLES * PERIOD_NS)
+    assert end == SessionEnd(cycles=CYCLES, robot_time_ns=CYCLES * PERIOD_NS + sum(range(CYCLES)))
 
 
 def test_the_status_is_unknown_until_the_cycles_have_been_read(

@@ -25,7 +25,7 @@ def changes_and_draws_in(log: Path) -> tuple[Counter[str], Counter[str]]:
         for cycle in reader.cycles():
             for index, _before, _after in msgspec.msgpack.decode(cycle.state_changes):
                 changes[names[index]] += 1
-            for _actor, kind, _value in msgspec.msgpack.decode(cycle.random_numbers):
+            for _actor, kind, *_ in msgspec.msgpack.decode(cycle.random_numbers):
                 draws[kind] += 1
     return changes, draws
 
@@ -70,7 +70,7 @@ def write_heartbeats(path: Path, intervals_ns: list[int], *, close: bool = True)
     changes: list[Any] = [(1, "even", "odd"), (0, "far", "near")]
     draws: list[Any] = [(1, "gauss", 0.3), (1, "randint", 4), (-1, "gauss", -1.2)]
     for t, interval in enumerate(intervals_ns):
-        writer.append(t, interval, Probe(), changes if t == 1 else [], draws if t == 2 else [], {})
+        writer.append(interval, Probe(), changes if t == 1 else [], draws if t == 2 else [], {})
     if close:
         writer.close(SessionEnd(cycles=len(intervals_ns), robot_time_ns=sum(intervals_ns)))
     else:

@@ -43,7 +43,7 @@ class DiskFull(io.BytesIO):
 
 def append_probe(writer: SessionLogWriter, t: int) -> None:
     """Append cycle t, whose robot state reads t."""
-    writer.append((t + 1) * PERIOD_NS, PERIOD_NS, Probe(reading=float(t)), [], [], {"t": t})
+    writer.append(PERIOD_NS, Probe(reading=float(t)), [], [], {"t": t})
 
 
 def readings(cycles: list[CycleRecord]) -> list[float]:
@@ -125,7 +125,7 @@ def test_a_cycle_is_encoded_when_appended_so_later_changes_do_not_leak_in(
     state = Probe(distance=0.7)
     outputs: dict[str, Any] = {"speed": 0.5}
     with SessionLogWriter(log, session_header()) as writer:
-        writer.append(PERIOD_NS, PERIOD_NS, state, [], [], outputs)
+        writer.append(PERIOD_NS, state, [], [], outputs)
         state.distance = 0.1
         outputs["speed"] = 0.0
 
@@ -139,7 +139,7 @@ def test_numpy_values_in_outputs_are_recorded_as_plain_values(tmp_path: Path) ->
     log = tmp_path / "numpy.beatlog"
     outputs = {"gain": np.float32(0.5), "count": np.int64(3), "wheels": np.array([1.5, -2.0])}
     with SessionLogWriter(log, session_header()) as writer:
-        writer.append(PERIOD_NS, PERIOD_NS, Probe(), [], [], outputs)
+        writer.append(PERIOD_NS, Probe(), [], [], outputs)
 
     [cycle], _ = read_all(log)
 
@@ -149,7 +149,7 @@ def test_numpy_values_in_outputs_are_recorded_as_plain_values(tmp_path: Path) ->
 def test_a_value_that_cannot_be_recorded_is_refused_at_once(tmp_path: Path) -> None:
     with SessionLogWriter(tmp_path / "odd.beatlog", session_header()) as writer:
         with pytest.raises(TypeError, match="cannot record a value of type object"):
-            writer.append(PERIOD_NS, PERIOD_NS, Probe(), [], [], {"thing": object()})
+            writer.append(PERIOD_NS, Probe(), [], [], {"thing": object()})
         append_probe(writer, 1)
 
     cycles, _ = read_all(tmp_path / "odd.beatlog")

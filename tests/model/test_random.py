@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 
 import msgspec
 import numpy as np
@@ -13,6 +14,7 @@ from beatlog.model.random import (
     Draw,
     DrawKind,
     RandomMismatch,
+    RandomSource,
     RecordingRandom,
     ReplayRandom,
 )
@@ -106,8 +108,80 @@ def test_an_array_of_another_shape_is_a_mismatch() -> None:
     recorder.uniform_array(0, 1, 3)
     player = ReplayRandom()
     player.load(through_log(recorder.take()))
+    with pytest.raises(RandomMismatch, match=r"uniform_array\(0, 1, \[4\]\) where .*\[3\]"):
+        player.uniform_array(0, 1, 4)
+
+
+def test_a_format_1_array_of_another_shape_is_still_a_mismatch() -> None:
+    recorder = RecordingRandom(seed=1)
+    recorder.uniform_array(0, 1, 3)
+    player = ReplayRandom()
+    player.load([draw._replace(params=()) for draw in through_log(recorder.take())])
     with pytest.raises(RandomMismatch, match="shape"):
         player.uniform_array(0, 1, 4)
+
+
+@pytest.mark.parametrize(
+    ("recorded", "replayed", "message"),
+    [
+        (
+            lambda r: r.uniform(2.0, 5.0),
+            lambda r: r.uniform(2.5, 5.0),
+            "called uniform(2.5, 5.0) where uniform(2.0, 5.0) was recorded",
+        ),
+        (
+            lambda r: r.gauss(0.0, 0.4),
+            lambda r: r.gauss(0.5, 0.4),
+            "called gauss(0.5, 0.4) where gauss(0.0, 0.4) was recorded",
+        ),
+        (
+            lambda r: r.randint(1, 6),
+            lambda r: r.randint(1, 7),
+            "called randint(1, 7) where randint(1, 6) was recorded",
+        ),
+        (
+            lambda r: r.choice("abc"),
+            lambda r: r.choice("abcd"),
+            "called choice(4) where choice(3) was recorded",
+        ),
+        (
+            lambda r: r.gauss(0.0, 1.0),
+            lambda r: r.gauss(-0.0, 1.0),
+            "called gauss(-0.0, 1.0) where gauss(0.0, 1.0) was recorded",
+        ),
+        (
+            lambda r: r.normal_array(0.0, 1.0, (2, 2)),
+            lambda r: r.normal_array(0.0, 2.0, (2, 2)),
+            "called normal_array(0.0, 2.0, [2, 2]) where normal_array(0.0, 1.0, [2, 2])",
+        ),
+    ],
+)
+def test_a_draw_asked_with_other_parameters_is_a_mismatch(
+    recorded: Callable[[RandomSource], object],
+    replayed: Callable[[RandomSource], object],
+    message: str,
+) -> None:
+    recorder = RecordingRandom(seed=1)
+    recorded(recorder)
+    player = ReplayRandom()
+    player.load(through_log(recorder.take()))
+    with pytest.raises(RandomMismatch) as raised:
+        replayed(player)
+    assert message in raised.value.problem
+
+
+def test_the_same_parameters_replay_the_recorded_value() -> None:
+    recorder = RecordingRandom(seed=1)
+    value = recorder.uniform(2.0, 5.0)
+    player = ReplayRandom()
+    player.load(through_log(recorder.take()))
+    assert player.uniform(2.0, 5.0) == value
+
+
+def test_a_format_1_draw_has_no_parameters_and_is_checked_for_kind_only() -> None:
+    player = ReplayRandom()
+    player.load([Draw(0, "uniform", 0.25)])
+    assert player.uniform(2.5, 5.0) == 0.25
 
 
 def test_a_recorded_choice_must_fit_the_sequence() -> None:

@@ -136,7 +136,6 @@ class Recorder:
         changes = executor.step(interval_ns, state)
         context = executor.context
         self._writer.append(
-            context.time_ns,
             interval_ns,
             state,
             changes,
@@ -177,11 +176,11 @@ class Recorder:
         return RecordSummary(self.cycles, self.robot_time_ns, clock.overruns, self.error)
 
     def close(self, *, error: str | None = None) -> None:
-        """Close the log with its end record."""
+        """Close the log with its end record, which counts the cycles logged."""
         self._writer.close(
             SessionEnd(
-                cycles=self.cycles,
-                robot_time_ns=self.robot_time_ns,
+                cycles=self._writer.cycles_appended,
+                robot_time_ns=self._writer.robot_time_ns,
                 overruns=self._overruns,
                 error=error,
             )

@@ -1,10 +1,11 @@
 """The session log's records: what a ``.beatlog`` file holds and how each is encoded.
 
 A session log is an MCAP file (profile ``beatlog``) with three channels, all
-msgpack-encoded with msgspec:
+msgpack-encoded with msgspec (``docs/format.md`` is the full specification):
 
 - ``/beatlog/header``: one :class:`SessionHeader`, the first message.
-- ``/beatlog/cycles``: batches of :class:`CycleRecord`, one per heartbeat, in order.
+- ``/beatlog/cycles``: :class:`CycleBatch` messages (format 2; a bare list of
+  :class:`CycleRecord` in format 1), one record per heartbeat, in order.
 - ``/beatlog/end``: one :class:`SessionEnd`, written when the recording closes.
 
 Each cycle keeps its parts as raw msgpack so the replay engine can compare behavior
@@ -13,35 +14,51 @@ state changes and outputs byte for byte, without decoding them, when they match.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
 import msgspec
+
+from beatlog.log.limits import MAX_BEHAVIORS, MAX_NAME_LENGTH, MAX_TEXT_LENGTH
 
 __all__ = [
     "CHANNEL_TOPICS",
     "CYCLES_TOPIC",
+    "CYCLE_BATCH_SINCE",
+    "DECODE_ERRORS",
     "EMPTY_LIST",
     "EMPTY_MAP",
     "END_TOPIC",
     "FORMAT_VERSION",
     "HEADER_TOPIC",
     "MESSAGE_ENCODING",
+    "OLDEST_FORMAT_VERSION",
     "PROFILE",
+    "SCHEMA_ENCODING",
+    "CycleBatch",
     "CycleRecord",
     "SessionEnd",
     "SessionHeader",
     "payload_encoder",
+    "schema_name",
 ]
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 """Raised whenever a change would make older readers misread a log."""
+OLDEST_FORMAT_VERSION = 1
+"""The oldest format version this beatlog still reads (and replays)."""
+CYCLE_BATCH_SINCE = 2
+"""From this version on, each cycles message is a :class:`CycleBatch` with its first cycle."""
 
 PROFILE = "beatlog"
 MESSAGE_ENCODING = "msgpack"
+SCHEMA_ENCODING = "jsonschema"
 HEADER_TOPIC = "/beatlog/header"
 CYCLES_TOPIC = "/beatlog/cycles"
 END_TOPIC = "/beatlog/end"
 CHANNEL_TOPICS = (HEADER_TOPIC, CYCLES_TOPIC, END_TOPIC)
+
+DECODE_ERRORS = (msgspec.DecodeError, RecursionError)
+"""What decoding a damaged or hostile payload may raise (msgpack nested too deep included)."""
 
 EMPTY_LIST = msgspec.Raw(b"\x90")
 """An empty msgpack array: no state changes, no draws, no samples."""
@@ -62,25 +79,32 @@ def payload_encoder() -> msgspec.msgpack.Encoder:
     return msgspec.msgpack.Encoder(enc_hook=_encode_array_like)
 
 
-class SessionHeader(msgspec.Struct, kw_only=True):
-    """Describes a session log; enough to read it without the code that wrote it."""
+Name = Annotated[str, msgspec.Meta(max_length=MAX_NAME_LENGTH)]
+Text = Annotated[str, msgspec.Meta(max_length=MAX_TEXT_LENGTH)]
 
-    format_version: int
-    beatlog_version: str
-    robot_id: str
-    software_version: str
-    system: str
+
+class SessionHeader(msgspec.Struct, kw_only=True):
+    """Describes a session log; enough to read it without the code that wrote it.
+
+    Every string and list has a bound (:mod:`beatlog.log.limits`) checked on reading.
+    """
+
+    format_version: Annotated[int, msgspec.Meta(ge=OLDEST_FORMAT_VERSION)]
+    beatlog_version: Name
+    robot_id: Name
+    software_version: Name
+    system: Text
     """The ``module:factory`` the session was recorded with (informational, never imported)."""
-    period_ns: int
-    start_time_ns: int
+    period_ns: Annotated[int, msgspec.Meta(gt=0)]
+    start_time_ns: Annotated[int, msgspec.Meta(ge=0, le=2**63 - 1)]
     """Wall-clock start of the recording (Unix ns); never used by replay."""
-    robot_state_type: str
+    robot_state_type: Text
     robot_state_schema: dict[str, Any]
-    behaviors: list[str]
+    behaviors: Annotated[list[Name], msgspec.Meta(max_length=MAX_BEHAVIORS)]
     """The behavior catalogue; a behavior's id in cycle records is its index here."""
     random_seed: int | None = None
     samples_logged: bool = False
-    flush_interval_ns: int = 1_000_000_000
+    flush_interval_ns: Annotated[int, msgspec.Meta(gt=0)] = 1_000_000_000
 
 
 class CycleRecord(msgspec.Struct, array_like=True):
@@ -92,7 +116,7 @@ class CycleRecord(msgspec.Struct, array_like=True):
     ``robot_state`` when sample logging is on.
     """
 
-    heartbeat_ns: int
+    heartbeat_ns: Annotated[int, msgspec.Meta(ge=0)]
     robot_state: msgspec.Raw
     state_changes: msgspec.Raw
     random_numbers: msgspec.Raw
@@ -100,11 +124,30 @@ class CycleRecord(msgspec.Struct, array_like=True):
     samples: msgspec.Raw
 
 
-class SessionEnd(msgspec.Struct, kw_only=True):
-    """Written when a recording closes cleanly; its absence means the log was cut off."""
+class CycleBatch(msgspec.Struct, array_like=True):
+    """One cycles message (format 2): consecutive cycles, starting at ``first_cycle``.
 
-    cycles: int
-    robot_time_ns: int
-    overruns: int = 0
-    error: str | None = None
+    The reader checks that each batch starts where the previous one ended, so a
+    missing, repeated or reordered batch is an error, never a shorter replay.
+    """
+
+    first_cycle: Annotated[int, msgspec.Meta(ge=0)]
+    cycles: list[CycleRecord]
+
+
+class SessionEnd(msgspec.Struct, kw_only=True):
+    """Written when a recording closes cleanly; its absence means the log was cut off.
+
+    The reader checks ``cycles`` and ``robot_time_ns`` against the cycles it read.
+    """
+
+    cycles: Annotated[int, msgspec.Meta(ge=0)]
+    robot_time_ns: Annotated[int, msgspec.Meta(ge=0)]
+    overruns: Annotated[int, msgspec.Meta(ge=0)] = 0
+    error: Text | None = None
     """Why recording stopped early (e.g. disk full), if it did."""
+
+
+def schema_name(record: type[msgspec.Struct]) -> str:
+    """The MCAP schema name of a record type, e.g. ``beatlog.SessionHeader``."""
+    return f"beatlog.{record.__name__}"

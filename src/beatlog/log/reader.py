@@ -1,47 +1,87 @@
-"""Reads a session log as a stream, never needing the summary section at the end.
+"""Reads a session log as a stream and checks its integrity on every read.
 
 A log cut off by kill -9 or power loss reads up to its last complete record and
-reports where it was truncated; a damaged record before the end, a foreign file or a
-newer format version is a :class:`~beatlog.errors.LogError` that names the file.
-All byte-level reading of the container happens in :meth:`SessionLogReader._records`,
-using the ``mcap`` package's record types; payloads are decoded only with msgspec,
-so nothing in a log can execute code.
+reports where it was truncated. Anything else that is not exactly what the writer
+writes is a :class:`~beatlog.errors.LogError` naming the file: a damaged record, a
+chunk missing, repeated or out of order, a channel, schema or encoding the format
+does not define, an end record that disagrees with the cycles read, a size beyond
+:mod:`beatlog.log.limits`, a foreign file or a newer format version. All byte-level
+reading of the container happens in this module, with the ``mcap`` package's record
+types; payloads are decoded only with msgspec, so nothing in a log can execute code.
+``docs/format.md`` lists every check.
 """
 
 from __future__ import annotations
 
+import os
+import stat
 import struct
+import zlib
 from collections.abc import Iterator
 from io import BytesIO
 from pathlib import Path
 from types import TracebackType
-from typing import IO, NamedTuple, TypeVar
+from typing import IO, Any, NamedTuple, TypeVar
 
 import msgspec
+import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
-from mcap.records import Channel, Chunk, Footer, Header, McapRecord, Message
-from mcap.stream_reader import breakup_chunk
+from mcap.records import (
+    Channel,
+    Chunk,
+    ChunkIndex,
+    DataEnd,
+    Footer,
+    Header,
+    McapRecord,
+    Message,
+    MessageIndex,
+    Schema,
+    Statistics,
+    SummaryOffset,
+)
 
 from beatlog.errors import CorruptLogError, NotABeatlogError, UnsupportedVersionError
 from beatlog.log.format import (
+    CYCLE_BATCH_SINCE,
     CYCLES_TOPIC,
+    DECODE_ERRORS,
     END_TOPIC,
     FORMAT_VERSION,
     HEADER_TOPIC,
+    MESSAGE_ENCODING,
     PROFILE,
+    SCHEMA_ENCODING,
+    CycleBatch,
     CycleRecord,
     SessionEnd,
     SessionHeader,
+    schema_name,
+)
+from beatlog.log.limits import (
+    MAX_CHUNK_BYTES,
+    MAX_EXPANSION,
+    MAX_RECORD_BYTES,
+    MAX_SCHEMA_BYTES,
 )
 
 __all__ = ["LogStatus", "SessionLogReader"]
 
 _MAGIC = b"\x89MCAP0\r\n"
-_MAX_CHUNK_BYTES = 1 << 30
-_COMPRESSIONS = ("", "zstd", "lz4")
+_RECORD_HEAD = 9
 _KNOWN_OPCODES = frozenset(Opcode)
-_FIRST_USER_OPCODE = 0x80
+_DATA_RECORDS = frozenset({Opcode.CHUNK, Opcode.MESSAGE_INDEX, Opcode.DATA_END})
+_SUMMARY_RECORDS = frozenset(
+    {Opcode.SCHEMA, Opcode.CHANNEL, Opcode.STATISTICS, Opcode.CHUNK_INDEX, Opcode.SUMMARY_OFFSET}
+)
+_CHUNK_RECORDS = frozenset({Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE})
+_COMPRESSIONS = ("", "zstd")
+_SCHEMAS = {
+    HEADER_TOPIC: {schema_name(SessionHeader)},
+    CYCLES_TOPIC: {schema_name(CycleBatch), schema_name(CycleRecord)},
+    END_TOPIC: {schema_name(SessionEnd)},
+}
 T = TypeVar("T")
 
 
@@ -67,28 +107,44 @@ class _TruncatedError(Exception):
     """Internal: the file ends, or its last record is cut off, before the log was closed."""
 
 
+class _DamageError(Exception):
+    """Internal: a record is not what the writer writes; corrupt unless it is the last."""
+
+
 class SessionLogReader:
     """Streams the cycles of one ``.beatlog`` file; a context manager.
 
-    The header is read on opening. Iterate :meth:`batches` (fastest) or :meth:`cycles`;
-    when iteration ends, :attr:`status` says whether the log was complete.
+    The header is read and checked on opening. Iterate :meth:`batches` (fastest) or
+    :meth:`cycles`; when iteration ends, :attr:`status` says whether the log was
+    complete. Every cycle yielded is in order, none missing or repeated.
     """
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        self._file = self._open()
-        self._channels: dict[int, str] = {}
+        self._file, self._size = self._open()
+        self._channels: dict[int, Channel] = {}
+        self._topics: dict[str, int] = {}
+        self._schemas: dict[int, Schema] = {}
         self._cycles = 0
+        self._robot_time_ns = 0
         self._end: SessionEnd | None = None
-        self._footer = False
         self._status: LogStatus | None = None
-        self._batch_decoder = msgspec.msgpack.Decoder(list[CycleRecord])
+        self._expanded = 0
+        self._chunks: list[tuple[int, int]] = []
+        self._messages_read: dict[int, int] = {}
+        self._summary_start = 0
+        self._footer: Footer | None = None
+        self._summary: list[McapRecord] = []
         self._messages = self._topic_messages()
         try:
             self.header = self._read_header()
         except BaseException:
             self.close()
             raise
+        self.format_version = self.header.format_version
+        self._batch_decoder: Any = msgspec.msgpack.Decoder(
+            CycleBatch if self.format_version >= CYCLE_BATCH_SINCE else list[CycleRecord]
+        )
 
     @property
     def status(self) -> LogStatus:
@@ -103,19 +159,14 @@ class SessionLogReader:
         return self._end
 
     def batches(self) -> Iterator[list[CycleRecord]]:
-        """Yield the cycles in the batches they were written in."""
+        """Yield the cycles in the batches they were written in, each checked in place."""
         for topic, message in self._messages:
             if topic == CYCLES_TOPIC:
-                try:
-                    batch = self._batch_decoder.decode(message.data)
-                except msgspec.DecodeError as exc:
-                    raise CorruptLogError(
-                        self.path, f"damaged cycle batch after cycle {self._cycles}: {exc}"
-                    ) from None
-                self._cycles += len(batch)
-                yield batch
+                yield self._batch(message)
             elif topic == END_TOPIC:
-                self._end = self._decode(message.data, SessionEnd, "end record")
+                self._read_end(message)
+            else:
+                raise CorruptLogError(self.path, "a second session header")
 
     def cycles(self) -> Iterator[CycleRecord]:
         """Yield every cycle in order."""
@@ -137,21 +188,29 @@ class SessionLogReader:
     ) -> None:
         self.close()
 
-    def _open(self) -> IO[bytes]:
+    def _open(self) -> tuple[IO[bytes], int]:
+        """Open a regular file only: a FIFO or a device could block or never end."""
         try:
-            file = self.path.open("rb")
+            mode = os.stat(self.path).st_mode
         except FileNotFoundError:
             raise NotABeatlogError(self.path, "no such file") from None
-        except IsADirectoryError:
-            raise NotABeatlogError(self.path, "is a directory, not a session log") from None
         except OSError as exc:
             raise NotABeatlogError(self.path, f"cannot open: {exc.strerror}") from None
+        if stat.S_ISDIR(mode):
+            raise NotABeatlogError(self.path, "is a directory, not a session log")
+        if not stat.S_ISREG(mode):
+            raise NotABeatlogError(self.path, "is not a regular file (a FIFO, socket or device)")
+        try:
+            file = self.path.open("rb")
+        except OSError as exc:
+            raise NotABeatlogError(self.path, f"cannot open: {exc.strerror}") from None
+        size = os.fstat(file.fileno()).st_size
         magic = file.read(len(_MAGIC))
         if magic != _MAGIC:
             file.close()
             what = "empty file" if not magic else "not a session log (not an MCAP file)"
             raise NotABeatlogError(self.path, what)
-        return file
+        return file, size
 
     def _read_header(self) -> SessionHeader:
         try:
@@ -160,6 +219,10 @@ class SessionLogReader:
             raise CorruptLogError(self.path, "cut off before its session header") from None
         if topic != HEADER_TOPIC:
             raise CorruptLogError(self.path, f"first message is on {topic!r}, not the header")
+        if len(message.data) > MAX_SCHEMA_BYTES:
+            raise CorruptLogError(
+                self.path, f"session header of {len(message.data)} bytes is implausibly large"
+            )
         version = self._decode(message.data, _Versioned, "session header").format_version
         if version > FORMAT_VERSION:
             raise UnsupportedVersionError(
@@ -167,59 +230,166 @@ class SessionLogReader:
                 f"written in format version {version}; this beatlog reads up to "
                 f"{FORMAT_VERSION} (upgrade beatlog)",
             )
-        return self._decode(message.data, SessionHeader, "session header")
+        header = self._decode(message.data, SessionHeader, "session header")
+        if len(set(header.behaviors)) != len(header.behaviors):
+            raise CorruptLogError(self.path, "damaged session header: a behavior is named twice")
+        expected = schema_name(CycleBatch if version >= CYCLE_BATCH_SINCE else CycleRecord)
+        cycles = self._topics.get(CYCLES_TOPIC)
+        found = None if cycles is None else self._schemas[self._channels[cycles].schema_id].name
+        if found != expected:
+            raise CorruptLogError(
+                self.path,
+                f"cycles have schema {found!r}, not the {expected!r} of format version {version}",
+            )
+        return header
+
+    def _batch(self, message: Message) -> list[CycleRecord]:
+        """Decode one cycles message and check it continues exactly where the last ended."""
+        where = f"the batch after cycle {self._cycles}"
+        try:
+            decoded = self._batch_decoder.decode(message.data)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(self.path, f"damaged {where}: {exc}") from None
+        if isinstance(decoded, CycleBatch):
+            if decoded.first_cycle != self._cycles:
+                raise CorruptLogError(
+                    self.path,
+                    f"cycles out of order: a batch starts at cycle {decoded.first_cycle} "
+                    f"where cycle {self._cycles} is next (a chunk missing, repeated or moved)",
+                )
+            batch = decoded.cycles
+        else:
+            batch = decoded
+        if not batch:
+            raise CorruptLogError(self.path, f"{where} is empty")
+        if message.log_time != self._robot_time_ns + batch[0].heartbeat_ns:
+            raise CorruptLogError(
+                self.path,
+                f"cycles out of order: {where} is stamped {message.log_time} ns of robot "
+                f"time, not {self._robot_time_ns + batch[0].heartbeat_ns} "
+                "(a chunk missing, repeated or moved)",
+            )
+        self._cycles += len(batch)
+        self._robot_time_ns += sum(cycle.heartbeat_ns for cycle in batch)
+        return batch
+
+    def _read_end(self, message: Message) -> None:
+        end = self._decode(message.data, SessionEnd, "end record")
+        if (end.cycles, end.robot_time_ns) != (self._cycles, self._robot_time_ns):
+            raise CorruptLogError(
+                self.path,
+                f"the end record counts {end.cycles} cycles and {end.robot_time_ns} ns of "
+                f"robot time, but the log holds {self._cycles} cycles and "
+                f"{self._robot_time_ns} ns",
+            )
+        self._end = end
 
     def _decode(self, data: bytes, kind: type[T], what: str) -> T:
         try:
             return msgspec.msgpack.decode(data, type=kind)
-        except msgspec.DecodeError as exc:
+        except DECODE_ERRORS as exc:
             raise CorruptLogError(self.path, f"damaged {what}: {exc}") from None
 
     def _topic_messages(self) -> Iterator[tuple[str, Message]]:
-        """Messages with their channel's topic; sets the status when the records end."""
+        """Messages with their channel's topic, in the order the format requires.
+
+        The header comes first, then cycles, then at most one end record and nothing
+        after it. Sets the status when the records end.
+        """
+        ended = False
         try:
             for record in self._records():
                 if isinstance(record, Message):
-                    topic = self._channels.get(record.channel_id)
-                    if topic is None:
+                    channel = self._channels.get(record.channel_id)
+                    if channel is None:
                         raise CorruptLogError(
                             self.path, f"message on unknown channel {record.channel_id}"
                         )
-                    yield topic, record
+                    if ended:
+                        raise CorruptLogError(self.path, "a message after the end record")
+                    count = self._messages_read.get(channel.id, 0)
+                    self._messages_read[channel.id] = count + 1
+                    ended = channel.topic == END_TOPIC
+                    yield channel.topic, record
+                elif isinstance(record, Schema):
+                    self._add_schema(record)
                 elif isinstance(record, Channel):
-                    self._channels[record.id] = record.topic
+                    self._add_channel(record)
         except _TruncatedError as cut:
             self._status = LogStatus(False, self._cycles, str(cut))
             return
+        self._check_summary()
         if self._end is None:
             self._status = LogStatus(False, self._cycles, "the log has no end record")
         else:
             self._status = LogStatus(True, self._cycles)
 
+    def _add_schema(self, schema: Schema) -> None:
+        known = self._schemas.get(schema.id)
+        if known is not None:
+            if known != schema:
+                raise CorruptLogError(self.path, f"schema {schema.id} is defined twice")
+            return
+        if schema.encoding != SCHEMA_ENCODING or not any(
+            schema.name in names for names in _SCHEMAS.values()
+        ):
+            raise CorruptLogError(
+                self.path,
+                f"foreign schema {schema.name!r} ({schema.encoding or 'no encoding'}) "
+                "in a session log",
+            )
+        self._schemas[schema.id] = schema
+
+    def _add_channel(self, channel: Channel) -> None:
+        known = self._channels.get(channel.id)
+        if known is not None:
+            if known != channel:
+                raise CorruptLogError(self.path, f"channel {channel.id} is defined twice")
+            return
+        schema = self._schemas.get(channel.schema_id)
+        if channel.topic not in _SCHEMAS or channel.topic in self._topics:
+            what = "a second" if channel.topic in self._topics else "a foreign"
+            raise CorruptLogError(self.path, f"{what} channel {channel.topic!r} in a session log")
+        if channel.message_encoding != MESSAGE_ENCODING:
+            raise CorruptLogError(
+                self.path,
+                f"channel {channel.topic!r} has encoding {channel.message_encoding!r}, "
+                f"not {MESSAGE_ENCODING!r}",
+            )
+        if schema is None or schema.name not in _SCHEMAS[channel.topic]:
+            raise CorruptLogError(
+                self.path, f"channel {channel.topic!r} has no schema the format defines for it"
+            )
+        self._channels[channel.id] = channel
+        self._topics[channel.topic] = channel.id
+
     def _records(self) -> Iterator[McapRecord]:
-        """The container's records in file order, chunks opened, CRCs checked."""
+        """The container's records in file order, chunks opened and checked."""
         file = self._file
-        size = self.path.stat().st_size
+        size = self._size
         offset = len(_MAGIC)
         first = True
-        while not self._footer:
-            head = file.read(9)
+        allowed = _DATA_RECORDS
+        while self._footer is None:
+            head = file.read(_RECORD_HEAD)
             if not head:
                 raise _TruncatedError("the recording stopped before the log was closed")
-            if len(head) < 9:
+            if len(head) < _RECORD_HEAD:
                 raise _TruncatedError(f"the last record is cut off at byte {offset}")
             opcode, length = struct.unpack("<BQ", head)
-            end = offset + 9 + length
+            end = offset + _RECORD_HEAD + length
             if opcode == 0 and not head.strip(b"\0") and self._zero_filled_from(offset):
                 raise _TruncatedError(f"zero-filled from byte {offset} (power loss?)")
             if end > size:
-                if opcode in _KNOWN_OPCODES and length <= _MAX_CHUNK_BYTES:
+                if opcode in _KNOWN_OPCODES and length <= MAX_RECORD_BYTES:
                     raise _TruncatedError(f"the last record is cut off at byte {offset}")
                 raise CorruptLogError(self.path, f"damaged record at byte {offset}")
             body = file.read(length)
             try:
-                records = self._parse(opcode, body)
-            except Exception as exc:
+                if not first and opcode not in allowed | {Opcode.FOOTER}:
+                    raise _DamageError(f"unexpected record (opcode {opcode:#x})")
+                records = self._parse(opcode, body, offset)
+            except (_DamageError, *DECODE_ERRORS, ValueError, struct.error) as exc:
                 if end == size:
                     raise _TruncatedError(f"the last record is damaged at byte {offset}") from None
                 if self._zero_filled_from(end):
@@ -233,8 +403,16 @@ class SessionLogReader:
             if first:
                 self._check_profile(records)
                 first = False
-            yield from records
+            if opcode == Opcode.DATA_END:
+                allowed = _SUMMARY_RECORDS
+                self._summary_start = end
+            elif allowed is _SUMMARY_RECORDS:
+                self._summary.extend(records)
+            else:
+                yield from records
             offset = end
+        if file.read(len(_MAGIC) + 1) != _MAGIC:
+            raise CorruptLogError(self.path, "damaged or extra bytes after the log's footer")
 
     def _zero_filled_from(self, start: int) -> bool:
         """Whether every byte from ``start`` to the end of the file is zero (power loss)."""
@@ -259,22 +437,108 @@ class SessionLogReader:
                 self.path, f"an MCAP file with profile {profile!r}, not a beatlog session log"
             )
 
-    def _parse(self, opcode: int, body: bytes) -> list[McapRecord]:
+    def _parse(self, opcode: int, body: bytes, offset: int) -> list[McapRecord]:
         stream = ReadDataStream(BytesIO(body))
         if opcode == Opcode.CHUNK:
             chunk = Chunk.read(stream)
-            if chunk.uncompressed_size > _MAX_CHUNK_BYTES or chunk.compression not in _COMPRESSIONS:
-                raise ValueError("implausible chunk")
-            return breakup_chunk(chunk, validate_crc=True)
-        if opcode == Opcode.MESSAGE:
-            return [Message.read(stream, len(body))]
-        if opcode == Opcode.CHANNEL:
-            return [Channel.read(stream)]
+            self._chunks.append((offset, _RECORD_HEAD + len(body)))
+            return self._chunk_records(chunk)
         if opcode == Opcode.HEADER:
             return [Header.read(stream)]
         if opcode == Opcode.FOOTER:
-            self._footer = True
-            return [Footer.read(stream)]
-        if opcode in _KNOWN_OPCODES or opcode >= _FIRST_USER_OPCODE:
+            self._footer = Footer.read(stream)
             return []
-        raise ValueError(f"unknown record opcode {opcode:#x}")
+        reader = _TOP_LEVEL.get(Opcode(opcode)) if opcode in _KNOWN_OPCODES else None
+        if reader is None:
+            raise _DamageError(f"unknown record opcode {opcode:#x}")
+        return [reader(stream)]
+
+    def _chunk_records(self, chunk: Chunk) -> list[McapRecord]:
+        """Open a chunk within the bounds, check its CRC and split it into its records.
+
+        The CRC is always checked: beatlog's writer always computes it, so a stored 0
+        is not "no CRC" but must match, like any other value.
+        """
+        size = chunk.uncompressed_size
+        if chunk.compression not in _COMPRESSIONS:
+            raise _DamageError(f"unknown chunk compression {chunk.compression!r}")
+        if size > MAX_CHUNK_BYTES:
+            raise _DamageError(f"a chunk claims {size} bytes uncompressed")
+        self._expanded += size
+        if self._expanded > MAX_EXPANSION * self._size:
+            raise _DamageError("chunks decompress to implausibly much data (a zip bomb?)")
+        data = chunk.data
+        if chunk.compression == "zstd":
+            try:
+                data = zstandard.ZstdDecompressor().stream_reader(data).read(size + 1)
+            except zstandard.ZstdError as exc:
+                raise _DamageError(f"chunk does not decompress: {exc}") from None
+        if len(data) != size:
+            raise _DamageError(f"chunk holds {len(data)} bytes where it declares {size}")
+        if zlib.crc32(data) != chunk.uncompressed_crc:
+            raise _DamageError("chunk CRC mismatch")
+        return _split_chunk(data)
+
+    def _check_summary(self) -> None:
+        """The summary section must describe exactly the data read: same chunks at the
+        same offsets, same message counts, same channels. A chunk dropped, repeated or
+        moved anywhere before it shifts the offsets and is caught here."""
+        footer = self._footer
+        assert footer is not None
+        if footer.summary_start != self._summary_start:
+            raise CorruptLogError(
+                self.path,
+                f"the footer places the summary at byte {footer.summary_start}, but it is "
+                f"at byte {self._summary_start} (bytes missing or added before it)",
+            )
+        indexed = sorted(
+            (r.chunk_start_offset, r.chunk_length)
+            for r in self._summary
+            if isinstance(r, ChunkIndex)
+        )
+        statistics = [r for r in self._summary if isinstance(r, Statistics)]
+        if indexed != self._chunks or len(statistics) != 1:
+            raise CorruptLogError(self.path, "the summary does not match the chunks read")
+        counts = {k: v for k, v in statistics[0].channel_message_counts.items() if v}
+        if counts != self._messages_read or statistics[0].chunk_count != len(self._chunks):
+            raise CorruptLogError(self.path, "the summary does not match the messages read")
+        for record in self._summary:
+            if isinstance(record, Channel) and self._channels.get(record.id) != record:
+                raise CorruptLogError(self.path, f"the summary redefines channel {record.id}")
+            if isinstance(record, Schema) and self._schemas.get(record.id) != record:
+                raise CorruptLogError(self.path, f"the summary redefines schema {record.id}")
+
+
+def _split_chunk(data: bytes) -> list[McapRecord]:
+    """The records of an opened chunk: schemas, channels and messages only."""
+    records: list[McapRecord] = []
+    position = 0
+    while position < len(data):
+        if position + _RECORD_HEAD > len(data):
+            raise _DamageError("a record inside a chunk is cut off")
+        opcode, length = struct.unpack_from("<BQ", data, position)
+        start = position + _RECORD_HEAD
+        position = start + length
+        if opcode not in _CHUNK_RECORDS or position > len(data):
+            raise _DamageError(f"a damaged record inside a chunk (opcode {opcode:#x})")
+        stream = ReadDataStream(BytesIO(data[start:position]))
+        if opcode == Opcode.MESSAGE:
+            records.append(Message.read(stream, length))
+        elif opcode == Opcode.CHANNEL:
+            records.append(Channel.read(stream))
+        else:
+            records.append(Schema.read(stream))
+        if stream.count != length:
+            raise _DamageError(f"a record inside a chunk has {length - stream.count} extra bytes")
+    return records
+
+
+_TOP_LEVEL = {
+    Opcode.MESSAGE_INDEX: MessageIndex.read,
+    Opcode.DATA_END: DataEnd.read,
+    Opcode.SCHEMA: Schema.read,
+    Opcode.CHANNEL: Channel.read,
+    Opcode.STATISTICS: Statistics.read,
+    Opcode.CHUNK_INDEX: ChunkIndex.read,
+    Opcode.SUMMARY_OFFSET: SummaryOffset.read,
+}

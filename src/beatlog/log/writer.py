@@ -2,10 +2,11 @@
 
 The control thread encodes each cycle into immutable bytes (a few microseconds) and
 queues them. The writer thread batches cycles into messages and closes an MCAP chunk
-at least once per flush interval, so a recorder killed mid-session leaves a log that
-is readable up to its last flushed cycle. A write failure stops the writing, never
-the robot: it is kept in :attr:`SessionLogWriter.error` and the log stays valid up
-to the failure.
+at least once per flush interval of robot time, so a recorder killed mid-session
+leaves a log that is readable up to its last flushed cycle, and the same session
+gives the same bytes on any machine. A write failure stops the writing, never the
+robot: it is kept in :attr:`SessionLogWriter.error` and the log stays valid up to
+the failure.
 """
 
 from __future__ import annotations
@@ -14,7 +15,6 @@ import contextlib
 import os
 import queue
 import threading
-import time
 from collections.abc import Sequence
 from pathlib import Path
 from types import TracebackType
@@ -30,21 +30,29 @@ from beatlog.log.format import (
     HEADER_TOPIC,
     MESSAGE_ENCODING,
     PROFILE,
-    CycleRecord,
+    SCHEMA_ENCODING,
+    CycleBatch,
     SessionEnd,
     SessionHeader,
     payload_encoder,
+    schema_name,
 )
+from beatlog.log.limits import MAX_SCHEMA_BYTES
 
 __all__ = ["SessionLogWriter"]
 
 _CLOSE: Final = object()
+BATCH_BYTES = 1 << 20
+"""A batch is written once its cycles reach this size, however few they are."""
+MAX_CYCLE_BYTES = 4 << 20
+"""The largest single cycle; a robot state is meant to be light."""
 
 
 class SessionLogWriter:
     """Writes one session log; use it as a context manager or call :meth:`close`.
 
-    :param flush_interval_s: a chunk is closed and flushed at least this often.
+    :param flush_interval_s: a chunk is closed and flushed at least this often, in robot
+        time (the ``time_ns`` given to :meth:`append`).
     :param fsync: also fsync the file at each flush (survives power loss, costs I/O).
     :param batch_cycles: the most cycles put into one message.
     """
@@ -62,6 +70,7 @@ class SessionLogWriter:
         if flush_interval_s <= 0:
             raise ValueError(f"flush interval must be positive, got {flush_interval_s}")
         self.path = Path(output) if isinstance(output, str | Path) else None
+        _check_header(header, self.path)
         self._file = self._open(output)
         self._fsync = fsync
         self._flush_interval_ns = int(flush_interval_s * 1e9)
@@ -70,6 +79,8 @@ class SessionLogWriter:
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self.error: BaseException | None = None
         self.cycles_written = 0
+        self._cycles_queued = 0
+        self._robot_time_ns = 0
         self._closed = False
 
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
@@ -92,14 +103,14 @@ class SessionLogWriter:
                 topic=topic,
                 message_encoding=MESSAGE_ENCODING,
                 schema_id=self._mcap.register_schema(
-                    name=f"beatlog.{struct.__name__}",
-                    encoding="jsonschema",
+                    name=schema_name(struct),
+                    encoding=SCHEMA_ENCODING,
                     data=msgspec.json.encode(msgspec.json.schema(struct)),
                 ),
             )
             for topic, struct in (
                 (HEADER_TOPIC, SessionHeader),
-                (CYCLES_TOPIC, CycleRecord),
+                (CYCLES_TOPIC, CycleBatch),
                 (END_TOPIC, SessionEnd),
             )
         }
@@ -117,7 +128,6 @@ class SessionLogWriter:
 
     def append(  # noqa: PLR0917 - positional on purpose: it runs every cycle
         self,
-        time_ns: int,
         hb_ns: int,
         state: msgspec.Struct,
         changes: Sequence[Any],
@@ -133,7 +143,26 @@ class SessionLogWriter:
         if self.error is not None:
             return
         payload = self._encoder.encode((hb_ns, state, changes, draws, outputs, samples))
-        self._queue.put((time_ns, payload))
+        if len(payload) > MAX_CYCLE_BYTES:
+            self.error = LogError(
+                self.path or "<output>",
+                f"cycle {self._cycles_queued} is {len(payload)} bytes; the most a cycle may "
+                f"hold is {MAX_CYCLE_BYTES} (keep the robot state light)",
+            )
+            return
+        self._cycles_queued += 1
+        self._robot_time_ns += hb_ns
+        self._queue.put((self._robot_time_ns, payload))
+
+    @property
+    def cycles_appended(self) -> int:
+        """Cycles taken by :meth:`append` so far (written, or queued to be)."""
+        return self._cycles_queued
+
+    @property
+    def robot_time_ns(self) -> int:
+        """The sum of the heartbeat intervals of the cycles appended so far."""
+        return self._robot_time_ns
 
     def close(self, end: SessionEnd | None = None) -> None:
         """Write what is queued and the end record, then finish and close the file."""
@@ -157,28 +186,33 @@ class SessionLogWriter:
         self.close()
 
     def _run(self) -> None:
+        """Batch cycles, and close a chunk whenever a flush interval of robot time passed.
+
+        Batches and chunks depend only on the cycles, never on the wall clock, so the
+        same session always gives the same bytes.
+        """
         pending: list[tuple[int, bytes]] = []
-        deadline = time.monotonic_ns() + self._flush_interval_ns
-        end: SessionEnd | None = None
+        pending_bytes = 0
+        flush_at: int | None = None
         while True:
-            timeout = max(deadline - time.monotonic_ns(), 0) / 1e9
-            try:
-                item = self._queue.get(timeout=timeout)
-            except queue.Empty:
-                item = None
-            if item is not None and item[0] is _CLOSE:
-                end = item[1]
+            item = self._queue.get()
+            if item[0] is _CLOSE:
                 break
-            if item is not None:
-                pending.append(item)
-                if len(pending) >= self._batch_cycles:
-                    self._guard(self._write_batch, pending)
-            if time.monotonic_ns() >= deadline:
+            time_ns, payload = item
+            pending.append(item)
+            pending_bytes += len(payload)
+            if flush_at is None:
+                flush_at = time_ns + self._flush_interval_ns
+            if len(pending) >= self._batch_cycles or pending_bytes >= BATCH_BYTES:
                 self._guard(self._write_batch, pending)
+                pending_bytes = 0
+            if time_ns >= flush_at:
+                self._guard(self._write_batch, pending)
+                pending_bytes = 0
                 self._guard(self._flush)
-                deadline = time.monotonic_ns() + self._flush_interval_ns
+                flush_at = time_ns + self._flush_interval_ns
         self._guard(self._write_batch, pending)
-        self._guard(self._finish, end)
+        self._guard(self._finish, item[1])
 
     def _guard(self, write: Any, *args: Any) -> None:
         if self.error is not None:
@@ -191,7 +225,8 @@ class SessionLogWriter:
     def _write_batch(self, pending: list[tuple[int, bytes]]) -> None:
         if not pending:
             return
-        batch = self._encoder.encode([msgspec.Raw(payload) for _, payload in pending])
+        cycles = [msgspec.Raw(payload) for _, payload in pending]
+        batch = self._encoder.encode((self.cycles_written, cycles))
         first_ns = pending[0][0]
         self._mcap.add_message(self._channels[CYCLES_TOPIC], first_ns, batch, first_ns)
         self.cycles_written += len(pending)
@@ -214,3 +249,17 @@ class SessionLogWriter:
         self._file.flush()
         if self._fsync:
             os.fsync(self._file.fileno())
+
+
+def _check_header(header: SessionHeader, path: Path | None) -> None:
+    """Refuse a header that readers would refuse, so every recording can be read back."""
+    where = path or "<output>"
+    encoded = payload_encoder().encode(header)
+    if len(encoded) > MAX_SCHEMA_BYTES:
+        raise LogError(where, f"cannot record: the session header is {len(encoded)} bytes")
+    try:
+        msgspec.msgpack.decode(encoded, type=SessionHeader)
+    except msgspec.ValidationError as exc:
+        raise LogError(where, f"cannot record: session header: {exc}") from None
+    if len(set(header.behaviors)) != len(header.behaviors):
+        raise LogError(where, "cannot record: two behaviors share a name")

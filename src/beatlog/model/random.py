@@ -1,7 +1,8 @@
 """The random source: the only randomness behaviors use.
 
-Live, it draws from a seeded numpy generator and records every value (RN_t). In
-replay it hands back the recorded values; drawing more, fewer or a different kind
+Live, it draws from a seeded numpy generator and records every value (RN_t) with
+what was asked for (the kind and its parameters). In replay it hands back the
+recorded values; drawing more, fewer, a different kind or with different parameters
 than was recorded is a divergence that names the cycle and the behavior.
 """
 
@@ -13,6 +14,7 @@ from collections.abc import Sequence
 from enum import StrEnum
 from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
 
+import msgspec
 import numpy as np
 import numpy.typing as npt
 
@@ -53,11 +55,20 @@ class DrawKind(StrEnum):
 
 
 class Draw(NamedTuple):
-    """One random number drawn in a cycle: who drew it, what kind, and the value."""
+    """One random number drawn in a cycle: who drew it, what kind, the value, and the
+    parameters asked for (empty in format-1 logs, which recorded none)."""
 
     actor: int
     kind: str
     value: Any
+    params: tuple[Any, ...] = ()
+
+    def call(self) -> str:
+        """The request as code, e.g. ``uniform(2.0, 5.0)``."""
+        return f"{self.kind}({', '.join(map(repr, self.params))})"
+
+
+_params_encoder = msgspec.msgpack.Encoder()
 
 
 class RandomMismatch(BaseException):
@@ -99,32 +110,32 @@ class RandomSource(ABC):
         return -1 if self._context is None else self._context.actor
 
     @abstractmethod
-    def _scalar(self, kind: DrawKind, a: float, b: float) -> Any: ...
+    def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any: ...
 
     @abstractmethod
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any: ...
 
     def random(self) -> float:
         """A float in [0, 1)."""
-        return float(self._scalar(DrawKind.RANDOM, 0.0, 1.0))
+        return float(self._scalar(DrawKind.RANDOM, 0.0, 1.0, ()))
 
     def uniform(self, a: float, b: float) -> float:
         """A float in [a, b)."""
-        return float(self._scalar(DrawKind.UNIFORM, a, b))
+        return float(self._scalar(DrawKind.UNIFORM, a, b, (a, b)))
 
     def gauss(self, mu: float = 0.0, sigma: float = 1.0) -> float:
         """A normally distributed float with mean ``mu`` and deviation ``sigma``."""
-        return float(self._scalar(DrawKind.GAUSS, mu, sigma))
+        return float(self._scalar(DrawKind.GAUSS, mu, sigma, (mu, sigma)))
 
     def randint(self, a: int, b: int) -> int:
         """An int in [a, b], both ends included (like ``random.randint``)."""
-        return int(self._scalar(DrawKind.RANDINT, a, b))
+        return int(self._scalar(DrawKind.RANDINT, a, b, (a, b)))
 
     def choice(self, seq: Sequence[T]) -> T:
         """An element of a non-empty sequence."""
         if not seq:
             raise IndexError("cannot choose from an empty sequence")
-        index = int(self._scalar(DrawKind.CHOICE, 0, len(seq)))
+        index = int(self._scalar(DrawKind.CHOICE, 0, len(seq), (len(seq),)))
         return seq[index]
 
     def uniform_array(
@@ -164,7 +175,7 @@ class RecordingRandom(RandomSource):
         draws, self.draws = self.draws, []
         return draws
 
-    def _scalar(self, kind: DrawKind, a: float, b: float) -> Any:
+    def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
         gen = self._gen
         value: Any
         if kind is DrawKind.RANDOM:
@@ -177,7 +188,7 @@ class RecordingRandom(RandomSource):
             value = int(gen.integers(int(a), int(b), endpoint=True))
         else:
             value = int(gen.integers(0, int(b)))
-        self.draws.append(Draw(self._actor, kind.value, value))
+        self.draws.append(Draw(self._actor, kind.value, value, params))
         return value
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
@@ -189,12 +200,17 @@ class RecordingRandom(RandomSource):
             array = gen.normal(a, b, shape)
         else:
             array = gen.integers(int(a), int(b), shape, dtype=np.int64)
-        self.draws.append(Draw(self._actor, kind.value, _pack_array(array)))
+        params = (a, b, list(shape))
+        self.draws.append(Draw(self._actor, kind.value, _pack_array(array), params))
         return array
 
 
 class ReplayRandom(RandomSource):
-    """Returns the values recorded in RN_t, checking kind and count as it goes."""
+    """Returns the values recorded in RN_t, checking count, kind and parameters as it goes.
+
+    Parameters are compared exactly (as their msgpack bytes, so ``-0.0`` differs from
+    ``0.0``); a format-1 draw, which recorded none, is checked for count and kind only.
+    """
 
     def __init__(self) -> None:
         super().__init__()
@@ -209,7 +225,7 @@ class ReplayRandom(RandomSource):
             self.drawn = []
         self.mismatch = None
 
-    def _next(self, kind: DrawKind) -> Any:
+    def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         index = len(self.drawn)
         actor = self._actor
         if index >= len(self.recorded):
@@ -221,15 +237,18 @@ class ReplayRandom(RandomSource):
         draw = self.recorded[index]
         if draw.kind != kind.value:
             self._fail(f"drew {kind.value} #{index + 1} where {draw.kind} was recorded", actor)
-        self.drawn.append(Draw(actor, kind.value, draw.value))
+        asked = Draw(actor, kind.value, draw.value, params)
+        if draw.params and _params_encoder.encode(draw.params) != _params_encoder.encode(params):
+            self._fail(f"called {asked.call()} where {draw.call()} was recorded", actor)
+        self.drawn.append(asked)
         return draw.value
 
     def _fail(self, problem: str, actor: int, *, overdrawn: bool = False) -> None:
         self.mismatch = RandomMismatch(problem, actor, overdrawn=overdrawn)
         raise self.mismatch
 
-    def _scalar(self, kind: DrawKind, a: float, b: float) -> Any:
-        value = self._next(kind)
+    def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
+        value = self._next(kind, params)
         if kind is DrawKind.CHOICE and not 0 <= value < b:
             self._fail(
                 f"recorded choice index {value} is out of range for {int(b)} items", self._actor
@@ -237,7 +256,7 @@ class ReplayRandom(RandomSource):
         return value
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
-        array = _unpack_array(self._next(kind))
+        array = _unpack_array(self._next(kind, (a, b, list(shape))))
         if array.shape != shape:
             self._fail(
                 f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor

@@ -14,6 +14,7 @@ from rich.table import Table
 from rich.text import Text
 
 from beatlog.engine.verdict import Divergence, DivergenceKind, ReplayResult
+from beatlog.log.format import FORMAT_VERSION
 from beatlog.log.summary import LogSummary
 from beatlog.suite.runner import SpecOutcome, Verdict
 
@@ -152,6 +153,7 @@ def render_summary(summary: LogSummary) -> RenderableType:
     overruns = "unknown (no end record)" if summary.end is None else str(summary.end.overruns)
     rows = [
         ("log", str(summary.path)),
+        ("format", _format_version(summary.format_version)),
         ("status", summary.status.describe()),
         ("robot", header.robot_id),
         ("software", header.software_version),
@@ -171,14 +173,20 @@ def render_summary(summary: LogSummary) -> RenderableType:
     if summary.end is not None and summary.end.error:
         rows.append(("recording error", summary.end.error))
     for name, value in rows:
-        about.add_row(name, value)
+        about.add_row(name, Text(value))
     behaviors = Table(title="behaviors", title_justify="left")
     behaviors.add_column("id")
     behaviors.add_column("behavior")
     behaviors.add_column("state changes", justify="right")
     for index, (name, count) in enumerate(summary.transitions.items()):
-        behaviors.add_row(str(index), name, str(count))
+        behaviors.add_row(str(index), Text(name), str(count))
     return Group(about, behaviors)
+
+
+def _format_version(version: int) -> str:
+    if version == FORMAT_VERSION:
+        return f"version {version}"
+    return f"version {version} (older: replays with the integrity checks it supports)"
 
 
 def _counts(counts: dict[str, int]) -> str:

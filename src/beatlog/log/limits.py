@@ -1,0 +1,33 @@
+"""Bounds on everything read from a log file, checked before the thing is trusted.
+
+A session log may be damaged or hand-crafted; these bounds keep the work of reading
+any file small and proportional to the file. Logs written by beatlog stay far below
+each of them (the writer closes a chunk at about 1 MiB).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "MAX_BEHAVIORS",
+    "MAX_CHUNK_BYTES",
+    "MAX_EXPANSION",
+    "MAX_NAME_LENGTH",
+    "MAX_RECORD_BYTES",
+    "MAX_SCHEMA_BYTES",
+    "MAX_TEXT_LENGTH",
+]
+
+MAX_RECORD_BYTES = 1 << 30
+"""The largest top-level MCAP record read from a file (and never more than the file holds)."""
+MAX_CHUNK_BYTES = 16 << 20
+"""The largest uncompressed chunk: the writer closes chunks at 1 MiB and batches at 1 MiB."""
+MAX_EXPANSION = 1 << 13
+"""The most bytes of uncompressed chunks read per byte of the file (a decompression bomb)."""
+MAX_NAME_LENGTH = 256
+"""Longest robot id, version string or behavior name."""
+MAX_TEXT_LENGTH = 4096
+"""Longest system reference, robot-state type name or error message."""
+MAX_BEHAVIORS = 4096
+"""Most behaviors in a catalogue."""
+MAX_SCHEMA_BYTES = 1 << 20
+"""Largest header message (the robot-state JSON schema is most of it)."""
