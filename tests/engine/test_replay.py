@@ -194,7 +194,7 @@ class Unused:
 
 def test_a_robot_state_that_does_not_fit_the_system_is_bad_input(record_probe: RecordFn) -> None:
     log = record_probe(5)
-    with pytest.raises(SchemaMismatchError, match=r"probe\.beatlog: robot state of cycle 0"):
+    with pytest.raises(SchemaMismatchError, match=r"probe\.beatlog: recorded with robot state"):
         replay(log, PriorityArbiter([Unused()], robot_state=Other))
 
 

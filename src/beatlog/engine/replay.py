@@ -21,6 +21,7 @@ import msgspec
 
 from beatlog.engine.compare import Comparison
 from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
+from beatlog.engine.fit import check_fit
 from beatlog.engine.loading import load_system
 from beatlog.engine.renames import propose_renames
 from beatlog.engine.trace import fields_read
@@ -34,6 +35,7 @@ from beatlog.engine.verdict import (
 )
 from beatlog.errors import BeatlogError, CorruptLogError, SchemaMismatchError
 from beatlog.log.format import (
+    DECODE_ERRORS,
     EMPTY_LIST,
     EMPTY_MAP,
     CycleRecord,
@@ -77,12 +79,13 @@ def replay(
     divergence also names the robot-state fields the behaviors read in that cycle.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
-        state does not fit the system's robot state type.
+        state does not fit the system's robot state type (see :mod:`beatlog.engine.fit`).
     """
     reference = system if isinstance(system, str) else None
     if isinstance(system, str):
         system = load_system(system)
     with SessionLogReader(log) as reader:
+        check_fit(reader.header, system, reader.path)
         judge = _Judge(
             reader.header,
             system,
@@ -338,7 +341,7 @@ class _Judge:
     def _state(self, record: CycleRecord) -> Any:
         try:
             return self._state_decoder.decode(record.robot_state)
-        except msgspec.DecodeError as exc:
+        except DECODE_ERRORS as exc:
             raise SchemaMismatchError(
                 self.path,
                 f"robot state of cycle {self.executor.context.cycle + 1} does not fit "
@@ -348,7 +351,7 @@ class _Judge:
     def _decode(self, data: msgspec.Raw, decode: Any, what: str) -> Any:
         try:
             return decode(data)
-        except msgspec.DecodeError as exc:
+        except DECODE_ERRORS as exc:
             raise CorruptLogError(
                 self.path, f"damaged {what} in cycle {self.executor.context.cycle}: {exc}"
             ) from None
@@ -390,7 +393,7 @@ class _Judge:
         return [StateChange(names[index], before, after) for index, before, after in changes]
 
     def _actor_name(self, actor: int) -> str:
-        return "system" if actor < 0 else self.executor.behavior_ids[actor]
+        return _name(self.executor.behavior_ids, actor)
 
     def _diverge(
         self,
@@ -426,7 +429,7 @@ class _Judge:
         elif len(random.drawn) < len(random.recorded):
             kind = DivergenceKind.RANDOM_UNDERDRAWN
             missing = random.recorded[len(random.drawn)]
-            behavior = self._actor_name(missing.actor)
+            behavior = _name(self.header.behaviors, missing.actor)
             message = (
                 f"drew {len(random.drawn)} random numbers where {len(random.recorded)} were "
                 f"recorded; the next recorded one was a {missing.kind} drawn by {behavior}"

@@ -22,11 +22,18 @@ import numpy as np
 import numpy.typing as npt
 
 from beatlog.engine.cycle import StateChangeRecord
+from beatlog.engine.fit import check_fit
 from beatlog.engine.loading import load_system
 from beatlog.engine.trace import ReplayInputs
 from beatlog.engine.verdict import Divergence, DivergenceKind, StateChange
 from beatlog.errors import BeatlogError, CorruptLogError, FieldError
-from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    EMPTY_MAP,
+    CycleRecord,
+    payload_encoder,
+)
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, System
 from beatlog.model.random import RandomMismatch
@@ -129,6 +136,8 @@ def build_timeline(
     if isinstance(system, str):
         system = load_system(system)
     with SessionLogReader(log) as reader:
+        if system is not None:
+            check_fit(reader.header, system, reader.path)
         collector = _Collector(reader.header.behaviors, system, reader.path, expected)
         sampler = _Sampler(reader.path, fields)
         for batch in reader.batches():
@@ -292,7 +301,7 @@ class _Collector:
     def _recorded(self, raw: msgspec.Raw) -> list[StateChange]:
         try:
             changes = self._changes_decoder.decode(raw)
-        except msgspec.DecodeError as exc:
+        except DECODE_ERRORS as exc:
             raise CorruptLogError(
                 self.path, f"damaged state changes in cycle {self.cycle}: {exc}"
             ) from None
@@ -376,7 +385,7 @@ class _Sampler:
             self._now_ns += record.heartbeat_ns
             try:
                 state = self._decoder.decode(record.robot_state)
-            except msgspec.DecodeError as exc:
+            except DECODE_ERRORS as exc:
                 raise CorruptLogError(
                     self.path, f"damaged robot state in cycle {len(self._time_ns)}: {exc}"
                 ) from None

@@ -15,9 +15,10 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
+from beatlog.engine.fit import check_fit
 from beatlog.engine.verdict import StateChange
 from beatlog.errors import CorruptLogError, SchemaMismatchError
-from beatlog.log.format import EMPTY_LIST, CycleRecord
+from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
@@ -64,7 +65,7 @@ def recorded_trace(log: str | Path) -> list[TracedChange]:
             if record.state_changes != EMPTY_LIST:
                 try:
                     recorded = decode(record.state_changes)
-                except msgspec.DecodeError as exc:
+                except DECODE_ERRORS as exc:
                     raise CorruptLogError(
                         reader.path, f"damaged state changes in cycle {cycle}: {exc}"
                     ) from None
@@ -158,7 +159,7 @@ class ReplayInputs:
         """RS_t of ``record``, with its random numbers loaded for the behaviors to draw."""
         try:
             state = self._state(record.robot_state)
-        except msgspec.DecodeError as exc:
+        except DECODE_ERRORS as exc:
             raise SchemaMismatchError(
                 path, f"robot state of cycle {cycle} does not fit {self._state_type}: {exc}"
             ) from None
@@ -166,12 +167,13 @@ class ReplayInputs:
             self.random.load(
                 () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
             )
-        except msgspec.DecodeError as exc:
+        except DECODE_ERRORS as exc:
             raise CorruptLogError(path, f"damaged random numbers in cycle {cycle}: {exc}") from None
         return state
 
     def cycles(self, reader: SessionLogReader) -> Iterator[tuple[int, CycleRecord, Any]]:
-        """Every cycle of the log with its RS_t, ready to step."""
+        """Every cycle of the log with its RS_t, ready to step; the log must fit the system."""
+        check_fit(reader.header, self.executor.system, reader.path)
         for cycle, record in enumerate(_records(reader)):
             yield cycle, record, self.load(reader.path, cycle, record)
 

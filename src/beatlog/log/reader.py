@@ -14,7 +14,6 @@ types; payloads are decoded only with msgspec, so nothing in a log can execute c
 from __future__ import annotations
 
 import os
-import stat
 import struct
 import zlib
 from collections.abc import Iterator
@@ -65,6 +64,7 @@ from beatlog.log.limits import (
     MAX_RECORD_BYTES,
     MAX_SCHEMA_BYTES,
 )
+from beatlog.paths import irregular_file_problem
 
 __all__ = ["LogStatus", "SessionLogReader"]
 
@@ -190,16 +190,11 @@ class SessionLogReader:
 
     def _open(self) -> tuple[IO[bytes], int]:
         """Open a regular file only: a FIFO or a device could block or never end."""
-        try:
-            mode = os.stat(self.path).st_mode
-        except FileNotFoundError:
-            raise NotABeatlogError(self.path, "no such file") from None
-        except OSError as exc:
-            raise NotABeatlogError(self.path, f"cannot open: {exc.strerror}") from None
-        if stat.S_ISDIR(mode):
-            raise NotABeatlogError(self.path, "is a directory, not a session log")
-        if not stat.S_ISREG(mode):
-            raise NotABeatlogError(self.path, "is not a regular file (a FIFO, socket or device)")
+        problem = irregular_file_problem(self.path)
+        if problem is not None:
+            if problem == "is a directory":
+                problem = "is a directory, not a session log"
+            raise NotABeatlogError(self.path, problem)
         try:
             file = self.path.open("rb")
         except OSError as exc:

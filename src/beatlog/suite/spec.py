@@ -38,10 +38,13 @@ import msgspec
 
 from beatlog.engine.compare import Comparison
 from beatlog.errors import SpecError
+from beatlog.paths import irregular_file_problem
 
 __all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
 
 SPEC_SUFFIX = ".dtc.toml"
+MAX_SPEC_BYTES = 1 << 20
+"""A spec is a few lines; anything bigger is not one."""
 
 
 class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
@@ -81,10 +84,13 @@ class DtcSpec:
 def load_spec(path: str | Path) -> DtcSpec:
     """Read and validate one spec; problems raise :class:`SpecError` naming file and key."""
     path = Path(path)
+    problem = irregular_file_problem(path)
+    if problem is not None:
+        raise SpecError(path, problem)
+    if path.stat().st_size > MAX_SPEC_BYTES:
+        raise SpecError(path, f"is larger than {MAX_SPEC_BYTES} bytes; not a DTC spec")
     try:
         text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError(path, "no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise SpecError(path, f"cannot read: {exc}") from None
     try:
