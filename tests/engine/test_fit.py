@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import msgspec
 import pytest
 
@@ -101,7 +103,7 @@ def test_another_robots_state_names_every_field_that_does_not_fit() -> None:
     assert differences(Probe, Rover) == ["field 'distance' is gone", "field 'reading' is gone"]
 
 
-def system_with(state: type[RobotState]) -> PriorityArbiter[RobotState]:
+def system_with(state: type[RobotState]) -> PriorityArbiter[Any]:
     return PriorityArbiter([Near()], robot_state=state)
 
 
@@ -120,7 +122,7 @@ def test_replay_against_another_robots_state_is_bad_input_naming_both(
 
 def test_a_state_that_gained_a_field_with_a_default_still_replays(record_probe: RecordFn) -> None:
     log = record_probe(20)
-    grown = PriorityArbiter([Near(), Dice()], robot_state=Grown)
+    grown: PriorityArbiter[Any] = PriorityArbiter([Near(), Dice()], robot_state=Grown)
     assert replay(log, grown).ok
 
 
