@@ -21,7 +21,7 @@ from beatlog.log.summary import summarize
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import PriorityArbiter
 from tests.conftest import Probe, RecordFn, distances, probe_system
-from tests.log.test_format import session_header
+from tests.factories import session_header
 
 PROBE = "tests.conftest:probe_system"
 CHANGED = "tests.cli.test_main:changed_probe"

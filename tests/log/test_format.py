@@ -24,6 +24,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.state import RobotState
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
+from tests.factories import session_header
 
 
 def float_from_bits(bits: int) -> float:
@@ -56,23 +57,6 @@ class Gauge(RobotState, kw_only=True):
 
     count: int = 0
     label: str = ""
-
-
-def session_header(**changes: Any) -> SessionHeader:
-    fields: dict[str, Any] = {
-        "format_version": FORMAT_VERSION,
-        "beatlog_version": "test",
-        "robot_id": "bench",
-        "software_version": "test",
-        "system": "",
-        "period_ns": PERIOD_NS,
-        "start_time_ns": 0,
-        "robot_state_type": "tests.log.test_format.Gauge",
-        "robot_state_schema": {},
-        "behaviors": [],
-    }
-    fields.update(changes)
-    return SessionHeader(**fields)
 
 
 def write_log(path: Path, states: list[msgspec.Struct], outputs: list[dict[str, Any]]) -> Path:

@@ -23,7 +23,7 @@ from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe
-from tests.log.test_format import session_header
+from tests.factories import session_header
 
 CYCLES = 200
 CYCLES_PER_CHUNK = 10

@@ -14,7 +14,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.log.summary import summarize
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe, RecordFn, distances
-from tests.log.test_format import session_header
+from tests.factories import session_header
 
 
 def changes_and_draws_in(log: Path) -> tuple[Counter[str], Counter[str]]:

@@ -19,7 +19,7 @@ from beatlog.log.format import CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe
-from tests.log.test_format import session_header
+from tests.factories import session_header
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer
