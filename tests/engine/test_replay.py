@@ -12,7 +12,7 @@ import pytest
 from beatlog import DivergenceKind, StateChange, replay
 from beatlog.engine.compare import Comparison
 from beatlog.engine.record import Recorder
-from beatlog.engine.trace import replayed_trace
+from beatlog.engine.trace import Expectation, TracedChange, replayed_trace
 from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.writer import SessionLogWriter
@@ -362,10 +362,7 @@ def test_an_output_tolerance_accepts_a_small_drift(record_probe: RecordFn) -> No
 
 def test_an_approved_baseline_replaces_the_recorded_state_changes(record_probe: RecordFn) -> None:
     log = record_probe(300)
-    new = replayed_trace(log, probe_system(threshold=0.6))
-    baseline: dict[int, list[StateChange]] = {}
-    for traced in new.changes:
-        baseline.setdefault(traced.cycle, []).append(traced.change)
+    baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
     assert replay(log, probe_system(threshold=0.6), expected=baseline).ok
     old = replay(log, probe_system(), expected=baseline)
     assert old.divergence is not None
@@ -375,9 +372,9 @@ def test_an_approved_baseline_replaces_the_recorded_state_changes(record_probe: 
 
 def test_a_baseline_naming_unknown_behaviors_fails_naming_them(record_probe: RecordFn) -> None:
     log = record_probe(50)
-    baseline: dict[int, list[StateChange]] = {3: [StateChange("ghost", "a", "b")]}
-    for traced in replayed_trace(log, probe_system()).changes:
-        baseline.setdefault(traced.cycle, []).append(traced.change)
+    trace = replayed_trace(log, probe_system())
+    ghost = TracedChange(3, 0, StateChange("ghost", "a", "b"))
+    baseline = Expectation((ghost, *trace.changes), trace.outputs)
     result = replay(log, probe_system(), expected=baseline)
     assert result.divergence is not None
     assert result.divergence.cycle == 3

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.trace import TracedChange
+from beatlog.engine.trace import Expectation, TracedChange
 from beatlog.engine.verdict import StateChange
 from beatlog.errors import BaselineError
 from beatlog.suite.baseline import (
@@ -36,7 +36,7 @@ def log(tmp_path: Path) -> Path:
 
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(path, spec_name="a", log=log, changes=CHANGES)
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES, ()))
 
     baseline = read_baseline(path)
 
@@ -48,17 +48,17 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
         360_000_000,
         120_030_000_000,
     ]
-    assert baseline.by_cycle()[12] == [CHANGES[1].change, CHANGES[2].change]
+    assert baseline.expectation.changes_by_cycle()[12] == [CHANGES[1].change, CHANGES[2].change]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.dtc.expected", "session.beatlog"]
 
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    write_baseline(path, spec_name="a", log=log, changes=CHANGES[:2])
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES[:2], ()))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[0] == "# beatlog expected state changes, format 1"
+    assert lines[0] == "# beatlog expected state changes and outputs, format 2"
     assert lines[2] == f"# log session.beatlog sha256 {log_digest(log)}"
     assert lines[-2:] == [
         '       0     0.030  "arbiter": "idle" -> "wander"',
@@ -68,7 +68,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(path, spec_name="a", log=log, changes=())
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation((), ()))
     assert read_baseline(path).changes == ()
 
 
