@@ -46,7 +46,7 @@ def test_a_diverging_dtc_fails_with_its_first_divergence(
         [
             "*first divergence: cycle 21, t = *state changes*",
             "*arbiter: 'dice' -> 'near'*",
-            "rerun this DTC: beatlog test *approach.dtc.toml",
+            "reproduce: beatlog test *approach.dtc.toml",
         ]
     )
     result.stdout.no_fnmatch_line("*Traceback*")

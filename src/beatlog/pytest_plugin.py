@@ -73,7 +73,7 @@ class DtcItem(pytest.Item):
         if outcome.verdict is Verdict.ERROR:
             raise DtcFailedError(outcome.error)
         if outcome.result is not None and not outcome.result.ok:
-            raise DtcFailedError(_failure_text(outcome.result, self.spec))
+            raise DtcFailedError(_failure_text(outcome.result))
 
     def repr_failure(
         self,
@@ -88,11 +88,8 @@ class DtcItem(pytest.Item):
         return self.path, 0, f"dtc: {self.spec.name}"
 
 
-def _failure_text(result: ReplayResult, spec: DtcSpec | None = None) -> str:
-    text = plain_text(render_replay(result))
-    if spec is not None:
-        text += f"rerun this DTC: beatlog test {spec.path}\n"
-    return text
+def _failure_text(result: ReplayResult) -> str:
+    return plain_text(render_replay(result))
 
 
 @pytest.fixture

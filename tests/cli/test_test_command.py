@@ -73,7 +73,7 @@ def test_a_suite_that_replays_as_recorded_passes(
     assert "DTC suite" in run.out
     assert re.search(r"avoid-pole\s+│ passed\s+│\s+300 │ 9\.0 s", run.out)
     assert re.search(r"avoid-pole-at-night\s+│ passed", run.out)
-    assert "rerun this DTC" not in run.out
+    assert "reproduce:" not in run.out
     assert_counts(run, "2 passed, 0 failed", 600)
 
 
@@ -90,7 +90,7 @@ def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
     assert f"DTC avoid-pole-earlier ({earlier})" in run.out
     assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
     assert "behavior state changes differ from the recording" in run.out
-    assert f"rerun this DTC: beatlog test {earlier}" in run.out
+    assert f"reproduce: beatlog test {earlier}" in run.out
     assert re.search(
         rf"avoid-pole-earlier\s+│ failed .* cycle {FIRST_CHANGED_CYCLE}, state", run.out
     )
@@ -102,7 +102,7 @@ def test_the_rerun_command_runs_just_that_dtc(
 ) -> None:
     write_spec(specs, "avoid-pole", log)
     earlier = write_spec(specs, "avoid-pole-earlier", log, CHANGED)
-    rerun = re.search(r"rerun this DTC: beatlog test (\S+)", beatlog_test(specs).out)
+    rerun = re.search(r"reproduce: beatlog test (\S+)", beatlog_test(specs).out)
     assert rerun is not None
 
     run = beatlog_test(rerun.group(1))
@@ -203,7 +203,7 @@ def test_junit_xml_reports_every_dtc_for_ci(
     text = " ".join(failure.text.split())  # the report is wrapped at 100 columns
     assert f"DTC avoid-wall ({wall})" in text
     assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in text
-    assert "rerun this DTC: beatlog test" in text
+    assert "reproduce: beatlog test" in text
     assert "\x1b[" not in failure.text  # no terminal colors in a CI report
 
 
@@ -264,7 +264,7 @@ def test_worker_processes_give_the_same_verdicts(
     run = beatlog_test(specs, "-j", "2")
 
     assert run.code == 1
-    assert f"rerun this DTC: beatlog test {earlier}" in run.out
+    assert f"reproduce: beatlog test {earlier}" in run.out
     assert_counts(run, "2 passed, 1 failed", 600 + FIRST_CHANGED_CYCLE + 1)
 
 

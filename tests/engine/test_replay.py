@@ -12,7 +12,7 @@ import pytest
 from beatlog import DivergenceKind, StateChange, replay
 from beatlog.engine.compare import Comparison
 from beatlog.engine.record import Recorder
-from beatlog.engine.trace import replayed_trace
+from beatlog.engine.trace import Expectation, TracedChange, replayed_trace
 from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.writer import SessionLogWriter
@@ -362,10 +362,7 @@ def test_an_output_tolerance_accepts_a_small_drift(record_probe: RecordFn) -> No
 
 def test_an_approved_baseline_replaces_the_recorded_state_changes(record_probe: RecordFn) -> None:
     log = record_probe(300)
-    new = replayed_trace(log, probe_system(threshold=0.6))
-    baseline: dict[int, list[StateChange]] = {}
-    for traced in new.changes:
-        baseline.setdefault(traced.cycle, []).append(traced.change)
+    baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
     assert replay(log, probe_system(threshold=0.6), expected=baseline).ok
     old = replay(log, probe_system(), expected=baseline)
     assert old.divergence is not None
@@ -375,10 +372,93 @@ def test_an_approved_baseline_replaces_the_recorded_state_changes(record_probe: 
 
 def test_a_baseline_naming_unknown_behaviors_fails_naming_them(record_probe: RecordFn) -> None:
     log = record_probe(50)
-    baseline: dict[int, list[StateChange]] = {3: [StateChange("ghost", "a", "b")]}
-    for traced in replayed_trace(log, probe_system()).changes:
-        baseline.setdefault(traced.cycle, []).append(traced.change)
+    trace = replayed_trace(log, probe_system())
+    ghost = TracedChange(3, 0, StateChange("ghost", "a", "b"))
+    baseline = Expectation((ghost, *trace.changes), trace.outputs)
     result = replay(log, probe_system(), expected=baseline)
     assert result.divergence is not None
     assert result.divergence.cycle == 3
     assert StateChange("ghost", "a", "b") in result.divergence.expected
+
+
+class Geared(Dice):
+    """Dice with a new motor gain once the obstacle is within 0.8: only outputs change."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        outputs = super().step(rs, ctx)
+        assert outputs is not None
+        return {**outputs, "speed": 0.55 if rs.distance < 0.8 else 0.5}
+
+
+def geared_system(threshold: float = 0.6) -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Near(threshold), Geared()], robot_state=Probe)
+
+
+def test_an_approved_baseline_still_pins_the_outputs(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
+    assert baseline.outputs
+
+    result = replay(log, geared_system(), expected=baseline)
+
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.OUTPUTS
+    assert divergence.message == "outputs differ from the approved baseline"
+    assert divergence.cycle == first_cycle_below(0.8)
+    assert divergence.expected_outputs["speed"] == 0.5
+    assert divergence.actual_outputs["speed"] == 0.55
+
+
+def test_a_baseline_s_outputs_are_judged_with_the_spec_allowances(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
+    for allowance in (Comparison(ignore_fields=("sp*",)), Comparison(tolerance={"speed": 0.1})):
+        result = replay(log, geared_system(), expected=baseline, comparison=allowance)
+        assert result.ok, result.divergence
+    tight = replay(log, geared_system(), expected=baseline, comparison=Comparison(
+        tolerance={"speed": 0.01}
+    ))  # fmt: skip
+    assert tight.divergence is not None
+    assert tight.divergence.kind is DivergenceKind.OUTPUTS
+
+
+def test_a_baseline_that_pins_no_outputs_judges_them_against_the_recording(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    changes_only = Expectation(replayed_trace(log, probe_system(threshold=0.6)).changes)
+
+    result = replay(log, probe_system(threshold=0.6), expected=changes_only)
+
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.OUTPUTS
+    assert divergence.cycle == first_cycle_below(0.6)
+    assert divergence.message.startswith("outputs differ from the recording")
+    assert "pins no outputs" in divergence.message
+
+
+def test_outputs_reported_in_another_order_match_the_baseline(record_probe: RecordFn) -> None:
+    class Reordered(Dice):
+        def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+            outputs = super().step(rs, ctx)
+            assert outputs is not None
+            return dict(reversed(outputs.items()))
+
+    log = record_probe(100)
+    baseline = replayed_trace(log, probe_system()).expectation
+    system = PriorityArbiter([Near(), Reordered()], robot_state=Probe)
+    assert replay(log, system, expected=baseline).ok
+
+
+def test_the_reproduce_command_carries_the_replay_options(tmp_path: Path) -> None:
+    log = tmp_path / "a session.beatlog"
+    with Recorder(log, probe_system(), seed=1, system_ref="tests.conftest:probe_system") as rec:
+        for t in range(30):
+            rec.step(PERIOD_NS, Probe(distance=distances(30)[t]))
+    result = replay(log, probe_system(threshold=0.9), keep_going=True, allow_truncated=True)
+    assert result.reproduce == (
+        f"beatlog replay '{log}' --system tests.conftest:probe_system "
+        "--keep-going --allow-truncated"
+    )

@@ -2,8 +2,21 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from beatlog import replay
-from beatlog.engine.trace import fields_read, recorded_trace, replayed_trace
+from beatlog.engine.trace import (
+    ABSENT,
+    Expectation,
+    OutputTracker,
+    TracedOutput,
+    fields_read,
+    recorded_outputs,
+    recorded_trace,
+    replayed_trace,
+)
 from beatlog.engine.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
 
@@ -54,3 +67,49 @@ def test_a_diverging_replay_by_reference_names_the_fields_read(record_probe: Rec
     result = replay(record_probe(300), "tests.suite.test_spec:changed_probe")
     assert result.divergence is not None
     assert result.divergence.fields_read == ("distance",)
+
+
+def test_outputs_are_traced_only_where_a_field_changes() -> None:
+    tracker = OutputTracker()
+    seen = [
+        tracker.observe(0, 30, {"speed": 0.5, "turn": 0.0}),
+        tracker.observe(1, 60, {"turn": 0.0, "speed": 0.5}),
+        tracker.observe(2, 90, {"speed": -0.0}),
+        tracker.observe(3, 120, {"speed": -0.0, "turn": np.float64(0.0)}),
+        tracker.observe(4, 150, {}),
+    ]
+    assert seen == [
+        [TracedOutput(0, 30, "speed", 0.5), TracedOutput(0, 30, "turn", 0.0)],
+        [],
+        [TracedOutput(2, 90, "speed", -0.0), TracedOutput(2, 90, "turn", ABSENT)],
+        [TracedOutput(3, 120, "turn", 0.0)],
+        [TracedOutput(4, 150, "speed", ABSENT), TracedOutput(4, 150, "turn", ABSENT)],
+    ]
+    assert math.copysign(1, seen[2][0].value) == -1  # -0.0 is a change from 0.5, kept exact
+
+
+def test_replaying_the_recorded_system_gives_the_recorded_outputs(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    recorded = recorded_outputs(log)
+    replayed = replayed_trace(log, probe_system())
+    assert list(replayed.outputs) == recorded
+    assert recorded[0] == TracedOutput(0, recorded[0].time_ns, "speed", 0.5)
+    assert {o.field for o in recorded} == {"speed", "time"}
+    assert any(o.value is ABSENT for o in recorded)  # near wins: no "time" output
+
+
+def test_an_expectation_gives_every_output_of_the_cycles_where_one_changes() -> None:
+    expectation = Expectation(
+        (),
+        (
+            TracedOutput(0, 30, "speed", 0.5),
+            TracedOutput(0, 30, "turn", 1),
+            TracedOutput(7, 240, "turn", ABSENT),
+            TracedOutput(9, 300, "speed", 0.25),
+        ),
+    )
+    assert list(expectation.outputs_by_cycle()) == [
+        (0, {"speed": 0.5, "turn": 1}),
+        (7, {"speed": 0.5}),
+        (9, {"speed": 0.25}),
+    ]

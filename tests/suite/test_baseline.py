@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
+import msgspec
 import pytest
 
-from beatlog.engine.trace import TracedChange
+from beatlog.engine.trace import ABSENT, Expectation, TracedChange, TracedOutput
 from beatlog.engine.verdict import StateChange
 from beatlog.errors import BaselineError
 from beatlog.suite.baseline import (
@@ -36,7 +38,7 @@ def log(tmp_path: Path) -> Path:
 
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(path, spec_name="a", log=log, changes=CHANGES)
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES, ()))
 
     baseline = read_baseline(path)
 
@@ -48,17 +50,17 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
         360_000_000,
         120_030_000_000,
     ]
-    assert baseline.by_cycle()[12] == [CHANGES[1].change, CHANGES[2].change]
+    assert baseline.expectation.changes_by_cycle()[12] == [CHANGES[1].change, CHANGES[2].change]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.dtc.expected", "session.beatlog"]
 
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    write_baseline(path, spec_name="a", log=log, changes=CHANGES[:2])
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES[:2], ()))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[0] == "# beatlog expected state changes, format 1"
+    assert lines[0] == "# beatlog expected state changes and outputs, format 2"
     assert lines[2] == f"# log session.beatlog sha256 {log_digest(log)}"
     assert lines[-2:] == [
         '       0     0.030  "arbiter": "idle" -> "wander"',
@@ -68,7 +70,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(path, spec_name="a", log=log, changes=())
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation((), ()))
     assert read_baseline(path).changes == ()
 
 
@@ -141,3 +143,118 @@ def test_ci_is_recognised_from_the_environment(
     else:
         monkeypatch.setenv("CI", value)
     assert in_ci() is ci
+
+
+def _bits(value: object) -> bytes:
+    return msgspec.msgpack.Encoder(order="sorted").encode(value)
+
+
+NEGATIVE_NAN = struct.unpack("<d", struct.pack("<Q", 0xFFF8_0000_0000_0000))[0]
+PAYLOAD_NAN = struct.unpack("<d", struct.pack("<Q", 0x7FF8_0000_0000_0001))[0]
+
+
+@pytest.mark.parametrize(
+    ("value", "written"),
+    [
+        (0.1, "0.1"),
+        (-0.0, "-0.0"),
+        (1e-310, "1e-310"),
+        (float("nan"), "NaN"),
+        (float("inf"), "Infinity"),
+        (float("-inf"), "-Infinity"),
+        (NEGATIVE_NAN, "msgpack:cbfff8000000000000"),
+        (PAYLOAD_NAN, "msgpack:cb7ff8000000000001"),
+        (3, "3"),
+        (True, "true"),
+        (None, "null"),
+        ("ü", '"\\u00fc"'),
+        ([0.5, -0.0, [1]], "[0.5, -0.0, [1]]"),
+        ({"b": 1, "a": [2.5]}, '{"a": [2.5], "b": 1}'),
+        (b"\x00\xff", "msgpack:c40200ff"),
+    ],
+    ids=repr,
+)
+def test_an_output_value_reads_back_bit_for_bit(
+    tmp_path: Path, log: Path, value: object, written: str
+) -> None:
+    path = tmp_path / "a.dtc.expected"
+    outputs = (TracedOutput(5, 180_000_000, "motor", value),)
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation((), outputs))
+
+    assert path.read_text(encoding="utf-8").splitlines()[-1] == (
+        f'       5     0.180  output "motor" = {written}'
+    )
+    (traced,) = read_baseline(path).outputs or ()
+    assert (traced.cycle, traced.field) == (5, "motor")
+    assert _bits(traced.value) == _bits(value)
+
+
+def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, log: Path) -> None:
+    path = tmp_path / "a.dtc.pending"
+    outputs = (
+        TracedOutput(0, 30_000_000, "speed", 0.5),
+        TracedOutput(12, 360_012_000, "speed", 0.0),
+        TracedOutput(13, 390_000_000, "speed", ABSENT),
+    )
+    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES[:2], outputs))
+
+    lines = path.read_text(encoding="utf-8").splitlines()
+
+    assert lines[-5:] == [
+        '       0     0.030  "arbiter": "idle" -> "wander"',
+        '       0     0.030  output "speed" = 0.5',
+        '      12     0.360  "avoid": "off" -> "turning"',
+        '      12     0.360  output "speed" = 0.0',
+        '      13     0.390  output "speed" absent',
+    ]
+    baseline = read_baseline(path)
+    assert baseline.outputs is not None
+    assert [(o.cycle, o.field, o.value) for o in baseline.outputs] == [
+        (0, "speed", 0.5),
+        (12, "speed", 0.0),
+        (13, "speed", ABSENT),
+    ]
+
+
+def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> None:
+    path = tmp_path / "a.dtc.expected"
+    path.write_text(
+        f"# beatlog expected state changes, format 1\n# spec a\n# log a.beatlog sha256 {'0' * 64}\n"
+        '      12     0.360  "avoid": "off" -> "turning"\n',
+        encoding="utf-8",
+    )
+
+    baseline = read_baseline(path)
+
+    assert [c.change for c in baseline.changes] == [StateChange("avoid", "off", "turning")]
+    assert baseline.outputs is None
+    assert baseline.expectation.outputs is None
+
+
+@pytest.mark.parametrize(
+    ("magic", "line", "problem"),
+    [
+        (1, '  7  0.210  output "speed" = 1', "line 4: a format 1 baseline holds no outputs"),
+        (2, "  7  0.210  output speed = 1", "line 4: Expecting value"),
+        (2, "  7  0.210  output 3 = 1", "the output field must be a JSON string"),
+        (2, '  7  0.210  output "speed" 1', "expected '=' at column"),
+        (2, '  7  0.210  output "speed" = 1 2', "unexpected ' 2' after the value"),
+        (2, '  7  0.210  output "speed" = msgpack:zz', "a damaged msgpack value"),
+        (2, '  7  0.210  output "speed" = msgpack:c1', "a damaged msgpack value"),
+    ],
+)
+def test_a_damaged_output_line_is_an_error_naming_file_and_line(
+    tmp_path: Path, magic: int, line: str, problem: str
+) -> None:
+    header = {
+        1: "# beatlog expected state changes, format 1",
+        2: "# beatlog expected state changes and outputs, format 2",
+    }[magic]
+    path = tmp_path / "a.dtc.expected"
+    path.write_text(f"{header}\n# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n", encoding="utf-8")
+
+    with pytest.raises(BaselineError) as raised:
+        read_baseline(path)
+
+    assert str(raised.value).startswith(f"{path}: ")
+    assert problem in str(raised.value)

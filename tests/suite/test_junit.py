@@ -84,7 +84,7 @@ def test_a_failure_carries_the_divergence_message_and_the_full_report(
     assert failure.get("message") == "behavior state changes differ from the recording"
     assert failure.text is not None
     assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in failure.text
-    reproduce = f"reproduce: beatlog replay {outcomes[1].spec.log} --system {CHANGED}"
+    reproduce = f"reproduce: beatlog test {outcomes[1].spec.path}"
     assert reproduce in " ".join(failure.text.split())  # plain_text wraps at 100 columns
 
 

@@ -12,12 +12,12 @@ from rich.console import Console
 from rich.prompt import Prompt
 from rich.text import Text
 
-from beatlog.engine.trace import TracedChange, recorded_trace
+from beatlog.engine.trace import TracedChange, recorded_outputs, recorded_trace
 from beatlog.errors import BaselineError, BeatlogError
 from beatlog.suite.baseline import (
     expected_path,
     find_orphans,
-    format_changes,
+    format_lines,
     in_ci,
     log_digest,
     pending_path,
@@ -41,7 +41,8 @@ class CiWriteError(BeatlogError):
 
 
 def write_pending(outcomes: Iterable[SpecOutcome], console: Console) -> None:
-    """Write the new expectation of every failed DTC to its pending file.
+    """Write the new expectation (state changes and outputs) of every failed DTC to its
+    pending file.
 
     A passing DTC's pending file is stale and removed; accepted baselines are never
     touched. In CI nothing is written.
@@ -55,9 +56,11 @@ def write_pending(outcomes: Iterable[SpecOutcome], console: Console) -> None:
         spec = outcome.spec
         pending = pending_path(spec.path)
         if outcome.update is not None:
-            write_baseline(pending, spec_name=spec.name, log=spec.log, changes=outcome.update)
+            update = outcome.update
+            write_baseline(pending, spec_name=spec.name, log=spec.log, expectation=update)
             console.print(
-                f"[cyan]pending[/] {pending} ({len(outcome.update)} state changes): "
+                f"[cyan]pending[/] {pending} ({len(update.changes)} state changes, "
+                f"{len(update.outputs or ())} output changes): "
                 f"review with [bold]beatlog review {spec.path}[/], "
                 f"accept with [bold]beatlog approve {spec.path}[/]"
             )
@@ -143,22 +146,36 @@ def _accept(spec: DtcSpec) -> None:
     pending.replace(expected_path(spec.path))
 
 
-def _show_pending(spec: DtcSpec, console: Console) -> None:
+def _show_pending(spec: DtcSpec, console: Console, *, max_lines: int = 200) -> None:
+    """The pending expectation as a diff against today's: approved, else recorded.
+
+    State changes and output changes interleave by cycle; only the changed cycles and
+    a line of context either side are shown, at most ``max_lines`` lines.
+    """
     expected = expected_path(spec.path)
     if expected.exists():
-        old, source = read_baseline(expected).changes, f"approved ({expected.name})"
+        approved = read_baseline(expected)
+        old = format_lines(approved.changes, approved.outputs)
+        source = f"approved ({expected.name})"
+        if approved.outputs is None:
+            source += ", no outputs pinned"
     else:
         renamed = spec.comparison.renamed
-        old = tuple(
-            TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(spec.log)
+        old = format_lines(
+            (TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(spec.log)),
+            recorded_outputs(spec.log),
         )
         source = f"recorded ({spec.log.name})"
-    new = read_baseline(pending_path(spec.path)).changes
+    pending = read_baseline(pending_path(spec.path))
+    new = format_lines(pending.changes, pending.outputs)
     console.rule(f"{spec.name} ({spec.path})")
-    console.print(f"{len(old)} state changes {source} → {len(new)} pending")
-    diff = difflib.unified_diff(
-        format_changes(old), format_changes(new), source, "pending", n=3, lineterm=""
-    )
-    for line in diff:
+    console.print(f"{len(old)} state and output changes {source} → {len(new)} pending")
+    diff = list(difflib.unified_diff(old, new, source, "pending", n=1, lineterm=""))
+    for line in diff[:max_lines]:
         style = {"+": "green", "-": "red", "@": "cyan"}.get(line[:1], "")
         console.print(Text(line, style=style))
+    if len(diff) > max_lines:
+        console.print(
+            f"… {len(diff) - max_lines} more diff lines: read {pending_path(spec.path)}",
+            style="dim",
+        )

@@ -311,7 +311,6 @@ def _describe(outcome: SpecOutcome) -> RenderableType:
     return Group(
         Text.assemble(("DTC ", "bold"), f"{outcome.spec.name} ({outcome.spec.path})"),
         render_replay(outcome.result),
-        Text.assemble(("rerun this DTC: ", "dim"), f"beatlog test {outcome.spec.path}"),
     )
 
 

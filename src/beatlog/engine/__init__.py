@@ -5,6 +5,7 @@ from beatlog.engine.cycle import CycleExecutor
 from beatlog.engine.loading import load_factory, load_system
 from beatlog.engine.record import Recorder, RecordSummary
 from beatlog.engine.replay import replay
+from beatlog.engine.trace import Expectation
 from beatlog.engine.verdict import (
     Divergence,
     DivergenceKind,
@@ -19,6 +20,7 @@ __all__ = [
     "Divergence",
     "DivergenceKind",
     "DrawReport",
+    "Expectation",
     "Finding",
     "RecordSummary",
     "Recorder",

@@ -9,11 +9,10 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import shlex
 import time
 import traceback
 from collections import deque
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +23,7 @@ from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
 from beatlog.engine.fit import check_fit
 from beatlog.engine.loading import load_system
 from beatlog.engine.renames import propose_renames
-from beatlog.engine.trace import fields_read
+from beatlog.engine.trace import Expectation, fields_read
 from beatlog.engine.verdict import (
     ContextRow,
     Divergence,
@@ -32,6 +31,7 @@ from beatlog.engine.verdict import (
     DrawReport,
     ReplayResult,
     StateChange,
+    reproduce_command,
 )
 from beatlog.errors import BeatlogError, CorruptLogError, SchemaMismatchError
 from beatlog.log.format import (
@@ -60,7 +60,7 @@ def replay(
     allow_truncated: bool = False,
     context_cycles: int = 5,
     comparison: Comparison | None = None,
-    expected: Mapping[int, Sequence[StateChange]] | None = None,
+    expected: Expectation | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference).
 
@@ -71,12 +71,15 @@ def replay(
     ``context_cycles`` cycles before and after it.
 
     ``comparison`` says what counts as the same (renames, ignored behaviors and output
-    fields, tolerances; exact by default). ``expected`` replaces the recorded state
-    changes with an approved baseline (cycle → changes); the recording's random
-    numbers and robot states are still used, and outputs are then not compared.
-    When the behaviors differ from what was expected only by a consistent renaming,
-    the divergence proposes the rename map. Given a ``module:factory`` reference, the
-    divergence also names the robot-state fields the behaviors read in that cycle.
+    fields, tolerances; exact by default). ``expected`` is an approved baseline to judge
+    against instead of the recording: its state changes, and its outputs when it pins
+    them (else the recorded outputs); the recording's heartbeats, robot states and
+    random numbers are still used. When the behaviors differ from what was expected
+    only by a consistent renaming, the divergence proposes the rename map. Given a
+    ``module:factory`` reference, the divergence also names the robot-state fields the
+    behaviors read in that cycle. The result's reproduce command replays with these
+    options, except ``comparison`` and ``expected``, which a spec carries (see
+    :func:`beatlog.suite.run_spec`).
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.engine.fit`).
@@ -122,13 +125,15 @@ def replay(
         status=status,
         divergence=divergence,
         divergent_cycles=judge.divergent_cycles,
-        reproduce=_reproduce_command(Path(log), reference or reader.header.system),
+        reproduce=reproduce_command(
+            "replay",
+            log,
+            "--system",
+            reference or reader.header.system or "MODULE:FACTORY",
+            *(["--keep-going"] if keep_going else []),
+            *(["--allow-truncated"] if allow_truncated else []),
+        ),
     )
-
-
-def _reproduce_command(log: Path, reference: str) -> str:
-    reference = reference or "MODULE:FACTORY"
-    return f"beatlog replay {shlex.quote(str(log))} --system {shlex.quote(reference)}"
 
 
 class _Judge:
@@ -143,7 +148,7 @@ class _Judge:
         keep_going: bool,
         context: int,
         comparison: Comparison,
-        expected: Mapping[int, Sequence[StateChange]] | None,
+        expected: Expectation | None,
     ) -> None:
         self.header = header
         self.comparison = comparison
@@ -158,18 +163,26 @@ class _Judge:
         self._stopped_at: tuple[int, int] | None = None
         self._encoder = payload_encoder()
         self._baseline: dict[int, msgspec.Raw] | None = None
+        self._baseline_outputs: dict[int, msgspec.Raw] | None = None
         self.expected_names = list(header.behaviors)
         if expected is not None:
             self._baseline = self._encode_baseline(expected)
+            if expected.outputs is not None:
+                self._baseline_outputs = self._encode_outputs(expected)
+        # Pinned outputs are encoded with sorted keys, whatever order the behaviors
+        # report them in; recorded ones in the order they were reported.
+        self._outputs_encoder = (
+            self._encoder
+            if self._baseline_outputs is None
+            else msgspec.msgpack.Encoder(enc_hook=self._encoder.enc_hook, order="sorted")
+        )
         self._same_catalogue = self.executor.behavior_ids == self.expected_names
         self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
         self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
         self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
         self._outputs_decoder = msgspec.msgpack.Decoder(dict[str, Any])
 
-    def _encode_baseline(
-        self, expected: Mapping[int, Sequence[StateChange]]
-    ) -> dict[int, msgspec.Raw]:
+    def _encode_baseline(self, expected: Expectation) -> dict[int, msgspec.Raw]:
         """Encode an approved baseline like recorded state changes, by the system's catalogue.
 
         Behaviors the baseline names but the system lacks get indices past its catalogue.
@@ -177,7 +190,7 @@ class _Judge:
         names = list(self.executor.behavior_ids)
         index = {name: position for position, name in enumerate(names)}
         encoded: dict[int, msgspec.Raw] = {}
-        for cycle, changes in expected.items():
+        for cycle, changes in expected.changes_by_cycle().items():
             records: list[StateChangeRecord] = []
             for behavior, before, after in changes:
                 if behavior not in index:
@@ -189,18 +202,31 @@ class _Judge:
         self.expected_names = names
         return encoded
 
+    def _encode_outputs(self, expected: Expectation) -> dict[int, msgspec.Raw]:
+        """The pinned outputs of every cycle where they change, encoded with sorted keys."""
+        encode = msgspec.msgpack.Encoder(order="sorted").encode
+        return {
+            cycle: msgspec.Raw(encode(outputs)) for cycle, outputs in expected.outputs_by_cycle()
+        }
+
     def expected_batches(
         self, batches: Iterator[Sequence[CycleRecord]]
     ) -> Iterator[Sequence[CycleRecord]]:
-        """The log's batches, with an approved baseline's state changes in place of BS_t."""
+        """The log's batches, with an approved baseline's state changes in place of BS_t
+        and its outputs in place of the recorded ones, when it pins them."""
         baseline = self._baseline
         if baseline is None:
             yield from batches
             return
+        pinned = self._baseline_outputs
+        outputs = EMPTY_MAP
         cycle = 0
         for batch in batches:
             for record in batch:
                 record.state_changes = baseline.get(cycle, EMPTY_LIST)
+                if pinned is not None:
+                    outputs = pinned.get(cycle, outputs)
+                    record.outputs = outputs
                 cycle += 1
             yield batch
 
@@ -208,6 +234,15 @@ class _Judge:
     def against(self) -> str:
         """What replay is judged against, for messages."""
         return "the recording" if self._baseline is None else "the approved baseline"
+
+    @property
+    def outputs_against(self) -> str:
+        """What the outputs are judged against, for messages."""
+        if self._baseline is None:
+            return "the recording"
+        if self._baseline_outputs is None:
+            return "the recording (the approved baseline pins no outputs: re-approve it)"
+        return "the approved baseline"
 
     @property
     def cycles(self) -> int:
@@ -223,11 +258,11 @@ class _Judge:
         """Replay a batch of cycles; the index of the cycle where replay stops, if it does."""
         remember = self._recent.append
         encode = self._encoder.encode
+        encode_outputs = self._outputs_encoder.encode
         random = self.random
         step = self.executor.step
         context = self.executor.context
         same_catalogue = self._same_catalogue
-        outputs_compared = self._baseline is None
         raw = msgspec.Raw
         for index, record in enumerate(batch):
             state = self._state(record)
@@ -250,11 +285,10 @@ class _Judge:
                         or self._changes_agree(record.state_changes, changes)
                     )
                     and (
-                        not outputs_compared
-                        or (
+                        (
                             record.outputs == EMPTY_MAP
                             if not context.outputs
-                            else record.outputs == raw(encode(context.outputs))
+                            else record.outputs == raw(encode_outputs(context.outputs))
                         )
                         or self._outputs_agree(record.outputs, context.outputs)
                     )
@@ -441,7 +475,7 @@ class _Judge:
             behavior = _first_differing_behavior(kept(expected), kept(actual))
         else:
             kind = DivergenceKind.OUTPUTS
-            message = "outputs differ from the recording"
+            message = f"outputs differ from {self.outputs_against}"
         self.divergence = Divergence(
             kind=kind,
             cycle=context.cycle,

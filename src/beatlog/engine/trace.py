@@ -1,13 +1,15 @@
-"""Whole-session traces of behavior state changes: the recorded one and a replayed one.
+"""Whole-session traces of behavior state changes and outputs: recorded and replayed.
 
 Replay stops at the first divergence; re-baselining an intended change and proposing
-a rename need the whole trace instead, so these walk every cycle of a log.
+a rename need the whole trace instead, so these walk every cycle of a log. Outputs are
+traced compactly: a field appears only in the cycles where its value changes.
 """
 
 from __future__ import annotations
 
+import enum
 import itertools
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -18,16 +20,21 @@ from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
 from beatlog.engine.fit import check_fit
 from beatlog.engine.verdict import StateChange
 from beatlog.errors import CorruptLogError, SchemaMismatchError
-from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, CycleRecord
+from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 
 __all__ = [
+    "ABSENT",
+    "Expectation",
+    "OutputTracker",
     "ReplayInputs",
     "ReplayedTrace",
     "TracedChange",
+    "TracedOutput",
     "fields_read",
+    "recorded_outputs",
     "recorded_trace",
     "replayed_trace",
 ]
@@ -41,9 +48,88 @@ class TracedChange(NamedTuple):
     change: StateChange
 
 
+class _Absent(enum.Enum):
+    ABSENT = "absent"
+
+    def __repr__(self) -> str:
+        return "ABSENT"
+
+
+ABSENT = _Absent.ABSENT
+"""The value of a :class:`TracedOutput` whose field is no longer output from that cycle on."""
+
+
+class TracedOutput(NamedTuple):
+    """An output field that took a new value (or went :data:`ABSENT`) at a cycle."""
+
+    cycle: int
+    time_ns: int
+    field: str
+    value: Any
+
+
+class OutputTracker:
+    """Turns each cycle's outputs into the fields whose value changed, bit for bit.
+
+    Values are kept as they read back from a log (numpy arrays become lists), so a
+    trace of replayed outputs equals the trace of the same outputs recorded.
+    """
+
+    def __init__(self) -> None:
+        self._encode = payload_encoder().encode
+        self._sorted = msgspec.msgpack.Encoder(enc_hook=payload_encoder().enc_hook, order="sorted")
+        self._current: dict[str, bytes] = {}
+
+    def observe(self, cycle: int, time_ns: int, outputs: Mapping[str, Any]) -> list[TracedOutput]:
+        """The changes in ``outputs`` since the previous cycle observed."""
+        current = self._current
+        changed: list[TracedOutput] = []
+        if outputs:
+            values = msgspec.msgpack.decode(self._encode(outputs))
+            for name in sorted(values):
+                encoded = self._sorted.encode(values[name])
+                if current.get(name) != encoded:
+                    current[name] = encoded
+                    changed.append(TracedOutput(cycle, time_ns, name, values[name]))
+        for name in sorted(current.keys() - outputs.keys()):
+            del current[name]
+            changed.append(TracedOutput(cycle, time_ns, name, ABSENT))
+        return changed
+
+
+@dataclass(frozen=True)
+class Expectation:
+    """What replay judges against instead of the recording: an approved baseline.
+
+    ``outputs`` pins the outputs as compact changes (see :class:`OutputTracker`); None
+    (a baseline from before outputs were pinned) leaves them judged against the recording.
+    """
+
+    changes: tuple[TracedChange, ...]
+    outputs: tuple[TracedOutput, ...] | None = None
+
+    def changes_by_cycle(self) -> dict[int, list[StateChange]]:
+        """The state changes grouped by cycle."""
+        grouped: dict[int, list[StateChange]] = {}
+        for traced in self.changes:
+            grouped.setdefault(traced.cycle, []).append(traced.change)
+        return grouped
+
+    def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
+        """Each cycle where an output changes, with every output field from then on."""
+        current: dict[str, Any] = {}
+        for cycle, changes in itertools.groupby(self.outputs or (), key=lambda o: o.cycle):
+            for change in changes:
+                if change.value is ABSENT:
+                    current.pop(change.field, None)
+                else:
+                    current[change.field] = change.value
+            yield cycle, dict(current)
+
+
 @dataclass(frozen=True)
 class ReplayedTrace:
-    """The state changes a system makes over a whole session log."""
+    """The state changes and outputs a system makes over a whole session log."""
 
     changes: tuple[TracedChange, ...]
     cycles: int
@@ -51,6 +137,13 @@ class ReplayedTrace:
     stopped: str | None
     """Why replay stopped before the end of the log (the behaviors raised or drew
     random numbers the log does not have), or None when it replayed every cycle."""
+    outputs: tuple[TracedOutput, ...] = ()
+    """The outputs, as the cycles where a field changed value."""
+
+    @property
+    def expectation(self) -> Expectation:
+        """This trace as the expectation a baseline pins."""
+        return Expectation(self.changes, self.outputs)
 
 
 def recorded_trace(log: str | Path) -> list[TracedChange]:
@@ -75,6 +168,25 @@ def recorded_trace(log: str | Path) -> list[TracedChange]:
     return changes
 
 
+def recorded_outputs(log: str | Path) -> list[TracedOutput]:
+    """The outputs the log recorded, as the cycles where a field changed value."""
+    decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
+    tracker = OutputTracker()
+    changes: list[TracedOutput] = []
+    with SessionLogReader(log) as reader:
+        time_ns = 0
+        for cycle, record in enumerate(_records(reader)):
+            time_ns += record.heartbeat_ns
+            try:
+                outputs = {} if record.outputs == EMPTY_MAP else decode(record.outputs)
+            except DECODE_ERRORS as exc:
+                raise CorruptLogError(
+                    reader.path, f"damaged outputs in cycle {cycle}: {exc}"
+                ) from None
+            changes.extend(tracker.observe(cycle, time_ns, outputs))
+    return changes
+
+
 def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     """Replay every cycle of ``log`` on ``system`` and collect its state changes.
 
@@ -85,6 +197,8 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     names = replayer.executor.behavior_ids
     random = replayer.random
     changes: list[TracedChange] = []
+    tracker = OutputTracker()
+    outputs: list[TracedOutput] = []
     stopped: str | None = None
     cycles = 0
     with SessionLogReader(log) as reader:
@@ -108,8 +222,9 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
                 TracedChange(cycle, time_ns, StateChange(names[index], before, after))
                 for index, before, after in stepped
             )
+            outputs.extend(tracker.observe(cycle, time_ns, replayer.executor.context.outputs))
             cycles += 1
-    return ReplayedTrace(tuple(changes), cycles, stopped)
+    return ReplayedTrace(tuple(changes), cycles, stopped, tuple(outputs))
 
 
 class _ReadTracker:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shlex
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
@@ -16,7 +17,16 @@ __all__ = [
     "DrawReport",
     "ReplayResult",
     "StateChange",
+    "reproduce_command",
 ]
+
+
+def reproduce_command(*argv: str | Path) -> str:
+    """The ``beatlog`` command line with these arguments, quoted for a POSIX shell.
+
+    The one builder of the ``reproduce:`` commands that reports print.
+    """
+    return shlex.join(["beatlog", *map(str, argv)])
 
 
 class DivergenceKind(StrEnum):
@@ -116,7 +126,9 @@ class ReplayResult:
     divergent_cycles: int
     """Cycles that diverged; more than one only when replay was told to keep going."""
     reproduce: str
-    """A command that replays this log again."""
+    """A command that reproduces this verdict: ``beatlog replay`` with the options replay
+    was given or, for a DTC run from its spec, ``beatlog test SPEC`` (which brings the
+    spec's allowances and approved baseline along)."""
 
     @property
     def robot_time_s(self) -> float:

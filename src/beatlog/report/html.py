@@ -9,7 +9,6 @@ messages, states, values) is escaped.
 from __future__ import annotations
 
 import html
-import shlex
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -138,7 +137,7 @@ def _section(index: int, outcome: SpecOutcome) -> str:
         f'<h2><span class="verdict">{_e(verdict)}</span> {_e(spec.name)}</h2>',
         f'<p class="purpose">{_e(spec.purpose)}</p>',
     ]
-    rerun = f"beatlog test {shlex.quote(str(spec.path))}"
+    rerun = outcome.reproduce
     result = outcome.result
     if result is None:
         parts.append(f'<p class="error">{_e(outcome.error)}</p>')
@@ -165,7 +164,6 @@ def _section(index: int, outcome: SpecOutcome) -> str:
             ("cycles", f"{result.cycles:,}"),
             ("robot time", f"{result.robot_time_s:.3f} s"),
             ("log status", result.status.describe() if result.status else "not read to its end"),
-            ("replay", result.reproduce),
         ]
     items = "".join(f"<dt>{_e(name)}</dt><dd>{_e(value)}</dd>" for name, value in facts)
     parts.append(f'<dl class="facts">{items}</dl></section>')

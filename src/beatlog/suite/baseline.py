@@ -1,18 +1,29 @@
-"""Expected state changes approved after an intended behavior change, and pending ones.
+"""Expected state changes and outputs approved after an intended behavior change.
 
-Recordings are immutable: when behaviors change on purpose, the new state changes go
-to a *pending* file beside the spec (``NAME.dtc.pending``), are reviewed, and once
-approved become the *expected* file (``NAME.dtc.expected``) that replay judges against
-instead of the recorded state changes. Both are plain text, one state change a line,
-so a re-baseline reads as a diff in code review::
+Recordings are immutable: when behaviors change on purpose, the new state changes and
+outputs go to a *pending* file beside the spec (``NAME.dtc.pending``), are reviewed,
+and once approved become the *expected* file (``NAME.dtc.expected``) that replay
+judges against instead of the recording. Both are plain text, one state change or
+output change a line, so a re-baseline reads as a diff in code review::
 
-    # beatlog expected state changes, format 1
+    # beatlog expected state changes and outputs, format 2
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
-    #  cycle      time  behavior: before -> after
+    #  cycle      time  "behavior": before -> after | output "field" = value
+          0     0.030  output "speed" = 0.5
          12     0.360  "avoid": "idle" -> "turning"
+         12     0.360  output "speed" = 0.0
+         40     1.200  output "turn" absent
 
-Behavior names and states are JSON, so loading a baseline never evaluates anything.
+An output line appears only in the cycles where that field's value changes (cycle 0
+gives the initial values); ``absent`` means the field is no longer output. Behavior
+names, states and output values are JSON, floats written so they read back bit for bit
+(``NaN``, ``Infinity``, ``-Infinity``, ``-0.0`` included); a value JSON cannot hold
+exactly (a NaN with a payload, bytes) is written as ``msgpack:HEX``, its msgpack
+encoding. Loading a baseline never evaluates anything.
+
+Format 1 files (state changes only) still read: they pin no outputs, so replay judges
+outputs against the recording and says so when they differ; re-approve to pin them.
 """
 
 from __future__ import annotations
@@ -22,13 +33,18 @@ import json
 import os
 import re
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
-from beatlog.engine.trace import TracedChange
+import msgspec
+
+from beatlog.engine.trace import ABSENT, Expectation, TracedChange, TracedOutput
 from beatlog.engine.verdict import StateChange
-from beatlog.errors import BaselineError
+from beatlog.errors import BaselineError, NotABeatlogError
+from beatlog.log.format import DECODE_ERRORS
+from beatlog.paths import irregular_file_problem
 from beatlog.suite.spec import SPEC_SUFFIX
 
 __all__ = [
@@ -37,7 +53,7 @@ __all__ = [
     "Baseline",
     "expected_path",
     "find_orphans",
-    "format_changes",
+    "format_lines",
     "in_ci",
     "log_digest",
     "pending_path",
@@ -47,26 +63,30 @@ __all__ = [
 
 EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
-_MAGIC = "# beatlog expected state changes, format 1"
+_MAGIC = "# beatlog expected state changes and outputs, format 2"
+_MAGIC_1 = "# beatlog expected state changes, format 1"
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
+_OUTPUT = "output "
+_MSGPACK = "msgpack:"
 _JSON = json.JSONDecoder()
+_SORTED = msgspec.msgpack.Encoder(order="sorted")
 
 
 @dataclass(frozen=True)
 class Baseline:
-    """A baseline file: the log it was made from and its state changes by cycle."""
+    """A baseline file: the log it was made from, its state changes and its outputs."""
 
     path: Path
     log_digest: str
     changes: tuple[TracedChange, ...]
+    outputs: tuple[TracedOutput, ...] | None = None
+    """The output changes; None in a format 1 file, which pins no outputs."""
 
-    def by_cycle(self) -> dict[int, list[StateChange]]:
-        """The state changes grouped by cycle, as replay expects them."""
-        grouped: dict[int, list[StateChange]] = {}
-        for traced in self.changes:
-            grouped.setdefault(traced.cycle, []).append(traced.change)
-        return grouped
+    @property
+    def expectation(self) -> Expectation:
+        """What replay judges against with this baseline."""
+        return Expectation(self.changes, self.outputs)
 
 
 def _base(spec: Path) -> str:
@@ -91,6 +111,9 @@ def in_ci() -> bool:
 
 def log_digest(log: Path) -> str:
     """The SHA-256 of a session log, binding a baseline to the recording it was made from."""
+    problem = irregular_file_problem(log)
+    if problem is not None:
+        raise NotABeatlogError(log, problem)
     digest = hashlib.sha256()
     try:
         with log.open("rb") as file:
@@ -101,25 +124,56 @@ def log_digest(log: Path) -> str:
     return digest.hexdigest()
 
 
-def format_changes(changes: Iterable[TracedChange]) -> list[str]:
-    """One text line per state change, as baseline files hold them."""
-    return [
+def format_lines(
+    changes: Iterable[TracedChange], outputs: Iterable[TracedOutput] | None = None
+) -> list[str]:
+    """One text line per state change and output change, by cycle, as baseline files
+    hold them: in each cycle the state changes first."""
+    keyed = [(c.cycle, 0, _change_line(c)) for c in changes]
+    keyed.extend((o.cycle, 1, _output_line(o)) for o in outputs or ())
+    keyed.sort(key=lambda item: item[:2])  # stable: the order within a cycle is kept
+    return [line for _, _, line in keyed]
+
+
+def _change_line(traced: TracedChange) -> str:
+    cycle, time_ns, change = traced
+    return (
         f"{cycle:>8} {time_ns / 1e9:>9.3f}  {json.dumps(change.behavior)}: "
         f"{json.dumps(change.before)} -> {json.dumps(change.after)}"
-        for cycle, time_ns, change in changes
-    ]
+    )
+
+
+def _output_line(traced: TracedOutput) -> str:
+    cycle, time_ns, name, value = traced
+    what = "absent" if value is ABSENT else f"= {_format_value(value)}"
+    return f"{cycle:>8} {time_ns / 1e9:>9.3f}  {_OUTPUT}{json.dumps(name)} {what}"
+
+
+def _format_value(value: Any) -> str:
+    """JSON when it reads back bit for bit, else the msgpack encoding in hex."""
+    try:
+        text = json.dumps(value, sort_keys=True)
+        if _SORTED.encode(json.loads(text)) == _SORTED.encode(value):
+            return text
+    except (TypeError, ValueError):
+        pass
+    return _MSGPACK + _SORTED.encode(value).hex()
 
 
 def write_baseline(
-    path: Path, *, spec_name: str, log: Path, changes: Sequence[TracedChange]
+    path: Path,
+    *,
+    spec_name: str,
+    log: Path,
+    expectation: Expectation,
 ) -> None:
     """Write a baseline file atomically: readers see the old file or the new one."""
     lines = [
         _MAGIC,
         f"# spec {spec_name}",
         f"# log {log.name} sha256 {log_digest(log)}",
-        "#  cycle      time  behavior: before -> after",
-        *format_changes(changes),
+        '#  cycle      time  "behavior": before -> after | output "field" = value',
+        *format_lines(expectation.changes, expectation.outputs or ()),
     ]
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     try:
@@ -133,50 +187,91 @@ def write_baseline(
 
 def read_baseline(path: Path) -> Baseline:
     """Read a baseline file; anything else raises :class:`BaselineError` naming the line."""
+    problem = irregular_file_problem(path)
+    if problem is not None:
+        raise BaselineError(path, problem)
     try:
         text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise BaselineError(path, "no such file") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise BaselineError(path, f"cannot read: {exc}") from None
     lines = text.splitlines()
-    if not lines or lines[0] != _MAGIC:
+    if not lines or lines[0] not in (_MAGIC, _MAGIC_1):
         raise BaselineError(path, "not a beatlog baseline (its first line is not the header)")
     digest = ""
     changes: list[TracedChange] = []
+    outputs: list[TracedOutput] = []
     for number, line in enumerate(lines[1:], start=2):
         if line.startswith("#"):
             found = _LOG_LINE.fullmatch(line)
             digest = found["digest"] if found else digest
         elif line.strip():
-            changes.append(_parse_change(path, number, line))
+            try:
+                parsed = _parse_line(line, outputs_allowed=lines[0] == _MAGIC)
+            except (ValueError, RecursionError) as exc:
+                raise BaselineError(path, f"line {number}: {exc}") from None
+            if isinstance(parsed, TracedOutput):
+                outputs.append(parsed)
+            else:
+                changes.append(parsed)
     if not digest:
         raise BaselineError(path, "no '# log NAME sha256 DIGEST' line")
-    return Baseline(path, digest, tuple(changes))
+    cycles = [traced.cycle for traced in outputs]
+    if cycles != sorted(cycles):
+        raise BaselineError(path, "output lines are not in cycle order")
+    pinned = tuple(outputs) if lines[0] == _MAGIC else None
+    return Baseline(path, digest, tuple(changes), pinned)
 
 
-def _parse_change(path: Path, number: int, line: str) -> TracedChange:
+def _parse_line(line: str, *, outputs_allowed: bool) -> TracedChange | TracedOutput:
     found = _CHANGE_LINE.fullmatch(line)
-    try:
-        if found is None:
-            raise ValueError("expected 'CYCLE TIME \"behavior\": BEFORE -> AFTER'")
-        text = found["change"]
-        behavior, end = _JSON.raw_decode(text)
-        end = _expect(text, end, ": ")
-        before, end = _JSON.raw_decode(text, end)
-        end = _expect(text, end, " -> ")
-        after, end = _JSON.raw_decode(text, end)
-        if end != len(text.rstrip()):
-            raise ValueError(f"unexpected {text[end:]!r} after the state")
-        if not isinstance(behavior, str):
-            raise ValueError("the behavior must be a JSON string")
-        for state in (before, after):
-            if not isinstance(state, str | int | bool | None):
-                raise ValueError(f"a state must be a string, number, flag or null, not {state!r}")
-    except ValueError as exc:
-        raise BaselineError(path, f"line {number}: {exc}") from None
-    time_ns = round(float(found["time"]) * 1e9)
-    return TracedChange(int(found["cycle"]), time_ns, StateChange(behavior, before, after))
+    if found is None:
+        raise ValueError(
+            "expected 'CYCLE TIME \"behavior\": BEFORE -> AFTER' or "
+            "'CYCLE TIME output \"field\" = VALUE'"
+        )
+    cycle, time_ns, text = int(found["cycle"]), round(float(found["time"]) * 1e9), found["change"]
+    if text.startswith(_OUTPUT):
+        if not outputs_allowed:
+            raise ValueError("a format 1 baseline holds no outputs")
+        name, value = _parse_output(text[len(_OUTPUT) :])
+        return TracedOutput(cycle, time_ns, name, value)
+    return TracedChange(cycle, time_ns, _parse_change(text))
+
+
+def _parse_output(text: str) -> tuple[str, Any]:
+    name, end = _JSON.raw_decode(text)
+    if not isinstance(name, str):
+        raise ValueError("the output field must be a JSON string")
+    rest = text[end:].rstrip()
+    if rest == " absent":
+        return name, ABSENT
+    end = _expect(text, end, " = ")
+    value_text = text[end:].rstrip()
+    if value_text.startswith(_MSGPACK):
+        try:
+            return name, msgspec.msgpack.decode(bytes.fromhex(value_text[len(_MSGPACK) :]))
+        except (ValueError, *DECODE_ERRORS) as exc:
+            raise ValueError(f"a damaged msgpack value: {exc}") from None
+    value, end = _JSON.raw_decode(value_text)
+    if end != len(value_text):
+        raise ValueError(f"unexpected {value_text[end:]!r} after the value")
+    return name, value
+
+
+def _parse_change(text: str) -> StateChange:
+    behavior, end = _JSON.raw_decode(text)
+    end = _expect(text, end, ": ")
+    before, end = _JSON.raw_decode(text, end)
+    end = _expect(text, end, " -> ")
+    after, end = _JSON.raw_decode(text, end)
+    if end != len(text.rstrip()):
+        raise ValueError(f"unexpected {text[end:]!r} after the state")
+    if not isinstance(behavior, str):
+        raise ValueError("the behavior must be a JSON string")
+    for state in (before, after):
+        if not isinstance(state, str | int | bool | None):
+            raise ValueError(f"a state must be a string, number, flag or null, not {state!r}")
+    return StateChange(behavior, before, after)
 
 
 def _expect(text: str, position: int, separator: str) -> int:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import multiprocessing
 import time
 from collections.abc import Callable, Sequence
@@ -15,8 +16,8 @@ from beatlog.engine.audit import audit as audit_replay
 from beatlog.engine.loading import load_system
 from beatlog.engine.replay import replay
 from beatlog.engine.timeline import Timeline, report_timelines
-from beatlog.engine.trace import TracedChange, replayed_trace
-from beatlog.engine.verdict import DivergenceKind, ReplayResult
+from beatlog.engine.trace import Expectation, replayed_trace
+from beatlog.engine.verdict import DivergenceKind, ReplayResult, reproduce_command
 from beatlog.errors import BaselineError, BeatlogError
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.spec import DtcSpec
@@ -28,7 +29,7 @@ class Verdict(StrEnum):
     """How one DTC ended."""
 
     PASSED = "passed"
-    """Replay gave the expected behavior state changes (and the recorded outputs)."""
+    """Replay gave the expected behavior state changes and outputs."""
     FAILED = "failed"
     """Replay diverged from the recording or the approved baseline."""
     ERROR = "error"
@@ -46,14 +47,19 @@ class SpecOutcome:
     wall_time_s: float
     baseline: Path | None = None
     """The approved baseline judged against, when there is one."""
-    update: tuple[TracedChange, ...] | None = None
-    """The new expected state changes, when asked to update and the DTC failed."""
+    update: Expectation | None = None
+    """The new expected state changes and outputs, when asked to update and the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
     """The determinism audit, when one was asked for and the DTC could run."""
     timelines: tuple[Timeline, ...] = ()
     """Behavior activity for charts, when the suite was run with ``timelines``."""
+
+    @property
+    def reproduce(self) -> str:
+        """The command that reruns this DTC alone, with its allowances and baseline."""
+        return _rerun(self.spec)
 
     @property
     def audit_findings(self) -> int:
@@ -68,9 +74,10 @@ def run_spec(
     spec: DtcSpec, *, update: bool = False, audit: bool = False, timelines: bool = False
 ) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one. With ``update`` a failure also traces the new state changes, with
-    ``audit`` its determinism is audited, with ``timelines`` what it did is charted;
-    the outcome's wall time is the replay's alone."""
+    if it has one. With ``update`` a failure also traces the new state changes and
+    outputs, with ``audit`` its determinism is audited, with ``timelines`` what it did
+    is charted; the outcome's wall time is the replay's alone. The result's reproduce
+    command is ``beatlog test SPEC``, which judges exactly as this run did."""
     started = time.perf_counter()
     baseline = expected_path(spec.path)
     try:
@@ -81,7 +88,7 @@ def run_spec(
                 raise BaselineError(
                     baseline, f"approved for another recording than {spec.log.name}; delete it"
                 )
-            expected = approved.by_cycle()
+            expected = approved.expectation
         result = replay(
             spec.log,
             spec.system,
@@ -90,6 +97,7 @@ def run_spec(
             expected=expected,
         )
         wall = time.perf_counter() - started
+        result = dataclasses.replace(result, reproduce=_rerun(spec))
         changes, refused = None, None
         if update and result.divergence is not None:
             changes, refused = _new_expectation(spec, result)
@@ -99,7 +107,12 @@ def run_spec(
             else None
         )
         drawn = (
-            report_timelines(spec.log, spec.system, result.divergence, expected=expected)
+            report_timelines(
+                spec.log,
+                spec.system,
+                result.divergence,
+                expected=None if expected is None else expected.changes_by_cycle(),
+            )
             if timelines
             else ()
         )
@@ -119,10 +132,15 @@ def run_spec(
     )
 
 
-def _new_expectation(
-    spec: DtcSpec, result: ReplayResult
-) -> tuple[tuple[TracedChange, ...] | None, str | None]:
-    """The whole new trace of state changes, or why the recording cannot give one."""
+def _rerun(spec: DtcSpec) -> str:
+    """``beatlog test SPEC``: the one command that judges a DTC as a suite run does,
+    with the spec's allowances and approved baseline."""
+    return reproduce_command("test", spec.path)
+
+
+def _new_expectation(spec: DtcSpec, result: ReplayResult) -> tuple[Expectation | None, str | None]:
+    """The whole new trace of state changes and outputs, or why the recording cannot
+    give one."""
     assert result.divergence is not None
     kind = result.divergence.kind
     if kind not in _UPDATABLE:
@@ -130,7 +148,7 @@ def _new_expectation(
     trace = replayed_trace(spec.log, load_system(spec.system))
     if trace.stopped is not None:
         return None, f"replay cannot go on past {trace.stopped}: re-record the session"
-    return trace.changes, None
+    return trace.expectation, None
 
 
 def run_suite(
@@ -146,7 +164,7 @@ def run_suite(
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
 
     With ``fail_fast`` the first failure or error cancels the specs not yet started.
-    With ``update`` each failure carries its new expected state changes (nothing is
+    With ``update`` each failure carries its new expectation (nothing is
     written here: see :mod:`beatlog.suite.baseline`); with ``audit`` each worker also
     audits its spec's determinism; with ``timelines`` it
     builds its DTC's timelines for charts.
