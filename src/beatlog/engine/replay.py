@@ -11,7 +11,6 @@ import dataclasses
 import itertools
 import shlex
 import time
-import traceback
 from collections import deque
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -24,6 +23,7 @@ from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
 from beatlog.engine.loading import load_system
 from beatlog.engine.renames import propose_renames
 from beatlog.engine.trace import fields_read
+from beatlog.engine.usercode import user_traceback
 from beatlog.engine.verdict import (
     ContextRow,
     Divergence,
@@ -45,9 +45,6 @@ from beatlog.model.behavior import System
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 
 __all__ = ["replay"]
-
-_PACKAGE_DIR = str(Path(__file__).parent.parent)
-_EXAMPLES_DIR = str(Path(__file__).parent.parent / "examples")
 
 
 def replay(
@@ -413,7 +410,7 @@ class _Judge:
         if exc is not None:
             kind = DivergenceKind.EXCEPTION
             behavior = self._actor_name(context.actor)
-            trace = _user_traceback(exc)
+            trace = user_traceback(exc)
             message = f"{behavior} raised {type(exc).__name__}: {exc}"
         elif mismatch is not None:
             kind = (
@@ -474,15 +471,3 @@ def _first_differing_behavior(
     longer = expected if len(expected) > len(actual) else actual
     shorter = min(len(expected), len(actual))
     return longer[shorter].behavior if len(longer) > shorter else None
-
-
-def _user_traceback(exc: BaseException) -> str:
-    """The traceback with beatlog's own frames left out, so it starts in the user's code."""
-    frames = [
-        frame
-        for frame in traceback.extract_tb(exc.__traceback__)
-        if not frame.filename.startswith(_PACKAGE_DIR) or frame.filename.startswith(_EXAMPLES_DIR)
-    ]
-    lines = ["Traceback (most recent call last):\n", *traceback.format_list(frames)]
-    lines.extend(traceback.format_exception_only(exc))
-    return "".join(lines)
