@@ -114,3 +114,8 @@ class Close(Near):
 def probe_system_renamed() -> PriorityArbiter[Probe]:
     """The probe system with ``near`` renamed to ``close``."""
     return PriorityArbiter([Close(), Dice()], robot_state=Probe)
+
+
+def broken_probe() -> PriorityArbiter[Probe]:
+    """A system factory that fails: the user's code raises while building the system."""
+    raise RuntimeError("the arena map is missing")

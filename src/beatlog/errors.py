@@ -21,6 +21,9 @@ __all__ = [
 class BeatlogError(Exception):
     """Root of every error caused by input a user gave (a file, an option, a factory name)."""
 
+    user_traceback: str | None = None
+    """The traceback of the user's code behind the error, when their code raised it."""
+
 
 class LogError(BeatlogError):
     """A session log that cannot be read; the message names the file and the problem."""
@@ -54,6 +57,10 @@ class FieldError(BeatlogError):
 
 class SystemLoadError(BeatlogError):
     """A ``module:factory`` reference that cannot be imported or does not build a system."""
+
+    def __init__(self, message: str, *, user_traceback: str | None = None) -> None:
+        super().__init__(message)
+        self.user_traceback = user_traceback
 
 
 class SpecError(BeatlogError):

@@ -71,7 +71,8 @@ class DtcItem(pytest.Item):
     def runtest(self) -> None:
         outcome = run_spec(self.spec)
         if outcome.verdict is Verdict.ERROR:
-            raise DtcFailedError(outcome.error)
+            shown = outcome.error_traceback if self.config.get_verbosity() > 0 else None
+            raise DtcFailedError(f"{outcome.error}\n{shown}" if shown else outcome.error)
         if outcome.result is not None and not outcome.result.ok:
             raise DtcFailedError(_failure_text(outcome.result))
 

@@ -184,7 +184,7 @@ def test_a_baseline_made_from_another_recording_is_an_error(
     run = beatlog("test", spec)
 
     assert run.code == 2
-    assert f"{expected_path(spec)}: approved for another recording than probe.beatlog" in run.out
+    assert f"{expected_path(spec)}: approved for another recording than probe.beatlog" in run.err
 
 
 def test_a_divergence_in_random_numbers_cannot_be_rebaselined(

@@ -332,6 +332,24 @@ def test_a_bad_system_reference_is_one_line_naming_it(
     assert_one_line_error(run, f"'{reference}': ", problem)
 
 
+def test_verbose_shows_the_traceback_of_a_factory_that_failed(
+    beatlog: Callable[..., Run], record_probe: RecordFn
+) -> None:
+    reference = "tests.conftest:broken_probe"
+    log = record_probe(10)
+
+    quiet = beatlog("replay", log, "--system", reference)
+    verbose = beatlog("replay", log, "--system", reference, "-v")
+
+    assert_one_line_error(quiet, "the factory raised RuntimeError: the arena map is missing")
+    assert verbose.code == 2
+    assert verbose.out == ""
+    assert verbose.err.startswith("Traceback (most recent call last):\n")
+    assert "in broken_probe" in verbose.err
+    assert "beatlog/engine" not in verbose.err
+    assert verbose.err.endswith(quiet.err)
+
+
 @pytest.mark.parametrize(
     ("args", "problem"),
     [

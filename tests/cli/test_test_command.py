@@ -122,10 +122,37 @@ def test_a_dtc_that_cannot_run_is_an_error_exit_2(
     run = beatlog_test(specs)
 
     assert run.code == 2
-    assert run.err == ""
-    assert f"ERROR lost: {lost.parent / '..' / 'lost.beatlog'}: no such file" in run.out
+    assert run.err == (
+        f"beatlog: error: lost ({lost}): {lost.parent / '..' / 'lost.beatlog'}: no such file\n"
+    )
     assert re.search(r"lost\s+│ error\s+│\s+— │ —", run.out)
     assert_counts(run, "1 passed, 1 failed, 1 error", 300 + FIRST_CHANGED_CYCLE + 1)
+
+
+def test_a_system_that_fails_to_build_is_one_line_on_stderr_with_its_traceback_on_demand(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    broken = write_spec(specs, "broken", log, "tests.conftest:broken_probe")
+    report = tmp_path / "dtc.xml"
+
+    quiet = beatlog_test(specs)
+    verbose = beatlog_test(specs, "--verbose", "--junit-xml", report)
+
+    line = (
+        f"beatlog: error: broken ({broken}): 'tests.conftest:broken_probe': the factory raised "
+        "RuntimeError: the arena map is missing (line "
+    )
+    assert quiet.code == verbose.code == 2
+    assert quiet.err.startswith(line)
+    assert quiet.err.count("\n") == 1
+    assert verbose.err.startswith("Traceback (most recent call last):\n")
+    assert 'raise RuntimeError("the arena map is missing")' in verbose.err
+    assert verbose.err.splitlines()[-1] == quiet.err.rstrip("\n")
+    error = ET.parse(report).getroot().find("testcase[@name='broken']/error")
+    assert error is not None
+    assert error.text is not None
+    assert "in broken_probe" in error.text
 
 
 def test_dash_k_runs_the_dtcs_whose_name_matches(

@@ -9,9 +9,9 @@ from __future__ import annotations
 import datetime
 import inspect
 import logging
+import os
 import random
 import secrets
-import sys
 import time
 import uuid
 from datetime import datetime as wall_datetime
@@ -122,5 +122,5 @@ def scripted_system(headings: list[str]) -> PriorityArbiter[Probe]:
 
 
 def exiting_system() -> PriorityArbiter[Probe]:
-    """A factory that ends the interpreter: the audit's replay dies without an answer."""
-    sys.exit(70)
+    """A factory that ends the interpreter at once: the audit's replay dies without an answer."""
+    os._exit(70)

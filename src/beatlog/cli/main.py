@@ -1,12 +1,15 @@
 """The ``beatlog`` command: a thin shell over the library.
 
 Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
-input (one line on stderr naming the file and the problem, never a traceback).
+input (one line on stderr naming the file and the problem, never a traceback; with
+``--verbose`` the traceback of the user's code that failed comes first), 130
+interrupted (Ctrl-C: what was complete is printed, no report is half written).
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import sys
 import time
@@ -22,13 +25,12 @@ from rich.text import Text
 
 from beatlog._version import __version__
 from beatlog.cli.baselines import approve, report_orphans, review, write_pending
-from beatlog.engine.loading import load_factory
+from beatlog.engine.loading import load_robot
 from beatlog.engine.record import Recorder
 from beatlog.engine.replay import replay
 from beatlog.engine.timeline import build_timeline
 from beatlog.errors import BeatlogError
 from beatlog.log.summary import summarize
-from beatlog.model.robot import Robot
 from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
 from beatlog.suite.junit import write_junit
@@ -37,7 +39,7 @@ from beatlog.suite.spec import discover_specs, select_specs
 
 __all__ = ["main"]
 
-EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 Number = TypeVar("Number", int, float)
 
 
@@ -58,9 +60,17 @@ def _parser() -> argparse.ArgumentParser:
         description="Record robot sessions and replay them as deterministic test cases.",
     )
     parser.add_argument("--version", action="version", version=f"beatlog {__version__}")
+    common = _Parser(add_help=False)
+    common.add_argument(
+        "-v",
+        "--verbose",
+        action="store_true",
+        help="also print the traceback of user code that failed to load",
+    )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    add = functools.partial(commands.add_parser, parents=[common])
 
-    record = commands.add_parser("record", help="run a robot in real time and record a session")
+    record = add("record", help="run a robot in real time and record a session")
     record.add_argument("--robot", required=True, metavar="MODULE:FACTORY", help="robot factory")
     record.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
     record.add_argument(
@@ -82,14 +92,14 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument("--fsync", action="store_true", help="fsync at every flush")
     record.add_argument("--force", action="store_true", help="overwrite an existing log")
 
-    play = commands.add_parser("replay", help="replay a session log and give a verdict")
+    play = add("replay", help="replay a session log and give a verdict")
     play.add_argument("log", type=Path)
     play.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
     play.add_argument("--keep-going", action="store_true", help="count every diverging cycle")
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
-    test = commands.add_parser("test", help="run DTC specs (*.dtc.toml) in parallel")
+    test = add("test", help="run DTC specs (*.dtc.toml) in parallel")
     test.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
     test.add_argument(
         "-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1, help="worker processes"
@@ -115,15 +125,15 @@ def _parser() -> argparse.ArgumentParser:
         "reads and global random calls",
     )
 
-    check = commands.add_parser("review", help="show pending baseline changes; accept or reject")
+    check = add("review", help="show pending baseline changes; accept or reject")
     check.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
-    accept = commands.add_parser("approve", help="accept the pending baselines of DTC specs")
+    accept = add("approve", help="accept the pending baselines of DTC specs")
     accept.add_argument("paths", nargs="+", type=Path, help="specs or folders")
 
-    show = commands.add_parser("show", help="describe a session log")
+    show = add("show", help="describe a session log")
     show.add_argument("log", type=Path)
 
-    plot = commands.add_parser("plot", help="draw a PNG timeline of a session log")
+    plot = add("plot", help="draw a PNG timeline of a session log")
     plot.add_argument("log", type=Path)
     plot.add_argument("-o", "--output", required=True, type=Path, metavar="FILE.png")
     plot.add_argument(
@@ -139,7 +149,7 @@ def _parser() -> argparse.ArgumentParser:
         help="robot-state field to draw (repeatable; default: the first few numeric ones)",
     )
 
-    demo = commands.add_parser("demo", help="record and replay the robot dog, then its suite")
+    demo = add("demo", help="record and replay the robot dog, then its suite")
     demo.add_argument("--duration", type=_positive_float, default=20.0, help="seconds to record")
     demo.add_argument(
         "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
@@ -166,43 +176,54 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 
 
 def _record(args: argparse.Namespace, console: Console) -> int:
-    robot = load_factory(args.robot)
-    if not isinstance(robot, Robot):
-        raise _UsageError(f"{args.robot!r}: built a {type(robot).__name__}, not a robot")
+    robot = load_robot(args.robot)
     output: Path = args.output
     if output.exists() and not args.force:
         raise _UsageError(f"{output}: already exists; recordings are immutable (use --force)")
     if not output.parent.is_dir():
         raise _UsageError(f"{output}: directory {output.parent} does not exist")
-    with (
-        Recorder(
-            output,
-            robot.system,
-            robot_id=args.robot_id,
-            system_ref=args.system_ref,
-            period_ns=int(args.period_ms * 1e6),
-            seed=args.seed,
-            flush_interval_s=args.flush_interval,
-            fsync=args.fsync,
-            log_samples=args.log_samples,
-        ) as recorder,
-        _progress(console) as progress,
-    ):
-        total = int(args.duration * 1e3 / args.period_ms)
-        task = progress.add_task("recording", total=total)
-        summary = recorder.run(
-            robot,
-            duration_s=args.duration,
-            on_cycle=lambda cycles: progress.update(task, completed=cycles),
-        )
-    console.print(
-        f"recorded {summary.cycles} cycles ({summary.robot_time_ns / 1e9:.2f} s, "
-        f"{summary.overruns} overruns) to {output}"
+    interrupted = False
+    with Recorder(
+        output,
+        robot.system,
+        robot_id=args.robot_id,
+        system_ref=args.system_ref,
+        period_ns=int(args.period_ms * 1e6),
+        seed=args.seed,
+        flush_interval_s=args.flush_interval,
+        fsync=args.fsync,
+        log_samples=args.log_samples,
+    ) as recorder:
+        try:
+            with _progress(console) as progress:
+                total = int(args.duration * 1e3 / args.period_ms)
+                task = progress.add_task("recording", total=total)
+                recorder.run(
+                    robot,
+                    duration_s=args.duration,
+                    on_cycle=lambda cycles: progress.update(task, completed=cycles),
+                )
+        except KeyboardInterrupt:  # the log is closed as it is; say what it holds
+            interrupted = True
+    line = (
+        f"recorded {recorder.cycles} cycles ({recorder.robot_time_ns / 1e9:.2f} s, "
+        f"{recorder.overruns} overruns) to {output}"
     )
-    if summary.error is not None:
-        console.print(f"[red]recording failed: {summary.error}; the log is valid up to there")
-        return EXIT_FAILED
-    return EXIT_OK
+    if recorder.error is not None:
+        line += f"; {_write_failure(output, recorder.error)}"
+    console.print(line, markup=False, highlight=False)
+    if interrupted:
+        raise KeyboardInterrupt
+    return EXIT_OK if recorder.error is None else EXIT_FAILED
+
+
+def _write_failure(log: Path, error: str) -> str:
+    """Where writing a log failed, as its first missing cycle read back from it."""
+    try:
+        kept = summarize(log).cycles
+    except BeatlogError:
+        return f"recording failed: {error} (the log cannot be read)"
+    return f"recording failed at cycle {kept}: {error} (the log is valid up to there)"
 
 
 def _progress(console: Console) -> Progress:
@@ -246,32 +267,65 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     )
     started = time.perf_counter()
     cycles = 0
+    finished: dict[Path, SpecOutcome] = {}
 
     def report(outcome: SpecOutcome) -> None:
         nonlocal cycles
+        finished[outcome.spec.path] = outcome
         cycles += outcome.result.cycles if outcome.result else 0
         rate = f"{cycles / max(time.perf_counter() - started, 1e-9):,.0f} cycles/s"
         progress.update(task, advance=1, rate=rate)
-        if outcome.verdict is not Verdict.PASSED:
+        if outcome.verdict is Verdict.ERROR:
+            _error(
+                f"{outcome.spec.name} ({outcome.spec.path}): {outcome.error}",
+                outcome.error_traceback if args.verbose else None,
+            )
+        elif outcome.verdict is Verdict.FAILED:
             progress.console.print(_describe(outcome))
 
     if args.html is not None:
         _need_matplotlib("test --html")
-    with progress:
-        task = progress.add_task("replaying", total=len(specs), rate="")
-        outcomes = run_suite(
-            specs,
-            jobs=args.jobs,
-            fail_fast=args.fail_fast,
-            update=args.update,
-            audit=args.audit,
-            timelines=args.html is not None,
-            on_outcome=report,
-        )
+    interrupted = False
+    try:
+        with progress:
+            task = progress.add_task("replaying", total=len(specs), rate="")
+            run_suite(
+                specs,
+                jobs=args.jobs,
+                fail_fast=args.fail_fast,
+                update=args.update,
+                audit=args.audit,
+                timelines=args.html is not None,
+                on_outcome=report,
+            )
+    except KeyboardInterrupt:  # report what is complete, then write nothing
+        interrupted = True
     wall = time.perf_counter() - started
-    console.print(render_suite(outcomes))
-    if args.audit:
-        console.print(render_audit(outcomes))
+    outcomes = [finished[spec.path] for spec in specs if spec.path in finished]
+    if outcomes:
+        console.print(render_suite(outcomes))
+        if args.audit:
+            console.print(render_audit(outcomes))
+    if not interrupted:
+        _write_reports(args, outcomes, console)
+    counts = Counter(outcome.verdict for outcome in outcomes)
+    skipped = len(specs) - len(outcomes)
+    console.print(
+        f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
+        + _plural(counts[Verdict.ERROR], "error")
+        + (f", {skipped} not run" if skipped else "")
+        + f" in {wall:.2f} s ({cycles:,} cycles)"
+    )
+    if interrupted:
+        raise KeyboardInterrupt
+    if counts[Verdict.ERROR]:
+        return EXIT_USAGE
+    unsound = any(outcome.audit_findings for outcome in outcomes)
+    return EXIT_FAILED if counts[Verdict.FAILED] or unsound else EXIT_OK
+
+
+def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
+    """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end."""
     if args.update:
         write_pending(outcomes, console)
     report_orphans(args.paths, console)
@@ -287,18 +341,6 @@ def _test(args: argparse.Namespace, console: Console) -> int:
             write_html(outcomes, args.html)
         except OSError as exc:
             raise _UsageError(f"{args.html}: cannot write: {exc.strerror}") from None
-    counts = Counter(outcome.verdict for outcome in outcomes)
-    skipped = len(specs) - len(outcomes)
-    console.print(
-        f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
-        + _plural(counts[Verdict.ERROR], "error")
-        + (f", {skipped} not run" if skipped else "")
-        + f" in {wall:.2f} s ({cycles:,} cycles)"
-    )
-    if counts[Verdict.ERROR]:
-        return EXIT_USAGE
-    unsound = any(outcome.audit_findings for outcome in outcomes)
-    return EXIT_FAILED if counts[Verdict.FAILED] or unsound else EXIT_OK
 
 
 def _plural(count: int, noun: str) -> str:
@@ -361,8 +403,10 @@ def _import_from_working_directory() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
     console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
+    verbose = False
     try:
         args = _parser().parse_args(argv)
+        verbose = args.verbose
         if args.command in ("record", "replay", "test", "review", "approve", "plot"):
             _import_from_working_directory()
         if args.command == "record":
@@ -385,11 +429,18 @@ def main(argv: Sequence[str] | None = None) -> int:
 
         return run_demo(console, duration_s=args.duration, out=args.out)
     except BeatlogError as exc:
-        print(f"beatlog: error: {exc}", file=sys.stderr)
+        _error(str(exc), exc.user_traceback if verbose else None)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("beatlog: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+
+
+def _error(problem: str, user_traceback: str | None = None) -> None:
+    """One line on stderr; with ``--verbose`` the user's traceback before it."""
+    if user_traceback:
+        sys.stderr.write(user_traceback)
+    print(f"beatlog: error: {problem}", file=sys.stderr)
 
 
 if __name__ == "__main__":

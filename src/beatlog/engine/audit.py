@@ -10,10 +10,12 @@ do not, set or dict order of strings leaks into the behaviors' decisions.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import subprocess
 import sys
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,8 +35,12 @@ from beatlog.model.context import Context
 __all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
 
 _CYCLE_DIGEST_SIZE = 8
-_CHILD = "import sys; sys.path[:] = sys.argv[2:]; from beatlog.engine.audit import _serve; _serve()"
-"""A fresh interpreter that imports what this one imports (``sys.path`` passed along)."""
+_CHILD = (
+    "import signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); sys.path[:] = sys.argv[3:]; "
+    "from beatlog.engine.audit import _serve; _serve()"
+)
+"""A fresh interpreter that imports what this one imports (``sys.path`` passed along) and
+that Ctrl-C ends at once; it gets the request and the read end of its lifeline."""
 
 
 @dataclass(frozen=True)
@@ -112,16 +118,27 @@ def audit(
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
     request = msgspec.json.encode(_Request(str(log), system, allow_truncated)).decode()
-    children = [
-        subprocess.Popen(
-            [sys.executable, "-c", _CHILD, request, *sys.path],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            env={**os.environ, "PYTHONHASHSEED": str(seed)},
-        )
-        for seed in hash_seeds
-    ]
-    outputs = [child.communicate() for child in children]  # all of them, before judging any
+    lifeline, held = os.pipe()  # the children exit when ``held`` closes, even if we are killed
+    children: list[subprocess.Popen[bytes]] = []
+    with contextlib.ExitStack() as stack:
+        stack.callback(os.close, held)
+        try:
+            for seed in hash_seeds:
+                child = subprocess.Popen(
+                    [sys.executable, "-c", _CHILD, request, str(lifeline), *sys.path],
+                    stdout=subprocess.PIPE,
+                    stderr=subprocess.PIPE,
+                    env={**os.environ, "PYTHONHASHSEED": str(seed)},
+                    pass_fds=(lifeline,),
+                )
+                children.append(stack.enter_context(child))
+            outputs = [child.communicate() for child in children]  # all, before judging any
+        except BaseException:  # Ctrl-C above all: no replay goes on without us
+            for child in children:
+                child.kill()
+            raise
+        finally:
+            os.close(lifeline)
     first, second = (
         _answer(seed, child.returncode, *output)
         for seed, child, output in zip(hash_seeds, children, outputs, strict=True)
@@ -262,6 +279,8 @@ def _replay_watched(request: _Request) -> _Answer:
 def _serve() -> None:
     """The child's side: replay the request in argv, answer as JSON on stdout."""
     request = msgspec.json.decode(sys.argv[1], type=_Request)
+    lifeline = int(sys.argv[2])
+    threading.Thread(target=_exit_when_orphaned, args=(lifeline,), daemon=True).start()
     answer_fd = os.dup(1)
     os.dup2(2, 1)  # what behaviors print must not corrupt the answer
     try:
@@ -270,3 +289,9 @@ def _serve() -> None:
         answer = _Answer(error=str(exc))
     with os.fdopen(answer_fd, "wb") as out:
         out.write(msgspec.json.encode(answer))
+
+
+def _exit_when_orphaned(lifeline: int) -> None:
+    """Read the lifeline until it closes: the auditing process gave up or died."""
+    os.read(lifeline, 1)
+    os._exit(1)

@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import Any, NamedTuple
+from typing import IO, Any, NamedTuple
 
 import msgspec
 
@@ -63,6 +63,8 @@ def software_version(directory: Path | None = None) -> str:
 class Recorder:
     """Records a system's session into a ``.beatlog`` file; a context manager.
 
+    :param path: the ``.beatlog`` to write, or an open binary file to write it to (left
+        open when the recorder closes).
     :param system_ref: the ``module:factory`` that built the system, kept in the header
         so reports can print a command that replays the log.
     :param seed: seed of the random source; a fresh one from the OS when None.
@@ -71,7 +73,7 @@ class Recorder:
 
     def __init__(
         self,
-        path: str | Path,
+        path: str | Path | IO[bytes],
         system: System,
         *,
         robot_id: str = "robot",
@@ -90,6 +92,7 @@ class Recorder:
         self._log_samples = log_samples
         self._overruns = 0
         self._warned = False
+        self._close_error: OSError | None = None
         header = SessionHeader(
             format_version=FORMAT_VERSION,
             beatlog_version=__version__,
@@ -120,9 +123,14 @@ class Recorder:
         return self._executor.clock.now_ns
 
     @property
+    def overruns(self) -> int:
+        """Heartbeats that came late, in the last :meth:`run`."""
+        return self._overruns
+
+    @property
     def error(self) -> str | None:
         """Why writing the log failed, if it did; the control loop is never stopped by it."""
-        error = self._writer.error
+        error = self._writer.error or self._close_error
         return None if error is None else f"{type(error).__name__}: {error}"
 
     def step(
@@ -145,7 +153,11 @@ class Recorder:
         )
         if self._writer.error is not None and not self._warned:
             self._warned = True
-            _log.error("recording stopped at cycle %d: %s", context.cycle, self.error)
+            _log.error(
+                "the log stopped being written (noticed at cycle %d): %s; the robot runs on",
+                context.cycle,
+                self.error,
+            )
         return context.outputs
 
     def run(
@@ -176,15 +188,18 @@ class Recorder:
         return RecordSummary(self.cycles, self.robot_time_ns, clock.overruns, self.error)
 
     def close(self, *, error: str | None = None) -> None:
-        """Close the log with its end record, which counts the cycles logged."""
-        self._writer.close(
-            SessionEnd(
-                cycles=self._writer.cycles_appended,
-                robot_time_ns=self._writer.robot_time_ns,
-                overruns=self._overruns,
-                error=error,
-            )
+        """Close the log with its end record, which counts the cycles logged; a failure
+        to write it is kept in :attr:`error`."""
+        end = SessionEnd(
+            cycles=self._writer.cycles_appended,
+            robot_time_ns=self._writer.robot_time_ns,
+            overruns=self._overruns,
+            error=error,
         )
+        try:
+            self._writer.close(end)
+        except OSError as exc:  # the file's last buffered bytes did not fit either
+            self._close_error = exc
 
     def __enter__(self) -> Recorder:
         return self
@@ -195,4 +210,11 @@ class Recorder:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        self.close(error=None if exc is None else f"{type(exc).__name__}: {exc}")
+        if exc is None:
+            self.close()
+        else:
+            self.close(
+                error="interrupted"
+                if isinstance(exc, KeyboardInterrupt)
+                else f"{type(exc).__name__}: {exc}"
+            )

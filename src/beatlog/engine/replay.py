@@ -10,7 +10,6 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import time
-import traceback
 from collections import deque
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -24,6 +23,7 @@ from beatlog.engine.fit import check_fit
 from beatlog.engine.loading import load_system
 from beatlog.engine.renames import propose_renames
 from beatlog.engine.trace import Expectation, fields_read
+from beatlog.engine.usercode import user_traceback
 from beatlog.engine.verdict import (
     ContextRow,
     Divergence,
@@ -47,9 +47,6 @@ from beatlog.model.behavior import System
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 
 __all__ = ["replay"]
-
-_PACKAGE_DIR = str(Path(__file__).parent.parent)
-_EXAMPLES_DIR = str(Path(__file__).parent.parent / "examples")
 
 
 def replay(
@@ -450,7 +447,7 @@ class _Judge:
         if exc is not None:
             kind = DivergenceKind.EXCEPTION
             behavior = self._actor_name(context.actor)
-            trace = _user_traceback(exc)
+            trace = user_traceback(exc)
             message = f"{behavior} raised {type(exc).__name__}: {exc}"
         elif mismatch is not None:
             kind = (
@@ -511,15 +508,3 @@ def _first_differing_behavior(
     longer = expected if len(expected) > len(actual) else actual
     shorter = min(len(expected), len(actual))
     return longer[shorter].behavior if len(longer) > shorter else None
-
-
-def _user_traceback(exc: BaseException) -> str:
-    """The traceback with beatlog's own frames left out, so it starts in the user's code."""
-    frames = [
-        frame
-        for frame in traceback.extract_tb(exc.__traceback__)
-        if not frame.filename.startswith(_PACKAGE_DIR) or frame.filename.startswith(_EXAMPLES_DIR)
-    ]
-    lines = ["Traceback (most recent call last):\n", *traceback.format_list(frames)]
-    lines.extend(traceback.format_exception_only(exc))
-    return "".join(lines)

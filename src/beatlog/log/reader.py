@@ -42,6 +42,7 @@ from mcap.records import (
 )
 
 from beatlog.errors import CorruptLogError, NotABeatlogError, UnsupportedVersionError
+from beatlog.files import irregular_file_problem
 from beatlog.log.format import (
     CYCLE_BATCH_SINCE,
     CYCLES_TOPIC,
@@ -64,7 +65,6 @@ from beatlog.log.limits import (
     MAX_RECORD_BYTES,
     MAX_SCHEMA_BYTES,
 )
-from beatlog.paths import irregular_file_problem
 
 __all__ = ["LogStatus", "SessionLogReader"]
 

@@ -17,6 +17,7 @@ from typing import Any
 from beatlog._version import __version__
 from beatlog.engine.timeline import Timeline
 from beatlog.engine.verdict import Divergence, DrawReport, StateChange
+from beatlog.files import replacing
 from beatlog.report.chart import svg_markup
 from beatlog.suite.runner import SpecOutcome, Verdict
 
@@ -55,11 +56,12 @@ dl.facts dd { margin: 0; }
 def write_html(
     outcomes: Sequence[SpecOutcome], path: str | Path, *, title: str = "beatlog DTC report"
 ) -> None:
-    """Write the report of ``outcomes`` to ``path`` (UTF-8).
+    """Write the report of ``outcomes`` to ``path`` (UTF-8), whole or not at all.
 
     :raises OSError: the file cannot be written.
     """
-    Path(path).write_text(render_html(outcomes, title=title), encoding="utf-8")
+    with replacing(Path(path)) as file:
+        file.write(render_html(outcomes, title=title).encode())
 
 
 def render_html(outcomes: Sequence[SpecOutcome], *, title: str = "beatlog DTC report") -> str:
@@ -141,6 +143,8 @@ def _section(index: int, outcome: SpecOutcome) -> str:
     result = outcome.result
     if result is None:
         parts.append(f'<p class="error">{_e(outcome.error)}</p>')
+        if outcome.error_traceback:
+            parts.append(f'<pre class="traceback">{_e(outcome.error_traceback)}</pre>')
     elif result.divergence is not None:
         parts.append(_divergence(result.divergence, rerun))
     close_ups = len(outcome.timelines) - 1  # report_timelines puts any close-up first

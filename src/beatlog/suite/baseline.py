@@ -32,7 +32,6 @@ import hashlib
 import json
 import os
 import re
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,8 +42,8 @@ import msgspec
 from beatlog.engine.trace import ABSENT, Expectation, TracedChange, TracedOutput
 from beatlog.engine.verdict import StateChange
 from beatlog.errors import BaselineError, NotABeatlogError
+from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.paths import irregular_file_problem
 from beatlog.suite.spec import SPEC_SUFFIX
 
 __all__ = [
@@ -175,14 +174,8 @@ def write_baseline(
         '#  cycle      time  "behavior": before -> after | output "field" = value',
         *format_lines(expectation.changes, expectation.outputs or ()),
     ]
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as file:
-            file.write("\n".join(lines) + "\n")
-        Path(temporary).replace(path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    with replacing(path) as file:
+        file.write(("\n".join(lines) + "\n").encode())
 
 
 def read_baseline(path: Path) -> Baseline:

@@ -1,4 +1,5 @@
-"""JUnit XML for CI systems: one testcase per DTC, failures with the first divergence.
+"""JUnit XML for CI systems: one testcase per DTC, failures with the first divergence,
+errors with the traceback of the user's code when it raised. Written whole or not at all.
 
 A DTC whose determinism audit found something gets a failure of its own, typed
 ``determinism audit``, that lists the findings.
@@ -10,6 +11,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from beatlog.files import replacing
 from beatlog.suite.runner import SpecOutcome, Verdict
 
 __all__ = ["write_junit"]
@@ -41,11 +43,13 @@ def write_junit(
             message = divergence.message if divergence else "diverged"
             ET.SubElement(case, "failure", message=message).text = describe(outcome)
         elif outcome.verdict is Verdict.ERROR:
-            ET.SubElement(case, "error", message=outcome.error or "error").text = outcome.error
+            error = ET.SubElement(case, "error", message=outcome.error or "error")
+            error.text = outcome.error_traceback or outcome.error
         audit = outcome.audit
         if audit is not None and not audit.ok:
             message = f"determinism audit: {audit.summary()}"
             failure = ET.SubElement(case, "failure", type="determinism audit", message=message)
             failure.text = "\n".join(audit.lines())
     path.parent.mkdir(parents=True, exist_ok=True)  # as pytest's --junit-xml does
-    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
+    with replacing(path) as file:
+        ET.ElementTree(suite).write(file, encoding="utf-8", xml_declaration=True)

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import multiprocessing
+import signal
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
+from types import FrameType
 
 from beatlog.engine.audit import AuditReport
 from beatlog.engine.audit import audit as audit_replay
@@ -55,6 +58,8 @@ class SpecOutcome:
     """The determinism audit, when one was asked for and the DTC could run."""
     timelines: tuple[Timeline, ...] = ()
     """Behavior activity for charts, when the suite was run with ``timelines``."""
+    error_traceback: str | None = None
+    """The traceback of the user's code behind the error, when their code raised it."""
 
     @property
     def reproduce(self) -> str:
@@ -117,7 +122,10 @@ def run_spec(
             else ()
         )
     except BeatlogError as exc:
-        return SpecOutcome(spec, Verdict.ERROR, None, str(exc), time.perf_counter() - started)
+        wall = time.perf_counter() - started
+        return SpecOutcome(
+            spec, Verdict.ERROR, None, str(exc), wall, error_traceback=exc.user_traceback
+        )
     return SpecOutcome(
         spec,
         Verdict.PASSED if result.ok else Verdict.FAILED,
@@ -182,19 +190,47 @@ def run_suite(
             if done(run_spec(spec, update=update, audit=audit, timelines=timelines)):
                 break
     else:
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=min(jobs, len(specs)), mp_context=context) as pool:
-            pending: set[Future[SpecOutcome]] = {
-                pool.submit(run_spec, spec, update=update, audit=audit, timelines=timelines)
-                for spec in specs
-            }
-            while pending:
-                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                # Record every finished outcome before deciding to stop: any() over a
-                # generator would drop the ones after the first failure.
-                stops = [done(future.result()) for future in finished]
-                if any(stops):
-                    for future in pending:
-                        future.cancel()
-                    break
+        run = functools.partial(run_spec, update=update, audit=audit, timelines=timelines)
+        _run_in_workers(run, specs, min(jobs, len(specs)), done)
     return [outcomes[spec.path] for spec in specs if spec.path in outcomes]
+
+
+def _run_in_workers(
+    run: Callable[[DtcSpec], SpecOutcome],
+    specs: Sequence[DtcSpec],
+    workers: int,
+    done: Callable[[SpecOutcome], bool],
+) -> None:
+    """Run the specs in a pool until ``done`` says stop. On any exception, Ctrl-C
+    included, the specs not started are cancelled and the workers are killed at once."""
+    before = set(multiprocessing.active_children())
+    context = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_leave_interrupts)
+    try:
+        pending = {pool.submit(run, spec) for spec in specs}
+        while pending:
+            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+            # Record every finished outcome before deciding to stop: any() over a
+            # generator would drop the ones after the first failure.
+            stops = [done(future.result()) for future in finished]
+            if any(stops):
+                break
+    except BaseException:
+        for worker in set(multiprocessing.active_children()) - before:
+            worker.kill()
+        raise
+    finally:
+        pool.shutdown(cancel_futures=True)
+
+
+def _leave_interrupts() -> None:
+    """Workers leave Ctrl-C to the parent, which stops them: no traceback from each.
+
+    A handler that does nothing, not ``SIG_IGN``, so that the processes a worker
+    starts (audit replays) are not born deaf to Ctrl-C.
+    """
+    signal.signal(signal.SIGINT, _do_nothing)
+
+
+def _do_nothing(signum: int, frame: FrameType | None) -> None:
+    """A signal handler that lets the signal pass."""

@@ -38,7 +38,7 @@ import msgspec
 
 from beatlog.engine.compare import Comparison
 from beatlog.errors import SpecError
-from beatlog.paths import irregular_file_problem
+from beatlog.files import irregular_file_problem
 
 __all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
 

@@ -1,0 +1,46 @@
+"""The files users name, handled safely: read only when regular (nothing read can block),
+written whole or not at all (readers, and a Ctrl-C, never see half of one)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import stat
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO
+
+__all__ = ["irregular_file_problem", "replacing"]
+
+
+def irregular_file_problem(path: Path) -> str | None:
+    """Why ``path`` cannot be read as a file, or None when it is a regular file.
+
+    A FIFO, socket or device could block a reader forever or never end, so they are
+    refused before anything opens them.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return "no such file"
+    except OSError as exc:
+        return f"cannot open: {exc.strerror}"
+    if stat.S_ISDIR(mode):
+        return "is a directory"
+    if not stat.S_ISREG(mode):
+        return "is not a regular file (a FIFO, socket or device)"
+    return None
+
+
+@contextlib.contextmanager
+def replacing(path: Path) -> Iterator[IO[bytes]]:
+    """A new file beside ``path`` that replaces it when the block ends, and is removed
+    if the block raises (Ctrl-C included)."""
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        with temporary.open("wb") as file:
+            yield file
+        temporary.replace(path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise

@@ -1,0 +1,241 @@
+"""Ctrl-C: every command stops at once, stops its children, prints what is complete,
+writes no half-written report or pending file, and exits 130.
+
+Each test starts ``beatlog`` in its own process group, waits until it is at work, and
+sends SIGINT to the group, as a terminal does.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import NamedTuple
+
+import pytest
+
+from beatlog.log.reader import SessionLogReader
+from tests.cli.slow_systems import MARKERS
+from tests.conftest import RecordFn
+
+ROOT = Path(__file__).parents[2]
+FAST = "tests.conftest:probe_system"
+SLOW = "tests.cli.slow_systems:slow_system"
+SLOW_IN_AUDIT = "tests.cli.slow_systems:slow_in_audit_system"
+CHANGED = "tests.conftest:probe_system_changed"
+
+
+class Interrupted(NamedTuple):
+    code: int
+    out: str
+    err: str
+
+
+def wait_until(condition: Callable[[], bool], timeout_s: float) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.05)
+    return True
+
+
+def live_members(group: int) -> list[int]:
+    """The processes of a process group that still run (zombies left out)."""
+    members = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rpartition(")")[2].split()
+        except OSError:  # the process ended while we looked
+            continue
+        if int(fields[2]) == group and fields[0] != "Z":
+            members.append(int(stat.parent.name))
+    return members
+
+
+@pytest.fixture
+def markers(tmp_path: Path) -> Path:
+    folder = tmp_path / "markers"
+    folder.mkdir()
+    return folder
+
+
+@pytest.fixture
+def press_ctrl_c(markers: Path) -> Callable[..., Interrupted]:
+    """Run ``beatlog ARGS``, press Ctrl-C once ``ready()`` holds, and collect the ending."""
+
+    def run(args: Sequence[str | Path], ready: Callable[[], bool]) -> Interrupted:
+        env = {**os.environ, MARKERS: str(markers), "COLUMNS": "200"}
+        env.pop("PYTHONHASHSEED", None)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "beatlog.cli.main", *(str(arg) for arg in args)],
+            cwd=ROOT,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+        )
+        try:
+            started = wait_until(lambda: ready() or process.poll() is not None, 120)
+            assert started, "beatlog never got to work"
+            assert process.poll() is None, process.communicate()
+            os.killpg(process.pid, signal.SIGINT)
+            out, err = process.communicate(timeout=10)
+        finally:
+            if process.poll() is None:
+                os.killpg(process.pid, signal.SIGKILL)
+                process.communicate()
+        assert wait_until(lambda: not live_members(process.pid), 10), "children outlived it"
+        return Interrupted(process.returncode, out, err)
+
+    return run
+
+
+def marked(markers: Path, count: int = 1) -> Callable[[], bool]:
+    """Ready once ``count`` processes stepped a slow system."""
+    return lambda: len(list(markers.iterdir())) >= count
+
+
+def created(path: Path) -> Callable[[], bool]:
+    """Ready a second after ``path`` appears: the command is recording by then."""
+
+    def ready() -> bool:
+        if not path.exists():
+            return False
+        time.sleep(1)
+        return True
+
+    return ready
+
+
+def write_spec(folder: Path, name: str, log: Path, system: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.dtc.toml"
+    path.write_text(
+        f'name = "{name}"\npurpose = "Ctrl-C while it replays."\n'
+        f'procedure = ["Drive the probe."]\nlog = "{log}"\nsystem = "{system}"\n'
+    )
+    return path
+
+
+@pytest.fixture
+def suite(tmp_path: Path, record_probe: RecordFn) -> Path:
+    """A DTC that passes at once, a failing one, then two that replay for 30 s each."""
+    log = record_probe(300)
+    specs = tmp_path / "specs"
+    write_spec(specs, "a-fast", log, FAST)
+    write_spec(specs, "b-changed", log, CHANGED)
+    write_spec(specs, "c-slow", log, SLOW)
+    write_spec(specs, "d-slow", log, SLOW)
+    return specs
+
+
+def assert_stopped(run: Interrupted) -> None:
+    assert run.code == 130, run
+    assert "Traceback" not in run.err
+    assert run.err.endswith("beatlog: interrupted\n"), run.err
+
+
+def assert_complete_results_printed(run: Interrupted) -> None:
+    assert "a-fast" in run.out
+    assert "b-changed" in run.out
+    assert "2 not run" in run.out.splitlines()[-1]
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_ctrl_c_stops_a_suite_and_prints_what_is_complete(
+    press_ctrl_c: Callable[..., Interrupted], suite: Path, markers: Path, jobs: str
+) -> None:
+    run = press_ctrl_c(["test", "-j", jobs, suite], marked(markers, int(jobs)))
+
+    assert_stopped(run)
+    assert_complete_results_printed(run)
+    assert run.out.splitlines()[-1].startswith("1 passed, 1 failed, 2 not run in ")
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_ctrl_c_stops_the_audit_interpreters(
+    press_ctrl_c: Callable[..., Interrupted],
+    tmp_path: Path,
+    record_probe: RecordFn,
+    markers: Path,
+    jobs: str,
+) -> None:
+    log = record_probe(300)
+    specs = tmp_path / "specs"
+    for name in ("a", "b", "c"):
+        write_spec(specs, name, log, SLOW_IN_AUDIT)
+
+    run = press_ctrl_c(["test", "--audit", "-j", jobs, specs], marked(markers, 2))
+
+    assert_stopped(run)
+    assert run.out.splitlines()[-1].startswith("0 passed, 0 failed, 3 not run in ")
+
+
+def test_ctrl_c_writes_no_report_and_no_pending_file(
+    press_ctrl_c: Callable[..., Interrupted], suite: Path, markers: Path, tmp_path: Path
+) -> None:
+    html, junit = tmp_path / "report.html", tmp_path / "report.xml"
+
+    run = press_ctrl_c(
+        ["test", "-j", "2", "--update", "--html", html, "--junit-xml", junit, suite],
+        marked(markers, 2),
+    )
+
+    assert_stopped(run)
+    assert_complete_results_printed(run)
+    assert sorted(path.name for path in suite.iterdir()) == [
+        "a-fast.dtc.toml",
+        "b-changed.dtc.toml",
+        "c-slow.dtc.toml",
+        "d-slow.dtc.toml",
+    ]
+    assert sorted(tmp_path.iterdir()) == sorted(
+        [tmp_path / "markers", tmp_path / "probe.beatlog", suite]
+    )
+
+
+def test_ctrl_c_stops_a_replay(
+    press_ctrl_c: Callable[..., Interrupted], record_probe: RecordFn, markers: Path
+) -> None:
+    run = press_ctrl_c(["replay", record_probe(300), "--system", SLOW], marked(markers))
+
+    assert_stopped(run)
+    assert run.out == ""
+
+
+def test_ctrl_c_ends_a_recording_with_a_complete_log(
+    press_ctrl_c: Callable[..., Interrupted], tmp_path: Path
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    run = press_ctrl_c(
+        ["record", "--robot", "beatlog.examples.rover:robot", "-o", out, "--duration", 600],
+        created(out),
+    )
+
+    assert_stopped(run)
+    with SessionLogReader(out) as reader:
+        cycles = sum(1 for _ in reader.cycles())
+        assert reader.status.complete
+        assert reader.end is not None
+        assert reader.end.cycles == cycles > 0
+    assert f"recorded {cycles} cycles (" in run.out
+    assert run.out.rstrip("\n").endswith(f"to {out}")
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_demo(press_ctrl_c: Callable[..., Interrupted], tmp_path: Path) -> None:
+    log = tmp_path / "demo" / "dog.beatlog"
+
+    run = press_ctrl_c(
+        ["demo", "--duration", 600, "--out", tmp_path / "demo"],
+        created(log),
+    )
+
+    assert_stopped(run)

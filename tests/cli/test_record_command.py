@@ -1,0 +1,110 @@
+"""``beatlog record`` when the disk cannot take the log: never a traceback; the summary
+line says where the log stops, and the log is valid up to there."""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from beatlog.engine.record import Recorder
+from beatlog.examples.rover import system
+from beatlog.log.reader import SessionLogReader
+
+ROOT = Path(__file__).parents[2]
+LIMITED = """
+import resource, signal, sys
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
+resource.setrlimit(resource.RLIMIT_FSIZE, (int(sys.argv[1]), int(sys.argv[1])))
+from beatlog.cli.main import main
+sys.exit(main(sys.argv[2:]))
+"""
+"""``beatlog ARGS`` whose files cannot grow past a size: a real full disk, for one process."""
+
+
+def beatlog_record(
+    output: Path, *args: str, max_file_size: int
+) -> subprocess.CompletedProcess[str]:
+    command = ["record", "--robot", "beatlog.examples.rover:robot", "-o", str(output), *args]
+    return subprocess.run(
+        [sys.executable, "-c", LIMITED, str(max_file_size), *command],
+        cwd=ROOT,
+        env={**os.environ, "COLUMNS": "300"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+
+
+def empty_log_size() -> int:
+    """The bytes of a rover log with no cycle: header, schemas and end."""
+    file = io.BytesIO()
+    with Recorder(file, system(), software="unknown", log_samples=True):
+        pass
+    return len(file.getvalue())
+
+
+@pytest.mark.slow
+def test_a_disk_that_fills_up_while_recording_gives_the_summary_and_exit_1(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    done = beatlog_record(
+        out,
+        "--duration",
+        "3",
+        "--log-samples",
+        "--flush-interval",
+        "0.1",
+        max_file_size=empty_log_size() + 2_000,
+    )
+
+    assert done.returncode == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    summary = done.stdout.strip().splitlines()[-1]
+    found = re.fullmatch(
+        rf"recorded 100 cycles \(3\.00 s, \d+ overruns\) to {re.escape(str(out))}; "
+        r"recording failed at cycle (\d+): OSError: \[Errno 27\] File too large "
+        r"\(the log is valid up to there\)",
+        summary,
+    )
+    assert found is not None, summary
+    with SessionLogReader(out) as reader:
+        kept = len(list(reader.cycles()))
+        assert not reader.status.complete
+    assert 0 < kept == int(found.group(1)) < 100
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
+def test_a_disk_full_before_the_first_cycle_is_one_line() -> None:
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "beatlog.cli.main",
+            "record",
+            "--robot",
+            "beatlog.examples.rover:robot",
+            "-o",
+            "/dev/full",
+            "--force",
+            "--duration",
+            "1",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+
+    assert done.returncode == 2
+    assert done.stdout == ""
+    assert done.stderr == "beatlog: error: /dev/full: cannot write: No space left on device\n"
