@@ -13,7 +13,7 @@ from beatlog import DivergenceKind, StateChange, replay
 from beatlog.engine.compare import Comparison
 from beatlog.engine.record import Recorder
 from beatlog.engine.trace import Expectation, TracedChange, replayed_trace
-from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.errors import CorruptLogError, LogError, SchemaMismatchError
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
@@ -27,8 +27,10 @@ from tests.conftest import (
     RecordFn,
     distances,
     probe_system,
+    probe_system_changed,
     probe_system_renamed,
 )
+from tests.factories import chunks, drop_chunk
 
 
 def first_cycle_below(threshold: float, cycles: int = 300) -> int:
@@ -462,3 +464,29 @@ def test_the_reproduce_command_carries_the_replay_options(tmp_path: Path) -> Non
         f"beatlog replay '{log}' --system tests.conftest:probe_system "
         "--keep-going --allow-truncated"
     )
+
+
+class Quitter(Dice):
+    """Dice that calls sys.exit on a close obstacle."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if rs.distance < 0.3:
+            raise SystemExit(3)
+        return super().step(rs, ctx)
+
+
+def test_a_behavior_that_calls_sys_exit_is_an_exception_verdict(record_probe: RecordFn) -> None:
+    result = replay(record_probe(300), PriorityArbiter([Near(), Quitter()], robot_state=Probe))
+    assert result.divergence is not None
+    assert result.divergence.kind is DivergenceKind.EXCEPTION
+    assert "SystemExit" in result.divergence.message
+
+
+def test_a_log_damaged_after_the_first_divergence_is_still_bad_input(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(3000, flush_interval_s=0.5)
+    data = log.read_bytes()
+    log.write_bytes(drop_chunk(data, chunks(data)[-1]))
+    with pytest.raises(LogError):
+        replay(log, probe_system_changed())

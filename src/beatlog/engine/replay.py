@@ -103,6 +103,9 @@ def replay(
             if stop is not None:
                 wall = time.perf_counter() - started
                 judge.follow(batch[stop + 1 :], batches)
+                for _ in batches:  # a damaged log is bad input, wherever the damage is
+                    pass
+                status = reader.status
                 break
         else:
             status = reader.status
@@ -267,7 +270,7 @@ class _Judge:
                 () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
             )
             changes: list[StateChangeRecord] | None = None
-            failure: Exception | None = None
+            failure: BaseException | None = None
             try:
                 changes = step(record.heartbeat_ns, state)
                 if (
@@ -296,7 +299,7 @@ class _Judge:
                 pass
             except BeatlogError:
                 raise
-            except Exception as exc:  # behavior code failing is a verdict, not a crash
+            except (Exception, SystemExit) as exc:  # behavior code failing is a verdict
                 failure = exc
             first = self.divergence is None
             self._diverge(record, state, changes, failure)
@@ -323,7 +326,7 @@ class _Judge:
             )
             try:
                 changes = self.executor.step(record.heartbeat_ns, state)
-            except (Exception, RandomMismatch):  # the first divergence is already reported
+            except (Exception, SystemExit, RandomMismatch):  # the divergence is reported
                 suspect = False
                 break
             rows.append(self._row(record, changes))

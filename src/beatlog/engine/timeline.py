@@ -348,7 +348,7 @@ class _Replayer:
             return None, _random_kind(mismatch)
         except BeatlogError:
             raise
-        except Exception:  # behavior code failing ends the actual trace, not the report
+        except (Exception, SystemExit):  # behavior code failing ends the actual trace
             return None, DivergenceKind.EXCEPTION
         if random.mismatch is not None:
             return None, _random_kind(random.mismatch)

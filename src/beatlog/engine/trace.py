@@ -208,7 +208,7 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
             except RandomMismatch as mismatch:
                 stopped = f"cycle {cycle}: {mismatch.problem}"
                 break
-            except Exception as exc:  # behavior code failing ends the trace, it is reported
+            except (Exception, SystemExit) as exc:  # behavior code failing ends the trace
                 stopped = f"cycle {cycle}: {type(exc).__name__}: {exc}"
                 break
             if len(random.drawn) != len(random.recorded):
@@ -252,7 +252,7 @@ def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
             tracker = _ReadTracker(state) if index == cycle else None
             try:
                 replayer.executor.step(record.heartbeat_ns, tracker or state)
-            except (Exception, RandomMismatch):  # the diverging cycle may raise: keep its reads
+            except (Exception, SystemExit, RandomMismatch):  # keep the diverging cycle's reads
                 if tracker is None:
                     return ()
             if tracker is not None:

@@ -216,7 +216,9 @@ class SessionLogReader:
             raise CorruptLogError(self.path, f"first message is on {topic!r}, not the header")
         if len(message.data) > MAX_SCHEMA_BYTES:
             raise CorruptLogError(
-                self.path, f"session header of {len(message.data)} bytes is implausibly large"
+                self.path,
+                f"damaged session header: {len(message.data)} bytes, more than the "
+                f"{MAX_SCHEMA_BYTES} a header may hold",
             )
         version = self._decode(message.data, _Versioned, "session header").format_version
         if version > FORMAT_VERSION:
@@ -460,7 +462,7 @@ class SessionLogReader:
         if size > MAX_CHUNK_BYTES:
             raise _DamageError(f"a chunk claims {size} bytes uncompressed")
         self._expanded += size
-        if self._expanded > MAX_EXPANSION * self._size:
+        if self._expanded > MAX_EXPANSION * self._size + MAX_CHUNK_BYTES:
             raise _DamageError("chunks decompress to implausibly much data (a zip bomb?)")
         data = chunk.data
         if chunk.compression == "zstd":

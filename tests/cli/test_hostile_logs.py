@@ -1,0 +1,140 @@
+"""Damaged, foreign and hostile logs through the CLI: one line naming the file, exit 2."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from beatlog.cli.main import main
+from tests.factories import (
+    STANDARD_CHANNELS,
+    Channel,
+    chunks,
+    craft_log,
+    cycle_messages,
+    deeply_nested,
+    drop_chunk,
+    end_message,
+    header_message,
+    standard_messages,
+)
+
+SYSTEM = "tests.conftest:probe_system"
+
+
+def dropped_chunk(path: Path) -> Path:
+    data = craft_log(path, standard_messages(60)).read_bytes()
+    path.write_bytes(drop_chunk(data, chunks(data)[2]))
+    return path
+
+
+def foreign_cycles_topic(path: Path) -> Path:
+    channels = (*STANDARD_CHANNELS, Channel("/beatlog/cycles2", schema="beatlog.CycleBatch"))
+    return craft_log(path, standard_messages(20), channels=channels)
+
+
+def end_count_mismatch(path: Path) -> Path:
+    return craft_log(path, [*standard_messages(20)[:-1], end_message(999)])
+
+
+def deep_robot_id(path: Path) -> Path:
+    return craft_log(path, [header_message(robot_id=deeply_nested()), *cycle_messages(5)])
+
+
+def huge_robot_id(path: Path) -> Path:
+    return craft_log(path, [header_message(robot_id="r" * 50_000_000), *cycle_messages(5)])
+
+
+def many_behaviors(path: Path) -> Path:
+    names = [f"behavior-{i}" for i in range(200_000)]
+    return craft_log(path, [header_message(behaviors=names), *cycle_messages(5)])
+
+
+HOSTILE: dict[str, tuple[Callable[[Path], Path], str]] = {
+    "dropped-chunk": (dropped_chunk, "a chunk missing, repeated or moved"),
+    "foreign-topic": (foreign_cycles_topic, "a foreign channel '/beatlog/cycles2'"),
+    "end-count": (end_count_mismatch, "the end record counts 999 cycles"),
+    "deep-nesting": (deep_robot_id, "damaged session header"),
+    "huge-robot-id": (huge_robot_id, "damaged"),
+    "many-behaviors": (many_behaviors, "damaged session header"),
+}
+
+
+def run(capsys: pytest.CaptureFixture[str], *args: str | Path) -> tuple[int, str, str]:
+    code = main([str(arg) for arg in args])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def assert_one_line(err: str, log: Path, fragment: str) -> None:
+    assert err.count("\n") == 1, err
+    assert "Traceback" not in err
+    assert f"{log}: " in err
+    assert fragment in err
+
+
+@pytest.mark.parametrize("name", HOSTILE)
+@pytest.mark.parametrize("command", ["show", "replay"])
+def test_show_and_replay_refuse_a_hostile_log_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, command: str
+) -> None:
+    build, fragment = HOSTILE[name]
+    log = build(tmp_path / f"{name}.beatlog")
+    extra = ["--system", SYSTEM, "--allow-truncated"] if command == "replay" else []
+    code, out, err = run(capsys, command, log, *extra)
+    assert code == 2
+    assert out == ""
+    assert_one_line(err, log, fragment)
+
+
+def write_spec(folder: Path, log: Path) -> Path:
+    spec = folder / "hostile.dtc.toml"
+    spec.write_text(
+        f'name = "hostile"\npurpose = "hostile input"\nprocedure = []\n'
+        f'log = "{log.name}"\nsystem = "{SYSTEM}"\n'
+    )
+    return spec
+
+
+@pytest.mark.parametrize("name", HOSTILE)
+def test_beatlog_test_reports_a_hostile_log_as_an_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str
+) -> None:
+    build, fragment = HOSTILE[name]
+    log = build(tmp_path / f"{name}.beatlog")
+    write_spec(tmp_path, log)
+    code, _out, err = run(capsys, "test", "-j", "1", tmp_path)
+    assert code == 2
+    assert "Traceback" not in err
+    assert fragment in err
+
+
+def test_a_spec_whose_log_is_a_fifo_is_an_error_not_a_hang(tmp_path: Path) -> None:
+    fifo = tmp_path / "session.beatlog"
+    os.mkfifo(fifo)
+    write_spec(tmp_path, fifo)
+    done = subprocess.run(
+        [sys.executable, "-m", "beatlog.cli.main", "test", "-j", "1", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert "not a regular file" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_show_says_which_format_version_a_log_is(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    current = craft_log(tmp_path / "v2.beatlog", standard_messages(5))
+    code, out, _ = run(capsys, "show", current)
+    assert code == 0
+    assert "format" in out
+    assert "version 2" in out
