@@ -154,6 +154,11 @@ class SessionLogReader:
         return self._status
 
     @property
+    def robot_time_ns(self) -> int:
+        """The robot time of the cycles read so far: the sum of their heartbeat intervals."""
+        return self._robot_time_ns
+
+    @property
     def end(self) -> SessionEnd | None:
         """The end record, if the recording closed cleanly."""
         return self._end
@@ -267,7 +272,7 @@ class SessionLogReader:
                 "(a chunk missing, repeated or moved)",
             )
         self._cycles += len(batch)
-        self._robot_time_ns += sum(cycle.heartbeat_ns for cycle in batch)
+        self._robot_time_ns += sum([cycle.heartbeat_ns for cycle in batch])
         return batch
 
     def _read_end(self, message: Message) -> None:

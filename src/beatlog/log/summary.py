@@ -1,7 +1,8 @@
 """What a session log holds, in figures: for ``beatlog show`` and for people reading logs.
 
-The log is streamed in constant memory, twice: once for the counts, then once more for
-the exact 99th percentile of the heartbeat intervals, which needs only the largest 1 %.
+The log is streamed in bounded memory. The exact 99th percentile of the heartbeat
+intervals comes from a count of each distinct interval while there are few of them,
+and otherwise from a second pass that keeps only the largest 1 %.
 """
 
 from __future__ import annotations
@@ -20,6 +21,9 @@ from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, SessionEnd, SessionHea
 from beatlog.log.reader import LogStatus, SessionLogReader
 
 __all__ = ["LogSummary", "summarize"]
+
+_MAX_DISTINCT_INTERVALS = 1 << 16
+"""Distinct heartbeat intervals counted in the first pass before a second is needed."""
 
 
 @dataclass(frozen=True)
@@ -62,29 +66,33 @@ def summarize(path: str | Path) -> LogSummary:
     """Read a whole log and gather its figures."""
     changes_decoder = msgspec.msgpack.Decoder(list[_Change])
     draws_decoder = msgspec.msgpack.Decoder(list[_Draw])
-    cycles = robot_time_ns = longest = late = 0
+    cycles = longest = late = 0
+    intervals: Counter[int] | None = Counter()
     transitions = Counter[int]()
     draws = Counter[str]()
     with SessionLogReader(path) as reader:
         header = reader.header
         late_ns = 1.5 * header.period_ns
         for batch in reader.batches():
-            for cycle in batch:
-                interval = cycle.heartbeat_ns
-                robot_time_ns += interval
-                longest = max(longest, interval)
-                late += interval > late_ns
-                try:
-                    if cycle.state_changes != EMPTY_LIST:
-                        transitions.update(
-                            c.behavior for c in changes_decoder.decode(cycle.state_changes)
-                        )
-                    if cycle.random_numbers != EMPTY_LIST:
-                        draws.update(d.kind for d in draws_decoder.decode(cycle.random_numbers))
-                except DECODE_ERRORS as exc:
-                    raise CorruptLogError(reader.path, f"damaged cycle {cycles}: {exc}") from None
-                cycles += 1
-        status, end = reader.status, reader.end
+            beats = [cycle.heartbeat_ns for cycle in batch]
+            if intervals is not None:
+                intervals.update(beats)
+                if len(intervals) > _MAX_DISTINCT_INTERVALS:
+                    intervals = None
+            slowest = max(beats)
+            if slowest > late_ns:
+                late += len([beat for beat in beats if beat > late_ns])
+            longest = max(longest, slowest)
+            try:
+                for changes in [c.state_changes for c in batch if c.state_changes != EMPTY_LIST]:
+                    transitions.update(c.behavior for c in changes_decoder.decode(changes))
+                for numbers in [c.random_numbers for c in batch if c.random_numbers != EMPTY_LIST]:
+                    draws.update(d.kind for d in draws_decoder.decode(numbers))
+            except DECODE_ERRORS as exc:
+                where = f"cycles {cycles}-{cycles + len(batch) - 1}"
+                raise CorruptLogError(reader.path, f"damaged {where}: {exc}") from None
+            cycles += len(batch)
+        status, end, robot_time_ns = reader.status, reader.end, reader.robot_time_ns
     names = header.behaviors
     return LogSummary(
         path=Path(path),
@@ -94,7 +102,12 @@ def summarize(path: str | Path) -> LogSummary:
         cycles=cycles,
         robot_time_ns=robot_time_ns,
         heartbeat_mean_ms=robot_time_ns / cycles / 1e6 if cycles else 0.0,
-        heartbeat_p99_ms=_p99(_intervals(path, cycles), cycles) / 1e6,
+        heartbeat_p99_ms=(
+            _p99_of_counts(intervals, cycles)
+            if intervals is not None
+            else _p99(_intervals(path, cycles), cycles)
+        )
+        / 1e6,
         heartbeat_max_ms=longest / 1e6,
         late_beats=late,
         transitions={name: transitions[index] for index, name in enumerate(names)},
@@ -114,9 +127,24 @@ def _intervals(path: str | Path, cycles: int) -> Iterator[int]:
                 return
 
 
+def _rank(count: int) -> int:
+    """The 1-based rank of the nearest-rank 99th percentile among ``count`` values."""
+    return math.ceil(0.99 * count)
+
+
+def _p99_of_counts(intervals: Counter[int], count: int) -> int:
+    """The nearest-rank 99th percentile from how often each interval occurred."""
+    seen = 0
+    for interval in sorted(intervals):
+        seen += intervals[interval]
+        if seen >= _rank(count):
+            return interval
+    return 0
+
+
 def _p99(intervals: Iterator[int], count: int) -> int:
     """The nearest-rank 99th percentile, keeping only the largest 1 % in memory."""
     if count == 0:
         return 0
-    largest = heapq.nlargest(count - math.ceil(0.99 * count) + 1, intervals)
+    largest = heapq.nlargest(count - _rank(count) + 1, intervals)
     return largest[-1]
