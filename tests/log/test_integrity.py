@@ -372,3 +372,13 @@ def test_a_recorded_log_with_a_chunk_dropped_never_replays(
         damaged.write_bytes(drop_chunk(data, chunks(data)[index]))
         with pytest.raises(LogError):
             replay(damaged, probe_system(), allow_truncated=True)
+
+
+def test_a_committed_format_1_log_still_reads_complete_with_its_version() -> None:
+    log = COMMITTED_LOGS[0]
+    with SessionLogReader(log) as reader:
+        cycles = sum(len(batch) for batch in reader.batches())
+        assert reader.format_version == 1
+        assert reader.status == LogStatus(True, cycles)
+        assert reader.end is not None
+        assert reader.robot_time_ns == reader.end.robot_time_ns
