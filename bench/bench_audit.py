@@ -16,11 +16,11 @@ from pathlib import Path
 
 import beatlog
 from beatlog.engine.audit import audit
-from beatlog.examples.rover import record_lockstep
+from beatlog_examples.rover import record_lockstep
 
 DURATION_S = 1050.0
 REPEATS = 3
-SYSTEM = "beatlog.examples.rover:system"
+SYSTEM = "beatlog_examples.rover:system"
 
 
 def main() -> None:

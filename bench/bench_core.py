@@ -39,7 +39,6 @@ from rich.table import Table
 import beatlog
 from beatlog.engine.cycle import CycleExecutor
 from beatlog.engine.record import Recorder
-from beatlog.examples.rover import RoverRobot, RoverState, record_lockstep, system
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
@@ -47,6 +46,7 @@ from beatlog.model.clock import DEFAULT_PERIOD_NS, LiveHeartbeat
 from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample
 from beatlog.model.random import Draw, RecordingRandom
+from beatlog_examples.rover import RoverRobot, RoverState, record_lockstep, system
 
 DURATION_S = 1050.0
 """Robot time of the generated log: the paper's 17.5 minutes, 35,000 cycles at 30 ms."""
@@ -58,7 +58,7 @@ FLUSH_INTERVAL_S = 1.0
 """The recorder's default flush interval, used by the killed recordings."""
 CHILD_MAX_S = 120.0
 """Robot time a killed recording would run for if nobody killed it."""
-SYSTEM_REF = "beatlog.examples.rover:system"
+SYSTEM_REF = "beatlog_examples.rover:system"
 
 Figures = dict[str, Any]
 T = TypeVar("T")

@@ -29,13 +29,13 @@ from rich.console import Console
 from rich.table import Table
 
 import beatlog
-from beatlog.examples.dog import SUITE_DIR
-from beatlog.examples.dog.fastforward import measured_intervals, record_fast
-from beatlog.examples.dog.robot import SYSTEM_REF, record_live
-from beatlog.examples.dog.scenarios import Event, Scenario, scenario
 from beatlog.log.reader import SessionLogReader
 from beatlog.suite.runner import Verdict, run_suite
 from beatlog.suite.spec import discover_specs
+from beatlog_examples.dog import SUITE_DIR
+from beatlog_examples.dog.fastforward import measured_intervals, record_fast
+from beatlog_examples.dog.robot import SYSTEM_REF, record_live
+from beatlog_examples.dog.scenarios import Event, Scenario, scenario
 
 LONG_S = 1050.0
 """The paper's 17.5 minutes: 35,000 cycles at 30 ms."""

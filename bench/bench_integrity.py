@@ -28,9 +28,9 @@ import msgspec
 import zstandard
 from mcap import records
 
-from beatlog.examples.rover import record_lockstep, system
 from beatlog.log.format import CYCLES_TOPIC, CycleRecord, SessionEnd
 from beatlog.log.reader import SessionLogReader
+from beatlog_examples.rover import record_lockstep, system
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 

@@ -27,11 +27,11 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from beatlog.examples.rover import record_lockstep
 from beatlog.suite.runner import run_spec
 from beatlog.suite.spec import load_spec
+from beatlog_examples.rover import record_lockstep
 
-SYSTEM = "beatlog.examples.rover:system"
+SYSTEM = "beatlog_examples.rover:system"
 DURATION_S = 1050.0
 """Robot time of each spec's log: 17.5 minutes, 35,000 cycles at 30 ms."""
 REPEATS = 5

@@ -19,8 +19,8 @@ import numpy as np
 from rich.console import Console
 from rich.table import Table
 
-from beatlog.examples.rover.behaviors import RoverState
 from beatlog.log.format import payload_encoder
+from beatlog_examples.rover.behaviors import RoverState
 
 SAMPLES = 300
 SLEEP_S = 0.03

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.examples.rover import record_lockstep
+from beatlog_examples.rover import record_lockstep
 from tests.conftest import RecordFn
 
 
@@ -97,13 +97,13 @@ def test_the_fixture_replays_a_log_in_an_ordinary_test(
 def test_dtcs_run_under_xdist_and_measure_behavior_coverage(
     pytester: pytest.Pytester, tmp_path: Path
 ) -> None:
-    rover = "beatlog.examples.rover:system"
+    rover = "beatlog_examples.rover:system"
     for seed in range(3):
         log = tmp_path / f"rover-{seed}.beatlog"
         record_lockstep(log, duration_s=20.0, seed=seed)
         pytester.makefile(".dtc.toml", **{f"rover{seed}": spec_text(f"rover-{seed}", log, rover)})
     result = pytester.runpytest_subprocess(
-        "-n", "2", "--cov=beatlog.examples.rover.behaviors", "--cov-report=term"
+        "-n", "2", "--cov=beatlog_examples.rover.behaviors", "--cov-report=term"
     )
     result.assert_outcomes(passed=3)
     result.stdout.fnmatch_lines(["*2 workers*", "*rover/behaviors.py*"])

@@ -215,7 +215,7 @@ def test_ctrl_c_ends_a_recording_with_a_complete_log(
     out = tmp_path / "rover.beatlog"
 
     run = press_ctrl_c(
-        ["record", "--robot", "beatlog.examples.rover:robot", "-o", out, "--duration", 600],
+        ["record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 600],
         created(out),
     )
 

@@ -387,7 +387,7 @@ def test_record_refuses_to_overwrite_a_log(
     log = record_probe(10)
     before = log.read_bytes()
 
-    run = beatlog("record", "--robot", "beatlog.examples.rover:robot", "-o", log, "--duration", 1)
+    run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", log, "--duration", 1)
 
     assert_one_line_error(run, f"{log}: already exists", "--force")
     assert log.read_bytes() == before
@@ -398,7 +398,7 @@ def test_record_into_a_missing_directory_is_one_line(
 ) -> None:
     out = tmp_path / "nowhere" / "rover.beatlog"
 
-    run = beatlog("record", "--robot", "beatlog.examples.rover:robot", "-o", out, "--duration", 1)
+    run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 1)
 
     assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
 
@@ -461,7 +461,7 @@ def test_record_writes_a_complete_log_that_replays(
     recorded = beatlog(
         "record",
         "--robot",
-        "beatlog.examples.rover:robot",
+        "beatlog_examples.rover:robot",
         "-o",
         out,
         "--duration",
@@ -471,7 +471,7 @@ def test_record_writes_a_complete_log_that_replays(
         "--robot-id",
         "rover-1",
         "--system-ref",
-        "beatlog.examples.rover:system",
+        "beatlog_examples.rover:system",
     )
 
     assert recorded.code == 0, recorded.err
@@ -485,7 +485,7 @@ def test_record_writes_a_complete_log_that_replays(
         assert reader.header.robot_id == "rover-1"
         assert reader.header.random_seed == 11
     assert f"recorded {cycles} cycles" in recorded.out
-    replayed = beatlog("replay", out, "--system", "beatlog.examples.rover:system")
+    replayed = beatlog("replay", out, "--system", "beatlog_examples.rover:system")
     assert replayed.code == 0, replayed.out
 
 
@@ -503,7 +503,7 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
     assert f"The demo log is kept at {log}" in run.out
     with SessionLogReader(log) as reader:
         cycles = sum(1 for _ in reader.cycles())
-        assert reader.header.system == "beatlog.examples.dog:system"
+        assert reader.header.system == "beatlog_examples.dog:system"
         assert reader.status.complete
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0

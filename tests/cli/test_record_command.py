@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from beatlog.engine.record import Recorder
-from beatlog.examples.rover import system
 from beatlog.log.reader import SessionLogReader
+from beatlog_examples.rover import system
 
 ROOT = Path(__file__).parents[2]
 LIMITED = """
@@ -30,7 +30,7 @@ sys.exit(main(sys.argv[2:]))
 def beatlog_record(
     output: Path, *args: str, max_file_size: int
 ) -> subprocess.CompletedProcess[str]:
-    command = ["record", "--robot", "beatlog.examples.rover:robot", "-o", str(output), *args]
+    command = ["record", "--robot", "beatlog_examples.rover:robot", "-o", str(output), *args]
     return subprocess.run(
         [sys.executable, "-c", LIMITED, str(max_file_size), *command],
         cwd=ROOT,
@@ -91,7 +91,7 @@ def test_a_disk_full_before_the_first_cycle_is_one_line() -> None:
             "beatlog.cli.main",
             "record",
             "--robot",
-            "beatlog.examples.rover:robot",
+            "beatlog_examples.rover:robot",
             "-o",
             "/dev/full",
             "--force",

@@ -13,7 +13,7 @@ import pytest
 from beatlog.engine.audit import AuditReport, Finding, audit
 from beatlog.engine.verdict import DivergenceKind
 from beatlog.errors import BeatlogError
-from beatlog.examples.rover import record_lockstep
+from beatlog_examples.rover import record_lockstep
 from tests.engine.audit_fixtures import (
     HEADINGS,
     leaks,
@@ -60,7 +60,7 @@ def test_the_example_rover_is_deterministic(tmp_path: Path) -> None:
     log = tmp_path / "rover.beatlog"
     recorded = record_lockstep(log, duration_s=3.0, seed=1)
 
-    report = audit(log, "beatlog.examples.rover:system")
+    report = audit(log, "beatlog_examples.rover:system")
 
     assert report == AuditReport(findings=(), runs=report.runs, hash_seed_dependence=None)
     assert report.ok

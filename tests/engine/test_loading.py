@@ -130,7 +130,7 @@ def test_a_factory_that_builds_the_wrong_thing_says_what_it_built(
 
 
 def test_a_system_is_not_a_robot() -> None:
-    reference = "beatlog.examples.rover:system"
+    reference = "beatlog_examples.rover:system"
 
     with pytest.raises(SystemLoadError, match=f"^'{reference}': built a PriorityArbiter, not a"):
         load_robot(reference)

@@ -9,11 +9,11 @@ import pytest
 
 from beatlog import DivergenceKind, replay
 from beatlog.engine.record import Recorder
-from beatlog.examples.rover import RoverRobot, changed_system, record_lockstep, system
-from beatlog.examples.rover.behaviors import AVOID_DISTANCE
-from beatlog.examples.rover.world import World
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.summary import summarize
+from beatlog_examples.rover import RoverRobot, changed_system, record_lockstep, system
+from beatlog_examples.rover.behaviors import AVOID_DISTANCE
+from beatlog_examples.rover.world import World
 
 
 def test_the_rover_bumps_into_walls_and_sees_obstacles() -> None:

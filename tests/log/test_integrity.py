@@ -11,12 +11,12 @@ import msgspec
 import pytest
 import zstandard
 
-import beatlog
 from beatlog.engine.replay import replay
 from beatlog.errors import CorruptLogError, LogError, NotABeatlogError
 from beatlog.log.format import CYCLES_TOPIC, SessionHeader
 from beatlog.log.limits import MAX_BEHAVIORS, MAX_CHUNK_BYTES
 from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog_examples.dog import SUITE_DIR
 from tests.conftest import RecordFn, probe_system
 from tests.factories import (
     FORMAT_1_CHANNELS,
@@ -36,7 +36,7 @@ from tests.factories import (
     swap_chunks,
 )
 
-DOG_SUITE = Path(beatlog.__file__).parent / "examples" / "dog" / "suite"
+DOG_SUITE = SUITE_DIR
 COMMITTED_LOGS = sorted(DOG_SUITE.glob("*.beatlog"))
 
 

@@ -17,16 +17,16 @@ import pytest
 from matplotlib.image import imread
 
 from beatlog.engine.record import Recorder
-from beatlog.examples.rover import record_lockstep
 from beatlog.report.html import write_html
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
+from beatlog_examples.rover import record_lockstep
 from tests.conftest import PERIOD_NS, Probe
 from tests.report.test_chart import HOSTILE, hostile_system
 from tests.suite.test_spec import write_spec
 
-ROVER = "beatlog.examples.rover:system"
-ROVER_CHANGED = "beatlog.examples.rover:changed_system"
+ROVER = "beatlog_examples.rover:system"
+ROVER_CHANGED = "beatlog_examples.rover:changed_system"
 HOSTILE_SYSTEM = "tests.report.test_chart:hostile_system"
 IMG = "<img src=x onerror=alert(1)>"
 

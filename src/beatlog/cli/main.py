@@ -15,6 +15,7 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
+from importlib.metadata import entry_points
 from pathlib import Path
 from typing import NoReturn, TypeVar
 
@@ -40,6 +41,8 @@ from beatlog.suite.spec import discover_specs, select_specs
 __all__ = ["main"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+DEMO_ENTRY_POINTS = "beatlog.demo"
+"""The entry point group of the package whose demo `beatlog demo` runs."""
 Number = TypeVar("Number", int, float)
 
 
@@ -155,6 +158,18 @@ def _parser() -> argparse.ArgumentParser:
         "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
     )
     return parser
+
+
+def _demo(args: argparse.Namespace, console: Console) -> int:
+    """Run the demo a package registered under the ``beatlog.demo`` entry point group."""
+    demos = entry_points(group=DEMO_ENTRY_POINTS)
+    if not demos:
+        raise BeatlogError(
+            "beatlog demo needs the example robots: pip install beatlog-examples "
+            "(in a clone of beatlog: pip install -e examples)"
+        )
+    run_demo = next(iter(demos)).load()
+    return int(run_demo(console, duration_s=args.duration, out=args.out))
 
 
 def _positive_float(text: str) -> float:
@@ -425,9 +440,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_OK
         if args.command == "plot":
             return _plot(args, console)
-        from beatlog.cli.demo import run_demo  # noqa: PLC0415 - only the demo needs MuJoCo
-
-        return run_demo(console, duration_s=args.duration, out=args.out)
+        return _demo(args, console)
     except BeatlogError as exc:
         _error(str(exc), exc.user_traceback if verbose else None)
         return EXIT_USAGE

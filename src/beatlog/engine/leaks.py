@@ -6,7 +6,7 @@ profile hook sees every call of a builtin and of a Python function, so it catche
 (``from time import monotonic`` included). numpy's compiled functions are invisible to
 profiling, so a trace hook follows the lines of user code instead and notices when
 numpy's global generator moved. Every call is attributed to the nearest frame of
-user code: not beatlog's own (except its examples), not the standard library, not an
+user code: not beatlog's own, not the standard library, not an
 installed package; or, when no user code is on the way (a system that is itself an
 installed package), to the nearest frame of an installed package.
 
@@ -90,7 +90,6 @@ class _Origin(enum.Enum):
 
 
 _BEATLOG_DIR = str(Path(__file__).resolve().parent.parent) + os.sep
-_EXAMPLES_DIR = _BEATLOG_DIR + "examples" + os.sep
 
 
 def _prefixes(*paths: str) -> tuple[str, ...]:
@@ -107,7 +106,6 @@ class _Origins:
     def __init__(self) -> None:
         paths = sysconfig.get_paths()
         self._beatlog = _BEATLOG_DIR
-        self._examples = _EXAMPLES_DIR
         self._libraries = _prefixes(
             paths["purelib"], paths["platlib"], *site.getsitepackages(), site.getusersitepackages()
         )
@@ -126,8 +124,6 @@ class _Origins:
         if filename.startswith("<"):  # frozen modules, exec'd strings
             return _Origin.EXEMPT
         path = str(Path(filename).resolve())
-        if path.startswith(self._examples):
-            return _Origin.USER
         if path.startswith(self._beatlog):
             return _Origin.EXEMPT
         if path.startswith(self._libraries):

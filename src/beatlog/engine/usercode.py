@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import importlib
+import os
 import traceback
 from pathlib import Path
 
 __all__ = ["failure_site", "user_traceback"]
 
-_PACKAGE_DIR = str(Path(__file__).parent.parent)
-_EXAMPLES_DIR = str(Path(__file__).parent.parent / "examples")
+_PACKAGE_DIR = str(Path(__file__).parent.parent) + os.sep
 _IMPORTLIB_DIR = str(Path(importlib.__file__).parent)
 
 
@@ -18,7 +18,7 @@ def _is_users(frame: traceback.FrameSummary) -> bool:
     filename = frame.filename
     if filename.startswith(("<frozen importlib", _IMPORTLIB_DIR)):
         return False
-    return not filename.startswith(_PACKAGE_DIR) or filename.startswith(_EXAMPLES_DIR)
+    return not filename.startswith(_PACKAGE_DIR)
 
 
 def user_traceback(exc: BaseException) -> str:

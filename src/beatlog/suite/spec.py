@@ -8,7 +8,7 @@ the system factory to replay it against::
     purpose = "The rover turns away from a pole in its path."
     procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
     log = "avoid-pole.beatlog"            # relative to this file
-    system = "beatlog.examples.rover:system"
+    system = "beatlog_examples.rover:system"
     tags = ["obstacles"]
     allow_truncated = false
     renames = { avoid = "avoid_obstacle" }  # behaviors renamed since recording: old = new

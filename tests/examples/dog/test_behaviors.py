@@ -7,9 +7,9 @@ from collections.abc import Iterable
 import pytest
 
 from beatlog.engine.cycle import CycleExecutor
-from beatlog.examples.dog.behaviors import CHANGES, DogState, Tuning, system
 from beatlog.model.context import Outputs
 from beatlog.model.random import RecordingRandom
+from beatlog_examples.dog.behaviors import CHANGES, DogState, Tuning, system
 
 PERIOD_NS = 30_000_000
 

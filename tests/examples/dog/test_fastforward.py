@@ -7,10 +7,10 @@ from pathlib import Path
 import pytest
 
 from beatlog import replay
-from beatlog.examples.dog.fastforward import measured_intervals, record_fast
-from beatlog.examples.dog.scenarios import scenario
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.summary import summarize
+from beatlog_examples.dog.fastforward import measured_intervals, record_fast
+from beatlog_examples.dog.scenarios import scenario
 
 JITTER = [29_800_000, 30_000_000, 30_050_000, 30_200_000, 33_000_000]
 
@@ -31,11 +31,11 @@ def test_heartbeats_are_drawn_from_the_measured_intervals_and_the_log_replays(
     intervals = measured_intervals([log])
     assert set(intervals) <= set(JITTER)
     assert len(set(intervals)) == len(JITTER)
-    assert replay(log, "beatlog.examples.dog:system").ok
+    assert replay(log, "beatlog_examples.dog:system").ok
     transitions = summarize(log).transitions
     assert transitions["remote"] >= 6  # three drives, each started and released
     with SessionLogReader(log) as reader:
-        assert reader.header.system == "beatlog.examples.dog:system"
+        assert reader.header.system == "beatlog_examples.dog:system"
 
 
 def test_fast_forward_needs_intervals(tmp_path: Path) -> None:

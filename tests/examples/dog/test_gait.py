@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from beatlog.examples.dog.gait import SEGMENT, Gait, Motion, leg_angles
-from beatlog.examples.dog.world import DogWorld
+from beatlog_examples.dog.gait import SEGMENT, Gait, Motion, leg_angles
+from beatlog_examples.dog.world import DogWorld
 
 
 def test_leg_angles_put_the_foot_where_asked() -> None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from beatlog.examples.dog.model import load_model, sensor_slice
+from beatlog_examples.dog.model import load_model, sensor_slice
 
 
 def test_the_model_has_twelve_actuated_leg_joints_and_the_named_sensors() -> None:

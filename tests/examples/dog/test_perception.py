@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from beatlog.examples.dog.behaviors import DogState
-from beatlog.examples.dog.perception import perceive
 from beatlog.model.inbox import Sample
+from beatlog_examples.dog.behaviors import DogState
+from beatlog_examples.dog.perception import perceive
 
 
 def sample(sensor: str, value: object) -> Sample:

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.examples.dog.record_suite import main, spec_text
-from beatlog.examples.dog.scenarios import SUITE, scenario
 from beatlog.suite.spec import load_spec
+from beatlog_examples.dog.record_suite import main, spec_text
+from beatlog_examples.dog.scenarios import SUITE, scenario
 
 
 @pytest.mark.parametrize("case", SUITE, ids=lambda case: case.name)
@@ -22,7 +22,7 @@ def test_every_scenario_gives_a_valid_spec(case: object, tmp_path: Path) -> None
     assert spec.purpose == chosen.purpose
     assert list(spec.procedure) == chosen.procedure()
     assert spec.log == tmp_path / f"{chosen.name}.beatlog"
-    assert spec.system == "beatlog.examples.dog:system"
+    assert spec.system == "beatlog_examples.dog:system"
     assert spec.tags == chosen.tags
 
 

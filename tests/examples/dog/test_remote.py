@@ -9,8 +9,8 @@ import time
 
 import pytest
 
-from beatlog.examples.dog.remote import MAX_SPEED, RemoteCommand, RemoteServer, drive, main
 from beatlog.model.inbox import Sample, SensorInbox
+from beatlog_examples.dog.remote import MAX_SPEED, RemoteCommand, RemoteServer, drive, main
 
 
 def wait_for(inbox: SensorInbox, count: int, timeout_s: float = 10.0) -> list[Sample]:
@@ -27,7 +27,7 @@ def test_commands_from_a_client_process_arrive_as_remote_samples() -> None:
     with RemoteServer(inbox) as server:
         client = subprocess.run(
             [
-                *(sys.executable, "-m", "beatlog.examples.dog.remote", "--port", str(server.port)),
+                *(sys.executable, "-m", "beatlog_examples.dog.remote", "--port", str(server.port)),
                 *("--for", "0.25", "forward", "0.2", "turn", "-0.5"),
             ],
             capture_output=True,

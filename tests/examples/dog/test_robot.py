@@ -10,11 +10,11 @@ import pytest
 
 from beatlog import replay
 from beatlog.engine.record import Recorder
-from beatlog.examples.dog.rates import SENSOR_RATES_HZ
-from beatlog.examples.dog.robot import SYSTEM_REF, DogRobot, robot
-from beatlog.examples.dog.scenarios import Event, Scenario
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.robot import Robot
+from beatlog_examples.dog.rates import SENSOR_RATES_HZ
+from beatlog_examples.dog.robot import SYSTEM_REF, DogRobot, robot
+from beatlog_examples.dog.scenarios import Event, Scenario
 
 
 @pytest.mark.slow

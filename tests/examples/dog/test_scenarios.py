@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from beatlog.examples.dog.scenarios import DEMO, SUITE, Event, apply, describe, scenario
-from beatlog.examples.dog.world import DogWorld
+from beatlog_examples.dog.scenarios import DEMO, SUITE, Event, apply, describe, scenario
+from beatlog_examples.dog.world import DogWorld
 
 
 def test_the_suite_has_fifteen_cases_of_thirty_seconds_to_three_minutes() -> None:

@@ -5,12 +5,12 @@ from __future__ import annotations
 import pytest
 
 from beatlog import replay
-from beatlog.examples.dog import SUITE_DIR
-from beatlog.examples.dog.behaviors import CHANGES, changed_system
-from beatlog.examples.dog.scenarios import SUITE
 from beatlog.log.summary import summarize
 from beatlog.suite.runner import Verdict, run_suite
 from beatlog.suite.spec import discover_specs
+from beatlog_examples.dog import SUITE_DIR
+from beatlog_examples.dog.behaviors import CHANGES, changed_system
+from beatlog_examples.dog.scenarios import SUITE
 
 SPECS = discover_specs([SUITE_DIR])
 SHORTEST_FIRST = sorted(SPECS, key=lambda spec: spec.log.stat().st_size)

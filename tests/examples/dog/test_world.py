@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from beatlog.examples.dog.gait import Motion
-from beatlog.examples.dog.sensors import MAX_RANGE, SensorReader
-from beatlog.examples.dog.world import CHARGER, Battery, DogWorld
+from beatlog_examples.dog.gait import Motion
+from beatlog_examples.dog.sensors import MAX_RANGE, SensorReader
+from beatlog_examples.dog.world import CHARGER, Battery, DogWorld
 
 
 def run(world: DogWorld, seconds: float) -> None:

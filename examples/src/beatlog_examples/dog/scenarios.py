@@ -1,0 +1,277 @@
+"""Scenario scripts: the human tester, so every test case can be re-recorded on demand.
+
+A scenario says where the dog starts, how charged its battery is and what the tester
+does when: place a box (somewhere, or right in front of the dog), touch its head,
+back or chin, push it over, hold it, run its battery down, or drive it with the
+remote control. The tester acts on the world or through the remote, never on the
+behaviors: the behaviors learn of it only through their sensors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+from beatlog_examples.dog.world import DogWorld
+
+__all__ = ["DEMO", "SUITE", "Event", "Scenario", "apply", "describe", "scenario"]
+
+REMOTE_RATE_HZ = 10.0
+"""How often the remote-control client repeats its command."""
+
+
+class Event(NamedTuple):
+    """One thing the tester does, ``at_s`` seconds into the session.
+
+    Actions: ``place`` (box, x, y), ``place_ahead`` (box, metres ahead of the torso),
+    ``remove`` (box), ``touch`` (part, seconds), ``push`` (+1 left or -1 right),
+    ``hold`` (seconds), ``drain`` (battery fraction per second) and ``drive``
+    (speed, turn rate, seconds) with the remote control.
+    """
+
+    at_s: float
+    action: str
+    args: tuple[Any, ...] = ()
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A recorded test case's set-up and script."""
+
+    name: str
+    purpose: str
+    duration_s: float
+    events: tuple[Event, ...] = ()
+    start: tuple[float, float, float] = (1.0, 2.0, 0.0)
+    """x, y (m) and heading (rad) of the dog at the start."""
+    battery: float = 1.0
+    tags: tuple[str, ...] = ()
+
+    def world(self) -> DogWorld:
+        """A fresh world set up for this scenario."""
+        x, y, heading = self.start
+        return DogWorld(x=x, y=y, heading=heading, battery=self.battery)
+
+    def procedure(self) -> list[str]:
+        """The steps a person would follow to record this test case by hand."""
+        x, y, heading = self.start
+        steps = [
+            f"Put the dog at ({x:g}, {y:g}) m facing {math.degrees(heading):.0f}°, "
+            f"battery {self.battery:.0%}.",
+            f"Start recording; the session lasts {self.duration_s:g} s.",
+        ]
+        steps += [f"At {event.at_s:g} s: {describe(event)}." for event in self.events]
+        return steps
+
+
+def describe(event: Event) -> str:
+    """What the tester does, in words."""
+    action, args = event.action, event.args
+    if action == "place":
+        return f"place {args[0]} at ({args[1]:g}, {args[2]:g}) m"
+    if action == "place_ahead":
+        return f"place {args[0]} {args[1]:g} m in front of the dog"
+    if action == "remove":
+        return f"take {args[0]} away"
+    if action == "touch":
+        return f"touch its {args[0]} for {args[1]:g} s"
+    if action == "push":
+        return f"push it over to its {'left' if args[0] > 0 else 'right'}"
+    if action == "hold":
+        return f"hold it in place for {args[0]:g} s"
+    if action == "drain":
+        return f"make the battery drain {args[0]:.1%} per second faster"
+    speed, turn, seconds = args
+    return (
+        f"drive it with the remote control for {seconds:g} s "
+        f"(speed {speed:g} m/s, turn {turn:g} rad/s), then release it"
+    )
+
+
+def apply(world: DogWorld, event: Event) -> None:
+    """Carry out an event that acts on the world (every action but ``drive``)."""
+    action, args = event.action, event.args
+    if action == "place":
+        world.place(args[0], args[1], args[2])
+    elif action == "place_ahead":
+        x, y, heading = world.pose
+        world.place(args[0], x + args[1] * math.cos(heading), y + args[1] * math.sin(heading))
+    elif action == "remove":
+        world.remove(args[0])
+    elif action == "touch":
+        world.touch(args[0], args[1])
+    elif action == "push":
+        world.push(args[0])
+    elif action == "hold":
+        world.hold(args[0])
+    elif action == "drain":
+        world.drain(args[0])
+    else:
+        raise ValueError(f"{action!r} is not an action on the world")
+
+
+def _touches(part: str, times: tuple[float, ...], seconds: float = 1.0) -> tuple[Event, ...]:
+    return tuple(Event(at, "touch", (part, seconds)) for at in times)
+
+
+NOSE_CONTACT = 0.37
+"""A box this far ahead of the torso centre (m) rests against the dog's nose."""
+
+SUITE = (
+    Scenario(
+        "walk-straight",
+        "In an open stretch the dog wanders: it walks, veers at random and keeps clear "
+        "of the walls at the far end.",
+        40.0,
+        start=(0.6, 2.0, 0.0),
+        tags=("locomotion",),
+    ),
+    Scenario(
+        "wander-arena",
+        "A long walk round the arena with its pillar and crate: wandering, avoiding, "
+        "following walls, and getting bored along the way.",
+        150.0,
+        start=(1.0, 1.0, 0.8),
+        tags=("locomotion", "obstacles", "boredom"),
+    ),
+    Scenario(
+        "avoid-box",
+        "A box put in the dog's path is seen by the range finders and avoided.",
+        40.0,
+        (Event(2.0, "place_ahead", ("box1", 0.9)),),
+        start=(0.6, 2.0, 0.0),
+        tags=("obstacles",),
+    ),
+    Scenario(
+        "avoid-boxes",
+        "Boxes put in front of the walking dog three times; it turns away from each.",
+        60.0,
+        (
+            Event(3.0, "place_ahead", ("box1", 0.8)),
+            Event(15.0, "place_ahead", ("box2", 0.7)),
+            Event(30.0, "place_ahead", ("box3", 0.8)),
+            Event(45.0, "remove", ("box1",)),
+        ),
+        start=(1.0, 1.5, 0.5),
+        tags=("obstacles",),
+    ),
+    Scenario(
+        "wall-follow",
+        "Started alongside the north wall, the dog follows it at a steady distance.",
+        45.0,
+        start=(0.7, 3.65, 0.0),
+        tags=("locomotion", "obstacles"),
+    ),
+    Scenario(
+        "escape-bump",
+        "A box shoved against the dog's nose presses its nose sensor: it backs up and "
+        "turns a random way.",
+        35.0,
+        (
+            Event(4.0, "place_ahead", ("box1", NOSE_CONTACT)),
+            Event(14.0, "place_ahead", ("box2", NOSE_CONTACT)),
+            Event(24.0, "place_ahead", ("box3", NOSE_CONTACT)),
+        ),
+        start=(1.0, 2.0, 0.0),
+        tags=("obstacles", "touch"),
+    ),
+    Scenario(
+        "escape-stuck",
+        "Held by the tester, the dog walks without getting anywhere; leg odometry says "
+        "it is stuck and it escapes.",
+        40.0,
+        (Event(4.0, "hold", (6.0,)), Event(20.0, "hold", (6.0,))),
+        start=(1.0, 2.0, 0.0),
+        tags=("locomotion",),
+    ),
+    Scenario(
+        "head-pat",
+        "Patting the head makes the dog sit for a while, and happier.",
+        35.0,
+        _touches("head", (4.0, 14.0, 24.0)),
+        tags=("touch",),
+    ),
+    Scenario(
+        "back-touch",
+        "Stroking the back makes the dog lie down for a few seconds.",
+        30.0,
+        _touches("back", (4.0, 16.0)),
+        tags=("touch",),
+    ),
+    Scenario(
+        "chin-touch",
+        "Touching the chin makes the dog shake its head.",
+        30.0,
+        _touches("chin", (5.0, 15.0), 0.8),
+        tags=("touch",),
+    ),
+    Scenario(
+        "remote-drive",
+        "Driven from another process over the remote control, the dog walks and turns "
+        "as told, then goes back to its own behaviors.",
+        35.0,
+        (
+            Event(3.0, "drive", (0.2, 0.0, 4.0)),
+            Event(10.0, "drive", (0.0, 1.0, 3.0)),
+            Event(16.0, "drive", (0.15, -0.6, 4.0)),
+        ),
+        start=(1.2, 2.0, 0.0),
+        tags=("remote",),
+    ),
+    Scenario(
+        "remote-into-wall",
+        "Remote control overrides obstacle avoidance: driven into a wall it bumps, and "
+        "once released it escapes and avoids.",
+        30.0,
+        (Event(3.0, "drive", (0.2, 0.0, 7.0)),),
+        start=(3.0, 2.0, 0.0),
+        tags=("remote", "obstacles"),
+    ),
+    Scenario(
+        "push-over",
+        "Pushed over, the dog's accelerometer tells it that it fell, and it gets up.",
+        35.0,
+        (Event(5.0, "push", (1,)), Event(20.0, "push", (-1,))),
+        tags=("falls",),
+    ),
+    Scenario(
+        "low-battery",
+        "With its battery nearly flat the dog finds the charging pad by its beacon, lies "
+        "down on it and charges.",
+        120.0,
+        start=(1.6, 2.6, 1.5),
+        battery=0.21,
+        tags=("battery",),
+    ),
+    Scenario(
+        "boredom-sleep",
+        "Left alone, the dog gets bored, lies down and falls asleep; a pat wakes it up.",
+        100.0,
+        _touches("head", (75.0,)),
+        start=(1.5, 2.0, 0.0),
+        tags=("boredom", "touch"),
+    ),
+)
+"""The 15 test cases of the dog's suite."""
+
+DEMO = Scenario(
+    "demo",
+    "A short session for the demo: a box in the way, a pat on the head and a push.",
+    20.0,
+    (
+        Event(3.0, "place_ahead", ("box1", 0.8)),
+        Event(9.0, "touch", ("head", 1.0)),
+        Event(14.0, "push", (1,)),
+    ),
+    tags=("demo",),
+)
+
+
+def scenario(name: str) -> Scenario:
+    """The suite's (or the demo's) scenario of that name."""
+    for candidate in (*SUITE, DEMO):
+        if candidate.name == name:
+            return candidate
+    names = ", ".join(s.name for s in SUITE)
+    raise KeyError(f"no scenario named {name!r}; the suite has {names}")
