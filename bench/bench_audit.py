@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import beatlog
-from beatlog.engine.audit import audit
+from beatlog.audit.replays import audit
 from beatlog_examples.rover import record_lockstep
 
 DURATION_S = 1050.0

@@ -37,15 +37,15 @@ from rich.console import Console
 from rich.table import Table
 
 import beatlog
-from beatlog.engine.cycle import CycleExecutor
-from beatlog.engine.record import Recorder
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.clock import DEFAULT_PERIOD_NS, LiveHeartbeat
 from beatlog.model.context import Context, Outputs
+from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
 from beatlog.model.random import Draw, RecordingRandom
+from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import RoverRobot, RoverState, record_lockstep, system
 
 DURATION_S = 1050.0

@@ -48,8 +48,8 @@ from tests.factories import (
     standard_messages,
 )
 
-replay_module: Any = importlib.import_module("beatlog.engine.replay")
-"""The module (``beatlog.engine.replay`` the attribute is the function of that name)."""
+replay_module: Any = importlib.import_module("beatlog.replay.judge")
+"""The module (``beatlog.replay.judge`` the attribute is the function of that name)."""
 
 DURATION_S = 1050.0
 """The paper's 17.5 minutes: 35,000 cycles at 30 ms."""

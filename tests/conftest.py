@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.record import Recorder
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
+from beatlog.record.recorder import Recorder
 
 pytest_plugins = ["pytester"]
 

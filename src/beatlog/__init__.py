@@ -6,14 +6,6 @@ when the behaviors no longer do what they did.
 """
 
 from beatlog._version import __version__
-from beatlog.engine import (
-    Divergence,
-    DivergenceKind,
-    Recorder,
-    ReplayResult,
-    StateChange,
-    replay,
-)
 from beatlog.errors import BeatlogError
 from beatlog.log import SessionLogReader
 from beatlog.model import (
@@ -25,6 +17,14 @@ from beatlog.model import (
     System,
 )
 from beatlog.model.robot import Robot
+from beatlog.record import Recorder
+from beatlog.replay import (
+    Divergence,
+    DivergenceKind,
+    ReplayResult,
+    StateChange,
+    replay,
+)
 
 __all__ = [
     "BeatlogError",

@@ -14,10 +14,10 @@ from typing import Any
 
 import pytest
 
-from beatlog.engine.replay import replay
-from beatlog.engine.verdict import ReplayResult
 from beatlog.errors import SpecError
 from beatlog.model.behavior import System
+from beatlog.replay.judge import replay
+from beatlog.replay.verdict import ReplayResult
 from beatlog.report.console import plain_text, render_replay
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec

@@ -15,9 +15,9 @@ from typing import NamedTuple
 import pytest
 from mcap.writer import Writer
 
+from beatlog.analysis.summary import summarize
 from beatlog.cli.main import main
 from beatlog.log.reader import SessionLogReader
-from beatlog.log.summary import summarize
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import PriorityArbiter
 from tests.conftest import Probe, RecordFn, distances, probe_system
@@ -71,7 +71,7 @@ def beatlog(capsys: pytest.CaptureFixture[str]) -> Callable[..., Run]:
 def record_chunked(record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch) -> RecordFn:
     """Like ``record_probe``, but with a chunk every 10 cycles, so a cut keeps most cycles."""
     monkeypatch.setattr(
-        "beatlog.engine.record.SessionLogWriter",
+        "beatlog.record.recorder.SessionLogWriter",
         functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
     )
     return record_probe

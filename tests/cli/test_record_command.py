@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.record import Recorder
 from beatlog.log.reader import SessionLogReader
+from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import system
 
 ROOT = Path(__file__).parents[2]

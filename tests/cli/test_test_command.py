@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 
 from beatlog.cli.main import main
+from tests.audit.audit_fixtures import leaks, leaky_system, record_session
 from tests.cli.test_main import Run, assert_one_line_error
 from tests.cli.test_plot_command import hide_matplotlib
 from tests.conftest import RecordFn
-from tests.engine.audit_fixtures import leaks, leaky_system, record_session
 from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
 BeatlogTest = Callable[..., Run]
@@ -371,7 +371,7 @@ def test_audit_names_every_leak_and_fails_the_run(
     beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
 ) -> None:
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
-    leaky = write_spec(specs, "leaky", leaky_log, "tests.engine.audit_fixtures:leaky_system")
+    leaky = write_spec(specs, "leaky", leaky_log, "tests.audit.audit_fixtures:leaky_system")
     write_spec(specs, "avoid-pole", log)
     report = tmp_path / "dtc.xml"
 

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from beatlog import DivergenceKind, replay
-from beatlog.engine.record import Recorder
+from beatlog.analysis.summary import summarize
 from beatlog.log.reader import SessionLogReader
-from beatlog.log.summary import summarize
+from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import RoverRobot, changed_system, record_lockstep, system
 from beatlog_examples.rover.behaviors import AVOID_DISTANCE
 from beatlog_examples.rover.world import World

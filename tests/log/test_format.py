@@ -11,7 +11,6 @@ from typing import Any
 import msgspec
 import pytest
 
-from beatlog.engine.record import Recorder
 from beatlog.log.format import (
     CHANNEL_TOPICS,
     EMPTY_LIST,
@@ -23,6 +22,7 @@ from beatlog.log.format import (
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.state import RobotState
+from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
 from tests.factories import session_header
 

@@ -11,11 +11,11 @@ import msgspec
 import pytest
 import zstandard
 
-from beatlog.engine.replay import replay
 from beatlog.errors import CorruptLogError, LogError, NotABeatlogError
 from beatlog.log.format import CYCLES_TOPIC, SessionHeader
 from beatlog.log.limits import MAX_BEHAVIORS, MAX_CHUNK_BYTES
 from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog.replay.judge import replay
 from beatlog_examples.dog import SUITE_DIR
 from tests.conftest import RecordFn, probe_system
 from tests.factories import (

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.audit import AuditReport, Finding, SeedRun
+from beatlog.audit.replays import AuditReport, Finding, SeedRun
 from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text
 from beatlog.suite.runner import SpecOutcome, run_spec

@@ -14,10 +14,10 @@ import pytest
 from matplotlib.image import imread
 
 from beatlog import replay
-from beatlog.engine.record import Recorder
-from beatlog.engine.timeline import build_timeline
+from beatlog.analysis.timeline import build_timeline
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
+from beatlog.record.recorder import Recorder
 from beatlog.report.chart import WIDTH_PX, chart_size, draw_timeline, svg_markup, write_png
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
 

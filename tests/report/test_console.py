@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from beatlog import replay
-from beatlog.log.summary import summarize
+from beatlog.analysis.summary import summarize
 from beatlog.report.console import plain_text, render_replay, render_summary
 from tests.conftest import RecordFn, probe_system
 

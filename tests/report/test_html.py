@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from beatlog.engine.record import Recorder
+from beatlog.record.recorder import Recorder
 from beatlog.report.html import write_html
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec

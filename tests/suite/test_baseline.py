@@ -8,9 +8,9 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from beatlog.engine.trace import ABSENT, Expectation, TracedChange, TracedOutput
-from beatlog.engine.verdict import StateChange
+from beatlog.analysis.trace import ABSENT, Expectation, TracedChange, TracedOutput
 from beatlog.errors import BaselineError
+from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline import (
     expected_path,
     find_orphans,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.audit import AuditReport, Finding, SeedRun
+from beatlog.audit.replays import AuditReport, Finding, SeedRun
 from beatlog.report.console import plain_text, render_replay
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, run_spec

@@ -9,13 +9,13 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.verdict import DivergenceKind
 from beatlog.log.writer import SessionLogWriter
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite import runner
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
+from tests.audit.audit_fixtures import leaks, leaky_system, record_session
 from tests.conftest import RecordFn
-from tests.engine.audit_fixtures import leaks, leaky_system, record_session
 from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 
 
@@ -87,7 +87,7 @@ def test_a_truncated_log_passes_only_when_the_spec_allows_it(
 ) -> None:
     """A log cut off mid-session (the robot lost power) keeps its complete cycles."""
     monkeypatch.setattr(
-        "beatlog.engine.record.SessionLogWriter",
+        "beatlog.record.recorder.SessionLogWriter",
         functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
     )
     log = record_probe(300)
@@ -226,7 +226,7 @@ def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> No
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
     specs = tmp_path / "specs"
     suite = [
-        dtc(specs, "leaky", leaky_log, "tests.engine.audit_fixtures:leaky_system"),
+        dtc(specs, "leaky", leaky_log, "tests.audit.audit_fixtures:leaky_system"),
         dtc(specs, "probe", log),
         dtc(specs, "lost", tmp_path / "lost.beatlog"),
     ]

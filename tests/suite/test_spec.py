@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.compare import Comparison
 from beatlog.errors import SpecError
 from beatlog.model.behavior import PriorityArbiter
+from beatlog.replay.compare import Comparison
 from beatlog.suite.spec import DtcSpec, discover_specs, load_spec, select_specs
 from tests.conftest import Probe, RecordFn, distances, probe_system
 

@@ -10,9 +10,9 @@ from pathlib import Path
 from rich.console import Console
 from rich.rule import Rule
 
-from beatlog.engine.record import Recorder
-from beatlog.engine.replay import replay
-from beatlog.log.summary import summarize
+from beatlog.analysis.summary import summarize
+from beatlog.record.recorder import Recorder
+from beatlog.replay.judge import replay
 from beatlog.report.console import render_replay, render_suite, render_summary
 from beatlog.suite.runner import Verdict, run_suite
 from beatlog.suite.spec import discover_specs

@@ -12,7 +12,7 @@ from rich.console import Console
 from rich.prompt import Prompt
 from rich.text import Text
 
-from beatlog.engine.trace import TracedChange, recorded_outputs, recorded_trace
+from beatlog.analysis.trace import TracedChange, recorded_outputs, recorded_trace
 from beatlog.errors import BaselineError, BeatlogError
 from beatlog.suite.baseline import (
     expected_path,

@@ -25,18 +25,18 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from beatlog._version import __version__
+from beatlog.analysis.summary import summarize
+from beatlog.analysis.timeline import build_timeline
 from beatlog.cli.baselines import approve, report_orphans, review, write_pending
-from beatlog.engine.loading import load_robot
-from beatlog.engine.record import Recorder
-from beatlog.engine.replay import replay
-from beatlog.engine.timeline import build_timeline
 from beatlog.errors import BeatlogError
-from beatlog.log.summary import summarize
+from beatlog.record.recorder import Recorder
+from beatlog.replay.judge import replay
 from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import discover_specs, select_specs
+from beatlog.usercode import load_robot
 
 __all__ = ["main"]
 

@@ -5,17 +5,14 @@ The format knows nothing of behaviors or engines; it stores the cycles it is giv
 
 from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd, SessionHeader
 from beatlog.log.reader import LogStatus, SessionLogReader
-from beatlog.log.summary import LogSummary, summarize
 from beatlog.log.writer import SessionLogWriter
 
 __all__ = [
     "FORMAT_VERSION",
     "CycleRecord",
     "LogStatus",
-    "LogSummary",
     "SessionEnd",
     "SessionHeader",
     "SessionLogReader",
     "SessionLogWriter",
-    "summarize",
 ]

@@ -8,7 +8,7 @@ from rich.console import Group, RenderableType
 from rich.table import Table
 from rich.text import Text
 
-from beatlog.engine.audit import AuditReport
+from beatlog.audit.replays import AuditReport
 from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["render_audit"]

@@ -16,7 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from beatlog.engine.timeline import Interval, Timeline
+from beatlog.analysis.timeline import Interval, Timeline
 from beatlog.model.behavior import BehaviorState
 
 __all__ = ["WIDTH_PX", "chart_size", "draw_timeline", "svg_markup", "write_png"]

@@ -13,9 +13,9 @@ from rich.panel import Panel
 from rich.table import Table
 from rich.text import Text
 
-from beatlog.engine.verdict import Divergence, DivergenceKind, ReplayResult
+from beatlog.analysis.summary import LogSummary
 from beatlog.log.format import FORMAT_VERSION
-from beatlog.log.summary import LogSummary
+from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult
 from beatlog.suite.runner import SpecOutcome, Verdict
 
 __all__ = ["plain_text", "render_replay", "render_suite", "render_summary"]

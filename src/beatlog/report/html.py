@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import Any
 
 from beatlog._version import __version__
-from beatlog.engine.timeline import Timeline
-from beatlog.engine.verdict import Divergence, DrawReport, StateChange
+from beatlog.analysis.timeline import Timeline
 from beatlog.files import replacing
+from beatlog.replay.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.chart import svg_markup
 from beatlog.suite.runner import SpecOutcome, Verdict
 

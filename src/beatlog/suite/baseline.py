@@ -39,11 +39,11 @@ from typing import Any
 
 import msgspec
 
-from beatlog.engine.trace import ABSENT, Expectation, TracedChange, TracedOutput
-from beatlog.engine.verdict import StateChange
+from beatlog.analysis.trace import ABSENT, Expectation, TracedChange, TracedOutput
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import DECODE_ERRORS
+from beatlog.replay.verdict import StateChange
 from beatlog.suite.spec import SPEC_SUFFIX
 
 __all__ = [

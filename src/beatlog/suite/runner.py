@@ -14,16 +14,16 @@ from enum import StrEnum
 from pathlib import Path
 from types import FrameType
 
-from beatlog.engine.audit import AuditReport
-from beatlog.engine.audit import audit as audit_replay
-from beatlog.engine.loading import load_system
-from beatlog.engine.replay import replay
-from beatlog.engine.timeline import Timeline, report_timelines
-from beatlog.engine.trace import Expectation, replayed_trace
-from beatlog.engine.verdict import DivergenceKind, ReplayResult, reproduce_command
+from beatlog.analysis.timeline import Timeline, report_timelines
+from beatlog.analysis.trace import Expectation, replayed_trace
+from beatlog.audit.replays import AuditReport
+from beatlog.audit.replays import audit as audit_replay
 from beatlog.errors import BaselineError, BeatlogError
+from beatlog.replay.judge import replay
+from beatlog.replay.verdict import DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.spec import DtcSpec
+from beatlog.usercode import load_system
 
 __all__ = ["SpecOutcome", "Verdict", "run_spec", "run_suite"]
 

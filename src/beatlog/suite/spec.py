@@ -36,9 +36,9 @@ from typing import Any
 
 import msgspec
 
-from beatlog.engine.compare import Comparison
 from beatlog.errors import SpecError
 from beatlog.files import irregular_file_problem
+from beatlog.replay.compare import Comparison
 
 __all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
 

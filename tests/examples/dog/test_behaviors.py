@@ -6,8 +6,8 @@ from collections.abc import Iterable
 
 import pytest
 
-from beatlog.engine.cycle import CycleExecutor
 from beatlog.model.context import Outputs
+from beatlog.model.cycle import CycleExecutor
 from beatlog.model.random import RecordingRandom
 from beatlog_examples.dog.behaviors import CHANGES, DogState, Tuning, system
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from beatlog import replay
+from beatlog.analysis.summary import summarize
 from beatlog.log.reader import SessionLogReader
-from beatlog.log.summary import summarize
 from beatlog_examples.dog.fastforward import measured_intervals, record_fast
 from beatlog_examples.dog.scenarios import scenario
 

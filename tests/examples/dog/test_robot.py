@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from beatlog import replay
-from beatlog.engine.record import Recorder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.robot import Robot
+from beatlog.record.recorder import Recorder
 from beatlog_examples.dog.rates import SENSOR_RATES_HZ
 from beatlog_examples.dog.robot import SYSTEM_REF, DogRobot, robot
 from beatlog_examples.dog.scenarios import Event, Scenario

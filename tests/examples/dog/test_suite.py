@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from beatlog import replay
-from beatlog.log.summary import summarize
+from beatlog.analysis.summary import summarize
 from beatlog.suite.runner import Verdict, run_suite
 from beatlog.suite.spec import discover_specs
 from beatlog_examples.dog import SUITE_DIR

@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from beatlog.engine.record import Recorder, RecordSummary
 from beatlog.model.behavior import System
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
+from beatlog.record.recorder import Recorder, RecordSummary
 from beatlog_examples.dog.behaviors import DogState, system
 from beatlog_examples.dog.perception import perceive
 from beatlog_examples.dog.rates import SENSOR_RATES_HZ

@@ -16,11 +16,11 @@ from typing import Any
 
 import numpy as np
 
-from beatlog.engine.record import Recorder, RecordSummary
 from beatlog.model.behavior import System
 from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
+from beatlog.record.recorder import Recorder, RecordSummary
 from beatlog_examples.rover.behaviors import RoverState, system
 from beatlog_examples.rover.world import World
 

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.loading import load_factory, load_robot, load_system
 from beatlog.errors import SystemLoadError
+from beatlog.usercode import load_factory, load_robot, load_system
 
 
 def write_module(directory: Path, name: str, source: str) -> Path:

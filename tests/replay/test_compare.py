@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from beatlog.engine.compare import Comparison
-from beatlog.engine.verdict import StateChange
+from beatlog.replay.compare import Comparison
+from beatlog.replay.verdict import StateChange
 
 CHANGES = [StateChange("arbiter", "idle", "avoid"), StateChange("avoid", "off", "turning")]
 

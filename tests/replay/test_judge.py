@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 
 from beatlog import DivergenceKind, StateChange, replay
-from beatlog.engine.compare import Comparison
-from beatlog.engine.record import Recorder
-from beatlog.engine.trace import Expectation, TracedChange, replayed_trace
+from beatlog.analysis.trace import Expectation, TracedChange, replayed_trace
 from beatlog.errors import CorruptLogError, LogError, SchemaMismatchError
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
+from beatlog.record.recorder import Recorder
+from beatlog.replay.compare import Comparison
 from tests.conftest import (
     PERIOD_NS,
     Dice,
@@ -119,7 +119,7 @@ def test_an_exception_in_behavior_code_is_a_verdict_with_the_users_traceback(
     assert divergence.cycle == first_cycle_below(0.3)
     assert divergence.behavior == "dice"
     assert divergence.traceback is not None
-    assert "test_replay.py" in divergence.traceback
+    assert "test_judge.py" in divergence.traceback
     assert 'raise ZeroDivisionError("fragile dice")' in divergence.traceback
     assert "engine/cycle.py" not in divergence.traceback
 

@@ -14,11 +14,11 @@ import msgspec
 import pytest
 
 from beatlog import replay
-from beatlog.engine.record import Recorder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
+from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, probe_system
 
 

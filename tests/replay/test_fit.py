@@ -7,11 +7,11 @@ from typing import Any
 import msgspec
 import pytest
 
-from beatlog.engine.fit import state_differences
-from beatlog.engine.replay import replay
 from beatlog.errors import SchemaMismatchError
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.state import RobotState, state_schema
+from beatlog.replay.fit import state_differences
+from beatlog.replay.judge import replay
 from tests.conftest import Dice, Near, Probe, RecordFn
 
 
@@ -115,7 +115,7 @@ def test_replay_against_another_robots_state_is_bad_input_naming_both(
         replay(log, system_with(Rover))
     message = str(raised.value)
     assert message.startswith(f"{log}: recorded with robot state tests.conftest.Probe")
-    assert "does not fit the system's tests.engine.test_fit.Rover" in message
+    assert "does not fit the system's tests.replay.test_fit.Rover" in message
     assert "field 'distance' is gone" in message
     assert "\n" not in message
 

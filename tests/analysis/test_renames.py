@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from beatlog.engine.renames import propose_renames
-from beatlog.engine.verdict import StateChange as C
+from beatlog.analysis.renames import propose_renames
+from beatlog.replay.verdict import StateChange as C
 
 
 def test_a_consistent_substitution_is_proposed_with_the_winner_states() -> None:

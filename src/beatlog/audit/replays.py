@@ -1,7 +1,7 @@
 """The determinism audit: does a DTC's replay depend on anything but its log and code?
 
 :func:`audit` replays a log twice, each time in a fresh interpreter with its own
-``PYTHONHASHSEED``. During each replay a :class:`~beatlog.engine.leaks.LeakWatch`
+``PYTHONHASHSEED``. During each replay a :class:`~beatlog.audit.leaks.LeakWatch`
 turns the wall-clock reads and global random calls the system makes while it updates
 into findings that name the call site, and every cycle's behavior states and outputs
 are hashed. The two replays must agree on the verdict and on every cycle; where they
@@ -23,21 +23,21 @@ from typing import Any
 
 import msgspec
 
-from beatlog.engine.leaks import Finding, LeakWatch
-from beatlog.engine.loading import load_system
-from beatlog.engine.replay import replay
-from beatlog.engine.verdict import DivergenceKind
+from beatlog.audit.leaks import Finding, LeakWatch
 from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
 from beatlog.model.behavior import Behavior, System
 from beatlog.model.context import Context
+from beatlog.replay.judge import replay
+from beatlog.replay.verdict import DivergenceKind
+from beatlog.usercode import load_system
 
 __all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
 
 _CYCLE_DIGEST_SIZE = 8
 _CHILD = (
     "import signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); sys.path[:] = sys.argv[3:]; "
-    "from beatlog.engine.audit import _serve; _serve()"
+    "from beatlog.audit.replays import _serve; _serve()"
 )
 """A fresh interpreter that imports what this one imports (``sys.path`` passed along) and
 that Ctrl-C ends at once; it gets the request and the read end of its lifeline."""

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.engine.audit import AuditReport, Finding, audit
-from beatlog.engine.verdict import DivergenceKind
+from beatlog.audit.replays import AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
+from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
-from tests.engine.audit_fixtures import (
+from tests.audit.audit_fixtures import (
     HEADINGS,
     leaks,
     leaky_system,
@@ -22,7 +22,7 @@ from tests.engine.audit_fixtures import (
     scripted_system,
 )
 
-FIXTURES = "tests.engine.audit_fixtures"
+FIXTURES = "tests.audit.audit_fixtures"
 
 
 def set_order(hash_seed: int) -> list[str]:

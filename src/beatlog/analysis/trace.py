@@ -16,14 +16,14 @@ from typing import Any, NamedTuple
 
 import msgspec
 
-from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
-from beatlog.engine.fit import check_fit
-from beatlog.engine.verdict import StateChange
 from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.model.cycle import CycleExecutor, StateChangeRecord
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
+from beatlog.replay.fit import check_fit
+from beatlog.replay.verdict import StateChange
 
 __all__ = [
     "ABSENT",

@@ -10,8 +10,7 @@ from pathlib import Path
 import pytest
 
 from beatlog import replay
-from beatlog.engine.record import Recorder
-from beatlog.engine.timeline import (
+from beatlog.analysis.timeline import (
     CLOSE_UP_NS,
     Interval,
     Mark,
@@ -19,13 +18,14 @@ from beatlog.engine.timeline import (
     build_timeline,
     report_timelines,
 )
-from beatlog.engine.verdict import DivergenceKind, StateChange
 from beatlog.errors import FieldError, NotABeatlogError
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
+from beatlog.record.recorder import Recorder
+from beatlog.replay.verdict import DivergenceKind, StateChange
 from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, distances, probe_system
-from tests.engine.test_replay import Fragile, first_cycle_below
+from tests.replay.test_judge import Fragile, first_cycle_below
 
 
 def cycle_times(cycles: int) -> list[int]:

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from beatlog import replay
-from beatlog.engine.trace import (
+from beatlog.analysis.trace import (
     ABSENT,
     Expectation,
     OutputTracker,
@@ -17,7 +17,7 @@ from beatlog.engine.trace import (
     recorded_trace,
     replayed_trace,
 )
-from beatlog.engine.verdict import StateChange
+from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
 
 

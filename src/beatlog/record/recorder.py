@@ -18,12 +18,12 @@ from typing import IO, Any, NamedTuple
 import msgspec
 
 from beatlog._version import __version__
-from beatlog.engine.cycle import CycleExecutor
 from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import System
 from beatlog.model.clock import DEFAULT_PERIOD_NS, LiveHeartbeat
 from beatlog.model.context import Outputs
+from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
 from beatlog.model.random import RecordingRandom
 from beatlog.model.robot import Robot

@@ -20,9 +20,9 @@ from time import monotonic
 
 import numpy as np
 
-from beatlog.engine.record import Recorder
 from beatlog.model.behavior import PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
+from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe
 
 HEADINGS = ("left", "right", "straight", "back")

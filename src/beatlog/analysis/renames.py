@@ -6,7 +6,7 @@ from collections.abc import Iterable, Sequence
 
 import msgspec
 
-from beatlog.engine.verdict import StateChange
+from beatlog.replay.verdict import StateChange
 
 __all__ = ["propose_renames"]
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import msgspec
 
-from beatlog.engine.verdict import StateChange
+from beatlog.replay.verdict import StateChange
 
 __all__ = ["Comparison"]
 

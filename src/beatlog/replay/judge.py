@@ -17,22 +17,8 @@ from typing import Any
 
 import msgspec
 
-from beatlog.engine.compare import Comparison
-from beatlog.engine.cycle import CycleExecutor, StateChangeRecord
-from beatlog.engine.fit import check_fit
-from beatlog.engine.loading import load_system
-from beatlog.engine.renames import propose_renames
-from beatlog.engine.trace import Expectation, fields_read
-from beatlog.engine.usercode import user_traceback
-from beatlog.engine.verdict import (
-    ContextRow,
-    Divergence,
-    DivergenceKind,
-    DrawReport,
-    ReplayResult,
-    StateChange,
-    reproduce_command,
-)
+from beatlog.analysis.renames import propose_renames
+from beatlog.analysis.trace import Expectation, fields_read
 from beatlog.errors import BeatlogError, CorruptLogError, SchemaMismatchError
 from beatlog.log.format import (
     DECODE_ERRORS,
@@ -44,7 +30,20 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.model.cycle import CycleExecutor, StateChangeRecord
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
+from beatlog.replay.compare import Comparison
+from beatlog.replay.fit import check_fit
+from beatlog.replay.verdict import (
+    ContextRow,
+    Divergence,
+    DivergenceKind,
+    DrawReport,
+    ReplayResult,
+    StateChange,
+    reproduce_command,
+)
+from beatlog.usercode import load_system, user_traceback
 
 __all__ = ["replay"]
 
@@ -79,7 +78,7 @@ def replay(
     :func:`beatlog.suite.run_spec`).
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
-        state does not fit the system's robot state type (see :mod:`beatlog.engine.fit`).
+        state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
     """
     reference = system if isinstance(system, str) else None
     if isinstance(system, str):

@@ -21,11 +21,7 @@ import msgspec
 import numpy as np
 import numpy.typing as npt
 
-from beatlog.engine.cycle import StateChangeRecord
-from beatlog.engine.fit import check_fit
-from beatlog.engine.loading import load_system
-from beatlog.engine.trace import ReplayInputs
-from beatlog.engine.verdict import Divergence, DivergenceKind, StateChange
+from beatlog.analysis.trace import ReplayInputs
 from beatlog.errors import BeatlogError, CorruptLogError, FieldError
 from beatlog.log.format import (
     DECODE_ERRORS,
@@ -36,7 +32,11 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, System
+from beatlog.model.cycle import StateChangeRecord
 from beatlog.model.random import RandomMismatch
+from beatlog.replay.fit import check_fit
+from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
+from beatlog.usercode import load_system
 
 __all__ = [
     "CLOSE_UP_NS",

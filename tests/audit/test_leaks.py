@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 import beatlog
-from beatlog.engine.leaks import Finding, LeakWatch
+from beatlog.audit.leaks import Finding, LeakWatch
 from beatlog.model.context import Context
 from beatlog.model.random import RecordingRandom
+from tests.audit.audit_fixtures import Disciplined, Leaky, leaks
 from tests.conftest import Probe, RecordFn, probe_system
-from tests.engine.audit_fixtures import Disciplined, Leaky, leaks
 
 
 @pytest.fixture

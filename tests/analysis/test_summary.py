@@ -9,9 +9,9 @@ from typing import Any
 import msgspec
 import pytest
 
+from beatlog.analysis.summary import summarize
 from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
-from beatlog.log.summary import summarize
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe, RecordFn, distances
 from tests.factories import session_header
