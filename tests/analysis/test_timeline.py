@@ -10,13 +10,13 @@ from pathlib import Path
 import pytest
 
 from beatlog import replay
+from beatlog.analysis.details import replay_details
 from beatlog.analysis.timeline import (
     CLOSE_UP_NS,
     Interval,
     Mark,
     Timeline,
     build_timeline,
-    report_timelines,
 )
 from beatlog.errors import FieldError, NotABeatlogError
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
@@ -83,7 +83,7 @@ def test_a_changed_behavior_is_marked_where_replay_first_differs_and_followed_to
     divergence = replay(log, probe_system(threshold=0.6)).divergence
     assert divergence is not None
 
-    timeline = build_timeline(log, probe_system(threshold=0.6))
+    timeline = build_timeline(log, probe_system(threshold=0.6), divergence=divergence)
 
     assert timeline.divergence == Mark(
         divergence.cycle, divergence.time_ns, DivergenceKind.STATE_CHANGES
@@ -115,9 +115,11 @@ def test_an_exception_ends_the_replayed_lanes_but_not_the_recorded_ones(
     record_probe: RecordFn,
 ) -> None:
     cycle = first_cycle_below(0.3)
+    log = record_probe(300)
+    divergence = replay(log, PriorityArbiter([Near(), Fragile()], robot_state=Probe)).divergence
 
     timeline = build_timeline(
-        record_probe(300), PriorityArbiter([Near(), Fragile()], robot_state=Probe)
+        log, PriorityArbiter([Near(), Fragile()], robot_state=Probe), divergence=divergence
     )
 
     times = cycle_times(300)
@@ -129,21 +131,24 @@ def test_an_exception_ends_the_replayed_lanes_but_not_the_recorded_ones(
 
 
 @pytest.mark.parametrize(
-    ("system", "kind", "cycle", "replayed_to_the_end"),
+    ("options", "kind", "cycle", "replayed_to_the_end"),
     [
-        (probe_system(draws=2), DivergenceKind.RANDOM_OVERDRAWN, 0, False),
-        (probe_system(every=10), DivergenceKind.RANDOM_UNDERDRAWN, 5, True),
+        ({"draws": 2}, DivergenceKind.RANDOM_OVERDRAWN, 0, False),
+        ({"every": 10}, DivergenceKind.RANDOM_UNDERDRAWN, 5, True),
     ],
     ids=["overdrawn", "underdrawn"],
 )
 def test_random_numbers_that_do_not_match_are_marked(
     record_probe: RecordFn,
-    system: PriorityArbiter[Probe],
+    options: dict[str, int],
     kind: DivergenceKind,
     cycle: int,
     replayed_to_the_end: bool,
 ) -> None:
-    timeline = build_timeline(record_probe(50), system)
+    log = record_probe(50)
+    divergence = replay(log, probe_system(**options)).divergence
+
+    timeline = build_timeline(log, probe_system(**options), divergence=divergence)
 
     assert timeline.divergence == Mark(cycle, cycle_times(50)[cycle], kind)
     # Drawing too many stops replay at once; drawing too few leaves it able to go on.
@@ -166,7 +171,7 @@ def test_an_approved_baseline_replaces_the_recording_as_the_expected_trace(
     assert arbiter == (Interval(0, times[-1], None),)  # no system: its first state is unknown
     arbiter, _ = lane(replayed, "arbiter")
     assert arbiter == (Interval(0, times[-1], "idle"),)  # the system's own first state
-    assert replayed.divergence == Mark(0, times[0], DivergenceKind.STATE_CHANGES)
+    assert replayed.divergence is None  # a timeline marks only the verdict it is given
 
 
 def test_numeric_robot_state_fields_are_sampled_every_cycle(record_probe: RecordFn) -> None:
@@ -254,7 +259,9 @@ def test_a_window_keeps_only_that_stretch_of_robot_time(record_probe: RecordFn) 
     divergence = replay(log, probe_system(threshold=0.6)).divergence
     assert divergence is not None
 
-    close_up, whole = report_timelines(log, "tests.suite.test_spec:changed_probe", divergence)
+    close_up, whole = replay_details(
+        log, probe_system(threshold=0.6), divergence, timelines=True
+    ).timelines
 
     assert whole.start_ns == 0
     assert close_up.start_ns == max(divergence.time_ns - CLOSE_UP_NS, 0)
@@ -280,14 +287,14 @@ def test_a_report_marks_the_verdicts_divergence_even_one_the_timeline_cannot_see
     assert divergence.kind is DivergenceKind.LOG_ENDED
     assert build_timeline(log, probe_system()).divergence is None
 
-    close_up, whole = report_timelines(log, "tests.conftest:probe_system", divergence)
+    close_up, whole = replay_details(log, probe_system(), divergence, timelines=True).timelines
 
     mark = Mark(divergence.cycle, divergence.time_ns, DivergenceKind.LOG_ENDED)
     assert close_up.divergence == whole.divergence == mark
 
 
 def test_a_passing_dtc_gets_just_the_whole_session(record_probe: RecordFn) -> None:
-    (whole,) = report_timelines(record_probe(50), "tests.conftest:probe_system", None)
+    (whole,) = replay_details(record_probe(50), probe_system(), None, timelines=True).timelines
 
     assert whole.divergence is None
     assert whole.cycles == 50

@@ -97,8 +97,16 @@ def press_ctrl_c(markers: Path) -> Callable[..., Interrupted]:
 
 
 def marked(markers: Path, count: int = 1) -> Callable[[], bool]:
-    """Ready once ``count`` processes stepped a slow system."""
-    return lambda: len(list(markers.iterdir())) >= count
+    """Ready once ``count`` processes stepped a slow system, and a moment later, so the
+    outcomes already complete have reached the parent."""
+
+    def ready() -> bool:
+        if len(list(markers.iterdir())) < count:
+            return False
+        time.sleep(0.5)
+        return True
+
+    return ready
 
 
 def created(path: Path) -> Callable[[], bool]:

@@ -88,7 +88,7 @@ def test_the_first_divergence_is_marked_on_every_strip(record_probe: RecordFn) -
     divergence = replay(log, probe_system(threshold=0.6)).divergence
     assert divergence is not None
 
-    figure = draw_timeline(build_timeline(log, probe_system(threshold=0.6)))
+    figure = draw_timeline(build_timeline(log, probe_system(threshold=0.6), divergence=divergence))
 
     lanes, *signals = figure.axes[:3]
     assert f"first divergence: cycle {divergence.cycle}, t = " in lanes.get_title(loc="right")
@@ -117,7 +117,9 @@ def test_a_passing_replay_has_no_divergence_mark(record_probe: RecordFn) -> None
 
 
 def test_the_svg_keeps_text_as_text_and_is_the_same_every_time(record_probe: RecordFn) -> None:
-    timeline = build_timeline(record_probe(300), probe_system(threshold=0.6))
+    log = record_probe(300)
+    divergence = replay(log, probe_system(threshold=0.6)).divergence
+    timeline = build_timeline(log, probe_system(threshold=0.6), divergence=divergence)
 
     svg = svg_markup(timeline, title="avoid-pole")
 

@@ -9,7 +9,7 @@ robot-state fields along the way. Long sessions are downsampled so a chart of a
 
 from __future__ import annotations
 
-import dataclasses
+import bisect
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -21,20 +21,16 @@ import msgspec
 import numpy as np
 import numpy.typing as npt
 
-from beatlog.analysis.trace import ReplayInputs
-from beatlog.errors import BeatlogError, CorruptLogError, FieldError
+from beatlog.errors import CorruptLogError, FieldError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
-    EMPTY_MAP,
     CycleRecord,
-    payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, System
 from beatlog.model.cycle import StateChangeRecord
-from beatlog.model.random import RandomMismatch
-from beatlog.replay.fit import check_fit
+from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 from beatlog.usercode import load_system
 
@@ -46,8 +42,8 @@ __all__ = [
     "Mark",
     "Signal",
     "Timeline",
+    "TimelineCollector",
     "build_timeline",
-    "report_timelines",
 ]
 
 DEFAULT_FIELDS = 4
@@ -97,7 +93,7 @@ class Timeline:
 
     log: Path
     cycles: int
-    """Cycles read from the log."""
+    """Cycles of the log in this timeline's stretch of robot time."""
     start_ns: int
     """Robot time where the timeline starts: 0, or the start of a close-up."""
     end_ns: int
@@ -117,6 +113,7 @@ def build_timeline(
     *,
     fields: Sequence[str] | None = None,
     expected: Mapping[int, Sequence[StateChange]] | None = None,
+    divergence: Divergence | None = None,
     max_points: int = 2000,
     window_ns: tuple[int, int] | None = None,
 ) -> Timeline:
@@ -124,10 +121,11 @@ def build_timeline(
 
     ``fields`` names the robot-state fields to sample (default: the first
     :data:`DEFAULT_FIELDS` numeric ones). ``expected`` replaces the recorded state
-    changes (cycle to changes, e.g. an approved baseline). Intervals shorter than the
+    changes (cycle to changes, e.g. an approved baseline). ``divergence`` is the
+    verdict's first divergence, marked on the chart. Intervals shorter than the
     timeline's length / ``max_points`` are folded together and signals keep the
-    minimum and maximum of as many buckets, so a chart stays small. Replay stops at
-    an exception or a random-number mismatch; the actual lanes end there.
+    minimum and maximum of as many buckets, so a chart stays small. The actual lanes
+    end where replay cannot go on (an exception, a random-number mismatch).
     ``window_ns`` (start, end) keeps only that stretch of robot time, for a close-up.
 
     :raises beatlog.errors.LogError: the log cannot be read or does not fit the system.
@@ -135,55 +133,93 @@ def build_timeline(
     """
     if isinstance(system, str):
         system = load_system(system)
+    until_ns = None if window_ns is None else window_ns[1]
     with SessionLogReader(log) as reader:
-        if system is not None:
-            check_fit(reader.header, system, reader.path)
-        collector = _Collector(reader.header.behaviors, system, reader.path, expected)
-        sampler = _Sampler(reader.path, fields)
+        replayer = None if system is None else Replayer(system, reader.header, reader.path)
+        collector = TimelineCollector(reader, system, fields=fields, expected=expected)
         for batch in reader.batches():
-            sampler.run(batch)
-            collector.run(batch)
-            if window_ns is not None and collector.time_ns >= window_ns[1]:
+            for record in batch:
+                outcome = (
+                    replayer.step(record) if replayer is not None and collector.replaying else None
+                )
+                collector.add(record, outcome)
+            if until_ns is not None and collector.time_ns >= until_ns:
                 break
-    start, end = 0, collector.time_ns
-    if window_ns is not None:
-        start, end = max(window_ns[0], 0), min(window_ns[1], end)
-    resolution = (end - start) // max(max_points, 1)
-    return Timeline(
-        log=Path(log),
-        cycles=collector.cycle + 1,
-        start_ns=start,
-        end_ns=end,
-        lanes=collector.lanes(start, end, resolution),
-        signals=sampler.signals(start, end, max_points),
-        replayed=system is not None,
-        replayed_until_ns=min(collector.replayed_until_ns, end),
-        divergence=collector.divergence,
-    )
+    return collector.timeline(window_ns, divergence, max_points)
 
 
-def report_timelines(
-    log: str | Path,
-    system: str,
-    divergence: Divergence | None,
-    *,
-    expected: Mapping[int, Sequence[StateChange]] | None = None,
-) -> tuple[Timeline, ...]:
-    """What a report draws for one DTC: if it diverged, a close-up of :data:`CLOSE_UP_NS`
-    either side of the first divergence at full detail; then the whole session.
+class TimelineCollector:
+    """Gathers, cycle by cycle, what the timelines of any stretch of a session are cut
+    from: the expected state changes from the record (or a baseline), the actual ones
+    from the replay core's outcomes, and the sampled robot-state fields."""
 
-    The charts mark ``divergence``, the replay's verdict, whatever comparison gave it
-    (a log that ends early, a tolerance), rather than the timeline's own exact check.
-    """
-    mark = (
-        None if divergence is None else Mark(divergence.cycle, divergence.time_ns, divergence.kind)
-    )
-    whole = dataclasses.replace(build_timeline(log, system, expected=expected), divergence=mark)
-    if divergence is None:
-        return (whole,)
-    window = (divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS)
-    close_up = build_timeline(log, system, expected=expected, window_ns=window)
-    return dataclasses.replace(close_up, divergence=mark), whole
+    def __init__(
+        self,
+        reader: SessionLogReader,
+        system: System | None,
+        *,
+        fields: Sequence[str] | None = None,
+        expected: Mapping[int, Sequence[StateChange]] | None = None,
+    ) -> None:
+        self.log = reader.path
+        self._lanes = _Collector(reader.header.behaviors, system, reader.path, expected)
+        self._sampler = _Sampler(reader.path, fields)
+        self._replayed = system is not None
+
+    @property
+    def time_ns(self) -> int:
+        """Robot time of the cycles added so far."""
+        return self._lanes.time_ns
+
+    @property
+    def replaying(self) -> bool:
+        """Whether the actual lanes still follow the replay (it has not stopped)."""
+        return self._lanes.replaying
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        """Add the next recorded cycle and, when replaying, its outcome."""
+        self._sampler.add(record)
+        self._lanes.add(record, outcome)
+
+    def timeline(
+        self,
+        window_ns: tuple[int, int] | None,
+        divergence: Divergence | None,
+        max_points: int = 2000,
+    ) -> Timeline:
+        """The timeline of the whole session, or of ``window_ns`` of it, marking
+        ``divergence`` (the verdict's)."""
+        lanes = self._lanes
+        start, end = 0, lanes.time_ns
+        if window_ns is not None:
+            start, end = max(window_ns[0], 0), min(window_ns[1], end)
+        resolution = (end - start) // max(max_points, 1)
+        mark = (
+            None
+            if divergence is None
+            else Mark(divergence.cycle, divergence.time_ns, divergence.kind)
+        )
+        return Timeline(
+            log=self.log,
+            cycles=self._sampler.cycles_within(start, end),
+            start_ns=start,
+            end_ns=end,
+            lanes=lanes.lanes(start, end, resolution),
+            signals=self._sampler.signals(start, end, max_points),
+            replayed=self._replayed,
+            replayed_until_ns=min(lanes.replayed_until_ns, end),
+            divergence=mark,
+        )
+
+    def report(self, divergence: Divergence | None) -> tuple[Timeline, ...]:
+        """What a report draws for one DTC: if it diverged, a close-up of
+        :data:`CLOSE_UP_NS` either side of the first divergence at full detail; then
+        the whole session. Both mark ``divergence``."""
+        whole = self.timeline(None, divergence)
+        if divergence is None:
+            return (whole,)
+        window = (divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS)
+        return self.timeline(window, divergence), whole
 
 
 class _LaneBuilder:
@@ -245,18 +281,17 @@ class _Collector:
         self.path = path
         self.cycle = -1
         self.time_ns = 0
-        self.divergence: Mark | None = None
         self._catalogue = list(catalogue)
         self._override = expected
         self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
         self._expected: dict[str, _LaneBuilder] = {}
         self._actual: dict[str, _LaneBuilder] = {}
         initial: dict[str, BehaviorState] = {}
-        self._replay: _Replayer | None = None
+        self._names: list[str] = []
         if system is not None:
             initial = {name: b.state for name, b in system.behaviors.items()}
             self._actual = {name: _LaneBuilder(state) for name, state in initial.items()}
-            self._replay = _Replayer(system, path)
+            self._names = list(system.behaviors)
         for name in [*self._catalogue, *initial]:
             self._expected.setdefault(name, _LaneBuilder(initial.get(name)))
         self._stopped_ns: int | None = None
@@ -265,31 +300,32 @@ class _Collector:
     def replayed_until_ns(self) -> int:
         return self.time_ns if self._stopped_ns is None else self._stopped_ns
 
-    def run(self, batch: Sequence[CycleRecord]) -> None:
-        replay = self._replay
+    @property
+    def replaying(self) -> bool:
+        return self._stopped_ns is None
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        self.cycle += 1
+        previous_ns = self.time_ns
+        self.time_ns += record.heartbeat_ns
         override = self._override
-        for record in batch:
-            self.cycle += 1
-            previous_ns = self.time_ns
-            self.time_ns += record.heartbeat_ns
-            if override is not None:
-                expected = list(override.get(self.cycle, ()))
-            elif record.state_changes == EMPTY_LIST:
-                expected = []
-            else:
-                expected = self._recorded(record.state_changes)
-            self._add(self._expected, expected)
-            if replay is None or self._stopped_ns is not None:
-                continue
-            actual, problem = replay.step(record)
-            if actual is None:
-                self._stopped_ns = previous_ns
-            else:
-                self._add(self._actual, actual)
-                if problem is not DivergenceKind.RANDOM_UNDERDRAWN and expected != actual:
-                    problem = DivergenceKind.STATE_CHANGES
-            if problem is not None and self.divergence is None:
-                self.divergence = Mark(self.cycle, self.time_ns, problem)
+        if override is not None:
+            expected = list(override.get(self.cycle, ()))
+        elif record.state_changes == EMPTY_LIST:
+            expected = []
+        else:
+            expected = self._recorded(record.state_changes)
+        self._add(self._expected, expected)
+        if outcome is None or self._stopped_ns is not None:
+            return
+        if outcome.changes is None or outcome.failure is not None:
+            self._stopped_ns = previous_ns  # replay cannot go on: the lanes end here
+            return
+        names = self._names
+        self._add(
+            self._actual,
+            [StateChange(names[i], before, after) for i, before, after in outcome.changes],
+        )
 
     def _add(self, lanes: dict[str, _LaneBuilder], changes: Sequence[StateChange]) -> None:
         for change in changes:
@@ -327,47 +363,6 @@ class _Collector:
         )
 
 
-class _Replayer:
-    """Runs the system on one recorded cycle and says whether it kept to the recording."""
-
-    def __init__(self, system: System, path: Path) -> None:
-        self.path = path
-        self.inputs = ReplayInputs(system)
-        self.random = self.inputs.random
-        self.executor = self.inputs.executor
-        self._names = self.executor.behavior_ids
-        self._encoder = payload_encoder()
-
-    def step(self, record: CycleRecord) -> tuple[list[StateChange] | None, DivergenceKind | None]:
-        """The cycle's actual state changes (None when replay cannot go on) and any problem."""
-        random = self.random
-        state = self.inputs.load(self.path, self.executor.context.cycle + 1, record)
-        try:
-            changes = self.executor.step(record.heartbeat_ns, state)
-        except RandomMismatch as mismatch:
-            return None, _random_kind(mismatch)
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit):  # behavior code failing ends the actual trace
-            return None, DivergenceKind.EXCEPTION
-        if random.mismatch is not None:
-            return None, _random_kind(random.mismatch)
-        actual = [StateChange(self._names[i], before, after) for i, before, after in changes]
-        if len(random.drawn) < len(random.recorded):
-            return actual, DivergenceKind.RANDOM_UNDERDRAWN
-        outputs = self.executor.context.outputs
-        recorded_out = record.outputs
-        if recorded_out != (
-            EMPTY_MAP if not outputs else msgspec.Raw(self._encoder.encode(outputs))
-        ):
-            return actual, DivergenceKind.OUTPUTS
-        return actual, None
-
-
-def _random_kind(mismatch: RandomMismatch) -> DivergenceKind:
-    return DivergenceKind.RANDOM_OVERDRAWN if mismatch.overdrawn else DivergenceKind.RANDOM_MISMATCH
-
-
 class _Sampler:
     """Samples numeric robot-state fields per cycle, read from the log without any code."""
 
@@ -380,23 +375,22 @@ class _Sampler:
         self._values: list[list[float]] = []
         self._now_ns = 0
 
-    def run(self, batch: Sequence[CycleRecord]) -> None:
-        for record in batch:
-            self._now_ns += record.heartbeat_ns
-            try:
-                state = self._decoder.decode(record.robot_state)
-            except DECODE_ERRORS as exc:
-                raise CorruptLogError(
-                    self.path, f"damaged robot state in cycle {len(self._time_ns)}: {exc}"
-                ) from None
-            if not isinstance(state, dict):
-                state = {}
-            if self._fields is None:
-                self._fields = self._choose(state)
-                self._values = [[] for _ in self._fields]
-            self._time_ns.append(self._now_ns)
-            for name, values in zip(self._fields, self._values, strict=True):
-                values.append(_number(state.get(name)))
+    def add(self, record: CycleRecord) -> None:
+        self._now_ns += record.heartbeat_ns
+        try:
+            state = self._decoder.decode(record.robot_state)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(
+                self.path, f"damaged robot state in cycle {len(self._time_ns)}: {exc}"
+            ) from None
+        if not isinstance(state, dict):
+            state = {}
+        if self._fields is None:
+            self._fields = self._choose(state)
+            self._values = [[] for _ in self._fields]
+        self._time_ns.append(self._now_ns)
+        for name, values in zip(self._fields, self._values, strict=True):
+            values.append(_number(state.get(name)))
 
     def _choose(self, state: dict[str, Any]) -> list[str]:
         numeric = [name for name, value in state.items() if not math.isnan(_number(value))]
@@ -414,6 +408,11 @@ class _Sampler:
                     f"not a number (numeric fields: {known})"
                 )
         return list(dict.fromkeys(self._asked))
+
+    def cycles_within(self, start_ns: int, end_ns: int) -> int:
+        """How many cycles end from ``start_ns`` to ``end_ns`` (all of them: the whole log)."""
+        times = self._time_ns
+        return bisect.bisect_right(times, end_ns) - bisect.bisect_left(times, start_ns)
 
     def signals(self, start_ns: int, end_ns: int, max_points: int) -> tuple[Signal, ...]:
         times = np.array(self._time_ns, dtype=np.int64)

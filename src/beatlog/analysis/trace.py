@@ -16,21 +16,21 @@ from typing import Any, NamedTuple
 
 import msgspec
 
-from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.errors import CorruptLogError
 from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.model.cycle import CycleExecutor, StateChangeRecord
-from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
-from beatlog.replay.fit import check_fit
+from beatlog.model.cycle import StateChangeRecord
+from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
     "ABSENT",
     "Expectation",
     "OutputTracker",
-    "ReplayInputs",
+    "ReadTracker",
     "ReplayedTrace",
+    "TraceCollector",
     "TracedChange",
     "TracedOutput",
     "fields_read",
@@ -193,46 +193,75 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     Replay uses the recording's heartbeats, robot states and random numbers; it stops
     early when the behaviors raise or draw random numbers the log does not have.
     """
-    replayer = ReplayInputs(system)
-    names = replayer.executor.behavior_ids
-    random = replayer.random
-    changes: list[TracedChange] = []
-    tracker = OutputTracker()
-    outputs: list[TracedOutput] = []
-    stopped: str | None = None
-    cycles = 0
     with SessionLogReader(log) as reader:
-        for cycle, record, state in replayer.cycles(reader):
-            try:
-                stepped = replayer.executor.step(record.heartbeat_ns, state)
-            except RandomMismatch as mismatch:
-                stopped = f"cycle {cycle}: {mismatch.problem}"
+        replayer = Replayer(system, reader.header, reader.path)
+        tracer = TraceCollector(replayer.executor.behavior_ids)
+        for outcome in replayer.outcomes(_records(reader)):
+            tracer.add(outcome)
+            if tracer.stopped is not None:
                 break
-            except (Exception, SystemExit) as exc:  # behavior code failing ends the trace
-                stopped = f"cycle {cycle}: {type(exc).__name__}: {exc}"
-                break
-            if len(random.drawn) != len(random.recorded):
-                stopped = (
-                    f"cycle {cycle}: drew {len(random.drawn)} random numbers where "
-                    f"{len(random.recorded)} were recorded"
-                )
-                break
-            time_ns = replayer.executor.context.time_ns
-            changes.extend(
-                TracedChange(cycle, time_ns, StateChange(names[index], before, after))
-                for index, before, after in stepped
-            )
-            outputs.extend(tracker.observe(cycle, time_ns, replayer.executor.context.outputs))
-            cycles += 1
-    return ReplayedTrace(tuple(changes), cycles, stopped, tuple(outputs))
+    return tracer.trace()
 
 
-class _ReadTracker:
+class TraceCollector:
+    """Gathers a whole-session trace from the replay core's outcomes, up to the cycle
+    where replay cannot go on (an exception, a random-number problem)."""
+
+    def __init__(self, names: list[str]) -> None:
+        self._names = names
+        self._changes: list[TracedChange] = []
+        self._outputs: list[TracedOutput] = []
+        self._tracker = OutputTracker()
+        self._cycles = 0
+        self.stopped: str | None = None
+        """Why the trace stopped early, if it did."""
+
+    def add(self, outcome: CycleOutcome) -> None:
+        """Add the next cycle's outcome (ignored once the trace has stopped)."""
+        if self.stopped is not None:
+            return
+        self.stopped = _stop_reason(outcome)
+        if self.stopped is not None:
+            return
+        names = self._names
+        self._changes.extend(
+            TracedChange(outcome.cycle, outcome.time_ns, StateChange(names[i], before, after))
+            for i, before, after in outcome.changes or ()
+        )
+        self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
+        self._cycles += 1
+
+    def trace(self) -> ReplayedTrace:
+        """The trace gathered so far."""
+        return ReplayedTrace(tuple(self._changes), self._cycles, self.stopped, tuple(self._outputs))
+
+
+def _stop_reason(outcome: CycleOutcome) -> str | None:
+    """Why a trace cannot go on past this cycle, if it cannot."""
+    cycle = outcome.cycle
+    if outcome.failure is not None:
+        return f"cycle {cycle}: {type(outcome.failure).__name__}: {outcome.failure}"
+    if outcome.draw_problem is not None:
+        return f"cycle {cycle}: {outcome.draw_problem.problem}"
+    if outcome.underdrawn:
+        return (
+            f"cycle {cycle}: drew {len(outcome.drawn)} random numbers where "
+            f"{len(outcome.recorded_draws)} were recorded"
+        )
+    return None
+
+
+class ReadTracker:
     """Stands in for a robot state and notes which fields the behaviors read."""
 
-    def __init__(self, state: Any) -> None:
-        self._state = state
+    def __init__(self) -> None:
+        self._state: Any = None
         self.read: dict[str, None] = {}
+
+    def stand_in(self, state: Any) -> ReadTracker:
+        """Stand in for ``state``."""
+        self._state = state
+        return self
 
     def __getattr__(self, name: str) -> Any:
         value = getattr(self._state, name)
@@ -246,51 +275,18 @@ def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
     Replays the cycles before it as recorded; empty when replay cannot get there or
     the behaviors do not accept the stand-in state.
     """
-    replayer = ReplayInputs(system)
     with SessionLogReader(log) as reader:
-        for index, record, state in itertools.islice(replayer.cycles(reader), cycle + 1):
-            tracker = _ReadTracker(state) if index == cycle else None
-            try:
-                replayer.executor.step(record.heartbeat_ns, tracker or state)
-            except (Exception, SystemExit, RandomMismatch):  # keep the diverging cycle's reads
-                if tracker is None:
-                    return ()
-            if tracker is not None:
-                return tuple(tracker.read)
-    return ()
-
-
-class ReplayInputs:
-    """A system set up for replay, and each recorded cycle's RS_t decoded with RN_t loaded."""
-
-    def __init__(self, system: System) -> None:
-        self.random = ReplayRandom()
-        self.executor = CycleExecutor(system, self.random)
-        self._state_type = system.robot_state.__name__
-        self._state = msgspec.msgpack.Decoder(system.robot_state).decode
-        self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
-
-    def load(self, path: Path, cycle: int, record: CycleRecord) -> Any:
-        """RS_t of ``record``, with its random numbers loaded for the behaviors to draw."""
-        try:
-            state = self._state(record.robot_state)
-        except DECODE_ERRORS as exc:
-            raise SchemaMismatchError(
-                path, f"robot state of cycle {cycle} does not fit {self._state_type}: {exc}"
-            ) from None
-        try:
-            self.random.load(
-                () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
-            )
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(path, f"damaged random numbers in cycle {cycle}: {exc}") from None
-        return state
-
-    def cycles(self, reader: SessionLogReader) -> Iterator[tuple[int, CycleRecord, Any]]:
-        """Every cycle of the log with its RS_t, ready to step; the log must fit the system."""
-        check_fit(reader.header, self.executor.system, reader.path)
-        for cycle, record in enumerate(_records(reader)):
-            yield cycle, record, self.load(reader.path, cycle, record)
+        replayer = Replayer(system, reader.header, reader.path)
+        records = _records(reader)
+        for record in itertools.islice(records, cycle):
+            if not replayer.step(record).completed:
+                return ()
+        diverging = next(records, None)
+        if diverging is None:
+            return ()
+        tracker = ReadTracker()
+        replayer.step(diverging, observe=tracker.stand_in)
+        return tuple(tracker.read)
 
 
 def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:

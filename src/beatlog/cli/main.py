@@ -380,7 +380,8 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
     _need_matplotlib("plot")
     from beatlog.report.chart import write_png  # noqa: PLC0415 - matplotlib is optional
 
-    timeline = build_timeline(args.log, args.system, fields=args.fields)
+    divergence = None if args.system is None else replay(args.log, args.system).divergence
+    timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
     try:
         write_png(timeline, args.output)
     except OSError as exc:

@@ -19,7 +19,7 @@ import msgspec
 
 from beatlog.analysis.renames import propose_renames
 from beatlog.analysis.trace import Expectation, fields_read
-from beatlog.errors import BeatlogError, CorruptLogError, SchemaMismatchError
+from beatlog.errors import CorruptLogError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
@@ -30,10 +30,10 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.model.cycle import CycleExecutor, StateChangeRecord
-from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
+from beatlog.model.cycle import StateChangeRecord
+from beatlog.model.random import Draw
 from beatlog.replay.compare import Comparison
-from beatlog.replay.fit import check_fit
+from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import (
     ContextRow,
     Divergence,
@@ -57,6 +57,7 @@ def replay(
     context_cycles: int = 5,
     comparison: Comparison | None = None,
     expected: Expectation | None = None,
+    explain: bool = True,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference).
 
@@ -72,10 +73,11 @@ def replay(
     them (else the recorded outputs); the recording's heartbeats, robot states and
     random numbers are still used. When the behaviors differ from what was expected
     only by a consistent renaming, the divergence proposes the rename map. Given a
-    ``module:factory`` reference, the divergence also names the robot-state fields the
-    behaviors read in that cycle. The result's reproduce command replays with these
-    options, except ``comparison`` and ``expected``, which a spec carries (see
-    :func:`beatlog.suite.run_spec`).
+    ``module:factory`` reference and ``explain``, the divergence also names the
+    robot-state fields the behaviors read in that cycle (one more replay, of a fresh
+    system; a suite gathers them with its other details instead). The result's
+    reproduce command replays with these options, except ``comparison`` and
+    ``expected``, which a spec carries (see :func:`beatlog.suite.run_spec`).
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
@@ -84,7 +86,6 @@ def replay(
     if isinstance(system, str):
         system = load_system(system)
     with SessionLogReader(log) as reader:
-        check_fit(reader.header, system, reader.path)
         judge = _Judge(
             reader.header,
             system,
@@ -112,7 +113,12 @@ def replay(
                 judge.log_ended(status.describe())
             wall = time.perf_counter() - started
     divergence = judge.divergence
-    if divergence is not None and reference and divergence.kind is not DivergenceKind.LOG_ENDED:
+    if (
+        explain
+        and divergence is not None
+        and reference
+        and divergence.kind is not DivergenceKind.LOG_ENDED
+    ):
         read = fields_read(log, load_system(reference), divergence.cycle)
         divergence = dataclasses.replace(divergence, fields_read=read)
     return ReplayResult(
@@ -155,8 +161,9 @@ class _Judge:
         self._context = context
         self._recent: deque[CycleRecord] = deque(maxlen=context + 1)
         self.path = path
-        self.random = ReplayRandom()
-        self.executor = CycleExecutor(system, self.random)
+        self.replayer = Replayer(system, header, path)
+        self.random = self.replayer.random
+        self.executor = self.replayer.executor
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
         self._stopped_at: tuple[int, int] | None = None
@@ -176,8 +183,6 @@ class _Judge:
             else msgspec.msgpack.Encoder(enc_hook=self._encoder.enc_hook, order="sorted")
         )
         self._same_catalogue = self.executor.behavior_ids == self.expected_names
-        self._state_decoder = msgspec.msgpack.Decoder(system.robot_state)
-        self._draws_decoder = msgspec.msgpack.Decoder(list[Draw])
         self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
         self._outputs_decoder = msgspec.msgpack.Decoder(dict[str, Any])
 
@@ -254,59 +259,53 @@ class _Judge:
         return self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
 
     def run(self, batch: Sequence[CycleRecord]) -> int | None:
-        """Replay a batch of cycles; the index of the cycle where replay stops, if it does."""
+        """Replay a batch of cycles; the index of the cycle where replay stops, if it does.
+
+        Each cycle is stepped by the replay core; a cycle agrees when its update
+        completed and its state changes and outputs match, byte for byte first.
+        """
         remember = self._recent.append
         encode = self._encoder.encode
         encode_outputs = self._outputs_encoder.encode
-        random = self.random
-        step = self.executor.step
-        context = self.executor.context
+        step = self.replayer.step
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
         for index, record in enumerate(batch):
-            state = self._state(record)
-            random.load(
-                () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
-            )
-            changes: list[StateChangeRecord] | None = None
-            failure: BaseException | None = None
+            outcome = step(record)
+            changes = outcome.changes
+            outputs = outcome.outputs
             try:
-                changes = step(record.heartbeat_ns, state)
                 if (
-                    random.mismatch is None
-                    and len(random.drawn) == len(random.recorded)
+                    outcome.failure is None
+                    and outcome.completed
                     and (
                         (
                             record.state_changes == EMPTY_LIST
                             if not changes
                             else same_catalogue and record.state_changes == raw(encode(changes))
                         )
-                        or self._changes_agree(record.state_changes, changes)
+                        or self._changes_agree(record.state_changes, changes or [])
                     )
                     and (
                         (
                             record.outputs == EMPTY_MAP
-                            if not context.outputs
-                            else record.outputs == raw(encode_outputs(context.outputs))
+                            if not outputs
+                            else record.outputs == raw(encode_outputs(outputs))
                         )
-                        or self._outputs_agree(record.outputs, context.outputs)
+                        or self._outputs_agree(record.outputs, outputs)
                     )
                 ):
                     remember(record)
                     continue
-            except RandomMismatch:
-                pass
-            except BeatlogError:
-                raise
-            except (Exception, SystemExit) as exc:  # behavior code failing is a verdict
-                failure = exc
+            except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
+                outcome = outcome._replace(failure=exc)
             first = self.divergence is None
-            self._diverge(record, state, changes, failure)
+            self._diverge(outcome)
             remember(record)
             if first and self._keep_going:
                 self._add_context([])
             if not self._keep_going:
-                self._stopped_at = (context.cycle + 1, context.time_ns)
+                self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
                 return index
         return None
 
@@ -315,20 +314,13 @@ class _Judge:
         whole rest of the log when the divergence looks like a renamed behavior."""
         suspect = self._rename_suspected()
         rows: list[ContextRow] = []
-        for record in itertools.islice(
-            itertools.chain(rest, itertools.chain.from_iterable(batches)),
-            None if suspect else self._context,
-        ):
-            state = self._state(record)
-            self.random.load(
-                () if record.random_numbers == EMPTY_LIST else self._draws(record.random_numbers)
-            )
-            try:
-                changes = self.executor.step(record.heartbeat_ns, state)
-            except (Exception, SystemExit, RandomMismatch):  # the divergence is reported
-                suspect = False
+        records = itertools.chain(rest, itertools.chain.from_iterable(batches))
+        limit = None if suspect else self._context
+        for outcome in self.replayer.outcomes(itertools.islice(records, limit)):
+            if outcome.changes is None or outcome.failure is not None:
+                suspect = False  # the first divergence is reported; replay cannot go on
                 break
-            rows.append(self._row(record, changes))
+            rows.append(self._row(outcome))
         self._add_context(rows[: self._context])
         if suspect and self.divergence is not None:
             kept = self.comparison.kept
@@ -344,13 +336,12 @@ class _Judge:
         rename = self.comparison.rename
         return not {rename(name) for name in self.expected_names} <= set(self.executor.behavior_ids)
 
-    def _row(self, record: CycleRecord, changes: list[StateChangeRecord]) -> ContextRow:
-        context = self.executor.context
+    def _row(self, outcome: CycleOutcome) -> ContextRow:
         return ContextRow(
-            context.cycle,
-            context.time_ns,
-            tuple(self._named(record.state_changes)),
-            tuple(self._named_actual(changes)),
+            outcome.cycle,
+            outcome.time_ns,
+            tuple(self._named(outcome.record.state_changes)),
+            tuple(self._named_actual(outcome.changes or [])),
         )
 
     def _add_context(self, after: list[ContextRow]) -> None:
@@ -371,16 +362,6 @@ class _Judge:
         context = tuple(row for row in rows if row is here or row.expected or row.actual)
         self.divergence = dataclasses.replace(divergence, context=context)
 
-    def _state(self, record: CycleRecord) -> Any:
-        try:
-            return self._state_decoder.decode(record.robot_state)
-        except DECODE_ERRORS as exc:
-            raise SchemaMismatchError(
-                self.path,
-                f"robot state of cycle {self.executor.context.cycle + 1} does not fit "
-                f"{self.executor.system.robot_state.__name__}: {exc}",
-            ) from None
-
     def _decode(self, data: msgspec.Raw, decode: Any, what: str) -> Any:
         try:
             return decode(data)
@@ -388,9 +369,6 @@ class _Judge:
             raise CorruptLogError(
                 self.path, f"damaged {what} in cycle {self.executor.context.cycle}: {exc}"
             ) from None
-
-    def _draws(self, data: msgspec.Raw) -> list[Draw]:
-        return self._decode(data, self._draws_decoder.decode, "random numbers")  # type: ignore[no-any-return]
 
     def log_ended(self, why: str) -> None:
         """Record that the log stopped before the recording closed it."""
@@ -428,29 +406,23 @@ class _Judge:
     def _actor_name(self, actor: int) -> str:
         return _name(self.executor.behavior_ids, actor)
 
-    def _diverge(
-        self,
-        record: CycleRecord,
-        state: msgspec.Struct,
-        changes: list[StateChangeRecord] | None,
-        exc: BaseException | None = None,
-    ) -> None:
+    def _diverge(self, outcome: CycleOutcome) -> None:
         self.divergent_cycles += 1
         if self.divergence is not None:
             return
-        context = self.executor.context
-        random = self.random
+        record = outcome.record
         expected = self._named(record.state_changes)
-        actual = self._named_actual(changes or [])
+        actual = self._named_actual(outcome.changes or [])
         expected_outputs = self._decode(record.outputs, self._outputs_decoder.decode, "outputs")
-        mismatch = random.mismatch
+        mismatch = outcome.draw_problem
+        failure = outcome.failure
         behavior: str | None = None
         trace: str | None = None
-        if exc is not None:
+        if failure is not None:
             kind = DivergenceKind.EXCEPTION
-            behavior = self._actor_name(context.actor)
-            trace = user_traceback(exc)
-            message = f"{behavior} raised {type(exc).__name__}: {exc}"
+            behavior = self._actor_name(outcome.actor)
+            trace = user_traceback(failure)
+            message = f"{behavior} raised {type(failure).__name__}: {failure}"
         elif mismatch is not None:
             kind = (
                 DivergenceKind.RANDOM_OVERDRAWN
@@ -459,13 +431,14 @@ class _Judge:
             )
             behavior = self._actor_name(mismatch.actor)
             message = f"{behavior} {mismatch.problem}"
-        elif len(random.drawn) < len(random.recorded):
+        elif outcome.underdrawn:
             kind = DivergenceKind.RANDOM_UNDERDRAWN
-            missing = random.recorded[len(random.drawn)]
+            drawn, recorded = len(outcome.drawn), len(outcome.recorded_draws)
+            missing = outcome.recorded_draws[drawn]
             behavior = _name(self.header.behaviors, missing.actor)
             message = (
-                f"drew {len(random.drawn)} random numbers where {len(random.recorded)} were "
-                f"recorded; the next recorded one was a {missing.kind} drawn by {behavior}"
+                f"drew {drawn} random numbers where {recorded} were recorded; the next "
+                f"recorded one was a {missing.kind} drawn by {behavior}"
             )
         elif not self.comparison.changes_agree(expected, actual):
             kind = DivergenceKind.STATE_CHANGES
@@ -475,19 +448,20 @@ class _Judge:
         else:
             kind = DivergenceKind.OUTPUTS
             message = f"outputs differ from {self.outputs_against}"
+        completed = failure is None and mismatch is None
         self.divergence = Divergence(
             kind=kind,
-            cycle=context.cycle,
-            time_ns=context.time_ns,
+            cycle=outcome.cycle,
+            time_ns=outcome.time_ns,
             message=message,
             behavior=behavior,
             expected=tuple(expected),
             actual=tuple(actual),
             expected_outputs=expected_outputs,
-            actual_outputs=dict(context.outputs) if exc is None and mismatch is None else {},
-            robot_state=msgspec.to_builtins(state),
-            random_recorded=tuple(self._reports(random.recorded, self.header.behaviors)),
-            random_drawn=tuple(self._reports(random.drawn, self.executor.behavior_ids)),
+            actual_outputs=dict(outcome.outputs) if completed else {},
+            robot_state=msgspec.to_builtins(outcome.state),
+            random_recorded=tuple(self._reports(outcome.recorded_draws, self.header.behaviors)),
+            random_drawn=tuple(self._reports(outcome.drawn, self.executor.behavior_ids)),
             traceback=trace,
         )
 

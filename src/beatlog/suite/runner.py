@@ -14,13 +14,14 @@ from enum import StrEnum
 from pathlib import Path
 from types import FrameType
 
-from beatlog.analysis.timeline import Timeline, report_timelines
-from beatlog.analysis.trace import Expectation, replayed_trace
+from beatlog.analysis.details import Details, replay_details
+from beatlog.analysis.timeline import Timeline
+from beatlog.analysis.trace import Expectation, ReplayedTrace
 from beatlog.audit.replays import AuditReport
 from beatlog.audit.replays import audit as audit_replay
 from beatlog.errors import BaselineError, BeatlogError
 from beatlog.replay.judge import replay
-from beatlog.replay.verdict import DivergenceKind, ReplayResult, reproduce_command
+from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import load_system
@@ -100,27 +101,33 @@ def run_spec(
             allow_truncated=spec.allow_truncated,
             comparison=spec.comparison,
             expected=expected,
+            explain=False,
         )
         wall = time.perf_counter() - started
-        result = dataclasses.replace(result, reproduce=_rerun(spec))
-        changes, refused = None, None
-        if update and result.divergence is not None:
-            changes, refused = _new_expectation(spec, result)
+        divergence = result.divergence
+        refused = _refusal(divergence) if update and divergence is not None else None
+        details = Details()
+        if divergence is not None or timelines:
+            details = replay_details(
+                spec.log,
+                load_system(spec.system),
+                divergence,
+                trace=update and divergence is not None and refused is None,
+                timelines=timelines,
+                expected=None if expected is None else expected.changes_by_cycle(),
+            )
+        if divergence is not None:
+            divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
+        result = dataclasses.replace(result, divergence=divergence, reproduce=_rerun(spec))
+        changes = None
+        if details.trace is not None:
+            changes, refused = _new_expectation(details.trace)
         report = (
             audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
             if audit
             else None
         )
-        drawn = (
-            report_timelines(
-                spec.log,
-                spec.system,
-                result.divergence,
-                expected=None if expected is None else expected.changes_by_cycle(),
-            )
-            if timelines
-            else ()
-        )
+        drawn = details.timelines
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
@@ -146,14 +153,16 @@ def _rerun(spec: DtcSpec) -> str:
     return reproduce_command("test", spec.path)
 
 
-def _new_expectation(spec: DtcSpec, result: ReplayResult) -> tuple[Expectation | None, str | None]:
+def _refusal(divergence: Divergence) -> str | None:
+    """Why a divergence cannot be re-baselined, if it cannot."""
+    if divergence.kind not in _UPDATABLE:
+        return f"a divergence in {divergence.kind} cannot be re-baselined: re-record the session"
+    return None
+
+
+def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | None]:
     """The whole new trace of state changes and outputs, or why the recording cannot
     give one."""
-    assert result.divergence is not None
-    kind = result.divergence.kind
-    if kind not in _UPDATABLE:
-        return None, f"a divergence in {kind} cannot be re-baselined: re-record the session"
-    trace = replayed_trace(spec.log, load_system(spec.system))
     if trace.stopped is not None:
         return None, f"replay cannot go on past {trace.stopped}: re-record the session"
     return trace.expectation, None
