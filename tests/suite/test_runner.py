@@ -10,12 +10,14 @@ from pathlib import Path
 import pytest
 
 from beatlog.log.writer import SessionLogWriter
+from beatlog.model.behavior import PriorityArbiter
+from beatlog.model.context import Context
 from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite import runner
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.audit.audit_fixtures import leaks, leaky_system, record_session
-from tests.conftest import RecordFn
+from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 
 
@@ -247,3 +249,36 @@ def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> No
     assert probe.audit is not None
     assert probe.audit.ok
     assert lost.audit is None
+
+
+class CountingArbiter(PriorityArbiter[Probe]):
+    """The changed probe system, counting how often a replay starts (cycle 0 is stepped)."""
+
+    replays = 0
+
+    def __init__(self) -> None:
+        super().__init__([Near(0.6), Dice()], robot_state=Probe)
+
+    def update(self, state: Probe, context: Context) -> None:
+        if context.cycle == 0:
+            CountingArbiter.replays += 1
+        super().update(state, context)
+
+
+def counting_system() -> CountingArbiter:
+    return CountingArbiter()
+
+
+def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path, log: Path) -> None:
+    spec = dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
+    CountingArbiter.replays = 0
+
+    outcome = run_spec(spec, update=True, timelines=True)
+
+    assert outcome.verdict is Verdict.FAILED
+    assert outcome.result is not None
+    assert outcome.result.divergence is not None
+    assert outcome.result.divergence.fields_read == ("distance",)
+    assert outcome.update is not None
+    assert len(outcome.timelines) == 2
+    assert CountingArbiter.replays == 2
