@@ -382,3 +382,26 @@ def test_a_committed_format_1_log_still_reads_complete_with_its_version() -> Non
         assert reader.status == LogStatus(True, cycles)
         assert reader.end is not None
         assert reader.robot_time_ns == reader.end.robot_time_ns
+
+
+def test_a_header_not_stamped_at_time_zero_is_refused(tmp_path: Path) -> None:
+    messages = standard_messages(5)
+    messages[0] = messages[0]._replace(log_time=7)
+    log = craft_log(tmp_path / "log.beatlog", messages)
+    with pytest.raises(CorruptLogError, match="not stamped at time 0"):
+        read_through(log)
+
+
+def test_an_end_record_stamped_at_another_time_is_refused(tmp_path: Path) -> None:
+    messages = standard_messages(5)
+    messages[-1] = messages[-1]._replace(log_time=1)
+    log = craft_log(tmp_path / "log.beatlog", messages)
+    assert_refused(log, "not stamped with the session's robot time")
+
+
+def test_a_log_without_its_end_channel_is_refused(tmp_path: Path) -> None:
+    log = craft_log(
+        tmp_path / "log.beatlog", standard_messages(5)[:-1], channels=STANDARD_CHANNELS[:2]
+    )
+    with pytest.raises(CorruptLogError, match="no /beatlog/end channel"):
+        read_through(log)

@@ -17,7 +17,14 @@ from pathlib import Path
 import msgspec
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, SessionEnd, SessionHeader
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    Draw,
+    SessionEnd,
+    SessionHeader,
+    StateChangeRecord,
+)
 from beatlog.log.reader import LogStatus, SessionLogReader
 
 __all__ = ["LogSummary", "summarize"]
@@ -53,19 +60,10 @@ class LogSummary:
         return self.header.format_version
 
 
-class _Change(msgspec.Struct, array_like=True):
-    behavior: int
-
-
-class _Draw(msgspec.Struct, array_like=True):
-    actor: int
-    kind: str
-
-
 def summarize(path: str | Path) -> LogSummary:
     """Read a whole log and gather its figures."""
-    changes_decoder = msgspec.msgpack.Decoder(list[_Change])
-    draws_decoder = msgspec.msgpack.Decoder(list[_Draw])
+    changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
+    draws_decoder = msgspec.msgpack.Decoder(list[Draw])
     cycles = longest = late = 0
     intervals: Counter[int] | None = Counter()
     transitions = Counter[int]()
@@ -85,7 +83,9 @@ def summarize(path: str | Path) -> LogSummary:
             longest = max(longest, slowest)
             try:
                 for changes in [c.state_changes for c in batch if c.state_changes != EMPTY_LIST]:
-                    transitions.update(c.behavior for c in changes_decoder.decode(changes))
+                    transitions.update(
+                        behavior for behavior, _, _ in changes_decoder.decode(changes)
+                    )
                 for numbers in [c.random_numbers for c in batch if c.random_numbers != EMPTY_LIST]:
                     draws.update(d.kind for d in draws_decoder.decode(numbers))
             except DECODE_ERRORS as exc:

@@ -26,10 +26,10 @@ from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
     CycleRecord,
+    StateChangeRecord,
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, System
-from beatlog.model.cycle import StateChangeRecord
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 from beatlog.usercode import load_system

@@ -17,10 +17,16 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    EMPTY_MAP,
+    CycleRecord,
+    StateChangeRecord,
+    payload_encoder,
+)
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.model.cycle import StateChangeRecord
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import StateChange
 

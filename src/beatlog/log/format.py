@@ -14,7 +14,8 @@ state changes and outputs byte for byte, without decoding them, when they match.
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from collections.abc import Mapping, Sequence
+from typing import Annotated, Any, NamedTuple
 
 import msgspec
 
@@ -35,9 +36,12 @@ __all__ = [
     "PROFILE",
     "SCHEMA_ENCODING",
     "CycleBatch",
+    "CycleEntry",
     "CycleRecord",
+    "Draw",
     "SessionEnd",
     "SessionHeader",
+    "StateChangeRecord",
     "payload_encoder",
     "schema_name",
 ]
@@ -105,6 +109,37 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     random_seed: int | None = None
     samples_logged: bool = False
     flush_interval_ns: Annotated[int, msgspec.Meta(gt=0)] = 1_000_000_000
+
+
+StateChangeRecord = tuple[int, Any, Any]
+"""A behavior state change as logged: (catalogue index, before, after)."""
+
+
+class Draw(NamedTuple):
+    """One random number drawn in a cycle: who drew it (a catalogue index, -1 for the
+    system), what kind, the value, and the parameters asked for (empty in format-1
+    logs, which recorded none)."""
+
+    actor: int
+    kind: str
+    value: Any
+    params: tuple[Any, ...] = ()
+
+    def call(self) -> str:
+        """The request as code, e.g. ``uniform(2.0, 5.0)``."""
+        return f"{self.kind}({', '.join(map(repr, self.params))})"
+
+
+class CycleEntry(msgspec.Struct, array_like=True):
+    """One cycle as the recorder hands it to the writer: it encodes to exactly the
+    bytes a :class:`CycleRecord` decodes, field for field."""
+
+    heartbeat_ns: int
+    robot_state: Any
+    state_changes: Sequence[StateChangeRecord]
+    random_numbers: Sequence[Draw]
+    outputs: Mapping[str, Any]
+    samples: Sequence[Any]
 
 
 class CycleRecord(msgspec.Struct, array_like=True):

@@ -219,6 +219,11 @@ class SessionLogReader:
             raise CorruptLogError(self.path, "cut off before its session header") from None
         if topic != HEADER_TOPIC:
             raise CorruptLogError(self.path, f"first message is on {topic!r}, not the header")
+        missing = sorted(set(_SCHEMAS) - set(self._topics))
+        if missing:
+            raise CorruptLogError(self.path, f"no {', '.join(missing)} channel")
+        if message.log_time != 0:
+            raise CorruptLogError(self.path, "the session header is not stamped at time 0")
         if len(message.data) > MAX_SCHEMA_BYTES:
             raise CorruptLogError(
                 self.path,
@@ -277,6 +282,10 @@ class SessionLogReader:
 
     def _read_end(self, message: Message) -> None:
         end = self._decode(message.data, SessionEnd, "end record")
+        if message.log_time != end.robot_time_ns:
+            raise CorruptLogError(
+                self.path, "the end record is not stamped with the session's robot time"
+            )
         if (end.cycles, end.robot_time_ns) != (self._cycles, self._robot_time_ns):
             raise CorruptLogError(
                 self.path,

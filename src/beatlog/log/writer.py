@@ -32,6 +32,7 @@ from beatlog.log.format import (
     PROFILE,
     SCHEMA_ENCODING,
     CycleBatch,
+    CycleEntry,
     SessionEnd,
     SessionHeader,
     payload_encoder,
@@ -142,7 +143,7 @@ class SessionLogWriter:
         """
         if self.error is not None:
             return
-        payload = self._encoder.encode((hb_ns, state, changes, draws, outputs, samples))
+        payload = self._encoder.encode(CycleEntry(hb_ns, state, changes, draws, outputs, samples))
         if len(payload) > MAX_CYCLE_BYTES:
             self.error = LogError(
                 self.path or "<output>",

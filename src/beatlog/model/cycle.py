@@ -8,15 +8,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from beatlog.model.behavior import BehaviorState, System
+from beatlog.log.format import StateChangeRecord
+from beatlog.model.behavior import System
 from beatlog.model.clock import SimulatedHeartbeat
 from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
-__all__ = ["CycleExecutor", "StateChangeRecord"]
-
-StateChangeRecord = tuple[int, BehaviorState, BehaviorState]
-"""A state change as logged: (catalogue index, before, after)."""
+__all__ = ["CycleExecutor"]
 
 
 class CycleExecutor:

@@ -12,11 +12,13 @@ import secrets
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from enum import StrEnum
-from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import msgspec
 import numpy as np
 import numpy.typing as npt
+
+from beatlog.log.format import Draw
 
 if TYPE_CHECKING:
     from beatlog.model.context import Context
@@ -52,20 +54,6 @@ class DrawKind(StrEnum):
     """A numpy array of normal floats."""
     INTEGERS_ARRAY = "integers_array"
     """A numpy array of ints in [low, high)."""
-
-
-class Draw(NamedTuple):
-    """One random number drawn in a cycle: who drew it, what kind, the value, and the
-    parameters asked for (empty in format-1 logs, which recorded none)."""
-
-    actor: int
-    kind: str
-    value: Any
-    params: tuple[Any, ...] = ()
-
-    def call(self) -> str:
-        """The request as code, e.g. ``uniform(2.0, 5.0)``."""
-        return f"{self.kind}({', '.join(map(repr, self.params))})"
 
 
 _params_encoder = msgspec.msgpack.Encoder()

@@ -18,10 +18,16 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.errors import BeatlogError, CorruptLogError, SchemaMismatchError
-from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, CycleRecord, SessionHeader
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    CycleRecord,
+    SessionHeader,
+    StateChangeRecord,
+)
 from beatlog.model.behavior import System
 from beatlog.model.context import Outputs
-from beatlog.model.cycle import CycleExecutor, StateChangeRecord
+from beatlog.model.cycle import CycleExecutor
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 from beatlog.replay.fit import check_fit
 

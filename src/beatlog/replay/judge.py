@@ -26,11 +26,11 @@ from beatlog.log.format import (
     EMPTY_MAP,
     CycleRecord,
     SessionHeader,
+    StateChangeRecord,
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.model.cycle import StateChangeRecord
 from beatlog.model.random import Draw
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome, Replayer
