@@ -21,9 +21,17 @@ from typing import Any
 
 from beatlog.errors import SystemLoadError
 from beatlog.model.behavior import System
+from beatlog.model.perception import Perception
 from beatlog.model.robot import Robot
 
-__all__ = ["failure_site", "load_factory", "load_robot", "load_system", "user_traceback"]
+__all__ = [
+    "failure_site",
+    "load_factory",
+    "load_perception",
+    "load_robot",
+    "load_system",
+    "user_traceback",
+]
 
 _PACKAGE_DIR = str(Path(__file__).parent) + os.sep
 _IMPORTLIB_DIR = str(Path(importlib.__file__).parent)
@@ -129,3 +137,14 @@ def _built(thing: object) -> str:
         return "returned None"
     name = type(thing).__name__
     return f"built {'an' if name[0].lower() in 'aeiou' else 'a'} {name}"
+
+
+def load_perception(reference: str) -> Perception:
+    """Build the perception step a ``module:factory`` reference names, checking it is one."""
+    perception = load_factory(reference)
+    if not callable(perception):
+        raise SystemLoadError(
+            f"{reference!r}: built a {type(perception).__name__}, not a perception step "
+            "(a callable taking the previous robot state and the samples)"
+        )
+    return perception  # type: ignore[no-any-return]

@@ -53,11 +53,19 @@ class LogSummary:
     """State changes per behavior, in catalogue order."""
     random_draws: dict[str, int]
     """Random numbers drawn per kind."""
+    samples: dict[str, int] | None
+    """Raw sensor samples logged per sensor; None when the session logged none."""
 
     @property
     def format_version(self) -> int:
         """The log format version the session was written in."""
         return self.header.format_version
+
+
+class _Sensor(msgspec.Struct, array_like=True):
+    """The first field of a logged sample: which sensor it came from."""
+
+    sensor: str
 
 
 def summarize(path: str | Path) -> LogSummary:
@@ -68,6 +76,8 @@ def summarize(path: str | Path) -> LogSummary:
     intervals: Counter[int] | None = Counter()
     transitions = Counter[int]()
     draws = Counter[str]()
+    sensors = Counter[str]()
+    samples_decoder = msgspec.msgpack.Decoder(list[_Sensor])
     with SessionLogReader(path) as reader:
         header = reader.header
         late_ns = 1.5 * header.period_ns
@@ -88,6 +98,9 @@ def summarize(path: str | Path) -> LogSummary:
                     )
                 for numbers in [c.random_numbers for c in batch if c.random_numbers != EMPTY_LIST]:
                     draws.update(d.kind for d in draws_decoder.decode(numbers))
+                if header.samples_logged:
+                    for samples in [c.samples for c in batch if c.samples != EMPTY_LIST]:
+                        sensors.update(s.sensor for s in samples_decoder.decode(samples))
             except DECODE_ERRORS as exc:
                 where = f"cycles {cycles}-{cycles + len(batch) - 1}"
                 raise CorruptLogError(reader.path, f"damaged {where}: {exc}") from None
@@ -112,6 +125,7 @@ def summarize(path: str | Path) -> LogSummary:
         late_beats=late,
         transitions={name: transitions[index] for index, name in enumerate(names)},
         random_draws=dict(sorted(draws.items())),
+        samples=dict(sorted(sensors.items())) if header.samples_logged else None,
     )
 
 

@@ -98,6 +98,11 @@ def _parser() -> argparse.ArgumentParser:
     play = add("replay", help="replay a session log and give a verdict")
     play.add_argument("log", type=Path)
     play.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
+    play.add_argument(
+        "--perception",
+        metavar="MODULE:FACTORY",
+        help="rebuild each robot state from the logged samples with this perception step",
+    )
     play.add_argument("--keep-going", action="store_true", help="count every diverging cycle")
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument("--json", action="store_true", help="print the result as JSON")
@@ -254,7 +259,11 @@ def _progress(console: Console) -> Progress:
 
 def _replay(args: argparse.Namespace, console: Console) -> int:
     result = replay(
-        args.log, args.system, keep_going=args.keep_going, allow_truncated=args.allow_truncated
+        args.log,
+        args.system,
+        keep_going=args.keep_going,
+        allow_truncated=args.allow_truncated,
+        perception=args.perception,
     )
     if args.json:
         sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")

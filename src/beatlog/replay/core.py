@@ -1,7 +1,9 @@
 """The replay core: the one place that steps a system through a session log.
 
-For each recorded cycle t it decodes RS_t, loads RN_t into the random source,
-advances the simulated clock by HB_t and updates the behaviors, then hands back a
+For each recorded cycle t it decodes RS_t (or, in sensor-level replay, rebuilds it
+with the perception step from the cycle's logged samples and compares it with the
+recorded one), loads RN_t into the random source, advances the simulated clock by
+HB_t and updates the behaviors, then hands back a
 :class:`CycleOutcome` with everything anyone needs: the recording, the state the
 behaviors saw, what they changed and output, the random numbers drawn against the
 recorded ones, and any problem. The verdict (:mod:`beatlog.replay.judge`), traces,
@@ -24,10 +26,13 @@ from beatlog.log.format import (
     CycleRecord,
     SessionHeader,
     StateChangeRecord,
+    payload_encoder,
 )
 from beatlog.model.behavior import System
 from beatlog.model.context import Outputs
 from beatlog.model.cycle import CycleExecutor
+from beatlog.model.inbox import Sample
+from beatlog.model.perception import Perception
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 from beatlog.replay.fit import check_fit
 
@@ -57,6 +62,14 @@ class CycleOutcome(NamedTuple):
     """What the behavior code raised (including ``SystemExit``), if it did."""
     actor: int
     """The behavior that was running when the update stopped (-1: the system itself)."""
+    recorded_state: Any = None
+    """In sensor-level replay, RS_t as recorded (``state`` is the rebuilt one)."""
+    perception_differs: bool = False
+    """In sensor-level replay, whether the rebuilt RS_t differs from the recorded one."""
+    perception_failure: BaseException | None = None
+    """What the perception step raised, if it did (the behaviors did not run)."""
+    samples: Sequence[Sample] = ()
+    """In sensor-level replay, the samples of the cycle."""
 
     @property
     def underdrawn(self) -> bool:
@@ -77,17 +90,31 @@ class Replayer:
     """A system set up to replay the cycles of one log, in order, from its first.
 
     Building one checks that the log fits the system (:mod:`beatlog.replay.fit`).
+    Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
+    the samples (sensor-level replay); otherwise it is read from the log.
     """
 
-    def __init__(self, system: System, header: SessionHeader, path: Path) -> None:
+    def __init__(
+        self,
+        system: System,
+        header: SessionHeader,
+        path: Path,
+        *,
+        perception: Perception | None = None,
+    ) -> None:
         check_fit(header, system, path)
         self.system = system
         self.header = header
         self.path = path
         self.random = ReplayRandom()
         self.executor = CycleExecutor(system, self.random)
+        self.perception = perception if header.samples_logged else None
+        """The perception step in use: None unless the log holds samples."""
+        self._rebuilt: Any = None
+        self._encode = payload_encoder().encode
         self._state = msgspec.msgpack.Decoder(system.robot_state).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
+        self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
 
     def step(
         self, record: CycleRecord, *, observe: Callable[[Any], Any] | None = None
@@ -97,10 +124,53 @@ class Replayer:
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
         """
+        cycle = self.executor.context.cycle + 1
+        state = self._decode_state(record, cycle)
+        if self.perception is not None:
+            return self._step_from_samples(record, cycle, state, observe)
+        return self.step_state(record, state, observe)
+
+    def _step_from_samples(
+        self,
+        record: CycleRecord,
+        cycle: int,
+        recorded: Any,
+        observe: Callable[[Any], Any] | None,
+    ) -> CycleOutcome:
+        """Rebuild RS_t with the perception step, compare it, and run the behaviors on it.
+
+        When perception raises, the behaviors run on the recorded RS_t, so replay can
+        go on; the outcome carries the failure.
+        """
+        assert self.perception is not None
+        samples = self._decode_samples(record, cycle)
+        try:
+            rebuilt = self.perception(self._rebuilt, samples)
+        except BeatlogError:
+            raise
+        except (Exception, SystemExit) as exc:  # perception failing is an outcome
+            self._rebuilt = recorded
+            outcome = self.step_state(record, recorded, observe)
+            return outcome._replace(
+                recorded_state=recorded, perception_failure=exc, samples=samples
+            )
+        self._rebuilt = rebuilt
+        try:
+            differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
+        except (TypeError, msgspec.EncodeError):  # perception built something unloggable
+            differs = True
+        outcome = self.step_state(record, rebuilt, observe)
+        return outcome._replace(
+            recorded_state=recorded, perception_differs=differs, samples=samples
+        )
+
+    def step_state(
+        self, record: CycleRecord, state: Any, observe: Callable[[Any], Any] | None = None
+    ) -> CycleOutcome:
+        """Replay the next cycle on a robot state given (not read from ``record``)."""
         executor = self.executor
         random = self.random
         cycle = executor.context.cycle + 1
-        state = self._decode_state(record, cycle)
         random.load(
             () if record.random_numbers == EMPTY_LIST else self._decode_draws(record, cycle)
         )
@@ -146,6 +216,12 @@ class Replayer:
                 f"robot state of cycle {cycle} does not fit "
                 f"{self.system.robot_state.__name__}: {exc}",
             ) from None
+
+    def _decode_samples(self, record: CycleRecord, cycle: int) -> list[Sample]:
+        try:
+            return self._samples(record.samples)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(self.path, f"damaged samples in cycle {cycle}: {exc}") from None
 
     def _decode_draws(self, record: CycleRecord, cycle: int) -> list[Draw]:
         try:

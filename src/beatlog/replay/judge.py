@@ -31,6 +31,7 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.model.perception import Perception
 from beatlog.model.random import Draw
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome, Replayer
@@ -39,11 +40,12 @@ from beatlog.replay.verdict import (
     Divergence,
     DivergenceKind,
     DrawReport,
+    FieldDifference,
     ReplayResult,
     StateChange,
     reproduce_command,
 )
-from beatlog.usercode import load_system, user_traceback
+from beatlog.usercode import load_perception, load_system, user_traceback
 
 __all__ = ["replay"]
 
@@ -58,6 +60,7 @@ def replay(
     comparison: Comparison | None = None,
     expected: Expectation | None = None,
     explain: bool = True,
+    perception: Perception | str | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference).
 
@@ -79,12 +82,20 @@ def replay(
     reproduce command replays with these options, except ``comparison`` and
     ``expected``, which a spec carries (see :func:`beatlog.suite.run_spec`).
 
+    ``perception`` (a perception step, or a ``module:factory`` that builds one) turns on
+    sensor-level replay when the log holds samples: RS_t is rebuilt from each cycle's
+    samples and compared with the recorded one (a PERCEPTION divergence names the
+    fields that differ and the samples), and the behaviors run on the rebuilt state.
+
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
     """
     reference = system if isinstance(system, str) else None
     if isinstance(system, str):
         system = load_system(system)
+    perception_reference = perception if isinstance(perception, str) else None
+    if isinstance(perception, str):
+        perception = load_perception(perception)
     with SessionLogReader(log) as reader:
         judge = _Judge(
             reader.header,
@@ -94,6 +105,7 @@ def replay(
             context=context_cycles,
             comparison=comparison or Comparison(),
             expected=expected,
+            perception=perception,
         )
         started = time.perf_counter()
         status = None
@@ -135,6 +147,7 @@ def replay(
             log,
             "--system",
             reference or reader.header.system or "MODULE:FACTORY",
+            *(["--perception", perception_reference] if perception_reference else []),
             *(["--keep-going"] if keep_going else []),
             *(["--allow-truncated"] if allow_truncated else []),
         ),
@@ -154,6 +167,7 @@ class _Judge:
         context: int,
         comparison: Comparison,
         expected: Expectation | None,
+        perception: Perception | None = None,
     ) -> None:
         self.header = header
         self.comparison = comparison
@@ -161,7 +175,7 @@ class _Judge:
         self._context = context
         self._recent: deque[CycleRecord] = deque(maxlen=context + 1)
         self.path = path
-        self.replayer = Replayer(system, header, path)
+        self.replayer = Replayer(system, header, path, perception=perception)
         self.random = self.replayer.random
         self.executor = self.replayer.executor
         self.divergence: Divergence | None = None
@@ -278,6 +292,8 @@ class _Judge:
                 if (
                     outcome.failure is None
                     and outcome.completed
+                    and not outcome.perception_differs
+                    and outcome.perception_failure is None
                     and (
                         (
                             record.state_changes == EMPTY_LIST
@@ -418,7 +434,18 @@ class _Judge:
         failure = outcome.failure
         behavior: str | None = None
         trace: str | None = None
-        if failure is not None:
+        differences: tuple[FieldDifference, ...] = ()
+        if outcome.perception_failure is not None:
+            kind = DivergenceKind.PERCEPTION
+            problem = outcome.perception_failure
+            trace = user_traceback(problem)
+            message = f"perception raised {type(problem).__name__}: {problem}"
+        elif outcome.perception_differs:
+            kind = DivergenceKind.PERCEPTION
+            differences = _differences(outcome.recorded_state, outcome.state)
+            names = ", ".join(d.field for d in differences) or "its encoding"
+            message = f"the robot state rebuilt from the samples differs in {names}"
+        elif failure is not None:
             kind = DivergenceKind.EXCEPTION
             behavior = self._actor_name(outcome.actor)
             trace = user_traceback(failure)
@@ -463,6 +490,8 @@ class _Judge:
             random_recorded=tuple(self._reports(outcome.recorded_draws, self.header.behaviors)),
             random_drawn=tuple(self._reports(outcome.drawn, self.executor.behavior_ids)),
             traceback=trace,
+            perception=differences,
+            samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
         )
 
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
@@ -473,6 +502,19 @@ def _name(names: Sequence[str], index: int) -> str:
     if index < 0:
         return "system"
     return names[index] if index < len(names) else f"#{index}"
+
+
+def _differences(recorded: Any, rebuilt: Any) -> tuple[FieldDifference, ...]:
+    """The robot-state fields whose values differ, compared as they encode."""
+    want, got = msgspec.to_builtins(recorded), msgspec.to_builtins(rebuilt)
+    if not isinstance(want, dict) or not isinstance(got, dict):
+        return (FieldDifference("(the whole state)", want, got),)
+    encode = msgspec.msgpack.encode
+    return tuple(
+        FieldDifference(name, want.get(name), got.get(name))
+        for name in dict.fromkeys([*want, *got])
+        if encode(want.get(name)) != encode(got.get(name))
+    )
 
 
 def _first_differing_behavior(

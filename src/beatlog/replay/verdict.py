@@ -15,6 +15,7 @@ __all__ = [
     "Divergence",
     "DivergenceKind",
     "DrawReport",
+    "FieldDifference",
     "ReplayResult",
     "StateChange",
     "reproduce_command",
@@ -44,6 +45,9 @@ class DivergenceKind(StrEnum):
     """The behaviors drew a different kind or shape of random number."""
     EXCEPTION = "exception"
     """Behavior code raised an exception."""
+    PERCEPTION = "perception"
+    """The robot state rebuilt from the logged samples differs from the recorded RS_t
+    (sensor-level replay), or perception raised."""
     LOG_ENDED = "log ended"
     """The log ends early: it was truncated before the recording closed it."""
 
@@ -68,6 +72,17 @@ class DrawReport(NamedTuple):
 
     def __str__(self) -> str:
         return f"{self.behavior}: {self.kind} {self.value!r}"
+
+
+class FieldDifference(NamedTuple):
+    """A robot-state field that perception rebuilt differently than it was recorded."""
+
+    field: str
+    recorded: Any
+    rebuilt: Any
+
+    def __str__(self) -> str:
+        return f"{self.field}: recorded {self.recorded!r}, rebuilt {self.rebuilt!r}"
 
 
 class ContextRow(NamedTuple):
@@ -102,6 +117,10 @@ class Divergence:
     """The robot-state fields the behaviors read in the diverging cycle (empty: unknown)."""
     proposed_renames: dict[str, str] = field(default_factory=dict)
     """Old → new behavior names, when the whole trace differs only by this renaming."""
+    perception: tuple[FieldDifference, ...] = ()
+    """In a perception divergence: the fields rebuilt differently from the samples."""
+    samples: tuple[tuple[str, Any], ...] = ()
+    """In a perception divergence: the cycle's samples (sensor, value), in order."""
 
     @property
     def time_s(self) -> float:

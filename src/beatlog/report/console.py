@@ -50,6 +50,21 @@ def _divergence(divergence: Divergence) -> RenderableType:
     parts: list[RenderableType] = [Text(divergence.message, style="bold")]
     if divergence.proposed_renames:
         parts.append(_rename_proposal(divergence.proposed_renames))
+    if divergence.perception:
+        parts.append(
+            _side_by_side(
+                "robot state from the samples",
+                [f"{d.field} = {d.recorded!r}" for d in divergence.perception],
+                [f"{d.field} = {d.rebuilt!r}" for d in divergence.perception],
+            )
+        )
+    if divergence.samples:
+        parts.append(
+            Text.assemble(
+                ("samples: ", "dim"),
+                "; ".join(f"{sensor} {value!r}" for sensor, value in divergence.samples),
+            )
+        )
     if divergence.expected or divergence.actual:
         parts.append(
             _side_by_side("behavior state changes", divergence.expected, divergence.actual)
@@ -169,6 +184,10 @@ def render_summary(summary: LogSummary) -> RenderableType:
         ("overruns", f"{overruns}; {summary.late_beats} beats later than 1.5 periods"),
         ("robot state", header.robot_state_type),
         ("random numbers", _counts(summary.random_draws) or "none"),
+        (
+            "samples",
+            "not logged" if summary.samples is None else _counts(summary.samples) or "none",
+        ),
     ]
     if summary.end is not None and summary.end.error:
         rows.append(("recording error", summary.end.error))

@@ -102,6 +102,7 @@ def run_spec(
             comparison=spec.comparison,
             expected=expected,
             explain=False,
+            perception=spec.perception,
         )
         wall = time.perf_counter() - started
         divergence = result.divergence

@@ -53,6 +53,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     procedure: list[str]
     log: str
     system: str
+    perception: str | None = None
     tags: list[str] = []
     allow_truncated: bool = False
     renames: dict[str, str] = {}
@@ -79,6 +80,8 @@ class DtcSpec:
     allow_truncated: bool = False
     comparison: Comparison = field(default_factory=Comparison)
     """What counts as the same when this DTC is judged (renames, ignores, tolerances)."""
+    perception: str | None = None
+    """The ``module:factory`` of the perception step: replay from the logged samples."""
 
 
 def load_spec(path: str | Path) -> DtcSpec:
@@ -103,8 +106,9 @@ def load_spec(path: str | Path) -> DtcSpec:
         raise SpecError(path, _explain(str(exc))) from None
     if not spec.name.strip():
         raise SpecError(path, "key 'name': must not be empty")
-    if ":" not in spec.system:
-        raise SpecError(path, f"key 'system': expected module:factory, got {spec.system!r}")
+    for key, reference in (("system", spec.system), ("perception", spec.perception)):
+        if reference is not None and ":" not in reference:
+            raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
     renames = {**_project_renames(path.resolve().parent), **spec.renames}
     _check_one_to_one(path, "renames", spec.renames)
     _check_one_to_one(path, "renames", renames)
@@ -120,6 +124,7 @@ def load_spec(path: str | Path) -> DtcSpec:
         procedure=tuple(spec.procedure),
         log=(path.parent / spec.log),
         system=spec.system,
+        perception=spec.perception,
         tags=tuple(spec.tags),
         allow_truncated=spec.allow_truncated,
         comparison=Comparison(

@@ -1,0 +1,27 @@
+"""The perception step: how raw sensor samples become the robot state RS_t.
+
+On the robot, perception folds the samples collected since the last heartbeat into
+the new robot state. When a session was recorded with its samples, replay can run the
+same step again (sensor-level replay), so a changed perception is caught by a DTC
+without re-recording on the robot. A perception must be a pure function of the
+previous state and the samples: no clock, no randomness, no hidden state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Protocol
+
+from beatlog.model.inbox import Sample
+
+__all__ = ["Perception"]
+
+
+class Perception(Protocol):
+    """Builds RS_t from RS_t-1 (None before the first cycle) and the cycle's samples.
+
+    Replayed sample values come back from the log as msgpack decodes them: tuples as
+    lists, numpy values as plain numbers and lists.
+    """
+
+    def __call__(self, previous: Any | None, samples: Sequence[Sample], /) -> Any: ...
