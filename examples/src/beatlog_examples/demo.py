@@ -39,7 +39,9 @@ def run_demo(console: Console, *, duration_s: float, out: Path) -> int:
         + "."
     )
     with (
-        Recorder(log, robot.system, robot_id="demo-dog", system_ref=SYSTEM_REF) as recorder,
+        Recorder(  # each run of the demo records its session afresh
+            log, robot.system, overwrite=True, robot_id="demo-dog", system_ref=SYSTEM_REF
+        ) as recorder,
         console.status("recording…"),
     ):
         recorder.run(robot, duration_s=duration_s)

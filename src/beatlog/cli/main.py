@@ -28,7 +28,7 @@ from beatlog._version import __version__
 from beatlog.analysis.summary import summarize
 from beatlog.analysis.timeline import build_timeline
 from beatlog.cli.baselines import approve, report_orphans, review, write_pending
-from beatlog.errors import BeatlogError
+from beatlog.errors import BeatlogError, LogExistsError
 from beatlog.record.recorder import Recorder
 from beatlog.replay.judge import replay
 from beatlog.report.audit import render_audit
@@ -193,22 +193,27 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 def _record(args: argparse.Namespace, console: Console) -> int:
     robot = load_robot(args.robot)
     output: Path = args.output
-    if output.exists() and not args.force:
-        raise _UsageError(f"{output}: already exists; recordings are immutable (use --force)")
     if not output.parent.is_dir():
         raise _UsageError(f"{output}: directory {output.parent} does not exist")
     interrupted = False
-    with Recorder(
-        output,
-        robot.system,
-        robot_id=args.robot_id,
-        system_ref=args.system_ref,
-        period_ns=int(args.period_ms * 1e6),
-        seed=args.seed,
-        flush_interval_s=args.flush_interval,
-        fsync=args.fsync,
-        log_samples=args.log_samples,
-    ) as recorder:
+    try:
+        recording = Recorder(
+            output,
+            robot.system,
+            overwrite=args.force,
+            robot_id=args.robot_id,
+            system_ref=args.system_ref,
+            period_ns=int(args.period_ms * 1e6),
+            seed=args.seed,
+            flush_interval_s=args.flush_interval,
+            fsync=args.fsync,
+            log_samples=args.log_samples,
+        )
+    except LogExistsError:
+        raise _UsageError(
+            f"{output}: already exists; recordings are immutable (use --force)"
+        ) from None
+    with recording as recorder:
         try:
             with _progress(console) as progress:
                 total = int(args.duration * 1e3 / args.period_ms)
