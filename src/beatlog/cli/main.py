@@ -33,6 +33,7 @@ from beatlog.record.recorder import Recorder
 from beatlog.replay.judge import replay
 from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
+from beatlog.report.counts import verdict_counts
 from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import discover_specs, select_specs
@@ -331,9 +332,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     counts = Counter(outcome.verdict for outcome in outcomes)
     skipped = len(specs) - len(outcomes)
     console.print(
-        f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
-        + _plural(counts[Verdict.ERROR], "error")
-        + (f", {skipped} not run" if skipped else "")
+        verdict_counts((outcome.verdict for outcome in outcomes), not_run=skipped)
         + f" in {wall:.2f} s ({cycles:,} cycles)"
     )
     if interrupted:
@@ -361,10 +360,6 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
             write_html(outcomes, args.html)
         except OSError as exc:
             raise _UsageError(f"{args.html}: cannot write: {exc.strerror}") from None
-
-
-def _plural(count: int, noun: str) -> str:
-    return f", {count} {noun}{'' if count == 1 else 's'}" if count else ""
 
 
 def _describe(outcome: SpecOutcome) -> RenderableType:
