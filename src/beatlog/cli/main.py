@@ -27,7 +27,7 @@ from rich.text import Text
 from beatlog._version import __version__
 from beatlog.analysis.summary import summarize
 from beatlog.analysis.timeline import build_timeline
-from beatlog.cli.baselines import approve, report_orphans, review, write_pending
+from beatlog.cli.baselines import approve_command, render_updates, report_orphans, review
 from beatlog.errors import BeatlogError, LogExistsError
 from beatlog.record.recorder import Recorder
 from beatlog.replay.judge import replay
@@ -35,6 +35,8 @@ from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
 from beatlog.report.counts import verdict_counts
 from beatlog.suite.junit import write_junit
+from beatlog.suite.maintenance import update_baselines
+from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import discover_specs, select_specs
 from beatlog.usercode import load_robot
@@ -119,7 +121,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     test.add_argument(
         "--update",
-        action="store_true",
+        action="store_const",
+        const=UpdateMode.NEW,
+        default=UpdateMode.NONE,
         help="write the new state changes of failed DTCs to pending files for review",
     )
     test.add_argument(
@@ -345,8 +349,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
 
 def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
     """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end."""
-    if args.update:
-        write_pending(outcomes, console)
+    render_updates(update_baselines(outcomes, args.update), console)
     report_orphans(args.paths, console)
     if args.junit_xml is not None:
         try:
@@ -436,7 +439,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             review(args.paths, console)
             return EXIT_OK
         if args.command == "approve":
-            approve(args.paths, console)
+            approve_command(args.paths, console)
             return EXIT_OK
         if args.command == "plot":
             return _plot(args, console)

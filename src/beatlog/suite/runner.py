@@ -22,6 +22,7 @@ from beatlog.errors import BaselineError, BeatlogError
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
+from beatlog.suite.policy import UpdateMode
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import load_system
 
@@ -51,7 +52,8 @@ class SpecOutcome:
     baseline: Path | None = None
     """The approved baseline judged against, when there is one."""
     update: Expectation | None = None
-    """The new expected state changes and outputs, when asked to update and the DTC failed."""
+    """The new expected state changes and outputs, when run in :attr:`UpdateMode.NEW` and
+    the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
@@ -76,13 +78,19 @@ _UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
 
 
 def run_spec(
-    spec: DtcSpec, *, update: bool = False, audit: bool = False, timelines: bool = False
+    spec: DtcSpec,
+    *,
+    update: UpdateMode | str = UpdateMode.NONE,
+    audit: bool = False,
+    timelines: bool = False,
 ) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one. With ``update`` a failure also traces the new state changes and
-    outputs, with ``audit`` its determinism is audited, with ``timelines`` what it did
+    if it has one. In :attr:`UpdateMode.NEW` a failure also traces the new state
+    changes and outputs (nothing is written here: see :mod:`beatlog.suite.maintenance`),
+    with ``audit`` its determinism is audited, with ``timelines`` what it did
     is charted; the outcome's wall time is the replay's alone. The result's reproduce
     command is ``beatlog test SPEC``, which judges exactly as this run did."""
+    update = UpdateMode.parse(update)
     started = time.perf_counter()
     baseline = expected_path(spec.path)
     try:
@@ -104,7 +112,7 @@ def run_spec(
         wall = time.perf_counter() - started
         result = dataclasses.replace(result, reproduce=_rerun(spec))
         changes, refused = None, None
-        if update and result.divergence is not None:
+        if update is UpdateMode.NEW and result.divergence is not None:
             changes, refused = _new_expectation(spec, result)
         report = (
             audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
@@ -164,7 +172,7 @@ def run_suite(
     *,
     jobs: int = 1,
     fail_fast: bool = False,
-    update: bool = False,
+    update: UpdateMode | str = UpdateMode.NONE,
     audit: bool = False,
     timelines: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
@@ -172,11 +180,12 @@ def run_suite(
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
 
     With ``fail_fast`` the first failure or error cancels the specs not yet started.
-    With ``update`` each failure carries its new expectation (nothing is
-    written here: see :mod:`beatlog.suite.baseline`); with ``audit`` each worker also
+    In :attr:`UpdateMode.NEW` each failure carries its new expectation (nothing is
+    written here: see :mod:`beatlog.suite.maintenance`); with ``audit`` each worker also
     audits its spec's determinism; with ``timelines`` it
     builds its DTC's timelines for charts.
     """
+    update = UpdateMode.parse(update)
     outcomes: dict[Path, SpecOutcome] = {}
 
     def done(outcome: SpecOutcome) -> bool:
