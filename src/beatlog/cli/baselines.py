@@ -1,5 +1,6 @@
-"""The re-baselining commands for the terminal: ``test --update``, ``review`` and
-``approve`` render and prompt; the workflow itself is :mod:`beatlog.suite.maintenance`."""
+"""The re-baselining commands for the terminal: ``review`` prompts, and each command
+shows the lines of :mod:`beatlog.report.baselines`; the workflow itself is
+:mod:`beatlog.suite.maintenance`."""
 
 from __future__ import annotations
 
@@ -11,12 +12,11 @@ from rich.console import Console
 from rich.prompt import Prompt
 from rich.text import Text
 
-from beatlog.suite.baseline import expected_path, pending_path
+from beatlog.report.baselines import render_orphans, render_pending_diff, render_updates
+from beatlog.suite.baseline import expected_path
 from beatlog.suite.maintenance import (
     Decision,
-    PendingDiff,
     PendingUpdate,
-    UpdateAction,
     approve,
     decide,
     find_orphans,
@@ -25,35 +25,26 @@ from beatlog.suite.maintenance import (
 )
 from beatlog.suite.policy import require_writable
 
-__all__ = ["approve_command", "render_updates", "report_orphans", "review"]
+__all__ = ["approve_command", "print_lines", "report_orphans", "review", "show_updates"]
 
 Ask = Callable[[str], str]
 """Asks the reviewer a question and returns the answer: accept, reject or skip."""
 
 
-def render_updates(updates: Sequence[PendingUpdate], console: Console) -> None:
-    """Say what ``test --update`` did with each pending baseline, and how to go on."""
-    if any(update.action is UpdateAction.WITHHELD for update in updates):
-        console.print("[yellow]CI is set: no pending baselines written")
-    for update in updates:
-        spec = update.spec
-        if update.action is UpdateAction.WRITTEN:
-            console.print(
-                f"[cyan]pending[/] {update.path} ({update.state_changes} state changes, "
-                f"{update.output_changes} output changes): "
-                f"review with [bold]beatlog review {spec.path}[/], "
-                f"accept with [bold]beatlog approve {spec.path}[/]"
-            )
-        elif update.action is UpdateAction.REFUSED:
-            console.print(f"[yellow]not updated[/] {spec.name}: {update.reason}")
-        elif update.action is UpdateAction.REMOVED:
-            console.print(f"[cyan]removed stale[/] {update.path}: {spec.name} passes")
+def print_lines(lines: Sequence[Text], console: Console) -> None:
+    """Each line on its own, as it is (no markup or highlighting read into paths)."""
+    for line in lines:
+        console.print(line, highlight=False)
+
+
+def show_updates(updates: Sequence[PendingUpdate], console: Console) -> None:
+    """What ``test --update`` did with each pending baseline."""
+    print_lines(render_updates(updates), console)
 
 
 def report_orphans(paths: Sequence[Path], console: Console) -> None:
     """Name expected and pending files whose spec is gone."""
-    for orphan in find_orphans(paths):
-        console.print(f"[yellow]orphaned baseline[/] {orphan}: no spec beside it; delete it")
+    print_lines(render_orphans(find_orphans(paths)), console)
 
 
 def review(
@@ -72,7 +63,7 @@ def review(
         require_writable()
     decided = dict.fromkeys(Decision, 0)
     for spec in specs:
-        _show(pending_diff(spec), console)
+        console.print(render_pending_diff(pending_diff(spec)), highlight=False)
         answer = ask(f"accept the new expectation of {spec.name}?") if ask else Decision.SKIP
         decision = Decision.parse(answer)
         decide(spec, decision)
@@ -102,20 +93,3 @@ def approve_command(paths: Sequence[Path], console: Console) -> None:
     """Accept every pending baseline given, naming each."""
     for spec in approve(paths):
         console.print(f"[green]approved[/] {spec.name}: {expected_path(spec.path)}")
-
-
-def _show(diff: PendingDiff, console: Console, *, max_lines: int = 200) -> None:
-    """The diff, coloured, at most ``max_lines`` lines of it."""
-    spec = diff.spec
-    console.rule(f"{spec.name} ({spec.path})")
-    console.print(
-        f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} pending"
-    )
-    for line in diff.lines[:max_lines]:
-        style = {"+": "green", "-": "red", "@": "cyan"}.get(line[:1], "")
-        console.print(Text(line, style=style))
-    if len(diff.lines) > max_lines:
-        console.print(
-            f"… {len(diff.lines) - max_lines} more diff lines: read {pending_path(spec.path)}",
-            style="dim",
-        )

@@ -27,7 +27,7 @@ from rich.text import Text
 from beatlog._version import __version__
 from beatlog.analysis.summary import summarize
 from beatlog.analysis.timeline import build_timeline
-from beatlog.cli.baselines import approve_command, render_updates, report_orphans, review
+from beatlog.cli.baselines import approve_command, report_orphans, review, show_updates
 from beatlog.errors import BeatlogError, LogExistsError
 from beatlog.record.recorder import Recorder
 from beatlog.replay.judge import replay
@@ -349,7 +349,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
 
 def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
     """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end."""
-    render_updates(update_baselines(outcomes, args.update), console)
+    show_updates(update_baselines(outcomes, args.update), console)
     report_orphans(args.paths, console)
     if args.junit_xml is not None:
         try:
