@@ -75,7 +75,7 @@ def changed(tmp_path: Path, log: Path) -> DtcSpec:
 @pytest.fixture
 def pending(changed: DtcSpec) -> DtcSpec:
     """The changed spec with its new expectation pending."""
-    update_baselines(run(changed))
+    update_baselines(run(changed), UpdateMode.NEW)
     return changed
 
 
@@ -84,7 +84,7 @@ def test_a_failure_writes_its_new_expectation_to_the_pending_file_only(
 ) -> None:
     outcomes = run(changed)
 
-    (update,) = update_baselines(outcomes)
+    (update,) = update_baselines(outcomes, UpdateMode.NEW)
 
     assert update.action is UpdateAction.WRITTEN
     assert update.path == pending_path(changed.path)
@@ -112,7 +112,7 @@ def test_in_ci_the_new_expectation_is_withheld(
 ) -> None:
     monkeypatch.setenv("CI", "true")
 
-    (update,) = update_baselines(run(changed))
+    (update,) = update_baselines(run(changed), UpdateMode.NEW)
 
     assert update.action is UpdateAction.WITHHELD
     assert update.state_changes > 0
@@ -124,7 +124,7 @@ def test_a_divergence_in_random_numbers_is_refused_with_the_reason(
 ) -> None:
     greedy = write_dtc(tmp_path / "specs", log, GREEDY)
 
-    (update,) = update_baselines(run(greedy))
+    (update,) = update_baselines(run(greedy), UpdateMode.NEW)
 
     assert update.action is UpdateAction.REFUSED
     assert update.reason is not None
@@ -135,7 +135,7 @@ def test_a_divergence_in_random_numbers_is_refused_with_the_reason(
 def test_a_passing_dtc_loses_its_stale_pending_file(pending: DtcSpec, log: Path) -> None:
     undone = write_dtc(pending.path.parent, log, AS_RECORDED)  # the change was undone
 
-    (update,) = update_baselines(run(undone))
+    (update,) = update_baselines(run(undone), UpdateMode.NEW)
 
     assert update.action is UpdateAction.REMOVED
     assert not pending_path(undone.path).exists()
@@ -146,7 +146,7 @@ def test_a_failure_never_overwrites_the_approved_baseline(pending: DtcSpec, log:
     approved = expected_path(pending.path).read_bytes()
     undone = write_dtc(pending.path.parent, log, AS_RECORDED)  # now differs from the approved
 
-    (update,) = update_baselines(run(undone))
+    (update,) = update_baselines(run(undone), UpdateMode.NEW)
 
     assert update.action is UpdateAction.WRITTEN
     assert expected_path(undone.path).read_bytes() == approved
@@ -229,7 +229,7 @@ def test_the_pending_diff_compares_with_the_recording_then_the_approved_baseline
 
     decide(pending, Decision.ACCEPT)
     undone = write_dtc(pending.path.parent, log, AS_RECORDED)
-    update_baselines(run(undone))
+    update_baselines(run(undone), UpdateMode.NEW)
 
     again = pending_diff(undone)
     assert again.source == "approved (avoid-pole.dtc.expected)"

@@ -77,15 +77,16 @@ class PendingUpdate:
 
 
 def update_baselines(
-    outcomes: Iterable[SpecOutcome], mode: UpdateMode | str = UpdateMode.NEW
+    outcomes: Iterable[SpecOutcome], mode: UpdateMode | str
 ) -> list[PendingUpdate]:
     """Apply an update mode to a suite's outcomes; what was done, in outcome order.
 
     In :attr:`UpdateMode.NEW` every failure that carries a new expectation (the suite
     was run in that mode) gets it written to its pending file, and a passing DTC's
     stale pending file is removed; accepted baselines are never touched. In
-    :attr:`UpdateMode.NONE`, or when ``CI`` is set, nothing is written, and each
-    failure that would have been is reported :attr:`UpdateAction.WITHHELD`.
+    :attr:`UpdateMode.NONE` nothing is done. When ``CI`` is set nothing is written:
+    each failure whose new expectation was traced is reported
+    :attr:`UpdateAction.WITHHELD`.
     """
     if UpdateMode.parse(mode) is UpdateMode.NONE:
         return []
