@@ -1,4 +1,5 @@
-"""The pytest plugin: *.dtc.toml files are collected as tests named after their spec."""
+"""The pytest plugin: *.dtc.toml files are collected as tests named after their spec;
+its ``beatlog`` options re-baseline and audit them."""
 
 from __future__ import annotations
 
@@ -6,7 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog_examples.rover import record_lockstep
+from tests.audit.audit_fixtures import leaks, leaky_system, record_session
 from tests.conftest import RecordFn
 
 
@@ -107,3 +110,58 @@ def test_dtcs_run_under_xdist_and_measure_behavior_coverage(
     )
     result.assert_outcomes(passed=3)
     result.stdout.fnmatch_lines(["*2 workers*", "*rover/behaviors.py*"])
+
+
+def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
+    pytester: pytest.Pytester, log: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("CI", raising=False)
+    changed = "tests.conftest:probe_system_changed"
+    spec = pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log, changed))
+    pytester.makefile(".dtc.toml", steady=spec_text("steady", log))
+    orphan = pytester.makefile(".dtc.expected", gone="")
+
+    pytester.runpytest().assert_outcomes(passed=1, failed=1)
+    assert not pending_path(spec).exists()  # the safe default writes nothing
+
+    monkeypatch.setenv("CI", "true")
+    in_ci = pytester.runpytest("--beatlog-update")
+    in_ci.assert_outcomes(passed=1, failed=1)
+    in_ci.stdout.fnmatch_lines(["*= beatlog =*", "CI is set: no pending baselines written"])
+    assert not pending_path(spec).exists()
+
+    monkeypatch.delenv("CI")
+    updated = pytester.runpytest("--beatlog-update")
+    updated.assert_outcomes(passed=1, failed=1)
+    updated.stdout.fnmatch_lines(
+        [
+            f"pending {pending_path(spec)} (* state changes, * output changes): "
+            f"review with beatlog review {spec}, accept with beatlog approve {spec}",
+            f"orphaned baseline {orphan}: no spec beside it; delete it",
+            "2 DTCs: 1 passed, 1 failed",
+        ]
+    )
+    assert read_baseline(pending_path(spec)).changes
+    assert not expected_path(spec).exists()
+
+
+def test_audit_fails_a_dtc_whose_behaviors_leak_and_passes_a_sound_one(
+    pytester: pytest.Pytester, log: Path, tmp_path: Path
+) -> None:
+    leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
+    leaky = "tests.audit.audit_fixtures:leaky_system"
+    pytester.makefile(".dtc.toml", leaky=spec_text("leaky", leaky_log, leaky))
+    pytester.makefile(".dtc.toml", steady=spec_text("steady", log))
+
+    pytester.runpytest().assert_outcomes(passed=2)  # the safe default audits nothing
+    audited = pytester.runpytest("--beatlog-audit")
+
+    audited.assert_outcomes(passed=1, failed=1)
+    audited.stdout.fnmatch_lines(
+        [
+            "*AUDIT leaky*",
+            *(f"*{call}*" for call, _ in leaks()),
+            f"determinism audit: {len(leaks())} findings in 1 of 1 DTC",
+        ]
+    )
+    audited.stdout.fnmatch_lines(["2 DTCs: 2 passed, 0 failed"])

@@ -7,10 +7,13 @@ from pathlib import Path
 __all__ = [
     "BaselineError",
     "BeatlogError",
+    "CiWriteError",
     "CorruptLogError",
     "FieldError",
     "LogError",
+    "LogExistsError",
     "NotABeatlogError",
+    "OptionError",
     "SchemaMismatchError",
     "SpecError",
     "SystemLoadError",
@@ -34,6 +37,15 @@ class LogError(BeatlogError):
         super().__init__(f"{self.path}: {problem}")
 
 
+class LogExistsError(LogError):
+    """A recording would replace an existing session log; recordings are immutable."""
+
+    def __init__(self, path: str | Path) -> None:
+        super().__init__(
+            path, "already exists; recordings are immutable (overwrite=True replaces it)"
+        )
+
+
 class NotABeatlogError(LogError):
     """The file is missing, empty, not MCAP, or MCAP written by another tool."""
 
@@ -53,6 +65,17 @@ class SchemaMismatchError(LogError):
 class FieldError(BeatlogError):
     """A robot-state field named for a chart that the session's robot state lacks or that
     is not a number; the message names the log."""
+
+
+class OptionError(BeatlogError):
+    """An option given a value it does not take; the message lists the values it does."""
+
+
+class CiWriteError(BeatlogError):
+    """A baseline write asked for while ``CI`` is set: beatlog never writes baselines in CI."""
+
+    def __init__(self) -> None:
+        super().__init__("CI is set: beatlog never writes baselines in CI")
 
 
 class SystemLoadError(BeatlogError):

@@ -4,11 +4,18 @@ Registered under the ``pytest11`` entry point, so installing beatlog is enough:
 ``pytest`` collects every ``*.dtc.toml`` file as one test named after the spec. Set
 ``beatlog_collect = false`` in the pytest ini options to turn collection off. DTC
 items carry the ``dtc`` marker, and ``-k`` matches their names and tags.
+
+Options (the ``beatlog`` group; the default is neither): ``--beatlog-update`` writes
+the new expectation of each failing DTC to its pending baseline for review, as
+``beatlog test --update`` does, and never when ``CI`` is set; ``--beatlog-audit``
+also audits each DTC's determinism and fails the ones it finds leaking. The terminal
+summary says what was written, names orphaned baselines and counts the verdicts.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -18,14 +25,39 @@ from beatlog.errors import SpecError
 from beatlog.model.behavior import System
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import ReplayResult
+from beatlog.report.audit import render_audit
+from beatlog.report.baselines import render_orphans, render_updates
 from beatlog.report.console import plain_text, render_replay
+from beatlog.report.counts import plural, verdict_counts
+from beatlog.suite.maintenance import find_orphans, update_baselines
+from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
 __all__ = ["DtcFile", "DtcItem", "beatlog_replay"]
 
+_VERDICT, _SPEC, _UPDATE = "beatlog_verdict", "beatlog_spec", "beatlog_update"
+"""Names of the user properties a DTC's report carries to the summary (across xdist)."""
+
 
 def pytest_addoption(parser: pytest.Parser) -> None:
+    group = parser.getgroup("beatlog", "beatlog deterministic test cases (*.dtc.toml)")
+    group.addoption(
+        "--beatlog-update",
+        action="store_const",
+        const=UpdateMode.NEW.value,
+        default=UpdateMode.NONE.value,
+        dest="beatlog_update",
+        help="write the new expectation of each failing DTC to its pending baseline for "
+        "review (beatlog review, beatlog approve); never when CI is set",
+    )
+    group.addoption(
+        "--beatlog-audit",
+        action="store_true",
+        dest="beatlog_audit",
+        help="also replay each DTC twice with different hash seeds, watching for wall-clock "
+        "reads and global random calls; a DTC with findings fails",
+    )
     parser.addini(
         "beatlog_collect",
         type="bool",
@@ -34,8 +66,52 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     )
 
 
+@dataclass
+class BeatlogRun:
+    """What this pytest run asks of its DTCs, and what they did, for the terminal summary."""
+
+    update: UpdateMode
+    audit: bool
+    verdicts: list[Verdict] = field(default_factory=list)
+    folders: set[Path] = field(default_factory=set)
+    """The folders of the specs that ran: where orphaned baselines are looked for."""
+    lines: list[str] = field(default_factory=list)
+    """What updating the baselines did."""
+
+    def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
+        """Gather a DTC's verdict and update lines from its report (a worker's, under xdist)."""
+        if report.when != "call":
+            return
+        for name, value in report.user_properties:
+            if name == _VERDICT:
+                self.verdicts.append(Verdict(str(value)))
+            elif name == _SPEC:
+                self.folders.add(Path(str(value)).parent)
+            elif name == _UPDATE:
+                self.lines.append(str(value))
+
+    def pytest_terminal_summary(self, terminalreporter: pytest.TerminalReporter) -> None:
+        """The pending baselines written, the orphans, and the DTCs' verdicts."""
+        if not self.verdicts:
+            return
+        terminalreporter.section("beatlog")
+        orphans = [text.plain for text in render_orphans(find_orphans(sorted(self.folders)))]
+        for line in [*self.lines, *orphans]:
+            terminalreporter.write_line(line)
+        counts = verdict_counts(self.verdicts)
+        terminalreporter.write_line(f"{plural(len(self.verdicts), 'DTC')}: {counts}")
+
+
+_RUN = pytest.StashKey[BeatlogRun]()
+
+
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "dtc: a beatlog deterministic test case (*.dtc.toml)")
+    config.stash[_RUN] = BeatlogRun(
+        update=UpdateMode.parse(config.getoption("beatlog_update")),
+        audit=config.getoption("beatlog_audit"),
+    )
+    config.pluginmanager.register(config.stash[_RUN], "beatlog-run")
 
 
 def pytest_collect_file(parent: pytest.Collector, file_path: Path) -> pytest.Collector | None:
@@ -69,12 +145,22 @@ class DtcItem(pytest.Item):
         self.extra_keyword_matches.update(spec.tags)
 
     def runtest(self) -> None:
-        outcome = run_spec(self.spec)
+        run = self.config.stash[_RUN]
+        outcome = run_spec(self.spec, update=run.update, audit=run.audit)
+        self.user_properties.append((_VERDICT, outcome.verdict.value))
+        self.user_properties.append((_SPEC, str(self.spec.path)))
+        for line in render_updates(update_baselines([outcome], run.update)):
+            self.user_properties.append((_UPDATE, line.plain))
         if outcome.verdict is Verdict.ERROR:
             shown = outcome.error_traceback if self.config.get_verbosity() > 0 else None
             raise DtcFailedError(f"{outcome.error}\n{shown}" if shown else outcome.error)
+        failures = []
         if outcome.result is not None and not outcome.result.ok:
-            raise DtcFailedError(_failure_text(outcome.result))
+            failures.append(_failure_text(outcome.result))
+        if outcome.audit_findings:
+            failures.append(plain_text(render_audit([outcome])))
+        if failures:
+            raise DtcFailedError("\n".join(failures))
 
     def repr_failure(
         self,

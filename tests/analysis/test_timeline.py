@@ -175,13 +175,14 @@ def test_an_approved_baseline_replaces_the_recording_as_the_expected_trace(
 
 
 def test_numeric_robot_state_fields_are_sampled_every_cycle(record_probe: RecordFn) -> None:
-    timeline = build_timeline(record_probe(300))
+    log = record_probe(300)
+    timeline = build_timeline(log)
 
     assert [signal.field for signal in timeline.signals] == ["distance", "reading"]
     distance = timeline.signals[0]
     assert distance.time_ns == tuple(cycle_times(300))
     assert distance.value == tuple(distances(300))
-    assert build_timeline(record_probe(300), fields=["reading"]).signals[0].field == "reading"
+    assert build_timeline(log, fields=["reading"]).signals[0].field == "reading"
 
 
 class Moody(RobotState, kw_only=True):

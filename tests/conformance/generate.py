@@ -129,7 +129,7 @@ def write_session(path: Path, *, end: bool = True) -> None:
     """Record the format-2 session with beatlog's own writer."""
     cycles = recorded_cycles()
     with SessionLogWriter(
-        path, HEADER, flush_interval_s=FLUSH_INTERVAL_NS / 1e9, batch_cycles=4
+        path, HEADER, flush_interval_s=FLUSH_INTERVAL_NS / 1e9, batch_cycles=4, overwrite=True
     ) as writer:
         for parts in cycles:
             writer.append(*parts)

@@ -14,7 +14,7 @@ import msgspec
 import numpy as np
 import pytest
 
-from beatlog.errors import LogError
+from beatlog.errors import LogError, LogExistsError
 from beatlog.log.format import CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -189,7 +189,7 @@ def test_a_disk_full_before_the_header_is_a_log_error() -> None:
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
 def test_a_full_device_is_a_log_error_naming_it() -> None:
     with pytest.raises(LogError) as raised:
-        SessionLogWriter(Path("/dev/full"), session_header())
+        SessionLogWriter(Path("/dev/full"), session_header(), overwrite=True)
 
     assert str(raised.value) == "/dev/full: cannot write: No space left on device"
 
@@ -202,6 +202,25 @@ def test_a_path_in_a_missing_directory_is_a_log_error_naming_it(tmp_path: Path) 
 
     assert raised.value.path == path
     assert str(raised.value) == f"{path}: cannot write: No such file or directory"
+
+
+def test_an_existing_log_is_never_overwritten_unless_asked(tmp_path: Path) -> None:
+    log = tmp_path / "session.beatlog"
+    with SessionLogWriter(log, session_header()) as writer:
+        append_probe(writer, 0)
+    recorded = log.read_bytes()
+
+    with pytest.raises(LogExistsError) as raised:
+        SessionLogWriter(log, session_header())
+
+    assert str(raised.value) == (
+        f"{log}: already exists; recordings are immutable (overwrite=True replaces it)"
+    )
+    assert log.read_bytes() == recorded
+    with SessionLogWriter(log, session_header(), overwrite=True) as writer:
+        append_probe(writer, 0)
+        append_probe(writer, 1)
+    assert readings(read_all(log)[0]) == [0.0, 1.0]
 
 
 @pytest.mark.parametrize("interval", [0.0, -1.0])

@@ -5,6 +5,7 @@ from __future__ import annotations
 import errno
 import io
 import os
+import re
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -14,6 +15,7 @@ import msgspec
 import pytest
 
 from beatlog import replay
+from beatlog.errors import LogExistsError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
@@ -47,6 +49,22 @@ def test_step_returns_outputs_and_the_header_describes_the_session(tmp_path: Pat
         "reading",
     }
     assert [c.heartbeat_ns for c in cycles] == [PERIOD_NS, PERIOD_NS]
+
+
+def test_a_recording_never_replaces_an_existing_log_unless_asked(tmp_path: Path) -> None:
+    log = tmp_path / "s.beatlog"
+    with Recorder(log, probe_system(), software="first") as recorder:
+        recorder.step(PERIOD_NS, Probe())
+    first = log.read_bytes()
+
+    with pytest.raises(LogExistsError, match=re.escape(f"{log}: already exists")):
+        Recorder(log, probe_system(), software="second")
+    assert log.read_bytes() == first
+
+    with Recorder(log, probe_system(), overwrite=True, software="second") as recorder:
+        recorder.step(PERIOD_NS, Probe())
+    with SessionLogReader(log) as reader:
+        assert reader.header.software_version == "second"
 
 
 class PushRobot:

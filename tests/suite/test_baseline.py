@@ -13,8 +13,6 @@ from beatlog.errors import BaselineError
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline import (
     expected_path,
-    find_orphans,
-    in_ci,
     log_digest,
     pending_path,
     read_baseline,
@@ -116,33 +114,6 @@ def test_baseline_files_sit_beside_their_spec() -> None:
     spec = Path("specs/avoid-pole.dtc.toml")
     assert expected_path(spec) == Path("specs/avoid-pole.dtc.expected")
     assert pending_path(spec) == Path("specs/avoid-pole.dtc.pending")
-
-
-def test_orphans_are_baselines_without_a_spec(tmp_path: Path) -> None:
-    for name in ("kept.dtc.toml", "kept.dtc.expected", "gone.dtc.expected", "gone.dtc.pending"):
-        (tmp_path / "specs" / name).parent.mkdir(exist_ok=True)
-        (tmp_path / "specs" / name).write_text("", encoding="utf-8")
-    (tmp_path / "specs" / ".cache").mkdir()
-    (tmp_path / "specs" / ".cache" / "old.dtc.expected").write_text("", encoding="utf-8")
-
-    assert find_orphans([tmp_path]) == [
-        tmp_path / "specs" / "gone.dtc.expected",
-        tmp_path / "specs" / "gone.dtc.pending",
-    ]
-
-
-@pytest.mark.parametrize(
-    ("value", "ci"),
-    [(None, False), ("", False), ("0", False), ("false", False), ("true", True), ("1", True)],
-)
-def test_ci_is_recognised_from_the_environment(
-    monkeypatch: pytest.MonkeyPatch, value: str | None, *, ci: bool
-) -> None:
-    if value is None:
-        monkeypatch.delenv("CI", raising=False)
-    else:
-        monkeypatch.setenv("CI", value)
-    assert in_ci() is ci
 
 
 def _bits(value: object) -> bytes:

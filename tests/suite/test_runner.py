@@ -273,7 +273,7 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
     spec = dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
     CountingArbiter.replays = 0
 
-    outcome = run_spec(spec, update=True, timelines=True)
+    outcome = run_spec(spec, update="new", timelines=True)
 
     assert outcome.verdict is Verdict.FAILED
     assert outcome.result is not None

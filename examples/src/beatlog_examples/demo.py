@@ -14,6 +14,7 @@ from beatlog.analysis.summary import summarize
 from beatlog.record.recorder import Recorder
 from beatlog.replay.judge import replay
 from beatlog.report.console import render_replay, render_suite, render_summary
+from beatlog.report.counts import verdict_counts
 from beatlog.suite.runner import Verdict, run_suite
 from beatlog.suite.spec import discover_specs
 from beatlog_examples.dog import SUITE_DIR
@@ -39,7 +40,9 @@ def run_demo(console: Console, *, duration_s: float, out: Path) -> int:
         + "."
     )
     with (
-        Recorder(log, robot.system, robot_id="demo-dog", system_ref=SYSTEM_REF) as recorder,
+        Recorder(  # each run of the demo records its session afresh
+            log, robot.system, overwrite=True, robot_id="demo-dog", system_ref=SYSTEM_REF
+        ) as recorder,
         console.status("recording…"),
     ):
         recorder.run(robot, duration_s=duration_s)
@@ -58,8 +61,7 @@ def run_demo(console: Console, *, duration_s: float, out: Path) -> int:
     console.print(render_suite(outcomes))
     passes = sum(outcome.verdict is Verdict.PASSED for outcome in outcomes)
     cycles = sum(outcome.result.cycles for outcome in outcomes if outcome.result)
-    console.print(
-        f"{passes} passed, {len(outcomes) - passes} failed in {wall:.2f} s ({cycles:,} cycles)"
-    )
+    counts = verdict_counts(outcome.verdict for outcome in outcomes)
+    console.print(f"{counts} in {wall:.2f} s ({cycles:,} cycles)")
     console.print(f"\nThe demo log is kept at {log}; try `beatlog show {log}`.")
     return 0 if passed.ok and passes == len(outcomes) else 1

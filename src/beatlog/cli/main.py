@@ -27,13 +27,16 @@ from rich.text import Text
 from beatlog._version import __version__
 from beatlog.analysis.summary import summarize
 from beatlog.analysis.timeline import build_timeline
-from beatlog.cli.baselines import approve, report_orphans, review, write_pending
-from beatlog.errors import BeatlogError
+from beatlog.cli.baselines import approve_command, report_orphans, review, show_updates
+from beatlog.errors import BeatlogError, LogExistsError
 from beatlog.record.recorder import Recorder
 from beatlog.replay.judge import replay
 from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
+from beatlog.report.counts import verdict_counts
 from beatlog.suite.junit import write_junit
+from beatlog.suite.maintenance import update_baselines
+from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import discover_specs, select_specs
 from beatlog.usercode import load_robot
@@ -123,7 +126,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     test.add_argument(
         "--update",
-        action="store_true",
+        action="store_const",
+        const=UpdateMode.NEW,
+        default=UpdateMode.NONE,
         help="write the new state changes of failed DTCs to pending files for review",
     )
     test.add_argument(
@@ -198,22 +203,27 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 def _record(args: argparse.Namespace, console: Console) -> int:
     robot = load_robot(args.robot)
     output: Path = args.output
-    if output.exists() and not args.force:
-        raise _UsageError(f"{output}: already exists; recordings are immutable (use --force)")
     if not output.parent.is_dir():
         raise _UsageError(f"{output}: directory {output.parent} does not exist")
     interrupted = False
-    with Recorder(
-        output,
-        robot.system,
-        robot_id=args.robot_id,
-        system_ref=args.system_ref,
-        period_ns=int(args.period_ms * 1e6),
-        seed=args.seed,
-        flush_interval_s=args.flush_interval,
-        fsync=args.fsync,
-        log_samples=args.log_samples,
-    ) as recorder:
+    try:
+        recording = Recorder(
+            output,
+            robot.system,
+            overwrite=args.force,
+            robot_id=args.robot_id,
+            system_ref=args.system_ref,
+            period_ns=int(args.period_ms * 1e6),
+            seed=args.seed,
+            flush_interval_s=args.flush_interval,
+            fsync=args.fsync,
+            log_samples=args.log_samples,
+        )
+    except LogExistsError:
+        raise _UsageError(
+            f"{output}: already exists; recordings are immutable (use --force)"
+        ) from None
+    with recording as recorder:
         try:
             with _progress(console) as progress:
                 total = int(args.duration * 1e3 / args.period_ms)
@@ -335,9 +345,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     counts = Counter(outcome.verdict for outcome in outcomes)
     skipped = len(specs) - len(outcomes)
     console.print(
-        f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
-        + _plural(counts[Verdict.ERROR], "error")
-        + (f", {skipped} not run" if skipped else "")
+        verdict_counts((outcome.verdict for outcome in outcomes), not_run=skipped)
         + f" in {wall:.2f} s ({cycles:,} cycles)"
     )
     if interrupted:
@@ -350,8 +358,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
 
 def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
     """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end."""
-    if args.update:
-        write_pending(outcomes, console)
+    show_updates(update_baselines(outcomes, args.update), console)
     report_orphans(args.paths, console)
     if args.junit_xml is not None:
         try:
@@ -365,10 +372,6 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
             write_html(outcomes, args.html)
         except OSError as exc:
             raise _UsageError(f"{args.html}: cannot write: {exc.strerror}") from None
-
-
-def _plural(count: int, noun: str) -> str:
-    return f", {count} {noun}{'' if count == 1 else 's'}" if count else ""
 
 
 def _describe(outcome: SpecOutcome) -> RenderableType:
@@ -446,7 +449,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             review(args.paths, console)
             return EXIT_OK
         if args.command == "approve":
-            approve(args.paths, console)
+            approve_command(args.paths, console)
             return EXIT_OK
         if args.command == "plot":
             return _plot(args, console)

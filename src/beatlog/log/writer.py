@@ -23,7 +23,7 @@ from typing import IO, Any, Final
 import msgspec
 from mcap.writer import CompressionType, Writer
 
-from beatlog.errors import LogError
+from beatlog.errors import LogError, LogExistsError
 from beatlog.log.format import (
     CYCLES_TOPIC,
     END_TOPIC,
@@ -52,6 +52,9 @@ MAX_CYCLE_BYTES = 4 << 20
 class SessionLogWriter:
     """Writes one session log; use it as a context manager or call :meth:`close`.
 
+    :param overwrite: replace a log already at ``output``; without it an existing file
+        is left untouched and :class:`~beatlog.errors.LogExistsError` names it, since
+        recordings are immutable.
     :param flush_interval_s: a chunk is closed and flushed at least this often, in robot
         time (the ``time_ns`` given to :meth:`append`).
     :param fsync: also fsync the file at each flush (survives power loss, costs I/O).
@@ -63,6 +66,7 @@ class SessionLogWriter:
         output: str | Path | IO[bytes],
         header: SessionHeader,
         *,
+        overwrite: bool = False,
         flush_interval_s: float = 1.0,
         fsync: bool = False,
         batch_cycles: int = 256,
@@ -72,7 +76,7 @@ class SessionLogWriter:
             raise ValueError(f"flush interval must be positive, got {flush_interval_s}")
         self.path = Path(output) if isinstance(output, str | Path) else None
         _check_header(header, self.path)
-        self._file = self._open(output)
+        self._file = self._open(output, overwrite=overwrite)
         self._fsync = fsync
         self._flush_interval_ns = int(flush_interval_s * 1e9)
         self._batch_cycles = batch_cycles
@@ -119,11 +123,13 @@ class SessionLogWriter:
         self._flush()
 
     @staticmethod
-    def _open(output: str | Path | IO[bytes]) -> IO[bytes]:
+    def _open(output: str | Path | IO[bytes], *, overwrite: bool) -> IO[bytes]:
         if not isinstance(output, str | Path):
             return output
         try:
-            return open(output, "wb")
+            return open(output, "wb" if overwrite else "xb")  # x: never replace a recording
+        except FileExistsError:
+            raise LogExistsError(output) from None
         except OSError as exc:
             raise LogError(output, f"cannot write: {exc.strerror}") from None
 

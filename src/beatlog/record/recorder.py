@@ -65,6 +65,8 @@ class Recorder:
 
     :param path: the ``.beatlog`` to write, or an open binary file to write it to (left
         open when the recorder closes).
+    :param overwrite: replace a log already at ``path``; without it an existing log is
+        never touched and :class:`~beatlog.errors.LogExistsError` names it.
     :param system_ref: the ``module:factory`` that built the system, kept in the header
         so reports can print a command that replays the log.
     :param seed: seed of the random source; a fresh one from the OS when None.
@@ -76,6 +78,7 @@ class Recorder:
         path: str | Path | IO[bytes],
         system: System,
         *,
+        overwrite: bool = False,
         robot_id: str = "robot",
         system_ref: str = "",
         period_ns: int = DEFAULT_PERIOD_NS,
@@ -109,7 +112,7 @@ class Recorder:
             flush_interval_ns=int(flush_interval_s * 1e9),
         )
         self._writer = SessionLogWriter(
-            path, header, flush_interval_s=flush_interval_s, fsync=fsync
+            path, header, overwrite=overwrite, flush_interval_s=flush_interval_s, fsync=fsync
         )
 
     @property

@@ -9,6 +9,7 @@ from rich.table import Table
 from rich.text import Text
 
 from beatlog.audit.replays import AuditReport
+from beatlog.report.counts import plural
 from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["render_audit"]
@@ -29,8 +30,8 @@ def render_audit(outcomes: Sequence[SpecOutcome]) -> RenderableType:
     if problems:
         parts.append(
             Text(
-                f"determinism audit: {_count(problems, 'finding')} "
-                f"in {len(unsound)} of {_count(len(audited), 'DTC')}",
+                f"determinism audit: {plural(problems, 'finding')} "
+                f"in {len(unsound)} of {plural(len(audited), 'DTC')}",
                 style="bold yellow",
             )
         )
@@ -38,16 +39,12 @@ def render_audit(outcomes: Sequence[SpecOutcome]) -> RenderableType:
         seeds = " and ".join(str(run.hash_seed) for run in audited[0][1].runs)
         parts.append(
             Text(
-                f"determinism audit: no findings in {_count(len(audited), 'DTC')} "
+                f"determinism audit: no findings in {plural(len(audited), 'DTC')} "
                 f"(each replayed with PYTHONHASHSEED={seeds})",
                 style="green",
             )
         )
     return Group(*parts)
-
-
-def _count(count: int, noun: str) -> str:
-    return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
 def _findings(report: AuditReport) -> RenderableType:

@@ -16,6 +16,7 @@ from rich.text import Text
 from beatlog.analysis.summary import LogSummary
 from beatlog.log.format import FORMAT_VERSION
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult
+from beatlog.report.counts import plural
 from beatlog.suite.runner import SpecOutcome, Verdict
 
 __all__ = ["plain_text", "render_replay", "render_suite", "render_summary"]
@@ -153,7 +154,7 @@ def _robot_state(state: dict[str, Any], read: Sequence[str]) -> Table:
         table.add_row(name, repr(state[name]))
     if len(shown) < len(state):
         hidden = len(state) - len(shown)
-        more = f"{hidden} more field{'' if hidden == 1 else 's'} not read"
+        more = f"{plural(hidden, 'more field')} not read"
         table.add_row("", Text(more, style="dim"))
     return table
 

@@ -9,7 +9,6 @@ messages, states, values) is escaped.
 from __future__ import annotations
 
 import html
-from collections import Counter
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
@@ -19,7 +18,8 @@ from beatlog.analysis.timeline import Timeline
 from beatlog.files import replacing
 from beatlog.replay.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.chart import svg_markup
-from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.report.counts import verdict_counts
+from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["render_html", "write_html"]
 
@@ -66,7 +66,7 @@ def write_html(
 
 def render_html(outcomes: Sequence[SpecOutcome], *, title: str = "beatlog DTC report") -> str:
     """The report as a string: a summary, then a section per DTC."""
-    counts = _counts(outcomes)
+    counts = verdict_counts(outcome.verdict for outcome in outcomes)
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -86,13 +86,6 @@ def render_html(outcomes: Sequence[SpecOutcome], *, title: str = "beatlog DTC re
 def _e(value: object) -> str:
     """Escape any value for element content and quoted attributes."""
     return html.escape(str(value), quote=True)
-
-
-def _counts(outcomes: Sequence[SpecOutcome]) -> str:
-    counts = Counter(outcome.verdict for outcome in outcomes)
-    text = f"{counts[Verdict.PASSED]} passed, {counts[Verdict.FAILED]} failed"
-    errors = counts[Verdict.ERROR]
-    return text + (f", {errors} error{'' if errors == 1 else 's'}" if errors else "")
 
 
 def _cycles(outcomes: Sequence[SpecOutcome]) -> str:

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -51,9 +50,7 @@ __all__ = [
     "PENDING_SUFFIX",
     "Baseline",
     "expected_path",
-    "find_orphans",
     "format_lines",
-    "in_ci",
     "log_digest",
     "pending_path",
     "read_baseline",
@@ -101,11 +98,6 @@ def expected_path(spec: Path) -> Path:
 def pending_path(spec: Path) -> Path:
     """Where the pending (not yet approved) baseline of the spec at ``spec`` lives."""
     return spec.with_name(_base(spec) + PENDING_SUFFIX)
-
-
-def in_ci() -> bool:
-    """Whether the ``CI`` environment variable says this is a CI run (baselines stay put)."""
-    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
 
 
 def log_digest(log: Path) -> str:
@@ -271,18 +263,3 @@ def _expect(text: str, position: int, separator: str) -> int:
     if not text.startswith(separator, position):
         raise ValueError(f"expected {separator.strip()!r} at column {position + 1}")
     return position + len(separator)
-
-
-def find_orphans(folders: Iterable[Path]) -> list[Path]:
-    """Expected and pending files under ``folders`` whose spec no longer exists."""
-    orphans: set[Path] = set()
-    for folder in folders:
-        if not folder.is_dir():
-            continue
-        for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
-            for path in folder.rglob(f"*{suffix}"):
-                hidden = any(p.startswith(".") for p in path.relative_to(folder).parts[:-1])
-                spec = path.with_name(path.name[: -len(suffix)] + SPEC_SUFFIX)
-                if path.is_file() and not hidden and not spec.is_file():
-                    orphans.add(path)
-    return sorted(orphans)

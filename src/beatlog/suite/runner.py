@@ -23,6 +23,7 @@ from beatlog.errors import BaselineError, BeatlogError
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
+from beatlog.suite.policy import UpdateMode
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import load_system
 
@@ -52,7 +53,8 @@ class SpecOutcome:
     baseline: Path | None = None
     """The approved baseline judged against, when there is one."""
     update: Expectation | None = None
-    """The new expected state changes and outputs, when asked to update and the DTC failed."""
+    """The new expected state changes and outputs, when run in :attr:`UpdateMode.NEW` and
+    the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
@@ -77,13 +79,19 @@ _UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
 
 
 def run_spec(
-    spec: DtcSpec, *, update: bool = False, audit: bool = False, timelines: bool = False
+    spec: DtcSpec,
+    *,
+    update: UpdateMode | str = UpdateMode.NONE,
+    audit: bool = False,
+    timelines: bool = False,
 ) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one. With ``update`` a failure also traces the new state changes and
-    outputs, with ``audit`` its determinism is audited, with ``timelines`` what it did
+    if it has one. In :attr:`UpdateMode.NEW` a failure also traces the new state
+    changes and outputs (nothing is written here: see :mod:`beatlog.suite.maintenance`),
+    with ``audit`` its determinism is audited, with ``timelines`` what it did
     is charted; the outcome's wall time is the replay's alone. The result's reproduce
     command is ``beatlog test SPEC``, which judges exactly as this run did."""
+    update = UpdateMode.parse(update)
     started = time.perf_counter()
     baseline = expected_path(spec.path)
     try:
@@ -106,14 +114,15 @@ def run_spec(
         )
         wall = time.perf_counter() - started
         divergence = result.divergence
-        refused = _refusal(divergence) if update and divergence is not None else None
+        updating = update is UpdateMode.NEW and divergence is not None
+        refused = _refusal(divergence) if updating and divergence is not None else None
         details = Details()
         if divergence is not None or timelines:
             details = replay_details(
                 spec.log,
                 load_system(spec.system),
                 divergence,
-                trace=update and divergence is not None and refused is None,
+                trace=updating and refused is None,
                 timelines=timelines,
                 expected=None if expected is None else expected.changes_by_cycle(),
             )
@@ -174,7 +183,7 @@ def run_suite(
     *,
     jobs: int = 1,
     fail_fast: bool = False,
-    update: bool = False,
+    update: UpdateMode | str = UpdateMode.NONE,
     audit: bool = False,
     timelines: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
@@ -182,11 +191,12 @@ def run_suite(
     """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
 
     With ``fail_fast`` the first failure or error cancels the specs not yet started.
-    With ``update`` each failure carries its new expectation (nothing is
-    written here: see :mod:`beatlog.suite.baseline`); with ``audit`` each worker also
+    In :attr:`UpdateMode.NEW` each failure carries its new expectation (nothing is
+    written here: see :mod:`beatlog.suite.maintenance`); with ``audit`` each worker also
     audits its spec's determinism; with ``timelines`` it
     builds its DTC's timelines for charts.
     """
+    update = UpdateMode.parse(update)
     outcomes: dict[Path, SpecOutcome] = {}
 
     def done(outcome: SpecOutcome) -> bool:

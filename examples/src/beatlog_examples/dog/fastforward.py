@@ -62,6 +62,7 @@ def record_fast(
     scenario: Scenario,
     *,
     intervals: Sequence[int],
+    overwrite: bool = False,
     seed: int = 0,
     duration_s: float | None = None,
     behaviors: System | None = None,
@@ -70,6 +71,7 @@ def record_fast(
     """Record ``scenario`` (for ``duration_s``, default its own) without waiting.
 
     :param intervals: measured live heartbeat intervals (ns) to draw HB_t from.
+    :param overwrite: replace a log already at ``path`` (recordings are immutable).
     """
     if not intervals:
         raise ValueError("fast-forward needs measured heartbeat intervals to draw from")
@@ -91,6 +93,7 @@ def record_fast(
     with Recorder(
         path,
         behaviors if behaviors is not None else system(),
+        overwrite=overwrite,
         robot_id="dog-fastforward",
         system_ref=SYSTEM_REF,
         seed=seed,

@@ -7,8 +7,9 @@
     python -m beatlog_examples.dog.record_suite some/folder      # somewhere else
 
 Each test case gets its session log ``NAME.beatlog`` and its spec ``NAME.dtc.toml``
-(name, purpose, the scenario's procedure, log, system, tags). Recording takes as long
-as the sessions last (about 15 minutes for the whole suite).
+(name, purpose, the scenario's procedure, log, system, tags); a log already there is
+replaced, as re-recording means. Recording takes as long as the sessions last (about
+15 minutes for the whole suite).
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for scenario in chosen:
         log = folder / f"{scenario.name}.beatlog"
         print(f"recording {scenario.name} ({scenario.duration_s:g} s) ...", flush=True)
-        summary = record_live(log, scenario, seed=args.seed)
+        summary = record_live(log, scenario, overwrite=True, seed=args.seed)
         (folder / f"{scenario.name}{SPEC_SUFFIX}").write_text(
             spec_text(scenario, log.name), encoding="utf-8"
         )

@@ -179,10 +179,14 @@ def record_live(
     path: str | Path,
     scenario: Scenario,
     *,
+    overwrite: bool = False,
     seed: int | None = None,
     on_cycle: Callable[[int], Any] | None = None,
 ) -> RecordSummary:
-    """Record a scenario in real time on the live 30 ms heartbeat."""
+    """Record a scenario in real time on the live 30 ms heartbeat; ``overwrite`` replaces
+    a log already at ``path`` (recordings are immutable)."""
     dog = DogRobot(scenario, seed=seed)
-    with Recorder(path, dog.system, robot_id="dog", system_ref=SYSTEM_REF, seed=seed) as recorder:
+    with Recorder(
+        path, dog.system, overwrite=overwrite, robot_id="dog", system_ref=SYSTEM_REF, seed=seed
+    ) as recorder:
         return recorder.run(dog, duration_s=scenario.duration_s, on_cycle=on_cycle)

@@ -140,6 +140,7 @@ def record_lockstep(
     path: str | Path,
     *,
     duration_s: float,
+    overwrite: bool = False,
     seed: int = 0,
     period_ns: int = DEFAULT_PERIOD_NS,
     behaviors: System | None = None,
@@ -149,6 +150,7 @@ def record_lockstep(
 
     Heartbeat intervals are the period plus Gaussian jitter (0.2 ms) and an occasional
     late beat, like a loaded OS; sensors sample at their own rates in world time.
+    ``overwrite`` replaces a log already at ``path`` (recordings are immutable).
     """
     rng = np.random.default_rng(seed)
     world = World()
@@ -160,6 +162,7 @@ def record_lockstep(
     with Recorder(
         path,
         chosen,
+        overwrite=overwrite,
         robot_id="rover-lockstep",
         system_ref="beatlog_examples.rover:system",
         period_ns=period_ns,

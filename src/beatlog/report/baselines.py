@@ -1,0 +1,74 @@
+"""The re-baselining workflow for people: what an update did, orphaned baselines, and a
+pending expectation as a coloured diff. Lines only; the CLI and the pytest plugin show them."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+from rich.console import Group, RenderableType
+from rich.rule import Rule
+from rich.text import Text
+
+from beatlog.suite.baseline import pending_path
+from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
+
+__all__ = ["render_orphans", "render_pending_diff", "render_updates"]
+
+_DIFF_STYLES = {"+": "green", "-": "red", "@": "cyan"}
+
+
+def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
+    """One line per pending file written, refused or removed, saying how to go on; one
+    line for all the failures whose expectation ``CI`` withheld."""
+    lines: list[Text] = []
+    if any(update.action is UpdateAction.WITHHELD for update in updates):
+        lines.append(Text("CI is set: no pending baselines written", style="yellow"))
+    for update in updates:
+        spec = update.spec
+        if update.action is UpdateAction.WRITTEN:
+            lines.append(
+                Text.assemble(
+                    ("pending", "cyan"),
+                    f" {update.path} ({update.state_changes} state changes, "
+                    f"{update.output_changes} output changes): review with ",
+                    (f"beatlog review {spec.path}", "bold"),
+                    ", accept with ",
+                    (f"beatlog approve {spec.path}", "bold"),
+                )
+            )
+        elif update.action is UpdateAction.REFUSED:
+            lines.append(Text.assemble(("not updated", "yellow"), f" {spec.name}: {update.reason}"))
+        elif update.action is UpdateAction.REMOVED:
+            lines.append(
+                Text.assemble(("removed stale", "cyan"), f" {update.path}: {spec.name} passes")
+            )
+    return lines
+
+
+def render_orphans(orphans: Iterable[Path]) -> list[Text]:
+    """One line per expected or pending file whose spec is gone."""
+    return [
+        Text.assemble(("orphaned baseline", "yellow"), f" {orphan}: no spec beside it; delete it")
+        for orphan in orphans
+    ]
+
+
+def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> RenderableType:
+    """The pending expectation against today's, at most ``max_lines`` lines of diff."""
+    spec = diff.spec
+    parts: list[RenderableType] = [
+        Rule(f"{spec.name} ({spec.path})"),
+        Text(f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} pending"),
+    ]
+    parts.extend(
+        Text(line, style=_DIFF_STYLES.get(line[:1], "")) for line in diff.lines[:max_lines]
+    )
+    if len(diff.lines) > max_lines:
+        parts.append(
+            Text(
+                f"… {len(diff.lines) - max_lines} more diff lines: read {pending_path(spec.path)}",
+                style="dim",
+            )
+        )
+    return Group(*parts)

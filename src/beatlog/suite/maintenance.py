@@ -1,0 +1,229 @@
+"""The re-baselining workflow: update, review, approve, and the orphans left behind.
+
+A run in :attr:`UpdateMode.NEW <beatlog.suite.policy.UpdateMode.NEW>` writes each
+failing DTC's new expectation to its pending file (:func:`update_baselines`); a
+reviewer reads it as a diff (:func:`pending_diff`) and decides (:func:`decide`), or
+accepts everything pending at once (:func:`approve`). An accepted baseline is never
+overwritten by a failure, a pending file must come from the recording the spec names,
+and nothing is written when ``CI`` is set. These functions write files and return
+what they did; they never print: the CLI and the pytest plugin render the results.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+
+from beatlog.analysis.trace import TracedChange, recorded_outputs, recorded_trace
+from beatlog.errors import BaselineError, OptionError
+from beatlog.suite.baseline import (
+    EXPECTED_SUFFIX,
+    PENDING_SUFFIX,
+    expected_path,
+    format_lines,
+    log_digest,
+    pending_path,
+    read_baseline,
+    write_baseline,
+)
+from beatlog.suite.policy import UpdateMode, in_ci, require_writable
+from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs
+
+__all__ = [
+    "Decision",
+    "PendingDiff",
+    "PendingUpdate",
+    "UpdateAction",
+    "approve",
+    "decide",
+    "find_orphans",
+    "pending_diff",
+    "pending_specs",
+    "update_baselines",
+]
+
+
+class UpdateAction(StrEnum):
+    """What updating did with one DTC's pending baseline."""
+
+    WRITTEN = "written"
+    """The failure's new expectation went to its pending file."""
+    WITHHELD = "withheld"
+    """The failure has a new expectation, but ``CI`` is set: nothing was written."""
+    REFUSED = "refused"
+    """The divergence cannot be re-baselined (the session must be re-recorded)."""
+    REMOVED = "removed"
+    """The DTC passes again: its stale pending file was deleted."""
+
+
+@dataclass(frozen=True)
+class PendingUpdate:
+    """One DTC's pending baseline after an update: what was done and to which file."""
+
+    spec: DtcSpec
+    action: UpdateAction
+    path: Path
+    """The pending file."""
+    state_changes: int = 0
+    """State changes in the expectation written (or withheld)."""
+    output_changes: int = 0
+    """Output changes in the expectation written (or withheld)."""
+    reason: str | None = None
+    """Why the update was refused."""
+
+
+def update_baselines(
+    outcomes: Iterable[SpecOutcome], mode: UpdateMode | str
+) -> list[PendingUpdate]:
+    """Apply an update mode to a suite's outcomes; what was done, in outcome order.
+
+    In :attr:`UpdateMode.NEW` every failure that carries a new expectation (the suite
+    was run in that mode) gets it written to its pending file, and a passing DTC's
+    stale pending file is removed; accepted baselines are never touched. In
+    :attr:`UpdateMode.NONE` nothing is done. When ``CI`` is set nothing is written:
+    each failure whose new expectation was traced is reported
+    :attr:`UpdateAction.WITHHELD`.
+    """
+    if UpdateMode.parse(mode) is UpdateMode.NONE:
+        return []
+    done: list[PendingUpdate] = []
+    ci = in_ci()
+    for outcome in outcomes:
+        spec, update = outcome.spec, outcome.update
+        pending = pending_path(spec.path)
+        if update is not None:
+            counts = len(update.changes), len(update.outputs or ())
+            if ci:
+                done.append(PendingUpdate(spec, UpdateAction.WITHHELD, pending, *counts))
+                continue
+            write_baseline(pending, spec_name=spec.name, log=spec.log, expectation=update)
+            done.append(PendingUpdate(spec, UpdateAction.WRITTEN, pending, *counts))
+        elif ci:
+            continue
+        elif outcome.update_refused is not None:
+            done.append(
+                PendingUpdate(spec, UpdateAction.REFUSED, pending, reason=outcome.update_refused)
+            )
+        elif outcome.verdict is Verdict.PASSED and pending.exists():
+            pending.unlink()
+            done.append(PendingUpdate(spec, UpdateAction.REMOVED, pending))
+    return done
+
+
+class Decision(StrEnum):
+    """A reviewer's answer about one pending baseline."""
+
+    ACCEPT = "accept"
+    """The pending expectation becomes the approved baseline."""
+    REJECT = "reject"
+    """The pending file is deleted; the approved baseline, if any, stays."""
+    SKIP = "skip"
+    """Left pending, to decide later."""
+
+    @classmethod
+    def parse(cls, value: Decision | str) -> Decision:
+        """The decision named by ``value``; anything else raises :class:`OptionError`
+        listing the decisions there are."""
+        try:
+            return cls(value)
+        except ValueError:
+            valid = ", ".join(repr(decision.value) for decision in cls)
+            raise OptionError(f"unknown decision {value!r}: choose one of {valid}") from None
+
+
+def pending_specs(paths: Sequence[Path]) -> list[DtcSpec]:
+    """The specs given, or found in the folders given, that have a pending baseline."""
+    return [spec for spec in discover_specs(paths) if pending_path(spec.path).exists()]
+
+
+def decide(spec: DtcSpec, decision: Decision | str) -> None:
+    """Accept or reject the pending baseline of ``spec``, or leave it (skip).
+
+    Accepting checks the pending file first: a damaged one, or one made from another
+    recording than the spec's, raises :class:`BaselineError` and changes nothing.
+    Accepting or rejecting raises :class:`~beatlog.errors.CiWriteError` when ``CI`` is set.
+    """
+    decision = Decision.parse(decision)
+    if decision is Decision.SKIP:
+        return
+    require_writable()
+    pending = pending_path(spec.path)
+    if decision is Decision.REJECT:
+        pending.unlink()
+        return
+    baseline = read_baseline(pending)  # a damaged pending file must not become the baseline
+    if baseline.log_digest != log_digest(spec.log):
+        raise BaselineError(pending, f"made from another recording than {spec.log.name}")
+    pending.replace(expected_path(spec.path))
+
+
+def approve(paths: Sequence[Path]) -> list[DtcSpec]:
+    """Accept the pending baseline of every spec given (or found in the folders given);
+    the specs approved. Nothing pending is a :class:`BaselineError`, ``CI`` set a
+    :class:`~beatlog.errors.CiWriteError`."""
+    require_writable()
+    waiting = pending_specs(paths)
+    if not waiting:
+        where = paths[0] if len(paths) == 1 else Path(" ".join(str(path) for path in paths))
+        raise BaselineError(where, "nothing pending to approve (run 'beatlog test --update' first)")
+    for spec in waiting:
+        decide(spec, Decision.ACCEPT)
+    return waiting
+
+
+@dataclass(frozen=True)
+class PendingDiff:
+    """A pending expectation as a unified diff against today's: approved, else recorded."""
+
+    spec: DtcSpec
+    source: str
+    """What the pending file is compared with, e.g. ``recorded (NAME.beatlog)``."""
+    old_lines: int
+    """State and output changes today."""
+    new_lines: int
+    """State and output changes pending."""
+    lines: tuple[str, ...]
+    """The diff: changed cycles with a line of context either side."""
+
+
+def pending_diff(spec: DtcSpec) -> PendingDiff:
+    """Compare the pending baseline of ``spec`` with its approved one, or with its
+    recording when none is approved yet. State changes and output changes interleave
+    by cycle, as baseline files hold them."""
+    expected = expected_path(spec.path)
+    if expected.exists():
+        approved = read_baseline(expected)
+        old = format_lines(approved.changes, approved.outputs)
+        source = f"approved ({expected.name})"
+        if approved.outputs is None:
+            source += ", no outputs pinned"
+    else:
+        renamed = spec.comparison.renamed
+        old = format_lines(
+            (TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(spec.log)),
+            recorded_outputs(spec.log),
+        )
+        source = f"recorded ({spec.log.name})"
+    pending = read_baseline(pending_path(spec.path))
+    new = format_lines(pending.changes, pending.outputs)
+    diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
+    return PendingDiff(spec, source, len(old), len(new), tuple(diff))
+
+
+def find_orphans(folders: Iterable[Path]) -> list[Path]:
+    """Expected and pending files under ``folders`` whose spec no longer exists."""
+    orphans: set[Path] = set()
+    for folder in folders:
+        if not folder.is_dir():
+            continue
+        for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
+            for path in folder.rglob(f"*{suffix}"):
+                hidden = any(p.startswith(".") for p in path.relative_to(folder).parts[:-1])
+                spec = path.with_name(path.name[: -len(suffix)] + SPEC_SUFFIX)
+                if path.is_file() and not hidden and not spec.is_file():
+                    orphans.add(path)
+    return sorted(orphans)
