@@ -68,6 +68,11 @@ def distances(cycles: int) -> list[float]:
     return [abs(((t % 100) - 50) / 50) for t in range(cycles)]
 
 
+def first_cycle_below(threshold: float, cycles: int = 300) -> int:
+    """The first cycle where the distance profile drops below ``threshold``."""
+    return next(t for t, d in enumerate(distances(cycles)) if d < threshold)
+
+
 RecordFn = Callable[..., Path]
 
 

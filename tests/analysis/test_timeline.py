@@ -24,8 +24,17 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog.replay.verdict import DivergenceKind, StateChange
-from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, distances, probe_system
-from tests.replay.test_judge import Fragile, first_cycle_below
+from tests.conftest import (
+    PERIOD_NS,
+    Near,
+    Probe,
+    RecordFn,
+    distances,
+    first_cycle_below,
+    probe_system,
+)
+from tests.specs import CHANGED
+from tests.systems import Fragile
 
 
 def cycle_times(cycles: int) -> list[int]:
@@ -254,7 +263,7 @@ def test_a_window_keeps_only_that_stretch_of_robot_time(record_probe: RecordFn) 
     divergence = replay(log, probe_system(threshold=0.6)).divergence
     assert divergence is not None
 
-    close_up, whole = report_timelines(log, "tests.suite.test_spec:changed_probe", divergence)
+    close_up, whole = report_timelines(log, CHANGED, divergence)
 
     assert whole.start_ns == 0
     assert close_up.start_ns == max(divergence.time_ns - CLOSE_UP_NS, 0)

@@ -14,9 +14,9 @@ from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite import runner
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
-from tests.audit.audit_fixtures import leaks, leaky_system, record_session
 from tests.conftest import RecordFn
-from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.systems import leaks, leaky_system, record_session
 
 
 @pytest.fixture
@@ -226,7 +226,7 @@ def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> No
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
     specs = tmp_path / "specs"
     suite = [
-        dtc(specs, "leaky", leaky_log, "tests.audit.audit_fixtures:leaky_system"),
+        dtc(specs, "leaky", leaky_log, "tests.systems:leaky_system"),
         dtc(specs, "probe", log),
         dtc(specs, "lost", tmp_path / "lost.beatlog"),
     ]
