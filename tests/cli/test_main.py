@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import itertools
 import json
 import shutil
@@ -23,16 +22,6 @@ from tests.factories import session_header
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
-
-
-@pytest.fixture
-def record_chunked(record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch) -> RecordFn:
-    """Like ``record_probe``, but with a chunk every 10 cycles, so a cut keeps most cycles."""
-    monkeypatch.setattr(
-        "beatlog.record.recorder.SessionLogWriter",
-        functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
-    )
-    return record_probe
 
 
 # replay

@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 import concurrent.futures
-import functools
 from collections.abc import Iterable
 from pathlib import Path
 
 import pytest
 
-from beatlog.log.writer import SessionLogWriter
 from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite import runner
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
@@ -83,14 +81,10 @@ def test_a_system_that_cannot_be_imported_is_an_error(tmp_path: Path, log: Path)
 
 
 def test_a_truncated_log_passes_only_when_the_spec_allows_it(
-    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, record_chunked: RecordFn
 ) -> None:
     """A log cut off mid-session (the robot lost power) keeps its complete cycles."""
-    monkeypatch.setattr(
-        "beatlog.record.recorder.SessionLogWriter",
-        functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
-    )
-    log = record_probe(300)
+    log = record_chunked(300)
     data = log.read_bytes()
     log.write_bytes(data[: len(data) // 2])
 
