@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import pytest
 
+from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
@@ -68,6 +70,11 @@ def distances(cycles: int) -> list[float]:
     return [abs(((t % 100) - 50) / 50) for t in range(cycles)]
 
 
+def first_cycle_below(threshold: float, cycles: int = 300) -> int:
+    """The first cycle where the distance profile drops below ``threshold``."""
+    return next(t for t, d in enumerate(distances(cycles)) if d < threshold)
+
+
 RecordFn = Callable[..., Path]
 
 
@@ -98,6 +105,16 @@ def record_probe(tmp_path: Path) -> RecordFn:
         return path
 
     return record
+
+
+@pytest.fixture
+def record_chunked(record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch) -> RecordFn:
+    """Like ``record_probe``, but with a chunk every 10 cycles, so a cut keeps most cycles."""
+    monkeypatch.setattr(
+        "beatlog.record.recorder.SessionLogWriter",
+        functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
+    )
+    return record_probe
 
 
 def probe_system_changed() -> PriorityArbiter[Probe]:

@@ -9,8 +9,8 @@ import pytest
 
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog_examples.rover import record_lockstep
-from tests.audit.audit_fixtures import leaks, leaky_system, record_session
 from tests.conftest import RecordFn
+from tests.systems import leaks, leaky_system, record_session
 
 
 def spec_text(name: str, log: Path, system: str = "tests.conftest:probe_system") -> str:
@@ -149,7 +149,7 @@ def test_audit_fails_a_dtc_whose_behaviors_leak_and_passes_a_sound_one(
     pytester: pytest.Pytester, log: Path, tmp_path: Path
 ) -> None:
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
-    leaky = "tests.audit.audit_fixtures:leaky_system"
+    leaky = "tests.systems:leaky_system"
     pytester.makefile(".dtc.toml", leaky=spec_text("leaky", leaky_log, leaky))
     pytester.makefile(".dtc.toml", steady=spec_text("steady", log))
 

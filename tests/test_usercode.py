@@ -3,12 +3,20 @@ the reference and the cause, with the user's traceback kept for ``--verbose``.""
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 
 import pytest
 
+import beatlog
 from beatlog.errors import SystemLoadError
-from beatlog.usercode import load_factory, load_robot, load_system
+from beatlog.model.behavior import PriorityArbiter
+from beatlog.model.context import Context, Outputs
+from beatlog.model.random import RecordingRandom
+from beatlog.usercode import failure_site, load_factory, load_robot, load_system, user_traceback
+from tests.conftest import Probe
+
+LIBRARY = str(Path(beatlog.__file__).parent)
 
 
 def write_module(directory: Path, name: str, source: str) -> Path:
@@ -89,7 +97,7 @@ def test_the_users_traceback_is_kept_without_beatlogs_frames(
     assert kept is not None
     assert kept.startswith("Traceback (most recent call last):\n")
     assert f'File "{path}", line' in kept
-    assert "beatlog/engine" not in kept
+    assert LIBRARY not in kept
     assert "importlib" not in kept
 
 
@@ -134,3 +142,62 @@ def test_a_system_is_not_a_robot() -> None:
 
     with pytest.raises(SystemLoadError, match=f"^'{reference}': built a PriorityArbiter, not a"):
         load_robot(reference)
+
+
+class Stumbling:
+    """A user's behavior that raises when stepped; beatlog's arbiter calls it."""
+
+    name = "stumbling"
+    state = "upright"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        raise ZeroDivisionError("stumbled")
+
+
+def raised_through_beatlog() -> ZeroDivisionError:
+    """The exception of a user's behavior, raised through beatlog's arbiter."""
+    system = PriorityArbiter([Stumbling()], robot_state=Probe)
+    try:
+        system.update(Probe(), Context(RecordingRandom(seed=1)))
+    except ZeroDivisionError as exc:
+        return exc
+    raise AssertionError("the behavior did not raise")
+
+
+def test_the_user_traceback_leaves_out_beatlogs_frames() -> None:
+    exc = raised_through_beatlog()
+    line = inspect.getsourcelines(Stumbling.step)[1] + 1
+
+    kept = user_traceback(exc)
+
+    assert kept.startswith("Traceback (most recent call last):\n")
+    assert f'File "{__file__}", line {line}, in step' in kept
+    assert "in raised_through_beatlog" in kept
+    assert LIBRARY not in kept
+    assert kept.endswith("ZeroDivisionError: stumbled\n")
+
+
+def test_the_failure_site_is_the_innermost_frame_of_the_users_code() -> None:
+    exc = raised_through_beatlog()
+    line = inspect.getsourcelines(Stumbling.step)[1] + 1
+
+    assert failure_site(exc) == f"line {line} of {__file__}"
+
+
+def test_the_failure_site_of_a_syntax_error_is_where_the_error_is(tmp_path: Path) -> None:
+    path = write_module(tmp_path, "broken_robot", "x = 1\ndef system(:\n")
+
+    with pytest.raises(SyntaxError) as caught:
+        compile(path.read_text(), str(path), "exec")
+
+    assert failure_site(caught.value) == f"line 2 of {path}"
+
+
+def test_an_exception_never_raised_has_no_failure_site() -> None:
+    exc = RuntimeError("made, not raised")
+
+    assert failure_site(exc) is None
+    assert (
+        user_traceback(exc)
+        == "Traceback (most recent call last):\nRuntimeError: made, not raised\n"
+    )

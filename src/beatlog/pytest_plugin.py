@@ -66,7 +66,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     )
 
 
-@dataclass
+@dataclass(eq=False)  # registered as a plugin: pluggy keeps plugins in sets
 class BeatlogRun:
     """What this pytest run asks of its DTCs, and what they did, for the terminal summary."""
 

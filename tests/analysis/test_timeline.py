@@ -24,8 +24,16 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog.replay.verdict import DivergenceKind, StateChange
-from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, distances, probe_system
-from tests.replay.test_judge import Fragile, first_cycle_below
+from tests.conftest import (
+    PERIOD_NS,
+    Near,
+    Probe,
+    RecordFn,
+    distances,
+    first_cycle_below,
+    probe_system,
+)
+from tests.systems import Fragile
 
 
 def cycle_times(cycles: int) -> list[int]:

@@ -19,6 +19,7 @@ from beatlog.analysis.trace import (
 )
 from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
+from tests.specs import CHANGED
 
 
 def test_replaying_the_recorded_system_gives_the_recorded_trace(record_probe: RecordFn) -> None:
@@ -64,7 +65,7 @@ def test_the_fields_read_in_a_cycle_are_named_in_order(record_probe: RecordFn) -
 
 
 def test_a_diverging_replay_by_reference_names_the_fields_read(record_probe: RecordFn) -> None:
-    result = replay(record_probe(300), "tests.suite.test_spec:changed_probe")
+    result = replay(record_probe(300), CHANGED)
     assert result.divergence is not None
     assert result.divergence.fields_read == ("distance",)
 

@@ -15,8 +15,8 @@ import beatlog
 from beatlog.audit.leaks import Finding, LeakWatch
 from beatlog.model.context import Context
 from beatlog.model.random import RecordingRandom
-from tests.audit.audit_fixtures import Disciplined, Leaky, leaks
 from tests.conftest import Probe, RecordFn, probe_system
+from tests.systems import Disciplined, Leaky, leaks
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ from beatlog.audit.replays import AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
 from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
-from tests.audit.audit_fixtures import (
+from tests.systems import (
     HEADINGS,
     leaks,
     leaky_system,
@@ -22,7 +22,7 @@ from tests.audit.audit_fixtures import (
     scripted_system,
 )
 
-FIXTURES = "tests.audit.audit_fixtures"
+SYSTEMS = "tests.systems"
 
 
 def set_order(hash_seed: int) -> list[str]:
@@ -40,7 +40,7 @@ def set_order(hash_seed: int) -> list[str]:
 def test_every_leak_is_a_finding_with_its_site_and_count(tmp_path: Path) -> None:
     log = record_session(tmp_path / "leaky.beatlog", leaky_system(), cycles=20)
 
-    report = audit(log, f"{FIXTURES}:leaky_system")
+    report = audit(log, f"{SYSTEMS}:leaky_system")
 
     assert report.findings == tuple(Finding(call, site, 20) for call, site in leaks())
     assert [(run.hash_seed, run.ok, run.cycles) for run in report.runs] == [
@@ -77,7 +77,7 @@ def test_a_replay_that_passes_under_one_hash_seed_only_depends_on_it(tmp_path: P
     differs = next(cycle for cycle, (a, b) in enumerate(zip(one, two, strict=True)) if a != b)
     log = record_session(tmp_path / "unordered.beatlog", scripted_system(one))
 
-    report = audit(log, f"{FIXTURES}:unordered_system")
+    report = audit(log, f"{SYSTEMS}:unordered_system")
 
     assert report.hash_seed_dependence == (
         "the replay depends on the hash seed: PYTHONHASHSEED=1 passed, "
@@ -94,7 +94,7 @@ def test_replays_that_diverge_alike_are_still_compared_cycle_by_cycle(tmp_path: 
     neither = [*one[:differs], "sideways", *one[differs + 1 :]]
     log = record_session(tmp_path / "unordered.beatlog", scripted_system(neither))
 
-    report = audit(log, f"{FIXTURES}:unordered_system")
+    report = audit(log, f"{SYSTEMS}:unordered_system")
 
     assert [run.describe() for run in report.runs] == [
         f"diverged at cycle {differs} (state changes)"
@@ -107,11 +107,11 @@ def test_replays_that_diverge_alike_are_still_compared_cycle_by_cycle(tmp_path: 
 
 def test_bad_input_is_a_beatlog_error_naming_the_file(tmp_path: Path) -> None:
     with pytest.raises(BeatlogError, match=f"^{tmp_path / 'lost.beatlog'}: no such file"):
-        audit(tmp_path / "lost.beatlog", f"{FIXTURES}:leaky_system")
+        audit(tmp_path / "lost.beatlog", f"{SYSTEMS}:leaky_system")
 
 
 def test_a_replay_that_dies_is_a_loud_error(tmp_path: Path) -> None:
     log = record_session(tmp_path / "leaky.beatlog", leaky_system())
 
     with pytest.raises(RuntimeError, match=r"PYTHONHASHSEED=1 crashed \(exit 70\)"):
-        audit(log, f"{FIXTURES}:exiting_system")
+        audit(log, f"{SYSTEMS}:exiting_system")

@@ -9,42 +9,14 @@ import pytest
 from rich.console import Console
 
 from beatlog.cli.baselines import review
-from beatlog.model.behavior import PriorityArbiter
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
-from tests.cli.test_main import Run, assert_one_line_error
-from tests.cli.test_test_command import BeatlogTest
-from tests.conftest import Probe, RecordFn, probe_system
-from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.commands import Beatlog, assert_one_line_error
+from tests.conftest import RecordFn
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
-FARTHER = "tests.cli.test_baselines:farther_probe"
+AGAIN = "tests.systems:probe_system_changed_again"
 
-
-def farther_probe() -> PriorityArbiter[Probe]:
-    """A second intended change on top of CHANGED: near reacts earlier still."""
-    return probe_system(0.7)
-
-
-@pytest.fixture(autouse=True)
-def not_ci_and_wide(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.delenv("CI", raising=False)
-    monkeypatch.setenv("COLUMNS", "200")
-    monkeypatch.delenv("FORCE_COLOR", raising=False)
-
-
-@pytest.fixture
-def beatlog(capsys: pytest.CaptureFixture[str]) -> BeatlogTest:
-    """Any ``beatlog`` command, in process (``test`` with one worker)."""
-    from beatlog.cli.main import main  # noqa: PLC0415
-
-    def run(*args: str | Path) -> Run:
-        argv = [str(arg) for arg in args]
-        if argv[0] == "test":
-            argv[1:1] = ["-j", "1"]
-        code = main(argv)
-        captured = capsys.readouterr()
-        return Run(code, captured.out, captured.err)
-
-    return run
+pytestmark = pytest.mark.usefixtures("outside_ci", "wide_plain_console")
 
 
 @pytest.fixture
@@ -54,7 +26,7 @@ def spec(tmp_path: Path, record_probe: RecordFn) -> Path:
 
 
 def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
-    beatlog: BeatlogTest, spec: Path
+    beatlog: Beatlog, spec: Path
 ) -> None:
     updated = beatlog("test", "--update", spec)
     assert updated.code == 1
@@ -74,13 +46,11 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
     assert "passed (approved baseline)" in rerun.out
 
 
-def test_a_failing_run_never_overwrites_the_accepted_baseline(
-    beatlog: BeatlogTest, spec: Path
-) -> None:
+def test_a_failing_run_never_overwrites_the_accepted_baseline(beatlog: Beatlog, spec: Path) -> None:
     beatlog("test", "--update", spec)
     beatlog("approve", spec)
     accepted = expected_path(spec).read_bytes()
-    write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog", FARTHER)
+    write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog", AGAIN)
 
     failed = beatlog("test", "--update", spec)
 
@@ -91,7 +61,7 @@ def test_a_failing_run_never_overwrites_the_accepted_baseline(
 
 
 def test_nothing_is_written_when_ci_is_set(
-    beatlog: BeatlogTest, spec: Path, monkeypatch: pytest.MonkeyPatch
+    beatlog: Beatlog, spec: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("CI", "true")
 
@@ -109,7 +79,7 @@ def test_nothing_is_written_when_ci_is_set(
 
 
 def test_a_stale_pending_file_goes_when_the_dtc_passes(
-    beatlog: BeatlogTest, spec: Path, record_probe: RecordFn
+    beatlog: Beatlog, spec: Path, record_probe: RecordFn
 ) -> None:
     beatlog("test", "--update", spec)
     write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog")  # change undone
@@ -121,14 +91,12 @@ def test_a_stale_pending_file_goes_when_the_dtc_passes(
     assert not pending_path(spec).exists()
 
 
-def test_approve_without_anything_pending_is_a_usage_error(
-    beatlog: BeatlogTest, spec: Path
-) -> None:
+def test_approve_without_anything_pending_is_a_usage_error(beatlog: Beatlog, spec: Path) -> None:
     assert_one_line_error(beatlog("approve", spec), str(spec), "nothing pending to approve")
 
 
 def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
-    beatlog: BeatlogTest, spec: Path
+    beatlog: Beatlog, spec: Path
 ) -> None:
     beatlog("test", "--update", spec)
 
@@ -146,7 +114,7 @@ def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
 
 @pytest.mark.parametrize(("answer", "accepted"), [("accept", True), ("reject", False)])
 def test_review_accepts_or_rejects_what_the_reviewer_says(
-    beatlog: BeatlogTest, spec: Path, answer: str, *, accepted: bool
+    beatlog: Beatlog, spec: Path, answer: str, *, accepted: bool
 ) -> None:
     beatlog("test", "--update", spec)
     questions: list[str] = []
@@ -163,7 +131,7 @@ def test_review_accepts_or_rejects_what_the_reviewer_says(
     assert expected_path(spec).exists() is accepted
 
 
-def test_orphaned_baselines_are_named(beatlog: BeatlogTest, spec: Path) -> None:
+def test_orphaned_baselines_are_named(beatlog: Beatlog, spec: Path) -> None:
     beatlog("test", "--update", spec)
     beatlog("approve", spec)
     orphan = spec.with_name("renamed-away.dtc.expected")
@@ -175,7 +143,7 @@ def test_orphaned_baselines_are_named(beatlog: BeatlogTest, spec: Path) -> None:
 
 
 def test_a_baseline_made_from_another_recording_is_an_error(
-    beatlog: BeatlogTest, spec: Path, record_probe: RecordFn
+    beatlog: Beatlog, spec: Path, record_probe: RecordFn
 ) -> None:
     beatlog("test", "--update", spec)
     beatlog("approve", spec)
@@ -187,11 +155,9 @@ def test_a_baseline_made_from_another_recording_is_an_error(
     assert f"{expected_path(spec)}: approved for another recording than probe.beatlog" in run.err
 
 
-def test_a_divergence_in_random_numbers_cannot_be_rebaselined(
-    beatlog: BeatlogTest, spec: Path
-) -> None:
+def test_a_divergence_in_random_numbers_cannot_be_rebaselined(beatlog: Beatlog, spec: Path) -> None:
     write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog",
-               "tests.cli.test_baselines:greedy_probe")  # fmt: skip
+               "tests.systems:probe_system_greedy")  # fmt: skip
 
     run = beatlog("test", "--update", spec)
 
@@ -202,13 +168,8 @@ def test_a_divergence_in_random_numbers_cannot_be_rebaselined(
     assert not pending_path(spec).exists()
 
 
-def greedy_probe() -> PriorityArbiter[Probe]:
-    """A probe that draws two random numbers where one was recorded."""
-    return probe_system(draws=2)
-
-
 def test_a_renamed_behavior_gets_a_rename_proposal_and_the_spec_rename_fixes_it(
-    beatlog: BeatlogTest, spec: Path
+    beatlog: Beatlog, spec: Path
 ) -> None:
     log = spec.parent.parent / "probe.beatlog"
     write_spec(spec.parent, "avoid-pole", log, "tests.conftest:probe_system_renamed")

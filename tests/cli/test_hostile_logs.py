@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.cli.main import main
+from tests.commands import Beatlog
 from tests.factories import (
     STANDARD_CHANNELS,
     Channel,
@@ -23,8 +23,7 @@ from tests.factories import (
     header_message,
     standard_messages,
 )
-
-SYSTEM = "tests.conftest:probe_system"
+from tests.specs import PROBE, write_spec
 
 
 def dropped_chunk(path: Path) -> Path:
@@ -65,12 +64,6 @@ HOSTILE: dict[str, tuple[Callable[[Path], Path], str]] = {
 }
 
 
-def run(capsys: pytest.CaptureFixture[str], *args: str | Path) -> tuple[int, str, str]:
-    code = main([str(arg) for arg in args])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
-
-
 def assert_one_line(err: str, log: Path, fragment: str) -> None:
     assert err.count("\n") == 1, err
     assert "Traceback" not in err
@@ -81,34 +74,25 @@ def assert_one_line(err: str, log: Path, fragment: str) -> None:
 @pytest.mark.parametrize("name", HOSTILE)
 @pytest.mark.parametrize("command", ["show", "replay"])
 def test_show_and_replay_refuse_a_hostile_log_in_one_line(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, command: str
+    tmp_path: Path, beatlog: Beatlog, name: str, command: str
 ) -> None:
     build, fragment = HOSTILE[name]
     log = build(tmp_path / f"{name}.beatlog")
-    extra = ["--system", SYSTEM, "--allow-truncated"] if command == "replay" else []
-    code, out, err = run(capsys, command, log, *extra)
+    extra = ["--system", PROBE, "--allow-truncated"] if command == "replay" else []
+    code, out, err = beatlog(command, log, *extra)
     assert code == 2
     assert out == ""
     assert_one_line(err, log, fragment)
 
 
-def write_spec(folder: Path, log: Path) -> Path:
-    spec = folder / "hostile.dtc.toml"
-    spec.write_text(
-        f'name = "hostile"\npurpose = "hostile input"\nprocedure = []\n'
-        f'log = "{log.name}"\nsystem = "{SYSTEM}"\n'
-    )
-    return spec
-
-
 @pytest.mark.parametrize("name", HOSTILE)
 def test_beatlog_test_reports_a_hostile_log_as_an_error(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str
+    tmp_path: Path, beatlog: Beatlog, name: str
 ) -> None:
     build, fragment = HOSTILE[name]
     log = build(tmp_path / f"{name}.beatlog")
-    write_spec(tmp_path, log)
-    code, _out, err = run(capsys, "test", "-j", "1", tmp_path)
+    write_spec(tmp_path, "hostile", log, PROBE)
+    code, _out, err = beatlog("test", tmp_path)
     assert code == 2
     assert "Traceback" not in err
     assert fragment in err
@@ -117,7 +101,7 @@ def test_beatlog_test_reports_a_hostile_log_as_an_error(
 def test_a_spec_whose_log_is_a_fifo_is_an_error_not_a_hang(tmp_path: Path) -> None:
     fifo = tmp_path / "session.beatlog"
     os.mkfifo(fifo)
-    write_spec(tmp_path, fifo)
+    write_spec(tmp_path, "hostile", fifo, PROBE)
     done = subprocess.run(
         [sys.executable, "-m", "beatlog.cli.main", "test", "-j", "1", str(tmp_path)],
         capture_output=True,
@@ -130,11 +114,9 @@ def test_a_spec_whose_log_is_a_fifo_is_an_error_not_a_hang(tmp_path: Path) -> No
     assert "Traceback" not in done.stderr
 
 
-def test_show_says_which_format_version_a_log_is(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
+def test_show_says_which_format_version_a_log_is(tmp_path: Path, beatlog: Beatlog) -> None:
     current = craft_log(tmp_path / "v2.beatlog", standard_messages(5))
-    code, out, _ = run(capsys, "show", current)
+    code, out, _ = beatlog("show", current)
     assert code == 0
     assert "format" in out
     assert "version 2" in out

@@ -14,25 +14,18 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import NamedTuple
 
 import pytest
 
 from beatlog.log.reader import SessionLogReader
 from tests.cli.slow_systems import MARKERS
+from tests.commands import Run
 from tests.conftest import RecordFn
+from tests.specs import CHANGED, PROBE, write_spec
 
 ROOT = Path(__file__).parents[2]
-FAST = "tests.conftest:probe_system"
 SLOW = "tests.cli.slow_systems:slow_system"
 SLOW_IN_AUDIT = "tests.cli.slow_systems:slow_in_audit_system"
-CHANGED = "tests.conftest:probe_system_changed"
-
-
-class Interrupted(NamedTuple):
-    code: int
-    out: str
-    err: str
 
 
 def wait_until(condition: Callable[[], bool], timeout_s: float) -> bool:
@@ -65,10 +58,10 @@ def markers(tmp_path: Path) -> Path:
 
 
 @pytest.fixture
-def press_ctrl_c(markers: Path) -> Callable[..., Interrupted]:
+def press_ctrl_c(markers: Path) -> Callable[..., Run]:
     """Run ``beatlog ARGS``, press Ctrl-C once ``ready()`` holds, and collect the ending."""
 
-    def run(args: Sequence[str | Path], ready: Callable[[], bool]) -> Interrupted:
+    def run(args: Sequence[str | Path], ready: Callable[[], bool]) -> Run:
         env = {**os.environ, MARKERS: str(markers), "COLUMNS": "200"}
         env.pop("PYTHONHASHSEED", None)
         process = subprocess.Popen(
@@ -91,7 +84,7 @@ def press_ctrl_c(markers: Path) -> Callable[..., Interrupted]:
                 os.killpg(process.pid, signal.SIGKILL)
                 process.communicate()
         assert wait_until(lambda: not live_members(process.pid), 10), "children outlived it"
-        return Interrupted(process.returncode, out, err)
+        return Run(process.returncode, out, err)
 
     return run
 
@@ -121,35 +114,25 @@ def created(path: Path) -> Callable[[], bool]:
     return ready
 
 
-def write_spec(folder: Path, name: str, log: Path, system: str) -> Path:
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"{name}.dtc.toml"
-    path.write_text(
-        f'name = "{name}"\npurpose = "Ctrl-C while it replays."\n'
-        f'procedure = ["Drive the probe."]\nlog = "{log}"\nsystem = "{system}"\n'
-    )
-    return path
-
-
 @pytest.fixture
 def suite(tmp_path: Path, record_probe: RecordFn) -> Path:
     """A DTC that passes at once, a failing one, then two that replay for 30 s each."""
     log = record_probe(300)
     specs = tmp_path / "specs"
-    write_spec(specs, "a-fast", log, FAST)
+    write_spec(specs, "a-fast", log, PROBE)
     write_spec(specs, "b-changed", log, CHANGED)
     write_spec(specs, "c-slow", log, SLOW)
     write_spec(specs, "d-slow", log, SLOW)
     return specs
 
 
-def assert_stopped(run: Interrupted) -> None:
+def assert_stopped(run: Run) -> None:
     assert run.code == 130, run
     assert "Traceback" not in run.err
     assert run.err.endswith("beatlog: interrupted\n"), run.err
 
 
-def assert_complete_results_printed(run: Interrupted) -> None:
+def assert_complete_results_printed(run: Run) -> None:
     assert "a-fast" in run.out
     assert "b-changed" in run.out
     assert "2 not run" in run.out.splitlines()[-1]
@@ -157,7 +140,7 @@ def assert_complete_results_printed(run: Interrupted) -> None:
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_ctrl_c_stops_a_suite_and_prints_what_is_complete(
-    press_ctrl_c: Callable[..., Interrupted], suite: Path, markers: Path, jobs: str
+    press_ctrl_c: Callable[..., Run], suite: Path, markers: Path, jobs: str
 ) -> None:
     run = press_ctrl_c(["test", "-j", jobs, suite], marked(markers, int(jobs)))
 
@@ -168,7 +151,7 @@ def test_ctrl_c_stops_a_suite_and_prints_what_is_complete(
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_ctrl_c_stops_the_audit_interpreters(
-    press_ctrl_c: Callable[..., Interrupted],
+    press_ctrl_c: Callable[..., Run],
     tmp_path: Path,
     record_probe: RecordFn,
     markers: Path,
@@ -186,7 +169,7 @@ def test_ctrl_c_stops_the_audit_interpreters(
 
 
 def test_ctrl_c_writes_no_report_and_no_pending_file(
-    press_ctrl_c: Callable[..., Interrupted], suite: Path, markers: Path, tmp_path: Path
+    press_ctrl_c: Callable[..., Run], suite: Path, markers: Path, tmp_path: Path
 ) -> None:
     html, junit = tmp_path / "report.html", tmp_path / "report.xml"
 
@@ -209,7 +192,7 @@ def test_ctrl_c_writes_no_report_and_no_pending_file(
 
 
 def test_ctrl_c_stops_a_replay(
-    press_ctrl_c: Callable[..., Interrupted], record_probe: RecordFn, markers: Path
+    press_ctrl_c: Callable[..., Run], record_probe: RecordFn, markers: Path
 ) -> None:
     run = press_ctrl_c(["replay", record_probe(300), "--system", SLOW], marked(markers))
 
@@ -218,7 +201,7 @@ def test_ctrl_c_stops_a_replay(
 
 
 def test_ctrl_c_ends_a_recording_with_a_complete_log(
-    press_ctrl_c: Callable[..., Interrupted], tmp_path: Path
+    press_ctrl_c: Callable[..., Run], tmp_path: Path
 ) -> None:
     out = tmp_path / "rover.beatlog"
 
@@ -238,7 +221,7 @@ def test_ctrl_c_ends_a_recording_with_a_complete_log(
 
 
 @pytest.mark.slow
-def test_ctrl_c_stops_the_demo(press_ctrl_c: Callable[..., Interrupted], tmp_path: Path) -> None:
+def test_ctrl_c_stops_the_demo(press_ctrl_c: Callable[..., Run], tmp_path: Path) -> None:
     log = tmp_path / "demo" / "dog.beatlog"
 
     run = press_ctrl_c(

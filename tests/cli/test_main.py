@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import itertools
 import json
 import shutil
@@ -10,89 +9,26 @@ import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import NamedTuple
 
 import pytest
 from mcap.writer import Writer
 
 from beatlog.analysis.summary import summarize
-from beatlog.cli.main import main
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
-from beatlog.model.behavior import PriorityArbiter
-from tests.conftest import Probe, RecordFn, distances, probe_system
+from tests.commands import Beatlog, assert_one_line_error
+from tests.conftest import RecordFn, distances
 from tests.factories import session_header
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
 
-PROBE = "tests.conftest:probe_system"
-CHANGED = "tests.cli.test_main:changed_probe"
-
-
-def changed_probe() -> PriorityArbiter[Probe]:
-    """The probe with its near behavior reacting 10 cm earlier: a behavior change."""
-    return probe_system(0.6)
-
-
-def not_a_system() -> dict[str, object]:
-    return {"robot_state": Probe, "behaviors": {}}
-
-
-def broken_factory() -> PriorityArbiter[Probe]:
-    raise RuntimeError("the arena map is missing")
-
-
-FIRST_CHANGED_CYCLE = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
-"""The first cycle where the changed probe's near behavior sees the obstacle first."""
-
-
-class Run(NamedTuple):
-    code: int
-    out: str
-    err: str
-
-
-@pytest.fixture(autouse=True)
-def wide_plain_console(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Rich wraps at 80 columns when not on a terminal; long tmp paths would be split."""
-    monkeypatch.setenv("COLUMNS", "200")
-    monkeypatch.delenv("FORCE_COLOR", raising=False)
-
-
-@pytest.fixture
-def beatlog(capsys: pytest.CaptureFixture[str]) -> Callable[..., Run]:
-    def run(*args: str | Path) -> Run:
-        code = main([str(arg) for arg in args])
-        captured = capsys.readouterr()
-        return Run(code, captured.out, captured.err)
-
-    return run
-
-
-@pytest.fixture
-def record_chunked(record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch) -> RecordFn:
-    """Like ``record_probe``, but with a chunk every 10 cycles, so a cut keeps most cycles."""
-    monkeypatch.setattr(
-        "beatlog.record.recorder.SessionLogWriter",
-        functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
-    )
-    return record_probe
-
-
-def assert_one_line_error(run: Run, *fragments: str) -> None:
-    assert run.code == 2
-    assert run.out == ""
-    assert run.err.startswith("beatlog: error: ")
-    assert run.err.endswith("\n")
-    assert run.err.count("\n") == 1, run.err
-    assert "Traceback" not in run.err
-    for fragment in fragments:
-        assert fragment in run.err
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
 
 # replay
 
 
 def test_replay_passes_a_log_against_the_system_that_recorded_it(
-    beatlog: Callable[..., Run], record_probe: RecordFn
+    beatlog: Beatlog, record_probe: RecordFn
 ) -> None:
     log = record_probe(300)
 
@@ -105,7 +41,7 @@ def test_replay_passes_a_log_against_the_system_that_recorded_it(
 
 
 def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
-    beatlog: Callable[..., Run], record_probe: RecordFn
+    beatlog: Beatlog, record_probe: RecordFn
 ) -> None:
     log = record_probe(300)
 
@@ -120,7 +56,7 @@ def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
 
 
 def test_replay_json_reports_the_divergence_for_machines(
-    beatlog: Callable[..., Run], record_probe: RecordFn
+    beatlog: Beatlog, record_probe: RecordFn
 ) -> None:
     log = record_probe(300)
 
@@ -136,7 +72,7 @@ def test_replay_json_reports_the_divergence_for_machines(
     assert result["divergent_cycles"] == 1
 
 
-def test_replay_json_of_a_pass(beatlog: Callable[..., Run], record_probe: RecordFn) -> None:
+def test_replay_json_of_a_pass(beatlog: Beatlog, record_probe: RecordFn) -> None:
     run = beatlog("replay", record_probe(300), "--system", PROBE, "--json")
 
     assert run.code == 0
@@ -148,7 +84,7 @@ def test_replay_json_of_a_pass(beatlog: Callable[..., Run], record_probe: Record
 
 
 def test_replay_keep_going_counts_every_diverging_cycle(
-    beatlog: Callable[..., Run], record_probe: RecordFn
+    beatlog: Beatlog, record_probe: RecordFn
 ) -> None:
     """A cycle diverges when near is in another state, or changes state at another time."""
     recorded = [d < 0.5 for d in distances(300)]
@@ -180,7 +116,7 @@ def cut_in_half(log: Path) -> Path:
 
 
 def test_a_truncated_log_fails_replay_unless_allowed(
-    beatlog: Callable[..., Run], record_chunked: RecordFn
+    beatlog: Beatlog, record_chunked: RecordFn
 ) -> None:
     log = cut_in_half(record_chunked(300))
     with SessionLogReader(log) as reader:
@@ -215,7 +151,7 @@ def table_rows(out: str) -> list[list[str]]:
     return [[cell.strip() for cell in row.split("│")[1:-1]] for row in rows]
 
 
-def test_show_describes_a_log(beatlog: Callable[..., Run], record_probe: RecordFn) -> None:
+def test_show_describes_a_log(beatlog: Beatlog, record_probe: RecordFn) -> None:
     log = record_probe(300, robot_id="probe-1")
     summary = summarize(log)
 
@@ -235,9 +171,7 @@ def test_show_describes_a_log(beatlog: Callable[..., Run], record_probe: RecordF
     assert [row[1] for row in table_rows(run.out)] == ["arbiter", "near", "dice"]
 
 
-def test_show_says_a_cut_off_log_is_truncated(
-    beatlog: Callable[..., Run], record_chunked: RecordFn
-) -> None:
+def test_show_says_a_cut_off_log_is_truncated(beatlog: Beatlog, record_chunked: RecordFn) -> None:
     log = cut_in_half(record_chunked(300))
 
     run = beatlog("show", log)
@@ -301,7 +235,7 @@ BAD_LOGS = [
 @pytest.mark.parametrize(("make", "problem"), BAD_LOGS)
 @pytest.mark.parametrize("command", [["show"], ["replay", "--system", PROBE]])
 def test_a_bad_log_is_one_line_naming_the_file(
-    beatlog: Callable[..., Run],
+    beatlog: Beatlog,
     tmp_path: Path,
     make: Callable[[Path], Path],
     problem: str,
@@ -320,12 +254,12 @@ def test_a_bad_log_is_one_line_naming_the_file(
         ("tests.conftest", "expected module:factory"),
         ("tests.no_such_module:system", "cannot import tests.no_such_module"),
         ("tests.conftest:no_such_factory", "tests.conftest has no no_such_factory"),
-        ("tests.cli.test_main:not_a_system", "built a dict, not a system"),
-        ("tests.cli.test_main:broken_factory", "raised RuntimeError: the arena map is missing"),
+        ("tests.systems:not_a_system", "built a dict, not a system"),
+        ("tests.conftest:broken_probe", "raised RuntimeError: the arena map is missing"),
     ],
 )
 def test_a_bad_system_reference_is_one_line_naming_it(
-    beatlog: Callable[..., Run], record_probe: RecordFn, reference: str, problem: str
+    beatlog: Beatlog, record_probe: RecordFn, reference: str, problem: str
 ) -> None:
     run = beatlog("replay", record_probe(10), "--system", reference)
 
@@ -333,7 +267,7 @@ def test_a_bad_system_reference_is_one_line_naming_it(
 
 
 def test_verbose_shows_the_traceback_of_a_factory_that_failed(
-    beatlog: Callable[..., Run], record_probe: RecordFn
+    beatlog: Beatlog, record_probe: RecordFn
 ) -> None:
     reference = "tests.conftest:broken_probe"
     log = record_probe(10)
@@ -374,16 +308,14 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
     ],
 )
 def test_a_bad_option_is_one_line_pointing_at_help(
-    beatlog: Callable[..., Run], args: list[str], problem: str
+    beatlog: Beatlog, args: list[str], problem: str
 ) -> None:
     run = beatlog(*args)
 
     assert_one_line_error(run, problem, "--help')")
 
 
-def test_record_refuses_to_overwrite_a_log(
-    beatlog: Callable[..., Run], record_probe: RecordFn
-) -> None:
+def test_record_refuses_to_overwrite_a_log(beatlog: Beatlog, record_probe: RecordFn) -> None:
     log = record_probe(10)
     before = log.read_bytes()
 
@@ -393,9 +325,7 @@ def test_record_refuses_to_overwrite_a_log(
     assert log.read_bytes() == before
 
 
-def test_record_into_a_missing_directory_is_one_line(
-    beatlog: Callable[..., Run], tmp_path: Path
-) -> None:
+def test_record_into_a_missing_directory_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     out = tmp_path / "nowhere" / "rover.beatlog"
 
     run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 1)
@@ -403,7 +333,7 @@ def test_record_into_a_missing_directory_is_one_line(
     assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
 
 
-def test_record_needs_a_robot_not_a_system(beatlog: Callable[..., Run], tmp_path: Path) -> None:
+def test_record_needs_a_robot_not_a_system(beatlog: Beatlog, tmp_path: Path) -> None:
     out = tmp_path / "probe.beatlog"
 
     run = beatlog("record", "--robot", PROBE, "-o", out, "--duration", 1)
@@ -413,7 +343,7 @@ def test_record_needs_a_robot_not_a_system(beatlog: Callable[..., Run], tmp_path
 
 
 def test_a_system_in_the_working_directory_can_be_named(
-    beatlog: Callable[..., Run],
+    beatlog: Beatlog,
     record_probe: RecordFn,
     tmp_path: Path,
     monkeypatch: pytest.MonkeyPatch,
@@ -453,9 +383,7 @@ def test_the_console_script_reports_a_missing_file_in_one_line(tmp_path: Path) -
 
 
 @pytest.mark.slow
-def test_record_writes_a_complete_log_that_replays(
-    beatlog: Callable[..., Run], tmp_path: Path
-) -> None:
+def test_record_writes_a_complete_log_that_replays(beatlog: Beatlog, tmp_path: Path) -> None:
     out = tmp_path / "rover.beatlog"
 
     recorded = beatlog(
@@ -491,7 +419,7 @@ def test_record_writes_a_complete_log_that_replays(
 
 @pytest.mark.slow
 def test_the_demo_records_and_replays_the_dog_then_its_suite(
-    beatlog: Callable[..., Run], tmp_path: Path
+    beatlog: Beatlog, tmp_path: Path
 ) -> None:
     run = beatlog("demo", "--duration", 0.5, "--out", tmp_path / "demo")
 

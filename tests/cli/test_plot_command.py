@@ -2,29 +2,25 @@
 
 from __future__ import annotations
 
-import sys
+import functools
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from beatlog import replay
-from beatlog.cli.main import main
-from tests.cli.test_main import CHANGED, PROBE, Run, assert_one_line_error, changed_probe
-from tests.conftest import RecordFn
-from tests.report.test_chart import png_size
+from tests.commands import Beatlog, Run, assert_one_line_error, hide_matplotlib
+from tests.conftest import RecordFn, probe_system_changed
+from tests.images import png_size
+from tests.specs import CHANGED, PROBE
 
 Plot = Callable[..., Run]
 
 
 @pytest.fixture
-def plot(capsys: pytest.CaptureFixture[str]) -> Plot:
-    def run(*args: str | Path) -> Run:
-        code = main(["plot", *(str(arg) for arg in args)])
-        captured = capsys.readouterr()
-        return Run(code, captured.out, captured.err)
-
-    return run
+def plot(beatlog: Beatlog) -> Plot:
+    """``beatlog plot ARGS``."""
+    return functools.partial(beatlog, "plot")
 
 
 @pytest.fixture
@@ -50,7 +46,7 @@ def test_plot_with_a_system_also_draws_the_replay_and_names_the_first_divergence
     plot: Plot, log: Path, tmp_path: Path
 ) -> None:
     png = tmp_path / "changed.png"
-    divergence = replay(log, changed_probe()).divergence
+    divergence = replay(log, probe_system_changed()).divergence
     assert divergence is not None
 
     run = plot(log, "-o", png, "--system", CHANGED, "--field", "distance")
@@ -110,15 +106,6 @@ def test_the_output_is_required(plot: Plot, log: Path) -> None:
     run = plot(log)
 
     assert_one_line_error(run, "the following arguments are required: -o/--output")
-
-
-def hide_matplotlib(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Make ``import matplotlib`` fail as it does where the plot extra is not installed."""
-    for name in [name for name in sys.modules if name.startswith("matplotlib")]:
-        monkeypatch.setitem(sys.modules, name, None)
-    monkeypatch.setitem(sys.modules, "matplotlib", None)
-    for name in ("beatlog.report.chart", "beatlog.report.html"):
-        monkeypatch.delitem(sys.modules, name, raising=False)
 
 
 def test_without_matplotlib_plot_says_which_extra_to_install(

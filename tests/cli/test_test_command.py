@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import re
 import sys
 import xml.etree.ElementTree as ET
@@ -10,33 +11,20 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.cli.main import main
-from tests.audit.audit_fixtures import leaks, leaky_system, record_session
-from tests.cli.test_main import Run, assert_one_line_error
-from tests.cli.test_plot_command import hide_matplotlib
+from tests.commands import Beatlog, Run, assert_one_line_error, hide_matplotlib
 from tests.conftest import RecordFn
-from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.systems import leaks, leaky_system, record_session
 
 BeatlogTest = Callable[..., Run]
 
-
-@pytest.fixture(autouse=True)
-def wide_plain_console(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Rich wraps at 80 columns when not on a terminal; long tmp paths would be split."""
-    monkeypatch.setenv("COLUMNS", "200")
-    monkeypatch.delenv("FORCE_COLOR", raising=False)
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
 
 @pytest.fixture
-def beatlog_test(capsys: pytest.CaptureFixture[str]) -> BeatlogTest:
+def beatlog_test(beatlog: Beatlog) -> BeatlogTest:
     """``beatlog test -j 1 ARGS``: one worker unless a test asks for more (a pool costs ~0.5 s)."""
-
-    def run(*args: str | Path) -> Run:
-        code = main(["test", "-j", "1", *(str(arg) for arg in args)])
-        captured = capsys.readouterr()
-        return Run(code, captured.out, captured.err)
-
-    return run
+    return functools.partial(beatlog, "test")
 
 
 @pytest.fixture
@@ -371,7 +359,7 @@ def test_audit_names_every_leak_and_fails_the_run(
     beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
 ) -> None:
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
-    leaky = write_spec(specs, "leaky", leaky_log, "tests.audit.audit_fixtures:leaky_system")
+    leaky = write_spec(specs, "leaky", leaky_log, "tests.systems:leaky_system")
     write_spec(specs, "avoid-pole", log)
     report = tmp_path / "dtc.xml"
 

@@ -13,7 +13,7 @@ from beatlog.report.console import plain_text
 from beatlog.suite.runner import SpecOutcome, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
-from tests.suite.test_spec import write_spec
+from tests.specs import write_spec
 
 RUNS = (SeedRun(1, True, 300, None, None, "ab"), SeedRun(2, True, 300, None, None, "ab"))
 SOUND = AuditReport(findings=(), runs=RUNS, hash_seed_dependence=None)

@@ -1,12 +1,7 @@
-"""Timeline charts: behavior lanes over robot-state signals, as PNG and as inline SVG.
-
-``hostile_log`` (a session whose behavior and state names are markup and TeX) is shared
-with the HTML report tests.
-"""
+"""Timeline charts: behavior lanes over robot-state signals, as PNG and as inline SVG."""
 
 from __future__ import annotations
 
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -15,31 +10,11 @@ from matplotlib.image import imread
 
 from beatlog import replay
 from beatlog.analysis.timeline import build_timeline
-from beatlog.model.behavior import BehaviorState, PriorityArbiter
-from beatlog.model.context import Context, Outputs
 from beatlog.record.recorder import Recorder
 from beatlog.report.chart import WIDTH_PX, chart_size, draw_timeline, svg_markup, write_png
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
-
-HOSTILE = "<script>alert('x')</script>"
-TEX = "$\\frac{1}{0}$"
-
-
-class Hostile:
-    """A behavior whose name and states are markup and TeX, as user data may be."""
-
-    name = HOSTILE
-
-    def __init__(self) -> None:
-        self.state: BehaviorState = TEX
-
-    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
-        self.state = "<b>near</b>" if rs.distance < 0.5 else TEX
-        return None
-
-
-def hostile_system() -> PriorityArbiter[Probe]:
-    return PriorityArbiter([Hostile()], robot_state=Probe)
+from tests.images import png_size
+from tests.systems import HOSTILE, TEX, hostile_system
 
 
 @pytest.fixture
@@ -49,14 +24,6 @@ def hostile_log(tmp_path: Path) -> Path:
         for t in range(40):
             recorder.step(PERIOD_NS, Probe(distance=abs(20 - t) / 20))
     return log
-
-
-def png_size(path: Path) -> tuple[int, int]:
-    data = path.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    assert data[12:16] == b"IHDR"
-    width, height = struct.unpack(">II", data[16:24])
-    return width, height
 
 
 def test_a_png_of_the_chart_size_is_written(record_probe: RecordFn, tmp_path: Path) -> None:

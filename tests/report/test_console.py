@@ -6,6 +6,7 @@ from beatlog import replay
 from beatlog.analysis.summary import summarize
 from beatlog.report.console import plain_text, render_replay, render_summary
 from tests.conftest import RecordFn, probe_system
+from tests.specs import CHANGED
 
 
 def test_a_pass_is_one_verdict_line(record_probe: RecordFn) -> None:
@@ -44,7 +45,7 @@ def test_the_cycles_around_a_divergence_are_a_table(record_probe: RecordFn) -> N
 
 
 def test_a_failure_shows_only_the_robot_state_fields_read(record_probe: RecordFn) -> None:
-    result = replay(record_probe(300), "tests.suite.test_spec:changed_probe")
+    result = replay(record_probe(300), CHANGED)
     text = plain_text(render_replay(result), width=120)
     assert "robot state RS_t, fields read in this cycle" in text
     assert "distance" in text

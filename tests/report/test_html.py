@@ -22,12 +22,12 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import PERIOD_NS, Probe
-from tests.report.test_chart import HOSTILE, hostile_system
-from tests.suite.test_spec import write_spec
+from tests.specs import write_spec
+from tests.systems import HOSTILE, hostile_system
 
 ROVER = "beatlog_examples.rover:system"
 ROVER_CHANGED = "beatlog_examples.rover:changed_system"
-HOSTILE_SYSTEM = "tests.report.test_chart:hostile_system"
+HOSTILE_SYSTEM = "tests.systems:hostile_system"
 IMG = "<img src=x onerror=alert(1)>"
 
 

@@ -14,7 +14,7 @@ from beatlog.suite.junit import write_junit
 from beatlog.suite.runner import SpecOutcome, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
-from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 
 
 def describe(outcome: SpecOutcome) -> str:

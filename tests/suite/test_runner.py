@@ -3,22 +3,20 @@
 from __future__ import annotations
 
 import concurrent.futures
-import functools
 from collections.abc import Iterable
 from pathlib import Path
 
 import pytest
 
-from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite import runner
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
-from tests.audit.audit_fixtures import leaks, leaky_system, record_session
 from tests.conftest import Dice, Near, Probe, RecordFn
-from tests.suite.test_spec import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.systems import leaks, leaky_system, record_session
 
 
 @pytest.fixture
@@ -85,14 +83,10 @@ def test_a_system_that_cannot_be_imported_is_an_error(tmp_path: Path, log: Path)
 
 
 def test_a_truncated_log_passes_only_when_the_spec_allows_it(
-    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, record_chunked: RecordFn
 ) -> None:
     """A log cut off mid-session (the robot lost power) keeps its complete cycles."""
-    monkeypatch.setattr(
-        "beatlog.record.recorder.SessionLogWriter",
-        functools.partial(SessionLogWriter, batch_cycles=10, chunk_size=1),
-    )
-    log = record_probe(300)
+    log = record_chunked(300)
     data = log.read_bytes()
     log.write_bytes(data[: len(data) // 2])
 
@@ -228,7 +222,7 @@ def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> No
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
     specs = tmp_path / "specs"
     suite = [
-        dtc(specs, "leaky", leaky_log, "tests.audit.audit_fixtures:leaky_system"),
+        dtc(specs, "leaky", leaky_log, "tests.systems:leaky_system"),
         dtc(specs, "probe", log),
         dtc(specs, "lost", tmp_path / "lost.beatlog"),
     ]

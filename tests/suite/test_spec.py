@@ -1,84 +1,16 @@
-"""DTC specs: one TOML file per test case, validated with errors that name file and key.
-
-The helpers here (``write_spec``, ``PROBE``, ``CHANGED``) are shared by the other
-suite tests and the ``beatlog test`` command tests.
-"""
+"""DTC specs: one TOML file per test case, validated with errors that name file and key."""
 
 from __future__ import annotations
 
-import json
-import os
 from pathlib import Path
 
 import pytest
 
 from beatlog.errors import SpecError
-from beatlog.model.behavior import PriorityArbiter
 from beatlog.replay.compare import Comparison
 from beatlog.suite.spec import DtcSpec, discover_specs, load_spec, select_specs
-from tests.conftest import Probe, RecordFn, distances, probe_system
-
-PROBE = "tests.conftest:probe_system"
-CHANGED = "tests.suite.test_spec:changed_probe"
-
-
-def changed_probe() -> PriorityArbiter[Probe]:
-    """The probe with its near behavior reacting 10 cm earlier: a behavior change."""
-    return probe_system(0.6)
-
-
-FIRST_CHANGED_CYCLE = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
-"""The first cycle where the changed probe's near behavior sees the obstacle first."""
-
-
-def toml_value(value: object) -> str:
-    """Enough TOML for specs: booleans, numbers, strings, arrays and inline tables."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int | float):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value)  # a TOML basic string for everything a test writes
-    if isinstance(value, list):
-        return "[" + ", ".join(toml_value(item) for item in value) + "]"
-    if isinstance(value, dict):
-        items = (f"{json.dumps(key)} = {toml_value(item)}" for key, item in value.items())
-        return "{ " + ", ".join(items) + " }"
-    raise TypeError(f"no TOML for {value!r}")
-
-
-def write_spec(
-    folder: Path,
-    name: str,
-    log: Path | str,
-    system: str = PROBE,
-    /,
-    **extra: object,
-) -> Path:
-    """Write ``<folder>/<name>.dtc.toml`` and return its path.
-
-    A ``Path`` log is written relative to the spec's folder, as a user would; a ``str``
-    log is written verbatim. ``extra`` adds or replaces keys (even ``name``, ``log`` and
-    ``system``); ``None`` leaves a key out.
-    """
-    folder.mkdir(parents=True, exist_ok=True)
-    keys: dict[str, object] = {
-        "name": name,
-        "purpose": f"The probe replays {name} as recorded.",
-        "procedure": ["Drive the probe toward the pole and back, twice."],
-        "log": os.path.relpath(log, folder) if isinstance(log, Path) else log,
-        "system": system,
-        **extra,
-    }
-    path = folder / f"{name}.dtc.toml"
-    path.write_text(
-        "".join(
-            f"{key} = {toml_value(value)}\n" for key, value in keys.items() if value is not None
-        ),
-        encoding="utf-8",
-    )
-    return path
-
+from tests.conftest import RecordFn
+from tests.specs import PROBE, write_spec
 
 # load_spec
 

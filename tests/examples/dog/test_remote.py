@@ -40,7 +40,7 @@ def test_commands_from_a_client_process_arrive_as_remote_samples() -> None:
     assert [s.sensor for s in samples] == ["remote"] * len(samples)
     values = [s.value for s in samples]
     assert values[:-1] == [(0.2, -0.5, True)] * (len(values) - 1)
-    assert len(values) - 1 in (2, 3)  # 10 Hz for 0.25 s
+    assert len(values) - 1 >= 2  # sent again and again while it drives
     assert values[-1] == (0.0, 0.0, False)
 
 

@@ -1,7 +1,9 @@
-"""Behaviors that break the determinism discipline, for the audit tests.
+"""Systems the tests replay beside the probe of ``conftest``: deliberate changes to it,
+behaviors that break, hostile names, and behaviors that break the determinism discipline.
 
-Each leak is one line ending in ``# leak: CALL``; the tests find the lines by it.
-They live in a module of their own so the audit's fresh interpreters can import them.
+Specs and ``--system`` name them as ``tests.systems:FACTORY``, and the audit's fresh
+interpreters import them from here. Each leak of :class:`Leaky` is one line ending in
+``# leak: CALL``; the tests find the lines by it.
 """
 
 from __future__ import annotations
@@ -20,12 +22,69 @@ from time import monotonic
 
 import numpy as np
 
-from beatlog.model.behavior import PriorityArbiter, System
+from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.record.recorder import Recorder
-from tests.conftest import PERIOD_NS, Probe
+from tests.conftest import PERIOD_NS, Dice, Near, Probe, probe_system
 
 HEADINGS = ("left", "right", "straight", "back")
+HOSTILE = "<script>alert('x')</script>"
+TEX = "$\\frac{1}{0}$"
+
+
+def probe_system_changed_again() -> PriorityArbiter[Probe]:
+    """On top of ``probe_system_changed``, near reacts earlier still: new state changes."""
+    return probe_system(0.7)
+
+
+class Geared(Dice):
+    """Dice with a new motor gain near the obstacle: a change in outputs only."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        outputs = super().step(rs, ctx)
+        assert outputs is not None
+        return {**outputs, "speed": 0.55 if rs.distance < 0.8 else 0.5}
+
+
+def probe_system_changed_geared() -> PriorityArbiter[Probe]:
+    """On top of ``probe_system_changed``, a changed motor gain."""
+    return PriorityArbiter([Near(0.6), Geared()], robot_state=Probe)
+
+
+def probe_system_greedy() -> PriorityArbiter[Probe]:
+    """A probe that draws two random numbers where one was recorded."""
+    return probe_system(draws=2)
+
+
+def not_a_system() -> dict[str, object]:
+    """A factory that builds something other than a system."""
+    return {"robot_state": Probe, "behaviors": {}}
+
+
+class Fragile(Dice):
+    """Dice that breaks on a close obstacle."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if rs.distance < 0.3:
+            raise ZeroDivisionError("fragile dice")
+        return super().step(rs, ctx)
+
+
+class Hostile:
+    """A behavior whose name and states are markup and TeX, as user data may be."""
+
+    name = HOSTILE
+
+    def __init__(self) -> None:
+        self.state: BehaviorState = TEX
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = "<b>near</b>" if rs.distance < 0.5 else TEX
+        return None
+
+
+def hostile_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Hostile()], robot_state=Probe)
 
 
 class Leaky:

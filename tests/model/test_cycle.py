@@ -1,0 +1,134 @@
+"""One cycle (update, then observe): robot time advances by the heartbeat, the behaviors
+update from the robot state, and their state changes come back in catalogue order."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import NamedTuple
+
+from beatlog.model.behavior import Behavior, BehaviorState
+from beatlog.model.context import Context, Outputs
+from beatlog.model.cycle import CycleExecutor
+from beatlog.model.random import Draw, RecordingRandom
+from tests.conftest import PERIOD_NS, Probe
+
+
+class Flag:
+    """A behavior whose state the panel sets."""
+
+    def __init__(self, state: BehaviorState) -> None:
+        self.state = state
+
+
+class Seen(NamedTuple):
+    """What the system saw of the context while it updated."""
+
+    cycle: int
+    time_ns: int
+    dt_ns: int
+    outputs: Outputs
+
+
+class Panel:
+    """A system whose cycle ``t`` sets the states in ``states[t]`` (in the order given)
+    and emits ``outputs[t]``; it remembers what it saw of the context."""
+
+    def __init__(
+        self,
+        states: list[dict[str, BehaviorState]],
+        outputs: list[Outputs] | None = None,
+    ) -> None:
+        self.flags = {"first": Flag("idle"), "second": Flag("idle"), "third": Flag("idle")}
+        self.states = states
+        self.outputs = outputs or [{} for _ in states]
+        self.seen: list[Seen] = []
+
+    @property
+    def robot_state(self) -> type[Probe]:
+        return Probe
+
+    @property
+    def behaviors(self) -> Mapping[str, Behavior]:
+        return self.flags
+
+    def update(self, state: Probe, context: Context) -> None:
+        self.seen.append(Seen(context.cycle, context.time_ns, context.dt_ns, dict(context.outputs)))
+        for name, value in self.states[context.cycle].items():
+            self.flags[name].state = value
+        for name, value in self.outputs[context.cycle].items():
+            context.emit(name, value)
+
+
+def run(panel: Panel, intervals: list[int]) -> list[list[tuple[int, BehaviorState, BehaviorState]]]:
+    executor = CycleExecutor(panel, RecordingRandom(seed=1))
+    return [executor.step(interval, Probe()) for interval in intervals]
+
+
+def test_robot_time_advances_by_each_heartbeat_interval() -> None:
+    panel = Panel([{}, {}, {}])
+    intervals = [PERIOD_NS, PERIOD_NS + 1_000, PERIOD_NS - 2_000]
+
+    run(panel, intervals)
+
+    assert [(seen.cycle, seen.time_ns, seen.dt_ns) for seen in panel.seen] == [
+        (0, PERIOD_NS, PERIOD_NS),
+        (1, 2 * PERIOD_NS + 1_000, PERIOD_NS + 1_000),
+        (2, 3 * PERIOD_NS - 1_000, PERIOD_NS - 2_000),
+    ]
+
+
+def test_state_changes_come_in_catalogue_order_whatever_order_they_happened_in() -> None:
+    panel = Panel([{"third": "turning", "first": "near"}])
+
+    (changes,) = run(panel, [PERIOD_NS])
+
+    assert changes == [(0, "idle", "near"), (2, "idle", "turning")]
+
+
+def test_a_state_set_to_an_equal_value_is_no_change() -> None:
+    panel = Panel([{"first": "near"}, {"first": "".join(["ne", "ar"])}, {"second": "idle"}])
+
+    changes = run(panel, [PERIOD_NS] * 3)
+
+    assert changes == [[(0, "idle", "near")], [], []]
+
+
+def test_a_change_is_measured_from_the_state_after_the_previous_cycle() -> None:
+    panel = Panel([{"first": "near"}, {"first": "idle"}, {"first": "near", "second": "far"}])
+
+    changes = run(panel, [PERIOD_NS] * 3)
+
+    assert changes == [
+        [(0, "idle", "near")],
+        [(0, "near", "idle")],
+        [(0, "idle", "near"), (1, "idle", "far")],
+    ]
+
+
+def test_outputs_start_empty_in_every_cycle() -> None:
+    panel = Panel([{}, {}, {}], outputs=[{"speed": 0.5}, {}, {"turn": 0.1}])
+    executor = CycleExecutor(panel, RecordingRandom(seed=1))
+
+    after = []
+    for _ in range(3):
+        executor.step(PERIOD_NS, Probe())
+        after.append(dict(executor.context.outputs))
+
+    assert [seen.outputs for seen in panel.seen] == [{}, {}, {}]
+    assert after == [{"speed": 0.5}, {}, {"turn": 0.1}]
+
+
+def test_random_numbers_drawn_in_a_cycle_come_from_the_source_the_executor_was_given() -> None:
+    random = RecordingRandom(seed=3)
+
+    class Rolling(Panel):
+        def update(self, state: Probe, context: Context) -> None:
+            context.actor = 2
+            self.flags["third"].state = context.random.randint(1, 6)
+
+    panel = Rolling([{}])
+    changes = CycleExecutor(panel, random).step(PERIOD_NS, Probe())
+
+    (draw,) = random.take()
+    assert draw == Draw(2, "randint", draw.value, (1, 6))
+    assert changes == [(2, "idle", draw.value)]

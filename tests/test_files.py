@@ -1,0 +1,92 @@
+"""The files users name: read only when regular, so nothing read can block, and written
+whole or not at all."""
+
+from __future__ import annotations
+
+import os
+import socket
+from pathlib import Path
+
+import pytest
+
+from beatlog.files import irregular_file_problem, replacing
+
+
+def test_a_regular_file_has_no_problem(tmp_path: Path) -> None:
+    path = tmp_path / "probe.beatlog"
+    path.write_bytes(b"")
+
+    assert irregular_file_problem(path) is None
+
+
+def test_a_missing_file_is_no_such_file(tmp_path: Path) -> None:
+    assert irregular_file_problem(tmp_path / "lost.beatlog") == "no such file"
+
+
+def test_a_directory_is_a_directory(tmp_path: Path) -> None:
+    assert irregular_file_problem(tmp_path) == "is a directory"
+
+
+def test_a_fifo_is_refused_before_anything_opens_it(tmp_path: Path) -> None:
+    fifo = tmp_path / "session.beatlog"
+    os.mkfifo(fifo)
+
+    assert irregular_file_problem(fifo) == "is not a regular file (a FIFO, socket or device)"
+
+
+def test_a_socket_is_refused_too(tmp_path: Path) -> None:
+    path = tmp_path / "s"
+    with socket.socket(socket.AF_UNIX) as server:
+        server.bind(str(path))
+
+        assert irregular_file_problem(path) == "is not a regular file (a FIFO, socket or device)"
+
+
+def test_a_symlink_to_a_regular_file_is_regular(tmp_path: Path) -> None:
+    target = tmp_path / "probe.beatlog"
+    target.write_bytes(b"x")
+    link = tmp_path / "latest.beatlog"
+    link.symlink_to(target)
+
+    assert irregular_file_problem(link) is None
+
+
+def test_replacing_writes_the_new_file_whole_when_the_block_ends(tmp_path: Path) -> None:
+    path = tmp_path / "report.xml"
+    path.write_bytes(b"old")
+
+    with replacing(path) as file:
+        file.write(b"new, ")
+        assert path.read_bytes() == b"old"  # readers see the old file until the end
+        file.write(b"whole")
+
+    assert path.read_bytes() == b"new, whole"
+    assert sorted(tmp_path.iterdir()) == [path]
+
+
+def test_replacing_creates_a_file_that_did_not_exist(tmp_path: Path) -> None:
+    path = tmp_path / "report.html"
+
+    with replacing(path) as file:
+        file.write(b"<html>")
+
+    assert path.read_bytes() == b"<html>"
+
+
+@pytest.mark.parametrize("interruption", [RuntimeError("the chart failed"), KeyboardInterrupt()])
+def test_replacing_leaves_the_old_file_and_no_litter_when_the_block_raises(
+    tmp_path: Path, interruption: BaseException
+) -> None:
+    path = tmp_path / "report.xml"
+    path.write_bytes(b"old")
+
+    def write_half() -> None:
+        with replacing(path) as file:
+            file.write(b"half of the new")
+            raise interruption
+
+    with pytest.raises(type(interruption)):
+        write_half()
+
+    assert path.read_bytes() == b"old"
+    assert sorted(tmp_path.iterdir()) == [path]
