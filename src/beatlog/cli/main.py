@@ -1,5 +1,8 @@
 """The ``beatlog`` command: a thin shell over the library.
 
+Each subcommand imports what it uses when it runs, so that ``beatlog --help`` loads
+neither the engines nor rich.
+
 Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
 input (one line on stderr naming the file and the problem, never a traceback; with
 ``--verbose`` the traceback of the user's code that failed comes first), 130
@@ -15,28 +18,17 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from importlib.metadata import entry_points
 from pathlib import Path
-from typing import NoReturn, TypeVar
-
-import msgspec
-from rich.console import Console, Group, RenderableType
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.text import Text
+from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 from beatlog._version import __version__
-from beatlog.analysis.summary import summarize
-from beatlog.analysis.timeline import build_timeline
-from beatlog.cli.baselines import approve, report_orphans, review, write_pending
 from beatlog.errors import BeatlogError
-from beatlog.record.recorder import Recorder
-from beatlog.replay.judge import replay
-from beatlog.report.audit import render_audit
-from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
-from beatlog.suite.junit import write_junit
-from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
-from beatlog.suite.spec import discover_specs, select_specs
-from beatlog.usercode import load_robot
+
+if TYPE_CHECKING:
+    from rich.console import Console, RenderableType
+    from rich.progress import Progress
+
+    from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["main"]
 
@@ -162,6 +154,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _demo(args: argparse.Namespace, console: Console) -> int:
     """Run the demo a package registered under the ``beatlog.demo`` entry point group."""
+    from importlib.metadata import entry_points
+
     demos = entry_points(group=DEMO_ENTRY_POINTS)
     if not demos:
         raise BeatlogError(
@@ -191,6 +185,9 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 
 
 def _record(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.record.recorder import Recorder
+    from beatlog.usercode import load_robot
+
     robot = load_robot(args.robot)
     output: Path = args.output
     if output.exists() and not args.force:
@@ -234,6 +231,8 @@ def _record(args: argparse.Namespace, console: Console) -> int:
 
 def _write_failure(log: Path, error: str) -> str:
     """Where writing a log failed, as its first missing cycle read back from it."""
+    from beatlog.analysis.summary import summarize
+
     try:
         kept = summarize(log).cycles
     except BeatlogError:
@@ -242,6 +241,8 @@ def _write_failure(log: Path, error: str) -> str:
 
 
 def _progress(console: Console) -> Progress:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     return Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -253,6 +254,11 @@ def _progress(console: Console) -> Progress:
 
 
 def _replay(args: argparse.Namespace, console: Console) -> int:
+    import msgspec
+
+    from beatlog.replay.judge import replay
+    from beatlog.report.console import render_replay
+
     result = replay(
         args.log, args.system, keep_going=args.keep_going, allow_truncated=args.allow_truncated
     )
@@ -264,6 +270,12 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
 
 
 def _test(args: argparse.Namespace, console: Console) -> int:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from beatlog.report.console import render_suite
+    from beatlog.suite.runner import Verdict, run_suite
+    from beatlog.suite.spec import discover_specs, select_specs
+
     found = discover_specs(args.paths)
     specs = select_specs(found, pattern=args.select, tags=args.tag)
     if not specs:
@@ -320,6 +332,8 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     if outcomes:
         console.print(render_suite(outcomes))
         if args.audit:
+            from beatlog.report.audit import render_audit
+
             console.print(render_audit(outcomes))
     if not interrupted:
         _write_reports(args, outcomes, console)
@@ -341,6 +355,10 @@ def _test(args: argparse.Namespace, console: Console) -> int:
 
 def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
     """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end."""
+    from beatlog.cli.baselines import report_orphans, write_pending
+    from beatlog.report.console import plain_text
+    from beatlog.suite.junit import write_junit
+
     if args.update:
         write_pending(outcomes, console)
     report_orphans(args.paths, console)
@@ -350,7 +368,7 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
         except OSError as exc:
             raise _UsageError(f"{args.junit_xml}: cannot write: {exc.strerror}") from None
     if args.html is not None:
-        from beatlog.report.html import write_html  # noqa: PLC0415 - matplotlib is optional
+        from beatlog.report.html import write_html
 
         try:
             write_html(outcomes, args.html)
@@ -363,6 +381,11 @@ def _plural(count: int, noun: str) -> str:
 
 
 def _describe(outcome: SpecOutcome) -> RenderableType:
+    from rich.console import Group
+    from rich.text import Text
+
+    from beatlog.report.console import render_replay
+
     if outcome.result is None:
         return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.name}: {outcome.error}")
     return Group(
@@ -372,13 +395,17 @@ def _describe(outcome: SpecOutcome) -> RenderableType:
 
 
 def _show(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.analysis.summary import summarize
+    from beatlog.report.console import render_summary
+
     console.print(render_summary(summarize(args.log)))
     return EXIT_OK
 
 
 def _plot(args: argparse.Namespace, console: Console) -> int:
     _need_matplotlib("plot")
-    from beatlog.report.chart import write_png  # noqa: PLC0415 - matplotlib is optional
+    from beatlog.analysis.timeline import build_timeline
+    from beatlog.report.chart import write_png
 
     timeline = build_timeline(args.log, args.system, fields=args.fields)
     try:
@@ -398,7 +425,7 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
 def _need_matplotlib(command: str) -> None:
     """Charts need the optional ``plot`` extra; say so in one line when it is missing."""
     try:
-        import matplotlib  # noqa: F401, PLC0415
+        import matplotlib  # noqa: F401
     except ModuleNotFoundError:
         raise _UsageError(f'{command} needs matplotlib (pip install "beatlog[plot]")') from None
 
@@ -417,11 +444,13 @@ def _import_from_working_directory() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
-    console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
     verbose = False
     try:
         args = _parser().parse_args(argv)
         verbose = args.verbose
+        from rich.console import Console
+
+        console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
         if args.command in ("record", "replay", "test", "review", "approve", "plot"):
             _import_from_working_directory()
         if args.command == "record":
@@ -433,9 +462,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "show":
             return _show(args, console)
         if args.command == "review":
+            from beatlog.cli.baselines import review
+
             review(args.paths, console)
             return EXIT_OK
         if args.command == "approve":
+            from beatlog.cli.baselines import approve
+
             approve(args.paths, console)
             return EXIT_OK
         if args.command == "plot":

@@ -1,6 +1,30 @@
-"""Reports for people: replay verdicts, log summaries, suite results and determinism audits."""
+"""Reports for people: replay verdicts, log summaries, suite results and determinism audits.
 
-from beatlog.report.audit import render_audit
-from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
+The names are imported on first use (they need rich).
+"""
+
+from typing import TYPE_CHECKING
+
+from beatlog._lazy import lazy_names
+
+if TYPE_CHECKING:
+    from beatlog.report.audit import render_audit
+    from beatlog.report.console import (
+        plain_text,
+        render_replay,
+        render_suite,
+        render_summary,
+    )
 
 __all__ = ["plain_text", "render_audit", "render_replay", "render_suite", "render_summary"]
+
+__getattr__ = lazy_names(
+    __name__,
+    {
+        "plain_text": "beatlog.report.console",
+        "render_audit": "beatlog.report.audit",
+        "render_replay": "beatlog.report.console",
+        "render_suite": "beatlog.report.console",
+        "render_summary": "beatlog.report.console",
+    },
+)

@@ -1,8 +1,23 @@
-"""DTC specs and suites: ``*.dtc.toml`` files, the parallel runner and JUnit output."""
+"""DTC specs and suites: ``*.dtc.toml`` files, the parallel runner and JUnit output.
 
-from beatlog.suite.junit import write_junit
-from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, load_spec, select_specs
+The names are imported on first use, so that a suite worker
+(:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
+"""
+
+from typing import TYPE_CHECKING
+
+from beatlog._lazy import lazy_names
+
+if TYPE_CHECKING:
+    from beatlog.suite.junit import write_junit
+    from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
+    from beatlog.suite.spec import (
+        SPEC_SUFFIX,
+        DtcSpec,
+        discover_specs,
+        load_spec,
+        select_specs,
+    )
 
 __all__ = [
     "SPEC_SUFFIX",
@@ -16,3 +31,19 @@ __all__ = [
     "select_specs",
     "write_junit",
 ]
+
+__getattr__ = lazy_names(
+    __name__,
+    {
+        "SPEC_SUFFIX": "beatlog.suite.spec",
+        "DtcSpec": "beatlog.suite.spec",
+        "SpecOutcome": "beatlog.suite.runner",
+        "Verdict": "beatlog.suite.runner",
+        "discover_specs": "beatlog.suite.spec",
+        "load_spec": "beatlog.suite.spec",
+        "run_spec": "beatlog.suite.runner",
+        "run_suite": "beatlog.suite.runner",
+        "select_specs": "beatlog.suite.spec",
+        "write_junit": "beatlog.suite.junit",
+    },
+)
