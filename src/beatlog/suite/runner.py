@@ -1,29 +1,31 @@
-"""Runs DTC suites: each spec replayed in a worker process, all cores by default."""
+"""Runs DTC suites: specs replayed here and, with more than one job, in worker processes
+as well (:mod:`beatlog.suite.worker`); all cores by default."""
 
 from __future__ import annotations
 
+import collections
 import dataclasses
-import functools
-import multiprocessing
-import signal
+import queue
+import threading
 import time
-from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
-from types import FrameType
+from typing import TYPE_CHECKING
 
-from beatlog.analysis.timeline import Timeline, report_timelines
 from beatlog.analysis.trace import Expectation, replayed_trace
-from beatlog.audit.replays import AuditReport
-from beatlog.audit.replays import audit as audit_replay
 from beatlog.errors import BaselineError, BeatlogError
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.spec import DtcSpec
+from beatlog.suite.worker import Worker
 from beatlog.usercode import load_system
+
+if TYPE_CHECKING:
+    from beatlog.analysis.timeline import Timeline
+    from beatlog.audit.replays import AuditReport
 
 __all__ = ["SpecOutcome", "Verdict", "run_spec", "run_suite"]
 
@@ -106,21 +108,21 @@ def run_spec(
         changes, refused = None, None
         if update and result.divergence is not None:
             changes, refused = _new_expectation(spec, result)
-        report = (
-            audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
-            if audit
-            else None
-        )
-        drawn = (
-            report_timelines(
+        report = None
+        if audit:
+            from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
+
+            report = audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+        drawn: tuple[Timeline, ...] = ()
+        if timelines:
+            from beatlog.analysis.timeline import report_timelines  # noqa: PLC0415 - numpy
+
+            drawn = report_timelines(
                 spec.log,
                 spec.system,
                 result.divergence,
                 expected=None if expected is None else expected.changes_by_cycle(),
             )
-            if timelines
-            else ()
-        )
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
@@ -169,13 +171,16 @@ def run_suite(
     timelines: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
 ) -> list[SpecOutcome]:
-    """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
+    """Run every spec, ``jobs`` at a time; outcomes in spec order.
 
-    With ``fail_fast`` the first failure or error cancels the specs not yet started.
-    With ``update`` each failure carries its new expectation (nothing is
-    written here: see :mod:`beatlog.suite.baseline`); with ``audit`` each worker also
-    audits its spec's determinism; with ``timelines`` it
-    builds its DTC's timelines for charts.
+    With more than one job, this process replays specs too while ``jobs - 1`` worker
+    processes start and then take the next spec each as they become free: a suite too
+    small to gain from workers is done before they are ready, and none is slower than
+    with one job. With ``fail_fast`` the first failure or error stops the run: specs not
+    started are not run and the workers are killed. With ``update`` each failure carries
+    its new expectation (nothing is written here: see :mod:`beatlog.suite.baseline`);
+    with ``audit`` each spec's determinism is audited too; with ``timelines`` its
+    timelines are built for charts.
     """
     outcomes: dict[Path, SpecOutcome] = {}
 
@@ -185,52 +190,88 @@ def run_suite(
             on_outcome(outcome)
         return fail_fast and outcome.verdict is not Verdict.PASSED
 
-    if jobs <= 1 or len(specs) <= 1:
+    options = {"update": update, "audit": audit, "timelines": timelines}
+    workers = min(jobs, len(specs)) - 1
+    if workers < 1:
         for spec in specs:
-            if done(run_spec(spec, update=update, audit=audit, timelines=timelines)):
+            if done(run_spec(spec, **options)):
                 break
     else:
-        run = functools.partial(run_spec, update=update, audit=audit, timelines=timelines)
-        _run_in_workers(run, specs, min(jobs, len(specs)), done)
+        _run_with_workers(specs, workers, options, done)
     return [outcomes[spec.path] for spec in specs if spec.path in outcomes]
 
 
-def _run_in_workers(
-    run: Callable[[DtcSpec], SpecOutcome],
+Answer = SpecOutcome | BaseException
+"""What comes back from a worker: an outcome, or why there is none."""
+
+
+def _run_with_workers(
     specs: Sequence[DtcSpec],
     workers: int,
+    options: Mapping[str, bool],
     done: Callable[[SpecOutcome], bool],
 ) -> None:
-    """Run the specs in a pool until ``done`` says stop. On any exception, Ctrl-C
-    included, the specs not started are cancelled and the workers are killed at once."""
-    before = set(multiprocessing.active_children())
-    context = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_leave_interrupts)
-    try:
-        pending = {pool.submit(run, spec) for spec in specs}
-        while pending:
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-            # Record every finished outcome before deciding to stop: any() over a
-            # generator would drop the ones after the first failure.
-            stops = [done(future.result()) for future in finished]
-            if any(stops):
-                break
-    except BaseException:
-        for worker in set(multiprocessing.active_children()) - before:
-            worker.kill()
-        raise
-    finally:
-        pool.shutdown(cancel_futures=True)
+    """Run the specs here and in ``workers`` worker processes until ``done`` says stop.
 
-
-def _leave_interrupts() -> None:
-    """Workers leave Ctrl-C to the parent, which stops them: no traceback from each.
-
-    A handler that does nothing, not ``SIG_IGN``, so that the processes a worker
-    starts (audit replays) are not born deaf to Ctrl-C.
+    One thread per worker hands it the next spec once it is ready and free. On leaving,
+    Ctrl-C included, the specs not started are dropped, the workers are killed, and the
+    outcomes that had come back by then are still given to ``done``.
     """
-    signal.signal(signal.SIGINT, _do_nothing)
+    pending = collections.deque(specs)
+    answers: queue.Queue[Answer] = queue.Queue()
+    pool: list[Worker] = []
+    feeders: list[threading.Thread] = []
+    left = len(specs)
+    try:
+        for _ in range(workers):
+            pool.append(Worker())
+            feeder = threading.Thread(
+                target=_feed, args=(pool[-1], pending, options, answers), daemon=True
+            )
+            feeder.start()
+            feeders.append(feeder)
+        while left:
+            answer: Answer
+            if pending and answers.empty():
+                try:
+                    spec = pending.popleft()
+                except IndexError:  # a worker took the last one
+                    continue
+                answer = run_spec(spec, **options)
+            else:
+                answer = answers.get()
+            left -= 1
+            if isinstance(answer, BaseException):
+                raise answer
+            if done(answer):
+                return
+    finally:
+        pending.clear()
+        for worker in pool:
+            worker.close()
+        for feeder in feeders:
+            feeder.join()
+        while not answers.empty():
+            answer = answers.get_nowait()
+            if isinstance(answer, SpecOutcome):
+                done(answer)
 
 
-def _do_nothing(signum: int, frame: FrameType | None) -> None:
-    """A signal handler that lets the signal pass."""
+def _feed(
+    worker: Worker,
+    pending: collections.deque[DtcSpec],
+    options: Mapping[str, bool],
+    answers: queue.Queue[Answer],
+) -> None:
+    """Once the worker is ready, hand it the pending specs one at a time until none is
+    left; every outcome, or why there is none, goes to ``answers``."""
+    try:
+        worker.wait_ready()
+        while True:
+            try:
+                spec = pending.popleft()
+            except IndexError:
+                return
+            answers.put(worker.run(spec, options))
+    except BaseException as exc:  # the runner raises it, unless it is leaving anyway
+        answers.put(exc)
