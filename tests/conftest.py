@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import functools
+import os
+import sys
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -136,3 +139,30 @@ def probe_system_renamed() -> PriorityArbiter[Probe]:
 def broken_probe() -> PriorityArbiter[Probe]:
     """A system factory that fails: the user's code raises while building the system."""
     raise RuntimeError("the arena map is missing")
+
+
+MEETING = "BEATLOG_TEST_MEETING"
+"""The environment variable naming the folder where meeting systems sign in."""
+
+
+def meeting_system(processes: int = 2) -> PriorityArbiter[Probe]:
+    """The probe system, built only once ``processes`` processes have built one: each signs
+    in to the folder ``$BEATLOG_TEST_MEETING`` names with a file named after its pid that
+    lists its imported modules, then waits (up to a minute) for the others. Specs of it
+    finish only when they run at once, in as many processes."""
+    folder = Path(os.environ[MEETING])
+    (folder / str(os.getpid())).write_text("\n".join(sorted(sys.modules)))
+    deadline = time.monotonic() + 60
+    while len(list(folder.iterdir())) < processes and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return probe_system()
+
+
+def alone_system() -> PriorityArbiter[Probe]:
+    """A meeting system that meets no one: it signs in and goes on at once."""
+    return meeting_system(processes=1)
+
+
+def dying_system() -> PriorityArbiter[Probe]:
+    """A system factory that ends its process at once, as a crash would."""
+    os._exit(3)

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+import beatlog_examples.rover
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import RecordFn
@@ -105,9 +106,10 @@ def test_dtcs_run_under_xdist_and_measure_behavior_coverage(
         log = tmp_path / f"rover-{seed}.beatlog"
         record_lockstep(log, duration_s=20.0, seed=seed)
         pytester.makefile(".dtc.toml", **{f"rover{seed}": spec_text(f"rover-{seed}", log, rover)})
-    result = pytester.runpytest_subprocess(
-        "-n", "2", "--cov=beatlog_examples.rover.behaviors", "--cov-report=term"
-    )
+    # The rover's folder, not its module name: coverage imports a module it is named and
+    # then forgets it, and numpy (which the rover imports) cannot be imported twice.
+    folder = Path(beatlog_examples.rover.__file__).parent
+    result = pytester.runpytest_subprocess("-n", "2", f"--cov={folder}", "--cov-report=term")
     result.assert_outcomes(passed=3)
     result.stdout.fnmatch_lines(["*2 workers*", "*rover/behaviors.py*"])
 

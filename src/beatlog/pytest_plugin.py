@@ -30,7 +30,7 @@ from beatlog.report.baselines import render_orphans, render_updates
 from beatlog.report.console import plain_text, render_replay
 from beatlog.report.counts import plural, verdict_counts
 from beatlog.suite.maintenance import find_orphans, update_baselines
-from beatlog.suite.policy import UpdateMode
+from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
@@ -146,7 +146,7 @@ class DtcItem(pytest.Item):
 
     def runtest(self) -> None:
         run = self.config.stash[_RUN]
-        outcome = run_spec(self.spec, update=run.update, audit=run.audit)
+        outcome = run_spec(self.spec, SpecOptions(update=run.update, audit=run.audit))
         self.user_properties.append((_VERDICT, outcome.verdict.value))
         self.user_properties.append((_SPEC, str(self.spec.path)))
         for line in render_updates(update_baselines([outcome], run.update)):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import concurrent.futures
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -11,10 +11,10 @@ import pytest
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replay.verdict import DivergenceKind
-from beatlog.suite import runner
+from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
-from tests.conftest import Dice, Near, Probe, RecordFn
+from tests.conftest import MEETING, Dice, Near, Probe, RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 from tests.systems import leaks, leaky_system, record_session
 
@@ -108,9 +108,9 @@ def test_timelines_for_reports_are_built_only_when_asked(tmp_path: Path, log: Pa
     lost = dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
 
     assert run_spec(passing).timelines == ()
-    (whole,) = run_spec(passing, timelines=True).timelines
-    close_up, whole_failing = run_spec(failing, timelines=True).timelines
-    assert run_spec(lost, timelines=True).timelines == ()
+    (whole,) = run_spec(passing, SpecOptions(timelines=True)).timelines
+    close_up, whole_failing = run_spec(failing, SpecOptions(timelines=True)).timelines
+    assert run_spec(lost, SpecOptions(timelines=True)).timelines == ()
 
     assert (whole.cycles, whole.divergence) == (300, None)
     assert whole_failing.divergence is not None
@@ -191,28 +191,34 @@ def test_fail_fast_also_stops_at_an_error(mixed_suite: list[DtcSpec]) -> None:
     assert verdicts(outcomes) == [("a-pass", Verdict.PASSED), ("c-error", Verdict.ERROR)]
 
 
-Futures = set[concurrent.futures.Future[SpecOutcome]]
-
-
-def test_fail_fast_in_workers_keeps_outcomes_that_finished_with_the_failure(
-    mixed_suite: list[DtcSpec], monkeypatch: pytest.MonkeyPatch
+def test_fail_fast_in_workers_gives_every_outcome_that_came_back_in_spec_order(
+    mixed_suite: list[DtcSpec],
 ) -> None:
-    """A spec that finished in the same wait as the first failure still gets its verdict."""
-
-    def wait_for_all_failures_first(
-        futures: Futures, return_when: str
-    ) -> tuple[list[concurrent.futures.Future[SpecOutcome]], Futures]:
-        finished, pending = concurrent.futures.wait(futures)
-        passed_last = sorted(finished, key=lambda f: f.result().verdict is Verdict.PASSED)
-        return passed_last, pending
-
-    monkeypatch.setattr(runner, "wait", wait_for_all_failures_first)
     seen: list[SpecOutcome] = []
 
-    outcomes = run_suite(mixed_suite[:2], jobs=2, fail_fast=True, on_outcome=seen.append)
+    outcomes = run_suite(mixed_suite, jobs=2, fail_fast=True, on_outcome=seen.append)
 
-    assert verdicts(outcomes) == EXPECTED[:2]
-    assert sorted(verdicts(seen)) == EXPECTED[:2]
+    assert sorted(verdicts(seen)) == sorted(verdicts(outcomes))
+    finished = {o.spec.path for o in seen}
+    assert [o.spec for o in outcomes] == [s for s in mixed_suite if s.path in finished]
+    assert any(o.verdict is not Verdict.PASSED for o in outcomes)
+
+
+def test_with_two_jobs_specs_run_here_and_in_a_worker_at_once(
+    tmp_path: Path, log: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two specs that finish only when they run at the same time, in two processes."""
+    meeting = tmp_path / "meeting"
+    meeting.mkdir()
+    monkeypatch.setenv(MEETING, str(meeting))
+    suite = [dtc(tmp_path, name, log, "tests.conftest:meeting_system") for name in ("a", "b")]
+
+    outcomes = run_suite(suite, jobs=2)
+
+    assert verdicts(outcomes) == [("a", Verdict.PASSED), ("b", Verdict.PASSED)]
+    pids = {int(sign.name) for sign in meeting.iterdir()}
+    assert len(pids) == 2
+    assert os.getpid() in pids
 
 
 # the determinism audit
@@ -267,7 +273,7 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
     spec = dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
     CountingArbiter.replays = 0
 
-    outcome = run_spec(spec, update="new", timelines=True)
+    outcome = run_spec(spec, SpecOptions(update=UpdateMode.NEW, timelines=True))
 
     assert outcome.verdict is Verdict.FAILED
     assert outcome.result is not None

@@ -1,6 +1,25 @@
 """The determinism audit: replays in fresh interpreters under two hash seeds, with a
-leak watch naming wall-clock reads and global random calls in user code."""
+leak watch naming wall-clock reads and global random calls in user code.
 
-from beatlog.audit.replays import AuditReport, Finding, SeedRun, audit
+``python -m beatlog.audit`` is the fresh interpreter's side (:mod:`.__main__`); the
+names here are imported on first use, so that it starts light.
+"""
+
+from typing import TYPE_CHECKING
+
+from beatlog._lazy import lazy_names
+
+if TYPE_CHECKING:
+    from beatlog.audit.replays import AuditReport, Finding, SeedRun, audit
 
 __all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
+
+__getattr__ = lazy_names(
+    __name__,
+    {
+        "AuditReport": "beatlog.audit.replays",
+        "Finding": "beatlog.audit.replays",
+        "SeedRun": "beatlog.audit.replays",
+        "audit": "beatlog.audit.replays",
+    },
+)

@@ -15,32 +15,19 @@ import hashlib
 import os
 import subprocess
 import sys
-import threading
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import msgspec
 
-from beatlog.audit.leaks import Finding, LeakWatch
+from beatlog.audit.leaks import Finding
 from beatlog.errors import BeatlogError
-from beatlog.log.format import payload_encoder
-from beatlog.model.behavior import Behavior, System
-from beatlog.model.context import Context
-from beatlog.replay.judge import replay
 from beatlog.replay.verdict import DivergenceKind
-from beatlog.usercode import load_system
 
 __all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
 
-_CYCLE_DIGEST_SIZE = 8
-_CHILD = (
-    "import signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); sys.path[:] = sys.argv[3:]; "
-    "from beatlog.audit.replays import _serve; _serve()"
-)
-"""A fresh interpreter that imports what this one imports (``sys.path`` passed along) and
-that Ctrl-C ends at once; it gets the request and the read end of its lifeline."""
+CYCLE_DIGEST_SIZE = 8
+"""Bytes of blake2b per replayed cycle in an answer's trace."""
 
 
 @dataclass(frozen=True)
@@ -111,13 +98,13 @@ def audit(
 ) -> AuditReport:
     """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash seed.
 
-    Both replays run at once, each in a fresh interpreter that imports from this one's
-    ``sys.path``; each replays every cycle, diverging or not, so the runs compare in
-    full.
+    Both replays run at once, each in a fresh interpreter (``python -m beatlog.audit``,
+    see :mod:`beatlog.audit.__main__`) that imports from this one's ``sys.path``; each
+    replays every cycle, diverging or not, so the runs compare in full.
 
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
-    request = msgspec.json.encode(_Request(str(log), system, allow_truncated)).decode()
+    request = msgspec.json.encode(Request(str(log), system, allow_truncated)).decode()
     lifeline, held = os.pipe()  # the children exit when ``held`` closes, even if we are killed
     children: list[subprocess.Popen[bytes]] = []
     with contextlib.ExitStack() as stack:
@@ -125,7 +112,7 @@ def audit(
         try:
             for seed in hash_seeds:
                 child = subprocess.Popen(
-                    [sys.executable, "-c", _CHILD, request, str(lifeline), *sys.path],
+                    [sys.executable, "-m", "beatlog.audit", request, str(lifeline), *sys.path],
                     stdout=subprocess.PIPE,
                     stderr=subprocess.PIPE,
                     env={**os.environ, "PYTHONHASHSEED": str(seed)},
@@ -151,13 +138,15 @@ def audit(
     )
 
 
-class _Request(msgspec.Struct, array_like=True):
+class Request(msgspec.Struct, array_like=True):
+    """What to replay, as the first argument of ``python -m beatlog.audit``."""
+
     log: str
     system: str
     allow_truncated: bool
 
 
-class _Answer(msgspec.Struct, kw_only=True):
+class Answer(msgspec.Struct, kw_only=True):
     """What a child replay tells its parent, as JSON on its own stdout."""
 
     ok: bool = False
@@ -171,19 +160,19 @@ class _Answer(msgspec.Struct, kw_only=True):
     """Bad input (log or system) that stopped the replay."""
 
 
-def _answer(seed: int, returncode: int, out: bytes, err: bytes) -> _Answer:
+def _answer(seed: int, returncode: int, out: bytes, err: bytes) -> Answer:
     if returncode != 0:
         raise RuntimeError(
             f"the audit replay with PYTHONHASHSEED={seed} crashed (exit {returncode}):\n"
             + err.decode(errors="replace")
         )
-    answer = msgspec.json.decode(out, type=_Answer)
+    answer = msgspec.json.decode(out, type=Answer)
     if answer.error is not None:
         raise BeatlogError(answer.error)
     return answer
 
 
-def _seed_run(seed: int, answer: _Answer) -> SeedRun:
+def _seed_run(seed: int, answer: Answer) -> SeedRun:
     return SeedRun(
         hash_seed=seed,
         ok=answer.ok,
@@ -215,83 +204,14 @@ def _compare(runs: tuple[SeedRun, SeedRun], first: bytes, second: bytes) -> str 
         return None
     cycle = next(
         (
-            offset // _CYCLE_DIGEST_SIZE
-            for offset in range(0, min(len(first), len(second)), _CYCLE_DIGEST_SIZE)
-            if first[offset : offset + _CYCLE_DIGEST_SIZE]
-            != second[offset : offset + _CYCLE_DIGEST_SIZE]
+            offset // CYCLE_DIGEST_SIZE
+            for offset in range(0, min(len(first), len(second)), CYCLE_DIGEST_SIZE)
+            if first[offset : offset + CYCLE_DIGEST_SIZE]
+            != second[offset : offset + CYCLE_DIGEST_SIZE]
         ),
-        min(len(first), len(second)) // _CYCLE_DIGEST_SIZE,
+        min(len(first), len(second)) // CYCLE_DIGEST_SIZE,
     )
     return (
         f"the replay depends on the hash seed: with PYTHONHASHSEED={a.hash_seed} and "
         f"{b.hash_seed} the behavior states and outputs differ from cycle {cycle}"
     )
-
-
-class _AuditedSystem:
-    """A system whose every update is watched for leaks and hashed into a trace."""
-
-    def __init__(self, system: System, watch: LeakWatch) -> None:
-        self._system = system
-        self._watch = watch
-        self._behaviors = list(system.behaviors.values())
-        self._encode = payload_encoder().encode
-        self.trace: list[bytes] = []
-
-    @property
-    def robot_state(self) -> type[msgspec.Struct]:
-        return self._system.robot_state
-
-    @property
-    def behaviors(self) -> Mapping[str, Behavior]:
-        return self._system.behaviors
-
-    def update(self, state: Any, context: Context) -> None:
-        try:
-            with self._watch:
-                self._system.update(state, context)
-        finally:  # a cycle that raised is part of the trace too
-            self.trace.append(self._digest(context))
-
-    def _digest(self, context: Context) -> bytes:
-        try:
-            data = self._encode(([b.state for b in self._behaviors], context.outputs))
-        except (TypeError, msgspec.EncodeError):  # unloggable outputs: replay reports them
-            data = b""
-        return hashlib.blake2b(data, digest_size=_CYCLE_DIGEST_SIZE).digest()
-
-
-def _replay_watched(request: _Request) -> _Answer:
-    watch = LeakWatch()
-    system = _AuditedSystem(load_system(request.system), watch)
-    result = replay(request.log, system, keep_going=True, allow_truncated=request.allow_truncated)
-    divergence = result.divergence
-    return _Answer(
-        ok=result.ok,
-        cycles=result.cycles,
-        divergence_cycle=divergence.cycle if divergence else None,
-        divergence_kind=divergence.kind if divergence else None,
-        trace=b"".join(system.trace),
-        findings=watch.findings(),
-    )
-
-
-def _serve() -> None:
-    """The child's side: replay the request in argv, answer as JSON on stdout."""
-    request = msgspec.json.decode(sys.argv[1], type=_Request)
-    lifeline = int(sys.argv[2])
-    threading.Thread(target=_exit_when_orphaned, args=(lifeline,), daemon=True).start()
-    answer_fd = os.dup(1)
-    os.dup2(2, 1)  # what behaviors print must not corrupt the answer
-    try:
-        answer = _replay_watched(request)
-    except BeatlogError as exc:
-        answer = _Answer(error=str(exc))
-    with os.fdopen(answer_fd, "wb") as out:
-        out.write(msgspec.json.encode(answer))
-
-
-def _exit_when_orphaned(lifeline: int) -> None:
-    """Read the lifeline until it closes: the auditing process gave up or died."""
-    os.read(lifeline, 1)
-    os._exit(1)

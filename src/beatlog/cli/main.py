@@ -1,5 +1,8 @@
 """The ``beatlog`` command: a thin shell over the library.
 
+Each subcommand imports what it uses when it runs, so that ``beatlog --help`` loads
+neither the engines nor rich.
+
 Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
 input (one line on stderr naming the file and the problem, never a traceback; with
 ``--verbose`` the traceback of the user's code that failed comes first), 130
@@ -15,31 +18,19 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
-from importlib.metadata import entry_points
 from pathlib import Path
-from typing import NoReturn, TypeVar
-
-import msgspec
-from rich.console import Console, Group, RenderableType
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.text import Text
+from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 from beatlog._version import __version__
-from beatlog.analysis.summary import summarize
-from beatlog.analysis.timeline import build_timeline
-from beatlog.cli.baselines import approve_command, report_orphans, review, show_updates
 from beatlog.errors import BeatlogError, LogExistsError
-from beatlog.record.recorder import Recorder
-from beatlog.replay.judge import replay
-from beatlog.report.audit import render_audit
-from beatlog.report.console import plain_text, render_replay, render_suite, render_summary
-from beatlog.report.counts import verdict_counts
-from beatlog.suite.junit import write_junit
-from beatlog.suite.maintenance import update_baselines
 from beatlog.suite.policy import UpdateMode
-from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
-from beatlog.suite.spec import discover_specs, select_specs
-from beatlog.usercode import load_robot
+
+if TYPE_CHECKING:
+    from rich.console import Console, RenderableType
+    from rich.progress import Progress
+
+    from beatlog.suite.runner import SpecOutcome
+    from beatlog.suite.spec import DtcSpec
 
 __all__ = ["main"]
 
@@ -172,6 +163,8 @@ def _parser() -> argparse.ArgumentParser:
 
 def _demo(args: argparse.Namespace, console: Console) -> int:
     """Run the demo a package registered under the ``beatlog.demo`` entry point group."""
+    from importlib.metadata import entry_points
+
     demos = entry_points(group=DEMO_ENTRY_POINTS)
     if not demos:
         raise BeatlogError(
@@ -201,6 +194,9 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 
 
 def _record(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.record.recorder import Recorder
+    from beatlog.usercode import load_robot
+
     robot = load_robot(args.robot)
     output: Path = args.output
     if not output.parent.is_dir():
@@ -249,6 +245,8 @@ def _record(args: argparse.Namespace, console: Console) -> int:
 
 def _write_failure(log: Path, error: str) -> str:
     """Where writing a log failed, as its first missing cycle read back from it."""
+    from beatlog.analysis.summary import summarize
+
     try:
         kept = summarize(log).cycles
     except BeatlogError:
@@ -257,6 +255,8 @@ def _write_failure(log: Path, error: str) -> str:
 
 
 def _progress(console: Console) -> Progress:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
     return Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -268,6 +268,11 @@ def _progress(console: Console) -> Progress:
 
 
 def _replay(args: argparse.Namespace, console: Console) -> int:
+    import msgspec
+
+    from beatlog.replay.judge import replay
+    from beatlog.report.console import render_replay
+
     result = replay(
         args.log,
         args.system,
@@ -282,7 +287,10 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK if result.ok else EXIT_FAILED
 
 
-def _test(args: argparse.Namespace, console: Console) -> int:
+def _selected_specs(args: argparse.Namespace) -> list[DtcSpec]:
+    """The specs ``beatlog test`` runs: found under the paths, selected by -k and --tag."""
+    from beatlog.suite.spec import discover_specs, select_specs
+
     found = discover_specs(args.paths)
     specs = select_specs(found, pattern=args.select, tags=args.tag)
     if not specs:
@@ -290,6 +298,28 @@ def _test(args: argparse.Namespace, console: Console) -> int:
         if found:
             raise _UsageError(f"none of the {len(found)} DTC specs in {where} match -k/--tag")
         raise _UsageError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
+    return list(specs)
+
+
+def _test_exit_code(outcomes: list[SpecOutcome]) -> int:
+    """2 when a DTC could not run, 1 when one failed or the audit found something, else 0."""
+    from beatlog.suite.runner import Verdict
+
+    counts = Counter(outcome.verdict for outcome in outcomes)
+    if counts[Verdict.ERROR]:
+        return EXIT_USAGE
+    unsound = any(outcome.audit_findings for outcome in outcomes)
+    return EXIT_FAILED if counts[Verdict.FAILED] or unsound else EXIT_OK
+
+
+def _test(args: argparse.Namespace, console: Console) -> int:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from beatlog.report.console import render_suite
+    from beatlog.report.counts import verdict_counts
+    from beatlog.suite.runner import Verdict, run_suite
+
+    specs = _selected_specs(args)
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -339,10 +369,11 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     if outcomes:
         console.print(render_suite(outcomes))
         if args.audit:
+            from beatlog.report.audit import render_audit
+
             console.print(render_audit(outcomes))
     if not interrupted:
         _write_reports(args, outcomes, console)
-    counts = Counter(outcome.verdict for outcome in outcomes)
     skipped = len(specs) - len(outcomes)
     console.print(
         verdict_counts((outcome.verdict for outcome in outcomes), not_run=skipped)
@@ -350,14 +381,16 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     )
     if interrupted:
         raise KeyboardInterrupt
-    if counts[Verdict.ERROR]:
-        return EXIT_USAGE
-    unsound = any(outcome.audit_findings for outcome in outcomes)
-    return EXIT_FAILED if counts[Verdict.FAILED] or unsound else EXIT_OK
+    return _test_exit_code(outcomes)
 
 
 def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
     """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end."""
+    from beatlog.cli.baselines import report_orphans, show_updates
+    from beatlog.report.console import plain_text
+    from beatlog.suite.junit import write_junit
+    from beatlog.suite.maintenance import update_baselines
+
     show_updates(update_baselines(outcomes, args.update), console)
     report_orphans(args.paths, console)
     if args.junit_xml is not None:
@@ -366,7 +399,7 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
         except OSError as exc:
             raise _UsageError(f"{args.junit_xml}: cannot write: {exc.strerror}") from None
     if args.html is not None:
-        from beatlog.report.html import write_html  # noqa: PLC0415 - matplotlib is optional
+        from beatlog.report.html import write_html
 
         try:
             write_html(outcomes, args.html)
@@ -375,6 +408,11 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
 
 
 def _describe(outcome: SpecOutcome) -> RenderableType:
+    from rich.console import Group
+    from rich.text import Text
+
+    from beatlog.report.console import render_replay
+
     if outcome.result is None:
         return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.name}: {outcome.error}")
     return Group(
@@ -384,13 +422,18 @@ def _describe(outcome: SpecOutcome) -> RenderableType:
 
 
 def _show(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.analysis.summary import summarize
+    from beatlog.report.console import render_summary
+
     console.print(render_summary(summarize(args.log)))
     return EXIT_OK
 
 
 def _plot(args: argparse.Namespace, console: Console) -> int:
     _need_matplotlib("plot")
-    from beatlog.report.chart import write_png  # noqa: PLC0415 - matplotlib is optional
+    from beatlog.analysis.timeline import build_timeline
+    from beatlog.replay.judge import replay
+    from beatlog.report.chart import write_png
 
     divergence = None if args.system is None else replay(args.log, args.system).divergence
     timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
@@ -411,7 +454,7 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
 def _need_matplotlib(command: str) -> None:
     """Charts need the optional ``plot`` extra; say so in one line when it is missing."""
     try:
-        import matplotlib  # noqa: F401, PLC0415
+        import matplotlib  # noqa: F401
     except ModuleNotFoundError:
         raise _UsageError(f'{command} needs matplotlib (pip install "beatlog[plot]")') from None
 
@@ -430,11 +473,13 @@ def _import_from_working_directory() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
-    console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
     verbose = False
     try:
         args = _parser().parse_args(argv)
         verbose = args.verbose
+        from rich.console import Console
+
+        console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
         if args.command in ("record", "replay", "test", "review", "approve", "plot"):
             _import_from_working_directory()
         if args.command == "record":
@@ -446,9 +491,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command == "show":
             return _show(args, console)
         if args.command == "review":
+            from beatlog.cli.baselines import review
+
             review(args.paths, console)
             return EXIT_OK
         if args.command == "approve":
+            from beatlog.cli.baselines import approve_command
+
             approve_command(args.paths, console)
             return EXIT_OK
         if args.command == "plot":

@@ -1,7 +1,8 @@
 """The random source: the only randomness behaviors use.
 
 Live, it draws from a seeded numpy generator and records every value (RN_t) with
-what was asked for (the kind and its parameters). In replay it hands back the
+what was asked for (the kind and its parameters). numpy is imported where arrays or
+the generator are needed, so that replaying scalar draws never loads it. In replay it hands back the
 recorded values; drawing more, fewer, a different kind or with different parameters
 than was recorded is a divergence that names the cycle and the behavior.
 """
@@ -15,12 +16,13 @@ from enum import StrEnum
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import msgspec
-import numpy as np
-import numpy.typing as npt
 
 from beatlog.log.format import Draw
 
 if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
     from beatlog.model.context import Context
 
 __all__ = [
@@ -79,6 +81,8 @@ def _pack_array(array: npt.NDArray[Any]) -> tuple[str, list[int], bytes]:
 
 
 def _unpack_array(value: Any) -> npt.NDArray[Any]:
+    import numpy as np  # noqa: PLC0415 - only replayed array draws need numpy
+
     dtype, shape, data = value
     return np.frombuffer(data, dtype=np.dtype(dtype)).reshape(shape).copy()
 
@@ -153,6 +157,8 @@ class RecordingRandom(RandomSource):
     """Draws from a PCG64 generator and keeps every value drawn in the current cycle."""
 
     def __init__(self, seed: int | None = None) -> None:
+        import numpy as np  # noqa: PLC0415 - the generator is numpy's
+
         super().__init__()
         self.seed = seed if seed is not None else secrets.randbits(63)
         self._gen = np.random.Generator(np.random.PCG64(self.seed))
@@ -187,7 +193,7 @@ class RecordingRandom(RandomSource):
         elif kind is DrawKind.NORMAL_ARRAY:
             array = gen.normal(a, b, shape)
         else:
-            array = gen.integers(int(a), int(b), shape, dtype=np.int64)
+            array = gen.integers(int(a), int(b), shape, dtype="int64")
         params = (a, b, list(shape))
         self.draws.append(Draw(self._actor, kind.value, _pack_array(array), params))
         return array

@@ -2,18 +2,23 @@
 
 :func:`replay` gives the verdict (pass, or the first divergence); :mod:`.compare`
 holds the allowances a spec may grant, :mod:`.fit` checks a log fits the system, and
-:mod:`.verdict` the result types.
+:mod:`.verdict` the result types. The names are imported on first use.
 """
 
-from beatlog.replay.compare import Comparison
-from beatlog.replay.judge import replay
-from beatlog.replay.verdict import (
-    Divergence,
-    DivergenceKind,
-    DrawReport,
-    ReplayResult,
-    StateChange,
-)
+from typing import TYPE_CHECKING
+
+from beatlog._lazy import lazy_names
+
+if TYPE_CHECKING:
+    from beatlog.replay.compare import Comparison
+    from beatlog.replay.judge import replay
+    from beatlog.replay.verdict import (
+        Divergence,
+        DivergenceKind,
+        DrawReport,
+        ReplayResult,
+        StateChange,
+    )
 
 __all__ = [
     "Comparison",
@@ -24,3 +29,16 @@ __all__ = [
     "StateChange",
     "replay",
 ]
+
+__getattr__ = lazy_names(
+    __name__,
+    {
+        "Comparison": "beatlog.replay.compare",
+        "Divergence": "beatlog.replay.verdict",
+        "DivergenceKind": "beatlog.replay.verdict",
+        "DrawReport": "beatlog.replay.verdict",
+        "ReplayResult": "beatlog.replay.verdict",
+        "StateChange": "beatlog.replay.verdict",
+        "replay": "beatlog.replay.judge",
+    },
+)

@@ -1,11 +1,26 @@
 """DTC specs and suites: ``*.dtc.toml`` files, the parallel runner, JUnit output and the
-re-baselining workflow (update, review, approve) with its CI rule."""
+re-baselining workflow (update, review, approve) with its CI rule.
 
-from beatlog.suite.junit import write_junit
-from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
-from beatlog.suite.policy import UpdateMode
-from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, load_spec, select_specs
+The names are imported on first use, so that a suite worker
+(:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
+"""
+
+from typing import TYPE_CHECKING
+
+from beatlog._lazy import lazy_names
+
+if TYPE_CHECKING:
+    from beatlog.suite.junit import write_junit
+    from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
+    from beatlog.suite.policy import UpdateMode
+    from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
+    from beatlog.suite.spec import (
+        SPEC_SUFFIX,
+        DtcSpec,
+        discover_specs,
+        load_spec,
+        select_specs,
+    )
 
 __all__ = [
     "SPEC_SUFFIX",
@@ -24,3 +39,24 @@ __all__ = [
     "update_baselines",
     "write_junit",
 ]
+
+__getattr__ = lazy_names(
+    __name__,
+    {
+        "SPEC_SUFFIX": "beatlog.suite.spec",
+        "Decision": "beatlog.suite.maintenance",
+        "DtcSpec": "beatlog.suite.spec",
+        "UpdateMode": "beatlog.suite.policy",
+        "approve": "beatlog.suite.maintenance",
+        "decide": "beatlog.suite.maintenance",
+        "update_baselines": "beatlog.suite.maintenance",
+        "SpecOutcome": "beatlog.suite.runner",
+        "Verdict": "beatlog.suite.runner",
+        "discover_specs": "beatlog.suite.spec",
+        "load_spec": "beatlog.suite.spec",
+        "run_spec": "beatlog.suite.runner",
+        "run_suite": "beatlog.suite.runner",
+        "select_specs": "beatlog.suite.spec",
+        "write_junit": "beatlog.suite.junit",
+    },
+)

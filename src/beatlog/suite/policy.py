@@ -9,11 +9,12 @@ variable is set: a CI run judges against the committed baselines, it never makes
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from enum import StrEnum
 
 from beatlog.errors import CiWriteError, OptionError
 
-__all__ = ["UpdateMode", "in_ci", "require_writable"]
+__all__ = ["SpecOptions", "UpdateMode", "in_ci", "require_writable"]
 
 
 class UpdateMode(StrEnum):
@@ -45,3 +46,13 @@ def require_writable() -> None:
     """Raise :class:`CiWriteError` when ``CI`` is set: baselines are never written there."""
     if in_ci():
         raise CiWriteError
+
+
+@dataclass(frozen=True)
+class SpecOptions:
+    """What a suite run asks of each DTC besides its verdict (see
+    :func:`beatlog.suite.runner.run_spec`)."""
+
+    update: UpdateMode = UpdateMode.NONE
+    audit: bool = False
+    timelines: bool = False

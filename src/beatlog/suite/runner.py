@@ -1,31 +1,33 @@
-"""Runs DTC suites: each spec replayed in a worker process, all cores by default."""
+"""Runs DTC suites: specs replayed here and, with more than one job, in worker processes
+as well (:mod:`beatlog.suite.worker`); all cores by default."""
 
 from __future__ import annotations
 
+import collections
 import dataclasses
-import functools
-import multiprocessing
-import signal
+import queue
+import threading
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
-from types import FrameType
+from typing import TYPE_CHECKING
 
-from beatlog.analysis.details import Details, replay_details
-from beatlog.analysis.timeline import Timeline
 from beatlog.analysis.trace import Expectation, ReplayedTrace
-from beatlog.audit.replays import AuditReport
-from beatlog.audit.replays import audit as audit_replay
 from beatlog.errors import BaselineError, BeatlogError
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
-from beatlog.suite.policy import UpdateMode
+from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import DtcSpec
+from beatlog.suite.worker import Worker
 from beatlog.usercode import load_system
+
+if TYPE_CHECKING:
+    from beatlog.analysis.details import Details
+    from beatlog.analysis.timeline import Timeline
+    from beatlog.audit.replays import AuditReport
 
 __all__ = ["SpecOutcome", "Verdict", "run_spec", "run_suite"]
 
@@ -78,20 +80,16 @@ class SpecOutcome:
 _UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
 
 
-def run_spec(
-    spec: DtcSpec,
-    *,
-    update: UpdateMode | str = UpdateMode.NONE,
-    audit: bool = False,
-    timelines: bool = False,
-) -> SpecOutcome:
+def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one. In :attr:`UpdateMode.NEW` a failure also traces the new state
-    changes and outputs (nothing is written here: see :mod:`beatlog.suite.maintenance`),
-    with ``audit`` its determinism is audited, with ``timelines`` what it did
-    is charted; the outcome's wall time is the replay's alone. The result's reproduce
-    command is ``beatlog test SPEC``, which judges exactly as this run did."""
-    update = UpdateMode.parse(update)
+    if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
+    also traces the new state changes and outputs (nothing is written here: see
+    :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
+    ``timelines`` what it did is charted. The outcome's wall time is the replay's
+    alone. The result's reproduce command is ``beatlog test SPEC``, which judges
+    exactly as this run did."""
+    options = options or SpecOptions()
+    update, audit, timelines = options.update, options.audit, options.timelines
     started = time.perf_counter()
     baseline = expected_path(spec.path)
     try:
@@ -116,28 +114,19 @@ def run_spec(
         divergence = result.divergence
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
-        details = Details()
-        if divergence is not None or timelines:
-            details = replay_details(
-                spec.log,
-                load_system(spec.system),
-                divergence,
-                trace=updating and refused is None,
-                timelines=timelines,
-                expected=None if expected is None else expected.changes_by_cycle(),
-            )
-        if divergence is not None:
+        details = _details(spec, divergence, expected, trace=updating, timelines=timelines)
+        if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         result = dataclasses.replace(result, divergence=divergence, reproduce=_rerun(spec))
         changes = None
-        if details.trace is not None:
+        if details is not None and details.trace is not None and refused is None:
             changes, refused = _new_expectation(details.trace)
-        report = (
-            audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
-            if audit
-            else None
-        )
-        drawn = details.timelines
+        report = None
+        if audit:
+            from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
+
+            report = audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+        drawn = () if details is None else details.timelines
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
@@ -161,6 +150,29 @@ def _rerun(spec: DtcSpec) -> str:
     """``beatlog test SPEC``: the one command that judges a DTC as a suite run does,
     with the spec's allowances and approved baseline."""
     return reproduce_command("test", spec.path)
+
+
+def _details(
+    spec: DtcSpec,
+    divergence: Divergence | None,
+    expected: Expectation | None,
+    *,
+    trace: bool,
+    timelines: bool,
+) -> Details | None:
+    """One more replay, of a failed DTC or one to chart, gathering what reports need."""
+    if divergence is None and not timelines:
+        return None
+    from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
+
+    return replay_details(
+        spec.log,
+        load_system(spec.system),
+        divergence,
+        trace=trace,
+        timelines=timelines,
+        expected=None if expected is None else expected.changes_by_cycle(),
+    )
 
 
 def _refusal(divergence: Divergence) -> str | None:
@@ -188,13 +200,17 @@ def run_suite(
     timelines: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
 ) -> list[SpecOutcome]:
-    """Run every spec, ``jobs`` at a time in worker processes; outcomes in spec order.
+    """Run every spec, ``jobs`` at a time; outcomes in spec order.
 
-    With ``fail_fast`` the first failure or error cancels the specs not yet started.
-    In :attr:`UpdateMode.NEW` each failure carries its new expectation (nothing is
-    written here: see :mod:`beatlog.suite.maintenance`); with ``audit`` each worker also
-    audits its spec's determinism; with ``timelines`` it
-    builds its DTC's timelines for charts.
+    With more than one job, this process replays specs too while ``jobs - 1`` worker
+    processes start and then take the next spec each as they become free: a suite too
+    small to gain from workers is done before they are ready, and none is slower than
+    with one job. With ``fail_fast`` the first failure or error stops the run: specs not
+    started are not run and the workers are killed. In :attr:`UpdateMode.NEW` each failure
+    carries its new expectation (nothing is written here: see
+    :mod:`beatlog.suite.maintenance`);
+    with ``audit`` each spec's determinism is audited too; with ``timelines`` its
+    timelines are built for charts.
     """
     update = UpdateMode.parse(update)
     outcomes: dict[Path, SpecOutcome] = {}
@@ -205,52 +221,88 @@ def run_suite(
             on_outcome(outcome)
         return fail_fast and outcome.verdict is not Verdict.PASSED
 
-    if jobs <= 1 or len(specs) <= 1:
+    options = SpecOptions(update, audit, timelines)
+    workers = min(jobs, len(specs)) - 1
+    if workers < 1:
         for spec in specs:
-            if done(run_spec(spec, update=update, audit=audit, timelines=timelines)):
+            if done(run_spec(spec, options)):
                 break
     else:
-        run = functools.partial(run_spec, update=update, audit=audit, timelines=timelines)
-        _run_in_workers(run, specs, min(jobs, len(specs)), done)
+        _run_with_workers(specs, workers, options, done)
     return [outcomes[spec.path] for spec in specs if spec.path in outcomes]
 
 
-def _run_in_workers(
-    run: Callable[[DtcSpec], SpecOutcome],
+Answer = SpecOutcome | BaseException
+"""What comes back from a worker: an outcome, or why there is none."""
+
+
+def _run_with_workers(
     specs: Sequence[DtcSpec],
     workers: int,
+    options: SpecOptions,
     done: Callable[[SpecOutcome], bool],
 ) -> None:
-    """Run the specs in a pool until ``done`` says stop. On any exception, Ctrl-C
-    included, the specs not started are cancelled and the workers are killed at once."""
-    before = set(multiprocessing.active_children())
-    context = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_leave_interrupts)
-    try:
-        pending = {pool.submit(run, spec) for spec in specs}
-        while pending:
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-            # Record every finished outcome before deciding to stop: any() over a
-            # generator would drop the ones after the first failure.
-            stops = [done(future.result()) for future in finished]
-            if any(stops):
-                break
-    except BaseException:
-        for worker in set(multiprocessing.active_children()) - before:
-            worker.kill()
-        raise
-    finally:
-        pool.shutdown(cancel_futures=True)
+    """Run the specs here and in ``workers`` worker processes until ``done`` says stop.
 
-
-def _leave_interrupts() -> None:
-    """Workers leave Ctrl-C to the parent, which stops them: no traceback from each.
-
-    A handler that does nothing, not ``SIG_IGN``, so that the processes a worker
-    starts (audit replays) are not born deaf to Ctrl-C.
+    One thread per worker hands it the next spec once it is ready and free. On leaving,
+    Ctrl-C included, the specs not started are dropped, the workers are killed, and the
+    outcomes that had come back by then are still given to ``done``.
     """
-    signal.signal(signal.SIGINT, _do_nothing)
+    pending = collections.deque(specs)
+    answers: queue.Queue[Answer] = queue.Queue()
+    pool: list[Worker] = []
+    feeders: list[threading.Thread] = []
+    left = len(specs)
+    try:
+        for _ in range(workers):
+            pool.append(Worker())
+            feeder = threading.Thread(
+                target=_feed, args=(pool[-1], pending, options, answers), daemon=True
+            )
+            feeder.start()
+            feeders.append(feeder)
+        while left:
+            answer: Answer
+            if pending and answers.empty():
+                try:
+                    spec = pending.popleft()
+                except IndexError:  # a worker took the last one
+                    continue
+                answer = run_spec(spec, options)
+            else:
+                answer = answers.get()
+            left -= 1
+            if isinstance(answer, BaseException):
+                raise answer
+            if done(answer):
+                return
+    finally:
+        pending.clear()
+        for worker in pool:
+            worker.close()
+        for feeder in feeders:
+            feeder.join()
+        while not answers.empty():
+            answer = answers.get_nowait()
+            if isinstance(answer, SpecOutcome):
+                done(answer)
 
 
-def _do_nothing(signum: int, frame: FrameType | None) -> None:
-    """A signal handler that lets the signal pass."""
+def _feed(
+    worker: Worker,
+    pending: collections.deque[DtcSpec],
+    options: SpecOptions,
+    answers: queue.Queue[Answer],
+) -> None:
+    """Once the worker is ready, hand it the pending specs one at a time until none is
+    left; every outcome, or why there is none, goes to ``answers``."""
+    try:
+        worker.wait_ready()
+        while True:
+            try:
+                spec = pending.popleft()
+            except IndexError:
+                return
+            answers.put(worker.run(spec, options))
+    except BaseException as exc:  # the runner raises it, unless it is leaving anyway
+        answers.put(exc)

@@ -1,0 +1,162 @@
+"""Suite workers: processes that replay the specs a suite runner hands them, one at a time.
+
+``python -m beatlog.suite.worker`` is a worker's side; :class:`Worker` is the runner's
+handle on one. A worker imports only what replay needs (not the CLI, not rich, the
+audit only when auditing) and lives as long as its suite, so its start-up is paid once.
+Specs and outcomes travel pickled over two pipes of their own: the worker's stdout and
+stderr stay the runner's, for what behaviors print.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+import subprocess
+import sys
+import traceback
+from types import FrameType, TracebackType
+from typing import IO, TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from beatlog.suite.policy import SpecOptions
+    from beatlog.suite.runner import SpecOutcome
+    from beatlog.suite.spec import DtcSpec
+
+__all__ = ["Worker", "WorkerLostError", "serve"]
+
+_READY = b"ready"
+"""A worker's first message: it has imported what replay needs and waits for specs."""
+
+
+class WorkerLostError(RuntimeError):
+    """A worker process ended without answering: it crashed or was killed."""
+
+
+class Worker:
+    """A worker process with the same ``sys.path`` as this one; a context manager that
+    kills the worker on leaving (the audit interpreters it started follow it)."""
+
+    def __init__(self) -> None:
+        task_read, task_write = os.pipe()
+        answer_read, answer_write = os.pipe()
+        try:
+            self._process = subprocess.Popen(
+                [sys.executable, "-m", __name__, str(task_read), str(answer_write), *sys.path],
+                pass_fds=(task_read, answer_write),
+            )
+        except BaseException:
+            os.close(task_write)
+            os.close(answer_read)
+            raise
+        finally:
+            os.close(task_read)
+            os.close(answer_write)
+        self._tasks: IO[bytes] = os.fdopen(task_write, "wb")
+        self._answers: IO[bytes] = os.fdopen(answer_read, "rb")
+        self._ready = False
+
+    def wait_ready(self) -> None:
+        """Block until the worker has started and waits for specs.
+
+        :raises WorkerLostError: the worker ended first.
+        """
+        if not self._ready:
+            self._receive()
+            self._ready = True
+
+    def run(self, spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
+        """Replay ``spec`` in the worker, with ``options`` for
+        :func:`~beatlog.suite.runner.run_spec`.
+
+        :raises WorkerLostError: the worker ended before it answered.
+        :raises RuntimeError: ``run_spec`` raised in the worker (a programming error).
+        """
+        self.wait_ready()
+        try:
+            pickle.dump((spec, options), self._tasks)
+            self._tasks.flush()
+        except BrokenPipeError:
+            raise self._lost() from None
+        answer = self._receive()
+        if isinstance(answer, BaseException):
+            raise answer
+        outcome: SpecOutcome = answer
+        return outcome
+
+    def _receive(self) -> Any:
+        try:
+            return pickle.load(self._answers)  # noqa: S301 - from the worker we started
+        except EOFError:
+            raise self._lost() from None
+
+    def _lost(self) -> WorkerLostError:
+        code = self._process.wait()
+        return WorkerLostError(f"a suite worker ended without answering (exit {code})")
+
+    def __enter__(self) -> Worker:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Kill the worker, whatever it is doing, and wait for it to end."""
+        self._process.kill()
+        self._process.wait()
+        self._tasks.close()
+        self._answers.close()
+
+
+def serve(tasks: IO[bytes], answers: IO[bytes]) -> None:
+    """The worker's side: say it is ready, then replay each spec read from ``tasks`` and
+    write its outcome to ``answers``, until ``tasks`` ends."""
+    from beatlog.suite.runner import run_spec  # noqa: PLC0415 - after the signal handler
+
+    pickle.dump(_READY, answers)
+    answers.flush()
+    while True:
+        try:
+            spec, options = pickle.load(tasks)  # noqa: S301 - from the runner that started us
+        except EOFError:  # the runner is done, or gone
+            return
+        answer: SpecOutcome | RuntimeError
+        try:
+            answer = run_spec(spec, options)
+        except Exception:  # a programming error: loud in the runner, with its traceback
+            failure = traceback.format_exc()
+            answer = RuntimeError(f"{spec.path}: the suite worker failed:\n{failure}")
+        pickle.dump(answer, answers)
+        answers.flush()
+
+
+def _leave_interrupts() -> None:
+    """Workers leave Ctrl-C to the runner, which kills them: no traceback from each.
+
+    A handler that does nothing, not ``SIG_IGN``, so that the processes a worker
+    starts (audit replays) are not born deaf to Ctrl-C.
+    """
+    signal.signal(signal.SIGINT, _do_nothing)
+
+
+def _do_nothing(signum: int, frame: FrameType | None) -> None:
+    """A signal handler that lets the signal pass."""
+
+
+def main() -> None:
+    """``python -m beatlog.suite.worker TASKS ANSWERS PATH...``: the pipes' descriptors and
+    the runner's ``sys.path``."""
+    _leave_interrupts()
+    tasks, answers, *path = sys.argv[1:]
+    sys.path[:] = path
+    with os.fdopen(int(tasks), "rb") as inbox, os.fdopen(int(answers), "wb") as outbox:
+        serve(inbox, outbox)
+
+
+if __name__ == "__main__":
+    main()
