@@ -12,10 +12,11 @@ from collections.abc import Sequence
 from typing import Any
 
 from beatlog.model.inbox import Sample
+from beatlog.model.perception import Perception
 from beatlog_examples.dog.behaviors import DogState
 from beatlog_examples.dog.rates import SENSOR_RATES_HZ
 
-__all__ = ["TOUCH_THRESHOLD_N", "perceive"]
+__all__ = ["TOUCH_THRESHOLD_N", "perceive", "perception"]
 
 TOUCH_THRESHOLD_N = 1.0
 IMU_PERIOD_S = 1.0 / SENSOR_RATES_HZ["imu"]
@@ -109,3 +110,8 @@ def perceive(previous: DogState | None, samples: Sequence[Sample]) -> DogState:
         obstacle_bearing=0 if nearest >= NEAR else (1 if left < right else -1),
         tilt=round(math.degrees(math.acos(max(-1.0, min(1.0, az / norm)))), 1),
     )
+
+
+def perception() -> Perception:
+    """The perception step for sensor-level replay (a spec's ``perception`` key)."""
+    return perceive

@@ -22,7 +22,7 @@ from pathlib import Path
 
 from beatlog.suite.spec import SPEC_SUFFIX
 from beatlog_examples.dog import SUITE_DIR
-from beatlog_examples.dog.robot import SYSTEM_REF, record_live
+from beatlog_examples.dog.robot import PERCEPTION_REF, SYSTEM_REF, record_live
 from beatlog_examples.dog.scenarios import SUITE, Scenario
 
 __all__ = ["main", "spec_text"]
@@ -38,6 +38,7 @@ def spec_text(scenario: Scenario, log: str) -> str:
         "]",
         f"log = {json.dumps(log)}",
         f"system = {json.dumps(SYSTEM_REF)}",
+        f"perception = {json.dumps(PERCEPTION_REF)}",
         f"tags = {json.dumps(list(scenario.tags))}",
     ]
     return "\n".join(lines) + "\n"
@@ -66,7 +67,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for scenario in chosen:
         log = folder / f"{scenario.name}.beatlog"
         print(f"recording {scenario.name} ({scenario.duration_s:g} s) ...", flush=True)
-        summary = record_live(log, scenario, overwrite=True, seed=args.seed)
+        summary = record_live(log, scenario, overwrite=True, seed=args.seed, log_samples=True)
         (folder / f"{scenario.name}{SPEC_SUFFIX}").write_text(
             spec_text(scenario, log.name), encoding="utf-8"
         )

@@ -31,9 +31,19 @@ from beatlog_examples.dog.scenarios import DEMO, Event, Scenario, apply
 from beatlog_examples.dog.sensors import SensorReader
 from beatlog_examples.dog.world import DogWorld
 
-__all__ = ["REMOTE_PORT", "SYSTEM_REF", "DogRobot", "act_on", "record_live", "robot"]
+__all__ = [
+    "PERCEPTION_REF",
+    "REMOTE_PORT",
+    "SYSTEM_REF",
+    "DogRobot",
+    "act_on",
+    "record_live",
+    "robot",
+]
 
 SYSTEM_REF = "beatlog_examples.dog:system"
+PERCEPTION_REF = "beatlog_examples.dog.perception:perception"
+"""The perception step for sensor-level replay of the dog's recordings."""
 REMOTE_PORT = 5555
 """The remote-control port of the robot that ``beatlog record`` builds."""
 FREE = Scenario("free", "The dog on its own, for a person to watch and drive.", 60.0)
@@ -181,12 +191,20 @@ def record_live(
     *,
     overwrite: bool = False,
     seed: int | None = None,
+    log_samples: bool = False,
     on_cycle: Callable[[int], Any] | None = None,
 ) -> RecordSummary:
     """Record a scenario in real time on the live 30 ms heartbeat; ``overwrite`` replaces
-    a log already at ``path`` (recordings are immutable)."""
+    a log already at ``path`` (recordings are immutable); ``log_samples`` keeps the raw
+    sensor samples, for sensor-level replay."""
     dog = DogRobot(scenario, seed=seed)
     with Recorder(
-        path, dog.system, overwrite=overwrite, robot_id="dog", system_ref=SYSTEM_REF, seed=seed
+        path,
+        dog.system,
+        overwrite=overwrite,
+        robot_id="dog",
+        system_ref=SYSTEM_REF,
+        seed=seed,
+        log_samples=log_samples,
     ) as recorder:
         return recorder.run(dog, duration_s=scenario.duration_s, on_cycle=on_cycle)
