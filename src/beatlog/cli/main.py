@@ -480,35 +480,44 @@ def main(argv: Sequence[str] | None = None) -> int:
         from rich.console import Console
 
         console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
-        if args.command in ("record", "replay", "test", "review", "approve", "plot"):
+        run, runs_user_code = _COMMANDS[args.command]
+        if runs_user_code:
             _import_from_working_directory()
-        if args.command == "record":
-            return _record(args, console)
-        if args.command == "replay":
-            return _replay(args, console)
-        if args.command == "test":
-            return _test(args, console)
-        if args.command == "show":
-            return _show(args, console)
-        if args.command == "review":
-            from beatlog.cli.baselines import review
-
-            review(args.paths, console)
-            return EXIT_OK
-        if args.command == "approve":
-            from beatlog.cli.baselines import approve_command
-
-            approve_command(args.paths, console)
-            return EXIT_OK
-        if args.command == "plot":
-            return _plot(args, console)
-        return _demo(args, console)
+        return run(args, console)
     except BeatlogError as exc:
         _error(str(exc), exc.user_traceback if verbose else None)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("beatlog: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+
+
+def _review(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.cli.baselines import review
+
+    review(args.paths, console)
+    return EXIT_OK
+
+
+def _approve(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.cli.baselines import approve_command
+
+    approve_command(args.paths, console)
+    return EXIT_OK
+
+
+Command = Callable[[argparse.Namespace, "Console"], int]
+_COMMANDS: dict[str, tuple[Command, bool]] = {
+    "record": (_record, True),
+    "replay": (_replay, True),
+    "test": (_test, True),
+    "show": (_show, False),
+    "review": (_review, True),
+    "approve": (_approve, True),
+    "plot": (_plot, True),
+    "demo": (_demo, False),
+}
+"""Each subcommand's handler, and whether it imports the user's code (``module:factory``)."""
 
 
 def _error(problem: str, user_traceback: str | None = None) -> None:
