@@ -34,6 +34,30 @@ def test_ignored_behaviors_are_left_out_on_both_sides() -> None:
     assert not comparison.changes_agree(CHANGES, [StateChange("arbiter", "idle", "wander")])
 
 
+def test_a_cycles_state_changes_agree_in_any_order_of_behaviors() -> None:
+    exact = Comparison()
+    assert exact.changes_agree(CHANGES, CHANGES[::-1])
+    assert exact.only_order_differs(CHANGES, CHANGES[::-1])
+    assert not exact.only_order_differs(CHANGES, CHANGES)
+
+
+def test_each_behaviors_own_changes_keep_their_order() -> None:
+    twice = [StateChange("avoid", "off", "turning"), StateChange("avoid", "turning", "backing")]
+    exact = Comparison()
+    assert not exact.changes_agree(twice, twice[::-1])
+    assert not exact.only_order_differs(twice, twice[::-1])
+    assert exact.first_differing_behavior(twice, twice[::-1]) == "avoid"
+
+
+def test_the_first_differing_behavior_is_named_expected_ones_first() -> None:
+    exact = Comparison()
+    changed = [StateChange("avoid", "off", "backing"), StateChange("arbiter", "idle", "wander")]
+    assert exact.first_differing_behavior(CHANGES, changed) == "arbiter"
+    assert exact.first_differing_behavior(CHANGES[1:], changed) == "avoid"
+    assert exact.first_differing_behavior([], CHANGES) == "arbiter"
+    assert exact.first_differing_behavior(CHANGES, CHANGES[::-1]) is None
+
+
 def test_outputs_compare_bit_for_bit_by_default() -> None:
     exact = Comparison()
     assert exact.outputs_agree({"v": 0.5, "w": 1.0}, {"w": 1.0, "v": 0.5})

@@ -134,6 +134,58 @@ def test_changed_outputs_alone_are_a_divergence(record_probe: RecordFn) -> None:
     assert divergence.actual_outputs["speed"] == 0.75
 
 
+class Listed:
+    """A system with the catalogue of another listed in a different order."""
+
+    def __init__(self, system: PriorityArbiter[Probe], order: list[str]) -> None:
+        self.system = system
+        self.behaviors = {name: system.behaviors[name] for name in order}
+        self.robot_state = Probe
+
+    def update(self, state: Probe, context: Context) -> None:
+        self.system.update(state, context)
+
+
+BACKWARDS = ["dice", "near", "arbiter"]
+
+
+def test_a_system_listing_its_behaviors_in_another_order_passes(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    assert replay(log, Listed(probe_system(), BACKWARDS)).ok
+
+
+def test_a_real_change_fails_whatever_order_the_behaviors_are_listed_in(
+    record_probe: RecordFn,
+) -> None:
+    result = replay(record_probe(300), Listed(probe_system(threshold=0.6), BACKWARDS))
+    divergence = result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.STATE_CHANGES
+    assert divergence.cycle == first_cycle_below(0.6)
+    assert divergence.behavior == "near"
+    assert "order" not in divergence.message
+
+
+class Gentle(Near):
+    """Near that asks for a different speed: only its outputs change."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        return None if super().step(rs, ctx) is None else {"speed": 0.1}
+
+
+def test_a_divergence_says_when_a_cycles_state_changes_differ_only_in_order(
+    record_probe: RecordFn,
+) -> None:
+    system = Listed(PriorityArbiter([Gentle(), Dice()], robot_state=Probe), BACKWARDS)
+    divergence = replay(record_probe(300), system).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.OUTPUTS
+    assert divergence.cycle == first_cycle_below(0.5)
+    assert [change.behavior for change in divergence.expected] == ["arbiter", "near"]
+    assert [change.behavior for change in divergence.actual] == ["near", "arbiter"]
+    assert "differ only in the order behaviors are listed" in divergence.message
+
+
 def test_keep_going_counts_every_diverging_cycle(record_probe: RecordFn) -> None:
     log = record_probe(300)
     first = replay(log, probe_system(threshold=0.6))

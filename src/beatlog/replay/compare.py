@@ -30,7 +30,8 @@ class Comparison:
     ``renames`` maps an old name to the current one; it applies to behavior names and to
     states that name a behavior (an arbiter's winner). ``ignore_fields`` are output
     names or globs; ``tolerance`` gives the largest absolute difference accepted per
-    output field (lists of numbers are compared element by element).
+    output field (lists of numbers are compared element by element). A cycle's state
+    changes are compared as a set, whatever order the behaviors are listed in.
     """
 
     renames: Mapping[str, str] = field(default_factory=dict)
@@ -51,17 +52,37 @@ class Comparison:
     def changes_agree(self, expected: Sequence[StateChange], actual: Sequence[StateChange]) -> bool:
         """Whether the state changes are the same once ignored behaviors are dropped.
 
-        ``expected`` is under current names (see :meth:`renamed`). States compare as
-        they encode (``True`` is not ``1``); a state that names a renamed behavior, such
-        as an arbiter's winner, may carry either name.
+        A cycle's state changes are a set: behaviors may be listed in any order, as
+        long as each behavior's own changes come in the same order. ``expected`` is
+        under current names (see :meth:`renamed`). States compare as they encode
+        (``True`` is not ``1``); a state that names a renamed behavior, such as an
+        arbiter's winner, may carry either name.
         """
-        want, got = self.kept(expected), self.kept(actual)
-        return len(want) == len(got) and all(
-            w.behavior == g.behavior
-            and self._same_state(w.before, g.before)
-            and self._same_state(w.after, g.after)
-            for w, g in zip(want, got, strict=True)
-        )
+        return self.first_differing_behavior(expected, actual) is None
+
+    def first_differing_behavior(
+        self, expected: Sequence[StateChange], actual: Sequence[StateChange]
+    ) -> str | None:
+        """The first behavior whose own state changes differ (expected ones first), or
+        None when the cycles agree (see :meth:`changes_agree`)."""
+        want, got = _by_behavior(self.kept(expected)), _by_behavior(self.kept(actual))
+        for behavior in {**want, **got}:
+            wanted, changed = want.get(behavior, []), got.get(behavior, [])
+            if len(wanted) != len(changed) or not all(
+                self._same_state(w.before, g.before) and self._same_state(w.after, g.after)
+                for w, g in zip(wanted, changed, strict=True)
+            ):
+                return behavior
+        return None
+
+    def only_order_differs(
+        self, expected: Sequence[StateChange], actual: Sequence[StateChange]
+    ) -> bool:
+        """Whether the state changes agree but list the behaviors in another order."""
+        listed = [change.behavior for change in self.kept(expected)]
+        return self.changes_agree(expected, actual) and listed != [
+            change.behavior for change in self.kept(actual)
+        ]
 
     def _same_state(self, expected: Any, actual: Any) -> bool:
         if isinstance(expected, str) and isinstance(actual, str):
@@ -94,6 +115,13 @@ class Comparison:
             for name, value in outputs.items()
             if not any(fnmatch.fnmatchcase(name, pattern) for pattern in patterns)
         }
+
+
+def _by_behavior(changes: Iterable[StateChange]) -> dict[str, list[StateChange]]:
+    grouped: dict[str, list[StateChange]] = {}
+    for change in changes:
+        grouped.setdefault(change.behavior, []).append(change)
+    return grouped
 
 
 def _within(expected: Any, actual: Any, tolerance: float) -> bool:

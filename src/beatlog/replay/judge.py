@@ -2,7 +2,8 @@
 
 For each cycle t it advances a simulated clock by HB_t (never waiting), loads RS_t,
 updates the behaviors with RN_t as their random numbers and compares the behavior
-state changes and outputs with the recorded ones, byte for byte.
+state changes and outputs with the recorded ones: byte for byte first, and only when
+the bytes differ by the spec's comparison, which takes a cycle's state changes as a set.
 """
 
 from __future__ import annotations
@@ -276,7 +277,8 @@ class _Judge:
         """Replay a batch of cycles; the index of the cycle where replay stops, if it does.
 
         Each cycle is stepped by the replay core; a cycle agrees when its update
-        completed and its state changes and outputs match, byte for byte first.
+        completed and its state changes and outputs match: byte for byte first, else
+        by :class:`Comparison` (state changes as a set, allowances applied).
         """
         remember = self._recent.append
         encode = self._encoder.encode
@@ -470,11 +472,17 @@ class _Judge:
         elif not self.comparison.changes_agree(expected, actual):
             kind = DivergenceKind.STATE_CHANGES
             message = f"behavior state changes differ from {self.against}"
-            kept = self.comparison.kept
-            behavior = _first_differing_behavior(kept(expected), kept(actual))
+            behavior = self.comparison.first_differing_behavior(expected, actual)
         else:
             kind = DivergenceKind.OUTPUTS
             message = f"outputs differ from {self.outputs_against}"
+        if kind is not DivergenceKind.STATE_CHANGES and self.comparison.only_order_differs(
+            expected, actual
+        ):
+            message += (
+                "; the state changes differ only in the order behaviors are listed,"
+                " which is no difference"
+            )
         completed = failure is None and mismatch is None
         self.divergence = Divergence(
             kind=kind,
@@ -515,14 +523,3 @@ def _differences(recorded: Any, rebuilt: Any) -> tuple[FieldDifference, ...]:
         for name in dict.fromkeys([*want, *got])
         if encode(want.get(name)) != encode(got.get(name))
     )
-
-
-def _first_differing_behavior(
-    expected: Sequence[StateChange], actual: Sequence[StateChange]
-) -> str | None:
-    for want, got in zip(expected, actual, strict=False):
-        if want != got:
-            return want.behavior
-    longer = expected if len(expected) > len(actual) else actual
-    shorter = min(len(expected), len(actual))
-    return longer[shorter].behavior if len(longer) > shorter else None

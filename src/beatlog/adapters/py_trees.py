@@ -1,0 +1,280 @@
+"""Record and replay a py_trees behaviour tree as a beatlog system.
+
+:class:`TreeSystem` wraps the tree a user function builds. Its catalogue names every
+node by its path of names from the root (``Rover/Tasks/Charge/Dock``; a second
+sibling of the same name is ``…/Wait#2``), never by py_trees' per-run uuids, and its
+state is the node's status (``"RUNNING"``, ``"SUCCESS"``, ``"FAILURE"``,
+``"INVALID"``). Chosen blackboard keys join the catalogue as ``blackboard/KEY``.
+Each heartbeat the robot state is written to the blackboard under ``robot_state``,
+so behaviours read sensors the py_trees way (``robot_state.battery`` in a
+:class:`~py_trees.common.ComparisonExpression`), and the tree is ticked once.
+
+Time and chance come from beatlog while a tree ticks. A behaviour's own code asks
+:func:`context` (``context(self).time``, ``.emit(...)``) or :func:`random`
+(``random(self).choice(...)``). py_trees' own :class:`~py_trees.timers.Timer` and
+:class:`~py_trees.decorators.Timeout` read ``time.time()`` and ``time.monotonic()``,
+and :class:`~py_trees.behaviours.ProbabilisticBehaviour` the global ``random``: on
+import this module gives those three py_trees modules stand-ins for ``time`` and
+``random`` that answer with robot time (``context.time``) and beatlog's random source
+while a :class:`TreeSystem` ticks in the calling thread, and with the wall clock and
+the global ``random`` module otherwise (in other threads, between ticks, in trees
+ticked without beatlog). The tick in progress is thread-local, so trees ticking in
+other threads are untouched. Every node's ``initialise``, ``update`` and
+``terminate`` are wrapped so that random numbers drawn in them are credited to the
+node (``context.actor`` is its catalogue index).
+
+py_trees' blackboard is global to the process: building a :class:`TreeSystem`
+clears it first, so nothing leaks from an earlier build. Two trees must therefore
+not be built and ticked in turns in one process.
+"""
+
+from __future__ import annotations
+
+import bisect
+import functools
+import itertools
+import random as stdlib_random
+import threading
+import time as wall_clock
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any, Generic, TypeVar
+
+import msgspec
+
+try:
+    import py_trees
+except ImportError as exc:  # pragma: no cover - depends on the environment
+    raise ImportError(
+        "beatlog.adapters.py_trees needs py_trees: pip install 'beatlog[py_trees]'"
+    ) from exc
+
+from beatlog.model.behavior import Behavior, BehaviorState
+from beatlog.model.context import Context
+from beatlog.model.random import RandomSource
+
+__all__ = ["BLACKBOARD_PREFIX", "ROBOT_STATE_KEY", "TreeSystem", "context", "random"]
+
+ROBOT_STATE_KEY = "robot_state"
+"""The blackboard key that holds RS_t during a tick."""
+
+BLACKBOARD_PREFIX = "blackboard/"
+"""How watched blackboard keys are named in the catalogue: ``blackboard/KEY``."""
+
+RS = TypeVar("RS", bound=msgspec.Struct)
+Node = py_trees.behaviour.Behaviour
+
+
+class _Tick(threading.local):
+    """The tree ticking in this thread, and its context; None between ticks."""
+
+    current: tuple[TreeSystem[Any], Context] | None = None
+
+
+_TICK = _Tick()
+
+
+class TreeSystem(Generic[RS]):
+    """A py_trees tree as a beatlog system: one tick per heartbeat.
+
+    :param build: builds the tree and returns its root; called after the blackboard
+        is cleared, on the robot and in replay alike, so it must not reach for
+        hardware (any ``setup`` a behaviour needs is the builder's to call).
+    :param robot_state: the robot state type written to the blackboard each tick.
+    :param blackboard: keys whose values are observed as behaviors
+        (``blackboard/KEY``); their values must encode in a log (names, numbers,
+        flags, Enums, structs).
+    """
+
+    def __init__(
+        self,
+        build: Callable[[], Node],
+        *,
+        robot_state: type[RS],
+        blackboard: Sequence[str] = (),
+    ) -> None:
+        py_trees.blackboard.Blackboard.clear()
+        self._writer = py_trees.blackboard.Client(name="beatlog")
+        self._writer.register_key(ROBOT_STATE_KEY, access=py_trees.common.Access.WRITE)
+        self.root = build()
+        self._robot_state = robot_state
+        catalogue: dict[str, Behavior] = {}
+        self._actors: dict[Node, int] = {}
+        for path, node in _paths(self.root, _escape(self.root.name)):
+            actor = self._actors[node] = len(catalogue)
+            for method in ("initialise", "update", "terminate"):
+                setattr(node, method, _credited(getattr(node, method), actor))
+            catalogue[path] = _Status(node)
+        for key in blackboard:
+            name = BLACKBOARD_PREFIX + key.lstrip("/")
+            if name in catalogue:
+                raise ValueError(f"{name!r} is both a tree node and a watched blackboard key")
+            catalogue[name] = _BlackboardValue(key)
+        self._catalogue = catalogue
+
+    @property
+    def robot_state(self) -> type[RS]:
+        """The robot state type written to the blackboard."""
+        return self._robot_state
+
+    @property
+    def behaviors(self) -> Mapping[str, Behavior]:
+        """Every node in tree order (a parent before its children), then the watched keys."""
+        return self._catalogue
+
+    def actor(self, node: Node) -> int:
+        """The catalogue index of a node of this tree."""
+        try:
+            return self._actors[node]
+        except KeyError:
+            raise ValueError(f"{node.name!r} is not a node of this tree") from None
+
+    def update(self, state: RS, context: Context) -> None:
+        """Write RS_t to the blackboard and tick the tree once on robot time."""
+        outer = _TICK.current
+        _TICK.current = (self, context)
+        try:
+            self._writer.set(ROBOT_STATE_KEY, state)
+            self.root.tick_once()
+        finally:
+            _TICK.current = outer
+
+
+def context(node: Node) -> Context:
+    """The context of the tick in progress (time, dt, random numbers, emit), with what
+    is drawn or emitted credited to ``node``.
+
+    :raises RuntimeError: no :class:`TreeSystem` is ticking in this thread.
+    """
+    current = _TICK.current
+    if current is None:
+        raise RuntimeError(f"{node.name!r} asked for beatlog's context outside a tree's tick")
+    system, tick = current
+    tick.actor = system.actor(node)
+    return tick
+
+
+def random(node: Node) -> RandomSource:
+    """beatlog's random source for ``node`` during a tick; its draws are logged as
+    the node's (``random(self).choice(waypoints)``)."""
+    return context(node).random
+
+
+class _Status:
+    """A node as a catalogued behavior: its state is its status's name."""
+
+    __slots__ = ("node",)
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+
+    @property
+    def state(self) -> BehaviorState:
+        return str(self.node.status.value)
+
+
+class _BlackboardValue:
+    """A watched blackboard key as a catalogued behavior; None until it is set."""
+
+    __slots__ = ("key",)
+
+    def __init__(self, key: str) -> None:
+        self.key = key
+
+    @property
+    def state(self) -> Any:
+        try:
+            value = py_trees.blackboard.Blackboard.get(self.key)
+        except KeyError:
+            return None
+        return msgspec.to_builtins(value)  # a copy: a value changed in place still shows
+
+
+def _paths(node: Node, path: str) -> Iterator[tuple[str, Node]]:
+    """The node and its descendants in tree order, with their paths."""
+    yield path, node
+    seen: dict[str, int] = {}
+    for child in node.children:
+        name = _escape(child.name)
+        seen[name] = count = seen.get(name, 0) + 1
+        yield from _paths(child, f"{path}/{name}" if count == 1 else f"{path}/{name}#{count}")
+
+
+def _escape(name: str) -> str:
+    """A node name made safe to join into a path ('/' and '#' have meanings there)."""
+    return name.replace("%", "%25").replace("/", "%2F").replace("#", "%23")
+
+
+def _credited(method: Callable[..., Any], actor: int) -> Callable[..., Any]:
+    """``method`` with ``context.actor`` set to the node's index while it runs in a tick."""
+
+    @functools.wraps(method)
+    def run(*args: Any) -> Any:
+        current = _TICK.current
+        if current is None:
+            return method(*args)
+        tick = current[1]
+        outer, tick.actor = tick.actor, actor
+        try:
+            return method(*args)
+        finally:
+            tick.actor = outer
+
+    return run
+
+
+class _TreeTime:
+    """The ``time`` module as py_trees' timers see it: robot time during a tick."""
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(wall_clock, name)
+
+    def time(self) -> float:
+        current = _TICK.current
+        return wall_clock.time() if current is None else current[1].time
+
+    def monotonic(self) -> float:
+        current = _TICK.current
+        return wall_clock.monotonic() if current is None else current[1].time
+
+
+class _TreeRandom:
+    """The ``random`` module as py_trees' behaviours see it: beatlog's random source
+    during a tick (``random``, ``uniform``, ``gauss``, ``randint``, ``choice``,
+    ``choices``), the global generator otherwise."""
+
+    def __getattr__(self, name: str) -> Any:
+        current = _TICK.current
+        if current is None:
+            return getattr(stdlib_random, name)
+        source = current[1].random
+        if name == "choices":
+            return functools.partial(_choices, source)
+        return getattr(source, name)
+
+
+def _choices(
+    source: RandomSource,
+    population: Sequence[Any],
+    weights: Sequence[float] | None = None,
+    *,
+    cum_weights: Sequence[float] | None = None,
+    k: int = 1,
+) -> list[Any]:
+    """``random.choices`` on beatlog's random source, picking as CPython does."""
+    if cum_weights is None:
+        if weights is None:
+            return [source.choice(population) for _ in range(k)]
+        cum_weights = list(itertools.accumulate(weights))
+    total = cum_weights[-1] + 0.0
+    last = len(population) - 1
+    return [
+        population[bisect.bisect(cum_weights, source.random() * total, 0, last)] for _ in range(k)
+    ]
+
+
+for _module, _name, _stand_in in (
+    (py_trees.timers, "time", _TreeTime()),
+    (py_trees.decorators, "time", _TreeTime()),
+    (py_trees.behaviours, "random", _TreeRandom()),
+):
+    setattr(_module, _name, _stand_in)

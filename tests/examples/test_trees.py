@@ -1,0 +1,44 @@
+"""The patrol tree's committed DTCs: they pass, the script re-records them byte for byte,
+and their replay reads no wall clock and no global random generator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from beatlog.audit.replays import audit
+from beatlog.suite.runner import Verdict, run_suite
+from beatlog.suite.spec import DtcSpec, discover_specs
+from beatlog_examples.trees import SUITE_DIR
+from beatlog_examples.trees.record import SCENARIOS, main
+
+SPECS = discover_specs([SUITE_DIR])
+
+
+def test_both_dtcs_pass_against_the_current_tree() -> None:
+    assert sorted(spec.name for spec in SPECS) == sorted(s.name for s in SCENARIOS)
+    outcomes = run_suite(SPECS)
+    assert [o.spec.name for o in outcomes if o.verdict is not Verdict.PASSED] == []
+
+
+def test_recording_again_gives_the_committed_files(tmp_path: Path) -> None:
+    assert main([str(tmp_path)]) == 0
+    for spec in SPECS:
+        assert (tmp_path / spec.log.name).read_bytes() == spec.log.read_bytes()
+        assert (tmp_path / spec.path.name).read_text() == spec.path.read_text()
+
+
+def test_one_case_is_recorded_alone(tmp_path: Path) -> None:
+    assert main([str(tmp_path), "--only", "patrol"]) == 0
+    assert sorted(path.name for path in tmp_path.iterdir()) == [
+        "patrol.beatlog",
+        "patrol.dtc.toml",
+    ]
+
+
+@pytest.mark.parametrize("spec", SPECS, ids=[spec.name for spec in SPECS])
+def test_replay_reads_no_wall_clock_and_no_global_random(spec: DtcSpec) -> None:
+    report = audit(spec.log, "beatlog_examples.trees:system")
+    assert report.lines() == []
+    assert report.ok
