@@ -40,6 +40,7 @@ __all__ = [
     "TracedChange",
     "TracedOutput",
     "fields_read",
+    "read_changes",
     "recorded_outputs",
     "recorded_trace",
     "replayed_trace",
@@ -154,7 +155,13 @@ class ReplayedTrace:
 
 def recorded_trace(log: str | Path) -> list[TracedChange]:
     """Every state change the log recorded, named by the log's behavior catalogue."""
+    return read_changes(log)[0]
+
+
+def read_changes(log: str | Path) -> tuple[list[TracedChange], int]:
+    """Every state change the log recorded, and how many cycles it holds."""
     decode = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
+    cycle = -1
     with SessionLogReader(log) as reader:
         names = reader.header.behaviors
         changes: list[TracedChange] = []
@@ -171,7 +178,7 @@ def recorded_trace(log: str | Path) -> list[TracedChange]:
                 for index, before, after in recorded:
                     name = names[index] if 0 <= index < len(names) else f"#{index}"
                     changes.append(TracedChange(cycle, time_ns, StateChange(name, before, after)))
-    return changes
+    return changes, cycle + 1
 
 
 def recorded_outputs(log: str | Path) -> list[TracedOutput]:

@@ -101,33 +101,7 @@ def _parser() -> argparse.ArgumentParser:
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
-    test = add("test", help="run DTC specs (*.dtc.toml) in parallel")
-    test.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
-    test.add_argument(
-        "-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1, help="worker processes"
-    )
-    test.add_argument("-k", dest="select", metavar="NAME", help="only DTCs whose name matches")
-    test.add_argument(
-        "--tag", action="append", default=[], help="only DTCs with this tag (repeatable)"
-    )
-    test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
-    test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
-    test.add_argument(
-        "--html", type=Path, metavar="FILE", help="write an HTML report with timeline charts"
-    )
-    test.add_argument(
-        "--update",
-        action="store_const",
-        const=UpdateMode.NEW,
-        default=UpdateMode.NONE,
-        help="write the new state changes of failed DTCs to pending files for review",
-    )
-    test.add_argument(
-        "--audit",
-        action="store_true",
-        help="also replay each DTC twice with different hash seeds, watching for wall-clock "
-        "reads and global random calls",
-    )
+    _add_test(add("test", help="run DTC specs (*.dtc.toml) in parallel"))
 
     check = add("review", help="show pending baseline changes; accept or reject")
     check.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
@@ -173,6 +147,49 @@ def _demo(args: argparse.Namespace, console: Console) -> int:
         )
     run_demo = next(iter(demos)).load()
     return int(run_demo(console, duration_s=args.duration, out=args.out))
+
+
+def _add_test(test: argparse.ArgumentParser) -> None:
+    """The options of ``beatlog test``."""
+    test.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
+    test.add_argument(
+        "-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1, help="worker processes"
+    )
+    test.add_argument("-k", dest="select", metavar="NAME", help="only DTCs whose name matches")
+    test.add_argument(
+        "--tag", action="append", default=[], help="only DTCs with this tag (repeatable)"
+    )
+    test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
+    test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
+    test.add_argument(
+        "--html", type=Path, metavar="FILE", help="write an HTML report with timeline charts"
+    )
+    test.add_argument(
+        "--update",
+        action="store_const",
+        const=UpdateMode.NEW,
+        default=UpdateMode.NONE,
+        help="write the new state changes of failed DTCs to pending files for review",
+    )
+    test.add_argument(
+        "--audit",
+        action="store_true",
+        help="also replay each DTC twice with different hash seeds, watching for wall-clock "
+        "reads and global random calls",
+    )
+    test.add_argument(
+        "--coverage",
+        action="store_true",
+        help="show which behavior states and transitions the DTCs exercise",
+    )
+    test.add_argument(
+        "--coverage-json", type=Path, metavar="FILE", help="write the transition coverage as JSON"
+    )
+    test.add_argument(
+        "--behavior",
+        metavar="NAME",
+        help="run only the DTCs whose recordings change this behavior's state",
+    )
 
 
 def _positive_float(text: str) -> float:
@@ -293,12 +310,31 @@ def _selected_specs(args: argparse.Namespace) -> list[DtcSpec]:
 
     found = discover_specs(args.paths)
     specs = select_specs(found, pattern=args.select, tags=args.tag)
+    if specs and args.behavior is not None:
+        from beatlog.suite.coverage import select_exercising
+
+        specs = select_exercising(specs, args.behavior)
+        if not specs:
+            raise _UsageError(f"no DTC changes the state of behavior {args.behavior!r}")
     if not specs:
         where = " ".join(str(path) for path in args.paths)
         if found:
             raise _UsageError(f"none of the {len(found)} DTC specs in {where} match -k/--tag")
         raise _UsageError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
     return list(specs)
+
+
+def _write_json(path: Path, document: object) -> None:
+    """Write a JSON document whole or not at all; an unwritable path is bad input."""
+    import json
+
+    from beatlog.files import replacing
+
+    try:
+        with replacing(path) as file:
+            file.write(json.dumps(document, indent=2).encode() + b"\n")
+    except OSError as exc:
+        raise _UsageError(f"{path}: cannot write: {exc.strerror}") from None
 
 
 def _test_exit_code(outcomes: list[SpecOutcome]) -> int:
@@ -398,11 +434,21 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
             write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))
         except OSError as exc:
             raise _UsageError(f"{args.junit_xml}: cannot write: {exc.strerror}") from None
+    coverage = None
+    if args.coverage or args.coverage_json is not None:
+        from beatlog.report.coverage import render_coverage
+        from beatlog.suite.coverage import suite_coverage
+
+        coverage = suite_coverage([outcome.spec for outcome in outcomes])
+        if args.coverage:
+            console.print(render_coverage(coverage))
+        if args.coverage_json is not None:
+            _write_json(args.coverage_json, coverage.to_json())
     if args.html is not None:
         from beatlog.report.html import write_html
 
         try:
-            write_html(outcomes, args.html)
+            write_html(outcomes, args.html, coverage=coverage)
         except OSError as exc:
             raise _UsageError(f"{args.html}: cannot write: {exc.strerror}") from None
 

@@ -14,11 +14,13 @@ from pathlib import Path
 from typing import Any
 
 from beatlog._version import __version__
+from beatlog.analysis.coverage import SuiteCoverage
 from beatlog.analysis.timeline import Timeline
 from beatlog.files import replacing
 from beatlog.replay.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.chart import svg_markup
 from beatlog.report.counts import verdict_counts
+from beatlog.report.coverage import coverage_html
 from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["render_html", "write_html"]
@@ -54,18 +56,27 @@ dl.facts dd { margin: 0; }
 
 
 def write_html(
-    outcomes: Sequence[SpecOutcome], path: str | Path, *, title: str = "beatlog DTC report"
+    outcomes: Sequence[SpecOutcome],
+    path: str | Path,
+    *,
+    title: str = "beatlog DTC report",
+    coverage: SuiteCoverage | None = None,
 ) -> None:
     """Write the report of ``outcomes`` to ``path`` (UTF-8), whole or not at all.
 
     :raises OSError: the file cannot be written.
     """
     with replacing(Path(path)) as file:
-        file.write(render_html(outcomes, title=title).encode())
+        file.write(render_html(outcomes, title=title, coverage=coverage).encode())
 
 
-def render_html(outcomes: Sequence[SpecOutcome], *, title: str = "beatlog DTC report") -> str:
-    """The report as a string: a summary, then a section per DTC."""
+def render_html(
+    outcomes: Sequence[SpecOutcome],
+    *,
+    title: str = "beatlog DTC report",
+    coverage: SuiteCoverage | None = None,
+) -> str:
+    """The report as a string: a summary, a section per DTC, then the coverage if given."""
     counts = verdict_counts(outcome.verdict for outcome in outcomes)
     parts = [
         "<!DOCTYPE html>",
@@ -79,6 +90,8 @@ def render_html(outcomes: Sequence[SpecOutcome], *, title: str = "beatlog DTC re
         _summary_table(outcomes),
     ]
     parts.extend(_section(index, outcome) for index, outcome in enumerate(outcomes, start=1))
+    if coverage is not None:
+        parts.append(coverage_html(coverage))
     parts.append("</body></html>\n")
     return "\n".join(parts)
 

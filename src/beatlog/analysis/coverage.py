@@ -1,0 +1,166 @@
+"""Transition coverage of a suite: which behavior states and transitions its DTCs exercise.
+
+The paper's DTCs protect what the recorded sessions exercised and nothing else. This
+module reads the state changes each DTC's log recorded (or its approved baseline)
+and gathers, per behavior, the states reached and the (before → after) transitions
+taken, with how many DTCs and cycles; states a behavior declares (a ``states``
+attribute: an Enum or a sequence) but no DTC reaches are listed as unreached.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+from collections import defaultdict
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from beatlog.analysis.trace import TracedChange, read_changes
+from beatlog.model.behavior import System
+
+__all__ = ["BehaviorCoverage", "Seen", "SuiteCoverage", "cover", "declared_states"]
+
+
+def _key(state: Any) -> str:
+    """A state as it reads in reports and JSON keys (states compare as they encode)."""
+    return json.dumps(state, default=repr, sort_keys=True)
+
+
+@dataclass
+class Seen:
+    """Where something was seen: the DTCs, and in how many cycles in all."""
+
+    dtcs: set[str] = field(default_factory=set)
+    cycles: int = 0
+
+    def add(self, dtc: str, cycles: int) -> None:
+        self.dtcs.add(dtc)
+        self.cycles += cycles
+
+
+@dataclass
+class BehaviorCoverage:
+    """One behavior's states and transitions across a suite."""
+
+    behavior: str
+    states: dict[str, Seen] = field(default_factory=dict)
+    """State (as JSON text) → the DTCs it was in and the cycles spent in it."""
+    transitions: dict[tuple[str, str], Seen] = field(default_factory=dict)
+    """(before, after) → the DTCs that took it and how many times (its cycles)."""
+    declared: tuple[str, ...] = ()
+    """The states the behavior declares, when it does."""
+
+    @property
+    def unreached(self) -> tuple[str, ...]:
+        """Declared states no DTC reached."""
+        return tuple(state for state in self.declared if state not in self.states)
+
+    @property
+    def dtcs(self) -> set[str]:
+        """The DTCs in which this behavior changed state."""
+        return set().union(*(seen.dtcs for seen in self.transitions.values()))
+
+
+@dataclass
+class SuiteCoverage:
+    """Every behavior's coverage, in the order behaviors were first seen."""
+
+    behaviors: dict[str, BehaviorCoverage] = field(default_factory=dict)
+    dtcs: list[str] = field(default_factory=list)
+
+    def behavior(self, name: str) -> BehaviorCoverage:
+        """The coverage of ``name`` (created empty if the suite never saw it)."""
+        found = self.behaviors.get(name)
+        if found is None:
+            found = self.behaviors[name] = BehaviorCoverage(name)
+        return found
+
+    def exercising(self, behavior: str) -> list[str]:
+        """The DTCs in which ``behavior`` changed state, in suite order."""
+        found = self.behaviors.get(behavior)
+        names = found.dtcs if found else set()
+        return [dtc for dtc in self.dtcs if dtc in names]
+
+    def to_json(self) -> dict[str, Any]:
+        """A plain structure for tools: per behavior, states, transitions, unreached."""
+        return {
+            "dtcs": self.dtcs,
+            "behaviors": {
+                name: {
+                    "states": {
+                        state: {"dtcs": sorted(seen.dtcs), "cycles": seen.cycles}
+                        for state, seen in cover.states.items()
+                    },
+                    "transitions": [
+                        {
+                            "before": before,
+                            "after": after,
+                            "dtcs": sorted(seen.dtcs),
+                            "times": seen.cycles,
+                        }
+                        for (before, after), seen in cover.transitions.items()
+                    ],
+                    "declared": list(cover.declared),
+                    "unreached": list(cover.unreached),
+                }
+                for name, cover in self.behaviors.items()
+            },
+        }
+
+
+def declared_states(system: System) -> dict[str, tuple[str, ...]]:
+    """Each behavior's declared states (its ``states``: an Enum class or a sequence)."""
+    declared: dict[str, tuple[str, ...]] = {}
+    for name, behavior in system.behaviors.items():
+        states = getattr(behavior, "states", None)
+        if isinstance(states, type) and issubclass(states, enum.Enum):
+            declared[name] = tuple(_key(member.value) for member in states)
+        elif isinstance(states, Sequence) and not isinstance(states, str):
+            declared[name] = tuple(_key(state) for state in states)
+    return declared
+
+
+def cover(
+    dtcs: Iterable[tuple[str, Any, System | None]],
+) -> SuiteCoverage:
+    """The coverage of DTCs given as (name, log, a fresh system or None).
+
+    The system, when given, tells each behavior's first state (a behavior that never
+    changes still counts its cycles there) and its declared states.
+    """
+    suite = SuiteCoverage()
+    for name, log, system in dtcs:
+        changes, cycles = read_changes(log)
+        initial = {} if system is None else {n: b.state for n, b in system.behaviors.items()}
+        _add(suite, name, changes, cycles, initial)
+        for behavior, states in ({} if system is None else declared_states(system)).items():
+            cover_ = suite.behavior(behavior)
+            cover_.declared = tuple(dict.fromkeys([*cover_.declared, *states]))
+    suite.dtcs = list(dict.fromkeys(suite.dtcs))
+    return suite
+
+
+def _add(
+    suite: SuiteCoverage,
+    dtc: str,
+    changes: Sequence[TracedChange],
+    cycles: int,
+    initial: Mapping[str, Any],
+) -> None:
+    suite.dtcs.append(dtc)
+    by_behavior: dict[str, list[TracedChange]] = defaultdict(list)
+    for traced in changes:
+        by_behavior[traced.change.behavior].append(traced)
+    for behavior in dict.fromkeys([*initial, *by_behavior]):
+        own = by_behavior.get(behavior, [])
+        cover_ = suite.behavior(behavior)
+        state = initial[behavior] if behavior in initial else own[0].change.before
+        since = 0
+        for traced in own:
+            change = traced.change
+            cover_.states.setdefault(_key(state), Seen()).add(dtc, traced.cycle - since)
+            edge = (_key(change.before), _key(change.after))
+            cover_.transitions.setdefault(edge, Seen()).add(dtc, 1)
+            state, since = change.after, traced.cycle
+        cover_.states.setdefault(_key(state), Seen()).add(dtc, cycles - since)

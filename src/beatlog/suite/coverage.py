@@ -1,0 +1,40 @@
+"""A suite's transition coverage, from its specs: what each DTC's recording exercises."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+from beatlog.analysis.coverage import SuiteCoverage, cover
+from beatlog.errors import BeatlogError
+from beatlog.model.behavior import System
+from beatlog.suite.spec import DtcSpec
+from beatlog.usercode import load_system
+
+__all__ = ["select_exercising", "suite_coverage"]
+
+
+def suite_coverage(specs: Sequence[DtcSpec]) -> SuiteCoverage:
+    """The coverage of ``specs``: the state changes their logs recorded, with each
+    behavior's first and declared states from a fresh system of each spec.
+
+    :raises beatlog.errors.LogError: a spec's log cannot be read.
+    """
+    return cover(_dtcs(specs))
+
+
+def _dtcs(specs: Sequence[DtcSpec]) -> Iterator[tuple[str, Path, System | None]]:
+    for spec in specs:
+        system: Any
+        try:
+            system = load_system(spec.system)
+        except BeatlogError:  # the verdict reports it; coverage counts what the log holds
+            system = None
+        yield spec.name, spec.log, system
+
+
+def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
+    """The specs whose recordings change ``behavior``'s state."""
+    names = set(suite_coverage(specs).exercising(behavior))
+    return [spec for spec in specs if spec.name in names]

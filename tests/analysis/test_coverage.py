@@ -1,0 +1,119 @@
+"""Transition coverage: the states and transitions a suite's recordings exercise."""
+
+from __future__ import annotations
+
+import enum
+import json
+from pathlib import Path
+
+import pytest
+
+from beatlog.analysis.coverage import cover, declared_states
+from beatlog.cli.main import main
+from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.context import Context, Outputs
+from beatlog.record.recorder import Recorder
+from beatlog.suite.coverage import select_exercising, suite_coverage
+from beatlog.suite.spec import load_spec
+from tests.conftest import PERIOD_NS, Dice, Probe, RecordFn, distances, probe_system
+from tests.specs import PROBE, write_spec
+
+
+class Mood(enum.Enum):
+    CALM = "calm"
+    ALERT = "alert"
+    ASLEEP = "asleep"
+
+
+class Watchful:
+    """Near, with declared states: it can sleep, but no recording makes it."""
+
+    name = "watchful"
+    states = Mood
+
+    def __init__(self) -> None:
+        self.state: BehaviorState = "calm"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = "alert" if rs.distance < 0.5 else "calm"
+        return None
+
+
+def watchful_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Watchful(), Dice()], robot_state=Probe)
+
+
+def crossings(cycles: int) -> int:
+    near = [d < 0.5 for d in distances(cycles)]
+    return sum(1 for before, after in zip([False, *near], near, strict=False) if before != after)
+
+
+def test_states_and_transitions_are_counted_with_dtcs_and_cycles(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    coverage = cover([("approach", log, probe_system())])
+    near = coverage.behaviors["near"]
+    far_to_near = near.transitions[('"far"', '"near"')]
+    near_to_far = near.transitions[('"near"', '"far"')]
+    assert far_to_near.dtcs == {"approach"}
+    assert far_to_near.cycles + near_to_far.cycles == crossings(300)
+    cycles_near = sum(d < 0.5 for d in distances(300))
+    assert near.states['"near"'].cycles == cycles_near
+    assert near.states['"far"'].cycles == 300 - cycles_near
+    assert coverage.exercising("near") == ["approach"]
+
+
+def test_a_declared_state_no_dtc_reaches_is_unreached(tmp_path: Path) -> None:
+    log = tmp_path / "watch.beatlog"
+    with Recorder(log, watchful_system(), seed=1, software="test") as recorder:
+        for distance in distances(300):
+            recorder.step(PERIOD_NS, Probe(distance=distance))
+    assert declared_states(watchful_system()) == {"watchful": ('"calm"', '"alert"', '"asleep"')}
+    coverage = cover([("watch", log, watchful_system())])
+    assert coverage.behaviors["watchful"].unreached == ('"asleep"',)
+
+
+def test_coverage_adds_up_over_dtcs_and_selects_those_exercising_a_behavior(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    near_log = record_probe(300, name="near.beatlog")
+    far_log = record_probe(40, name="far.beatlog", states=[Probe(distance=2.0)] * 40)
+    approach = load_spec(write_spec(tmp_path, "approach", near_log, PROBE))
+    idle = load_spec(write_spec(tmp_path, "idle", far_log, PROBE))
+    coverage = suite_coverage([approach, idle])
+    assert coverage.dtcs == ["approach", "idle"]
+    assert coverage.behaviors["near"].states['"far"'].dtcs == {"approach", "idle"}
+    assert coverage.exercising("near") == ["approach"]
+    assert select_exercising([approach, idle], "near") == [approach]
+    assert coverage.to_json()["behaviors"]["near"]["unreached"] == []
+
+
+def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
+    tmp_path: Path,
+    record_probe: RecordFn,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("COLUMNS", "200")
+    specs = tmp_path / "specs"
+    write_spec(specs, "approach", record_probe(300, name="near.beatlog"), PROBE)
+    far = record_probe(40, name="far.beatlog", states=[Probe(distance=2.0)] * 40)
+    write_spec(specs, "idle", far, PROBE)
+    report = tmp_path / "coverage.json"
+
+    code = main(["test", "-j", "1", "--coverage", "--coverage-json", str(report), str(specs)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "transition coverage" in out
+    assert '"far" → "near"' in out
+    document = json.loads(report.read_text())
+    assert document["dtcs"] == ["approach", "idle"]
+
+    code = main(["test", "-j", "1", "--behavior", "near", str(specs)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "1 passed" in out
+
+    code = main(["test", "-j", "1", "--behavior", "nobody", str(specs)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "no DTC changes the state of behavior 'nobody'" in err
