@@ -23,40 +23,19 @@ from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe
-from tests.factories import session_header
+from tests.factories import (
+    MAGIC_LENGTH,
+    RECORD_HEAD,
+    Record,
+    chunks,
+    session_header,
+    top_level_records,
+)
 
 CYCLES = 200
 CYCLES_PER_CHUNK = 10
-MAGIC_LENGTH = 8
-RECORD_HEAD = 9
 CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8
 """Where a zstd chunk's compressed records start, from the start of its record."""
-
-
-class Record(NamedTuple):
-    """A top-level MCAP record: where it starts, its opcode and its body length."""
-
-    offset: int
-    opcode: int
-    length: int
-
-    @property
-    def end(self) -> int:
-        return self.offset + RECORD_HEAD + self.length
-
-
-def top_level_records(data: bytes) -> list[Record]:
-    records = []
-    offset = MAGIC_LENGTH
-    while offset < len(data) - MAGIC_LENGTH:
-        opcode, length = struct.unpack_from("<BQ", data, offset)
-        records.append(Record(offset, opcode, length))
-        offset = records[-1].end
-    return records
-
-
-def chunks(data: bytes) -> list[Record]:
-    return [r for r in top_level_records(data) if r.opcode == Opcode.CHUNK]
 
 
 def write_chunked_log(path: Path, cycles: int = CYCLES) -> Path:
