@@ -98,6 +98,17 @@ def _parser() -> argparse.ArgumentParser:
         help="rebuild each robot state from the logged samples with this perception step",
     )
     play.add_argument("--keep-going", action="store_true", help="count every diverging cycle")
+    play.add_argument(
+        "--break-at",
+        type=_cycle_number,
+        metavar="CYCLE",
+        help="stop in the debugger just before the behaviors update in this cycle",
+    )
+    play.add_argument(
+        "--break-on-divergence",
+        action="store_true",
+        help="replay again and stop in the debugger at the first divergence",
+    )
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
@@ -190,6 +201,16 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="run only the DTCs whose recordings change this behavior's state",
     )
+
+
+def _cycle_number(text: str) -> int:
+    try:
+        cycle = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a cycle number: {text!r}") from None
+    if cycle < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
+    return cycle
 
 
 def _positive_float(text: str) -> float:
@@ -290,13 +311,14 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
     from beatlog.replay.judge import replay
     from beatlog.report.console import render_replay
 
-    result = replay(
-        args.log,
-        args.system,
-        keep_going=args.keep_going,
-        allow_truncated=args.allow_truncated,
-        perception=args.perception,
-    )
+    options = {
+        "keep_going": args.keep_going,
+        "allow_truncated": args.allow_truncated,
+        "perception": args.perception,
+    }
+    result = replay(args.log, args.system, break_at=args.break_at, **options)
+    if args.break_on_divergence and result.divergence is not None:
+        replay(args.log, args.system, break_at=result.divergence.cycle, **options)
     if args.json:
         sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
     else:

@@ -101,8 +101,11 @@ class Replayer:
         path: Path,
         *,
         perception: Perception | None = None,
+        break_at: int | None = None,
     ) -> None:
         check_fit(header, system, path)
+        self.break_at = break_at
+        """Stop in the debugger just before the behaviors update in this cycle."""
         self.system = system
         self.header = header
         self.path = path
@@ -126,6 +129,8 @@ class Replayer:
         """
         cycle = self.executor.context.cycle + 1
         state = self._decode_state(record, cycle)
+        if cycle == self.break_at:
+            self._pause(cycle, state, record)
         if self.perception is not None:
             return self._step_from_samples(record, cycle, state, observe)
         return self.step_state(record, state, observe)
@@ -200,6 +205,24 @@ class Replayer:
             failure,
             context.actor,
         )
+
+    def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
+        """The replay debugger: ``breakpoint()`` (so ``PYTHONBREAKPOINT`` is honoured) just
+        before the behaviors update in ``cycle``, with everything at hand as locals:
+        ``system``, ``context``, ``robot_state`` (RS_t as recorded), ``recorded_changes``
+        (BS_t, by behavior name) and ``recorded_draws`` (RN_t). Continue to replay on."""
+        names = self.header.behaviors
+        # The locals below are what the debugger shows; nothing else reads them.
+        system = self.system  # noqa: F841
+        context = self.executor.context  # noqa: F841
+        recorded_changes = [  # noqa: F841
+            (names[index] if 0 <= index < len(names) else f"#{index}", before, after)
+            for index, before, after in msgspec.msgpack.decode(record.state_changes)
+        ]
+        recorded_draws = (  # noqa: F841
+            [] if record.random_numbers == EMPTY_LIST else self._decode_draws(record, cycle)
+        )
+        breakpoint()
 
     def outcomes(self, records: Iterable[CycleRecord]) -> Iterator[CycleOutcome]:
         """Replay ``records`` one after another."""

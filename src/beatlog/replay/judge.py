@@ -62,6 +62,7 @@ def replay(
     expected: Expectation | None = None,
     explain: bool = True,
     perception: Perception | str | None = None,
+    break_at: int | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference).
 
@@ -87,6 +88,8 @@ def replay(
     sensor-level replay when the log holds samples: RS_t is rebuilt from each cycle's
     samples and compared with the recorded one (a PERCEPTION divergence names the
     fields that differ and the samples), and the behaviors run on the rebuilt state.
+    ``break_at`` stops in the debugger (``breakpoint()``, honouring ``PYTHONBREAKPOINT``)
+    just before the behaviors update in that cycle.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
@@ -107,6 +110,7 @@ def replay(
             comparison=comparison or Comparison(),
             expected=expected,
             perception=perception,
+            break_at=break_at,
         )
         started = time.perf_counter()
         status = None
@@ -169,6 +173,7 @@ class _Judge:
         comparison: Comparison,
         expected: Expectation | None,
         perception: Perception | None = None,
+        break_at: int | None = None,
     ) -> None:
         self.header = header
         self.comparison = comparison
@@ -176,7 +181,7 @@ class _Judge:
         self._context = context
         self._recent: deque[CycleRecord] = deque(maxlen=context + 1)
         self.path = path
-        self.replayer = Replayer(system, header, path, perception=perception)
+        self.replayer = Replayer(system, header, path, perception=perception, break_at=break_at)
         self.random = self.replayer.random
         self.executor = self.replayer.executor
         self.divergence: Divergence | None = None
