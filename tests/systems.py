@@ -198,3 +198,18 @@ def record_breakpoint() -> None:
     seen = {name: frame.f_locals[name] for name in names}
     seen["context_cycle"] = frame.f_locals["context"].cycle  # the context moves on later
     BREAKS.append(seen)
+
+
+class Gambler:
+    """Picks a heading with the global, unseeded random generator."""
+
+    name = "gambler"
+    state = "left"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = random.choice(HEADINGS)
+        return None
+
+
+def gambler_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Gambler()], robot_state=Probe)

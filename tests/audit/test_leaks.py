@@ -116,7 +116,7 @@ def test_a_global_numpy_generator_other_than_mt19937_is_watched_too(context: Con
     ]
 
 
-def test_an_installed_package_is_the_site_when_no_user_code_called_it(
+def test_an_installed_packages_line_is_the_site_with_the_user_code_that_led_there(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     installed = tmp_path / "site-packages"
@@ -138,7 +138,7 @@ def test_an_installed_package_is_the_site_when_no_user_code_called_it(
     assert watch.findings() == [Finding("time.time", site_, 1)]
     call = tick_tree.__code__.co_firstlineno + 1
     assert through_user_code.findings() == [
-        Finding("time.time", f"{__file__}:{call} in tick_tree", 1)
+        Finding("time.time", site_, 1, via=f"{__file__}:{call} in tick_tree")
     ]
 
 

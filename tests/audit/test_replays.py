@@ -115,3 +115,16 @@ def test_a_replay_that_dies_is_a_loud_error(tmp_path: Path) -> None:
 
     with pytest.raises(RuntimeError, match=r"PYTHONHASHSEED=1 crashed \(exit 70\)"):
         audit(log, f"{SYSTEMS}:exiting_system")
+
+
+def test_replays_that_differ_by_an_unseeded_global_generator_say_so(tmp_path: Path) -> None:
+    log = record_session(tmp_path / "gambler.beatlog", scripted_system(["left"] * 20))
+
+    report = audit(log, f"{SYSTEMS}:gambler_system")
+
+    assert report.hash_seed_dependence is not None
+    assert report.hash_seed_dependence.startswith(
+        "the replay draws from an unseeded global random generator (random.choice)"
+    )
+    assert "hash seed" not in report.hash_seed_dependence.split(":")[0]
+    assert [finding.call for finding in report.findings] == ["random.choice"]

@@ -73,9 +73,13 @@ class Finding:
     call: str
     """What was called, e.g. ``time.monotonic`` or ``random.choice``."""
     site: str
-    """Where user code made the call: ``file:line in function``."""
+    """The line that made the call, ``file:line in function``: user code, or an installed
+    package (py_trees' timers, say) when the call is made there."""
     count: int
     """How many times it was called during replay."""
+    via: str | None = None
+    """When ``site`` is in an installed package, the first frame of user code that led
+    there (``file:line in function``); None when ``site`` is user code or none led there."""
 
 
 class _Origin(enum.Enum):
@@ -191,7 +195,7 @@ class LeakWatch:
     def __init__(self) -> None:
         self._origins = _Origins()
         self._python_calls = _python_calls()
-        self._counts: collections.Counter[tuple[str, str]] = collections.Counter()
+        self._counts: collections.Counter[tuple[str, str, str | None]] = collections.Counter()
         self._numpy: _GlobalNumpyGenerator | None = None
         self._boundary: FrameType | None = None
         self._inside: FrameType | None = None
@@ -200,7 +204,9 @@ class LeakWatch:
 
     def findings(self) -> list[Finding]:
         """What was caught so far, in the order first seen."""
-        return [Finding(call, site, count) for (call, site), count in self._counts.items()]
+        return [
+            Finding(call, site, count, via) for (call, site, via), count in self._counts.items()
+        ]
 
     def __enter__(self) -> LeakWatch:
         self._boundary = sys._getframe(1)  # the frame that runs the update
@@ -268,26 +274,34 @@ class LeakWatch:
     def _check_numpy(self) -> None:
         assert self._numpy is not None
         if self._numpy.moved() and self._where is not None:
-            self._counts["numpy.random", _site(self._where)] += 1
+            self._counts["numpy.random", _site(self._where), None] += 1
 
     def _count(self, call: str, caller: FrameType) -> None:
         if self._origins.is_logging(caller.f_code):
             return
-        where = self._nearest(caller)
-        if where is not None:
-            self._counts[call, _site(where)] += 1
+        site, via = self._culprit(caller)
+        if site is not None:
+            self._counts[call, _site(site), None if via is None else _site(via)] += 1
 
     def _nearest(self, frame: FrameType | None) -> Where | None:
         """The nearest user frame below the boundary, else the nearest installed package's."""
-        library: Where | None = None
+        site, via = self._culprit(frame)
+        return via or site
+
+    def _culprit(self, frame: FrameType | None) -> tuple[Where | None, Where | None]:
+        """The line that made the call (the nearest frame of user code or of an installed
+        package below the boundary) and, when that is a package's, the first frame of
+        user code that led there."""
+        site: Where | None = None
         while frame is not None and frame is not self._boundary:
             origin = self._origins.of(frame.f_code)
             if origin is _Origin.USER:
-                return frame.f_code, frame.f_lineno
-            if origin is _Origin.LIBRARY and library is None:
-                library = frame.f_code, frame.f_lineno
+                where = frame.f_code, frame.f_lineno
+                return (where, None) if site is None else (site, where)
+            if origin is _Origin.LIBRARY and site is None:
+                site = frame.f_code, frame.f_lineno
             frame = frame.f_back
-        return library
+        return site, None
 
 
 def _builtin_call(function: Any) -> str | None:

@@ -134,7 +134,9 @@ def audit(
     return AuditReport(
         findings=_merge(first.findings, second.findings),
         runs=runs,
-        hash_seed_dependence=_compare(runs, first.trace, second.trace),
+        hash_seed_dependence=_compare(
+            runs, first.trace, second.trace, _cause(_merge(first.findings, second.findings))
+        ),
     )
 
 
@@ -184,20 +186,32 @@ def _seed_run(seed: int, answer: Answer) -> SeedRun:
 
 
 def _merge(*runs: list[Finding]) -> tuple[Finding, ...]:
-    counts: dict[tuple[str, str], int] = {}
+    counts: dict[tuple[str, str, str | None], int] = {}
     for findings in runs:
         for finding in findings:
-            key = (finding.call, finding.site)
+            key = (finding.call, finding.site, finding.via)
             counts[key] = max(counts.get(key, 0), finding.count)
-    return tuple(Finding(call, site, count) for (call, site), count in counts.items())
+    return tuple(Finding(call, site, count, via) for (call, site, via), count in counts.items())
 
 
-def _compare(runs: tuple[SeedRun, SeedRun], first: bytes, second: bytes) -> str | None:
+_GLOBAL_RANDOM = ("random.", "numpy.random", "os.urandom", "uuid.")
+
+
+def _cause(findings: tuple[Finding, ...]) -> str:
+    """What makes two replays differ, from the findings: an unseeded global random
+    generator when the behaviors draw from one, else the hash seed."""
+    draws = sorted({f.call for f in findings if f.call.startswith(_GLOBAL_RANDOM)})
+    if draws:
+        return f"the replay draws from an unseeded global random generator ({', '.join(draws)})"
+    return "the replay depends on the hash seed"
+
+
+def _compare(runs: tuple[SeedRun, SeedRun], first: bytes, second: bytes, cause: str) -> str | None:
     a, b = runs
     verdicts = (a.ok, a.divergence_cycle, a.divergence_kind)
     if verdicts != (b.ok, b.divergence_cycle, b.divergence_kind):
         return (
-            f"the replay depends on the hash seed: PYTHONHASHSEED={a.hash_seed} "
+            f"{cause}: PYTHONHASHSEED={a.hash_seed} "
             f"{a.describe()}, PYTHONHASHSEED={b.hash_seed} {b.describe()}"
         )
     if first == second:
@@ -212,6 +226,6 @@ def _compare(runs: tuple[SeedRun, SeedRun], first: bytes, second: bytes) -> str 
         min(len(first), len(second)) // CYCLE_DIGEST_SIZE,
     )
     return (
-        f"the replay depends on the hash seed: with PYTHONHASHSEED={a.hash_seed} and "
+        f"{cause}: with PYTHONHASHSEED={a.hash_seed} and "
         f"{b.hash_seed} the behavior states and outputs differ from cycle {cycle}"
     )

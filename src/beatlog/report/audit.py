@@ -56,7 +56,8 @@ def _findings(report: AuditReport) -> RenderableType:
         table.add_column("site")
         table.add_column("calls", justify="right")
         for finding in report.findings:
-            table.add_row(finding.call, finding.site, f"{finding.count:,}")
+            site = finding.site if finding.via is None else f"{finding.site}\nfrom {finding.via}"
+            table.add_row(finding.call, site, f"{finding.count:,}")
         parts.append(table)
     if report.hash_seed_dependence is not None:
         parts.append(Text(report.hash_seed_dependence, style="yellow"))
