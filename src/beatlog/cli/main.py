@@ -25,6 +25,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.text import Text
 
 from beatlog._version import __version__
+from beatlog.adapters.export import ExportFormat, export
 from beatlog.analysis.summary import summarize
 from beatlog.analysis.timeline import build_timeline
 from beatlog.cli.baselines import approve, report_orphans, review, write_pending
@@ -152,12 +153,33 @@ def _parser() -> argparse.ArgumentParser:
         help="robot-state field to draw (repeatable; default: the first few numeric ones)",
     )
 
+    _add_export(add)
+
     demo = add("demo", help="record and replay the robot dog, then its suite")
     demo.add_argument("--duration", type=_positive_float, default=20.0, help="seconds to record")
     demo.add_argument(
         "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
     )
     return parser
+
+
+def _add_export(add: Callable[..., argparse.ArgumentParser]) -> None:
+    export_ = add(
+        "export", help="write a session log as MCAP for Foxglove and Lichtblick, or a table"
+    )
+    export_.add_argument("log", type=Path)
+    export_.add_argument("-o", "--output", required=True, type=Path, metavar="FILE")
+    export_.add_argument(
+        "--format",
+        choices=[kind.value for kind in ExportFormat],
+        default=ExportFormat.MCAP.value,
+        help="mcap (JSON messages, for viewers; the default), parquet or csv (a row per cycle)",
+    )
+    export_.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="also replay against this system and add its first divergence (MCAP only)",
+    )
 
 
 def _demo(args: argparse.Namespace, console: Console) -> int:
@@ -396,6 +418,12 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK
 
 
+def _export(args: argparse.Namespace, console: Console) -> int:
+    result = export(args.log, args.output, format=args.format, system=args.system)
+    console.print(result.describe(), markup=False, highlight=False)
+    return EXIT_OK
+
+
 def _need_matplotlib(command: str) -> None:
     """Charts need the optional ``plot`` extra; say so in one line when it is missing."""
     try:
@@ -423,7 +451,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = _parser().parse_args(argv)
         verbose = args.verbose
-        if args.command in ("record", "replay", "test", "review", "approve", "plot"):
+        if args.command in ("record", "replay", "test", "review", "approve", "plot", "export"):
             _import_from_working_directory()
         if args.command == "record":
             return _record(args, console)
@@ -441,6 +469,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_OK
         if args.command == "plot":
             return _plot(args, console)
+        if args.command == "export":
+            return _export(args, console)
         return _demo(args, console)
     except BeatlogError as exc:
         _error(str(exc), exc.user_traceback if verbose else None)
