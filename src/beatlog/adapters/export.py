@@ -27,7 +27,8 @@ JSON holds no NaN or infinity, so a float that is one is written as the string
 with ``cycle``, ``time_ns``, ``heartbeat_ns``, one column per robot-state field
 (``a.b`` for a nested struct's field), ``behavior.<name>`` (its state after the
 cycle, as on the behavior channels), ``out.<name>`` and ``draws`` (how many random
-numbers the cycle drew). A list or map in a cell is its JSON text. Floats stay floats:
+numbers the cycle drew). A list or map in a cell is its JSON text, and so is every
+value of a Parquet column whose values differ in type. Floats stay floats:
 Parquet keeps NaN and ±inf, CSV writes ``nan``, ``inf`` and ``-inf``.
 """
 
@@ -113,7 +114,7 @@ def export(
     log against it and add its first divergence.
 
     The output is written next to its final place and moved there when complete, so
-    a log found damaged halfway leaves no partial export.
+    an export that fails (a damaged log, a full disk) leaves no partial file.
 
     :raises beatlog.errors.LogError: the log cannot be read (or does not fit ``system``).
     :raises beatlog.errors.ExportError: the output cannot be written, Parquet is asked
@@ -175,21 +176,21 @@ class _Session(NamedTuple):
 
 def _decoded_cycles(reader: SessionLogReader) -> Iterator[_Cycle]:
     names = reader.header.behaviors
-    decode_state = msgspec.msgpack.Decoder(dict[str, Any]).decode
+    decode_map = msgspec.msgpack.Decoder(dict[str, Any]).decode
     decode_changes = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
     decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     time_ns = 0
     for number, record in enumerate(reader.cycles()):
         time_ns += record.heartbeat_ns
         try:
-            state = decode_state(record.robot_state)
+            state = decode_map(record.robot_state)
             changes = (
                 [] if record.state_changes == EMPTY_LIST else decode_changes(record.state_changes)
             )
             draws = (
                 [] if record.random_numbers == EMPTY_LIST else decode_draws(record.random_numbers)
             )
-            outputs = decode_state(record.outputs)
+            outputs = decode_map(record.outputs)
         except DECODE_ERRORS as exc:
             raise CorruptLogError(reader.path, f"damaged cycle {number}: {exc}") from None
         yield _Cycle(
@@ -640,8 +641,9 @@ def _write_table(part: Path, session: _Session, chosen: ExportFormat) -> None:
         values = [row.get(column) for row in rows]
         try:
             arrays.append(pa.array(values))
-        except pa.ArrowException:  # mixed types: every cell as its JSON text
-            arrays.append(pa.array([_JSON.encode(_jsonable(value)).decode() for value in values]))
+        except pa.ArrowException:  # mixed types: every cell but a missing one as JSON text
+            texts = [None if v is None else _JSON.encode(_jsonable(v)).decode() for v in values]
+            arrays.append(pa.array(texts))
     parquet.write_table(pa.Table.from_arrays(arrays, names=columns), part)
 
 
