@@ -1,7 +1,8 @@
 """``beatlog export``: a session opened in Foxglove or Lichtblick, or read as a table.
 
-Every exported MCAP is read back message by message, and every message must be strict
-JSON that validates against its channel's JSON schema: what the viewers rely on.
+Every exported MCAP is read back: every channel's schema must be one the viewers'
+schema parser accepts (``tests/viewer_schema.py``, ported from it), and every message
+strict JSON that validates against its channel's schema with a standard validator.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import msgspec
 import pyarrow.parquet as pq
@@ -32,9 +33,10 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import record_lockstep
-from tests.conftest import PERIOD_NS, Probe, RecordFn, distances
+from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances
 from tests.factories import Message as LogMessage
 from tests.factories import craft_log, cycle, cycle_messages, end_message, header_message
+from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
 
 DOG_SUITE = sorted(
     (Path(__file__).parents[2] / "examples/src/beatlog_examples/dog/suite").glob("*.beatlog")
@@ -63,7 +65,8 @@ def _no_constant(name: str) -> Any:
 
 
 def read_exported(path: Path) -> Exported:
-    """Read an export, checking each message is strict JSON valid under its channel's schema."""
+    """Read an export, checking that the viewers parse every channel's schema and that each
+    message is strict JSON valid under its channel's schema."""
     with path.open("rb") as file:
         reader = make_reader(file)
         summary = reader.get_summary()
@@ -75,6 +78,7 @@ def read_exported(path: Path) -> Exported:
             schema = summary.schemas[channel.schema_id]
             assert (channel.message_encoding, schema.encoding) == ("json", "jsonschema")
             document = json.loads(schema.data, parse_constant=_no_constant)
+            check_viewer_schema(document)
             validator = validator_for(document)
             validator.check_schema(document)
             validators[channel.id] = validator(document)
@@ -257,7 +261,7 @@ def test_each_state_change_is_a_foxglove_log_message(probe_log: Path, tmp_path: 
     }
 
 
-def test_special_floats_are_strings_that_the_schema_allows(
+def test_a_nan_or_infinite_float_is_left_out_and_listed_in_non_finite(
     record_probe: RecordFn, tmp_path: Path
 ) -> None:
     specials = [math.nan, math.inf, -math.inf, -0.0, 0.25]
@@ -267,14 +271,26 @@ def test_special_floats_are_strings_that_the_schema_allows(
     export(log, exported)
 
     read = read_exported(exported)
-    readings = [m.value["reading"] for m in read.messages["/robot_state"]]
-    assert readings == ["NaN", "Infinity", "-Infinity", -0.0, 0.25]
-    assert math.copysign(1.0, readings[3]) == -1.0
-    reading_schema = read.schemas["/robot_state"]["properties"]["reading"]
-    assert reading_schema["type"] == ["number", "string"]
+    states = [m.value for m in read.messages["/robot_state"]]
+    assert [state.get("reading") for state in states] == [None, None, None, -0.0, 0.25]
+    assert math.copysign(1.0, states[3]["reading"]) == -1.0
+    assert [state.get("non_finite") for state in states] == [
+        ["reading=NaN"],
+        ["reading=Infinity"],
+        ["reading=-Infinity"],
+        None,
+        None,
+    ]
+    properties = read.schemas["/robot_state"]["properties"]
+    assert properties["reading"]["type"] == "number"
+    assert properties["non_finite"] == {
+        "type": "array",
+        "items": {"type": "string"},
+        "description": properties["non_finite"]["description"],
+    }
 
 
-def test_a_nested_robot_state_is_inlined_and_array_draws_are_base64(
+def test_a_nested_robot_state_is_inlined_and_array_draws_are_json_text(
     tracked_log: Path, tmp_path: Path
 ) -> None:
     exported = tmp_path / "tracked.mcap"
@@ -285,19 +301,127 @@ def test_a_nested_robot_state_is_inlined_and_array_draws_are_base64(
     schema = read.schemas["/robot_state"]
     assert "$defs" not in json.dumps(schema)
     assert "$ref" not in json.dumps(schema)
-    assert schema["properties"]["pose"]["properties"]["x"]["type"] == ["number", "string"]
+    assert schema["properties"]["pose"]["properties"]["x"] == {"type": "number"}
+    assert schema["properties"]["ranges"] == {"type": "array", "items": {"type": "number"}}
     assert read.messages["/robot_state"][12].value == {
         "pose": {"x": 1.2, "heading": 0.0},
         "ranges": [0.5, 12.0],
     }
     (draw,) = read.messages["/random_numbers"][0].value["draws"]
-    dtype, shape, data = draw["value"]
+    dtype, shape, data = json.loads(draw["value"])
     assert (draw["actor"], draw["kind"], dtype, shape) == ("scan", "uniform_array", "<f8", [3])
     assert len(base64.b64decode(data)) == 3 * 8
-    assert draw["params"] == [0.0, 1.0, [3]]
+    assert json.loads(draw["params"]) == [0.0, 1.0, [3]]
+    assert read.schemas["/outputs"]["properties"]["outputs"]["properties"]["noise"]["type"] == (
+        "string"
+    )
+    noise = json.loads(read.messages["/outputs"][0].value["outputs"]["noise"])
+    assert len(noise) == 3
 
 
-def test_a_recursive_robot_state_type_is_left_open_where_it_recurs(tmp_path: Path) -> None:
+def test_a_nan_in_a_nested_field_or_an_array_of_numbers_leaves_that_field_out(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "gaps.beatlog"
+    states = [
+        Tracked(pose=Pose(x=math.nan, heading=0.5), ranges=[0.5, math.inf]),
+        Tracked(pose=Pose(x=1.0), ranges=[0.5, 2.0]),
+    ]
+    with Recorder(log, PriorityArbiter([Scan()], robot_state=Tracked), seed=3) as recorder:
+        for state in states:
+            recorder.step(PERIOD_NS, state)
+    exported = tmp_path / "gaps.mcap"
+
+    export(log, exported)
+
+    first, second = (m.value for m in read_exported(exported).messages["/robot_state"])
+    assert first == {
+        "pose": {"heading": 0.5},
+        "non_finite": ["pose.x=NaN", "ranges=[0.5,Infinity]"],
+    }
+    assert second == {"pose": {"x": 1.0, "heading": 0.0}, "ranges": [0.5, 2.0]}
+
+
+class Blip(msgspec.Struct):
+    x: float = 0.0
+
+
+class Rich(RobotState, kw_only=True):
+    """A robot state with every kind of field a msgspec schema can declare."""
+
+    mode: Literal["dock", "roam"] = "dock"
+    level: int | None = None
+    offset: float | None = None
+    pair: tuple[int, float] = (1, 2.0)
+    gains: dict[str, float] = msgspec.field(default_factory=dict)
+    grid: list[list[float]] = msgspec.field(default_factory=list)
+    maybe: list[float | None] = msgspec.field(default_factory=list)
+    blob: bytes = b""
+    blips: list[Blip] = msgspec.field(default_factory=list)
+
+
+class Still:
+    name = "still"
+    state: BehaviorState = "idle"
+
+    def step(self, rs: Rich, ctx: Context) -> Outputs | None:
+        return None
+
+
+def test_fields_the_viewers_cannot_type_are_json_text_and_nulls_are_left_out(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "rich.beatlog"
+    state = Rich(
+        mode="roam",
+        offset=0.5,
+        gains={"kp": math.nan},
+        grid=[[1.0], [2.0, 3.0]],
+        maybe=[1.0, None],
+        blob=b"\x00\x01",
+        blips=[Blip(1.0), Blip(math.nan)],
+    )
+    with Recorder(log, PriorityArbiter([Still()], robot_state=Rich), seed=1) as recorder:
+        recorder.step(PERIOD_NS, state)
+    exported = tmp_path / "rich.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    properties = read.schemas["/robot_state"]["properties"]
+    types = {name: field["type"] for name, field in properties.items()}
+    assert types == {
+        "mode": "string",
+        "level": "integer",
+        "offset": "number",
+        "pair": "string",
+        "gains": "string",
+        "grid": "string",
+        "maybe": "string",
+        "blob": "string",
+        "blips": "array",
+        "non_finite": "array",
+    }
+    assert properties["blob"]["contentEncoding"] == "base64"
+    assert properties["blips"]["items"] == {
+        "type": "object",
+        "properties": {"x": {"type": "number"}},
+    }
+    (message,) = (m.value for m in read.messages["/robot_state"])
+    assert message == {
+        "mode": "roam",
+        "offset": 0.5,
+        "pair": "[1,2.0]",
+        "gains": '{"kp":"NaN"}',
+        "grid": "[[1.0],[2.0,3.0]]",
+        "maybe": "[1.0,null]",
+        "blob": "AAE=",
+        "blips": [{"x": 1.0}, {}],
+        "non_finite": ["blips[1].x=NaN"],
+    }
+
+
+def test_a_recursive_robot_state_type_is_json_text_where_it_recurs(tmp_path: Path) -> None:
     node = {
         "type": "object",
         "properties": {
@@ -305,23 +429,115 @@ def test_a_recursive_robot_state_type_is_left_open_where_it_recurs(tmp_path: Pat
             "child": {"anyOf": [{"$ref": "#/$defs/Node"}, {"type": "null"}]},
         },
     }
+    tree = {"value": 1.0, "child": {"value": 2.0, "child": {"value": 3.0, "child": None}}}
     log = craft_log(
         tmp_path / "tree.beatlog",
         [
             header_message(robot_state_schema={"$ref": "#/$defs/Node", "$defs": {"Node": node}}),
-            *cycle_messages(3),
-            end_message(3),
+            LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, [cycle(state=tree)]])),
+            end_message(1, PERIOD_NS),
         ],
     )
     exported = tmp_path / "tree.mcap"
 
     export(log, exported)
 
-    schema = read_exported(exported).schemas["/robot_state"]
-    assert schema["properties"]["value"]["type"] == ["number", "string"]
-    inner, null = schema["properties"]["child"]["anyOf"]
-    assert "type" not in inner  # any value: a node inside a node is not inlined again
-    assert null == {"type": "null"}
+    read = read_exported(exported)
+    properties = read.schemas["/robot_state"]["properties"]
+    assert properties["value"] == {"type": "number"}
+    assert properties["child"]["type"] == "string"  # a node inside a node
+    (message,) = (m.value for m in read.messages["/robot_state"])
+    assert message == {
+        "value": 1.0,
+        "child": '{"value":2.0,"child":{"value":3.0,"child":null}}',
+    }
+
+
+def test_a_robot_state_without_a_schema_is_typed_from_the_log(tmp_path: Path) -> None:
+    states = [{"level": 1, "name": "a"}, {"level": 0.5, "name": 2, "on": True}]
+    log = craft_cycles(tmp_path / "bare.beatlog", [cycle(state=state) for state in states])
+    exported = tmp_path / "bare.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    properties = read.schemas["/robot_state"]["properties"]
+    assert {name: field["type"] for name, field in properties.items()} == {
+        "level": "number",
+        "name": "string",
+        "on": "boolean",
+        "non_finite": "array",
+    }
+    assert [m.value for m in read.messages["/robot_state"]] == [
+        {"level": 1, "name": '"a"'},
+        {"level": 0.5, "name": "2", "on": True},
+    ]
+
+
+def test_outputs_are_typed_from_a_first_read_of_the_log(tmp_path: Path) -> None:
+    outputs: list[dict[str, Any]] = [
+        {"speed": 1, "mode": "dock", "mixed": 1, "turn": [0.1, 0.2], "on": True, "gone": None},
+        {"speed": math.nan, "mode": "roam", "mixed": "a"},
+        {"speed": 0.5},
+    ]
+    log = craft_cycles(tmp_path / "out.beatlog", [cycle(outputs=o) for o in outputs])
+    exported = tmp_path / "out.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    declared = read.schemas["/outputs"]["properties"]["outputs"]["properties"]
+    assert {name: field["type"] for name, field in declared.items()} == {
+        "speed": "number",
+        "mode": "string",
+        "mixed": "string",
+        "turn": "string",
+        "on": "boolean",
+        "gone": "string",
+    }
+    assert [m.value for m in read.messages["/outputs"]] == [
+        {
+            "cycle": 0,
+            "outputs": {"speed": 1, "mode": "dock", "mixed": "1", "turn": "[0.1,0.2]", "on": True},
+        },
+        {
+            "cycle": 1,
+            "outputs": {"mode": "roam", "mixed": '"a"'},
+            "non_finite": ["outputs.speed=NaN"],
+        },
+        {"cycle": 2, "outputs": {"speed": 0.5}},
+    ]
+
+
+def test_behavior_states_that_are_no_strings_are_json_text(tmp_path: Path) -> None:
+    records = [
+        cycle(),
+        cycle(state_changes=[[0, 1, 2]]),
+        cycle(state_changes=[[0, 2, True]]),
+    ]
+    batch = LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, records]))
+    log = craft_log(
+        tmp_path / "gears.beatlog",
+        [header_message(behaviors=["gear", "quiet"]), batch, end_message(3, 3 * PERIOD_NS)],
+    )
+    exported = tmp_path / "gears.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    assert [m.value["state"] for m in read.messages["/behaviors/gear"]] == ["1", "2", "true"]
+    assert [m.value["state"] for m in read.messages["/behaviors/quiet"]] == ["null"]
+
+
+def test_a_robot_state_field_named_non_finite_is_one_line(
+    beatlog_export: Cli, tmp_path: Path
+) -> None:
+    log = craft_cycles(tmp_path / "clash.beatlog", [cycle(state={"non_finite": 1.0})])
+
+    run = beatlog_export(log, "-o", tmp_path / "x.mcap")
+
+    assert_one_line_error(run, "robot-state field 'non_finite' has the name of the field")
+    assert not (tmp_path / "x.mcap").exists()
 
 
 def test_without_a_system_there_is_no_divergence_channel(probe_log: Path, tmp_path: Path) -> None:
@@ -372,6 +588,118 @@ def test_a_system_that_passes_adds_no_divergence(
     assert "/divergence" not in read_exported(exported).messages
 
 
+class Faster(Dice):
+    """dice, but driving faster: outputs that differ with the same state changes."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        return {**(super().step(rs, ctx) or {}), "speed": 0.7}
+
+
+def test_a_divergence_of_no_behavior_has_an_empty_behavior(probe_log: Path, tmp_path: Path) -> None:
+    exported = tmp_path / "faster.mcap"
+
+    result = export(
+        probe_log, exported, system=PriorityArbiter([Near(), Faster()], robot_state=Probe)
+    )
+
+    (divergence,) = read_exported(exported).messages["/divergence"]
+    assert result.divergence is not None
+    assert result.divergence.behavior is None
+    assert (divergence.value["kind"], divergence.value["behavior"]) == ("outputs", "")
+
+
+def test_every_channel_of_an_export_is_one_the_viewers_parse(
+    probe_log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / "changed.mcap"
+    export(probe_log, exported, system="tests.conftest:probe_system_changed")
+
+    with exported.open("rb") as file:
+        summary = make_reader(file).get_summary()
+    assert summary is not None
+    schemas = {
+        channel.topic: json.loads(summary.schemas[channel.schema_id].data)
+        for channel in summary.channels.values()
+    }
+    assert len(schemas) == 9  # the eight channels and /divergence
+    for schema in schemas.values():
+        check_viewer_schema(schema)
+
+
+FOXGLOVE_LOG_LEVEL = {"oneOf": [{"title": "INFO", "const": 2}]}
+
+
+@pytest.mark.parametrize(
+    ("schema", "fragment"),
+    [
+        ({"type": "array", "items": {"type": "number"}}, '<root>: expected "type": "object"'),
+        ({"type": "object"}, "<root>: an object needs a properties map"),
+        ({"type": "object", "properties": {"x": {"type": ["number", "string"]}}}, "<root>.x"),
+        ({"type": "object", "properties": {"x": {"type": "null"}}}, "unsupported type 'null'"),
+        ({"type": "object", "properties": {"x": {}}}, "<root>.x: unsupported type None"),
+        ({"type": "object", "properties": {"level": FOXGLOVE_LOG_LEVEL}}, "oneOf"),
+        (
+            {"type": "object", "properties": {"x": {"type": "string", "contentEncoding": "hex"}}},
+            "unsupported contentEncoding",
+        ),
+        ({"type": "object", "properties": {"x": {"type": "array"}}}, "<root>.x[]: unsupported"),
+        (
+            {"type": "object", "properties": {"x": {"type": "array", "items": {"type": "array"}}}},
+            "unsupported array item type 'array'",
+        ),
+        (
+            {
+                "type": "object",
+                "properties": {
+                    "x": {"type": "array", "items": {"type": "string", "contentEncoding": "base64"}}
+                },
+            },
+            "an array item has a contentEncoding",
+        ),
+        (
+            {
+                "type": "object",
+                "properties": {"p": {"type": "object", "properties": {"q": {"anyOf": []}}}},
+            },
+            "<root>.p.q: unsupported type None",
+        ),
+        (
+            {
+                "type": "object",
+                "properties": {"ps": {"type": "array", "items": {"type": "object"}}},
+            },
+            "<root>.ps[]: an object needs a properties map",
+        ),
+    ],
+)
+def test_the_viewer_rules_refuse_what_the_viewers_refuse(
+    schema: dict[str, Any], fragment: str
+) -> None:
+    with pytest.raises(ViewerSchemaError, match=fragment.replace("[", r"\[").replace("]", r"\]")):
+        check_viewer_schema(schema)
+
+
+def test_the_viewer_rules_accept_what_the_viewers_read() -> None:
+    check_viewer_schema(
+        {
+            "type": "object",
+            "properties": {
+                "on": {"type": "boolean"},
+                "name": {"type": "string"},
+                "blob": {"type": "string", "contentEncoding": "base64"},
+                "x": {"type": "number"},
+                "n": {"type": "integer"},
+                "pose": {"type": "object", "properties": {"x": {"type": "number"}}},
+                "names": {"type": "array", "items": {"type": "string"}},
+                "poses": {
+                    "type": "array",
+                    "items": {"type": "object", "properties": {"x": {"type": "number"}}},
+                },
+            },
+        }
+    )
+
+
 def test_a_truncated_log_is_exported_up_to_its_last_cycle(
     beatlog_export: Cli, tmp_path: Path
 ) -> None:
@@ -388,12 +716,16 @@ def test_a_truncated_log_is_exported_up_to_its_last_cycle(
 
 @pytest.mark.slow
 @pytest.mark.parametrize("log", DOG_SUITE, ids=[path.stem for path in DOG_SUITE])
-def test_every_dtc_of_the_dog_suite_exports_and_validates(log: Path, tmp_path: Path) -> None:
+def test_every_dtc_of_the_dog_suite_exports_for_the_viewers_and_validates(
+    log: Path, tmp_path: Path
+) -> None:
     exported = tmp_path / f"{log.stem}.mcap"
 
     result = export(log, exported)
 
-    read = read_exported(exported)
+    read = read_exported(exported)  # checks every channel's schema with the viewers' rules
+    for schema in read.schemas.values():
+        check_viewer_schema(schema)
     assert result.status.complete
     assert all(len(read.messages[topic]) == result.cycles for topic in PER_CYCLE_TOPICS)
 

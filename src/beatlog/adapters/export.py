@@ -5,23 +5,46 @@
 are not an encoding those viewers decode. The export writes message encoding ``json``
 and schema encoding ``jsonschema``, one schema per channel (behavior channels share
 one), each message stamped with robot time in nanoseconds and sequence-numbered with
-its cycle:
+its cycle. Both viewers read a JSON schema with one parser (``parseJsonSchema`` in
+their ``mcap-support`` package), which takes only an object with ``properties`` whose
+every field has one ``type``: boolean, string (base64 with ``contentEncoding``),
+number, integer, an object with its own ``properties`` or an array of one of those.
+Every schema here keeps to that, so every field is a typed field in the viewers'
+message paths and plots, and every message validates against its schema:
 
-- ``/robot_state``: RS_t, every cycle; its schema is the header's robot-state schema
-  with every ``$ref`` inlined (a type that contains itself is left open).
-- ``/behaviors/<name>``: a behavior's state after cycle 0, then after each change.
-  Before its first change a behavior's state is the ``before`` of that change; a
-  behavior that never changes in the log has no known state and shows ``null``.
+- ``/robot_state``: RS_t, every cycle, as the header's robot-state schema declares
+  it, every ``$ref`` inlined: numbers, integers, booleans and strings (an enum of
+  strings or integers is one too), nested structs as objects, lists of those as
+  arrays. What the viewers cannot type (a map, tuple, union, a list of lists or of
+  nullables, a type inside itself) is a string of its JSON text. A null is left out.
+  A log whose header declares no object is typed from a read of its fields.
+- ``/behaviors/<name>``: a behavior's state after cycle 0, then after each change,
+  as a string: the state as it prints (``idle``), or its JSON text if it is no
+  string (``3``, ``true``). Before its first change a behavior's state is the
+  ``before`` of that change; a behavior that never changes in the log has no known
+  state and shows ``null``.
 - ``/state_changes``: one Foxglove ``foxglove.Log`` message per change (INFO,
-  ``avoid: idle -> turning``, the behavior as ``name``), for the Log panel.
-- ``/outputs``: the outputs of every cycle.
-- ``/random_numbers``: the draws of each cycle that drew any (actor, kind, value, params).
+  ``avoid: idle -> turning``, the behavior as ``name``), for the Log panel. The
+  schema is Foxglove's except ``level``: an integer here, not a ``oneOf`` of the
+  level constants, which Lichtblick's parser refuses in releases that predate its
+  enum support.
+- ``/outputs``: the outputs of every cycle, each output a field typed as a first read
+  of the log finds it (number, integer, boolean or string); an output whose values
+  are lists, maps or of mixed types is a string of JSON text.
+- ``/random_numbers``: the draws of each cycle that drew any: actor and kind, value
+  and params as JSON text (a numpy array draw is dtype, shape and base64 bytes).
 - ``/heartbeat``: HB_t of every cycle.
-- ``/divergence``: with a system, one message at its first divergence from the log.
+- ``/divergence``: with a system, one message at its first divergence from the log
+  (``behavior`` empty when it concerns none; expected and actual state changes as
+  lists of behavior, before and after strings).
 
-JSON holds no NaN or infinity, so a float that is one is written as the string
-``"NaN"``, ``"Infinity"`` or ``"-Infinity"``, and every number in a schema is declared
-``"type": ["number", "string"]``; bytes (numpy array draws) are base64 strings.
+JSON holds no NaN or infinity, and a plot's number field cannot hold a string: a
+float field that is NaN or ±inf is left out of that message (a gap in a plot) and
+listed in the message's ``non_finite`` string array as ``path=value``
+(``distance=NaN``, ``pose.x=Infinity``, ``outputs.speed=-Infinity``); an array of
+numbers holding one is left out whole and listed with its text
+(``ranges=[0.5,NaN]``). Inside JSON text they are the strings ``"NaN"``,
+``"Infinity"`` and ``"-Infinity"``, and bytes are base64.
 
 **Tables** (Parquet, which needs the ``export`` extra, or CSV): one row per cycle
 with ``cycle``, ``time_ns``, ``heartbeat_ns``, one column per robot-state field
@@ -41,7 +64,7 @@ import math
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from enum import StrEnum
+from enum import Enum, StrEnum
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -133,9 +156,9 @@ def export(
     if output.exists() and log.exists() and output.samefile(log):
         raise ExportError(f"{output}: is the session log being exported; name another file")
     replayed = None if system is None else replay(log, system, allow_truncated=True, explain=False)
-    initial = _states_before_changes(log)
+    first = _first_read(log)
     with SessionLogReader(log) as reader, _replacing(output) as part:
-        session = _Session(log, reader.header, _decoded_cycles(reader), initial)
+        session = _Session(log, reader.header, _decoded_cycles(reader), first)
         if chosen is ExportFormat.MCAP:
             _write_mcap(part, session, replayed)
         else:
@@ -164,14 +187,24 @@ class _Cycle(NamedTuple):
     outputs: dict[str, Any]
 
 
+class _FirstRead(NamedTuple):
+    """What a first pass over the log finds."""
+
+    initial: Mapping[str, BehaviorState]
+    """Each catalogue behavior's state at the start: the ``before`` of its first change
+    (None for a behavior that never changes in the log)."""
+    output_types: Mapping[str, str | None]
+    """Each output's JSON-schema type over the whole log (see ``_add_types``)."""
+
+
 class _Session(NamedTuple):
     """What the writers read: the log, its header, its cycles decoded one by one, and
-    each catalogue behavior's state before its first change."""
+    what a first read of the log found."""
 
     log: Path
     header: SessionHeader
     cycles: Iterator[_Cycle]
-    initial: Mapping[str, BehaviorState]
+    first: _FirstRead
 
 
 def _decoded_cycles(reader: SessionLogReader) -> Iterator[_Cycle]:
@@ -210,15 +243,16 @@ def _name(catalogue: Sequence[str], index: int) -> str:
     return catalogue[index] if index < len(catalogue) else f"#{index}"
 
 
-def _states_before_changes(log: Path) -> dict[str, BehaviorState]:
-    """Each catalogue behavior's state at the start: the ``before`` of its first change
-    (None for a behavior that never changes in the log). A first pass over the log."""
+def _first_read(log: Path) -> _FirstRead:
     with SessionLogReader(log) as reader:
         states: dict[str, BehaviorState] = {}
+        output_types: dict[str, str | None] = {}
         for cycle in _decoded_cycles(reader):
             for change in cycle.changes:
                 states.setdefault(change.behavior, change.before)
-        return {name: states.get(name) for name in reader.header.behaviors}
+            _add_types(output_types, cycle.outputs)
+        initial = {name: states.get(name) for name in reader.header.behaviors}
+        return _FirstRead(initial, output_types)
 
 
 def _states_after(states: dict[str, BehaviorState], changes: Sequence[StateChange]) -> None:
@@ -271,35 +305,231 @@ def _json_text(value: Any, log: Path, where: str) -> bytes:
         raise CorruptLogError(log, f"{where} cannot be written as JSON: {exc}") from None
 
 
+def _state_text(state: BehaviorState) -> str:
+    """A behavior state as a viewer shows it: a string as it is, anything else as JSON."""
+    return state if isinstance(state, str) else json.dumps(state)
+
+
+# MCAP: what a field is for the viewers
+
+
+class _Kind(Enum):
+    NUMBER = "a JSON number; NaN and ±inf are left out and listed in non_finite"
+    PLAIN = "an integer, boolean or string, written as it is"
+    OBJECT = "an object with its own fields"
+    ARRAY = "an array of numbers, integers, booleans, strings or objects"
+    JSON = "a string holding the value's JSON text"
+
+
+class _Field(NamedTuple):
+    """A field as the viewers get it: its JSON schema and how a value is written."""
+
+    schema: dict[str, Any]
+    kind: _Kind
+    fields: Mapping[str, _Field] = {}
+    """An object's fields."""
+    items: _Field | None = None
+    """An array's items."""
+
+
+_NON_FINITE = "non_finite"
+_NON_FINITE_SCHEMA = {
+    "type": "array",
+    "items": {"type": "string"},
+    "description": "The fields left out of this message because their value is NaN or "
+    "infinite, as path=value: distance=NaN, outputs.speed=-Infinity, ranges=[0.5,NaN].",
+}
+_JSON_TEXT = {
+    "type": "string",
+    "description": 'JSON text of the value: NaN and ±inf as the strings "NaN", "Infinity" '
+    'and "-Infinity", bytes as base64.',
+}
+_BY_TYPE = {
+    "number": _Field({"type": "number"}, _Kind.NUMBER),
+    "integer": _Field({"type": "integer"}, _Kind.PLAIN),
+    "boolean": _Field({"type": "boolean"}, _Kind.PLAIN),
+    "string": _Field({"type": "string"}, _Kind.PLAIN),
+    "json": _Field(_JSON_TEXT, _Kind.JSON),
+}
+_ARRAY_ITEMS = frozenset({_Kind.NUMBER, _Kind.PLAIN, _Kind.OBJECT})
+_GAP = object()
+"""What a value left out of its message is written as."""
+
+
+def _written(field: _Field, value: Any, path: str, non_finite: list[str]) -> Any:
+    """``value`` as ``field`` declares it, or ``_GAP`` for a null, NaN or ±inf (listed in
+    ``non_finite`` as ``path=value``; an array of numbers holding one is left out whole)."""
+    if value is None:
+        return _GAP
+    kind = field.kind
+    if kind is _Kind.NUMBER:
+        if isinstance(value, float) and not math.isfinite(value):
+            non_finite.append(f"{path}={json.dumps(value)}")
+            return _GAP
+        return value
+    if kind is _Kind.OBJECT:
+        return _written_object(field.fields, value, f"{path}.", non_finite)
+    items = field.items
+    if items is not None:  # an array
+        if items.kind is _Kind.NUMBER:
+            if not all(math.isfinite(item) for item in value):
+                non_finite.append(f"{path}={json.dumps(value, separators=(',', ':'))}")
+                return _GAP
+            return value
+        return [_written(items, item, f"{path}[{i}]", non_finite) for i, item in enumerate(value)]
+    if kind is _Kind.JSON:
+        return _JSON.encode(_jsonable(value)).decode()
+    return value
+
+
+def _written_object(
+    fields: Mapping[str, _Field], value: Mapping[str, Any], prefix: str, non_finite: list[str]
+) -> dict[str, Any]:
+    """The declared fields of ``value`` (a field the schema lacks is left out)."""
+    written = {}
+    for name, field in fields.items():
+        if name in value:
+            item = _written(field, value[name], f"{prefix}{name}", non_finite)
+            if item is not _GAP:
+                written[name] = item
+    return written
+
+
+def _type_of(value: Any) -> str:
+    """The JSON-schema type of a value read from the log (``json`` for lists, maps, bytes)."""
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "number"
+    return "string" if isinstance(value, str) else "json"
+
+
+def _add_types(types: dict[str, str | None], values: Mapping[str, Any]) -> None:
+    """Merge the types of ``values`` into ``types``: integers and floats make a number,
+    any other mix is JSON text; a field that is always null stays None."""
+    for name, value in values.items():
+        seen = types.get(name)
+        if value is None:
+            types.setdefault(name, None)
+        elif seen is None:
+            types[name] = _type_of(value)
+        elif seen != "json":
+            kind = _type_of(value)
+            if kind != seen:
+                types[name] = "number" if {kind, seen} == {"integer", "number"} else "json"
+
+
+def _typed_object(types: Mapping[str, str | None]) -> _Field:
+    """An object of the fields a first read of the log found, typed as it found them."""
+    fields = {name: _BY_TYPE[kind or "json"] for name, kind in types.items()}
+    properties = {name: field.schema for name, field in fields.items()}
+    return _Field({"type": "object", "properties": properties}, _Kind.OBJECT, fields)
+
+
+_MAX_SCHEMA_NODES = 100_000
+"""A robot-state schema inlined beyond this many nodes is refused (a hostile header
+could otherwise expand exponentially)."""
+
+
+def _declared_object(schema: Mapping[str, Any], log: Path) -> _Field | None:
+    """The header's robot-state schema as the viewers take it (None if it describes no
+    object with properties): every ``$ref`` to ``#/$defs/...`` inlined; a number,
+    integer, boolean or string as that type (an enum of strings or of integers too, a
+    nullable one too: a null is left out); an object with properties and an array of
+    those with their own schemas; anything else (a map, tuple, union, an array of
+    arrays or of nullables, a type within itself) as JSON text."""
+    definitions = schema.get("$defs")
+    defs = definitions if isinstance(definitions, dict) else {}
+    nodes = 0
+
+    def field(node: Any, within: tuple[str, ...], nullable: bool) -> _Field:
+        nonlocal nodes
+        nodes += 1
+        if nodes > _MAX_SCHEMA_NODES:
+            raise CorruptLogError(
+                log, f"the robot-state schema inlines to more than {_MAX_SCHEMA_NODES} nodes"
+            )
+        if not isinstance(node, dict):
+            return _BY_TYPE["json"]
+        reference = node.get("$ref")
+        if reference is not None:
+            name = reference.removeprefix("#/$defs/") if isinstance(reference, str) else ""
+            if name == reference or name not in defs:
+                raise CorruptLogError(
+                    log, f"the robot-state schema refers to {reference!r}, which it lacks"
+                )
+            target = defs[name]
+            if name in within or not isinstance(target, dict):
+                return _BY_TYPE["json"]
+            rest = {key: value for key, value in node.items() if key != "$ref"}
+            return field({**rest, **target}, (*within, name), nullable)
+        kind = node.get("type")
+        alternatives = node.get("anyOf", node.get("oneOf"))
+        if isinstance(alternatives, list):
+            others = [option for option in alternatives if option != {"type": "null"}]
+            if not (nullable and len(others) == 1 == len(alternatives) - 1):
+                return _BY_TYPE["json"]
+            return field(others[0], within, nullable=False)
+        if isinstance(kind, list):
+            others = [option for option in kind if option != "null"]
+            kind = others[0] if nullable and len(others) == 1 == len(kind) - 1 else "json"
+        enum = node.get("enum")
+        if kind is None and isinstance(enum, list) and enum:
+            kinds = {_type_of(value) for value in enum}
+            kind = kinds.pop() if len(kinds) == 1 else "json"
+        properties = node.get("properties")
+        items = node.get("items")
+        if kind == "object" and isinstance(properties, dict):
+            fields = {
+                name: field(value, within, nullable=True) for name, value in properties.items()
+            }
+            declared = {name: value.schema for name, value in fields.items()}
+            return _Field({"type": "object", "properties": declared}, _Kind.OBJECT, fields)
+        if kind == "array" and isinstance(items, dict) and "prefixItems" not in node:
+            item = field(items, within, nullable=False)
+            if item.kind in _ARRAY_ITEMS:
+                return _Field({"type": "array", "items": item.schema}, _Kind.ARRAY, items=item)
+            return _BY_TYPE["json"]
+        if kind == "string" and node.get("contentEncoding") == "base64":
+            return _Field({"type": "string", "contentEncoding": "base64"}, _Kind.PLAIN)
+        return _BY_TYPE.get(kind if isinstance(kind, str) else "json", _BY_TYPE["json"])
+
+    try:
+        declared = field(dict(schema), (), nullable=False)
+    except RecursionError:
+        raise CorruptLogError(log, "the robot-state schema is nested too deep") from None
+    return declared if declared.kind is _Kind.OBJECT else None
+
+
 # MCAP: schemas
 
 _DIALECT = "https://json-schema.org/draft/2020-12/schema"
 _CYCLE = {"type": "integer", "minimum": 0, "description": "The cycle (heartbeat) t."}
-_ANY = {
-    "description": 'Any JSON value; a NaN or infinite float is "NaN", "Infinity" or '
-    '"-Infinity", bytes are base64.'
+_STATE = {
+    "type": "string",
+    "description": "The state as it prints (idle), or its JSON text if it is no string "
+    "(3, true, null).",
 }
-_BEHAVIOR_STATE = {"type": ["string", "integer", "boolean", "null"]}
 _CHANGE = {
     "type": "object",
-    "properties": {
-        "behavior": {"type": "string"},
-        "before": _BEHAVIOR_STATE,
-        "after": _BEHAVIOR_STATE,
-    },
+    "properties": {"behavior": {"type": "string"}, "before": _STATE, "after": _STATE},
     "required": ["behavior", "before", "after"],
     "additionalProperties": False,
 }
 
 
-def _record_schema(title: str, description: str, **properties: Mapping[str, Any]) -> dict[str, Any]:
+def _record_schema(
+    title: str, description: str, optional: Sequence[str] = (), **properties: Mapping[str, Any]
+) -> dict[str, Any]:
     return {
         "$schema": _DIALECT,
         "title": title,
         "description": description,
         "type": "object",
         "properties": {"cycle": _CYCLE, **properties},
-        "required": ["cycle", *properties],
+        "required": ["cycle", *(name for name in properties if name not in optional)],
         "additionalProperties": False,
     }
 
@@ -312,13 +542,8 @@ _HEARTBEAT_SCHEMA = _record_schema(
 )
 _BEHAVIOR_SCHEMA = _record_schema(
     "beatlog.BehaviorState",
-    "A behavior's state after this cycle; null when the log never shows it (it never changes).",
-    state=_BEHAVIOR_STATE,
-)
-_OUTPUTS_SCHEMA = _record_schema(
-    "beatlog.Outputs",
-    "What the behaviors output in this cycle, e.g. motor commands.",
-    outputs={"type": "object", "additionalProperties": _ANY},
+    'A behavior\'s state after this cycle; "null" when the log never shows it (it never changes).',
+    state=_STATE,
 )
 _RANDOM_SCHEMA = _record_schema(
     "beatlog.RandomNumbers",
@@ -330,8 +555,8 @@ _RANDOM_SCHEMA = _record_schema(
             "properties": {
                 "actor": {"type": "string", "description": "The behavior, or 'system'."},
                 "kind": {"type": "string"},
-                "value": _ANY,
-                "params": {"type": "array", "items": _ANY},
+                "value": _JSON_TEXT,
+                "params": _JSON_TEXT,
             },
             "required": ["actor", "kind", "value", "params"],
             "additionalProperties": False,
@@ -343,15 +568,16 @@ _DIVERGENCE_SCHEMA = _record_schema(
     "The first cycle where replaying the log against a system differed from it.",
     kind={"type": "string", "enum": list(DivergenceKind)},
     message={"type": "string"},
-    behavior={"type": ["string", "null"]},
+    behavior={"type": "string", "description": "The behavior it concerns; empty if none."},
     expected={"type": "array", "items": _CHANGE},
     actual={"type": "array", "items": _CHANGE},
     reproduce={"type": "string"},
 )
 # Foxglove's well-known foxglove.Log, as published in foxglove/schemas
-# (schemas/jsonschema/Log.json); the name makes Foxglove's Log panel show it.
+# (schemas/jsonschema/Log.json), except its level: there a oneOf of the level
+# constants, which Lichtblick's parser rejects in releases that predate its enum
+# support, here an integer. The name makes Foxglove's Log panel show it.
 _FOXGLOVE_LOG_SCHEMA = {
-    "$comment": "Generated from Log by @foxglove/message-schemas",
     "title": "Log",
     "description": "A log message",
     "type": "object",
@@ -366,16 +592,11 @@ _FOXGLOVE_LOG_SCHEMA = {
             "description": "Timestamp of log message",
         },
         "level": {
+            "type": "integer",
+            "minimum": 0,
+            "maximum": 5,
             "title": "LogLevel: Log level",
-            "description": "Log level",
-            "oneOf": [
-                {"title": "UNKNOWN", "const": 0},
-                {"title": "DEBUG", "const": 1},
-                {"title": "INFO", "const": 2},
-                {"title": "WARNING", "const": 3},
-                {"title": "ERROR", "const": 4},
-                {"title": "FATAL", "const": 5},
-            ],
+            "description": "Log level: 0 UNKNOWN, 1 DEBUG, 2 INFO, 3 WARNING, 4 ERROR, 5 FATAL",
         },
         "message": {"type": "string", "description": "Log message"},
         "name": {"type": "string", "description": "Process or node name"},
@@ -385,79 +606,25 @@ _FOXGLOVE_LOG_SCHEMA = {
 }
 _LOG_INFO = 2
 
-_MAX_SCHEMA_NODES = 100_000
-"""A robot-state schema inlined beyond this many nodes is refused (a hostile header
-could otherwise expand exponentially)."""
-_SUBSCHEMA = frozenset(
-    {
-        "items",
-        "additionalProperties",
-        "not",
-        "contains",
-        "if",
-        "then",
-        "else",
-        "propertyNames",
-        "unevaluatedItems",
-        "unevaluatedProperties",
+
+def _robot_state_schema(title: str, robot_state: _Field) -> dict[str, Any]:
+    return {
+        "$schema": _DIALECT,
+        "title": title,
+        **robot_state.schema,
+        "properties": {**robot_state.schema["properties"], _NON_FINITE: _NON_FINITE_SCHEMA},
     }
-)
-_SUBSCHEMA_LISTS = frozenset({"prefixItems", "anyOf", "oneOf", "allOf"})
-_SUBSCHEMA_MAPS = frozenset({"properties", "patternProperties", "dependentSchemas"})
 
 
-def _viewer_schema(schema: Mapping[str, Any], log: Path) -> dict[str, Any]:
-    """The header's robot-state schema made self-contained for viewers: every
-    ``$ref`` to ``#/$defs/...`` inlined (a type within itself becomes any value),
-    ``$defs`` dropped, and every number allowed to be one of the strings that stand for
-    NaN and ±inf."""
-    definitions = schema.get("$defs")
-    defs = definitions if isinstance(definitions, dict) else {}
-    nodes = 0
-
-    def inline(node: Any, within: tuple[str, ...]) -> Any:
-        nonlocal nodes
-        nodes += 1
-        if nodes > _MAX_SCHEMA_NODES:
-            raise CorruptLogError(
-                log, f"the robot-state schema inlines to more than {_MAX_SCHEMA_NODES} nodes"
-            )
-        if not isinstance(node, dict):
-            return node
-        resolved: dict[str, Any] = {}
-        reference = node.get("$ref")
-        if reference is not None:
-            name = reference.removeprefix("#/$defs/") if isinstance(reference, str) else ""
-            if name == reference or name not in defs:
-                raise CorruptLogError(
-                    log, f"the robot-state schema refers to {reference!r}, which it lacks"
-                )
-            if name in within:
-                return dict(_ANY)
-            resolved.update(inline(defs[name], (*within, name)))
-        for key, value in node.items():
-            if key in ("$ref", "$defs"):
-                continue
-            if key in _SUBSCHEMA:
-                resolved[key] = inline(value, within)
-            elif key in _SUBSCHEMA_LISTS and isinstance(value, list):
-                resolved[key] = [inline(item, within) for item in value]
-            elif key in _SUBSCHEMA_MAPS and isinstance(value, dict):
-                resolved[key] = {field: inline(item, within) for field, item in value.items()}
-            else:
-                resolved[key] = value
-        kind = resolved.get("type")
-        if kind == "number":
-            resolved["type"] = ["number", "string"]
-        elif isinstance(kind, list) and "number" in kind and "string" not in kind:
-            resolved["type"] = [*kind, "string"]
-        return resolved
-
-    try:
-        inlined = inline(dict(schema), ())
-    except RecursionError:
-        raise CorruptLogError(log, "the robot-state schema is nested too deep") from None
-    return {"$schema": _DIALECT, **inlined}
+def _outputs_schema(outputs: _Field) -> dict[str, Any]:
+    return _record_schema(
+        "beatlog.Outputs",
+        "What the behaviors output in this cycle, e.g. motor commands, typed as a first "
+        "read of the log found them (lists, maps and mixed types as JSON text).",
+        optional=[_NON_FINITE],
+        outputs=outputs.schema,
+        non_finite=_NON_FINITE_SCHEMA,
+    )
 
 
 # MCAP: messages
@@ -484,8 +651,28 @@ class _McapChannels:
         self._writer.add_message(channel, time_ns, data, time_ns, sequence=cycle.number)
 
 
+def _robot_state_field(session: _Session) -> _Field:
+    """The robot state's fields: as the header declares them, else as a read of the log
+    finds them."""
+    declared = _declared_object(session.header.robot_state_schema, session.log)
+    if declared is None:
+        types: dict[str, str | None] = {}
+        with SessionLogReader(session.log) as reader:
+            for cycle in _decoded_cycles(reader):
+                _add_types(types, cycle.robot_state)
+        declared = _typed_object(types)
+    if _NON_FINITE in declared.fields:
+        raise ExportError(
+            f"{session.log}: robot-state field {_NON_FINITE!r} has the name of the field "
+            "that lists NaN and infinite values; export as a table instead"
+        )
+    return declared
+
+
 def _write_mcap(part: Path, session: _Session, replayed: ReplayResult | None) -> None:
     log, header = session.log, session.header
+    robot_state_field = _robot_state_field(session)
+    outputs_field = _typed_object(session.first.output_types)
     with part.open("wb") as file:
         writer = Writer(file)
         writer.start(profile="", library=f"beatlog {__version__}")
@@ -503,17 +690,18 @@ def _write_mcap(part: Path, session: _Session, replayed: ReplayResult | None) ->
             },
         )
         channels = _McapChannels(writer, log)
+        robot_state_name = header.robot_state_type or "beatlog.RobotState"
         robot_state = channels.add(
             "/robot_state",
-            header.robot_state_type or "beatlog.RobotState",
-            _viewer_schema(header.robot_state_schema, log),
+            robot_state_name,
+            _robot_state_schema(robot_state_name, robot_state_field),
         )
         behaviors = {
             name: channels.add(f"/behaviors/{name}", "beatlog.BehaviorState", _BEHAVIOR_SCHEMA)
             for name in header.behaviors
         }
         state_changes = channels.add("/state_changes", "foxglove.Log", _FOXGLOVE_LOG_SCHEMA)
-        outputs = channels.add("/outputs", "beatlog.Outputs", _OUTPUTS_SCHEMA)
+        outputs = channels.add("/outputs", "beatlog.Outputs", _outputs_schema(outputs_field))
         random_numbers = channels.add("/random_numbers", "beatlog.RandomNumbers", _RANDOM_SCHEMA)
         heartbeat = channels.add("/heartbeat", "beatlog.Heartbeat", _HEARTBEAT_SCHEMA)
         divergence = None if replayed is None else replayed.divergence
@@ -522,11 +710,13 @@ def _write_mcap(part: Path, session: _Session, replayed: ReplayResult | None) ->
             if divergence is None
             else channels.add("/divergence", "beatlog.Divergence", _DIVERGENCE_SCHEMA)
         )
-        states = dict(session.initial)
+        states = dict(session.first.initial)
         write = channels.write
         for cycle in session.cycles:
             number = cycle.number
-            write(robot_state, cycle, cycle.robot_state, "robot state")
+            non_finite: list[str] = []
+            state = _written_object(robot_state_field.fields, cycle.robot_state, "", non_finite)
+            write(robot_state, cycle, _with_non_finite(state, non_finite), "robot state")
             interval_ns = cycle.heartbeat_ns
             heartbeat_message = {
                 "cycle": number,
@@ -537,19 +727,30 @@ def _write_mcap(part: Path, session: _Session, replayed: ReplayResult | None) ->
             _states_after(states, cycle.changes)
             if number == 0:
                 for name, channel in behaviors.items():
-                    write(channel, cycle, {"cycle": 0, "state": states[name]}, "behavior state")
+                    message = {"cycle": 0, "state": _state_text(states[name])}
+                    write(channel, cycle, message, "behavior state")
             for change in cycle.changes:
                 lane = behaviors.get(change.behavior)
                 if number > 0 and lane is not None:
-                    write(lane, cycle, {"cycle": number, "state": change.after}, "behavior state")
+                    message = {"cycle": number, "state": _state_text(change.after)}
+                    write(lane, cycle, message, "behavior state")
                 write(state_changes, cycle, _log_message(cycle.time_ns, change), "state change")
-            write(outputs, cycle, {"cycle": number, "outputs": cycle.outputs}, "outputs")
+            non_finite = []
+            written = _written_object(outputs_field.fields, cycle.outputs, "outputs.", non_finite)
+            message = _with_non_finite({"cycle": number, "outputs": written}, non_finite)
+            write(outputs, cycle, message, "outputs")
             if cycle.draws:
-                write(random_numbers, cycle, _draws_message(cycle), "random numbers")
+                write(random_numbers, cycle, _draws_message(cycle, log), "random numbers")
             if found is not None and divergence is not None and divergence.cycle == number:
                 message = _divergence_message(divergence, replayed.reproduce if replayed else "")
                 write(found, cycle, message, "divergence")
         writer.finish()  # type: ignore[no-untyped-call]
+
+
+def _with_non_finite(message: dict[str, Any], non_finite: list[str]) -> dict[str, Any]:
+    if non_finite:
+        message[_NON_FINITE] = non_finite
+    return message
 
 
 def _log_message(time_ns: int, change: StateChange) -> dict[str, Any]:
@@ -565,25 +766,38 @@ def _log_message(time_ns: int, change: StateChange) -> dict[str, Any]:
     }
 
 
-def _draws_message(cycle: _Cycle) -> dict[str, Any]:
+def _draws_message(cycle: _Cycle, log: Path) -> dict[str, Any]:
+    where = f"a random number of cycle {cycle.number}"
     return {
         "cycle": cycle.number,
         "draws": [
-            {"actor": actor, "kind": draw.kind, "value": draw.value, "params": draw.params}
+            {
+                "actor": actor,
+                "kind": draw.kind,
+                "value": _json_text(draw.value, log, where).decode(),
+                "params": _json_text(draw.params, log, where).decode(),
+            }
             for actor, draw in cycle.draws
         ],
     }
 
 
 def _divergence_message(divergence: Divergence, reproduce: str) -> dict[str, Any]:
-    def changes(which: Sequence[StateChange]) -> list[dict[str, Any]]:
-        return [change._asdict() for change in which]
+    def changes(which: Sequence[StateChange]) -> list[dict[str, str]]:
+        return [
+            {
+                "behavior": change.behavior,
+                "before": _state_text(change.before),
+                "after": _state_text(change.after),
+            }
+            for change in which
+        ]
 
     return {
         "cycle": divergence.cycle,
         "kind": divergence.kind.value,
         "message": divergence.message,
-        "behavior": divergence.behavior,
+        "behavior": divergence.behavior or "",
         "expected": changes(divergence.expected),
         "actual": changes(divergence.actual),
         "reproduce": reproduce,
@@ -598,7 +812,7 @@ _DRAWS_COLUMN = "draws"
 
 def _write_table(part: Path, session: _Session, chosen: ExportFormat) -> None:
     log = session.log
-    states = dict(session.initial)
+    states = dict(session.first.initial)
     state_columns: dict[str, None] = {}
     output_columns: dict[str, None] = {}
     behavior_columns = {name: f"behavior.{name}" for name in session.header.behaviors}
