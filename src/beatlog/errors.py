@@ -9,6 +9,7 @@ __all__ = [
     "BeatlogError",
     "CiWriteError",
     "CorruptLogError",
+    "ExportError",
     "FieldError",
     "LogError",
     "LogExistsError",
@@ -60,6 +61,11 @@ class CorruptLogError(LogError):
 
 class SchemaMismatchError(LogError):
     """The log's robot state cannot be decoded into the system's robot state type."""
+
+
+class ExportError(BeatlogError):
+    """A session log that cannot be exported as asked: the output cannot be written, an
+    optional package is missing, or the option does not fit the format."""
 
 
 class FieldError(BeatlogError):

@@ -1,8 +1,10 @@
-"""Adapters between beatlog and other robotics tools.
+"""Adapters between beatlog and the tools robotics teams already use.
 
-Each adapter is its own module and imports its tool only when it is imported itself,
-so ``import beatlog`` never needs them: :mod:`beatlog.adapters.py_trees` records and
-replays a py_trees behaviour tree (``pip install 'beatlog[py_trees]'``).
+Each adapter is its own module and imports its tool only when it is used, so
+``import beatlog`` never needs them: :mod:`beatlog.adapters.py_trees` records and
+replays a py_trees behaviour tree (``pip install 'beatlog[py_trees]'``);
+:mod:`beatlog.adapters.export` writes a session log as MCAP with JSON payloads for
+Foxglove and Lichtblick, or as a table (Parquet, CSV) for analysis.
 """
 
 __all__: list[str] = []

@@ -35,6 +35,9 @@ if TYPE_CHECKING:
 __all__ = ["main"]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXPORT_FORMATS = ("mcap", "parquet", "csv")
+"""``beatlog export --format`` (:class:`beatlog.adapters.export.ExportFormat`), here so
+that parsing the command line imports nothing heavy."""
 DEMO_ENTRY_POINTS = "beatlog.demo"
 """The entry point group of the package whose demo `beatlog demo` runs."""
 Number = TypeVar("Number", int, float)
@@ -138,12 +141,33 @@ def _parser() -> argparse.ArgumentParser:
         help="robot-state field to draw (repeatable; default: the first few numeric ones)",
     )
 
+    _add_export(add)
+
     demo = add("demo", help="record and replay the robot dog, then its suite")
     demo.add_argument("--duration", type=_positive_float, default=20.0, help="seconds to record")
     demo.add_argument(
         "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
     )
     return parser
+
+
+def _add_export(add: Callable[..., argparse.ArgumentParser]) -> None:
+    export_ = add(
+        "export", help="write a session log as MCAP for Foxglove and Lichtblick, or a table"
+    )
+    export_.add_argument("log", type=Path)
+    export_.add_argument("-o", "--output", required=True, type=Path, metavar="FILE")
+    export_.add_argument(
+        "--format",
+        choices=EXPORT_FORMATS,
+        default=EXPORT_FORMATS[0],
+        help="mcap (JSON messages, for viewers; the default), parquet or csv (a row per cycle)",
+    )
+    export_.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="also replay against this system and add its first divergence (MCAP only)",
+    )
 
 
 def _demo(args: argparse.Namespace, console: Console) -> int:
@@ -519,6 +543,14 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK
 
 
+def _export(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.adapters.export import export
+
+    result = export(args.log, args.output, format=args.format, system=args.system)
+    console.print(result.describe(), markup=False, highlight=False)
+    return EXIT_OK
+
+
 def _need_matplotlib(command: str) -> None:
     """Charts need the optional ``plot`` extra; say so in one line when it is missing."""
     try:
@@ -583,6 +615,7 @@ _COMMANDS: dict[str, tuple[Command, bool]] = {
     "review": (_review, True),
     "approve": (_approve, True),
     "plot": (_plot, True),
+    "export": (_export, True),
     "demo": (_demo, False),
 }
 """Each subcommand's handler, and whether it imports the user's code (``module:factory``)."""

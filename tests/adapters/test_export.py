@@ -1,0 +1,964 @@
+"""``beatlog export``: a session opened in Foxglove or Lichtblick, or read as a table.
+
+Every exported MCAP is read back: every channel's schema must be one the viewers'
+schema parser accepts (``tests/viewer_schema.py``, ported from it), and every message
+strict JSON that validates against its channel's schema with a standard validator.
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import json
+import math
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Literal, NamedTuple
+
+import msgspec
+import pyarrow.parquet as pq
+import pytest
+from jsonschema.validators import validator_for
+from mcap.reader import make_reader
+
+from beatlog.adapters.export import ExportFormat, export
+from beatlog.analysis.summary import summarize
+from beatlog.cli.main import main
+from beatlog.errors import ExportError
+from beatlog.log.format import CYCLES_TOPIC
+from beatlog.log.reader import SessionLogReader
+from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.context import Context, Outputs
+from beatlog.model.state import RobotState
+from beatlog.record.recorder import Recorder
+from beatlog_examples.rover import record_lockstep
+from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances
+from tests.factories import Message as LogMessage
+from tests.factories import craft_log, cycle, cycle_messages, end_message, header_message
+from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
+
+DOG_SUITE = sorted(
+    (Path(__file__).parents[2] / "examples/src/beatlog_examples/dog/suite").glob("*.beatlog")
+)
+PER_CYCLE_TOPICS = ("/robot_state", "/heartbeat", "/outputs")
+
+
+class Exported(NamedTuple):
+    """An exported MCAP read back: each topic's schema and its messages in log-time order."""
+
+    schemas: dict[str, dict[str, Any]]
+    schema_names: dict[str, str]
+    messages: dict[str, list[Read]]
+
+
+class Read(NamedTuple):
+    """One message read back: its log time, sequence number and JSON value."""
+
+    log_time: int
+    sequence: int
+    value: Any
+
+
+def _no_constant(name: str) -> Any:
+    raise AssertionError(f"{name} is not JSON")
+
+
+def read_exported(path: Path) -> Exported:
+    """Read an export, checking that the viewers parse every channel's schema and that each
+    message is strict JSON valid under its channel's schema."""
+    with path.open("rb") as file:
+        reader = make_reader(file)
+        summary = reader.get_summary()
+        assert summary is not None
+        validators = {}
+        schemas: dict[str, dict[str, Any]] = {}
+        names: dict[str, str] = {}
+        for channel in summary.channels.values():
+            schema = summary.schemas[channel.schema_id]
+            assert (channel.message_encoding, schema.encoding) == ("json", "jsonschema")
+            document = json.loads(schema.data, parse_constant=_no_constant)
+            check_viewer_schema(document)
+            validator = validator_for(document)
+            validator.check_schema(document)
+            validators[channel.id] = validator(document)
+            schemas[channel.topic] = document
+            names[channel.topic] = schema.name
+        messages: dict[str, list[Read]] = {topic: [] for topic in schemas}
+        for _, channel, message in reader.iter_messages():
+            value = json.loads(message.data, parse_constant=_no_constant)
+            validators[channel.id].validate(value)
+            assert message.publish_time == message.log_time
+            messages[channel.topic].append(Read(message.log_time, message.sequence, value))
+    return Exported(schemas, names, messages)
+
+
+def robot_times(log: Path) -> list[int]:
+    """Each cycle's robot time (ns), read from the log."""
+    times, now = [], 0
+    with SessionLogReader(log) as reader:
+        for record in reader.cycles():
+            now += record.heartbeat_ns
+            times.append(now)
+    return times
+
+
+class Run(NamedTuple):
+    code: int
+    out: str
+    err: str
+
+
+Cli = Callable[..., Run]
+
+
+@pytest.fixture
+def beatlog_export(capsys: pytest.CaptureFixture[str]) -> Cli:
+    def run(*args: str | Path) -> Run:
+        code = main(["export", *(str(arg) for arg in args)])
+        captured = capsys.readouterr()
+        return Run(code, captured.out, captured.err)
+
+    return run
+
+
+def assert_one_line_error(run: Run, fragment: str) -> None:
+    assert (run.code, run.out) == (2, "")
+    assert run.err.startswith("beatlog: error: ")
+    assert run.err.count("\n") == 1, run.err
+    assert fragment in run.err
+
+
+@pytest.fixture
+def probe_log(record_probe: RecordFn) -> Path:
+    return record_probe(300)
+
+
+# a robot with a nested robot state that draws numpy arrays
+
+
+class Pose(msgspec.Struct):
+    x: float = 0.0
+    heading: float = 0.0
+
+
+class Tracked(RobotState, kw_only=True):
+    pose: Pose = msgspec.field(default_factory=Pose)
+    ranges: list[float] = msgspec.field(default_factory=list)
+
+
+class Scan:
+    """Draws a noise array every cycle and outputs it; 'busy' while the robot is far out."""
+
+    name = "scan"
+
+    def __init__(self) -> None:
+        self.state: BehaviorState = "idle"
+
+    def step(self, rs: Tracked, ctx: Context) -> Outputs | None:
+        self.state = "busy" if rs.pose.x > 1.0 else "idle"
+        return {"noise": ctx.random.uniform_array(0.0, 1.0, 3)}
+
+
+@pytest.fixture
+def tracked_log(tmp_path: Path) -> Path:
+    path = tmp_path / "tracked.beatlog"
+    with Recorder(path, PriorityArbiter([Scan()], robot_state=Tracked), seed=3) as recorder:
+        for t in range(40):
+            recorder.step(PERIOD_NS, Tracked(pose=Pose(x=t / 10), ranges=[0.5, float(t)]))
+    return path
+
+
+# MCAP for the viewers
+
+
+@pytest.mark.parametrize("source", ["probe", "rover", "tracked"])
+def test_every_exported_message_validates_against_its_channel_schema(
+    source: str, record_probe: RecordFn, tracked_log: Path, tmp_path: Path
+) -> None:
+    if source == "probe":
+        log = record_probe(300)
+    elif source == "rover":
+        log = tmp_path / "rover.beatlog"
+        record_lockstep(log, duration_s=20.0, seed=2)
+    else:
+        log = tracked_log
+    exported = tmp_path / "out.mcap"
+
+    result = export(log, exported)
+
+    read = read_exported(exported)  # validates every message
+    cycles = summarize(log).cycles
+    assert result.cycles == cycles
+    assert all(len(read.messages[topic]) == cycles for topic in PER_CYCLE_TOPICS)
+
+
+def test_the_channels_and_their_counts_follow_the_log(probe_log: Path, tmp_path: Path) -> None:
+    exported = tmp_path / "probe.mcap"
+    export(probe_log, exported)
+
+    read = read_exported(exported)
+
+    summary = summarize(probe_log)
+    assert list(read.messages) == [
+        "/robot_state",
+        "/behaviors/arbiter",
+        "/behaviors/near",
+        "/behaviors/dice",
+        "/state_changes",
+        "/outputs",
+        "/random_numbers",
+        "/heartbeat",
+    ]
+    assert read.schema_names["/state_changes"] == "foxglove.Log"
+    assert read.schema_names["/robot_state"] == summary.header.robot_state_type
+    times = robot_times(probe_log)
+    for topic in PER_CYCLE_TOPICS:
+        assert [(m.log_time, m.sequence) for m in read.messages[topic]] == [
+            (time, cycle) for cycle, time in enumerate(times)
+        ]
+    assert len(read.messages["/state_changes"]) == sum(summary.transitions.values())
+    assert len(read.messages["/random_numbers"]) == 60  # dice draws every 5 cycles
+    assert read.messages["/robot_state"][10].value == {"distance": distances(300)[10], "reading": 0}
+    assert read.messages["/heartbeat"][1].value == {
+        "cycle": 1,
+        "interval_ns": PERIOD_NS + 1000,
+        "interval_ms": (PERIOD_NS + 1000) / 1e6,
+    }
+    assert read.messages["/outputs"][0].value["outputs"]["speed"] == 0.5
+
+
+def test_behavior_channels_hold_the_state_at_cycle_0_and_after_every_change(
+    probe_log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / "probe.mcap"
+    export(probe_log, exported)
+
+    near = read_exported(exported).messages["/behaviors/near"]
+
+    first_near = next(t for t, d in enumerate(distances(300)) if d < 0.5)
+    times = robot_times(probe_log)
+    assert near[0] == Read(times[0], 0, {"cycle": 0, "state": "far"})
+    assert near[1] == Read(times[first_near], first_near, {"cycle": first_near, "state": "near"})
+    assert len(near) == 1 + summarize(probe_log).transitions["near"]
+
+
+def test_each_state_change_is_a_foxglove_log_message(probe_log: Path, tmp_path: Path) -> None:
+    exported = tmp_path / "probe.mcap"
+    export(probe_log, exported)
+
+    changes = read_exported(exported).messages["/state_changes"]
+
+    near = next(m for m in changes if m.value["name"] == "near")
+    seconds, nanoseconds = divmod(near.log_time, 1_000_000_000)
+    assert near.value == {
+        "timestamp": {"sec": seconds, "nsec": nanoseconds},
+        "level": 2,
+        "message": "near: far -> near",
+        "name": "near",
+        "file": "",
+        "line": 0,
+    }
+
+
+def test_a_nan_or_infinite_float_is_left_out_and_listed_in_non_finite(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    specials = [math.nan, math.inf, -math.inf, -0.0, 0.25]
+    log = record_probe(states=[Probe(reading=value) for value in specials])
+    exported = tmp_path / "specials.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    states = [m.value for m in read.messages["/robot_state"]]
+    assert [state.get("reading") for state in states] == [None, None, None, -0.0, 0.25]
+    assert math.copysign(1.0, states[3]["reading"]) == -1.0
+    assert [state.get("non_finite") for state in states] == [
+        ["reading=NaN"],
+        ["reading=Infinity"],
+        ["reading=-Infinity"],
+        None,
+        None,
+    ]
+    properties = read.schemas["/robot_state"]["properties"]
+    assert properties["reading"]["type"] == "number"
+    assert properties["non_finite"] == {
+        "type": "array",
+        "items": {"type": "string"},
+        "description": properties["non_finite"]["description"],
+    }
+
+
+def test_a_nested_robot_state_is_inlined_and_array_draws_are_json_text(
+    tracked_log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / "tracked.mcap"
+
+    export(tracked_log, exported)
+
+    read = read_exported(exported)
+    schema = read.schemas["/robot_state"]
+    assert "$defs" not in json.dumps(schema)
+    assert "$ref" not in json.dumps(schema)
+    assert schema["properties"]["pose"]["properties"]["x"] == {"type": "number"}
+    assert schema["properties"]["ranges"] == {"type": "array", "items": {"type": "number"}}
+    assert read.messages["/robot_state"][12].value == {
+        "pose": {"x": 1.2, "heading": 0.0},
+        "ranges": [0.5, 12.0],
+    }
+    (draw,) = read.messages["/random_numbers"][0].value["draws"]
+    dtype, shape, data = json.loads(draw["value"])
+    assert (draw["actor"], draw["kind"], dtype, shape) == ("scan", "uniform_array", "<f8", [3])
+    assert len(base64.b64decode(data)) == 3 * 8
+    assert json.loads(draw["params"]) == [0.0, 1.0, [3]]
+    assert read.schemas["/outputs"]["properties"]["outputs"]["properties"]["noise"]["type"] == (
+        "string"
+    )
+    noise = json.loads(read.messages["/outputs"][0].value["outputs"]["noise"])
+    assert len(noise) == 3
+
+
+def test_a_nan_in_a_nested_field_or_an_array_of_numbers_leaves_that_field_out(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "gaps.beatlog"
+    states = [
+        Tracked(pose=Pose(x=math.nan, heading=0.5), ranges=[0.5, math.inf]),
+        Tracked(pose=Pose(x=1.0), ranges=[0.5, 2.0]),
+    ]
+    with Recorder(log, PriorityArbiter([Scan()], robot_state=Tracked), seed=3) as recorder:
+        for state in states:
+            recorder.step(PERIOD_NS, state)
+    exported = tmp_path / "gaps.mcap"
+
+    export(log, exported)
+
+    first, second = (m.value for m in read_exported(exported).messages["/robot_state"])
+    assert first == {
+        "pose": {"heading": 0.5},
+        "non_finite": ["pose.x=NaN", "ranges=[0.5,Infinity]"],
+    }
+    assert second == {"pose": {"x": 1.0, "heading": 0.0}, "ranges": [0.5, 2.0]}
+
+
+class Blip(msgspec.Struct):
+    x: float = 0.0
+
+
+class Rich(RobotState, kw_only=True):
+    """A robot state with every kind of field a msgspec schema can declare."""
+
+    mode: Literal["dock", "roam"] = "dock"
+    level: int | None = None
+    offset: float | None = None
+    pair: tuple[int, float] = (1, 2.0)
+    gains: dict[str, float] = msgspec.field(default_factory=dict)
+    grid: list[list[float]] = msgspec.field(default_factory=list)
+    maybe: list[float | None] = msgspec.field(default_factory=list)
+    blob: bytes = b""
+    blips: list[Blip] = msgspec.field(default_factory=list)
+
+
+class Still:
+    name = "still"
+    state: BehaviorState = "idle"
+
+    def step(self, rs: Rich, ctx: Context) -> Outputs | None:
+        return None
+
+
+def test_fields_the_viewers_cannot_type_are_json_text_and_nulls_are_left_out(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "rich.beatlog"
+    state = Rich(
+        mode="roam",
+        offset=0.5,
+        gains={"kp": math.nan},
+        grid=[[1.0], [2.0, 3.0]],
+        maybe=[1.0, None],
+        blob=b"\x00\x01",
+        blips=[Blip(1.0), Blip(math.nan)],
+    )
+    with Recorder(log, PriorityArbiter([Still()], robot_state=Rich), seed=1) as recorder:
+        recorder.step(PERIOD_NS, state)
+    exported = tmp_path / "rich.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    properties = read.schemas["/robot_state"]["properties"]
+    types = {name: field["type"] for name, field in properties.items()}
+    assert types == {
+        "mode": "string",
+        "level": "integer",
+        "offset": "number",
+        "pair": "string",
+        "gains": "string",
+        "grid": "string",
+        "maybe": "string",
+        "blob": "string",
+        "blips": "array",
+        "non_finite": "array",
+    }
+    assert properties["blob"]["contentEncoding"] == "base64"
+    assert properties["blips"]["items"] == {
+        "type": "object",
+        "properties": {"x": {"type": "number"}},
+    }
+    (message,) = (m.value for m in read.messages["/robot_state"])
+    assert message == {
+        "mode": "roam",
+        "offset": 0.5,
+        "pair": "[1,2.0]",
+        "gains": '{"kp":"NaN"}',
+        "grid": "[[1.0],[2.0,3.0]]",
+        "maybe": "[1.0,null]",
+        "blob": "AAE=",
+        "blips": [{"x": 1.0}, {}],
+        "non_finite": ["blips[1].x=NaN"],
+    }
+
+
+def test_a_recursive_robot_state_type_is_json_text_where_it_recurs(tmp_path: Path) -> None:
+    node = {
+        "type": "object",
+        "properties": {
+            "value": {"type": "number"},
+            "child": {"anyOf": [{"$ref": "#/$defs/Node"}, {"type": "null"}]},
+        },
+    }
+    tree = {"value": 1.0, "child": {"value": 2.0, "child": {"value": 3.0, "child": None}}}
+    log = craft_log(
+        tmp_path / "tree.beatlog",
+        [
+            header_message(robot_state_schema={"$ref": "#/$defs/Node", "$defs": {"Node": node}}),
+            LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, [cycle(state=tree)]])),
+            end_message(1, PERIOD_NS),
+        ],
+    )
+    exported = tmp_path / "tree.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    properties = read.schemas["/robot_state"]["properties"]
+    assert properties["value"] == {"type": "number"}
+    assert properties["child"]["type"] == "string"  # a node inside a node
+    (message,) = (m.value for m in read.messages["/robot_state"])
+    assert message == {
+        "value": 1.0,
+        "child": '{"value":2.0,"child":{"value":3.0,"child":null}}',
+    }
+
+
+def test_a_robot_state_without_a_schema_is_typed_from_the_log(tmp_path: Path) -> None:
+    states = [{"level": 1, "name": "a"}, {"level": 0.5, "name": 2, "on": True}]
+    log = craft_cycles(tmp_path / "bare.beatlog", [cycle(state=state) for state in states])
+    exported = tmp_path / "bare.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    properties = read.schemas["/robot_state"]["properties"]
+    assert {name: field["type"] for name, field in properties.items()} == {
+        "level": "number",
+        "name": "string",
+        "on": "boolean",
+        "non_finite": "array",
+    }
+    assert [m.value for m in read.messages["/robot_state"]] == [
+        {"level": 1, "name": '"a"'},
+        {"level": 0.5, "name": "2", "on": True},
+    ]
+
+
+def test_outputs_are_typed_from_a_first_read_of_the_log(tmp_path: Path) -> None:
+    outputs: list[dict[str, Any]] = [
+        {"speed": 1, "mode": "dock", "mixed": 1, "turn": [0.1, 0.2], "on": True, "gone": None},
+        {"speed": math.nan, "mode": "roam", "mixed": "a"},
+        {"speed": 0.5},
+    ]
+    log = craft_cycles(tmp_path / "out.beatlog", [cycle(outputs=o) for o in outputs])
+    exported = tmp_path / "out.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    declared = read.schemas["/outputs"]["properties"]["outputs"]["properties"]
+    assert {name: field["type"] for name, field in declared.items()} == {
+        "speed": "number",
+        "mode": "string",
+        "mixed": "string",
+        "turn": "string",
+        "on": "boolean",
+        "gone": "string",
+    }
+    assert [m.value for m in read.messages["/outputs"]] == [
+        {
+            "cycle": 0,
+            "outputs": {"speed": 1, "mode": "dock", "mixed": "1", "turn": "[0.1,0.2]", "on": True},
+        },
+        {
+            "cycle": 1,
+            "outputs": {"mode": "roam", "mixed": '"a"'},
+            "non_finite": ["outputs.speed=NaN"],
+        },
+        {"cycle": 2, "outputs": {"speed": 0.5}},
+    ]
+
+
+def test_behavior_states_that_are_no_strings_are_json_text(tmp_path: Path) -> None:
+    records = [
+        cycle(),
+        cycle(state_changes=[[0, 1, 2]]),
+        cycle(state_changes=[[0, 2, True]]),
+    ]
+    batch = LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, records]))
+    log = craft_log(
+        tmp_path / "gears.beatlog",
+        [header_message(behaviors=["gear", "quiet"]), batch, end_message(3, 3 * PERIOD_NS)],
+    )
+    exported = tmp_path / "gears.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    assert [m.value["state"] for m in read.messages["/behaviors/gear"]] == ["1", "2", "true"]
+    assert [m.value["state"] for m in read.messages["/behaviors/quiet"]] == ["null"]
+
+
+def test_a_robot_state_field_named_non_finite_is_one_line(
+    beatlog_export: Cli, tmp_path: Path
+) -> None:
+    log = craft_cycles(tmp_path / "clash.beatlog", [cycle(state={"non_finite": 1.0})])
+
+    run = beatlog_export(log, "-o", tmp_path / "x.mcap")
+
+    assert_one_line_error(run, "robot-state field 'non_finite' has the name of the field")
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_without_a_system_there_is_no_divergence_channel(probe_log: Path, tmp_path: Path) -> None:
+    exported = tmp_path / "probe.mcap"
+
+    result = export(probe_log, exported)
+
+    assert "/divergence" not in read_exported(exported).messages
+    assert not result.replayed
+    assert result.divergence is None
+
+
+def test_a_system_adds_its_first_divergence(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / "changed.mcap"
+
+    run = beatlog_export(
+        probe_log, "-o", exported, "--system", "tests.conftest:probe_system_changed"
+    )
+
+    first = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
+    assert run.code == 0
+    assert run.out == (
+        f"exported 300 cycles of {probe_log} to {exported} (mcap); "
+        f"first divergence at cycle {first} (state changes)\n"
+    )
+    (divergence,) = read_exported(exported).messages["/divergence"]
+    assert (divergence.log_time, divergence.sequence) == (robot_times(probe_log)[first], first)
+    assert divergence.value["kind"] == "state changes"
+    assert divergence.value["behavior"] == "arbiter"
+    assert divergence.value["expected"] == []
+    assert divergence.value["actual"] == [
+        {"behavior": "arbiter", "before": "dice", "after": "near"},
+        {"behavior": "near", "before": "far", "after": "near"},
+    ]
+    assert divergence.value["reproduce"].startswith("beatlog replay ")
+
+
+def test_a_system_that_passes_adds_no_divergence(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / "same.mcap"
+
+    run = beatlog_export(probe_log, "-o", exported, "--system", "tests.conftest:probe_system")
+
+    assert run.out.endswith("(mcap); the replay passed\n")
+    assert "/divergence" not in read_exported(exported).messages
+
+
+class Faster(Dice):
+    """dice, but driving faster: outputs that differ with the same state changes."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        return {**(super().step(rs, ctx) or {}), "speed": 0.7}
+
+
+def test_a_divergence_of_no_behavior_has_an_empty_behavior(probe_log: Path, tmp_path: Path) -> None:
+    exported = tmp_path / "faster.mcap"
+
+    result = export(
+        probe_log, exported, system=PriorityArbiter([Near(), Faster()], robot_state=Probe)
+    )
+
+    (divergence,) = read_exported(exported).messages["/divergence"]
+    assert result.divergence is not None
+    assert result.divergence.behavior is None
+    assert (divergence.value["kind"], divergence.value["behavior"]) == ("outputs", "")
+
+
+def test_every_channel_of_an_export_is_one_the_viewers_parse(
+    probe_log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / "changed.mcap"
+    export(probe_log, exported, system="tests.conftest:probe_system_changed")
+
+    with exported.open("rb") as file:
+        summary = make_reader(file).get_summary()
+    assert summary is not None
+    schemas = {
+        channel.topic: json.loads(summary.schemas[channel.schema_id].data)
+        for channel in summary.channels.values()
+    }
+    assert len(schemas) == 9  # the eight channels and /divergence
+    for schema in schemas.values():
+        check_viewer_schema(schema)
+
+
+FOXGLOVE_LOG_LEVEL = {"oneOf": [{"title": "INFO", "const": 2}]}
+
+
+@pytest.mark.parametrize(
+    ("schema", "fragment"),
+    [
+        ({"type": "array", "items": {"type": "number"}}, '<root>: expected "type": "object"'),
+        ({"type": "object"}, "<root>: an object needs a properties map"),
+        ({"type": "object", "properties": {"x": {"type": ["number", "string"]}}}, "<root>.x"),
+        ({"type": "object", "properties": {"x": {"type": "null"}}}, "unsupported type 'null'"),
+        ({"type": "object", "properties": {"x": {}}}, "<root>.x: unsupported type None"),
+        ({"type": "object", "properties": {"level": FOXGLOVE_LOG_LEVEL}}, "oneOf"),
+        (
+            {"type": "object", "properties": {"x": {"type": "string", "contentEncoding": "hex"}}},
+            "unsupported contentEncoding",
+        ),
+        ({"type": "object", "properties": {"x": {"type": "array"}}}, "<root>.x[]: unsupported"),
+        (
+            {"type": "object", "properties": {"x": {"type": "array", "items": {"type": "array"}}}},
+            "unsupported array item type 'array'",
+        ),
+        (
+            {
+                "type": "object",
+                "properties": {
+                    "x": {"type": "array", "items": {"type": "string", "contentEncoding": "base64"}}
+                },
+            },
+            "an array item has a contentEncoding",
+        ),
+        (
+            {
+                "type": "object",
+                "properties": {"p": {"type": "object", "properties": {"q": {"anyOf": []}}}},
+            },
+            "<root>.p.q: unsupported type None",
+        ),
+        (
+            {
+                "type": "object",
+                "properties": {"ps": {"type": "array", "items": {"type": "object"}}},
+            },
+            "<root>.ps[]: an object needs a properties map",
+        ),
+    ],
+)
+def test_the_viewer_rules_refuse_what_the_viewers_refuse(
+    schema: dict[str, Any], fragment: str
+) -> None:
+    with pytest.raises(ViewerSchemaError, match=fragment.replace("[", r"\[").replace("]", r"\]")):
+        check_viewer_schema(schema)
+
+
+def test_the_viewer_rules_accept_what_the_viewers_read() -> None:
+    check_viewer_schema(
+        {
+            "type": "object",
+            "properties": {
+                "on": {"type": "boolean"},
+                "name": {"type": "string"},
+                "blob": {"type": "string", "contentEncoding": "base64"},
+                "x": {"type": "number"},
+                "n": {"type": "integer"},
+                "pose": {"type": "object", "properties": {"x": {"type": "number"}}},
+                "names": {"type": "array", "items": {"type": "string"}},
+                "poses": {
+                    "type": "array",
+                    "items": {"type": "object", "properties": {"x": {"type": "number"}}},
+                },
+            },
+        }
+    )
+
+
+def test_a_truncated_log_is_exported_up_to_its_last_cycle(
+    beatlog_export: Cli, tmp_path: Path
+) -> None:
+    log = craft_log(tmp_path / "cut.beatlog", [header_message(), *cycle_messages(20)])
+    exported = tmp_path / "cut.mcap"
+
+    run = beatlog_export(log, "-o", exported)
+
+    assert run.code == 0
+    assert "20 cycles" in run.out
+    assert "the log is truncated at cycle 20: the log has no end record" in run.out
+    assert len(read_exported(exported).messages["/robot_state"]) == 20
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("log", DOG_SUITE, ids=[path.stem for path in DOG_SUITE])
+def test_every_dtc_of_the_dog_suite_exports_for_the_viewers_and_validates(
+    log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / f"{log.stem}.mcap"
+
+    result = export(log, exported)
+
+    read = read_exported(exported)  # checks every channel's schema with the viewers' rules
+    for schema in read.schemas.values():
+        check_viewer_schema(schema)
+    assert result.status.complete
+    assert all(len(read.messages[topic]) == result.cycles for topic in PER_CYCLE_TOPICS)
+
+
+def test_the_dog_suite_is_found() -> None:
+    assert len(DOG_SUITE) >= 15
+
+
+# tables
+
+
+def test_a_parquet_table_has_a_row_per_cycle_and_a_column_per_field(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    table_path = tmp_path / "probe.parquet"
+
+    run = beatlog_export(probe_log, "-o", table_path, "--format", "parquet")
+
+    assert run.code == 0
+    table = pq.read_table(table_path)
+    assert table.column_names == [
+        "cycle",
+        "time_ns",
+        "heartbeat_ns",
+        "distance",
+        "reading",
+        "behavior.arbiter",
+        "behavior.near",
+        "behavior.dice",
+        "out.speed",
+        "out.time",
+        "draws",
+    ]
+    columns = table.to_pydict()
+    assert columns["cycle"] == list(range(300))
+    assert columns["time_ns"] == robot_times(probe_log)
+    assert columns["distance"] == distances(300)
+    assert sum(columns["draws"]) == sum(summarize(probe_log).random_draws.values())
+    first_near = next(t for t, d in enumerate(distances(300)) if d < 0.5)
+    assert columns["behavior.near"][first_near - 1 : first_near + 1] == ["far", "near"]
+
+
+def test_a_csv_table_has_the_same_rows_and_writes_special_floats_as_python_does(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    log = record_probe(states=[Probe(reading=value) for value in (math.nan, math.inf, 1.5)])
+    table_path = tmp_path / "specials.csv"
+
+    result = export(log, table_path, format=ExportFormat.CSV)
+
+    with table_path.open(encoding="utf-8", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert result.cycles == len(rows) == 3
+    assert [row["reading"] for row in rows] == ["nan", "inf", "1.5"]
+    assert [row["cycle"] for row in rows] == ["0", "1", "2"]
+
+
+def test_nested_fields_are_dotted_columns_and_lists_are_json_text(
+    tracked_log: Path, tmp_path: Path
+) -> None:
+    parquet_path = tmp_path / "tracked.parquet"
+
+    export(tracked_log, parquet_path, format="parquet")
+
+    columns = pq.read_table(parquet_path).to_pydict()
+    assert columns["pose.x"][12] == 1.2
+    assert json.loads(columns["ranges"][12]) == [0.5, 12.0]
+    assert len(json.loads(columns["out.noise"][0])) == 3
+    assert columns["behavior.scan"][:12] == ["idle"] * 11 + ["busy"]
+
+
+def test_parquet_keeps_special_floats(record_probe: RecordFn, tmp_path: Path) -> None:
+    log = record_probe(states=[Probe(reading=value) for value in (math.nan, -math.inf)])
+    parquet_path = tmp_path / "specials.parquet"
+
+    export(log, parquet_path, format=ExportFormat.PARQUET)
+
+    reading = pq.read_table(parquet_path).to_pydict()["reading"]
+    assert math.isnan(reading[0])
+    assert reading[1] == -math.inf
+
+
+def craft_cycles(path: Path, records: list[list[Any]]) -> Path:
+    """A complete log of these cycle records (see ``tests.factories.cycle``), one batch."""
+    batch = LogMessage(CYCLES_TOPIC, records[0][0], msgspec.msgpack.encode([0, records]))
+    total_ns = sum(record[0] for record in records)
+    return craft_log(path, [header_message(), batch, end_message(len(records), total_ns)])
+
+
+def test_a_parquet_column_of_mixed_types_holds_json_text(tmp_path: Path) -> None:
+    modes: list[Any] = [1, "dock", None]
+    log = craft_cycles(tmp_path / "mixed.beatlog", [cycle(outputs={"mode": m}) for m in modes])
+    parquet_path = tmp_path / "mixed.parquet"
+
+    export(log, parquet_path, format=ExportFormat.PARQUET)
+
+    assert pq.read_table(parquet_path).to_pydict()["out.mode"] == ["1", '"dock"', None]
+
+
+def test_a_robot_state_field_named_like_another_column_is_one_line(
+    beatlog_export: Cli, tmp_path: Path
+) -> None:
+    log = craft_cycles(tmp_path / "clash.beatlog", [cycle(state={"cycle": 1.0})] * 2)
+    table_path = tmp_path / "clash.csv"
+
+    run = beatlog_export(log, "-o", table_path, "--format", "csv")
+
+    assert_one_line_error(run, "robot-state field 'cycle' has the name of another column")
+    assert not table_path.exists()
+
+
+# bad input: exit 2 and one line
+
+
+def test_a_missing_log_is_one_line(beatlog_export: Cli, tmp_path: Path) -> None:
+    run = beatlog_export(tmp_path / "lost.beatlog", "-o", tmp_path / "x.mcap")
+
+    assert_one_line_error(run, f"{tmp_path / 'lost.beatlog'}: no such file")
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_a_file_that_is_no_session_log_is_one_line(beatlog_export: Cli, tmp_path: Path) -> None:
+    junk = tmp_path / "junk.beatlog"
+    junk.write_bytes(b"not an mcap file at all")
+
+    run = beatlog_export(junk, "-o", tmp_path / "x.mcap")
+
+    assert_one_line_error(run, f"{junk}: not a session log")
+
+
+def test_an_unknown_format_is_one_line(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    run = beatlog_export(probe_log, "-o", tmp_path / "x.xls", "--format", "xls")
+
+    assert_one_line_error(run, "invalid choice: 'xls' (choose from 'mcap', 'parquet', 'csv')")
+
+
+def test_the_library_names_the_formats_it_writes(probe_log: Path, tmp_path: Path) -> None:
+    with pytest.raises(
+        ExportError, match="cannot export as 'xls'; choose one of mcap, parquet, csv"
+    ):
+        export(probe_log, tmp_path / "x.xls", format="xls")
+
+
+def test_a_system_for_a_table_is_one_line(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    run = beatlog_export(
+        probe_log, "-o", tmp_path / "x.csv", "--format", "csv", "--system", "tests.conftest:x"
+    )
+
+    assert_one_line_error(run, "a replay's divergence is exported to MCAP only, not csv")
+
+
+def test_a_bad_system_is_one_line(beatlog_export: Cli, probe_log: Path, tmp_path: Path) -> None:
+    run = beatlog_export(probe_log, "-o", tmp_path / "x.mcap", "--system", "tests.nowhere:system")
+
+    assert_one_line_error(run, "'tests.nowhere:system': cannot import tests.nowhere")
+
+
+def test_an_unwritable_output_is_one_line_naming_it(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    output = tmp_path / "no" / "such" / "x.mcap"
+
+    run = beatlog_export(probe_log, "-o", output)
+
+    assert_one_line_error(run, f"{output}: cannot write: No such file or directory")
+
+
+def test_the_log_itself_is_never_the_output(beatlog_export: Cli, probe_log: Path) -> None:
+    before = probe_log.read_bytes()
+
+    run = beatlog_export(probe_log, "-o", probe_log)
+
+    assert_one_line_error(run, f"{probe_log}: is the session log being exported")
+    assert probe_log.read_bytes() == before
+
+
+def test_a_schema_reference_the_header_lacks_is_one_line(
+    beatlog_export: Cli, tmp_path: Path
+) -> None:
+    log = craft_log(
+        tmp_path / "dangling.beatlog",
+        [
+            header_message(robot_state_schema={"$ref": "#/definitions/Gone"}),
+            *cycle_messages(2),
+            end_message(2),
+        ],
+    )
+
+    run = beatlog_export(log, "-o", tmp_path / "x.mcap")
+
+    assert_one_line_error(run, "refers to '#/definitions/Gone', which it lacks")
+    assert not (tmp_path / "x.mcap").exists()
+
+
+def test_a_schema_that_inlines_exponentially_is_one_line(
+    beatlog_export: Cli, tmp_path: Path
+) -> None:
+    defs = {
+        f"T{level}": {
+            "type": "object",
+            "properties": {
+                "a": {"$ref": f"#/$defs/T{level + 1}"},
+                "b": {"$ref": f"#/$defs/T{level + 1}"},
+            },
+        }
+        for level in range(40)
+    }
+    defs["T40"] = {"type": "number"}
+    log = craft_log(
+        tmp_path / "bomb.beatlog",
+        [
+            header_message(robot_state_schema={"$ref": "#/$defs/T0", "$defs": defs}),
+            *cycle_messages(1),
+            end_message(1),
+        ],
+    )
+
+    run = beatlog_export(log, "-o", tmp_path / "x.mcap")
+
+    assert_one_line_error(run, "the robot-state schema inlines to more than 100000 nodes")
+
+
+def test_without_pyarrow_parquet_says_which_extra_to_install(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    for name in [name for name in sys.modules if name.startswith("pyarrow")]:
+        monkeypatch.setitem(sys.modules, name, None)
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+
+    run = beatlog_export(probe_log, "-o", tmp_path / "x.parquet", "--format", "parquet")
+
+    assert_one_line_error(run, 'Parquet export needs pyarrow (pip install "beatlog[export]")')
