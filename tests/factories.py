@@ -26,6 +26,7 @@ from beatlog.log.format import (
     SessionHeader,
     schema_name,
 )
+from beatlog.log.reader import SessionLogReader
 
 PERIOD_NS = 30_000_000
 MAGIC_LENGTH = 8
@@ -227,3 +228,35 @@ def replace_chunk_content(
 def deeply_nested(depth: int = 100_000) -> msgspec.Raw:
     """A msgpack value nested ``depth`` arrays deep."""
     return msgspec.Raw(b"\x91" * depth + b"\xc0")
+
+
+def as_format_1(log: Path, path: Path) -> Path:
+    """The session of a format-2 ``log`` written again as format 1 wrote it: bare
+    arrays of cycles, draws without their parameters."""
+    with SessionLogReader(log) as reader:
+        header = msgspec.structs.replace(reader.header, format_version=1)
+        batches = []
+        robot_time = 0
+        for batch in reader.batches():
+            robot_time += batch[0].heartbeat_ns
+            cycles = [
+                msgspec.structs.replace(
+                    cycle,
+                    random_numbers=msgspec.Raw(
+                        msgspec.msgpack.encode(
+                            [draw[:3] for draw in msgspec.msgpack.decode(cycle.random_numbers)]
+                        )
+                    ),
+                )
+                for cycle in batch
+            ]
+            batches.append(Message(CYCLES_TOPIC, robot_time, msgspec.msgpack.encode(cycles)))
+            robot_time += sum(cycle.heartbeat_ns for cycle in batch[1:])
+        end = reader.end
+    assert end is not None
+    messages = [
+        Message(HEADER_TOPIC, 0, msgspec.msgpack.encode(header)),
+        *batches,
+        Message(END_TOPIC, end.robot_time_ns, msgspec.msgpack.encode(end)),
+    ]
+    return craft_log(path, messages, channels=FORMAT_1_CHANNELS)

@@ -372,8 +372,11 @@ def test_a_recorded_log_with_a_chunk_dropped_never_replays(
             replay(damaged, probe_system(), allow_truncated=True)
 
 
+FORMAT_1_LOG = Path(__file__).parent.parent / "conformance" / "cases" / "format-1.beatlog"
+
+
 def test_a_committed_format_1_log_still_reads_complete_with_its_version() -> None:
-    log = COMMITTED_LOGS[0]
+    log = FORMAT_1_LOG
     with SessionLogReader(log) as reader:
         cycles = sum(len(batch) for batch in reader.batches())
         assert reader.format_version == 1

@@ -15,6 +15,7 @@ from beatlog import DivergenceKind, StateChange, replay
 from beatlog.analysis.trace import Expectation, TracedChange, replayed_trace
 from beatlog.errors import CorruptLogError, LogError, SchemaMismatchError
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
+from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
@@ -33,7 +34,7 @@ from tests.conftest import (
     probe_system_changed,
     probe_system_renamed,
 )
-from tests.factories import chunks, drop_chunk
+from tests.factories import as_format_1, chunks, drop_chunk
 from tests.systems import Fragile
 
 
@@ -533,3 +534,15 @@ def test_a_log_damaged_after_the_first_divergence_is_still_bad_input(
     log.write_bytes(drop_chunk(data, chunks(data)[-1]))
     with pytest.raises(LogError):
         replay(log, probe_system_changed())
+
+
+def test_a_format_1_log_still_replays_and_still_catches_a_change(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    old = as_format_1(record_probe(300), tmp_path / "format-1.beatlog")
+    with SessionLogReader(old) as reader:
+        assert reader.format_version == 1
+    assert replay(old, probe_system()).ok
+    divergence = replay(old, probe_system_changed()).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.STATE_CHANGES
