@@ -22,7 +22,7 @@ from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker
-from beatlog.usercode import load_system
+from beatlog.usercode import importable_near, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -87,8 +87,13 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
     ``timelines`` what it did is charted. The outcome's wall time is the replay's
     alone. The result's reproduce command is ``beatlog test SPEC``, which judges
-    exactly as this run did."""
-    options = options or SpecOptions()
+    exactly as this run did. The spec's references also import from its folder and
+    its project root (:func:`beatlog.usercode.importable_near`)."""
+    with importable_near(spec.path):
+        return _run_spec(spec, options or SpecOptions())
+
+
+def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
     update, audit, timelines = options.update, options.audit, options.timelines
     started = time.perf_counter()
     baseline = expected_path(spec.path)

@@ -37,7 +37,7 @@ from typing import Any
 import msgspec
 
 from beatlog.errors import SpecError
-from beatlog.files import irregular_file_problem
+from beatlog.files import irregular_file_problem, project_root
 from beatlog.replay.compare import Comparison
 
 __all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
@@ -149,11 +149,8 @@ def _check_one_to_one(path: Path, key: str, renames: Mapping[str, str]) -> None:
 @functools.cache
 def _project_renames(folder: Path) -> dict[str, str]:
     """``[tool.beatlog.renames]`` of the nearest ``pyproject.toml`` at or above ``folder``."""
-    for candidate in (folder, *folder.parents):
-        pyproject = candidate / "pyproject.toml"
-        if pyproject.is_file():
-            return _read_project(pyproject).renames
-    return {}
+    root = project_root(folder)
+    return {} if root is None else _read_project(root / "pyproject.toml").renames
 
 
 def _read_project(path: Path) -> _ProjectFile:
