@@ -40,6 +40,28 @@ def test_replay_passes_a_log_against_the_system_that_recorded_it(
     assert run.err == ""
 
 
+def test_replay_without_a_system_uses_and_names_the_one_the_log_records(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log)
+
+    assert run.code == 0
+    assert run.out.startswith(f"PASS {log}")
+    assert run.err == f"beatlog: replaying against {PROBE}, as recorded in {log}\n"
+
+
+def test_replay_without_a_system_of_a_log_that_records_none_is_one_line(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(30, system_ref="")
+
+    run = beatlog("replay", log)
+
+    assert_one_line_error(run, f"{log}: records no system; name one (module:factory)")
+
+
 def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
     beatlog: Beatlog, record_probe: RecordFn
 ) -> None:
@@ -292,7 +314,6 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
         (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "-1"], "'-1'"),
         (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "0"], "'0'"),
         (["record", "--robot", "r:robot", "--duration", "1"], "-o/--output"),
-        (["replay", "x.beatlog"], "--system"),
         (["play", "x.beatlog"], "'play'"),
         ([], "command"),
     ],
@@ -302,7 +323,6 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
         "negative-duration",
         "zero-duration",
         "no-output",
-        "no-system",
         "unknown-command",
         "no-command",
     ],
@@ -331,6 +351,27 @@ def test_record_into_a_missing_directory_is_one_line(beatlog: Beatlog, tmp_path:
     run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 1)
 
     assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
+
+
+def test_record_checks_the_system_reference_before_recording(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    run = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "--system-ref",
+        "nosuch:thing",
+        "-o",
+        out,
+        "--duration",
+        1,
+    )
+
+    assert_one_line_error(run, "'nosuch:thing': cannot import nosuch")
+    assert not out.exists()
 
 
 def test_record_needs_a_robot_not_a_system(beatlog: Beatlog, tmp_path: Path) -> None:

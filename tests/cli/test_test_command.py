@@ -65,6 +65,21 @@ def test_a_suite_that_replays_as_recorded_passes(
     assert_counts(run, "2 passed, 0 failed", 600)
 
 
+def test_a_spec_without_a_system_replays_against_the_one_its_log_records(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, record_probe: RecordFn
+) -> None:
+    write_spec(specs, "avoid-pole", log, system=None)
+    write_spec(
+        specs, "unnamed", record_probe(30, name="unnamed.beatlog", system_ref=""), system=None
+    )
+
+    run = beatlog_test(specs)
+
+    assert run.code == 2
+    assert re.search(r"avoid-pole\s+│ passed", run.out)
+    assert "unnamed.beatlog: records no system; name one (module:factory)" in run.err
+
+
 def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
     beatlog_test: BeatlogTest, specs: Path, log: Path
 ) -> None:

@@ -91,7 +91,11 @@ def _parser() -> argparse.ArgumentParser:
 
     play = add("replay", help="replay a session log and give a verdict")
     play.add_argument("log", type=Path)
-    play.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
+    play.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="system factory (default: the one the log records, from record --system-ref)",
+    )
     play.add_argument(
         "--perception",
         metavar="MODULE:FACTORY",
@@ -195,9 +199,11 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 
 def _record(args: argparse.Namespace, console: Console) -> int:
     from beatlog.record.recorder import Recorder
-    from beatlog.usercode import load_robot
+    from beatlog.usercode import load_robot, load_system
 
     robot = load_robot(args.robot)
+    if args.system_ref:
+        load_system(args.system_ref)  # replay will need it: a typo is found now, not then
     output: Path = args.output
     if not output.parent.is_dir():
         raise _UsageError(f"{output}: directory {output.parent} does not exist")
@@ -270,12 +276,16 @@ def _progress(console: Console) -> Progress:
 def _replay(args: argparse.Namespace, console: Console) -> int:
     import msgspec
 
-    from beatlog.replay.judge import replay
+    from beatlog.replay.judge import recorded_system, replay
     from beatlog.report.console import render_replay
 
+    system = args.system
+    if system is None:
+        system = recorded_system(args.log)
+        print(f"beatlog: replaying against {system}, as recorded in {args.log}", file=sys.stderr)
     result = replay(
         args.log,
-        args.system,
+        system,
         keep_going=args.keep_going,
         allow_truncated=args.allow_truncated,
         perception=args.perception,

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 from beatlog.analysis.trace import Expectation, ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError
-from beatlog.replay.judge import replay
+from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
@@ -106,9 +106,10 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
                     baseline, f"approved for another recording than {spec.log.name}; delete it"
                 )
             expected = approved.expectation
+        system = spec.system or recorded_system(spec.log)
         result = replay(
             spec.log,
-            spec.system,
+            system,
             allow_truncated=spec.allow_truncated,
             comparison=spec.comparison,
             expected=expected,
@@ -119,7 +120,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         divergence = result.divergence
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
-        details = _details(spec, divergence, expected, trace=updating, timelines=timelines)
+        details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         result = dataclasses.replace(result, divergence=divergence, reproduce=_rerun(spec))
@@ -130,7 +131,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         if audit:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
-            report = audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+            report = audit_replay(spec.log, system, allow_truncated=spec.allow_truncated)
         drawn = () if details is None else details.timelines
     except BeatlogError as exc:
         wall = time.perf_counter() - started
@@ -159,6 +160,7 @@ def _rerun(spec: DtcSpec) -> str:
 
 def _details(
     spec: DtcSpec,
+    system: str,
     divergence: Divergence | None,
     expected: Expectation | None,
     *,
@@ -172,7 +174,7 @@ def _details(
 
     return replay_details(
         spec.log,
-        load_system(spec.system),
+        load_system(system),
         divergence,
         trace=trace,
         timelines=timelines,

@@ -8,7 +8,7 @@ the system factory to replay it against::
     purpose = "The rover turns away from a pole in its path."
     procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
     log = "avoid-pole.beatlog"            # relative to this file
-    system = "beatlog_examples.rover:system"
+    system = "beatlog_examples.rover:system"  # optional: by default, the log's own
     tags = ["obstacles"]
     allow_truncated = false
     renames = { avoid = "avoid_obstacle" }  # behaviors renamed since recording: old = new
@@ -52,7 +52,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     purpose: str
     procedure: list[str]
     log: str
-    system: str
+    system: str | None = None
     perception: str | None = None
     tags: list[str] = []
     allow_truncated: bool = False
@@ -75,7 +75,8 @@ class DtcSpec:
     purpose: str
     procedure: tuple[str, ...]
     log: Path
-    system: str
+    system: str | None
+    """The ``module:factory`` of the system under test; None for the one the log records."""
     tags: tuple[str, ...] = ()
     allow_truncated: bool = False
     comparison: Comparison = field(default_factory=Comparison)
