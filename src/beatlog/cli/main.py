@@ -110,9 +110,18 @@ def _parser() -> argparse.ArgumentParser:
     test.add_argument(
         "-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1, help="worker processes"
     )
-    test.add_argument("-k", dest="select", metavar="NAME", help="only DTCs whose name matches")
     test.add_argument(
-        "--tag", action="append", default=[], help="only DTCs with this tag (repeatable)"
+        "-k",
+        dest="select",
+        metavar="EXPRESSION",
+        help="only DTCs matching this expression, as pytest's -k: words matched against "
+        "names and tags, with and, or, not and parentheses (e.g. -k 'touch or pat')",
+    )
+    test.add_argument(
+        "--tag",
+        action="append",
+        default=[],
+        help="only DTCs with this tag; given more than once, only DTCs with every tag given",
     )
     test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
     test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")

@@ -24,7 +24,6 @@ Renames that hold for every spec go into the project's ``pyproject.toml``, under
 
 from __future__ import annotations
 
-import fnmatch
 import functools
 import math
 import re
@@ -39,6 +38,7 @@ import msgspec
 from beatlog.errors import SpecError
 from beatlog.files import irregular_file_problem, project_root
 from beatlog.replay.compare import Comparison
+from beatlog.suite.keywords import KeywordExpression
 
 __all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
 
@@ -221,9 +221,15 @@ def _hidden(relative: Path) -> bool:
 def select_specs(
     specs: Sequence[DtcSpec], *, pattern: str | None = None, tags: Sequence[str] = ()
 ) -> list[DtcSpec]:
-    """Specs whose name matches ``pattern`` (a substring or glob) and that carry every tag."""
-    chosen = list(specs)
-    if pattern:
-        glob = pattern if any(c in pattern for c in "*?[") else f"*{pattern}*"
-        chosen = [spec for spec in chosen if fnmatch.fnmatchcase(spec.name, glob)]
-    return [spec for spec in chosen if set(tags) <= set(spec.tags)]
+    """Specs that match ``pattern`` and carry every tag in ``tags``.
+
+    ``pattern`` is a ``-k`` expression as pytest reads it (``touch or pat``): each word
+    a case-insensitive substring of the spec's name or of one of its tags (see
+    :mod:`beatlog.suite.keywords`).
+    """
+    expression = KeywordExpression.parse(pattern or "")
+    return [
+        spec
+        for spec in specs
+        if expression.matches(spec.name, spec.tags) and set(tags) <= set(spec.tags)
+    ]
