@@ -14,6 +14,7 @@ import pytest
 from mcap.writer import Writer
 
 from beatlog.analysis.summary import summarize
+from beatlog.cli.main import EXIT_CODES, main
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.commands import Beatlog, assert_one_line_error
@@ -477,3 +478,55 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
         assert reader.end.robot_time_ns >= 500_000_000
+
+
+# --help pages
+
+SUBCOMMANDS = ["record", "replay", "test", "review", "approve", "show", "plot", "demo"]
+
+
+def help_page(command: str, capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit) as exited:
+        main([command, "--help"])
+    assert exited.value.code == 0
+    return capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", SUBCOMMANDS)
+def test_every_help_page_describes_the_command_its_arguments_and_exit_codes(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    page = help_page(command, capsys)
+    description = page.split("\n\n")[1]
+    positionals = page.partition("positional arguments:\n")[2].partition("\n\n")[0]
+
+    assert description.endswith(".")
+    assert all(len(line.split()) > 1 for line in positionals.splitlines())
+    assert page.rstrip().endswith(EXIT_CODES.rstrip())
+    for code in ("0 ", "1 ", "2 ", "130 "):
+        assert f"\n  {code}" in page
+
+
+@pytest.mark.parametrize(
+    ("command", "default"),
+    [
+        ("record", "heartbeat period in ms (default: 30.0)"),
+        ("record", "(default: 1.0)"),
+        ("demo", "(default: beatlog-demo)"),
+        ("demo", "(default: 20.0)"),
+        ("test", "(default: the current folder)"),
+    ],
+)
+def test_help_pages_show_defaults(
+    command: str, default: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert default in " ".join(help_page(command, capsys).split())
+
+
+def test_test_help_says_what_k_and_repeated_tags_mean(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    page = " ".join(help_page("test", capsys).split())
+
+    assert "as pytest's -k: words matched against names and tags" in page
+    assert "given more than once, only DTCs with every tag given" in page

@@ -12,7 +12,6 @@ interrupted (Ctrl-C: what was complete is printed, no report is half written).
 from __future__ import annotations
 
 import argparse
-import functools
 import os
 import sys
 import time
@@ -38,6 +37,11 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 DEMO_ENTRY_POINTS = "beatlog.demo"
 """The entry point group of the package whose demo `beatlog demo` runs."""
 Number = TypeVar("Number", int, float)
+EXIT_CODES = """exit codes:
+  0    passed (or done)
+  1    a replay diverged, a DTC failed or a recording failed
+  2    bad input or usage: one line on stderr naming the file and the problem
+  130  interrupted (Ctrl-C)"""
 
 
 class _UsageError(BeatlogError):
@@ -65,7 +69,17 @@ def _parser() -> argparse.ArgumentParser:
         help="also print the traceback of user code that failed to load",
     )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    add = functools.partial(commands.add_parser, parents=[common])
+
+    def add(name: str, *, help: str) -> argparse.ArgumentParser:
+        """A subcommand whose --help page has a description and ends with the exit codes."""
+        return commands.add_parser(
+            name,
+            parents=[common],
+            help=help,
+            description=help[0].upper() + help[1:] + ".",
+            epilog=EXIT_CODES,
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
 
     record = add("record", help="run a robot in real time and record a session")
     record.add_argument("--robot", required=True, metavar="MODULE:FACTORY", help="robot factory")
@@ -73,24 +87,35 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument(
         "--duration", type=_positive_float, required=True, help="robot time to record (s)"
     )
-    record.add_argument("--period-ms", type=_positive_float, default=30.0, help="heartbeat period")
+    record.add_argument(
+        "--period-ms",
+        type=_positive_float,
+        default=30.0,
+        help="heartbeat period in ms (default: %(default)s)",
+    )
     record.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
-    record.add_argument("--robot-id", default="robot", help="name of the robot in the header")
+    record.add_argument(
+        "--robot-id", default="robot", help="name of the robot in the header (default: %(default)s)"
+    )
     record.add_argument(
         "--system-ref",
         default="",
         metavar="MODULE:FACTORY",
-        help="the system factory replay should use, written into the header",
+        help="the system factory replay uses when given none, written into the header "
+        "(checked before recording starts)",
     )
     record.add_argument("--log-samples", action="store_true", help="also log raw sensor samples")
     record.add_argument(
-        "--flush-interval", type=_positive_float, default=1.0, help="seconds between flushes"
+        "--flush-interval",
+        type=_positive_float,
+        default=1.0,
+        help="seconds of robot time between flushes to disk (default: %(default)s)",
     )
     record.add_argument("--fsync", action="store_true", help="fsync at every flush")
     record.add_argument("--force", action="store_true", help="overwrite an existing log")
 
     play = add("replay", help="replay a session log and give a verdict")
-    play.add_argument("log", type=Path)
+    play.add_argument("log", type=Path, help="the session log (.beatlog) to replay")
     play.add_argument(
         "--system",
         metavar="MODULE:FACTORY",
@@ -106,9 +131,19 @@ def _parser() -> argparse.ArgumentParser:
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
     test = add("test", help="run DTC specs (*.dtc.toml) in parallel")
-    test.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
     test.add_argument(
-        "-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1, help="worker processes"
+        "paths",
+        nargs="*",
+        type=Path,
+        default=[Path()],
+        help="specs (*.dtc.toml) or folders searched for them (default: the current folder)",
+    )
+    test.add_argument(
+        "-j",
+        "--jobs",
+        type=_positive_int,
+        default=os.cpu_count() or 1,
+        help="processes replaying at once (default: the number of cores, %(default)s)",
     )
     test.add_argument(
         "-k",
@@ -143,16 +178,31 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     check = add("review", help="show pending baseline changes; accept or reject")
-    check.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
+    check.add_argument(
+        "paths",
+        nargs="*",
+        type=Path,
+        default=[Path()],
+        help="specs or folders with pending baselines (default: the current folder)",
+    )
     accept = add("approve", help="accept the pending baselines of DTC specs")
-    accept.add_argument("paths", nargs="+", type=Path, help="specs or folders")
+    accept.add_argument(
+        "paths", nargs="+", type=Path, help="specs or folders whose pending baselines to accept"
+    )
 
     show = add("show", help="describe a session log")
-    show.add_argument("log", type=Path)
+    show.add_argument("log", type=Path, help="the session log (.beatlog) to describe")
 
-    plot = add("plot", help="draw a PNG timeline of a session log")
-    plot.add_argument("log", type=Path)
-    plot.add_argument("-o", "--output", required=True, type=Path, metavar="FILE.png")
+    plot = add("plot", help="draw a timeline chart of a session log")
+    plot.add_argument("log", type=Path, help="the session log (.beatlog) to draw")
+    plot.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="the chart to write; its suffix picks the format: .png, .svg or .pdf",
+    )
     plot.add_argument(
         "--system",
         metavar="MODULE:FACTORY",
@@ -167,9 +217,17 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     demo = add("demo", help="record and replay the robot dog, then its suite")
-    demo.add_argument("--duration", type=_positive_float, default=20.0, help="seconds to record")
     demo.add_argument(
-        "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
+        "--duration",
+        type=_positive_float,
+        default=20.0,
+        help="seconds to record (default: %(default)s)",
+    )
+    demo.add_argument(
+        "--out",
+        type=Path,
+        default=Path("beatlog-demo"),
+        help="the folder to keep the demo log in (default: %(default)s)",
     )
     return parser
 
