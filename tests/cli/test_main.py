@@ -103,7 +103,7 @@ def test_replay_json_of_a_pass(beatlog: Beatlog, record_probe: RecordFn) -> None
     assert result["ok"] is True
     assert result["cycles"] == 300
     assert result["divergence"] is None
-    assert result["status"] == [True, 300, None]
+    assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
 
 
 def test_replay_keep_going_counts_every_diverging_cycle(
@@ -125,6 +125,7 @@ def test_replay_keep_going_counts_every_diverging_cycle(
     assert result["cycles"] == 300
     assert result["divergence"]["cycle"] == FIRST_CHANGED_CYCLE
     assert result["divergent_cycles"] == diverging
+    assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
 
 
 def flips(near: list[bool]) -> list[bool]:

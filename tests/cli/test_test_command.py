@@ -58,7 +58,7 @@ def test_a_suite_that_replays_as_recorded_passes(
 
     assert run.code == 0
     assert run.err == ""
-    assert "DTC suite" in run.out
+    assert run.out.startswith("DTC suite"), "no blank line where no progress bar was drawn"
     assert re.search(r"avoid-pole\s+│ passed\s+│\s+300 │ 9\.0 s", run.out)
     assert re.search(r"avoid-pole-at-night\s+│ passed", run.out)
     assert "reproduce:" not in run.out

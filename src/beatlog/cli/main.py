@@ -266,6 +266,7 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 
 def _record(args: argparse.Namespace, console: Console) -> int:
     from beatlog.record.recorder import Recorder
+    from beatlog.report.counts import plural
     from beatlog.usercode import load_robot, load_system
 
     robot = load_robot(args.robot)
@@ -305,7 +306,7 @@ def _record(args: argparse.Namespace, console: Console) -> int:
         except KeyboardInterrupt:  # the log is closed as it is; say what it holds
             interrupted = True
     line = (
-        f"recorded {recorder.cycles} cycles ({recorder.robot_time_ns / 1e9:.2f} s, "
+        f"recorded {plural(recorder.cycles, 'cycle')} ({recorder.robot_time_ns / 1e9:.2f} s, "
         f"{recorder.overruns} overruns) to {output}"
     )
     if recorder.error is not None:
@@ -337,6 +338,7 @@ def _progress(console: Console) -> Progress:
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
     )
 
 
@@ -405,6 +407,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
     )
     started = time.perf_counter()
     cycles = 0

@@ -411,7 +411,8 @@ class _Judge:
                 kind=DivergenceKind.LOG_ENDED,
                 cycle=context.cycle + 1,
                 time_ns=context.time_ns,
-                message=f"the log ends early ({why})",
+                message=f"the log ends early ({why}); if the session ended there (a crash), "
+                "accept what it holds with --allow-truncated (in a spec: allow_truncated = true)",
             )
         self.divergent_cycles += 1
 
