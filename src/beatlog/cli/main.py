@@ -193,7 +193,7 @@ def _parser() -> argparse.ArgumentParser:
     show = add("show", help="describe a session log")
     show.add_argument("log", type=Path, help="the session log (.beatlog) to describe")
 
-    plot = add("plot", help="draw a timeline chart of a session log")
+    plot = add("plot", help="draw a timeline chart of a session log (PNG, SVG or PDF)")
     plot.add_argument("log", type=Path, help="the session log (.beatlog) to draw")
     plot.add_argument(
         "-o",
@@ -513,12 +513,13 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
     _need_matplotlib("plot")
     from beatlog.analysis.timeline import build_timeline
     from beatlog.replay.judge import replay
-    from beatlog.report.chart import write_png
+    from beatlog.report.chart import chart_format, write_chart
 
+    chart_format(args.output)  # an unknown suffix is refused before anything runs
     divergence = None if args.system is None else replay(args.log, args.system).divergence
     timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
     try:
-        write_png(timeline, args.output)
+        write_chart(timeline, args.output)
     except OSError as exc:
         raise _UsageError(f"{args.output}: cannot write: {exc.strerror}") from None
     mark = timeline.divergence
