@@ -95,11 +95,11 @@ def record_probe(tmp_path: Path) -> RecordFn:
     ) -> Path:
         path = tmp_path / name
         feed = states if states is not None else [Probe(distance=d) for d in distances(cycles)]
+        options = {"system_ref": "tests.conftest:probe_system", **options}
         with Recorder(
             path,
             probe_system(),
             seed=seed,
-            system_ref="tests.conftest:probe_system",
             software="test",
             **options,  # type: ignore[arg-type]
         ) as recorder:

@@ -3,6 +3,7 @@ its ``beatlog`` options re-baseline and audit them."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -96,6 +97,40 @@ def test_the_fixture_replays_a_log_in_an_ordinary_test(
     result = pytester.runpytest()
     result.assert_outcomes(passed=1, failed=1)
     result.stdout.fnmatch_lines(["*first divergence: cycle 21*"])
+
+
+def test_the_fixture_finds_a_relative_log_beside_the_test_file(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    tests = pytester.mkdir("robot_tests")
+    shutil.copy(log, tests / "approach.beatlog")
+    (tests / "test_replays.py").write_text(
+        "from tests.conftest import probe_system\n\n\n"
+        "def test_passes(beatlog_replay):\n"
+        "    assert beatlog_replay('approach.beatlog', probe_system()).cycles == 200\n"
+    )
+
+    result = pytester.runpytest("robot_tests")
+
+    result.assert_outcomes(passed=1)
+
+
+def test_the_fixture_fails_cleanly_naming_a_missing_log(pytester: pytest.Pytester) -> None:
+    pytester.makepyfile(
+        test_replays="""
+        from tests.conftest import probe_system
+
+        def test_missing(beatlog_replay):
+            beatlog_replay("gone.beatlog", probe_system())
+        """
+    )
+
+    result = pytester.runpytest()
+
+    result.assert_outcomes(failed=1)
+    result.stdout.fnmatch_lines([f"*{pytester.path / 'gone.beatlog'}: no such file*"])
+    result.stdout.no_fnmatch_line("*reader.py*")
+    result.stdout.no_fnmatch_line("*Traceback*")
 
 
 def test_dtcs_run_under_xdist_and_measure_behavior_coverage(

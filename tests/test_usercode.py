@@ -4,6 +4,10 @@ the reference and the cause, with the user's traceback kept for ``--verbose``.""
 from __future__ import annotations
 
 import inspect
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -13,8 +17,17 @@ from beatlog.errors import SystemLoadError
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.random import RecordingRandom
-from beatlog.usercode import failure_site, load_factory, load_robot, load_system, user_traceback
+from beatlog.record.recorder import Recorder
+from beatlog.usercode import (
+    failure_site,
+    importable_near,
+    load_factory,
+    load_robot,
+    load_system,
+    user_traceback,
+)
 from tests.conftest import Probe
+from tests.specs import write_spec
 
 LIBRARY = str(Path(beatlog.__file__).parent)
 
@@ -105,9 +118,9 @@ def test_a_missing_module_names_it_without_a_traceback() -> None:
     with pytest.raises(SystemLoadError) as caught:
         load_factory("beatlog_no_such_robot.arena:system")
 
-    assert str(caught.value) == (
+    assert str(caught.value).startswith(
         "'beatlog_no_such_robot.arena:system': cannot import beatlog_no_such_robot.arena: "
-        "No module named 'beatlog_no_such_robot'"
+        "No module named 'beatlog_no_such_robot' (looked in "
     )
     assert caught.value.user_traceback is None
 
@@ -201,3 +214,108 @@ def test_an_exception_never_raised_has_no_failure_site() -> None:
         user_traceback(exc)
         == "Traceback (most recent call last):\nRuntimeError: made, not raised\n"
     )
+
+
+LINEBOT = """\
+from beatlog import PriorityArbiter, RobotState
+
+
+class Line(RobotState, kw_only=True):
+    offset: float = 0.0
+
+
+class Follow:
+    name = "follow"
+    state = "centred"
+
+    def step(self, rs, ctx):
+        self.state = "steering" if abs(rs.offset) > 0.1 else "centred"
+        return None
+
+
+def system():
+    return PriorityArbiter([Follow()], robot_state=Line)
+"""
+
+
+def console_script(name: str) -> str:
+    """The path of one of this environment's console scripts (``beatlog``, ``pytest``)."""
+    script = shutil.which(name, path=str(Path(sys.executable).parent))
+    assert script is not None, f"{name} is not installed beside {sys.executable}"
+    return script
+
+
+@pytest.fixture
+def linebot_project(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A user's project as the README suggests: ``myrobot/pyproject.toml``, the robot's
+    module ``linebot.py`` at its root, and one DTC in ``myrobot/dtc/``."""
+    project = tmp_path / "myrobot"
+    project.mkdir()
+    (project / "pyproject.toml").write_text('[project]\nname = "myrobot"\n')
+    write_module(project, "linebot", LINEBOT)
+    log = project / "dtc" / "drift.beatlog"
+    log.parent.mkdir()
+    monkeypatch.syspath_prepend(str(project))
+    line = load_system("linebot:system").robot_state
+    with Recorder(log, load_system("linebot:system"), system_ref="linebot:system") as recorder:
+        for t in range(40):
+            recorder.step(30_000_000, line(offset=(t % 10) / 20))
+    write_spec(project / "dtc", "drift", log, "linebot:system")
+    return project
+
+
+def run_from(folder: Path, *command: str) -> subprocess.CompletedProcess[str]:
+    """Run a console script in ``folder``, with nothing of this test run on its path."""
+    environment = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}
+    return subprocess.run(
+        command,
+        cwd=folder,
+        env=environment,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+
+
+def test_beatlog_test_imports_a_specs_system_from_its_project_root_anywhere(
+    linebot_project: Path,
+) -> None:
+    done = run_from(
+        linebot_project.parent, console_script("beatlog"), "test", "-j", "1", "myrobot/dtc"
+    )
+
+    assert done.returncode == 0, done.stderr
+    assert "1 passed" in done.stdout
+
+
+def test_the_pytest_console_script_imports_a_specs_system(linebot_project: Path) -> None:
+    done = run_from(linebot_project, console_script("pytest"), "-p", "no:cacheprovider", "dtc")
+
+    assert done.returncode == 0, done.stdout
+    assert "1 passed" in done.stdout
+
+
+def test_a_spec_imports_from_its_own_folder_without_a_project(tmp_path: Path) -> None:
+    folder = tmp_path / "loose"
+    folder.mkdir()
+    write_module(folder, "linebot_loose", LINEBOT)
+    spec = write_spec(folder, "loose", folder / "absent.beatlog", "linebot_loose:system")
+
+    with importable_near(spec):
+        assert "follow" in load_system("linebot_loose:system").behaviors
+    assert str(folder) not in sys.path
+
+
+def test_a_module_not_found_says_where_it_was_looked_for(linebot_project: Path) -> None:
+    (linebot_project / "linebot.py").unlink()
+    outside = linebot_project.parent
+
+    done = run_from(outside, console_script("beatlog"), "test", "-j", "1", "myrobot/dtc")
+
+    assert done.returncode == 2
+    assert "cannot import linebot: No module named 'linebot' (looked in " in done.stderr
+    looked = done.stderr.partition("(looked in ")[2]
+    for folder in (outside, linebot_project, linebot_project / "dtc"):
+        assert str(folder.resolve()) in looked
+    assert "and the installed packages)" in looked

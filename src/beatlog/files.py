@@ -1,5 +1,6 @@
 """The files users name, handled safely: read only when regular (nothing read can block),
-written whole or not at all (readers, and a Ctrl-C, never see half of one)."""
+written whole or not at all (readers, and a Ctrl-C, never see half of one); and the
+project they belong to."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
-__all__ = ["irregular_file_problem", "replacing"]
+__all__ = ["irregular_file_problem", "project_root", "replacing"]
 
 
 def irregular_file_problem(path: Path) -> str | None:
@@ -30,6 +31,16 @@ def irregular_file_problem(path: Path) -> str | None:
     if not stat.S_ISREG(mode):
         return "is not a regular file (a FIFO, socket or device)"
     return None
+
+
+def project_root(start: Path) -> Path | None:
+    """The nearest folder at or above ``start`` holding a ``pyproject.toml``, as pytest
+    finds its rootdir; None when there is none."""
+    start = start.resolve()
+    return next(
+        (folder for folder in (start, *start.parents) if (folder / "pyproject.toml").is_file()),
+        None,
+    )
 
 
 @contextlib.contextmanager

@@ -21,7 +21,7 @@ from typing import Any
 
 import pytest
 
-from beatlog.errors import SpecError
+from beatlog.errors import BeatlogError, SpecError
 from beatlog.model.behavior import System
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import ReplayResult
@@ -33,6 +33,7 @@ from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
+from beatlog.usercode import importable_near
 
 __all__ = ["DtcFile", "DtcItem", "beatlog_replay"]
 
@@ -180,15 +181,23 @@ def _failure_text(result: ReplayResult) -> str:
 
 
 @pytest.fixture
-def beatlog_replay() -> Callable[..., ReplayResult]:
+def beatlog_replay(request: pytest.FixtureRequest) -> Callable[..., ReplayResult]:
     """Replay a session log in an ordinary test; a divergence fails the test readably.
 
     ``beatlog_replay(log, system, **options)`` takes the same arguments as
-    :func:`beatlog.replay` and returns its result when the replay passes.
+    :func:`beatlog.replay` and returns its result when the replay passes. A relative
+    ``log`` is found beside the test file, as a spec's is beside the spec, and a
+    ``module:factory`` system also imports from the test's folder and project root. A
+    log that cannot be read (missing, corrupt, not fitting the system) fails the test
+    with one line naming the file.
     """
 
     def run(log: str | Path, system: System | str, **options: Any) -> ReplayResult:
-        result = replay(log, system, **options)
+        try:
+            with importable_near(request.path):
+                result = replay(request.path.parent / log, system, **options)
+        except BeatlogError as exc:
+            pytest.fail(str(exc), pytrace=False)
         if not result.ok:
             pytest.fail(_failure_text(result), pytrace=False)
         return result

@@ -1,8 +1,13 @@
 """User code: import a system or robot from a ``module:factory`` reference, and tell
 where it failed (its traceback cut down to the user's frames).
 
-Only references a user types are imported; a log's recorded reference is shown to
-people but never imported, so loading a log cannot run code.
+Only references a user types are imported, or the reference a log records when a
+replay is asked for without one; reading or showing a log never runs code.
+
+A reference is imported from ``sys.path``, to which the CLI adds the working
+directory (as ``python -m`` does) and a DTC spec adds its own folder and its project
+root (see :func:`importable_near`); when the module is still not found, the error
+names the folders it was looked for in.
 
 Whatever the user's code does while it is imported or called (raise, fail to
 compile, call ``sys.exit``) becomes a :class:`~beatlog.errors.SystemLoadError`
@@ -12,20 +17,26 @@ traceback kept on it; only ``KeyboardInterrupt`` goes through.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
+import sys
+import sysconfig
 import traceback
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 from beatlog.errors import SystemLoadError
+from beatlog.files import project_root
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.model.robot import Robot
 
 __all__ = [
     "failure_site",
+    "importable_near",
     "load_factory",
     "load_perception",
     "load_robot",
@@ -88,10 +99,53 @@ def _import(reference: str, module_name: str) -> ModuleType:
         return importlib.import_module(module_name)
     except ModuleNotFoundError as exc:
         if exc.name is not None and (module_name + ".").startswith(exc.name + "."):
-            raise SystemLoadError(f"{reference!r}: cannot import {module_name}: {exc}") from None
+            raise SystemLoadError(
+                f"{reference!r}: cannot import {module_name}: {exc} "
+                f"(looked in {_searched()} and the installed packages)"
+            ) from None
         raise _failed(reference, f"importing {module_name}", exc) from None
     except (Exception, SystemExit) as exc:
         raise _failed(reference, f"importing {module_name}", exc) from None
+
+
+def _searched() -> str:
+    """The folders of ``sys.path`` that hold the user's code, not Python's or packages'."""
+    installed = {
+        os.path.realpath(path)
+        for key in ("stdlib", "platstdlib", "purelib", "platlib")
+        if (path := sysconfig.get_paths().get(key))
+    }
+    folders: list[str] = []
+    for entry in sys.path:
+        folder = os.path.realpath(entry or os.getcwd())
+        if not os.path.isdir(folder) or folder in installed or folder in folders:
+            continue
+        if any(folder.startswith(prefix + os.sep) for prefix in installed):
+            continue
+        folders.append(folder)
+    return ", ".join(folders) if folders else "no folder of your own"
+
+
+@contextlib.contextmanager
+def importable_near(path: Path) -> Iterator[None]:
+    """While inside, references also import from ``path``'s folder and its project root.
+
+    So a spec's ``system = "linebot:system"`` imports ``linebot.py`` beside the spec or
+    at the root of its project, from any working directory and under the ``pytest``
+    console script alike. The folders are put first on ``sys.path``, as pytest's
+    default import mode puts a test's root there, and taken off again afterwards.
+    """
+    folder = path.resolve().parent
+    root = project_root(folder)
+    added = [str(found) for found in (folder, root) if found is not None]
+    added = [entry for entry in dict.fromkeys(added) if entry not in sys.path]
+    sys.path[:0] = added
+    try:
+        yield
+    finally:
+        for entry in added:
+            if entry in sys.path:
+                sys.path.remove(entry)
 
 
 def _failed(reference: str, doing: str, exc: BaseException) -> SystemLoadError:

@@ -14,6 +14,7 @@ import pytest
 from mcap.writer import Writer
 
 from beatlog.analysis.summary import summarize
+from beatlog.cli.main import EXIT_CODES, main
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.commands import Beatlog, assert_one_line_error
@@ -38,6 +39,28 @@ def test_replay_passes_a_log_against_the_system_that_recorded_it(
     assert run.out.startswith(f"PASS {log}  300 cycles, 9.0 s robot time")
     assert "log complete" in run.out
     assert run.err == ""
+
+
+def test_replay_without_a_system_uses_and_names_the_one_the_log_records(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log)
+
+    assert run.code == 0
+    assert run.out.startswith(f"PASS {log}")
+    assert run.err == f"beatlog: replaying against {PROBE}, as recorded in {log}\n"
+
+
+def test_replay_without_a_system_of_a_log_that_records_none_is_one_line(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(30, system_ref="")
+
+    run = beatlog("replay", log)
+
+    assert_one_line_error(run, f"{log}: records no system; name one (module:factory)")
 
 
 def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
@@ -80,7 +103,7 @@ def test_replay_json_of_a_pass(beatlog: Beatlog, record_probe: RecordFn) -> None
     assert result["ok"] is True
     assert result["cycles"] == 300
     assert result["divergence"] is None
-    assert result["status"] == [True, 300, None]
+    assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
 
 
 def test_replay_keep_going_counts_every_diverging_cycle(
@@ -102,6 +125,7 @@ def test_replay_keep_going_counts_every_diverging_cycle(
     assert result["cycles"] == 300
     assert result["divergence"]["cycle"] == FIRST_CHANGED_CYCLE
     assert result["divergent_cycles"] == diverging
+    assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
 
 
 def flips(near: list[bool]) -> list[bool]:
@@ -292,7 +316,6 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
         (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "-1"], "'-1'"),
         (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "0"], "'0'"),
         (["record", "--robot", "r:robot", "--duration", "1"], "-o/--output"),
-        (["replay", "x.beatlog"], "--system"),
         (["play", "x.beatlog"], "'play'"),
         ([], "command"),
     ],
@@ -302,7 +325,6 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
         "negative-duration",
         "zero-duration",
         "no-output",
-        "no-system",
         "unknown-command",
         "no-command",
     ],
@@ -331,6 +353,27 @@ def test_record_into_a_missing_directory_is_one_line(beatlog: Beatlog, tmp_path:
     run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 1)
 
     assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
+
+
+def test_record_checks_the_system_reference_before_recording(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    run = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "--system-ref",
+        "nosuch:thing",
+        "-o",
+        out,
+        "--duration",
+        1,
+    )
+
+    assert_one_line_error(run, "'nosuch:thing': cannot import nosuch")
+    assert not out.exists()
 
 
 def test_record_needs_a_robot_not_a_system(beatlog: Beatlog, tmp_path: Path) -> None:
@@ -436,3 +479,55 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
         assert reader.end.robot_time_ns >= 500_000_000
+
+
+# --help pages
+
+SUBCOMMANDS = ["record", "replay", "test", "review", "approve", "show", "plot", "demo"]
+
+
+def help_page(command: str, capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit) as exited:
+        main([command, "--help"])
+    assert exited.value.code == 0
+    return capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", SUBCOMMANDS)
+def test_every_help_page_describes_the_command_its_arguments_and_exit_codes(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    page = help_page(command, capsys)
+    description = page.split("\n\n")[1]
+    positionals = page.partition("positional arguments:\n")[2].partition("\n\n")[0]
+
+    assert description.endswith(".")
+    assert all(len(line.split()) > 1 for line in positionals.splitlines())
+    assert page.rstrip().endswith(EXIT_CODES.rstrip())
+    for code in ("0 ", "1 ", "2 ", "130 "):
+        assert f"\n  {code}" in page
+
+
+@pytest.mark.parametrize(
+    ("command", "default"),
+    [
+        ("record", "heartbeat period in ms (default: 30.0)"),
+        ("record", "(default: 1.0)"),
+        ("demo", "(default: beatlog-demo)"),
+        ("demo", "(default: 20.0)"),
+        ("test", "(default: the current folder)"),
+    ],
+)
+def test_help_pages_show_defaults(
+    command: str, default: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert default in " ".join(help_page(command, capsys).split())
+
+
+def test_test_help_says_what_k_and_repeated_tags_mean(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    page = " ".join(help_page("test", capsys).split())
+
+    assert "as pytest's -k: words matched against names and tags" in page
+    assert "given more than once, only DTCs with every tag given" in page

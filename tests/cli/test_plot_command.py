@@ -1,4 +1,4 @@
-"""``beatlog plot``: a PNG timeline of a session, and one clean line for every bad input."""
+"""``beatlog plot``: a PNG, SVG or PDF timeline of a session; one clean line per bad input."""
 
 from __future__ import annotations
 
@@ -69,6 +69,32 @@ def test_plot_of_a_passing_replay_names_no_divergence(
 
 
 # bad input: exit 2 and one line on stderr
+
+
+@pytest.mark.parametrize(
+    ("suffix", "magic"), [(".svg", b"<?xml"), (".pdf", b"%PDF-"), (".PNG", b"\x89PNG")]
+)
+def test_the_suffix_picks_the_format(
+    plot: Plot, log: Path, tmp_path: Path, suffix: str, magic: bytes
+) -> None:
+    chart = tmp_path / f"session{suffix}"
+
+    run = plot(log, "-o", chart)
+
+    assert run.code == 0, run.err
+    assert chart.read_bytes().startswith(magic)
+
+
+@pytest.mark.parametrize(("name", "given"), [("y.txt", "suffix .txt"), ("y", "no suffix")])
+def test_an_unknown_suffix_is_refused_in_one_line(
+    plot: Plot, log: Path, tmp_path: Path, name: str, given: str
+) -> None:
+    chart = tmp_path / name
+
+    run = plot(log, "-o", chart, "--system", PROBE)
+
+    assert_one_line_error(run, f"{chart}: a chart is written as .png, .svg, .pdf, not {given}")
+    assert not chart.exists()
 
 
 def test_a_field_the_robot_state_lacks_is_one_line(plot: Plot, log: Path, tmp_path: Path) -> None:

@@ -68,6 +68,7 @@ def test_a_disk_that_fills_up_while_recording_gives_the_summary_and_exit_1(
 
     assert done.returncode == 1, done.stderr
     assert "Traceback" not in done.stderr
+    assert not done.stdout.startswith("\n"), "no blank line where no progress bar was drawn"
     summary = done.stdout.strip().splitlines()[-1]
     found = re.fullmatch(
         rf"recorded 100 cycles \(3\.00 s, \d+ overruns\) to {re.escape(str(out))}; "

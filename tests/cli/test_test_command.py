@@ -58,11 +58,26 @@ def test_a_suite_that_replays_as_recorded_passes(
 
     assert run.code == 0
     assert run.err == ""
-    assert "DTC suite" in run.out
+    assert run.out.startswith("DTC suite"), "no blank line where no progress bar was drawn"
     assert re.search(r"avoid-pole\s+│ passed\s+│\s+300 │ 9\.0 s", run.out)
     assert re.search(r"avoid-pole-at-night\s+│ passed", run.out)
     assert "reproduce:" not in run.out
     assert_counts(run, "2 passed, 0 failed", 600)
+
+
+def test_a_spec_without_a_system_replays_against_the_one_its_log_records(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, record_probe: RecordFn
+) -> None:
+    write_spec(specs, "avoid-pole", log, system=None)
+    write_spec(
+        specs, "unnamed", record_probe(30, name="unnamed.beatlog", system_ref=""), system=None
+    )
+
+    run = beatlog_test(specs)
+
+    assert run.code == 2
+    assert re.search(r"avoid-pole\s+│ passed", run.out)
+    assert "unnamed.beatlog: records no system; name one (module:factory)" in run.err
 
 
 def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
@@ -151,15 +166,35 @@ def test_dash_k_runs_the_dtcs_whose_name_matches(
     write_spec(specs, "dock", log, CHANGED)
 
     by_substring = beatlog_test(specs, "-k", "avoid")
-    by_glob = beatlog_test(specs, "-k", "*wall")
+    by_expression = beatlog_test(specs, "-k", "wall or dock")
 
     assert by_substring.code == 0
     assert_counts(by_substring, "2 passed, 0 failed", 600)
     assert "dock" not in by_substring.out
-    assert by_glob.code == 0
-    assert_counts(by_glob, "1 passed, 0 failed", 300)
-    assert "avoid-wall" in by_glob.out
-    assert "avoid-pole" not in by_glob.out
+    assert by_expression.code == 1
+    assert closing_line(by_expression).startswith("1 passed, 1 failed")
+    assert "avoid-pole" not in by_expression.out
+
+
+def test_dash_k_matches_tags_as_under_pytest(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "head-pat", log, tags=["touch"])
+    write_spec(specs, "push-over", log)
+
+    run = beatlog_test(specs, "-k", "touch")
+
+    assert_counts(run, "1 passed, 0 failed", 300)
+    assert "head-pat" in run.out
+    assert "push-over" not in run.out
+
+
+def test_a_malformed_dash_k_is_one_line(beatlog_test: BeatlogTest, specs: Path, log: Path) -> None:
+    write_spec(specs, "head-pat", log)
+
+    run = beatlog_test(specs, "-k", "touch or")
+
+    assert_one_line_error(run, "-k 'touch or': ends where a word was expected")
 
 
 def test_tags_run_the_dtcs_that_carry_every_tag_given(

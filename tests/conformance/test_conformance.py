@@ -3,6 +3,7 @@ and the generator writes the same bytes again, so the writer is deterministic.""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -47,7 +48,7 @@ def read_document(log: Path) -> dict[str, Any]:
                 "format_version": reader.format_version,
                 "header": reader.header,
                 "cycles": cycles,
-                "status": reader.status._asdict(),
+                "status": dataclasses.asdict(reader.status),
                 "end": reader.end,
             }
         )

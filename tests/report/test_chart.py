@@ -11,7 +11,7 @@ from matplotlib.image import imread
 from beatlog import replay
 from beatlog.analysis.timeline import build_timeline
 from beatlog.record.recorder import Recorder
-from beatlog.report.chart import WIDTH_PX, chart_size, draw_timeline, svg_markup, write_png
+from beatlog.report.chart import WIDTH_PX, chart_size, draw_timeline, svg_markup, write_chart
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
 from tests.images import png_size
 from tests.systems import HOSTILE, TEX, hostile_system
@@ -30,7 +30,7 @@ def test_a_png_of_the_chart_size_is_written(record_probe: RecordFn, tmp_path: Pa
     timeline = build_timeline(record_probe(300), probe_system(threshold=0.6))
     png = tmp_path / "timeline.png"
 
-    write_png(timeline, png)
+    write_chart(timeline, png)
 
     assert png_size(png) == chart_size(timeline)
     pixels = imread(png)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 from beatlog import replay
 from beatlog.analysis.summary import summarize
 from beatlog.report.console import plain_text, render_replay, render_summary
@@ -28,6 +30,31 @@ def test_a_failure_shows_cycle_changes_state_and_an_unwrapped_command(
     (command,) = [line for line in text.splitlines() if line.startswith("reproduce: ")]
     assert command.endswith("--system tests.conftest:probe_system")
     assert len(text.splitlines()) < 50
+
+
+def test_one_cycle_is_one_cycle(record_probe: RecordFn) -> None:
+    text = plain_text(render_replay(replay(record_probe(1), probe_system())), width=400)
+
+    assert " 1 cycle, 0.0 s robot time " in text
+
+
+def test_a_replay_too_short_to_time_reports_no_speed_up(record_probe: RecordFn) -> None:
+    result = replay(record_probe(1), probe_system())
+    instant = dataclasses.replace(result, wall_time_s=0.0002)
+    timed = dataclasses.replace(result, wall_time_s=0.015)
+
+    assert "in under 1 ms; log complete" in plain_text(render_replay(instant), width=400)
+    assert "in 0.015 s (2× real time)" in plain_text(render_replay(timed), width=400)
+
+
+def test_a_truncated_log_suggests_allowing_it_in_full(record_chunked: RecordFn) -> None:
+    log = record_chunked(300)
+    log.write_bytes(log.read_bytes()[: log.stat().st_size // 2])
+
+    text = plain_text(render_replay(replay(log, probe_system())), width=80)
+
+    assert "--allow-truncated" in " ".join(text.split())
+    assert "allow_truncated = true" in " ".join(text.split())
 
 
 def test_the_summary_names_every_behavior(record_probe: RecordFn) -> None:

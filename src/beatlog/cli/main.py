@@ -12,7 +12,6 @@ interrupted (Ctrl-C: what was complete is printed, no report is half written).
 from __future__ import annotations
 
 import argparse
-import functools
 import os
 import sys
 import time
@@ -41,6 +40,11 @@ that parsing the command line imports nothing heavy."""
 DEMO_ENTRY_POINTS = "beatlog.demo"
 """The entry point group of the package whose demo `beatlog demo` runs."""
 Number = TypeVar("Number", int, float)
+EXIT_CODES = """exit codes:
+  0    passed (or done)
+  1    a replay diverged, a DTC failed or a recording failed
+  2    bad input or usage: one line on stderr naming the file and the problem
+  130  interrupted (Ctrl-C)"""
 
 
 class _UsageError(BeatlogError):
@@ -68,7 +72,17 @@ def _parser() -> argparse.ArgumentParser:
         help="also print the traceback of user code that failed to load",
     )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    add = functools.partial(commands.add_parser, parents=[common])
+
+    def add(name: str, *, help: str) -> argparse.ArgumentParser:
+        """A subcommand whose --help page has a description and ends with the exit codes."""
+        return commands.add_parser(
+            name,
+            parents=[common],
+            help=help,
+            description=help[0].upper() + help[1:] + ".",
+            epilog=EXIT_CODES,
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
 
     record = add("record", help="run a robot in real time and record a session")
     record.add_argument("--robot", required=True, metavar="MODULE:FACTORY", help="robot factory")
@@ -76,25 +90,40 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument(
         "--duration", type=_positive_float, required=True, help="robot time to record (s)"
     )
-    record.add_argument("--period-ms", type=_positive_float, default=30.0, help="heartbeat period")
+    record.add_argument(
+        "--period-ms",
+        type=_positive_float,
+        default=30.0,
+        help="heartbeat period in ms (default: %(default)s)",
+    )
     record.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
-    record.add_argument("--robot-id", default="robot", help="name of the robot in the header")
+    record.add_argument(
+        "--robot-id", default="robot", help="name of the robot in the header (default: %(default)s)"
+    )
     record.add_argument(
         "--system-ref",
         default="",
         metavar="MODULE:FACTORY",
-        help="the system factory replay should use, written into the header",
+        help="the system factory replay uses when given none, written into the header "
+        "(checked before recording starts)",
     )
     record.add_argument("--log-samples", action="store_true", help="also log raw sensor samples")
     record.add_argument(
-        "--flush-interval", type=_positive_float, default=1.0, help="seconds between flushes"
+        "--flush-interval",
+        type=_positive_float,
+        default=1.0,
+        help="seconds of robot time between flushes to disk (default: %(default)s)",
     )
     record.add_argument("--fsync", action="store_true", help="fsync at every flush")
     record.add_argument("--force", action="store_true", help="overwrite an existing log")
 
     play = add("replay", help="replay a session log and give a verdict")
-    play.add_argument("log", type=Path)
-    play.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
+    play.add_argument("log", type=Path, help="the session log (.beatlog) to replay")
+    play.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="system factory (default: the one the log records, from record --system-ref)",
+    )
     play.add_argument(
         "--perception",
         metavar="MODULE:FACTORY",
@@ -118,16 +147,31 @@ def _parser() -> argparse.ArgumentParser:
     _add_test(add("test", help="run DTC specs (*.dtc.toml) in parallel"))
 
     check = add("review", help="show pending baseline changes; accept or reject")
-    check.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
+    check.add_argument(
+        "paths",
+        nargs="*",
+        type=Path,
+        default=[Path()],
+        help="specs or folders with pending baselines (default: the current folder)",
+    )
     accept = add("approve", help="accept the pending baselines of DTC specs")
-    accept.add_argument("paths", nargs="+", type=Path, help="specs or folders")
+    accept.add_argument(
+        "paths", nargs="+", type=Path, help="specs or folders whose pending baselines to accept"
+    )
 
     show = add("show", help="describe a session log")
-    show.add_argument("log", type=Path)
+    show.add_argument("log", type=Path, help="the session log (.beatlog) to describe")
 
-    plot = add("plot", help="draw a PNG timeline of a session log")
-    plot.add_argument("log", type=Path)
-    plot.add_argument("-o", "--output", required=True, type=Path, metavar="FILE.png")
+    plot = add("plot", help="draw a timeline chart of a session log (PNG, SVG or PDF)")
+    plot.add_argument("log", type=Path, help="the session log (.beatlog) to draw")
+    plot.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="the chart to write; its suffix picks the format: .png, .svg or .pdf",
+    )
     plot.add_argument(
         "--system",
         metavar="MODULE:FACTORY",
@@ -144,9 +188,17 @@ def _parser() -> argparse.ArgumentParser:
     _add_export(add)
 
     demo = add("demo", help="record and replay the robot dog, then its suite")
-    demo.add_argument("--duration", type=_positive_float, default=20.0, help="seconds to record")
     demo.add_argument(
-        "--out", type=Path, default=Path("beatlog-demo"), help="where to keep the demo log"
+        "--duration",
+        type=_positive_float,
+        default=20.0,
+        help="seconds to record (default: %(default)s)",
+    )
+    demo.add_argument(
+        "--out",
+        type=Path,
+        default=Path("beatlog-demo"),
+        help="the folder to keep the demo log in (default: %(default)s)",
     )
     return parser
 
@@ -186,13 +238,32 @@ def _demo(args: argparse.Namespace, console: Console) -> int:
 
 def _add_test(test: argparse.ArgumentParser) -> None:
     """The options of ``beatlog test``."""
-    test.add_argument("paths", nargs="*", type=Path, default=[Path()], help="specs or folders")
     test.add_argument(
-        "-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1, help="worker processes"
+        "paths",
+        nargs="*",
+        type=Path,
+        default=[Path()],
+        help="specs (*.dtc.toml) or folders searched for them (default: the current folder)",
     )
-    test.add_argument("-k", dest="select", metavar="NAME", help="only DTCs whose name matches")
     test.add_argument(
-        "--tag", action="append", default=[], help="only DTCs with this tag (repeatable)"
+        "-j",
+        "--jobs",
+        type=_positive_int,
+        default=os.cpu_count() or 1,
+        help="processes replaying at once (default: the number of cores, %(default)s)",
+    )
+    test.add_argument(
+        "-k",
+        dest="select",
+        metavar="EXPRESSION",
+        help="only DTCs matching this expression, as pytest's -k: words matched against "
+        "names and tags, with and, or, not and parentheses (e.g. -k 'touch or pat')",
+    )
+    test.add_argument(
+        "--tag",
+        action="append",
+        default=[],
+        help="only DTCs with this tag; given more than once, only DTCs with every tag given",
     )
     test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
     test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
@@ -257,9 +328,12 @@ def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
 
 def _record(args: argparse.Namespace, console: Console) -> int:
     from beatlog.record.recorder import Recorder
-    from beatlog.usercode import load_robot
+    from beatlog.report.counts import plural
+    from beatlog.usercode import load_robot, load_system
 
     robot = load_robot(args.robot)
+    if args.system_ref:
+        load_system(args.system_ref)  # replay will need it: a typo is found now, not then
     output: Path = args.output
     if not output.parent.is_dir():
         raise _UsageError(f"{output}: directory {output.parent} does not exist")
@@ -294,7 +368,7 @@ def _record(args: argparse.Namespace, console: Console) -> int:
         except KeyboardInterrupt:  # the log is closed as it is; say what it holds
             interrupted = True
     line = (
-        f"recorded {recorder.cycles} cycles ({recorder.robot_time_ns / 1e9:.2f} s, "
+        f"recorded {plural(recorder.cycles, 'cycle')} ({recorder.robot_time_ns / 1e9:.2f} s, "
         f"{recorder.overruns} overruns) to {output}"
     )
     if recorder.error is not None:
@@ -326,23 +400,28 @@ def _progress(console: Console) -> Progress:
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
     )
 
 
 def _replay(args: argparse.Namespace, console: Console) -> int:
     import msgspec
 
-    from beatlog.replay.judge import replay
+    from beatlog.replay.judge import recorded_system, replay
     from beatlog.report.console import render_replay
 
+    system = args.system
+    if system is None:
+        system = recorded_system(args.log)
+        print(f"beatlog: replaying against {system}, as recorded in {args.log}", file=sys.stderr)
     options = {
         "keep_going": args.keep_going,
         "allow_truncated": args.allow_truncated,
         "perception": args.perception,
     }
-    result = replay(args.log, args.system, break_at=args.break_at, **options)
+    result = replay(args.log, system, break_at=args.break_at, **options)
     if args.break_on_divergence and result.divergence is not None:
-        replay(args.log, args.system, break_at=result.divergence.cycle, **options)
+        replay(args.log, system, break_at=result.divergence.cycle, **options)
     if args.json:
         sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
     else:
@@ -410,6 +489,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
     )
     started = time.perf_counter()
     cycles = 0
@@ -525,12 +605,13 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
     _need_matplotlib("plot")
     from beatlog.analysis.timeline import build_timeline
     from beatlog.replay.judge import replay
-    from beatlog.report.chart import write_png
+    from beatlog.report.chart import chart_format, write_chart
 
+    chart_format(args.output)  # an unknown suffix is refused before anything runs
     divergence = None if args.system is None else replay(args.log, args.system).divergence
     timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
     try:
-        write_png(timeline, args.output)
+        write_chart(timeline, args.output)
     except OSError as exc:
         raise _UsageError(f"{args.output}: cannot write: {exc.strerror}") from None
     mark = timeline.divergence

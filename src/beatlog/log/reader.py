@@ -17,10 +17,11 @@ import os
 import struct
 import zlib
 from collections.abc import Iterator
+from dataclasses import dataclass
 from io import BytesIO
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any, NamedTuple, TypeVar
+from typing import IO, Any, TypeVar
 
 import msgspec
 import zstandard
@@ -85,8 +86,12 @@ _SCHEMAS = {
 T = TypeVar("T")
 
 
-class LogStatus(NamedTuple):
-    """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles."""
+@dataclass(frozen=True)
+class LogStatus:
+    """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles.
+
+    A dataclass rather than a tuple, so that ``replay --json`` names its fields.
+    """
 
     complete: bool
     cycles: int

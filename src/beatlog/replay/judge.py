@@ -20,7 +20,7 @@ import msgspec
 
 from beatlog.analysis.renames import propose_renames
 from beatlog.analysis.trace import Expectation, fields_read
-from beatlog.errors import CorruptLogError
+from beatlog.errors import CorruptLogError, SystemLoadError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
@@ -48,12 +48,12 @@ from beatlog.replay.verdict import (
 )
 from beatlog.usercode import load_perception, load_system, user_traceback
 
-__all__ = ["replay"]
+__all__ = ["recorded_system", "replay"]
 
 
 def replay(
     log: str | Path,
-    system: System | str,
+    system: System | str | None = None,
     *,
     keep_going: bool = False,
     allow_truncated: bool = False,
@@ -64,7 +64,8 @@ def replay(
     perception: Perception | str | None = None,
     break_at: int | None = None,
 ) -> ReplayResult:
-    """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference).
+    """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
+    by default the reference recorded in the log's header, see :func:`recorded_system`).
 
     Stops at the first divergence unless ``keep_going`` is set, in which case it
     replays every cycle and counts the ones that diverged. A truncated log fails
@@ -94,6 +95,8 @@ def replay(
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
     """
+    if system is None:
+        system = recorded_system(log)
     reference = system if isinstance(system, str) else None
     if isinstance(system, str):
         system = load_system(system)
@@ -157,6 +160,18 @@ def replay(
             *(["--allow-truncated"] if allow_truncated else []),
         ),
     )
+
+
+def recorded_system(log: str | Path) -> str:
+    """The system reference the log's header records (``beatlog record --system-ref``).
+
+    :raises beatlog.errors.SystemLoadError: the log records none.
+    """
+    with SessionLogReader(log) as reader:
+        reference = reader.header.system
+    if not reference:
+        raise SystemLoadError(f"{log}: records no system; name one (module:factory)")
+    return reference
 
 
 class _Judge:
@@ -401,7 +416,8 @@ class _Judge:
                 kind=DivergenceKind.LOG_ENDED,
                 cycle=context.cycle + 1,
                 time_ns=context.time_ns,
-                message=f"the log ends early ({why})",
+                message=f"the log ends early ({why}); if the session ended there (a crash), "
+                "accept what it holds with --allow-truncated (in a spec: allow_truncated = true)",
             )
         self.divergent_cycles += 1
 

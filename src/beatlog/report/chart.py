@@ -1,5 +1,6 @@
 """Draws a timeline with matplotlib: behavior lanes (recorded vs replayed) over robot-state
-signals, the first divergence marked. One drawing for both ``beatlog plot`` (PNG) and the
+signals, the first divergence marked. One drawing for both ``beatlog plot`` (PNG, SVG or
+PDF, by the file's suffix) and the
 HTML report (inline SVG). Needs the ``plot`` extra; figures are drawn without pyplot, so
 no display or interactive backend is ever touched.
 """
@@ -17,9 +18,21 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from beatlog.analysis.timeline import Interval, Timeline
+from beatlog.errors import OptionError
 from beatlog.model.behavior import BehaviorState
 
-__all__ = ["WIDTH_PX", "chart_size", "draw_timeline", "svg_markup", "write_png"]
+__all__ = [
+    "CHART_FORMATS",
+    "WIDTH_PX",
+    "chart_format",
+    "chart_size",
+    "draw_timeline",
+    "svg_markup",
+    "write_chart",
+]
+
+CHART_FORMATS = ("png", "svg", "pdf")
+"""The file formats a chart is written in, named by the file's suffix."""
 
 WIDTH_PX = 1200
 DPI = 100
@@ -176,12 +189,26 @@ def _draw_row(
             )
 
 
-def write_png(timeline: Timeline, path: str | Path, *, title: str | None = None) -> None:
-    """Draw the timeline into a PNG file of :func:`chart_size`.
+def chart_format(path: str | Path) -> str:
+    """The format of a chart file, from its suffix: one of :data:`CHART_FORMATS`.
 
+    :raises beatlog.errors.OptionError: the suffix names none of them.
+    """
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if suffix not in CHART_FORMATS:
+        given = f"suffix .{suffix}" if suffix else "no suffix"
+        known = ", ".join(f".{name}" for name in CHART_FORMATS)
+        raise OptionError(f"{path}: a chart is written as {known}, not {given}")
+    return suffix
+
+
+def write_chart(timeline: Timeline, path: str | Path, *, title: str | None = None) -> None:
+    """Draw the timeline into a file of :func:`chart_size` in the format its suffix names.
+
+    :raises beatlog.errors.OptionError: the suffix names no format of :data:`CHART_FORMATS`.
     :raises OSError: the file cannot be written.
     """
-    draw_timeline(timeline, title=title).savefig(path, format="png", dpi=DPI)
+    draw_timeline(timeline, title=title).savefig(path, format=chart_format(path), dpi=DPI)
 
 
 def svg_markup(timeline: Timeline, *, title: str | None = None, id_prefix: str = "chart") -> str:

@@ -21,12 +21,16 @@ from beatlog.suite.runner import SpecOutcome, Verdict
 
 __all__ = ["plain_text", "render_replay", "render_suite", "render_summary"]
 
+MEASURABLE_S = 0.001
+"""The shortest wall time a replay's figures report, and compute a speed-up from."""
+
 
 def render_replay(result: ReplayResult) -> RenderableType:
     """A pass line, or the first divergence in one screen."""
-    figures = (
-        f"{result.cycles} cycles, {result.robot_time_s:.1f} s robot time "
-        f"in {result.wall_time_s:.3f} s ({result.speedup:,.0f}× real time)"
+    figures = f"{plural(result.cycles, 'cycle')}, {result.robot_time_s:.1f} s robot time " + (
+        "in under 1 ms"  # too short to time: a speed-up would be noise
+        if result.wall_time_s < MEASURABLE_S
+        else f"in {result.wall_time_s:.3f} s ({result.speedup:,.0f}× real time)"
     )
     status = "" if result.status is None else f"; log {result.status.describe()}"
     if result.ok:
@@ -48,7 +52,10 @@ def _divergence(divergence: Divergence) -> RenderableType:
         f"first divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, "
         f"{divergence.kind.value}"
     )
-    parts: list[RenderableType] = [Text(divergence.message, style="bold")]
+    # Wrapped inside the panel even on a soft-wrapping console, which would clip it.
+    parts: list[RenderableType] = [
+        Text(divergence.message, style="bold", no_wrap=False, overflow="fold")
+    ]
     if divergence.proposed_renames:
         parts.append(_rename_proposal(divergence.proposed_renames))
     if divergence.perception:

@@ -164,7 +164,7 @@ def _section(index: int, outcome: SpecOutcome) -> str:
         ("spec", str(spec.path)),
         ("procedure", " / ".join(spec.procedure)),
         ("log", str(spec.log)),
-        ("system", spec.system),
+        ("system", spec.system or "the one recorded in the log"),
         ("tags", ", ".join(spec.tags) or "—"),
         ("wall time", f"{outcome.wall_time_s:.3f} s"),
         ("rerun", rerun),

@@ -9,6 +9,7 @@ from typing import Any
 from beatlog.analysis.coverage import SuiteCoverage, cover
 from beatlog.errors import BeatlogError
 from beatlog.model.behavior import System
+from beatlog.replay.judge import recorded_system
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import load_system
 
@@ -28,7 +29,7 @@ def _dtcs(specs: Sequence[DtcSpec]) -> Iterator[tuple[str, Path, System | None]]
     for spec in specs:
         system: Any
         try:
-            system = load_system(spec.system)
+            system = load_system(spec.system or recorded_system(spec.log))
         except BeatlogError:  # the verdict reports it; coverage counts what the log holds
             system = None
         yield spec.name, spec.log, system

@@ -16,13 +16,13 @@ from typing import TYPE_CHECKING
 
 from beatlog.analysis.trace import Expectation, ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError
-from beatlog.replay.judge import replay
+from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker
-from beatlog.usercode import load_system
+from beatlog.usercode import importable_near, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -87,8 +87,13 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
     ``timelines`` what it did is charted. The outcome's wall time is the replay's
     alone. The result's reproduce command is ``beatlog test SPEC``, which judges
-    exactly as this run did."""
-    options = options or SpecOptions()
+    exactly as this run did. The spec's references also import from its folder and
+    its project root (:func:`beatlog.usercode.importable_near`)."""
+    with importable_near(spec.path):
+        return _run_spec(spec, options or SpecOptions())
+
+
+def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
     update, audit, timelines = options.update, options.audit, options.timelines
     started = time.perf_counter()
     baseline = expected_path(spec.path)
@@ -101,9 +106,10 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
                     baseline, f"approved for another recording than {spec.log.name}; delete it"
                 )
             expected = approved.expectation
+        system = spec.system or recorded_system(spec.log)
         result = replay(
             spec.log,
-            spec.system,
+            system,
             allow_truncated=spec.allow_truncated,
             comparison=spec.comparison,
             expected=expected,
@@ -114,7 +120,7 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
         divergence = result.divergence
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
-        details = _details(spec, divergence, expected, trace=updating, timelines=timelines)
+        details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         result = dataclasses.replace(result, divergence=divergence, reproduce=_rerun(spec))
@@ -125,7 +131,7 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
         if audit:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
-            report = audit_replay(spec.log, spec.system, allow_truncated=spec.allow_truncated)
+            report = audit_replay(spec.log, system, allow_truncated=spec.allow_truncated)
         drawn = () if details is None else details.timelines
     except BeatlogError as exc:
         wall = time.perf_counter() - started
@@ -154,6 +160,7 @@ def _rerun(spec: DtcSpec) -> str:
 
 def _details(
     spec: DtcSpec,
+    system: str,
     divergence: Divergence | None,
     expected: Expectation | None,
     *,
@@ -167,7 +174,7 @@ def _details(
 
     return replay_details(
         spec.log,
-        load_system(spec.system),
+        load_system(system),
         divergence,
         trace=trace,
         timelines=timelines,

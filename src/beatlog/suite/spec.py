@@ -8,7 +8,7 @@ the system factory to replay it against::
     purpose = "The rover turns away from a pole in its path."
     procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
     log = "avoid-pole.beatlog"            # relative to this file
-    system = "beatlog_examples.rover:system"
+    system = "beatlog_examples.rover:system"  # optional: by default, the log's own
     tags = ["obstacles"]
     allow_truncated = false
     renames = { avoid = "avoid_obstacle" }  # behaviors renamed since recording: old = new
@@ -24,7 +24,6 @@ Renames that hold for every spec go into the project's ``pyproject.toml``, under
 
 from __future__ import annotations
 
-import fnmatch
 import functools
 import math
 import re
@@ -37,8 +36,9 @@ from typing import Any
 import msgspec
 
 from beatlog.errors import SpecError
-from beatlog.files import irregular_file_problem
+from beatlog.files import irregular_file_problem, project_root
 from beatlog.replay.compare import Comparison
+from beatlog.suite.keywords import KeywordExpression
 
 __all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
 
@@ -52,7 +52,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     purpose: str
     procedure: list[str]
     log: str
-    system: str
+    system: str | None = None
     perception: str | None = None
     tags: list[str] = []
     allow_truncated: bool = False
@@ -75,7 +75,8 @@ class DtcSpec:
     purpose: str
     procedure: tuple[str, ...]
     log: Path
-    system: str
+    system: str | None
+    """The ``module:factory`` of the system under test; None for the one the log records."""
     tags: tuple[str, ...] = ()
     allow_truncated: bool = False
     comparison: Comparison = field(default_factory=Comparison)
@@ -149,11 +150,8 @@ def _check_one_to_one(path: Path, key: str, renames: Mapping[str, str]) -> None:
 @functools.cache
 def _project_renames(folder: Path) -> dict[str, str]:
     """``[tool.beatlog.renames]`` of the nearest ``pyproject.toml`` at or above ``folder``."""
-    for candidate in (folder, *folder.parents):
-        pyproject = candidate / "pyproject.toml"
-        if pyproject.is_file():
-            return _read_project(pyproject).renames
-    return {}
+    root = project_root(folder)
+    return {} if root is None else _read_project(root / "pyproject.toml").renames
 
 
 def _read_project(path: Path) -> _ProjectFile:
@@ -223,9 +221,15 @@ def _hidden(relative: Path) -> bool:
 def select_specs(
     specs: Sequence[DtcSpec], *, pattern: str | None = None, tags: Sequence[str] = ()
 ) -> list[DtcSpec]:
-    """Specs whose name matches ``pattern`` (a substring or glob) and that carry every tag."""
-    chosen = list(specs)
-    if pattern:
-        glob = pattern if any(c in pattern for c in "*?[") else f"*{pattern}*"
-        chosen = [spec for spec in chosen if fnmatch.fnmatchcase(spec.name, glob)]
-    return [spec for spec in chosen if set(tags) <= set(spec.tags)]
+    """Specs that match ``pattern`` and carry every tag in ``tags``.
+
+    ``pattern`` is a ``-k`` expression as pytest reads it (``touch or pat``): each word
+    a case-insensitive substring of the spec's name or of one of its tags (see
+    :mod:`beatlog.suite.keywords`).
+    """
+    expression = KeywordExpression.parse(pattern or "")
+    return [
+        spec
+        for spec in specs
+        if expression.matches(spec.name, spec.tags) and set(tags) <= set(spec.tags)
+    ]
