@@ -1,5 +1,6 @@
-"""DTC specs and suites: ``*.dtc.toml`` files, the parallel runner, JUnit output and the
-re-baselining workflow (update, review, approve) with its CI rule.
+"""DTC specs and suites: ``*.dtc.toml`` files, the parallel runner, shards for a CI
+matrix, JUnit output and the re-baselining workflow (update, review, approve) with its
+CI rule.
 
 The names are imported on first use, so that a suite worker
 (:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
@@ -14,6 +15,7 @@ if TYPE_CHECKING:
     from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
     from beatlog.suite.policy import UpdateMode
     from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
+    from beatlog.suite.sharding import Shard, shard
     from beatlog.suite.spec import (
         SPEC_SUFFIX,
         DtcSpec,
@@ -26,6 +28,7 @@ __all__ = [
     "SPEC_SUFFIX",
     "Decision",
     "DtcSpec",
+    "Shard",
     "SpecOutcome",
     "UpdateMode",
     "Verdict",
@@ -36,6 +39,7 @@ __all__ = [
     "run_spec",
     "run_suite",
     "select_specs",
+    "shard",
     "update_baselines",
     "write_junit",
 ]
@@ -57,6 +61,8 @@ __getattr__ = lazy_names(
         "run_spec": "beatlog.suite.runner",
         "run_suite": "beatlog.suite.runner",
         "select_specs": "beatlog.suite.spec",
+        "Shard": "beatlog.suite.sharding",
+        "shard": "beatlog.suite.sharding",
         "write_junit": "beatlog.suite.junit",
     },
 )
