@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import glob
 import queue
 import threading
 import time
@@ -94,7 +95,7 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     baseline = expected_path(spec.path)
     try:
         expected = None
-        if baseline.exists():
+        if spec.source is None and baseline.exists():
             approved = read_baseline(baseline)
             if approved.log_digest != log_digest(spec.log):
                 raise BaselineError(
@@ -148,8 +149,13 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
 
 def _rerun(spec: DtcSpec) -> str:
     """``beatlog test SPEC``: the one command that judges a DTC as a suite run does,
-    with the spec's allowances and approved baseline."""
-    return reproduce_command("test", spec.path)
+    with the spec's allowances and approved baseline; for a fleet log, ``beatlog test
+    --logs LOG --system MODULE:FACTORY``."""
+    if spec.source is None:
+        return reproduce_command("test", spec.path)
+    perception = () if spec.perception is None else ("--perception", spec.perception)
+    log = glob.escape(spec.source)
+    return reproduce_command("test", "--logs", log, "--system", spec.system, *perception)
 
 
 def _details(
