@@ -11,6 +11,7 @@ __all__ = [
     "CorruptLogError",
     "ExportError",
     "FieldError",
+    "FleetError",
     "LogError",
     "LogExistsError",
     "NotABeatlogError",
@@ -71,6 +72,11 @@ class ExportError(BeatlogError):
 class FieldError(BeatlogError):
     """A robot-state field named for a chart that the session's robot state lacks or that
     is not a number; the message names the log."""
+
+
+class FleetError(BeatlogError):
+    """The logs of a fleet run cannot be found or fetched; the message names the pattern
+    or the log."""
 
 
 class OptionError(BeatlogError):

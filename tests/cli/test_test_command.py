@@ -426,3 +426,22 @@ def test_audit_of_a_sound_suite_passes(beatlog_test: BeatlogTest, specs: Path, l
         in run.out
     )
     assert_counts(run, "1 passed, 0 failed", 300)
+
+
+def test_a_long_suite_lists_what_did_not_pass_and_every_dtc_with_verbose(
+    beatlog_test: BeatlogTest, specs: Path, record_probe: RecordFn
+) -> None:
+    short = record_probe(20)
+    for n in range(33):
+        write_spec(specs, f"lap-{n:02}", short)
+    write_spec(specs, "lap-changed", short, "tests.systems:probe_system_greedy")
+
+    brief = beatlog_test(specs)
+    verbose = beatlog_test(specs, "--verbose")
+
+    assert brief.code == verbose.code == 1
+    assert "lap-changed " in brief.out
+    assert "lap-00 " not in brief.out
+    assert "… and 33 passed, not listed: run with --verbose to list every DTC" in brief.out
+    assert all(f"lap-{n:02} " in verbose.out for n in range(33))
+    assert "not listed" not in verbose.out

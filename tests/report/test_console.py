@@ -3,12 +3,21 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
-from beatlog.report.console import plain_text, render_replay, render_summary
+from beatlog.report.console import (
+    MAX_LISTED,
+    plain_text,
+    render_replay,
+    render_suite,
+    render_summary,
+)
+from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.suite.spec import DtcSpec
 from tests.conftest import RecordFn, probe_system
-from tests.specs import CHANGED
+from tests.specs import CHANGED, PROBE
 
 
 def test_a_pass_is_one_verdict_line(record_probe: RecordFn) -> None:
@@ -85,3 +94,45 @@ def test_a_rename_proposal_gives_the_line_for_the_spec(record_probe: RecordFn) -
     text = plain_text(render_replay(result), width=200)
     assert "differs only by renamed behaviors: near → close" in text
     assert 'add to the spec: renames = { "near" = "close" }' in text
+
+
+def outcomes(passed: int, failed: int = 0, errors: int = 0) -> list[SpecOutcome]:
+    """Outcomes of a suite, passes first; enough to draw its summary table."""
+    verdicts = [Verdict.PASSED] * passed + [Verdict.FAILED] * failed + [Verdict.ERROR] * errors
+    return [
+        SpecOutcome(
+            DtcSpec(Path(f"dtc-{n:03}.dtc.toml"), f"dtc-{n:03}", "", (), Path("x.beatlog"), PROBE),
+            verdict,
+            None,
+            "no such file" if verdict is Verdict.ERROR else None,
+            0.01,
+        )
+        for n, verdict in enumerate(verdicts)
+    ]
+
+
+def test_a_suite_of_a_screenful_lists_every_dtc() -> None:
+    text = plain_text(render_suite(outcomes(MAX_LISTED - 1, failed=1)), width=120)
+
+    assert all(f"dtc-{n:03}" in text for n in range(MAX_LISTED))
+    assert "not listed" not in text
+
+
+def test_a_longer_suite_lists_only_what_did_not_pass_and_counts_the_rest() -> None:
+    text = plain_text(render_suite(outcomes(140, failed=2, errors=1)), width=120)
+
+    assert [line.split()[1] for line in text.splitlines() if "dtc-" in line] == [
+        "dtc-140",
+        "dtc-141",
+        "dtc-142",
+    ]
+    assert text.rstrip().endswith(
+        "… and 140 passed, not listed: run with --verbose to list every DTC"
+    )
+
+
+def test_every_dtc_of_a_longer_suite_is_listed_when_asked() -> None:
+    text = plain_text(render_suite(outcomes(140, failed=2), every=True), width=120)
+
+    assert sum("dtc-" in line for line in text.splitlines()) == 142
+    assert "not listed" not in text

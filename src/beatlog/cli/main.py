@@ -29,6 +29,7 @@ if TYPE_CHECKING:
     from rich.progress import Progress
 
     from beatlog.suite.runner import SpecOutcome
+    from beatlog.suite.sharding import Shard
     from beatlog.suite.spec import DtcSpec
 
 __all__ = ["main"]
@@ -69,7 +70,8 @@ def _parser() -> argparse.ArgumentParser:
         "-v",
         "--verbose",
         action="store_true",
-        help="also print the traceback of user code that failed to load",
+        help="also print the traceback of user code that failed to load; "
+        "test: list every DTC in the summary",
     )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
@@ -296,6 +298,37 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         metavar="NAME",
         help="run only the DTCs whose recordings change this behavior's state",
     )
+    test.add_argument(
+        "--shard",
+        type=_shard,
+        metavar="I/N",
+        help="run only shard I of N (from 1), split evenly by recorded cycles: "
+        "N CI jobs with --shard 1/N ... N/N run every DTC once",
+    )
+    test.add_argument(
+        "--logs",
+        metavar="GLOB",
+        help="replay every matching log against --system, no spec needed "
+        '(a local glob, or a URL with pip install "beatlog[fleet]")',
+    )
+    test.add_argument(
+        "--system", metavar="MODULE:FACTORY", help="the system factory of a --logs run"
+    )
+    test.add_argument(
+        "--perception",
+        metavar="MODULE:FACTORY",
+        help="the perception step of a --logs run: rebuild each robot state from the samples",
+    )
+
+
+def _shard(text: str) -> Shard:
+    from beatlog.errors import OptionError
+    from beatlog.suite.sharding import Shard
+
+    try:
+        return Shard.parse(text)
+    except OptionError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _cycle_number(text: str) -> int:
@@ -429,11 +462,12 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK if result.ok else EXIT_FAILED
 
 
-def _selected_specs(args: argparse.Namespace) -> list[DtcSpec]:
-    """The specs ``beatlog test`` runs: found under the paths, selected by -k and --tag."""
+def _selected_specs(args: argparse.Namespace, fleet: list[DtcSpec] | None = None) -> list[DtcSpec]:
+    """The specs ``beatlog test`` runs: found under the paths (or those of a fleet run's
+    logs), selected by -k and --tag, and of those the shard's share."""
     from beatlog.suite.spec import discover_specs, select_specs
 
-    found = discover_specs(args.paths)
+    found = discover_specs(args.paths) if fleet is None else fleet
     specs = select_specs(found, pattern=args.select, tags=args.tag)
     if specs and args.behavior is not None:
         from beatlog.suite.coverage import select_exercising
@@ -442,10 +476,14 @@ def _selected_specs(args: argparse.Namespace) -> list[DtcSpec]:
         if not specs:
             raise _UsageError(f"no DTC changes the state of behavior {args.behavior!r}")
     if not specs:
-        where = " ".join(str(path) for path in args.paths)
+        where = " ".join(str(path) for path in args.paths) if fleet is None else args.logs
         if found:
             raise _UsageError(f"none of the {len(found)} DTC specs in {where} match -k/--tag")
         raise _UsageError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
+    if args.shard is not None:
+        from beatlog.suite.sharding import shard
+
+        return shard(specs, args.shard.index, args.shard.count)
     return list(specs)
 
 
@@ -474,13 +512,33 @@ def _test_exit_code(outcomes: list[SpecOutcome]) -> int:
 
 
 def _test(args: argparse.Namespace, console: Console) -> int:
+    if args.logs is None:
+        if args.system is not None or args.perception is not None:
+            raise _UsageError("--system and --perception go with --logs: a spec names its own")
+        return _run_tests(args, console)
+    from beatlog.suite.fleet import fleet_specs
+
+    if args.system is None:
+        raise _UsageError("--logs needs --system MODULE:FACTORY to replay the logs against")
+    if args.paths != [Path()]:
+        raise _UsageError("give DTC specs or --logs, not both")
+    if args.update is not UpdateMode.NONE:
+        raise _UsageError("--update writes the baselines of specs; --logs runs have none")
+    with fleet_specs(args.logs, system=args.system, perception=args.perception) as fleet:
+        return _run_tests(args, console, fleet)
+
+
+def _run_tests(
+    args: argparse.Namespace, console: Console, fleet: list[DtcSpec] | None = None
+) -> int:
+    """Run the specs, or a fleet run's logs, as ``beatlog test`` does."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from beatlog.report.console import render_suite
     from beatlog.report.counts import verdict_counts
     from beatlog.suite.runner import Verdict, run_suite
 
-    specs = _selected_specs(args)
+    specs = _selected_specs(args, fleet)
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -529,7 +587,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     wall = time.perf_counter() - started
     outcomes = [finished[spec.path] for spec in specs if spec.path in finished]
     if outcomes:
-        console.print(render_suite(outcomes))
+        console.print(render_suite(outcomes, every=args.verbose))
         if args.audit:
             from beatlog.report.audit import render_audit
 
@@ -554,7 +612,8 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
     from beatlog.suite.maintenance import update_baselines
 
     show_updates(update_baselines(outcomes, args.update), console)
-    report_orphans(args.paths, console)
+    if args.logs is None:
+        report_orphans(args.paths, console)
     if args.junit_xml is not None:
         try:
             write_junit(args.junit_xml, outcomes, describe=lambda o: plain_text(_describe(o)))

@@ -10,7 +10,7 @@ from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd, SessionHeader
-    from beatlog.log.reader import LogStatus, SessionLogReader
+    from beatlog.log.reader import LogStatus, SessionLogReader, recorded_cycles
     from beatlog.log.writer import SessionLogWriter
 
 __all__ = [
@@ -21,6 +21,7 @@ __all__ = [
     "SessionHeader",
     "SessionLogReader",
     "SessionLogWriter",
+    "recorded_cycles",
 ]
 
 __getattr__ = lazy_names(
@@ -33,5 +34,6 @@ __getattr__ = lazy_names(
         "SessionHeader": "beatlog.log.format",
         "SessionLogReader": "beatlog.log.reader",
         "SessionLogWriter": "beatlog.log.writer",
+        "recorded_cycles": "beatlog.log.reader",
     },
 )

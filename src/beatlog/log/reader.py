@@ -26,6 +26,7 @@ from typing import IO, Any, TypeVar
 import msgspec
 import zstandard
 from mcap.data_stream import ReadDataStream
+from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.records import (
     Channel,
@@ -67,10 +68,13 @@ from beatlog.log.limits import (
     MAX_SCHEMA_BYTES,
 )
 
-__all__ = ["LogStatus", "SessionLogReader"]
+__all__ = ["LogStatus", "SessionLogReader", "recorded_cycles"]
 
 _MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = 9
+_FOOTER_BYTES = 20
+"""A footer's body: where the summary and its offsets start (8 bytes each), its CRC (4)."""
+_FOOTER_RECORD = _RECORD_HEAD + _FOOTER_BYTES
 _KNOWN_OPCODES = frozenset(Opcode)
 _DATA_RECORDS = frozenset({Opcode.CHUNK, Opcode.MESSAGE_INDEX, Opcode.DATA_END})
 _SUMMARY_RECORDS = frozenset(
@@ -470,30 +474,13 @@ class SessionLogReader:
         return [reader(stream)]
 
     def _chunk_records(self, chunk: Chunk) -> list[McapRecord]:
-        """Open a chunk within the bounds, check its CRC and split it into its records.
-
-        The CRC is always checked: beatlog's writer always computes it, so a stored 0
-        is not "no CRC" but must match, like any other value.
-        """
-        size = chunk.uncompressed_size
-        if chunk.compression not in _COMPRESSIONS:
-            raise _DamageError(f"unknown chunk compression {chunk.compression!r}")
-        if size > MAX_CHUNK_BYTES:
-            raise _DamageError(f"a chunk claims {size} bytes uncompressed")
-        self._expanded += size
+        """Open a chunk within the bounds, the file's included, and split it into its
+        records."""
+        _check_chunk_bounds(chunk)
+        self._expanded += chunk.uncompressed_size
         if self._expanded > MAX_EXPANSION * self._size + MAX_CHUNK_BYTES:
             raise _DamageError("chunks decompress to implausibly much data (a zip bomb?)")
-        data = chunk.data
-        if chunk.compression == "zstd":
-            try:
-                data = zstandard.ZstdDecompressor().stream_reader(data).read(size + 1)
-            except zstandard.ZstdError as exc:
-                raise _DamageError(f"chunk does not decompress: {exc}") from None
-        if len(data) != size:
-            raise _DamageError(f"chunk holds {len(data)} bytes where it declares {size}")
-        if zlib.crc32(data) != chunk.uncompressed_crc:
-            raise _DamageError("chunk CRC mismatch")
-        return _split_chunk(data)
+        return _split_records(_unpack_chunk(chunk), _CHUNK_RECORDS, "a chunk")
 
     def _check_summary(self) -> None:
         """The summary section must describe exactly the data read: same chunks at the
@@ -525,27 +512,113 @@ class SessionLogReader:
                 raise CorruptLogError(self.path, f"the summary redefines schema {record.id}")
 
 
-def _split_chunk(data: bytes) -> list[McapRecord]:
-    """The records of an opened chunk: schemas, channels and messages only."""
+def recorded_cycles(path: str | Path) -> int | None:
+    """The cycles the end record of a closed log counts, or None where there is none to
+    read cheaply: the log was cut off, is damaged, or is no session log.
+
+    Only the footer, the summary section and the chunk that holds the end record are
+    read, each within the bounds of :mod:`beatlog.log.limits`: a cost that does not grow
+    with the recording, for planning work such as splitting a suite into shards. Nothing
+    else is checked; judging a log is :class:`SessionLogReader`'s job.
+    """
+    path = Path(path)
+    if irregular_file_problem(path) is not None:
+        return None
+    try:
+        with path.open("rb") as file:
+            return _end_record_cycles(file, os.fstat(file.fileno()).st_size)
+    except (OSError, McapError, _DamageError, ValueError, struct.error, *DECODE_ERRORS):
+        return None
+
+
+def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
+    """The end record's cycle count, found through the footer and the summary's index."""
+    footer_at = size - len(_MAGIC) - _FOOTER_RECORD
+    if footer_at <= len(_MAGIC) or file.read(len(_MAGIC)) != _MAGIC:
+        return None
+    file.seek(footer_at)
+    tail = file.read(_FOOTER_RECORD + len(_MAGIC))
+    opcode, length = struct.unpack_from("<BQ", tail)
+    if (opcode, length, tail[_FOOTER_RECORD:]) != (Opcode.FOOTER, _FOOTER_BYTES, _MAGIC):
+        return None
+    summary_start = Footer.read(ReadDataStream(BytesIO(tail[_RECORD_HEAD:]))).summary_start
+    if not len(_MAGIC) < summary_start <= footer_at or footer_at - summary_start > MAX_CHUNK_BYTES:
+        return None
+    file.seek(summary_start)
+    summary = _split_records(file.read(footer_at - summary_start), _SUMMARY_RECORDS, "the summary")
+    ends = {r.id for r in summary if isinstance(r, Channel) and r.topic == END_TOPIC}
+    # A chunk holds at most MAX_CHUNK_BYTES, and compression never doubles it.
+    holding = [
+        r.chunk_start_offset
+        for r in summary
+        if isinstance(r, ChunkIndex)
+        and not ends.isdisjoint(r.message_index_offsets)
+        and r.chunk_length <= 2 * MAX_CHUNK_BYTES
+        and r.chunk_start_offset + r.chunk_length <= summary_start
+    ]
+    if len(ends) != 1 or len(holding) != 1:
+        return None
+    file.seek(holding[0])
+    opcode, length = struct.unpack("<BQ", file.read(_RECORD_HEAD))
+    if opcode != Opcode.CHUNK or length > 2 * MAX_CHUNK_BYTES:
+        return None
+    chunk = Chunk.read(ReadDataStream(BytesIO(file.read(length))))
+    _check_chunk_bounds(chunk)
+    records = _split_records(_unpack_chunk(chunk), _CHUNK_RECORDS, "a chunk")
+    end = [r for r in records if isinstance(r, Message) and r.channel_id in ends]
+    if len(end) != 1:
+        return None
+    return msgspec.msgpack.decode(end[0].data, type=SessionEnd).cycles
+
+
+def _check_chunk_bounds(chunk: Chunk) -> None:
+    """A chunk must use a compression the format allows and stay within one chunk's size."""
+    if chunk.compression not in _COMPRESSIONS:
+        raise _DamageError(f"unknown chunk compression {chunk.compression!r}")
+    if chunk.uncompressed_size > MAX_CHUNK_BYTES:
+        raise _DamageError(f"a chunk claims {chunk.uncompressed_size} bytes uncompressed")
+
+
+def _unpack_chunk(chunk: Chunk) -> bytes:
+    """The data of a chunk within its bounds, decompressed and checked against its CRC.
+
+    The CRC is always checked: beatlog's writer always computes it, so a stored 0
+    is not "no CRC" but must match, like any other value.
+    """
+    size = chunk.uncompressed_size
+    data = chunk.data
+    if chunk.compression == "zstd":
+        try:
+            data = zstandard.ZstdDecompressor().stream_reader(data).read(size + 1)
+        except zstandard.ZstdError as exc:
+            raise _DamageError(f"chunk does not decompress: {exc}") from None
+    if len(data) != size:
+        raise _DamageError(f"chunk holds {len(data)} bytes where it declares {size}")
+    if zlib.crc32(data) != chunk.uncompressed_crc:
+        raise _DamageError("chunk CRC mismatch")
+    return data
+
+
+def _split_records(data: bytes, allowed: frozenset[int], where: str) -> list[McapRecord]:
+    """The records packed in ``data`` (an opened chunk, the summary section), each of a kind
+    in ``allowed``."""
     records: list[McapRecord] = []
     position = 0
     while position < len(data):
         if position + _RECORD_HEAD > len(data):
-            raise _DamageError("a record inside a chunk is cut off")
+            raise _DamageError(f"a record inside {where} is cut off")
         opcode, length = struct.unpack_from("<BQ", data, position)
         start = position + _RECORD_HEAD
         position = start + length
-        if opcode not in _CHUNK_RECORDS or position > len(data):
-            raise _DamageError(f"a damaged record inside a chunk (opcode {opcode:#x})")
+        if opcode not in allowed or position > len(data):
+            raise _DamageError(f"a damaged record inside {where} (opcode {opcode:#x})")
         stream = ReadDataStream(BytesIO(data[start:position]))
         if opcode == Opcode.MESSAGE:
             records.append(Message.read(stream, length))
-        elif opcode == Opcode.CHANNEL:
-            records.append(Channel.read(stream))
         else:
-            records.append(Schema.read(stream))
+            records.append(_TOP_LEVEL[Opcode(opcode)](stream))
         if stream.count != length:
-            raise _DamageError(f"a record inside a chunk has {length - stream.count} extra bytes")
+            raise _DamageError(f"a record inside {where} has {length - stream.count} extra bytes")
     return records
 
 

@@ -19,7 +19,10 @@ from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult
 from beatlog.report.counts import plural
 from beatlog.suite.runner import SpecOutcome, Verdict
 
-__all__ = ["plain_text", "render_replay", "render_suite", "render_summary"]
+__all__ = ["MAX_LISTED", "plain_text", "render_replay", "render_suite", "render_summary"]
+
+MAX_LISTED = 30
+"""The most DTCs a suite's summary table lists whole: about a screenful."""
 
 MEASURABLE_S = 0.001
 """The shortest wall time a replay's figures report, and compute a speed-up from."""
@@ -223,13 +226,18 @@ def _counts(counts: dict[str, int]) -> str:
     return f"{total} ({', '.join(f'{kind} {n}' for kind, n in counts.items())})"
 
 
-def render_suite(outcomes: Sequence[SpecOutcome]) -> RenderableType:
-    """The summary table of a suite run, one row per DTC."""
+def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> RenderableType:
+    """The summary table of a suite run, one row per DTC; with more than
+    :data:`MAX_LISTED` DTCs, unless ``every``, only those that did not pass, and a line
+    that counts the others."""
+    listed = outcomes
+    if not every and len(outcomes) > MAX_LISTED:
+        listed = [outcome for outcome in outcomes if outcome.verdict is not Verdict.PASSED]
     table = Table(title="DTC suite", title_justify="left")
     for column in ("DTC", "verdict", "cycles", "robot time", "wall", "first divergence"):
         table.add_column(column, justify="right" if column in ("cycles", "wall") else "left")
     styles = {Verdict.PASSED: "green", Verdict.FAILED: "red", Verdict.ERROR: "magenta"}
-    for outcome in outcomes:
+    for outcome in listed:
         result = outcome.result
         divergence = result.divergence if result else None
         table.add_row(
@@ -247,7 +255,16 @@ def render_suite(outcomes: Sequence[SpecOutcome]) -> RenderableType:
                 else (outcome.error or "")
             ),
         )
-    return table
+    if len(listed) == len(outcomes):
+        return table
+    hidden = len(outcomes) - len(listed)
+    return Group(
+        table,
+        Text(
+            f"… and {hidden} passed, not listed: run with --verbose to list every DTC",
+            style="dim",
+        ),
+    )
 
 
 def plain_text(renderable: RenderableType, *, width: int = 100) -> str:

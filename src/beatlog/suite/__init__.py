@@ -1,5 +1,6 @@
-"""DTC specs and suites: ``*.dtc.toml`` files, the parallel runner, JUnit output and the
-re-baselining workflow (update, review, approve) with its CI rule.
+"""DTC specs and suites: ``*.dtc.toml`` files, fleet runs of logs without specs, the
+parallel runner, shards for a CI matrix, JUnit output and the re-baselining workflow
+(update, review, approve) with its CI rule.
 
 The names are imported on first use, so that a suite worker
 (:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
@@ -10,10 +11,12 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
+    from beatlog.suite.fleet import fleet_specs
     from beatlog.suite.junit import write_junit
     from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
     from beatlog.suite.policy import UpdateMode
     from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
+    from beatlog.suite.sharding import Shard, shard
     from beatlog.suite.spec import (
         SPEC_SUFFIX,
         DtcSpec,
@@ -26,16 +29,19 @@ __all__ = [
     "SPEC_SUFFIX",
     "Decision",
     "DtcSpec",
+    "Shard",
     "SpecOutcome",
     "UpdateMode",
     "Verdict",
     "approve",
     "decide",
     "discover_specs",
+    "fleet_specs",
     "load_spec",
     "run_spec",
     "run_suite",
     "select_specs",
+    "shard",
     "update_baselines",
     "write_junit",
 ]
@@ -53,10 +59,13 @@ __getattr__ = lazy_names(
         "SpecOutcome": "beatlog.suite.runner",
         "Verdict": "beatlog.suite.runner",
         "discover_specs": "beatlog.suite.spec",
+        "fleet_specs": "beatlog.suite.fleet",
         "load_spec": "beatlog.suite.spec",
         "run_spec": "beatlog.suite.runner",
         "run_suite": "beatlog.suite.runner",
         "select_specs": "beatlog.suite.spec",
+        "Shard": "beatlog.suite.sharding",
+        "shard": "beatlog.suite.sharding",
         "write_junit": "beatlog.suite.junit",
     },
 )

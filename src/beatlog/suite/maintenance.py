@@ -83,10 +83,10 @@ def update_baselines(
 
     In :attr:`UpdateMode.NEW` every failure that carries a new expectation (the suite
     was run in that mode) gets it written to its pending file, and a passing DTC's
-    stale pending file is removed; accepted baselines are never touched. In
-    :attr:`UpdateMode.NONE` nothing is done. When ``CI`` is set nothing is written:
-    each failure whose new expectation was traced is reported
-    :attr:`UpdateAction.WITHHELD`.
+    stale pending file is removed; accepted baselines are never touched, and the DTCs
+    of fleet logs (no spec file) have none. In :attr:`UpdateMode.NONE` nothing is done.
+    When ``CI`` is set nothing is written: each failure whose new expectation was traced
+    is reported :attr:`UpdateAction.WITHHELD`.
     """
     if UpdateMode.parse(mode) is UpdateMode.NONE:
         return []
@@ -94,6 +94,8 @@ def update_baselines(
     ci = in_ci()
     for outcome in outcomes:
         spec, update = outcome.spec, outcome.update
+        if spec.source is not None:  # a fleet log: no spec file, so no baselines
+            continue
         pending = pending_path(spec.path)
         if update is not None:
             counts = len(update.changes), len(update.outputs or ())

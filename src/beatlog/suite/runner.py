@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import glob
 import queue
 import threading
 import time
@@ -99,7 +100,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
     baseline = expected_path(spec.path)
     try:
         expected = None
-        if baseline.exists():
+        if spec.source is None and baseline.exists():
             approved = read_baseline(baseline)
             if approved.log_digest != log_digest(spec.log):
                 raise BaselineError(
@@ -154,8 +155,14 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
 
 def _rerun(spec: DtcSpec) -> str:
     """``beatlog test SPEC``: the one command that judges a DTC as a suite run does,
-    with the spec's allowances and approved baseline."""
-    return reproduce_command("test", spec.path)
+    with the spec's allowances and approved baseline; for a fleet log, ``beatlog test
+    --logs LOG --system MODULE:FACTORY``."""
+    if spec.source is None:
+        return reproduce_command("test", spec.path)
+    perception = () if spec.perception is None else ("--perception", spec.perception)
+    system = () if spec.system is None else ("--system", spec.system)
+    log = glob.escape(spec.source)
+    return reproduce_command("test", "--logs", log, *system, *perception)
 
 
 def _details(

@@ -83,6 +83,10 @@ class DtcSpec:
     """What counts as the same when this DTC is judged (renames, ignores, tolerances)."""
     perception: str | None = None
     """The ``module:factory`` of the perception step: replay from the logged samples."""
+    source: str | None = None
+    """For a DTC made from a log alone, with no spec file (a fleet run, see
+    :mod:`beatlog.suite.fleet`): the log's path or URL as matched. Such a DTC has no
+    baseline; it is judged against its recording."""
 
 
 def load_spec(path: str | Path) -> DtcSpec:

@@ -1,0 +1,71 @@
+"""Splits a suite into shards for a CI matrix: N jobs that each run ``--shard I/N`` cover
+every DTC exactly once, with about the same number of recorded cycles each.
+
+The split depends only on the specs' paths and their logs' cycle counts, so every job
+of the matrix computes the same one: specs are sorted by path, then given, the longest
+recording first, to the shard with the fewest cycles so far (the first such shard on a
+tie). A log whose cycle count cannot be read cheaply (one cut off, damaged or missing)
+counts 0 cycles: it still lands in exactly one shard, and its run says what is wrong.
+"""
+
+from __future__ import annotations
+
+import heapq
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from beatlog.errors import OptionError
+from beatlog.log.reader import recorded_cycles
+from beatlog.suite.spec import DtcSpec
+
+__all__ = ["Shard", "shard", "split"]
+
+
+@dataclass(frozen=True)
+class Shard:
+    """Shard ``index`` of ``count`` (1-based, as in ``--shard 2/4``)."""
+
+    index: int
+    count: int
+
+    @classmethod
+    def parse(cls, text: str) -> Shard:
+        """The shard written ``I/N``; anything else raises :class:`OptionError`."""
+        match = re.fullmatch(r"\s*(\d+)\s*/\s*(\d+)\s*", text)
+        if match is None:
+            raise OptionError(f"expected a shard I/N such as 2/4, got {text!r}")
+        index, count = int(match[1]), int(match[2])
+        if count < 1:
+            raise OptionError(f"shard {text!r}: N must be at least 1")
+        if not 1 <= index <= count:
+            raise OptionError(f"shard {text!r}: I must be from 1 to {count}")
+        return cls(index, count)
+
+    def __str__(self) -> str:
+        return f"{self.index}/{self.count}"
+
+
+def split(specs: Sequence[DtcSpec], count: int) -> list[list[DtcSpec]]:
+    """The specs in ``count`` shards balanced by recorded cycles, each in path order.
+
+    No shard has more cycles than another by more than the longest recording's.
+    """
+    if count < 1:
+        raise ValueError(f"a suite splits into at least 1 shard, not {count}")
+    ordered = sorted(specs, key=lambda spec: spec.path)
+    weights = [recorded_cycles(spec.log) or 0 for spec in ordered]
+    shards: list[list[DtcSpec]] = [[] for _ in range(count)]
+    loads = [(0, index) for index in range(count)]
+    for position in sorted(range(len(ordered)), key=lambda at: -weights[at]):
+        load, index = heapq.heappop(loads)
+        shards[index].append(ordered[position])
+        heapq.heappush(loads, (load + weights[position], index))
+    return [sorted(chosen, key=lambda spec: spec.path) for chosen in shards]
+
+
+def shard(specs: Sequence[DtcSpec], index: int, count: int) -> list[DtcSpec]:
+    """The specs of shard ``index`` of ``count`` (1-based) of :func:`split`."""
+    if not 1 <= index <= count:
+        raise ValueError(f"shard {index} of {count}: the index must be from 1 to {count}")
+    return split(specs, count)[index - 1]

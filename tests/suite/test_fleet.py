@@ -1,0 +1,187 @@
+"""Fleet runs as a library: a DTC per log that matches a glob or an fsspec URL, judged
+against its recording, the logs behind a URL copied for the run and removed after it."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import fsspec
+import pytest
+
+from beatlog.errors import FleetError
+from beatlog.suite.baseline import expected_path, pending_path
+from beatlog.suite.fleet import FLEET_PURPOSE, fleet_specs
+from beatlog.suite.maintenance import update_baselines
+from beatlog.suite.policy import UpdateMode
+from beatlog.suite.runner import Verdict, run_suite
+from tests.conftest import RecordFn
+from tests.specs import CHANGED, PROBE
+
+
+@pytest.fixture
+def logs(tmp_path: Path, record_probe: RecordFn) -> Path:
+    """``logs/`` with two probe sessions, one in a subfolder, and a note that is no log."""
+    (tmp_path / "logs" / "tuesday").mkdir(parents=True)
+    record_probe(40, name="logs/monday.beatlog")
+    record_probe(60, name="logs/tuesday/dock.beatlog")
+    (tmp_path / "logs" / "notes.txt").write_text("not a log", encoding="utf-8")
+    return tmp_path / "logs"
+
+
+@pytest.fixture
+def memory(logs: Path) -> Iterator[str]:
+    """The logs in fsspec's in-memory filesystem, under a folder of this test's own."""
+    filesystem = fsspec.filesystem("memory")
+    folder = f"/{logs.parent.name}"
+    filesystem.put(str(logs), folder, recursive=True)
+    yield f"memory://{folder}"
+    filesystem.rm(folder, recursive=True)
+
+
+def test_each_matching_log_becomes_a_dtc_named_after_its_file(logs: Path) -> None:
+    with fleet_specs(f"{logs}/**/*.beatlog", system=PROBE) as specs:
+        assert [spec.name for spec in specs] == ["monday", "dock"]
+        [monday, dock] = specs
+        assert monday.log == monday.path == logs / "monday.beatlog"
+        assert monday.source == str(logs / "monday.beatlog")
+        assert dock.log == logs / "tuesday" / "dock.beatlog"
+        assert (monday.purpose, monday.procedure) == (FLEET_PURPOSE, ())
+        assert (monday.system, monday.perception, monday.tags) == (PROBE, None, ())
+
+
+def test_a_fleet_run_judges_each_log_against_its_recording(logs: Path) -> None:
+    with fleet_specs(f"{logs}/*.beatlog", system=PROBE) as specs:
+        outcomes = run_suite(specs)
+
+    assert [(o.spec.name, o.verdict) for o in outcomes] == [("monday", Verdict.PASSED)]
+
+
+def test_a_fleet_log_ignores_files_beside_it_that_a_spec_would_read(logs: Path) -> None:
+    log = logs / "monday.beatlog"
+    expected_path(log).write_text("not a baseline", encoding="utf-8")
+
+    with fleet_specs(str(log), system=CHANGED) as specs:
+        [outcome] = run_suite(specs, update=UpdateMode.NEW)
+
+    assert outcome.verdict is Verdict.FAILED
+    assert outcome.baseline is None
+    assert update_baselines([outcome], UpdateMode.NEW) == []
+    assert not pending_path(log).exists()
+
+
+def test_a_failing_fleet_log_is_rerun_by_a_fleet_run_of_that_log(logs: Path) -> None:
+    with fleet_specs(f"{logs}/*.beatlog", system=CHANGED) as specs:
+        [outcome] = run_suite(specs)
+
+    assert outcome.result is not None
+    assert (
+        outcome.result.reproduce == f"beatlog test --logs {logs}/monday.beatlog --system {CHANGED}"
+    )
+
+
+def test_the_rerun_command_keeps_the_perception_step(logs: Path) -> None:
+    with fleet_specs(f"{logs}/*.beatlog", system=CHANGED, perception="a.b:c") as specs:
+        [outcome] = run_suite(specs)
+
+    assert outcome.reproduce == (
+        f"beatlog test --logs {logs}/monday.beatlog --system {CHANGED} --perception a.b:c"
+    )
+
+
+def test_a_log_name_with_glob_characters_is_escaped_in_the_rerun_command(
+    logs: Path,
+) -> None:
+    odd = logs / "run[1].beatlog"
+    (logs / "monday.beatlog").rename(odd)
+
+    with fleet_specs(f"{logs}/*.beatlog", system=CHANGED) as specs:
+        [outcome] = run_suite(specs)
+
+    assert outcome.reproduce == (
+        f"beatlog test --logs '{logs}/run[[]1].beatlog' --system {CHANGED}"
+    )
+
+
+def test_logs_behind_a_url_are_copied_for_the_run_and_removed_after_it(memory: str) -> None:
+    with fleet_specs(f"{memory}/**/*.beatlog", system=PROBE) as specs:
+        assert [spec.name for spec in specs] == ["monday", "dock"]
+        assert [spec.source for spec in specs] == [
+            f"{memory}/monday.beatlog",
+            f"{memory}/tuesday/dock.beatlog",
+        ]
+        assert all(spec.log.is_file() for spec in specs)
+        outcomes = run_suite(specs)
+        copies = [spec.log for spec in specs]
+
+    assert [outcome.verdict for outcome in outcomes] == [Verdict.PASSED] * 2
+    assert not any(copy.exists() for copy in copies)
+
+
+def test_a_file_url_reads_the_local_folder(logs: Path) -> None:
+    with fleet_specs(f"file://{logs}/*.beatlog", system=PROBE) as specs:
+        assert [spec.source for spec in specs] == [f"file://{logs}/monday.beatlog"]
+        assert [outcome.verdict for outcome in run_suite(specs)] == [Verdict.PASSED]
+
+
+def test_a_log_behind_a_url_larger_than_the_limit_is_refused(memory: str) -> None:
+    with (
+        pytest.raises(FleetError) as raised,
+        fleet_specs(f"{memory}/*.beatlog", system=PROBE, max_log_bytes=100),
+    ):
+        pass
+
+    assert str(raised.value) == (
+        f"{memory}/monday.beatlog: larger than the 100 bytes a fleet log may have"
+    )
+
+
+@pytest.mark.parametrize("where", ["local", "url"])
+def test_a_pattern_that_matches_no_log_is_named(logs: Path, memory: str, where: str) -> None:
+    pattern = f"{logs if where == 'local' else memory}/*.mcap"
+
+    with pytest.raises(FleetError) as raised, fleet_specs(pattern, system=PROBE):
+        pass
+
+    assert str(raised.value) == f"--logs {pattern}: no log matches"
+
+
+def test_a_url_without_fsspec_says_what_to_install(monkeypatch: pytest.MonkeyPatch) -> None:
+    for name in [name for name in sys.modules if name.startswith("fsspec")]:
+        monkeypatch.setitem(sys.modules, name, None)
+    monkeypatch.setitem(sys.modules, "fsspec", None)
+
+    with pytest.raises(FleetError) as raised, fleet_specs("s3://bucket/*.beatlog", system=PROBE):
+        pass
+
+    assert str(raised.value) == (
+        '--logs s3://bucket/*.beatlog: a URL needs fsspec (pip install "beatlog[fleet]")'
+    )
+
+
+def test_an_unknown_url_scheme_cannot_be_listed() -> None:
+    with (
+        pytest.raises(FleetError, match=r"^--logs nowhere://x/\*: cannot list: "),
+        fleet_specs("nowhere://x/*", system=PROBE),
+    ):
+        pass
+
+
+@pytest.mark.parametrize(
+    ("system", "perception", "problem"),
+    [
+        ("tests.conftest", None, "--system: expected module:factory, got 'tests.conftest'"),
+        (PROBE, "perceive", "--perception: expected module:factory, got 'perceive'"),
+    ],
+)
+def test_a_system_reference_without_a_factory_is_refused(
+    logs: Path, system: str, perception: str | None, problem: str
+) -> None:
+    with (
+        pytest.raises(FleetError) as raised,
+        fleet_specs(f"{logs}/*.beatlog", system=system, perception=perception),
+    ):
+        pass
+
+    assert str(raised.value) == problem
