@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import struct
+import threading
 import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -468,6 +469,8 @@ class SessionLogReader:
         if opcode == Opcode.FOOTER:
             self._footer = Footer.read(stream)
             return []
+        if opcode == Opcode.MESSAGE_INDEX:  # an index into a chunk just read: not needed
+            return []
         reader = _TOP_LEVEL.get(Opcode(opcode)) if opcode in _KNOWN_OPCODES else None
         if reader is None:
             raise _DamageError(f"unknown record opcode {opcode:#x}")
@@ -579,6 +582,17 @@ def _check_chunk_bounds(chunk: Chunk) -> None:
         raise _DamageError(f"a chunk claims {chunk.uncompressed_size} bytes uncompressed")
 
 
+_THREAD = threading.local()
+
+
+def _decompressor() -> zstandard.ZstdDecompressor:
+    """This thread's zstd decompressor (one may not serve two threads at once)."""
+    found: zstandard.ZstdDecompressor | None = getattr(_THREAD, "decompressor", None)
+    if found is None:
+        found = _THREAD.decompressor = zstandard.ZstdDecompressor()
+    return found
+
+
 def _unpack_chunk(chunk: Chunk) -> bytes:
     """The data of a chunk within its bounds, decompressed and checked against its CRC.
 
@@ -589,7 +603,7 @@ def _unpack_chunk(chunk: Chunk) -> bytes:
     data = chunk.data
     if chunk.compression == "zstd":
         try:
-            data = zstandard.ZstdDecompressor().stream_reader(data).read(size + 1)
+            data = _decompressor().stream_reader(data).read(size + 1)
         except zstandard.ZstdError as exc:
             raise _DamageError(f"chunk does not decompress: {exc}") from None
     if len(data) != size:
@@ -612,14 +626,22 @@ def _split_records(data: bytes, allowed: frozenset[int], where: str) -> list[Mca
         position = start + length
         if opcode not in allowed or position > len(data):
             raise _DamageError(f"a damaged record inside {where} (opcode {opcode:#x})")
+        if opcode == Opcode.MESSAGE:  # the common case, read without a stream
+            if length < _MESSAGE_HEAD.size:
+                raise _DamageError(f"a message inside {where} is cut off")
+            channel, sequence, log_time, publish_time = _MESSAGE_HEAD.unpack_from(data, start)
+            body = data[start + _MESSAGE_HEAD.size : position]
+            records.append(Message(channel, log_time, body, publish_time, sequence))
+            continue
         stream = ReadDataStream(BytesIO(data[start:position]))
-        if opcode == Opcode.MESSAGE:
-            records.append(Message.read(stream, length))
-        else:
-            records.append(_TOP_LEVEL[Opcode(opcode)](stream))
+        records.append(_TOP_LEVEL[Opcode(opcode)](stream))
         if stream.count != length:
             raise _DamageError(f"a record inside {where} has {length - stream.count} extra bytes")
     return records
+
+
+_MESSAGE_HEAD = struct.Struct("<HIQQ")
+"""A message record's fixed fields: channel id, sequence, log time, publish time."""
 
 
 _TOP_LEVEL = {
