@@ -313,7 +313,9 @@ class _Judge:
             try:
                 if (
                     outcome.failure is None
-                    and outcome.completed
+                    and changes is not None  # outcome.completed, inline: the hot path
+                    and outcome.draw_problem is None
+                    and len(outcome.drawn) == len(outcome.recorded_draws)
                     and not outcome.perception_differs
                     and outcome.perception_failure is None
                     and (
