@@ -24,6 +24,8 @@ if TYPE_CHECKING:
         SensorInbox,
         System,
     )
+    from beatlog.model.inbox import Sample
+    from beatlog.model.perception import Perception
     from beatlog.model.robot import Robot
     from beatlog.record import Recorder
     from beatlog.replay import (
@@ -40,11 +42,13 @@ __all__ = [
     "Divergence",
     "DivergenceKind",
     "LiveHeartbeat",
+    "Perception",
     "PriorityArbiter",
     "Recorder",
     "ReplayResult",
     "Robot",
     "RobotState",
+    "Sample",
     "SensorInbox",
     "SessionLogReader",
     "StateChange",
@@ -60,11 +64,13 @@ __getattr__ = lazy_names(
         "Divergence": "beatlog.replay",
         "DivergenceKind": "beatlog.replay",
         "LiveHeartbeat": "beatlog.model",
+        "Perception": "beatlog.model.perception",
         "PriorityArbiter": "beatlog.model",
         "Recorder": "beatlog.record",
         "ReplayResult": "beatlog.replay",
         "Robot": "beatlog.model.robot",
         "RobotState": "beatlog.model",
+        "Sample": "beatlog.model.inbox",
         "SensorInbox": "beatlog.model",
         "SessionLogReader": "beatlog.log",
         "StateChange": "beatlog.replay",

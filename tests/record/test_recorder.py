@@ -15,6 +15,7 @@ import msgspec
 import pytest
 
 from beatlog import replay
+from beatlog.analysis.summary import summarize
 from beatlog.errors import LogExistsError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
@@ -161,3 +162,23 @@ def test_an_exception_in_behavior_code_while_recording_is_kept_in_the_end_record
         assert reader.end is not None
         assert reader.end.error is not None
         assert reader.end.error.startswith("AttributeError")
+
+
+def test_a_robot_on_its_own_loop_reports_its_overruns(tmp_path: Path) -> None:
+    log = tmp_path / "own-loop.beatlog"
+    with Recorder(log, probe_system(), software="test") as recorder:
+        recorder.step(PERIOD_NS, Probe())
+        recorder.step(2 * PERIOD_NS, Probe(), overrun=True)
+        recorder.step(PERIOD_NS, Probe())
+        assert recorder.overruns == 1
+    summary = summarize(log)
+    assert summary.end is not None
+    assert summary.end.overruns == 1
+
+
+def test_the_names_a_robot_package_needs_come_from_beatlog() -> None:
+    import beatlog  # noqa: PLC0415 - the public names, as a user imports them
+
+    assert beatlog.Sample("range", 0, 1.0).sensor == "range"
+    assert callable(beatlog.Recorder)
+    assert "Perception" in beatlog.__all__

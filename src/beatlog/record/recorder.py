@@ -127,7 +127,7 @@ class Recorder:
 
     @property
     def overruns(self) -> int:
-        """Heartbeats that came late, in the last :meth:`run`."""
+        """Heartbeats that came late: counted by :meth:`run`, or reported to :meth:`step`."""
         return self._overruns
 
     @property
@@ -137,12 +137,20 @@ class Recorder:
         return None if error is None else f"{type(error).__name__}: {error}"
 
     def step(
-        self, interval_ns: int, state: msgspec.Struct, samples: Sequence[Sample] = ()
+        self,
+        interval_ns: int,
+        state: msgspec.Struct,
+        samples: Sequence[Sample] = (),
+        *,
+        overrun: bool = False,
     ) -> Outputs:
         """Run one cycle with heartbeat interval HB_t and robot state RS_t; log it.
 
-        Returns the outputs the behaviors emitted. Never blocks on disk.
+        A robot that runs its own loop says ``overrun=True`` when this heartbeat came
+        late; the end record counts them, as :meth:`run` does. Returns the outputs the
+        behaviors emitted. Never blocks on disk.
         """
+        self._overruns += overrun
         executor = self._executor
         changes = executor.step(interval_ns, state)
         context = executor.context
@@ -187,7 +195,7 @@ class Recorder:
                     on_cycle(self.cycles)
         finally:
             robot.stop()
-            self._overruns = clock.overruns
+            self._overruns += clock.overruns
         return RecordSummary(self.cycles, self.robot_time_ns, clock.overruns, self.error)
 
     def close(self, *, error: str | None = None) -> None:
