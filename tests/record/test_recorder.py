@@ -182,3 +182,13 @@ def test_the_names_a_robot_package_needs_come_from_beatlog() -> None:
     assert beatlog.Sample("range", 0, 1.0).sensor == "range"
     assert callable(beatlog.Recorder)
     assert "Perception" in beatlog.__all__
+
+
+def test_run_refuses_a_robot_whose_system_is_not_the_one_recorded(tmp_path: Path) -> None:
+    robot = PushRobot()
+    with (
+        Recorder(tmp_path / "other.beatlog", probe_system(), software="t") as recorder,
+        pytest.raises(ValueError, match=r"build the Recorder with robot\.system"),
+    ):
+        recorder.run(robot, duration_s=0.03)
+    assert not robot.started

@@ -179,7 +179,16 @@ class Recorder:
         heartbeat: LiveHeartbeat | None = None,
         on_cycle: Callable[[int], Any] | None = None,
     ) -> RecordSummary:
-        """Run the robot in real time on a live heartbeat for ``duration_s`` of robot time."""
+        """Run the robot in real time on a live heartbeat for ``duration_s`` of robot time.
+
+        The robot's system must be the one this recorder was built with (the one its
+        log describes); anything else is a programming error, refused loudly.
+        """
+        if robot.system is not self._executor.system:
+            raise ValueError(
+                "Recorder.run: the robot's system is not the one this recorder records; "
+                "build the Recorder with robot.system"
+            )
         clock = heartbeat or LiveHeartbeat(self.period_ns)
         until_ns = int(duration_s * 1e9)
         state: msgspec.Struct | None = None
