@@ -4,6 +4,7 @@ changes only) still judges outputs against the recording until it is re-approved
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import pytest
@@ -55,8 +56,9 @@ def test_a_changed_motor_gain_fails_against_the_approved_baseline(
 
 
 def test_review_shows_the_output_changes_of_the_changed_cycles(
-    spec: Path, beatlog: Beatlog
+    spec: Path, beatlog: Beatlog, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    monkeypatch.setattr("sys.stdin", io.StringIO(""))  # no terminal, nothing piped
     write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog", GEARED)
     assert beatlog("test", "--update", spec).code == 1
 

@@ -3,6 +3,7 @@ promises around it: a failure never overwrites an accepted baseline, CI never wr
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import pytest
@@ -96,8 +97,9 @@ def test_approve_without_anything_pending_is_a_usage_error(beatlog: Beatlog, spe
 
 
 def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
-    beatlog: Beatlog, spec: Path
+    beatlog: Beatlog, spec: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    monkeypatch.setattr("sys.stdin", io.StringIO(""))  # no terminal, nothing piped
     beatlog("test", "--update", spec)
 
     run = beatlog("review", spec.parent)
@@ -182,3 +184,17 @@ def test_a_renamed_behavior_gets_a_rename_proposal_and_the_spec_rename_fixes_it(
     write_spec(spec.parent, "avoid-pole", log, "tests.conftest:probe_system_renamed",
                renames={"near": "close"})  # fmt: skip
     assert beatlog("test", spec).code == 0
+
+
+@pytest.mark.parametrize(("piped", "accepted"), [("a\n", True), ("REJ\n", False)])
+def test_review_reads_piped_answers_and_takes_the_start_of_a_word(
+    beatlog: Beatlog, spec: Path, monkeypatch: pytest.MonkeyPatch, piped: str, *, accepted: bool
+) -> None:
+    beatlog("test", "--update", spec)
+    monkeypatch.setattr("sys.stdin", io.StringIO(piped))
+
+    run = beatlog("review", spec.parent)
+
+    assert run.code == 0
+    assert not pending_path(spec).exists()
+    assert expected_path(spec).exists() is accepted

@@ -12,6 +12,7 @@ from rich.console import Console
 from rich.prompt import Prompt
 from rich.text import Text
 
+from beatlog.errors import OptionError
 from beatlog.report.baselines import render_orphans, render_pending_diff, render_updates
 from beatlog.suite.baseline import expected_path
 from beatlog.suite.maintenance import (
@@ -51,21 +52,22 @@ def review(
     paths: Sequence[Path], console: Console, *, ask: Ask | None = None
 ) -> tuple[int, int, int]:
     """Show each pending change against the current expectation, and let the reviewer
-    accept or reject it (skipped without a terminal). Returns (accepted, rejected, left)."""
+    accept or reject it: at a terminal by prompting (``a``, ``r`` or ``s`` will do), else
+    by reading one answer a line from standard input (a pipe; none left means skip).
+    Returns (accepted, rejected, left)."""
     specs = pending_specs(paths)
     report_orphans(paths, console)
     if not specs:
         console.print("nothing pending")
         return 0, 0, 0
-    if ask is None and sys.stdin.isatty():
-        ask = _prompt(console)
-    if ask is not None:
-        require_writable()
+    if ask is None:
+        ask = _prompt(console) if sys.stdin.isatty() else _piped
     decided = dict.fromkeys(Decision, 0)
     for spec in specs:
         console.print(render_pending_diff(pending_diff(spec)), highlight=False)
-        answer = ask(f"accept the new expectation of {spec.name}?") if ask else Decision.SKIP
-        decision = Decision.parse(answer)
+        decision = Decision.parse(ask(f"accept the new expectation of {spec.name}?"))
+        if decision is not Decision.SKIP:
+            require_writable()
         decide(spec, decision)
         decided[decision] += 1
         if decision is Decision.ACCEPT:
@@ -78,15 +80,26 @@ def review(
 
 
 def _prompt(console: Console) -> Ask:
+    """Ask at the terminal until the answer names a decision (or starts one)."""
+
     def ask(question: str) -> str:
-        try:
-            return Prompt.ask(
-                question, console=console, choices=[str(d) for d in Decision], default="skip"
-            )
-        except EOFError:
-            return Decision.SKIP
+        while True:
+            try:
+                answer = Prompt.ask(f"{question} [a]ccept/[r]eject/[s]kip", console=console)
+            except EOFError:
+                return Decision.SKIP
+            try:
+                return Decision.parse(answer or Decision.SKIP)
+            except OptionError as exc:
+                console.print(str(exc), style="yellow")
 
     return ask
+
+
+def _piped(question: str) -> str:
+    """The next answer from standard input (not a terminal); skip when none is left."""
+    answer = sys.stdin.readline().strip()
+    return answer or Decision.SKIP
 
 
 def approve_command(paths: Sequence[Path], console: Console) -> None:

@@ -128,13 +128,16 @@ class Decision(StrEnum):
 
     @classmethod
     def parse(cls, value: Decision | str) -> Decision:
-        """The decision named by ``value``; anything else raises :class:`OptionError`
-        listing the decisions there are."""
-        try:
-            return cls(value)
-        except ValueError:
+        """The decision named by ``value`` or by its start (``a``, ``rej``), in any case;
+        anything else raises :class:`OptionError` listing the decisions there are."""
+        if isinstance(value, Decision):
+            return value
+        word = value.strip().lower()
+        found = [decision for decision in cls if word and decision.value.startswith(word)]
+        if len(found) != 1:
             valid = ", ".join(repr(decision.value) for decision in cls)
-            raise OptionError(f"unknown decision {value!r}: choose one of {valid}") from None
+            raise OptionError(f"unknown decision {value!r}: choose one of {valid}")
+        return found[0]
 
 
 def pending_specs(paths: Sequence[Path]) -> list[DtcSpec]:
