@@ -16,22 +16,25 @@ state and the deliberate changes (``CHANGES``, ``changed_system``) the suite is 
 The ``perception`` group is ``perception.py`` and the robot state's defaults, which are
 the perception's first state.
 
-Each mutant runs in a fresh worker process (this script with ``--worker``): a finder on
-``sys.meta_path`` imports the mutated source, written to a temporary file, under the
-module's real name, so mutants never meet. The worker loads every spec of the suite with
-``load_spec`` and replays it with ``run_spec``; the mutant is *killed* when a DTC fails
-or errors (or the worker dies or runs past its time). Perception is replayed only where
-a spec names it and its log holds samples, so on a suite without samples no perception
-mutant can be killed.
+Each mutant runs in a fresh process: a child forked for it alone by a worker process
+(this script with ``--worker``) that has imported beatlog but none of the dog's code. In
+the child a finder on ``sys.meta_path`` imports the mutated source, written to a
+temporary file, under the module's real name, so mutants never meet. The child loads
+every spec of the suite with ``load_spec`` and replays it with ``run_spec``; the mutant
+is *killed* when a DTC fails or errors (or the child dies or runs past its time).
+Perception is replayed only where a spec names it and its log holds samples, so on a
+suite without samples no perception mutant can be killed.
 
 A surviving mutant passed every DTC: replay gave the recorded state changes, outputs and
-random numbers bit for bit. A second worker then replays the suite with the *original*
-module instrumented at the mutated spot (weak mutation): each time the spot is
-evaluated, the original and the mutated value are both computed from the same operand
-values, the original is used, and the worker counts evaluations and differences.
-Operators are compared at the operation itself, a number at the comparison or
-arithmetic it is an operand of (else at the number); a negated condition or a swapped
-boolean always differs. Survivors are then reported as:
+random numbers bit for bit (the dog's specs allow no differences). A second fresh child
+then replays the suite with the *original* module instrumented at the mutated spot (weak
+mutation): each time the spot is evaluated, the original and the mutated value are both
+computed from the same operand values (each operand evaluated once), the original is
+used, and the child counts evaluations and differences (another type, or unequal).
+Operators are compared at the operation itself, a number at the comparison or arithmetic
+it is an operand of (else at the number); a negated condition or a swapped
+``True``/``False`` always differs.
+Survivors are then reported as:
 
 - *survived*: the mutated spot gave another value at least once, yet no DTC noticed;
 - *survived, possibly equivalent*: it was evaluated and never gave another value on the
@@ -40,7 +43,8 @@ boolean always differs. Survivors are then reported as:
 - *survived, not reached*: the suite never evaluated the mutated spot.
 
 Run it as ``python bench/bench_mutation.py [--jobs N] [--limit N] [--only GROUP]
-[--suite DIR] [--json FILE]``; a few minutes with ``--jobs 2`` on 2 cores.
+[--suite DIR] [--json FILE]``; 368 mutants took 4.5 to 7.5 minutes with ``--jobs 2``
+on a busy 2-core machine.
 """
 
 from __future__ import annotations
