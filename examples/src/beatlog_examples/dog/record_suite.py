@@ -15,12 +15,12 @@ replaced, as re-recording means. Recording takes as long as the sessions last (a
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from beatlog.suite.spec import SPEC_SUFFIX
+from beatlog_examples import specs
 from beatlog_examples.dog import SUITE_DIR
 from beatlog_examples.dog.robot import PERCEPTION_REF, SYSTEM_REF, record_live
 from beatlog_examples.dog.scenarios import SUITE, Scenario
@@ -29,19 +29,16 @@ __all__ = ["main", "spec_text"]
 
 
 def spec_text(scenario: Scenario, log: str) -> str:
-    """The ``*.dtc.toml`` for a scenario's recording (TOML basic strings are JSON strings)."""
-    lines = [
-        f"name = {json.dumps(scenario.name)}",
-        f"purpose = {json.dumps(scenario.purpose)}",
-        "procedure = [",
-        *(f"    {json.dumps(step, ensure_ascii=False)}," for step in scenario.procedure()),
-        "]",
-        f"log = {json.dumps(log)}",
-        f"system = {json.dumps(SYSTEM_REF)}",
-        f"perception = {json.dumps(PERCEPTION_REF)}",
-        f"tags = {json.dumps(list(scenario.tags))}",
-    ]
-    return "\n".join(lines) + "\n"
+    """The ``*.dtc.toml`` for a scenario's recording."""
+    return specs.spec_text(
+        name=scenario.name,
+        purpose=scenario.purpose,
+        procedure=scenario.procedure(),
+        log=log,
+        system=SYSTEM_REF,
+        tags=scenario.tags,
+        perception=PERCEPTION_REF,
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -14,7 +14,6 @@ recording again gives the same bytes.
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +23,7 @@ import numpy as np
 from beatlog import Recorder
 from beatlog.model.context import Outputs
 from beatlog.suite.spec import SPEC_SUFFIX
+from beatlog_examples import specs
 from beatlog_examples.trees import SUITE_DIR
 from beatlog_examples.trees.patrol import PatrolState, system
 
@@ -140,18 +140,15 @@ def record(log: Path, scenario: Scenario) -> int:
 
 
 def spec_text(scenario: Scenario, log: str) -> str:
-    """The ``*.dtc.toml`` for a scenario's recording (TOML basic strings are JSON strings)."""
-    lines = [
-        f"name = {json.dumps(scenario.name)}",
-        f"purpose = {json.dumps(scenario.purpose)}",
-        "procedure = [",
-        *(f"    {json.dumps(step, ensure_ascii=False)}," for step in scenario.procedure()),
-        "]",
-        f"log = {json.dumps(log)}",
-        f"system = {json.dumps(SYSTEM_REF)}",
-        'tags = ["py_trees"]',
-    ]
-    return "\n".join(lines) + "\n"
+    """The ``*.dtc.toml`` for a scenario's recording."""
+    return specs.spec_text(
+        name=scenario.name,
+        purpose=scenario.purpose,
+        procedure=scenario.procedure(),
+        log=log,
+        system=SYSTEM_REF,
+        tags=["py_trees"],
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
