@@ -67,7 +67,8 @@ class CycleOutcome(NamedTuple):
     perception_differs: bool = False
     """In sensor-level replay, whether the rebuilt RS_t differs from the recorded one."""
     perception_failure: BaseException | None = None
-    """What the perception step raised, if it did (the behaviors did not run)."""
+    """What the perception step raised, if it did (the behaviors then ran on the
+    recorded RS_t, so replay can go on)."""
     samples: Sequence[Sample] = ()
     """In sensor-level replay, the samples of the cycle."""
 
