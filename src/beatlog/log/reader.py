@@ -21,7 +21,6 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from io import BytesIO
 from pathlib import Path
-from types import TracebackType
 from typing import IO, Any, TypeVar
 
 import msgspec
@@ -44,6 +43,7 @@ from mcap.records import (
     SummaryOffset,
 )
 
+from beatlog.closing import Closing
 from beatlog.errors import CorruptLogError, NotABeatlogError, UnsupportedVersionError
 from beatlog.files import irregular_file_problem
 from beatlog.log.format import (
@@ -121,7 +121,7 @@ class _DamageError(Exception):
     """Internal: a record is not what the writer writes; corrupt unless it is the last."""
 
 
-class SessionLogReader:
+class SessionLogReader(Closing):
     """Streams the cycles of one ``.beatlog`` file; a context manager.
 
     The header is read and checked on opening. Iterate :meth:`batches` (fastest) or
@@ -191,17 +191,6 @@ class SessionLogReader:
     def close(self) -> None:
         """Close the file."""
         self._file.close()
-
-    def __enter__(self) -> SessionLogReader:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def _open(self) -> tuple[IO[bytes], int]:
         """Open a regular file only: a FIFO or a device could block or never end."""

@@ -17,12 +17,12 @@ import queue
 import threading
 from collections.abc import Sequence
 from pathlib import Path
-from types import TracebackType
 from typing import IO, Any, Final
 
 import msgspec
 from mcap.writer import CompressionType, Writer
 
+from beatlog.closing import Closing
 from beatlog.errors import LogError, LogExistsError
 from beatlog.log.format import (
     CYCLES_TOPIC,
@@ -49,7 +49,7 @@ MAX_CYCLE_BYTES = 4 << 20
 """The largest single cycle; a robot state is meant to be light."""
 
 
-class SessionLogWriter:
+class SessionLogWriter(Closing):
     """Writes one session log; use it as a context manager or call :meth:`close`.
 
     :param overwrite: replace a log already at ``output``; without it an existing file
@@ -180,17 +180,6 @@ class SessionLogWriter:
         self._thread.join()
         if self.path is not None:
             self._file.close()
-
-    def __enter__(self) -> SessionLogWriter:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def _run(self) -> None:
         """Batch cycles, and close a chunk whenever a flush interval of robot time passed.

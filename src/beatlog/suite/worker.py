@@ -15,8 +15,10 @@ import signal
 import subprocess
 import sys
 import traceback
-from types import FrameType, TracebackType
+from types import FrameType
 from typing import IO, TYPE_CHECKING, Any
+
+from beatlog.closing import Closing
 
 if TYPE_CHECKING:
     from beatlog.suite.policy import SpecOptions
@@ -33,7 +35,7 @@ class WorkerLostError(RuntimeError):
     """A worker process ended without answering: it crashed or was killed."""
 
 
-class Worker:
+class Worker(Closing):
     """A worker process with the same ``sys.path`` as this one; a context manager that
     kills the worker on leaving (the audit interpreters it started follow it)."""
 
@@ -93,17 +95,6 @@ class Worker:
     def _lost(self) -> WorkerLostError:
         code = self._process.wait()
         return WorkerLostError(f"a suite worker ended without answering (exit {code})")
-
-    def __enter__(self) -> Worker:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def close(self) -> None:
         """Kill the worker, whatever it is doing, and wait for it to end."""
