@@ -215,7 +215,7 @@ def test_chromium_draws_every_chart(report: Report) -> None:
             driver.execute_script(
                 "const box = arguments[0].getBoundingClientRect();"
                 "return {width: box.width, height: box.height,"
-                " bars: arguments[0].querySelectorAll('path').length,"
+                " bars: arguments[0].querySelectorAll('rect').length,"
                 " texts: [...arguments[0].querySelectorAll('text')].map(t => t.textContent)};",
                 chart,
             )
@@ -232,7 +232,7 @@ def test_chromium_draws_every_chart(report: Report) -> None:
     for chart in drawn:
         assert chart["width"] > 600
         assert chart["height"] > 200
-        assert chart["bars"] > 20
+        assert chart["bars"] > 10
     assert "wander: recorded" in drawn[0]["texts"]
     assert "replayed" in drawn[0]["texts"]
     assert any(text.startswith("first divergence: cycle") for text in drawn[1]["texts"])

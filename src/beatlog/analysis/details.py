@@ -13,11 +13,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from beatlog.analysis.timeline import Timeline, TimelineCollector
+from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_window
 from beatlog.analysis.trace import ReadTracker, ReplayedTrace, TraceCollector
+from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.replay.core import Replayer
+from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
 __all__ = ["Details", "replay_details"]
@@ -59,7 +60,18 @@ def replay_details(
     with SessionLogReader(log) as reader:
         replayer = Replayer(system, reader.header, reader.path)
         tracer = TraceCollector(replayer.executor.behavior_ids) if trace else None
-        charts = TimelineCollector(reader, system, expected=expected) if timelines else None
+        charts = (
+            _Charts(
+                TimelineCollector(reader, system, expected=expected),
+                None
+                if divergence is None
+                else TimelineCollector(
+                    reader, system, expected=expected, window_ns=close_up_window(divergence)
+                ),
+            )
+            if timelines
+            else None
+        )
         cycle = -1
         for batch in reader.batches():
             for record in batch:
@@ -86,11 +98,36 @@ def _details(
     reads: ReadTracker,
     diverged_at: int | None,
     tracer: TraceCollector | None,
-    charts: TimelineCollector | None,
+    charts: _Charts | None,
     divergence: Divergence | None,
 ) -> Details:
     return Details(
         fields_read=tuple(reads.read) if diverged_at is not None else (),
         trace=None if tracer is None else tracer.trace(),
-        timelines=() if charts is None else charts.report(divergence),
+        timelines=() if charts is None else charts.timelines(divergence),
     )
+
+
+class _Charts:
+    """The whole session's timeline and, for a divergence, a close-up of it."""
+
+    def __init__(self, whole: TimelineCollector, close_up: TimelineCollector | None) -> None:
+        self._whole = whole
+        self._close_up = close_up
+
+    @property
+    def replaying(self) -> bool:
+        return self._whole.replaying
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        self._whole.add(record, outcome)
+        if self._close_up is not None and not self._close_up.done:
+            self._close_up.add(record, outcome)
+
+    def timelines(self, divergence: Divergence | None) -> tuple[Timeline, ...]:
+        """The close-up first, if there is one, then the whole session; both mark
+        ``divergence``."""
+        whole = self._whole.timeline(divergence)
+        if self._close_up is None:
+            return (whole,)
+        return self._close_up.timeline(divergence), whole

@@ -12,7 +12,7 @@ import dataclasses
 import itertools
 import time
 from collections import deque
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -63,6 +63,7 @@ def replay(
     explain: bool = True,
     perception: Perception | str | None = None,
     break_at: int | None = None,
+    observe: Callable[[CycleOutcome], object] | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
     by default the reference recorded in the log's header, see :func:`recorded_system`).
@@ -90,7 +91,10 @@ def replay(
     samples and compared with the recorded one (a PERCEPTION divergence names the
     fields that differ and the samples), and the behaviors run on the rebuilt state.
     ``break_at`` stops in the debugger (``breakpoint()``, honouring ``PYTHONBREAKPOINT``)
-    just before the behaviors update in that cycle.
+    just before the behaviors update in that cycle. ``observe`` is given every cycle's
+    outcome up to the first divergence (the one that stops replay included), e.g. a
+    :class:`~beatlog.analysis.timeline.TimelineCollector`'s, so a report is gathered in
+    the verdict's own replay.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
@@ -114,6 +118,7 @@ def replay(
             expected=expected,
             perception=perception,
             break_at=break_at,
+            observe=observe,
         )
         started = time.perf_counter()
         status = None
@@ -189,6 +194,7 @@ class _Judge:
         expected: Expectation | None,
         perception: Perception | None = None,
         break_at: int | None = None,
+        observe: Callable[[CycleOutcome], object] | None = None,
     ) -> None:
         self.header = header
         self.comparison = comparison
@@ -199,6 +205,7 @@ class _Judge:
         self.replayer = Replayer(system, header, path, perception=perception, break_at=break_at)
         self.random = self.replayer.random
         self.executor = self.replayer.executor
+        self._step = self.replayer.step if observe is None else _observed(self.replayer, observe)
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
         self._stopped_at: tuple[int, int] | None = None
@@ -303,7 +310,7 @@ class _Judge:
         remember = self._recent.append
         encode = self._encoder.encode
         encode_outputs = self._outputs_encoder.encode
-        step = self.replayer.step
+        step = self._step
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
         for index, record in enumerate(batch):
@@ -527,6 +534,20 @@ class _Judge:
 
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
         return [DrawReport(_name(names, d.actor), d.kind, d.value) for d in draws]
+
+
+def _observed(
+    replayer: Replayer, observe: Callable[[CycleOutcome], object]
+) -> Callable[[CycleRecord], CycleOutcome]:
+    """The replayer's step, handing each outcome to ``observe`` too."""
+    step = replayer.step
+
+    def observed(record: CycleRecord) -> CycleOutcome:
+        outcome = step(record)
+        observe(outcome)
+        return outcome
+
+    return observed
 
 
 def _name(names: Sequence[str], index: int) -> str:

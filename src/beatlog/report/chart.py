@@ -1,25 +1,23 @@
-"""Draws a timeline with matplotlib: behavior lanes (recorded vs replayed) over robot-state
-signals, the first divergence marked. One drawing for both ``beatlog plot`` (PNG, SVG or
-PDF, by the file's suffix) and the
-HTML report (inline SVG). Needs the ``plot`` extra; figures are drawn without pyplot, so
-no display or interactive backend is ever touched.
+"""Draws a timeline with matplotlib for ``beatlog plot``: behavior lanes (recorded vs
+replayed) over robot-state signals, the first divergence marked, as PNG, SVG or PDF (by
+the file's suffix). The HTML report draws the same chart without matplotlib
+(:mod:`beatlog.report.svg`). Needs the ``plot`` extra; figures are drawn without pyplot,
+so no display or interactive backend is ever touched.
 """
 
 from __future__ import annotations
 
-import io
-import re
 from pathlib import Path
 from typing import Any
 
-from matplotlib import colormaps, rc_context
+from matplotlib import rc_context
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from beatlog.analysis.timeline import Interval, Timeline
+from beatlog.analysis.timeline import Interval, Signal, Timeline
 from beatlog.errors import OptionError
-from beatlog.model.behavior import BehaviorState
+from beatlog.report.palette import PALETTE, state_label
 
 __all__ = [
     "CHART_FORMATS",
@@ -27,7 +25,6 @@ __all__ = [
     "chart_format",
     "chart_size",
     "draw_timeline",
-    "svg_markup",
     "write_chart",
 ]
 
@@ -83,6 +80,7 @@ def _draw(timeline: Timeline, title: str | None) -> Figure:
         )
         ax.set_ylabel(signal.field, rotation=0, ha="right", va="center")
         ax.grid(True, alpha=0.3)
+        _value_axis(ax, signal)
     mark = timeline.divergence
     if mark is not None and timeline.start_ns <= mark.time_ns <= timeline.end_ns:
         for ax in axes:
@@ -118,19 +116,21 @@ def _draw(timeline: Timeline, title: str | None) -> Figure:
     return figure
 
 
-def _label(state: BehaviorState) -> str:
-    return str(state)
+def _value_axis(ax: Axes, signal: Signal) -> None:
+    """A flag is drawn as 0 and 1, labelled False and True."""
+    if signal.flag:
+        ax.set_yticks([0, 1], ["False", "True"])
+        ax.set_ylim(-0.15, 1.15)
 
 
 def _state_colors(timeline: Timeline) -> dict[str, Any]:
     """One color per state name, in order of first appearance, the same in every lane."""
-    palette = colormaps["tab20"].colors  # type: ignore[attr-defined]
     colors: dict[str, Any] = {}
     for lane in timeline.lanes:
         for interval in (*lane.expected, *lane.actual):
-            label = _label(interval.state)
+            label = state_label(interval.state)
             if label not in colors:
-                colors[label] = palette[len(colors) % len(palette)]
+                colors[label] = PALETTE[len(colors) % len(PALETTE)]
     return colors
 
 
@@ -171,7 +171,7 @@ def _draw_row(
         ax.broken_barh(
             [(i.start_ns / 1e9, (i.end_ns - i.start_ns) / 1e9) for i in chosen],
             (y - 0.4, 0.8),
-            facecolors=[colors[_label(i.state)] for i in chosen],
+            facecolors=[colors[state_label(i.state)] for i in chosen],
             edgecolors="white" if flickering else "none",
             hatch="////" if flickering else None,
         )
@@ -181,7 +181,7 @@ def _draw_row(
             ax.text(
                 interval.start_ns / 1e9 + width_s / 2,
                 y,
-                _label(interval.state),
+                state_label(interval.state),
                 ha="center",
                 va="center",
                 fontsize=7,
@@ -209,28 +209,3 @@ def write_chart(timeline: Timeline, path: str | Path, *, title: str | None = Non
     :raises OSError: the file cannot be written.
     """
     draw_timeline(timeline, title=title).savefig(path, format=chart_format(path), dpi=DPI)
-
-
-def svg_markup(timeline: Timeline, *, title: str | None = None, id_prefix: str = "chart") -> str:
-    """The timeline as an ``<svg>`` element to inline in a page; text stays text.
-
-    Matplotlib escapes every text it writes, so state and field names cannot inject
-    markup. Its element ids (some derived from memory addresses) are renamed in order
-    to ``<id_prefix>-1``, ``-2``, ...: the same timeline gives the same SVG, and charts
-    with different prefixes can share a page.
-    """
-    buffer = io.StringIO()
-    with rc_context({"svg.fonttype": "none"}):
-        draw_timeline(timeline, title=title).savefig(
-            buffer, format="svg", dpi=DPI, metadata={"Date": None}
-        )
-    markup = buffer.getvalue()
-    markup = markup[markup.index("<svg") :]
-    names: dict[str, str] = {}
-    for name in _ID.findall(markup):
-        names.setdefault(name, f"{id_prefix}-{len(names) + 1}")
-    return _ID_USE.sub(lambda use: f"{use[1]}{names.get(use[2], use[2])}{use[3]}", markup)
-
-
-_ID = re.compile(r'\bid="([^"]+)"')
-_ID_USE = re.compile(r'(\bid="|url\(#|href="#)([^")]+)([")])')

@@ -15,12 +15,12 @@ from typing import Any
 
 from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
-from beatlog.analysis.timeline import Timeline
 from beatlog.files import replacing
 from beatlog.replay.verdict import Divergence, DrawReport, StateChange
-from beatlog.report.chart import svg_markup
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
+from beatlog.report.figures import Chart
+from beatlog.report.palette import state_styles
 from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["render_html", "write_html"]
@@ -83,7 +83,7 @@ def render_html(
         '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
         f"<title>{_e(title)}: {_e(counts)}</title>",
-        f"<style>{_CSS}</style></head><body>",
+        f"<style>{_CSS}{_state_styles(outcomes)}</style></head><body>",
         f"<h1>{_e(title)}</h1>",
         f'<p class="counts">{_e(counts)}, {_cycles(outcomes)} cycles replayed '
         f"(beatlog {_e(__version__)})</p>",
@@ -94,6 +94,13 @@ def render_html(
         parts.append(coverage_html(coverage))
     parts.append("</body></html>\n")
     return "\n".join(parts)
+
+
+def _state_styles(outcomes: Sequence[SpecOutcome]) -> str:
+    """One colour per state in every chart of the page, by first appearance in it."""
+    return state_styles(
+        label for outcome in outcomes for chart in outcome.charts for label in chart.states
+    )
 
 
 def _e(value: object) -> str:
@@ -153,11 +160,7 @@ def _section(index: int, outcome: SpecOutcome) -> str:
             parts.append(f'<pre class="traceback">{_e(outcome.error_traceback)}</pre>')
     elif result.divergence is not None:
         parts.append(_divergence(result.divergence, rerun))
-    close_ups = len(outcome.timelines) - 1  # report_timelines puts any close-up first
-    parts.extend(
-        _figure(spec.name, timeline, close_up=chart < close_ups, ids=f"dtc{index}-chart{chart + 1}")
-        for chart, timeline in enumerate(outcome.timelines)
-    )
+    parts.extend(_figure(chart) for chart in outcome.charts)
     if result is not None and result.divergence is not None:
         parts.append(_details(result.divergence))
     facts = [
@@ -180,18 +183,9 @@ def _section(index: int, outcome: SpecOutcome) -> str:
     return "\n".join(parts)
 
 
-def _figure(name: str, timeline: Timeline, *, close_up: bool, ids: str) -> str:
-    start_s, end_s = timeline.start_ns / 1e9, timeline.end_ns / 1e9
-    if close_up:
-        title = f"{name}: close-up of the first divergence, {start_s:.3f}–{end_s:.3f} s"
-    else:
-        title = f"{name}: the whole session, {timeline.cycles:,} cycles, {end_s:.1f} s"
-    caption = "Behavior states as recorded and as replayed, with robot-state fields" + (
-        "; the red line marks the first divergence." if timeline.divergence else "."
-    )
+def _figure(chart: Chart) -> str:
     return (
-        f'<figure class="timeline">{svg_markup(timeline, title=title, id_prefix=ids)}'
-        f"<figcaption>{_e(caption)}</figcaption></figure>"
+        f'<figure class="timeline">{chart.svg}<figcaption>{_e(chart.caption)}</figcaption></figure>'
     )
 
 

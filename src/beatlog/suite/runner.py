@@ -27,8 +27,10 @@ from beatlog.usercode import importable_near, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
-    from beatlog.analysis.timeline import Timeline
+    from beatlog.analysis.timeline import TimelineCollector
     from beatlog.audit.replays import AuditReport
+    from beatlog.model.behavior import System
+    from beatlog.report.figures import Chart
 
 __all__ = ["SpecOutcome", "Verdict", "run_spec", "run_suite"]
 
@@ -62,8 +64,9 @@ class SpecOutcome:
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
     """The determinism audit, when one was asked for and the DTC could run."""
-    timelines: tuple[Timeline, ...] = ()
-    """Behavior activity for charts, when the suite was run with ``timelines``."""
+    charts: tuple[Chart, ...] = ()
+    """Charts of what it did (a close-up of the first divergence, if any, then the whole
+    session), drawn where it was judged, when the suite was run with ``timelines``."""
     error_traceback: str | None = None
     """The traceback of the user's code behind the error, when their code raised it."""
 
@@ -83,13 +86,14 @@ _UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
 
 def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
-    also traces the new state changes and outputs (nothing is written here: see
-    :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
-    ``timelines`` what it did is charted. The outcome's wall time is the replay's
-    alone. The result's reproduce command is ``beatlog test SPEC``, which judges
-    exactly as this run did. The spec's references also import from its folder and
-    its project root (:func:`beatlog.usercode.importable_near`)."""
+        if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
+        also traces the new state changes and outputs (nothing is written here: see
+        :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
+        ``timelines`` what it did is charted: a passing DTC from the verdict's own replay, a
+    failing one from the one more replay its details take. The outcome's wall time is the replay's
+        alone. The result's reproduce command is ``beatlog test SPEC``, which judges
+        exactly as this run did. The spec's references also import from its folder and
+        its project root (:func:`beatlog.usercode.importable_near`)."""
     with importable_near(spec.path):
         return _run_spec(spec, options or SpecOptions())
 
@@ -108,14 +112,19 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
                 )
             expected = approved.expectation
         system = spec.system or recorded_system(spec.log)
+        replayed: System | str = system
+        collector = None
+        if timelines:
+            replayed, collector = _collector(spec, system, expected)
         result = replay(
             spec.log,
-            system,
+            replayed,
             allow_truncated=spec.allow_truncated,
             comparison=spec.comparison,
             expected=expected,
             explain=False,
             perception=spec.perception,
+            observe=None if collector is None else collector.observe,
         )
         wall = time.perf_counter() - started
         divergence = result.divergence
@@ -133,7 +142,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
             report = audit_replay(spec.log, system, allow_truncated=spec.allow_truncated)
-        drawn = () if details is None else details.timelines
+        drawn = _charts(spec, collector, details)
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
@@ -149,7 +158,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         update=changes,
         update_refused=refused,
         audit=report,
-        timelines=drawn,
+        charts=drawn,
     )
 
 
@@ -165,6 +174,34 @@ def _rerun(spec: DtcSpec) -> str:
     return reproduce_command("test", "--logs", log, *system, *perception)
 
 
+def _collector(
+    spec: DtcSpec, system: str, expected: Expectation | None
+) -> tuple[System, TimelineCollector]:
+    """The system to replay and a timeline collector to watch its replay."""
+    from beatlog.analysis.timeline import TimelineCollector  # noqa: PLC0415 - when charting
+    from beatlog.log.reader import SessionLogReader  # noqa: PLC0415
+
+    loaded = load_system(system)
+    with SessionLogReader(spec.log) as reader:
+        collector = TimelineCollector(
+            reader, loaded, expected=None if expected is None else expected.changes_by_cycle()
+        )
+    return loaded, collector
+
+
+def _charts(
+    spec: DtcSpec, collector: TimelineCollector | None, details: Details | None
+) -> tuple[Chart, ...]:
+    """The DTC's charts: from the details of a failure, else from the verdict's replay."""
+    if collector is None:
+        return ()
+    from beatlog.report.figures import dtc_charts  # noqa: PLC0415 - when charting
+
+    if details is not None and details.timelines:
+        return dtc_charts(spec.name, details.timelines)
+    return dtc_charts(spec.name, (collector.timeline(None),))
+
+
 def _details(
     spec: DtcSpec,
     system: str,
@@ -174,8 +211,8 @@ def _details(
     trace: bool,
     timelines: bool,
 ) -> Details | None:
-    """One more replay, of a failed DTC or one to chart, gathering what reports need."""
-    if divergence is None and not timelines:
+    """One more replay, of a failed DTC, gathering what reports need."""
+    if divergence is None:
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
 

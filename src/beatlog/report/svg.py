@@ -1,0 +1,239 @@
+"""Draws a timeline as an ``<svg>`` element for the HTML report, with nothing but strings.
+
+The same chart as :mod:`beatlog.report.chart` draws with matplotlib for ``beatlog
+plot``: behavior lanes (recorded vs replayed) over robot-state signals, the first
+divergence marked; but in a few milliseconds instead of most of a second, so a suite's
+workers draw their DTCs' charts as they judge them. Every text is escaped, the markup
+has no ids (charts share a page freely) and each bar carries its state's class
+(:func:`beatlog.report.palette.state_key`) so the page colours a state alike in every
+chart.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from html import escape
+
+from beatlog.analysis.timeline import Interval, Signal, Timeline
+from beatlog.report.palette import fallback_color, state_key, state_label
+
+__all__ = ["WIDTH_PX", "svg_chart", "timeline_states"]
+
+WIDTH_PX = 1200
+_LEFT = 200
+"""Room for lane names and signal fields."""
+_RIGHT = 20
+_PLOT = WIDTH_PX - _LEFT - _RIGHT
+_ROW = 22
+_BAR = 16
+_SIGNAL = 100
+_SIGNAL_GAP = 18
+_LEGEND_COLUMNS = 6
+_LEGEND_ROW = 18
+_MAX_LEGEND = 24
+_LABEL_SHARE = 0.04
+"""An interval at least this share of the chart wide gets its state written in it."""
+_DIVERGENCE = "#d62728"
+_NOT_REPLAYED = "#bbbbbb"
+_FONT = 'font-family="sans-serif"'
+
+
+def timeline_states(timeline: Timeline) -> list[str]:
+    """The state labels of a timeline's lanes, in order of first appearance."""
+    labels = dict.fromkeys(
+        state_label(interval.state)
+        for lane in timeline.lanes
+        for interval in (*lane.expected, *lane.actual)
+    )
+    return list(labels)
+
+
+def svg_chart(timeline: Timeline, *, title: str | None = None) -> str:
+    """The timeline as an inline ``<svg>`` element, the same for the same timeline."""
+    return _Drawing(timeline).draw(title or f"{timeline.log.name}: {timeline.cycles} cycles")
+
+
+class _Drawing:
+    def __init__(self, timeline: Timeline) -> None:
+        self.timeline = timeline
+        self.start_s = timeline.start_ns / 1e9
+        self.span_s = max(timeline.end_ns / 1e9 - self.start_s, 1e-3)
+        self.parts: list[str] = []
+
+    def x(self, time_ns: int) -> float:
+        return _LEFT + (time_ns / 1e9 - self.start_s) / self.span_s * _PLOT
+
+    def draw(self, title: str) -> str:
+        timeline = self.timeline
+        add = self.parts.append
+        add(f'<text x="{WIDTH_PX / 2}" y="22" text-anchor="middle" font-size="15" {_FONT}>')
+        add(f"{_text(title)}</text>")
+        mark = timeline.divergence
+        if mark is not None:
+            add(
+                f'<text x="{WIDTH_PX - _RIGHT}" y="44" text-anchor="end" font-size="12" '
+                f'fill="{_DIVERGENCE}" {_FONT}>first divergence: cycle {mark.cycle}, '
+                f"t = {mark.time_ns / 1e9:.3f} s ({_text(mark.kind.value)})</text>"
+            )
+        add(f'<text x="{_LEFT}" y="44" font-size="12" {_FONT}>behavior states</text>')
+        top = 54
+        lanes_bottom = self._lanes(top)
+        bottom = lanes_bottom
+        for signal in timeline.signals:
+            bottom = self._signal(signal, bottom + _SIGNAL_GAP)
+        if mark is not None and timeline.start_ns <= mark.time_ns <= timeline.end_ns:
+            x = self.x(mark.time_ns)
+            add(
+                f'<line x1="{x:.1f}" y1="{top - 4}" x2="{x:.1f}" y2="{bottom}" '
+                f'stroke="{_DIVERGENCE}" stroke-width="1.5"/>'
+            )
+            add(f'<path d="M{x - 5:.1f} {top - 10}h10l-5 8z" fill="{_DIVERGENCE}"/>')
+        bottom = self._time_axis(bottom)
+        height = self._legend(bottom + 10)
+        return (
+            f'<svg xmlns="http://www.w3.org/2000/svg" width="{WIDTH_PX}" height="{height}" '
+            f'viewBox="0 0 {WIDTH_PX} {height}" class="timeline-chart">'
+            + "".join(self.parts)
+            + "</svg>"
+        )
+
+    def _lanes(self, top: int) -> int:
+        timeline = self.timeline
+        add = self.parts.append
+        row = 0
+        for lane in timeline.lanes:
+            rows = [(f"{lane.behavior}: recorded", lane.expected)]
+            if timeline.replayed:
+                rows.append(("replayed", lane.actual))
+            for label, intervals in rows:
+                y = top + row * _ROW
+                add(
+                    f'<text x="{_LEFT - 6}" y="{y + _ROW / 2 + 4}" text-anchor="end" '
+                    f'font-size="11" {_FONT}>{_text(label)}</text>'
+                )
+                self._bars(intervals, y + (_ROW - _BAR) / 2)
+                row += 1
+            if timeline.replayed and timeline.replayed_until_ns < timeline.end_ns:
+                x = self.x(timeline.replayed_until_ns)
+                bar = top + (row - 1) * _ROW + (_ROW - _BAR) / 2
+                add(
+                    f'<rect x="{x:.1f}" y="{bar}" width="{self.x(timeline.end_ns) - x:.1f}" '
+                    f'height="{_BAR}" fill="{_NOT_REPLAYED}" fill-opacity="0.4"/>'
+                )
+        bottom = top + max(row, 1) * _ROW
+        add(
+            f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{bottom - top}" '
+            'fill="none" stroke="#888"/>'
+        )
+        return bottom
+
+    def _bars(self, intervals: Sequence[Interval], y: float) -> None:
+        add = self.parts.append
+        for interval in intervals:
+            x = self.x(interval.start_ns)
+            width = self.x(interval.end_ns) - x
+            label = state_label(interval.state)
+            flicker = ' fill-opacity="0.45"' if interval.flicker else ""
+            add(
+                f'<rect x="{x:.1f}" y="{y}" width="{max(width, 0.3):.1f}" height="{_BAR}" '
+                f'class="{state_key(label)}" fill="{fallback_color(label)}"{flicker}/>'
+            )
+            if width >= _LABEL_SHARE * _PLOT and not interval.flicker:
+                add(
+                    f'<text x="{x + width / 2:.1f}" y="{y + _BAR / 2 + 3}" text-anchor="middle" '
+                    f'font-size="9" {_FONT}>{_text(label)}</text>'
+                )
+
+    def _signal(self, signal: Signal, top: int) -> int:
+        add = self.parts.append
+        height = _SIGNAL - _SIGNAL_GAP
+        bottom = top + height
+        low, high, ticks = _value_axis(signal)
+
+        def y(value: float) -> float:
+            return bottom - (value - low) / (high - low) * height
+
+        add(
+            f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{height}" '
+            'fill="none" stroke="#888"/>'
+        )
+        add(
+            f'<text x="{_LEFT - 50}" y="{top + height / 2 + 4}" text-anchor="end" '
+            f'font-size="11" {_FONT}>{_text(signal.field)}</text>'
+        )
+        for value, label in ticks:
+            add(
+                f'<text x="{_LEFT - 4}" y="{y(value) + 3:.1f}" text-anchor="end" '
+                f'font-size="9" {_FONT}>{_text(label)}</text>'
+            )
+            add(
+                f'<line x1="{_LEFT}" y1="{y(value):.1f}" x2="{_LEFT + _PLOT}" '
+                f'y2="{y(value):.1f}" stroke="#ddd"/>'
+            )
+        if signal.time_ns:
+            steps = [f"M{self.x(signal.time_ns[0]):.1f} {y(signal.value[0]):.1f}"]
+            for time_ns, value in zip(signal.time_ns[1:], signal.value[1:], strict=True):
+                steps.append(f"H{self.x(time_ns):.1f}V{y(value):.1f}")
+            steps.append(f"H{self.x(self.timeline.end_ns):.1f}")
+            add(f'<path d="{"".join(steps)}" fill="none" stroke="#1f77b4" stroke-width="1"/>')
+        return bottom
+
+    def _time_axis(self, top: int) -> int:
+        add = self.parts.append
+        end_s = self.start_s + self.span_s
+        for tick in _ticks(self.start_s, end_s, 10):
+            x = _LEFT + (tick - self.start_s) / self.span_s * _PLOT
+            add(f'<line x1="{x:.1f}" y1="{top}" x2="{x:.1f}" y2="{top + 4}" stroke="#444"/>')
+            add(
+                f'<text x="{x:.1f}" y="{top + 16}" text-anchor="middle" font-size="10" '
+                f"{_FONT}>{tick:g}</text>"
+            )
+        add(
+            f'<text x="{_LEFT + _PLOT / 2}" y="{top + 32}" text-anchor="middle" '
+            f'font-size="11" {_FONT}>robot time (s)</text>'
+        )
+        return top + 40
+
+    def _legend(self, top: int) -> int:
+        labels = timeline_states(self.timeline)[:_MAX_LEGEND]
+        add = self.parts.append
+        width = _PLOT / _LEGEND_COLUMNS
+        for index, label in enumerate(labels):
+            x = _LEFT + (index % _LEGEND_COLUMNS) * width
+            y = top + (index // _LEGEND_COLUMNS) * _LEGEND_ROW
+            add(
+                f'<rect x="{x:.1f}" y="{y}" width="12" height="12" '
+                f'class="{state_key(label)}" fill="{fallback_color(label)}"/>'
+            )
+            add(f'<text x="{x + 16:.1f}" y="{y + 10}" font-size="10" {_FONT}>{_text(label)}</text>')
+        rows = -(-len(labels) // _LEGEND_COLUMNS)
+        return top + rows * _LEGEND_ROW + 6
+
+
+def _value_axis(signal: Signal) -> tuple[float, float, list[tuple[float, str]]]:
+    """The value range of a signal's strip and its labelled ticks: a flag is 0/1 with
+    False/True, a constant gets room around it."""
+    if signal.flag:
+        return -0.15, 1.15, [(0.0, "False"), (1.0, "True")]
+    values = signal.value or (0.0,)
+    low, high = min(values), max(values)
+    if high - low < 1e-12:
+        pad = max(abs(low) * 0.1, 1.0)
+        low, high = low - pad, high + pad
+    ticks = _ticks(low, high, 4)
+    margin = (high - low) * 0.05
+    return low - margin, high + margin, [(tick, f"{tick:g}") for tick in ticks]
+
+
+def _ticks(low: float, high: float, count: int) -> list[float]:
+    """About ``count`` round values (1, 2 or 5 times a power of ten apart) in [low, high]."""
+    raw = (high - low) / max(count, 1)
+    power = 10 ** math.floor(math.log10(raw)) if raw > 0 else 1.0
+    step = next(m * power for m in (1, 2, 5, 10) if m * power >= raw)
+    first = math.ceil(low / step)
+    return [round(index * step, 10) for index in range(first, math.floor(high / step) + 1)]
+
+
+def _text(value: str) -> str:
+    return escape(value, quote=False)
