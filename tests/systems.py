@@ -26,6 +26,7 @@ import numpy as np
 
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
+from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, probe_system
 
@@ -213,3 +214,31 @@ class Gambler:
 
 def gambler_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Gambler()], robot_state=Probe)
+
+
+class Moody(RobotState, kw_only=True):
+    """A robot state with a text field, a number and a flag."""
+
+    mood: str = "calm"
+    level: int = 0
+    bumped: bool = False
+
+
+class Quiet:
+    name = "quiet"
+    state: BehaviorState = "idle"
+
+    def step(self, rs: Moody, ctx: Context) -> Outputs | None:
+        return None
+
+
+def moody_system() -> PriorityArbiter[Moody]:
+    return PriorityArbiter([Quiet()], robot_state=Moody)
+
+
+def record_moody(path: Path) -> Path:
+    """Ten cycles of :func:`moody_system`, ``level`` counting up and ``bumped`` flipping."""
+    with Recorder(path, moody_system(), software="t") as recorder:
+        for t in range(10):
+            recorder.step(PERIOD_NS, Moody(level=t, bumped=t % 2 == 1))
+    return path

@@ -16,13 +16,13 @@ from beatlog.analysis.timeline import (
     Interval,
     Mark,
     Timeline,
+    TimelineCollector,
     build_timeline,
 )
 from beatlog.errors import FieldError, NotABeatlogError
+from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
-from beatlog.model.context import Context, Outputs
-from beatlog.model.state import RobotState
-from beatlog.record.recorder import Recorder
+from beatlog.replay.core import Replayer
 from beatlog.replay.verdict import DivergenceKind, StateChange
 from tests.conftest import (
     PERIOD_NS,
@@ -33,7 +33,7 @@ from tests.conftest import (
     first_cycle_below,
     probe_system,
 )
-from tests.systems import Fragile
+from tests.systems import Fragile, record_moody
 
 
 def cycle_times(cycles: int) -> list[int]:
@@ -193,27 +193,9 @@ def test_numeric_robot_state_fields_are_sampled_every_cycle(record_probe: Record
     assert build_timeline(log, fields=["reading"]).signals[0].field == "reading"
 
 
-class Moody(RobotState, kw_only=True):
-    mood: str = "calm"
-    level: int = 0
-    bumped: bool = False
-
-
-class Quiet:
-    name = "quiet"
-    state: BehaviorState = "idle"
-
-    def step(self, rs: Moody, ctx: Context) -> Outputs | None:
-        return None
-
-
 @pytest.fixture
 def moody_log(tmp_path: Path) -> Path:
-    log = tmp_path / "moody.beatlog"
-    with Recorder(log, PriorityArbiter([Quiet()], robot_state=Moody), software="t") as recorder:
-        for t in range(10):
-            recorder.step(PERIOD_NS, Moody(level=t, bumped=t % 2 == 1))
-    return log
+    return record_moody(tmp_path / "moody.beatlog")
 
 
 def test_flags_are_drawn_as_zero_and_one_and_text_fields_are_left_out(moody_log: Path) -> None:
@@ -221,6 +203,7 @@ def test_flags_are_drawn_as_zero_and_one_and_text_fields_are_left_out(moody_log:
 
     assert [signal.field for signal in timeline.signals] == ["level", "bumped"]
     assert timeline.signals[1].value == (0.0, 1.0) * 5
+    assert [signal.flag for signal in timeline.signals] == [False, True]
 
 
 @pytest.mark.parametrize(
@@ -313,3 +296,47 @@ def test_a_timeline_survives_the_trip_from_a_worker_process(record_probe: Record
     timeline = build_timeline(record_probe(300), probe_system(threshold=0.6))
 
     assert pickle.loads(pickle.dumps(timeline)) == timeline
+
+
+def collect(log: Path, cycles: int, buckets: int) -> TimelineCollector:
+    """A collector fed the first ``cycles`` cycles of ``log``, replayed on the probe system."""
+    system = probe_system(threshold=0.45)  # near flips often against the recording
+    with SessionLogReader(log) as reader:
+        replayer = Replayer(system, reader.header, reader.path)
+        collector = TimelineCollector(reader, system, buckets=buckets)
+        for record in itertools.islice(reader.cycles(), cycles):
+            collector.add(record, replayer.step(record))
+    return collector
+
+
+def test_what_a_collector_holds_is_bounded_by_its_buckets_not_the_cycles(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(4000)
+    buckets = 16
+    signals, lanes = 2, 3 * 2  # distance and reading; three behaviors, recorded and replayed
+    bound = signals * buckets + lanes * (2 * buckets + 1)
+
+    held = [collect(log, cycles, buckets).held for cycles in (100, 1000, 4000)]
+
+    assert all(0 < count <= bound for count in held), held
+    whole = collect(log, 4000, buckets).timeline(None)
+    assert all(len(signal.time_ns) <= 2 * buckets for signal in whole.signals)
+    assert whole.signals[0].time_ns[-1] <= whole.end_ns
+    assert min(whole.signals[0].value) == min(distances(4000))
+    assert max(whole.signals[0].value) == max(distances(4000))
+    for found in whole.lanes:
+        assert len(found.expected) <= 2 * buckets + 1
+        assert_tiles(found.expected, 0, whole.end_ns)
+        assert_tiles(found.actual, 0, whole.end_ns)
+
+
+def test_a_collector_keeps_every_state_change_it_folds(record_probe: RecordFn) -> None:
+    log = record_probe(4000)
+    full = collect(log, 4000, 4000).timeline(None)
+
+    folded = collect(log, 4000, 16).timeline(None)
+
+    for fine, coarse in zip(full.lanes, folded.lanes, strict=True):
+        assert sum(interval.flicker + 1 for interval in coarse.expected) == len(fine.expected)
+        assert coarse.expected[-1].state == fine.expected[-1].state

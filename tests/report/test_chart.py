@@ -1,29 +1,19 @@
-"""Timeline charts: behavior lanes over robot-state signals, as PNG and as inline SVG."""
+"""Timeline charts drawn with matplotlib (``beatlog plot``): behavior lanes over
+robot-state signals."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
-import pytest
 from matplotlib.image import imread
 
 from beatlog import replay
 from beatlog.analysis.timeline import build_timeline
-from beatlog.record.recorder import Recorder
-from beatlog.report.chart import WIDTH_PX, chart_size, draw_timeline, svg_markup, write_chart
-from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
+from beatlog.report.chart import WIDTH_PX, chart_size, draw_timeline, write_chart
+from tests.conftest import RecordFn, probe_system
 from tests.images import png_size
-from tests.systems import HOSTILE, TEX, hostile_system
-
-
-@pytest.fixture
-def hostile_log(tmp_path: Path) -> Path:
-    log = tmp_path / "hostile.beatlog"
-    with Recorder(log, hostile_system(), software="t") as recorder:
-        for t in range(40):
-            recorder.step(PERIOD_NS, Probe(distance=abs(20 - t) / 20))
-    return log
+from tests.systems import moody_system, record_moody
 
 
 def test_a_png_of_the_chart_size_is_written(record_probe: RecordFn, tmp_path: Path) -> None:
@@ -83,25 +73,12 @@ def test_a_passing_replay_has_no_divergence_mark(record_probe: RecordFn) -> None
     assert figure.axes[0].get_title(loc="right") == ""
 
 
-def test_the_svg_keeps_text_as_text_and_is_the_same_every_time(record_probe: RecordFn) -> None:
-    log = record_probe(300)
-    divergence = replay(log, probe_system(threshold=0.6)).divergence
-    timeline = build_timeline(log, probe_system(threshold=0.6), divergence=divergence)
+def test_a_flag_is_drawn_as_false_and_true(tmp_path: Path) -> None:
+    log = record_moody(tmp_path / "moody.beatlog")
 
-    svg = svg_markup(timeline, title="avoid-pole")
+    figure = draw_timeline(build_timeline(log, moody_system()))
 
-    assert svg.startswith("<svg")
-    assert svg.rstrip().endswith("</svg>")
-    for text in ("avoid-pole", "near: recorded", "replayed", "first divergence: cycle"):
-        assert text in svg
-    assert svg_markup(timeline, title="avoid-pole") == svg
-
-
-def test_names_and_states_are_text_never_markup_or_tex(hostile_log: Path) -> None:
-    svg = svg_markup(build_timeline(hostile_log, hostile_system()), title=HOSTILE)
-
-    assert "<script" not in svg
-    assert "<b>" not in svg
-    assert "&lt;script&gt;alert('x')&lt;/script&gt;: recorded" in svg
-    assert "&lt;b&gt;near&lt;/b&gt;" in svg
-    assert TEX in svg  # drawn as typed, not typeset
+    flag = figure.axes[-1]
+    assert flag.get_ylabel() == "bumped"
+    assert [label.get_text() for label in flag.get_yticklabels()] == ["False", "True"]
+    assert flag.get_ylim() == (-0.15, 1.15)

@@ -145,6 +145,33 @@ def test_a_pass_gets_its_timeline_and_no_divergence(report: Report) -> None:
     assert "wander: recorded" in passed
 
 
+def legend(chart: str) -> dict[str, str]:
+    """A chart's legend: each state's label and the class its swatch is coloured by."""
+    return {
+        label: key
+        for key, label in re.findall(
+            r'<rect [^>]*class="(s-[0-9a-f]+)"[^>]*/><text [^>]*>([^<]*)</text>', chart
+        )
+    }
+
+
+def test_a_state_has_one_colour_in_every_chart_of_the_page(report: Report) -> None:
+    page = report.page
+    styles = page[page.index("<style>") : page.index("</style>")]
+    fills = dict(re.findall(r"\.(s-[0-9a-f]+)\{fill:(#[0-9a-f]{6})\}", styles))
+    charts = re.findall(r"<svg.*?</svg>", page, flags=re.DOTALL)
+    close_up, whole = (legend(chart) for chart in charts[1:3])  # avoid-earlier's two
+
+    colours = [{label: fills[key] for label, key in chart.items()} for chart in map(legend, charts)]
+
+    assert {"wander", "avoid", "clear"} <= set(close_up)
+    assert {label: whole[label] for label in close_up} == close_up
+    for label, colour in colours[1].items():
+        assert colours[2][label] == colour
+        assert colours[0].get(label, colour) == colour
+    assert len(set(fills.values())) == len(fills)  # different states, different colours
+
+
 def test_an_error_says_why_and_draws_nothing(report: Report) -> None:
     error = section(report.page, 3)
 

@@ -102,20 +102,22 @@ def test_a_truncated_log_passes_only_when_the_spec_allows_it(
     assert 0 < lenient.result.cycles < 300
 
 
-def test_timelines_for_reports_are_built_only_when_asked(tmp_path: Path, log: Path) -> None:
+def test_charts_for_reports_are_drawn_only_when_asked(tmp_path: Path, log: Path) -> None:
     passing = dtc(tmp_path, "avoid-pole", log)
     failing = dtc(tmp_path, "avoid-pole-earlier", log, CHANGED)
     lost = dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
 
-    assert run_spec(passing).timelines == ()
-    (whole,) = run_spec(passing, SpecOptions(timelines=True)).timelines
-    close_up, whole_failing = run_spec(failing, SpecOptions(timelines=True)).timelines
-    assert run_spec(lost, SpecOptions(timelines=True)).timelines == ()
+    assert run_spec(passing).charts == ()
+    (whole,) = run_spec(passing, SpecOptions(timelines=True)).charts
+    close_up, whole_failing = run_spec(failing, SpecOptions(timelines=True)).charts
+    assert run_spec(lost, SpecOptions(timelines=True)).charts == ()
 
-    assert (whole.cycles, whole.divergence) == (300, None)
-    assert whole_failing.divergence is not None
-    assert whole_failing.divergence.cycle == FIRST_CHANGED_CYCLE
-    assert close_up.end_ns < whole_failing.end_ns
+    assert "avoid-pole: the whole session, 300 cycles" in whole.svg
+    assert "first divergence" not in whole.svg
+    for chart in (close_up, whole_failing):
+        assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in chart.svg
+    assert "avoid-pole-earlier: close-up of the first divergence" in close_up.svg
+    assert {"far", "near"} <= set(close_up.states) <= set(whole_failing.states)
 
 
 # run_suite
@@ -252,12 +254,13 @@ def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> No
 
 
 class CountingArbiter(PriorityArbiter[Probe]):
-    """The changed probe system, counting how often a replay starts (cycle 0 is stepped)."""
+    """The probe system (changed, by default), counting how often a replay starts (cycle
+    0 is stepped)."""
 
     replays = 0
 
-    def __init__(self) -> None:
-        super().__init__([Near(0.6), Dice()], robot_state=Probe)
+    def __init__(self, threshold: float = 0.6) -> None:
+        super().__init__([Near(threshold), Dice()], robot_state=Probe)
 
     def update(self, state: Probe, context: Context) -> None:
         if context.cycle == 0:
@@ -267,6 +270,21 @@ class CountingArbiter(PriorityArbiter[Probe]):
 
 def counting_system() -> CountingArbiter:
     return CountingArbiter()
+
+
+def counting_passing_system() -> CountingArbiter:
+    return CountingArbiter(threshold=0.5)
+
+
+def test_a_passing_dtc_is_charted_from_its_verdicts_own_replay(tmp_path: Path, log: Path) -> None:
+    spec = dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_passing_system")
+    CountingArbiter.replays = 0
+
+    outcome = run_spec(spec, SpecOptions(timelines=True))
+
+    assert outcome.verdict is Verdict.PASSED
+    assert len(outcome.charts) == 1
+    assert CountingArbiter.replays == 1
 
 
 def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path, log: Path) -> None:
@@ -280,5 +298,5 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
     assert outcome.result.divergence is not None
     assert outcome.result.divergence.fields_read == ("distance",)
     assert outcome.update is not None
-    assert len(outcome.timelines) == 2
+    assert len(outcome.charts) == 2
     assert CountingArbiter.replays == 2

@@ -211,6 +211,12 @@ class TimelineCollector:
         """Whether the cycles added so far reach past the window: more change nothing."""
         return self.grid.end_ns is not None and self.time_ns >= self.grid.end_ns
 
+    @property
+    def held(self) -> int:
+        """How many buckets and intervals it holds: at most ``buckets`` per signal and
+        ``2 * buckets + 1`` per lane, however many cycles were added."""
+        return self._sampler.held + self._lanes.held
+
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         """Add the next recorded cycle and, when replaying, its outcome."""
         time_ns = self._lanes.time_ns + record.heartbeat_ns
@@ -374,6 +380,12 @@ class _Lanes:
         return self.time_ns if self._stopped_ns is None else self._stopped_ns
 
     @property
+    def held(self) -> int:
+        return sum(
+            len(lane.intervals) for lane in (*self._expected.values(), *self._actual.values())
+        )
+
+    @property
     def replaying(self) -> bool:
         return self._stopped_ns is None
 
@@ -497,6 +509,10 @@ class _Sampler:
         self._buckets: list[_Buckets] = []
         self._decode: Any = msgspec.msgpack.Decoder().decode
         self._seen = 0
+
+    @property
+    def held(self) -> int:
+        return sum(len(buckets.low) for buckets in self._buckets)
 
     def add(self, record: CycleRecord, time_ns: int) -> None:
         if self._fields is None:
