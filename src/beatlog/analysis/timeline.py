@@ -262,7 +262,8 @@ class _Grid:
         self.start_ns = start_ns
         self.end_ns = end_ns
         self.count = count
-        self.width_ns = 1 if end_ns is None else max(-(-(end_ns - start_ns) // count), 1)
+        self.width_ns = 0 if end_ns is None else max(-(-(end_ns - start_ns) // count), 1)
+        """0 until the first cycle, without an end."""
         self.on_widen: list[Callable[[int], None]] = []
         """Called with the factor the width grew by."""
 
@@ -273,9 +274,12 @@ class _Grid:
         return min((time_ns - self.start_ns) // self.width_ns, self.count - 1)
 
     def reach(self, time_ns: int) -> None:
-        """Widen the buckets until ``time_ns`` falls in one of them."""
+        """Widen the buckets until ``time_ns`` falls in one of them; the first cycle sets
+        the width (a heartbeat), so a session shorter than ``count`` cycles keeps each."""
         if self.end_ns is not None:
             return
+        if self.width_ns == 0:
+            self.width_ns = max(time_ns - self.start_ns, 1)
         factor = 1
         while time_ns - self.start_ns >= self.count * self.width_ns * factor:
             factor *= 2
@@ -457,8 +461,12 @@ class _Buckets:
         self.low_ns = [0] * count
         self.high = [float("-inf")] * count
         self.high_ns = [0] * count
+        self._used = 0
+        """Buckets up to here may hold values: those past it need no merging."""
 
     def add(self, index: int, time_ns: int, value: float) -> None:
+        if index >= self._used:
+            self._used = index + 1
         if value < self.low[index]:
             self.low[index] = value
             self.low_ns[index] = time_ns
@@ -468,7 +476,8 @@ class _Buckets:
 
     def merge(self, factor: int) -> None:
         """Merge each run of ``factor`` neighbours into one: the buckets grew as long."""
-        count = len(self.low)
+        count = self._used
+        self._used = -(-count // factor)
         for target in range(count):
             low, low_ns, high, high_ns = float("inf"), 0, float("-inf"), 0
             for source in range(target * factor, min((target + 1) * factor, count)):

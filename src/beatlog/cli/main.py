@@ -567,8 +567,6 @@ def _run_tests(
         elif outcome.verdict is Verdict.FAILED:
             progress.console.print(_describe(outcome))
 
-    if args.html is not None:
-        _need_matplotlib("test --html")
     interrupted = False
     try:
         with progress:
