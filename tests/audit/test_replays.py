@@ -14,6 +14,7 @@ from beatlog.audit.replays import AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
 from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
+from tests.conftest import MEETING, RecordFn
 from tests.systems import (
     HEADINGS,
     leaks,
@@ -128,3 +129,19 @@ def test_replays_that_differ_by_an_unseeded_global_generator_say_so(tmp_path: Pa
     )
     assert "hash seed" not in report.hash_seed_dependence.split(":")[0]
     assert [finding.call for finding in report.findings] == ["random.choice"]
+
+
+def test_the_audit_interpreters_are_kept_for_the_next_audit(
+    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    folder = tmp_path / "meeting"
+    folder.mkdir()
+    monkeypatch.setenv(MEETING, str(folder))
+    log = record_probe(30)
+
+    reports = [audit(log, "tests.conftest:alone_system") for _ in range(3)]
+
+    assert all(report.ok for report in reports)
+    signed = sorted(int(sign.name) for sign in folder.iterdir())
+    assert len(signed) == 2  # one interpreter per hash seed, not two per audit
+    assert os.getpid() not in signed

@@ -1,11 +1,14 @@
-"""``python -m beatlog.audit REQUEST LIFELINE PATH...``: one audited replay, the fresh
-interpreter's side of :func:`beatlog.audit.audit`.
+"""``python -m beatlog.audit LIFELINE PATH...``: an audit interpreter, the other side of
+:func:`beatlog.audit.audit`, started once with its ``PYTHONHASHSEED`` and kept for every
+DTC its auditing process audits.
 
-It imports from the auditing process's ``sys.path`` (``PATH...``), replays the request
-(:class:`~beatlog.audit.replays.Request` as JSON) with every update watched for leaks
-and hashed, and answers JSON (:class:`~beatlog.audit.replays.Answer`) on stdout.
-Ctrl-C ends it at once, and so does its lifeline closing: the auditing process gave up
-or died.
+It reads requests (:class:`~beatlog.audit.replays.Request`, a JSON line each) on stdin,
+replays each with every update hashed (and, when the request asks, watched for leaks),
+importing from the request's ``sys.path``, and answers a JSON line
+(:class:`~beatlog.audit.replays.Answer`) on stdout. The watch follows no lines unless
+numpy's global generator moved during an update: then the replay is run again,
+following the lines of user code, to say where. Ctrl-C ends it at once, and so does its
+lifeline closing: the auditing process gave up or died.
 """
 
 from __future__ import annotations
@@ -33,9 +36,10 @@ __all__ = ["main"]
 
 
 class _AuditedSystem:
-    """A system whose every update is watched for leaks and hashed into a trace."""
+    """A system whose every update is hashed into a trace and, given a watch, watched
+    for leaks."""
 
-    def __init__(self, system: System, watch: LeakWatch) -> None:
+    def __init__(self, system: System, watch: LeakWatch | None) -> None:
         self._system = system
         self._watch = watch
         self._behaviors = list(system.behaviors.values())
@@ -52,8 +56,11 @@ class _AuditedSystem:
 
     def update(self, state: Any, context: Context) -> None:
         try:
-            with self._watch:
+            if self._watch is None:
                 self._system.update(state, context)
+            else:
+                with self._watch:
+                    self._system.update(state, context)
         finally:  # a cycle that raised is part of the trace too
             self.trace.append(self._digest(context))
 
@@ -66,35 +73,58 @@ class _AuditedSystem:
 
 
 def _replay_watched(request: Request) -> Answer:
-    watch = LeakWatch()
+    """The answer of a replay, watched (if asked) without following lines, or, when
+    numpy's global generator moved in it, of one more replay that follows them to the
+    lines that did."""
+    answer, numpy_moved = _replay(request, lines=False)
+    if numpy_moved:
+        answer, _ = _replay(request, lines=True)
+    return answer
+
+
+def _replay(request: Request, *, lines: bool) -> tuple[Answer, bool]:
+    watch = LeakWatch(lines=lines) if request.watch else None
     system = _AuditedSystem(load_system(request.system), watch)
     result = replay(request.log, system, keep_going=True, allow_truncated=request.allow_truncated)
     divergence = result.divergence
-    return Answer(
+    answer = Answer(
         ok=result.ok,
         cycles=result.cycles,
         divergence_cycle=divergence.cycle if divergence else None,
         divergence_kind=divergence.kind if divergence else None,
         trace=b"".join(system.trace),
-        findings=watch.findings(),
+        findings=[] if watch is None else watch.findings(),
     )
+    return answer, watch is not None and watch.numpy_moved
 
 
 def main() -> None:
-    """Replay the request in argv and answer as JSON on stdout."""
+    """Replay each request read from stdin and answer each as a JSON line on stdout."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
-    request_json, lifeline, *path = sys.argv[1:]
+    lifeline, *path = sys.argv[1:]
     sys.path[:] = path
-    request = msgspec.json.decode(request_json, type=Request)
     threading.Thread(target=_exit_when_orphaned, args=(int(lifeline),), daemon=True).start()
-    answer_fd = os.dup(1)
-    os.dup2(2, 1)  # what behaviors print must not corrupt the answer
-    try:
-        answer = _replay_watched(request)
-    except BeatlogError as exc:
-        answer = Answer(error=str(exc))
-    with os.fdopen(answer_fd, "wb") as out:
-        out.write(msgspec.json.encode(answer))
+    requests = os.fdopen(os.dup(0), "rb")
+    answers = os.fdopen(os.dup(1), "wb")
+    os.dup2(os.open(os.devnull, os.O_RDONLY), 0)  # behaviors read nothing of the requests
+    os.dup2(2, 1)  # what behaviors print must not corrupt the answers
+    for line in requests:
+        request = msgspec.json.decode(line, type=Request)
+        sys.path[:] = request.path
+        _take_environment(request.environ)
+        try:
+            answer = _replay_watched(request)
+        except BeatlogError as exc:
+            answer = Answer(error=str(exc))
+        answers.write(msgspec.json.encode(answer) + b"\n")
+        answers.flush()
+
+
+def _take_environment(environ: dict[str, str]) -> None:
+    """The auditing process's environment, but this interpreter's own hash seed."""
+    seed = os.environ["PYTHONHASHSEED"]
+    os.environ.clear()
+    os.environ.update(environ, PYTHONHASHSEED=seed)
 
 
 def _exit_when_orphaned(lifeline: int) -> None:

@@ -189,10 +189,16 @@ class LeakWatch:
     """Counts wall-clock reads and global random calls made by code called inside it.
 
     Enter it around each update of the system under test; calls made directly by the
-    frame that enters it, or outside it, are not counted.
+    frame that enters it, or outside it, are not counted. With ``lines`` off it follows
+    no lines (the costliest hook by far): numpy's global generator is then only checked
+    on leaving, and :attr:`numpy_moved` says whether it moved inside, so that a second
+    replay with ``lines`` on can find where.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, lines: bool = True) -> None:
+        self._lines = lines
+        self.numpy_moved = False
+        """Whether numpy's global generator moved inside the watch (with ``lines`` off)."""
         self._origins = _Origins()
         self._python_calls = _python_calls()
         self._counts: collections.Counter[tuple[str, str, str | None]] = collections.Counter()
@@ -217,7 +223,8 @@ class LeakWatch:
         self._inside = None
         self._where = None
         self._saved = (sys.getprofile(), sys.gettrace())
-        sys.settrace(self._trace)
+        if self._lines:
+            sys.settrace(self._trace)
         sys.setprofile(self._profile)
         return self
 
@@ -231,6 +238,8 @@ class LeakWatch:
         sys.setprofile(profile)
         sys.settrace(trace)
         self._boundary = None
+        if not self._lines and self._numpy is not None and self._numpy.moved():
+            self.numpy_moved = True
 
     def _profile(self, frame: FrameType, event: str, arg: Any) -> None:
         if event == "c_call":

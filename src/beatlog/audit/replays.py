@@ -1,22 +1,27 @@
 """The determinism audit: does a DTC's replay depend on anything but its log and code?
 
-:func:`audit` replays a log twice, each time in a fresh interpreter with its own
-``PYTHONHASHSEED``. During each replay a :class:`~beatlog.audit.leaks.LeakWatch`
-turns the wall-clock reads and global random calls the system makes while it updates
-into findings that name the call site, and every cycle's behavior states and outputs
-are hashed. The two replays must agree on the verdict and on every cycle; where they
-do not, set or dict order of strings leaks into the behaviors' decisions.
+:func:`audit` replays a log twice, each time in an interpreter of its own with its own
+``PYTHONHASHSEED``; the two interpreters are started at the first audit and kept for
+the next ones, so a suite pays their start-up once. During each replay a
+:class:`~beatlog.audit.leaks.LeakWatch` turns the wall-clock reads and global random
+calls the system makes while it updates into findings that name the call site, and
+every cycle's behavior states and outputs are hashed. The two replays must agree on the
+verdict and on every cycle; where they do not, set or dict order of strings leaks into
+the behaviors' decisions.
 """
 
 from __future__ import annotations
 
-import contextlib
+import atexit
 import hashlib
 import os
 import subprocess
 import sys
+import tempfile
+import threading
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO
 
 import msgspec
 
@@ -98,54 +103,147 @@ def audit(
 ) -> AuditReport:
     """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash seed.
 
-    Both replays run at once, each in a fresh interpreter (``python -m beatlog.audit``,
-    see :mod:`beatlog.audit.__main__`) that imports from this one's ``sys.path``; each
-    replays every cycle, diverging or not, so the runs compare in full.
+    The first replay is watched for leaks, the second only hashed: they run the same
+    code unless the hash seed changes what it does, which the hashes show; then both are
+    run again, watched, so that no leak on either path goes unseen. Both replays run at
+    once, each in an audit interpreter (``python -m beatlog.audit``,
+    see :mod:`beatlog.audit.__main__`) with that ``PYTHONHASHSEED``, started at the first
+    audit that needs it and kept for the next, importing from this process's
+    ``sys.path``; each replays every cycle, diverging or not, so the runs compare in full.
 
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
-    request = msgspec.json.encode(Request(str(log), system, allow_truncated)).decode()
-    lifeline, held = os.pipe()  # the children exit when ``held`` closes, even if we are killed
-    children: list[subprocess.Popen[bytes]] = []
-    with contextlib.ExitStack() as stack:
-        stack.callback(os.close, held)
+    request = Request(str(log), system, allow_truncated, list(sys.path), dict(os.environ))
+    first, second = _replays(hash_seeds, [request, msgspec.structs.replace(request, watch=False)])
+    runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
+    if _compare(runs, first.trace, second.trace, "") is not None:  # the runs took other paths
+        first, second = _replays(hash_seeds, [request, request])
+        runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
+    findings = _merge(first.findings, second.findings)
+    return AuditReport(
+        findings=findings,
+        runs=runs,
+        hash_seed_dependence=_compare(runs, first.trace, second.trace, _cause(findings)),
+    )
+
+
+def _replays(hash_seeds: tuple[int, int], requests: list[Request]) -> tuple[Answer, Answer]:
+    """Each request replayed by the audit interpreter of its hash seed, at once.
+
+    :raises beatlog.errors.BeatlogError: the log or the system is bad input.
+    """
+    with _LOCK:
         try:
-            for seed in hash_seeds:
-                child = subprocess.Popen(
-                    [sys.executable, "-m", "beatlog.audit", request, str(lifeline), *sys.path],
-                    stdout=subprocess.PIPE,
-                    stderr=subprocess.PIPE,
-                    env={**os.environ, "PYTHONHASHSEED": str(seed)},
-                    pass_fds=(lifeline,),
-                )
-                children.append(stack.enter_context(child))
-            outputs = [child.communicate() for child in children]  # all, before judging any
+            auditors = [_auditor(seed) for seed in hash_seeds]
+            for auditor, request in zip(auditors, requests, strict=True):
+                auditor.send(request)
+            first, second = (auditor.receive() for auditor in auditors)  # all, before judging
         except BaseException:  # Ctrl-C above all: no replay goes on without us
-            for child in children:
-                child.kill()
+            for seed in hash_seeds:
+                _close(seed)
+            raise
+    for answer in (first, second):
+        if answer.error is not None:
+            raise BeatlogError(answer.error)
+    return first, second
+
+
+class _Auditor:
+    """An audit interpreter with one ``PYTHONHASHSEED``, replaying request after request.
+
+    It exits when its lifeline closes (this process closed it or died); what it writes
+    to stderr (behaviors' prints too) is kept for the last request only, to show if it
+    crashes.
+    """
+
+    def __init__(self, hash_seed: int) -> None:
+        self.hash_seed = hash_seed
+        lifeline, self._held = os.pipe()
+        self._errors: IO[bytes] = tempfile.TemporaryFile(mode="a+b")  # noqa: SIM115 - closed by close()
+        try:
+            self._process = subprocess.Popen(
+                [sys.executable, "-m", "beatlog.audit", str(lifeline), *sys.path],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=self._errors,
+                env={**os.environ, "PYTHONHASHSEED": str(hash_seed)},
+                pass_fds=(lifeline,),
+            )
+        except BaseException:
+            os.close(self._held)
+            self._errors.close()
             raise
         finally:
             os.close(lifeline)
-    first, second = (
-        _answer(seed, child.returncode, *output)
-        for seed, child, output in zip(hash_seeds, children, outputs, strict=True)
-    )
-    runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
-    return AuditReport(
-        findings=_merge(first.findings, second.findings),
-        runs=runs,
-        hash_seed_dependence=_compare(
-            runs, first.trace, second.trace, _cause(_merge(first.findings, second.findings))
-        ),
-    )
+
+    def send(self, request: Request) -> None:
+        self._errors.truncate(0)
+        assert self._process.stdin is not None
+        try:
+            self._process.stdin.write(msgspec.json.encode(request) + b"\n")
+            self._process.stdin.flush()
+        except BrokenPipeError:
+            raise self._crashed() from None
+
+    def receive(self) -> Answer:
+        assert self._process.stdout is not None
+        line = self._process.stdout.readline()
+        if not line:
+            raise self._crashed()
+        return msgspec.json.decode(line, type=Answer)
+
+    def _crashed(self) -> RuntimeError:
+        code = self._process.wait()
+        self._errors.seek(0)
+        return RuntimeError(
+            f"the audit replay with PYTHONHASHSEED={self.hash_seed} crashed (exit {code}):\n"
+            + self._errors.read().decode(errors="replace")
+        )
+
+    def close(self) -> None:
+        self._process.kill()
+        self._process.wait()
+        for stream in (self._process.stdin, self._process.stdout, self._errors):
+            if stream is not None:
+                stream.close()
+        os.close(self._held)
+
+
+_AUDITORS: dict[int, _Auditor] = {}
+_LOCK = threading.Lock()
+
+
+def _auditor(hash_seed: int) -> _Auditor:
+    """The audit interpreter for ``hash_seed``, started if there is none yet."""
+    if hash_seed not in _AUDITORS:
+        _AUDITORS[hash_seed] = _Auditor(hash_seed)
+    return _AUDITORS[hash_seed]
+
+
+def _close(hash_seed: int) -> None:
+    auditor = _AUDITORS.pop(hash_seed, None)
+    if auditor is not None:
+        auditor.close()
+
+
+@atexit.register
+def _close_all() -> None:
+    for hash_seed in list(_AUDITORS):
+        _close(hash_seed)
 
 
 class Request(msgspec.Struct, array_like=True):
-    """What to replay, as the first argument of ``python -m beatlog.audit``."""
+    """What to replay: a JSON line to ``python -m beatlog.audit``."""
 
     log: str
     system: str
     allow_truncated: bool
+    path: list[str]
+    """The auditing process's ``sys.path``, to import the system from."""
+    environ: dict[str, str]
+    """The auditing process's environment, for the system to see."""
+    watch: bool = True
+    """Whether to watch the updates for leaks (else only hash them)."""
 
 
 class Answer(msgspec.Struct, kw_only=True):
@@ -160,18 +258,6 @@ class Answer(msgspec.Struct, kw_only=True):
     findings: list[Finding] = msgspec.field(default_factory=list)
     error: str | None = None
     """Bad input (log or system) that stopped the replay."""
-
-
-def _answer(seed: int, returncode: int, out: bytes, err: bytes) -> Answer:
-    if returncode != 0:
-        raise RuntimeError(
-            f"the audit replay with PYTHONHASHSEED={seed} crashed (exit {returncode}):\n"
-            + err.decode(errors="replace")
-        )
-    answer = msgspec.json.decode(out, type=Answer)
-    if answer.error is not None:
-        raise BeatlogError(answer.error)
-    return answer
 
 
 def _seed_run(seed: int, answer: Answer) -> SeedRun:
