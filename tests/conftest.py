@@ -158,6 +158,15 @@ def meeting_system(processes: int = 2) -> PriorityArbiter[Probe]:
     return probe_system()
 
 
+@pytest.fixture
+def meeting(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The folder where meeting systems sign in, for this process and its children."""
+    folder = tmp_path / "meeting"
+    folder.mkdir()
+    monkeypatch.setenv(MEETING, str(folder))
+    return folder
+
+
 def alone_system() -> PriorityArbiter[Probe]:
     """A meeting system that meets no one: it signs in and goes on at once."""
     return meeting_system(processes=1)

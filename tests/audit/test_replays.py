@@ -14,7 +14,7 @@ from beatlog.audit.replays import AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
 from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
-from tests.conftest import MEETING, RecordFn
+from tests.conftest import RecordFn
 from tests.systems import (
     HEADINGS,
     leaks,
@@ -132,16 +132,13 @@ def test_replays_that_differ_by_an_unseeded_global_generator_say_so(tmp_path: Pa
 
 
 def test_the_audit_interpreters_are_kept_for_the_next_audit(
-    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+    record_probe: RecordFn, meeting: Path
 ) -> None:
-    folder = tmp_path / "meeting"
-    folder.mkdir()
-    monkeypatch.setenv(MEETING, str(folder))
     log = record_probe(30)
 
     reports = [audit(log, "tests.conftest:alone_system") for _ in range(3)]
 
     assert all(report.ok for report in reports)
-    signed = sorted(int(sign.name) for sign in folder.iterdir())
+    signed = sorted(int(sign.name) for sign in meeting.iterdir())
     assert len(signed) == 2  # one interpreter per hash seed, not two per audit
     assert os.getpid() not in signed

@@ -11,21 +11,12 @@ from beatlog.suite.policy import SpecOptions
 from beatlog.suite.runner import Verdict
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker, WorkerLostError
-from tests.conftest import MEETING, RecordFn
+from tests.conftest import RecordFn
 
 ALONE = "tests.conftest:alone_system"
 
 NOT_FOR_REPLAY = ("beatlog.cli", "beatlog.audit.replays", "rich", "numpy", "multiprocessing")
 """What a worker that replays without an audit must not have imported."""
-
-
-@pytest.fixture
-def meeting(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """The folder where meeting systems sign in, for this process and its workers."""
-    folder = tmp_path / "meeting"
-    folder.mkdir()
-    monkeypatch.setenv(MEETING, str(folder))
-    return folder
 
 
 def spec(folder: Path, name: str, log: Path, system: str) -> DtcSpec:

@@ -112,6 +112,16 @@ class Timeline:
     """Actual intervals end here: the session's end, or where replay could not go on."""
     divergence: Mark | None
 
+    def rows(self) -> list[tuple[str, tuple[Interval, ...], bool]]:
+        """A chart's rows, top to bottom: each lane as recorded, then as replayed (when
+        replayed); each with its label, its intervals and whether it is the replayed one."""
+        rows = []
+        for lane in self.lanes:
+            rows.append((f"{lane.behavior}: recorded", lane.expected, False))
+            if self.replayed:
+                rows.append(("replayed", lane.actual, True))
+        return rows
+
 
 def close_up_window(divergence: Divergence) -> tuple[int, int]:
     """The robot time a report's close-up shows: :data:`CLOSE_UP_NS` either side of

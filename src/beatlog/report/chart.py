@@ -137,27 +137,22 @@ def _state_colors(timeline: Timeline) -> dict[str, Any]:
 def _draw_lanes(ax: Axes, timeline: Timeline, colors: dict[str, Any], duration_s: float) -> None:
     ticks: list[float] = []
     labels: list[str] = []
-    row = 0
-    for lane in timeline.lanes:
-        rows = [(f"{lane.behavior}: recorded", lane.expected)]
-        if timeline.replayed:
-            rows.append(("replayed", lane.actual))
-        for label, intervals in rows:
-            _draw_row(ax, -row, intervals, colors, duration_s)
-            ticks.append(-row)
-            labels.append(label)
-            row += 1
-        if timeline.replayed and timeline.replayed_until_ns < timeline.end_ns:
+    rows = timeline.rows()
+    for row, (label, intervals, replayed) in enumerate(rows):
+        _draw_row(ax, -row, intervals, colors, duration_s)
+        ticks.append(-row)
+        labels.append(label)
+        if replayed and timeline.replayed_until_ns < timeline.end_ns:
             start = timeline.replayed_until_ns / 1e9
             ax.broken_barh(
                 [(start, timeline.end_ns / 1e9 - start)],
-                (-row + 1 - 0.4, 0.8),
+                (-row - 0.4, 0.8),
                 facecolors="none",
                 edgecolors=_NOT_REPLAYED_COLOR,
                 hatch="xx",
             )
     ax.set_yticks(ticks, labels, fontsize=8)
-    ax.set_ylim(-max(row, 1) + 0.4, 0.6)
+    ax.set_ylim(-max(len(rows), 1) + 0.4, 0.6)
     ax.set_title("behavior states", loc="left", fontsize=10)
 
 

@@ -101,27 +101,22 @@ class _Drawing:
     def _lanes(self, top: int) -> int:
         timeline = self.timeline
         add = self.parts.append
-        row = 0
-        for lane in timeline.lanes:
-            rows = [(f"{lane.behavior}: recorded", lane.expected)]
-            if timeline.replayed:
-                rows.append(("replayed", lane.actual))
-            for label, intervals in rows:
-                y = top + row * _ROW
-                add(
-                    f'<text x="{_LEFT - 6}" y="{y + _ROW / 2 + 4}" text-anchor="end" '
-                    f'font-size="11" {_FONT}>{_text(label)}</text>'
-                )
-                self._bars(intervals, y + (_ROW - _BAR) / 2)
-                row += 1
-            if timeline.replayed and timeline.replayed_until_ns < timeline.end_ns:
+        rows = timeline.rows()
+        for row, (label, intervals, replayed) in enumerate(rows):
+            y = top + row * _ROW
+            add(
+                f'<text x="{_LEFT - 6}" y="{y + _ROW / 2 + 4}" text-anchor="end" '
+                f'font-size="11" {_FONT}>{_text(label)}</text>'
+            )
+            self._bars(intervals, y + (_ROW - _BAR) / 2)
+            if replayed and timeline.replayed_until_ns < timeline.end_ns:
                 x = self.x(timeline.replayed_until_ns)
-                bar = top + (row - 1) * _ROW + (_ROW - _BAR) / 2
                 add(
-                    f'<rect x="{x:.1f}" y="{bar}" width="{self.x(timeline.end_ns) - x:.1f}" '
-                    f'height="{_BAR}" fill="{_NOT_REPLAYED}" fill-opacity="0.4"/>'
+                    f'<rect x="{x:.1f}" y="{y + (_ROW - _BAR) / 2}" '
+                    f'width="{self.x(timeline.end_ns) - x:.1f}" height="{_BAR}" '
+                    f'fill="{_NOT_REPLAYED}" fill-opacity="0.4"/>'
                 )
-        bottom = top + max(row, 1) * _ROW
+        bottom = top + max(len(rows), 1) * _ROW
         add(
             f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{bottom - top}" '
             'fill="none" stroke="#888"/>'
