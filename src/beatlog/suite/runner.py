@@ -86,14 +86,14 @@ _UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
 
 def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-        if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
-        also traces the new state changes and outputs (nothing is written here: see
-        :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
-        ``timelines`` what it did is charted: a passing DTC from the verdict's own replay, a
-    failing one from the one more replay its details take. The outcome's wall time is the replay's
-        alone. The result's reproduce command is ``beatlog test SPEC``, which judges
-        exactly as this run did. The spec's references also import from its folder and
-        its project root (:func:`beatlog.usercode.importable_near`)."""
+    if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
+    also traces the new state changes and outputs (nothing is written here: see
+    :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
+    ``timelines`` what it did is charted: a passing DTC from the verdict's own replay, a
+    failing one from the one more replay its details take. The outcome's wall time is
+    the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
+    judges exactly as this run did. The spec's references also import from its folder
+    and its project root (:func:`beatlog.usercode.importable_near`)."""
     with importable_near(spec.path):
         return _run_spec(spec, options or SpecOptions())
 
