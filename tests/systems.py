@@ -23,6 +23,7 @@ from time import monotonic
 from typing import Any
 
 import numpy as np
+import py_trees
 
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
@@ -213,3 +214,30 @@ class Gambler:
 
 def gambler_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Gambler()], robot_state=Probe)
+
+
+class HandTickedTree:
+    """A py_trees tree ticked by hand, without beatlog's adapter: its ``Timer`` reads the
+    wall clock (``py_trees/timers.py``), whatever robot time says."""
+
+    name = "patrol"
+    state = "INVALID"
+
+    def __init__(self) -> None:
+        self.tree = py_trees.composites.Sequence(
+            "patrol",
+            memory=True,
+            children=[
+                py_trees.timers.Timer("pause", duration=3600.0),
+                py_trees.behaviours.Success("go"),
+            ],
+        )
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.tree.tick_once()  # leak via: the user's frame that reached py_trees' timer
+        self.state = self.tree.status.name
+        return None
+
+
+def hand_ticked_tree() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([HandTickedTree()], robot_state=Probe)
