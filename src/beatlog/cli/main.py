@@ -188,6 +188,7 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     _add_export(add)
+    _add_import_bag(add)
 
     demo = add("demo", help="record and replay the robot dog, then its suite")
     demo.add_argument(
@@ -222,6 +223,76 @@ def _add_export(add: Callable[..., argparse.ArgumentParser]) -> None:
         metavar="MODULE:FACTORY",
         help="also replay against this system and add its first divergence (MCAP only)",
     )
+
+
+def _add_import_bag(add: Callable[..., argparse.ArgumentParser]) -> None:
+    bag = add(
+        "import-bag",
+        help="turn a ROS bag into a session log with samples, replayable at sensor level",
+    )
+    bag.add_argument("bag", type=Path, help="the rosbag2 folder (mcap or sqlite3), or its file")
+    bag.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
+    bag.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
+    bag.add_argument(
+        "--perception",
+        required=True,
+        metavar="MODULE:FACTORY",
+        help="the perception step folding each heartbeat's messages into the robot state",
+    )
+    beats = bag.add_mutually_exclusive_group()
+    beats.add_argument(
+        "--period-ms",
+        type=_positive_float,
+        help="a heartbeat every this many ms from the bag's start (default: 30)",
+    )
+    beats.add_argument(
+        "--clock-topic",
+        metavar="TOPIC",
+        help="a heartbeat at each message on this topic instead",
+    )
+    bag.add_argument(
+        "--topic",
+        action="append",
+        dest="topics",
+        default=[],
+        metavar="TOPIC",
+        help="import this topic (repeatable; default: every topic)",
+    )
+    bag.add_argument(
+        "--spec",
+        type=Path,
+        metavar="FILE",
+        help="also write a DTC spec (*.dtc.toml) that replays the log at sensor level",
+    )
+    bag.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
+    bag.add_argument("--force", action="store_true", help="overwrite an existing log and spec")
+
+
+def _import_bag(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.adapters.rosbag import import_bag
+
+    output: Path = args.output
+    if not output.parent.is_dir():
+        raise _UsageError(f"{output}: directory {output.parent} does not exist")
+    if args.spec is not None and args.spec.exists() and not args.force:
+        raise _UsageError(f"{args.spec}: already exists (use --force)")
+    try:
+        imported = import_bag(
+            args.bag,
+            output,
+            system=args.system,
+            perception=args.perception,
+            period_ns=None if args.period_ms is None else round(args.period_ms * 1e6),
+            clock_topic=args.clock_topic,
+            topics=args.topics,
+            spec=args.spec,
+            seed=args.seed,
+            overwrite=args.force,
+        )
+    except LogExistsError:
+        raise _UsageError(f"{output}: already exists (use --force)") from None
+    console.print(imported.describe(), markup=False, highlight=False)
+    return EXIT_OK
 
 
 def _demo(args: argparse.Namespace, console: Console) -> int:
@@ -756,6 +827,7 @@ _COMMANDS: dict[str, tuple[Command, bool]] = {
     "approve": (_approve, True),
     "plot": (_plot, True),
     "export": (_export, True),
+    "import-bag": (_import_bag, True),
     "demo": (_demo, False),
 }
 """Each subcommand's handler, and whether it imports the user's code (``module:factory``)."""
