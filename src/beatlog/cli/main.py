@@ -390,6 +390,19 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         metavar="MODULE:FACTORY",
         help="the perception step of a --logs run: rebuild each robot state from the samples",
     )
+    test.add_argument(
+        "--break-at",
+        type=_cycle_number,
+        metavar="CYCLE",
+        help="stop in the debugger just before the behaviors update in this cycle "
+        "(one DTC only: select it with -k or name its spec; runs in this process)",
+    )
+    test.add_argument(
+        "--break-on-divergence",
+        action="store_true",
+        help="replay each failing DTC again and stop in the debugger at its first divergence "
+        "(runs in this process)",
+    )
 
 
 def _shard(text: str) -> Shard:
@@ -610,6 +623,12 @@ def _run_tests(
     from beatlog.suite.runner import Verdict, run_suite
 
     specs = _selected_specs(args, fleet)
+    if args.break_at is not None and len(specs) > 1:
+        raise _UsageError(
+            f"--break-at stops in one DTC, and {len(specs)} are selected: "
+            "name its spec or select it with -k"
+        )
+    breaking = args.break_at is not None or args.break_on_divergence
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -618,7 +637,8 @@ def _run_tests(
         TimeElapsedColumn(),
         console=console,
         transient=True,
-        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
+        # a bar only where it can be redrawn (no blank line), and never under a debugger
+        disable=not console.is_terminal or breaking,
     )
     started = time.perf_counter()
     cycles = 0
@@ -652,6 +672,8 @@ def _run_tests(
                 audit=args.audit,
                 timelines=args.html is not None,
                 on_outcome=report,
+                break_at=args.break_at,
+                break_on_divergence=args.break_on_divergence,
             )
     except KeyboardInterrupt:  # report what is complete, then write nothing
         interrupted = True
