@@ -87,30 +87,26 @@ def test_the_bag_file_itself_imports_as_its_folder_does(tmp_path: Path) -> None:
     assert result.samples == 360
 
 
-def test_a_changed_perception_step_fails_the_dtc_with_a_perception_divergence(
-    tmp_path: Path,
+@pytest.mark.parametrize(
+    ("system", "perception", "kind"),
+    [
+        (PROBE, LONG_RANGE, DivergenceKind.PERCEPTION),
+        (CHANGED, PERCEPTION, DivergenceKind.STATE_CHANGES),
+    ],
+    ids=["changed perception", "changed system"],
+)
+def test_a_changed_perception_step_or_system_fails_the_dtc(
+    tmp_path: Path, system: str, perception: str, kind: DivergenceKind
 ) -> None:
     log = imported(tmp_path).log
-    spec = write_spec(tmp_path, "long-range", log, PROBE, perception=LONG_RANGE)
+    spec = write_spec(tmp_path, "changed", log, system, perception=perception)
 
     outcome = run_spec(load_spec(spec))
 
     assert outcome.verdict is Verdict.FAILED
     assert outcome.result is not None
     assert outcome.result.divergence is not None
-    assert outcome.result.divergence.kind is DivergenceKind.PERCEPTION
-
-
-def test_a_changed_system_fails_the_dtc_with_new_state_changes(tmp_path: Path) -> None:
-    log = imported(tmp_path).log
-    spec = write_spec(tmp_path, "changed", log, CHANGED, perception=PERCEPTION)
-
-    outcome = run_spec(load_spec(spec))
-
-    assert outcome.verdict is Verdict.FAILED
-    assert outcome.result is not None
-    assert outcome.result.divergence is not None
-    assert outcome.result.divergence.kind is DivergenceKind.STATE_CHANGES
+    assert outcome.result.divergence.kind is kind
 
 
 def test_by_period_each_heartbeat_takes_the_messages_of_its_period(tmp_path: Path) -> None:
