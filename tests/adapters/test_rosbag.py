@@ -3,7 +3,9 @@ replays at sensor level like a robot recording."""
 
 from __future__ import annotations
 
+import contextlib
 import shutil
+import sqlite3
 from pathlib import Path
 
 import msgspec
@@ -256,3 +258,16 @@ def test_system_and_perception_may_be_objects(tmp_path: Path) -> None:
 
     assert result.cycles == 100
     assert summarize(result.log).header.system == ""
+
+
+def test_a_bag_without_type_definitions_imports_the_standard_types_it_uses(
+    tmp_path: Path,
+) -> None:
+    bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
+    [database] = bag.glob("*.db3")
+    with contextlib.closing(sqlite3.connect(database)) as connection, connection:
+        connection.execute("DELETE FROM message_definitions")  # as bags before ROS 2 Iron
+
+    with pytest.raises(BagError, match="does not define message type my_robot_msgs/msg/Sonar"):
+        imported(tmp_path)
+    assert imported(tmp_path, topics=["/speed"]).samples == 60

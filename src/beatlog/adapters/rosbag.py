@@ -144,13 +144,7 @@ def import_bag(
     with _open(bag) as reader:
         imported = _Import(bag, reader, built, perceive)
         selected = imported.select(topics, clock_topic)
-        if clock_topic is None:
-            period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
-            beats = _by_period(imported.samples(selected), reader.start_time, period)
-        else:
-            ticks = imported.ticks(clock_topic)
-            period = max(1, int(statistics.median(b - a for a, b in itertools.pairwise(ticks))))
-            beats = _by_clock(imported.samples(selected), ticks)
+        period, beats = imported.heartbeats(selected, period_ns, clock_topic)
         try:
             with replacing(output) as file:
                 recorder = Recorder(
@@ -254,11 +248,24 @@ class _Import:
                 raise BagError(
                     self.bag,
                     f"topic {connection.topic!r}: the bag does not define message type "
-                    f"{connection.msgtype} and it is no standard ROS 2 type",
+                    f"{connection.msgtype} and it is no standard ROS 2 type; "
+                    "import the other topics only",
                 )
         return selected
 
-    def ticks(self, clock_topic: str) -> list[int]:
+    def heartbeats(
+        self, selected: Sequence[Connection], period_ns: int | None, clock_topic: str | None
+    ) -> tuple[int, Iterator[tuple[int, list[Sample]]]]:
+        """The period for the log's header, and each heartbeat's interval and samples."""
+        samples = self.samples(selected)
+        if clock_topic is None:
+            period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
+            return period, _by_period(samples, self.reader.start_time, period)
+        ticks = self._ticks(clock_topic)
+        typical = statistics.median(after - before for before, after in itertools.pairwise(ticks))
+        return max(1, int(typical)), _by_clock(samples, ticks)
+
+    def _ticks(self, clock_topic: str) -> list[int]:
         """The times of the clock topic's messages: one heartbeat each, equal times once."""
         clock = [c for c in self.reader.connections if c.topic == clock_topic]
         ticks = sorted({time for _, time, _ in self._messages(clock)})
