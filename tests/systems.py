@@ -14,13 +14,11 @@ import logging
 import os
 import random
 import secrets
-import sys
 import time
 import uuid
 from datetime import datetime as wall_datetime
 from pathlib import Path
 from time import monotonic
-from typing import Any
 
 import numpy as np
 import py_trees
@@ -186,19 +184,6 @@ def scripted_system(headings: list[str]) -> PriorityArbiter[Probe]:
 def exiting_system() -> PriorityArbiter[Probe]:
     """A factory that ends the interpreter at once: the audit's replay dies without an answer."""
     os._exit(70)
-
-
-BREAKS: list[dict[str, Any]] = []
-"""What :func:`record_breakpoint` saw at each stop of the replay debugger."""
-
-
-def record_breakpoint() -> None:
-    """A ``PYTHONBREAKPOINT`` hook for tests: notes the debugger's locals instead of stopping."""
-    frame = sys._getframe(1)
-    names = ("cycle", "robot_state", "recorded_changes", "recorded_draws", "system")
-    seen = {name: frame.f_locals[name] for name in names}
-    seen["context_cycle"] = frame.f_locals["context"].cycle  # the context moves on later
-    BREAKS.append(seen)
 
 
 class Gambler:
