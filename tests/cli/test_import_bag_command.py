@@ -73,7 +73,7 @@ def test_period_and_topics_choose_the_heartbeats_and_the_samples(
         beatlog, bag, "--perception", PERCEPTION, "--period-ms", "20", "--topic", "/sonar"
     )
 
-    assert run.out.startswith("imported 300 messages on 1 topics into 150 cycles (3.00 s)")
+    assert run.out.startswith("imported 300 messages on 1 topic into 150 cycles (3.00 s)")
 
 
 @pytest.mark.parametrize(

@@ -84,8 +84,9 @@ class BagImport(NamedTuple):
 
     def describe(self) -> str:
         """One line for the command: what was imported, and where to."""
+        topics = f"{len(self.topics)} topic{'' if len(self.topics) == 1 else 's'}"
         line = (
-            f"imported {self.samples} messages on {len(self.topics)} topics into "
+            f"imported {self.samples} messages on {topics} into "
             f"{self.cycles} cycles ({self.robot_time_ns / 1e9:.2f} s) to {self.log}"
         )
         if self.left_out:
