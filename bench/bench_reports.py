@@ -51,7 +51,7 @@ def rover_dtc(folder: Path, duration_s: float) -> Path:
 def children_cpu(command: list[str]) -> float:
     """CPU seconds (user + system) of ``command`` and every process it waited for."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run(command, check=False, capture_output=True)
+    subprocess.run(command, check=True, capture_output=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
@@ -60,7 +60,7 @@ def peak_rss_mb(command: list[str]) -> float:
     """Peak RSS of ``command``, in a process of its own so that no other child counts."""
     probe = (
         "import resource, subprocess, sys; "
-        "subprocess.run(sys.argv[1:], check=False, capture_output=True); "
+        "subprocess.run(sys.argv[1:], check=True, capture_output=True); "
         "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
     )
     shown = subprocess.run(

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = [
+    "BagError",
     "BaselineError",
     "BeatlogError",
     "CiWriteError",
@@ -62,6 +63,20 @@ class CorruptLogError(LogError):
 
 class SchemaMismatchError(LogError):
     """The log's robot state cannot be decoded into the system's robot state type."""
+
+
+class BagError(BeatlogError):
+    """A ROS bag that cannot be imported as a session log: missing, damaged, without the
+    messages asked for, or refused by the user's perception step or system; the message
+    names the bag and the problem."""
+
+    def __init__(
+        self, path: str | Path, problem: str, *, user_traceback: str | None = None
+    ) -> None:
+        self.path = Path(path)
+        self.problem = problem
+        self.user_traceback = user_traceback
+        super().__init__(f"{self.path}: {problem}")
 
 
 class ExportError(BeatlogError):

@@ -26,6 +26,7 @@ from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
     CycleRecord,
+    SessionHeader,
     StateChangeRecord,
 )
 from beatlog.log.reader import SessionLogReader
@@ -202,7 +203,7 @@ class TimelineCollector:
         self.log = reader.path
         start, end = (0, None) if window_ns is None else (max(window_ns[0], 0), window_ns[1])
         self.grid = _Grid(start, end, max(buckets, 1))
-        self._lanes = _Lanes(reader.header.behaviors, system, reader.path, expected, self.grid)
+        self._lanes = _Lanes(reader.header, system, reader.path, expected, self.grid)
         self._sampler = _Sampler(reader.path, fields, self.grid)
         self._replayed = system is not None
 
@@ -358,7 +359,7 @@ class _Lanes:
 
     def __init__(
         self,
-        catalogue: Sequence[str],
+        header: SessionHeader,
         system: System | None,
         path: Path,
         expected: Mapping[int, Sequence[StateChange]] | None,
@@ -368,11 +369,12 @@ class _Lanes:
         self.cycle = -1
         self.time_ns = 0
         self._grid = grid
-        self._catalogue = list(catalogue)
+        self._catalogue = list(header.behaviors)
         self._override = expected
         self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
         self._expected: dict[str, _Lane] = {}
         self._actual: dict[str, _Lane] = {}
+        recorded = header.initial_states_by_name()
         initial: dict[str, BehaviorState] = {}
         self._names: list[str] = []
         if system is not None:
@@ -381,7 +383,7 @@ class _Lanes:
             self._names = list(system.behaviors)
         for name in [*self._catalogue, *initial]:
             if name not in self._expected:
-                self._expected[name] = _Lane(initial.get(name), grid)
+                self._expected[name] = _Lane(recorded.get(name, initial.get(name)), grid)
         self._stopped_ns: int | None = None
         grid.on_widen.append(self._refold)
 

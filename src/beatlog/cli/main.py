@@ -188,6 +188,7 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     _add_export(add)
+    _add_import_bag(add)
 
     demo = add("demo", help="record and replay the robot dog, then its suite")
     demo.add_argument(
@@ -222,6 +223,76 @@ def _add_export(add: Callable[..., argparse.ArgumentParser]) -> None:
         metavar="MODULE:FACTORY",
         help="also replay against this system and add its first divergence (MCAP only)",
     )
+
+
+def _add_import_bag(add: Callable[..., argparse.ArgumentParser]) -> None:
+    bag = add(
+        "import-bag",
+        help="turn a ROS bag into a session log with samples, replayable at sensor level",
+    )
+    bag.add_argument("bag", type=Path, help="the rosbag2 folder (mcap or sqlite3), or its file")
+    bag.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
+    bag.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
+    bag.add_argument(
+        "--perception",
+        required=True,
+        metavar="MODULE:FACTORY",
+        help="the perception step folding each heartbeat's messages into the robot state",
+    )
+    beats = bag.add_mutually_exclusive_group()
+    beats.add_argument(
+        "--period-ms",
+        type=_positive_float,
+        help="a heartbeat every this many ms from the bag's start (default: 30)",
+    )
+    beats.add_argument(
+        "--clock-topic",
+        metavar="TOPIC",
+        help="a heartbeat at each message on this topic instead",
+    )
+    bag.add_argument(
+        "--topic",
+        action="append",
+        dest="topics",
+        default=[],
+        metavar="TOPIC",
+        help="import this topic (repeatable; default: every topic)",
+    )
+    bag.add_argument(
+        "--spec",
+        type=Path,
+        metavar="FILE",
+        help="also write a DTC spec (*.dtc.toml) that replays the log at sensor level",
+    )
+    bag.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
+    bag.add_argument("--force", action="store_true", help="overwrite an existing log and spec")
+
+
+def _import_bag(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.adapters.rosbag import import_bag
+
+    output: Path = args.output
+    if not output.parent.is_dir():
+        raise _UsageError(f"{output}: directory {output.parent} does not exist")
+    if args.spec is not None and args.spec.exists() and not args.force:
+        raise _UsageError(f"{args.spec}: already exists (use --force)")
+    try:
+        imported = import_bag(
+            args.bag,
+            output,
+            system=args.system,
+            perception=args.perception,
+            period_ns=None if args.period_ms is None else round(args.period_ms * 1e6),
+            clock_topic=args.clock_topic,
+            topics=args.topics,
+            spec=args.spec,
+            seed=args.seed,
+            overwrite=args.force,
+        )
+    except LogExistsError:
+        raise _UsageError(f"{output}: already exists (use --force)") from None
+    console.print(imported.describe(), markup=False, highlight=False)
+    return EXIT_OK
 
 
 def _demo(args: argparse.Namespace, console: Console) -> int:
@@ -318,6 +389,19 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         "--perception",
         metavar="MODULE:FACTORY",
         help="the perception step of a --logs run: rebuild each robot state from the samples",
+    )
+    test.add_argument(
+        "--break-at",
+        type=_cycle_number,
+        metavar="CYCLE",
+        help="stop in the debugger just before the behaviors update in this cycle "
+        "(one DTC only: select it with -k or name its spec; runs in this process)",
+    )
+    test.add_argument(
+        "--break-on-divergence",
+        action="store_true",
+        help="replay each failing DTC again and stop in the debugger at its first divergence "
+        "(runs in this process)",
     )
 
 
@@ -539,6 +623,12 @@ def _run_tests(
     from beatlog.suite.runner import Verdict, run_suite
 
     specs = _selected_specs(args, fleet)
+    if args.break_at is not None and len(specs) > 1:
+        raise _UsageError(
+            f"--break-at stops in one DTC, and {len(specs)} are selected: "
+            "name its spec or select it with -k"
+        )
+    breaking = args.break_at is not None or args.break_on_divergence
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -547,7 +637,8 @@ def _run_tests(
         TimeElapsedColumn(),
         console=console,
         transient=True,
-        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
+        # a bar only where it can be redrawn (no blank line), and never under a debugger
+        disable=not console.is_terminal or breaking,
     )
     started = time.perf_counter()
     cycles = 0
@@ -579,6 +670,8 @@ def _run_tests(
                 audit=args.audit,
                 timelines=args.html is not None,
                 on_outcome=report,
+                break_at=args.break_at,
+                break_on_divergence=args.break_on_divergence,
             )
     except KeyboardInterrupt:  # report what is complete, then write nothing
         interrupted = True
@@ -754,6 +847,7 @@ _COMMANDS: dict[str, tuple[Command, bool]] = {
     "approve": (_approve, True),
     "plot": (_plot, True),
     "export": (_export, True),
+    "import-bag": (_import_bag, True),
     "demo": (_demo, False),
 }
 """Each subcommand's handler, and whether it imports the user's code (``module:factory``)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
 import glob
 import queue
 import threading
@@ -93,7 +94,9 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     failing one from the one more replay its details take. The outcome's wall time is
     the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
     judges exactly as this run did. The spec's references also import from its folder
-    and its project root (:func:`beatlog.usercode.importable_near`)."""
+    and its project root (:func:`beatlog.usercode.importable_near`). The options' break
+    points stop in the debugger as ``beatlog replay --break-at`` and
+    ``--break-on-divergence`` do: ``breakpoint()``, so ``PYTHONBREAKPOINT`` is honoured."""
     with importable_near(spec.path):
         return _run_spec(spec, options or SpecOptions())
 
@@ -112,22 +115,28 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
                 )
             expected = approved.expectation
         system = spec.system or recorded_system(spec.log)
-        replayed: System | str = system
-        collector = None
-        if timelines:
-            replayed, collector = _collector(spec, system, expected)
-        result = replay(
+        judged = functools.partial(
+            replay,
             spec.log,
-            replayed,
             allow_truncated=spec.allow_truncated,
             comparison=spec.comparison,
             expected=expected,
             explain=False,
             perception=spec.perception,
+        )
+        replayed: System | str = system
+        collector = None
+        if timelines:
+            replayed, collector = _collector(spec, system, expected)
+        result = judged(
+            replayed,
+            break_at=options.break_at,
             observe=None if collector is None else collector.observe,
         )
         wall = time.perf_counter() - started
         divergence = result.divergence
+        if options.break_on_divergence and divergence is not None:
+            judged(system, break_at=divergence.cycle)
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
         details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
@@ -250,6 +259,8 @@ def run_suite(
     audit: bool = False,
     timelines: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
+    break_at: int | None = None,
+    break_on_divergence: bool = False,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time; outcomes in spec order.
 
@@ -261,7 +272,8 @@ def run_suite(
     carries its new expectation (nothing is written here: see
     :mod:`beatlog.suite.maintenance`);
     with ``audit`` each spec's determinism is audited too; with ``timelines`` its
-    timelines are built for charts.
+    timelines are built for charts. ``break_at`` and ``break_on_divergence`` stop in
+    the debugger (see :func:`run_spec`); they replay every spec in this process.
     """
     update = UpdateMode.parse(update)
     outcomes: dict[Path, SpecOutcome] = {}
@@ -272,8 +284,9 @@ def run_suite(
             on_outcome(outcome)
         return fail_fast and outcome.verdict is not Verdict.PASSED
 
-    options = SpecOptions(update, audit, timelines)
-    workers = min(jobs, len(specs)) - 1
+    options = SpecOptions(update, audit, timelines, break_at, break_on_divergence)
+    breaking = break_at is not None or break_on_divergence
+    workers = 0 if breaking else min(jobs, len(specs)) - 1
     if workers < 1:
         for spec in specs:
             if done(run_spec(spec, options)):
