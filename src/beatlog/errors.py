@@ -9,6 +9,7 @@ __all__ = [
     "BaselineError",
     "BeatlogError",
     "CiWriteError",
+    "ClusterError",
     "CorruptLogError",
     "ExportError",
     "FieldError",
@@ -92,6 +93,11 @@ class FieldError(BeatlogError):
 class FleetError(BeatlogError):
     """The logs of a fleet run cannot be found or fetched; the message names the pattern
     or the log."""
+
+
+class ClusterError(BeatlogError):
+    """A Dask cluster that a suite cannot run on: no scheduler answers at its address, or
+    dask.distributed is not installed; the message names the address."""
 
 
 class OptionError(BeatlogError):

@@ -12,11 +12,13 @@ interrupted (Ctrl-C: what was complete is printed, no report is half written).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, TypeVar
 
@@ -28,6 +30,7 @@ if TYPE_CHECKING:
     from rich.console import Console, RenderableType
     from rich.progress import Progress
 
+    from beatlog.suite.cluster import DaskExecutor
     from beatlog.suite.runner import SpecOutcome
     from beatlog.suite.sharding import Shard
     from beatlog.suite.spec import DtcSpec
@@ -318,12 +321,20 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         default=[Path()],
         help="specs (*.dtc.toml) or folders searched for them (default: the current folder)",
     )
-    test.add_argument(
+    where = test.add_mutually_exclusive_group()
+    where.add_argument(
         "-j",
         "--jobs",
         type=_positive_int,
-        default=os.cpu_count() or 1,
-        help="processes replaying at once (default: the number of cores, %(default)s)",
+        help=f"processes replaying at once (default: the number of cores, {os.cpu_count() or 1})",
+    )
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="run the DTCs on the Dask cluster whose scheduler is at ADDRESS "
+        "(tcp://host:8786), or on one started here with local or local:N worker processes; "
+        'specs on a filesystem the workers share (pip install "beatlog[dask]"); '
+        "a cluster that cannot be reached exits 2",
     )
     test.add_argument(
         "-k",
@@ -629,6 +640,8 @@ def _run_tests(
             "name its spec or select it with -k"
         )
     breaking = args.break_at is not None or args.break_on_divergence
+    if breaking and args.dask is not None:
+        raise _UsageError("break points stop in this process: leave out --dask")
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -657,14 +670,21 @@ def _run_tests(
             )
         elif outcome.verdict is Verdict.FAILED:
             progress.console.print(_describe(outcome))
+        if outcome.retries:
+            progress.console.print(
+                f"retried {outcome.spec.name}: the worker replaying it died "
+                f"({outcome.retries} time{'s' if outcome.retries > 1 else ''})",
+                markup=False,
+                highlight=False,
+            )
 
     interrupted = False
     try:
-        with progress:
+        with _executor(args.dask) as executor, progress:
             task = progress.add_task("replaying", total=len(specs), rate="")
             run_suite(
                 specs,
-                jobs=args.jobs,
+                jobs=args.jobs or os.cpu_count() or 1,
                 fail_fast=args.fail_fast,
                 update=args.update,
                 audit=args.audit,
@@ -672,6 +692,7 @@ def _run_tests(
                 on_outcome=report,
                 break_at=args.break_at,
                 break_on_divergence=args.break_on_divergence,
+                executor=executor,
             )
     except KeyboardInterrupt:  # report what is complete, then write nothing
         interrupted = True
@@ -693,6 +714,15 @@ def _run_tests(
     if interrupted:
         raise KeyboardInterrupt
     return _test_exit_code(outcomes)
+
+
+def _executor(address: str | None) -> AbstractContextManager[DaskExecutor | None]:
+    """The Dask cluster of ``--dask``, connected to (or started) for the run; none without."""
+    if address is None:
+        return contextlib.nullcontext()
+    from beatlog.suite.cluster import DaskExecutor
+
+    return DaskExecutor(address)
 
 
 def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:

@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     from beatlog.model.behavior import System
     from beatlog.report.figures import Chart
 
-__all__ = ["SpecOutcome", "Verdict", "run_spec", "run_suite"]
+__all__ = ["Executor", "SpecOutcome", "Verdict", "run_spec", "run_suite"]
 
 
 class Verdict(StrEnum):
@@ -70,6 +70,9 @@ class SpecOutcome:
     session), drawn where it was judged, when the suite was run with ``timelines``."""
     error_traceback: str | None = None
     """The traceback of the user's code behind the error, when their code raised it."""
+    retries: int = 0
+    """How many times the DTC was run again because the process running it died (a
+    cluster's worker, see :mod:`beatlog.suite.cluster`)."""
 
     @property
     def reproduce(self) -> str:
@@ -250,6 +253,12 @@ def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | No
     return trace.expectation, None
 
 
+Executor = Callable[[Sequence[DtcSpec], SpecOptions, Callable[[SpecOutcome], bool]], None]
+"""Runs specs somewhere else than this machine's worker processes (a Dask cluster, see
+:class:`beatlog.suite.cluster.DaskExecutor`): each outcome, from :func:`run_spec`, goes
+to the callback as it comes, until the callback says stop (returns True)."""
+
+
 def run_suite(
     specs: Sequence[DtcSpec],
     *,
@@ -261,8 +270,10 @@ def run_suite(
     on_outcome: Callable[[SpecOutcome], object] | None = None,
     break_at: int | None = None,
     break_on_divergence: bool = False,
+    executor: Executor | None = None,
 ) -> list[SpecOutcome]:
-    """Run every spec, ``jobs`` at a time; outcomes in spec order.
+    """Run every spec, ``jobs`` at a time, or with ``executor`` (``jobs`` then unused);
+    outcomes in spec order.
 
     With more than one job, this process replays specs too while ``jobs - 1`` worker
     processes start and then take the next spec each as they become free: a suite too
@@ -286,8 +297,12 @@ def run_suite(
 
     options = SpecOptions(update, audit, timelines, break_at, break_on_divergence)
     breaking = break_at is not None or break_on_divergence
+    if breaking and executor is not None:
+        raise ValueError("break points stop in this process; they cannot run on an executor")
     workers = 0 if breaking else min(jobs, len(specs)) - 1
-    if workers < 1:
+    if executor is not None:
+        executor(specs, options, done)
+    elif workers < 1:
         for spec in specs:
             if done(run_spec(spec, options)):
                 break
