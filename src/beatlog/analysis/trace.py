@@ -39,6 +39,7 @@ __all__ = [
     "TraceCollector",
     "TracedChange",
     "TracedOutput",
+    "TracedState",
     "fields_read",
     "read_changes",
     "recorded_outputs",
@@ -68,6 +69,16 @@ ABSENT = _Absent.ABSENT
 
 class TracedOutput(NamedTuple):
     """An output field that took a new value (or went :data:`ABSENT`) at a cycle."""
+
+    cycle: int
+    time_ns: int
+    field: str
+    value: Any
+
+
+class TracedState(NamedTuple):
+    """A robot-state field that the perception step rebuilt differently from the
+    recorded RS_t at a cycle, with the value it rebuilt."""
 
     cycle: int
     time_ns: int
@@ -110,16 +121,27 @@ class Expectation:
 
     ``outputs`` pins the outputs as compact changes (see :class:`OutputTracker`); None
     (a baseline from before outputs were pinned) leaves them judged against the recording.
+    ``robot_states`` pins, for sensor-level replay, the robot states an intended
+    perception change rebuilds: the fields that differ from the recorded RS_t, in the
+    cycles where they do (none: perception rebuilds the recording).
     """
 
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] | None = None
+    robot_states: tuple[TracedState, ...] = ()
 
     def changes_by_cycle(self) -> dict[int, list[StateChange]]:
         """The state changes grouped by cycle."""
         grouped: dict[int, list[StateChange]] = {}
         for traced in self.changes:
             grouped.setdefault(traced.cycle, []).append(traced.change)
+        return grouped
+
+    def states_by_cycle(self) -> dict[int, dict[str, Any]]:
+        """The pinned robot-state fields grouped by cycle."""
+        grouped: dict[int, dict[str, Any]] = {}
+        for traced in self.robot_states:
+            grouped.setdefault(traced.cycle, {})[traced.field] = traced.value
         return grouped
 
     def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
