@@ -490,13 +490,10 @@ def _selected_specs(args: argparse.Namespace, fleet: list[DtcSpec] | None = None
 
 def _write_json(path: Path, document: object) -> None:
     """Write a JSON document whole or not at all; an unwritable path is bad input."""
-    import json
-
-    from beatlog.files import replacing
+    from beatlog.files import write_json
 
     try:
-        with replacing(path) as file:
-            file.write(json.dumps(document, indent=2).encode() + b"\n")
+        write_json(path, document)
     except OSError as exc:
         raise _UsageError(f"{path}: cannot write: {exc.strerror}") from None
 
