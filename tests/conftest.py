@@ -6,8 +6,9 @@ import functools
 import os
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -166,3 +167,25 @@ def alone_system() -> PriorityArbiter[Probe]:
 def dying_system() -> PriorityArbiter[Probe]:
     """A system factory that ends its process at once, as a crash would."""
     os._exit(3)
+
+
+BREAKS: list[dict[str, Any]] = []
+"""What :func:`record_breakpoint` saw at each stop of the replay debugger."""
+
+
+def record_breakpoint() -> None:
+    """A ``PYTHONBREAKPOINT`` hook for tests: notes the debugger's locals instead of stopping."""
+    frame = sys._getframe(1)
+    names = ("cycle", "robot_state", "recorded_changes", "recorded_draws", "system")
+    seen = {name: frame.f_locals[name] for name in names}
+    seen["context_cycle"] = frame.f_locals["context"].cycle  # the context moves on later
+    BREAKS.append(seen)
+
+
+@pytest.fixture
+def breaks(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[dict[str, Any]]]:
+    """Every stop of the replay debugger in the test, noted by :func:`record_breakpoint`."""
+    monkeypatch.setenv("PYTHONBREAKPOINT", "tests.conftest.record_breakpoint")
+    BREAKS.clear()
+    yield BREAKS
+    BREAKS.clear()

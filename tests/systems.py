@@ -14,15 +14,14 @@ import logging
 import os
 import random
 import secrets
-import sys
 import time
 import uuid
 from datetime import datetime as wall_datetime
 from pathlib import Path
 from time import monotonic
-from typing import Any
 
 import numpy as np
+import py_trees
 
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
@@ -187,19 +186,6 @@ def exiting_system() -> PriorityArbiter[Probe]:
     os._exit(70)
 
 
-BREAKS: list[dict[str, Any]] = []
-"""What :func:`record_breakpoint` saw at each stop of the replay debugger."""
-
-
-def record_breakpoint() -> None:
-    """A ``PYTHONBREAKPOINT`` hook for tests: notes the debugger's locals instead of stopping."""
-    frame = sys._getframe(1)
-    names = ("cycle", "robot_state", "recorded_changes", "recorded_draws", "system")
-    seen = {name: frame.f_locals[name] for name in names}
-    seen["context_cycle"] = frame.f_locals["context"].cycle  # the context moves on later
-    BREAKS.append(seen)
-
-
 class Gambler:
     """Picks a heading with the global, unseeded random generator."""
 
@@ -213,3 +199,30 @@ class Gambler:
 
 def gambler_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Gambler()], robot_state=Probe)
+
+
+class HandTickedTree:
+    """A py_trees tree ticked by hand, without beatlog's adapter: its ``Timer`` reads the
+    wall clock (``py_trees/timers.py``), whatever robot time says."""
+
+    name = "patrol"
+    state = "INVALID"
+
+    def __init__(self) -> None:
+        self.tree = py_trees.composites.Sequence(
+            "patrol",
+            memory=True,
+            children=[
+                py_trees.timers.Timer("pause", duration=3600.0),
+                py_trees.behaviours.Success("go"),
+            ],
+        )
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.tree.tick_once()  # leak via: the user's frame that reached py_trees' timer
+        self.state = self.tree.status.name
+        return None
+
+
+def hand_ticked_tree() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([HandTickedTree()], robot_state=Probe)

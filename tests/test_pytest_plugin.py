@@ -13,6 +13,7 @@ import beatlog_examples.rover
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import Probe, RecordFn
+from tests.specs import FIRST_CHANGED_CYCLE
 from tests.systems import leaks, leaky_system, record_session
 
 
@@ -237,3 +238,50 @@ def test_without_the_option_no_coverage_is_shown(pytester: pytest.Pytester, log:
     result.assert_outcomes(passed=1)
     result.stdout.no_fnmatch_line("*transition coverage*")
     assert not (pytester.path / ".beatlog_cache").exists()
+
+
+def test_break_at_stops_in_the_dtc_selected(
+    pytester: pytest.Pytester, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    pytester.makefile(".dtc.toml", leave=spec_text("leave-wall", log))
+
+    result = pytester.runpytest("-k", "leave", "--beatlog-break-at", "12")
+
+    result.assert_outcomes(passed=1, deselected=1)
+    assert [stop["cycle"] for stop in breaks] == [12]
+
+
+def test_break_at_refuses_a_run_that_selects_more_than_one_dtc(
+    pytester: pytest.Pytester, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    pytester.makefile(".dtc.toml", leave=spec_text("leave-wall", log))
+
+    result = pytester.runpytest("--beatlog-break-at", "12")
+
+    assert result.ret == pytest.ExitCode.USAGE_ERROR
+    result.stderr.fnmatch_lines(["*--beatlog-break-at stops in one DTC, and 2 are selected*"])
+    assert breaks == []
+
+
+def test_break_on_divergence_stops_a_failing_dtc_at_its_first_divergence(
+    pytester: pytest.Pytester, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    changed = "tests.conftest:probe_system_changed"
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    pytester.makefile(".dtc.toml", changed=spec_text("changed", log, changed))
+
+    result = pytester.runpytest("--beatlog-break-on-divergence")
+
+    result.assert_outcomes(passed=1, failed=1)
+    assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE]
+
+
+def test_break_points_refuse_xdist_workers(pytester: pytest.Pytester, log: Path) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+
+    result = pytester.runpytest("-n", "2", "--beatlog-break-on-divergence")
+
+    assert result.ret == pytest.ExitCode.USAGE_ERROR
+    result.stderr.fnmatch_lines(["*run without pytest-xdist's -n (or with -n 0)*"])

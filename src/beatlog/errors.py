@@ -5,9 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 
 __all__ = [
+    "BagError",
     "BaselineError",
     "BeatlogError",
     "CiWriteError",
+    "ClusterError",
     "CorruptLogError",
     "ExportError",
     "FieldError",
@@ -64,6 +66,20 @@ class SchemaMismatchError(LogError):
     """The log's robot state cannot be decoded into the system's robot state type."""
 
 
+class BagError(BeatlogError):
+    """A ROS bag that cannot be imported as a session log: missing, damaged, without the
+    messages asked for, or refused by the user's perception step or system; the message
+    names the bag and the problem."""
+
+    def __init__(
+        self, path: str | Path, problem: str, *, user_traceback: str | None = None
+    ) -> None:
+        self.path = Path(path)
+        self.problem = problem
+        self.user_traceback = user_traceback
+        super().__init__(f"{self.path}: {problem}")
+
+
 class ExportError(BeatlogError):
     """A session log that cannot be exported as asked: the output cannot be written, an
     optional package is missing, or the option does not fit the format."""
@@ -77,6 +93,11 @@ class FieldError(BeatlogError):
 class FleetError(BeatlogError):
     """The logs of a fleet run cannot be found or fetched; the message names the pattern
     or the log."""
+
+
+class ClusterError(BeatlogError):
+    """A Dask cluster that a suite cannot run on: no scheduler answers at its address, or
+    dask.distributed is not installed; the message names the address."""
 
 
 class OptionError(BeatlogError):

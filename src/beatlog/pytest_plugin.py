@@ -13,6 +13,13 @@ also audits each DTC's determinism and fails the ones it finds leaking;
 ``beatlog test --coverage`` does (remembering what earlier runs saw), and
 ``--beatlog-coverage-json FILE`` writes it for tools. The terminal summary says what
 was written, names orphaned baselines and counts the verdicts.
+
+Break points, as ``beatlog replay`` has them: ``--beatlog-break-at CYCLE`` stops in the
+debugger just before the behaviors update in that cycle of the one DTC selected (with
+``-k`` or its path), ``--beatlog-break-on-divergence`` replays each failing DTC again
+and stops at its first divergence. Both call ``breakpoint()``, so ``PYTHONBREAKPOINT``
+is honoured and pytest suspends its output capture while pdb runs; they need the DTCs
+run in the pytest process (no ``-n`` of pytest-xdist).
 """
 
 from __future__ import annotations
@@ -77,6 +84,20 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         dest="beatlog_coverage_json",
         help="write the transition coverage of the DTCs that ran as JSON",
     )
+    group.addoption(
+        "--beatlog-break-at",
+        type=int,
+        metavar="CYCLE",
+        dest="beatlog_break_at",
+        help="stop in the debugger just before the behaviors update in this cycle of the "
+        "one DTC selected",
+    )
+    group.addoption(
+        "--beatlog-break-on-divergence",
+        action="store_true",
+        dest="beatlog_break_on_divergence",
+        help="replay each failing DTC again and stop in the debugger at its first divergence",
+    )
     parser.addini(
         "beatlog_collect",
         type="bool",
@@ -95,11 +116,32 @@ class BeatlogRun:
     """pytest's rootdir: the coverage memory goes to its project root."""
     coverage: bool = False
     coverage_json: Path | None = None
+    break_at: int | None = None
+    break_on_divergence: bool = False
     verdicts: list[Verdict] = field(default_factory=list)
     specs: set[Path] = field(default_factory=set)
     """The specs that ran: their folders are where orphaned baselines are looked for."""
     lines: list[str] = field(default_factory=list)
     """What updating the baselines did."""
+
+    @property
+    def options(self) -> SpecOptions:
+        """What each DTC is run with."""
+        return SpecOptions(
+            update=self.update,
+            audit=self.audit,
+            break_at=self.break_at,
+            break_on_divergence=self.break_on_divergence,
+        )
+
+    def pytest_collection_finish(self, session: pytest.Session) -> None:
+        """A break at a cycle stops in one DTC: refuse a run that selects more."""
+        selected = sum(isinstance(item, DtcItem) for item in session.items)
+        if self.break_at is not None and selected > 1:
+            raise pytest.UsageError(
+                f"--beatlog-break-at stops in one DTC, and {selected} are selected: "
+                "select it with -k or name its spec"
+            )
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
         """Gather a DTC's verdict and update lines from its report (a worker's, under xdist)."""
@@ -154,6 +196,15 @@ _RUN = pytest.StashKey[BeatlogRun]()
 
 def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "dtc: a beatlog deterministic test case (*.dtc.toml)")
+    break_at = config.getoption("beatlog_break_at")
+    break_on_divergence = config.getoption("beatlog_break_on_divergence")
+    if break_at is not None and break_at < 0:
+        raise pytest.UsageError(f"--beatlog-break-at: must be 0 or more, got {break_at}")
+    if (break_at is not None or break_on_divergence) and _distributed(config):
+        raise pytest.UsageError(
+            "the beatlog break points stop in the debugger of this process: "
+            "run without pytest-xdist's -n (or with -n 0)"
+        )
     coverage_json = config.getoption("beatlog_coverage_json")
     config.stash[_RUN] = BeatlogRun(
         update=UpdateMode.parse(config.getoption("beatlog_update")),
@@ -163,8 +214,17 @@ def pytest_configure(config: pytest.Config) -> None:
         coverage_json=None
         if coverage_json is None
         else config.invocation_params.dir / coverage_json,
+        break_at=break_at,
+        break_on_divergence=break_on_divergence,
     )
     config.pluginmanager.register(config.stash[_RUN], "beatlog-run")
+
+
+def _distributed(config: pytest.Config) -> bool:
+    """Whether pytest-xdist runs the tests in worker processes."""
+    return bool(getattr(config.option, "numprocesses", None)) and (
+        getattr(config.option, "dist", "no") != "no"
+    )
 
 
 def pytest_collect_file(parent: pytest.Collector, file_path: Path) -> pytest.Collector | None:
@@ -199,7 +259,7 @@ class DtcItem(pytest.Item):
 
     def runtest(self) -> None:
         run = self.config.stash[_RUN]
-        outcome = run_spec(self.spec, SpecOptions(update=run.update, audit=run.audit))
+        outcome = run_spec(self.spec, run.options)
         self.user_properties.append((_VERDICT, outcome.verdict.value))
         self.user_properties.append((_SPEC, str(self.spec.path)))
         for line in render_updates(update_baselines([outcome], run.update)):

@@ -119,6 +119,17 @@ def test_without_a_system_only_the_recording_is_read(record_probe: RecordFn) -> 
     assert recorded.signals == replayed.signals
 
 
+def test_a_behavior_that_never_changed_shows_its_recorded_state_without_a_system(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(50, states=[Probe(distance=2.0)] * 50)
+
+    recorded, _ = lane(build_timeline(log), "near")
+
+    assert states(recorded) == ["far"]
+    assert_tiles(recorded, 0, build_timeline(log).end_ns)
+
+
 def test_an_exception_ends_the_replayed_lanes_but_not_the_recorded_ones(
     record_probe: RecordFn,
 ) -> None:
@@ -176,7 +187,7 @@ def test_an_approved_baseline_replaces_the_recording_as_the_expected_trace(
     near, _ = lane(recorded_only, "near")
     assert near == (Interval(0, times[3], "far"), Interval(times[3], times[-1], "near"))
     arbiter, _ = lane(recorded_only, "arbiter")
-    assert arbiter == (Interval(0, times[-1], None),)  # no system: its first state is unknown
+    assert arbiter == (Interval(0, times[-1], "idle"),)  # never changed: its recorded state
     arbiter, _ = lane(replayed, "arbiter")
     assert arbiter == (Interval(0, times[-1], "idle"),)  # the system's own first state
     assert replayed.divergence is None  # a timeline marks only the verdict it is given

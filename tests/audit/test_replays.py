@@ -16,6 +16,7 @@ from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
 from tests.systems import (
     HEADINGS,
+    hand_ticked_tree,
     leaks,
     leaky_system,
     record_session,
@@ -23,6 +24,7 @@ from tests.systems import (
 )
 
 SYSTEMS = "tests.systems"
+SYSTEMS_FILE = str(Path(__file__).parent.parent / "systems.py")
 
 
 def set_order(hash_seed: int) -> list[str]:
@@ -54,6 +56,28 @@ def test_every_leak_is_a_finding_with_its_site_and_count(tmp_path: Path) -> None
     call, site = leaks()[0]
     assert report.lines()[0] == f"{call} at {site} (20 times)"
     assert pickle.loads(pickle.dumps(report)) == report  # it travels from suite workers
+
+
+def test_a_py_trees_timer_on_the_wall_clock_is_named_in_py_trees_with_the_user_frame(
+    tmp_path: Path,
+) -> None:
+    log = record_session(tmp_path / "tree.beatlog", hand_ticked_tree(), cycles=20)
+    via_line = next(
+        number
+        for number, line in enumerate(Path(SYSTEMS_FILE).read_text().splitlines(), 1)
+        if "# leak via:" in line
+    )
+
+    report = audit(log, f"{SYSTEMS}:hand_ticked_tree")
+
+    assert report.runs[0].ok
+    assert report.hash_seed_dependence is None
+    assert report.findings, "the timer's wall-clock reads went unseen"
+    for finding in report.findings:
+        assert finding.call in ("time.time", "time.monotonic")
+        assert "py_trees/timers.py:" in finding.site
+        assert finding.via == f"{SYSTEMS_FILE}:{via_line} in HandTickedTree.step"
+    assert report.lines()[0].endswith(f", from {SYSTEMS_FILE}:{via_line} in HandTickedTree.step")
 
 
 def test_the_example_rover_is_deterministic(tmp_path: Path) -> None:

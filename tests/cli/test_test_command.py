@@ -445,3 +445,39 @@ def test_a_long_suite_lists_what_did_not_pass_and_every_dtc_with_verbose(
     assert "… and 33 passed, not listed: run with --verbose to list every DTC" in brief.out
     assert all(f"lap-{n:02} " in verbose.out for n in range(33))
     assert "not listed" not in verbose.out
+
+
+def test_break_at_stops_in_the_one_dtc_selected(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    write_spec(specs, "approach", log)
+    write_spec(specs, "leave", log)
+
+    run = beatlog_test(specs, "-k", "leave", "--break-at", "12")
+
+    assert run.code == 0
+    assert [stop["cycle"] for stop in breaks] == [12]
+
+
+def test_break_at_with_more_than_one_dtc_selected_is_a_usage_error(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    write_spec(specs, "approach", log)
+    write_spec(specs, "leave", log)
+
+    run = beatlog_test(specs, "--break-at", "12")
+
+    assert_one_line_error(run, "--break-at stops in one DTC, and 2 are selected")
+    assert breaks == []
+
+
+def test_break_on_divergence_stops_each_failing_dtc_at_its_first_divergence(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    write_spec(specs, "as-recorded", log)
+    write_spec(specs, "changed", log, CHANGED)
+
+    run = beatlog_test(specs, "--break-on-divergence", "-j", "2")
+
+    assert run.code == 1
+    assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE]

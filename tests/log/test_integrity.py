@@ -274,6 +274,10 @@ def test_msgpack_nested_deep_in_any_header_field_is_a_corrupt_log(
         ({"period_ns": 0}, ["period_ns"]),
         ({"period_ns": -30}, ["period_ns"]),
         ({"behaviors": ["walk", "walk"]}, ["a behavior is named twice"]),
+        (
+            {"behaviors": ["walk", "sit"], "initial_states": ["idle"]},
+            ["1 initial states for 2 behaviors"],
+        ),
         ({"robot_id": "r" * 10_000}, ["robot_id"]),
         ({"behaviors": [f"b{i}" for i in range(MAX_BEHAVIORS + 1)]}, ["behaviors"]),
         ({"behaviors": ["b" * 1000]}, ["behaviors"]),
@@ -284,6 +288,7 @@ def test_msgpack_nested_deep_in_any_header_field_is_a_corrupt_log(
         "period-0",
         "period-negative",
         "duplicate-behavior",
+        "initial-states-short",
         "long-robot-id",
         "too-many-behaviors",
         "long-behavior-name",

@@ -2,23 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 
 from beatlog.cli.main import main
 from beatlog.replay.judge import replay
 from tests.conftest import Probe, RecordFn, distances, probe_system
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE
-from tests.systems import BREAKS
-
-
-@pytest.fixture
-def breaks(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[dict[str, object]]]:
-    monkeypatch.setenv("PYTHONBREAKPOINT", "tests.systems.record_breakpoint")
-    BREAKS.clear()
-    yield BREAKS
-    BREAKS.clear()
 
 
 def test_break_at_stops_before_the_update_with_the_cycle_at_hand(

@@ -282,3 +282,38 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
     assert outcome.update is not None
     assert len(outcome.timelines) == 2
     assert CountingArbiter.replays == 2
+
+
+# break points
+
+
+def test_a_break_at_a_cycle_stops_the_dtc_there(
+    tmp_path: Path, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    outcome = run_spec(dtc(tmp_path, "avoid-pole", log), SpecOptions(break_at=40))
+
+    assert outcome.verdict is Verdict.PASSED
+    assert [stop["cycle"] for stop in breaks] == [40]
+
+
+def test_a_break_on_divergence_stops_a_failing_dtc_at_its_first_divergence(
+    tmp_path: Path, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    options = SpecOptions(break_on_divergence=True)
+
+    passed = run_spec(dtc(tmp_path, "as-recorded", log), options)
+    failed = run_spec(dtc(tmp_path, "changed", log, CHANGED), options)
+
+    assert (passed.verdict, failed.verdict) == (Verdict.PASSED, Verdict.FAILED)
+    assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE]
+
+
+def test_break_points_replay_every_spec_in_this_process_whatever_the_jobs(
+    tmp_path: Path, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    specs = [dtc(tmp_path, name, log, CHANGED) for name in ("first", "second")]
+
+    outcomes = run_suite(specs, jobs=2, break_on_divergence=True)
+
+    assert verdicts(outcomes) == [("first", Verdict.FAILED), ("second", Verdict.FAILED)]
+    assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE] * 2

@@ -245,7 +245,7 @@ def _name(catalogue: Sequence[str], index: int) -> str:
 
 def _first_read(log: Path) -> _FirstRead:
     with SessionLogReader(log) as reader:
-        states: dict[str, BehaviorState] = {}
+        states: dict[str, BehaviorState] = reader.header.initial_states_by_name()
         output_types: dict[str, str | None] = {}
         for cycle in _decoded_cycles(reader):
             for change in cycle.changes:

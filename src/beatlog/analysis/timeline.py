@@ -26,6 +26,7 @@ from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
     CycleRecord,
+    SessionHeader,
     StateChangeRecord,
 )
 from beatlog.log.reader import SessionLogReader
@@ -162,7 +163,7 @@ class TimelineCollector:
         expected: Mapping[int, Sequence[StateChange]] | None = None,
     ) -> None:
         self.log = reader.path
-        self._lanes = _Collector(reader.header.behaviors, system, reader.path, expected)
+        self._lanes = _Collector(reader.header, system, reader.path, expected)
         self._sampler = _Sampler(reader.path, fields)
         self._replayed = system is not None
 
@@ -273,7 +274,7 @@ class _Collector:
 
     def __init__(
         self,
-        catalogue: Sequence[str],
+        header: SessionHeader,
         system: System | None,
         path: Path,
         expected: Mapping[int, Sequence[StateChange]] | None,
@@ -281,11 +282,12 @@ class _Collector:
         self.path = path
         self.cycle = -1
         self.time_ns = 0
-        self._catalogue = list(catalogue)
+        self._catalogue = list(header.behaviors)
         self._override = expected
         self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
         self._expected: dict[str, _LaneBuilder] = {}
         self._actual: dict[str, _LaneBuilder] = {}
+        recorded = header.initial_states_by_name()
         initial: dict[str, BehaviorState] = {}
         self._names: list[str] = []
         if system is not None:
@@ -293,7 +295,7 @@ class _Collector:
             self._actual = {name: _LaneBuilder(state) for name, state in initial.items()}
             self._names = list(system.behaviors)
         for name in [*self._catalogue, *initial]:
-            self._expected.setdefault(name, _LaneBuilder(initial.get(name)))
+            self._expected.setdefault(name, _LaneBuilder(recorded.get(name, initial.get(name))))
         self._stopped_ns: int | None = None
 
     @property

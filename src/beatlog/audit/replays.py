@@ -78,6 +78,7 @@ class AuditReport:
         """Every problem in one line each, for reports."""
         lines = [
             f"{finding.call} at {finding.site} ({_times(finding.count)})"
+            + ("" if finding.via is None else f", from {finding.via}")
             for finding in self.findings
         ]
         if self.hash_seed_dependence is not None:

@@ -12,11 +12,13 @@ interrupted (Ctrl-C: what was complete is printed, no report is half written).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, TypeVar
 
@@ -28,6 +30,7 @@ if TYPE_CHECKING:
     from rich.console import Console, RenderableType
     from rich.progress import Progress
 
+    from beatlog.suite.cluster import DaskExecutor
     from beatlog.suite.runner import SpecOutcome
     from beatlog.suite.sharding import Shard
     from beatlog.suite.spec import DtcSpec
@@ -188,6 +191,7 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     _add_export(add)
+    _add_import_bag(add)
 
     demo = add("demo", help="record and replay the robot dog, then its suite")
     demo.add_argument(
@@ -224,6 +228,76 @@ def _add_export(add: Callable[..., argparse.ArgumentParser]) -> None:
     )
 
 
+def _add_import_bag(add: Callable[..., argparse.ArgumentParser]) -> None:
+    bag = add(
+        "import-bag",
+        help="turn a ROS bag into a session log with samples, replayable at sensor level",
+    )
+    bag.add_argument("bag", type=Path, help="the rosbag2 folder (mcap or sqlite3), or its file")
+    bag.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
+    bag.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
+    bag.add_argument(
+        "--perception",
+        required=True,
+        metavar="MODULE:FACTORY",
+        help="the perception step folding each heartbeat's messages into the robot state",
+    )
+    beats = bag.add_mutually_exclusive_group()
+    beats.add_argument(
+        "--period-ms",
+        type=_positive_float,
+        help="a heartbeat every this many ms from the bag's start (default: 30)",
+    )
+    beats.add_argument(
+        "--clock-topic",
+        metavar="TOPIC",
+        help="a heartbeat at each message on this topic instead",
+    )
+    bag.add_argument(
+        "--topic",
+        action="append",
+        dest="topics",
+        default=[],
+        metavar="TOPIC",
+        help="import this topic (repeatable; default: every topic)",
+    )
+    bag.add_argument(
+        "--spec",
+        type=Path,
+        metavar="FILE",
+        help="also write a DTC spec (*.dtc.toml) that replays the log at sensor level",
+    )
+    bag.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
+    bag.add_argument("--force", action="store_true", help="overwrite an existing log and spec")
+
+
+def _import_bag(args: argparse.Namespace, console: Console) -> int:
+    from beatlog.adapters.rosbag import import_bag
+
+    output: Path = args.output
+    if not output.parent.is_dir():
+        raise _UsageError(f"{output}: directory {output.parent} does not exist")
+    if args.spec is not None and args.spec.exists() and not args.force:
+        raise _UsageError(f"{args.spec}: already exists (use --force)")
+    try:
+        imported = import_bag(
+            args.bag,
+            output,
+            system=args.system,
+            perception=args.perception,
+            period_ns=None if args.period_ms is None else round(args.period_ms * 1e6),
+            clock_topic=args.clock_topic,
+            topics=args.topics,
+            spec=args.spec,
+            seed=args.seed,
+            overwrite=args.force,
+        )
+    except LogExistsError:
+        raise _UsageError(f"{output}: already exists (use --force)") from None
+    console.print(imported.describe(), markup=False, highlight=False)
+    return EXIT_OK
+
+
 def _demo(args: argparse.Namespace, console: Console) -> int:
     """Run the demo a package registered under the ``beatlog.demo`` entry point group."""
     from importlib.metadata import entry_points
@@ -247,12 +321,20 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         default=[Path()],
         help="specs (*.dtc.toml) or folders searched for them (default: the current folder)",
     )
-    test.add_argument(
+    where = test.add_mutually_exclusive_group()
+    where.add_argument(
         "-j",
         "--jobs",
         type=_positive_int,
-        default=os.cpu_count() or 1,
-        help="processes replaying at once (default: the number of cores, %(default)s)",
+        help=f"processes replaying at once (default: the number of cores, {os.cpu_count() or 1})",
+    )
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="run the DTCs on the Dask cluster whose scheduler is at ADDRESS "
+        "(tcp://host:8786), or on one started here with local or local:N worker processes; "
+        'specs on a filesystem the workers share (pip install "beatlog[dask]"); '
+        "a cluster that cannot be reached exits 2",
     )
     test.add_argument(
         "-k",
@@ -319,6 +401,19 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         "--perception",
         metavar="MODULE:FACTORY",
         help="the perception step of a --logs run: rebuild each robot state from the samples",
+    )
+    test.add_argument(
+        "--break-at",
+        type=_cycle_number,
+        metavar="CYCLE",
+        help="stop in the debugger just before the behaviors update in this cycle "
+        "(one DTC only: select it with -k or name its spec; runs in this process)",
+    )
+    test.add_argument(
+        "--break-on-divergence",
+        action="store_true",
+        help="replay each failing DTC again and stop in the debugger at its first divergence "
+        "(runs in this process)",
     )
 
 
@@ -537,6 +632,14 @@ def _run_tests(
     from beatlog.suite.runner import Verdict, run_suite
 
     specs = _selected_specs(args, fleet)
+    if args.break_at is not None and len(specs) > 1:
+        raise _UsageError(
+            f"--break-at stops in one DTC, and {len(specs)} are selected: "
+            "name its spec or select it with -k"
+        )
+    breaking = args.break_at is not None or args.break_on_divergence
+    if breaking and args.dask is not None:
+        raise _UsageError("break points stop in this process: leave out --dask")
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -545,7 +648,8 @@ def _run_tests(
         TimeElapsedColumn(),
         console=console,
         transient=True,
-        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
+        # a bar only where it can be redrawn (no blank line), and never under a debugger
+        disable=not console.is_terminal or breaking,
     )
     started = time.perf_counter()
     cycles = 0
@@ -564,21 +668,31 @@ def _run_tests(
             )
         elif outcome.verdict is Verdict.FAILED:
             progress.console.print(_describe(outcome))
+        if outcome.retries:
+            progress.console.print(
+                f"retried {outcome.spec.name}: the worker replaying it died "
+                f"({outcome.retries} time{'s' if outcome.retries > 1 else ''})",
+                markup=False,
+                highlight=False,
+            )
 
     if args.html is not None:
         _need_matplotlib("test --html")
     interrupted = False
     try:
-        with progress:
+        with _executor(args.dask) as executor, progress:
             task = progress.add_task("replaying", total=len(specs), rate="")
             run_suite(
                 specs,
-                jobs=args.jobs,
+                jobs=args.jobs or os.cpu_count() or 1,
                 fail_fast=args.fail_fast,
                 update=args.update,
                 audit=args.audit,
                 timelines=args.html is not None,
                 on_outcome=report,
+                break_at=args.break_at,
+                break_on_divergence=args.break_on_divergence,
+                executor=executor,
             )
     except KeyboardInterrupt:  # report what is complete, then write nothing
         interrupted = True
@@ -600,6 +714,15 @@ def _run_tests(
     if interrupted:
         raise KeyboardInterrupt
     return _test_exit_code(outcomes)
+
+
+def _executor(address: str | None) -> AbstractContextManager[DaskExecutor | None]:
+    """The Dask cluster of ``--dask``, connected to (or started) for the run; none without."""
+    if address is None:
+        return contextlib.nullcontext()
+    from beatlog.suite.cluster import DaskExecutor
+
+    return DaskExecutor(address)
 
 
 def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
@@ -760,6 +883,7 @@ _COMMANDS: dict[str, tuple[Command, bool]] = {
     "approve": (_approve, True),
     "plot": (_plot, True),
     "export": (_export, True),
+    "import-bag": (_import_bag, True),
     "demo": (_demo, False),
 }
 """Each subcommand's handler, and whether it imports the user's code (``module:factory``)."""

@@ -98,7 +98,8 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     robot_id: Name
     software_version: Name
     system: Text
-    """The ``module:factory`` the session was recorded with (informational, never imported)."""
+    """The ``module:factory`` the session was recorded with; imported only when a user
+    replays the log without naming a system."""
     period_ns: Annotated[int, msgspec.Meta(gt=0)]
     start_time_ns: Annotated[int, msgspec.Meta(ge=0, le=2**63 - 1)]
     """Wall-clock start of the recording (Unix ns); never used by replay."""
@@ -109,6 +110,21 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     random_seed: int | None = None
     samples_logged: bool = False
     flush_interval_ns: Annotated[int, msgspec.Meta(gt=0)] = 1_000_000_000
+    initial_states: Annotated[list[Any], msgspec.Meta(max_length=MAX_BEHAVIORS)] = []
+    """Each behavior's state before cycle 0, in catalogue order; empty in logs written
+    before beatlog recorded it (a reader then knows a state only from its first change)."""
+
+    def problem(self) -> str | None:
+        """What makes this header unreadable beyond its field bounds, or None."""
+        if len(set(self.behaviors)) != len(self.behaviors):
+            return "a behavior is named twice"
+        if self.initial_states and len(self.initial_states) != len(self.behaviors):
+            return f"{len(self.initial_states)} initial states for {len(self.behaviors)} behaviors"
+        return None
+
+    def initial_states_by_name(self) -> dict[str, Any]:
+        """The recorded state before cycle 0 of each behavior, by name (empty when unknown)."""
+        return dict(zip(self.behaviors, self.initial_states, strict=False))
 
 
 StateChangeRecord = tuple[int, Any, Any]

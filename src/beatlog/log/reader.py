@@ -237,8 +237,8 @@ class SessionLogReader(Closing):
                 f"{FORMAT_VERSION} (upgrade beatlog)",
             )
         header = self._decode(message.data, SessionHeader, "session header")
-        if len(set(header.behaviors)) != len(header.behaviors):
-            raise CorruptLogError(self.path, "damaged session header: a behavior is named twice")
+        if (problem := header.problem()) is not None:
+            raise CorruptLogError(self.path, f"damaged session header: {problem}")
         expected = schema_name(CycleBatch if version >= CYCLE_BATCH_SINCE else CycleRecord)
         cycles = self._topics.get(CYCLES_TOPIC)
         found = None if cycles is None else self._schemas[self._channels[cycles].schema_id].name
@@ -399,7 +399,7 @@ class SessionLogReader(Closing):
                 if not first and opcode not in allowed | {Opcode.FOOTER}:
                     raise _DamageError(f"unexpected record (opcode {opcode:#x})")
                 records = self._parse(opcode, body, offset)
-            except (_DamageError, *DECODE_ERRORS, ValueError, struct.error) as exc:
+            except (_DamageError, McapError, *DECODE_ERRORS, ValueError, struct.error) as exc:
                 if end == size:
                     raise _TruncatedError(f"the last record is damaged at byte {offset}") from None
                 if self._zero_filled_from(end):

@@ -257,5 +257,5 @@ def _check_header(header: SessionHeader, path: Path | None) -> None:
         msgspec.msgpack.decode(encoded, type=SessionHeader)
     except msgspec.ValidationError as exc:
         raise LogError(where, f"cannot record: session header: {exc}") from None
-    if len(set(header.behaviors)) != len(header.behaviors):
-        raise LogError(where, "cannot record: two behaviors share a name")
+    if (problem := header.problem()) is not None:
+        raise LogError(where, f"cannot record: {problem}")

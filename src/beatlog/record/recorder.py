@@ -107,6 +107,7 @@ class Recorder:
             robot_state_type=state_type_name(system.robot_state),
             robot_state_schema=state_schema(system.robot_state),
             behaviors=list(self._executor.behavior_ids),
+            initial_states=[behavior.state for behavior in system.behaviors.values()],
             random_seed=self.random.seed,
             samples_logged=log_samples,
             flush_interval_ns=int(flush_interval_s * 1e9),

@@ -243,7 +243,9 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
         table.add_row(
             outcome.spec.name,
             Text(
-                outcome.verdict.value + (" (approved baseline)" if outcome.baseline else ""),
+                outcome.verdict.value
+                + (" (approved baseline)" if outcome.baseline else "")
+                + (f" (retried {outcome.retries}×)" if outcome.retries else ""),
                 style=styles[outcome.verdict],
             ),
             str(result.cycles) if result else "—",

@@ -1,6 +1,6 @@
 """DTC specs and suites: ``*.dtc.toml`` files, fleet runs of logs without specs, the
-parallel runner, shards for a CI matrix, JUnit output and the re-baselining workflow
-(update, review, approve) with its CI rule.
+parallel runner and its Dask executor, shards for a CI matrix, JUnit output and the
+re-baselining workflow (update, review, approve) with its CI rule.
 
 The names are imported on first use, so that a suite worker
 (:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
+    from beatlog.suite.cluster import DaskExecutor
     from beatlog.suite.fleet import fleet_specs
     from beatlog.suite.junit import write_junit
     from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
@@ -27,6 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SPEC_SUFFIX",
+    "DaskExecutor",
     "Decision",
     "DtcSpec",
     "Shard",
@@ -50,6 +52,7 @@ __getattr__ = lazy_names(
     __name__,
     {
         "SPEC_SUFFIX": "beatlog.suite.spec",
+        "DaskExecutor": "beatlog.suite.cluster",
         "Decision": "beatlog.suite.maintenance",
         "DtcSpec": "beatlog.suite.spec",
         "UpdateMode": "beatlog.suite.policy",

@@ -6,7 +6,8 @@ recording: a fleet log has no approved baseline. The pattern is a local glob, or
 fsspec URL (``s3://bucket/2024-*/*.beatlog``) where fsspec is installed
 (``pip install "beatlog[fleet]"``). The reader needs a regular, seekable file, so each
 log behind a URL is first copied into a temporary folder, up to ``max_log_bytes``; the
-copies are removed when the run ends.
+copies are removed when the run ends. On a Dask cluster (:mod:`beatlog.suite.cluster`)
+each worker copies the log it replays itself, with :func:`fetched_log`.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import Any
 from beatlog.errors import FleetError
 from beatlog.suite.spec import DtcSpec
 
-__all__ = ["FLEET_PURPOSE", "MAX_LOG_BYTES", "fleet_specs"]
+__all__ = ["FLEET_PURPOSE", "MAX_LOG_BYTES", "fetched_log", "fleet_specs", "is_url"]
 
 FLEET_PURPOSE = "fleet log"
 """The purpose of every DTC of a fleet run."""
@@ -66,7 +67,7 @@ def fleet_specs(
             source=source,
         )
 
-    if _URL.match(pattern) is None:
+    if not is_url(pattern):
         found = _local_logs(pattern)
         yield [spec(Path(path), path, path) for path in found]
         return
@@ -82,6 +83,26 @@ def fleet_specs(
         yield specs
 
 
+def is_url(text: str) -> bool:
+    """Whether a log's pattern or source is a URL (``s3://...``) rather than a local path."""
+    return _URL.match(text) is not None
+
+
+@contextlib.contextmanager
+def fetched_log(url: str, max_log_bytes: int = MAX_LOG_BYTES) -> Iterator[Path]:
+    """A copy of the log behind ``url`` in a temporary folder of this machine, removed on
+    exit.
+
+    :raises FleetError: the URL needs fsspec, or the log cannot be copied or is larger
+        than ``max_log_bytes``.
+    """
+    filesystem, path = _filesystem(url, "cannot copy")
+    with tempfile.TemporaryDirectory(prefix="beatlog-fleet-") as folder:
+        copy = Path(folder, PurePosixPath(path).name)
+        _copy(filesystem, path, copy, url, max_log_bytes)
+        yield copy
+
+
 def _local_logs(pattern: str) -> list[str]:
     """The files that a local glob (``**`` for any folders) matches, sorted."""
     found = sorted(
@@ -94,16 +115,26 @@ def _local_logs(pattern: str) -> list[str]:
     return found
 
 
-def _remote_logs(pattern: str) -> tuple[Any, list[str]]:
-    """The filesystem behind a URL and the files its glob matches, sorted."""
+def _filesystem(url: str, problem: str) -> tuple[Any, str]:
+    """The fsspec filesystem behind a URL, and the URL's path on it; ``problem`` says
+    what cannot be done without them."""
     try:
         from fsspec.core import url_to_fs  # noqa: PLC0415 - an optional dependency
     except ModuleNotFoundError:
         raise FleetError(
-            f'--logs {pattern}: a URL needs fsspec (pip install "beatlog[fleet]")'
+            f'--logs {url}: a URL needs fsspec (pip install "beatlog[fleet]")'
         ) from None
     try:
-        filesystem, root = url_to_fs(pattern)
+        filesystem, path = url_to_fs(url)
+    except (ImportError, ValueError) as exc:  # ImportError: a backend's package
+        raise FleetError(f"--logs {url}: {problem}: {exc}") from None
+    return filesystem, path
+
+
+def _remote_logs(pattern: str) -> tuple[Any, list[str]]:
+    """The filesystem behind a URL and the files its glob matches, sorted."""
+    filesystem, root = _filesystem(pattern, "cannot list")
+    try:
         matches: dict[str, dict[str, Any]] = filesystem.glob(root, detail=True)
     except (ImportError, OSError, ValueError) as exc:  # ImportError: a backend's package
         raise FleetError(f"--logs {pattern}: cannot list: {exc}") from None

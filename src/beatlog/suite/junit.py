@@ -2,7 +2,8 @@
 errors with the traceback of the user's code when it raised. Written whole or not at all.
 
 A DTC whose determinism audit found something gets a failure of its own, typed
-``determinism audit``, that lists the findings.
+``determinism audit``, that lists the findings. A DTC run again because the worker
+replaying it died gets a ``flakyError`` per retry, as Maven Surefire writes reruns.
 """
 
 from __future__ import annotations
@@ -45,6 +46,10 @@ def write_junit(
         elif outcome.verdict is Verdict.ERROR:
             error = ET.SubElement(case, "error", message=outcome.error or "error")
             error.text = outcome.error_traceback or outcome.error
+        for _ in range(outcome.retries):
+            ET.SubElement(
+                case, "flakyError", type="worker lost", message="the worker replaying it died"
+            )
         audit = outcome.audit
         if audit is not None and not audit.ok:
             message = f"determinism audit: {audit.summary()}"

@@ -56,3 +56,7 @@ class SpecOptions:
     update: UpdateMode = UpdateMode.NONE
     audit: bool = False
     timelines: bool = False
+    break_at: int | None = None
+    """Stop in the debugger just before the behaviors update in this cycle."""
+    break_on_divergence: bool = False
+    """Replay a failing DTC again, stopping in the debugger at its first divergence."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import functools
 import glob
 import queue
 import threading
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
     from beatlog.analysis.timeline import Timeline
     from beatlog.audit.replays import AuditReport
 
-__all__ = ["SpecOutcome", "Verdict", "run_spec", "run_suite"]
+__all__ = ["Executor", "SpecOutcome", "Verdict", "run_spec", "run_suite"]
 
 
 class Verdict(StrEnum):
@@ -67,6 +68,9 @@ class SpecOutcome:
     """Behavior activity for charts, when the suite was run with ``timelines``."""
     error_traceback: str | None = None
     """The traceback of the user's code behind the error, when their code raised it."""
+    retries: int = 0
+    """How many times the DTC was run again because the process running it died (a
+    cluster's worker, see :mod:`beatlog.suite.cluster`)."""
 
     @property
     def reproduce(self) -> str:
@@ -90,7 +94,9 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     ``timelines`` what it did is charted. The outcome's wall time is the replay's
     alone. The result's reproduce command is ``beatlog test SPEC``, which judges
     exactly as this run did. The spec's references also import from its folder and
-    its project root (:func:`beatlog.usercode.importable_near`)."""
+    its project root (:func:`beatlog.usercode.importable_near`). The options' break
+    points stop in the debugger as ``beatlog replay --break-at`` and
+    ``--break-on-divergence`` do: ``breakpoint()``, so ``PYTHONBREAKPOINT`` is honoured."""
     with importable_near(spec.path):
         return _run_spec(spec, options or SpecOptions())
 
@@ -109,7 +115,8 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
                 )
             expected = approved.expectation
         system = spec.system or recorded_system(spec.log)
-        result = replay(
+        judged = functools.partial(
+            replay,
             spec.log,
             system,
             allow_truncated=spec.allow_truncated,
@@ -118,8 +125,11 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             explain=False,
             perception=spec.perception,
         )
+        result = judged(break_at=options.break_at)
         wall = time.perf_counter() - started
         divergence = result.divergence
+        if options.break_on_divergence and divergence is not None:
+            judged(break_at=divergence.cycle)
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
         details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
@@ -208,6 +218,12 @@ def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | No
     return trace.expectation, None
 
 
+Executor = Callable[[Sequence[DtcSpec], SpecOptions, Callable[[SpecOutcome], bool]], None]
+"""Runs specs somewhere else than this machine's worker processes (a Dask cluster, see
+:class:`beatlog.suite.cluster.DaskExecutor`): each outcome, from :func:`run_spec`, goes
+to the callback as it comes, until the callback says stop (returns True)."""
+
+
 def run_suite(
     specs: Sequence[DtcSpec],
     *,
@@ -217,8 +233,12 @@ def run_suite(
     audit: bool = False,
     timelines: bool = False,
     on_outcome: Callable[[SpecOutcome], object] | None = None,
+    break_at: int | None = None,
+    break_on_divergence: bool = False,
+    executor: Executor | None = None,
 ) -> list[SpecOutcome]:
-    """Run every spec, ``jobs`` at a time; outcomes in spec order.
+    """Run every spec, ``jobs`` at a time, or with ``executor`` (``jobs`` then unused);
+    outcomes in spec order.
 
     With more than one job, this process replays specs too while ``jobs - 1`` worker
     processes start and then take the next spec each as they become free: a suite too
@@ -228,7 +248,8 @@ def run_suite(
     carries its new expectation (nothing is written here: see
     :mod:`beatlog.suite.maintenance`);
     with ``audit`` each spec's determinism is audited too; with ``timelines`` its
-    timelines are built for charts.
+    timelines are built for charts. ``break_at`` and ``break_on_divergence`` stop in
+    the debugger (see :func:`run_spec`); they replay every spec in this process.
     """
     update = UpdateMode.parse(update)
     outcomes: dict[Path, SpecOutcome] = {}
@@ -239,9 +260,14 @@ def run_suite(
             on_outcome(outcome)
         return fail_fast and outcome.verdict is not Verdict.PASSED
 
-    options = SpecOptions(update, audit, timelines)
-    workers = min(jobs, len(specs)) - 1
-    if workers < 1:
+    options = SpecOptions(update, audit, timelines, break_at, break_on_divergence)
+    breaking = break_at is not None or break_on_divergence
+    if breaking and executor is not None:
+        raise ValueError("break points stop in this process; they cannot run on an executor")
+    workers = 0 if breaking else min(jobs, len(specs)) - 1
+    if executor is not None:
+        executor(specs, options, done)
+    elif workers < 1:
         for spec in specs:
             if done(run_spec(spec, options)):
                 break

@@ -1,0 +1,172 @@
+"""Suites on a Dask cluster: ``beatlog test --dask ADDRESS`` (or ``--dask local:N``).
+
+One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function the
+local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
+as it is; outcomes stream back as they complete, to the same progress bar and reports.
+A spec travels with absolute paths, so a worker of another machine finds its files on
+a shared filesystem; a fleet log behind a URL is copied by the worker that replays it
+(:func:`beatlog.suite.fleet.fetched_log`). The system's package must be installed on
+the workers, as it is here.
+
+A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
+DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
+(``distributed.scheduler.allowed-failures``, 3 by default), and the outcome counts the
+retries; past them the DTC is an error. A cluster of one's own is best run with
+:data:`ONE_DTC_PER_THREAD`. Needs ``pip install "beatlog[dask]"``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import re
+import uuid
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
+from beatlog.closing import Closing
+from beatlog.errors import ClusterError, FleetError
+from beatlog.suite.baseline import expected_path
+from beatlog.suite.fleet import MAX_LOG_BYTES, fetched_log, is_url
+from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+
+if TYPE_CHECKING:
+    from distributed import Future, LocalCluster
+
+    from beatlog.suite.policy import SpecOptions
+    from beatlog.suite.spec import DtcSpec
+
+__all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor", "judge"]
+
+ONE_DTC_PER_THREAD = {"distributed.scheduler.worker-saturation": 1.0}
+"""The scheduler's setting for DTC suites, and that of the cluster ``local`` starts: a
+worker is sent no more DTCs than it has threads, so one that dies takes only the DTCs
+it was replaying with it (with Dask's default, 1.1, a worker of one thread also holds
+the next DTC, which would count as retried too)."""
+
+_LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
+
+
+def judge(spec: DtcSpec, options: SpecOptions, max_log_bytes: int = MAX_LOG_BYTES) -> SpecOutcome:
+    """One DTC's task on a worker: :func:`~beatlog.suite.runner.run_spec`, on a copy of
+    the log made here when the log is behind a URL. A log that cannot be copied is an
+    error of its DTC."""
+    if spec.source is None or not is_url(spec.source):
+        return run_spec(spec, options)
+    try:
+        with fetched_log(spec.source, max_log_bytes) as copy:
+            return run_spec(dataclasses.replace(spec, path=copy, log=copy), options)
+    except FleetError as exc:
+        return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
+
+
+class DaskExecutor(Closing):
+    """A connection to a Dask cluster that runs suites, one task per DTC (an
+    :data:`~beatlog.suite.runner.Executor` for :func:`~beatlog.suite.runner.run_suite`).
+
+    ``address`` is a scheduler's (``tcp://host:8786``), or ``local`` for a cluster of
+    worker processes on this machine, one per core, or ``local:N`` for N of them, closed
+    with the executor.
+
+    :raises ClusterError: the address is not one, or no scheduler answers there within
+        ``distributed.comm.timeouts.connect``.
+    """
+
+    def __init__(self, address: str) -> None:
+        try:
+            import dask  # noqa: PLC0415 - an optional extra
+            from distributed import Client, LocalCluster  # noqa: PLC0415
+        except ModuleNotFoundError:
+            raise ClusterError(
+                f'--dask {address}: needs dask.distributed (pip install "beatlog[dask]")'
+            ) from None
+        local = _LOCAL.fullmatch(address)
+        self._cluster: LocalCluster | None = None
+        try:
+            if local is None:
+                self._client = Client(address, set_as_default=False)
+            else:
+                workers = None if local.group(1) is None else int(local.group(1))
+                with dask.config.set(ONE_DTC_PER_THREAD):
+                    self._cluster = LocalCluster(
+                        n_workers=workers,
+                        threads_per_worker=1,
+                        processes=True,
+                        dashboard_address=":0",  # no fixed port: runs side by side never clash
+                        silence_logs=logging.CRITICAL,
+                    )
+                self._client = Client(self._cluster, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            self.close()
+            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ClusterError(f"--dask {address}: cannot reach the cluster: {first}") from None
+
+    def __call__(
+        self,
+        specs: Sequence[DtcSpec],
+        options: SpecOptions,
+        done: Callable[[SpecOutcome], bool],
+    ) -> None:
+        """Submit one task per spec and give each outcome to ``done`` as it completes,
+        until ``done`` says stop or none is left. On leaving, Ctrl-C included, the tasks
+        not complete are cancelled."""
+        from distributed import as_completed  # noqa: PLC0415 - with the client's package
+
+        given: dict[str, DtcSpec] = {}
+        futures: list[Future[SpecOutcome]] = []
+        for spec in specs:
+            key = f"dtc-{spec.name}-{uuid.uuid4().hex}"
+            given[key] = spec
+            futures.append(
+                self._client.submit(judge, _absolute(spec), options, key=key, pure=False)
+            )
+        try:
+            for future in as_completed(futures, loop=self._client.loop):
+                if done(self._outcome(future, given[future.key])):
+                    return
+        finally:
+            self._client.cancel(futures, force=True)
+
+    def _outcome(self, future: Future[SpecOutcome], spec: DtcSpec) -> SpecOutcome:
+        """The outcome of a completed task, told as a local run tells it, with the
+        times the DTC was run again because its worker died."""
+        from distributed import KilledWorker  # noqa: PLC0415 - with the client's package
+
+        try:
+            outcome = future.result()
+        except KilledWorker as exc:
+            tries = exc.allowed_failures + 1
+            problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
+            return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
+        retries: int = self._client.run_on_scheduler(_retries, key=future.key)
+        return _as_given(outcome, spec, retries)
+
+    def close(self) -> None:
+        """Close the connection, and the local cluster if this executor started one."""
+        client = getattr(self, "_client", None)
+        if client is not None:
+            client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+
+def _retries(dask_scheduler: Any, key: str) -> int:
+    """On the scheduler: how many workers died while running the task ``key``."""
+    task = dask_scheduler.tasks.get(key)
+    return 0 if task is None else int(task.suspicious)
+
+
+def _absolute(spec: DtcSpec) -> DtcSpec:
+    """The spec with absolute paths, for a worker whose working folder is not ours."""
+    return dataclasses.replace(spec, path=spec.path.absolute(), log=spec.log.absolute())
+
+
+def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
+    """A worker's outcome with the spec as given here (relative paths stay relative):
+    the same rerun command and baseline as a local run's."""
+    outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
+    result = outcome.result
+    if result is not None:
+        result = dataclasses.replace(result, reproduce=outcome.reproduce)
+    baseline = None if outcome.baseline is None else expected_path(spec.path)
+    return dataclasses.replace(outcome, result=result, baseline=baseline)

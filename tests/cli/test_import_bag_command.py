@@ -1,0 +1,141 @@
+"""``beatlog import-bag``: a ROS 2 bag becomes a session log and a DTC spec that ``beatlog
+test`` replays at sensor level; bad input is one line naming the file, exit code 2."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+from rosbags.rosbag2 import StoragePlugin
+
+from tests.bags import write_bag
+from tests.commands import Beatlog, Run, assert_one_line_error
+from tests.specs import CHANGED, PROBE
+
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+PERCEPTION = "tests.bags:perception"
+
+
+def import_bag(beatlog: Beatlog, bag: Path, *options: str | Path) -> Run:
+    return beatlog(
+        "import-bag", bag, "-o", bag.with_suffix(".beatlog"), "--system", PROBE, *options
+    )
+
+
+@pytest.mark.parametrize("storage", list(StoragePlugin))
+def test_an_imported_bag_and_its_spec_pass_beatlog_test(
+    beatlog: Beatlog, tmp_path: Path, storage: StoragePlugin
+) -> None:
+    bag = write_bag(tmp_path / "sonar-run", storage=storage, ticks=95)
+    spec = tmp_path / "sonar-run.dtc.toml"
+
+    run = import_bag(
+        beatlog, bag, "--perception", PERCEPTION, "--clock-topic", "/tick", "--spec", spec
+    )
+
+    assert run.code == 0, run.err
+    assert run.out.startswith("imported 438 messages on 3 topics into 94 cycles (2.82 s)")
+    assert f"DTC spec {spec}" in run.out
+    test = beatlog("test", spec)
+    assert test.code == 0, test.out
+    assert "1 passed" in test.out
+
+
+def test_a_changed_perception_step_fails_the_imported_dtc(beatlog: Beatlog, tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag")
+    spec = tmp_path / "bag.dtc.toml"
+    assert import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec).code == 0
+    spec.write_text(spec.read_text().replace(PERCEPTION, "tests.bags:long_range_perception"))
+
+    test = beatlog("test", spec)
+
+    assert test.code == 1
+    assert "perception" in test.out
+
+
+def test_a_changed_system_fails_the_imported_dtc(beatlog: Beatlog, tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag")
+    spec = tmp_path / "bag.dtc.toml"
+    assert import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec).code == 0
+    spec.write_text(spec.read_text().replace(PROBE, CHANGED))
+
+    assert beatlog("test", spec).code == 1
+
+
+def test_period_and_topics_choose_the_heartbeats_and_the_samples(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    bag = write_bag(tmp_path / "bag")
+
+    run = import_bag(
+        beatlog, bag, "--perception", PERCEPTION, "--period-ms", "20", "--topic", "/sonar"
+    )
+
+    assert run.out.startswith("imported 300 messages on 1 topic into 150 cycles (3.00 s)")
+
+
+@pytest.mark.parametrize(
+    ("options", "fragments"),
+    [
+        (["--topic", "/camera"], ["bag: no topic '/camera' (the bag has: /sonar, /speed)"]),
+        (["--perception", "tests.bags:broken_perception"], ["bag: cycle 13: the perception"]),
+        (["--period-ms", "0"], ["--period-ms: must be positive"]),
+        (["--period-ms", "20", "--clock-topic", "/speed"], ["not allowed with argument"]),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_code_2(
+    beatlog: Beatlog, tmp_path: Path, options: list[str], fragments: list[str]
+) -> None:
+    bag = write_bag(tmp_path / "bag")
+    perception = [] if "--perception" in options else ["--perception", PERCEPTION]
+
+    run = import_bag(beatlog, bag, *perception, *options)
+
+    assert_one_line_error(run, *fragments)
+    assert not bag.with_suffix(".beatlog").exists()
+
+
+def test_a_missing_bag_is_named(beatlog: Beatlog, tmp_path: Path) -> None:
+    run = import_bag(beatlog, tmp_path / "nowhere", "--perception", PERCEPTION)
+
+    assert_one_line_error(run, f"{tmp_path / 'nowhere'}: no such bag")
+
+
+def test_verbose_shows_the_traceback_of_the_perception_step_that_failed(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    bag = write_bag(tmp_path / "bag")
+
+    run = import_bag(beatlog, bag, "--perception", "tests.bags:broken_perception", "-v")
+
+    assert run.code == 2
+    assert run.err.startswith("Traceback (most recent call last):\n")
+    assert 'raise ValueError("sonar blinded")' in run.err
+
+
+def test_an_existing_log_or_spec_is_kept_unless_forced(beatlog: Beatlog, tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag")
+    spec = tmp_path / "bag.dtc.toml"
+    assert import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec).code == 0
+
+    again = import_bag(beatlog, bag, "--perception", PERCEPTION)
+    assert_one_line_error(again, "bag.beatlog: already exists (use --force)")
+    bag.with_suffix(".beatlog").unlink()
+    spec_again = import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec)
+    assert_one_line_error(spec_again, "bag.dtc.toml: already exists (use --force)")
+    forced = import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec, "--force")
+    assert forced.code == 0
+
+
+def test_without_rosbags_the_command_says_what_to_install(
+    beatlog: Beatlog, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    bag = write_bag(tmp_path / "bag")
+    for name in [name for name in sys.modules if name.startswith("rosbags")]:
+        monkeypatch.setitem(sys.modules, name, None)
+
+    run = import_bag(beatlog, bag, "--perception", PERCEPTION)
+
+    assert_one_line_error(run, 'needs rosbags (pip install "beatlog[ros]")')

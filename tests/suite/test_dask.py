@@ -1,0 +1,293 @@
+"""Suites on a Dask cluster (``beatlog test --dask``): a real ``LocalCluster`` of worker
+processes gives the verdicts, reports and exit codes of a local run, reads fleet logs
+by URL on the workers, retries a DTC whose worker died, and cancels on Ctrl-C."""
+
+from __future__ import annotations
+
+import functools
+import http.server
+import logging
+import socket
+import threading
+import xml.etree.ElementTree as ET
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import dask
+import pytest
+from distributed import Client, LocalCluster
+
+from beatlog.cli.main import main
+from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor, judge
+from beatlog.suite.policy import SpecOptions
+from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.suite.spec import DtcSpec, discover_specs
+from tests.commands import Run, assert_one_line_error
+from tests.conftest import RecordFn
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+
+DYING = "tests.conftest:dying_system"
+
+
+@pytest.fixture(scope="module")
+def cluster() -> Iterator[str]:
+    """A cluster of two worker processes, shared by this module's tests; a DTC whose
+    worker dies is run again once, then is an error."""
+    with (
+        dask.config.set(ONE_DTC_PER_THREAD),
+        LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",  # no fixed port: runs side by side never clash
+            silence_logs=logging.CRITICAL,
+            scheduler_kwargs={"allowed_failures": 1},
+        ) as local,
+    ):
+        yield local.scheduler_address
+
+
+@pytest.fixture
+def beatlog(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> Callable[..., Run]:
+    """``beatlog ARGS`` in process, as given (no ``-j``: it excludes ``--dask``), on a
+    console wide enough for long temporary paths."""
+    monkeypatch.setenv("COLUMNS", "200")
+
+    def run(*args: str | Path) -> Run:
+        code = main([str(arg) for arg in args])
+        captured = capsys.readouterr()
+        return Run(code, captured.out, captured.err)
+
+    return run
+
+
+@pytest.fixture
+def suite(tmp_path: Path, record_probe: RecordFn) -> Path:
+    """Three specs of two logs: two pass, one replays a changed system and fails."""
+    first, second = (
+        record_probe(300, name="first.beatlog"),
+        record_probe(120, name="second.beatlog"),
+    )
+    folder = tmp_path / "suite"
+    write_spec(folder, "first", first)
+    write_spec(folder, "second", second)
+    write_spec(folder, "changed", first, CHANGED)
+    return folder
+
+
+def junit_cases(path: Path) -> list[tuple[str | None, list[str]]]:
+    """Each testcase of a JUnit report: its name and the tags of what it holds."""
+    cases = ET.parse(path).getroot().iter("testcase")
+    return [(case.get("name"), [child.tag for child in case]) for case in cases]
+
+
+def test_a_cluster_gives_the_verdicts_reports_and_exit_code_of_a_local_run(
+    beatlog: Callable[..., Run], cluster: str, suite: Path, tmp_path: Path
+) -> None:
+    local = beatlog("test", suite, "-j", "1", "--junit-xml", tmp_path / "local.xml")
+    remote = beatlog("test", suite, "--dask", cluster, "--junit-xml", tmp_path / "dask.xml")
+
+    assert remote.code == local.code == 1
+    counts = [run.out.splitlines()[-1].partition(" in ")[0] for run in (local, remote)]
+    assert counts == ["2 passed, 1 failed", "2 passed, 1 failed"]
+    rerun = f"reproduce: beatlog test {suite / 'changed.dtc.toml'}"
+    assert rerun in local.out
+    assert rerun in remote.out
+    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in remote.out
+    assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
+    assert junit_cases(tmp_path / "dask.xml") == [
+        ("changed", ["failure"]),
+        ("first", []),
+        ("second", []),
+    ]
+
+
+def test_local_n_starts_a_cluster_of_n_worker_processes_for_the_run(
+    beatlog: Callable[..., Run], suite: Path
+) -> None:
+    run = beatlog("test", suite, "--dask", "local:2", "-k", "not changed")
+
+    assert run.code == 0, run.err
+    assert run.out.splitlines()[-1].startswith("2 passed, 0 failed")
+
+
+@pytest.fixture
+def served(tmp_path: Path, record_probe: RecordFn) -> Iterator[str]:
+    """A folder of two logs served over HTTP on the loopback; the URL of the folder."""
+    folder = tmp_path / "served"
+    folder.mkdir()
+    record_probe(300, name="served/dock.beatlog")
+    record_probe(200, name="served/yard.beatlog")
+
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, format: str, *args: object) -> None:
+            """Serve without a line on stderr per request."""
+
+    handler = functools.partial(Quiet, directory=str(folder))
+    with http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler) as server:
+        thread = threading.Thread(target=server.serve_forever, daemon=True)
+        thread.start()
+        yield f"http://127.0.0.1:{server.server_address[1]}"
+        server.shutdown()
+        thread.join()
+
+
+def test_fleet_logs_behind_an_http_url_are_replayed_on_the_cluster(
+    beatlog: Callable[..., Run], cluster: str, served: str
+) -> None:
+    run = beatlog("test", "--logs", f"{served}/*.beatlog", "--system", CHANGED, "--dask", cluster)
+
+    assert run.code == 1, run.err
+    assert run.out.splitlines()[-1].startswith("0 passed, 2 failed")
+    assert f"reproduce: beatlog test --logs {served}/dock.beatlog --system {CHANGED}" in run.out
+
+
+def url_spec(url: str) -> DtcSpec:
+    """A fleet DTC of a log behind a URL, with no copy of it on this machine."""
+    nowhere = Path("/nowhere/dock.beatlog")
+    return DtcSpec(nowhere, "dock", "fleet log", (), nowhere, PROBE, source=url)
+
+
+def test_a_worker_copies_a_log_behind_a_url_itself(served: str) -> None:
+    outcome = judge(url_spec(f"{served}/dock.beatlog"), SpecOptions())
+
+    assert outcome.verdict is Verdict.PASSED, outcome.error
+    assert outcome.result is not None
+    assert outcome.result.cycles == 300
+
+
+def test_a_log_that_a_worker_cannot_copy_is_an_error_of_its_dtc(served: str) -> None:
+    outcome = judge(url_spec(f"{served}/lost.beatlog"), SpecOptions())
+
+    assert outcome.verdict is Verdict.ERROR
+    assert outcome.error is not None
+    assert f"{served}/lost.beatlog: cannot copy" in outcome.error
+
+
+def write_dying_once(folder: Path, marker: Path) -> str:
+    """A system module beside the specs whose factory ends its process the first time
+    (``marker`` then exists) and builds the probe system after."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "dying_once.py").write_text(
+        "import os\n"
+        "from pathlib import Path\n"
+        "from tests.conftest import probe_system\n\n\n"
+        "def system():\n"
+        f"    marker = Path({str(marker)!r})\n"
+        "    if not marker.exists():\n"
+        "        marker.touch()\n"
+        "        os._exit(3)\n"
+        "    return probe_system()\n",
+        encoding="utf-8",
+    )
+    return "dying_once:system"
+
+
+def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
+    beatlog: Callable[..., Run], cluster: str, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    folder = tmp_path / "suite"
+    marker = tmp_path / "died"
+    write_spec(folder, "unlucky", record_probe(120), write_dying_once(folder, marker))
+
+    run = beatlog("test", folder, "--dask", cluster, "--junit-xml", tmp_path / "dtc.xml")
+
+    assert marker.exists()
+    assert run.code == 0, run.err
+    assert "retried unlucky: the worker replaying it died (1 time)" in run.out
+    assert "passed (retried 1×)" in run.out
+    assert junit_cases(tmp_path / "dtc.xml") == [("unlucky", ["flakyError"])]
+
+
+def test_a_dtc_whose_workers_keep_dying_is_an_error_never_lost(
+    beatlog: Callable[..., Run], cluster: str, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(120)
+    write_spec(tmp_path / "suite", "fine", log)
+    write_spec(tmp_path / "suite", "doomed", log, DYING)
+
+    run = beatlog("test", tmp_path / "suite", "--dask", cluster)
+
+    assert run.code == 2
+    assert "doomed" in run.err
+    assert "2 workers died while replaying it" in run.err
+    assert run.out.splitlines()[-1].startswith("1 passed, 0 failed, 1 error")
+
+
+def write_waiting(folder: Path, release: Path) -> str:
+    """A system module beside the specs whose factory waits until ``release`` exists
+    (a minute at most)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "waiting.py").write_text(
+        "import time\n"
+        "from pathlib import Path\n"
+        "from tests.conftest import probe_system\n\n\n"
+        "def system():\n"
+        "    deadline = time.monotonic() + 60\n"
+        f"    while not Path({str(release)!r}).exists() and time.monotonic() < deadline:\n"
+        "        time.sleep(0.01)\n"
+        "    return probe_system()\n",
+        encoding="utf-8",
+    )
+    return "waiting:system"
+
+
+def dtc_tasks(dask_scheduler: object) -> int:
+    """On the scheduler: how many DTC tasks it still holds."""
+    return sum(str(key).startswith("dtc-") for key in dask_scheduler.tasks)  # type: ignore[attr-defined]
+
+
+def test_ctrl_c_cancels_the_tasks_not_complete(
+    cluster: str, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log, release = record_probe(60), tmp_path / "release"
+    waiting = write_waiting(tmp_path / "suite", release)
+    write_spec(tmp_path / "suite", "a-quick", log)
+    for name in ("b-waits", "c-waits", "d-waits"):
+        write_spec(tmp_path / "suite", name, log, waiting)
+    seen: list[SpecOutcome] = []
+
+    def press_ctrl_c(outcome: SpecOutcome) -> bool:
+        seen.append(outcome)
+        raise KeyboardInterrupt
+
+    with Client(cluster, set_as_default=False) as watcher:
+        try:
+            with DaskExecutor(cluster) as executor, pytest.raises(KeyboardInterrupt):
+                executor(discover_specs([tmp_path / "suite"]), SpecOptions(), press_ctrl_c)
+            assert [outcome.spec.name for outcome in seen] == ["a-quick"]
+            assert watcher.run_on_scheduler(dtc_tasks) == 0
+        finally:
+            release.touch()
+
+
+def unused_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+        return port
+
+
+def test_a_cluster_that_cannot_be_reached_is_one_line_and_exit_2(
+    beatlog: Callable[..., Run], suite: Path
+) -> None:
+    address = f"tcp://127.0.0.1:{unused_port()}"
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "0.5s"}):
+        run = beatlog("test", suite, "--dask", address)
+
+    assert_one_line_error(run, f"--dask {address}: cannot reach the cluster")
+
+
+def test_dask_and_jobs_exclude_each_other(beatlog: Callable[..., Run], suite: Path) -> None:
+    run = beatlog("test", suite, "--dask", "local:2", "-j", "2")
+
+    assert_one_line_error(run, "argument -j/--jobs: not allowed with argument --dask")
+
+
+def test_break_points_and_dask_exclude_each_other(beatlog: Callable[..., Run], suite: Path) -> None:
+    run = beatlog("test", suite, "--dask", "local:2", "--break-on-divergence")
+
+    assert_one_line_error(run, "break points stop in this process: leave out --dask")
