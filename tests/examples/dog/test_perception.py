@@ -52,6 +52,9 @@ def test_tilt_comes_from_the_accelerometer_and_heading_from_the_gyro() -> None:
     on_its_side = perceive(None, [sample("imu", (0.0, 9.81, 0.0, 0.0))])
     assert upright.tilt == 0.0
     assert on_its_side.tilt == 90.0
+    upside_down = perceive(None, [sample("imu", (0.0, 0.0, -9.81, 0.0))])
+    falling = perceive(None, [sample("imu", (0.0, 0.0, 0.0, 0.0))])
+    assert (upside_down.tilt, falling.tilt) == (180.0, 90.0)
     turning = perceive(None, [sample("imu", (0.0, 0.0, 9.81, 1.0))] * 100)
     assert turning.heading == pytest.approx(1.0)
     assert perceive(turning, [sample("imu", (0.0, 0.0, 9.81, 1.0))] * 300).heading == (

@@ -44,6 +44,16 @@ def test_commands_from_a_client_process_arrive_as_remote_samples() -> None:
     assert values[-1] == (0.0, 0.0, False)
 
 
+def test_a_dropped_link_sends_the_commands_without_a_release() -> None:
+    inbox = SensorInbox()
+    with RemoteServer(inbox) as server:
+        port = str(server.port)
+        assert main(["--port", port, "--for", "0.25", "forward", "0.1", "--no-release"]) == 0
+        samples = wait_for(inbox, 3)
+    assert len(samples) >= 2
+    assert [s.value for s in samples] == [(0.1, 0.0, True)] * len(samples)
+
+
 def test_commands_are_clamped_to_what_the_dog_can_do() -> None:
     assert RemoteCommand(speed=5.0, turn=-9.0).sample() == (MAX_SPEED, -1.5, True)
     assert RemoteCommand(speed=0.1, release=True).sample() == (0.0, 0.0, False)

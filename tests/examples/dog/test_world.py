@@ -54,6 +54,19 @@ def test_a_touch_registers_on_its_sensor_only(
     assert reader.read("touch", noise)[index] == 0.0
 
 
+def test_a_lighter_touch_reads_a_smaller_force(noise: np.random.Generator) -> None:
+    forces = []
+    for press in (0.002, 0.0001):
+        world = DogWorld()
+        world.command("lie")
+        run(world, 1.5)
+        world.touch("back", 0.5, press)
+        run(world, 0.3)
+        forces.append(SensorReader(world).read("touch", noise)[1])
+    assert forces[0] > 10.0
+    assert 0.5 < forces[1] < 2.5
+
+
 def test_a_box_placed_against_the_nose_presses_the_nose_sensor(
     noise: np.random.Generator,
 ) -> None:
@@ -105,6 +118,36 @@ def test_pushed_over_the_accelerometer_says_so_and_the_get_up_motion_rights_it(
     run(world, 1.0)
     assert world.upright > 0.95
     assert SensorReader(world).read("imu", noise)[2] > 9.0
+
+
+def tilt(world: DogWorld, noise: np.random.Generator) -> float:
+    ax, ay, az, _gyro = SensorReader(world).read("imu", noise)
+    return math.degrees(math.acos(az / math.sqrt(ax * ax + ay * ay + az * az)))
+
+
+def test_tipped_by_hand_the_dog_tilts_about_as_far_then_stands_again(
+    noise: np.random.Generator,
+) -> None:
+    world = DogWorld()
+    run(world, 0.3)
+    world.lean(1, 60.0, 3.0)
+    run(world, 2.0)
+    assert 55.0 < tilt(world, noise) < 70.0
+    assert SensorReader(world).read("imu", noise)[1] < -5.0, "it leans to its left"
+    run(world, 2.0)
+    assert world.upright > 0.95
+
+
+def test_held_back_by_its_harness_the_dog_walks_on_slowly() -> None:
+    free, held = DogWorld(), DogWorld()
+    for world in (free, held):
+        world.command("walk", 0.18)
+        run(world, 0.5)
+    held.drag(3.0, 450.0)
+    run(free, 3.0)
+    run(held, 3.0)
+    assert free.pose[0] - 1.0 > 0.35
+    assert 0.01 < held.pose[0] - 1.0 < 0.2
 
 
 def test_an_unknown_motion_stands_still() -> None:

@@ -101,6 +101,7 @@ def perceive(previous: DogState | None, samples: Sequence[Sample]) -> DogState:
     left, front, right = fields["range_left"], fields["range_front"], fields["range_right"]
     nearest = min(left, front, right)
     ax, ay, az = fields["accel_x"], fields["accel_y"], fields["accel_z"]
+    # |az| <= norm in floating point too (sqrt(az * az) == |az|), so acos needs no clamp
     norm = math.sqrt(ax * ax + ay * ay + az * az) or 1.0
     fields["heading"] = round(math.remainder(heading, math.tau), 3)
     return DogState(
@@ -108,7 +109,7 @@ def perceive(previous: DogState | None, samples: Sequence[Sample]) -> DogState:
         **touched,
         nearest=nearest,
         obstacle_bearing=0 if nearest >= NEAR else (1 if left < right else -1),
-        tilt=round(math.degrees(math.acos(max(-1.0, min(1.0, az / norm)))), 1),
+        tilt=round(math.degrees(math.acos(az / norm)), 1),
     )
 
 

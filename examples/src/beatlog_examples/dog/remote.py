@@ -9,6 +9,9 @@ are counted and dropped; nothing received is ever executed.
 Drive the dog from a shell while it records::
 
     python -m beatlog_examples.dog.remote --port 5555 --for 3 forward 0.2 turn 0.5
+
+``--no-release`` stops sending without the release, as a dropped link would; the dog
+goes back to its own behaviors once commands stop coming.
 """
 
 from __future__ import annotations
@@ -195,6 +198,12 @@ def _parser() -> argparse.ArgumentParser:
         metavar="forward M/S | turn RAD/S",
         help="e.g. 'forward 0.2 turn 0.5'; nothing releases the dog at once",
     )
+    parser.add_argument(
+        "--no-release",
+        dest="release",
+        action="store_false",
+        help="stop without releasing the dog, as a dropped link would",
+    )
     return parser
 
 
@@ -215,7 +224,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.error(f"{key}: not a number: {text!r}")
     seconds = args.seconds if words else 0.0
     try:
-        drive(args.port, values["forward"], values["turn"], seconds, host=args.host)
+        drive(
+            args.port,
+            values["forward"],
+            values["turn"],
+            seconds,
+            host=args.host,
+            release=args.release,
+        )
     except OSError as exc:
         print(f"remote: error: cannot reach {args.host}:{args.port}: {exc}", file=sys.stderr)
         return 2

@@ -27,7 +27,7 @@ from beatlog_examples.dog.behaviors import DogState, system
 from beatlog_examples.dog.perception import perceive
 from beatlog_examples.dog.rates import SENSOR_RATES_HZ
 from beatlog_examples.dog.remote import RemoteServer
-from beatlog_examples.dog.scenarios import DEMO, Event, Scenario, apply
+from beatlog_examples.dog.scenarios import DEMO, REMOTE_ACTIONS, Event, Scenario, apply
 from beatlog_examples.dog.sensors import SensorReader
 from beatlog_examples.dog.world import DogWorld
 
@@ -165,7 +165,7 @@ class DogRobot:
         for event in self.scenario.events:
             if self._stop.wait(max(0.0, started + event.at_s - time.monotonic())):
                 return
-            if event.action == "drive":
+            if event.action in REMOTE_ACTIONS:
                 self._clients.append(self._remote_client(event))
             else:
                 with self._lock:
@@ -176,6 +176,8 @@ class DogRobot:
         command = [sys.executable, "-m", "beatlog_examples.dog.remote"]
         command += ["--port", str(self.remote.port), "--for", str(seconds)]
         command += ["forward", str(speed), "turn", str(turn)]
+        if event.action == "drive_dropped":
+            command.append("--no-release")
         return subprocess.Popen(command)
 
 

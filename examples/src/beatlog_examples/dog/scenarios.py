@@ -2,8 +2,9 @@
 
 A scenario says where the dog starts, how charged its battery is and what the tester
 does when: place a box (somewhere, or right in front of the dog), touch its head,
-back or chin, push it over, hold it, run its battery down, or drive it with the
-remote control. The tester acts on the world or through the remote, never on the
+back or chin (firmly or lightly), push it over, tip it over by hand, hold it, hold it
+back, run its battery down, or drive it with the remote control (and release it, or
+let the link drop). The tester acts on the world or through the remote, never on the
 behaviors: the behaviors learn of it only through their sensors.
 """
 
@@ -15,19 +16,33 @@ from typing import Any, NamedTuple
 
 from beatlog_examples.dog.world import DogWorld
 
-__all__ = ["DEMO", "SUITE", "Event", "Scenario", "apply", "describe", "scenario"]
+__all__ = [
+    "DEMO",
+    "REMOTE_ACTIONS",
+    "SUITE",
+    "Event",
+    "Scenario",
+    "apply",
+    "describe",
+    "scenario",
+]
 
 REMOTE_RATE_HZ = 10.0
 """How often the remote-control client repeats its command."""
+REMOTE_ACTIONS = frozenset({"drive", "drive_dropped"})
+"""The actions a remote-control client carries out, not the tester's hands."""
 
 
 class Event(NamedTuple):
     """One thing the tester does, ``at_s`` seconds into the session.
 
     Actions: ``place`` (box, x, y), ``place_ahead`` (box, metres ahead of the torso),
-    ``remove`` (box), ``touch`` (part, seconds), ``push`` (+1 left or -1 right),
-    ``hold`` (seconds), ``drain`` (battery fraction per second) and ``drive``
-    (speed, turn rate, seconds) with the remote control.
+    ``remove`` (box), ``touch`` (part, seconds, and optionally how deep the hand
+    presses, m), ``push`` (+1 left or -1 right), ``lean`` (+1 left or -1 right,
+    degrees, seconds), ``hold`` (seconds), ``drag`` (seconds, N per m/s), ``drain``
+    (battery fraction per second), and with the remote control ``drive`` (speed, turn
+    rate, seconds; then a release) and ``drive_dropped`` (the same, but the link drops
+    instead of releasing).
     """
 
     at_s: float
@@ -75,22 +90,32 @@ def describe(event: Event) -> str:
     if action == "remove":
         return f"take {args[0]} away"
     if action == "touch":
-        return f"touch its {args[0]} for {args[1]:g} s"
+        press = f", pressing {args[2] * 1000:g} mm deep," if len(args) > 2 else ""
+        return f"touch its {args[0]}{press} for {args[1]:g} s"
     if action == "push":
-        return f"push it over to its {'left' if args[0] > 0 else 'right'}"
+        return f"push it over to its {_side(args[0])}"
+    if action == "lean":
+        return f"tip it {args[1]:g}° to its {_side(args[0])} for {args[2]:g} s, then set it upright"
     if action == "hold":
         return f"hold it in place for {args[0]:g} s"
+    if action == "drag":
+        return f"hold it back by its harness for {args[0]:g} s ({args[1]:g} N per m/s)"
     if action == "drain":
         return f"make the battery drain {args[0]:.1%} per second faster"
     speed, turn, seconds = args
+    ending = "let the link drop without a release" if action == "drive_dropped" else "release it"
     return (
         f"drive it with the remote control for {seconds:g} s "
-        f"(speed {speed:g} m/s, turn {turn:g} rad/s), then release it"
+        f"(speed {speed:g} m/s, turn {turn:g} rad/s), then {ending}"
     )
 
 
+def _side(side: int) -> str:
+    return "left" if side > 0 else "right"
+
+
 def apply(world: DogWorld, event: Event) -> None:
-    """Carry out an event that acts on the world (every action but ``drive``)."""
+    """Carry out an event that acts on the world (every action but the remote control's)."""
     action, args = event.action, event.args
     if action == "place":
         world.place(args[0], args[1], args[2])
@@ -100,11 +125,15 @@ def apply(world: DogWorld, event: Event) -> None:
     elif action == "remove":
         world.remove(args[0])
     elif action == "touch":
-        world.touch(args[0], args[1])
+        world.touch(*args)
     elif action == "push":
         world.push(args[0])
+    elif action == "lean":
+        world.lean(*args)
     elif action == "hold":
         world.hold(args[0])
+    elif action == "drag":
+        world.drag(*args)
     elif action == "drain":
         world.drain(args[0])
     else:
@@ -113,6 +142,11 @@ def apply(world: DogWorld, event: Event) -> None:
 
 def _touches(part: str, times: tuple[float, ...], seconds: float = 1.0) -> tuple[Event, ...]:
     return tuple(Event(at, "touch", (part, seconds)) for at in times)
+
+
+def _lightly(part: str, at_s: float, press: float) -> tuple[Event, Event]:
+    """A firm touch, then, once the dog lies or sits still, a light one ``press`` m deep."""
+    return Event(at_s, "touch", (part, 1.0)), Event(at_s + 1.2, "touch", (part, 1.0, press))
 
 
 NOSE_CONTACT = 0.37
@@ -252,8 +286,67 @@ SUITE = (
         start=(1.5, 2.0, 0.0),
         tags=("boredom", "touch"),
     ),
+    Scenario(
+        "light-touch",
+        "Light touches while it lies or sits read about the touch threshold (1 N) and "
+        "fade below it as it settles. The battery reads about 30 %, where low charge "
+        "starts to sadden it.",
+        35.0,
+        (
+            *_lightly("back", 4.0, 0.0001),
+            *_lightly("head", 11.0, 0.00012),
+            *_lightly("back", 18.0, 0.00008),
+            *_lightly("head", 25.0, 0.0001),
+        ),
+        battery=0.302,
+        tags=("touch", "battery"),
+    ),
+    Scenario(
+        "tip-over",
+        "Tipped by hand to about 60° while it walks, then further and held: only a tilt "
+        "past 60° that lasts 0.3 s is a fall, and then it gets up.",
+        30.0,
+        (
+            Event(4.0, "lean", (1, 57.0, 4.0)),
+            Event(13.0, "lean", (-1, 63.0, 3.0)),
+            Event(22.0, "lean", (1, 70.0, 2.0)),
+        ),
+        tags=("falls",),
+    ),
+    Scenario(
+        "held-back",
+        "Held back by its harness, the dog walks on at about 2 cm/s, the speed below "
+        "which leg odometry says it is stuck; when it stays below, it escapes.",
+        35.0,
+        (Event(4.0, "drag", (8.0, 450.0)), Event(20.0, "drag", (8.0, 480.0))),
+        start=(1.0, 2.0, 0.0),
+        tags=("locomotion",),
+    ),
+    Scenario(
+        "remote-dropped",
+        "The remote control's link drops without a release: the dog keeps the last "
+        "command for a second, then goes back to its own behaviors.",
+        30.0,
+        (
+            Event(3.0, "drive_dropped", (0.2, 0.0, 3.0)),
+            Event(10.0, "drive_dropped", (0.0, 0.8, 2.0)),
+            Event(17.0, "drive", (0.15, 0.3, 3.0)),
+            Event(23.0, "drive_dropped", (0.1, -0.5, 2.0)),
+        ),
+        start=(1.2, 2.0, 0.0),
+        tags=("remote",),
+    ),
+    Scenario(
+        "bored-asleep-touch",
+        "Left alone until it is bored and asleep, the dog wakes when its chin is touched "
+        "and shakes its head; the touch cheers it up.",
+        65.0,
+        _touches("chin", (57.0,), 0.8),
+        start=(1.5, 2.0, 0.0),
+        tags=("boredom", "touch"),
+    ),
 )
-"""The 15 test cases of the dog's suite."""
+"""The 20 test cases of the dog's suite."""
 
 DEMO = Scenario(
     "demo",

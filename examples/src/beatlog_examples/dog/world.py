@@ -3,8 +3,9 @@
 This is the environment and the robot's firmware, not the software under test: it
 runs only while recording and is never replayed. A human tester acts on it through
 :meth:`DogWorld.place`, :meth:`~DogWorld.touch`, :meth:`~DogWorld.push`,
-:meth:`~DogWorld.hold` and :meth:`~DogWorld.drain`, as a person would on the real
-robot; behaviors only ever see the result through the sensors.
+:meth:`~DogWorld.hold`, :meth:`~DogWorld.drag`, :meth:`~DogWorld.lean` and
+:meth:`~DogWorld.drain`, as a person would on the real robot; behaviors only ever see
+the result through the sensors.
 """
 
 from __future__ import annotations
@@ -30,11 +31,16 @@ TOUCH_PARTS = {"head": "head_top", "back": "back", "chin": "chin"}
 """Where a tester's hand can touch the dog: part name to the touch sensor's site."""
 HAND_RADIUS = 0.04
 HAND_PRESS = 0.002
-"""How deep (m) the tester's hand presses into the dog."""
+"""How deep (m) the tester's hand presses into the dog, unless told otherwise."""
 PUSH_FORCE_N = 25.0
 PUSH_S = 0.1
 HOLD_STIFFNESS = 300.0
 HOLD_DAMPING = 30.0
+LEAN_STIFFNESS = 30.0
+"""N·m per radian of roll from the angle the tester's hands tip the dog to."""
+LEAN_DAMPING = 1.5
+LEAN_RAMP_S = 0.5
+"""The tester tips the dog over this long, and sets it back upright as long."""
 RIGHTING_TORQUE = 3.0
 RIGHTING_DAMPING = 0.3
 """The get-up routine: legs tucked while a torque turns the torso upright (see README)."""
@@ -85,6 +91,8 @@ class DogWorld:
         self._touching: float | None = None
         self._pushing: tuple[npt.NDArray[np.float64], float] | None = None
         self._holding: tuple[npt.NDArray[np.float64], float] | None = None
+        self._dragging: tuple[float, float] | None = None
+        self._leaning: tuple[float, float, float] | None = None
         data.qpos[:3] = (x, y, 0.17)
         data.qpos[3:7] = (math.cos(heading / 2), 0.0, 0.0, math.sin(heading / 2))
         data.ctrl[:] = self.gait.targets
@@ -143,13 +151,12 @@ class DogWorld:
         """Take a box out of the arena again."""
         self.data.mocap_pos[self._boxes[box]] = (10.0, float(self._boxes[box]), 0.15)
 
-    def touch(self, part: str, seconds: float) -> None:
-        """Rest a hand on the head, back or chin for a while, where the part is now."""
+    def touch(self, part: str, seconds: float, press: float = HAND_PRESS) -> None:
+        """Rest a hand on the head, back or chin for a while, where the part is now,
+        pressing ``press`` metres into it (a lighter touch presses less)."""
         site = self.data.site_xpos[self._sites[part]]
         below = -1.0 if part == "chin" else 1.0
-        self.data.mocap_pos[self._hand] = site + np.array(
-            (0.0, 0.0, below * (HAND_RADIUS - HAND_PRESS))
-        )
+        self.data.mocap_pos[self._hand] = site + np.array((0.0, 0.0, below * (HAND_RADIUS - press)))
         self._touching = self.time_s + seconds
 
     def push(self, side: int = 1) -> None:
@@ -162,6 +169,16 @@ class DogWorld:
     def hold(self, seconds: float) -> None:
         """Hold the dog in place by its body, so its legs walk without getting anywhere."""
         self._holding = (self.data.xpos[self._torso].copy(), self.time_s + seconds)
+
+    def drag(self, seconds: float, damping: float) -> None:
+        """Hold the dog back by its harness: a pull against its velocity, ``damping`` N
+        per m/s, so it walks on slowly instead of not at all."""
+        self._dragging = (damping, self.time_s + seconds)
+
+    def lean(self, side: int, degrees: float, seconds: float) -> None:
+        """Tip the dog towards its left (+1) or right (-1) by about ``degrees``, keep it
+        there and set it back upright, ``seconds`` in all, as a tester's hands would."""
+        self._leaning = (-side * math.radians(degrees), self.time_s, self.time_s + seconds)
 
     def drain(self, per_second: float) -> None:
         """Make the battery drain faster (a tester running the dog down before a test)."""
@@ -185,11 +202,24 @@ class DogWorld:
                 applied[:2] -= HOLD_STIFFNESS * offset[:2] + HOLD_DAMPING * velocity[:2]
             else:
                 self._holding = None
+        if self._dragging is not None:
+            damping, until = self._dragging
+            if now < until:
+                applied[:2] -= damping * self.data.qvel[:2]
+            else:
+                self._dragging = None
+        rotation = self.data.xmat[self._torso].reshape(3, 3)
+        roll = math.atan2(rotation[2, 1], rotation[2, 2])  # from world up in the torso frame
+        spin = rotation @ self.data.qvel[3:6]
+        if self._leaning is not None:
+            angle, start, until = self._leaning
+            if now < until:
+                target = angle * min(1.0, (now - start) / LEAN_RAMP_S, (until - now) / LEAN_RAMP_S)
+                torque = LEAN_STIFFNESS * (target - roll)
+                applied[3:] += torque * rotation[:, 0] - LEAN_DAMPING * spin
+            else:
+                self._leaning = None
         if self.motion is Motion.GETUP:
-            rotation = self.data.xmat[self._torso].reshape(3, 3)
-            up_y, up_z = rotation[2, 1], rotation[2, 2]  # world up in the torso frame
-            roll = math.atan2(up_y, up_z)
-            spin = rotation @ self.data.qvel[3:6]
             torque = -math.copysign(RIGHTING_TORQUE * min(1.0, abs(roll)), roll)
             applied[3:] += torque * rotation[:, 0] - RIGHTING_DAMPING * spin
 
