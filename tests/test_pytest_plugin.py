@@ -3,6 +3,7 @@ its ``beatlog`` options re-baseline and audit them."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -11,7 +12,7 @@ import pytest
 import beatlog_examples.rover
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog_examples.rover import record_lockstep
-from tests.conftest import RecordFn
+from tests.conftest import Probe, RecordFn
 from tests.specs import FIRST_CHANGED_CYCLE
 from tests.systems import leaks, leaky_system, record_session
 
@@ -203,6 +204,40 @@ def test_audit_fails_a_dtc_whose_behaviors_leak_and_passes_a_sound_one(
         ]
     )
     audited.stdout.fnmatch_lines(["2 DTCs: 2 passed, 0 failed"])
+
+
+@pytest.mark.parametrize("workers", [[], ["-n", "2"]], ids=["alone", "xdist"])
+def test_coverage_is_shown_and_written_at_the_end_of_the_session(
+    pytester: pytest.Pytester,
+    record_probe: RecordFn,
+    workers: list[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent.parent))  # for tests.conftest
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", record_probe(200)))
+    far = record_probe(40, name="far.beatlog", states=[Probe(distance=2.0)] * 40)
+    pytester.makefile(".dtc.toml", steady=spec_text("steady", far))
+    result = pytester.runpytest_subprocess(
+        *workers, "--beatlog-coverage", "--beatlog-coverage-json", "coverage.json"
+    )
+    result.assert_outcomes(passed=2)
+    result.stdout.fnmatch_lines(["*= beatlog =*", "*transition coverage*", '*"far" → "near"*'])
+    document = json.loads((pytester.path / "coverage.json").read_text(encoding="utf-8"))
+    assert document["dtcs"] == ["approach-wall", "steady"]
+    assert document["behaviors"]["near"]["no_longer_reached"] == []
+
+    (pytester.path / "approach.dtc.toml").unlink()
+    again = pytester.runpytest_subprocess(*workers, "--beatlog-coverage")
+    again.assert_outcomes(passed=1)
+    again.stdout.fnmatch_lines(['*"near" (seen before in approach-wall)*'])
+
+
+def test_without_the_option_no_coverage_is_shown(pytester: pytest.Pytester, log: Path) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    result = pytester.runpytest()
+    result.assert_outcomes(passed=1)
+    result.stdout.no_fnmatch_line("*transition coverage*")
+    assert not (pytester.path / ".beatlog_cache").exists()
 
 
 def test_break_at_stops_in_the_dtc_selected(

@@ -86,8 +86,8 @@ class ExportError(BeatlogError):
 
 
 class FieldError(BeatlogError):
-    """A robot-state field named for a chart that the session's robot state lacks or that
-    is not a number; the message names the log."""
+    """A robot-state field named for a chart or a tolerance that the session's robot
+    state lacks, or one charted that is not a number; the message names the log."""
 
 
 class FleetError(BeatlogError):

@@ -5,13 +5,14 @@ project they belong to."""
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import stat
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
-__all__ = ["irregular_file_problem", "project_root", "replacing"]
+__all__ = ["irregular_file_problem", "project_root", "replacing", "write_json"]
 
 
 def irregular_file_problem(path: Path) -> str | None:
@@ -55,3 +56,12 @@ def replacing(path: Path) -> Iterator[IO[bytes]]:
     except BaseException:
         temporary.unlink(missing_ok=True)
         raise
+
+
+def write_json(path: Path, document: object) -> None:
+    """Write a JSON document for tools, whole or not at all.
+
+    :raises OSError: the path cannot be written.
+    """
+    with replacing(path) as file:
+        file.write(json.dumps(document, indent=2).encode() + b"\n")

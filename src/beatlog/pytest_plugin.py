@@ -8,8 +8,11 @@ items carry the ``dtc`` marker, and ``-k`` matches their names and tags.
 Options (the ``beatlog`` group; the default is neither): ``--beatlog-update`` writes
 the new expectation of each failing DTC to its pending baseline for review, as
 ``beatlog test --update`` does, and never when ``CI`` is set; ``--beatlog-audit``
-also audits each DTC's determinism and fails the ones it finds leaking. The terminal
-summary says what was written, names orphaned baselines and counts the verdicts.
+also audits each DTC's determinism and fails the ones it finds leaking;
+``--beatlog-coverage`` shows the transition coverage of the DTCs that ran, as
+``beatlog test --coverage`` does (remembering what earlier runs saw), and
+``--beatlog-coverage-json FILE`` writes it for tools. The terminal summary says what
+was written, names orphaned baselines and counts the verdicts.
 
 Break points, as ``beatlog replay`` has them: ``--beatlog-break-at CYCLE`` stops in the
 debugger just before the behaviors update in that cycle of the one DTC selected (with
@@ -29,6 +32,7 @@ from typing import Any
 import pytest
 
 from beatlog.errors import BeatlogError, SpecError
+from beatlog.files import write_json
 from beatlog.model.behavior import System
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import ReplayResult
@@ -67,6 +71,20 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         "reads and global random calls; a DTC with findings fails",
     )
     group.addoption(
+        "--beatlog-coverage",
+        action="store_true",
+        dest="beatlog_coverage",
+        help="show which behavior states and transitions the DTCs that ran exercise, and the "
+        "states declared or seen by earlier runs that none reaches",
+    )
+    group.addoption(
+        "--beatlog-coverage-json",
+        type=Path,
+        metavar="FILE",
+        dest="beatlog_coverage_json",
+        help="write the transition coverage of the DTCs that ran as JSON",
+    )
+    group.addoption(
         "--beatlog-break-at",
         type=int,
         metavar="CYCLE",
@@ -94,11 +112,15 @@ class BeatlogRun:
 
     update: UpdateMode
     audit: bool
+    root: Path
+    """pytest's rootdir: the coverage memory goes to its project root."""
+    coverage: bool = False
+    coverage_json: Path | None = None
     break_at: int | None = None
     break_on_divergence: bool = False
     verdicts: list[Verdict] = field(default_factory=list)
-    folders: set[Path] = field(default_factory=set)
-    """The folders of the specs that ran: where orphaned baselines are looked for."""
+    specs: set[Path] = field(default_factory=set)
+    """The specs that ran: their folders are where orphaned baselines are looked for."""
     lines: list[str] = field(default_factory=list)
     """What updating the baselines did."""
 
@@ -129,20 +151,44 @@ class BeatlogRun:
             if name == _VERDICT:
                 self.verdicts.append(Verdict(str(value)))
             elif name == _SPEC:
-                self.folders.add(Path(str(value)).parent)
+                self.specs.add(Path(str(value)))
             elif name == _UPDATE:
                 self.lines.append(str(value))
 
     def pytest_terminal_summary(self, terminalreporter: pytest.TerminalReporter) -> None:
-        """The pending baselines written, the orphans, and the DTCs' verdicts."""
+        """The pending baselines written, the orphans, the coverage and the DTCs' verdicts."""
         if not self.verdicts:
             return
         terminalreporter.section("beatlog")
-        orphans = [text.plain for text in render_orphans(find_orphans(sorted(self.folders)))]
-        for line in [*self.lines, *orphans]:
+        folders = sorted({spec.parent for spec in self.specs})
+        orphans = [text.plain for text in render_orphans(find_orphans(folders))]
+        for line in [*self.lines, *orphans, *self._coverage()]:
             terminalreporter.write_line(line)
         counts = verdict_counts(self.verdicts)
         terminalreporter.write_line(f"{plural(len(self.verdicts), 'DTC')}: {counts}")
+
+    def _coverage(self) -> list[str]:
+        """The coverage table's lines when asked for, and any warning; writes its JSON."""
+        if not self.coverage and self.coverage_json is None:
+            return []
+        from beatlog.report.coverage import render_coverage  # noqa: PLC0415 - when asked for
+        from beatlog.suite.coverage import suite_coverage  # noqa: PLC0415
+        from beatlog.suite.coverage_cache import cache_path, recall  # noqa: PLC0415
+
+        try:
+            coverage = suite_coverage([load_spec(spec) for spec in sorted(self.specs)])
+        except BeatlogError as exc:  # a log no DTC could read: its error is reported
+            return [f"beatlog: no transition coverage: {exc}"]
+        warning = recall(coverage, cache_path(self.root)).warning
+        lines = [] if warning is None else [f"beatlog: warning: {warning}"]
+        if self.coverage:
+            lines.extend(plain_text(render_coverage(coverage)).splitlines())
+        if self.coverage_json is not None:
+            try:
+                write_json(self.coverage_json, coverage.to_json())
+            except OSError as exc:
+                lines.append(f"beatlog: warning: {self.coverage_json}: cannot write: {exc}")
+        return lines
 
 
 _RUN = pytest.StashKey[BeatlogRun]()
@@ -159,9 +205,15 @@ def pytest_configure(config: pytest.Config) -> None:
             "the beatlog break points stop in the debugger of this process: "
             "run without pytest-xdist's -n (or with -n 0)"
         )
+    coverage_json = config.getoption("beatlog_coverage_json")
     config.stash[_RUN] = BeatlogRun(
         update=UpdateMode.parse(config.getoption("beatlog_update")),
         audit=config.getoption("beatlog_audit"),
+        root=config.rootpath,
+        coverage=config.getoption("beatlog_coverage"),
+        coverage_json=None
+        if coverage_json is None
+        else config.invocation_params.dir / coverage_json,
         break_at=break_at,
         break_on_divergence=break_on_divergence,
     )

@@ -2,66 +2,28 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
 
 from beatlog.cli.main import main
-from beatlog.model.inbox import Sample
-from beatlog.model.perception import Perception
-from beatlog.record.recorder import Recorder
+from beatlog.errors import FieldError
+from beatlog.replay.compare import Comparison
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import DivergenceKind, FieldDifference
-from beatlog.suite.runner import run_spec
+from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
-from tests.conftest import PERIOD_NS, Probe, distances, probe_system
-
-
-def perceive(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
-    """The probe's perception: the last range reading is the distance."""
-    state = Probe() if previous is None else previous
-    for sample in samples:
-        if sample.sensor == "range":
-            state = Probe(distance=sample.value[0], reading=state.reading)
-    return state
-
-
-def perception() -> Perception:
-    return perceive
-
-
-def changed_perception() -> Perception:
-    """A perception change: the range is read 10 % long from a distance of 0.8 on."""
-
-    def long_range(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
-        state = perceive(previous, samples)
-        distance = state.distance
-        return Probe(distance=distance * 1.1 if distance >= 0.8 else distance)
-
-    return long_range
-
-
-def broken_perception() -> Perception:
-    def broken(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
-        if previous is not None and previous.distance < 0.5:
-            raise ValueError("no range sensor")
-        return perceive(previous, samples)
-
-    return broken
-
-
-def record_with_samples(path: Path, cycles: int = 300, *, log_samples: bool = True) -> Path:
-    """A probe session whose robot state is perceived from one range sample a cycle."""
-    state: Probe | None = None
-    with Recorder(
-        path, probe_system(), seed=3, software="test", log_samples=log_samples
-    ) as recorder:
-        for t, distance in enumerate(distances(cycles)):
-            samples = [Sample("range", t * PERIOD_NS, (distance, 1))]
-            state = perceive(state, samples)
-            recorder.step(PERIOD_NS, state, samples)
-    return path
+from tests.conftest import distances, probe_system
+from tests.perceptions import (
+    CHANGED,
+    broken_perception,
+    changed_perception,
+    nudged_perception,
+    perception,
+    record_with_samples,
+    shifted_perception,
+)
+from tests.specs import write_spec
 
 
 def test_the_recorded_perception_rebuilds_every_robot_state(tmp_path: Path) -> None:
@@ -92,7 +54,7 @@ def test_a_perception_that_raises_is_a_perception_divergence(tmp_path: Path) -> 
     assert divergence.kind is DivergenceKind.PERCEPTION
     assert divergence.message == "perception raised ValueError: no range sensor"
     assert divergence.traceback is not None
-    assert "test_sensor_replay.py" in divergence.traceback
+    assert "perceptions.py" in divergence.traceback
 
 
 def test_a_log_without_samples_replays_its_recorded_states(tmp_path: Path) -> None:
@@ -102,7 +64,7 @@ def test_a_log_without_samples_replays_its_recorded_states(tmp_path: Path) -> No
 
 def test_a_perception_named_by_reference_is_in_the_reproduce_command(tmp_path: Path) -> None:
     log = record_with_samples(tmp_path / "samples.beatlog")
-    reference = "tests.replay.test_sensor_replay:changed_perception"
+    reference = CHANGED
     result = replay(log, "tests.conftest:probe_system", perception=reference)
     assert not result.ok
     assert f"--perception {reference}" in result.reproduce
@@ -120,7 +82,7 @@ def test_the_cli_replays_from_samples_and_shows_the_fields_and_samples(
 ) -> None:
     monkeypatch.setenv("COLUMNS", "200")
     log = record_with_samples(tmp_path / "samples.beatlog")
-    reference = "tests.replay.test_sensor_replay:changed_perception"
+    reference = CHANGED
     code = main(
         ["replay", str(log), "--system", "tests.conftest:probe_system", "--perception", reference]
     )
@@ -139,7 +101,7 @@ def test_a_spec_names_its_perception_and_the_suite_replays_from_samples(tmp_path
     spec.write_text(
         'name = "sensors"\npurpose = "perception"\nprocedure = []\n'
         f'log = "{log.name}"\nsystem = "tests.conftest:probe_system"\n'
-        'perception = "tests.replay.test_sensor_replay:changed_perception"\n'
+        f'perception = "{CHANGED}"\n'
     )
     outcome = run_spec(load_spec(spec))
     assert outcome.result is not None
@@ -157,3 +119,66 @@ def test_show_says_how_many_samples_each_sensor_logged(
     assert "samples         40 (range 40)" in capsys.readouterr().out
     assert main(["show", str(without)]) == 0
     assert "samples         not logged" in capsys.readouterr().out
+
+
+# robot-state tolerances
+
+
+def test_a_difference_within_the_robot_state_tolerance_passes(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    exact = replay(log, probe_system(), perception=nudged_perception())
+    lenient = Comparison(state_tolerance={"distance": 1e-6})
+    tolerated = replay(log, probe_system(), perception=nudged_perception(), comparison=lenient)
+    assert exact.divergence is not None
+    assert exact.divergence.kind is DivergenceKind.PERCEPTION
+    assert tolerated.ok, tolerated.divergence
+
+
+def test_a_tolerance_on_another_field_excuses_nothing(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    other = Comparison(state_tolerance={"reading": 1.0})
+    divergence = replay(
+        log, probe_system(), perception=nudged_perception(), comparison=other
+    ).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.PERCEPTION
+    assert [difference.field for difference in divergence.perception] == ["distance"]
+
+
+def test_within_the_tolerance_the_behaviors_run_on_the_rebuilt_state(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    lenient = Comparison(state_tolerance={"distance": 0.1})
+    divergence = replay(
+        log, probe_system(), perception=shifted_perception(), comparison=lenient
+    ).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.STATE_CHANGES  # near saw the obstacle earlier
+    assert divergence.robot_state["distance"] < 0.5 <= divergence.robot_state["distance"] + 0.05
+
+
+def test_a_tolerance_for_a_field_the_recorded_state_lacks_is_an_error(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog", 20)
+    unknown = Comparison(state_tolerance={"distanse": 1e-6})
+    with pytest.raises(FieldError) as raised:
+        replay(log, probe_system(), perception=perception(), comparison=unknown)
+    message = str(raised.value)
+    assert message.startswith(f"{log}: robot-state tolerance for 'distanse'")
+    assert "tests.conftest.Probe has no such field (it has distance, reading)" in message
+
+
+def test_a_spec_tolerates_robot_state_fields(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog", 60)
+    nudged = "tests.perceptions:nudged_perception"
+    exact = write_spec(tmp_path, "exact", log, perception=nudged)
+    lenient = write_spec(
+        tmp_path, "lenient", log, perception=nudged, robot_state_tolerance={"distance": 1e-6}
+    )
+    unknown = write_spec(
+        tmp_path, "unknown", log, perception=nudged, robot_state_tolerance={"speed": 1e-6}
+    )
+    assert run_spec(load_spec(exact)).verdict is Verdict.FAILED
+    assert run_spec(load_spec(lenient)).verdict is Verdict.PASSED
+    outcome = run_spec(load_spec(unknown))
+    assert outcome.verdict is Verdict.ERROR
+    assert outcome.error is not None
+    assert "robot-state tolerance for 'speed'" in outcome.error

@@ -8,7 +8,7 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from beatlog.analysis.trace import ABSENT, Expectation, TracedChange, TracedOutput
+from beatlog.analysis.trace import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
 from beatlog.errors import BaselineError
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline import (
@@ -58,7 +58,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[0] == "# beatlog expected state changes and outputs, format 2"
+    assert lines[0] == "# beatlog expected state changes, outputs and robot states, format 3"
     assert lines[2] == f"# log session.beatlog sha256 {log_digest(log)}"
     assert lines[-2:] == [
         '       0     0.030  "arbiter": "idle" -> "wander"',
@@ -187,6 +187,62 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
     ]
 
 
+def test_robot_state_fields_come_first_in_their_cycle_and_read_back_bit_for_bit(
+    tmp_path: Path, log: Path
+) -> None:
+    path = tmp_path / "a.dtc.pending"
+    states = (
+        TracedState(12, 360_012_000, "distance", 0.55),
+        TracedState(12, 360_012_000, "pose", [1.0, -0.0]),
+        TracedState(13, 390_000_000, "distance", PAYLOAD_NAN),
+    )
+    outputs = (TracedOutput(12, 360_012_000, "speed", 0.0),)
+    expectation = Expectation(CHANGES[1:2], outputs, states)
+    write_baseline(path, spec_name="a", log=log, expectation=expectation)
+
+    lines = path.read_text(encoding="utf-8").splitlines()
+
+    assert lines[-5:] == [
+        '      12     0.360  robot_state "distance" = 0.55',
+        '      12     0.360  robot_state "pose" = [1.0, -0.0]',
+        '      12     0.360  "avoid": "off" -> "turning"',
+        '      12     0.360  output "speed" = 0.0',
+        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001',
+    ]
+    baseline = read_baseline(path)
+    assert [(s.cycle, s.field, _bits(s.value)) for s in baseline.robot_states] == [
+        (s.cycle, s.field, _bits(s.value)) for s in states
+    ]
+    assert baseline.expectation.states_by_cycle()[12] == {"distance": 0.55, "pose": [1.0, -0.0]}
+
+
+def test_robot_state_lines_out_of_cycle_order_are_an_error(tmp_path: Path) -> None:
+    path = tmp_path / "a.dtc.expected"
+    path.write_text(
+        "# beatlog expected state changes, outputs and robot states, format 3\n"
+        f"# log a.beatlog sha256 {'0' * 64}\n"
+        '      13     0.390  robot_state "distance" = 1.0\n'
+        '      12     0.360  robot_state "distance" = 1.0\n',
+        encoding="utf-8",
+    )
+    with pytest.raises(BaselineError, match="robot_state lines are not in cycle order"):
+        read_baseline(path)
+
+
+def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path) -> None:
+    path = tmp_path / "a.dtc.expected"
+    path.write_text(
+        "# beatlog expected state changes and outputs, format 2\n"
+        f"# log a.beatlog sha256 {'0' * 64}\n"
+        '      12     0.360  "avoid": "off" -> "turning"\n'
+        '      12     0.360  output "speed" = 0.0\n',
+        encoding="utf-8",
+    )
+    baseline = read_baseline(path)
+    assert baseline.outputs == (TracedOutput(12, 360_000_000, "speed", 0.0),)
+    assert baseline.robot_states == ()
+
+
 def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> None:
     path = tmp_path / "a.dtc.expected"
     path.write_text(
@@ -207,11 +263,16 @@ def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> 
     [
         (1, '  7  0.210  output "speed" = 1', "line 4: a format 1 baseline holds no outputs"),
         (2, "  7  0.210  output speed = 1", "line 4: Expecting value"),
-        (2, "  7  0.210  output 3 = 1", "the output field must be a JSON string"),
+        (2, "  7  0.210  output 3 = 1", "the field must be a JSON string"),
         (2, '  7  0.210  output "speed" 1', "expected '=' at column"),
         (2, '  7  0.210  output "speed" = 1 2', "unexpected ' 2' after the value"),
         (2, '  7  0.210  output "speed" = msgpack:zz', "a damaged msgpack value"),
         (2, '  7  0.210  output "speed" = msgpack:c1', "a damaged msgpack value"),
+        (2, '  7  0.210  robot_state "x" = 1', "a format 2 baseline holds no robot states"),
+        (3, '  7  0.210  robot_state "x" absent', "a robot-state field is never absent"),
+        (3, "  7  0.210  robot_state x = 1", "line 4: Expecting value"),
+        (3, '  7  0.210  robot_state "x" = 1 2', "unexpected ' 2' after the value"),
+        (3, '  7  0.210  sensor "x" = 1', "line 4: Expecting value"),
     ],
 )
 def test_a_damaged_output_line_is_an_error_naming_file_and_line(
@@ -220,6 +281,7 @@ def test_a_damaged_output_line_is_an_error_naming_file_and_line(
     header = {
         1: "# beatlog expected state changes, format 1",
         2: "# beatlog expected state changes and outputs, format 2",
+        3: "# beatlog expected state changes, outputs and robot states, format 3",
     }[magic]
     path = tmp_path / "a.dtc.expected"
     path.write_text(f"{header}\n# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n", encoding="utf-8")

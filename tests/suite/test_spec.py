@@ -129,6 +129,7 @@ def test_comparison_allowances_load_into_the_spec(tmp_path: Path) -> None:
         ignore_behaviors=["dice"],
         ignore_fields=["debug_*"],
         tolerance={"speed": 1e-9},
+        robot_state_tolerance={"distance": 1e-6},
     )
 
     comparison = load_spec(path).comparison
@@ -137,6 +138,7 @@ def test_comparison_allowances_load_into_the_spec(tmp_path: Path) -> None:
     assert comparison.ignore_behaviors == frozenset({"dice"})
     assert comparison.ignore_fields == ("debug_*",)
     assert comparison.tolerance == {"speed": 1e-9}
+    assert comparison.state_tolerance == {"distance": 1e-6}
 
 
 def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
@@ -148,11 +150,21 @@ def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
     [
         ({"tolerance": {"speed": -1.0}}, ("key 'tolerance.speed'", "finite number >= 0")),
         ({"tolerance": {"speed": "tiny"}}, ("key 'tolerance.*'", "expected `float`")),
+        ({"robot_state_tolerance": {"distance": -1e-3}},
+         ("key 'robot_state_tolerance.distance'", "finite number >= 0")),
+        ({"robot_state_tolerance": {"distance": float("nan")}},
+         ("key 'robot_state_tolerance.distance'", "finite number >= 0, got nan")),
+        ({"robot_state_tolerance": {"distance": float("inf")}},
+         ("key 'robot_state_tolerance.distance'", "finite number >= 0, got inf")),
+        ({"robot_state_tolerance": {"distance": "tiny"}},
+         ("key 'robot_state_tolerance.*'", "expected `float`")),
         ({"renames": {"a": "c", "b": "c"}}, ("key 'renames'", "'a' and 'b' are both renamed")),
         ({"renames": {"a": 1}}, ("key 'renames.*'", "expected `str`")),
         ({"ignore_behaviors": "dice"}, ("key 'ignore_behaviors'", "expected `array`")),
     ],
-    ids=["negative-tolerance", "tolerance-not-number", "renames-not-one-to-one",
+    ids=["negative-tolerance", "tolerance-not-number", "negative-state-tolerance",
+         "nan-state-tolerance", "infinite-state-tolerance", "state-tolerance-not-number",
+         "renames-not-one-to-one",
          "rename-not-string", "ignore-not-list"],
 )  # fmt: skip
 def test_bad_allowances_name_the_key(

@@ -4,7 +4,9 @@ The paper's DTCs protect what the recorded sessions exercised and nothing else. 
 module reads the state changes each DTC's log recorded (or its approved baseline)
 and gathers, per behavior, the states reached and the (before → after) transitions
 taken, with how many DTCs and cycles; states a behavior declares (a ``states``
-attribute: an Enum or a sequence) but no DTC reaches are listed as unreached.
+attribute: an Enum or a sequence) but no DTC reaches are listed as unreached, and so
+are states and transitions earlier runs saw (see :mod:`beatlog.suite.coverage_cache`)
+that no DTC reaches now.
 """
 
 from __future__ import annotations
@@ -50,11 +52,34 @@ class BehaviorCoverage:
     """(before, after) → the DTCs that took it and how many times (its cycles)."""
     declared: tuple[str, ...] = ()
     """The states the behavior declares, when it does."""
+    states_before: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    """State → the DTCs that reached it, in earlier runs."""
+    transitions_before: dict[tuple[str, str], tuple[str, ...]] = field(default_factory=dict)
+    """(before, after) → the DTCs that took it, in earlier runs."""
 
     @property
     def unreached(self) -> tuple[str, ...]:
         """Declared states no DTC reached."""
         return tuple(state for state in self.declared if state not in self.states)
+
+    @property
+    def no_longer_reached(self) -> dict[str, tuple[str, ...]]:
+        """States earlier runs saw (with the DTCs that reached them then) that no DTC
+        reaches now and the behavior does not declare (those are :attr:`unreached`)."""
+        return {
+            state: dtcs
+            for state, dtcs in self.states_before.items()
+            if state not in self.states and state not in self.declared
+        }
+
+    @property
+    def no_longer_taken(self) -> dict[tuple[str, str], tuple[str, ...]]:
+        """Transitions earlier runs saw (with their DTCs then) that no DTC takes now."""
+        return {
+            edge: dtcs
+            for edge, dtcs in self.transitions_before.items()
+            if edge not in self.transitions
+        }
 
     @property
     def dtcs(self) -> set[str]:
@@ -103,6 +128,14 @@ class SuiteCoverage:
                     ],
                     "declared": list(cover.declared),
                     "unreached": list(cover.unreached),
+                    "no_longer_reached": [
+                        {"state": state, "dtcs_before": list(dtcs)}
+                        for state, dtcs in cover.no_longer_reached.items()
+                    ],
+                    "no_longer_taken": [
+                        {"before": before, "after": after, "dtcs_before": list(dtcs)}
+                        for (before, after), dtcs in cover.no_longer_taken.items()
+                    ],
                 }
                 for name, cover in self.behaviors.items()
             },

@@ -18,6 +18,7 @@ from beatlog.analysis.trace import ReadTracker, ReplayedTrace, TraceCollector
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.model.perception import Perception
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
@@ -44,12 +45,15 @@ def replay_details(
     trace: bool = False,
     timelines: bool = False,
     expected: Mapping[int, Sequence[StateChange]] | None = None,
+    perception: Perception | None = None,
 ) -> Details:
     """Replay ``log`` on a fresh ``system`` once, gathering what is asked for.
 
     ``divergence`` is the verdict's; the fields read are those of its cycle.
     ``expected`` stands in for the recorded state changes in the timelines (an
-    approved baseline). Stepping stops as soon as nothing asked for needs more.
+    approved baseline). With a ``perception`` step, each robot state is rebuilt from the
+    logged samples, as the verdict's replay did. Stepping stops as soon as nothing asked
+    for needs more.
     """
     diverged_at = (
         None
@@ -58,7 +62,7 @@ def replay_details(
     )
     reads = ReadTracker()
     with SessionLogReader(log) as reader:
-        replayer = Replayer(system, reader.header, reader.path)
+        replayer = Replayer(system, reader.header, reader.path, perception=perception)
         tracer = TraceCollector(replayer.executor.behavior_ids) if trace else None
         charts = (
             _Charts(

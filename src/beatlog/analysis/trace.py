@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import enum
 import itertools
-from collections.abc import Iterator, Mapping
+from collections.abc import Collection, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -27,6 +27,7 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.replay.compare import WHOLE_STATE, Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import StateChange
 
@@ -39,12 +40,17 @@ __all__ = [
     "TraceCollector",
     "TracedChange",
     "TracedOutput",
+    "TracedState",
     "fields_read",
     "read_changes",
     "recorded_outputs",
+    "recorded_states",
     "recorded_trace",
     "replayed_trace",
 ]
+
+
+_EXACT = Comparison()
 
 
 class TracedChange(NamedTuple):
@@ -68,6 +74,16 @@ ABSENT = _Absent.ABSENT
 
 class TracedOutput(NamedTuple):
     """An output field that took a new value (or went :data:`ABSENT`) at a cycle."""
+
+    cycle: int
+    time_ns: int
+    field: str
+    value: Any
+
+
+class TracedState(NamedTuple):
+    """A robot-state field that the perception step rebuilt differently from the
+    recorded RS_t at a cycle, with the value it rebuilt."""
 
     cycle: int
     time_ns: int
@@ -110,16 +126,27 @@ class Expectation:
 
     ``outputs`` pins the outputs as compact changes (see :class:`OutputTracker`); None
     (a baseline from before outputs were pinned) leaves them judged against the recording.
+    ``robot_states`` pins, for sensor-level replay, the robot states an intended
+    perception change rebuilds: the fields that differ from the recorded RS_t, in the
+    cycles where they do (none: perception rebuilds the recording).
     """
 
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] | None = None
+    robot_states: tuple[TracedState, ...] = ()
 
     def changes_by_cycle(self) -> dict[int, list[StateChange]]:
         """The state changes grouped by cycle."""
         grouped: dict[int, list[StateChange]] = {}
         for traced in self.changes:
             grouped.setdefault(traced.cycle, []).append(traced.change)
+        return grouped
+
+    def states_by_cycle(self) -> dict[int, dict[str, Any]]:
+        """The pinned robot-state fields grouped by cycle."""
+        grouped: dict[int, dict[str, Any]] = {}
+        for traced in self.robot_states:
+            grouped.setdefault(traced.cycle, {})[traced.field] = traced.value
         return grouped
 
     def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
@@ -146,11 +173,14 @@ class ReplayedTrace:
     random numbers the log does not have), or None when it replayed every cycle."""
     outputs: tuple[TracedOutput, ...] = ()
     """The outputs, as the cycles where a field changed value."""
+    robot_states: tuple[TracedState, ...] = ()
+    """In sensor-level replay, the robot-state fields perception rebuilt otherwise than
+    recorded, in each cycle where it did."""
 
     @property
     def expectation(self) -> Expectation:
         """This trace as the expectation a baseline pins."""
-        return Expectation(self.changes, self.outputs)
+        return Expectation(self.changes, self.outputs, self.robot_states)
 
 
 def recorded_trace(log: str | Path) -> list[TracedChange]:
@@ -200,6 +230,28 @@ def recorded_outputs(log: str | Path) -> list[TracedOutput]:
     return changes
 
 
+def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[str, Any]]:
+    """The robot states the log recorded in ``cycles``, as fields (see
+    :func:`~beatlog.replay.compare.state_fields`); read without the system."""
+    found: dict[int, dict[str, Any]] = {}
+    if not cycles:
+        return found
+    last = max(cycles)
+    with SessionLogReader(log) as reader:
+        for cycle, record in enumerate(_records(reader)):
+            if cycle > last:
+                break
+            if cycle in cycles:
+                try:
+                    state = msgspec.msgpack.decode(record.robot_state)
+                except DECODE_ERRORS as exc:
+                    raise CorruptLogError(
+                        reader.path, f"damaged robot state in cycle {cycle}: {exc}"
+                    ) from None
+                found[cycle] = state if isinstance(state, dict) else {WHOLE_STATE: state}
+    return found
+
+
 def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     """Replay every cycle of ``log`` on ``system`` and collect its state changes.
 
@@ -224,6 +276,7 @@ class TraceCollector:
         self._names = names
         self._changes: list[TracedChange] = []
         self._outputs: list[TracedOutput] = []
+        self._states: list[TracedState] = []
         self._tracker = OutputTracker()
         self._cycles = 0
         self.stopped: str | None = None
@@ -242,16 +295,37 @@ class TraceCollector:
             for i, before, after in outcome.changes or ()
         )
         self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
+        if outcome.perception_differs:
+            self._states.extend(_rebuilt_otherwise(outcome))
         self._cycles += 1
 
     def trace(self) -> ReplayedTrace:
         """The trace gathered so far."""
-        return ReplayedTrace(tuple(self._changes), self._cycles, self.stopped, tuple(self._outputs))
+        return ReplayedTrace(
+            tuple(self._changes),
+            self._cycles,
+            self.stopped,
+            tuple(self._outputs),
+            tuple(self._states),
+        )
+
+
+def _rebuilt_otherwise(outcome: CycleOutcome) -> list[TracedState]:
+    """The robot-state fields perception rebuilt otherwise than recorded, bit for bit."""
+    recorded, rebuilt = state_fields(outcome.recorded_state), state_fields(outcome.state)
+    return [
+        TracedState(outcome.cycle, outcome.time_ns, name, rebuilt[name])
+        for name in _EXACT.state_differences(recorded, rebuilt)
+        if name in rebuilt
+    ]
 
 
 def _stop_reason(outcome: CycleOutcome) -> str | None:
     """Why a trace cannot go on past this cycle, if it cannot."""
     cycle = outcome.cycle
+    problem = outcome.perception_failure
+    if problem is not None:
+        return f"cycle {cycle}: perception raised {type(problem).__name__}: {problem}"
     if outcome.failure is not None:
         return f"cycle {cycle}: {type(outcome.failure).__name__}: {outcome.failure}"
     if outcome.draw_problem is not None:

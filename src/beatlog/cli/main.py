@@ -370,7 +370,8 @@ def _add_test(test: argparse.ArgumentParser) -> None:
     test.add_argument(
         "--coverage",
         action="store_true",
-        help="show which behavior states and transitions the DTCs exercise",
+        help="show which behavior states and transitions the DTCs exercise, and the states "
+        "declared or seen by earlier runs (remembered in .beatlog_cache/) that none reaches",
     )
     test.add_argument(
         "--coverage-json", type=Path, metavar="FILE", help="write the transition coverage as JSON"
@@ -584,13 +585,10 @@ def _selected_specs(args: argparse.Namespace, fleet: list[DtcSpec] | None = None
 
 def _write_json(path: Path, document: object) -> None:
     """Write a JSON document whole or not at all; an unwritable path is bad input."""
-    import json
-
-    from beatlog.files import replacing
+    from beatlog.files import write_json
 
     try:
-        with replacing(path) as file:
-            file.write(json.dumps(document, indent=2).encode() + b"\n")
+        write_json(path, document)
     except OSError as exc:
         raise _UsageError(f"{path}: cannot write: {exc.strerror}") from None
 
@@ -746,6 +744,12 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
         from beatlog.suite.coverage import suite_coverage
 
         coverage = suite_coverage([outcome.spec for outcome in outcomes])
+        if args.logs is None:
+            from beatlog.suite.coverage_cache import cache_path, recall
+
+            warning = recall(coverage, cache_path(args.paths[0])).warning
+            if warning is not None:
+                print(f"beatlog: warning: {warning}", file=sys.stderr)
         if args.coverage:
             console.print(render_coverage(coverage))
         if args.coverage_json is not None:

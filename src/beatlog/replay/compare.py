@@ -2,8 +2,9 @@
 
 A spec may rename behaviors (so a renamed behavior needs no re-recording), ignore
 some behaviors' state changes or some output fields, and give a float tolerance per
-output field. Replay first compares bytes; only a cycle whose bytes differ is judged
-again here, so the allowances cost nothing while a DTC passes.
+output field and, for sensor-level replay, per robot-state field. Replay first compares
+bytes; only a cycle whose bytes differ is judged again here, so the allowances cost
+nothing while a DTC passes.
 """
 
 from __future__ import annotations
@@ -16,11 +17,25 @@ from typing import Any
 
 import msgspec
 
+from beatlog.log.format import payload_encoder
 from beatlog.replay.verdict import StateChange
 
-__all__ = ["Comparison"]
+__all__ = ["WHOLE_STATE", "Comparison", "state_fields"]
 
 _SORTED = msgspec.msgpack.Encoder(order="sorted")
+WHOLE_STATE = "(the whole state)"
+"""The field named for a robot state that is not a struct or cannot be logged."""
+
+
+def state_fields(state: Any) -> dict[str, Any]:
+    """A robot state's fields as they read back from a log (tuples as lists, numpy
+    values as numbers and lists); a state that is no struct, or cannot be logged, is
+    one field, :data:`WHOLE_STATE`."""
+    try:
+        fields = msgspec.msgpack.decode(payload_encoder().encode(state))
+    except (TypeError, ValueError, msgspec.EncodeError):
+        return {WHOLE_STATE: repr(state)}
+    return fields if isinstance(fields, dict) else {WHOLE_STATE: fields}
 
 
 @dataclass(frozen=True)
@@ -30,14 +45,17 @@ class Comparison:
     ``renames`` maps an old name to the current one; it applies to behavior names and to
     states that name a behavior (an arbiter's winner). ``ignore_fields`` are output
     names or globs; ``tolerance`` gives the largest absolute difference accepted per
-    output field (lists of numbers are compared element by element). A cycle's state
-    changes are compared as a set, whatever order the behaviors are listed in.
+    output field (lists of numbers are compared element by element), and
+    ``state_tolerance`` the same per robot-state field, for the robot state the
+    perception step rebuilds in sensor-level replay. A cycle's state changes are
+    compared as a set, whatever order the behaviors are listed in.
     """
 
     renames: Mapping[str, str] = field(default_factory=dict)
     ignore_behaviors: frozenset[str] = frozenset()
     ignore_fields: tuple[str, ...] = ()
     tolerance: Mapping[str, float] = field(default_factory=dict)
+    state_tolerance: Mapping[str, float] = field(default_factory=dict)
 
     def rename(self, name: str) -> str:
         """The current name of a behavior recorded as ``name``."""
@@ -107,6 +125,26 @@ class Comparison:
             elif not _within(value, got[name], tolerance):
                 return False
         return True
+
+    def state_differences(
+        self, expected: Mapping[str, Any], actual: Mapping[str, Any]
+    ) -> list[str]:
+        """The robot-state fields whose values differ (see :func:`state_fields`): bit
+        for bit, or by more than their tolerance. A field on one side only differs."""
+        differing = []
+        for name in dict.fromkeys([*expected, *actual]):
+            if name not in expected or name not in actual:
+                differing.append(name)
+                continue
+            want, got = expected[name], actual[name]
+            tolerance = self.state_tolerance.get(name)
+            if (
+                _SORTED.encode(want) != _SORTED.encode(got)
+                if tolerance is None
+                else not _within(want, got, tolerance)
+            ):
+                differing.append(name)
+        return differing
 
     def _fields(self, outputs: Mapping[str, Any]) -> dict[str, Any]:
         patterns = self.ignore_fields

@@ -10,15 +10,16 @@ proposals, because behavior changes are what DTCs exist to catch.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.errors import CorruptLogError, FieldError, SchemaMismatchError
 from beatlog.log.format import SessionHeader
 from beatlog.model.behavior import System
 from beatlog.model.state import state_schema, state_type_name
 
-__all__ = ["check_fit", "state_differences"]
+__all__ = ["check_fit", "check_state_fields", "state_differences"]
 
 _IGNORED_KEYS = frozenset({"default", "title", "description", "examples"})
 _MAX_REF_DEPTH = 32
@@ -43,6 +44,25 @@ def check_fit(header: SessionHeader, system: System, path: Path) -> None:
         f"recorded with robot state {header.robot_state_type}, which does not fit the "
         f"system's {state_type_name(system.robot_state)}: {shown}{more}",
     )
+
+
+def check_state_fields(header: SessionHeader, names: Iterable[str], path: Path, what: str) -> None:
+    """Raise :class:`FieldError` naming the log when a field named (``what`` says where,
+    e.g. a tolerance) is not in the robot state the log recorded.
+
+    :raises beatlog.errors.CorruptLogError: the log's robot-state schema is not a schema.
+    """
+    schema = header.robot_state_schema
+    try:
+        recorded = _resolve(schema, schema, 0).get("properties", {})
+    except (RecursionError, TypeError, KeyError, AttributeError) as exc:
+        raise CorruptLogError(path, f"damaged robot-state schema in the header: {exc!r}") from None
+    unknown = [name for name in names if name not in recorded]
+    if unknown:
+        raise FieldError(
+            f"{path}: {what} {unknown[0]!r}: the recorded robot state "
+            f"{header.robot_state_type} has no such field (it has {', '.join(recorded)})"
+        )
 
 
 def state_differences(recorded: dict[str, Any], current: dict[str, Any]) -> list[str]:

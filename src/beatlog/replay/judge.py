@@ -34,8 +34,9 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.model.random import Draw
-from beatlog.replay.compare import Comparison
+from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.fit import check_state_fields
 from beatlog.replay.verdict import (
     ContextRow,
     Divergence,
@@ -78,7 +79,8 @@ def replay(
     fields, tolerances; exact by default). ``expected`` is an approved baseline to judge
     against instead of the recording: its state changes, and its outputs when it pins
     them (else the recorded outputs); the recording's heartbeats, robot states and
-    random numbers are still used. When the behaviors differ from what was expected
+    random numbers are still used (and in sensor-level replay, the robot states it pins
+    instead of the recorded ones). When the behaviors differ from what was expected
     only by a consistent renaming, the divergence proposes the rename map. Given a
     ``module:factory`` reference and ``explain``, the divergence also names the
     robot-state fields the behaviors read in that cycle (one more replay, of a fresh
@@ -88,8 +90,9 @@ def replay(
 
     ``perception`` (a perception step, or a ``module:factory`` that builds one) turns on
     sensor-level replay when the log holds samples: RS_t is rebuilt from each cycle's
-    samples and compared with the recorded one (a PERCEPTION divergence names the
-    fields that differ and the samples), and the behaviors run on the rebuilt state.
+    samples and compared with the recorded one, field by field within the comparison's
+    robot-state tolerances (a PERCEPTION divergence names the fields that differ and the
+    samples), and the behaviors run on the rebuilt state, tolerated differences and all.
     ``break_at`` stops in the debugger (``breakpoint()``, honouring ``PYTHONBREAKPOINT``)
     just before the behaviors update in that cycle. ``observe`` is given every cycle's
     outcome up to the first divergence (the one that stops replay included), e.g. a
@@ -98,6 +101,8 @@ def replay(
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
+    :raises beatlog.errors.FieldError: a robot-state tolerance names a field the recorded
+        robot state lacks.
     """
     if system is None:
         system = recorded_system(log)
@@ -107,14 +112,18 @@ def replay(
     perception_reference = perception if isinstance(perception, str) else None
     if isinstance(perception, str):
         perception = load_perception(perception)
+    comparison = comparison or Comparison()
     with SessionLogReader(log) as reader:
+        check_state_fields(
+            reader.header, comparison.state_tolerance, reader.path, "robot-state tolerance for"
+        )
         judge = _Judge(
             reader.header,
             system,
             reader.path,
             keep_going=keep_going,
             context=context_cycles,
-            comparison=comparison or Comparison(),
+            comparison=comparison,
             expected=expected,
             perception=perception,
             break_at=break_at,
@@ -213,6 +222,10 @@ class _Judge:
         self._baseline: dict[int, msgspec.Raw] | None = None
         self._baseline_outputs: dict[int, msgspec.Raw] | None = None
         self.expected_names = list(header.behaviors)
+        self._pinned_states: dict[int, dict[str, Any]] = {}
+        """The robot states an approved baseline pins: fields by cycle (sensor-level replay)."""
+        if expected is not None and self.replayer.perception is not None:
+            self._pinned_states = expected.states_by_cycle()
         if expected is not None:
             self._baseline = self._encode_baseline(expected)
             if expected.outputs is not None:
@@ -313,6 +326,7 @@ class _Judge:
         step = self._step
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
+        pinned_states = self._pinned_states
         for index, record in enumerate(batch):
             outcome = step(record)
             changes = outcome.changes
@@ -323,8 +337,11 @@ class _Judge:
                     and changes is not None  # outcome.completed, inline: the hot path
                     and outcome.draw_problem is None
                     and len(outcome.drawn) == len(outcome.recorded_draws)
-                    and not outcome.perception_differs
                     and outcome.perception_failure is None
+                    and (
+                        (not outcome.perception_differs and outcome.cycle not in pinned_states)
+                        or not self._state_differences(outcome)
+                    )
                     and (
                         (
                             record.state_changes == EMPTY_LIST
@@ -466,17 +483,21 @@ class _Judge:
         failure = outcome.failure
         behavior: str | None = None
         trace: str | None = None
-        differences: tuple[FieldDifference, ...] = ()
+        differences = (
+            self._state_differences(outcome)
+            if self.replayer.perception is not None and outcome.perception_failure is None
+            else ()
+        )
         if outcome.perception_failure is not None:
             kind = DivergenceKind.PERCEPTION
             problem = outcome.perception_failure
             trace = user_traceback(problem)
             message = f"perception raised {type(problem).__name__}: {problem}"
-        elif outcome.perception_differs:
+        elif differences:
             kind = DivergenceKind.PERCEPTION
-            differences = _differences(outcome.recorded_state, outcome.state)
-            names = ", ".join(d.field for d in differences) or "its encoding"
-            message = f"the robot state rebuilt from the samples differs in {names}"
+            names = ", ".join(d.field for d in differences)
+            against = " from the approved baseline" if self._pinned_states else ""
+            message = f"the robot state rebuilt from the samples differs{against} in {names}"
         elif failure is not None:
             kind = DivergenceKind.EXCEPTION
             behavior = self._actor_name(outcome.actor)
@@ -532,6 +553,17 @@ class _Judge:
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
         )
 
+    def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
+        """The robot-state fields perception rebuilt otherwise than expected, beyond their
+        tolerance: expected is the recorded RS_t with the fields the baseline pins."""
+        expected = state_fields(outcome.recorded_state)
+        expected.update(self._pinned_states.get(outcome.cycle, ()))
+        actual = state_fields(outcome.state)
+        return tuple(
+            FieldDifference(name, expected.get(name), actual.get(name))
+            for name in self.comparison.state_differences(expected, actual)
+        )
+
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
         return [DrawReport(_name(names, d.actor), d.kind, d.value) for d in draws]
 
@@ -554,16 +586,3 @@ def _name(names: Sequence[str], index: int) -> str:
     if index < 0:
         return "system"
     return names[index] if index < len(names) else f"#{index}"
-
-
-def _differences(recorded: Any, rebuilt: Any) -> tuple[FieldDifference, ...]:
-    """The robot-state fields whose values differ, compared as they encode."""
-    want, got = msgspec.to_builtins(recorded), msgspec.to_builtins(rebuilt)
-    if not isinstance(want, dict) or not isinstance(got, dict):
-        return (FieldDifference("(the whole state)", want, got),)
-    encode = msgspec.msgpack.encode
-    return tuple(
-        FieldDifference(name, want.get(name), got.get(name))
-        for name in dict.fromkeys([*want, *got])
-        if encode(want.get(name)) != encode(got.get(name))
-    )

@@ -3,6 +3,7 @@ pending expectation as a coloured diff. Lines only; the CLI and the pytest plugi
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -10,6 +11,7 @@ from rich.console import Group, RenderableType
 from rich.rule import Rule
 from rich.text import Text
 
+from beatlog.report.counts import plural
 from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
 
@@ -31,7 +33,7 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
                 Text.assemble(
                     ("pending", "cyan"),
                     f" {update.path} ({update.state_changes} state changes, "
-                    f"{update.output_changes} output changes): review with ",
+                    f"{update.output_changes} output changes{_fields(update)}): review with ",
                     (f"beatlog review {spec.path}", "bold"),
                     ", accept with ",
                     (f"beatlog approve {spec.path}", "bold"),
@@ -46,6 +48,11 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
     return lines
 
 
+def _fields(update: PendingUpdate) -> str:
+    count = update.robot_state_cycles
+    return f", robot state rebuilt otherwise in {plural(count, 'cycle')}" if count else ""
+
+
 def render_orphans(orphans: Iterable[Path]) -> list[Text]:
     """One line per expected or pending file whose spec is gone."""
     return [
@@ -54,12 +61,27 @@ def render_orphans(orphans: Iterable[Path]) -> list[Text]:
     ]
 
 
+def _value(value: object) -> str:
+    return json.dumps(value, default=repr)
+
+
 def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> RenderableType:
     """The pending expectation against today's, at most ``max_lines`` lines of diff."""
     spec = diff.spec
     parts: list[RenderableType] = [
         Rule(f"{spec.name} ({spec.path})"),
         Text(f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} pending"),
+        *(
+            Text.assemble(
+                ("robot state ", "cyan"),
+                f"{json.dumps(change.field)} rebuilt otherwise in "
+                f"{plural(change.cycles, 'cycle')}, first in cycle {change.first_cycle}: ",
+                (_value(change.before), "red"),
+                " → ",
+                (_value(change.after), "green"),
+            )
+            for change in diff.robot_states
+        ),
     ]
     parts.extend(
         Text(line, style=_DIFF_STYLES.get(line[:1], "")) for line in diff.lines[:max_lines]

@@ -27,8 +27,22 @@ def _transitions(cover: BehaviorCoverage) -> str:
     )
 
 
+def _unreached(cover: BehaviorCoverage) -> str:
+    """Declared states no DTC reaches, then states earlier runs saw that none reaches now."""
+    return ", ".join(
+        [
+            *cover.unreached,
+            *(
+                f"{state} (seen before in {', '.join(dtcs) or 'an earlier run'})"
+                for state, dtcs in cover.no_longer_reached.items()
+            ),
+        ]
+    )
+
+
 def render_coverage(coverage: SuiteCoverage) -> Table:
-    """One row per behavior: states reached, transitions taken, declared states unreached."""
+    """One row per behavior: states reached, transitions taken, and the states declared or
+    seen by earlier runs that no DTC reaches."""
     table = Table(title="transition coverage", title_justify="left", expand=True)
     table.add_column("behavior")
     table.add_column("states reached", ratio=2)
@@ -39,7 +53,7 @@ def render_coverage(coverage: SuiteCoverage) -> Table:
             Text(name),
             Text(_states(cover)),
             Text(_transitions(cover) or "none"),
-            Text(", ".join(cover.unreached)),
+            Text(_unreached(cover)),
         )
     return table
 
@@ -50,7 +64,7 @@ def coverage_html(coverage: SuiteCoverage) -> str:
         "<tr>"
         + "".join(
             f"<td>{html.escape(cell)}</td>"
-            for cell in (name, _states(cover), _transitions(cover), ", ".join(cover.unreached))
+            for cell in (name, _states(cover), _transitions(cover), _unreached(cover))
         )
         + "</tr>"
         for name, cover in coverage.behaviors.items()

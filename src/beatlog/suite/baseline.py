@@ -1,29 +1,36 @@
-"""Expected state changes and outputs approved after an intended behavior change.
+"""Expected state changes, outputs and robot states approved after an intended change.
 
-Recordings are immutable: when behaviors change on purpose, the new state changes and
-outputs go to a *pending* file beside the spec (``NAME.dtc.pending``), are reviewed,
-and once approved become the *expected* file (``NAME.dtc.expected``) that replay
-judges against instead of the recording. Both are plain text, one state change or
-output change a line, so a re-baseline reads as a diff in code review::
+Recordings are immutable: when behaviors (or, in sensor-level replay, perception)
+change on purpose, the new state changes and outputs go to a *pending* file beside the
+spec (``NAME.dtc.pending``), are reviewed, and once approved become the *expected*
+file (``NAME.dtc.expected``) that replay judges against instead of the recording.
+Both are plain text, one state change, output change or robot-state field a line, so
+a re-baseline reads as a diff in code review::
 
-    # beatlog expected state changes and outputs, format 2
+    # beatlog expected state changes, outputs and robot states, format 3
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
-    #  cycle      time  "behavior": before -> after | output "field" = value
+    #  cycle      time  "behavior": before -> after | output/robot_state "field" = value
           0     0.030  output "speed" = 0.5
+         12     0.360  robot_state "distance" = 0.55
          12     0.360  "avoid": "idle" -> "turning"
          12     0.360  output "speed" = 0.0
          40     1.200  output "turn" absent
 
 An output line appears only in the cycles where that field's value changes (cycle 0
-gives the initial values); ``absent`` means the field is no longer output. Behavior
-names, states and output values are JSON, floats written so they read back bit for bit
+gives the initial values); ``absent`` means the field is no longer output. A
+robot-state line pins, for sensor-level replay, a field the perception step rebuilds
+otherwise than the recorded RS_t, in each cycle where it does: the recorded state with
+these fields is what perception must rebuild (none: the recording itself). Behavior
+names, states and values are JSON, floats written so they read back bit for bit
 (``NaN``, ``Infinity``, ``-Infinity``, ``-0.0`` included); a value JSON cannot hold
 exactly (a NaN with a payload, bytes) is written as ``msgpack:HEX``, its msgpack
-encoding. Loading a baseline never evaluates anything.
+encoding. Loading a baseline never evaluates anything, and a file larger than
+:data:`MAX_BASELINE_BYTES` is refused.
 
-Format 1 files (state changes only) still read: they pin no outputs, so replay judges
-outputs against the recording and says so when they differ; re-approve to pin them.
+Format 2 files pin no robot states: perception must rebuild the recording. Format 1
+files (state changes only) pin no outputs either, so replay judges outputs against the
+recording and says so when they differ; re-approve to pin them.
 """
 
 from __future__ import annotations
@@ -38,7 +45,13 @@ from typing import Any
 
 import msgspec
 
-from beatlog.analysis.trace import ABSENT, Expectation, TracedChange, TracedOutput
+from beatlog.analysis.trace import (
+    ABSENT,
+    Expectation,
+    TracedChange,
+    TracedOutput,
+    TracedState,
+)
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import DECODE_ERRORS
@@ -47,6 +60,7 @@ from beatlog.suite.spec import SPEC_SUFFIX
 
 __all__ = [
     "EXPECTED_SUFFIX",
+    "MAX_BASELINE_BYTES",
     "PENDING_SUFFIX",
     "Baseline",
     "expected_path",
@@ -59,11 +73,16 @@ __all__ = [
 
 EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
-_MAGIC = "# beatlog expected state changes and outputs, format 2"
+MAX_BASELINE_BYTES = 1 << 28
+"""A baseline is a line per change; a file bigger than this is not one."""
+_MAGIC = "# beatlog expected state changes, outputs and robot states, format 3"
+_MAGIC_2 = "# beatlog expected state changes and outputs, format 2"
 _MAGIC_1 = "# beatlog expected state changes, format 1"
+_VERSIONS = {_MAGIC: 3, _MAGIC_2: 2, _MAGIC_1: 1}
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
 _OUTPUT = "output "
+_ROBOT_STATE = "robot_state "
 _MSGPACK = "msgpack:"
 _JSON = json.JSONDecoder()
 _SORTED = msgspec.msgpack.Encoder(order="sorted")
@@ -71,18 +90,21 @@ _SORTED = msgspec.msgpack.Encoder(order="sorted")
 
 @dataclass(frozen=True)
 class Baseline:
-    """A baseline file: the log it was made from, its state changes and its outputs."""
+    """A baseline file: the log it was made from, its state changes, its outputs and the
+    robot-state fields it pins."""
 
     path: Path
     log_digest: str
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] | None = None
     """The output changes; None in a format 1 file, which pins no outputs."""
+    robot_states: tuple[TracedState, ...] = ()
+    """The robot-state fields perception rebuilds otherwise than recorded (format 3)."""
 
     @property
     def expectation(self) -> Expectation:
         """What replay judges against with this baseline."""
-        return Expectation(self.changes, self.outputs)
+        return Expectation(self.changes, self.outputs, self.robot_states)
 
 
 def _base(spec: Path) -> str:
@@ -116,12 +138,15 @@ def log_digest(log: Path) -> str:
 
 
 def format_lines(
-    changes: Iterable[TracedChange], outputs: Iterable[TracedOutput] | None = None
+    changes: Iterable[TracedChange],
+    outputs: Iterable[TracedOutput] | None = None,
+    robot_states: Iterable[TracedState] = (),
 ) -> list[str]:
-    """One text line per state change and output change, by cycle, as baseline files
-    hold them: in each cycle the state changes first."""
-    keyed = [(c.cycle, 0, _change_line(c)) for c in changes]
-    keyed.extend((o.cycle, 1, _output_line(o)) for o in outputs or ())
+    """One text line per robot-state field, state change and output change, by cycle,
+    as baseline files hold them: in each cycle in that order, as replay meets them."""
+    keyed = [(s.cycle, 0, _value_line(_ROBOT_STATE, s)) for s in robot_states]
+    keyed.extend((c.cycle, 1, _change_line(c)) for c in changes)
+    keyed.extend((o.cycle, 2, _value_line(_OUTPUT, o)) for o in outputs or ())
     keyed.sort(key=lambda item: item[:2])  # stable: the order within a cycle is kept
     return [line for _, _, line in keyed]
 
@@ -134,10 +159,10 @@ def _change_line(traced: TracedChange) -> str:
     )
 
 
-def _output_line(traced: TracedOutput) -> str:
+def _value_line(kind: str, traced: TracedOutput | TracedState) -> str:
     cycle, time_ns, name, value = traced
     what = "absent" if value is ABSENT else f"= {_format_value(value)}"
-    return f"{cycle:>8} {time_ns / 1e9:>9.3f}  {_OUTPUT}{json.dumps(name)} {what}"
+    return f"{cycle:>8} {time_ns / 1e9:>9.3f}  {kind}{json.dumps(name)} {what}"
 
 
 def _format_value(value: Any) -> str:
@@ -163,8 +188,8 @@ def write_baseline(
         _MAGIC,
         f"# spec {spec_name}",
         f"# log {log.name} sha256 {log_digest(log)}",
-        '#  cycle      time  "behavior": before -> after | output "field" = value',
-        *format_lines(expectation.changes, expectation.outputs or ()),
+        '#  cycle      time  "behavior": before -> after | output/robot_state "field" = value',
+        *format_lines(expectation.changes, expectation.outputs or (), expectation.robot_states),
     ]
     with replacing(path) as file:
         file.write(("\n".join(lines) + "\n").encode())
@@ -175,58 +200,72 @@ def read_baseline(path: Path) -> Baseline:
     problem = irregular_file_problem(path)
     if problem is not None:
         raise BaselineError(path, problem)
+    if path.stat().st_size > MAX_BASELINE_BYTES:
+        raise BaselineError(path, f"is larger than {MAX_BASELINE_BYTES} bytes; not a baseline")
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise BaselineError(path, f"cannot read: {exc}") from None
     lines = text.splitlines()
-    if not lines or lines[0] not in (_MAGIC, _MAGIC_1):
+    version = _VERSIONS.get(lines[0]) if lines else None
+    if version is None:
         raise BaselineError(path, "not a beatlog baseline (its first line is not the header)")
     digest = ""
     changes: list[TracedChange] = []
     outputs: list[TracedOutput] = []
+    states: list[TracedState] = []
     for number, line in enumerate(lines[1:], start=2):
         if line.startswith("#"):
             found = _LOG_LINE.fullmatch(line)
             digest = found["digest"] if found else digest
         elif line.strip():
             try:
-                parsed = _parse_line(line, outputs_allowed=lines[0] == _MAGIC)
+                parsed = _parse_line(line, version)
             except (ValueError, RecursionError) as exc:
                 raise BaselineError(path, f"line {number}: {exc}") from None
             if isinstance(parsed, TracedOutput):
                 outputs.append(parsed)
+            elif isinstance(parsed, TracedState):
+                states.append(parsed)
             else:
                 changes.append(parsed)
     if not digest:
         raise BaselineError(path, "no '# log NAME sha256 DIGEST' line")
-    cycles = [traced.cycle for traced in outputs]
-    if cycles != sorted(cycles):
-        raise BaselineError(path, "output lines are not in cycle order")
-    pinned = tuple(outputs) if lines[0] == _MAGIC else None
-    return Baseline(path, digest, tuple(changes), pinned)
+    for what, traced in (("output", outputs), ("robot_state", states)):
+        cycles = [item.cycle for item in traced]
+        if cycles != sorted(cycles):
+            raise BaselineError(path, f"{what} lines are not in cycle order")
+    pinned = tuple(outputs) if version >= 2 else None
+    return Baseline(path, digest, tuple(changes), pinned, tuple(states))
 
 
-def _parse_line(line: str, *, outputs_allowed: bool) -> TracedChange | TracedOutput:
+def _parse_line(line: str, version: int) -> TracedChange | TracedOutput | TracedState:
     found = _CHANGE_LINE.fullmatch(line)
     if found is None:
         raise ValueError(
-            "expected 'CYCLE TIME \"behavior\": BEFORE -> AFTER' or "
-            "'CYCLE TIME output \"field\" = VALUE'"
+            "expected 'CYCLE TIME \"behavior\": BEFORE -> AFTER', "
+            "'CYCLE TIME output \"field\" = VALUE' or 'CYCLE TIME robot_state \"field\" = VALUE'"
         )
     cycle, time_ns, text = int(found["cycle"]), round(float(found["time"]) * 1e9), found["change"]
     if text.startswith(_OUTPUT):
-        if not outputs_allowed:
+        if version < 2:
             raise ValueError("a format 1 baseline holds no outputs")
-        name, value = _parse_output(text[len(_OUTPUT) :])
+        name, value = _parse_value(text[len(_OUTPUT) :])
         return TracedOutput(cycle, time_ns, name, value)
+    if text.startswith(_ROBOT_STATE):
+        if version < 3:
+            raise ValueError(f"a format {version} baseline holds no robot states")
+        name, value = _parse_value(text[len(_ROBOT_STATE) :])
+        if value is ABSENT:
+            raise ValueError("a robot-state field is never absent")
+        return TracedState(cycle, time_ns, name, value)
     return TracedChange(cycle, time_ns, _parse_change(text))
 
 
-def _parse_output(text: str) -> tuple[str, Any]:
+def _parse_value(text: str) -> tuple[str, Any]:
     name, end = _JSON.raw_decode(text)
     if not isinstance(name, str):
-        raise ValueError("the output field must be a JSON string")
+        raise ValueError("the field must be a JSON string")
     rest = text[end:].rstrip()
     if rest == " absent":
         return name, ABSENT

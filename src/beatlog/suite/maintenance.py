@@ -16,9 +16,18 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
+from typing import Any, NamedTuple
 
-from beatlog.analysis.trace import TracedChange, recorded_outputs, recorded_trace
+from beatlog.analysis.trace import (
+    Expectation,
+    TracedChange,
+    TracedState,
+    recorded_outputs,
+    recorded_states,
+    recorded_trace,
+)
 from beatlog.errors import BaselineError, OptionError
+from beatlog.replay.compare import Comparison
 from beatlog.suite.baseline import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,
@@ -35,6 +44,7 @@ from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs
 
 __all__ = [
     "Decision",
+    "FieldChange",
     "PendingDiff",
     "PendingUpdate",
     "UpdateAction",
@@ -45,6 +55,9 @@ __all__ = [
     "pending_specs",
     "update_baselines",
 ]
+
+
+_EXACT = Comparison()
 
 
 class UpdateAction(StrEnum):
@@ -74,6 +87,9 @@ class PendingUpdate:
     """Output changes in the expectation written (or withheld)."""
     reason: str | None = None
     """Why the update was refused."""
+    robot_state_cycles: int = 0
+    """Cycles whose robot state the expectation pins (perception rebuilt it otherwise
+    than recorded)."""
 
 
 def update_baselines(
@@ -98,12 +114,19 @@ def update_baselines(
             continue
         pending = pending_path(spec.path)
         if update is not None:
-            counts = len(update.changes), len(update.outputs or ())
-            if ci:
-                done.append(PendingUpdate(spec, UpdateAction.WITHHELD, pending, *counts))
-                continue
-            write_baseline(pending, spec_name=spec.name, log=spec.log, expectation=update)
-            done.append(PendingUpdate(spec, UpdateAction.WRITTEN, pending, *counts))
+            action = UpdateAction.WITHHELD if ci else UpdateAction.WRITTEN
+            if not ci:
+                write_baseline(pending, spec_name=spec.name, log=spec.log, expectation=update)
+            done.append(
+                PendingUpdate(
+                    spec,
+                    action,
+                    pending,
+                    len(update.changes),
+                    len(update.outputs or ()),
+                    robot_state_cycles=len({traced.cycle for traced in update.robot_states}),
+                )
+            )
         elif ci:
             continue
         elif outcome.update_refused is not None:
@@ -180,6 +203,19 @@ def approve(paths: Sequence[Path]) -> list[DtcSpec]:
     return waiting
 
 
+class FieldChange(NamedTuple):
+    """How one robot-state field a pending baseline pins differs from today's expectation."""
+
+    field: str
+    cycles: int
+    """Cycles in which it differs."""
+    first_cycle: int
+    before: Any
+    """Today's expected value in the first cycle: approved, else recorded."""
+    after: Any
+    """The pending value in the first cycle."""
+
+
 @dataclass(frozen=True)
 class PendingDiff:
     """A pending expectation as a unified diff against today's: approved, else recorded."""
@@ -193,16 +229,21 @@ class PendingDiff:
     """State and output changes pending."""
     lines: tuple[str, ...]
     """The diff: changed cycles with a line of context either side."""
+    robot_states: tuple[FieldChange, ...] = ()
+    """The robot-state fields perception now rebuilds otherwise, field by field."""
 
 
 def pending_diff(spec: DtcSpec) -> PendingDiff:
     """Compare the pending baseline of ``spec`` with its approved one, or with its
-    recording when none is approved yet. State changes and output changes interleave
-    by cycle, as baseline files hold them."""
+    recording when none is approved yet. Robot-state fields, state changes and output
+    changes interleave by cycle, as baseline files hold them; the robot-state fields
+    that differ are also summed up field by field, with their values before and after."""
     expected = expected_path(spec.path)
+    old_states: tuple[TracedState, ...] = ()
     if expected.exists():
         approved = read_baseline(expected)
-        old = format_lines(approved.changes, approved.outputs)
+        old_states = approved.robot_states
+        old = format_lines(approved.changes, approved.outputs, old_states)
         source = f"approved ({expected.name})"
         if approved.outputs is None:
             source += ", no outputs pinned"
@@ -214,9 +255,32 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         )
         source = f"recorded ({spec.log.name})"
     pending = read_baseline(pending_path(spec.path))
-    new = format_lines(pending.changes, pending.outputs)
+    new = format_lines(pending.changes, pending.outputs, pending.robot_states)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
-    return PendingDiff(spec, source, len(old), len(new), tuple(diff))
+    fields = _field_changes(spec.log, old_states, pending.robot_states)
+    return PendingDiff(spec, source, len(old), len(new), tuple(diff), fields)
+
+
+def _field_changes(
+    log: Path, old: Sequence[TracedState], new: Sequence[TracedState]
+) -> tuple[FieldChange, ...]:
+    """Field by field, the cycles where the pinned robot states differ (a field not
+    pinned in a cycle is expected as recorded)."""
+    before = Expectation((), robot_states=tuple(old)).states_by_cycle()
+    after = Expectation((), robot_states=tuple(new)).states_by_cycle()
+    recorded = recorded_states(log, before.keys() | after.keys())
+    found: dict[str, FieldChange] = {}
+    for cycle in sorted(recorded):
+        was = {**recorded[cycle], **before.get(cycle, {})}
+        now = {**recorded[cycle], **after.get(cycle, {})}
+        for name in _EXACT.state_differences(was, now):
+            seen = found.get(name)
+            found[name] = (
+                FieldChange(name, 1, cycle, was.get(name), now.get(name))
+                if seen is None
+                else seen._replace(cycles=seen.cycles + 1)
+            )
+    return tuple(found.values())
 
 
 def find_orphans(folders: Iterable[Path]) -> list[Path]:

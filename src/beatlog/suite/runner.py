@@ -24,7 +24,7 @@ from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker
-from beatlog.usercode import importable_near, load_system
+from beatlog.usercode import importable_near, load_perception, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -40,7 +40,8 @@ class Verdict(StrEnum):
     """How one DTC ended."""
 
     PASSED = "passed"
-    """Replay gave the expected behavior state changes and outputs."""
+    """Replay gave the expected behavior state changes and outputs (and, from samples,
+    robot states)."""
     FAILED = "failed"
     """Replay diverged from the recording or the approved baseline."""
     ERROR = "error"
@@ -59,8 +60,8 @@ class SpecOutcome:
     baseline: Path | None = None
     """The approved baseline judged against, when there is one."""
     update: Expectation | None = None
-    """The new expected state changes and outputs, when run in :attr:`UpdateMode.NEW` and
-    the DTC failed."""
+    """The new expected state changes, outputs and (from samples) robot states, when run
+    in :attr:`UpdateMode.NEW` and the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
@@ -85,7 +86,7 @@ class SpecOutcome:
         return self.audit.problems if self.audit is not None else 0
 
 
-_UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
+_UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS, DivergenceKind.PERCEPTION)
 
 
 def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
@@ -235,6 +236,7 @@ def _details(
         trace=trace,
         timelines=timelines,
         expected=None if expected is None else expected.changes_by_cycle(),
+        perception=None if spec.perception is None else load_perception(spec.perception),
     )
 
 
@@ -242,6 +244,8 @@ def _refusal(divergence: Divergence) -> str | None:
     """Why a divergence cannot be re-baselined, if it cannot."""
     if divergence.kind not in _UPDATABLE:
         return f"a divergence in {divergence.kind} cannot be re-baselined: re-record the session"
+    if divergence.kind is DivergenceKind.PERCEPTION and divergence.traceback is not None:
+        return "perception raised: a baseline pins what perception rebuilds; fix it first"
     return None
 
 

@@ -18,6 +18,9 @@ the system factory to replay it against::
     [tolerance]                             # largest accepted difference per output field
     wheel_speed = 1e-9
 
+    [robot_state_tolerance]                 # the same per robot-state field, when the
+    heading = 1e-6                          # perception step rebuilds RS_t from samples
+
 Renames that hold for every spec go into the project's ``pyproject.toml``, under
 ``[tool.beatlog.renames]``; a spec's own renames come on top.
 """
@@ -60,6 +63,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     ignore_behaviors: list[str] = []
     ignore_fields: list[str] = []
     tolerance: dict[str, float] = {}
+    robot_state_tolerance: dict[str, float] = {}
 
 
 class _ProjectFile(msgspec.Struct):
@@ -117,11 +121,15 @@ def load_spec(path: str | Path) -> DtcSpec:
     renames = {**_project_renames(path.resolve().parent), **spec.renames}
     _check_one_to_one(path, "renames", spec.renames)
     _check_one_to_one(path, "renames", renames)
-    for name, tolerance in spec.tolerance.items():
-        if not (math.isfinite(tolerance) and tolerance >= 0):
-            raise SpecError(
-                path, f"key 'tolerance.{name}': expected a finite number >= 0, got {tolerance}"
-            )
+    for key, tolerances in (
+        ("tolerance", spec.tolerance),
+        ("robot_state_tolerance", spec.robot_state_tolerance),
+    ):
+        for name, tolerance in tolerances.items():
+            if not (math.isfinite(tolerance) and tolerance >= 0):
+                raise SpecError(
+                    path, f"key '{key}.{name}': expected a finite number >= 0, got {tolerance}"
+                )
     return DtcSpec(
         path=path,
         name=spec.name,
@@ -137,6 +145,7 @@ def load_spec(path: str | Path) -> DtcSpec:
             ignore_behaviors=frozenset(spec.ignore_behaviors),
             ignore_fields=tuple(spec.ignore_fields),
             tolerance=spec.tolerance,
+            state_tolerance=spec.robot_state_tolerance,
         ),
     )
 

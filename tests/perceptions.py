@@ -1,0 +1,92 @@
+"""Perception steps the tests replay from samples, and probe sessions recorded with them.
+
+Specs and ``--perception`` name them as ``tests.perceptions:FACTORY``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from beatlog.model.inbox import Sample
+from beatlog.model.perception import Perception
+from beatlog.record.recorder import Recorder
+from tests.conftest import PERIOD_NS, Probe, distances, probe_system
+
+PERCEPTION = "tests.perceptions:perception"
+CHANGED = "tests.perceptions:changed_perception"
+CHANGED_AGAIN = "tests.perceptions:changed_again_perception"
+
+
+def perceive(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
+    """The probe's perception: the last range reading is the distance."""
+    state = Probe() if previous is None else previous
+    for sample in samples:
+        if sample.sensor == "range":
+            state = Probe(distance=sample.value[0], reading=state.reading)
+    return state
+
+
+def perception() -> Perception:
+    return perceive
+
+
+def _scaled(factor: float, *, from_distance: float) -> Perception:
+    def scaled(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
+        state = perceive(previous, samples)
+        distance = state.distance
+        return Probe(distance=distance * factor if distance >= from_distance else distance)
+
+    return scaled
+
+
+def changed_perception() -> Perception:
+    """A perception change: the range is read 10 % long from a distance of 0.8 on."""
+    return _scaled(1.1, from_distance=0.8)
+
+
+def changed_again_perception() -> Perception:
+    """Another perception change: the range is read 20 % long from a distance of 0.8 on."""
+    return _scaled(1.2, from_distance=0.8)
+
+
+def nudged_perception() -> Perception:
+    """A perception change far below any sensor's noise: the range is read 1e-9 long."""
+
+    def nudged(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
+        state = perceive(previous, samples)
+        return Probe(distance=state.distance + 1e-9, reading=state.reading)
+
+    return nudged
+
+
+def shifted_perception() -> Perception:
+    """The range is read 0.05 short: near enough to the threshold to change behavior."""
+
+    def shifted(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
+        state = perceive(previous, samples)
+        return Probe(distance=state.distance - 0.05, reading=state.reading)
+
+    return shifted
+
+
+def broken_perception() -> Perception:
+    def broken(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
+        if previous is not None and previous.distance < 0.5:
+            raise ValueError("no range sensor")
+        return perceive(previous, samples)
+
+    return broken
+
+
+def record_with_samples(path: Path, cycles: int = 300, *, log_samples: bool = True) -> Path:
+    """A probe session whose robot state is perceived from one range sample a cycle."""
+    state: Probe | None = None
+    with Recorder(
+        path, probe_system(), seed=3, software="test", log_samples=log_samples
+    ) as recorder:
+        for t, distance in enumerate(distances(cycles)):
+            samples = [Sample("range", t * PERIOD_NS, (distance, 1))]
+            state = perceive(state, samples)
+            recorder.step(PERIOD_NS, state, samples)
+    return path
