@@ -38,9 +38,8 @@ from tests.factories import Message as LogMessage
 from tests.factories import craft_log, cycle, cycle_messages, end_message, header_message
 from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
 
-DOG_SUITE = sorted(
-    (Path(__file__).parents[2] / "examples/src/beatlog_examples/dog/suite").glob("*.beatlog")
-)
+COMMITTED = sorted((Path(__file__).parents[2] / "examples/src").glob("**/suite/*.beatlog"))
+"""Every DTC log the examples commit: the dog's suite and the py_trees patrol's."""
 PER_CYCLE_TOPICS = ("/robot_state", "/heartbeat", "/outputs")
 
 
@@ -715,8 +714,8 @@ def test_a_truncated_log_is_exported_up_to_its_last_cycle(
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("log", DOG_SUITE, ids=[path.stem for path in DOG_SUITE])
-def test_every_dtc_of_the_dog_suite_exports_for_the_viewers_and_validates(
+@pytest.mark.parametrize("log", COMMITTED, ids=[f"{p.parts[-3]}/{p.stem}" for p in COMMITTED])
+def test_every_committed_dtc_exports_for_the_viewers_and_validates(
     log: Path, tmp_path: Path
 ) -> None:
     exported = tmp_path / f"{log.stem}.mcap"
@@ -730,8 +729,9 @@ def test_every_dtc_of_the_dog_suite_exports_for_the_viewers_and_validates(
     assert all(len(read.messages[topic]) == result.cycles for topic in PER_CYCLE_TOPICS)
 
 
-def test_the_dog_suite_is_found() -> None:
-    assert len(DOG_SUITE) >= 15
+def test_the_committed_suites_are_found() -> None:
+    assert {path.parts[-3] for path in COMMITTED} == {"dog", "trees"}
+    assert len(COMMITTED) >= 22
 
 
 # tables
