@@ -11,7 +11,7 @@ import pytest
 
 from beatlog.errors import OptionError
 from beatlog.log.reader import recorded_cycles
-from beatlog.suite.sharding import Shard, shard, split
+from beatlog.suite.sharding import Shard, longest_first, shard, split
 from beatlog.suite.spec import DtcSpec, discover_specs
 from tests.conftest import RecordFn
 from tests.specs import write_spec
@@ -105,6 +105,16 @@ def test_a_log_that_cannot_be_read_counts_no_cycles_and_still_lands_in_one_shard
 
     # long (300) to shard 1, short (20) to shard 2, then cut and gone (0 each) to shard 2.
     assert [names(chosen) for chosen in shards] == [["long"], ["cut", "gone", "short"]]
+
+
+def test_workers_take_the_longest_recordings_first_ties_in_suite_order(
+    suite: list[DtcSpec],
+) -> None:
+    ordered = longest_first(suite)
+
+    assert sorted(names(ordered)) == sorted(CYCLES)
+    assert [recorded_cycles(spec.log) for spec in ordered] == sorted(CYCLES.values(), reverse=True)
+    assert names(ordered)[4:8] == ["gap", "hallway", "junction", "back-off"]
 
 
 def test_more_shards_than_dtcs_leaves_the_last_ones_empty(suite: list[DtcSpec]) -> None:

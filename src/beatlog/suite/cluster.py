@@ -29,6 +29,7 @@ from beatlog.errors import ClusterError, FleetError
 from beatlog.suite.baseline import expected_path
 from beatlog.suite.fleet import MAX_LOG_BYTES, fetched_log, is_url
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+from beatlog.suite.sharding import longest_first
 
 if TYPE_CHECKING:
     from distributed import Future, LocalCluster
@@ -114,7 +115,7 @@ class DaskExecutor(Closing):
 
         given: dict[str, DtcSpec] = {}
         futures: list[Future[SpecOutcome]] = []
-        for spec in specs:
+        for spec in longest_first(specs):  # the scheduler starts them in this order
             key = f"dtc-{spec.name}-{uuid.uuid4().hex}"
             given[key] = spec
             futures.append(

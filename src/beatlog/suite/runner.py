@@ -22,6 +22,7 @@ from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
+from beatlog.suite.sharding import longest_first
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker
 from beatlog.usercode import importable_near, load_perception, load_system
@@ -280,7 +281,8 @@ def run_suite(
     outcomes in spec order.
 
     With more than one job, this process replays specs too while ``jobs - 1`` worker
-    processes start and then take the next spec each as they become free: a suite too
+    processes start and then take the next spec each as they become free, the longest
+    recording first (:func:`~beatlog.suite.sharding.longest_first`): a suite too
     small to gain from workers is done before they are ready, and none is slower than
     with one job. With ``fail_fast`` the first failure or error stops the run: specs not
     started are not run and the workers are killed. In :attr:`UpdateMode.NEW` each failure
@@ -331,7 +333,7 @@ def _run_with_workers(
     Ctrl-C included, the specs not started are dropped, the workers are killed, and the
     outcomes that had come back by then are still given to ``done``.
     """
-    pending = collections.deque(specs)
+    pending = collections.deque(longest_first(specs))  # work spread by cycles
     answers: queue.Queue[Answer] = queue.Queue()
     pool: list[Worker] = []
     feeders: list[threading.Thread] = []

@@ -19,7 +19,7 @@ from beatlog.errors import OptionError
 from beatlog.log.reader import recorded_cycles
 from beatlog.suite.spec import DtcSpec
 
-__all__ = ["Shard", "shard", "split"]
+__all__ = ["Shard", "longest_first", "shard", "split"]
 
 
 @dataclass(frozen=True)
@@ -53,15 +53,26 @@ def split(specs: Sequence[DtcSpec], count: int) -> list[list[DtcSpec]]:
     """
     if count < 1:
         raise ValueError(f"a suite splits into at least 1 shard, not {count}")
-    ordered = sorted(specs, key=lambda spec: spec.path)
-    weights = [recorded_cycles(spec.log) or 0 for spec in ordered]
     shards: list[list[DtcSpec]] = [[] for _ in range(count)]
     loads = [(0, index) for index in range(count)]
-    for position in sorted(range(len(ordered)), key=lambda at: -weights[at]):
+    for spec, weight in _weighed(sorted(specs, key=lambda spec: spec.path)):
         load, index = heapq.heappop(loads)
-        shards[index].append(ordered[position])
-        heapq.heappush(loads, (load + weights[position], index))
+        shards[index].append(spec)
+        heapq.heappush(loads, (load + weight, index))
     return [sorted(chosen, key=lambda spec: spec.path) for chosen in shards]
+
+
+def longest_first(specs: Sequence[DtcSpec]) -> list[DtcSpec]:
+    """The specs by recorded cycles, the longest first (in the order given on a tie):
+    the order in which a pool of workers that each take the next one finishes soonest."""
+    return [spec for spec, _ in _weighed(specs)]
+
+
+def _weighed(specs: Sequence[DtcSpec]) -> list[tuple[DtcSpec, int]]:
+    """Each spec with its log's recorded cycles (0 where they cannot be read cheaply),
+    the longest first; a stable sort, so ties keep their order."""
+    weights = [(spec, recorded_cycles(spec.log) or 0) for spec in specs]
+    return sorted(weights, key=lambda weighed: -weighed[1])
 
 
 def shard(specs: Sequence[DtcSpec], index: int, count: int) -> list[DtcSpec]:
