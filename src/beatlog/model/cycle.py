@@ -6,6 +6,7 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 
 from __future__ import annotations
 
+from operator import attrgetter
 from typing import Any
 
 from beatlog.log.format import StateChangeRecord
@@ -16,6 +17,8 @@ from beatlog.model.random import RandomSource
 
 __all__ = ["CycleExecutor"]
 
+_state_of = attrgetter("state")
+
 
 class CycleExecutor:
     """Drives a system cycle by cycle and reports its behavior state changes."""
@@ -25,7 +28,8 @@ class CycleExecutor:
         catalogue = system.behaviors
         self.behavior_ids = list(catalogue)
         self._behaviors = list(catalogue.values())
-        self._states = [behavior.state for behavior in self._behaviors]
+        self._states = list(map(_state_of, self._behaviors))
+        self._update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
         random.bind(self.context)
@@ -35,16 +39,17 @@ class CycleExecutor:
         context = self.context
         context.cycle += 1
         context.dt_ns = interval_ns
-        self.clock.advance(interval_ns)
-        context.time_ns = self.clock.now_ns
+        context.time_ns = self.clock.advance(interval_ns)
         context.actor = -1
         if context.outputs:
             context.outputs = {}
-        self.system.update(state, context)
-        changes: list[StateChangeRecord] = []
+        self._update(state, context)
+        now = list(map(_state_of, self._behaviors))
         states = self._states
-        for index, behavior in enumerate(self._behaviors):
-            after = behavior.state
+        if now == states:  # the common case, compared in C: same objects or equal values
+            return []
+        changes: list[StateChangeRecord] = []
+        for index, after in enumerate(now):
             before = states[index]
             if after is not before and after != before:
                 changes.append((index, before, after))

@@ -87,12 +87,25 @@ class CycleOutcome(NamedTuple):
         )
 
 
+class _Sensed(NamedTuple):
+    """What sensor-level replay adds to a cycle's outcome."""
+
+    recorded_state: Any
+    differs: bool
+    failure: BaseException | None
+    samples: Sequence[Sample]
+
+
 class Replayer:
     """A system set up to replay the cycles of one log, in order, from its first.
 
     Building one checks that the log fits the system (:mod:`beatlog.replay.fit`).
     Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
     the samples (sensor-level replay); otherwise it is read from the log.
+
+    :meth:`advance` replays a cycle and says only whether it went cleanly, which is all
+    the verdict needs for the cycles that match; :meth:`outcome` then tells everything
+    about it. :meth:`step` does both.
     """
 
     def __init__(
@@ -119,6 +132,8 @@ class Replayer:
         self._state = msgspec.msgpack.Decoder(system.robot_state).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
+        self._last: tuple[CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None]
+        self._sensed: _Sensed | None = None
 
     def step(
         self, record: CycleRecord, *, observe: Callable[[Any], Any] | None = None
@@ -128,21 +143,79 @@ class Replayer:
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
         """
+        self.advance(record, observe=observe)
+        return self.outcome()
+
+    def advance(
+        self, record: CycleRecord, *, observe: Callable[[Any], Any] | None = None
+    ) -> list[StateChangeRecord] | None:
+        """Replay the next cycle like :meth:`step`, without building its outcome.
+
+        :returns: BS'_t, the replayed state changes, when the cycle went cleanly: the
+            update completed, drew exactly the recorded random numbers and, in
+            sensor-level replay, ran on a robot state rebuilt as recorded. Otherwise
+            None; :meth:`outcome` says what happened.
+        :raises beatlog.errors.LogError: as :meth:`step`.
+        """
         cycle = self.executor.context.cycle + 1
-        state = self._decode_state(record, cycle)
+        try:
+            state = self._state(record.robot_state)
+        except DECODE_ERRORS as exc:
+            raise SchemaMismatchError(
+                self.path,
+                f"robot state of cycle {cycle} does not fit "
+                f"{self.system.robot_state.__name__}: {exc}",
+            ) from None
         if cycle == self.break_at:
             self._pause(cycle, state, record)
         if self.perception is not None:
-            return self._step_from_samples(record, cycle, state, observe)
-        return self.step_state(record, state, observe)
+            return self._advance_from_samples(record, cycle, state, observe)
+        self._sensed = None
+        return self._advance(record, state, observe)
 
-    def _step_from_samples(
+    def step_state(
+        self, record: CycleRecord, state: Any, observe: Callable[[Any], Any] | None = None
+    ) -> CycleOutcome:
+        """Replay the next cycle on a robot state given (not read from ``record``)."""
+        self._sensed = None
+        self._advance(record, state, observe)
+        return self.outcome()
+
+    def outcome(self) -> CycleOutcome:
+        """Everything about the cycle replayed last."""
+        record, state, changes, failure = self._last
+        context = self.executor.context
+        random = self.random
+        outcome = CycleOutcome(
+            context.cycle,
+            context.time_ns,
+            record,
+            state,
+            changes,
+            context.outputs,
+            random.recorded,
+            random.drawn,
+            random.mismatch,
+            failure,
+            context.actor,
+        )
+        sensed = self._sensed
+        if sensed is None:
+            return outcome
+        return outcome._replace(
+            recorded_state=sensed.recorded_state,
+            perception_differs=sensed.differs,
+            perception_failure=sensed.failure,
+            samples=sensed.samples,
+        )
+
+    def _advance_from_samples(
         self,
         record: CycleRecord,
         cycle: int,
         recorded: Any,
         observe: Callable[[Any], Any] | None,
-    ) -> CycleOutcome:
+    ) -> list[StateChangeRecord] | None:
         """Rebuild RS_t with the perception step, compare it, and run the behaviors on it.
 
         When perception raises, the behaviors run on the recorded RS_t, so replay can
@@ -156,56 +229,44 @@ class Replayer:
             raise
         except (Exception, SystemExit) as exc:  # perception failing is an outcome
             self._rebuilt = recorded
-            outcome = self.step_state(record, recorded, observe)
-            return outcome._replace(
-                recorded_state=recorded, perception_failure=exc, samples=samples
-            )
+            self._sensed = _Sensed(recorded, False, exc, samples)
+            self._advance(record, recorded, observe)
+            return None
         self._rebuilt = rebuilt
         try:
             differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
             differs = True
-        outcome = self.step_state(record, rebuilt, observe)
-        return outcome._replace(
-            recorded_state=recorded, perception_differs=differs, samples=samples
-        )
+        self._sensed = _Sensed(recorded, differs, None, samples)
+        changes = self._advance(record, rebuilt, observe)
+        return None if differs else changes
 
-    def step_state(
-        self, record: CycleRecord, state: Any, observe: Callable[[Any], Any] | None = None
-    ) -> CycleOutcome:
-        """Replay the next cycle on a robot state given (not read from ``record``)."""
-        executor = self.executor
+    def _advance(
+        self, record: CycleRecord, state: Any, observe: Callable[[Any], Any] | None
+    ) -> list[StateChangeRecord] | None:
+        """Update the behaviors on ``state``; BS'_t if the cycle went cleanly, else None."""
         random = self.random
-        cycle = executor.context.cycle + 1
         random.load(
-            () if record.random_numbers == EMPTY_LIST else self._decode_draws(record, cycle)
+            ()
+            if record.random_numbers == EMPTY_LIST
+            else self._decode_draws(record, self.executor.context.cycle + 1)
         )
-        changes: list[StateChangeRecord] | None = None
-        failure: BaseException | None = None
         try:
-            changes = executor.step(
+            changes = self.executor.step(
                 record.heartbeat_ns, state if observe is None else observe(state)
             )
         except RandomMismatch:
-            pass
+            self._last = (record, state, None, None)
+            return None
         except BeatlogError:
             raise
         except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
-            failure = exc
-        context = executor.context
-        return CycleOutcome(
-            context.cycle,
-            context.time_ns,
-            record,
-            state,
-            changes,
-            context.outputs,
-            random.recorded,
-            random.drawn,
-            random.mismatch,
-            failure,
-            context.actor,
-        )
+            self._last = (record, state, None, exc)
+            return None
+        self._last = (record, state, changes, None)
+        if random.mismatch is None and len(random.drawn) == len(random.recorded):
+            return changes
+        return None
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: ``breakpoint()`` (so ``PYTHONBREAKPOINT`` is honoured) just
@@ -230,16 +291,6 @@ class Replayer:
         step = self.step
         for record in records:
             yield step(record)
-
-    def _decode_state(self, record: CycleRecord, cycle: int) -> Any:
-        try:
-            return self._state(record.robot_state)
-        except DECODE_ERRORS as exc:
-            raise SchemaMismatchError(
-                self.path,
-                f"robot state of cycle {cycle} does not fit "
-                f"{self.system.robot_state.__name__}: {exc}",
-            ) from None
 
     def _decode_samples(self, record: CycleRecord, cycle: int) -> list[Sample]:
         try:

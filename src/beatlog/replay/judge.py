@@ -296,49 +296,46 @@ class _Judge:
     def run(self, batch: Sequence[CycleRecord]) -> int | None:
         """Replay a batch of cycles; the index of the cycle where replay stops, if it does.
 
-        Each cycle is stepped by the replay core; a cycle agrees when its update
-        completed and its state changes and outputs match: byte for byte first, else
-        by :class:`Comparison` (state changes as a set, allowances applied).
+        Each cycle is stepped by the replay core; a cycle agrees when it went cleanly
+        (:meth:`Replayer.advance`) and its state changes and outputs match: byte for
+        byte first, else by :class:`Comparison` (state changes as a set, allowances
+        applied). Only a cycle that does not agree gets its full outcome.
         """
         remember = self._recent.append
         encode = self._encoder.encode
         encode_outputs = self._outputs_encoder.encode
-        step = self.replayer.step
+        advance = self.replayer.advance
+        context = self.executor.context
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
         for index, record in enumerate(batch):
-            outcome = step(record)
-            changes = outcome.changes
-            outputs = outcome.outputs
-            try:
-                if (
-                    outcome.failure is None
-                    and changes is not None  # outcome.completed, inline: the hot path
-                    and outcome.draw_problem is None
-                    and len(outcome.drawn) == len(outcome.recorded_draws)
-                    and not outcome.perception_differs
-                    and outcome.perception_failure is None
-                    and (
+            changes = advance(record)
+            unloggable: Exception | None = None
+            if changes is not None:
+                outputs = context.outputs
+                try:
+                    if (
                         (
                             record.state_changes == EMPTY_LIST
                             if not changes
                             else same_catalogue and record.state_changes == raw(encode(changes))
                         )
-                        or self._changes_agree(record.state_changes, changes or [])
-                    )
-                    and (
+                        or self._changes_agree(record.state_changes, changes)
+                    ) and (
                         (
                             record.outputs == EMPTY_MAP
                             if not outputs
                             else record.outputs == raw(encode_outputs(outputs))
                         )
                         or self._outputs_agree(record.outputs, outputs)
-                    )
-                ):
-                    remember(record)
-                    continue
-            except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
-                outcome = outcome._replace(failure=exc)
+                    ):
+                        remember(record)
+                        continue
+                except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
+                    unloggable = exc
+            outcome = self.replayer.outcome()
+            if unloggable is not None:
+                outcome = outcome._replace(failure=unloggable)
             first = self.divergence is None
             self._diverge(outcome)
             remember(record)
