@@ -13,9 +13,9 @@ steps a system through a log.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, NoReturn
 
 import msgspec
 
@@ -96,6 +96,12 @@ class _Sensed(NamedTuple):
     samples: Sequence[Sample]
 
 
+Observe = Callable[[Any], Any]
+Advance = Callable[[CycleRecord], "list[StateChangeRecord] | None"]
+_READ = object()
+"""In place of a robot state given to :meth:`Replayer.step_state`: read RS_t from the log."""
+
+
 class Replayer:
     """A system set up to replay the cycles of one log, in order, from its first.
 
@@ -103,9 +109,10 @@ class Replayer:
     Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
     the samples (sensor-level replay); otherwise it is read from the log.
 
-    :meth:`advance` replays a cycle and says only whether it went cleanly, which is all
+    :attr:`advance` replays a cycle and says only whether it went cleanly, which is all
     the verdict needs for the cycles that match; :meth:`outcome` then tells everything
-    about it. :meth:`step` does both.
+    about it. :meth:`step` does both. A replayer that raised a
+    :class:`~beatlog.errors.LogError` cannot go on.
     """
 
     def __init__(
@@ -132,58 +139,46 @@ class Replayer:
         self._state = msgspec.msgpack.Decoder(system.robot_state).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
-        self._last: tuple[CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None]
-        self._sensed: _Sensed | None = None
+        self._given: tuple[Any, Observe | None] | None = None
+        self._last: tuple[
+            CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, _Sensed | None
+        ]
+        stepping = self._stepping()
+        next(stepping)
+        self.advance: Advance = stepping.send
+        """Replay the next cycle like :meth:`step`, without building its outcome.
 
-    def step(
-        self, record: CycleRecord, *, observe: Callable[[Any], Any] | None = None
-    ) -> CycleOutcome:
+        It returns BS'_t, the replayed state changes, when the cycle went cleanly: the
+        update completed, drew exactly the recorded random numbers and, in sensor-level
+        replay, ran on a robot state rebuilt as recorded; otherwise None, and
+        :meth:`outcome` says what happened. It raises as :meth:`step` does.
+        """
+
+    def step(self, record: CycleRecord, *, observe: Observe | None = None) -> CycleOutcome:
         """Replay the next cycle; ``observe`` may wrap RS_t before the behaviors see it.
 
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
         """
-        self.advance(record, observe=observe)
-        return self.outcome()
-
-    def advance(
-        self, record: CycleRecord, *, observe: Callable[[Any], Any] | None = None
-    ) -> list[StateChangeRecord] | None:
-        """Replay the next cycle like :meth:`step`, without building its outcome.
-
-        :returns: BS'_t, the replayed state changes, when the cycle went cleanly: the
-            update completed, drew exactly the recorded random numbers and, in
-            sensor-level replay, ran on a robot state rebuilt as recorded. Otherwise
-            None; :meth:`outcome` says what happened.
-        :raises beatlog.errors.LogError: as :meth:`step`.
-        """
-        cycle = self.executor.context.cycle + 1
-        try:
-            state = self._state(record.robot_state)
-        except DECODE_ERRORS as exc:
-            raise SchemaMismatchError(
-                self.path,
-                f"robot state of cycle {cycle} does not fit "
-                f"{self.system.robot_state.__name__}: {exc}",
-            ) from None
-        if cycle == self.break_at:
-            self._pause(cycle, state, record)
-        if self.perception is not None:
-            return self._advance_from_samples(record, cycle, state, observe)
-        self._sensed = None
-        return self._advance(record, state, observe)
+        return self._step_given(record, _READ, observe)
 
     def step_state(
-        self, record: CycleRecord, state: Any, observe: Callable[[Any], Any] | None = None
+        self, record: CycleRecord, state: Any, observe: Observe | None = None
     ) -> CycleOutcome:
         """Replay the next cycle on a robot state given (not read from ``record``)."""
-        self._sensed = None
-        self._advance(record, state, observe)
+        return self._step_given(record, state, observe)
+
+    def _step_given(self, record: CycleRecord, state: Any, observe: Observe | None) -> CycleOutcome:
+        self._given = (state, observe)
+        try:
+            self.advance(record)
+        finally:
+            self._given = None
         return self.outcome()
 
     def outcome(self) -> CycleOutcome:
         """Everything about the cycle replayed last."""
-        record, state, changes, failure = self._last
+        record, state, changes, failure, sensed = self._last
         context = self.executor.context
         random = self.random
         outcome = CycleOutcome(
@@ -199,7 +194,6 @@ class Replayer:
             failure,
             context.actor,
         )
-        sensed = self._sensed
         if sensed is None:
             return outcome
         return outcome._replace(
@@ -209,64 +203,87 @@ class Replayer:
             samples=sensed.samples,
         )
 
-    def _advance_from_samples(
+    def _stepping(
         self,
-        record: CycleRecord,
-        cycle: int,
-        recorded: Any,
-        observe: Callable[[Any], Any] | None,
-    ) -> list[StateChangeRecord] | None:
-        """Rebuild RS_t with the perception step, compare it, and run the behaviors on it.
+    ) -> Generator[list[StateChangeRecord] | None, CycleRecord, NoReturn]:
+        """The one loop that steps the system through the log: sent a cycle's record, it
+        replays the cycle and answers as :attr:`advance` does.
+
+        A coroutine, so that what every cycle needs is looked up once, not every cycle.
+        """
+        executor = self.executor
+        context = executor.context
+        step = executor.step
+        random = self.random
+        load = random.load
+        decode_state = self._state
+        break_at = self.break_at
+        perception = self.perception
+        changes: list[StateChangeRecord] | None = None
+        while True:
+            record = yield changes
+            given = self._given
+            state, observe = (_READ, None) if given is None else given
+            if state is _READ:
+                try:
+                    state = decode_state(record.robot_state)
+                except DECODE_ERRORS as exc:
+                    raise SchemaMismatchError(
+                        self.path,
+                        f"robot state of cycle {context.cycle + 1} does not fit "
+                        f"{self.system.robot_state.__name__}: {exc}",
+                    ) from None
+                if context.cycle + 1 == break_at:
+                    self._pause(context.cycle + 1, state, record)
+                sensed = None if perception is None else self._perceive(record, state)
+                if sensed is not None and sensed.failure is None:
+                    state = self._rebuilt
+            else:
+                sensed = None
+            load(
+                ()
+                if record.random_numbers == EMPTY_LIST
+                else self._decode_draws(record, context.cycle + 1)
+            )
+            failure = None
+            try:
+                changes = step(record.heartbeat_ns, state if observe is None else observe(state))
+            except RandomMismatch:
+                changes = None
+            except BeatlogError:
+                raise
+            except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
+                changes = None
+                failure = exc
+            self._last = (record, state, changes, failure, sensed)
+            if changes is not None and (
+                random.mismatch is not None
+                or len(random.drawn) != len(random.recorded)
+                or (sensed is not None and (sensed.differs or sensed.failure is not None))
+            ):
+                changes = None
+
+    def _perceive(self, record: CycleRecord, recorded: Any) -> _Sensed:
+        """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
 
         When perception raises, the behaviors run on the recorded RS_t, so replay can
         go on; the outcome carries the failure.
         """
         assert self.perception is not None
-        samples = self._decode_samples(record, cycle)
+        samples = self._decode_samples(record, self.executor.context.cycle + 1)
         try:
             rebuilt = self.perception(self._rebuilt, samples)
         except BeatlogError:
             raise
         except (Exception, SystemExit) as exc:  # perception failing is an outcome
             self._rebuilt = recorded
-            self._sensed = _Sensed(recorded, False, exc, samples)
-            self._advance(record, recorded, observe)
-            return None
+            return _Sensed(recorded, False, exc, samples)
         self._rebuilt = rebuilt
         try:
             differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
             differs = True
-        self._sensed = _Sensed(recorded, differs, None, samples)
-        changes = self._advance(record, rebuilt, observe)
-        return None if differs else changes
-
-    def _advance(
-        self, record: CycleRecord, state: Any, observe: Callable[[Any], Any] | None
-    ) -> list[StateChangeRecord] | None:
-        """Update the behaviors on ``state``; BS'_t if the cycle went cleanly, else None."""
-        random = self.random
-        random.load(
-            ()
-            if record.random_numbers == EMPTY_LIST
-            else self._decode_draws(record, self.executor.context.cycle + 1)
-        )
-        try:
-            changes = self.executor.step(
-                record.heartbeat_ns, state if observe is None else observe(state)
-            )
-        except RandomMismatch:
-            self._last = (record, state, None, None)
-            return None
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
-            self._last = (record, state, None, exc)
-            return None
-        self._last = (record, state, changes, None)
-        if random.mismatch is None and len(random.drawn) == len(random.recorded):
-            return changes
-        return None
+        return _Sensed(recorded, differs, None, samples)
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: ``breakpoint()`` (so ``PYTHONBREAKPOINT`` is honoured) just

@@ -194,7 +194,10 @@ class _Judge:
         self.comparison = comparison
         self._keep_going = keep_going
         self._context = context
-        self._recent: deque[CycleRecord] = deque(maxlen=context + 1)
+        self._batches: deque[Sequence[CycleRecord]] = deque(maxlen=context + 1)
+        """The last batches: they hold the cycles before a divergence (none is empty)."""
+        self._recent: list[CycleRecord] = []
+        """The cycles before the first divergence, then the divergence."""
         self.path = path
         self.replayer = Replayer(system, header, path, perception=perception, break_at=break_at)
         self.random = self.replayer.random
@@ -301,7 +304,7 @@ class _Judge:
         byte first, else by :class:`Comparison` (state changes as a set, allowances
         applied). Only a cycle that does not agree gets its full outcome.
         """
-        remember = self._recent.append
+        self._batches.append(batch)
         encode = self._encoder.encode
         encode_outputs = self._outputs_encoder.encode
         advance = self.replayer.advance
@@ -329,7 +332,6 @@ class _Judge:
                         )
                         or self._outputs_agree(record.outputs, outputs)
                     ):
-                        remember(record)
                         continue
                 except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
                     unloggable = exc
@@ -337,14 +339,22 @@ class _Judge:
             if unloggable is not None:
                 outcome = outcome._replace(failure=unloggable)
             first = self.divergence is None
+            if first:
+                self._recent = self._window(index)
             self._diverge(outcome)
-            remember(record)
             if first and self._keep_going:
                 self._add_context([])
             if not self._keep_going:
                 self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
                 return index
         return None
+
+    def _window(self, index: int) -> list[CycleRecord]:
+        """The cycle at ``index`` in the last batch, with up to ``context`` cycles before it."""
+        *earlier, last = self._batches
+        records = [record for batch in earlier for record in batch]
+        records.extend(last[: index + 1])
+        return records[-(self._context + 1) :]
 
     def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
         """Replay past the divergence: a few cycles to show what happened next, or the
@@ -385,7 +395,7 @@ class _Judge:
         divergence = self.divergence
         if divergence is None:
             return
-        recent = list(self._recent)  # the cycles before the divergence, then the divergence
+        recent = self._recent
         time_ns = divergence.time_ns
         before: list[ContextRow] = []
         for offset in range(1, len(recent)):
