@@ -80,3 +80,15 @@ def test_a_cycle_that_raised_advances_to_none_with_the_failure_in_its_outcome(
     assert failed
     assert all(isinstance(outcome.failure, ZeroDivisionError) for outcome in failed)
     assert all(outcome.changes is None for outcome in failed)
+
+
+def test_a_cycle_after_a_draw_too_many_starts_clean(record_probe: RecordFn) -> None:
+    """Dice drawing every 3rd cycle where the recording drew every 5th: cycle 3 draws one
+    too many (none was recorded), and cycle 4, which draws nothing, goes cleanly."""
+    core, records = replayer(record_probe(10), probe_system(every=3))
+    results = [(core.advance(record), core.outcome()) for record in records[:5]]
+    assert [changes is not None for changes, _ in results] == [True, True, True, False, True]
+    problem = results[3][1].draw_problem
+    assert problem is not None
+    assert problem.overdrawn
+    assert results[4][1].draw_problem is None

@@ -100,6 +100,8 @@ Observe = Callable[[Any], Any]
 Advance = Callable[[CycleRecord], "list[StateChangeRecord] | None"]
 _READ = object()
 """In place of a robot state given to :meth:`Replayer.step_state`: read RS_t from the log."""
+_DECODE = (_READ, None)
+"""No robot state given and nothing to observe it: the hot path."""
 
 
 class Replayer:
@@ -223,7 +225,7 @@ class Replayer:
         while True:
             record = yield changes
             given = self._given
-            state, observe = (_READ, None) if given is None else given
+            state, observe = _DECODE if given is None else given
             if state is _READ:
                 try:
                     state = decode_state(record.robot_state)
@@ -240,11 +242,11 @@ class Replayer:
                     state = self._rebuilt
             else:
                 sensed = None
-            load(
-                ()
-                if record.random_numbers == EMPTY_LIST
-                else self._decode_draws(record, context.cycle + 1)
-            )
+            draws = record.random_numbers
+            # Load RN_t, unless there is none and nothing is left of the last cycle's (a
+            # draw is kept only when one was recorded; a draw too many leaves a mismatch).
+            if draws != EMPTY_LIST or random.recorded or random.mismatch is not None:
+                load(() if draws == EMPTY_LIST else self._decode_draws(record, context.cycle + 1))
             failure = None
             try:
                 changes = step(record.heartbeat_ns, state if observe is None else observe(state))
