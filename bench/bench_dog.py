@@ -2,14 +2,17 @@
 
 1. Fast-forward: a 17.5-minute dog session (35,000 cycles) recorded in lockstep with
    heartbeat intervals drawn from the committed suite's live recordings.
-2. Replay of that session on one core (the process pinned to one CPU), × real time.
+2. Replay of that session on one core (the process pinned to one CPU), × real time,
+   and replay against a bare loop on it (``bare.py``): CPU time, medians of alternated
+   rounds.
 3. The committed 15-DTC suite replayed on all cores, wall time, as ``beatlog test``
    runs it (worker processes included), and on one worker for comparison.
 4. A live recording in real time (physics, drivers, remote server, tester and
    recorder all running): heartbeat intervals p50 / p99 / max from the log.
 
-Run it as ``python bench/bench_dog.py [--live-seconds 60] [--json FILE]``; it takes
-about two minutes on 2 cores. Nothing here asserts a timing.
+Run it as ``python bench/bench_dog.py [--live-seconds 60] [--json FILE] [--replay-only]``;
+it takes about two minutes on 2 cores (``--replay-only``: 1 and 2 alone). Nothing here
+asserts a timing.
 """
 
 from __future__ import annotations
@@ -29,10 +32,11 @@ from rich.console import Console
 from rich.table import Table
 
 import beatlog
+from bare import replay_against_bare
 from beatlog.log.reader import SessionLogReader
 from beatlog.suite.runner import Verdict, run_suite
 from beatlog.suite.spec import discover_specs
-from beatlog_examples.dog import SUITE_DIR
+from beatlog_examples.dog import SUITE_DIR, system
 from beatlog_examples.dog.fastforward import measured_intervals, record_fast
 from beatlog_examples.dog.robot import SYSTEM_REF, record_live
 from beatlog_examples.dog.scenarios import Event, Scenario, scenario
@@ -40,6 +44,8 @@ from beatlog_examples.dog.scenarios import Event, Scenario, scenario
 LONG_S = 1050.0
 """The paper's 17.5 minutes: 35,000 cycles at 30 ms."""
 REPLAYS = 3
+REPLAY_ROUNDS = 11
+"""Alternated rounds of replay and the bare loop; the figures are their medians."""
 
 
 def long_scenario() -> Scenario:
@@ -83,6 +89,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--live-seconds", type=float, default=60.0)
     parser.add_argument("--json", type=Path, help="also write the figures here")
+    parser.add_argument(
+        "--replay-only", action="store_true", help="only record the long session and replay it"
+    )
     args = parser.parse_args()
     console = Console()
     figures: dict[str, Any] = {
@@ -123,6 +132,13 @@ def main() -> None:
             "speedup": best.speedup,
             "us_per_cycle": best.wall_time_s / best.cycles * 1e6,
         }
+        console.print("2. replaying it against a bare loop ...")
+        figures["replay_over_bare"] = replay_against_bare(log, system, REPLAY_ROUNDS)
+
+    if args.replay_only:
+        console.print(figures)
+        save(args.json, figures)
+        return
 
     console.print("3. replaying the committed suite ...")
     suite: dict[str, Any] = {"dtcs": len(specs)}
@@ -172,6 +188,14 @@ def main() -> None:
         f"{rp['us_per_cycle']:.1f} µs/cycle, ok={rp['ok']}",
         "≤ 1 s",
     )
+    bare = figures["replay_over_bare"]
+    table.add_row(
+        f"replay / bare loop (CPU, medians of {REPLAY_ROUNDS})",
+        f"{bare['replay_over_bare']:.2f} ({bare['replay_us_per_cycle']:.2f} / "
+        f"{bare['bare_us_per_cycle']:.2f} µs/cycle), same final states="
+        f"{bare['same_final_states']}",
+        "≤ 1.5",
+    )
     table.add_row(
         f"15-DTC suite, {jobs} workers",
         f"{suite[f'wall_s_jobs_{jobs}']:.2f} s ({suite[f'passed_jobs_{jobs}']} passed, "
@@ -187,8 +211,13 @@ def main() -> None:
         "p99 ≤ 33 ms",
     )
     console.print(table)
-    if args.json:
-        args.json.write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
+    save(args.json, figures)
+
+
+def save(path: Path | None, figures: dict[str, Any]) -> None:
+    """Write the figures as JSON, when asked to."""
+    if path is not None:
+        path.write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
 
 
 if __name__ == "__main__":

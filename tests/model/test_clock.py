@@ -35,8 +35,8 @@ def fake_time(monkeypatch: pytest.MonkeyPatch) -> FakeTime:
 
 def test_simulated_time_is_the_exact_sum_of_intervals() -> None:
     clock = SimulatedHeartbeat()
-    for interval in (30_000_001, 29_999_999, 31_234_567):
-        clock.advance(interval)
+    times = [clock.advance(interval) for interval in (30_000_001, 29_999_999, 31_234_567)]
+    assert times == [30_000_001, 60_000_000, 91_234_567]
     assert clock.now_ns == 30_000_001 + 29_999_999 + 31_234_567
 
 

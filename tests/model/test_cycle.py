@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 from beatlog.model.behavior import Behavior, BehaviorState
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import CycleExecutor
+from beatlog.model.cycle import CycleExecutor, state_reader
 from beatlog.model.random import Draw, RecordingRandom
 from tests.conftest import PERIOD_NS, Probe
 
@@ -132,3 +132,24 @@ def test_random_numbers_drawn_in_a_cycle_come_from_the_source_the_executor_was_g
     (draw,) = random.take()
     assert draw == Draw(2, "randint", draw.value, (1, 6))
     assert changes == [(2, "idle", draw.value)]
+
+
+class Computed:
+    """A behavior whose state is a property."""
+
+    def __init__(self) -> None:
+        self.level = 0
+
+    @property
+    def state(self) -> BehaviorState:
+        return "high" if self.level > 1 else "low"
+
+
+def test_the_state_reader_reads_every_state_in_catalogue_order_as_it_is_now() -> None:
+    first, second, computed = Flag("idle"), Flag(3), Computed()
+    read = state_reader([first, second, computed])
+    assert read() == ["idle", 3, "low"]
+    first.state, computed.level = None, 2
+    assert read() == [None, 3, "high"]
+    assert read() is not read()  # a new list each time
+    assert state_reader([])() == []

@@ -379,7 +379,8 @@ class SessionLogReader(Closing):
         size = self._size
         offset = len(_MAGIC)
         first = True
-        allowed = _DATA_RECORDS
+        summary = False
+        allowed = _DATA_RECORDS | {Opcode.FOOTER}
         while self._footer is None:
             head = file.read(_RECORD_HEAD)
             if not head:
@@ -396,7 +397,7 @@ class SessionLogReader(Closing):
                 raise CorruptLogError(self.path, f"damaged record at byte {offset}")
             body = file.read(length)
             try:
-                if not first and opcode not in allowed | {Opcode.FOOTER}:
+                if not first and opcode not in allowed:
                     raise _DamageError(f"unexpected record (opcode {opcode:#x})")
                 records = self._parse(opcode, body, offset)
             except (_DamageError, McapError, *DECODE_ERRORS, ValueError, struct.error) as exc:
@@ -414,9 +415,10 @@ class SessionLogReader(Closing):
                 self._check_profile(records)
                 first = False
             if opcode == Opcode.DATA_END:
-                allowed = _SUMMARY_RECORDS
+                allowed = _SUMMARY_RECORDS | {Opcode.FOOTER}
                 self._summary_start = end
-            elif allowed is _SUMMARY_RECORDS:
+                summary = True
+            elif summary:
                 self._summary.extend(records)
             else:
                 yield from records
@@ -448,17 +450,19 @@ class SessionLogReader(Closing):
             )
 
     def _parse(self, opcode: int, body: bytes, offset: int) -> list[McapRecord]:
-        stream = ReadDataStream(BytesIO(body))
         if opcode == Opcode.CHUNK:
-            chunk = Chunk.read(stream)
+            chunk = _read_chunk(body)
             self._chunks.append((offset, _RECORD_HEAD + len(body)))
             return self._chunk_records(chunk)
+        if opcode == Opcode.MESSAGE_INDEX:  # an index into a chunk just read: not needed
+            return []
+        if opcode == Opcode.CHUNK_INDEX:
+            return [_read_chunk_index(body)]
+        stream = ReadDataStream(BytesIO(body))
         if opcode == Opcode.HEADER:
             return [Header.read(stream)]
         if opcode == Opcode.FOOTER:
             self._footer = Footer.read(stream)
-            return []
-        if opcode == Opcode.MESSAGE_INDEX:  # an index into a chunk just read: not needed
             return []
         reader = _TOP_LEVEL.get(Opcode(opcode)) if opcode in _KNOWN_OPCODES else None
         if reader is None:
@@ -563,6 +567,66 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     return msgspec.msgpack.decode(end[0].data, type=SessionEnd).cycles
 
 
+_CHUNK_HEAD = struct.Struct("<QQQII")
+"""A chunk's fixed fields: start and end time, uncompressed size and CRC, the length
+of its compression's name."""
+
+
+def _read_chunk(body: bytes) -> Chunk:
+    """A chunk record's fields, read with ``struct`` (the hot path: one per batch)."""
+    start, end, size, crc, name_length = _CHUNK_HEAD.unpack_from(body)
+    at = _CHUNK_HEAD.size + name_length
+    compression = str(body[_CHUNK_HEAD.size : at], "utf-8")
+    (length,) = struct.unpack_from("<Q", body, at)
+    data = body[at + 8 :]
+    if len(data) != length:
+        raise _DamageError(f"a chunk holds {len(data)} bytes of records where it declares {length}")
+    return Chunk(
+        compression=compression,
+        data=data,
+        message_end_time=end,
+        message_start_time=start,
+        uncompressed_crc=crc,
+        uncompressed_size=size,
+    )
+
+
+_INDEX_HEAD = struct.Struct("<QQQQI")
+"""A chunk index's first fields: start and end time, the chunk's offset and length, the
+length of its message index offsets."""
+_INDEX_OFFSET = struct.Struct("<HQ")
+_INDEX_TAIL = struct.Struct("<QI")
+_INDEX_SIZES = struct.Struct("<QQ")
+
+
+def _read_chunk_index(body: bytes) -> ChunkIndex:
+    """A chunk index record's fields, read with ``struct`` (the summary holds one a chunk)."""
+    start, end, chunk_at, chunk_length, offsets_length = _INDEX_HEAD.unpack_from(body)
+    at = _INDEX_HEAD.size
+    if offsets_length % _INDEX_OFFSET.size:
+        raise _DamageError("a chunk index with a damaged message index offset")
+    offsets = dict(_INDEX_OFFSET.iter_unpack(body[at : at + offsets_length]))
+    at += offsets_length
+    index_length, name_length = _INDEX_TAIL.unpack_from(body, at)
+    at += _INDEX_TAIL.size
+    compression = str(body[at : at + name_length], "utf-8")
+    at += name_length
+    compressed, uncompressed = _INDEX_SIZES.unpack_from(body, at)
+    if at + _INDEX_SIZES.size != len(body):
+        raise _DamageError(f"a chunk index has {len(body) - at - _INDEX_SIZES.size} extra bytes")
+    return ChunkIndex(
+        message_index_offsets=offsets,
+        chunk_start_offset=chunk_at,
+        chunk_length=chunk_length,
+        compression=compression,
+        compressed_size=compressed,
+        message_end_time=end,
+        message_index_length=index_length,
+        message_start_time=start,
+        uncompressed_size=uncompressed,
+    )
+
+
 def _check_chunk_bounds(chunk: Chunk) -> None:
     """A chunk must use a compression the format allows and stay within one chunk's size."""
     if chunk.compression not in _COMPRESSIONS:
@@ -622,6 +686,9 @@ def _split_records(data: bytes, allowed: frozenset[int], where: str) -> list[Mca
             body = data[start + _MESSAGE_HEAD.size : position]
             records.append(Message(channel, log_time, body, publish_time, sequence))
             continue
+        if opcode == Opcode.CHUNK_INDEX:  # one a chunk
+            records.append(_read_chunk_index(data[start:position]))
+            continue
         stream = ReadDataStream(BytesIO(data[start:position]))
         records.append(_TOP_LEVEL[Opcode(opcode)](stream))
         if stream.count != length:
@@ -639,6 +706,5 @@ _TOP_LEVEL = {
     Opcode.SCHEMA: Schema.read,
     Opcode.CHANNEL: Channel.read,
     Opcode.STATISTICS: Statistics.read,
-    Opcode.CHUNK_INDEX: ChunkIndex.read,
     Opcode.SUMMARY_OFFSET: SummaryOffset.read,
 }

@@ -23,9 +23,9 @@ class SimulatedHeartbeat:
         self.now_ns = 0
 
     def advance(self, interval_ns: int) -> int:
-        """Move robot time forward by one heartbeat interval and return that interval."""
-        self.now_ns += interval_ns
-        return interval_ns
+        """Move robot time forward by one heartbeat interval and return the new robot time."""
+        self.now_ns = now_ns = self.now_ns + interval_ns
+        return now_ns
 
 
 class LiveHeartbeat:

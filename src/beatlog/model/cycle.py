@@ -6,15 +6,38 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from beatlog.log.format import StateChangeRecord
-from beatlog.model.behavior import System
+from beatlog.model.behavior import Behavior, BehaviorState, System
 from beatlog.model.clock import SimulatedHeartbeat
 from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
-__all__ = ["CycleExecutor"]
+__all__ = ["CycleExecutor", "state_reader"]
+
+
+def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
+    """A function that reads every behavior's state, in catalogue order.
+
+    Its source is written out for the catalogue (as :mod:`dataclasses` writes an
+    ``__init__``), from nothing but the catalogue's size: each behavior's state is then
+    read by an attribute access of its own, which the interpreter specialises for that
+    behavior's class. One access in a loop sees every class and stays generic, several
+    times slower; reading the states is a fixed cost of every cycle.
+    """
+    names = [f"b{index}" for index in range(len(behaviors))]
+    source = (
+        f"def bind({', '.join(names)}):\n"
+        f"    def read():\n"
+        f"        return [{', '.join(f'{name}.state' for name in names)}]\n"
+        f"    return read\n"
+    )
+    namespace: dict[str, Any] = {}
+    exec(source, namespace)  # noqa: S102 - our own source, of names b0, b1, ... only
+    read: Callable[[], list[BehaviorState]] = namespace["bind"](*behaviors)
+    return read
 
 
 class CycleExecutor:
@@ -24,8 +47,9 @@ class CycleExecutor:
         self.system = system
         catalogue = system.behaviors
         self.behavior_ids = list(catalogue)
-        self._behaviors = list(catalogue.values())
-        self._states = [behavior.state for behavior in self._behaviors]
+        self._read_states = state_reader(list(catalogue.values()))
+        self._states = self._read_states()
+        self._update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
         random.bind(self.context)
@@ -35,16 +59,18 @@ class CycleExecutor:
         context = self.context
         context.cycle += 1
         context.dt_ns = interval_ns
-        self.clock.advance(interval_ns)
-        context.time_ns = self.clock.now_ns
+        clock = self.clock  # SimulatedHeartbeat.advance, inline: the hot path
+        context.time_ns = clock.now_ns = clock.now_ns + interval_ns
         context.actor = -1
         if context.outputs:
             context.outputs = {}
-        self.system.update(state, context)
-        changes: list[StateChangeRecord] = []
+        self._update(state, context)
+        now = self._read_states()
         states = self._states
-        for index, behavior in enumerate(self._behaviors):
-            after = behavior.state
+        if now == states:  # the common case, compared in C: same objects or equal values
+            return []
+        changes: list[StateChangeRecord] = []
+        for index, after in enumerate(now):
             before = states[index]
             if after is not before and after != before:
                 changes.append((index, before, after))

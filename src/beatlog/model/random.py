@@ -13,11 +13,10 @@ import secrets
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from enum import StrEnum
+from math import copysign
 from typing import TYPE_CHECKING, Any, TypeVar
 
-import msgspec
-
-from beatlog.log.format import Draw
+from beatlog.log.format import Draw, payload_encoder
 
 if TYPE_CHECKING:
     import numpy as np
@@ -58,7 +57,29 @@ class DrawKind(StrEnum):
     """A numpy array of ints in [low, high)."""
 
 
-_params_encoder = msgspec.msgpack.Encoder()
+_encode_params = payload_encoder().encode
+_SCALARS = frozenset({int, float, str, bool, type(None)})
+"""Types whose values of one type are equal exactly when they encode to the same bytes
+(a float's sign aside: ``-0.0 == 0.0``)."""
+
+
+def _same_params(recorded: tuple[Any, ...], asked: tuple[Any, ...]) -> bool:
+    """Whether a draw was asked for with exactly the recorded parameters: whether they
+    encode to the same bytes in the log, without encoding them in the common case.
+
+    Scalars of the same type compare by value, a float's sign included (so ``1`` is not
+    ``1.0`` nor ``True``, and ``-0.0`` is not ``0.0``); anything else (NaN, numpy
+    scalars, shapes) is compared as encoded.
+    """
+    if len(recorded) != len(asked):
+        return False
+    for want, got in zip(recorded, asked, strict=True):
+        kind = type(want)
+        if kind is not type(got) or kind not in _SCALARS or want != got:
+            return _encode_params(recorded) == _encode_params(asked)
+        if kind is float and not want and copysign(1.0, want) != copysign(1.0, got):
+            return False
+    return True
 
 
 class RandomMismatch(BaseException):
@@ -202,8 +223,9 @@ class RecordingRandom(RandomSource):
 class ReplayRandom(RandomSource):
     """Returns the values recorded in RN_t, checking count, kind and parameters as it goes.
 
-    Parameters are compared exactly (as their msgpack bytes, so ``-0.0`` differs from
-    ``0.0``); a format-1 draw, which recorded none, is checked for count and kind only.
+    Parameters are compared exactly, as they encode in the log (``1`` differs from
+    ``1.0`` and ``True``, ``-0.0`` from ``0.0``); a format-1 draw, which recorded none,
+    is checked for count and kind only.
     """
 
     def __init__(self) -> None:
@@ -232,7 +254,7 @@ class ReplayRandom(RandomSource):
         if draw.kind != kind.value:
             self._fail(f"drew {kind.value} #{index + 1} where {draw.kind} was recorded", actor)
         asked = Draw(actor, kind.value, draw.value, params)
-        if draw.params and _params_encoder.encode(draw.params) != _params_encoder.encode(params):
+        if draw.params and not _same_params(draw.params, params):
             self._fail(f"called {asked.call()} where {draw.call()} was recorded", actor)
         self.drawn.append(asked)
         return draw.value

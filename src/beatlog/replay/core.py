@@ -13,9 +13,9 @@ steps a system through a log.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, NoReturn
 
 import msgspec
 
@@ -87,12 +87,34 @@ class CycleOutcome(NamedTuple):
         )
 
 
+class _Sensed(NamedTuple):
+    """What sensor-level replay adds to a cycle's outcome."""
+
+    recorded_state: Any
+    differs: bool
+    failure: BaseException | None
+    samples: Sequence[Sample]
+
+
+Observe = Callable[[Any], Any]
+Advance = Callable[[CycleRecord], "list[StateChangeRecord] | None"]
+_READ = object()
+"""In place of a robot state given to :meth:`Replayer.step_state`: read RS_t from the log."""
+_DECODE = (_READ, None)
+"""No robot state given and nothing to observe it: the hot path."""
+
+
 class Replayer:
     """A system set up to replay the cycles of one log, in order, from its first.
 
     Building one checks that the log fits the system (:mod:`beatlog.replay.fit`).
     Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
     the samples (sensor-level replay); otherwise it is read from the log.
+
+    :attr:`advance` replays a cycle and says only whether it went cleanly, which is all
+    the verdict needs for the cycles that match; :meth:`outcome` then tells everything
+    about it. :meth:`step` does both. A replayer that raised a
+    :class:`~beatlog.errors.LogError` cannot go on.
     """
 
     def __init__(
@@ -119,81 +141,49 @@ class Replayer:
         self._state = msgspec.msgpack.Decoder(system.robot_state).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
+        self._given: tuple[Any, Observe | None] | None = None
+        self._last: tuple[
+            CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, _Sensed | None
+        ]
+        stepping = self._stepping()
+        next(stepping)
+        self.advance: Advance = stepping.send
+        """Replay the next cycle like :meth:`step`, without building its outcome.
 
-    def step(
-        self, record: CycleRecord, *, observe: Callable[[Any], Any] | None = None
-    ) -> CycleOutcome:
+        It returns BS'_t, the replayed state changes, when the cycle went cleanly: the
+        update completed, drew exactly the recorded random numbers and, in sensor-level
+        replay, ran on a robot state rebuilt as recorded; otherwise None, and
+        :meth:`outcome` says what happened. It raises as :meth:`step` does.
+        """
+
+    def step(self, record: CycleRecord, *, observe: Observe | None = None) -> CycleOutcome:
         """Replay the next cycle; ``observe`` may wrap RS_t before the behaviors see it.
 
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
         """
-        cycle = self.executor.context.cycle + 1
-        state = self._decode_state(record, cycle)
-        if cycle == self.break_at:
-            self._pause(cycle, state, record)
-        if self.perception is not None:
-            return self._step_from_samples(record, cycle, state, observe)
-        return self.step_state(record, state, observe)
-
-    def _step_from_samples(
-        self,
-        record: CycleRecord,
-        cycle: int,
-        recorded: Any,
-        observe: Callable[[Any], Any] | None,
-    ) -> CycleOutcome:
-        """Rebuild RS_t with the perception step, compare it, and run the behaviors on it.
-
-        When perception raises, the behaviors run on the recorded RS_t, so replay can
-        go on; the outcome carries the failure.
-        """
-        assert self.perception is not None
-        samples = self._decode_samples(record, cycle)
-        try:
-            rebuilt = self.perception(self._rebuilt, samples)
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit) as exc:  # perception failing is an outcome
-            self._rebuilt = recorded
-            outcome = self.step_state(record, recorded, observe)
-            return outcome._replace(
-                recorded_state=recorded, perception_failure=exc, samples=samples
-            )
-        self._rebuilt = rebuilt
-        try:
-            differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
-        except (TypeError, msgspec.EncodeError):  # perception built something unloggable
-            differs = True
-        outcome = self.step_state(record, rebuilt, observe)
-        return outcome._replace(
-            recorded_state=recorded, perception_differs=differs, samples=samples
-        )
+        return self._step_given(record, _READ, observe)
 
     def step_state(
-        self, record: CycleRecord, state: Any, observe: Callable[[Any], Any] | None = None
+        self, record: CycleRecord, state: Any, observe: Observe | None = None
     ) -> CycleOutcome:
         """Replay the next cycle on a robot state given (not read from ``record``)."""
-        executor = self.executor
-        random = self.random
-        cycle = executor.context.cycle + 1
-        random.load(
-            () if record.random_numbers == EMPTY_LIST else self._decode_draws(record, cycle)
-        )
-        changes: list[StateChangeRecord] | None = None
-        failure: BaseException | None = None
+        return self._step_given(record, state, observe)
+
+    def _step_given(self, record: CycleRecord, state: Any, observe: Observe | None) -> CycleOutcome:
+        self._given = (state, observe)
         try:
-            changes = executor.step(
-                record.heartbeat_ns, state if observe is None else observe(state)
-            )
-        except RandomMismatch:
-            pass
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
-            failure = exc
-        context = executor.context
-        return CycleOutcome(
+            self.advance(record)
+        finally:
+            self._given = None
+        return self.outcome()
+
+    def outcome(self) -> CycleOutcome:
+        """Everything about the cycle replayed last."""
+        record, state, changes, failure, sensed = self._last
+        context = self.executor.context
+        random = self.random
+        outcome = CycleOutcome(
             context.cycle,
             context.time_ns,
             record,
@@ -206,6 +196,96 @@ class Replayer:
             failure,
             context.actor,
         )
+        if sensed is None:
+            return outcome
+        return outcome._replace(
+            recorded_state=sensed.recorded_state,
+            perception_differs=sensed.differs,
+            perception_failure=sensed.failure,
+            samples=sensed.samples,
+        )
+
+    def _stepping(
+        self,
+    ) -> Generator[list[StateChangeRecord] | None, CycleRecord, NoReturn]:
+        """The one loop that steps the system through the log: sent a cycle's record, it
+        replays the cycle and answers as :attr:`advance` does.
+
+        A coroutine, so that what every cycle needs is looked up once, not every cycle.
+        """
+        executor = self.executor
+        context = executor.context
+        step = executor.step
+        random = self.random
+        load = random.load
+        decode_state = self._state
+        break_at = self.break_at
+        perception = self.perception
+        changes: list[StateChangeRecord] | None = None
+        while True:
+            record = yield changes
+            given = self._given
+            state, observe = _DECODE if given is None else given
+            if state is _READ:
+                try:
+                    state = decode_state(record.robot_state)
+                except DECODE_ERRORS as exc:
+                    raise SchemaMismatchError(
+                        self.path,
+                        f"robot state of cycle {context.cycle + 1} does not fit "
+                        f"{self.system.robot_state.__name__}: {exc}",
+                    ) from None
+                if context.cycle + 1 == break_at:
+                    self._pause(context.cycle + 1, state, record)
+                sensed = None if perception is None else self._perceive(record, state)
+                if sensed is not None and sensed.failure is None:
+                    state = self._rebuilt
+            else:
+                sensed = None
+            draws = record.random_numbers
+            # Load RN_t, unless there is none and nothing is left of the last cycle's (a
+            # draw is kept only when one was recorded; a draw too many leaves a mismatch).
+            if draws != EMPTY_LIST or random.recorded or random.mismatch is not None:
+                load(() if draws == EMPTY_LIST else self._decode_draws(record, context.cycle + 1))
+            failure = None
+            try:
+                changes = step(record.heartbeat_ns, state if observe is None else observe(state))
+            except RandomMismatch:
+                changes = None
+            except BeatlogError:
+                raise
+            except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
+                changes = None
+                failure = exc
+            self._last = (record, state, changes, failure, sensed)
+            if changes is not None and (
+                random.mismatch is not None
+                or len(random.drawn) != len(random.recorded)
+                or (sensed is not None and (sensed.differs or sensed.failure is not None))
+            ):
+                changes = None
+
+    def _perceive(self, record: CycleRecord, recorded: Any) -> _Sensed:
+        """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
+
+        When perception raises, the behaviors run on the recorded RS_t, so replay can
+        go on; the outcome carries the failure.
+        """
+        assert self.perception is not None
+        samples = self._decode_samples(record, self.executor.context.cycle + 1)
+        try:
+            rebuilt = self.perception(self._rebuilt, samples)
+        except BeatlogError:
+            raise
+        except (Exception, SystemExit) as exc:  # perception failing is an outcome
+            self._rebuilt = recorded
+            return _Sensed(recorded, False, exc, samples)
+        self._rebuilt = rebuilt
+        try:
+            differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
+        except (TypeError, msgspec.EncodeError):  # perception built something unloggable
+            differs = True
+        return _Sensed(recorded, differs, None, samples)
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: ``breakpoint()`` (so ``PYTHONBREAKPOINT`` is honoured) just
@@ -230,16 +310,6 @@ class Replayer:
         step = self.step
         for record in records:
             yield step(record)
-
-    def _decode_state(self, record: CycleRecord, cycle: int) -> Any:
-        try:
-            return self._state(record.robot_state)
-        except DECODE_ERRORS as exc:
-            raise SchemaMismatchError(
-                self.path,
-                f"robot state of cycle {cycle} does not fit "
-                f"{self.system.robot_state.__name__}: {exc}",
-            ) from None
 
     def _decode_samples(self, record: CycleRecord, cycle: int) -> list[Sample]:
         try:

@@ -209,12 +209,15 @@ class _Judge:
         self.comparison = comparison
         self._keep_going = keep_going
         self._context = context
-        self._recent: deque[CycleRecord] = deque(maxlen=context + 1)
+        self._batches: deque[Sequence[CycleRecord]] = deque(maxlen=context + 1)
+        """The last batches: they hold the cycles before a divergence (none is empty)."""
+        self._recent: list[CycleRecord] = []
+        """The cycles before the first divergence, then the divergence."""
         self.path = path
         self.replayer = Replayer(system, header, path, perception=perception, break_at=break_at)
         self.random = self.replayer.random
         self.executor = self.replayer.executor
-        self._step = self.replayer.step if observe is None else _observed(self.replayer, observe)
+        self._observe = observe
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
         self._stopped_at: tuple[int, int] | None = None
@@ -316,62 +319,72 @@ class _Judge:
     def run(self, batch: Sequence[CycleRecord]) -> int | None:
         """Replay a batch of cycles; the index of the cycle where replay stops, if it does.
 
-        Each cycle is stepped by the replay core; a cycle agrees when its update
-        completed and its state changes and outputs match: byte for byte first, else
-        by :class:`Comparison` (state changes as a set, allowances applied).
+        Each cycle is stepped by the replay core; a cycle agrees when it went cleanly
+        (:meth:`Replayer.advance`) and its state changes and outputs match: byte for
+        byte first, else by :class:`Comparison` (state changes as a set, allowances
+        applied). Only a cycle that does not agree gets its full outcome.
         """
-        remember = self._recent.append
+        self._batches.append(batch)
         encode = self._encoder.encode
         encode_outputs = self._outputs_encoder.encode
-        step = self._step
+        advance = self.replayer.advance
+        outcome_of = self.replayer.outcome
+        context = self.executor.context
+        observe = self._observe
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
         pinned_states = self._pinned_states
         for index, record in enumerate(batch):
-            outcome = step(record)
-            changes = outcome.changes
-            outputs = outcome.outputs
-            try:
-                if (
-                    outcome.failure is None
-                    and changes is not None  # outcome.completed, inline: the hot path
-                    and outcome.draw_problem is None
-                    and len(outcome.drawn) == len(outcome.recorded_draws)
-                    and outcome.perception_failure is None
-                    and (
-                        (not outcome.perception_differs and outcome.cycle not in pinned_states)
-                        or not self._state_differences(outcome)
-                    )
-                    and (
+            changes = advance(record)
+            outcome: CycleOutcome | None = None
+            if observe is not None:
+                outcome = outcome_of()
+                observe(outcome)
+            if changes is None or (pinned_states and context.cycle in pinned_states):
+                outcome = outcome or outcome_of()  # judged by its robot state, then as usual
+                changes = outcome.changes if self._state_agrees(outcome) else None
+            unloggable: Exception | None = None
+            if changes is not None:
+                outputs = context.outputs
+                try:
+                    if (
                         (
                             record.state_changes == EMPTY_LIST
                             if not changes
                             else same_catalogue and record.state_changes == raw(encode(changes))
                         )
-                        or self._changes_agree(record.state_changes, changes or [])
-                    )
-                    and (
+                        or self._changes_agree(record.state_changes, changes)
+                    ) and (
                         (
                             record.outputs == EMPTY_MAP
                             if not outputs
                             else record.outputs == raw(encode_outputs(outputs))
                         )
                         or self._outputs_agree(record.outputs, outputs)
-                    )
-                ):
-                    remember(record)
-                    continue
-            except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
-                outcome = outcome._replace(failure=exc)
+                    ):
+                        continue
+                except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
+                    unloggable = exc
+            outcome = outcome or outcome_of()
+            if unloggable is not None:
+                outcome = outcome._replace(failure=unloggable)
             first = self.divergence is None
+            if first:
+                self._recent = self._window(index)
             self._diverge(outcome)
-            remember(record)
             if first and self._keep_going:
                 self._add_context([])
             if not self._keep_going:
                 self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
                 return index
         return None
+
+    def _window(self, index: int) -> list[CycleRecord]:
+        """The cycle at ``index`` in the last batch, with up to ``context`` cycles before it."""
+        *earlier, last = self._batches
+        records = [record for batch in earlier for record in batch]
+        records.extend(last[: index + 1])
+        return records[-(self._context + 1) :]
 
     def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
         """Replay past the divergence: a few cycles to show what happened next, or the
@@ -412,7 +425,7 @@ class _Judge:
         divergence = self.divergence
         if divergence is None:
             return
-        recent = list(self._recent)  # the cycles before the divergence, then the divergence
+        recent = self._recent
         time_ns = divergence.time_ns
         before: list[ContextRow] = []
         for offset in range(1, len(recent)):
@@ -553,6 +566,16 @@ class _Judge:
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
         )
 
+    def _state_agrees(self, outcome: CycleOutcome) -> bool:
+        """Whether a cycle the core did not call clean went cleanly apart from its robot
+        state, and perception rebuilt that as expected (within tolerance, or as pinned)."""
+        return (
+            outcome.completed
+            and outcome.perception_failure is None
+            and self.replayer.perception is not None
+            and not self._state_differences(outcome)
+        )
+
     def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
         tolerance: expected is the recorded RS_t with the fields the baseline pins."""
@@ -566,20 +589,6 @@ class _Judge:
 
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
         return [DrawReport(_name(names, d.actor), d.kind, d.value) for d in draws]
-
-
-def _observed(
-    replayer: Replayer, observe: Callable[[CycleOutcome], object]
-) -> Callable[[CycleRecord], CycleOutcome]:
-    """The replayer's step, handing each outcome to ``observe`` too."""
-    step = replayer.step
-
-    def observed(record: CycleRecord) -> CycleOutcome:
-        outcome = step(record)
-        observe(outcome)
-        return outcome
-
-    return observed
 
 
 def _name(names: Sequence[str], index: int) -> str:
