@@ -198,8 +198,11 @@ class Replayer:
         )
         if sensed is None:
             return outcome
+        recorded = sensed.recorded_state  # decoded here when it matched the rebuilt one
         return outcome._replace(
-            recorded_state=sensed.recorded_state,
+            recorded_state=(
+                self._recorded_state(record, context.cycle) if recorded is _READ else recorded
+            ),
             perception_differs=sensed.differs,
             perception_failure=sensed.failure,
             samples=sensed.samples,
@@ -218,7 +221,7 @@ class Replayer:
         step = executor.step
         random = self.random
         load = random.load
-        decode_state = self._state
+        recorded_state = self._recorded_state
         break_at = self.break_at
         perception = self.perception
         changes: list[StateChangeRecord] | None = None
@@ -227,18 +230,16 @@ class Replayer:
             given = self._given
             state, observe = _DECODE if given is None else given
             if state is _READ:
-                try:
-                    state = decode_state(record.robot_state)
-                except DECODE_ERRORS as exc:
-                    raise SchemaMismatchError(
-                        self.path,
-                        f"robot state of cycle {context.cycle + 1} does not fit "
-                        f"{self.system.robot_state.__name__}: {exc}",
-                    ) from None
+                # Sensor-level replay decodes the recorded RS_t only where it is needed:
+                # the rebuilt one encodes to other bytes, perception fails, or a break.
+                if perception is None or context.cycle + 1 == break_at:
+                    state = recorded_state(record, context.cycle + 1)
                 if context.cycle + 1 == break_at:
                     self._pause(context.cycle + 1, state, record)
-                sensed = None if perception is None else self._perceive(record, state)
-                if sensed is not None and sensed.failure is None:
+                if perception is None:
+                    sensed = None
+                else:
+                    sensed = self._perceive(record, state)
                     state = self._rebuilt
             else:
                 sensed = None
@@ -278,6 +279,8 @@ class Replayer:
         except BeatlogError:
             raise
         except (Exception, SystemExit) as exc:  # perception failing is an outcome
+            if recorded is _READ:
+                recorded = self._recorded_state(record, self.executor.context.cycle + 1)
             self._rebuilt = recorded
             return _Sensed(recorded, False, exc, samples)
         self._rebuilt = rebuilt
@@ -285,7 +288,23 @@ class Replayer:
             differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
             differs = True
+        if differs and recorded is _READ:
+            recorded = self._recorded_state(record, self.executor.context.cycle + 1)
         return _Sensed(recorded, differs, None, samples)
+
+    def _recorded_state(self, record: CycleRecord, cycle: int) -> Any:
+        """RS_t of ``cycle`` as the log holds it, decoded for the system's robot state type.
+
+        :raises beatlog.errors.SchemaMismatchError: it does not fit the type.
+        """
+        try:
+            return self._state(record.robot_state)
+        except DECODE_ERRORS as exc:
+            raise SchemaMismatchError(
+                self.path,
+                f"robot state of cycle {cycle} does not fit "
+                f"{self.system.robot_state.__name__}: {exc}",
+            ) from None
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: ``breakpoint()`` (so ``PYTHONBREAKPOINT`` is honoured) just
