@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import datetime
+import os
+import random
+import secrets
 import site
 import sys
 import time
+import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -12,10 +17,10 @@ import numpy as np
 import pytest
 
 import beatlog
-from beatlog.audit.leaks import Finding, LeakWatch
+from beatlog.audit.leaks import Finding, LeakScreen, LeakWatch
 from beatlog.model.context import Context
 from beatlog.model.random import RecordingRandom
-from tests.conftest import Probe, RecordFn, probe_system
+from tests.conftest import Near, Probe, RecordFn, probe_system
 from tests.systems import Disciplined, Leaky, leaks
 
 
@@ -144,3 +149,50 @@ def test_an_installed_packages_line_is_the_site_with_the_user_code_that_led_ther
 
 def tick_tree(tick: Callable[[], float]) -> float:
     return tick()
+
+
+SCREENED: dict[str, Callable[[], object]] = {
+    "time.monotonic": time.monotonic,
+    "time.time_ns": time.time_ns,
+    "time.clock_gettime": lambda: time.clock_gettime(time.CLOCK_REALTIME),
+    "datetime.now": datetime.datetime.now,
+    "date.today": datetime.date.today,
+    "random.random": random.random,
+    "random.choice": lambda: random.choice([1, 2]),
+    "random.shuffle": lambda: random.shuffle([1, 2]),
+    "os.urandom": lambda: os.urandom(2),
+    "secrets": lambda: secrets.token_hex(2),
+    "uuid.uuid4": uuid.uuid4,
+    "numpy.random": np.random.rand,
+}
+
+
+@pytest.mark.parametrize("call", SCREENED.values(), ids=SCREENED)
+def test_the_screen_sees_every_watched_call(call: Callable[[], object]) -> None:
+    screen = LeakScreen()
+    with screen:
+        call()
+
+    assert screen.suspicious
+    assert screen.findings() == []  # where and how often is the watch's job
+
+
+def test_the_screen_passes_updates_that_take_nothing_from_outside(context: Context) -> None:
+    screen = LeakScreen()
+    near = Near()
+    for cycle in range(20):
+        context.cycle = cycle
+        with screen:
+            near.step(Probe(distance=cycle / 20), context)
+
+    assert not screen.suspicious
+
+
+def test_calls_outside_the_screen_are_not_seen(context: Context) -> None:
+    screen = LeakScreen()
+    time.time()
+    with screen:
+        Near().step(Probe(), context)
+    random.random()
+
+    assert not screen.suspicious

@@ -5,10 +5,11 @@ DTC its auditing process audits.
 It reads requests (:class:`~beatlog.audit.replays.Request`, a JSON line each) on stdin,
 replays each with every update hashed (and, when the request asks, watched for leaks),
 importing from the request's ``sys.path``, and answers a JSON line
-(:class:`~beatlog.audit.replays.Answer`) on stdout. The watch follows no lines unless
-numpy's global generator moved during an update: then the replay is run again,
-following the lines of user code, to say where. Ctrl-C ends it at once, and so does its
-lifeline closing: the auditing process gave up or died.
+(:class:`~beatlog.audit.replays.Answer`) on stdout. A watched request is first replayed
+under a cheap screen; only a replay the screen finds suspicious is run again under the
+watch, which follows the lines of user code only when numpy's global generator moved.
+Ctrl-C ends it at once, and so does its lifeline closing: the auditing process gave up
+or died.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import Any
 
 import msgspec
 
-from beatlog.audit.leaks import LeakWatch
+from beatlog.audit.leaks import LeakScreen, LeakWatch
 from beatlog.audit.replays import CYCLE_DIGEST_SIZE, Answer, Request
 from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
@@ -39,7 +40,7 @@ class _AuditedSystem:
     """A system whose every update is hashed into a trace and, given a watch, watched
     for leaks."""
 
-    def __init__(self, system: System, watch: LeakWatch | None) -> None:
+    def __init__(self, system: System, watch: LeakWatch | LeakScreen | None) -> None:
         self._system = system
         self._watch = watch
         self._behaviors = list(system.behaviors.values())
@@ -73,21 +74,27 @@ class _AuditedSystem:
 
 
 def _replay_watched(request: Request) -> Answer:
-    """The answer of a replay, watched (if asked) without following lines, or, when
-    numpy's global generator moved in it, of one more replay that follows them to the
-    lines that did."""
-    answer, numpy_moved = _replay(request, lines=False)
-    if numpy_moved:
-        answer, _ = _replay(request, lines=True)
-    return answer
+    """The answer of a replay, watched for leaks when the request asks.
+
+    A screened replay comes first (:class:`~beatlog.audit.leaks.LeakScreen`, cheap);
+    only when it saw a watched call is the replay run again under a
+    :class:`~beatlog.audit.leaks.LeakWatch` without following lines, and when numpy's
+    global generator moved, once more following them to the lines that moved it.
+    """
+    if not request.watch:
+        return _replay(request, None)
+    screen = LeakScreen()
+    answer = _replay(request, screen)
+    if not screen.suspicious:
+        return answer
+    return _replay(request, LeakWatch(lines=screen.numpy_moved))
 
 
-def _replay(request: Request, *, lines: bool) -> tuple[Answer, bool]:
-    watch = LeakWatch(lines=lines) if request.watch else None
+def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
     system = _AuditedSystem(load_system(request.system), watch)
     result = replay(request.log, system, keep_going=True, allow_truncated=request.allow_truncated)
     divergence = result.divergence
-    answer = Answer(
+    return Answer(
         ok=result.ok,
         cycles=result.cycles,
         divergence_cycle=divergence.cycle if divergence else None,
@@ -95,7 +102,6 @@ def _replay(request: Request, *, lines: bool) -> tuple[Answer, bool]:
         trace=b"".join(system.trace),
         findings=[] if watch is None else watch.findings(),
     )
-    return answer, watch is not None and watch.numpy_moved
 
 
 def main() -> None:

@@ -28,9 +28,11 @@ clock reads of the ``logging`` package (record timestamps reach no decision).
 from __future__ import annotations
 
 import collections
+import cProfile
 import ctypes
 import datetime as dt
 import enum
+import functools
 import logging
 import os
 import random
@@ -46,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Finding", "LeakWatch"]
+__all__ = ["Finding", "LeakScreen", "LeakWatch"]
 
 _CLOCKS = frozenset(
     f"{name}{suffix}"
@@ -340,3 +342,81 @@ def _python_calls() -> dict[CodeType, str]:
     calls[uuid.uuid1.__code__] = "uuid.uuid1"
     calls[uuid.uuid4.__code__] = "uuid.uuid4"
     return calls
+
+
+class LeakScreen:
+    """A cheap first look: does code called inside it make any call a :class:`LeakWatch`
+    counts, or move numpy's global generator?
+
+    Enter it around each update, like a watch. It profiles with :mod:`cProfile`, whose
+    hook is written in C, and afterwards looks for the watched functions among the
+    functions called, whoever called them: it cannot say where or how often, nor tell
+    the global ``random`` instance's builtin methods from a private instance's. A clean
+    screen means a watch would find nothing; anything else is for a watch to look at.
+    """
+
+    def __init__(self) -> None:
+        self._profiler = cProfile.Profile()
+        self._numpy: _GlobalNumpyGenerator | None = None
+        self.numpy_moved = False
+        """Whether numpy's global generator moved inside the screen."""
+
+    def __enter__(self) -> LeakScreen:
+        if self._numpy is None:
+            self._numpy = _GlobalNumpyGenerator()
+        else:
+            self._numpy.moved()  # draws between updates are the framework's or the test's
+        self._profiler.enable()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self._profiler.disable()
+        assert self._numpy is not None
+        if self._numpy.moved():
+            self.numpy_moved = True
+
+    @property
+    def suspicious(self) -> bool:
+        """Whether a watched function was called, or numpy's global generator moved."""
+        if self.numpy_moved:
+            return True
+        python_calls = _python_calls()
+        builtins = _screened_builtins()
+        return any(
+            entry.code in builtins if isinstance(entry.code, str) else entry.code in python_calls
+            for entry in self._profiler.getstats()
+        )
+
+    def findings(self) -> list[Finding]:
+        """None: a screen only says whether a watch is needed."""
+        return []
+
+
+@functools.cache
+def _screened_builtins() -> frozenset[str]:
+    """The labels :mod:`cProfile` gives the watched builtins, learnt by profiling a call
+    of each: clocks, the builtin methods behind ``random.random`` and ``getrandbits`` (of
+    a private instance: the label is the type's), ``os.urandom``, ``now`` and ``today``."""
+    private = random.Random(0)  # noqa: S311 - only its methods' profiler labels are wanted
+    calls: list[tuple[Any, tuple[Any, ...]]] = [
+        (getattr(time, name), (time.CLOCK_MONOTONIC,) if "clock_gettime" in name else ())
+        for name in sorted(_CLOCKS)
+        if hasattr(time, name)
+    ]
+    calls += [(private.random, ()), (private.getrandbits, (1,)), (os.urandom, (1,))]
+    calls += [(dt.datetime.now, ()), (dt.datetime.utcnow, ()), (dt.date.today, ())]
+    profiler = cProfile.Profile()
+    for call, arguments in calls:
+        profiler.enable()
+        call(*arguments)
+        profiler.disable()
+    return frozenset(
+        entry.code
+        for entry in profiler.getstats()
+        if isinstance(entry.code, str) and "_lsprof.Profiler" not in entry.code
+    )
