@@ -179,6 +179,15 @@ class _GlobalNumpyGenerator:
             self._position = ctypes.c_int.from_address(address + _MT19937_POSITION)
 
 
+def _marked(generator: _GlobalNumpyGenerator | None) -> _GlobalNumpyGenerator:
+    """A watcher of numpy's global generator, marked where it stands now: draws between
+    updates are the framework's or the test's."""
+    if generator is None:
+        return _GlobalNumpyGenerator()
+    generator.moved()
+    return generator
+
+
 Where = tuple[CodeType, int]
 
 
@@ -218,10 +227,7 @@ class LeakWatch:
 
     def __enter__(self) -> LeakWatch:
         self._boundary = sys._getframe(1)  # the frame that runs the update
-        if self._numpy is None:
-            self._numpy = _GlobalNumpyGenerator()
-        else:
-            self._numpy.moved()  # draws between updates are the framework's or the test's
+        self._numpy = _marked(self._numpy)
         self._inside = None
         self._where = None
         self._saved = (sys.getprofile(), sys.gettrace())
@@ -362,10 +368,7 @@ class LeakScreen:
         """Whether numpy's global generator moved inside the screen."""
 
     def __enter__(self) -> LeakScreen:
-        if self._numpy is None:
-            self._numpy = _GlobalNumpyGenerator()
-        else:
-            self._numpy.moved()  # draws between updates are the framework's or the test's
+        self._numpy = _marked(self._numpy)
         self._profiler.enable()
         return self
 
