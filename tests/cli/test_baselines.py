@@ -4,6 +4,12 @@ promises around it: a failure never overwrites an accepted baseline, CI never wr
 from __future__ import annotations
 
 import io
+import os
+import pty
+import select
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -198,3 +204,53 @@ def test_review_reads_piped_answers_and_takes_the_start_of_a_word(
     assert run.code == 0
     assert not pending_path(spec).exists()
     assert expected_path(spec).exists() is accepted
+
+
+def read_until(terminal: int, text: str, *, seconds: float = 20.0) -> str:
+    """What the program wrote to the terminal up to ``text`` (or its end, or the time)."""
+    seen = b""
+    deadline = time.monotonic() + seconds
+    while text.encode() not in seen and time.monotonic() < deadline:
+        ready, _, _ = select.select([terminal], [], [], 0.5)
+        if ready:
+            try:
+                chunk = os.read(terminal, 4096)
+            except OSError:  # the program closed the terminal: it has ended
+                break
+            if not chunk:
+                break
+            seen += chunk
+    return seen.decode(errors="replace")
+
+
+def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
+    beatlog: Beatlog, spec: Path
+) -> None:
+    beatlog("test", "--update", spec)
+    terminal, program_side = pty.openpty()
+    environment = {key: value for key, value in os.environ.items() if key != "CI"}
+    review_command = [sys.executable, "-m", "beatlog.cli.main", "review", str(spec.parent)]
+    with subprocess.Popen(
+        review_command,
+        stdin=program_side,
+        stdout=program_side,
+        stderr=program_side,
+        env=environment,
+    ) as program:
+        os.close(program_side)
+        try:
+            first = read_until(terminal, "[a]ccept/[r]eject/[s]kip")
+            os.write(terminal, b"maybe\n")
+            again = read_until(terminal, "[a]ccept/[r]eject/[s]kip")
+            os.write(terminal, b"A\n")
+            rest = read_until(terminal, "accepted")
+            code = program.wait(timeout=60)
+        finally:
+            os.close(terminal)
+
+    assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip" in first
+    assert "maybe" in again
+    assert "accepted" in rest
+    assert code == 0
+    assert expected_path(spec).exists()
+    assert not pending_path(spec).exists()

@@ -9,6 +9,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 from rich.prompt import Prompt
 from rich.text import Text
 
@@ -79,13 +80,17 @@ def review(
     return decided[Decision.ACCEPT], decided[Decision.REJECT], decided[Decision.SKIP]
 
 
+_CHOICES = escape("[a]ccept/[r]eject/[s]kip")
+"""The choices as the prompt shows them: brackets escaped, or rich reads them as styles."""
+
+
 def _prompt(console: Console) -> Ask:
     """Ask at the terminal until the answer names a decision (or starts one)."""
 
     def ask(question: str) -> str:
         while True:
             try:
-                answer = Prompt.ask(f"{question} [a]ccept/[r]eject/[s]kip", console=console)
+                answer = Prompt.ask(f"{escape(question)} {_CHOICES}", console=console)
             except EOFError:
                 return Decision.SKIP
             try:
