@@ -192,13 +192,17 @@ def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
     marker = tmp_path / "died"
     write_spec(folder, "unlucky", record_probe(120), write_dying_once(folder, marker))
 
-    run = beatlog("test", folder, "--dask", cluster, "--junit-xml", tmp_path / "dtc.xml")
+    page = tmp_path / "report.html"
+    run = beatlog(
+        "test", folder, "--dask", cluster, "--junit-xml", tmp_path / "dtc.xml", "--html", page
+    )
 
     assert marker.exists()
     assert run.code == 0, run.err
     assert "retried unlucky: the worker replaying it died (1 time)" in run.out
     assert "passed (retried 1×)" in run.out
     assert junit_cases(tmp_path / "dtc.xml") == [("unlucky", ["flakyError"])]
+    assert '<span class="verdict">passed (retried 1×)</span>' in page.read_text()
 
 
 def test_a_dtc_whose_workers_keep_dying_is_an_error_never_lost(

@@ -242,12 +242,7 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
         divergence = result.divergence if result else None
         table.add_row(
             outcome.spec.name,
-            Text(
-                outcome.verdict.value
-                + (" (approved baseline)" if outcome.baseline else "")
-                + (f" (retried {outcome.retries}×)" if outcome.retries else ""),
-                style=styles[outcome.verdict],
-            ),
+            Text(outcome.verdict_label, style=styles[outcome.verdict]),
             str(result.cycles) if result else "—",
             f"{result.robot_time_s:.1f} s" if result else "—",
             f"{outcome.wall_time_s:.2f} s",

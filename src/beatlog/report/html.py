@@ -125,7 +125,7 @@ def _summary_table(outcomes: Sequence[SpecOutcome]) -> str:
             _row(
                 [
                     f'<a href="#dtc-{index}">{_e(outcome.spec.name)}</a>',
-                    f'<span class="verdict">{_e(outcome.verdict)}</span>',
+                    f'<span class="verdict">{_e(outcome.verdict_label)}</span>',
                     _e(result.cycles) if result else "—",
                     f"{result.robot_time_s:.1f} s" if result else "—",
                     f"{outcome.wall_time_s:.2f} s",

@@ -77,6 +77,16 @@ class SpecOutcome:
     cluster's worker, see :mod:`beatlog.suite.cluster`)."""
 
     @property
+    def verdict_label(self) -> str:
+        """The verdict as reports show it: ``passed (approved baseline)``, ``failed
+        (retried 1×)``."""
+        return (
+            self.verdict.value
+            + (" (approved baseline)" if self.baseline else "")
+            + (f" (retried {self.retries}×)" if self.retries else "")
+        )
+
+    @property
     def reproduce(self) -> str:
         """The command that reruns this DTC alone, with its allowances and baseline."""
         return _rerun(self.spec)
