@@ -8,7 +8,7 @@ import pytest
 
 from beatlog.errors import SpecError
 from beatlog.replay.compare import Comparison
-from beatlog.suite.spec import DtcSpec, discover_specs, load_spec, select_specs
+from beatlog.suite.spec import DtcSpec, discover_specs, load_spec, select_specs, spec_text
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec
 
@@ -318,3 +318,28 @@ def test_tags_select_specs_that_carry_every_tag() -> None:
 
 def test_a_pattern_and_tags_both_apply() -> None:
     assert names(select_specs(SUITE, pattern="dock", tags=["night"])) == ["dock-at-night"]
+
+
+def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
+    text = spec_text(
+        name='tip "over"\x7f',
+        purpose="Tipped to 60°.",
+        procedure=["Put it down.", "Tip it\tover."],
+        log="tip-over.beatlog",
+        system="myrobot:system",
+        tags=["touch", "falls"],
+        perception="myrobot:perception",
+    )
+    path = tmp_path / "tip.dtc.toml"
+    path.write_text(text, encoding="utf-8")
+
+    spec = load_spec(path)
+
+    assert (spec.name, spec.purpose) == ('tip "over"\x7f', "Tipped to 60°.")
+    assert list(spec.procedure) == ["Put it down.", "Tip it\tover."]
+    assert (spec.log, spec.system, spec.perception) == (
+        tmp_path / "tip-over.beatlog",
+        "myrobot:system",
+        "myrobot:perception",
+    )
+    assert list(spec.tags) == ["touch", "falls"]

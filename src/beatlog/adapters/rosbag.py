@@ -24,7 +24,6 @@ behavior state changes it made.
 from __future__ import annotations
 
 import itertools
-import json
 import os
 import statistics
 from collections.abc import Iterable, Iterator, Sequence
@@ -52,6 +51,7 @@ from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
 from beatlog.record.recorder import Recorder
+from beatlog.suite.spec import spec_text
 from beatlog.usercode import failure_site, load_perception, load_system, user_traceback
 
 if TYPE_CHECKING:
@@ -412,25 +412,16 @@ def _plain(value: Any) -> Any:
 
 def _write_spec(spec: Path, log: Path, bag: Path, *, system: str, perception: str) -> None:
     """A DTC spec for the imported log, replaying it at sensor level."""
-    name = log.name.removesuffix(".beatlog")
-    keys: dict[str, str | list[str]] = {
-        "name": name,
-        "purpose": f"The system replays the ROS bag {bag.name} as imported.",
-        "procedure": [f"Imported from the ROS bag {bag.name} with beatlog import-bag."],
-        "log": os.path.relpath(log.resolve(), spec.resolve().parent),
-        "system": system,
-        "perception": perception,
-    }
-    text = "".join(f"{key} = {_toml(value)}\n" for key, value in keys.items())
+    text = spec_text(
+        name=log.name.removesuffix(".beatlog"),
+        purpose=f"The system replays the ROS bag {bag.name} as imported.",
+        procedure=[f"Imported from the ROS bag {bag.name} with beatlog import-bag."],
+        log=os.path.relpath(log.resolve(), spec.resolve().parent),
+        system=system,
+        perception=perception,
+    )
     try:
         with replacing(spec) as file:
             file.write(text.encode())
     except OSError as exc:
         raise SpecError(spec, f"cannot write: {exc.strerror}") from None
-
-
-def _toml(value: str | list[str]) -> str:
-    """A TOML basic string (or an array of them): JSON's escapes, DEL escaped too."""
-    if isinstance(value, list):
-        return "[" + ", ".join(map(_toml, value)) + "]"
-    return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")

@@ -8,7 +8,7 @@ the system factory to replay it against::
     purpose = "The rover turns away from a pole in its path."
     procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
     log = "avoid-pole.beatlog"            # relative to this file
-    system = "beatlog_examples.rover:system"  # optional: by default, the log's own
+    system = "myrobot.behaviors:system"   # optional: by default, the log's own
     tags = ["obstacles"]
     allow_truncated = false
     renames = { avoid = "avoid_obstacle" }  # behaviors renamed since recording: old = new
@@ -28,6 +28,7 @@ Renames that hold for every spec go into the project's ``pyproject.toml``, under
 from __future__ import annotations
 
 import functools
+import json
 import math
 import re
 import tomllib
@@ -43,7 +44,14 @@ from beatlog.files import irregular_file_problem, project_root
 from beatlog.replay.compare import Comparison
 from beatlog.suite.keywords import KeywordExpression
 
-__all__ = ["SPEC_SUFFIX", "DtcSpec", "discover_specs", "load_spec", "select_specs"]
+__all__ = [
+    "SPEC_SUFFIX",
+    "DtcSpec",
+    "discover_specs",
+    "load_spec",
+    "select_specs",
+    "spec_text",
+]
 
 SPEC_SUFFIX = ".dtc.toml"
 MAX_SPEC_BYTES = 1 << 20
@@ -246,3 +254,34 @@ def select_specs(
         for spec in specs
         if expression.matches(spec.name, spec.tags) and set(tags) <= set(spec.tags)
     ]
+
+
+def spec_text(
+    *,
+    name: str,
+    purpose: str,
+    procedure: Iterable[str],
+    log: str,
+    system: str,
+    tags: Iterable[str] = (),
+    perception: str | None = None,
+) -> str:
+    """A new spec as TOML text, for tools that write one beside a recording (``beatlog
+    import-bag --spec``, a suite's recording script); ``log`` is relative to the spec."""
+    lines = [
+        f"name = {_toml_string(name)}",
+        f"purpose = {_toml_string(purpose)}",
+        "procedure = [",
+        *(f"    {_toml_string(step)}," for step in procedure),
+        "]",
+        f"log = {_toml_string(log)}",
+        f"system = {_toml_string(system)}",
+        *([] if perception is None else [f"perception = {_toml_string(perception)}"]),
+        f"tags = [{', '.join(map(_toml_string, tags))}]",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string: JSON's escapes, and DEL escaped too (TOML forbids it bare)."""
+    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")

@@ -22,8 +22,8 @@ import numpy as np
 
 from beatlog import Recorder
 from beatlog.model.context import Outputs
+from beatlog.suite import spec
 from beatlog.suite.spec import SPEC_SUFFIX
-from beatlog_examples import specs
 from beatlog_examples.trees import SUITE_DIR
 from beatlog_examples.trees.patrol import PatrolState, system
 
@@ -141,7 +141,7 @@ def record(log: Path, scenario: Scenario) -> int:
 
 def spec_text(scenario: Scenario, log: str) -> str:
     """The ``*.dtc.toml`` for a scenario's recording."""
-    return specs.spec_text(
+    return spec.spec_text(
         name=scenario.name,
         purpose=scenario.purpose,
         procedure=scenario.procedure(),
