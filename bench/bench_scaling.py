@@ -28,7 +28,7 @@ from rich.table import Table
 from beatlog_examples.dog import SUITE_DIR
 from beatlog_examples.rover import record_lockstep
 from bench_dask import run_suite
-from bench_suite import SYSTEM
+from bench_suite import bench_spec
 
 DURATION_S = 1050.0
 """Robot time of each spec's log: 17.5 minutes, 35,000 cycles at 30 ms."""
@@ -49,11 +49,8 @@ def long_suite(root: Path, specs: int) -> Path:
     folder.mkdir()
     for index in range(specs):
         shutil.copyfile(log, folder / f"rover-{index:02}.beatlog")
-        (folder / f"rover-{index:02}.dtc.toml").write_text(
-            f'name = "rover-{index:02}"\npurpose = "bench"\nprocedure = ["lockstep rover"]\n'
-            f'log = "rover-{index:02}.beatlog"\nsystem = "{SYSTEM}"\n',
-            encoding="utf-8",
-        )
+        spec = bench_spec(f"rover-{index:02}", f"rover-{index:02}.beatlog")
+        (folder / f"rover-{index:02}.dtc.toml").write_text(spec, encoding="utf-8")
     return folder
 
 

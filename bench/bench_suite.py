@@ -28,7 +28,7 @@ from rich.console import Console
 from rich.table import Table
 
 from beatlog.suite.runner import run_spec
-from beatlog.suite.spec import load_spec
+from beatlog.suite.spec import load_spec, spec_text
 from beatlog_examples.rover import record_lockstep
 
 SYSTEM = "beatlog_examples.rover:system"
@@ -37,16 +37,19 @@ DURATION_S = 1050.0
 REPEATS = 5
 
 
+def bench_spec(name: str, log: str) -> str:
+    """The spec of one benchmark DTC: a lockstep rover log against the rover's system."""
+    return spec_text(
+        name=name, purpose="bench", procedure=["lockstep rover"], log=log, system=SYSTEM
+    )
+
+
 def write_specs(folder: Path, log: Path, count: int) -> list[Path]:
     folder.mkdir(parents=True)
     paths = []
     for index in range(count):
         path = folder / f"dtc-{index:02}.dtc.toml"
-        path.write_text(
-            f'name = "dtc-{index:02}"\npurpose = "bench"\nprocedure = ["lockstep rover"]\n'
-            f'log = "{os.path.relpath(log, folder)}"\nsystem = "{SYSTEM}"\n',
-            encoding="utf-8",
-        )
+        path.write_text(bench_spec(f"dtc-{index:02}", os.path.relpath(log, folder)), "utf-8")
         paths.append(path)
     return paths
 
