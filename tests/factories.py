@@ -33,6 +33,12 @@ MAGIC_LENGTH = 8
 RECORD_HEAD = 9
 
 
+class Gauge(msgspec.Struct, kw_only=True):
+    """The robot state of crafted logs: each cycle's state is ``{"level": 1.0}``."""
+
+    level: float = 0.0
+
+
 def session_header(**changes: Any) -> SessionHeader:
     """A valid header of the current format; ``changes`` replace any of its fields."""
     fields: dict[str, Any] = {

@@ -44,7 +44,12 @@ from mcap.records import (
 )
 
 from beatlog.closing import Closing
-from beatlog.errors import CorruptLogError, NotABeatlogError, UnsupportedVersionError
+from beatlog.errors import (
+    CorruptLogError,
+    NotABeatlogError,
+    SchemaMismatchError,
+    UnsupportedVersionError,
+)
 from beatlog.files import irregular_file_problem
 from beatlog.log.format import (
     CYCLE_BATCH_SINCE,
@@ -152,9 +157,11 @@ class SessionLogReader(Closing):
             self.close()
             raise
         self.format_version = self.header.format_version
-        self._batch_decoder: Any = msgspec.msgpack.Decoder(
+        self._raw_batches: Any = msgspec.msgpack.Decoder(
             CycleBatch if self.format_version >= CYCLE_BATCH_SINCE else list[CycleRecord]
         )
+        self._batch_decoder: Any = self._raw_batches
+        self._state_type: type[Any] | None = None
 
     @property
     def status(self) -> LogStatus:
@@ -182,6 +189,33 @@ class SessionLogReader(Closing):
                 self._read_end(message)
             else:
                 raise CorruptLogError(self.path, "a second session header")
+
+    def decode_states(self, state_type: type[Any]) -> None:
+        """Decode each cycle's RS_t into ``state_type`` from the next batch on, with the
+        batch itself: the records' ``robot_state`` is then the decoded state, not its bytes.
+
+        Decoding in the same pass as the batch reads every robot state once instead of
+        skipping it and decoding it again. A robot state that does not fit the type is a
+        :class:`~beatlog.errors.SchemaMismatchError` naming its cycle.
+        """
+        record: Any = msgspec.defstruct(
+            "DecodedCycleRecord",
+            [("robot_state", state_type)],
+            bases=(CycleRecord,),
+            array_like=True,
+        )
+        batch: Any = (
+            msgspec.defstruct(
+                "DecodedCycleBatch",
+                [("cycles", list[record])],
+                bases=(CycleBatch,),
+                array_like=True,
+            )
+            if self.format_version >= CYCLE_BATCH_SINCE
+            else list[record]
+        )
+        self._batch_decoder = msgspec.msgpack.Decoder(batch)
+        self._state_type = state_type
 
     def cycles(self) -> Iterator[CycleRecord]:
         """Yield every cycle in order."""
@@ -255,7 +289,7 @@ class SessionLogReader(Closing):
         try:
             decoded = self._batch_decoder.decode(message.data)
         except DECODE_ERRORS as exc:
-            raise CorruptLogError(self.path, f"damaged {where}: {exc}") from None
+            raise self._batch_problem(message.data, where, exc) from None
         if isinstance(decoded, CycleBatch):
             if decoded.first_cycle != self._cycles:
                 raise CorruptLogError(
@@ -278,6 +312,27 @@ class SessionLogReader(Closing):
         self._cycles += len(batch)
         self._robot_time_ns += sum([cycle.heartbeat_ns for cycle in batch])
         return batch
+
+    def _batch_problem(self, data: bytes, where: str, exc: Exception) -> Exception:
+        """What is wrong with a batch that did not decode: the batch is damaged, or (when
+        robot states are decoded with it) a cycle's robot state does not fit its type."""
+        try:
+            decoded = self._raw_batches.decode(data)
+        except DECODE_ERRORS:
+            return CorruptLogError(self.path, f"damaged {where}: {exc}")
+        state_type = self._state_type
+        records = decoded.cycles if isinstance(decoded, CycleBatch) else decoded
+        for index, record in enumerate(records):
+            try:
+                msgspec.msgpack.decode(record.robot_state, type=state_type)
+            except DECODE_ERRORS as misfit:
+                assert state_type is not None  # raw batches decoded above
+                return SchemaMismatchError(
+                    self.path,
+                    f"robot state of cycle {self._cycles + index} does not fit "
+                    f"{state_type.__name__}: {misfit}",
+                )
+        return CorruptLogError(self.path, f"damaged {where}: {exc}")
 
     def _read_end(self, message: Message) -> None:
         end = self._decode(message.data, SessionEnd, "end record")

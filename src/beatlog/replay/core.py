@@ -46,7 +46,8 @@ class CycleOutcome(NamedTuple):
     time_ns: int
     """Robot time at the end of the cycle."""
     record: CycleRecord
-    """The recorded cycle: HB_t, RS_t, BS_t, RN_t and outputs, still encoded."""
+    """The recorded cycle: HB_t, RS_t, BS_t, RN_t and outputs, still encoded (RS_t
+    decoded where the reader decoded it with the batch)."""
     state: Any
     """RS_t as the behaviors saw it."""
     changes: list[StateChangeRecord] | None
@@ -233,7 +234,9 @@ class Replayer:
                 # Sensor-level replay decodes the recorded RS_t only where it is needed:
                 # the rebuilt one encodes to other bytes, perception fails, or a break.
                 if perception is None or context.cycle + 1 == break_at:
-                    state = recorded_state(record, context.cycle + 1)
+                    state = record.robot_state  # decoded with the batch, or still bytes
+                    if state.__class__ is msgspec.Raw:
+                        state = recorded_state(record, context.cycle + 1)
                 if context.cycle + 1 == break_at:
                     self._pause(context.cycle + 1, state, record)
                 if perception is None:
@@ -293,12 +296,17 @@ class Replayer:
         return _Sensed(recorded, differs, None, samples)
 
     def _recorded_state(self, record: CycleRecord, cycle: int) -> Any:
-        """RS_t of ``cycle`` as the log holds it, decoded for the system's robot state type.
+        """RS_t of ``cycle`` as the log holds it, decoded for the system's robot state type
+        (the reader may have decoded it with the batch:
+        :meth:`~beatlog.log.reader.SessionLogReader.decode_states`).
 
         :raises beatlog.errors.SchemaMismatchError: it does not fit the type.
         """
+        state = record.robot_state
+        if state.__class__ is not msgspec.Raw:
+            return state
         try:
-            return self._state(record.robot_state)
+            return self._state(state)
         except DECODE_ERRORS as exc:
             raise SchemaMismatchError(
                 self.path,

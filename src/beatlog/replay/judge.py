@@ -129,6 +129,10 @@ def replay(
             break_at=break_at,
             observe=observe,
         )
+        if judge.replayer.perception is None and observe is None:
+            # State-level replay without observers needs RS_t decoded, and only that:
+            # decoded with each batch, it is read once (the log fits: checked above).
+            reader.decode_states(system.robot_state)
         started = time.perf_counter()
         status = None
         batches = judge.expected_batches(reader.batches())
