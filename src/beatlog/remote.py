@@ -80,8 +80,8 @@ def log_size(url: str) -> int | None:
     filesystem, path = url_filesystem(url)
     try:
         size = filesystem.size(path)
-    except FileNotFoundError:
-        raise RemoteLogError(url, "no such log") from None
+    except FileNotFoundError as exc:
+        raise _not_found(url, exc, "cannot read its size") from None
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
         raise RemoteLogError(url, f"cannot read its size: {_first_line(exc)}") from None
     return None if size is None else int(size)
@@ -101,12 +101,21 @@ def _copy(filesystem: Any, path: str, copy: Path, url: str, max_bytes: int) -> N
                 if copied > max_bytes:  # a size the listing got wrong
                     raise RemoteLogError(url, too_big)
                 target.write(block)
-    except FileNotFoundError:
-        raise RemoteLogError(url, "no such log") from None
+    except FileNotFoundError as exc:
+        raise _not_found(url, exc, "cannot copy") from None
     except RemoteLogError:
         raise
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
         raise RemoteLogError(url, f"cannot copy: {_first_line(exc)}") from None
+
+
+def _not_found(url: str, exc: FileNotFoundError, doing: str) -> RemoteLogError:
+    """A log not found, or, where the filesystem says so of a server it cannot reach
+    (fsspec's HTTP does), what stopped it."""
+    cause = exc.__cause__
+    if cause is None or isinstance(cause, FileNotFoundError) or getattr(cause, "status", 0) == 404:
+        return RemoteLogError(url, "no such log")
+    return RemoteLogError(url, f"{doing}: {_first_line(cause)}")
 
 
 def _first_line(exc: BaseException) -> str:
