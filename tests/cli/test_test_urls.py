@@ -98,3 +98,18 @@ def test_coverage_reads_logs_behind_urls_too(
     assert run.code == 0, run.err
     assert "near" in run.out
     assert served.downloads("dock.beatlog") == 2  # the replay's copy, then coverage's
+
+
+def test_a_log_behind_a_url_that_is_no_log_is_named_by_its_url(
+    beatlog: Beatlog, served: LogServer, suite: Path
+) -> None:
+    (served.folder / "broken.beatlog").write_bytes(b"not a log")
+    write_spec(suite, "broken", f"{served.url}/broken.beatlog")
+
+    run = beatlog("test", suite / "broken.dtc.toml")
+
+    assert run.code == 2
+    assert run.err.startswith(
+        f"beatlog: error: broken ({suite / 'broken.dtc.toml'}): {served.url}/broken.beatlog: "
+    )
+    assert "beatlog-remote-" not in run.err
