@@ -17,6 +17,7 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
+from tests.served import LogServer, serve
 
 pytest_plugins = ["pytester"]
 
@@ -109,6 +110,17 @@ def record_probe(tmp_path: Path) -> RecordFn:
         return path
 
     return record
+
+
+@pytest.fixture
+def served(tmp_path: Path, record_probe: RecordFn) -> Iterator[LogServer]:
+    """``served/`` with two probe sessions, ``dock.beatlog`` (300 cycles) and
+    ``yard.beatlog`` (200), served over HTTP on the loopback."""
+    (tmp_path / "served").mkdir()
+    record_probe(300, name="served/dock.beatlog")
+    record_probe(200, name="served/yard.beatlog")
+    with serve(tmp_path / "served") as server:
+        yield server
 
 
 @pytest.fixture

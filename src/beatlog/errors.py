@@ -18,6 +18,7 @@ __all__ = [
     "LogExistsError",
     "NotABeatlogError",
     "OptionError",
+    "RemoteLogError",
     "SchemaMismatchError",
     "SpecError",
     "SystemLoadError",
@@ -93,6 +94,16 @@ class FieldError(BeatlogError):
 class FleetError(BeatlogError):
     """The logs of a fleet run cannot be found or fetched; the message names the pattern
     or the log."""
+
+
+class RemoteLogError(BeatlogError):
+    """A log behind a URL that cannot be fetched: fsspec is not installed, or the log is
+    missing, unreachable or too large; the message names the URL and the problem."""
+
+    def __init__(self, url: str, problem: str) -> None:
+        self.url = url
+        self.problem = problem
+        super().__init__(f"{url}: {problem}")
 
 
 class ClusterError(BeatlogError):

@@ -36,7 +36,13 @@ def log(tmp_path: Path) -> Path:
 
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES, ()))
+    write_baseline(
+        path,
+        spec_name="a",
+        log_name=log.name,
+        digest=log_digest(log),
+        expectation=Expectation(CHANGES, ()),
+    )
 
     baseline = read_baseline(path)
 
@@ -54,7 +60,13 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES[:2], ()))
+    write_baseline(
+        path,
+        spec_name="a",
+        log_name=log.name,
+        digest=log_digest(log),
+        expectation=Expectation(CHANGES[:2], ()),
+    )
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -68,7 +80,13 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(path, spec_name="a", log=log, expectation=Expectation((), ()))
+    write_baseline(
+        path,
+        spec_name="a",
+        log_name=log.name,
+        digest=log_digest(log),
+        expectation=Expectation((), ()),
+    )
     assert read_baseline(path).changes == ()
 
 
@@ -150,7 +168,13 @@ def test_an_output_value_reads_back_bit_for_bit(
 ) -> None:
     path = tmp_path / "a.dtc.expected"
     outputs = (TracedOutput(5, 180_000_000, "motor", value),)
-    write_baseline(path, spec_name="a", log=log, expectation=Expectation((), outputs))
+    write_baseline(
+        path,
+        spec_name="a",
+        log_name=log.name,
+        digest=log_digest(log),
+        expectation=Expectation((), outputs),
+    )
 
     assert path.read_text(encoding="utf-8").splitlines()[-1] == (
         f'       5     0.180  output "motor" = {written}'
@@ -167,7 +191,13 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         TracedOutput(12, 360_012_000, "speed", 0.0),
         TracedOutput(13, 390_000_000, "speed", ABSENT),
     )
-    write_baseline(path, spec_name="a", log=log, expectation=Expectation(CHANGES[:2], outputs))
+    write_baseline(
+        path,
+        spec_name="a",
+        log_name=log.name,
+        digest=log_digest(log),
+        expectation=Expectation(CHANGES[:2], outputs),
+    )
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -198,7 +228,9 @@ def test_robot_state_fields_come_first_in_their_cycle_and_read_back_bit_for_bit(
     )
     outputs = (TracedOutput(12, 360_012_000, "speed", 0.0),)
     expectation = Expectation(CHANGES[1:2], outputs, states)
-    write_baseline(path, spec_name="a", log=log, expectation=expectation)
+    write_baseline(
+        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
+    )
 
     lines = path.read_text(encoding="utf-8").splitlines()
 

@@ -1,14 +1,12 @@
 """Suites on a Dask cluster (``beatlog test --dask``): a real ``LocalCluster`` of worker
-processes gives the verdicts, reports and exit codes of a local run, reads fleet logs
-by URL on the workers, retries a DTC whose worker died, and cancels on Ctrl-C."""
+processes gives the verdicts, reports and exit codes of a local run, downloads the logs
+behind URLs (fleet and spec logs) on the workers alone, retries a DTC whose worker died,
+and cancels on Ctrl-C."""
 
 from __future__ import annotations
 
-import functools
-import http.server
 import logging
 import socket
-import threading
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -18,13 +16,14 @@ import pytest
 from distributed import Client, LocalCluster
 
 from beatlog.cli.main import main
-from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor, judge
+from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor
 from beatlog.suite.policy import SpecOptions
-from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.spec import DtcSpec, discover_specs
+from beatlog.suite.runner import SpecOutcome
+from beatlog.suite.spec import discover_specs
 from tests.commands import Run, assert_one_line_error
 from tests.conftest import RecordFn
-from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.served import LogServer
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
 DYING = "tests.conftest:dying_system"
 
@@ -113,57 +112,46 @@ def test_local_n_starts_a_cluster_of_n_worker_processes_for_the_run(
     assert run.out.splitlines()[-1].startswith("2 passed, 0 failed")
 
 
-@pytest.fixture
-def served(tmp_path: Path, record_probe: RecordFn) -> Iterator[str]:
-    """A folder of two logs served over HTTP on the loopback; the URL of the folder."""
-    folder = tmp_path / "served"
-    folder.mkdir()
-    record_probe(300, name="served/dock.beatlog")
-    record_probe(200, name="served/yard.beatlog")
-
-    class Quiet(http.server.SimpleHTTPRequestHandler):
-        def log_message(self, format: str, *args: object) -> None:
-            """Serve without a line on stderr per request."""
-
-    handler = functools.partial(Quiet, directory=str(folder))
-    with http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler) as server:
-        thread = threading.Thread(target=server.serve_forever, daemon=True)
-        thread.start()
-        yield f"http://127.0.0.1:{server.server_address[1]}"
-        server.shutdown()
-        thread.join()
-
-
-def test_fleet_logs_behind_an_http_url_are_replayed_on_the_cluster(
-    beatlog: Callable[..., Run], cluster: str, served: str
+def test_fleet_logs_behind_an_http_url_are_downloaded_once_each_by_the_workers(
+    beatlog: Callable[..., Run], cluster: str, served: LogServer
 ) -> None:
-    run = beatlog("test", "--logs", f"{served}/*.beatlog", "--system", CHANGED, "--dask", cluster)
+    url = served.url
+    run = beatlog("test", "--logs", f"{url}/*.beatlog", "--system", CHANGED, "--dask", cluster)
 
     assert run.code == 1, run.err
     assert run.out.splitlines()[-1].startswith("0 passed, 2 failed")
-    assert f"reproduce: beatlog test --logs {served}/dock.beatlog --system {CHANGED}" in run.out
+    assert f"reproduce: beatlog test --logs {url}/dock.beatlog --system {CHANGED}" in run.out
+    assert [served.downloads(name) for name in ("dock.beatlog", "yard.beatlog")] == [1, 1]
 
 
-def url_spec(url: str) -> DtcSpec:
-    """A fleet DTC of a log behind a URL, with no copy of it on this machine."""
-    nowhere = Path("/nowhere/dock.beatlog")
-    return DtcSpec(nowhere, "dock", "fleet log", (), nowhere, PROBE, source=url)
+def test_a_spec_whose_log_is_a_url_gets_the_verdict_of_a_local_run(
+    beatlog: Callable[..., Run], cluster: str, served: LogServer, tmp_path: Path
+) -> None:
+    folder = tmp_path / "suite"
+    write_spec(folder, "dock", f"{served.url}/dock.beatlog")
+    write_spec(folder, "yard", f"{served.url}/yard.beatlog", CHANGED)
+
+    local = beatlog("test", folder, "-j", "1", "--junit-xml", tmp_path / "local.xml")
+    local_downloads = served.downloads("dock.beatlog")
+    remote = beatlog("test", folder, "--dask", cluster, "--junit-xml", tmp_path / "dask.xml")
+
+    assert remote.code == local.code == 1, remote.err
+    assert [run.out.splitlines()[-1][:18] for run in (local, remote)] == ["1 passed, 1 failed"] * 2
+    assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
+    assert f"reproduce: beatlog test {folder / 'yard.dtc.toml'}" in remote.out
+    assert (local_downloads, served.downloads("dock.beatlog")) == (1, 2)
 
 
-def test_a_worker_copies_a_log_behind_a_url_itself(served: str) -> None:
-    outcome = judge(url_spec(f"{served}/dock.beatlog"), SpecOptions())
+def test_a_spec_whose_log_is_not_found_is_an_error_of_its_dtc(
+    beatlog: Callable[..., Run], cluster: str, served: LogServer, tmp_path: Path
+) -> None:
+    spec = write_spec(tmp_path / "suite", "lost", f"{served.url}/lost.beatlog")
 
-    assert outcome.verdict is Verdict.PASSED, outcome.error
-    assert outcome.result is not None
-    assert outcome.result.cycles == 300
+    run = beatlog("test", spec, "--dask", cluster)
 
-
-def test_a_log_that_a_worker_cannot_copy_is_an_error_of_its_dtc(served: str) -> None:
-    outcome = judge(url_spec(f"{served}/lost.beatlog"), SpecOptions())
-
-    assert outcome.verdict is Verdict.ERROR
-    assert outcome.error is not None
-    assert f"{served}/lost.beatlog: cannot copy" in outcome.error
+    assert run.code == 2
+    assert run.err == f"beatlog: error: lost ({spec}): {served.url}/lost.beatlog: no such log\n"
+    assert run.out.splitlines()[-1].startswith("0 passed, 0 failed, 1 error")
 
 
 def write_dying_once(folder: Path, marker: Path) -> str:

@@ -1,5 +1,5 @@
 """Fleet runs as a library: a DTC per log that matches a glob or an fsspec URL, judged
-against its recording, the logs behind a URL copied for the run and removed after it."""
+against its recording; the logs behind a URL are listed, not copied, until replayed."""
 
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ from beatlog.suite.maintenance import update_baselines
 from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import Verdict, run_suite
 from tests.conftest import RecordFn
+from tests.served import LogServer
 from tests.specs import CHANGED, PROBE
 
 
@@ -41,19 +42,20 @@ def memory(logs: Path) -> Iterator[str]:
 
 
 def test_each_matching_log_becomes_a_dtc_named_after_its_file(logs: Path) -> None:
-    with fleet_specs(f"{logs}/**/*.beatlog", system=PROBE) as specs:
-        assert [spec.name for spec in specs] == ["monday", "dock"]
-        [monday, dock] = specs
-        assert monday.log == monday.path == logs / "monday.beatlog"
-        assert monday.source == str(logs / "monday.beatlog")
-        assert dock.log == logs / "tuesday" / "dock.beatlog"
-        assert (monday.purpose, monday.procedure) == (FLEET_PURPOSE, ())
-        assert (monday.system, monday.perception, monday.tags) == (PROBE, None, ())
+    specs = fleet_specs(f"{logs}/**/*.beatlog", system=PROBE)
+
+    assert [spec.name for spec in specs] == ["monday", "dock"]
+    [monday, dock] = specs
+    assert monday.log == monday.path == logs / "monday.beatlog"
+    assert monday.source == monday.origin == str(logs / "monday.beatlog")
+    assert monday.log_url is None
+    assert dock.log == logs / "tuesday" / "dock.beatlog"
+    assert (monday.purpose, monday.procedure) == (FLEET_PURPOSE, ())
+    assert (monday.system, monday.perception, monday.tags) == (PROBE, None, ())
 
 
 def test_a_fleet_run_judges_each_log_against_its_recording(logs: Path) -> None:
-    with fleet_specs(f"{logs}/*.beatlog", system=PROBE) as specs:
-        outcomes = run_suite(specs)
+    outcomes = run_suite(fleet_specs(f"{logs}/*.beatlog", system=PROBE))
 
     assert [(o.spec.name, o.verdict) for o in outcomes] == [("monday", Verdict.PASSED)]
 
@@ -62,8 +64,7 @@ def test_a_fleet_log_ignores_files_beside_it_that_a_spec_would_read(logs: Path) 
     log = logs / "monday.beatlog"
     expected_path(log).write_text("not a baseline", encoding="utf-8")
 
-    with fleet_specs(str(log), system=CHANGED) as specs:
-        [outcome] = run_suite(specs, update=UpdateMode.NEW)
+    [outcome] = run_suite(fleet_specs(str(log), system=CHANGED), update=UpdateMode.NEW)
 
     assert outcome.verdict is Verdict.FAILED
     assert outcome.baseline is None
@@ -72,8 +73,7 @@ def test_a_fleet_log_ignores_files_beside_it_that_a_spec_would_read(logs: Path) 
 
 
 def test_a_failing_fleet_log_is_rerun_by_a_fleet_run_of_that_log(logs: Path) -> None:
-    with fleet_specs(f"{logs}/*.beatlog", system=CHANGED) as specs:
-        [outcome] = run_suite(specs)
+    [outcome] = run_suite(fleet_specs(f"{logs}/*.beatlog", system=CHANGED))
 
     assert outcome.result is not None
     assert (
@@ -82,8 +82,7 @@ def test_a_failing_fleet_log_is_rerun_by_a_fleet_run_of_that_log(logs: Path) -> 
 
 
 def test_the_rerun_command_keeps_the_perception_step(logs: Path) -> None:
-    with fleet_specs(f"{logs}/*.beatlog", system=CHANGED, perception="a.b:c") as specs:
-        [outcome] = run_suite(specs)
+    [outcome] = run_suite(fleet_specs(f"{logs}/*.beatlog", system=CHANGED, perception="a.b:c"))
 
     assert outcome.reproduce == (
         f"beatlog test --logs {logs}/monday.beatlog --system {CHANGED} --perception a.b:c"
@@ -96,53 +95,53 @@ def test_a_log_name_with_glob_characters_is_escaped_in_the_rerun_command(
     odd = logs / "run[1].beatlog"
     (logs / "monday.beatlog").rename(odd)
 
-    with fleet_specs(f"{logs}/*.beatlog", system=CHANGED) as specs:
-        [outcome] = run_suite(specs)
+    [outcome] = run_suite(fleet_specs(f"{logs}/*.beatlog", system=CHANGED))
 
     assert outcome.reproduce == (
         f"beatlog test --logs '{logs}/run[[]1].beatlog' --system {CHANGED}"
     )
 
 
-def test_logs_behind_a_url_are_copied_for_the_run_and_removed_after_it(memory: str) -> None:
-    with fleet_specs(f"{memory}/**/*.beatlog", system=PROBE) as specs:
-        assert [spec.name for spec in specs] == ["monday", "dock"]
-        assert [spec.source for spec in specs] == [
-            f"{memory}/monday.beatlog",
-            f"{memory}/tuesday/dock.beatlog",
-        ]
-        assert all(spec.log.is_file() for spec in specs)
-        outcomes = run_suite(specs)
-        copies = [spec.log for spec in specs]
+def test_logs_behind_a_url_are_listed_not_copied_and_replayed_from_copies(
+    memory: str,
+) -> None:
+    specs = fleet_specs(f"{memory}/**/*.beatlog", system=PROBE)
 
+    assert [spec.name for spec in specs] == ["monday", "dock"]
+    assert [spec.log_url for spec in specs] == [
+        f"{memory}/monday.beatlog",
+        f"{memory}/tuesday/dock.beatlog",
+    ]
+    assert [spec.source for spec in specs] == [spec.log_url for spec in specs]
+    assert [spec.log for spec in specs] == [Path("monday.beatlog"), Path("dock.beatlog")]
+    outcomes = run_suite(specs)
     assert [outcome.verdict for outcome in outcomes] == [Verdict.PASSED] * 2
-    assert not any(copy.exists() for copy in copies)
+    assert [outcome.spec for outcome in outcomes] == specs
+
+
+def test_listing_logs_behind_an_http_url_downloads_none(served: LogServer) -> None:
+    specs = fleet_specs(f"{served.url}/*.beatlog", system=PROBE)
+
+    assert [spec.log_url for spec in specs] == [
+        f"{served.url}/dock.beatlog",
+        f"{served.url}/yard.beatlog",
+    ]
+    assert [served.downloads(name) for name in ("dock.beatlog", "yard.beatlog")] == [0, 0]
 
 
 def test_a_file_url_reads_the_local_folder(logs: Path) -> None:
-    with fleet_specs(f"file://{logs}/*.beatlog", system=PROBE) as specs:
-        assert [spec.source for spec in specs] == [f"file://{logs}/monday.beatlog"]
-        assert [outcome.verdict for outcome in run_suite(specs)] == [Verdict.PASSED]
+    specs = fleet_specs(f"file://{logs}/*.beatlog", system=PROBE)
 
-
-def test_a_log_behind_a_url_larger_than_the_limit_is_refused(memory: str) -> None:
-    with (
-        pytest.raises(FleetError) as raised,
-        fleet_specs(f"{memory}/*.beatlog", system=PROBE, max_log_bytes=100),
-    ):
-        pass
-
-    assert str(raised.value) == (
-        f"{memory}/monday.beatlog: larger than the 100 bytes a fleet log may have"
-    )
+    assert [spec.source for spec in specs] == [f"file://{logs}/monday.beatlog"]
+    assert [outcome.verdict for outcome in run_suite(specs)] == [Verdict.PASSED]
 
 
 @pytest.mark.parametrize("where", ["local", "url"])
 def test_a_pattern_that_matches_no_log_is_named(logs: Path, memory: str, where: str) -> None:
     pattern = f"{logs if where == 'local' else memory}/*.mcap"
 
-    with pytest.raises(FleetError) as raised, fleet_specs(pattern, system=PROBE):
-        pass
+    with pytest.raises(FleetError) as raised:
+        fleet_specs(pattern, system=PROBE)
 
     assert str(raised.value) == f"--logs {pattern}: no log matches"
 
@@ -152,20 +151,17 @@ def test_a_url_without_fsspec_says_what_to_install(monkeypatch: pytest.MonkeyPat
         monkeypatch.setitem(sys.modules, name, None)
     monkeypatch.setitem(sys.modules, "fsspec", None)
 
-    with pytest.raises(FleetError) as raised, fleet_specs("s3://bucket/*.beatlog", system=PROBE):
-        pass
+    with pytest.raises(FleetError) as raised:
+        fleet_specs("s3://bucket/*.beatlog", system=PROBE)
 
     assert str(raised.value) == (
         '--logs s3://bucket/*.beatlog: a URL needs fsspec (pip install "beatlog[fleet]")'
     )
 
 
-def test_an_unknown_url_scheme_cannot_be_listed() -> None:
-    with (
-        pytest.raises(FleetError, match=r"^--logs nowhere://x/\*: cannot list: "),
-        fleet_specs("nowhere://x/*", system=PROBE),
-    ):
-        pass
+def test_an_unknown_url_scheme_cannot_be_opened() -> None:
+    with pytest.raises(FleetError, match=r"^--logs nowhere://x/\*: cannot open: "):
+        fleet_specs("nowhere://x/*", system=PROBE)
 
 
 @pytest.mark.parametrize(
@@ -178,10 +174,7 @@ def test_an_unknown_url_scheme_cannot_be_listed() -> None:
 def test_a_system_reference_without_a_factory_is_refused(
     logs: Path, system: str, perception: str | None, problem: str
 ) -> None:
-    with (
-        pytest.raises(FleetError) as raised,
-        fleet_specs(f"{logs}/*.beatlog", system=system, perception=perception),
-    ):
-        pass
+    with pytest.raises(FleetError) as raised:
+        fleet_specs(f"{logs}/*.beatlog", system=system, perception=perception)
 
     assert str(raised.value) == problem

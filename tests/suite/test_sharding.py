@@ -9,11 +9,12 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.errors import OptionError
+from beatlog.errors import OptionError, RemoteLogError
 from beatlog.log.reader import recorded_cycles
 from beatlog.suite.sharding import Shard, longest_first, shard, split
 from beatlog.suite.spec import DtcSpec, discover_specs
 from tests.conftest import RecordFn
+from tests.served import LogServer
 from tests.specs import write_spec
 
 CYCLES = {
@@ -115,6 +116,37 @@ def test_workers_take_the_longest_recordings_first_ties_in_suite_order(
     assert sorted(names(ordered)) == sorted(CYCLES)
     assert [recorded_cycles(spec.log) for spec in ordered] == sorted(CYCLES.values(), reverse=True)
     assert names(ordered)[4:8] == ["gap", "hallway", "junction", "back-off"]
+
+
+def url_suite(served: LogServer, tmp_path: Path, record_probe: RecordFn) -> list[DtcSpec]:
+    """Three specs by path: a log behind a URL (200 cycles), another (300), and the
+    longest here (600)."""
+    specs = tmp_path / "specs"
+    write_spec(specs, "a-yard", f"{served.url}/yard.beatlog")
+    write_spec(specs, "b-dock", f"{served.url}/dock.beatlog")
+    write_spec(specs, "c-here", record_probe(600, name="here.beatlog"))
+    return discover_specs([specs])
+
+
+def test_with_logs_behind_urls_every_log_weighs_its_size_and_none_is_downloaded(
+    served: LogServer, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    specs = url_suite(served, tmp_path, record_probe)
+
+    assert [spec.name for spec in longest_first(specs)] == ["c-here", "b-dock", "a-yard"]
+    assert split(specs, 2) == [[specs[2]], [specs[0], specs[1]]]
+    assert served.sent == {}
+
+
+def test_a_log_behind_a_url_that_cannot_be_sized_fails_a_split_not_an_ordering(
+    served: LogServer, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    specs = url_suite(served, tmp_path, record_probe)
+    (served.folder / "yard.beatlog").unlink()
+
+    assert [spec.name for spec in longest_first(specs)] == ["c-here", "b-dock", "a-yard"]
+    with pytest.raises(RemoteLogError, match=r"/yard\.beatlog: no such log$"):
+        split(specs, 2)
 
 
 def test_more_shards_than_dtcs_leaves_the_last_ones_empty(suite: list[DtcSpec]) -> None:

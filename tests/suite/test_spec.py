@@ -40,6 +40,27 @@ def test_a_valid_spec_loads_with_its_log_resolved_against_the_spec_folder(
     assert spec.allow_truncated is True
 
 
+def test_a_log_that_is_a_url_is_kept_as_one_and_named_by_it(tmp_path: Path) -> None:
+    url = "https://host/suite/walk.beatlog"
+
+    spec = load_spec(write_spec(tmp_path, "walk", url))
+
+    assert spec.log_url == spec.log_name == url
+    assert spec.log == Path("walk.beatlog")
+    assert spec.origin == str(tmp_path / "walk.dtc.toml")
+
+
+def test_a_local_log_has_no_url_and_is_named_by_its_path(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    spec = load_spec(write_spec(tmp_path, "walk", record_probe(30)))
+
+    assert spec.log_url is None
+    assert spec.log_name == str(tmp_path / "probe.beatlog")
+    with spec.readable_log() as log:
+        assert log == spec.log
+
+
 def test_tags_and_allow_truncated_are_optional(tmp_path: Path) -> None:
     spec = load_spec(write_spec(tmp_path, "plain", "probe.beatlog"))
 

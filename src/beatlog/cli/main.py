@@ -617,8 +617,8 @@ def _test(args: argparse.Namespace, console: Console) -> int:
         raise _UsageError("give DTC specs or --logs, not both")
     if args.update is not UpdateMode.NONE:
         raise _UsageError("--update writes the baselines of specs; --logs runs have none")
-    with fleet_specs(args.logs, system=args.system, perception=args.perception) as fleet:
-        return _run_tests(args, console, fleet)
+    fleet = fleet_specs(args.logs, system=args.system, perception=args.perception)
+    return _run_tests(args, console, fleet)
 
 
 def _run_tests(
@@ -663,7 +663,7 @@ def _run_tests(
         progress.update(task, advance=1, rate=rate)
         if outcome.verdict is Verdict.ERROR:
             _error(
-                f"{outcome.spec.name} ({outcome.spec.path}): {outcome.error}",
+                f"{outcome.spec.name} ({outcome.spec.origin}): {outcome.error}",
                 outcome.error_traceback if args.verbose else None,
             )
         elif outcome.verdict is Verdict.FAILED:
@@ -772,7 +772,7 @@ def _describe(outcome: SpecOutcome) -> RenderableType:
     if outcome.result is None:
         return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.name}: {outcome.error}")
     return Group(
-        Text.assemble(("DTC ", "bold"), f"{outcome.spec.name} ({outcome.spec.path})"),
+        Text.assemble(("DTC ", "bold"), f"{outcome.spec.name} ({outcome.spec.origin})"),
         render_replay(outcome.result),
     )
 

@@ -21,7 +21,9 @@ def render_audit(outcomes: Sequence[SpecOutcome]) -> RenderableType:
     unsound = [(outcome, report) for outcome, report in audited if not report.ok]
     parts: list[RenderableType] = [
         Group(
-            Text.assemble(("AUDIT ", "bold yellow"), f"{outcome.spec.name} ({outcome.spec.path})"),
+            Text.assemble(
+                ("AUDIT ", "bold yellow"), f"{outcome.spec.name} ({outcome.spec.origin})"
+            ),
             _findings(report),
         )
         for outcome, report in unsound

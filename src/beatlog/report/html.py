@@ -164,9 +164,9 @@ def _section(index: int, outcome: SpecOutcome) -> str:
     if result is not None and result.divergence is not None:
         parts.append(_details(result.divergence))
     facts = [
-        ("spec", str(spec.path)),
+        ("spec", spec.origin),
         ("procedure", " / ".join(spec.procedure)),
-        ("log", str(spec.log)),
+        ("log", spec.log_name),
         ("system", spec.system or "the one recorded in the log"),
         ("tags", ", ".join(spec.tags) or "—"),
         ("wall time", f"{outcome.wall_time_s:.3f} s"),

@@ -180,14 +180,16 @@ def write_baseline(
     path: Path,
     *,
     spec_name: str,
-    log: Path,
+    log_name: str,
+    digest: str,
     expectation: Expectation,
 ) -> None:
-    """Write a baseline file atomically: readers see the old file or the new one."""
+    """Write a baseline file atomically: readers see the old file or the new one.
+    ``log_name`` and ``digest`` (:func:`log_digest`) bind it to its recording."""
     lines = [
         _MAGIC,
         f"# spec {spec_name}",
-        f"# log {log.name} sha256 {log_digest(log)}",
+        f"# log {log_name} sha256 {digest}",
         '#  cycle      time  "behavior": before -> after | output/robot_state "field" = value',
         *format_lines(expectation.changes, expectation.outputs or (), expectation.robot_states),
     ]

@@ -4,9 +4,9 @@ One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function t
 local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
 as it is; outcomes stream back as they complete, to the same progress bar and reports.
 A spec travels with absolute paths, so a worker of another machine finds its files on
-a shared filesystem; a fleet log behind a URL is copied by the worker that replays it
-(:func:`beatlog.suite.fleet.fetched_log`). The system's package must be installed on
-the workers, as it is here.
+a shared filesystem; a log behind a URL (a spec's, or a fleet's) is copied by the worker
+that replays it, and by no other process (see :mod:`beatlog.remote`). The system's
+package must be installed on the workers, as it is here.
 
 A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
 DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
@@ -25,9 +25,8 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from beatlog.closing import Closing
-from beatlog.errors import ClusterError, FleetError
+from beatlog.errors import ClusterError
 from beatlog.suite.baseline import expected_path
-from beatlog.suite.fleet import MAX_LOG_BYTES, fetched_log, is_url
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
 
@@ -37,7 +36,7 @@ if TYPE_CHECKING:
     from beatlog.suite.policy import SpecOptions
     from beatlog.suite.spec import DtcSpec
 
-__all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor", "judge"]
+__all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor"]
 
 ONE_DTC_PER_THREAD = {"distributed.scheduler.worker-saturation": 1.0}
 """The scheduler's setting for DTC suites, and that of the cluster ``local`` starts: a
@@ -46,19 +45,6 @@ it was replaying with it (with Dask's default, 1.1, a worker of one thread also 
 the next DTC, which would count as retried too)."""
 
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
-
-
-def judge(spec: DtcSpec, options: SpecOptions, max_log_bytes: int = MAX_LOG_BYTES) -> SpecOutcome:
-    """One DTC's task on a worker: :func:`~beatlog.suite.runner.run_spec`, on a copy of
-    the log made here when the log is behind a URL. A log that cannot be copied is an
-    error of its DTC."""
-    if spec.source is None or not is_url(spec.source):
-        return run_spec(spec, options)
-    try:
-        with fetched_log(spec.source, max_log_bytes) as copy:
-            return run_spec(dataclasses.replace(spec, path=copy, log=copy), options)
-    except FleetError as exc:
-        return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
 
 
 class DaskExecutor(Closing):
@@ -119,7 +105,7 @@ class DaskExecutor(Closing):
             key = f"dtc-{spec.name}-{uuid.uuid4().hex}"
             given[key] = spec
             futures.append(
-                self._client.submit(judge, _absolute(spec), options, key=key, pure=False)
+                self._client.submit(run_spec, _absolute(spec), options, key=key, pure=False)
             )
         try:
             for future in as_completed(futures, loop=self._client.loop):
@@ -158,8 +144,10 @@ def _retries(dask_scheduler: Any, key: str) -> int:
 
 
 def _absolute(spec: DtcSpec) -> DtcSpec:
-    """The spec with absolute paths, for a worker whose working folder is not ours."""
-    return dataclasses.replace(spec, path=spec.path.absolute(), log=spec.log.absolute())
+    """The spec with absolute paths, for a worker whose working folder is not ours (a
+    log behind a URL is named by its URL alone)."""
+    log = spec.log if spec.log_url is not None else spec.log.absolute()
+    return dataclasses.replace(spec, path=spec.path.absolute(), log=log)
 
 
 def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:

@@ -21,22 +21,27 @@ def suite_coverage(specs: Sequence[DtcSpec]) -> SuiteCoverage:
     behavior's first and declared states from a fresh system of each spec.
 
     :raises beatlog.errors.LogError: a spec's log cannot be read.
+    :raises beatlog.errors.RemoteLogError: a log behind a URL cannot be copied.
     """
     return cover(_dtcs(specs))
 
 
-def _dtcs(specs: Sequence[DtcSpec]) -> Iterator[tuple[str, Path, System | None]]:
+def _dtcs(specs: Sequence[DtcSpec], *, systems: bool = True) -> Iterator[tuple[str, Path, Any]]:
+    """Each spec's name, its log as a file here (a log behind a URL copied for as long as
+    it is read), and a fresh system when ``systems`` (None where none can be built)."""
     for spec in specs:
-        system: Any
-        try:
-            system = load_system(spec.system or recorded_system(spec.log))
-        except BeatlogError:  # the verdict reports it; coverage counts what the log holds
-            system = None
-        yield spec.name, spec.log, system
+        with spec.readable_log() as log:
+            system: System | None = None
+            if systems:
+                try:
+                    system = load_system(spec.system or recorded_system(log))
+                except BeatlogError:  # the verdict reports it; coverage counts the log
+                    system = None
+            yield spec.name, log, system
 
 
 def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
     """The specs whose recordings change ``behavior``'s state (read from the logs alone:
     no system is built)."""
-    names = set(cover((spec.name, spec.log, None) for spec in specs).exercising(behavior))
+    names = set(cover(_dtcs(specs, systems=False)).exercising(behavior))
     return [spec for spec in specs if spec.name in names]

@@ -8,6 +8,7 @@ replaying it died gets a ``flakyError`` per retry, as Maven Surefire writes reru
 
 from __future__ import annotations
 
+import posixpath
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -34,9 +35,9 @@ def write_junit(
         case = ET.SubElement(
             suite,
             "testcase",
-            classname=str(outcome.spec.path.parent),
+            classname=posixpath.dirname(outcome.spec.origin) or ".",
             name=outcome.spec.name,
-            file=str(outcome.spec.path),
+            file=outcome.spec.origin,
             time=f"{outcome.wall_time_s:.3f}",
         )
         if outcome.verdict is Verdict.FAILED:

@@ -116,7 +116,13 @@ def update_baselines(
         if update is not None:
             action = UpdateAction.WITHHELD if ci else UpdateAction.WRITTEN
             if not ci:
-                write_baseline(pending, spec_name=spec.name, log=spec.log, expectation=update)
+                write_baseline(
+                    pending,
+                    spec_name=spec.name,
+                    log_name=spec.log_url or spec.log.name,
+                    digest=outcome.log_digest or log_digest(spec.log),
+                    expectation=update,
+                )
             done.append(
                 PendingUpdate(
                     spec,
@@ -184,7 +190,9 @@ def decide(spec: DtcSpec, decision: Decision | str) -> None:
         pending.unlink()
         return
     baseline = read_baseline(pending)  # a damaged pending file must not become the baseline
-    if baseline.log_digest != log_digest(spec.log):
+    with spec.readable_log() as log:
+        digest = log_digest(log)
+    if baseline.log_digest != digest:
         raise BaselineError(pending, f"made from another recording than {spec.log.name}")
     pending.replace(expected_path(spec.path))
 
@@ -239,25 +247,26 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     changes interleave by cycle, as baseline files hold them; the robot-state fields
     that differ are also summed up field by field, with their values before and after."""
     expected = expected_path(spec.path)
-    old_states: tuple[TracedState, ...] = ()
-    if expected.exists():
-        approved = read_baseline(expected)
-        old_states = approved.robot_states
-        old = format_lines(approved.changes, approved.outputs, old_states)
-        source = f"approved ({expected.name})"
-        if approved.outputs is None:
-            source += ", no outputs pinned"
-    else:
-        renamed = spec.comparison.renamed
-        old = format_lines(
-            (TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(spec.log)),
-            recorded_outputs(spec.log),
-        )
-        source = f"recorded ({spec.log.name})"
+    approved = read_baseline(expected) if expected.exists() else None
     pending = read_baseline(pending_path(spec.path))
+    with spec.readable_log() as log:
+        if approved is not None:
+            old_states = approved.robot_states
+            old = format_lines(approved.changes, approved.outputs, old_states)
+            source = f"approved ({expected.name})"
+            if approved.outputs is None:
+                source += ", no outputs pinned"
+        else:
+            renamed = spec.comparison.renamed
+            old_states = ()
+            old = format_lines(
+                (TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(log)),
+                recorded_outputs(log),
+            )
+            source = f"recorded ({spec.log.name})"
+        fields = _field_changes(log, old_states, pending.robot_states)
     new = format_lines(pending.changes, pending.outputs, pending.robot_states)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
-    fields = _field_changes(spec.log, old_states, pending.robot_states)
     return PendingDiff(spec, source, len(old), len(new), tuple(diff), fields)
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.analysis.trace import Expectation, ReplayedTrace
-from beatlog.errors import BaselineError, BeatlogError
+from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
@@ -75,6 +75,9 @@ class SpecOutcome:
     retries: int = 0
     """How many times the DTC was run again because the process running it died (a
     cluster's worker, see :mod:`beatlog.suite.cluster`)."""
+    log_digest: str | None = None
+    """The SHA-256 of the log replayed, with an :attr:`update`: the pending baseline is
+    written where the log may not be (behind a URL)."""
 
     @property
     def verdict_label(self) -> str:
@@ -111,9 +114,28 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     judges exactly as this run did. The spec's references also import from its folder
     and its project root (:func:`beatlog.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
-    ``--break-on-divergence`` do: ``breakpoint()``, so ``PYTHONBREAKPOINT`` is honoured."""
+    ``--break-on-divergence`` do: ``breakpoint()``, so ``PYTHONBREAKPOINT`` is honoured.
+    A log behind a URL is copied here first, and the copy removed after; one that
+    cannot be copied is an error of the DTC."""
     with importable_near(spec.path):
-        return _run_spec(spec, options or SpecOptions())
+        try:
+            with spec.readable_log() as log:
+                outcome = _run_spec(dataclasses.replace(spec, log=log), options or SpecOptions())
+        except RemoteLogError as exc:
+            return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
+        if spec.log_url is None:
+            return outcome
+        return _named_as_given(outcome, spec, str(log), spec.log_url)
+
+
+def _named_as_given(outcome: SpecOutcome, spec: DtcSpec, copy: str, url: str) -> SpecOutcome:
+    """The outcome of replaying a copy of a log behind a URL, with the spec as given and
+    the URL where its error named the copy."""
+    result = outcome.result
+    if result is not None:
+        result = dataclasses.replace(result, log=spec.log)
+    error = None if outcome.error is None else outcome.error.replace(copy, url)
+    return dataclasses.replace(outcome, spec=spec, result=result, error=error)
 
 
 def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
@@ -158,9 +180,10 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         result = dataclasses.replace(result, divergence=divergence, reproduce=_rerun(spec))
-        changes = None
+        changes = digest = None
         if details is not None and details.trace is not None and refused is None:
             changes, refused = _new_expectation(details.trace)
+            digest = None if changes is None else log_digest(spec.log)
         report = None
         if audit:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
@@ -183,6 +206,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         update_refused=refused,
         audit=report,
         charts=drawn,
+        log_digest=digest,
     )
 
 

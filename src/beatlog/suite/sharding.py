@@ -6,6 +6,11 @@ of the matrix computes the same one: specs are sorted by path, then given, the l
 recording first, to the shard with the fewest cycles so far (the first such shard on a
 tie). A log whose cycle count cannot be read cheaply (one cut off, damaged or missing)
 counts 0 cycles: it still lands in exactly one shard, and its run says what is wrong.
+
+When a log lies behind a URL, every log of the suite weighs its size in bytes instead,
+as its filesystem lists it (:func:`beatlog.remote.log_size`): no log is downloaded to
+plan the work. A size that cannot be had fails the split (a job must not guess what
+the others may not), and counts 0 where only the order of the work depends on it.
 """
 
 from __future__ import annotations
@@ -15,8 +20,10 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from beatlog.errors import OptionError
+from beatlog.errors import OptionError, RemoteLogError
+from beatlog.files import irregular_file_problem
 from beatlog.log.reader import recorded_cycles
+from beatlog.remote import log_size
 from beatlog.suite.spec import DtcSpec
 
 __all__ = ["Shard", "longest_first", "shard", "split"]
@@ -50,12 +57,14 @@ def split(specs: Sequence[DtcSpec], count: int) -> list[list[DtcSpec]]:
     """The specs in ``count`` shards balanced by recorded cycles, each in path order.
 
     No shard has more cycles than another by more than the longest recording's.
+
+    :raises RemoteLogError: the size of a log behind a URL cannot be had.
     """
     if count < 1:
         raise ValueError(f"a suite splits into at least 1 shard, not {count}")
     shards: list[list[DtcSpec]] = [[] for _ in range(count)]
     loads = [(0, index) for index in range(count)]
-    for spec, weight in _weighed(sorted(specs, key=lambda spec: spec.path)):
+    for spec, weight in _weighed(sorted(specs, key=lambda spec: spec.path), strict=True):
         load, index = heapq.heappop(loads)
         shards[index].append(spec)
         heapq.heappush(loads, (load + weight, index))
@@ -65,18 +74,37 @@ def split(specs: Sequence[DtcSpec], count: int) -> list[list[DtcSpec]]:
 def longest_first(specs: Sequence[DtcSpec]) -> list[DtcSpec]:
     """The specs by recorded cycles, the longest first (in the order given on a tie):
     the order in which a pool of workers that each take the next one finishes soonest."""
-    return [spec for spec, _ in _weighed(specs)]
+    return [spec for spec, _ in _weighed(specs, strict=False)]
 
 
-def _weighed(specs: Sequence[DtcSpec]) -> list[tuple[DtcSpec, int]]:
+def _weighed(specs: Sequence[DtcSpec], *, strict: bool) -> list[tuple[DtcSpec, int]]:
     """Each spec with its log's recorded cycles (0 where they cannot be read cheaply),
-    the longest first; a stable sort, so ties keep their order."""
-    weights = [(spec, recorded_cycles(spec.log) or 0) for spec in specs]
+    or with its log's size when one lies behind a URL, the longest first; a stable
+    sort, so ties keep their order. ``strict``: a size that cannot be had raises."""
+    if any(spec.log_url is not None for spec in specs):
+        weights = [(spec, _size(spec, strict=strict)) for spec in specs]
+    else:
+        weights = [(spec, recorded_cycles(spec.log) or 0) for spec in specs]
     return sorted(weights, key=lambda weighed: -weighed[1])
 
 
+def _size(spec: DtcSpec, *, strict: bool) -> int:
+    """The size in bytes of the spec's log, here or behind its URL; 0 where unknown."""
+    if spec.log_url is None:
+        return spec.log.stat().st_size if irregular_file_problem(spec.log) is None else 0
+    try:
+        return log_size(spec.log_url) or 0
+    except RemoteLogError:
+        if strict:
+            raise
+        return 0
+
+
 def shard(specs: Sequence[DtcSpec], index: int, count: int) -> list[DtcSpec]:
-    """The specs of shard ``index`` of ``count`` (1-based) of :func:`split`."""
+    """The specs of shard ``index`` of ``count`` (1-based) of :func:`split`.
+
+    :raises RemoteLogError: the size of a log behind a URL cannot be had.
+    """
     if not 1 <= index <= count:
         raise ValueError(f"shard {index} of {count}: the index must be from 1 to {count}")
     return split(specs, count)[index - 1]

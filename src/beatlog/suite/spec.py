@@ -7,7 +7,7 @@ the system factory to replay it against::
     name = "avoid-pole"
     purpose = "The rover turns away from a pole in its path."
     procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
-    log = "avoid-pole.beatlog"            # relative to this file
+    log = "avoid-pole.beatlog"            # relative to this file, or a URL
     system = "myrobot.behaviors:system"   # optional: by default, the log's own
     tags = ["obstacles"]
     allow_truncated = false
@@ -21,18 +21,25 @@ the system factory to replay it against::
     [robot_state_tolerance]                 # the same per robot-state field, when the
     heading = 1e-6                          # perception step rebuilds RS_t from samples
 
+A ``log`` that is a URL (``https://host/suite/avoid-pole.beatlog``, ``s3://...``: any
+URL fsspec reads, see :mod:`beatlog.remote`) is copied by the process that replays the
+DTC, whether here or on a cluster's worker. Specs themselves are local files: their
+baselines are written beside them.
+
 Renames that hold for every spec go into the project's ``pyproject.toml``, under
 ``[tool.beatlog.renames]``; a spec's own renames come on top.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import re
 import tomllib
 from collections.abc import Iterable, Mapping, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,6 +48,7 @@ import msgspec
 
 from beatlog.errors import SpecError
 from beatlog.files import irregular_file_problem, project_root
+from beatlog.remote import fetched_log, is_url, url_name
 from beatlog.replay.compare import Comparison
 from beatlog.suite.keywords import KeywordExpression
 
@@ -80,7 +88,8 @@ class _ProjectFile(msgspec.Struct):
 
 @dataclass(frozen=True)
 class DtcSpec:
-    """A loaded DTC spec with its log path resolved against the spec's folder."""
+    """A loaded DTC spec with its log path resolved against the spec's folder, or its
+    log's URL."""
 
     path: Path
     name: str
@@ -99,6 +108,30 @@ class DtcSpec:
     """For a DTC made from a log alone, with no spec file (a fleet run, see
     :mod:`beatlog.suite.fleet`): the log's path or URL as matched. Such a DTC has no
     baseline; it is judged against its recording."""
+    log_url: str | None = None
+    """The URL of the log when it lies behind one: the process that replays the DTC
+    copies it first, and ``log`` is then the URL's file name alone, no file here."""
+
+    @property
+    def origin(self) -> str:
+        """Where the DTC comes from, as messages name it: its spec file, or a fleet
+        log's path or URL."""
+        return str(self.path) if self.source is None else self.source
+
+    @property
+    def log_name(self) -> str:
+        """The log as reports name it: its URL, or its path."""
+        return str(self.log) if self.log_url is None else self.log_url
+
+    def readable_log(self) -> AbstractContextManager[Path]:
+        """The log as a file of this machine: its own, or a copy of the one behind its
+        URL, removed when the block ends (:func:`beatlog.remote.fetched_log`).
+
+        :raises beatlog.errors.RemoteLogError: the log behind the URL cannot be copied.
+        """
+        if self.log_url is None:
+            return contextlib.nullcontext(self.log)
+        return fetched_log(self.log_url)
 
 
 def load_spec(path: str | Path) -> DtcSpec:
@@ -138,12 +171,14 @@ def load_spec(path: str | Path) -> DtcSpec:
                 raise SpecError(
                     path, f"key '{key}.{name}': expected a finite number >= 0, got {tolerance}"
                 )
+    log_url = spec.log if is_url(spec.log) else None
     return DtcSpec(
         path=path,
         name=spec.name,
         purpose=spec.purpose,
         procedure=tuple(spec.procedure),
-        log=(path.parent / spec.log),
+        log=path.parent / spec.log if log_url is None else Path(url_name(log_url)),
+        log_url=log_url,
         system=spec.system,
         perception=spec.perception,
         tags=tuple(spec.tags),

@@ -1,0 +1,115 @@
+"""``beatlog test`` with logs behind URLs: a spec's ``log`` may be a URL, and each log
+is downloaded once a run, by the process that replays it; its problems are errors of
+its DTC, one line naming the spec and the URL."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+from beatlog.suite.baseline import pending_path
+from tests.commands import Beatlog
+from tests.served import LogServer
+from tests.specs import CHANGED, PROBE, write_spec
+
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+LOGS = ("dock.beatlog", "yard.beatlog")
+
+
+@pytest.fixture
+def suite(served: LogServer, tmp_path: Path) -> Path:
+    """Two specs whose logs are URLs: one passes, one replays a changed system."""
+    folder = tmp_path / "suite"
+    write_spec(folder, "dock", f"{served.url}/dock.beatlog")
+    write_spec(folder, "yard", f"{served.url}/yard.beatlog", CHANGED)
+    return folder
+
+
+def test_specs_whose_logs_are_urls_are_judged_each_log_downloaded_once(
+    beatlog: Beatlog, served: LogServer, suite: Path, tmp_path: Path
+) -> None:
+    junit, page = tmp_path / "dtc.xml", tmp_path / "report.html"
+
+    run = beatlog("test", suite, "-j", "2", "--junit-xml", junit, "--html", page)
+
+    assert run.code == 1, run.err
+    assert run.out.splitlines()[-1].startswith("1 passed, 1 failed")
+    assert f"reproduce: beatlog test {suite / 'yard.dtc.toml'}" in run.out
+    assert [served.downloads(name) for name in LOGS] == [1, 1]
+    cases = ET.parse(junit).getroot().iter("testcase")
+    assert [case.get("file") for case in cases] == [
+        str(suite / "dock.dtc.toml"),
+        str(suite / "yard.dtc.toml"),
+    ]
+    assert f"<dd>{served.url}/yard.beatlog</dd>" in page.read_text()
+
+
+def test_a_log_url_not_found_is_an_error_of_its_dtc_naming_spec_and_url(
+    beatlog: Beatlog, served: LogServer, suite: Path
+) -> None:
+    write_spec(suite, "lost", f"{served.url}/lost.beatlog")
+
+    run = beatlog("test", suite)
+
+    assert run.code == 2
+    spec = suite / "lost.dtc.toml"
+    assert run.err == f"beatlog: error: lost ({spec}): {served.url}/lost.beatlog: no such log\n"
+    assert run.out.splitlines()[-1].startswith("1 passed, 1 failed, 1 error")
+
+
+def test_a_fleet_matrix_downloads_each_log_once_in_all(beatlog: Beatlog, served: LogServer) -> None:
+    pattern = f"{served.url}/*.beatlog"
+
+    runs = [
+        beatlog("test", "--logs", pattern, "--system", PROBE, "--shard", shard)
+        for shard in ("1/2", "2/2")
+    ]
+
+    assert [run.out.splitlines()[-1][:17] for run in runs] == ["1 passed, 0 faile"] * 2
+    assert [served.downloads(name) for name in LOGS] == [1, 1]
+
+
+@pytest.mark.usefixtures("outside_ci")
+def test_the_pending_baseline_of_a_log_behind_a_url_names_it_and_can_be_approved(
+    beatlog: Beatlog, served: LogServer, suite: Path
+) -> None:
+    yard = suite / "yard.dtc.toml"
+
+    updated = beatlog("test", yard, "--update")
+    approved = beatlog("approve", yard)
+    again = beatlog("test", yard)
+
+    assert updated.code == 1, updated.err
+    assert f"# log {served.url}/yard.beatlog sha256 " in (suite / "yard.dtc.expected").read_text()
+    assert not pending_path(yard).exists()
+    assert approved.code == 0, approved.err
+    assert again.code == 0, again.err
+    assert "passed (approved baseline)" in again.out
+
+
+def test_coverage_reads_logs_behind_urls_too(
+    beatlog: Beatlog, served: LogServer, suite: Path
+) -> None:
+    run = beatlog("test", suite, "--coverage", "-k", "dock")
+
+    assert run.code == 0, run.err
+    assert "near" in run.out
+    assert served.downloads("dock.beatlog") == 2  # the replay's copy, then coverage's
+
+
+def test_a_log_behind_a_url_that_is_no_log_is_named_by_its_url(
+    beatlog: Beatlog, served: LogServer, suite: Path
+) -> None:
+    (served.folder / "broken.beatlog").write_bytes(b"not a log")
+    write_spec(suite, "broken", f"{served.url}/broken.beatlog")
+
+    run = beatlog("test", suite / "broken.dtc.toml")
+
+    assert run.code == 2
+    assert run.err.startswith(
+        f"beatlog: error: broken ({suite / 'broken.dtc.toml'}): {served.url}/broken.beatlog: "
+    )
+    assert "beatlog-remote-" not in run.err
