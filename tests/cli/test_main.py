@@ -469,8 +469,8 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
     log = tmp_path / "demo" / "dog.beatlog"
     assert run.code == 0, run.out
     assert f"PASS {log}" in run.out
-    assert "20 DTCs recorded on the dog" in run.out
-    assert "20 passed, 0 failed" in run.out
+    assert "22 DTCs recorded on the dog" in run.out
+    assert "22 passed, 0 failed" in run.out
     assert f"The demo log is kept at {log}" in run.out
     with SessionLogReader(log) as reader:
         cycles = sum(1 for _ in reader.cycles())

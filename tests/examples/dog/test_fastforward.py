@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import msgspec
 import pytest
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
 from beatlog.log.reader import SessionLogReader
+from beatlog_examples.dog.behaviors import DogState
 from beatlog_examples.dog.fastforward import measured_intervals, record_fast
 from beatlog_examples.dog.scenarios import scenario
 
@@ -41,3 +43,13 @@ def test_heartbeats_are_drawn_from_the_measured_intervals_and_the_log_replays(
 def test_fast_forward_needs_intervals(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="measured heartbeat intervals"):
         record_fast(tmp_path / "x.beatlog", scenario("push-over"), intervals=[])
+
+
+def test_while_the_imu_boots_perception_keeps_the_robot_states_defaults(tmp_path: Path) -> None:
+    log = tmp_path / "late.beatlog"
+    record_fast(log, scenario("imu-late"), intervals=JITTER, seed=3, duration_s=1.0)
+    with SessionLogReader(log) as reader:
+        states = [msgspec.msgpack.decode(cycle.robot_state) for cycle in reader.cycles()]
+    booting = [state for state in states[:16] if state["accel_z"] == DogState().accel_z]
+    assert len(booting) == 16  # 0.5 s at 30 ms, no IMU sample yet
+    assert states[-1]["accel_z"] != DogState().accel_z

@@ -37,6 +37,18 @@ def test_physics_keeps_to_real_time_and_every_driver_publishes_no_faster_than_it
 
 
 @pytest.mark.slow
+def test_a_driver_still_booting_publishes_nothing_and_stopping_does_not_wait_for_it() -> None:
+    dog = DogRobot(Scenario("booting", "", 1.0, booting=(("imu", 3600.0),)), seed=1)
+    dog.start()
+    time.sleep(0.3)
+    dog.stop()
+    counts = Counter(sample.sensor for sample in dog.inbox.drain())
+    assert counts["imu"] == 0
+    assert counts["touch"] > 0
+    assert not [thread for thread in threading.enumerate() if thread.name == "dog-imu"]
+
+
+@pytest.mark.slow
 def test_a_live_session_with_a_remote_client_records_and_replays(tmp_path: Path) -> None:
     log = tmp_path / "live.beatlog"
     script = Scenario(

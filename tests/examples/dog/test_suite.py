@@ -1,4 +1,4 @@
-"""The committed 20-DTC suite: it passes, and a change to any single behavior fails it."""
+"""The committed 22-DTC suite: it passes, and a change to any single behavior fails it."""
 
 from __future__ import annotations
 

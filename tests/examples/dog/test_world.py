@@ -154,3 +154,24 @@ def test_an_unknown_motion_stands_still() -> None:
     world = DogWorld()
     world.command("dance", 1.0, 1.0)
     assert world.motion is Motion.STAND
+
+
+def test_a_load_slows_charging_on_the_pad_and_a_swapped_battery_reads_its_charge() -> None:
+    plain, loaded = Battery(level=0.5), Battery(level=0.5, extra_drain=0.015)
+    plain.update(10.0, walking=False, docked=True)
+    loaded.update(10.0, walking=False, docked=True)
+    assert plain.level == pytest.approx(0.5 + 10.0 * plain.charge_rate)
+    assert loaded.level == pytest.approx(0.5 + 10.0 * (loaded.charge_rate - 0.015))
+    world = DogWorld()
+    world.swap_battery(0.895)
+    assert SensorReader(world).read("battery", np.random.default_rng(0))[0] == 89.5
+
+
+@pytest.mark.parametrize(("finder", "index"), [("left", 0), ("front", 1), ("right", 2)])
+def test_a_box_placed_at_a_range_reads_that_range_on_its_finder(finder: str, index: int) -> None:
+    world = DogWorld(x=CHARGER[0], y=CHARGER[1])
+    run(world, 0.2)
+    world.place_at_range("box1", finder, 0.508)
+    quiet = np.random.default_rng(0)
+    readings = [SensorReader(world).read("range", quiet)[index] for _ in range(200)]
+    assert sum(readings) / len(readings) == pytest.approx(0.508, abs=0.001)

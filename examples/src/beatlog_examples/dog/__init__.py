@@ -20,4 +20,4 @@ from beatlog_examples.dog.behaviors import DogState, changed_system, system
 __all__ = ["SUITE_DIR", "DogState", "changed_system", "system"]
 
 SUITE_DIR = Path(__file__).with_name("suite")
-"""The committed 15-DTC suite, shipped with the package."""
+"""The committed 22-DTC suite, shipped with the package."""

@@ -85,7 +85,10 @@ def record_fast(
     remote = _remote_samples(scenario)
     next_remote = 0
     step_ns = int(world.timestep * SECOND)
-    due = [(0, sensor, int(SECOND / rate)) for sensor, rate in SENSOR_RATES_HZ.items()]
+    due = [
+        (int(scenario.boot_s(sensor) * SECOND), sensor, int(SECOND / rate))
+        for sensor, rate in SENSOR_RATES_HZ.items()
+    ]
     heapq.heapify(due)
     until_ns = int((duration_s if duration_s is not None else scenario.duration_s) * SECOND)
     now_ns = beat_ns = 0

@@ -2,14 +2,14 @@
 
 ::
 
-    python -m beatlog_examples.dog.record_suite                  # all 20, into suite/
+    python -m beatlog_examples.dog.record_suite                  # all 22, into suite/
     python -m beatlog_examples.dog.record_suite --only push-over # one test case
     python -m beatlog_examples.dog.record_suite some/folder      # somewhere else
 
 Each test case gets its session log ``NAME.beatlog`` and its spec ``NAME.dtc.toml``
 (name, purpose, the scenario's procedure, log, system, tags); a log already there is
 replaced, as re-recording means. Recording takes as long as the sessions last (about
-17 minutes for the whole suite).
+18 minutes for the whole suite).
 """
 
 from __future__ import annotations

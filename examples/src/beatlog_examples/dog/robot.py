@@ -106,7 +106,7 @@ class DogRobot:
         threads += [
             threading.Thread(
                 target=self._driver,
-                args=(sensor, rate, np.random.default_rng(seed)),
+                args=(sensor, rate, np.random.default_rng(seed), self.scenario.boot_s(sensor)),
                 name=f"dog-{sensor}",
                 daemon=True,
             )
@@ -154,8 +154,12 @@ class DogRobot:
                 due = now
             self._stop.wait(max(0.0, due - time.monotonic()))
 
-    def _driver(self, sensor: str, rate_hz: float, noise: np.random.Generator) -> None:
+    def _driver(
+        self, sensor: str, rate_hz: float, noise: np.random.Generator, boot_s: float
+    ) -> None:
         read = self._reader.read
+        if self._stop.wait(boot_s):
+            return
         while not self._stop.wait(1.0 / rate_hz):
             with self._lock:
                 value = read(sensor, noise)

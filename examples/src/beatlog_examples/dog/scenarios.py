@@ -3,9 +3,11 @@
 A scenario says where the dog starts, how charged its battery is and what the tester
 does when: place a box (somewhere, or right in front of the dog), touch its head,
 back or chin (firmly or lightly), push it over, tip it over by hand, hold it, hold it
-back, run its battery down, or drive it with the remote control (and release it, or
-let the link drop). The tester acts on the world or through the remote, never on the
-behaviors: the behaviors learn of it only through their sensors.
+back, switch on a load that runs its battery down, swap its battery, or drive it with
+the remote control (and release it, or let the link drop). A scenario can also have a
+sensor driver boot late, as an IMU driver that starts after the control loop does. The
+tester acts on the world or through the remote, never on the behaviors: the behaviors
+learn of it only through their sensors.
 """
 
 from __future__ import annotations
@@ -40,9 +42,10 @@ class Event(NamedTuple):
     ``remove`` (box), ``touch`` (part, seconds, and optionally how deep the hand
     presses, m), ``push`` (+1 left or -1 right), ``lean`` (+1 left or -1 right,
     degrees, seconds), ``hold`` (seconds), ``drag`` (seconds, N per m/s), ``drain``
-    (battery fraction per second), and with the remote control ``drive`` (speed, turn
-    rate, seconds; then a release) and ``drive_dropped`` (the same, but the link drops
-    instead of releasing).
+    (a load's draw, battery fraction per second), ``swap`` (the new battery's charge,
+    a fraction), and with the remote control ``drive`` (speed, turn rate, seconds; then
+    a release) and ``drive_dropped`` (the same, but the link drops instead of
+    releasing).
     """
 
     at_s: float
@@ -62,6 +65,13 @@ class Scenario:
     """x, y (m) and heading (rad) of the dog at the start."""
     battery: float = 1.0
     tags: tuple[str, ...] = ()
+    booting: tuple[tuple[str, float], ...] = ()
+    """Sensor drivers that boot late: (sensor, seconds after the start); each publishes
+    nothing before then."""
+
+    def boot_s(self, sensor: str) -> float:
+        """How long after the start the sensor's driver publishes its first sample."""
+        return dict(self.booting).get(sensor, 0.0)
 
     def world(self) -> DogWorld:
         """A fresh world set up for this scenario."""
@@ -73,8 +83,12 @@ class Scenario:
         x, y, heading = self.start
         steps = [
             f"Put the dog at ({x:g}, {y:g}) m facing {math.degrees(heading):.0f}°, "
-            f"battery {self.battery:.0%}.",
+            f"battery {self.battery * 100:g}%.",
             f"Start recording; the session lasts {self.duration_s:g} s.",
+        ]
+        steps += [
+            f"The {sensor} driver boots {seconds:g} s after the start and publishes nothing before."
+            for sensor, seconds in self.booting
         ]
         steps += [f"At {event.at_s:g} s: {describe(event)}." for event in self.events]
         return steps
@@ -87,6 +101,8 @@ def describe(event: Event) -> str:
         return f"place {args[0]} at ({args[1]:g}, {args[2]:g}) m"
     if action == "place_ahead":
         return f"place {args[0]} {args[1]:g} m in front of the dog"
+    if action == "place_at_range":
+        return f"place {args[0]} where the {args[1]} range finder reads {args[2]:g} m"
     if action == "remove":
         return f"take {args[0]} away"
     if action == "touch":
@@ -101,7 +117,9 @@ def describe(event: Event) -> str:
     if action == "drag":
         return f"hold it back by its harness for {args[0]:g} s ({args[1]:g} N per m/s)"
     if action == "drain":
-        return f"make the battery drain {args[0]:.1%} per second faster"
+        return f"switch on a load that draws {args[0]:.2%} of the charge per second"
+    if action == "swap":
+        return f"swap in a battery charged to {args[0]:.1%}"
     speed, turn, seconds = args
     ending = "let the link drop without a release" if action == "drive_dropped" else "release it"
     return (
@@ -122,6 +140,8 @@ def apply(world: DogWorld, event: Event) -> None:
     elif action == "place_ahead":
         x, y, heading = world.pose
         world.place(args[0], x + args[1] * math.cos(heading), y + args[1] * math.sin(heading))
+    elif action == "place_at_range":
+        world.place_at_range(*args)
     elif action == "remove":
         world.remove(args[0])
     elif action == "touch":
@@ -136,6 +156,8 @@ def apply(world: DogWorld, event: Event) -> None:
         world.drag(*args)
     elif action == "drain":
         world.drain(args[0])
+    elif action == "swap":
+        world.swap_battery(args[0])
     else:
         raise ValueError(f"{action!r} is not an action on the world")
 
@@ -147,6 +169,10 @@ def _touches(part: str, times: tuple[float, ...], seconds: float = 1.0) -> tuple
 def _lightly(part: str, at_s: float, press: float) -> tuple[Event, Event]:
     """A firm touch, then, once the dog lies or sits still, a light one ``press`` m deep."""
     return Event(at_s, "touch", (part, 1.0)), Event(at_s + 1.2, "touch", (part, 1.0, press))
+
+
+def _at_range(at_s: float, box: str, finder: str, metres: float) -> Event:
+    return Event(at_s, "place_at_range", (box, finder, metres))
 
 
 NOSE_CONTACT = 0.37
@@ -345,8 +371,57 @@ SUITE = (
         start=(1.5, 2.0, 0.0),
         tags=("boredom", "touch"),
     ),
+    Scenario(
+        "imu-late",
+        "The IMU driver boots half a second after the control loop, so perception starts "
+        "from the robot state's defaults. Then, three times, driven by the remote at 5 cm/s, the "
+        "slowest drive that still counts as walking, it is held: its speed falls through "
+        "2 cm/s, it is stuck, and it escapes once the remote lets go.",
+        30.0,
+        (
+            Event(2.5, "drive", (0.05, 0.0, 6.5)),
+            Event(4.5, "hold", (4.0,)),
+            Event(11.0, "drive", (0.05, 0.0, 6.5)),
+            Event(13.0, "hold", (4.0,)),
+            Event(19.5, "drive", (0.05, 0.0, 6.5)),
+            Event(21.5, "hold", (4.0,)),
+        ),
+        start=(1.0, 2.0, 0.0),
+        booting=(("imu", 0.5),),
+        tags=("locomotion", "remote"),
+    ),
+    Scenario(
+        "slow-charge",
+        "Lying on the pad, charging slowly with a load switched on, the dog watches boxes "
+        "the tester sets where its range finders read just past 0.5, 0.6 and 0.8 m, the "
+        "distances at which it starts and stops following a wall; a battery swapped in "
+        "at 89.5 % charges through 90 %, and it gets up.",
+        40.0,
+        (
+            Event(1.0, "drain", (0.0185,)),
+            _at_range(2.5, "box2", "left", 0.508),
+            _at_range(5.0, "box2", "left", 0.794),
+            _at_range(10.5, "box2", "left", 0.45),
+            _at_range(10.5, "box1", "front", 0.592),
+            _at_range(13.5, "box2", "left", 0.794),
+            Event(19.5, "remove", ("box1",)),
+            Event(19.5, "remove", ("box2",)),
+            _at_range(19.5, "box3", "right", 0.508),
+            _at_range(23.0, "box3", "right", 0.794),
+            Event(28.5, "remove", ("box3",)),
+            _at_range(28.5, "box2", "left", 0.45),
+            _at_range(28.5, "box1", "front", 0.592),
+            Event(31.0, "swap", (0.895,)),
+            _at_range(32.0, "box2", "left", 0.794),
+            Event(33.5, "remove", ("box1",)),
+            Event(33.5, "remove", ("box2",)),
+        ),
+        start=(0.8, 3.2, 0.0),
+        battery=0.195,
+        tags=("battery", "obstacles"),
+    ),
 )
-"""The 20 test cases of the dog's suite."""
+"""The 22 test cases of the dog's suite."""
 
 DEMO = Scenario(
     "demo",

@@ -4,8 +4,8 @@ This is the environment and the robot's firmware, not the software under test: i
 runs only while recording and is never replayed. A human tester acts on it through
 :meth:`DogWorld.place`, :meth:`~DogWorld.touch`, :meth:`~DogWorld.push`,
 :meth:`~DogWorld.hold`, :meth:`~DogWorld.drag`, :meth:`~DogWorld.lean` and
-:meth:`~DogWorld.drain`, as a person would on the real robot; behaviors only ever see
-the result through the sensors.
+:meth:`~DogWorld.drain` and :meth:`~DogWorld.swap_battery`, as a person would on the
+real robot; behaviors only ever see the result through the sensors.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ import numpy as np
 import numpy.typing as npt
 
 from beatlog_examples.dog.gait import Gait, Motion
-from beatlog_examples.dog.model import load_model
+from beatlog_examples.dog.model import load_model, sensor_slice
 
-__all__ = ["BOXES", "CHARGER", "TOUCH_PARTS", "Battery", "DogWorld"]
+__all__ = ["BOXES", "CHARGER", "RANGE_FINDERS", "TOUCH_PARTS", "Battery", "DogWorld"]
 
 CHARGER = (0.8, 3.2)
 """Centre of the charging pad (m), as in ``arena.xml``."""
@@ -45,6 +45,8 @@ RIGHTING_TORQUE = 3.0
 RIGHTING_DAMPING = 0.3
 """The get-up routine: legs tucked while a torque turns the torso upright (see README)."""
 PARKED_HAND = (10.0, 10.0, 2.0)
+RANGE_FINDERS = ("left", "front", "right")
+"""The range finders a tester can place a box in front of, by the reading they watch."""
 
 
 @dataclass
@@ -57,17 +59,17 @@ class Battery:
     walk_drain: float = 0.0008
     charge_rate: float = 0.02
     extra_drain: float = 0.0
-    """Per second, set by a tester who wants a flat battery soon."""
+    """Per second: a load the tester switches on; it also slows charging."""
     charging: bool = False
 
     def update(self, dt: float, *, walking: bool, docked: bool) -> None:
         """Account for ``dt`` seconds of use or charging."""
         self.charging = docked
         if docked:
-            self.level = min(1.0, self.level + self.charge_rate * dt)
-            return
-        drain = self.idle_drain + self.extra_drain + (self.walk_drain if walking else 0.0)
-        self.level = max(0.0, self.level - drain * dt)
+            change = self.charge_rate - self.extra_drain
+        else:
+            change = -(self.idle_drain + self.extra_drain + (self.walk_drain if walking else 0.0))
+        self.level = min(1.0, max(0.0, self.level + change * dt))
 
 
 class DogWorld:
@@ -147,6 +149,31 @@ class DogWorld:
         """Put a box (one of :data:`BOXES`) on the floor at (x, y)."""
         self.data.mocap_pos[self._boxes[box]] = (x, y, 0.15)
 
+    def place_at_range(self, box: str, finder: str, metres: float) -> None:
+        """Put a box on the floor across a range finder's beam (one of
+        :data:`RANGE_FINDERS`), where that finder reads ``metres`` without noise: a
+        tester watching the live reading and nudging the box, done by bisection."""
+        site = self.model.site(f"range_{finder}").id
+        beam = self.data.site_xmat[site].reshape(3, 3)[:2, 2]
+        beam = beam / np.linalg.norm(beam)
+        origin = self.data.site_xpos[site][:2].copy()
+        reading = sensor_slice(self.model, f"range_{finder}").start
+        near, far = 0.0, metres + 2.0 * max(self.model.geom_size[self._box_geom(box)][:2])
+        for _ in range(40):
+            centre = (near + far) / 2
+            self.place(box, *(origin + centre * beam))
+            mujoco.mj_forward(self.model, self.data)
+            seen = float(self.data.sensordata[reading])
+            if 0.0 <= seen < metres:
+                near = centre
+            else:
+                far = centre
+        self.place(box, *(origin + far * beam))
+        mujoco.mj_forward(self.model, self.data)
+
+    def _box_geom(self, box: str) -> int:
+        return int(self.model.body_geomadr[self.model.body(box).id])
+
     def remove(self, box: str) -> None:
         """Take a box out of the arena again."""
         self.data.mocap_pos[self._boxes[box]] = (10.0, float(self._boxes[box]), 0.15)
@@ -181,8 +208,13 @@ class DogWorld:
         self._leaning = (-side * math.radians(degrees), self.time_s, self.time_s + seconds)
 
     def drain(self, per_second: float) -> None:
-        """Make the battery drain faster (a tester running the dog down before a test)."""
+        """Switch on a load that draws ``per_second`` of the charge (a tester running the
+        dog down before a test): the battery drains faster, and charges slower on the pad."""
         self.battery.extra_drain = per_second
+
+    def swap_battery(self, level: float) -> None:
+        """Swap in another battery, charged to ``level`` (in [0, 1])."""
+        self.battery.level = level
 
     def _act_on_torso(self) -> None:
         applied = self.data.xfrc_applied[self._torso]
