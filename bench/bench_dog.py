@@ -5,7 +5,7 @@
 2. Replay of that session on one core (the process pinned to one CPU), × real time,
    and replay against a bare loop on it (``bare.py``): CPU time, medians of alternated
    rounds.
-3. The committed 15-DTC suite replayed on all cores, wall time, as ``beatlog test``
+3. The committed suite replayed on all cores, wall time, as ``beatlog test``
    runs it (worker processes included), and on one worker for comparison.
 4. A live recording in real time (physics, drivers, remote server, tester and
    recorder all running): heartbeat intervals p50 / p99 / max from the log.
@@ -197,12 +197,12 @@ def main() -> None:
         "≤ 1.5",
     )
     table.add_row(
-        f"15-DTC suite, {jobs} workers",
+        f"committed suite, {jobs} workers",
         f"{suite[f'wall_s_jobs_{jobs}']:.2f} s ({suite[f'passed_jobs_{jobs}']} passed, "
         f"{suite['cycles']:,} cycles, {suite['bytes'] / 1e6:.2f} MB)",
         "≤ 5 s",
     )
-    table.add_row("15-DTC suite, 1 worker", f"{suite['wall_s_jobs_1']:.2f} s", "—")
+    table.add_row("committed suite, 1 worker", f"{suite['wall_s_jobs_1']:.2f} s", "—")
     table.add_row(
         f"live heartbeat, {hb['cycles']} cycles",
         f"p50 {hb['p50_ms']:.2f} / p99 {hb['p99_ms']:.2f} / max {hb['max_ms']:.2f} ms, "

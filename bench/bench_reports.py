@@ -1,7 +1,7 @@
 """What reports cost: ``beatlog test`` against ``test --html`` and ``test --audit``.
 
 CPU time: each command runs as a fresh process, the three alternated round after round,
-on the dog's committed suite (15 DTCs) and on one DTC of a long rover log; a command's
+on the dog's committed suite and on one DTC of a long rover log; a command's
 CPU time is user + system of the finished processes it started and waited for, its
 workers and audit interpreters included (``resource.getrusage(RUSAGE_CHILDREN)``). The
 figure is the median of the rounds, and each ratio is against the plain run's median.

@@ -138,9 +138,7 @@ def test_robot_states_decoded_with_their_batches_are_the_states_the_bytes_hold(
 
     states: list[Any] = [cycle.robot_state for cycle in decoded]
     assert status.complete
-    assert states == [
-        msgspec.msgpack.decode(cycle.robot_state, type=Gauge) for cycle in raw
-    ]
+    assert states == [msgspec.msgpack.decode(cycle.robot_state, type=Gauge) for cycle in raw]
     assert [cycle.heartbeat_ns for cycle in decoded] == [cycle.heartbeat_ns for cycle in raw]
     assert all(isinstance(cycle, CycleRecord) for cycle in decoded)
 

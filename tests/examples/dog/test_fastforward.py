@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import msgspec
@@ -53,3 +54,17 @@ def test_while_the_imu_boots_perception_keeps_the_robot_states_defaults(tmp_path
     booting = [state for state in states[:16] if state["accel_z"] == DogState().accel_z]
     assert len(booting) == 16  # 0.5 s at 30 ms, no IMU sample yet
     assert states[-1]["accel_z"] != DogState().accel_z
+
+
+def test_a_remote_link_that_drops_sends_no_release_and_the_dog_times_out(tmp_path: Path) -> None:
+    log = tmp_path / "dropped.beatlog"
+    record_fast(log, scenario("remote-dropped"), intervals=JITTER, seed=2)
+    with SessionLogReader(log) as reader:
+        active = [
+            msgspec.msgpack.decode(cycle.robot_state, type=DogState).remote_active
+            for cycle in reader.cycles()
+        ]
+    releases = sum(1 for before, after in itertools.pairwise(active) if before and not after)
+    assert releases == 1, "one drive released, three dropped"
+    assert replay(log, "beatlog_examples.dog:system").ok
+    assert summarize(log).transitions["remote"] >= 8  # four drives, each taken over and ended

@@ -25,7 +25,7 @@ from beatlog_examples.dog.perception import perceive
 from beatlog_examples.dog.rates import SENSOR_RATES_HZ
 from beatlog_examples.dog.remote import RemoteCommand
 from beatlog_examples.dog.robot import SYSTEM_REF, act_on
-from beatlog_examples.dog.scenarios import REMOTE_RATE_HZ, Scenario, apply
+from beatlog_examples.dog.scenarios import REMOTE_ACTIONS, REMOTE_RATE_HZ, Scenario, apply
 from beatlog_examples.dog.sensors import SensorReader
 
 __all__ = ["measured_intervals", "record_fast"]
@@ -46,14 +46,15 @@ def _remote_samples(scenario: Scenario) -> list[tuple[int, tuple[float, float, b
     """The remote commands a client would send during the scenario, with their times."""
     timed: list[tuple[int, tuple[float, float, bool]]] = []
     for event in scenario.events:
-        if event.action != "drive":
+        if event.action not in REMOTE_ACTIONS:
             continue
         speed, turn, seconds = event.args
         start = int(event.at_s * SECOND)
         count = max(1, round(seconds * REMOTE_RATE_HZ))
         command = RemoteCommand(speed=speed, turn=turn).sample()
         timed += [(start + int(k * SECOND / REMOTE_RATE_HZ), command) for k in range(count)]
-        timed.append((start + int(seconds * SECOND), RemoteCommand(release=True).sample()))
+        if event.action == "drive":  # "drive_dropped": the link drops, nothing released
+            timed.append((start + int(seconds * SECOND), RemoteCommand(release=True).sample()))
     return sorted(timed)
 
 
@@ -108,7 +109,7 @@ def record_fast(
             beat_ns += interval
             while now_ns < beat_ns:
                 while next_event < len(events) and events[next_event].at_s * SECOND <= now_ns:
-                    if events[next_event].action != "drive":
+                    if events[next_event].action not in REMOTE_ACTIONS:
                         apply(world, events[next_event])
                     next_event += 1
                 while next_remote < len(remote) and remote[next_remote][0] <= now_ns:
