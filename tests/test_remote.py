@@ -53,6 +53,16 @@ def test_a_fetched_log_is_a_copy_removed_when_the_block_ends(served: LogServer) 
     assert served.downloads("dock.beatlog") == 1
 
 
+def test_a_log_is_copied_from_a_server_that_serves_no_byte_ranges(served: LogServer) -> None:
+    big = served.folder / "big.beatlog"
+    big.write_bytes(bytes(range(256)) * 40_000)  # 10 MB, past fsspec's HTTP block size
+
+    with fetched_log(f"{served.url}/big.beatlog") as copy:
+        assert copy.read_bytes() == big.read_bytes()
+
+    assert served.downloads("big.beatlog") == 1
+
+
 def test_a_log_larger_than_the_bound_is_refused(memory: str) -> None:
     with pytest.raises(RemoteLogError) as raised, fetched_log(memory, max_bytes=100):
         pass

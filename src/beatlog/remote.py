@@ -95,7 +95,10 @@ def _copy(filesystem: Any, path: str, copy: Path, url: str, max_bytes: int) -> N
         if size is not None and size > max_bytes:
             raise RemoteLogError(url, too_big)
         copied = 0
-        with filesystem.open(path, "rb") as source, copy.open("wb") as target:
+        with (
+            filesystem.open(path, "rb", **_streamed(filesystem)) as source,
+            copy.open("wb") as target,
+        ):
             while block := source.read(_BLOCK):
                 copied += len(block)
                 if copied > max_bytes:  # a size the listing got wrong
@@ -107,6 +110,15 @@ def _copy(filesystem: Any, path: str, copy: Path, url: str, max_bytes: int) -> N
         raise
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
         raise RemoteLogError(url, f"cannot copy: {_first_line(exc)}") from None
+
+
+def _streamed(filesystem: Any) -> dict[str, Any]:
+    """How to open a file of ``filesystem`` to read it once from start to end: over HTTP
+    as a stream (``block_size=0``), since a server need not serve byte ranges (Python's
+    own ``http.server`` does not), which fsspec's random-access HTTP file asks for."""
+    protocols = filesystem.protocol
+    protocols = (protocols,) if isinstance(protocols, str) else protocols
+    return {"block_size": 0} if {"http", "https"} & set(protocols) else {}
 
 
 def _not_found(url: str, exc: FileNotFoundError, doing: str) -> RemoteLogError:
