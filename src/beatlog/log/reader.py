@@ -318,8 +318,8 @@ class SessionLogReader(Closing):
         robot states are decoded with it) a cycle's robot state does not fit its type."""
         try:
             decoded = self._raw_batches.decode(data)
-        except DECODE_ERRORS:
-            return CorruptLogError(self.path, f"damaged {where}: {exc}")
+        except DECODE_ERRORS as damage:
+            return CorruptLogError(self.path, f"damaged {where}: {damage}")
         state_type = self._state_type
         records = decoded.cycles if isinstance(decoded, CycleBatch) else decoded
         for index, record in enumerate(records):
