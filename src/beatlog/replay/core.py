@@ -225,6 +225,7 @@ class Replayer:
         recorded_state = self._recorded_state
         break_at = self.break_at
         perception = self.perception
+        raw = msgspec.Raw
         changes: list[StateChangeRecord] | None = None
         while True:
             record = yield changes
@@ -235,7 +236,7 @@ class Replayer:
                 # the rebuilt one encodes to other bytes, perception fails, or a break.
                 if perception is None or context.cycle + 1 == break_at:
                     state = record.robot_state  # decoded with the batch, or still bytes
-                    if state.__class__ is msgspec.Raw:
+                    if state.__class__ is raw:
                         state = recorded_state(record, context.cycle + 1)
                 if context.cycle + 1 == break_at:
                     self._pause(context.cycle + 1, state, record)
