@@ -19,7 +19,15 @@ from urllib.parse import urlsplit
 
 from beatlog.errors import RemoteLogError
 
-__all__ = ["MAX_LOG_BYTES", "fetched_log", "is_url", "log_size", "url_filesystem", "url_name"]
+__all__ = [
+    "MAX_LOG_BYTES",
+    "fetched_log",
+    "is_url",
+    "log_size",
+    "named_as_given",
+    "url_filesystem",
+    "url_name",
+]
 
 MAX_LOG_BYTES = 4 << 30
 """The largest log copied from a URL: far more than hours of recording."""
@@ -68,6 +76,12 @@ def fetched_log(url: str, max_bytes: int = MAX_LOG_BYTES) -> Iterator[Path]:
         copy = Path(folder, url_name(url))
         _copy(filesystem, path, copy, url, max_bytes)
         yield copy
+
+
+def named_as_given(text: str, copy: str | Path, url: str) -> str:
+    """``text`` (a message, a command) with the copy of a log behind ``url``, which
+    :func:`fetched_log` made and removes, named by the URL instead."""
+    return text.replace(str(copy), url)
 
 
 def log_size(url: str) -> int | None:

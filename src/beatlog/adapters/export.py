@@ -113,10 +113,18 @@ class ExportResult:
     """Whether a system was replayed for the divergence."""
     divergence: Divergence | None
     """The replay's first divergence, when a system was replayed and it diverged."""
+    url: str | None = None
+    """The URL of the log, when it lay behind one: ``log`` is then the copy exported,
+    which is gone."""
+
+    @property
+    def log_name(self) -> str:
+        """The log as messages name it: its URL, or its path."""
+        return str(self.log) if self.url is None else self.url
 
     def describe(self) -> str:
         """One line for people: what was written, how the log ended, what replay found."""
-        line = f"exported {self.cycles} cycles of {self.log} to {self.output} ({self.format})"
+        line = f"exported {self.cycles} cycles of {self.log_name} to {self.output} ({self.format})"
         if not self.status.complete:
             line += f"; the log is {self.status.describe()}"
         if self.divergence is not None:

@@ -55,6 +55,14 @@ class LogSummary:
     """Random numbers drawn per kind."""
     samples: dict[str, int] | None
     """Raw sensor samples logged per sensor; None when the session logged none."""
+    url: str | None = None
+    """The URL of the log, when it lay behind one: ``path`` is then the copy read, which
+    is gone."""
+
+    @property
+    def log_name(self) -> str:
+        """The log as messages name it: its URL, or its path."""
+        return str(self.path) if self.url is None else self.url
 
     @property
     def format_version(self) -> int:

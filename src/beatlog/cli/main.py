@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import os
 import sys
 import time
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, TypeVar
@@ -123,7 +124,7 @@ def _parser() -> argparse.ArgumentParser:
     record.add_argument("--force", action="store_true", help="overwrite an existing log")
 
     play = add("replay", help="replay a session log and give a verdict")
-    play.add_argument("log", type=Path, help="the session log (.beatlog) to replay")
+    play.add_argument("log", help="the session log (.beatlog) to replay: a path or a URL")
     play.add_argument(
         "--system",
         metavar="MODULE:FACTORY",
@@ -165,10 +166,10 @@ def _parser() -> argparse.ArgumentParser:
     )
 
     show = add("show", help="describe a session log")
-    show.add_argument("log", type=Path, help="the session log (.beatlog) to describe")
+    show.add_argument("log", help="the session log (.beatlog) to describe: a path or a URL")
 
     plot = add("plot", help="draw a timeline chart of a session log (PNG, SVG or PDF)")
-    plot.add_argument("log", type=Path, help="the session log (.beatlog) to draw")
+    plot.add_argument("log", help="the session log (.beatlog) to draw: a path or a URL")
     plot.add_argument(
         "-o",
         "--output",
@@ -213,7 +214,7 @@ def _add_export(add: Callable[..., argparse.ArgumentParser]) -> None:
     export_ = add(
         "export", help="write a session log as MCAP for Foxglove and Lichtblick, or a table"
     )
-    export_.add_argument("log", type=Path)
+    export_.add_argument("log", help="the session log (.beatlog) to export: a path or a URL")
     export_.add_argument("-o", "--output", required=True, type=Path, metavar="FILE")
     export_.add_argument(
         "--format",
@@ -534,23 +535,29 @@ def _progress(console: Console) -> Progress:
 
 
 def _replay(args: argparse.Namespace, console: Console) -> int:
+    import dataclasses
+
     import msgspec
 
     from beatlog.replay.judge import recorded_system, replay
     from beatlog.report.console import render_replay
 
-    system = args.system
-    if system is None:
-        system = recorded_system(args.log)
-        print(f"beatlog: replaying against {system}, as recorded in {args.log}", file=sys.stderr)
-    options = {
-        "keep_going": args.keep_going,
-        "allow_truncated": args.allow_truncated,
-        "perception": args.perception,
-    }
-    result = replay(args.log, system, break_at=args.break_at, **options)
-    if args.break_on_divergence and result.divergence is not None:
-        replay(args.log, system, break_at=result.divergence.cycle, **options)
+    given = args.log
+    with _readable(args) as named:
+        system = args.system
+        if system is None:
+            system = recorded_system(args.log)
+            print(f"beatlog: replaying against {system}, as recorded in {given}", file=sys.stderr)
+        options = {
+            "keep_going": args.keep_going,
+            "allow_truncated": args.allow_truncated,
+            "perception": args.perception,
+        }
+        result = replay(args.log, system, break_at=args.break_at, **options)
+        if args.break_on_divergence and result.divergence is not None:
+            replay(args.log, system, break_at=result.divergence.cycle, **options)
+    if named is not None:
+        result = dataclasses.replace(result, url=given, reproduce=named(result.reproduce))
     if args.json:
         sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
     else:
@@ -778,10 +785,17 @@ def _describe(outcome: SpecOutcome) -> RenderableType:
 
 
 def _show(args: argparse.Namespace, console: Console) -> int:
+    import dataclasses
+
     from beatlog.analysis.summary import summarize
     from beatlog.report.console import render_summary
 
-    console.print(render_summary(summarize(args.log)))
+    given = args.log
+    with _readable(args) as named:
+        summary = summarize(args.log)
+    if named is not None:
+        summary = dataclasses.replace(summary, url=given)
+    console.print(render_summary(summary))
     return EXIT_OK
 
 
@@ -792,15 +806,17 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
     from beatlog.report.chart import chart_format, write_chart
 
     chart_format(args.output)  # an unknown suffix is refused before anything runs
-    divergence = None if args.system is None else replay(args.log, args.system).divergence
-    timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
+    given = args.log
+    with _readable(args):
+        divergence = None if args.system is None else replay(args.log, args.system).divergence
+        timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
     try:
         write_chart(timeline, args.output)
     except OSError as exc:
         raise _UsageError(f"{args.output}: cannot write: {exc.strerror}") from None
     mark = timeline.divergence
     console.print(
-        f"drew {timeline.cycles} cycles of {args.log} to {args.output}"
+        f"drew {timeline.cycles} cycles of {given} to {args.output}"
         + ("" if mark is None else f"; first divergence at cycle {mark.cycle} ({mark.kind})"),
         markup=False,
         highlight=False,
@@ -809,11 +825,38 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
 
 
 def _export(args: argparse.Namespace, console: Console) -> int:
+    import dataclasses
+
     from beatlog.adapters.export import export
 
-    result = export(args.log, args.output, format=args.format, system=args.system)
+    given = args.log
+    with _readable(args) as named:
+        result = export(args.log, args.output, format=args.format, system=args.system)
+    if named is not None:
+        result = dataclasses.replace(result, url=given)
     console.print(result.describe(), markup=False, highlight=False)
     return EXIT_OK
+
+
+@contextlib.contextmanager
+def _readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
+    """``args.log`` as a file of this machine while the block runs: a log behind a URL
+    is copied once (:func:`beatlog.remote.fetched_log`) and ``args.log`` names the copy,
+    which is removed after. The block is given a function that names the copy by its
+    URL in a text, and errors raised in it are named so too; None for a local log."""
+    from beatlog.remote import fetched_log, is_url, named_as_given
+
+    url = str(args.log)
+    if not is_url(url):
+        yield None
+        return
+    with fetched_log(url) as copy:
+        args.log = copy
+        try:
+            yield functools.partial(named_as_given, copy=copy, url=url)
+        except BeatlogError as exc:
+            exc.args = (named_as_given(str(exc), copy, url),)
+            raise
 
 
 def _need_matplotlib(command: str) -> None:

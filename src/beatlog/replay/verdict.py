@@ -148,6 +148,14 @@ class ReplayResult:
     """A command that reproduces this verdict: ``beatlog replay`` with the options replay
     was given or, for a DTC run from its spec, ``beatlog test SPEC`` (which brings the
     spec's allowances and approved baseline along)."""
+    url: str | None = None
+    """The URL of the log, when it lay behind one: ``log`` is then the copy replayed,
+    which is gone."""
+
+    @property
+    def log_name(self) -> str:
+        """The log as messages name it: its URL, or its path."""
+        return str(self.log) if self.url is None else self.url
 
     @property
     def robot_time_s(self) -> float:

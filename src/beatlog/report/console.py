@@ -37,11 +37,11 @@ def render_replay(result: ReplayResult) -> RenderableType:
     )
     status = "" if result.status is None else f"; log {result.status.describe()}"
     if result.ok:
-        return Text.assemble(("PASS ", "bold green"), f"{result.log}  {figures}{status}")
+        return Text.assemble(("PASS ", "bold green"), f"{result.log_name}  {figures}{status}")
     divergence = result.divergence
     assert divergence is not None
     parts: list[RenderableType] = [
-        Text.assemble(("FAIL ", "bold red"), f"{result.log}  {figures}{status}"),
+        Text.assemble(("FAIL ", "bold red"), f"{result.log_name}  {figures}{status}"),
         _divergence(divergence),
     ]
     if result.divergent_cycles > 1:
@@ -178,7 +178,7 @@ def render_summary(summary: LogSummary) -> RenderableType:
     started = dt.datetime.fromtimestamp(header.start_time_ns / 1e9, tz=dt.UTC)
     overruns = "unknown (no end record)" if summary.end is None else str(summary.end.overruns)
     rows = [
-        ("log", str(summary.path)),
+        ("log", summary.log_name),
         ("format", _format_version(summary.format_version)),
         ("status", summary.status.describe()),
         ("robot", header.robot_id),

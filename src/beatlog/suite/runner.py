@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from beatlog.analysis.trace import Expectation, ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
+from beatlog.remote import named_as_given
 from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
@@ -133,8 +134,8 @@ def _named_as_given(outcome: SpecOutcome, spec: DtcSpec, copy: str, url: str) ->
     the URL where its error named the copy."""
     result = outcome.result
     if result is not None:
-        result = dataclasses.replace(result, log=spec.log)
-    error = None if outcome.error is None else outcome.error.replace(copy, url)
+        result = dataclasses.replace(result, log=spec.log, url=url)
+    error = None if outcome.error is None else named_as_given(outcome.error, copy, url)
     return dataclasses.replace(outcome, spec=spec, result=result, error=error)
 
 

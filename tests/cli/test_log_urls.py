@@ -1,0 +1,134 @@
+"""``beatlog replay``, ``show``, ``plot`` and ``export`` on a log behind a URL: the log is
+downloaded once per command, and everything the command prints names the URL, never
+the copy it read."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.commands import Beatlog, assert_one_line_error
+from tests.served import LogServer
+from tests.specs import CHANGED, PROBE
+
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+
+def test_replay_judges_a_log_behind_a_url_and_names_the_url(
+    beatlog: Beatlog, served: LogServer
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+
+    run = beatlog("replay", url, "--system", PROBE)
+
+    assert run.code == 0, run.err
+    assert run.out.startswith(f"PASS {url}  300 cycles")
+    assert served.downloads("dock.beatlog") == 1
+
+
+def test_a_diverging_replay_of_a_url_reproduces_with_the_url(
+    beatlog: Beatlog, served: LogServer
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+
+    run = beatlog("replay", url, "--system", CHANGED)
+
+    assert run.code == 1, run.err
+    assert run.out.startswith(f"FAIL {url}  ")
+    assert f"reproduce: beatlog replay {url} --system {CHANGED}\n" in run.out
+    assert "beatlog-remote-" not in run.out
+    assert served.downloads("dock.beatlog") == 1
+
+
+def test_replay_json_names_the_url_and_the_copy_it_read(
+    beatlog: Beatlog, served: LogServer
+) -> None:
+    url = f"{served.url}/yard.beatlog"
+
+    run = beatlog("replay", url, "--system", PROBE, "--json")
+
+    result = json.loads(run.out)
+    assert result["ok"] is True
+    assert result["url"] == url
+    assert Path(result["log"]).name == "yard.beatlog"
+
+
+def test_replay_against_the_recorded_system_says_it_of_the_url(
+    beatlog: Beatlog, served: LogServer
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+
+    run = beatlog("replay", url)
+
+    assert run.code == 0, run.err
+    assert run.err == f"beatlog: replaying against {PROBE}, as recorded in {url}\n"
+    assert served.downloads("dock.beatlog") == 1
+
+
+def test_show_describes_a_log_behind_a_url(beatlog: Beatlog, served: LogServer) -> None:
+    url = f"{served.url}/yard.beatlog"
+
+    run = beatlog("show", url)
+
+    assert run.code == 0, run.err
+    rows = {line.split()[0]: line.split()[1:] for line in run.out.splitlines()[:9]}
+    assert rows["log"] == [url]
+    assert rows["cycles"] == ["200"]
+    assert served.downloads("yard.beatlog") == 1
+
+
+def test_export_writes_a_log_behind_a_url(
+    beatlog: Beatlog, served: LogServer, tmp_path: Path
+) -> None:
+    url, output = f"{served.url}/yard.beatlog", tmp_path / "yard.mcap"
+
+    run = beatlog("export", url, "-o", output, "--system", PROBE)
+
+    assert run.code == 0, run.err
+    assert run.out == f"exported 200 cycles of {url} to {output} (mcap); the replay passed\n"
+    assert output.read_bytes().startswith(b"\x89MCAP")
+    assert served.downloads("yard.beatlog") == 1
+
+
+def test_plot_draws_a_log_behind_a_url_downloading_it_once(
+    beatlog: Beatlog, served: LogServer, tmp_path: Path
+) -> None:
+    pytest.importorskip("matplotlib")
+    url, svg = f"{served.url}/dock.beatlog", tmp_path / "dock.svg"
+
+    run = beatlog("plot", url, "-o", svg, "--system", CHANGED)
+
+    assert run.code == 0, run.err
+    assert run.out.startswith(f"drew 300 cycles of {url} to {svg}; first divergence at cycle ")
+    assert svg.read_text().startswith("<?xml")
+    assert served.downloads("dock.beatlog") == 1
+
+
+@pytest.mark.parametrize("command", ["replay", "show"])
+def test_a_log_url_not_found_is_one_line_naming_it(
+    beatlog: Beatlog, served: LogServer, command: str
+) -> None:
+    url = f"{served.url}/lost.beatlog"
+
+    run = beatlog(command, url)
+
+    assert_one_line_error(run, f"{url}: no such log")
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["replay", "--system", PROBE], ["show"], ["export", "--format", "csv", "-o", "notes.csv"]],
+    ids=["replay", "show", "export"],
+)
+def test_a_damaged_log_behind_a_url_is_one_line_naming_the_url_not_the_copy(
+    beatlog: Beatlog, served: LogServer, command: list[str]
+) -> None:
+    (served.folder / "notes.beatlog").write_bytes(b"not a session log at all\n" * 40)
+    url = f"{served.url}/notes.beatlog"
+
+    run = beatlog(command[0], url, *command[1:])
+
+    assert_one_line_error(run, f"beatlog: error: {url}: ")
+    assert "beatlog-remote-" not in run.err
