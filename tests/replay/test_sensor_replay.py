@@ -18,7 +18,9 @@ from tests.perceptions import (
     CHANGED,
     broken_perception,
     changed_perception,
+    dict_perception,
     nudged_perception,
+    numpy_perception,
     perception,
     record_with_samples,
     shifted_perception,
@@ -55,6 +57,29 @@ def test_a_perception_that_raises_is_a_perception_divergence(tmp_path: Path) -> 
     assert divergence.message == "perception raised ValueError: no range sensor"
     assert divergence.traceback is not None
     assert "perceptions.py" in divergence.traceback
+
+
+def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
+    tmp_path: Path,
+) -> None:
+    # A dict of the probe's fields encodes to the recorded bytes; the behaviors would
+    # then fail on it, and the report blame them.
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    divergence = replay(log, probe_system(), perception=dict_perception()).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.PERCEPTION
+    assert divergence.message == "perception returned a dict, not a Probe"
+    assert divergence.traceback is None
+
+
+def test_a_rebuilt_state_holding_numpy_values_is_reported_as_plain_numbers(
+    tmp_path: Path,
+) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    divergence = replay(log, probe_system(), perception=numpy_perception()).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.PERCEPTION
+    assert divergence.robot_state == {"distance": 2.0, "reading": 0.0}
 
 
 def test_a_log_without_samples_replays_its_recorded_states(tmp_path: Path) -> None:
