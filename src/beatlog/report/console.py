@@ -62,20 +62,9 @@ def _divergence(divergence: Divergence) -> RenderableType:
     if divergence.proposed_renames:
         parts.append(_rename_proposal(divergence.proposed_renames))
     if divergence.perception:
-        parts.append(
-            _side_by_side(
-                "robot state from the samples",
-                [f"{d.field} = {d.recorded!r}" for d in divergence.perception],
-                [f"{d.field} = {d.rebuilt!r}" for d in divergence.perception],
-            )
-        )
+        parts.append(_side_by_side("robot state from the samples", *divergence.perception_sides))
     if divergence.samples:
-        parts.append(
-            Text.assemble(
-                ("samples: ", "dim"),
-                "; ".join(f"{sensor} {value!r}" for sensor, value in divergence.samples),
-            )
-        )
+        parts.append(Text.assemble(("samples: ", "dim"), divergence.samples_text))
     if divergence.expected or divergence.actual:
         parts.append(
             _side_by_side("behavior state changes", divergence.expected, divergence.actual)
