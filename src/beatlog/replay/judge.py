@@ -49,7 +49,13 @@ from beatlog.replay.verdict import (
 )
 from beatlog.usercode import load_perception, load_system, user_traceback
 
-__all__ = ["recorded_system", "replay"]
+__all__ = ["NO_SAMPLES", "recorded_system", "replay"]
+
+NO_SAMPLES = (
+    "perception not run: the log holds no samples (record with --log-samples); "
+    "its recorded robot states were replayed"
+)
+"""The note on a replay given a perception step for a log recorded without samples."""
 
 
 def replay(
@@ -177,6 +183,7 @@ def replay(
             *(["--keep-going"] if keep_going else []),
             *(["--allow-truncated"] if allow_truncated else []),
         ),
+        notes=(NO_SAMPLES,) if perception is not None and judge.replayer.perception is None else (),
     )
 
 

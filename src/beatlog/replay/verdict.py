@@ -163,6 +163,9 @@ class ReplayResult:
     """A command that reproduces this verdict: ``beatlog replay`` with the options replay
     was given or, for a DTC run from its spec, ``beatlog test SPEC`` (which brings the
     spec's allowances and approved baseline along)."""
+    notes: tuple[str, ...] = ()
+    """What a reader should know about how the log was replayed, e.g. that a perception
+    step was given but not run, because the log holds no samples."""
 
     @property
     def robot_time_s(self) -> float:

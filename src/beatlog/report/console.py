@@ -36,12 +36,15 @@ def render_replay(result: ReplayResult) -> RenderableType:
         else f"in {result.wall_time_s:.3f} s ({result.speedup:,.0f}× real time)"
     )
     status = "" if result.status is None else f"; log {result.status.describe()}"
+    notes = [Text.assemble(("note: ", "yellow"), note) for note in result.notes]
     if result.ok:
-        return Text.assemble(("PASS ", "bold green"), f"{result.log}  {figures}{status}")
+        verdict = Text.assemble(("PASS ", "bold green"), f"{result.log}  {figures}{status}")
+        return Group(verdict, *notes) if notes else verdict
     divergence = result.divergence
     assert divergence is not None
     parts: list[RenderableType] = [
         Text.assemble(("FAIL ", "bold red"), f"{result.log}  {figures}{status}"),
+        *notes,
         _divergence(divergence),
     ]
     if result.divergent_cycles > 1:
