@@ -8,6 +8,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
 from beatlog.record.recorder import Recorder
@@ -68,6 +70,27 @@ def shifted_perception() -> Perception:
         return Probe(distance=state.distance - 0.05, reading=state.reading)
 
     return shifted
+
+
+def dict_perception() -> Perception:
+    """Builds the probe's fields as a dict, which encodes as the probe does."""
+
+    def as_dict(previous: Probe | None, samples: Sequence[Sample]) -> dict[str, float]:
+        state = perceive(previous, samples)
+        return {"distance": state.distance, "reading": state.reading}
+
+    return as_dict
+
+
+def numpy_perception() -> Perception:
+    """A perception change that computes the distance with numpy, as a float32."""
+
+    def computed(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
+        state = perceive(previous, samples)
+        distance = np.float32(state.distance) * 2
+        return Probe(distance=distance, reading=state.reading)  # type: ignore[arg-type]
+
+    return computed
 
 
 def broken_perception() -> Perception:

@@ -22,6 +22,7 @@ from beatlog.usercode import (
     failure_site,
     importable_near,
     load_factory,
+    load_perception,
     load_robot,
     load_system,
     user_traceback,
@@ -148,6 +149,15 @@ def test_a_factory_that_builds_the_wrong_thing_says_what_it_built(
 
     with pytest.raises(SystemLoadError, match=f"^'{module}:system': {problem} "):
         load_system(f"{module}:system")
+
+
+def test_a_perception_factory_that_builds_no_callable_says_what_it_built(user_dir: Path) -> None:
+    write_module(user_dir, "perceives_nothing", "def perception():\n    return 42\n")
+
+    with pytest.raises(
+        SystemLoadError, match=r"^'perceives_nothing:perception': built an int, not a perception"
+    ):
+        load_perception("perceives_nothing:perception")
 
 
 def test_a_system_is_not_a_robot() -> None:

@@ -198,7 +198,7 @@ def load_perception(reference: str) -> Perception:
     perception = load_factory(reference)
     if not callable(perception):
         raise SystemLoadError(
-            f"{reference!r}: built a {type(perception).__name__}, not a perception step "
+            f"{reference!r}: {_built(perception)}, not a perception step "
             "(a callable taking the previous robot state and the samples)"
         )
     return perception  # type: ignore[no-any-return]

@@ -72,6 +72,29 @@ def test_a_declared_state_no_dtc_reaches_is_unreached(tmp_path: Path) -> None:
     assert coverage.behaviors["watchful"].unreached == ('"asleep"',)
 
 
+class Moody(Watchful):
+    """Watchful, whose state is a member of its Enum (logged as the member's value)."""
+
+    def __init__(self) -> None:
+        self.state = Mood.CALM  # type: ignore[assignment]
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = Mood.ALERT if rs.distance < 0.5 else Mood.CALM  # type: ignore[assignment]
+        return None
+
+
+def test_a_state_that_is_an_enum_member_counts_as_its_value(tmp_path: Path) -> None:
+    log = tmp_path / "moody.beatlog"
+    system = PriorityArbiter([Moody()], robot_state=Probe)
+    with Recorder(log, system, seed=1, software="test") as recorder:
+        for distance in distances(300):
+            recorder.step(PERIOD_NS, Probe(distance=distance))
+    moody = cover([("moody", log, PriorityArbiter([Moody()], robot_state=Probe))])
+    states = moody.behaviors["watchful"].states
+    assert set(states) == {'"calm"', '"alert"'}
+    assert sum(seen.cycles for seen in states.values()) == 300
+
+
 def test_coverage_adds_up_over_dtcs_and_selects_those_exercising_a_behavior(
     tmp_path: Path, record_probe: RecordFn
 ) -> None:

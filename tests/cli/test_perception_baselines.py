@@ -93,11 +93,12 @@ def test_the_state_changes_that_follow_a_perception_change_are_pinned_too(
     assert beatlog("test", spec).code == 0
 
 
-def test_a_perception_that_raises_is_not_re_baselined(
-    tmp_path: Path, log: Path, beatlog: Beatlog
+@pytest.mark.parametrize("factory", ["broken_perception", "dict_perception"])
+def test_a_perception_that_raises_or_builds_no_robot_state_is_not_re_baselined(
+    tmp_path: Path, log: Path, beatlog: Beatlog, factory: str
 ) -> None:
-    spec = write_spec(tmp_path, "sensors", log, perception="tests.perceptions:broken_perception")
+    spec = write_spec(tmp_path, "sensors", log, perception=f"tests.perceptions:{factory}")
     update = beatlog("test", "--update", spec)
     assert update.code == 1
-    assert "not updated sensors: perception raised" in update.out
+    assert "not updated sensors: perception raised or built no robot state" in update.out
     assert not pending_path(spec).exists()

@@ -9,7 +9,7 @@ import pytest
 from beatlog.cli.main import main
 from beatlog.errors import FieldError
 from beatlog.replay.compare import Comparison
-from beatlog.replay.judge import replay
+from beatlog.replay.judge import NO_SAMPLES, replay
 from beatlog.replay.verdict import DivergenceKind, FieldDifference
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
@@ -18,7 +18,9 @@ from tests.perceptions import (
     CHANGED,
     broken_perception,
     changed_perception,
+    dict_perception,
     nudged_perception,
+    numpy_perception,
     perception,
     record_with_samples,
     shifted_perception,
@@ -57,9 +59,45 @@ def test_a_perception_that_raises_is_a_perception_divergence(tmp_path: Path) -> 
     assert "perceptions.py" in divergence.traceback
 
 
-def test_a_log_without_samples_replays_its_recorded_states(tmp_path: Path) -> None:
+def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
+    tmp_path: Path,
+) -> None:
+    # A dict of the probe's fields encodes to the recorded bytes; the behaviors would
+    # then fail on it, and the report blame them.
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    divergence = replay(log, probe_system(), perception=dict_perception()).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.PERCEPTION
+    assert divergence.message == "perception returned a dict, not a Probe"
+    assert divergence.traceback is None
+
+
+def test_a_rebuilt_state_holding_numpy_values_is_reported_as_plain_numbers(
+    tmp_path: Path,
+) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    divergence = replay(log, probe_system(), perception=numpy_perception()).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.PERCEPTION
+    assert divergence.robot_state == {"distance": 2.0, "reading": 0.0}
+
+
+def test_a_log_without_samples_replays_its_recorded_states_and_says_so(tmp_path: Path) -> None:
     log = record_with_samples(tmp_path / "plain.beatlog", log_samples=False)
-    assert replay(log, probe_system(), perception=changed_perception()).ok
+    result = replay(log, probe_system(), perception=changed_perception())
+    assert result.ok
+    assert result.notes == (NO_SAMPLES,)
+    assert replay(log, probe_system()).notes == ()
+
+
+def test_a_spec_whose_perception_cannot_run_passes_with_a_note(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "400")
+    log = record_with_samples(tmp_path / "plain.beatlog", 40, log_samples=False)
+    spec = write_spec(tmp_path, "plain", log, perception=CHANGED)
+    assert main(["test", "--jobs", "1", str(spec)]) == 0
+    assert f"note: plain ({spec}): {NO_SAMPLES}" in capsys.readouterr().out
 
 
 def test_a_perception_named_by_reference_is_in_the_reproduce_command(tmp_path: Path) -> None:

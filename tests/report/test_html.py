@@ -22,6 +22,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import PERIOD_NS, Probe
+from tests.perceptions import CHANGED, record_with_samples
 from tests.specs import write_spec
 from tests.systems import HOSTILE, hostile_system
 
@@ -170,6 +171,21 @@ def test_a_state_has_one_colour_in_every_chart_of_the_page(report: Report) -> No
         assert colours[2][label] == colour
         assert colours[0].get(label, colour) == colour
     assert len(set(fills.values())) == len(fills)  # different states, different colours
+
+
+def test_a_perception_divergence_shows_the_fields_rebuilt_and_the_samples(
+    tmp_path: Path,
+) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    spec = dtc(tmp_path, "sensors", log, "tests.conftest:probe_system", perception=CHANGED)
+    path = tmp_path / "report.html"
+    write_html(run_suite([spec]), path)
+    sensors = section(path.read_text(encoding="utf-8"), 1)
+
+    assert "robot state from the samples" in sensors
+    assert "distance = 1.0" in sensors
+    assert "distance = 1.1" in sensors
+    assert "samples: range [1.0, 1]" in sensors
 
 
 def test_an_error_says_why_and_draws_nothing(report: Report) -> None:

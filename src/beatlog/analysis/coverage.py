@@ -25,8 +25,13 @@ __all__ = ["BehaviorCoverage", "Seen", "SuiteCoverage", "cover", "declared_state
 
 
 def _key(state: Any) -> str:
-    """A state as it reads in reports and JSON keys (states compare as they encode)."""
-    return json.dumps(state, default=repr, sort_keys=True)
+    """A state as it reads in reports and JSON keys (states compare as they encode: an
+    Enum member as its value)."""
+    return json.dumps(state, default=_plain, sort_keys=True)
+
+
+def _plain(value: Any) -> Any:
+    return value.value if isinstance(value, enum.Enum) else repr(value)
 
 
 @dataclass

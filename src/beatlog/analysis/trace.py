@@ -27,6 +27,7 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.model.perception import perception_problem
 from beatlog.replay.compare import WHOLE_STATE, Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.verdict import StateChange
@@ -325,7 +326,7 @@ def _stop_reason(outcome: CycleOutcome) -> str | None:
     cycle = outcome.cycle
     problem = outcome.perception_failure
     if problem is not None:
-        return f"cycle {cycle}: perception raised {type(problem).__name__}: {problem}"
+        return f"cycle {cycle}: {perception_problem(problem)}"
     if outcome.failure is not None:
         return f"cycle {cycle}: {type(outcome.failure).__name__}: {outcome.failure}"
     if outcome.draw_problem is not None:

@@ -675,6 +675,13 @@ def _run_tests(
             )
         elif outcome.verdict is Verdict.FAILED:
             progress.console.print(_describe(outcome))
+        elif outcome.result is not None:
+            for note in outcome.result.notes:
+                progress.console.print(
+                    f"note: {outcome.spec.name} ({outcome.spec.origin}): {note}",
+                    markup=False,
+                    highlight=False,
+                )
         if outcome.retries:
             progress.console.print(
                 f"retried {outcome.spec.name}: the worker replaying it died "

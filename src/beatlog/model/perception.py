@@ -14,7 +14,7 @@ from typing import Any, Protocol
 
 from beatlog.model.inbox import Sample
 
-__all__ = ["Perception"]
+__all__ = ["Perception", "PerceptionTypeError", "perception_problem"]
 
 
 class Perception(Protocol):
@@ -25,3 +25,20 @@ class Perception(Protocol):
     """
 
     def __call__(self, previous: Any | None, samples: Sequence[Sample], /) -> Any: ...
+
+
+class PerceptionTypeError(TypeError):
+    """A perception step returned something other than the system's robot state."""
+
+    def __init__(self, rebuilt: object, robot_state: type[Any]) -> None:
+        name = type(rebuilt).__name__
+        kind = "None" if rebuilt is None else f"{'an' if name[0] in 'AEIOUaeiou' else 'a'} {name}"
+        super().__init__(f"returned {kind}, not a {robot_state.__name__}")
+
+
+def perception_problem(problem: BaseException) -> str:
+    """What went wrong in the perception step, for reports: ``perception returned a
+    dict, not a Probe`` or ``perception raised ValueError: no range sensor``."""
+    if isinstance(problem, PerceptionTypeError):
+        return f"perception {problem}"
+    return f"perception raised {type(problem).__name__}: {problem}"

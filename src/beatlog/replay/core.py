@@ -32,7 +32,7 @@ from beatlog.model.behavior import System
 from beatlog.model.context import Outputs
 from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
-from beatlog.model.perception import Perception
+from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
 from beatlog.replay.fit import check_fit
 
@@ -273,13 +273,16 @@ class Replayer:
     def _perceive(self, record: CycleRecord, recorded: Any) -> _Sensed:
         """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
 
-        When perception raises, the behaviors run on the recorded RS_t, so replay can
-        go on; the outcome carries the failure.
+        When perception raises, or returns something other than the system's robot
+        state (a :class:`PerceptionTypeError`), the behaviors run on the recorded RS_t,
+        so replay can go on; the outcome carries the failure.
         """
         assert self.perception is not None
         samples = self._decode_samples(record, self.executor.context.cycle + 1)
         try:
             rebuilt = self.perception(self._rebuilt, samples)
+            if not isinstance(rebuilt, self.system.robot_state):
+                raise PerceptionTypeError(rebuilt, self.system.robot_state)
         except BeatlogError:
             raise
         except (Exception, SystemExit) as exc:  # perception failing is an outcome

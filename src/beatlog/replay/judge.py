@@ -32,7 +32,7 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.model.perception import Perception
+from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
 from beatlog.model.random import Draw
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
@@ -49,7 +49,13 @@ from beatlog.replay.verdict import (
 )
 from beatlog.usercode import load_perception, load_system, user_traceback
 
-__all__ = ["recorded_system", "replay"]
+__all__ = ["NO_SAMPLES", "recorded_system", "replay"]
+
+NO_SAMPLES = (
+    "perception not run: the log holds no samples (record with --log-samples); "
+    "its recorded robot states were replayed"
+)
+"""The note on a replay given a perception step for a log recorded without samples."""
 
 
 def replay(
@@ -177,6 +183,7 @@ def replay(
             *(["--keep-going"] if keep_going else []),
             *(["--allow-truncated"] if allow_truncated else []),
         ),
+        notes=(NO_SAMPLES,) if perception is not None and judge.replayer.perception is None else (),
     )
 
 
@@ -508,8 +515,8 @@ class _Judge:
         if outcome.perception_failure is not None:
             kind = DivergenceKind.PERCEPTION
             problem = outcome.perception_failure
-            trace = user_traceback(problem)
-            message = f"perception raised {type(problem).__name__}: {problem}"
+            trace = None if isinstance(problem, PerceptionTypeError) else user_traceback(problem)
+            message = perception_problem(problem)
         elif differences:
             kind = DivergenceKind.PERCEPTION
             names = ", ".join(d.field for d in differences)
@@ -562,7 +569,7 @@ class _Judge:
             actual=tuple(actual),
             expected_outputs=expected_outputs,
             actual_outputs=dict(outcome.outputs) if completed else {},
-            robot_state=msgspec.to_builtins(outcome.state),
+            robot_state=state_fields(outcome.state),
             random_recorded=tuple(self._reports(outcome.recorded_draws, self.header.behaviors)),
             random_drawn=tuple(self._reports(outcome.drawn, self.executor.behavior_ids)),
             traceback=trace,

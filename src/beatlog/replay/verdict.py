@@ -127,6 +127,21 @@ class Divergence:
         """Robot time of the diverging cycle in seconds."""
         return self.time_ns / 1e9
 
+    @property
+    def perception_sides(self) -> tuple[list[str], list[str]]:
+        """The fields perception rebuilt otherwise, as ``field = value``: as recorded,
+        and as rebuilt."""
+        differences = self.perception
+        return (
+            [f"{d.field} = {d.recorded!r}" for d in differences],
+            [f"{d.field} = {d.rebuilt!r}" for d in differences],
+        )
+
+    @property
+    def samples_text(self) -> str:
+        """The cycle's samples on one line: ``range [1.0, 1]; imu 0.0``."""
+        return "; ".join(f"{sensor} {value!r}" for sensor, value in self.samples)
+
 
 @dataclass(frozen=True)
 class ReplayResult:
@@ -148,6 +163,9 @@ class ReplayResult:
     """A command that reproduces this verdict: ``beatlog replay`` with the options replay
     was given or, for a DTC run from its spec, ``beatlog test SPEC`` (which brings the
     spec's allowances and approved baseline along)."""
+    notes: tuple[str, ...] = ()
+    """What a reader should know about how the log was replayed, e.g. that a perception
+    step was given but not run, because the log holds no samples."""
     url: str | None = None
     """The URL of the log, when it lay behind one: ``log`` is then the copy replayed,
     which is gone."""

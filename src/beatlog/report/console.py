@@ -36,12 +36,15 @@ def render_replay(result: ReplayResult) -> RenderableType:
         else f"in {result.wall_time_s:.3f} s ({result.speedup:,.0f}× real time)"
     )
     status = "" if result.status is None else f"; log {result.status.describe()}"
+    notes = [Text.assemble(("note: ", "yellow"), note) for note in result.notes]
     if result.ok:
-        return Text.assemble(("PASS ", "bold green"), f"{result.log_name}  {figures}{status}")
+        verdict = Text.assemble(("PASS ", "bold green"), f"{result.log_name}  {figures}{status}")
+        return Group(verdict, *notes) if notes else verdict
     divergence = result.divergence
     assert divergence is not None
     parts: list[RenderableType] = [
         Text.assemble(("FAIL ", "bold red"), f"{result.log_name}  {figures}{status}"),
+        *notes,
         _divergence(divergence),
     ]
     if result.divergent_cycles > 1:
@@ -62,20 +65,9 @@ def _divergence(divergence: Divergence) -> RenderableType:
     if divergence.proposed_renames:
         parts.append(_rename_proposal(divergence.proposed_renames))
     if divergence.perception:
-        parts.append(
-            _side_by_side(
-                "robot state from the samples",
-                [f"{d.field} = {d.recorded!r}" for d in divergence.perception],
-                [f"{d.field} = {d.rebuilt!r}" for d in divergence.perception],
-            )
-        )
+        parts.append(_side_by_side("robot state from the samples", *divergence.perception_sides))
     if divergence.samples:
-        parts.append(
-            Text.assemble(
-                ("samples: ", "dim"),
-                "; ".join(f"{sensor} {value!r}" for sensor, value in divergence.samples),
-            )
-        )
+        parts.append(Text.assemble(("samples: ", "dim"), divergence.samples_text))
     if divergence.expected or divergence.actual:
         parts.append(
             _side_by_side("behavior state changes", divergence.expected, divergence.actual)

@@ -197,6 +197,10 @@ def _divergence(divergence: Divergence, rerun: str) -> str:
         f"— {_e(divergence.kind)}</h3>",
         f'<p class="message">{_e(divergence.message)}</p>',
     ]
+    if divergence.perception:
+        parts.append(_side_by_side("robot state from the samples", *divergence.perception_sides))
+    if divergence.samples:
+        parts.append(f'<p class="samples">samples: {_e(divergence.samples_text)}</p>')
     if divergence.expected or divergence.actual:
         parts.append(
             _side_by_side("behavior state changes", divergence.expected, divergence.actual)

@@ -280,8 +280,11 @@ def _refusal(divergence: Divergence) -> str | None:
     """Why a divergence cannot be re-baselined, if it cannot."""
     if divergence.kind not in _UPDATABLE:
         return f"a divergence in {divergence.kind} cannot be re-baselined: re-record the session"
-    if divergence.kind is DivergenceKind.PERCEPTION and divergence.traceback is not None:
-        return "perception raised: a baseline pins what perception rebuilds; fix it first"
+    if divergence.kind is DivergenceKind.PERCEPTION and not divergence.perception:
+        return (
+            "perception raised or built no robot state: a baseline pins what perception "
+            "rebuilds; fix it first"
+        )
     return None
 
 
