@@ -43,7 +43,7 @@ from beatlog.report.counts import plural, verdict_counts
 from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, load_spec
 from beatlog.usercode import importable_near
 
 __all__ = ["DtcFile", "DtcItem", "beatlog_replay"]
@@ -175,11 +175,13 @@ class BeatlogRun:
         from beatlog.suite.coverage import suite_coverage  # noqa: PLC0415
         from beatlog.suite.coverage_cache import cache_path, recall  # noqa: PLC0415
 
+        folders = sorted({spec.parent for spec in self.specs})
         try:
             coverage = suite_coverage([load_spec(spec) for spec in sorted(self.specs)])
+            suite = [spec.name for spec in discover_specs(folders)]  # those deselected too
         except BeatlogError as exc:  # a log no DTC could read: its error is reported
             return [f"beatlog: no transition coverage: {exc}"]
-        warning = recall(coverage, cache_path(self.root)).warning
+        warning = recall(coverage, cache_path(self.root), suite).warning
         lines = [] if warning is None else [f"beatlog: warning: {warning}"]
         if self.coverage:
             lines.extend(plain_text(render_coverage(coverage)).splitlines())

@@ -62,6 +62,38 @@ def test_a_state_earlier_runs_saw_that_no_dtc_reaches_now_is_reported(
     assert '"near" (seen before in approach)' in out  # remembered until the cache goes
 
 
+def test_a_dtc_left_out_of_a_run_did_not_lose_what_it_reached(
+    specs: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _coverage(specs, capsys, monkeypatch)
+    monkeypatch.setenv("COLUMNS", "200")
+
+    code = main(["test", "-j", "1", "--coverage", "-k", "idle", str(specs)])
+
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "idle" in out
+    assert "seen before" not in out
+
+
+def test_behaviors_this_run_does_not_have_are_remembered_not_reported(tmp_path: Path) -> None:
+    path = tmp_path / CACHE_FOLDER / "coverage.json"
+    earlier = SuiteCoverage(dtcs=["docking"])
+    earlier.behavior("dock").states['"latched"'] = Seen({"docking"}, 5)
+    recall(earlier, path, ["docking"])
+    now = SuiteCoverage(dtcs=["walk"])
+    now.behavior("wander").states['"roam"'] = Seen({"walk"}, 9)
+
+    assert recall(now, path, ["walk"]).warning is None
+
+    assert list(now.behaviors) == ["wander"]
+    remembered = json.loads(path.read_text())["behaviors"]
+    assert remembered == {
+        "dock": {"states": {'"latched"': ["docking"]}, "transitions": []},
+        "wander": {"states": {'"roam"': ["walk"]}, "transitions": []},
+    }
+
+
 def test_the_memory_lives_in_a_cache_folder_git_ignores(
     specs: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -129,11 +161,12 @@ def test_the_memory_is_bounded(tmp_path: Path) -> None:
     for state in range(MAX_STATES + 10):
         busy.states[json.dumps(state)] = Seen({f"dtc{n}" for n in range(MAX_DTCS + 3)}, 1)
     path = tmp_path / CACHE_FOLDER / "coverage.json"
-    assert recall(coverage, path).warning is None
+    assert recall(coverage, path, []).warning is None
 
     remembered = json.loads(path.read_text())["behaviors"]["busy"]["states"]
     assert len(remembered) == MAX_STATES
     assert all(len(dtcs) == MAX_DTCS for dtcs in remembered.values())
     again = SuiteCoverage()
-    assert recall(again, path).warning is None
+    again.behavior("busy")
+    assert recall(again, path, []).warning is None
     assert len(again.behaviors["busy"].no_longer_reached) == MAX_STATES

@@ -760,8 +760,10 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
         coverage = suite_coverage([outcome.spec for outcome in outcomes])
         if args.logs is None:
             from beatlog.suite.coverage_cache import cache_path, recall
+            from beatlog.suite.spec import discover_specs
 
-            warning = recall(coverage, cache_path(args.paths[0])).warning
+            suite = [spec.name for spec in discover_specs(args.paths)]  # -k, --shard: all
+            warning = recall(coverage, cache_path(args.paths[0]), suite).warning
             if warning is not None:
                 print(f"beatlog: warning: {warning}", file=sys.stderr)
         if args.coverage:

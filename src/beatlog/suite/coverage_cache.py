@@ -12,6 +12,7 @@ file is ignored with a warning, never a crash. Delete the folder to forget.
 
 from __future__ import annotations
 
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
@@ -81,19 +82,37 @@ def cache_path(suite: Path) -> Path:
     return (project_root(folder) or folder.resolve()) / CACHE_FOLDER / "coverage.json"
 
 
-def recall(coverage: SuiteCoverage, path: Path) -> Recall:
+def recall(coverage: SuiteCoverage, path: Path, suite: Collection[str]) -> Recall:
     """Mark on ``coverage`` what earlier runs saw (from the file at ``path``), then
     remember what this run saw too. A file that cannot be read or trusted is ignored,
-    one that cannot be written left as it is; either way the warning says why."""
+    one that cannot be written left as it is; either way the warning says why.
+
+    Only what concerns this run is marked: the behaviors its DTCs have, and of those
+    the states and transitions that a DTC reached before which ran now, or which the
+    suite no longer holds (deleted, renamed). ``suite`` names every DTC of the suite,
+    run or not: a DTC left out by ``-k``, ``--behavior`` or ``--shard`` did not lose
+    what it reached. Everything stays remembered."""
     earlier, warning = _load(path)
+    ran = set(coverage.dtcs)
+    known = set(suite)
+
+    def concerns(dtcs: Sequence[str]) -> bool:
+        return any(dtc in ran or dtc not in known for dtc in dtcs)
+
     for name, behavior in earlier.behaviors.items():
-        cover = coverage.behavior(name)
-        cover.states_before = {state: tuple(dtcs) for state, dtcs in behavior.states.items()}
+        cover = coverage.behaviors.get(name)
+        if cover is None:
+            continue
+        cover.states_before = {
+            state: tuple(dtcs) for state, dtcs in behavior.states.items() if concerns(dtcs)
+        }
         cover.transitions_before = {
-            (before, after): tuple(dtcs) for before, after, dtcs in behavior.transitions
+            (before, after): tuple(dtcs)
+            for before, after, dtcs in behavior.transitions
+            if concerns(dtcs)
         }
     try:
-        _save(path, _merged(coverage))
+        _save(path, _merged(earlier, coverage))
     except OSError as exc:
         warning = warning or f"{path}: cannot write: {exc.strerror or exc}; nothing remembered"
     return Recall(path, warning)
@@ -116,23 +135,26 @@ def _load(path: Path) -> tuple[_Memory, str | None]:
     return empty, f"{path}: {problem}; ignored, and replaced by what this run saw"
 
 
-def _merged(coverage: SuiteCoverage) -> _Memory:
+def _merged(earlier: _Memory, coverage: SuiteCoverage) -> _Memory:
     """What earlier runs and this one saw, within the bounds."""
     behaviors: dict[str, _Behavior] = {}
-    for name, cover in list(coverage.behaviors.items())[:MAX_BEHAVIORS]:
-        states = {state: list(dtcs) for state, dtcs in cover.states_before.items()}
-        for state, seen in cover.states.items():
+    names = list(dict.fromkeys([*earlier.behaviors, *coverage.behaviors]))
+    for name in names[:MAX_BEHAVIORS]:
+        before = earlier.behaviors.get(name, _Behavior(states={}, transitions=[]))
+        states = {state: list(dtcs) for state, dtcs in before.states.items()}
+        edges = {(start, end): list(dtcs) for start, end, dtcs in before.transitions}
+        cover = coverage.behaviors.get(name)
+        for state, seen in {} if cover is None else cover.states.items():
             if len(state) > MAX_TEXT_LENGTH:
                 continue
             if state in states or len(states) < MAX_STATES:
                 states[state] = _names(states.get(state, []), seen.dtcs)
-        edges = {edge: list(dtcs) for edge, dtcs in cover.transitions_before.items()}
-        for edge, seen in cover.transitions.items():
+        for edge, seen in {} if cover is None else cover.transitions.items():
             if max(map(len, edge)) > MAX_TEXT_LENGTH:
                 continue
             if edge in edges or len(edges) < MAX_TRANSITIONS:
                 edges[edge] = _names(edges.get(edge, []), seen.dtcs)
-        transitions = [(before, after, dtcs) for (before, after), dtcs in edges.items()]
+        transitions = [(start, end, dtcs) for (start, end), dtcs in edges.items()]
         behaviors[name] = _Behavior(states=states, transitions=transitions)
     return _Memory(version=_VERSION, behaviors=behaviors)
 
