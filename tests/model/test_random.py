@@ -89,10 +89,19 @@ def test_drawing_more_than_recorded_is_a_mismatch() -> None:
 def test_drawing_another_kind_is_a_mismatch() -> None:
     player = ReplayRandom()
     player.load([Draw(0, "gauss", 0.5)])
-    with pytest.raises(RandomMismatch, match="drew uniform #1 where gauss was recorded"):
+    with pytest.raises(RandomMismatch, match=r"called uniform\(0, 1\) where gauss was recorded"):
         player.uniform(0, 1)
     assert player.mismatch is not None
     assert not player.mismatch.overdrawn
+    assert player.drawn == [Draw(-1, "uniform", None, (0, 1))]
+
+
+def test_drawing_another_kind_names_both_requests() -> None:
+    player = ReplayRandom()
+    player.load([Draw(0, "uniform", 0.5, (2.0, 5.0))])
+    with pytest.raises(RandomMismatch) as caught:
+        player.gauss(0.0, 0.4)
+    assert caught.value.problem == "called gauss(0.0, 0.4) where uniform(2.0, 5.0) was recorded"
 
 
 def test_a_swallowed_mismatch_is_still_remembered() -> None:

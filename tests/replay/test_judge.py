@@ -87,7 +87,15 @@ def test_drawing_more_random_numbers_than_recorded_is_caught(record_probe: Recor
     assert divergence.cycle == 0
     assert divergence.behavior == "dice"
     assert [d.kind for d in divergence.random_recorded] == ["randint"]
-    assert [d.behavior for d in divergence.random_drawn] == ["dice"]
+    drawn, refused = divergence.random_drawn
+    assert (drawn.behavior, drawn.call, drawn.value) == (
+        "dice",
+        "randint(1, 6)",
+        divergence.random_recorded[0].value,
+    )
+    assert (refused.behavior, refused.call, refused.value) == ("dice", "randint(1, 6)", None)
+    assert str(refused) == "dice: randint(1, 6)"
+    assert "called randint(1, 6) (#2) but only 1 were recorded" in divergence.message
 
 
 def test_drawing_fewer_random_numbers_than_recorded_is_caught(record_probe: RecordFn) -> None:

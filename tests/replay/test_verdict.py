@@ -59,9 +59,13 @@ def test_a_state_change_reads_as_behavior_before_and_after() -> None:
     assert str(StateChange("dice", 1, None)) == "dice: 1 -> None"
 
 
-def test_a_drawn_number_reads_as_behavior_kind_and_value() -> None:
-    assert str(DrawReport("dice", "randint", 4)) == "dice: randint 4"
-    assert str(DrawReport("wander", "uniform", 0.25)) == "wander: uniform 0.25"
+def test_a_drawn_number_reads_as_behavior_request_and_value() -> None:
+    assert str(DrawReport("dice", "randint", 4, "randint(1, 6)")) == "dice: randint(1, 6) = 4"
+    assert str(DrawReport("wander", "uniform", 0.25)) == "wander: uniform = 0.25"
+    assert str(DrawReport("wander", "uniform", None, "uniform(2, 5)")) == "wander: uniform(2, 5)"
+    long = DrawReport("noise", "normal_array", [[0.5] * 40] * 3, "normal_array(0.0, 1.0, [3, 40])")
+    assert str(long).startswith("noise: normal_array(0.0, 1.0, [3, 40]) = [[0.5, 0.5, ")
+    assert len(str(long)) < 120
 
 
 def test_every_divergence_kind_is_its_words_in_a_report() -> None:

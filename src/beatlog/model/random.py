@@ -31,6 +31,7 @@ __all__ = [
     "RandomSource",
     "RecordingRandom",
     "ReplayRandom",
+    "plain_value",
 ]
 
 T = TypeVar("T")
@@ -57,6 +58,9 @@ class DrawKind(StrEnum):
     """A numpy array of ints in [low, high)."""
 
 
+_ARRAY_KINDS = frozenset(
+    {DrawKind.UNIFORM_ARRAY.value, DrawKind.NORMAL_ARRAY.value, DrawKind.INTEGERS_ARRAY.value}
+)
 _encode_params = payload_encoder().encode
 _SCALARS = frozenset({int, float, str, bool, type(None)})
 """Types whose values of one type are equal exactly when they encode to the same bytes
@@ -99,6 +103,17 @@ class RandomMismatch(BaseException):
 def _pack_array(array: npt.NDArray[Any]) -> tuple[str, list[int], bytes]:
     little = array.astype(array.dtype.newbyteorder("<"), copy=False)
     return (little.dtype.str, list(array.shape), little.tobytes())
+
+
+def plain_value(draw: Draw) -> Any:
+    """A draw's value as plain Python, for reports: an array draw's as nested lists
+    (as recorded where those do not make an array)."""
+    if draw.value is not None and draw.kind in _ARRAY_KINDS:
+        try:
+            return _unpack_array(draw.value).tolist()
+        except (ValueError, TypeError):
+            return draw.value
+    return draw.value
 
 
 def _unpack_array(value: Any) -> npt.NDArray[Any]:
@@ -244,22 +259,28 @@ class ReplayRandom(RandomSource):
     def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         index = len(self.drawn)
         actor = self._actor
+        asked = Draw(actor, kind.value, None, params)
         if index >= len(self.recorded):
             self._fail(
-                f"drew {kind.value} #{index + 1} but only {index} were recorded",
+                f"called {asked.call()} (#{index + 1}) but only {index} were recorded",
                 actor,
                 overdrawn=True,
+                asked=asked,
             )
         draw = self.recorded[index]
-        if draw.kind != kind.value:
-            self._fail(f"drew {kind.value} #{index + 1} where {draw.kind} was recorded", actor)
-        asked = Draw(actor, kind.value, draw.value, params)
-        if draw.params and not _same_params(draw.params, params):
-            self._fail(f"called {asked.call()} where {draw.call()} was recorded", actor)
-        self.drawn.append(asked)
+        if draw.kind != kind.value or (draw.params and not _same_params(draw.params, params)):
+            recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
+            self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
+        self.drawn.append(asked._replace(value=draw.value))
         return draw.value
 
-    def _fail(self, problem: str, actor: int, *, overdrawn: bool = False) -> None:
+    def _fail(
+        self, problem: str, actor: int, *, overdrawn: bool = False, asked: Draw | None = None
+    ) -> None:
+        """Raise (and remember) a mismatch; ``asked``, a draw refused, is kept among those
+        drawn, with no value, so reports show what was asked for."""
+        if asked is not None:
+            self.drawn.append(asked)
         self.mismatch = RandomMismatch(problem, actor, overdrawn=overdrawn)
         raise self.mismatch
 

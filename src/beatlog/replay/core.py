@@ -56,7 +56,8 @@ class CycleOutcome(NamedTuple):
     """The replayed outputs (as far as the update got)."""
     recorded_draws: Sequence[Draw]
     drawn: Sequence[Draw]
-    """The random numbers the behaviors drew, with what they asked for."""
+    """The random numbers the behaviors drew, with what they asked for; a draw refused
+    as not the one recorded is the last, with no value."""
     draw_problem: RandomMismatch | None
     """A draw that did not match the recording (another kind or request, or one too many)."""
     failure: BaseException | None

@@ -33,7 +33,7 @@ from beatlog.log.format import (
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
-from beatlog.model.random import Draw
+from beatlog.model.random import Draw, plain_value
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.fit import check_state_fields
@@ -599,7 +599,10 @@ class _Judge:
         )
 
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
-        return [DrawReport(_name(names, d.actor), d.kind, d.value) for d in draws]
+        return [
+            DrawReport(_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
+            for d in draws
+        ]
 
 
 def _name(names: Sequence[str], index: int) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import reprlib
 import shlex
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -63,15 +64,26 @@ class StateChange(NamedTuple):
         return f"{self.behavior}: {self.before!r} -> {self.after!r}"
 
 
+_SHORT = reprlib.Repr()
+"""Values in one line: an array draw's first few elements."""
+_SHORT.maxlist = 3
+
+
 class DrawReport(NamedTuple):
     """A random number in a divergence report, with the behavior that drew it."""
 
     behavior: str
     kind: str
     value: Any
+    """The value as plain Python (an array as nested lists); None for a draw refused
+    because it was not the one recorded."""
+    call: str = ""
+    """The request as code (``uniform(2.0, 5.0)``); empty where the log recorded none
+    (format 1)."""
 
     def __str__(self) -> str:
-        return f"{self.behavior}: {self.kind} {self.value!r}"
+        asked = f"{self.behavior}: {self.call or self.kind}"
+        return asked if self.value is None else f"{asked} = {_SHORT.repr(self.value)}"
 
 
 class FieldDifference(NamedTuple):
