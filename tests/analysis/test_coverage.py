@@ -139,4 +139,7 @@ def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
     code = main(["test", "-j", "1", "--behavior", "nobody", str(specs)])
     err = capsys.readouterr().err
     assert code == 2
-    assert "no DTC changes the state of behavior 'nobody'" in err
+    assert err == (
+        "beatlog: error: no DTC changes the state of behavior 'nobody'; "
+        "they change arbiter, dice, near\n"
+    )

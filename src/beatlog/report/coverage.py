@@ -44,10 +44,10 @@ def render_coverage(coverage: SuiteCoverage) -> Table:
     """One row per behavior: states reached, transitions taken, and the states declared or
     seen by earlier runs that no DTC reaches."""
     table = Table(title="transition coverage", title_justify="left", expand=True)
-    table.add_column("behavior")
-    table.add_column("states reached", ratio=2)
-    table.add_column("transitions", ratio=3)
-    table.add_column("unreached", style="yellow")
+    table.add_column("behavior", overflow="fold")
+    table.add_column("states reached", ratio=2, overflow="fold")
+    table.add_column("transitions", ratio=3, overflow="fold")
+    table.add_column("unreached", style="yellow", ratio=2, overflow="fold")
     for name, cover in coverage.behaviors.items():
         table.add_row(
             Text(name),

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from beatlog.analysis.coverage import SuiteCoverage, cover
-from beatlog.errors import BeatlogError
+from beatlog.errors import BeatlogError, OptionError
 from beatlog.model.behavior import System
 from beatlog.replay.judge import recorded_system
 from beatlog.suite.spec import DtcSpec
@@ -42,6 +42,17 @@ def _dtcs(specs: Sequence[DtcSpec], *, systems: bool = True) -> Iterator[tuple[s
 
 def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
     """The specs whose recordings change ``behavior``'s state (read from the logs alone:
-    no system is built)."""
-    names = set(cover(_dtcs(specs, systems=False)).exercising(behavior))
+    no system is built).
+
+    :raises beatlog.errors.OptionError: none does; the message names the behaviors
+        whose states they change.
+    """
+    coverage = cover(_dtcs(specs, systems=False))
+    names = set(coverage.exercising(behavior))
+    if not names:
+        changed = [name for name, seen in coverage.behaviors.items() if seen.transitions]
+        raise OptionError(
+            f"no DTC changes the state of behavior {behavior!r}; they change "
+            + (", ".join(changed) or "none")
+        )
     return [spec for spec in specs if spec.name in names]
