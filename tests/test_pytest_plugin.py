@@ -227,9 +227,15 @@ def test_coverage_is_shown_and_written_at_the_end_of_the_session(
     assert document["behaviors"]["near"]["no_longer_reached"] == []
 
     (pytester.path / "approach.dtc.toml").unlink()
-    again = pytester.runpytest_subprocess(*workers, "--beatlog-coverage")
+    again = pytester.runpytest_subprocess(
+        *workers, "--beatlog-coverage", "--beatlog-coverage-json", "coverage.json"
+    )
     again.assert_outcomes(passed=1)
-    again.stdout.fnmatch_lines(['*"near" (seen before in approach-wall)*'])
+    again.stdout.fnmatch_lines(['*"near" (seen before in*'])
+    document = json.loads((pytester.path / "coverage.json").read_text(encoding="utf-8"))
+    assert document["behaviors"]["near"]["no_longer_reached"] == [
+        {"state": '"near"', "dtcs_before": ["approach-wall"]}
+    ]
 
 
 def test_without_the_option_no_coverage_is_shown(pytester: pytest.Pytester, log: Path) -> None:
