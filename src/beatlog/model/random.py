@@ -13,7 +13,8 @@ import secrets
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from enum import StrEnum
-from math import copysign
+from math import isnan
+from numbers import Real
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from beatlog.log.format import Draw, payload_encoder
@@ -62,28 +63,22 @@ _ARRAY_KINDS = frozenset(
     {DrawKind.UNIFORM_ARRAY.value, DrawKind.NORMAL_ARRAY.value, DrawKind.INTEGERS_ARRAY.value}
 )
 _encode_params = payload_encoder().encode
-_SCALARS = frozenset({int, float, str, bool, type(None)})
-"""Types whose values of one type are equal exactly when they encode to the same bytes
-(a float's sign aside: ``-0.0 == 0.0``)."""
 
 
-def _same_params(recorded: tuple[Any, ...], asked: tuple[Any, ...]) -> bool:
-    """Whether a draw was asked for with exactly the recorded parameters: whether they
-    encode to the same bytes in the log, without encoding them in the common case.
+def _same_params(recorded: Sequence[Any], asked: Sequence[Any]) -> bool:
+    """Whether a draw was asked for with the recorded parameters, one by one: numbers
+    by value, exactly (``2`` asks for what ``2.0`` does, as ``-0.0`` does for ``0.0``,
+    while ``2.0000001`` does not; NaN matches only NaN), shapes element by element,
+    anything else as it encodes in the log."""
+    return len(recorded) == len(asked) and all(map(_same_param, recorded, asked))
 
-    Scalars of the same type compare by value, a float's sign included (so ``1`` is not
-    ``1.0`` nor ``True``, and ``-0.0`` is not ``0.0``); anything else (NaN, numpy
-    scalars, shapes) is compared as encoded.
-    """
-    if len(recorded) != len(asked):
-        return False
-    for want, got in zip(recorded, asked, strict=True):
-        kind = type(want)
-        if kind is not type(got) or kind not in _SCALARS or want != got:
-            return _encode_params(recorded) == _encode_params(asked)
-        if kind is float and not want and copysign(1.0, want) != copysign(1.0, got):
-            return False
-    return True
+
+def _same_param(want: Any, got: Any) -> bool:
+    if isinstance(want, list | tuple) and isinstance(got, list | tuple):
+        return _same_params(want, got)
+    if isinstance(want, Real) and isinstance(got, Real):
+        return bool(want == got) or (isnan(want) and isnan(got))
+    return _encode_params(want) == _encode_params(got)
 
 
 class RandomMismatch(BaseException):
@@ -238,9 +233,9 @@ class RecordingRandom(RandomSource):
 class ReplayRandom(RandomSource):
     """Returns the values recorded in RN_t, checking count, kind and parameters as it goes.
 
-    Parameters are compared exactly, as they encode in the log (``1`` differs from
-    ``1.0`` and ``True``, ``-0.0`` from ``0.0``); a format-1 draw, which recorded none,
-    is checked for count and kind only.
+    Parameters are compared exactly, as numbers (``uniform(2, 5)`` asks for what
+    ``uniform(2.0, 5.0)`` does, and draws the same); a format-1 draw, which recorded
+    none, is checked for count and kind only.
     """
 
     def __init__(self) -> None:
