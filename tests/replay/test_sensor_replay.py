@@ -97,7 +97,19 @@ def test_a_spec_whose_perception_cannot_run_passes_with_a_note(
     log = record_with_samples(tmp_path / "plain.beatlog", 40, log_samples=False)
     spec = write_spec(tmp_path, "plain", log, perception=CHANGED)
     assert main(["test", "--jobs", "1", str(spec)]) == 0
-    assert f"note: plain ({spec}): {NO_SAMPLES}" in capsys.readouterr().out
+    assert f"\nnote: plain: {NO_SAMPLES}\n" in capsys.readouterr().out
+
+
+def test_a_note_many_dtcs_share_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "400")
+    log = record_with_samples(tmp_path / "plain.beatlog", 20, log_samples=False)
+    for name in "abcdefg":
+        write_spec(tmp_path / "suite", name, log, perception=CHANGED)
+    assert main(["test", "--jobs", "1", str(tmp_path / "suite")]) == 0
+    notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note:")]
+    assert notes == [f"note: 7 DTCs (a, b, c, d, e and 2 more): {NO_SAMPLES}"]
 
 
 def test_a_perception_named_by_reference_is_in_the_reproduce_command(tmp_path: Path) -> None:

@@ -45,6 +45,8 @@ that parsing the command line imports nothing heavy."""
 DEMO_ENTRY_POINTS = "beatlog.demo"
 """The entry point group of the package whose demo `beatlog demo` runs."""
 Number = TypeVar("Number", int, float)
+_NAMED_IN_NOTES = 5
+"""DTCs named in a note of ``beatlog test`` before the rest are counted."""
 EXIT_CODES = """exit codes:
   0    passed (or done)
   1    a replay diverged, a DTC failed or a recording failed
@@ -673,13 +675,6 @@ def _run_tests(
             )
         elif outcome.verdict is Verdict.FAILED:
             progress.console.print(_describe(outcome))
-        elif outcome.result is not None:
-            for note in outcome.result.notes:
-                progress.console.print(
-                    f"note: {outcome.spec.name} ({outcome.spec.origin}): {note}",
-                    markup=False,
-                    highlight=False,
-                )
         if outcome.retries:
             progress.console.print(
                 f"retried {outcome.spec.name}: the worker replaying it died "
@@ -710,6 +705,7 @@ def _run_tests(
     outcomes = [finished[spec.path] for spec in specs if spec.path in finished]
     if outcomes:
         console.print(render_suite(outcomes, every=args.verbose))
+        _print_notes(outcomes, console)
         if args.audit:
             from beatlog.report.audit import render_audit
 
@@ -724,6 +720,23 @@ def _run_tests(
     if interrupted:
         raise KeyboardInterrupt
     return _test_exit_code(outcomes)
+
+
+def _print_notes(outcomes: list[SpecOutcome], console: Console) -> None:
+    """What the passing DTCs' replays note (a failure's report has its own), one line
+    per note, naming a few of the DTCs it concerns."""
+    from beatlog.suite.runner import Verdict
+
+    concerned: dict[str, list[str]] = {}
+    for outcome in outcomes:
+        if outcome.verdict is Verdict.PASSED and outcome.result is not None:
+            for note in outcome.result.notes:
+                concerned.setdefault(note, []).append(outcome.spec.name)
+    for note, names in concerned.items():
+        shown = ", ".join(names[:_NAMED_IN_NOTES])
+        if len(names) > _NAMED_IN_NOTES:
+            shown = f"{len(names)} DTCs ({shown} and {len(names) - _NAMED_IN_NOTES} more)"
+        console.print(f"note: {shown}: {note}", markup=False, highlight=False)
 
 
 def _executor(address: str | None) -> AbstractContextManager[DaskExecutor | None]:
