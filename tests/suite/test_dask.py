@@ -104,6 +104,30 @@ def test_a_cluster_gives_the_verdicts_reports_and_exit_code_of_a_local_run(
     ]
 
 
+def test_a_suite_given_by_a_relative_path_is_reported_by_it_as_a_local_run_is(
+    beatlog: Callable[..., Run],
+    cluster: str,
+    suite: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    (suite / "broken.beatlog").write_bytes(b"not a session log")
+    write_spec(suite, "broken", suite / "broken.beatlog")
+    monkeypatch.chdir(tmp_path)
+
+    local = beatlog("test", "suite", "-j", "1")
+    remote = beatlog("test", "suite", "--dask", cluster)
+
+    for run in (local, remote):
+        assert run.code == 2
+        assert str(tmp_path) not in run.out + run.err
+        assert "FAIL suite/../first.beatlog " in run.out
+        assert run.err.startswith(
+            "beatlog: error: broken (suite/broken.dtc.toml): "
+            "suite/broken.beatlog: not a session log"
+        )
+
+
 def test_local_n_starts_a_cluster_of_n_worker_processes_for_the_run(
     beatlog: Callable[..., Run], suite: Path
 ) -> None:

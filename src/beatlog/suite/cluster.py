@@ -190,10 +190,15 @@ def _absolute(spec: DtcSpec) -> DtcSpec:
 
 def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
     """A worker's outcome with the spec as given here (relative paths stay relative):
-    the same rerun command and baseline as a local run's."""
+    the same log, error, rerun command and baseline as a local run's."""
+    sent = _absolute(spec)
     outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
     result = outcome.result
     if result is not None:
-        result = dataclasses.replace(result, reproduce=outcome.reproduce)
+        result = dataclasses.replace(result, log=spec.log, reproduce=outcome.reproduce)
+    error = outcome.error
+    if error is not None:
+        for absolute, given in ((sent.log, spec.log), (sent.path, spec.path)):
+            error = error.replace(str(absolute), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
-    return dataclasses.replace(outcome, result=result, baseline=baseline)
+    return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
