@@ -141,3 +141,10 @@ class SpecError(BeatlogError):
 
 class BaselineError(SpecError):
     """An approved or pending baseline of a spec that cannot be read or no longer fits."""
+
+
+def first_line(exc: BaseException) -> str:
+    """An exception as one line, for a message about someone else's error (a backend's,
+    a cluster's): its message's first line, or its type's name."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__

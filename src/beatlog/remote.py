@@ -17,7 +17,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 from urllib.parse import urlsplit
 
-from beatlog.errors import RemoteLogError
+from beatlog.errors import RemoteLogError, first_line
 
 __all__ = [
     "MAX_LOG_BYTES",
@@ -97,7 +97,7 @@ def log_size(url: str) -> int | None:
     except FileNotFoundError as exc:
         raise _not_found(url, exc, "cannot read its size") from None
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise RemoteLogError(url, f"cannot read its size: {_first_line(exc)}") from None
+        raise RemoteLogError(url, f"cannot read its size: {first_line(exc)}") from None
     return None if size is None else int(size)
 
 
@@ -123,7 +123,7 @@ def _copy(filesystem: Any, path: str, copy: Path, url: str, max_bytes: int) -> N
     except RemoteLogError:
         raise
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise RemoteLogError(url, f"cannot copy: {_first_line(exc)}") from None
+        raise RemoteLogError(url, f"cannot copy: {first_line(exc)}") from None
 
 
 def _streamed(filesystem: Any) -> dict[str, Any]:
@@ -141,10 +141,4 @@ def _not_found(url: str, exc: FileNotFoundError, doing: str) -> RemoteLogError:
     cause = exc.__cause__
     if cause is None or isinstance(cause, FileNotFoundError) or getattr(cause, "status", 0) == 404:
         return RemoteLogError(url, "no such log")
-    return RemoteLogError(url, f"{doing}: {_first_line(cause)}")
-
-
-def _first_line(exc: BaseException) -> str:
-    """An exception as one line: its message's first, or its type's name."""
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
+    return RemoteLogError(url, f"{doing}: {first_line(cause)}")

@@ -143,3 +143,45 @@ def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
         "beatlog: error: no DTC changes the state of behavior 'nobody'; "
         "they change arbiter, dice, near\n"
     )
+
+
+def test_a_log_that_cannot_be_read_counts_nothing_and_the_others_still_count(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    broken = tmp_path / "broken.beatlog"
+    broken.write_bytes(b"not a session log")
+    approach = load_spec(write_spec(tmp_path, "approach", record_probe(300), PROBE))
+    damaged = load_spec(write_spec(tmp_path, "damaged", broken, PROBE))
+
+    coverage = suite_coverage([approach, damaged])
+
+    assert coverage.dtcs == ["approach"]
+    assert coverage.exercising("near") == ["approach"]
+    assert select_exercising([approach, damaged], "near") == [approach, damaged]
+
+
+def test_a_damaged_log_leaves_the_coverage_and_html_reports_of_the_others(
+    tmp_path: Path,
+    record_probe: RecordFn,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("COLUMNS", "200")
+    specs, broken = tmp_path / "specs", tmp_path / "broken.beatlog"
+    broken.write_bytes(b"not a session log")
+    write_spec(specs, "approach", record_probe(300), PROBE)
+    write_spec(specs, "damaged", broken, PROBE)
+    html, report = tmp_path / "report.html", tmp_path / "coverage.json"
+
+    reports = ["--coverage", "--coverage-json", str(report), "--html", str(html)]
+    code = main(["test", "-j", "1", *reports, "--behavior", "near", str(specs)])
+
+    captured = capsys.readouterr()
+    assert code == 2
+    assert captured.err.splitlines() == [
+        f"beatlog: error: damaged ({specs / 'damaged.dtc.toml'}): "
+        f"{specs / '..' / broken.name}: not a session log (not an MCAP file)"
+    ]
+    assert "1 passed, 0 failed, 1 error" in captured.out
+    assert json.loads(report.read_text())["dtcs"] == ["approach"]
+    assert "damaged" in html.read_text()

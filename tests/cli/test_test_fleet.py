@@ -67,6 +67,25 @@ def test_a_log_that_cannot_be_read_is_an_error_of_its_dtc(beatlog: Beatlog, logs
     assert run.out.splitlines()[-1].startswith("2 passed, 0 failed, 1 error")
 
 
+@pytest.mark.parametrize(
+    ("option", "reference", "problem"),
+    [
+        ("--system", "tests.nowhere:system", "cannot import tests.nowhere"),
+        ("--system", "tests.conftest:nothing", "tests.conftest has no nothing"),
+        ("--perception", "tests.conftest:nothing", "tests.conftest has no nothing"),
+    ],
+)
+def test_a_reference_that_cannot_be_built_is_one_line_for_the_run_not_one_per_log(
+    beatlog: Beatlog, logs: Path, option: str, reference: str, problem: str
+) -> None:
+    system = reference if option == "--system" else PROBE
+    extra = (option, reference) if option == "--perception" else ()
+
+    run = beatlog("test", "--logs", f"{logs}/**/*.beatlog", "--system", system, *extra)
+
+    assert_one_line_error(run, f"beatlog: error: {option} '{reference}': {problem}")
+
+
 def test_a_fleet_run_can_be_sharded(beatlog: Beatlog, logs: Path) -> None:
     runs = [
         beatlog("test", "--logs", f"{logs}/**/*.beatlog", "--system", PROBE, "--shard", shard)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import socket
+import threading
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -101,6 +102,30 @@ def test_a_cluster_gives_the_verdicts_reports_and_exit_code_of_a_local_run(
         ("first", []),
         ("second", []),
     ]
+
+
+def test_a_suite_given_by_a_relative_path_is_reported_by_it_as_a_local_run_is(
+    beatlog: Callable[..., Run],
+    cluster: str,
+    suite: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    (suite / "broken.beatlog").write_bytes(b"not a session log")
+    write_spec(suite, "broken", suite / "broken.beatlog")
+    monkeypatch.chdir(tmp_path)
+
+    local = beatlog("test", "suite", "-j", "1")
+    remote = beatlog("test", "suite", "--dask", cluster)
+
+    for run in (local, remote):
+        assert run.code == 2
+        assert str(tmp_path) not in run.out + run.err
+        assert "FAIL suite/../first.beatlog " in run.out
+        assert run.err.startswith(
+            "beatlog: error: broken (suite/broken.dtc.toml): "
+            "suite/broken.beatlog: not a session log"
+        )
 
 
 def test_local_n_starts_a_cluster_of_n_worker_processes_for_the_run(
@@ -271,6 +296,54 @@ def test_a_cluster_that_cannot_be_reached_is_one_line_and_exit_2(
         run = beatlog("test", suite, "--dask", address)
 
     assert_one_line_error(run, f"--dask {address}: cannot reach the cluster")
+
+
+def test_a_server_that_never_answers_the_handshake_is_one_line_and_exit_2(
+    beatlog: Callable[..., Run], suite: Path
+) -> None:
+    with socket.socket() as silent:  # it takes connections, and says nothing
+        silent.bind(("127.0.0.1", 0))
+        silent.listen()
+        address = f"tcp://127.0.0.1:{silent.getsockname()[1]}"
+        with dask.config.set({"distributed.comm.timeouts.connect": "0.5s"}):
+            run = beatlog("test", suite, "--dask", address)
+
+    assert_one_line_error(
+        run, f"--dask {address}: cannot reach the cluster: no Dask scheduler answered there"
+    )
+
+
+def test_a_server_that_is_not_a_scheduler_is_one_line_and_exit_2(
+    beatlog: Callable[..., Run], suite: Path
+) -> None:
+    with socket.socket() as web:  # a dashboard's port, say: it answers in HTTP
+        web.bind(("127.0.0.1", 0))
+        web.listen()
+        address = f"tcp://127.0.0.1:{web.getsockname()[1]}"
+        answer = threading.Thread(target=answer_in_http, args=(web,), daemon=True)
+        answer.start()
+        with dask.config.set({"distributed.comm.timeouts.connect": "5s"}):
+            run = beatlog("test", suite, "--dask", address)
+
+    assert_one_line_error(
+        run, f"--dask {address}: cannot reach the cluster: what answers there is not a Dask"
+    )
+
+
+def answer_in_http(server: socket.socket) -> None:
+    """Answer the first connection as a web server answers what it cannot parse."""
+    connection, _ = server.accept()
+    with connection:
+        connection.sendall(b"HTTP/1.0 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+
+
+@pytest.mark.parametrize("address", ["local:0", "local:two", "local2"])
+def test_a_local_cluster_of_no_workers_is_one_line_and_exit_2(
+    beatlog: Callable[..., Run], suite: Path, address: str
+) -> None:
+    run = beatlog("test", suite, "--dask", address)
+
+    assert_one_line_error(run, f"--dask {address}: expected local, or local:N")
 
 
 def test_dask_and_jobs_exclude_each_other(beatlog: Callable[..., Run], suite: Path) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import random
+import tracemalloc
 from pathlib import Path
 
 import pytest
@@ -153,6 +154,26 @@ def test_more_shards_than_dtcs_leaves_the_last_ones_empty(suite: list[DtcSpec]) 
     shards = split(suite[:2], 4)
 
     assert [len(chosen) for chosen in shards] == [1, 1, 0, 0]
+
+
+def test_a_shard_of_far_more_than_the_dtcs_is_the_same_and_costs_no_more_memory(
+    suite: list[DtcSpec],
+) -> None:
+    count = 10**6  # --shard I/1000000: planned for one shard per DTC at most
+    tracemalloc.start()
+    try:
+        last = shard(suite, count, count)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+    assert last == []
+    assert peak < 4 << 20
+    one_each = split(suite, len(suite))
+    assert [shard(suite, index, count) for index in range(1, len(suite) + 2)] == [
+        *one_each,
+        [],
+    ]
 
 
 @pytest.mark.parametrize(("text", "expected"), [("1/1", Shard(1, 1)), (" 2 / 4 ", Shard(2, 4))])

@@ -21,7 +21,7 @@ from typing import Any
 from beatlog.analysis.trace import TracedChange, read_changes
 from beatlog.model.behavior import System
 
-__all__ = ["BehaviorCoverage", "Seen", "SuiteCoverage", "cover", "declared_states"]
+__all__ = ["BehaviorCoverage", "Seen", "SuiteCoverage", "cover", "cover_changes", "declared_states"]
 
 
 def _key(state: Any) -> str:
@@ -167,9 +167,16 @@ def cover(
     The system, when given, tells each behavior's first state (a behavior that never
     changes still counts its cycles there) and its declared states.
     """
+    return cover_changes((name, *read_changes(log), system) for name, log, system in dtcs)
+
+
+def cover_changes(
+    dtcs: Iterable[tuple[str, Sequence[TracedChange], int, System | None]],
+) -> SuiteCoverage:
+    """The coverage of DTCs given as (name, the state changes their log recorded, its
+    cycles, a fresh system or None), as :func:`cover` reads them."""
     suite = SuiteCoverage()
-    for name, log, system in dtcs:
-        changes, cycles = read_changes(log)
+    for name, changes, cycles, system in dtcs:
         initial = {} if system is None else {n: b.state for n, b in system.behaviors.items()}
         _add(suite, name, changes, cycles, initial)
         for behavior, states in ({} if system is None else declared_states(system)).items():

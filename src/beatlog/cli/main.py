@@ -616,7 +616,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
         if args.system is not None or args.perception is not None:
             raise _UsageError("--system and --perception go with --logs: a spec names its own")
         return _run_tests(args, console)
-    from beatlog.suite.fleet import fleet_specs
+    from beatlog.suite.fleet import check_references, fleet_specs
 
     if args.system is None:
         raise _UsageError("--logs needs --system MODULE:FACTORY to replay the logs against")
@@ -625,6 +625,7 @@ def _test(args: argparse.Namespace, console: Console) -> int:
     if args.update is not UpdateMode.NONE:
         raise _UsageError("--update writes the baselines of specs; --logs runs have none")
     fleet = fleet_specs(args.logs, system=args.system, perception=args.perception)
+    check_references(fleet[0])
     return _run_tests(args, console, fleet)
 
 

@@ -17,6 +17,7 @@ retries; past them the DTC is an error. A cluster of one's own is best run with
 
 from __future__ import annotations
 
+import asyncio
 import dataclasses
 import logging
 import re
@@ -25,7 +26,7 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from beatlog.closing import Closing
-from beatlog.errors import ClusterError
+from beatlog.errors import ClusterError, first_line
 from beatlog.suite.baseline import expected_path
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
@@ -68,9 +69,14 @@ class DaskExecutor(Closing):
                 f'--dask {address}: needs dask.distributed (pip install "beatlog[dask]")'
             ) from None
         local = _LOCAL.fullmatch(address)
+        if local is None and address.startswith("local"):
+            raise ClusterError(
+                f"--dask {address}: expected local, or local:N with N worker processes from 1"
+            )
         self._cluster: LocalCluster | None = None
         try:
             if local is None:
+                _handshake(address)
                 self._client = Client(address, set_as_default=False)
             else:
                 workers = None if local.group(1) is None else int(local.group(1))
@@ -83,10 +89,11 @@ class DaskExecutor(Closing):
                         silence_logs=logging.CRITICAL,
                     )
                 self._client = Client(self._cluster, set_as_default=False)
-        except (OSError, TimeoutError, ValueError) as exc:
+        except (OSError, ValueError) as exc:  # TimeoutError is an OSError
             self.close()
-            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise ClusterError(f"--dask {address}: cannot reach the cluster: {first}") from None
+            raise ClusterError(
+                f"--dask {address}: cannot reach the cluster: {first_line(exc)}"
+            ) from None
 
     def __call__(
         self,
@@ -137,6 +144,37 @@ class DaskExecutor(Closing):
             self._cluster.close()
 
 
+def _handshake(address: str) -> None:
+    """Connect to ``address`` and exchange Dask's handshake, all within
+    ``distributed.comm.timeouts.connect``: a client's own connection waits for the
+    handshake without end, so a server that is not a Dask scheduler (a dashboard's
+    port, a web server) would hang the run, or answer with bytes it cannot decode.
+
+    :raises ClusterError: no scheduler answers there in time, or what answers is not one.
+    """
+    import dask  # noqa: PLC0415 - an optional extra
+    from dask.utils import parse_timedelta  # noqa: PLC0415
+    from distributed.comm.core import connect  # noqa: PLC0415
+
+    timeout = parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), "seconds")
+
+    async def exchange() -> None:
+        comm = await connect(address, timeout=timeout)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(exchange(), timeout))
+    except TimeoutError:  # before OSError, of which it is one
+        problem = f"no Dask scheduler answered there within {timeout:g} s"
+    except (OSError, ValueError) as exc:  # no connection, or no address
+        problem = first_line(exc)
+    except Exception as exc:  # what a server that is not Dask's sends fails to decode anyhow
+        problem = f"what answers there is not a Dask scheduler ({type(exc).__name__})"
+    else:
+        return
+    raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
+
+
 def _retries(dask_scheduler: Any, key: str) -> int:
     """On the scheduler: how many workers died while running the task ``key``."""
     task = dask_scheduler.tasks.get(key)
@@ -152,10 +190,15 @@ def _absolute(spec: DtcSpec) -> DtcSpec:
 
 def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
     """A worker's outcome with the spec as given here (relative paths stay relative):
-    the same rerun command and baseline as a local run's."""
+    the same log, error, rerun command and baseline as a local run's."""
+    sent = _absolute(spec)
     outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
     result = outcome.result
     if result is not None:
-        result = dataclasses.replace(result, reproduce=outcome.reproduce)
+        result = dataclasses.replace(result, log=spec.log, reproduce=outcome.reproduce)
+    error = outcome.error
+    if error is not None:
+        for absolute, given in ((sent.log, spec.log), (sent.path, spec.path)):
+            error = error.replace(str(absolute), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
-    return dataclasses.replace(outcome, result=result, baseline=baseline)
+    return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)

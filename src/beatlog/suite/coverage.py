@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
 
-from beatlog.analysis.coverage import SuiteCoverage, cover
-from beatlog.errors import BeatlogError, OptionError
+from beatlog.analysis.coverage import SuiteCoverage, cover_changes
+from beatlog.analysis.trace import TracedChange, read_changes
+from beatlog.errors import BeatlogError, LogError, OptionError, RemoteLogError
 from beatlog.model.behavior import System
 from beatlog.replay.judge import recorded_system
 from beatlog.suite.spec import DtcSpec
@@ -18,41 +18,50 @@ __all__ = ["select_exercising", "suite_coverage"]
 
 def suite_coverage(specs: Sequence[DtcSpec]) -> SuiteCoverage:
     """The coverage of ``specs``: the state changes their logs recorded, with each
-    behavior's first and declared states from a fresh system of each spec.
-
-    :raises beatlog.errors.LogError: a spec's log cannot be read.
-    :raises beatlog.errors.RemoteLogError: a log behind a URL cannot be copied.
-    """
-    return cover(_dtcs(specs))
+    behavior's first and declared states from a fresh system of each spec. A log that
+    cannot be read (damaged, not a log, behind a URL that cannot be copied) counts
+    nothing: its DTC's verdict says what is wrong, and the other logs still count."""
+    return cover_changes(_dtcs(specs, unreadable=set()))
 
 
-def _dtcs(specs: Sequence[DtcSpec], *, systems: bool = True) -> Iterator[tuple[str, Path, Any]]:
-    """Each spec's name, its log as a file here (a log behind a URL copied for as long as
-    it is read), and a fresh system when ``systems`` (None where none can be built)."""
+def _dtcs(
+    specs: Sequence[DtcSpec], *, unreadable: set[Path], systems: bool = True
+) -> Iterator[tuple[str, list[TracedChange], int, System | None]]:
+    """Each readable spec's name, the state changes its log recorded and its cycles (a
+    log behind a URL copied for as long as it is read), and a fresh system when
+    ``systems`` (None where none can be built); the paths of the specs whose log cannot
+    be read go to ``unreadable``."""
     for spec in specs:
-        with spec.readable_log() as log:
-            system: System | None = None
-            if systems:
-                try:
-                    system = load_system(spec.system or recorded_system(log))
-                except BeatlogError:  # the verdict reports it; coverage counts the log
-                    system = None
-            yield spec.name, log, system
+        try:
+            with spec.readable_log() as log:
+                changes, cycles = read_changes(log)
+                system: System | None = None
+                if systems:
+                    try:
+                        system = load_system(spec.system or recorded_system(log))
+                    except BeatlogError:  # the verdict reports it; coverage counts the log
+                        system = None
+        except (LogError, RemoteLogError):
+            unreadable.add(spec.path)
+            continue
+        yield spec.name, changes, cycles, system
 
 
 def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
     """The specs whose recordings change ``behavior``'s state (read from the logs alone:
-    no system is built).
+    no system is built), and those whose log cannot be read, so that their verdicts say
+    what is wrong with it.
 
-    :raises beatlog.errors.OptionError: none does; the message names the behaviors
-        whose states they change.
+    :raises beatlog.errors.OptionError: none does and every log could be read; the
+        message names the behaviors whose states they change.
     """
-    coverage = cover(_dtcs(specs, systems=False))
+    unreadable: set[Path] = set()
+    coverage = cover_changes(_dtcs(specs, unreadable=unreadable, systems=False))
     names = set(coverage.exercising(behavior))
-    if not names:
+    if not names and not unreadable:
         changed = [name for name, seen in coverage.behaviors.items() if seen.transitions]
         raise OptionError(
             f"no DTC changes the state of behavior {behavior!r}; they change "
             + (", ".join(changed) or "none")
         )
-    return [spec for spec in specs if spec.name in names]
+    return [spec for spec in specs if spec.name in names or spec.path in unreadable]

@@ -16,11 +16,12 @@ import os
 from pathlib import Path, PurePosixPath
 from typing import Any
 
-from beatlog.errors import FleetError, RemoteLogError
+from beatlog.errors import FleetError, RemoteLogError, SystemLoadError
 from beatlog.remote import is_url, url_filesystem, url_name
 from beatlog.suite.spec import DtcSpec
+from beatlog.usercode import importable_near, load_perception, load_system
 
-__all__ = ["FLEET_PURPOSE", "fleet_specs"]
+__all__ = ["FLEET_PURPOSE", "check_references", "fleet_specs"]
 
 FLEET_PURPOSE = "fleet log"
 """The purpose of every DTC of a fleet run."""
@@ -56,6 +57,30 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
     filesystem, found = _remote_logs(pattern)
     urls = [filesystem.unstrip_protocol(path) for path in found]
     return [spec(Path(path), url, url) for path, url in zip(found, urls, strict=True)]
+
+
+def check_references(spec: DtcSpec) -> None:
+    """Build the system (and perception step) of a fleet's DTC once, as its replay
+    builds them: every log of a fleet names the same ones, so one that cannot be built
+    is one error of the run, not one per log.
+
+    :raises SystemLoadError: the reference cannot be imported or does not build one; the
+        message starts with the option that gave it.
+    """
+    references = (
+        ("--system", spec.system, load_system),
+        ("--perception", spec.perception, load_perception),
+    )
+    with importable_near(spec.path):
+        for option, reference, load in references:
+            if reference is None:
+                continue
+            try:
+                load(reference)
+            except SystemLoadError as exc:
+                raise SystemLoadError(
+                    f"{option} {exc}", user_traceback=exc.user_traceback
+                ) from None
 
 
 def _local_logs(pattern: str) -> list[str]:
