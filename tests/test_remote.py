@@ -44,6 +44,21 @@ def test_a_url_is_named_after_the_file_at_the_end_of_its_path() -> None:
     assert url_name("https://host/suite/walk.beatlog?x=1") == "walk.beatlog"
 
 
+@pytest.mark.parametrize(
+    ("url", "name"),
+    [
+        (
+            "http://host/with%20space%20%26%20odd%23name%2520.beatlog",
+            "with space & odd#name%20.beatlog",
+        ),
+        ("https://host/dock%2Fyard.beatlog", "dock%2Fyard.beatlog"),  # no folder in a name
+        ("s3://bucket/with%20space.beatlog", "with%20space.beatlog"),  # a key's % is a %
+    ],
+)
+def test_an_http_url_names_its_file_as_the_server_does(url: str, name: str) -> None:
+    assert url_name(url) == name
+
+
 def test_a_fetched_log_is_a_copy_removed_when_the_block_ends(served: LogServer) -> None:
     with fetched_log(f"{served.url}/dock.beatlog") as copy:
         assert copy.name == "dock.beatlog"

@@ -15,13 +15,14 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
 from typing import Any
-from urllib.parse import urlsplit
+from urllib.parse import quote, unquote, urlsplit, urlunsplit
 
 from beatlog.errors import RemoteLogError, first_line
 
 __all__ = [
     "MAX_LOG_BYTES",
     "fetched_log",
+    "http_quoted",
     "is_url",
     "log_size",
     "named_as_given",
@@ -42,8 +43,26 @@ def is_url(text: str) -> bool:
 
 
 def url_name(url: str) -> str:
-    """The file name at the end of ``url``'s path (``walk.beatlog``)."""
-    return PurePosixPath(urlsplit(url).path).name or "log.beatlog"
+    """The file name at the end of ``url``'s path (``walk.beatlog``); for ``http(s)``
+    with its percent-escapes decoded (``with%20space.beatlog`` is ``with space.beatlog``,
+    as the server names the file), unless decoding would make it no plain file name."""
+    split = urlsplit(url)
+    name = PurePosixPath(split.path).name or "log.beatlog"
+    if split.scheme in ("http", "https"):
+        decoded = unquote(name)
+        if decoded not in (".", "..") and not {"/", "\0"} & set(decoded):
+            return decoded
+    return name
+
+
+def http_quoted(url: str) -> str:
+    """``url`` with the characters an ``http(s)`` path cannot hold percent-escaped
+    (``with space*.beatlog`` as ``with%20space*.beatlog``); glob characters and escapes
+    already written stay. Other URLs are returned as they are."""
+    split = urlsplit(url)
+    if split.scheme not in ("http", "https"):
+        return url
+    return urlunsplit(split._replace(path=quote(split.path, safe="/%*?[]!:@&=+$,;~")))
 
 
 def url_filesystem(url: str) -> tuple[Any, str]:

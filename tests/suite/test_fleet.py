@@ -3,6 +3,7 @@ against its recording; the logs behind a URL are listed, not copied, until repla
 
 from __future__ import annotations
 
+import shutil
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -178,3 +179,12 @@ def test_a_system_reference_without_a_factory_is_refused(
         fleet_specs(f"{logs}/*.beatlog", system=system, perception=perception)
 
     assert str(raised.value) == problem
+
+
+def test_a_fleet_log_over_http_is_named_as_the_file_is(served: LogServer) -> None:
+    shutil.copyfile(served.folder / "dock.beatlog", served.folder / "dock at noon.beatlog")
+
+    specs = fleet_specs(f"{served.url}/dock at*.beatlog", system=PROBE)
+
+    assert [spec.name for spec in specs] == ["dock at noon"]
+    assert specs[0].log_url == f"{served.url}/dock%20at%20noon.beatlog"

@@ -17,7 +17,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from beatlog.errors import FleetError, RemoteLogError, SystemLoadError
-from beatlog.remote import is_url, url_filesystem, url_name
+from beatlog.remote import http_quoted, is_url, url_filesystem, url_name
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import importable_near, load_perception, load_system
 
@@ -42,7 +42,7 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
     def spec(path: Path, source: str, log_url: str | None = None) -> DtcSpec:
         return DtcSpec(
             path=path,
-            name=PurePosixPath(path).stem,
+            name=PurePosixPath(path if log_url is None else url_name(log_url)).stem,
             purpose=FLEET_PURPOSE,
             procedure=(),
             log=path if log_url is None else Path(url_name(log_url)),
@@ -98,7 +98,7 @@ def _local_logs(pattern: str) -> list[str]:
 def _remote_logs(pattern: str) -> tuple[Any, list[str]]:
     """The filesystem behind a URL and the files its glob matches, sorted."""
     try:
-        filesystem, root = url_filesystem(pattern)
+        filesystem, root = url_filesystem(http_quoted(pattern))
     except RemoteLogError as exc:
         raise FleetError(f"--logs {exc}") from None
     try:
