@@ -277,16 +277,43 @@ def test_html_reports_every_dtc_with_its_charts(
     assert page.count("<svg") == 3  # a pass: the session; a failure: a close-up and the session
 
 
-def test_an_unwritable_html_report_is_one_line_naming_it(
+@pytest.mark.parametrize("option", ["--html", "--junit-xml", "--coverage-json"])
+def test_a_report_is_written_into_a_folder_made_for_it(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path, option: str
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    report = tmp_path / "reports" / "today" / "dtc.out"
+
+    run = beatlog_test(specs, option, report)
+
+    assert run.code == 0, run.err
+    assert report.stat().st_size > 0
+
+
+@pytest.mark.parametrize("option", ["--html", "--junit-xml", "--coverage-json"])
+def test_a_report_that_cannot_be_written_is_refused_before_the_suite_runs(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path, option: str
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    (tmp_path / "notes").write_text("a file where a folder goes")
+    report = tmp_path / "notes" / "dtc.out"
+
+    run = beatlog_test(specs, option, report)
+
+    assert run.code == 2
+    assert run.out == ""  # nothing replayed
+    assert run.err == f"beatlog: error: {report}: {report.parent} is not a directory\n"
+
+
+def test_a_report_where_a_folder_is_is_refused(
     beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
 ) -> None:
     write_spec(specs, "avoid-pole", log)
-    report = tmp_path / "no" / "such" / "folder" / "dtc.html"
 
-    run = beatlog_test(specs, "--html", report)
+    run = beatlog_test(specs, "--html", tmp_path)
 
     assert run.code == 2
-    assert run.err == f"beatlog: error: {report}: cannot write: No such file or directory\n"
+    assert run.err == f"beatlog: error: {tmp_path}: is a directory\n"
 
 
 def test_the_html_report_draws_its_charts_without_matplotlib(

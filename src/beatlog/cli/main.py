@@ -278,8 +278,7 @@ def _import_bag(args: argparse.Namespace, console: Console) -> int:
     from beatlog.adapters.rosbag import import_bag
 
     output: Path = args.output
-    if not output.parent.is_dir():
-        raise _UsageError(f"{output}: directory {output.parent} does not exist")
+    _check_output(output)
     if args.spec is not None and args.spec.exists() and not args.force:
         raise _UsageError(f"{args.spec}: already exists (use --force)")
     try:
@@ -467,8 +466,7 @@ def _record(args: argparse.Namespace, console: Console) -> int:
     if args.system_ref:
         load_system(args.system_ref)  # replay will need it: a typo is found now, not then
     output: Path = args.output
-    if not output.parent.is_dir():
-        raise _UsageError(f"{output}: directory {output.parent} does not exist")
+    _check_output(output)
     interrupted = False
     try:
         recording = Recorder(
@@ -509,6 +507,28 @@ def _record(args: argparse.Namespace, console: Console) -> int:
     if interrupted:
         raise KeyboardInterrupt
     return EXIT_OK if recorder.error is None else EXIT_FAILED
+
+
+def _check_output(output: Path) -> None:
+    """Refuse a log to write before any work: its folder is missing, or it is a folder."""
+    if not output.parent.is_dir():
+        raise _UsageError(f"{output}: directory {output.parent} does not exist")
+    if output.is_dir():
+        raise _UsageError(f"{output}: is a directory")
+
+
+def _prepare_report(report: Path) -> None:
+    """Make a report's folder (as pytest's ``--junit-xml`` does) before any work, so that
+    a report that cannot be written is found now, not after the whole suite."""
+    if report.is_dir():
+        raise _UsageError(f"{report}: is a directory")
+    there = next(folder for folder in report.parents if folder.exists())
+    if not there.is_dir():
+        raise _UsageError(f"{report}: {there} is not a directory")
+    try:
+        report.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _UsageError(f"{report}: cannot write: {exc.strerror}") from None
 
 
 def _write_failure(log: Path, error: str) -> str:
@@ -639,6 +659,9 @@ def _run_tests(
     from beatlog.report.counts import verdict_counts
     from beatlog.suite.runner import Verdict, run_suite
 
+    for report in (args.junit_xml, args.html, args.coverage_json):
+        if report is not None:
+            _prepare_report(report)
     specs = _selected_specs(args, fleet)
     if args.break_at is not None and len(specs) > 1:
         raise _UsageError(
@@ -663,7 +686,7 @@ def _run_tests(
     cycles = 0
     finished: dict[Path, SpecOutcome] = {}
 
-    def report(outcome: SpecOutcome) -> None:
+    def on_outcome(outcome: SpecOutcome) -> None:
         nonlocal cycles
         finished[outcome.spec.path] = outcome
         cycles += outcome.result.cycles if outcome.result else 0
@@ -695,7 +718,7 @@ def _run_tests(
                 update=args.update,
                 audit=args.audit,
                 timelines=args.html is not None,
-                on_outcome=report,
+                on_outcome=on_outcome,
                 break_at=args.break_at,
                 break_on_divergence=args.break_on_divergence,
                 executor=executor,
