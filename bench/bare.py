@@ -7,6 +7,13 @@ log, diffs no state, compares nothing and builds no context beyond the fields be
 read. Replay and the bare loop run alternately, timed in CPU time
 (``time.process_time``), and the figure is the ratio of their medians.
 
+A third loop, the checked loop (:func:`run_checked`), says how far replay could go in
+Python: it reads the log as replay does (robot states decoded with their batch) and
+makes the per-cycle checks of a passing cycle, and nothing else, in one flat loop: the
+state changes and outputs compared with the recorded bytes, the random numbers loaded
+and their count checked. It keeps no outcome, reports nothing and stops at nothing, so
+its ratio to the bare loop is a floor for any pure-Python replay with these checks.
+
 Used by ``bench_core.py`` (the rover) and ``bench_dog.py`` (the dog).
 """
 
@@ -23,10 +30,12 @@ import msgspec
 
 import beatlog
 from beatlog import ReplayResult
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
-from beatlog.model.random import Draw
+from beatlog.model.cycle import state_reader
+from beatlog.model.random import Draw, ReplayRandom
 
 __all__ = [
     "BareInputs",
@@ -35,6 +44,7 @@ __all__ = [
     "replay_against_bare",
     "replay_fresh",
     "run_bare",
+    "run_checked",
 ]
 
 T = TypeVar("T")
@@ -125,6 +135,57 @@ def run_bare(inputs: BareInputs, make_system: Callable[[], System]) -> System:
     return system
 
 
+def run_checked(path: Path, make_system: Callable[[], System]) -> System:
+    """Replay ``path`` with a passing cycle's checks alone, in one flat loop; a cycle
+    that does not pass them is counted, and the count must be zero."""
+    system = make_system()
+    update = system.update
+    random = ReplayRandom()
+    context = Context(random)
+    random.bind(context)
+    read_states = state_reader(list(system.behaviors.values()))
+    states = read_states()
+    encode = payload_encoder().encode
+    decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
+    raw = msgspec.Raw
+    now_ns = failed = 0
+    with SessionLogReader(path) as reader:
+        reader.decode_states(system.robot_state)
+        for batch in reader.batches():
+            for record in batch:
+                context.cycle += 1
+                context.dt_ns = interval = record.heartbeat_ns
+                context.time_ns = now_ns = now_ns + interval
+                context.actor = -1
+                if context.outputs:
+                    context.outputs = {}
+                draws = record.random_numbers
+                if draws != EMPTY_LIST or random.recorded:
+                    random.load(() if draws == EMPTY_LIST else decode_draws(draws))
+                update(record.robot_state, context)
+                now = read_states()
+                if now != states:
+                    changes = []
+                    for index, after in enumerate(now):
+                        before = states[index]
+                        if after is not before and after != before:
+                            changes.append((index, before, after))
+                            states[index] = after
+                    failed += record.state_changes != raw(encode(changes))
+                else:
+                    failed += record.state_changes != EMPTY_LIST
+                outputs = context.outputs
+                failed += (
+                    record.outputs != raw(encode(outputs))
+                    if outputs
+                    else record.outputs != EMPTY_MAP
+                )
+                failed += random.mismatch is not None or len(random.drawn) != len(random.recorded)
+    if failed:
+        raise AssertionError(f"{path}: {failed} cycles failed the checked loop")
+    return system
+
+
 def final_states(system: System) -> dict[str, Any]:
     """Every behavior's state, by catalogue id."""
     return {name: behavior.state for name, behavior in system.behaviors.items()}
@@ -151,11 +212,14 @@ def replay_against_bare(
     cycles = len(inputs.states)
     replays: list[tuple[float, tuple[ReplayResult, System]]] = []
     bares: list[tuple[float, System]] = []
+    checked: list[tuple[float, System]] = []
     for _ in range(rounds):
         replays.append(cpu(lambda: replay_fresh(path, make_system)))
         bares.append(cpu(lambda: run_bare(inputs, make_system)))
+        checked.append(cpu(lambda: run_checked(path, make_system)))
     replay_s = statistics.median(run[0] for run in replays)
     bare_s = statistics.median(run[0] for run in bares)
+    checked_s = statistics.median(run[0] for run in checked)
     results = [result for _, (result, _) in replays]
     return {
         "cycles": cycles,
@@ -168,9 +232,13 @@ def replay_against_bare(
         "replay_cycles_per_s": cycles / replay_s,
         "replay_speedup_best": max(result.speedup for result in results),
         "replay_over_bare": replay_s / bare_s,
+        "checked_us_per_cycle": checked_s / cycles * 1e6,
+        "checked_over_bare": checked_s / bare_s,
         "round_ratios": sorted(a[0] / b[0] for a, b in zip(replays, bares, strict=True)),
         "same_final_states": all(
-            final_states(replayed) == final_states(bare)
-            for (_, (_, replayed)), (_, bare) in zip(replays, bares, strict=True)
+            final_states(replayed) == final_states(bare) == final_states(flat)
+            for (_, (_, replayed)), (_, bare), (_, flat) in zip(
+                replays, bares, checked, strict=True
+            )
         ),
     }

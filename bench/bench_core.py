@@ -409,6 +409,12 @@ def summary(results: Figures) -> list[tuple[str, str, str, bool | None]]:
             bare["replay_over_bare"] <= 2.0,
         ),
         (
+            "checked loop / bare loop (a pure-Python replay's floor)",
+            f"{bare['checked_over_bare']:.2f}",
+            "—",
+            None,
+        ),
+        (
             "log read / plain zstd msgpack",
             f"{dec['log_over_plain']:.2f}",
             "≥ 0.5",

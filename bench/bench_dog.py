@@ -197,6 +197,11 @@ def main() -> None:
         "≤ 1.5",
     )
     table.add_row(
+        "checked loop / bare loop (a pure-Python replay's floor)",
+        f"{bare['checked_over_bare']:.2f} ({bare['checked_us_per_cycle']:.2f} µs/cycle)",
+        "—",
+    )
+    table.add_row(
         f"committed suite, {jobs} workers",
         f"{suite[f'wall_s_jobs_{jobs}']:.2f} s ({suite[f'passed_jobs_{jobs}']} passed, "
         f"{suite['cycles']:,} cycles, {suite['bytes'] / 1e6:.2f} MB)",

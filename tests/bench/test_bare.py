@@ -8,7 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from bare import final_states, load_bare_inputs, replay_against_bare, replay_fresh, run_bare
+from bare import (
+    final_states,
+    load_bare_inputs,
+    replay_against_bare,
+    replay_fresh,
+    run_bare,
+    run_checked,
+)
 from beatlog.model.behavior import System
 from beatlog_examples import dog, rover
 
@@ -39,6 +46,13 @@ def test_the_bare_loop_ends_in_the_states_replay_ends_in(tmp_path: Path, example
     bare = run_bare(inputs, make)
     assert final_states(bare) == final_states(replayed)
     assert final_states(bare) != final_states(make())  # the behaviors did something
+    assert final_states(run_checked(log, make)) == final_states(replayed)
+
+
+def test_the_checked_loop_fails_where_replay_diverges() -> None:
+    assert not replay_fresh(DOG_LOG, dog.changed_system)[0].ok
+    with pytest.raises(AssertionError, match="cycles failed the checked loop"):
+        run_checked(DOG_LOG, dog.changed_system)
 
 
 def test_replay_against_bare_reports_every_round() -> None:
@@ -47,3 +61,4 @@ def test_replay_against_bare_reports_every_round() -> None:
     assert figures["same_final_states"]
     assert len(figures["replay_cpu_s"]) == len(figures["bare_cpu_s"]) == 2
     assert figures["replay_over_bare"] > 0
+    assert figures["checked_over_bare"] > 0

@@ -63,6 +63,7 @@ _ARRAY_KINDS = frozenset(
     {DrawKind.UNIFORM_ARRAY.value, DrawKind.NORMAL_ARRAY.value, DrawKind.INTEGERS_ARRAY.value}
 )
 _encode_params = payload_encoder().encode
+_PLAIN_NUMBERS = frozenset({int, float, bool})
 
 
 def _same_params(recorded: Sequence[Any], asked: Sequence[Any]) -> bool:
@@ -74,6 +75,8 @@ def _same_params(recorded: Sequence[Any], asked: Sequence[Any]) -> bool:
 
 
 def _same_param(want: Any, got: Any) -> bool:
+    if type(want) in _PLAIN_NUMBERS and type(got) in _PLAIN_NUMBERS:  # the common case
+        return want == got or (isnan(want) and isnan(got))
     if isinstance(want, list | tuple) and isinstance(got, list | tuple):
         return _same_params(want, got)
     if isinstance(want, Real) and isinstance(got, Real):
@@ -254,8 +257,8 @@ class ReplayRandom(RandomSource):
     def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         index = len(self.drawn)
         actor = self._actor
-        asked = Draw(actor, kind.value, None, params)
         if index >= len(self.recorded):
+            asked = Draw(actor, kind.value, None, params)
             self._fail(
                 f"called {asked.call()} (#{index + 1}) but only {index} were recorded",
                 actor,
@@ -264,9 +267,10 @@ class ReplayRandom(RandomSource):
             )
         draw = self.recorded[index]
         if draw.kind != kind.value or (draw.params and not _same_params(draw.params, params)):
+            asked = Draw(actor, kind.value, None, params)
             recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
             self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
-        self.drawn.append(asked._replace(value=draw.value))
+        self.drawn.append(Draw(actor, kind.value, draw.value, params))
         return draw.value
 
     def _fail(
