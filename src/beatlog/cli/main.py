@@ -587,9 +587,11 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
     return EXIT_OK if result.ok else EXIT_FAILED
 
 
-def _selected_specs(args: argparse.Namespace, fleet: list[DtcSpec] | None = None) -> list[DtcSpec]:
-    """The specs ``beatlog test`` runs: found under the paths (or those of a fleet run's
-    logs), selected by -k and --tag, and of those the shard's share."""
+def _selected_specs(
+    args: argparse.Namespace, fleet: list[DtcSpec] | None = None
+) -> tuple[list[DtcSpec], list[DtcSpec]]:
+    """The specs found under the paths (or those of a fleet run's logs), and those
+    ``beatlog test`` runs: selected by -k and --tag, and of those the shard's share."""
     from beatlog.suite.spec import discover_specs, select_specs
 
     found = discover_specs(args.paths) if fleet is None else fleet
@@ -606,8 +608,8 @@ def _selected_specs(args: argparse.Namespace, fleet: list[DtcSpec] | None = None
     if args.shard is not None:
         from beatlog.suite.sharding import shard
 
-        return shard(specs, args.shard.index, args.shard.count)
-    return list(specs)
+        return found, shard(specs, args.shard.index, args.shard.count)
+    return found, list(specs)
 
 
 def _write_json(path: Path, document: object) -> None:
@@ -662,7 +664,7 @@ def _run_tests(
     for report in (args.junit_xml, args.html, args.coverage_json):
         if report is not None:
             _prepare_report(report)
-    specs = _selected_specs(args, fleet)
+    found, specs = _selected_specs(args, fleet)
     if args.break_at is not None and len(specs) > 1:
         raise _UsageError(
             f"--break-at stops in one DTC, and {len(specs)} are selected: "
@@ -735,7 +737,7 @@ def _run_tests(
 
             console.print(render_audit(outcomes))
     if not interrupted:
-        _write_reports(args, outcomes, console)
+        _write_reports(args, outcomes, console, [spec.name for spec in found])
     skipped = len(specs) - len(outcomes)
     console.print(
         verdict_counts((outcome.verdict for outcome in outcomes), not_run=skipped)
@@ -772,8 +774,11 @@ def _executor(address: str | None) -> AbstractContextManager[DaskExecutor | None
     return DaskExecutor(address)
 
 
-def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console) -> None:
-    """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end."""
+def _write_reports(
+    args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console, suite: list[str]
+) -> None:
+    """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end.
+    ``suite`` names every DTC found, selected or not (the coverage memory's due)."""
     from beatlog.cli.baselines import report_orphans, show_updates
     from beatlog.report.console import plain_text
     from beatlog.suite.junit import write_junit
@@ -795,9 +800,7 @@ def _write_reports(args: argparse.Namespace, outcomes: list[SpecOutcome], consol
         coverage = suite_coverage([outcome.spec for outcome in outcomes])
         if args.logs is None:
             from beatlog.suite.coverage_cache import cache_path, recall
-            from beatlog.suite.spec import discover_specs
 
-            suite = [spec.name for spec in discover_specs(args.paths)]  # -k, --shard: all
             warning = recall(coverage, cache_path(args.paths[0]), suite).warning
             if warning is not None:
                 print(f"beatlog: warning: {warning}", file=sys.stderr)

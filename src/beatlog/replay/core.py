@@ -140,6 +140,7 @@ class Replayer:
         """The perception step in use: None unless the log holds samples."""
         self._rebuilt: Any = None
         self._encode = payload_encoder().encode
+        self._robot_state = system.robot_state
         self._state = msgspec.msgpack.Decoder(system.robot_state).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
@@ -282,8 +283,8 @@ class Replayer:
         samples = self._decode_samples(record, self.executor.context.cycle + 1)
         try:
             rebuilt = self.perception(self._rebuilt, samples)
-            if not isinstance(rebuilt, self.system.robot_state):
-                raise PerceptionTypeError(rebuilt, self.system.robot_state)
+            if not isinstance(rebuilt, self._robot_state):
+                raise PerceptionTypeError(rebuilt, self._robot_state)
         except BeatlogError:
             raise
         except (Exception, SystemExit) as exc:  # perception failing is an outcome
