@@ -266,3 +266,12 @@ def as_format_1(log: Path, path: Path) -> Path:
         Message(END_TOPIC, end.robot_time_ns, msgspec.msgpack.encode(end)),
     ]
     return craft_log(path, messages, channels=FORMAT_1_CHANNELS)
+
+
+def vouch(folder: Path, *systems: str) -> Path:
+    """Make ``folder`` a project whose ``pyproject.toml`` vouches for ``systems``: logs
+    that record one of them replay against it without naming a system."""
+    listed = ", ".join(f'"{system}"' for system in systems)
+    path = folder / "pyproject.toml"
+    path.write_text(f"[tool.beatlog]\nsystems = [{listed}]\n", encoding="utf-8")
+    return path

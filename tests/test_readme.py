@@ -70,7 +70,8 @@ def test_the_tour_starts_in_the_first_commands_environment() -> None:
 
 
 def test_the_readme_tour_runs_as_written(tmp_path: Path) -> None:
-    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    for part in ("examples", "pyproject.toml"):  # the tour runs at the repository's root
+        (tmp_path / part).symlink_to(ROOT / part)
     env = {key: value for key, value in os.environ.items() if key != "CI"}
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
     env["PYTHONBREAKPOINT"] = "0"  # the debugger's stops return at once

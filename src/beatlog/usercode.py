@@ -1,8 +1,10 @@
 """User code: import a system or robot from a ``module:factory`` reference, and tell
 where it failed (its traceback cut down to the user's frames).
 
-Only references a user types are imported, or the reference a log records when a
-replay is asked for without one; reading or showing a log never runs code.
+Only references the user names are imported: typed, written in a spec, or listed
+by the project (a log's recorded reference counts only when the project's
+``[tool.beatlog] systems`` lists it, see :mod:`beatlog.project`); reading or showing
+a log never runs code.
 
 A reference is imported from ``sys.path``, to which the CLI adds the working
 directory (as ``python -m`` does) and a DTC spec adds its own folder and its project

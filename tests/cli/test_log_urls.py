@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from tests.commands import Beatlog, assert_one_line_error
+from tests.factories import vouch
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE
 
@@ -55,16 +56,34 @@ def test_replay_json_names_the_url_and_the_copy_it_read(
     assert Path(result["log"]).name == "yard.beatlog"
 
 
-def test_replay_against_the_recorded_system_says_it_of_the_url(
-    beatlog: Beatlog, served: LogServer
+def test_replay_against_the_vouched_recorded_system_says_it_of_the_url(
+    beatlog: Beatlog, served: LogServer, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     url = f"{served.url}/dock.beatlog"
+    vouch(tmp_path, PROBE)
+    monkeypatch.chdir(tmp_path)
 
     run = beatlog("replay", url)
 
     assert run.code == 0, run.err
-    assert run.err == f"beatlog: replaying against {PROBE}, as recorded in {url}\n"
+    assert run.err == (
+        f"beatlog: replaying against {PROBE}, as recorded in {url} "
+        "and listed in the project's [tool.beatlog] systems\n"
+    )
     assert served.downloads("dock.beatlog") == 1
+
+
+def test_a_log_behind_a_url_never_chooses_the_system_on_its_own(
+    beatlog: Beatlog, served: LogServer, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+    monkeypatch.chdir(tmp_path)
+
+    run = beatlog("replay", url)
+
+    assert_one_line_error(
+        run, f"{url}: records the system {PROBE!r}, which this project does not vouch for"
+    )
 
 
 def test_show_describes_a_log_behind_a_url(beatlog: Beatlog, served: LogServer) -> None:

@@ -7,6 +7,7 @@ import json
 import shutil
 import subprocess
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -19,7 +20,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.commands import Beatlog, assert_one_line_error
 from tests.conftest import RecordFn, distances
-from tests.factories import session_header
+from tests.factories import session_header, vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
@@ -41,16 +42,21 @@ def test_replay_passes_a_log_against_the_system_that_recorded_it(
     assert run.err == ""
 
 
-def test_replay_without_a_system_uses_and_names_the_one_the_log_records(
-    beatlog: Beatlog, record_probe: RecordFn
+def test_replay_without_a_system_uses_and_names_the_one_the_project_vouches_for(
+    beatlog: Beatlog, record_probe: RecordFn, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     log = record_probe(300)
+    vouch(tmp_path, PROBE)
+    monkeypatch.chdir(tmp_path)
 
     run = beatlog("replay", log)
 
     assert run.code == 0
     assert run.out.startswith(f"PASS {log}")
-    assert run.err == f"beatlog: replaying against {PROBE}, as recorded in {log}\n"
+    assert run.err == (
+        f"beatlog: replaying against {PROBE}, as recorded in {log} "
+        "and listed in the project's [tool.beatlog] systems\n"
+    )
 
 
 def test_replay_without_a_system_of_a_log_that_records_none_is_one_line(
@@ -61,6 +67,62 @@ def test_replay_without_a_system_of_a_log_that_records_none_is_one_line(
     run = beatlog("replay", log)
 
     assert_one_line_error(run, f"{log}: records no system; name one (module:factory)")
+
+
+TRAP = "import pathlib\npathlib.Path('sprung').write_text('imported')\ndef trap(): pass\n"
+"""A module beside the log that leaves a file ``sprung`` when it is imported."""
+
+
+@pytest.mark.parametrize("recorded", ["booby:trap", "tempfile:mkdtemp", "this:s", PROBE])
+def test_a_log_never_chooses_the_code_replay_imports(
+    beatlog: Beatlog,
+    record_probe: RecordFn,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    recorded: str,
+) -> None:
+    (tmp_path / "booby.py").write_text(TRAP, encoding="utf-8")
+    vouch(tmp_path, "robot.nav:system")
+    monkeypatch.chdir(tmp_path)
+    log = record_probe(30, system_ref=recorded)
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temporary))
+    imported = set(sys.modules)
+
+    run = beatlog("replay", log)
+
+    assert_one_line_error(
+        run,
+        f"{log}: records the system {recorded!r}, which this project does not vouch for",
+        f"[tool.beatlog] systems in {tmp_path / 'pyproject.toml'}",
+    )
+    assert not (tmp_path / "sprung").exists()
+    assert set(sys.modules) - imported <= {"beatlog.replay.judge", "beatlog.report.console"}
+    assert list(temporary.iterdir()) == []
+
+
+def test_a_hostile_header_prints_nothing_of_the_module_it_names(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    log = record_probe(30, system_ref="this:s")
+
+    run = subprocess.run(
+        [sys.executable, "-m", "beatlog.cli.main", "replay", str(log)],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=60,
+        check=False,
+    )
+
+    assert run.returncode == 2
+    assert run.stdout == ""
+    assert run.stderr == (
+        f"beatlog: error: {log}: records the system 'this:s', which this project does not "
+        "vouch for; name it (--system, or system = in the spec) or list it under "
+        "[tool.beatlog] systems in a pyproject.toml\n"
+    )
 
 
 def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(

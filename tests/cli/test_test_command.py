@@ -13,7 +13,8 @@ import pytest
 
 from tests.commands import Beatlog, Run, assert_one_line_error, hide_matplotlib
 from tests.conftest import RecordFn
-from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.factories import vouch
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 from tests.systems import leaks, leaky_system, record_session
 
 BeatlogTest = Callable[..., Run]
@@ -65,19 +66,31 @@ def test_a_suite_that_replays_as_recorded_passes(
     assert_counts(run, "2 passed, 0 failed", 600)
 
 
-def test_a_spec_without_a_system_replays_against_the_one_its_log_records(
+def test_a_spec_without_a_system_replays_against_the_one_its_project_vouches_for(
     beatlog_test: BeatlogTest, specs: Path, log: Path, record_probe: RecordFn
 ) -> None:
     write_spec(specs, "avoid-pole", log, system=None)
     write_spec(
         specs, "unnamed", record_probe(30, name="unnamed.beatlog", system_ref=""), system=None
     )
+    hostile = record_probe(30, name="hostile.beatlog", system_ref="tempfile:mkdtemp")
+    write_spec(specs, "hostile", hostile, system=None)
+    vouch(specs, PROBE)
 
     run = beatlog_test(specs)
 
     assert run.code == 2
     assert re.search(r"avoid-pole\s+│ passed", run.out)
+    assert (
+        f"note: avoid-pole: replayed against {PROBE}, which its log records and the "
+        "project lists\n"
+    ) in run.out
     assert "unnamed.beatlog: records no system; name one (module:factory)" in run.err
+    assert (
+        f"hostile.beatlog: records the system 'tempfile:mkdtemp', which this project does "
+        f"not vouch for; name it (--system, or system = in the spec) or list it under "
+        f"[tool.beatlog] systems in {specs / 'pyproject.toml'}"
+    ) in run.err
 
 
 def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(

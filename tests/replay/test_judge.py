@@ -13,7 +13,7 @@ import pytest
 import beatlog
 from beatlog import DivergenceKind, StateChange, replay
 from beatlog.analysis.trace import Expectation, TracedChange, replayed_trace
-from beatlog.errors import CorruptLogError, LogError, SchemaMismatchError
+from beatlog.errors import CorruptLogError, LogError, SchemaMismatchError, SystemLoadError
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -34,7 +34,7 @@ from tests.conftest import (
     probe_system_changed,
     probe_system_renamed,
 )
-from tests.factories import as_format_1, chunks, drop_chunk
+from tests.factories import as_format_1, chunks, drop_chunk, vouch
 from tests.systems import Fragile
 
 
@@ -53,6 +53,19 @@ def test_a_system_given_by_reference_replays_too(record_probe: RecordFn) -> None
     result = replay(record_probe(50), "tests.conftest:probe_system")
     assert result.ok
     assert "--system tests.conftest:probe_system" in result.reproduce
+
+
+def test_without_a_system_the_log_s_own_is_used_only_where_the_project_vouches_for_it(
+    record_probe: RecordFn, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(60)
+    monkeypatch.chdir(tmp_path)
+
+    with pytest.raises(SystemLoadError, match="which this project does not vouch for"):
+        replay(log)
+
+    vouch(tmp_path, "tests.conftest:probe_system")
+    assert replay(log).ok
 
 
 def test_a_changed_behavior_fails_at_the_first_cycle_it_acts_differently(

@@ -569,7 +569,11 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
         system = args.system
         if system is None:
             system = recorded_system(args.log)
-            print(f"beatlog: replaying against {system}, as recorded in {given}", file=sys.stderr)
+            print(
+                f"beatlog: replaying against {system}, as recorded in {given} "
+                "and listed in the project's [tool.beatlog] systems",
+                file=sys.stderr,
+            )
         options = {
             "keep_going": args.keep_going,
             "allow_truncated": args.allow_truncated,

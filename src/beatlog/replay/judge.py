@@ -20,7 +20,7 @@ import msgspec
 
 from beatlog.analysis.renames import propose_renames
 from beatlog.analysis.trace import Expectation, fields_read
-from beatlog.errors import CorruptLogError, SystemLoadError
+from beatlog.errors import CorruptLogError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
@@ -34,6 +34,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
 from beatlog.model.random import Draw, plain_value
+from beatlog.project import vouched_system
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.fit import check_state_fields
@@ -187,16 +188,20 @@ def replay(
     )
 
 
-def recorded_system(log: str | Path) -> str:
-    """The system reference the log's header records (``beatlog record --system-ref``).
+def recorded_system(log: str | Path, *, project: Path | None = None) -> str:
+    """The system reference the log's header records (``beatlog record --system-ref``),
+    once the project vouches for it: bytes from a log never choose code on their own.
 
-    :raises beatlog.errors.SystemLoadError: the log records none.
+    ``project`` is a folder of the project whose ``[tool.beatlog] systems`` must list
+    the reference (the working directory by default; a spec's folder for a spec), see
+    :func:`beatlog.project.vouched_system`.
+
+    :raises beatlog.errors.SystemLoadError: the log records none, or one the project
+        does not list.
     """
     with SessionLogReader(log) as reader:
         reference = reader.header.system
-    if not reference:
-        raise SystemLoadError(f"{log}: records no system; name one (module:factory)")
-    return reference
+    return vouched_system(log, reference, project=Path.cwd() if project is None else project)
 
 
 class _Judge:

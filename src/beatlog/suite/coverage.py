@@ -38,7 +38,9 @@ def _dtcs(
                 system: System | None = None
                 if systems:
                     try:
-                        system = load_system(spec.system or recorded_system(log))
+                        system = load_system(
+                            spec.system or recorded_system(log, project=spec.path.parent)
+                        )
                     except BeatlogError:  # the verdict reports it; coverage counts the log
                         system = None
         except (LogError, RemoteLogError):

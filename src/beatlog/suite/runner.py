@@ -152,7 +152,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
                     baseline, f"approved for another recording than {spec.log.name}; delete it"
                 )
             expected = approved.expectation
-        system = spec.system or recorded_system(spec.log)
+        system = spec.system or recorded_system(spec.log, project=spec.path.parent)
         judged = functools.partial(
             replay,
             spec.log,
@@ -180,7 +180,15 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
-        result = dataclasses.replace(result, divergence=divergence, reproduce=_rerun(spec))
+        notes = result.notes
+        if spec.system is None:  # the log named it: say which, on every run
+            notes = (
+                *notes,
+                f"replayed against {system}, which its log records and the project lists",
+            )
+        result = dataclasses.replace(
+            result, divergence=divergence, reproduce=_rerun(spec), notes=notes
+        )
         changes = digest = None
         if details is not None and details.trace is not None and refused is None:
             changes, refused = _new_expectation(details.trace)

@@ -33,21 +33,19 @@ Renames that hold for every spec go into the project's ``pyproject.toml``, under
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import math
-import re
 import tomllib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import msgspec
 
 from beatlog.errors import SpecError
-from beatlog.files import irregular_file_problem, project_root
+from beatlog.files import irregular_file_problem
+from beatlog.project import check_one_to_one, explain_validation, project_config
 from beatlog.remote import fetched_log, is_url, url_name
 from beatlog.replay.compare import Comparison
 from beatlog.suite.keywords import KeywordExpression
@@ -80,10 +78,6 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     ignore_fields: list[str] = []
     tolerance: dict[str, float] = {}
     robot_state_tolerance: dict[str, float] = {}
-
-
-class _ProjectFile(msgspec.Struct):
-    renames: dict[str, str] = {}
 
 
 @dataclass(frozen=True)
@@ -153,15 +147,15 @@ def load_spec(path: str | Path) -> DtcSpec:
     try:
         spec = msgspec.convert(data, _SpecFile)
     except msgspec.ValidationError as exc:
-        raise SpecError(path, _explain(str(exc))) from None
+        raise SpecError(path, explain_validation(str(exc))) from None
     if not spec.name.strip():
         raise SpecError(path, "key 'name': must not be empty")
     for key, reference in (("system", spec.system), ("perception", spec.perception)):
         if reference is not None and ":" not in reference:
             raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
-    renames = {**_project_renames(path.resolve().parent), **spec.renames}
-    _check_one_to_one(path, "renames", spec.renames)
-    _check_one_to_one(path, "renames", renames)
+    renames = {**project_config(path.resolve().parent).renames, **spec.renames}
+    check_one_to_one(path, "renames", spec.renames)
+    check_one_to_one(path, "renames", renames)
     for key, tolerances in (
         ("tolerance", spec.tolerance),
         ("robot_state_tolerance", spec.robot_state_tolerance),
@@ -191,53 +185,6 @@ def load_spec(path: str | Path) -> DtcSpec:
             state_tolerance=spec.robot_state_tolerance,
         ),
     )
-
-
-def _check_one_to_one(path: Path, key: str, renames: Mapping[str, str]) -> None:
-    seen: dict[str, str] = {}
-    for old, new in renames.items():
-        if new in seen:
-            raise SpecError(
-                path, f"key {key!r}: {seen[new]!r} and {old!r} are both renamed to {new!r}"
-            )
-        seen[new] = old
-
-
-@functools.cache
-def _project_renames(folder: Path) -> dict[str, str]:
-    """``[tool.beatlog.renames]`` of the nearest ``pyproject.toml`` at or above ``folder``."""
-    root = project_root(folder)
-    return {} if root is None else _read_project(root / "pyproject.toml").renames
-
-
-def _read_project(path: Path) -> _ProjectFile:
-    try:
-        data: dict[str, Any] = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise SpecError(path, f"cannot read: {exc}") from None
-    section = data.get("tool", {}).get("beatlog", {})
-    try:
-        project = msgspec.convert(section, _ProjectFile)
-    except msgspec.ValidationError as exc:
-        raise SpecError(path, _explain(str(exc), prefix="tool.beatlog.")) from None
-    _check_one_to_one(path, "tool.beatlog.renames", project.renames)
-    return project
-
-
-def _explain(message: str, prefix: str = "") -> str:
-    """Turn msgspec's ``... - at `$.key[0]` `` into ``key 'key[0]': ...``."""
-    match = re.fullmatch(r"(.*) - at `\$\.?(.*)`", message)
-    if match:
-        problem, key = match.groups()
-        key = key.replace("[...]", ".*")  # a value of a table
-        return f"key {prefix + key!r}: {problem[0].lower()}{problem[1:]}"
-    unknown = re.fullmatch(r"Object contains unknown field `(.*)`", message)
-    if unknown:
-        return f"unknown key {prefix + unknown.group(1)!r}"
-    missing = re.fullmatch(r"Object missing required field `(.*)`", message)
-    if missing:
-        return f"missing key {prefix + missing.group(1)!r}"
-    return message
 
 
 def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:

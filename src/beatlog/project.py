@@ -1,0 +1,126 @@
+"""The project's own configuration: ``[tool.beatlog]`` in the nearest ``pyproject.toml``.
+
+It is the user's word, as their specs and command lines are: the behavior renames that
+hold for every spec, and the systems the project vouches for. A log records the
+``module:factory`` it was recorded with, but bytes from a log never choose code: that
+reference is used only when the project lists it under ``systems`` (see
+:func:`vouched_system`).
+"""
+
+from __future__ import annotations
+
+import functools
+import re
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from beatlog.errors import SpecError, SystemLoadError
+from beatlog.files import project_root
+
+__all__ = [
+    "ProjectConfig",
+    "check_one_to_one",
+    "explain_validation",
+    "project_config",
+    "vouched_system",
+]
+
+_SHOWN = 80
+"""The most characters of a recorded reference an error repeats (it comes from a log)."""
+
+
+class ProjectConfig(msgspec.Struct, frozen=True):
+    """``[tool.beatlog]`` of a project's ``pyproject.toml``."""
+
+    renames: dict[str, str] = {}
+    """Behavior renames that hold for every spec of the project (old name -> new name)."""
+    systems: list[str] = []
+    """The ``module:factory`` references a log may name for replay without ``--system``."""
+
+
+def project_config(folder: Path) -> ProjectConfig:
+    """The configuration of the project ``folder`` belongs to (the nearest folder at or
+    above it with a ``pyproject.toml``); empty when there is none. A file read before is
+    read again only once it changed.
+
+    :raises beatlog.errors.SpecError: the ``pyproject.toml`` cannot be read or its
+        ``[tool.beatlog]`` table is malformed.
+    """
+    root = project_root(folder)
+    if root is None:
+        return ProjectConfig()
+    path = root / "pyproject.toml"
+    try:
+        stat = path.stat()
+    except OSError as exc:
+        raise SpecError(path, f"cannot read: {exc.strerror}") from None
+    return _read(path, stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=16)
+def _read(path: Path, _mtime_ns: int, _size: int) -> ProjectConfig:
+    """``path``'s configuration; the file's time and size key the cache."""
+    try:
+        data: dict[str, Any] = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise SpecError(path, f"cannot read: {exc}") from None
+    section = data.get("tool", {}).get("beatlog", {})
+    try:
+        config = msgspec.convert(section, ProjectConfig)
+    except msgspec.ValidationError as exc:
+        raise SpecError(path, explain_validation(str(exc), prefix="tool.beatlog.")) from None
+    check_one_to_one(path, "tool.beatlog.renames", config.renames)
+    return config
+
+
+def vouched_system(log: str | Path, recorded: str, *, project: Path) -> str:
+    """The system reference ``log`` records, once the project at ``project`` vouches for
+    it by listing it under ``[tool.beatlog] systems``.
+
+    :raises beatlog.errors.SystemLoadError: the log records no system, or one the
+        project does not list; the message says how to name one.
+    """
+    if not recorded:
+        raise SystemLoadError(f"{log}: records no system; name one (module:factory)")
+    project = project.resolve()
+    if recorded in project_config(project).systems:
+        return recorded
+    shown = recorded if len(recorded) <= _SHOWN else recorded[:_SHOWN] + "…"
+    root = project_root(project)
+    where = "a pyproject.toml" if root is None else str(root / "pyproject.toml")
+    raise SystemLoadError(
+        f"{log}: records the system {shown!r}, which this project does not vouch for; "
+        f"name it (--system, or system = in the spec) or list it under "
+        f"[tool.beatlog] systems in {where}"
+    )
+
+
+def check_one_to_one(path: Path, key: str, renames: Mapping[str, str]) -> None:
+    """Refuse renames that map two old names to one new name."""
+    seen: dict[str, str] = {}
+    for old, new in renames.items():
+        if new in seen:
+            raise SpecError(
+                path, f"key {key!r}: {seen[new]!r} and {old!r} are both renamed to {new!r}"
+            )
+        seen[new] = old
+
+
+def explain_validation(message: str, prefix: str = "") -> str:
+    """Turn msgspec's ``... - at `$.key[0]` `` into ``key 'key[0]': ...``."""
+    match = re.fullmatch(r"(.*) - at `\$\.?(.*)`", message)
+    if match:
+        problem, key = match.groups()
+        key = key.replace("[...]", ".*")  # a value of a table
+        return f"key {prefix + key!r}: {problem[0].lower()}{problem[1:]}"
+    unknown = re.fullmatch(r"Object contains unknown field `(.*)`", message)
+    if unknown:
+        return f"unknown key {prefix + unknown.group(1)!r}"
+    missing = re.fullmatch(r"Object missing required field `(.*)`", message)
+    if missing:
+        return f"missing key {prefix + missing.group(1)!r}"
+    return message

@@ -1,0 +1,87 @@
+"""The project's configuration: renames for every spec, and the systems it vouches for."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from beatlog.errors import SpecError, SystemLoadError
+from beatlog.project import ProjectConfig, project_config, vouched_system
+from tests.factories import vouch
+
+LOG = Path("walk.beatlog")
+
+
+def test_the_configuration_is_read_from_the_nearest_pyproject(tmp_path: Path) -> None:
+    vouch(tmp_path, "robot.nav:system", "robot.arm:system")
+    inner = tmp_path / "suite" / "night"
+    inner.mkdir(parents=True)
+
+    assert project_config(inner) == ProjectConfig(
+        renames={}, systems=["robot.nav:system", "robot.arm:system"]
+    )
+
+
+def test_a_project_without_pyproject_vouches_for_nothing(tmp_path: Path) -> None:
+    with pytest.raises(SystemLoadError) as raised:
+        vouched_system(LOG, "robot.nav:system", project=tmp_path)
+
+    assert str(raised.value) == (
+        "walk.beatlog: records the system 'robot.nav:system', which this project does not "
+        "vouch for; name it (--system, or system = in the spec) or list it under "
+        "[tool.beatlog] systems in a pyproject.toml"
+    )
+
+
+def test_a_listed_reference_is_the_one_used(tmp_path: Path) -> None:
+    vouch(tmp_path, "robot.nav:system")
+
+    assert vouched_system(LOG, "robot.nav:system", project=tmp_path) == "robot.nav:system"
+
+
+@pytest.mark.parametrize(
+    "recorded", ["tempfile:mkdtemp", "this:s", "os:getcwd", "robot.nav:system ", "robot.nav"]
+)
+def test_an_unlisted_reference_is_refused_naming_the_pyproject(
+    tmp_path: Path, recorded: str
+) -> None:
+    pyproject = vouch(tmp_path, "robot.nav:system")
+
+    with pytest.raises(SystemLoadError) as raised:
+        vouched_system(LOG, recorded, project=tmp_path)
+
+    assert str(raised.value) == (
+        f"walk.beatlog: records the system {recorded!r}, which this project does not vouch "
+        f"for; name it (--system, or system = in the spec) or list it under "
+        f"[tool.beatlog] systems in {pyproject}"
+    )
+
+
+def test_a_log_that_records_no_system_says_so(tmp_path: Path) -> None:
+    vouch(tmp_path, "")
+
+    with pytest.raises(SystemLoadError) as raised:
+        vouched_system(LOG, "", project=tmp_path)
+
+    assert str(raised.value) == "walk.beatlog: records no system; name one (module:factory)"
+
+
+def test_a_long_recorded_reference_is_cut_in_the_message(tmp_path: Path) -> None:
+    with pytest.raises(SystemLoadError) as raised:
+        vouched_system(LOG, "x" * 10_000 + ":y", project=tmp_path)
+
+    assert f"{'x' * 80}…'" in str(raised.value)
+    assert len(str(raised.value)) < 300
+
+
+def test_systems_that_are_not_a_list_of_strings_name_the_key(tmp_path: Path) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text('[tool.beatlog]\nsystems = "robot.nav:system"\n', encoding="utf-8")
+
+    with pytest.raises(SpecError) as raised:
+        project_config(tmp_path)
+
+    assert str(raised.value) == (
+        f"{pyproject}: key 'tool.beatlog.systems': expected `array`, got `str`"
+    )
