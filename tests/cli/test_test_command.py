@@ -82,8 +82,7 @@ def test_a_spec_without_a_system_replays_against_the_one_its_project_vouches_for
     assert run.code == 2
     assert re.search(r"avoid-pole\s+│ passed", run.out)
     assert (
-        f"note: avoid-pole: replayed against {PROBE}, which its log records and the "
-        "project lists\n"
+        f"note: avoid-pole: replayed against {PROBE}, which its log records and the project lists\n"
     ) in run.out
     assert "unnamed.beatlog: records no system; name one (module:factory)" in run.err
     assert (

@@ -467,3 +467,28 @@ def test_what_is_no_closed_log_has_no_cycle_count(tmp_path: Path) -> None:
     assert recorded_cycles(foreign) is None
     assert recorded_cycles(tmp_path / "missing.beatlog") is None
     assert recorded_cycles(tmp_path) is None
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("robot_id", "dog\x1b]0;owned\x07"),
+        ("software_version", "1.0\x1b[2J"),
+        ("system", "robot:system\n"),
+        ("robot_state_type", "Probe\x9b31m"),
+        ("behaviors", ["avoid", "wander\r"]),
+    ],
+)
+def test_a_header_name_with_control_characters_is_a_corrupt_log(
+    tmp_path: Path, field: str, value: object
+) -> None:
+    log = craft_log(tmp_path / "escape.beatlog", [header_message(**{field: value})])
+
+    with pytest.raises(CorruptLogError) as raised:
+        SessionLogReader(log)
+
+    shown = repr(value[1]) if isinstance(value, list) else repr(value)
+    named = "behavior 1" if isinstance(value, list) else field
+    assert str(raised.value) == (
+        f"{log}: damaged session header: {named} {shown} holds control characters"
+    )

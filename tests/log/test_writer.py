@@ -228,3 +228,15 @@ def test_the_flush_interval_must_be_positive(tmp_path: Path, interval: float) ->
     with pytest.raises(ValueError, match="flush interval must be positive"):
         SessionLogWriter(tmp_path / "x.beatlog", session_header(), flush_interval_s=interval)
     assert not (tmp_path / "x.beatlog").exists()
+
+
+def test_a_name_that_would_drive_a_terminal_is_refused_before_recording(tmp_path: Path) -> None:
+    path = tmp_path / "escape.beatlog"
+
+    with pytest.raises(LogError) as raised:
+        SessionLogWriter(path, session_header(robot_id="dog\x1b[31m"))
+
+    assert str(raised.value) == (
+        f"{path}: cannot record: robot_id 'dog\\x1b[31m' holds control characters"
+    )
+    assert not path.exists()

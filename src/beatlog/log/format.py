@@ -14,6 +14,7 @@ state changes and outputs byte for byte, without decoding them, when they match.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, NamedTuple
 
@@ -83,6 +84,7 @@ def payload_encoder() -> msgspec.msgpack.Encoder:
     return msgspec.msgpack.Encoder(enc_hook=_encode_array_like)
 
 
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 Name = Annotated[str, msgspec.Meta(max_length=MAX_NAME_LENGTH)]
 Text = Annotated[str, msgspec.Meta(max_length=MAX_TEXT_LENGTH)]
 
@@ -116,6 +118,17 @@ class SessionHeader(msgspec.Struct, kw_only=True):
 
     def problem(self) -> str | None:
         """What makes this header unreadable beyond its field bounds, or None."""
+        named = {
+            "robot_id": self.robot_id,
+            "software_version": self.software_version,
+            "beatlog_version": self.beatlog_version,
+            "system": self.system,
+            "robot_state_type": self.robot_state_type,
+            **{f"behavior {index}": name for index, name in enumerate(self.behaviors)},
+        }
+        for field, name in named.items():
+            if _CONTROL.search(name):  # printed by every report: it must not drive a terminal
+                return f"{field} {name!r} holds control characters"
         if len(set(self.behaviors)) != len(self.behaviors):
             return "a behavior is named twice"
         if self.initial_states and len(self.initial_states) != len(self.behaviors):
