@@ -4,11 +4,13 @@ removed after; sized without being read; every problem one line naming the URL."
 from __future__ import annotations
 
 import sys
+import tomllib
 from collections.abc import Iterator
 from pathlib import Path
 
 import fsspec
 import pytest
+from packaging.requirements import Requirement
 
 from beatlog.errors import RemoteLogError
 from beatlog.remote import fetched_log, is_url, log_size, url_name
@@ -127,3 +129,11 @@ def test_a_url_without_fsspec_says_what_to_install(monkeypatch: pytest.MonkeyPat
     assert str(raised.value) == (
         's3://bucket/a.beatlog: a URL needs fsspec (pip install "beatlog[fleet]")'
     )
+
+
+def test_the_fleet_extra_brings_what_http_urls_need() -> None:
+    pyproject = Path(__file__).parents[1] / "pyproject.toml"
+    extras = tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]
+    fleet = [Requirement(line) for line in extras["optional-dependencies"]["fleet"]]
+
+    assert [(req.name, req.extras) for req in fleet] == [("fsspec", {"http"})]

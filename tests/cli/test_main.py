@@ -545,7 +545,19 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
 
 # --help pages
 
-SUBCOMMANDS = ["record", "replay", "test", "review", "approve", "show", "plot", "demo"]
+SUBCOMMANDS = [
+    "record",
+    "replay",
+    "test",
+    "review",
+    "approve",
+    "show",
+    "plot",
+    "export",
+    "import-bag",
+    "demo",
+    "help",
+]
 
 
 def help_page(command: str, capsys: pytest.CaptureFixture[str]) -> str:
@@ -593,3 +605,60 @@ def test_test_help_says_what_k_and_repeated_tags_mean(
 
     assert "as pytest's -k: words matched against names and tags" in page
     assert "given more than once, only DTCs with every tag given" in page
+
+
+def test_the_top_level_help_ends_with_the_exit_codes(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exited:
+        main(["--help"])
+
+    assert exited.value.code == 0
+    assert capsys.readouterr().out.rstrip().endswith(EXIT_CODES.rstrip())
+
+
+@pytest.mark.parametrize("topic", [[], ["test"], ["replay"]])
+def test_help_prints_the_page_help_does(
+    topic: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exited:
+        main([*topic, "--help"])
+    page = capsys.readouterr().out
+
+    with pytest.raises(SystemExit) as helped:
+        main(["help", *topic])
+
+    assert (exited.value.code, helped.value.code) == (0, 0)
+    assert capsys.readouterr().out == page
+
+
+def test_help_of_an_unknown_command_is_one_line(beatlog: Beatlog) -> None:
+    run = beatlog("help", "nope")
+
+    assert_one_line_error(run, "argument COMMAND: invalid choice: 'nope'")
+
+
+@pytest.mark.parametrize("command", [name for name in SUBCOMMANDS if name != "test"])
+def test_verbose_says_what_it_does_for_the_command_at_hand(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    page = " ".join(help_page(command, capsys).split())
+
+    assert "-v, --verbose also print the traceback of user code that failed to load" in page
+    assert "summary" not in page.partition("--verbose")[2].partition(" -")[0]
+
+
+def test_test_verbose_lists_every_dtc(capsys: pytest.CaptureFixture[str]) -> None:
+    page = " ".join(help_page("test", capsys).split())
+
+    assert (
+        "-v, --verbose list every DTC in the summary, and print the traceback of user code "
+        "that failed to load"
+    ) in page
+
+
+def test_review_help_says_it_asks_at_the_terminal(capsys: pytest.CaptureFixture[str]) -> None:
+    page = " ".join(help_page("review", capsys).split())
+
+    assert page.startswith(
+        "usage: beatlog review [-h] [-v] [paths ...] Show each pending baseline change and "
+        "ask at the terminal whether to accept, reject or skip it."
+    )

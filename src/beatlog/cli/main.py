@@ -69,20 +69,21 @@ def _parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="beatlog",
         description="Record robot sessions and replay them as deterministic test cases.",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"beatlog {__version__}")
-    common = _Parser(add_help=False)
-    common.add_argument(
-        "-v",
-        "--verbose",
-        action="store_true",
-        help="also print the traceback of user code that failed to load; "
-        "test: list every DTC in the summary",
-    )
     commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    def add(name: str, *, help: str) -> argparse.ArgumentParser:
+    def add(
+        name: str,
+        *,
+        help: str,
+        verbose: str = "also print the traceback of user code that failed to load",
+    ) -> argparse.ArgumentParser:
         """A subcommand whose --help page has a description and ends with the exit codes."""
+        common = _Parser(add_help=False)
+        common.add_argument("-v", "--verbose", action="store_true", help=verbose)
         return commands.add_parser(
             name,
             parents=[common],
@@ -130,7 +131,8 @@ def _parser() -> argparse.ArgumentParser:
     play.add_argument(
         "--system",
         metavar="MODULE:FACTORY",
-        help="system factory (default: the one the log records, from record --system-ref)",
+        help="system factory (default: the one the log records, from record --system-ref, "
+        "where the project lists it under [tool.beatlog] systems in pyproject.toml)",
     )
     play.add_argument(
         "--perception",
@@ -152,9 +154,20 @@ def _parser() -> argparse.ArgumentParser:
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
-    _add_test(add("test", help="run DTC specs (*.dtc.toml) in parallel"))
+    _add_test(
+        add(
+            "test",
+            help="run DTC specs (*.dtc.toml) in parallel",
+            verbose="list every DTC in the summary, and print the traceback of user code "
+            "that failed to load",
+        )
+    )
 
-    check = add("review", help="show pending baseline changes; accept or reject")
+    check = add(
+        "review",
+        help="show each pending baseline change and ask at the terminal whether to accept, "
+        "reject or skip it",
+    )
     check.add_argument(
         "paths",
         nargs="*",
@@ -195,6 +208,11 @@ def _parser() -> argparse.ArgumentParser:
 
     _add_export(add)
     _add_import_bag(add)
+
+    helping = add("help", help="show the help of beatlog or of one of its commands")
+    helping.add_argument(
+        "topic", nargs="?", choices=sorted(_COMMANDS), metavar="COMMAND", help="the command"
+    )
 
     demo = add("demo", help="record and replay the robot dog, then its suite")
     demo.add_argument(
@@ -951,6 +969,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
 
 
+def _help(args: argparse.Namespace, console: Console) -> int:
+    """``beatlog help [COMMAND]``: the help page ``--help`` prints."""
+    _parser().parse_args([*([args.topic] if args.topic else []), "--help"])
+    return EXIT_OK
+
+
 def _review(args: argparse.Namespace, console: Console) -> int:
     from beatlog.cli.baselines import review
 
@@ -977,6 +1001,7 @@ _COMMANDS: dict[str, tuple[Command, bool]] = {
     "export": (_export, True),
     "import-bag": (_import_bag, True),
     "demo": (_demo, False),
+    "help": (_help, False),
 }
 """Each subcommand's handler, and whether it imports the user's code (``module:factory``)."""
 
