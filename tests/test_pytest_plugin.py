@@ -11,6 +11,7 @@ import pytest
 
 import beatlog_examples.rover
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
+from beatlog.suite.spec import discover_specs, find_rootdir, select_specs
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import Probe, RecordFn
 from tests.specs import FIRST_CHANGED_CYCLE
@@ -291,3 +292,39 @@ def test_break_points_refuse_xdist_workers(pytester: pytest.Pytester, log: Path)
 
     assert result.ret == pytest.ExitCode.USAGE_ERROR
     result.stderr.fnmatch_lines(["*run without pytest-xdist's -n (or with -n 0)*"])
+
+
+PARITY_EXPRESSIONS = [
+    "not box and dog",
+    "dog",
+    "suite",
+    "dtc",
+    "toml",
+    "robots and not night",
+    "rover or pat",
+    "probe and not (box or rover)",
+    "nothing",
+]
+
+
+@pytest.mark.parametrize("expression", PARITY_EXPRESSIONS)
+def test_k_selects_the_dtcs_pytest_selects(
+    pytester: pytest.Pytester, log: Path, expression: str
+) -> None:
+    (pytester.path / "pyproject.toml").write_text("[project]\nname = 'robots'\n")
+    for folder, name in [
+        ("robots/dog/suite", "avoid-box"),
+        ("robots/dog/suite", "head-pat"),
+        ("robots/dog/night", "wander"),
+        ("robots/rover", "avoid-wall"),
+        ("robots/rover", "dock-box"),
+    ]:
+        (pytester.path / folder).mkdir(parents=True, exist_ok=True)
+        (pytester.path / folder / f"{name}.dtc.toml").write_text(spec_text(name, log))
+    specs = discover_specs([pytester.path])
+
+    selected = select_specs(specs, pattern=expression, rootdir=find_rootdir([pytester.path]))
+    collected = pytester.runpytest("--collect-only", "-q", "-k", expression)
+
+    ran = sorted(line.partition("::")[2] for line in collected.outlines if "::" in line)
+    assert sorted(spec.name for spec in selected) == ran

@@ -361,7 +361,8 @@ def _add_test(test: argparse.ArgumentParser) -> None:
         dest="select",
         metavar="EXPRESSION",
         help="only DTCs matching this expression, as pytest's -k: words matched against "
-        "names and tags, with and, or, not and parentheses (e.g. -k 'touch or pat')",
+        "names and tags, with and, or, not and parentheses (e.g. -k 'touch or pat'); "
+        "the names are the DTC's, its spec file's and its folders' below the rootdir",
     )
     test.add_argument(
         "--tag",
@@ -614,10 +615,11 @@ def _selected_specs(
 ) -> tuple[list[DtcSpec], list[DtcSpec]]:
     """The specs found under the paths (or those of a fleet run's logs), and those
     ``beatlog test`` runs: selected by -k and --tag, and of those the shard's share."""
-    from beatlog.suite.spec import discover_specs, select_specs
+    from beatlog.suite.spec import discover_specs, find_rootdir, select_specs
 
     found = discover_specs(args.paths) if fleet is None else fleet
-    specs = select_specs(found, pattern=args.select, tags=args.tag)
+    rootdir = find_rootdir(args.paths) if fleet is None else None
+    specs = select_specs(found, pattern=args.select, tags=args.tag, rootdir=rootdir)
     if specs and args.behavior is not None:
         from beatlog.suite.coverage import select_exercising
 

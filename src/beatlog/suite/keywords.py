@@ -1,9 +1,11 @@
 """``-k`` expressions, as pytest reads them: ``touch``, ``touch or pat``,
 ``obstacles and not wall``, with parentheses.
 
-A word matches a DTC when it is a substring of the DTC's name or of one of its tags,
-ignoring case, as pytest's ``-k`` matches a test's name and keywords; so ``beatlog
-test -k EXPR`` selects the DTCs that ``pytest -k EXPR`` runs. pytest is not needed:
+A word matches a DTC when it is a substring of one of the names pytest gives its
+item, ignoring case: the DTC's name, its spec file's name, the folders between the
+rootdir and the spec, its tags and the ``dtc`` marker, as pytest's ``-k`` matches a
+test's name, its parents' names and its keywords; so ``beatlog test -k EXPR``
+selects the DTCs that ``pytest -k EXPR`` runs. pytest is not needed:
 its matcher is private (``_pytest.mark.expression``) and beatlog does not depend on
 pytest, so this is a small parser of the same grammar::
 
@@ -51,9 +53,10 @@ class KeywordExpression:
             parser.fail(f"unexpected {tokens[parser.position]!r}")
         return cls(text, node)
 
-    def matches(self, name: str, tags: Iterable[str] = ()) -> bool:
-        """Whether a DTC of this name and these tags is selected."""
-        haystack = [name.lower(), *(tag.lower() for tag in tags)]
+    def matches(self, names: Iterable[str]) -> bool:
+        """Whether a DTC that pytest knows by these names (its own, its file's and
+        folders', its tags and markers) is selected."""
+        haystack = [name.lower() for name in names]
         return self._evaluate(lambda word: any(word.lower() in item for item in haystack))
 
 

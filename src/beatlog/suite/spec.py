@@ -35,6 +35,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
 import tomllib
 from collections.abc import Iterable, Sequence
 from contextlib import AbstractContextManager
@@ -44,7 +45,7 @@ from pathlib import Path
 import msgspec
 
 from beatlog.errors import SpecError
-from beatlog.files import irregular_file_problem
+from beatlog.files import irregular_file_problem, project_root
 from beatlog.project import check_one_to_one, explain_validation, project_config
 from beatlog.remote import fetched_log, is_url, url_name
 from beatlog.replay.compare import Comparison
@@ -54,6 +55,7 @@ __all__ = [
     "SPEC_SUFFIX",
     "DtcSpec",
     "discover_specs",
+    "find_rootdir",
     "load_spec",
     "select_specs",
     "spec_text",
@@ -222,20 +224,50 @@ def _hidden(relative: Path) -> bool:
 
 
 def select_specs(
-    specs: Sequence[DtcSpec], *, pattern: str | None = None, tags: Sequence[str] = ()
+    specs: Sequence[DtcSpec],
+    *,
+    pattern: str | None = None,
+    tags: Sequence[str] = (),
+    rootdir: Path | None = None,
 ) -> list[DtcSpec]:
     """Specs that match ``pattern`` and carry every tag in ``tags``.
 
     ``pattern`` is a ``-k`` expression as pytest reads it (``touch or pat``): each word
-    a case-insensitive substring of the spec's name or of one of its tags (see
-    :mod:`beatlog.suite.keywords`).
+    a case-insensitive substring of one of the names pytest matches for the DTC: its
+    name, its spec file's name, the folders from ``rootdir`` down to it, its tags, and
+    the ``dtc`` marker (see :mod:`beatlog.suite.keywords`). ``rootdir`` is the folder
+    pytest would take for its rootdir (by default, as :func:`find_rootdir` finds it for the
+    specs' own folders).
     """
     expression = KeywordExpression.parse(pattern or "")
+    root = rootdir if rootdir is not None else find_rootdir(spec.path for spec in specs)
     return [
         spec
         for spec in specs
-        if expression.matches(spec.name, spec.tags) and set(tags) <= set(spec.tags)
+        if expression.matches(_keywords(spec, root)) and set(tags) <= set(spec.tags)
     ]
+
+
+def find_rootdir(paths: Iterable[str | Path]) -> Path:
+    """The folder pytest takes for its rootdir when given ``paths``: the nearest folder
+    at or above their common folder that holds a ``pyproject.toml``, else that folder."""
+    folders = [
+        resolved if resolved.is_dir() else resolved.parent
+        for resolved in (Path(path).resolve() for path in paths)
+    ]
+    if not folders:
+        return Path.cwd()
+    common = Path(os.path.commonpath(folders))
+    return project_root(common) or common
+
+
+def _keywords(spec: DtcSpec, root: Path) -> list[str]:
+    """The names pytest's ``-k`` matches for a DTC item: its own, its file's, its
+    folders below the rootdir (the rootdir itself left out, as pytest leaves it out),
+    its tags and its marker."""
+    path = spec.path.resolve()
+    folders = path.parent.relative_to(root).parts if path.is_relative_to(root) else ()
+    return [spec.name, path.name, *folders, *spec.tags, "dtc"]
 
 
 def spec_text(
