@@ -27,6 +27,7 @@ from beatlog.log.format import (
     schema_name,
 )
 from beatlog.log.reader import SessionLogReader
+from beatlog.replay.verdict import Checked
 
 PERIOD_NS = 30_000_000
 MAGIC_LENGTH = 8
@@ -266,3 +267,17 @@ def as_format_1(log: Path, path: Path) -> Path:
         Message(END_TOPIC, end.robot_time_ns, msgspec.msgpack.encode(end)),
     ]
     return craft_log(path, messages, channels=FORMAT_1_CHANNELS)
+
+
+def logged_counts(log: Path, cycles: int | None = None) -> Checked:
+    """What the first ``cycles`` cycles of ``log`` (all by default) hold to check, read
+    from the log apart from replay: state changes, outputs, draws and samples."""
+    with SessionLogReader(log) as reader:
+        records = [record for batch in reader.batches() for record in batch][:cycles]
+    decode = msgspec.msgpack.decode
+    return Checked(
+        state_changes=sum(len(decode(record.state_changes)) for record in records),
+        outputs=sum(len(decode(record.outputs)) for record in records),
+        draws=sum(len(decode(record.random_numbers)) for record in records),
+        samples=sum(len(decode(record.samples)) for record in records),
+    )
