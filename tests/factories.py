@@ -5,12 +5,16 @@ Everything is built in ``tmp_path`` from these helpers; no test commits a binary
 
 from __future__ import annotations
 
+import errno
+import io
+import os
 import struct
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import msgspec
+import pytest
 from mcap.opcode import Opcode
 from mcap.writer import CompressionType, Writer
 
@@ -281,3 +285,15 @@ def logged_counts(log: Path, cycles: int | None = None) -> Checked:
         draws=sum(len(decode(record.random_numbers)) for record in records),
         samples=sum(len(decode(record.samples)) for record in records),
     )
+
+
+class FullDiskFile(io.FileIO):
+    """A file on a full disk: it is created, but every write fails with ENOSPC."""
+
+    def write(self, data: object, /) -> int:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+
+def fill_the_disk(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Put every log file the session log writer opens on a full disk."""
+    monkeypatch.setattr("beatlog.log.writer.open", FullDiskFile, raising=False)
