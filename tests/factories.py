@@ -5,12 +5,16 @@ Everything is built in ``tmp_path`` from these helpers; no test commits a binary
 
 from __future__ import annotations
 
+import errno
+import io
+import os
 import struct
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
 import msgspec
+import pytest
 from mcap.opcode import Opcode
 from mcap.writer import CompressionType, Writer
 
@@ -27,6 +31,7 @@ from beatlog.log.format import (
     schema_name,
 )
 from beatlog.log.reader import SessionLogReader
+from beatlog.replay.verdict import Checked
 
 PERIOD_NS = 30_000_000
 MAGIC_LENGTH = 8
@@ -275,3 +280,29 @@ def vouch(folder: Path, *systems: str) -> Path:
     path = folder / "pyproject.toml"
     path.write_text(f"[tool.beatlog]\nsystems = [{listed}]\n", encoding="utf-8")
     return path
+
+
+def logged_counts(log: Path, cycles: int | None = None) -> Checked:
+    """What the first ``cycles`` cycles of ``log`` (all by default) hold to check, read
+    from the log apart from replay: state changes, outputs, draws and samples."""
+    with SessionLogReader(log) as reader:
+        records = [record for batch in reader.batches() for record in batch][:cycles]
+    decode = msgspec.msgpack.decode
+    return Checked(
+        state_changes=sum(len(decode(record.state_changes)) for record in records),
+        outputs=sum(len(decode(record.outputs)) for record in records),
+        draws=sum(len(decode(record.random_numbers)) for record in records),
+        samples=sum(len(decode(record.samples)) for record in records),
+    )
+
+
+class FullDiskFile(io.FileIO):
+    """A file on a full disk: it is created, but every write fails with ENOSPC."""
+
+    def write(self, data: object, /) -> int:
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+
+def fill_the_disk(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Put every log file the session log writer opens on a full disk."""
+    monkeypatch.setattr("beatlog.log.writer.open", FullDiskFile, raising=False)

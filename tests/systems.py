@@ -92,7 +92,7 @@ def hostile_system() -> PriorityArbiter[Probe]:
 class Leaky:
     """Reads the wall clock and global generators every cycle, one call a line.
 
-    Its own state stays put, so its replays pass: only the audit catches it.
+    Its own state and output stay put, so its replays pass: only the audit catches it.
     """
 
     name = "leaky"
@@ -111,7 +111,7 @@ class Leaky:
         np.random.rand()  # leak: numpy.random
         secrets.token_hex(4)  # leak: os.urandom
         uuid.uuid4()  # leak: uuid.uuid4
-        return None
+        return {"mood": self.state}
 
 
 def leaks() -> list[tuple[str, str]]:
@@ -154,6 +154,12 @@ def record_session(path: Path, system: System, cycles: int = 20) -> Path:
         for _ in range(cycles):
             recorder.step(PERIOD_NS, Probe())
     return path
+
+
+def quiet_system() -> PriorityArbiter[Probe]:
+    """The probe's near alone: far from everything in :func:`record_session`'s sessions,
+    it never changes state, outputs or draws, so their replays check nothing."""
+    return PriorityArbiter([Near()], robot_state=Probe)
 
 
 def leaky_system() -> PriorityArbiter[Probe]:

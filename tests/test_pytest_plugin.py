@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
@@ -14,8 +15,9 @@ from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.spec import discover_specs, find_rootdir, select_specs
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import Probe, RecordFn
+from tests.factories import logged_counts
 from tests.specs import FIRST_CHANGED_CYCLE
-from tests.systems import leaks, leaky_system, record_session
+from tests.systems import leaks, leaky_system, quiet_system, record_session
 
 
 def spec_text(name: str, log: Path, system: str = "tests.conftest:probe_system") -> str:
@@ -58,6 +60,43 @@ def test_a_diverging_dtc_fails_with_its_first_divergence(
         ]
     )
     result.stdout.no_fnmatch_line("*Traceback*")
+
+
+def test_a_dtc_s_junit_properties_say_what_it_checked(pytester: pytest.Pytester, log: Path) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+
+    pytester.runpytest("--junit-xml", "report.xml").assert_outcomes(passed=1)
+
+    report = ET.parse(pytester.path / "report.xml").getroot()
+    properties = {item.get("name"): item.get("value") for item in report.iter("property")}
+    logged = logged_counts(log)
+    assert properties == {
+        "beatlog_verdict": "passed",
+        "beatlog_spec": str(pytester.path / "approach.dtc.toml"),
+        "beatlog_cycles": "200",
+        "beatlog_state_changes": str(logged.state_changes),
+        "beatlog_outputs": str(logged.outputs),
+        "beatlog_draws": "40",
+        "beatlog_samples": "0",
+    }
+
+
+def test_a_dtc_that_checks_nothing_fails_unless_its_spec_intends_it(
+    pytester: pytest.Pytester, tmp_path: Path
+) -> None:
+    quiet = record_session(tmp_path / "quiet.beatlog", quiet_system())
+    system = "tests.systems:quiet_system"
+    pytester.makefile(".dtc.toml", empty=spec_text("empty", quiet, system))
+    pytester.makefile(
+        ".dtc.toml", intended=spec_text("intended", quiet, system) + "allow_empty = true\n"
+    )
+
+    result = pytester.runpytest()
+
+    result.assert_outcomes(passed=1, failed=1)
+    result.stdout.fnmatch_lines(
+        [f"{quiet}: the replay checked nothing (20 cycles but no state change, output, *"]
+    )
 
 
 def test_a_bad_spec_is_a_collection_error_naming_the_key(pytester: pytest.Pytester) -> None:

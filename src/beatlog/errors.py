@@ -11,6 +11,7 @@ __all__ = [
     "CiWriteError",
     "ClusterError",
     "CorruptLogError",
+    "EmptyCheckError",
     "ExportError",
     "FieldError",
     "FleetError",
@@ -65,6 +66,13 @@ class CorruptLogError(LogError):
 
 class SchemaMismatchError(LogError):
     """The log's robot state cannot be decoded into the system's robot state type."""
+
+
+class EmptyCheckError(LogError):
+    """A replay that found no difference but checked nothing: the log holds no cycle, or
+    none in which a behavior changed state, reported an output, drew a random number or
+    was given a sample. A pass over nothing is no pass, unless allowed
+    (``allow_empty``)."""
 
 
 class BagError(BeatlogError):

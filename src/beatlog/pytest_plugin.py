@@ -264,6 +264,10 @@ class DtcItem(pytest.Item):
         outcome = run_spec(self.spec, run.options)
         self.user_properties.append((_VERDICT, outcome.verdict.value))
         self.user_properties.append((_SPEC, str(self.spec.path)))
+        if outcome.result is not None:  # what it checked, as beatlog test's JUnit has it
+            self.user_properties.extend(
+                (f"beatlog_{name}", count) for name, count in outcome.result.counts.items()
+            )
         for line in render_updates(update_baselines([outcome], run.update)):
             self.user_properties.append((_UPDATE, line.plain))
         if outcome.verdict is Verdict.ERROR:

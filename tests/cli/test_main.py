@@ -18,10 +18,12 @@ from beatlog.analysis.summary import summarize
 from beatlog.cli.main import EXIT_CODES, main
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
+from beatlog.record.recorder import Recorder
 from tests.commands import Beatlog, assert_one_line_error
 from tests.conftest import RecordFn, distances
 from tests.factories import session_header, vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
+from tests.systems import quiet_system
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -37,8 +39,11 @@ def test_replay_passes_a_log_against_the_system_that_recorded_it(
     run = beatlog("replay", log, "--system", PROBE)
 
     assert run.code == 0
-    assert run.out.startswith(f"PASS {log}  300 cycles, 9.0 s robot time")
-    assert "log complete" in run.out
+    assert run.out.startswith(
+        f"PASS {log}  300 cycles, 43 state changes, 453 outputs, 60 draws checked; "
+        "9.0 s robot time in "
+    )
+    assert run.out.endswith("; log complete\n")
     assert run.err == ""
 
 
@@ -166,6 +171,7 @@ def test_replay_json_of_a_pass(beatlog: Beatlog, record_probe: RecordFn) -> None
     assert result["cycles"] == 300
     assert result["divergence"] is None
     assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
+    assert result["checked"] == {"state_changes": 43, "outputs": 453, "draws": 60, "samples": 0}
 
 
 def test_replay_keep_going_counts_every_diverging_cycle(
@@ -219,6 +225,29 @@ def test_a_truncated_log_fails_replay_unless_allowed(
     assert allowed.code == 0
     assert allowed.out.startswith(f"PASS {log}  {kept} cycles")
     assert f"log truncated at cycle {kept}" in allowed.out
+
+
+def test_a_replay_that_checks_nothing_is_bad_input_unless_allowed(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    log = tmp_path / "killed.beatlog"
+    with Recorder(tmp_path / "live.beatlog", quiet_system(), software="test"):
+        log.write_bytes((tmp_path / "live.beatlog").read_bytes())  # killed before a cycle
+    system = "tests.systems:quiet_system"
+
+    refused = beatlog("replay", log, "--system", system, "--allow-truncated")
+    allowed = beatlog("replay", log, "--system", system, "--allow-truncated", "--allow-empty")
+
+    assert_one_line_error(refused)
+    assert refused.err == (
+        f"beatlog: error: {log}: the replay checked nothing (0 cycles); if nothing is meant "
+        "to happen in it, accept it with --allow-empty (in a spec: allow_empty = true)\n"
+    )
+    assert allowed.code == 0
+    assert allowed.out == (
+        f"PASS {log}  0 cycles checked (allowed empty); 0.0 s robot time in under 1 ms; "
+        "log truncated at cycle 0: the recording stopped before the log was closed\n"
+    )
 
 
 # show

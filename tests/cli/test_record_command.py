@@ -15,6 +15,8 @@ import pytest
 from beatlog.log.reader import SessionLogReader
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import system
+from tests.commands import Beatlog, assert_one_line_error
+from tests.factories import fill_the_disk
 
 ROOT = Path(__file__).parents[2]
 LIMITED = """
@@ -109,3 +111,16 @@ def test_a_disk_full_before_the_first_cycle_is_one_line() -> None:
     assert done.returncode == 2
     assert done.stdout == ""
     assert done.stderr == "beatlog: error: /dev/full: cannot write: No space left on device\n"
+
+
+def test_a_disk_full_before_the_header_leaves_no_file_and_one_line(
+    beatlog: Beatlog, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    out = tmp_path / "rover.beatlog"
+    fill_the_disk(monkeypatch)
+
+    run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", "1")
+
+    assert_one_line_error(run)
+    assert run.err == f"beatlog: error: {out}: cannot write: No space left on device\n"
+    assert list(tmp_path.iterdir()) == []

@@ -15,7 +15,7 @@ from tests.commands import Beatlog, Run, assert_one_line_error, hide_matplotlib
 from tests.conftest import RecordFn
 from tests.factories import vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
-from tests.systems import leaks, leaky_system, record_session
+from tests.systems import leaks, leaky_system, quiet_system, record_session
 
 BeatlogTest = Callable[..., Run]
 
@@ -486,6 +486,40 @@ def test_a_long_suite_lists_what_did_not_pass_and_every_dtc_with_verbose(
     assert "… and 33 passed, not listed: run with --verbose to list every DTC" in brief.out
     assert all(f"lap-{n:02} " in verbose.out for n in range(33))
     assert "not listed" not in verbose.out
+
+
+def test_verbose_says_what_each_passing_dtc_checked(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+
+    run = beatlog_test(specs, "--verbose")
+
+    assert run.code == 0
+    assert run.out.splitlines()[0] == (
+        "PASS avoid-pole: 300 cycles, 43 state changes, 453 outputs, 60 draws checked"
+    )
+
+
+def test_a_dtc_that_checks_nothing_is_an_error_unless_its_spec_intends_it(
+    beatlog_test: BeatlogTest, specs: Path, tmp_path: Path
+) -> None:
+    quiet = record_session(tmp_path / "quiet.beatlog", quiet_system())
+    write_spec(specs, "empty", quiet, "tests.systems:quiet_system")
+    write_spec(specs, "intended", quiet, "tests.systems:quiet_system", allow_empty=True)
+
+    run = beatlog_test(specs, "--verbose")
+
+    assert run.code == 2
+    assert run.err == (
+        f"beatlog: error: empty ({specs / 'empty.dtc.toml'}): {specs / '..' / quiet.name}: "
+        "the replay checked "
+        "nothing (20 cycles but no state change, output, draw or sample); if nothing is "
+        "meant to happen in it, accept it with --allow-empty (in a spec: allow_empty = "
+        "true)\n"
+    )
+    assert "PASS intended: 20 cycles checked (allowed empty)\n" in run.out
+    assert_counts(run, "1 passed, 0 failed, 1 error", 20)
 
 
 def test_break_at_stops_in_the_one_dtc_selected(

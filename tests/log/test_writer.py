@@ -19,7 +19,7 @@ from beatlog.log.format import CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe
-from tests.factories import session_header
+from tests.factories import fill_the_disk, session_header
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer
@@ -186,12 +186,27 @@ def test_a_disk_full_before_the_header_is_a_log_error() -> None:
         SessionLogWriter(DiskFull(capacity=0), session_header())
 
 
+@pytest.mark.parametrize("overwrite", [False, True])
+def test_a_log_file_whose_header_does_not_fit_on_the_disk_is_removed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, overwrite: bool
+) -> None:
+    log = tmp_path / "session.beatlog"
+    fill_the_disk(monkeypatch)
+
+    with pytest.raises(LogError) as raised:
+        SessionLogWriter(log, session_header(), overwrite=overwrite)
+
+    assert str(raised.value) == f"{log}: cannot write: No space left on device"
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
 def test_a_full_device_is_a_log_error_naming_it() -> None:
     with pytest.raises(LogError) as raised:
         SessionLogWriter(Path("/dev/full"), session_header(), overwrite=True)
 
     assert str(raised.value) == "/dev/full: cannot write: No space left on device"
+    assert Path("/dev/full").is_char_device()  # a device written to is never removed
 
 
 def test_a_path_in_a_missing_directory_is_a_log_error_naming_it(tmp_path: Path) -> None:

@@ -13,7 +13,13 @@ import pytest
 import beatlog
 from beatlog import DivergenceKind, StateChange, replay
 from beatlog.analysis.trace import Expectation, TracedChange, replayed_trace
-from beatlog.errors import CorruptLogError, LogError, SchemaMismatchError, SystemLoadError
+from beatlog.errors import (
+    CorruptLogError,
+    EmptyCheckError,
+    LogError,
+    SchemaMismatchError,
+    SystemLoadError,
+)
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -22,6 +28,7 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog.replay.compare import Comparison
+from beatlog.replay.verdict import Checked
 from tests.conftest import (
     PERIOD_NS,
     Dice,
@@ -34,8 +41,8 @@ from tests.conftest import (
     probe_system_changed,
     probe_system_renamed,
 )
-from tests.factories import as_format_1, chunks, drop_chunk, vouch
-from tests.systems import Fragile
+from tests.factories import as_format_1, chunks, drop_chunk, logged_counts, vouch
+from tests.systems import Fragile, quiet_system, record_session
 
 
 def test_a_recorded_session_replays_and_passes(record_probe: RecordFn) -> None:
@@ -524,10 +531,12 @@ def test_the_reproduce_command_carries_the_replay_options(tmp_path: Path) -> Non
     with Recorder(log, probe_system(), seed=1, system_ref="tests.conftest:probe_system") as rec:
         for t in range(30):
             rec.step(PERIOD_NS, Probe(distance=distances(30)[t]))
-    result = replay(log, probe_system(threshold=0.9), keep_going=True, allow_truncated=True)
+    result = replay(
+        log, probe_system(threshold=0.9), keep_going=True, allow_truncated=True, allow_empty=True
+    )
     assert result.reproduce == (
         f"beatlog replay '{log}' --system tests.conftest:probe_system "
-        "--keep-going --allow-truncated"
+        "--keep-going --allow-truncated --allow-empty"
     )
 
 
@@ -567,3 +576,95 @@ def test_a_format_1_log_still_replays_and_still_catches_a_change(
     divergence = replay(old, probe_system_changed()).divergence
     assert divergence is not None
     assert divergence.kind is DivergenceKind.STATE_CHANGES
+
+
+# what a replay checked
+
+
+def test_a_pass_counts_what_it_checked(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+
+    result = replay(log, probe_system())
+
+    assert result.ok
+    assert result.checked == logged_counts(log)
+    assert result.checked.draws == 60  # dice draws every fifth cycle
+    assert result.counts == {
+        "cycles": 300,
+        "state_changes": result.checked.state_changes,
+        "outputs": result.checked.outputs,
+        "draws": 60,
+        "samples": 0,
+    }
+
+
+def test_a_divergence_counts_only_the_cycles_before_it(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    first = first_cycle_below(0.6)
+
+    result = replay(log, probe_system_changed())
+
+    assert result.cycles == first + 1
+    assert result.checked == logged_counts(log, first)
+
+
+def test_keep_going_counts_the_cycles_that_agreed(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+
+    result = replay(log, probe_system(every=300), keep_going=True)
+
+    # dice now draws in cycle 0 alone: every other fifth cycle diverges, and checks nothing
+    assert result.divergent_cycles == 59
+    assert result.checked.draws == 1
+
+
+def test_a_log_without_a_cycle_is_refused_as_checking_nothing(tmp_path: Path) -> None:
+    log = tmp_path / "nothing.beatlog"
+    Recorder(log, probe_system(), software="test").close()
+
+    with pytest.raises(EmptyCheckError) as refused:
+        replay(log, probe_system())
+
+    assert str(refused.value) == (
+        f"{log}: the replay checked nothing (0 cycles); if nothing is meant to happen in "
+        "it, accept it with --allow-empty (in a spec: allow_empty = true)"
+    )
+
+
+def test_a_log_killed_before_its_first_cycle_is_no_pass_even_when_truncation_is_allowed(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "killed.beatlog"
+    with Recorder(tmp_path / "live.beatlog", probe_system(), software="test"):
+        log.write_bytes((tmp_path / "live.beatlog").read_bytes())
+
+    ended = replay(log, probe_system()).divergence
+    with pytest.raises(EmptyCheckError, match=r"checked nothing \(0 cycles\)"):
+        replay(log, probe_system(), allow_truncated=True)
+
+    assert ended is not None
+    assert ended.kind is DivergenceKind.LOG_ENDED
+
+
+def test_a_session_in_which_nothing_happens_is_refused_as_checking_nothing(
+    tmp_path: Path,
+) -> None:
+    log = record_session(tmp_path / "quiet.beatlog", quiet_system(), cycles=20)
+
+    with pytest.raises(EmptyCheckError) as refused:
+        replay(log, quiet_system())
+
+    assert refused.value.problem == (
+        "the replay checked nothing (20 cycles but no state change, output, draw or "
+        "sample); if nothing is meant to happen in it, accept it with --allow-empty (in a "
+        "spec: allow_empty = true)"
+    )
+
+
+def test_an_empty_check_passes_when_allowed(tmp_path: Path) -> None:
+    log = record_session(tmp_path / "quiet.beatlog", quiet_system(), cycles=20)
+
+    result = replay(log, quiet_system(), allow_empty=True)
+
+    assert result.ok
+    assert (result.cycles, result.checked) == (20, Checked())

@@ -14,6 +14,7 @@ from beatlog.replay.verdict import DivergenceKind, FieldDifference
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import distances, probe_system
+from tests.factories import logged_counts
 from tests.perceptions import (
     CHANGED,
     broken_perception,
@@ -33,6 +34,28 @@ def test_the_recorded_perception_rebuilds_every_robot_state(tmp_path: Path) -> N
     result = replay(log, probe_system(), perception=perception())
     assert result.ok, result.divergence
     assert result.cycles == 300
+
+
+def test_a_pass_from_samples_counts_the_samples_perception_rebuilt_states_from(
+    tmp_path: Path,
+) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+
+    result = replay(log, probe_system(), perception=perception())
+
+    assert result.checked == logged_counts(log)
+    assert result.checked.samples == 300  # one range sample a cycle
+
+
+def test_the_samples_of_cycles_rebuilt_otherwise_are_not_counted_as_checked(
+    tmp_path: Path,
+) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+
+    result = replay(log, probe_system(), perception=changed_perception(), keep_going=True)
+
+    assert 0 < result.divergent_cycles < 300
+    assert result.checked.samples == 300 - result.divergent_cycles
 
 
 def test_a_changed_perception_is_a_perception_divergence_naming_fields_and_samples(

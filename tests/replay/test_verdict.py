@@ -11,6 +11,7 @@ import pytest
 
 from beatlog.log.reader import LogStatus
 from beatlog.replay.verdict import (
+    Checked,
     ContextRow,
     Divergence,
     DivergenceKind,
@@ -22,11 +23,13 @@ from beatlog.replay.verdict import (
 
 
 def result(**changes: object) -> ReplayResult:
-    """A passing replay of 300 cycles, 9 s of robot time in 0.5 s; ``changes`` replace fields."""
+    """A passing replay of 300 cycles, 9 s of robot time in 0.5 s, that checked 12 state
+    changes, 40 outputs and 9 draws; ``changes`` replace fields."""
     passed = ReplayResult(
         log=Path("probe.beatlog"),
         ok=True,
         cycles=300,
+        checked=Checked(state_changes=12, outputs=40, draws=9),
         robot_time_ns=9_000_000_000,
         wall_time_s=0.5,
         status=LogStatus(complete=True, cycles=300),

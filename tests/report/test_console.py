@@ -7,17 +7,19 @@ from pathlib import Path
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
+from beatlog.replay.verdict import Checked
 from beatlog.report.console import (
     MAX_LISTED,
     plain_text,
+    render_passed,
     render_replay,
     render_suite,
     render_summary,
 )
-from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.spec import DtcSpec
+from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn, probe_system
-from tests.specs import CHANGED, PROBE
+from tests.specs import CHANGED, PROBE, write_spec
 
 
 def test_a_pass_is_one_verdict_line(record_probe: RecordFn) -> None:
@@ -41,10 +43,51 @@ def test_a_failure_shows_cycle_changes_state_and_an_unwrapped_command(
     assert len(text.splitlines()) < 50
 
 
-def test_one_cycle_is_one_cycle(record_probe: RecordFn) -> None:
-    text = plain_text(render_replay(replay(record_probe(1), probe_system())), width=400)
+def test_a_pass_line_says_what_the_replay_checked(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    result = dataclasses.replace(
+        replay(log, probe_system()), checked=Checked(12, 40, 9), wall_time_s=0.0002
+    )
 
-    assert " 1 cycle, 0.0 s robot time " in text
+    assert plain_text(render_replay(result), width=400) == (
+        f"PASS {log}  300 cycles, 12 state changes, 40 outputs, 9 draws checked; "
+        "9.0 s robot time in under 1 ms; log complete\n"
+    )
+
+
+def test_a_pass_allowed_to_check_nothing_says_so(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    result = dataclasses.replace(replay(log, probe_system()), checked=Checked(), wall_time_s=0.0002)
+
+    assert plain_text(render_replay(result), width=400) == (
+        f"PASS {log}  300 cycles checked (allowed empty); 9.0 s robot time in under 1 ms; "
+        "log complete\n"
+    )
+
+
+def test_a_passing_dtc_s_line_names_it_and_what_it_checked(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+    outcome = run_spec(load_spec(write_spec(tmp_path, "walk", log)))
+    assert outcome.result is not None
+    checked = dataclasses.replace(outcome.result, checked=Checked(12, 40, 9, 300))
+
+    text = plain_text(render_passed(dataclasses.replace(outcome, result=checked)))
+
+    assert (
+        text
+        == "PASS walk: 300 cycles, 12 state changes, 40 outputs, 9 draws, 300 samples checked\n"
+    )
+
+
+def test_one_cycle_is_one_cycle(record_probe: RecordFn) -> None:
+    result = replay(record_probe(1), probe_system())
+    once = dataclasses.replace(result, checked=Checked(1, 1, 1, 1))
+
+    text = plain_text(render_replay(once), width=400)
+
+    assert " 1 cycle, 1 state change, 1 output, 1 draw, 1 sample checked; 0.0 s robot " in text
 
 
 def test_a_replay_too_short_to_time_reports_no_speed_up(record_probe: RecordFn) -> None:

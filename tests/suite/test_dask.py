@@ -98,9 +98,9 @@ def test_a_cluster_gives_the_verdicts_reports_and_exit_code_of_a_local_run(
     assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in remote.out
     assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
     assert junit_cases(tmp_path / "dask.xml") == [
-        ("changed", ["failure"]),
-        ("first", []),
-        ("second", []),
+        ("changed", ["properties", "failure"]),
+        ("first", ["properties"]),
+        ("second", ["properties"]),
     ]
 
 
@@ -214,7 +214,7 @@ def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
     assert run.code == 0, run.err
     assert "retried unlucky: the worker replaying it died (1 time)" in run.out
     assert "passed (retried 1×)" in run.out
-    assert junit_cases(tmp_path / "dtc.xml") == [("unlucky", ["flakyError"])]
+    assert junit_cases(tmp_path / "dtc.xml") == [("unlucky", ["properties", "flakyError"])]
     assert '<span class="verdict">passed (retried 1×)</span>' in page.read_text()
 
 

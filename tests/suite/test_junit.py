@@ -67,7 +67,29 @@ def test_each_dtc_is_one_testcase_named_after_its_spec(
     assert [case.get("name") for case in cases] == ["avoid-pole", "avoid-pole-earlier", "lost"]
     assert [case.get("file") for case in cases] == [str(o.spec.path) for o in outcomes]
     assert {case.get("classname") for case in cases} == {str(tmp_path / "specs")}
-    assert list(cases[0]) == []  # a pass has neither failure nor error
+    assert [child.tag for child in cases[0]] == ["properties"]  # neither failure nor error
+
+
+def test_a_dtc_that_ran_carries_what_it_checked_as_properties(
+    tmp_path: Path, outcomes: list[SpecOutcome]
+) -> None:
+    report = tmp_path / "report.xml"
+
+    write_junit(report, outcomes, describe=describe)
+
+    cases = read_report(report).findall("testcase")
+    properties = [
+        {item.get("name"): item.get("value") for item in case.iter("property")} for case in cases
+    ]
+    assert properties[0] == {
+        "beatlog_cycles": "300",
+        "beatlog_state_changes": "43",
+        "beatlog_outputs": "453",
+        "beatlog_draws": "60",
+        "beatlog_samples": "0",
+    }
+    assert properties[1]["beatlog_cycles"] == str(FIRST_CHANGED_CYCLE + 1)  # up to the divergence
+    assert properties[2] == {}  # an error ran nothing
 
 
 def test_a_failure_carries_the_divergence_message_and_the_full_report(
@@ -176,4 +198,4 @@ def test_audit_findings_are_a_failure_of_their_own(
         "the replay depends on the hash seed: ..."
     )
     assert [f.get("type") for f in cases[1].findall("failure")] == [None, "determinism audit"]
-    assert list(cases[3]) == []  # an audit that found nothing adds nothing
+    assert [child.tag for child in cases[3]] == ["properties"]  # a sound audit adds nothing

@@ -10,13 +10,13 @@ import pytest
 
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
-from beatlog.replay.verdict import DivergenceKind
+from beatlog.replay.verdict import Checked, DivergenceKind
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import MEETING, Dice, Near, Probe, RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
-from tests.systems import leaks, leaky_system, record_session
+from tests.systems import leaks, leaky_system, quiet_system, record_session
 
 
 @pytest.fixture
@@ -100,6 +100,26 @@ def test_a_truncated_log_passes_only_when_the_spec_allows_it(
     assert lenient.verdict is Verdict.PASSED
     assert lenient.result is not None
     assert 0 < lenient.result.cycles < 300
+
+
+def test_a_dtc_that_checks_nothing_is_an_error_unless_its_spec_intends_it(
+    tmp_path: Path,
+) -> None:
+    log = record_session(tmp_path / "quiet.beatlog", quiet_system())
+    quiet = "tests.systems:quiet_system"
+
+    empty = run_spec(dtc(tmp_path, "empty", log, quiet))
+    intended = run_spec(dtc(tmp_path, "intended", log, quiet, allow_empty=True))
+
+    assert (empty.verdict, empty.result) == (Verdict.ERROR, None)
+    assert empty.error == (
+        f"{log}: the replay checked nothing (20 cycles but no state change, output, draw or "
+        "sample); if nothing is meant to happen in it, accept it with --allow-empty (in a "
+        "spec: allow_empty = true)"
+    )
+    assert intended.verdict is Verdict.PASSED
+    assert intended.result is not None
+    assert (intended.result.cycles, intended.result.checked) == (20, Checked())
 
 
 def test_charts_for_reports_are_drawn_only_when_asked(tmp_path: Path, log: Path) -> None:

@@ -25,6 +25,7 @@ def test_a_valid_spec_loads_with_its_log_resolved_against_the_spec_folder(
         log,
         tags=["obstacles", "smoke"],
         allow_truncated=True,
+        allow_empty=True,
     )
 
     spec = load_spec(path)
@@ -38,6 +39,7 @@ def test_a_valid_spec_loads_with_its_log_resolved_against_the_spec_folder(
     assert spec.system == PROBE
     assert spec.tags == ("obstacles", "smoke")
     assert spec.allow_truncated is True
+    assert spec.allow_empty is True
 
 
 def test_a_log_that_is_a_url_is_kept_as_one_and_named_by_it(tmp_path: Path) -> None:
@@ -61,12 +63,13 @@ def test_a_local_log_has_no_url_and_is_named_by_its_path(
         assert log == spec.log
 
 
-def test_tags_and_allow_truncated_are_optional(tmp_path: Path) -> None:
+def test_tags_and_allowances_are_optional(tmp_path: Path) -> None:
     spec = load_spec(write_spec(tmp_path, "plain", "probe.beatlog"))
 
     assert spec.log == tmp_path / "probe.beatlog"
     assert spec.tags == ()
     assert spec.allow_truncated is False
+    assert spec.allow_empty is False
 
 
 def assert_spec_error(path: Path, *fragments: str) -> None:
@@ -112,8 +115,15 @@ def test_every_required_key_must_be_there(tmp_path: Path, key: str) -> None:
         ("procedure", ["Drive toward the pole.", 30], "key 'procedure[1]'", "expected `str`"),
         ("tags", "obstacles", "key 'tags'", "expected `array`, got `str`"),
         ("allow_truncated", "yes", "key 'allow_truncated'", "expected `bool`, got `str`"),
+        ("allow_empty", 1, "key 'allow_empty'", "expected `bool`, got `int`"),
     ],
-    ids=["procedure-as-string", "procedure-item-not-string", "tags-not-list", "bool-as-string"],
+    ids=[
+        "procedure-as-string",
+        "procedure-item-not-string",
+        "tags-not-list",
+        "bool-as-string",
+        "bool-as-number",
+    ],
 )
 def test_a_wrong_type_names_the_key(
     tmp_path: Path, key: str, value: object, where: str, problem: str

@@ -163,7 +163,11 @@ def export(
         _pyarrow()
     if output.exists() and log.exists() and output.samefile(log):
         raise ExportError(f"{output}: is the session log being exported; name another file")
-    replayed = None if system is None else replay(log, system, allow_truncated=True, explain=False)
+    replayed = (
+        None
+        if system is None
+        else replay(log, system, allow_truncated=True, allow_empty=True, explain=False)
+    )
     first = _first_read(log)
     with SessionLogReader(log) as reader, _replacing(output) as part:
         session = _Session(log, reader.header, _decoded_cycles(reader), first)

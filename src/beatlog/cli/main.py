@@ -152,6 +152,11 @@ def _parser() -> argparse.ArgumentParser:
         help="replay again and stop in the debugger at the first divergence",
     )
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
+    play.add_argument(
+        "--allow-empty",
+        action="store_true",
+        help="pass a replay that checks nothing (no cycle, or nothing happening in any)",
+    )
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
     _add_test(
@@ -596,6 +601,7 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
         options = {
             "keep_going": args.keep_going,
             "allow_truncated": args.allow_truncated,
+            "allow_empty": args.allow_empty,
             "perception": args.perception,
         }
         result = replay(args.log, system, break_at=args.break_at, **options)
@@ -723,7 +729,7 @@ def _run_tests(
                 f"{outcome.spec.name} ({outcome.spec.origin}): {outcome.error}",
                 outcome.error_traceback if args.verbose else None,
             )
-        elif outcome.verdict is Verdict.FAILED:
+        elif outcome.verdict is Verdict.FAILED or args.verbose:
             progress.console.print(_describe(outcome))
         if outcome.retries:
             progress.console.print(
@@ -842,11 +848,16 @@ def _write_reports(
 
 
 def _describe(outcome: SpecOutcome) -> RenderableType:
+    """A DTC's outcome: one line for an error or a pass (what it checked), the first
+    divergence for a failure."""
     from rich.console import Group
     from rich.text import Text
 
-    from beatlog.report.console import render_replay
+    from beatlog.report.console import render_passed, render_replay
+    from beatlog.suite.runner import Verdict
 
+    if outcome.verdict is Verdict.PASSED:
+        return render_passed(outcome)
     if outcome.result is None:
         return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.name}: {outcome.error}")
     return Group(
@@ -879,7 +890,11 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
     chart_format(args.output)  # an unknown suffix is refused before anything runs
     given = args.log
     with _readable(args):
-        divergence = None if args.system is None else replay(args.log, args.system).divergence
+        divergence = (
+            None
+            if args.system is None
+            else replay(args.log, args.system, allow_empty=True).divergence
+        )
         timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
     try:
         write_chart(timeline, args.output)

@@ -6,7 +6,8 @@ at least once per flush interval of robot time, so a recorder killed mid-session
 leaves a log that is readable up to its last flushed cycle, and the same session
 gives the same bytes on any machine. A write failure stops the writing, never the
 robot: it is kept in :attr:`SessionLogWriter.error` and the log stays valid up to
-the failure.
+the failure. A log file whose header cannot be written (a full disk) is removed: a
+recording leaves a valid log or nothing.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import stat
 import threading
 from collections.abc import Sequence
 from pathlib import Path
@@ -93,8 +95,7 @@ class SessionLogWriter(Closing):
             self._start(header)
         except OSError as exc:
             if self.path is not None:
-                with contextlib.suppress(OSError):
-                    self._file.close()
+                self._discard(self.path)
             problem = f"cannot write: {exc.strerror or exc}"
             raise LogError(self.path or "<output>", problem) from None
         self._thread = threading.Thread(target=self._run, name="beatlog-writer", daemon=True)
@@ -121,6 +122,16 @@ class SessionLogWriter(Closing):
         }
         self._mcap.add_message(self._channels[HEADER_TOPIC], 0, self._encoder.encode(header), 0)
         self._flush()
+
+    def _discard(self, path: Path) -> None:
+        """Close a log file whose header could not be written, and remove it: no file
+        without a header is left behind. A device written to (``/dev/full``) stays."""
+        regular = stat.S_ISREG(os.fstat(self._file.fileno()).st_mode)
+        with contextlib.suppress(OSError):  # its buffered bytes do not fit either
+            self._file.close()
+        if regular:
+            with contextlib.suppress(OSError):
+                path.unlink()
 
     @staticmethod
     def _open(output: str | Path | IO[bytes], *, overwrite: bool) -> IO[bytes]:

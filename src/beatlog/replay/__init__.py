@@ -13,6 +13,7 @@ if TYPE_CHECKING:
     from beatlog.replay.compare import Comparison
     from beatlog.replay.judge import replay
     from beatlog.replay.verdict import (
+        Checked,
         Divergence,
         DivergenceKind,
         DrawReport,
@@ -21,6 +22,7 @@ if TYPE_CHECKING:
     )
 
 __all__ = [
+    "Checked",
     "Comparison",
     "Divergence",
     "DivergenceKind",
@@ -33,6 +35,7 @@ __all__ = [
 __getattr__ = lazy_names(
     __name__,
     {
+        "Checked": "beatlog.replay.verdict",
         "Comparison": "beatlog.replay.compare",
         "Divergence": "beatlog.replay.verdict",
         "DivergenceKind": "beatlog.replay.verdict",

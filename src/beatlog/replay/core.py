@@ -138,6 +138,8 @@ class Replayer:
         self.executor = CycleExecutor(system, self.random)
         self.perception = perception if header.samples_logged else None
         """The perception step in use: None unless the log holds samples."""
+        self.samples_perceived = 0
+        """The samples the perception step was given so far, every cycle's."""
         self._rebuilt: Any = None
         self._encode = payload_encoder().encode
         self._robot_state = system.robot_state
@@ -281,6 +283,7 @@ class Replayer:
         """
         assert self.perception is not None
         samples = self._decode_samples(record, self.executor.context.cycle + 1)
+        self.samples_perceived += len(samples)
         try:
             rebuilt = self.perception(self._rebuilt, samples)
             if not isinstance(rebuilt, self._robot_state):

@@ -20,7 +20,7 @@ import msgspec
 
 from beatlog.analysis.renames import propose_renames
 from beatlog.analysis.trace import Expectation, fields_read
-from beatlog.errors import CorruptLogError
+from beatlog.errors import CorruptLogError, EmptyCheckError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
@@ -39,6 +39,7 @@ from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.fit import check_state_fields
 from beatlog.replay.verdict import (
+    Checked,
     ContextRow,
     Divergence,
     DivergenceKind,
@@ -65,6 +66,7 @@ def replay(
     *,
     keep_going: bool = False,
     allow_truncated: bool = False,
+    allow_empty: bool = False,
     context_cycles: int = 5,
     comparison: Comparison | None = None,
     expected: Expectation | None = None,
@@ -80,7 +82,10 @@ def replay(
     replays every cycle and counts the ones that diverged. A truncated log fails
     with a LOG_ENDED divergence after its last complete cycle unless
     ``allow_truncated`` is set. The divergence carries the state changes of up to
-    ``context_cycles`` cycles before and after it.
+    ``context_cycles`` cycles before and after it. The result counts what was checked
+    (:class:`~beatlog.replay.verdict.Checked`); a replay that checked nothing (no
+    cycle, or no state change, output, random draw or sample in any) is no pass: it
+    raises :class:`~beatlog.errors.EmptyCheckError` unless ``allow_empty`` is set.
 
     ``comparison`` says what counts as the same (renames, ignored behaviors and output
     fields, tolerances; exact by default). ``expected`` is an approved baseline to judge
@@ -110,6 +115,8 @@ def replay(
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
     :raises beatlog.errors.FieldError: a robot-state tolerance names a field the recorded
         robot state lacks.
+    :raises beatlog.errors.EmptyCheckError: the replay found no difference, but checked
+        nothing either, and ``allow_empty`` is not set.
     """
     if system is None:
         system = recorded_system(log)
@@ -158,6 +165,9 @@ def replay(
                 judge.log_ended(status.describe())
             wall = time.perf_counter() - started
     divergence = judge.divergence
+    checked = judge.checked
+    if divergence is None and not allow_empty and not checked.anything:
+        raise EmptyCheckError(reader.path, _nothing_checked(judge.cycles))
     if (
         explain
         and divergence is not None
@@ -170,6 +180,7 @@ def replay(
         log=Path(log),
         ok=divergence is None,
         cycles=judge.cycles,
+        checked=checked,
         robot_time_ns=judge.robot_time_ns,
         wall_time_s=wall,
         status=status,
@@ -183,8 +194,23 @@ def replay(
             *(["--perception", perception_reference] if perception_reference else []),
             *(["--keep-going"] if keep_going else []),
             *(["--allow-truncated"] if allow_truncated else []),
+            *(["--allow-empty"] if allow_empty else []),
         ),
         notes=(NO_SAMPLES,) if perception is not None and judge.replayer.perception is None else (),
+    )
+
+
+def _nothing_checked(cycles: int) -> str:
+    """Why a replay that found no difference is no pass: it compared nothing."""
+    what = (
+        "0 cycles"
+        if not cycles
+        else f"{cycles} cycle{'' if cycles == 1 else 's'} but no state change, output, "
+        "draw or sample"
+    )
+    return (
+        f"the replay checked nothing ({what}); if nothing is meant to happen in it, "
+        "accept it with --allow-empty (in a spec: allow_empty = true)"
     )
 
 
@@ -237,6 +263,12 @@ class _Judge:
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
         self._stopped_at: tuple[int, int] | None = None
+        self._changes_checked = self._outputs_checked = self._draws_checked = 0
+        """The state changes, outputs and draws of the cycles that agreed."""
+        self._samples_perceived = 0
+        """The replay core's count of samples perceived, when the last batch ended."""
+        self._samples_diverged = 0
+        """The samples of the cycles that diverged."""
         self._encoder = payload_encoder()
         self._baseline: dict[int, msgspec.Raw] | None = None
         self._baseline_outputs: dict[int, msgspec.Raw] | None = None
@@ -332,13 +364,31 @@ class _Judge:
         """Robot time judged, matching :attr:`cycles`."""
         return self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
 
+    @property
+    def checked(self) -> Checked:
+        """What the cycles judged that agreed checked."""
+        return Checked(
+            self._changes_checked,
+            self._outputs_checked,
+            self._draws_checked,
+            self._samples_perceived - self._samples_diverged,
+        )
+
+    def _tally(self, changes: int, outputs: int, draws: int) -> None:
+        """Add what a batch's cycles that agreed checked (counted as they are judged)."""
+        self._changes_checked += changes
+        self._outputs_checked += outputs
+        self._draws_checked += draws
+        self._samples_perceived = self.replayer.samples_perceived
+
     def run(self, batch: Sequence[CycleRecord]) -> int | None:
         """Replay a batch of cycles; the index of the cycle where replay stops, if it does.
 
         Each cycle is stepped by the replay core; a cycle agrees when it went cleanly
         (:meth:`Replayer.advance`) and its state changes and outputs match: byte for
         byte first, else by :class:`Comparison` (state changes as a set, allowances
-        applied). Only a cycle that does not agree gets its full outcome.
+        applied). Only a cycle that does not agree gets its full outcome. What the cycles
+        that agree checked is counted as they are judged: a few additions a cycle.
         """
         self._batches.append(batch)
         encode = self._encoder.encode
@@ -350,6 +400,8 @@ class _Judge:
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
         pinned_states = self._pinned_states
+        random = self.random
+        changed = reported = drawn = 0
         for index, record in enumerate(batch):
             changes = advance(record)
             outcome: CycleOutcome | None = None
@@ -378,6 +430,9 @@ class _Judge:
                         )
                         or self._outputs_agree(record.outputs, outputs)
                     ):
+                        changed += len(changes)
+                        reported += len(outputs)
+                        drawn += len(random.recorded)  # an agreeing cycle drew them all
                         continue
                 except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
                     unloggable = exc
@@ -392,7 +447,9 @@ class _Judge:
                 self._add_context([])
             if not self._keep_going:
                 self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
+                self._tally(changed, reported, drawn)
                 return index
+        self._tally(changed, reported, drawn)
         return None
 
     def _window(self, index: int) -> list[CycleRecord]:
@@ -502,6 +559,7 @@ class _Judge:
 
     def _diverge(self, outcome: CycleOutcome) -> None:
         self.divergent_cycles += 1
+        self._samples_diverged += len(outcome.samples)
         if self.divergence is not None:
             return
         record = outcome.record

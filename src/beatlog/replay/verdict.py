@@ -12,6 +12,7 @@ from typing import Any, NamedTuple
 from beatlog.log.reader import LogStatus
 
 __all__ = [
+    "Checked",
     "ContextRow",
     "Divergence",
     "DivergenceKind",
@@ -156,6 +157,27 @@ class Divergence:
 
 
 @dataclass(frozen=True)
+class Checked:
+    """What a replay compared with the recording (or the approved baseline) and found
+    the same, in the cycles that agreed: what a PASS stands on."""
+
+    state_changes: int = 0
+    """Behavior state changes."""
+    outputs: int = 0
+    """Output values (one per name reported in a cycle)."""
+    draws: int = 0
+    """Random numbers drawn, each checked for what was asked."""
+    samples: int = 0
+    """Sensor samples that perception rebuilt a recorded robot state from (sensor-level
+    replay)."""
+
+    @property
+    def anything(self) -> bool:
+        """Whether any state change, output, draw or sample was compared."""
+        return bool(self.state_changes or self.outputs or self.draws or self.samples)
+
+
+@dataclass(frozen=True)
 class ReplayResult:
     """What replaying one session log against a system gave."""
 
@@ -163,6 +185,10 @@ class ReplayResult:
     ok: bool
     cycles: int
     """Cycles replayed."""
+    checked: Checked
+    """What was compared and found the same; a replay that checked nothing (no cycle, or
+    no state change, output, draw or sample) is refused unless it was allowed to be
+    empty (see :func:`beatlog.replay`)."""
     robot_time_ns: int
     wall_time_s: float
     status: LogStatus | None
@@ -181,6 +207,19 @@ class ReplayResult:
     url: str | None = None
     """The URL of the log, when it lay behind one: ``log`` is then the copy replayed,
     which is gone."""
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """What the replay checked, by name: ``cycles``, ``state_changes``, ``outputs``,
+        ``draws`` and ``samples``."""
+        checked = self.checked
+        return {
+            "cycles": self.cycles,
+            "state_changes": checked.state_changes,
+            "outputs": checked.outputs,
+            "draws": checked.draws,
+            "samples": checked.samples,
+        }
 
     @property
     def log_name(self) -> str:

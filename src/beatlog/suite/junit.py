@@ -1,6 +1,10 @@
 """JUnit XML for CI systems: one testcase per DTC, failures with the first divergence,
 errors with the traceback of the user's code when it raised. Written whole or not at all.
 
+A DTC that ran carries what its replay checked as properties: ``beatlog_cycles``,
+``beatlog_state_changes``, ``beatlog_outputs``, ``beatlog_draws``, ``beatlog_samples``
+(the names the pytest plugin gives them too).
+
 A DTC whose determinism audit found something gets a failure of its own, typed
 ``determinism audit``, that lists the findings. A DTC run again because the worker
 replaying it died gets a ``flakyError`` per retry, as Maven Surefire writes reruns.
@@ -40,6 +44,10 @@ def write_junit(
             file=outcome.spec.origin,
             time=f"{outcome.wall_time_s:.3f}",
         )
+        if outcome.result is not None:
+            properties = ET.SubElement(case, "properties")
+            for name, count in outcome.result.counts.items():
+                ET.SubElement(properties, "property", name=f"beatlog_{name}", value=str(count))
         if outcome.verdict is Verdict.FAILED:
             divergence = outcome.result.divergence if outcome.result else None
             message = divergence.message if divergence else "diverged"

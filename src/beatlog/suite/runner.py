@@ -157,6 +157,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             replay,
             spec.log,
             allow_truncated=spec.allow_truncated,
+            allow_empty=spec.allow_empty,
             comparison=spec.comparison,
             expected=expected,
             explain=False,

@@ -10,7 +10,8 @@ the system factory to replay it against::
     log = "avoid-pole.beatlog"            # relative to this file, or a URL
     system = "myrobot.behaviors:system"   # optional: by default, the log's own
     tags = ["obstacles"]
-    allow_truncated = false
+    allow_truncated = false                 # true: a log cut off by a crash passes
+    allow_empty = false                     # true: a replay that checks nothing passes
     renames = { avoid = "avoid_obstacle" }  # behaviors renamed since recording: old = new
     ignore_behaviors = ["blink"]            # their state changes are not compared
     ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
@@ -75,6 +76,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     perception: str | None = None
     tags: list[str] = []
     allow_truncated: bool = False
+    allow_empty: bool = False
     renames: dict[str, str] = {}
     ignore_behaviors: list[str] = []
     ignore_fields: list[str] = []
@@ -96,6 +98,9 @@ class DtcSpec:
     """The ``module:factory`` of the system under test; None for the one the log records."""
     tags: tuple[str, ...] = ()
     allow_truncated: bool = False
+    allow_empty: bool = False
+    """Whether a replay that checks nothing (no cycle, or no state change, output, draw
+    or sample) is intended, and passes; otherwise it is an error of the DTC."""
     comparison: Comparison = field(default_factory=Comparison)
     """What counts as the same when this DTC is judged (renames, ignores, tolerances)."""
     perception: str | None = None
@@ -179,6 +184,7 @@ def load_spec(path: str | Path) -> DtcSpec:
         perception=spec.perception,
         tags=tuple(spec.tags),
         allow_truncated=spec.allow_truncated,
+        allow_empty=spec.allow_empty,
         comparison=Comparison(
             renames=renames,
             ignore_behaviors=frozenset(spec.ignore_behaviors),
