@@ -27,24 +27,21 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
 from beatlog.errors import BeatlogError, SpecError
-from beatlog.files import write_json
-from beatlog.model.behavior import System
-from beatlog.replay.judge import replay
-from beatlog.replay.verdict import ReplayResult
-from beatlog.report.audit import render_audit
-from beatlog.report.baselines import render_orphans, render_updates
-from beatlog.report.console import plain_text, render_replay
-from beatlog.report.counts import plural, verdict_counts
-from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, load_spec
-from beatlog.usercode import importable_near
+
+if TYPE_CHECKING:
+    from beatlog.model.behavior import System
+    from beatlog.replay.verdict import ReplayResult
+    from beatlog.suite.runner import Verdict
+
+# The engines and reports are imported where a DTC runs or the summary is written: every
+# pytest process loads this plugin (each xdist worker too), most of them to run no DTC.
 
 __all__ = ["DtcFile", "DtcItem", "beatlog_replay"]
 
@@ -147,6 +144,8 @@ class BeatlogRun:
         """Gather a DTC's verdict and update lines from its report (a worker's, under xdist)."""
         if report.when != "call":
             return
+        from beatlog.suite.runner import Verdict  # noqa: PLC0415 - see the imports
+
         for name, value in report.user_properties:
             if name == _VERDICT:
                 self.verdicts.append(Verdict(str(value)))
@@ -159,6 +158,10 @@ class BeatlogRun:
         """The pending baselines written, the orphans, the coverage and the DTCs' verdicts."""
         if not self.verdicts:
             return
+        from beatlog.report.baselines import render_orphans  # noqa: PLC0415 - see the imports
+        from beatlog.report.counts import plural, verdict_counts  # noqa: PLC0415
+        from beatlog.suite.maintenance import find_orphans  # noqa: PLC0415
+
         terminalreporter.section("beatlog")
         folders = sorted({spec.parent for spec in self.specs})
         orphans = [text.plain for text in render_orphans(find_orphans(folders))]
@@ -171,7 +174,9 @@ class BeatlogRun:
         """The coverage table's lines when asked for, and any warning; writes its JSON."""
         if not self.coverage and self.coverage_json is None:
             return []
-        from beatlog.report.coverage import render_coverage  # noqa: PLC0415 - when asked for
+        from beatlog.files import write_json  # noqa: PLC0415 - when asked for
+        from beatlog.report.console import plain_text  # noqa: PLC0415
+        from beatlog.report.coverage import render_coverage  # noqa: PLC0415
         from beatlog.suite.coverage import suite_coverage  # noqa: PLC0415
         from beatlog.suite.coverage_cache import cache_path, recall  # noqa: PLC0415
 
@@ -260,6 +265,12 @@ class DtcItem(pytest.Item):
         self.extra_keyword_matches.update(spec.tags)
 
     def runtest(self) -> None:
+        from beatlog.report.audit import render_audit  # noqa: PLC0415 - see the imports
+        from beatlog.report.baselines import render_updates  # noqa: PLC0415
+        from beatlog.report.console import plain_text  # noqa: PLC0415
+        from beatlog.suite.maintenance import update_baselines  # noqa: PLC0415
+        from beatlog.suite.runner import Verdict, run_spec  # noqa: PLC0415
+
         run = self.config.stash[_RUN]
         outcome = run_spec(self.spec, run.options)
         self.user_properties.append((_VERDICT, outcome.verdict.value))
@@ -295,6 +306,8 @@ class DtcItem(pytest.Item):
 
 
 def _failure_text(result: ReplayResult) -> str:
+    from beatlog.report.console import plain_text, render_replay  # noqa: PLC0415
+
     return plain_text(render_replay(result))
 
 
@@ -311,6 +324,9 @@ def beatlog_replay(request: pytest.FixtureRequest) -> Callable[..., ReplayResult
     """
 
     def run(log: str | Path, system: System | str, **options: Any) -> ReplayResult:
+        from beatlog.replay.judge import replay  # noqa: PLC0415 - see the imports
+        from beatlog.usercode import importable_near  # noqa: PLC0415
+
         try:
             with importable_near(request.path):
                 result = replay(request.path.parent / log, system, **options)
