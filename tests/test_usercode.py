@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import pytest
@@ -124,6 +125,20 @@ def test_a_missing_module_names_it_without_a_traceback() -> None:
         "No module named 'beatlog_no_such_robot' (looked in "
     )
     assert caught.value.user_traceback is None
+
+
+@pytest.mark.parametrize(
+    ("reference", "meant"),
+    [("tests.conftest:probe_sytem", "probe_system"), ("tests.conftest:Prob", "Probe")],
+)
+def test_a_missing_factory_names_the_one_it_may_mean(reference: str, meant: str) -> None:
+    with pytest.raises(SystemLoadError) as caught:
+        load_factory(reference)
+
+    module, _, attribute = reference.partition(":")
+    assert str(caught.value) == (
+        f"{reference!r}: {module} has no {attribute} (did you mean {meant!r}?)"
+    )
 
 
 def test_ctrl_c_in_a_factory_stays_an_interrupt(user_dir: Path) -> None:
@@ -328,4 +343,9 @@ def test_a_module_not_found_says_where_it_was_looked_for(linebot_project: Path) 
     looked = done.stderr.partition("(looked in ")[2]
     for folder in (outside, linebot_project, linebot_project / "dtc"):
         assert str(folder.resolve()) in looked
-    assert "and the installed packages)" in looked
+    assert looked.endswith(
+        "and the installed packages; a reference imports from the working directory, a "
+        "spec's folder and its project root, the nearest folder above it with a "
+        "pyproject.toml)\n"
+    )
+    assert os.path.realpath(sysconfig.get_paths()["scripts"]) not in looked

@@ -20,6 +20,7 @@ traceback kept on it; only ``KeyboardInterrupt`` goes through.
 from __future__ import annotations
 
 import contextlib
+import difflib
 import importlib
 import os
 import sys
@@ -87,7 +88,11 @@ def load_factory(reference: str) -> Any:
         try:
             factory = getattr(factory, part)
         except AttributeError:
-            raise SystemLoadError(f"{reference!r}: {module_name} has no {attribute}") from None
+            near = difflib.get_close_matches(part, dir(factory), n=1)
+            meant = f" (did you mean {near[0]!r}?)" if near else ""
+            raise SystemLoadError(
+                f"{reference!r}: {module_name} has no {attribute}{meant}"
+            ) from None
     if not callable(factory):
         return factory
     try:
@@ -103,7 +108,9 @@ def _import(reference: str, module_name: str) -> ModuleType:
         if exc.name is not None and (module_name + ".").startswith(exc.name + "."):
             raise SystemLoadError(
                 f"{reference!r}: cannot import {module_name}: {exc} "
-                f"(looked in {_searched()} and the installed packages)"
+                f"(looked in {_searched()} and the installed packages; a reference imports "
+                "from the working directory, a spec's folder and its project root, the "
+                "nearest folder above it with a pyproject.toml)"
             ) from None
         raise _failed(reference, f"importing {module_name}", exc) from None
     except (Exception, SystemExit) as exc:
@@ -114,7 +121,7 @@ def _searched() -> str:
     """The folders of ``sys.path`` that hold the user's code, not Python's or packages'."""
     installed = {
         os.path.realpath(path)
-        for key in ("stdlib", "platstdlib", "purelib", "platlib")
+        for key in ("stdlib", "platstdlib", "purelib", "platlib", "scripts")
         if (path := sysconfig.get_paths().get(key))
     }
     folders: list[str] = []

@@ -139,6 +139,32 @@ def test_an_unknown_key_is_rejected_so_typos_do_not_pass_silently(tmp_path: Path
     assert_spec_error(path, "unknown key 'allow_truncate'")
 
 
+@pytest.mark.parametrize(
+    ("typo", "meant"),
+    [("tag", "tags"), ("allow_truncate", "allow_truncated"), ("perceptoin", "perception")],
+)
+def test_an_unknown_key_names_the_key_it_may_mean(tmp_path: Path, typo: str, meant: str) -> None:
+    path = write_spec(tmp_path, "typo", "probe.beatlog", **{typo: ["x"]})
+
+    with pytest.raises(SpecError) as raised:
+        load_spec(path)
+
+    assert str(raised.value) == f"{path}: unknown key {typo!r} (did you mean {meant!r}?)"
+
+
+def test_every_unknown_and_missing_key_is_named_at_once(tmp_path: Path) -> None:
+    path = write_spec(
+        tmp_path, "sparse", "probe.beatlog", purpose=None, procedure=None, colour="red"
+    )
+
+    with pytest.raises(SpecError) as raised:
+        load_spec(path)
+
+    assert str(raised.value) == (
+        f"{path}: unknown key 'colour'; missing keys 'purpose', 'procedure'"
+    )
+
+
 def test_an_empty_name_is_rejected(tmp_path: Path) -> None:
     path = write_spec(tmp_path, "blank", "probe.beatlog", name="  ")
 

@@ -34,6 +34,7 @@ Renames that hold for every spec go into the project's ``pyproject.toml``, under
 from __future__ import annotations
 
 import contextlib
+import difflib
 import json
 import math
 import os
@@ -42,6 +43,7 @@ from collections.abc import Iterable, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import msgspec
 
@@ -151,6 +153,8 @@ def load_spec(path: str | Path) -> DtcSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(path, f"not valid TOML: {exc}") from None
+    if (problem := _keys_problem(data)) is not None:
+        raise SpecError(path, problem)
     try:
         spec = msgspec.convert(data, _SpecFile)
     except msgspec.ValidationError as exc:
@@ -193,6 +197,24 @@ def load_spec(path: str | Path) -> DtcSpec:
             state_tolerance=spec.robot_state_tolerance,
         ),
     )
+
+
+def _keys_problem(data: dict[str, Any]) -> str | None:
+    """Every unknown key (with the key it may mean) and every missing one, at once."""
+    fields = msgspec.structs.fields(_SpecFile)
+    known = [field.name for field in fields]
+    problems = []
+    for key in data:
+        if key not in known:
+            near = difflib.get_close_matches(key, known, n=1)
+            problems.append(
+                f"unknown key {key!r}" + (f" (did you mean {near[0]!r}?)" if near else "")
+            )
+    missing = [field.name for field in fields if field.required and field.name not in data]
+    if missing:
+        listed = ", ".join(repr(key) for key in missing)
+        problems.append(f"missing key{'s' if len(missing) > 1 else ''} {listed}")
+    return "; ".join(problems) or None
 
 
 def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:
