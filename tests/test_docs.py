@@ -29,3 +29,12 @@ def test_the_documentation_builds_strict(tmp_path: Path) -> None:
     reference = (site / "api" / "log" / "index.html").read_text(encoding="utf-8")
     assert 'id="beatlog.log.SessionLogReader"' in reference
     assert (site / "format" / "index.html").is_file()
+    api = site / "api"
+    for page, anchor in [
+        ("adapters", 'id="beatlog.adapters.py_trees"'),
+        ("model", 'id="beatlog.model.Sample.stamp_ns"'),
+        ("model", "the heartbeat's index t, from 0"),
+        ("record", "the robot's name, kept in the header"),
+        ("suite", "names a callable that takes no"),
+    ]:
+        assert anchor in (api / page / "index.html").read_text(encoding="utf-8"), (page, anchor)

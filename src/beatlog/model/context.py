@@ -16,9 +16,17 @@ Outputs = dict[str, Any]
 class Context:
     """What a behavior may know beyond the robot state; the only source of time and chance.
 
-    The engine updates one context in place each heartbeat. ``actor`` names the
-    behavior currently stepping (an index into the system's catalogue) so random
-    draws and failures can be attributed to it; arbiters set it.
+    The engine updates one context in place each heartbeat. Its attributes:
+
+    - ``random``: the only random source a behavior may draw from
+      (:class:`~beatlog.model.random.RandomSource`: recorded live, replayed from RN_t);
+    - ``cycle``: the heartbeat's index t, from 0;
+    - ``time_ns`` and ``dt_ns``: robot time at the end of this cycle and HB_t, in ns
+      (``time`` and ``dt`` in seconds);
+    - ``outputs``: what the behaviors reported this cycle (:meth:`emit`);
+    - ``actor``: the behavior currently stepping (an index into the system's
+      catalogue, -1 for the system itself), so random draws and failures are
+      attributed to it; arbiters set it.
     """
 
     __slots__ = ("actor", "cycle", "dt_ns", "outputs", "random", "time_ns")

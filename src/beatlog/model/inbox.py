@@ -17,8 +17,11 @@ class Sample(NamedTuple):
     """One reading from one sensor, stamped with the driver's monotonic time in ns."""
 
     sensor: str
+    """The sensor's name, as the driver pushed it (``"sonar"``, ``"/imu"``)."""
     stamp_ns: int
+    """When the driver read it: its monotonic clock in ns (a bag's receive time)."""
     value: Any
+    """The reading: any value msgpack holds (numbers, strings, lists, maps)."""
 
 
 class SensorInbox:

@@ -67,10 +67,20 @@ class Recorder:
         open when the recorder closes).
     :param overwrite: replace a log already at ``path``; without it an existing log is
         never touched and :class:`~beatlog.errors.LogExistsError` names it.
+    :param robot_id: the robot's name, kept in the header (``beatlog show`` prints it).
     :param system_ref: the ``module:factory`` that built the system, kept in the header
-        so reports can print a command that replays the log.
+        so reports can print a command that replays the log (a replay without a
+        system uses it only where the project lists it under ``[tool.beatlog] systems``).
+    :param period_ns: the heartbeat period the robot aims for, in ns.
     :param seed: seed of the random source; a fresh one from the OS when None.
+    :param flush_interval_s: robot time between flushes to disk; a recorder killed
+        loses at most this much.
+    :param fsync: also ``fsync`` at every flush.
     :param log_samples: also log the raw sensor samples folded into each robot state.
+    :param software: the robot software's version, kept in the header (by default
+        ``git describe`` of the working directory, or ``unknown``).
+    :param start_time_ns: the wall-clock start of the recording (Unix ns; by default
+        now); never used by replay.
     """
 
     def __init__(

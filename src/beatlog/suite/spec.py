@@ -8,7 +8,7 @@ the system factory to replay it against::
     purpose = "The rover turns away from a pole in its path."
     procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
     log = "avoid-pole.beatlog"            # relative to this file, or a URL
-    system = "myrobot.behaviors:system"   # optional: by default, the log's own
+    system = "myrobot.behaviors:system"   # optional: the log's own, where the project lists it
     tags = ["obstacles"]
     allow_truncated = false                 # true: a log cut off by a crash passes
     allow_empty = false                     # true: a replay that checks nothing passes
@@ -21,6 +21,16 @@ the system factory to replay it against::
 
     [robot_state_tolerance]                 # the same per robot-state field, when the
     heading = 1e-6                          # perception step rebuilds RS_t from samples
+
+``name``, ``purpose``, ``procedure`` and ``log`` are required; every other key is
+optional, and a key beatlog does not know is an error (naming the key it may mean).
+A ``module:factory`` (``system``, ``perception``) names a callable that takes no
+arguments and builds a fresh system (or perception step) each time it is called, or
+the object itself when it is not callable; it imports from the working directory, the
+spec's folder and the spec's project root (the nearest folder above it with a
+``pyproject.toml``). A spec without ``system`` replays against the one its log
+records only where the project lists it under ``[tool.beatlog] systems``: a log never
+chooses code on its own (:mod:`beatlog.project`).
 
 A ``log`` that is a URL (``https://host/suite/avoid-pole.beatlog``, ``s3://...``: any
 URL fsspec reads, see :mod:`beatlog.remote`) is copied by the process that replays the
