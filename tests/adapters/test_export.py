@@ -16,26 +16,32 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal, NamedTuple
 
+import duckdb
 import msgspec
+import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 import pytest
 from jsonschema.validators import validator_for
 from mcap.reader import make_reader
 
 from beatlog.adapters.export import ExportFormat, export
+from beatlog.adapters.rosbag import import_bag
 from beatlog.analysis.summary import summarize
 from beatlog.cli.main import main
 from beatlog.errors import ExportError
-from beatlog.log.format import CYCLES_TOPIC
+from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
+from beatlog.model.inbox import Sample
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import record_lockstep
-from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances
+from tests.bags import SONAR_EVERY_NS, START_NS, perception, write_bag
+from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
 from tests.factories import Message as LogMessage
 from tests.factories import craft_log, cycle, cycle_messages, end_message, header_message
+from tests.perceptions import record_with_samples
 from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
 
 COMMITTED = sorted((Path(__file__).parents[2] / "examples/src").glob("**/suite/*.beatlog"))
@@ -92,6 +98,18 @@ def read_exported(path: Path) -> Exported:
     return Exported(schemas, names, messages)
 
 
+def mcap_metadata(path: Path) -> dict[str, dict[str, str]]:
+    """The metadata records of an MCAP file, by name."""
+    with path.open("rb") as file:
+        return {record.name: record.metadata for record in make_reader(file).iter_metadata()}
+
+
+LOG_TIME = (
+    "each message is stamped with the recording's start (start_time_ns, Unix ns) plus "
+    "the robot time at the end of its cycle"
+)
+
+
 def robot_times(log: Path) -> list[int]:
     """Each cycle's robot time (ns), read from the log."""
     times, now = [], 0
@@ -100,6 +118,13 @@ def robot_times(log: Path) -> list[int]:
             now += record.heartbeat_ns
             times.append(now)
     return times
+
+
+def log_times(log: Path) -> list[int]:
+    """Each cycle's log time in an MCAP export: the recording's start plus its robot time."""
+    with SessionLogReader(log) as reader:
+        start_ns = reader.header.start_time_ns
+    return [start_ns + time for time in robot_times(log)]
 
 
 class Run(NamedTuple):
@@ -211,7 +236,7 @@ def test_the_channels_and_their_counts_follow_the_log(probe_log: Path, tmp_path:
     ]
     assert read.schema_names["/state_changes"] == "foxglove.Log"
     assert read.schema_names["/robot_state"] == summary.header.robot_state_type
-    times = robot_times(probe_log)
+    times = log_times(probe_log)
     for topic in PER_CYCLE_TOPICS:
         assert [(m.log_time, m.sequence) for m in read.messages[topic]] == [
             (time, cycle) for cycle, time in enumerate(times)
@@ -236,7 +261,7 @@ def test_behavior_channels_hold_the_state_at_cycle_0_and_after_every_change(
     near = read_exported(exported).messages["/behaviors/near"]
 
     first_near = next(t for t, d in enumerate(distances(300)) if d < 0.5)
-    times = robot_times(probe_log)
+    times = log_times(probe_log)
     assert near[0] == Read(times[0], 0, {"cycle": 0, "state": "far"})
     assert near[1] == Read(times[first_near], first_near, {"cycle": first_near, "state": "near"})
     assert len(near) == 1 + summarize(probe_log).transitions["near"]
@@ -318,7 +343,7 @@ def test_a_nested_robot_state_is_inlined_and_array_draws_are_json_text(
     assert len(noise) == 3
 
 
-def test_a_nan_in_a_nested_field_or_an_array_of_numbers_leaves_that_field_out(
+def test_a_nan_in_a_nested_field_is_left_out_and_an_array_holding_one_is_number_texts(
     tmp_path: Path,
 ) -> None:
     log = tmp_path / "gaps.beatlog"
@@ -333,12 +358,22 @@ def test_a_nan_in_a_nested_field_or_an_array_of_numbers_leaves_that_field_out(
 
     export(log, exported)
 
-    first, second = (m.value for m in read_exported(exported).messages["/robot_state"])
+    read = read_exported(exported)
+    first, second = (m.value for m in read.messages["/robot_state"])
     assert first == {
         "pose": {"heading": 0.5},
-        "non_finite": ["pose.x=NaN", "ranges=[0.5,Infinity]"],
+        "ranges": ["0.5", "Infinity"],
+        "non_finite": ["pose.x=NaN"],
     }
-    assert second == {"pose": {"x": 1.0, "heading": 0.0}, "ranges": [0.5, 2.0]}
+    assert second == {"pose": {"x": 1.0, "heading": 0.0}, "ranges": ["0.5", "2.0"]}
+    assert read.schemas["/robot_state"]["properties"]["ranges"] == {
+        "type": "array",
+        "items": {
+            "type": "string",
+            "description": "A number as its text (0.5); NaN and ±inf as NaN, Infinity and "
+            "-Infinity.",
+        },
+    }
 
 
 class Blip(msgspec.Struct):
@@ -559,13 +594,13 @@ def test_a_system_adds_its_first_divergence(
     )
 
     first = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
-    assert run.code == 0
+    assert run.code == 1  # diverged, and the export is written
     assert run.out == (
         f"exported 300 cycles of {probe_log} to {exported} (mcap); "
         f"first divergence at cycle {first} (state changes)\n"
     )
     (divergence,) = read_exported(exported).messages["/divergence"]
-    assert (divergence.log_time, divergence.sequence) == (robot_times(probe_log)[first], first)
+    assert (divergence.log_time, divergence.sequence) == (log_times(probe_log)[first], first)
     assert divergence.value["kind"] == "state changes"
     assert divergence.value["behavior"] == "arbiter"
     assert divergence.value["expected"] == []
@@ -583,7 +618,10 @@ def test_a_system_that_passes_adds_no_divergence(
 
     run = beatlog_export(probe_log, "-o", exported, "--system", "tests.conftest:probe_system")
 
-    assert run.out.endswith("(mcap); the replay passed\n")
+    assert (run.code, run.out) == (
+        0,
+        f"exported 300 cycles of {probe_log} to {exported} (mcap); the replay passed\n",
+    )
     assert "/divergence" not in read_exported(exported).messages
 
 
@@ -707,10 +745,28 @@ def test_a_truncated_log_is_exported_up_to_its_last_cycle(
 
     run = beatlog_export(log, "-o", exported)
 
-    assert run.code == 0
-    assert "20 cycles" in run.out
-    assert "the log is truncated at cycle 20: the log has no end record" in run.out
+    assert (run.code, run.out) == (
+        0,
+        f"exported 20 cycles of {log} to {exported} (mcap); "
+        "the log is truncated at cycle 20: the log has no end record\n",
+    )
     assert len(read_exported(exported).messages["/robot_state"]) == 20
+    assert mcap_metadata(exported) == {
+        "beatlog": {
+            "log": "cut.beatlog",
+            "format_version": str(FORMAT_VERSION),
+            "robot_id": "bench",
+            "software_version": "test",
+            "system": "",
+            "robot_state_type": "tests.factories.Gauge",
+            "period_ns": str(PERIOD_NS),
+            "start_time_ns": "0",
+            "cycles": "20",
+            "complete": "false",
+            "status": "truncated at cycle 20: the log has no end record",
+            "log_time": LOG_TIME,
+        }
+    }
 
 
 @pytest.mark.slow
@@ -732,6 +788,240 @@ def test_every_committed_dtc_exports_for_the_viewers_and_validates(
 def test_the_committed_suites_are_found() -> None:
     assert {path.parts[-3] for path in COMMITTED} == {"dog", "trees"}
     assert len(COMMITTED) >= 22
+
+
+def test_messages_are_stamped_with_the_recording_start_plus_robot_time(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    start_ns = 1_700_000_000_123_456_789
+    log = record_probe(start_time_ns=start_ns)
+    exported = tmp_path / "probe.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    times = [start_ns + time for time in robot_times(log)]
+    assert [m.log_time for m in read.messages["/robot_state"]] == times
+    change = read.messages["/state_changes"][0]
+    assert change.value["timestamp"] == {
+        "sec": change.log_time // 1_000_000_000,
+        "nsec": change.log_time % 1_000_000_000,
+    }
+    assert change.log_time in times
+    header = summarize(log).header
+    assert mcap_metadata(exported) == {
+        "beatlog": {
+            "log": "probe.beatlog",
+            "format_version": str(FORMAT_VERSION),
+            "robot_id": "robot",
+            "software_version": "test",
+            "system": "tests.conftest:probe_system",
+            "robot_state_type": header.robot_state_type,
+            "period_ns": str(header.period_ns),
+            "start_time_ns": str(start_ns),
+            "cycles": "300",
+            "complete": "true",
+            "status": "complete",
+            "log_time": LOG_TIME,
+        }
+    }
+
+
+def test_samples_are_exported_on_a_channel_per_sensor(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "sensed.beatlog", 30)
+    exported = tmp_path / "sensed.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    ranges = read.messages["/samples/range"]
+    assert read.schema_names["/samples/range"] == "beatlog.Sample/range"
+    assert read.schemas["/samples/range"]["properties"]["value"] == {
+        "type": "array",
+        "items": {"type": "number"},
+    }
+    assert [(m.log_time, m.sequence) for m in ranges] == [
+        (time, cycle) for cycle, time in enumerate(log_times(log))
+    ]
+    assert [m.value for m in ranges[:2]] == [
+        {"cycle": 0, "stamp_ns": 0, "value": [distances(30)[0], 1]},
+        {"cycle": 1, "stamp_ns": PERIOD_NS, "value": [distances(30)[1], 1]},
+    ]
+
+
+def test_samples_are_typed_from_the_log_and_keep_the_numbers_beside_a_nan(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "bag.beatlog"
+    cycles = [
+        [
+            Sample("/scan", 10, {"ranges": [0.5, math.nan], "frame_id": "laser"}),
+            Sample("/imu", 11, 1),
+            Sample("blobs", 12, [b"\x00"]),
+        ],
+        [
+            Sample("/scan", 20, {"ranges": [0.25, 2], "frame_id": "laser", "intensity": None}),
+            Sample("/imu", 21, math.inf),
+            Sample("/gps", 22, None),
+        ],
+    ]
+    with Recorder(log, probe_system(), seed=1, log_samples=True) as recorder:
+        for samples in cycles:
+            recorder.step(PERIOD_NS, Probe(), samples)
+    exported = tmp_path / "bag.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    values = {
+        topic: [m.value for m in messages]
+        for topic, messages in read.messages.items()
+        if topic.startswith("/samples/")
+    }
+    assert values == {
+        "/samples/scan": [
+            {"cycle": 0, "stamp_ns": 10, "value": {"ranges": ["0.5", "NaN"], "frame_id": "laser"}},
+            {"cycle": 1, "stamp_ns": 20, "value": {"ranges": ["0.25", "2"], "frame_id": "laser"}},
+        ],
+        "/samples/imu": [
+            {"cycle": 0, "stamp_ns": 11, "value": 1},
+            {"cycle": 1, "stamp_ns": 21, "non_finite": ["value=Infinity"]},
+        ],
+        "/samples/blobs": [{"cycle": 0, "stamp_ns": 12, "value": '["AA=="]'}],
+        "/samples/gps": [{"cycle": 1, "stamp_ns": 22}],
+    }
+    types = {topic: read.schemas[topic]["properties"]["value"]["type"] for topic in values}
+    assert types == {
+        "/samples/scan": "object",
+        "/samples/imu": "number",
+        "/samples/blobs": "string",
+        "/samples/gps": "string",
+    }
+    scan = read.schemas["/samples/scan"]["properties"]["value"]["properties"]
+    assert {name: field["type"] for name, field in scan.items()} == {
+        "ranges": "array",
+        "frame_id": "string",
+    }
+    assert scan["ranges"]["items"]["type"] == "string"
+
+
+def test_a_log_imported_from_a_bag_lines_up_with_the_bag(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag", sonars=30, speeds=5)
+    imported = import_bag(
+        bag, tmp_path / "bag.beatlog", system=probe_system(), perception=perception()
+    )
+    exported = tmp_path / "bag.mcap"
+
+    export(imported.log, exported)
+
+    sonar = read_exported(exported).messages["/samples/sonar"]
+    stamps = [m.value["stamp_ns"] for m in sonar]
+    assert stamps == [START_NS + index * SONAR_EVERY_NS for index in range(30)]
+    period_ns = summarize(imported.log).header.period_ns
+    assert all(m.value["stamp_ns"] < m.log_time <= m.value["stamp_ns"] + period_ns for m in sonar)
+    assert sonar[3].value["value"] == {
+        "header": {"stamp": {"sec": 3, "nanosec": 0}, "frame_id": "sonar_link"},
+        "range": pytest.approx(distances(30)[3]),
+        "echo": base64.b64encode(bytes([3, 7, 0])).decode(),
+        "mount": [0.1, 0.0, 0.2],
+        "label": "front",
+    }
+
+
+class Placed(RobotState, kw_only=True):
+    """A robot state with its pose at the top level, as the rover's."""
+
+    x: float = 0.0
+    y: float = 0.0
+    heading: float = 0.0
+
+
+class Pose3(msgspec.Struct):
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    yaw: float = 0.0
+
+
+class Posed(RobotState, kw_only=True):
+    """A robot state with its pose in a ``pose`` struct, z and yaw included."""
+
+    pose: Pose3 = msgspec.field(default_factory=Pose3)
+
+
+class Idle:
+    name = "idle"
+    state: BehaviorState = "idle"
+
+    def step(self, rs: RobotState, ctx: Context) -> Outputs | None:
+        return None
+
+
+@pytest.mark.parametrize(
+    ("state_type", "states", "z"),
+    [
+        (
+            Placed,
+            [Placed(x=1.0, y=2.0, heading=math.pi / 2), Placed(x=math.nan), Placed(x=3.0)],
+            0.0,
+        ),
+        (
+            Posed,
+            [
+                Posed(pose=Pose3(x=1.0, y=2.0, z=0.5, yaw=math.pi / 2)),
+                Posed(pose=Pose3(yaw=math.inf)),
+                Posed(pose=Pose3(x=3.0, z=0.5)),
+            ],
+            0.5,
+        ),
+    ],
+    ids=["top-level", "in-pose"],
+)
+def test_a_robot_state_with_a_pose_is_a_foxglove_frame_transform(
+    state_type: type[RobotState], states: list[RobotState], z: float, tmp_path: Path
+) -> None:
+    log = tmp_path / "placed.beatlog"
+    system = PriorityArbiter([Idle()], robot_state=state_type)
+    with Recorder(log, system, seed=1, start_time_ns=5_000_000_000) as recorder:
+        for state in states:
+            recorder.step(PERIOD_NS, state)
+    exported = tmp_path / "placed.mcap"
+
+    export(log, exported)
+
+    read = read_exported(exported)
+    assert read.schema_names["/tf"] == "foxglove.FrameTransform"
+    schema = read.schemas["/tf"]
+    assert schema["required"] == [
+        "timestamp",
+        "parent_frame_id",
+        "child_frame_id",
+        "translation",
+        "rotation",
+    ]
+    assert schema["properties"]["translation"]["required"] == ["x", "y", "z"]
+    assert schema["properties"]["rotation"]["required"] == ["x", "y", "z", "w"]
+    first, third = read.messages["/tf"]  # none where the pose holds a NaN or inf
+    assert (first.sequence, third.sequence) == (0, 2)
+    assert first.value == {
+        "timestamp": {"sec": 5, "nsec": PERIOD_NS},
+        "parent_frame_id": "odom",
+        "child_frame_id": "base_link",
+        "translation": {"x": 1.0, "y": 2.0, "z": z},
+        "rotation": {"x": 0.0, "y": 0.0, "z": math.sin(math.pi / 4), "w": math.cos(math.pi / 4)},
+    }
+    assert third.value["translation"] == {"x": 3.0, "y": 0.0, "z": z}
+    assert third.value["rotation"] == {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}
+
+
+def test_a_robot_state_without_x_y_and_a_heading_has_no_pose(
+    tracked_log: Path, tmp_path: Path
+) -> None:
+    exported = tmp_path / "tracked.mcap"
+
+    export(tracked_log, exported)  # its pose has x and heading, no y
+
+    assert "/tf" not in read_exported(exported).messages
 
 
 # tables
@@ -783,7 +1073,7 @@ def test_a_csv_table_has_the_same_rows_and_writes_special_floats_as_python_does(
     assert [row["cycle"] for row in rows] == ["0", "1", "2"]
 
 
-def test_nested_fields_are_dotted_columns_and_lists_are_json_text(
+def test_nested_fields_are_dotted_columns_lists_of_numbers_lists_other_lists_json_text(
     tracked_log: Path, tmp_path: Path
 ) -> None:
     parquet_path = tmp_path / "tracked.parquet"
@@ -792,7 +1082,7 @@ def test_nested_fields_are_dotted_columns_and_lists_are_json_text(
 
     columns = pq.read_table(parquet_path).to_pydict()
     assert columns["pose.x"][12] == 1.2
-    assert json.loads(columns["ranges"][12]) == [0.5, 12.0]
+    assert columns["ranges"][12] == [0.5, 12.0]
     assert len(json.loads(columns["out.noise"][0])) == 3
     assert columns["behavior.scan"][:12] == ["idle"] * 11 + ["busy"]
 
@@ -834,6 +1124,129 @@ def test_a_robot_state_field_named_like_another_column_is_one_line(
     run = beatlog_export(log, "-o", table_path, "--format", "csv")
 
     assert_one_line_error(run, "robot-state field 'cycle' has the name of another column")
+    assert not table_path.exists()
+
+
+class Surveyed(RobotState, kw_only=True):
+    x: float = 0.0
+    ranges: list[float] = msgspec.field(default_factory=list)
+    fix: int | None = None
+
+
+class Watch:
+    """No state until the robot is more than 2 m out, 'away' from then on."""
+
+    name = "watch"
+
+    def __init__(self) -> None:
+        self.state: BehaviorState = None
+
+    def step(self, rs: Surveyed, ctx: Context) -> Outputs | None:
+        if rs.x > 2.0:
+            self.state = "away"
+        return {"speed": 0.5}
+
+
+@pytest.fixture
+def survey_tables(tmp_path: Path) -> Path:
+    """A folder of the Parquet exports of two logs of one system: in the calm one the
+    watch behavior's state and the fix are always None and no range is NaN."""
+    logs = {
+        "a-calm": [Surveyed(x=0.5, ranges=[1.0, 2.0])] * 3,
+        "b-busy": [Surveyed(x=3.0, ranges=[math.nan, 2.0], fix=4)] * 2,
+    }
+    tables = tmp_path / "tables"
+    tables.mkdir()
+    for name, states in logs.items():
+        log = tmp_path / f"{name}.beatlog"
+        with Recorder(log, PriorityArbiter([Watch()], robot_state=Surveyed), seed=1) as recorder:
+            for state in states:
+                recorder.step(PERIOD_NS, state)
+        export(log, tables / f"{name}.parquet")
+    return tables
+
+
+def test_parquet_exports_of_one_system_share_a_schema_a_dataset_reads(
+    survey_tables: Path,
+) -> None:
+    table = ds.dataset(survey_tables, format="parquet").to_table()
+
+    calm, busy = (pq.read_schema(path) for path in sorted(survey_tables.iterdir()))
+    assert calm.equals(busy, check_metadata=False)
+    assert dict(zip(calm.names, map(str, calm.types), strict=True)) == {
+        "cycle": "int64",
+        "time_ns": "int64",
+        "heartbeat_ns": "int64",
+        "x": "double",
+        "ranges": "list<element: double>",
+        "fix": "int64",
+        "behavior.arbiter": "string",
+        "behavior.watch": "string",
+        "out.speed": "double",
+        "draws": "int64",
+    }
+    columns = table.to_pydict()
+    assert columns["behavior.watch"] == [None, None, None, "away", "away"]
+    assert columns["fix"] == [None, None, None, 4, 4]
+    assert columns["ranges"][:3] == [[1.0, 2.0]] * 3
+    assert [math.isnan(busy_ranges[0]) for busy_ranges in columns["ranges"][3:]] == [True, True]
+    assert [busy_ranges[1] for busy_ranges in columns["ranges"][3:]] == [2.0, 2.0]
+
+
+def test_duckdb_reads_a_glob_of_parquet_exports_without_union_by_name(
+    survey_tables: Path,
+) -> None:
+    query = (
+        'select count(*), count("behavior.watch"), count(fix), sum(len(ranges)) '
+        f"from read_parquet('{survey_tables}/*.parquet')"
+    )
+
+    with duckdb.connect() as connection:
+        assert connection.execute(query).fetchall() == [(5, 2, 2, 10)]
+
+
+def test_parquet_metadata_names_the_log_and_where_it_ends(tmp_path: Path) -> None:
+    log = craft_log(tmp_path / "cut.beatlog", [header_message(), *cycle_messages(20)])
+    table_path = tmp_path / "cut.parquet"
+
+    export(log, table_path)
+
+    metadata = pq.read_schema(table_path).metadata
+    assert {key.decode(): value.decode() for key, value in metadata.items()} == {
+        "beatlog.log": "cut.beatlog",
+        "beatlog.format_version": str(FORMAT_VERSION),
+        "beatlog.robot_id": "bench",
+        "beatlog.software_version": "test",
+        "beatlog.system": "",
+        "beatlog.robot_state_type": "tests.factories.Gauge",
+        "beatlog.period_ns": str(PERIOD_NS),
+        "beatlog.start_time_ns": "0",
+        "beatlog.cycles": "20",
+        "beatlog.complete": "false",
+        "beatlog.status": "truncated at cycle 20: the log has no end record",
+    }
+
+
+def test_a_value_unlike_its_declared_type_is_one_line(beatlog_export: Cli, tmp_path: Path) -> None:
+    schema = {"type": "object", "properties": {"level": {"type": "number"}}}
+    log = craft_log(
+        tmp_path / "liar.beatlog",
+        [
+            header_message(robot_state_schema=schema),
+            LogMessage(
+                CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, [cycle(state={"level": "x"})]])
+            ),
+            end_message(1),
+        ],
+    )
+    table_path = tmp_path / "liar.parquet"
+
+    run = beatlog_export(log, "-o", table_path)
+
+    assert_one_line_error(
+        run,
+        f"{log}: column 'level' does not hold the double it is declared as: ",
+    )
     assert not table_path.exists()
 
 
@@ -900,7 +1313,7 @@ def test_an_unwritable_output_is_one_line_naming_it(
 def test_the_log_itself_is_never_the_output(beatlog_export: Cli, probe_log: Path) -> None:
     before = probe_log.read_bytes()
 
-    run = beatlog_export(probe_log, "-o", probe_log)
+    run = beatlog_export(probe_log, "-o", probe_log, "--format", "mcap")
 
     assert_one_line_error(run, f"{probe_log}: is the session log being exported")
     assert probe_log.read_bytes() == before
@@ -962,3 +1375,96 @@ def test_without_pyarrow_parquet_says_which_extra_to_install(
     run = beatlog_export(probe_log, "-o", tmp_path / "x.parquet", "--format", "parquet")
 
     assert_one_line_error(run, 'Parquet export needs pyarrow (pip install "beatlog[export]")')
+
+
+@pytest.mark.parametrize("suffix", [".mcap", ".parquet", ".csv"])
+def test_the_output_suffix_picks_the_format(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path, suffix: str
+) -> None:
+    output = tmp_path / f"probe{suffix.upper()}"
+
+    run = beatlog_export(probe_log, "-o", output)
+
+    format = suffix.removeprefix(".")
+    assert (run.code, run.out) == (
+        0,
+        f"exported 300 cycles of {probe_log} to {output} ({format})\n",
+    )
+    if format == "mcap":
+        assert len(read_exported(output).messages["/robot_state"]) == 300
+    elif format == "parquet":
+        assert pq.read_table(output).num_rows == 300
+    else:
+        assert len(output.read_text().splitlines()) == 301
+
+
+def test_a_format_the_suffix_contradicts_is_one_line_and_nothing_is_written(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    table_path = tmp_path / "probe.parquet"
+    export(probe_log, table_path)
+    before = table_path.read_bytes()
+
+    run = beatlog_export(probe_log, "-o", table_path, "--format", "mcap")
+
+    assert_one_line_error(
+        run,
+        f"{table_path}: a .parquet file is not written as mcap; name it .mcap or export as parquet",
+    )
+    assert table_path.read_bytes() == before
+
+
+def test_an_output_suffix_of_no_format_needs_the_format_named(
+    beatlog_export: Cli, probe_log: Path, tmp_path: Path
+) -> None:
+    output = tmp_path / "probe.txt"
+
+    refused = beatlog_export(probe_log, "-o", output)
+    named = beatlog_export(probe_log, "-o", output, "--format", "csv")
+
+    assert_one_line_error(
+        refused,
+        f"{output}: an export is written as .mcap, .parquet, .csv, not suffix .txt; "
+        "or name the format",
+    )
+    assert named.code == 0
+    assert output.read_text().startswith("cycle,time_ns,heartbeat_ns,distance,")
+
+
+def test_a_log_time_past_what_mcap_can_stamp_is_one_line(
+    beatlog_export: Cli, tmp_path: Path
+) -> None:
+    late = 2**63 + 1
+    log = craft_log(
+        tmp_path / "late.beatlog",
+        [
+            header_message(start_time_ns=2**63 - 1),
+            LogMessage(CYCLES_TOPIC, late, msgspec.msgpack.encode([0, [cycle(late)]])),
+            end_message(1, late),
+        ],
+    )
+    output = tmp_path / "late.mcap"
+
+    run = beatlog_export(log, "-o", output)
+
+    assert_one_line_error(run, f"{log}: cycle 0 ends past the latest time MCAP can stamp")
+    assert not output.exists()
+
+
+def test_a_sample_nested_too_deep_is_one_line(beatlog_export: Cli, tmp_path: Path) -> None:
+    deep = msgspec.Raw(b"\x91" * 700 + b"\xc0")  # a list in a list ... 700 deep
+    records = [cycle(samples=[["sonar", 0, deep]])]
+    log = craft_log(
+        tmp_path / "deep.beatlog",
+        [
+            header_message(samples_logged=True),
+            LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, records])),
+            end_message(1),
+        ],
+    )
+    output = tmp_path / "deep.mcap"
+
+    run = beatlog_export(log, "-o", output)
+
+    assert_one_line_error(run, f"{log}: a sample of cycle 0 is nested too deep")
+    assert not output.exists()

@@ -1,14 +1,19 @@
 """Export a session log for viewers and for analysis; only the log is read, no code runs
-(unless a system is given to replay, for its first divergence).
+(unless a system is given to replay, for its first divergence). The output's suffix
+names the format (``.mcap``, ``.parquet``, ``.csv``) unless one is asked for, and a
+format the suffix contradicts is refused before anything is written.
 
 **MCAP for Foxglove and Lichtblick.** A ``.beatlog`` is MCAP, but its msgpack payloads
 are not an encoding those viewers decode. The export writes message encoding ``json``
 and schema encoding ``jsonschema``, one schema per channel (behavior channels share
-one), each message stamped with robot time in nanoseconds and sequence-numbered with
-its cycle. Both viewers read a JSON schema with one parser (``parseJsonSchema`` in
-their ``mcap-support`` package), which takes only an object with ``properties`` whose
-every field has one ``type``: boolean, string (base64 with ``contentEncoding``),
-number, integer, an object with its own ``properties`` or an array of one of those.
+one), each message stamped with the recording's start (the header's ``start_time_ns``,
+Unix ns) plus the robot time at the end of its cycle, and sequence-numbered with its
+cycle; a ``beatlog`` metadata record holds the header, says so, and says how the log
+ends (``complete`` or ``truncated at cycle N: ...``). Both viewers read a JSON schema
+with one parser (``parseJsonSchema`` in their ``mcap-support`` package), which takes
+only an object with ``properties`` whose every field has one ``type``: boolean, string
+(base64 with ``contentEncoding``), number, integer, an object with its own
+``properties`` or an array of one of those.
 Every schema here keeps to that, so every field is a typed field in the viewers'
 message paths and plots, and every message validates against its schema:
 
@@ -34,6 +39,14 @@ message paths and plots, and every message validates against its schema:
 - ``/random_numbers``: the draws of each cycle that drew any: actor and kind, value
   and params as JSON text (a numpy array draw is dtype, shape and base64 bytes).
 - ``/heartbeat``: HB_t of every cycle.
+- ``/samples/<sensor>``: in a log recorded with samples, each raw sample (its stamp
+  and value), typed as a first read of the log finds the sensor's values: maps with
+  string keys as objects, lists as arrays, what the viewers cannot type as JSON text.
+- ``/tf``: where the robot state has number fields ``x``, ``y`` and ``heading``,
+  ``yaw`` or ``theta`` (radians, counter-clockwise; ``z`` too if it has one), at its
+  top level or in an object field ``pose``, the robot's pose each cycle as Foxglove's
+  ``foxglove.FrameTransform`` from ``odom`` to ``base_link``, for the 3D panel (none
+  in a cycle where one of them is NaN or ±inf).
 - ``/divergence``: with a system, one message at its first divergence from the log
   (``behavior`` empty when it concerns none; expected and actual state changes as
   lists of behavior, before and after strings).
@@ -41,18 +54,26 @@ message paths and plots, and every message validates against its schema:
 JSON holds no NaN or infinity, and a plot's number field cannot hold a string: a
 float field that is NaN or ±inf is left out of that message (a gap in a plot) and
 listed in the message's ``non_finite`` string array as ``path=value``
-(``distance=NaN``, ``pose.x=Infinity``, ``outputs.speed=-Infinity``); an array of
-numbers holding one is left out whole and listed with its text
-(``ranges=[0.5,NaN]``). Inside JSON text they are the strings ``"NaN"``,
-``"Infinity"`` and ``"-Infinity"``, and bytes are base64.
+(``distance=NaN``, ``pose.x=Infinity``, ``outputs.speed=-Infinity``). An array of
+numbers that holds one anywhere in the log is, in that export, an array of the
+numbers' texts (``["0.5", "NaN"]``): no schema can be an array of numbers for the
+viewers and allow a null or a string in it for a validator. Inside JSON text they
+are the strings ``"NaN"``, ``"Infinity"`` and ``"-Infinity"``, and bytes are base64.
 
 **Tables** (Parquet, which needs the ``export`` extra, or CSV): one row per cycle
-with ``cycle``, ``time_ns``, ``heartbeat_ns``, one column per robot-state field
-(``a.b`` for a nested struct's field), ``behavior.<name>`` (its state after the
-cycle, as on the behavior channels), ``out.<name>`` and ``draws`` (how many random
-numbers the cycle drew). A list or map in a cell is its JSON text, and so is every
-value of a Parquet column whose values differ in type. Floats stay floats:
-Parquet keeps NaN and ±inf, CSV writes ``nan``, ``inf`` and ``-inf``.
+with ``cycle``, ``time_ns``, ``heartbeat_ns`` (robot time), one column per
+robot-state field (``a.b`` for a nested struct's field), ``behavior.<name>`` (its
+state after the cycle, as on the behavior channels; null while unknown),
+``out.<name>`` and ``draws`` (how many random numbers the cycle drew). The columns'
+types come from the header's robot-state schema and the behavior catalogue, so every
+log of a system has the same Parquet schema, whatever its values: a number is a
+double, an integer an int64, a list of those a list, a behavior's state a string; a
+map, union or list of structs is JSON text. Outputs are typed from a read of the log
+(numbers as doubles; lists, maps and mixed types as JSON text), and a log whose
+header declares no object has its fields typed so too. The Parquet metadata holds
+the header and how the log ends, as the MCAP's does (keys ``beatlog.<name>``).
+Floats stay floats: Parquet keeps NaN and ±inf, CSV writes ``nan``, ``inf`` and
+``-inf``; in CSV a list or map is its JSON text.
 """
 
 from __future__ import annotations
@@ -72,6 +93,7 @@ import msgspec
 from mcap.writer import Writer
 
 from beatlog._version import __version__
+from beatlog.adapters import foxglove
 from beatlog.errors import CorruptLogError, ExportError
 from beatlog.log.format import (
     DECODE_ERRORS,
@@ -82,10 +104,11 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState, System
+from beatlog.model.inbox import Sample
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, StateChange
 
-__all__ = ["ExportFormat", "ExportResult", "export"]
+__all__ = ["ExportFormat", "ExportResult", "export", "export_format"]
 
 
 class ExportFormat(StrEnum):
@@ -97,6 +120,41 @@ class ExportFormat(StrEnum):
     """One row per cycle in Parquet (needs pyarrow: ``pip install "beatlog[export]"``)."""
     CSV = "csv"
     """One row per cycle as comma-separated text."""
+
+    @property
+    def suffix(self) -> str:
+        """The suffix of a file in this format: ``.mcap``, ``.parquet`` or ``.csv``."""
+        return f".{self.value}"
+
+
+def export_format(output: str | Path, format: ExportFormat | str | None = None) -> ExportFormat:
+    """The format ``output`` is written in: ``format``, or the one its suffix names
+    (``.mcap``, ``.parquet`` or ``.csv``) when ``format`` is None.
+
+    :raises beatlog.errors.ExportError: ``format`` names no format, the suffix names
+        another one, or no format is given and the suffix names none.
+    """
+    suffix = Path(output).suffix.lower()
+    named = next((chosen for chosen in ExportFormat if chosen.suffix == suffix), None)
+    if format is None:
+        if named is None:
+            given = f"suffix {suffix}" if suffix else "no suffix"
+            known = ", ".join(chosen.suffix for chosen in ExportFormat)
+            raise ExportError(
+                f"{output}: an export is written as {known}, not {given}; or name the format"
+            )
+        return named
+    try:
+        chosen = ExportFormat(format)
+    except ValueError:
+        choices = ", ".join(ExportFormat)
+        raise ExportError(f"cannot export as {format!r}; choose one of {choices}") from None
+    if named is not None and named is not chosen:
+        raise ExportError(
+            f"{output}: a {suffix} file is not written as {chosen}; "
+            f"name it {chosen.suffix} or export as {named}"
+        )
+    return chosen
 
 
 @dataclass(frozen=True)
@@ -138,25 +196,23 @@ def export(
     log: str | Path,
     output: str | Path,
     *,
-    format: ExportFormat | str = ExportFormat.MCAP,
+    format: ExportFormat | str | None = None,
     system: System | str | None = None,
 ) -> ExportResult:
-    """Write ``log`` to ``output`` in ``format``; with ``system`` (MCAP only), replay the
-    log against it and add its first divergence.
+    """Write ``log`` to ``output`` in ``format`` (by default the one the output's suffix
+    names, see :func:`export_format`); with ``system`` (MCAP only), replay the log
+    against it and add its first divergence.
 
     The output is written next to its final place and moved there when complete, so
     an export that fails (a damaged log, a full disk) leaves no partial file.
 
     :raises beatlog.errors.LogError: the log cannot be read (or does not fit ``system``).
-    :raises beatlog.errors.ExportError: the output cannot be written, Parquet is asked
-        for without pyarrow, or a system is given for a table.
+    :raises beatlog.errors.ExportError: the format does not fit the output's suffix, the
+        output cannot be written, Parquet is asked for without pyarrow, or a system is
+        given for a table.
     """
     log, output = Path(log), Path(output)
-    try:
-        chosen = ExportFormat(format)
-    except ValueError:
-        choices = ", ".join(ExportFormat)
-        raise ExportError(f"cannot export as {format!r}; choose one of {choices}") from None
+    chosen = export_format(output, format)
     if system is not None and chosen is not ExportFormat.MCAP:
         raise ExportError(f"a replay's divergence is exported to MCAP only, not {chosen}")
     if chosen is ExportFormat.PARQUET:
@@ -197,6 +253,7 @@ class _Cycle(NamedTuple):
     changes: list[StateChange]
     draws: list[tuple[str, Draw]]
     outputs: dict[str, Any]
+    samples: list[Sample]
 
 
 class _FirstRead(NamedTuple):
@@ -207,6 +264,15 @@ class _FirstRead(NamedTuple):
     (None for a behavior that never changes in the log)."""
     output_types: Mapping[str, str | None]
     """Each output's JSON-schema type over the whole log (see ``_add_types``)."""
+    status: LogStatus
+    """How the log ends."""
+    robot_state: _Field
+    """The robot state's fields: as the header declares them, else as the log holds them."""
+    non_finite_arrays: frozenset[str]
+    """The robot-state arrays of numbers that hold a NaN or ±inf somewhere in the log, as
+    paths (``ranges``, ``pose.cov``, ``blips[].values``)."""
+    samples: Mapping[str, _Field | None]
+    """Each sensor's sample values as the log holds them (None: only nulls)."""
 
 
 class _Session(NamedTuple):
@@ -224,6 +290,7 @@ def _decoded_cycles(reader: SessionLogReader) -> Iterator[_Cycle]:
     decode_map = msgspec.msgpack.Decoder(dict[str, Any]).decode
     decode_changes = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
     decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
+    decode_samples = msgspec.msgpack.Decoder(list[Sample]).decode
     time_ns = 0
     for number, record in enumerate(reader.cycles()):
         time_ns += record.heartbeat_ns
@@ -236,6 +303,7 @@ def _decoded_cycles(reader: SessionLogReader) -> Iterator[_Cycle]:
                 [] if record.random_numbers == EMPTY_LIST else decode_draws(record.random_numbers)
             )
             outputs = decode_map(record.outputs)
+            samples = [] if record.samples == EMPTY_LIST else decode_samples(record.samples)
         except DECODE_ERRORS as exc:
             raise CorruptLogError(reader.path, f"damaged cycle {number}: {exc}") from None
         yield _Cycle(
@@ -246,6 +314,7 @@ def _decoded_cycles(reader: SessionLogReader) -> Iterator[_Cycle]:
             [StateChange(_name(names, index), before, after) for index, before, after in changes],
             [(_name(names, draw.actor), draw) for draw in draws],
             outputs,
+            samples,
         )
 
 
@@ -257,14 +326,31 @@ def _name(catalogue: Sequence[str], index: int) -> str:
 
 def _first_read(log: Path) -> _FirstRead:
     with SessionLogReader(log) as reader:
-        states: dict[str, BehaviorState] = reader.header.initial_states_by_name()
+        header = reader.header
+        states: dict[str, BehaviorState] = header.initial_states_by_name()
         output_types: dict[str, str | None] = {}
+        declared = _declared_object(header.robot_state_schema, log)
+        state_types: dict[str, str | None] = {}
+        scan = declared is not None and _holds_number_arrays(declared)
+        non_finite: set[str] = set()
+        samples: dict[str, _Field | None] = {}
         for cycle in _decoded_cycles(reader):
             for change in cycle.changes:
                 states.setdefault(change.behavior, change.before)
             _add_types(output_types, cycle.outputs)
-        initial = {name: states.get(name) for name in reader.header.behaviors}
-        return _FirstRead(initial, output_types)
+            if declared is None:
+                _add_types(state_types, cycle.robot_state)
+            elif scan:
+                _find_non_finite_arrays(declared, cycle.robot_state, "", non_finite)
+            for sample in cycle.samples:
+                samples[sample.sensor] = _merged(
+                    samples.get(sample.sensor), _inferred(sample.value, log, cycle.number)
+                )
+        initial = {name: states.get(name) for name in header.behaviors}
+        robot_state = _typed_object(state_types) if declared is None else declared
+        return _FirstRead(
+            initial, output_types, reader.status, robot_state, frozenset(non_finite), samples
+        )
 
 
 def _states_after(states: dict[str, BehaviorState], changes: Sequence[StateChange]) -> None:
@@ -327,9 +413,10 @@ def _state_text(state: BehaviorState) -> str:
 
 class _Kind(Enum):
     NUMBER = "a JSON number; NaN and ±inf are left out and listed in non_finite"
+    NUMBER_TEXT = "a number in an array as its text: 0.5, NaN, Infinity, -Infinity"
     PLAIN = "an integer, boolean or string, written as it is"
     OBJECT = "an object with its own fields"
-    ARRAY = "an array of numbers, integers, booleans, strings or objects"
+    ARRAY = "an array of numbers, number texts, integers, booleans, strings or objects"
     JSON = "a string holding the value's JSON text"
 
 
@@ -341,7 +428,7 @@ class _Field(NamedTuple):
     fields: Mapping[str, _Field] = {}
     """An object's fields."""
     items: _Field | None = None
-    """An array's items."""
+    """An array's items (None: not known, the log holds only empty arrays)."""
 
 
 _NON_FINITE = "non_finite"
@@ -349,7 +436,7 @@ _NON_FINITE_SCHEMA = {
     "type": "array",
     "items": {"type": "string"},
     "description": "The fields left out of this message because their value is NaN or "
-    "infinite, as path=value: distance=NaN, outputs.speed=-Infinity, ranges=[0.5,NaN].",
+    "infinite, as path=value: distance=NaN, outputs.speed=-Infinity, blips[1].x=NaN.",
 }
 _JSON_TEXT = {
     "type": "string",
@@ -363,14 +450,38 @@ _BY_TYPE = {
     "string": _Field({"type": "string"}, _Kind.PLAIN),
     "json": _Field(_JSON_TEXT, _Kind.JSON),
 }
-_ARRAY_ITEMS = frozenset({_Kind.NUMBER, _Kind.PLAIN, _Kind.OBJECT})
+_BASE64 = _Field({"type": "string", "contentEncoding": "base64"}, _Kind.PLAIN)
+_NUMBER_TEXT = _Field(
+    {
+        "type": "string",
+        "description": "A number as its text (0.5); NaN and ±inf as NaN, Infinity and -Infinity.",
+    },
+    _Kind.NUMBER_TEXT,
+)
+_NUMBERS = (_BY_TYPE["number"], _BY_TYPE["integer"], _NUMBER_TEXT)
+_ARRAY_ITEMS = frozenset({_Kind.NUMBER, _Kind.NUMBER_TEXT, _Kind.PLAIN, _Kind.OBJECT})
 _GAP = object()
 """What a value left out of its message is written as."""
 
 
+def _object_field(fields: Mapping[str, _Field]) -> _Field:
+    properties = {name: field.schema for name, field in fields.items()}
+    return _Field({"type": "object", "properties": properties}, _Kind.OBJECT, fields)
+
+
+def _array_field(items: _Field | None) -> _Field:
+    """An array of ``items`` (of numbers while they are not known), or JSON text if the
+    viewers cannot type an array of them."""
+    if items is None:
+        return _Field({"type": "array", "items": {"type": "number"}}, _Kind.ARRAY)
+    if items.kind in _ARRAY_ITEMS and items is not _BASE64:
+        return _Field({"type": "array", "items": items.schema}, _Kind.ARRAY, items=items)
+    return _BY_TYPE["json"]
+
+
 def _written(field: _Field, value: Any, path: str, non_finite: list[str]) -> Any:
     """``value`` as ``field`` declares it, or ``_GAP`` for a null, NaN or ±inf (listed in
-    ``non_finite`` as ``path=value``; an array of numbers holding one is left out whole)."""
+    ``non_finite`` as ``path=value``)."""
     if value is None:
         return _GAP
     kind = field.kind
@@ -381,17 +492,20 @@ def _written(field: _Field, value: Any, path: str, non_finite: list[str]) -> Any
         return value
     if kind is _Kind.OBJECT:
         return _written_object(field.fields, value, f"{path}.", non_finite)
-    items = field.items
-    if items is not None:  # an array
-        if items.kind is _Kind.NUMBER:
-            if not all(math.isfinite(item) for item in value):
-                non_finite.append(f"{path}={json.dumps(value, separators=(',', ':'))}")
-                return _GAP
-            return value
+    if kind is _Kind.ARRAY:
+        items = field.items
+        if items is None or items.kind is _Kind.NUMBER:
+            return value  # finite: the first read made an array holding NaN or ±inf texts
         return [_written(items, item, f"{path}[{i}]", non_finite) for i, item in enumerate(value)]
+    if kind is _Kind.NUMBER_TEXT:
+        return json.dumps(value) if isinstance(value, int | float) else _json_value(value)
     if kind is _Kind.JSON:
-        return _JSON.encode(_jsonable(value)).decode()
+        return _json_value(value)
     return value
+
+
+def _json_value(value: Any) -> str:
+    return _JSON.encode(_jsonable(value)).decode()
 
 
 def _written_object(
@@ -435,9 +549,115 @@ def _add_types(types: dict[str, str | None], values: Mapping[str, Any]) -> None:
 
 def _typed_object(types: Mapping[str, str | None]) -> _Field:
     """An object of the fields a first read of the log found, typed as it found them."""
-    fields = {name: _BY_TYPE[kind or "json"] for name, kind in types.items()}
-    properties = {name: field.schema for name, field in fields.items()}
-    return _Field({"type": "object", "properties": properties}, _Kind.OBJECT, fields)
+    return _object_field({name: _BY_TYPE[kind or "json"] for name, kind in types.items()})
+
+
+def _path(within: str, name: str) -> str:
+    return f"{within}.{name}" if within else name
+
+
+def _holds_number_arrays(field: _Field) -> bool:
+    if field.kind is _Kind.OBJECT:
+        return any(_holds_number_arrays(inner) for inner in field.fields.values())
+    items = field.items
+    return items is not None and (items.kind is _Kind.NUMBER or _holds_number_arrays(items))
+
+
+def _find_non_finite_arrays(field: _Field, value: Any, path: str, found: set[str]) -> None:
+    """Add to ``found`` the path of each array of numbers in ``value`` holding a NaN or ±inf."""
+    if field.kind is _Kind.OBJECT and isinstance(value, dict):
+        for name, inner in field.fields.items():
+            if name in value:
+                _find_non_finite_arrays(inner, value[name], _path(path, name), found)
+    elif field.items is not None and isinstance(value, list):
+        if field.items.kind is _Kind.NUMBER:
+            if any(isinstance(item, float) and not math.isfinite(item) for item in value):
+                found.add(path)
+        elif field.items.kind is _Kind.OBJECT:
+            for item in value:
+                _find_non_finite_arrays(field.items, item, f"{path}[]", found)
+
+
+def _numbers_as_text(field: _Field, paths: frozenset[str], path: str = "") -> _Field:
+    """``field`` with each array of numbers at one of ``paths`` made an array of their
+    texts, which JSON can hold with NaN and ±inf in it."""
+    if not paths:
+        return field
+    if field.kind is _Kind.OBJECT:
+        return _object_field(
+            {
+                name: _numbers_as_text(inner, paths, _path(path, name))
+                for name, inner in field.fields.items()
+            }
+        )
+    items = field.items
+    if items is not None and items.kind is _Kind.NUMBER and path in paths:
+        return _array_field(_NUMBER_TEXT)
+    if items is not None and items.kind is _Kind.OBJECT:
+        return _array_field(_numbers_as_text(items, paths, f"{path}[]"))
+    return field
+
+
+def _inferred(value: Any, log: Path, cycle: int) -> _Field | None:
+    """The field that ``value``, read from the log, is for a channel typed from the log's
+    values (None for a null); see :func:`_value_field`."""
+    try:
+        return _value_field(value, in_array=False)
+    except RecursionError:
+        raise _too_deep(log, cycle) from None
+
+
+def _too_deep(log: Path, cycle: int) -> CorruptLogError:
+    return CorruptLogError(log, f"a sample of cycle {cycle} is nested too deep")
+
+
+def _value_field(value: Any, *, in_array: bool) -> _Field | None:
+    """A null is None; a map with string keys an object, a list an array (of number texts
+    if one of its numbers is NaN or ±inf); what the viewers cannot type is JSON text."""
+    if value is None:
+        return None
+    if isinstance(value, float) and in_array and not math.isfinite(value):
+        return _NUMBER_TEXT
+    if isinstance(value, bytes):
+        return _BASE64
+    if isinstance(value, dict):
+        if not all(isinstance(key, str) for key in value):
+            return _BY_TYPE["json"]
+        fields = {}
+        for name, item in value.items():
+            inner = _value_field(item, in_array=False)
+            if inner is not None:
+                fields[name] = inner
+        return _object_field(fields)
+    if isinstance(value, list):
+        items: _Field | None = None
+        for item in value:
+            inner = _value_field(item, in_array=True)
+            if inner is None:
+                return _BY_TYPE["json"]  # an array of nullables
+            items = _merged(items, inner)
+        return _array_field(items)
+    return _BY_TYPE[_type_of(value)]
+
+
+def _merged(seen: _Field | None, field: _Field | None) -> _Field | None:
+    """One field for the values of two: objects merge their fields, arrays their items,
+    integers and numbers make numbers (number texts if either is); any other mix is
+    JSON text."""
+    if seen is None or seen == field:
+        return field
+    if field is None:
+        return seen
+    if seen.kind is field.kind is _Kind.OBJECT:
+        fields = dict(seen.fields)
+        for name, inner in field.fields.items():
+            fields[name] = _merged(fields.get(name), inner) or inner
+        return _object_field(fields)
+    if seen.kind is field.kind is _Kind.ARRAY:
+        return _array_field(_merged(seen.items, field.items))
+    if seen in _NUMBERS and field in _NUMBERS:
+        return _NUMBER_TEXT if _NUMBER_TEXT in (seen, field) else _BY_TYPE["number"]
+    return _BY_TYPE["json"]
 
 
 _MAX_SCHEMA_NODES = 100_000
@@ -494,18 +714,13 @@ def _declared_object(schema: Mapping[str, Any], log: Path) -> _Field | None:
         properties = node.get("properties")
         items = node.get("items")
         if kind == "object" and isinstance(properties, dict):
-            fields = {
-                name: field(value, within, nullable=True) for name, value in properties.items()
-            }
-            declared = {name: value.schema for name, value in fields.items()}
-            return _Field({"type": "object", "properties": declared}, _Kind.OBJECT, fields)
+            return _object_field(
+                {name: field(value, within, nullable=True) for name, value in properties.items()}
+            )
         if kind == "array" and isinstance(items, dict) and "prefixItems" not in node:
-            item = field(items, within, nullable=False)
-            if item.kind in _ARRAY_ITEMS:
-                return _Field({"type": "array", "items": item.schema}, _Kind.ARRAY, items=item)
-            return _BY_TYPE["json"]
+            return _array_field(field(items, within, nullable=False))
         if kind == "string" and node.get("contentEncoding") == "base64":
-            return _Field({"type": "string", "contentEncoding": "base64"}, _Kind.PLAIN)
+            return _BASE64
         return _BY_TYPE.get(kind if isinstance(kind, str) else "json", _BY_TYPE["json"])
 
     try:
@@ -585,38 +800,9 @@ _DIVERGENCE_SCHEMA = _record_schema(
     actual={"type": "array", "items": _CHANGE},
     reproduce={"type": "string"},
 )
-# Foxglove's well-known foxglove.Log, as published in foxglove/schemas
-# (schemas/jsonschema/Log.json), except its level: there a oneOf of the level
-# constants, which Lichtblick's parser rejects in releases that predate its enum
-# support, here an integer. The name makes Foxglove's Log panel show it.
-_FOXGLOVE_LOG_SCHEMA = {
-    "title": "Log",
-    "description": "A log message",
-    "type": "object",
-    "properties": {
-        "timestamp": {
-            "type": "object",
-            "title": "Time",
-            "properties": {
-                "sec": {"type": "integer", "minimum": 0},
-                "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999},
-            },
-            "description": "Timestamp of log message",
-        },
-        "level": {
-            "type": "integer",
-            "minimum": 0,
-            "maximum": 5,
-            "title": "LogLevel: Log level",
-            "description": "Log level: 0 UNKNOWN, 1 DEBUG, 2 INFO, 3 WARNING, 4 ERROR, 5 FATAL",
-        },
-        "message": {"type": "string", "description": "Log message"},
-        "name": {"type": "string", "description": "Process or node name"},
-        "file": {"type": "string", "description": "Filename"},
-        "line": {"type": "integer", "minimum": 0, "description": "Line number in the file"},
-    },
-}
-_LOG_INFO = 2
+_POSE_TOPIC = "/tf"
+_POSE_FRAMES = ("odom", "base_link")
+"""The frames of the robot's pose: the fixed frame it moves in, and the robot's own."""
 
 
 def _robot_state_schema(title: str, robot_state: _Field) -> dict[str, Any]:
@@ -626,6 +812,18 @@ def _robot_state_schema(title: str, robot_state: _Field) -> dict[str, Any]:
         **robot_state.schema,
         "properties": {**robot_state.schema["properties"], _NON_FINITE: _NON_FINITE_SCHEMA},
     }
+
+
+def _sample_schema(sensor: str, value: _Field) -> dict[str, Any]:
+    return _record_schema(
+        "beatlog.Sample",
+        f"A raw sample of sensor {sensor!r} folded into RS_t in this cycle, typed as a first "
+        "read of the log found its values (a null is left out).",
+        optional=["value", _NON_FINITE],
+        stamp_ns={"type": "integer", "description": "The sample's own time stamp (ns)."},
+        value=value.schema,
+        non_finite=_NON_FINITE_SCHEMA,
+    )
 
 
 def _outputs_schema(outputs: _Field) -> dict[str, Any]:
@@ -645,9 +843,10 @@ def _outputs_schema(outputs: _Field) -> dict[str, Any]:
 class _McapChannels:
     """Registers the export's schemas and channels and writes JSON messages to them."""
 
-    def __init__(self, writer: Writer, log: Path) -> None:
+    def __init__(self, writer: Writer, log: Path, start_ns: int) -> None:
         self._writer = writer
         self._log = log
+        self._start_ns = start_ns
         self._schemas: dict[str, int] = {}
 
     def add(self, topic: str, name: str, schema: Mapping[str, Any]) -> int:
@@ -656,52 +855,111 @@ class _McapChannels:
             self._schemas[name] = self._writer.register_schema(name, "jsonschema", data)
         return int(self._writer.register_channel(topic, "json", self._schemas[name]))
 
+    def stamp(self, cycle: _Cycle) -> int:
+        """The log time of a cycle's messages: the recording's start plus its robot time."""
+        time_ns = self._start_ns + cycle.time_ns
+        if time_ns > _MAX_LOG_TIME_NS:
+            raise CorruptLogError(
+                self._log, f"cycle {cycle.number} ends past the latest time MCAP can stamp"
+            )
+        return time_ns
+
     def write(self, channel: int, cycle: _Cycle, message: Any, what: str) -> None:
-        """Write ``message`` stamped with the cycle's robot time and numbered with it."""
+        """Write ``message`` stamped with the cycle's log time and numbered with the cycle."""
         data = _json_text(message, self._log, f"the {what} of cycle {cycle.number}")
-        time_ns = cycle.time_ns
+        time_ns = self.stamp(cycle)
         self._writer.add_message(channel, time_ns, data, time_ns, sequence=cycle.number)
 
 
+_MAX_LOG_TIME_NS = 2**64 - 1
+_LOG_TIME = (
+    "each message is stamped with the recording's start (start_time_ns, Unix ns) plus "
+    "the robot time at the end of its cycle"
+)
+
+
+def _log_metadata(session: _Session) -> dict[str, str]:
+    """What an export says of its log, as text: its header, and how and where it ends."""
+    header, status = session.header, session.first.status
+    return {
+        "log": session.log.name,
+        "format_version": str(header.format_version),
+        "robot_id": header.robot_id,
+        "software_version": header.software_version,
+        "system": header.system,
+        "robot_state_type": header.robot_state_type,
+        "period_ns": str(header.period_ns),
+        "start_time_ns": str(header.start_time_ns),
+        "cycles": str(status.cycles),
+        "complete": "true" if status.complete else "false",
+        "status": status.describe(),
+    }
+
+
+def _sample_topic(sensor: str) -> str:
+    return f"/samples/{sensor.removeprefix('/')}"
+
+
+class _Pose(NamedTuple):
+    """Where the robot state holds the robot's pose: the object field holding ``x``, ``y``
+    and the others (None: the robot state itself), the yaw's name, and whether it has a
+    ``z`` (else 0)."""
+
+    within: str | None
+    yaw: str
+    has_z: bool
+
+    def of(self, state: Mapping[str, Any]) -> tuple[tuple[float, float, float], float] | None:
+        """The position and yaw in ``state``; None when one is missing, NaN or infinite."""
+        holder = state if self.within is None else state.get(self.within)
+        if not isinstance(holder, dict):
+            return None
+        names = ("x", "y", self.yaw, "z") if self.has_z else ("x", "y", self.yaw)
+        values = [holder.get(name) for name in names]
+        numbers = [float(v) for v in values if isinstance(v, float | int) and math.isfinite(v)]
+        if len(numbers) < len(names):
+            return None
+        x, y, yaw, *z = numbers
+        return (x, y, z[0] if z else 0.0), yaw
+
+
+_YAW_NAMES = ("heading", "yaw", "theta")
+
+
+def _pose_of(robot_state: _Field) -> _Pose | None:
+    """The robot's pose: number fields ``x``, ``y`` (``z`` if there is one) and ``heading``,
+    ``yaw`` or ``theta`` in the robot state, or else in its object field ``pose``."""
+    pose = robot_state.fields.get("pose")
+    holders = {None: robot_state.fields, "pose": {} if pose is None else pose.fields}
+    for within, fields in holders.items():
+        numbers = {name for name, field in fields.items() if field.kind is _Kind.NUMBER}
+        yaw = next((name for name in _YAW_NAMES if name in numbers), None)
+        if yaw is not None and {"x", "y"} <= numbers:
+            return _Pose(within, yaw, "z" in numbers)
+    return None
+
+
 def _robot_state_field(session: _Session) -> _Field:
-    """The robot state's fields: as the header declares them, else as a read of the log
-    finds them."""
-    declared = _declared_object(session.header.robot_state_schema, session.log)
-    if declared is None:
-        types: dict[str, str | None] = {}
-        with SessionLogReader(session.log) as reader:
-            for cycle in _decoded_cycles(reader):
-                _add_types(types, cycle.robot_state)
-        declared = _typed_object(types)
-    if _NON_FINITE in declared.fields:
+    """The robot state's fields for the viewers: its arrays of numbers that hold a NaN or
+    ±inf are arrays of number texts."""
+    first = session.first
+    if _NON_FINITE in first.robot_state.fields:
         raise ExportError(
             f"{session.log}: robot-state field {_NON_FINITE!r} has the name of the field "
             "that lists NaN and infinite values; export as a table instead"
         )
-    return declared
+    return _numbers_as_text(first.robot_state, first.non_finite_arrays)
 
 
 def _write_mcap(part: Path, session: _Session, replayed: ReplayResult | None) -> None:
-    log, header = session.log, session.header
+    log, header, first = session.log, session.header, session.first
     robot_state_field = _robot_state_field(session)
-    outputs_field = _typed_object(session.first.output_types)
+    outputs_field = _typed_object(first.output_types)
     with part.open("wb") as file:
         writer = Writer(file)
         writer.start(profile="", library=f"beatlog {__version__}")
-        writer.add_metadata(
-            "beatlog",
-            {
-                "log": log.name,
-                "format_version": str(header.format_version),
-                "robot_id": header.robot_id,
-                "software_version": header.software_version,
-                "system": header.system,
-                "robot_state_type": header.robot_state_type,
-                "period_ns": str(header.period_ns),
-                "start_time_ns": str(header.start_time_ns),
-            },
-        )
-        channels = _McapChannels(writer, log)
+        writer.add_metadata("beatlog", {**_log_metadata(session), "log_time": _LOG_TIME})
+        channels = _McapChannels(writer, log, header.start_time_ns)
         robot_state_name = header.robot_state_type or "beatlog.RobotState"
         robot_state = channels.add(
             "/robot_state",
@@ -712,10 +970,12 @@ def _write_mcap(part: Path, session: _Session, replayed: ReplayResult | None) ->
             name: channels.add(f"/behaviors/{name}", "beatlog.BehaviorState", _BEHAVIOR_SCHEMA)
             for name in header.behaviors
         }
-        state_changes = channels.add("/state_changes", "foxglove.Log", _FOXGLOVE_LOG_SCHEMA)
+        state_changes = channels.add("/state_changes", "foxglove.Log", foxglove.LOG_SCHEMA)
         outputs = channels.add("/outputs", "beatlog.Outputs", _outputs_schema(outputs_field))
         random_numbers = channels.add("/random_numbers", "beatlog.RandomNumbers", _RANDOM_SCHEMA)
         heartbeat = channels.add("/heartbeat", "beatlog.Heartbeat", _HEARTBEAT_SCHEMA)
+        samples = _SampleChannels(channels, first.samples, log)
+        poses = _PoseChannel(channels, _pose_of(first.robot_state))
         divergence = None if replayed is None else replayed.divergence
         found = (
             None
@@ -746,17 +1006,82 @@ def _write_mcap(part: Path, session: _Session, replayed: ReplayResult | None) ->
                 if number > 0 and lane is not None:
                     message = {"cycle": number, "state": _state_text(change.after)}
                     write(lane, cycle, message, "behavior state")
-                write(state_changes, cycle, _log_message(cycle.time_ns, change), "state change")
+                message = _log_message(channels.stamp(cycle), change)
+                write(state_changes, cycle, message, "state change")
             non_finite = []
             written = _written_object(outputs_field.fields, cycle.outputs, "outputs.", non_finite)
             message = _with_non_finite({"cycle": number, "outputs": written}, non_finite)
             write(outputs, cycle, message, "outputs")
             if cycle.draws:
                 write(random_numbers, cycle, _draws_message(cycle, log), "random numbers")
+            samples.write(cycle)
+            poses.write(cycle)
             if found is not None and divergence is not None and divergence.cycle == number:
                 message = _divergence_message(divergence, replayed.reproduce if replayed else "")
                 write(found, cycle, message, "divergence")
         writer.finish()  # type: ignore[no-untyped-call]
+
+
+class _SampleChannels:
+    """A channel per sensor whose samples the log holds, each sample a message."""
+
+    def __init__(
+        self, channels: _McapChannels, samples: Mapping[str, _Field | None], log: Path
+    ) -> None:
+        self._channels = channels
+        self._log = log
+        self._sensors = {}
+        for sensor, field in samples.items():
+            value = field or _BY_TYPE["json"]
+            topic = _sample_topic(sensor)
+            name = f"beatlog.Sample{topic.removeprefix('/samples')}"
+            self._sensors[sensor] = (
+                channels.add(topic, name, _sample_schema(sensor, value)),
+                value,
+            )
+
+    def write(self, cycle: _Cycle) -> None:
+        for sample in cycle.samples:
+            channel, field = self._sensors[sample.sensor]
+            non_finite: list[str] = []
+            try:
+                value = _written(field, sample.value, "value", non_finite)
+            except RecursionError:
+                raise _too_deep(self._log, cycle.number) from None
+            message = {"cycle": cycle.number, "stamp_ns": sample.stamp_ns}
+            if value is not _GAP:
+                message["value"] = value
+            self._channels.write(channel, cycle, _with_non_finite(message, non_finite), "samples")
+
+
+class _PoseChannel:
+    """The robot's pose each cycle, as a ``foxglove.FrameTransform`` for the 3D panel; no
+    channel when the robot state holds no pose."""
+
+    def __init__(self, channels: _McapChannels, pose: _Pose | None) -> None:
+        self._channels = channels
+        self._pose = (
+            None
+            if pose is None
+            else (
+                pose,
+                channels.add(
+                    _POSE_TOPIC, "foxglove.FrameTransform", foxglove.FRAME_TRANSFORM_SCHEMA
+                ),
+            )
+        )
+
+    def write(self, cycle: _Cycle) -> None:
+        """The cycle's pose; none when the robot state holds a NaN or ±inf in it."""
+        if self._pose is None:
+            return
+        pose, channel = self._pose
+        placed = pose.of(cycle.robot_state)
+        if placed is not None:
+            position, yaw = placed
+            time_ns = self._channels.stamp(cycle)
+            message = foxglove.frame_transform(time_ns, *_POSE_FRAMES, position, yaw)
+            self._channels.write(channel, cycle, message, "pose")
 
 
 def _with_non_finite(message: dict[str, Any], non_finite: list[str]) -> dict[str, Any]:
@@ -767,15 +1092,8 @@ def _with_non_finite(message: dict[str, Any], non_finite: list[str]) -> dict[str
 
 def _log_message(time_ns: int, change: StateChange) -> dict[str, Any]:
     """A behavior state change as a ``foxglove.Log`` message."""
-    seconds, nanoseconds = divmod(time_ns, 1_000_000_000)
-    return {
-        "timestamp": {"sec": seconds, "nsec": nanoseconds},
-        "level": _LOG_INFO,
-        "message": f"{change.behavior}: {change.before} -> {change.after}",
-        "name": change.behavior,
-        "file": "",
-        "line": 0,
-    }
+    message = f"{change.behavior}: {change.before} -> {change.after}"
+    return foxglove.log_message(time_ns, foxglove.LOG_INFO, message, change.behavior)
 
 
 def _draws_message(cycle: _Cycle, log: Path) -> dict[str, Any]:
@@ -823,54 +1141,124 @@ _DRAWS_COLUMN = "draws"
 
 
 def _write_table(part: Path, session: _Session, chosen: ExportFormat) -> None:
-    log = session.log
-    states = dict(session.first.initial)
-    state_columns: dict[str, None] = {}
-    output_columns: dict[str, None] = {}
+    """One row per cycle, the columns typed by the robot-state schema, the catalogue and
+    the outputs' types, so every log of a system has the same columns of the same types."""
+    log, first = session.log, session.first
+    states = dict(first.initial)
+    state_columns = _state_columns(first.robot_state.fields)
     behavior_columns = {name: f"behavior.{name}" for name in session.header.behaviors}
-    rows: list[dict[str, Any]] = []
-    for cycle in session.cycles:
-        _states_after(states, cycle.changes)
-        where = f"cycle {cycle.number}"
-        fields = _flatten(cycle.robot_state, "", log, where)
-        outputs = {f"out.{name}": _cell(value, log, where) for name, value in cycle.outputs.items()}
-        state_columns.update(dict.fromkeys(fields))
-        output_columns.update(dict.fromkeys(outputs))
-        rows.append(
-            {
-                "cycle": cycle.number,
-                "time_ns": cycle.time_ns,
-                "heartbeat_ns": cycle.heartbeat_ns,
-                **fields,
-                **{column: states[name] for name, column in behavior_columns.items()},
-                **outputs,
-                _DRAWS_COLUMN: len(cycle.draws),
-            }
-        )
-    others = [*_FIRST_COLUMNS, *behavior_columns.values(), *output_columns, _DRAWS_COLUMN]
+    output_columns = {name: f"out.{name}" for name in first.output_types}
+    others = [*_FIRST_COLUMNS, *behavior_columns.values(), *output_columns.values(), _DRAWS_COLUMN]
     clash = next((name for name in state_columns if name in others), None)
     if clash is not None:
         raise ExportError(
             f"{log}: robot-state field {clash!r} has the name of another column; "
             "export as MCAP instead"
         )
-    columns = [*_FIRST_COLUMNS, *state_columns, *others[len(_FIRST_COLUMNS) :]]
+    columns: dict[str, _Field] = {
+        **dict.fromkeys(_FIRST_COLUMNS, _BY_TYPE["integer"]),
+        **{column: field for column, (_, field) in state_columns.items()},
+        **dict.fromkeys(behavior_columns.values(), _BY_TYPE["string"]),
+        **{
+            column: _BY_TYPE["number" if kind == "integer" else kind or "json"]
+            for column, kind in zip(
+                output_columns.values(), first.output_types.values(), strict=True
+            )
+        },
+        _DRAWS_COLUMN: _BY_TYPE["integer"],
+    }
+    values: dict[str, list[Any]] = {column: [] for column in columns}
+    for cycle in session.cycles:
+        _states_after(states, cycle.changes)
+        values["cycle"].append(cycle.number)
+        values["time_ns"].append(cycle.time_ns)
+        values["heartbeat_ns"].append(cycle.heartbeat_ns)
+        for column, (keys, _) in state_columns.items():
+            values[column].append(_at(cycle.robot_state, keys))
+        for name, column in behavior_columns.items():
+            state = states[name]
+            values[column].append(None if state is None else _state_text(state))
+        for name, column in output_columns.items():
+            values[column].append(cycle.outputs.get(name))
+        values[_DRAWS_COLUMN].append(len(cycle.draws))
     if chosen is ExportFormat.CSV:
         with part.open("w", encoding="utf-8", newline="") as file:
             table = csv.writer(file)
             table.writerow(columns)
-            table.writerows([row.get(column) for column in columns] for row in rows)
+            for number, row in enumerate(zip(*values.values(), strict=True)):
+                table.writerow([_cell(value, log, f"cycle {number}") for value in row])
         return
+    _write_parquet(part, session, columns, values)
+
+
+def _state_columns(
+    fields: Mapping[str, _Field], keys: tuple[str, ...] = ()
+) -> dict[str, tuple[tuple[str, ...], _Field]]:
+    """The robot state's columns, a nested struct's fields as ``a.b``: the keys that reach
+    each one's value, and its field."""
+    columns = {}
+    for name, field in fields.items():
+        path = (*keys, name)
+        if field.kind is _Kind.OBJECT:
+            columns.update(_state_columns(field.fields, path))
+        else:
+            columns[".".join(path)] = (path, field)
+    return columns
+
+
+def _at(value: Any, keys: Sequence[str]) -> Any:
+    """The value ``keys`` reach in nested maps; None where one is missing."""
+    for key in keys:
+        if not isinstance(value, dict):
+            return None
+        value = value.get(key)
+    return value
+
+
+def _write_parquet(
+    part: Path, session: _Session, columns: Mapping[str, _Field], values: Mapping[str, list[Any]]
+) -> None:
+    """Parquet with an Arrow schema from ``columns`` and the log described in its metadata."""
     pa, parquet = _pyarrow()
+    log = session.log
     arrays = []
-    for column in columns:
-        values = [row.get(column) for row in rows]
+    for column, field in columns.items():
+        arrow_type, as_json = _arrow_type(pa, field)
+        cells = values[column]
+        if as_json or field == _BASE64:
+            where = f"column {column!r}"
+            cells = [
+                cell if cell is None else _cell(cell, log, where, json=as_json) for cell in cells
+            ]
         try:
-            arrays.append(pa.array(values))
-        except pa.ArrowException:  # mixed types: every cell but a missing one as JSON text
-            texts = [None if v is None else _JSON.encode(_jsonable(v)).decode() for v in values]
-            arrays.append(pa.array(texts))
-    parquet.write_table(pa.Table.from_arrays(arrays, names=columns), part)
+            arrays.append(pa.array(cells, type=arrow_type))
+        except (pa.ArrowException, OverflowError) as exc:
+            raise CorruptLogError(
+                log, f"column {column!r} does not hold the {arrow_type} it is declared as: {exc}"
+            ) from None
+    metadata = {f"beatlog.{key}": value for key, value in _log_metadata(session).items()}
+    schema = pa.schema(
+        [pa.field(column, array.type) for column, array in zip(columns, arrays, strict=True)],
+        metadata=metadata,
+    )
+    parquet.write_table(pa.Table.from_arrays(arrays, schema=schema), part)
+
+
+def _arrow_type(pa: Any, field: _Field) -> tuple[Any, bool]:
+    """The Arrow type of a column of ``field``, and whether its cells are JSON text: a
+    number is a double, an integer an int64, an array of those a list; what has no
+    Arrow type here (a map, a union, an array of structs) is JSON text."""
+    if field.kind is _Kind.NUMBER:
+        return pa.float64(), False
+    if field.kind is _Kind.PLAIN:
+        declared = field.schema["type"]
+        return {"integer": pa.int64(), "boolean": pa.bool_()}.get(declared, pa.string()), False
+    items = field.items
+    if field.kind is _Kind.ARRAY and items is not None and items.kind is not _Kind.OBJECT:
+        inner, as_json = _arrow_type(pa, items)
+        if not as_json:
+            return pa.list_(inner), False
+    return pa.string(), True
 
 
 def _pyarrow() -> tuple[Any, Any]:
@@ -883,23 +1271,11 @@ def _pyarrow() -> tuple[Any, Any]:
     return pyarrow, pyarrow.parquet
 
 
-def _flatten(value: Mapping[Any, Any], prefix: str, log: Path, where: str) -> dict[str, Any]:
-    """A robot state's fields as columns, a nested struct's fields as ``a.b``."""
-    columns: dict[str, Any] = {}
-    for key, item in value.items():
-        name = f"{prefix}{key}"
-        if isinstance(item, dict):
-            columns.update(_flatten(item, f"{name}.", log, where))
-        else:
-            columns[name] = _cell(item, log, where)
-    return columns
-
-
-def _cell(value: Any, log: Path, where: str) -> Any:
-    """A table cell: a number, string, bool or None as it is; bytes as base64; a list
-    or map as its JSON text."""
+def _cell(value: Any, log: Path, where: str, *, json: bool = False) -> Any:
+    """A table cell: bytes as base64; a list or map (with ``json``, any value) as its JSON
+    text; a number, string, bool or None as it is."""
     if isinstance(value, bytes):
         return base64.b64encode(value).decode()
-    if isinstance(value, list | dict):
+    if json or isinstance(value, list | dict):
         return _json_text(value, log, where).decode()
     return value

@@ -240,12 +240,19 @@ def _add_export(add: Callable[..., argparse.ArgumentParser]) -> None:
         "export", help="write a session log as MCAP for Foxglove and Lichtblick, or a table"
     )
     export_.add_argument("log", help="the session log (.beatlog) to export: a path or a URL")
-    export_.add_argument("-o", "--output", required=True, type=Path, metavar="FILE")
+    export_.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="the file to write; its suffix picks the format: .mcap, .parquet or .csv",
+    )
     export_.add_argument(
         "--format",
         choices=EXPORT_FORMATS,
-        default=EXPORT_FORMATS[0],
-        help="mcap (JSON messages, for viewers; the default), parquet or csv (a row per cycle)",
+        help="mcap (JSON messages, for viewers), parquet or csv (a row per cycle); "
+        "default: the output's suffix, which must not name another format",
     )
     export_.add_argument(
         "--system",
@@ -913,15 +920,16 @@ def _plot(args: argparse.Namespace, console: Console) -> int:
 def _export(args: argparse.Namespace, console: Console) -> int:
     import dataclasses
 
-    from beatlog.adapters.export import export
+    from beatlog.adapters.export import export, export_format
 
+    chosen = export_format(args.output, args.format)  # refused before anything runs
     given = args.log
     with _readable(args) as named:
-        result = export(args.log, args.output, format=args.format, system=args.system)
+        result = export(args.log, args.output, format=chosen, system=args.system)
     if named is not None:
         result = dataclasses.replace(result, url=given)
     console.print(result.describe(), markup=False, highlight=False)
-    return EXIT_OK
+    return EXIT_OK if result.divergence is None else EXIT_FAILED
 
 
 @contextlib.contextmanager
