@@ -12,7 +12,6 @@ from beatlog.analysis.trace import (
     Expectation,
     OutputTracker,
     TracedOutput,
-    fields_read,
     recorded_outputs,
     recorded_trace,
     replayed_trace,
@@ -56,12 +55,6 @@ def test_a_trace_stops_where_the_behaviors_draw_numbers_the_log_lacks(
     assert replayed.stopped is not None
     assert replayed.stopped.startswith("cycle 0:")
     assert replayed.cycles == 0
-
-
-def test_the_fields_read_in_a_cycle_are_named_in_order(record_probe: RecordFn) -> None:
-    log = record_probe(100)
-    assert fields_read(log, probe_system(), 10) == ("distance",)
-    assert fields_read(log, probe_system(), 1000) == ()
 
 
 def test_a_diverging_replay_by_reference_names_the_fields_read(record_probe: RecordFn) -> None:

@@ -3,8 +3,8 @@
 The verdict's replay stops at the first divergence. Reports want more: the robot-state
 fields the behaviors read in the diverging cycle, the whole new trace for
 re-baselining, and timelines for charts. :func:`replay_details` replays the log once
-more with the replay core and feeds every consumer from the same outcomes, so a DTC
-is replayed at most twice in all.
+more in one :class:`~beatlog.replay.session.ReplaySession` whose observers gather
+them all, so a DTC is replayed at most twice in all.
 """
 
 from __future__ import annotations
@@ -14,12 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_window
-from beatlog.analysis.trace import ReadTracker, ReplayedTrace, TraceCollector
-from beatlog.log.format import CycleRecord
-from beatlog.log.reader import SessionLogReader
+from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
-from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.session import FieldsRead, ReplaySession
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
 __all__ = ["Details", "replay_details"]
@@ -60,78 +58,20 @@ def replay_details(
         if divergence is None or divergence.kind is DivergenceKind.LOG_ENDED
         else divergence.cycle
     )
-    reads = ReadTracker()
-    with SessionLogReader(log) as reader:
-        replayer = Replayer(system, reader.header, reader.path, perception=perception)
-        tracer = TraceCollector(replayer.executor.behavior_ids) if trace else None
-        charts = (
-            _Charts(
-                TimelineCollector(reader, system, expected=expected),
-                None
-                if divergence is None
-                else TimelineCollector(
-                    reader, system, expected=expected, window_ns=close_up_window(divergence)
-                ),
-            )
-            if timelines
-            else None
-        )
-        cycle = -1
-        for batch in reader.batches():
-            for record in batch:
-                cycle += 1
-                needed = (
-                    (tracer is not None and tracer.stopped is None)
-                    or (charts is not None and charts.replaying)
-                    or (diverged_at is not None and cycle <= diverged_at)
+    reads = None if diverged_at is None else FieldsRead(diverged_at)
+    with ReplaySession(log, system, perception=perception) as session:
+        tracer = TraceCollector(session.behavior_ids) if trace else None
+        charts: list[TimelineCollector] = []
+        if timelines:
+            if divergence is not None:  # the close-up first
+                window = close_up_window(divergence)
+                charts.append(
+                    TimelineCollector(session.reader, system, expected=expected, window_ns=window)
                 )
-                if not needed and charts is None:
-                    return _details(reads, diverged_at, tracer, charts, divergence)
-                outcome = None
-                if needed:
-                    observe = reads.stand_in if cycle == diverged_at else None
-                    outcome = replayer.step(record, observe=observe)
-                    if tracer is not None:
-                        tracer.add(outcome)
-                if charts is not None:
-                    charts.add(record, outcome)
-    return _details(reads, diverged_at, tracer, charts, divergence)
-
-
-def _details(
-    reads: ReadTracker,
-    diverged_at: int | None,
-    tracer: TraceCollector | None,
-    charts: _Charts | None,
-    divergence: Divergence | None,
-) -> Details:
+            charts.append(TimelineCollector(session.reader, system, expected=expected))
+        session.run([*([tracer] if tracer else []), *charts], fields_read=reads)
     return Details(
-        fields_read=tuple(reads.read) if diverged_at is not None else (),
+        fields_read=() if reads is None else reads.fields,
         trace=None if tracer is None else tracer.trace(),
-        timelines=() if charts is None else charts.timelines(divergence),
+        timelines=tuple(chart.timeline(divergence) for chart in charts),
     )
-
-
-class _Charts:
-    """The whole session's timeline and, for a divergence, a close-up of it."""
-
-    def __init__(self, whole: TimelineCollector, close_up: TimelineCollector | None) -> None:
-        self._whole = whole
-        self._close_up = close_up
-
-    @property
-    def replaying(self) -> bool:
-        return self._whole.replaying
-
-    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
-        self._whole.add(record, outcome)
-        if self._close_up is not None and not self._close_up.done:
-            self._close_up.add(record, outcome)
-
-    def timelines(self, divergence: Divergence | None) -> tuple[Timeline, ...]:
-        """The close-up first, if there is one, then the whole session; both mark
-        ``divergence``."""
-        whole = self._whole.timeline(divergence)
-        if self._close_up is None:
-            return (whole,)
-        return self._close_up.timeline(divergence), whole

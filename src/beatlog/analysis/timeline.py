@@ -31,7 +31,8 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, System
-from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.core import CycleOutcome
+from beatlog.replay.session import ReplaySession
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 from beatlog.usercode import load_system
 
@@ -156,24 +157,16 @@ def build_timeline(
     """
     if isinstance(system, str):
         system = load_system(system)
-    with SessionLogReader(log) as reader:
-        replayer = None if system is None else Replayer(system, reader.header, reader.path)
+    with ReplaySession(log, system) as session:
         collector = TimelineCollector(
-            reader,
+            session.reader,
             system,
             fields=fields,
             expected=expected,
             buckets=max_points,
             window_ns=window_ns,
         )
-        for batch in reader.batches():
-            for record in batch:
-                outcome = (
-                    replayer.step(record) if replayer is not None and collector.replaying else None
-                )
-                collector.add(record, outcome)
-            if collector.done:
-                break
+        session.run([collector])
     return collector.timeline(divergence)
 
 
@@ -221,6 +214,11 @@ class TimelineCollector:
     def done(self) -> bool:
         """Whether the cycles added so far reach past the window: more change nothing."""
         return self.grid.end_ns is not None and self.time_ns >= self.grid.end_ns
+
+    @property
+    def reading(self) -> bool:
+        """Whether more cycles change the timeline."""
+        return not self.done
 
     @property
     def held(self) -> int:

@@ -29,20 +29,19 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import perception_problem
 from beatlog.replay.compare import WHOLE_STATE, Comparison, state_fields
-from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.core import CycleOutcome
+from beatlog.replay.session import ReplaySession
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
     "ABSENT",
     "Expectation",
     "OutputTracker",
-    "ReadTracker",
     "ReplayedTrace",
     "TraceCollector",
     "TracedChange",
     "TracedOutput",
     "TracedState",
-    "fields_read",
     "read_changes",
     "recorded_outputs",
     "recorded_states",
@@ -259,13 +258,9 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     Replay uses the recording's heartbeats, robot states and random numbers; it stops
     early when the behaviors raise or draw random numbers the log does not have.
     """
-    with SessionLogReader(log) as reader:
-        replayer = Replayer(system, reader.header, reader.path)
-        tracer = TraceCollector(replayer.executor.behavior_ids)
-        for outcome in replayer.outcomes(_records(reader)):
-            tracer.add(outcome)
-            if tracer.stopped is not None:
-                break
+    with ReplaySession(log, system) as session:
+        tracer = TraceCollector(session.behavior_ids)
+        session.run([tracer])
     return tracer.trace()
 
 
@@ -283,9 +278,19 @@ class TraceCollector:
         self.stopped: str | None = None
         """Why the trace stopped early, if it did."""
 
-    def add(self, outcome: CycleOutcome) -> None:
+    @property
+    def replaying(self) -> bool:
+        """Whether the trace goes on (replay has not stopped)."""
+        return self.stopped is None
+
+    @property
+    def reading(self) -> bool:
+        """Whether the trace needs more cycles."""
+        return self.stopped is None
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         """Add the next cycle's outcome (ignored once the trace has stopped)."""
-        if self.stopped is not None:
+        if self.stopped is not None or outcome is None:
             return
         self.stopped = _stop_reason(outcome)
         if self.stopped is not None:
@@ -337,44 +342,6 @@ def _stop_reason(outcome: CycleOutcome) -> str | None:
             f"{len(outcome.recorded_draws)} were recorded"
         )
     return None
-
-
-class ReadTracker:
-    """Stands in for a robot state and notes which fields the behaviors read."""
-
-    def __init__(self) -> None:
-        self._state: Any = None
-        self.read: dict[str, None] = {}
-
-    def stand_in(self, state: Any) -> ReadTracker:
-        """Stand in for ``state``."""
-        self._state = state
-        return self
-
-    def __getattr__(self, name: str) -> Any:
-        value = getattr(self._state, name)
-        self.read[name] = None
-        return value
-
-
-def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
-    """The robot-state fields a fresh ``system`` reads in ``cycle`` of ``log``, in order.
-
-    Replays the cycles before it as recorded; empty when replay cannot get there or
-    the behaviors do not accept the stand-in state.
-    """
-    with SessionLogReader(log) as reader:
-        replayer = Replayer(system, reader.header, reader.path)
-        records = _records(reader)
-        for record in itertools.islice(records, cycle):
-            if not replayer.step(record).completed:
-                return ()
-        diverging = next(records, None)
-        if diverging is None:
-            return ()
-        tracker = ReadTracker()
-        replayer.step(diverging, observe=tracker.stand_in)
-        return tuple(tracker.read)
 
 
 def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:

@@ -19,7 +19,7 @@ from typing import Any
 import msgspec
 
 from beatlog.analysis.renames import propose_renames
-from beatlog.analysis.trace import Expectation, fields_read
+from beatlog.analysis.trace import Expectation
 from beatlog.errors import CorruptLogError, EmptyCheckError
 from beatlog.log.format import (
     DECODE_ERRORS,
@@ -38,6 +38,7 @@ from beatlog.project import vouched_system
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.fit import check_state_fields
+from beatlog.replay.session import fields_read
 from beatlog.replay.verdict import (
     Checked,
     ContextRow,
