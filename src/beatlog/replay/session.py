@@ -12,9 +12,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from types import TracebackType
 from typing import Any, Protocol
 
+from beatlog.closing import Closing
 from beatlog.log.format import CycleRecord, SessionHeader
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
@@ -94,7 +94,7 @@ class FieldsRead:
         return tuple(self.tracker.read)
 
 
-class ReplaySession:
+class ReplaySession(Closing):
     """A log opened and checked once, and a system set up to replay it; a context manager.
 
     Building one reads the header and checks that the log fits the system
@@ -165,17 +165,6 @@ class ReplaySession:
         if self.replayer is None:
             return list(self.header.behaviors)
         return self.replayer.executor.behavior_ids
-
-    def __enter__(self) -> ReplaySession:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
