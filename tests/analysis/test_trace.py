@@ -7,15 +7,8 @@ import math
 import numpy as np
 
 from beatlog import replay
-from beatlog.analysis.trace import (
-    ABSENT,
-    Expectation,
-    OutputTracker,
-    TracedOutput,
-    recorded_outputs,
-    recorded_trace,
-    replayed_trace,
-)
+from beatlog.analysis.trace import recorded_outputs, recorded_trace, replayed_trace
+from beatlog.replay.expectation import ABSENT, Expectation, OutputTracker, TracedOutput
 from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
 from tests.specs import CHANGED

@@ -12,7 +12,7 @@ import pytest
 
 import beatlog
 from beatlog import DivergenceKind, StateChange, replay
-from beatlog.analysis.trace import Expectation, TracedChange, replayed_trace
+from beatlog.analysis.trace import replayed_trace
 from beatlog.errors import (
     CorruptLogError,
     EmptyCheckError,
@@ -28,6 +28,7 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog.replay.compare import Comparison
+from beatlog.replay.expectation import Expectation, TracedChange
 from beatlog.replay.verdict import Checked
 from tests.conftest import (
     PERIOD_NS,

@@ -8,8 +8,8 @@ from pathlib import Path
 import msgspec
 import pytest
 
-from beatlog.analysis.trace import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
 from beatlog.errors import BaselineError
+from beatlog.replay.expectation import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline import (
     expected_path,

@@ -11,6 +11,7 @@ import pytest
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replay.verdict import Checked, DivergenceKind
+from beatlog.report.figures import dtc_charts
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
@@ -122,15 +123,17 @@ def test_a_dtc_that_checks_nothing_is_an_error_unless_its_spec_intends_it(
     assert (intended.result.cycles, intended.result.checked) == (20, Checked())
 
 
-def test_charts_for_reports_are_drawn_only_when_asked(tmp_path: Path, log: Path) -> None:
+def test_timelines_for_reports_are_gathered_only_when_asked(tmp_path: Path, log: Path) -> None:
     passing = dtc(tmp_path, "avoid-pole", log)
     failing = dtc(tmp_path, "avoid-pole-earlier", log, CHANGED)
     lost = dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
 
-    assert run_spec(passing).charts == ()
-    (whole,) = run_spec(passing, SpecOptions(timelines=True)).charts
-    close_up, whole_failing = run_spec(failing, SpecOptions(timelines=True)).charts
-    assert run_spec(lost, SpecOptions(timelines=True)).charts == ()
+    assert run_spec(passing).timelines == ()
+    (whole,) = dtc_charts("avoid-pole", run_spec(passing, SpecOptions(timelines=True)).timelines)
+    close_up, whole_failing = dtc_charts(
+        "avoid-pole-earlier", run_spec(failing, SpecOptions(timelines=True)).timelines
+    )
+    assert run_spec(lost, SpecOptions(timelines=True)).timelines == ()
 
     assert "avoid-pole: the whole session, 300 cycles" in whole.svg
     assert "first divergence" not in whole.svg
@@ -303,7 +306,7 @@ def test_a_passing_dtc_is_charted_from_its_verdicts_own_replay(tmp_path: Path, l
     outcome = run_spec(spec, SpecOptions(timelines=True))
 
     assert outcome.verdict is Verdict.PASSED
-    assert len(outcome.charts) == 1
+    assert len(outcome.timelines) == 1
     assert CountingArbiter.replays == 1
 
 
@@ -318,7 +321,7 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
     assert outcome.result.divergence is not None
     assert outcome.result.divergence.fields_read == ("distance",)
     assert outcome.update is not None
-    assert len(outcome.charts) == 2
+    assert len(outcome.timelines) == 2
     assert CountingArbiter.replays == 2
 
 

@@ -43,7 +43,7 @@ def test_a_worker_imports_only_what_replay_needs(
         assert [m for m in modules if m == name or m.startswith(f"{name}.")] == [], name
 
 
-def test_a_worker_draws_the_charts_of_what_it_judged(
+def test_a_worker_gathers_the_timelines_of_what_it_judged(
     tmp_path: Path, record_probe: RecordFn, meeting: Path
 ) -> None:
     with Worker() as worker:
@@ -51,10 +51,10 @@ def test_a_worker_draws_the_charts_of_what_it_judged(
             spec(tmp_path, "alone", record_probe(30), ALONE), SpecOptions(timelines=True)
         )
 
-    (chart,) = outcome.charts
-    assert chart.svg.startswith("<svg")
-    assert "alone: the whole session, 30 cycles" in chart.svg
-    assert chart.states
+    (timeline,) = outcome.timelines
+    assert (timeline.cycles, timeline.replayed, timeline.divergence) == (30, True, None)
+    assert [lane.behavior for lane in timeline.lanes] == ["arbiter", "near", "dice"]
+    assert [lane.actual for lane in timeline.lanes] == [lane.expected for lane in timeline.lanes]
 
 
 def test_a_worker_replays_spec_after_spec_in_one_process(

@@ -1,11 +1,10 @@
 """What replays and logs tell beyond a verdict: whole-session traces, timelines for
-charts, rename proposals and a log's figures."""
+charts and a log's figures."""
 
 from beatlog.analysis.summary import LogSummary, summarize
-from beatlog.analysis.trace import Expectation, ReplayedTrace, recorded_trace, replayed_trace
+from beatlog.analysis.trace import ReplayedTrace, recorded_trace, replayed_trace
 
 __all__ = [
-    "Expectation",
     "LogSummary",
     "ReplayedTrace",
     "recorded_trace",

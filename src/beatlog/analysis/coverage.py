@@ -18,8 +18,9 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from beatlog.analysis.trace import TracedChange, read_changes
+from beatlog.analysis.trace import read_changes
 from beatlog.model.behavior import System
+from beatlog.replay.expectation import TracedChange
 
 __all__ = ["BehaviorCoverage", "Seen", "SuiteCoverage", "cover", "cover_changes", "declared_states"]
 

@@ -7,12 +7,11 @@ traced compactly: a field appears only in the cycles where its value changes.
 
 from __future__ import annotations
 
-import enum
 import itertools
-from collections.abc import Collection, Iterator, Mapping
+from collections.abc import Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import msgspec
 
@@ -23,25 +22,25 @@ from beatlog.log.format import (
     EMPTY_MAP,
     CycleRecord,
     StateChangeRecord,
-    payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import perception_problem
 from beatlog.replay.compare import WHOLE_STATE, Comparison, state_fields
 from beatlog.replay.core import CycleOutcome
+from beatlog.replay.expectation import (
+    Expectation,
+    OutputTracker,
+    TracedChange,
+    TracedOutput,
+    TracedState,
+)
 from beatlog.replay.session import ReplaySession
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
-    "ABSENT",
-    "Expectation",
-    "OutputTracker",
     "ReplayedTrace",
     "TraceCollector",
-    "TracedChange",
-    "TracedOutput",
-    "TracedState",
     "read_changes",
     "recorded_outputs",
     "recorded_states",
@@ -51,114 +50,6 @@ __all__ = [
 
 
 _EXACT = Comparison()
-
-
-class TracedChange(NamedTuple):
-    """A state change at a cycle of the session."""
-
-    cycle: int
-    time_ns: int
-    change: StateChange
-
-
-class _Absent(enum.Enum):
-    ABSENT = "absent"
-
-    def __repr__(self) -> str:
-        return "ABSENT"
-
-
-ABSENT = _Absent.ABSENT
-"""The value of a :class:`TracedOutput` whose field is no longer output from that cycle on."""
-
-
-class TracedOutput(NamedTuple):
-    """An output field that took a new value (or went :data:`ABSENT`) at a cycle."""
-
-    cycle: int
-    time_ns: int
-    field: str
-    value: Any
-
-
-class TracedState(NamedTuple):
-    """A robot-state field that the perception step rebuilt differently from the
-    recorded RS_t at a cycle, with the value it rebuilt."""
-
-    cycle: int
-    time_ns: int
-    field: str
-    value: Any
-
-
-class OutputTracker:
-    """Turns each cycle's outputs into the fields whose value changed, bit for bit.
-
-    Values are kept as they read back from a log (numpy arrays become lists), so a
-    trace of replayed outputs equals the trace of the same outputs recorded.
-    """
-
-    def __init__(self) -> None:
-        self._encode = payload_encoder().encode
-        self._sorted = msgspec.msgpack.Encoder(enc_hook=payload_encoder().enc_hook, order="sorted")
-        self._current: dict[str, bytes] = {}
-
-    def observe(self, cycle: int, time_ns: int, outputs: Mapping[str, Any]) -> list[TracedOutput]:
-        """The changes in ``outputs`` since the previous cycle observed."""
-        current = self._current
-        changed: list[TracedOutput] = []
-        if outputs:
-            values = msgspec.msgpack.decode(self._encode(outputs))
-            for name in sorted(values):
-                encoded = self._sorted.encode(values[name])
-                if current.get(name) != encoded:
-                    current[name] = encoded
-                    changed.append(TracedOutput(cycle, time_ns, name, values[name]))
-        for name in sorted(current.keys() - outputs.keys()):
-            del current[name]
-            changed.append(TracedOutput(cycle, time_ns, name, ABSENT))
-        return changed
-
-
-@dataclass(frozen=True)
-class Expectation:
-    """What replay judges against instead of the recording: an approved baseline.
-
-    ``outputs`` pins the outputs as compact changes (see :class:`OutputTracker`); None
-    (a baseline from before outputs were pinned) leaves them judged against the recording.
-    ``robot_states`` pins, for sensor-level replay, the robot states an intended
-    perception change rebuilds: the fields that differ from the recorded RS_t, in the
-    cycles where they do (none: perception rebuilds the recording).
-    """
-
-    changes: tuple[TracedChange, ...]
-    outputs: tuple[TracedOutput, ...] | None = None
-    robot_states: tuple[TracedState, ...] = ()
-
-    def changes_by_cycle(self) -> dict[int, list[StateChange]]:
-        """The state changes grouped by cycle."""
-        grouped: dict[int, list[StateChange]] = {}
-        for traced in self.changes:
-            grouped.setdefault(traced.cycle, []).append(traced.change)
-        return grouped
-
-    def states_by_cycle(self) -> dict[int, dict[str, Any]]:
-        """The pinned robot-state fields grouped by cycle."""
-        grouped: dict[int, dict[str, Any]] = {}
-        for traced in self.robot_states:
-            grouped.setdefault(traced.cycle, {})[traced.field] = traced.value
-        return grouped
-
-    def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
-        """Each cycle where an output changes, with every output field from then on."""
-        current: dict[str, Any] = {}
-        for cycle, changes in itertools.groupby(self.outputs or (), key=lambda o: o.cycle):
-            for change in changes:
-                if change.value is ABSENT:
-                    current.pop(change.field, None)
-                else:
-                    current[change.field] = change.value
-            yield cycle, dict(current)
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.replay.compare import Comparison
+    from beatlog.replay.expectation import Expectation
     from beatlog.replay.judge import replay
     from beatlog.replay.verdict import (
         Checked,
@@ -27,6 +28,7 @@ __all__ = [
     "Divergence",
     "DivergenceKind",
     "DrawReport",
+    "Expectation",
     "ReplayResult",
     "StateChange",
     "replay",
@@ -40,6 +42,7 @@ __getattr__ = lazy_names(
         "Divergence": "beatlog.replay.verdict",
         "DivergenceKind": "beatlog.replay.verdict",
         "DrawReport": "beatlog.replay.verdict",
+        "Expectation": "beatlog.replay.expectation",
         "ReplayResult": "beatlog.replay.verdict",
         "StateChange": "beatlog.replay.verdict",
         "replay": "beatlog.replay.judge",

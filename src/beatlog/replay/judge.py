@@ -18,8 +18,6 @@ from typing import Any
 
 import msgspec
 
-from beatlog.analysis.renames import propose_renames
-from beatlog.analysis.trace import Expectation
 from beatlog.errors import CorruptLogError, EmptyCheckError
 from beatlog.log.format import (
     DECODE_ERRORS,
@@ -37,7 +35,9 @@ from beatlog.model.random import Draw, plain_value
 from beatlog.project import vouched_system
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_state_fields
+from beatlog.replay.renames import propose_renames
 from beatlog.replay.session import fields_read
 from beatlog.replay.verdict import (
     Checked,

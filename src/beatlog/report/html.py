@@ -19,7 +19,7 @@ from beatlog.files import replacing
 from beatlog.replay.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
-from beatlog.report.figures import Chart
+from beatlog.report.figures import Chart, dtc_charts
 from beatlog.report.palette import state_styles
 from beatlog.suite.runner import SpecOutcome
 
@@ -78,29 +78,31 @@ def render_html(
 ) -> str:
     """The report as a string: a summary, a section per DTC, then the coverage if given."""
     counts = verdict_counts(outcome.verdict for outcome in outcomes)
+    charts = [dtc_charts(outcome.spec.name, outcome.timelines) for outcome in outcomes]
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
         f"<title>{_e(title)}: {_e(counts)}</title>",
-        f"<style>{_CSS}{_state_styles(outcomes)}</style></head><body>",
+        f"<style>{_CSS}{_state_styles(charts)}</style></head><body>",
         f"<h1>{_e(title)}</h1>",
         f'<p class="counts">{_e(counts)}, {_cycles(outcomes)} cycles replayed '
         f"(beatlog {_e(__version__)})</p>",
         _summary_table(outcomes),
     ]
-    parts.extend(_section(index, outcome) for index, outcome in enumerate(outcomes, start=1))
+    parts.extend(
+        _section(index, outcome, drawn)
+        for index, (outcome, drawn) in enumerate(zip(outcomes, charts, strict=True), start=1)
+    )
     if coverage is not None:
         parts.append(coverage_html(coverage))
     parts.append("</body></html>\n")
     return "\n".join(parts)
 
 
-def _state_styles(outcomes: Sequence[SpecOutcome]) -> str:
+def _state_styles(charts: Sequence[Sequence[Chart]]) -> str:
     """One colour per state in every chart of the page, by first appearance in it."""
-    return state_styles(
-        label for outcome in outcomes for chart in outcome.charts for label in chart.states
-    )
+    return state_styles(label for drawn in charts for chart in drawn for label in chart.states)
 
 
 def _e(value: object) -> str:
@@ -144,7 +146,7 @@ def _row(cells: Iterable[str], *, cell: str = "td", css: str = "") -> str:
     return f"<tr{attribute}>" + "".join(f"<{cell}>{c}</{cell}>" for c in cells) + "</tr>"
 
 
-def _section(index: int, outcome: SpecOutcome) -> str:
+def _section(index: int, outcome: SpecOutcome, charts: Sequence[Chart]) -> str:
     spec = outcome.spec
     verdict = outcome.verdict
     parts = [
@@ -160,7 +162,7 @@ def _section(index: int, outcome: SpecOutcome) -> str:
             parts.append(f'<pre class="traceback">{_e(outcome.error_traceback)}</pre>')
     elif result.divergence is not None:
         parts.append(_divergence(result.divergence, rerun))
-    parts.extend(_figure(chart) for chart in outcome.charts)
+    parts.extend(_figure(chart) for chart in charts)
     if result is not None and result.divergence is not None:
         parts.append(_details(result.divergence))
     facts = [

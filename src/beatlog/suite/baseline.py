@@ -45,16 +45,10 @@ from typing import Any
 
 import msgspec
 
-from beatlog.analysis.trace import (
-    ABSENT,
-    Expectation,
-    TracedChange,
-    TracedOutput,
-    TracedState,
-)
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import DECODE_ERRORS
+from beatlog.replay.expectation import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.spec import SPEC_SUFFIX
 

@@ -6,9 +6,10 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from beatlog.analysis.coverage import SuiteCoverage, cover_changes
-from beatlog.analysis.trace import TracedChange, read_changes
+from beatlog.analysis.trace import read_changes
 from beatlog.errors import BeatlogError, LogError, OptionError, RemoteLogError
 from beatlog.model.behavior import System
+from beatlog.replay.expectation import TracedChange
 from beatlog.replay.judge import recorded_system
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import load_system

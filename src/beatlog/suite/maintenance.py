@@ -18,16 +18,10 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from beatlog.analysis.trace import (
-    Expectation,
-    TracedChange,
-    TracedState,
-    recorded_outputs,
-    recorded_states,
-    recorded_trace,
-)
+from beatlog.analysis.trace import recorded_outputs, recorded_states, recorded_trace
 from beatlog.errors import BaselineError, OptionError
 from beatlog.replay.compare import Comparison
+from beatlog.replay.expectation import Expectation, TracedChange, TracedState
 from beatlog.suite.baseline import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,

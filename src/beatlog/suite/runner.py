@@ -16,9 +16,10 @@ from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.analysis.trace import Expectation, ReplayedTrace
+from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.remote import named_as_given
+from beatlog.replay.expectation import Expectation
 from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
@@ -30,10 +31,9 @@ from beatlog.usercode import importable_near, load_perception, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
-    from beatlog.analysis.timeline import TimelineCollector
+    from beatlog.analysis.timeline import Timeline, TimelineCollector
     from beatlog.audit.replays import AuditReport
     from beatlog.model.behavior import System
-    from beatlog.report.figures import Chart
 
 __all__ = ["Executor", "SpecOutcome", "Verdict", "run_spec", "run_suite"]
 
@@ -68,9 +68,10 @@ class SpecOutcome:
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
     """The determinism audit, when one was asked for and the DTC could run."""
-    charts: tuple[Chart, ...] = ()
-    """Charts of what it did (a close-up of the first divergence, if any, then the whole
-    session), drawn where it was judged, when the suite was run with ``timelines``."""
+    timelines: tuple[Timeline, ...] = ()
+    """Timelines of what it did (a close-up of the first divergence, if any, then the
+    whole session), gathered where it was judged, when the suite was run with
+    ``timelines``; reports draw them."""
     error_traceback: str | None = None
     """The traceback of the user's code behind the error, when their code raised it."""
     retries: int = 0
@@ -199,7 +200,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
             report = audit_replay(spec.log, system, allow_truncated=spec.allow_truncated)
-        drawn = _charts(spec, collector, details)
+        drawn = _timelines(collector, details)
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
@@ -215,7 +216,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         update=changes,
         update_refused=refused,
         audit=report,
-        charts=drawn,
+        timelines=drawn,
         log_digest=digest,
     )
 
@@ -247,17 +248,15 @@ def _collector(
     return loaded, collector
 
 
-def _charts(
-    spec: DtcSpec, collector: TimelineCollector | None, details: Details | None
-) -> tuple[Chart, ...]:
-    """The DTC's charts: from the details of a failure, else from the verdict's replay."""
+def _timelines(
+    collector: TimelineCollector | None, details: Details | None
+) -> tuple[Timeline, ...]:
+    """The DTC's timelines: from the details of a failure, else from the verdict's replay."""
     if collector is None:
         return ()
-    from beatlog.report.figures import dtc_charts  # noqa: PLC0415 - when charting
-
     if details is not None and details.timelines:
-        return dtc_charts(spec.name, details.timelines)
-    return dtc_charts(spec.name, (collector.timeline(None),))
+        return details.timelines
+    return (collector.timeline(None),)
 
 
 def _details(

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from beatlog.analysis.renames import propose_renames
+from beatlog.replay.renames import propose_renames
 from beatlog.replay.verdict import StateChange as C
 
 
