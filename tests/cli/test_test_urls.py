@@ -11,6 +11,7 @@ import pytest
 
 from beatlog.suite.baseline import pending_path
 from tests.commands import Beatlog
+from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE, write_spec
 
@@ -113,3 +114,20 @@ def test_a_log_behind_a_url_that_is_no_log_is_named_by_its_url(
         f"beatlog: error: broken ({suite / 'broken.dtc.toml'}): {served.url}/broken.beatlog: "
     )
     assert "beatlog-remote-" not in run.err
+
+
+def test_a_spec_allowing_truncation_fails_on_a_log_url_cut_off(
+    beatlog: Beatlog, served: LogServer, suite: Path, record_chunked: RecordFn
+) -> None:
+    record_chunked(300, name="served/long.beatlog")
+    url = f"{served.url}/cut-close/long.beatlog"
+    write_spec(suite, "long", url, allow_truncated=True)
+
+    run = beatlog("test", suite / "long.dtc.toml")
+
+    assert run.code == 2
+    assert run.err == (
+        f"beatlog: error: long ({suite / 'long.dtc.toml'}): {url}: the server sent neither "
+        "its length nor a chunked body: a download cut off could not be told from the whole "
+        "log\n"
+    )

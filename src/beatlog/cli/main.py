@@ -888,16 +888,17 @@ def _export(args: argparse.Namespace, console: Console) -> int:
 @contextlib.contextmanager
 def _readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
     """``args.log`` as a file of this machine while the block runs: a log behind a URL
-    is copied once (:func:`beatlog.remote.fetched_log`) and ``args.log`` names the copy,
-    which is removed after. The block is given a function that names the copy by its
-    URL in a text, and errors raised in it are named so too; None for a local log."""
+    is copied once (:func:`beatlog.remote.fetched_log`, with a progress bar on a
+    terminal) and ``args.log`` names the copy, which is removed after. The block is
+    given a function that names the copy by its URL in a text, and errors raised in it
+    are named so too; None for a local log."""
     from beatlog.remote import fetched_log, is_url, named_as_given
 
     url = str(args.log)
     if not is_url(url):
         yield None
         return
-    with fetched_log(url) as copy:
+    with fetched_log(url, progress=True) as copy:
         args.log = copy
         try:
             yield functools.partial(named_as_given, copy=copy, url=url)
