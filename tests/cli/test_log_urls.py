@@ -6,18 +6,20 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 from pathlib import Path
 
 import pytest
 
-from beatlog.remote import TIMEOUT_VARIABLE
+from beatlog.remote import MAX_BYTES_VARIABLE, TIMEOUT_VARIABLE
 from tests.commands import (
     Beatlog,
     Run,
     assert_one_line_error,
     beatlog_process,
     plain,
+    signalled,
 )
 from tests.conftest import RecordFn
 from tests.served import LogServer
@@ -194,3 +196,22 @@ def test_show_draws_a_big_download_s_progress_on_a_terminal(
     assert run.out.split()[:2] == ["log", url]
     drawn = [line for line in plain(run.err).split("\r") if line.startswith("dock.beatlog ━")]
     assert drawn, run.err
+
+
+def test_sigterm_stops_a_download_and_removes_its_copy(served: LogServer, tmp_path: Path) -> None:
+    temporary = tmp_path / "temporary"
+    temporary.mkdir()
+    env = {**os.environ, "TMPDIR": str(temporary), MAX_BYTES_VARIABLE: str(1 << 40)}
+
+    def downloading() -> bool:
+        return any(temporary.glob("beatlog-remote-*/dock.beatlog"))
+
+    run = signalled(
+        ["replay", f"{served.url}/endless/dock.beatlog", "--system", PROBE],
+        downloading,
+        signal.SIGTERM,
+        env=env,
+    )
+
+    assert run == Run(143, "", "beatlog: terminated\n")
+    assert list(temporary.iterdir()) == []
