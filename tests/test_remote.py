@@ -271,3 +271,13 @@ def test_a_url_without_fsspec_says_what_to_install(monkeypatch: pytest.MonkeyPat
     assert str(raised.value) == (
         's3://bucket/a.beatlog: a URL needs fsspec (pip install "beatlog[fleet]")'
     )
+
+
+def test_an_http_url_without_aiohttp_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "aiohttp", None)
+    url = "http://127.0.0.1:9/dock.beatlog"
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value) == f"{url}: cannot open: import of aiohttp halted; None in sys.modules"

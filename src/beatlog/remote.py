@@ -117,10 +117,10 @@ def _filesystem(url: str, *, streaming: bool) -> tuple[Any, str]:
         from fsspec.core import url_to_fs  # noqa: PLC0415 - an optional dependency
     except ModuleNotFoundError:
         raise RemoteLogError(url, 'a URL needs fsspec (pip install "beatlog[fleet]")') from None
-    options = {}
-    if urlsplit(url).scheme in _HTTP:
-        options["client_kwargs"] = _http_client_options(url, streaming=streaming)
     try:
+        options = {}
+        if urlsplit(url).scheme in _HTTP:
+            options["client_kwargs"] = _http_client_options(url, streaming=streaming)
         filesystem, path = url_to_fs(url, **options)
     except (ImportError, ValueError) as exc:  # ImportError: a backend's package
         raise RemoteLogError(url, f"cannot open: {exc}") from None
