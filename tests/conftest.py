@@ -17,7 +17,6 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
-from beatlog.remote import TIMEOUT_VARIABLE
 from tests.served import LogServer, serve
 
 pytest_plugins = ["pytester"]
@@ -122,13 +121,6 @@ def served(tmp_path: Path, record_probe: RecordFn) -> Iterator[LogServer]:
     record_probe(200, name="served/yard.beatlog")
     with serve(tmp_path / "served") as server:
         yield server
-
-
-@pytest.fixture
-def short_url_timeout(monkeypatch: pytest.MonkeyPatch) -> float:
-    """A download that waits gives up within a second (``BEATLOG_URL_TIMEOUT``)."""
-    monkeypatch.setenv(TIMEOUT_VARIABLE, "1")
-    return 1.0
 
 
 @pytest.fixture
