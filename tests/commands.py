@@ -1,12 +1,22 @@
-"""Running ``beatlog`` commands in process, and the checks every command test shares."""
+"""Running ``beatlog`` commands in process or stopped by a signal, and the checks every
+command test shares."""
 
 from __future__ import annotations
 
+import os
+import re
+import signal
+import subprocess
 import sys
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import NamedTuple
 
 import pytest
+
+ROOT = Path(__file__).parents[1]
+_ESCAPE = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
 
 class Run(NamedTuple):
@@ -32,6 +42,12 @@ def assert_one_line_error(run: Run, *fragments: str) -> None:
         assert fragment in run.err
 
 
+def plain(text: str) -> str:
+    """What a terminal shows of ``text``: without its escape sequences (colours, cursor
+    moves)."""
+    return _ESCAPE.sub("", text)
+
+
 def hide_matplotlib(monkeypatch: pytest.MonkeyPatch) -> None:
     """Make ``import matplotlib`` fail as it does where the plot extra is not installed."""
     for name in [name for name in sys.modules if name.startswith("matplotlib")]:
@@ -39,3 +55,79 @@ def hide_matplotlib(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     for name in ("beatlog.report.chart", "beatlog.report.html"):
         monkeypatch.delitem(sys.modules, name, raising=False)
+
+
+def beatlog_process(args: Sequence[str | Path], *, env: Mapping[str, str]) -> Run:
+    """Run ``beatlog ARGS`` in a process of its own with ``env``; a command that hangs
+    fails the test."""
+    done = subprocess.run(
+        [sys.executable, "-m", "beatlog.cli.main", *(str(arg) for arg in args)],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    return Run(done.returncode, done.stdout, done.stderr)
+
+
+def wait_until(condition: Callable[[], bool], timeout_s: float) -> bool:
+    """Whether ``condition()`` came to hold within ``timeout_s`` seconds."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+def live_members(group: int) -> list[int]:
+    """The processes of a process group that still run (zombies left out)."""
+    members = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rpartition(")")[2].split()
+        except OSError:  # the process ended while we looked
+            continue
+        if int(fields[2]) == group and fields[0] != "Z":
+            members.append(int(stat.parent.name))
+    return members
+
+
+def signalled(
+    args: Sequence[str | Path],
+    ready: Callable[[], bool],
+    signum: int,
+    *,
+    env: Mapping[str, str],
+    group: bool = False,
+) -> Run:
+    """Run ``beatlog ARGS`` in a process group of its own with ``env``, send it
+    ``signum`` once ``ready()`` holds (to the whole group with ``group``, as a terminal
+    sends Ctrl-C), and collect how it ended; a command that hangs, or leaves processes
+    of its group running, fails the test."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "beatlog.cli.main", *(str(arg) for arg in args)],
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        started = wait_until(lambda: ready() or process.poll() is not None, 120)
+        assert started, "beatlog never got to work"
+        assert process.poll() is None, process.communicate()
+        if group:
+            os.killpg(process.pid, signum)
+        else:
+            process.send_signal(signum)
+        out, err = process.communicate(timeout=10)
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.communicate()
+    assert wait_until(lambda: not live_members(process.pid), 10), "children outlived it"
+    return Run(process.returncode, out, err)

@@ -103,7 +103,7 @@ def test_a_bad_spec_is_a_collection_error_naming_the_key(pytester: pytest.Pytest
     pytester.makefile(".dtc.toml", broken='name = "x"\npurpose = "y"\n')
     result = pytester.runpytest()
     result.assert_outcomes(errors=1)
-    result.stdout.fnmatch_lines(["*broken.dtc.toml: missing key 'procedure'*"])
+    result.stdout.fnmatch_lines(["*broken.dtc.toml: missing keys 'procedure', 'log'"])
     result.stdout.no_fnmatch_line("*Traceback*")
 
 

@@ -1,9 +1,13 @@
-"""Logs behind URLs: copied whole, within a bound, by the process that reads them and
-removed after; sized without being read; every problem one line naming the URL."""
+"""Logs behind URLs: copied whole, within bounds of size, waiting and rate, by the
+process that reads them and removed after; never a partial copy; sized without being
+read; every problem one line naming the URL."""
 
 from __future__ import annotations
 
+import io
+import re
 import sys
+import tempfile
 import tomllib
 from collections.abc import Iterator
 from pathlib import Path
@@ -13,8 +17,28 @@ import pytest
 from packaging.requirements import Requirement
 
 from beatlog.errors import RemoteLogError
-from beatlog.remote import fetched_log, is_url, log_size, url_name
+from beatlog.remote import (
+    MAX_BYTES_VARIABLE,
+    TIMEOUT_VARIABLE,
+    fetched_log,
+    is_url,
+    log_size,
+    url_name,
+)
+from tests.commands import plain
 from tests.served import LogServer
+
+UNFRAMED = (
+    "the server sent neither its length nor a chunked body: "
+    "a download cut off could not be told from the whole log"
+)
+
+
+class Terminal(io.StringIO):
+    """A stderr that says it is a terminal."""
+
+    def isatty(self) -> bool:
+        return True
 
 
 @pytest.fixture
@@ -80,11 +104,131 @@ def test_a_log_is_copied_from_a_server_that_serves_no_byte_ranges(served: LogSer
     assert served.downloads("big.beatlog") == 1
 
 
+@pytest.fixture
+def temporary(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The folder temporary copies go to in this test."""
+    folder = tmp_path / "temporary"
+    folder.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(folder))
+    return folder
+
+
 def test_a_log_larger_than_the_bound_is_refused(memory: str) -> None:
     with pytest.raises(RemoteLogError) as raised, fetched_log(memory, max_bytes=100):
         pass
 
-    assert str(raised.value) == f"{memory}: larger than the 100 bytes a log behind a URL may have"
+    assert str(raised.value) == (
+        f"{memory}: larger than the 100 bytes a log behind a URL may have (BEATLOG_URL_MAX_BYTES)"
+    )
+
+
+def test_an_endless_log_is_refused_at_the_bound_the_environment_sets(
+    served: LogServer, temporary: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv(MAX_BYTES_VARIABLE, "1000000")
+    url = f"{served.url}/endless/dock.beatlog"
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value) == (
+        f"{url}: larger than the 1000000 bytes a log behind a URL may have (BEATLOG_URL_MAX_BYTES)"
+    )
+    assert list(temporary.iterdir()) == []
+
+
+@pytest.mark.parametrize("way", ["cut-length", "cut-chunked"])
+def test_a_download_cut_off_where_the_server_said_its_end_is_an_error(
+    served: LogServer, temporary: Path, way: str
+) -> None:
+    url = f"{served.url}/{way}/dock.beatlog"
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value).startswith(f"{url}: cannot copy: Response payload is not completed")
+    assert "\n" not in str(raised.value)
+    assert list(temporary.iterdir()) == []
+
+
+def test_a_download_shorter_than_the_size_listed_is_an_error(served: LogServer) -> None:
+    url = f"{served.url}/cut-listed/dock.beatlog"
+    size = (served.folder / "dock.beatlog").stat().st_size
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value) == (
+        f"{url}: download cut off or changed: {size // 2} of its {size} bytes"
+    )
+
+
+@pytest.mark.parametrize("way", ["cut-close", "close"])
+def test_a_body_that_ends_where_the_connection_does_is_refused(served: LogServer, way: str) -> None:
+    url = f"{served.url}/{way}/dock.beatlog"
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value) == f"{url}: {UNFRAMED}"
+
+
+def test_a_chunked_body_is_copied_whole(served: LogServer) -> None:
+    with fetched_log(f"{served.url}/chunked/dock.beatlog") as copy:
+        assert copy.read_bytes() == (served.folder / "dock.beatlog").read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("variable", "value", "problem"),
+    [
+        (TIMEOUT_VARIABLE, "soon", "BEATLOG_URL_TIMEOUT=soon: not a number of seconds above 0"),
+        (TIMEOUT_VARIABLE, "0", "BEATLOG_URL_TIMEOUT=0: not a number of seconds above 0"),
+        (TIMEOUT_VARIABLE, "nan", "BEATLOG_URL_TIMEOUT=nan: not a number of seconds above 0"),
+        (MAX_BYTES_VARIABLE, "1e9", "BEATLOG_URL_MAX_BYTES=1e9: not a number of bytes above 0"),
+        (MAX_BYTES_VARIABLE, "-1", "BEATLOG_URL_MAX_BYTES=-1: not a number of bytes above 0"),
+    ],
+)
+def test_a_bound_the_environment_gets_wrong_is_named(
+    served: LogServer,
+    monkeypatch: pytest.MonkeyPatch,
+    variable: str,
+    value: str,
+    problem: str,
+) -> None:
+    monkeypatch.setenv(variable, value)
+    url = f"{served.url}/dock.beatlog"
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value) == f"{url}: {problem}"
+
+
+def test_a_big_download_shows_its_progress_on_a_terminal(
+    served: LogServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (served.folder / "big.beatlog").write_bytes(b"x" * 100_000)
+    monkeypatch.setattr("beatlog.remote.PROGRESS_BYTES", 50_000)
+    monkeypatch.setattr(sys, "stderr", stderr := Terminal())
+
+    with fetched_log(f"{served.url}/big.beatlog", progress=True):
+        pass
+
+    last = plain(stderr.getvalue()).split("\r")[-2].rstrip("\n")
+    assert re.fullmatch(r"big\.beatlog ━+ 100\.0/100\.0 kB .+", last), last
+
+
+@pytest.mark.parametrize(("progress", "terminal"), [(True, False), (False, True)])
+def test_a_download_shows_no_progress_off_a_terminal_or_unasked(
+    served: LogServer, monkeypatch: pytest.MonkeyPatch, progress: bool, terminal: bool
+) -> None:
+    monkeypatch.setattr("beatlog.remote.PROGRESS_BYTES", 0)
+    monkeypatch.setattr(sys, "stderr", stderr := Terminal() if terminal else io.StringIO())
+
+    with fetched_log(f"{served.url}/dock.beatlog", progress=progress):
+        pass
+
+    assert stderr.getvalue() == ""
 
 
 def test_a_log_not_found_is_named(served: LogServer) -> None:
@@ -137,3 +281,13 @@ def test_the_fleet_extra_brings_what_http_urls_need() -> None:
     fleet = [Requirement(line) for line in extras["optional-dependencies"]["fleet"]]
 
     assert [(req.name, req.extras) for req in fleet] == [("fsspec", {"http"})]
+
+
+def test_an_http_url_without_aiohttp_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "aiohttp", None)
+    url = "http://127.0.0.1:9/dock.beatlog"
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value) == f"{url}: cannot open: import of aiohttp halted; None in sys.modules"

@@ -2,25 +2,44 @@
 ``memory://``), where fsspec is installed (``pip install "beatlog[fleet]"``).
 
 The reader needs a regular, seekable file, so the process that reads a log behind a
-URL copies it whole into a temporary folder of its own machine first, up to a bound
-(:func:`fetched_log`), and removes the copy when done; nothing else downloads it.
-Planning work (splitting a suite into shards) asks only for its size (:func:`log_size`).
+URL copies it whole into a temporary folder of its own machine first
+(:func:`fetched_log`), and removes the copy when done, interrupted or not; nothing else
+downloads it. Planning work (splitting a suite into shards) asks only for its size
+(:func:`log_size`).
+
+A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
+(:data:`MAX_LOG_BYTES` unless set). Over ``http(s)`` a server must connect, and send
+each next bytes, within ``BEATLOG_URL_TIMEOUT`` seconds (:data:`TIMEOUT_S` unless set),
+and answer a size or a listing whole within it. Once a download of any scheme has run
+that long it must average :data:`MIN_RATE` bytes a second, so that a trickle ends too.
+A download that does not end cleanly (cut off, a size other than the one listed, or a
+server that says neither its length nor where its body ends) is an error: no partial
+copy reaches the reader.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
+import os
 import re
+import sys
 import tempfile
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path, PurePosixPath
-from typing import Any
+from typing import Any, NamedTuple, TypeVar
 from urllib.parse import quote, unquote, urlsplit, urlunsplit
 
 from beatlog.errors import RemoteLogError, first_line
 
 __all__ = [
+    "MAX_BYTES_VARIABLE",
     "MAX_LOG_BYTES",
+    "MIN_RATE",
+    "PROGRESS_BYTES",
+    "TIMEOUT_S",
+    "TIMEOUT_VARIABLE",
     "fetched_log",
     "http_quoted",
     "is_url",
@@ -30,10 +49,25 @@ __all__ = [
     "url_name",
 ]
 
-MAX_LOG_BYTES = 4 << 30
-"""The largest log copied from a URL: far more than hours of recording."""
+MAX_LOG_BYTES = 256 << 20
+"""The largest log copied from a URL, unless ``BEATLOG_URL_MAX_BYTES`` says otherwise:
+about two days of the reference dog's recording."""
+MAX_BYTES_VARIABLE = "BEATLOG_URL_MAX_BYTES"
+"""The environment variable that sets the largest log copied from a URL, in bytes."""
+TIMEOUT_S = 30.0
+"""How long a server may keep a download waiting, unless ``BEATLOG_URL_TIMEOUT`` says
+otherwise."""
+TIMEOUT_VARIABLE = "BEATLOG_URL_TIMEOUT"
+"""The environment variable that sets how long a server may keep a download waiting,
+in seconds."""
+MIN_RATE = 64 << 10
+"""Bytes a second a download must average once it has run longer than its timeout."""
+PROGRESS_BYTES = 8 << 20
+"""Bytes downloaded after which a download shows its progress, where it may."""
+Number = TypeVar("Number", int, float)
 _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _BLOCK = 1 << 20
+_HTTP = ("http", "https")
 
 
 def is_url(text: str) -> bool:
@@ -66,34 +100,56 @@ def http_quoted(url: str) -> str:
 
 
 def url_filesystem(url: str) -> tuple[Any, str]:
-    """The fsspec filesystem behind ``url``, and the URL's path on it.
+    """The fsspec filesystem behind ``url``, and the URL's path on it; over ``http(s)``
+    each request (a size, a listing) ends within ``BEATLOG_URL_TIMEOUT``.
 
     :raises RemoteLogError: fsspec is not installed, or knows no such URL (an unknown
-        scheme, or one whose backend's package is missing).
+        scheme, or one whose backend's package is missing), or ``BEATLOG_URL_TIMEOUT``
+        holds no number.
     """
+    return _filesystem(url, streaming=False)
+
+
+def _filesystem(url: str, *, streaming: bool) -> tuple[Any, str]:
+    """:func:`url_filesystem`; ``streaming``: for a download, whose requests have no
+    total timeout over ``http(s)`` (the download's own bounds end it)."""
     try:
         from fsspec.core import url_to_fs  # noqa: PLC0415 - an optional dependency
     except ModuleNotFoundError:
         raise RemoteLogError(url, 'a URL needs fsspec (pip install "beatlog[fleet]")') from None
     try:
-        filesystem, path = url_to_fs(url)
+        options = {}
+        if urlsplit(url).scheme in _HTTP:
+            options["client_kwargs"] = _http_client_options(url, streaming=streaming)
+        filesystem, path = url_to_fs(url, **options)
     except (ImportError, ValueError) as exc:  # ImportError: a backend's package
         raise RemoteLogError(url, f"cannot open: {exc}") from None
     return filesystem, path
 
 
 @contextlib.contextmanager
-def fetched_log(url: str, max_bytes: int = MAX_LOG_BYTES) -> Iterator[Path]:
+def fetched_log(
+    url: str, max_bytes: int | None = None, *, progress: bool = False
+) -> Iterator[Path]:
     """A copy of the log behind ``url`` in a temporary folder of this machine, under the
-    URL's file name, removed on exit.
+    URL's file name, removed on exit (an exception, Ctrl-C included, is an exit).
+
+    ``max_bytes`` bounds the copy (``BEATLOG_URL_MAX_BYTES``, or :data:`MAX_LOG_BYTES`,
+    unless given). With ``progress``, a download past :data:`PROGRESS_BYTES` shows a bar
+    on stderr where stderr is a terminal.
 
     :raises RemoteLogError: the URL needs fsspec, or the log cannot be copied (missing,
-        unreachable) or is larger than ``max_bytes``.
+        unreachable, too slow, cut off) or is larger than the bound; or a bound's
+        environment variable holds no number.
     """
-    filesystem, path = url_filesystem(url)
+    if max_bytes is None:
+        max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
+    timeout = _timeout(url)
+    filesystem, path = _filesystem(url, streaming=True)
     with tempfile.TemporaryDirectory(prefix="beatlog-remote-") as folder:
         copy = Path(folder, url_name(url))
-        _copy(filesystem, path, copy, url, max_bytes)
+        with _progress_bar(url_name(url), shown=progress) as meter:
+            _copy(filesystem, path, copy, url, _Bounds(max_bytes, timeout, meter))
         yield copy
 
 
@@ -116,33 +172,71 @@ def log_size(url: str) -> int | None:
     except FileNotFoundError as exc:
         raise _not_found(url, exc, "cannot read its size") from None
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise RemoteLogError(url, f"cannot read its size: {first_line(exc)}") from None
+        raise _failed(url, exc, "cannot read its size") from None
     return None if size is None else int(size)
 
 
-def _copy(filesystem: Any, path: str, copy: Path, url: str, max_bytes: int) -> None:
-    """Copy one remote log, refusing it once it passes ``max_bytes``."""
-    too_big = f"larger than the {max_bytes} bytes a log behind a URL may have"
+class _Bounds(NamedTuple):
+    """What a download may take (bytes, and seconds of waiting), and what to tell of its
+    progress (the bytes copied so far and the size, None where unknown)."""
+
+    max_bytes: int
+    timeout: float
+    meter: Callable[[int, int | None], None]
+
+
+def _copy(filesystem: Any, path: str, copy: Path, url: str, bounds: _Bounds) -> None:
+    """Copy one remote log whole within ``bounds``, or raise."""
+    too_big = (
+        f"larger than the {bounds.max_bytes} bytes a log behind a URL may have "
+        f"({MAX_BYTES_VARIABLE})"
+    )
     try:
+        started = time.monotonic()
         size = filesystem.size(path)
-        if size is not None and size > max_bytes:
+        if size is not None and size > bounds.max_bytes:
             raise RemoteLogError(url, too_big)
         copied = 0
         with (
             filesystem.open(path, "rb", **_streamed(filesystem)) as source,
             copy.open("wb") as target,
         ):
+            if size is None:
+                _check_framed(url, source)
             while block := source.read(_BLOCK):
                 copied += len(block)
-                if copied > max_bytes:  # a size the listing got wrong
+                if copied > bounds.max_bytes:  # a size the listing got wrong, or none
                     raise RemoteLogError(url, too_big)
+                if time.monotonic() - started > bounds.timeout + copied / MIN_RATE:
+                    raise RemoteLogError(
+                        url,
+                        f"too slow: a download must average {MIN_RATE >> 10} KiB/s past "
+                        f"its first {bounds.timeout:g} s ({TIMEOUT_VARIABLE})",
+                    )
                 target.write(block)
+                bounds.meter(copied, size)
+        if size is not None and copied != size:
+            raise RemoteLogError(url, f"download cut off or changed: {copied} of its {size} bytes")
     except FileNotFoundError as exc:
         raise _not_found(url, exc, "cannot copy") from None
     except RemoteLogError:
         raise
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise RemoteLogError(url, f"cannot copy: {first_line(exc)}") from None
+        raise _failed(url, exc, "cannot copy") from None
+
+
+def _check_framed(url: str, source: Any) -> None:
+    """Refuse an HTTP response whose body ends where the connection does: neither its
+    length nor chunks say where it ends, so a cut could not be told from the end."""
+    response = getattr(source, "r", None)  # fsspec's HTTP stream: aiohttp's response
+    if response is None or response.content_length is not None:
+        return
+    if "chunked" not in response.headers.get("Transfer-Encoding", "").lower():
+        raise RemoteLogError(
+            url,
+            "the server sent neither its length nor a chunked body: "
+            "a download cut off could not be told from the whole log",
+        )
 
 
 def _streamed(filesystem: Any) -> dict[str, Any]:
@@ -151,7 +245,101 @@ def _streamed(filesystem: Any) -> dict[str, Any]:
     own ``http.server`` does not), which fsspec's random-access HTTP file asks for."""
     protocols = filesystem.protocol
     protocols = (protocols,) if isinstance(protocols, str) else protocols
-    return {"block_size": 0} if {"http", "https"} & set(protocols) else {}
+    return {"block_size": 0} if set(_HTTP) & set(protocols) else {}
+
+
+def _http_client_options(url: str, *, streaming: bool) -> dict[str, Any]:
+    """The options of fsspec's HTTP sessions: those fsspec is configured with, and
+    aiohttp's timeouts: connect within ``BEATLOG_URL_TIMEOUT``, never wait longer for
+    the next bytes, and, unless ``streaming``, end within it."""
+    from aiohttp import ClientTimeout  # noqa: PLC0415 - fsspec's HTTP dependency
+    from fsspec.config import conf  # noqa: PLC0415 - an optional dependency
+
+    timeout = _timeout(url)
+    total = None if streaming else timeout
+    configured = conf.get(urlsplit(url).scheme, {}).get("client_kwargs", {})
+    return {
+        **configured,
+        "timeout": ClientTimeout(
+            total=total, connect=timeout, sock_connect=timeout, sock_read=timeout
+        ),
+    }
+
+
+def _timeout(url: str) -> float:
+    """How long a server may keep a download of ``url`` waiting, in seconds.
+
+    :raises RemoteLogError: ``BEATLOG_URL_TIMEOUT`` is set to no number above 0.
+    """
+    return _bound(url, TIMEOUT_VARIABLE, TIMEOUT_S, float, "a number of seconds")
+
+
+def _bound(url: str, variable: str, default: Number, kind: type[Number], what: str) -> Number:
+    """A bound from the environment variable ``variable``, ``default`` where unset.
+
+    :raises RemoteLogError: the variable is set to no such number above 0.
+    """
+    text = os.environ.get(variable, "").strip()
+    if not text:
+        return default
+    try:
+        value = kind(text)
+    except ValueError:
+        value = None
+    if value is None or not 0 < value < math.inf:
+        raise RemoteLogError(url, f"{variable}={text}: not {what} above 0")
+    return value
+
+
+@contextlib.contextmanager
+def _progress_bar(name: str, *, shown: bool) -> Iterator[Callable[[int, int | None], None]]:
+    """A function to tell the bytes copied so far and the size (None if not known),
+    which shows a bar naming ``name`` on stderr once :data:`PROGRESS_BYTES` have come,
+    where ``shown`` and stderr is a terminal; the bar is gone when the block ends."""
+    if not shown or not sys.stderr.isatty():
+        yield lambda copied, size: None
+        return
+    from rich.console import Console  # noqa: PLC0415 - only for a big download
+    from rich.progress import (  # noqa: PLC0415
+        BarColumn,
+        DownloadColumn,
+        Progress,
+        TaskID,
+        TextColumn,
+        TimeRemainingColumn,
+        TransferSpeedColumn,
+    )
+
+    bar = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        DownloadColumn(),
+        TransferSpeedColumn(),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=True,
+    )
+    with contextlib.ExitStack() as shown_while:
+        tasks: list[TaskID] = []
+
+        def meter(copied: int, size: int | None) -> None:
+            if not tasks:
+                if copied < PROGRESS_BYTES:
+                    return
+                shown_while.enter_context(bar)
+                tasks.append(bar.add_task(name, total=size))
+            bar.update(tasks[0], completed=copied)
+
+        yield meter
+
+
+def _failed(url: str, exc: BaseException, doing: str) -> RemoteLogError:
+    """A backend's error as one line; an HTTP timeout names its bound."""
+    if isinstance(exc, TimeoutError) and urlsplit(url).scheme in _HTTP:  # aiohttp's
+        return RemoteLogError(
+            url, f"{doing}: no answer for {_timeout(url):g} s ({TIMEOUT_VARIABLE})"
+        )
+    return RemoteLogError(url, f"{doing}: {first_line(exc)}")
 
 
 def _not_found(url: str, exc: FileNotFoundError, doing: str) -> RemoteLogError:
@@ -160,4 +348,4 @@ def _not_found(url: str, exc: FileNotFoundError, doing: str) -> RemoteLogError:
     cause = exc.__cause__
     if cause is None or isinstance(cause, FileNotFoundError) or getattr(cause, "status", 0) == 404:
         return RemoteLogError(url, "no such log")
-    return RemoteLogError(url, f"{doing}: {first_line(cause)}")
+    return _failed(url, cause, doing)

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -19,35 +17,12 @@ import pytest
 
 from beatlog.log.reader import SessionLogReader
 from tests.cli.slow_systems import MARKERS
-from tests.commands import Run
+from tests.commands import Run, signalled
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, PROBE, write_spec
 
-ROOT = Path(__file__).parents[2]
 SLOW = "tests.cli.slow_systems:slow_system"
 SLOW_IN_AUDIT = "tests.cli.slow_systems:slow_in_audit_system"
-
-
-def wait_until(condition: Callable[[], bool], timeout_s: float) -> bool:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.05)
-    return True
-
-
-def live_members(group: int) -> list[int]:
-    """The processes of a process group that still run (zombies left out)."""
-    members = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rpartition(")")[2].split()
-        except OSError:  # the process ended while we looked
-            continue
-        if int(fields[2]) == group and fields[0] != "Z":
-            members.append(int(stat.parent.name))
-    return members
 
 
 @pytest.fixture
@@ -64,27 +39,7 @@ def press_ctrl_c(markers: Path) -> Callable[..., Run]:
     def run(args: Sequence[str | Path], ready: Callable[[], bool]) -> Run:
         env = {**os.environ, MARKERS: str(markers), "COLUMNS": "200"}
         env.pop("PYTHONHASHSEED", None)
-        process = subprocess.Popen(
-            [sys.executable, "-m", "beatlog.cli.main", *(str(arg) for arg in args)],
-            cwd=ROOT,
-            env=env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            start_new_session=True,
-        )
-        try:
-            started = wait_until(lambda: ready() or process.poll() is not None, 120)
-            assert started, "beatlog never got to work"
-            assert process.poll() is None, process.communicate()
-            os.killpg(process.pid, signal.SIGINT)
-            out, err = process.communicate(timeout=10)
-        finally:
-            if process.poll() is None:
-                os.killpg(process.pid, signal.SIGKILL)
-                process.communicate()
-        assert wait_until(lambda: not live_members(process.pid), 10), "children outlived it"
-        return Run(process.returncode, out, err)
+        return signalled(args, ready, signal.SIGINT, env=env, group=True)
 
     return run
 

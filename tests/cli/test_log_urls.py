@@ -5,11 +5,23 @@ the copy it read."""
 from __future__ import annotations
 
 import json
+import os
+import signal
+import sys
 from pathlib import Path
 
 import pytest
 
-from tests.commands import Beatlog, assert_one_line_error
+from beatlog.remote import MAX_BYTES_VARIABLE, TIMEOUT_VARIABLE
+from tests.commands import (
+    Beatlog,
+    Run,
+    assert_one_line_error,
+    beatlog_process,
+    plain,
+    signalled,
+)
+from tests.conftest import RecordFn
 from tests.factories import vouch
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE
@@ -151,3 +163,74 @@ def test_a_damaged_log_behind_a_url_is_one_line_naming_the_url_not_the_copy(
 
     assert_one_line_error(run, f"beatlog: error: {url}: ")
     assert "beatlog-remote-" not in run.err
+
+
+@pytest.mark.parametrize(
+    ("way", "problem"),
+    [
+        ("stall", "cannot copy: no answer for 1 s (BEATLOG_URL_TIMEOUT)"),
+        (
+            "trickle",
+            "too slow: a download must average 64 KiB/s past its first 1 s (BEATLOG_URL_TIMEOUT)",
+        ),
+    ],
+)
+def test_a_log_url_whose_server_stalls_or_trickles_is_given_up(
+    served: LogServer, way: str, problem: str
+) -> None:
+    url = f"{served.url}/{way}/dock.beatlog"
+
+    run = beatlog_process(
+        ["replay", url, "--system", PROBE], env={**os.environ, TIMEOUT_VARIABLE: "1"}
+    )
+
+    assert run == Run(2, "", f"beatlog: error: {url}: {problem}\n")
+
+
+def test_a_log_url_cut_off_without_a_length_is_no_truncated_log(
+    beatlog: Beatlog, served: LogServer, record_chunked: RecordFn
+) -> None:
+    record_chunked(300, name="served/long.beatlog")
+    url = f"{served.url}/cut-close/long.beatlog"
+
+    run = beatlog("replay", url, "--system", PROBE, "--allow-truncated")
+
+    assert_one_line_error(run)
+    assert run.err == (
+        f"beatlog: error: {url}: the server sent neither its length nor a chunked body: "
+        "a download cut off could not be told from the whole log\n"
+    )
+
+
+def test_show_draws_a_big_download_s_progress_on_a_terminal(
+    beatlog: Beatlog, served: LogServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("beatlog.remote.PROGRESS_BYTES", 0)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
+    url = f"{served.url}/dock.beatlog"
+
+    run = beatlog("show", url)
+
+    assert run.code == 0, run.err
+    assert run.out.split()[:2] == ["log", url]
+    drawn = [line for line in plain(run.err).split("\r") if line.startswith("dock.beatlog ━")]
+    assert drawn, run.err
+
+
+def test_sigterm_stops_a_download_and_removes_its_copy(served: LogServer, tmp_path: Path) -> None:
+    temporary = tmp_path / "temporary"
+    temporary.mkdir()
+    env = {**os.environ, "TMPDIR": str(temporary), MAX_BYTES_VARIABLE: str(1 << 40)}
+
+    def downloading() -> bool:
+        return any(temporary.glob("beatlog-remote-*/dock.beatlog"))
+
+    run = signalled(
+        ["replay", f"{served.url}/endless/dock.beatlog", "--system", PROBE],
+        downloading,
+        signal.SIGTERM,
+        env=env,
+    )
+
+    assert run == Run(143, "", "beatlog: terminated\n")
+    assert list(temporary.iterdir()) == []

@@ -4,13 +4,17 @@ its DTC, one line naming the spec and the URL."""
 
 from __future__ import annotations
 
+import os
+import signal
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
+from beatlog.remote import MAX_BYTES_VARIABLE
 from beatlog.suite.baseline import pending_path
-from tests.commands import Beatlog
+from tests.commands import Beatlog, signalled
+from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE, write_spec
 
@@ -113,3 +117,50 @@ def test_a_log_behind_a_url_that_is_no_log_is_named_by_its_url(
         f"beatlog: error: broken ({suite / 'broken.dtc.toml'}): {served.url}/broken.beatlog: "
     )
     assert "beatlog-remote-" not in run.err
+
+
+def test_a_spec_allowing_truncation_fails_on_a_log_url_cut_off(
+    beatlog: Beatlog, served: LogServer, suite: Path, record_chunked: RecordFn
+) -> None:
+    record_chunked(300, name="served/long.beatlog")
+    url = f"{served.url}/cut-close/long.beatlog"
+    write_spec(suite, "long", url, allow_truncated=True)
+
+    run = beatlog("test", suite / "long.dtc.toml")
+
+    assert run.code == 2
+    assert run.err == (
+        f"beatlog: error: long ({suite / 'long.dtc.toml'}): {url}: the server sent neither "
+        "its length nor a chunked body: a download cut off could not be told from the whole "
+        "log\n"
+    )
+
+
+@pytest.mark.parametrize(
+    ("signum", "code", "said"),
+    [(signal.SIGTERM, 143, "terminated"), (signal.SIGINT, 130, "interrupted")],
+    ids=["SIGTERM", "Ctrl-C"],
+)
+def test_a_stopped_run_removes_the_copies_its_workers_were_downloading(
+    served: LogServer, tmp_path: Path, signum: int, code: int, said: str
+) -> None:
+    folder = tmp_path / "endless"
+    for name in ("dock", "yard"):
+        write_spec(folder, name, f"{served.url}/endless/{name}.beatlog")
+    temporary = tmp_path / "temporary"
+    temporary.mkdir()
+    env = {**os.environ, "TMPDIR": str(temporary), MAX_BYTES_VARIABLE: str(1 << 40)}
+
+    def both_downloading() -> bool:
+        return len(list(temporary.glob("beatlog-remote-*/*.beatlog"))) == 2
+
+    run = signalled(
+        ["test", folder, "-j", "2"],
+        both_downloading,
+        signum,
+        env=env,
+        group=signum == signal.SIGINT,
+    )
+
+    assert (run.code, run.err) == (code, f"beatlog: {said}\n")
+    assert list(temporary.iterdir()) == []

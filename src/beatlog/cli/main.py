@@ -6,7 +6,9 @@ neither the engines nor rich.
 Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
 input (one line on stderr naming the file and the problem, never a traceback; with
 ``--verbose`` the traceback of the user's code that failed comes first), 130
-interrupted (Ctrl-C: what was complete is printed, no report is half written).
+interrupted (Ctrl-C: what was complete is printed, no report is half written), 143
+terminated (SIGTERM: stopped as Ctrl-C stops it, temporary copies of logs behind URLs
+removed).
 """
 
 from __future__ import annotations
@@ -15,12 +17,15 @@ import argparse
 import contextlib
 import functools
 import os
+import signal
 import sys
+import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
+from types import FrameType
 from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 from beatlog._version import __version__
@@ -38,7 +43,7 @@ if TYPE_CHECKING:
 
 __all__ = ["main"]
 
-EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
 EXPORT_FORMATS = ("mcap", "parquet", "csv")
 """``beatlog export --format`` (:class:`beatlog.adapters.export.ExportFormat`), here so
 that parsing the command line imports nothing heavy."""
@@ -51,7 +56,8 @@ EXIT_CODES = """exit codes:
   0    passed (or done)
   1    a replay diverged, a DTC failed or a recording failed
   2    bad input or usage: one line on stderr naming the file and the problem
-  130  interrupted (Ctrl-C)"""
+  130  interrupted (Ctrl-C)
+  143  terminated (SIGTERM), stopped as Ctrl-C stops it"""
 
 
 class _UsageError(BeatlogError):
@@ -935,16 +941,17 @@ def _export(args: argparse.Namespace, console: Console) -> int:
 @contextlib.contextmanager
 def _readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
     """``args.log`` as a file of this machine while the block runs: a log behind a URL
-    is copied once (:func:`beatlog.remote.fetched_log`) and ``args.log`` names the copy,
-    which is removed after. The block is given a function that names the copy by its
-    URL in a text, and errors raised in it are named so too; None for a local log."""
+    is copied once (:func:`beatlog.remote.fetched_log`, with a progress bar on a
+    terminal) and ``args.log`` names the copy, which is removed after. The block is
+    given a function that names the copy by its URL in a text, and errors raised in it
+    are named so too; None for a local log."""
     from beatlog.remote import fetched_log, is_url, named_as_given
 
     url = str(args.log)
     if not is_url(url):
         yield None
         return
-    with fetched_log(url) as copy:
+    with fetched_log(url, progress=True) as copy:
         args.log = copy
         try:
             yield functools.partial(named_as_given, copy=copy, url=url)
@@ -976,22 +983,48 @@ def _import_from_working_directory() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
     verbose = False
-    try:
-        args = _parser().parse_args(argv)
-        verbose = args.verbose
-        from rich.console import Console
+    with _terminated_as_interrupted() as terminated:
+        try:
+            args = _parser().parse_args(argv)
+            verbose = args.verbose
+            from rich.console import Console
 
-        console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
-        run, runs_user_code = _COMMANDS[args.command]
-        if runs_user_code:
-            _import_from_working_directory()
-        return run(args, console)
-    except BeatlogError as exc:
-        _error(str(exc), exc.user_traceback if verbose else None)
-        return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("beatlog: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+            console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
+            run, runs_user_code = _COMMANDS[args.command]
+            if runs_user_code:
+                _import_from_working_directory()
+            return run(args, console)
+        except BeatlogError as exc:
+            _error(str(exc), exc.user_traceback if verbose else None)
+            return EXIT_USAGE
+        except KeyboardInterrupt:
+            if terminated.is_set():
+                print("beatlog: terminated", file=sys.stderr)
+                return EXIT_TERMINATED
+            print("beatlog: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
+
+
+@contextlib.contextmanager
+def _terminated_as_interrupted() -> Iterator[threading.Event]:
+    """While the block runs, SIGTERM stops the command as Ctrl-C does (a
+    ``KeyboardInterrupt``, so what it holds is cleaned up: a log closed, downloaded
+    copies removed); the event given is set once it came. Only the main thread can
+    handle signals: elsewhere SIGTERM is left as it is."""
+    terminated = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield terminated
+        return
+
+    def interrupt(signum: int, frame: FrameType | None) -> None:
+        terminated.set()
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield terminated
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 def _help(args: argparse.Namespace, console: Console) -> int:

@@ -331,7 +331,7 @@ def run_suite(
     recording first (:func:`~beatlog.suite.sharding.longest_first`): a suite too
     small to gain from workers is done before they are ready, and none is slower than
     with one job. With ``fail_fast`` the first failure or error stops the run: specs not
-    started are not run and the workers are killed. In :attr:`UpdateMode.NEW` each failure
+    started are not run and the workers are stopped. In :attr:`UpdateMode.NEW` each failure
     carries its new expectation (nothing is written here: see
     :mod:`beatlog.suite.maintenance`);
     with ``audit`` each spec's determinism is audited too; with ``timelines`` its
@@ -376,8 +376,9 @@ def _run_with_workers(
     """Run the specs here and in ``workers`` worker processes until ``done`` says stop.
 
     One thread per worker hands it the next spec once it is ready and free. On leaving,
-    Ctrl-C included, the specs not started are dropped, the workers are killed, and the
-    outcomes that had come back by then are still given to ``done``.
+    Ctrl-C included, the specs not started are dropped, the workers are stopped (see
+    :meth:`Worker.stop`), and the outcomes that had come back by then are still given
+    to ``done``.
     """
     pending = collections.deque(longest_first(specs))  # work spread by cycles
     answers: queue.Queue[Answer] = queue.Queue()
@@ -409,6 +410,8 @@ def _run_with_workers(
                 return
     finally:
         pending.clear()
+        for worker in pool:
+            worker.stop()  # all at once: their work unwinds side by side
         for worker in pool:
             worker.close()
         for feeder in feeders:

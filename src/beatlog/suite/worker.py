@@ -9,6 +9,7 @@ stderr stay the runner's, for what behaviors print.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import pickle
 import signal
@@ -29,6 +30,8 @@ __all__ = ["Worker", "WorkerLostError", "serve"]
 
 _READY = b"ready"
 """A worker's first message: it has imported what replay needs and waits for specs."""
+STOP_S = 2.0
+"""How long a worker asked to stop may take to unwind its work before it is killed."""
 
 
 class WorkerLostError(RuntimeError):
@@ -37,7 +40,7 @@ class WorkerLostError(RuntimeError):
 
 class Worker(Closing):
     """A worker process with the same ``sys.path`` as this one; a context manager that
-    kills the worker on leaving (the audit interpreters it started follow it)."""
+    stops the worker on leaving (the audit interpreters it started follow it)."""
 
     def __init__(self) -> None:
         task_read, task_write = os.pipe()
@@ -57,6 +60,7 @@ class Worker(Closing):
         self._tasks: IO[bytes] = os.fdopen(task_write, "wb")
         self._answers: IO[bytes] = os.fdopen(answer_read, "rb")
         self._ready = False
+        self._stopped = False
 
     def wait_ready(self) -> None:
         """Block until the worker has started and waits for specs.
@@ -96,10 +100,23 @@ class Worker(Closing):
         code = self._process.wait()
         return WorkerLostError(f"a suite worker ended without answering (exit {code})")
 
+    def stop(self) -> None:
+        """Ask the worker to stop, whatever it is doing: its work unwinds as at Ctrl-C
+        (the copy of a log it downloaded is removed), and it ends. Asking again does
+        nothing."""
+        if not self._stopped:
+            self._stopped = True
+            self._process.terminate()
+
     def close(self) -> None:
-        """Kill the worker, whatever it is doing, and wait for it to end."""
-        self._process.kill()
-        self._process.wait()
+        """Stop the worker, kill it if it has not ended within :data:`STOP_S`, and wait
+        for it to end."""
+        self.stop()
+        try:
+            self._process.wait(STOP_S)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait()
         self._tasks.close()
         self._answers.close()
 
@@ -127,16 +144,25 @@ def serve(tasks: IO[bytes], answers: IO[bytes]) -> None:
 
 
 def _leave_interrupts() -> None:
-    """Workers leave Ctrl-C to the runner, which kills them: no traceback from each.
+    """Workers leave Ctrl-C to the runner, which stops them with SIGTERM: that unwinds
+    the worker's work as Ctrl-C would, without a traceback from each.
 
     A handler that does nothing, not ``SIG_IGN``, so that the processes a worker
     starts (audit replays) are not born deaf to Ctrl-C.
     """
     signal.signal(signal.SIGINT, _do_nothing)
+    signal.signal(signal.SIGTERM, _interrupt)
 
 
 def _do_nothing(signum: int, frame: FrameType | None) -> None:
     """A signal handler that lets the signal pass."""
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    """A signal handler that interrupts the worker as Ctrl-C interrupts a program, once:
+    the signal again lets the worker unwind."""
+    signal.signal(signum, _do_nothing)
+    raise KeyboardInterrupt
 
 
 def main() -> None:
@@ -145,7 +171,11 @@ def main() -> None:
     _leave_interrupts()
     tasks, answers, *path = sys.argv[1:]
     sys.path[:] = path
-    with os.fdopen(int(tasks), "rb") as inbox, os.fdopen(int(answers), "wb") as outbox:
+    with (
+        contextlib.suppress(KeyboardInterrupt),  # stopped: what it did has unwound
+        os.fdopen(int(tasks), "rb") as inbox,
+        os.fdopen(int(answers), "wb") as outbox,
+    ):
         serve(inbox, outbox)
 
 
