@@ -211,8 +211,8 @@ class _NoSamples(msgspec.Struct, array_like=True, forbid_unknown_fields=True, gc
 
 def samples_shape(header: SessionHeader) -> type[msgspec.Struct]:
     """What a cycle's ``samples`` are decoded as to check them against the header without
-    reading them: an empty array where it logged none, else an array (whose samples are
-    checked where they are read, by perception or a summary)."""
+    reading them: an empty array where it logged none, else an array (each sample is
+    checked where samples are read: sensor-level replay)."""
     return _AnySamples if header.samples_logged else _NoSamples
 
 
