@@ -9,7 +9,7 @@ import errno
 import io
 import os
 import struct
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -306,3 +306,116 @@ class FullDiskFile(io.FileIO):
 def fill_the_disk(monkeypatch: pytest.MonkeyPatch) -> None:
     """Put every log file the session log writer opens on a full disk."""
     monkeypatch.setattr("beatlog.log.writer.open", FullDiskFile, raising=False)
+
+
+def cycle_parts(record: CycleRecord) -> list[Any]:
+    """A cycle record's six parts, decoded: heartbeat, robot state, state changes, draws,
+    outputs, samples."""
+    return [
+        record.heartbeat_ns,
+        *(
+            msgspec.msgpack.decode(part)
+            for part in (
+                record.robot_state,
+                record.state_changes,
+                record.random_numbers,
+                record.outputs,
+                record.samples,
+            )
+        ),
+    ]
+
+
+def rewrite_cycle(
+    log: Path, path: Path, cycle: int, edit: Callable[[list[Any]], list[Any]]
+) -> Path:
+    """A copy at ``path`` of the format-2 ``log`` whose cycle ``cycle`` is what ``edit``
+    makes of its record (:func:`cycle_parts`), written anew with valid CRCs, summary and
+    end record: damage that only a check of the content finds."""
+    with SessionLogReader(log) as reader:
+        header = reader.header
+        messages = [Message(HEADER_TOPIC, 0, msgspec.msgpack.encode(header))]
+        done = robot_time = 0
+        for batch in reader.batches():
+            records: list[list[Any]] = []
+            for record in batch:
+                parts = cycle_parts(record)
+                records.append(edit(parts) if done + len(records) == cycle else parts)
+            stamp = robot_time + batch[0].heartbeat_ns
+            messages.append(Message(CYCLES_TOPIC, stamp, msgspec.msgpack.encode([done, records])))
+            done += len(batch)
+            robot_time += sum(record.heartbeat_ns for record in batch)
+        end = reader.end
+    assert end is not None
+    messages.append(Message(END_TOPIC, end.robot_time_ns, msgspec.msgpack.encode(end)))
+    return craft_log(path, messages)
+
+
+class CycleDamage(NamedTuple):
+    """Content a recorded probe log's cycle must not hold, though every CRC is valid."""
+
+    cycle: int
+    edit: Callable[[list[Any]], list[Any]]
+    """What it makes of the cycle's record (see :func:`rewrite_cycle`)."""
+    problem: str
+    """What the refusal says after the log's path."""
+
+
+def _with_part(index: int, value: Any) -> Callable[[list[Any]], list[Any]]:
+    return lambda parts: [*parts[:index], value, *parts[index + 1 :]]
+
+
+PROBE_CYCLE_DAMAGE = {
+    "robot-state-empty": CycleDamage(
+        7,
+        _with_part(1, {}),
+        "robot state of cycle 7 does not fit Probe: Object missing required field `distance`",
+    ),
+    "robot-state-unknown-field": CycleDamage(
+        7,
+        _with_part(1, {"distance": 0.86, "reading": 0.0, "battery": 1.0}),
+        "robot state of cycle 7 does not fit Probe: Object contains unknown field `battery`",
+    ),
+    "record-extra-element": CycleDamage(
+        7,
+        lambda parts: [*parts, 0],
+        "damaged cycle 7: Expected `array` of at most length 6, got 7",
+    ),
+    "samples-not-an-array": CycleDamage(
+        7,
+        _with_part(5, 5),
+        "damaged samples in cycle 7: the header declares no samples: Expected `array`, got `int`",
+    ),
+    "samples-undeclared": CycleDamage(
+        7,
+        _with_part(5, [["range", 0, 1.0]]),
+        "damaged samples in cycle 7: the header declares no samples: "
+        "Expected `array` of at most length 0, got 1",
+    ),
+    "draw-value": CycleDamage(
+        5,
+        _with_part(3, [[2, "randint", "six", [1, 6]]]),
+        "damaged random number #1 in cycle 5: randint recorded 'six', not an int",
+    ),
+    "draw-actor": CycleDamage(
+        5,
+        _with_part(3, [[7, "randint", 4, [1, 6]]]),
+        "damaged random number #1 in cycle 5: drawn by behavior #7, not in the catalogue of 3",
+    ),
+    "state-change-behavior": CycleDamage(
+        26,
+        _with_part(2, [[0, "dice", "near"], [99, "far", "near"]]),
+        "damaged state changes in cycle 26: behavior #99 is not in the catalogue of 3",
+    ),
+}
+"""Damage to a probe log (``tests.conftest``, 60 cycles or more) by name."""
+
+
+def with_damaged_index(log: Path, path: Path) -> Path:
+    """A copy at ``path`` of ``log`` with one bit of its first chunk index's start time
+    flipped: its index is damaged, every cycle and its end record intact."""
+    data = bytearray(log.read_bytes())
+    first_index = next(r for r in top_level_records(bytes(data)) if r.opcode == Opcode.CHUNK_INDEX)
+    data[first_index.offset + RECORD_HEAD] ^= 0x01
+    path.write_bytes(bytes(data))
+    return path

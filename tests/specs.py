@@ -10,6 +10,8 @@ from tests.conftest import distances
 
 PROBE = "tests.conftest:probe_system"
 CHANGED = "tests.conftest:probe_system_changed"
+GAUGE = "tests.systems:gauge_system"
+"""The system of the logs ``tests.factories`` crafts."""
 
 FIRST_CHANGED_CYCLE = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
 """The first cycle where the changed probe's near behavior sees the obstacle first."""

@@ -19,6 +19,7 @@ import uuid
 from datetime import datetime as wall_datetime
 from pathlib import Path
 from time import monotonic
+from typing import Any
 
 import numpy as np
 import py_trees
@@ -28,6 +29,7 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, probe_system
+from tests.factories import Gauge
 
 HEADINGS = ("left", "right", "straight", "back")
 HOSTILE = "<script>alert('x')</script>"
@@ -261,3 +263,21 @@ class HandTickedTree:
 
 def hand_ticked_tree() -> PriorityArbiter[Probe]:
     return PriorityArbiter([HandTickedTree()], robot_state=Probe)
+
+
+def gauge_system() -> PriorityArbiter[Gauge]:
+    """The system of the logs ``tests.factories`` crafts: no behaviors, the Gauge state."""
+    return PriorityArbiter([], robot_state=Gauge)
+
+
+class Rover(RobotState, kw_only=True):
+    """Another robot's state, which holds the probe's fields among its own."""
+
+    distance: float = 1.0
+    reading: float = 0.0
+    heading: float = 0.0
+
+
+def rover_system() -> PriorityArbiter[Any]:
+    """The probe's behaviors on another robot's state."""
+    return PriorityArbiter([Near(), Dice()], robot_state=Rover)

@@ -65,7 +65,8 @@ class CorruptLogError(LogError):
 
 
 class SchemaMismatchError(LogError):
-    """The log's robot state cannot be decoded into the system's robot state type."""
+    """The log does not fit the system: its robot state is not the system's robot state
+    type (or a cycle's does not decode into it), or none of its behaviors is the system's."""
 
 
 class EmptyCheckError(LogError):

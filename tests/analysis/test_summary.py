@@ -14,7 +14,7 @@ from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe, RecordFn, distances
-from tests.factories import session_header
+from tests.factories import session_header, with_damaged_index
 
 
 def changes_and_draws_in(log: Path) -> tuple[Counter[str], Counter[str]]:
@@ -100,6 +100,20 @@ def test_a_log_cut_off_is_summarized_up_to_its_last_cycle(tmp_path: Path) -> Non
     assert summary.cycles == 5
     assert summary.end is None
     assert summary.status.describe() == "truncated at cycle 5: the log has no end record"
+
+
+def test_a_log_whose_index_is_damaged_is_summarized_as_intact_data(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+    damaged = with_damaged_index(log, tmp_path / "index.beatlog")
+
+    summary = summarize(damaged)
+
+    assert summary.status.describe() == (
+        "index damaged, data intact: the summary does not match its CRC in the footer"
+    )
+    assert (summary.cycles, summary.transitions) == (300, summarize(log).transitions)
 
 
 def test_a_log_without_cycles_has_zero_figures(tmp_path: Path) -> None:

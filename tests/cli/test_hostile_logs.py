@@ -11,7 +11,9 @@ from pathlib import Path
 import pytest
 
 from tests.commands import Beatlog
+from tests.conftest import RecordFn
 from tests.factories import (
+    PROBE_CYCLE_DAMAGE,
     STANDARD_CHANNELS,
     Channel,
     chunks,
@@ -21,9 +23,11 @@ from tests.factories import (
     drop_chunk,
     end_message,
     header_message,
+    rewrite_cycle,
     standard_messages,
+    with_damaged_index,
 )
-from tests.specs import PROBE, write_spec
+from tests.specs import GAUGE, PROBE, write_spec
 
 
 def dropped_chunk(path: Path) -> Path:
@@ -78,7 +82,7 @@ def test_show_and_replay_refuse_a_hostile_log_in_one_line(
 ) -> None:
     build, fragment = HOSTILE[name]
     log = build(tmp_path / f"{name}.beatlog")
-    extra = ["--system", PROBE, "--allow-truncated"] if command == "replay" else []
+    extra = ["--system", GAUGE, "--allow-truncated"] if command == "replay" else []
     code, out, err = beatlog(command, log, *extra)
     assert code == 2
     assert out == ""
@@ -91,7 +95,7 @@ def test_beatlog_test_reports_a_hostile_log_as_an_error(
 ) -> None:
     build, fragment = HOSTILE[name]
     log = build(tmp_path / f"{name}.beatlog")
-    write_spec(tmp_path, "hostile", log, PROBE)
+    write_spec(tmp_path, "hostile", log, GAUGE)
     code, _out, err = beatlog("test", tmp_path)
     assert code == 2
     assert "Traceback" not in err
@@ -120,3 +124,46 @@ def test_show_says_which_format_version_a_log_is(tmp_path: Path, beatlog: Beatlo
     assert code == 0
     assert "format" in out
     assert "version 2" in out
+
+
+@pytest.mark.parametrize("name", PROBE_CYCLE_DAMAGE)
+def test_a_cycle_that_does_not_hold_what_the_header_declares_is_a_damaged_log(
+    tmp_path: Path, beatlog: Beatlog, record_probe: RecordFn, name: str
+) -> None:
+    damage = PROBE_CYCLE_DAMAGE[name]
+    log = rewrite_cycle(record_probe(60), tmp_path / f"{name}.beatlog", damage.cycle, damage.edit)
+
+    run = beatlog("replay", log, "--system", PROBE)
+
+    assert run == (2, "", f"beatlog: error: {log}: {damage.problem}\n")
+
+
+def test_another_robots_log_is_bad_input_naming_what_does_not_fit(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(20)
+
+    run = beatlog("replay", log, "--system", "tests.systems:rover_system")
+
+    assert run == (
+        2,
+        "",
+        f"beatlog: error: {log}: recorded with robot state tests.conftest.Probe, which does "
+        "not fit the system's tests.systems.Rover: Probe is not Rover (a robot state type "
+        "renamed since keeps exactly its fields)\n",
+    )
+
+
+def test_replay_refuses_a_log_whose_index_is_damaged_though_its_data_is_intact(
+    tmp_path: Path, beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = with_damaged_index(record_probe(60), tmp_path / "index.beatlog")
+
+    run = beatlog("replay", log, "--system", PROBE)
+
+    assert run == (
+        2,
+        "",
+        f"beatlog: error: {log}: index damaged, data intact: the summary does not match its "
+        "CRC in the footer\n",
+    )

@@ -21,7 +21,7 @@ from beatlog.log.writer import SessionLogWriter
 from beatlog.record.recorder import Recorder
 from tests.commands import Beatlog, assert_one_line_error
 from tests.conftest import RecordFn, distances
-from tests.factories import session_header, vouch
+from tests.factories import session_header, vouch, with_damaged_index
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
 from tests.systems import quiet_system
 
@@ -294,6 +294,20 @@ def test_show_says_a_cut_off_log_is_truncated(beatlog: Beatlog, record_chunked: 
     assert run.code == 0
     assert "truncated at cycle" in run.out
     assert "unknown (no end record)" in run.out
+
+
+def test_show_says_a_log_whose_index_is_damaged_holds_its_data_intact(
+    tmp_path: Path, beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = with_damaged_index(record_probe(300), tmp_path / "index.beatlog")
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    assert about_rows(run.out)["status"] == (
+        "index damaged, data intact: the summary does not match its CRC in the footer"
+    )
+    assert about_rows(run.out)["cycles"] == "300"
 
 
 # bad input: one line on stderr naming the file and the problem

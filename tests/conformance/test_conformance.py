@@ -9,12 +9,12 @@ import re
 from pathlib import Path
 from typing import Any
 
-import msgspec
 import pytest
 
 from beatlog.errors import CorruptLogError, LogError, NotABeatlogError, UnsupportedVersionError
 from beatlog.log import SessionLogReader
 from tests.conformance.generate import CASES, generate, json_value
+from tests.factories import cycle_parts
 
 ERRORS: dict[str, type[LogError]] = {
     "corrupt": CorruptLogError,
@@ -27,22 +27,7 @@ NAMES = sorted(path.stem for path in CASES.glob("*.json"))
 def read_document(log: Path) -> dict[str, Any]:
     """Everything the reader yields for a log, in the suite's JSON."""
     with SessionLogReader(log) as reader:
-        cycles = [
-            [
-                cycle.heartbeat_ns,
-                *(
-                    msgspec.msgpack.decode(part)
-                    for part in (
-                        cycle.robot_state,
-                        cycle.state_changes,
-                        cycle.random_numbers,
-                        cycle.outputs,
-                        cycle.samples,
-                    )
-                ),
-            ]
-            for cycle in reader.cycles()
-        ]
+        cycles = [cycle_parts(cycle) for cycle in reader.cycles()]
         document: dict[str, Any] = json_value(
             {
                 "format_version": reader.format_version,

@@ -407,6 +407,74 @@ def test_zeros_from_a_record_boundary_say_where_the_zeros_start(
     )
 
 
+# An index damaged after intact cycles
+
+INDEX_DAMAGE = {
+    "a chunk index's start time": "the summary does not match its CRC in the footer",
+    "the footer's summary CRC": "the summary does not match its CRC in the footer",
+    "the closing magic": "damaged or extra bytes after the log's footer",
+}
+
+
+def damage_index(original: Original, damage: str) -> bytes:
+    """The original with one byte of its index flipped: no cycle and no end record touched."""
+    [first_index, *_] = [
+        r for r in top_level_records(original.data) if r.opcode == Opcode.CHUNK_INDEX
+    ]
+    byte = {
+        "a chunk index's start time": first_index.offset + RECORD_HEAD,
+        "the footer's summary CRC": original.footer.end - 1,
+        "the closing magic": len(original.data) - 1,
+    }[damage]
+    data = bytearray(original.data)
+    data[byte] ^= 0x01
+    return bytes(data)
+
+
+@pytest.mark.parametrize("damage", INDEX_DAMAGE)
+def test_a_damaged_index_is_corrupt_though_every_cycle_reads_back(
+    tmp_path: Path, original: Original, damage: str
+) -> None:
+    log = write(tmp_path / "index.beatlog", damage_index(original, damage))
+
+    with pytest.raises(CorruptLogError) as raised:
+        read_all(log)
+
+    assert str(raised.value) == f"{log}: index damaged, data intact: {INDEX_DAMAGE[damage]}"
+
+
+@pytest.mark.parametrize("damage", INDEX_DAMAGE)
+def test_a_reader_tolerating_a_damaged_index_reads_every_cycle_and_says_so(
+    tmp_path: Path, original: Original, damage: str
+) -> None:
+    log = write(tmp_path / "index.beatlog", damage_index(original, damage))
+
+    with SessionLogReader(log, tolerate_damaged_index=True) as reader:
+        cycles = list(reader.cycles())
+        status = reader.status
+
+    assert encoded(cycles) == original.cycles
+    assert status == LogStatus(True, CYCLES, INDEX_DAMAGE[damage])
+    assert status.describe() == f"index damaged, data intact: {INDEX_DAMAGE[damage]}"
+
+
+def test_a_reader_tolerating_a_damaged_index_still_refuses_damaged_cycles(
+    tmp_path: Path, original: Original
+) -> None:
+    data = bytearray(damage_index(original, "a chunk index's start time"))
+    chunk = original.cycle_chunks[3]
+    data[chunk.end - 1] ^= 0xFF
+    log = write(tmp_path / "both.beatlog", bytes(data))
+
+    with (
+        SessionLogReader(log, tolerate_damaged_index=True) as reader,
+        pytest.raises(CorruptLogError) as raised,
+    ):
+        list(reader.cycles())
+
+    assert str(raised.value).startswith(f"{log}: damaged record at byte {chunk.offset}: ")
+
+
 # The cycle count of a closed log, read from its end record alone
 
 
@@ -442,14 +510,23 @@ def test_a_log_cut_anywhere_has_no_cycle_count(
 
 @pytest.mark.parametrize(
     "damage",
-    ["the end record's chunk", "the summary", "the footer", "the closing magic"],
+    [
+        "the end record's chunk",
+        "the summary",
+        "a chunk index's start time",
+        "the footer",
+        "the closing magic",
+    ],
 )
 def test_a_damaged_end_has_no_cycle_count(tmp_path: Path, original: Original, damage: str) -> None:
     last_chunk = chunks(original.data)[-1]
-    [data_end] = [r for r in top_level_records(original.data) if r.opcode == Opcode.DATA_END]
+    records = top_level_records(original.data)
+    [data_end] = [r for r in records if r.opcode == Opcode.DATA_END]
+    first_index = next(r for r in records if r.opcode == Opcode.CHUNK_INDEX)
     byte = {
         "the end record's chunk": last_chunk.end - 1,
         "the summary": data_end.end,  # the opcode of its first record
+        "a chunk index's start time": first_index.offset + RECORD_HEAD,  # read by nothing else
         "the footer": original.footer.offset + RECORD_HEAD + 2,
         "the closing magic": len(original.data) - 1,
     }[damage]

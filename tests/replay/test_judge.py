@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -42,7 +43,15 @@ from tests.conftest import (
     probe_system_changed,
     probe_system_renamed,
 )
-from tests.factories import as_format_1, chunks, drop_chunk, logged_counts, vouch
+from tests.factories import (
+    PROBE_CYCLE_DAMAGE,
+    as_format_1,
+    chunks,
+    drop_chunk,
+    logged_counts,
+    rewrite_cycle,
+    vouch,
+)
 from tests.systems import Fragile, quiet_system, record_session
 
 
@@ -669,3 +678,48 @@ def test_an_empty_check_passes_when_allowed(tmp_path: Path) -> None:
 
     assert result.ok
     assert (result.cycles, result.checked) == (20, Checked())
+
+
+@pytest.mark.parametrize("name", PROBE_CYCLE_DAMAGE)
+@pytest.mark.parametrize("how", ["plain", "observed", "keep-going"])
+def test_a_cycle_not_as_the_header_declares_is_damage_however_it_is_replayed(
+    tmp_path: Path, record_probe: RecordFn, name: str, how: str
+) -> None:
+    damage = PROBE_CYCLE_DAMAGE[name]
+    log = rewrite_cycle(record_probe(60), tmp_path / f"{name}.beatlog", damage.cycle, damage.edit)
+    observe = (lambda outcome: None) if how == "observed" else None
+
+    with pytest.raises(LogError) as raised:
+        replay(log, probe_system(), keep_going=how == "keep-going", observe=observe)
+
+    assert str(raised.value) == f"{log}: {damage.problem}"
+
+
+class Noisy:
+    """Draws an array of three normal numbers every cycle."""
+
+    name = "noisy"
+    state: BehaviorState = "quiet"
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        return {"noise": float(ctx.random.normal_array(0.0, 1.0, 3).sum())}
+
+
+def test_a_damaged_array_draw_is_damage_not_the_behavior_failing(tmp_path: Path) -> None:
+    log = tmp_path / "noisy.beatlog"
+    with Recorder(log, PriorityArbiter([Noisy()], robot_state=Probe), software="t") as recorder:
+        for _ in range(5):
+            recorder.step(PERIOD_NS, Probe())
+
+    def cut_short(parts: list[Any]) -> list[Any]:
+        [[actor, kind, [dtype, shape, data], params]] = parts[3]
+        return [*parts[:3], [[actor, kind, [dtype, shape, data[:-8]], params]], *parts[4:]]
+
+    damaged = rewrite_cycle(log, tmp_path / "damaged.beatlog", 2, cut_short)
+    with pytest.raises(CorruptLogError) as raised:
+        replay(damaged, PriorityArbiter([Noisy()], robot_state=Probe))
+
+    assert str(raised.value) == (
+        f"{damaged}: damaged random number #1 in cycle 2: "
+        "normal_array recorded 16 bytes for shape [3], not 24"
+    )

@@ -44,6 +44,7 @@ __all__ = [
     "SessionHeader",
     "StateChangeRecord",
     "payload_encoder",
+    "samples_shape",
     "schema_name",
 ]
 
@@ -210,6 +211,22 @@ class SessionEnd(msgspec.Struct, kw_only=True):
     overruns: Annotated[int, msgspec.Meta(ge=0)] = 0
     error: Text | None = None
     """Why recording stopped early (e.g. disk full), if it did."""
+
+
+class _AnySamples(msgspec.Struct, array_like=True, gc=False):
+    """Any array: a cycle's ``samples`` decoded as this are checked to be an array, and
+    skipped, not read."""
+
+
+class _NoSamples(msgspec.Struct, array_like=True, forbid_unknown_fields=True, gc=False):
+    """Only an empty array: the ``samples`` of a cycle in a log that logged none."""
+
+
+def samples_shape(header: SessionHeader) -> type[msgspec.Struct]:
+    """What a cycle's ``samples`` are decoded as to check them against the header without
+    reading them: an empty array where it logged none, else an array (each sample is
+    checked where samples are read: sensor-level replay)."""
+    return _AnySamples if header.samples_logged else _NoSamples
 
 
 def schema_name(record: type[msgspec.Struct]) -> str:

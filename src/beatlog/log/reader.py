@@ -65,6 +65,7 @@ from beatlog.log.format import (
     CycleRecord,
     SessionEnd,
     SessionHeader,
+    samples_shape,
     schema_name,
 )
 from beatlog.log.limits import (
@@ -100,7 +101,9 @@ T = TypeVar("T")
 class LogStatus:
     """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles.
 
-    A dataclass rather than a tuple, so that ``replay --json`` names its fields.
+    A complete log with a ``problem`` has its index (the summary and footer after its
+    cycles) damaged and every cycle intact: only a reader told to tolerate that reports
+    it. A dataclass rather than a tuple, so that ``replay --json`` names its fields.
     """
 
     complete: bool
@@ -108,14 +111,41 @@ class LogStatus:
     problem: str | None = None
 
     def describe(self) -> str:
-        """One line for people: "complete" or where and why the log was truncated."""
+        """One line for people: "complete", "index damaged, data intact" and why, or
+        where and why the log was truncated."""
         if self.complete:
-            return "complete"
+            return "complete" if self.problem is None else _index_damaged(self.problem)
         return f"truncated at cycle {self.cycles}: {self.problem}"
+
+
+def _index_damaged(problem: str) -> str:
+    return f"index damaged, data intact: {problem}"
 
 
 class _Versioned(msgspec.Struct):
     format_version: int
+
+
+class _ReadCycleRecord(CycleRecord, forbid_unknown_fields=True):
+    """A cycle record as the reader decodes it: one of more elements than the format
+    defines is damaged, not cut short (the writer's own records stay as they are)."""
+
+
+_ReadCycleBatch: Any = msgspec.defstruct(
+    "_ReadCycleBatch",
+    [("cycles", list[_ReadCycleRecord])],
+    bases=(CycleBatch,),
+    array_like=True,
+    forbid_unknown_fields=True,
+)
+"""A cycles message as the reader decodes it: nothing after its cycles, each as read."""
+
+
+class _RawBatch(msgspec.Struct, array_like=True):
+    """A cycles message of format 2 with its cycles still encoded, to find a damaged one."""
+
+    first_cycle: int
+    cycles: list[msgspec.Raw]
 
 
 class _TruncatedError(Exception):
@@ -126,16 +156,26 @@ class _DamageError(Exception):
     """Internal: a record is not what the writer writes; corrupt unless it is the last."""
 
 
+class _IndexDamageError(Exception):
+    """Internal: the summary section, the footer or the closing magic is damaged."""
+
+
 class SessionLogReader(Closing):
     """Streams the cycles of one ``.beatlog`` file; a context manager.
 
     The header is read and checked on opening. Iterate :meth:`batches` (fastest) or
     :meth:`cycles`; when iteration ends, :attr:`status` says whether the log was
     complete. Every cycle yielded is in order, none missing or repeated.
+
+    Damage in the index after the cycles (the summary section and the footer, checked
+    against the footer's summary CRC) is a :class:`~beatlog.errors.CorruptLogError`
+    even when every cycle and the end record read back intact, unless
+    ``tolerate_damaged_index``: the status then says so (for people looking at a log).
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, *, tolerate_damaged_index: bool = False) -> None:
         self.path = Path(path)
+        self._tolerate_damaged_index = tolerate_damaged_index
         self._file, self._size = self._open()
         self._channels: dict[int, Channel] = {}
         self._topics: dict[str, int] = {}
@@ -148,6 +188,7 @@ class SessionLogReader(Closing):
         self._chunks: list[tuple[int, int]] = []
         self._messages_read: dict[int, int] = {}
         self._summary_start = 0
+        self._summary_crc = 0
         self._footer: Footer | None = None
         self._summary: list[McapRecord] = []
         self._messages = self._topic_messages()
@@ -158,7 +199,7 @@ class SessionLogReader(Closing):
             raise
         self.format_version = self.header.format_version
         self._raw_batches: Any = msgspec.msgpack.Decoder(
-            CycleBatch if self.format_version >= CYCLE_BATCH_SINCE else list[CycleRecord]
+            _ReadCycleBatch if self.format_version >= CYCLE_BATCH_SINCE else list[_ReadCycleRecord]
         )
         self._batch_decoder: Any = self._raw_batches
         self._state_type: type[Any] | None = None
@@ -192,23 +233,26 @@ class SessionLogReader(Closing):
 
     def decode_states(self, state_type: type[Any]) -> None:
         """Decode each cycle's RS_t into ``state_type`` from the next batch on, with the
-        batch itself: the records' ``robot_state`` is then the decoded state, not its bytes.
+        batch itself: the records' ``robot_state`` is then the decoded state, not its bytes,
+        and their ``samples`` are checked against the header (:func:`samples_shape`), not
+        kept.
 
         Decoding in the same pass as the batch reads every robot state once instead of
         skipping it and decoding it again. A robot state that does not fit the type is a
-        :class:`~beatlog.errors.SchemaMismatchError` naming its cycle.
+        :class:`~beatlog.errors.SchemaMismatchError` naming its cycle; samples the header
+        does not declare are a :class:`~beatlog.errors.CorruptLogError` naming it.
         """
         record: Any = msgspec.defstruct(
             "DecodedCycleRecord",
-            [("robot_state", state_type)],
-            bases=(CycleRecord,),
+            [("robot_state", state_type), ("samples", samples_shape(self.header))],
+            bases=(_ReadCycleRecord,),
             array_like=True,
         )
         batch: Any = (
             msgspec.defstruct(
                 "DecodedCycleBatch",
                 [("cycles", list[record])],
-                bases=(CycleBatch,),
+                bases=(_ReadCycleBatch,),
                 array_like=True,
             )
             if self.format_version >= CYCLE_BATCH_SINCE
@@ -314,25 +358,55 @@ class SessionLogReader(Closing):
         return batch
 
     def _batch_problem(self, data: bytes, where: str, exc: Exception) -> Exception:
-        """What is wrong with a batch that did not decode: the batch is damaged, or (when
-        robot states are decoded with it) a cycle's robot state does not fit its type."""
+        """What is wrong with a batch that did not decode: a cycle in it is damaged, the
+        batch itself is, or (when robot states are decoded with it) a cycle's robot state
+        does not fit its type or its samples are not what the header declares."""
         try:
             decoded = self._raw_batches.decode(data)
         except DECODE_ERRORS as damage:
-            return CorruptLogError(self.path, f"damaged {where}: {damage}")
+            return self._damaged_cycle(data) or CorruptLogError(
+                self.path, f"damaged {where}: {damage}"
+            )
         state_type = self._state_type
+        assert state_type is not None  # raw batches decoded above: states did not
         records = decoded.cycles if isinstance(decoded, CycleBatch) else decoded
+        samples = samples_shape(self.header)
         for index, record in enumerate(records):
             try:
                 msgspec.msgpack.decode(record.robot_state, type=state_type)
             except DECODE_ERRORS as misfit:
-                assert state_type is not None  # raw batches decoded above
                 return SchemaMismatchError(
                     self.path,
                     f"robot state of cycle {self._cycles + index} does not fit "
                     f"{state_type.__name__}: {misfit}",
                 )
+            try:
+                msgspec.msgpack.decode(record.samples, type=samples)
+            except DECODE_ERRORS as misfit:
+                logged = "samples" if self.header.samples_logged else "no samples"
+                return CorruptLogError(
+                    self.path,
+                    f"damaged samples in cycle {self._cycles + index}: the header declares "
+                    f"{logged}: {misfit}",
+                )
         return CorruptLogError(self.path, f"damaged {where}: {exc}")
+
+    def _damaged_cycle(self, data: bytes) -> CorruptLogError | None:
+        """The first cycle of a batch that is not a cycle record, when the batch holds an
+        array of cycles at all."""
+        try:
+            if self.format_version >= CYCLE_BATCH_SINCE:
+                records = msgspec.msgpack.decode(data, type=_RawBatch).cycles
+            else:
+                records = msgspec.msgpack.decode(data, type=list[msgspec.Raw])
+        except DECODE_ERRORS:
+            return None
+        for index, record in enumerate(records):
+            try:
+                msgspec.msgpack.decode(record, type=_ReadCycleRecord)
+            except DECODE_ERRORS as damage:
+                return CorruptLogError(self.path, f"damaged cycle {self._cycles + index}: {damage}")
+        return None
 
     def _read_end(self, message: Message) -> None:
         end = self._decode(message.data, SessionEnd, "end record")
@@ -383,11 +457,27 @@ class SessionLogReader(Closing):
         except _TruncatedError as cut:
             self._status = LogStatus(False, self._cycles, str(cut))
             return
+        except _IndexDamageError as damage:
+            self._index_damage(str(damage))
+            return
+        assert self._footer is not None  # the records end with the footer
+        if self._footer.summary_crc != self._summary_crc:
+            self._index_damage("the summary does not match its CRC in the footer")
+            return
         self._check_summary()
         if self._end is None:
             self._status = LogStatus(False, self._cycles, "the log has no end record")
         else:
             self._status = LogStatus(True, self._cycles)
+
+    def _index_damage(self, problem: str) -> None:
+        """The summary or footer is damaged: after intact cycles and end record, the
+        status of a reader tolerating that, else an error."""
+        if self._end is None:
+            raise CorruptLogError(self.path, problem)
+        if not self._tolerate_damaged_index:
+            raise CorruptLogError(self.path, _index_damaged(problem))
+        self._status = LogStatus(True, self._cycles, problem)
 
     def _add_schema(self, schema: Schema) -> None:
         known = self._schemas.get(schema.id)
@@ -449,7 +539,7 @@ class SessionLogReader(Closing):
             if end > size:
                 if opcode in _KNOWN_OPCODES and length <= MAX_RECORD_BYTES:
                     raise _TruncatedError(f"the last record is cut off at byte {offset}")
-                raise CorruptLogError(self.path, f"damaged record at byte {offset}")
+                raise self._damaged_record(f"damaged record at byte {offset}", summary=summary)
             body = file.read(length)
             try:
                 if not first and opcode not in allowed:
@@ -463,9 +553,8 @@ class SessionLogReader(Closing):
                         f"the last record is damaged at byte {offset}, zero-filled after it "
                         "(power loss?)"
                     ) from None
-                raise CorruptLogError(
-                    self.path, f"damaged record at byte {offset}: {exc}"
-                ) from None
+                problem = f"damaged record at byte {offset}: {exc}"
+                raise self._damaged_record(problem, summary=summary) from None
             if first:
                 self._check_profile(records)
                 first = False
@@ -475,11 +564,17 @@ class SessionLogReader(Closing):
                 summary = True
             elif summary:
                 self._summary.extend(records)
+                self._summary_crc = _summary_crc(head, body, self._summary_crc)
             else:
                 yield from records
             offset = end
         if file.read(len(_MAGIC) + 1) != _MAGIC:
-            raise CorruptLogError(self.path, "damaged or extra bytes after the log's footer")
+            raise _IndexDamageError("damaged or extra bytes after the log's footer")
+
+    def _damaged_record(self, problem: str, *, summary: bool) -> Exception:
+        """A record not as written: damage to the index in the summary section, else a
+        corrupt log."""
+        return _IndexDamageError(problem) if summary else CorruptLogError(self.path, problem)
 
     def _zero_filled_from(self, start: int) -> bool:
         """Whether every byte from ``start`` to the end of the file is zero (power loss)."""
@@ -567,10 +662,11 @@ def recorded_cycles(path: str | Path) -> int | None:
     """The cycles the end record of a closed log counts, or None where there is none to
     read cheaply: the log was cut off, is damaged, or is no session log.
 
-    Only the footer, the summary section and the chunk that holds the end record are
-    read, each within the bounds of :mod:`beatlog.log.limits`: a cost that does not grow
-    with the recording, for planning work such as splitting a suite into shards. Nothing
-    else is checked; judging a log is :class:`SessionLogReader`'s job.
+    Only the footer, the summary section (checked against the footer's CRC) and the
+    chunk that holds the end record are read, each within the bounds of
+    :mod:`beatlog.log.limits`: a cost that does not grow with the recording, for
+    planning work such as splitting a suite into shards. Nothing else is checked;
+    judging a log is :class:`SessionLogReader`'s job.
     """
     path = Path(path)
     if irregular_file_problem(path) is not None:
@@ -596,7 +692,11 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     if not len(_MAGIC) < summary_start <= footer_at or footer_at - summary_start > MAX_CHUNK_BYTES:
         return None
     file.seek(summary_start)
-    summary = _split_records(file.read(footer_at - summary_start), _SUMMARY_RECORDS, "the summary")
+    section = file.read(footer_at - summary_start)
+    footer = tail[:_FOOTER_RECORD]
+    if zlib.crc32(footer[:-4], zlib.crc32(section)) != int.from_bytes(footer[-4:], "little"):
+        return None
+    summary = _split_records(section, _SUMMARY_RECORDS, "the summary")
     ends = {r.id for r in summary if isinstance(r, Channel) and r.topic == END_TOPIC}
     # A chunk holds at most MAX_CHUNK_BYTES, and compression never doubles it.
     holding = [
@@ -620,6 +720,15 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     if len(end) != 1:
         return None
     return msgspec.msgpack.decode(end[0].data, type=SessionEnd).cycles
+
+
+def _summary_crc(head: bytes, body: bytes, crc: int) -> int:
+    """The summary CRC so far, given one more record after the data section: all of it,
+    or of the footer the fields before the CRC itself (as MCAP defines it)."""
+    crc = zlib.crc32(head, crc)
+    if head[0] == Opcode.FOOTER:
+        return zlib.crc32(body[: _FOOTER_BYTES - 4], crc)
+    return zlib.crc32(body, crc)
 
 
 _CHUNK_HEAD = struct.Struct("<QQQII")

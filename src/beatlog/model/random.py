@@ -13,7 +13,7 @@ import secrets
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from enum import StrEnum
-from math import isnan
+from math import isnan, prod
 from numbers import Real
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -33,6 +33,7 @@ __all__ = [
     "RecordingRandom",
     "ReplayRandom",
     "plain_value",
+    "recorded_draw_problem",
 ]
 
 T = TypeVar("T")
@@ -64,6 +65,31 @@ _ARRAY_KINDS = frozenset(
 )
 _encode_params = payload_encoder().encode
 _PLAIN_NUMBERS = frozenset({int, float, bool})
+_SCALAR_VALUES: dict[str, type[int | float]] = {
+    DrawKind.RANDOM.value: float,
+    DrawKind.UNIFORM.value: float,
+    DrawKind.GAUSS.value: float,
+    DrawKind.RANDINT.value: int,
+    DrawKind.CHOICE.value: int,
+}
+"""The type of value each scalar kind of draw is recorded with."""
+_ARRAY_DTYPES = {
+    DrawKind.UNIFORM_ARRAY.value: "<f8",
+    DrawKind.NORMAL_ARRAY.value: "<f8",
+    DrawKind.INTEGERS_ARRAY.value: "<i8",
+}
+"""The dtype each kind of array draw is recorded with (8 bytes an element)."""
+_PARAMS = {
+    DrawKind.RANDOM.value: 0,
+    DrawKind.UNIFORM.value: 2,
+    DrawKind.GAUSS.value: 2,
+    DrawKind.RANDINT.value: 2,
+    DrawKind.CHOICE.value: 1,
+    **dict.fromkeys(_ARRAY_DTYPES, 3),
+}
+"""How many parameters each kind of draw records (none in format 1)."""
+_NUMBERS = frozenset({int, float})
+_CHOICE = DrawKind.CHOICE.value
 
 
 def _same_params(recorded: Sequence[Any], asked: Sequence[Any]) -> bool:
@@ -112,6 +138,55 @@ def plain_value(draw: Draw) -> Any:
         except (ValueError, TypeError):
             return draw.value
     return draw.value
+
+
+def recorded_draw_problem(draw: Draw, behaviors: int) -> str | None:
+    """What makes a draw read from a log one that no recording writes, or None: an actor
+    outside the catalogue of ``behaviors`` (-1, the system, is in), an unknown kind, a
+    value or parameters not of the kind's types, an array whose bytes do not make its
+    dtype and shape, a choice outside the recorded range."""
+    actor, kind, value, params = draw
+    if not -1 <= actor < behaviors:
+        return f"drawn by behavior #{actor}, not in the catalogue of {behaviors}"
+    arity = _PARAMS.get(kind)
+    if arity is None:
+        return f"a draw of unknown kind {kind!r}"
+    if params and (
+        len(params) != arity
+        or params[0].__class__ not in _NUMBERS
+        or (arity > 1 and params[1].__class__ not in _NUMBERS)
+    ):
+        return f"{kind} recorded with parameters {list(params)!r}"
+    scalar = _SCALAR_VALUES.get(kind)
+    if scalar is None:
+        return _array_problem(kind, value, params)
+    if value.__class__ is not scalar:
+        return f"{kind} recorded {value!r}, not {'an int' if scalar is int else 'a float'}"
+    if kind == _CHOICE and params and not 0 <= value < params[0]:
+        return f"choice recorded index {value} of {params[0]} items"
+    return None
+
+
+def _is_shape(shape: Any) -> bool:
+    return shape.__class__ in (list, tuple) and all(n.__class__ is int and n >= 0 for n in shape)
+
+
+def _array_problem(kind: str, value: Any, params: tuple[Any, ...]) -> str | None:
+    """What is wrong with an array draw's recorded ``[dtype, shape, bytes]``, or None."""
+    if not (value.__class__ in (list, tuple) and len(value) == 3):
+        return f"{kind} recorded {value!r}, not [dtype, shape, bytes]"
+    dtype, shape, data = value
+    if dtype != _ARRAY_DTYPES[kind]:
+        return f"{kind} recorded dtype {dtype!r}, not {_ARRAY_DTYPES[kind]!r}"
+    if not _is_shape(shape):
+        return f"{kind} recorded shape {shape!r}"
+    if params and not (_is_shape(params[2]) and list(params[2]) == list(shape)):
+        return f"{kind} recorded shape {list(shape)} where {params[2]!r} was asked for"
+    size = 8 * prod(shape)
+    if data.__class__ is not bytes or len(data) != size:
+        length = len(data) if data.__class__ is bytes else repr(data)
+        return f"{kind} recorded {length} bytes for shape {list(shape)}, not {size}"
+    return None
 
 
 def _unpack_array(value: Any) -> npt.NDArray[Any]:

@@ -27,14 +27,15 @@ from beatlog.log.format import (
     SessionHeader,
     StateChangeRecord,
     payload_encoder,
+    samples_shape,
 )
 from beatlog.model.behavior import System
 from beatlog.model.context import Outputs
 from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception, PerceptionTypeError
-from beatlog.model.random import Draw, RandomMismatch, ReplayRandom
-from beatlog.replay.fit import check_fit
+from beatlog.model.random import Draw, RandomMismatch, ReplayRandom, recorded_draw_problem
+from beatlog.replay.fit import check_fit, recorded_state_type
 
 __all__ = ["CycleOutcome", "Replayer"]
 
@@ -111,7 +112,10 @@ class Replayer:
 
     Building one checks that the log fits the system (:mod:`beatlog.replay.fit`).
     Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
-    the samples (sensor-level replay); otherwise it is read from the log.
+    the samples (sensor-level replay); otherwise it is read from the log. Each cycle
+    must hold what the header declares: a robot state of exactly the recorded fields
+    (:attr:`state_type`), the samples it logged, and draws a recording makes; anything
+    else is a :class:`~beatlog.errors.LogError` naming the cycle.
 
     :attr:`advance` replays a cycle and says only whether it went cleanly, which is all
     the verdict needs for the cycles that match; :meth:`outcome` then tells everything
@@ -129,6 +133,10 @@ class Replayer:
         break_at: int | None = None,
     ) -> None:
         check_fit(header, system, path)
+        self.state_type = recorded_state_type(header, system.robot_state)
+        """The system's robot state type as each cycle's RS_t must hold it: decode RS_t
+        with it (:meth:`~beatlog.log.reader.SessionLogReader.decode_states`); the
+        behaviors get each as an instance of the system's type itself."""
         self.break_at = break_at
         """Stop in the debugger just before the behaviors update in this cycle."""
         self.system = system
@@ -143,9 +151,10 @@ class Replayer:
         self._rebuilt: Any = None
         self._encode = payload_encoder().encode
         self._robot_state = system.robot_state
-        self._state = msgspec.msgpack.Decoder(system.robot_state).decode
+        self._state = msgspec.msgpack.Decoder(self.state_type).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
+        self._samples_shape = msgspec.msgpack.Decoder(samples_shape(header)).decode
         self._given: tuple[Any, Observe | None] | None = None
         self._last: tuple[
             CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, _Sensed | None
@@ -226,10 +235,11 @@ class Replayer:
         step = executor.step
         random = self.random
         load = random.load
-        recorded_state = self._recorded_state
+        read_state = self._read_state
         break_at = self.break_at
         perception = self.perception
         raw = msgspec.Raw
+        as_system = self._robot_state if self.state_type is not self._robot_state else None
         changes: list[StateChangeRecord] | None = None
         while True:
             record = yield changes
@@ -241,7 +251,9 @@ class Replayer:
                 if perception is None or context.cycle + 1 == break_at:
                     state = record.robot_state  # decoded with the batch, or still bytes
                     if state.__class__ is raw:
-                        state = recorded_state(record, context.cycle + 1)
+                        state = read_state(record, context.cycle + 1)
+                    elif as_system is not None:  # decoded as the checking subclass
+                        state.__class__ = as_system
                 if context.cycle + 1 == break_at:
                     self._pause(context.cycle + 1, state, record)
                 if perception is None:
@@ -315,13 +327,16 @@ class Replayer:
         if state.__class__ is not msgspec.Raw:
             return state
         try:
-            return self._state(state)
+            decoded = self._state(state)
         except DECODE_ERRORS as exc:
             raise SchemaMismatchError(
                 self.path,
                 f"robot state of cycle {cycle} does not fit "
                 f"{self.system.robot_state.__name__}: {exc}",
             ) from None
+        if self.state_type is not self._robot_state:
+            decoded.__class__ = self._robot_state
+        return decoded
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: ``breakpoint()`` (so ``PYTHONBREAKPOINT`` is honoured) just
@@ -353,10 +368,34 @@ class Replayer:
         except DECODE_ERRORS as exc:
             raise CorruptLogError(self.path, f"damaged samples in cycle {cycle}: {exc}") from None
 
-    def _decode_draws(self, record: CycleRecord, cycle: int) -> list[Draw]:
+    def _read_state(self, record: CycleRecord, cycle: int) -> Any:
+        """RS_t of ``cycle`` decoded (:meth:`_recorded_state`), its samples checked to be
+        what the header declares, as
+        :meth:`~beatlog.log.reader.SessionLogReader.decode_states` does with the batch."""
+        state = self._recorded_state(record, cycle)
         try:
-            return self._draws(record.random_numbers)
+            self._samples_shape(record.samples)
+        except DECODE_ERRORS as exc:
+            logged = "samples" if self.header.samples_logged else "no samples"
+            raise CorruptLogError(
+                self.path,
+                f"damaged samples in cycle {cycle}: the header declares {logged}: {exc}",
+            ) from None
+        return state
+
+    def _decode_draws(self, record: CycleRecord, cycle: int) -> list[Draw]:
+        """RN_t, each draw one a recording makes (:func:`recorded_draw_problem`)."""
+        try:
+            draws = self._draws(record.random_numbers)
         except DECODE_ERRORS as exc:
             raise CorruptLogError(
                 self.path, f"damaged random numbers in cycle {cycle}: {exc}"
             ) from None
+        behaviors = len(self.header.behaviors)
+        for number, draw in enumerate(draws, 1):
+            problem = recorded_draw_problem(draw, behaviors)
+            if problem is not None:
+                raise CorruptLogError(
+                    self.path, f"damaged random number #{number} in cycle {cycle}: {problem}"
+                )
+        return draws

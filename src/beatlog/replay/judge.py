@@ -36,7 +36,7 @@ from beatlog.project import vouched_system
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.expectation import Expectation
-from beatlog.replay.fit import check_state_fields
+from beatlog.replay.fit import check_catalogue, check_state_fields
 from beatlog.replay.renames import propose_renames
 from beatlog.replay.session import fields_read
 from beatlog.replay.verdict import (
@@ -147,7 +147,7 @@ def replay(
         if judge.replayer.perception is None and observe is None:
             # State-level replay without observers needs RS_t decoded, and only that:
             # decoded with each batch, it is read once (the log fits: checked above).
-            reader.decode_states(system.robot_state)
+            reader.decode_states(judge.replayer.state_type)
         started = time.perf_counter()
         status = None
         batches = judge.expected_batches(reader.batches())
@@ -258,6 +258,7 @@ class _Judge:
         """The cycles before the first divergence, then the divergence."""
         self.path = path
         self.replayer = Replayer(system, header, path, perception=perception, break_at=break_at)
+        check_catalogue(header, system, path, comparison.renames)
         self.random = self.replayer.random
         self.executor = self.replayer.executor
         self._observe = observe
@@ -542,13 +543,22 @@ class _Judge:
         return self.comparison.outputs_agree(expected, outputs)
 
     def _named(self, raw_changes: msgspec.Raw) -> list[StateChange]:
-        """Expected state changes in current names."""
+        """Expected state changes in current names.
+
+        :raises beatlog.errors.CorruptLogError: one names a behavior the catalogue lacks.
+        """
         names = self.expected_names
         renamed = self.comparison.renamed
         recorded = self._decode(raw_changes, self._changes_decoder.decode, "state changes")
+        for index, _, _ in recorded:
+            if not 0 <= index < len(names):
+                raise CorruptLogError(
+                    self.path,
+                    f"damaged state changes in cycle {self.executor.context.cycle}: behavior "
+                    f"#{index} is not in the catalogue of {len(names)}",
+                )
         return [
-            renamed(StateChange(_name(names, index), before, after))
-            for index, before, after in recorded
+            renamed(StateChange(names[index], before, after)) for index, before, after in recorded
         ]
 
     def _named_actual(self, changes: list[StateChangeRecord]) -> list[StateChange]:
