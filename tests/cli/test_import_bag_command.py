@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from rosbags.rosbag2 import StoragePlugin
 
-from tests.bags import write_bag
+from tests.bags import name_other_qos, write_bag
 from tests.commands import Beatlog, Run, assert_one_line_error
 from tests.specs import CHANGED, PROBE
 
@@ -139,3 +139,34 @@ def test_without_rosbags_the_command_says_what_to_install(
     run = import_bag(beatlog, bag, "--perception", PERCEPTION)
 
     assert_one_line_error(run, 'needs rosbags (pip install "beatlog[ros]")')
+
+
+@pytest.mark.parametrize("storage", list(StoragePlugin), ids=lambda storage: storage.name)
+def test_a_folder_whose_files_rosbags_cannot_match_is_an_error_not_an_empty_dtc(
+    beatlog: Beatlog, tmp_path: Path, storage: StoragePlugin
+) -> None:
+    bag = write_bag(tmp_path / "talker", storage=storage)
+    name_other_qos(bag)  # as rosbag2's own talker test bags
+    spec = tmp_path / "talker.dtc.toml"
+
+    run = import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec)
+
+    assert run.err == (
+        f"beatlog: error: {bag}: read 0 of the 360 messages its metadata counts "
+        "(topic /sonar: 0 of 300, topic /speed: 0 of 60); the bag is damaged, or its "
+        "metadata.yaml does not match its storage files\n"
+    )
+    assert_one_line_error(run)
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["talker"]
+
+
+def test_an_empty_bag_is_an_error(beatlog: Beatlog, tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "empty", sonars=0, speeds=0)
+
+    run = import_bag(beatlog, bag, "--perception", PERCEPTION)
+
+    assert run.err == (
+        f"beatlog: error: {bag}: its metadata counts no messages on /sonar, /speed\n"
+    )
+    assert_one_line_error(run)
+    assert not bag.with_suffix(".beatlog").exists()
