@@ -340,6 +340,15 @@ def test_a_folder_whose_metadata_does_not_fit_its_files_is_refused(
     assert refused(tmp_path, bag).startswith(f"{bag}: {problem}")
 
 
+def test_a_folder_naming_a_storage_file_it_lacks_names_that_file(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag")
+    edit_metadata(bag, lambda information: information.update(relative_file_paths=["x.mcap"]))
+
+    assert refused(tmp_path, bag) == f"{bag / 'x.mcap'}: no such file"
+    (bag / "metadata.yaml").unlink()
+    assert refused(tmp_path, bag) == f"{bag / 'metadata.yaml'}: no such file"
+
+
 def test_a_storage_file_that_counts_more_messages_than_its_topics_hold_is_refused(
     tmp_path: Path,
 ) -> None:

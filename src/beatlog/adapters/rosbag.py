@@ -34,7 +34,7 @@ from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import fields, is_dataclass
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -47,7 +47,7 @@ from beatlog.errors import (
     OptionError,
     SpecError,
 )
-from beatlog.files import replacing
+from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import payload_encoder
 from beatlog.log.limits import MAX_NAME_LENGTH
 from beatlog.log.writer import MAX_CYCLE_BYTES
@@ -206,6 +206,10 @@ def _open(bag: Path) -> Iterator[AnyReader]:
         ) from None
     if not bag.exists():
         raise BagError(bag, "no such bag")
+    for path in _files(bag):
+        problem = irregular_file_problem(path)
+        if problem is not None:
+            raise BagError(path, problem)
     try:
         reader = AnyReader([bag], default_typestore=get_typestore(Stores.LATEST))
         reader.open()
@@ -215,6 +219,26 @@ def _open(bag: Path) -> Iterator[AnyReader]:
         yield reader
     finally:
         reader.close()
+
+
+def _files(bag: Path) -> Iterator[Path]:
+    """The files rosbags opens to read ``bag``: the bag file itself, or a folder's
+    ``metadata.yaml`` and the storage files it names, checked one by one as found."""
+    if not bag.is_dir():
+        yield bag
+        return
+    metadata = bag / "metadata.yaml"
+    yield metadata
+    from ruamel.yaml import YAML  # noqa: PLC0415 - rosbags' own YAML reader
+
+    try:
+        information = YAML(typ="safe").load(metadata.read_text())["rosbag2_bagfile_information"]
+        names = list(information["relative_file_paths"])
+    except Exception:
+        return
+    for name in names:
+        if isinstance(name, str):
+            yield bag / PurePath(name).name  # as rosbags finds them
 
 
 def _reason(exc: BaseException) -> str:
