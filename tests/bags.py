@@ -10,12 +10,14 @@ the sonar's range is the distance, the last speed the reading. Specs and
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from ruamel.yaml import YAML
 
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
@@ -87,6 +89,50 @@ def write_bag(
         for topic, time, message, kind in sorted(messages, key=lambda message: message[1]):
             writer.write(connections[topic], time, store.serialize_cdr(message, kind))
     return path
+
+
+def storage_file(bag: Path) -> Path:
+    """The one storage file of the bag folder ``bag``, beside its ``metadata.yaml``."""
+    [data] = [path for path in bag.iterdir() if path.name != "metadata.yaml"]
+    return data
+
+
+def edit_metadata(bag: Path, edit: Callable[[dict[str, Any]], object]) -> None:
+    """Rewrite the ``metadata.yaml`` of the bag folder ``bag`` with ``edit`` applied to its
+    ``rosbag2_bagfile_information``."""
+    yaml = YAML(typ="safe")
+    metadata = bag / "metadata.yaml"
+    document = yaml.load(metadata.read_text())
+    edit(document["rosbag2_bagfile_information"])
+    with metadata.open("w") as file:
+        yaml.dump(document, file)
+
+
+TALKER_QOS = (
+    "- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n  deadline:\n    sec: 0\n"
+    "    nsec: 0\n  lifespan:\n    sec: 0\n    nsec: 0\n  liveliness: 1\n"
+    "  liveliness_lease_duration:\n    sec: 0\n    nsec: 0\n"
+    "  avoid_ros_namespace_conventions: false"
+)
+"""The offered QoS that rosbag2's own ``talker`` test bags name in their metadata.yaml."""
+
+
+def name_other_qos(bag: Path) -> None:
+    """Make the metadata.yaml of ``bag`` name QoS its storage file does not hold, as that
+    of rosbag2's own ``talker`` test bags does: rosbags then matches none of its messages."""
+
+    def edit(information: dict[str, Any]) -> None:
+        for topic in information["topics_with_message_count"]:
+            topic["topic_metadata"]["offered_qos_profiles"] = TALKER_QOS
+
+    edit_metadata(bag, edit)
+
+
+def flip_bit(path: Path, bit: int) -> None:
+    """Flip bit ``bit`` of the file at ``path`` (bit 0 is the lowest of its first byte)."""
+    data = bytearray(path.read_bytes())
+    data[bit // 8] ^= 1 << (bit % 8)
+    path.write_bytes(bytes(data))
 
 
 def perceive(previous: Probe | None, samples: Sequence[Sample]) -> Probe:

@@ -6,15 +6,18 @@ from __future__ import annotations
 import contextlib
 import shutil
 import sqlite3
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import msgspec
 import pytest
 from rosbags.rosbag2 import StoragePlugin
 
+from beatlog.adapters import rosbag
 from beatlog.adapters.rosbag import BagImport, import_bag
 from beatlog.analysis.summary import summarize
-from beatlog.errors import BagError, LogExistsError, OptionError
+from beatlog.errors import BagError, LogExistsError, OptionError, SpecError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.inbox import Sample
 from beatlog.replay.verdict import DivergenceKind
@@ -24,7 +27,11 @@ from tests.bags import (
     SONAR_EVERY_NS,
     START_NS,
     TICK_EVERY_NS,
+    edit_metadata,
+    flip_bit,
+    name_other_qos,
     perceive,
+    storage_file,
     write_bag,
 )
 from tests.conftest import probe_system
@@ -33,6 +40,8 @@ from tests.specs import CHANGED, PROBE, write_spec
 PERCEPTION = "tests.bags:perception"
 CHECKING = "tests.bags:checking_perception"
 LONG_RANGE = "tests.bags:long_range_perception"
+MISMATCH = "the bag is damaged, or its metadata.yaml does not match its storage files"
+"""How a folder's counts that do not add up end."""
 
 
 def cycles_of(log: Path) -> list[tuple[int, list[Sample]]]:
@@ -228,6 +237,233 @@ def test_a_missing_or_damaged_bag_is_a_bag_error(tmp_path: Path, what: str) -> N
 
     assert str(raised.value).startswith(f"{bag}: ")
     assert not (tmp_path / "out.beatlog").exists()
+
+
+def refused(tmp_path: Path, bag: Path, **options: object) -> str:
+    """Why importing ``bag`` failed; it must fail, leaving neither a log nor a spec."""
+    log, spec = tmp_path / "out.beatlog", tmp_path / "out.dtc.toml"
+    settings: dict[str, object] = {"system": PROBE, "perception": PERCEPTION, **options}
+    with pytest.raises(BagError) as raised:
+        import_bag(bag, log, spec=spec, **settings)  # type: ignore[arg-type]
+    assert [path.name for path in tmp_path.iterdir() if "out." in path.name] == []
+    return str(raised.value)
+
+
+def nth(topic_id: int, index: int) -> str:
+    """The id of message ``index`` on a topic of a sqlite3 bag (1: /sonar, 2: /speed)."""
+    return (
+        f"SELECT id FROM messages WHERE topic_id = {topic_id} "
+        f"ORDER BY timestamp LIMIT 1 OFFSET {index}"
+    )
+
+
+def delete_messages(database: Path, where: str) -> None:
+    with contextlib.closing(sqlite3.connect(database)) as connection, connection:
+        connection.execute(f"DELETE FROM messages WHERE {where}")
+
+
+def test_a_bag_that_lost_messages_its_metadata_counts_is_refused_naming_the_counts(
+    tmp_path: Path,
+) -> None:
+    bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
+    delete_messages(storage_file(bag), f"id IN (({nth(1, 0)}), ({nth(1, 9)}), ({nth(2, 3)}))")
+
+    assert refused(tmp_path, bag) == (
+        f"{bag}: read 357 of the 360 messages its metadata counts "
+        f"(topic /sonar: 298 of 300, topic /speed: 59 of 60); {MISMATCH}"
+    )
+
+
+def test_only_the_topics_imported_must_have_every_message(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
+    delete_messages(storage_file(bag), "topic_id = 2")  # every speed
+
+    assert imported(tmp_path, topics=["/sonar"]).samples == 300
+    assert "read 300 of the 360 messages" in refused(tmp_path, bag)
+
+
+@pytest.mark.parametrize("storage", list(StoragePlugin))
+def test_a_folder_whose_metadata_names_qos_its_storage_lacks_is_refused_not_empty(
+    tmp_path: Path, storage: StoragePlugin
+) -> None:
+    bag = write_bag(tmp_path / "talker", storage=storage)
+    name_other_qos(bag)  # as rosbag2's own talker test bags: rosbags matches no message
+
+    assert refused(tmp_path, bag) == (
+        f"{bag}: read 0 of the 360 messages its metadata counts "
+        f"(topic /sonar: 0 of 300, topic /speed: 0 of 60); {MISMATCH}"
+    )
+    alone = import_bag(
+        storage_file(bag), tmp_path / "file.beatlog", system=PROBE, perception=PERCEPTION
+    )
+    assert alone.samples == 360  # the storage file alone holds every message
+
+
+@pytest.mark.parametrize("storage", list(StoragePlugin))
+def test_a_folder_whose_storage_file_is_another_bags_is_refused(
+    tmp_path: Path, storage: StoragePlugin
+) -> None:
+    bag = write_bag(tmp_path / "bag", storage=storage)
+    other = write_bag(tmp_path / "other", storage=storage, sonars=100)
+    storage_file(other).replace(storage_file(bag))  # the metadata.yaml of the first left
+
+    assert refused(tmp_path, bag) == (
+        f"{bag}: read 160 of the 360 messages its metadata counts (topic /sonar: 100 of 300); "
+        f"{MISMATCH}"
+    )
+
+
+@pytest.mark.parametrize(
+    ("edit", "problem"),
+    [
+        (
+            lambda information: information.update(storage_identifier="sqlite3"),
+            "not a readable ROS bag: AnyReaderError: Cannot open database",
+        ),
+        (
+            lambda information: information.update(storage_identifier="bag_v2"),
+            "not a readable ROS bag: AnyReaderError: Storage plugin 'bag_v2' not supported",
+        ),
+        (
+            lambda information: information.update(message_count=361),
+            "its metadata counts 361 messages but 360 on its topics; the bag is damaged",
+        ),
+    ],
+    ids=["other storage", "unknown storage", "total"],
+)
+def test_a_folder_whose_metadata_does_not_fit_its_files_is_refused(
+    tmp_path: Path, edit: Callable[[dict[str, Any]], object], problem: str
+) -> None:
+    bag = write_bag(tmp_path / "bag")
+    edit_metadata(bag, edit)
+
+    assert refused(tmp_path, bag).startswith(f"{bag}: {problem}")
+
+
+def test_a_folder_naming_a_storage_file_it_lacks_names_that_file(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag")
+    edit_metadata(bag, lambda information: information.update(relative_file_paths=["x.mcap"]))
+
+    assert refused(tmp_path, bag) == f"{bag / 'x.mcap'}: no such file"
+    (bag / "metadata.yaml").unlink()
+    assert refused(tmp_path, bag) == f"{bag / 'metadata.yaml'}: no such file"
+
+
+def test_a_storage_file_that_counts_more_messages_than_its_topics_hold_is_refused(
+    tmp_path: Path,
+) -> None:
+    bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
+    database = storage_file(bag)
+    with contextlib.closing(sqlite3.connect(database)) as connection, connection:
+        connection.execute(f"UPDATE messages SET topic_id = 9 WHERE id = ({nth(1, 5)})")
+
+    assert refused(tmp_path, database) == (
+        f"{database}: its metadata counts 360 messages but 359 on its topics; the bag is damaged"
+    )
+
+
+def shift_message(database: Path, shift_ns: int) -> None:
+    """Move the 6th sonar ``shift_ns`` later, as a flipped bit of its time would."""
+    with contextlib.closing(sqlite3.connect(database)) as connection, connection:
+        connection.execute(
+            f"UPDATE messages SET timestamp = timestamp + ? WHERE id = ({nth(1, 5)})",
+            [shift_ns],
+        )
+
+
+def test_a_message_far_outside_the_bags_span_is_refused_not_imported(
+    tmp_path: Path,
+) -> None:
+    bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
+    shift_message(storage_file(bag), 10 * 10**9)  # more than the bag's 3 s span after it
+    end = START_NS + 299 * SONAR_EVERY_NS + 1
+
+    assert refused(tmp_path, bag) == (
+        f"{bag}: a message on /sonar has log time {START_NS + 5 * SONAR_EVERY_NS + 10 * 10**9} "
+        f"ns, far outside the bag's span as its metadata gives it ({START_NS} to {end} ns); "
+        f"{MISMATCH}"
+    )
+
+
+def test_a_bag_spanning_more_heartbeats_than_an_import_writes_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(rosbag, "MAX_HEARTBEATS", 50)  # a storage file's time may be damaged
+    bag = write_bag(tmp_path / "bag")  # too: then its span is all there is to go by
+
+    assert refused(tmp_path, bag) == (
+        f"{bag}: its messages span 3 s, 99 heartbeats of 30 ms, more than an import writes "
+        "(50); choose a longer heartbeat period or a clock topic"
+    )
+    assert imported(tmp_path, clock_topic="/speed").cycles == 59
+
+
+@pytest.fixture(scope="module")
+def small_bags(tmp_path_factory: pytest.TempPathFactory) -> dict[StoragePlugin, Path]:
+    """A small bag in each storage, 62 messages: 40 sonars, 8 speeds, 14 ticks."""
+    root = tmp_path_factory.mktemp("small")
+    return {
+        storage: write_bag(root / storage.name, storage=storage, sonars=40, speeds=8, ticks=14)
+        for storage in StoragePlugin
+    }
+
+
+FLIPS = 28
+
+
+def flipped_bit(data: bytes, storage: StoragePlugin, flip: int) -> int:
+    """Bit ``flip`` of the battery: the first 16 lie about the log time of the 18th sonar
+    as the storage file holds it (its record's length, channel and times), the others are
+    spread over the whole file."""
+    if flip < 16:
+        time = START_NS + 17 * SONAR_EVERY_NS
+        at = data.index(time.to_bytes(8, "little" if storage is StoragePlugin.MCAP else "big"))
+        return 8 * (at + flip - 8) + flip % 8
+    return len(data) * 8 * (flip - 16) // (FLIPS - 16) + 5
+
+
+@pytest.mark.parametrize("flip", range(FLIPS))
+@pytest.mark.parametrize("storage", list(StoragePlugin), ids=lambda storage: storage.name)
+def test_a_bag_with_a_flipped_bit_imports_every_message_or_is_refused(
+    tmp_path: Path, small_bags: dict[StoragePlugin, Path], storage: StoragePlugin, flip: int
+) -> None:
+    bag = shutil.copytree(small_bags[storage], tmp_path / "bag")
+    data = storage_file(bag)
+    flip_bit(data, flipped_bit(data.read_bytes(), storage, flip))
+    log = tmp_path / "out.beatlog"
+
+    try:  # by the clock topic: a damaged time cannot make an import run for hours
+        result = import_bag(bag, log, system=PROBE, perception=PERCEPTION, clock_topic="/tick")
+    except BagError as error:
+        problem = str(error)
+    else:
+        assert result.samples + result.left_out == 62
+        return
+    assert problem.startswith(f"{bag}: ")
+    assert [path.name for path in tmp_path.iterdir()] == ["bag"]
+
+
+def test_a_spec_that_cannot_be_written_leaves_no_log(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag")
+    spec = tmp_path / "out.dtc.toml"
+    spec.mkdir()  # replaced with overwrite, but a folder cannot be
+
+    with pytest.raises(SpecError, match="cannot write"):
+        import_bag(
+            bag,
+            tmp_path / "out.beatlog",
+            system=PROBE,
+            perception=PERCEPTION,
+            spec=spec,
+            overwrite=True,
+        )
+    assert not (tmp_path / "out.beatlog").exists()
+
+
+def test_a_spec_in_a_missing_folder_is_refused_before_the_bag_is_read(tmp_path: Path) -> None:
+    with pytest.raises(SpecError, match=r"cannot write: directory .* does not exist"):
+        imported(tmp_path, spec=tmp_path / "nowhere" / "out.dtc.toml")
+    assert not (tmp_path / "bag.beatlog").exists()
 
 
 @pytest.mark.parametrize(

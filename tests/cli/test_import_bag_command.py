@@ -3,19 +3,23 @@ test`` replays at sensor level; bad input is one line naming the file, exit code
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 from rosbags.rosbag2 import StoragePlugin
 
-from tests.bags import write_bag
+from tests.bags import edit_metadata, name_other_qos, storage_file, write_bag
 from tests.commands import Beatlog, Run, assert_one_line_error
 from tests.specs import CHANGED, PROBE
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
 PERCEPTION = "tests.bags:perception"
+ROOT = Path(__file__).parents[2]
 
 
 def import_bag(beatlog: Beatlog, bag: Path, *options: str | Path) -> Run:
@@ -139,3 +143,90 @@ def test_without_rosbags_the_command_says_what_to_install(
     run = import_bag(beatlog, bag, "--perception", PERCEPTION)
 
     assert_one_line_error(run, 'needs rosbags (pip install "beatlog[ros]")')
+
+
+@pytest.mark.parametrize("storage", list(StoragePlugin), ids=lambda storage: storage.name)
+def test_a_folder_whose_files_rosbags_cannot_match_is_an_error_not_an_empty_dtc(
+    beatlog: Beatlog, tmp_path: Path, storage: StoragePlugin
+) -> None:
+    bag = write_bag(tmp_path / "talker", storage=storage)
+    name_other_qos(bag)  # as rosbag2's own talker test bags
+    spec = tmp_path / "talker.dtc.toml"
+
+    run = import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec)
+
+    assert run.err == (
+        f"beatlog: error: {bag}: read 0 of the 360 messages its metadata counts "
+        "(topic /sonar: 0 of 300, topic /speed: 0 of 60); the bag is damaged, or its "
+        "metadata.yaml does not match its storage files\n"
+    )
+    assert_one_line_error(run)
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["talker"]
+
+
+def test_an_empty_bag_is_an_error(beatlog: Beatlog, tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "empty", sonars=0, speeds=0)
+
+    run = import_bag(beatlog, bag, "--perception", PERCEPTION)
+
+    assert run.err == (
+        f"beatlog: error: {bag}: its metadata counts no messages on /sonar, /speed\n"
+    )
+    assert_one_line_error(run)
+    assert not bag.with_suffix(".beatlog").exists()
+
+
+def fifo_as_bag_file(tmp_path: Path) -> tuple[Path, Path]:
+    fifo = tmp_path / "bag.mcap"
+    os.mkfifo(fifo)
+    return fifo, fifo
+
+
+def fifo_as_metadata(tmp_path: Path) -> tuple[Path, Path]:
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    os.mkfifo(bag / "metadata.yaml")
+    return bag, bag / "metadata.yaml"
+
+
+def fifo_as_storage_file(tmp_path: Path) -> tuple[Path, Path]:
+    bag = write_bag(tmp_path / "bag")
+    data = storage_file(bag)
+    data.unlink()
+    os.mkfifo(data)
+    return bag, data
+
+
+def fifo_named_by_metadata(tmp_path: Path) -> tuple[Path, Path]:
+    bag = write_bag(tmp_path / "bag")
+    os.mkfifo(tmp_path / "bag" / "more.mcap")
+    edit_metadata(bag, lambda information: information["relative_file_paths"].append("more.mcap"))
+    return bag, bag / "more.mcap"
+
+
+@pytest.mark.parametrize(
+    "fifo",
+    [fifo_as_bag_file, fifo_as_metadata, fifo_as_storage_file, fifo_named_by_metadata],
+    ids=["bag file", "metadata.yaml", "storage file", "second storage file"],
+)
+def test_a_fifo_in_a_bag_is_refused_before_anything_opens_it(
+    tmp_path: Path, fifo: Callable[[Path], tuple[Path, Path]]
+) -> None:
+    bag, path = fifo(tmp_path)
+    output = tmp_path / "out.beatlog"
+
+    command = ["import-bag", bag, "-o", output, "--system", PROBE, "--perception", PERCEPTION]
+    done = subprocess.run(
+        [sys.executable, "-m", "beatlog.cli.main", *map(str, command)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,  # a regression fails here instead of hanging the suite
+        check=False,
+    )
+
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == (
+        f"beatlog: error: {path}: is not a regular file (a FIFO, socket or device)\n"
+    )
+    assert not output.exists()

@@ -19,6 +19,10 @@ on it, recording BS_t, RN_t and outputs with the samples, as a robot recording w
 ``log_samples`` would. A DTC of the log replays at sensor level: a changed
 perception step fails it with a PERCEPTION divergence, a changed system with the
 behavior state changes it made.
+
+A bag is trusted only as far as its metadata: every message it counts on the topics
+imported must be read, at a log time within its span, or the import is refused as
+damaged; nothing is written then.
 """
 
 from __future__ import annotations
@@ -26,10 +30,11 @@ from __future__ import annotations
 import itertools
 import os
 import statistics
+from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import fields, is_dataclass
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
@@ -42,7 +47,7 @@ from beatlog.errors import (
     OptionError,
     SpecError,
 )
-from beatlog.files import replacing
+from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import payload_encoder
 from beatlog.log.limits import MAX_NAME_LENGTH
 from beatlog.log.writer import MAX_CYCLE_BYTES
@@ -58,10 +63,16 @@ if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
     from rosbags.interfaces import Connection
 
-__all__ = ["MAX_SAMPLE_BYTES", "BagImport", "import_bag"]
+__all__ = ["MAX_HEARTBEATS", "MAX_SAMPLE_BYTES", "BagImport", "import_bag"]
 
 MAX_SAMPLE_BYTES = 1 << 20
 """The largest message imported, as logged: a camera image is left out with ``topics``."""
+MAX_HEARTBEATS = 10_000_000
+"""The most heartbeats of its period a bag imported by period may span: 83 hours of
+the default 30 ms."""
+_TIME_SLACK_NS = 1_000_000_000
+"""How far a message's log time may lie outside the bag's span as its metadata gives
+it, at least (rosbag2 records messages that arrive out of order a little past it)."""
 
 _BYTE_TYPES = (np.dtype(np.uint8), np.dtype(np.int8))
 """Arrays imported as bytes: ROS ``uint8[]`` and ``int8[]`` are byte buffers."""
@@ -120,9 +131,10 @@ def import_bag(
     references. ``seed`` seeds the random numbers the behaviors draw (fresh when None).
     An existing log or spec is replaced only with ``overwrite``.
 
-    :raises beatlog.errors.BagError: the bag is missing or damaged, holds no messages
-        on the topics asked for, a message is too large, or the perception step or the
-        system raised (the message names the cycle; the user's traceback is kept).
+    :raises beatlog.errors.BagError: the bag is missing, damaged or not a regular file,
+        holds no messages on the topics asked for, yields fewer or more messages than its
+        metadata counts, a message is too large, or the perception step or the system
+        raised (the message names the cycle; the user's traceback is kept).
     :raises beatlog.errors.OptionError: both a period and a clock topic, or a period
         that is not positive.
     """
@@ -142,6 +154,8 @@ def import_bag(
     perceive = load_perception(perception) if isinstance(perception, str) else perception
     if not output.parent.is_dir():
         raise LogError(output, f"cannot write: directory {output.parent} does not exist")
+    if spec_path is not None and not spec_path.parent.is_dir():
+        raise SpecError(spec_path, f"cannot write: directory {spec_path.parent} does not exist")
     with _open(bag) as reader:
         imported = _Import(bag, reader, built, perceive)
         selected = imported.select(topics, clock_topic)
@@ -163,10 +177,12 @@ def import_bag(
                     imported.record(recorder, beats)
                 if recorder.error is not None:
                     raise LogError(output, f"cannot write: {recorder.error}")
+                if spec_path is not None:  # before the log is in place: both or neither
+                    _write_spec(
+                        spec_path, output, bag, system=str(system), perception=str(perception)
+                    )
         except OSError as exc:
             raise LogError(output, f"cannot write: {exc.strerror or exc}") from None
-    if spec_path is not None:
-        _write_spec(spec_path, output, bag, system=str(system), perception=str(perception))
     return BagImport(
         log=output,
         spec=spec_path,
@@ -190,6 +206,10 @@ def _open(bag: Path) -> Iterator[AnyReader]:
         ) from None
     if not bag.exists():
         raise BagError(bag, "no such bag")
+    for path in _files(bag):
+        problem = irregular_file_problem(path)
+        if problem is not None:
+            raise BagError(path, problem)
     try:
         reader = AnyReader([bag], default_typestore=get_typestore(Stores.LATEST))
         reader.open()
@@ -199,6 +219,26 @@ def _open(bag: Path) -> Iterator[AnyReader]:
         yield reader
     finally:
         reader.close()
+
+
+def _files(bag: Path) -> Iterator[Path]:
+    """The files rosbags opens to read ``bag``: the bag file itself, or a folder's
+    ``metadata.yaml`` and the storage files it names, checked one by one as found."""
+    if not bag.is_dir():
+        yield bag
+        return
+    metadata = bag / "metadata.yaml"
+    yield metadata
+    from ruamel.yaml import YAML  # noqa: PLC0415 - rosbags' own YAML reader
+
+    try:
+        information = YAML(typ="safe").load(metadata.read_text())["rosbag2_bagfile_information"]
+        names = list(information["relative_file_paths"])
+    except Exception:
+        return
+    for name in names:
+        if isinstance(name, str):
+            yield bag / PurePath(name).name  # as rosbags finds them
 
 
 def _reason(exc: BaseException) -> str:
@@ -229,11 +269,24 @@ class _Import:
         """Messages read as samples."""
         self.folded = 0
         """Samples folded into a cycle."""
+        self.counted = {topic: info.msgcount for topic, info in reader.topics.items()}
+        """The messages on each topic as the bag's metadata counts them."""
+        slack = max(reader.end_time - reader.start_time, _TIME_SLACK_NS)
+        self.times = (reader.start_time - slack, reader.end_time + slack)
+        """The log times a message may have, from and before: the bag's span and as much
+        again each side."""
         self._size = payload_encoder().encode
 
     def select(self, topics: Sequence[str], clock_topic: str | None) -> list[Connection]:
         """The connections of the topics asked for, each checked to be in the bag with
         messages and a known type."""
+        total = sum(self.counted.values())
+        if total != self.reader.message_count:
+            raise BagError(
+                self.bag,
+                f"its metadata counts {self.reader.message_count} messages but {total} on "
+                "its topics; the bag is damaged",
+            )
         available = self.reader.topics
         wanted = list(topics) or sorted(available)
         for topic in [*wanted, *([clock_topic] if clock_topic else [])]:
@@ -242,7 +295,9 @@ class _Import:
                 raise BagError(self.bag, f"no topic {topic!r} (the bag has: {names})")
         selected = [c for c in self.reader.connections if c.topic in wanted]
         if not any(c.msgcount for c in selected):
-            raise BagError(self.bag, f"no messages on {', '.join(wanted) or 'any topic'}")
+            raise BagError(
+                self.bag, f"its metadata counts no messages on {', '.join(wanted) or 'any topic'}"
+            )
         known = self.reader.typestore.fielddefs
         for connection in selected:
             if connection.msgtype not in known:
@@ -261,6 +316,14 @@ class _Import:
         samples = self.samples(selected)
         if clock_topic is None:
             period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
+            span = self.reader.end_time - self.reader.start_time
+            if span // period > MAX_HEARTBEATS:
+                raise BagError(
+                    self.bag,
+                    f"its messages span {span / 1e9:.0f} s, {span // period} heartbeats of "
+                    f"{period / 1e6:g} ms, more than an import writes ({MAX_HEARTBEATS}); "
+                    "choose a longer heartbeat period or a clock topic",
+                )
             return period, _by_period(samples, self.reader.start_time, period)
         ticks = self._ticks(clock_topic)
         typical = statistics.median(after - before for before, after in itertools.pairwise(ticks))
@@ -290,15 +353,47 @@ class _Import:
         """The messages on ``connections`` in log-time order, raw or deserialized; a bag
         rosbags cannot read on is a :class:`BagError`."""
         reader = self.reader
+        read: Counter[str] = Counter()
         try:
             for connection, time, raw in reader.messages(connections=connections):
+                read[connection.topic] += 1
+                self._check_time(connection.topic, time)
                 yield (
                     connection,
                     time,
                     reader.deserialize(raw, connection.msgtype) if deserialize else raw,
                 )
+        except BagError:
+            raise
         except Exception as exc:  # rosbags reading a damaged file raises anything
             raise BagError(self.bag, f"damaged: {_reason(exc)}") from None
+        counted = {connection.topic: self.counted[connection.topic] for connection in connections}
+        shortfall = _shortfall(read, counted)
+        if shortfall is not None:
+            raise BagError(self.bag, f"{shortfall}; {self._damaged()}")
+
+    def _check_time(self, topic: str, time: object) -> None:
+        """Refuse a log time that cannot be the message's: a damaged one, which would
+        take an import by period hours of empty heartbeats to reach."""
+        earliest, before = self.times
+        if not isinstance(time, int):
+            problem = f"a message on {topic} has a log time that is no integer ({time!r})"
+        elif not earliest <= time < before:
+            problem = (
+                f"a message on {topic} has log time {time} ns, far outside the bag's span "
+                f"as its metadata gives it ({self.reader.start_time} to "
+                f"{self.reader.end_time} ns)"
+            )
+        else:
+            return
+        raise BagError(self.bag, f"{problem}; {self._damaged()}")
+
+    def _damaged(self) -> str:
+        """The end of the message on messages that do not fit the bag's metadata: what
+        may be wrong."""
+        if self.bag.is_dir():
+            return "the bag is damaged, or its metadata.yaml does not match its storage files"
+        return "the bag is damaged"
 
     def record(self, recorder: Recorder, beats: Iterable[tuple[int, list[Sample]]]) -> None:
         """Fold each heartbeat's samples into RS_t and step the system on it."""
@@ -353,6 +448,25 @@ class _Import:
             + (f" ({site})" if site else ""),
             user_traceback=user_traceback(exc),
         )
+
+
+def _shortfall(read: Counter[str], counted: dict[str, int]) -> str | None:
+    """How the messages read on each topic differ from the counts of the bag's metadata,
+    or None when every topic has its count."""
+    differ = [
+        f"topic {topic}: {read[topic]} of {count}"
+        for topic, count in sorted(counted.items())
+        if read[topic] != count
+    ]
+    if not differ:
+        return None
+    have, want = sum(read.values()), sum(counted.values())
+    lead = (
+        f"read {have} of the {want} messages its metadata counts"
+        if have < want
+        else f"read {have} messages where its metadata counts {want}"
+    )
+    return f"{lead} ({', '.join(differ)})"
 
 
 def _by_period(
