@@ -102,9 +102,8 @@ class _Sensed(NamedTuple):
 Observe = Callable[[Any], Any]
 Advance = Callable[[CycleRecord], "list[StateChangeRecord] | None"]
 _READ = object()
-"""In place of a robot state given to :meth:`Replayer.step_state`: read RS_t from the log."""
-_DECODE = (_READ, None)
-"""No robot state given and nothing to observe it: the hot path."""
+"""In place of a recorded RS_t not decoded yet (sensor-level replay decodes it only
+where it is needed)."""
 
 
 class Replayer:
@@ -155,7 +154,8 @@ class Replayer:
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
         self._samples_shape = msgspec.msgpack.Decoder(samples_shape(header)).decode
-        self._given: tuple[Any, Observe | None] | None = None
+        self._observe: Observe | None = None
+        """What wraps RS_t in the cycle :meth:`step` replays (none on the hot path)."""
         self._last: tuple[
             CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, _Sensed | None
         ]
@@ -176,20 +176,11 @@ class Replayer:
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
         """
-        return self._step_given(record, _READ, observe)
-
-    def step_state(
-        self, record: CycleRecord, state: Any, observe: Observe | None = None
-    ) -> CycleOutcome:
-        """Replay the next cycle on a robot state given (not read from ``record``)."""
-        return self._step_given(record, state, observe)
-
-    def _step_given(self, record: CycleRecord, state: Any, observe: Observe | None) -> CycleOutcome:
-        self._given = (state, observe)
+        self._observe = observe
         try:
             self.advance(record)
         finally:
-            self._given = None
+            self._observe = None
         return self.outcome()
 
     def outcome(self) -> CycleOutcome:
@@ -243,26 +234,23 @@ class Replayer:
         changes: list[StateChangeRecord] | None = None
         while True:
             record = yield changes
-            given = self._given
-            state, observe = _DECODE if given is None else given
-            if state is _READ:
-                # Sensor-level replay decodes the recorded RS_t only where it is needed:
-                # the rebuilt one encodes to other bytes, perception fails, or a break.
-                if perception is None or context.cycle + 1 == break_at:
-                    state = record.robot_state  # decoded with the batch, or still bytes
-                    if state.__class__ is raw:
-                        state = read_state(record, context.cycle + 1)
-                    elif as_system is not None:  # decoded as the checking subclass
-                        state.__class__ = as_system
-                if context.cycle + 1 == break_at:
-                    self._pause(context.cycle + 1, state, record)
-                if perception is None:
-                    sensed = None
-                else:
-                    sensed = self._perceive(record, state)
-                    state = self._rebuilt
-            else:
+            observe = self._observe
+            state: Any = _READ
+            # Sensor-level replay decodes the recorded RS_t only where it is needed:
+            # the rebuilt one encodes to other bytes, perception fails, or a break.
+            if perception is None or context.cycle + 1 == break_at:
+                state = record.robot_state  # decoded with the batch, or still bytes
+                if state.__class__ is raw:
+                    state = read_state(record, context.cycle + 1)
+                elif as_system is not None:  # decoded as the checking subclass
+                    state.__class__ = as_system
+            if context.cycle + 1 == break_at:
+                self._pause(context.cycle + 1, state, record)
+            if perception is None:
                 sensed = None
+            else:
+                sensed = self._perceive(record, state)
+                state = self._rebuilt
             draws = record.random_numbers
             # Load RN_t, unless there is none and nothing is left of the last cycle's (a
             # draw is kept only when one was recorded; a draw too many leaves a mismatch).

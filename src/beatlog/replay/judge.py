@@ -24,7 +24,6 @@ from beatlog.log.format import (
     EMPTY_LIST,
     EMPTY_MAP,
     CycleRecord,
-    SessionHeader,
     StateChangeRecord,
     payload_encoder,
 )
@@ -38,7 +37,7 @@ from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_catalogue, check_state_fields
 from beatlog.replay.renames import propose_renames
-from beatlog.replay.session import fields_read
+from beatlog.replay.session import ReplaySession, fields_read
 from beatlog.replay.verdict import (
     Checked,
     ContextRow,
@@ -128,20 +127,18 @@ def replay(
     if isinstance(perception, str):
         perception = load_perception(perception)
     comparison = comparison or Comparison()
-    with SessionLogReader(log) as reader:
+    with ReplaySession(log, system, perception=perception, break_at=break_at) as session:
+        reader = session.reader
         check_state_fields(
             reader.header, comparison.state_tolerance, reader.path, "robot-state tolerance for"
         )
+        assert session.replayer is not None  # a session with a system replays
         judge = _Judge(
-            reader.header,
-            system,
-            reader.path,
+            session.replayer,
             keep_going=keep_going,
             context=context_cycles,
             comparison=comparison,
             expected=expected,
-            perception=perception,
-            break_at=break_at,
             observe=observe,
         )
         if judge.replayer.perception is None and observe is None:
@@ -236,18 +233,15 @@ class _Judge:
 
     def __init__(
         self,
-        header: SessionHeader,
-        system: System,
-        path: Path,
+        replayer: Replayer,
         *,
         keep_going: bool,
         context: int,
         comparison: Comparison,
         expected: Expectation | None,
-        perception: Perception | None = None,
-        break_at: int | None = None,
         observe: Callable[[CycleOutcome], object] | None = None,
     ) -> None:
+        header, path = replayer.header, replayer.path
         self.header = header
         self.comparison = comparison
         self._keep_going = keep_going
@@ -257,8 +251,8 @@ class _Judge:
         self._recent: list[CycleRecord] = []
         """The cycles before the first divergence, then the divergence."""
         self.path = path
-        self.replayer = Replayer(system, header, path, perception=perception, break_at=break_at)
-        check_catalogue(header, system, path, comparison.renames)
+        self.replayer = replayer
+        check_catalogue(header, replayer.system, path, comparison.renames)
         self.random = self.replayer.random
         self.executor = self.replayer.executor
         self._observe = observe

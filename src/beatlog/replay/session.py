@@ -100,6 +100,11 @@ class ReplaySession(Closing):
     Building one reads the header and checks that the log fits the system
     (:mod:`beatlog.replay.fit`). :meth:`run` steps through the log for its observers.
     Without a system, nothing is replayed: the observers read the recording alone.
+    ``break_at`` stops in the debugger just before the behaviors update in that cycle.
+
+    The verdict (:func:`beatlog.replay.judge.replay`) steps the session's replayer in
+    a loop of its own, which builds a cycle's full outcome only where the cycle does
+    not agree with the recording (and for an ``observe`` callback): the hot path.
     """
 
     def __init__(
@@ -108,13 +113,20 @@ class ReplaySession(Closing):
         system: System | None,
         *,
         perception: Perception | None = None,
+        break_at: int | None = None,
     ) -> None:
         self.reader = SessionLogReader(log)
         try:
             self.replayer = (
                 None
                 if system is None
-                else Replayer(system, self.reader.header, self.reader.path, perception=perception)
+                else Replayer(
+                    system,
+                    self.reader.header,
+                    self.reader.path,
+                    perception=perception,
+                    break_at=break_at,
+                )
             )
         except BaseException:
             self.reader.close()
