@@ -65,6 +65,20 @@ def not_a_system() -> dict[str, object]:
     return {"robot_state": Probe, "behaviors": {}}
 
 
+class Dozy(Dice):
+    """Dice that dozes off from cycle 10: it goes ``dozing`` where it rolled."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if ctx.cycle >= 10 and ctx.cycle % self.every == 0:
+            self.state = "dozing"
+            return {"speed": 0.5, "time": ctx.time}
+        return super().step(rs, ctx)
+
+
+def dozy_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Near(), Dozy()], robot_state=Probe)
+
+
 class Fragile(Dice):
     """Dice that breaks on a close obstacle."""
 

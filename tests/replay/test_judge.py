@@ -52,7 +52,7 @@ from tests.factories import (
     rewrite_cycle,
     vouch,
 )
-from tests.systems import Fragile, quiet_system, record_session
+from tests.systems import Fragile, dozy_system, quiet_system, record_session
 
 
 def test_a_recorded_session_replays_and_passes(record_probe: RecordFn) -> None:
@@ -722,4 +722,19 @@ def test_a_damaged_array_draw_is_damage_not_the_behavior_failing(tmp_path: Path)
     assert str(raised.value) == (
         f"{damaged}: damaged random number #1 in cycle 2: "
         "normal_array recorded 16 bytes for shape [3], not 24"
+    )
+
+
+def test_a_behavior_change_that_skips_a_draw_is_headlined_as_the_behavior_change(
+    record_probe: RecordFn,
+) -> None:
+    result = replay(record_probe(100), dozy_system())
+
+    assert result.divergence is not None
+    assert (result.divergence.cycle, result.divergence.kind) == (10, DivergenceKind.STATE_CHANGES)
+    assert result.divergence.behavior == "dice"
+    assert result.divergence.message == (
+        "behavior state changes differ from the recording, and then the behaviors drew 0 "
+        "random numbers where 1 were recorded; the next recorded one was a randint drawn "
+        "by dice"
     )

@@ -603,19 +603,17 @@ class _Judge:
             )
             behavior = self._actor_name(mismatch.actor)
             message = f"{behavior} {mismatch.problem}"
-        elif outcome.underdrawn:
-            kind = DivergenceKind.RANDOM_UNDERDRAWN
-            drawn, recorded = len(outcome.drawn), len(outcome.recorded_draws)
-            missing = outcome.recorded_draws[drawn]
-            behavior = _name(self.header.behaviors, missing.actor)
-            message = (
-                f"drew {drawn} random numbers where {recorded} were recorded; the next "
-                f"recorded one was a {missing.kind} drawn by {behavior}"
-            )
         elif not self.comparison.changes_agree(expected, actual):
+            # The first behavior difference is the headline, even when the changed
+            # behavior then drew fewer random numbers than were recorded.
             kind = DivergenceKind.STATE_CHANGES
             message = f"behavior state changes differ from {self.against}"
             behavior = self.comparison.first_differing_behavior(expected, actual)
+            if outcome.underdrawn:
+                message += f", and then the behaviors {self._underdrawn(outcome)[1]}"
+        elif outcome.underdrawn:
+            kind = DivergenceKind.RANDOM_UNDERDRAWN
+            behavior, message = self._underdrawn(outcome)
         else:
             kind = DivergenceKind.OUTPUTS
             message = f"outputs differ from {self.outputs_against}"
@@ -643,6 +641,16 @@ class _Judge:
             traceback=trace,
             perception=differences,
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
+        )
+
+    def _underdrawn(self, outcome: CycleOutcome) -> tuple[str, str]:
+        """Who drew the first recorded random number left undrawn, and what happened."""
+        drawn, recorded = len(outcome.drawn), len(outcome.recorded_draws)
+        missing = outcome.recorded_draws[drawn]
+        behavior = _name(self.header.behaviors, missing.actor)
+        return behavior, (
+            f"drew {drawn} random numbers where {recorded} were recorded; the next "
+            f"recorded one was a {missing.kind} drawn by {behavior}"
         )
 
     def _state_agrees(self, outcome: CycleOutcome) -> bool:
