@@ -1,0 +1,400 @@
+"""The JSON shape of exported values: a typed field model the viewers' schema parser
+reads, inferred from values or built from the header's robot-state schema, and the
+writing of values under it (NaN and ±inf left out and listed, bytes as base64)."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from enum import Enum
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import msgspec
+
+from beatlog.errors import CorruptLogError
+from beatlog.model.behavior import BehaviorState
+
+__all__ = [
+    "BASE64",
+    "BY_TYPE",
+    "GAP",
+    "JSON_TEXT",
+    "NON_FINITE",
+    "NON_FINITE_SCHEMA",
+    "Field",
+    "Kind",
+    "add_types",
+    "declared_object",
+    "find_non_finite_arrays",
+    "holds_number_arrays",
+    "inferred",
+    "json_text",
+    "merged",
+    "numbers_as_text",
+    "state_text",
+    "too_deep",
+    "typed_object",
+    "written_object",
+    "written_value",
+]
+
+
+def _jsonable(value: Any) -> Any:
+    """``value`` with NaN and ±inf as strings and map keys as strings; JSON encodes the
+    rest (bytes as base64)."""
+    if isinstance(value, float):
+        if math.isfinite(value):
+            return value
+        return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
+    if isinstance(value, dict):
+        return {
+            key if isinstance(key, str) else json.dumps(_jsonable(key)): _jsonable(item)
+            for key, item in value.items()
+        }
+    if isinstance(value, list | tuple):
+        return [_jsonable(item) for item in value]
+    return value
+
+
+_JSON = msgspec.json.Encoder()
+
+
+def json_text(value: Any, log: Path, where: str) -> bytes:
+    try:
+        return _JSON.encode(_jsonable(value))
+    except (TypeError, msgspec.EncodeError, RecursionError) as exc:
+        raise CorruptLogError(log, f"{where} cannot be written as JSON: {exc}") from None
+
+
+def state_text(state: BehaviorState) -> str:
+    """A behavior state as a viewer shows it: a string as it is, anything else as JSON."""
+    return state if isinstance(state, str) else json.dumps(state)
+
+
+# MCAP: what a field is for the viewers
+
+
+class Kind(Enum):
+    NUMBER = "a JSON number; NaN and ±inf are left out and listed in non_finite"
+    NUMBER_TEXT = "a number in an array as its text: 0.5, NaN, Infinity, -Infinity"
+    PLAIN = "an integer, boolean or string, written as it is"
+    OBJECT = "an object with its own fields"
+    ARRAY = "an array of numbers, number texts, integers, booleans, strings or objects"
+    JSON = "a string holding the value's JSON text"
+
+
+class Field(NamedTuple):
+    """A field as the viewers get it: its JSON schema and how a value is written."""
+
+    schema: dict[str, Any]
+    kind: Kind
+    fields: Mapping[str, Field] = {}
+    """An object's fields."""
+    items: Field | None = None
+    """An array's items (None: not known, the log holds only empty arrays)."""
+
+
+NON_FINITE = "non_finite"
+NON_FINITE_SCHEMA = {
+    "type": "array",
+    "items": {"type": "string"},
+    "description": "The fields left out of this message because their value is NaN or "
+    "infinite, as path=value: distance=NaN, outputs.speed=-Infinity, blips[1].x=NaN.",
+}
+JSON_TEXT = {
+    "type": "string",
+    "description": 'JSON text of the value: NaN and ±inf as the strings "NaN", "Infinity" '
+    'and "-Infinity", bytes as base64.',
+}
+BY_TYPE = {
+    "number": Field({"type": "number"}, Kind.NUMBER),
+    "integer": Field({"type": "integer"}, Kind.PLAIN),
+    "boolean": Field({"type": "boolean"}, Kind.PLAIN),
+    "string": Field({"type": "string"}, Kind.PLAIN),
+    "json": Field(JSON_TEXT, Kind.JSON),
+}
+BASE64 = Field({"type": "string", "contentEncoding": "base64"}, Kind.PLAIN)
+_NUMBER_TEXT = Field(
+    {
+        "type": "string",
+        "description": "A number as its text (0.5); NaN and ±inf as NaN, Infinity and -Infinity.",
+    },
+    Kind.NUMBER_TEXT,
+)
+_NUMBERS = (BY_TYPE["number"], BY_TYPE["integer"], _NUMBER_TEXT)
+_ARRAY_ITEMS = frozenset({Kind.NUMBER, Kind.NUMBER_TEXT, Kind.PLAIN, Kind.OBJECT})
+GAP = object()
+"""What a value left out of its message is written as."""
+
+
+def _object_field(fields: Mapping[str, Field]) -> Field:
+    properties = {name: field.schema for name, field in fields.items()}
+    return Field({"type": "object", "properties": properties}, Kind.OBJECT, fields)
+
+
+def _array_field(items: Field | None) -> Field:
+    """An array of ``items`` (of numbers while they are not known), or JSON text if the
+    viewers cannot type an array of them."""
+    if items is None:
+        return Field({"type": "array", "items": {"type": "number"}}, Kind.ARRAY)
+    if items.kind in _ARRAY_ITEMS and items is not BASE64:
+        return Field({"type": "array", "items": items.schema}, Kind.ARRAY, items=items)
+    return BY_TYPE["json"]
+
+
+def written_value(field: Field, value: Any, path: str, non_finite: list[str]) -> Any:
+    """``value`` as ``field`` declares it, or ``GAP`` for a null, NaN or ±inf (listed in
+    ``non_finite`` as ``path=value``)."""
+    if value is None:
+        return GAP
+    kind = field.kind
+    if kind is Kind.NUMBER:
+        if isinstance(value, float) and not math.isfinite(value):
+            non_finite.append(f"{path}={json.dumps(value)}")
+            return GAP
+        return value
+    if kind is Kind.OBJECT:
+        return written_object(field.fields, value, f"{path}.", non_finite)
+    if kind is Kind.ARRAY:
+        items = field.items
+        if items is None or items.kind is Kind.NUMBER:
+            return value  # finite: the first read made an array holding NaN or ±inf texts
+        return [
+            written_value(items, item, f"{path}[{i}]", non_finite) for i, item in enumerate(value)
+        ]
+    if kind is Kind.NUMBER_TEXT:
+        return json.dumps(value) if isinstance(value, int | float) else _json_value(value)
+    if kind is Kind.JSON:
+        return _json_value(value)
+    return value
+
+
+def _json_value(value: Any) -> str:
+    return _JSON.encode(_jsonable(value)).decode()
+
+
+def written_object(
+    fields: Mapping[str, Field], value: Mapping[str, Any], prefix: str, non_finite: list[str]
+) -> dict[str, Any]:
+    """The declared fields of ``value`` (a field the schema lacks is left out)."""
+    written = {}
+    for name, field in fields.items():
+        if name in value:
+            item = written_value(field, value[name], f"{prefix}{name}", non_finite)
+            if item is not GAP:
+                written[name] = item
+    return written
+
+
+def _type_of(value: Any) -> str:
+    """The JSON-schema type of a value read from the log (``json`` for lists, maps, bytes)."""
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "number"
+    return "string" if isinstance(value, str) else "json"
+
+
+def add_types(types: dict[str, str | None], values: Mapping[str, Any]) -> None:
+    """Merge the types of ``values`` into ``types``: integers and floats make a number,
+    any other mix is JSON text; a field that is always null stays None."""
+    for name, value in values.items():
+        seen = types.get(name)
+        if value is None:
+            types.setdefault(name, None)
+        elif seen is None:
+            types[name] = _type_of(value)
+        elif seen != "json":
+            kind = _type_of(value)
+            if kind != seen:
+                types[name] = "number" if {kind, seen} == {"integer", "number"} else "json"
+
+
+def typed_object(types: Mapping[str, str | None]) -> Field:
+    """An object of the fields a first read of the log found, typed as it found them."""
+    return _object_field({name: BY_TYPE[kind or "json"] for name, kind in types.items()})
+
+
+def _path(within: str, name: str) -> str:
+    return f"{within}.{name}" if within else name
+
+
+def holds_number_arrays(field: Field) -> bool:
+    if field.kind is Kind.OBJECT:
+        return any(holds_number_arrays(inner) for inner in field.fields.values())
+    items = field.items
+    return items is not None and (items.kind is Kind.NUMBER or holds_number_arrays(items))
+
+
+def find_non_finite_arrays(field: Field, value: Any, path: str, found: set[str]) -> None:
+    """Add to ``found`` the path of each array of numbers in ``value`` holding a NaN or ±inf."""
+    if field.kind is Kind.OBJECT and isinstance(value, dict):
+        for name, inner in field.fields.items():
+            if name in value:
+                find_non_finite_arrays(inner, value[name], _path(path, name), found)
+    elif field.items is not None and isinstance(value, list):
+        if field.items.kind is Kind.NUMBER:
+            if any(isinstance(item, float) and not math.isfinite(item) for item in value):
+                found.add(path)
+        elif field.items.kind is Kind.OBJECT:
+            for item in value:
+                find_non_finite_arrays(field.items, item, f"{path}[]", found)
+
+
+def numbers_as_text(field: Field, paths: frozenset[str], path: str = "") -> Field:
+    """``field`` with each array of numbers at one of ``paths`` made an array of their
+    texts, which JSON can hold with NaN and ±inf in it."""
+    if not paths:
+        return field
+    if field.kind is Kind.OBJECT:
+        return _object_field(
+            {
+                name: numbers_as_text(inner, paths, _path(path, name))
+                for name, inner in field.fields.items()
+            }
+        )
+    items = field.items
+    if items is not None and items.kind is Kind.NUMBER and path in paths:
+        return _array_field(_NUMBER_TEXT)
+    if items is not None and items.kind is Kind.OBJECT:
+        return _array_field(numbers_as_text(items, paths, f"{path}[]"))
+    return field
+
+
+def inferred(value: Any, log: Path, cycle: int) -> Field | None:
+    """The field that ``value``, read from the log, is for a channel typed from the log's
+    values (None for a null); see :func:`_value_field`."""
+    try:
+        return _value_field(value, in_array=False)
+    except RecursionError:
+        raise too_deep(log, cycle) from None
+
+
+def too_deep(log: Path, cycle: int) -> CorruptLogError:
+    return CorruptLogError(log, f"a sample of cycle {cycle} is nested too deep")
+
+
+def _value_field(value: Any, *, in_array: bool) -> Field | None:
+    """A null is None; a map with string keys an object, a list an array (of number texts
+    if one of its numbers is NaN or ±inf); what the viewers cannot type is JSON text."""
+    if value is None:
+        return None
+    if isinstance(value, float) and in_array and not math.isfinite(value):
+        return _NUMBER_TEXT
+    if isinstance(value, bytes):
+        return BASE64
+    if isinstance(value, dict):
+        if not all(isinstance(key, str) for key in value):
+            return BY_TYPE["json"]
+        fields = {}
+        for name, item in value.items():
+            inner = _value_field(item, in_array=False)
+            if inner is not None:
+                fields[name] = inner
+        return _object_field(fields)
+    if isinstance(value, list):
+        items: Field | None = None
+        for item in value:
+            inner = _value_field(item, in_array=True)
+            if inner is None:
+                return BY_TYPE["json"]  # an array of nullables
+            items = merged(items, inner)
+        return _array_field(items)
+    return BY_TYPE[_type_of(value)]
+
+
+def merged(seen: Field | None, field: Field | None) -> Field | None:
+    """One field for the values of two: objects merge their fields, arrays their items,
+    integers and numbers make numbers (number texts if either is); any other mix is
+    JSON text."""
+    if seen is None or seen == field:
+        return field
+    if field is None:
+        return seen
+    if seen.kind is field.kind is Kind.OBJECT:
+        fields = dict(seen.fields)
+        for name, inner in field.fields.items():
+            fields[name] = merged(fields.get(name), inner) or inner
+        return _object_field(fields)
+    if seen.kind is field.kind is Kind.ARRAY:
+        return _array_field(merged(seen.items, field.items))
+    if seen in _NUMBERS and field in _NUMBERS:
+        return _NUMBER_TEXT if _NUMBER_TEXT in (seen, field) else BY_TYPE["number"]
+    return BY_TYPE["json"]
+
+
+_MAX_SCHEMA_NODES = 100_000
+"""A robot-state schema inlined beyond this many nodes is refused (a hostile header
+could otherwise expand exponentially)."""
+
+
+def declared_object(schema: Mapping[str, Any], log: Path) -> Field | None:
+    """The header's robot-state schema as the viewers take it (None if it describes no
+    object with properties): every ``$ref`` to ``#/$defs/...`` inlined; a number,
+    integer, boolean or string as that type (an enum of strings or of integers too, a
+    nullable one too: a null is left out); an object with properties and an array of
+    those with their own schemas; anything else (a map, tuple, union, an array of
+    arrays or of nullables, a type within itself) as JSON text."""
+    definitions = schema.get("$defs")
+    defs = definitions if isinstance(definitions, dict) else {}
+    nodes = 0
+
+    def field(node: Any, within: tuple[str, ...], nullable: bool) -> Field:
+        nonlocal nodes
+        nodes += 1
+        if nodes > _MAX_SCHEMA_NODES:
+            raise CorruptLogError(
+                log, f"the robot-state schema inlines to more than {_MAX_SCHEMA_NODES} nodes"
+            )
+        if not isinstance(node, dict):
+            return BY_TYPE["json"]
+        reference = node.get("$ref")
+        if reference is not None:
+            name = reference.removeprefix("#/$defs/") if isinstance(reference, str) else ""
+            if name == reference or name not in defs:
+                raise CorruptLogError(
+                    log, f"the robot-state schema refers to {reference!r}, which it lacks"
+                )
+            target = defs[name]
+            if name in within or not isinstance(target, dict):
+                return BY_TYPE["json"]
+            rest = {key: value for key, value in node.items() if key != "$ref"}
+            return field({**rest, **target}, (*within, name), nullable)
+        kind = node.get("type")
+        alternatives = node.get("anyOf", node.get("oneOf"))
+        if isinstance(alternatives, list):
+            others = [option for option in alternatives if option != {"type": "null"}]
+            if not (nullable and len(others) == 1 == len(alternatives) - 1):
+                return BY_TYPE["json"]
+            return field(others[0], within, nullable=False)
+        if isinstance(kind, list):
+            others = [option for option in kind if option != "null"]
+            kind = others[0] if nullable and len(others) == 1 == len(kind) - 1 else "json"
+        enum = node.get("enum")
+        if kind is None and isinstance(enum, list) and enum:
+            kinds = {_type_of(value) for value in enum}
+            kind = kinds.pop() if len(kinds) == 1 else "json"
+        properties = node.get("properties")
+        items = node.get("items")
+        if kind == "object" and isinstance(properties, dict):
+            return _object_field(
+                {name: field(value, within, nullable=True) for name, value in properties.items()}
+            )
+        if kind == "array" and isinstance(items, dict) and "prefixItems" not in node:
+            return _array_field(field(items, within, nullable=False))
+        if kind == "string" and node.get("contentEncoding") == "base64":
+            return BASE64
+        return BY_TYPE.get(kind if isinstance(kind, str) else "json", BY_TYPE["json"])
+
+    try:
+        declared = field(dict(schema), (), nullable=False)
+    except RecursionError:
+        raise CorruptLogError(log, "the robot-state schema is nested too deep") from None
+    return declared if declared.kind is Kind.OBJECT else None
+
+
+# MCAP: schemas
