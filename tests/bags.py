@@ -2,10 +2,11 @@
 
 :func:`write_bag` writes a bag in ``tmp_path`` with a message type of its own,
 ``my_robot_msgs/msg/Sonar`` (registered from its ``.msg`` definition, as a robot
-package would ship it), beside a standard one (``std_msgs/msg/Float64``) and a clock
-topic. The probe system of ``conftest`` runs on what :func:`perceive` folds from them:
-the sonar's range is the distance, the last speed the reading. Specs and
-``--perception`` name the perception steps as ``tests.bags:FACTORY``.
+package would ship it), beside a standard one (``std_msgs/msg/Float64``), a clock
+topic and ``/rosout`` (``rcl_interfaces/msg/Log``, a type with constants). The probe
+system of ``conftest`` runs on what :func:`perceive` folds from them: the sonar's range
+is the distance, the last speed the reading. Specs and ``--perception`` name the
+perception steps as ``tests.bags:FACTORY``.
 """
 
 from __future__ import annotations
@@ -37,6 +38,13 @@ SPEED_EVERY_NS = 50_000_000
 TICK_EVERY_NS = 30_000_000
 START_NS = 1_700_000_000_000_000_000
 """Log times are Unix time, as a robot's ROS clock gives them."""
+LOG = "rcl_interfaces/msg/Log"
+LOGS_FROM_NS = START_NS + 1_000_000_000
+"""The first ``/rosout`` message comes a second after the bag's first message."""
+LOG_EVERY_NS = 100_000_000
+LOG_STUB = "uint8 level"
+"""The definition of ``rcl_interfaces/msg/Log`` that rosbag2's own ``talker`` test bags
+carry: a stub, which the messages on ``/rosout`` do not fit."""
 
 
 def write_bag(
@@ -46,9 +54,12 @@ def write_bag(
     sonars: int = 300,
     speeds: int = 60,
     ticks: int = 0,
+    logs: int = 0,
+    stub_log: bool = False,
 ) -> Path:
     """A bag of ``sonars`` sonar messages (ranges following ``distances``), ``speeds``
-    speeds and ``ticks`` messages on ``/tick``; returns its folder."""
+    speeds, ``ticks`` messages on ``/tick`` and ``logs`` on ``/rosout`` (whose type the
+    bag defines by :data:`LOG_STUB` with ``stub_log``); returns its folder."""
     store = get_typestore(Stores.ROS2_HUMBLE)
     store.register(get_types_from_msg(SONAR_MSG, SONAR))
     sonar, header, stamp = (
@@ -56,7 +67,7 @@ def write_bag(
         store.types["std_msgs/msg/Header"],
         store.types["builtin_interfaces/msg/Time"],
     )
-    speed = store.types[SPEED]
+    speed, log = store.types[SPEED], store.types[LOG]
     messages = [
         (
             "/sonar",
@@ -80,15 +91,45 @@ def write_bag(
         ("/tick", START_NS + (index + 1) * TICK_EVERY_NS, speed(data=float(index)), SPEED)
         for index in range(ticks)
     ]
+    messages += [
+        (
+            "/rosout",
+            LOGS_FROM_NS + index * LOG_EVERY_NS,
+            log(
+                stamp=stamp(sec=index, nanosec=0),
+                level=20,  # INFO
+                name="sonar_node",
+                msg=f"echo {index}",
+                file="sonar.cpp",
+                function="read",
+                line=42,
+            ),
+            LOG,
+        )
+        for index in range(logs)
+    ]
     with Writer(path, version=Writer.VERSION_LATEST, storage_plugin=storage) as writer:
         connections = {
             topic: writer.add_connection(topic, kind, typestore=store)
             for topic, kind in (("/sonar", SONAR), ("/speed", SPEED), ("/tick", SPEED))
             if topic != "/tick" or ticks
         }
+        if logs:
+            connections["/rosout"] = (
+                writer.add_connection("/rosout", LOG, msgdef=LOG_STUB, rihs01=stub_hash())
+                if stub_log
+                else writer.add_connection("/rosout", LOG, typestore=store)
+            )
         for topic, time, message, kind in sorted(messages, key=lambda message: message[1]):
             writer.write(connections[topic], time, store.serialize_cdr(message, kind))
     return path
+
+
+def stub_hash() -> str:
+    """The type hash of ``rcl_interfaces/msg/Log`` as :data:`LOG_STUB` defines it."""
+    stub = get_typestore(Stores.EMPTY)
+    stub.register(get_types_from_msg(LOG_STUB, LOG))
+    return stub.hash_rihs01(LOG)
 
 
 def storage_file(bag: Path) -> Path:

@@ -37,7 +37,14 @@ from beatlog.model.inbox import Sample
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import record_lockstep
-from tests.bags import SONAR_EVERY_NS, START_NS, perception, write_bag
+from tests.bags import (
+    LOGS_FROM_NS,
+    SONAR_EVERY_NS,
+    START_NS,
+    TICK_EVERY_NS,
+    perception,
+    write_bag,
+)
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
 from tests.factories import Message as LogMessage
 from tests.factories import craft_log, cycle, cycle_messages, end_message, header_message
@@ -926,6 +933,51 @@ def test_a_log_imported_from_a_bag_lines_up_with_the_bag(tmp_path: Path) -> None
         "mount": [0.1, 0.0, 0.2],
         "label": "front",
     }
+
+
+def test_topics_that_begin_late_in_the_bag_line_up_with_it(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag", sonars=30, speeds=5, logs=4)  # /rosout a second in
+    imported = import_bag(
+        bag,
+        tmp_path / "bag.beatlog",
+        system=probe_system(),
+        perception=perception(),
+        topics=["/rosout"],
+    )
+    exported = tmp_path / "bag.mcap"
+
+    export(imported.log, exported)
+
+    logs = read_exported(exported).messages["/samples/rosout"]
+    period_ns = summarize(imported.log).header.period_ns
+    assert [m.log_time for m in logs] == [  # the end of the heartbeat that took it
+        LOGS_FROM_NS + ((m.value["stamp_ns"] - LOGS_FROM_NS) // period_ns + 1) * period_ns
+        for m in logs
+    ]
+
+
+def test_a_log_imported_by_clock_topic_lines_up_with_the_bag(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "bag", sonars=30, speeds=5, ticks=10)
+    ticks = [START_NS + (index + 1) * TICK_EVERY_NS for index in range(10)]
+    imported = import_bag(
+        bag,
+        tmp_path / "bag.beatlog",
+        system=probe_system(),
+        perception=perception(),
+        clock_topic="/tick",
+    )
+    exported = tmp_path / "bag.mcap"
+
+    export(imported.log, exported)
+
+    sonar = read_exported(exported).messages["/samples/sonar"]
+    assert len(sonar) == 30
+    assert (
+        [m.log_time for m in sonar]
+        == [  # the clock message that ends its heartbeat
+            min(tick for tick in ticks[1:] if tick >= m.value["stamp_ns"]) for m in sonar
+        ]
+    )
 
 
 class Placed(RobotState, kw_only=True):

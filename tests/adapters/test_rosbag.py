@@ -24,7 +24,10 @@ from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
 from tests.bags import (
+    LOG_EVERY_NS,
+    LOGS_FROM_NS,
     SONAR_EVERY_NS,
+    SPEED,
     START_NS,
     TICK_EVERY_NS,
     edit_metadata,
@@ -133,6 +136,35 @@ def test_by_period_each_heartbeat_takes_the_messages_of_its_period(tmp_path: Pat
         ]
 
 
+def test_by_period_the_heartbeats_start_at_the_first_message_imported(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag", logs=10)  # /rosout begins a second after the bag
+
+    result = imported(tmp_path, period_ns=LOG_EVERY_NS, topics=["/rosout"])
+
+    assert [[sample.stamp_ns for sample in samples] for _, samples in cycles_of(result.log)] == [
+        [LOGS_FROM_NS + index * LOG_EVERY_NS] for index in range(10)
+    ]
+    assert result.robot_time_ns == 10 * LOG_EVERY_NS
+    assert summarize(result.log).header.start_time_ns == LOGS_FROM_NS
+
+
+def test_a_message_is_its_fields_not_its_types_constants(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag", logs=10)  # rcl_interfaces/msg/Log: DEBUG, INFO, ... FATAL
+
+    result = imported(tmp_path, topics=["/rosout"])
+
+    [first, *_] = [sample for _, samples in cycles_of(result.log) for sample in samples]
+    assert first.value == {
+        "stamp": {"sec": 0, "nanosec": 0},
+        "level": 20,
+        "name": "sonar_node",
+        "msg": "echo 0",
+        "file": "sonar.cpp",
+        "function": "read",
+        "line": 42,
+    }
+
+
 def test_by_clock_topic_each_message_on_it_is_a_heartbeat(tmp_path: Path) -> None:
     result = imported(tmp_path, clock_topic="/tick", topics=["/sonar"])
 
@@ -153,6 +185,7 @@ def test_by_clock_topic_each_message_on_it_is_a_heartbeat(tmp_path: Path) -> Non
         == (START_NS + 299 * SONAR_EVERY_NS - last_tick) // (SONAR_EVERY_NS)
     )
     assert summarize(result.log).header.period_ns == TICK_EVERY_NS
+    assert summarize(result.log).header.start_time_ns == first_tick  # the first heartbeat's
 
 
 def test_the_clock_topic_messages_are_samples_when_its_topic_is_imported(tmp_path: Path) -> None:
@@ -260,6 +293,12 @@ def nth(topic_id: int, index: int) -> str:
 def delete_messages(database: Path, where: str) -> None:
     with contextlib.closing(sqlite3.connect(database)) as connection, connection:
         connection.execute(f"DELETE FROM messages WHERE {where}")
+
+
+def drop_definitions(database: Path) -> None:
+    """Drop the message definitions of a sqlite3 bag, as bags before ROS 2 Iron lack them."""
+    with contextlib.closing(sqlite3.connect(database)) as connection, connection:
+        connection.execute("DELETE FROM message_definitions")
 
 
 def test_a_bag_that_lost_messages_its_metadata_counts_is_refused_naming_the_counts(
@@ -500,10 +539,55 @@ def test_a_bag_without_type_definitions_imports_the_standard_types_it_uses(
     tmp_path: Path,
 ) -> None:
     bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
-    [database] = bag.glob("*.db3")
-    with contextlib.closing(sqlite3.connect(database)) as connection, connection:
-        connection.execute("DELETE FROM message_definitions")  # as bags before ROS 2 Iron
+    drop_definitions(storage_file(bag))
 
     with pytest.raises(BagError, match="does not define message type my_robot_msgs/msg/Sonar"):
         imported(tmp_path)
     assert imported(tmp_path, topics=["/speed"]).samples == 60
+
+
+@pytest.mark.parametrize("storage", list(StoragePlugin))
+def test_a_topic_whose_message_definition_does_not_fit_its_messages_is_named(
+    tmp_path: Path, storage: StoragePlugin
+) -> None:
+    bag = write_bag(tmp_path / "talker", storage=storage, logs=10, stub_log=True)
+
+    assert refused(tmp_path, bag) == (
+        f"{bag}: topic /rosout: its message definition of rcl_interfaces/msg/Log does not "
+        "fit its messages (a stub definition?); import the others with --topic /sonar "
+        "--topic /speed"
+    )
+    assert imported(tmp_path, topics=["/sonar", "/speed"]).samples == 360
+
+
+def lengthen_speeds(database: Path, where: str = "TRUE") -> None:
+    """Append 16 bytes to the speed messages ``where`` holds: more than a Float64 is."""
+    with contextlib.closing(sqlite3.connect(database)) as connection, connection:
+        connection.execute(
+            f"UPDATE messages SET data = CAST(data || zeroblob(16) AS BLOB) "
+            f"WHERE topic_id = 2 AND {where}"
+        )
+
+
+def test_messages_that_do_not_fit_the_standard_definition_of_their_type_are_named(
+    tmp_path: Path,
+) -> None:
+    bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
+    drop_definitions(storage_file(bag))
+    lengthen_speeds(storage_file(bag))
+
+    assert refused(tmp_path, bag, topics=["/speed"]) == (
+        f"{bag}: topic /speed: the standard definition of {SPEED} does not fit its messages "
+        "(the bag defines no types: a type of another ROS release?)"
+    )
+
+
+def test_a_message_that_does_not_fit_where_the_ones_before_it_did_is_damage(
+    tmp_path: Path,
+) -> None:
+    bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
+    lengthen_speeds(storage_file(bag), f"id = ({nth(2, 5)})")
+
+    assert refused(tmp_path, bag) == (
+        f"{bag}: damaged: AnyReaderError: CDR message size mismatch for '{SPEED}'."
+    )

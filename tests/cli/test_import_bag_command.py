@@ -230,3 +230,22 @@ def test_a_fifo_in_a_bag_is_refused_before_anything_opens_it(
         f"beatlog: error: {path}: is not a regular file (a FIFO, socket or device)\n"
     )
     assert not output.exists()
+
+
+def test_a_topic_whose_definition_does_not_fit_is_named_with_how_to_import_the_others(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    bag = write_bag(tmp_path / "talker", logs=10, stub_log=True)  # as rosbag2's talker bags
+
+    run = import_bag(beatlog, bag, "--perception", PERCEPTION)
+
+    assert run.err == (
+        f"beatlog: error: {bag}: topic /rosout: its message definition of "
+        "rcl_interfaces/msg/Log does not fit its messages (a stub definition?); import the "
+        "others with --topic /sonar --topic /speed\n"
+    )
+    assert_one_line_error(run)
+    others = import_bag(
+        beatlog, bag, "--perception", PERCEPTION, "--topic", "/sonar", "--topic", "/speed"
+    )
+    assert others.out.startswith("imported 360 messages on 2 topics")

@@ -9,11 +9,14 @@ types of the latest ROS 2 release.
 
 Each message becomes a raw :class:`~beatlog.model.inbox.Sample` named by its topic,
 stamped with its log time, holding the message as plain data: a message is a dict of
-its fields, arrays are lists, and byte arrays (``uint8[]``, ``int8[]``: images, point
-clouds) are bytes, exactly as replay decodes them from the log. The messages are
-grouped into heartbeats, either fixed periods from the bag's start, or the intervals
-between messages on a clock topic (the messages up to and including each clock
-message make up that heartbeat; those after the last one are left out). At each
+its fields (not its type's constants), arrays are lists, and byte arrays (``uint8[]``,
+``int8[]``: images, point clouds) are bytes, exactly as replay decodes them from the
+log. The messages are grouped into heartbeats, either fixed periods from the first
+message imported, or the intervals between messages on a clock topic (the messages
+up to and including each clock message make up that heartbeat; those after the last
+one are left out). The log starts where its first heartbeat does (its header's
+``start_time_ns``: that first message, or the first clock message), so the log's
+robot time added to it is the bag's time, as an export stamps it. At each
 heartbeat the user's perception step folds the samples into RS_t and the system runs
 on it, recording BS_t, RN_t and outputs with the samples, as a robot recording with
 ``log_samples`` would. A DTC of the log replays at sensor level: a changed
@@ -22,11 +25,14 @@ behavior state changes it made.
 
 A bag is trusted only as far as its metadata: every message it counts on the topics
 imported must be read, at a log time within its span, or the import is refused as
-damaged; nothing is written then.
+damaged; nothing is written then. A topic whose first message does not deserialize
+is refused as one whose message definition does not fit its messages (rosbag2's own
+``talker`` test bags carry a stub definition of ``rcl_interfaces/msg/Log``).
 """
 
 from __future__ import annotations
 
+import functools
 import itertools
 import os
 import statistics
@@ -124,17 +130,19 @@ def import_bag(
     ROS 1 ``.bag``) as the session log ``output``, written whole or not at all.
 
     ``system`` and ``perception`` are objects or ``module:factory`` references.
-    Heartbeats come every ``period_ns`` from the bag's start (30 ms when neither option
-    is given) or at each message on ``clock_topic``. ``topics`` are the topics imported
-    as samples (default: every topic). ``spec`` also writes a DTC spec there that
-    replays the log at sensor level; it needs ``system`` and ``perception`` as
-    references. ``seed`` seeds the random numbers the behaviors draw (fresh when None).
+    Heartbeats come every ``period_ns`` from the first message imported (30 ms when
+    neither option is given) or at each message on ``clock_topic``. ``topics`` are the
+    topics imported as samples (default: every topic). ``spec`` also writes a DTC spec
+    there that replays the log at sensor level; it needs ``system`` and ``perception``
+    as references. ``seed`` seeds the random numbers the behaviors draw (fresh when
+    None).
     An existing log or spec is replaced only with ``overwrite``.
 
     :raises beatlog.errors.BagError: the bag is missing, damaged or not a regular file,
         holds no messages on the topics asked for, yields fewer or more messages than its
-        metadata counts, a message is too large, or the perception step or the system
-        raised (the message names the cycle; the user's traceback is kept).
+        metadata counts, a topic's message definition does not fit its messages, a
+        message is too large, or the perception step or the system raised (the message
+        names the cycle; the user's traceback is kept).
     :raises beatlog.errors.OptionError: both a period and a clock topic, or a period
         that is not positive.
     """
@@ -159,7 +167,7 @@ def import_bag(
     with _open(bag) as reader:
         imported = _Import(bag, reader, built, perceive)
         selected = imported.select(topics, clock_topic)
-        period, beats = imported.heartbeats(selected, period_ns, clock_topic)
+        period, start, beats = imported.heartbeats(selected, period_ns, clock_topic)
         try:
             with replacing(output) as file:
                 recorder = Recorder(
@@ -171,7 +179,7 @@ def import_bag(
                     log_samples=True,
                     robot_id=bag.name[:MAX_NAME_LENGTH] or "bag",
                     software=_software(reader),
-                    start_time_ns=reader.start_time,
+                    start_time_ns=start,
                 )
                 with recorder:
                     imported.record(recorder, beats)
@@ -271,6 +279,8 @@ class _Import:
         """Samples folded into a cycle."""
         self.counted = {topic: info.msgcount for topic, info in reader.topics.items()}
         """The messages on each topic as the bag's metadata counts them."""
+        self.topics: list[str] = []
+        """The topics imported, once selected."""
         slack = max(reader.end_time - reader.start_time, _TIME_SLACK_NS)
         self.times = (reader.start_time - slack, reader.end_time + slack)
         """The log times a message may have, from and before: the bag's span and as much
@@ -293,6 +303,7 @@ class _Import:
             if topic not in available:
                 names = ", ".join(sorted(available)) or "none"
                 raise BagError(self.bag, f"no topic {topic!r} (the bag has: {names})")
+        self.topics = sorted(set(wanted))
         selected = [c for c in self.reader.connections if c.topic in wanted]
         if not any(c.msgcount for c in selected):
             raise BagError(
@@ -304,15 +315,25 @@ class _Import:
                 raise BagError(
                     self.bag,
                     f"topic {connection.topic!r}: the bag does not define message type "
-                    f"{connection.msgtype} and it is no standard ROS 2 type; "
-                    "import the other topics only",
+                    f"{connection.msgtype} and it is no standard ROS 2 type"
+                    + self._others(connection.topic),
                 )
         return selected
 
+    def _others(self, topic: str) -> str:
+        """The end of the message on a topic that cannot be imported: how to import the
+        other topics with messages, if there are any."""
+        others = " ".join(
+            f"--topic {other}" for other in self.topics if other != topic and self.counted[other]
+        )
+        return f"; import the others with {others}" if others else ""
+
     def heartbeats(
         self, selected: Sequence[Connection], period_ns: int | None, clock_topic: str | None
-    ) -> tuple[int, Iterator[tuple[int, list[Sample]]]]:
-        """The period for the log's header, and each heartbeat's interval and samples."""
+    ) -> tuple[int, int, Iterator[tuple[int, list[Sample]]]]:
+        """The period and start for the log's header, and each heartbeat's interval and
+        samples. The first heartbeat starts at the first message imported, or at the
+        first clock message: the log's start, from which its robot time is the bag's."""
         samples = self.samples(selected)
         if clock_topic is None:
             period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
@@ -324,10 +345,15 @@ class _Import:
                     f"{period / 1e6:g} ms, more than an import writes ({MAX_HEARTBEATS}); "
                     "choose a longer heartbeat period or a clock topic",
                 )
-            return period, _by_period(samples, self.reader.start_time, period)
+            first = next(samples)  # select() counted one: reading fails before it ends
+            return (
+                period,
+                first.stamp_ns,
+                _by_period(itertools.chain([first], samples), first.stamp_ns, period),
+            )
         ticks = self._ticks(clock_topic)
         typical = statistics.median(after - before for before, after in itertools.pairwise(ticks))
-        return max(1, int(typical)), _by_clock(samples, ticks)
+        return max(1, int(typical)), ticks[0], _by_clock(samples, ticks)
 
     def _ticks(self, clock_topic: str) -> list[int]:
         """The times of the clock topic's messages: one heartbeat each, equal times once."""
@@ -358,10 +384,11 @@ class _Import:
             for connection, time, raw in reader.messages(connections=connections):
                 read[connection.topic] += 1
                 self._check_time(connection.topic, time)
+                first = read[connection.topic] == 1
                 yield (
                     connection,
                     time,
-                    reader.deserialize(raw, connection.msgtype) if deserialize else raw,
+                    self._deserialize(connection, raw, first=first) if deserialize else raw,
                 )
         except BagError:
             raise
@@ -371,6 +398,26 @@ class _Import:
         shortfall = _shortfall(read, counted)
         if shortfall is not None:
             raise BagError(self.bag, f"{shortfall}; {self._damaged()}")
+
+    def _deserialize(self, connection: Connection, raw: bytes, *, first: bool) -> object:
+        """The message ``raw`` on ``connection``; a topic whose first message does not
+        deserialize has a definition of its type that does not fit its messages."""
+        try:
+            return self.reader.deserialize(raw, connection.msgtype)
+        except Exception:  # rosbags deserializing what does not fit raises anything
+            if not first:
+                raise  # messages before it fit: this one is damaged
+        defined = any(other.msgdef.data for other in self.reader.connections)
+        definition = (
+            f"its message definition of {connection.msgtype} does not fit its messages "
+            "(a stub definition?)"
+            if defined
+            else f"the standard definition of {connection.msgtype} does not fit its messages "
+            "(the bag defines no types: a type of another ROS release?)"
+        )
+        raise BagError(
+            self.bag, f"topic {connection.topic}: {definition}{self._others(connection.topic)}"
+        )
 
     def _check_time(self, topic: str, time: object) -> None:
         """Refuse a log time that cannot be the message's: a damaged one, which would
@@ -434,7 +481,7 @@ class _Import:
             raise BagError(
                 self.bag,
                 f"a message on {sample.sensor!r} is {size} bytes, more than a sample may "
-                f"hold ({MAX_SAMPLE_BYTES}); import the other topics only",
+                f"hold ({MAX_SAMPLE_BYTES})" + self._others(sample.sensor),
             )
         return size
 
@@ -505,16 +552,13 @@ def _by_clock(
 
 
 def _plain(value: Any) -> Any:
-    """A deserialized ROS message as plain data: a dict of its fields, numpy arrays as
-    lists (byte arrays as bytes) and numpy scalars as numbers."""
+    """A deserialized ROS message as plain data: a dict of its fields (not its type's
+    constants), numpy arrays as lists (byte arrays as bytes) and numpy scalars as
+    numbers."""
     if value is None or isinstance(value, bool | int | float | str | bytes):
         return value
-    if is_dataclass(value):
-        return {
-            field.name: _plain(getattr(value, field.name))
-            for field in fields(value)
-            if not field.name.startswith("__")
-        }
+    if is_dataclass(value) and not isinstance(value, type):
+        return {name: _plain(getattr(value, name)) for name in _field_names(type(value))}
     if isinstance(value, list | tuple):
         return [_plain(item) for item in value]
     if isinstance(value, np.ndarray) and value.dtype in _BYTE_TYPES:
@@ -522,6 +566,16 @@ def _plain(value: Any) -> Any:
     if isinstance(value, np.ndarray | np.generic):
         return value.tolist()
     raise TypeError(f"no plain data for a value of type {type(value).__name__}")
+
+
+@functools.cache
+def _field_names(message_class: type) -> tuple[str, ...]:
+    """The fields of a rosbags message class: its dataclass fields less the ``ClassVar``
+    ones, its type's constants and ``__msgtype__``, which rosbags' classes list as fields
+    too (they import ``ClassVar`` only for type checking)."""
+    return tuple(
+        field.name for field in fields(message_class) if not str(field.type).startswith("ClassVar[")
+    )
 
 
 def _write_spec(spec: Path, log: Path, bag: Path, *, system: str, perception: str) -> None:

@@ -285,7 +285,7 @@ def _add_import_bag(add: Callable[..., argparse.ArgumentParser]) -> None:
     beats.add_argument(
         "--period-ms",
         type=_positive_float,
-        help="a heartbeat every this many ms from the bag's start (default: 30)",
+        help="a heartbeat every this many ms from the first message imported (default: 30)",
     )
     beats.add_argument(
         "--clock-topic",
