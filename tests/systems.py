@@ -79,6 +79,22 @@ def dozy_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Near(), Dozy()], robot_state=Probe)
 
 
+class Impostor(Dice):
+    """Dice whose arbiter credits its draws to the behavior before it (an off-by-one in
+    the actor numbering)."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        ctx.actor -= 1
+        try:
+            return super().step(rs, ctx)
+        finally:
+            ctx.actor += 1
+
+
+def impostor_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Near(), Impostor()], robot_state=Probe)
+
+
 class Fragile(Dice):
     """Dice that breaks on a close obstacle."""
 

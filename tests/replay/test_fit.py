@@ -170,8 +170,11 @@ class Pair:
         self.behaviors: dict[str, Behavior] = {near: self._near, dice: self._dice}
 
     def update(self, state: Probe, context: Context) -> None:
+        context.actor = 0  # draws are credited to the behavior drawing
         self._near.step(state, context)
+        context.actor = 1
         self._dice.step(state, context)
+        context.actor = -1
 
 
 def test_a_log_none_of_whose_behaviors_is_the_systems_does_not_fit(

@@ -52,7 +52,7 @@ from tests.factories import (
     rewrite_cycle,
     vouch,
 )
-from tests.systems import Fragile, dozy_system, quiet_system, record_session
+from tests.systems import Fragile, dozy_system, impostor_system, quiet_system, record_session
 
 
 def test_a_recorded_session_replays_and_passes(record_probe: RecordFn) -> None:
@@ -737,4 +737,28 @@ def test_a_behavior_change_that_skips_a_draw_is_headlined_as_the_behavior_change
         "behavior state changes differ from the recording, and then the behaviors drew 0 "
         "random numbers where 1 were recorded; the next recorded one was a randint drawn "
         "by dice"
+    )
+
+
+def test_a_draw_credited_to_another_behavior_than_recorded_diverges(
+    record_probe: RecordFn,
+) -> None:
+    result = replay(record_probe(60), impostor_system())
+
+    assert result.divergence is not None
+    assert (result.divergence.cycle, result.divergence.kind) == (0, DivergenceKind.RANDOM_MISMATCH)
+    assert result.divergence.message == (
+        "near called randint(1, 6), which dice drew in the recording"
+    )
+
+
+def test_draws_are_matched_to_behaviors_by_name_not_by_position(record_probe: RecordFn) -> None:
+    swapped = PriorityArbiter([Dice(), Near()], robot_state=Probe)  # dice is #1 now, was #2
+
+    result = replay(record_probe(60), swapped)
+
+    assert result.divergence is not None  # near's change of control, not dice's draws
+    assert (result.divergence.cycle, result.divergence.kind) == (
+        first_cycle_below(0.5),
+        DivergenceKind.STATE_CHANGES,
     )

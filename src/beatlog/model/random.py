@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import secrets
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from enum import StrEnum
 from math import isnan, prod
 from numbers import Real
@@ -321,6 +321,22 @@ class ReplayRandom(RandomSource):
         self.recorded: Sequence[Draw] = ()
         self.drawn: list[Draw] = []
         self.mismatch: RandomMismatch | None = None
+        self._actors: Sequence[int | None] | None = None
+        self._recorded_names: Sequence[str] = ()
+
+    def expect_actors(
+        self,
+        recorded: Sequence[str],
+        system: Sequence[str],
+        rename: Callable[[str], str] = str,
+    ) -> None:
+        """Check which behavior draws, too: ``recorded`` is the log's catalogue,
+        ``system`` the system's, and ``rename`` maps a recorded name to its name now. A
+        draw recorded by a behavior the system no longer has is checked for kind and
+        parameters only."""
+        ids = {name: index for index, name in enumerate(system)}
+        self._actors = [ids.get(rename(name)) for name in recorded]
+        self._recorded_names = recorded
 
     def load(self, recorded: Sequence[Draw]) -> None:
         """Set the draws recorded for the next cycle."""
@@ -345,8 +361,28 @@ class ReplayRandom(RandomSource):
             asked = Draw(actor, kind.value, None, params)
             recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
             self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
+        if self._actors is not None and draw.actor != actor:
+            self._check_actor(draw, actor, kind, params)
         self.drawn.append(Draw(actor, kind.value, draw.value, params))
         return draw.value
+
+    def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
+        """Refuse a draw the recording credits to another behavior (by its name now)."""
+        assert self._actors is not None
+        recorded = draw.actor
+        if recorded < 0:
+            expected: int | None = -1
+            who = "the system"
+        elif recorded < len(self._actors):
+            expected = self._actors[recorded]
+            who = self._recorded_names[recorded]
+        else:
+            return
+        if expected is not None and expected != actor:
+            asked = Draw(actor, kind.value, None, params)
+            self._fail(
+                f"called {asked.call()}, which {who} drew in the recording", actor, asked=asked
+            )
 
     def _fail(
         self, problem: str, actor: int, *, overdrawn: bool = False, asked: Draw | None = None

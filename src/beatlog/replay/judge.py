@@ -253,6 +253,9 @@ class _Judge:
         self.path = path
         self.replayer = replayer
         check_catalogue(header, replayer.system, path, comparison.renames)
+        replayer.random.expect_actors(
+            header.behaviors, replayer.executor.behavior_ids, comparison.rename
+        )
         self.random = self.replayer.random
         self.executor = self.replayer.executor
         self._observe = observe
