@@ -60,7 +60,8 @@ def replay_details(
     )
     reads = None if diverged_at is None else FieldsRead(diverged_at)
     with ReplaySession(log, system, perception=perception) as session:
-        tracer = TraceCollector(session.behavior_ids) if trace else None
+        assert session.replayer is not None  # a session with a system replays
+        tracer = TraceCollector(session.replayer) if trace else None
         charts: list[TimelineCollector] = []
         if timelines:
             if divergence is not None:  # the close-up first

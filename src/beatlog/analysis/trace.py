@@ -25,9 +25,8 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.model.perception import perception_problem
 from beatlog.replay.compare import WHOLE_STATE, Comparison, state_fields
-from beatlog.replay.core import CycleOutcome
+from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.expectation import (
     Expectation,
     OutputTracker,
@@ -150,17 +149,20 @@ def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
     early when the behaviors raise or draw random numbers the log does not have.
     """
     with ReplaySession(log, system) as session:
-        tracer = TraceCollector(session.behavior_ids)
+        assert session.replayer is not None  # a session with a system replays
+        tracer = TraceCollector(session.replayer)
         session.run([tracer])
     return tracer.trace()
 
 
 class TraceCollector:
     """Gathers a whole-session trace from the replay core's outcomes, up to the cycle
-    where replay cannot go on (an exception, a random-number problem)."""
+    where replay cannot go on (an exception, a random-number problem: the replayer's
+    :meth:`~beatlog.replay.core.Replayer.stop`)."""
 
-    def __init__(self, names: list[str]) -> None:
-        self._names = names
+    def __init__(self, replayer: Replayer) -> None:
+        self._names = replayer.executor.behavior_ids
+        self._stop = replayer.stop
         self._changes: list[TracedChange] = []
         self._outputs: list[TracedOutput] = []
         self._states: list[TracedState] = []
@@ -183,8 +185,9 @@ class TraceCollector:
         """Add the next cycle's outcome (ignored once the trace has stopped)."""
         if self.stopped is not None or outcome is None:
             return
-        self.stopped = _stop_reason(outcome)
-        if self.stopped is not None:
+        stop = self._stop(outcome)
+        if stop is not None:
+            self.stopped = f"cycle {outcome.cycle}: {stop.message}"
             return
         names = self._names
         self._changes.extend(
@@ -215,24 +218,6 @@ def _rebuilt_otherwise(outcome: CycleOutcome) -> list[TracedState]:
         for name in _EXACT.state_differences(recorded, rebuilt)
         if name in rebuilt
     ]
-
-
-def _stop_reason(outcome: CycleOutcome) -> str | None:
-    """Why a trace cannot go on past this cycle, if it cannot."""
-    cycle = outcome.cycle
-    problem = outcome.perception_failure
-    if problem is not None:
-        return f"cycle {cycle}: {perception_problem(problem)}"
-    if outcome.failure is not None:
-        return f"cycle {cycle}: {type(outcome.failure).__name__}: {outcome.failure}"
-    if outcome.draw_problem is not None:
-        return f"cycle {cycle}: {outcome.draw_problem.problem}"
-    if outcome.underdrawn:
-        return (
-            f"cycle {cycle}: drew {len(outcome.drawn)} random numbers where "
-            f"{len(outcome.recorded_draws)} were recorded"
-        )
-    return None
 
 
 def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:

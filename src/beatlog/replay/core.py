@@ -33,11 +33,12 @@ from beatlog.model.behavior import System
 from beatlog.model.context import Outputs
 from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
-from beatlog.model.perception import Perception, PerceptionTypeError
+from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom, recorded_draw_problem
 from beatlog.replay.fit import check_fit, recorded_state_type
+from beatlog.replay.verdict import DivergenceKind
 
-__all__ = ["CycleOutcome", "Replayer"]
+__all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name"]
 
 
 class CycleOutcome(NamedTuple):
@@ -88,6 +89,17 @@ class CycleOutcome(NamedTuple):
             and self.draw_problem is None
             and len(self.drawn) == len(self.recorded_draws)
         )
+
+
+class Stop(NamedTuple):
+    """Why replay cannot go on past a cycle: the one classification of it, which the
+    verdict headlines and a whole-session trace stops at."""
+
+    kind: DivergenceKind
+    message: str
+    """What happened, naming the behavior: ``dice raised ZeroDivisionError: ...``."""
+    behavior: str | None
+    """The behavior it concerns (None for a perception step that failed)."""
 
 
 class _Sensed(NamedTuple):
@@ -212,6 +224,39 @@ class Replayer:
             perception_failure=sensed.failure,
             samples=sensed.samples,
         )
+
+    def stop(self, outcome: CycleOutcome) -> Stop | None:
+        """Why replay cannot go on past ``outcome``'s cycle, if it cannot: perception
+        failed, a behavior raised, a draw was not the one recorded (or one too many), or
+        fewer random numbers were drawn than recorded."""
+        if outcome.perception_failure is not None:
+            problem = perception_problem(outcome.perception_failure)
+            return Stop(DivergenceKind.PERCEPTION, problem, None)
+        names = self.executor.behavior_ids
+        if outcome.failure is not None:
+            behavior = actor_name(names, outcome.actor)
+            failure = outcome.failure
+            message = f"{behavior} raised {type(failure).__name__}: {failure}"
+            return Stop(DivergenceKind.EXCEPTION, message, behavior)
+        mismatch = outcome.draw_problem
+        if mismatch is not None:
+            kind = (
+                DivergenceKind.RANDOM_OVERDRAWN
+                if mismatch.overdrawn
+                else DivergenceKind.RANDOM_MISMATCH
+            )
+            behavior = actor_name(names, mismatch.actor)
+            return Stop(kind, f"{behavior} {mismatch.problem}", behavior)
+        if outcome.underdrawn:
+            drawn, recorded = len(outcome.drawn), len(outcome.recorded_draws)
+            missing = outcome.recorded_draws[drawn]
+            behavior = actor_name(self.header.behaviors, missing.actor)
+            message = (
+                f"drew {drawn} random numbers where {recorded} were recorded; the next "
+                f"recorded one was a {missing.kind} drawn by {behavior}"
+            )
+            return Stop(DivergenceKind.RANDOM_UNDERDRAWN, message, behavior)
+        return None
 
     def _stepping(
         self,
@@ -387,3 +432,10 @@ class Replayer:
                     self.path, f"damaged random number #{number} in cycle {cycle}: {problem}"
                 )
         return draws
+
+
+def actor_name(names: Sequence[str], actor: int) -> str:
+    """A behavior by its catalogue index (``system`` for -1, ``#N`` past the catalogue)."""
+    if actor < 0:
+        return "system"
+    return names[actor] if actor < len(names) else f"#{actor}"

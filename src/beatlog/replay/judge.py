@@ -29,11 +29,11 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
+from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.model.random import Draw, plain_value
 from beatlog.project import vouched_system
 from beatlog.replay.compare import Comparison, state_fields
-from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.core import CycleOutcome, Replayer, actor_name
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_catalogue, check_state_fields
 from beatlog.replay.renames import propose_renames
@@ -562,9 +562,6 @@ class _Judge:
         names = self.executor.behavior_ids
         return [StateChange(names[index], before, after) for index, before, after in changes]
 
-    def _actor_name(self, actor: int) -> str:
-        return _name(self.executor.behavior_ids, actor)
-
     def _diverge(self, outcome: CycleOutcome) -> None:
         self.divergent_cycles += 1
         self._samples_diverged += len(outcome.samples)
@@ -578,45 +575,37 @@ class _Judge:
         failure = outcome.failure
         behavior: str | None = None
         trace: str | None = None
+        kind: DivergenceKind
         differences = (
             self._state_differences(outcome)
             if self.replayer.perception is not None and outcome.perception_failure is None
             else ()
         )
-        if outcome.perception_failure is not None:
-            kind = DivergenceKind.PERCEPTION
+        stop = self.replayer.stop(outcome)
+        if stop is not None and stop.kind is DivergenceKind.PERCEPTION:
+            kind, message = stop.kind, stop.message
             problem = outcome.perception_failure
-            trace = None if isinstance(problem, PerceptionTypeError) else user_traceback(problem)
-            message = perception_problem(problem)
+            if problem is not None and not isinstance(problem, PerceptionTypeError):
+                trace = user_traceback(problem)
         elif differences:
             kind = DivergenceKind.PERCEPTION
             names = ", ".join(d.field for d in differences)
             against = " from the approved baseline" if self._pinned_states else ""
             message = f"the robot state rebuilt from the samples differs{against} in {names}"
-        elif failure is not None:
-            kind = DivergenceKind.EXCEPTION
-            behavior = self._actor_name(outcome.actor)
-            trace = user_traceback(failure)
-            message = f"{behavior} raised {type(failure).__name__}: {failure}"
-        elif mismatch is not None:
-            kind = (
-                DivergenceKind.RANDOM_OVERDRAWN
-                if mismatch.overdrawn
-                else DivergenceKind.RANDOM_MISMATCH
-            )
-            behavior = self._actor_name(mismatch.actor)
-            message = f"{behavior} {mismatch.problem}"
+        elif stop is not None and stop.kind is not DivergenceKind.RANDOM_UNDERDRAWN:
+            kind, message, behavior = stop
+            if failure is not None:
+                trace = user_traceback(failure)
         elif not self.comparison.changes_agree(expected, actual):
             # The first behavior difference is the headline, even when the changed
             # behavior then drew fewer random numbers than were recorded.
             kind = DivergenceKind.STATE_CHANGES
             message = f"behavior state changes differ from {self.against}"
             behavior = self.comparison.first_differing_behavior(expected, actual)
-            if outcome.underdrawn:
-                message += f", and then the behaviors {self._underdrawn(outcome)[1]}"
-        elif outcome.underdrawn:
-            kind = DivergenceKind.RANDOM_UNDERDRAWN
-            behavior, message = self._underdrawn(outcome)
+            if stop is not None:
+                message += f", and then the behaviors {stop.message}"
+        elif stop is not None:
+            kind, message, behavior = stop
         else:
             kind = DivergenceKind.OUTPUTS
             message = f"outputs differ from {self.outputs_against}"
@@ -646,16 +635,6 @@ class _Judge:
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
         )
 
-    def _underdrawn(self, outcome: CycleOutcome) -> tuple[str, str]:
-        """Who drew the first recorded random number left undrawn, and what happened."""
-        drawn, recorded = len(outcome.drawn), len(outcome.recorded_draws)
-        missing = outcome.recorded_draws[drawn]
-        behavior = _name(self.header.behaviors, missing.actor)
-        return behavior, (
-            f"drew {drawn} random numbers where {recorded} were recorded; the next "
-            f"recorded one was a {missing.kind} drawn by {behavior}"
-        )
-
     def _state_agrees(self, outcome: CycleOutcome) -> bool:
         """Whether a cycle the core did not call clean went cleanly apart from its robot
         state, and perception rebuilt that as expected (within tolerance, or as pinned)."""
@@ -679,12 +658,8 @@ class _Judge:
 
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
         return [
-            DrawReport(_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
+            DrawReport(
+                actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else ""
+            )
             for d in draws
         ]
-
-
-def _name(names: Sequence[str], index: int) -> str:
-    if index < 0:
-        return "system"
-    return names[index] if index < len(names) else f"#{index}"
