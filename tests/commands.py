@@ -1,15 +1,18 @@
-"""Running ``beatlog`` commands in process or stopped by a signal, and the checks every
-command test shares."""
+"""Running ``beatlog`` commands in process, stopped by a signal or at a terminal, and the
+checks every command test shares."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import pty
 import re
+import select
 import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -131,3 +134,72 @@ def signalled(
             process.communicate()
     assert wait_until(lambda: not live_members(process.pid), 10), "children outlived it"
     return Run(process.returncode, out, err)
+
+
+def read_until(terminal: int, text: str | None, *, seconds: float = 20.0) -> str:
+    """What the program wrote to the terminal up to ``text`` (or its end, or the time);
+    with no ``text``, up to its end."""
+    seen = b""
+    deadline = time.monotonic() + seconds
+    while (text is None or text.encode() not in seen) and time.monotonic() < deadline:
+        ready, _, _ = select.select([terminal], [], [], 0.5)
+        if ready:
+            try:
+                chunk = os.read(terminal, 4096)
+            except OSError:  # the program closed the terminal: it has ended
+                break
+            if not chunk:
+                break
+            seen += chunk
+    return seen.decode(errors="replace")
+
+
+class Terminal:
+    """A program at a terminal of its own, driven as a person at the keyboard drives it."""
+
+    def __init__(self, terminal: int, program: subprocess.Popen[bytes]) -> None:
+        self.terminal = terminal
+        self.program = program
+
+    def until(self, text: str) -> str:
+        """What the program showed up to ``text``, as plain text with ``\\n`` line ends;
+        the test fails if ``text`` never comes."""
+        seen = plain(read_until(self.terminal, text)).replace("\r\n", "\n")
+        assert text in seen, seen
+        return seen
+
+    def type(self, line: str, *, until: str) -> str:
+        """Type ``line`` and Enter; what the program showed then (the line echoed first)
+        up to ``until``."""
+        os.write(self.terminal, f"{line}\n".encode())
+        return self.until(until)
+
+    def end(self, line: str) -> tuple[int, str]:
+        """Type ``line`` and Enter; the exit code, and what the program showed until it
+        ended (a program still running 30 s later fails the test)."""
+        os.write(self.terminal, f"{line}\n".encode())
+        seen = plain(read_until(self.terminal, None, seconds=30)).replace("\r\n", "\n")
+        return self.program.wait(timeout=30), seen
+
+
+@contextlib.contextmanager
+def at_a_terminal(args: Sequence[str | Path], *, env: Mapping[str, str]) -> Iterator[Terminal]:
+    """Run ``python ARGS`` from the repository's root with a pseudo-terminal as its
+    stdin, stdout and stderr; a program left running by the block is killed."""
+    terminal, program_side = pty.openpty()
+    program = subprocess.Popen(
+        [sys.executable, *(str(arg) for arg in args)],
+        cwd=ROOT,
+        env={**env, "TERM": "dumb"},  # no terminal tricks from readline
+        stdin=program_side,
+        stdout=program_side,
+        stderr=program_side,
+    )
+    os.close(program_side)
+    try:
+        yield Terminal(terminal, program)
+    finally:
+        if program.poll() is None:
+            program.kill()
+        program.wait()
+        os.close(terminal)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import bdb
 import functools
 import os
 import sys
@@ -197,10 +198,16 @@ BREAKS: list[dict[str, Any]] = []
 def record_breakpoint() -> None:
     """A ``PYTHONBREAKPOINT`` hook for tests: notes the debugger's locals instead of stopping."""
     frame = sys._getframe(1)
-    names = ("cycle", "robot_state", "recorded_changes", "recorded_draws", "system")
+    names = ("robot_state", "recorded_state", "recorded_changes", "recorded_draws", "system")
     seen = {name: frame.f_locals[name] for name in names}
-    seen["context_cycle"] = frame.f_locals["context"].cycle  # the context moves on later
+    context = frame.f_locals["context"]  # noted now: it moves on with the replay
+    seen.update(cycle=context.cycle, time_ns=context.time_ns, dt_ns=context.dt_ns)
     BREAKS.append(seen)
+
+
+def quit_at_breakpoint() -> None:
+    """A ``PYTHONBREAKPOINT`` hook for tests: a debugger built on bdb, quit at once."""
+    raise bdb.BdbQuit
 
 
 @pytest.fixture

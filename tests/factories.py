@@ -411,6 +411,15 @@ PROBE_CYCLE_DAMAGE = {
 """Damage to a probe log (``tests.conftest``, 60 cycles or more) by name."""
 
 
+def cut_short(log: Path) -> Path:
+    """A copy of ``log`` (``cut.beatlog`` beside it) that a crash cut off before its end
+    record: nothing counts its cycles."""
+    data = log.read_bytes()
+    cut = log.with_name("cut.beatlog")
+    cut.write_bytes(data[: len(data) - 200])
+    return cut
+
+
 def with_damaged_index(log: Path, path: Path) -> Path:
     """A copy at ``path`` of ``log`` with one bit of its first chunk index's start time
     flipped: its index is damaged, every cycle and its end record intact."""

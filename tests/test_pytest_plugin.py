@@ -4,6 +4,8 @@ its ``beatlog`` options re-baseline and audit them."""
 from __future__ import annotations
 
 import json
+import os
+import re
 import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -14,6 +16,7 @@ import beatlog_examples.rover
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.spec import discover_specs, find_rootdir, select_specs
 from beatlog_examples.rover import record_lockstep
+from tests.commands import at_a_terminal
 from tests.conftest import Probe, RecordFn
 from tests.factories import logged_counts
 from tests.specs import FIRST_CHANGED_CYCLE
@@ -309,6 +312,71 @@ def test_break_at_refuses_a_run_that_selects_more_than_one_dtc(
     assert result.ret == pytest.ExitCode.USAGE_ERROR
     result.stderr.fnmatch_lines(["*--beatlog-break-at stops in one DTC, and 2 are selected*"])
     assert breaks == []
+
+
+def test_break_at_past_the_end_of_the_dtcs_log_is_a_usage_error(
+    pytester: pytest.Pytester, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    pytester.makefile(".dtc.toml", leave=spec_text("leave-wall", log))
+
+    result = pytester.runpytest("--beatlog-break-at", "200")
+
+    assert result.ret == pytest.ExitCode.USAGE_ERROR
+    assert result.stderr.lines == [
+        f"ERROR: --beatlog-break-at 200: {log} has only 200 cycles; no break would be reached",
+        "",
+    ]
+    assert breaks == []
+
+
+def test_quitting_the_debugger_ends_the_session_as_quitting_pytests_pdb_does(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    pytester.makefile(".dtc.toml", leave=spec_text("leave-wall", log))
+    environment = {key: value for key, value in os.environ.items() if key != "PYTHONBREAKPOINT"}
+    command: list[str | Path] = [
+        "-m",
+        "pytest",
+        "-p",
+        "no:cacheprovider",
+        pytester.path,
+        "--beatlog-break-at",
+        "12",
+    ]
+
+    with at_a_terminal(command, env=environment) as terminal:
+        terminal.until("(Pdb) ")
+        for _ in range(3):  # past the update and out of it: pytest's pdb still quits the run
+            terminal.type("n", until="(Pdb) ")
+        code, rest = terminal.end("q")
+
+    assert code == pytest.ExitCode.INTERRUPTED
+    *_, quitting, summary = rest.splitlines()
+    assert re.fullmatch(r"!+ _pytest\.outcomes\.Exit: Quitting debugger !+", quitting)
+    assert re.fullmatch(r"=+ no tests ran in \d+\.\d+s =+", summary), summary
+
+
+def test_quitting_the_debugger_in_a_replay_of_the_fixture_ends_the_session(
+    pytester: pytest.Pytester, log: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("PYTHONBREAKPOINT", "tests.conftest.quit_at_breakpoint")
+    pytester.makepyfile(
+        test_replays=f"""
+        from tests.conftest import probe_system
+
+        def test_stops(beatlog_replay):
+            beatlog_replay({str(log)!r}, probe_system(), break_at=12)
+
+        def test_never_runs():
+            pass
+        """
+    )
+
+    result = pytester.runpytest()
+
+    assert result.ret == pytest.ExitCode.INTERRUPTED
+    result.stdout.fnmatch_lines(["!* _pytest.outcomes.Exit: Quitting debugger !*"])
+    result.assert_outcomes()
 
 
 def test_break_on_divergence_stops_a_failing_dtc_at_its_first_divergence(

@@ -17,14 +17,18 @@ was written, names orphaned baselines and counts the verdicts.
 Break points, as ``beatlog replay`` has them: ``--beatlog-break-at CYCLE`` stops in the
 debugger just before the behaviors update in that cycle of the one DTC selected (with
 ``-k`` or its path), ``--beatlog-break-on-divergence`` replays each failing DTC again
-and stops at its first divergence. Both call ``breakpoint()``, so ``PYTHONBREAKPOINT``
-is honoured and pytest suspends its output capture while pdb runs; they need the DTCs
-run in the pytest process (no ``-n`` of pytest-xdist).
+and stops at its first divergence. They stop as ``beatlog replay`` does
+(:mod:`beatlog.replay.debugger`): ``PYTHONBREAKPOINT`` is honoured, pytest suspends its
+output capture while pdb runs, and quitting pdb ends the session as quitting pytest's
+pdb does (pytest's pdb is built on :class:`~beatlog.replay.debugger.Debugger` for that,
+unless ``--pdbcls`` names another). A break past the end of the selected DTC's log is a
+usage error. They need the DTCs run in the pytest process (no ``-n`` of pytest-xdist).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -132,13 +136,23 @@ class BeatlogRun:
         )
 
     def pytest_collection_finish(self, session: pytest.Session) -> None:
-        """A break at a cycle stops in one DTC: refuse a run that selects more."""
-        selected = sum(isinstance(item, DtcItem) for item in session.items)
-        if self.break_at is not None and selected > 1:
+        """A break at a cycle stops in one DTC: refuse a run that selects more, or one
+        whose log ends before the break (as its end record counts its cycles)."""
+        if self.break_at is None:
+            return
+        selected = [item.spec for item in session.items if isinstance(item, DtcItem)]
+        if len(selected) > 1:
             raise pytest.UsageError(
-                f"--beatlog-break-at stops in one DTC, and {selected} are selected: "
+                f"--beatlog-break-at stops in one DTC, and {len(selected)} are selected: "
                 "select it with -k or name its spec"
             )
+        from beatlog.replay.debugger import beyond_the_log  # noqa: PLC0415 - see the imports
+
+        problem = None
+        if selected and selected[0].log_url is None:
+            problem = beyond_the_log(self.break_at, selected[0].log)
+        if problem is not None:
+            raise pytest.UsageError(f"--beatlog-break-at {self.break_at}: {problem}")
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
         """Gather a DTC's verdict and update lines from its report (a worker's, under xdist)."""
@@ -207,11 +221,14 @@ def pytest_configure(config: pytest.Config) -> None:
     break_on_divergence = config.getoption("beatlog_break_on_divergence")
     if break_at is not None and break_at < 0:
         raise pytest.UsageError(f"--beatlog-break-at: must be 0 or more, got {break_at}")
-    if (break_at is not None or break_on_divergence) and _distributed(config):
-        raise pytest.UsageError(
-            "the beatlog break points stop in the debugger of this process: "
-            "run without pytest-xdist's -n (or with -n 0)"
-        )
+    if break_at is not None or break_on_divergence:
+        if _distributed(config):
+            raise pytest.UsageError(
+                "the beatlog break points stop in the debugger of this process: "
+                "run without pytest-xdist's -n (or with -n 0)"
+            )
+        if config.option.usepdb_cls is None:  # pytest's pdb, quitting wherever it stops
+            config.option.usepdb_cls = ("beatlog.replay.debugger", "Debugger")
     coverage_json = config.getoption("beatlog_coverage_json")
     config.stash[_RUN] = BeatlogRun(
         update=UpdateMode.parse(config.getoption("beatlog_update")),
@@ -272,7 +289,8 @@ class DtcItem(pytest.Item):
         from beatlog.suite.runner import Verdict, run_spec  # noqa: PLC0415
 
         run = self.config.stash[_RUN]
-        outcome = run_spec(self.spec, run.options)
+        with _quitting_as_pytest():
+            outcome = run_spec(self.spec, run.options)
         self.user_properties.append((_VERDICT, outcome.verdict.value))
         self.user_properties.append((_SPEC, str(self.spec.path)))
         if outcome.result is not None:  # what it checked, as beatlog test's JUnit has it
@@ -305,6 +323,20 @@ class DtcItem(pytest.Item):
         return self.path, 0, f"dtc: {self.spec.name}"
 
 
+@contextmanager
+def _quitting_as_pytest() -> Iterator[None]:
+    """Quitting the debugger at a break ends the session as quitting pytest's pdb does
+    (``pytest.exit``), not as a Ctrl-C."""
+    try:
+        yield
+    except KeyboardInterrupt as stop:
+        from beatlog.replay.debugger import DebuggerQuit  # noqa: PLC0415 - see the imports
+
+        if isinstance(stop, DebuggerQuit):
+            pytest.exit("Quitting debugger")
+        raise
+
+
 def _failure_text(result: ReplayResult) -> str:
     from beatlog.report.console import plain_text, render_replay  # noqa: PLC0415
 
@@ -328,7 +360,7 @@ def beatlog_replay(request: pytest.FixtureRequest) -> Callable[..., ReplayResult
         from beatlog.usercode import importable_near  # noqa: PLC0415
 
         try:
-            with importable_near(request.path):
+            with importable_near(request.path), _quitting_as_pytest():
                 result = replay(request.path.parent / log, system, **options)
         except BeatlogError as exc:
             pytest.fail(str(exc), pytrace=False)

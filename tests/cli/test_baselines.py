@@ -5,11 +5,6 @@ from __future__ import annotations
 
 import io
 import os
-import pty
-import select
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -17,7 +12,7 @@ from rich.console import Console
 
 from beatlog.cli.baselines import review
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
-from tests.commands import Beatlog, assert_one_line_error
+from tests.commands import Beatlog, assert_one_line_error, at_a_terminal
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
@@ -206,47 +201,17 @@ def test_review_reads_piped_answers_and_takes_the_start_of_a_word(
     assert expected_path(spec).exists() is accepted
 
 
-def read_until(terminal: int, text: str, *, seconds: float = 20.0) -> str:
-    """What the program wrote to the terminal up to ``text`` (or its end, or the time)."""
-    seen = b""
-    deadline = time.monotonic() + seconds
-    while text.encode() not in seen and time.monotonic() < deadline:
-        ready, _, _ = select.select([terminal], [], [], 0.5)
-        if ready:
-            try:
-                chunk = os.read(terminal, 4096)
-            except OSError:  # the program closed the terminal: it has ended
-                break
-            if not chunk:
-                break
-            seen += chunk
-    return seen.decode(errors="replace")
-
-
 def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
     beatlog: Beatlog, spec: Path
 ) -> None:
     beatlog("test", "--update", spec)
-    terminal, program_side = pty.openpty()
     environment = {key: value for key, value in os.environ.items() if key != "CI"}
-    review_command = [sys.executable, "-m", "beatlog.cli.main", "review", str(spec.parent)]
-    with subprocess.Popen(
-        review_command,
-        stdin=program_side,
-        stdout=program_side,
-        stderr=program_side,
-        env=environment,
-    ) as program:
-        os.close(program_side)
-        try:
-            first = read_until(terminal, "[a]ccept/[r]eject/[s]kip")
-            os.write(terminal, b"maybe\n")
-            again = read_until(terminal, "[a]ccept/[r]eject/[s]kip")
-            os.write(terminal, b"A\n")
-            rest = read_until(terminal, "accepted")
-            code = program.wait(timeout=60)
-        finally:
-            os.close(terminal)
+    review_command: list[str | Path] = ["-m", "beatlog.cli.main", "review", spec.parent]
+    with at_a_terminal(review_command, env=environment) as terminal:
+        first = terminal.until("[a]ccept/[r]eject/[s]kip")
+        again = terminal.type("maybe", until="[a]ccept/[r]eject/[s]kip")
+        rest = terminal.type("A", until="accepted")
+        code = terminal.program.wait(timeout=60)
 
     assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip" in first
     assert "maybe" in again

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import os
 import re
 import sys
 import xml.etree.ElementTree as ET
@@ -11,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.commands import Beatlog, Run, assert_one_line_error, hide_matplotlib
+from tests.commands import Beatlog, Run, assert_one_line_error, at_a_terminal, hide_matplotlib
 from tests.conftest import RecordFn
 from tests.factories import vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
@@ -544,6 +545,37 @@ def test_break_at_with_more_than_one_dtc_selected_is_a_usage_error(
 
     assert_one_line_error(run, "--break-at stops in one DTC, and 2 are selected")
     assert breaks == []
+
+
+def test_break_at_past_the_end_of_the_dtcs_log_is_a_usage_error(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, breaks: list[dict[str, object]]
+) -> None:
+    write_spec(specs, "leave", log)
+
+    run = beatlog_test(specs, "--break-at", "300")
+
+    assert run.err == (
+        f"beatlog: error: --break-at 300: {specs / '..' / log.name} has only 300 cycles; "
+        "no break would be reached\n"
+    )
+    assert (run.code, run.out, breaks) == (2, "", [])
+
+
+def test_quitting_the_debugger_stops_the_run_cleanly(specs: Path, log: Path) -> None:
+    write_spec(specs, "leave", log)
+    environment = {key: value for key, value in os.environ.items() if key != "PYTHONBREAKPOINT"}
+    command: list[str | Path] = ["-m", "beatlog.cli.main", "test", specs, "--break-at", "12"]
+
+    with at_a_terminal(command, env=environment) as terminal:
+        terminal.until("(Pdb) ")
+        code, rest = terminal.end("q")
+
+    assert code == 130
+    assert re.fullmatch(
+        r"q\n0 passed, 0 failed, 1 not run in \d+\.\d\d s \(0 cycles\)\n"
+        r"beatlog: stopped in the debugger\n",
+        rest,
+    ), rest
 
 
 def test_break_on_divergence_stops_each_failing_dtc_at_its_first_divergence(

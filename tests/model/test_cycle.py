@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 from beatlog.model.behavior import Behavior, BehaviorState
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import CycleExecutor, state_reader
+from beatlog.model.cycle import CycleExecutor, Update, state_reader
 from beatlog.model.random import Draw, RecordingRandom
 from tests.conftest import PERIOD_NS, Probe
 
@@ -132,6 +132,24 @@ def test_random_numbers_drawn_in_a_cycle_come_from_the_source_the_executor_was_g
     (draw,) = random.take()
     assert draw == Draw(2, "randint", draw.value, (1, 6))
     assert changes == [(2, "idle", draw.value)]
+
+
+def test_a_paused_update_is_handed_over_once_with_the_context_of_its_cycle() -> None:
+    panel = Panel([{}, {"first": "near"}, {"second": "far"}])
+    executor = CycleExecutor(panel, RecordingRandom(seed=1))
+    paused: list[tuple[int, int, int]] = []
+
+    def pause(update: Update, state: Probe, context: Context) -> None:
+        paused.append((context.cycle, context.time_ns, context.dt_ns))
+        update(state, context)
+
+    executor.step(PERIOD_NS, Probe())
+    executor.pause_next_update(pause)
+    changes = [executor.step(PERIOD_NS + 1_000, Probe()), executor.step(PERIOD_NS, Probe())]
+
+    assert paused == [(1, 2 * PERIOD_NS + 1_000, PERIOD_NS + 1_000)]
+    assert changes == [[(0, "idle", "near")], [(1, "idle", "far")]]
+    assert [seen.cycle for seen in panel.seen] == [0, 1, 2]
 
 
 class Computed:

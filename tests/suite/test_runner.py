@@ -16,6 +16,7 @@ from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import MEETING, Dice, Near, Probe, RecordFn
+from tests.factories import cut_short
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 from tests.systems import leaks, leaky_system, quiet_system, record_session
 
@@ -335,6 +336,22 @@ def test_a_break_at_a_cycle_stops_the_dtc_there(
 
     assert outcome.verdict is Verdict.PASSED
     assert [stop["cycle"] for stop in breaks] == [40]
+
+
+def test_a_break_past_the_end_of_a_dtcs_log_is_noted(
+    tmp_path: Path, record_probe: RecordFn, breaks: list[dict[str, object]]
+) -> None:
+    cut = cut_short(record_probe(300, flush_interval_s=1.0))
+    spec = dtc(tmp_path, "cut", cut, allow_truncated=True)
+
+    outcome = run_spec(spec, SpecOptions(break_at=1000))
+
+    assert outcome.verdict is Verdict.PASSED
+    assert outcome.result is not None
+    assert outcome.result.notes == (
+        "the break at cycle 1000 was never reached: the log has only 300 cycles",
+    )
+    assert breaks == []
 
 
 def test_a_break_on_divergence_stops_a_failing_dtc_at_its_first_divergence(

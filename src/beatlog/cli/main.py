@@ -6,7 +6,8 @@ neither the engines nor rich.
 Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
 input (one line on stderr naming the file and the problem, never a traceback; with
 ``--verbose`` the traceback of the user's code that failed comes first), 130
-interrupted (Ctrl-C: what was complete is printed, no report is half written), 143
+interrupted (Ctrl-C, or quitting the debugger at a break: what was complete is printed,
+no report is half written), 143
 terminated (SIGTERM: stopped as Ctrl-C stops it, temporary copies of logs behind URLs
 removed).
 """
@@ -56,7 +57,7 @@ EXIT_CODES = """exit codes:
   0    passed (or done)
   1    a replay diverged, a DTC failed or a recording failed
   2    bad input or usage: one line on stderr naming the file and the problem
-  130  interrupted (Ctrl-C)
+  130  interrupted (Ctrl-C, or quitting the debugger at a break)
   143  terminated (SIGTERM), stopped as Ctrl-C stops it"""
 
 
@@ -598,11 +599,14 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
 
     import msgspec
 
+    from beatlog.replay.debugger import break_on_divergence, unreached_break
     from beatlog.replay.judge import recorded_system, replay
     from beatlog.report.console import render_replay
 
     given = args.log
     with _readable(args) as named:
+        if args.break_at is not None:
+            _check_break(args.break_at, Path(args.log))
         system = args.system
         if system is None:
             system = recorded_system(args.log)
@@ -618,8 +622,12 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
             "perception": args.perception,
         }
         result = replay(args.log, system, break_at=args.break_at, **options)
-        if args.break_on_divergence and result.divergence is not None:
-            replay(args.log, system, break_at=result.divergence.cycle, **options)
+        notes = unreached_break(args.break_at, result)
+        if args.break_on_divergence:
+            notes += break_on_divergence(
+                result, lambda cycle: replay(args.log, system, break_at=cycle, **options)
+            )
+        result = dataclasses.replace(result, notes=result.notes + notes)
     if named is not None:
         result = dataclasses.replace(result, url=given, reproduce=named(result.reproduce))
     if args.json:
@@ -627,6 +635,33 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
     else:
         console.print(render_replay(result))
     return EXIT_OK if result.ok else EXIT_FAILED
+
+
+def _check_break(break_at: int, log: Path) -> None:
+    """A break past the end of the log, as its end record counts its cycles, is a usage
+    error before anything replays."""
+    from beatlog.replay.debugger import beyond_the_log
+
+    problem = beyond_the_log(break_at, log)
+    if problem is not None:
+        raise _UsageError(f"--break-at {break_at}: {problem}")
+
+
+def _break_points(args: argparse.Namespace, specs: list[DtcSpec]) -> bool:
+    """Whether the run stops in the debugger; a break it cannot make is a usage error:
+    ``--break-at`` with more than one DTC or past the end of its log, any with --dask."""
+    if args.break_at is not None:
+        if len(specs) > 1:
+            raise _UsageError(
+                f"--break-at stops in one DTC, and {len(specs)} are selected: "
+                "name its spec or select it with -k"
+            )
+        if specs[0].log_url is None:
+            _check_break(args.break_at, specs[0].log)
+    breaking = args.break_at is not None or args.break_on_divergence
+    if breaking and args.dask is not None:
+        raise _UsageError("break points stop in this process: leave out --dask")
+    return bool(breaking)
 
 
 def _selected_specs(
@@ -708,14 +743,7 @@ def _run_tests(
         if report is not None:
             _prepare_report(report)
     found, specs = _selected_specs(args, fleet)
-    if args.break_at is not None and len(specs) > 1:
-        raise _UsageError(
-            f"--break-at stops in one DTC, and {len(specs)} are selected: "
-            "name its spec or select it with -k"
-        )
-    breaking = args.break_at is not None or args.break_on_divergence
-    if breaking and args.dask is not None:
-        raise _UsageError("break points stop in this process: leave out --dask")
+    breaking = _break_points(args, specs)
     progress = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -752,7 +780,7 @@ def _run_tests(
                 highlight=False,
             )
 
-    interrupted = False
+    interrupted: KeyboardInterrupt | None = None
     try:
         with _executor(args.dask) as executor, progress:
             task = progress.add_task("replaying", total=len(specs), rate="")
@@ -768,8 +796,8 @@ def _run_tests(
                 break_on_divergence=args.break_on_divergence,
                 executor=executor,
             )
-    except KeyboardInterrupt:  # report what is complete, then write nothing
-        interrupted = True
+    except KeyboardInterrupt as stop:  # report what is complete, then write nothing
+        interrupted = stop
     wall = time.perf_counter() - started
     outcomes = [finished[spec.path] for spec in specs if spec.path in finished]
     if outcomes:
@@ -779,15 +807,15 @@ def _run_tests(
             from beatlog.report.audit import render_audit
 
             console.print(render_audit(outcomes))
-    if not interrupted:
+    if interrupted is None:
         _write_reports(args, outcomes, console, [spec.name for spec in found])
     skipped = len(specs) - len(outcomes)
     console.print(
         verdict_counts((outcome.verdict for outcome in outcomes), not_run=skipped)
         + f" in {wall:.2f} s ({cycles:,} cycle{'' if cycles == 1 else 's'})"
     )
-    if interrupted:
-        raise KeyboardInterrupt
+    if interrupted is not None:
+        raise interrupted
     return _test_exit_code(outcomes)
 
 
@@ -997,12 +1025,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         except BeatlogError as exc:
             _error(str(exc), exc.user_traceback if verbose else None)
             return EXIT_USAGE
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as stop:
             if terminated.is_set():
                 print("beatlog: terminated", file=sys.stderr)
                 return EXIT_TERMINATED
-            print("beatlog: interrupted", file=sys.stderr)
+            print(f"beatlog: {_interruption(stop)}", file=sys.stderr)
             return EXIT_INTERRUPTED
+
+
+def _interruption(stop: KeyboardInterrupt) -> str:
+    """What stopped the command: Ctrl-C, or the debugger quit at a break (which says so).
+    Nothing is imported on the way out: a break imported the debugger where there was one."""
+    debugger = sys.modules.get("beatlog.replay.debugger")
+    if debugger is not None and isinstance(stop, debugger.DebuggerQuit):
+        return str(stop)
+    return "interrupted"
 
 
 @contextlib.contextmanager

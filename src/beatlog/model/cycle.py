@@ -15,7 +15,12 @@ from beatlog.model.clock import SimulatedHeartbeat
 from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
-__all__ = ["CycleExecutor", "state_reader"]
+__all__ = ["CycleExecutor", "Pause", "Update", "state_reader"]
+
+Update = Callable[[Any, Context], None]
+"""A system's update: the behaviors step from RS_t with the context of the cycle."""
+Pause = Callable[[Update, Any, Context], None]
+"""Takes the place of one update: given it, RS_t and the context, it must run it."""
 
 
 def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
@@ -49,7 +54,7 @@ class CycleExecutor:
         self.behavior_ids = list(catalogue)
         self._read_states = state_reader(list(catalogue.values()))
         self._states = self._read_states()
-        self._update = system.update
+        self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
         random.bind(self.context)
@@ -76,3 +81,19 @@ class CycleExecutor:
                 changes.append((index, before, after))
                 states[index] = after
         return changes
+
+    def pause_next_update(self, pause: Pause) -> None:
+        """Hand the next cycle's update to ``pause``, once: :meth:`step` advances the
+        context to the cycle (``cycle``, ``time_ns``, ``dt_ns`` as the behaviors will see
+        them), then calls ``pause(update, state, context)``, which must run the update.
+
+        The replay debugger stops there, one call from the system's update; every other
+        cycle runs as before, at no cost.
+        """
+        update = self._update
+
+        def paused(state: Any, context: Context) -> None:
+            self._update = update
+            pause(update, state, context)
+
+        self._update = paused

@@ -13,6 +13,7 @@ steps a system through a log.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple, NoReturn
@@ -372,22 +373,29 @@ class Replayer:
         return decoded
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
-        """The replay debugger: ``breakpoint()`` (so ``PYTHONBREAKPOINT`` is honoured) just
-        before the behaviors update in ``cycle``, with everything at hand as locals:
-        ``system``, ``context``, ``robot_state`` (RS_t as recorded), ``recorded_changes``
-        (BS_t, by behavior name) and ``recorded_draws`` (RN_t). Continue to replay on."""
+        """The replay debugger: stop in ``cycle`` just before the behaviors update, once
+        the context is the cycle's (:func:`beatlog.replay.debugger.pause`), with
+        ``robot_state`` (RS_t as recorded), BS_t and RN_t at hand."""
+        from beatlog.replay.debugger import pause  # noqa: PLC0415 - pdb only for a break
+
         names = self.header.behaviors
-        # The locals below are what the debugger shows; nothing else reads them.
-        system = self.system  # noqa: F841
-        context = self.executor.context  # noqa: F841
-        recorded_changes = [  # noqa: F841
+        recorded_changes = [
             (names[index] if 0 <= index < len(names) else f"#{index}", before, after)
             for index, before, after in msgspec.msgpack.decode(record.state_changes)
         ]
-        recorded_draws = (  # noqa: F841
+        recorded_draws = (
             [] if record.random_numbers == EMPTY_LIST else self._decode_draws(record, cycle)
         )
-        breakpoint()
+        self.executor.pause_next_update(
+            functools.partial(
+                pause,
+                system=self.system,
+                log=self.path,
+                recorded_state=robot_state,
+                recorded_changes=recorded_changes,
+                recorded_draws=recorded_draws,
+            )
+        )
 
     def outcomes(self, records: Iterable[CycleRecord]) -> Iterator[CycleOutcome]:
         """Replay ``records`` one after another."""

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.remote import named_as_given
+from beatlog.replay.debugger import break_on_divergence, unreached_break
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
@@ -116,7 +117,8 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     judges exactly as this run did. The spec's references also import from its folder
     and its project root (:func:`beatlog.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
-    ``--break-on-divergence`` do: ``breakpoint()``, so ``PYTHONBREAKPOINT`` is honoured.
+    ``--break-on-divergence`` do (:mod:`beatlog.replay.debugger`); a break past the end
+    of the log is noted in the result.
     A log behind a URL is copied here first, and the copy removed after; one that
     cannot be copied is an error of the DTC."""
     with importable_near(spec.path):
@@ -175,14 +177,14 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         )
         wall = time.perf_counter() - started
         divergence = result.divergence
-        if options.break_on_divergence and divergence is not None:
-            judged(system, break_at=divergence.cycle)
+        notes = result.notes + unreached_break(options.break_at, result)
+        if options.break_on_divergence:
+            notes += break_on_divergence(result, lambda cycle: judged(system, break_at=cycle))
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
         details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
-        notes = result.notes
         if spec.system is None:  # the log named it: say which, on every run
             notes = (
                 *notes,
