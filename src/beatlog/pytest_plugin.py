@@ -33,7 +33,7 @@ import pytest
 
 from beatlog.errors import BeatlogError, SpecError
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, load_spec
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, distinguished, load_spec
 
 if TYPE_CHECKING:
     from beatlog.model.behavior import System
@@ -132,13 +132,16 @@ class BeatlogRun:
         )
 
     def pytest_collection_finish(self, session: pytest.Session) -> None:
-        """A break at a cycle stops in one DTC: refuse a run that selects more."""
-        selected = sum(isinstance(item, DtcItem) for item in session.items)
-        if self.break_at is not None and selected > 1:
+        """A break at a cycle stops in one DTC: refuse a run that selects more. The DTCs
+        selected that share a name are named by their ids in what beatlog reports."""
+        selected = [item for item in session.items if isinstance(item, DtcItem)]
+        if self.break_at is not None and len(selected) > 1:
             raise pytest.UsageError(
-                f"--beatlog-break-at stops in one DTC, and {selected} are selected: "
+                f"--beatlog-break-at stops in one DTC, and {len(selected)} are selected: "
                 "select it with -k or name its spec"
             )
+        for item, spec in zip(selected, distinguished(item.spec for item in selected), strict=True):
+            item.spec = spec
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
         """Gather a DTC's verdict and update lines from its report (a worker's, under xdist)."""
@@ -182,10 +185,12 @@ class BeatlogRun:
 
         folders = sorted({spec.parent for spec in self.specs})
         try:
-            coverage = suite_coverage([load_spec(spec) for spec in sorted(self.specs)])
-            suite = [spec.name for spec in discover_specs(folders)]  # those deselected too
+            ran = [load_spec(spec, rootdir=self.root) for spec in sorted(self.specs)]
+            coverage = suite_coverage(distinguished(ran))
+            found = discover_specs(folders, rootdir=self.root)  # those deselected too
         except BeatlogError as exc:  # a log no DTC could read: its error is reported
             return [f"beatlog: no transition coverage: {exc}"]
+        suite = {spec.id: spec.name for spec in found}
         warning = recall(coverage, cache_path(self.root), suite).warning
         lines = [] if warning is None else [f"beatlog: warning: {warning}"]
         if self.coverage:
@@ -249,7 +254,7 @@ class DtcFile(pytest.File):
 
     def collect(self) -> Iterator[pytest.Item]:
         try:
-            spec = load_spec(self.path)
+            spec = load_spec(self.path, rootdir=self.config.rootpath)
         except SpecError as exc:
             raise self.CollectError(str(exc)) from None
         yield DtcItem.from_parent(self, name=spec.name, spec=spec)
@@ -302,7 +307,7 @@ class DtcItem(pytest.Item):
         return str(super().repr_failure(excinfo, style=style))
 
     def reportinfo(self) -> tuple[Path, int, str]:
-        return self.path, 0, f"dtc: {self.spec.name}"
+        return self.path, 0, f"dtc: {self.spec.label}"
 
 
 def _failure_text(result: ReplayResult) -> str:
