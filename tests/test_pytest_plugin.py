@@ -18,7 +18,9 @@ from beatlog_examples.rover import record_lockstep
 from tests.conftest import Probe, RecordFn
 from tests.factories import logged_counts
 from tests.specs import FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots
-from tests.systems import leaks, leaky_system, quiet_system, record_session
+from tests.systems import BUILT, leaks, leaky_system, quiet_system, record_session
+
+COUNTED = "tests.systems:counted_system"
 
 
 def spec_text(name: str, log: Path, system: str = "tests.conftest:probe_system") -> str:
@@ -82,7 +84,7 @@ def test_a_dtc_s_junit_properties_say_what_it_checked(pytester: pytest.Pytester,
     }
 
 
-def test_a_dtc_that_checks_nothing_fails_unless_its_spec_intends_it(
+def test_a_dtc_that_checks_nothing_is_an_error_unless_its_spec_intends_it(
     pytester: pytest.Pytester, tmp_path: Path
 ) -> None:
     quiet = record_session(tmp_path / "quiet.beatlog", quiet_system())
@@ -94,10 +96,36 @@ def test_a_dtc_that_checks_nothing_fails_unless_its_spec_intends_it(
 
     result = pytester.runpytest()
 
-    result.assert_outcomes(passed=1, failed=1)
+    result.assert_outcomes(passed=1, errors=1)
     result.stdout.fnmatch_lines(
-        [f"{quiet}: the replay checked nothing (20 cycles but no state change, output, *"]
+        [
+            "*_ ERROR at setup of dtc: empty _*",
+            f"{quiet}: the replay checked nothing (20 cycles but no state change, output, *",
+            "2 DTCs: 1 passed, 0 failed, 1 error",
+        ]
     )
+
+
+def test_a_dtc_that_cannot_run_is_an_error_and_one_that_can_builds_its_system_once(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    pytester.makefile(".dtc.toml", broken=spec_text("broken", log, "tests.conftest:broken_probe"))
+    pytester.makefile(".dtc.toml", counted=spec_text("counted", log, COUNTED))
+    BUILT.clear()
+
+    result = pytester.runpytest()
+
+    result.assert_outcomes(passed=1, errors=1)
+    result.stdout.fnmatch_lines(
+        [
+            "*_ ERROR at setup of dtc: broken _*",
+            "'tests.conftest:broken_probe': the factory raised RuntimeError: the arena map is "
+            "missing (line *",
+            "2 DTCs: 1 passed, 0 failed, 1 error",
+        ]
+    )
+    result.stdout.no_fnmatch_line("*Traceback*")
+    assert BUILT == ["probe"]
 
 
 def test_two_robots_of_one_repository_each_have_a_dtc_of_one_name(

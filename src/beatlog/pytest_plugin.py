@@ -3,7 +3,9 @@
 Registered under the ``pytest11`` entry point, so installing beatlog is enough:
 ``pytest`` collects every ``*.dtc.toml`` file as one test named after the spec. Set
 ``beatlog_collect = false`` in the pytest ini options to turn collection off. DTC
-items carry the ``dtc`` marker, and ``-k`` matches their names and tags.
+items carry the ``dtc`` marker, and ``-k`` matches their names and tags. A DTC is
+judged in its item's setup: one that cannot run (its log or system is bad input,
+``beatlog test``'s error) is an ERROR, one that diverges fails.
 
 Options (the ``beatlog`` group; the default is neither): ``--beatlog-update`` writes
 the new expectation of each failing DTC to its pending baseline for review, as
@@ -38,7 +40,7 @@ from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, distinguish
 if TYPE_CHECKING:
     from beatlog.model.behavior import System
     from beatlog.replay.verdict import ReplayResult
-    from beatlog.suite.runner import Verdict
+    from beatlog.suite.runner import SpecOutcome, Verdict
 
 # The engines and reports are imported where a DTC runs or the summary is written: every
 # pytest process loads this plugin (each xdist worker too), most of them to run no DTC.
@@ -144,8 +146,9 @@ class BeatlogRun:
             item.spec = spec
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
-        """Gather a DTC's verdict and update lines from its report (a worker's, under xdist)."""
-        if report.when != "call":
+        """Gather a DTC's verdict and update lines from its report (a worker's, under xdist):
+        the call's, or the setup's where the DTC could not run."""
+        if report.when != "call" and not (report.when == "setup" and report.failed):
             return
         from beatlog.suite.runner import Verdict  # noqa: PLC0415 - see the imports
 
@@ -266,18 +269,19 @@ class DtcItem(pytest.Item):
     def __init__(self, *, spec: DtcSpec, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.spec = spec
+        self.outcome: SpecOutcome | None = None
         self.add_marker("dtc")
         self.extra_keyword_matches.update(spec.tags)
 
-    def runtest(self) -> None:
-        from beatlog.report.audit import render_audit  # noqa: PLC0415 - see the imports
-        from beatlog.report.baselines import render_updates  # noqa: PLC0415
-        from beatlog.report.console import plain_text  # noqa: PLC0415
+    def setup(self) -> None:
+        """Judge the DTC: one that cannot run (its log or system is bad input) is an error
+        of this phase, so pytest reports it as an ERROR, as ``beatlog test`` does."""
+        from beatlog.report.baselines import render_updates  # noqa: PLC0415 - see the imports
         from beatlog.suite.maintenance import update_baselines  # noqa: PLC0415
         from beatlog.suite.runner import Verdict, run_spec  # noqa: PLC0415
 
         run = self.config.stash[_RUN]
-        outcome = run_spec(self.spec, run.options)
+        outcome = self.outcome = run_spec(self.spec, run.options)
         self.user_properties.append((_VERDICT, outcome.verdict.value))
         self.user_properties.append((_SPEC, str(self.spec.path)))
         if outcome.result is not None:  # what it checked, as beatlog test's JUnit has it
@@ -288,7 +292,15 @@ class DtcItem(pytest.Item):
             self.user_properties.append((_UPDATE, line.plain))
         if outcome.verdict is Verdict.ERROR:
             shown = outcome.error_traceback if self.config.get_verbosity() > 0 else None
-            raise DtcFailedError(f"{outcome.error}\n{shown}" if shown else outcome.error)
+            pytest.fail(f"{outcome.error}\n{shown}" if shown else str(outcome.error), pytrace=False)
+
+    def runtest(self) -> None:
+        """Fail with the DTC's first divergence, and with what its audit found."""
+        from beatlog.report.audit import render_audit  # noqa: PLC0415 - see the imports
+        from beatlog.report.console import plain_text  # noqa: PLC0415
+
+        outcome = self.outcome
+        assert outcome is not None, "setup judges the DTC"
         failures = []
         if outcome.result is not None and not outcome.result.ok:
             failures.append(_failure_text(outcome.result))
