@@ -6,12 +6,17 @@ import json
 import os
 from pathlib import Path
 
-from tests.conftest import distances
+from beatlog.model.behavior import System
+from beatlog.record.recorder import Recorder
+from tests.conftest import PERIOD_NS, Probe, distances, probe_system
+from tests.systems import Rover, rover_system
 
 PROBE = "tests.conftest:probe_system"
 CHANGED = "tests.conftest:probe_system_changed"
 GAUGE = "tests.systems:gauge_system"
 """The system of the logs ``tests.factories`` crafts."""
+ROVER = "tests.systems:rover_system"
+"""Another robot, whose behaviors have the probe's names."""
 
 FIRST_CHANGED_CYCLE = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
 """The first cycle where the changed probe's near behavior sees the obstacle first."""
@@ -64,3 +69,36 @@ def write_spec(
         encoding="utf-8",
     )
     return path
+
+
+def two_robots(root: Path) -> dict[str, Path]:
+    """A repository of two robots, each with a folder of DTCs and no ``pyproject.toml``
+    of its own; every DTC's log lies beside its spec. The probe has ``approach`` (it
+    goes near the pole) and ``low-battery`` (it stays far), the rover ``low-battery``
+    (it goes near): both have a ``near`` behavior. Returns the specs by id."""
+    (root / "pyproject.toml").write_text('[project]\nname = "robots"\n', encoding="utf-8")
+    dtcs = [
+        ("probe", "approach", PROBE, True),
+        ("probe", "low-battery", PROBE, False),
+        ("rover", "low-battery", ROVER, True),
+    ]
+    specs = {}
+    for robot, name, system, near in dtcs:
+        folder = root / robot / "dtc"
+        folder.mkdir(parents=True, exist_ok=True)
+        made = rover_system() if system == ROVER else probe_system()
+        state = Rover if system == ROVER else Probe
+        log = _record(folder / f"{name}.beatlog", made, system, state, near=near)
+        specs[f"{robot}/dtc/{name}.dtc.toml::{name}"] = write_spec(folder, name, log, system)
+    return specs
+
+
+def _record(
+    log: Path, system: System, reference: str, state: type[Probe | Rover], *, near: bool
+) -> Path:
+    """Record ``system``: towards the pole and back twice (200 cycles), or far from it."""
+    profile = distances(200) if near else [2.0] * 40
+    with Recorder(log, system, seed=7, software="test", system_ref=reference) as recorder:
+        for distance in profile:
+            recorder.step(PERIOD_NS, state(distance=distance))
+    return log

@@ -311,3 +311,13 @@ class Rover(RobotState, kw_only=True):
 def rover_system() -> PriorityArbiter[Any]:
     """The probe's behaviors on another robot's state."""
     return PriorityArbiter([Near(), Dice()], robot_state=Rover)
+
+
+BUILT: list[str] = []
+"""The systems :func:`counted_system` built: clear it before use."""
+
+
+def counted_system() -> PriorityArbiter[Probe]:
+    """The probe system, noting in :data:`BUILT` that it was built."""
+    BUILT.append("probe")
+    return probe_system()

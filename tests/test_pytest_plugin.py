@@ -19,8 +19,10 @@ from beatlog_examples.rover import record_lockstep
 from tests.commands import at_a_terminal
 from tests.conftest import Probe, RecordFn
 from tests.factories import logged_counts
-from tests.specs import FIRST_CHANGED_CYCLE
-from tests.systems import leaks, leaky_system, quiet_system, record_session
+from tests.specs import FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots
+from tests.systems import BUILT, leaks, leaky_system, quiet_system, record_session
+
+COUNTED = "tests.systems:counted_system"
 
 
 def spec_text(name: str, log: Path, system: str = "tests.conftest:probe_system") -> str:
@@ -84,7 +86,7 @@ def test_a_dtc_s_junit_properties_say_what_it_checked(pytester: pytest.Pytester,
     }
 
 
-def test_a_dtc_that_checks_nothing_fails_unless_its_spec_intends_it(
+def test_a_dtc_that_checks_nothing_is_an_error_unless_its_spec_intends_it(
     pytester: pytest.Pytester, tmp_path: Path
 ) -> None:
     quiet = record_session(tmp_path / "quiet.beatlog", quiet_system())
@@ -96,10 +98,69 @@ def test_a_dtc_that_checks_nothing_fails_unless_its_spec_intends_it(
 
     result = pytester.runpytest()
 
-    result.assert_outcomes(passed=1, failed=1)
+    result.assert_outcomes(passed=1, errors=1)
     result.stdout.fnmatch_lines(
-        [f"{quiet}: the replay checked nothing (20 cycles but no state change, output, *"]
+        [
+            "*_ ERROR at setup of dtc: empty _*",
+            f"{quiet}: the replay checked nothing (20 cycles but no state change, output, *",
+            "2 DTCs: 1 passed, 0 failed, 1 error",
+        ]
     )
+
+
+def test_a_dtc_that_cannot_run_is_an_error_and_one_that_can_builds_its_system_once(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    pytester.makefile(".dtc.toml", broken=spec_text("broken", log, "tests.conftest:broken_probe"))
+    pytester.makefile(".dtc.toml", counted=spec_text("counted", log, COUNTED))
+    BUILT.clear()
+
+    result = pytester.runpytest()
+
+    result.assert_outcomes(passed=1, errors=1)
+    result.stdout.fnmatch_lines(
+        [
+            "*_ ERROR at setup of dtc: broken _*",
+            "'tests.conftest:broken_probe': the factory raised RuntimeError: the arena map is "
+            "missing (line *",
+            "2 DTCs: 1 passed, 0 failed, 1 error",
+        ]
+    )
+    result.stdout.no_fnmatch_line("*Traceback*")
+    assert BUILT == ["probe"]
+
+
+def test_two_robots_of_one_repository_each_have_a_dtc_of_one_name(
+    pytester: pytest.Pytester,
+) -> None:
+    specs = two_robots(pytester.path)
+    options = ["-v", "--beatlog-coverage-json", "coverage.json", "--junit-xml", "report.xml"]
+
+    result = pytester.runpytest(*options)
+
+    result.assert_outcomes(passed=3)
+    result.stdout.fnmatch_lines([f"{dtc} PASSED*" for dtc in specs])
+    cases = ET.parse(pytester.path / "report.xml").getroot().iter("testcase")
+    assert [(case.get("classname"), case.get("name")) for case in cases] == [
+        ("probe.dtc.approach.dtc.toml", "approach"),
+        ("probe.dtc.low-battery.dtc.toml", "low-battery"),
+        ("rover.dtc.low-battery.dtc.toml", "low-battery"),
+    ]
+    document = json.loads((pytester.path / "coverage.json").read_text(encoding="utf-8"))
+    assert document["dtcs"] == list(specs)
+    assert list(document["systems"]) == [PROBE, ROVER]
+    near = {system: document["systems"][system]["near"]["states"] for system in (PROBE, ROVER)}
+    assert near[PROBE]['"near"']["dtcs"] == ["probe/dtc/approach.dtc.toml::approach"]
+    assert near[ROVER]['"near"']["dtcs"] == ["rover/dtc/low-battery.dtc.toml::low-battery"]
+
+    specs["probe/dtc/approach.dtc.toml::approach"].unlink()
+    pytester.runpytest(*options).assert_outcomes(passed=2)
+
+    document = json.loads((pytester.path / "coverage.json").read_text(encoding="utf-8"))
+    assert document["systems"][PROBE]["near"]["no_longer_reached"] == [
+        {"state": '"near"', "dtcs_before": ["probe/dtc/approach.dtc.toml::approach"]}
+    ]
+    assert document["systems"][ROVER]["near"]["no_longer_reached"] == []
 
 
 def test_a_bad_spec_is_a_collection_error_naming_the_key(pytester: pytest.Pytester) -> None:
@@ -256,7 +317,8 @@ def test_coverage_is_shown_and_written_at_the_end_of_the_session(
     workers: list[str],
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent.parent))  # for tests.conftest
+    root = str(Path(__file__).parent.parent)  # for tests.conftest
+    monkeypatch.setenv("PYTHONPATH", root, prepend=os.pathsep)
     pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", record_probe(200)))
     far = record_probe(40, name="far.beatlog", states=[Probe(distance=2.0)] * 40)
     pytester.makefile(".dtc.toml", steady=spec_text("steady", far))
@@ -266,8 +328,8 @@ def test_coverage_is_shown_and_written_at_the_end_of_the_session(
     result.assert_outcomes(passed=2)
     result.stdout.fnmatch_lines(["*= beatlog =*", "*transition coverage*", '*"far" → "near"*'])
     document = json.loads((pytester.path / "coverage.json").read_text(encoding="utf-8"))
-    assert document["dtcs"] == ["approach-wall", "steady"]
-    assert document["behaviors"]["near"]["no_longer_reached"] == []
+    assert document["dtcs"] == ["approach.dtc.toml::approach-wall", "steady.dtc.toml::steady"]
+    assert document["systems"][PROBE]["near"]["no_longer_reached"] == []
 
     (pytester.path / "approach.dtc.toml").unlink()
     again = pytester.runpytest_subprocess(
@@ -276,8 +338,8 @@ def test_coverage_is_shown_and_written_at_the_end_of_the_session(
     again.assert_outcomes(passed=1)
     again.stdout.fnmatch_lines(['*"near" (seen before in*'])
     document = json.loads((pytester.path / "coverage.json").read_text(encoding="utf-8"))
-    assert document["behaviors"]["near"]["no_longer_reached"] == [
-        {"state": '"near"', "dtcs_before": ["approach-wall"]}
+    assert document["systems"][PROBE]["near"]["no_longer_reached"] == [
+        {"state": '"near"', "dtcs_before": ["approach.dtc.toml::approach-wall"]}
     ]
 
 

@@ -3,7 +3,9 @@
 Registered under the ``pytest11`` entry point, so installing beatlog is enough:
 ``pytest`` collects every ``*.dtc.toml`` file as one test named after the spec. Set
 ``beatlog_collect = false`` in the pytest ini options to turn collection off. DTC
-items carry the ``dtc`` marker, and ``-k`` matches their names and tags.
+items carry the ``dtc`` marker, and ``-k`` matches their names and tags. A DTC is
+judged in its item's setup: one that cannot run (its log or system is bad input,
+``beatlog test``'s error) is an ERROR, one that diverges fails.
 
 Options (the ``beatlog`` group; the default is neither): ``--beatlog-update`` writes
 the new expectation of each failing DTC to its pending baseline for review, as
@@ -37,12 +39,12 @@ import pytest
 
 from beatlog.errors import BeatlogError, SpecError
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, load_spec
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, distinguished, load_spec
 
 if TYPE_CHECKING:
     from beatlog.model.behavior import System
     from beatlog.replay.verdict import ReplayResult
-    from beatlog.suite.runner import Verdict
+    from beatlog.suite.runner import SpecOutcome, Verdict
 
 # The engines and reports are imported where a DTC runs or the summary is written: every
 # pytest process loads this plugin (each xdist worker too), most of them to run no DTC.
@@ -137,10 +139,13 @@ class BeatlogRun:
 
     def pytest_collection_finish(self, session: pytest.Session) -> None:
         """A break at a cycle stops in one DTC: refuse a run that selects more, or one
-        whose log ends before the break (as its end record counts its cycles)."""
+        whose log ends before the break (as its end record counts its cycles). The DTCs
+        selected that share a name are named by their ids in what beatlog reports."""
+        selected = [item for item in session.items if isinstance(item, DtcItem)]
+        for item, spec in zip(selected, distinguished(item.spec for item in selected), strict=True):
+            item.spec = spec
         if self.break_at is None:
             return
-        selected = [item.spec for item in session.items if isinstance(item, DtcItem)]
         if len(selected) > 1:
             raise pytest.UsageError(
                 f"--beatlog-break-at stops in one DTC, and {len(selected)} are selected: "
@@ -149,14 +154,15 @@ class BeatlogRun:
         from beatlog.replay.debugger import beyond_the_log  # noqa: PLC0415 - see the imports
 
         problem = None
-        if selected and selected[0].log_url is None:
-            problem = beyond_the_log(self.break_at, selected[0].log)
+        if selected and selected[0].spec.log_url is None:
+            problem = beyond_the_log(self.break_at, selected[0].spec.log)
         if problem is not None:
             raise pytest.UsageError(f"--beatlog-break-at {self.break_at}: {problem}")
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
-        """Gather a DTC's verdict and update lines from its report (a worker's, under xdist)."""
-        if report.when != "call":
+        """Gather a DTC's verdict and update lines from its report (a worker's, under xdist):
+        the call's, or the setup's where the DTC could not run."""
+        if report.when != "call" and not (report.when == "setup" and report.failed):
             return
         from beatlog.suite.runner import Verdict  # noqa: PLC0415 - see the imports
 
@@ -196,10 +202,12 @@ class BeatlogRun:
 
         folders = sorted({spec.parent for spec in self.specs})
         try:
-            coverage = suite_coverage([load_spec(spec) for spec in sorted(self.specs)])
-            suite = [spec.name for spec in discover_specs(folders)]  # those deselected too
+            ran = [load_spec(spec, rootdir=self.root) for spec in sorted(self.specs)]
+            coverage = suite_coverage(distinguished(ran))
+            found = discover_specs(folders, rootdir=self.root)  # those deselected too
         except BeatlogError as exc:  # a log no DTC could read: its error is reported
             return [f"beatlog: no transition coverage: {exc}"]
+        suite = {spec.id: spec.name for spec in found}
         warning = recall(coverage, cache_path(self.root), suite).warning
         lines = [] if warning is None else [f"beatlog: warning: {warning}"]
         if self.coverage:
@@ -266,7 +274,7 @@ class DtcFile(pytest.File):
 
     def collect(self) -> Iterator[pytest.Item]:
         try:
-            spec = load_spec(self.path)
+            spec = load_spec(self.path, rootdir=self.config.rootpath)
         except SpecError as exc:
             raise self.CollectError(str(exc)) from None
         yield DtcItem.from_parent(self, name=spec.name, spec=spec)
@@ -278,19 +286,20 @@ class DtcItem(pytest.Item):
     def __init__(self, *, spec: DtcSpec, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.spec = spec
+        self.outcome: SpecOutcome | None = None
         self.add_marker("dtc")
         self.extra_keyword_matches.update(spec.tags)
 
-    def runtest(self) -> None:
-        from beatlog.report.audit import render_audit  # noqa: PLC0415 - see the imports
-        from beatlog.report.baselines import render_updates  # noqa: PLC0415
-        from beatlog.report.console import plain_text  # noqa: PLC0415
+    def setup(self) -> None:
+        """Judge the DTC: one that cannot run (its log or system is bad input) is an error
+        of this phase, so pytest reports it as an ERROR, as ``beatlog test`` does."""
+        from beatlog.report.baselines import render_updates  # noqa: PLC0415 - see the imports
         from beatlog.suite.maintenance import update_baselines  # noqa: PLC0415
         from beatlog.suite.runner import Verdict, run_spec  # noqa: PLC0415
 
         run = self.config.stash[_RUN]
         with _quitting_as_pytest():
-            outcome = run_spec(self.spec, run.options)
+            outcome = self.outcome = run_spec(self.spec, run.options)
         self.user_properties.append((_VERDICT, outcome.verdict.value))
         self.user_properties.append((_SPEC, str(self.spec.path)))
         if outcome.result is not None:  # what it checked, as beatlog test's JUnit has it
@@ -301,7 +310,15 @@ class DtcItem(pytest.Item):
             self.user_properties.append((_UPDATE, line.plain))
         if outcome.verdict is Verdict.ERROR:
             shown = outcome.error_traceback if self.config.get_verbosity() > 0 else None
-            raise DtcFailedError(f"{outcome.error}\n{shown}" if shown else outcome.error)
+            pytest.fail(f"{outcome.error}\n{shown}" if shown else str(outcome.error), pytrace=False)
+
+    def runtest(self) -> None:
+        """Fail with the DTC's first divergence, and with what its audit found."""
+        from beatlog.report.audit import render_audit  # noqa: PLC0415 - see the imports
+        from beatlog.report.console import plain_text  # noqa: PLC0415
+
+        outcome = self.outcome
+        assert outcome is not None, "setup judges the DTC"
         failures = []
         if outcome.result is not None and not outcome.result.ok:
             failures.append(_failure_text(outcome.result))
@@ -320,7 +337,7 @@ class DtcItem(pytest.Item):
         return str(super().repr_failure(excinfo, style=style))
 
     def reportinfo(self) -> tuple[Path, int, str]:
-        return self.path, 0, f"dtc: {self.spec.name}"
+        return self.path, 0, f"dtc: {self.spec.label}"
 
 
 @contextmanager

@@ -51,7 +51,8 @@ def crossings(cycles: int) -> int:
 def test_states_and_transitions_are_counted_with_dtcs_and_cycles(record_probe: RecordFn) -> None:
     log = record_probe(300)
     coverage = cover([("approach", log, probe_system())])
-    near = coverage.behaviors["near"]
+    assert list(coverage.systems) == [PROBE]  # the one its log records
+    near = coverage.systems[PROBE]["near"]
     far_to_near = near.transitions[('"far"', '"near"')]
     near_to_far = near.transitions[('"near"', '"far"')]
     assert far_to_near.dtcs == {"approach"}
@@ -69,7 +70,8 @@ def test_a_declared_state_no_dtc_reaches_is_unreached(tmp_path: Path) -> None:
             recorder.step(PERIOD_NS, Probe(distance=distance))
     assert declared_states(watchful_system()) == {"watchful": ('"calm"', '"alert"', '"asleep"')}
     coverage = cover([("watch", log, watchful_system())])
-    assert coverage.behaviors["watchful"].unreached == ('"asleep"',)
+    assert list(coverage.systems) == ["tests.conftest.Probe"]  # its log records no reference
+    assert coverage.systems["tests.conftest.Probe"]["watchful"].unreached == ('"asleep"',)
 
 
 class Moody(Watchful):
@@ -90,7 +92,7 @@ def test_a_state_that_is_an_enum_member_counts_as_its_value(tmp_path: Path) -> N
         for distance in distances(300):
             recorder.step(PERIOD_NS, Probe(distance=distance))
     moody = cover([("moody", log, PriorityArbiter([Moody()], robot_state=Probe))])
-    states = moody.behaviors["watchful"].states
+    states = moody.systems["tests.conftest.Probe"]["watchful"].states
     assert set(states) == {'"calm"', '"alert"'}
     assert sum(seen.cycles for seen in states.values()) == 300
 
@@ -103,11 +105,12 @@ def test_coverage_adds_up_over_dtcs_and_selects_those_exercising_a_behavior(
     approach = load_spec(write_spec(tmp_path, "approach", near_log, PROBE))
     idle = load_spec(write_spec(tmp_path, "idle", far_log, PROBE))
     coverage = suite_coverage([approach, idle])
-    assert coverage.dtcs == ["approach", "idle"]
-    assert coverage.behaviors["near"].states['"far"'].dtcs == {"approach", "idle"}
-    assert coverage.exercising("near") == ["approach"]
+    assert coverage.dtcs == ["approach.dtc.toml::approach", "idle.dtc.toml::idle"]
+    near = coverage.systems[PROBE]["near"]
+    assert near.states['"far"'].dtcs == {"approach.dtc.toml::approach", "idle.dtc.toml::idle"}
+    assert coverage.exercising("near") == ["approach.dtc.toml::approach"]
     assert select_exercising([approach, idle], "near") == [approach]
-    assert coverage.to_json()["behaviors"]["near"]["unreached"] == []
+    assert coverage.to_json()["systems"][PROBE]["near"]["unreached"] == []
 
 
 def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
@@ -129,7 +132,7 @@ def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
     assert "transition coverage" in out
     assert '"far" → "near"' in out
     document = json.loads(report.read_text())
-    assert document["dtcs"] == ["approach", "idle"]
+    assert document["dtcs"] == ["approach.dtc.toml::approach", "idle.dtc.toml::idle"]
 
     code = main(["test", "-j", "1", "--behavior", "near", str(specs)])
     out = capsys.readouterr().out
@@ -155,8 +158,8 @@ def test_a_log_that_cannot_be_read_counts_nothing_and_the_others_still_count(
 
     coverage = suite_coverage([approach, damaged])
 
-    assert coverage.dtcs == ["approach"]
-    assert coverage.exercising("near") == ["approach"]
+    assert coverage.dtcs == ["approach.dtc.toml::approach"]
+    assert coverage.exercising("near") == ["approach.dtc.toml::approach"]
     assert select_exercising([approach, damaged], "near") == [approach, damaged]
 
 
@@ -183,5 +186,5 @@ def test_a_damaged_log_leaves_the_coverage_and_html_reports_of_the_others(
         f"{specs / '..' / broken.name}: not a session log (not an MCAP file)"
     ]
     assert "1 passed, 0 failed, 1 error" in captured.out
-    assert json.loads(report.read_text())["dtcs"] == ["approach"]
+    assert json.loads(report.read_text())["dtcs"] == ["approach.dtc.toml::approach"]
     assert "damaged" in html.read_text()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import json
 import os
 import re
 import sys
@@ -12,10 +13,18 @@ from pathlib import Path
 
 import pytest
 
-from tests.commands import Beatlog, Run, assert_one_line_error, at_a_terminal, hide_matplotlib
+from beatlog.suite.spec import discover_specs
+from tests.commands import (
+    ROOT,
+    Beatlog,
+    Run,
+    assert_one_line_error,
+    at_a_terminal,
+    hide_matplotlib,
+)
 from tests.conftest import RecordFn
 from tests.factories import vouch
-from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots, write_spec
 from tests.systems import leaks, leaky_system, quiet_system, record_session
 
 BeatlogTest = Callable[..., Run]
@@ -374,6 +383,93 @@ def test_the_current_folder_is_searched_by_default(
 
     assert run.code == 0
     assert_counts(run, "1 passed, 0 failed", 300)
+
+
+def rows(out: str, title: str) -> list[list[str]]:
+    """The cells of each row of the table ``title`` printed, on a console wide enough
+    for each row to keep to one line."""
+    lines = out.splitlines()
+    table = lines[lines.index(title) + 1 :]
+    body = table[next(n for n, line in enumerate(table) if line.startswith("┡")) + 1 :]
+    ended = next(n for n, line in enumerate(body) if line.startswith("└"))
+    return [[cell.strip() for cell in line.strip("│").split("│")] for line in body[:ended]]
+
+
+def test_two_robots_of_one_repository_each_have_a_dtc_of_one_name(
+    beatlog_test: BeatlogTest, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "400")
+    specs = two_robots(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "path", list(sys.path))  # main() adds the working folder
+    coverage, junit = tmp_path / "coverage.json", tmp_path / "dtc.xml"
+    probe_ids = list(specs)[:2]
+    rover_id = list(specs)[2]
+
+    run = beatlog_test("--coverage", "--coverage-json", coverage, "--junit-xml", junit)
+
+    assert (run.code, run.err) == (0, "")
+    assert [row[0] for row in rows(run.out, "DTC suite")] == ["approach", *probe_ids[1:], rover_id]
+    assert_counts(run, "3 passed, 0 failed", 440)
+    cases = ET.parse(junit).getroot().findall("testcase")
+    assert [(case.get("classname"), case.get("name")) for case in cases] == [
+        ("probe/dtc", "approach"),
+        ("probe/dtc", "probe/dtc/low-battery.dtc.toml::low-battery"),
+        ("rover/dtc", "rover/dtc/low-battery.dtc.toml::low-battery"),
+    ]
+    assert [row[:2] for row in rows(run.out, "transition coverage")] == [
+        [PROBE, "arbiter"],
+        [PROBE, "near"],
+        [PROBE, "dice"],
+        [ROVER, "arbiter"],
+        [ROVER, "near"],
+        [ROVER, "dice"],
+    ]
+    document = json.loads(coverage.read_text(encoding="utf-8"))
+    assert document["dtcs"] == list(specs)
+    near = {system: document["systems"][system]["near"]["states"] for system in (PROBE, ROVER)}
+    assert near[PROBE]['"near"']["dtcs"] == ["probe/dtc/approach.dtc.toml::approach"]
+    assert near[PROBE]['"far"']["dtcs"] == probe_ids
+    assert near[ROVER]['"near"']["dtcs"] == near[ROVER]['"far"']["dtcs"] == [rover_id]
+
+    specs["probe/dtc/approach.dtc.toml::approach"].unlink()
+    again = beatlog_test("--coverage", "--coverage-json", coverage)
+
+    assert (again.code, again.err) == (0, "")
+    assert [row[1:] for row in rows(again.out, "transition coverage") if row[1] == "near"] == [
+        ["near", '"far" (1 DTC, 40 cycles)', "none", '"near" (seen before in approach)'],
+        [
+            "near",
+            '"far" (1 DTC, 102 cycles), "near" (1 DTC, 98 cycles)',
+            '"far" → "near" ×2 in 1 DTC; "near" → "far" ×2 in 1 DTC',
+            "",
+        ],
+    ]
+    document = json.loads(coverage.read_text(encoding="utf-8"))
+    assert document["systems"][PROBE]["near"]["no_longer_reached"] == [
+        {"state": '"near"', "dtcs_before": ["probe/dtc/approach.dtc.toml::approach"]}
+    ]
+    assert document["systems"][ROVER]["near"]["no_longer_reached"] == []
+
+
+def test_beatlog_test_at_this_repository_s_root_runs_every_example_suite(
+    beatlog_test: BeatlogTest, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "400")
+    monkeypatch.chdir(ROOT)
+    monkeypatch.setattr(sys, "path", list(sys.path))  # main() adds the working folder
+    found = discover_specs([Path()])
+
+    run = beatlog_test("--verbose")
+
+    assert (run.code, run.err) == (0, "")
+    shown = [row[0] for row in rows(run.out, "DTC suite")]
+    assert len(shown) == len(found) > 2
+    assert [label for label in shown if "::" in label] == [
+        "examples/src/beatlog_examples/dog/suite/low-battery.dtc.toml::low-battery",
+        "examples/src/beatlog_examples/trees/suite/low-battery.dtc.toml::low-battery",
+    ]
+    assert closing_line(run).startswith(f"{len(found)} passed, 0 failed in ")
 
 
 # bad input: exit 2 and one line on stderr

@@ -17,7 +17,7 @@ from beatlog.report.console import (
     render_summary,
 )
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
-from beatlog.suite.spec import DtcSpec, load_spec
+from beatlog.suite.spec import DtcSpec, distinguished, load_spec
 from tests.conftest import RecordFn, probe_system
 from tests.specs import CHANGED, PROBE, write_spec
 
@@ -179,3 +179,29 @@ def test_every_dtc_of_a_longer_suite_is_listed_when_asked() -> None:
 
     assert sum("dtc-" in line for line in text.splitlines()) == 142
     assert "not listed" not in text
+
+
+def test_dtcs_of_one_name_are_listed_by_their_ids_whole_on_a_narrow_terminal() -> None:
+    specs = [
+        DtcSpec(
+            Path(f"robots/{robot}/dtc/low-battery.dtc.toml"),
+            "low-battery",
+            "",
+            (),
+            Path("x"),
+            PROBE,
+        )
+        for robot in ("dog", "rover")
+    ]
+    shown = [
+        SpecOutcome(spec, Verdict.ERROR, None, "no such file", 0.01)
+        for spec in distinguished(specs)
+    ]
+
+    text = plain_text(render_suite(shown), width=80)
+
+    cells = [line.split("│")[1].strip() for line in text.splitlines() if line.startswith("│")]
+    assert "".join(cells) == (
+        "robots/dog/dtc/low-battery.dtc.toml::low-battery"
+        "robots/rover/dtc/low-battery.dtc.toml::low-battery"
+    )

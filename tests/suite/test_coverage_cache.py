@@ -52,8 +52,10 @@ def test_a_state_earlier_runs_saw_that_no_dtc_reaches_now_is_reported(
 
     assert (code, err) == (0, "")
     assert '"near" (seen before in approach)' in out
-    near = document["behaviors"]["near"]  # type: ignore[index]
-    assert near["no_longer_reached"] == [{"state": '"near"', "dtcs_before": ["approach"]}]
+    near = document["systems"][PROBE]["near"]  # type: ignore[index]
+    assert near["no_longer_reached"] == [
+        {"state": '"near"', "dtcs_before": ["approach.dtc.toml::approach"]}
+    ]
     assert {(t["before"], t["after"]) for t in near["no_longer_taken"]} == {
         ('"far"', '"near"'),
         ('"near"', '"far"'),
@@ -79,19 +81,75 @@ def test_a_dtc_left_out_of_a_run_did_not_lose_what_it_reached(
 def test_behaviors_this_run_does_not_have_are_remembered_not_reported(tmp_path: Path) -> None:
     path = tmp_path / CACHE_FOLDER / "coverage.json"
     earlier = SuiteCoverage(dtcs=["docking"])
-    earlier.behavior("dock").states['"latched"'] = Seen({"docking"}, 5)
-    recall(earlier, path, ["docking"])
+    earlier.behavior("rover", "dock").states['"latched"'] = Seen({"docking"}, 5)
+    recall(earlier, path, {"docking": "docking"})
     now = SuiteCoverage(dtcs=["walk"])
-    now.behavior("wander").states['"roam"'] = Seen({"walk"}, 9)
+    now.behavior("rover", "wander").states['"roam"'] = Seen({"walk"}, 9)
 
-    assert recall(now, path, ["walk"]).warning is None
+    assert recall(now, path, {"walk": "walk"}).warning is None
 
-    assert list(now.behaviors) == ["wander"]
-    remembered = json.loads(path.read_text())["behaviors"]
+    assert [cover.behavior for cover in now.behaviors] == ["wander"]
+    remembered = json.loads(path.read_text())["systems"]
     assert remembered == {
-        "dock": {"states": {'"latched"': ["docking"]}, "transitions": []},
-        "wander": {"states": {'"roam"': ["walk"]}, "transitions": []},
+        "rover": {
+            "dock": {"states": {'"latched"': ["docking"]}, "transitions": []},
+            "wander": {"states": {'"roam"': ["walk"]}, "transitions": []},
+        }
     }
+
+
+def test_a_version_1_memory_is_read_by_ids_and_its_behaviors_go_to_their_system(
+    specs: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = cache_path(specs)
+    path.parent.mkdir()
+    near = {
+        "states": {'"near"': ["approach"], '"asleep"': ["dozing"]},
+        "transitions": [['"far"', '"asleep"', ["dozing"]]],
+    }
+    gone = {"states": {'"docked"': ["docking"]}, "transitions": []}
+    path.write_text(json.dumps({"version": 1, "behaviors": {"near": near, "gone": gone}}))
+    monkeypatch.setenv("COLUMNS", "200")
+
+    code = main(["test", "-j", "1", "--coverage", "-k", "idle", str(specs)])
+
+    out, err = capsys.readouterr()
+    assert (code, err) == (0, "")
+    [row] = [line.strip("│").split("│") for line in out.splitlines() if line.startswith("│ near ")]
+    assert [cell.strip() for cell in row] == [
+        "near",
+        '"far" (1 DTC, 40 cycles)',
+        "none",
+        '"asleep" (seen before in dozing)',  # approach, left out by -k, lost nothing
+    ]
+    remembered = json.loads(path.read_text())
+    assert remembered["version"] == 2
+    assert remembered["systems"][PROBE]["near"] == {
+        "states": {
+            '"near"': ["approach.dtc.toml::approach"],
+            '"asleep"': ["dozing"],
+            '"far"': ["idle.dtc.toml::idle"],
+        },
+        "transitions": [['"far"', '"asleep"', ["dozing"]]],
+    }
+    assert remembered["systems"][""] == {"gone": gone}  # no system of this run has it
+
+
+def test_a_dtc_only_earlier_runs_saw_is_named_by_its_id_where_another_has_its_name(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / CACHE_FOLDER / "coverage.json"
+    x, y, other_x = "dog/x.dtc.toml::x", "dog/y.dtc.toml::y", "rover/x.dtc.toml::x"
+    earlier = SuiteCoverage(dtcs=[x, y])
+    dock = earlier.behavior("robot", "dock")
+    dock.states = {'"latched"': Seen({x}, 5), '"waiting"': Seen({y}, 5)}
+    recall(earlier, path, {x: "x", y: "y"})
+    now = SuiteCoverage(dtcs=[other_x])
+    now.behavior("robot", "dock").states['"idle"'] = Seen({other_x}, 9)
+
+    assert recall(now, path, {other_x: "x"}).warning is None
+
+    assert now.labels == {x: x, y: "y"}
 
 
 def test_the_memory_lives_in_a_cache_folder_git_ignores(
@@ -103,7 +161,10 @@ def test_the_memory_lives_in_a_cache_folder_git_ignores(
     assert (folder / ".gitignore").read_text().splitlines()[-1] == "*"
     assert (folder / "CACHEDIR.TAG").read_bytes().startswith(b"Signature: 8a477f597d28d172789f")
     remembered = json.loads((folder / "coverage.json").read_text())
-    assert remembered["behaviors"]["near"]["states"]['"near"'] == ["approach"]
+    assert remembered["version"] == 2
+    assert remembered["systems"][PROBE]["near"]["states"]['"near"'] == [
+        "approach.dtc.toml::approach"
+    ]
 
 
 def test_the_memory_goes_to_the_project_root(tmp_path: Path) -> None:
@@ -117,6 +178,7 @@ def test_the_memory_goes_to_the_project_root(tmp_path: Path) -> None:
     "content",
     [
         b"not json",
+        b'{"version": 3, "systems": {}}',
         b'{"version": 2, "behaviors": {}}',
         b'{"version": 1, "behaviors": {"near": {"states": {"\\"far\\"": 3}, "transitions": []}}}',
         json.dumps(
@@ -124,7 +186,14 @@ def test_the_memory_goes_to_the_project_root(tmp_path: Path) -> None:
         ).encode(),
         b"[" * 100_000,
     ],
-    ids=["garbage", "other-version", "wrong-type", "too-many-dtcs", "nested-deep"],
+    ids=[
+        "garbage",
+        "other-version",
+        "version-1-in-2",
+        "wrong-type",
+        "too-many-dtcs",
+        "nested-deep",
+    ],
 )
 def test_a_damaged_memory_is_a_warning_and_is_replaced(
     specs: Path,
@@ -142,7 +211,7 @@ def test_a_damaged_memory_is_a_warning_and_is_replaced(
     assert err.startswith(f"beatlog: warning: {path}: not a beatlog coverage memory")
     assert err.count("\n") == 1
     assert "transition coverage" in out
-    assert json.loads(path.read_text())["version"] == 1
+    assert json.loads(path.read_text())["version"] == 2
 
 
 def test_an_unwritable_memory_is_a_warning(
@@ -157,16 +226,16 @@ def test_an_unwritable_memory_is_a_warning(
 
 def test_the_memory_is_bounded(tmp_path: Path) -> None:
     coverage = SuiteCoverage()
-    busy = coverage.behavior("busy")
+    busy = coverage.behavior("robot", "busy")
     for state in range(MAX_STATES + 10):
         busy.states[json.dumps(state)] = Seen({f"dtc{n}" for n in range(MAX_DTCS + 3)}, 1)
     path = tmp_path / CACHE_FOLDER / "coverage.json"
-    assert recall(coverage, path, []).warning is None
+    assert recall(coverage, path, {}).warning is None
 
-    remembered = json.loads(path.read_text())["behaviors"]["busy"]["states"]
+    remembered = json.loads(path.read_text())["systems"]["robot"]["busy"]["states"]
     assert len(remembered) == MAX_STATES
     assert all(len(dtcs) == MAX_DTCS for dtcs in remembered.values())
     again = SuiteCoverage()
-    again.behavior("busy")
-    assert recall(again, path, []).warning is None
-    assert len(again.behaviors["busy"].no_longer_reached) == MAX_STATES
+    busy = again.behavior("robot", "busy")
+    assert recall(again, path, {}).warning is None
+    assert len(busy.no_longer_reached) == MAX_STATES

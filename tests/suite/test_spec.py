@@ -8,7 +8,14 @@ import pytest
 
 from beatlog.errors import SpecError
 from beatlog.replay.compare import Comparison
-from beatlog.suite.spec import DtcSpec, discover_specs, load_spec, select_specs, spec_text
+from beatlog.suite.spec import (
+    DtcSpec,
+    discover_specs,
+    distinguished,
+    load_spec,
+    select_specs,
+    spec_text,
+)
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec
 
@@ -302,17 +309,38 @@ def test_a_file_that_is_not_a_spec_is_a_spec_error(tmp_path: Path, record_probe:
         discover_specs([log])
 
 
-def test_two_specs_with_the_same_name_are_an_error_naming_both(tmp_path: Path) -> None:
-    first = write_spec(tmp_path / "a", "avoid-pole", "a.beatlog")
-    second = write_spec(tmp_path / "b", "avoid-pole", "b.beatlog")
+def test_two_robots_may_each_have_a_dtc_of_one_name_told_apart_by_their_ids(
+    tmp_path: Path,
+) -> None:
+    write_spec(tmp_path / "rover" / "dtc", "avoid-pole", "a.beatlog")
+    write_spec(tmp_path / "dog" / "dtc", "avoid-pole", "b.beatlog")
+    write_spec(tmp_path / "dog" / "dtc", "sit", "c.beatlog")
 
-    with pytest.raises(SpecError) as raised:
-        discover_specs([tmp_path])
+    specs = discover_specs([tmp_path])
 
-    message = str(raised.value)
-    assert message.startswith(f"{second}: ")
-    assert "name 'avoid-pole' is already used by" in message
-    assert str(first) in message
+    assert [spec.id for spec in specs] == [
+        "dog/dtc/avoid-pole.dtc.toml::avoid-pole",
+        "dog/dtc/sit.dtc.toml::sit",
+        "rover/dtc/avoid-pole.dtc.toml::avoid-pole",
+    ]
+    assert [spec.label for spec in specs] == ["avoid-pole", "sit", "avoid-pole"]
+    assert [spec.label for spec in distinguished(specs)] == [
+        "dog/dtc/avoid-pole.dtc.toml::avoid-pole",
+        "sit",
+        "rover/dtc/avoid-pole.dtc.toml::avoid-pole",
+    ]
+    assert [spec.label for spec in distinguished(specs[:2])] == ["avoid-pole", "sit"]
+
+
+def test_ids_start_from_the_rootdir_pytest_would_take(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text('[project]\nname = "robots"\n')
+    spec = write_spec(tmp_path / "rover" / "dtc", "avoid-pole", "a.beatlog")
+
+    assert load_spec(spec).id == "rover/dtc/avoid-pole.dtc.toml::avoid-pole"
+    assert discover_specs([spec.parent])[0].id == "rover/dtc/avoid-pole.dtc.toml::avoid-pole"
+    assert load_spec(spec, rootdir=spec.parent).id == "avoid-pole.dtc.toml::avoid-pole"
+    outside = load_spec(spec, rootdir=tmp_path / "dog")
+    assert outside.id == "../rover/dtc/avoid-pole.dtc.toml::avoid-pole"
 
 
 def test_a_bad_spec_stops_discovery(tmp_path: Path) -> None:

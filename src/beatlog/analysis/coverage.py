@@ -7,6 +7,11 @@ taken, with how many DTCs and cycles; states a behavior declares (a ``states``
 attribute: an Enum or a sequence) but no DTC reaches are listed as unreached, and so
 are states and transitions earlier runs saw (see :mod:`beatlog.suite.coverage_cache`)
 that no DTC reaches now.
+
+Behaviors are kept system by system: two robots of one repository may each have an
+``avoid``, and what one robot's DTCs reach says nothing of the other's. A DTC's system
+is the ``module:factory`` it replays against (:func:`recorded_system_name` where its
+spec names none).
 """
 
 from __future__ import annotations
@@ -16,13 +21,23 @@ import json
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from beatlog.analysis.trace import read_changes
+from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.replay.expectation import TracedChange
 
-__all__ = ["BehaviorCoverage", "Seen", "SuiteCoverage", "cover", "cover_changes", "declared_states"]
+__all__ = [
+    "BehaviorCoverage",
+    "Seen",
+    "SuiteCoverage",
+    "cover",
+    "cover_changes",
+    "declared_states",
+    "recorded_system_name",
+]
 
 
 def _key(state: Any) -> str:
@@ -52,6 +67,8 @@ class BehaviorCoverage:
     """One behavior's states and transitions across a suite."""
 
     behavior: str
+    system: str
+    """The system the behavior belongs to (see the module's docstring)."""
     states: dict[str, Seen] = field(default_factory=dict)
     """State (as JSON text) → the DTCs it was in and the cycles spent in it."""
     transitions: dict[tuple[str, str], Seen] = field(default_factory=dict)
@@ -95,57 +112,74 @@ class BehaviorCoverage:
 
 @dataclass
 class SuiteCoverage:
-    """Every behavior's coverage, in the order behaviors were first seen."""
+    """Every behavior's coverage, system by system, each in the order first seen."""
 
-    behaviors: dict[str, BehaviorCoverage] = field(default_factory=dict)
+    systems: dict[str, dict[str, BehaviorCoverage]] = field(default_factory=dict)
+    """System → behavior name → its coverage."""
     dtcs: list[str] = field(default_factory=list)
+    """The DTCs covered, by id."""
+    labels: dict[str, str] = field(default_factory=dict)
+    """How reports name the DTCs, by id (:attr:`beatlog.suite.spec.DtcSpec.label`); one
+    not here, by its id."""
 
-    def behavior(self, name: str) -> BehaviorCoverage:
-        """The coverage of ``name`` (created empty if the suite never saw it)."""
-        found = self.behaviors.get(name)
+    def behavior(self, system: str, name: str) -> BehaviorCoverage:
+        """The coverage of ``system``'s behavior ``name`` (created empty if the suite
+        never saw it)."""
+        behaviors = self.systems.setdefault(system, {})
+        found = behaviors.get(name)
         if found is None:
-            found = self.behaviors[name] = BehaviorCoverage(name)
+            found = behaviors[name] = BehaviorCoverage(name, system)
         return found
 
+    @property
+    def behaviors(self) -> list[BehaviorCoverage]:
+        """Every behavior's coverage, system by system."""
+        return [cover for behaviors in self.systems.values() for cover in behaviors.values()]
+
+    def label(self, dtc: str) -> str:
+        """How reports name the DTC of id ``dtc``."""
+        return self.labels.get(dtc, dtc)
+
     def exercising(self, behavior: str) -> list[str]:
-        """The DTCs in which ``behavior`` changed state, in suite order."""
-        found = self.behaviors.get(behavior)
-        names = found.dtcs if found else set()
+        """The DTCs in which a behavior named ``behavior`` changed state, whatever its
+        system, in suite order."""
+        found = [cover.dtcs for cover in self.behaviors if cover.behavior == behavior]
+        names = set().union(*found)
         return [dtc for dtc in self.dtcs if dtc in names]
 
     def to_json(self) -> dict[str, Any]:
-        """A plain structure for tools: per behavior, states, transitions, unreached."""
+        """A plain structure for tools: the DTCs by id, and per system and behavior, its
+        states, transitions and unreached states."""
         return {
             "dtcs": self.dtcs,
-            "behaviors": {
-                name: {
-                    "states": {
-                        state: {"dtcs": sorted(seen.dtcs), "cycles": seen.cycles}
-                        for state, seen in cover.states.items()
-                    },
-                    "transitions": [
-                        {
-                            "before": before,
-                            "after": after,
-                            "dtcs": sorted(seen.dtcs),
-                            "times": seen.cycles,
-                        }
-                        for (before, after), seen in cover.transitions.items()
-                    ],
-                    "declared": list(cover.declared),
-                    "unreached": list(cover.unreached),
-                    "no_longer_reached": [
-                        {"state": state, "dtcs_before": list(dtcs)}
-                        for state, dtcs in cover.no_longer_reached.items()
-                    ],
-                    "no_longer_taken": [
-                        {"before": before, "after": after, "dtcs_before": list(dtcs)}
-                        for (before, after), dtcs in cover.no_longer_taken.items()
-                    ],
-                }
-                for name, cover in self.behaviors.items()
+            "systems": {
+                system: {name: _behavior_json(cover) for name, cover in behaviors.items()}
+                for system, behaviors in self.systems.items()
             },
         }
+
+
+def _behavior_json(cover: BehaviorCoverage) -> dict[str, Any]:
+    return {
+        "states": {
+            state: {"dtcs": sorted(seen.dtcs), "cycles": seen.cycles}
+            for state, seen in cover.states.items()
+        },
+        "transitions": [
+            {"before": before, "after": after, "dtcs": sorted(seen.dtcs), "times": seen.cycles}
+            for (before, after), seen in cover.transitions.items()
+        ],
+        "declared": list(cover.declared),
+        "unreached": list(cover.unreached),
+        "no_longer_reached": [
+            {"state": state, "dtcs_before": list(dtcs)}
+            for state, dtcs in cover.no_longer_reached.items()
+        ],
+        "no_longer_taken": [
+            {"before": before, "after": after, "dtcs_before": list(dtcs)}
+            for (before, after), dtcs in cover.no_longer_taken.items()
+        ],
+    }
 
 
 def declared_states(system: System) -> dict[str, tuple[str, ...]]:
@@ -160,28 +194,39 @@ def declared_states(system: System) -> dict[str, tuple[str, ...]]:
     return declared
 
 
+def recorded_system_name(log: str | Path) -> str:
+    """The system a log was recorded with, as coverage names it: the ``module:factory``
+    its header records, or its robot-state type where it records none."""
+    with SessionLogReader(log) as reader:
+        header = reader.header
+    return header.system or header.robot_state_type
+
+
 def cover(
-    dtcs: Iterable[tuple[str, Any, System | None]],
+    dtcs: Iterable[tuple[str, str | Path, System | None]],
 ) -> SuiteCoverage:
-    """The coverage of DTCs given as (name, log, a fresh system or None).
+    """The coverage of DTCs given as (id, log, a fresh system or None), each of the
+    system its log was recorded with (:func:`recorded_system_name`).
 
     The system, when given, tells each behavior's first state (a behavior that never
     changes still counts its cycles there) and its declared states.
     """
-    return cover_changes((name, *read_changes(log), system) for name, log, system in dtcs)
+    return cover_changes(
+        (dtc, recorded_system_name(log), *read_changes(log), system) for dtc, log, system in dtcs
+    )
 
 
 def cover_changes(
-    dtcs: Iterable[tuple[str, Sequence[TracedChange], int, System | None]],
+    dtcs: Iterable[tuple[str, str, Sequence[TracedChange], int, System | None]],
 ) -> SuiteCoverage:
-    """The coverage of DTCs given as (name, the state changes their log recorded, its
-    cycles, a fresh system or None), as :func:`cover` reads them."""
+    """The coverage of DTCs given as (id, the name of their system, the state changes
+    their log recorded, its cycles, a fresh system or None), as :func:`cover` reads them."""
     suite = SuiteCoverage()
-    for name, changes, cycles, system in dtcs:
+    for dtc, name, changes, cycles, system in dtcs:
         initial = {} if system is None else {n: b.state for n, b in system.behaviors.items()}
-        _add(suite, name, changes, cycles, initial)
+        _add(suite, dtc, name, changes, cycles=cycles, initial=initial)
         for behavior, states in ({} if system is None else declared_states(system)).items():
-            cover_ = suite.behavior(behavior)
+            cover_ = suite.behavior(name, behavior)
             cover_.declared = tuple(dict.fromkeys([*cover_.declared, *states]))
     suite.dtcs = list(dict.fromkeys(suite.dtcs))
     return suite
@@ -190,7 +235,9 @@ def cover_changes(
 def _add(
     suite: SuiteCoverage,
     dtc: str,
+    system: str,
     changes: Sequence[TracedChange],
+    *,
     cycles: int,
     initial: Mapping[str, Any],
 ) -> None:
@@ -200,7 +247,7 @@ def _add(
         by_behavior[traced.change.behavior].append(traced)
     for behavior in dict.fromkeys([*initial, *by_behavior]):
         own = by_behavior.get(behavior, [])
-        cover_ = suite.behavior(behavior)
+        cover_ = suite.behavior(system, behavior)
         state = initial[behavior] if behavior in initial else own[0].change.before
         since = 0
         for traced in own:

@@ -668,8 +668,9 @@ def _selected_specs(
     args: argparse.Namespace, fleet: list[DtcSpec] | None = None
 ) -> tuple[list[DtcSpec], list[DtcSpec]]:
     """The specs found under the paths (or those of a fleet run's logs), and those
-    ``beatlog test`` runs: selected by -k and --tag, and of those the shard's share."""
-    from beatlog.suite.spec import discover_specs, find_rootdir, select_specs
+    ``beatlog test`` runs: selected by -k and --tag, and of those the shard's share,
+    those that share a name named by their ids."""
+    from beatlog.suite.spec import discover_specs, distinguished, find_rootdir, select_specs
 
     found = discover_specs(args.paths) if fleet is None else fleet
     rootdir = find_rootdir(args.paths) if fleet is None else None
@@ -686,8 +687,8 @@ def _selected_specs(
     if args.shard is not None:
         from beatlog.suite.sharding import shard
 
-        return found, shard(specs, args.shard.index, args.shard.count)
-    return found, list(specs)
+        specs = shard(specs, args.shard.index, args.shard.count)
+    return found, distinguished(specs)
 
 
 def _write_json(path: Path, document: object) -> None:
@@ -767,14 +768,14 @@ def _run_tests(
         progress.update(task, advance=1, rate=rate)
         if outcome.verdict is Verdict.ERROR:
             _error(
-                f"{outcome.spec.name} ({outcome.spec.origin}): {outcome.error}",
+                f"{outcome.spec.label} ({outcome.spec.origin}): {outcome.error}",
                 outcome.error_traceback if args.verbose else None,
             )
         elif outcome.verdict is Verdict.FAILED or args.verbose:
             progress.console.print(_describe(outcome))
         if outcome.retries:
             progress.console.print(
-                f"retried {outcome.spec.name}: the worker replaying it died "
+                f"retried {outcome.spec.label}: the worker replaying it died "
                 f"({outcome.retries} time{'s' if outcome.retries > 1 else ''})",
                 markup=False,
                 highlight=False,
@@ -808,7 +809,7 @@ def _run_tests(
 
             console.print(render_audit(outcomes))
     if interrupted is None:
-        _write_reports(args, outcomes, console, [spec.name for spec in found])
+        _write_reports(args, outcomes, console, {spec.id: spec.name for spec in found})
     skipped = len(specs) - len(outcomes)
     console.print(
         verdict_counts((outcome.verdict for outcome in outcomes), not_run=skipped)
@@ -828,7 +829,7 @@ def _print_notes(outcomes: list[SpecOutcome], console: Console) -> None:
     for outcome in outcomes:
         if outcome.verdict is Verdict.PASSED and outcome.result is not None:
             for note in outcome.result.notes:
-                concerned.setdefault(note, []).append(outcome.spec.name)
+                concerned.setdefault(note, []).append(outcome.spec.label)
     for note, names in concerned.items():
         shown = ", ".join(names[:_NAMED_IN_NOTES])
         if len(names) > _NAMED_IN_NOTES:
@@ -846,10 +847,14 @@ def _executor(address: str | None) -> AbstractContextManager[DaskExecutor | None
 
 
 def _write_reports(
-    args: argparse.Namespace, outcomes: list[SpecOutcome], console: Console, suite: list[str]
+    args: argparse.Namespace,
+    outcomes: list[SpecOutcome],
+    console: Console,
+    suite: dict[str, str],
 ) -> None:
     """Pending baselines, orphans, JUnit and HTML: only for a suite that ran to its end.
-    ``suite`` names every DTC found, selected or not (the coverage memory's due)."""
+    ``suite`` names every DTC found, selected or not, by its id (the coverage memory's
+    due)."""
     from beatlog.cli.baselines import report_orphans, show_updates
     from beatlog.report.console import plain_text
     from beatlog.suite.junit import write_junit
@@ -871,8 +876,9 @@ def _write_reports(
         coverage = suite_coverage([outcome.spec for outcome in outcomes])
         if args.logs is None:
             from beatlog.suite.coverage_cache import cache_path, recall
+            from beatlog.suite.spec import find_rootdir
 
-            warning = recall(coverage, cache_path(args.paths[0]), suite).warning
+            warning = recall(coverage, cache_path(find_rootdir(args.paths)), suite).warning
             if warning is not None:
                 print(f"beatlog: warning: {warning}", file=sys.stderr)
         if args.coverage:
@@ -900,9 +906,9 @@ def _describe(outcome: SpecOutcome) -> RenderableType:
     if outcome.verdict is Verdict.PASSED:
         return render_passed(outcome)
     if outcome.result is None:
-        return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.name}: {outcome.error}")
+        return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.label}: {outcome.error}")
     return Group(
-        Text.assemble(("DTC ", "bold"), f"{outcome.spec.name} ({outcome.spec.origin})"),
+        Text.assemble(("DTC ", "bold"), f"{outcome.spec.label} ({outcome.spec.origin})"),
         render_replay(outcome.result),
     )
 

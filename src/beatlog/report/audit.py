@@ -22,7 +22,7 @@ def render_audit(outcomes: Sequence[SpecOutcome]) -> RenderableType:
     parts: list[RenderableType] = [
         Group(
             Text.assemble(
-                ("AUDIT ", "bold yellow"), f"{outcome.spec.name} ({outcome.spec.origin})"
+                ("AUDIT ", "bold yellow"), f"{outcome.spec.label} ({outcome.spec.origin})"
             ),
             _findings(report),
         )

@@ -40,10 +40,12 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
                 )
             )
         elif update.action is UpdateAction.REFUSED:
-            lines.append(Text.assemble(("not updated", "yellow"), f" {spec.name}: {update.reason}"))
+            lines.append(
+                Text.assemble(("not updated", "yellow"), f" {spec.label}: {update.reason}")
+            )
         elif update.action is UpdateAction.REMOVED:
             lines.append(
-                Text.assemble(("removed stale", "cyan"), f" {update.path}: {spec.name} passes")
+                Text.assemble(("removed stale", "cyan"), f" {update.path}: {spec.label} passes")
             )
     return lines
 

@@ -57,7 +57,7 @@ def render_passed(outcome: SpecOutcome) -> Text:
     """A passing DTC's line with what it checked, for a run that lists every DTC."""
     assert outcome.result is not None
     return Text.assemble(
-        ("PASS ", "bold green"), f"{outcome.spec.name}: {_checked_text(outcome.result)}"
+        ("PASS ", "bold green"), f"{outcome.spec.label}: {_checked_text(outcome.result)}"
     )
 
 
@@ -263,14 +263,15 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
     if not every and len(outcomes) > MAX_LISTED:
         listed = [outcome for outcome in outcomes if outcome.verdict is not Verdict.PASSED]
     table = Table(title="DTC suite", title_justify="left")
-    for column in ("DTC", "verdict", "cycles", "robot time", "wall", "first divergence"):
+    table.add_column("DTC", overflow="fold")  # an id folds, never cut to its shared start
+    for column in ("verdict", "cycles", "robot time", "wall", "first divergence"):
         table.add_column(column, justify="right" if column in ("cycles", "wall") else "left")
     styles = {Verdict.PASSED: "green", Verdict.FAILED: "red", Verdict.ERROR: "magenta"}
     for outcome in listed:
         result = outcome.result
         divergence = result.divergence if result else None
         table.add_row(
-            outcome.spec.name,
+            outcome.spec.label,
             Text(outcome.verdict_label, style=styles[outcome.verdict]),
             str(result.cycles) if result else "—",
             f"{result.robot_time_s:.1f} s" if result else "—",

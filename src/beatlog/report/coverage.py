@@ -27,50 +27,65 @@ def _transitions(cover: BehaviorCoverage) -> str:
     )
 
 
-def _unreached(cover: BehaviorCoverage) -> str:
+def _unreached(coverage: SuiteCoverage, cover: BehaviorCoverage) -> str:
     """Declared states no DTC reaches, then states earlier runs saw that none reaches now."""
     return ", ".join(
         [
             *cover.unreached,
             *(
-                f"{state} (seen before in {', '.join(dtcs) or 'an earlier run'})"
+                f"{state} (seen before in "
+                f"{', '.join(map(coverage.label, dtcs)) or 'an earlier run'})"
                 for state, dtcs in cover.no_longer_reached.items()
             ),
         ]
     )
 
 
+def _columns(coverage: SuiteCoverage) -> list[str]:
+    """The table's columns, led by the system when the run covers more than one."""
+    several = ["system"] if len(coverage.systems) > 1 else []
+    return [*several, "behavior", "states reached", "transitions", "unreached"]
+
+
+def _rows(coverage: SuiteCoverage) -> list[list[str]]:
+    """One row per behavior, under :func:`_columns`."""
+    several = len(coverage.systems) > 1
+    return [
+        [
+            *([cover.system] if several else []),
+            cover.behavior,
+            _states(cover),
+            _transitions(cover) or "none",
+            _unreached(coverage, cover),
+        ]
+        for cover in coverage.behaviors
+    ]
+
+
+_RATIOS = {"states reached": 2, "transitions": 3, "unreached": 2}
+
+
 def render_coverage(coverage: SuiteCoverage) -> Table:
     """One row per behavior: states reached, transitions taken, and the states declared or
-    seen by earlier runs that no DTC reaches."""
+    seen by earlier runs that no DTC reaches; with more than one system, which one each
+    behavior is of."""
     table = Table(title="transition coverage", title_justify="left", expand=True)
-    table.add_column("behavior", overflow="fold")
-    table.add_column("states reached", ratio=2, overflow="fold")
-    table.add_column("transitions", ratio=3, overflow="fold")
-    table.add_column("unreached", style="yellow", ratio=2, overflow="fold")
-    for name, cover in coverage.behaviors.items():
-        table.add_row(
-            Text(name),
-            Text(_states(cover)),
-            Text(_transitions(cover) or "none"),
-            Text(_unreached(cover)),
-        )
+    for column in _columns(coverage):
+        style = "yellow" if column == "unreached" else ""
+        table.add_column(column, style=style, ratio=_RATIOS.get(column), overflow="fold")
+    for row in _rows(coverage):
+        table.add_row(*map(Text, row))
     return table
 
 
 def coverage_html(coverage: SuiteCoverage) -> str:
     """The coverage table as an HTML section."""
+    head = "".join(f"<th>{column}</th>" for column in _columns(coverage))
     rows = "\n".join(
-        "<tr>"
-        + "".join(
-            f"<td>{html.escape(cell)}</td>"
-            for cell in (name, _states(cover), _transitions(cover), _unreached(cover))
-        )
-        + "</tr>"
-        for name, cover in coverage.behaviors.items()
+        "<tr>" + "".join(f"<td>{html.escape(cell)}</td>" for cell in row) + "</tr>"
+        for row in _rows(coverage)
     )
     return (
         '<section id="coverage"><h2>Transition coverage</h2><table>'
-        "<tr><th>behavior</th><th>states reached</th><th>transitions</th>"
-        f"<th>unreached</th></tr>\n{rows}\n</table></section>"
+        f"<tr>{head}</tr>\n{rows}\n</table></section>"
     )

@@ -78,7 +78,7 @@ def render_html(
 ) -> str:
     """The report as a string: a summary, a section per DTC, then the coverage if given."""
     counts = verdict_counts(outcome.verdict for outcome in outcomes)
-    charts = [dtc_charts(outcome.spec.name, outcome.timelines) for outcome in outcomes]
+    charts = [dtc_charts(outcome.spec.label, outcome.timelines) for outcome in outcomes]
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -126,7 +126,7 @@ def _summary_table(outcomes: Sequence[SpecOutcome]) -> str:
         rows.append(
             _row(
                 [
-                    f'<a href="#dtc-{index}">{_e(outcome.spec.name)}</a>',
+                    f'<a href="#dtc-{index}">{_e(outcome.spec.label)}</a>',
                     f'<span class="verdict">{_e(outcome.verdict_label)}</span>',
                     _e(result.cycles) if result else "—",
                     f"{result.robot_time_s:.1f} s" if result else "—",
@@ -151,7 +151,7 @@ def _section(index: int, outcome: SpecOutcome, charts: Sequence[Chart]) -> str:
     verdict = outcome.verdict
     parts = [
         f'<section class="dtc {verdict.value}" id="dtc-{index}">',
-        f'<h2><span class="verdict">{_e(verdict)}</span> {_e(spec.name)}</h2>',
+        f'<h2><span class="verdict">{_e(verdict)}</span> {_e(spec.label)}</h2>',
         f'<p class="purpose">{_e(spec.purpose)}</p>',
     ]
     rerun = outcome.reproduce

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
-from beatlog.analysis.coverage import SuiteCoverage, cover_changes
+from beatlog.analysis.coverage import SuiteCoverage, cover_changes, recorded_system_name
 from beatlog.analysis.trace import read_changes
 from beatlog.errors import BeatlogError, LogError, OptionError, RemoteLogError
 from beatlog.model.behavior import System
@@ -19,22 +19,27 @@ __all__ = ["select_exercising", "suite_coverage"]
 
 def suite_coverage(specs: Sequence[DtcSpec]) -> SuiteCoverage:
     """The coverage of ``specs``: the state changes their logs recorded, with each
-    behavior's first and declared states from a fresh system of each spec. A log that
-    cannot be read (damaged, not a log, behind a URL that cannot be copied) counts
-    nothing: its DTC's verdict says what is wrong, and the other logs still count."""
-    return cover_changes(_dtcs(specs, unreadable=set()))
+    behavior's first and declared states from a fresh system of each spec, system by
+    system (a spec's ``system``, else the one its log records). A log that cannot be
+    read (damaged, not a log, behind a URL that cannot be copied) counts nothing: its
+    DTC's verdict says what is wrong, and the other logs still count. DTCs are known
+    by their ids, and named as the specs' labels say."""
+    coverage = cover_changes(_dtcs(specs, unreadable=set()))
+    coverage.labels = {spec.id: spec.label for spec in specs}
+    return coverage
 
 
 def _dtcs(
     specs: Sequence[DtcSpec], *, unreadable: set[Path], systems: bool = True
-) -> Iterator[tuple[str, list[TracedChange], int, System | None]]:
-    """Each readable spec's name, the state changes its log recorded and its cycles (a
-    log behind a URL copied for as long as it is read), and a fresh system when
-    ``systems`` (None where none can be built); the paths of the specs whose log cannot
-    be read go to ``unreadable``."""
+) -> Iterator[tuple[str, str, list[TracedChange], int, System | None]]:
+    """Each readable spec's id and system, the state changes its log recorded and its
+    cycles (a log behind a URL copied for as long as it is read), and a fresh system
+    when ``systems`` (None where none can be built); the paths of the specs whose log
+    cannot be read go to ``unreadable``."""
     for spec in specs:
         try:
             with spec.readable_log() as log:
+                name = spec.system or recorded_system_name(log)
                 changes, cycles = read_changes(log)
                 system: System | None = None
                 if systems:
@@ -47,7 +52,7 @@ def _dtcs(
         except (LogError, RemoteLogError):
             unreadable.add(spec.path)
             continue
-        yield spec.name, changes, cycles, system
+        yield spec.id, name, changes, cycles, system
 
 
 def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
@@ -62,9 +67,9 @@ def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
     coverage = cover_changes(_dtcs(specs, unreadable=unreadable, systems=False))
     names = set(coverage.exercising(behavior))
     if not names and not unreadable:
-        changed = [name for name, seen in coverage.behaviors.items() if seen.transitions]
+        changed = dict.fromkeys(cover.behavior for cover in coverage.behaviors if cover.transitions)
         raise OptionError(
             f"no DTC changes the state of behavior {behavior!r}; they change "
             + (", ".join(changed) or "none")
         )
-    return [spec for spec in specs if spec.name in names or spec.path in unreadable]
+    return [spec for spec in specs if spec.id in names or spec.path in unreadable]

@@ -4,29 +4,37 @@ A state reached by no DTC today may only be one that no behavior declares; remem
 what earlier runs saw catches it anyway (a DTC deleted, a recording replaced). Like
 pytest's ``.pytest_cache``, the memory lives in a cache folder at the project root
 (the nearest ``pyproject.toml``, else the suite's folder), ``.beatlog_cache``, which
-ignores itself in git. Its one file, ``coverage.json``, is small and bounded (at most
-:data:`MAX_STATES` states and :data:`MAX_TRANSITIONS` transitions per behavior, each
-with up to :data:`MAX_DTCS` DTC names) and is checked on loading: a damaged or foreign
-file is ignored with a warning, never a crash. Delete the folder to forget.
+ignores itself in git. Its one file, ``coverage.json``, keeps each system's behaviors
+apart and names DTCs by their ids; it is small and bounded (at most :data:`MAX_STATES`
+states and :data:`MAX_TRANSITIONS` transitions per behavior, each with up to
+:data:`MAX_DTCS` DTC ids) and is checked on loading: a damaged or foreign file is
+ignored with a warning, never a crash. Delete the folder to forget.
+
+A version 1 file, written before systems were told apart, is read too: each behavior it
+remembers counts for a behavior of that name in any system, until a run covers one,
+and each DTC name for the DTCs of the suite that have it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections import Counter
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import msgspec
 
-from beatlog.analysis.coverage import SuiteCoverage
+from beatlog.analysis.coverage import BehaviorCoverage, SuiteCoverage
 from beatlog.files import irregular_file_problem, project_root, replacing
 from beatlog.log.limits import MAX_BEHAVIORS, MAX_NAME_LENGTH, MAX_TEXT_LENGTH
+from beatlog.suite.spec import SPEC_SUFFIX
 
 __all__ = [
     "CACHE_FOLDER",
     "MAX_DTCS",
     "MAX_STATES",
+    "MAX_SYSTEMS",
     "MAX_TRANSITIONS",
     "Recall",
     "cache_path",
@@ -39,9 +47,12 @@ MAX_STATES = 256
 MAX_TRANSITIONS = 1024
 """Most transitions remembered per behavior."""
 MAX_DTCS = 8
-"""Most DTC names remembered per state or transition."""
+"""Most DTC ids remembered per state or transition."""
+MAX_SYSTEMS = 64
+"""Most systems remembered."""
 _MAX_FILE_BYTES = 16 << 20
-_VERSION: Literal[1] = 1
+_EARLIER = ""
+"""Where the behaviors a version 1 file remembers go: no system's, so any system's."""
 _GITIGNORE = b"# Created by beatlog automatically.\n*\n"
 _CACHEDIR_TAG = (
     b"Signature: 8a477f597d28d172789f06886806bc55\n"
@@ -51,21 +62,24 @@ _CACHEDIR_TAG = (
 )
 
 Name = Annotated[str, msgspec.Meta(max_length=MAX_NAME_LENGTH)]
-State = Annotated[str, msgspec.Meta(max_length=MAX_TEXT_LENGTH)]
-Dtcs = Annotated[list[Name], msgspec.Meta(max_length=MAX_DTCS)]
-Transition = tuple[State, State, Dtcs]
+Text = Annotated[str, msgspec.Meta(max_length=MAX_TEXT_LENGTH)]
+Dtcs = Annotated[list[Text], msgspec.Meta(max_length=MAX_DTCS)]
 
 
 class _Behavior(msgspec.Struct, forbid_unknown_fields=True):
-    states: Annotated[dict[State, Dtcs], msgspec.Meta(max_length=MAX_STATES)]
-    transitions: Annotated[
-        list[tuple[State, State, Dtcs]], msgspec.Meta(max_length=MAX_TRANSITIONS)
-    ]
+    states: Annotated[dict[Text, Dtcs], msgspec.Meta(max_length=MAX_STATES)]
+    transitions: Annotated[list[tuple[Text, Text, Dtcs]], msgspec.Meta(max_length=MAX_TRANSITIONS)]
 
 
-class _Memory(msgspec.Struct, forbid_unknown_fields=True):
-    version: Literal[1]
-    behaviors: Annotated[dict[Name, _Behavior], msgspec.Meta(max_length=MAX_BEHAVIORS)]
+Behaviors = Annotated[dict[Name, _Behavior], msgspec.Meta(max_length=MAX_BEHAVIORS)]
+
+
+class _Memory(msgspec.Struct, forbid_unknown_fields=True, tag_field="version", tag=2):
+    systems: Annotated[dict[Text, Behaviors], msgspec.Meta(max_length=MAX_SYSTEMS)]
+
+
+class _MemoryV1(msgspec.Struct, forbid_unknown_fields=True, tag_field="version", tag=1):
+    behaviors: Behaviors
 
 
 @dataclass(frozen=True)
@@ -82,35 +96,35 @@ def cache_path(suite: Path) -> Path:
     return (project_root(folder) or folder.resolve()) / CACHE_FOLDER / "coverage.json"
 
 
-def recall(coverage: SuiteCoverage, path: Path, suite: Collection[str]) -> Recall:
+def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> Recall:
     """Mark on ``coverage`` what earlier runs saw (from the file at ``path``), then
     remember what this run saw too. A file that cannot be read or trusted is ignored,
     one that cannot be written left as it is; either way the warning says why.
 
     Only what concerns this run is marked: the behaviors its DTCs have, and of those
     the states and transitions that a DTC reached before which ran now, or which the
-    suite no longer holds (deleted, renamed). ``suite`` names every DTC of the suite,
-    run or not: a DTC left out by ``-k``, ``--behavior`` or ``--shard`` did not lose
-    what it reached. Everything stays remembered."""
-    earlier, warning = _load(path)
+    suite no longer holds (deleted, renamed). ``suite`` maps every DTC of the suite,
+    run or not, from its id to its name: a DTC left out by ``-k``, ``--behavior`` or
+    ``--shard`` did not lose what it reached. Everything stays remembered."""
+    earlier, warning = _load(path, suite)
     ran = set(coverage.dtcs)
-    known = set(suite)
 
     def concerns(dtcs: Sequence[str]) -> bool:
-        return any(dtc in ran or dtc not in known for dtc in dtcs)
+        return any(dtc in ran or dtc not in suite for dtc in dtcs)
 
-    for name, behavior in earlier.behaviors.items():
-        cover = coverage.behaviors.get(name)
-        if cover is None:
+    for cover in coverage.behaviors:
+        remembered = _remembered(earlier, cover)
+        if remembered is None:
             continue
         cover.states_before = {
-            state: tuple(dtcs) for state, dtcs in behavior.states.items() if concerns(dtcs)
+            state: tuple(dtcs) for state, dtcs in remembered.states.items() if concerns(dtcs)
         }
         cover.transitions_before = {
             (before, after): tuple(dtcs)
-            for before, after, dtcs in behavior.transitions
+            for before, after, dtcs in remembered.transitions
             if concerns(dtcs)
         }
+    _name_remembered(coverage, suite)
     try:
         _save(path, _merged(earlier, coverage))
     except OSError as exc:
@@ -118,8 +132,22 @@ def recall(coverage: SuiteCoverage, path: Path, suite: Collection[str]) -> Recal
     return Recall(path, warning)
 
 
-def _load(path: Path) -> tuple[_Memory, str | None]:
-    empty = _Memory(version=_VERSION, behaviors={})
+def _name_remembered(coverage: SuiteCoverage, suite: Mapping[str, str]) -> None:
+    """Name the DTCs that earlier runs saw, and this one did not run, as the run's are
+    named: by name where no other DTC of the suite has it, else by id."""
+    names = Counter(suite.values())
+    for cover in coverage.behaviors:
+        for dtcs in (*cover.states_before.values(), *cover.transitions_before.values()):
+            for dtc in dtcs:
+                if dtc in coverage.labels:
+                    continue
+                name = suite.get(dtc) or dtc.partition(f"{SPEC_SUFFIX}::")[2] or dtc
+                shared = names[name] > (dtc in suite)
+                coverage.labels[dtc] = dtc if shared else name
+
+
+def _load(path: Path, suite: Mapping[str, str]) -> tuple[_Memory, str | None]:
+    empty = _Memory(systems={})
     if not path.exists():
         return empty, None
     problem = irregular_file_problem(path)
@@ -127,42 +155,99 @@ def _load(path: Path) -> tuple[_Memory, str | None]:
         problem = f"is larger than {_MAX_FILE_BYTES} bytes"
     if problem is None:
         try:
-            return msgspec.json.decode(path.read_bytes(), type=_Memory), None
+            memory = msgspec.json.decode(path.read_bytes(), type=_Memory | _MemoryV1)
         except OSError as exc:
             problem = f"cannot read: {exc.strerror or exc}"
         except (msgspec.DecodeError, RecursionError) as exc:
             problem = f"not a beatlog coverage memory ({exc})"
+        else:
+            return (memory if isinstance(memory, _Memory) else _upgraded(memory, suite)), None
     return empty, f"{path}: {problem}; ignored, and replaced by what this run saw"
 
 
+def _upgraded(memory: _MemoryV1, suite: Mapping[str, str]) -> _Memory:
+    """A version 1 memory as version 2 does it: its behaviors no system's, and each DTC
+    by the ids of the suite's DTCs of its name (the name itself where none has it)."""
+    ids: dict[str, list[str]] = {}
+    for dtc, name in suite.items():
+        ids.setdefault(name, []).append(dtc)
+
+    def named(dtcs: list[str]) -> list[str]:
+        return list(dict.fromkeys(i for dtc in dtcs for i in ids.get(dtc, [dtc])))[:MAX_DTCS]
+
+    behaviors = {
+        name: _Behavior(
+            states={state: named(dtcs) for state, dtcs in behavior.states.items()},
+            transitions=[(start, end, named(dtcs)) for start, end, dtcs in behavior.transitions],
+        )
+        for name, behavior in memory.behaviors.items()
+    }
+    return _Memory(systems={_EARLIER: behaviors} if behaviors else {})
+
+
+def _remembered(memory: _Memory, cover: BehaviorCoverage) -> _Behavior | None:
+    """What ``memory`` remembers of a behavior: of its system, and from a version 1 file."""
+    found = [
+        behaviors[cover.behavior]
+        for system in (cover.system, _EARLIER)
+        if cover.behavior in (behaviors := memory.systems.get(system, {}))
+    ]
+    if not found:
+        return None
+    states: dict[str, list[str]] = {}
+    edges: dict[tuple[str, str], list[str]] = {}
+    for behavior in found:
+        for state, dtcs in behavior.states.items():
+            states[state] = _names(states.get(state, []), dtcs)
+        for start, end, dtcs in behavior.transitions:
+            edges[start, end] = _names(edges.get((start, end), []), dtcs)
+    return _Behavior(states, [(start, end, dtcs) for (start, end), dtcs in edges.items()])
+
+
 def _merged(earlier: _Memory, coverage: SuiteCoverage) -> _Memory:
-    """What earlier runs and this one saw, within the bounds."""
-    behaviors: dict[str, _Behavior] = {}
-    names = list(dict.fromkeys([*earlier.behaviors, *coverage.behaviors]))
-    for name in names[:MAX_BEHAVIORS]:
-        before = earlier.behaviors.get(name, _Behavior(states={}, transitions=[]))
-        states = {state: list(dtcs) for state, dtcs in before.states.items()}
-        edges = {(start, end): list(dtcs) for start, end, dtcs in before.transitions}
-        cover = coverage.behaviors.get(name)
-        for state, seen in {} if cover is None else cover.states.items():
-            if len(state) > MAX_TEXT_LENGTH:
-                continue
-            if state in states or len(states) < MAX_STATES:
-                states[state] = _names(states.get(state, []), seen.dtcs)
-        for edge, seen in {} if cover is None else cover.transitions.items():
-            if max(map(len, edge)) > MAX_TEXT_LENGTH:
-                continue
-            if edge in edges or len(edges) < MAX_TRANSITIONS:
-                edges[edge] = _names(edges.get(edge, []), seen.dtcs)
-        transitions = [(start, end, dtcs) for (start, end), dtcs in edges.items()]
-        behaviors[name] = _Behavior(states=states, transitions=transitions)
-    return _Memory(version=_VERSION, behaviors=behaviors)
+    """What earlier runs and this one saw, within the bounds; what a version 1 file
+    remembered of a behavior this run covers goes to the behavior's system."""
+    systems = {system: dict(behaviors) for system, behaviors in earlier.systems.items()}
+    moved: set[str] = set()
+    for cover in coverage.behaviors:
+        if len(cover.system) > MAX_TEXT_LENGTH or len(cover.behavior) > MAX_NAME_LENGTH:
+            continue
+        behaviors = systems.setdefault(cover.system, {})
+        if cover.behavior not in behaviors and len(behaviors) >= MAX_BEHAVIORS:
+            continue
+        before = _remembered(earlier, cover) or _Behavior(states={}, transitions=[])
+        behaviors[cover.behavior] = _with(before, cover)
+        moved.add(cover.behavior)
+    earliest = {
+        name: behavior for name, behavior in systems.pop(_EARLIER, {}).items() if name not in moved
+    }
+    if earliest:
+        systems[_EARLIER] = earliest
+    kept = list(systems)[:MAX_SYSTEMS]
+    return _Memory(systems={system: systems[system] for system in kept})
 
 
-def _names(earlier: list[str], now: set[str]) -> list[str]:
-    """The DTCs that reached something: this run's first, then earlier ones, bounded."""
-    names = sorted(name for name in now if len(name) <= MAX_NAME_LENGTH)
-    return list(dict.fromkeys([*names, *earlier]))[:MAX_DTCS]
+def _with(before: _Behavior, cover: BehaviorCoverage) -> _Behavior:
+    """What was remembered of a behavior and what this run saw of it, within the bounds."""
+    states = {state: list(dtcs) for state, dtcs in before.states.items()}
+    edges = {(start, end): list(dtcs) for start, end, dtcs in before.transitions}
+    for state, seen in cover.states.items():
+        if len(state) > MAX_TEXT_LENGTH:
+            continue
+        if state in states or len(states) < MAX_STATES:
+            states[state] = _names(sorted(seen.dtcs), states.get(state, []))
+    for edge, seen in cover.transitions.items():
+        if max(map(len, edge)) > MAX_TEXT_LENGTH:
+            continue
+        if edge in edges or len(edges) < MAX_TRANSITIONS:
+            edges[edge] = _names(sorted(seen.dtcs), edges.get(edge, []))
+    return _Behavior(states, [(start, end, dtcs) for (start, end), dtcs in edges.items()])
+
+
+def _names(first: Sequence[str], then: Sequence[str]) -> list[str]:
+    """The DTCs that reached something: ``first``, then ``then``, bounded."""
+    names = [name for name in (*first, *then) if len(name) <= MAX_TEXT_LENGTH]
+    return list(dict.fromkeys(names))[:MAX_DTCS]
 
 
 def _save(path: Path, memory: _Memory) -> None:

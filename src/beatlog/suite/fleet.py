@@ -1,8 +1,9 @@
 """Fleet runs: every session log that matches a pattern replayed against one system, with
 no spec per log (``beatlog test --logs 'logs/**/*.beatlog' --system MODULE:FACTORY``).
 
-Each log becomes a DTC of its own, named after its file and judged against its
-recording: a fleet log has no approved baseline. The pattern is a local glob, or any
+Each log becomes a DTC of its own, named after its file (and identified by its path or
+URL: two logs may share a file name) and judged against its recording: a fleet log has
+no approved baseline. The pattern is a local glob, or any
 fsspec URL (``s3://bucket/2024-*/*.beatlog``) where fsspec is installed
 (``pip install "beatlog[fleet]"``). A URL's pattern is expanded by listing alone:
 each log behind it is copied only by the process that replays it, locally or on a

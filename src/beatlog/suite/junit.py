@@ -1,5 +1,7 @@
 """JUnit XML for CI systems: one testcase per DTC, failures with the first divergence,
 errors with the traceback of the user's code when it raised. Written whole or not at all.
+A testcase is named after its DTC, or by the DTC's id where another DTC of the run has
+its name.
 
 A DTC that ran carries what its replay checked as properties: ``beatlog_cycles``,
 ``beatlog_state_changes``, ``beatlog_outputs``, ``beatlog_draws``, ``beatlog_samples``
@@ -40,7 +42,7 @@ def write_junit(
             suite,
             "testcase",
             classname=posixpath.dirname(outcome.spec.origin) or ".",
-            name=outcome.spec.name,
+            name=outcome.spec.label,
             file=outcome.spec.origin,
             time=f"{outcome.wall_time_s:.3f}",
         )

@@ -24,6 +24,10 @@ the system factory to replay it against::
 
 ``name``, ``purpose``, ``procedure`` and ``log`` are required; every other key is
 optional, and a key beatlog does not know is an error (naming the key it may mean).
+A DTC is identified as pytest identifies a test, by its id: its spec's path from the
+rootdir, ``::`` and its name (``robots/dog/dtc/dock.dtc.toml::dock``), so that two
+robots of one repository may each have a ``dock``; reports show the name alone unless
+another DTC of the run has it too.
 A ``module:factory`` (``system``, ``perception``) names a callable that takes no
 arguments and builds a fresh system (or perception step) each time it is called, or
 the object itself when it is not callable; it imports from the working directory, the
@@ -44,11 +48,13 @@ Renames that hold for every spec go into the project's ``pyproject.toml``, under
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import difflib
 import json
 import math
 import os
 import tomllib
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
@@ -68,6 +74,7 @@ __all__ = [
     "SPEC_SUFFIX",
     "DtcSpec",
     "discover_specs",
+    "distinguished",
     "find_rootdir",
     "load_spec",
     "select_specs",
@@ -124,6 +131,23 @@ class DtcSpec:
     log_url: str | None = None
     """The URL of the log when it lies behind one: the process that replays the DTC
     copies it first, and ``log`` is then the URL's file name alone, no file here."""
+    id: str = ""
+    """What identifies the DTC, as pytest's node id does a test: its spec's path from the
+    rootdir, ``::`` and its name (``dtc/dock.dtc.toml::dock``); a fleet log's path or
+    URL. Left out, the spec's path as given and its name."""
+    named_by_id: bool = False
+    """Whether reports name the DTC by its id: another DTC of the run has its name (see
+    :func:`distinguished`)."""
+
+    def __post_init__(self) -> None:
+        if not self.id:
+            default = self.source or f"{self.path.as_posix()}::{self.name}"
+            object.__setattr__(self, "id", default)
+
+    @property
+    def label(self) -> str:
+        """How reports name the DTC: its name, or its id where the name is not enough."""
+        return self.id if self.named_by_id else self.name
 
     @property
     def origin(self) -> str:
@@ -147,8 +171,10 @@ class DtcSpec:
         return fetched_log(self.log_url)
 
 
-def load_spec(path: str | Path) -> DtcSpec:
-    """Read and validate one spec; problems raise :class:`SpecError` naming file and key."""
+def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
+    """Read and validate one spec; problems raise :class:`SpecError` naming file and key.
+    Its id starts from ``rootdir`` (by default, the one :func:`find_rootdir` finds for
+    it)."""
     path = Path(path)
     problem = irregular_file_problem(path)
     if problem is not None:
@@ -189,6 +215,7 @@ def load_spec(path: str | Path) -> DtcSpec:
     log_url = spec.log if is_url(spec.log) else None
     return DtcSpec(
         path=path,
+        id=_dtc_id(path, spec.name, find_rootdir([path]) if rootdir is None else rootdir),
         name=spec.name,
         purpose=spec.purpose,
         procedure=tuple(spec.procedure),
@@ -227,8 +254,19 @@ def _keys_problem(data: dict[str, Any]) -> str | None:
     return "; ".join(problems) or None
 
 
-def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:
-    """Every spec in the given files and folders (recursively), sorted by path."""
+def _dtc_id(path: Path, name: str, rootdir: Path) -> str:
+    """The id pytest gives the DTC of the spec at ``path``: its path from ``rootdir``
+    (with ``..`` where it lies outside), ``::`` and its name."""
+    relative = os.path.relpath(path.resolve(), rootdir.resolve())
+    return f"{Path(relative).as_posix()}::{name}"
+
+
+def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
+    """Every spec in the given files and folders (recursively), sorted by path, with ids
+    from ``rootdir`` (by default, the one :func:`find_rootdir` finds for ``paths``).
+    Specs may share a name; a spec file holds one DTC and is loaded once, so no two have
+    one id."""
+    paths = list(paths)
     found: list[Path] = []
     for given in map(Path, paths):
         if given.is_dir():
@@ -247,13 +285,16 @@ def discover_specs(paths: Iterable[str | Path]) -> list[DtcSpec]:
     unique: dict[Path, Path] = {}
     for path in found:
         unique.setdefault(path.resolve(), path)
-    specs = [load_spec(path) for path in sorted(unique.values())]
-    seen: dict[str, Path] = {}
-    for spec in specs:
-        if spec.name in seen:
-            raise SpecError(spec.path, f"name {spec.name!r} is already used by {seen[spec.name]}")
-        seen[spec.name] = spec.path
-    return specs
+    root = find_rootdir(paths) if rootdir is None else rootdir
+    return [load_spec(path, rootdir=root) for path in sorted(unique.values())]
+
+
+def distinguished(specs: Iterable[DtcSpec]) -> list[DtcSpec]:
+    """The specs of a run, those that share their name with another named by their id
+    in reports (:attr:`DtcSpec.label`)."""
+    specs = list(specs)
+    counts = Counter(spec.name for spec in specs)
+    return [dataclasses.replace(spec, named_by_id=counts[spec.name] > 1) for spec in specs]
 
 
 def _hidden(relative: Path) -> bool:
