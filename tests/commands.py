@@ -127,7 +127,7 @@ def signalled(
             os.killpg(process.pid, signum)
         else:
             process.send_signal(signum)
-        out, err = process.communicate(timeout=10)
+        out, err = process.communicate(timeout=30)  # a busy machine unwinds slowly
     finally:
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)

@@ -30,8 +30,9 @@ __all__ = ["Worker", "WorkerLostError", "serve"]
 
 _READY = b"ready"
 """A worker's first message: it has imported what replay needs and waits for specs."""
-STOP_S = 2.0
-"""How long a worker asked to stop may take to unwind its work before it is killed."""
+STOP_S = 5.0
+"""How long a worker asked to stop may take to unwind its work (remove a download's copy,
+close a log) before it is killed; a busy machine needs more than a second or two."""
 
 
 class WorkerLostError(RuntimeError):
