@@ -171,13 +171,6 @@ class ReplaySession(Closing):
         """Close the log."""
         self.reader.close()
 
-    @property
-    def behavior_ids(self) -> list[str]:
-        """The system's behaviors by id (the log's catalogue when there is no system)."""
-        if self.replayer is None:
-            return list(self.header.behaviors)
-        return self.replayer.executor.behavior_ids
-
 
 def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
     """The robot-state fields a fresh ``system`` reads in ``cycle`` of ``log``, in order
