@@ -380,7 +380,7 @@ class Replayer:
 
         names = self.header.behaviors
         recorded_changes = [
-            (names[index] if 0 <= index < len(names) else f"#{index}", before, after)
+            (actor_name(names, index), before, after)
             for index, before, after in msgspec.msgpack.decode(record.state_changes)
         ]
         recorded_draws = (
