@@ -158,17 +158,22 @@ def test_a_baseline_made_from_another_recording_is_an_error(
     assert f"{expected_path(spec)}: approved for another recording than probe.beatlog" in run.err
 
 
-def test_a_divergence_in_random_numbers_cannot_be_rebaselined(beatlog: Beatlog, spec: Path) -> None:
+def test_a_divergence_in_random_numbers_is_rebaselined_and_its_draws_approved(
+    beatlog: Beatlog, spec: Path
+) -> None:
     write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog",
                "tests.systems:probe_system_greedy")  # fmt: skip
+    assert beatlog("test", spec).code == 1
 
-    run = beatlog("test", "--update", spec)
+    updated = beatlog("test", "--update", spec)
+    approved = beatlog("approve", spec)
+    judged = beatlog("test", spec)
 
-    assert run.code == 1
-    assert "not updated avoid-pole: a divergence in random overdrawn cannot be re-baselined" in (
-        run.out
-    )
-    assert not pending_path(spec).exists()
+    assert updated.code == 1
+    assert approved.code == 0
+    assert judged.code == 0, judged.out
+    draws = [line for line in expected_path(spec).read_text().splitlines() if line[:6] == "draws "]
+    assert draws == ['draws "dice": - -> randint(1, 6) ×60']  # 300 cycles, a roll in every 5th
 
 
 def test_a_renamed_behavior_gets_a_rename_proposal_and_the_spec_rename_fixes_it(

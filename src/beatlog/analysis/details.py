@@ -9,7 +9,7 @@ them all, so a DTC is replayed at most twice in all.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,14 +44,19 @@ def replay_details(
     timelines: bool = False,
     expected: Mapping[int, Sequence[StateChange]] | None = None,
     perception: Perception | None = None,
+    living: bool = False,
+    rename: Callable[[str], str] = str,
 ) -> Details:
     """Replay ``log`` on a fresh ``system`` once, gathering what is asked for.
 
     ``divergence`` is the verdict's; the fields read are those of its cycle.
     ``expected`` stands in for the recorded state changes in the timelines (an
     approved baseline). With a ``perception`` step, each robot state is rebuilt from the
-    logged samples, as the verdict's replay did. Stepping stops as soon as nothing asked
-    for needs more.
+    logged samples, as the verdict's replay did. ``living`` replay goes on where the
+    behaviors draw otherwise than recorded (as the verdict's does against an approved
+    baseline, and as a trace for a new baseline must); ``rename`` maps a recorded
+    behavior's name to its name now. Stepping stops as soon as nothing asked for needs
+    more.
     """
     diverged_at = (
         None
@@ -59,9 +64,9 @@ def replay_details(
         else divergence.cycle
     )
     reads = None if diverged_at is None else FieldsRead(diverged_at)
-    with ReplaySession(log, system, perception=perception) as session:
+    with ReplaySession(log, system, perception=perception, living=living, rename=rename) as session:
         assert session.replayer is not None  # a session with a system replays
-        tracer = TraceCollector(session.replayer) if trace else None
+        tracer = TraceCollector(session.replayer, rename) if trace else None
         charts: list[TimelineCollector] = []
         if timelines:
             if divergence is not None:  # the close-up first

@@ -8,7 +8,7 @@ traced compactly: a field appears only in the cycles where its value changes.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Collection, Iterator
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -22,11 +22,14 @@ from beatlog.log.format import (
     EMPTY_MAP,
     CycleRecord,
     StateChangeRecord,
+    payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.model.random import DrawDifference
 from beatlog.replay.compare import WHOLE_STATE, Comparison, state_fields
-from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.core import CycleOutcome, Replayer, actor_name
+from beatlog.replay.draws import DrawRule, draw_rules
 from beatlog.replay.expectation import (
     Expectation,
     OutputTracker,
@@ -66,11 +69,18 @@ class ReplayedTrace:
     robot_states: tuple[TracedState, ...] = ()
     """In sensor-level replay, the robot-state fields perception rebuilt otherwise than
     recorded, in each cycle where it did."""
+    draws: tuple[DrawRule, ...] = ()
+    """In living replay, the draws made otherwise than recorded."""
+    open_loop: tuple[int, int] | None = None
+    """The first cycle (and its robot time) whose state changes or outputs differ from
+    the recording's, once compared (:meth:`TraceCollector.compare`)."""
 
     @property
     def expectation(self) -> Expectation:
         """This trace as the expectation a baseline pins."""
-        return Expectation(self.changes, self.outputs, self.robot_states)
+        return Expectation(
+            self.changes, self.outputs, self.robot_states, self.draws, self.open_loop
+        )
 
 
 def recorded_trace(log: str | Path) -> list[TracedChange]:
@@ -142,15 +152,18 @@ def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[
     return found
 
 
-def replayed_trace(log: str | Path, system: System) -> ReplayedTrace:
+def replayed_trace(
+    log: str | Path, system: System, *, living: bool = False, rename: Callable[[str], str] = str
+) -> ReplayedTrace:
     """Replay every cycle of ``log`` on ``system`` and collect its state changes.
 
     Replay uses the recording's heartbeats, robot states and random numbers; it stops
-    early when the behaviors raise or draw random numbers the log does not have.
+    early when the behaviors raise or, unless ``living``, draw random numbers the log
+    does not have (``rename`` maps a recorded behavior's name to its name now).
     """
-    with ReplaySession(log, system) as session:
+    with ReplaySession(log, system, living=living, rename=rename) as session:
         assert session.replayer is not None  # a session with a system replays
-        tracer = TraceCollector(session.replayer)
+        tracer = TraceCollector(session.replayer, rename)
         session.run([tracer])
     return tracer.trace()
 
@@ -160,12 +173,16 @@ class TraceCollector:
     where replay cannot go on (an exception, a random-number problem: the replayer's
     :meth:`~beatlog.replay.core.Replayer.stop`)."""
 
-    def __init__(self, replayer: Replayer) -> None:
+    def __init__(self, replayer: Replayer, rename: Callable[[str], str] = str) -> None:
         self._names = replayer.executor.behavior_ids
+        self._recorded_names = [rename(name) for name in replayer.header.behaviors]
         self._stop = replayer.stop
+        self._encode = payload_encoder().encode
+        self._open_loop: tuple[int, int] | None = None
         self._changes: list[TracedChange] = []
         self._outputs: list[TracedOutput] = []
         self._states: list[TracedState] = []
+        self._draws: list[DrawDifference] = []
         self._tracker = OutputTracker()
         self._cycles = 0
         self.stopped: str | None = None
@@ -197,7 +214,28 @@ class TraceCollector:
         self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
         if outcome.perception_differs:
             self._states.extend(_rebuilt_otherwise(outcome))
+        if outcome.draw_differences:
+            self._draws.extend(outcome.draw_differences)
+        if self._open_loop is None and self._left_recording(outcome):
+            self._open_loop = (outcome.cycle, outcome.time_ns)
         self._cycles += 1
+
+    def _left_recording(self, outcome: CycleOutcome) -> bool:
+        """Whether the behaviors changed state or output otherwise than recorded."""
+        record = outcome.record
+        changes = outcome.changes or []
+        outputs = outcome.outputs
+        if record.outputs != (EMPTY_MAP if not outputs else msgspec.Raw(self._encode(outputs))):
+            recorded_outputs = msgspec.msgpack.decode(record.outputs)
+            if recorded_outputs != msgspec.msgpack.decode(self._encode(outputs)):
+                return True
+        if not changes and record.state_changes == EMPTY_LIST:
+            return False
+        encode, names, then = self._encode, self._names, self._recorded_names
+        recorded = msgspec.msgpack.decode(record.state_changes)
+        return {(actor_name(then, i), encode(b), encode(a)) for i, b, a in recorded} != {
+            (names[i], encode(b), encode(a)) for i, b, a in changes
+        }
 
     def trace(self) -> ReplayedTrace:
         """The trace gathered so far."""
@@ -207,6 +245,8 @@ class TraceCollector:
             self.stopped,
             tuple(self._outputs),
             tuple(self._states),
+            draw_rules(self._draws),
+            self._open_loop,
         )
 
 

@@ -15,9 +15,10 @@ from collections.abc import Callable, Sequence
 from enum import StrEnum
 from math import isnan, prod
 from numbers import Real
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
 
 from beatlog.log.format import Draw, payload_encoder
+from beatlog.model.luck import Luck, Place, array_value, fresh_luck, scalar_luck, scalar_value
 
 if TYPE_CHECKING:
     import numpy as np
@@ -27,6 +28,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Draw",
+    "DrawDifference",
     "DrawKind",
     "RandomMismatch",
     "RandomSource",
@@ -108,6 +110,27 @@ def _same_param(want: Any, got: Any) -> bool:
     if isinstance(want, Real) and isinstance(got, Real):
         return bool(want == got) or (isnan(want) and isnan(got))
     return _encode_params(want) == _encode_params(got)
+
+
+class DrawDifference(NamedTuple):
+    """A draw that living replay made otherwise than recorded (see
+    :meth:`ReplayRandom.live`): re-mapped, new, or a recorded one left unused."""
+
+    behavior: str
+    """The behavior that drew it (that drew it in the recording, for one left unused),
+    by its name now."""
+    recorded: str | None
+    """The recorded request as code (``uniform(0.8, 1.6)``; the kind alone in format 1);
+    None for a draw the recording does not have."""
+    asked: str | None
+    """The request now; None for a recorded draw left unused."""
+
+    def __str__(self) -> str:
+        if self.recorded is None:
+            return f"{self.behavior}: new {self.asked}"
+        if self.asked is None:
+            return f"{self.behavior}: {self.recorded} left unused"
+        return f"{self.behavior}: {self.recorded} -> {self.asked}"
 
 
 class RandomMismatch(BaseException):
@@ -313,7 +336,9 @@ class ReplayRandom(RandomSource):
 
     Parameters are compared exactly, as numbers (``uniform(2, 5)`` asks for what
     ``uniform(2.0, 5.0)`` does, and draws the same); a format-1 draw, which recorded
-    none, is checked for count and kind only.
+    none, is checked for count and kind only. In *living* replay (:meth:`live`) a draw
+    that differs is no mismatch: replay goes on with a value as lucky as the recorded
+    one, and the difference is noted for the verdict to judge (:meth:`settle`).
     """
 
     def __init__(self) -> None:
@@ -321,8 +346,17 @@ class ReplayRandom(RandomSource):
         self.recorded: Sequence[Draw] = ()
         self.drawn: list[Draw] = []
         self.mismatch: RandomMismatch | None = None
+        self.living = False
+        """Whether draws that differ from the recording go on (:meth:`live`)."""
+        self.differences: list[DrawDifference] = []
+        """In living replay, the cycle's draws made otherwise than recorded."""
         self._actors: Sequence[int | None] | None = None
         self._recorded_names: Sequence[str] = ()
+        self._names_now: Sequence[str] = ()
+        self._recorded_now: Sequence[str] = ()
+        self._key = b""
+        self._used: list[bool] | None = None
+        """In living replay, once a draw differed: which recorded draws are taken."""
 
     def expect_actors(
         self,
@@ -333,21 +367,73 @@ class ReplayRandom(RandomSource):
         """Check which behavior draws, too: ``recorded`` is the log's catalogue,
         ``system`` the system's, and ``rename`` maps a recorded name to its name now. A
         draw recorded by a behavior the system no longer has is checked for kind and
-        parameters only."""
+        parameters only (in living replay, it is left unused)."""
         ids = {name: index for index, name in enumerate(system)}
         self._actors = [ids.get(rename(name)) for name in recorded]
         self._recorded_names = recorded
+        self._names_now = system
+        self._recorded_now = [rename(name) for name in recorded]
+
+    def live(self, key: bytes) -> None:
+        """Go on when the behaviors ask for other draws than were recorded.
+
+        A behavior's draws are matched with the draws it made in the recording, in
+        order, a request of the same kind first: a recorded draw asked for with other
+        parameters (or, where sound, as another kind) gives the value with its luck
+        (:mod:`beatlog.model.luck`); a request with no recorded draw left gets a fresh
+        one keyed by ``key`` (the log) and its place; recorded draws left over are
+        dropped. Each is a :class:`DrawDifference`. Same log, same code: same draws.
+        """
+        self.living = True
+        self._key = key
 
     def load(self, recorded: Sequence[Draw]) -> None:
         """Set the draws recorded for the next cycle."""
         self.recorded = recorded
         if self.drawn:
             self.drawn = []
+        if self.differences:
+            self.differences = []
+        self._used = None
         self.mismatch = None
+
+    def settle(self) -> list[DrawDifference]:
+        """In living replay, once the cycle's update is over: its differences, the
+        recorded draws left unused among them."""
+        used = self._used
+        start = len(self.drawn) if used is None else 0
+        for index in range(start, len(self.recorded)):
+            if used is None or not used[index]:
+                draw = self.recorded[index]
+                self.differences.append(
+                    DrawDifference(self._recorded_name(draw.actor), _request(draw), None)
+                )
+        return self.differences
+
+    def _recorded_name(self, actor: int) -> str:
+        if actor < 0:
+            return "system"
+        names = self._recorded_now
+        return names[actor] if actor < len(names) else f"#{actor}"
+
+    def _name(self, actor: int) -> str:
+        if actor < 0:
+            return "system"
+        names = self._names_now
+        return names[actor] if actor < len(names) else f"#{actor}"
+
+    def _drawn_by(self, draw: Draw, actor: int) -> bool:
+        """Whether the recording credits ``draw`` to the behavior ``actor`` is now."""
+        actors = self._actors
+        if actors is None or draw.actor < 0:
+            return draw.actor == actor
+        return draw.actor < len(actors) and actors[draw.actor] == actor
 
     def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         index = len(self.drawn)
         actor = self._actor
+        if self.living:
+            return self._living(kind, params, index, actor)
         if index >= len(self.recorded):
             asked = Draw(actor, kind.value, None, params)
             self._fail(
@@ -365,6 +451,63 @@ class ReplayRandom(RandomSource):
             self._check_actor(draw, actor, kind, params)
         self.drawn.append(Draw(actor, kind.value, draw.value, params))
         return draw.value
+
+    def _living(self, kind: DrawKind, params: tuple[Any, ...], index: int, actor: int) -> Any:
+        """A draw in living replay: the recorded one while the cycle follows the
+        recording, else the behavior's match (:meth:`live`)."""
+        recorded = self.recorded
+        if self._used is None:
+            if (
+                index < len(recorded)
+                and recorded[index].kind == kind.value
+                and (not recorded[index].params or _same_params(recorded[index].params, params))
+                and self._drawn_by(recorded[index], actor)
+            ):
+                value = recorded[index].value
+                self.drawn.append(Draw(actor, kind.value, value, params))
+                return value
+            self._used = [position < index for position in range(len(recorded))]
+        used = self._used
+        mine = [i for i, d in enumerate(recorded) if not used[i] and self._drawn_by(d, actor)]
+        same = [i for i in mine if recorded[i].kind == kind.value]
+        other = [i for i in mine if _luck(recorded[i]) is not None and kind.value in _SCALAR_VALUES]
+        match = same[0] if same else (other[0] if other else None)
+        place = Place(
+            self._context.cycle if self._context is not None else -1,
+            self._name(actor),
+            sum(1 for d in self.drawn if d.actor == actor),
+        )
+        value = self._living_value(kind, params, None if match is None else recorded[match], place)
+        asked = Draw(actor, kind.value, value, params)
+        if match is None:
+            self.differences.append(DrawDifference(place.behavior, None, asked.call()))
+        else:
+            used[match] = True
+            draw = recorded[match]
+            if draw.kind != kind.value or (draw.params and not _same_params(draw.params, params)):
+                self.differences.append(
+                    DrawDifference(place.behavior, _request(draw), asked.call())
+                )
+        self.drawn.append(asked)
+        return value
+
+    def _living_value(
+        self, kind: DrawKind, params: tuple[Any, ...], draw: Draw | None, place: Place
+    ) -> Any:
+        """The value of a request with the luck of ``draw`` (fresh where it has none)."""
+        if (
+            draw is not None
+            and draw.kind == kind.value
+            and (not draw.params or _same_params(draw.params, params))
+        ):
+            return draw.value
+        if kind.value in _ARRAY_KINDS:
+            old = None
+            if draw is not None and draw.params:
+                old = (draw.kind, draw.params, _unpack_array(draw.value))
+            return _pack_array(array_value(kind.value, params, old, place.seed(self._key)))
+        luck = None if draw is None else _luck(draw)
+        return scalar_value(kind.value, params, luck or fresh_luck(self._key, place))
 
     def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
         """Refuse a draw the recording credits to another behavior (by its name now)."""
@@ -409,3 +552,15 @@ class ReplayRandom(RandomSource):
                 f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
             )
         return array
+
+
+def _request(draw: Draw) -> str:
+    """A recorded draw's request as code; the kind alone where format 1 recorded none."""
+    return draw.call() if draw.params else draw.kind
+
+
+def _luck(draw: Draw) -> Luck | None:
+    """The luck of a recorded scalar draw, where it can be known."""
+    if draw.kind == DrawKind.RANDOM.value:
+        return scalar_luck(draw.kind, draw.value, ())
+    return scalar_luck(draw.kind, draw.value, draw.params) if draw.params else None

@@ -14,6 +14,7 @@ steps a system through a log.
 from __future__ import annotations
 
 import functools
+import hashlib
 from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple, NoReturn
@@ -35,11 +36,17 @@ from beatlog.model.context import Outputs
 from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
-from beatlog.model.random import Draw, RandomMismatch, ReplayRandom, recorded_draw_problem
+from beatlog.model.random import (
+    Draw,
+    DrawDifference,
+    RandomMismatch,
+    ReplayRandom,
+    recorded_draw_problem,
+)
 from beatlog.replay.fit import check_fit, recorded_state_type
 from beatlog.replay.verdict import DivergenceKind
 
-__all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name"]
+__all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name", "log_key"]
 
 
 class CycleOutcome(NamedTuple):
@@ -76,19 +83,23 @@ class CycleOutcome(NamedTuple):
     recorded RS_t, so replay can go on)."""
     samples: Sequence[Sample] = ()
     """In sensor-level replay, the samples of the cycle."""
+    draw_differences: Sequence[DrawDifference] | None = None
+    """In living replay (:meth:`~beatlog.model.random.ReplayRandom.live`), the draws made
+    otherwise than recorded, which replay went on with; None in strict replay."""
 
     @property
     def underdrawn(self) -> bool:
-        """Whether fewer random numbers were drawn than were recorded."""
-        return len(self.drawn) < len(self.recorded_draws)
+        """Whether fewer random numbers were drawn than were recorded (strict replay)."""
+        return self.draw_differences is None and len(self.drawn) < len(self.recorded_draws)
 
     @property
     def completed(self) -> bool:
-        """Whether the update ran to its end and drew exactly the recorded numbers."""
+        """Whether the update ran to its end and, in strict replay, drew exactly the
+        recorded numbers."""
         return (
             self.changes is not None
             and self.draw_problem is None
-            and len(self.drawn) == len(self.recorded_draws)
+            and (self.draw_differences is not None or len(self.drawn) == len(self.recorded_draws))
         )
 
 
@@ -143,6 +154,8 @@ class Replayer:
         *,
         perception: Perception | None = None,
         break_at: int | None = None,
+        living: bool = False,
+        rename: Callable[[str], str] = str,
     ) -> None:
         check_fit(header, system, path)
         self.state_type = recorded_state_type(header, system.robot_state)
@@ -156,6 +169,13 @@ class Replayer:
         self.path = path
         self.random = ReplayRandom()
         self.executor = CycleExecutor(system, self.random)
+        self.living = living
+        """Whether replay goes on when the behaviors draw otherwise than recorded
+        (:meth:`~beatlog.model.random.ReplayRandom.live`); ``rename`` maps a recorded
+        behavior's name to its name now, matching each behavior's draws."""
+        if living:
+            self.random.expect_actors(header.behaviors, self.executor.behavior_ids, rename)
+            self.random.live(log_key(header))
         self.perception = perception if header.samples_logged else None
         """The perception step in use: None unless the log holds samples."""
         self.samples_perceived = 0
@@ -213,6 +233,7 @@ class Replayer:
             random.mismatch,
             failure,
             context.actor,
+            draw_differences=tuple(random.differences) if self.living else None,
         )
         if sensed is None:
             return outcome
@@ -272,6 +293,8 @@ class Replayer:
         step = executor.step
         random = self.random
         load = random.load
+        settle = random.settle
+        living = self.living
         read_state = self._read_state
         break_at = self.break_at
         perception = self.perception
@@ -300,7 +323,12 @@ class Replayer:
             draws = record.random_numbers
             # Load RN_t, unless there is none and nothing is left of the last cycle's (a
             # draw is kept only when one was recorded; a draw too many leaves a mismatch).
-            if draws != EMPTY_LIST or random.recorded or random.mismatch is not None:
+            if (
+                draws != EMPTY_LIST
+                or random.recorded
+                or random.drawn
+                or random.mismatch is not None
+            ):
                 load(() if draws == EMPTY_LIST else self._decode_draws(record, context.cycle + 1))
             failure = None
             try:
@@ -314,11 +342,13 @@ class Replayer:
                 failure = exc
             self._last = (record, state, changes, failure, sensed)
             if changes is not None and (
-                random.mismatch is not None
+                (settle() if living else random.mismatch is not None)
                 or len(random.drawn) != len(random.recorded)
                 or (sensed is not None and (sensed.differs or sensed.failure is not None))
             ):
                 changes = None
+            elif living and changes is None:
+                settle()
 
     def _perceive(self, record: CycleRecord, recorded: Any) -> _Sensed:
         """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
@@ -440,6 +470,14 @@ class Replayer:
                     self.path, f"damaged random number #{number} in cycle {cycle}: {problem}"
                 )
         return draws
+
+
+def log_key(header: SessionHeader) -> bytes:
+    """What keys the fresh draws of living replay: the recording's identity (robot,
+    software, start time, seed), so that two sessions get different fresh luck and the
+    same session always the same."""
+    identity = [header.robot_id, header.software_version, header.start_time_ns, header.random_seed]
+    return hashlib.blake2b(msgspec.msgpack.encode(identity), digest_size=32).digest()
 
 
 def actor_name(names: Sequence[str], actor: int) -> str:

@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.log.format import payload_encoder
+from beatlog.replay.draws import DrawRule
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
@@ -103,12 +104,20 @@ class Expectation:
     (a baseline from before outputs were pinned) leaves them judged against the recording.
     ``robot_states`` pins, for sensor-level replay, the robot states an intended
     perception change rebuilds: the fields that differ from the recorded RS_t, in the
-    cycles where they do (none: perception rebuilds the recording).
+    cycles where they do (none: perception rebuilds the recording). ``draws`` are the
+    draws replay may make otherwise than recorded (:mod:`beatlog.replay.draws`); a
+    baseline is judged in living replay, so any other difference diverges.
+    ``open_loop`` is the first cycle whose state changes or outputs left the
+    recording's, if any: from there the recorded world no longer answers to what the
+    behaviors do.
     """
 
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] | None = None
     robot_states: tuple[TracedState, ...] = ()
+    draws: tuple[DrawRule, ...] = ()
+    open_loop: tuple[int, int] | None = None
+    """The cycle and robot time (ns) where the behaviors left the recording."""
 
     def changes_by_cycle(self) -> dict[int, list[StateChange]]:
         """The state changes grouped by cycle."""

@@ -30,10 +30,11 @@ from beatlog.log.format import (
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError
-from beatlog.model.random import Draw, plain_value
+from beatlog.model.random import Draw, DrawDifference, plain_value
 from beatlog.project import vouched_system
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer, actor_name
+from beatlog.replay.draws import DrawLedger
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_catalogue, check_state_fields
 from beatlog.replay.renames import propose_renames
@@ -127,7 +128,14 @@ def replay(
     if isinstance(perception, str):
         perception = load_perception(perception)
     comparison = comparison or Comparison()
-    with ReplaySession(log, system, perception=perception, break_at=break_at) as session:
+    with ReplaySession(
+        log,
+        system,
+        perception=perception,
+        break_at=break_at,
+        living=expected is not None,
+        rename=comparison.rename,
+    ) as session:
         reader = session.reader
         check_state_fields(
             reader.header, comparison.state_tolerance, reader.path, "robot-state tolerance for"
@@ -161,6 +169,7 @@ def replay(
             status = reader.status
             if not status.complete and not allow_truncated:
                 judge.log_ended(status.describe())
+            judge.draws_not_made()
             wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
@@ -272,6 +281,8 @@ class _Judge:
         self._baseline: dict[int, msgspec.Raw] | None = None
         self._baseline_outputs: dict[int, msgspec.Raw] | None = None
         self.expected_names = list(header.behaviors)
+        self._ledger = None if expected is None else DrawLedger(expected.draws)
+        """In living replay (an approved baseline), the draws it lets differ."""
         self._pinned_states: dict[int, dict[str, Any]] = {}
         """The robot states an approved baseline pins: fields by cycle (sensor-level replay)."""
         if expected is not None and self.replayer.perception is not None:
@@ -409,7 +420,7 @@ class _Judge:
                 observe(outcome)
             if changes is None or (pinned_states and context.cycle in pinned_states):
                 outcome = outcome or outcome_of()  # judged by its robot state, then as usual
-                changes = outcome.changes if self._state_agrees(outcome) else None
+                changes = outcome.changes if self._agrees_but_for_pins(outcome) else None
             unloggable: Exception | None = None
             if changes is not None:
                 outputs = context.outputs
@@ -582,6 +593,11 @@ class _Judge:
             else ()
         )
         stop = self.replayer.stop(outcome)
+        unapproved = (
+            None
+            if self._ledger is None or not outcome.draw_differences
+            else self._ledger.unapproved(outcome.draw_differences)
+        )
         if stop is not None and stop.kind is DivergenceKind.PERCEPTION:
             kind, message = stop.kind, stop.message
             problem = outcome.perception_failure
@@ -596,6 +612,8 @@ class _Judge:
             kind, message, behavior = stop
             if failure is not None:
                 trace = user_traceback(failure)
+        elif unapproved is not None and unapproved.asked is not None:
+            kind, message, behavior = self._unapproved(unapproved)
         elif not self.comparison.changes_agree(expected, actual):
             # The first behavior difference is the headline, even when the changed
             # behavior then drew fewer random numbers than were recorded.
@@ -606,6 +624,8 @@ class _Judge:
                 message += f", and then the behaviors {stop.message}"
         elif stop is not None:
             kind, message, behavior = stop
+        elif unapproved is not None:
+            kind, message, behavior = self._unapproved(unapproved)
         else:
             kind = DivergenceKind.OUTPUTS
             message = f"outputs differ from {self.outputs_against}"
@@ -635,15 +655,34 @@ class _Judge:
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
         )
 
-    def _state_agrees(self, outcome: CycleOutcome) -> bool:
-        """Whether a cycle the core did not call clean went cleanly apart from its robot
-        state, and perception rebuilt that as expected (within tolerance, or as pinned)."""
-        return (
-            outcome.completed
-            and outcome.perception_failure is None
-            and self.replayer.perception is not None
-            and not self._state_differences(outcome)
+    def _agrees_but_for_pins(self, outcome: CycleOutcome) -> bool:
+        """Whether a cycle the core did not call clean went cleanly but for what the
+        approved baseline pins: perception rebuilt the robot state as expected (within
+        tolerance, or as pinned), and the draws made otherwise than recorded are ones
+        the baseline approves (which they then use up)."""
+        if not outcome.completed or outcome.perception_failure is not None:
+            return False
+        if self.replayer.perception is not None and self._state_differences(outcome):
+            return False
+        differences = outcome.draw_differences
+        return not differences or (self._ledger is not None and self._ledger.take(differences))
+
+    def draws_not_made(self) -> None:
+        """At the end of a replay that agreed: diverge if the approved baseline allows
+        draws that replay did not make (a behavior drew them before, and no more)."""
+        left = () if self._ledger is None or self.divergence is not None else self._ledger.left()
+        if not left:
+            return
+        context = self.executor.context
+        self.divergence = Divergence(
+            kind=DivergenceKind.RANDOM_UNDERDRAWN,
+            cycle=context.cycle,
+            time_ns=context.time_ns,
+            message="the behaviors made fewer draws otherwise than recorded than the "
+            f"approved baseline holds: {'; '.join(map(str, left))} not made",
+            behavior=left[0].behavior,
         )
+        self.divergent_cycles += 1
 
     def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
@@ -655,6 +694,21 @@ class _Judge:
             FieldDifference(name, expected.get(name), actual.get(name))
             for name in self.comparison.state_differences(expected, actual)
         )
+
+    def _unapproved(self, difference: DrawDifference) -> tuple[DivergenceKind, str, str]:
+        """How a draw made otherwise than recorded, and not as approved, diverges."""
+        assert self._ledger is not None
+        behavior, recorded, asked = difference
+        allowed = " (more often than it approves)" if self._ledger.approves(difference) else ""
+        baseline = f"which the approved baseline does not allow{allowed}"
+        if recorded is None:
+            message = f"{behavior} called {asked}, a draw the recording does not have, {baseline}"
+            return DivergenceKind.RANDOM_OVERDRAWN, message, behavior
+        if asked is None:
+            message = f"{behavior} did not draw the recorded {recorded}, {baseline}"
+            return DivergenceKind.RANDOM_UNDERDRAWN, message, behavior
+        message = f"{behavior} called {asked} where {recorded} was recorded, {baseline}"
+        return DivergenceKind.RANDOM_MISMATCH, message, behavior
 
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
         return [

@@ -101,6 +101,9 @@ class ReplaySession(Closing):
     (:mod:`beatlog.replay.fit`). :meth:`run` steps through the log for its observers.
     Without a system, nothing is replayed: the observers read the recording alone.
     ``break_at`` stops in the debugger just before the behaviors update in that cycle.
+    ``living`` replay goes on where the behaviors draw otherwise than recorded
+    (:meth:`~beatlog.model.random.ReplayRandom.live`; ``rename`` maps a recorded
+    behavior's name to its name now), as it does judged against an approved baseline.
 
     The verdict (:func:`beatlog.replay.judge.replay`) steps the session's replayer in
     a loop of its own, which builds a cycle's full outcome only where the cycle does
@@ -114,6 +117,8 @@ class ReplaySession(Closing):
         *,
         perception: Perception | None = None,
         break_at: int | None = None,
+        living: bool = False,
+        rename: Callable[[str], str] = str,
     ) -> None:
         self.reader = SessionLogReader(log)
         try:
@@ -126,6 +131,8 @@ class ReplaySession(Closing):
                     self.reader.path,
                     perception=perception,
                     break_at=break_at,
+                    living=living,
+                    rename=rename,
                 )
             )
         except BaseException:

@@ -1,4 +1,4 @@
-"""Expected state changes, outputs and robot states approved after an intended change.
+"""Expected state changes, outputs, robot states and draws approved after an intended change.
 
 Recordings are immutable: when behaviors (or, in sensor-level replay, perception)
 change on purpose, the new state changes and outputs go to a *pending* file beside the
@@ -7,11 +7,14 @@ file (``NAME.dtc.expected``) that replay judges against instead of the recording
 Both are plain text, one state change, output change or robot-state field a line, so
 a re-baseline reads as a diff in code review::
 
-    # beatlog expected state changes, outputs and robot states, format 3
+    # beatlog expected state changes, outputs, robot states and draws, format 4
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
+    draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) ×14
+    draws "escape": - -> uniform(4.0, 8.0) ×3
     #  cycle      time  "behavior": before -> after | output/robot_state "field" = value
           0     0.030  output "speed" = 0.5
+         12     0.360  open loop
          12     0.360  robot_state "distance" = 0.55
          12     0.360  "avoid": "idle" -> "turning"
          12     0.360  output "speed" = 0.0
@@ -28,9 +31,20 @@ exactly (a NaN with a payload, bytes) is written as ``msgpack:HEX``, its msgpack
 encoding. Loading a baseline never evaluates anything, and a file larger than
 :data:`MAX_BASELINE_BYTES` is refused.
 
-Format 2 files pin no robot states: perception must rebuild the recording. Format 1
-files (state changes only) pin no outputs either, so replay judges outputs against the
-recording and says so when they differ; re-approve to pin them.
+A ``draws`` line approves draws that replay makes otherwise than recorded, with how
+many (:mod:`beatlog.replay.draws`): a recorded request re-mapped to the one asked for
+now, a new draw (``-`` for the recorded side) or a recorded one left unused (``-`` for
+the asked side). A baseline is judged in living replay: any other draw made otherwise,
+or more of one than approved, diverges in its cycle; approved ones not made diverge at
+the end. The ``open loop`` line marks the first cycle whose state changes or outputs
+leave the recording's: from there the recorded world (RS_t, samples) no longer answers
+to what the changed behaviors do, and the session is worth recording again when
+convenient.
+
+Format 3 files approve no draws: replay must draw as recorded. Format 2 files pin no
+robot states: perception must rebuild the recording. Format 1 files (state changes
+only) pin no outputs either, so replay judges outputs against the recording and says
+so when they differ; re-approve to pin them.
 """
 
 from __future__ import annotations
@@ -48,6 +62,7 @@ import msgspec
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import DECODE_ERRORS
+from beatlog.replay.draws import DrawRule
 from beatlog.replay.expectation import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.spec import SPEC_SUFFIX
@@ -69,12 +84,19 @@ EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
 MAX_BASELINE_BYTES = 1 << 28
 """A baseline is a line per change; a file bigger than this is not one."""
-_MAGIC = "# beatlog expected state changes, outputs and robot states, format 3"
+_MAGIC = "# beatlog expected state changes, outputs, robot states and draws, format 4"
+_MAGIC_3 = "# beatlog expected state changes, outputs and robot states, format 3"
 _MAGIC_2 = "# beatlog expected state changes and outputs, format 2"
 _MAGIC_1 = "# beatlog expected state changes, format 1"
-_VERSIONS = {_MAGIC: 3, _MAGIC_2: 2, _MAGIC_1: 1}
+_VERSIONS = {_MAGIC: 4, _MAGIC_3: 3, _MAGIC_2: 2, _MAGIC_1: 1}
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
+_DRAW_LINE = re.compile(
+    r'draws (?P<behavior>"(?:[^"\\]|\\.)*"): '
+    r"(?P<recorded>.+?) -> (?P<asked>.+) ×(?P<times>[1-9]\d*)"
+)
+_NONE = "-"
+_OPEN_LOOP = "open loop"
 _OUTPUT = "output "
 _ROBOT_STATE = "robot_state "
 _MSGPACK = "msgpack:"
@@ -94,11 +116,17 @@ class Baseline:
     """The output changes; None in a format 1 file, which pins no outputs."""
     robot_states: tuple[TracedState, ...] = ()
     """The robot-state fields perception rebuilds otherwise than recorded (format 3)."""
+    draws: tuple[DrawRule, ...] = ()
+    """The draws replay may make otherwise than recorded (format 4)."""
+    open_loop: tuple[int, int] | None = None
+    """Where the behaviors left the recording, when they do (format 4)."""
 
     @property
     def expectation(self) -> Expectation:
         """What replay judges against with this baseline."""
-        return Expectation(self.changes, self.outputs, self.robot_states)
+        return Expectation(
+            self.changes, self.outputs, self.robot_states, self.draws, self.open_loop
+        )
 
 
 def _base(spec: Path) -> str:
@@ -135,10 +163,15 @@ def format_lines(
     changes: Iterable[TracedChange],
     outputs: Iterable[TracedOutput] | None = None,
     robot_states: Iterable[TracedState] = (),
+    open_loop: tuple[int, int] | None = None,
 ) -> list[str]:
     """One text line per robot-state field, state change and output change, by cycle,
-    as baseline files hold them: in each cycle in that order, as replay meets them."""
+    as baseline files hold them: in each cycle in that order, as replay meets them,
+    after the line that says the behaviors left the recording there (``open_loop``)."""
     keyed = [(s.cycle, 0, _value_line(_ROBOT_STATE, s)) for s in robot_states]
+    if open_loop is not None:
+        cycle, time_ns = open_loop
+        keyed.append((cycle, -1, f"{cycle:>8} {time_ns / 1e9:>9.3f}  {_OPEN_LOOP}"))
     keyed.extend((c.cycle, 1, _change_line(c)) for c in changes)
     keyed.extend((o.cycle, 2, _value_line(_OUTPUT, o)) for o in outputs or ())
     keyed.sort(key=lambda item: item[:2])  # stable: the order within a cycle is kept
@@ -184,11 +217,38 @@ def write_baseline(
         _MAGIC,
         f"# spec {spec_name}",
         f"# log {log_name} sha256 {digest}",
+        *map(_draw_line, expectation.draws),
         '#  cycle      time  "behavior": before -> after | output/robot_state "field" = value',
-        *format_lines(expectation.changes, expectation.outputs or (), expectation.robot_states),
+        *format_lines(
+            expectation.changes,
+            expectation.outputs or (),
+            expectation.robot_states,
+            expectation.open_loop,
+        ),
     ]
     with replacing(path) as file:
         file.write(("\n".join(lines) + "\n").encode())
+
+
+def _draw_line(rule: DrawRule) -> str:
+    recorded, asked = rule.recorded or _NONE, rule.asked or _NONE
+    return f"draws {json.dumps(rule.behavior)}: {recorded} -> {asked} ×{rule.times}"
+
+
+def _parse_draw(line: str) -> DrawRule:
+    found = _DRAW_LINE.fullmatch(line)
+    if found is None:
+        raise ValueError("expected 'draws \"behavior\": RECORDED -> ASKED ×COUNT'")
+    behavior = json.loads(found["behavior"])
+    recorded, asked = found["recorded"], found["asked"]
+    if recorded == asked:
+        raise ValueError(f"a draw of {asked} as recorded is no difference")
+    return DrawRule(
+        behavior,
+        None if recorded == _NONE else recorded,
+        None if asked == _NONE else asked,
+        int(found["times"]),
+    )
 
 
 def read_baseline(path: Path) -> Baseline:
@@ -210,16 +270,28 @@ def read_baseline(path: Path) -> Baseline:
     changes: list[TracedChange] = []
     outputs: list[TracedOutput] = []
     states: list[TracedState] = []
+    draws: list[DrawRule] = []
+    open_loop: tuple[int, int] | None = None
     for number, line in enumerate(lines[1:], start=2):
         if line.startswith("#"):
             found = _LOG_LINE.fullmatch(line)
             digest = found["digest"] if found else digest
         elif line.strip():
             try:
-                parsed = _parse_line(line, version)
+                parsed = (
+                    _parse_draw(line) if line.startswith("draws ") else _parse_line(line, version)
+                )
+                if isinstance(parsed, DrawRule) and version < 4:
+                    raise ValueError(f"a format {version} baseline holds no draws")
             except (ValueError, RecursionError) as exc:
                 raise BaselineError(path, f"line {number}: {exc}") from None
-            if isinstance(parsed, TracedOutput):
+            if isinstance(parsed, DrawRule):
+                draws.append(parsed)
+            elif isinstance(parsed, tuple) and len(parsed) == 2:
+                if open_loop is not None:
+                    raise BaselineError(path, f"line {number}: a second 'open loop' line")
+                open_loop = parsed
+            elif isinstance(parsed, TracedOutput):
                 outputs.append(parsed)
             elif isinstance(parsed, TracedState):
                 states.append(parsed)
@@ -232,10 +304,12 @@ def read_baseline(path: Path) -> Baseline:
         if cycles != sorted(cycles):
             raise BaselineError(path, f"{what} lines are not in cycle order")
     pinned = tuple(outputs) if version >= 2 else None
-    return Baseline(path, digest, tuple(changes), pinned, tuple(states))
+    return Baseline(path, digest, tuple(changes), pinned, tuple(states), tuple(draws), open_loop)
 
 
-def _parse_line(line: str, version: int) -> TracedChange | TracedOutput | TracedState:
+def _parse_line(
+    line: str, version: int
+) -> TracedChange | TracedOutput | TracedState | tuple[int, int]:
     found = _CHANGE_LINE.fullmatch(line)
     if found is None:
         raise ValueError(
@@ -243,6 +317,8 @@ def _parse_line(line: str, version: int) -> TracedChange | TracedOutput | Traced
             "'CYCLE TIME output \"field\" = VALUE' or 'CYCLE TIME robot_state \"field\" = VALUE'"
         )
     cycle, time_ns, text = int(found["cycle"]), round(float(found["time"]) * 1e9), found["change"]
+    if text == _OPEN_LOOP and version >= 4:
+        return cycle, time_ns
     if text.startswith(_OUTPUT):
         if version < 2:
             raise ValueError("a format 1 baseline holds no outputs")

@@ -103,7 +103,14 @@ class SpecOutcome:
         return self.audit.problems if self.audit is not None else 0
 
 
-_UPDATABLE = (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS, DivergenceKind.PERCEPTION)
+_UPDATABLE = (
+    DivergenceKind.STATE_CHANGES,
+    DivergenceKind.OUTPUTS,
+    DivergenceKind.PERCEPTION,
+    DivergenceKind.RANDOM_OVERDRAWN,
+    DivergenceKind.RANDOM_UNDERDRAWN,
+    DivergenceKind.RANDOM_MISMATCH,
+)
 
 
 def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
@@ -283,6 +290,8 @@ def _details(
         timelines=timelines,
         expected=None if expected is None else expected.changes_by_cycle(),
         perception=None if spec.perception is None else load_perception(spec.perception),
+        living=trace or expected is not None,
+        rename=spec.comparison.rename,
     )
 
 

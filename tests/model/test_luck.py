@@ -1,0 +1,155 @@
+"""A draw's luck: the same quantile through a changed request, fresh luck by place."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from beatlog.model.luck import Luck, Place, array_value, fresh_luck, scalar_luck, scalar_value
+
+KEY = b"a log"
+
+
+@pytest.mark.parametrize(
+    ("kind", "value", "params"),
+    [
+        ("random", 0.25, ()),
+        ("uniform", 1.2, (0.8, 1.6)),
+        ("gauss", -1.5, (0.0, 3.0)),
+        ("randint", 4, (1, 6)),
+        ("choice", 2, (3,)),
+    ],
+)
+def test_the_same_request_with_the_recorded_luck_gives_the_recorded_value(
+    kind: str, value: float, params: tuple[float, ...]
+) -> None:
+    luck = scalar_luck(kind, value, params)
+
+    assert luck is not None
+    assert scalar_value(kind, params, luck) == value
+
+
+def test_a_retuned_range_keeps_the_quantile() -> None:
+    luck = scalar_luck("uniform", 1.25, (1.0, 2.0))
+    assert luck == Luck(0.25)
+
+    assert scalar_value("uniform", (2.0, 6.0), luck) == 3.0
+
+
+def test_a_retuned_deviation_scales_the_same_deviate() -> None:
+    luck = scalar_luck("gauss", -1.5, (0.0, 3.0))
+    assert luck is not None
+
+    assert luck.z == -0.5
+    assert scalar_value("gauss", (0.0, 2.0), luck) == -1.0
+
+
+def test_an_integer_keeps_its_share_of_the_range() -> None:
+    low = scalar_luck("randint", 1, (1, 6))
+    high = scalar_luck("randint", 6, (1, 6))
+    assert low is not None
+    assert high is not None
+
+    assert scalar_value("randint", (1, 12), low) == 2  # the middle of 1..2, the first sixth
+    assert scalar_value("randint", (1, 12), high) == 12
+    assert scalar_value("choice", (2,), high) == 1
+
+
+def test_a_kind_change_maps_by_quantile() -> None:
+    median = scalar_luck("uniform", 5.0, (0.0, 10.0))
+    assert median is not None
+
+    assert scalar_value("gauss", (3.0, 1.0), median) == pytest.approx(3.0)
+    assert scalar_value("randint", (0, 9), median) == 5
+
+
+def test_a_format_1_draw_has_no_known_luck() -> None:
+    assert scalar_luck("uniform", 0.3, ()) is None
+    assert scalar_luck("uniform_array", [], ()) is None
+
+
+def test_a_request_with_no_values_raises_as_a_generator_would() -> None:
+    with pytest.raises(ValueError, match=r"randint\(5, 3\) has no values"):
+        scalar_value("randint", (5, 3), Luck(0.5))
+
+
+def test_fresh_luck_is_keyed_by_the_log_and_the_place() -> None:
+    place = Place(cycle=517, behavior="escape", call=0)
+
+    lucks = {
+        fresh_luck(KEY, place),
+        fresh_luck(KEY, place._replace(cycle=518)),
+        fresh_luck(KEY, place._replace(behavior="wander")),
+        fresh_luck(KEY, place._replace(call=1)),
+        fresh_luck(b"another log", place),
+    }
+
+    assert len(lucks) == 5
+    assert fresh_luck(KEY, place) == fresh_luck(KEY, Place(517, "escape", 0))
+    assert all(0.0 <= luck.u < 1.0 for luck in lucks)
+
+
+@pytest.mark.parametrize("hash_seed", ["0", "1", "random"])
+def test_fresh_luck_is_the_same_under_any_hash_seed(hash_seed: str) -> None:
+    code = (
+        "from beatlog.model.luck import Place, fresh_luck;"
+        "print(repr(fresh_luck(b'a log', Place(517, 'escape', 0)).u))"
+    )
+    run = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={"PYTHONHASHSEED": hash_seed, "PATH": ""},
+    )
+
+    assert float(run.stdout) == fresh_luck(KEY, Place(517, "escape", 0)).u
+
+
+def test_an_array_keeps_its_luck_element_by_element_and_grows_fresh() -> None:
+    old = np.array([1.0, 2.0, 3.0])
+    seed = Place(3, "scan", 0).seed(KEY)
+
+    same = array_value(
+        "uniform_array", (0.0, 4.0, [3]), ("uniform_array", (0.0, 4.0, [3]), old), seed
+    )
+    wider = array_value(
+        "uniform_array", (0.0, 8.0, [3]), ("uniform_array", (0.0, 4.0, [3]), old), seed
+    )
+    grown = array_value(
+        "uniform_array", (0.0, 4.0, [5]), ("uniform_array", (0.0, 4.0, [3]), old), seed
+    )
+
+    assert same.tolist() == [1.0, 2.0, 3.0]
+    assert wider.tolist() == [2.0, 4.0, 6.0]
+    assert grown[:3].tolist() == [1.0, 2.0, 3.0]
+    assert grown.shape == (5,)
+    assert (
+        grown[3:].tolist() == array_value("uniform_array", (0.0, 4.0, [5]), None, seed)[3:].tolist()
+    )
+
+
+def test_a_normal_array_scales_its_deviates() -> None:
+    old = np.array([-1.0, 0.5])
+    seed = Place(3, "scan", 0).seed(KEY)
+
+    value = array_value(
+        "normal_array", (1.0, 2.0, [2]), ("normal_array", (0.0, 1.0, [2]), old), seed
+    )
+
+    assert value.tolist() == [-1.0, 2.0]
+
+
+def test_an_integer_array_keeps_its_share_of_the_range() -> None:
+    old = np.array([0, 9], dtype="<i8")
+    seed = Place(3, "scan", 0).seed(KEY)
+
+    value = array_value("integers_array", (0, 20, [2]), ("integers_array", (0, 10, [2]), old), seed)
+
+    assert value.tolist() == [1, 19]
+    assert value.dtype == np.dtype("<i8")
+    assert not math.isnan(float(value.sum()))
