@@ -60,6 +60,27 @@ def probe_system_greedy() -> PriorityArbiter[Probe]:
     return probe_system(draws=2)
 
 
+def probe_system_greedier() -> PriorityArbiter[Probe]:
+    """A probe that draws three random numbers where one was recorded."""
+    return probe_system(draws=3)
+
+
+def probe_system_greedy_wide() -> PriorityArbiter[Probe]:
+    """A greedy probe whose rolls are of a die of eight."""
+    return PriorityArbiter([Near(), WideDice(5, 2)], robot_state=Probe)
+
+
+class WideDice(Dice):
+    """Dice rolling a die of eight."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if ctx.cycle % self.every == 0:
+            for _ in range(self.draws):
+                roll = ctx.random.randint(1, 8)
+            self.state = "odd" if roll % 2 else "even"
+        return {"speed": 0.5, "time": ctx.time}
+
+
 def not_a_system() -> dict[str, object]:
     """A factory that builds something other than a system."""
     return {"robot_state": Probe, "behaviors": {}}
@@ -102,6 +123,11 @@ class Fragile(Dice):
         if rs.distance < 0.3:
             raise ZeroDivisionError("fragile dice")
         return super().step(rs, ctx)
+
+
+def fragile_system() -> PriorityArbiter[Probe]:
+    """The probe with dice that breaks on a close obstacle."""
+    return PriorityArbiter([Near(), Fragile()], robot_state=Probe)
 
 
 class Hostile:

@@ -173,7 +173,42 @@ def test_a_divergence_in_random_numbers_is_rebaselined_and_its_draws_approved(
     assert approved.code == 0
     assert judged.code == 0, judged.out
     draws = [line for line in expected_path(spec).read_text().splitlines() if line[:6] == "draws "]
-    assert draws == ['draws "dice": - -> randint(1, 6) ×60']  # 300 cycles, a roll in every 5th
+    every_5th = " ".join(str(cycle) for cycle in range(0, 300, 5))
+    assert draws == [f'draws "dice": - -> randint(1, 6) in cycles {every_5th}']
+
+
+@pytest.mark.parametrize(
+    ("planted", "problem"),
+    [
+        (
+            "tests.systems:probe_system_greedier",
+            "dice called randint(1, 6), a draw the recording does not have, which the "
+            "approved baseline does not hold in this cycle",
+        ),
+        (
+            "tests.systems:probe_system_greedy_wide",
+            "dice called randint(1, 8) where randint(1, 6) was recorded, which the approved "
+            "baseline does not hold",
+        ),
+        (
+            "tests.conftest:probe_system",
+            "behavior state changes differ from the approved baseline",
+        ),
+    ],
+)
+def test_a_rebaselined_draw_change_still_catches_a_planted_bug(
+    beatlog: Beatlog, spec: Path, planted: str, problem: str
+) -> None:
+    log = spec.parent.parent / "probe.beatlog"
+    write_spec(spec.parent, "avoid-pole", log, "tests.systems:probe_system_greedy")
+    beatlog("test", "--update", spec)
+    beatlog("approve", spec)
+
+    write_spec(spec.parent, "avoid-pole", log, planted)
+    run = beatlog("test", spec)
+
+    assert run.code == 1
+    assert problem in " ".join(run.out.split())
 
 
 def test_a_renamed_behavior_gets_a_rename_proposal_and_the_spec_rename_fixes_it(

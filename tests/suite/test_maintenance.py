@@ -10,7 +10,6 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import BaselineError, CiWriteError, OptionError
-from beatlog.model.behavior import PriorityArbiter
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.maintenance import (
     Decision,
@@ -25,16 +24,11 @@ from beatlog.suite.maintenance import (
 from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
-from tests.conftest import Probe, RecordFn, probe_system
+from tests.conftest import RecordFn
 
 AS_RECORDED = "tests.conftest:probe_system"
 CHANGED = "tests.conftest:probe_system_changed"
-GREEDY = "tests.suite.test_maintenance:greedy_probe"
-
-
-def greedy_probe() -> PriorityArbiter[Probe]:
-    """A probe that draws two random numbers where one was recorded: not re-baselinable."""
-    return probe_system(draws=2)
+FRAGILE = "tests.systems:fragile_system"
 
 
 def write_dtc(folder: Path, log: Path, system: str, name: str = "avoid-pole") -> DtcSpec:
@@ -119,17 +113,16 @@ def test_in_ci_the_new_expectation_is_withheld(
     assert not pending_path(changed.path).exists()
 
 
-def test_a_divergence_in_random_numbers_is_refused_with_the_reason(
-    tmp_path: Path, log: Path
-) -> None:
-    greedy = write_dtc(tmp_path / "specs", log, GREEDY)
+def test_a_behavior_that_raises_is_refused_with_the_reason(tmp_path: Path, log: Path) -> None:
+    fragile = write_dtc(tmp_path / "specs", log, FRAGILE)
 
-    (update,) = update_baselines(run(greedy), UpdateMode.NEW)
+    (update,) = update_baselines(run(fragile), UpdateMode.NEW)
 
     assert update.action is UpdateAction.REFUSED
-    assert update.reason is not None
-    assert "cannot be re-baselined: re-record the session" in update.reason
-    assert not pending_path(greedy.path).exists()
+    assert update.reason == (
+        "a behavior raised: an exception is a bug, never a baseline; fix it first"
+    )
+    assert not pending_path(fragile.path).exists()
 
 
 def test_a_passing_dtc_loses_its_stale_pending_file(pending: DtcSpec, log: Path) -> None:

@@ -182,7 +182,7 @@ class TraceCollector:
         self._changes: list[TracedChange] = []
         self._outputs: list[TracedOutput] = []
         self._states: list[TracedState] = []
-        self._draws: list[DrawDifference] = []
+        self._draws: list[tuple[int, DrawDifference]] = []
         self._tracker = OutputTracker()
         self._cycles = 0
         self.stopped: str | None = None
@@ -215,7 +215,7 @@ class TraceCollector:
         if outcome.perception_differs:
             self._states.extend(_rebuilt_otherwise(outcome))
         if outcome.draw_differences:
-            self._draws.extend(outcome.draw_differences)
+            self._draws.extend((outcome.cycle, d) for d in outcome.draw_differences)
         if self._open_loop is None and self._left_recording(outcome):
             self._open_loop = (outcome.cycle, outcome.time_ns)
         self._cycles += 1

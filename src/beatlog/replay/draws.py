@@ -2,33 +2,35 @@
 
 In living replay (:meth:`~beatlog.model.random.ReplayRandom.live`) a behavior that
 asks for other draws than were recorded goes on, and each draw made otherwise is a
-:class:`~beatlog.model.random.DrawDifference`. A baseline approves them as rules with
-counts, one line each however long the session (``wander: uniform(0.8, 1.6) ->
-uniform(0.7, 1.5), 14 draws``): small, and what a reviewer wants to read. The verdict
-keeps a :class:`DrawLedger`: a difference no rule approves, or one more than approved,
-diverges in its cycle; approved draws that never came diverge at the end.
+:class:`~beatlog.model.random.DrawDifference`. A baseline approves them as rules, one
+line each however long the session, with the cycles where they happen (``wander:
+uniform(0.8, 1.6) -> uniform(0.7, 1.5), 14 draws, in cycles 12 40 ...``): small, and
+what a reviewer wants to read. The verdict keeps a :class:`DrawLedger` and judges each
+cycle's differences exactly, as strict replay judges the draws themselves: one that no
+rule approves in that cycle, or an approved one not made, diverges there.
 """
 
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, defaultdict
 from collections.abc import Iterable, Sequence
 from typing import NamedTuple
 
 from beatlog.model.random import DrawDifference
 
-__all__ = ["DrawLedger", "DrawRule", "draw_rules"]
+__all__ = ["DrawLedger", "DrawRule", "Unapproved", "draw_rules"]
 
 
 class DrawRule(NamedTuple):
-    """Draws of one behavior made otherwise than recorded, in one way, ``times`` times."""
+    """Draws of one behavior made otherwise than recorded, in one way, in ``cycles``."""
 
     behavior: str
     recorded: str | None
     """The recorded request as code; None for new draws."""
     asked: str | None
     """The request now; None for recorded draws left unused."""
-    times: int
+    cycles: tuple[int, ...]
+    """The cycles of the draws, in order, a cycle once per draw."""
 
     @property
     def difference(self) -> DrawDifference:
@@ -36,59 +38,63 @@ class DrawRule(NamedTuple):
         return DrawDifference(self.behavior, self.recorded, self.asked)
 
     def __str__(self) -> str:
-        many = "" if self.times == 1 else "s"
+        times = len(self.cycles)
+        many = "" if times == 1 else "s"
         if self.recorded is None:
-            return f"{self.behavior}: {self.times} new draw{many} of {self.asked}"
+            return f"{self.behavior}: {times} new draw{many} of {self.asked}"
         if self.asked is None:
-            return (
-                f"{self.behavior}: {self.times} recorded draw{many} of {self.recorded} left unused"
-            )
-        return (
-            f"{self.behavior}: {self.recorded} -> {self.asked}, {self.times} draw{many} re-mapped"
-        )
+            return f"{self.behavior}: {times} recorded draw{many} of {self.recorded} left unused"
+        return f"{self.behavior}: {self.recorded} -> {self.asked}, {times} draw{many} re-mapped"
 
 
-def draw_rules(differences: Iterable[DrawDifference]) -> tuple[DrawRule, ...]:
-    """The rules that approve exactly ``differences``: one per kind of difference, with
-    its count, in a stable order (by behavior, then request)."""
-    counted = Counter(differences)
+def draw_rules(differences: Iterable[tuple[int, DrawDifference]]) -> tuple[DrawRule, ...]:
+    """The rules that approve exactly ``differences`` (each with its cycle): one per kind
+    of difference, in a stable order (by behavior, then request)."""
+    cycles: defaultdict[DrawDifference, list[int]] = defaultdict(list)
+    for cycle, difference in differences:
+        cycles[difference].append(cycle)
     return tuple(
-        DrawRule(*difference, counted[difference])
+        DrawRule(*difference, tuple(sorted(cycles[difference])))
         for difference in sorted(
-            counted, key=lambda d: (d.behavior, d.recorded or "", d.asked or "")
+            cycles, key=lambda d: (d.behavior, d.recorded or "", d.asked or "")
         )
     )
 
 
+class Unapproved(NamedTuple):
+    """A cycle's draw that differs from what the approved baseline holds."""
+
+    difference: DrawDifference
+    made: bool
+    """Whether replay made it (else the baseline holds it and replay did not)."""
+    approved_elsewhere: bool
+    """Whether the baseline approves it in other cycles."""
+
+
 class DrawLedger:
-    """What an approved baseline's draw rules still allow, as replay goes."""
+    """The draws an approved baseline's rules allow, cycle by cycle."""
 
     def __init__(self, rules: Iterable[DrawRule]) -> None:
-        self._left: Counter[DrawDifference] = Counter()
+        self._by_cycle: defaultdict[int, Counter[DrawDifference]] = defaultdict(Counter)
+        approved: set[DrawDifference] = set()
         for rule in rules:
-            self._left[rule.difference] += rule.times
-        self._approved = frozenset(self._left)
+            approved.add(rule.difference)
+            for cycle in rule.cycles:
+                self._by_cycle[cycle][rule.difference] += 1
+        self._approved = frozenset(approved)
+        self.cycles = frozenset(self._by_cycle)
+        """The cycles where the baseline holds draws made otherwise than recorded."""
 
-    def unapproved(self, differences: Sequence[DrawDifference]) -> DrawDifference | None:
-        """The first of a cycle's differences that the rules do not allow (none left)."""
-        wanted: Counter[DrawDifference] = Counter()
+    def check(self, cycle: int, differences: Sequence[DrawDifference]) -> Unapproved | None:
+        """The first of a cycle's differences the baseline does not hold there, or the
+        first it holds there that replay did not make; None when they are exactly the
+        approved ones."""
+        allowed = self._by_cycle.get(cycle, Counter())
+        made = Counter(differences)
         for difference in differences:
-            wanted[difference] += 1
-            if wanted[difference] > self._left[difference]:
-                return difference
+            if made[difference] > allowed[difference]:
+                return Unapproved(difference, True, difference in self._approved)
+        for difference, times in allowed.items():
+            if made[difference] < times:
+                return Unapproved(difference, False, True)
         return None
-
-    def take(self, differences: Sequence[DrawDifference]) -> bool:
-        """Use the rules for a cycle's differences, if they allow them all."""
-        if self.unapproved(differences) is not None:
-            return False
-        self._left.subtract(differences)
-        return True
-
-    def approves(self, difference: DrawDifference) -> bool:
-        """Whether a rule approves ``difference`` at all (however many are left)."""
-        return difference in self._approved
-
-    def left(self) -> tuple[DrawRule, ...]:
-        """The approved draws replay has not made (yet)."""
-        return draw_rules(self._left.elements())

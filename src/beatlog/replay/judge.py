@@ -30,11 +30,11 @@ from beatlog.log.format import (
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError
-from beatlog.model.random import Draw, DrawDifference, plain_value
+from beatlog.model.random import Draw, plain_value
 from beatlog.project import vouched_system
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer, actor_name
-from beatlog.replay.draws import DrawLedger
+from beatlog.replay.draws import DrawLedger, Unapproved
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_catalogue, check_state_fields
 from beatlog.replay.renames import propose_renames
@@ -169,7 +169,6 @@ def replay(
             status = reader.status
             if not status.complete and not allow_truncated:
                 judge.log_ended(status.describe())
-            judge.draws_not_made()
             wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
@@ -283,6 +282,7 @@ class _Judge:
         self.expected_names = list(header.behaviors)
         self._ledger = None if expected is None else DrawLedger(expected.draws)
         """In living replay (an approved baseline), the draws it lets differ."""
+        self._draw_cycles = frozenset() if self._ledger is None else self._ledger.cycles
         self._pinned_states: dict[int, dict[str, Any]] = {}
         """The robot states an approved baseline pins: fields by cycle (sensor-level replay)."""
         if expected is not None and self.replayer.perception is not None:
@@ -410,6 +410,7 @@ class _Judge:
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
         pinned_states = self._pinned_states
+        draw_cycles = self._draw_cycles
         random = self.random
         changed = reported = drawn = 0
         for index, record in enumerate(batch):
@@ -418,7 +419,9 @@ class _Judge:
             if observe is not None:
                 outcome = outcome_of()
                 observe(outcome)
-            if changes is None or (pinned_states and context.cycle in pinned_states):
+            if changes is None or (
+                (pinned_states and context.cycle in pinned_states) or context.cycle in draw_cycles
+            ):
                 outcome = outcome or outcome_of()  # judged by its robot state, then as usual
                 changes = outcome.changes if self._agrees_but_for_pins(outcome) else None
             unloggable: Exception | None = None
@@ -595,8 +598,8 @@ class _Judge:
         stop = self.replayer.stop(outcome)
         unapproved = (
             None
-            if self._ledger is None or not outcome.draw_differences
-            else self._ledger.unapproved(outcome.draw_differences)
+            if self._ledger is None
+            else self._ledger.check(outcome.cycle, outcome.draw_differences or ())
         )
         if stop is not None and stop.kind is DivergenceKind.PERCEPTION:
             kind, message = stop.kind, stop.message
@@ -612,7 +615,7 @@ class _Judge:
             kind, message, behavior = stop
             if failure is not None:
                 trace = user_traceback(failure)
-        elif unapproved is not None and unapproved.asked is not None:
+        elif unapproved is not None and unapproved.made and unapproved.difference.asked:
             kind, message, behavior = self._unapproved(unapproved)
         elif not self.comparison.changes_agree(expected, actual):
             # The first behavior difference is the headline, even when the changed
@@ -665,24 +668,9 @@ class _Judge:
         if self.replayer.perception is not None and self._state_differences(outcome):
             return False
         differences = outcome.draw_differences
-        return not differences or (self._ledger is not None and self._ledger.take(differences))
-
-    def draws_not_made(self) -> None:
-        """At the end of a replay that agreed: diverge if the approved baseline allows
-        draws that replay did not make (a behavior drew them before, and no more)."""
-        left = () if self._ledger is None or self.divergence is not None else self._ledger.left()
-        if not left:
-            return
-        context = self.executor.context
-        self.divergence = Divergence(
-            kind=DivergenceKind.RANDOM_UNDERDRAWN,
-            cycle=context.cycle,
-            time_ns=context.time_ns,
-            message="the behaviors made fewer draws otherwise than recorded than the "
-            f"approved baseline holds: {'; '.join(map(str, left))} not made",
-            behavior=left[0].behavior,
-        )
-        self.divergent_cycles += 1
+        if self._ledger is None:
+            return not differences
+        return self._ledger.check(outcome.cycle, differences or ()) is None
 
     def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
@@ -695,12 +683,21 @@ class _Judge:
             for name in self.comparison.state_differences(expected, actual)
         )
 
-    def _unapproved(self, difference: DrawDifference) -> tuple[DivergenceKind, str, str]:
+    def _unapproved(self, unapproved: Unapproved) -> tuple[DivergenceKind, str, str]:
         """How a draw made otherwise than recorded, and not as approved, diverges."""
-        assert self._ledger is not None
-        behavior, recorded, asked = difference
-        allowed = " (more often than it approves)" if self._ledger.approves(difference) else ""
-        baseline = f"which the approved baseline does not allow{allowed}"
+        (behavior, recorded, asked), made, elsewhere = unapproved
+        if not made:
+            what = (
+                f"a new {asked}"
+                if recorded is None
+                else f"{recorded} left unused"
+                if asked is None
+                else f"{recorded} re-mapped to {asked}"
+            )
+            message = f"{behavior} did not make the draw the approved baseline holds: {what}"
+            return DivergenceKind.RANDOM_UNDERDRAWN, message, behavior
+        where = " in this cycle" if elsewhere else ""
+        baseline = f"which the approved baseline does not hold{where}"
         if recorded is None:
             message = f"{behavior} called {asked}, a draw the recording does not have, {baseline}"
             return DivergenceKind.RANDOM_OVERDRAWN, message, behavior

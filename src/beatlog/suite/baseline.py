@@ -10,8 +10,8 @@ a re-baseline reads as a diff in code review::
     # beatlog expected state changes, outputs, robot states and draws, format 4
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
-    draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) ×14
-    draws "escape": - -> uniform(4.0, 8.0) ×3
+    draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97 240
+    draws "escape": - -> uniform(4.0, 8.0) in cycles 12 12
     #  cycle      time  "behavior": before -> after | output/robot_state "field" = value
           0     0.030  output "speed" = 0.5
          12     0.360  open loop
@@ -31,12 +31,12 @@ exactly (a NaN with a payload, bytes) is written as ``msgpack:HEX``, its msgpack
 encoding. Loading a baseline never evaluates anything, and a file larger than
 :data:`MAX_BASELINE_BYTES` is refused.
 
-A ``draws`` line approves draws that replay makes otherwise than recorded, with how
-many (:mod:`beatlog.replay.draws`): a recorded request re-mapped to the one asked for
-now, a new draw (``-`` for the recorded side) or a recorded one left unused (``-`` for
-the asked side). A baseline is judged in living replay: any other draw made otherwise,
-or more of one than approved, diverges in its cycle; approved ones not made diverge at
-the end. The ``open loop`` line marks the first cycle whose state changes or outputs
+A ``draws`` line approves draws that replay makes otherwise than recorded, in the
+cycles listed (a cycle once per draw; :mod:`beatlog.replay.draws`): a recorded request
+re-mapped to the one asked for now, a new draw (``-`` for the recorded side) or a
+recorded one left unused (``-`` for the asked side). A baseline is judged in living
+replay, cycle by cycle: any other draw made otherwise, or an approved one not made,
+diverges in its cycle. The ``open loop`` line marks the first cycle whose state changes or outputs
 leave the recording's: from there the recorded world (RS_t, samples) no longer answers
 to what the changed behaviors do, and the session is worth recording again when
 convenient.
@@ -93,7 +93,7 @@ _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
 _DRAW_LINE = re.compile(
     r'draws (?P<behavior>"(?:[^"\\]|\\.)*"): '
-    r"(?P<recorded>.+?) -> (?P<asked>.+) ×(?P<times>[1-9]\d*)"
+    r"(?P<recorded>.+?) -> (?P<asked>.+) in cycles (?P<cycles>\d+(?: \d+)*)"
 )
 _NONE = "-"
 _OPEN_LOOP = "open loop"
@@ -232,13 +232,14 @@ def write_baseline(
 
 def _draw_line(rule: DrawRule) -> str:
     recorded, asked = rule.recorded or _NONE, rule.asked or _NONE
-    return f"draws {json.dumps(rule.behavior)}: {recorded} -> {asked} ×{rule.times}"
+    cycles = " ".join(map(str, rule.cycles))
+    return f"draws {json.dumps(rule.behavior)}: {recorded} -> {asked} in cycles {cycles}"
 
 
 def _parse_draw(line: str) -> DrawRule:
     found = _DRAW_LINE.fullmatch(line)
     if found is None:
-        raise ValueError("expected 'draws \"behavior\": RECORDED -> ASKED ×COUNT'")
+        raise ValueError("expected 'draws \"behavior\": RECORDED -> ASKED in cycles N N ...'")
     behavior = json.loads(found["behavior"])
     recorded, asked = found["recorded"], found["asked"]
     if recorded == asked:
@@ -247,7 +248,7 @@ def _parse_draw(line: str) -> DrawRule:
         behavior,
         None if recorded == _NONE else recorded,
         None if asked == _NONE else asked,
-        int(found["times"]),
+        tuple(map(int, found["cycles"].split())),
     )
 
 

@@ -297,6 +297,8 @@ def _details(
 
 def _refusal(divergence: Divergence) -> str | None:
     """Why a divergence cannot be re-baselined, if it cannot."""
+    if divergence.kind is DivergenceKind.EXCEPTION:
+        return "a behavior raised: an exception is a bug, never a baseline; fix it first"
     if divergence.kind not in _UPDATABLE:
         return f"a divergence in {divergence.kind} cannot be re-baselined: re-record the session"
     if divergence.kind is DivergenceKind.PERCEPTION and not divergence.perception:
