@@ -15,7 +15,7 @@ from beatlog.report.counts import plural
 from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
 
-__all__ = ["render_orphans", "render_pending_diff", "render_updates"]
+__all__ = ["open_loop_text", "render_orphans", "render_pending_diff", "render_updates"]
 
 _DIFF_STYLES = {"+": "green", "-": "red", "@": "cyan"}
 
@@ -52,7 +52,19 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
 
 def _fields(update: PendingUpdate) -> str:
     count = update.robot_state_cycles
-    return f", robot state rebuilt otherwise in {plural(count, 'cycle')}" if count else ""
+    rebuilt = f", robot state rebuilt otherwise in {plural(count, 'cycle')}" if count else ""
+    drawn = sum(len(rule.cycles) for rule in update.draws)
+    return (
+        rebuilt
+        + (f", {plural(drawn, 'draw')} made otherwise" if drawn else "")
+        + (f", {open_loop_text(update.open_loop)}" if update.open_loop else "")
+    )
+
+
+def open_loop_text(open_loop: tuple[int, int]) -> str:
+    """Where the behaviors left the recording: ``open loop since cycle 517 (15.510 s)``."""
+    cycle, time_ns = open_loop
+    return f"open loop since cycle {cycle} ({time_ns / 1e9:.3f} s)"
 
 
 def render_orphans(orphans: Iterable[Path]) -> list[Text]:
@@ -83,6 +95,12 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
                 (_value(change.after), "green"),
             )
             for change in diff.robot_states
+        ),
+        *(Text.assemble(("draws ", "cyan"), str(rule)) for rule in diff.draws),
+        *(
+            [Text(open_loop_text(diff.open_loop), style="yellow")]
+            if diff.open_loop is not None
+            else []
         ),
     ]
     parts.extend(

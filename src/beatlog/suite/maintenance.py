@@ -21,6 +21,7 @@ from typing import Any, NamedTuple
 from beatlog.analysis.trace import recorded_outputs, recorded_states, recorded_trace
 from beatlog.errors import BaselineError, OptionError
 from beatlog.replay.compare import Comparison
+from beatlog.replay.draws import DrawRule
 from beatlog.replay.expectation import Expectation, TracedChange, TracedState
 from beatlog.suite.baseline import (
     EXPECTED_SUFFIX,
@@ -84,6 +85,10 @@ class PendingUpdate:
     robot_state_cycles: int = 0
     """Cycles whose robot state the expectation pins (perception rebuilt it otherwise
     than recorded)."""
+    draws: tuple[DrawRule, ...] = ()
+    """The draws the expectation lets replay make otherwise than recorded."""
+    open_loop: tuple[int, int] | None = None
+    """Where the behaviors leave the recording (cycle, robot time in ns), if they do."""
 
 
 def update_baselines(
@@ -125,6 +130,8 @@ def update_baselines(
                     len(update.changes),
                     len(update.outputs or ()),
                     robot_state_cycles=len({traced.cycle for traced in update.robot_states}),
+                    draws=update.draws,
+                    open_loop=update.open_loop,
                 )
             )
         elif ci:
@@ -233,6 +240,10 @@ class PendingDiff:
     """The diff: changed cycles with a line of context either side."""
     robot_states: tuple[FieldChange, ...] = ()
     """The robot-state fields perception now rebuilds otherwise, field by field."""
+    draws: tuple[DrawRule, ...] = ()
+    """The draws the pending baseline lets replay make otherwise than recorded."""
+    open_loop: tuple[int, int] | None = None
+    """Where, pending, the behaviors leave the recording (cycle, robot time in ns)."""
 
 
 def pending_diff(spec: DtcSpec) -> PendingDiff:
@@ -261,7 +272,9 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         fields = _field_changes(log, old_states, pending.robot_states)
     new = format_lines(pending.changes, pending.outputs, pending.robot_states)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
-    return PendingDiff(spec, source, len(old), len(new), tuple(diff), fields)
+    return PendingDiff(
+        spec, source, len(old), len(new), tuple(diff), fields, pending.draws, pending.open_loop
+    )
 
 
 def _field_changes(
