@@ -28,13 +28,8 @@ if TYPE_CHECKING:
     from beatlog.model.perception import Perception
     from beatlog.model.robot import Robot
     from beatlog.record import Recorder
-    from beatlog.replay import (
-        Divergence,
-        DivergenceKind,
-        ReplayResult,
-        StateChange,
-        replay,
-    )
+    from beatlog.replay import Divergence, DivergenceKind, ReplayResult, StateChange
+    from beatlog.suite.approved import replay
 
 __all__ = [
     "BeatlogError",
@@ -75,7 +70,7 @@ __getattr__ = lazy_names(
         "SessionLogReader": "beatlog.log",
         "StateChange": "beatlog.replay",
         "System": "beatlog.model",
-        "replay": "beatlog.replay",
+        "replay": "beatlog.suite.approved",
     },
 )
 

@@ -148,6 +148,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     play.add_argument("--keep-going", action="store_true", help="count every diverging cycle")
     play.add_argument(
+        "--recording",
+        action="store_true",
+        help="judge against the recording, not the approved baseline of the spec beside the "
+        "log that names it (which replay, like test, uses by default)",
+    )
+    play.add_argument(
         "--break-at",
         type=_cycle_number,
         metavar="CYCLE",
@@ -600,8 +606,9 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
     import msgspec
 
     from beatlog.replay.debugger import break_on_divergence, unreached_break
-    from beatlog.replay.judge import recorded_system, replay
+    from beatlog.replay.judge import recorded_system
     from beatlog.report.console import render_replay
+    from beatlog.suite.approved import replay
 
     given = args.log
     with _readable(args) as named:
@@ -620,6 +627,7 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
             "allow_truncated": args.allow_truncated,
             "allow_empty": args.allow_empty,
             "perception": args.perception,
+            "approved": not args.recording,
         }
         result = replay(args.log, system, break_at=args.break_at, **options)
         notes = unreached_break(args.break_at, result)

@@ -1,0 +1,120 @@
+"""A suite that lives: the dog's intended changes kept without re-recording.
+
+Each of the dog's intended changes (``beatlog_examples.dog.history.CHANGES``) is applied
+to a copy of the dog, alone and then all together, and the committed 22-DTC suite is
+taken through what a team does: ``beatlog test`` (how many DTCs notice the change),
+``beatlog test --update`` and approve (every failure re-baselined, none refused: no
+new recording), ``beatlog test`` again (all pass), then a bug is planted on top
+(``PLANTED_BUG``) and the suite must fail. Baselines are measured against their logs.
+
+Run it as ``python bench/bench_living.py [--json FILE]``; about two minutes on 2 cores.
+Nothing here asserts anything: it reports.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from beatlog.suite.maintenance import UpdateAction, approve, update_baselines
+from beatlog.suite.policy import UpdateMode
+from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
+from beatlog.suite.spec import DtcSpec, discover_specs
+from beatlog_examples.dog import SUITE_DIR
+from beatlog_examples.dog.history import CHANGES, PLANTED_BUG, Change, changed_dog
+
+_STEPS = 0
+
+
+def _specs(folder: Path, suite: Path, changes: Sequence[Change]) -> list[DtcSpec]:
+    """The suite's specs pointed at a dog with ``changes`` applied (a package of its own)."""
+    global _STEPS  # noqa: PLW0603 - one package name per step, in one process
+    _STEPS += 1
+    system = changed_dog(folder, f"dog_living_{_STEPS}", changes)
+    package = system.partition(":")[0]
+    for spec in SUITE_DIR.glob("*.dtc.toml"):
+        text = spec.read_text(encoding="utf-8")
+        text = text.replace("beatlog_examples.dog:system", system)
+        text = text.replace("beatlog_examples.dog.perception", f"{package}.perception")
+        (suite / spec.name).write_text(text, encoding="utf-8")
+    return discover_specs([suite])
+
+
+def _failed(outcomes: list[SpecOutcome]) -> int:
+    return sum(o.verdict is not Verdict.PASSED for o in outcomes)
+
+
+def _history(folder: Path, title: str, changes: Sequence[Change], jobs: int) -> dict[str, Any]:
+    """Take a fresh copy of the suite through ``changes``, re-baselined, then a planted bug."""
+    suite = folder / f"suite-{_STEPS + 1}"
+    suite.mkdir()
+    for log in SUITE_DIR.glob("*.beatlog"):
+        shutil.copy(log, suite)
+    specs = _specs(folder, suite, changes)
+    before = run_suite(specs, jobs=jobs, update=UpdateMode.NEW)
+    updates = update_baselines(before, UpdateMode.NEW)
+    refused = [u.reason for u in updates if u.action is UpdateAction.REFUSED]
+    if any(u.action is UpdateAction.WRITTEN for u in updates):
+        approve([suite])
+    after = run_suite(specs, jobs=jobs)
+    planted = run_suite(_specs(folder, suite, [*changes, PLANTED_BUG]), jobs=jobs)
+    baselines = sum(p.stat().st_size for p in suite.glob("*.dtc.expected"))
+    logs = sum(p.stat().st_size for p in suite.glob("*.beatlog"))
+    open_loop = sum(
+        1 for o in before if o.update is not None and o.update.open_loop is not None
+    )
+    return {
+        "change": title,
+        "noticed": _failed(before),
+        "kept": len(updates) - len(refused) if _failed(before) else 0,
+        "refused": refused,
+        "failing_after": _failed(after),
+        "open_loop": open_loop,
+        "planted_bug_caught": _failed(planted),
+        "baseline_bytes": baselines,
+        "log_bytes": logs,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", type=Path, help="also write the figures to this file")
+    parser.add_argument("--jobs", type=int, default=2, help="replay jobs (default 2)")
+    args = parser.parse_args()
+    rows: list[dict[str, Any]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        sys.path.insert(0, str(folder))
+        for change in CHANGES:
+            rows.append(_history(folder, change.title, [change], args.jobs))
+        rows.append(_history(folder, "all seven together", CHANGES, args.jobs))
+    table = Table(title="the dog's intended changes, each kept by re-baselining (22 DTCs)")
+    for column in ("change", "noticed", "kept", "after", "open loop", "bug caught", "baselines"):
+        table.add_column(column, justify="left" if column == "change" else "right")
+    for row in rows:
+        share = row["baseline_bytes"] / row["log_bytes"]
+        table.add_row(
+            row["change"],
+            str(row["noticed"]),
+            str(row["kept"]),
+            f"{row['failing_after']} failing",
+            str(row["open_loop"]),
+            f"{row['planted_bug_caught']} DTCs",
+            f"{row['baseline_bytes'] / 1e3:,.1f} kB ({share:.1%} of logs)",
+        )
+    Console().print(table)
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()

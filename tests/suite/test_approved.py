@@ -1,0 +1,89 @@
+"""One rule for approved baselines: ``beatlog.replay`` and ``beatlog replay`` judge a log
+as ``beatlog test`` judges the spec beside it."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+import beatlog
+from beatlog.cli.main import main
+from beatlog.errors import BaselineError
+from beatlog.suite.approved import approved_baseline
+from beatlog.suite.maintenance import approve, update_baselines
+from beatlog.suite.policy import UpdateMode
+from beatlog.suite.runner import run_suite
+from beatlog.suite.spec import discover_specs
+from tests.conftest import RecordFn
+from tests.specs import write_spec
+
+GREEDY = "tests.systems:probe_system_greedy"
+
+
+@pytest.fixture
+def log(record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A probe log with a spec beside it whose greedy change is approved."""
+    monkeypatch.delenv("CI", raising=False)
+    path = record_probe(300)
+    write_spec(path.parent, "avoid-pole", path, GREEDY)
+    specs = discover_specs([path.parent])
+    update_baselines(run_suite(specs, update=UpdateMode.NEW), UpdateMode.NEW)
+    approve([path.parent])
+    return path
+
+
+def test_the_python_api_judges_against_the_approved_baseline_of_the_spec_beside(
+    log: Path,
+) -> None:
+    result = beatlog.replay(log, GREEDY)
+
+    assert result.ok
+    assert result.notes[0] == (
+        "judged against the approved baseline avoid-pole.dtc.expected, "
+        f"as beatlog test {log.parent / 'avoid-pole.dtc.toml'} judges it"
+    )
+    assert not beatlog.replay(log, GREEDY, approved=False).ok
+
+
+def test_the_replay_command_passes_what_test_passes_and_says_why(
+    log: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(["replay", str(log), "--system", GREEDY])
+    passed = capsys.readouterr().out
+    recording = main(["replay", str(log), "--system", GREEDY, "--recording"])
+    failed = capsys.readouterr().out
+
+    assert code == 0
+    assert "note: judged against the approved baseline avoid-pole.dtc.expected" in passed
+    assert recording == 1
+    assert f"reproduce: beatlog replay {log} --system {GREEDY} --recording" in failed
+
+
+def test_a_log_no_spec_names_is_judged_against_its_recording(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    other = record_probe(300, name="other.beatlog")
+    write_spec(tmp_path, "elsewhere", record_probe(300, name="named.beatlog"))
+
+    assert approved_baseline(other) is None
+
+
+def test_a_baseline_approved_for_another_recording_is_an_error(
+    log: Path, record_probe: RecordFn
+) -> None:
+    record_probe(300, name="again.beatlog", seed=8).replace(log)
+
+    with pytest.raises(BaselineError, match=r"approved for another recording than probe\.beatlog"):
+        beatlog.replay(log, GREEDY)
+
+
+def test_two_specs_with_approved_baselines_for_one_log_are_an_error(log: Path) -> None:
+    twin = log.parent / "twin.dtc.toml"
+    shutil.copy(log.parent / "avoid-pole.dtc.toml", twin)
+    twin.write_text(twin.read_text().replace('"avoid-pole"', '"twin"'))
+    shutil.copy(log.parent / "avoid-pole.dtc.expected", log.parent / "twin.dtc.expected")
+
+    with pytest.raises(BaselineError, match=r"avoid-pole\.dtc\.toml, twin\.dtc\.toml name it"):
+        beatlog.replay(log, GREEDY)
