@@ -87,3 +87,25 @@ def test_two_specs_with_approved_baselines_for_one_log_are_an_error(log: Path) -
 
     with pytest.raises(BaselineError, match=r"avoid-pole\.dtc\.toml, twin\.dtc\.toml name it"):
         beatlog.replay(log, GREEDY)
+
+
+def test_show_and_test_name_the_approved_baseline_and_where_it_goes_open_loop(
+    log: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "200")
+    approved = approved_baseline(log)
+    assert approved is not None
+    assert approved.baseline.open_loop is not None
+    cycle, time_ns = approved.baseline.open_loop
+
+    main(["show", str(log)])
+    shown = capsys.readouterr().out
+    main(["test", "-v", "-j", "1", str(log.parent)])
+    tested = capsys.readouterr().out
+
+    assert shown.splitlines()[-1] == (
+        "approved baseline avoid-pole.dtc.expected (spec avoid-pole.dtc.toml): "
+        f"open loop since cycle {cycle} ({time_ns / 1e9:.3f} s)"
+    )
+    assert f"passed (approved baseline, open loop since cycle {cycle})" in tested
+    assert "1 passed, 0 failed, 1 open loop (worth re-recording when convenient)" in tested

@@ -820,7 +820,11 @@ def _run_tests(
         _write_reports(args, outcomes, console, {spec.id: spec.name for spec in found})
     skipped = len(specs) - len(outcomes)
     console.print(
-        verdict_counts((outcome.verdict for outcome in outcomes), not_run=skipped)
+        verdict_counts(
+            (outcome.verdict for outcome in outcomes),
+            not_run=skipped,
+            open_loop=sum(outcome.open_loop is not None for outcome in outcomes),
+        )
         + f" in {wall:.2f} s ({cycles:,} cycle{'' if cycles == 1 else 's'})"
     )
     if interrupted is not None:
@@ -925,14 +929,19 @@ def _show(args: argparse.Namespace, console: Console) -> int:
     import dataclasses
 
     from beatlog.analysis.summary import summarize
+    from beatlog.report.baselines import render_approved
     from beatlog.report.console import render_summary
+    from beatlog.suite.approved import approved_baseline
 
     given = args.log
     with _readable(args) as named:
         summary = summarize(args.log)
+        approved = None if named is not None else approved_baseline(args.log)
     if named is not None:
         summary = dataclasses.replace(summary, url=given)
     console.print(render_summary(summary))
+    if approved is not None:
+        console.print(render_approved(approved))
     return EXIT_OK
 
 

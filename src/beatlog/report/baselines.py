@@ -12,10 +12,17 @@ from rich.rule import Rule
 from rich.text import Text
 
 from beatlog.report.counts import plural
+from beatlog.suite.approved import Approved
 from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
 
-__all__ = ["open_loop_text", "render_orphans", "render_pending_diff", "render_updates"]
+__all__ = [
+    "open_loop_text",
+    "render_approved",
+    "render_orphans",
+    "render_pending_diff",
+    "render_updates",
+]
 
 _DIFF_STYLES = {"+": "green", "-": "red", "@": "cyan"}
 
@@ -65,6 +72,17 @@ def open_loop_text(open_loop: tuple[int, int]) -> str:
     """Where the behaviors left the recording: ``open loop since cycle 517 (15.510 s)``."""
     cycle, time_ns = open_loop
     return f"open loop since cycle {cycle} ({time_ns / 1e9:.3f} s)"
+
+
+def render_approved(approved: Approved) -> Text:
+    """The approved baseline a log is judged against, and where it goes open loop."""
+    baseline = approved.baseline
+    open_loop = baseline.open_loop
+    return Text.assemble(
+        ("approved baseline", "cyan"),
+        f" {baseline.path.name} (spec {approved.spec.path.name})",
+        ": " + (open_loop_text(open_loop) if open_loop else "closed loop, as recorded"),
+    )
 
 
 def render_orphans(orphans: Iterable[Path]) -> list[Text]:

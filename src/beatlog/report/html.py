@@ -77,7 +77,10 @@ def render_html(
     coverage: SuiteCoverage | None = None,
 ) -> str:
     """The report as a string: a summary, a section per DTC, then the coverage if given."""
-    counts = verdict_counts(outcome.verdict for outcome in outcomes)
+    counts = verdict_counts(
+        (outcome.verdict for outcome in outcomes),
+        open_loop=sum(outcome.open_loop is not None for outcome in outcomes),
+    )
     charts = [dtc_charts(outcome.spec.label, outcome.timelines) for outcome in outcomes]
     parts = [
         "<!DOCTYPE html>",

@@ -81,14 +81,18 @@ class SpecOutcome:
     log_digest: str | None = None
     """The SHA-256 of the log replayed, with an :attr:`update`: the pending baseline is
     written where the log may not be (behind a URL)."""
+    open_loop: tuple[int, int] | None = None
+    """Where the approved baseline says the behaviors left the recording (cycle, robot
+    time in ns): from there the recorded world no longer answers to them."""
 
     @property
     def verdict_label(self) -> str:
-        """The verdict as reports show it: ``passed (approved baseline)``, ``failed
-        (retried 1×)``."""
+        """The verdict as reports show it: ``passed (approved baseline)``, ``passed
+        (approved baseline, open loop since cycle 517)``, ``failed (retried 1×)``."""
+        loop = f", open loop since cycle {self.open_loop[0]}" if self.open_loop else ""
         return (
             self.verdict.value
-            + (" (approved baseline)" if self.baseline else "")
+            + (f" (approved baseline{loop})" if self.baseline else "")
             + (f" (retried {self.retries}×)" if self.retries else "")
         )
 
@@ -227,6 +231,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         audit=report,
         timelines=drawn,
         log_digest=digest,
+        open_loop=None if expected is None else expected.open_loop,
     )
 
 
