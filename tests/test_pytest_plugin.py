@@ -278,7 +278,8 @@ def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
     updated.assert_outcomes(passed=1, failed=1)
     updated.stdout.fnmatch_lines(
         [
-            f"pending {pending_path(spec)} (* state changes, * output changes, open loop since cycle *): "
+            f"pending {pending_path(spec)} (* state changes, * output changes, "
+            "open loop since cycle *): "
             f"review with beatlog review {spec}, accept with beatlog approve {spec}",
             f"orphaned baseline {orphan}: no spec beside it; delete it",
             "2 DTCs: 1 passed, 1 failed",
