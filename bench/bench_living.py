@@ -69,9 +69,7 @@ def _history(folder: Path, title: str, changes: Sequence[Change], jobs: int) -> 
     planted = run_suite(_specs(folder, suite, [*changes, PLANTED_BUG]), jobs=jobs)
     baselines = sum(p.stat().st_size for p in suite.glob("*.dtc.expected"))
     logs = sum(p.stat().st_size for p in suite.glob("*.beatlog"))
-    open_loop = sum(
-        1 for o in before if o.update is not None and o.update.open_loop is not None
-    )
+    open_loop = sum(1 for o in before if o.update is not None and o.update.open_loop is not None)
     return {
         "change": title,
         "noticed": _failed(before),
