@@ -89,6 +89,17 @@ def test_two_specs_with_approved_baselines_for_one_log_are_an_error(log: Path) -
         beatlog.replay(log, GREEDY)
 
 
+def test_of_several_specs_naming_a_log_the_one_of_the_system_replayed_is_its_spec(
+    log: Path,
+) -> None:
+    write_spec(log.parent, "as-recorded", log)
+
+    assert beatlog.replay(log, GREEDY).ok
+    as_recorded = beatlog.replay(log, "tests.conftest:probe_system")
+    assert as_recorded.ok
+    assert as_recorded.notes == ()
+
+
 def test_show_and_test_name_the_approved_baseline_and_where_it_goes_open_loop(
     log: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -931,17 +931,17 @@ def _show(args: argparse.Namespace, console: Console) -> int:
     from beatlog.analysis.summary import summarize
     from beatlog.report.baselines import render_approved
     from beatlog.report.console import render_summary
-    from beatlog.suite.approved import approved_baseline
+    from beatlog.suite.approved import approved_baselines
 
     given = args.log
     with _readable(args) as named:
         summary = summarize(args.log)
-        approved = None if named is not None else approved_baseline(args.log)
+        approved = [] if named is not None else approved_baselines(args.log)
     if named is not None:
         summary = dataclasses.replace(summary, url=given)
     console.print(render_summary(summary))
-    if approved is not None:
-        console.print(render_approved(approved))
+    for baseline in approved:
+        console.print(render_approved(baseline))
     return EXIT_OK
 
 

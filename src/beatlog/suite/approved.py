@@ -4,7 +4,8 @@ A log is judged against the approved baseline of the spec beside it that names i
 (``NAME.dtc.toml`` with ``log = "..."``, and its ``NAME.dtc.expected``), with that
 spec's renames, ignores and tolerances, and against its recording otherwise:
 ``beatlog test SPEC``, ``beatlog replay LOG`` and :func:`beatlog.replay` all follow it,
-so none of them fails a DTC another passes.
+so none of them fails a DTC another passes. Where several specs beside the log name
+it, the one whose ``system`` is the system replayed is its spec.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from beatlog.replay.verdict import ReplayResult
 from beatlog.suite.baseline import Baseline, expected_path, log_digest, read_baseline
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
-__all__ = ["Approved", "approved_baseline", "replay"]
+__all__ = ["Approved", "approved_baseline", "approved_baselines", "replay"]
 
 
 @dataclass(frozen=True)
@@ -50,33 +51,49 @@ def _names(spec: Path, log: Path) -> bool:
     return isinstance(named, str) and (spec.parent / named).resolve() == log.resolve()
 
 
-def approved_baseline(log: str | Path) -> Approved | None:
-    """The approved baseline of the spec beside ``log`` that names it, if there is one.
+def approved_baselines(log: str | Path) -> list[Approved]:
+    """The approved baselines of every spec beside ``log`` that names it.
 
-    :raises beatlog.errors.BaselineError: the baseline was approved for another
-        recording, or two specs beside the log name it and have approved baselines.
-    :raises beatlog.errors.SpecError: the spec that names it is not a valid spec.
+    :raises beatlog.errors.BaselineError: one was approved for another recording.
+    :raises beatlog.errors.SpecError: a spec that names it is not a valid spec.
     """
     path = Path(log)
-    specs = [
-        spec
-        for spec in sorted(path.parent.glob(f"*{SPEC_SUFFIX}"))
-        if expected_path(spec).is_file() and _names(spec, path)
-    ]
-    if not specs:
+    found: list[Approved] = []
+    for candidate in sorted(path.parent.glob(f"*{SPEC_SUFFIX}")):
+        if expected_path(candidate).is_file() and _names(candidate, path):
+            spec = load_spec(candidate)
+            baseline = read_baseline(expected_path(spec.path))
+            if baseline.log_digest != log_digest(path):
+                raise BaselineError(
+                    baseline.path, f"approved for another recording than {path.name}; delete it"
+                )
+            found.append(Approved(spec, baseline))
+    return found
+
+
+def approved_baseline(log: str | Path, system: object = None) -> Approved | None:
+    """The approved baseline of the spec beside ``log`` that names it, if there is one;
+    where several name it, of the one whose ``system`` is ``system`` (a
+    ``module:factory`` reference; a system object matches none of them).
+
+    :raises beatlog.errors.BaselineError: as :func:`approved_baselines`, or several specs
+        name the log, one with an approved baseline, and ``system`` does not tell which.
+    """
+    path = Path(log)
+    approved = approved_baselines(path)
+    if not approved:
         return None
-    if len(specs) > 1:
-        named = ", ".join(spec.name for spec in specs)
+    naming = [spec for spec in sorted(path.parent.glob(f"*{SPEC_SUFFIX}")) if _names(spec, path)]
+    if len(naming) == 1:
+        return approved[0]
+    meant = [spec for spec in naming if load_spec(spec).system == system]
+    if len(meant) != 1:
         raise BaselineError(
-            path, f"the specs {named} name it, each with an approved baseline: test one of them"
+            path,
+            f"the specs {', '.join(spec.name for spec in naming)} name it, with approved "
+            "baselines, and the system replayed does not tell which: test one of them",
         )
-    spec = load_spec(specs[0])
-    baseline = read_baseline(expected_path(spec.path))
-    if baseline.log_digest != log_digest(path):
-        raise BaselineError(
-            baseline.path, f"approved for another recording than {path.name}; delete it"
-        )
-    return Approved(spec, baseline)
+    return next((found for found in approved if found.spec.path == meant[0]), None)
 
 
 def replay(
@@ -93,13 +110,13 @@ def replay(
     result's notes say which baseline was used.
     """
     found = (
-        approved_baseline(log)
+        approved_baseline(log, system)
         if approved and options.get("expected") is None and options.get("comparison") is None
         else None
     )
     if found is None:
         result = judge(log, system, **options)
-        if not approved and approved_baseline(log) is not None:  # say so to rerun it
+        if not approved and approved_baseline(log, system) is not None:  # say so to rerun it
             result = replace(result, reproduce=f"{result.reproduce} --recording")
         return result
     result = judge(
