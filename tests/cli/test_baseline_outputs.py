@@ -36,7 +36,7 @@ def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
     assert baseline.outputs
     assert {traced.field for traced in baseline.outputs} == {"speed", "time"}
     lines = expected_path(spec).read_text(encoding="utf-8").splitlines()
-    assert lines[0] == "# beatlog expected state changes, outputs and robot states, format 3"
+    assert lines[0] == "# beatlog expected state changes, outputs and robot states, format 4"
     assert '       0     0.030  output "speed" = 0.5' in lines
 
 

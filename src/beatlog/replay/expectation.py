@@ -10,12 +10,13 @@ from __future__ import annotations
 import enum
 import itertools
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import msgspec
 
 from beatlog.log.format import payload_encoder
+from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
@@ -58,7 +59,8 @@ class TracedOutput(NamedTuple):
 
 class TracedState(NamedTuple):
     """A robot-state field that the perception step rebuilt differently from the
-    recorded RS_t at a cycle, with the value it rebuilt."""
+    recorded RS_t at a cycle, with the value it rebuilt: how a format 3 baseline pins
+    robot states (newer ones pin them by digest, :class:`~beatlog.replay.pins.StatePins`)."""
 
     cycle: int
     time_ns: int
@@ -101,14 +103,16 @@ class Expectation:
 
     ``outputs`` pins the outputs as compact changes (see :class:`OutputTracker`); None
     (a baseline from before outputs were pinned) leaves them judged against the recording.
-    ``robot_states`` pins, for sensor-level replay, the robot states an intended
-    perception change rebuilds: the fields that differ from the recorded RS_t, in the
-    cycles where they do (none: perception rebuilds the recording).
+    ``state_pins`` pins, for sensor-level replay, the robot states an intended
+    perception change rebuilds, by digest, in the cycles where they differ from the
+    recorded RS_t (none: perception rebuilds the recording); a format 3 baseline pins
+    the fields that differ instead, value by value (``robot_states``).
     """
 
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] | None = None
     robot_states: tuple[TracedState, ...] = ()
+    state_pins: StatePins = field(default_factory=StatePins)
 
     def changes_by_cycle(self) -> dict[int, list[StateChange]]:
         """The state changes grouped by cycle."""
@@ -118,7 +122,7 @@ class Expectation:
         return grouped
 
     def states_by_cycle(self) -> dict[int, dict[str, Any]]:
-        """The pinned robot-state fields grouped by cycle."""
+        """The robot-state fields a format 3 baseline pins, grouped by cycle."""
         grouped: dict[int, dict[str, Any]] = {}
         for traced in self.robot_states:
             grouped.setdefault(traced.cycle, {})[traced.field] = traced.value

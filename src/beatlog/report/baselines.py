@@ -13,11 +13,13 @@ from rich.text import Text
 
 from beatlog.report.counts import plural
 from beatlog.suite.baseline import pending_path
-from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
+from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
 
 __all__ = ["render_orphans", "render_pending_diff", "render_updates"]
 
 _DIFF_STYLES = {"+": "green", "-": "red", "@": "cyan"}
+_MAX_RUNS = 20
+"""The runs of rebuilt robot states a review sums up; a file with more names them all."""
 
 
 def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
@@ -67,6 +69,28 @@ def _value(value: object) -> str:
     return json.dumps(value, default=repr)
 
 
+def _run_line(run: RebuiltRun) -> Text:
+    """``robot state "speed" rebuilt otherwise in cycles 517–4999 (4483 cycles), first:
+    "speed" 0.04 → 0.041``."""
+    first: list[str | tuple[str, str]] = []
+    for difference in run.first:
+        first.extend(
+            [
+                ", " if first else "",
+                f"{json.dumps(difference.field)} ",
+                (_value(difference.recorded), "red"),
+                " → ",
+                (_value(difference.rebuilt), "green"),
+            ]
+        )
+    return Text.assemble(
+        ("robot state ", "cyan"),
+        f"{', '.join(json.dumps(name) for name in run.fields)} rebuilt otherwise in cycles "
+        f"{run.first_cycle}–{run.last_cycle} ({plural(run.cycles, 'cycle')}), first: ",
+        *first,
+    )
+
+
 def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> RenderableType:
     """The pending expectation against today's, at most ``max_lines`` lines of diff."""
     spec = diff.spec
@@ -84,7 +108,11 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
             )
             for change in diff.robot_states
         ),
+        *(_run_line(run) for run in diff.rebuilt_runs[:_MAX_RUNS]),
     ]
+    if len(diff.rebuilt_runs) > _MAX_RUNS:
+        more = len(diff.rebuilt_runs) - _MAX_RUNS
+        parts.append(Text(f"… {plural(more, 'more run')}: read {pending_path(spec.path)}"))
     parts.extend(
         Text(line, style=_DIFF_STYLES.get(line[:1], "")) for line in diff.lines[:max_lines]
     )

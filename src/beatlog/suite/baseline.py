@@ -4,33 +4,44 @@ Recordings are immutable: when behaviors (or, in sensor-level replay, perception
 change on purpose, the new state changes and outputs go to a *pending* file beside the
 spec (``NAME.dtc.pending``), are reviewed, and once approved become the *expected*
 file (``NAME.dtc.expected``) that replay judges against instead of the recording.
-Both are plain text, one state change, output change or robot-state field a line, so
-a re-baseline reads as a diff in code review::
+Both are plain text, one state change or output change a line, and the robot states
+perception rebuilds a few characters a cycle, so a re-baseline reads as a diff in
+code review::
 
-    # beatlog expected state changes, outputs and robot states, format 3
+    # beatlog expected state changes, outputs and robot states, format 4
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
-    #  cycle      time  "behavior": before -> after | output/robot_state "field" = value
-          0     0.030  output "speed" = 0.5
-         12     0.360  robot_state "distance" = 0.55
-         12     0.360  "avoid": "idle" -> "turning"
-         12     0.360  output "speed" = 0.0
-         40     1.200  output "turn" absent
+    #  cycle      time  "behavior": before -> after | output "field" = value | ...
+           0     0.030  output "speed" = 0.5
+          12     0.360  robot_state otherwise in 12..16 (3 cycles): ["range"], first {"range": 0.55}
+          12     0.360  robot_state digests 5 cfcdc94e338e6e3c 1Og6....co
+          12     0.360  "avoid": "idle" -> "turning"
+          12     0.360  output "speed" = 0.0
+          40     1.200  output "turn" absent
 
 An output line appears only in the cycles where that field's value changes (cycle 0
-gives the initial values); ``absent`` means the field is no longer output. A
-robot-state line pins, for sensor-level replay, a field the perception step rebuilds
-otherwise than the recorded RS_t, in each cycle where it does: the recorded state with
-these fields is what perception must rebuild (none: the recording itself). Behavior
-names, states and values are JSON, floats written so they read back bit for bit
-(``NaN``, ``Infinity``, ``-Infinity``, ``-0.0`` included); a value JSON cannot hold
-exactly (a NaN with a payload, bytes) is written as ``msgpack:HEX``, its msgpack
-encoding. Loading a baseline never evaluates anything, and a file larger than
-:data:`MAX_BASELINE_BYTES` is refused.
+gives the initial values); ``absent`` means the field is no longer output. The
+robot-state lines pin, for sensor-level replay, the states the perception step
+rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replay.pins`): a line per
+run of such cycles (short gaps rebuilt as recorded included) names the fields that
+differ and their values in its first cycle, for review; then a line per block of up to
+64 of its cycles gives, after the count of cycles, the hex digest of the block and two
+base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
+gap). Replay judges a pinned cycle's whole rebuilt state by its digest, bit for bit,
+and any other cycle against the recording. Behavior names, states and values are
+JSON, floats written so they read back bit for bit (``NaN``, ``Infinity``,
+``-Infinity``, ``-0.0`` included); a value JSON cannot hold exactly (a NaN with a
+payload, bytes) is written as ``msgpack:HEX``, its msgpack encoding. Loading a
+baseline never evaluates anything, and a file larger than :data:`MAX_BASELINE_BYTES`
+is refused.
 
-Format 2 files pin no robot states: perception must rebuild the recording. Format 1
-files (state changes only) pin no outputs either, so replay judges outputs against the
-recording and says so when they differ; re-approve to pin them.
+Format 3 files pin robot states a line per field per cycle,
+``12  0.360  robot_state "range" = 0.55``: the recorded state with these fields is
+what perception must rebuild, within the spec's tolerances. They still read and judge
+so; a new baseline is always written in format 4. Format 2 files pin no robot states:
+perception must rebuild the recording. Format 1 files (state changes only) pin no
+outputs either, so replay judges outputs against the recording and says so when they
+differ; re-approve to pin them.
 """
 
 from __future__ import annotations
@@ -39,7 +50,7 @@ import hashlib
 import json
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +60,7 @@ from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, replacing
 from beatlog.log.format import DECODE_ERRORS
 from beatlog.replay.expectation import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
+from beatlog.replay.pins import DIGEST_BYTES, TAG_CHARS, DigestBlock, PinnedRun, StatePins
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.spec import SPEC_SUFFIX
 
@@ -69,14 +81,27 @@ EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
 MAX_BASELINE_BYTES = 1 << 28
 """A baseline is a line per change; a file bigger than this is not one."""
-_MAGIC = "# beatlog expected state changes, outputs and robot states, format 3"
+_MAGIC = "# beatlog expected state changes, outputs and robot states, format 4"
+_MAGIC_3 = "# beatlog expected state changes, outputs and robot states, format 3"
 _MAGIC_2 = "# beatlog expected state changes and outputs, format 2"
 _MAGIC_1 = "# beatlog expected state changes, format 1"
-_VERSIONS = {_MAGIC: 3, _MAGIC_2: 2, _MAGIC_1: 1}
+_VERSIONS = {_MAGIC: 4, _MAGIC_3: 3, _MAGIC_2: 2, _MAGIC_1: 1}
+_COLUMNS = (
+    '#  cycle      time  "behavior": before -> after | output "field" = value'
+    " | robot_state otherwise in FIRST..LAST (N cycles): [FIELDS], first {VALUES}"
+    " | robot_state digests N DIGEST TAGS"
+)
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
 _OUTPUT = "output "
 _ROBOT_STATE = "robot_state "
+_RUN = re.compile(
+    r"otherwise in (?P<first>\d+)\.\.(?P<last>\d+) \((?P<cycles>\d+) cycles?\): (?P<rest>.*)"
+)
+_RUN_FIRST = ", first "
+_DIGESTS = re.compile(
+    rf"digests (?P<cycles>\d+) (?P<digest>[0-9a-f]{{{2 * DIGEST_BYTES}}}) (?P<tags>[A-Za-z0-9+/.]+)"
+)
 _MSGPACK = "msgpack:"
 _JSON = json.JSONDecoder()
 _SORTED = msgspec.msgpack.Encoder(order="sorted")
@@ -94,11 +119,13 @@ class Baseline:
     """The output changes; None in a format 1 file, which pins no outputs."""
     robot_states: tuple[TracedState, ...] = ()
     """The robot-state fields perception rebuilds otherwise than recorded (format 3)."""
+    state_pins: StatePins = field(default_factory=StatePins)
+    """The robot states perception rebuilds otherwise than recorded, by digest (format 4)."""
 
     @property
     def expectation(self) -> Expectation:
         """What replay judges against with this baseline."""
-        return Expectation(self.changes, self.outputs, self.robot_states)
+        return Expectation(self.changes, self.outputs, self.robot_states, self.state_pins)
 
 
 def _base(spec: Path) -> str:
@@ -135,10 +162,12 @@ def format_lines(
     changes: Iterable[TracedChange],
     outputs: Iterable[TracedOutput] | None = None,
     robot_states: Iterable[TracedState] = (),
+    state_pins: StatePins | None = None,
 ) -> list[str]:
-    """One text line per robot-state field, state change and output change, by cycle,
-    as baseline files hold them: in each cycle in that order, as replay meets them."""
+    """The text lines of the pinned robot states, state changes and output changes, by
+    cycle, as baseline files hold them: in each cycle in that order, as replay meets them."""
     keyed = [(s.cycle, 0, _value_line(_ROBOT_STATE, s)) for s in robot_states]
+    keyed.extend((cycle, 0, line) for cycle, line in _pin_lines(state_pins or StatePins()))
     keyed.extend((c.cycle, 1, _change_line(c)) for c in changes)
     keyed.extend((o.cycle, 2, _value_line(_OUTPUT, o)) for o in outputs or ())
     keyed.sort(key=lambda item: item[:2])  # stable: the order within a cycle is kept
@@ -157,6 +186,35 @@ def _value_line(kind: str, traced: TracedOutput | TracedState) -> str:
     cycle, time_ns, name, value = traced
     what = "absent" if value is ABSENT else f"= {_format_value(value)}"
     return f"{cycle:>8} {time_ns / 1e9:>9.3f}  {kind}{json.dumps(name)} {what}"
+
+
+def _pin_lines(pins: StatePins) -> list[tuple[int, str]]:
+    """A line per run of pinned robot states, then one per block of their digests: in
+    cycle order, each run's line comes before its first block's."""
+    lines = []
+    for run in pins.runs:
+        fields = ", ".join(json.dumps(name) for name in run.fields)
+        lines.append(
+            (
+                run.cycle,
+                f"{_columns(run.cycle, run.time_ns)}{_ROBOT_STATE}otherwise in "
+                f"{run.cycle}..{run.last} ({run.cycles} cycle{'' if run.cycles == 1 else 's'}): "
+                f"[{fields}]{_RUN_FIRST}{_format_value(run.first)}",
+            )
+        )
+    lines.extend(
+        (
+            block.cycle,
+            f"{_columns(block.cycle, block.time_ns)}{_ROBOT_STATE}digests {block.cycles} "
+            f"{block.digest.hex()} {block.tags}",
+        )
+        for block in pins.blocks
+    )
+    return lines
+
+
+def _columns(cycle: int, time_ns: int) -> str:
+    return f"{cycle:>8} {time_ns / 1e9:>9.3f}  "
 
 
 def _format_value(value: Any) -> str:
@@ -179,13 +237,21 @@ def write_baseline(
     expectation: Expectation,
 ) -> None:
     """Write a baseline file atomically: readers see the old file or the new one.
-    ``log_name`` and ``digest`` (:func:`log_digest`) bind it to its recording."""
+    ``log_name`` and ``digest`` (:func:`log_digest`) bind it to its recording.
+
+    :raises ValueError: ``expectation`` pins robot-state fields value by value, as only
+        format 3 files did: a new baseline pins robot states by digest.
+    """
+    if expectation.robot_states:
+        raise ValueError("format 3 robot-state pins cannot be written: trace the log again")
     lines = [
         _MAGIC,
         f"# spec {spec_name}",
         f"# log {log_name} sha256 {digest}",
-        '#  cycle      time  "behavior": before -> after | output/robot_state "field" = value',
-        *format_lines(expectation.changes, expectation.outputs or (), expectation.robot_states),
+        _COLUMNS,
+        *format_lines(
+            expectation.changes, expectation.outputs or (), state_pins=expectation.state_pins
+        ),
     ]
     with replacing(path) as file:
         file.write(("\n".join(lines) + "\n").encode())
@@ -210,6 +276,8 @@ def read_baseline(path: Path) -> Baseline:
     changes: list[TracedChange] = []
     outputs: list[TracedOutput] = []
     states: list[TracedState] = []
+    runs: list[PinnedRun] = []
+    blocks: list[DigestBlock] = []
     for number, line in enumerate(lines[1:], start=2):
         if line.startswith("#"):
             found = _LOG_LINE.fullmatch(line)
@@ -223,6 +291,10 @@ def read_baseline(path: Path) -> Baseline:
                 outputs.append(parsed)
             elif isinstance(parsed, TracedState):
                 states.append(parsed)
+            elif isinstance(parsed, PinnedRun):
+                runs.append(parsed)
+            elif isinstance(parsed, DigestBlock):
+                blocks.append(parsed)
             else:
                 changes.append(parsed)
     if not digest:
@@ -231,16 +303,22 @@ def read_baseline(path: Path) -> Baseline:
         cycles = [item.cycle for item in traced]
         if cycles != sorted(cycles):
             raise BaselineError(path, f"{what} lines are not in cycle order")
+    try:
+        pins = StatePins(tuple(runs), tuple(blocks))
+    except ValueError as exc:
+        raise BaselineError(path, str(exc)) from None
     pinned = tuple(outputs) if version >= 2 else None
-    return Baseline(path, digest, tuple(changes), pinned, tuple(states))
+    return Baseline(path, digest, tuple(changes), pinned, tuple(states), pins)
 
 
-def _parse_line(line: str, version: int) -> TracedChange | TracedOutput | TracedState:
+def _parse_line(
+    line: str, version: int
+) -> TracedChange | TracedOutput | TracedState | PinnedRun | DigestBlock:
     found = _CHANGE_LINE.fullmatch(line)
     if found is None:
         raise ValueError(
             "expected 'CYCLE TIME \"behavior\": BEFORE -> AFTER', "
-            "'CYCLE TIME output \"field\" = VALUE' or 'CYCLE TIME robot_state \"field\" = VALUE'"
+            "'CYCLE TIME output \"field\" = VALUE' or 'CYCLE TIME robot_state ...'"
         )
     cycle, time_ns, text = int(found["cycle"]), round(float(found["time"]) * 1e9), found["change"]
     if text.startswith(_OUTPUT):
@@ -251,6 +329,8 @@ def _parse_line(line: str, version: int) -> TracedChange | TracedOutput | Traced
     if text.startswith(_ROBOT_STATE):
         if version < 3:
             raise ValueError(f"a format {version} baseline holds no robot states")
+        if version >= 4:
+            return _parse_pin(text[len(_ROBOT_STATE) :], cycle, time_ns)
         name, value = _parse_value(text[len(_ROBOT_STATE) :])
         if value is ABSENT:
             raise ValueError("a robot-state field is never absent")
@@ -266,16 +346,48 @@ def _parse_value(text: str) -> tuple[str, Any]:
     if rest == " absent":
         return name, ABSENT
     end = _expect(text, end, " = ")
-    value_text = text[end:].rstrip()
+    return name, _decode_value(text[end:].rstrip())
+
+
+def _decode_value(value_text: str) -> Any:
+    """A value as :func:`_format_value` writes it."""
     if value_text.startswith(_MSGPACK):
         try:
-            return name, msgspec.msgpack.decode(bytes.fromhex(value_text[len(_MSGPACK) :]))
+            return msgspec.msgpack.decode(bytes.fromhex(value_text[len(_MSGPACK) :]))
         except (ValueError, *DECODE_ERRORS) as exc:
             raise ValueError(f"a damaged msgpack value: {exc}") from None
     value, end = _JSON.raw_decode(value_text)
     if end != len(value_text):
         raise ValueError(f"unexpected {value_text[end:]!r} after the value")
-    return name, value
+    return value
+
+
+def _parse_pin(text: str, cycle: int, time_ns: int) -> PinnedRun | DigestBlock:
+    """A format 4 robot-state line: a run of pinned cycles, or a block of their digests."""
+    block = _DIGESTS.fullmatch(text.rstrip())
+    if block is not None:
+        tags = block["tags"]
+        expected = int(block["cycles"]) * TAG_CHARS
+        if len(tags) != expected:
+            raise ValueError(f"expected {expected} characters of tags, found {len(tags)}")
+        return DigestBlock(cycle, time_ns, tags, bytes.fromhex(block["digest"]))
+    run = _RUN.fullmatch(text.rstrip())
+    if run is None:
+        raise ValueError(
+            "expected 'robot_state otherwise in FIRST..LAST (N cycles): [FIELDS], first "
+            "{VALUES}' or 'robot_state digests N DIGEST TAGS'"
+        )
+    rest = run["rest"]
+    fields, end = _JSON.raw_decode(rest)
+    if not isinstance(fields, list) or not all(isinstance(name, str) for name in fields):
+        raise ValueError("the fields must be a JSON list of strings")
+    end = _expect(rest, end, _RUN_FIRST)
+    first = _decode_value(rest[end:])
+    if not isinstance(first, dict) or not all(isinstance(name, str) for name in first):
+        raise ValueError("the first cycle's values must be a JSON object")
+    if int(run["first"]) != cycle:
+        raise ValueError(f"a run of cycles from {run['first']} on a line of cycle {cycle}")
+    return PinnedRun(cycle, time_ns, int(run["last"]), int(run["cycles"]), tuple(fields), first)
 
 
 def _parse_change(text: str) -> StateChange:
