@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import errno
 import io
+import math
 import os
 import struct
 from collections.abc import Callable, Sequence
@@ -31,6 +32,7 @@ from beatlog.log.format import (
     schema_name,
 )
 from beatlog.log.reader import SessionLogReader
+from beatlog.replay.pins import RebuiltState, state_digest
 from beatlog.replay.verdict import Checked
 
 PERIOD_NS = 30_000_000
@@ -428,3 +430,18 @@ def with_damaged_index(log: Path, path: Path) -> Path:
     data[first_index.offset + RECORD_HEAD] ^= 0x01
     path.write_bytes(bytes(data))
     return path
+
+
+def speed_state(cycle: int) -> dict[str, Any]:
+    """A robot state, as its fields, whose speed a retuned perception rebuilds otherwise
+    in ``cycle`` (1 ms a cycle)."""
+    return {"speed": cycle / 1000, "heading": math.sin(cycle), "bumped": False}
+
+
+def rebuilt_states(states: dict[int, dict[str, Any]]) -> list[RebuiltState]:
+    """The states as a trace collects them where perception rebuilt their speed
+    otherwise, in cycle order (1 ms a cycle)."""
+    return [
+        RebuiltState(cycle, cycle * 1_000_000, {"speed": state["speed"]}, state_digest(state))
+        for cycle, state in sorted(states.items())
+    ]

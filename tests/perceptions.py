@@ -5,6 +5,7 @@ Specs and ``--perception`` name them as ``tests.perceptions:FACTORY``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -18,6 +19,10 @@ from tests.conftest import PERIOD_NS, Probe, distances, probe_system
 PERCEPTION = "tests.perceptions:perception"
 CHANGED = "tests.perceptions:changed_perception"
 CHANGED_AGAIN = "tests.perceptions:changed_again_perception"
+ONE_ULP = "tests.perceptions:one_ulp_perception"
+ULP_CYCLE = 95
+"""The one cycle where :func:`one_ulp_perception` reads the range otherwise than
+:func:`changed_perception`: one the changed perception rebuilds otherwise too."""
 
 
 def perceive(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
@@ -50,6 +55,19 @@ def changed_perception() -> Perception:
 def changed_again_perception() -> Perception:
     """Another perception change: the range is read 20 % long from a distance of 0.8 on."""
     return _scaled(1.2, from_distance=0.8)
+
+
+def one_ulp_perception() -> Perception:
+    """The changed perception, but one ulp longer in cycle :data:`ULP_CYCLE` alone."""
+    changed = changed_perception()
+
+    def one_ulp(previous: Probe | None, samples: Sequence[Sample]) -> Probe:
+        state: Probe = changed(previous, samples)
+        if any(sample.stamp_ns == ULP_CYCLE * PERIOD_NS for sample in samples):
+            return Probe(distance=math.nextafter(state.distance, math.inf), reading=state.reading)
+        return state
+
+    return one_ulp
 
 
 def nudged_perception() -> Perception:

@@ -1,12 +1,14 @@
 """An intended perception change is re-baselined like a behavior change: ``--update``
-pins the robot states perception now rebuilds and what the behaviors then do,
-``review`` shows the robot-state fields and state changes that differ, and the
-recording stays untouched."""
+pins the robot states perception now rebuilds (by digest, a few bytes a cycle) and what
+the behaviors then do, ``review`` shows the runs of cycles and the fields that differ,
+and the recording stays untouched. Format 3 baselines, which pinned field values,
+still judge."""
 
 from __future__ import annotations
 
 import hashlib
 import io
+import json
 from pathlib import Path
 
 import pytest
@@ -14,12 +16,22 @@ import pytest
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from tests.commands import Beatlog
 from tests.conftest import distances
-from tests.perceptions import CHANGED, CHANGED_AGAIN, PERCEPTION, record_with_samples
+from tests.perceptions import (
+    CHANGED,
+    CHANGED_AGAIN,
+    ONE_ULP,
+    PERCEPTION,
+    ULP_CYCLE,
+    record_with_samples,
+)
 from tests.specs import write_spec
 
 SHIFTED = "tests.perceptions:shifted_perception"
+NUDGED = "tests.perceptions:nudged_perception"
 LONG = sum(distance >= 0.8 for distance in distances(300))
 """The cycles in which the changed perception reads the range long."""
+RUNS = [(0, 10), (90, 110), (190, 210), (290, 299)]
+"""The runs of cycles in which it does."""
 
 pytestmark = pytest.mark.usefixtures("outside_ci", "wide_plain_console")
 
@@ -27,6 +39,15 @@ pytestmark = pytest.mark.usefixtures("outside_ci", "wide_plain_console")
 @pytest.fixture
 def log(tmp_path: Path) -> Path:
     return record_with_samples(tmp_path / "samples.beatlog")
+
+
+@pytest.fixture
+def approved(tmp_path: Path, log: Path, beatlog: Beatlog) -> Path:
+    """A spec whose changed perception has an approved baseline."""
+    spec = write_spec(tmp_path, "sensors", log, perception=CHANGED)
+    assert beatlog("test", "--update", spec).code == 1
+    assert beatlog("approve", spec).code == 0
+    return spec
 
 
 def _digest(path: Path) -> str:
@@ -44,19 +65,24 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
     assert update.code == 1
     assert "1 robot-state field rebuilt otherwise" not in update.out
     assert f"robot state rebuilt otherwise in {LONG} cycles): review with" in update.out
-    pinned = read_baseline(pending_path(spec)).robot_states
-    assert len(pinned) == LONG
-    assert pinned[0].field == "distance"
-    assert pinned[0].value == pytest.approx(1.1)
+    pins = read_baseline(pending_path(spec)).state_pins
+    assert pins.cycles == LONG
+    assert [(run.cycle, run.last, run.fields) for run in pins.runs] == [
+        (first, last, ("distance",)) for first, last in RUNS
+    ]
+    assert pins.runs[0].first == {"distance": 1.1}
 
     monkeypatch.setattr("sys.stdin", io.StringIO("accept\n"))
     review = beatlog("review", spec)
     assert review.code == 0
     assert (
-        f'robot state "distance" rebuilt otherwise in {LONG} cycles, first in cycle 0: '
-        "1.0 → 1.1" in review.out
+        'robot state "distance" rebuilt otherwise in cycles 0–10 (11 cycles), first: '
+        '"distance" 1.0 → 1.1\n' in review.out
     )
-    assert '+       0     0.030  robot_state "distance" = 1.1' in review.out
+    assert (
+        '+       0     0.030  robot_state otherwise in 0..10 (11 cycles): ["distance"], '
+        'first {"distance": 1.1}\n' in review.out
+    )
     assert expected_path(spec).exists()
 
     assert beatlog("test", spec).code == 0
@@ -64,18 +90,76 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
 
 
 def test_a_perception_that_changes_again_fails_against_the_baseline(
-    tmp_path: Path, log: Path, beatlog: Beatlog
+    tmp_path: Path, log: Path, beatlog: Beatlog, approved: Path
 ) -> None:
-    spec = write_spec(tmp_path, "sensors", log, perception=CHANGED)
-    assert beatlog("test", "--update", spec).code == 1
-    assert beatlog("approve", spec).code == 0
-
     again = beatlog("test", write_spec(tmp_path, "sensors", log, perception=CHANGED_AGAIN))
     assert again.code == 1
-    assert "differs from the approved baseline in distance" in again.out
+    assert (
+        "the robot state rebuilt from the samples differs from the approved baseline by its "
+        "digest; it differs from the recording in distance, the approved one in distance "
+        "(cycles 0–10) " in again.out
+    )
     back = beatlog("test", write_spec(tmp_path, "sensors", log, perception=PERCEPTION))
     assert back.code == 1
-    assert "differs from the approved baseline in distance" in back.out
+    assert "it differs from the recording in no field, the approved one in distance" in back.out
+    assert "│ distance = 1.0" in back.out  # recorded and rebuilt alike, side by side
+
+
+def test_a_one_ulp_change_of_one_field_in_one_cycle_fails_in_that_cycle(
+    tmp_path: Path, log: Path, beatlog: Beatlog, approved: Path
+) -> None:
+    run = beatlog("test", write_spec(tmp_path, "sensors", log, perception=ONE_ULP))
+
+    assert run.code == 1
+    assert f"first divergence: cycle {ULP_CYCLE}, " in run.out
+    assert (
+        "differs from the approved baseline by its digest; it differs from the recording in "
+        "distance, the approved one in distance (cycles 90–110)" in run.out
+    )
+
+
+def test_a_format_3_baseline_still_judges_the_field_values_it_pins(
+    tmp_path: Path, log: Path, beatlog: Beatlog, approved: Path
+) -> None:
+    lines = expected_path(approved).read_text(encoding="utf-8").splitlines()
+    fields = [
+        f'{t:>8} {(t + 1) * 0.03:>9.3f}  robot_state "distance" = {json.dumps(d * 1.1)}'
+        for t, d in enumerate(distances(300))
+        if d >= 0.8
+    ]
+    kept = [line for line in lines[1:] if "robot_state" not in line or line.startswith("#")]
+    expected_path(approved).write_text(
+        "\n".join(
+            [
+                "# beatlog expected state changes, outputs and robot states, format 3",
+                *kept,
+                *fields,
+            ]
+        )
+        + "\n",
+        encoding="utf-8",
+    )
+    assert len(read_baseline(expected_path(approved)).robot_states) == LONG
+
+    assert beatlog("test", approved).code == 0
+    again = beatlog("test", write_spec(tmp_path, "sensors", log, perception=CHANGED_AGAIN))
+    assert again.code == 1
+    assert "differs from the approved baseline in distance " in again.out
+
+
+def test_a_retuned_perception_pins_a_long_log_in_a_few_bytes_a_cycle(
+    tmp_path: Path, beatlog: Beatlog
+) -> None:
+    log = record_with_samples(tmp_path / "long.beatlog", 1000)
+    spec = write_spec(tmp_path, "long", log, perception=NUDGED)
+    assert beatlog("test", "--update", spec).code == 1
+
+    lines = pending_path(spec).read_text(encoding="utf-8").splitlines(keepends=True)
+    pinned = [line for line in lines if "robot_state" in line and not line.startswith("#")]
+
+    assert read_baseline(pending_path(spec)).state_pins.cycles == 1000
+    assert len(pinned) == 1 + 16  # a run of 1,000 cycles: 64 a line
+    assert sum(len(line.encode()) for line in pinned) <= 3.2 * 1000
 
 
 def test_the_state_changes_that_follow_a_perception_change_are_pinned_too(
@@ -86,7 +170,7 @@ def test_the_state_changes_that_follow_a_perception_change_are_pinned_too(
 
     monkeypatch.setattr("sys.stdin", io.StringIO("accept\n"))
     review = beatlog("review", spec)
-    assert 'robot state "distance" rebuilt otherwise in 300 cycles' in review.out
+    assert 'robot state "distance" rebuilt otherwise in cycles 0–299 (300 cycles)' in review.out
     changes = {line[0] for line in review.out.splitlines() if '"near": "far" -> "near"' in line}
     assert changes == {"-", "+"}  # near sees the pole in other cycles
 

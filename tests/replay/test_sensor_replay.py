@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -11,6 +12,7 @@ from beatlog.errors import FieldError
 from beatlog.replay.compare import Comparison
 from beatlog.replay.judge import NO_SAMPLES, replay
 from beatlog.replay.verdict import DivergenceKind, FieldDifference
+from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import distances, probe_system
@@ -22,6 +24,7 @@ from tests.perceptions import (
     dict_perception,
     nudged_perception,
     numpy_perception,
+    one_ulp_perception,
     perception,
     record_with_samples,
     shifted_perception,
@@ -180,6 +183,25 @@ def test_a_spec_names_its_perception_and_the_suite_replays_from_samples(tmp_path
     assert outcome.result is not None
     assert outcome.result.divergence is not None
     assert outcome.result.divergence.kind is DivergenceKind.PERCEPTION
+
+
+def test_a_pinned_robot_state_one_ulp_off_diverges_in_its_cycle_alone(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    spec = write_spec(tmp_path, "sensors", log, perception=CHANGED)
+    expected = run_spec(load_spec(spec), SpecOptions(update=UpdateMode.NEW)).update
+    assert expected is not None
+    assert replay(log, probe_system(), perception=changed_perception(), expected=expected).ok
+
+    result = replay(
+        log, probe_system(), perception=one_ulp_perception(), expected=expected, keep_going=True
+    )
+
+    assert result.divergent_cycles == 1
+    assert result.divergence is not None
+    assert (result.divergence.kind, result.divergence.cycle) == (DivergenceKind.PERCEPTION, 95)
+    assert result.divergence.perception == (
+        FieldDifference("distance", 0.9, math.nextafter(0.9 * 1.1, math.inf)),
+    )
 
 
 def test_show_says_how_many_samples_each_sensor_logged(

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.replay.verdict import FieldDifference
 from beatlog.report.baselines import render_orphans, render_pending_diff, render_updates
 from beatlog.report.console import plain_text
-from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
+from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
 from beatlog.suite.spec import DtcSpec
 
 SPEC = DtcSpec(
@@ -62,3 +63,20 @@ def test_a_long_diff_is_cut_and_says_where_the_rest_is() -> None:
     assert "+1\n" in text
     assert "+2\n" not in text
     assert "… 8 more diff lines: read specs/avoid-pole.dtc.pending" in text
+
+
+def test_the_runs_of_rebuilt_robot_states_are_summed_up_a_line_each_up_to_twenty() -> None:
+    first = (FieldDifference("speed", 0.04, 0.041), FieldDifference("heading", 1.5, -0.0))
+    runs = [RebuiltRun(("heading", "speed"), 517, 4999, 4483, first)]
+    runs += [RebuiltRun(("speed",), 6000 + n, 6000 + n, 1, first[:1]) for n in range(21)]
+    diff = PendingDiff(SPEC, "recorded (probe.beatlog)", 0, 0, (), rebuilt_runs=tuple(runs))
+
+    lines = plain_text(render_pending_diff(diff)).splitlines()
+
+    assert lines[2:4] == [
+        'robot state "heading", "speed" rebuilt otherwise in cycles 517–4999 (4483 cycles), '
+        'first: "speed" 0.04 → 0.041, "heading" 1.5 → -0.0',
+        'robot state "speed" rebuilt otherwise in cycles 6000–6000 (1 cycle), first: '
+        '"speed" 0.04 → 0.041',
+    ]
+    assert lines[22:] == ["… 2 more runs: read specs/avoid-pole.dtc.pending"]

@@ -10,6 +10,7 @@ import pytest
 
 from beatlog.errors import BaselineError
 from beatlog.replay.expectation import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
+from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline import (
     expected_path,
@@ -18,6 +19,7 @@ from beatlog.suite.baseline import (
     read_baseline,
     write_baseline,
 )
+from tests.factories import rebuilt_states, speed_state
 
 CHANGES = (
     TracedChange(0, 30_000_000, StateChange("arbiter", "idle", "wander")),
@@ -217,35 +219,71 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
     ]
 
 
-def test_robot_state_fields_come_first_in_their_cycle_and_read_back_bit_for_bit(
+def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     tmp_path: Path, log: Path
 ) -> None:
     path = tmp_path / "a.dtc.pending"
-    states = (
-        TracedState(12, 360_012_000, "distance", 0.55),
-        TracedState(12, 360_012_000, "pose", [1.0, -0.0]),
-        TracedState(13, 390_000_000, "distance", PAYLOAD_NAN),
-    )
-    outputs = (TracedOutput(12, 360_012_000, "speed", 0.0),)
-    expectation = Expectation(CHANGES[1:2], outputs, states)
+    states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+    outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
+    changes = (TracedChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
+    expectation = Expectation(changes, outputs, state_pins=pins)
     write_baseline(
         path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
     )
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[-5:] == [
-        '      12     0.360  robot_state "distance" = 0.55',
-        '      12     0.360  robot_state "pose" = [1.0, -0.0]',
-        '      12     0.360  "avoid": "off" -> "turning"',
-        '      12     0.360  output "speed" = 0.0',
-        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001',
+    assert lines[3].endswith("| robot_state digests N DIGEST TAGS")
+    assert lines[-4:] == [
+        "      12     0.012  robot_state otherwise in 12..16 (3 cycles): "
+        '["speed"], first {"speed": 0.012}',
+        "      12     0.012  robot_state digests 5 cfcdc94e338e6e3c 1Og6....co",
+        '      12     0.012  "avoid": "off" -> "turning"',
+        '      12     0.012  output "speed" = 0.0',
     ]
     baseline = read_baseline(path)
+    assert baseline.state_pins == pins
+    assert baseline.expectation.state_pins == pins
+    assert baseline.robot_states == ()
+
+
+def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Path) -> None:
+    states = (TracedState(12, 360_012_000, "distance", 0.55),)
+    with pytest.raises(ValueError, match="format 3 robot-state pins cannot be written"):
+        write_baseline(
+            tmp_path / "a.dtc.pending",
+            spec_name="a",
+            log_name=log.name,
+            digest=log_digest(log),
+            expectation=Expectation((), (), states),
+        )
+
+
+def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "a.dtc.expected"
+    path.write_text(
+        "# beatlog expected state changes, outputs and robot states, format 3\n"
+        f"# log a.beatlog sha256 {'0' * 64}\n"
+        '      12     0.360  robot_state "distance" = 0.55\n'
+        '      12     0.360  robot_state "pose" = [1.0, -0.0]\n'
+        '      12     0.360  "avoid": "off" -> "turning"\n'
+        '      12     0.360  output "speed" = 0.0\n'
+        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001\n',
+        encoding="utf-8",
+    )
+
+    baseline = read_baseline(path)
+
     assert [(s.cycle, s.field, _bits(s.value)) for s in baseline.robot_states] == [
-        (s.cycle, s.field, _bits(s.value)) for s in states
+        (12, "distance", _bits(0.55)),
+        (12, "pose", _bits([1.0, -0.0])),
+        (13, "distance", _bits(PAYLOAD_NAN)),
     ]
     assert baseline.expectation.states_by_cycle()[12] == {"distance": 0.55, "pose": [1.0, -0.0]}
+    assert baseline.state_pins == StatePins()
 
 
 def test_robot_state_lines_out_of_cycle_order_are_an_error(tmp_path: Path) -> None:
@@ -290,6 +328,9 @@ def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> 
     assert baseline.expectation.outputs is None
 
 
+RUN = "robot_state otherwise in 7..7 (1 cycle)"
+
+
 @pytest.mark.parametrize(
     ("magic", "line", "problem"),
     [
@@ -305,6 +346,21 @@ def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> 
         (3, "  7  0.210  robot_state x = 1", "line 4: Expecting value"),
         (3, '  7  0.210  robot_state "x" = 1 2', "unexpected ' 2' after the value"),
         (3, '  7  0.210  sensor "x" = 1', "line 4: Expecting value"),
+        (3, "  7  0.210  robot_state digests 1 0000000000000000 AA", "line 4: Expecting"),
+        (4, '  7  0.210  robot_state "x" = 1', "line 4: expected 'robot_state otherwise in"),
+        (4, "  7  0.210  robot_state digests 1 00 AA", "expected 'robot_state otherwise"),
+        (4, "  7  0.210  robot_state digests 1 0000000000000000 A", "expected 2 characters of"),
+        (4, "  7  0.210  robot_state digests 2 000000000000000f AA", "of tags, found 2"),
+        (4, f"  7  0.210  {RUN}: [1], first {{}}", "the fields must be a JSON list of strings"),
+        (4, f'  7  0.210  {RUN}: ["x"] first {{}}', "expected ', first' at column"),
+        (4, f'  7  0.210  {RUN}: ["x"], first [1]', "the first cycle's values must be a JSON"),
+        (4, f'  7  0.210  {RUN}: ["x"], first {{"x": 1}} 2', "unexpected ' 2' after the value"),
+        (4, f'  8  0.210  {RUN}: ["x"], first {{"x": 1}}', "a run of cycles from 7 on a line of"),
+        (
+            4,
+            f'  7  0.210  {RUN}: ["x"], first {{"x": 1}}',
+            "the robot-state run from cycle 7 has digests that do not end at its last cycle, 7",
+        ),
     ],
 )
 def test_a_damaged_output_line_is_an_error_naming_file_and_line(
@@ -314,6 +370,7 @@ def test_a_damaged_output_line_is_an_error_naming_file_and_line(
         1: "# beatlog expected state changes, format 1",
         2: "# beatlog expected state changes and outputs, format 2",
         3: "# beatlog expected state changes, outputs and robot states, format 3",
+        4: "# beatlog expected state changes, outputs, robot states and draws, format 4",
     }[magic]
     path = tmp_path / "a.dtc.expected"
     path.write_text(f"{header}\n# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n", encoding="utf-8")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Collection, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +27,7 @@ from beatlog.log.format import (
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
-from beatlog.replay.compare import WHOLE_STATE, Comparison, state_fields
+from beatlog.replay.compare import WHOLE_STATE, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer, actor_name
 from beatlog.replay.draws import DrawRule, draw_rules
 from beatlog.replay.expectation import (
@@ -35,8 +35,8 @@ from beatlog.replay.expectation import (
     OutputTracker,
     TracedChange,
     TracedOutput,
-    TracedState,
 )
+from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise, state_digest
 from beatlog.replay.session import ReplaySession
 from beatlog.replay.verdict import StateChange
 
@@ -51,9 +51,6 @@ __all__ = [
 ]
 
 
-_EXACT = Comparison()
-
-
 @dataclass(frozen=True)
 class ReplayedTrace:
     """The state changes and outputs a system makes over a whole session log."""
@@ -66,9 +63,9 @@ class ReplayedTrace:
     random numbers the log does not have), or None when it replayed every cycle."""
     outputs: tuple[TracedOutput, ...] = ()
     """The outputs, as the cycles where a field changed value."""
-    robot_states: tuple[TracedState, ...] = ()
-    """In sensor-level replay, the robot-state fields perception rebuilt otherwise than
-    recorded, in each cycle where it did."""
+    state_pins: StatePins = field(default_factory=StatePins)
+    """In sensor-level replay, the robot states perception rebuilt otherwise than
+    recorded, pinned by digest in each cycle where it did."""
     draws: tuple[DrawRule, ...] = ()
     """In living replay, the draws made otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
@@ -79,7 +76,11 @@ class ReplayedTrace:
     def expectation(self) -> Expectation:
         """This trace as the expectation a baseline pins."""
         return Expectation(
-            self.changes, self.outputs, self.robot_states, self.draws, self.open_loop
+            self.changes,
+            self.outputs,
+            state_pins=self.state_pins,
+            draws=self.draws,
+            open_loop=self.open_loop,
         )
 
 
@@ -181,7 +182,7 @@ class TraceCollector:
         self._open_loop: tuple[int, int] | None = None
         self._changes: list[TracedChange] = []
         self._outputs: list[TracedOutput] = []
-        self._states: list[TracedState] = []
+        self._states: list[RebuiltState] = []
         self._draws: list[tuple[int, DrawDifference]] = []
         self._tracker = OutputTracker()
         self._cycles = 0
@@ -213,7 +214,9 @@ class TraceCollector:
         )
         self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
         if outcome.perception_differs:
-            self._states.extend(_rebuilt_otherwise(outcome))
+            rebuilt = _rebuilt_otherwise(outcome)
+            if rebuilt is not None:
+                self._states.append(rebuilt)
         if outcome.draw_differences:
             self._draws.extend((outcome.cycle, d) for d in outcome.draw_differences)
         if self._open_loop is None and self._left_recording(outcome):
@@ -244,20 +247,20 @@ class TraceCollector:
             self._cycles,
             self.stopped,
             tuple(self._outputs),
-            tuple(self._states),
+            StatePins.from_rebuilt(self._states),
             draw_rules(self._draws),
             self._open_loop,
         )
 
 
-def _rebuilt_otherwise(outcome: CycleOutcome) -> list[TracedState]:
-    """The robot-state fields perception rebuilt otherwise than recorded, bit for bit."""
-    recorded, rebuilt = state_fields(outcome.recorded_state), state_fields(outcome.state)
-    return [
-        TracedState(outcome.cycle, outcome.time_ns, name, rebuilt[name])
-        for name in _EXACT.state_differences(recorded, rebuilt)
-        if name in rebuilt
-    ]
+def _rebuilt_otherwise(outcome: CycleOutcome) -> RebuiltState | None:
+    """The robot state perception rebuilt, when it differs from the recorded one bit
+    for bit: the fields that differ and the whole state's digest."""
+    rebuilt = state_fields(outcome.state)
+    fields = rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt)
+    if not fields:
+        return None
+    return RebuiltState(outcome.cycle, outcome.time_ns, fields, state_digest(rebuilt))
 
 
 def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:

@@ -10,13 +10,14 @@ from __future__ import annotations
 import enum
 import itertools
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import msgspec
 
 from beatlog.log.format import payload_encoder
 from beatlog.replay.draws import DrawRule
+from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
@@ -59,7 +60,8 @@ class TracedOutput(NamedTuple):
 
 class TracedState(NamedTuple):
     """A robot-state field that the perception step rebuilt differently from the
-    recorded RS_t at a cycle, with the value it rebuilt."""
+    recorded RS_t at a cycle, with the value it rebuilt: how a format 3 baseline pins
+    robot states (newer ones pin them by digest, :class:`~beatlog.replay.pins.StatePins`)."""
 
     cycle: int
     time_ns: int
@@ -103,8 +105,9 @@ class Expectation:
     ``outputs`` pins the outputs as compact changes (see :class:`OutputTracker`); None
     (a baseline from before outputs were pinned) leaves them judged against the recording.
     ``robot_states`` pins, for sensor-level replay, the robot states an intended
-    perception change rebuilds: the fields that differ from the recorded RS_t, in the
-    cycles where they do (none: perception rebuilds the recording). ``draws`` are the
+    perception change rebuilds (format 3: the fields that differ from the recorded RS_t,
+    value by value); ``state_pins`` pins them by digest, in the cycles where they differ
+    from the recorded RS_t (none: perception rebuilds the recording). ``draws`` are the
     draws replay may make otherwise than recorded (:mod:`beatlog.replay.draws`); a
     baseline is judged in living replay, so any other difference diverges.
     ``open_loop`` is the first cycle whose state changes or outputs left the
@@ -115,6 +118,7 @@ class Expectation:
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] | None = None
     robot_states: tuple[TracedState, ...] = ()
+    state_pins: StatePins = field(default_factory=StatePins)
     draws: tuple[DrawRule, ...] = ()
     open_loop: tuple[int, int] | None = None
     """The cycle and robot time (ns) where the behaviors left the recording."""
@@ -127,7 +131,7 @@ class Expectation:
         return grouped
 
     def states_by_cycle(self) -> dict[int, dict[str, Any]]:
-        """The pinned robot-state fields grouped by cycle."""
+        """The robot-state fields a format 3 baseline pins, grouped by cycle."""
         grouped: dict[int, dict[str, Any]] = {}
         for traced in self.robot_states:
             grouped.setdefault(traced.cycle, {})[traced.field] = traced.value

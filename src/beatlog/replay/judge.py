@@ -37,6 +37,7 @@ from beatlog.replay.core import CycleOutcome, Replayer, actor_name
 from beatlog.replay.draws import DrawLedger, Unapproved
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_catalogue, check_state_fields
+from beatlog.replay.pins import PinChecker, rebuilt_otherwise
 from beatlog.replay.renames import propose_renames
 from beatlog.replay.session import ReplaySession, fields_read
 from beatlog.replay.verdict import (
@@ -284,9 +285,14 @@ class _Judge:
         """In living replay (an approved baseline), the draws it lets differ."""
         self._draw_cycles = frozenset() if self._ledger is None else self._ledger.cycles
         self._pinned_states: dict[int, dict[str, Any]] = {}
-        """The robot states an approved baseline pins: fields by cycle (sensor-level replay)."""
+        """The robot states a format 3 baseline pins: fields by cycle (sensor-level replay)."""
+        self._state_pins: PinChecker | None = None
+        """The robot states a baseline pins by digest (sensor-level replay)."""
+        self._pinned_cycles: frozenset[int] = frozenset()
         if expected is not None and self.replayer.perception is not None:
             self._pinned_states = expected.states_by_cycle()
+            self._state_pins = PinChecker(expected.state_pins)
+            self._pinned_cycles = self._state_pins.cycles | self._pinned_states.keys()
         if expected is not None:
             self._baseline = self._encode_baseline(expected)
             if expected.outputs is not None:
@@ -409,7 +415,7 @@ class _Judge:
         observe = self._observe
         same_catalogue = self._same_catalogue
         raw = msgspec.Raw
-        pinned_states = self._pinned_states
+        pinned_states = self._pinned_cycles
         draw_cycles = self._draw_cycles
         random = self.random
         changed = reported = drawn = 0
@@ -608,9 +614,7 @@ class _Judge:
                 trace = user_traceback(problem)
         elif differences:
             kind = DivergenceKind.PERCEPTION
-            names = ", ".join(d.field for d in differences)
-            against = " from the approved baseline" if self._pinned_states else ""
-            message = f"the robot state rebuilt from the samples differs{against} in {names}"
+            message = self._perception_message(outcome, differences)
         elif stop is not None and stop.kind is not DivergenceKind.RANDOM_UNDERDRAWN:
             kind, message, behavior = stop
             if failure is not None:
@@ -674,10 +678,25 @@ class _Judge:
 
     def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
-        tolerance: expected is the recorded RS_t with the fields the baseline pins."""
+        tolerance: expected is the recorded RS_t with the fields a format 3 baseline pins.
+
+        In a cycle pinned by digest the whole state is judged, bit for bit; when it
+        differs, the fields named are those that differ from the recording now or did
+        in the approved baseline's run of cycles, recorded against rebuilt.
+        """
         expected = state_fields(outcome.recorded_state)
-        expected.update(self._pinned_states.get(outcome.cycle, ()))
         actual = state_fields(outcome.state)
+        pins = self._state_pins
+        if pins is not None and outcome.cycle in pins:
+            if pins.mismatch(outcome.cycle, actual) is None:
+                return ()
+            named = {*pins.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
+            return tuple(
+                FieldDifference(name, expected.get(name), actual.get(name))
+                for name in dict.fromkeys([*expected, *actual])
+                if name in named
+            )
+        expected.update(self._pinned_states.get(outcome.cycle, ()))
         return tuple(
             FieldDifference(name, expected.get(name), actual.get(name))
             for name in self.comparison.state_differences(expected, actual)
@@ -706,6 +725,25 @@ class _Judge:
             return DivergenceKind.RANDOM_UNDERDRAWN, message, behavior
         message = f"{behavior} called {asked} where {recorded} was recorded, {baseline}"
         return DivergenceKind.RANDOM_MISMATCH, message, behavior
+
+    def _perception_message(
+        self, outcome: CycleOutcome, differences: tuple[FieldDifference, ...]
+    ) -> str:
+        """Why the robot state rebuilt in a cycle is not the one expected."""
+        pins = self._state_pins
+        if pins is None or outcome.cycle not in pins:
+            names = ", ".join(d.field for d in differences)
+            against = " from the approved baseline" if self._pinned_cycles else ""
+            return f"the robot state rebuilt from the samples differs{against} in {names}"
+        run = pins.run_at(outcome.cycle)
+        rebuilt = state_fields(outcome.state)
+        now = list(rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt))
+        return (
+            "the robot state rebuilt from the samples differs from the approved baseline "
+            f"{pins.mismatch(outcome.cycle, rebuilt)}; it differs from the recording in "
+            f"{', '.join(now) or 'no field'}, the approved one in {', '.join(run.fields)} "
+            f"(cycles {run.cycle}–{run.last})"
+        )
 
     def _reports(self, draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
         return [

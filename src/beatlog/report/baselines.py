@@ -14,7 +14,7 @@ from rich.text import Text
 from beatlog.report.counts import plural
 from beatlog.suite.approved import Approved
 from beatlog.suite.baseline import pending_path
-from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
+from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
 
 __all__ = [
     "open_loop_text",
@@ -25,6 +25,8 @@ __all__ = [
 ]
 
 _DIFF_STYLES = {"+": "green", "-": "red", "@": "cyan"}
+_MAX_RUNS = 20
+"""The runs of rebuilt robot states a review sums up; a file with more names them all."""
 
 
 def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
@@ -97,6 +99,28 @@ def _value(value: object) -> str:
     return json.dumps(value, default=repr)
 
 
+def _run_line(run: RebuiltRun) -> Text:
+    """``robot state "speed" rebuilt otherwise in cycles 517–4999 (4483 cycles), first:
+    "speed" 0.04 → 0.041``."""
+    first: list[str | tuple[str, str]] = []
+    for difference in run.first:
+        first.extend(
+            [
+                ", " if first else "",
+                f"{json.dumps(difference.field)} ",
+                (_value(difference.recorded), "red"),
+                " → ",
+                (_value(difference.rebuilt), "green"),
+            ]
+        )
+    return Text.assemble(
+        ("robot state ", "cyan"),
+        f"{', '.join(json.dumps(name) for name in run.fields)} rebuilt otherwise in cycles "
+        f"{run.first_cycle}–{run.last_cycle} ({plural(run.cycles, 'cycle')}), first: ",
+        *first,
+    )
+
+
 def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> RenderableType:
     """The pending expectation against today's, at most ``max_lines`` lines of diff."""
     spec = diff.spec
@@ -114,6 +138,7 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
             )
             for change in diff.robot_states
         ),
+        *(_run_line(run) for run in diff.rebuilt_runs[:_MAX_RUNS]),
         *(Text.assemble(("draws ", "cyan"), str(rule)) for rule in diff.draws),
         *(
             [Text(open_loop_text(diff.open_loop), style="yellow")]
@@ -121,6 +146,9 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
             else []
         ),
     ]
+    if len(diff.rebuilt_runs) > _MAX_RUNS:
+        more = len(diff.rebuilt_runs) - _MAX_RUNS
+        parts.append(Text(f"… {plural(more, 'more run')}: read {pending_path(spec.path)}"))
     parts.extend(
         Text(line, style=_DIFF_STYLES.get(line[:1], "")) for line in diff.lines[:max_lines]
     )

@@ -23,6 +23,8 @@ from beatlog.errors import BaselineError, OptionError
 from beatlog.replay.compare import Comparison
 from beatlog.replay.draws import DrawRule
 from beatlog.replay.expectation import Expectation, TracedChange, TracedState
+from beatlog.replay.pins import StatePins
+from beatlog.replay.verdict import FieldDifference
 from beatlog.suite.baseline import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,
@@ -42,6 +44,7 @@ __all__ = [
     "FieldChange",
     "PendingDiff",
     "PendingUpdate",
+    "RebuiltRun",
     "UpdateAction",
     "approve",
     "decide",
@@ -129,7 +132,7 @@ def update_baselines(
                     pending,
                     len(update.changes),
                     len(update.outputs or ()),
-                    robot_state_cycles=len({traced.cycle for traced in update.robot_states}),
+                    robot_state_cycles=update.state_pins.cycles,
                     draws=update.draws,
                     open_loop=update.open_loop,
                 )
@@ -225,6 +228,20 @@ class FieldChange(NamedTuple):
     """The pending value in the first cycle."""
 
 
+class RebuiltRun(NamedTuple):
+    """Cycles in which the perception of a pending baseline rebuilds the robot state
+    otherwise than recorded (a run of them, with short gaps rebuilt as recorded)."""
+
+    fields: tuple[str, ...]
+    """The fields that differ from the recording in any of them."""
+    first_cycle: int
+    last_cycle: int
+    cycles: int
+    """How many of the cycles from first to last differ."""
+    first: tuple[FieldDifference, ...]
+    """The fields that differ in the first cycle: recorded and rebuilt."""
+
+
 @dataclass(frozen=True)
 class PendingDiff:
     """A pending expectation as a unified diff against today's: approved, else recorded."""
@@ -239,7 +256,9 @@ class PendingDiff:
     lines: tuple[str, ...]
     """The diff: changed cycles with a line of context either side."""
     robot_states: tuple[FieldChange, ...] = ()
-    """The robot-state fields perception now rebuilds otherwise, field by field."""
+    """The robot-state fields a format 3 pending file pins, field by field."""
+    rebuilt_runs: tuple[RebuiltRun, ...] = ()
+    """The runs of cycles in which perception now rebuilds the robot state otherwise."""
     draws: tuple[DrawRule, ...] = ()
     """The draws the pending baseline lets replay make otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
@@ -248,16 +267,18 @@ class PendingDiff:
 
 def pending_diff(spec: DtcSpec) -> PendingDiff:
     """Compare the pending baseline of ``spec`` with its approved one, or with its
-    recording when none is approved yet. Robot-state fields, state changes and output
-    changes interleave by cycle, as baseline files hold them; the robot-state fields
-    that differ are also summed up field by field, with their values before and after."""
+    recording when none is approved yet. Robot-state pins, state changes and output
+    changes interleave by cycle, as baseline files hold them; the robot states
+    perception now rebuilds otherwise are also summed up run by run, with the values
+    that differ in each run's first cycle as recorded and rebuilt (field by field, with
+    their values before and after, for a format 3 pending file)."""
     expected = expected_path(spec.path)
     approved = read_baseline(expected) if expected.exists() else None
     pending = read_baseline(pending_path(spec.path))
     with spec.readable_log() as log:
         if approved is not None:
             old_states = approved.robot_states
-            old = format_lines(approved.changes, approved.outputs, old_states)
+            old = format_lines(approved.changes, approved.outputs, old_states, approved.state_pins)
             source = f"approved ({expected.name})"
             if approved.outputs is None:
                 source += ", no outputs pinned"
@@ -270,10 +291,37 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
             )
             source = f"recorded ({spec.log.name})"
         fields = _field_changes(log, old_states, pending.robot_states)
-    new = format_lines(pending.changes, pending.outputs, pending.robot_states)
+        runs = _rebuilt_runs(log, pending.state_pins)
+    new = format_lines(pending.changes, pending.outputs, pending.robot_states, pending.state_pins)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
     return PendingDiff(
-        spec, source, len(old), len(new), tuple(diff), fields, pending.draws, pending.open_loop
+        spec,
+        source,
+        len(old),
+        len(new),
+        tuple(diff),
+        fields,
+        runs,
+        pending.draws,
+        pending.open_loop,
+    )
+
+
+def _rebuilt_runs(log: Path, pins: StatePins) -> tuple[RebuiltRun, ...]:
+    """The runs a pending file pins, with their first cycles' values as recorded."""
+    recorded = recorded_states(log, {run.cycle for run in pins.runs})
+    return tuple(
+        RebuiltRun(
+            run.fields,
+            run.cycle,
+            run.last,
+            run.cycles,
+            tuple(
+                FieldDifference(name, recorded.get(run.cycle, {}).get(name), value)
+                for name, value in run.first.items()
+            ),
+        )
+        for run in pins.runs
     )
 
 

@@ -1,0 +1,298 @@
+"""Robot states pinned by digest: what an approved perception change rebuilds, compactly.
+
+In sensor-level replay an intended perception change (a constant retuned) rebuilds
+RS_t otherwise than recorded, often in nearly every cycle. A baseline pins those
+states without copying them: for each run of cycles in which perception rebuilds
+otherwise, gaps of up to :data:`MAX_GAP` cycles rebuilt as recorded included
+(:class:`PinnedRun`, naming the fields that differ from the recording and giving their
+rebuilt values in its first cycle, for review), blocks of up to
+:data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
+digest of the block.
+
+A cycle's :func:`state_digest` is a keyed BLAKE2b of the rebuilt state's canonical
+msgpack encoding: its fields as they read back from a log, keys sorted, floats as
+64-bit IEEE, so any bit of any field counts. Its first 12 bits, as two base64
+characters, are the cycle's tag: a state that differs from the approved one is caught
+in its own cycle, except once in 4,096; the block's digest, of its pinned cycles'
+whole digests, then catches it at the block's last pinned cycle (missed once in
+2**64). Two characters a cycle keep a retuned perception's pins near 3.2 bytes a
+cycle, 1.4 % of the dog's logs (``bench/bench_baselines.py``); a whole digest a cycle
+would take 11 characters.
+"""
+
+from __future__ import annotations
+
+import base64
+import bisect
+import hashlib
+import re
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import msgspec
+
+from beatlog.replay.compare import Comparison
+
+__all__ = [
+    "CYCLES_PER_BLOCK",
+    "DIGEST_BYTES",
+    "MAX_GAP",
+    "TAG_CHARS",
+    "UNPINNED",
+    "DigestBlock",
+    "PinChecker",
+    "PinnedRun",
+    "RebuiltState",
+    "StatePins",
+    "rebuilt_otherwise",
+    "state_digest",
+]
+
+DIGEST_BYTES = 8
+"""The size of a cycle's state digest and of a block's digest."""
+TAG_CHARS = 2
+"""A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
+CYCLES_PER_BLOCK = 64
+"""The most cycles one block (one line of a baseline) spans."""
+MAX_GAP = 16
+"""The most cycles perception may rebuild as recorded inside one run: a gap costs a
+tag each, a new run a line of names and values."""
+UNPINNED = ".."
+"""The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
+_TAGS = re.compile(r"(?:[A-Za-z0-9+/]{2}|\.\.)+")
+_KEY = b"beatlog robot state"
+_SORTED = msgspec.msgpack.Encoder(order="sorted")
+_EXACT = Comparison()
+
+
+def state_digest(fields: Mapping[str, Any]) -> bytes:
+    """The digest of a robot state given as its fields (see
+    :func:`~beatlog.replay.compare.state_fields`): bit for bit, whatever their order."""
+    return hashlib.blake2b(_SORTED.encode(fields), digest_size=DIGEST_BYTES, key=_KEY).digest()
+
+
+def _block_digest(digests: Iterable[bytes]) -> bytes:
+    return hashlib.blake2b(b"".join(digests), digest_size=DIGEST_BYTES, key=_KEY).digest()
+
+
+def rebuilt_otherwise(recorded: Mapping[str, Any], rebuilt: Mapping[str, Any]) -> dict[str, Any]:
+    """The fields of a rebuilt robot state that differ from the recorded one, bit for
+    bit, with their rebuilt values (a field the rebuilt state lacks is left out)."""
+    return {
+        name: rebuilt[name]
+        for name in _EXACT.state_differences(recorded, rebuilt)
+        if name in rebuilt
+    }
+
+
+class RebuiltState(NamedTuple):
+    """A cycle in which perception rebuilt the robot state otherwise than recorded, as a
+    trace collects it."""
+
+    cycle: int
+    time_ns: int
+    fields: dict[str, Any]
+    """The fields that differ from the recording, with their rebuilt values."""
+    digest: bytes
+    """The :func:`state_digest` of the whole rebuilt state."""
+
+
+class PinnedRun(NamedTuple):
+    """Cycles in which perception rebuilds the robot state otherwise than recorded, from
+    ``cycle`` to ``last`` with gaps of at most :data:`MAX_GAP` cycles (as recorded): what
+    a review needs of them."""
+
+    cycle: int
+    """The first of them."""
+    time_ns: int
+    last: int
+    """The last of them."""
+    cycles: int
+    """How many are pinned: ``last - cycle + 1`` less the gaps."""
+    fields: tuple[str, ...]
+    """The fields that differ from the recording in any of them, sorted."""
+    first: dict[str, Any]
+    """The fields that differ in the first cycle, with their rebuilt values."""
+
+
+class DigestBlock(NamedTuple):
+    """Up to :data:`CYCLES_PER_BLOCK` consecutive cycles of a run: a tag each
+    (:data:`UNPINNED` for a gap), and the digest of the pinned ones' whole digests."""
+
+    cycle: int
+    """The first of them, a pinned one."""
+    time_ns: int
+    tags: str
+    """:data:`TAG_CHARS` a cycle, in cycle order."""
+    digest: bytes
+
+    @property
+    def cycles(self) -> int:
+        """How many cycles the block spans."""
+        return len(self.tags) // TAG_CHARS
+
+    def tag(self, offset: int) -> str:
+        """The tag of the block's cycle ``cycle + offset``."""
+        return self.tags[offset * TAG_CHARS : (offset + 1) * TAG_CHARS]
+
+    @property
+    def pinned(self) -> list[int]:
+        """The offsets of the cycles it pins (not gaps)."""
+        return [offset for offset in range(self.cycles) if self.tag(offset) != UNPINNED]
+
+
+@dataclass(frozen=True)
+class StatePins:
+    """The robot states a baseline pins by digest: runs, and the blocks that cover them.
+
+    :raises ValueError: the blocks do not cover the runs, in order.
+    """
+
+    runs: tuple[PinnedRun, ...] = ()
+    blocks: tuple[DigestBlock, ...] = ()
+
+    def __post_init__(self) -> None:
+        problem = _coverage_problem(self.runs, self.blocks)
+        if problem is not None:
+            raise ValueError(problem)
+
+    @classmethod
+    def from_rebuilt(cls, states: Iterable[RebuiltState]) -> StatePins:
+        """Pin the rebuilt states a trace collected (in cycle order)."""
+        runs: list[PinnedRun] = []
+        blocks: list[DigestBlock] = []
+        for run in _runs(states):
+            head, tail = run[0], run[-1]
+            fields = sorted({name for state in run for name in state.fields})
+            runs.append(
+                PinnedRun(
+                    head.cycle, head.time_ns, tail.cycle, len(run), tuple(fields), head.fields
+                )
+            )
+            blocks.extend(_blocks(run))
+        return cls(tuple(runs), tuple(blocks))
+
+    @property
+    def cycles(self) -> int:
+        """How many cycles are pinned."""
+        return sum(run.cycles for run in self.runs)
+
+
+def _tag(digest: bytes) -> str:
+    return base64.b64encode(digest[:3]).decode()[:TAG_CHARS]
+
+
+def _runs(states: Iterable[RebuiltState]) -> Iterator[list[RebuiltState]]:
+    """The states in runs whose gaps are at most :data:`MAX_GAP` cycles."""
+    run: list[RebuiltState] = []
+    for state in states:
+        if run and state.cycle - run[-1].cycle - 1 > MAX_GAP:
+            yield run
+            run = []
+        run.append(state)
+    if run:
+        yield run
+
+
+def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
+    """A run's blocks: each starts at a pinned cycle and spans at most
+    :data:`CYCLES_PER_BLOCK`, ending at the last pinned cycle it reaches."""
+    start = 0
+    while start < len(run):
+        first = run[start].cycle
+        end = start
+        while end < len(run) and run[end].cycle < first + CYCLES_PER_BLOCK:
+            end += 1
+        chunk = run[start:end]
+        tags = [UNPINNED] * (chunk[-1].cycle - first + 1)
+        for state in chunk:
+            tags[state.cycle - first] = _tag(state.digest)
+        digest = _block_digest(state.digest for state in chunk)
+        yield DigestBlock(first, run[start].time_ns, "".join(tags), digest)
+        start = end
+
+
+def _coverage_problem(runs: tuple[PinnedRun, ...], blocks: tuple[DigestBlock, ...]) -> str | None:
+    """Why the blocks do not cover the runs, in order, if they do not."""
+    index = 0
+    end = -1
+    for run in runs:
+        where = f"the robot-state run from cycle {run.cycle}"
+        if run.cycle <= end or run.last < run.cycle:
+            return f"{where} is out of order"
+        if not run.first or not set(run.first) <= set(run.fields):
+            return f"{where} names no fields that differ in its first cycle"
+        start, pinned = run.cycle, 0
+        while index < len(blocks) and blocks[index].cycle <= run.last:
+            block = blocks[index]
+            if block.cycle < start or (pinned == 0 and block.cycle != run.cycle):
+                return f"{where} has its digests of cycle {block.cycle} out of place"
+            if not _TAGS.fullmatch(block.tags) or not 0 < block.cycles <= CYCLES_PER_BLOCK:
+                return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
+            start = block.cycle + block.cycles
+            pinned += len(block.pinned)
+            index += 1
+        if start != run.last + 1:
+            return f"{where} has digests that do not end at its last cycle, {run.last}"
+        if pinned != run.cycles:
+            return f"{where} says {run.cycles} cycles, its digests pin {pinned}"
+        end = run.last
+    if index < len(blocks):
+        return f"the digests from cycle {blocks[index].cycle} are in no robot-state run"
+    return None
+
+
+class PinChecker:
+    """Judges the robot states perception rebuilds against :class:`StatePins`, one
+    pinned cycle after another, in cycle order."""
+
+    def __init__(self, pins: StatePins) -> None:
+        self._at: dict[int, tuple[DigestBlock, int, bool]] = {}
+        """Each pinned cycle: its block, its place among the block's pinned cycles, and
+        whether it is the block's last."""
+        for block in pins.blocks:
+            offsets = block.pinned
+            for place, offset in enumerate(offsets):
+                self._at[block.cycle + offset] = (block, place, place == len(offsets) - 1)
+        self._runs = pins.runs
+        self._starts = [run.cycle for run in pins.runs]
+        self._block: DigestBlock | None = None
+        self._digests: list[bytes] = []
+        self._intact = False
+        self._last: tuple[int, str | None] | None = None
+
+    def __contains__(self, cycle: object) -> bool:
+        return cycle in self._at
+
+    @property
+    def cycles(self) -> frozenset[int]:
+        """The pinned cycles."""
+        return frozenset(self._at)
+
+    def run_at(self, cycle: int) -> PinnedRun:
+        """The run a pinned cycle is in."""
+        return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
+
+    def mismatch(self, cycle: int, fields: Mapping[str, Any]) -> str | None:
+        """How the robot state rebuilt in pinned ``cycle`` (given as its fields) was found
+        to differ from the approved one: ``"by its digest"`` (its tag), or ``"by the
+        digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle);
+        None when it agrees. Asked again about the same cycle, the same answer."""
+        if self._last is not None and self._last[0] == cycle:
+            return self._last[1]
+        block, place, last = self._at[cycle]
+        if place == 0 or block is not self._block:
+            self._block, self._digests, self._intact = block, [], place == 0
+        if place != len(self._digests):  # a pinned cycle of the block went unjudged
+            self._intact = False
+        digest = state_digest(fields)
+        self._digests.append(digest)
+        found = None
+        if _tag(digest) != block.tag(cycle - block.cycle):
+            self._intact = False  # reported here, not again for the block
+            found = "by its digest"
+        elif last and self._intact and _block_digest(self._digests) != block.digest:
+            found = f"by the digest of cycles {block.cycle}–{cycle}"
+        self._last = (cycle, found)
+        return found

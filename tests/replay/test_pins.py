@@ -1,0 +1,175 @@
+"""Robot states pinned by digest: any bit of any field counts, in the cycle where it
+differs, and the pins stay a few characters a cycle."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any
+
+import pytest
+
+from beatlog.replay.pins import (
+    CYCLES_PER_BLOCK,
+    MAX_GAP,
+    UNPINNED,
+    DigestBlock,
+    PinChecker,
+    PinnedRun,
+    StatePins,
+    rebuilt_otherwise,
+    state_digest,
+)
+from tests.factories import rebuilt_states, speed_state
+
+
+def _judged(pins: StatePins, states: dict[int, dict[str, Any]]) -> dict[int, str]:
+    """Each pinned cycle judged in order: the cycles found to differ, and how."""
+    checker = PinChecker(pins)
+    found = {cycle: checker.mismatch(cycle, states[cycle]) for cycle in sorted(checker.cycles)}
+    return {cycle: how for cycle, how in found.items() if how is not None}
+
+
+def test_a_digest_counts_every_bit_and_not_the_order_of_the_fields() -> None:
+    assert state_digest({"a": 1, "b": 0.5}) == state_digest({"b": 0.5, "a": 1})
+    assert state_digest({"a": 0.0}) != state_digest({"a": -0.0})
+    assert state_digest({"a": 1}) != state_digest({"a": 1.0})
+    assert len(state_digest({})) == 8
+
+
+def test_only_the_fields_that_differ_bit_for_bit_are_rebuilt_otherwise() -> None:
+    recorded = {"speed": 0.0, "heading": 1.5, "gone": 1}
+    rebuilt = {"speed": -0.0, "heading": 1.5, "new": 2}
+    assert rebuilt_otherwise(recorded, rebuilt) == {"speed": -0.0, "new": 2}
+
+
+def test_the_states_the_pins_were_made_from_agree() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(200)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+    assert _judged(pins, states) == {}
+
+
+def test_a_one_ulp_change_of_one_field_in_one_cycle_fails_in_that_cycle() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(200)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+    changed = dict(states)
+    changed[117] = {**states[117], "heading": math.nextafter(states[117]["heading"], 9.0)}
+
+    assert _judged(pins, changed) == {117: "by its digest"}
+
+
+def test_a_change_whose_tag_matches_fails_at_the_end_of_its_block() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(100)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+    block = pins.blocks[0]
+    heading = states[5]["heading"]
+    # one in 4,096 changes keeps the cycle's 12-bit tag: find one
+    for _ in itertools.count():
+        heading = math.nextafter(heading, 9.0)
+        twin = {**states[5], "heading": heading}
+        (same_tag,) = StatePins.from_rebuilt(rebuilt_states({5: twin})).blocks
+        if same_tag.tags == block.tag(5):
+            break
+
+    found = _judged(pins, {**states, 5: twin})
+
+    assert found == {CYCLES_PER_BLOCK - 1: f"by the digest of cycles 0–{CYCLES_PER_BLOCK - 1}"}
+
+
+def test_consecutive_cycles_make_one_run_of_blocks() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(10, 150)}
+
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+
+    assert pins.runs == (PinnedRun(10, 10_000_000, 149, 140, ("speed",), {"speed": 0.01}),)
+    assert [(block.cycle, block.cycles) for block in pins.blocks] == [(10, 64), (74, 64), (138, 12)]
+    assert all(len(block.tags) == 2 * block.cycles for block in pins.blocks)
+    assert pins.cycles == 140
+
+
+def test_short_gaps_stay_in_the_run_and_are_judged_against_the_recording() -> None:
+    cycles = [0, 1, 2 + MAX_GAP, 3 + MAX_GAP, 4 + 3 * MAX_GAP]
+    states = {cycle: speed_state(cycle) for cycle in cycles}
+
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+
+    assert [(run.cycle, run.last, run.cycles) for run in pins.runs] == [
+        (0, 3 + MAX_GAP, 4),
+        (4 + 3 * MAX_GAP, 4 + 3 * MAX_GAP, 1),
+    ]
+    first = pins.blocks[0]
+    assert first.tags[4 : 4 + 2 * MAX_GAP] == UNPINNED * MAX_GAP
+    assert first.pinned == [0, 1, 2 + MAX_GAP, 3 + MAX_GAP]
+    assert PinChecker(pins).cycles == frozenset(cycles)
+    assert _judged(pins, states) == {}
+
+
+def test_a_block_starts_at_a_pinned_cycle_and_ends_at_one() -> None:
+    cycles = [*range(CYCLES_PER_BLOCK - 3), CYCLES_PER_BLOCK + 6, CYCLES_PER_BLOCK + 8]
+    states = {cycle: speed_state(cycle) for cycle in cycles}
+
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+
+    assert len(pins.runs) == 1
+    assert [(block.cycle, block.cycles) for block in pins.blocks] == [
+        (0, CYCLES_PER_BLOCK - 3),
+        (CYCLES_PER_BLOCK + 6, 3),
+    ]
+
+
+def test_a_pinned_cycle_left_unjudged_leaves_its_block_digest_unchecked() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(64)}
+    checker = PinChecker(StatePins.from_rebuilt(rebuilt_states(states)))
+
+    found = [checker.mismatch(cycle, states[cycle]) for cycle in range(64) if cycle != 3]
+
+    assert found == [None] * 63
+
+
+def test_the_same_cycle_asked_again_gets_the_same_answer() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(3)}
+    checker = PinChecker(StatePins.from_rebuilt(rebuilt_states(states)))
+    wrong = {**states[0], "speed": 9.0}
+
+    assert checker.mismatch(0, wrong) == "by its digest"
+    assert checker.mismatch(0, {}) == "by its digest"
+    assert checker.mismatch(1, states[1]) is None
+
+
+def _run(cycle: int, last: int, cycles: int) -> PinnedRun:
+    return PinnedRun(cycle, 0, last, cycles, ("speed",), {"speed": 1.0})
+
+
+def _block(cycle: int, tags: str) -> DigestBlock:
+    return DigestBlock(cycle, 0, tags, bytes(8))
+
+
+@pytest.mark.parametrize(
+    ("runs", "blocks", "problem"),
+    [
+        ((_run(0, 1, 2),), (), "the robot-state run from cycle 0 has digests that do not end"),
+        ((_run(0, 1, 2),), (_block(1, "AA"),), "has its digests of cycle 1 out of place"),
+        ((_run(0, 1, 2),), (_block(0, "AAAA"),), None),
+        ((_run(0, 1, 3),), (_block(0, "AAAA"),), "says 3 cycles, its digests pin 2"),
+        ((_run(0, 2, 2),), (_block(0, "AA..AA"),), None),
+        ((_run(0, 1, 2),), (_block(0, "AAAAAA"),), "do not end at its last cycle, 1"),
+        ((_run(0, 1, 2),), (_block(0, "AA"), _block(0, "AA")), "digests of cycle 0 out of place"),
+        ((_run(0, 0, 1),), (_block(0, "A."),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1),), (_block(0, "AA" * 65),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1), _run(0, 0, 1)), (_block(0, "AA"),), "from cycle 0 is out of order"),
+        ((_run(0, 0, 1),), (_block(0, "AA"), _block(5, "AA")), "from cycle 5 are in no robot"),
+        (
+            (PinnedRun(0, 0, 0, 1, ("speed",), {"heading": 1.0}),),
+            (_block(0, "AA"),),
+            "names no fields that differ in its first cycle",
+        ),
+    ],
+)
+def test_blocks_must_cover_their_runs(
+    runs: tuple[PinnedRun, ...], blocks: tuple[DigestBlock, ...], problem: str | None
+) -> None:
+    if problem is None:
+        assert StatePins(runs, blocks).runs == runs
+        return
+    with pytest.raises(ValueError, match=problem):
+        StatePins(runs, blocks)
