@@ -17,6 +17,7 @@ from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_wind
 from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
+from beatlog.replay.migration import StateMigration
 from beatlog.replay.session import FieldsRead, ReplaySession
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
@@ -44,14 +45,16 @@ def replay_details(
     timelines: bool = False,
     expected: Mapping[int, Sequence[StateChange]] | None = None,
     perception: Perception | None = None,
+    migration: StateMigration | None = None,
 ) -> Details:
     """Replay ``log`` on a fresh ``system`` once, gathering what is asked for.
 
     ``divergence`` is the verdict's; the fields read are those of its cycle.
     ``expected`` stands in for the recorded state changes in the timelines (an
     approved baseline). With a ``perception`` step, each robot state is rebuilt from the
-    logged samples, as the verdict's replay did. Stepping stops as soon as nothing asked
-    for needs more.
+    logged samples, as the verdict's replay did, and with a ``migration`` the log's
+    robot-state fields are renamed and converted as they were there. Stepping stops as
+    soon as nothing asked for needs more.
     """
     diverged_at = (
         None
@@ -59,7 +62,7 @@ def replay_details(
         else divergence.cycle
     )
     reads = None if diverged_at is None else FieldsRead(diverged_at)
-    with ReplaySession(log, system, perception=perception) as session:
+    with ReplaySession(log, system, perception=perception, migration=migration) as session:
         assert session.replayer is not None  # a session with a system replays
         tracer = TraceCollector(session.replayer) if trace else None
         charts: list[TimelineCollector] = []

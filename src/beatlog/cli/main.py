@@ -164,6 +164,24 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="pass a replay that checks nothing (no cycle, or nothing happening in any)",
     )
+    play.add_argument(
+        "--rename-field",
+        action="append",
+        type=_field_pair,
+        default=[],
+        metavar="OLD=NEW",
+        help="a robot-state field renamed since the recording (a dotted path inside a "
+        "struct); repeat for more",
+    )
+    play.add_argument(
+        "--convert-field",
+        action="append",
+        type=_field_pair,
+        default=[],
+        metavar="FIELD=MODULE:FUNCTION",
+        help="a robot-state field retyped since the recording, and the function that "
+        "converts its recorded value; repeat for more",
+    )
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
     _add_test(
@@ -467,6 +485,13 @@ def _shard(text: str) -> Shard:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _field_pair(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not (sep and name and value):
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE: {text!r}")
+    return name, value
+
+
 def _cycle_number(text: str) -> int:
     try:
         cycle = int(text)
@@ -601,6 +626,7 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
 
     from beatlog.replay.debugger import break_on_divergence, unreached_break
     from beatlog.replay.judge import recorded_system, replay
+    from beatlog.replay.migration import StateMigration
     from beatlog.report.console import render_replay
 
     given = args.log
@@ -620,6 +646,7 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
             "allow_truncated": args.allow_truncated,
             "allow_empty": args.allow_empty,
             "perception": args.perception,
+            "migration": StateMigration(dict(args.rename_field), dict(args.convert_field)),
         }
         result = replay(args.log, system, break_at=args.break_at, **options)
         notes = unreached_break(args.break_at, result)

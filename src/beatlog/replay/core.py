@@ -37,6 +37,7 @@ from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
 from beatlog.model.random import Draw, RandomMismatch, ReplayRandom, recorded_draw_problem
 from beatlog.replay.fit import check_fit, recorded_state_type
+from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
 from beatlog.replay.verdict import DivergenceKind
 
 __all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name"]
@@ -122,7 +123,9 @@ where it is needed)."""
 class Replayer:
     """A system set up to replay the cycles of one log, in order, from its first.
 
-    Building one checks that the log fits the system (:mod:`beatlog.replay.fit`).
+    Building one checks that the log fits the system (:mod:`beatlog.replay.fit`), its
+    robot-state fields renamed and converted by ``migration``, and imports the
+    migration's conversions.
     Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
     the samples (sensor-level replay); otherwise it is read from the log. Each cycle
     must hold what the header declares: a robot state of exactly the recorded fields
@@ -143,9 +146,11 @@ class Replayer:
         *,
         perception: Perception | None = None,
         break_at: int | None = None,
+        migration: StateMigration | None = None,
     ) -> None:
-        check_fit(header, system, path)
-        self.state_type = recorded_state_type(header, system.robot_state)
+        migration = migration or StateMigration()
+        check_fit(header, system, path, migration)
+        self.state_type = recorded_state_type(header, system.robot_state, migration)
         """The system's robot state type as each cycle's RS_t must hold it: decode RS_t
         with it (:meth:`~beatlog.log.reader.SessionLogReader.decode_states`); the
         behaviors get each as an instance of the system's type itself."""
@@ -163,6 +168,10 @@ class Replayer:
         self._rebuilt: Any = None
         self._encode = payload_encoder().encode
         self._robot_state = system.robot_state
+        self._convert = (
+            StateConverter(system.robot_state, migration) if migration.converted() else None
+        )
+        """What turns the fields the migration converts into the system's, if any."""
         self._state = msgspec.msgpack.Decoder(self.state_type).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
@@ -276,7 +285,11 @@ class Replayer:
         break_at = self.break_at
         perception = self.perception
         raw = msgspec.Raw
-        as_system = self._robot_state if self.state_type is not self._robot_state else None
+        checking = self.state_type
+        # A state decoded as the checking subclass becomes the system's, its fields
+        # converted where a migration converts them (only then is there more to do).
+        adopt = self._adopt if checking is not self._robot_state and self._convert else None
+        as_system = self._robot_state if checking is not self._robot_state and not adopt else None
         changes: list[StateChangeRecord] | None = None
         while True:
             record = yield changes
@@ -290,6 +303,8 @@ class Replayer:
                     state = read_state(record, context.cycle + 1)
                 elif as_system is not None:  # decoded as the checking subclass
                     state.__class__ = as_system
+                elif adopt is not None and state.__class__ is checking:
+                    adopt(state, context.cycle + 1)
             if context.cycle + 1 == break_at:
                 self._pause(context.cycle + 1, state, record)
             if perception is None:
@@ -369,8 +384,25 @@ class Replayer:
                 f"{self.system.robot_state.__name__}: {exc}",
             ) from None
         if self.state_type is not self._robot_state:
-            decoded.__class__ = self._robot_state
+            self._adopt(decoded, cycle)
         return decoded
+
+    def _adopt(self, state: Any, cycle: int) -> None:
+        """Make a state decoded as :attr:`state_type` the system's, its fields converted
+        by the migration.
+
+        :raises beatlog.errors.SchemaMismatchError: a conversion failed (the user's code
+            raised, or a value does not fit its field once converted).
+        """
+        state.__class__ = self._robot_state
+        if self._convert is None:
+            return
+        try:
+            self._convert(state)
+        except ConversionError as exc:
+            error = SchemaMismatchError(self.path, f"robot state of cycle {cycle}: {exc}")
+            error.user_traceback = exc.user_traceback
+            raise error from None
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: stop in ``cycle`` just before the behaviors update, once

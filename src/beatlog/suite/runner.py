@@ -165,6 +165,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             expected=expected,
             explain=False,
             perception=spec.perception,
+            migration=spec.migration,
         )
         replayed: System | str = system
         collector = None
@@ -201,7 +202,9 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         if audit:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
-            report = audit_replay(spec.log, system, allow_truncated=spec.allow_truncated)
+            report = audit_replay(
+                spec.log, system, allow_truncated=spec.allow_truncated, migration=spec.migration
+            )
         drawn = _timelines(collector, details)
     except BeatlogError as exc:
         wall = time.perf_counter() - started
@@ -283,6 +286,7 @@ def _details(
         timelines=timelines,
         expected=None if expected is None else expected.changes_by_cycle(),
         perception=None if spec.perception is None else load_perception(spec.perception),
+        migration=spec.migration,
     )
 
 
