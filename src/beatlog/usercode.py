@@ -1,5 +1,6 @@
-"""User code: import a system or robot from a ``module:factory`` reference, and tell
-where it failed (its traceback cut down to the user's frames).
+"""User code: import a system or robot from a ``module:factory`` reference (or a
+robot-state field's conversion from a ``module:function``), and tell where it failed
+(its traceback cut down to the user's frames).
 
 Only references the user names are imported: typed, written in a spec, or listed
 by the project (a log's recorded reference counts only when the project's

@@ -172,6 +172,8 @@ class Replayer:
             StateConverter(system.robot_state, migration) if migration.converted() else None
         )
         """What turns the fields the migration converts into the system's, if any."""
+        self._migrated = bool(migration)
+        """Whether RS_t was recorded under other names or types than the system's."""
         self._state = msgspec.msgpack.Decoder(self.state_type).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
@@ -358,11 +360,15 @@ class Replayer:
             return _Sensed(recorded, False, exc, samples)
         self._rebuilt = rebuilt
         try:
-            differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
+            encoded = self._encode(rebuilt)
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
-            differs = True
+            encoded = None
+        differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
         if differs and recorded is _READ:
             recorded = self._recorded_state(record, self.executor.context.cycle + 1)
+        if differs and encoded is not None and self._migrated:
+            # Recorded under other names or types: the same state holds other bytes.
+            differs = encoded != self._encode(recorded)
         return _Sensed(recorded, differs, None, samples)
 
     def _recorded_state(self, record: CycleRecord, cycle: int) -> Any:
