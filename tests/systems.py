@@ -21,6 +21,7 @@ from pathlib import Path
 from time import monotonic
 from typing import Any
 
+import msgspec
 import numpy as np
 import py_trees
 
@@ -395,3 +396,25 @@ def centimetres_unless_close(metres: float) -> int:
 def centimetres_as_text(metres: float) -> str:
     """A conversion that returns a value of another type than the field's."""
     return f"{centimetres(metres)} cm"
+
+
+class Pose(msgspec.Struct):
+    x: float
+    y: float
+
+
+class Posed(RobotState, kw_only=True):
+    """A robot state holding a struct."""
+
+    pose: Pose = msgspec.field(default_factory=lambda: Pose(0.0, 0.0))
+
+
+class PxPose(msgspec.Struct):
+    px: float
+    y: float
+
+
+class PxPosed(RobotState, kw_only=True):
+    """:class:`Posed` with ``pose.x`` renamed to ``pose.px`` since its logs were made."""
+
+    pose: PxPose = msgspec.field(default_factory=lambda: PxPose(0.0, 0.0))

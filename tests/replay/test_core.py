@@ -7,7 +7,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import msgspec
 import pytest
 
 from beatlog.errors import SchemaMismatchError
@@ -15,13 +14,12 @@ from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
-from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.judge import replay
 from beatlog.replay.migration import StateMigration
 from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, probe_system
-from tests.systems import Fragile, probe_system_centimetred
+from tests.systems import Fragile, Pose, Posed, PxPose, PxPosed, probe_system_centimetred
 
 
 def fragile_system() -> PriorityArbiter[Probe]:
@@ -131,25 +129,6 @@ def test_a_conversion_that_fails_is_bad_input_naming_the_field_and_the_cycle(
     )
     assert raised.value.user_traceback is not None
     assert "in centimetres_unless_close" in raised.value.user_traceback
-
-
-class Pose(msgspec.Struct):
-    x: float
-    y: float
-
-
-class Posed(RobotState, kw_only=True):
-    pose: Pose = msgspec.field(default_factory=lambda: Pose(0.0, 0.0))
-
-
-class PxPose(msgspec.Struct):
-    px: float
-    y: float
-    z: float = 0.0
-
-
-class PxPosed(RobotState, kw_only=True):
-    pose: PxPose = msgspec.field(default_factory=lambda: PxPose(0.0, 0.0))
 
 
 class Side:

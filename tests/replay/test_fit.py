@@ -22,7 +22,13 @@ from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
 from tests.factories import session_header
-from tests.systems import Centimetred, Ranged, probe_system_centimetred, probe_system_ranged
+from tests.systems import (
+    Centimetred,
+    PxPosed,
+    Ranged,
+    probe_system_centimetred,
+    probe_system_ranged,
+)
 
 
 class Grown(RobotState, kw_only=True):
@@ -366,18 +372,9 @@ class Twice(RobotState, kw_only=True):
     read: float = 0.0
 
 
-class PxPose(msgspec.Struct):
-    px: float
-    y: float
-
-
-class WithPxPose(RobotState, kw_only=True):
-    pose: PxPose = msgspec.field(default_factory=lambda: PxPose(0.0, 0.0))
-
-
 def test_fields_renamed_inside_a_struct_and_several_at_once_are_proposed() -> None:
-    assert misfit(WithPose, WithPxPose) == (
-        "WithPose is not WithPxPose (a robot state type renamed since keeps exactly its "
+    assert misfit(WithPose, PxPosed) == (
+        "WithPose is not PxPosed (a robot state type renamed since keeps exactly its "
         "fields); field 'pose.x' is gone; field 'pose.px' is new and has no default; the "
         "system has 'pose.px' (number) in its place: if renamed, add field_renames = "
         '{ "pose.x" = "pose.px" } to the spec (beatlog replay: --rename-field pose.x=pose.px)'
@@ -387,7 +384,7 @@ def test_fields_renamed_inside_a_struct_and_several_at_once_are_proposed() -> No
         'add field_renames = { distance = "dist", reading = "read" } to the spec (beatlog '
         "replay: --rename-field distance=dist --rename-field reading=read)"
     )
-    fit(WithPose, WithPxPose, renames={"pose.x": "pose.px"})
+    fit(WithPose, PxPosed, renames={"pose.x": "pose.px"})
     fit(Probe, Twice, renames={"distance": "dist", "reading": "read"})
 
 
@@ -439,10 +436,10 @@ class Flattened(RobotState, kw_only=True):
         ),
         (
             WithPose,
-            WithPxPose,
+            PxPosed,
             {"renames": {"pose.x": "pose.pxx"}},
             "field rename pose.x -> pose.pxx: the system's robot state "
-            "tests.replay.test_fit.WithPxPose has no field 'pose.pxx' (did you mean "
+            "tests.systems.PxPosed has no field 'pose.pxx' (did you mean "
             "'pose.px'?)",
         ),
         (
@@ -480,7 +477,7 @@ class Flattened(RobotState, kw_only=True):
         ),
         (
             WithPose,
-            WithPxPose,
+            PxPosed,
             {"renames": {"pose.x": "pose.px"}, "conversions": {"pose": "tests.systems:pose"}},
             "field conversion pose = tests.systems:pose: 'pose.px' lies inside the field "
             "converted: its conversion maps it",
