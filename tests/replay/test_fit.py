@@ -471,6 +471,16 @@ class Flattened(RobotState, kw_only=True):
         (
             Probe,
             Ranged,
+            {
+                "renames": {"distance": "range"},
+                "conversions": {"distance": "tests.systems:centimetres"},
+            },
+            "field conversion distance = tests.systems:centimetres: a conversion names the "
+            "field as it is now: 'range'",
+        ),
+        (
+            Probe,
+            Ranged,
             {"conversions": {"range": "tests.systems:centimetres"}},
             "field conversion range = tests.systems:centimetres: the recorded robot state "
             "tests.conftest.Probe has no field 'range' (did you mean 'reading'?)",

@@ -258,8 +258,9 @@ class Request(msgspec.Struct, array_like=True):
     watch: bool = True
     """Whether to watch the updates for leaks (else only hash them)."""
     field_renames: dict[str, str] = {}
+    """Robot-state fields renamed since the recording (:class:`StateMigration`)."""
     field_conversions: dict[str, str] = {}
-    """The robot-state fields renamed and converted since the recording."""
+    """Robot-state fields retyped since the recording, and their conversions."""
 
     @property
     def migration(self) -> StateMigration:

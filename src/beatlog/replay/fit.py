@@ -158,6 +158,8 @@ def _check_migration(
     mapped = [*migration.conversions, *renames.values()]
     for name, reference in migration.conversions.items():
         what = f"field conversion {name} = {reference}"
+        if name in renames and _lookup(current, name) is None:
+            raise refuse(what, f"a conversion names the field as it is now: {renames[name]!r}")
         if _lookup(current, name) is None:
             raise missing(what, current, name)
         old = migration.recorded_name(name)

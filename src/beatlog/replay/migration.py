@@ -74,6 +74,8 @@ class StateMigration:
 def _mapped(name: str, renames: Mapping[str, str]) -> str:
     """``name`` with each struct on its path, and the field itself, under its name by
     ``renames`` (whose keys and values are whole paths)."""
+    if not renames:
+        return name
     parts = name.split(".")
     return ".".join(
         renames[path].rsplit(".", 1)[-1] if path in renames else part
