@@ -15,6 +15,7 @@ from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, distances, probe_system
+from tests.systems import Ranged
 
 PERCEPTION = "tests.perceptions:perception"
 CHANGED = "tests.perceptions:changed_perception"
@@ -109,6 +110,17 @@ def numpy_perception() -> Perception:
         return Probe(distance=distance, reading=state.reading)  # type: ignore[arg-type]
 
     return computed
+
+
+def ranged_perception() -> Perception:
+    """The probe's perception for its state whose ``distance`` is now ``range``."""
+
+    def ranged(previous: Ranged | None, samples: Sequence[Sample]) -> Ranged:
+        before = None if previous is None else Probe(distance=previous.range)
+        state = perceive(before, samples)
+        return Ranged(range=state.distance, reading=state.reading)
+
+    return ranged
 
 
 def broken_perception() -> Perception:

@@ -21,6 +21,7 @@ from pathlib import Path
 from time import monotonic
 from typing import Any
 
+import msgspec
 import numpy as np
 import py_trees
 
@@ -347,3 +348,99 @@ def counted_system() -> PriorityArbiter[Probe]:
     """The probe system, noting in :data:`BUILT` that it was built."""
     BUILT.append("probe")
     return probe_system()
+
+
+class Ranged(RobotState, kw_only=True):
+    """The probe's state with ``distance`` renamed to ``range`` since its logs were made."""
+
+    range: float = 1.0
+    reading: float = 0.0
+
+
+class RangedNear(Near):
+    """``near`` reading the renamed field."""
+
+    def step(self, rs: Ranged, ctx: Context) -> Outputs | None:  # type: ignore[override]
+        self.state = "near" if rs.range < self.threshold else "far"
+        return {"speed": 0.0} if self.state == "near" else None
+
+
+def probe_system_ranged(threshold: float = 0.5) -> PriorityArbiter[Any]:
+    """The probe with ``distance`` renamed to ``range``: a rename that changes no behavior."""
+    ranged: PriorityArbiter[Any] = PriorityArbiter(
+        [RangedNear(threshold), Dice()], robot_state=Ranged
+    )
+    return ranged
+
+
+def probe_system_ranged_changed() -> PriorityArbiter[Any]:
+    """The renamed probe with ``near`` reacting earlier: a deliberate behavior change."""
+    return probe_system_ranged(0.6)
+
+
+def probe_system_ranged_broken() -> PriorityArbiter[Any]:
+    """The renamed, changed probe with ``near`` reacting earlier still: a bug planted
+    after the change was approved."""
+    return probe_system_ranged(0.7)
+
+
+class Centimetred(RobotState, kw_only=True):
+    """The probe's state with ``distance`` retyped: whole centimetres, no longer metres."""
+
+    distance: int = 100
+    reading: float = 0.0
+
+
+class CentimetredNear(Near):
+    """``near`` reading the distance in centimetres."""
+
+    def step(self, rs: Centimetred, ctx: Context) -> Outputs | None:  # type: ignore[override]
+        self.state = "near" if rs.distance < self.threshold * 100 else "far"
+        return {"speed": 0.0} if self.state == "near" else None
+
+
+def probe_system_centimetred() -> PriorityArbiter[Any]:
+    """The probe with ``distance`` in whole centimetres: a retype that changes no behavior."""
+    centimetred: PriorityArbiter[Any] = PriorityArbiter(
+        [CentimetredNear(), Dice()], robot_state=Centimetred
+    )
+    return centimetred
+
+
+def centimetres(metres: float) -> int:
+    """A recorded distance in metres as whole centimetres: the retyped field's conversion."""
+    return round(metres * 100)
+
+
+def centimetres_unless_close(metres: float) -> int:
+    """A conversion that fails on a recorded value: distances under 0.1 m."""
+    if metres < 0.1:
+        raise ValueError(f"{metres} m is too close to convert")
+    return centimetres(metres)
+
+
+def centimetres_as_text(metres: float) -> str:
+    """A conversion that returns a value of another type than the field's."""
+    return f"{centimetres(metres)} cm"
+
+
+class Pose(msgspec.Struct):
+    x: float
+    y: float
+
+
+class Posed(RobotState, kw_only=True):
+    """A robot state holding a struct."""
+
+    pose: Pose = msgspec.field(default_factory=lambda: Pose(0.0, 0.0))
+
+
+class PxPose(msgspec.Struct):
+    px: float
+    y: float
+
+
+class PxPosed(RobotState, kw_only=True):
+    """:class:`Posed` with ``pose.x`` renamed to ``pose.px`` since its logs were made."""
+
+    pose: PxPose = msgspec.field(default_factory=lambda: PxPose(0.0, 0.0))

@@ -1,4 +1,5 @@
-"""The project's configuration: renames for every spec, and the systems it vouches for."""
+"""The project's configuration: renames and field migrations for every spec, and the
+systems it vouches for."""
 
 from __future__ import annotations
 
@@ -85,3 +86,51 @@ def test_systems_that_are_not_a_list_of_strings_name_the_key(tmp_path: Path) -> 
     assert str(raised.value) == (
         f"{pyproject}: key 'tool.beatlog.systems': expected `array`, got `str`"
     )
+
+
+def test_field_renames_and_conversions_hold_dotted_paths_for_nested_fields(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        "[tool.beatlog.field_renames]\n"
+        'knee_mean = "knee_avg"\n'
+        'pose.x = "pose.px"\n'
+        '"arm.angle" = "arm.theta"\n'
+        "[tool.beatlog.field_conversions]\n"
+        'battery = "robot.compat:percent"\n',
+        encoding="utf-8",
+    )
+
+    config = project_config(tmp_path)
+
+    assert config.field_renames == {
+        "knee_mean": "knee_avg",
+        "pose.x": "pose.px",
+        "arm.angle": "arm.theta",
+    }
+    assert config.field_conversions == {"battery": "robot.compat:percent"}
+
+
+@pytest.mark.parametrize(
+    ("table", "problem"),
+    [
+        (
+            '[tool.beatlog.field_renames]\na = "c"\nb = "c"\n',
+            "key 'tool.beatlog.field_renames': 'a' and 'b' are both renamed to 'c'",
+        ),
+        (
+            '[tool.beatlog.field_conversions]\nbattery = "percent"\n',
+            "key 'tool.beatlog.field_conversions.battery': expected module:function, got 'percent'",
+        ),
+    ],
+)
+def test_bad_field_migrations_name_the_pyproject_and_the_key(
+    tmp_path: Path, table: str, problem: str
+) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text(table, encoding="utf-8")
+
+    with pytest.raises(SpecError) as raised:
+        project_config(tmp_path)
+
+    assert str(raised.value) == f"{pyproject}: {problem}"

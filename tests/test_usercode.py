@@ -22,6 +22,7 @@ from beatlog.record.recorder import Recorder
 from beatlog.usercode import (
     failure_site,
     importable_near,
+    load_conversion,
     load_factory,
     load_perception,
     load_robot,
@@ -173,6 +174,27 @@ def test_a_perception_factory_that_builds_no_callable_says_what_it_built(user_di
         SystemLoadError, match=r"^'perceives_nothing:perception': built an int, not a perception"
     ):
         load_perception("perceives_nothing:perception")
+
+
+def test_a_conversion_is_the_function_itself_never_called() -> None:
+    from tests.systems import centimetres  # noqa: PLC0415 - the function the reference names
+
+    assert load_conversion("tests.systems:centimetres") is centimetres
+
+
+@pytest.mark.parametrize(
+    ("reference", "problem"),
+    [
+        ("tests.systems:HEADINGS", "tuple is not a function"),
+        ("tests.systems", "expected module:function, e.g. mypkg.compat:percent"),
+        ("tests.systems:centimeters", "tests.systems has no centimeters (did you mean "),
+    ],
+)
+def test_a_conversion_that_is_no_function_is_one_line(reference: str, problem: str) -> None:
+    with pytest.raises(SystemLoadError) as caught:
+        load_conversion(reference)
+
+    assert str(caught.value).startswith(f"{reference!r}: {problem}")
 
 
 def test_a_system_is_not_a_robot() -> None:

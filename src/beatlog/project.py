@@ -1,7 +1,8 @@
 """The project's own configuration: ``[tool.beatlog]`` in the nearest ``pyproject.toml``.
 
-It is the user's word, as their specs and command lines are: the behavior renames that
-hold for every spec, and the systems the project vouches for. A log records the
+It is the user's word, as their specs and command lines are: the behavior renames and
+the robot-state field renames and conversions that hold for every spec, and the
+systems the project vouches for. A log records the
 ``module:factory`` it was recorded with, but bytes from a log never choose code: that
 reference is used only when the project lists it under ``systems`` (see
 :func:`vouched_system`).
@@ -23,14 +24,19 @@ from beatlog.files import project_root
 
 __all__ = [
     "ProjectConfig",
+    "check_conversions",
     "check_one_to_one",
+    "dotted_keys",
     "explain_validation",
+    "one_to_one_problem",
     "project_config",
     "vouched_system",
 ]
 
 _SHOWN = 80
 """The most characters of a recorded reference an error repeats (it comes from a log)."""
+_FIELD_TABLES = frozenset({"field_renames", "field_conversions"})
+"""The tables keyed by robot-state fields, where a dotted key names a nested field."""
 
 
 class ProjectConfig(msgspec.Struct, frozen=True):
@@ -38,6 +44,12 @@ class ProjectConfig(msgspec.Struct, frozen=True):
 
     renames: dict[str, str] = {}
     """Behavior renames that hold for every spec of the project (old name -> new name)."""
+    field_renames: dict[str, str] = {}
+    """Robot-state fields renamed since recordings, for every spec (old name -> new name,
+    dotted paths for fields of nested structs)."""
+    field_conversions: dict[str, str] = {}
+    """Robot-state fields retyped since recordings, for every spec: the field (its
+    current name) -> the ``module:function`` that converts a recorded value."""
     systems: list[str] = []
     """The ``module:factory`` references a log may name for replay without ``--system``."""
 
@@ -69,11 +81,18 @@ def _read(path: Path, _mtime_ns: int, _size: int) -> ProjectConfig:
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise SpecError(path, f"cannot read: {exc}") from None
     section = data.get("tool", {}).get("beatlog", {})
+    if isinstance(section, dict):
+        section = {
+            key: dotted_keys(value) if key in _FIELD_TABLES else value
+            for key, value in section.items()
+        }
     try:
         config = msgspec.convert(section, ProjectConfig)
     except msgspec.ValidationError as exc:
         raise SpecError(path, explain_validation(str(exc), prefix="tool.beatlog.")) from None
     check_one_to_one(path, "tool.beatlog.renames", config.renames)
+    check_one_to_one(path, "tool.beatlog.field_renames", config.field_renames)
+    check_conversions(path, "tool.beatlog.field_conversions", config.field_conversions)
     return config
 
 
@@ -101,13 +120,43 @@ def vouched_system(log: str | Path, recorded: str, *, project: Path) -> str:
 
 def check_one_to_one(path: Path, key: str, renames: Mapping[str, str]) -> None:
     """Refuse renames that map two old names to one new name."""
+    problem = one_to_one_problem(renames)
+    if problem is not None:
+        raise SpecError(path, f"key {key!r}: {problem}")
+
+
+def check_conversions(path: Path, key: str, conversions: Mapping[str, str]) -> None:
+    """Refuse a field conversion that is no ``module:function`` reference."""
+    for name, reference in conversions.items():
+        if ":" not in reference:
+            raise SpecError(
+                path, f"key '{key}.{name}': expected module:function, got {reference!r}"
+            )
+
+
+def one_to_one_problem(renames: Mapping[str, str]) -> str | None:
+    """Two old names renamed to one new name, if renames do that."""
     seen: dict[str, str] = {}
     for old, new in renames.items():
         if new in seen:
-            raise SpecError(
-                path, f"key {key!r}: {seen[new]!r} and {old!r} are both renamed to {new!r}"
-            )
+            return f"{seen[new]!r} and {old!r} are both renamed to {new!r}"
         seen[new] = old
+    return None
+
+
+def dotted_keys(table: Any) -> Any:
+    """A TOML table keyed by robot-state fields with its nested tables flattened into
+    dotted paths: TOML reads ``pose.x = "pose.px"`` as ``{"pose": {"x": "pose.px"}}``,
+    which means the field ``pose.x``. Anything but a table is returned as it is."""
+    if not isinstance(table, dict):
+        return table
+    flat: dict[str, Any] = {}
+    for key, value in table.items():
+        if isinstance(value, dict) and value:
+            flat.update((f"{key}.{inner}", leaf) for inner, leaf in dotted_keys(value).items())
+        else:
+            flat[key] = value
+    return flat
 
 
 def explain_validation(message: str, prefix: str = "") -> str:

@@ -1,5 +1,6 @@
-"""User code: import a system or robot from a ``module:factory`` reference, and tell
-where it failed (its traceback cut down to the user's frames).
+"""User code: import a system or robot from a ``module:factory`` reference (or a
+robot-state field's conversion from a ``module:function``), and tell where it failed
+(its traceback cut down to the user's frames).
 
 Only references the user names are imported: typed, written in a spec, or listed
 by the project (a log's recorded reference counts only when the project's
@@ -26,7 +27,7 @@ import os
 import sys
 import sysconfig
 import traceback
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -40,6 +41,7 @@ from beatlog.model.robot import Robot
 __all__ = [
     "failure_site",
     "importable_near",
+    "load_conversion",
     "load_factory",
     "load_perception",
     "load_robot",
@@ -80,25 +82,41 @@ def failure_site(exc: BaseException) -> str | None:
 
 def load_factory(reference: str) -> Any:
     """Import ``module:attribute`` and return the attribute called (if callable)."""
-    module_name, sep, attribute = reference.partition(":")
-    if not sep or not module_name or not attribute:
-        raise SystemLoadError(f"{reference!r}: expected module:factory, e.g. mypkg.robot:system")
-    factory: Any = _import(reference, module_name)
-    for part in attribute.split("."):
-        try:
-            factory = getattr(factory, part)
-        except AttributeError:
-            near = difflib.get_close_matches(part, dir(factory), n=1)
-            meant = f" (did you mean {near[0]!r}?)" if near else ""
-            raise SystemLoadError(
-                f"{reference!r}: {module_name} has no {attribute}{meant}"
-            ) from None
+    factory = _attribute(reference, "module:factory, e.g. mypkg.robot:system")
     if not callable(factory):
         return factory
     try:
         return factory()
     except (Exception, SystemExit) as exc:
         raise _failed(reference, "the factory", exc) from None
+
+
+def load_conversion(reference: str) -> Callable[[Any], Any]:
+    """Import the function a ``module:function`` reference names, without calling it: a
+    robot-state field's conversion from its recorded type (see
+    :class:`beatlog.replay.migration.StateMigration`)."""
+    function = _attribute(reference, "module:function, e.g. mypkg.compat:percent")
+    if not callable(function):
+        raise SystemLoadError(f"{reference!r}: {type(function).__name__} is not a function")
+    return function  # type: ignore[no-any-return]
+
+
+def _attribute(reference: str, expected: str) -> Any:
+    """What ``module:attribute`` names, imported (the attribute may be dotted)."""
+    module_name, sep, attribute = reference.partition(":")
+    if not sep or not module_name or not attribute:
+        raise SystemLoadError(f"{reference!r}: expected {expected}")
+    found: Any = _import(reference, module_name)
+    for part in attribute.split("."):
+        try:
+            found = getattr(found, part)
+        except AttributeError:
+            near = difflib.get_close_matches(part, dir(found), n=1)
+            meant = f" (did you mean {near[0]!r}?)" if near else ""
+            raise SystemLoadError(
+                f"{reference!r}: {module_name} has no {attribute}{meant}"
+            ) from None
+    return found
 
 
 def _import(reference: str, module_name: str) -> ModuleType:

@@ -12,6 +12,7 @@ import pytest
 
 from beatlog.audit.replays import AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
+from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import RecordFn
@@ -128,6 +129,20 @@ def test_replays_that_diverge_alike_are_still_compared_cycle_by_cycle(tmp_path: 
         "the replay depends on the hash seed: with PYTHONHASHSEED=1 and 2 the behavior "
         f"states and outputs differ from cycle {differs}"
     )
+
+
+def test_a_log_whose_robot_state_fields_changed_is_audited_with_its_migration(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(100)
+    migration = StateMigration({"distance": "range"})
+
+    report = audit(log, f"{SYSTEMS}:probe_system_ranged", migration=migration)
+
+    assert report.ok
+    assert [run.describe() for run in report.runs] == ["passed", "passed"]
+    with pytest.raises(BeatlogError, match="field 'distance' is gone"):
+        audit(log, f"{SYSTEMS}:probe_system_ranged")
 
 
 def test_bad_input_is_a_beatlog_error_naming_the_file(tmp_path: Path) -> None:

@@ -145,6 +145,34 @@ def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
     assert run.err == ""
 
 
+def test_replay_maps_robot_state_fields_renamed_or_retyped_since_the_recording(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+    renamed = ("--system", "tests.systems:probe_system_ranged")
+    retyped = ("--system", "tests.systems:probe_system_centimetred")
+
+    assert beatlog("replay", log, *renamed, "--rename-field", "distance=range").code == 0
+    converted = ("--convert-field", "distance=tests.systems:centimetres")
+    assert beatlog("replay", log, *retyped, *converted).code == 0
+    assert_one_line_error(
+        beatlog("replay", log, *renamed),
+        "field 'distance' is gone; the system has 'range' (number) in its place: if "
+        'renamed, add field_renames = { distance = "range" } to the spec (beatlog replay: '
+        "--rename-field distance=range)",
+    )
+    assert_one_line_error(
+        beatlog("replay", log, *renamed, "--rename-field", "distance"),
+        "argument --rename-field: expected NAME=VALUE: 'distance'",
+    )
+    failing = ("--convert-field", "distance=tests.systems:centimetres_unless_close")
+    assert_one_line_error(
+        beatlog("replay", log, *retyped, *failing),
+        f"{log}: robot state of cycle 46: field 'distance': "
+        "tests.systems:centimetres_unless_close raised ValueError: 0.08 m is too close",
+    )
+
+
 def test_replay_json_reports_the_divergence_for_machines(
     beatlog: Beatlog, record_probe: RecordFn
 ) -> None:

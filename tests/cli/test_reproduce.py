@@ -126,3 +126,18 @@ def test_a_plain_replay_reproduces_its_verdict(
 
     assert first.reproduce == f"beatlog replay '{log}' --system {CHANGED} --keep-going"
     assert rerun(beatlog, first.reproduce) == first
+
+
+def test_a_replay_with_fields_renamed_since_reproduces_its_verdict(
+    beatlog: BeatlogVerdict, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+    changed = "tests.systems:probe_system_ranged_changed"
+
+    first = beatlog("replay", log, "--system", changed, "--rename-field", "distance=range")
+
+    assert (first.code, first.cycle, first.kind) == (1, first_cycle_below(0.6), "state changes")
+    assert first.reproduce == (
+        f"beatlog replay {log} --system {changed} --rename-field distance=range"
+    )
+    assert rerun(beatlog, first.reproduce) == first

@@ -9,12 +9,17 @@ from typing import Any
 
 import pytest
 
+from beatlog.errors import SchemaMismatchError
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
-from beatlog.model.behavior import PriorityArbiter, System
+from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
+from beatlog.model.context import Context, Outputs
+from beatlog.record.recorder import Recorder
 from beatlog.replay.core import CycleOutcome, Replayer
-from tests.conftest import Near, Probe, RecordFn, probe_system
-from tests.systems import Fragile
+from beatlog.replay.judge import replay
+from beatlog.replay.migration import StateMigration
+from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, probe_system
+from tests.systems import Fragile, Pose, Posed, PxPose, PxPosed, probe_system_centimetred
 
 
 def fragile_system() -> PriorityArbiter[Probe]:
@@ -92,3 +97,70 @@ def test_a_cycle_after_a_draw_too_many_starts_clean(record_probe: RecordFn) -> N
     assert problem is not None
     assert problem.overdrawn
     assert results[4][1].draw_problem is None
+
+
+def test_the_behaviors_see_a_retyped_field_converted(record_probe: RecordFn) -> None:
+    log = record_probe(120)
+    migration = StateMigration(conversions={"distance": "tests.systems:centimetres"})
+    with SessionLogReader(log) as reader:
+        core = Replayer(probe_system_centimetred(), reader.header, log, migration=migration)
+        states = [core.step(record).state for record in reader.cycles()]
+
+    assert [state.distance for state in states[:3]] == [100, 98, 96]
+    assert {type(state).__name__ for state in states} == {"Centimetred"}
+    assert {type(state.distance) for state in states} == {int}
+
+
+@pytest.mark.parametrize("observed", [False, True], ids=["with-the-batch", "cycle-by-cycle"])
+def test_a_conversion_that_fails_is_bad_input_naming_the_field_and_the_cycle(
+    record_probe: RecordFn, observed: bool
+) -> None:
+    log = record_probe(120)
+    migration = StateMigration(conversions={"distance": "tests.systems:centimetres_unless_close"})
+    observe = (lambda outcome: None) if observed else None
+
+    with pytest.raises(SchemaMismatchError) as raised:
+        replay(log, probe_system_centimetred(), migration=migration, observe=observe)
+
+    assert str(raised.value) == (
+        f"{log}: robot state of cycle 46: field 'distance': "
+        "tests.systems:centimetres_unless_close raised ValueError: 0.08 m is too close to "
+        "convert"
+    )
+    assert raised.value.user_traceback is not None
+    assert "in centimetres_unless_close" in raised.value.user_traceback
+
+
+class Side:
+    """Which side of the y axis the robot is on, read from ``pose.x`` (or ``pose.px``)."""
+
+    name = "side"
+
+    def __init__(self, field: str) -> None:
+        self.field = field
+        self.state: BehaviorState = "left"
+
+    def step(self, rs: Any, ctx: Context) -> Outputs | None:
+        self.state = "left" if getattr(rs.pose, self.field) < 0 else "right"
+        return None
+
+
+def test_a_field_renamed_inside_a_struct_reaches_the_behaviors(tmp_path: Path) -> None:
+    log = tmp_path / "posed.beatlog"
+    recording: PriorityArbiter[Any] = PriorityArbiter([Side("x")], robot_state=Posed)
+    with Recorder(log, recording, software="test") as recorder:
+        for t in range(20):
+            recorder.step(PERIOD_NS, Posed(pose=Pose(x=(-1.0) ** (t // 3), y=t)))
+    renamed: PriorityArbiter[Any] = PriorityArbiter([Side("px")], robot_state=PxPosed)
+    seen: list[Any] = []
+
+    result = replay(
+        log,
+        renamed,
+        migration=StateMigration({"pose.x": "pose.px"}),
+        observe=lambda outcome: seen.append(outcome.state.pose),
+    )
+
+    assert result.ok
+    assert result.checked.state_changes == 7
+    assert seen[:4] == [PxPose(1.0, 0.0), PxPose(1.0, 1.0), PxPose(1.0, 2.0), PxPose(-1.0, 3.0)]

@@ -10,7 +10,9 @@ import pytest
 from beatlog.cli.main import main
 from beatlog.errors import FieldError
 from beatlog.replay.compare import Comparison
+from beatlog.replay.core import CycleOutcome
 from beatlog.replay.judge import NO_SAMPLES, replay
+from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind, FieldDifference
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
@@ -26,10 +28,12 @@ from tests.perceptions import (
     numpy_perception,
     one_ulp_perception,
     perception,
+    ranged_perception,
     record_with_samples,
     shifted_perception,
 )
 from tests.specs import write_spec
+from tests.systems import probe_system_ranged
 
 
 def test_the_recorded_perception_rebuilds_every_robot_state(tmp_path: Path) -> None:
@@ -37,6 +41,25 @@ def test_the_recorded_perception_rebuilds_every_robot_state(tmp_path: Path) -> N
     result = replay(log, probe_system(), perception=perception())
     assert result.ok, result.divergence
     assert result.cycles == 300
+
+
+def test_a_state_rebuilt_under_fields_renamed_since_is_the_one_recorded(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog")
+    differs: list[bool] = []
+
+    def observe(outcome: CycleOutcome) -> None:
+        differs.append(outcome.perception_differs)
+
+    result = replay(
+        log,
+        probe_system_ranged(),
+        perception=ranged_perception(),
+        migration=StateMigration({"distance": "range"}),
+        observe=observe,
+    )
+
+    assert result.ok, result.divergence
+    assert differs == [False] * 300
 
 
 def test_a_pass_from_samples_counts_the_samples_perception_rebuilt_states_from(

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import BaselineError, CiWriteError, OptionError
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.maintenance import (
     Decision,
@@ -22,9 +23,10 @@ from beatlog.suite.maintenance import (
     update_baselines,
 )
 from beatlog.suite.policy import UpdateMode
-from beatlog.suite.runner import SpecOutcome, run_suite
+from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn
+from tests.specs import write_spec
 
 AS_RECORDED = "tests.conftest:probe_system"
 CHANGED = "tests.conftest:probe_system_changed"
@@ -228,6 +230,33 @@ def test_the_pending_diff_compares_with_the_recording_then_the_approved_baseline
     assert again.source == "approved (avoid-pole.dtc.expected)"
     assert again.lines[:2] == ("--- approved (avoid-pole.dtc.expected)", "+++ pending")
     assert any(line.startswith("-") and '"near"' in line for line in again.lines[2:])
+
+
+def test_a_dtc_whose_robot_state_field_was_renamed_re_baselines_as_any_other(
+    tmp_path: Path, log: Path
+) -> None:
+    """``distance`` became ``range`` and near reacts earlier: with the rename in the
+    spec, the change is a divergence like any other, approved, then guarded."""
+
+    def dtc(system: str) -> DtcSpec:
+        renamed = {"distance": "range"}
+        return load_spec(write_spec(tmp_path, "ranged", log, system, field_renames=renamed))
+
+    changed = dtc("tests.systems:probe_system_ranged_changed")
+    (diverged,) = run(changed)
+    assert diverged.verdict is Verdict.FAILED
+    (update,) = update_baselines([diverged], UpdateMode.NEW)
+    assert update.action is UpdateAction.WRITTEN
+
+    assert approve([changed.path]) == [changed]
+    (approved,) = run(changed, UpdateMode.NONE)
+    assert approved.verdict is Verdict.PASSED
+
+    (broken,) = run(dtc("tests.systems:probe_system_ranged_broken"), UpdateMode.NONE)
+    assert broken.verdict is Verdict.FAILED
+    assert broken.result is not None
+    assert broken.result.divergence is not None
+    assert broken.result.divergence.kind is DivergenceKind.STATE_CHANGES
 
 
 def test_orphans_are_baselines_without_a_spec(tmp_path: Path) -> None:

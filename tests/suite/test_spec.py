@@ -8,6 +8,7 @@ import pytest
 
 from beatlog.errors import SpecError
 from beatlog.replay.compare import Comparison
+from beatlog.replay.migration import StateMigration
 from beatlog.suite.spec import (
     DtcSpec,
     discover_specs,
@@ -225,11 +226,17 @@ def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
         ({"renames": {"a": "c", "b": "c"}}, ("key 'renames'", "'a' and 'b' are both renamed")),
         ({"renames": {"a": 1}}, ("key 'renames.*'", "expected `str`")),
         ({"ignore_behaviors": "dice"}, ("key 'ignore_behaviors'", "expected `array`")),
+        ({"field_renames": {"a": "c", "b": "c"}},
+         ("key 'field_renames'", "'a' and 'b' are both renamed to 'c'")),
+        ({"field_renames": {"pose": {"x": 1}}}, ("key 'field_renames.*'", "expected `str`")),
+        ({"field_conversions": {"battery": "percent"}},
+         ("key 'field_conversions.battery': expected module:function, got 'percent'",)),
     ],
     ids=["negative-tolerance", "tolerance-not-number", "negative-state-tolerance",
          "nan-state-tolerance", "infinite-state-tolerance", "state-tolerance-not-number",
          "renames-not-one-to-one",
-         "rename-not-string", "ignore-not-list"],
+         "rename-not-string", "ignore-not-list", "field-renames-not-one-to-one",
+         "field-rename-not-string", "conversion-not-a-reference"],
 )  # fmt: skip
 def test_bad_allowances_name_the_key(
     tmp_path: Path, extra: dict[str, object], fragments: tuple[str, ...]
@@ -245,6 +252,51 @@ def test_project_renames_come_from_pyproject_and_the_spec_adds_to_them(tmp_path:
     path = write_spec(tmp_path / "specs", "renamed", "probe.beatlog", renames={"old": "newer"})
 
     assert load_spec(path).comparison.renames == {"near": "close", "old": "newer"}
+
+
+def test_robot_state_fields_renamed_or_retyped_load_into_the_specs_migration(
+    tmp_path: Path,
+) -> None:
+    path = write_spec(
+        tmp_path,
+        "migrated",
+        "probe.beatlog",
+        field_renames={"distance": "range", "pose": {"x": "pose.px"}},
+        field_conversions={"battery": "tests.systems:centimetres"},
+    )
+
+    assert load_spec(path).migration == StateMigration(
+        {"distance": "range", "pose.x": "pose.px"}, {"battery": "tests.systems:centimetres"}
+    )
+    assert not load_spec(write_spec(tmp_path, "as-recorded", "probe.beatlog")).migration
+
+
+def test_a_dotted_key_names_a_field_inside_a_struct_quoted_or_not(tmp_path: Path) -> None:
+    path = write_spec(tmp_path, "nested", "probe.beatlog")
+    path.write_text(
+        path.read_text(encoding="utf-8")
+        + 'field_renames = { pose.x = "pose.px", "arm.angle" = "arm.theta" }\n',
+        encoding="utf-8",
+    )
+
+    assert load_spec(path).migration.renames == {"pose.x": "pose.px", "arm.angle": "arm.theta"}
+
+
+def test_project_field_migrations_come_from_pyproject_and_the_spec_adds_to_them(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[project]\nname = "robot"\n\n[tool.beatlog.field_renames]\ndistance = "range"\n'
+        'pose.x = "pose.px"\n\n[tool.beatlog.field_conversions]\nbattery = "robot.compat:pct"\n',
+        encoding="utf-8",
+    )
+    path = write_spec(
+        tmp_path / "specs", "migrated", "probe.beatlog", field_renames={"pose.x": "pose.x2"}
+    )
+
+    assert load_spec(path).migration == StateMigration(
+        {"distance": "range", "pose.x": "pose.x2"}, {"battery": "robot.compat:pct"}
+    )
 
 
 def test_bad_project_renames_name_the_pyproject(tmp_path: Path) -> None:

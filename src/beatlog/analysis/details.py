@@ -17,6 +17,7 @@ from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_wind
 from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
+from beatlog.replay.migration import StateMigration
 from beatlog.replay.session import FieldsRead, ReplaySession
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
@@ -46,17 +47,19 @@ def replay_details(
     perception: Perception | None = None,
     living: bool = False,
     rename: Callable[[str], str] = str,
+    migration: StateMigration | None = None,
 ) -> Details:
     """Replay ``log`` on a fresh ``system`` once, gathering what is asked for.
 
     ``divergence`` is the verdict's; the fields read are those of its cycle.
     ``expected`` stands in for the recorded state changes in the timelines (an
     approved baseline). With a ``perception`` step, each robot state is rebuilt from the
-    logged samples, as the verdict's replay did. ``living`` replay goes on where the
-    behaviors draw otherwise than recorded (as the verdict's does against an approved
-    baseline, and as a trace for a new baseline must); ``rename`` maps a recorded
-    behavior's name to its name now. Stepping stops as soon as nothing asked for needs
-    more.
+    logged samples, as the verdict's replay did, and with a ``migration`` the log's
+    robot-state fields are renamed and converted as they were there. ``living`` replay
+    goes on where the behaviors draw otherwise than recorded (as the verdict's does
+    against an approved baseline, and as a trace for a new baseline must); ``rename``
+    maps a recorded behavior's name to its name now. Stepping stops as soon as nothing
+    asked for needs more.
     """
     diverged_at = (
         None
@@ -64,7 +67,9 @@ def replay_details(
         else divergence.cycle
     )
     reads = None if diverged_at is None else FieldsRead(diverged_at)
-    with ReplaySession(log, system, perception=perception, living=living, rename=rename) as session:
+    with ReplaySession(
+        log, system, perception=perception, living=living, rename=rename, migration=migration
+    ) as session:
         assert session.replayer is not None  # a session with a system replays
         tracer = TraceCollector(session.replayer, rename) if trace else None
         charts: list[TimelineCollector] = []

@@ -98,6 +98,7 @@ def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
         keep_going=True,
         allow_truncated=request.allow_truncated,
         allow_empty=True,  # the audit compares replays; the verdict judges what they checked
+        migration=request.migration,
     )
     divergence = result.divergence
     return Answer(

@@ -27,6 +27,7 @@ import msgspec
 
 from beatlog.audit.leaks import Finding
 from beatlog.errors import BeatlogError
+from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
 
 __all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
@@ -101,6 +102,7 @@ def audit(
     *,
     allow_truncated: bool = False,
     hash_seeds: tuple[int, int] = (1, 2),
+    migration: StateMigration | None = None,
 ) -> AuditReport:
     """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash seed.
 
@@ -111,10 +113,20 @@ def audit(
     see :mod:`beatlog.audit.__main__`) with that ``PYTHONHASHSEED``, started at the first
     audit that needs it and kept for the next, importing from this process's
     ``sys.path``; each replays every cycle, diverging or not, so the runs compare in full.
+    ``migration`` maps robot-state fields renamed or retyped since the recording.
 
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
-    request = Request(str(log), system, allow_truncated, list(sys.path), dict(os.environ))
+    migration = migration or StateMigration()
+    request = Request(
+        str(log),
+        system,
+        allow_truncated,
+        list(sys.path),
+        dict(os.environ),
+        field_renames=dict(migration.renames),
+        field_conversions=dict(migration.conversions),
+    )
     first, second = _replays(hash_seeds, [request, msgspec.structs.replace(request, watch=False)])
     runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
     if _compare(runs, first.trace, second.trace, "") is not None:  # the runs took other paths
@@ -245,6 +257,15 @@ class Request(msgspec.Struct, array_like=True):
     """The auditing process's environment, for the system to see."""
     watch: bool = True
     """Whether to watch the updates for leaks (else only hash them)."""
+    field_renames: dict[str, str] = {}
+    """Robot-state fields renamed since the recording (:class:`StateMigration`)."""
+    field_conversions: dict[str, str] = {}
+    """Robot-state fields retyped since the recording, and their conversions."""
+
+    @property
+    def migration(self) -> StateMigration:
+        """The robot-state migration to replay with."""
+        return StateMigration(self.field_renames, self.field_conversions)
 
 
 class Answer(msgspec.Struct, kw_only=True):

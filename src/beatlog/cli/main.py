@@ -72,7 +72,7 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{message} (see '{self.prog} --help')")
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser() -> argparse.ArgumentParser:  # noqa: PLR0915 - one table of subcommands
     parser = _Parser(
         prog="beatlog",
         description="Record robot sessions and replay them as deterministic test cases.",
@@ -169,6 +169,24 @@ def _parser() -> argparse.ArgumentParser:
         "--allow-empty",
         action="store_true",
         help="pass a replay that checks nothing (no cycle, or nothing happening in any)",
+    )
+    play.add_argument(
+        "--rename-field",
+        action="append",
+        type=_field_pair,
+        default=[],
+        metavar="OLD=NEW",
+        help="a robot-state field renamed since the recording (a dotted path inside a "
+        "struct); repeat for more",
+    )
+    play.add_argument(
+        "--convert-field",
+        action="append",
+        type=_field_pair,
+        default=[],
+        metavar="FIELD=MODULE:FUNCTION",
+        help="a robot-state field retyped since the recording, and the function that "
+        "converts its recorded value; repeat for more",
     )
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
@@ -473,6 +491,13 @@ def _shard(text: str) -> Shard:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _field_pair(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not (sep and name and value):
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE: {text!r}")
+    return name, value
+
+
 def _cycle_number(text: str) -> int:
     try:
         cycle = int(text)
@@ -607,6 +632,7 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
 
     from beatlog.replay.debugger import break_on_divergence, unreached_break
     from beatlog.replay.judge import recorded_system
+    from beatlog.replay.migration import StateMigration
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
 
@@ -628,6 +654,7 @@ def _replay(args: argparse.Namespace, console: Console) -> int:
             "allow_empty": args.allow_empty,
             "perception": args.perception,
             "approved": not args.recording,
+            "migration": StateMigration(dict(args.rename_field), dict(args.convert_field)),
         }
         result = replay(args.log, system, break_at=args.break_at, **options)
         notes = unreached_break(args.break_at, result)

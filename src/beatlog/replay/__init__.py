@@ -1,7 +1,8 @@
 """Algorithm 2, replay: step a system through a session log and judge it.
 
 :func:`replay` gives the verdict (pass, or the first divergence); :mod:`.compare`
-holds the allowances a spec may grant, :mod:`.fit` checks a log fits the system, and
+holds the allowances a spec may grant, :mod:`.fit` checks a log fits the system,
+:mod:`.migration` maps robot-state fields renamed or retyped since the recording, and
 :mod:`.verdict` the result types. The names are imported on first use.
 """
 
@@ -13,6 +14,7 @@ if TYPE_CHECKING:
     from beatlog.replay.compare import Comparison
     from beatlog.replay.expectation import Expectation
     from beatlog.replay.judge import replay
+    from beatlog.replay.migration import StateMigration
     from beatlog.replay.verdict import (
         Checked,
         Divergence,
@@ -31,6 +33,7 @@ __all__ = [
     "Expectation",
     "ReplayResult",
     "StateChange",
+    "StateMigration",
     "replay",
 ]
 
@@ -45,6 +48,7 @@ __getattr__ = lazy_names(
         "Expectation": "beatlog.replay.expectation",
         "ReplayResult": "beatlog.replay.verdict",
         "StateChange": "beatlog.replay.verdict",
+        "StateMigration": "beatlog.replay.migration",
         "replay": "beatlog.replay.judge",
     },
 )

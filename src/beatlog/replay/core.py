@@ -44,6 +44,7 @@ from beatlog.model.random import (
     recorded_draw_problem,
 )
 from beatlog.replay.fit import check_fit, recorded_state_type
+from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
 from beatlog.replay.verdict import DivergenceKind
 
 __all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name", "log_key"]
@@ -133,7 +134,9 @@ where it is needed)."""
 class Replayer:
     """A system set up to replay the cycles of one log, in order, from its first.
 
-    Building one checks that the log fits the system (:mod:`beatlog.replay.fit`).
+    Building one checks that the log fits the system (:mod:`beatlog.replay.fit`), its
+    robot-state fields renamed and converted by ``migration``, and imports the
+    migration's conversions.
     Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
     the samples (sensor-level replay); otherwise it is read from the log. Each cycle
     must hold what the header declares: a robot state of exactly the recorded fields
@@ -156,9 +159,11 @@ class Replayer:
         break_at: int | None = None,
         living: bool = False,
         rename: Callable[[str], str] = str,
+        migration: StateMigration | None = None,
     ) -> None:
-        check_fit(header, system, path)
-        self.state_type = recorded_state_type(header, system.robot_state)
+        migration = migration or StateMigration()
+        check_fit(header, system, path, migration)
+        self.state_type = recorded_state_type(header, system.robot_state, migration)
         """The system's robot state type as each cycle's RS_t must hold it: decode RS_t
         with it (:meth:`~beatlog.log.reader.SessionLogReader.decode_states`); the
         behaviors get each as an instance of the system's type itself."""
@@ -183,6 +188,12 @@ class Replayer:
         self._rebuilt: Any = None
         self._encode = payload_encoder().encode
         self._robot_state = system.robot_state
+        self._convert = (
+            StateConverter(system.robot_state, migration) if migration.converted() else None
+        )
+        """What turns the fields the migration converts into the system's, if any."""
+        self._migrated = bool(migration)
+        """Whether RS_t was recorded under other names or types than the system's."""
         self._state = msgspec.msgpack.Decoder(self.state_type).decode
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
@@ -280,7 +291,7 @@ class Replayer:
             return Stop(DivergenceKind.RANDOM_UNDERDRAWN, message, behavior)
         return None
 
-    def _stepping(
+    def _stepping(  # noqa: PLR0915 - the hot loop, inlined on purpose
         self,
     ) -> Generator[list[StateChangeRecord] | None, CycleRecord, NoReturn]:
         """The one loop that steps the system through the log: sent a cycle's record, it
@@ -299,7 +310,11 @@ class Replayer:
         break_at = self.break_at
         perception = self.perception
         raw = msgspec.Raw
-        as_system = self._robot_state if self.state_type is not self._robot_state else None
+        checking = self.state_type
+        # A state decoded as the checking subclass becomes the system's, its fields
+        # converted where a migration converts them (only then is there more to do).
+        adopt = self._adopt if checking is not self._robot_state and self._convert else None
+        as_system = self._robot_state if checking is not self._robot_state and not adopt else None
         changes: list[StateChangeRecord] | None = None
         while True:
             record = yield changes
@@ -313,6 +328,8 @@ class Replayer:
                     state = read_state(record, context.cycle + 1)
                 elif as_system is not None:  # decoded as the checking subclass
                     state.__class__ = as_system
+                elif adopt is not None and state.__class__ is checking:
+                    adopt(state, context.cycle + 1)
             if context.cycle + 1 == break_at:
                 self._pause(context.cycle + 1, state, record)
             if perception is None:
@@ -341,14 +358,13 @@ class Replayer:
                 changes = None
                 failure = exc
             self._last = (record, state, changes, failure, sensed)
+            drew_otherwise = settle() if living else random.mismatch is not None
             if changes is not None and (
-                (settle() if living else random.mismatch is not None)
+                drew_otherwise
                 or len(random.drawn) != len(random.recorded)
                 or (sensed is not None and (sensed.differs or sensed.failure is not None))
             ):
                 changes = None
-            elif living and changes is None:
-                settle()
 
     def _perceive(self, record: CycleRecord, recorded: Any) -> _Sensed:
         """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
@@ -373,11 +389,15 @@ class Replayer:
             return _Sensed(recorded, False, exc, samples)
         self._rebuilt = rebuilt
         try:
-            differs = msgspec.Raw(self._encode(rebuilt)) != record.robot_state
+            encoded = self._encode(rebuilt)
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
-            differs = True
+            encoded = None
+        differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
         if differs and recorded is _READ:
             recorded = self._recorded_state(record, self.executor.context.cycle + 1)
+        if differs and encoded is not None and self._migrated:
+            # Recorded under other names or types: the same state holds other bytes.
+            differs = encoded != self._encode(recorded)
         return _Sensed(recorded, differs, None, samples)
 
     def _recorded_state(self, record: CycleRecord, cycle: int) -> Any:
@@ -399,8 +419,25 @@ class Replayer:
                 f"{self.system.robot_state.__name__}: {exc}",
             ) from None
         if self.state_type is not self._robot_state:
-            decoded.__class__ = self._robot_state
+            self._adopt(decoded, cycle)
         return decoded
+
+    def _adopt(self, state: Any, cycle: int) -> None:
+        """Make a state decoded as :attr:`state_type` the system's, its fields converted
+        by the migration.
+
+        :raises beatlog.errors.SchemaMismatchError: a conversion failed (the user's code
+            raised, or a value does not fit its field once converted).
+        """
+        state.__class__ = self._robot_state
+        if self._convert is None:
+            return
+        try:
+            self._convert(state)
+        except ConversionError as exc:
+            error = SchemaMismatchError(self.path, f"robot state of cycle {cycle}: {exc}")
+            error.user_traceback = exc.user_traceback
+            raise error from None
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: stop in ``cycle`` just before the behaviors update, once

@@ -37,6 +37,7 @@ from beatlog.replay.core import CycleOutcome, Replayer, actor_name
 from beatlog.replay.draws import DrawLedger, Unapproved
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_catalogue, check_state_fields
+from beatlog.replay.migration import StateMigration
 from beatlog.replay.pins import PinChecker, rebuilt_otherwise
 from beatlog.replay.renames import propose_renames
 from beatlog.replay.session import ReplaySession, fields_read
@@ -76,6 +77,7 @@ def replay(
     perception: Perception | str | None = None,
     break_at: int | None = None,
     observe: Callable[[CycleOutcome], object] | None = None,
+    migration: StateMigration | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
     by default the reference recorded in the log's header, see :func:`recorded_system`).
@@ -111,7 +113,9 @@ def replay(
     just before the behaviors update in that cycle. ``observe`` is given every cycle's
     outcome up to the first divergence (the one that stops replay included), e.g. a
     :class:`~beatlog.analysis.timeline.TimelineCollector`'s, so a report is gathered in
-    the verdict's own replay.
+    the verdict's own replay. ``migration`` maps robot-state fields renamed or retyped
+    since the recording onto the system's (:mod:`beatlog.replay.migration`); the
+    reproduce command carries it.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
@@ -129,17 +133,23 @@ def replay(
     if isinstance(perception, str):
         perception = load_perception(perception)
     comparison = comparison or Comparison()
+    migration = migration or StateMigration()
     with ReplaySession(
         log,
         system,
         perception=perception,
         break_at=break_at,
+        migration=migration,
         living=expected is not None,
         rename=comparison.rename,
     ) as session:
         reader = session.reader
         check_state_fields(
-            reader.header, comparison.state_tolerance, reader.path, "robot-state tolerance for"
+            reader.header,
+            comparison.state_tolerance,
+            reader.path,
+            "robot-state tolerance for",
+            migration,
         )
         assert session.replayer is not None  # a session with a system replays
         judge = _Judge(
@@ -181,7 +191,7 @@ def replay(
         and reference
         and divergence.kind is not DivergenceKind.LOG_ENDED
     ):
-        read = fields_read(log, load_system(reference), divergence.cycle)
+        read = fields_read(log, load_system(reference), divergence.cycle, migration=migration)
         divergence = dataclasses.replace(divergence, fields_read=read)
     return ReplayResult(
         log=Path(log),
@@ -202,6 +212,7 @@ def replay(
             *(["--keep-going"] if keep_going else []),
             *(["--allow-truncated"] if allow_truncated else []),
             *(["--allow-empty"] if allow_empty else []),
+            *migration.arguments(),
         ),
         notes=(NO_SAMPLES,) if perception is not None and judge.replayer.perception is None else (),
     )

@@ -20,6 +20,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.migration import StateMigration
 
 __all__ = ["FieldsRead", "Observer", "ReadTracker", "ReplaySession", "fields_read"]
 
@@ -98,7 +99,8 @@ class ReplaySession(Closing):
     """A log opened and checked once, and a system set up to replay it; a context manager.
 
     Building one reads the header and checks that the log fits the system
-    (:mod:`beatlog.replay.fit`). :meth:`run` steps through the log for its observers.
+    (:mod:`beatlog.replay.fit`), its robot-state fields renamed and converted by
+    ``migration``. :meth:`run` steps through the log for its observers.
     Without a system, nothing is replayed: the observers read the recording alone.
     ``break_at`` stops in the debugger just before the behaviors update in that cycle.
     ``living`` replay goes on where the behaviors draw otherwise than recorded
@@ -119,6 +121,7 @@ class ReplaySession(Closing):
         break_at: int | None = None,
         living: bool = False,
         rename: Callable[[str], str] = str,
+        migration: StateMigration | None = None,
     ) -> None:
         self.reader = SessionLogReader(log)
         try:
@@ -133,6 +136,7 @@ class ReplaySession(Closing):
                     break_at=break_at,
                     living=living,
                     rename=rename,
+                    migration=migration,
                 )
             )
         except BaseException:
@@ -179,10 +183,12 @@ class ReplaySession(Closing):
         self.reader.close()
 
 
-def fields_read(log: str | Path, system: System, cycle: int) -> tuple[str, ...]:
+def fields_read(
+    log: str | Path, system: System, cycle: int, *, migration: StateMigration | None = None
+) -> tuple[str, ...]:
     """The robot-state fields a fresh ``system`` reads in ``cycle`` of ``log``, in order
-    (see :class:`FieldsRead`)."""
+    (see :class:`FieldsRead`), the log's fields renamed and converted by ``migration``."""
     reads = FieldsRead(cycle)
-    with ReplaySession(log, system) as session:
+    with ReplaySession(log, system, migration=migration) as session:
         session.run([], fields_read=reads)
     return reads.fields

@@ -52,10 +52,10 @@ convenient.
 Format 3 files approve no draws (replay must draw as recorded) and pin robot states a
 line per field per cycle, ``12  0.360  robot_state "range" = 0.55``: the recorded state
 with these fields is what perception must rebuild, within the spec's tolerances. They
-still read and judge so; a new baseline is always written in format 4. Format 2 files pin no robot states:
-perception must rebuild the recording. Format 1 files (state changes only) pin no
-outputs either, so replay judges outputs against the recording and says so when they
-differ; re-approve to pin them.
+still read and judge so; a new baseline is always written in format 4. Format 2 files
+pin no robot states: perception must rebuild the recording. Format 1 files (state
+changes only) pin no outputs either, so replay judges outputs against the recording
+and says so when they differ; re-approve to pin them.
 """
 
 from __future__ import annotations

@@ -176,6 +176,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             expected=expected,
             explain=False,
             perception=spec.perception,
+            migration=spec.migration,
         )
         replayed: System | str = system
         collector = None
@@ -212,7 +213,9 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
         if audit:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
-            report = audit_replay(spec.log, system, allow_truncated=spec.allow_truncated)
+            report = audit_replay(
+                spec.log, system, allow_truncated=spec.allow_truncated, migration=spec.migration
+            )
         drawn = _timelines(collector, details)
     except BeatlogError as exc:
         wall = time.perf_counter() - started
@@ -297,6 +300,7 @@ def _details(
         perception=None if spec.perception is None else load_perception(spec.perception),
         living=trace or expected is not None,
         rename=spec.comparison.rename,
+        migration=spec.migration,
     )
 
 

@@ -13,6 +13,8 @@ the system factory to replay it against::
     allow_truncated = false                 # true: a log cut off by a crash passes
     allow_empty = false                     # true: a replay that checks nothing passes
     renames = { avoid = "avoid_obstacle" }  # behaviors renamed since recording: old = new
+    field_renames = { knee_mean = "knee_avg" }  # robot-state fields renamed: old = new
+    field_conversions = { battery = "mypkg.compat:percent" }  # retyped: field = converter
     ignore_behaviors = ["blink"]            # their state changes are not compared
     ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
 
@@ -42,7 +44,13 @@ DTC, whether here or on a cluster's worker. Specs themselves are local files: th
 baselines are written beside them.
 
 Renames that hold for every spec go into the project's ``pyproject.toml``, under
-``[tool.beatlog.renames]``; a spec's own renames come on top.
+``[tool.beatlog.renames]``; a spec's own renames come on top. The same goes for
+``field_renames`` and ``field_conversions`` (``[tool.beatlog.field_renames]``,
+``[tool.beatlog.field_conversions]``), which map robot-state fields renamed or retyped
+since the recording onto the system's (:mod:`beatlog.replay.migration`): a field of a
+nested struct is named by its dotted path (``"pose.x" = "pose.px"``, or TOML's own
+``pose.x = "pose.px"``), and a conversion is a ``module:function`` that takes the
+recorded value and returns the field's new one, imported as ``system`` is.
 """
 
 from __future__ import annotations
@@ -65,9 +73,16 @@ import msgspec
 
 from beatlog.errors import SpecError
 from beatlog.files import irregular_file_problem, project_root
-from beatlog.project import check_one_to_one, explain_validation, project_config
+from beatlog.project import (
+    check_conversions,
+    check_one_to_one,
+    dotted_keys,
+    explain_validation,
+    project_config,
+)
 from beatlog.remote import fetched_log, is_url, url_name
 from beatlog.replay.compare import Comparison
+from beatlog.replay.migration import StateMigration
 from beatlog.suite.keywords import KeywordExpression
 
 __all__ = [
@@ -97,6 +112,8 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     allow_truncated: bool = False
     allow_empty: bool = False
     renames: dict[str, str] = {}
+    field_renames: dict[str, str] = {}
+    field_conversions: dict[str, str] = {}
     ignore_behaviors: list[str] = []
     ignore_fields: list[str] = []
     tolerance: dict[str, float] = {}
@@ -124,6 +141,9 @@ class DtcSpec:
     """What counts as the same when this DTC is judged (renames, ignores, tolerances)."""
     perception: str | None = None
     """The ``module:factory`` of the perception step: replay from the logged samples."""
+    migration: StateMigration = field(default_factory=StateMigration)
+    """Robot-state fields renamed or retyped since the recording (the project's and the
+    spec's ``field_renames`` and ``field_conversions``)."""
     source: str | None = None
     """For a DTC made from a log alone, with no spec file (a fleet run, see
     :mod:`beatlog.suite.fleet`): the log's path or URL as matched. Such a DTC has no
@@ -191,6 +211,9 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
         raise SpecError(path, f"not valid TOML: {exc}") from None
     if (problem := _keys_problem(data)) is not None:
         raise SpecError(path, problem)
+    for key in ("field_renames", "field_conversions"):
+        if key in data:
+            data[key] = dotted_keys(data[key])
     try:
         spec = msgspec.convert(data, _SpecFile)
     except msgspec.ValidationError as exc:
@@ -200,9 +223,15 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
     for key, reference in (("system", spec.system), ("perception", spec.perception)):
         if reference is not None and ":" not in reference:
             raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
-    renames = {**project_config(path.resolve().parent).renames, **spec.renames}
+    project = project_config(path.resolve().parent)
+    renames = {**project.renames, **spec.renames}
     check_one_to_one(path, "renames", spec.renames)
     check_one_to_one(path, "renames", renames)
+    field_renames = {**project.field_renames, **spec.field_renames}
+    check_one_to_one(path, "field_renames", spec.field_renames)
+    check_one_to_one(path, "field_renames", field_renames)
+    conversions = {**project.field_conversions, **spec.field_conversions}
+    check_conversions(path, "field_conversions", spec.field_conversions)
     for key, tolerances in (
         ("tolerance", spec.tolerance),
         ("robot_state_tolerance", spec.robot_state_tolerance),
@@ -233,6 +262,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
             tolerance=spec.tolerance,
             state_tolerance=spec.robot_state_tolerance,
         ),
+        migration=StateMigration(field_renames, conversions),
     )
 
 
