@@ -16,6 +16,7 @@ from rich.text import Text
 from beatlog.report.baselines import render_orphans, render_updates
 from beatlog.report.console import plain_text, render_suite
 from beatlog.report.counts import verdict_counts
+from beatlog.report.coverage import render_coverage
 from beatlog.suite.runner import SpecOutcome, Verdict
 
 if TYPE_CHECKING:
@@ -123,8 +124,6 @@ class SuiteReport:
         """The coverage table, when it is shown."""
         if self.coverage is None or not self.shows_coverage:
             return []
-        from beatlog.report.coverage import render_coverage  # noqa: PLC0415 - when asked for
-
         return [render_coverage(self.coverage)]
 
     def counts(self) -> str:

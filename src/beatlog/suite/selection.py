@@ -10,7 +10,10 @@ from pathlib import Path
 
 from beatlog.errors import OptionError
 from beatlog.replay.debugger import beyond_the_log
+from beatlog.suite.coverage import select_exercising
+from beatlog.suite.fleet import check_references, fleet_specs
 from beatlog.suite.options import SuiteOptions
+from beatlog.suite.sharding import shard
 from beatlog.suite.spec import DtcSpec, discover_specs, distinguished, find_rootdir, select_specs
 
 __all__ = ["Selection", "check_break_at", "fleet_of", "select_suite"]
@@ -38,8 +41,6 @@ def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
     """
     if options.logs is None:
         return None
-    from beatlog.suite.fleet import check_references, fleet_specs  # noqa: PLC0415 - fleet runs only
-
     assert options.system is not None, "SuiteOptions checks it"
     fleet = fleet_specs(options.logs, system=options.system, perception=options.perception)
     check_references(fleet[0])
@@ -58,8 +59,6 @@ def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> S
     rootdir = find_rootdir(options.paths) if fleet is None else None
     specs = select_specs(found, pattern=options.pattern, tags=options.tags, rootdir=rootdir)
     if specs and options.behavior is not None:
-        from beatlog.suite.coverage import select_exercising  # noqa: PLC0415 - reads the logs
-
         specs = select_exercising(specs, options.behavior)
     if not specs:
         where = " ".join(map(str, options.paths)) if fleet is None else options.logs
@@ -67,8 +66,6 @@ def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> S
             raise OptionError(f"none of the {len(found)} DTC specs in {where} match -k/--tag")
         raise OptionError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
     if options.shard is not None:
-        from beatlog.suite.sharding import shard  # noqa: PLC0415 - reads the logs' sizes
-
         specs = shard(specs, options.shard.index, options.shard.count)
     return Selection(found, distinguished(specs), rootdir)
 

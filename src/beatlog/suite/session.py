@@ -17,7 +17,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.errors import OptionError
+from beatlog.files import write_json
+from beatlog.report.console import plain_text, render_outcome
 from beatlog.report.suite import SuiteReport
+from beatlog.suite.coverage import suite_coverage
+from beatlog.suite.coverage_cache import cache_path, recall
+from beatlog.suite.junit import write_junit
 from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.runner import SpecOutcome, run_suite
@@ -118,9 +123,6 @@ class SuiteSession:
             report, updates=tuple(update_baselines(outcomes, options.update))
         )
         if options.junit_xml is not None:
-            from beatlog.report.console import plain_text, render_outcome  # noqa: PLC0415
-            from beatlog.suite.junit import write_junit  # noqa: PLC0415 - when asked for
-
             report = _written(
                 report,
                 options.junit_xml,
@@ -128,13 +130,12 @@ class SuiteSession:
                     path, outcomes, describe=lambda outcome: plain_text(render_outcome(outcome))
                 ),
             )
-        fleet = options.logs is not None
         report = conclude(
             report,
             [outcome.spec for outcome in outcomes],
             found=self.selection.found,
-            root=None if fleet else self.selection.rootdir,
-            orphans_in=() if fleet else options.paths,
+            root=self.selection.rootdir,
+            orphans_in=options.paths if options.logs is None else (),
             coverage=options.coverage,
             coverage_json=options.coverage_json,
         )
@@ -177,13 +178,9 @@ def conclude(
     report = dataclasses.replace(report, orphans=tuple(find_orphans(orphans_in)))
     if report.error is not None or not (coverage or coverage_json is not None):
         return report
-    from beatlog.suite.coverage import suite_coverage  # noqa: PLC0415 - reads the logs
-
     measured = suite_coverage(ran)
     warnings = report.warnings
     if root is not None:
-        from beatlog.suite.coverage_cache import cache_path, recall  # noqa: PLC0415
-
         warning = recall(measured, cache_path(root), {spec.id: spec.name for spec in found}).warning
         warnings += () if warning is None else (warning,)
     report = dataclasses.replace(
@@ -191,8 +188,6 @@ def conclude(
     )
     if coverage_json is None:
         return report
-    from beatlog.files import write_json  # noqa: PLC0415
-
     return _written(report, coverage_json, lambda path: write_json(path, measured.to_json()))
 
 
