@@ -413,6 +413,13 @@ PROBE_CYCLE_DAMAGE = {
 """Damage to a probe log (``tests.conftest``, 60 cycles or more) by name."""
 
 
+def cut_in_half(log: Path) -> Path:
+    """``log`` cut off halfway, in place, as a crash leaves a log written in chunks."""
+    data = log.read_bytes()
+    log.write_bytes(data[: len(data) // 2])
+    return log
+
+
 def cut_short(log: Path) -> Path:
     """A copy of ``log`` (``cut.beatlog`` beside it) that a crash cut off before its end
     record: nothing counts its cycles."""

@@ -37,13 +37,14 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from beatlog.errors import BeatlogError, SpecError
+from beatlog.errors import BeatlogError, OptionError, SpecError
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, distinguished, load_spec
 
 if TYPE_CHECKING:
     from beatlog.model.behavior import System
     from beatlog.replay.verdict import ReplayResult
+    from beatlog.report.suite import SuiteReport
     from beatlog.suite.runner import SpecOutcome, Verdict
 
 # The engines and reports are imported where a DTC runs or the summary is written: every
@@ -139,25 +140,21 @@ class BeatlogRun:
 
     def pytest_collection_finish(self, session: pytest.Session) -> None:
         """A break at a cycle stops in one DTC: refuse a run that selects more, or one
-        whose log ends before the break (as its end record counts its cycles). The DTCs
-        selected that share a name are named by their ids in what beatlog reports."""
+        whose log ends before the break (as ``beatlog test`` does). The DTCs selected
+        that share a name are named by their ids in what beatlog reports."""
         selected = [item for item in session.items if isinstance(item, DtcItem)]
         for item, spec in zip(selected, distinguished(item.spec for item in selected), strict=True):
             item.spec = spec
         if self.break_at is None:
             return
-        if len(selected) > 1:
-            raise pytest.UsageError(
-                f"--beatlog-break-at stops in one DTC, and {len(selected)} are selected: "
-                "select it with -k or name its spec"
-            )
-        from beatlog.replay.debugger import beyond_the_log  # noqa: PLC0415 - see the imports
+        from beatlog.suite.selection import check_break_at  # noqa: PLC0415 - see the imports
 
-        problem = None
-        if selected and selected[0].spec.log_url is None:
-            problem = beyond_the_log(self.break_at, selected[0].spec.log)
-        if problem is not None:
-            raise pytest.UsageError(f"--beatlog-break-at {self.break_at}: {problem}")
+        try:
+            check_break_at(
+                self.break_at, [item.spec for item in selected], option="--beatlog-break-at"
+            )
+        except OptionError as exc:
+            raise pytest.UsageError(str(exc)) from None
 
     def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
         """Gather a DTC's verdict and update lines from its report (a worker's, under xdist):
@@ -178,46 +175,53 @@ class BeatlogRun:
         """The pending baselines written, the orphans, the coverage and the DTCs' verdicts."""
         if not self.verdicts:
             return
-        from beatlog.report.baselines import render_orphans  # noqa: PLC0415 - see the imports
-        from beatlog.report.counts import plural, verdict_counts  # noqa: PLC0415
-        from beatlog.suite.maintenance import find_orphans  # noqa: PLC0415
+        from beatlog.report.counts import plural, verdict_counts  # noqa: PLC0415 - see the imports
+        from beatlog.report.suite import plain_lines  # noqa: PLC0415
 
+        report, problem = self._report()
+        lines = [*self.lines, *plain_lines(report.orphan_lines())]
+        if problem is not None:
+            lines.append(f"beatlog: {problem}")
+        lines.extend(f"beatlog: warning: {warning}" for warning in report.warnings)
+        lines.extend(plain_lines(report.coverage_lines()))
+        if report.error is not None:
+            lines.append(f"beatlog: warning: {report.error}")
         terminalreporter.section("beatlog")
-        folders = sorted({spec.parent for spec in self.specs})
-        orphans = [text.plain for text in render_orphans(find_orphans(folders))]
-        for line in [*self.lines, *orphans, *self._coverage()]:
+        for line in lines:
             terminalreporter.write_line(line)
         counts = verdict_counts(self.verdicts)
         terminalreporter.write_line(f"{plural(len(self.verdicts), 'DTC')}: {counts}")
 
-    def _coverage(self) -> list[str]:
-        """The coverage table's lines when asked for, and any warning; writes its JSON."""
-        if not self.coverage and self.coverage_json is None:
-            return []
-        from beatlog.files import write_json  # noqa: PLC0415 - when asked for
-        from beatlog.report.console import plain_text  # noqa: PLC0415
-        from beatlog.report.coverage import render_coverage  # noqa: PLC0415
-        from beatlog.suite.coverage import suite_coverage  # noqa: PLC0415
-        from beatlog.suite.coverage_cache import cache_path, recall  # noqa: PLC0415
+    def _report(self) -> tuple[SuiteReport, str | None]:
+        """The end of the session, as ``beatlog test`` ends one (see
+        :func:`beatlog.suite.session.conclude`), for the specs that ran; with why there
+        is no coverage where it was asked for and the specs could not be read again."""
+        from beatlog.report.suite import SuiteReport  # noqa: PLC0415 - see the imports
+        from beatlog.suite.session import conclude  # noqa: PLC0415
 
         folders = sorted({spec.parent for spec in self.specs})
-        try:
-            ran = [load_spec(spec, rootdir=self.root) for spec in sorted(self.specs)]
-            coverage = suite_coverage(distinguished(ran))
-            found = discover_specs(folders, rootdir=self.root)  # those deselected too
-        except BeatlogError as exc:  # a log no DTC could read: its error is reported
-            return [f"beatlog: no transition coverage: {exc}"]
-        suite = {spec.id: spec.name for spec in found}
-        warning = recall(coverage, cache_path(self.root), suite).warning
-        lines = [] if warning is None else [f"beatlog: warning: {warning}"]
-        if self.coverage:
-            lines.extend(plain_text(render_coverage(coverage)).splitlines())
-        if self.coverage_json is not None:
+        measured = self.coverage or self.coverage_json is not None
+        ran: list[DtcSpec] = []
+        found: list[DtcSpec] = []
+        problem = None
+        if measured:
             try:
-                write_json(self.coverage_json, coverage.to_json())
-            except OSError as exc:
-                lines.append(f"beatlog: warning: {self.coverage_json}: cannot write: {exc}")
-        return lines
+                ran = distinguished(
+                    load_spec(spec, rootdir=self.root) for spec in sorted(self.specs)
+                )
+                found = discover_specs(folders, rootdir=self.root)  # those deselected too
+            except BeatlogError as exc:  # a log no DTC could read: its error is reported
+                measured, problem = False, f"no transition coverage: {exc}"
+        report = conclude(
+            SuiteReport(),
+            ran,
+            found=found,
+            root=self.root,
+            orphans_in=folders,
+            coverage=self.coverage and measured,
+            coverage_json=self.coverage_json if measured else None,
+        )
+        return report, problem
 
 
 _RUN = pytest.StashKey[BeatlogRun]()

@@ -14,11 +14,10 @@ from rich.prompt import Prompt
 from rich.text import Text
 
 from beatlog.errors import OptionError
-from beatlog.report.baselines import render_orphans, render_pending_diff, render_updates
+from beatlog.report.baselines import render_orphans, render_pending_diff
 from beatlog.suite.baseline import expected_path
 from beatlog.suite.maintenance import (
     Decision,
-    PendingUpdate,
     approve,
     decide,
     find_orphans,
@@ -27,7 +26,7 @@ from beatlog.suite.maintenance import (
 )
 from beatlog.suite.policy import require_writable
 
-__all__ = ["approve_command", "print_lines", "report_orphans", "review", "show_updates"]
+__all__ = ["approve_command", "print_lines", "report_orphans", "review"]
 
 Ask = Callable[[str], str]
 """Asks the reviewer a question and returns the answer: accept, reject or skip."""
@@ -37,11 +36,6 @@ def print_lines(lines: Sequence[Text], console: Console) -> None:
     """Each line on its own, as it is (no markup or highlighting read into paths)."""
     for line in lines:
         console.print(line, highlight=False)
-
-
-def show_updates(updates: Sequence[PendingUpdate], console: Console) -> None:
-    """What ``test --update`` did with each pending baseline."""
-    print_lines(render_updates(updates), console)
 
 
 def report_orphans(paths: Sequence[Path], console: Console) -> None:

@@ -16,8 +16,10 @@ if TYPE_CHECKING:
         render_summary,
     )
     from beatlog.report.counts import plural, verdict_counts
+    from beatlog.report.suite import SuiteReport
 
 __all__ = [
+    "SuiteReport",
     "plain_text",
     "plural",
     "render_audit",
@@ -30,6 +32,7 @@ __all__ = [
 __getattr__ = lazy_names(
     __name__,
     {
+        "SuiteReport": "beatlog.report.suite",
         "plain_text": "beatlog.report.console",
         "plural": "beatlog.report.counts",
         "render_audit": "beatlog.report.audit",

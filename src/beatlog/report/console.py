@@ -22,6 +22,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict
 __all__ = [
     "MAX_LISTED",
     "plain_text",
+    "render_outcome",
     "render_passed",
     "render_replay",
     "render_suite",
@@ -58,6 +59,19 @@ def render_passed(outcome: SpecOutcome) -> Text:
     assert outcome.result is not None
     return Text.assemble(
         ("PASS ", "bold green"), f"{outcome.spec.label}: {_checked_text(outcome.result)}"
+    )
+
+
+def render_outcome(outcome: SpecOutcome) -> RenderableType:
+    """A DTC's outcome: one line for an error or a pass (what it checked), the first
+    divergence for a failure."""
+    if outcome.verdict is Verdict.PASSED:
+        return render_passed(outcome)
+    if outcome.result is None:
+        return Text.assemble(("ERROR ", "bold magenta"), f"{outcome.spec.label}: {outcome.error}")
+    return Group(
+        Text.assemble(("DTC ", "bold"), f"{outcome.spec.label} ({outcome.spec.origin})"),
+        render_replay(outcome.result),
     )
 
 

@@ -1,5 +1,6 @@
 """DTC specs and suites: ``*.dtc.toml`` files, fleet runs of logs without specs, the
-parallel runner and its Dask executor, shards for a CI matrix, JUnit output and the
+suite session every shell runs (select, run, update, report), the parallel runner and
+its Dask executor, shards for a CI matrix, JUnit output and the
 re-baselining workflow (update, review, approve) with its CI rule.
 
 The names are imported on first use, so that a suite worker
@@ -15,8 +16,10 @@ if TYPE_CHECKING:
     from beatlog.suite.fleet import fleet_specs
     from beatlog.suite.junit import write_junit
     from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
+    from beatlog.suite.options import SuiteOptions
     from beatlog.suite.policy import UpdateMode
     from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
+    from beatlog.suite.session import SuiteSession, run_session
     from beatlog.suite.sharding import Shard, shard
     from beatlog.suite.spec import (
         SPEC_SUFFIX,
@@ -33,6 +36,8 @@ __all__ = [
     "DtcSpec",
     "Shard",
     "SpecOutcome",
+    "SuiteOptions",
+    "SuiteSession",
     "UpdateMode",
     "Verdict",
     "approve",
@@ -40,6 +45,7 @@ __all__ = [
     "discover_specs",
     "fleet_specs",
     "load_spec",
+    "run_session",
     "run_spec",
     "run_suite",
     "select_specs",
@@ -60,10 +66,13 @@ __getattr__ = lazy_names(
         "decide": "beatlog.suite.maintenance",
         "update_baselines": "beatlog.suite.maintenance",
         "SpecOutcome": "beatlog.suite.runner",
+        "SuiteOptions": "beatlog.suite.options",
+        "SuiteSession": "beatlog.suite.session",
         "Verdict": "beatlog.suite.runner",
         "discover_specs": "beatlog.suite.spec",
         "fleet_specs": "beatlog.suite.fleet",
         "load_spec": "beatlog.suite.spec",
+        "run_session": "beatlog.suite.session",
         "run_spec": "beatlog.suite.runner",
         "run_suite": "beatlog.suite.runner",
         "select_specs": "beatlog.suite.spec",

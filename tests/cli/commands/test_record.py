@@ -1,5 +1,6 @@
-"""``beatlog record`` when the disk cannot take the log: never a traceback; the summary
-line says where the log stops, and the log is valid up to there."""
+"""``beatlog record``: a complete log in real time, its references checked before it
+starts, one line for bad input. When the disk cannot take the log: never a traceback;
+the summary line says where the log stops, and the log is valid up to there."""
 
 from __future__ import annotations
 
@@ -15,10 +16,11 @@ import pytest
 from beatlog.log.reader import SessionLogReader
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import system
-from tests.commands import Beatlog, assert_one_line_error
+from tests.commands import ROOT, Beatlog, assert_one_line_error
+from tests.conftest import RecordFn
 from tests.factories import fill_the_disk
+from tests.specs import PROBE
 
-ROOT = Path(__file__).parents[2]
 LIMITED = """
 import resource, signal, sys
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
@@ -124,3 +126,86 @@ def test_a_disk_full_before_the_header_leaves_no_file_and_one_line(
     assert_one_line_error(run)
     assert run.err == f"beatlog: error: {out}: cannot write: No space left on device\n"
     assert list(tmp_path.iterdir()) == []
+
+
+def test_record_refuses_to_overwrite_a_log(beatlog: Beatlog, record_probe: RecordFn) -> None:
+    log = record_probe(10)
+    before = log.read_bytes()
+
+    run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", log, "--duration", 1)
+
+    assert_one_line_error(run, f"{log}: already exists", "--force")
+    assert log.read_bytes() == before
+
+
+def test_record_into_a_missing_directory_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
+    out = tmp_path / "nowhere" / "rover.beatlog"
+
+    run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 1)
+
+    assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
+
+
+def test_record_checks_the_system_reference_before_recording(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    run = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "--system-ref",
+        "nosuch:thing",
+        "-o",
+        out,
+        "--duration",
+        1,
+    )
+
+    assert_one_line_error(run, "'nosuch:thing': cannot import nosuch")
+    assert not out.exists()
+
+
+def test_record_needs_a_robot_not_a_system(beatlog: Beatlog, tmp_path: Path) -> None:
+    out = tmp_path / "probe.beatlog"
+
+    run = beatlog("record", "--robot", PROBE, "-o", out, "--duration", 1)
+
+    assert_one_line_error(run, f"'{PROBE}': built a PriorityArbiter, not a robot")
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_record_writes_a_complete_log_that_replays(beatlog: Beatlog, tmp_path: Path) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    recorded = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "-o",
+        out,
+        "--duration",
+        0.5,
+        "--seed",
+        11,
+        "--robot-id",
+        "rover-1",
+        "--system-ref",
+        "beatlog_examples.rover:system",
+    )
+
+    assert recorded.code == 0, recorded.err
+    assert f"to {out}" in recorded.out
+    with SessionLogReader(out) as reader:
+        cycles = sum(1 for _ in reader.cycles())
+        assert reader.status.complete
+        assert reader.end is not None
+        assert reader.end.cycles == cycles > 0
+        assert reader.end.robot_time_ns >= 500_000_000
+        assert reader.header.robot_id == "rover-1"
+        assert reader.header.random_seed == 11
+    assert f"recorded {cycles} cycles" in recorded.out
+    replayed = beatlog("replay", out, "--system", "beatlog_examples.rover:system")
+    assert replayed.code == 0, replayed.out

@@ -13,13 +13,12 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin
 
 from tests.bags import edit_metadata, name_other_qos, storage_file, write_bag
-from tests.commands import Beatlog, Run, assert_one_line_error
+from tests.commands import ROOT, Beatlog, Run, assert_one_line_error
 from tests.specs import CHANGED, PROBE
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
 PERCEPTION = "tests.bags:perception"
-ROOT = Path(__file__).parents[2]
 
 
 def import_bag(beatlog: Beatlog, bag: Path, *options: str | Path) -> Run:

@@ -1,0 +1,73 @@
+"""Reading the command line: an argparse parser whose errors are one line and exit code
+2, and the types of the arguments the subcommands take."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from typing import TYPE_CHECKING, NoReturn, TypeVar
+
+from beatlog.errors import OptionError
+
+if TYPE_CHECKING:
+    from beatlog.suite.sharding import Shard
+
+__all__ = ["Parser", "cycle_number", "positive_float", "positive_int", "shard"]
+
+Number = TypeVar("Number", int, float)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line and exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        raise OptionError(f"{message} (see '{self.prog} --help')")
+
+
+def shard(text: str) -> Shard:
+    """``I/N``: one shard of a suite."""
+    from beatlog.suite.sharding import Shard
+
+    try:
+        return Shard.parse(text)
+    except OptionError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def cycle_number(text: str) -> int:
+    """A cycle of a log: 0 or more."""
+    try:
+        cycle = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a cycle number: {text!r}") from None
+    if cycle < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
+    return cycle
+
+
+def positive_float(text: str) -> float:
+    """A number above 0."""
+    return _positive(text, float, "a number")
+
+
+def positive_int(text: str) -> int:
+    """A whole number above 0."""
+    return _positive(text, int, "a whole number")
+
+
+def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    return value
+
+
+def field_pair(text: str) -> tuple[str, str]:
+    """``NAME=VALUE`` of ``--rename-field`` and ``--convert-field``, split."""
+    name, sep, value = text.partition("=")
+    if not (sep and name and value):
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE: {text!r}")
+    return name, value

@@ -1,0 +1,95 @@
+"""The subcommands of ``beatlog``, one module each, listed once in :data:`COMMANDS`: the
+parser is built from the table (:func:`beatlog.cli.parser.build_parser`) and the entry
+point runs from it. A module declares its command's arguments (``add_arguments``) and
+carries it out (``run``), importing what it uses when it runs, so that ``beatlog
+--help`` loads neither the engines nor rich."""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from typing import TYPE_CHECKING, NamedTuple
+
+from beatlog.cli.commands import (
+    approve,
+    demo,
+    export,
+    import_bag,
+    plot,
+    record,
+    replay,
+    review,
+    show,
+    test,
+)
+from beatlog.cli.commands import help as helping
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+__all__ = ["COMMANDS", "Command"]
+
+
+class Command(NamedTuple):
+    """One subcommand: what it does, its arguments, and what carries it out."""
+
+    help: str
+    """What it does, in a line: its ``--help`` page says it too."""
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace, Console], int]
+    """Carries the command out; its exit code."""
+    runs_user_code: bool = True
+    """Whether it imports the user's code (``module:factory``)."""
+    verbose: str = "also print the traceback of user code that failed to load"
+    """What ``--verbose`` does for it."""
+
+
+COMMANDS: dict[str, Command] = {
+    "record": Command(
+        "run a robot in real time and record a session", record.add_arguments, record.run
+    ),
+    "replay": Command("replay a session log and give a verdict", replay.add_arguments, replay.run),
+    "test": Command(
+        "run DTC specs (*.dtc.toml) in parallel",
+        test.add_arguments,
+        test.run,
+        verbose="list every DTC in the summary, and print the traceback of user code "
+        "that failed to load",
+    ),
+    "review": Command(
+        "show each pending baseline change and ask at the terminal whether to accept, "
+        "reject or skip it",
+        review.add_arguments,
+        review.run,
+    ),
+    "approve": Command(
+        "accept the pending baselines of DTC specs", approve.add_arguments, approve.run
+    ),
+    "show": Command("describe a session log", show.add_arguments, show.run, runs_user_code=False),
+    "plot": Command(
+        "draw a timeline chart of a session log (PNG, SVG or PDF)", plot.add_arguments, plot.run
+    ),
+    "export": Command(
+        "write a session log as MCAP for Foxglove and Lichtblick, or a table",
+        export.add_arguments,
+        export.run,
+    ),
+    "import-bag": Command(
+        "turn a ROS bag into a session log with samples, replayable at sensor level",
+        import_bag.add_arguments,
+        import_bag.run,
+    ),
+    "help": Command(
+        "show the help of beatlog or of one of its commands",
+        helping.add_arguments,
+        helping.run,
+        runs_user_code=False,
+    ),
+    "demo": Command(
+        "record and replay the robot dog, then its suite",
+        demo.add_arguments,
+        demo.run,
+        runs_user_code=False,
+    ),
+}
+"""Every subcommand by name, in the order ``beatlog --help`` lists them."""

@@ -1,0 +1,58 @@
+"""``beatlog export``: write a session log as MCAP for viewers, or as a table."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+__all__ = ["EXPORT_FORMATS", "add_arguments", "run"]
+
+EXPORT_FORMATS = ("mcap", "parquet", "csv")
+"""``beatlog export --format`` (:class:`beatlog.adapters.export.ExportFormat`), here so
+that parsing the command line imports nothing heavy."""
+
+
+def add_arguments(export: argparse.ArgumentParser) -> None:
+    """The options of ``beatlog export``."""
+    export.add_argument("log", help="the session log (.beatlog) to export: a path or a URL")
+    export.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="the file to write; its suffix picks the format: .mcap, .parquet or .csv",
+    )
+    export.add_argument(
+        "--format",
+        choices=EXPORT_FORMATS,
+        help="mcap (JSON messages, for viewers), parquet or csv (a row per cycle); "
+        "default: the output's suffix, which must not name another format",
+    )
+    export.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="also replay against this system and add its first divergence (MCAP only)",
+    )
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    """Export the log; 1 when the system given diverges from it."""
+    import dataclasses
+
+    from beatlog.adapters.export import export, export_format
+
+    chosen = export_format(args.output, args.format)  # refused before anything runs
+    given = args.log
+    with readable(args) as named:
+        result = export(args.log, args.output, format=chosen, system=args.system)
+    if named is not None:
+        result = dataclasses.replace(result, url=given)
+    console.print(result.describe(), markup=False, highlight=False)
+    return EXIT_OK if result.divergence is None else EXIT_FAILED

@@ -1,0 +1,78 @@
+"""``beatlog plot``: draw a timeline chart of a session log."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from beatlog.cli.common import EXIT_OK, readable
+from beatlog.errors import OptionError
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(plot: argparse.ArgumentParser) -> None:
+    """The options of ``beatlog plot``."""
+    plot.add_argument("log", help="the session log (.beatlog) to draw: a path or a URL")
+    plot.add_argument(
+        "-o",
+        "--output",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="the chart to write; its suffix picks the format: .png, .svg or .pdf",
+    )
+    plot.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="also replay against this system and draw what it did (default: the recording only)",
+    )
+    plot.add_argument(
+        "--field",
+        action="append",
+        dest="fields",
+        metavar="NAME",
+        help="robot-state field to draw (repeatable; default: the first few numeric ones)",
+    )
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    """Draw the chart, with the first divergence where a system is given."""
+    _need_matplotlib("plot")
+    from beatlog.analysis.timeline import build_timeline
+    from beatlog.replay.judge import replay
+    from beatlog.report.chart import chart_format, write_chart
+
+    chart_format(args.output)  # an unknown suffix is refused before anything runs
+    given = args.log
+    with readable(args):
+        divergence = (
+            None
+            if args.system is None
+            else replay(args.log, args.system, allow_empty=True).divergence
+        )
+        timeline = build_timeline(args.log, args.system, fields=args.fields, divergence=divergence)
+    try:
+        write_chart(timeline, args.output)
+    except OSError as exc:
+        raise OptionError(f"{args.output}: cannot write: {exc.strerror}") from None
+    mark = timeline.divergence
+    console.print(
+        f"drew {timeline.cycles} cycles of {given} to {args.output}"
+        + ("" if mark is None else f"; first divergence at cycle {mark.cycle} ({mark.kind})"),
+        markup=False,
+        highlight=False,
+    )
+    return EXIT_OK
+
+
+def _need_matplotlib(command: str) -> None:
+    """Charts need the optional ``plot`` extra; say so in one line when it is missing."""
+    try:
+        import matplotlib  # noqa: F401
+    except ModuleNotFoundError:
+        raise OptionError(f'{command} needs matplotlib (pip install "beatlog[plot]")') from None

@@ -1,0 +1,130 @@
+"""``beatlog record``: run a robot in real time and record a session log."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from beatlog.cli.arguments import positive_float
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK, check_output
+from beatlog.errors import BeatlogError, LogExistsError, OptionError
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.progress import Progress
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(record: argparse.ArgumentParser) -> None:
+    """The options of ``beatlog record``."""
+    record.add_argument("--robot", required=True, metavar="MODULE:FACTORY", help="robot factory")
+    record.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
+    record.add_argument(
+        "--duration", type=positive_float, required=True, help="robot time to record (s)"
+    )
+    record.add_argument(
+        "--period-ms",
+        type=positive_float,
+        default=30.0,
+        help="heartbeat period in ms (default: %(default)s)",
+    )
+    record.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
+    record.add_argument(
+        "--robot-id", default="robot", help="name of the robot in the header (default: %(default)s)"
+    )
+    record.add_argument(
+        "--system-ref",
+        default="",
+        metavar="MODULE:FACTORY",
+        help="the system factory replay uses when given none, written into the header "
+        "(checked before recording starts)",
+    )
+    record.add_argument("--log-samples", action="store_true", help="also log raw sensor samples")
+    record.add_argument(
+        "--flush-interval",
+        type=positive_float,
+        default=1.0,
+        help="seconds of robot time between flushes to disk (default: %(default)s)",
+    )
+    record.add_argument("--fsync", action="store_true", help="fsync at every flush")
+    record.add_argument("--force", action="store_true", help="overwrite an existing log")
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    """Record until the duration is reached or Ctrl-C; the log is complete either way."""
+    from beatlog.record.recorder import Recorder
+    from beatlog.report.counts import plural
+    from beatlog.usercode import load_robot, load_system
+
+    robot = load_robot(args.robot)
+    if args.system_ref:
+        load_system(args.system_ref)  # replay will need it: a typo is found now, not then
+    output: Path = args.output
+    check_output(output)
+    interrupted = False
+    try:
+        recording = Recorder(
+            output,
+            robot.system,
+            overwrite=args.force,
+            robot_id=args.robot_id,
+            system_ref=args.system_ref,
+            period_ns=int(args.period_ms * 1e6),
+            seed=args.seed,
+            flush_interval_s=args.flush_interval,
+            fsync=args.fsync,
+            log_samples=args.log_samples,
+        )
+    except LogExistsError:
+        raise OptionError(
+            f"{output}: already exists; recordings are immutable (use --force)"
+        ) from None
+    with recording as recorder:
+        try:
+            with _progress(console) as progress:
+                total = int(args.duration * 1e3 / args.period_ms)
+                task = progress.add_task("recording", total=total)
+                recorder.run(
+                    robot,
+                    duration_s=args.duration,
+                    on_cycle=lambda cycles: progress.update(task, completed=cycles),
+                )
+        except KeyboardInterrupt:  # the log is closed as it is; say what it holds
+            interrupted = True
+    line = (
+        f"recorded {plural(recorder.cycles, 'cycle')} ({recorder.robot_time_ns / 1e9:.2f} s, "
+        f"{recorder.overruns} overruns) to {output}"
+    )
+    if recorder.error is not None:
+        line += f"; {_write_failure(output, recorder.error)}"
+    console.print(line, markup=False, highlight=False)
+    if interrupted:
+        raise KeyboardInterrupt
+    return EXIT_OK if recorder.error is None else EXIT_FAILED
+
+
+def _write_failure(log: Path, error: str) -> str:
+    """Where writing a log failed, as its first missing cycle read back from it."""
+    from beatlog.analysis.summary import summarize
+
+    try:
+        kept = summarize(log).cycles
+    except BeatlogError:
+        return f"recording failed: {error} (the log cannot be read)"
+    return f"recording failed at cycle {kept}: {error} (the log is valid up to there)"
+
+
+def _progress(console: Console) -> Progress:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed} cycles"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
+    )

@@ -1,0 +1,134 @@
+"""``beatlog replay``: replay a session log and give a verdict."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from beatlog.cli.arguments import cycle_number, field_pair
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
+from beatlog.errors import OptionError
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(play: argparse.ArgumentParser) -> None:
+    """The options of ``beatlog replay``."""
+    play.add_argument("log", help="the session log (.beatlog) to replay: a path or a URL")
+    play.add_argument(
+        "--system",
+        metavar="MODULE:FACTORY",
+        help="system factory (default: the one the log records, from record --system-ref, "
+        "where the project lists it under [tool.beatlog] systems in pyproject.toml)",
+    )
+    play.add_argument(
+        "--perception",
+        metavar="MODULE:FACTORY",
+        help="rebuild each robot state from the logged samples with this perception step",
+    )
+    play.add_argument("--keep-going", action="store_true", help="count every diverging cycle")
+    play.add_argument(
+        "--recording",
+        action="store_true",
+        help="judge against the recording, not the approved baseline of the spec beside the "
+        "log that names it (which replay, like test, uses by default)",
+    )
+    play.add_argument(
+        "--break-at",
+        type=cycle_number,
+        metavar="CYCLE",
+        help="stop in the debugger just before the behaviors update in this cycle",
+    )
+    play.add_argument(
+        "--break-on-divergence",
+        action="store_true",
+        help="replay again and stop in the debugger at the first divergence",
+    )
+    play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
+    play.add_argument(
+        "--allow-empty",
+        action="store_true",
+        help="pass a replay that checks nothing (no cycle, or nothing happening in any)",
+    )
+    play.add_argument(
+        "--rename-field",
+        action="append",
+        type=field_pair,
+        default=[],
+        metavar="OLD=NEW",
+        help="a robot-state field renamed since the recording (a dotted path inside a "
+        "struct); repeat for more",
+    )
+    play.add_argument(
+        "--convert-field",
+        action="append",
+        type=field_pair,
+        default=[],
+        metavar="FIELD=MODULE:FUNCTION",
+        help="a robot-state field retyped since the recording, and the function that "
+        "converts its recorded value; repeat for more",
+    )
+    play.add_argument("--json", action="store_true", help="print the result as JSON")
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    """Replay the log; its verdict, as text or JSON."""
+    import dataclasses
+
+    import msgspec
+
+    from beatlog.replay.debugger import break_on_divergence, unreached_break
+    from beatlog.replay.judge import recorded_system
+    from beatlog.replay.migration import StateMigration
+    from beatlog.report.console import render_replay
+    from beatlog.suite.approved import replay
+
+    given = args.log
+    with readable(args) as named:
+        if args.break_at is not None:
+            _check_break(args.break_at, Path(args.log))
+        system = args.system
+        if system is None:
+            system = recorded_system(args.log)
+            print(
+                f"beatlog: replaying against {system}, as recorded in {given} "
+                "and listed in the project's [tool.beatlog] systems",
+                file=sys.stderr,
+            )
+        options = {
+            "keep_going": args.keep_going,
+            "allow_truncated": args.allow_truncated,
+            "allow_empty": args.allow_empty,
+            "perception": args.perception,
+            "approved": not args.recording,
+            "migration": StateMigration(dict(args.rename_field), dict(args.convert_field)),
+        }
+        result = replay(args.log, system, break_at=args.break_at, **options)
+        notes = unreached_break(args.break_at, result)
+        if args.break_on_divergence:
+            notes += break_on_divergence(
+                result, lambda cycle: replay(args.log, system, break_at=cycle, **options)
+            )
+        result = dataclasses.replace(result, notes=result.notes + notes)
+    if named is not None:
+        result = dataclasses.replace(result, url=given, reproduce=named(result.reproduce))
+    if args.json:
+        sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
+    else:
+        console.print(render_replay(result))
+    return EXIT_OK if result.ok else EXIT_FAILED
+
+
+def _check_break(break_at: int, log: Path) -> None:
+    """A break past the end of the log, as its end record counts its cycles, is a usage
+    error before anything replays."""
+    from beatlog.replay.debugger import beyond_the_log
+
+    problem = beyond_the_log(break_at, log)
+    if problem is not None:
+        raise OptionError(f"--break-at {break_at}: {problem}")

@@ -1,0 +1,232 @@
+"""``beatlog test``: run DTC specs, or a fleet's logs, as one suite session
+(:mod:`beatlog.suite.session`); this module reads the options and prints the report."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from beatlog.cli.arguments import cycle_number, positive_int, shard
+from beatlog.cli.common import print_error
+from beatlog.errors import OptionError
+from beatlog.suite.policy import UpdateMode
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from beatlog.suite.options import SuiteOptions
+    from beatlog.suite.runner import SpecOutcome
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(test: argparse.ArgumentParser) -> None:
+    """The options of ``beatlog test``."""
+    test.add_argument(
+        "paths",
+        nargs="*",
+        type=Path,
+        default=[Path()],
+        help="specs (*.dtc.toml) or folders searched for them (default: the current folder)",
+    )
+    where = test.add_mutually_exclusive_group()
+    where.add_argument(
+        "-j",
+        "--jobs",
+        type=positive_int,
+        help=f"processes replaying at once (default: the number of cores, {os.cpu_count() or 1})",
+    )
+    where.add_argument(
+        "--dask",
+        metavar="ADDRESS",
+        help="run the DTCs on the Dask cluster whose scheduler is at ADDRESS "
+        "(tcp://host:8786), or on one started here with local or local:N worker processes; "
+        'specs on a filesystem the workers share (pip install "beatlog[dask]"); '
+        "a cluster that cannot be reached exits 2",
+    )
+    test.add_argument(
+        "-k",
+        dest="select",
+        metavar="EXPRESSION",
+        help="only DTCs matching this expression, as pytest's -k: words matched against "
+        "names and tags, with and, or, not and parentheses (e.g. -k 'touch or pat'); "
+        "the names are the DTC's, its spec file's and its folders' below the rootdir",
+    )
+    test.add_argument(
+        "--tag",
+        action="append",
+        default=[],
+        help="only DTCs with this tag; given more than once, only DTCs with every tag given",
+    )
+    test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
+    test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
+    test.add_argument(
+        "--html", type=Path, metavar="FILE", help="write an HTML report with timeline charts"
+    )
+    test.add_argument(
+        "--update",
+        action="store_const",
+        const=UpdateMode.NEW,
+        default=UpdateMode.NONE,
+        help="write the new state changes of failed DTCs to pending files for review",
+    )
+    test.add_argument(
+        "--audit",
+        action="store_true",
+        help="also replay each DTC twice with different hash seeds, watching for wall-clock "
+        "reads and global random calls",
+    )
+    test.add_argument(
+        "--coverage",
+        action="store_true",
+        help="show which behavior states and transitions the DTCs exercise, and the states "
+        "declared or seen by earlier runs (remembered in .beatlog_cache/) that none reaches",
+    )
+    test.add_argument(
+        "--coverage-json", type=Path, metavar="FILE", help="write the transition coverage as JSON"
+    )
+    test.add_argument(
+        "--behavior",
+        metavar="NAME",
+        help="run only the DTCs whose recordings change this behavior's state",
+    )
+    test.add_argument(
+        "--shard",
+        type=shard,
+        metavar="I/N",
+        help="run only shard I of N (from 1), split evenly by recorded cycles: "
+        "N CI jobs with --shard 1/N ... N/N run every DTC once",
+    )
+    test.add_argument(
+        "--logs",
+        metavar="GLOB",
+        help="replay every matching log against --system, no spec needed "
+        '(a local glob, or a URL with pip install "beatlog[fleet]")',
+    )
+    test.add_argument(
+        "--system", metavar="MODULE:FACTORY", help="the system factory of a --logs run"
+    )
+    test.add_argument(
+        "--perception",
+        metavar="MODULE:FACTORY",
+        help="the perception step of a --logs run: rebuild each robot state from the samples",
+    )
+    test.add_argument(
+        "--break-at",
+        type=cycle_number,
+        metavar="CYCLE",
+        help="stop in the debugger just before the behaviors update in this cycle "
+        "(one DTC only: select it with -k or name its spec; runs in this process)",
+    )
+    test.add_argument(
+        "--break-on-divergence",
+        action="store_true",
+        help="replay each failing DTC again and stop in the debugger at its first divergence "
+        "(runs in this process)",
+    )
+
+
+def _options(args: argparse.Namespace) -> SuiteOptions:
+    from beatlog.suite.options import SuiteOptions
+
+    return SuiteOptions(
+        paths=tuple(args.paths),
+        pattern=args.select,
+        tags=tuple(args.tag),
+        behavior=args.behavior,
+        shard=args.shard,
+        logs=args.logs,
+        system=args.system,
+        perception=args.perception,
+        jobs=args.jobs,
+        dask=args.dask,
+        fail_fast=args.fail_fast,
+        update=args.update,
+        audit=args.audit,
+        coverage=args.coverage,
+        coverage_json=args.coverage_json,
+        junit_xml=args.junit_xml,
+        html=args.html,
+        break_at=args.break_at,
+        break_on_divergence=args.break_on_divergence,
+    )
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    """Run the suite with a progress bar, each failure (every DTC with ``--verbose``)
+    shown as it comes, then the session's report and its counts."""
+    from beatlog.suite.session import SuiteSession
+
+    session = SuiteSession(_options(args))
+    progress = _progress(console, breaking=session.options.breaking)
+    started = time.perf_counter()
+    cycles = 0
+
+    def on_outcome(outcome: SpecOutcome) -> None:
+        nonlocal cycles
+        cycles += outcome.result.cycles if outcome.result else 0
+        rate = f"{cycles / max(time.perf_counter() - started, 1e-9):,.0f} cycles/s"
+        progress.update(task, advance=1, rate=rate)
+        _show(outcome, progress.console, verbose=args.verbose)
+
+    with progress:
+        task = progress.add_task("replaying", total=len(session.specs), rate="")
+        ran = session.run(on_outcome)
+    for line in ran.summary(every=args.verbose):
+        console.print(line)
+    report = session.finish()
+    for line in report.baseline_lines():
+        console.print(line, highlight=False)
+    for line in report.coverage_lines():
+        console.print(line)
+    for warning in report.warnings:
+        print(f"beatlog: warning: {warning}", file=sys.stderr)
+    if report.error is not None:
+        raise OptionError(report.error)
+    console.print(report.closing_line())
+    if report.interrupted is not None:
+        raise report.interrupted
+    return report.exit_code
+
+
+def _progress(console: Console, *, breaking: bool) -> Progress:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total} DTCs"),
+        TextColumn("{task.fields[rate]}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+        # a bar only where it can be redrawn (no blank line), and never under a debugger
+        disable=not console.is_terminal or breaking,
+    )
+
+
+def _show(outcome: SpecOutcome, console: Console, *, verbose: bool) -> None:
+    """A DTC's outcome as it comes: an error on stderr, a failure (any, with
+    ``verbose``) in full, and a retry."""
+    from beatlog.report.console import render_outcome
+    from beatlog.suite.runner import Verdict
+
+    if outcome.verdict is Verdict.ERROR:
+        print_error(
+            f"{outcome.spec.label} ({outcome.spec.origin}): {outcome.error}",
+            outcome.error_traceback if verbose else None,
+        )
+    elif outcome.verdict is Verdict.FAILED or verbose:
+        console.print(render_outcome(outcome))
+    if outcome.retries:
+        console.print(
+            f"retried {outcome.spec.label}: the worker replaying it died "
+            f"({outcome.retries} time{'s' if outcome.retries > 1 else ''})",
+            markup=False,
+            highlight=False,
+        )

@@ -1,0 +1,33 @@
+"""``beatlog demo``: the robot dog recorded and replayed, then its suite."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from beatlog.log.reader import SessionLogReader
+from tests.commands import Beatlog
+
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+
+@pytest.mark.slow
+def test_the_demo_records_and_replays_the_dog_then_its_suite(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    run = beatlog("demo", "--duration", 0.5, "--out", tmp_path / "demo")
+
+    log = tmp_path / "demo" / "dog.beatlog"
+    assert run.code == 0, run.out
+    assert f"PASS {log}" in run.out
+    assert "22 DTCs recorded on the dog" in run.out
+    assert "22 passed, 0 failed" in run.out
+    assert f"The demo log is kept at {log}" in run.out
+    with SessionLogReader(log) as reader:
+        cycles = sum(1 for _ in reader.cycles())
+        assert reader.header.system == "beatlog_examples.dog:system"
+        assert reader.status.complete
+        assert reader.end is not None
+        assert reader.end.cycles == cycles > 0
+        assert reader.end.robot_time_ns >= 500_000_000

@@ -1,0 +1,263 @@
+"""``beatlog replay``: a verdict as the exit code, the first divergence and how to
+reproduce it, as text or JSON; a log never chooses the code it replays."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from beatlog.log.reader import SessionLogReader
+from beatlog.record.recorder import Recorder
+from tests.commands import Beatlog, assert_one_line_error
+from tests.conftest import RecordFn, distances
+from tests.factories import cut_in_half, vouch
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
+from tests.systems import quiet_system
+
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+
+def test_replay_passes_a_log_against_the_system_that_recorded_it(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", PROBE)
+
+    assert run.code == 0
+    assert run.out.startswith(
+        f"PASS {log}  300 cycles, 43 state changes, 453 outputs, 60 draws checked; "
+        "9.0 s robot time in "
+    )
+    assert run.out.endswith("; log complete\n")
+    assert run.err == ""
+
+
+def test_replay_without_a_system_uses_and_names_the_one_the_project_vouches_for(
+    beatlog: Beatlog, record_probe: RecordFn, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(300)
+    vouch(tmp_path, PROBE)
+    monkeypatch.chdir(tmp_path)
+
+    run = beatlog("replay", log)
+
+    assert run.code == 0
+    assert run.out.startswith(f"PASS {log}")
+    assert run.err == (
+        f"beatlog: replaying against {PROBE}, as recorded in {log} "
+        "and listed in the project's [tool.beatlog] systems\n"
+    )
+
+
+def test_replay_without_a_system_of_a_log_that_records_none_is_one_line(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(30, system_ref="")
+
+    run = beatlog("replay", log)
+
+    assert_one_line_error(run, f"{log}: records no system; name one (module:factory)")
+
+
+TRAP = "import pathlib\npathlib.Path('sprung').write_text('imported')\ndef trap(): pass\n"
+"""A module beside the log that leaves a file ``sprung`` when it is imported."""
+
+
+@pytest.mark.parametrize("recorded", ["booby:trap", "tempfile:mkdtemp", "this:s", PROBE])
+def test_a_log_never_chooses_the_code_replay_imports(
+    beatlog: Beatlog,
+    record_probe: RecordFn,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    recorded: str,
+) -> None:
+    (tmp_path / "booby.py").write_text(TRAP, encoding="utf-8")
+    vouch(tmp_path, "robot.nav:system")
+    monkeypatch.chdir(tmp_path)
+    log = record_probe(30, system_ref=recorded)
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temporary))
+    imported = set(sys.modules)
+
+    run = beatlog("replay", log)
+
+    assert_one_line_error(
+        run,
+        f"{log}: records the system {recorded!r}, which this project does not vouch for",
+        f"[tool.beatlog] systems in {tmp_path / 'pyproject.toml'}",
+    )
+    assert not (tmp_path / "sprung").exists()
+    assert set(sys.modules) - imported <= {"beatlog.replay.judge", "beatlog.report.console"}
+    assert list(temporary.iterdir()) == []
+
+
+def test_a_hostile_header_prints_nothing_of_the_module_it_names(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    log = record_probe(30, system_ref="this:s")
+
+    run = subprocess.run(
+        [sys.executable, "-m", "beatlog.cli.main", "replay", str(log)],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=60,
+        check=False,
+    )
+
+    assert run.returncode == 2
+    assert run.stdout == ""
+    assert run.stderr == (
+        f"beatlog: error: {log}: records the system 'this:s', which this project does not "
+        "vouch for; name it (--system, or system = in the spec) or list it under "
+        "[tool.beatlog] systems in a pyproject.toml\n"
+    )
+
+
+def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", CHANGED)
+
+    assert run.code == 1
+    assert run.out.startswith(f"FAIL {log}")
+    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
+    assert "behavior state changes differ from the recording" in run.out
+    assert f"reproduce: beatlog replay {log} --system {CHANGED}" in run.out
+    assert run.err == ""
+
+
+def test_replay_maps_robot_state_fields_renamed_or_retyped_since_the_recording(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+    renamed = ("--system", "tests.systems:probe_system_ranged")
+    retyped = ("--system", "tests.systems:probe_system_centimetred")
+
+    assert beatlog("replay", log, *renamed, "--rename-field", "distance=range").code == 0
+    converted = ("--convert-field", "distance=tests.systems:centimetres")
+    assert beatlog("replay", log, *retyped, *converted).code == 0
+    assert_one_line_error(
+        beatlog("replay", log, *renamed),
+        "field 'distance' is gone; the system has 'range' (number) in its place: if "
+        'renamed, add field_renames = { distance = "range" } to the spec (beatlog replay: '
+        "--rename-field distance=range)",
+    )
+    assert_one_line_error(
+        beatlog("replay", log, *renamed, "--rename-field", "distance"),
+        "argument --rename-field: expected NAME=VALUE: 'distance'",
+    )
+    failing = ("--convert-field", "distance=tests.systems:centimetres_unless_close")
+    assert_one_line_error(
+        beatlog("replay", log, *retyped, *failing),
+        f"{log}: robot state of cycle 46: field 'distance': "
+        "tests.systems:centimetres_unless_close raised ValueError: 0.08 m is too close",
+    )
+
+
+def test_replay_json_reports_the_divergence_for_machines(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", CHANGED, "--json")
+
+    assert run.code == 1
+    result = json.loads(run.out)
+    assert result["ok"] is False
+    assert result["log"] == str(log)
+    assert result["divergence"]["cycle"] == FIRST_CHANGED_CYCLE
+    assert result["divergence"]["kind"] == "state changes"
+    assert result["divergence"]["robot_state"]["distance"] == distances(300)[FIRST_CHANGED_CYCLE]
+    assert result["divergent_cycles"] == 1
+
+
+def test_replay_json_of_a_pass(beatlog: Beatlog, record_probe: RecordFn) -> None:
+    run = beatlog("replay", record_probe(300), "--system", PROBE, "--json")
+
+    assert run.code == 0
+    result = json.loads(run.out)
+    assert result["ok"] is True
+    assert result["cycles"] == 300
+    assert result["divergence"] is None
+    assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
+    assert result["checked"] == {"state_changes": 43, "outputs": 453, "draws": 60, "samples": 0}
+
+
+def test_replay_keep_going_counts_every_diverging_cycle(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    """A cycle diverges when near is in another state, or changes state at another time."""
+    recorded = [d < 0.5 for d in distances(300)]
+    changed = [d < 0.6 for d in distances(300)]
+    diverging = sum(
+        1
+        for t in range(300)
+        if recorded[t] != changed[t] or flips(recorded)[t] != flips(changed)[t]
+    )
+
+    run = beatlog("replay", record_probe(300), "--system", CHANGED, "--keep-going", "--json")
+
+    assert run.code == 1
+    result = json.loads(run.out)
+    assert result["cycles"] == 300
+    assert result["divergence"]["cycle"] == FIRST_CHANGED_CYCLE
+    assert result["divergent_cycles"] == diverging
+    assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
+
+
+def flips(near: list[bool]) -> list[bool]:
+    """Whether near changed state in each cycle; it starts far."""
+    return [now != before for before, now in zip([False, *near], near, strict=False)]
+
+
+def test_a_truncated_log_fails_replay_unless_allowed(
+    beatlog: Beatlog, record_chunked: RecordFn
+) -> None:
+    log = cut_in_half(record_chunked(300))
+    with SessionLogReader(log) as reader:
+        kept = sum(1 for _ in reader.cycles())
+    assert 0 < kept < 300
+
+    failed = beatlog("replay", log, "--system", PROBE)
+    allowed = beatlog("replay", log, "--system", PROBE, "--allow-truncated")
+
+    assert failed.code == 1
+    assert f"first divergence: cycle {kept}," in failed.out
+    assert "log ended" in failed.out
+    assert f"the log ends early (truncated at cycle {kept}:" in failed.out
+    assert allowed.code == 0
+    assert allowed.out.startswith(f"PASS {log}  {kept} cycles")
+    assert f"log truncated at cycle {kept}" in allowed.out
+
+
+def test_a_replay_that_checks_nothing_is_bad_input_unless_allowed(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    log = tmp_path / "killed.beatlog"
+    with Recorder(tmp_path / "live.beatlog", quiet_system(), software="test"):
+        log.write_bytes((tmp_path / "live.beatlog").read_bytes())  # killed before a cycle
+    system = "tests.systems:quiet_system"
+
+    refused = beatlog("replay", log, "--system", system, "--allow-truncated")
+    allowed = beatlog("replay", log, "--system", system, "--allow-truncated", "--allow-empty")
+
+    assert_one_line_error(refused)
+    assert refused.err == (
+        f"beatlog: error: {log}: the replay checked nothing (0 cycles); if nothing is meant "
+        "to happen in it, accept it with --allow-empty (in a spec: allow_empty = true)\n"
+    )
+    assert allowed.code == 0
+    assert allowed.out == (
+        f"PASS {log}  0 cycles checked (allowed empty); 0.0 s robot time in under 1 ms; "
+        "log truncated at cycle 0: the recording stopped before the log was closed\n"
+    )

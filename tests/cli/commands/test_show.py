@@ -1,0 +1,72 @@
+"""``beatlog show``: a log's header, figures and behaviors, and what state it is in."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import pytest
+
+from beatlog.analysis.summary import summarize
+from tests.commands import Beatlog
+from tests.conftest import RecordFn
+from tests.factories import cut_in_half, with_damaged_index
+
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+
+def about_rows(out: str) -> dict[str, str]:
+    """The name-value lines ``show`` prints above its behaviors table."""
+    about = itertools.takewhile(lambda line: line.strip() != "behaviors", out.splitlines())
+    pairs = (line.strip().partition("  ") for line in about)
+    return {name: value.strip() for name, _, value in pairs}
+
+
+def table_rows(out: str) -> list[list[str]]:
+    """The cells of each row of the behaviors table."""
+    rows = [line for line in out.splitlines() if line.startswith("│")]
+    return [[cell.strip() for cell in row.split("│")[1:-1]] for row in rows]
+
+
+def test_show_describes_a_log(beatlog: Beatlog, record_probe: RecordFn) -> None:
+    log = record_probe(300, robot_id="probe-1")
+    summary = summarize(log)
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    about = about_rows(run.out)
+    assert about["log"] == str(log)
+    assert about["status"] == "complete"
+    assert about["robot"] == "probe-1"
+    assert about["cycles"] == "300"
+    assert "60 (randint 60)" in run.out
+    assert table_rows(run.out) == [
+        [str(index), name, str(count)]
+        for index, (name, count) in enumerate(summary.transitions.items())
+    ]
+    assert [row[1] for row in table_rows(run.out)] == ["arbiter", "near", "dice"]
+
+
+def test_show_says_a_cut_off_log_is_truncated(beatlog: Beatlog, record_chunked: RecordFn) -> None:
+    log = cut_in_half(record_chunked(300))
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    assert "truncated at cycle" in run.out
+    assert "unknown (no end record)" in run.out
+
+
+def test_show_says_a_log_whose_index_is_damaged_holds_its_data_intact(
+    tmp_path: Path, beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = with_damaged_index(record_probe(300), tmp_path / "index.beatlog")
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    assert about_rows(run.out)["status"] == (
+        "index damaged, data intact: the summary does not match its CRC in the footer"
+    )
+    assert about_rows(run.out)["cycles"] == "300"

@@ -1,0 +1,120 @@
+"""The ``beatlog`` command line: a ``--help`` page for every subcommand of the table,
+with what it does, its defaults and the exit codes."""
+
+from __future__ import annotations
+
+import pytest
+
+from beatlog.cli.commands import COMMANDS
+from beatlog.cli.main import EXIT_CODES, main
+
+pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+SUBCOMMANDS = [
+    "record",
+    "replay",
+    "test",
+    "review",
+    "approve",
+    "show",
+    "plot",
+    "export",
+    "import-bag",
+    "help",
+    "demo",
+]
+"""Every subcommand, in the order ``beatlog --help`` lists them."""
+
+
+def help_page(command: str, capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit) as exited:
+        main([command, "--help"])
+    assert exited.value.code == 0
+    return capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", SUBCOMMANDS)
+def test_every_help_page_describes_the_command_its_arguments_and_exit_codes(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    page = help_page(command, capsys)
+    description = page.split("\n\n")[1]
+    positionals = page.partition("positional arguments:\n")[2].partition("\n\n")[0]
+
+    assert description.endswith(".")
+    assert all(len(line.split()) > 1 for line in positionals.splitlines())
+    assert page.rstrip().endswith(EXIT_CODES.rstrip())
+    for code in ("0 ", "1 ", "2 ", "130 "):
+        assert f"\n  {code}" in page
+
+
+@pytest.mark.parametrize(
+    ("command", "default"),
+    [
+        ("record", "heartbeat period in ms (default: 30.0)"),
+        ("record", "(default: 1.0)"),
+        ("demo", "(default: beatlog-demo)"),
+        ("demo", "(default: 20.0)"),
+        ("test", "(default: the current folder)"),
+    ],
+)
+def test_help_pages_show_defaults(
+    command: str, default: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert default in " ".join(help_page(command, capsys).split())
+
+
+def test_test_help_says_what_k_and_repeated_tags_mean(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    page = " ".join(help_page("test", capsys).split())
+
+    assert "as pytest's -k: words matched against names and tags" in page
+    assert "given more than once, only DTCs with every tag given" in page
+
+
+def test_the_top_level_help_ends_with_the_exit_codes(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exited:
+        main(["--help"])
+
+    assert exited.value.code == 0
+    assert capsys.readouterr().out.rstrip().endswith(EXIT_CODES.rstrip())
+
+
+@pytest.mark.parametrize("command", [name for name in SUBCOMMANDS if name != "test"])
+def test_verbose_says_what_it_does_for_the_command_at_hand(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    page = " ".join(help_page(command, capsys).split())
+
+    assert "-v, --verbose also print the traceback of user code that failed to load" in page
+    assert "summary" not in page.partition("--verbose")[2].partition(" -")[0]
+
+
+def test_test_verbose_lists_every_dtc(capsys: pytest.CaptureFixture[str]) -> None:
+    page = " ".join(help_page("test", capsys).split())
+
+    assert (
+        "-v, --verbose list every DTC in the summary, and print the traceback of user code "
+        "that failed to load"
+    ) in page
+
+
+def test_review_help_says_it_asks_at_the_terminal(capsys: pytest.CaptureFixture[str]) -> None:
+    page = " ".join(help_page("review", capsys).split())
+
+    assert page.startswith(
+        "usage: beatlog review [-h] [-v] [paths ...] Show each pending baseline change and "
+        "ask at the terminal whether to accept, reject or skip it."
+    )
+
+
+def test_the_commands_are_those_of_the_table_once_each_in_its_order(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    usage = capsys.readouterr().out
+
+    assert list(COMMANDS) == SUBCOMMANDS
+    assert usage.count("{" + ",".join(COMMANDS) + "}") == 2
