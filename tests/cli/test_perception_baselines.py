@@ -13,7 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.suite.baseline import expected_path, pending_path, read_baseline
+from beatlog.analysis.trace import recorded_outputs, recorded_trace
+from beatlog.suite.baseline import expected_path, format_lines, pending_path, read_baseline
 from tests.commands import Beatlog
 from tests.conftest import distances
 from tests.perceptions import (
@@ -127,7 +128,9 @@ def test_a_format_3_baseline_still_judges_the_field_values_it_pins(
         for t, d in enumerate(distances(300))
         if d >= 0.8
     ]
-    kept = [line for line in lines[1:] if "robot_state" not in line or line.startswith("#")]
+    comments = [line for line in lines[1:] if line.startswith("# ")]
+    trace = format_lines(recorded_trace(log), recorded_outputs(log))  # format 3 held it all
+    kept = [*comments, *trace]
     expected_path(approved).write_text(
         "\n".join(
             [
@@ -186,3 +189,20 @@ def test_a_perception_that_raises_or_builds_no_robot_state_is_not_re_baselined(
     assert update.code == 1
     assert "not updated sensors: perception raised or built no robot state" in update.out
     assert not pending_path(spec).exists()
+
+
+def test_a_perception_change_the_behaviors_do_not_notice_pins_no_copy_of_the_trace(
+    tmp_path: Path, log: Path, beatlog: Beatlog, approved: Path
+) -> None:
+    lines = expected_path(approved).read_text(encoding="utf-8").splitlines()
+    passed = beatlog("test", approved).code
+    planted = write_spec(tmp_path, "sensors", log, "tests.systems:probe_system_changed_again",
+                         perception=CHANGED)  # fmt: skip
+
+    assert passed == 0
+    assert "state changes and outputs as recorded" in lines
+    pinned = [line for line in lines if not line.startswith("#")]
+    assert [line for line in pinned if " output " in line or " -> " in line] == []
+    run = beatlog("test", planted)
+    assert run.code == 1
+    assert "behavior state changes differ from the recording" in run.out

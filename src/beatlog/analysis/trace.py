@@ -75,6 +75,10 @@ class ReplayedTrace:
     @property
     def expectation(self) -> Expectation:
         """This trace as the expectation a baseline pins."""
+        if self.open_loop is None:  # a copy of the recording's trace would pin nothing
+            return Expectation(
+                (), None, state_pins=self.state_pins, draws=self.draws, as_recorded=True
+            )
         return Expectation(
             self.changes,
             self.outputs,

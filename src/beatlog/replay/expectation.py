@@ -122,6 +122,15 @@ class Expectation:
     draws: tuple[DrawRule, ...] = ()
     open_loop: tuple[int, int] | None = None
     """The cycle and robot time (ns) where the behaviors left the recording."""
+    as_recorded: bool = False
+    """Whether the behaviors' state changes and outputs are the recording's (the change
+    approved moved only robot states or draws): then ``changes`` and ``outputs`` pin
+    nothing, and they are judged against the recording."""
+
+    def changes_override(self) -> dict[int, list[StateChange]] | None:
+        """The state changes that stand in for the recorded ones, by cycle; None where
+        the recording's hold."""
+        return None if self.as_recorded else self.changes_by_cycle()
 
     def changes_by_cycle(self) -> dict[int, list[StateChange]]:
         """The state changes grouped by cycle."""

@@ -304,7 +304,7 @@ class _Judge:
             self._pinned_states = expected.states_by_cycle()
             self._state_pins = PinChecker(expected.state_pins)
             self._pinned_cycles = self._state_pins.cycles | self._pinned_states.keys()
-        if expected is not None:
+        if expected is not None and not expected.as_recorded:
             self._baseline = self._encode_baseline(expected)
             if expected.outputs is not None:
                 self._baseline_outputs = self._encode_outputs(expected)

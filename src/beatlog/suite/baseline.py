@@ -46,7 +46,10 @@ replay, cycle by cycle: any other draw made otherwise, or an approved one not ma
 diverges in its cycle. The ``open loop`` line marks the first cycle whose state changes or outputs
 leave the recording's: from there the recorded world (RS_t, samples) no longer answers
 to what the changed behaviors do, and the session is worth recording again when
-convenient.
+convenient. A change that leaves the behaviors' state changes and outputs as
+recorded (perception rebuilds other robot states, or draws differ, and the behaviors
+do the same) pins neither: the line ``state changes and outputs as recorded`` says
+they are judged against the recording.
 
 
 Format 3 files approve no draws (replay must draw as recorded) and pin robot states a
@@ -114,6 +117,7 @@ _DRAW_LINE = re.compile(
 )
 _NONE = "-"
 _OPEN_LOOP = "open loop"
+_AS_RECORDED = "state changes and outputs as recorded"
 _OUTPUT = "output "
 _ROBOT_STATE = "robot_state "
 _RUN = re.compile(
@@ -146,6 +150,8 @@ class Baseline:
     """The draws replay may make otherwise than recorded (format 4)."""
     open_loop: tuple[int, int] | None = None
     """Where the behaviors left the recording, when they do (format 4)."""
+    as_recorded: bool = False
+    """Whether the state changes and outputs are the recording's (format 4)."""
 
     @property
     def expectation(self) -> Expectation:
@@ -157,6 +163,7 @@ class Baseline:
             self.state_pins,
             self.draws,
             self.open_loop,
+            self.as_recorded,
         )
 
 
@@ -287,6 +294,7 @@ def write_baseline(
         f"# spec {spec_name}",
         f"# log {log_name} sha256 {digest}",
         *map(_draw_line, expectation.draws),
+        *([_AS_RECORDED] if expectation.as_recorded else []),
         _COLUMNS,
         *format_lines(
             expectation.changes,
@@ -346,6 +354,9 @@ def read_baseline(path: Path) -> Baseline:
             digest = log_line["digest"] if log_line else digest
         elif line.strip():
             try:
+                if line == _AS_RECORDED and version >= 4:
+                    found.as_recorded = True
+                    continue
                 found.add(
                     _parse_draw(line, version)
                     if line[:6] == "draws "
@@ -355,6 +366,10 @@ def read_baseline(path: Path) -> Baseline:
                 raise BaselineError(path, f"line {number}: {exc}") from None
     if not digest:
         raise BaselineError(path, "no '# log NAME sha256 DIGEST' line")
+    if found.as_recorded and (found.changes or found.outputs or found.open_loop):
+        raise BaselineError(
+            path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
+        )
     for what, traced in (("output", found.outputs), ("robot_state", found.states)):
         cycles = [item.cycle for item in traced]
         if cycles != sorted(cycles):
@@ -372,6 +387,7 @@ def read_baseline(path: Path) -> Baseline:
         pins,
         tuple(found.draws),
         found.open_loop,
+        found.as_recorded,
     )
 
 
@@ -391,6 +407,7 @@ class _Parsed:
     blocks: list[DigestBlock] = field(default_factory=list)
     draws: list[DrawRule] = field(default_factory=list)
     open_loop: tuple[int, int] | None = None
+    as_recorded: bool = False
 
     def add(self, line: _Line) -> None:
         """Keep one parsed line with its kind.

@@ -11,6 +11,7 @@ what they did; they never print: the CLI and the pytest plugin render the result
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -28,6 +29,7 @@ from beatlog.replay.verdict import FieldDifference
 from beatlog.suite.baseline import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,
+    Baseline,
     expected_path,
     format_lines,
     log_digest,
@@ -277,6 +279,7 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     pending = read_baseline(pending_path(spec.path))
     with spec.readable_log() as log:
         if approved is not None:
+            approved = _with_trace(approved, log, spec)
             old_states = approved.robot_states
             old = format_lines(approved.changes, approved.outputs, old_states, approved.state_pins)
             source = f"approved ({expected.name})"
@@ -291,6 +294,7 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
             )
             source = f"recorded ({spec.log.name})"
         fields = _field_changes(log, old_states, pending.robot_states)
+        pending = _with_trace(pending, log, spec)
         runs = _rebuilt_runs(log, pending.state_pins)
     new = format_lines(pending.changes, pending.outputs, pending.robot_states, pending.state_pins)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
@@ -304,6 +308,21 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         runs,
         pending.draws,
         pending.open_loop,
+    )
+
+
+def _with_trace(baseline: Baseline, log: Path, spec: DtcSpec) -> Baseline:
+    """A baseline whose state changes and outputs are the recording's, with them read
+    from the log (in the spec's names), so that it compares line for line."""
+    if not baseline.as_recorded:
+        return baseline
+    renamed = spec.comparison.renamed
+    return dataclasses.replace(
+        baseline,
+        changes=tuple(
+            TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(log)
+        ),
+        outputs=tuple(recorded_outputs(log)),
     )
 
 

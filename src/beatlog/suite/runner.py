@@ -260,7 +260,7 @@ def _collector(
     loaded = load_system(system)
     with SessionLogReader(spec.log) as reader:
         collector = TimelineCollector(
-            reader, loaded, expected=None if expected is None else expected.changes_by_cycle()
+            reader, loaded, expected=None if expected is None else expected.changes_override()
         )
     return loaded, collector
 
@@ -296,7 +296,7 @@ def _details(
         divergence,
         trace=trace,
         timelines=timelines,
-        expected=None if expected is None else expected.changes_by_cycle(),
+        expected=None if expected is None else expected.changes_override(),
         perception=None if spec.perception is None else load_perception(spec.perception),
         living=trace or expected is not None,
         rename=spec.comparison.rename,
