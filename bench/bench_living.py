@@ -7,8 +7,13 @@ taken through what a team does: ``beatlog test`` (how many DTCs notice the chang
 new recording), ``beatlog test`` again (all pass), then a bug is planted on top
 (``PLANTED_BUG``) and the suite must fail. Baselines are measured against their logs.
 
-Run it as ``python bench/bench_living.py [--json FILE]``; about two minutes on 2 cores.
-Nothing here asserts anything: it reports.
+The CPU column is the CPU time of replaying the re-baselined suite against the
+changed dog over that of the committed suite against the dog as recorded, one job, in
+this process, medians of three alternated rounds: what living replay and its pins
+cost, beside whatever the change itself costs the behaviors.
+
+Run it as ``python bench/bench_living.py [--json FILE]``; about five minutes on 2
+cores. Nothing here asserts anything: it reports.
 """
 
 from __future__ import annotations
@@ -16,8 +21,10 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
+import statistics
 import sys
 import tempfile
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -53,6 +60,14 @@ def _failed(outcomes: list[SpecOutcome]) -> int:
     return sum(o.verdict is not Verdict.PASSED for o in outcomes)
 
 
+def _cpu(specs: list[DtcSpec]) -> float:
+    """CPU seconds of this process replaying ``specs`` on one job."""
+    started = time.process_time()
+    outcomes = run_suite(specs, jobs=1)
+    assert _failed(outcomes) == 0
+    return time.process_time() - started
+
+
 def _history(folder: Path, title: str, changes: Sequence[Change], jobs: int) -> dict[str, Any]:
     """Take a fresh copy of the suite through ``changes``, re-baselined, then a planted bug."""
     suite = folder / f"suite-{_STEPS + 1}"
@@ -66,6 +81,8 @@ def _history(folder: Path, title: str, changes: Sequence[Change], jobs: int) -> 
     if any(u.action is UpdateAction.WRITTEN for u in updates):
         approve([suite])
     after = run_suite(specs, jobs=jobs)
+    original = discover_specs([SUITE_DIR])
+    rounds = [(_cpu(original), _cpu(specs)) for _ in range(3)]  # alternated
     planted = run_suite(_specs(folder, suite, [*changes, PLANTED_BUG]), jobs=jobs)
     baselines = sum(p.stat().st_size for p in suite.glob("*.dtc.expected"))
     logs = sum(p.stat().st_size for p in suite.glob("*.beatlog"))
@@ -80,6 +97,8 @@ def _history(folder: Path, title: str, changes: Sequence[Change], jobs: int) -> 
         "planted_bug_caught": _failed(planted),
         "baseline_bytes": baselines,
         "log_bytes": logs,
+        "cpu_recorded_s": statistics.median(before for before, _ in rounds),
+        "cpu_rebaselined_s": statistics.median(after for _, after in rounds),
     }
 
 
@@ -96,7 +115,8 @@ def main() -> None:
             rows.append(_history(folder, change.title, [change], args.jobs))
         rows.append(_history(folder, "all seven together", CHANGES, args.jobs))
     table = Table(title="the dog's intended changes, each kept by re-baselining (22 DTCs)")
-    for column in ("change", "noticed", "kept", "after", "open loop", "bug caught", "baselines"):
+    columns = ("change", "noticed", "kept", "after", "open loop", "bug caught", "baselines", "CPU")
+    for column in columns:
         table.add_column(column, justify="left" if column == "change" else "right")
     for row in rows:
         share = row["baseline_bytes"] / row["log_bytes"]
@@ -108,6 +128,7 @@ def main() -> None:
             str(row["open_loop"]),
             f"{row['planted_bug_caught']} DTCs",
             f"{row['baseline_bytes'] / 1e3:,.1f} kB ({share:.1%} of logs)",
+            f"{row['cpu_rebaselined_s'] / row['cpu_recorded_s']:.2f}",
         )
     Console().print(table)
     if args.json:
