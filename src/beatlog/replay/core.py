@@ -43,8 +43,10 @@ from beatlog.model.random import (
     ReplayRandom,
     recorded_draw_problem,
 )
+from beatlog.replay.compare import state_fields
 from beatlog.replay.fit import check_fit, recorded_state_type
 from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
+from beatlog.replay.pins import PinChecker
 from beatlog.replay.verdict import DivergenceKind
 
 __all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name", "log_key"]
@@ -160,6 +162,7 @@ class Replayer:
         living: bool = False,
         rename: Callable[[str], str] = str,
         migration: StateMigration | None = None,
+        state_pins: PinChecker | None = None,
     ) -> None:
         migration = migration or StateMigration()
         check_fit(header, system, path, migration)
@@ -182,6 +185,9 @@ class Replayer:
             self.random.expect_actors(header.behaviors, self.executor.behavior_ids, rename)
             self.random.live(log_key(header))
         self.perception = perception if header.samples_logged else None
+        self.state_pins = state_pins
+        """The robot states an approved baseline pins by digest: in their cycles the
+        rebuilt state is judged against them, not the recorded one."""
         """The perception step in use: None unless the log holds samples."""
         self.samples_perceived = 0
         """The samples the perception step was given so far, every cycle's."""
@@ -392,12 +398,18 @@ class Replayer:
             encoded = self._encode(rebuilt)
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
             encoded = None
-        differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
+        cycle = self.executor.context.cycle + 1
+        pins = self.state_pins
+        if pins is not None and cycle in pins:  # the approved state is expected, not the recorded
+            differs = encoded is None or pins.mismatch(cycle, state_fields(rebuilt)) is not None
+        else:
+            differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
+            if differs and encoded is not None and self._migrated:
+                # Recorded under other names or types: the same state holds other bytes.
+                recorded = self._recorded_state(record, cycle) if recorded is _READ else recorded
+                differs = encoded != self._encode(recorded)
         if differs and recorded is _READ:
-            recorded = self._recorded_state(record, self.executor.context.cycle + 1)
-        if differs and encoded is not None and self._migrated:
-            # Recorded under other names or types: the same state holds other bytes.
-            differs = encoded != self._encode(recorded)
+            recorded = self._recorded_state(record, cycle)
         return _Sensed(recorded, differs, None, samples)
 
     def _recorded_state(self, record: CycleRecord, cycle: int) -> Any:

@@ -142,6 +142,7 @@ def replay(
         migration=migration,
         living=expected is not None,
         rename=comparison.rename,
+        state_pins=None if expected is None else PinChecker(expected.state_pins),
     ) as session:
         reader = session.reader
         check_state_fields(
@@ -302,8 +303,10 @@ class _Judge:
         self._pinned_cycles: frozenset[int] = frozenset()
         if expected is not None and self.replayer.perception is not None:
             self._pinned_states = expected.states_by_cycle()
-            self._state_pins = PinChecker(expected.state_pins)
-            self._pinned_cycles = self._state_pins.cycles | self._pinned_states.keys()
+            self._state_pins = self.replayer.state_pins
+            self._pinned_cycles = frozenset(self._pinned_states)
+            """The cycles a format 3 baseline pins (the replay core judges the cycles
+            pinned by digest)."""
         if expected is not None and not expected.as_recorded:
             self._baseline = self._encode_baseline(expected)
             if expected.outputs is not None:
@@ -744,7 +747,8 @@ class _Judge:
         pins = self._state_pins
         if pins is None or outcome.cycle not in pins:
             names = ", ".join(d.field for d in differences)
-            against = " from the approved baseline" if self._pinned_cycles else ""
+            pinned = self._pinned_cycles or (self._state_pins and self._state_pins.cycles)
+            against = " from the approved baseline" if pinned else ""
             return f"the robot state rebuilt from the samples differs{against} in {names}"
         run = pins.run_at(outcome.cycle)
         rebuilt = state_fields(outcome.state)

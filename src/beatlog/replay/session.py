@@ -21,6 +21,7 @@ from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.migration import StateMigration
+from beatlog.replay.pins import PinChecker
 
 __all__ = ["FieldsRead", "Observer", "ReadTracker", "ReplaySession", "fields_read"]
 
@@ -100,7 +101,9 @@ class ReplaySession(Closing):
 
     Building one reads the header and checks that the log fits the system
     (:mod:`beatlog.replay.fit`), its robot-state fields renamed and converted by
-    ``migration``. :meth:`run` steps through the log for its observers.
+    ``migration``; ``state_pins``, an approved baseline's robot states, are what
+    perception must rebuild in their cycles. :meth:`run` steps through the log for its
+    observers.
     Without a system, nothing is replayed: the observers read the recording alone.
     ``break_at`` stops in the debugger just before the behaviors update in that cycle.
     ``living`` replay goes on where the behaviors draw otherwise than recorded
@@ -122,6 +125,7 @@ class ReplaySession(Closing):
         living: bool = False,
         rename: Callable[[str], str] = str,
         migration: StateMigration | None = None,
+        state_pins: PinChecker | None = None,
     ) -> None:
         self.reader = SessionLogReader(log)
         try:
@@ -137,6 +141,7 @@ class ReplaySession(Closing):
                     living=living,
                     rename=rename,
                     migration=migration,
+                    state_pins=state_pins,
                 )
             )
         except BaseException:
