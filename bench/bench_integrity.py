@@ -29,6 +29,7 @@ import zstandard
 from mcap import records
 
 from beatlog.log.format import CYCLES_TOPIC, CycleRecord, SessionEnd
+from beatlog.log.payload import decode_payload
 from beatlog.log.reader import SessionLogReader
 from beatlog_examples.rover import record_lockstep, system
 
@@ -66,7 +67,7 @@ class UncheckedReader(SessionLogReader):
         return batch
 
     def _read_end(self, message: records.Message) -> None:
-        self._end = self._decode(message.data, SessionEnd, "end record")
+        self._end = decode_payload(self.path, message.data, SessionEnd, "end record")
 
     def _check_summary(self) -> None:
         return None

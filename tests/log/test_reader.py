@@ -6,9 +6,7 @@ import struct
 import tracemalloc
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NamedTuple
 
-import msgspec
 import pytest
 from mcap.opcode import Opcode
 from mcap.writer import Writer
@@ -17,90 +15,32 @@ from beatlog.errors import (
     CorruptLogError,
     LogError,
     NotABeatlogError,
-    SchemaMismatchError,
     UnsupportedVersionError,
 )
-from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord, SessionEnd
-from beatlog.log.reader import LogStatus, SessionLogReader, recorded_cycles
+from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
-from tests.conftest import PERIOD_NS, Probe
+from tests.conftest import PERIOD_NS
 from tests.factories import (
-    FORMAT_1_CHANNELS,
     MAGIC_LENGTH,
     RECORD_HEAD,
-    STANDARD_CHANNELS,
-    Gauge,
-    Message,
-    Record,
-    chunks,
     craft_log,
-    cycle,
-    end_message,
     header_message,
     session_header,
-    standard_messages,
     top_level_records,
 )
+from tests.log.conftest import (
+    CYCLES,
+    CYCLES_PER_CHUNK,
+    Original,
+    cut_points,
+    encoded,
+    read_all,
+    write,
+)
 
-CYCLES = 200
-CYCLES_PER_CHUNK = 10
 CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8
 """Where a zstd chunk's compressed records start, from the start of its record."""
-
-
-def write_chunked_log(path: Path, cycles: int = CYCLES) -> Path:
-    """A complete log in many small chunks: the header, one chunk per 10 cycles, the end."""
-    writer = SessionLogWriter(
-        path,
-        session_header(behaviors=["near"]),
-        batch_cycles=CYCLES_PER_CHUNK,
-        chunk_size=1,
-        flush_interval_s=60.0,
-    )
-    for t in range(cycles):
-        changes = [(0, "far", "near")] if t % 7 == 0 else []
-        draws = [(0, "random", t / cycles)] if t % 3 == 0 else []
-        state = Probe(distance=1.0 - t / cycles, reading=float(t))
-        writer.append(PERIOD_NS + t, state, changes, draws, {"t": t})
-    writer.close(SessionEnd(cycles=cycles, robot_time_ns=cycles * PERIOD_NS + sum(range(cycles))))
-    return path
-
-
-class Original(NamedTuple):
-    data: bytes
-    cycles: list[bytes]
-    """Each cycle encoded, to compare byte for byte."""
-    header_end: int
-    cycle_chunks: list[Record]
-    footer: Record
-
-
-def read_all(path: Path) -> tuple[list[CycleRecord], LogStatus]:
-    with SessionLogReader(path) as reader:
-        cycles = list(reader.cycles())
-        return cycles, reader.status
-
-
-def encoded(cycles: list[CycleRecord]) -> list[bytes]:
-    return [msgspec.msgpack.encode(cycle) for cycle in cycles]
-
-
-@pytest.fixture(scope="module")
-def original(tmp_path_factory: pytest.TempPathFactory) -> Original:
-    path = write_chunked_log(tmp_path_factory.mktemp("original") / "chunked.beatlog")
-    data = path.read_bytes()
-    cycles, status = read_all(path)
-    assert status.complete
-    assert len(cycles) == CYCLES
-    all_chunks = chunks(data)
-    assert len(all_chunks) == 1 + CYCLES // CYCLES_PER_CHUNK + 1, "header, cycles, end"
-    [footer] = [r for r in top_level_records(data) if r.opcode == Opcode.FOOTER]
-    return Original(data, encoded(cycles), all_chunks[0].end, all_chunks[1:-1], footer)
-
-
-def write(path: Path, data: bytes) -> Path:
-    path.write_bytes(data)
-    return path
 
 
 # A complete log
@@ -120,55 +60,6 @@ def test_a_complete_log_reads_every_cycle_and_says_complete(
     assert status == LogStatus(complete=True, cycles=CYCLES)
     assert status.describe() == "complete"
     assert end == SessionEnd(cycles=CYCLES, robot_time_ns=CYCLES * PERIOD_NS + sum(range(CYCLES)))
-
-
-@pytest.mark.parametrize("version", [1, FORMAT_VERSION])
-def test_robot_states_decoded_with_their_batches_are_the_states_the_bytes_hold(
-    tmp_path: Path, version: int
-) -> None:
-    messages = standard_messages(30, version=version)
-    channels = FORMAT_1_CHANNELS if version == 1 else STANDARD_CHANNELS
-    log = craft_log(tmp_path / "gauge.beatlog", messages, channels=channels)
-    raw, _ = read_all(log)
-
-    with SessionLogReader(log) as reader:
-        reader.decode_states(Gauge)
-        decoded = list(reader.cycles())
-        status = reader.status
-
-    states: list[Any] = [cycle.robot_state for cycle in decoded]
-    assert status.complete
-    assert states == [msgspec.msgpack.decode(cycle.robot_state, type=Gauge) for cycle in raw]
-    assert [cycle.heartbeat_ns for cycle in decoded] == [cycle.heartbeat_ns for cycle in raw]
-    assert all(isinstance(cycle, CycleRecord) for cycle in decoded)
-
-
-def test_a_robot_state_that_does_not_fit_its_type_is_named_by_its_cycle(tmp_path: Path) -> None:
-    cycles = [cycle() for _ in range(10)]
-    cycles[7] = cycle(state={"level": "full"})
-    batch = Message(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, cycles]))
-    log = craft_log(tmp_path / "misfit.beatlog", [header_message(), batch, end_message(10)])
-
-    with SessionLogReader(log) as reader:
-        reader.decode_states(Gauge)
-        with pytest.raises(SchemaMismatchError) as caught:
-            list(reader.batches())
-
-    assert str(caught.value) == (
-        f"{log}: robot state of cycle 7 does not fit Gauge: "
-        "Expected `float`, got `str` - at `$.level`"
-    )
-
-
-def test_a_damaged_batch_is_damage_when_robot_states_are_decoded_with_it(tmp_path: Path) -> None:
-    payload = msgspec.msgpack.encode([0, [cycle() for _ in range(10)]])[:-3]
-    batch = Message(CYCLES_TOPIC, PERIOD_NS, payload)
-    log = craft_log(tmp_path / "damaged.beatlog", [header_message(), batch, end_message(10)])
-
-    with SessionLogReader(log) as reader:
-        reader.decode_states(Gauge)
-        with pytest.raises(CorruptLogError, match="damaged the batch after cycle 0: "):
-            list(reader.batches())
 
 
 def test_the_status_is_unknown_until_the_cycles_have_been_read(
@@ -325,11 +216,6 @@ def test_a_hostile_length_is_rejected_without_allocating_it(
 # Truncation: kill -9 and power loss
 
 
-def cut_points(first: int, last: int, count: int = 40) -> list[int]:
-    """``count`` offsets spread evenly from ``first`` to ``last``, both included."""
-    return [first + (last - first) * i // (count - 1) for i in range(count)]
-
-
 def cycles_flushed_before(original: Original, offset: int) -> int:
     """The cycles in the chunks that were completely on disk before ``offset``."""
     return CYCLES_PER_CHUNK * sum(1 for chunk in original.cycle_chunks if chunk.end <= offset)
@@ -473,77 +359,6 @@ def test_a_reader_tolerating_a_damaged_index_still_refuses_damaged_cycles(
         list(reader.cycles())
 
     assert str(raised.value).startswith(f"{log}: damaged record at byte {chunk.offset}: ")
-
-
-# The cycle count of a closed log, read from its end record alone
-
-
-def test_the_cycle_count_of_a_closed_log_comes_from_its_end_record(
-    tmp_path: Path, original: Original
-) -> None:
-    one_chunk = write_chunked_log(tmp_path / "short.beatlog", cycles=7)
-
-    assert recorded_cycles(write(tmp_path / "chunked.beatlog", original.data)) == CYCLES
-    assert recorded_cycles(one_chunk) == 7
-
-
-def test_the_cycle_count_reads_only_the_end_of_the_log(tmp_path: Path, original: Original) -> None:
-    """The cycle chunks are damaged: only the footer, summary and last chunk are read."""
-    data = bytearray(original.data)
-    for chunk in original.cycle_chunks:
-        data[chunk.end - 1] ^= 0xFF
-    damaged = write(tmp_path / "damaged.beatlog", bytes(data))
-
-    assert recorded_cycles(damaged) == CYCLES
-    with pytest.raises(CorruptLogError):
-        read_all(damaged)
-
-
-@pytest.mark.parametrize("sample", range(10))
-def test_a_log_cut_anywhere_has_no_cycle_count(
-    tmp_path: Path, original: Original, sample: int
-) -> None:
-    cut = cut_points(MAGIC_LENGTH, len(original.data) - 1, count=10)[sample]
-
-    assert recorded_cycles(write(tmp_path / "cut.beatlog", original.data[:cut])) is None
-
-
-@pytest.mark.parametrize(
-    "damage",
-    [
-        "the end record's chunk",
-        "the summary",
-        "a chunk index's start time",
-        "the footer",
-        "the closing magic",
-    ],
-)
-def test_a_damaged_end_has_no_cycle_count(tmp_path: Path, original: Original, damage: str) -> None:
-    last_chunk = chunks(original.data)[-1]
-    records = top_level_records(original.data)
-    [data_end] = [r for r in records if r.opcode == Opcode.DATA_END]
-    first_index = next(r for r in records if r.opcode == Opcode.CHUNK_INDEX)
-    byte = {
-        "the end record's chunk": last_chunk.end - 1,
-        "the summary": data_end.end,  # the opcode of its first record
-        "a chunk index's start time": first_index.offset + RECORD_HEAD,  # read by nothing else
-        "the footer": original.footer.offset + RECORD_HEAD + 2,
-        "the closing magic": len(original.data) - 1,
-    }[damage]
-    data = bytearray(original.data)
-    data[byte] ^= 0xFF
-
-    assert recorded_cycles(write(tmp_path / "damaged.beatlog", bytes(data))) is None
-
-
-def test_what_is_no_closed_log_has_no_cycle_count(tmp_path: Path) -> None:
-    empty = write(tmp_path / "empty.beatlog", b"")
-    foreign = write(tmp_path / "notes.beatlog", b"not a log at all, only some words " * 10)
-
-    assert recorded_cycles(empty) is None
-    assert recorded_cycles(foreign) is None
-    assert recorded_cycles(tmp_path / "missing.beatlog") is None
-    assert recorded_cycles(tmp_path) is None
 
 
 @pytest.mark.parametrize(

@@ -20,6 +20,7 @@ from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe
 from tests.factories import fill_the_disk, session_header
+from tests.log.conftest import read_all
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer
@@ -48,12 +49,6 @@ def append_probe(writer: SessionLogWriter, t: int) -> None:
 
 def readings(cycles: list[CycleRecord]) -> list[float]:
     return [msgspec.msgpack.decode(cycle.robot_state, type=Probe).reading for cycle in cycles]
-
-
-def read_all(path: Path) -> tuple[list[CycleRecord], LogStatus]:
-    with SessionLogReader(path) as reader:
-        cycles = list(reader.cycles())
-        return cycles, reader.status
 
 
 def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> bool:

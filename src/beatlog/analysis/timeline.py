@@ -9,28 +9,24 @@ session outgrows them, neighbouring buckets are merged and each bucket covers tw
 as long, and state changes shorter than a bucket are folded into one flickering
 interval. A suite run feeds a collector from the verdict's own replay;
 :func:`build_timeline` reads a log once for ``beatlog plot``. Without a system only
-the log is read: no code runs.
+the log is read: no code runs. The buckets are a :class:`~beatlog.analysis.grid.TimeGrid`;
+the lanes and signals kept in them come from :mod:`beatlog.analysis.lanes` and
+:mod:`beatlog.analysis.signals`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
-import msgspec
-
-from beatlog.errors import CorruptLogError, FieldError
-from beatlog.log.format import (
-    DECODE_ERRORS,
-    EMPTY_LIST,
-    CycleRecord,
-    SessionHeader,
-    StateChangeRecord,
-)
+from beatlog.analysis.grid import TimeGrid
+from beatlog.analysis.lanes import BehaviorLane, Interval, Lanes
+from beatlog.analysis.signals import DEFAULT_FIELDS, Sampler, Signal
+from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
-from beatlog.model.behavior import BehaviorState, System
+from beatlog.model.behavior import System
 from beatlog.replay.core import CycleOutcome
 from beatlog.replay.session import ReplaySession
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
@@ -50,41 +46,10 @@ __all__ = [
     "close_up_window",
 ]
 
-DEFAULT_FIELDS = 4
-"""How many numeric robot-state fields a timeline samples when none are named."""
 CLOSE_UP_NS = 3_000_000_000
 """A report's close-up shows this much robot time either side of the first divergence."""
 BUCKETS = 2000
 """How many stretches of robot time a timeline keeps, whatever the session's length."""
-
-
-class Interval(NamedTuple):
-    """A behavior in one state from ``start_ns`` to ``end_ns`` (robot time)."""
-
-    start_ns: int
-    end_ns: int
-    state: BehaviorState
-    flicker: int = 0
-    """State changes folded into this interval by downsampling; ``state`` is then the last."""
-
-
-class BehaviorLane(NamedTuple):
-    """One behavior's states over the session: as recorded (expected) and as replayed."""
-
-    behavior: str
-    expected: tuple[Interval, ...]
-    actual: tuple[Interval, ...]
-    """Empty when the timeline was built without a system."""
-
-
-class Signal(NamedTuple):
-    """A numeric robot-state field: each bucket's minimum and maximum, in time order."""
-
-    field: str
-    time_ns: tuple[int, ...]
-    value: tuple[float, ...]
-    flag: bool = False
-    """Whether the field is a boolean, drawn as 0 (False) and 1 (True)."""
 
 
 class Mark(NamedTuple):
@@ -195,9 +160,9 @@ class TimelineCollector:
     ) -> None:
         self.log = reader.path
         start, end = (0, None) if window_ns is None else (max(window_ns[0], 0), window_ns[1])
-        self.grid = _Grid(start, end, max(buckets, 1))
-        self._lanes = _Lanes(reader.header, system, reader.path, expected, self.grid)
-        self._sampler = _Sampler(reader.path, fields, self.grid)
+        self.grid = TimeGrid(start, end, max(buckets, 1))
+        self._lanes = Lanes(reader.header, system, reader.path, expected, self.grid)
+        self._sampler = Sampler(reader.path, fields, self.grid)
         self._replayed = system is not None
 
     @property
@@ -258,347 +223,3 @@ class TimelineCollector:
             replayed_until_ns=min(lanes.replayed_until_ns, end),
             divergence=mark,
         )
-
-
-class _Grid:
-    """Robot time from ``start_ns`` cut into ``count`` buckets of ``width_ns`` each.
-
-    Without an end the width doubles (or more) whenever a cycle falls past the last
-    bucket, and whoever keeps buckets is told by how much, to merge them.
-    """
-
-    def __init__(self, start_ns: int, end_ns: int | None, count: int) -> None:
-        self.start_ns = start_ns
-        self.end_ns = end_ns
-        self.count = count
-        self.width_ns = 0 if end_ns is None else max(-(-(end_ns - start_ns) // count), 1)
-        """0 until the first cycle, without an end."""
-        self.on_widen: list[Callable[[int], None]] = []
-        """Called with the factor the width grew by."""
-
-    def contains(self, time_ns: int) -> bool:
-        return self.start_ns <= time_ns and (self.end_ns is None or time_ns <= self.end_ns)
-
-    def index(self, time_ns: int) -> int:
-        return min((time_ns - self.start_ns) // self.width_ns, self.count - 1)
-
-    def reach(self, time_ns: int) -> None:
-        """Widen the buckets until ``time_ns`` falls in one of them; the first cycle sets
-        the width (a heartbeat), so a session shorter than ``count`` cycles keeps each."""
-        if self.end_ns is not None:
-            return
-        if self.width_ns == 0:
-            self.width_ns = max(time_ns - self.start_ns, 1)
-        factor = 1
-        while time_ns - self.start_ns >= self.count * self.width_ns * factor:
-            factor *= 2
-        if factor > 1:
-            self.width_ns *= factor
-            for widen in self.on_widen:
-                widen(factor)
-
-
-class _Lane:
-    """One behavior's intervals: closed at each state change, folded as the grid widens."""
-
-    def __init__(self, initial: BehaviorState, grid: _Grid) -> None:
-        self.state = initial
-        self.start_ns = 0
-        self.changed = False
-        self.intervals: list[Interval] = []
-        self._grid = grid
-        self._short = False
-
-    def change(self, time_ns: int, change: StateChange) -> None:
-        if not self.changed:  # the recorded state before the first change beats any guess
-            self.state = change.before
-            self.changed = True
-        if time_ns > self.start_ns:
-            self._keep(Interval(self.start_ns, time_ns, self.state))
-        self.state = change.after
-        self.start_ns = time_ns
-
-    def _keep(self, interval: Interval) -> None:
-        """Keep the part of ``interval`` within the grid, folded into a short run before it."""
-        grid = self._grid
-        start = max(interval.start_ns, grid.start_ns)
-        end = interval.end_ns if grid.end_ns is None else min(interval.end_ns, grid.end_ns)
-        if end <= start:
-            return
-        short = end - start < grid.width_ns
-        if short and self._short:
-            last = self.intervals[-1]
-            self.intervals[-1] = Interval(
-                last.start_ns, end, interval.state, last.flicker + interval.flicker + 1
-            )
-        else:
-            self.intervals.append(interval._replace(start_ns=start, end_ns=end))
-        self._short = short
-
-    def refold(self) -> None:
-        """Fold again after the grid widened: more intervals are short now."""
-        intervals, self.intervals, self._short = self.intervals, [], False
-        for interval in intervals:
-            self._keep(interval)
-        if intervals and intervals[-1].flicker:
-            self._short = True
-
-    def close(self, end_ns: int) -> tuple[Interval, ...]:
-        """The intervals up to ``end_ns``, the current one included."""
-        kept, short = list(self.intervals), self._short
-        self._keep(Interval(self.start_ns, end_ns, self.state))
-        closed = tuple(self.intervals)
-        self.intervals, self._short = kept, short
-        return closed
-
-
-class _Lanes:
-    """Keeps every behavior's lane, expected and actual, from the cycles and outcomes."""
-
-    def __init__(
-        self,
-        header: SessionHeader,
-        system: System | None,
-        path: Path,
-        expected: Mapping[int, Sequence[StateChange]] | None,
-        grid: _Grid,
-    ) -> None:
-        self.path = path
-        self.cycle = -1
-        self.time_ns = 0
-        self._grid = grid
-        self._catalogue = list(header.behaviors)
-        self._override = expected
-        self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
-        self._expected: dict[str, _Lane] = {}
-        self._actual: dict[str, _Lane] = {}
-        recorded = header.initial_states_by_name()
-        initial: dict[str, BehaviorState] = {}
-        self._names: list[str] = []
-        if system is not None:
-            initial = {name: b.state for name, b in system.behaviors.items()}
-            self._actual = {name: _Lane(state, grid) for name, state in initial.items()}
-            self._names = list(system.behaviors)
-        for name in [*self._catalogue, *initial]:
-            if name not in self._expected:
-                self._expected[name] = _Lane(recorded.get(name, initial.get(name)), grid)
-        self._stopped_ns: int | None = None
-        grid.on_widen.append(self._refold)
-
-    def _refold(self, factor: int) -> None:
-        for lane in (*self._expected.values(), *self._actual.values()):
-            lane.refold()
-
-    @property
-    def replayed_until_ns(self) -> int:
-        return self.time_ns if self._stopped_ns is None else self._stopped_ns
-
-    @property
-    def held(self) -> int:
-        return sum(
-            len(lane.intervals) for lane in (*self._expected.values(), *self._actual.values())
-        )
-
-    @property
-    def replaying(self) -> bool:
-        return self._stopped_ns is None
-
-    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
-        self.cycle += 1
-        previous_ns = self.time_ns
-        self.time_ns += record.heartbeat_ns
-        override = self._override
-        if override is not None:
-            expected = list(override.get(self.cycle, ()))
-        elif record.state_changes == EMPTY_LIST:
-            expected = []
-        else:
-            expected = self._recorded(record.state_changes)
-        if expected:
-            self._add(self._expected, expected)
-        if outcome is None or self._stopped_ns is not None:
-            return
-        if outcome.changes is None or outcome.failure is not None:
-            self._stopped_ns = previous_ns  # replay cannot go on: the lanes end here
-            return
-        if outcome.changes:
-            names = self._names
-            self._add(
-                self._actual,
-                [StateChange(names[i], before, after) for i, before, after in outcome.changes],
-            )
-
-    def _add(self, lanes: dict[str, _Lane], changes: Sequence[StateChange]) -> None:
-        for change in changes:
-            lane = lanes.get(change.behavior)
-            if lane is None:
-                lane = lanes[change.behavior] = _Lane(None, self._grid)
-            lane.change(self.time_ns, change)
-
-    def _recorded(self, raw: msgspec.Raw) -> list[StateChange]:
-        try:
-            changes = self._changes_decoder.decode(raw)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(
-                self.path, f"damaged state changes in cycle {self.cycle}: {exc}"
-            ) from None
-        names = self._catalogue
-        return [
-            StateChange(names[index] if 0 <= index < len(names) else f"#{index}", before, after)
-            for index, before, after in changes
-        ]
-
-    def lanes(self, end_ns: int) -> tuple[BehaviorLane, ...]:
-        names = list(self._expected) + [n for n in self._actual if n not in self._expected]
-        empty = _Lane(None, self._grid)
-        replayed_ns = min(self.replayed_until_ns, end_ns)
-        return tuple(
-            BehaviorLane(
-                name,
-                self._expected.get(name, empty).close(end_ns),
-                self._actual[name].close(replayed_ns) if name in self._actual else (),
-            )
-            for name in names
-        )
-
-
-class _Buckets:
-    """One signal's minimum and maximum (with their robot times) in each bucket."""
-
-    def __init__(self, grid: _Grid) -> None:
-        count = grid.count
-        self.low = [float("inf")] * count
-        self.low_ns = [0] * count
-        self.high = [float("-inf")] * count
-        self.high_ns = [0] * count
-        self._used = 0
-        """Buckets up to here may hold values: those past it need no merging."""
-
-    def add(self, index: int, time_ns: int, value: float) -> None:
-        if index >= self._used:
-            self._used = index + 1
-        if value < self.low[index]:
-            self.low[index] = value
-            self.low_ns[index] = time_ns
-        if value > self.high[index]:
-            self.high[index] = value
-            self.high_ns[index] = time_ns
-
-    def merge(self, factor: int) -> None:
-        """Merge each run of ``factor`` neighbours into one: the buckets grew as long."""
-        count = self._used
-        self._used = -(-count // factor)
-        for target in range(count):
-            low, low_ns, high, high_ns = float("inf"), 0, float("-inf"), 0
-            for source in range(target * factor, min((target + 1) * factor, count)):
-                if self.low[source] < low:
-                    low, low_ns = self.low[source], self.low_ns[source]
-                if self.high[source] > high:
-                    high, high_ns = self.high[source], self.high_ns[source]
-            self.low[target], self.low_ns[target] = low, low_ns
-            self.high[target], self.high_ns[target] = high, high_ns
-
-    def points(self) -> list[tuple[int, float]]:
-        """Each bucket's minimum and maximum, in time order, each point once."""
-        points: list[tuple[int, float]] = []
-        for low, low_ns, high, high_ns in zip(
-            self.low, self.low_ns, self.high, self.high_ns, strict=True
-        ):
-            if low > high:  # no number in this bucket
-                continue
-            pair = (
-                [(low_ns, low), (high_ns, high)]
-                if low_ns <= high_ns
-                else [(high_ns, high), (low_ns, low)]
-            )
-            points.extend(pair if pair[0] != pair[1] else pair[:1])
-        return points
-
-
-class _Sampler:
-    """Keeps numeric robot-state fields in buckets, read from the log without any code."""
-
-    def __init__(self, path: Path, fields: Sequence[str] | None, grid: _Grid) -> None:
-        self.path = path
-        self.cycles = 0
-        self._asked = fields
-        self._grid = grid
-        self._fields: list[str] | None = None
-        self._flags: list[bool] = []
-        self._buckets: list[_Buckets] = []
-        self._decode: Any = msgspec.msgpack.Decoder().decode
-        self._seen = 0
-
-    @property
-    def held(self) -> int:
-        return sum(len(buckets.low) for buckets in self._buckets)
-
-    def add(self, record: CycleRecord, time_ns: int) -> None:
-        if self._fields is None:
-            self._start(self._decoded(record))
-        if not self._grid.contains(time_ns):
-            self._seen += 1
-            return
-        self.cycles += 1
-        self._seen += 1
-        if not self._buckets:
-            return
-        values = msgspec.structs.astuple(self._decoded(record))
-        index = self._grid.index(time_ns)
-        for buckets, value in zip(self._buckets, values, strict=True):
-            if isinstance(value, int | float):
-                buckets.add(index, time_ns, float(value))
-
-    def _decoded(self, record: CycleRecord) -> Any:
-        try:
-            return self._decode(record.robot_state)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(
-                self.path, f"damaged robot state in cycle {self._seen}: {exc}"
-            ) from None
-
-    def _start(self, state: Any) -> None:
-        """Choose the fields from the first robot state; decode just those from now on."""
-        if not isinstance(state, dict):
-            state = {}
-        fields = self._fields = self._choose(state)
-        self._flags = [isinstance(state[name], bool) for name in fields]
-        self._buckets = [_Buckets(self._grid) for _ in fields]
-        self._grid.on_widen.extend(buckets.merge for buckets in self._buckets)
-        sampled = msgspec.defstruct(
-            "Sampled",
-            [(f"f{index}", Any, None) for index in range(len(fields))],
-            rename={f"f{index}": name for index, name in enumerate(fields)},
-        )
-        self._decode = msgspec.msgpack.Decoder(sampled).decode
-
-    def _choose(self, state: dict[str, Any]) -> list[str]:
-        numeric = [name for name, value in state.items() if isinstance(value, int | float)]
-        if self._asked is None:
-            return numeric[:DEFAULT_FIELDS]
-        known = ", ".join(numeric) or "none"
-        for name in self._asked:
-            if name not in state:
-                raise FieldError(
-                    f"{self.path}: the robot state has no field {name!r} (numeric fields: {known})"
-                )
-            if name not in numeric:
-                raise FieldError(
-                    f"{self.path}: robot-state field {name!r} is a {type(state[name]).__name__}, "
-                    f"not a number (numeric fields: {known})"
-                )
-        return list(dict.fromkeys(self._asked))
-
-    def signals(self) -> tuple[Signal, ...]:
-        result = []
-        for name, flag, buckets in zip(self._fields or (), self._flags, self._buckets, strict=True):
-            points = buckets.points()
-            result.append(
-                Signal(
-                    name,
-                    tuple(time_ns for time_ns, _ in points),
-                    tuple(value for _, value in points),
-                    flag,
-                )
-            )
-        return tuple(result)

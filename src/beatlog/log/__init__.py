@@ -10,7 +10,8 @@ from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd, SessionHeader
-    from beatlog.log.reader import LogStatus, SessionLogReader, recorded_cycles
+    from beatlog.log.index import recorded_cycles
+    from beatlog.log.reader import LogStatus, SessionLogReader
     from beatlog.log.writer import SessionLogWriter
 
 __all__ = [
@@ -34,6 +35,6 @@ __getattr__ = lazy_names(
         "SessionHeader": "beatlog.log.format",
         "SessionLogReader": "beatlog.log.reader",
         "SessionLogWriter": "beatlog.log.writer",
-        "recorded_cycles": "beatlog.log.reader",
+        "recorded_cycles": "beatlog.log.index",
     },
 )

@@ -1,0 +1,171 @@
+"""Signals of a timeline: numeric robot-state fields, each bucket's minimum and maximum,
+read from the log without running any code."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import msgspec
+
+from beatlog.analysis.grid import TimeGrid
+from beatlog.errors import CorruptLogError, FieldError
+from beatlog.log.format import DECODE_ERRORS, CycleRecord
+
+__all__ = ["Sampler"]
+
+DEFAULT_FIELDS = 4
+"""How many numeric robot-state fields a timeline samples when none are named."""
+
+
+class Signal(NamedTuple):
+    """A numeric robot-state field: each bucket's minimum and maximum, in time order."""
+
+    field: str
+    time_ns: tuple[int, ...]
+    value: tuple[float, ...]
+    flag: bool = False
+    """Whether the field is a boolean, drawn as 0 (False) and 1 (True)."""
+
+
+class _Buckets:
+    """One signal's minimum and maximum (with their robot times) in each bucket."""
+
+    def __init__(self, grid: TimeGrid) -> None:
+        count = grid.count
+        self.low = [float("inf")] * count
+        self.low_ns = [0] * count
+        self.high = [float("-inf")] * count
+        self.high_ns = [0] * count
+        self._used = 0
+        """Buckets up to here may hold values: those past it need no merging."""
+
+    def add(self, index: int, time_ns: int, value: float) -> None:
+        if index >= self._used:
+            self._used = index + 1
+        if value < self.low[index]:
+            self.low[index] = value
+            self.low_ns[index] = time_ns
+        if value > self.high[index]:
+            self.high[index] = value
+            self.high_ns[index] = time_ns
+
+    def merge(self, factor: int) -> None:
+        """Merge each run of ``factor`` neighbours into one: the buckets grew as long."""
+        count = self._used
+        self._used = -(-count // factor)
+        for target in range(count):
+            low, low_ns, high, high_ns = float("inf"), 0, float("-inf"), 0
+            for source in range(target * factor, min((target + 1) * factor, count)):
+                if self.low[source] < low:
+                    low, low_ns = self.low[source], self.low_ns[source]
+                if self.high[source] > high:
+                    high, high_ns = self.high[source], self.high_ns[source]
+            self.low[target], self.low_ns[target] = low, low_ns
+            self.high[target], self.high_ns[target] = high, high_ns
+
+    def points(self) -> list[tuple[int, float]]:
+        """Each bucket's minimum and maximum, in time order, each point once."""
+        points: list[tuple[int, float]] = []
+        for low, low_ns, high, high_ns in zip(
+            self.low, self.low_ns, self.high, self.high_ns, strict=True
+        ):
+            if low > high:  # no number in this bucket
+                continue
+            pair = (
+                [(low_ns, low), (high_ns, high)]
+                if low_ns <= high_ns
+                else [(high_ns, high), (low_ns, low)]
+            )
+            points.extend(pair if pair[0] != pair[1] else pair[:1])
+        return points
+
+
+class Sampler:
+    """Keeps numeric robot-state fields in buckets, read from the log without any code."""
+
+    def __init__(self, path: Path, fields: Sequence[str] | None, grid: TimeGrid) -> None:
+        self.path = path
+        self.cycles = 0
+        self._asked = fields
+        self._grid = grid
+        self._fields: list[str] | None = None
+        self._flags: list[bool] = []
+        self._buckets: list[_Buckets] = []
+        self._decode: Any = msgspec.msgpack.Decoder().decode
+        self._seen = 0
+
+    @property
+    def held(self) -> int:
+        return sum(len(buckets.low) for buckets in self._buckets)
+
+    def add(self, record: CycleRecord, time_ns: int) -> None:
+        if self._fields is None:
+            self._start(self._decoded(record))
+        if not self._grid.contains(time_ns):
+            self._seen += 1
+            return
+        self.cycles += 1
+        self._seen += 1
+        if not self._buckets:
+            return
+        values = msgspec.structs.astuple(self._decoded(record))
+        index = self._grid.index(time_ns)
+        for buckets, value in zip(self._buckets, values, strict=True):
+            if isinstance(value, int | float):
+                buckets.add(index, time_ns, float(value))
+
+    def _decoded(self, record: CycleRecord) -> Any:
+        try:
+            return self._decode(record.robot_state)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(
+                self.path, f"damaged robot state in cycle {self._seen}: {exc}"
+            ) from None
+
+    def _start(self, state: Any) -> None:
+        """Choose the fields from the first robot state; decode just those from now on."""
+        if not isinstance(state, dict):
+            state = {}
+        fields = self._fields = self._choose(state)
+        self._flags = [isinstance(state[name], bool) for name in fields]
+        self._buckets = [_Buckets(self._grid) for _ in fields]
+        self._grid.on_widen.extend(buckets.merge for buckets in self._buckets)
+        sampled = msgspec.defstruct(
+            "Sampled",
+            [(f"f{index}", Any, None) for index in range(len(fields))],
+            rename={f"f{index}": name for index, name in enumerate(fields)},
+        )
+        self._decode = msgspec.msgpack.Decoder(sampled).decode
+
+    def _choose(self, state: dict[str, Any]) -> list[str]:
+        numeric = [name for name, value in state.items() if isinstance(value, int | float)]
+        if self._asked is None:
+            return numeric[:DEFAULT_FIELDS]
+        known = ", ".join(numeric) or "none"
+        for name in self._asked:
+            if name not in state:
+                raise FieldError(
+                    f"{self.path}: the robot state has no field {name!r} (numeric fields: {known})"
+                )
+            if name not in numeric:
+                raise FieldError(
+                    f"{self.path}: robot-state field {name!r} is a {type(state[name]).__name__}, "
+                    f"not a number (numeric fields: {known})"
+                )
+        return list(dict.fromkeys(self._asked))
+
+    def signals(self) -> tuple[Signal, ...]:
+        result = []
+        for name, flag, buckets in zip(self._fields or (), self._flags, self._buckets, strict=True):
+            points = buckets.points()
+            result.append(
+                Signal(
+                    name,
+                    tuple(time_ns for time_ns, _ in points),
+                    tuple(value for _, value in points),
+                    flag,
+                )
+            )
+        return tuple(result)

@@ -1,0 +1,157 @@
+"""What a leak watch watches: the calls that read the wall clock or a global random number
+generator, and numpy's global generator.
+
+Watched: ``time.time``, ``monotonic``, ``perf_counter``, ``process_time``,
+``thread_time``, ``clock_gettime`` and their ``_ns`` forms; ``now``, ``utcnow`` and
+``today`` of ``datetime.datetime`` and ``datetime.date``; every method of the global
+``random`` instance (``random.random``, ``random.choice``, ``random.seed``, ...);
+numpy's global generator (``np.random.rand``, ``np.random.seed``, ..., reported as
+``numpy.random`` once per line of user code that moved it, so not at all in a system
+with no user code; a legacy ``np.random.normal`` that returns its cached second value
+moves nothing and goes uncounted); ``os.urandom``
+(so ``secrets`` too); ``uuid.uuid1`` and ``uuid.uuid4``. Not watched: the forms of
+``time.localtime``, ``gmtime``, ``ctime`` and ``strftime`` that read the clock when
+given no time (their arguments are invisible to a profile hook), unseeded private
+generators (``random.Random()``, ``np.random.default_rng()``), other threads, and the
+clock reads of the ``logging`` package (record timestamps reach no decision).
+"""
+
+from __future__ import annotations
+
+import cProfile
+import ctypes
+import datetime as dt
+import functools
+import os
+import random
+import time
+import uuid
+from types import CodeType
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "GlobalNumpyGenerator",
+    "builtin_call",
+    "marked",
+    "python_calls",
+    "screened_builtins",
+]
+
+_CLOCKS = frozenset(
+    f"{name}{suffix}"
+    for name in (
+        "time",
+        "monotonic",
+        "perf_counter",
+        "process_time",
+        "thread_time",
+        "clock_gettime",
+    )
+    for suffix in ("", "_ns")
+)
+_NOW = frozenset({"now", "utcnow", "today"})
+_URANDOM_OWNER = getattr(os.urandom, "__self__", None)
+_MT19937_POSITION = 624 * 4
+"""Offset of ``pos`` after the 624-word key in numpy's ``mt19937_state``."""
+
+
+class GlobalNumpyGenerator:
+    """Notices when numpy's global generator draws, is seeded or is replaced."""
+
+    def __init__(self) -> None:
+        self._legacy: Any = np.random.mtrand._rand  # behind np.random.rand & co
+        self._bit_generator: Any = None
+        self._key0: ctypes.c_uint32 | None = None
+        self._position: ctypes.c_int | None = None
+        self._mark = self._read()
+
+    def moved(self) -> bool:
+        """Whether the generator moved since the last call."""
+        mark = self._read()
+        if mark == self._mark:
+            return False
+        self._mark = mark
+        return True
+
+    def _read(self) -> tuple[object, ...]:
+        bit_generator = self._legacy._bit_generator
+        if bit_generator is not self._bit_generator:
+            self._attach(bit_generator)
+        if self._position is not None and self._key0 is not None:
+            # MT19937, numpy's default: its position in place, without copying the state.
+            # A draw of a whole key's length regenerates the key, so key[0] changes too.
+            return bit_generator, self._position.value, self._key0.value
+        return bit_generator, repr(bit_generator.state)
+
+    def _attach(self, bit_generator: Any) -> None:
+        self._bit_generator = bit_generator
+        self._key0 = self._position = None
+        if isinstance(bit_generator, np.random.MT19937):
+            address = bit_generator.ctypes.state_address
+            self._key0 = ctypes.c_uint32.from_address(address)
+            self._position = ctypes.c_int.from_address(address + _MT19937_POSITION)
+
+
+def marked(generator: GlobalNumpyGenerator | None) -> GlobalNumpyGenerator:
+    """A watcher of numpy's global generator, marked where it stands now: draws between
+    updates are the framework's or the test's."""
+    if generator is None:
+        return GlobalNumpyGenerator()
+    generator.moved()
+    return generator
+
+
+def builtin_call(function: Any) -> str | None:
+    """The name of a watched builtin, or None; runs for every builtin call, so it is lean."""
+    owner = getattr(function, "__self__", None)
+    if owner is None:
+        return None
+    name: str = function.__name__
+    if owner is time:
+        return f"time.{name}" if name in _CLOCKS else None
+    if owner is random._inst:  # behind random.random & co
+        return f"random.{name}"
+    if owner is _URANDOM_OWNER:
+        return "os.urandom" if name == "urandom" else None
+    if isinstance(owner, type) and name in _NOW and issubclass(owner, dt.date):
+        return f"{owner.__module__}.{owner.__qualname__}.{name}"
+    return None
+
+
+def python_calls() -> dict[CodeType, str]:
+    """The watched Python functions by code object: methods of ``random.Random``, uuids."""
+    calls = {
+        member.__code__: f"random.{name}"
+        for name, member in vars(random.Random).items()
+        if callable(member) and hasattr(member, "__code__")
+    }
+    calls[uuid.uuid1.__code__] = "uuid.uuid1"
+    calls[uuid.uuid4.__code__] = "uuid.uuid4"
+    return calls
+
+
+@functools.cache
+def screened_builtins() -> frozenset[str]:
+    """The labels :mod:`cProfile` gives the watched builtins, learnt by profiling a call
+    of each: clocks, the builtin methods behind ``random.random`` and ``getrandbits`` (of
+    a private instance: the label is the type's), ``os.urandom``, ``now`` and ``today``."""
+    private = random.Random(0)  # noqa: S311 - only its methods' profiler labels are wanted
+    calls: list[tuple[Any, tuple[Any, ...]]] = [
+        (getattr(time, name), (time.CLOCK_MONOTONIC,) if "clock_gettime" in name else ())
+        for name in sorted(_CLOCKS)
+        if hasattr(time, name)
+    ]
+    calls += [(private.random, ()), (private.getrandbits, (1,)), (os.urandom, (1,))]
+    calls += [(dt.datetime.now, ()), (dt.datetime.utcnow, ()), (dt.date.today, ())]
+    profiler = cProfile.Profile()
+    for call, arguments in calls:
+        profiler.enable()
+        call(*arguments)
+        profiler.disable()
+    return frozenset(
+        entry.code
+        for entry in profiler.getstats()
+        if isinstance(entry.code, str) and "_lsprof.Profiler" not in entry.code
+    )

@@ -1,0 +1,160 @@
+"""Decoding a session log's payloads: the header, the end record and batches of cycles.
+
+Payloads are decoded only with msgspec, so nothing in a log can execute code. A payload
+that does not decode is an error naming the file and, for a batch, the cycle at fault:
+a :class:`~beatlog.errors.CorruptLogError` for damage, a
+:class:`~beatlog.errors.SchemaMismatchError` for a robot state that does not fit its type.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, TypeVar
+
+import msgspec
+
+from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.format import (
+    CYCLE_BATCH_SINCE,
+    DECODE_ERRORS,
+    CycleBatch,
+    CycleRecord,
+    SessionHeader,
+    samples_shape,
+)
+
+__all__ = ["BatchDecoding", "decode_payload", "decoded_version"]
+
+T = TypeVar("T")
+
+
+class _Versioned(msgspec.Struct):
+    format_version: int
+
+
+class _ReadCycleRecord(CycleRecord, forbid_unknown_fields=True):
+    """A cycle record as the reader decodes it: one of more elements than the format
+    defines is damaged, not cut short (the writer's own records stay as they are)."""
+
+
+_ReadCycleBatch: Any = msgspec.defstruct(
+    "_ReadCycleBatch",
+    [("cycles", list[_ReadCycleRecord])],
+    bases=(CycleBatch,),
+    array_like=True,
+    forbid_unknown_fields=True,
+)
+"""A cycles message as the reader decodes it: nothing after its cycles, each as read."""
+
+
+class _RawBatch(msgspec.Struct, array_like=True):
+    """A cycles message of format 2 with its cycles still encoded, to find a damaged one."""
+
+    first_cycle: int
+    cycles: list[msgspec.Raw]
+
+
+def decode_payload(path: Path, data: bytes, kind: type[T], what: str) -> T:
+    """``data`` decoded as ``kind``, or a corrupt log naming ``what`` was damaged."""
+    try:
+        return msgspec.msgpack.decode(data, type=kind)
+    except DECODE_ERRORS as exc:
+        raise CorruptLogError(path, f"damaged {what}: {exc}") from None
+
+
+def decoded_version(path: Path, data: bytes) -> int:
+    """The format version a session header declares, read before the rest of it."""
+    return decode_payload(path, data, _Versioned, "session header").format_version
+
+
+class BatchDecoding:
+    """How the cycles messages of one log decode, and what is wrong with one that does not.
+
+    :attr:`decoder` decodes a message into a :class:`CycleBatch` (a bare list of cycle
+    records in format 1) of records with their parts as raw msgpack;
+    :meth:`decode_states` gives one that decodes each RS_t with its batch.
+    """
+
+    def __init__(self, path: Path, header: SessionHeader) -> None:
+        self.path = path
+        self.header = header
+        self._batched = header.format_version >= CYCLE_BATCH_SINCE
+        self.decoder: Any = msgspec.msgpack.Decoder(
+            _ReadCycleBatch if self._batched else list[_ReadCycleRecord]
+        )
+        self._raw = self.decoder
+        self._state_type: type[Any] | None = None
+
+    def decode_states(self, state_type: type[Any]) -> Any:
+        """Make :attr:`decoder` one that decodes each cycle's RS_t into ``state_type`` and
+        checks its samples against the header (:func:`samples_shape`), and return it."""
+        record: Any = msgspec.defstruct(
+            "DecodedCycleRecord",
+            [("robot_state", state_type), ("samples", samples_shape(self.header))],
+            bases=(_ReadCycleRecord,),
+            array_like=True,
+        )
+        batch: Any = (
+            msgspec.defstruct(
+                "DecodedCycleBatch",
+                [("cycles", list[record])],
+                bases=(_ReadCycleBatch,),
+                array_like=True,
+            )
+            if self._batched
+            else list[record]
+        )
+        self.decoder = msgspec.msgpack.Decoder(batch)
+        self._state_type = state_type
+        return self.decoder
+
+    def problem(self, data: bytes, where: str, first_cycle: int, exc: Exception) -> Exception:
+        """What is wrong with a batch that did not decode: a cycle in it is damaged, the
+        batch itself is, or (when robot states are decoded with it) a cycle's robot state
+        does not fit its type or its samples are not what the header declares."""
+        try:
+            decoded = self._raw.decode(data)
+        except DECODE_ERRORS as damage:
+            return self._damaged_cycle(data, first_cycle) or CorruptLogError(
+                self.path, f"damaged {where}: {damage}"
+            )
+        state_type = self._state_type
+        assert state_type is not None  # raw batches decoded above: states did not
+        records = decoded.cycles if isinstance(decoded, CycleBatch) else decoded
+        samples = samples_shape(self.header)
+        for index, record in enumerate(records):
+            try:
+                msgspec.msgpack.decode(record.robot_state, type=state_type)
+            except DECODE_ERRORS as misfit:
+                return SchemaMismatchError(
+                    self.path,
+                    f"robot state of cycle {first_cycle + index} does not fit "
+                    f"{state_type.__name__}: {misfit}",
+                )
+            try:
+                msgspec.msgpack.decode(record.samples, type=samples)
+            except DECODE_ERRORS as misfit:
+                logged = "samples" if self.header.samples_logged else "no samples"
+                return CorruptLogError(
+                    self.path,
+                    f"damaged samples in cycle {first_cycle + index}: the header declares "
+                    f"{logged}: {misfit}",
+                )
+        return CorruptLogError(self.path, f"damaged {where}: {exc}")
+
+    def _damaged_cycle(self, data: bytes, first_cycle: int) -> CorruptLogError | None:
+        """The first cycle of a batch that is not a cycle record, when the batch holds an
+        array of cycles at all."""
+        try:
+            if self._batched:
+                records = msgspec.msgpack.decode(data, type=_RawBatch).cycles
+            else:
+                records = msgspec.msgpack.decode(data, type=list[msgspec.Raw])
+        except DECODE_ERRORS:
+            return None
+        for index, record in enumerate(records):
+            try:
+                msgspec.msgpack.decode(record, type=_ReadCycleRecord)
+            except DECODE_ERRORS as damage:
+                return CorruptLogError(self.path, f"damaged cycle {first_cycle + index}: {damage}")
+        return None
