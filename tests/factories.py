@@ -29,6 +29,7 @@ from beatlog.log.format import (
     CycleRecord,
     SessionEnd,
     SessionHeader,
+    payload_encoder,
     schema_name,
 )
 from beatlog.log.reader import SessionLogReader
@@ -445,10 +446,17 @@ def speed_state(cycle: int) -> dict[str, Any]:
     return {"speed": cycle / 1000, "heading": math.sin(cycle), "bumped": False}
 
 
+def encoded(state: dict[str, Any]) -> bytes:
+    """A robot state given as its fields, as a log encodes it."""
+    return payload_encoder().encode(state)
+
+
 def rebuilt_states(states: dict[int, dict[str, Any]]) -> list[RebuiltState]:
     """The states as a trace collects them where perception rebuilt their speed
     otherwise, in cycle order (1 ms a cycle)."""
     return [
-        RebuiltState(cycle, cycle * 1_000_000, {"speed": state["speed"]}, state_digest(state))
+        RebuiltState(
+            cycle, cycle * 1_000_000, {"speed": state["speed"]}, state_digest(encoded(state))
+        )
         for cycle, state in sorted(states.items())
     ]

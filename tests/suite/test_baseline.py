@@ -238,7 +238,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     assert lines[-4:] == [
         "      12     0.012  robot_state otherwise in 12..16 (3 cycles): "
         '["speed"], first {"speed": 0.012}',
-        "      12     0.012  robot_state digests 5 cfcdc94e338e6e3c 1Og6....co",
+        "      12     0.012  robot_state digests 5 2757be29f6e5b7d2 WfzB....1Q",
         '      12     0.012  "avoid": "off" -> "turning"',
         '      12     0.012  output "speed" = 0.0',
     ]

@@ -218,7 +218,7 @@ class TraceCollector:
         )
         self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
         if outcome.perception_differs:
-            rebuilt = _rebuilt_otherwise(outcome)
+            rebuilt = _rebuilt_otherwise(outcome, self._encode)
             if rebuilt is not None:
                 self._states.append(rebuilt)
         if outcome.draw_differences:
@@ -257,14 +257,16 @@ class TraceCollector:
         )
 
 
-def _rebuilt_otherwise(outcome: CycleOutcome) -> RebuiltState | None:
+def _rebuilt_otherwise(
+    outcome: CycleOutcome, encode: Callable[[Any], bytes]
+) -> RebuiltState | None:
     """The robot state perception rebuilt, when it differs from the recorded one bit
     for bit: the fields that differ and the whole state's digest."""
     rebuilt = state_fields(outcome.state)
     fields = rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt)
     if not fields:
         return None
-    return RebuiltState(outcome.cycle, outcome.time_ns, fields, state_digest(rebuilt))
+    return RebuiltState(outcome.cycle, outcome.time_ns, fields, state_digest(encode(outcome.state)))
 
 
 def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:

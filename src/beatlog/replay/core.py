@@ -43,7 +43,6 @@ from beatlog.model.random import (
     ReplayRandom,
     recorded_draw_problem,
 )
-from beatlog.replay.compare import state_fields
 from beatlog.replay.fit import check_fit, recorded_state_type
 from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
 from beatlog.replay.pins import PinChecker
@@ -401,7 +400,7 @@ class Replayer:
         cycle = self.executor.context.cycle + 1
         pins = self.state_pins
         if pins is not None and cycle in pins:  # the approved state is expected, not the recorded
-            differs = encoded is None or pins.mismatch(cycle, state_fields(rebuilt)) is not None
+            differs = encoded is None or pins.mismatch(cycle, encoded) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
             if differs and encoded is not None and self._migrated:

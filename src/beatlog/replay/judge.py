@@ -702,7 +702,7 @@ class _Judge:
         actual = state_fields(outcome.state)
         pins = self._state_pins
         if pins is not None and outcome.cycle in pins:
-            if pins.mismatch(outcome.cycle, actual) is None:
+            if pins.mismatch(outcome.cycle, self._state_bytes(outcome.state)) is None:
                 return ()
             named = {*pins.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
             return tuple(
@@ -715,6 +715,13 @@ class _Judge:
             FieldDifference(name, expected.get(name), actual.get(name))
             for name in self.comparison.state_differences(expected, actual)
         )
+
+    def _state_bytes(self, state: Any) -> bytes:
+        """A robot state as a log encodes it; no bytes where it cannot be encoded."""
+        try:
+            return self._encoder.encode(state)
+        except (TypeError, msgspec.EncodeError):
+            return b""
 
     def _unapproved(self, unapproved: Unapproved) -> tuple[DivergenceKind, str, str]:
         """How a draw made otherwise than recorded, and not as approved, diverges."""
@@ -755,7 +762,8 @@ class _Judge:
         now = list(rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt))
         return (
             "the robot state rebuilt from the samples differs from the approved baseline "
-            f"{pins.mismatch(outcome.cycle, rebuilt)}; it differs from the recording in "
+            f"{pins.mismatch(outcome.cycle, self._state_bytes(outcome.state))}; "
+            "it differs from the recording in "
             f"{', '.join(now) or 'no field'}, the approved one in {', '.join(run.fields)} "
             f"(cycles {run.cycle}–{run.last})"
         )

@@ -9,14 +9,15 @@ rebuilt values in its first cycle, for review), blocks of up to
 :data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
 digest of the block.
 
-A cycle's :func:`state_digest` is a keyed BLAKE2b of the rebuilt state's canonical
-msgpack encoding: its fields as they read back from a log, keys sorted, floats as
-64-bit IEEE, so any bit of any field counts. Its first 12 bits, as two base64
-characters, are the cycle's tag: a state that differs from the approved one is caught
-in its own cycle, except once in 4,096; the block's digest, of its pinned cycles'
-whole digests, then catches it at the block's last pinned cycle (missed once in
-2**64). Two characters a cycle keep a retuned perception's pins near 3.2 bytes a
-cycle, 1.4 % of the dog's logs (``bench/bench_baselines.py``); a whole digest a cycle
+A cycle's :func:`state_digest` is a keyed BLAKE2b of the rebuilt state as a log
+encodes it (msgpack of the system's robot-state type, its fields in their order, floats
+as 64-bit IEEE), so any bit of any field counts, and the replay core, which encodes
+each rebuilt state to compare it with the recorded one, digests the same bytes. Its
+first 12 bits, as two base64 characters, are the cycle's tag: a state that differs
+from the approved one is caught in its own cycle, except once in 4,096; the block's
+digest, of its pinned cycles' whole digests, then catches it at the block's last
+pinned cycle (missed once in 2**64). Two characters a cycle keep a retuned
+perception's pins near 3.2 bytes a cycle, 1.4 % of the dog's logs (``bench/bench_baselines.py``); a whole digest a cycle
 would take 11 characters.
 """
 
@@ -66,10 +67,10 @@ _SORTED = msgspec.msgpack.Encoder(order="sorted")
 _EXACT = Comparison()
 
 
-def state_digest(fields: Mapping[str, Any]) -> bytes:
-    """The digest of a robot state given as its fields (see
-    :func:`~beatlog.replay.compare.state_fields`): bit for bit, whatever their order."""
-    return hashlib.blake2b(_SORTED.encode(fields), digest_size=DIGEST_BYTES, key=_KEY).digest()
+def state_digest(encoded: bytes) -> bytes:
+    """The digest of a robot state as a log encodes it
+    (:func:`~beatlog.log.format.payload_encoder`), bit for bit."""
+    return hashlib.blake2b(encoded, digest_size=DIGEST_BYTES, key=_KEY).digest()
 
 
 def _block_digest(digests: Iterable[bytes]) -> bytes:
@@ -274,8 +275,8 @@ class PinChecker:
         """The run a pinned cycle is in."""
         return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
 
-    def mismatch(self, cycle: int, fields: Mapping[str, Any]) -> str | None:
-        """How the robot state rebuilt in pinned ``cycle`` (given as its fields) was found
+    def mismatch(self, cycle: int, encoded: bytes) -> str | None:
+        """How the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would) was found
         to differ from the approved one: ``"by its digest"`` (its tag), or ``"by the
         digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle);
         None when it agrees. Asked again about the same cycle, the same answer."""
@@ -286,7 +287,7 @@ class PinChecker:
             self._block, self._digests, self._intact = block, [], place == 0
         if place != len(self._digests):  # a pinned cycle of the block went unjudged
             self._intact = False
-        digest = state_digest(fields)
+        digest = state_digest(encoded)
         self._digests.append(digest)
         found = None
         if _tag(digest) != block.tag(cycle - block.cycle):

@@ -17,7 +17,7 @@ code review::
            0     0.030  output "speed" = 0.5
           12     0.360  open loop
           12     0.360  robot_state otherwise in 12..16 (3 cycles): ["range"], first {"range": 0.55}
-          12     0.360  robot_state digests 5 cfcdc94e338e6e3c 1Og6....co
+          12     0.360  robot_state digests 5 2757be29f6e5b7d2 WfzB....1Q
           12     0.360  "avoid": "idle" -> "turning"
           12     0.360  output "speed" = 0.0
           40     1.200  output "turn" absent
