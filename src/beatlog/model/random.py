@@ -218,7 +218,7 @@ def _array_problem(kind: str, value: Any, params: tuple[Any, ...]) -> str | None
 def _need_numpy() -> None:
     """Make sure numpy, which array draws need (only they do), is installed; where it
     is not, an error that says how to install it."""
-    if "numpy" not in sys.modules and find_spec("numpy") is None:
+    if sys.modules.get("numpy") is None and find_spec("numpy") is None:
         raise ModuleNotFoundError(
             "array draws (uniform_array, normal_array, integers_array) need numpy: "
             'pip install "beatlog[arrays]"',
