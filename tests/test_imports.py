@@ -37,6 +37,17 @@ def test_importing_beatlog_or_its_command_loads_nothing_heavy(statement: str) ->
     assert [name for name in HEAVY if name in modules] == []
 
 
+def test_scalar_draws_load_no_numpy() -> None:
+    modules = modules_after(
+        "from beatlog.model.random import RecordingRandom\n"
+        "source = RecordingRandom(seed=1)\n"
+        "source.random(), source.uniform(0, 1), source.gauss(0, 1), source.randint(1, 6)\n"
+        "source.choice('abc')\n"
+    )
+
+    assert "numpy" not in modules
+
+
 def test_the_command_loads_no_engine_before_it_knows_the_subcommand() -> None:
     modules = modules_after("import beatlog.cli.main")
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import base64
 import csv
+import functools
 import json
 import math
 import sys
@@ -21,6 +22,7 @@ import msgspec
 import pyarrow.dataset as ds
 import pyarrow.parquet as pq
 import pytest
+from jsonschema.exceptions import ValidationError
 from jsonschema.validators import validator_for
 from mcap.reader import make_reader
 
@@ -76,6 +78,82 @@ def _no_constant(name: str) -> Any:
     raise AssertionError(f"{name} is not JSON")
 
 
+SHAPE_KEYWORDS = frozenset(
+    {"$schema", "title", "description", "type", "properties", "required"}
+    | {"additionalProperties", "items", "minimum", "maximum"}
+)
+"""The keywords of the export's schemas under which a message's validity depends only on
+its shape (:func:`shape`): the JSON types, the keys, and each number's side of every
+bound in the schema."""
+
+
+def keywords(schema: dict[str, Any]) -> set[str]:
+    """Every keyword a schema uses, at any depth."""
+    found = set(schema)
+    for key, value in schema.items():
+        if key == "properties":
+            found.update(*map(keywords, value.values()))
+        elif isinstance(value, dict):
+            found.update(keywords(value))
+        elif isinstance(value, list):
+            found.update(*(keywords(item) for item in value if isinstance(item, dict)))
+    return found
+
+
+def bounds(document: Any) -> tuple[float, ...]:
+    """Every minimum and maximum of a schema, sorted."""
+    found: set[float] = set()
+    if isinstance(document, dict):
+        found.update(document[key] for key in ("minimum", "maximum") if key in document)
+        found.update(*map(bounds, document.values()))
+    elif isinstance(document, list):
+        found.update(*map(bounds, document))
+    return tuple(sorted(found))
+
+
+def shape(value: Any, limits: tuple[float, ...]) -> Any:
+    """What validation under :data:`SHAPE_KEYWORDS` sees of a JSON value: two values of
+    the same shape are valid or invalid together."""
+    if isinstance(value, dict):
+        return tuple(sorted((key, shape(item, limits)) for key, item in value.items()))
+    if isinstance(value, list):
+        return ("[", *(shape(item, limits) for item in value))
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return type(value).__name__
+    if isinstance(value, int | float):
+        integral = isinstance(value, int) or value.is_integer()
+        return (integral, *((value < limit, value > limit) for limit in limits))
+    raise AssertionError(f"{value!r} is not JSON")
+
+
+class Validator:
+    """A standard validator of one schema that validates each shape of message once,
+    where the schema's keywords allow it (:data:`SHAPE_KEYWORDS`), every message else."""
+
+    def __init__(self, document: dict[str, Any]) -> None:
+        standard = validator_for(document)
+        standard.check_schema(document)
+        self._standard = standard(document)
+        self._by_shape = keywords(document) <= SHAPE_KEYWORDS
+        self._limits = bounds(document)
+        self._valid: set[Any] = set()
+
+    def validate(self, value: Any) -> None:
+        if not self._by_shape:
+            self._standard.validate(value)
+            return
+        key = shape(value, self._limits)
+        if key not in self._valid:
+            self._standard.validate(value)
+            self._valid.add(key)
+
+
+@functools.cache
+def validator(data: bytes) -> Validator:
+    """The validator of a schema's text, made once across the tests."""
+    return Validator(json.loads(data, parse_constant=_no_constant))
+
+
 def read_exported(path: Path) -> Exported:
     """Read an export, checking that the viewers parse every channel's schema and that each
     message is strict JSON valid under its channel's schema."""
@@ -91,17 +169,17 @@ def read_exported(path: Path) -> Exported:
             assert (channel.message_encoding, schema.encoding) == ("json", "jsonschema")
             document = json.loads(schema.data, parse_constant=_no_constant)
             check_viewer_schema(document)
-            validator = validator_for(document)
-            validator.check_schema(document)
-            validators[channel.id] = validator(document)
+            validators[channel.id] = validator(schema.data)
             schemas[channel.topic] = document
             names[channel.topic] = schema.name
         messages: dict[str, list[Read]] = {topic: [] for topic in schemas}
-        for _, channel, message in reader.iter_messages():
+        for _, channel, message in reader.iter_messages(log_time_order=False):
             value = json.loads(message.data, parse_constant=_no_constant)
             validators[channel.id].validate(value)
             assert message.publish_time == message.log_time
             messages[channel.topic].append(Read(message.log_time, message.sequence, value))
+    for read in messages.values():
+        read.sort(key=lambda message: message.log_time)  # stable: ties keep the file's order
     return Exported(schemas, names, messages)
 
 
@@ -790,6 +868,25 @@ def test_every_committed_dtc_exports_for_the_viewers_and_validates(
         check_viewer_schema(schema)
     assert result.status.complete
     assert all(len(read.messages[topic]) == result.cycles for topic in PER_CYCLE_TOPICS)
+
+
+def test_the_validator_checks_each_shape_of_message_with_the_standard_one() -> None:
+    """Validating each shape once loses nothing: a number past a bound, a float for an
+    integer or a key too many makes another shape, which is validated again."""
+    checker = Validator(
+        {
+            "type": "object",
+            "properties": {"cycle": {"type": "integer", "minimum": 0}},
+            "required": ["cycle"],
+            "additionalProperties": False,
+        }
+    )
+    checker.validate({"cycle": 3})
+    checker.validate({"cycle": 4.0})
+
+    for invalid in ({"cycle": -1}, {"cycle": 2.5}, {"cycle": 3, "more": 1}, {}):
+        with pytest.raises(ValidationError):
+            checker.validate(invalid)
 
 
 def test_the_committed_suites_are_found() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import sys
 from collections.abc import Callable
 
 import msgspec
@@ -76,6 +77,49 @@ def test_same_seed_same_draws() -> None:
     draw_everything(first)
     draw_everything(second)
     assert msgspec.msgpack.encode(first.take()) == msgspec.msgpack.encode(second.take())
+
+
+def test_a_seed_draws_the_same_values_on_every_machine() -> None:
+    """The source is counter-based and pure Python: these values are the same
+    everywhere, whatever numpy is installed (or none)."""
+    source = RecordingRandom(seed=5)
+    values = [
+        source.random(),
+        source.uniform(2, 3),
+        source.gauss(0, 1),
+        source.randint(1, 6),
+        source.choice("abc"),
+    ]
+
+    assert values == [0.719506700232845, 2.2511085072482238, -0.5674393290983566, 3, "a"]
+
+
+@pytest.mark.parametrize(
+    "draw",
+    [
+        lambda r: r.uniform_array(0.0, 1.0, 3),
+        lambda r: r.normal_array(0.0, 1.0, 3),
+        lambda r: r.integers_array(0, 9, 3),
+    ],
+)
+def test_an_array_draw_without_numpy_says_what_to_install(
+    draw: Callable[[RandomSource], object], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    recorded = RecordingRandom(seed=1)
+    draw(recorded)
+    player = ReplayRandom()
+    player.load(recorded.take())
+    monkeypatch.setitem(sys.modules, "numpy", None)
+    message = (
+        "array draws (uniform_array, normal_array, integers_array) need numpy: "
+        'pip install "beatlog[arrays]"'
+    )
+
+    for source in (RecordingRandom(seed=1), player):
+        with pytest.raises(ModuleNotFoundError) as raised:
+            draw(source)
+        assert str(raised.value) == message
+        assert raised.value.name == "numpy"
 
 
 def test_drawing_more_than_recorded_is_a_mismatch() -> None:

@@ -61,8 +61,12 @@ def test_break_at_stops_before_the_update_with_the_cycle_at_hand(
             "dt_ns": beats[75],
             "robot_state": Probe(distance=0.5),
             "recorded_state": Probe(distance=0.5),
-            "recorded_changes": [("arbiter", "near", "dice"), ("near", "near", "far")],
-            "recorded_draws": [Draw(actor=2, kind="randint", value=5, params=(1, 6))],
+            "recorded_changes": [
+                ("arbiter", "near", "dice"),
+                ("near", "near", "far"),
+                ("dice", "odd", "even"),
+            ],
+            "recorded_draws": [Draw(actor=2, kind="randint", value=4, params=(1, 6))],
             "system": system,
         }
     ]

@@ -48,7 +48,7 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> Report:
     """A suite of four DTCs (pass, fail, error, hostile names), run once for the module."""
     folder = tmp_path_factory.mktemp("html")
     rover = folder / "rover.beatlog"
-    record_lockstep(rover, duration_s=10.0, seed=0)
+    record_lockstep(rover, duration_s=10.0, seed=2)  # meets an obstacle within its first second
     hostile = folder / "hostile.beatlog"
     with Recorder(hostile, hostile_system(), software="t") as recorder:
         for t in range(40):

@@ -83,7 +83,7 @@ def test_a_dtc_that_ran_carries_what_it_checked_as_properties(
     ]
     assert properties[0] == {
         "beatlog_cycles": "300",
-        "beatlog_state_changes": "43",
+        "beatlog_state_changes": "45",
         "beatlog_outputs": "453",
         "beatlog_draws": "60",
         "beatlog_samples": "0",

@@ -16,8 +16,6 @@ from dataclasses import fields, is_dataclass
 from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from beatlog.errors import BagError
 from beatlog.files import irregular_file_problem
 from beatlog.model.inbox import Sample
@@ -32,8 +30,9 @@ _TIME_SLACK_NS = 1_000_000_000
 """How far a message's log time may lie outside the bag's span as its metadata gives
 it, at least (rosbag2 records messages that arrive out of order a little past it)."""
 
-_BYTE_TYPES = (np.dtype(np.uint8), np.dtype(np.int8))
-"""Arrays imported as bytes: ROS ``uint8[]`` and ``int8[]`` are byte buffers."""
+_BYTE_TYPES = frozenset({"|u1", "|i1"})
+"""numpy dtypes of arrays imported as bytes: ROS ``uint8[]`` and ``int8[]`` are byte
+buffers."""
 
 
 @contextmanager
@@ -264,9 +263,9 @@ def _plain(value: Any) -> Any:
         return {name: _plain(getattr(value, name)) for name in _field_names(type(value))}
     if isinstance(value, list | tuple):
         return [_plain(item) for item in value]
-    if isinstance(value, np.ndarray) and value.dtype in _BYTE_TYPES:
-        return value.tobytes()
-    if isinstance(value, np.ndarray | np.generic):
+    if hasattr(value, "tolist"):  # numpy's arrays and scalars, known without importing it
+        if value.ndim and value.dtype.str in _BYTE_TYPES:
+            return value.tobytes()
         return value.tolist()
     raise TypeError(f"no plain data for a value of type {type(value).__name__}")
 

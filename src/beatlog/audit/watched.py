@@ -29,8 +29,6 @@ import uuid
 from types import CodeType
 from typing import Any
 
-import numpy as np
-
 __all__ = [
     "GlobalNumpyGenerator",
     "builtin_call",
@@ -58,10 +56,19 @@ _MT19937_POSITION = 624 * 4
 
 
 class GlobalNumpyGenerator:
-    """Notices when numpy's global generator draws, is seeded or is replaced."""
+    """Notices when numpy's global generator draws, is seeded or is replaced; never,
+    where numpy is not installed."""
 
     def __init__(self) -> None:
-        self._legacy: Any = np.random.mtrand._rand  # behind np.random.rand & co
+        self._legacy: Any = None  # behind np.random.rand & co
+        self._mt19937: Any = None
+        try:
+            import numpy as np  # noqa: PLC0415 - optional: numpy is the arrays extra
+        except ImportError:
+            pass
+        else:
+            self._legacy = np.random.mtrand._rand
+            self._mt19937 = np.random.MT19937
         self._bit_generator: Any = None
         self._key0: ctypes.c_uint32 | None = None
         self._position: ctypes.c_int | None = None
@@ -76,6 +83,8 @@ class GlobalNumpyGenerator:
         return True
 
     def _read(self) -> tuple[object, ...]:
+        if self._legacy is None:
+            return ()
         bit_generator = self._legacy._bit_generator
         if bit_generator is not self._bit_generator:
             self._attach(bit_generator)
@@ -88,7 +97,7 @@ class GlobalNumpyGenerator:
     def _attach(self, bit_generator: Any) -> None:
         self._bit_generator = bit_generator
         self._key0 = self._position = None
-        if isinstance(bit_generator, np.random.MT19937):
+        if isinstance(bit_generator, self._mt19937):
             address = bit_generator.ctypes.state_address
             self._key0 = ctypes.c_uint32.from_address(address)
             self._position = ctypes.c_int.from_address(address + _MT19937_POSITION)

@@ -1,18 +1,21 @@
 """The random source: the only randomness behaviors use.
 
-Live, it draws from a seeded numpy generator and records every value (RN_t) with
-what was asked for (the kind and its parameters). numpy is imported where arrays or
-the generator are needed, so that replaying scalar draws never loads it. In replay it hands back the
-recorded values; drawing more, fewer, a different kind or with different parameters
-than was recorded is a divergence that names the cycle and the behavior.
+Live, it draws from a counter-based source keyed by its seed and records every value
+(RN_t) with what was asked for (the kind and its parameters). Scalar draws are pure
+Python; only array draws need numpy (``pip install "beatlog[arrays]"``), imported where
+they are made or replayed. In replay it hands back the recorded values; drawing more,
+fewer, a different kind or with different parameters than was recorded is a divergence
+that names the cycle and the behavior.
 """
 
 from __future__ import annotations
 
 import secrets
+import sys
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from enum import StrEnum
+from importlib.util import find_spec
 from math import isnan, prod
 from numbers import Real
 from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
@@ -212,8 +215,20 @@ def _array_problem(kind: str, value: Any, params: tuple[Any, ...]) -> str | None
     return None
 
 
+def _need_numpy() -> None:
+    """Make sure numpy, which array draws need (only they do), is installed; where it
+    is not, an error that says how to install it."""
+    if sys.modules.get("numpy") is None and find_spec("numpy") is None:
+        raise ModuleNotFoundError(
+            "array draws (uniform_array, normal_array, integers_array) need numpy: "
+            'pip install "beatlog[arrays]"',
+            name="numpy",
+        )
+
+
 def _unpack_array(value: Any) -> npt.NDArray[Any]:
-    import numpy as np  # noqa: PLC0415 - only replayed array draws need numpy
+    _need_numpy()
+    import numpy as np  # noqa: PLC0415 - optional: the arrays extra
 
     dtype, shape, data = value
     return np.frombuffer(data, dtype=np.dtype(dtype)).reshape(shape).copy()
@@ -286,14 +301,21 @@ def _shape(shape: int | tuple[int, ...]) -> tuple[int, ...]:
 
 
 class RecordingRandom(RandomSource):
-    """Draws from a PCG64 generator and keeps every value drawn in the current cycle."""
+    """Draws from a counter-based source keyed by its seed and keeps every value drawn
+    in the current cycle.
+
+    The session's n-th draw has the luck of the place ``(0, "", n)`` in the log keyed by
+    the seed (:func:`~beatlog.model.luck.fresh_luck`), and the value of its request with
+    that luck (:func:`~beatlog.model.luck.scalar_value`): pure Python, the same for the
+    same seed on every machine. An array draw seeds numpy's PCG64 from its place
+    (:func:`~beatlog.model.luck.array_value`); only array draws need numpy.
+    """
 
     def __init__(self, seed: int | None = None) -> None:
-        import numpy as np  # noqa: PLC0415 - the generator is numpy's
-
         super().__init__()
         self.seed = seed if seed is not None else secrets.randbits(63)
-        self._gen = np.random.Generator(np.random.PCG64(self.seed))
+        self._key = str(self.seed).encode()
+        self._count = 0
         self.draws: list[Draw] = []
 
     def take(self) -> list[Draw]:
@@ -301,32 +323,21 @@ class RecordingRandom(RandomSource):
         draws, self.draws = self.draws, []
         return draws
 
+    def _place(self) -> Place:
+        """The place keying the next draw: the session's draws counted."""
+        self._count += 1
+        return Place(0, "", self._count - 1)
+
     def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
-        gen = self._gen
-        value: Any
-        if kind is DrawKind.RANDOM:
-            value = float(gen.random())
-        elif kind is DrawKind.UNIFORM:
-            value = float(gen.uniform(a, b))
-        elif kind is DrawKind.GAUSS:
-            value = float(gen.normal(a, b))
-        elif kind is DrawKind.RANDINT:
-            value = int(gen.integers(int(a), int(b), endpoint=True))
-        else:
-            value = int(gen.integers(0, int(b)))
+        luck = fresh_luck(self._key, self._place())
+        value = _SCALAR_VALUES[kind.value](scalar_value(kind.value, params, luck))
         self.draws.append(Draw(self._actor, kind.value, value, params))
         return value
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
-        gen = self._gen
-        array: npt.NDArray[Any]
-        if kind is DrawKind.UNIFORM_ARRAY:
-            array = gen.uniform(a, b, shape)
-        elif kind is DrawKind.NORMAL_ARRAY:
-            array = gen.normal(a, b, shape)
-        else:
-            array = gen.integers(int(a), int(b), shape, dtype="int64")
+        _need_numpy()
         params = (a, b, list(shape))
+        array = array_value(kind.value, params, None, self._place().seed(self._key))
         self.draws.append(Draw(self._actor, kind.value, _pack_array(array), params))
         return array
 

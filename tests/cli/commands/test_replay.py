@@ -31,7 +31,7 @@ def test_replay_passes_a_log_against_the_system_that_recorded_it(
 
     assert run.code == 0
     assert run.out.startswith(
-        f"PASS {log}  300 cycles, 43 state changes, 453 outputs, 60 draws checked; "
+        f"PASS {log}  300 cycles, 45 state changes, 453 outputs, 60 draws checked; "
         "9.0 s robot time in "
     )
     assert run.out.endswith("; log complete\n")
@@ -190,7 +190,7 @@ def test_replay_json_of_a_pass(beatlog: Beatlog, record_probe: RecordFn) -> None
     assert result["cycles"] == 300
     assert result["divergence"] is None
     assert result["status"] == {"complete": True, "cycles": 300, "problem": None}
-    assert result["checked"] == {"state_changes": 43, "outputs": 453, "draws": 60, "samples": 0}
+    assert result["checked"] == {"state_changes": 45, "outputs": 453, "draws": 60, "samples": 0}
 
 
 def test_replay_keep_going_counts_every_diverging_cycle(

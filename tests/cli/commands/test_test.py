@@ -594,7 +594,7 @@ def test_verbose_says_what_each_passing_dtc_checked(
 
     assert run.code == 0
     assert run.out.splitlines()[0] == (
-        "PASS avoid-pole: 300 cycles, 43 state changes, 453 outputs, 60 draws checked"
+        "PASS avoid-pole: 300 cycles, 45 state changes, 453 outputs, 60 draws checked"
     )
 
 
