@@ -34,7 +34,7 @@ from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import state_reader
+from beatlog.model.cycle import state_differ
 from beatlog.model.random import Draw, ReplayRandom
 
 __all__ = [
@@ -143,8 +143,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
     random = ReplayRandom()
     context = Context(random)
     random.bind(context)
-    read_states = state_reader(list(system.behaviors.values()))
-    states = read_states()
+    changes_of = state_differ(list(system.behaviors.values()))
     encode = payload_encoder().encode
     decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     raw = msgspec.Raw
@@ -163,17 +162,8 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
                 if draws != EMPTY_LIST or random.recorded:
                     random.load(() if draws == EMPTY_LIST else decode_draws(draws))
                 update(record.robot_state, context)
-                now = read_states()
-                if now != states:
-                    changes = []
-                    for index, after in enumerate(now):
-                        before = states[index]
-                        if after is not before and after != before:
-                            changes.append((index, before, after))
-                            states[index] = after
-                    failed += record.state_changes != raw(encode(changes))
-                else:
-                    failed += record.state_changes != EMPTY_LIST
+                changes = changes_of()
+                failed += record.state_changes != (raw(encode(changes)) if changes else EMPTY_LIST)
                 outputs = context.outputs
                 failed += (
                     record.outputs != raw(encode(outputs))

@@ -6,16 +6,17 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from beatlog.log.format import StateChangeRecord
-from beatlog.model.behavior import Behavior, BehaviorState, System
+from beatlog.model.behavior import Behavior, System
 from beatlog.model.clock import SimulatedHeartbeat
 from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
-__all__ = ["CycleExecutor", "Pause", "Update", "state_reader"]
+__all__ = ["CycleExecutor", "Pause", "Update", "state_differ"]
 
 Update = Callable[[Any, Context], None]
 """A system's update: the behaviors step from RS_t with the context of the cycle."""
@@ -23,26 +24,47 @@ Pause = Callable[[Update, Any, Context], None]
 """Takes the place of one update: given it, RS_t and the context, it must run it."""
 
 
-def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
-    """A function that reads every behavior's state, in catalogue order.
+def state_differ(behaviors: Sequence[Behavior]) -> Callable[[], list[StateChangeRecord]]:
+    """A function that returns the behaviors' state changes since its last call (since
+    it was made, the first time): BS_t, as ``(index, before, after)`` in catalogue order.
 
-    Its source is written out for the catalogue (as :mod:`dataclasses` writes an
-    ``__init__``), from nothing but the catalogue's size: each behavior's state is then
-    read by an attribute access of its own, which the interpreter specialises for that
-    behavior's class. One access in a loop sees every class and stays generic, several
-    times slower; reading the states is a fixed cost of every cycle.
+    A state counts as changed when it is another object that is not equal to the one
+    seen last (which is kept otherwise: ``1`` then ``True`` then ``2`` is one change,
+    from ``1`` to ``2``). The function's source is written out for the catalogue (as
+    :mod:`dataclasses` writes an ``__init__``), from nothing but the catalogue's size:
+    each behavior's state is read by an attribute access of its own, which the
+    interpreter specialises for that behavior's class, and compared by identity with
+    the state last seen, kept in a cell of its own. There is no loop over the
+    catalogue, so a cycle costs a few bytecodes a behavior and each change a few more,
+    however many changed; a loop over every behavior, whenever any state changed, cost
+    several times as much (``bench/bench_width.py``).
     """
-    names = [f"b{index}" for index in range(len(behaviors))]
-    source = (
-        f"def bind({', '.join(names)}):\n"
-        f"    def read():\n"
-        f"        return [{', '.join(f'{name}.state' for name in names)}]\n"
-        f"    return read\n"
-    )
+    bind = _differ_binder(len(behaviors))
+    return bind(*behaviors, *[behavior.state for behavior in behaviors])
+
+
+@functools.lru_cache(maxsize=16)
+def _differ_binder(size: int) -> Callable[..., Callable[[], list[StateChangeRecord]]]:
+    """:func:`state_differ`'s code for a catalogue of ``size``, compiled once per size:
+    compiling it takes about 40 ms for a thousand behaviors."""
+    seen = [f"s{index}" for index in range(size)]
+    lines = [
+        f"def bind({', '.join([f'b{index}' for index in range(size)] + seen)}):",
+        "    def changes():",
+        f"        nonlocal {', '.join(seen)}" if size else "",
+        "        found = []",
+    ]
+    for index in range(size):
+        lines += [
+            f"        if (now := b{index}.state) is not s{index} and now != s{index}:",
+            f"            found.append(({index}, s{index}, now))",
+            f"            s{index} = now",
+        ]
+    lines += ["        return found", "    return changes", ""]
     namespace: dict[str, Any] = {}
-    exec(source, namespace)  # noqa: S102 - our own source, of names b0, b1, ... only
-    read: Callable[[], list[BehaviorState]] = namespace["bind"](*behaviors)
-    return read
+    exec("\n".join(lines), namespace)  # noqa: S102 - our own source, of names and indices only
+    bind: Callable[..., Callable[[], list[StateChangeRecord]]] = namespace["bind"]
+    return bind
 
 
 class CycleExecutor:
@@ -52,8 +74,7 @@ class CycleExecutor:
         self.system = system
         catalogue = system.behaviors
         self.behavior_ids = list(catalogue)
-        self._read_states = state_reader(list(catalogue.values()))
-        self._states = self._read_states()
+        self._changes = state_differ(list(catalogue.values()))
         self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
@@ -70,17 +91,7 @@ class CycleExecutor:
         if context.outputs:
             context.outputs = {}
         self._update(state, context)
-        now = self._read_states()
-        states = self._states
-        if now == states:  # the common case, compared in C: same objects or equal values
-            return []
-        changes: list[StateChangeRecord] = []
-        for index, after in enumerate(now):
-            before = states[index]
-            if after is not before and after != before:
-                changes.append((index, before, after))
-                states[index] = after
-        return changes
+        return self._changes()
 
     def pause_next_update(self, pause: Pause) -> None:
         """Hand the next cycle's update to ``pause``, once: :meth:`step` advances the
