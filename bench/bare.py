@@ -221,6 +221,7 @@ def replay_against_bare(
         "bare_us_per_cycle": bare_s / cycles * 1e6,
         "replay_cycles_per_s": cycles / replay_s,
         "replay_speedup_best": max(result.speedup for result in results),
+        "replay_speedup_median": statistics.median(result.speedup for result in results),
         "replay_over_bare": replay_s / bare_s,
         "checked_us_per_cycle": checked_s / cycles * 1e6,
         "checked_over_bare": checked_s / bare_s,
