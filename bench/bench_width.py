@@ -62,6 +62,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model import (
     BehaviorState,
     Context,
+    LiveHeartbeat,
     Outputs,
     PriorityArbiter,
     RecordingRandom,
@@ -286,11 +287,49 @@ def record(path: Path, behaviors: int, fields: int, cycles: int) -> Figures:
     }
 
 
+def paced(directory: Path, behaviors: int, fields: int, beats: int) -> Figures:
+    """``Recorder.step`` as a live robot's control thread sees it: ``beats`` beats on a
+    30 ms :class:`~beatlog.model.LiveHeartbeat`, each step timed in wall time and in the
+    thread's CPU time; then the same beats stepping the system alone. The wall time
+    counts waiting for the writer thread to let go of the GIL."""
+    prepared = list(states(fields, beats))
+    with Recorder(
+        directory / f"paced-{behaviors}x{fields}.beatlog",
+        wide_system(behaviors, fields),
+        seed=SEED,
+        software="bench",
+    ) as recorder:
+        recording = _paced_steps(recorder.step, prepared)
+    random = RecordingRandom(SEED)
+    executor = CycleExecutor(wide_system(behaviors, fields), random)
+
+    def step_alone(interval: int, state: Any) -> None:
+        executor.step(interval, state)
+        random.take()
+
+    return {"recorder": recording, "executor": _paced_steps(step_alone, prepared)}
+
+
+def _paced_steps(step: Callable[[int, Any], object], prepared: Sequence[Any]) -> Figures:
+    wall_ns: list[int] = []
+    cpu_ns: list[int] = []
+    clock = LiveHeartbeat(PERIOD_NS)
+    clock.start()
+    for state in prepared:
+        interval = clock.wait()
+        wall, cpu_before = time.perf_counter_ns(), time.thread_time_ns()
+        step(interval, state)
+        cpu_ns.append(time.thread_time_ns() - cpu_before)
+        wall_ns.append(time.perf_counter_ns() - wall)
+    return {"wall_us": _spread(wall_ns), "cpu_us": _spread(cpu_ns), "overruns": clock.overruns}
+
+
 def _spread(samples_ns: Sequence[int]) -> dict[str, float]:
     ordered = sorted(samples_ns)
     return {
         "p50": ordered[len(ordered) // 2] / 1e3,
         "p99": ordered[min(len(ordered) - 1, int(len(ordered) * 0.99))] / 1e3,
+        "max": ordered[-1] / 1e3,
         "mean": statistics.fmean(ordered) / 1e3,
     }
 
@@ -445,6 +484,8 @@ def measure_cell(cell: Cell, args: argparse.Namespace, directory: Path) -> Figur
             "replay_speedup_best",
         )
     }
+    if args.paced:
+        figures["paced"] = paced(directory, behaviors, fields, args.paced)
     if args.split:
         figures["split"] = read_split(log, behaviors, fields, args.rounds)
     if args.instructions:
@@ -552,6 +593,14 @@ def report(figures: Figures) -> list[str]:
             f" = {counted['replay'] / counted['bare']:.2f}"
             + "".join(f"; {kind} {counted[kind]:,.0f}" for kind in COUNTED[2:] if kind in counted)
         )
+    if "paced" in figures:
+        for name, part in figures["paced"].items():
+            wall, cpu_us = part["wall_us"], part["cpu_us"]
+            lines.append(
+                f"  paced {name}: wall p50/p99/max {wall['p50']:.1f}/{wall['p99']:.1f}/"
+                f"{wall['max']:.1f} µs, CPU p50/p99/max {cpu_us['p50']:.1f}/{cpu_us['p99']:.1f}/"
+                f"{cpu_us['max']:.1f} µs, overruns {part['overruns']}"
+            )
     if "split" in figures:
         lines.append(
             "  read split (µs/cycle): "
@@ -569,6 +618,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--no-instructions", dest="instructions", action="store_false")
     parser.add_argument("--split", action="store_true", help="also time reading the log in parts")
+    parser.add_argument(
+        "--paced", type=int, default=0, metavar="BEATS", help="also time BEATS live 30 ms beats"
+    )
     parser.add_argument("--json", type=Path)
     parser.add_argument(
         "--count", nargs=5, metavar=("LOG", "B", "F", "KIND", "TIMES"), help=argparse.SUPPRESS
