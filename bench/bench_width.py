@@ -12,7 +12,8 @@ reports:
 
 - instructions per cycle of one replay and of one bare loop (``bench/bare.py``: the same
   behaviors on robot states and draws decoded beforehand), counted by valgrind's
-  cachegrind (``I refs``) under ``setarch -R`` with ``PYTHONHASHSEED=0``: each is the
+  cachegrind (``I refs``) under ``setarch -R`` with ``PYTHONHASHSEED=0`` and one BLAS
+  thread (``OPENBLAS_NUM_THREADS=1``, :data:`QUIET_THREADS`): each is the
   difference between a process that runs it twice and one that runs it once (the first
   run warms up), over the cycles; and their ratio;
 - CPU time of replay / bare loop (``time.process_time``), alternated ``--rounds`` times
@@ -424,6 +425,9 @@ def count_child(log: Path, behaviors: int, fields: int, kind: str, times: int) -
         run()
 
 
+QUIET_THREADS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+"""numpy's BLAS threads spin while they wait, a few million instructions more or less
+from run to run; one thread keeps the counts the same from run to run."""
 _IREFS = re.compile(r"I\s+refs:\s+([\d,]+)")
 
 
@@ -436,7 +440,7 @@ def instructions(log: Path, behaviors: int, fields: int, kind: str, cycles: int)
             "--cachegrind-out-file=/dev/null", sys.executable, __file__,
             "--count", str(log), str(behaviors), str(fields), kind, str(times),
         ]  # fmt: skip
-        env = {**os.environ, "PYTHONHASHSEED": "0"}
+        env = {**os.environ, "PYTHONHASHSEED": "0", **QUIET_THREADS}
         done = subprocess.run(command, capture_output=True, text=True, env=env, check=False)
         found = _IREFS.search(done.stderr)
         if done.returncode != 0 or found is None:
