@@ -132,14 +132,24 @@ def states(fields: int, cycles: int) -> Iterator[RobotState]:
 # -- the behaviors ----------------------------------------------------------------------
 
 
-class Hysteresis:
-    """On above +0.6 and off below -0.6 of a mix of two floats; drives while on and a
-    flag is set."""
+class Reading:
+    """A behavior of the synthetic system: it reads 3 fields of the robot state."""
+
+    initial: BehaviorState = None
 
     def __init__(self, name: str, reads: tuple[str, str, str]) -> None:
         self.name = name
-        self.state: BehaviorState = "off"
+        self.state: BehaviorState = self.initial
         self._read = attrgetter(*reads)
+        self._until = 0
+        self._level = 0.0
+
+
+class Hysteresis(Reading):
+    """On above +0.6 and off below -0.6 of a mix of two floats; drives while on and a
+    flag is set."""
+
+    initial = "off"
 
     def step(self, state: Any, context: Context) -> Outputs | None:
         a, b, flag = self._read(state)
@@ -152,14 +162,10 @@ class Hysteresis:
         return {"speed": 0.3 * a} if self.state == "on" and flag else None
 
 
-class Wander:
+class Wander(Reading):
     """Rests and wanders by turns, each turn lasting a random 2-8 s (one draw a turn)."""
 
-    def __init__(self, name: str, reads: tuple[str, str, str]) -> None:
-        self.name = name
-        self.state: BehaviorState = "rest"
-        self._read = attrgetter(*reads)
-        self._until = 0
+    initial = "rest"
 
     def step(self, state: Any, context: Context) -> Outputs | None:
         a, b, n = self._read(state)
@@ -171,14 +177,10 @@ class Wander:
         return None
 
 
-class Escape:
+class Escape(Reading):
     """Backs off for a second after a bump while a float reads low."""
 
-    def __init__(self, name: str, reads: tuple[str, str, str]) -> None:
-        self.name = name
-        self.state: BehaviorState = "clear"
-        self._read = attrgetter(*reads)
-        self._until = 0
+    initial = "clear"
 
     def step(self, state: Any, context: Context) -> Outputs | None:
         bump, a, b = self._read(state)
@@ -191,15 +193,11 @@ class Escape:
         return {"speed": -0.2, "turn": b} if self.state == "escape" else None
 
 
-class Boredom:
+class Boredom(Reading):
     """A boredom level that grows while two floats stay calm and falls otherwise; its
     state is the level in steps of 5, reset when an int reads very high."""
 
-    def __init__(self, name: str, reads: tuple[str, str, str]) -> None:
-        self.name = name
-        self.state: BehaviorState = 0
-        self._read = attrgetter(*reads)
-        self._level = 0.0
+    initial = 0
 
     def step(self, state: Any, context: Context) -> Outputs | None:
         a, b, n = self._read(state)
