@@ -11,59 +11,95 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from beatlog.log.format import StateChangeRecord
-from beatlog.model.behavior import Behavior, System
+from beatlog.model.behavior import Behavior, BehaviorState, System
 from beatlog.model.clock import SimulatedHeartbeat
 from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
-__all__ = ["CycleExecutor", "Pause", "Update", "state_differ"]
+__all__ = [
+    "ChangeFinder",
+    "CycleExecutor",
+    "Pause",
+    "Update",
+    "state_change_finder",
+    "state_reader",
+]
 
 Update = Callable[[Any, Context], None]
 """A system's update: the behaviors step from RS_t with the context of the cycle."""
 Pause = Callable[[Update, Any, Context], None]
 """Takes the place of one update: given it, RS_t and the context, it must run it."""
+ChangeFinder = Callable[[list[BehaviorState], list[BehaviorState]], list[StateChangeRecord]]
+"""Given the states read now and those seen last, BS_t (:func:`state_change_finder`)."""
 
 
-def state_differ(behaviors: Sequence[Behavior]) -> Callable[[], list[StateChangeRecord]]:
-    """A function that returns the behaviors' state changes since its last call (since
-    it was made, the first time): BS_t, as ``(index, before, after)`` in catalogue order.
+def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
+    """A function that reads every behavior's state, in catalogue order.
 
-    A state counts as changed when it is another object that is not equal to the one
-    seen last (which is kept otherwise: ``1`` then ``True`` then ``2`` is one change,
-    from ``1`` to ``2``). The function's source is written out for the catalogue (as
-    :mod:`dataclasses` writes an ``__init__``), from nothing but the catalogue's size:
-    each behavior's state is read by an attribute access of its own, which the
-    interpreter specialises for that behavior's class, and compared by identity with
-    the state last seen, kept in a cell of its own. There is no loop over the
-    catalogue, so a cycle costs a few bytecodes a behavior and each change a few more,
-    however many changed; a loop over every behavior, whenever any state changed, cost
-    several times as much (``bench/bench_width.py``).
+    Its source is written out for the catalogue (as :mod:`dataclasses` writes an
+    ``__init__``), from nothing but the catalogue's size: each behavior's state is then
+    read by an attribute access of its own, which the interpreter specialises for that
+    behavior's class. One access in a loop sees every class and stays generic, several
+    times slower; reading the states is a fixed cost of every cycle.
     """
-    bind = _differ_binder(len(behaviors))
-    return bind(*behaviors, *[behavior.state for behavior in behaviors])
+    read: Callable[[], list[BehaviorState]] = _reader_binder(len(behaviors))(*behaviors)
+    return read
+
+
+_BLOCK = 32
+"""Behaviors whose states :func:`state_change_finder` compares at once, in C."""
 
 
 @functools.lru_cache(maxsize=16)
-def _differ_binder(size: int) -> Callable[..., Callable[[], list[StateChangeRecord]]]:
-    """:func:`state_differ`'s code for a catalogue of ``size``, compiled once per size:
-    compiling it takes about 40 ms for a thousand behaviors."""
-    seen = [f"s{index}" for index in range(size)]
-    lines = [
-        f"def bind({', '.join([f'b{index}' for index in range(size)] + seen)}):",
-        "    def changes():",
-        f"        nonlocal {', '.join(seen)}" if size else "",
-        "        found = []",
-    ]
-    for index in range(size):
-        lines += [
-            f"        if (now := b{index}.state) is not s{index} and now != s{index}:",
-            f"            found.append(({index}, s{index}, now))",
-            f"            s{index} = now",
-        ]
-    lines += ["        return found", "    return changes", ""]
+def state_change_finder(size: int) -> ChangeFinder:
+    """A function ``find(now, seen)`` that, given the states of a catalogue of ``size``
+    behaviors read now and those seen last (both in catalogue order), returns BS_t: a
+    ``(index, before, after)`` for each state that is another object and not equal to
+    the one seen, in catalogue order. It sets those, and only those, in ``seen``: a state
+    equal to the one seen but another object leaves the one seen in place (``1``, then
+    ``True``, then ``2`` is one change, from ``1`` to ``2``).
+
+    Call it when the two lists differ. Its source is written out for the size, in
+    blocks of 32 behaviors: a block whose states are all the same is passed over by one
+    list comparison in C, so what a cycle costs beyond that follows the blocks in which
+    a state changed; a loop over every behavior cost several times as much at a
+    thousand behaviors (``bench/bench_width.py``). Made once per size: a thousand
+    behaviors take some 30 ms to compile.
+    """
+    lines = ["def find(now, seen):", "    found = []"]
+    for start in range(0, size, _BLOCK):
+        stop = min(start + _BLOCK, size)
+        indent = "    "
+        if size > _BLOCK:
+            lines.append(f"    if now[{start}:{stop}] != seen[{start}:{stop}]:")
+            indent += "    "
+        for index in range(start, stop):
+            now, seen = f"now[{index}]", f"seen[{index}]"
+            lines += [
+                f"{indent}if {now} is not {seen} and {now} != {seen}:",
+                f"{indent}    found.append(({index}, {seen}, {now}))",
+                f"{indent}    {seen} = {now}",
+            ]
+    lines += ["    return found", ""]
     namespace: dict[str, Any] = {}
-    exec("\n".join(lines), namespace)  # noqa: S102 - our own source, of names and indices only
-    bind: Callable[..., Callable[[], list[StateChangeRecord]]] = namespace["bind"]
+    exec("\n".join(lines), namespace)  # noqa: S102 - our own source, of indices only
+    find: ChangeFinder = namespace["find"]
+    return find
+
+
+@functools.lru_cache(maxsize=16)
+def _reader_binder(size: int) -> Callable[..., Callable[[], list[BehaviorState]]]:
+    """:func:`state_reader`'s code for a catalogue of ``size``, compiled once per size."""
+    names = [f"b{index}" for index in range(size)]
+    source = (
+        f"def bind({', '.join(names)}):\n"
+        f"    def read():\n"
+        f"        return [{', '.join(f'{name}.state' for name in names)}]\n"
+        f"    return read\n"
+    )
+    namespace: dict[str, Any] = {}
+    exec(source, namespace)  # noqa: S102 - our own source, of names b0, b1, ... only
+    bind: Callable[..., Callable[[], list[BehaviorState]]] = namespace["bind"]
     return bind
 
 
@@ -74,7 +110,9 @@ class CycleExecutor:
         self.system = system
         catalogue = system.behaviors
         self.behavior_ids = list(catalogue)
-        self._changes = state_differ(list(catalogue.values()))
+        self._read_states = state_reader(list(catalogue.values()))
+        self._states = self._read_states()
+        self._find_changes = state_change_finder(len(self._states))
         self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
@@ -91,7 +129,11 @@ class CycleExecutor:
         if context.outputs:
             context.outputs = {}
         self._update(state, context)
-        return self._changes()
+        now = self._read_states()
+        states = self._states
+        if now == states:  # the common case, compared in C: same objects or equal values
+            return []
+        return self._find_changes(now, states)
 
     def pause_next_update(self, pause: Pause) -> None:
         """Hand the next cycle's update to ``pause``, once: :meth:`step` advances the
