@@ -34,7 +34,7 @@ from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import state_reader
+from beatlog.model.cycle import state_change_finder, state_reader
 from beatlog.model.random import Draw, ReplayRandom
 
 __all__ = [
@@ -145,6 +145,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
     random.bind(context)
     read_states = state_reader(list(system.behaviors.values()))
     states = read_states()
+    find_changes = state_change_finder(len(states))
     encode = payload_encoder().encode
     decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     raw = msgspec.Raw
@@ -165,12 +166,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
                 update(record.robot_state, context)
                 now = read_states()
                 if now != states:
-                    changes = []
-                    for index, after in enumerate(now):
-                        before = states[index]
-                        if after is not before and after != before:
-                            changes.append((index, before, after))
-                            states[index] = after
+                    changes = find_changes(now, states)
                     failed += record.state_changes != raw(encode(changes))
                 else:
                     failed += record.state_changes != EMPTY_LIST
@@ -231,6 +227,7 @@ def replay_against_bare(
         "bare_us_per_cycle": bare_s / cycles * 1e6,
         "replay_cycles_per_s": cycles / replay_s,
         "replay_speedup_best": max(result.speedup for result in results),
+        "replay_speedup_median": statistics.median(result.speedup for result in results),
         "replay_over_bare": replay_s / bare_s,
         "checked_us_per_cycle": checked_s / cycles * 1e6,
         "checked_over_bare": checked_s / bare_s,

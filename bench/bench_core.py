@@ -122,6 +122,7 @@ def bench_replay_and_bare(path: Path, rounds: int) -> tuple[Figures, Figures]:
         key: figures[key] for key in ("replay_ok", "cycles", "replay_cpu_s", "replay_cycles_per_s")
     }
     replay["speedup"] = figures["replay_speedup_best"]
+    replay["speedup_median"] = figures["replay_speedup_median"]
     bare = {key: value for key, value in figures.items() if key not in replay}
     return replay, bare
 
@@ -401,7 +402,12 @@ def summary(results: Figures) -> list[tuple[str, str, str, bool | None]]:
     return [
         ("log generation (35k cycles)", f"{gen['seconds']:.2f} s", "—", None),
         ("replay throughput (CPU)", f"{rep['replay_cycles_per_s']:,.0f} cycles/s", "—", None),
-        ("replay speed", f"{rep['speedup']:,.0f}× real time", "≥ 1,500×", rep["speedup"] >= 1500),
+        (
+            "replay speed, best (median)",
+            f"{rep['speedup']:,.0f}× ({rep['speedup_median']:,.0f}×) real time",
+            "≥ 1,500×",
+            rep["speedup"] >= 1500,
+        ),
         (
             "replay / bare loop",
             f"{bare['replay_over_bare']:.2f}",

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import time
 from pathlib import Path
 from typing import Any
 
+import msgspec
 import numpy as np
 import pytest
 
@@ -28,6 +30,7 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
+from beatlog.replay import fit
 from beatlog.replay.compare import Comparison
 from beatlog.replay.expectation import Expectation, TracedChange
 from beatlog.replay.verdict import Checked
@@ -762,3 +765,21 @@ def test_draws_are_matched_to_behaviors_by_name_not_by_position(record_probe: Re
         first_cycle_below(0.5),
         DivergenceKind.STATE_CHANGES,
     )
+
+
+def test_the_wall_time_counts_opening_and_checking_the_log(
+    record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(30)
+    system = probe_system()
+    checked: list[bool] = []
+
+    def slow_schema(state_type: type[Any]) -> dict[str, Any]:
+        checked.append(True)
+        time.sleep(0.05)  # a wide robot state's schema takes a while to compare
+        return msgspec.json.schema(state_type)
+
+    monkeypatch.setattr(fit, "state_schema", slow_schema)
+    result = replay(log, system)
+    assert checked == [True]
+    assert result.wall_time_s >= 0.05

@@ -6,6 +6,7 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -15,12 +16,21 @@ from beatlog.model.clock import SimulatedHeartbeat
 from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
-__all__ = ["CycleExecutor", "Pause", "Update", "state_reader"]
+__all__ = [
+    "ChangeFinder",
+    "CycleExecutor",
+    "Pause",
+    "Update",
+    "state_change_finder",
+    "state_reader",
+]
 
 Update = Callable[[Any, Context], None]
 """A system's update: the behaviors step from RS_t with the context of the cycle."""
 Pause = Callable[[Update, Any, Context], None]
 """Takes the place of one update: given it, RS_t and the context, it must run it."""
+ChangeFinder = Callable[[list[BehaviorState], list[BehaviorState]], list[StateChangeRecord]]
+"""Given the states read now and those seen last, BS_t (:func:`state_change_finder`)."""
 
 
 def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
@@ -32,7 +42,55 @@ def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorSta
     behavior's class. One access in a loop sees every class and stays generic, several
     times slower; reading the states is a fixed cost of every cycle.
     """
-    names = [f"b{index}" for index in range(len(behaviors))]
+    read: Callable[[], list[BehaviorState]] = _reader_binder(len(behaviors))(*behaviors)
+    return read
+
+
+_BLOCK = 32
+"""Behaviors whose states :func:`state_change_finder` compares at once, in C."""
+
+
+@functools.lru_cache(maxsize=16)
+def state_change_finder(size: int) -> ChangeFinder:
+    """A function ``find(now, seen)`` that, given the states of a catalogue of ``size``
+    behaviors read now and those seen last (both in catalogue order), returns BS_t: a
+    ``(index, before, after)`` for each state that is another object and not equal to
+    the one seen, in catalogue order. It sets those, and only those, in ``seen``: a state
+    equal to the one seen but another object leaves the one seen in place (``1``, then
+    ``True``, then ``2`` is one change, from ``1`` to ``2``).
+
+    Call it when the two lists differ. Its source is written out for the size, in
+    blocks of 32 behaviors: a block whose states are all the same is passed over by one
+    list comparison in C, so what a cycle costs beyond that follows the blocks in which
+    a state changed; a loop over every behavior cost several times as much at a
+    thousand behaviors (``bench/bench_width.py``). Made once per size: a thousand
+    behaviors take some 30 ms to compile.
+    """
+    lines = ["def find(now, seen):", "    found = []"]
+    for start in range(0, size, _BLOCK):
+        stop = min(start + _BLOCK, size)
+        indent = "    "
+        if size > _BLOCK:
+            lines.append(f"    if now[{start}:{stop}] != seen[{start}:{stop}]:")
+            indent += "    "
+        for index in range(start, stop):
+            now, seen = f"now[{index}]", f"seen[{index}]"
+            lines += [
+                f"{indent}if {now} is not {seen} and {now} != {seen}:",
+                f"{indent}    found.append(({index}, {seen}, {now}))",
+                f"{indent}    {seen} = {now}",
+            ]
+    lines += ["    return found", ""]
+    namespace: dict[str, Any] = {}
+    exec("\n".join(lines), namespace)  # noqa: S102 - our own source, of indices only
+    find: ChangeFinder = namespace["find"]
+    return find
+
+
+@functools.lru_cache(maxsize=16)
+def _reader_binder(size: int) -> Callable[..., Callable[[], list[BehaviorState]]]:
+    """:func:`state_reader`'s code for a catalogue of ``size``, compiled once per size."""
+    names = [f"b{index}" for index in range(size)]
     source = (
         f"def bind({', '.join(names)}):\n"
         f"    def read():\n"
@@ -41,8 +99,8 @@ def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorSta
     )
     namespace: dict[str, Any] = {}
     exec(source, namespace)  # noqa: S102 - our own source, of names b0, b1, ... only
-    read: Callable[[], list[BehaviorState]] = namespace["bind"](*behaviors)
-    return read
+    bind: Callable[..., Callable[[], list[BehaviorState]]] = namespace["bind"]
+    return bind
 
 
 class CycleExecutor:
@@ -54,6 +112,7 @@ class CycleExecutor:
         self.behavior_ids = list(catalogue)
         self._read_states = state_reader(list(catalogue.values()))
         self._states = self._read_states()
+        self._find_changes = state_change_finder(len(self._states))
         self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
@@ -74,13 +133,7 @@ class CycleExecutor:
         states = self._states
         if now == states:  # the common case, compared in C: same objects or equal values
             return []
-        changes: list[StateChangeRecord] = []
-        for index, after in enumerate(now):
-            before = states[index]
-            if after is not before and after != before:
-                changes.append((index, before, after))
-                states[index] = after
-        return changes
+        return self._find_changes(now, states)
 
     def pause_next_update(self, pause: Pause) -> None:
         """Hand the next cycle's update to ``pause``, once: :meth:`step` advances the

@@ -134,6 +134,7 @@ def replay(
         perception = load_perception(perception)
     comparison = comparison or Comparison()
     migration = migration or StateMigration()
+    started = time.perf_counter()  # the replay's wall time counts opening and checking the log
     with ReplaySession(
         log,
         system,
@@ -165,7 +166,6 @@ def replay(
             # State-level replay without observers needs RS_t decoded, and only that:
             # decoded with each batch, it is read once (the log fits: checked above).
             reader.decode_states(judge.replayer.state_type)
-        started = time.perf_counter()
         status = None
         batches = judge.expected_batches(reader.batches())
         for batch in batches:

@@ -191,6 +191,8 @@ class ReplayResult:
     empty (see :func:`beatlog.replay`)."""
     robot_time_ns: int
     wall_time_s: float
+    """Wall time from opening the log (its header read and checked against the system)
+    to the last cycle judged."""
     status: LogStatus | None
     """How the log ended; None when replay stopped at a divergence before reading it all."""
     divergence: Divergence | None
@@ -233,5 +235,6 @@ class ReplayResult:
 
     @property
     def speedup(self) -> float:
-        """Robot time replayed per second of wall time (× real time)."""
+        """Robot time replayed per second of wall time (× real time), opening the log
+        included."""
         return self.robot_time_s / self.wall_time_s if self.wall_time_s > 0 else float("inf")
