@@ -53,6 +53,7 @@ if TYPE_CHECKING:
 __all__ = ["DtcFile", "DtcItem", "beatlog_replay"]
 
 _VERDICT, _SPEC, _UPDATE = "beatlog_verdict", "beatlog_spec", "beatlog_update"
+_OPEN_LOOP = "beatlog_open_loop"
 """Names of the user properties a DTC's report carries to the summary (across xdist)."""
 
 
@@ -127,6 +128,8 @@ class BeatlogRun:
     """The specs that ran: their folders are where orphaned baselines are looked for."""
     lines: list[str] = field(default_factory=list)
     """What updating the baselines did."""
+    open_loop: int = 0
+    """The DTCs judged against baselines whose behaviors left the recording."""
 
     @property
     def options(self) -> SpecOptions:
@@ -170,6 +173,8 @@ class BeatlogRun:
                 self.specs.add(Path(str(value)))
             elif name == _UPDATE:
                 self.lines.append(str(value))
+            elif name == _OPEN_LOOP:
+                self.open_loop += 1
 
     def pytest_terminal_summary(self, terminalreporter: pytest.TerminalReporter) -> None:
         """The pending baselines written, the orphans, the coverage and the DTCs' verdicts."""
@@ -189,7 +194,7 @@ class BeatlogRun:
         terminalreporter.section("beatlog")
         for line in lines:
             terminalreporter.write_line(line)
-        counts = verdict_counts(self.verdicts)
+        counts = verdict_counts(self.verdicts, open_loop=self.open_loop)
         terminalreporter.write_line(f"{plural(len(self.verdicts), 'DTC')}: {counts}")
 
     def _report(self) -> tuple[SuiteReport, str | None]:
@@ -306,6 +311,8 @@ class DtcItem(pytest.Item):
             outcome = self.outcome = run_spec(self.spec, run.options)
         self.user_properties.append((_VERDICT, outcome.verdict.value))
         self.user_properties.append((_SPEC, str(self.spec.path)))
+        if outcome.open_loop is not None:
+            self.user_properties.append((_OPEN_LOOP, outcome.open_loop[0]))
         if outcome.result is not None:  # what it checked, as beatlog test's JUnit has it
             self.user_properties.extend(
                 (f"beatlog_{name}", count) for name, count in outcome.result.counts.items()
