@@ -64,7 +64,7 @@ def state_change_finder(size: int) -> ChangeFinder:
     list comparison in C, so what a cycle costs beyond that follows the blocks in which
     a state changed; a loop over every behavior cost several times as much at a
     thousand behaviors (``bench/bench_width.py``). Made once per size: a thousand
-    behaviors take some 30 ms to compile.
+    behaviors take some 45 ms to compile.
     """
     lines = ["def find(now, seen):", "    found = []"]
     for start in range(0, size, _BLOCK):
