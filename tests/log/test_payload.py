@@ -11,6 +11,7 @@ import pytest
 from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord
 from beatlog.log.reader import SessionLogReader
+from tests.chunked import read_all
 from tests.conftest import PERIOD_NS
 from tests.factories import (
     FORMAT_1_CHANNELS,
@@ -23,7 +24,6 @@ from tests.factories import (
     header_message,
     standard_messages,
 )
-from tests.log.conftest import read_all
 
 
 @pytest.mark.parametrize("version", [1, FORMAT_VERSION])

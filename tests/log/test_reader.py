@@ -20,6 +20,15 @@ from beatlog.errors import (
 from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
+from tests.chunked import (
+    CYCLES,
+    CYCLES_PER_CHUNK,
+    Original,
+    cut_points,
+    encoded,
+    read_all,
+    write,
+)
 from tests.conftest import PERIOD_NS
 from tests.factories import (
     MAGIC_LENGTH,
@@ -28,15 +37,6 @@ from tests.factories import (
     header_message,
     session_header,
     top_level_records,
-)
-from tests.log.conftest import (
-    CYCLES,
-    CYCLES_PER_CHUNK,
-    Original,
-    cut_points,
-    encoded,
-    read_all,
-    write,
 )
 
 CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8
