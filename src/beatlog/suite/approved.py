@@ -51,6 +51,25 @@ def _names(spec: Path, log: Path) -> bool:
     return isinstance(named, str) and (spec.parent / named).resolve() == log.resolve()
 
 
+def _naming(log: Path) -> list[Path]:
+    """The spec files beside ``log`` that name it."""
+    return [spec for spec in sorted(log.parent.glob(f"*{SPEC_SUFFIX}")) if _names(spec, log)]
+
+
+def _approved(spec_file: Path, log: Path) -> Approved:
+    """The spec at ``spec_file`` with its approved baseline, made from ``log``.
+
+    :raises beatlog.errors.BaselineError: the baseline was approved for another recording.
+    """
+    spec = load_spec(spec_file)
+    baseline = read_baseline(expected_path(spec.path))
+    if baseline.log_digest != log_digest(log):
+        raise BaselineError(
+            baseline.path, f"approved for another recording than {log.name}; delete it"
+        )
+    return Approved(spec, baseline)
+
+
 def approved_baselines(log: str | Path) -> list[Approved]:
     """The approved baselines of every spec beside ``log`` that names it.
 
@@ -58,17 +77,7 @@ def approved_baselines(log: str | Path) -> list[Approved]:
     :raises beatlog.errors.SpecError: a spec that names it is not a valid spec.
     """
     path = Path(log)
-    found: list[Approved] = []
-    for candidate in sorted(path.parent.glob(f"*{SPEC_SUFFIX}")):
-        if expected_path(candidate).is_file() and _names(candidate, path):
-            spec = load_spec(candidate)
-            baseline = read_baseline(expected_path(spec.path))
-            if baseline.log_digest != log_digest(path):
-                raise BaselineError(
-                    baseline.path, f"approved for another recording than {path.name}; delete it"
-                )
-            found.append(Approved(spec, baseline))
-    return found
+    return [_approved(spec, path) for spec in _naming(path) if expected_path(spec).is_file()]
 
 
 def approved_baseline(log: str | Path, system: object = None) -> Approved | None:
@@ -78,22 +87,22 @@ def approved_baseline(log: str | Path, system: object = None) -> Approved | None
 
     :raises beatlog.errors.BaselineError: as :func:`approved_baselines`, or several specs
         name the log, one with an approved baseline, and ``system`` does not tell which.
+    :raises beatlog.errors.SpecError: a spec that names it is not a valid spec.
     """
     path = Path(log)
-    approved = approved_baselines(path)
-    if not approved:
+    naming = _naming(path)
+    if not any(expected_path(spec).is_file() for spec in naming):
         return None
-    naming = [spec for spec in sorted(path.parent.glob(f"*{SPEC_SUFFIX}")) if _names(spec, path)]
-    if len(naming) == 1:
-        return approved[0]
-    meant = [spec for spec in naming if load_spec(spec).system == system]
-    if len(meant) != 1:
-        raise BaselineError(
-            path,
-            f"the specs {', '.join(spec.name for spec in naming)} name it, with approved "
-            "baselines, and the system replayed does not tell which: test one of them",
-        )
-    return next((found for found in approved if found.spec.path == meant[0]), None)
+    if len(naming) > 1:
+        meant = [spec for spec in naming if load_spec(spec).system == system]
+        if len(meant) != 1:
+            raise BaselineError(
+                path,
+                f"the specs {', '.join(spec.name for spec in naming)} name it, with approved "
+                "baselines, and the system replayed does not tell which: test one of them",
+            )
+        naming = meant
+    return _approved(naming[0], path) if expected_path(naming[0]).is_file() else None
 
 
 def replay(
