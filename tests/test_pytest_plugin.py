@@ -258,7 +258,6 @@ def test_dtcs_run_under_xdist_and_measure_behavior_coverage(
 def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
     pytester: pytest.Pytester, log: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.delenv("CI", raising=False)
     changed = "tests.conftest:probe_system_changed"
     spec = pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log, changed))
     pytester.makefile(".dtc.toml", steady=spec_text("steady", log))

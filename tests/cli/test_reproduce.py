@@ -33,8 +33,7 @@ BeatlogVerdict = Callable[..., Verdict]
 
 
 @pytest.fixture(autouse=True)
-def not_ci_and_wide(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.delenv("CI", raising=False)
+def wide(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("COLUMNS", "400")
 
 

@@ -23,9 +23,8 @@ GREEDY = "tests.systems:probe_system_greedy"
 
 
 @pytest.fixture
-def log(record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch) -> Path:
+def log(record_probe: RecordFn) -> Path:
     """A probe log with a spec beside it whose greedy change is approved."""
-    monkeypatch.delenv("CI", raising=False)
     path = record_probe(300)
     write_spec(path.parent, "avoid-pole", path, GREEDY)
     specs = discover_specs([path.parent])

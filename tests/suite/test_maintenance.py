@@ -52,11 +52,6 @@ def run(spec: DtcSpec, mode: UpdateMode | str = UpdateMode.NEW) -> list[SpecOutc
     return run_suite([spec], update=mode)
 
 
-@pytest.fixture(autouse=True)
-def not_ci(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.delenv("CI", raising=False)
-
-
 @pytest.fixture
 def log(record_probe: RecordFn) -> Path:
     return record_probe(300)

@@ -31,11 +31,6 @@ def specs(tmp_path: Path, record_probe: RecordFn) -> Path:
     return folder
 
 
-@pytest.fixture(autouse=True)
-def outside_ci(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.delenv("CI", raising=False)
-
-
 def test_a_session_runs_the_dtcs_and_writes_the_reports_printing_nothing(
     specs: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
