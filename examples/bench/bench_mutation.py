@@ -42,7 +42,7 @@ Survivors are then reported as:
   (it may still differ on other inputs: these are reported, never discarded);
 - *survived, not reached*: the suite never evaluated the mutated spot.
 
-Run it as ``python bench/bench_mutation.py [--jobs N] [--limit N] [--only GROUP]
+Run it as ``python examples/bench/bench_mutation.py [--jobs N] [--limit N] [--only GROUP]
 [--suite DIR] [--json FILE]``; 368 mutants took 4.5 to 7.5 minutes with ``--jobs 2``
 on a busy 2-core machine.
 """
