@@ -24,8 +24,8 @@ from typing import Any, NamedTuple
 
 from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import UpdateAction, update_baselines
+from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
-from beatlog.suite.runner import run_suite
 from beatlog.suite.spec import discover_specs
 from beatlog_examples.dog import SUITE_DIR, perception
 

@@ -18,7 +18,8 @@ from matplotlib.image import imread
 
 from beatlog.record.recorder import Recorder
 from beatlog.report.html import write_html
-from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec, load_spec
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import PERIOD_NS, Probe

@@ -12,8 +12,9 @@ from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replay.verdict import Checked, DivergenceKind
 from beatlog.report.figures import dtc_charts
+from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
+from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import MEETING, Dice, Near, Probe, RecordFn
 from tests.factories import cut_short

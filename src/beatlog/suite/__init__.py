@@ -1,7 +1,7 @@
 """DTC specs and suites: ``*.dtc.toml`` files, fleet runs of logs without specs, the
-suite session every shell runs (select, run, update, report), the parallel runner and
-its Dask executor, shards for a CI matrix, JUnit output and the
-re-baselining workflow (update, review, approve) with its CI rule.
+parallel runner and its Dask executor, shards for a CI matrix, JUnit output and the
+re-baselining workflow (update, review, approve) with its CI rule. The session every
+shell runs puts these and the reports together (:mod:`beatlog.suite_session`).
 
 The names are imported on first use, so that a suite worker
 (:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
@@ -17,9 +17,9 @@ if TYPE_CHECKING:
     from beatlog.suite.junit import write_junit
     from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
     from beatlog.suite.options import SuiteOptions
+    from beatlog.suite.parallel import run_suite
     from beatlog.suite.policy import UpdateMode
-    from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
-    from beatlog.suite.session import SuiteSession, run_session
+    from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
     from beatlog.suite.sharding import Shard, shard
     from beatlog.suite.spec import (
         SPEC_SUFFIX,
@@ -37,7 +37,6 @@ __all__ = [
     "Shard",
     "SpecOutcome",
     "SuiteOptions",
-    "SuiteSession",
     "UpdateMode",
     "Verdict",
     "approve",
@@ -45,7 +44,6 @@ __all__ = [
     "discover_specs",
     "fleet_specs",
     "load_spec",
-    "run_session",
     "run_spec",
     "run_suite",
     "select_specs",
@@ -67,14 +65,12 @@ __getattr__ = lazy_names(
         "update_baselines": "beatlog.suite.maintenance",
         "SpecOutcome": "beatlog.suite.runner",
         "SuiteOptions": "beatlog.suite.options",
-        "SuiteSession": "beatlog.suite.session",
         "Verdict": "beatlog.suite.runner",
         "discover_specs": "beatlog.suite.spec",
         "fleet_specs": "beatlog.suite.fleet",
         "load_spec": "beatlog.suite.spec",
-        "run_session": "beatlog.suite.session",
         "run_spec": "beatlog.suite.runner",
-        "run_suite": "beatlog.suite.runner",
+        "run_suite": "beatlog.suite.parallel",
         "select_specs": "beatlog.suite.spec",
         "Shard": "beatlog.suite.sharding",
         "shard": "beatlog.suite.sharding",

@@ -1,5 +1,5 @@
 """``beatlog test``: run DTC specs, or a fleet's logs, as one suite session
-(:mod:`beatlog.suite.session`); this module reads the options and prints the report."""
+(:mod:`beatlog.suite_session`); this module reads the options and prints the report."""
 
 from __future__ import annotations
 
@@ -160,7 +160,7 @@ def _options(args: argparse.Namespace) -> SuiteOptions:
 def run(args: argparse.Namespace, console: Console) -> int:
     """Run the suite with a progress bar, each failure (every DTC with ``--verbose``)
     shown as it comes, then the session's report and its counts."""
-    from beatlog.suite.session import SuiteSession
+    from beatlog.suite_session import SuiteSession
 
     session = SuiteSession(_options(args))
     progress = _progress(console, breaking=session.options.breaking)
