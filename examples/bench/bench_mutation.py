@@ -743,7 +743,7 @@ def main() -> None:
         serve()
         return
 
-    from beatlog.suite.spec import discover_specs  # noqa: PLC0415
+    from beatlog.suite.discovery import discover_specs  # noqa: PLC0415
     from beatlog_examples.dog import SUITE_DIR  # noqa: PLC0415
 
     console = Console()

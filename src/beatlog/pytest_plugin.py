@@ -38,8 +38,9 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from beatlog.errors import BeatlogError, OptionError, SpecError
+from beatlog.suite.discovery import discover_specs, distinguished
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs, distinguished, load_spec
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
 if TYPE_CHECKING:
     from beatlog.model.behavior import System

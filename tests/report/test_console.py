@@ -16,8 +16,9 @@ from beatlog.report.console import (
     render_suite,
     render_summary,
 )
+from beatlog.suite.discovery import distinguished
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
-from beatlog.suite.spec import DtcSpec, distinguished, load_spec
+from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn, probe_system
 from tests.specs import CHANGED, PROBE, write_spec
 

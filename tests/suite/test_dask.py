@@ -18,9 +18,9 @@ from distributed import Client, LocalCluster
 
 from beatlog.cli.main import main
 from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor
+from beatlog.suite.discovery import discover_specs
 from beatlog.suite.policy import SpecOptions
 from beatlog.suite.runner import SpecOutcome
-from beatlog.suite.spec import discover_specs
 from tests.commands import Run, assert_one_line_error
 from tests.conftest import RecordFn
 from tests.served import LogServer

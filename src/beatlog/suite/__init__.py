@@ -13,6 +13,7 @@ from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.suite.cluster import DaskExecutor
+    from beatlog.suite.discovery import discover_specs, select_specs
     from beatlog.suite.fleet import fleet_specs
     from beatlog.suite.junit import write_junit
     from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
@@ -21,13 +22,7 @@ if TYPE_CHECKING:
     from beatlog.suite.policy import UpdateMode
     from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
     from beatlog.suite.sharding import Shard, shard
-    from beatlog.suite.spec import (
-        SPEC_SUFFIX,
-        DtcSpec,
-        discover_specs,
-        load_spec,
-        select_specs,
-    )
+    from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
 __all__ = [
     "SPEC_SUFFIX",
@@ -66,12 +61,12 @@ __getattr__ = lazy_names(
         "SpecOutcome": "beatlog.suite.runner",
         "SuiteOptions": "beatlog.suite.options",
         "Verdict": "beatlog.suite.runner",
-        "discover_specs": "beatlog.suite.spec",
+        "discover_specs": "beatlog.suite.discovery",
         "fleet_specs": "beatlog.suite.fleet",
         "load_spec": "beatlog.suite.spec",
         "run_spec": "beatlog.suite.runner",
         "run_suite": "beatlog.suite.parallel",
-        "select_specs": "beatlog.suite.spec",
+        "select_specs": "beatlog.suite.discovery",
         "Shard": "beatlog.suite.sharding",
         "shard": "beatlog.suite.sharding",
         "write_junit": "beatlog.suite.junit",
