@@ -14,6 +14,7 @@ __all__ = [
     "EmptyCheckError",
     "ExportError",
     "FieldError",
+    "FileProblemError",
     "FleetError",
     "LogError",
     "LogExistsError",
@@ -34,13 +35,20 @@ class BeatlogError(Exception):
     """The traceback of the user's code behind the error, when their code raised it."""
 
 
-class LogError(BeatlogError):
-    """A session log that cannot be read; the message names the file and the problem."""
+class FileProblemError(BeatlogError):
+    """A file given that cannot be used: the message names the file and the problem."""
 
-    def __init__(self, path: str | Path, problem: str) -> None:
+    def __init__(
+        self, path: str | Path, problem: str, *, user_traceback: str | None = None
+    ) -> None:
         self.path = Path(path)
         self.problem = problem
+        self.user_traceback = user_traceback
         super().__init__(f"{self.path}: {problem}")
+
+
+class LogError(FileProblemError):
+    """A session log that cannot be read; the message names the file and the problem."""
 
 
 class LogExistsError(LogError):
@@ -76,18 +84,10 @@ class EmptyCheckError(LogError):
     (``allow_empty``)."""
 
 
-class BagError(BeatlogError):
+class BagError(FileProblemError):
     """A ROS bag that cannot be imported as a session log: missing, damaged, without the
     messages asked for, or refused by the user's perception step or system; the message
     names the bag and the problem."""
-
-    def __init__(
-        self, path: str | Path, problem: str, *, user_traceback: str | None = None
-    ) -> None:
-        self.path = Path(path)
-        self.problem = problem
-        self.user_traceback = user_traceback
-        super().__init__(f"{self.path}: {problem}")
 
 
 class ExportError(BeatlogError):
@@ -139,13 +139,8 @@ class SystemLoadError(BeatlogError):
         self.user_traceback = user_traceback
 
 
-class SpecError(BeatlogError):
+class SpecError(FileProblemError):
     """A DTC spec (``*.dtc.toml``) that cannot be read; the message names the file and key."""
-
-    def __init__(self, path: str | Path, problem: str) -> None:
-        self.path = Path(path)
-        self.problem = problem
-        super().__init__(f"{self.path}: {problem}")
 
 
 class BaselineError(SpecError):
