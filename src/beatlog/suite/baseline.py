@@ -74,7 +74,7 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.errors import BaselineError, NotABeatlogError
-from beatlog.files import irregular_file_problem, replacing
+from beatlog.files import irregular_file_problem, read_small_text, replacing
 from beatlog.log.format import DECODE_ERRORS
 from beatlog.replay.draws import DrawRule
 from beatlog.replay.expectation import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
@@ -333,15 +333,7 @@ def _parse_draw(line: str, version: int) -> DrawRule:
 
 def read_baseline(path: Path) -> Baseline:
     """Read a baseline file; anything else raises :class:`BaselineError` naming the line."""
-    problem = irregular_file_problem(path)
-    if problem is not None:
-        raise BaselineError(path, problem)
-    if path.stat().st_size > MAX_BASELINE_BYTES:
-        raise BaselineError(path, f"is larger than {MAX_BASELINE_BYTES} bytes; not a baseline")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BaselineError(path, f"cannot read: {exc}") from None
+    text = read_small_text(path, limit=MAX_BASELINE_BYTES, kind="baseline", error=BaselineError)
     lines = text.splitlines()
     version = _VERSIONS.get(lines[0]) if lines else None
     if version is None:

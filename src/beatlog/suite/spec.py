@@ -70,7 +70,7 @@ from typing import Any
 import msgspec
 
 from beatlog.errors import SpecError
-from beatlog.files import irregular_file_problem, project_root
+from beatlog.files import project_root, read_small_text
 from beatlog.project import (
     check_conversions,
     check_one_to_one,
@@ -190,15 +190,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
     Its id starts from ``rootdir`` (by default, the one :func:`find_rootdir` finds for
     it)."""
     path = Path(path)
-    problem = irregular_file_problem(path)
-    if problem is not None:
-        raise SpecError(path, problem)
-    if path.stat().st_size > MAX_SPEC_BYTES:
-        raise SpecError(path, f"is larger than {MAX_SPEC_BYTES} bytes; not a DTC spec")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(path, f"cannot read: {exc}") from None
+    text = read_small_text(path, limit=MAX_SPEC_BYTES, kind="DTC spec", error=SpecError)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
