@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.audit.replays import AuditReport, Finding, audit
+from beatlog.audit.replays import Auditors, AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
@@ -170,14 +170,33 @@ def test_replays_that_differ_by_an_unseeded_global_generator_say_so(tmp_path: Pa
     assert [finding.call for finding in report.findings] == ["random.choice"]
 
 
-def test_the_audit_interpreters_are_kept_for_the_next_audit(
+def test_the_audit_interpreters_are_kept_for_the_next_audit_and_stopped_at_the_end(
     record_probe: RecordFn, meeting: Path
 ) -> None:
     log = record_probe(30)
 
-    reports = [audit(log, "tests.conftest:alone_system") for _ in range(3)]
+    with Auditors() as auditors:
+        reports = [audit(log, "tests.conftest:alone_system", auditors=auditors) for _ in range(3)]
 
-    assert all(report.ok for report in reports)
+    assert [report.ok for report in reports] == [True, True, True]
     signed = sorted(int(sign.name) for sign in meeting.iterdir())
     assert len(signed) == 2  # one interpreter per hash seed, not two per audit
     assert os.getpid() not in signed
+    for pid in signed:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_an_audit_without_auditors_stops_its_own_interpreters(
+    record_probe: RecordFn, meeting: Path
+) -> None:
+    log = record_probe(30)
+
+    report = audit(log, "tests.conftest:alone_system")
+
+    assert report.ok
+    signed = [int(sign.name) for sign in meeting.iterdir()]
+    assert len(signed) == 2
+    for pid in signed:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)

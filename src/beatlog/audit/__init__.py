@@ -10,14 +10,15 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.audit.replays import AuditReport, Finding, SeedRun, audit
+    from beatlog.audit.replays import Auditors, AuditReport, Finding, SeedRun, audit
 
-__all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
+__all__ = ["AuditReport", "Auditors", "Finding", "SeedRun", "audit"]
 
 __getattr__ = lazy_names(
     __name__,
     {
         "AuditReport": "beatlog.audit.replays",
+        "Auditors": "beatlog.audit.replays",
         "Finding": "beatlog.audit.replays",
         "SeedRun": "beatlog.audit.replays",
         "audit": "beatlog.audit.replays",

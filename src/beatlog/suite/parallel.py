@@ -5,13 +5,14 @@ as well (:mod:`beatlog.suite.worker`); all cores by default. Each spec runs with
 from __future__ import annotations
 
 import collections
+import contextlib
 import queue
 import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, suite_auditors
 from beatlog.suite.sharding import longest_first
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker
@@ -69,9 +70,10 @@ def run_suite(
     if executor is not None:
         executor(specs, options, done)
     elif workers < 1:
-        for spec in specs:
-            if done(run_spec(spec, options)):
-                break
+        with suite_auditors(options) as auditors:
+            for spec in specs:
+                if done(run_spec(spec, options, auditors=auditors)):
+                    break
     else:
         _run_with_workers(specs, workers, options, done)
     return [outcomes[spec.path] for spec in specs if spec.path in outcomes]
@@ -99,6 +101,8 @@ def _run_with_workers(
     pool: list[Worker] = []
     feeders: list[threading.Thread] = []
     left = len(specs)
+    kept = contextlib.ExitStack()
+    auditors = kept.enter_context(suite_auditors(options))
     try:
         for _ in range(workers):
             pool.append(Worker())
@@ -114,7 +118,7 @@ def _run_with_workers(
                     spec = pending.popleft()
                 except IndexError:  # a worker took the last one
                     continue
-                answer = run_spec(spec, options)
+                answer = run_spec(spec, options, auditors=auditors)
             else:
                 answer = answers.get()
             left -= 1
@@ -134,6 +138,7 @@ def _run_with_workers(
             answer = answers.get_nowait()
             if isinstance(answer, SpecOutcome):
                 done(answer)
+        kept.close()
 
 
 def _feed(

@@ -4,10 +4,12 @@ their specs with it (:mod:`beatlog.suite.parallel`), here and in worker processe
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import glob
 import time
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -28,10 +30,10 @@ from beatlog.usercode import importable_near, load_perception, load_system
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
     from beatlog.analysis.timeline import Timeline, TimelineCollector
-    from beatlog.audit.replays import AuditReport
+    from beatlog.audit.replays import Auditors, AuditReport
     from beatlog.model.behavior import System
 
-__all__ = ["SpecOutcome", "Verdict", "run_spec"]
+__all__ = ["SpecOutcome", "Verdict", "run_spec", "suite_auditors"]
 
 
 class Verdict(StrEnum):
@@ -112,7 +114,9 @@ _UPDATABLE = (
 )
 
 
-def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
+def run_spec(
+    spec: DtcSpec, options: SpecOptions | None = None, *, auditors: Auditors | None = None
+) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
     if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
     also traces the new state changes and outputs (nothing is written here: see
@@ -126,11 +130,14 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     ``--break-on-divergence`` do (:mod:`beatlog.replay.debugger`); a break past the end
     of the log is noted in the result.
     A log behind a URL is copied here first, and the copy removed after; one that
-    cannot be copied is an error of the DTC."""
+    cannot be copied is an error of the DTC. The audit runs in ``auditors``' interpreters
+    (see :func:`suite_auditors`), else in interpreters of its own."""
     with importable_near(spec.path):
         try:
             with spec.readable_log() as log:
-                outcome = _run_spec(dataclasses.replace(spec, log=log), options or SpecOptions())
+                outcome = _run_spec(
+                    dataclasses.replace(spec, log=log), options or SpecOptions(), auditors
+                )
         except RemoteLogError as exc:
             return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
         if spec.log_url is None:
@@ -148,7 +155,7 @@ def _named_as_given(outcome: SpecOutcome, spec: DtcSpec, copy: str, url: str) ->
     return dataclasses.replace(outcome, spec=spec, result=result, error=error)
 
 
-def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
+def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) -> SpecOutcome:
     update, audit, timelines = options.update, options.audit, options.timelines
     started = time.perf_counter()
     baseline = expected_path(spec.path)
@@ -209,7 +216,11 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
             report = audit_replay(
-                spec.log, system, allow_truncated=spec.allow_truncated, migration=spec.migration
+                spec.log,
+                system,
+                allow_truncated=spec.allow_truncated,
+                migration=spec.migration,
+                auditors=auditors,
             )
         drawn = _timelines(collector, details)
     except BeatlogError as exc:
@@ -319,3 +330,13 @@ def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | No
     if trace.stopped is not None:
         return None, f"replay cannot go on past {trace.stopped}: re-record the session"
     return trace.expectation, None
+
+
+def suite_auditors(options: SpecOptions) -> AbstractContextManager[Auditors | None]:
+    """The audit interpreters a process keeps for the specs it runs with ``options``
+    (none where they are not audited), stopped when the context ends."""
+    if not options.audit:
+        return contextlib.nullcontext()
+    from beatlog.audit.replays import Auditors  # noqa: PLC0415 - only when auditing
+
+    return Auditors()
