@@ -55,7 +55,9 @@ def test_a_changed_perception_step_fails_the_imported_dtc(beatlog: Beatlog, tmp_
     test = beatlog("test", spec)
 
     assert test.code == 1
-    assert "perception" in test.out
+    assert "first divergence: cycle 0, t = 0.030 s, perception" in test.out
+    assert "the robot state rebuilt from the samples differs in distance" in test.out
+    assert closing_counts(test.out) == "0 passed, 1 failed"
 
 
 def test_a_changed_system_fails_the_imported_dtc(beatlog: Beatlog, tmp_path: Path) -> None:
