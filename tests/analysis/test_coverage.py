@@ -186,6 +186,6 @@ def test_a_damaged_log_leaves_the_coverage_and_html_reports_of_the_others(
         f"beatlog: error: damaged ({specs / 'damaged.dtc.toml'}): "
         f"{specs / '..' / broken.name}: not a session log (not an MCAP file)"
     ]
-    assert "1 passed, 0 failed, 1 error" in captured.out
+    assert closing_counts(captured.out) == "1 passed, 0 failed, 1 error"
     assert json.loads(report.read_text())["dtcs"] == ["approach.dtc.toml::approach"]
     assert "damaged" in html.read_text()
