@@ -5,7 +5,6 @@ as well (:mod:`beatlog.suite.worker`); all cores by default. Each spec runs with
 from __future__ import annotations
 
 import collections
-import contextlib
 import queue
 import threading
 from collections.abc import Callable, Sequence
@@ -101,44 +100,42 @@ def _run_with_workers(
     pool: list[Worker] = []
     feeders: list[threading.Thread] = []
     left = len(specs)
-    kept = contextlib.ExitStack()
-    auditors = kept.enter_context(suite_auditors(options))
-    try:
-        for _ in range(workers):
-            pool.append(Worker())
-            feeder = threading.Thread(
-                target=_feed, args=(pool[-1], pending, options, answers), daemon=True
-            )
-            feeder.start()
-            feeders.append(feeder)
-        while left:
-            answer: Answer
-            if pending and answers.empty():
-                try:
-                    spec = pending.popleft()
-                except IndexError:  # a worker took the last one
-                    continue
-                answer = run_spec(spec, options, auditors=auditors)
-            else:
-                answer = answers.get()
-            left -= 1
-            if isinstance(answer, BaseException):
-                raise answer
-            if done(answer):
-                return
-    finally:
-        pending.clear()
-        for worker in pool:
-            worker.stop()  # all at once: their work unwinds side by side
-        for worker in pool:
-            worker.close()
-        for feeder in feeders:
-            feeder.join()
-        while not answers.empty():
-            answer = answers.get_nowait()
-            if isinstance(answer, SpecOutcome):
-                done(answer)
-        kept.close()
+    with suite_auditors(options) as auditors:
+        try:
+            for _ in range(workers):
+                pool.append(Worker())
+                feeder = threading.Thread(
+                    target=_feed, args=(pool[-1], pending, options, answers), daemon=True
+                )
+                feeder.start()
+                feeders.append(feeder)
+            while left:
+                answer: Answer
+                if pending and answers.empty():
+                    try:
+                        spec = pending.popleft()
+                    except IndexError:  # a worker took the last one
+                        continue
+                    answer = run_spec(spec, options, auditors=auditors)
+                else:
+                    answer = answers.get()
+                left -= 1
+                if isinstance(answer, BaseException):
+                    raise answer
+                if done(answer):
+                    return
+        finally:
+            pending.clear()
+            for worker in pool:
+                worker.stop()  # all at once: their work unwinds side by side
+            for worker in pool:
+                worker.close()
+            for feeder in feeders:
+                feeder.join()
+            while not answers.empty():
+                answer = answers.get_nowait()
+                if isinstance(answer, SpecOutcome):
+                    done(answer)
 
 
 def _feed(
