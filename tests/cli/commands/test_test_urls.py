@@ -101,7 +101,7 @@ def test_coverage_reads_logs_behind_urls_too(
     run = beatlog("test", suite, "--coverage", "-k", "dock")
 
     assert run.code == 0, run.err
-    assert "near" in run.out
+    assert '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC' in run.out
     assert served.downloads("dock.beatlog") == 2  # the replay's copy, then coverage's
 
 
