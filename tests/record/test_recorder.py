@@ -6,6 +6,7 @@ import errno
 import io
 import os
 import re
+import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -16,13 +17,14 @@ import pytest
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
-from beatlog.errors import LogExistsError
+from beatlog.errors import LogExistsError, NumpyMissingError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, probe_system
+from tests.systems import record_scatter
 
 
 def test_step_returns_outputs_and_the_header_describes_the_session(tmp_path: Path) -> None:
@@ -192,3 +194,19 @@ def test_run_refuses_a_robot_whose_system_is_not_the_one_recorded(tmp_path: Path
     ):
         recorder.run(robot, duration_s=0.03)
     assert not robot.started
+
+
+def test_recording_array_draws_without_numpy_names_the_log_and_the_extra(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = tmp_path / "arrays.beatlog"
+    monkeypatch.setitem(sys.modules, "numpy", None)
+
+    with pytest.raises(NumpyMissingError) as raised:
+        record_scatter(log)
+
+    assert str(raised.value) == (
+        f"{log}: array draws (uniform_array, normal_array, integers_array) need numpy: "
+        'pip install "beatlog[arrays]"'
+    )
+    assert summarize(log).cycles == 0

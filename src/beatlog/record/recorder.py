@@ -18,6 +18,7 @@ from typing import IO, Any, NamedTuple
 import msgspec
 
 from beatlog._version import __version__
+from beatlog.errors import NumpyMissingError
 from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import System
@@ -163,7 +164,10 @@ class Recorder:
         """
         self._overruns += overrun
         executor = self._executor
-        changes = executor.step(interval_ns, state)
+        try:
+            changes = executor.step(interval_ns, state)
+        except NumpyMissingError:
+            raise NumpyMissingError(self._writer.path or "<output>") from None
         context = executor.context
         self._writer.append(
             interval_ns,
