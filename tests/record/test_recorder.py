@@ -210,3 +210,26 @@ def test_recording_array_draws_without_numpy_names_the_log_and_the_extra(
         'pip install "beatlog[arrays]"'
     )
     assert summarize(log).cycles == 0
+
+
+def test_beat_measures_each_heartbeat_on_the_clock_and_counts_the_late_ones(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "beats.beatlog"
+    ticks = iter([5_000, 5_000 + PERIOD_NS, 5_000 + 2 * PERIOD_NS + 7, 5_000 + 4 * PERIOD_NS])
+    with Recorder(log, probe_system(), software="t", clock=lambda: next(ticks)) as recorder:
+        outputs = [recorder.beat(Probe(distance=d)) for d in (1.0, 0.25, 1.0, 1.0)]
+        assert recorder.overruns == 1
+
+    assert outputs == [
+        {"speed": 0.5, "time": PERIOD_NS / 1e9},
+        {"speed": 0.0},
+        {"speed": 0.5, "time": (3 * PERIOD_NS + 7) / 1e9},
+        {"speed": 0.5, "time": 5 * PERIOD_NS / 1e9},
+    ]
+    with SessionLogReader(log) as reader:
+        intervals = [cycle.heartbeat_ns for cycle in reader.cycles()]
+        assert reader.end is not None
+        assert reader.end.overruns == 1
+    assert intervals == [PERIOD_NS, PERIOD_NS, PERIOD_NS + 7, 2 * PERIOD_NS - 7]
+    assert replay(log, probe_system()).ok
