@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -25,9 +26,11 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def climates(log: Path) -> list[Climate]:
+    """The robot states of ``log``, as recorded."""
     with SessionLogReader(log) as reader:
         reader.decode_states(Climate)
-        return [cycle.robot_state for cycle in reader.cycles()]
+        states: list[Any] = [cycle.robot_state for cycle in reader.cycles()]
+    return states
 
 
 def test_a_session_recorded_from_the_thermostat_s_own_loop_replays_and_passes(
