@@ -18,6 +18,7 @@ __all__ = [
     "LogError",
     "LogExistsError",
     "NotABeatlogError",
+    "NumpyMissingError",
     "OptionError",
     "RemoteLogError",
     "SchemaMismatchError",
@@ -88,6 +89,22 @@ class BagError(BeatlogError):
         self.problem = problem
         self.user_traceback = user_traceback
         super().__init__(f"{self.path}: {problem}")
+
+
+class NumpyMissingError(BeatlogError, ModuleNotFoundError):
+    """Array draws made or replayed where numpy is not installed (only they need it); the
+    message names the log, where one is known, and the extra that brings numpy. It is a
+    :class:`ModuleNotFoundError` too, so ``except ImportError`` catches it."""
+
+    def __init__(self, log: str | Path | None = None) -> None:
+        self.log = log
+        """The session log being recorded or replayed, or None."""
+        where = "" if log is None else f"{log}: "
+        super().__init__(
+            f"{where}array draws (uniform_array, normal_array, integers_array) need numpy: "
+            'pip install "beatlog[arrays]"',
+            name="numpy",
+        )
 
 
 class ExportError(BeatlogError):
