@@ -19,6 +19,7 @@ __all__ = [
     "LogError",
     "LogExistsError",
     "NotABeatlogError",
+    "NumpyMissingError",
     "OptionError",
     "RemoteLogError",
     "SchemaMismatchError",
@@ -88,6 +89,22 @@ class BagError(FileProblemError):
     """A ROS bag that cannot be imported as a session log: missing, damaged, without the
     messages asked for, or refused by the user's perception step or system; the message
     names the bag and the problem."""
+
+
+class NumpyMissingError(BeatlogError, ModuleNotFoundError):
+    """Array draws made or replayed where numpy is not installed (only they need it); the
+    message names the log, where one is known, and the extra that brings numpy. It is a
+    :class:`ModuleNotFoundError` too, so ``except ImportError`` catches it."""
+
+    def __init__(self, log: str | Path | None = None) -> None:
+        self.log = log
+        """The session log being recorded or replayed, or None."""
+        where = "" if log is None else f"{log}: "
+        super().__init__(
+            f"{where}array draws (uniform_array, normal_array, integers_array) need numpy: "
+            'pip install "beatlog[arrays]"',
+            name="numpy",
+        )
 
 
 class ExportError(BeatlogError):

@@ -218,3 +218,12 @@ def test_dtcs_of_one_name_are_listed_by_their_ids_whole_on_a_narrow_terminal() -
         "robots/dog/dtc/low-battery.dtc.toml::low-battery"
         "robots/rover/dtc/low-battery.dtc.toml::low-battery"
     )
+
+
+def test_text_in_square_brackets_is_shown_as_written_never_taken_for_markup() -> None:
+    error = 'x.beatlog: array draws need numpy: pip install "beatlog[arrays]"'
+    (outcome,) = outcomes(0, errors=1)
+
+    text = plain_text(render_suite([dataclasses.replace(outcome, error=error)]), width=200)
+
+    assert 'pip install "beatlog[arrays]"' in text

@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import traceback
+import warnings
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any
 
@@ -167,8 +168,10 @@ def _do_nothing(signum: int, frame: FrameType | None) -> None:
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     """A signal handler that interrupts the worker as Ctrl-C interrupts a program, once:
-    the signal again lets the worker unwind."""
+    the signal again lets the worker unwind. A download it stops (fsspec's HTTP reads
+    are coroutines) is dropped unawaited, which is what stopping means: not a warning."""
     signal.signal(signum, _do_nothing)
+    warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
     raise KeyboardInterrupt
 
 
