@@ -4,8 +4,9 @@ A session log is an MCAP file (profile ``beatlog``) with three channels, all
 msgpack-encoded with msgspec (``docs/format.md`` is the full specification):
 
 - ``/beatlog/header``: one :class:`SessionHeader`, the first message.
-- ``/beatlog/cycles``: :class:`CycleBatch` messages (format 2; a bare list of
-  :class:`CycleRecord` in format 1), one record per heartbeat, in order.
+- ``/beatlog/cycles``: :class:`ColumnBatch` messages (format 3: robot states stored by
+  field, :mod:`beatlog.log.columns`), :class:`CycleBatch` messages in format 2, a bare
+  list of :class:`CycleRecord` in format 1; one record per heartbeat, in order.
 - ``/beatlog/end``: one :class:`SessionEnd`, written when the recording closes.
 
 Each cycle keeps its parts as raw msgpack so the replay engine can compare behavior
@@ -20,11 +21,19 @@ from typing import Annotated, Any, NamedTuple
 
 import msgspec
 
-from beatlog.log.limits import MAX_BEHAVIORS, MAX_NAME_LENGTH, MAX_TEXT_LENGTH
+from beatlog.log.limits import (
+    MAX_BEHAVIORS,
+    MAX_CHUNK_BYTES,
+    MAX_FIELDS,
+    MAX_NAME_LENGTH,
+    MAX_TEXT_LENGTH,
+    MAX_VALUE_WIDTH,
+)
 
 __all__ = [
     "CHANNEL_TOPICS",
     "CYCLES_TOPIC",
+    "COLUMNS_SINCE",
     "CYCLE_BATCH_SINCE",
     "DECODE_ERRORS",
     "EMPTY_LIST",
@@ -36,6 +45,8 @@ __all__ = [
     "OLDEST_FORMAT_VERSION",
     "PROFILE",
     "SCHEMA_ENCODING",
+    "Column",
+    "ColumnBatch",
     "CycleBatch",
     "CycleEntry",
     "CycleRecord",
@@ -48,12 +59,14 @@ __all__ = [
     "schema_name",
 ]
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """Raised whenever a change would make older readers misread a log."""
 OLDEST_FORMAT_VERSION = 1
 """The oldest format version this beatlog still reads (and replays)."""
 CYCLE_BATCH_SINCE = 2
 """From this version on, each cycles message is a :class:`CycleBatch` with its first cycle."""
+COLUMNS_SINCE = 3
+"""From this version on, each cycles message is a :class:`ColumnBatch`: robot states by field."""
 
 PROFILE = "beatlog"
 MESSAGE_ENCODING = "msgpack"
@@ -116,6 +129,9 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     initial_states: Annotated[list[Any], msgspec.Meta(max_length=MAX_BEHAVIORS)] = []
     """Each behavior's state before cycle 0, in catalogue order; empty in logs written
     before beatlog recorded it (a reader then knows a state only from its first change)."""
+    state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] = []
+    """The robot state's fields as its cycles encode them, in order (format 3): a batch
+    of states of exactly these fields names none (:class:`ColumnBatch`)."""
 
     def problem(self) -> str | None:
         """What makes this header unreadable beyond its field bounds, or None."""
@@ -132,6 +148,8 @@ class SessionHeader(msgspec.Struct, kw_only=True):
                 return f"{field} {name!r} holds control characters"
         if len(set(self.behaviors)) != len(self.behaviors):
             return "a behavior is named twice"
+        if len(set(self.state_fields)) != len(self.state_fields):
+            return "a robot-state field is named twice"
         if self.initial_states and len(self.initial_states) != len(self.behaviors):
             return f"{len(self.initial_states)} initial states for {len(self.behaviors)} behaviors"
         return None
@@ -198,6 +216,39 @@ class CycleBatch(msgspec.Struct, array_like=True):
 
     first_cycle: Annotated[int, msgspec.Meta(ge=0)]
     cycles: list[CycleRecord]
+
+
+class Column(msgspec.Struct, array_like=True):
+    """The values of one batch's cycles for one part, as bytes (format 3).
+
+    ``data`` holds the values' msgpack encodings back to back (``width`` 0), or, where
+    every value is encoded in the same ``width`` bytes, byte ``k`` of every value, then
+    byte ``k + 1`` of every value, and so on (a float column's exponent bytes side by
+    side compress; its noisy low bytes do not); ``codec`` 1 means ``data`` is one zstd
+    frame of those bytes that declares its size, 0 that it is them.
+    """
+
+    codec: Annotated[int, msgspec.Meta(ge=0, le=1)]
+    width: Annotated[int, msgspec.Meta(ge=0, le=MAX_VALUE_WIDTH)]
+    data: bytes
+
+
+class ColumnBatch(msgspec.Struct, array_like=True):
+    """One cycles message (format 3): ``count`` consecutive cycles from ``first_cycle``,
+    robot states stored by field so that replay decodes only the fields behaviors read.
+
+    ``cycles`` holds each cycle's :class:`CycleRecord` with a nil ``robot_state``;
+    ``state_columns[i]`` holds field ``state_fields[i]`` of every cycle's RS_t, in
+    cycle order; an empty ``state_fields`` stands for the header's (they are named
+    once, not in every batch). ``state_fields`` is None where a robot state is not a
+    map of named fields: the one column then holds the states whole.
+    """
+
+    first_cycle: Annotated[int, msgspec.Meta(ge=0)]
+    count: Annotated[int, msgspec.Meta(ge=1, le=MAX_CHUNK_BYTES)]
+    cycles: Column
+    state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] | None
+    state_columns: Annotated[list[Column], msgspec.Meta(max_length=MAX_FIELDS)]
 
 
 class SessionEnd(msgspec.Struct, kw_only=True):

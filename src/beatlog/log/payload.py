@@ -8,15 +8,20 @@ a :class:`~beatlog.errors.CorruptLogError` for damage, a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
 import msgspec
 
 from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.columns import StateColumns
 from beatlog.log.format import (
+    COLUMNS_SINCE,
     CYCLE_BATCH_SINCE,
     DECODE_ERRORS,
+    Column,
+    ColumnBatch,
     CycleBatch,
     CycleRecord,
     SessionHeader,
@@ -47,6 +52,28 @@ _ReadCycleBatch: Any = msgspec.defstruct(
 """A cycles message as the reader decodes it: nothing after its cycles, each as read."""
 
 
+class _ReadColumn(Column, forbid_unknown_fields=True, gc=False):
+    """A column as the reader decodes it: its bytes left in the message, not copied."""
+
+    data: memoryview  # type: ignore[assignment]
+
+
+_ReadColumnBatch: Any = msgspec.defstruct(
+    "_ReadColumnBatch",
+    [("cycles", _ReadColumn), ("state_columns", list[_ReadColumn])],
+    bases=(ColumnBatch,),
+    array_like=True,
+    forbid_unknown_fields=True,
+)
+"""A format-3 cycles message as the reader decodes it: nothing after its columns."""
+
+
+class _ColumnCycleRecord(_ReadCycleRecord):
+    """A format-3 cycle record: its robot state is in the batch's columns, nil here."""
+
+    robot_state: None  # type: ignore[assignment]
+
+
 class _RawBatch(msgspec.Struct, array_like=True):
     """A cycles message of format 2 with its cycles still encoded, to find a damaged one."""
 
@@ -75,19 +102,58 @@ class BatchDecoding:
     :meth:`decode_states` gives one that decodes each RS_t with its batch.
     """
 
-    def __init__(self, path: Path, header: SessionHeader) -> None:
+    def __init__(self, path: Path, header: SessionHeader, spend: Callable[[int], None]) -> None:
         self.path = path
         self.header = header
         self._batched = header.format_version >= CYCLE_BATCH_SINCE
+        self.columns = header.format_version >= COLUMNS_SINCE
+        """Whether the log stores robot states by field (format 3): :meth:`records`."""
         self.decoder: Any = msgspec.msgpack.Decoder(
-            _ReadCycleBatch if self._batched else list[_ReadCycleRecord]
+            _ReadColumnBatch
+            if self.columns
+            else _ReadCycleBatch
+            if self._batched
+            else list[_ReadCycleRecord]
         )
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
+        self._spend = spend
+        self._records = msgspec.msgpack.Decoder(list[_ColumnCycleRecord]).decode
+
+    def records(self, batch: ColumnBatch) -> list[CycleRecord]:
+        """The cycles of a format-3 batch, its columns checked (:class:`StateColumns`).
+
+        Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it, or
+        once :meth:`decode_states` was called, the batch's :class:`StateColumns`, for
+        the replay core to decode the fields the behaviors read.
+        """
+        columns = StateColumns(self.path, batch, self.header.state_fields, self._spend)
+        records: list[CycleRecord] = columns.records(self._records)
+        if self._state_type is None:
+            for record, state in zip(records, columns.raw_states(), strict=True):
+                record.robot_state = state
+        else:
+            for record in records:
+                record.robot_state = columns  # type: ignore[assignment]
+        return records
 
     def decode_states(self, state_type: type[Any]) -> Any:
         """Make :attr:`decoder` one that decodes each cycle's RS_t into ``state_type`` and
-        checks its samples against the header (:func:`samples_shape`), and return it."""
+        checks its samples against the header (:func:`samples_shape`), and return it.
+
+        In format 3 the robot states stay in their columns (:meth:`records`); the
+        samples are checked all the same.
+        """
+        if self.columns:
+            record_shape: Any = msgspec.defstruct(
+                "ColumnCycleRecord",
+                [("samples", samples_shape(self.header))],
+                bases=(_ColumnCycleRecord,),
+                array_like=True,
+            )
+            self._records = msgspec.msgpack.Decoder(list[record_shape]).decode
+            self._state_type = state_type
+            return self.decoder
         record: Any = msgspec.defstruct(
             "DecodedCycleRecord",
             [("robot_state", state_type), ("samples", samples_shape(self.header))],

@@ -116,6 +116,7 @@ class Recorder:
             start_time_ns=time.time_ns() if start_time_ns is None else start_time_ns,
             robot_state_type=state_type_name(system.robot_state),
             robot_state_schema=state_schema(system.robot_state),
+            state_fields=list(getattr(system.robot_state, "__struct_encode_fields__", ())),
             behaviors=list(self._executor.behavior_ids),
             initial_states=[behavior.state for behavior in system.behaviors.values()],
             random_seed=self.random.seed,
