@@ -14,8 +14,10 @@ the one a format-2 log holds.
 from __future__ import annotations
 
 import re
+import struct
 import threading
 from collections.abc import Callable, Sequence
+from itertools import accumulate
 from pathlib import Path
 from typing import Any
 
@@ -94,18 +96,23 @@ def column_batches(
         cycles = encode_column(records[start:end], compress)
         first = rows[start]
         if first is None:
-            whole = [encode_column(states[start:end], compress)]
-            batch = ColumnBatch(first_cycle + start, end - start, cycles, None, whole)
+            names = None
+            columns = [encode_column(states[start:end], compress)]
         else:
-            columns = zip(*[row.values() for row in rows[start:end]], strict=True)
-            named = list(first)
-            batch = ColumnBatch(
-                first_cycle + start,
-                end - start,
-                cycles,
-                [] if named == header_fields else named,
-                [encode_column(values, compress) for values in columns],
-            )
+            values = zip(*[row.values() for row in rows[start:end]], strict=True)
+            columns = [encode_column(column, compress) for column in values]
+            names = list(first)
+            names = [] if names == header_fields else names
+        batch = ColumnBatch(
+            first_cycle + start,
+            end - start,
+            cycles,
+            names,
+            bytes([column.codec for column in columns]),
+            bytes([column.width for column in columns]),
+            struct.pack(f"<{len(columns)}I", *[len(column.data) for column in columns]),
+            b"".join([column.data for column in columns]),
+        )
         batches.append((start, batch))
         start = end
     return batches
@@ -185,18 +192,35 @@ class StateColumns:
         names = batch.state_fields
         self.names = header_fields if names == [] else names
         """The fields' names in column order; None where the column holds whole states."""
-        self._columns = [*batch.state_columns, batch.cycles]
         self._spend = spend
         self._bodies: dict[int, bytes] = {}
+        self._batch = batch
         expected = 1 if self.names is None else len(self.names)
-        found = len(batch.state_columns)
-        if found != expected or (self.names is not None and len(set(self.names)) != expected):
-            names_ = "a field named twice" if found == expected else "fields"
-            raise self._damaged(f"{found} robot-state columns for {expected} {names_}")
+        if (len(batch.codecs), len(batch.widths), len(batch.sizes)) != (expected,) * 2 + (
+            4 * expected,
+        ):
+            raise self._damaged(f"the column table does not describe {expected} columns")
+        if names is not None and names != [] and len(set(names)) != len(names):
+            raise self._damaged("a field is named twice")
+        self._ends = list(accumulate(struct.unpack(f"<{expected}I", batch.sizes)))
+        if (self._ends[-1] if self._ends else 0) != len(batch.data):
+            raise self._damaged(
+                f"its columns take {self._ends[-1] if self._ends else 0} bytes, "
+                f"not the {len(batch.data)} it holds"
+            )
+        self._records = expected
+
+    def _column(self, index: int) -> Column:
+        """Column ``index`` (the cycle records after the robot state's), its bytes in place."""
+        batch = self._batch
+        if index == self._records:
+            return batch.cycles
+        start = self._ends[index - 1] if index else 0
+        return Column(batch.codecs[index], batch.widths[index], batch.data[start : self._ends[index]])
 
     def name(self, index: int) -> str:
         """What a column holds: a field, whole robot states, or the cycle records."""
-        if index == len(self._columns) - 1:
+        if index == self._records:
             return "cycle records"
         return "robot state" if self.names is None else f"field {self.names[index]!r}"
 
@@ -205,6 +229,10 @@ class StateColumns:
 
     def _size(self, column: Column, index: int) -> int:
         """A column's size uncompressed, checked against its width and the cycles."""
+        if column.codec not in (PLAIN, ZSTD) or column.width > MAX_VALUE_WIDTH:
+            raise self._damaged(
+                f"{self.name(index)} has codec {column.codec} and width {column.width}"
+            )
         size = len(column.data)
         if column.codec == ZSTD:
             try:
@@ -226,7 +254,7 @@ class StateColumns:
         body = self._bodies.get(index)
         if body is not None:
             return body
-        column = self._columns[index]
+        column = self._column(index)
         size = self._size(column, index)
         data: Any = column.data
         if column.codec == ZSTD:
@@ -245,7 +273,7 @@ class StateColumns:
         else:
             data = bytes(data)
         self._bodies[index] = data
-        if width == 0 and index < len(self._columns) - 1:  # records: checked as decoded
+        if width == 0 and index < self._records:  # records: checked as decoded
             self._walk(index)
         return data
 
@@ -269,9 +297,8 @@ class StateColumns:
 
         :raises beatlog.errors.CorruptLogError: a record does not decode (naming its cycle).
         """
-        index = len(self._columns) - 1
         try:
-            return decode(self.encoded(index))
+            return decode(self.encoded(self._records))
         except DECODE_ERRORS as exc:
             raise CorruptLogError(self.path, f"damaged cycle {self._cycle(exc)}: {exc}") from None
 
@@ -302,7 +329,7 @@ class StateColumns:
         return self.first_cycle + (int(found.group(1)) if found else 0)
 
     def _raw_columns(self) -> list[list[msgspec.Raw]]:
-        return [_RAWS(self.encoded(index)) for index in range(len(self._columns) - 1)]
+        return [_RAWS(self.encoded(index)) for index in range(self._records)]
 
     def raw_states(self) -> list[msgspec.Raw]:
         """Every cycle's RS_t encoded whole, as a format-2 log holds it."""

@@ -237,18 +237,25 @@ class ColumnBatch(msgspec.Struct, array_like=True):
     """One cycles message (format 3): ``count`` consecutive cycles from ``first_cycle``,
     robot states stored by field so that replay decodes only the fields behaviors read.
 
-    ``cycles`` holds each cycle's :class:`CycleRecord` with a nil ``robot_state``;
-    ``state_columns[i]`` holds field ``state_fields[i]`` of every cycle's RS_t, in
-    cycle order; an empty ``state_fields`` stands for the header's (they are named
-    once, not in every batch). ``state_fields`` is None where a robot state is not a
-    map of named fields: the one column then holds the states whole.
+    ``cycles`` holds each cycle's :class:`CycleRecord` with a nil ``robot_state``. The
+    robot-state columns are described by a table, one entry per column in
+    ``state_fields`` order: ``codecs[i]`` and ``widths[i]`` (one byte each, as in a
+    :class:`Column`) and ``sizes`` (4 bytes each, little-endian: the bytes column ``i``
+    takes in ``data``, where the columns lie back to back). Column ``i`` holds field
+    ``state_fields[i]`` of every cycle's RS_t, in cycle order. An empty
+    ``state_fields`` stands for the header's (named once, not in every batch); None
+    means a robot state is not a map of named fields, and the one column holds the
+    states whole.
     """
 
     first_cycle: Annotated[int, msgspec.Meta(ge=0)]
     count: Annotated[int, msgspec.Meta(ge=1, le=MAX_CHUNK_BYTES)]
     cycles: Column
     state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] | None
-    state_columns: Annotated[list[Column], msgspec.Meta(max_length=MAX_FIELDS)]
+    codecs: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)]
+    widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)]
+    sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)]
+    data: bytes
 
 
 class SessionEnd(msgspec.Struct, kw_only=True):

@@ -60,7 +60,7 @@ class _ReadColumn(Column, forbid_unknown_fields=True, gc=False):
 
 _ReadColumnBatch: Any = msgspec.defstruct(
     "_ReadColumnBatch",
-    [("cycles", _ReadColumn), ("state_columns", list[_ReadColumn])],
+    [("cycles", _ReadColumn), ("data", memoryview)],
     bases=(ColumnBatch,),
     array_like=True,
     forbid_unknown_fields=True,
