@@ -219,16 +219,13 @@ class CycleBatch(msgspec.Struct, array_like=True):
 
 
 class Column(msgspec.Struct, array_like=True):
-    """The values of one batch's cycles for one part, as bytes (format 3).
+    """The values of one part of a format-3 batch's cycles, one per cycle, as bytes.
 
-    ``data`` holds the values' msgpack encodings back to back (``width`` 0), or, where
-    every value is encoded in the same ``width`` bytes, byte ``k`` of every value, then
-    byte ``k + 1`` of every value, and so on (a float column's exponent bytes side by
-    side compress; its noisy low bytes do not); ``codec`` 1 means ``data`` is one zstd
-    frame of those bytes that declares its size, 0 that it is them.
+    ``width`` 0: ``data`` holds the values' msgpack encodings back to back. ``width``
+    W > 0: every value is encoded in exactly W bytes and ``data`` holds them byte-split,
+    byte 0 of every value, then byte 1 of every value, and so on (W times the cycles).
     """
 
-    codec: Annotated[int, msgspec.Meta(ge=0, le=1)]
     width: Annotated[int, msgspec.Meta(ge=0, le=MAX_VALUE_WIDTH)]
     data: bytes
 
@@ -238,21 +235,19 @@ class ColumnBatch(msgspec.Struct, array_like=True):
     robot states stored by field so that replay decodes only the fields behaviors read.
 
     ``cycles`` holds each cycle's :class:`CycleRecord` with a nil ``robot_state``. The
-    robot-state columns are described by a table, one entry per column in
-    ``state_fields`` order: ``codecs[i]`` and ``widths[i]`` (one byte each, as in a
-    :class:`Column`) and ``sizes`` (4 bytes each, little-endian: the bytes column ``i``
-    takes in ``data``, where the columns lie back to back). Column ``i`` holds field
-    ``state_fields[i]`` of every cycle's RS_t, in cycle order. An empty
+    robot-state columns are laid out back to back in ``data`` and described by a table,
+    one entry per column: ``widths[i]`` (one byte, a :class:`Column`'s width) and
+    ``sizes`` (4 bytes each, little-endian: the bytes column ``i`` takes). Column ``i``
+    holds field ``state_fields[i]`` of every cycle's RS_t, in cycle order. An empty
     ``state_fields`` stands for the header's (named once, not in every batch); None
-    means a robot state is not a map of named fields, and the one column holds the
-    states whole.
+    means the one column holds the robot states whole (a narrow state, or one that is
+    no map of named fields).
     """
 
     first_cycle: Annotated[int, msgspec.Meta(ge=0)]
     count: Annotated[int, msgspec.Meta(ge=1, le=MAX_CHUNK_BYTES)]
     cycles: Column
     state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] | None
-    codecs: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)]
     widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)]
     sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)]
     data: bytes

@@ -8,7 +8,6 @@ a :class:`~beatlog.errors.CorruptLogError` for damage, a
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -52,15 +51,13 @@ _ReadCycleBatch: Any = msgspec.defstruct(
 """A cycles message as the reader decodes it: nothing after its cycles, each as read."""
 
 
-class _ReadColumn(Column, forbid_unknown_fields=True, gc=False):
-    """A column as the reader decodes it: its bytes left in the message, not copied."""
-
-    data: memoryview  # type: ignore[assignment]
+class _ReadColumn(Column, forbid_unknown_fields=True):
+    """A column as the reader decodes it: nothing after its data."""
 
 
 _ReadColumnBatch: Any = msgspec.defstruct(
     "_ReadColumnBatch",
-    [("cycles", _ReadColumn), ("data", memoryview)],
+    [("cycles", _ReadColumn)],
     bases=(ColumnBatch,),
     array_like=True,
     forbid_unknown_fields=True,
@@ -102,7 +99,7 @@ class BatchDecoding:
     :meth:`decode_states` gives one that decodes each RS_t with its batch.
     """
 
-    def __init__(self, path: Path, header: SessionHeader, spend: Callable[[int], None]) -> None:
+    def __init__(self, path: Path, header: SessionHeader) -> None:
         self.path = path
         self.header = header
         self._batched = header.format_version >= CYCLE_BATCH_SINCE
@@ -117,24 +114,28 @@ class BatchDecoding:
         )
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
-        self._spend = spend
         self._records = msgspec.msgpack.Decoder(list[_ColumnCycleRecord]).decode
+        self._states: Any = None
 
     def records(self, batch: ColumnBatch) -> list[CycleRecord]:
         """The cycles of a format-3 batch, its columns checked (:class:`StateColumns`).
 
-        Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it, or
-        once :meth:`decode_states` was called, the batch's :class:`StateColumns`, for
-        the replay core to decode the fields the behaviors read.
+        Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it; once
+        :meth:`decode_states` was called, RS_t decoded where the batch stores states
+        whole, else the batch's :class:`StateColumns`, for the replay core to decode the
+        fields the behaviors read.
         """
-        columns = StateColumns(self.path, batch, self.header.state_fields, self._spend)
+        columns = StateColumns(self.path, batch, self.header.state_fields)
         records: list[CycleRecord] = columns.records(self._records)
+        states: list[Any]
         if self._state_type is None:
-            for record, state in zip(records, columns.raw_states(), strict=True):
-                record.robot_state = state
+            states = columns.raw_states()
+        elif columns.names is None:  # stored whole: decoded whole, as format 2 does
+            states = columns.values(0, self._states, self._state_type.__name__)
         else:
-            for record in records:
-                record.robot_state = columns  # type: ignore[assignment]
+            states = [columns] * len(records)
+        for record, state in zip(records, states, strict=True):
+            record.robot_state = state
         return records
 
     def decode_states(self, state_type: type[Any]) -> Any:
@@ -152,6 +153,7 @@ class BatchDecoding:
                 array_like=True,
             )
             self._records = msgspec.msgpack.Decoder(list[record_shape]).decode
+            self._states = msgspec.msgpack.Decoder(list[state_type]).decode  # type: ignore[valid-type]
             self._state_type = state_type
             return self.decoder
         record: Any = msgspec.defstruct(

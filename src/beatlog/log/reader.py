@@ -39,7 +39,7 @@ from beatlog.log.format import (
 # Re-exported where it was defined before the log package was split by job.
 from beatlog.log.index import recorded_cycles as recorded_cycles  # noqa: PLC0414
 from beatlog.log.integrity import IndexDamageError, RecordStream, TruncatedError
-from beatlog.log.limits import MAX_CHUNK_BYTES, MAX_EXPANSION, MAX_SCHEMA_BYTES
+from beatlog.log.limits import MAX_SCHEMA_BYTES
 from beatlog.log.payload import BatchDecoding, decode_payload, decoded_version
 
 __all__ = ["LogStatus", "SessionLogReader"]
@@ -100,7 +100,6 @@ class SessionLogReader(Closing):
         self._robot_time_ns = 0
         self._end: SessionEnd | None = None
         self._status: LogStatus | None = None
-        self._expanded = 0
         self._messages_read: dict[int, int] = {}
         self._messages = self._topic_messages()
         try:
@@ -109,7 +108,7 @@ class SessionLogReader(Closing):
             self.close()
             raise
         self.format_version = self.header.format_version
-        self._decoding = BatchDecoding(self.path, self.header, self._spend)
+        self._decoding = BatchDecoding(self.path, self.header)
         self._batch_decoder: Any = self._decoding.decoder
 
     @property
@@ -240,14 +239,6 @@ class SessionLogReader(Closing):
         self._cycles += len(batch)
         self._robot_time_ns += sum([cycle.heartbeat_ns for cycle in batch])
         return batch
-
-    def _spend(self, size: int) -> None:
-        """Count bytes decompressed from columns: a file may not expand implausibly."""
-        self._expanded += size
-        if self._expanded > MAX_EXPANSION * self._stream.size + MAX_CHUNK_BYTES:
-            raise CorruptLogError(
-                self.path, "columns decompress to implausibly much data (a zip bomb?)"
-            )
 
     def _read_end(self, message: Message) -> None:
         end = decode_payload(self.path, message.data, SessionEnd, "end record")

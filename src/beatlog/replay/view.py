@@ -121,23 +121,28 @@ class StateViews:
         self._columns: StateColumns | None = None
         self._views: list[Any] = []
         self._first = 0
+        self._batch: _Batch | None = None
+        self.stale = False
+        """Whether a field was first read in the batch the views are of."""
 
     def view(self, columns: StateColumns, cycle: int) -> Any:
         """RS_t of ``cycle``, one of the batch ``columns`` holds."""
-        if columns is not self._columns:
+        if columns is not self._columns or self.stale:
             self._open(columns)
         return self._views[cycle - self._first]
 
     def _open(self, columns: StateColumns) -> None:
-        """Check a batch's fields against the type and make its cycles' views."""
-        if columns.names is not self._checked:
-            self._check(columns)
-        batch = _Batch(self, columns)
+        """Check a batch's fields against the type and make its cycles' views (again,
+        holding one more field, when a behavior read a field first in this batch)."""
+        if columns is self._columns and self._batch is not None:
+            batch = self._batch
+        else:
+            if columns.names is not self._checked:
+                self._check(columns)
+            batch = self._batch = _Batch(self, columns)
+        self.stale = False
         self._columns = columns
         self._first = columns.first_cycle
-        if columns.names is None:
-            self._views = batch.whole_column()
-            return
         held = tuple(self.read)
         view = self._types.get(held)
         if view is None:
@@ -269,21 +274,15 @@ class _Batch:
             raise AttributeError(
                 f"{views.system_type.__name__!r} object has no attribute {name!r}"
             )
-        views.read[name] = None
+        if name not in views.read:
+            views.read[name] = None
+            views.stale = True
         return self.values(name)[index]
 
     def whole(self, index: int) -> Any:
         """The batch's ``index``-th RS_t decoded whole, the system's."""
         cycle = self.columns.first_cycle + index
         return self.views.decode_whole(self.columns.raw_state(cycle), cycle)
-
-    def whole_column(self) -> list[Any]:
-        """Every RS_t of a batch that stores them whole, decoded."""
-        views = self.views
-        decode = msgspec.msgpack.Decoder(list[views.checking]).decode  # type: ignore[name-defined]
-        states = self.columns.values(0, decode, views.system_type.__name__)
-        first = self.columns.first_cycle
-        return [views.adopt(state, first + offset) for offset, state in enumerate(states)]
 
 
 def _methods(system_type: type[Any], fields: dict[str, Any]) -> dict[str, Any]:
