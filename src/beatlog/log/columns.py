@@ -13,9 +13,11 @@ holds.
 A column of values all encoded in the same width (a float field: 9 bytes each) is
 stored byte-split: byte 0 of every value, then byte 1 of every value, and so on, so that
 the chunk's zstd finds a float column's marker and exponent bytes side by side (the
-reason format 3 is no larger than format 2 at any width). States narrower than
-:data:`COLUMNS_FROM` fields are stored whole, in one column: decoding a narrow state
-whole costs less than opening its columns one by one (``BENCHMARKS.md``).
+reason format 3 is no larger than format 2 at any width). A log whose header names no
+robot-state fields keeps its robot states in the cycle records, as format 2 does
+(:func:`row_batch`): the recorder names them for a state of at least
+:data:`COLUMNS_FROM` fields, since decoding a narrow state whole costs less than
+opening its columns one by one (``BENCHMARKS.md``).
 """
 
 from __future__ import annotations
@@ -33,10 +35,17 @@ from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.format import DECODE_ERRORS, Column, ColumnBatch
 from beatlog.log.limits import MAX_VALUE_WIDTH
 
-__all__ = ["COLUMNS_FROM", "StateColumns", "array_head", "column_batches", "encode_column"]
+__all__ = [
+    "COLUMNS_FROM",
+    "StateColumns",
+    "array_head",
+    "column_batches",
+    "encode_column",
+    "row_batch",
+]
 
 COLUMNS_FROM = 128
-"""The fewest fields a robot state has for its batches to store it by field."""
+"""The fewest fields a robot state has for the recorder to have it stored by field."""
 
 
 def array_head(count: int) -> bytes:
@@ -62,44 +71,40 @@ def encode_column(values: Sequence[Any]) -> Column:
 
 
 _FIELDS = msgspec.msgpack.Decoder(dict[str, msgspec.Raw]).decode
+"""An encoded robot state's fields, each still encoded."""
 
 
 def column_batches(
     first_cycle: int,
     records: Sequence[bytes],
     states: Sequence[bytes],
-    *,
     header_fields: Sequence[str] = (),
-    columns_from: int = COLUMNS_FROM,
 ) -> list[tuple[int, ColumnBatch]]:
     """Batches of format 3 from consecutive cycles' records (each encoded with a nil robot
-    state) and robot states (each encoded whole), with where each starts among them.
+    state) and robot states (each encoded whole, a map of named fields), with where each
+    starts among them.
 
     A batch holds states of the same fields in the same order; a state of other fields
     (a type that omits defaults) starts the next. A batch of the ``header_fields`` names
-    none. States of fewer than ``columns_from`` fields, or that are no map of named
-    fields, that are no map of named fields or have none, are stored whole, in one
-    column.
+    none.
+
+    :raises msgspec.DecodeError: a robot state is not a map of named fields.
     """
-    rows = [_fields(state, columns_from) for state in states]
+    rows = [_FIELDS(state) for state in states]
+    header = list(header_fields)
     batches: list[tuple[int, ColumnBatch]] = []
     start = 0
     for end in range(1, len(rows) + 1):
         if end < len(rows) and _same_fields(rows[end], rows[start]):
             continue
-        first = rows[start]
-        names: list[str] | None = None
-        if first is None:
-            columns = [encode_column(states[start:end])]
-        else:
-            values = zip(*[row.values() for row in rows[start:end]], strict=True)
-            columns = [encode_column(column) for column in values]
-            names = [] if list(first) == list(header_fields) else list(first)
+        names = list(rows[start])
+        values = zip(*[row.values() for row in rows[start:end]], strict=True)
+        columns = [encode_column(column) for column in values]
         batch = ColumnBatch(
             first_cycle + start,
             end - start,
             encode_column(records[start:end]),
-            names,
+            [] if names == header else names,
             bytes([column.width for column in columns]),
             struct.pack(f"<{len(columns)}I", *[len(column.data) for column in columns]),
             b"".join([column.data for column in columns]),
@@ -109,19 +114,13 @@ def column_batches(
     return batches
 
 
-def _fields(state: bytes, columns_from: int) -> dict[str, msgspec.Raw] | None:
-    """An encoded robot state's fields, each still encoded; None where it is stored
-    whole: it is not a map of named fields, or has fewer than ``columns_from``."""
-    try:
-        fields = _FIELDS(state)
-    except msgspec.DecodeError:
-        return None
-    return fields if len(fields) >= max(columns_from, 1) else None
+def row_batch(first_cycle: int, records: Sequence[bytes]) -> ColumnBatch:
+    """A batch of format 3 whose cycle records hold their robot states (each encoded as
+    a whole :class:`~beatlog.log.format.CycleRecord`), as format 2's do."""
+    return ColumnBatch(first_cycle, len(records), encode_column(records), None)
 
 
-def _same_fields(one: dict[str, Any] | None, other: dict[str, Any] | None) -> bool:
-    if one is None or other is None:
-        return one is other
+def _same_fields(one: dict[str, Any], other: dict[str, Any]) -> bool:
     return len(one) == len(other) and all(map(str.__eq__, one, other))
 
 
@@ -150,10 +149,10 @@ class StateColumns:
         self.count = batch.count
         names = batch.state_fields
         self.names = header_fields if names == [] else names
-        """The fields' names in column order; None where the column holds whole states."""
+        """The fields' names in column order; None where the records hold the states."""
         self._batch = batch
         self._encoded: dict[int, bytes | bytearray] = {}
-        expected = 1 if self.names is None else len(self.names)
+        expected = 0 if self.names is None else len(self.names)
         self._records = expected
         if (len(batch.widths), len(batch.sizes)) != (expected, 4 * expected):
             raise self._damaged(f"its column table does not describe {expected} columns")
@@ -168,7 +167,7 @@ class StateColumns:
         """What a column holds: a field, whole robot states, or the cycle records."""
         if index == self._records:
             return "cycle records"
-        return "robot states" if self.names is None else f"field {self.names[index]!r}"
+        return f"field {(self.names or [])[index]!r}"
 
     def _damaged(self, problem: str) -> CorruptLogError:
         return CorruptLogError(self.path, f"damaged batch from cycle {self.first_cycle}: {problem}")
@@ -266,12 +265,10 @@ class StateColumns:
         :raises beatlog.errors.CorruptLogError: a column is damaged.
         """
         columns = self._raw_columns()
-        if self.names is None:
-            return columns[0]
         if not columns:
             return [msgspec.Raw(b"\x80")] * self.count
         encode = _ENCODER.encode
-        names = self.names
+        names = self.names or ()
         return [msgspec.Raw(encode(dict(zip(names, row, strict=True)))) for row in zip(*columns)]
 
     def raw_state(self, cycle: int) -> msgspec.Raw:
@@ -281,9 +278,7 @@ class StateColumns:
         """
         at = cycle - self.first_cycle
         values = [column[at] for column in self._raw_columns()]
-        if self.names is None:
-            return values[0]
-        return msgspec.Raw(_ENCODER.encode(dict(zip(self.names, values, strict=True))))
+        return msgspec.Raw(_ENCODER.encode(dict(zip(self.names or (), values, strict=True))))
 
 
 _RAWS = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode

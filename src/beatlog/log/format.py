@@ -130,8 +130,9 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     """Each behavior's state before cycle 0, in catalogue order; empty in logs written
     before beatlog recorded it (a reader then knows a state only from its first change)."""
     state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] = []
-    """The robot state's fields as its cycles encode them, in order (format 3): a batch
-    of states of exactly these fields names none (:class:`ColumnBatch`)."""
+    """The robot state's fields as its cycles encode them, in order (format 3): where the
+    header names them, batches store robot states by field, and a batch of states of
+    exactly these fields names none (:class:`ColumnBatch`)."""
 
     def problem(self) -> str | None:
         """What makes this header unreadable beyond its field bounds, or None."""
@@ -219,38 +220,31 @@ class CycleBatch(msgspec.Struct, array_like=True):
 
 
 class Column(msgspec.Struct, array_like=True):
-    """The values of one part of a format-3 batch's cycles, one per cycle, as bytes.
-
-    ``width`` 0: ``data`` holds the values' msgpack encodings back to back. ``width``
-    W > 0: every value is encoded in exactly W bytes and ``data`` holds them byte-split,
-    byte 0 of every value, then byte 1 of every value, and so on (W times the cycles).
-    """
+    """One value a cycle, as bytes (format 3; ``docs/format.md``)."""
 
     width: Annotated[int, msgspec.Meta(ge=0, le=MAX_VALUE_WIDTH)]
+    """0: the values' msgpack encodings back to back; W > 0: each value is W bytes,
+    stored byte-split (byte 0 of every value, then byte 1 of every value, ...)."""
     data: bytes
 
 
-class ColumnBatch(msgspec.Struct, array_like=True):
-    """One cycles message (format 3): ``count`` consecutive cycles from ``first_cycle``,
-    robot states stored by field so that replay decodes only the fields behaviors read.
-
-    ``cycles`` holds each cycle's :class:`CycleRecord` with a nil ``robot_state``. The
-    robot-state columns are laid out back to back in ``data`` and described by a table,
-    one entry per column: ``widths[i]`` (one byte, a :class:`Column`'s width) and
-    ``sizes`` (4 bytes each, little-endian: the bytes column ``i`` takes). Column ``i``
-    holds field ``state_fields[i]`` of every cycle's RS_t, in cycle order. An empty
-    ``state_fields`` stands for the header's (named once, not in every batch); None
-    means the one column holds the robot states whole (a narrow state, or one that is
-    no map of named fields).
-    """
+class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
+    """One cycles message of format 3: robot states stored by field (``docs/format.md``)."""
 
     first_cycle: Annotated[int, msgspec.Meta(ge=0)]
     count: Annotated[int, msgspec.Meta(ge=1, le=MAX_CHUNK_BYTES)]
     cycles: Column
+    """Each cycle's :class:`CycleRecord`; its ``robot_state`` nil where the batch stores
+    robot states by field."""
     state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] | None
-    widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)]
-    sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)]
-    data: bytes
+    """The field each robot-state column holds, in order; empty: the header's; None: the
+    records hold the robot states, as in format 2, and there are no columns."""
+    widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)] = b""
+    """Each column's :attr:`Column.width`, a byte each."""
+    sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)] = b""
+    """Each column's size in ``data``, 4 bytes each (little-endian)."""
+    data: bytes = b""
+    """The robot-state columns back to back (none where ``state_fields`` is None)."""
 
 
 class SessionEnd(msgspec.Struct, kw_only=True):

@@ -115,25 +115,28 @@ class BatchDecoding:
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
         self._records = msgspec.msgpack.Decoder(list[_ColumnCycleRecord]).decode
-        self._states: Any = None
+        self._raw_rows = msgspec.msgpack.Decoder(list[_ReadCycleRecord]).decode
+        self._rows = self._raw_rows
 
     def records(self, batch: ColumnBatch) -> list[CycleRecord]:
         """The cycles of a format-3 batch, its columns checked (:class:`StateColumns`).
 
         Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it; once
-        :meth:`decode_states` was called, RS_t decoded where the batch stores states
-        whole, else the batch's :class:`StateColumns`, for the replay core to decode the
-        fields the behaviors read.
+        :meth:`decode_states` was called, RS_t decoded where the batch stores states in
+        its records, else the batch's :class:`StateColumns`, for the replay core to
+        decode the fields the behaviors read.
         """
         columns = StateColumns(self.path, batch, self.header.state_fields)
+        if columns.names is None:  # the states are in the records, as in format 2
+            try:
+                rows: list[CycleRecord] = columns.records(self._rows)
+            except CorruptLogError:
+                raise self._misfit(columns.records(self._raw_rows), batch.first_cycle) from None
+            return rows
         records: list[CycleRecord] = columns.records(self._records)
-        states: list[Any]
-        if self._state_type is None:
-            states = columns.raw_states()
-        elif columns.names is None:  # stored whole: decoded whole, as format 2 does
-            states = columns.values(0, self._states, self._state_type.__name__)
-        else:
-            states = [columns] * len(records)
+        states: list[Any] = (
+            columns.raw_states() if self._state_type is None else [columns] * len(records)
+        )
         for record, state in zip(records, states, strict=True):
             record.robot_state = state
         return records
@@ -142,26 +145,26 @@ class BatchDecoding:
         """Make :attr:`decoder` one that decodes each cycle's RS_t into ``state_type`` and
         checks its samples against the header (:func:`samples_shape`), and return it.
 
-        In format 3 the robot states stay in their columns (:meth:`records`); the
-        samples are checked all the same.
+        In format 3 robot states stored by field stay in their columns
+        (:meth:`records`); the samples are checked all the same.
         """
-        if self.columns:
-            record_shape: Any = msgspec.defstruct(
-                "ColumnCycleRecord",
-                [("samples", samples_shape(self.header))],
-                bases=(_ColumnCycleRecord,),
-                array_like=True,
-            )
-            self._records = msgspec.msgpack.Decoder(list[record_shape]).decode
-            self._states = msgspec.msgpack.Decoder(list[state_type]).decode  # type: ignore[valid-type]
-            self._state_type = state_type
-            return self.decoder
+        self._state_type = state_type
         record: Any = msgspec.defstruct(
             "DecodedCycleRecord",
             [("robot_state", state_type), ("samples", samples_shape(self.header))],
             bases=(_ReadCycleRecord,),
             array_like=True,
         )
+        if self.columns:
+            self._rows = msgspec.msgpack.Decoder(list[record]).decode
+            column_record: Any = msgspec.defstruct(
+                "ColumnCycleRecord",
+                [("samples", samples_shape(self.header))],
+                bases=(_ColumnCycleRecord,),
+                array_like=True,
+            )
+            self._records = msgspec.msgpack.Decoder(list[column_record]).decode
+            return self.decoder
         batch: Any = (
             msgspec.defstruct(
                 "DecodedCycleBatch",
@@ -173,7 +176,6 @@ class BatchDecoding:
             else list[record]
         )
         self.decoder = msgspec.msgpack.Decoder(batch)
-        self._state_type = state_type
         return self.decoder
 
     def problem(self, data: bytes, where: str, first_cycle: int, exc: Exception) -> Exception:
@@ -186,9 +188,17 @@ class BatchDecoding:
             return self._damaged_cycle(data, first_cycle) or CorruptLogError(
                 self.path, f"damaged {where}: {damage}"
             )
-        state_type = self._state_type
-        assert state_type is not None  # raw batches decoded above: states did not
         records = decoded.cycles if isinstance(decoded, CycleBatch) else decoded
+        damaged = CorruptLogError(self.path, f"damaged {where}: {exc}")
+        return self._misfit(records, first_cycle, damaged)
+
+    def _misfit(
+        self, records: list[CycleRecord], first_cycle: int, otherwise: Exception | None = None
+    ) -> Exception:
+        """The first cycle whose robot state does not fit the type robot states are
+        decoded into, or whose samples are not what the header declares."""
+        state_type = self._state_type
+        assert state_type is not None  # raw records decoded: the states did not
         samples = samples_shape(self.header)
         for index, record in enumerate(records):
             try:
@@ -208,7 +218,7 @@ class BatchDecoding:
                     f"damaged samples in cycle {first_cycle + index}: the header declares "
                     f"{logged}: {misfit}",
                 )
-        return CorruptLogError(self.path, f"damaged {where}: {exc}")
+        return otherwise or CorruptLogError(self.path, f"damaged batch from cycle {first_cycle}")
 
     def _damaged_cycle(self, data: bytes, first_cycle: int) -> CorruptLogError | None:
         """The first cycle of a batch that is not a cycle record, when the batch holds an

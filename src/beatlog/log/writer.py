@@ -27,7 +27,7 @@ from mcap.writer import CompressionType, Writer
 
 from beatlog.closing import Closing
 from beatlog.errors import LogError, LogExistsError
-from beatlog.log.columns import COLUMNS_FROM, column_batches
+from beatlog.log.columns import column_batches, row_batch
 from beatlog.log.format import (
     COLUMNS_SINCE,
     CYCLES_TOPIC,
@@ -65,8 +65,6 @@ class SessionLogWriter(Closing):
         time (the ``time_ns`` given to :meth:`append`).
     :param fsync: also fsync the file at each flush (survives power loss, costs I/O).
     :param batch_cycles: the most cycles put into one message.
-    :param columns_from: in format 3, the fewest fields a robot state has for a batch to
-        store it by field (:mod:`beatlog.log.columns`); narrower ones are stored whole.
     """
 
     def __init__(
@@ -79,7 +77,6 @@ class SessionLogWriter(Closing):
         fsync: bool = False,
         batch_cycles: int = 256,
         chunk_size: int = 1 << 20,
-        columns_from: int = COLUMNS_FROM,
     ) -> None:
         if flush_interval_s <= 0:
             raise ValueError(f"flush interval must be positive, got {flush_interval_s}")
@@ -98,7 +95,9 @@ class SessionLogWriter(Closing):
         self._closed = False
         self._columns = header.format_version >= COLUMNS_SINCE
         self._state_fields = header.state_fields
-        self._columns_from = columns_from
+        self._by_field = self._columns and bool(header.state_fields)
+        """Whether each batch stores its robot states by field (those of a header that
+        names their fields), not in its records."""
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         try:
             self._start(header)
@@ -169,7 +168,7 @@ class SessionLogWriter(Closing):
         """
         if self.error is not None:
             return
-        if self._columns:
+        if self._by_field:
             encoded = self._encoder.encode(state)
             record = self._encoder.encode(CycleEntry(hb_ns, None, changes, draws, outputs, samples))
             payload: Any = (record, encoded)
@@ -251,15 +250,12 @@ class SessionLogWriter(Closing):
         if not pending:
             return
         if self._columns:
-            records = [payload[0] for _, payload, _ in pending]
-            states = [payload[1] for _, payload, _ in pending]
-            batches = column_batches(
-                self.cycles_written,
-                records,
-                states,
-                header_fields=self._state_fields,
-                columns_from=self._columns_from,
-            )
+            if self._by_field:
+                records = [payload[0] for _, payload, _ in pending]
+                states = [payload[1] for _, payload, _ in pending]
+                batches = column_batches(self.cycles_written, records, states, self._state_fields)
+            else:
+                batches = [(0, row_batch(self.cycles_written, [p for _, p, _ in pending]))]
             for start, batch in batches:
                 first_ns = pending[start][0]
                 self._mcap.add_message(

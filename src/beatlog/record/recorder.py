@@ -18,6 +18,7 @@ from typing import IO, Any, NamedTuple
 import msgspec
 
 from beatlog._version import __version__
+from beatlog.log.columns import COLUMNS_FROM
 from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import System
@@ -27,7 +28,7 @@ from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
 from beatlog.model.random import RecordingRandom
 from beatlog.model.robot import Robot
-from beatlog.model.state import state_schema, state_type_name
+from beatlog.model.state import state_fields, state_schema, state_type_name
 
 __all__ = ["RecordSummary", "Recorder", "software_version"]
 
@@ -116,7 +117,9 @@ class Recorder:
             start_time_ns=time.time_ns() if start_time_ns is None else start_time_ns,
             robot_state_type=state_type_name(system.robot_state),
             robot_state_schema=state_schema(system.robot_state),
-            state_fields=list(getattr(system.robot_state, "__struct_encode_fields__", ())),
+            state_fields=by_field
+            if len(by_field := state_fields(system.robot_state)) >= COLUMNS_FROM
+            else [],
             behaviors=list(self._executor.behavior_ids),
             initial_states=[behavior.state for behavior in system.behaviors.values()],
             random_seed=self.random.seed,
