@@ -2,8 +2,8 @@
 
 The writer turns consecutive encoded cycles into
 :class:`~beatlog.log.format.ColumnBatch` messages (:func:`column_batches`): the cycle
-records without their robot states in one column, and each robot-state field's values,
-in cycle order, in a column of its own. A reader opens a batch as
+records without their robot states, and each robot-state field's values, in cycle
+order, in a column of its own. A reader opens a batch as
 :class:`StateColumns`, which checks the batch's column table on opening and decodes a
 column only when asked for it: a replay whose behaviors read 30 of 1,000 fields decodes
 30 columns. The values are the bytes the writer was given, so a robot state put back
@@ -14,8 +14,8 @@ A column of values all encoded in the same width (a float field: 9 bytes each) i
 stored byte-split: byte 0 of every value, then byte 1 of every value, and so on, so that
 the chunk's zstd finds a float column's marker and exponent bytes side by side (the
 reason format 3 is no larger than format 2 at any width). A log whose header names no
-robot-state fields keeps its robot states in the cycle records, as format 2 does
-(:func:`row_batch`): the recorder names them for a state of at least
+robot-state fields keeps its robot states in the cycle records, as format 2 does: the
+recorder names them for a state of at least
 :data:`COLUMNS_FROM` fields, since decoding a narrow state whole costs less than
 opening its columns one by one (``BENCHMARKS.md``).
 """
@@ -41,7 +41,6 @@ __all__ = [
     "array_head",
     "column_batches",
     "encode_column",
-    "row_batch",
 ]
 
 COLUMNS_FROM = 128
@@ -102,8 +101,7 @@ def column_batches(
         columns = [encode_column(column) for column in values]
         batch = ColumnBatch(
             first_cycle + start,
-            end - start,
-            encode_column(records[start:end]),
+            [msgspec.Raw(record) for record in records[start:end]],  # type: ignore[misc]
             [] if names == header else names,
             bytes([column.width for column in columns]),
             struct.pack(f"<{len(columns)}I", *[len(column.data) for column in columns]),
@@ -112,12 +110,6 @@ def column_batches(
         batches.append((start, batch))
         start = end
     return batches
-
-
-def row_batch(first_cycle: int, records: Sequence[bytes]) -> ColumnBatch:
-    """A batch of format 3 whose cycle records hold their robot states (each encoded as
-    a whole :class:`~beatlog.log.format.CycleRecord`), as format 2's do."""
-    return ColumnBatch(first_cycle, len(records), encode_column(records), None)
 
 
 def _same_fields(one: dict[str, Any], other: dict[str, Any]) -> bool:
@@ -135,9 +127,9 @@ class StateColumns:
     twice. A column is checked the first time it is read: its size must be its values'
     (its width times the cycles), and it must decode as exactly one value per cycle (an
     array of as many values as the batch has cycles, with nothing after them). So a
-    damaged column is an error wherever something
-    reads it: replay reads the fields its behaviors read, anything that shows whole
-    states reads them all; the chunk's CRC covers every byte of all of them.
+    damaged column is an error wherever something reads it: replay reads the fields its
+    behaviors read, anything that shows whole states reads them all; the chunk's CRC
+    covers every byte of all of them.
     Robot-state columns are numbered from 0 in :attr:`names` order.
 
     :raises beatlog.errors.CorruptLogError: the column table does not describe the data.
@@ -146,14 +138,13 @@ class StateColumns:
     def __init__(self, path: Path, batch: ColumnBatch, header_fields: list[str]) -> None:
         self.path = path
         self.first_cycle = batch.first_cycle
-        self.count = batch.count
+        self.count = len(batch.cycles)
         names = batch.state_fields
         self.names = header_fields if names == [] else names
         """The fields' names in column order; None where the records hold the states."""
         self._batch = batch
         self._encoded: dict[int, bytes | bytearray] = {}
         expected = 0 if self.names is None else len(self.names)
-        self._records = expected
         if (len(batch.widths), len(batch.sizes)) != (expected, 4 * expected):
             raise self._damaged(f"its column table does not describe {expected} columns")
         if names and len(set(names)) != len(names):
@@ -164,23 +155,17 @@ class StateColumns:
             raise self._damaged(f"its columns take {held} bytes, not the {len(batch.data)} it holds")
 
     def name(self, index: int) -> str:
-        """What a column holds: a field, whole robot states, or the cycle records."""
-        if index == self._records:
-            return "cycle records"
+        """The field a column holds."""
         return f"field {(self.names or [])[index]!r}"
 
     def _damaged(self, problem: str) -> CorruptLogError:
         return CorruptLogError(self.path, f"damaged batch from cycle {self.first_cycle}: {problem}")
 
     def _column(self, index: int) -> Column:
-        """Column ``index`` (the cycle records after the robot state's), checked against
-        its width and the cycles."""
+        """Column ``index``, checked against its width and the cycles."""
         batch = self._batch
-        if index == self._records:
-            column = batch.cycles
-        else:
-            start = self._ends[index - 1] if index else 0
-            column = Column(batch.widths[index], batch.data[start : self._ends[index]])
+        start = self._ends[index - 1] if index else 0
+        column = Column(batch.widths[index], batch.data[start : self._ends[index]])
         if column.width > MAX_VALUE_WIDTH or (
             column.width and len(column.data) != column.width * self.count
         ):
@@ -212,16 +197,6 @@ class StateColumns:
         self._encoded[index] = encoded
         return encoded
 
-    def records(self, decode: Callable[[bytes | bytearray], list[Any]]) -> list[Any]:
-        """The batch's cycle records, decoded with ``decode``.
-
-        :raises beatlog.errors.CorruptLogError: a record does not decode (naming its cycle).
-        """
-        try:
-            return decode(self.encoded(self._records))
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(self.path, f"damaged cycle {self._cycle(exc)}: {exc}") from None
-
     def values(
         self, index: int, decode: Callable[[bytes | bytearray], list[Any]], type_name: str
     ) -> list[Any]:
@@ -252,7 +227,7 @@ class StateColumns:
 
     def _raw_columns(self) -> list[list[msgspec.Raw]]:
         columns = []
-        for index in range(self._records):
+        for index in range(len(self._ends)):
             try:
                 columns.append(_RAWS(self.encoded(index)))
             except DECODE_ERRORS as exc:

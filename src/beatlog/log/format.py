@@ -23,7 +23,6 @@ import msgspec
 
 from beatlog.log.limits import (
     MAX_BEHAVIORS,
-    MAX_CHUNK_BYTES,
     MAX_FIELDS,
     MAX_NAME_LENGTH,
     MAX_TEXT_LENGTH,
@@ -220,7 +219,7 @@ class CycleBatch(msgspec.Struct, array_like=True):
 
 
 class Column(msgspec.Struct, array_like=True):
-    """One value a cycle, as bytes (format 3; ``docs/format.md``)."""
+    """One robot-state field's values, one a cycle, as bytes (format 3; ``docs/format.md``)."""
 
     width: Annotated[int, msgspec.Meta(ge=0, le=MAX_VALUE_WIDTH)]
     """0: the values' msgpack encodings back to back; W > 0: each value is W bytes,
@@ -232,11 +231,9 @@ class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
     """One cycles message of format 3: robot states stored by field (``docs/format.md``)."""
 
     first_cycle: Annotated[int, msgspec.Meta(ge=0)]
-    count: Annotated[int, msgspec.Meta(ge=1, le=MAX_CHUNK_BYTES)]
-    cycles: Column
-    """Each cycle's :class:`CycleRecord`; its ``robot_state`` nil where the batch stores
-    robot states by field."""
-    state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] | None
+    cycles: list[CycleRecord]
+    """Each cycle's record; its ``robot_state`` nil where the batch stores them by field."""
+    state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] | None = None
     """The field each robot-state column holds, in order; empty: the header's; None: the
     records hold the robot states, as in format 2, and there are no columns."""
     widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)] = b""
@@ -244,7 +241,7 @@ class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
     sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)] = b""
     """Each column's size in ``data``, 4 bytes each (little-endian)."""
     data: bytes = b""
-    """The robot-state columns back to back (none where ``state_fields`` is None)."""
+    """The robot-state columns back to back."""
 
 
 class SessionEnd(msgspec.Struct, kw_only=True):

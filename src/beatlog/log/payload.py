@@ -19,7 +19,6 @@ from beatlog.log.format import (
     COLUMNS_SINCE,
     CYCLE_BATCH_SINCE,
     DECODE_ERRORS,
-    Column,
     ColumnBatch,
     CycleBatch,
     CycleRecord,
@@ -51,24 +50,15 @@ _ReadCycleBatch: Any = msgspec.defstruct(
 """A cycles message as the reader decodes it: nothing after its cycles, each as read."""
 
 
-class _ReadColumn(Column, forbid_unknown_fields=True):
-    """A column as the reader decodes it: nothing after its data."""
-
-
 _ReadColumnBatch: Any = msgspec.defstruct(
     "_ReadColumnBatch",
-    [("cycles", _ReadColumn)],
+    [("cycles", list[_ReadCycleRecord])],
     bases=(ColumnBatch,),
     array_like=True,
     forbid_unknown_fields=True,
 )
 """A format-3 cycles message as the reader decodes it: nothing after its columns."""
-
-
-class _ColumnCycleRecord(_ReadCycleRecord):
-    """A format-3 cycle record: its robot state is in the batch's columns, nil here."""
-
-    robot_state: None  # type: ignore[assignment]
+_NIL = msgspec.Raw(b"\xc0")
 
 
 class _RawBatch(msgspec.Struct, array_like=True):
@@ -114,30 +104,43 @@ class BatchDecoding:
         )
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
-        self._records = msgspec.msgpack.Decoder(list[_ColumnCycleRecord]).decode
-        self._raw_rows = msgspec.msgpack.Decoder(list[_ReadCycleRecord]).decode
-        self._rows = self._raw_rows
+        self._nil: Any = _NIL
+        """A robot state stored by field, as the records hold it."""
 
     def records(self, batch: ColumnBatch) -> list[CycleRecord]:
-        """The cycles of a format-3 batch, its columns checked (:class:`StateColumns`).
+        """The cycles of a format-3 batch, its column table checked
+        (:class:`StateColumns`).
 
         Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it; once
-        :meth:`decode_states` was called, RS_t decoded where the batch stores states in
-        its records, else the batch's :class:`StateColumns`, for the replay core to
-        decode the fields the behaviors read.
+        :meth:`decode_states` was called, RS_t decoded where the batch's records hold
+        the robot states, else the batch's :class:`StateColumns`, for the replay core
+        to decode the fields the behaviors read.
+
+        :raises beatlog.errors.CorruptLogError: a robot state stored by field is also
+            in its record, or one stored in the records is missing.
         """
+        records: list[CycleRecord] = batch.cycles
+        nil = self._nil
+        if batch.state_fields is None:
+            if self._state_type is not None and nil in [r.robot_state for r in records]:
+                at = [r.robot_state for r in records].index(nil)
+                raise SchemaMismatchError(
+                    self.path,
+                    f"robot state of cycle {batch.first_cycle + at} does not fit "
+                    f"{self._state_type.__name__}: it is nil",
+                )
+            return records
         columns = StateColumns(self.path, batch, self.header.state_fields)
-        if columns.names is None:  # the states are in the records, as in format 2
-            try:
-                rows: list[CycleRecord] = columns.records(self._rows)
-            except CorruptLogError:
-                raise self._misfit(columns.records(self._raw_rows), batch.first_cycle) from None
-            return rows
-        records: list[CycleRecord] = columns.records(self._records)
         states: list[Any] = (
             columns.raw_states() if self._state_type is None else [columns] * len(records)
         )
-        for record, state in zip(records, states, strict=True):
+        for offset, (record, state) in enumerate(zip(records, states, strict=True)):
+            if record.robot_state != nil:
+                raise CorruptLogError(
+                    self.path,
+                    f"damaged cycle {batch.first_cycle + offset}: its robot state is stored "
+                    "by field, and in its record too",
+                )
             record.robot_state = state
         return records
 
@@ -146,30 +149,25 @@ class BatchDecoding:
         checks its samples against the header (:func:`samples_shape`), and return it.
 
         In format 3 robot states stored by field stay in their columns
-        (:meth:`records`); the samples are checked all the same.
+        (:meth:`records`).
         """
         self._state_type = state_type
+        # Format 3: nil where the batch stores robot states by field (checked per batch).
+        self._nil = None if self.columns else _NIL
         record: Any = msgspec.defstruct(
             "DecodedCycleRecord",
-            [("robot_state", state_type), ("samples", samples_shape(self.header))],
+            [
+                ("robot_state", state_type | None if self.columns else state_type),
+                ("samples", samples_shape(self.header)),
+            ],
             bases=(_ReadCycleRecord,),
             array_like=True,
         )
-        if self.columns:
-            self._rows = msgspec.msgpack.Decoder(list[record]).decode
-            column_record: Any = msgspec.defstruct(
-                "ColumnCycleRecord",
-                [("samples", samples_shape(self.header))],
-                bases=(_ColumnCycleRecord,),
-                array_like=True,
-            )
-            self._records = msgspec.msgpack.Decoder(list[column_record]).decode
-            return self.decoder
         batch: Any = (
             msgspec.defstruct(
                 "DecodedCycleBatch",
                 [("cycles", list[record])],
-                bases=(_ReadCycleBatch,),
+                bases=(_ReadColumnBatch if self.columns else _ReadCycleBatch,),
                 array_like=True,
             )
             if self._batched
@@ -188,21 +186,24 @@ class BatchDecoding:
             return self._damaged_cycle(data, first_cycle) or CorruptLogError(
                 self.path, f"damaged {where}: {damage}"
             )
-        records = decoded.cycles if isinstance(decoded, CycleBatch) else decoded
+        records = decoded if isinstance(decoded, list) else decoded.cycles
+        by_field = isinstance(decoded, ColumnBatch) and decoded.state_fields is not None
         damaged = CorruptLogError(self.path, f"damaged {where}: {exc}")
-        return self._misfit(records, first_cycle, damaged)
+        return self._misfit(records, first_cycle, damaged, states=not by_field)
 
     def _misfit(
-        self, records: list[CycleRecord], first_cycle: int, otherwise: Exception | None = None
+        self, records: list[CycleRecord], first_cycle: int, otherwise: Exception, *, states: bool
     ) -> Exception:
-        """The first cycle whose robot state does not fit the type robot states are
-        decoded into, or whose samples are not what the header declares."""
+        """The first cycle whose robot state (where ``states``: the records hold them) does
+        not fit the type robot states are decoded into, or whose samples are not what the
+        header declares; else ``otherwise``."""
         state_type = self._state_type
         assert state_type is not None  # raw records decoded: the states did not
         samples = samples_shape(self.header)
         for index, record in enumerate(records):
             try:
-                msgspec.msgpack.decode(record.robot_state, type=state_type)
+                if states:
+                    msgspec.msgpack.decode(record.robot_state, type=state_type)
             except DECODE_ERRORS as misfit:
                 return SchemaMismatchError(
                     self.path,
@@ -218,7 +219,7 @@ class BatchDecoding:
                     f"damaged samples in cycle {first_cycle + index}: the header declares "
                     f"{logged}: {misfit}",
                 )
-        return otherwise or CorruptLogError(self.path, f"damaged batch from cycle {first_cycle}")
+        return otherwise
 
     def _damaged_cycle(self, data: bytes, first_cycle: int) -> CorruptLogError | None:
         """The first cycle of a batch that is not a cycle record, when the batch holds an

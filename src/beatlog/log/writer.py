@@ -27,7 +27,7 @@ from mcap.writer import CompressionType, Writer
 
 from beatlog.closing import Closing
 from beatlog.errors import LogError, LogExistsError
-from beatlog.log.columns import column_batches, row_batch
+from beatlog.log.columns import column_batches
 from beatlog.log.format import (
     COLUMNS_SINCE,
     CYCLES_TOPIC,
@@ -119,7 +119,7 @@ class SessionLogWriter(Closing):
                 schema_id=self._mcap.register_schema(
                     name=schema_name(struct),
                     encoding=SCHEMA_ENCODING,
-                    data=msgspec.json.encode(msgspec.json.schema(struct)),
+                    data=record_schema(struct),
                 ),
             )
             for topic, struct in (
@@ -249,25 +249,16 @@ class SessionLogWriter(Closing):
     def _write_batch(self, pending: list[tuple[int, Any, int]]) -> None:
         if not pending:
             return
-        if self._columns:
-            if self._by_field:
-                records = [payload[0] for _, payload, _ in pending]
-                states = [payload[1] for _, payload, _ in pending]
-                batches = column_batches(self.cycles_written, records, states, self._state_fields)
-            else:
-                batches = [(0, row_batch(self.cycles_written, [p for _, p, _ in pending]))]
-            for start, batch in batches:
-                first_ns = pending[start][0]
-                self._mcap.add_message(
-                    self._channels[CYCLES_TOPIC], first_ns, self._encoder.encode(batch), first_ns
-                )
-            self.cycles_written += len(pending)
-            pending.clear()
-            return
-        cycles = [msgspec.Raw(payload) for _, payload, _ in pending]
-        batch = self._encoder.encode((self.cycles_written, cycles))
-        first_ns = pending[0][0]
-        self._mcap.add_message(self._channels[CYCLES_TOPIC], first_ns, batch, first_ns)
+        if self._by_field:
+            records = [payload[0] for _, payload, _ in pending]
+            states = [payload[1] for _, payload, _ in pending]
+            batches = column_batches(self.cycles_written, records, states, self._state_fields)
+            messages = [(pending[start][0], self._encoder.encode(b)) for start, b in batches]
+        else:  # records that hold their robot states: the same bytes in formats 2 and 3
+            cycles = [msgspec.Raw(payload) for _, payload, _ in pending]
+            messages = [(pending[0][0], self._encoder.encode((self.cycles_written, cycles)))]
+        for first_ns, message in messages:
+            self._mcap.add_message(self._channels[CYCLES_TOPIC], first_ns, message, first_ns)
         self.cycles_written += len(pending)
         pending.clear()
 
@@ -288,6 +279,21 @@ class SessionLogWriter(Closing):
         self._file.flush()
         if self._fsync:
             os.fsync(self._file.fileno())
+
+
+def record_schema(record: type[msgspec.Struct]) -> bytes:
+    """The JSON schema of a record type as a log embeds it: its layout, without the
+    descriptions (``docs/format.md`` says what each field means), which every log
+    would otherwise carry twice."""
+    return msgspec.json.encode(_undescribed(msgspec.json.schema(record)))
+
+
+def _undescribed(node: Any) -> Any:
+    if isinstance(node, dict):
+        return {key: _undescribed(value) for key, value in node.items() if key != "description"}
+    if isinstance(node, list):
+        return [_undescribed(value) for value in node]
+    return node
 
 
 def _check_header(header: SessionHeader, path: Path | None) -> None:
