@@ -119,7 +119,7 @@ class SessionLogWriter(Closing):
                 schema_id=self._mcap.register_schema(
                     name=schema_name(struct),
                     encoding=SCHEMA_ENCODING,
-                    data=record_schema(struct),
+                    data=record_schema(struct, described=not self._columns),
                 ),
             )
             for topic, struct in (
@@ -281,11 +281,12 @@ class SessionLogWriter(Closing):
             os.fsync(self._file.fileno())
 
 
-def record_schema(record: type[msgspec.Struct]) -> bytes:
-    """The JSON schema of a record type as a log embeds it: its layout, without the
-    descriptions (``docs/format.md`` says what each field means), which every log
-    would otherwise carry twice."""
-    return msgspec.json.encode(_undescribed(msgspec.json.schema(record)))
+def record_schema(record: type[msgspec.Struct], *, described: bool) -> bytes:
+    """The JSON schema of a record type as a log embeds it: from format 3 on, its layout
+    without the descriptions (``docs/format.md`` says what each field means), which
+    every log would otherwise carry twice."""
+    schema = msgspec.json.schema(record)
+    return msgspec.json.encode(schema if described else _undescribed(schema))
 
 
 def _undescribed(node: Any) -> Any:
