@@ -119,23 +119,38 @@ def _same_fields(one: dict[str, Any], other: dict[str, Any]) -> bool:
 _AT = re.compile(r"at `\$\[(\d+)\]")
 
 
+class _Values(msgspec.Struct, array_like=True, gc=False):
+    """Any array: decoding a column as this walks its values without building them."""
+
+
+_WALK = msgspec.msgpack.Decoder(_Values).decode
+_CHECKED_TABLES = 256
+"""Column tables (widths, sizes, cycles) a reader remembers as checked: consecutive
+batches of one robot mostly share theirs."""
+
+
 class StateColumns:
     """One format-3 batch, its columns decoded only when asked for.
 
-    Opening checks the batch's column table: a width and a size per column (one column
-    per field, or one of whole states), sizes that add up to the data, no field named
-    twice. A column is checked the first time it is read: its size must be its values'
-    (its width times the cycles), and it must decode as exactly one value per cycle (an
-    array of as many values as the batch has cycles, with nothing after them). So a
-    damaged column is an error wherever something reads it: replay reads the fields its
-    behaviors read, anything that shows whole states reads them all; the chunk's CRC
-    covers every byte of all of them.
-    Robot-state columns are numbered from 0 in :attr:`names` order.
+    Opening checks, without decoding a value, that each column holds exactly one value
+    a cycle: the column table has a width and a size per field and no field twice, the
+    sizes add up to the data, a column of values of one width takes that width times
+    the cycles (a table already seen is checked once: ``checked``), and a column of
+    values of varied width walks through as many values as there are cycles. A value's
+    type is checked when its column is decoded: replay decodes the fields its behaviors
+    read, anything that shows whole states decodes them all; the chunk's CRC covers
+    every byte. Robot-state columns are numbered from 0 in :attr:`names` order.
 
-    :raises beatlog.errors.CorruptLogError: the column table does not describe the data.
+    :raises beatlog.errors.CorruptLogError: a column does not hold one value a cycle.
     """
 
-    def __init__(self, path: Path, batch: ColumnBatch, header_fields: list[str]) -> None:
+    def __init__(
+        self,
+        path: Path,
+        batch: ColumnBatch,
+        header_fields: list[str],
+        checked: set[tuple[bytes, bytes, int]] | None = None,
+    ) -> None:
         self.path = path
         self.first_cycle = batch.first_cycle
         self.count = len(batch.cycles)
@@ -149,10 +164,39 @@ class StateColumns:
             raise self._damaged(f"its column table does not describe {expected} columns")
         if names and len(set(names)) != len(names):
             raise self._damaged("a field is named twice")
-        self._ends = list(accumulate(struct.unpack(f"<{expected}I", batch.sizes)))
+        sizes = struct.unpack(f"<{expected}I", batch.sizes)
+        self._ends = list(accumulate(sizes))
         held = self._ends[-1] if self._ends else 0
         if held != len(batch.data):
             raise self._damaged(f"its columns take {held} bytes, not the {len(batch.data)} it holds")
+        table = (batch.widths, batch.sizes, self.count)
+        if checked is None or table not in checked:
+            self._check_sizes(sizes)
+            if checked is not None and len(checked) < _CHECKED_TABLES:
+                checked.add(table)
+        for index, width in enumerate(batch.widths):
+            if not width:
+                self._walk(index)
+
+    def _check_sizes(self, sizes: tuple[int, ...]) -> None:
+        """Every column of values of one width must hold exactly one value a cycle."""
+        count = self.count
+        for index, (width, size) in enumerate(zip(self._batch.widths, sizes, strict=True)):
+            if width > MAX_VALUE_WIDTH or (width and size != width * count):
+                raise self._damaged(
+                    f"{self.name(index)} holds {size} bytes, not {count} values of {width} "
+                    "bytes (a value missing, repeated or foreign)"
+                )
+
+    def _walk(self, index: int) -> None:
+        """A column of values of varied width must hold exactly one value a cycle."""
+        try:
+            _WALK(self.encoded(index))
+        except DECODE_ERRORS as exc:
+            raise self._damaged(
+                f"{self.name(index)} does not hold {self.count} values (a value missing, "
+                f"repeated or foreign): {exc}"
+            ) from None
 
     def name(self, index: int) -> str:
         """The field a column holds."""
@@ -162,22 +206,14 @@ class StateColumns:
         return CorruptLogError(self.path, f"damaged batch from cycle {self.first_cycle}: {problem}")
 
     def _column(self, index: int) -> Column:
-        """Column ``index``, checked against its width and the cycles."""
+        """Column ``index`` (its size checked on opening)."""
         batch = self._batch
         start = self._ends[index - 1] if index else 0
-        column = Column(batch.widths[index], batch.data[start : self._ends[index]])
-        if column.width > MAX_VALUE_WIDTH or (
-            column.width and len(column.data) != column.width * self.count
-        ):
-            raise self._damaged(
-                f"{self.name(index)} holds {len(column.data)} bytes, not {self.count} values "
-                f"of {column.width} bytes (a value missing, repeated or foreign)"
-            )
-        return column
+        return Column(batch.widths[index], batch.data[start : self._ends[index]])
 
     def encoded(self, index: int) -> bytes | bytearray:
-        """A column as one msgpack array of the batch's values: its size checked, un-split
-        (once; kept for the batch). Decoding it checks it holds one value per cycle."""
+        """A column as one msgpack array of the batch's values, un-split (once; kept for
+        the batch)."""
         found = self._encoded.get(index)
         if found is not None:
             return found

@@ -104,6 +104,7 @@ class BatchDecoding:
         )
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
+        self._checked: set[tuple[bytes, bytes, int]] = set()
         self._nil: Any = _NIL
         """A robot state stored by field, as the records hold it."""
 
@@ -130,7 +131,7 @@ class BatchDecoding:
                     f"{self._state_type.__name__}: it is nil",
                 )
             return records
-        columns = StateColumns(self.path, batch, self.header.state_fields)
+        columns = StateColumns(self.path, batch, self.header.state_fields, self._checked)
         states: list[Any] = (
             columns.raw_states() if self._state_type is None else [columns] * len(records)
         )
