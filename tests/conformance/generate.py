@@ -29,7 +29,7 @@ from mcap.stream_reader import StreamReader
 
 from beatlog.log import SessionEnd, SessionHeader, SessionLogWriter
 from beatlog.log.format import CYCLES_TOPIC
-from tests.conformance.format3 import DAMAGES, damaged_log, header, written
+from tests.conformance.format3 import DAMAGES, damaged, header, written
 from tests.factories import (
     FORMAT_1_CHANNELS,
     PERIOD_NS,
@@ -320,15 +320,14 @@ def format_3(folder: Path) -> dict[str, tuple[bytes, dict[str, Any]]]:
     with a batch's columns damaged (every CRC holding)."""
     cycles = recorded_cycles()
     status = (True, CYCLES, None)
-    found: dict[str, tuple[bytes, dict[str, Any]]] = {
-        f"format-3-{name}": (
-            written(folder, name, HEADER, cycles, end_of(cycles), by_field=by_field),
-            readable(header(by_field, HEADER), cycles, status, end_of(cycles)),
-        )
-        for name, by_field in (("by-field", True), ("in-records", False))
-    }
+    found: dict[str, tuple[bytes, dict[str, Any]]] = {}
+    for name, by_field in (("by-field", True), ("in-records", False)):
+        path = written(folder, name, HEADER, cycles, end_of(cycles), by_field=by_field)
+        document = readable(header(by_field, HEADER), cycles, status, end_of(cycles))
+        found[f"format-3-{name}"] = (path.read_bytes(), document)
     for name, (damage, words) in DAMAGES.items():
-        found[name] = (damaged_log(folder, name, HEADER, cycles, damage), refused("corrupt", words))
+        data = damaged(folder / "by-field.beatlog", name, damage)
+        found[name] = (data, refused("corrupt", words))
     return found
 
 

@@ -82,6 +82,11 @@ class Recorder:
         ``git describe`` of the working directory, or ``unknown``).
     :param start_time_ns: the wall-clock start of the recording (Unix ns; by default
         now); never used by replay.
+    :param by_field: store the robot states by field (format 3's columns: a replay
+        decodes only the fields its behaviors read), or in the cycle records; by
+        default by field for a state of at least
+        :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay
+        (``BENCHMARKS.md``).
     """
 
     def __init__(
@@ -99,6 +104,7 @@ class Recorder:
         log_samples: bool = False,
         software: str | None = None,
         start_time_ns: int | None = None,
+        by_field: bool | None = None,
     ) -> None:
         self.period_ns = period_ns
         self.random = RecordingRandom(seed)
@@ -107,6 +113,7 @@ class Recorder:
         self._overruns = 0
         self._warned = False
         self._close_error: OSError | None = None
+        fields = state_fields(system.robot_state)
         header = SessionHeader(
             format_version=FORMAT_VERSION,
             beatlog_version=__version__,
@@ -117,8 +124,8 @@ class Recorder:
             start_time_ns=time.time_ns() if start_time_ns is None else start_time_ns,
             robot_state_type=state_type_name(system.robot_state),
             robot_state_schema=state_schema(system.robot_state),
-            state_fields=by_field
-            if len(by_field := state_fields(system.robot_state)) >= COLUMNS_FROM
+            state_fields=fields
+            if (by_field is None and len(fields) >= COLUMNS_FROM) or by_field
             else [],
             behaviors=list(self._executor.behavior_ids),
             initial_states=[behavior.state for behavior in system.behaviors.values()],
