@@ -85,7 +85,7 @@ def column_batches(
 
     A batch holds states of the same fields in the same order; a state of other fields
     (a type that omits defaults) starts the next. A batch of the ``header_fields`` names
-    none.
+    none; states of no field at all stay in their records.
 
     :raises msgspec.DecodeError: a robot state is not a map of named fields.
     """
@@ -97,6 +97,11 @@ def column_batches(
         if end < len(rows) and _same_fields(rows[end], rows[start]):
             continue
         names = list(rows[start])
+        if not names:  # no field to store by: the states stay in their records
+            cycles = [_with_state(r, s) for r, s in zip(records[start:end], states[start:end])]
+            batches.append((start, ColumnBatch(first_cycle + start, cycles)))
+            start = end
+            continue
         values = zip(*[row.values() for row in rows[start:end]], strict=True)
         columns = [encode_column(column) for column in values]
         batch = ColumnBatch(
@@ -110,6 +115,16 @@ def column_batches(
         batches.append((start, batch))
         start = end
     return batches
+
+
+def _with_state(record: bytes, state: bytes) -> msgspec.Raw:
+    """A record encoded with a nil robot state, holding ``state`` instead."""
+    parts = _PARTS(record)
+    parts[1] = msgspec.Raw(state)
+    return msgspec.Raw(_ENCODER.encode(parts))
+
+
+_PARTS = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
 
 
 def _same_fields(one: dict[str, Any], other: dict[str, Any]) -> bool:
