@@ -183,7 +183,9 @@ class StateColumns:
         self._ends = list(accumulate(sizes))
         held = self._ends[-1] if self._ends else 0
         if held != len(batch.data):
-            raise self._damaged(f"its columns take {held} bytes, not the {len(batch.data)} it holds")
+            raise self._damaged(
+                f"its columns take {held} bytes, not the {len(batch.data)} it holds"
+            )
         table = (batch.widths, batch.sizes, self.count)
         if checked is None or table not in checked:
             self._check_sizes(sizes)

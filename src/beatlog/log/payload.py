@@ -81,6 +81,23 @@ def decoded_version(path: Path, data: bytes) -> int:
     return decode_payload(path, data, _Versioned, "session header").format_version
 
 
+class _ByShape:
+    """Decodes a format-3 cycles message: one of 2 items (records that hold their robot
+    states, as the writer writes them) with ``rows``, any other with ``by_field``."""
+
+    def __init__(
+        self, rows: msgspec.msgpack.Decoder[Any], by_field: msgspec.msgpack.Decoder[Any]
+    ) -> None:
+        self._rows = rows.decode
+        self._by_field = by_field.decode
+        self.nil_possible = False
+        """Whether the message decoded last may hold a nil robot state in a record."""
+
+    def decode(self, data: bytes) -> Any:
+        self.nil_possible = data[:1] != b"\x92"
+        return (self._by_field if self.nil_possible else self._rows)(data)
+
+
 class BatchDecoding:
     """How the cycles messages of one log decode, and what is wrong with one that does not.
 
@@ -123,7 +140,11 @@ class BatchDecoding:
         records: list[CycleRecord] = batch.cycles
         nil = self._nil
         if batch.state_fields is None:
-            if self._state_type is not None and nil in [r.robot_state for r in records]:
+            if (
+                nil is None
+                and self.decoder.nil_possible
+                and nil in [r.robot_state for r in records]
+            ):
                 at = [r.robot_state for r in records].index(nil)
                 raise SchemaMismatchError(
                     self.path,
@@ -153,29 +174,35 @@ class BatchDecoding:
         (:meth:`records`).
         """
         self._state_type = state_type
-        # Format 3: nil where the batch stores robot states by field (checked per batch).
-        self._nil = None if self.columns else _NIL
+        self._nil = None
+        batch = self._decoded_batch(state_type)
+        if self.columns:
+            # A batch whose records hold their states (2 items, as the writer writes it)
+            # has them typed; another may hold nil states, checked as it is read.
+            self.decoder = _ByShape(
+                msgspec.msgpack.Decoder(batch),
+                msgspec.msgpack.Decoder(self._decoded_batch(state_type | None)),
+            )
+            return self.decoder
+        self.decoder = msgspec.msgpack.Decoder(batch)
+        return self.decoder
+
+    def _decoded_batch(self, state_type: Any) -> Any:
+        """A cycles message with each RS_t decoded as ``state_type`` and samples checked."""
         record: Any = msgspec.defstruct(
             "DecodedCycleRecord",
-            [
-                ("robot_state", state_type | None if self.columns else state_type),
-                ("samples", samples_shape(self.header)),
-            ],
+            [("robot_state", state_type), ("samples", samples_shape(self.header))],
             bases=(_ReadCycleRecord,),
             array_like=True,
         )
-        batch: Any = (
-            msgspec.defstruct(
-                "DecodedCycleBatch",
-                [("cycles", list[record])],
-                bases=(_ReadColumnBatch if self.columns else _ReadCycleBatch,),
-                array_like=True,
-            )
-            if self._batched
-            else list[record]
+        if not self._batched:
+            return list[record]
+        return msgspec.defstruct(
+            "DecodedCycleBatch",
+            [("cycles", list[record])],
+            bases=(_ReadColumnBatch if self.columns else _ReadCycleBatch,),
+            array_like=True,
         )
-        self.decoder = msgspec.msgpack.Decoder(batch)
-        return self.decoder
 
     def problem(self, data: bytes, where: str, first_cycle: int, exc: Exception) -> Exception:
         """What is wrong with a batch that did not decode: a cycle in it is damaged, the

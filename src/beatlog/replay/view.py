@@ -106,7 +106,9 @@ class StateViews:
         self.path = path
         self.convert = convert
         struct = isinstance(checking, type) and issubclass(checking, msgspec.Struct)
-        self.fields = {info.name: info for info in msgspec.structs.fields(checking)} if struct else {}
+        self.fields = (
+            {info.name: info for info in msgspec.structs.fields(checking)} if struct else {}
+        )
         self._recorded = {info.encode_name: info.name for info in self.fields.values()}
         self.decoders: dict[str, Callable[[bytes], list[Any]]] = {}
         self.read: dict[str, None] = {}
@@ -271,9 +273,7 @@ class _Batch:
         this batch; an attribute the type lacks raises as the type's would."""
         views = self.views
         if name not in views.fields or name.startswith("__"):
-            raise AttributeError(
-                f"{views.system_type.__name__!r} object has no attribute {name!r}"
-            )
+            raise AttributeError(f"{views.system_type.__name__!r} object has no attribute {name!r}")
         if name not in views.read:
             views.read[name] = None
             views.stale = True
