@@ -30,8 +30,8 @@ import msgspec
 
 import beatlog
 from beatlog import ReplayResult
-from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.columns import StateColumns
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
@@ -166,7 +166,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
                 draws = record.random_numbers
                 if draws != EMPTY_LIST or random.recorded:
                     random.load(() if draws == EMPTY_LIST else decode_draws(draws))
-                state = record.robot_state
+                state: Any = record.robot_state
                 if state.__class__ is StateColumns:  # format 3: a view of the columns
                     state = view(state, context.cycle)
                 update(state, context)

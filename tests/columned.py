@@ -125,7 +125,7 @@ def retyped_value(index: int, value: Any) -> Damage:
 
 def state_in_record(batch: ColumnBatch) -> ColumnBatch:
     """The first record holds a robot state the batch also stores by field."""
-    records = list(batch.cycles)
+    records: list[Any] = list(batch.cycles)
     parts = msgspec.msgpack.decode(msgspec.msgpack.encode(records[0]))
     parts[1] = {"distance": 0.0}
     records[0] = msgspec.Raw(msgspec.msgpack.encode(parts))

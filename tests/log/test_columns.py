@@ -3,6 +3,7 @@ and a column that does not hold one value a cycle is a damaged log, read or not.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import msgspec
@@ -54,7 +55,9 @@ def wide(t: int) -> Wide:
     )
 
 
-def write(path: Path, states: list[msgspec.Struct], *, by_field: bool, version: int = 3) -> Path:
+def write(
+    path: Path, states: Sequence[msgspec.Struct], *, by_field: bool, version: int = 3
+) -> Path:
     fields = state_fields(type(states[0])) if by_field else []
     header = session_header(format_version=version, state_fields=fields)
     with SessionLogWriter(path, header, batch_cycles=8) as writer:

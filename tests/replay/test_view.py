@@ -12,10 +12,10 @@ import pytest
 
 import beatlog
 from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.reader import SessionLogReader
 from beatlog.model import BehaviorState, Context, Outputs, PriorityArbiter, RobotState
 from beatlog.record import Recorder
 from beatlog.replay import StateMigration
-from beatlog.log.reader import SessionLogReader
 from beatlog.replay.view import StateViews, full_state
 from tests.columned import retyped_value, rewrite_by_field, short_column
 from tests.conftest import PERIOD_NS
@@ -104,7 +104,9 @@ def test_a_field_first_read_in_cycle_200_gets_its_recorded_value(by_field: Path)
 def test_the_same_session_in_the_records_replays_alike(by_field: Path, tmp_path: Path) -> None:
     in_records = record(tmp_path / "rows.beatlog", by_field=False)
     systems = [watcher_system(), watcher_system()]
-    results = [beatlog.replay(log, s) for log, s in zip((by_field, in_records), systems)]
+    results = [
+        beatlog.replay(log, s) for log, s in zip((by_field, in_records), systems, strict=True)
+    ]
     assert [(r.ok, r.cycles, r.checked) for r in results] == [(True, 300, results[0].checked)] * 2
     assert [s.behaviors["watcher"].state for s in systems] == ["far", "far"]
 
@@ -118,7 +120,8 @@ def test_a_view_is_the_state_where_the_whole_state_is_needed(by_field: Path) -> 
         reader.decode_states(Arm)
         views = StateViews(Arm, Arm, by_field)
         batch = next(reader.batches())
-        view = views.view(batch[3].robot_state, 3)
+        columns: Any = batch[3].robot_state
+        view = views.view(columns, 3)
     assert isinstance(view, Arm)
     assert full_state(view) == arm(3)
     assert type(full_state(view)) is Arm
@@ -137,9 +140,7 @@ def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
     assert str(raised.value).startswith(f"{damaged}: damaged batch from cycle ")
 
 
-def test_a_value_of_another_type_is_found_where_it_is_read(
-    by_field: Path, tmp_path: Path
-) -> None:
+def test_a_value_of_another_type_is_found_where_it_is_read(by_field: Path, tmp_path: Path) -> None:
     damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", retyped_value(4, "oops"), 1)
     with pytest.raises(SchemaMismatchError, match=r"does not fit Arm: field 'joints'") as raised:
         beatlog.replay(damaged, watcher_system())

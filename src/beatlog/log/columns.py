@@ -98,7 +98,8 @@ def column_batches(
             continue
         names = list(rows[start])
         if not names:  # no field to store by: the states stay in their records
-            cycles = [_with_state(r, s) for r, s in zip(records[start:end], states[start:end])]
+            held = zip(records[start:end], states[start:end], strict=True)
+            cycles: list[Any] = [_with_state(record, state) for record, state in held]
             batches.append((start, ColumnBatch(first_cycle + start, cycles)))
             start = end
             continue
@@ -250,9 +251,7 @@ class StateColumns:
         self._encoded[index] = encoded
         return encoded
 
-    def values(
-        self, index: int, decode: Callable[[bytes | bytearray], list[Any]], type_name: str
-    ) -> list[Any]:
+    def values(self, index: int, decode: Callable[[Any], list[Any]], type_name: str) -> list[Any]:
         """A robot-state column's values decoded with ``decode`` (for a list of the
         field's type).
 
@@ -297,7 +296,8 @@ class StateColumns:
             return [msgspec.Raw(b"\x80")] * self.count
         encode = _ENCODER.encode
         names = self.names or ()
-        return [msgspec.Raw(encode(dict(zip(names, row, strict=True)))) for row in zip(*columns)]
+        rows = zip(*columns, strict=True)
+        return [msgspec.Raw(encode(dict(zip(names, row, strict=True)))) for row in rows]
 
     def raw_state(self, cycle: int) -> msgspec.Raw:
         """RS_t of ``cycle`` (one of the batch's) encoded whole, as a format-2 log holds it.

@@ -31,8 +31,8 @@ from beatlog.log.limits import (
 
 __all__ = [
     "CHANNEL_TOPICS",
-    "CYCLES_TOPIC",
     "COLUMNS_SINCE",
+    "CYCLES_TOPIC",
     "CYCLE_BATCH_SINCE",
     "DECODE_ERRORS",
     "EMPTY_LIST",

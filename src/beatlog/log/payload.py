@@ -138,18 +138,16 @@ class BatchDecoding:
             in its record, or one stored in the records is missing.
         """
         records: list[CycleRecord] = batch.cycles
-        nil = self._nil
+        nil: Any = self._nil
         if batch.state_fields is None:
-            if (
-                nil is None
-                and self.decoder.nil_possible
-                and nil in [r.robot_state for r in records]
-            ):
-                at = [r.robot_state for r in records].index(nil)
+            nil_possible = nil is None and self.decoder.nil_possible
+            held: list[Any] = [r.robot_state for r in records] if nil_possible else []
+            if None in held:
+                at = held.index(None)
                 raise SchemaMismatchError(
                     self.path,
                     f"robot state of cycle {batch.first_cycle + at} does not fit "
-                    f"{self._state_type.__name__}: it is nil",
+                    f"{getattr(self._state_type, '__name__', self._state_type)}: it is nil",
                 )
             return records
         columns = StateColumns(self.path, batch, self.header.state_fields, self._checked)

@@ -45,10 +45,10 @@ from beatlog.model.random import (
     recorded_draw_problem,
 )
 from beatlog.replay.fit import check_fit, recorded_state_type
-from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
+from beatlog.replay.migration import StateConverter, StateMigration
 from beatlog.replay.pins import PinChecker
-from beatlog.replay.view import StateViews
 from beatlog.replay.verdict import DivergenceKind
+from beatlog.replay.view import StateViews
 
 __all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name", "log_key"]
 
@@ -425,7 +425,7 @@ class Replayer:
 
         :raises beatlog.errors.SchemaMismatchError: it does not fit the type.
         """
-        state = record.robot_state
+        state: Any = record.robot_state
         if state.__class__ is StateColumns:
             return self._views.decode_whole(state.raw_state(cycle), cycle)
         if state.__class__ is not msgspec.Raw:

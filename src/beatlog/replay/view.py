@@ -293,7 +293,7 @@ def _methods(system_type: type[Any], fields: dict[str, Any]) -> dict[str, Any]:
         if klass.__module__.startswith("msgspec") or klass is object:
             continue
         for name, value in vars(klass).items():
-            if name.startswith("__") or name in fields or name.startswith("_beatlog"):
+            if name.startswith(("__", "_beatlog")) or name in fields:
                 continue
             found[name] = value
     return found
