@@ -24,6 +24,7 @@ import msgspec
 from beatlog.errors import BeatlogError, CorruptLogError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import (
+    COLUMNS_SINCE,
     DECODE_ERRORS,
     EMPTY_LIST,
     CycleRecord,
@@ -318,7 +319,8 @@ class Replayer:
         break_at = self.break_at
         perception = self.perception
         raw = msgspec.Raw
-        columns = StateColumns
+        # Format 3: RS_t may come as its batch's columns (never in an older log).
+        columns = StateColumns if self.header.format_version >= COLUMNS_SINCE else None
         view = self._views.view
         checking = self.state_type
         # A state decoded as the checking subclass becomes the system's, its fields
@@ -336,7 +338,7 @@ class Replayer:
                 state = record.robot_state  # decoded with the batch, or still bytes
                 if state.__class__ is raw:
                     state = read_state(record, context.cycle + 1)
-                elif state.__class__ is columns:  # format 3: a view of the batch's columns
+                elif columns is not None and state.__class__ is columns:  # a view of them
                     state = view(state, context.cycle + 1)
                 elif as_system is not None:  # decoded as the checking subclass
                     state.__class__ = as_system
