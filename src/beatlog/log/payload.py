@@ -8,6 +8,7 @@ a :class:`~beatlog.errors.CorruptLogError` for damage, a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -59,6 +60,10 @@ _ReadColumnBatch: Any = msgspec.defstruct(
 )
 """A format-3 cycles message as the reader decodes it: nothing after its columns."""
 _NIL = msgspec.Raw(b"\xc0")
+_COLUMN_BATCHES = msgspec.msgpack.Decoder(_ReadColumnBatch)
+_CYCLE_BATCHES = msgspec.msgpack.Decoder(_ReadCycleBatch)
+_RECORDS = msgspec.msgpack.Decoder(list[_ReadCycleRecord])
+"""The cycles messages of each format, as read: made once, when the reader is loaded."""
 
 
 class _RawBatch(msgspec.Struct, array_like=True):
@@ -83,19 +88,24 @@ def decoded_version(path: Path, data: bytes) -> int:
 
 class _ByShape:
     """Decodes a format-3 cycles message: one of 2 items (records that hold their robot
-    states, as the writer writes them) with ``rows``, any other with ``by_field``."""
+    states, as the writer writes them) with ``rows``, any other with the decoder
+    ``by_field`` makes (made on first need: a log of narrow states never needs it)."""
 
     def __init__(
-        self, rows: msgspec.msgpack.Decoder[Any], by_field: msgspec.msgpack.Decoder[Any]
+        self,
+        rows: msgspec.msgpack.Decoder[Any],
+        by_field: Callable[[], msgspec.msgpack.Decoder[Any]],
     ) -> None:
         self._rows = rows.decode
-        self._by_field = by_field.decode
-        self.nil_possible = False
-        """Whether the message decoded last may hold a nil robot state in a record."""
+        self._make_by_field = by_field
+        self._by_field: Callable[[bytes], Any] | None = None
 
     def decode(self, data: bytes) -> Any:
-        self.nil_possible = data[:1] != b"\x92"
-        return (self._by_field if self.nil_possible else self._rows)(data)
+        if data[:1] == b"\x92":
+            return self._rows(data)
+        if self._by_field is None:
+            self._by_field = self._make_by_field().decode
+        return self._by_field(data)
 
 
 class BatchDecoding:
@@ -112,12 +122,8 @@ class BatchDecoding:
         self._batched = header.format_version >= CYCLE_BATCH_SINCE
         self.columns = header.format_version >= COLUMNS_SINCE
         """Whether the log stores robot states by field (format 3): :meth:`records`."""
-        self.decoder: Any = msgspec.msgpack.Decoder(
-            _ReadColumnBatch
-            if self.columns
-            else _ReadCycleBatch
-            if self._batched
-            else list[_ReadCycleRecord]
+        self.decoder: Any = (
+            _COLUMN_BATCHES if self.columns else _CYCLE_BATCHES if self._batched else _RECORDS
         )
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
@@ -140,8 +146,7 @@ class BatchDecoding:
         records: list[CycleRecord] = batch.cycles
         nil: Any = self._nil
         if batch.state_fields is None:
-            nil_possible = nil is None and self.decoder.nil_possible
-            held: list[Any] = [r.robot_state for r in records] if nil_possible else []
+            held: list[Any] = [r.robot_state for r in records] if nil is None else []
             if None in held:
                 at = held.index(None)
                 raise SchemaMismatchError(
@@ -173,20 +178,23 @@ class BatchDecoding:
         """
         self._state_type = state_type
         self._nil = None
-        batch = self._decoded_batch(state_type)
+        batch = self._decoded_batch(state_type, _ReadCycleBatch)
         if self.columns:
             # A batch whose records hold their states (2 items, as the writer writes it)
-            # has them typed; another may hold nil states, checked as it is read.
+            # is a format-2 batch; another may hold nil states, checked as it is read.
             self.decoder = _ByShape(
                 msgspec.msgpack.Decoder(batch),
-                msgspec.msgpack.Decoder(self._decoded_batch(state_type | None)),
+                lambda: msgspec.msgpack.Decoder(
+                    self._decoded_batch(state_type | None, _ReadColumnBatch)
+                ),
             )
             return self.decoder
         self.decoder = msgspec.msgpack.Decoder(batch)
         return self.decoder
 
-    def _decoded_batch(self, state_type: Any) -> Any:
-        """A cycles message with each RS_t decoded as ``state_type`` and samples checked."""
+    def _decoded_batch(self, state_type: Any, base: Any) -> Any:
+        """A cycles message (a ``base``) with each RS_t decoded as ``state_type`` and
+        samples checked."""
         record: Any = msgspec.defstruct(
             "DecodedCycleRecord",
             [("robot_state", state_type), ("samples", samples_shape(self.header))],
@@ -198,7 +206,7 @@ class BatchDecoding:
         return msgspec.defstruct(
             "DecodedCycleBatch",
             [("cycles", list[record])],
-            bases=(_ReadColumnBatch if self.columns else _ReadCycleBatch,),
+            bases=(base,),
             array_like=True,
         )
 
