@@ -192,9 +192,10 @@ class StateColumns:
             self._check_sizes(sizes)
             if checked is not None and len(checked) < _CHECKED_TABLES:
                 checked.add(table)
-        for index, width in enumerate(batch.widths):
-            if not width:
-                self._walk(index)
+        index = batch.widths.find(0)
+        while index >= 0:  # the columns of values of varied width
+            self._walk(index)
+            index = batch.widths.find(0, index + 1)
 
     def _check_sizes(self, sizes: tuple[int, ...]) -> None:
         """Every column of values of one width must hold exactly one value a cycle."""
@@ -206,6 +207,38 @@ class StateColumns:
                     "bytes (a value missing, repeated or foreign)"
                 )
 
+    def name(self, index: int) -> str:
+        """The field a column holds."""
+        return f"field {(self.names or [])[index]!r}"
+
+    def _damaged(self, problem: str) -> CorruptLogError:
+        return CorruptLogError(self.path, f"damaged batch from cycle {self.first_cycle}: {problem}")
+
+    def encoded(self, index: int) -> bytes | bytearray:
+        """A column as one msgpack array of the batch's values, un-split (once; kept for
+        the batch)."""
+        found = self._encoded.get(index)
+        if found is not None:
+            return found
+        batch = self._batch
+        start = self._ends[index - 1] if index else 0
+        end = self._ends[index]
+        width = batch.widths[index]
+        head = array_head(self.count)
+        encoded: bytes | bytearray
+        if width > 1:
+            at = len(head)
+            encoded = bytearray(at + end - start)
+            encoded[:at] = head
+            data = batch.data
+            count = self.count
+            for k in range(width):
+                encoded[at + k :: width] = data[start + k * count : start + (k + 1) * count]
+        else:
+            encoded = head + batch.data[start:end]
+        self._encoded[index] = encoded
+        return encoded
+
     def _walk(self, index: int) -> None:
         """A column of values of varied width must hold exactly one value a cycle."""
         try:
@@ -215,41 +248,6 @@ class StateColumns:
                 f"{self.name(index)} does not hold {self.count} values (a value missing, "
                 f"repeated or foreign): {exc}"
             ) from None
-
-    def name(self, index: int) -> str:
-        """The field a column holds."""
-        return f"field {(self.names or [])[index]!r}"
-
-    def _damaged(self, problem: str) -> CorruptLogError:
-        return CorruptLogError(self.path, f"damaged batch from cycle {self.first_cycle}: {problem}")
-
-    def _column(self, index: int) -> Column:
-        """Column ``index`` (its size checked on opening)."""
-        batch = self._batch
-        start = self._ends[index - 1] if index else 0
-        return Column(batch.widths[index], batch.data[start : self._ends[index]])
-
-    def encoded(self, index: int) -> bytes | bytearray:
-        """A column as one msgpack array of the batch's values, un-split (once; kept for
-        the batch)."""
-        found = self._encoded.get(index)
-        if found is not None:
-            return found
-        column = self._column(index)
-        head = array_head(self.count)
-        width = column.width
-        encoded: bytes | bytearray
-        if width > 1:
-            encoded = bytearray(len(head) + len(column.data))
-            encoded[: len(head)] = head
-            data = memoryview(column.data)
-            count = self.count
-            for k in range(width):
-                encoded[len(head) + k :: width] = data[k * count : (k + 1) * count]
-        else:
-            encoded = head + column.data
-        self._encoded[index] = encoded
-        return encoded
 
     def values(self, index: int, decode: Callable[[Any], list[Any]], type_name: str) -> list[Any]:
         """A robot-state column's values decoded with ``decode`` (for a list of the
