@@ -220,7 +220,7 @@ class BatchDecoding:
             return self._damaged_cycle(data, first_cycle) or CorruptLogError(
                 self.path, f"damaged {where}: {damage}"
             )
-        records = decoded if isinstance(decoded, list) else decoded.cycles
+        records: list[Any] = decoded if isinstance(decoded, list) else decoded.cycles
         by_field = isinstance(decoded, ColumnBatch) and decoded.state_fields is not None
         damaged = CorruptLogError(self.path, f"damaged {where}: {exc}")
         return self._misfit(records, first_cycle, damaged, states=not by_field)
