@@ -336,13 +336,14 @@ class Replayer:
             # the rebuilt one encodes to other bytes, perception fails, or a break.
             if perception is None or context.cycle + 1 == break_at:
                 state = record.robot_state  # decoded with the batch, or still bytes
-                if state.__class__ is raw:
+                kind = state.__class__
+                if kind is raw:
                     state = read_state(record, context.cycle + 1)
-                elif columns is not None and state.__class__ is columns:  # a view of them
+                elif kind is columns:  # format 3 by field: a view of the batch's columns
                     state = view(state, context.cycle + 1)
                 elif as_system is not None:  # decoded as the checking subclass
                     state.__class__ = as_system
-                elif adopt is not None and state.__class__ is checking:
+                elif adopt is not None and kind is checking:
                     adopt(state, context.cycle + 1)
             if context.cycle + 1 == break_at:
                 self._pause(context.cycle + 1, state, record)
