@@ -30,12 +30,14 @@ import msgspec
 
 import beatlog
 from beatlog import ReplayResult
+from beatlog.log.columns import StateColumns
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.cycle import state_change_finder, state_reader
 from beatlog.model.random import Draw, ReplayRandom
+from beatlog.replay.view import StateViews
 
 __all__ = [
     "BareInputs",
@@ -152,6 +154,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
     now_ns = failed = 0
     with SessionLogReader(path) as reader:
         reader.decode_states(system.robot_state)
+        view = StateViews(system.robot_state, system.robot_state, path).view
         for batch in reader.batches():
             for record in batch:
                 context.cycle += 1
@@ -163,7 +166,10 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
                 draws = record.random_numbers
                 if draws != EMPTY_LIST or random.recorded:
                     random.load(() if draws == EMPTY_LIST else decode_draws(draws))
-                update(record.robot_state, context)
+                state: Any = record.robot_state
+                if state.__class__ is StateColumns:  # format 3: a view of the columns
+                    state = view(state, context.cycle)
+                update(state, context)
                 now = read_states()
                 if now != states:
                     changes = find_changes(now, states)

@@ -25,6 +25,7 @@ from beatlog.log.format import (
     FORMAT_VERSION,
     HEADER_TOPIC,
     PROFILE,
+    ColumnBatch,
     CycleBatch,
     CycleRecord,
     SessionEnd,
@@ -75,8 +76,13 @@ class Channel(NamedTuple):
 
 STANDARD_CHANNELS = (
     Channel(HEADER_TOPIC, schema=schema_name(SessionHeader)),
-    Channel(CYCLES_TOPIC, schema=schema_name(CycleBatch)),
+    Channel(CYCLES_TOPIC, schema=schema_name(ColumnBatch)),
     Channel(END_TOPIC, schema=schema_name(SessionEnd)),
+)
+FORMAT_2_CHANNELS = (
+    STANDARD_CHANNELS[0],
+    Channel(CYCLES_TOPIC, schema=schema_name(CycleBatch)),
+    STANDARD_CHANNELS[2],
 )
 FORMAT_1_CHANNELS = (
     STANDARD_CHANNELS[0],

@@ -132,11 +132,14 @@ def broken_perception() -> Perception:
     return broken
 
 
-def record_with_samples(path: Path, cycles: int = 300, *, log_samples: bool = True) -> Path:
-    """A probe session whose robot state is perceived from one range sample a cycle."""
+def record_with_samples(
+    path: Path, cycles: int = 300, *, log_samples: bool = True, by_field: bool | None = None
+) -> Path:
+    """A probe session whose robot state is perceived from one range sample a cycle
+    (its robot states stored by field where ``by_field``)."""
     state: Probe | None = None
     with Recorder(
-        path, probe_system(), seed=3, software="test", log_samples=log_samples
+        path, probe_system(), seed=3, software="test", log_samples=log_samples, by_field=by_field
     ) as recorder:
         for t, distance in enumerate(distances(cycles)):
             samples = [Sample("range", t * PERIOD_NS, (distance, 1))]

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.log.format import FORMAT_VERSION
 from tests.commands import Beatlog
 from tests.conftest import RecordFn
 from tests.factories import (
@@ -119,10 +120,10 @@ def test_a_spec_whose_log_is_a_fifo_is_an_error_not_a_hang(tmp_path: Path) -> No
 
 
 def test_show_says_which_format_version_a_log_is(tmp_path: Path, beatlog: Beatlog) -> None:
-    current = craft_log(tmp_path / "v2.beatlog", standard_messages(5))
+    current = craft_log(tmp_path / "current.beatlog", standard_messages(5))
     code, out, _ = beatlog("show", current)
     assert code == 0
-    assert ["format", "version", "2"] in [line.split() for line in out.splitlines()]
+    assert ["format", "version", str(FORMAT_VERSION)] in [line.split() for line in out.splitlines()]
 
 
 @pytest.mark.parametrize("name", PROBE_CYCLE_DAMAGE)

@@ -29,6 +29,7 @@ from mcap.stream_reader import StreamReader
 
 from beatlog.log import SessionEnd, SessionHeader, SessionLogWriter
 from beatlog.log.format import CYCLES_TOPIC
+from tests.conformance.format3 import DAMAGES, damaged, header, written
 from tests.factories import (
     FORMAT_1_CHANNELS,
     PERIOD_NS,
@@ -314,6 +315,22 @@ def refused_files(folder: Path) -> dict[str, tuple[bytes, dict[str, Any]]]:
     }
 
 
+def format_3(folder: Path) -> dict[str, tuple[bytes, dict[str, Any]]]:
+    """The session in format 3, robot states by field and in the records, and by field
+    with a batch's columns damaged (every CRC holding)."""
+    cycles = recorded_cycles()
+    status = (True, CYCLES, None)
+    found: dict[str, tuple[bytes, dict[str, Any]]] = {}
+    for name, by_field in (("by-field", True), ("in-records", False)):
+        path = written(folder, name, HEADER, cycles, end_of(cycles), by_field=by_field)
+        document = readable(header(by_field, HEADER), cycles, status, end_of(cycles))
+        found[f"format-3-{name}"] = (path.read_bytes(), document)
+    for name, (damage, words) in DAMAGES.items():
+        data = damaged(folder / "by-field.beatlog", name, damage)
+        found[name] = (data, refused("corrupt", words))
+    return found
+
+
 def cases() -> dict[str, tuple[bytes, dict[str, Any]]]:
     """Every case by name: the log's bytes and the document a reader must produce."""
     with TemporaryDirectory() as scratch:
@@ -324,6 +341,7 @@ def cases() -> dict[str, tuple[bytes, dict[str, Any]]]:
             "format-1": format_1(folder),
             **damaged_variants(folder),
             **refused_files(folder),
+            **format_3(folder),
         }
 
 

@@ -12,7 +12,7 @@ import pytest
 import zstandard
 
 from beatlog.errors import CorruptLogError, LogError, NotABeatlogError
-from beatlog.log.format import CYCLES_TOPIC, SessionHeader
+from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, SessionHeader
 from beatlog.log.limits import MAX_BEHAVIORS, MAX_CHUNK_BYTES
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.replay.judge import replay
@@ -176,7 +176,7 @@ def test_a_flipped_opcode_no_longer_hides_a_chunk(tmp_path: Path) -> None:
         ),
         (
             (STANDARD_CHANNELS[0], FORMAT_1_CHANNELS[1], STANDARD_CHANNELS[2]),
-            ["not the 'beatlog.CycleBatch' of format version 2"],
+            [f"not the 'beatlog.ColumnBatch' of format version {FORMAT_VERSION}"],
         ),
     ],
     ids=[

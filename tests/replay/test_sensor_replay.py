@@ -36,8 +36,9 @@ from tests.specs import write_spec
 from tests.systems import probe_system_ranged
 
 
-def test_the_recorded_perception_rebuilds_every_robot_state(tmp_path: Path) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
+@pytest.mark.parametrize("by_field", [False, True], ids=["in-records", "by-field"])
+def test_the_recorded_perception_rebuilds_every_robot_state(tmp_path: Path, by_field: bool) -> None:
+    log = record_with_samples(tmp_path / "samples.beatlog", by_field=by_field)
     result = replay(log, probe_system(), perception=perception())
     assert result.ok, result.divergence
     assert result.cycles == 300
@@ -84,10 +85,11 @@ def test_the_samples_of_cycles_rebuilt_otherwise_are_not_counted_as_checked(
     assert result.checked.samples == 300 - result.divergent_cycles
 
 
+@pytest.mark.parametrize("by_field", [False, True], ids=["in-records", "by-field"])
 def test_a_changed_perception_is_a_perception_divergence_naming_fields_and_samples(
-    tmp_path: Path,
+    tmp_path: Path, by_field: bool
 ) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
+    log = record_with_samples(tmp_path / "samples.beatlog", by_field=by_field)
     result = replay(log, probe_system(), perception=changed_perception())
     divergence = result.divergence
     assert divergence is not None

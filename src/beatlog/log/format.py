@@ -4,8 +4,9 @@ A session log is an MCAP file (profile ``beatlog``) with three channels, all
 msgpack-encoded with msgspec (``docs/format.md`` is the full specification):
 
 - ``/beatlog/header``: one :class:`SessionHeader`, the first message.
-- ``/beatlog/cycles``: :class:`CycleBatch` messages (format 2; a bare list of
-  :class:`CycleRecord` in format 1), one record per heartbeat, in order.
+- ``/beatlog/cycles``: :class:`ColumnBatch` messages (format 3: robot states stored by
+  field, :mod:`beatlog.log.columns`), :class:`CycleBatch` messages in format 2, a bare
+  list of :class:`CycleRecord` in format 1; one record per heartbeat, in order.
 - ``/beatlog/end``: one :class:`SessionEnd`, written when the recording closes.
 
 Each cycle keeps its parts as raw msgpack so the replay engine can compare behavior
@@ -20,10 +21,17 @@ from typing import Annotated, Any, NamedTuple
 
 import msgspec
 
-from beatlog.log.limits import MAX_BEHAVIORS, MAX_NAME_LENGTH, MAX_TEXT_LENGTH
+from beatlog.log.limits import (
+    MAX_BEHAVIORS,
+    MAX_FIELDS,
+    MAX_NAME_LENGTH,
+    MAX_TEXT_LENGTH,
+    MAX_VALUE_WIDTH,
+)
 
 __all__ = [
     "CHANNEL_TOPICS",
+    "COLUMNS_SINCE",
     "CYCLES_TOPIC",
     "CYCLE_BATCH_SINCE",
     "DECODE_ERRORS",
@@ -36,6 +44,8 @@ __all__ = [
     "OLDEST_FORMAT_VERSION",
     "PROFILE",
     "SCHEMA_ENCODING",
+    "Column",
+    "ColumnBatch",
     "CycleBatch",
     "CycleEntry",
     "CycleRecord",
@@ -48,12 +58,14 @@ __all__ = [
     "schema_name",
 ]
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 """Raised whenever a change would make older readers misread a log."""
 OLDEST_FORMAT_VERSION = 1
 """The oldest format version this beatlog still reads (and replays)."""
 CYCLE_BATCH_SINCE = 2
 """From this version on, each cycles message is a :class:`CycleBatch` with its first cycle."""
+COLUMNS_SINCE = 3
+"""From this version on, each cycles message is a :class:`ColumnBatch`: robot states by field."""
 
 PROFILE = "beatlog"
 MESSAGE_ENCODING = "msgpack"
@@ -116,6 +128,10 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     initial_states: Annotated[list[Any], msgspec.Meta(max_length=MAX_BEHAVIORS)] = []
     """Each behavior's state before cycle 0, in catalogue order; empty in logs written
     before beatlog recorded it (a reader then knows a state only from its first change)."""
+    state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] = []
+    """The robot state's fields as its cycles encode them, in order (format 3): where the
+    header names them, batches store robot states by field, and a batch of states of
+    exactly these fields names none (:class:`ColumnBatch`)."""
 
     def problem(self) -> str | None:
         """What makes this header unreadable beyond its field bounds, or None."""
@@ -132,6 +148,8 @@ class SessionHeader(msgspec.Struct, kw_only=True):
                 return f"{field} {name!r} holds control characters"
         if len(set(self.behaviors)) != len(self.behaviors):
             return "a behavior is named twice"
+        if len(set(self.state_fields)) != len(self.state_fields):
+            return "a robot-state field is named twice"
         if self.initial_states and len(self.initial_states) != len(self.behaviors):
             return f"{len(self.initial_states)} initial states for {len(self.behaviors)} behaviors"
         return None
@@ -198,6 +216,32 @@ class CycleBatch(msgspec.Struct, array_like=True):
 
     first_cycle: Annotated[int, msgspec.Meta(ge=0)]
     cycles: list[CycleRecord]
+
+
+class Column(msgspec.Struct, array_like=True):
+    """One robot-state field's values, one a cycle, as bytes (format 3; ``docs/format.md``)."""
+
+    width: Annotated[int, msgspec.Meta(ge=0, le=MAX_VALUE_WIDTH)]
+    """0: the values' msgpack encodings back to back; W > 0: each value is W bytes,
+    stored byte-split (byte 0 of every value, then byte 1 of every value, ...)."""
+    data: bytes
+
+
+class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
+    """One cycles message of format 3: robot states stored by field (``docs/format.md``)."""
+
+    first_cycle: Annotated[int, msgspec.Meta(ge=0)]
+    cycles: list[CycleRecord]
+    """Each cycle's record; its ``robot_state`` nil where the batch stores them by field."""
+    state_fields: Annotated[list[Name], msgspec.Meta(max_length=MAX_FIELDS)] | None = None
+    """The field each robot-state column holds, in order; empty: the header's; None: the
+    records hold the robot states, as in format 2, and there are no columns."""
+    widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)] = b""
+    """Each column's :attr:`Column.width`, a byte each."""
+    sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)] = b""
+    """Each column's size in ``data``, 4 bytes each (little-endian)."""
+    data: bytes = b""
+    """The robot-state columns back to back."""
 
 
 class SessionEnd(msgspec.Struct, kw_only=True):

@@ -11,10 +11,12 @@ __all__ = [
     "MAX_BEHAVIORS",
     "MAX_CHUNK_BYTES",
     "MAX_EXPANSION",
+    "MAX_FIELDS",
     "MAX_NAME_LENGTH",
     "MAX_RECORD_BYTES",
     "MAX_SCHEMA_BYTES",
     "MAX_TEXT_LENGTH",
+    "MAX_VALUE_WIDTH",
 ]
 
 MAX_RECORD_BYTES = 1 << 30
@@ -33,3 +35,7 @@ MAX_BEHAVIORS = 4096
 """Most behaviors in a catalogue."""
 MAX_SCHEMA_BYTES = 1 << 20
 """Largest header message (the robot-state JSON schema is most of it)."""
+MAX_FIELDS = 1 << 16
+"""Most robot-state fields (columns) in a format-3 batch."""
+MAX_VALUE_WIDTH = 64
+"""Widest value of a byte-split column (a float's encoding is 9 bytes)."""

@@ -8,15 +8,19 @@ a :class:`~beatlog.errors.CorruptLogError` for damage, a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
 import msgspec
 
 from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.columns import StateColumns
 from beatlog.log.format import (
+    COLUMNS_SINCE,
     CYCLE_BATCH_SINCE,
     DECODE_ERRORS,
+    ColumnBatch,
     CycleBatch,
     CycleRecord,
     SessionHeader,
@@ -47,6 +51,21 @@ _ReadCycleBatch: Any = msgspec.defstruct(
 """A cycles message as the reader decodes it: nothing after its cycles, each as read."""
 
 
+_ReadColumnBatch: Any = msgspec.defstruct(
+    "_ReadColumnBatch",
+    [("cycles", list[_ReadCycleRecord])],
+    bases=(ColumnBatch,),
+    array_like=True,
+    forbid_unknown_fields=True,
+)
+"""A format-3 cycles message as the reader decodes it: nothing after its columns."""
+_NIL = msgspec.Raw(b"\xc0")
+_COLUMN_BATCHES = msgspec.msgpack.Decoder(_ReadColumnBatch)
+_CYCLE_BATCHES = msgspec.msgpack.Decoder(_ReadCycleBatch)
+_RECORDS = msgspec.msgpack.Decoder(list[_ReadCycleRecord])
+"""The cycles messages of each format, as read: made once, when the reader is loaded."""
+
+
 class _RawBatch(msgspec.Struct, array_like=True):
     """A cycles message of format 2 with its cycles still encoded, to find a damaged one."""
 
@@ -67,6 +86,28 @@ def decoded_version(path: Path, data: bytes) -> int:
     return decode_payload(path, data, _Versioned, "session header").format_version
 
 
+class _ByShape:
+    """Decodes a format-3 cycles message: one of 2 items (records that hold their robot
+    states, as the writer writes them) with ``rows``, any other with the decoder
+    ``by_field`` makes (made on first need: a log of narrow states never needs it)."""
+
+    def __init__(
+        self,
+        rows: msgspec.msgpack.Decoder[Any],
+        by_field: Callable[[], msgspec.msgpack.Decoder[Any]],
+    ) -> None:
+        self._rows = rows.decode
+        self._make_by_field = by_field
+        self._by_field: Callable[[bytes], Any] | None = None
+
+    def decode(self, data: bytes) -> Any:
+        if data[:1] == b"\x92":
+            return self._rows(data)
+        if self._by_field is None:
+            self._by_field = self._make_by_field().decode
+        return self._by_field(data)
+
+
 class BatchDecoding:
     """How the cycles messages of one log decode, and what is wrong with one that does not.
 
@@ -79,34 +120,95 @@ class BatchDecoding:
         self.path = path
         self.header = header
         self._batched = header.format_version >= CYCLE_BATCH_SINCE
-        self.decoder: Any = msgspec.msgpack.Decoder(
-            _ReadCycleBatch if self._batched else list[_ReadCycleRecord]
+        self.columns = header.format_version >= COLUMNS_SINCE
+        """Whether the log stores robot states by field (format 3): :meth:`records`."""
+        self.decoder: Any = (
+            _COLUMN_BATCHES if self.columns else _CYCLE_BATCHES if self._batched else _RECORDS
         )
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
+        self._checked: set[tuple[bytes, bytes, int]] = set()
+        self._nil: Any = _NIL
+        """A robot state stored by field, as the records hold it."""
+
+    def records(self, batch: ColumnBatch) -> list[CycleRecord]:
+        """The cycles of a format-3 batch, its column table checked
+        (:class:`StateColumns`).
+
+        Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it; once
+        :meth:`decode_states` was called, RS_t decoded where the batch's records hold
+        the robot states, else the batch's :class:`StateColumns`, for the replay core
+        to decode the fields the behaviors read.
+
+        :raises beatlog.errors.CorruptLogError: a robot state stored by field is also
+            in its record, or one stored in the records is missing.
+        """
+        records: list[CycleRecord] = batch.cycles
+        nil: Any = self._nil
+        if batch.state_fields is None:
+            held: list[Any] = [r.robot_state for r in records] if nil is None else []
+            if None in held:
+                at = held.index(None)
+                raise SchemaMismatchError(
+                    self.path,
+                    f"robot state of cycle {batch.first_cycle + at} does not fit "
+                    f"{getattr(self._state_type, '__name__', self._state_type)}: it is nil",
+                )
+            return records
+        columns = StateColumns(self.path, batch, self.header.state_fields, self._checked)
+        states: list[Any] = (
+            columns.raw_states() if self._state_type is None else [columns] * len(records)
+        )
+        for offset, (record, state) in enumerate(zip(records, states, strict=True)):
+            if record.robot_state != nil:
+                raise CorruptLogError(
+                    self.path,
+                    f"damaged cycle {batch.first_cycle + offset}: its robot state is stored "
+                    "by field, and in its record too",
+                )
+            record.robot_state = state
+        return records
 
     def decode_states(self, state_type: type[Any]) -> Any:
         """Make :attr:`decoder` one that decodes each cycle's RS_t into ``state_type`` and
-        checks its samples against the header (:func:`samples_shape`), and return it."""
+        checks its samples against the header (:func:`samples_shape`), and return it.
+
+        In format 3 robot states stored by field stay in their columns
+        (:meth:`records`).
+        """
+        self._state_type = state_type
+        self._nil = None
+        batch = self._decoded_batch(state_type, _ReadCycleBatch)
+        if self.columns:
+            # A batch whose records hold their states (2 items, as the writer writes it)
+            # is a format-2 batch; another may hold nil states, checked as it is read.
+            self.decoder = _ByShape(
+                msgspec.msgpack.Decoder(batch),
+                lambda: msgspec.msgpack.Decoder(
+                    self._decoded_batch(state_type | None, _ReadColumnBatch)
+                ),
+            )
+            return self.decoder
+        self.decoder = msgspec.msgpack.Decoder(batch)
+        return self.decoder
+
+    def _decoded_batch(self, state_type: Any, base: Any) -> Any:
+        """A cycles message (a ``base``) with each RS_t decoded as ``state_type`` and
+        samples checked."""
         record: Any = msgspec.defstruct(
             "DecodedCycleRecord",
             [("robot_state", state_type), ("samples", samples_shape(self.header))],
             bases=(_ReadCycleRecord,),
             array_like=True,
         )
-        batch: Any = (
-            msgspec.defstruct(
-                "DecodedCycleBatch",
-                [("cycles", list[record])],
-                bases=(_ReadCycleBatch,),
-                array_like=True,
-            )
-            if self._batched
-            else list[record]
+        if not self._batched:
+            return list[record]
+        return msgspec.defstruct(
+            "DecodedCycleBatch",
+            [("cycles", list[record])],
+            bases=(base,),
+            array_like=True,
         )
-        self.decoder = msgspec.msgpack.Decoder(batch)
-        self._state_type = state_type
-        return self.decoder
 
     def problem(self, data: bytes, where: str, first_cycle: int, exc: Exception) -> Exception:
         """What is wrong with a batch that did not decode: a cycle in it is damaged, the
@@ -118,13 +220,24 @@ class BatchDecoding:
             return self._damaged_cycle(data, first_cycle) or CorruptLogError(
                 self.path, f"damaged {where}: {damage}"
             )
+        records: list[Any] = decoded if isinstance(decoded, list) else decoded.cycles
+        by_field = isinstance(decoded, ColumnBatch) and decoded.state_fields is not None
+        damaged = CorruptLogError(self.path, f"damaged {where}: {exc}")
+        return self._misfit(records, first_cycle, damaged, states=not by_field)
+
+    def _misfit(
+        self, records: list[CycleRecord], first_cycle: int, otherwise: Exception, *, states: bool
+    ) -> Exception:
+        """The first cycle whose robot state (where ``states``: the records hold them) does
+        not fit the type robot states are decoded into, or whose samples are not what the
+        header declares; else ``otherwise``."""
         state_type = self._state_type
-        assert state_type is not None  # raw batches decoded above: states did not
-        records = decoded.cycles if isinstance(decoded, CycleBatch) else decoded
+        assert state_type is not None  # raw records decoded: the states did not
         samples = samples_shape(self.header)
         for index, record in enumerate(records):
             try:
-                msgspec.msgpack.decode(record.robot_state, type=state_type)
+                if states:
+                    msgspec.msgpack.decode(record.robot_state, type=state_type)
             except DECODE_ERRORS as misfit:
                 return SchemaMismatchError(
                     self.path,
@@ -140,7 +253,7 @@ class BatchDecoding:
                     f"damaged samples in cycle {first_cycle + index}: the header declares "
                     f"{logged}: {misfit}",
                 )
-        return CorruptLogError(self.path, f"damaged {where}: {exc}")
+        return otherwise
 
     def _damaged_cycle(self, data: bytes, first_cycle: int) -> CorruptLogError | None:
         """The first cycle of a batch that is not a cycle record, when the batch holds an

@@ -19,6 +19,7 @@ from mcap.records import Channel, Message, Schema
 from beatlog.closing import Closing
 from beatlog.errors import CorruptLogError, UnsupportedVersionError
 from beatlog.log.format import (
+    COLUMNS_SINCE,
     CYCLE_BATCH_SINCE,
     CYCLES_TOPIC,
     DECODE_ERRORS,
@@ -27,6 +28,7 @@ from beatlog.log.format import (
     HEADER_TOPIC,
     MESSAGE_ENCODING,
     SCHEMA_ENCODING,
+    ColumnBatch,
     CycleBatch,
     CycleRecord,
     SessionEnd,
@@ -44,7 +46,7 @@ __all__ = ["LogStatus", "SessionLogReader"]
 
 _SCHEMAS = {
     HEADER_TOPIC: {schema_name(SessionHeader)},
-    CYCLES_TOPIC: {schema_name(CycleBatch), schema_name(CycleRecord)},
+    CYCLES_TOPIC: {schema_name(ColumnBatch), schema_name(CycleBatch), schema_name(CycleRecord)},
     END_TOPIC: {schema_name(SessionEnd)},
 }
 
@@ -140,7 +142,9 @@ class SessionLogReader(Closing):
         """Decode each cycle's RS_t into ``state_type`` from the next batch on, with the
         batch itself: the records' ``robot_state`` is then the decoded state, not its bytes,
         and their ``samples`` are checked against the header (:func:`samples_shape`), not
-        kept.
+        kept. In format 3 (robot states by field) it is the batch's
+        :class:`~beatlog.log.columns.StateColumns` instead, to decode only the fields
+        read (the replay core does: :mod:`beatlog.replay.view`).
 
         Decoding in the same pass as the batch reads every robot state once instead of
         skipping it and decoding it again. A robot state that does not fit the type is a
@@ -186,7 +190,13 @@ class SessionLogReader(Closing):
         header = decode_payload(self.path, message.data, SessionHeader, "session header")
         if (problem := header.problem()) is not None:
             raise CorruptLogError(self.path, f"damaged session header: {problem}")
-        expected = schema_name(CycleBatch if version >= CYCLE_BATCH_SINCE else CycleRecord)
+        expected = schema_name(
+            ColumnBatch
+            if version >= COLUMNS_SINCE
+            else CycleBatch
+            if version >= CYCLE_BATCH_SINCE
+            else CycleRecord
+        )
         cycles = self._topics.get(CYCLES_TOPIC)
         found = None if cycles is None else self._schemas[self._channels[cycles].schema_id].name
         if found != expected:
@@ -203,14 +213,18 @@ class SessionLogReader(Closing):
             decoded = self._batch_decoder.decode(message.data)
         except DECODE_ERRORS as exc:
             raise self._decoding.problem(message.data, where, self._cycles, exc) from None
-        if isinstance(decoded, CycleBatch):
+        if isinstance(decoded, CycleBatch | ColumnBatch):
             if decoded.first_cycle != self._cycles:
                 raise CorruptLogError(
                     self.path,
                     f"cycles out of order: a batch starts at cycle {decoded.first_cycle} "
                     f"where cycle {self._cycles} is next (a chunk missing, repeated or moved)",
                 )
-            batch = decoded.cycles
+            batch = (
+                decoded.cycles
+                if isinstance(decoded, CycleBatch)
+                else self._decoding.records(decoded)
+            )
         else:
             batch = decoded
         if not batch:

@@ -1,7 +1,8 @@
 """Writes a session log from a background thread so the control loop never waits on disk.
 
 The control thread encodes each cycle into immutable bytes (a few microseconds) and
-queues them. The writer thread batches cycles into messages and closes an MCAP chunk
+queues them. The writer thread batches cycles into messages (in format 3, robot states
+stored by field: :mod:`beatlog.log.columns`) and closes an MCAP chunk
 at least once per flush interval of robot time, so a recorder killed mid-session
 leaves a log that is readable up to its last flushed cycle, and the same session
 gives the same bytes on any machine. A write failure stops the writing, never the
@@ -26,13 +27,16 @@ from mcap.writer import CompressionType, Writer
 
 from beatlog.closing import Closing
 from beatlog.errors import LogError, LogExistsError
+from beatlog.log.columns import column_batches
 from beatlog.log.format import (
+    COLUMNS_SINCE,
     CYCLES_TOPIC,
     END_TOPIC,
     HEADER_TOPIC,
     MESSAGE_ENCODING,
     PROFILE,
     SCHEMA_ENCODING,
+    ColumnBatch,
     CycleBatch,
     CycleEntry,
     SessionEnd,
@@ -89,7 +93,11 @@ class SessionLogWriter(Closing):
         self._cycles_queued = 0
         self._robot_time_ns = 0
         self._closed = False
-
+        self._columns = header.format_version >= COLUMNS_SINCE
+        self._state_fields = header.state_fields
+        self._by_field = self._columns and bool(header.state_fields)
+        """Whether each batch stores its robot states by field (those of a header that
+        names their fields), not in its records."""
         self._mcap = Writer(self._file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
         try:
             self._start(header)
@@ -111,12 +119,12 @@ class SessionLogWriter(Closing):
                 schema_id=self._mcap.register_schema(
                     name=schema_name(struct),
                     encoding=SCHEMA_ENCODING,
-                    data=msgspec.json.encode(msgspec.json.schema(struct)),
+                    data=record_schema(struct, described=not self._columns),
                 ),
             )
             for topic, struct in (
                 (HEADER_TOPIC, SessionHeader),
-                (CYCLES_TOPIC, CycleBatch),
+                (CYCLES_TOPIC, ColumnBatch if self._columns else CycleBatch),
                 (END_TOPIC, SessionEnd),
             )
         }
@@ -160,17 +168,26 @@ class SessionLogWriter(Closing):
         """
         if self.error is not None:
             return
-        payload = self._encoder.encode(CycleEntry(hb_ns, state, changes, draws, outputs, samples))
-        if len(payload) > MAX_CYCLE_BYTES:
+        if self._by_field:
+            encoded = self._encoder.encode(state)
+            record = self._encoder.encode(CycleEntry(hb_ns, None, changes, draws, outputs, samples))
+            payload: Any = (record, encoded)
+            size = len(record) + len(encoded)
+        else:
+            payload = self._encoder.encode(
+                CycleEntry(hb_ns, state, changes, draws, outputs, samples)
+            )
+            size = len(payload)
+        if size > MAX_CYCLE_BYTES:
             self.error = LogError(
                 self.path or "<output>",
-                f"cycle {self._cycles_queued} is {len(payload)} bytes; the most a cycle may "
+                f"cycle {self._cycles_queued} is {size} bytes; the most a cycle may "
                 f"hold is {MAX_CYCLE_BYTES} (keep the robot state light)",
             )
             return
         self._cycles_queued += 1
         self._robot_time_ns += hb_ns
-        self._queue.put((self._robot_time_ns, payload))
+        self._queue.put((self._robot_time_ns, payload, size))
 
     @property
     def cycles_appended(self) -> int:
@@ -198,16 +215,16 @@ class SessionLogWriter(Closing):
         Batches and chunks depend only on the cycles, never on the wall clock, so the
         same session always gives the same bytes.
         """
-        pending: list[tuple[int, bytes]] = []
+        pending: list[tuple[int, Any, int]] = []
         pending_bytes = 0
         flush_at: int | None = None
         while True:
             item = self._queue.get()
             if item[0] is _CLOSE:
                 break
-            time_ns, payload = item
+            time_ns, _, size = item
             pending.append(item)
-            pending_bytes += len(payload)
+            pending_bytes += size
             if flush_at is None:
                 flush_at = time_ns + self._flush_interval_ns
             if len(pending) >= self._batch_cycles or pending_bytes >= BATCH_BYTES:
@@ -229,13 +246,19 @@ class SessionLogWriter(Closing):
         except Exception as exc:
             self.error = exc
 
-    def _write_batch(self, pending: list[tuple[int, bytes]]) -> None:
+    def _write_batch(self, pending: list[tuple[int, Any, int]]) -> None:
         if not pending:
             return
-        cycles = [msgspec.Raw(payload) for _, payload in pending]
-        batch = self._encoder.encode((self.cycles_written, cycles))
-        first_ns = pending[0][0]
-        self._mcap.add_message(self._channels[CYCLES_TOPIC], first_ns, batch, first_ns)
+        if self._by_field:
+            records = [payload[0] for _, payload, _ in pending]
+            states = [payload[1] for _, payload, _ in pending]
+            batches = column_batches(self.cycles_written, records, states, self._state_fields)
+            messages = [(pending[start][0], self._encoder.encode(b)) for start, b in batches]
+        else:  # records that hold their robot states: the same bytes in formats 2 and 3
+            cycles = [msgspec.Raw(payload) for _, payload, _ in pending]
+            messages = [(pending[0][0], self._encoder.encode((self.cycles_written, cycles)))]
+        for first_ns, message in messages:
+            self._mcap.add_message(self._channels[CYCLES_TOPIC], first_ns, message, first_ns)
         self.cycles_written += len(pending)
         pending.clear()
 
@@ -256,6 +279,22 @@ class SessionLogWriter(Closing):
         self._file.flush()
         if self._fsync:
             os.fsync(self._file.fileno())
+
+
+def record_schema(record: type[msgspec.Struct], *, described: bool) -> bytes:
+    """The JSON schema of a record type as a log embeds it: from format 3 on, its layout
+    without the descriptions (``docs/format.md`` says what each field means), which
+    every log would otherwise carry twice."""
+    schema = msgspec.json.schema(record)
+    return msgspec.json.encode(schema if described else _undescribed(schema))
+
+
+def _undescribed(node: Any) -> Any:
+    if isinstance(node, dict):
+        return {key: _undescribed(value) for key, value in node.items() if key != "description"}
+    if isinstance(node, list):
+        return [_undescribed(value) for value in node]
+    return node
 
 
 def _check_header(header: SessionHeader, path: Path | None) -> None:

@@ -6,7 +6,7 @@ from typing import Any
 
 import msgspec
 
-__all__ = ["RobotState", "state_schema", "state_type_name"]
+__all__ = ["RobotState", "state_fields", "state_schema", "state_type_name"]
 
 
 class RobotState(msgspec.Struct, kw_only=True):
@@ -33,3 +33,12 @@ def state_schema(state_type: type[msgspec.Struct]) -> dict[str, Any]:
 def state_type_name(state_type: type[Any]) -> str:
     """The dotted name of a robot state type, for headers and messages."""
     return f"{state_type.__module__}.{state_type.__qualname__}"
+
+
+def state_fields(state_type: type[Any]) -> list[str]:
+    """The fields a robot state type encodes as a map, in order (their encoded names);
+    none for a type that does not encode as one (not a struct, or ``array_like``)."""
+    config = getattr(state_type, "__struct_config__", None)
+    if config is None or config.array_like:
+        return []
+    return list(state_type.__struct_encode_fields__)

@@ -19,6 +19,7 @@ import msgspec
 
 from beatlog._version import __version__
 from beatlog.errors import NumpyMissingError
+from beatlog.log.columns import COLUMNS_FROM
 from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import System
@@ -28,7 +29,7 @@ from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
 from beatlog.model.random import RecordingRandom
 from beatlog.model.robot import Robot
-from beatlog.model.state import state_schema, state_type_name
+from beatlog.model.state import state_fields, state_schema, state_type_name
 
 __all__ = ["RecordSummary", "Recorder", "software_version"]
 
@@ -84,6 +85,11 @@ class Recorder:
         now); never used by replay.
     :param clock: the monotonic clock, in ns, that :meth:`beat` measures the heartbeat
         intervals with; a simulated robot passes its simulator's.
+    :param by_field: store the robot states by field (format 3's columns: a replay
+        decodes only the fields its behaviors read), or in the cycle records; by
+        default by field for a state of at least
+        :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay
+        (``BENCHMARKS.md``).
     """
 
     def __init__(
@@ -102,6 +108,7 @@ class Recorder:
         software: str | None = None,
         start_time_ns: int | None = None,
         clock: Callable[[], int] = time.monotonic_ns,
+        by_field: bool | None = None,
     ) -> None:
         self.period_ns = period_ns
         self._clock = clock
@@ -112,6 +119,7 @@ class Recorder:
         self._overruns = 0
         self._warned = False
         self._close_error: OSError | None = None
+        fields = state_fields(system.robot_state)
         header = SessionHeader(
             format_version=FORMAT_VERSION,
             beatlog_version=__version__,
@@ -122,6 +130,9 @@ class Recorder:
             start_time_ns=time.time_ns() if start_time_ns is None else start_time_ns,
             robot_state_type=state_type_name(system.robot_state),
             robot_state_schema=state_schema(system.robot_state),
+            state_fields=fields
+            if (by_field is None and len(fields) >= COLUMNS_FROM) or by_field
+            else [],
             behaviors=list(self._executor.behavior_ids),
             initial_states=[behavior.state for behavior in system.behaviors.values()],
             random_seed=self.random.seed,

@@ -19,6 +19,7 @@ import msgspec
 
 from beatlog.log.format import payload_encoder
 from beatlog.replay.verdict import StateChange
+from beatlog.replay.view import full_state
 
 __all__ = ["WHOLE_STATE", "Comparison", "state_fields"]
 
@@ -32,7 +33,7 @@ def state_fields(state: Any) -> dict[str, Any]:
     values as numbers and lists); a state that is no struct, or cannot be logged, is
     one field, :data:`WHOLE_STATE`."""
     try:
-        fields = msgspec.msgpack.decode(payload_encoder().encode(state))
+        fields = msgspec.msgpack.decode(payload_encoder().encode(full_state(state)))
     except (TypeError, ValueError, msgspec.EncodeError):
         return {WHOLE_STATE: repr(state)}
     return fields if isinstance(fields, dict) else {WHOLE_STATE: fields}

@@ -21,8 +21,10 @@ from typing import Any, NamedTuple, NoReturn
 
 import msgspec
 
-from beatlog.errors import BeatlogError, CorruptLogError, NumpyMissingError, SchemaMismatchError
+from beatlog.errors import BeatlogError, CorruptLogError, NumpyMissingError
+from beatlog.log.columns import StateColumns
 from beatlog.log.format import (
+    COLUMNS_SINCE,
     DECODE_ERRORS,
     EMPTY_LIST,
     CycleRecord,
@@ -44,9 +46,10 @@ from beatlog.model.random import (
     recorded_draw_problem,
 )
 from beatlog.replay.fit import check_fit, recorded_state_type
-from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
+from beatlog.replay.migration import StateConverter, StateMigration
 from beatlog.replay.pins import PinChecker
 from beatlog.replay.verdict import DivergenceKind
+from beatlog.replay.view import StateViews
 
 __all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name", "log_key"]
 
@@ -199,7 +202,8 @@ class Replayer:
         """What turns the fields the migration converts into the system's, if any."""
         self._migrated = bool(migration)
         """Whether RS_t was recorded under other names or types than the system's."""
-        self._state = msgspec.msgpack.Decoder(self.state_type).decode
+        self._views = StateViews(system.robot_state, self.state_type, path, self._convert)
+        """RS_t of a format-3 log: views that decode only the fields read."""
         self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
         self._samples_shape = msgspec.msgpack.Decoder(samples_shape(header)).decode
@@ -315,10 +319,13 @@ class Replayer:
         break_at = self.break_at
         perception = self.perception
         raw = msgspec.Raw
+        # Format 3: RS_t may come as its batch's columns (never in an older log).
+        columns = StateColumns if self.header.format_version >= COLUMNS_SINCE else None
+        view = self._views.view
         checking = self.state_type
         # A state decoded as the checking subclass becomes the system's, its fields
         # converted where a migration converts them (only then is there more to do).
-        adopt = self._adopt if checking is not self._robot_state and self._convert else None
+        adopt = self._views.adopt if checking is not self._robot_state and self._convert else None
         as_system = self._robot_state if checking is not self._robot_state and not adopt else None
         changes: list[StateChangeRecord] | None = None
         while True:
@@ -329,11 +336,14 @@ class Replayer:
             # the rebuilt one encodes to other bytes, perception fails, or a break.
             if perception is None or context.cycle + 1 == break_at:
                 state = record.robot_state  # decoded with the batch, or still bytes
-                if state.__class__ is raw:
+                kind = state.__class__
+                if kind is raw:
                     state = read_state(record, context.cycle + 1)
+                elif kind is columns:  # format 3 by field: a view of the batch's columns
+                    state = view(state, context.cycle + 1)
                 elif as_system is not None:  # decoded as the checking subclass
                     state.__class__ = as_system
-                elif adopt is not None and state.__class__ is checking:
+                elif adopt is not None and kind is checking:
                     adopt(state, context.cycle + 1)
             if context.cycle + 1 == break_at:
                 self._pause(context.cycle + 1, state, record)
@@ -420,37 +430,12 @@ class Replayer:
 
         :raises beatlog.errors.SchemaMismatchError: it does not fit the type.
         """
-        state = record.robot_state
+        state: Any = record.robot_state
+        if state.__class__ is StateColumns:
+            return self._views.decode_whole(state.raw_state(cycle), cycle)
         if state.__class__ is not msgspec.Raw:
             return state
-        try:
-            decoded = self._state(state)
-        except DECODE_ERRORS as exc:
-            raise SchemaMismatchError(
-                self.path,
-                f"robot state of cycle {cycle} does not fit "
-                f"{self.system.robot_state.__name__}: {exc}",
-            ) from None
-        if self.state_type is not self._robot_state:
-            self._adopt(decoded, cycle)
-        return decoded
-
-    def _adopt(self, state: Any, cycle: int) -> None:
-        """Make a state decoded as :attr:`state_type` the system's, its fields converted
-        by the migration.
-
-        :raises beatlog.errors.SchemaMismatchError: a conversion failed (the user's code
-            raised, or a value does not fit its field once converted).
-        """
-        state.__class__ = self._robot_state
-        if self._convert is None:
-            return
-        try:
-            self._convert(state)
-        except ConversionError as exc:
-            error = SchemaMismatchError(self.path, f"robot state of cycle {cycle}: {exc}")
-            error.user_traceback = exc.user_traceback
-            raise error from None
+        return self._views.decode_whole(state, cycle)
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: stop in ``cycle`` just before the behaviors update, once

@@ -157,7 +157,9 @@ class StateConverter:
             reference = migration.conversions.get(path)
             if reference is not None:
                 fix.reference, fix.convert = reference, load_conversion(reference)
-        self._fields = [(fields[name].name, fields[name].type, fix) for name, fix in roots.items()]
+        self._fields = {fields[name].name: (fields[name].type, fix) for name, fix in roots.items()}
+        self.fields = frozenset(self._fields)
+        """The fields (attribute names) it converts."""
 
     def __call__(self, state: Any) -> None:
         """Convert the fields of ``state`` in place.
@@ -165,12 +167,21 @@ class StateConverter:
         :raises ConversionError: a conversion raised, or a value does not fit its
             field's type once converted.
         """
-        for attribute, kind, fix in self._fields:
-            value = fix.apply(getattr(state, attribute), fix.name)
-            try:
-                setattr(state, attribute, msgspec.convert(value, kind))
-            except msgspec.ValidationError as exc:
-                kind_name = getattr(kind, "__name__", str(kind))
-                raise ConversionError(
-                    fix.name, f"the recorded value does not fit {kind_name} once converted: {exc}"
-                ) from None
+        for attribute in self._fields:
+            setattr(state, attribute, self.value(attribute, getattr(state, attribute)))
+
+    def value(self, attribute: str, recorded: Any) -> Any:
+        """The recorded value of field ``attribute`` (one of :attr:`fields`), converted.
+
+        :raises ConversionError: the conversion raised, or the value does not fit the
+            field's type once converted.
+        """
+        kind, fix = self._fields[attribute]
+        value = fix.apply(recorded, fix.name)
+        try:
+            return msgspec.convert(value, kind)
+        except msgspec.ValidationError as exc:
+            kind_name = getattr(kind, "__name__", str(kind))
+            raise ConversionError(
+                fix.name, f"the recorded value does not fit {kind_name} once converted: {exc}"
+            ) from None

@@ -1,0 +1,311 @@
+"""The columnar layout of format 3: a batch's robot states stored field by field.
+
+The writer turns consecutive encoded cycles into
+:class:`~beatlog.log.format.ColumnBatch` messages (:func:`column_batches`): the cycle
+records without their robot states, and each robot-state field's values, in cycle
+order, in a column of its own. A reader opens a batch as
+:class:`StateColumns`, which checks the batch's column table on opening and decodes a
+column only when asked for it: a replay whose behaviors read 30 of 1,000 fields decodes
+30 columns. The values are the bytes the writer was given, so a robot state put back
+together (:meth:`StateColumns.raw_states`) is byte for byte the one a format-2 log
+holds.
+
+A column of values all encoded in the same width (a float field: 9 bytes each) is
+stored byte-split: byte 0 of every value, then byte 1 of every value, and so on, so that
+the chunk's zstd finds a float column's marker and exponent bytes side by side (the
+reason format 3 is no larger than format 2 at any width). A log whose header names no
+robot-state fields keeps its robot states in the cycle records, as format 2 does: the
+recorder names them for a state of at least
+:data:`COLUMNS_FROM` fields, since decoding a narrow state whole costs less than
+opening its columns one by one (``BENCHMARKS.md``).
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from collections.abc import Callable, Sequence
+from itertools import accumulate
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.format import DECODE_ERRORS, Column, ColumnBatch
+from beatlog.log.limits import MAX_VALUE_WIDTH
+
+__all__ = [
+    "COLUMNS_FROM",
+    "StateColumns",
+    "array_head",
+    "column_batches",
+    "encode_column",
+]
+
+COLUMNS_FROM = 128
+"""The fewest fields a robot state has for the recorder to have it stored by field."""
+
+
+def array_head(count: int) -> bytes:
+    """The msgpack head of an array of ``count`` values (as msgspec writes it)."""
+    if count < 16:
+        return bytes([0x90 | count])
+    if count < 1 << 16:
+        return b"\xdc" + count.to_bytes(2, "big")
+    return b"\xdd" + count.to_bytes(4, "big")
+
+
+def encode_column(values: Sequence[Any]) -> Column:
+    """A column of ``values`` (each a value's msgpack bytes), byte-split where all are
+    the same width (at most :data:`~beatlog.log.limits.MAX_VALUE_WIDTH`)."""
+    widths = set(map(len, values))
+    body = b"".join(values)
+    width = widths.pop() if len(widths) == 1 else 0
+    if width > MAX_VALUE_WIDTH:
+        return Column(0, body)
+    if width > 1:
+        return Column(width, b"".join([body[k::width] for k in range(width)]))
+    return Column(width, body)
+
+
+_FIELDS = msgspec.msgpack.Decoder(dict[str, msgspec.Raw]).decode
+"""An encoded robot state's fields, each still encoded."""
+
+
+def column_batches(
+    first_cycle: int,
+    records: Sequence[bytes],
+    states: Sequence[bytes],
+    header_fields: Sequence[str] = (),
+) -> list[tuple[int, ColumnBatch]]:
+    """Batches of format 3 from consecutive cycles' records (each encoded with a nil robot
+    state) and robot states (each encoded whole, a map of named fields), with where each
+    starts among them.
+
+    A batch holds states of the same fields in the same order; a state of other fields
+    (a type that omits defaults) starts the next. A batch of the ``header_fields`` names
+    none; states of no field at all stay in their records.
+
+    :raises msgspec.DecodeError: a robot state is not a map of named fields.
+    """
+    rows = [_FIELDS(state) for state in states]
+    header = list(header_fields)
+    batches: list[tuple[int, ColumnBatch]] = []
+    start = 0
+    for end in range(1, len(rows) + 1):
+        if end < len(rows) and _same_fields(rows[end], rows[start]):
+            continue
+        names = list(rows[start])
+        if not names:  # no field to store by: the states stay in their records
+            held = zip(records[start:end], states[start:end], strict=True)
+            cycles: list[Any] = [_with_state(record, state) for record, state in held]
+            batches.append((start, ColumnBatch(first_cycle + start, cycles)))
+            start = end
+            continue
+        values = zip(*[row.values() for row in rows[start:end]], strict=True)
+        columns = [encode_column(column) for column in values]
+        batch = ColumnBatch(
+            first_cycle + start,
+            [msgspec.Raw(record) for record in records[start:end]],  # type: ignore[misc]
+            [] if names == header else names,
+            bytes([column.width for column in columns]),
+            struct.pack(f"<{len(columns)}I", *[len(column.data) for column in columns]),
+            b"".join([column.data for column in columns]),
+        )
+        batches.append((start, batch))
+        start = end
+    return batches
+
+
+def _with_state(record: bytes, state: bytes) -> msgspec.Raw:
+    """A record encoded with a nil robot state, holding ``state`` instead."""
+    parts = _PARTS(record)
+    parts[1] = msgspec.Raw(state)
+    return msgspec.Raw(_ENCODER.encode(parts))
+
+
+_PARTS = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
+
+
+def _same_fields(one: dict[str, Any], other: dict[str, Any]) -> bool:
+    return len(one) == len(other) and all(map(str.__eq__, one, other))
+
+
+_AT = re.compile(r"at `\$\[(\d+)\]")
+
+
+class _Values(msgspec.Struct, array_like=True, gc=False):
+    """Any array: decoding a column as this walks its values without building them."""
+
+
+_WALK = msgspec.msgpack.Decoder(_Values).decode
+_CHECKED_TABLES = 256
+"""Column tables (widths, sizes, cycles) a reader remembers as checked: consecutive
+batches of one robot mostly share theirs."""
+
+
+class StateColumns:
+    """One format-3 batch, its columns decoded only when asked for.
+
+    Opening checks, without decoding a value, that each column holds exactly one value
+    a cycle: the column table has a width and a size per field and no field twice, the
+    sizes add up to the data, a column of values of one width takes that width times
+    the cycles (a table already seen is checked once: ``checked``), and a column of
+    values of varied width walks through as many values as there are cycles. A value's
+    type is checked when its column is decoded: replay decodes the fields its behaviors
+    read, anything that shows whole states decodes them all; the chunk's CRC covers
+    every byte. Robot-state columns are numbered from 0 in :attr:`names` order.
+
+    :raises beatlog.errors.CorruptLogError: a column does not hold one value a cycle.
+    """
+
+    def __init__(
+        self,
+        path: Path,
+        batch: ColumnBatch,
+        header_fields: list[str],
+        checked: set[tuple[bytes, bytes, int]] | None = None,
+    ) -> None:
+        self.path = path
+        self.first_cycle = batch.first_cycle
+        self.count = len(batch.cycles)
+        names = batch.state_fields
+        self.names = header_fields if names == [] else names
+        """The fields' names in column order; None where the records hold the states."""
+        self._batch = batch
+        self._encoded: dict[int, bytes | bytearray] = {}
+        expected = 0 if self.names is None else len(self.names)
+        if (len(batch.widths), len(batch.sizes)) != (expected, 4 * expected):
+            raise self._damaged(f"its column table does not describe {expected} columns")
+        if names and len(set(names)) != len(names):
+            raise self._damaged("a field is named twice")
+        sizes = struct.unpack(f"<{expected}I", batch.sizes)
+        self._ends = list(accumulate(sizes))
+        held = self._ends[-1] if self._ends else 0
+        if held != len(batch.data):
+            raise self._damaged(
+                f"its columns take {held} bytes, not the {len(batch.data)} it holds"
+            )
+        table = (batch.widths, batch.sizes, self.count)
+        if checked is None or table not in checked:
+            self._check_sizes(sizes)
+            if checked is not None and len(checked) < _CHECKED_TABLES:
+                checked.add(table)
+        index = batch.widths.find(0)
+        while index >= 0:  # the columns of values of varied width
+            self._walk(index)
+            index = batch.widths.find(0, index + 1)
+
+    def _check_sizes(self, sizes: tuple[int, ...]) -> None:
+        """Every column of values of one width must hold exactly one value a cycle."""
+        count = self.count
+        for index, (width, size) in enumerate(zip(self._batch.widths, sizes, strict=True)):
+            if width > MAX_VALUE_WIDTH or (width and size != width * count):
+                raise self._damaged(
+                    f"{self.name(index)} holds {size} bytes, not {count} values of {width} "
+                    "bytes (a value missing, repeated or foreign)"
+                )
+
+    def name(self, index: int) -> str:
+        """The field a column holds."""
+        return f"field {(self.names or [])[index]!r}"
+
+    def _damaged(self, problem: str) -> CorruptLogError:
+        return CorruptLogError(self.path, f"damaged batch from cycle {self.first_cycle}: {problem}")
+
+    def encoded(self, index: int) -> bytes | bytearray:
+        """A column as one msgpack array of the batch's values, un-split (once; kept for
+        the batch)."""
+        found = self._encoded.get(index)
+        if found is not None:
+            return found
+        batch = self._batch
+        start = self._ends[index - 1] if index else 0
+        end = self._ends[index]
+        width = batch.widths[index]
+        head = array_head(self.count)
+        encoded: bytes | bytearray
+        if width > 1:
+            at = len(head)
+            encoded = bytearray(at + end - start)
+            encoded[:at] = head
+            data = batch.data
+            count = self.count
+            for k in range(width):
+                encoded[at + k :: width] = data[start + k * count : start + (k + 1) * count]
+        else:
+            encoded = head + batch.data[start:end]
+        self._encoded[index] = encoded
+        return encoded
+
+    def _walk(self, index: int) -> None:
+        """A column of values of varied width must hold exactly one value a cycle."""
+        try:
+            _WALK(self.encoded(index))
+        except DECODE_ERRORS as exc:
+            raise self._damaged(
+                f"{self.name(index)} does not hold {self.count} values (a value missing, "
+                f"repeated or foreign): {exc}"
+            ) from None
+
+    def values(self, index: int, decode: Callable[[Any], list[Any]], type_name: str) -> list[Any]:
+        """A robot-state column's values decoded with ``decode`` (for a list of the
+        field's type).
+
+        :raises beatlog.errors.SchemaMismatchError: a value does not fit the field's type
+            (the message names its cycle and the field).
+        :raises beatlog.errors.CorruptLogError: the column is damaged.
+        """
+        try:
+            return decode(self.encoded(index))
+        except msgspec.ValidationError as exc:
+            raise SchemaMismatchError(
+                self.path,
+                f"robot state of cycle {self._cycle(exc)} does not fit {type_name}: "
+                f"{self.name(index)}: {exc}",
+            ) from None
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(
+                self.path, f"damaged {self.name(index)} in cycle {self._cycle(exc)}: {exc}"
+            ) from None
+
+    def _cycle(self, exc: Exception) -> int:
+        """The cycle a decoding error points at (the batch's first when it says none)."""
+        found = _AT.search(str(exc))
+        return self.first_cycle + (int(found.group(1)) if found else 0)
+
+    def _raw_columns(self) -> list[list[msgspec.Raw]]:
+        columns = []
+        for index in range(len(self._ends)):
+            try:
+                columns.append(_RAWS(self.encoded(index)))
+            except DECODE_ERRORS as exc:
+                raise self._damaged(f"{self.name(index)}: {exc}") from None
+        return columns
+
+    def raw_states(self) -> list[msgspec.Raw]:
+        """Every cycle's RS_t encoded whole, as a format-2 log holds it.
+
+        :raises beatlog.errors.CorruptLogError: a column is damaged.
+        """
+        columns = self._raw_columns()
+        if not columns:
+            return [msgspec.Raw(b"\x80")] * self.count
+        encode = _ENCODER.encode
+        names = self.names or ()
+        rows = zip(*columns, strict=True)
+        return [msgspec.Raw(encode(dict(zip(names, row, strict=True)))) for row in rows]
+
+    def raw_state(self, cycle: int) -> msgspec.Raw:
+        """RS_t of ``cycle`` (one of the batch's) encoded whole, as a format-2 log holds it.
+
+        :raises beatlog.errors.CorruptLogError: a column is damaged.
+        """
+        at = cycle - self.first_cycle
+        values = [column[at] for column in self._raw_columns()]
+        return msgspec.Raw(_ENCODER.encode(dict(zip(self.names or (), values, strict=True))))
+
+
+_RAWS = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
+_ENCODER = msgspec.msgpack.Encoder()

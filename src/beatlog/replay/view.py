@@ -1,0 +1,299 @@
+"""RS_t as the behaviors get it from a format-3 log: a view that decodes a field's column
+the first time a behavior reads the field.
+
+A format-3 batch stores each robot-state field's values in a column of their own
+(:mod:`beatlog.log.columns`). Replay hands the behaviors, for each cycle, a view of the
+system's robot state type that holds the fields read so far in the replay, decoded a
+column at a time for the whole batch; a field first read later is decoded then (its
+column, once per batch) and held from the next batch on. Decoding follows the fields
+read, not the width of the state.
+
+What a behavior can rely on (README, "Wide robot states"): reading any field gives the
+recorded value, its type checked as it is decoded; ``isinstance(state, YourState)``
+holds and ``state.__class__`` is your type; your type's methods and properties work.
+Equality, ``repr``, copying and pickling act on the whole state. Anything else that
+needs the whole struct (encoding it, :func:`msgspec.structs.asdict`, ``replace``,
+``type(state) is YourState``) takes :func:`full_state` first.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from itertools import repeat
+from pathlib import Path
+from typing import Any
+
+import msgspec
+
+from beatlog.errors import SchemaMismatchError
+from beatlog.log.columns import StateColumns
+from beatlog.log.format import DECODE_ERRORS
+from beatlog.replay.migration import ConversionError, StateConverter
+
+__all__ = ["StateViews", "full_state"]
+
+_BATCH = "_beatlog_batch"
+_INDEX = "_beatlog_index"
+
+
+def full_state(state: Any) -> Any:
+    """The robot state itself, every field decoded, for a view (:class:`StateViews`);
+    any other state as it is."""
+    batch = getattr(state, _BATCH, None)
+    if isinstance(batch, _Batch):
+        return batch.whole(getattr(state, _INDEX))
+    return state
+
+
+def _view_getattr(self: Any, name: str) -> Any:
+    """A field not held by the view: decoded from its column (and held from the next
+    batch on)."""
+    batch: _Batch = object.__getattribute__(self, _BATCH)
+    return batch.miss(object.__getattribute__(self, _INDEX), name)
+
+
+def _view_eq(self: Any, other: Any) -> Any:
+    return full_state(self) == full_state(other)
+
+
+def _view_repr(self: Any) -> str:
+    return repr(full_state(self))
+
+
+def _view_copy(self: Any) -> Any:
+    return copy.copy(full_state(self))
+
+
+def _view_deepcopy(self: Any, memo: dict[int, Any]) -> Any:
+    return copy.deepcopy(full_state(self), memo)
+
+
+def _view_reduce(self: Any) -> Any:
+    return full_state(self).__reduce__()
+
+
+_VIEW_METHODS = {
+    "__getattr__": _view_getattr,
+    "__eq__": _view_eq,
+    "__repr__": _view_repr,
+    "__copy__": _view_copy,
+    "__deepcopy__": _view_deepcopy,
+    "__reduce__": _view_reduce,
+    "__hash__": None,
+}
+
+
+class StateViews:
+    """Views of the system's robot state over format-3 batches, for the replay core.
+
+    ``checking`` is the type each RS_t must fit
+    (:func:`~beatlog.replay.fit.recorded_state_type`): a batch may hold no field it
+    lacks, and must hold every one it requires; each column is decoded as the field's
+    type there (under its recorded name), and the fields ``convert`` converts are
+    turned into the system's as they are decoded.
+    """
+
+    def __init__(
+        self,
+        system_type: type[Any],
+        checking: type[Any],
+        path: Path,
+        convert: StateConverter | None = None,
+    ) -> None:
+        self.system_type = system_type
+        self.checking = checking
+        self.path = path
+        self.convert = convert
+        struct = isinstance(checking, type) and issubclass(checking, msgspec.Struct)
+        self.fields = (
+            {info.name: info for info in msgspec.structs.fields(checking)} if struct else {}
+        )
+        self._recorded = {info.encode_name: info.name for info in self.fields.values()}
+        self.decoders: dict[str, Callable[[bytes], list[Any]]] = {}
+        self.read: dict[str, None] = {}
+        """The fields read so far, in the order first read: each view holds them."""
+        self._whole = msgspec.msgpack.Decoder(checking).decode
+        self._namespace = {**_methods(system_type, self.fields), **_VIEW_METHODS}
+        self._namespace["__class__"] = system_type
+        self._types: dict[tuple[str, ...], Any] = {}
+        self._checked: list[str] | None = None
+        self._index: dict[str, int] = {}
+        self._indexed: list[str] | None = None
+        self._columns: StateColumns | None = None
+        self._views: list[Any] = []
+        self._first = 0
+        self._batch: _Batch | None = None
+        self.stale = False
+        """Whether a field was first read in the batch the views are of."""
+
+    def view(self, columns: StateColumns, cycle: int) -> Any:
+        """RS_t of ``cycle``, one of the batch ``columns`` holds."""
+        if columns is not self._columns or self.stale:
+            self._open(columns)
+        return self._views[cycle - self._first]
+
+    def _open(self, columns: StateColumns) -> None:
+        """Check a batch's fields against the type and make its cycles' views (again,
+        holding one more field, when a behavior read a field first in this batch)."""
+        if columns is self._columns and self._batch is not None:
+            batch = self._batch
+        else:
+            if columns.names is not self._checked:
+                self._check(columns)
+            batch = self._batch = _Batch(self, columns)
+        self.stale = False
+        self._columns = columns
+        self._first = columns.first_cycle
+        held = tuple(self.read)
+        view = self._types.get(held)
+        if view is None:
+            view = self._types[held] = msgspec.defstruct(
+                self.system_type.__name__,
+                [(_BATCH, Any), (_INDEX, int), *((name, Any) for name in held)],
+                module=self.system_type.__module__,
+                namespace={**self._namespace, "__qualname__": self.system_type.__qualname__},
+                gc=False,
+                weakref=False,
+            )
+        values = [batch.values(name) for name in held]
+        self._views = list(map(view, repeat(batch), range(columns.count), *values))
+
+    def _check(self, columns: StateColumns) -> None:
+        """A batch's fields must be the type's: none it lacks, every one it requires."""
+        names = columns.names
+        if names is not None:
+            unknown = [name for name in names if name not in self._recorded]
+            required = {
+                info.encode_name for info in self.fields.values() if info.required
+            }.difference(names)
+            if unknown or required:
+                problem = (
+                    f"object contains unknown field `{unknown[0]}`"
+                    if unknown
+                    else f"object missing required field `{sorted(required)[0]}`"
+                )
+                raise SchemaMismatchError(
+                    self.path,
+                    f"robot state of cycle {columns.first_cycle} does not fit "
+                    f"{self.system_type.__name__}: {problem}",
+                )
+        self._checked = names
+
+    def index(self, names: list[str] | None) -> dict[str, int]:
+        """Each field's column among ``names`` (those of the batch checked last)."""
+        if names is not self._indexed:
+            self._index = {name: at for at, name in enumerate(names or ())}
+            self._indexed = names
+        return self._index
+
+    def adopt(self, state: Any, cycle: int) -> Any:
+        """A state decoded as :attr:`checking` made the system's, its fields converted.
+
+        :raises beatlog.errors.SchemaMismatchError: a conversion failed (the user's code
+            raised, or a value does not fit its field once converted).
+        """
+        if state.__class__ is not self.system_type:
+            state.__class__ = self.system_type
+        if self.convert is not None:
+            try:
+                self.convert(state)
+            except ConversionError as exc:
+                error = SchemaMismatchError(self.path, f"robot state of cycle {cycle}: {exc}")
+                error.user_traceback = exc.user_traceback
+                raise error from None
+        return state
+
+    def decode_whole(self, encoded: bytes, cycle: int) -> Any:
+        """RS_t of ``cycle`` decoded whole from its encoding, the system's."""
+        try:
+            decoded = self._whole(encoded)
+        except DECODE_ERRORS as exc:
+            raise SchemaMismatchError(
+                self.path,
+                f"robot state of cycle {cycle} does not fit {self.system_type.__name__}: {exc}",
+            ) from None
+        return self.adopt(decoded, cycle)
+
+
+class _Batch:
+    """One batch's columns as its views read them: each decoded once, on first read."""
+
+    __slots__ = ("columns", "decoded", "index", "views")
+
+    def __init__(self, views: StateViews, columns: StateColumns) -> None:
+        self.views = views
+        self.columns = columns
+        self.index = views.index(columns.names)
+        self.decoded: dict[str, list[Any]] = {}
+
+    def values(self, name: str) -> list[Any]:
+        """Field ``name`` of every cycle of the batch, the system's."""
+        found = self.decoded.get(name)
+        if found is not None:
+            return found
+        views = self.views
+        info = views.fields[name]
+        at = self.index.get(info.encode_name)
+        count = self.columns.count
+        if at is None:  # a field the system gained since the recording
+            if info.default_factory is not msgspec.NODEFAULT:
+                found = [info.default_factory() for _ in range(count)]
+            else:
+                found = [info.default] * count
+        else:
+            decode = views.decoders.get(name)
+            if decode is None:
+                decode = views.decoders[name] = msgspec.msgpack.Decoder(list[info.type]).decode  # type: ignore[name-defined]
+            found = self.columns.values(at, decode, views.system_type.__name__)
+            if views.convert is not None and name in views.convert.fields:
+                found = self._converted(name, found)
+        self.decoded[name] = found
+        return found
+
+    def _converted(self, name: str, values: list[Any]) -> list[Any]:
+        """Recorded values of a field the migration converts, made the system's."""
+        convert = self.views.convert
+        assert convert is not None
+        first = self.columns.first_cycle
+        converted = []
+        for offset, value in enumerate(values):
+            try:
+                converted.append(convert.value(name, value))
+            except ConversionError as exc:
+                error = SchemaMismatchError(
+                    self.views.path, f"robot state of cycle {first + offset}: {exc}"
+                )
+                error.user_traceback = exc.user_traceback
+                raise error from None
+        return converted
+
+    def miss(self, index: int, name: str) -> Any:
+        """Field ``name`` of the batch's ``index``-th cycle, read for the first time in
+        this batch; an attribute the type lacks raises as the type's would."""
+        views = self.views
+        if name not in views.fields or name.startswith("__"):
+            raise AttributeError(f"{views.system_type.__name__!r} object has no attribute {name!r}")
+        if name not in views.read:
+            views.read[name] = None
+            views.stale = True
+        return self.values(name)[index]
+
+    def whole(self, index: int) -> Any:
+        """The batch's ``index``-th RS_t decoded whole, the system's."""
+        cycle = self.columns.first_cycle + index
+        return self.views.decode_whole(self.columns.raw_state(cycle), cycle)
+
+
+def _methods(system_type: type[Any], fields: dict[str, Any]) -> dict[str, Any]:
+    """The user's own methods, properties and class attributes of a robot state type,
+    for its views."""
+    found: dict[str, Any] = {}
+    for klass in reversed(system_type.__mro__):
+        if klass.__module__.startswith("msgspec") or klass is object:
+            continue
+        for name, value in vars(klass).items():
+            if name.startswith(("__", "_beatlog")) or name in fields:
+                continue
+            found[name] = value
+    return found

@@ -1,0 +1,132 @@
+"""Format 3: robot states stored by field read back byte for byte as format 2 holds them,
+and a column that does not hold one value a cycle is a damaged log, read or not."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import msgspec
+import pytest
+
+from beatlog.errors import CorruptLogError
+from beatlog.log.columns import column_batches, encode_column
+from beatlog.log.format import Column, SessionEnd, payload_encoder
+from beatlog.log.reader import SessionLogReader
+from beatlog.log.writer import SessionLogWriter
+from beatlog.model.state import state_fields
+from tests.chunked import read_all
+from tests.columned import Damage, foreign_value, rewrite_by_field, short_column, table_off
+from tests.conftest import PERIOD_NS
+from tests.factories import session_header
+
+
+class Pose(msgspec.Struct):
+    x: float
+    y: float
+
+
+class Wide(msgspec.Struct):
+    """A robot state of every kind of field a column holds."""
+
+    speed: float
+    ticks: int
+    bumped: bool
+    name: str
+    pose: Pose
+    ranges: list[float]
+
+
+class Sparse(msgspec.Struct, omit_defaults=True):
+    """A robot state whose cycles encode other fields when some are at their default."""
+
+    a: float = 0.0
+    b: float = 0.0
+
+
+def wide(t: int) -> Wide:
+    return Wide(
+        speed=t / 7,
+        ticks=t * 1_000_003 if t % 3 else -t,  # widths vary: stored unsplit
+        bumped=t % 2 == 0,
+        name=f"w{t}",
+        pose=Pose(float(t), -0.0),
+        ranges=[float("nan"), float(t)][: t % 3],
+    )
+
+
+def write(
+    path: Path, states: Sequence[msgspec.Struct], *, by_field: bool, version: int = 3
+) -> Path:
+    fields = state_fields(type(states[0])) if by_field else []
+    header = session_header(format_version=version, state_fields=fields)
+    with SessionLogWriter(path, header, batch_cycles=8) as writer:
+        for t, state in enumerate(states):
+            writer.append(PERIOD_NS, state, [], [], {"t": t})
+        writer.close(SessionEnd(cycles=len(states), robot_time_ns=len(states) * PERIOD_NS))
+    return path
+
+
+def test_states_by_field_read_back_as_the_bytes_format_2_holds(tmp_path: Path) -> None:
+    states = [wide(t) for t in range(30)]
+    by_field, _ = read_all(write(tmp_path / "v3.beatlog", states, by_field=True))
+    in_records, _ = read_all(write(tmp_path / "v3r.beatlog", states, by_field=False))
+    format_2, _ = read_all(write(tmp_path / "v2.beatlog", states, by_field=False, version=2))
+    encode = payload_encoder().encode
+    assert [bytes(c.robot_state) for c in by_field] == [encode(s) for s in states]
+    assert [msgspec.structs.astuple(c) for c in by_field] == [
+        msgspec.structs.astuple(c) for c in format_2
+    ]
+    assert [msgspec.structs.astuple(c) for c in in_records] == [
+        msgspec.structs.astuple(c) for c in format_2
+    ]
+
+
+def test_a_state_of_other_fields_starts_a_batch_that_names_them(tmp_path: Path) -> None:
+    states = [Sparse(a=1.0), Sparse(a=2.0), Sparse(b=3.0), Sparse(), Sparse(a=4.0, b=5.0)]
+    encode = payload_encoder().encode
+    records = [encode([PERIOD_NS, None, [], [], {}, []]) for _ in states]
+    made = column_batches(0, records, [encode(s) for s in states], ["a", "b"])
+    assert [(start, b.first_cycle, b.state_fields) for start, b in made] == [
+        (0, 0, ["a"]),
+        (2, 2, ["b"]),
+        (3, 3, None),  # no field at all: the state stays in its record
+        (4, 4, []),  # the header's fields
+    ]
+    log = write(tmp_path / "sparse.beatlog", states, by_field=True)
+    assert [bytes(c.robot_state) for c in read_all(log)[0]] == [encode(s) for s in states]
+
+
+def test_a_column_of_one_width_is_stored_byte_split() -> None:
+    values = [msgspec.msgpack.encode(v) for v in (1.5, -2.0)]
+    assert encode_column(values) == Column(9, bytes([0xCB, 0xCB, 0x3F, 0xC0, 0xF8, 0, *[0] * 12]))
+    assert encode_column([b"\x01", b"\xcd\x01\x00"]) == Column(0, b"\x01\xcd\x01\x00")
+
+
+@pytest.mark.parametrize(
+    ("damage", "words"),
+    [
+        (short_column(0), "field 'speed' holds 71 bytes, not 8 values of 9 bytes"),
+        (table_off, "its columns take"),
+        (foreign_value(0), "field 'speed'"),
+    ],
+    ids=["short", "table", "foreign"],
+)
+def test_a_column_that_does_not_hold_one_value_a_cycle_is_a_damaged_log(
+    tmp_path: Path, damage: Damage, words: str
+) -> None:
+    log = write(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
+    damaged = rewrite_by_field(log, tmp_path / "damaged.beatlog", damage, 1)
+    with pytest.raises(CorruptLogError, match="damaged batch from cycle 8") as raised:
+        read_all(damaged)
+    assert words in str(raised.value)
+
+
+def test_a_short_column_is_found_though_replay_would_not_read_it(tmp_path: Path) -> None:
+    log = write(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
+    damaged = rewrite_by_field(log, tmp_path / "damaged.beatlog", short_column(0), 1)
+    with SessionLogReader(damaged) as reader:
+        reader.decode_states(Wide)  # states stay in their columns: none is decoded
+        with pytest.raises(CorruptLogError, match="field 'speed' holds 71 bytes") as raised:
+            list(reader.batches())
+    assert str(raised.value).startswith(f"{damaged}: damaged batch from cycle 8")

@@ -1,0 +1,199 @@
+"""Replaying a log whose robot states are stored by field: behaviors get a view of RS_t
+that decodes a field's column the first time it is read, and behaves as the state."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import msgspec
+import pytest
+
+import beatlog
+from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.reader import SessionLogReader
+from beatlog.model import BehaviorState, Context, Outputs, PriorityArbiter, RobotState
+from beatlog.record import Recorder
+from beatlog.replay import StateMigration
+from beatlog.replay.view import StateViews, full_state
+from tests.columned import retyped_value, rewrite_by_field, short_column
+from tests.conftest import PERIOD_NS
+
+LATE = 200
+"""The cycle in which the behavior first reads ``late``."""
+
+
+class Pose(msgspec.Struct):
+    x: float = 0.0
+    y: float = 0.0
+
+
+class Arm(RobotState, kw_only=True):
+    """A robot state with a method, a property, a nested struct and a list."""
+
+    reach: float = 0.0
+    late: float = 0.0
+    label: str = ""
+    pose: Pose = msgspec.field(default_factory=Pose)
+    joints: list[int] = msgspec.field(default_factory=list)
+
+    def doubled(self) -> float:
+        return 2 * self.reach
+
+    @property
+    def far(self) -> bool:
+        return self.reach > 0.5
+
+
+class Watcher:
+    """Outputs what it reads of the state, and ``late`` only from cycle :data:`LATE` on."""
+
+    name = "watcher"
+
+    def __init__(self) -> None:
+        self.state: BehaviorState = "idle"
+        self.seen: list[tuple[int, float]] = []
+
+    def step(self, rs: Arm, ctx: Context) -> Outputs | None:
+        assert isinstance(rs, Arm)
+        assert rs.__class__ is Arm
+        self.state = "far" if rs.far else "near"
+        outputs: Outputs = {"doubled": rs.doubled(), "x": rs.pose.x, "joints": rs.joints}
+        if ctx.cycle >= LATE:
+            self.seen.append((ctx.cycle, rs.late))
+            outputs["late"] = rs.late
+        return outputs
+
+
+def watcher_system() -> PriorityArbiter[Arm]:
+    return PriorityArbiter([Watcher()], robot_state=Arm)
+
+
+def arm(t: int) -> Arm:
+    return Arm(
+        reach=(t % 17) / 16,
+        late=t * 0.25,
+        label="x" * (t % 3),  # values of varied width
+        pose=Pose(float(t), -float(t)),
+        joints=list(range(t % 4)),
+    )
+
+
+def record(path: Path, cycles: int = 300, *, by_field: bool = True) -> Path:
+    with Recorder(path, watcher_system(), seed=1, software="test", by_field=by_field) as r:
+        for t in range(cycles):
+            r.step(PERIOD_NS, arm(t))
+    return path
+
+
+@pytest.fixture(scope="module")
+def by_field(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return record(tmp_path_factory.mktemp("view") / "arm.beatlog")
+
+
+def test_a_field_first_read_in_cycle_200_gets_its_recorded_value(by_field: Path) -> None:
+    system = watcher_system()
+    result = beatlog.replay(by_field, system)
+    assert (result.ok, result.cycles) == (True, 300)
+    watcher = system.behaviors["watcher"]
+    assert isinstance(watcher, Watcher)
+    assert watcher.seen == [(t, t * 0.25) for t in range(LATE, 300)]
+
+
+def test_the_same_session_in_the_records_replays_alike(by_field: Path, tmp_path: Path) -> None:
+    in_records = record(tmp_path / "rows.beatlog", by_field=False)
+    systems = [watcher_system(), watcher_system()]
+    results = [
+        beatlog.replay(log, s) for log, s in zip((by_field, in_records), systems, strict=True)
+    ]
+    assert [(r.ok, r.cycles, r.checked) for r in results] == [(True, 300, results[0].checked)] * 2
+    assert [s.behaviors["watcher"].state for s in systems] == ["far", "far"]
+
+
+def test_a_view_is_the_state_where_the_whole_state_is_needed(by_field: Path) -> None:
+    system = watcher_system()
+    viewed: list[object] = []
+    beatlog.replay(by_field, system, observe=viewed.append)
+    assert len(viewed) == 300
+    with SessionLogReader(by_field) as reader:
+        reader.decode_states(Arm)
+        views = StateViews(Arm, Arm, by_field)
+        batch = next(reader.batches())
+        columns: Any = batch[3].robot_state
+        view = views.view(columns, 3)
+    assert isinstance(view, Arm)
+    assert full_state(view) == arm(3)
+    assert type(full_state(view)) is Arm
+    assert view == arm(3)
+    assert repr(view) == repr(arm(3))
+    assert copy.deepcopy(view) == arm(3)
+    assert (view.label, view.joints, view.pose) == ("", [0, 1, 2], Pose(3.0, -3.0))
+
+
+def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
+    by_field: Path, tmp_path: Path
+) -> None:
+    damaged = rewrite_by_field(by_field, tmp_path / "short.beatlog", short_column(1), 2)
+    with pytest.raises(CorruptLogError, match="field 'late' holds") as raised:
+        beatlog.replay(damaged, watcher_system())  # 'late' is first read in cycle 200
+    assert str(raised.value).startswith(f"{damaged}: damaged batch from cycle ")
+
+
+def test_a_value_of_another_type_is_found_where_it_is_read(by_field: Path, tmp_path: Path) -> None:
+    damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", retyped_value(4, "oops"), 1)
+    with pytest.raises(SchemaMismatchError, match=r"does not fit Arm: field 'joints'") as raised:
+        beatlog.replay(damaged, watcher_system())
+    assert "robot state of cycle " in str(raised.value)
+
+
+Renamed = msgspec.defstruct(
+    "Arm",
+    [
+        ("extent", float, 0.0),
+        ("late", str, ""),
+        ("label", str, ""),
+        ("pose", Pose, msgspec.field(default_factory=Pose)),
+        ("joints", list[int], msgspec.field(default_factory=list)),
+        ("added", int, 7),
+    ],
+    bases=(RobotState,),
+    kw_only=True,
+    module=__name__,
+)
+""":class:`Arm` as it is now: ``reach`` renamed, ``late`` retyped to a string, a field
+added with a default."""
+
+
+class RenamedWatcher:
+    name = "watcher"
+
+    def __init__(self) -> None:
+        self.state: BehaviorState = "idle"
+        self.read: list[tuple[float, str, int]] = []
+
+    def step(self, rs: Any, ctx: Context) -> Outputs | None:
+        """What :class:`Watcher` does, through the fields' new names and types."""
+        self.read.append((rs.extent, rs.late, rs.added))
+        self.state = "far" if rs.extent > 0.5 else "near"
+        outputs: Outputs = {"doubled": 2 * rs.extent, "x": rs.pose.x, "joints": rs.joints}
+        if ctx.cycle >= LATE:
+            outputs["late"] = float(rs.late)
+        return outputs
+
+
+def as_text(value: float) -> str:
+    return f"{value:.2f}"
+
+
+def test_renamed_converted_and_added_fields_read_as_the_system_has_them(
+    by_field: Path,
+) -> None:
+    watcher = RenamedWatcher()
+    system = PriorityArbiter([watcher], robot_state=Renamed)
+    migration = StateMigration(
+        renames={"reach": "extent"}, conversions={"late": "tests.replay.test_view:as_text"}
+    )
+    result = beatlog.replay(by_field, system, migration=migration)
+    assert (result.ok, result.cycles) == (True, 300)
+    assert watcher.read == [(arm(t).reach, as_text(t * 0.25), 7) for t in range(300)]
