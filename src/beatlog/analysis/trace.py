@@ -126,21 +126,27 @@ def read_changes(log: str | Path) -> tuple[list[TracedChange], int]:
 
 def recorded_outputs(log: str | Path) -> list[TracedOutput]:
     """The outputs the log recorded, as the cycles where a field changed value."""
-    decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
     tracker = OutputTracker()
     changes: list[TracedOutput] = []
     with SessionLogReader(log) as reader:
-        time_ns = 0
-        for cycle, record in enumerate(_records(reader)):
-            time_ns += record.heartbeat_ns
-            try:
-                outputs = {} if record.outputs == EMPTY_MAP else decode(record.outputs)
-            except DECODE_ERRORS as exc:
-                raise CorruptLogError(
-                    reader.path, f"damaged outputs in cycle {cycle}: {exc}"
-                ) from None
+        for cycle, time_ns, _, outputs in _with_outputs(reader):
             changes.extend(tracker.observe(cycle, time_ns, outputs))
     return changes
+
+
+def _with_outputs(
+    reader: SessionLogReader,
+) -> Iterator[tuple[int, int, CycleRecord, dict[str, Any]]]:
+    """Each cycle of a log: its number, robot time, record and recorded outputs."""
+    decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
+    time_ns = 0
+    for cycle, record in enumerate(_records(reader)):
+        time_ns += record.heartbeat_ns
+        try:
+            outputs = {} if record.outputs == EMPTY_MAP else decode(record.outputs)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(reader.path, f"damaged outputs in cycle {cycle}: {exc}") from None
+        yield cycle, time_ns, record, outputs
 
 
 def whole_trace(
@@ -151,7 +157,6 @@ def whole_trace(
     (behaviors named as ``rename`` names them now); a whole one as it is."""
     if not expectation.departures:
         return expectation
-    decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
     override = expectation.changes_override() or {}
     lines = itertools.groupby(expectation.outputs or (), key=lambda o: o.cycle)
     line = next(lines, None)
@@ -164,9 +169,7 @@ def whole_trace(
     for traced in recorded:
         by_cycle.setdefault(traced.cycle, []).append(traced)
     with SessionLogReader(log) as reader:
-        time_ns = 0
-        for cycle, record in enumerate(_records(reader)):
-            time_ns += record.heartbeat_ns
+        for cycle, time_ns, _, values in _with_outputs(reader):
             if cycle in override:
                 changes.extend(TracedChange(cycle, time_ns, c) for c in override[cycle])
             else:
@@ -174,15 +177,9 @@ def whole_trace(
                     TracedChange(cycle, time_ns, _renamed(c.change, rename))
                     for c in by_cycle.get(cycle, ())
                 )
-            while line is not None and line[0] == cycle:
+            if line is not None and line[0] == cycle:
                 hold(held, line[1])
                 line = next(lines, None)
-            try:
-                values = {} if record.outputs == EMPTY_MAP else decode(record.outputs)
-            except DECODE_ERRORS as exc:
-                raise CorruptLogError(
-                    reader.path, f"damaged outputs in cycle {cycle}: {exc}"
-                ) from None
             outputs.extend(tracker.observe(cycle, time_ns, apply_outputs(values, held)))
     return dataclasses.replace(
         expectation, changes=tuple(changes), outputs=tuple(outputs), departures=False, quiet=()
