@@ -2,12 +2,12 @@
 
 The script records a 35,000-cycle rover log (1050 s of robot time at 30 ms), then
 times a plain replay and ``audit`` (two replays, at once, in the two audit interpreters
-that the first audit starts and the later ones reuse) alternately, ``REPEATS`` times
-each. Wall time is ``time.perf_counter``; CPU time is user + system of this process and
-of the audit interpreters (``resource.getrusage``; the interpreters' own is counted as
-they go, read from ``/proc``, since they live on). It reports the first audit (with the
-interpreters' start-up), the fastest of the others and the plain replay's fastest, and
-their ratios. Nothing here asserts a timing.
+that the first audit starts and the later ones reuse, kept by one ``Auditors``)
+alternately, ``REPEATS`` times each. Wall time is ``time.perf_counter``; CPU time is
+user + system of this process and of the audit interpreters (``resource.getrusage``;
+the interpreters' own is counted as they go, read from ``/proc``, since they live on).
+It reports the first audit (with the interpreters' start-up), the fastest of the others
+and the plain replay's fastest, and their ratios. Nothing here asserts a timing.
 
 Run it as ``python bench/bench_audit.py``; it takes about 10 s on 2 cores.
 """
@@ -22,7 +22,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import beatlog
-from beatlog.audit.replays import audit
+from beatlog.audit.replays import Auditors, audit
 from beatlog_examples.rover import record_lockstep
 
 DURATION_S = 1050.0
@@ -60,16 +60,16 @@ def timed(work: Callable[[], object]) -> tuple[float, float]:
 
 
 def main() -> None:
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, Auditors() as auditors:
         log = Path(folder) / "rover.beatlog"
         cycles = record_lockstep(log, duration_s=DURATION_S, seed=1).cycles
         replays: list[tuple[float, float]] = []
         audits: list[tuple[float, float]] = []
         for _ in range(REPEATS):
             replays.append(timed(lambda: beatlog.replay(log, SYSTEM)))
-            audits.append(timed(lambda: audit(log, SYSTEM)))
+            audits.append(timed(lambda: audit(log, SYSTEM, auditors=auditors)))
         assert beatlog.replay(log, SYSTEM).ok
-        assert audit(log, SYSTEM).ok
+        assert audit(log, SYSTEM, auditors=auditors).ok
     first = audits[0]
     replay_wall, replay_cpu = min(w for w, _ in replays), min(c for _, c in replays)
     audit_wall, audit_cpu = min(w for w, _ in audits[1:]), min(c for _, c in audits[1:])

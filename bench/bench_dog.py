@@ -35,8 +35,9 @@ from rich.table import Table
 import beatlog
 from bare import replay_against_bare
 from beatlog.log.reader import SessionLogReader
-from beatlog.suite.runner import Verdict, run_suite
-from beatlog.suite.spec import discover_specs
+from beatlog.suite.discovery import discover_specs
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import Verdict
 from beatlog_examples.dog import SUITE_DIR, system
 from beatlog_examples.dog.fastforward import measured_intervals, record_fast
 from beatlog_examples.dog.robot import SYSTEM_REF, record_live

@@ -45,6 +45,12 @@ def assert_one_line_error(run: Run, *fragments: str) -> None:
         assert fragment in run.err
 
 
+def closing_counts(out: str) -> str:
+    """The counts of ``beatlog test``'s closing line (``2 passed, 1 failed, 1 not run``),
+    without the wall time and the cycles that follow them."""
+    return out.rstrip("\n").splitlines()[-1].partition(" in ")[0]
+
+
 def plain(text: str) -> str:
     """What a terminal shows of ``text``: without its escape sequences (colours, cursor
     moves)."""

@@ -84,13 +84,6 @@ def first_cycle_below(threshold: float, cycles: int = 300) -> int:
 RecordFn = Callable[..., Path]
 
 
-@pytest.fixture(autouse=True)
-def outside_ci(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every test starts outside CI, wherever the suite runs: ``CI`` withholds baselines,
-    so a test that means CI sets it itself."""
-    monkeypatch.delenv("CI", raising=False)
-
-
 @pytest.fixture
 def record_probe(tmp_path: Path) -> RecordFn:
     """Record a probe session of ``cycles`` cycles and return its path."""

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from beatlog.model.behavior import System
 from beatlog.record.recorder import Recorder
+from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import PERIOD_NS, Probe, distances, probe_system
 from tests.systems import Rover, rover_system
 
@@ -102,3 +103,10 @@ def _record(
         for distance in profile:
             recorder.step(PERIOD_NS, state(distance=distance))
     return log
+
+
+def written_dtc(
+    folder: Path, name: str, log: Path | str, system: str = PROBE, /, **extra: object
+) -> DtcSpec:
+    """Write a spec (see :func:`write_spec`) and load it back, as discovery would."""
+    return load_spec(write_spec(folder, name, log, system, **extra))

@@ -444,3 +444,38 @@ class PxPosed(RobotState, kw_only=True):
     """:class:`Posed` with ``pose.x`` renamed to ``pose.px`` since its logs were made."""
 
     pose: PxPose = msgspec.field(default_factory=lambda: PxPose(0.0, 0.0))
+
+
+class Scatter:
+    """Draws an array of uniform numbers every fifth cycle (``arrays`` of them), or none;
+    its state says whether the first was below one half."""
+
+    name = "scatter"
+
+    def __init__(self, arrays: bool = True) -> None:
+        self.state: BehaviorState = "low"
+        self.arrays = arrays
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if ctx.cycle % 5 == 0:
+            first = ctx.random.uniform_array(0.0, 1.0, (2, 2))[0, 0] if self.arrays else 0.0
+            self.state = "low" if first < 0.5 else "high"
+        return None
+
+
+def scatter_system() -> PriorityArbiter[Probe]:
+    """A system that draws arrays, which need numpy."""
+    return PriorityArbiter([Scatter()], robot_state=Probe)
+
+
+def scatter_system_calm() -> PriorityArbiter[Probe]:
+    """:func:`scatter_system` changed to draw nothing: replaying its log needs no numpy."""
+    return PriorityArbiter([Scatter(arrays=False)], robot_state=Probe)
+
+
+def record_scatter(path: Path, cycles: int = 30, *, seed: int = 3) -> Path:
+    """A log of :func:`scatter_system`, whose draws are arrays."""
+    with Recorder(path, scatter_system(), seed=seed, software="test") as recorder:
+        for _ in range(cycles):
+            recorder.step(PERIOD_NS, Probe())
+    return path

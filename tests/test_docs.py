@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -38,3 +39,12 @@ def test_the_documentation_builds_strict(tmp_path: Path) -> None:
         ("suite", "names a callable that takes no"),
     ]:
         assert anchor in (api / page / "index.html").read_text(encoding="utf-8"), (page, anchor)
+
+
+def test_every_snippet_of_the_own_loop_page_is_the_thermostat_s_code_verbatim() -> None:
+    page = (ROOT / "docs" / "own-loop.md").read_text(encoding="utf-8")
+    snippets = re.findall(r"```python\n(.*?)```", page, re.DOTALL)
+    package = ROOT / "examples" / "src" / "beatlog_examples" / "thermostat"
+    source = "".join(path.read_text(encoding="utf-8") for path in sorted(package.glob("*.py")))
+    assert len(snippets) == 5
+    assert [snippet for snippet in snippets if snippet not in source] == []

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.files import irregular_file_problem, replacing
+from beatlog.errors import SpecError
+from beatlog.files import irregular_file_problem, read_small_text, replacing
 
 
 def test_a_regular_file_has_no_problem(tmp_path: Path) -> None:
@@ -90,3 +91,46 @@ def test_replacing_leaves_the_old_file_and_no_litter_when_the_block_raises(
 
     assert path.read_bytes() == b"old"
     assert sorted(tmp_path.iterdir()) == [path]
+
+
+def read_spec(path: Path) -> str:
+    return read_small_text(path, limit=8, kind="DTC spec", error=SpecError)
+
+
+def test_a_small_text_file_is_read_whole(tmp_path: Path) -> None:
+    path = tmp_path / "a.dtc.toml"
+    path.write_text("name = 1", encoding="utf-8")
+
+    assert read_spec(path) == "name = 1"
+
+
+@pytest.mark.parametrize(
+    ("content", "problem"),
+    [
+        (b"name = 12", "is larger than 8 bytes; not a DTC spec"),
+        (
+            b"\xff\xfe",
+            "cannot read: 'utf-8' codec can't decode byte 0xff in position 0: invalid start byte",
+        ),
+    ],
+)
+def test_a_small_text_file_too_large_or_not_utf8_is_the_error_asked_for(
+    tmp_path: Path, content: bytes, problem: str
+) -> None:
+    path = tmp_path / "a.dtc.toml"
+    path.write_bytes(content)
+
+    with pytest.raises(SpecError) as raised:
+        read_spec(path)
+
+    assert (raised.value.path, raised.value.problem) == (path, problem)
+
+
+def test_a_small_text_file_that_is_not_regular_is_refused_unopened(tmp_path: Path) -> None:
+    fifo = tmp_path / "a.dtc.toml"
+    os.mkfifo(fifo)
+
+    with pytest.raises(SpecError) as raised:
+        read_spec(fifo)
+
+    assert str(raised.value) == f"{fifo}: is not a regular file (a FIFO, socket or device)"

@@ -1,13 +1,19 @@
 """What importing beatlog costs: the public names are imported on first use, so a
-program, the CLI's ``--help`` or a suite worker loads only what it uses."""
+program, the CLI's ``--help`` or a suite worker loads only what it uses. And which way
+imports point: every one from a layer to a lower one, none in a cycle of files."""
 
 from __future__ import annotations
 
+import ast
+import graphlib
 import importlib
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+
+import beatlog
 
 PACKAGES = [
     "beatlog",
@@ -73,3 +79,97 @@ def test_beatlog_replay_is_the_function_even_after_its_subpackage_is_imported() 
     )
 
     subprocess.run([sys.executable, "-c", script], check=True)
+
+
+LAYERS = [
+    {"_version", "_lazy", "errors", "files", "closing"},
+    {"project", "remote"},
+    {"log"},
+    {"model"},
+    {"usercode"},
+    {"record", "replay"},
+    {"analysis"},
+    {"audit"},
+    {"suite"},
+    {"report"},
+    {"suite_session"},
+    {"adapters", "pytest_plugin"},
+    {"cli"},
+    {"__init__"},
+]
+"""beatlog's parts (its subpackages and top-level modules), from the ground up: a part
+imports its own modules and those of the layers below it, never one above or beside.
+The log format knows nothing of the execution model, the model nothing of replay; the
+reports render what suites and replays give; the suite session puts suites and reports
+together for the shells (the CLI, the pytest plugin); ``beatlog/__init__`` is the API."""
+
+SOURCE = Path(beatlog.__file__).parent
+
+
+class Imported:
+    """Every import of one of beatlog's modules: the modules it names, and those it
+    names outside ``if TYPE_CHECKING:`` (which run)."""
+
+    def __init__(self, path: Path) -> None:
+        parts = path.relative_to(SOURCE.parent).with_suffix("").parts
+        self.name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        self.part = parts[1].removesuffix(".py") if len(parts) > 1 else "__init__"
+        package = self.name if path.name == "__init__.py" else self.name.rpartition(".")[0]
+        self.all: set[str] = set()
+        self.run: set[str] = set()
+        self._visit(ast.parse(path.read_text(encoding="utf-8")), package, typing=False)
+
+    def _visit(self, node: ast.AST, package: str, *, typing: bool) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and ast.unparse(child.test) == "TYPE_CHECKING":
+                self._visit(child, package, typing=True)
+                continue
+            names: list[str] = []
+            if isinstance(child, ast.Import):
+                names = [alias.name for alias in child.names]
+            elif isinstance(child, ast.ImportFrom):
+                module = child.module or ""
+                if child.level:
+                    base = package.split(".")[: len(package.split(".")) - child.level + 1]
+                    module = ".".join([*base, module] if module else base)
+                names = [module, *(f"{module}.{alias.name}" for alias in child.names)]
+            found = {name for name in names if name.split(".")[0] == "beatlog"}
+            self.all |= found
+            if not typing:
+                self.run |= found
+            self._visit(child, package, typing=typing)
+
+
+MODULES = {imported.name: imported for imported in map(Imported, SOURCE.rglob("*.py"))}
+
+
+def layer(part: str) -> int:
+    return next(index for index, parts in enumerate(LAYERS) if part in parts)
+
+
+def test_every_part_of_beatlog_has_a_layer() -> None:
+    parts = {imported.part for imported in MODULES.values()}
+
+    assert parts == set().union(*LAYERS)
+
+
+def test_no_import_runs_up_the_layers_or_across_one() -> None:
+    upward = sorted(
+        f"{module.name} imports {name}"
+        for module in MODULES.values()
+        for name in module.all
+        if name in MODULES
+        and MODULES[name].part != module.part
+        and layer(MODULES[name].part) >= layer(module.part)
+    )
+
+    assert upward == []
+
+
+def test_no_import_cycle_spans_files() -> None:
+    graph = {
+        module.name: {name for name in module.run if name in MODULES and name != module.name}
+        for module in MODULES.values()
+    }
+
+    graphlib.TopologicalSorter(graph).prepare()  # raises CycleError, naming the cycle

@@ -14,7 +14,8 @@ import pytest
 
 import beatlog_examples.rover
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
-from beatlog.suite.spec import discover_specs, find_rootdir, select_specs
+from beatlog.suite.discovery import discover_specs, select_specs
+from beatlog.suite.spec import find_rootdir
 from beatlog_examples.rover import record_lockstep
 from tests.commands import at_a_terminal
 from tests.conftest import Probe, RecordFn

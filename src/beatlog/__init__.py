@@ -11,68 +11,48 @@ import importlib
 from typing import TYPE_CHECKING
 
 from beatlog._lazy import lazy_names
-from beatlog._version import __version__
-from beatlog.errors import BeatlogError
 
 if TYPE_CHECKING:
-    from beatlog.log import SessionLogReader
+    from beatlog._version import __version__ as __version__
+    from beatlog.errors import BeatlogError as BeatlogError
+    from beatlog.log import SessionLogReader as SessionLogReader
     from beatlog.model import (
-        Context,
-        LiveHeartbeat,
-        PriorityArbiter,
-        RobotState,
-        SensorInbox,
-        System,
+        Context as Context,
     )
-    from beatlog.model.inbox import Sample
-    from beatlog.model.perception import Perception
-    from beatlog.model.robot import Robot
-    from beatlog.record import Recorder
-    from beatlog.replay import Divergence, DivergenceKind, ReplayResult, StateChange
-    from beatlog.suite.approved import replay
+    from beatlog.model import (
+        LiveHeartbeat as LiveHeartbeat,
+    )
+    from beatlog.model import (
+        PriorityArbiter as PriorityArbiter,
+    )
+    from beatlog.model import (
+        RobotState as RobotState,
+    )
+    from beatlog.model import (
+        SensorInbox as SensorInbox,
+    )
+    from beatlog.model import (
+        System as System,
+    )
+    from beatlog.model.inbox import Sample as Sample
+    from beatlog.model.perception import Perception as Perception
+    from beatlog.model.robot import Robot as Robot
+    from beatlog.record import Recorder as Recorder
+    from beatlog.replay import (
+        Divergence as Divergence,
+    )
+    from beatlog.replay import (
+        DivergenceKind as DivergenceKind,
+    )
+    from beatlog.replay import (
+        ReplayResult as ReplayResult,
+    )
+    from beatlog.replay import (
+        StateChange as StateChange,
+    )
+    from beatlog.suite.approved import replay as replay
 
-__all__ = [
-    "BeatlogError",
-    "Context",
-    "Divergence",
-    "DivergenceKind",
-    "LiveHeartbeat",
-    "Perception",
-    "PriorityArbiter",
-    "Recorder",
-    "ReplayResult",
-    "Robot",
-    "RobotState",
-    "Sample",
-    "SensorInbox",
-    "SessionLogReader",
-    "StateChange",
-    "System",
-    "__version__",
-    "replay",
-]
-
-__getattr__ = lazy_names(
-    __name__,
-    {
-        "Context": "beatlog.model",
-        "Divergence": "beatlog.replay",
-        "DivergenceKind": "beatlog.replay",
-        "LiveHeartbeat": "beatlog.model",
-        "Perception": "beatlog.model.perception",
-        "PriorityArbiter": "beatlog.model",
-        "Recorder": "beatlog.record",
-        "ReplayResult": "beatlog.replay",
-        "Robot": "beatlog.model.robot",
-        "RobotState": "beatlog.model",
-        "Sample": "beatlog.model.inbox",
-        "SensorInbox": "beatlog.model",
-        "SessionLogReader": "beatlog.log",
-        "StateChange": "beatlog.replay",
-        "System": "beatlog.model",
-        "replay": "beatlog.suite.approved",
-    },
-)
+__getattr__ = lazy_names(__name__)
 
 # The subpackage beatlog.replay shares its name with the function beatlog.replay, and
 # importing the subpackage binds the name to it. Import it now (its own names are lazy,

@@ -14,10 +14,12 @@ __all__ = [
     "EmptyCheckError",
     "ExportError",
     "FieldError",
+    "FileProblemError",
     "FleetError",
     "LogError",
     "LogExistsError",
     "NotABeatlogError",
+    "NumpyMissingError",
     "OptionError",
     "RemoteLogError",
     "SchemaMismatchError",
@@ -34,13 +36,20 @@ class BeatlogError(Exception):
     """The traceback of the user's code behind the error, when their code raised it."""
 
 
-class LogError(BeatlogError):
-    """A session log that cannot be read; the message names the file and the problem."""
+class FileProblemError(BeatlogError):
+    """A file given that cannot be used: the message names the file and the problem."""
 
-    def __init__(self, path: str | Path, problem: str) -> None:
+    def __init__(
+        self, path: str | Path, problem: str, *, user_traceback: str | None = None
+    ) -> None:
         self.path = Path(path)
         self.problem = problem
+        self.user_traceback = user_traceback
         super().__init__(f"{self.path}: {problem}")
+
+
+class LogError(FileProblemError):
+    """A session log that cannot be read; the message names the file and the problem."""
 
 
 class LogExistsError(LogError):
@@ -76,18 +85,26 @@ class EmptyCheckError(LogError):
     (``allow_empty``)."""
 
 
-class BagError(BeatlogError):
+class BagError(FileProblemError):
     """A ROS bag that cannot be imported as a session log: missing, damaged, without the
     messages asked for, or refused by the user's perception step or system; the message
     names the bag and the problem."""
 
-    def __init__(
-        self, path: str | Path, problem: str, *, user_traceback: str | None = None
-    ) -> None:
-        self.path = Path(path)
-        self.problem = problem
-        self.user_traceback = user_traceback
-        super().__init__(f"{self.path}: {problem}")
+
+class NumpyMissingError(BeatlogError, ModuleNotFoundError):
+    """Array draws made or replayed where numpy is not installed (only they need it); the
+    message names the log, where one is known, and the extra that brings numpy. It is a
+    :class:`ModuleNotFoundError` too, so ``except ImportError`` catches it."""
+
+    def __init__(self, log: str | Path | None = None) -> None:
+        self.log = log
+        """The session log being recorded or replayed, or None."""
+        where = "" if log is None else f"{log}: "
+        super().__init__(
+            f"{where}array draws (uniform_array, normal_array, integers_array) need numpy: "
+            'pip install "beatlog[arrays]"',
+            name="numpy",
+        )
 
 
 class ExportError(BeatlogError):
@@ -139,13 +156,8 @@ class SystemLoadError(BeatlogError):
         self.user_traceback = user_traceback
 
 
-class SpecError(BeatlogError):
+class SpecError(FileProblemError):
     """A DTC spec (``*.dtc.toml``) that cannot be read; the message names the file and key."""
-
-    def __init__(self, path: str | Path, problem: str) -> None:
-        self.path = Path(path)
-        self.problem = problem
-        super().__init__(f"{self.path}: {problem}")
 
 
 class BaselineError(SpecError):

@@ -8,11 +8,17 @@ import contextlib
 import json
 import os
 import stat
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO
 
-__all__ = ["irregular_file_problem", "project_root", "replacing", "write_json"]
+__all__ = [
+    "irregular_file_problem",
+    "project_root",
+    "read_small_text",
+    "replacing",
+    "write_json",
+]
 
 
 def irregular_file_problem(path: Path) -> str | None:
@@ -32,6 +38,23 @@ def irregular_file_problem(path: Path) -> str | None:
     if not stat.S_ISREG(mode):
         return "is not a regular file (a FIFO, socket or device)"
     return None
+
+
+def read_small_text(
+    path: Path, *, limit: int, kind: str, error: Callable[[Path, str], Exception]
+) -> str:
+    """The UTF-8 text of a small file of ``kind`` (a spec, a baseline); a file that is
+    not a regular one, is larger than ``limit`` bytes or cannot be read as UTF-8 raises
+    ``error(path, problem)``."""
+    problem = irregular_file_problem(path)
+    if problem is not None:
+        raise error(path, problem)
+    if path.stat().st_size > limit:
+        raise error(path, f"is larger than {limit} bytes; not a {kind}")
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(path, f"cannot read: {exc}") from None
 
 
 def project_root(start: Path) -> Path | None:

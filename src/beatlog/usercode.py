@@ -194,23 +194,24 @@ def _failed(reference: str, doing: str, exc: BaseException) -> SystemLoadError:
 def load_system(reference: str) -> System:
     """Build the system a ``module:factory`` reference names, checking it is one."""
     system = load_factory(reference)
-    if not isinstance(system, System):
-        raise SystemLoadError(
-            f"{reference!r}: {_built(system)}, not a system "
-            "(it needs robot_state, behaviors and update)"
-        )
-    return system
+    if isinstance(system, System):
+        return system
+    raise _not_a(reference, system, "a system (it needs robot_state, behaviors and update)")
 
 
 def load_robot(reference: str) -> Robot:
     """Build the robot a ``module:factory`` reference names, checking it is one."""
     robot = load_factory(reference)
-    if not isinstance(robot, Robot):
-        raise SystemLoadError(
-            f"{reference!r}: {_built(robot)}, not a robot "
-            "(it needs system, inbox, start, stop, perceive and act)"
-        )
-    return robot
+    if isinstance(robot, Robot):
+        return robot
+    raise _not_a(
+        reference, robot, "a robot (it needs system, inbox, start, stop, perceive and act)"
+    )
+
+
+def _not_a(reference: str, built: object, wanted: str) -> SystemLoadError:
+    """The error for a factory that built something other than ``wanted``."""
+    return SystemLoadError(f"{reference!r}: {_built(built)}, not {wanted}")
 
 
 def _built(thing: object) -> str:
@@ -224,8 +225,9 @@ def load_perception(reference: str) -> Perception:
     """Build the perception step a ``module:factory`` reference names, checking it is one."""
     perception = load_factory(reference)
     if not callable(perception):
-        raise SystemLoadError(
-            f"{reference!r}: {_built(perception)}, not a perception step "
-            "(a callable taking the previous robot state and the samples)"
+        raise _not_a(
+            reference,
+            perception,
+            "a perception step (a callable taking the previous robot state and the samples)",
         )
     return perception  # type: ignore[no-any-return]

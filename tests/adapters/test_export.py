@@ -51,6 +51,7 @@ from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, pr
 from tests.factories import Message as LogMessage
 from tests.factories import craft_log, cycle, cycle_messages, end_message, header_message
 from tests.perceptions import record_with_samples
+from tests.systems import record_scatter
 from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
 
 COMMITTED = sorted((Path(__file__).parents[2] / "examples/src").glob("**/suite/*.beatlog"))
@@ -1617,3 +1618,21 @@ def test_a_sample_nested_too_deep_is_one_line(beatlog_export: Cli, tmp_path: Pat
 
     assert_one_line_error(run, f"{log}: a sample of cycle 0 is nested too deep")
     assert not output.exists()
+
+
+def test_a_log_of_array_draws_exports_without_numpy(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_scatter(tmp_path / "arrays.beatlog", cycles=30)
+    monkeypatch.setitem(sys.modules, "numpy", None)
+
+    export(log, tmp_path / "arrays.mcap")
+    export(log, tmp_path / "arrays.parquet")
+
+    messages = read_exported(tmp_path / "arrays.mcap").messages["/random_numbers"]
+    draws = [draw for message in messages for draw in message.value["draws"]]
+    assert [(draw["kind"], json.loads(draw["params"])) for draw in draws] == [
+        ("uniform_array", [0.0, 1.0, [2, 2]])
+    ] * 6
+    table = pq.read_table(tmp_path / "arrays.parquet")
+    assert table.column("draws").to_pylist() == [1 if t % 5 == 0 else 0 for t in range(30)]

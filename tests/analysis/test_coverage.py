@@ -15,6 +15,7 @@ from beatlog.model.context import Context, Outputs
 from beatlog.record.recorder import Recorder
 from beatlog.suite.coverage import select_exercising, suite_coverage
 from beatlog.suite.spec import load_spec
+from tests.commands import closing_counts
 from tests.conftest import PERIOD_NS, Dice, Probe, RecordFn, distances, probe_system
 from tests.specs import PROBE, write_spec
 
@@ -137,7 +138,7 @@ def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
     code = main(["test", "-j", "1", "--behavior", "near", str(specs)])
     out = capsys.readouterr().out
     assert code == 0
-    assert "1 passed" in out
+    assert closing_counts(out) == "1 passed, 0 failed"
 
     code = main(["test", "-j", "1", "--behavior", "nobody", str(specs)])
     err = capsys.readouterr().err
@@ -185,6 +186,6 @@ def test_a_damaged_log_leaves_the_coverage_and_html_reports_of_the_others(
         f"beatlog: error: damaged ({specs / 'damaged.dtc.toml'}): "
         f"{specs / '..' / broken.name}: not a session log (not an MCAP file)"
     ]
-    assert "1 passed, 0 failed, 1 error" in captured.out
+    assert closing_counts(captured.out) == "1 passed, 0 failed, 1 error"
     assert json.loads(report.read_text())["dtcs"] == ["approach.dtc.toml::approach"]
     assert "damaged" in html.read_text()

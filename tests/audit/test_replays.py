@@ -6,11 +6,12 @@ import os
 import pickle
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from beatlog.audit.replays import AuditReport, Finding, audit
+from beatlog.audit.replays import Auditors, AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
@@ -26,6 +27,15 @@ from tests.systems import (
 )
 
 SYSTEMS = "tests.systems"
+
+
+@pytest.fixture(scope="module")
+def auditors() -> Iterator[Auditors]:
+    """The audit interpreters the audits of this module share, as a suite run's do."""
+    with Auditors() as kept:
+        yield kept
+
+
 SYSTEMS_FILE = str(Path(__file__).parent.parent / "systems.py")
 
 
@@ -41,10 +51,12 @@ def set_order(hash_seed: int) -> list[str]:
     return shown.stdout.split()
 
 
-def test_every_leak_is_a_finding_with_its_site_and_count(tmp_path: Path) -> None:
+def test_every_leak_is_a_finding_with_its_site_and_count(
+    auditors: Auditors, tmp_path: Path
+) -> None:
     log = record_session(tmp_path / "leaky.beatlog", leaky_system(), cycles=20)
 
-    report = audit(log, f"{SYSTEMS}:leaky_system")
+    report = audit(log, f"{SYSTEMS}:leaky_system", auditors=auditors)
 
     assert report.findings == tuple(Finding(call, site, 20) for call, site in leaks())
     assert [(run.hash_seed, run.ok, run.cycles) for run in report.runs] == [
@@ -61,6 +73,7 @@ def test_every_leak_is_a_finding_with_its_site_and_count(tmp_path: Path) -> None
 
 
 def test_a_py_trees_timer_on_the_wall_clock_is_named_in_py_trees_with_the_user_frame(
+    auditors: Auditors,
     tmp_path: Path,
 ) -> None:
     log = record_session(tmp_path / "tree.beatlog", hand_ticked_tree(), cycles=20)
@@ -70,7 +83,7 @@ def test_a_py_trees_timer_on_the_wall_clock_is_named_in_py_trees_with_the_user_f
         if "# leak via:" in line
     )
 
-    report = audit(log, f"{SYSTEMS}:hand_ticked_tree")
+    report = audit(log, f"{SYSTEMS}:hand_ticked_tree", auditors=auditors)
 
     assert report.runs[0].ok
     assert report.hash_seed_dependence is None
@@ -82,11 +95,11 @@ def test_a_py_trees_timer_on_the_wall_clock_is_named_in_py_trees_with_the_user_f
     assert report.lines()[0].endswith(f", from {SYSTEMS_FILE}:{via_line} in HandTickedTree.step")
 
 
-def test_the_example_rover_is_deterministic(tmp_path: Path) -> None:
+def test_the_example_rover_is_deterministic(auditors: Auditors, tmp_path: Path) -> None:
     log = tmp_path / "rover.beatlog"
     recorded = record_lockstep(log, duration_s=3.0, seed=1)
 
-    report = audit(log, "beatlog_examples.rover:system")
+    report = audit(log, "beatlog_examples.rover:system", auditors=auditors)
 
     assert report == AuditReport(findings=(), runs=report.runs, hash_seed_dependence=None)
     assert report.ok
@@ -98,12 +111,14 @@ def test_the_example_rover_is_deterministic(tmp_path: Path) -> None:
     assert first.digest == second.digest
 
 
-def test_a_replay_that_passes_under_one_hash_seed_only_depends_on_it(tmp_path: Path) -> None:
+def test_a_replay_that_passes_under_one_hash_seed_only_depends_on_it(
+    auditors: Auditors, tmp_path: Path
+) -> None:
     one, two = set_order(1), set_order(2)
     differs = next(cycle for cycle, (a, b) in enumerate(zip(one, two, strict=True)) if a != b)
     log = record_session(tmp_path / "unordered.beatlog", scripted_system(one))
 
-    report = audit(log, f"{SYSTEMS}:unordered_system")
+    report = audit(log, f"{SYSTEMS}:unordered_system", auditors=auditors)
 
     assert report.hash_seed_dependence == (
         "the replay depends on the hash seed: PYTHONHASHSEED=1 passed, "
@@ -114,13 +129,15 @@ def test_a_replay_that_passes_under_one_hash_seed_only_depends_on_it(tmp_path: P
     assert report.problems == 1
 
 
-def test_replays_that_diverge_alike_are_still_compared_cycle_by_cycle(tmp_path: Path) -> None:
+def test_replays_that_diverge_alike_are_still_compared_cycle_by_cycle(
+    auditors: Auditors, tmp_path: Path
+) -> None:
     one, two = set_order(1), set_order(2)
     differs = next(cycle for cycle, (a, b) in enumerate(zip(one, two, strict=True)) if a != b)
     neither = [*one[:differs], "sideways", *one[differs + 1 :]]
     log = record_session(tmp_path / "unordered.beatlog", scripted_system(neither))
 
-    report = audit(log, f"{SYSTEMS}:unordered_system")
+    report = audit(log, f"{SYSTEMS}:unordered_system", auditors=auditors)
 
     assert [run.describe() for run in report.runs] == [
         f"diverged at cycle {differs} (state changes)"
@@ -132,35 +149,38 @@ def test_replays_that_diverge_alike_are_still_compared_cycle_by_cycle(tmp_path: 
 
 
 def test_a_log_whose_robot_state_fields_changed_is_audited_with_its_migration(
+    auditors: Auditors,
     record_probe: RecordFn,
 ) -> None:
     log = record_probe(100)
     migration = StateMigration({"distance": "range"})
 
-    report = audit(log, f"{SYSTEMS}:probe_system_ranged", migration=migration)
+    report = audit(log, f"{SYSTEMS}:probe_system_ranged", migration=migration, auditors=auditors)
 
     assert report.ok
     assert [run.describe() for run in report.runs] == ["passed", "passed"]
     with pytest.raises(BeatlogError, match="field 'distance' is gone"):
-        audit(log, f"{SYSTEMS}:probe_system_ranged")
+        audit(log, f"{SYSTEMS}:probe_system_ranged", auditors=auditors)
 
 
-def test_bad_input_is_a_beatlog_error_naming_the_file(tmp_path: Path) -> None:
+def test_bad_input_is_a_beatlog_error_naming_the_file(auditors: Auditors, tmp_path: Path) -> None:
     with pytest.raises(BeatlogError, match=f"^{tmp_path / 'lost.beatlog'}: no such file"):
-        audit(tmp_path / "lost.beatlog", f"{SYSTEMS}:leaky_system")
+        audit(tmp_path / "lost.beatlog", f"{SYSTEMS}:leaky_system", auditors=auditors)
 
 
-def test_a_replay_that_dies_is_a_loud_error(tmp_path: Path) -> None:
+def test_a_replay_that_dies_is_a_loud_error(auditors: Auditors, tmp_path: Path) -> None:
     log = record_session(tmp_path / "leaky.beatlog", leaky_system())
 
     with pytest.raises(RuntimeError, match=r"PYTHONHASHSEED=1 crashed \(exit 70\)"):
-        audit(log, f"{SYSTEMS}:exiting_system")
+        audit(log, f"{SYSTEMS}:exiting_system", auditors=auditors)
 
 
-def test_replays_that_differ_by_an_unseeded_global_generator_say_so(tmp_path: Path) -> None:
+def test_replays_that_differ_by_an_unseeded_global_generator_say_so(
+    auditors: Auditors, tmp_path: Path
+) -> None:
     log = record_session(tmp_path / "gambler.beatlog", scripted_system(["left"] * 20))
 
-    report = audit(log, f"{SYSTEMS}:gambler_system")
+    report = audit(log, f"{SYSTEMS}:gambler_system", auditors=auditors)
 
     assert report.hash_seed_dependence is not None
     assert report.hash_seed_dependence.startswith(
@@ -170,14 +190,33 @@ def test_replays_that_differ_by_an_unseeded_global_generator_say_so(tmp_path: Pa
     assert [finding.call for finding in report.findings] == ["random.choice"]
 
 
-def test_the_audit_interpreters_are_kept_for_the_next_audit(
+def test_the_audit_interpreters_are_kept_for_the_next_audit_and_stopped_at_the_end(
     record_probe: RecordFn, meeting: Path
 ) -> None:
     log = record_probe(30)
 
-    reports = [audit(log, "tests.conftest:alone_system") for _ in range(3)]
+    with Auditors() as auditors:
+        reports = [audit(log, "tests.conftest:alone_system", auditors=auditors) for _ in range(3)]
 
-    assert all(report.ok for report in reports)
+    assert [report.ok for report in reports] == [True, True, True]
     signed = sorted(int(sign.name) for sign in meeting.iterdir())
     assert len(signed) == 2  # one interpreter per hash seed, not two per audit
     assert os.getpid() not in signed
+    for pid in signed:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_an_audit_without_auditors_stops_its_own_interpreters(
+    record_probe: RecordFn, meeting: Path
+) -> None:
+    log = record_probe(30)
+
+    report = audit(log, "tests.conftest:alone_system")
+
+    assert report.ok
+    signed = [int(sign.name) for sign in meeting.iterdir()]
+    assert len(signed) == 2
+    for pid in signed:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)

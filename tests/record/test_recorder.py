@@ -6,6 +6,7 @@ import errno
 import io
 import os
 import re
+import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -16,13 +17,14 @@ import pytest
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
-from beatlog.errors import LogExistsError
+from beatlog.errors import LogExistsError, NumpyMissingError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, probe_system
+from tests.systems import record_scatter
 
 
 def test_step_returns_outputs_and_the_header_describes_the_session(tmp_path: Path) -> None:
@@ -192,3 +194,42 @@ def test_run_refuses_a_robot_whose_system_is_not_the_one_recorded(tmp_path: Path
     ):
         recorder.run(robot, duration_s=0.03)
     assert not robot.started
+
+
+def test_recording_array_draws_without_numpy_names_the_log_and_the_extra(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = tmp_path / "arrays.beatlog"
+    monkeypatch.setitem(sys.modules, "numpy", None)
+
+    with pytest.raises(NumpyMissingError) as raised:
+        record_scatter(log)
+
+    assert str(raised.value) == (
+        f"{log}: array draws (uniform_array, normal_array, integers_array) need numpy: "
+        'pip install "beatlog[arrays]"'
+    )
+    assert summarize(log).cycles == 0
+
+
+def test_beat_measures_each_heartbeat_on_the_clock_and_counts_the_late_ones(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "beats.beatlog"
+    ticks = iter([5_000, 5_000 + PERIOD_NS, 5_000 + 2 * PERIOD_NS + 7, 5_000 + 4 * PERIOD_NS])
+    with Recorder(log, probe_system(), software="t", clock=lambda: next(ticks)) as recorder:
+        outputs = [recorder.beat(Probe(distance=d)) for d in (1.0, 0.25, 1.0, 1.0)]
+        assert recorder.overruns == 1
+
+    assert outputs == [
+        {"speed": 0.5, "time": PERIOD_NS / 1e9},
+        {"speed": 0.0},
+        {"speed": 0.5, "time": (3 * PERIOD_NS + 7) / 1e9},
+        {"speed": 0.5, "time": 5 * PERIOD_NS / 1e9},
+    ]
+    with SessionLogReader(log) as reader:
+        intervals = [cycle.heartbeat_ns for cycle in reader.cycles()]
+        assert reader.end is not None
+        assert reader.end.overruns == 1
+    assert intervals == [PERIOD_NS, PERIOD_NS, PERIOD_NS + 7, 2 * PERIOD_NS - 7]
+    assert replay(log, probe_system()).ok

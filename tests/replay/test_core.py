@@ -3,13 +3,14 @@ what stepping it gives, for cycles that match and cycles that do not."""
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from beatlog.errors import SchemaMismatchError
+from beatlog.errors import NumpyMissingError, SchemaMismatchError
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
@@ -19,7 +20,15 @@ from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.judge import replay
 from beatlog.replay.migration import StateMigration
 from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, probe_system
-from tests.systems import Fragile, Pose, Posed, PxPose, PxPosed, probe_system_centimetred
+from tests.systems import (
+    Fragile,
+    Pose,
+    Posed,
+    PxPose,
+    PxPosed,
+    Scatter,
+    probe_system_centimetred,
+)
 
 
 def fragile_system() -> PriorityArbiter[Probe]:
@@ -164,3 +173,26 @@ def test_a_field_renamed_inside_a_struct_reaches_the_behaviors(tmp_path: Path) -
     assert result.ok
     assert result.checked.state_changes == 7
     assert seen[:4] == [PxPose(1.0, 0.0), PxPose(1.0, 1.0), PxPose(1.0, 2.0), PxPose(-1.0, 3.0)]
+
+
+def test_a_fresh_array_draw_in_living_replay_without_numpy_names_the_log_and_the_extra(
+    record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(10)
+    with SessionLogReader(log) as reader:
+        living = Replayer(
+            PriorityArbiter([Near(), Scatter()], robot_state=Probe),
+            reader.header,
+            reader.path,
+            living=True,
+        )
+        first = next(reader.cycles())
+    monkeypatch.setitem(sys.modules, "numpy", None)
+
+    with pytest.raises(NumpyMissingError) as raised:
+        living.step(first)
+
+    assert str(raised.value) == (
+        f"{log}: array draws (uniform_array, normal_array, integers_array) need numpy: "
+        'pip install "beatlog[arrays]"'
+    )

@@ -566,7 +566,7 @@ def test_a_behavior_that_calls_sys_exit_is_an_exception_verdict(record_probe: Re
     result = replay(record_probe(300), PriorityArbiter([Near(), Quitter()], robot_state=Probe))
     assert result.divergence is not None
     assert result.divergence.kind is DivergenceKind.EXCEPTION
-    assert "SystemExit" in result.divergence.message
+    assert result.divergence.message == "dice raised SystemExit: 3"
 
 
 def test_a_log_damaged_after_the_first_divergence_is_still_bad_input(

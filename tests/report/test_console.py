@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 
 from beatlog import replay
@@ -16,18 +17,24 @@ from beatlog.report.console import (
     render_suite,
     render_summary,
 )
+from beatlog.suite.discovery import distinguished
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
-from beatlog.suite.spec import DtcSpec, distinguished, load_spec
+from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn, probe_system
 from tests.specs import CHANGED, PROBE, write_spec
 
 
 def test_a_pass_is_one_verdict_line(record_probe: RecordFn) -> None:
-    text = plain_text(render_replay(replay(record_probe(50), probe_system())), width=400)
-    assert text.startswith("PASS ")
-    assert "50 cycles" in text
-    assert "log complete" in text
-    assert text.count("\n") == 1
+    log = record_probe(50)
+
+    text = plain_text(render_replay(replay(log, probe_system())), width=400)
+
+    assert re.fullmatch(
+        rf"PASS {re.escape(str(log))}  50 cycles, \d+ state changes, \d+ outputs, "
+        r"\d+ draws checked; 1\.5 s robot time in [\d.]+ s \([\d,.]+× real time\); "
+        r"log complete\n",
+        text,
+    ), text
 
 
 def test_a_failure_shows_cycle_changes_state_and_an_unwrapped_command(
@@ -111,9 +118,15 @@ def test_a_truncated_log_suggests_allowing_it_in_full(record_chunked: RecordFn) 
 
 def test_the_summary_names_every_behavior(record_probe: RecordFn) -> None:
     text = plain_text(render_summary(summarize(record_probe(100))))
-    for name in ("arbiter", "near", "dice"):
-        assert name in text
-    assert "complete" in text
+
+    fields = [line.split() for line in text.splitlines()]
+    assert ["status", "complete"] in fields
+    behaviors = [
+        [cell.strip() for cell in line.strip("│").split("│")]
+        for line in text.splitlines()
+        if line.startswith("│")
+    ]
+    assert behaviors == [["0", "arbiter", "3"], ["1", "near", "2"], ["2", "dice", "10"]]
 
 
 def test_the_cycles_around_a_divergence_are_a_table(record_probe: RecordFn) -> None:
@@ -205,3 +218,12 @@ def test_dtcs_of_one_name_are_listed_by_their_ids_whole_on_a_narrow_terminal() -
         "robots/dog/dtc/low-battery.dtc.toml::low-battery"
         "robots/rover/dtc/low-battery.dtc.toml::low-battery"
     )
+
+
+def test_text_in_square_brackets_is_shown_as_written_never_taken_for_markup() -> None:
+    error = 'x.beatlog: array draws need numpy: pip install "beatlog[arrays]"'
+    (outcome,) = outcomes(0, errors=1)
+
+    text = plain_text(render_suite([dataclasses.replace(outcome, error=error)]), width=200)
+
+    assert 'pip install "beatlog[arrays]"' in text

@@ -18,12 +18,12 @@ from matplotlib.image import imread
 
 from beatlog.record.recorder import Recorder
 from beatlog.report.html import write_html
-from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
-from beatlog.suite.spec import DtcSpec, load_spec
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import PERIOD_NS, Probe
 from tests.perceptions import CHANGED, record_with_samples
-from tests.specs import write_spec
+from tests.specs import written_dtc
 from tests.systems import HOSTILE, hostile_system
 
 ROVER = "beatlog_examples.rover:system"
@@ -38,11 +38,6 @@ class Report(NamedTuple):
     path: Path
 
 
-def dtc(folder: Path, file: str, log: Path, system: str, /, **extra: object) -> DtcSpec:
-    """Write ``<file>.dtc.toml`` (named ``file`` unless ``name`` says otherwise) and load it."""
-    return load_spec(write_spec(folder, file, log, system, **extra))
-
-
 @pytest.fixture(scope="module")
 def report(tmp_path_factory: pytest.TempPathFactory) -> Report:
     """A suite of four DTCs (pass, fail, error, hostile names), run once for the module."""
@@ -54,10 +49,12 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> Report:
         for t in range(40):
             recorder.step(PERIOD_NS, Probe(distance=abs(20 - t) / 20))
     specs = [
-        dtc(folder, "wander", rover, ROVER),
-        dtc(folder, "avoid-earlier", rover, ROVER_CHANGED, purpose="Avoid turns 10 cm earlier."),
-        dtc(folder, "lost", folder / "lost.beatlog", ROVER),
-        dtc(
+        written_dtc(folder, "wander", rover, ROVER),
+        written_dtc(
+            folder, "avoid-earlier", rover, ROVER_CHANGED, purpose="Avoid turns 10 cm earlier."
+        ),
+        written_dtc(folder, "lost", folder / "lost.beatlog", ROVER),
+        written_dtc(
             folder,
             "hostile",
             hostile,
@@ -177,7 +174,7 @@ def test_a_perception_divergence_shows_the_fields_rebuilt_and_the_samples(
     tmp_path: Path,
 ) -> None:
     log = record_with_samples(tmp_path / "samples.beatlog")
-    spec = dtc(tmp_path, "sensors", log, "tests.conftest:probe_system", perception=CHANGED)
+    spec = written_dtc(tmp_path, "sensors", log, "tests.conftest:probe_system", perception=CHANGED)
     path = tmp_path / "report.html"
     write_html(run_suite([spec]), path)
     sensors = section(path.read_text(encoding="utf-8"), 1)

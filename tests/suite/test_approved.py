@@ -12,10 +12,10 @@ import beatlog
 from beatlog.cli.main import main
 from beatlog.errors import BaselineError
 from beatlog.suite.approved import approved_baseline
+from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import approve, update_baselines
+from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
-from beatlog.suite.runner import run_suite
-from beatlog.suite.spec import discover_specs
 from tests.conftest import RecordFn
 from tests.specs import write_spec
 

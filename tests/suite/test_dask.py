@@ -18,10 +18,10 @@ from distributed import Client, LocalCluster
 
 from beatlog.cli.main import main
 from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor
+from beatlog.suite.discovery import discover_specs
 from beatlog.suite.policy import SpecOptions
 from beatlog.suite.runner import SpecOutcome
-from beatlog.suite.spec import discover_specs
-from tests.commands import Run, assert_one_line_error
+from tests.commands import Run, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
@@ -90,7 +90,7 @@ def test_a_cluster_gives_the_verdicts_reports_and_exit_code_of_a_local_run(
     remote = beatlog("test", suite, "--dask", cluster, "--junit-xml", tmp_path / "dask.xml")
 
     assert remote.code == local.code == 1
-    counts = [run.out.splitlines()[-1].partition(" in ")[0] for run in (local, remote)]
+    counts = [closing_counts(run.out) for run in (local, remote)]
     assert counts == ["2 passed, 1 failed", "2 passed, 1 failed"]
     rerun = f"reproduce: beatlog test {suite / 'changed.dtc.toml'}"
     assert rerun in local.out
@@ -134,7 +134,7 @@ def test_local_n_starts_a_cluster_of_n_worker_processes_for_the_run(
     run = beatlog("test", suite, "--dask", "local:2", "-k", "not changed")
 
     assert run.code == 0, run.err
-    assert run.out.splitlines()[-1].startswith("2 passed, 0 failed")
+    assert closing_counts(run.out) == "2 passed, 0 failed"
 
 
 def test_fleet_logs_behind_an_http_url_are_downloaded_once_each_by_the_workers(
@@ -144,7 +144,7 @@ def test_fleet_logs_behind_an_http_url_are_downloaded_once_each_by_the_workers(
     run = beatlog("test", "--logs", f"{url}/*.beatlog", "--system", CHANGED, "--dask", cluster)
 
     assert run.code == 1, run.err
-    assert run.out.splitlines()[-1].startswith("0 passed, 2 failed")
+    assert closing_counts(run.out) == "0 passed, 2 failed"
     assert f"reproduce: beatlog test --logs {url}/dock.beatlog --system {CHANGED}" in run.out
     assert [served.downloads(name) for name in ("dock.beatlog", "yard.beatlog")] == [1, 1]
 
@@ -161,7 +161,7 @@ def test_a_spec_whose_log_is_a_url_gets_the_verdict_of_a_local_run(
     remote = beatlog("test", folder, "--dask", cluster, "--junit-xml", tmp_path / "dask.xml")
 
     assert remote.code == local.code == 1, remote.err
-    assert [run.out.splitlines()[-1][:18] for run in (local, remote)] == ["1 passed, 1 failed"] * 2
+    assert [closing_counts(run.out) for run in (local, remote)] == ["1 passed, 1 failed"] * 2
     assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
     assert f"reproduce: beatlog test {folder / 'yard.dtc.toml'}" in remote.out
     assert (local_downloads, served.downloads("dock.beatlog")) == (1, 2)
@@ -176,7 +176,7 @@ def test_a_spec_whose_log_is_not_found_is_an_error_of_its_dtc(
 
     assert run.code == 2
     assert run.err == f"beatlog: error: lost ({spec}): {served.url}/lost.beatlog: no such log\n"
-    assert run.out.splitlines()[-1].startswith("0 passed, 0 failed, 1 error")
+    assert closing_counts(run.out) == "0 passed, 0 failed, 1 error"
 
 
 def write_dying_once(folder: Path, marker: Path) -> str:
@@ -230,7 +230,7 @@ def test_a_dtc_whose_workers_keep_dying_is_an_error_never_lost(
     assert run.code == 2
     assert "doomed" in run.err
     assert "2 workers died while replaying it" in run.err
-    assert run.out.splitlines()[-1].startswith("1 passed, 0 failed, 1 error")
+    assert closing_counts(run.out) == "1 passed, 0 failed, 1 error"
 
 
 def write_waiting(folder: Path, release: Path) -> str:

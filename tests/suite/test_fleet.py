@@ -15,8 +15,9 @@ from beatlog.errors import FleetError
 from beatlog.suite.baseline import expected_path, pending_path
 from beatlog.suite.fleet import FLEET_PURPOSE, fleet_specs
 from beatlog.suite.maintenance import update_baselines
+from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
-from beatlog.suite.runner import Verdict, run_suite
+from beatlog.suite.runner import Verdict
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE

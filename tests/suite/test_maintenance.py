@@ -22,8 +22,9 @@ from beatlog.suite.maintenance import (
     pending_specs,
     update_baselines,
 )
+from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
-from beatlog.suite.runner import SpecOutcome, Verdict, run_suite
+from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn
 from tests.specs import write_spec

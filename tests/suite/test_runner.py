@@ -1,8 +1,8 @@
-"""The suite runner: one verdict per spec, in spec order, sequential or in worker processes."""
+"""One DTC's run: its verdict against its system and baseline, its audit, its charts and
+its break points."""
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -12,23 +12,18 @@ from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replay.verdict import Checked, DivergenceKind
 from beatlog.report.figures import dtc_charts
+from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
-from beatlog.suite.spec import DtcSpec, load_spec
-from tests.conftest import MEETING, Dice, Near, Probe, RecordFn
+from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short
-from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
 from tests.systems import leaks, leaky_system, quiet_system, record_session
 
 
 @pytest.fixture
 def log(record_probe: RecordFn) -> Path:
     return record_probe(300)
-
-
-def dtc(folder: Path, name: str, log: Path, system: str = PROBE, **extra: object) -> DtcSpec:
-    """Write a spec and load it back, as discovery would."""
-    return load_spec(write_spec(folder, name, log, system, **extra))
 
 
 def verdicts(outcomes: Iterable[SpecOutcome]) -> list[tuple[str, Verdict]]:
@@ -39,7 +34,7 @@ def verdicts(outcomes: Iterable[SpecOutcome]) -> list[tuple[str, Verdict]]:
 
 
 def test_a_spec_replayed_against_its_own_system_passes(tmp_path: Path, log: Path) -> None:
-    spec = dtc(tmp_path, "avoid-pole", log)
+    spec = written_dtc(tmp_path, "avoid-pole", log)
 
     outcome = run_spec(spec)
 
@@ -53,7 +48,7 @@ def test_a_spec_replayed_against_its_own_system_passes(tmp_path: Path, log: Path
 
 
 def test_a_changed_system_fails_at_the_first_divergence(tmp_path: Path, log: Path) -> None:
-    outcome = run_spec(dtc(tmp_path, "avoid-pole", log, CHANGED))
+    outcome = run_spec(written_dtc(tmp_path, "avoid-pole", log, CHANGED))
 
     assert outcome.verdict is Verdict.FAILED
     assert outcome.result is not None
@@ -66,7 +61,7 @@ def test_a_changed_system_fails_at_the_first_divergence(tmp_path: Path, log: Pat
 
 
 def test_a_missing_log_is_an_error_not_a_failure(tmp_path: Path) -> None:
-    spec = dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
+    spec = written_dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
 
     outcome = run_spec(spec)
 
@@ -76,7 +71,7 @@ def test_a_missing_log_is_an_error_not_a_failure(tmp_path: Path) -> None:
 
 
 def test_a_system_that_cannot_be_imported_is_an_error(tmp_path: Path, log: Path) -> None:
-    outcome = run_spec(dtc(tmp_path, "ghost", log, "tests.no_such_module:system"))
+    outcome = run_spec(written_dtc(tmp_path, "ghost", log, "tests.no_such_module:system"))
 
     assert outcome.verdict is Verdict.ERROR
     assert outcome.result is None
@@ -92,8 +87,8 @@ def test_a_truncated_log_passes_only_when_the_spec_allows_it(
     data = log.read_bytes()
     log.write_bytes(data[: len(data) // 2])
 
-    strict = run_spec(dtc(tmp_path, "strict", log))
-    lenient = run_spec(dtc(tmp_path, "lenient", log, allow_truncated=True))
+    strict = run_spec(written_dtc(tmp_path, "strict", log))
+    lenient = run_spec(written_dtc(tmp_path, "lenient", log, allow_truncated=True))
 
     assert strict.verdict is Verdict.FAILED
     assert strict.result is not None
@@ -110,8 +105,8 @@ def test_a_dtc_that_checks_nothing_is_an_error_unless_its_spec_intends_it(
     log = record_session(tmp_path / "quiet.beatlog", quiet_system())
     quiet = "tests.systems:quiet_system"
 
-    empty = run_spec(dtc(tmp_path, "empty", log, quiet))
-    intended = run_spec(dtc(tmp_path, "intended", log, quiet, allow_empty=True))
+    empty = run_spec(written_dtc(tmp_path, "empty", log, quiet))
+    intended = run_spec(written_dtc(tmp_path, "intended", log, quiet, allow_empty=True))
 
     assert (empty.verdict, empty.result) == (Verdict.ERROR, None)
     assert empty.error == (
@@ -125,9 +120,9 @@ def test_a_dtc_that_checks_nothing_is_an_error_unless_its_spec_intends_it(
 
 
 def test_timelines_for_reports_are_gathered_only_when_asked(tmp_path: Path, log: Path) -> None:
-    passing = dtc(tmp_path, "avoid-pole", log)
-    failing = dtc(tmp_path, "avoid-pole-earlier", log, CHANGED)
-    lost = dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
+    passing = written_dtc(tmp_path, "avoid-pole", log)
+    failing = written_dtc(tmp_path, "avoid-pole-earlier", log, CHANGED)
+    lost = written_dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
 
     assert run_spec(passing).timelines == ()
     (whole,) = dtc_charts("avoid-pole", run_spec(passing, SpecOptions(timelines=True)).timelines)
@@ -144,109 +139,6 @@ def test_timelines_for_reports_are_gathered_only_when_asked(tmp_path: Path, log:
     assert {"far", "near"} <= set(close_up.states) <= set(whole_failing.states)
 
 
-# run_suite
-
-
-@pytest.fixture
-def mixed_suite(tmp_path: Path, log: Path) -> list[DtcSpec]:
-    """Five specs in path order: two pass, two fail, one cannot run."""
-    specs = tmp_path / "specs"
-    return [
-        dtc(specs, "a-pass", log),
-        dtc(specs, "b-fail", log, CHANGED),
-        dtc(specs, "c-error", tmp_path / "lost.beatlog"),
-        dtc(specs, "d-pass", log),
-        dtc(specs, "e-fail", log, CHANGED),
-    ]
-
-
-EXPECTED = [
-    ("a-pass", Verdict.PASSED),
-    ("b-fail", Verdict.FAILED),
-    ("c-error", Verdict.ERROR),
-    ("d-pass", Verdict.PASSED),
-    ("e-fail", Verdict.FAILED),
-]
-
-
-def test_a_suite_gives_one_outcome_per_spec_in_spec_order(mixed_suite: list[DtcSpec]) -> None:
-    seen: list[SpecOutcome] = []
-
-    outcomes = run_suite(mixed_suite, on_outcome=seen.append)
-
-    assert verdicts(outcomes) == EXPECTED
-    assert seen == outcomes
-
-
-def test_worker_processes_give_the_same_verdicts_in_spec_order(
-    mixed_suite: list[DtcSpec],
-) -> None:
-    seen: list[SpecOutcome] = []
-
-    sequential = run_suite(mixed_suite, jobs=1)
-    parallel = run_suite(mixed_suite, jobs=2, on_outcome=seen.append)
-
-    assert verdicts(parallel) == verdicts(sequential) == EXPECTED
-    assert [o.spec for o in parallel] == mixed_suite
-    assert sorted(verdicts(seen)) == EXPECTED  # once per spec, in the order they finished
-    failed = parallel[1].result
-    assert failed is not None
-    assert failed.divergence is not None
-    assert failed.divergence.cycle == FIRST_CHANGED_CYCLE
-    assert parallel[2].error == sequential[2].error
-
-
-def test_an_empty_suite_runs_nothing() -> None:
-    assert run_suite([], jobs=4) == []
-
-
-def test_fail_fast_stops_after_the_first_failure(mixed_suite: list[DtcSpec]) -> None:
-    seen: list[SpecOutcome] = []
-
-    outcomes = run_suite(mixed_suite, fail_fast=True, on_outcome=seen.append)
-
-    assert verdicts(outcomes) == [("a-pass", Verdict.PASSED), ("b-fail", Verdict.FAILED)]
-    assert seen == outcomes
-
-
-def test_fail_fast_also_stops_at_an_error(mixed_suite: list[DtcSpec]) -> None:
-    without_failures = [spec for spec in mixed_suite if "fail" not in spec.name]
-
-    outcomes = run_suite(without_failures, fail_fast=True)
-
-    assert verdicts(outcomes) == [("a-pass", Verdict.PASSED), ("c-error", Verdict.ERROR)]
-
-
-def test_fail_fast_in_workers_gives_every_outcome_that_came_back_in_spec_order(
-    mixed_suite: list[DtcSpec],
-) -> None:
-    seen: list[SpecOutcome] = []
-
-    outcomes = run_suite(mixed_suite, jobs=2, fail_fast=True, on_outcome=seen.append)
-
-    assert sorted(verdicts(seen)) == sorted(verdicts(outcomes))
-    finished = {o.spec.path for o in seen}
-    assert [o.spec for o in outcomes] == [s for s in mixed_suite if s.path in finished]
-    assert any(o.verdict is not Verdict.PASSED for o in outcomes)
-
-
-def test_with_two_jobs_specs_run_here_and_in_a_worker_at_once(
-    tmp_path: Path, log: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Two specs that finish only when they run at the same time, in two processes."""
-    meeting = tmp_path / "meeting"
-    meeting.mkdir()
-    monkeypatch.setenv(MEETING, str(meeting))
-    suite = [dtc(tmp_path, name, log, "tests.conftest:meeting_system") for name in ("a", "b")]
-
-    outcomes = run_suite(suite, jobs=2)
-
-    assert verdicts(outcomes) == [("a", Verdict.PASSED), ("b", Verdict.PASSED)]
-    pids = {int(sign.name) for sign in meeting.iterdir()}
-    assert len(pids) == 2
-    assert os.getpid() in pids
-
-
 # the determinism audit
 
 
@@ -254,9 +146,9 @@ def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> No
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
     specs = tmp_path / "specs"
     suite = [
-        dtc(specs, "leaky", leaky_log, "tests.systems:leaky_system"),
-        dtc(specs, "probe", log),
-        dtc(specs, "lost", tmp_path / "lost.beatlog"),
+        written_dtc(specs, "leaky", leaky_log, "tests.systems:leaky_system"),
+        written_dtc(specs, "probe", log),
+        written_dtc(specs, "lost", tmp_path / "lost.beatlog"),
     ]
 
     unaudited = run_spec(suite[0])
@@ -301,7 +193,7 @@ def counting_passing_system() -> CountingArbiter:
 
 
 def test_a_passing_dtc_is_charted_from_its_verdicts_own_replay(tmp_path: Path, log: Path) -> None:
-    spec = dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_passing_system")
+    spec = written_dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_passing_system")
     CountingArbiter.replays = 0
 
     outcome = run_spec(spec, SpecOptions(timelines=True))
@@ -312,7 +204,7 @@ def test_a_passing_dtc_is_charted_from_its_verdicts_own_replay(tmp_path: Path, l
 
 
 def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path, log: Path) -> None:
-    spec = dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
+    spec = written_dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
     CountingArbiter.replays = 0
 
     outcome = run_spec(spec, SpecOptions(update=UpdateMode.NEW, timelines=True))
@@ -332,7 +224,7 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
 def test_a_break_at_a_cycle_stops_the_dtc_there(
     tmp_path: Path, log: Path, breaks: list[dict[str, object]]
 ) -> None:
-    outcome = run_spec(dtc(tmp_path, "avoid-pole", log), SpecOptions(break_at=40))
+    outcome = run_spec(written_dtc(tmp_path, "avoid-pole", log), SpecOptions(break_at=40))
 
     assert outcome.verdict is Verdict.PASSED
     assert [stop["cycle"] for stop in breaks] == [40]
@@ -342,7 +234,7 @@ def test_a_break_past_the_end_of_a_dtcs_log_is_noted(
     tmp_path: Path, record_probe: RecordFn, breaks: list[dict[str, object]]
 ) -> None:
     cut = cut_short(record_probe(300, flush_interval_s=1.0))
-    spec = dtc(tmp_path, "cut", cut, allow_truncated=True)
+    spec = written_dtc(tmp_path, "cut", cut, allow_truncated=True)
 
     outcome = run_spec(spec, SpecOptions(break_at=1000))
 
@@ -359,8 +251,8 @@ def test_a_break_on_divergence_stops_a_failing_dtc_at_its_first_divergence(
 ) -> None:
     options = SpecOptions(break_on_divergence=True)
 
-    passed = run_spec(dtc(tmp_path, "as-recorded", log), options)
-    failed = run_spec(dtc(tmp_path, "changed", log, CHANGED), options)
+    passed = run_spec(written_dtc(tmp_path, "as-recorded", log), options)
+    failed = run_spec(written_dtc(tmp_path, "changed", log, CHANGED), options)
 
     assert (passed.verdict, failed.verdict) == (Verdict.PASSED, Verdict.FAILED)
     assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE]
@@ -369,7 +261,7 @@ def test_a_break_on_divergence_stops_a_failing_dtc_at_its_first_divergence(
 def test_break_points_replay_every_spec_in_this_process_whatever_the_jobs(
     tmp_path: Path, log: Path, breaks: list[dict[str, object]]
 ) -> None:
-    specs = [dtc(tmp_path, name, log, CHANGED) for name in ("first", "second")]
+    specs = [written_dtc(tmp_path, name, log, CHANGED) for name in ("first", "second")]
 
     outcomes = run_suite(specs, jobs=2, break_on_divergence=True)
 

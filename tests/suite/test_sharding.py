@@ -12,8 +12,9 @@ import pytest
 
 from beatlog.errors import OptionError, RemoteLogError
 from beatlog.log.reader import recorded_cycles
+from beatlog.suite.discovery import discover_specs
 from beatlog.suite.sharding import Shard, longest_first, shard, split
-from beatlog.suite.spec import DtcSpec, discover_specs
+from beatlog.suite.spec import DtcSpec
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import write_spec

@@ -15,8 +15,9 @@ from beatlog.record.recorder import Recorder
 from beatlog.replay.judge import replay
 from beatlog.report.console import render_replay, render_suite, render_summary
 from beatlog.report.counts import verdict_counts
-from beatlog.suite.runner import Verdict, run_suite
-from beatlog.suite.spec import discover_specs
+from beatlog.suite.discovery import discover_specs
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import Verdict
 from beatlog_examples.dog import SUITE_DIR
 from beatlog_examples.dog.robot import SYSTEM_REF, DogRobot
 from beatlog_examples.dog.scenarios import DEMO, describe

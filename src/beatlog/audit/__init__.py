@@ -10,16 +10,20 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.audit.replays import AuditReport, Finding, SeedRun, audit
+    from beatlog.audit.replays import (
+        Auditors as Auditors,
+    )
+    from beatlog.audit.replays import (
+        AuditReport as AuditReport,
+    )
+    from beatlog.audit.replays import (
+        Finding as Finding,
+    )
+    from beatlog.audit.replays import (
+        SeedRun as SeedRun,
+    )
+    from beatlog.audit.replays import (
+        audit as audit,
+    )
 
-__all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
-
-__getattr__ = lazy_names(
-    __name__,
-    {
-        "AuditReport": "beatlog.audit.replays",
-        "Finding": "beatlog.audit.replays",
-        "SeedRun": "beatlog.audit.replays",
-        "audit": "beatlog.audit.replays",
-    },
-)
+__getattr__ = lazy_names(__name__)

@@ -20,7 +20,7 @@ import cProfile
 import random
 import sys
 from dataclasses import dataclass
-from types import CodeType, FrameType, TracebackType
+from types import CodeType, FrameType
 from typing import Any
 
 from beatlog.audit.origins import Origin, Origins
@@ -99,12 +99,7 @@ class LeakWatch:
         sys.setprofile(self._profile)
         return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         profile, trace = self._saved
         sys.setprofile(profile)
         sys.settrace(trace)
@@ -206,12 +201,7 @@ class LeakScreen:
         self._profiler.enable()
         return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self._profiler.disable()
         assert self._numpy is not None
         if self._numpy.moved():

@@ -1,18 +1,17 @@
 """The determinism audit: does a DTC's replay depend on anything but its log and code?
 
 :func:`audit` replays a log twice, each time in an interpreter of its own with its own
-``PYTHONHASHSEED``; the two interpreters are started at the first audit and kept for
-the next ones, so a suite pays their start-up once. During each replay a
-:class:`~beatlog.audit.leaks.LeakWatch` turns the wall-clock reads and global random
-calls the system makes while it updates into findings that name the call site, and
-every cycle's behavior states and outputs are hashed. The two replays must agree on the
-verdict and on every cycle; where they do not, set or dict order of strings leaks into
-the behaviors' decisions.
+``PYTHONHASHSEED``; :class:`Auditors` owns the two interpreters, started at its first
+audit and kept for the next ones until it closes, so a suite pays their start-up once.
+During each replay a :class:`~beatlog.audit.leaks.LeakWatch` turns the wall-clock
+reads and global random calls the system makes while it updates into findings that
+name the call site, and every cycle's behavior states and outputs are hashed. The two
+replays must agree on the verdict and on every cycle; where they do not, set or dict
+order of strings leaks into the behaviors' decisions.
 """
 
 from __future__ import annotations
 
-import atexit
 import hashlib
 import os
 import subprocess
@@ -26,11 +25,12 @@ from typing import IO
 import msgspec
 
 from beatlog.audit.leaks import Finding
+from beatlog.closing import Closing
 from beatlog.errors import BeatlogError
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
 
-__all__ = ["AuditReport", "Finding", "SeedRun", "audit"]
+__all__ = ["AuditReport", "Auditors", "Finding", "SeedRun", "audit"]
 
 CYCLE_DIGEST_SIZE = 8
 """Bytes of blake2b per replayed cycle in an answer's trace."""
@@ -103,6 +103,7 @@ def audit(
     allow_truncated: bool = False,
     hash_seeds: tuple[int, int] = (1, 2),
     migration: StateMigration | None = None,
+    auditors: Auditors | None = None,
 ) -> AuditReport:
     """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash seed.
 
@@ -110,13 +111,23 @@ def audit(
     code unless the hash seed changes what it does, which the hashes show; then both are
     run again, watched, so that no leak on either path goes unseen. Both replays run at
     once, each in an audit interpreter (``python -m beatlog.audit``,
-    see :mod:`beatlog.audit.__main__`) with that ``PYTHONHASHSEED``, started at the first
-    audit that needs it and kept for the next, importing from this process's
+    see :mod:`beatlog.audit.__main__`) with that ``PYTHONHASHSEED`` of ``auditors``
+    (without, of :class:`Auditors` of this audit alone), importing from this process's
     ``sys.path``; each replays every cycle, diverging or not, so the runs compare in full.
     ``migration`` maps robot-state fields renamed or retyped since the recording.
 
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
+    if auditors is None:
+        with Auditors() as alone:
+            return audit(
+                log,
+                system,
+                allow_truncated=allow_truncated,
+                hash_seeds=hash_seeds,
+                migration=migration,
+                auditors=alone,
+            )
     migration = migration or StateMigration()
     request = Request(
         str(log),
@@ -127,10 +138,11 @@ def audit(
         field_renames=dict(migration.renames),
         field_conversions=dict(migration.conversions),
     )
-    first, second = _replays(hash_seeds, [request, msgspec.structs.replace(request, watch=False)])
+    replays = auditors.replays
+    first, second = replays(hash_seeds, [request, msgspec.structs.replace(request, watch=False)])
     runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
     if _compare(runs, first.trace, second.trace, "") is not None:  # the runs took other paths
-        first, second = _replays(hash_seeds, [request, request])
+        first, second = replays(hash_seeds, [request, request])
         runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
     findings = _merge(first.findings, second.findings)
     return AuditReport(
@@ -140,25 +152,52 @@ def audit(
     )
 
 
-def _replays(hash_seeds: tuple[int, int], requests: list[Request]) -> tuple[Answer, Answer]:
-    """Each request replayed by the audit interpreter of its hash seed, at once.
+class Auditors(Closing):
+    """The audit interpreters, one per hash seed, each started at the first audit that
+    needs it and kept for the audits that follow; closing stops them. A suite run keeps
+    one for its audits (see :func:`audit`)."""
 
-    :raises beatlog.errors.BeatlogError: the log or the system is bad input.
-    """
-    with _LOCK:
-        try:
-            auditors = [_auditor(seed) for seed in hash_seeds]
-            for auditor, request in zip(auditors, requests, strict=True):
-                auditor.send(request)
-            first, second = (auditor.receive() for auditor in auditors)  # all, before judging
-        except BaseException:  # Ctrl-C above all: no replay goes on without us
-            for seed in hash_seeds:
-                _close(seed)
-            raise
-    for answer in (first, second):
-        if answer.error is not None:
-            raise BeatlogError(answer.error)
-    return first, second
+    def __init__(self) -> None:
+        self._auditors: dict[int, _Auditor] = {}
+        self._lock = threading.Lock()
+
+    def replays(
+        self, hash_seeds: tuple[int, int], requests: list[Request]
+    ) -> tuple[Answer, Answer]:
+        """Each request replayed by the audit interpreter of its hash seed, at once.
+
+        :raises beatlog.errors.BeatlogError: the log or the system is bad input.
+        """
+        with self._lock:
+            try:
+                auditors = [self._auditor(seed) for seed in hash_seeds]
+                for auditor, request in zip(auditors, requests, strict=True):
+                    auditor.send(request)
+                first, second = (auditor.receive() for auditor in auditors)  # all, then judge
+            except BaseException:  # Ctrl-C above all: no replay goes on without us
+                for seed in hash_seeds:
+                    self._stop(seed)
+                raise
+        for answer in (first, second):
+            if answer.error is not None:
+                raise BeatlogError(answer.error)
+        return first, second
+
+    def close(self) -> None:
+        """Stop every audit interpreter."""
+        for hash_seed in list(self._auditors):
+            self._stop(hash_seed)
+
+    def _auditor(self, hash_seed: int) -> _Auditor:
+        """The audit interpreter for ``hash_seed``, started if there is none yet."""
+        if hash_seed not in self._auditors:
+            self._auditors[hash_seed] = _Auditor(hash_seed)
+        return self._auditors[hash_seed]
+
+    def _stop(self, hash_seed: int) -> None:
+        auditor = self._auditors.pop(hash_seed, None)
+        if auditor is not None:
+            auditor.close()
 
 
 class _Auditor:
@@ -220,29 +259,6 @@ class _Auditor:
             if stream is not None:
                 stream.close()
         os.close(self._held)
-
-
-_AUDITORS: dict[int, _Auditor] = {}
-_LOCK = threading.Lock()
-
-
-def _auditor(hash_seed: int) -> _Auditor:
-    """The audit interpreter for ``hash_seed``, started if there is none yet."""
-    if hash_seed not in _AUDITORS:
-        _AUDITORS[hash_seed] = _Auditor(hash_seed)
-    return _AUDITORS[hash_seed]
-
-
-def _close(hash_seed: int) -> None:
-    auditor = _AUDITORS.pop(hash_seed, None)
-    if auditor is not None:
-        auditor.close()
-
-
-@atexit.register
-def _close_all() -> None:
-    for hash_seed in list(_AUDITORS):
-        _close(hash_seed)
 
 
 class Request(msgspec.Struct, array_like=True):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 from beatlog.errors import OptionError
@@ -12,7 +13,17 @@ from beatlog.errors import OptionError
 if TYPE_CHECKING:
     from beatlog.suite.sharding import Shard
 
-__all__ = ["Parser", "cycle_number", "positive_float", "positive_int", "shard"]
+__all__ = [
+    "Parser",
+    "add_factory",
+    "add_log",
+    "add_output",
+    "add_paths",
+    "cycle_number",
+    "positive_float",
+    "positive_int",
+    "shard",
+]
 
 Number = TypeVar("Number", int, float)
 
@@ -22,6 +33,34 @@ class Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> NoReturn:
         raise OptionError(f"{message} (see '{self.prog} --help')")
+
+
+def add_log(parser: argparse.ArgumentParser, doing: str) -> None:
+    """The session log a command reads (``doing`` says what it does with it)."""
+    parser.add_argument("log", help=f"the session log (.beatlog) to {doing}: a path or a URL")
+
+
+def add_paths(parser: argparse.ArgumentParser, what: str) -> None:
+    """The specs or folders a command works on, the current folder by default."""
+    parser.add_argument(
+        "paths",
+        nargs="*",
+        type=Path,
+        default=[Path()],
+        help=f"{what} (default: the current folder)",
+    )
+
+
+def add_output(parser: argparse.ArgumentParser, what: str) -> None:
+    """The file a command writes, ``-o FILE``; ``what`` says what it is."""
+    parser.add_argument("-o", "--output", required=True, type=Path, metavar="FILE", help=what)
+
+
+def add_factory(
+    parser: argparse.ArgumentParser, option: str, what: str, *, required: bool = False
+) -> None:
+    """An option naming the user's code as ``MODULE:FACTORY`` (a system, a perception step)."""
+    parser.add_argument(option, required=required, metavar="MODULE:FACTORY", help=what)
 
 
 def shard(text: str) -> Shard:

@@ -23,6 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"beatlog {__version__}")
+    parser.set_defaults(beatlog_parser=parser)  # for ``beatlog help``, which prints its pages
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for name, command in COMMANDS.items():
         common = Parser(add_help=False)

@@ -9,32 +9,21 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd, SessionHeader
-    from beatlog.log.index import recorded_cycles
-    from beatlog.log.reader import LogStatus, SessionLogReader
-    from beatlog.log.writer import SessionLogWriter
+    from beatlog.log.format import (
+        FORMAT_VERSION as FORMAT_VERSION,
+    )
+    from beatlog.log.format import (
+        CycleRecord as CycleRecord,
+    )
+    from beatlog.log.format import (
+        SessionEnd as SessionEnd,
+    )
+    from beatlog.log.format import (
+        SessionHeader as SessionHeader,
+    )
+    from beatlog.log.index import recorded_cycles as recorded_cycles
+    from beatlog.log.reader import LogStatus as LogStatus
+    from beatlog.log.reader import SessionLogReader as SessionLogReader
+    from beatlog.log.writer import SessionLogWriter as SessionLogWriter
 
-__all__ = [
-    "FORMAT_VERSION",
-    "CycleRecord",
-    "LogStatus",
-    "SessionEnd",
-    "SessionHeader",
-    "SessionLogReader",
-    "SessionLogWriter",
-    "recorded_cycles",
-]
-
-__getattr__ = lazy_names(
-    __name__,
-    {
-        "FORMAT_VERSION": "beatlog.log.format",
-        "CycleRecord": "beatlog.log.format",
-        "LogStatus": "beatlog.log.reader",
-        "SessionEnd": "beatlog.log.format",
-        "SessionHeader": "beatlog.log.format",
-        "SessionLogReader": "beatlog.log.reader",
-        "SessionLogWriter": "beatlog.log.writer",
-        "recorded_cycles": "beatlog.log.index",
-    },
-)
+__getattr__ = lazy_names(__name__)

@@ -11,6 +11,7 @@ that names the cycle and the behavior.
 from __future__ import annotations
 
 import secrets
+import struct
 import sys
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
@@ -20,6 +21,7 @@ from math import isnan, prod
 from numbers import Real
 from typing import TYPE_CHECKING, Any, NamedTuple, TypeVar
 
+from beatlog.errors import NumpyMissingError
 from beatlog.log.format import Draw, payload_encoder
 from beatlog.model.luck import Luck, Place, array_value, fresh_luck, scalar_luck, scalar_value
 
@@ -83,6 +85,8 @@ _ARRAY_DTYPES = {
     DrawKind.NORMAL_ARRAY.value: "<f8",
     DrawKind.INTEGERS_ARRAY.value: "<i8",
 }
+_STRUCT_CODES = {"<f8": "d", "<i8": "q"}
+"""The :mod:`struct` code of each array draw's dtype, to read one without numpy."""
 """The dtype each kind of array draw is recorded with (8 bytes an element)."""
 _PARAMS = {
     DrawKind.RANDOM.value: 0,
@@ -157,13 +161,32 @@ def _pack_array(array: npt.NDArray[Any]) -> tuple[str, list[int], bytes]:
 
 def plain_value(draw: Draw) -> Any:
     """A draw's value as plain Python, for reports: an array draw's as nested lists
-    (as recorded where those do not make an array)."""
+    (as recorded where those do not make an array). Needs no numpy."""
     if draw.value is not None and draw.kind in _ARRAY_KINDS:
         try:
-            return _unpack_array(draw.value).tolist()
-        except (ValueError, TypeError):
+            return _nested_lists(draw.value)
+        except (ValueError, TypeError, KeyError, struct.error):
             return draw.value
     return draw.value
+
+
+def _nested_lists(value: Any) -> Any:
+    """An array draw's recorded ``[dtype, shape, bytes]`` as numpy's ``tolist`` gives it,
+    read in pure Python."""
+    dtype, shape, data = value
+    if not _is_shape(shape) or len(data) != 8 * prod(shape):
+        raise ValueError(f"{len(data)} bytes do not make shape {shape!r}")
+    items = list(struct.unpack(f"<{prod(shape)}{_STRUCT_CODES[dtype]}", data))
+    return _nest(items, list(shape))
+
+
+def _nest(items: list[Any], shape: list[int]) -> Any:
+    if not shape:
+        return items[0]
+    if len(shape) == 1:
+        return items
+    step = len(items) // shape[0] if shape[0] else 0
+    return [_nest(items[i * step : (i + 1) * step], shape[1:]) for i in range(shape[0])]
 
 
 def recorded_draw_problem(draw: Draw, behaviors: int) -> str | None:
@@ -219,11 +242,7 @@ def _need_numpy() -> None:
     """Make sure numpy, which array draws need (only they do), is installed; where it
     is not, an error that says how to install it."""
     if sys.modules.get("numpy") is None and find_spec("numpy") is None:
-        raise ModuleNotFoundError(
-            "array draws (uniform_array, normal_array, integers_array) need numpy: "
-            'pip install "beatlog[arrays]"',
-            name="numpy",
-        )
+        raise NumpyMissingError
 
 
 def _unpack_array(value: Any) -> npt.NDArray[Any]:
@@ -559,6 +578,7 @@ class ReplayRandom(RandomSource):
         return value
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
+        _need_numpy()  # before a fresh draw of living replay, too
         array = _unpack_array(self._next(kind, (a, b, list(shape))))
         if array.shape != shape:
             self._fail(

@@ -18,6 +18,7 @@ from typing import IO, Any, NamedTuple
 import msgspec
 
 from beatlog._version import __version__
+from beatlog.errors import NumpyMissingError
 from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import System
@@ -81,6 +82,8 @@ class Recorder:
         ``git describe`` of the working directory, or ``unknown``).
     :param start_time_ns: the wall-clock start of the recording (Unix ns; by default
         now); never used by replay.
+    :param clock: the monotonic clock, in ns, that :meth:`beat` measures the heartbeat
+        intervals with; a simulated robot passes its simulator's.
     """
 
     def __init__(
@@ -98,8 +101,11 @@ class Recorder:
         log_samples: bool = False,
         software: str | None = None,
         start_time_ns: int | None = None,
+        clock: Callable[[], int] = time.monotonic_ns,
     ) -> None:
         self.period_ns = period_ns
+        self._clock = clock
+        self._last_beat_ns: int | None = None
         self.random = RecordingRandom(seed)
         self._executor = CycleExecutor(system, self.random)
         self._log_samples = log_samples
@@ -163,7 +169,10 @@ class Recorder:
         """
         self._overruns += overrun
         executor = self._executor
-        changes = executor.step(interval_ns, state)
+        try:
+            changes = executor.step(interval_ns, state)
+        except NumpyMissingError:
+            raise NumpyMissingError(self._writer.path or "<output>") from None
         context = executor.context
         self._writer.append(
             interval_ns,
@@ -181,6 +190,19 @@ class Recorder:
                 self.error,
             )
         return context.outputs
+
+    def beat(self, state: msgspec.Struct, samples: Sequence[Sample] = ()) -> Outputs:
+        """Run one cycle of the robot's own loop with robot state RS_t; log it.
+
+        The heartbeat interval HB_t is measured: the time on the recorder's ``clock``
+        since the last beat (the first beat is one period long). A beat more than 1.5
+        periods after the last counts as an overrun, as ``beatlog show`` counts late
+        beats. Returns the outputs the behaviors emitted, as :meth:`step` does.
+        """
+        now_ns = self._clock()
+        last_ns, self._last_beat_ns = self._last_beat_ns, now_ns
+        interval_ns = self.period_ns if last_ns is None else now_ns - last_ns
+        return self.step(interval_ns, state, samples, overrun=2 * interval_ns > 3 * self.period_ns)
 
     def run(
         self,

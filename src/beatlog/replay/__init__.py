@@ -11,44 +11,27 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.replay.compare import Comparison
-    from beatlog.replay.expectation import Expectation
-    from beatlog.replay.judge import replay
-    from beatlog.replay.migration import StateMigration
+    from beatlog.replay.compare import Comparison as Comparison
+    from beatlog.replay.expectation import Expectation as Expectation
+    from beatlog.replay.judge import replay as replay
+    from beatlog.replay.migration import StateMigration as StateMigration
     from beatlog.replay.verdict import (
-        Checked,
-        Divergence,
-        DivergenceKind,
-        DrawReport,
-        ReplayResult,
-        StateChange,
+        Checked as Checked,
+    )
+    from beatlog.replay.verdict import (
+        Divergence as Divergence,
+    )
+    from beatlog.replay.verdict import (
+        DivergenceKind as DivergenceKind,
+    )
+    from beatlog.replay.verdict import (
+        DrawReport as DrawReport,
+    )
+    from beatlog.replay.verdict import (
+        ReplayResult as ReplayResult,
+    )
+    from beatlog.replay.verdict import (
+        StateChange as StateChange,
     )
 
-__all__ = [
-    "Checked",
-    "Comparison",
-    "Divergence",
-    "DivergenceKind",
-    "DrawReport",
-    "Expectation",
-    "ReplayResult",
-    "StateChange",
-    "StateMigration",
-    "replay",
-]
-
-__getattr__ = lazy_names(
-    __name__,
-    {
-        "Checked": "beatlog.replay.verdict",
-        "Comparison": "beatlog.replay.compare",
-        "Divergence": "beatlog.replay.verdict",
-        "DivergenceKind": "beatlog.replay.verdict",
-        "DrawReport": "beatlog.replay.verdict",
-        "Expectation": "beatlog.replay.expectation",
-        "ReplayResult": "beatlog.replay.verdict",
-        "StateChange": "beatlog.replay.verdict",
-        "StateMigration": "beatlog.replay.migration",
-        "replay": "beatlog.replay.judge",
-    },
-)
+__getattr__ = lazy_names(__name__)

@@ -21,7 +21,7 @@ from typing import Any, NamedTuple, NoReturn
 
 import msgspec
 
-from beatlog.errors import BeatlogError, CorruptLogError, SchemaMismatchError
+from beatlog.errors import BeatlogError, CorruptLogError, NumpyMissingError, SchemaMismatchError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
@@ -357,6 +357,8 @@ class Replayer:
                 changes = step(record.heartbeat_ns, state if observe is None else observe(state))
             except RandomMismatch:
                 changes = None
+            except NumpyMissingError:
+                raise NumpyMissingError(self.path) from None
             except BeatlogError:
                 raise
             except (Exception, SystemExit) as exc:  # behavior code failing is an outcome

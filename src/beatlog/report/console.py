@@ -172,7 +172,7 @@ def _side_by_side(
     for row in range(rows):
         want = str(expected[row]) if row < len(expected) else ""
         got = str(actual[row]) if row < len(actual) else ""
-        table.add_row(want or "—", got or "—", style=None if want == got else "bold")
+        table.add_row(Text(want or "—"), Text(got or "—"), style=None if want == got else "bold")
     if not rows:
         table.add_row("—", "—")
     return table
@@ -189,8 +189,8 @@ def _context(divergence: Divergence) -> Table:
         table.add_row(
             f"▶ {row.cycle}" if here else str(row.cycle),
             f"{row.time_ns / 1e9:.3f}",
-            "\n".join(map(str, row.expected)) or "—",
-            "\n".join(map(str, row.actual)) or "—",
+            Text("\n".join(map(str, row.expected)) or "—"),
+            Text("\n".join(map(str, row.actual)) or "—"),
             style="bold" if here or row.expected != row.actual else "dim",
         )
     return table
@@ -204,7 +204,7 @@ def _robot_state(state: dict[str, Any], read: Sequence[str]) -> Table:
     table.add_column("field", style="cyan")
     table.add_column("value")
     for name in shown:
-        table.add_row(name, repr(state[name]))
+        table.add_row(name, Text(repr(state[name])))
     if len(shown) < len(state):
         hidden = len(state) - len(shown)
         more = f"{plural(hidden, 'more field')} not read"
@@ -285,12 +285,12 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
         result = outcome.result
         divergence = result.divergence if result else None
         table.add_row(
-            outcome.spec.label,
+            Text(outcome.spec.label),
             Text(outcome.verdict_label, style=styles[outcome.verdict]),
             str(result.cycles) if result else "—",
             f"{result.robot_time_s:.1f} s" if result else "—",
             f"{outcome.wall_time_s:.2f} s",
-            (
+            Text(
                 f"cycle {divergence.cycle}, {divergence.kind.value}"
                 if divergence
                 else (outcome.error or "")

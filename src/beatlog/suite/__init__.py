@@ -1,7 +1,7 @@
 """DTC specs and suites: ``*.dtc.toml`` files, fleet runs of logs without specs, the
-suite session every shell runs (select, run, update, report), the parallel runner and
-its Dask executor, shards for a CI matrix, JUnit output and the
-re-baselining workflow (update, review, approve) with its CI rule.
+parallel runner and its Dask executor, shards for a CI matrix, JUnit output and the
+re-baselining workflow (update, review, approve) with its CI rule. The session every
+shell runs puts these and the reports together (:mod:`beatlog.suite_session`).
 
 The names are imported on first use, so that a suite worker
 (:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
@@ -12,72 +12,49 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.suite.cluster import DaskExecutor
-    from beatlog.suite.fleet import fleet_specs
-    from beatlog.suite.junit import write_junit
-    from beatlog.suite.maintenance import Decision, approve, decide, update_baselines
-    from beatlog.suite.options import SuiteOptions
-    from beatlog.suite.policy import UpdateMode
-    from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, run_suite
-    from beatlog.suite.session import SuiteSession, run_session
-    from beatlog.suite.sharding import Shard, shard
+    from beatlog.suite.cluster import DaskExecutor as DaskExecutor
+    from beatlog.suite.discovery import (
+        discover_specs as discover_specs,
+    )
+    from beatlog.suite.discovery import (
+        select_specs as select_specs,
+    )
+    from beatlog.suite.fleet import fleet_specs as fleet_specs
+    from beatlog.suite.junit import write_junit as write_junit
+    from beatlog.suite.maintenance import (
+        Decision as Decision,
+    )
+    from beatlog.suite.maintenance import (
+        approve as approve,
+    )
+    from beatlog.suite.maintenance import (
+        decide as decide,
+    )
+    from beatlog.suite.maintenance import (
+        update_baselines as update_baselines,
+    )
+    from beatlog.suite.options import SuiteOptions as SuiteOptions
+    from beatlog.suite.parallel import run_suite as run_suite
+    from beatlog.suite.policy import UpdateMode as UpdateMode
+    from beatlog.suite.runner import (
+        SpecOutcome as SpecOutcome,
+    )
+    from beatlog.suite.runner import (
+        Verdict as Verdict,
+    )
+    from beatlog.suite.runner import (
+        run_spec as run_spec,
+    )
+    from beatlog.suite.sharding import Shard as Shard
+    from beatlog.suite.sharding import shard as shard
     from beatlog.suite.spec import (
-        SPEC_SUFFIX,
-        DtcSpec,
-        discover_specs,
-        load_spec,
-        select_specs,
+        SPEC_SUFFIX as SPEC_SUFFIX,
+    )
+    from beatlog.suite.spec import (
+        DtcSpec as DtcSpec,
+    )
+    from beatlog.suite.spec import (
+        load_spec as load_spec,
     )
 
-__all__ = [
-    "SPEC_SUFFIX",
-    "DaskExecutor",
-    "Decision",
-    "DtcSpec",
-    "Shard",
-    "SpecOutcome",
-    "SuiteOptions",
-    "SuiteSession",
-    "UpdateMode",
-    "Verdict",
-    "approve",
-    "decide",
-    "discover_specs",
-    "fleet_specs",
-    "load_spec",
-    "run_session",
-    "run_spec",
-    "run_suite",
-    "select_specs",
-    "shard",
-    "update_baselines",
-    "write_junit",
-]
-
-__getattr__ = lazy_names(
-    __name__,
-    {
-        "SPEC_SUFFIX": "beatlog.suite.spec",
-        "DaskExecutor": "beatlog.suite.cluster",
-        "Decision": "beatlog.suite.maintenance",
-        "DtcSpec": "beatlog.suite.spec",
-        "UpdateMode": "beatlog.suite.policy",
-        "approve": "beatlog.suite.maintenance",
-        "decide": "beatlog.suite.maintenance",
-        "update_baselines": "beatlog.suite.maintenance",
-        "SpecOutcome": "beatlog.suite.runner",
-        "SuiteOptions": "beatlog.suite.options",
-        "SuiteSession": "beatlog.suite.session",
-        "Verdict": "beatlog.suite.runner",
-        "discover_specs": "beatlog.suite.spec",
-        "fleet_specs": "beatlog.suite.fleet",
-        "load_spec": "beatlog.suite.spec",
-        "run_session": "beatlog.suite.session",
-        "run_spec": "beatlog.suite.runner",
-        "run_suite": "beatlog.suite.runner",
-        "select_specs": "beatlog.suite.spec",
-        "Shard": "beatlog.suite.sharding",
-        "shard": "beatlog.suite.sharding",
-        "write_junit": "beatlog.suite.junit",
-    },
-)
+__getattr__ = lazy_names(__name__)

@@ -77,7 +77,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.errors import BaselineError, NotABeatlogError
-from beatlog.files import irregular_file_problem, replacing
+from beatlog.files import irregular_file_problem, read_small_text, replacing
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.pins import StatePins
 from beatlog.suite.baseline_parse import ParsedLines
@@ -193,15 +193,7 @@ def write_baseline(
 
 def read_baseline(path: Path) -> Baseline:
     """Read a baseline file; anything else raises :class:`BaselineError` naming the line."""
-    problem = irregular_file_problem(path)
-    if problem is not None:
-        raise BaselineError(path, problem)
-    if path.stat().st_size > MAX_BASELINE_BYTES:
-        raise BaselineError(path, f"is larger than {MAX_BASELINE_BYTES} bytes; not a baseline")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise BaselineError(path, f"cannot read: {exc}") from None
+    text = read_small_text(path, limit=MAX_BASELINE_BYTES, kind="baseline", error=BaselineError)
     lines = text.splitlines()
     version = _VERSIONS.get(lines[0]) if lines else None
     if version is None:

@@ -50,7 +50,7 @@ _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
 
 class DaskExecutor(Closing):
     """A connection to a Dask cluster that runs suites, one task per DTC (an
-    :data:`~beatlog.suite.runner.Executor` for :func:`~beatlog.suite.runner.run_suite`).
+    :data:`~beatlog.suite.parallel.Executor` for :func:`~beatlog.suite.parallel.run_suite`).
 
     ``address`` is a scheduler's (``tcp://host:8786``), or ``local`` for a cluster of
     worker processes on this machine, one per core, or ``local:N`` for N of them, closed

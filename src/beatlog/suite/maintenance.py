@@ -40,9 +40,10 @@ from beatlog.suite.baseline import (
     read_baseline,
     write_baseline,
 )
+from beatlog.suite.discovery import discover_specs
 from beatlog.suite.policy import UpdateMode, in_ci, require_writable
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, discover_specs
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec
 
 __all__ = [
     "Decision",

@@ -1,16 +1,15 @@
-"""Runs DTC suites: specs replayed here and, with more than one job, in worker processes
-as well (:mod:`beatlog.suite.worker`); all cores by default."""
+"""Runs one DTC: its spec's log replayed against its system, judged against its
+baseline, audited and charted where asked for; its verdict and outcome. Suites run
+their specs with it (:mod:`beatlog.suite.parallel`), here and in worker processes."""
 
 from __future__ import annotations
 
-import collections
+import contextlib
 import dataclasses
 import functools
 import glob
-import queue
-import threading
 import time
-from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -25,18 +24,16 @@ from beatlog.replay.judge import recorded_system, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
-from beatlog.suite.sharding import longest_first
 from beatlog.suite.spec import DtcSpec
-from beatlog.suite.worker import Worker
 from beatlog.usercode import importable_near, load_perception, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
     from beatlog.analysis.timeline import Timeline, TimelineCollector
-    from beatlog.audit.replays import AuditReport
+    from beatlog.audit.replays import Auditors, AuditReport
     from beatlog.model.behavior import System
 
-__all__ = ["Executor", "SpecOutcome", "Verdict", "run_spec", "run_suite"]
+__all__ = ["SpecOutcome", "Verdict", "run_spec", "suite_auditors"]
 
 
 class Verdict(StrEnum):
@@ -117,7 +114,9 @@ _UPDATABLE = (
 )
 
 
-def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
+def run_spec(
+    spec: DtcSpec, options: SpecOptions | None = None, *, auditors: Auditors | None = None
+) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
     if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
     also traces the new state changes and outputs (nothing is written here: see
@@ -131,11 +130,14 @@ def run_spec(spec: DtcSpec, options: SpecOptions | None = None) -> SpecOutcome:
     ``--break-on-divergence`` do (:mod:`beatlog.replay.debugger`); a break past the end
     of the log is noted in the result.
     A log behind a URL is copied here first, and the copy removed after; one that
-    cannot be copied is an error of the DTC."""
+    cannot be copied is an error of the DTC. The audit runs in ``auditors``' interpreters
+    (see :func:`suite_auditors`), else in interpreters of its own."""
     with importable_near(spec.path):
         try:
             with spec.readable_log() as log:
-                outcome = _run_spec(dataclasses.replace(spec, log=log), options or SpecOptions())
+                outcome = _run_spec(
+                    dataclasses.replace(spec, log=log), options or SpecOptions(), auditors
+                )
         except RemoteLogError as exc:
             return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
         if spec.log_url is None:
@@ -153,7 +155,7 @@ def _named_as_given(outcome: SpecOutcome, spec: DtcSpec, copy: str, url: str) ->
     return dataclasses.replace(outcome, spec=spec, result=result, error=error)
 
 
-def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
+def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) -> SpecOutcome:
     update, audit, timelines = options.update, options.audit, options.timelines
     started = time.perf_counter()
     baseline = expected_path(spec.path)
@@ -214,7 +216,11 @@ def _run_spec(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
 
             report = audit_replay(
-                spec.log, system, allow_truncated=spec.allow_truncated, migration=spec.migration
+                spec.log,
+                system,
+                allow_truncated=spec.allow_truncated,
+                migration=spec.migration,
+                auditors=auditors,
             )
         drawn = _timelines(collector, details)
     except BeatlogError as exc:
@@ -326,139 +332,11 @@ def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | No
     return trace.expectation, None
 
 
-Executor = Callable[[Sequence[DtcSpec], SpecOptions, Callable[[SpecOutcome], bool]], None]
-"""Runs specs somewhere else than this machine's worker processes (a Dask cluster, see
-:class:`beatlog.suite.cluster.DaskExecutor`): each outcome, from :func:`run_spec`, goes
-to the callback as it comes, until the callback says stop (returns True)."""
+def suite_auditors(options: SpecOptions) -> AbstractContextManager[Auditors | None]:
+    """The audit interpreters a process keeps for the specs it runs with ``options``
+    (none where they are not audited), stopped when the context ends."""
+    if not options.audit:
+        return contextlib.nullcontext()
+    from beatlog.audit.replays import Auditors  # noqa: PLC0415 - only when auditing
 
-
-def run_suite(
-    specs: Sequence[DtcSpec],
-    *,
-    jobs: int = 1,
-    fail_fast: bool = False,
-    update: UpdateMode | str = UpdateMode.NONE,
-    audit: bool = False,
-    timelines: bool = False,
-    on_outcome: Callable[[SpecOutcome], object] | None = None,
-    break_at: int | None = None,
-    break_on_divergence: bool = False,
-    executor: Executor | None = None,
-) -> list[SpecOutcome]:
-    """Run every spec, ``jobs`` at a time, or with ``executor`` (``jobs`` then unused);
-    outcomes in spec order.
-
-    With more than one job, this process replays specs too while ``jobs - 1`` worker
-    processes start and then take the next spec each as they become free, the longest
-    recording first (:func:`~beatlog.suite.sharding.longest_first`): a suite too
-    small to gain from workers is done before they are ready, and none is slower than
-    with one job. With ``fail_fast`` the first failure or error stops the run: specs not
-    started are not run and the workers are stopped. In :attr:`UpdateMode.NEW` each failure
-    carries its new expectation (nothing is written here: see
-    :mod:`beatlog.suite.maintenance`);
-    with ``audit`` each spec's determinism is audited too; with ``timelines`` its
-    timelines are built for charts. ``break_at`` and ``break_on_divergence`` stop in
-    the debugger (see :func:`run_spec`); they replay every spec in this process.
-    """
-    update = UpdateMode.parse(update)
-    outcomes: dict[Path, SpecOutcome] = {}
-
-    def done(outcome: SpecOutcome) -> bool:
-        outcomes[outcome.spec.path] = outcome
-        if on_outcome is not None:
-            on_outcome(outcome)
-        return fail_fast and outcome.verdict is not Verdict.PASSED
-
-    options = SpecOptions(update, audit, timelines, break_at, break_on_divergence)
-    breaking = break_at is not None or break_on_divergence
-    if breaking and executor is not None:
-        raise ValueError("break points stop in this process; they cannot run on an executor")
-    workers = 0 if breaking else min(jobs, len(specs)) - 1
-    if executor is not None:
-        executor(specs, options, done)
-    elif workers < 1:
-        for spec in specs:
-            if done(run_spec(spec, options)):
-                break
-    else:
-        _run_with_workers(specs, workers, options, done)
-    return [outcomes[spec.path] for spec in specs if spec.path in outcomes]
-
-
-Answer = SpecOutcome | BaseException
-"""What comes back from a worker: an outcome, or why there is none."""
-
-
-def _run_with_workers(
-    specs: Sequence[DtcSpec],
-    workers: int,
-    options: SpecOptions,
-    done: Callable[[SpecOutcome], bool],
-) -> None:
-    """Run the specs here and in ``workers`` worker processes until ``done`` says stop.
-
-    One thread per worker hands it the next spec once it is ready and free. On leaving,
-    Ctrl-C included, the specs not started are dropped, the workers are stopped (see
-    :meth:`Worker.stop`), and the outcomes that had come back by then are still given
-    to ``done``.
-    """
-    pending = collections.deque(longest_first(specs))  # work spread by cycles
-    answers: queue.Queue[Answer] = queue.Queue()
-    pool: list[Worker] = []
-    feeders: list[threading.Thread] = []
-    left = len(specs)
-    try:
-        for _ in range(workers):
-            pool.append(Worker())
-            feeder = threading.Thread(
-                target=_feed, args=(pool[-1], pending, options, answers), daemon=True
-            )
-            feeder.start()
-            feeders.append(feeder)
-        while left:
-            answer: Answer
-            if pending and answers.empty():
-                try:
-                    spec = pending.popleft()
-                except IndexError:  # a worker took the last one
-                    continue
-                answer = run_spec(spec, options)
-            else:
-                answer = answers.get()
-            left -= 1
-            if isinstance(answer, BaseException):
-                raise answer
-            if done(answer):
-                return
-    finally:
-        pending.clear()
-        for worker in pool:
-            worker.stop()  # all at once: their work unwinds side by side
-        for worker in pool:
-            worker.close()
-        for feeder in feeders:
-            feeder.join()
-        while not answers.empty():
-            answer = answers.get_nowait()
-            if isinstance(answer, SpecOutcome):
-                done(answer)
-
-
-def _feed(
-    worker: Worker,
-    pending: collections.deque[DtcSpec],
-    options: SpecOptions,
-    answers: queue.Queue[Answer],
-) -> None:
-    """Once the worker is ready, hand it the pending specs one at a time until none is
-    left; every outcome, or why there is none, goes to ``answers``."""
-    try:
-        worker.wait_ready()
-        while True:
-            try:
-                spec = pending.popleft()
-            except IndexError:
-                return
-            answers.put(worker.run(spec, options))
-    except BaseException as exc:  # the runner raises it, unless it is leaving anyway
-        answers.put(exc)
+    return Auditors()

@@ -11,10 +11,11 @@ from pathlib import Path
 from beatlog.errors import OptionError
 from beatlog.replay.debugger import beyond_the_log
 from beatlog.suite.coverage import select_exercising
+from beatlog.suite.discovery import discover_specs, distinguished, select_specs
 from beatlog.suite.fleet import check_references, fleet_specs
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.sharding import shard
-from beatlog.suite.spec import DtcSpec, discover_specs, distinguished, find_rootdir, select_specs
+from beatlog.suite.spec import DtcSpec, find_rootdir
 
 __all__ = ["Selection", "check_break_at", "fleet_of", "select_suite"]
 
@@ -27,7 +28,7 @@ class Selection:
     """Every DTC found, selected or not."""
     specs: list[DtcSpec]
     """Those the session runs, in path order; those that share a name are named by
-    their ids (:func:`~beatlog.suite.spec.distinguished`)."""
+    their ids (:func:`~beatlog.suite.discovery.distinguished`)."""
     rootdir: Path | None
     """The rootdir of the specs, as pytest would take it; None for a fleet run's logs."""
 

@@ -56,14 +56,12 @@ recorded value and returns the field's new one, imported as ``system`` is.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import difflib
 import json
 import math
 import os
 import tomllib
-from collections import Counter
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,7 +70,7 @@ from typing import Any
 import msgspec
 
 from beatlog.errors import SpecError
-from beatlog.files import irregular_file_problem, project_root
+from beatlog.files import project_root, read_small_text
 from beatlog.project import (
     check_conversions,
     check_one_to_one,
@@ -83,16 +81,12 @@ from beatlog.project import (
 from beatlog.remote import fetched_log, is_url, url_name
 from beatlog.replay.compare import Comparison
 from beatlog.replay.migration import StateMigration
-from beatlog.suite.keywords import KeywordExpression
 
 __all__ = [
     "SPEC_SUFFIX",
     "DtcSpec",
-    "discover_specs",
-    "distinguished",
     "find_rootdir",
     "load_spec",
-    "select_specs",
     "spec_text",
 ]
 
@@ -157,7 +151,7 @@ class DtcSpec:
     URL. Left out, the spec's path as given and its name."""
     named_by_id: bool = False
     """Whether reports name the DTC by its id: another DTC of the run has its name (see
-    :func:`distinguished`)."""
+    :func:`~beatlog.suite.discovery.distinguished`)."""
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -196,15 +190,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
     Its id starts from ``rootdir`` (by default, the one :func:`find_rootdir` finds for
     it)."""
     path = Path(path)
-    problem = irregular_file_problem(path)
-    if problem is not None:
-        raise SpecError(path, problem)
-    if path.stat().st_size > MAX_SPEC_BYTES:
-        raise SpecError(path, f"is larger than {MAX_SPEC_BYTES} bytes; not a DTC spec")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecError(path, f"cannot read: {exc}") from None
+    text = read_small_text(path, limit=MAX_SPEC_BYTES, kind="DTC spec", error=SpecError)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -291,72 +277,6 @@ def _dtc_id(path: Path, name: str, rootdir: Path) -> str:
     return f"{Path(relative).as_posix()}::{name}"
 
 
-def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
-    """Every spec in the given files and folders (recursively), sorted by path, with ids
-    from ``rootdir`` (by default, the one :func:`find_rootdir` finds for ``paths``).
-    Specs may share a name; a spec file holds one DTC and is loaded once, so no two have
-    one id."""
-    paths = list(paths)
-    found: list[Path] = []
-    for given in map(Path, paths):
-        if given.is_dir():
-            found.extend(
-                path
-                for path in given.rglob(f"*{SPEC_SUFFIX}")
-                if path.is_file() and not _hidden(path.relative_to(given))
-            )
-        elif given.name.endswith(SPEC_SUFFIX):
-            found.append(given)
-        elif not given.exists():
-            raise SpecError(given, "no such file or folder")
-        else:
-            raise SpecError(given, f"not a DTC spec (expected a *{SPEC_SUFFIX} file)")
-    # One spec named twice (``specs`` and ``/abs/specs/a.dtc.toml``) is loaded once.
-    unique: dict[Path, Path] = {}
-    for path in found:
-        unique.setdefault(path.resolve(), path)
-    root = find_rootdir(paths) if rootdir is None else rootdir
-    return [load_spec(path, rootdir=root) for path in sorted(unique.values())]
-
-
-def distinguished(specs: Iterable[DtcSpec]) -> list[DtcSpec]:
-    """The specs of a run, those that share their name with another named by their id
-    in reports (:attr:`DtcSpec.label`)."""
-    specs = list(specs)
-    counts = Counter(spec.name for spec in specs)
-    return [dataclasses.replace(spec, named_by_id=counts[spec.name] > 1) for spec in specs]
-
-
-def _hidden(relative: Path) -> bool:
-    """Whether a path found under a folder lies in a hidden folder (.git, .venv, ...)."""
-    return any(part.startswith(".") for part in relative.parts[:-1])
-
-
-def select_specs(
-    specs: Sequence[DtcSpec],
-    *,
-    pattern: str | None = None,
-    tags: Sequence[str] = (),
-    rootdir: Path | None = None,
-) -> list[DtcSpec]:
-    """Specs that match ``pattern`` and carry every tag in ``tags``.
-
-    ``pattern`` is a ``-k`` expression as pytest reads it (``touch or pat``): each word
-    a case-insensitive substring of one of the names pytest matches for the DTC: its
-    name, its spec file's name, the folders from ``rootdir`` down to it, its tags, and
-    the ``dtc`` marker (see :mod:`beatlog.suite.keywords`). ``rootdir`` is the folder
-    pytest would take for its rootdir (by default, as :func:`find_rootdir` finds it for the
-    specs' own folders).
-    """
-    expression = KeywordExpression.parse(pattern or "")
-    root = rootdir if rootdir is not None else find_rootdir(spec.path for spec in specs)
-    return [
-        spec
-        for spec in specs
-        if expression.matches(_keywords(spec, root)) and set(tags) <= set(spec.tags)
-    ]
-
-
 def find_rootdir(paths: Iterable[str | Path]) -> Path:
     """The folder pytest takes for its rootdir when given ``paths``: the nearest folder
     at or above their common folder that holds a ``pyproject.toml``, else that folder."""
@@ -368,15 +288,6 @@ def find_rootdir(paths: Iterable[str | Path]) -> Path:
         return Path.cwd()
     common = Path(os.path.commonpath(folders))
     return project_root(common) or common
-
-
-def _keywords(spec: DtcSpec, root: Path) -> list[str]:
-    """The names pytest's ``-k`` matches for a DTC item: its own, its file's, its
-    folders below the rootdir (the rootdir itself left out, as pytest leaves it out),
-    its tags and its marker."""
-    path = spec.path.resolve()
-    folders = path.parent.relative_to(root).parts if path.is_relative_to(root) else ()
-    return [spec.name, path.name, *folders, *spec.tags, "dtc"]
 
 
 def spec_text(

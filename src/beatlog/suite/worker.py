@@ -16,12 +16,14 @@ import signal
 import subprocess
 import sys
 import traceback
+import warnings
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any
 
 from beatlog.closing import Closing
 
 if TYPE_CHECKING:
+    from beatlog.audit.replays import Auditors
     from beatlog.suite.policy import SpecOptions
     from beatlog.suite.runner import SpecOutcome
     from beatlog.suite.spec import DtcSpec
@@ -124,24 +126,29 @@ class Worker(Closing):
 
 def serve(tasks: IO[bytes], answers: IO[bytes]) -> None:
     """The worker's side: say it is ready, then replay each spec read from ``tasks`` and
-    write its outcome to ``answers``, until ``tasks`` ends."""
-    from beatlog.suite.runner import run_spec  # noqa: PLC0415 - after the signal handler
+    write its outcome to ``answers``, until ``tasks`` ends. The audit interpreters of
+    audited specs are kept from one spec to the next, and stopped at the end."""
+    from beatlog.suite.runner import run_spec, suite_auditors  # noqa: PLC0415 - after the signal handler
 
     pickle.dump(_READY, answers)
     answers.flush()
-    while True:
-        try:
-            spec, options = pickle.load(tasks)  # noqa: S301 - from the runner that started us
-        except EOFError:  # the runner is done, or gone
-            return
-        answer: SpecOutcome | RuntimeError
-        try:
-            answer = run_spec(spec, options)
-        except Exception:  # a programming error: loud in the runner, with its traceback
-            failure = traceback.format_exc()
-            answer = RuntimeError(f"{spec.path}: the suite worker failed:\n{failure}")
-        pickle.dump(answer, answers)
-        answers.flush()
+    with contextlib.ExitStack() as kept:
+        auditors: Auditors | None = None
+        while True:
+            try:
+                spec, options = pickle.load(tasks)  # noqa: S301 - from the runner that started us
+            except EOFError:  # the runner is done, or gone
+                return
+            if auditors is None:
+                auditors = kept.enter_context(suite_auditors(options))
+            answer: SpecOutcome | RuntimeError
+            try:
+                answer = run_spec(spec, options, auditors=auditors)
+            except Exception:  # a programming error: loud in the runner, with its traceback
+                failure = traceback.format_exc()
+                answer = RuntimeError(f"{spec.path}: the suite worker failed:\n{failure}")
+            pickle.dump(answer, answers)
+            answers.flush()
 
 
 def _leave_interrupts() -> None:
@@ -161,8 +168,10 @@ def _do_nothing(signum: int, frame: FrameType | None) -> None:
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
     """A signal handler that interrupts the worker as Ctrl-C interrupts a program, once:
-    the signal again lets the worker unwind."""
+    the signal again lets the worker unwind. A download it stops (fsspec's HTTP reads
+    are coroutines) is dropped unawaited, which is what stopping means: not a warning."""
     signal.signal(signum, _do_nothing)
+    warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
     raise KeyboardInterrupt
 
 

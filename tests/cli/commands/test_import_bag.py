@@ -13,7 +13,7 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin
 
 from tests.bags import edit_metadata, name_other_qos, storage_file, write_bag
-from tests.commands import ROOT, Beatlog, Run, assert_one_line_error
+from tests.commands import ROOT, Beatlog, Run, assert_one_line_error, closing_counts
 from tests.specs import CHANGED, PROBE
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
@@ -43,7 +43,7 @@ def test_an_imported_bag_and_its_spec_pass_beatlog_test(
     assert f"DTC spec {spec}" in run.out
     test = beatlog("test", spec)
     assert test.code == 0, test.out
-    assert "1 passed" in test.out
+    assert closing_counts(test.out) == "1 passed, 0 failed"
 
 
 def test_a_changed_perception_step_fails_the_imported_dtc(beatlog: Beatlog, tmp_path: Path) -> None:
@@ -55,7 +55,9 @@ def test_a_changed_perception_step_fails_the_imported_dtc(beatlog: Beatlog, tmp_
     test = beatlog("test", spec)
 
     assert test.code == 1
-    assert "perception" in test.out
+    assert "first divergence: cycle 0, t = 0.030 s, perception" in test.out
+    assert "the robot state rebuilt from the samples differs in distance" in test.out
+    assert closing_counts(test.out) == "0 passed, 1 failed"
 
 
 def test_a_changed_system_fails_the_imported_dtc(beatlog: Beatlog, tmp_path: Path) -> None:

@@ -4,6 +4,7 @@ reproduce it, as text or JSON; a log never chooses the code it replays."""
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 import tempfile
@@ -12,12 +13,13 @@ from pathlib import Path
 import pytest
 
 from beatlog.log.reader import SessionLogReader
+from beatlog.model.random import RecordingRandom
 from beatlog.record.recorder import Recorder
 from tests.commands import Beatlog, assert_one_line_error
 from tests.conftest import RecordFn, distances
 from tests.factories import cut_in_half, vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
-from tests.systems import quiet_system
+from tests.systems import quiet_system, record_scatter
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -257,7 +259,41 @@ def test_a_replay_that_checks_nothing_is_bad_input_unless_allowed(
         "to happen in it, accept it with --allow-empty (in a spec: allow_empty = true)\n"
     )
     assert allowed.code == 0
-    assert allowed.out == (
-        f"PASS {log}  0 cycles checked (allowed empty); 0.0 s robot time in under 1 ms; "
-        "log truncated at cycle 0: the recording stopped before the log was closed\n"
+    timing = r"in (under 1 ms|\d+\.\d{3} s \([\d,]+× real time\))"  # a loaded machine is slow
+    assert re.fullmatch(
+        rf"PASS {re.escape(str(log))}  0 cycles checked \(allowed empty\); 0\.0 s robot time "
+        rf"{timing}; log truncated at cycle 0: the recording stopped before the log was closed\n",
+        allowed.out,
     )
+
+
+NUMPY_NEEDED = (
+    "array draws (uniform_array, normal_array, integers_array) need numpy: "
+    'pip install "beatlog[arrays]"'
+)
+
+
+def test_replaying_array_draws_without_numpy_is_one_line_naming_the_log_and_the_extra(
+    beatlog: Beatlog, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_scatter(tmp_path / "arrays.beatlog")
+    monkeypatch.setitem(sys.modules, "numpy", None)
+
+    run = beatlog("replay", log, "--system", "tests.systems:scatter_system")
+
+    assert_one_line_error(run)
+    assert run.err == f"beatlog: error: {log}: {NUMPY_NEEDED}\n"
+
+
+def test_a_divergence_shows_recorded_array_draws_without_numpy(
+    beatlog: Beatlog, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_scatter(tmp_path / "arrays.beatlog", seed=3)
+    recorded = RecordingRandom(seed=3).uniform_array(0.0, 1.0, (2, 2)).tolist()  # its first draw
+    monkeypatch.setitem(sys.modules, "numpy", None)
+
+    run = beatlog("replay", log, "--system", "tests.systems:scatter_system_calm", "--json")
+
+    assert run.code == 1
+    (draw,) = json.loads(run.out)["divergence"]["random_recorded"]
+    assert draw == ["scatter", "uniform_array", recorded, "uniform_array(0.0, 1.0, [2, 2])"]

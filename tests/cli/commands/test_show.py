@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import sys
 from pathlib import Path
 
 import pytest
@@ -11,6 +12,7 @@ from beatlog.analysis.summary import summarize
 from tests.commands import Beatlog
 from tests.conftest import RecordFn
 from tests.factories import cut_in_half, with_damaged_index
+from tests.systems import record_scatter
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -70,3 +72,15 @@ def test_show_says_a_log_whose_index_is_damaged_holds_its_data_intact(
         "index damaged, data intact: the summary does not match its CRC in the footer"
     )
     assert about_rows(run.out)["cycles"] == "300"
+
+
+def test_show_describes_a_log_of_array_draws_without_numpy(
+    beatlog: Beatlog, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_scatter(tmp_path / "arrays.beatlog", cycles=30)
+    monkeypatch.setitem(sys.modules, "numpy", None)
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    assert about_rows(run.out)["random numbers"] == "6 (uniform_array 6)"

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.suite.spec import discover_specs
+from beatlog.suite.discovery import discover_specs
 from tests.commands import (
     ROOT,
     Beatlog,

@@ -12,7 +12,7 @@ import fsspec
 import pytest
 
 from beatlog.suite.baseline import expected_path
-from tests.commands import Beatlog, assert_one_line_error
+from tests.commands import Beatlog, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 
@@ -62,9 +62,11 @@ def test_a_log_that_cannot_be_read_is_an_error_of_its_dtc(beatlog: Beatlog, logs
     run = beatlog("test", "--logs", f"{logs}/*.beatlog", "--system", PROBE)
 
     assert run.code == 2
-    assert "broken" in run.err
-    assert "not a session log" in run.err
-    assert run.out.splitlines()[-1].startswith("2 passed, 0 failed, 1 error")
+    broken = logs / "broken.beatlog"
+    assert run.err == (
+        f"beatlog: error: broken ({broken}): {broken}: not a session log (not an MCAP file)\n"
+    )
+    assert closing_counts(run.out) == "2 passed, 0 failed, 1 error"
 
 
 @pytest.mark.parametrize(

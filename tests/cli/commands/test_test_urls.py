@@ -14,7 +14,7 @@ import pytest
 
 from beatlog.remote import MAX_BYTES_VARIABLE
 from beatlog.suite.baseline import pending_path
-from tests.commands import Beatlog, signalled
+from tests.commands import Beatlog, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE, write_spec
@@ -41,7 +41,7 @@ def test_specs_whose_logs_are_urls_are_judged_each_log_downloaded_once(
     run = beatlog("test", suite, "-j", "2", "--junit-xml", junit, "--html", page)
 
     assert run.code == 1, run.err
-    assert run.out.splitlines()[-1].startswith("1 passed, 1 failed")
+    assert closing_counts(run.out) == "1 passed, 1 failed"
     assert f"reproduce: beatlog test {suite / 'yard.dtc.toml'}" in run.out
     assert [served.downloads(name) for name in LOGS] == [1, 1]
     cases = ET.parse(junit).getroot().iter("testcase")
@@ -62,7 +62,7 @@ def test_a_log_url_not_found_is_an_error_of_its_dtc_naming_spec_and_url(
     assert run.code == 2
     spec = suite / "lost.dtc.toml"
     assert run.err == f"beatlog: error: lost ({spec}): {served.url}/lost.beatlog: no such log\n"
-    assert run.out.splitlines()[-1].startswith("1 passed, 1 failed, 1 error")
+    assert closing_counts(run.out) == "1 passed, 1 failed, 1 error"
 
 
 def test_a_fleet_matrix_downloads_each_log_once_in_all(beatlog: Beatlog, served: LogServer) -> None:
@@ -73,7 +73,7 @@ def test_a_fleet_matrix_downloads_each_log_once_in_all(beatlog: Beatlog, served:
         for shard in ("1/2", "2/2")
     ]
 
-    assert [run.out.splitlines()[-1][:17] for run in runs] == ["1 passed, 0 faile"] * 2
+    assert [closing_counts(run.out) for run in runs] == ["1 passed, 0 failed"] * 2
     assert [served.downloads(name) for name in LOGS] == [1, 1]
 
 
@@ -101,7 +101,7 @@ def test_coverage_reads_logs_behind_urls_too(
     run = beatlog("test", suite, "--coverage", "-k", "dock")
 
     assert run.code == 0, run.err
-    assert "near" in run.out
+    assert '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC' in run.out
     assert served.downloads("dock.beatlog") == 2  # the replay's copy, then coverage's
 
 

@@ -26,13 +26,15 @@ __all__ = [
     "Field",
     "Kind",
     "add_types",
-    "declared_object",
+    "array_field",
     "find_non_finite_arrays",
     "holds_number_arrays",
     "inferred",
     "json_text",
+    "json_type",
     "merged",
     "numbers_as_text",
+    "object_field",
     "state_text",
     "too_deep",
     "typed_object",
@@ -129,12 +131,13 @@ GAP = object()
 """What a value left out of its message is written as."""
 
 
-def _object_field(fields: Mapping[str, Field]) -> Field:
+def object_field(fields: Mapping[str, Field]) -> Field:
+    """An object of ``fields``, by name."""
     properties = {name: field.schema for name, field in fields.items()}
     return Field({"type": "object", "properties": properties}, Kind.OBJECT, fields)
 
 
-def _array_field(items: Field | None) -> Field:
+def array_field(items: Field | None) -> Field:
     """An array of ``items`` (of numbers while they are not known), or JSON text if the
     viewers cannot type an array of them."""
     if items is None:
@@ -188,7 +191,7 @@ def written_object(
     return written
 
 
-def _type_of(value: Any) -> str:
+def json_type(value: Any) -> str:
     """The JSON-schema type of a value read from the log (``json`` for lists, maps, bytes)."""
     if isinstance(value, bool):
         return "boolean"
@@ -207,16 +210,16 @@ def add_types(types: dict[str, str | None], values: Mapping[str, Any]) -> None:
         if value is None:
             types.setdefault(name, None)
         elif seen is None:
-            types[name] = _type_of(value)
+            types[name] = json_type(value)
         elif seen != "json":
-            kind = _type_of(value)
+            kind = json_type(value)
             if kind != seen:
                 types[name] = "number" if {kind, seen} == {"integer", "number"} else "json"
 
 
 def typed_object(types: Mapping[str, str | None]) -> Field:
     """An object of the fields a first read of the log found, typed as it found them."""
-    return _object_field({name: BY_TYPE[kind or "json"] for name, kind in types.items()})
+    return object_field({name: BY_TYPE[kind or "json"] for name, kind in types.items()})
 
 
 def _path(within: str, name: str) -> str:
@@ -251,7 +254,7 @@ def numbers_as_text(field: Field, paths: frozenset[str], path: str = "") -> Fiel
     if not paths:
         return field
     if field.kind is Kind.OBJECT:
-        return _object_field(
+        return object_field(
             {
                 name: numbers_as_text(inner, paths, _path(path, name))
                 for name, inner in field.fields.items()
@@ -259,9 +262,9 @@ def numbers_as_text(field: Field, paths: frozenset[str], path: str = "") -> Fiel
         )
     items = field.items
     if items is not None and items.kind is Kind.NUMBER and path in paths:
-        return _array_field(_NUMBER_TEXT)
+        return array_field(_NUMBER_TEXT)
     if items is not None and items.kind is Kind.OBJECT:
-        return _array_field(numbers_as_text(items, paths, f"{path}[]"))
+        return array_field(numbers_as_text(items, paths, f"{path}[]"))
     return field
 
 
@@ -295,7 +298,7 @@ def _value_field(value: Any, *, in_array: bool) -> Field | None:
             inner = _value_field(item, in_array=False)
             if inner is not None:
                 fields[name] = inner
-        return _object_field(fields)
+        return object_field(fields)
     if isinstance(value, list):
         items: Field | None = None
         for item in value:
@@ -303,8 +306,8 @@ def _value_field(value: Any, *, in_array: bool) -> Field | None:
             if inner is None:
                 return BY_TYPE["json"]  # an array of nullables
             items = merged(items, inner)
-        return _array_field(items)
-    return BY_TYPE[_type_of(value)]
+        return array_field(items)
+    return BY_TYPE[json_type(value)]
 
 
 def merged(seen: Field | None, field: Field | None) -> Field | None:
@@ -319,82 +322,9 @@ def merged(seen: Field | None, field: Field | None) -> Field | None:
         fields = dict(seen.fields)
         for name, inner in field.fields.items():
             fields[name] = merged(fields.get(name), inner) or inner
-        return _object_field(fields)
+        return object_field(fields)
     if seen.kind is field.kind is Kind.ARRAY:
-        return _array_field(merged(seen.items, field.items))
+        return array_field(merged(seen.items, field.items))
     if seen in _NUMBERS and field in _NUMBERS:
         return _NUMBER_TEXT if _NUMBER_TEXT in (seen, field) else BY_TYPE["number"]
     return BY_TYPE["json"]
-
-
-_MAX_SCHEMA_NODES = 100_000
-"""A robot-state schema inlined beyond this many nodes is refused (a hostile header
-could otherwise expand exponentially)."""
-
-
-def declared_object(schema: Mapping[str, Any], log: Path) -> Field | None:
-    """The header's robot-state schema as the viewers take it (None if it describes no
-    object with properties): every ``$ref`` to ``#/$defs/...`` inlined; a number,
-    integer, boolean or string as that type (an enum of strings or of integers too, a
-    nullable one too: a null is left out); an object with properties and an array of
-    those with their own schemas; anything else (a map, tuple, union, an array of
-    arrays or of nullables, a type within itself) as JSON text."""
-    definitions = schema.get("$defs")
-    defs = definitions if isinstance(definitions, dict) else {}
-    nodes = 0
-
-    def field(node: Any, within: tuple[str, ...], nullable: bool) -> Field:
-        nonlocal nodes
-        nodes += 1
-        if nodes > _MAX_SCHEMA_NODES:
-            raise CorruptLogError(
-                log, f"the robot-state schema inlines to more than {_MAX_SCHEMA_NODES} nodes"
-            )
-        if not isinstance(node, dict):
-            return BY_TYPE["json"]
-        reference = node.get("$ref")
-        if reference is not None:
-            name = reference.removeprefix("#/$defs/") if isinstance(reference, str) else ""
-            if name == reference or name not in defs:
-                raise CorruptLogError(
-                    log, f"the robot-state schema refers to {reference!r}, which it lacks"
-                )
-            target = defs[name]
-            if name in within or not isinstance(target, dict):
-                return BY_TYPE["json"]
-            rest = {key: value for key, value in node.items() if key != "$ref"}
-            return field({**rest, **target}, (*within, name), nullable)
-        kind = node.get("type")
-        alternatives = node.get("anyOf", node.get("oneOf"))
-        if isinstance(alternatives, list):
-            others = [option for option in alternatives if option != {"type": "null"}]
-            if not (nullable and len(others) == 1 == len(alternatives) - 1):
-                return BY_TYPE["json"]
-            return field(others[0], within, nullable=False)
-        if isinstance(kind, list):
-            others = [option for option in kind if option != "null"]
-            kind = others[0] if nullable and len(others) == 1 == len(kind) - 1 else "json"
-        enum = node.get("enum")
-        if kind is None and isinstance(enum, list) and enum:
-            kinds = {_type_of(value) for value in enum}
-            kind = kinds.pop() if len(kinds) == 1 else "json"
-        properties = node.get("properties")
-        items = node.get("items")
-        if kind == "object" and isinstance(properties, dict):
-            return _object_field(
-                {name: field(value, within, nullable=True) for name, value in properties.items()}
-            )
-        if kind == "array" and isinstance(items, dict) and "prefixItems" not in node:
-            return _array_field(field(items, within, nullable=False))
-        if kind == "string" and node.get("contentEncoding") == "base64":
-            return BASE64
-        return BY_TYPE.get(kind if isinstance(kind, str) else "json", BY_TYPE["json"])
-
-    try:
-        declared = field(dict(schema), (), nullable=False)
-    except RecursionError:
-        raise CorruptLogError(log, "the robot-state schema is nested too deep") from None
-    return declared if declared.kind is Kind.OBJECT else None
-
-
-# MCAP: schemas

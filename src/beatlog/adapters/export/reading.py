@@ -11,10 +11,10 @@ from typing import Any, NamedTuple
 
 import msgspec
 
+from beatlog.adapters.export.declared import declared_object
 from beatlog.adapters.export.fields import (
     Field,
     add_types,
-    declared_object,
     find_non_finite_arrays,
     holds_number_arrays,
     inferred,

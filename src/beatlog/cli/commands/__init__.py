@@ -81,7 +81,7 @@ COMMANDS: dict[str, Command] = {
     ),
     "help": Command(
         "show the help of beatlog or of one of its commands",
-        helping.add_arguments,
+        lambda parser: helping.add_arguments(parser, topics=COMMANDS),
         helping.run,
         runs_user_code=False,
     ),

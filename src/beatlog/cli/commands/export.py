@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import TYPE_CHECKING
 
+from beatlog.cli.arguments import add_factory, add_log, add_output
 from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
 
 if TYPE_CHECKING:
@@ -20,25 +20,18 @@ that parsing the command line imports nothing heavy."""
 
 def add_arguments(export: argparse.ArgumentParser) -> None:
     """The options of ``beatlog export``."""
-    export.add_argument("log", help="the session log (.beatlog) to export: a path or a URL")
-    export.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        type=Path,
-        metavar="FILE",
-        help="the file to write; its suffix picks the format: .mcap, .parquet or .csv",
-    )
+    add_log(export, "export")
+    add_output(export, "the file to write; its suffix picks the format: .mcap, .parquet or .csv")
     export.add_argument(
         "--format",
         choices=EXPORT_FORMATS,
         help="mcap (JSON messages, for viewers), parquet or csv (a row per cycle); "
         "default: the output's suffix, which must not name another format",
     )
-    export.add_argument(
+    add_factory(
+        export,
         "--system",
-        metavar="MODULE:FACTORY",
-        help="also replay against this system and add its first divergence (MCAP only)",
+        "also replay against this system and add its first divergence (MCAP only)",
     )
 
 

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import positive_float
+from beatlog.cli.arguments import add_factory, positive_float
 from beatlog.cli.common import EXIT_OK, check_output
 from beatlog.errors import LogExistsError, OptionError
 
@@ -20,12 +20,12 @@ def add_arguments(bag: argparse.ArgumentParser) -> None:
     """The options of ``beatlog import-bag``."""
     bag.add_argument("bag", type=Path, help="the rosbag2 folder (mcap or sqlite3), or its file")
     bag.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
-    bag.add_argument("--system", required=True, metavar="MODULE:FACTORY", help="system factory")
-    bag.add_argument(
+    add_factory(bag, "--system", "system factory", required=True)
+    add_factory(
+        bag,
         "--perception",
+        "the perception step folding each heartbeat's messages into the robot state",
         required=True,
-        metavar="MODULE:FACTORY",
-        help="the perception step folding each heartbeat's messages into the robot state",
     )
     beats = bag.add_mutually_exclusive_group()
     beats.add_argument(

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import TYPE_CHECKING
 
+from beatlog.cli.arguments import add_factory, add_log, add_output
 from beatlog.cli.common import EXIT_OK, readable
 from beatlog.errors import OptionError
 
@@ -17,19 +17,12 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(plot: argparse.ArgumentParser) -> None:
     """The options of ``beatlog plot``."""
-    plot.add_argument("log", help="the session log (.beatlog) to draw: a path or a URL")
-    plot.add_argument(
-        "-o",
-        "--output",
-        required=True,
-        type=Path,
-        metavar="FILE",
-        help="the chart to write; its suffix picks the format: .png, .svg or .pdf",
-    )
-    plot.add_argument(
+    add_log(plot, "draw")
+    add_output(plot, "the chart to write; its suffix picks the format: .png, .svg or .pdf")
+    add_factory(
+        plot,
         "--system",
-        metavar="MODULE:FACTORY",
-        help="also replay against this system and draw what it did (default: the recording only)",
+        "also replay against this system and draw what it did (default: the recording only)",
     )
     plot.add_argument(
         "--field",

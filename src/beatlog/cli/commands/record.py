@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import positive_float
+from beatlog.cli.arguments import add_factory, positive_float
 from beatlog.cli.common import EXIT_FAILED, EXIT_OK, check_output
 from beatlog.errors import BeatlogError, LogExistsError, OptionError
 
@@ -19,7 +19,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(record: argparse.ArgumentParser) -> None:
     """The options of ``beatlog record``."""
-    record.add_argument("--robot", required=True, metavar="MODULE:FACTORY", help="robot factory")
+    add_factory(record, "--robot", "robot factory", required=True)
     record.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
     record.add_argument(
         "--duration", type=positive_float, required=True, help="robot time to record (s)"

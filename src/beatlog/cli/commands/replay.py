@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import cycle_number, field_pair
+from beatlog.cli.arguments import add_factory, add_log, cycle_number, field_pair
 from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
 from beatlog.errors import OptionError
 
@@ -19,17 +19,17 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(play: argparse.ArgumentParser) -> None:
     """The options of ``beatlog replay``."""
-    play.add_argument("log", help="the session log (.beatlog) to replay: a path or a URL")
-    play.add_argument(
+    add_log(play, "replay")
+    add_factory(
+        play,
         "--system",
-        metavar="MODULE:FACTORY",
-        help="system factory (default: the one the log records, from record --system-ref, "
+        "system factory (default: the one the log records, from record --system-ref, "
         "where the project lists it under [tool.beatlog] systems in pyproject.toml)",
     )
-    play.add_argument(
+    add_factory(
+        play,
         "--perception",
-        metavar="MODULE:FACTORY",
-        help="rebuild each robot state from the logged samples with this perception step",
+        "rebuild each robot state from the logged samples with this perception step",
     )
     play.add_argument("--keep-going", action="store_true", help="count every diverging cycle")
     play.add_argument(

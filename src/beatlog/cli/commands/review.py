@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import TYPE_CHECKING
 
+from beatlog.cli.arguments import add_paths
 from beatlog.cli.common import EXIT_OK
 
 if TYPE_CHECKING:
@@ -16,13 +16,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(review: argparse.ArgumentParser) -> None:
     """The arguments of ``beatlog review``."""
-    review.add_argument(
-        "paths",
-        nargs="*",
-        type=Path,
-        default=[Path()],
-        help="specs or folders with pending baselines (default: the current folder)",
-    )
+    add_paths(review, "specs or folders with pending baselines")
 
 
 def run(args: argparse.Namespace, console: Console) -> int:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
+from beatlog.cli.arguments import add_log
 from beatlog.cli.common import EXIT_OK, readable
 
 if TYPE_CHECKING:
@@ -15,7 +16,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(show: argparse.ArgumentParser) -> None:
     """The arguments of ``beatlog show``."""
-    show.add_argument("log", help="the session log (.beatlog) to describe: a path or a URL")
+    add_log(show, "describe")
 
 
 def run(args: argparse.Namespace, console: Console) -> int:

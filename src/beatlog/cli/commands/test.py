@@ -1,5 +1,5 @@
 """``beatlog test``: run DTC specs, or a fleet's logs, as one suite session
-(:mod:`beatlog.suite.session`); this module reads the options and prints the report."""
+(:mod:`beatlog.suite_session`); this module reads the options and prints the report."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import cycle_number, positive_int, shard
+from beatlog.cli.arguments import add_factory, add_paths, cycle_number, positive_int, shard
 from beatlog.cli.common import print_error
 from beatlog.errors import OptionError
 from beatlog.suite.policy import UpdateMode
@@ -27,13 +27,7 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(test: argparse.ArgumentParser) -> None:
     """The options of ``beatlog test``."""
-    test.add_argument(
-        "paths",
-        nargs="*",
-        type=Path,
-        default=[Path()],
-        help="specs (*.dtc.toml) or folders searched for them (default: the current folder)",
-    )
+    add_paths(test, "specs (*.dtc.toml) or folders searched for them")
     where = test.add_mutually_exclusive_group()
     where.add_argument(
         "-j",
@@ -108,13 +102,11 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
         help="replay every matching log against --system, no spec needed "
         '(a local glob, or a URL with pip install "beatlog[fleet]")',
     )
-    test.add_argument(
-        "--system", metavar="MODULE:FACTORY", help="the system factory of a --logs run"
-    )
-    test.add_argument(
+    add_factory(test, "--system", "the system factory of a --logs run")
+    add_factory(
+        test,
         "--perception",
-        metavar="MODULE:FACTORY",
-        help="the perception step of a --logs run: rebuild each robot state from the samples",
+        "the perception step of a --logs run: rebuild each robot state from the samples",
     )
     test.add_argument(
         "--break-at",
@@ -160,7 +152,7 @@ def _options(args: argparse.Namespace) -> SuiteOptions:
 def run(args: argparse.Namespace, console: Console) -> int:
     """Run the suite with a progress bar, each failure (every DTC with ``--verbose``)
     shown as it comes, then the session's report and its counts."""
-    from beatlog.suite.session import SuiteSession
+    from beatlog.suite_session import SuiteSession
 
     session = SuiteSession(_options(args))
     progress = _progress(console, breaking=session.options.breaking)

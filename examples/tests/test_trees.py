@@ -8,8 +8,10 @@ from pathlib import Path
 import pytest
 
 from beatlog.audit.replays import audit
-from beatlog.suite.runner import Verdict, run_suite
-from beatlog.suite.spec import DtcSpec, discover_specs
+from beatlog.suite.discovery import discover_specs
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import Verdict
+from beatlog.suite.spec import DtcSpec
 from beatlog_examples.trees import SUITE_DIR
 from beatlog_examples.trees.record import SCENARIOS, main
 

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.record.recorder import Recorder
+from beatlog.suite.spec import spec_text
 from bench_mutation import Mutant, Outcome, Target, Workers, mutants, run_mutant
-from tests.conftest import PERIOD_NS
-from tests.specs import write_spec
 
 TOY = '''"""An alarm that rings while the level is above half."""
 
@@ -57,8 +57,19 @@ def record_toy(toy: Target, levels: Sequence[float]) -> Path:
     log = toy.path.with_name("toy.beatlog")
     with Recorder(log, module.system(), seed=1, software="test") as recorder:
         for level in levels:
-            recorder.step(PERIOD_NS, module.Gauge(level=level))
-    return write_spec(toy.path.parent / "suite", "toy", log, "toy_alarm:system")
+            recorder.step(DEFAULT_PERIOD_NS, module.Gauge(level=level))
+    spec = log.with_name("toy.dtc.toml")
+    spec.write_text(
+        spec_text(
+            name="toy",
+            purpose="The alarm rings while the level is above half.",
+            procedure=["Raise and lower the level."],
+            log=log.name,
+            system="toy_alarm:system",
+        ),
+        encoding="utf-8",
+    )
+    return spec
 
 
 def fates(toy: Target, spec: Path) -> dict[str, Outcome]:

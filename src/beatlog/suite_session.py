@@ -3,7 +3,10 @@ then report: orphaned baselines, the transition coverage and its memory, JUnit,
 coverage JSON and HTML. What it did comes back as a
 :class:`~beatlog.report.suite.SuiteReport`, which builds lines and never prints:
 ``beatlog test`` prints them, and the pytest plugin, which runs each DTC as a test
-item, ends its run with :func:`conclude` as ``beatlog test`` does."""
+item, ends its run with :func:`conclude` as ``beatlog test`` does.
+
+The session sits above the suite (:mod:`beatlog.suite`) and the reports
+(:mod:`beatlog.report`), which it puts together; the shells sit above it."""
 
 from __future__ import annotations
 
@@ -25,7 +28,8 @@ from beatlog.suite.coverage_cache import cache_path, recall
 from beatlog.suite.junit import write_junit
 from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.options import SuiteOptions
-from beatlog.suite.runner import SpecOutcome, run_suite
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import SpecOutcome
 from beatlog.suite.selection import Selection, check_break_at, fleet_of, select_suite
 
 if TYPE_CHECKING:
@@ -72,7 +76,7 @@ class SuiteSession:
         return [self._outcomes[spec.path] for spec in self.specs if spec.path in self._outcomes]
 
     def run(self, on_outcome: Callable[[SpecOutcome], object] | None = None) -> SuiteReport:
-        """Run the DTCs (see :func:`~beatlog.suite.runner.run_suite`), each outcome given
+        """Run the DTCs (see :func:`~beatlog.suite.parallel.run_suite`), each outcome given
         to ``on_outcome`` as it comes; what ran, before anything is updated or written.
         A run stopped by Ctrl-C or by quitting the debugger at a break keeps what was
         complete: its report says what stopped it, and no report file is written."""

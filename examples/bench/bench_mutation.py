@@ -42,7 +42,7 @@ Survivors are then reported as:
   (it may still differ on other inputs: these are reported, never discarded);
 - *survived, not reached*: the suite never evaluated the mutated spot.
 
-Run it as ``python bench/bench_mutation.py [--jobs N] [--limit N] [--only GROUP]
+Run it as ``python examples/bench/bench_mutation.py [--jobs N] [--limit N] [--only GROUP]
 [--suite DIR] [--json FILE]``; 368 mutants took 4.5 to 7.5 minutes with ``--jobs 2``
 on a busy 2-core machine.
 """
@@ -743,7 +743,7 @@ def main() -> None:
         serve()
         return
 
-    from beatlog.suite.spec import discover_specs  # noqa: PLC0415
+    from beatlog.suite.discovery import discover_specs  # noqa: PLC0415
     from beatlog_examples.dog import SUITE_DIR  # noqa: PLC0415
 
     console = Console()

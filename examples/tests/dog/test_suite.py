@@ -6,8 +6,9 @@ import pytest
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
-from beatlog.suite.runner import Verdict, run_suite
-from beatlog.suite.spec import discover_specs
+from beatlog.suite.discovery import discover_specs
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import Verdict
 from beatlog_examples.dog import SUITE_DIR
 from beatlog_examples.dog.behaviors import CHANGES, changed_system
 from beatlog_examples.dog.scenarios import SUITE

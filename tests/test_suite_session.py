@@ -12,11 +12,11 @@ from beatlog.errors import OptionError
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.baseline import expected_path, pending_path
 from beatlog.suite.coverage_cache import cache_path
+from beatlog.suite.discovery import discover_specs
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.session import SuiteSession, conclude, prepare_report, run_session
-from beatlog.suite.spec import discover_specs
+from beatlog.suite_session import SuiteSession, conclude, prepare_report, run_session
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
