@@ -17,8 +17,15 @@ perception rebuilt, the draws made, state changes and outputs), as a new recordi
 would hold them had the world answered as recorded, and replayed strictly, with no
 baseline.
 
-Run it as ``python bench/bench_living.py [--json FILE]``; about five minutes on 2
+Run it as ``python bench/bench_living.py [--json FILE]``; about seven minutes on 2
 cores. Nothing here asserts anything: it reports.
+
+For instruction counts, ``--passes rebaselined|rerecorded --times N`` re-baselines the
+suite for all seven changes and re-records it as above, then replays the 22 DTCs
+(``beatlog.replay`` with each one's approved baseline, or strictly the re-recorded logs)
+once each way as a warm-up and N more times the way named: under ``PYTHONHASHSEED=0
+valgrind --tool=cachegrind --cache-sim=no``, the difference of the ``I refs`` counts of
+N = 1 and N = 0 is one pass, the set-up left out.
 """
 
 from __future__ import annotations
@@ -165,11 +172,48 @@ def _history(folder: Path, title: str, changes: Sequence[Change], jobs: int) -> 
     }
 
 
+def _passes(rerecorded: bool, times: int) -> None:
+    """Re-baseline the suite for all seven changes and re-record it, then replay it a
+    warm-up and ``times`` more passes, re-baselined or as re-recorded (see the docstring)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        sys.path.insert(0, str(folder))
+        suite = folder / "suite"
+        suite.mkdir()
+        for log in SUITE_DIR.glob("*.beatlog"):
+            shutil.copy(log, suite)
+        specs = _specs(folder, suite, CHANGES)
+        update_baselines(run_suite(specs, jobs=1, update=UpdateMode.NEW), UpdateMode.NEW)
+        approve([suite])
+        again = folder / "again"
+        again.mkdir()
+        copies = [_rerecorded(spec, again) for spec in specs]
+
+        def one_pass(which: list[DtcSpec]) -> None:
+            for spec in which:
+                expected = expected_path(spec.path)
+                baseline = read_baseline(expected).expectation if expected.exists() else None
+                result = replay(
+                    spec.log, spec.system, expected=baseline, perception=spec.perception
+                )
+                assert result.ok, result.divergence
+
+        one_pass(specs)
+        one_pass(copies)
+        for _ in range(times):
+            one_pass(copies if rerecorded else specs)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, help="also write the figures to this file")
     parser.add_argument("--jobs", type=int, default=2, help="replay jobs (default 2)")
+    parser.add_argument("--passes", choices=("rebaselined", "rerecorded"))
+    parser.add_argument("--times", type=int, default=1, help="passes after the warm-up")
     args = parser.parse_args()
+    if args.passes:
+        _passes(args.passes == "rerecorded", args.times)
+        return
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
