@@ -285,7 +285,7 @@ def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
             "2 DTCs: 1 passed, 1 failed",
         ]
     )
-    assert read_baseline(pending_path(spec)).changes
+    assert read_baseline(pending_path(spec)).expectation.changes
     assert not expected_path(spec).exists()
     pending_path(spec).replace(expected_path(spec))
     pytester.runpytest().stdout.fnmatch_lines(

@@ -23,6 +23,7 @@ from beatlog.errors import FieldError, NotABeatlogError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.replay.core import Replayer
+from beatlog.replay.expectation import EveryCycle
 from beatlog.replay.verdict import DivergenceKind, StateChange
 from tests.conftest import (
     PERIOD_NS,
@@ -179,7 +180,7 @@ def test_an_approved_baseline_replaces_the_recording_as_the_expected_trace(
 ) -> None:
     log = record_probe(300)
     times = cycle_times(300)
-    baseline = {3: [StateChange("near", "far", "near")]}
+    baseline = EveryCycle({3: [StateChange("near", "far", "near")]})  # a whole trace
 
     recorded_only = build_timeline(log, expected=baseline)
     replayed = build_timeline(log, probe_system(), expected=baseline)
@@ -191,6 +192,22 @@ def test_an_approved_baseline_replaces_the_recording_as_the_expected_trace(
     arbiter, _ = lane(replayed, "arbiter")
     assert arbiter == (Interval(0, times[-1], "idle"),)  # the system's own first state
     assert replayed.divergence is None  # a timeline marks only the verdict it is given
+
+
+def test_departures_replace_the_recording_only_in_the_cycles_they_hold(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    whole = build_timeline(log)
+    first = lane(whole, "near")[0][1].start_ns
+    cycle = cycle_times(300).index(first)
+
+    quiet = build_timeline(log, expected={cycle: []})  # that change is gone, none instead
+
+    near, _ = lane(quiet, "near")
+    recorded, _ = lane(whole, "near")
+    # The first change left is near -> far: the lane is near until then.
+    assert near == (Interval(0, recorded[2].start_ns, "near"), *recorded[2:])
 
 
 def test_numeric_robot_state_fields_are_sampled_every_cycle(record_probe: RecordFn) -> None:

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+from unittest.mock import ANY
 
 import numpy as np
 
 from beatlog import replay
-from beatlog.analysis.trace import recorded_outputs, recorded_trace, replayed_trace
+from beatlog.analysis.trace import recorded_outputs, recorded_trace, replayed_trace, whole_trace
+from beatlog.replay.departures import Departures
 from beatlog.replay.expectation import ABSENT, Expectation, OutputTracker, TracedOutput
 from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
@@ -99,3 +101,24 @@ def test_an_expectation_gives_every_output_of_the_cycles_where_one_changes() -> 
         (7, {"speed": 0.5}),
         (9, {"speed": 0.25}),
     ]
+
+
+def test_departures_applied_to_the_recording_give_back_the_whole_trace(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    replayed = replayed_trace(log, probe_system(threshold=0.6), living=True)
+    departures = replayed.expectation
+
+    whole = whole_trace(departures, log)
+
+    assert departures.departures
+    assert 0 < len(departures.outputs or ()) < len(replayed.outputs)
+    assert (whole.changes, whole.outputs) == (replayed.changes, replayed.outputs)
+    assert whole.open_loop == replayed.open_loop == (departures.changes[0].cycle, ANY)
+
+
+def test_a_trace_as_recorded_departs_nowhere(record_probe: RecordFn) -> None:
+    replayed = replayed_trace(record_probe(300), probe_system(), living=True)
+    assert replayed.departures == Departures()
+    assert replayed.expectation.as_recorded

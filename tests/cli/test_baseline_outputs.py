@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.suite.baseline import expected_path, pending_path, read_baseline
+from beatlog.analysis.trace import whole_trace
+from beatlog.suite.baseline import expected_path, format_lines, pending_path, read_baseline
 from tests.commands import Beatlog
 from tests.conftest import RecordFn, first_cycle_below
 from tests.specs import CHANGED, write_spec
@@ -33,11 +34,19 @@ def spec(tmp_path: Path, record_probe: RecordFn, beatlog: Beatlog) -> Path:
 
 def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
     baseline = read_baseline(expected_path(spec))
-    assert baseline.outputs
-    assert {traced.field for traced in baseline.outputs} == {"speed", "time"}
+    assert baseline.expectation.outputs
+    assert {traced.field for traced in baseline.expectation.outputs} == {"speed", "time"}
     lines = expected_path(spec).read_text(encoding="utf-8").splitlines()
-    assert lines[0] == "# beatlog expected state changes, outputs, robot states and draws, format 4"
-    assert '       0     0.030  output "speed" = 0.5' in lines
+    assert lines[0] == "# beatlog expected departures from the recording, format 5"
+    # Only where the outputs depart from the recording, and where they follow it again.
+    assert lines[4:9] == [
+        "      21     0.660  open loop",
+        '      21     0.660  "arbiter": "dice" -> "near"',
+        '      21     0.660  "near": "far" -> "near"',
+        '      21     0.660  output "speed" = 0.0',
+        '      21     0.660  output "time" absent',
+    ]
+    assert '      80     2.430  output "speed" as recorded' in lines
 
 
 def test_a_changed_motor_gain_fails_against_the_approved_baseline(
@@ -78,9 +87,14 @@ def test_a_format_1_baseline_judges_outputs_against_the_recording_until_re_appro
 ) -> None:
     path = expected_path(spec)
     lines = path.read_text(encoding="utf-8").splitlines()
-    old = [line for line in lines[1:] if "output " not in line and "open loop" not in line]
-    path.write_text(
-        "\n".join(["# beatlog expected state changes, format 1", *old]) + "\n", encoding="utf-8"
+    log = spec.parent.parent / "probe.beatlog"
+    trace = whole_trace(read_baseline(path).expectation, log)
+    path.write_text(  # a format 1 file held the whole trace of state changes, and no outputs
+        "\n".join(["# beatlog expected state changes, format 1", *lines[1:3]])
+        + "\n"
+        + "\n".join(format_lines(trace.changes))
+        + "\n",
+        encoding="utf-8",
     )
 
     run = beatlog("test", "--update", spec)
@@ -89,5 +103,37 @@ def test_a_format_1_baseline_judges_outputs_against_the_recording_until_re_appro
     assert "outputs differ from the recording (the approved baseline pins no outputs" in run.out
     assert pending_path(spec).exists()
     assert beatlog("approve", spec).code == 0
-    assert read_baseline(path).outputs
+    assert read_baseline(path).expectation.outputs
     assert beatlog("test", spec).code == 0
+
+
+def test_a_format_4_baseline_of_the_whole_trace_still_judges_and_reviews(
+    spec: Path, beatlog: Beatlog, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = expected_path(spec)
+    departures = path.read_text(encoding="utf-8").splitlines()
+    trace = whole_trace(read_baseline(path).expectation, spec.parent.parent / "probe.beatlog")
+    lines = format_lines(trace.changes, trace.outputs, open_loop=trace.open_loop)
+    path.write_text(
+        "\n".join(
+            [
+                "# beatlog expected state changes, outputs, robot states and draws, format 4",
+                *departures[1:3],
+                *lines,
+            ]
+        )
+        + "\n",
+        encoding="utf-8",
+    )
+    assert len(lines) > len(departures)  # the whole trace, not only where it departs
+    assert beatlog("test", spec).code == 0
+    monkeypatch.setattr("sys.stdin", io.StringIO(""))
+    write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog", GEARED)
+    assert beatlog("test", "--update", spec).code == 1
+
+    run = beatlog("review", spec)
+
+    changed = [line for line in run.out.splitlines() if line[:1] in "+-"]
+    assert changed[:2] == [f"--- approved ({path.name})", "+++ pending"]
+    assert len(changed) > 2
+    assert all('output "speed"' in line for line in changed[2:])  # only the gain changed

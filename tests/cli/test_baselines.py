@@ -36,13 +36,13 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
     assert f"pending {pending_path(spec)}" in updated.out
     assert not expected_path(spec).exists()
     pending = read_baseline(pending_path(spec))
-    assert any(change.cycle == FIRST_CHANGED_CYCLE for change in pending.changes)
+    assert any(change.cycle == FIRST_CHANGED_CYCLE for change in pending.expectation.changes)
 
     approved = beatlog("approve", spec)
     assert approved.code == 0
     assert "approved avoid-pole" in approved.out
     assert not pending_path(spec).exists()
-    assert read_baseline(expected_path(spec)).changes == pending.changes
+    assert read_baseline(expected_path(spec)).expectation.changes == pending.expectation.changes
 
     rerun = beatlog("test", spec)
     assert rerun.code == 0, rerun.out

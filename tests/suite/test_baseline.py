@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 from pathlib import Path
 
@@ -9,7 +10,14 @@ import msgspec
 import pytest
 
 from beatlog.errors import BaselineError
-from beatlog.replay.expectation import ABSENT, Expectation, TracedChange, TracedOutput, TracedState
+from beatlog.replay.expectation import (
+    ABSENT,
+    AS_RECORDED,
+    Expectation,
+    TracedChange,
+    TracedOutput,
+    TracedState,
+)
 from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline import (
@@ -43,14 +51,16 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
         spec_name="a",
         log_name=log.name,
         digest=log_digest(log),
-        expectation=Expectation(CHANGES, ()),
+        expectation=Expectation(CHANGES, (), departures=True),
     )
 
     baseline = read_baseline(path)
 
     assert baseline.log_digest == log_digest(log)
-    assert [(c.cycle, c.change) for c in baseline.changes] == [(c.cycle, c.change) for c in CHANGES]
-    assert [c.time_ns for c in baseline.changes] == [
+    assert [(c.cycle, c.change) for c in baseline.expectation.changes] == [
+        (c.cycle, c.change) for c in CHANGES
+    ]
+    assert [c.time_ns for c in baseline.expectation.changes] == [
         30_000_000,
         360_000_000,
         360_000_000,
@@ -67,12 +77,12 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
         spec_name="a",
         log_name=log.name,
         digest=log_digest(log),
-        expectation=Expectation(CHANGES[:2], ()),
+        expectation=Expectation(CHANGES[:2], (), departures=True),
     )
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[0] == "# beatlog expected state changes, outputs, robot states and draws, format 4"
+    assert lines[0] == "# beatlog expected departures from the recording, format 5"
     assert lines[2] == f"# log session.beatlog sha256 {log_digest(log)}"
     assert lines[-2:] == [
         '       0     0.030  "arbiter": "idle" -> "wander"',
@@ -87,9 +97,9 @@ def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
         spec_name="a",
         log_name=log.name,
         digest=log_digest(log),
-        expectation=Expectation((), ()),
+        expectation=Expectation((), (), departures=True),
     )
-    assert read_baseline(path).changes == ()
+    assert read_baseline(path).expectation.changes == ()
 
 
 @pytest.mark.parametrize(
@@ -175,13 +185,13 @@ def test_an_output_value_reads_back_bit_for_bit(
         spec_name="a",
         log_name=log.name,
         digest=log_digest(log),
-        expectation=Expectation((), outputs),
+        expectation=Expectation((), outputs, departures=True),
     )
 
     assert path.read_text(encoding="utf-8").splitlines()[-1] == (
         f'       5     0.180  output "motor" = {written}'
     )
-    (traced,) = read_baseline(path).outputs or ()
+    (traced,) = read_baseline(path).expectation.outputs or ()
     assert (traced.cycle, traced.field) == (5, "motor")
     assert _bits(traced.value) == _bits(value)
 
@@ -198,7 +208,7 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         spec_name="a",
         log_name=log.name,
         digest=log_digest(log),
-        expectation=Expectation(CHANGES[:2], outputs),
+        expectation=Expectation(CHANGES[:2], outputs, departures=True),
     )
 
     lines = path.read_text(encoding="utf-8").splitlines()
@@ -211,8 +221,8 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         '      13     0.390  output "speed" absent',
     ]
     baseline = read_baseline(path)
-    assert baseline.outputs is not None
-    assert [(o.cycle, o.field, o.value) for o in baseline.outputs] == [
+    assert baseline.expectation.outputs is not None
+    assert [(o.cycle, o.field, o.value) for o in baseline.expectation.outputs] == [
         (0, "speed", 0.5),
         (12, "speed", 0.0),
         (13, "speed", ABSENT),
@@ -227,7 +237,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     pins = StatePins.from_rebuilt(rebuilt_states(states))
     outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
     changes = (TracedChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
-    expectation = Expectation(changes, outputs, state_pins=pins)
+    expectation = Expectation(changes, outputs, state_pins=pins, departures=True)
     write_baseline(
         path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
     )
@@ -243,9 +253,8 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
         '      12     0.012  output "speed" = 0.0',
     ]
     baseline = read_baseline(path)
-    assert baseline.state_pins == pins
     assert baseline.expectation.state_pins == pins
-    assert baseline.robot_states == ()
+    assert baseline.expectation.robot_states == ()
 
 
 def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Path) -> None:
@@ -256,7 +265,7 @@ def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Pat
             spec_name="a",
             log_name=log.name,
             digest=log_digest(log),
-            expectation=Expectation((), (), states),
+            expectation=Expectation((), (), states, departures=True),
         )
 
 
@@ -277,13 +286,13 @@ def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
 
     baseline = read_baseline(path)
 
-    assert [(s.cycle, s.field, _bits(s.value)) for s in baseline.robot_states] == [
+    assert [(s.cycle, s.field, _bits(s.value)) for s in baseline.expectation.robot_states] == [
         (12, "distance", _bits(0.55)),
         (12, "pose", _bits([1.0, -0.0])),
         (13, "distance", _bits(PAYLOAD_NAN)),
     ]
     assert baseline.expectation.states_by_cycle()[12] == {"distance": 0.55, "pose": [1.0, -0.0]}
-    assert baseline.state_pins == StatePins()
+    assert baseline.expectation.state_pins == StatePins()
 
 
 def test_robot_state_lines_out_of_cycle_order_are_an_error(tmp_path: Path) -> None:
@@ -309,8 +318,8 @@ def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path
         encoding="utf-8",
     )
     baseline = read_baseline(path)
-    assert baseline.outputs == (TracedOutput(12, 360_000_000, "speed", 0.0),)
-    assert baseline.robot_states == ()
+    assert baseline.expectation.outputs == (TracedOutput(12, 360_000_000, "speed", 0.0),)
+    assert baseline.expectation.robot_states == ()
 
 
 def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> None:
@@ -323,8 +332,9 @@ def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> 
 
     baseline = read_baseline(path)
 
-    assert [c.change for c in baseline.changes] == [StateChange("avoid", "off", "turning")]
-    assert baseline.outputs is None
+    assert [c.change for c in baseline.expectation.changes] == [
+        StateChange("avoid", "off", "turning")
+    ]
     assert baseline.expectation.outputs is None
 
 
@@ -380,3 +390,103 @@ def test_a_damaged_output_line_is_an_error_naming_file_and_line(
 
     assert str(raised.value).startswith(f"{path}: ")
     assert problem in str(raised.value)
+
+
+def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
+    tmp_path: Path, log: Path
+) -> None:
+    path = tmp_path / "a.dtc.pending"
+    outputs = (
+        TracedOutput(12, 360_012_000, "speed", 0.0),
+        TracedOutput(13, 390_000_000, "turn", ABSENT),
+        TracedOutput(20, 600_000_000, "speed", AS_RECORDED),
+    )
+    expectation = Expectation(
+        CHANGES[1:2],
+        outputs,
+        open_loop=(12, 360_012_000),
+        departures=True,
+        quiet=((15, 450_000_000),),
+    )
+    write_baseline(
+        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
+    )
+
+    assert path.read_text(encoding="utf-8").splitlines()[-6:] == [
+        "      12     0.360  open loop",
+        '      12     0.360  "avoid": "off" -> "turning"',
+        '      12     0.360  output "speed" = 0.0',
+        '      13     0.390  output "turn" absent',
+        "      15     0.450  no state changes",
+        '      20     0.600  output "speed" as recorded',
+    ]
+    read = read_baseline(path).expectation
+    assert read == dataclasses.replace(
+        expectation,
+        changes=(CHANGES[1]._replace(time_ns=360_000_000),),
+        open_loop=(12, 360_000_000),
+        outputs=(outputs[0]._replace(time_ns=360_000_000), *outputs[1:]),
+    )
+    assert read.changes_override() == {12: [CHANGES[1].change], 15: []}
+    assert not read.as_recorded
+
+
+def test_a_whole_trace_is_no_longer_written(tmp_path: Path, log: Path) -> None:
+    with pytest.raises(ValueError, match="a whole trace cannot be written"):
+        write_baseline(
+            tmp_path / "a.dtc.pending",
+            spec_name="a",
+            log_name=log.name,
+            digest=log_digest(log),
+            expectation=Expectation(CHANGES, ()),
+        )
+
+
+def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_path: Path) -> None:
+    header = (
+        "# beatlog expected state changes, outputs, robot states and draws, format 4\n"
+        f"# log a.beatlog sha256 {'0' * 64}\n"
+    )
+    whole = tmp_path / "whole.dtc.expected"
+    whole.write_text(header + '      12     0.360  "avoid": "off" -> "turning"\n', encoding="utf-8")
+    recorded = tmp_path / "recorded.dtc.expected"
+    recorded.write_text(header + "state changes and outputs as recorded\n", encoding="utf-8")
+
+    trace = read_baseline(whole).expectation
+    assert (trace.departures, trace.as_recorded) == (False, False)
+    override = trace.changes_override()
+    assert override is not None
+    assert (override[12], 11 in override, override[11]) == ([CHANGES[1].change], True, [])
+    assert read_baseline(recorded).expectation.as_recorded
+    assert read_baseline(recorded).expectation.changes_override() is None
+
+
+@pytest.mark.parametrize(
+    ("line", "problem"),
+    [
+        ('  7  0.210  output "speed" as recorded', "line 4: expected '=' at column"),
+        ("  7  0.210  no state changes", "line 4: Expecting value"),
+    ],
+)
+def test_a_format_4_baseline_holds_no_departures(tmp_path: Path, line: str, problem: str) -> None:
+    path = tmp_path / "a.dtc.expected"
+    path.write_text(
+        "# beatlog expected state changes, outputs, robot states and draws, format 4\n"
+        f"# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(BaselineError, match=problem):
+        read_baseline(path)
+
+
+def test_a_cycle_with_state_changes_and_none_is_an_error(tmp_path: Path) -> None:
+    path = tmp_path / "a.dtc.expected"
+    path.write_text(
+        "# beatlog expected departures from the recording, format 5\n"
+        f"# log a.beatlog sha256 {'0' * 64}\n"
+        '      12     0.360  "avoid": "off" -> "turning"\n'
+        "      12     0.360  no state changes\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(BaselineError, match="cycle 12 has state changes and none"):
+        read_baseline(path)

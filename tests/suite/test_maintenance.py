@@ -81,8 +81,8 @@ def test_a_failure_writes_its_new_expectation_to_the_pending_file_only(
     assert update.action is UpdateAction.WRITTEN
     assert update.path == pending_path(changed.path)
     written = read_baseline(update.path)
-    assert update.state_changes == len(written.changes) > 0
-    assert update.output_changes == len(written.outputs or ())
+    assert update.state_changes == len(written.expectation.changes) > 0
+    assert update.output_changes == len(written.expectation.outputs or ())
     assert not expected_path(changed.path).exists()
 
 
@@ -152,7 +152,10 @@ def test_each_decision_does_what_it_says(pending: DtcSpec, decision: Decision) -
     assert pending_path(pending.path).exists() is (decision is Decision.SKIP)
     assert expected_path(pending.path).exists() is (decision is Decision.ACCEPT)
     if decision is Decision.ACCEPT:
-        assert read_baseline(expected_path(pending.path)).changes == waiting.changes
+        assert (
+            read_baseline(expected_path(pending.path)).expectation.changes
+            == waiting.expectation.changes
+        )
 
 
 def test_an_unknown_decision_names_the_decisions_there_are(pending: DtcSpec) -> None:

@@ -67,5 +67,7 @@ def test_every_intended_change_is_kept_and_a_planted_bug_is_caught_after(
 
     assert failed(run_suite(planted)) != []
     assert {path: path.read_bytes() for path in suite.glob("*.beatlog")} == logs
+    baselines = sum(path.stat().st_size for path in suite.glob("*.dtc.expected"))
+    assert baselines <= 0.05 * sum(map(len, logs.values()))  # where it departs, no copy
     unnoticed = [title for title, names in noticed.items() if not names]
     assert set(unnoticed) <= {"two behaviors swapped in priority"}  # the rest is kept above

@@ -52,14 +52,14 @@ def replay_details(
     """Replay ``log`` on a fresh ``system`` once, gathering what is asked for.
 
     ``divergence`` is the verdict's; the fields read are those of its cycle.
-    ``expected`` stands in for the recorded state changes in the timelines (an
-    approved baseline). With a ``perception`` step, each robot state is rebuilt from the
-    logged samples, as the verdict's replay did, and with a ``migration`` the log's
-    robot-state fields are renamed and converted as they were there. ``living`` replay
-    goes on where the behaviors draw otherwise than recorded (as the verdict's does
-    against an approved baseline, and as a trace for a new baseline must); ``rename``
-    maps a recorded behavior's name to its name now. Stepping stops as soon as nothing
-    asked for needs more.
+    ``expected`` stands in for the recorded state changes in the timelines, in the
+    cycles it holds (an approved baseline). With a ``perception`` step, each robot state
+    is rebuilt from the logged samples, as the verdict's replay did, and with a
+    ``migration`` the log's robot-state fields are renamed and converted as they were
+    there. ``living`` replay goes on where the behaviors draw otherwise than recorded
+    (as the verdict's does against an approved baseline, and as a trace for a new
+    baseline must); ``rename`` maps a recorded behavior's name to its name now.
+    Stepping stops as soon as nothing asked for needs more.
     """
     diverged_at = (
         None

@@ -154,8 +154,8 @@ class Lanes:
         previous_ns = self.time_ns
         self.time_ns += record.heartbeat_ns
         override = self._override
-        if override is not None:
-            expected = list(override.get(self.cycle, ()))
+        if override is not None and self.cycle in override:
+            expected = list(override[self.cycle])
         elif record.state_changes == EMPTY_LIST:
             expected = []
         else:

@@ -110,7 +110,8 @@ def build_timeline(
 
     ``fields`` names the robot-state fields to sample (default: the first
     :data:`DEFAULT_FIELDS` numeric ones). ``expected`` replaces the recorded state
-    changes (cycle to changes, e.g. an approved baseline). ``divergence`` is the
+    changes in the cycles it holds (cycle to changes, e.g. an approved baseline's
+    :meth:`~beatlog.replay.expectation.Expectation.changes_override`). ``divergence`` is the
     verdict's first divergence, marked on the chart. Robot time is kept in
     ``max_points`` buckets (see :class:`TimelineCollector`), so a chart stays small.
     The actual lanes end where replay cannot go on (an exception, a random-number

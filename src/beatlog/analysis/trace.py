@@ -7,6 +7,7 @@ traced compactly: a field appears only in the cycles where its value changes.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
@@ -28,7 +29,8 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
 from beatlog.replay.compare import WHOLE_STATE, state_fields
-from beatlog.replay.core import CycleOutcome, Replayer, actor_name
+from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.departures import DepartureCollector, Departures, apply_outputs, hold
 from beatlog.replay.draws import DrawRule, draw_rules
 from beatlog.replay.expectation import (
     Expectation,
@@ -48,6 +50,7 @@ __all__ = [
     "recorded_states",
     "recorded_trace",
     "replayed_trace",
+    "whole_trace",
 ]
 
 
@@ -68,23 +71,28 @@ class ReplayedTrace:
     recorded, pinned by digest in each cycle where it did."""
     draws: tuple[DrawRule, ...] = ()
     """In living replay, the draws made otherwise than recorded."""
-    open_loop: tuple[int, int] | None = None
-    """The first cycle (and its robot time) whose state changes or outputs differ from
-    the recording's, once compared (:meth:`TraceCollector.compare`)."""
+    departures: Departures = field(default_factory=Departures)
+    """Where the state changes and outputs depart from the recording's."""
+
+    @property
+    def open_loop(self) -> tuple[int, int] | None:
+        """The first cycle (and its robot time) whose state changes or outputs differ
+        from the recording's."""
+        return self.departures.first
 
     @property
     def expectation(self) -> Expectation:
-        """This trace as the expectation a baseline pins."""
-        if self.open_loop is None:  # a copy of the recording's trace would pin nothing
-            return Expectation(
-                (), None, state_pins=self.state_pins, draws=self.draws, as_recorded=True
-            )
+        """This trace as the expectation a baseline pins: where it departs from the
+        recording."""
+        departures = self.departures
         return Expectation(
-            self.changes,
-            self.outputs,
+            departures.changes,
+            departures.outputs,
             state_pins=self.state_pins,
             draws=self.draws,
-            open_loop=self.open_loop,
+            open_loop=departures.first,
+            departures=True,
+            quiet=departures.quiet,
         )
 
 
@@ -118,21 +126,68 @@ def read_changes(log: str | Path) -> tuple[list[TracedChange], int]:
 
 def recorded_outputs(log: str | Path) -> list[TracedOutput]:
     """The outputs the log recorded, as the cycles where a field changed value."""
-    decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
     tracker = OutputTracker()
     changes: list[TracedOutput] = []
     with SessionLogReader(log) as reader:
-        time_ns = 0
-        for cycle, record in enumerate(_records(reader)):
-            time_ns += record.heartbeat_ns
-            try:
-                outputs = {} if record.outputs == EMPTY_MAP else decode(record.outputs)
-            except DECODE_ERRORS as exc:
-                raise CorruptLogError(
-                    reader.path, f"damaged outputs in cycle {cycle}: {exc}"
-                ) from None
+        for cycle, time_ns, _, outputs in _with_outputs(reader):
             changes.extend(tracker.observe(cycle, time_ns, outputs))
     return changes
+
+
+def _with_outputs(
+    reader: SessionLogReader,
+) -> Iterator[tuple[int, int, CycleRecord, dict[str, Any]]]:
+    """Each cycle of a log: its number, robot time, record and recorded outputs."""
+    decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
+    time_ns = 0
+    for cycle, record in enumerate(_records(reader)):
+        time_ns += record.heartbeat_ns
+        try:
+            outputs = {} if record.outputs == EMPTY_MAP else decode(record.outputs)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(reader.path, f"damaged outputs in cycle {cycle}: {exc}") from None
+        yield cycle, time_ns, record, outputs
+
+
+def whole_trace(
+    expectation: Expectation, log: str | Path, rename: Callable[[str], str] = str
+) -> Expectation:
+    """An expectation with its state changes and outputs as a whole trace: those of
+    departures (:attr:`Expectation.departures`) applied to the ones ``log`` recorded
+    (behaviors named as ``rename`` names them now); a whole one as it is."""
+    if not expectation.departures:
+        return expectation
+    override = expectation.changes_override() or {}
+    lines = itertools.groupby(expectation.outputs or (), key=lambda o: o.cycle)
+    line = next(lines, None)
+    held: dict[str, Any] = {}
+    changes: list[TracedChange] = []
+    outputs: list[TracedOutput] = []
+    tracker = OutputTracker()
+    recorded = recorded_trace(log)
+    by_cycle: dict[int, list[TracedChange]] = {}
+    for traced in recorded:
+        by_cycle.setdefault(traced.cycle, []).append(traced)
+    with SessionLogReader(log) as reader:
+        for cycle, time_ns, _, values in _with_outputs(reader):
+            if cycle in override:
+                changes.extend(TracedChange(cycle, time_ns, c) for c in override[cycle])
+            else:
+                changes.extend(
+                    TracedChange(cycle, time_ns, _renamed(c.change, rename))
+                    for c in by_cycle.get(cycle, ())
+                )
+            if line is not None and line[0] == cycle:
+                hold(held, line[1])
+                line = next(lines, None)
+            outputs.extend(tracker.observe(cycle, time_ns, apply_outputs(values, held)))
+    return dataclasses.replace(
+        expectation, changes=tuple(changes), outputs=tuple(outputs), departures=False, quiet=()
+    )
+
+
+def _renamed(change: StateChange, rename: Callable[[str], str]) -> StateChange:
+    return change._replace(behavior=rename(change.behavior))
 
 
 def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[str, Any]]:
@@ -180,10 +235,11 @@ class TraceCollector:
 
     def __init__(self, replayer: Replayer, rename: Callable[[str], str] = str) -> None:
         self._names = replayer.executor.behavior_ids
-        self._recorded_names = [rename(name) for name in replayer.header.behaviors]
         self._stop = replayer.stop
         self._encode = payload_encoder().encode
-        self._open_loop: tuple[int, int] | None = None
+        self._departures = DepartureCollector(
+            self._names, [rename(name) for name in replayer.header.behaviors]
+        )
         self._changes: list[TracedChange] = []
         self._outputs: list[TracedOutput] = []
         self._states: list[RebuiltState] = []
@@ -223,26 +279,10 @@ class TraceCollector:
                 self._states.append(rebuilt)
         if outcome.draw_differences:
             self._draws.extend((outcome.cycle, d) for d in outcome.draw_differences)
-        if self._open_loop is None and self._left_recording(outcome):
-            self._open_loop = (outcome.cycle, outcome.time_ns)
+        self._departures.add(
+            outcome.record, outcome.cycle, outcome.time_ns, outcome.changes or (), outcome.outputs
+        )
         self._cycles += 1
-
-    def _left_recording(self, outcome: CycleOutcome) -> bool:
-        """Whether the behaviors changed state or output otherwise than recorded."""
-        record = outcome.record
-        changes = outcome.changes or []
-        outputs = outcome.outputs
-        if record.outputs != (EMPTY_MAP if not outputs else msgspec.Raw(self._encode(outputs))):
-            recorded_outputs = msgspec.msgpack.decode(record.outputs)
-            if recorded_outputs != msgspec.msgpack.decode(self._encode(outputs)):
-                return True
-        if not changes and record.state_changes == EMPTY_LIST:
-            return False
-        encode, names, then = self._encode, self._names, self._recorded_names
-        recorded = msgspec.msgpack.decode(record.state_changes)
-        return {(actor_name(then, i), encode(b), encode(a)) for i, b, a in recorded} != {
-            (names[i], encode(b), encode(a)) for i, b, a in changes
-        }
 
     def trace(self) -> ReplayedTrace:
         """The trace gathered so far."""
@@ -253,7 +293,7 @@ class TraceCollector:
             tuple(self._outputs),
             StatePins.from_rebuilt(self._states),
             draw_rules(self._draws),
-            self._open_loop,
+            self._departures.departures(),
         )
 
 

@@ -431,6 +431,8 @@ class ReplayRandom(RandomSource):
         """In living replay, once the cycle's update is over: its differences, the
         recorded draws left unused among them."""
         used = self._used
+        if used is None and len(self.drawn) >= len(self.recorded):  # drew as recorded
+            return self.differences
         start = len(self.drawn) if used is None else 0
         for index in range(start, len(self.recorded)):
             if used is None or not used[index]:
@@ -499,9 +501,9 @@ class ReplayRandom(RandomSource):
             self._used = [position < index for position in range(len(recorded))]
         used = self._used
         mine = [i for i, d in enumerate(recorded) if not used[i] and self._drawn_by(d, actor)]
-        same = [i for i in mine if recorded[i].kind == kind.value]
-        other = [i for i in mine if _luck(recorded[i]) is not None and kind.value in _SCALAR_VALUES]
-        match = same[0] if same else (other[0] if other else None)
+        match = next((i for i in mine if recorded[i].kind == kind.value), None)
+        if match is None and kind.value in _SCALAR_VALUES:  # another kind, its luck re-mapped
+            match = next((i for i in mine if _luck(recorded[i]) is not None), None)
         place = Place(
             self._context.cycle if self._context is not None else -1,
             self._name(actor),

@@ -2,7 +2,9 @@
 an approved baseline (:class:`Expectation`) made of one.
 
 Outputs are traced compactly: a field appears only in the cycles where its value
-changes (:class:`OutputTracker`).
+changes (:class:`OutputTracker`). A baseline made since format 5 holds only where the
+behaviors depart from the recording (:mod:`beatlog.replay.departures`), the rest being
+as recorded.
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ from beatlog.replay.verdict import StateChange
 
 __all__ = [
     "ABSENT",
+    "AS_RECORDED",
+    "EveryCycle",
     "Expectation",
     "OutputTracker",
     "TracedChange",
@@ -38,15 +42,19 @@ class TracedChange(NamedTuple):
     change: StateChange
 
 
-class _Absent(enum.Enum):
+class _Marker(enum.Enum):
     ABSENT = "absent"
+    AS_RECORDED = "as recorded"
 
     def __repr__(self) -> str:
-        return "ABSENT"
+        return self.name
 
 
-ABSENT = _Absent.ABSENT
+ABSENT = _Marker.ABSENT
 """The value of a :class:`TracedOutput` whose field is no longer output from that cycle on."""
+AS_RECORDED = _Marker.AS_RECORDED
+"""The value of a :class:`TracedOutput` of departures (:attr:`Expectation.departures`)
+whose field is output as recorded again from that cycle on."""
 
 
 class TracedOutput(NamedTuple):
@@ -98,6 +106,17 @@ class OutputTracker:
         return changed
 
 
+class EveryCycle(dict[int, list[StateChange]]):
+    """State changes by cycle that stand in for the recorded ones in every cycle, a
+    whole trace's: a cycle it does not list has none."""
+
+    def __contains__(self, cycle: object) -> bool:
+        return True
+
+    def __missing__(self, cycle: int) -> list[StateChange]:
+        return []
+
+
 @dataclass(frozen=True)
 class Expectation:
     """What replay judges against instead of the recording: an approved baseline.
@@ -113,6 +132,13 @@ class Expectation:
     ``open_loop`` is the first cycle whose state changes or outputs left the
     recording's, if any: from there the recorded world no longer answers to what the
     behaviors do.
+
+    With ``departures`` set (a baseline since format 5), ``changes`` and ``outputs`` say
+    only where the behaviors depart from the recording: in a cycle that ``changes`` or
+    ``quiet`` lists, its state changes stand in for the recorded ones (none, in a quiet
+    cycle), and any other cycle's are as recorded; an output field holds the value an
+    output line gives it (:data:`ABSENT` included) from that cycle on, whatever was
+    recorded, until a line gives it :data:`AS_RECORDED` again.
     """
 
     changes: tuple[TracedChange, ...]
@@ -122,15 +148,31 @@ class Expectation:
     draws: tuple[DrawRule, ...] = ()
     open_loop: tuple[int, int] | None = None
     """The cycle and robot time (ns) where the behaviors left the recording."""
-    as_recorded: bool = False
-    """Whether the behaviors' state changes and outputs are the recording's (the change
-    approved moved only robot states or draws): then ``changes`` and ``outputs`` pin
-    nothing, and they are judged against the recording."""
+    departures: bool = False
+    """Whether ``changes``, ``quiet`` and ``outputs`` say only where the behaviors depart
+    from the recording (else they are the whole trace)."""
+    quiet: tuple[tuple[int, int], ...] = ()
+    """With ``departures``: the cycles (and robot times) whose recorded state changes
+    are gone, none standing in for them."""
+
+    @property
+    def as_recorded(self) -> bool:
+        """Whether the behaviors' state changes and outputs are the recording's (the
+        change approved moved only robot states or draws)."""
+        return self.departures and not (self.changes or self.quiet or self.outputs)
 
     def changes_override(self) -> dict[int, list[StateChange]] | None:
-        """The state changes that stand in for the recorded ones, by cycle; None where
-        the recording's hold."""
-        return None if self.as_recorded else self.changes_by_cycle()
+        """The state changes that stand in for the recorded ones, in the cycles the
+        mapping holds (an :class:`EveryCycle` for a whole trace); None where the
+        recording's hold in every cycle."""
+        if self.as_recorded:
+            return None
+        grouped = self.changes_by_cycle()
+        if not self.departures:
+            return EveryCycle(grouped)
+        for cycle, _ in self.quiet:
+            grouped[cycle] = []
+        return grouped
 
     def changes_by_cycle(self) -> dict[int, list[StateChange]]:
         """The state changes grouped by cycle."""

@@ -27,6 +27,7 @@ import base64
 import bisect
 import hashlib
 import re
+import string
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -63,6 +64,8 @@ UNPINNED = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
 _TAGS = re.compile(r"(?:[A-Za-z0-9+/]{2}|\.\.)+")
 _KEY = b"beatlog robot state"
+_HASHER = hashlib.blake2b(digest_size=DIGEST_BYTES, key=_KEY)
+"""Copied for each :func:`state_digest`: cheaper than keying a new one."""
 _SORTED = msgspec.msgpack.Encoder(order="sorted")
 _EXACT = Comparison()
 
@@ -70,7 +73,9 @@ _EXACT = Comparison()
 def state_digest(encoded: bytes) -> bytes:
     """The digest of a robot state as a log encodes it
     (:func:`~beatlog.log.format.payload_encoder`), bit for bit."""
-    return hashlib.blake2b(encoded, digest_size=DIGEST_BYTES, key=_KEY).digest()
+    hasher = _HASHER.copy()
+    hasher.update(encoded)
+    return hasher.digest()
 
 
 def _block_digest(digests: Iterable[bytes]) -> bytes:
@@ -232,7 +237,7 @@ def _coverage_problem(runs: tuple[PinnedRun, ...], blocks: tuple[DigestBlock, ..
             if not _TAGS.fullmatch(block.tags) or not 0 < block.cycles <= CYCLES_PER_BLOCK:
                 return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
             start = block.cycle + block.cycles
-            pinned += len(block.pinned)
+            pinned += block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
             index += 1
         if start != run.last + 1:
             return f"{where} has digests that do not end at its last cycle, {run.last}"
@@ -246,22 +251,36 @@ def _coverage_problem(runs: tuple[PinnedRun, ...], blocks: tuple[DigestBlock, ..
 
 class PinChecker:
     """Judges the robot states perception rebuilds against :class:`StatePins`, one
-    pinned cycle after another, in cycle order."""
+    pinned cycle after another, in cycle order.
+
+    It costs a digest and a few look-ups a pinned cycle: the cycles map to their
+    blocks when it is made, and a block's tags are read when replay reaches it.
+    """
 
     def __init__(self, pins: StatePins) -> None:
-        self._at: dict[int, tuple[DigestBlock, int, bool]] = {}
-        """Each pinned cycle: its block, its place among the block's pinned cycles, and
-        whether it is the block's last."""
-        for block in pins.blocks:
-            offsets = block.pinned
-            for place, offset in enumerate(offsets):
-                self._at[block.cycle + offset] = (block, place, place == len(offsets) - 1)
+        self._blocks = pins.blocks
+        self._at: dict[int, int] = {}
+        """Each pinned cycle, with the index of its block."""
+        for index, block in enumerate(pins.blocks):
+            self._at.update(dict.fromkeys(range(block.cycle, block.cycle + block.cycles), index))
+            gap = block.tags.find(UNPINNED)
+            while gap >= 0:
+                del self._at[block.cycle + gap // TAG_CHARS]
+                gap = block.tags.find(UNPINNED, gap + TAG_CHARS)
         self._runs = pins.runs
         self._starts = [run.cycle for run in pins.runs]
-        self._block: DigestBlock | None = None
+        self._index = -1
+        """The block being judged."""
+        self._bits: list[int] = []
+        """Its cycles' tags as bits (-1 for a gap)."""
+        self._places: list[int] = []
+        """Its cycles' places among its pinned cycles (-1 for a gap)."""
+        self._final = 0
+        """The offset of its last pinned cycle."""
         self._digests: list[bytes] = []
         self._intact = False
-        self._last: tuple[int, str | None] | None = None
+        self._last_cycle = -1
+        self._last_found: str | None = None
 
     def __contains__(self, cycle: object) -> bool:
         return cycle in self._at
@@ -275,25 +294,62 @@ class PinChecker:
         """The run a pinned cycle is in."""
         return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
 
+    def _enter(self, index: int) -> None:
+        """Start judging the block at ``index``."""
+        tags = self._blocks[index].tags
+        self._index = index
+        self._bits = [
+            -1 if tag == UNPINNED else _tag_bits(tag)
+            for tag in (tags[at : at + TAG_CHARS] for at in range(0, len(tags), TAG_CHARS))
+        ]
+        self._places = []
+        place = 0
+        for bits in self._bits:
+            self._places.append(-1 if bits < 0 else place)
+            place += bits >= 0
+        self._final = max(offset for offset, bits in enumerate(self._bits) if bits >= 0)
+
     def mismatch(self, cycle: int, encoded: bytes) -> str | None:
         """How the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would) was found
         to differ from the approved one: ``"by its digest"`` (its tag), or ``"by the
         digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle);
         None when it agrees. Asked again about the same cycle, the same answer."""
-        if self._last is not None and self._last[0] == cycle:
-            return self._last[1]
-        block, place, last = self._at[cycle]
-        if place == 0 or block is not self._block:
-            self._block, self._digests, self._intact = block, [], place == 0
-        if place != len(self._digests):  # a pinned cycle of the block went unjudged
+        if cycle == self._last_cycle:
+            return self._last_found
+        index = self._at[cycle]
+        if index != self._index:
+            self._enter(index)
+        block = self._blocks[index]
+        offset = cycle - block.cycle
+        place = self._places[offset]
+        digests = self._digests
+        if place == 0:
+            digests = self._digests = []
+            self._intact = True
+        elif place != len(digests):  # a pinned cycle of the block went unjudged
             self._intact = False
-        digest = state_digest(encoded)
-        self._digests.append(digest)
+        hasher = _HASHER.copy()
+        hasher.update(encoded)
+        digest = hasher.digest()
+        digests.append(digest)
         found = None
-        if _tag(digest) != block.tag(cycle - block.cycle):
+        if (digest[0] << 4 | digest[1] >> 4) != self._bits[offset]:
             self._intact = False  # reported here, not again for the block
             found = "by its digest"
-        elif last and self._intact and _block_digest(self._digests) != block.digest:
+        elif offset == self._final and self._intact and _block_digest(digests) != block.digest:
             found = f"by the digest of cycles {block.cycle}–{cycle}"
-        self._last = (cycle, found)
+        self._last_cycle, self._last_found = cycle, found
         return found
+
+
+_B64 = {
+    char: value
+    for value, char in enumerate(
+        string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
+    )
+}
+
+
+def _tag_bits(tag: str) -> int:
+    """The 12 bits a tag stands for: the first of its digest's (:func:`_tag`)."""
+    return _B64[tag[0]] << 6 | _B64[tag[1]]

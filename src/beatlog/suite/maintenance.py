@@ -11,7 +11,6 @@ what they did; they never print: the CLI and the pytest plugin render the result
 
 from __future__ import annotations
 
-import dataclasses
 import difflib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -19,7 +18,12 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from beatlog.analysis.trace import recorded_outputs, recorded_states, recorded_trace
+from beatlog.analysis.trace import (
+    recorded_outputs,
+    recorded_states,
+    recorded_trace,
+    whole_trace,
+)
 from beatlog.errors import BaselineError, OptionError
 from beatlog.replay.compare import Comparison
 from beatlog.replay.draws import DrawRule
@@ -29,7 +33,6 @@ from beatlog.replay.verdict import FieldDifference
 from beatlog.suite.baseline import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,
-    Baseline,
     expected_path,
     format_lines,
     log_digest,
@@ -276,11 +279,12 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     that differ in each run's first cycle as recorded and rebuilt (field by field, with
     their values before and after, for a format 3 pending file)."""
     expected = expected_path(spec.path)
-    approved = read_baseline(expected) if expected.exists() else None
-    pending = read_baseline(pending_path(spec.path))
+    approved = read_baseline(expected).expectation if expected.exists() else None
+    pending = read_baseline(pending_path(spec.path)).expectation
+    rename = spec.comparison.rename
     with spec.readable_log() as log:
         if approved is not None:
-            approved = _with_trace(approved, log, spec)
+            approved = whole_trace(approved, log, rename)
             old_states = approved.robot_states
             old = format_lines(approved.changes, approved.outputs, old_states, approved.state_pins)
             source = f"approved ({expected.name})"
@@ -295,7 +299,7 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
             )
             source = f"recorded ({spec.log.name})"
         fields = _field_changes(log, old_states, pending.robot_states)
-        pending = _with_trace(pending, log, spec)
+        pending = whole_trace(pending, log, rename)
         runs = _rebuilt_runs(log, pending.state_pins)
     new = format_lines(pending.changes, pending.outputs, pending.robot_states, pending.state_pins)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
@@ -309,21 +313,6 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         runs,
         pending.draws,
         pending.open_loop,
-    )
-
-
-def _with_trace(baseline: Baseline, log: Path, spec: DtcSpec) -> Baseline:
-    """A baseline whose state changes and outputs are the recording's, with them read
-    from the log (in the spec's names), so that it compares line for line."""
-    if not baseline.as_recorded:
-        return baseline
-    renamed = spec.comparison.renamed
-    return dataclasses.replace(
-        baseline,
-        changes=tuple(
-            TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(log)
-        ),
-        outputs=tuple(recorded_outputs(log)),
     )
 
 

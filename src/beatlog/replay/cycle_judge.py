@@ -1,0 +1,283 @@
+"""The judge's hot loop: step each cycle and compare its state changes and outputs
+with the expected ones, byte for byte first, and by the spec's comparison only when
+the bytes differ (:mod:`beatlog.replay.judge` runs it over a log)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+import msgspec
+
+from beatlog.errors import CorruptLogError
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    EMPTY_MAP,
+    CycleRecord,
+    StateChangeRecord,
+    payload_encoder,
+)
+from beatlog.replay.compare import Comparison
+from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.divergences import Divergences
+from beatlog.replay.draws import DrawLedger
+from beatlog.replay.expectation import Expectation
+from beatlog.replay.expected import ExpectedRecords
+from beatlog.replay.fit import check_catalogue
+from beatlog.replay.verdict import Checked, Divergence, StateChange
+
+__all__ = ["CycleJudge"]
+
+
+class CycleJudge:
+    """Replays cycles and keeps the first divergence; the hot loop lives in :meth:`run`.
+
+    ``expected`` is an approved baseline to judge against instead of the recording.
+    """
+
+    def __init__(
+        self,
+        replayer: Replayer,
+        *,
+        keep_going: bool,
+        context: int,
+        comparison: Comparison,
+        expected: Expectation | None,
+        observe: Callable[[CycleOutcome], object] | None = None,
+    ) -> None:
+        header, path = replayer.header, replayer.path
+        self.comparison = comparison
+        self._keep_going = keep_going
+        self.path = path
+        self.replayer = replayer
+        check_catalogue(header, replayer.system, path, comparison.renames)
+        replayer.random.expect_actors(
+            header.behaviors, replayer.executor.behavior_ids, comparison.rename
+        )
+        self.executor = replayer.executor
+        self._observe = observe
+        self._stopped_at: tuple[int, int] | None = None
+        self._changes_checked = self._outputs_checked = self._draws_checked = 0
+        """The state changes, outputs and draws of the cycles that agreed."""
+        self._samples_perceived = 0
+        """The replay core's count of samples perceived, when the last batch ended."""
+        encoder = payload_encoder()
+        self._encoder = encoder
+        self._expected = (
+            None
+            if expected is None or expected.as_recorded
+            else ExpectedRecords(
+                expected, self.executor.behavior_ids, header.behaviors, comparison.rename
+            )
+        )
+        self.expected_names = (
+            list(header.behaviors) if self._expected is None else self._expected.names
+        )
+        ledger = None if expected is None else DrawLedger(expected.draws)
+        """In living replay (an approved baseline), the draws it lets differ."""
+        self._draw_cycles = frozenset() if ledger is None else ledger.cycles
+        pinned_states: dict[int, dict[str, Any]] = {}
+        """The robot states a format 3 baseline pins: fields by cycle (sensor-level replay)."""
+        if expected is not None and replayer.perception is not None:
+            pinned_states = expected.states_by_cycle()
+        self._pinned_cycles = frozenset(pinned_states)
+        """The cycles a format 3 baseline pins (the replay core judges the cycles pinned
+        by digest)."""
+        # Whole-trace outputs are encoded with sorted keys, whatever order the behaviors
+        # report them in; recorded ones (and departures') in the order they were reported.
+        self._outputs_encoder = (
+            msgspec.msgpack.Encoder(enc_hook=encoder.enc_hook, order="sorted")
+            if self._expected is not None and self._expected.sorted_outputs
+            else encoder
+        )
+        self._same_catalogue = self.executor.behavior_ids == self.expected_names
+        self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
+        self._outputs_decoder = msgspec.msgpack.Decoder(dict[str, Any])
+        self.divergences = Divergences(
+            replayer,
+            comparison,
+            context=context,
+            keep_going=keep_going,
+            named=self._named,
+            outputs_of=self._expected_outputs,
+            expected_names=self.expected_names,
+            ledger=ledger,
+            pinned_states=pinned_states,
+            against=(self._against(), self._outputs_against()),
+        )
+
+    def expected_batches(
+        self, batches: Iterator[Sequence[CycleRecord]]
+    ) -> Iterator[Sequence[CycleRecord]]:
+        """The log's batches, with an approved baseline's state changes and outputs in
+        place of the recorded ones where it expects others."""
+        if self._expected is None:
+            return batches
+        return self._expected.batches(batches, self.path)
+
+    def _against(self) -> str:
+        """What replay is judged against, for messages."""
+        return "the recording" if self._expected is None else "the approved baseline"
+
+    def _outputs_against(self) -> str:
+        """What the outputs are judged against, for messages."""
+        if self._expected is None:
+            return "the recording"
+        if not self._expected.pins_outputs:
+            return "the recording (the approved baseline pins no outputs: re-approve it)"
+        return "the approved baseline"
+
+    @property
+    def divergence(self) -> Divergence | None:
+        """The first divergence, if any."""
+        return self.divergences.divergence
+
+    @property
+    def divergent_cycles(self) -> int:
+        """The cycles that diverged."""
+        return self.divergences.divergent_cycles
+
+    @property
+    def cycles(self) -> int:
+        """Cycles judged: up to the divergence that stopped replay, or all of them."""
+        return self._stopped_at[0] if self._stopped_at else self.executor.context.cycle + 1
+
+    @property
+    def robot_time_ns(self) -> int:
+        """Robot time judged, matching :attr:`cycles`."""
+        return self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
+
+    @property
+    def checked(self) -> Checked:
+        """What the cycles judged that agreed checked."""
+        return Checked(
+            self._changes_checked,
+            self._outputs_checked,
+            self._draws_checked,
+            self._samples_perceived - self.divergences.samples_diverged,
+        )
+
+    def _tally(self, changes: int, outputs: int, draws: int) -> None:
+        """Add what a batch's cycles that agreed checked (counted as they are judged)."""
+        self._changes_checked += changes
+        self._outputs_checked += outputs
+        self._draws_checked += draws
+        self._samples_perceived = self.replayer.samples_perceived
+
+    def run(self, batch: Sequence[CycleRecord]) -> int | None:
+        """Replay a batch of cycles; the index of the cycle where replay stops, if it does.
+
+        Each cycle is stepped by the replay core; a cycle agrees when it went cleanly
+        (:meth:`Replayer.advance`) and its state changes and outputs match: byte for
+        byte first, else by :class:`Comparison` (state changes as a set, allowances
+        applied). Only a cycle that does not agree gets its full outcome. What the cycles
+        that agree checked is counted as they are judged: a few additions a cycle.
+        """
+        divergences = self.divergences
+        divergences.remember(batch)
+        encode = self._encoder.encode
+        encode_outputs = self._outputs_encoder.encode
+        advance = self.replayer.advance
+        outcome_of = self.replayer.outcome
+        context = self.executor.context
+        observe = self._observe
+        same_catalogue = self._same_catalogue
+        raw = msgspec.Raw
+        pinned_states = self._pinned_cycles
+        draw_cycles = self._draw_cycles
+        random = self.replayer.random
+        changed = reported = drawn = 0
+        for index, record in enumerate(batch):
+            changes = advance(record)
+            outcome: CycleOutcome | None = None
+            if observe is not None:
+                outcome = outcome_of()
+                observe(outcome)
+            if changes is None or (
+                (pinned_states and context.cycle in pinned_states) or context.cycle in draw_cycles
+            ):
+                outcome = outcome or outcome_of()  # judged by its robot state, then as usual
+                changes = outcome.changes if divergences.agrees_but_for_pins(outcome) else None
+            unloggable: Exception | None = None
+            if changes is not None:
+                outputs = context.outputs
+                try:
+                    if (
+                        (
+                            record.state_changes == EMPTY_LIST
+                            if not changes
+                            else same_catalogue and record.state_changes == raw(encode(changes))
+                        )
+                        or self._changes_agree(record.state_changes, changes)
+                    ) and (
+                        (
+                            record.outputs == EMPTY_MAP
+                            if not outputs
+                            else record.outputs == raw(encode_outputs(outputs))
+                        )
+                        or self._outputs_agree(record.outputs, outputs)
+                    ):
+                        changed += len(changes)
+                        reported += len(outputs)
+                        drawn += len(random.recorded)  # an agreeing cycle drew them all
+                        continue
+                except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
+                    unloggable = exc
+            outcome = outcome or outcome_of()
+            if unloggable is not None:
+                outcome = outcome._replace(failure=unloggable)
+            divergences.add(outcome, index)
+            if not self._keep_going:
+                self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
+                self._tally(changed, reported, drawn)
+                return index
+        self._tally(changed, reported, drawn)
+        return None
+
+    def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
+        """Replay past the divergence (see :meth:`Divergences.follow`)."""
+        self.divergences.follow(rest, batches)
+
+    def log_ended(self, why: str) -> None:
+        """Record that the log stopped before the recording closed it."""
+        context = self.executor.context
+        self.divergences.log_ended(why, context.cycle, context.time_ns)
+
+    def _decode(self, data: msgspec.Raw, decode: Any, what: str) -> Any:
+        try:
+            return decode(data)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(
+                self.path, f"damaged {what} in cycle {self.executor.context.cycle}: {exc}"
+            ) from None
+
+    def _expected_outputs(self, raw_outputs: msgspec.Raw) -> dict[str, Any]:
+        result: dict[str, Any] = self._decode(raw_outputs, self._outputs_decoder.decode, "outputs")
+        return result
+
+    def _changes_agree(self, raw_changes: msgspec.Raw, changes: list[StateChangeRecord]) -> bool:
+        actual = self.divergences.named_actual(changes)
+        return self.comparison.changes_agree(self._named(raw_changes), actual)
+
+    def _outputs_agree(self, raw_outputs: msgspec.Raw, outputs: dict[str, Any]) -> bool:
+        return self.comparison.outputs_agree(self._expected_outputs(raw_outputs), outputs)
+
+    def _named(self, raw_changes: msgspec.Raw) -> list[StateChange]:
+        """Expected state changes in current names.
+
+        :raises beatlog.errors.CorruptLogError: one names a behavior the catalogue lacks.
+        """
+        names = self.expected_names
+        renamed = self.comparison.renamed
+        recorded = self._decode(raw_changes, self._changes_decoder.decode, "state changes")
+        for index, _, _ in recorded:
+            if not 0 <= index < len(names):
+                raise CorruptLogError(
+                    self.path,
+                    f"damaged state changes in cycle {self.executor.context.cycle}: behavior "
+                    f"#{index} is not in the catalogue of {len(names)}",
+                )
+        return [
+            renamed(StateChange(names[index], before, after)) for index, before, after in recorded
+        ]

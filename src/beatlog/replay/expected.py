@@ -1,0 +1,151 @@
+"""The recorded cycles as an approved baseline expects them, for the judge to compare.
+
+Replay judges a cycle by comparing the bytes the behaviors produce with the record's
+(:mod:`beatlog.replay.judge`). Against an approved baseline, :class:`ExpectedRecords`
+puts the expected state changes and outputs in each record as replay reads it,
+encoded as a log would: a whole trace (baseline formats 1 to 4) stands in for every
+cycle's, departures (format 5, :mod:`beatlog.replay.departures`) only where the
+behaviors depart from the recording, every other cycle keeping its recorded bytes.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+import msgspec
+
+from beatlog.errors import CorruptLogError
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    EMPTY_MAP,
+    CycleRecord,
+    StateChangeRecord,
+    payload_encoder,
+)
+from beatlog.replay.departures import apply_outputs, hold
+from beatlog.replay.expectation import Expectation, TracedOutput
+from beatlog.replay.verdict import StateChange
+
+__all__ = ["ExpectedRecords"]
+
+
+class ExpectedRecords:
+    """An approved baseline's state changes and outputs, encoded to stand in for the
+    recorded ones, cycle by cycle.
+
+    ``system_names`` is the system's behavior catalogue, ``recorded_names`` the log's
+    and ``rename`` maps a recorded name to its name now. :attr:`names` is the catalogue
+    the expected state changes are encoded by: the system's for a whole trace, the
+    log's for departures (whose other cycles keep the recorded bytes); behaviors the
+    baseline names but that catalogue lacks get indices past it.
+    """
+
+    def __init__(
+        self,
+        expectation: Expectation,
+        system_names: Sequence[str],
+        recorded_names: Sequence[str],
+        rename: Callable[[str], str],
+    ) -> None:
+        self._encoder = payload_encoder()
+        self._departures = expectation.departures
+        names = list(recorded_names if expectation.departures else system_names)
+        index: dict[str, int] = {}
+        for position, name in enumerate(names):
+            index.setdefault(rename(name) if expectation.departures else name, position)
+        self._changes: dict[int, msgspec.Raw] = {}
+        for cycle, changes in (expectation.changes_override() or {}).items():
+            self._changes[cycle] = self._encode_changes(changes, names, index)
+        self.names = names
+        self._outputs = expectation.outputs
+        self.sorted_outputs = not expectation.departures and expectation.outputs is not None
+        """Whether expected outputs are encoded with sorted keys (a whole trace's), not
+        in the order the behaviors report them (the recording's)."""
+
+    def _encode_changes(
+        self, changes: list[StateChange], names: list[str], index: dict[str, int]
+    ) -> msgspec.Raw:
+        records: list[StateChangeRecord] = []
+        for behavior, before, after in changes:
+            if behavior not in index:
+                index[behavior] = len(names)
+                names.append(behavior)
+            records.append((index[behavior], before, after))
+        return msgspec.Raw(self._encoder.encode(records)) if records else EMPTY_LIST
+
+    @property
+    def pins_outputs(self) -> bool:
+        """Whether the baseline pins outputs (a format 1 file does not)."""
+        return self._outputs is not None
+
+    def batches(
+        self, batches: Iterator[Sequence[CycleRecord]], path: Any
+    ) -> Iterator[Sequence[CycleRecord]]:
+        """The log's batches with the expected state changes and outputs in place of the
+        recorded ones (``path`` names the log in errors)."""
+        if self._departures:
+            yield from self._departed(batches, path)
+        else:
+            yield from self._whole(batches)
+
+    def _whole(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
+        changes = self._changes
+        pinned = None if self._outputs is None else _whole_outputs(self._outputs)
+        outputs = EMPTY_MAP
+        cycle = 0
+        for batch in batches:
+            for record in batch:
+                record.state_changes = changes.get(cycle, EMPTY_LIST)
+                if pinned is not None:
+                    outputs = pinned.get(cycle, outputs)
+                    record.outputs = outputs
+                cycle += 1
+            yield batch
+
+    def _departed(
+        self, batches: Iterator[Sequence[CycleRecord]], path: Any
+    ) -> Iterator[Sequence[CycleRecord]]:
+        changes = self._changes
+        lines = itertools.groupby(self._outputs or (), key=lambda o: o.cycle)
+        line = next(lines, None)
+        held: dict[str, Any] = {}
+        expected: dict[bytes, msgspec.Raw] = {}
+        """The expected outputs of the recorded ones met while ``held`` holds: a robot's
+        outputs repeat, so most cycles find theirs here."""
+        decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
+        encode = self._encoder.encode
+        cycle = 0
+        for batch in batches:
+            for record in batch:
+                departed = changes.get(cycle)
+                if departed is not None:
+                    record.state_changes = departed
+                if line is not None and line[0] == cycle:
+                    hold(held, line[1])
+                    line = next(lines, None)
+                    expected = {}
+                if held:
+                    recorded = bytes(record.outputs)
+                    outputs = expected.get(recorded)
+                    if outputs is None:
+                        try:
+                            values = apply_outputs(decode(recorded), held)
+                        except DECODE_ERRORS as exc:
+                            raise CorruptLogError(
+                                path, f"damaged outputs in cycle {cycle}: {exc}"
+                            ) from None
+                        outputs = msgspec.Raw(encode(values)) if values else EMPTY_MAP
+                        expected[recorded] = outputs
+                    record.outputs = outputs
+                cycle += 1
+            yield batch
+
+
+def _whole_outputs(outputs: Sequence[TracedOutput]) -> dict[int, msgspec.Raw]:
+    """A whole trace's outputs in every cycle where they change, encoded with sorted keys."""
+    encode = msgspec.msgpack.Encoder(order="sorted").encode
+    expectation = Expectation((), tuple(outputs))
+    return {cycle: msgspec.Raw(encode(values)) for cycle, values in expectation.outputs_by_cycle()}

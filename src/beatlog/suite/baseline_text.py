@@ -1,0 +1,145 @@
+"""The lines of a baseline file, written: state changes, outputs, robot-state pins, draws.
+
+Each line of the cycle columns starts with the cycle and its robot time in seconds;
+behavior names, states and values are JSON, floats written so they read back bit for
+bit, and a value JSON cannot hold exactly is ``msgpack:HEX``. The format is specified
+in :mod:`beatlog.suite.baseline`; :mod:`beatlog.suite.baseline_parse` reads it.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable
+from typing import Any
+
+import msgspec
+
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.expectation import ABSENT, AS_RECORDED, TracedChange, TracedOutput, TracedState
+from beatlog.replay.pins import StatePins
+
+__all__ = [
+    "AS_RECORDED_TEXT",
+    "COLUMNS",
+    "MSGPACK",
+    "NONE",
+    "OPEN_LOOP",
+    "OUTPUT",
+    "QUIET",
+    "ROBOT_STATE",
+    "RUN_FIRST",
+    "draw_line",
+    "format_lines",
+    "format_value",
+]
+
+NONE = "-"
+"""The side of a draws line with no draw (a new draw, or a recorded one left unused)."""
+OPEN_LOOP = "open loop"
+QUIET = "no state changes"
+"""A cycle whose recorded state changes are gone, none in their place (format 5)."""
+AS_RECORDED_TEXT = "as recorded"
+"""An output field that follows the recording again (format 5)."""
+OUTPUT = "output "
+ROBOT_STATE = "robot_state "
+RUN_FIRST = ", first "
+MSGPACK = "msgpack:"
+COLUMNS = (
+    '#  cycle      time  "behavior": before -> after | no state changes'
+    ' | output "field" = value | output "field" absent | output "field" as recorded'
+    " | robot_state otherwise in FIRST..LAST (N cycles): [FIELDS], first {VALUES}"
+    " | robot_state digests N DIGEST TAGS"
+)
+"""The comment that heads the cycle columns."""
+_SORTED = msgspec.msgpack.Encoder(order="sorted")
+
+
+def format_lines(
+    changes: Iterable[TracedChange],
+    outputs: Iterable[TracedOutput] | None = None,
+    robot_states: Iterable[TracedState] = (),
+    state_pins: StatePins | None = None,
+    *,
+    open_loop: tuple[int, int] | None = None,
+    quiet: Iterable[tuple[int, int]] = (),
+) -> list[str]:
+    """The text lines of the pinned robot states, state changes and output changes, by
+    cycle, as baseline files hold them: in each cycle in that order, as replay meets
+    them, after the line that says the behaviors left the recording there
+    (``open_loop``). ``quiet`` cycles lost their recorded state changes (departures)."""
+    keyed = [(s.cycle, 0, _value_line(ROBOT_STATE, s)) for s in robot_states]
+    keyed.extend((cycle, 0, line) for cycle, line in _pin_lines(state_pins or StatePins()))
+    if open_loop is not None:
+        keyed.append((open_loop[0], -1, _columns(*open_loop) + OPEN_LOOP))
+    keyed.extend((c.cycle, 1, _change_line(c)) for c in changes)
+    keyed.extend((cycle, 1, _columns(cycle, time_ns) + QUIET) for cycle, time_ns in quiet)
+    keyed.extend((o.cycle, 2, _value_line(OUTPUT, o)) for o in outputs or ())
+    keyed.sort(key=lambda item: item[:2])  # stable: the order within a cycle is kept
+    return [line for _, _, line in keyed]
+
+
+def _change_line(traced: TracedChange) -> str:
+    cycle, time_ns, change = traced
+    return (
+        f"{_columns(cycle, time_ns)}{json.dumps(change.behavior)}: "
+        f"{json.dumps(change.before)} -> {json.dumps(change.after)}"
+    )
+
+
+def _value_line(kind: str, traced: TracedOutput | TracedState) -> str:
+    cycle, time_ns, name, value = traced
+    what = (
+        "absent"
+        if value is ABSENT
+        else AS_RECORDED_TEXT
+        if value is AS_RECORDED
+        else f"= {format_value(value)}"
+    )
+    return f"{_columns(cycle, time_ns)}{kind}{json.dumps(name)} {what}"
+
+
+def _pin_lines(pins: StatePins) -> list[tuple[int, str]]:
+    """A line per run of pinned robot states, then one per block of their digests: in
+    cycle order, each run's line comes before its first block's."""
+    lines = []
+    for run in pins.runs:
+        fields = ", ".join(json.dumps(name) for name in run.fields)
+        lines.append(
+            (
+                run.cycle,
+                f"{_columns(run.cycle, run.time_ns)}{ROBOT_STATE}otherwise in "
+                f"{run.cycle}..{run.last} ({run.cycles} cycle{'' if run.cycles == 1 else 's'}): "
+                f"[{fields}]{RUN_FIRST}{format_value(run.first)}",
+            )
+        )
+    lines.extend(
+        (
+            block.cycle,
+            f"{_columns(block.cycle, block.time_ns)}{ROBOT_STATE}digests {block.cycles} "
+            f"{block.digest.hex()} {block.tags}",
+        )
+        for block in pins.blocks
+    )
+    return lines
+
+
+def _columns(cycle: int, time_ns: int) -> str:
+    return f"{cycle:>8} {time_ns / 1e9:>9.3f}  "
+
+
+def format_value(value: Any) -> str:
+    """JSON when it reads back bit for bit, else the msgpack encoding in hex."""
+    try:
+        text = json.dumps(value, sort_keys=True)
+        if _SORTED.encode(json.loads(text)) == _SORTED.encode(value):
+            return text
+    except (TypeError, ValueError):
+        pass
+    return MSGPACK + _SORTED.encode(value).hex()
+
+
+def draw_line(rule: DrawRule) -> str:
+    """``draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97``."""
+    recorded, asked = rule.recorded or NONE, rule.asked or NONE
+    cycles = " ".join(map(str, rule.cycles))
+    return f"draws {json.dumps(rule.behavior)}: {recorded} -> {asked} in cycles {cycles}"
