@@ -28,6 +28,7 @@ from beatlog.log.format import (
     ColumnBatch,
     CycleBatch,
     CycleRecord,
+    Draw,
     SessionEnd,
     SessionHeader,
     payload_encoder,
@@ -466,3 +467,8 @@ def rebuilt_states(states: dict[int, dict[str, Any]]) -> list[RebuiltState]:
         )
         for cycle, state in sorted(states.items())
     ]
+
+
+def through_log(draws: list[Draw]) -> list[Draw]:
+    """What replay sees: the draws after msgpack encoding and decoding."""
+    return msgspec.msgpack.decode(msgspec.msgpack.encode(draws), type=list[Draw])

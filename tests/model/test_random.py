@@ -13,7 +13,6 @@ import pytest
 from beatlog.model.context import Context
 from beatlog.model.random import (
     Draw,
-    DrawDifference,
     DrawKind,
     RandomMismatch,
     RandomSource,
@@ -21,6 +20,7 @@ from beatlog.model.random import (
     ReplayRandom,
     recorded_draw_problem,
 )
+from tests.factories import through_log
 
 
 def draw_everything(source: RecordingRandom | ReplayRandom) -> list[object]:
@@ -34,11 +34,6 @@ def draw_everything(source: RecordingRandom | ReplayRandom) -> list[object]:
         source.normal_array(0.0, 1.0, 4),
         source.integers_array(0, 10, 5),
     ]
-
-
-def through_log(draws: list[Draw]) -> list[Draw]:
-    """What replay sees: the draws after msgpack encoding and decoding."""
-    return msgspec.msgpack.decode(msgspec.msgpack.encode(draws), type=list[Draw])
 
 
 def test_recording_keeps_every_draw_with_its_kind_and_actor() -> None:
@@ -295,162 +290,3 @@ def test_every_draw_a_recording_makes_reads_back_without_a_problem() -> None:
     assert [recorded_draw_problem(draw, 0) for draw in draws] == [None] * len(draws)
     format_1 = [draw._replace(params=()) for draw in draws]
     assert [recorded_draw_problem(draw, 0) for draw in format_1] == [None] * len(draws)
-
-
-SIXTEEN = bytes(16)
-
-
-@pytest.mark.parametrize(
-    ("draw", "problem"),
-    [
-        (Draw(-1, "random", "str", ()), "random recorded 'str', not a float"),
-        (Draw(-1, "gauss", 1, (0.0, 1.0)), "gauss recorded 1, not a float"),
-        (Draw(-1, "randint", 3.0, (1, 6)), "randint recorded 3.0, not an int"),
-        (Draw(-1, "choice", True, (2,)), "choice recorded True, not an int"),
-        (Draw(-1, "choice", 2, (2,)), "choice recorded index 2 of 2 items"),
-        (Draw(1, "random", 0.5, ()), "drawn by behavior #1, not in the catalogue of 1"),
-        (Draw(-2, "random", 0.5, ()), "drawn by behavior #-2, not in the catalogue of 1"),
-        (Draw(0, "dice", 4, ()), "a draw of unknown kind 'dice'"),
-        (Draw(0, "uniform", 0.5, (2.0,)), "uniform recorded with parameters [2.0]"),
-        (Draw(0, "uniform", 0.5, ("a", 5.0)), "uniform recorded with parameters ['a', 5.0]"),
-        (
-            Draw(0, "uniform_array", ["<i8", [2], SIXTEEN], (0.0, 1.0, [2])),
-            "uniform_array recorded dtype '<i8', not '<f8'",
-        ),
-        (
-            Draw(0, "normal_array", ["<f8", [3], SIXTEEN], (0.0, 1.0, [3])),
-            "normal_array recorded 16 bytes for shape [3], not 24",
-        ),
-        (
-            Draw(0, "uniform_array", ["<f8", [2], SIXTEEN], (0.0, 1.0, [3])),
-            "uniform_array recorded shape [2] where [3] was asked for",
-        ),
-        (
-            Draw(0, "integers_array", ["<i8", [-2], SIXTEEN], ()),
-            "integers_array recorded shape [-2]",
-        ),
-        (
-            Draw(0, "integers_array", ["<i8", [2]], ()),
-            "integers_array recorded ['<i8', [2]], not [dtype, shape, bytes]",
-        ),
-    ],
-)
-def test_a_draw_no_recording_makes_is_named(draw: Draw, problem: str) -> None:
-    assert recorded_draw_problem(draw, 1) == problem
-
-
-def living(recorded: list[Draw], names: tuple[str, ...] = ("wander", "escape")) -> ReplayRandom:
-    """A living replay source for one cycle of ``recorded`` draws, behaviors ``names``."""
-    source = ReplayRandom()
-    context = Context(source)
-    source.bind(context)
-    context.cycle = 517
-    source.expect_actors(names, names)
-    source.live(b"a log")
-    source.load(through_log(recorded))
-    CONTEXTS[source] = context
-    return source
-
-
-CONTEXTS: dict[ReplayRandom, Context] = {}
-"""The context each :func:`living` source is bound to."""
-
-
-def drawing_as(source: ReplayRandom, actor: int) -> ReplayRandom:
-    """``source``, with behavior ``actor`` drawing from it."""
-    CONTEXTS[source].actor = actor
-    return source
-
-
-def test_living_replay_hands_back_the_recording_while_it_is_followed() -> None:
-    source = living([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
-
-    first = drawing_as(source, 0).uniform(0.8, 1.6)
-    second = drawing_as(source, 1).randint(1, 6)
-
-    assert (first, second) == (1.2, 3)
-    assert source.settle() == []
-
-
-def test_living_replay_re_maps_a_retuned_request_with_the_same_luck() -> None:
-    source = living([Draw(0, "uniform", 1.25, (1.0, 2.0))])
-
-    value = drawing_as(source, 0).uniform(2.0, 6.0)
-
-    assert value == 3.0
-    assert source.settle() == [DrawDifference("wander", "uniform(1.0, 2.0)", "uniform(2.0, 6.0)")]
-    assert source.mismatch is None
-
-
-def test_living_replay_gives_a_new_draw_fresh_luck_and_drops_an_unused_one() -> None:
-    source = living([Draw(0, "uniform", 1.25, (1.0, 2.0))])
-
-    value = drawing_as(source, 1).gauss(0.0, 1.0)
-    again = living([Draw(0, "uniform", 1.25, (1.0, 2.0))])
-
-    assert drawing_as(again, 1).gauss(0.0, 1.0) == value
-    assert source.settle() == [
-        DrawDifference("escape", None, "gauss(0.0, 1.0)"),
-        DrawDifference("wander", "uniform(1.0, 2.0)", None),
-    ]
-
-
-def test_living_replay_matches_each_behaviors_draws_whatever_the_order() -> None:
-    source = living([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
-
-    second = drawing_as(source, 1).randint(1, 6)
-    first = drawing_as(source, 0).uniform(0.8, 1.6)
-
-    assert (first, second) == (1.2, 3)
-    assert source.settle() == []
-
-
-def test_living_replay_credits_a_draw_to_the_behavior_that_drew_it() -> None:
-    source = living([Draw(0, "randint", 3, (1, 6))])
-
-    drawing_as(source, 1).randint(1, 6)
-
-    assert source.settle() == [
-        DrawDifference("escape", None, "randint(1, 6)"),
-        DrawDifference("wander", "randint(1, 6)", None),
-    ]
-
-
-def test_living_replay_prefers_a_recorded_draw_of_the_same_kind() -> None:
-    source = living([Draw(0, "gauss", 0.5, (0.0, 1.0)), Draw(0, "uniform", 1.25, (1.0, 2.0))])
-
-    value = drawing_as(source, 0).uniform(1.0, 2.0)
-
-    assert value == 1.25
-    assert source.settle() == [DrawDifference("wander", "gauss(0.0, 1.0)", None)]
-
-
-def test_living_replay_maps_another_scalar_kind_by_quantile() -> None:
-    source = living([Draw(0, "uniform", 5.0, (0.0, 10.0))])
-
-    value = drawing_as(source, 0).randint(0, 9)
-
-    assert value == 5
-    assert source.settle() == [DrawDifference("wander", "uniform(0.0, 10.0)", "randint(0, 9)")]
-
-
-def test_living_replay_never_maps_a_scalar_to_an_array() -> None:
-    source = living([Draw(0, "uniform", 5.0, (0.0, 10.0))])
-
-    array = drawing_as(source, 0).uniform_array(0.0, 10.0, 3)
-
-    assert array.shape == (3,)
-    assert source.settle() == [
-        DrawDifference("wander", None, "uniform_array(0.0, 10.0, [3])"),
-        DrawDifference("wander", "uniform(0.0, 10.0)", None),
-    ]
-
-
-def test_living_replay_of_a_behavior_gone_leaves_its_draws_unused() -> None:
-    source = ReplayRandom()
-    source.bind(Context(source))
-    source.expect_actors(("wander", "gone"), ("wander",))
-    source.live(b"a log")
-    source.load(through_log([Draw(1, "uniform", 1.25, (1.0, 2.0))]))
-
-    assert source.settle() == [DrawDifference("gone", "uniform(1.0, 2.0)", None)]

@@ -1,0 +1,296 @@
+"""The random source of replay: it hands back the values recorded in RN_t; drawing more,
+fewer, a different kind or with different parameters than was recorded is a mismatch
+that names the behavior, or, in living replay, a difference noted for the verdict."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
+
+from beatlog.log.format import Draw
+from beatlog.model.draws import (
+    ARRAY_KINDS,
+    SCALAR_VALUES,
+    DrawKind,
+    need_numpy,
+    pack_array,
+    same_params,
+    unpack_array,
+)
+from beatlog.model.luck import Luck, Place, array_value, fresh_luck, scalar_luck, scalar_value
+from beatlog.model.source import RandomSource
+
+__all__ = ["DrawDifference", "RandomMismatch", "ReplayRandom"]
+
+
+class DrawDifference(NamedTuple):
+    """A draw that living replay made otherwise than recorded (see
+    :meth:`ReplayRandom.live`): re-mapped, new, or a recorded one left unused."""
+
+    behavior: str
+    """The behavior that drew it (that drew it in the recording, for one left unused),
+    by its name now."""
+    recorded: str | None
+    """The recorded request as code (``uniform(0.8, 1.6)``; the kind alone in format 1);
+    None for a draw the recording does not have."""
+    asked: str | None
+    """The request now; None for a recorded draw left unused."""
+
+    def __str__(self) -> str:
+        if self.recorded is None:
+            return f"{self.behavior}: new {self.asked}"
+        if self.asked is None:
+            return f"{self.behavior}: {self.recorded} left unused"
+        return f"{self.behavior}: {self.recorded} -> {self.asked}"
+
+
+class RandomMismatch(BaseException):
+    """Raised inside behavior code when a replayed draw does not match the recording.
+
+    It derives from BaseException so that a behavior's ``except Exception`` cannot
+    swallow it; the source also remembers the mismatch in case it is swallowed anyway.
+    """
+
+    def __init__(self, problem: str, actor: int, *, overdrawn: bool) -> None:
+        super().__init__(problem)
+        self.problem = problem
+        self.actor = actor
+        self.overdrawn = overdrawn
+
+
+class ReplayRandom(RandomSource):
+    """Returns the values recorded in RN_t, checking count, kind and parameters as it goes.
+
+    Parameters are compared exactly, as numbers (``uniform(2, 5)`` asks for what
+    ``uniform(2.0, 5.0)`` does, and draws the same); a format-1 draw, which recorded
+    none, is checked for count and kind only. In *living* replay (:meth:`live`) a draw
+    that differs is no mismatch: replay goes on with a value as lucky as the recorded
+    one, and the difference is noted for the verdict to judge (:meth:`settle`).
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.recorded: Sequence[Draw] = ()
+        self.drawn: list[Draw] = []
+        self.mismatch: RandomMismatch | None = None
+        self.living = False
+        """Whether draws that differ from the recording go on (:meth:`live`)."""
+        self.differences: list[DrawDifference] = []
+        """In living replay, the cycle's draws made otherwise than recorded."""
+        self._actors: Sequence[int | None] | None = None
+        self._recorded_names: Sequence[str] = ()
+        self._names_now: Sequence[str] = ()
+        self._recorded_now: Sequence[str] = ()
+        self._key = b""
+        self._used: list[bool] | None = None
+        """In living replay, once a draw differed: which recorded draws are taken."""
+
+    def expect_actors(
+        self,
+        recorded: Sequence[str],
+        system: Sequence[str],
+        rename: Callable[[str], str] = str,
+    ) -> None:
+        """Check which behavior draws, too: ``recorded`` is the log's catalogue,
+        ``system`` the system's, and ``rename`` maps a recorded name to its name now. A
+        draw recorded by a behavior the system no longer has is checked for kind and
+        parameters only (in living replay, it is left unused)."""
+        ids = {name: index for index, name in enumerate(system)}
+        self._actors = [ids.get(rename(name)) for name in recorded]
+        self._recorded_names = recorded
+        self._names_now = system
+        self._recorded_now = [rename(name) for name in recorded]
+
+    def live(self, key: bytes) -> None:
+        """Go on when the behaviors ask for other draws than were recorded.
+
+        A behavior's draws are matched with the draws it made in the recording, in
+        order, a request of the same kind first: a recorded draw asked for with other
+        parameters (or, where sound, as another kind) gives the value with its luck
+        (:mod:`beatlog.model.luck`); a request with no recorded draw left gets a fresh
+        one keyed by ``key`` (the log) and its place; recorded draws left over are
+        dropped. Each is a :class:`DrawDifference`. Same log, same code: same draws.
+        """
+        self.living = True
+        self._key = key
+
+    def load(self, recorded: Sequence[Draw]) -> None:
+        """Set the draws recorded for the next cycle."""
+        self.recorded = recorded
+        if self.drawn:
+            self.drawn = []
+        if self.differences:
+            self.differences = []
+        self._used = None
+        self.mismatch = None
+
+    def settle(self) -> list[DrawDifference]:
+        """In living replay, once the cycle's update is over: its differences, the
+        recorded draws left unused among them."""
+        used = self._used
+        if used is None and len(self.drawn) >= len(self.recorded):  # drew as recorded
+            return self.differences
+        start = len(self.drawn) if used is None else 0
+        for index in range(start, len(self.recorded)):
+            if used is None or not used[index]:
+                draw = self.recorded[index]
+                self.differences.append(
+                    DrawDifference(self._recorded_name(draw.actor), _request(draw), None)
+                )
+        return self.differences
+
+    def _recorded_name(self, actor: int) -> str:
+        if actor < 0:
+            return "system"
+        names = self._recorded_now
+        return names[actor] if actor < len(names) else f"#{actor}"
+
+    def _name(self, actor: int) -> str:
+        if actor < 0:
+            return "system"
+        names = self._names_now
+        return names[actor] if actor < len(names) else f"#{actor}"
+
+    def _drawn_by(self, draw: Draw, actor: int) -> bool:
+        """Whether the recording credits ``draw`` to the behavior ``actor`` is now."""
+        actors = self._actors
+        if actors is None or draw.actor < 0:
+            return draw.actor == actor
+        return draw.actor < len(actors) and actors[draw.actor] == actor
+
+    def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
+        index = len(self.drawn)
+        actor = self._actor
+        if self.living:
+            return self._living(kind, params, index, actor)
+        if index >= len(self.recorded):
+            asked = Draw(actor, kind.value, None, params)
+            self._fail(
+                f"called {asked.call()} (#{index + 1}) but only {index} were recorded",
+                actor,
+                overdrawn=True,
+                asked=asked,
+            )
+        draw = self.recorded[index]
+        if draw.kind != kind.value or (draw.params and not same_params(draw.params, params)):
+            asked = Draw(actor, kind.value, None, params)
+            recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
+            self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
+        if self._actors is not None and draw.actor != actor:
+            self._check_actor(draw, actor, kind, params)
+        self.drawn.append(Draw(actor, kind.value, draw.value, params))
+        return draw.value
+
+    def _living(self, kind: DrawKind, params: tuple[Any, ...], index: int, actor: int) -> Any:
+        """A draw in living replay: the recorded one while the cycle follows the
+        recording, else the behavior's match (:meth:`live`)."""
+        recorded = self.recorded
+        if self._used is None:
+            if (
+                index < len(recorded)
+                and recorded[index].kind == kind.value
+                and (not recorded[index].params or same_params(recorded[index].params, params))
+                and self._drawn_by(recorded[index], actor)
+            ):
+                value = recorded[index].value
+                self.drawn.append(Draw(actor, kind.value, value, params))
+                return value
+            self._used = [position < index for position in range(len(recorded))]
+        used = self._used
+        mine = [i for i, d in enumerate(recorded) if not used[i] and self._drawn_by(d, actor)]
+        match = next((i for i in mine if recorded[i].kind == kind.value), None)
+        if match is None and kind.value in SCALAR_VALUES:  # another kind, its luck re-mapped
+            match = next((i for i in mine if _luck(recorded[i]) is not None), None)
+        place = Place(
+            self._context.cycle if self._context is not None else -1,
+            self._name(actor),
+            sum(1 for d in self.drawn if d.actor == actor),
+        )
+        value = self._living_value(kind, params, None if match is None else recorded[match], place)
+        asked = Draw(actor, kind.value, value, params)
+        if match is None:
+            self.differences.append(DrawDifference(place.behavior, None, asked.call()))
+        else:
+            used[match] = True
+            draw = recorded[match]
+            if draw.kind != kind.value or (draw.params and not same_params(draw.params, params)):
+                self.differences.append(
+                    DrawDifference(place.behavior, _request(draw), asked.call())
+                )
+        self.drawn.append(asked)
+        return value
+
+    def _living_value(
+        self, kind: DrawKind, params: tuple[Any, ...], draw: Draw | None, place: Place
+    ) -> Any:
+        """The value of a request with the luck of ``draw`` (fresh where it has none)."""
+        if (
+            draw is not None
+            and draw.kind == kind.value
+            and (not draw.params or same_params(draw.params, params))
+        ):
+            return draw.value
+        if kind.value in ARRAY_KINDS:
+            old = None
+            if draw is not None and draw.params:
+                old = (draw.kind, draw.params, unpack_array(draw.value))
+            return pack_array(array_value(kind.value, params, old, place.seed(self._key)))
+        luck = None if draw is None else _luck(draw)
+        return scalar_value(kind.value, params, luck or fresh_luck(self._key, place))
+
+    def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
+        """Refuse a draw the recording credits to another behavior (by its name now)."""
+        assert self._actors is not None
+        recorded = draw.actor
+        if recorded < 0:
+            expected: int | None = -1
+            who = "the system"
+        elif recorded < len(self._actors):
+            expected = self._actors[recorded]
+            who = self._recorded_names[recorded]
+        else:
+            return
+        if expected is not None and expected != actor:
+            asked = Draw(actor, kind.value, None, params)
+            self._fail(
+                f"called {asked.call()}, which {who} drew in the recording", actor, asked=asked
+            )
+
+    def _fail(
+        self, problem: str, actor: int, *, overdrawn: bool = False, asked: Draw | None = None
+    ) -> None:
+        """Raise (and remember) a mismatch; ``asked``, a draw refused, is kept among those
+        drawn, with no value, so reports show what was asked for."""
+        if asked is not None:
+            self.drawn.append(asked)
+        self.mismatch = RandomMismatch(problem, actor, overdrawn=overdrawn)
+        raise self.mismatch
+
+    def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
+        value = self._next(kind, params)
+        if kind is DrawKind.CHOICE and not 0 <= value < b:
+            self._fail(
+                f"recorded choice index {value} is out of range for {int(b)} items", self._actor
+            )
+        return value
+
+    def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
+        need_numpy()  # before a fresh draw of living replay, too
+        array = unpack_array(self._next(kind, (a, b, list(shape))))
+        if array.shape != shape:
+            self._fail(
+                f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
+            )
+        return array
+
+
+def _request(draw: Draw) -> str:
+    """A recorded draw's request as code; the kind alone where format 1 recorded none."""
+    return draw.call() if draw.params else draw.kind
+
+
+def _luck(draw: Draw) -> Luck | None:
+    """The luck of a recorded scalar draw, where it can be known."""
+    if draw.kind == DrawKind.RANDOM.value:
+        return scalar_luck(draw.kind, draw.value, ())
+    return scalar_luck(draw.kind, draw.value, draw.params) if draw.params else None
