@@ -4,128 +4,47 @@ For each recorded cycle t it decodes RS_t (or, in sensor-level replay, rebuilds 
 with the perception step from the cycle's logged samples and compares it with the
 recorded one), loads RN_t into the random source, advances the simulated clock by
 HB_t and updates the behaviors, then hands back a
-:class:`CycleOutcome` with everything anyone needs: the recording, the state the
-behaviors saw, what they changed and output, the random numbers drawn against the
-recorded ones, and any problem. The verdict (:mod:`beatlog.replay.judge`), traces,
-the fields read, timelines and the audit all consume these outcomes; nothing else
-steps a system through a log.
+:class:`~beatlog.replay.outcome.CycleOutcome` with everything anyone needs: the
+recording, the state the behaviors saw, what they changed and output, the random
+numbers drawn against the recorded ones, and any problem. The verdict
+(:mod:`beatlog.replay.judge`), traces, the fields read, timelines and the audit all
+consume these outcomes; nothing else steps a system through a log. The cycle records
+are read and checked by :mod:`beatlog.replay.cycle_reader`.
 """
 
 from __future__ import annotations
 
 import functools
 import hashlib
-from collections.abc import Callable, Generator, Iterable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterable, Iterator
 from pathlib import Path
-from typing import Any, NamedTuple, NoReturn
+from typing import Any, NoReturn
 
 import msgspec
 
-from beatlog.errors import BeatlogError, CorruptLogError, NumpyMissingError
+from beatlog.errors import BeatlogError, NumpyMissingError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import (
     COLUMNS_SINCE,
-    DECODE_ERRORS,
     EMPTY_LIST,
     CycleRecord,
     SessionHeader,
     StateChangeRecord,
     payload_encoder,
-    samples_shape,
 )
 from beatlog.model.behavior import System
-from beatlog.model.context import Outputs
 from beatlog.model.cycle import CycleExecutor
-from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
-from beatlog.model.random import (
-    Draw,
-    DrawDifference,
-    RandomMismatch,
-    ReplayRandom,
-    recorded_draw_problem,
-)
+from beatlog.model.random import RandomMismatch, ReplayRandom
+from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.fit import check_fit, recorded_state_type
 from beatlog.replay.migration import StateConverter, StateMigration
+from beatlog.replay.outcome import CycleOutcome, Sensed, Stop, actor_name
 from beatlog.replay.pins import PinChecker
 from beatlog.replay.verdict import DivergenceKind
 from beatlog.replay.view import StateViews
 
 __all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name", "log_key"]
-
-
-class CycleOutcome(NamedTuple):
-    """What happened when the system replayed one recorded cycle."""
-
-    cycle: int
-    time_ns: int
-    """Robot time at the end of the cycle."""
-    record: CycleRecord
-    """The recorded cycle: HB_t, RS_t, BS_t, RN_t and outputs, still encoded (RS_t
-    decoded where the reader decoded it with the batch)."""
-    state: Any
-    """RS_t as the behaviors saw it."""
-    changes: list[StateChangeRecord] | None
-    """BS'_t, the replayed state changes; None when the update did not complete."""
-    outputs: Outputs
-    """The replayed outputs (as far as the update got)."""
-    recorded_draws: Sequence[Draw]
-    drawn: Sequence[Draw]
-    """The random numbers the behaviors drew, with what they asked for; a draw refused
-    as not the one recorded is the last, with no value."""
-    draw_problem: RandomMismatch | None
-    """A draw that did not match the recording (another kind or request, or one too many)."""
-    failure: BaseException | None
-    """What the behavior code raised (including ``SystemExit``), if it did."""
-    actor: int
-    """The behavior that was running when the update stopped (-1: the system itself)."""
-    recorded_state: Any = None
-    """In sensor-level replay, RS_t as recorded (``state`` is the rebuilt one)."""
-    perception_differs: bool = False
-    """In sensor-level replay, whether the rebuilt RS_t differs from the recorded one."""
-    perception_failure: BaseException | None = None
-    """What the perception step raised, if it did (the behaviors then ran on the
-    recorded RS_t, so replay can go on)."""
-    samples: Sequence[Sample] = ()
-    """In sensor-level replay, the samples of the cycle."""
-    draw_differences: Sequence[DrawDifference] | None = None
-    """In living replay (:meth:`~beatlog.model.random.ReplayRandom.live`), the draws made
-    otherwise than recorded, which replay went on with; None in strict replay."""
-
-    @property
-    def underdrawn(self) -> bool:
-        """Whether fewer random numbers were drawn than were recorded (strict replay)."""
-        return self.draw_differences is None and len(self.drawn) < len(self.recorded_draws)
-
-    @property
-    def completed(self) -> bool:
-        """Whether the update ran to its end and, in strict replay, drew exactly the
-        recorded numbers."""
-        return (
-            self.changes is not None
-            and self.draw_problem is None
-            and (self.draw_differences is not None or len(self.drawn) == len(self.recorded_draws))
-        )
-
-
-class Stop(NamedTuple):
-    """Why replay cannot go on past a cycle: the one classification of it, which the
-    verdict headlines and a whole-session trace stops at."""
-
-    kind: DivergenceKind
-    message: str
-    """What happened, naming the behavior: ``dice raised ZeroDivisionError: ...``."""
-    behavior: str | None
-    """The behavior it concerns (None for a perception step that failed)."""
-
-
-class _Sensed(NamedTuple):
-    """What sensor-level replay adds to a cycle's outcome."""
-
-    recorded_state: Any
-    differs: bool
-    failure: BaseException | None
-    samples: Sequence[Sample]
 
 
 Observe = Callable[[Any], Any]
@@ -204,13 +123,12 @@ class Replayer:
         """Whether RS_t was recorded under other names or types than the system's."""
         self._views = StateViews(system.robot_state, self.state_type, path, self._convert)
         """RS_t of a format-3 log: views that decode only the fields read."""
-        self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
-        self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
-        self._samples_shape = msgspec.msgpack.Decoder(samples_shape(header)).decode
+        self._reader = CycleReader(header, path, self._views)
+        """The log's cycle records, read and checked as the header declares them."""
         self._observe: Observe | None = None
         """What wraps RS_t in the cycle :meth:`step` replays (none on the hot path)."""
         self._last: tuple[
-            CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, _Sensed | None
+            CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, Sensed | None
         ]
         stepping = self._stepping()
         next(stepping)
@@ -260,7 +178,9 @@ class Replayer:
         recorded = sensed.recorded_state  # decoded here when it matched the rebuilt one
         return outcome._replace(
             recorded_state=(
-                self._recorded_state(record, context.cycle) if recorded is _READ else recorded
+                self._reader.recorded_state(record, context.cycle)
+                if recorded is _READ
+                else recorded
             ),
             perception_differs=sensed.differs,
             perception_failure=sensed.failure,
@@ -315,7 +235,8 @@ class Replayer:
         load = random.load
         settle = random.settle
         living = self.living
-        read_state = self._read_state
+        read_state = self._reader.state
+        decode_draws = self._reader.draws
         break_at = self.break_at
         perception = self.perception
         raw = msgspec.Raw
@@ -361,7 +282,7 @@ class Replayer:
                 or random.drawn
                 or random.mismatch is not None
             ):
-                load(() if draws == EMPTY_LIST else self._decode_draws(record, context.cycle + 1))
+                load(() if draws == EMPTY_LIST else decode_draws(record, context.cycle + 1))
             failure = None
             try:
                 changes = step(record.heartbeat_ns, state if observe is None else observe(state))
@@ -383,7 +304,7 @@ class Replayer:
             ):
                 changes = None
 
-    def _perceive(self, record: CycleRecord, recorded: Any) -> _Sensed:
+    def _perceive(self, record: CycleRecord, recorded: Any) -> Sensed:
         """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
 
         When perception raises, or returns something other than the system's robot
@@ -391,7 +312,7 @@ class Replayer:
         so replay can go on; the outcome carries the failure.
         """
         assert self.perception is not None
-        samples = self._decode_samples(record, self.executor.context.cycle + 1)
+        samples = self._reader.samples(record, self.executor.context.cycle + 1)
         self.samples_perceived += len(samples)
         try:
             rebuilt = self.perception(self._rebuilt, samples)
@@ -401,9 +322,9 @@ class Replayer:
             raise
         except (Exception, SystemExit) as exc:  # perception failing is an outcome
             if recorded is _READ:
-                recorded = self._recorded_state(record, self.executor.context.cycle + 1)
+                recorded = self._reader.recorded_state(record, self.executor.context.cycle + 1)
             self._rebuilt = recorded
-            return _Sensed(recorded, False, exc, samples)
+            return Sensed(recorded, False, exc, samples)
         self._rebuilt = rebuilt
         try:
             encoded = self._encode(rebuilt)
@@ -417,25 +338,13 @@ class Replayer:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
             if differs and encoded is not None and self._migrated:
                 # Recorded under other names or types: the same state holds other bytes.
-                recorded = self._recorded_state(record, cycle) if recorded is _READ else recorded
+                recorded = (
+                    self._reader.recorded_state(record, cycle) if recorded is _READ else recorded
+                )
                 differs = encoded != self._encode(recorded)
         if differs and recorded is _READ:
-            recorded = self._recorded_state(record, cycle)
-        return _Sensed(recorded, differs, None, samples)
-
-    def _recorded_state(self, record: CycleRecord, cycle: int) -> Any:
-        """RS_t of ``cycle`` as the log holds it, decoded for the system's robot state type
-        (the reader may have decoded it with the batch:
-        :meth:`~beatlog.log.reader.SessionLogReader.decode_states`).
-
-        :raises beatlog.errors.SchemaMismatchError: it does not fit the type.
-        """
-        state: Any = record.robot_state
-        if state.__class__ is StateColumns:
-            return self._views.decode_whole(state.raw_state(cycle), cycle)
-        if state.__class__ is not msgspec.Raw:
-            return state
-        return self._views.decode_whole(state, cycle)
+            recorded = self._reader.recorded_state(record, cycle)
+        return Sensed(recorded, differs, None, samples)
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: stop in ``cycle`` just before the behaviors update, once
@@ -449,7 +358,7 @@ class Replayer:
             for index, before, after in msgspec.msgpack.decode(record.state_changes)
         ]
         recorded_draws = (
-            [] if record.random_numbers == EMPTY_LIST else self._decode_draws(record, cycle)
+            [] if record.random_numbers == EMPTY_LIST else self._reader.draws(record, cycle)
         )
         self.executor.pause_next_update(
             functools.partial(
@@ -468,44 +377,6 @@ class Replayer:
         for record in records:
             yield step(record)
 
-    def _decode_samples(self, record: CycleRecord, cycle: int) -> list[Sample]:
-        try:
-            return self._samples(record.samples)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(self.path, f"damaged samples in cycle {cycle}: {exc}") from None
-
-    def _read_state(self, record: CycleRecord, cycle: int) -> Any:
-        """RS_t of ``cycle`` decoded (:meth:`_recorded_state`), its samples checked to be
-        what the header declares, as
-        :meth:`~beatlog.log.reader.SessionLogReader.decode_states` does with the batch."""
-        state = self._recorded_state(record, cycle)
-        try:
-            self._samples_shape(record.samples)
-        except DECODE_ERRORS as exc:
-            logged = "samples" if self.header.samples_logged else "no samples"
-            raise CorruptLogError(
-                self.path,
-                f"damaged samples in cycle {cycle}: the header declares {logged}: {exc}",
-            ) from None
-        return state
-
-    def _decode_draws(self, record: CycleRecord, cycle: int) -> list[Draw]:
-        """RN_t, each draw one a recording makes (:func:`recorded_draw_problem`)."""
-        try:
-            draws = self._draws(record.random_numbers)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(
-                self.path, f"damaged random numbers in cycle {cycle}: {exc}"
-            ) from None
-        behaviors = len(self.header.behaviors)
-        for number, draw in enumerate(draws, 1):
-            problem = recorded_draw_problem(draw, behaviors)
-            if problem is not None:
-                raise CorruptLogError(
-                    self.path, f"damaged random number #{number} in cycle {cycle}: {problem}"
-                )
-        return draws
-
 
 def log_key(header: SessionHeader) -> bytes:
     """What keys the fresh draws of living replay: the recording's identity (robot,
@@ -513,10 +384,3 @@ def log_key(header: SessionHeader) -> bytes:
     same session always the same."""
     identity = [header.robot_id, header.software_version, header.start_time_ns, header.random_seed]
     return hashlib.blake2b(msgspec.msgpack.encode(identity), digest_size=32).digest()
-
-
-def actor_name(names: Sequence[str], actor: int) -> str:
-    """A behavior by its catalogue index (``system`` for -1, ``#N`` past the catalogue)."""
-    if actor < 0:
-        return "system"
-    return names[actor] if actor < len(names) else f"#{actor}"
