@@ -16,15 +16,8 @@ from typing import Any
 
 import msgspec
 
-from beatlog.errors import CorruptLogError
-from beatlog.log.format import (
-    DECODE_ERRORS,
-    EMPTY_LIST,
-    EMPTY_MAP,
-    CycleRecord,
-    StateChangeRecord,
-    payload_encoder,
-)
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
@@ -103,7 +96,6 @@ def recorded_trace(log: str | Path) -> list[TracedChange]:
 
 def read_changes(log: str | Path) -> tuple[list[TracedChange], int]:
     """Every state change the log recorded, and how many cycles it holds."""
-    decode = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
     cycle = -1
     with SessionLogReader(log) as reader:
         names = reader.header.behaviors
@@ -112,12 +104,9 @@ def read_changes(log: str | Path) -> tuple[list[TracedChange], int]:
         for cycle, record in enumerate(_records(reader)):
             time_ns += record.heartbeat_ns
             if record.state_changes != EMPTY_LIST:
-                try:
-                    recorded = decode(record.state_changes)
-                except DECODE_ERRORS as exc:
-                    raise CorruptLogError(
-                        reader.path, f"damaged state changes in cycle {cycle}: {exc}"
-                    ) from None
+                recorded = decode_part(
+                    reader.path, record.state_changes, decode_state_changes, "state changes", cycle
+                )
                 for index, before, after in recorded:
                     name = names[index] if 0 <= index < len(names) else f"#{index}"
                     changes.append(TracedChange(cycle, time_ns, StateChange(name, before, after)))
@@ -138,14 +127,14 @@ def _with_outputs(
     reader: SessionLogReader,
 ) -> Iterator[tuple[int, int, CycleRecord, dict[str, Any]]]:
     """Each cycle of a log: its number, robot time, record and recorded outputs."""
-    decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
     time_ns = 0
     for cycle, record in enumerate(_records(reader)):
         time_ns += record.heartbeat_ns
-        try:
-            outputs = {} if record.outputs == EMPTY_MAP else decode(record.outputs)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(reader.path, f"damaged outputs in cycle {cycle}: {exc}") from None
+        outputs = (
+            {}
+            if record.outputs == EMPTY_MAP
+            else decode_part(reader.path, record.outputs, decode_outputs, "outputs", cycle)
+        )
         yield cycle, time_ns, record, outputs
 
 
@@ -202,12 +191,9 @@ def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[
             if cycle > last:
                 break
             if cycle in cycles:
-                try:
-                    state = msgspec.msgpack.decode(record.robot_state)
-                except DECODE_ERRORS as exc:
-                    raise CorruptLogError(
-                        reader.path, f"damaged robot state in cycle {cycle}: {exc}"
-                    ) from None
+                state = decode_part(
+                    reader.path, record.robot_state, msgspec.msgpack.decode, "robot state", cycle
+                )
                 found[cycle] = state if isinstance(state, dict) else {WHOLE_STATE: state}
     return found
 

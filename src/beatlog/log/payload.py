@@ -24,10 +24,18 @@ from beatlog.log.format import (
     CycleBatch,
     CycleRecord,
     SessionHeader,
+    StateChangeRecord,
     samples_shape,
 )
 
-__all__ = ["BatchDecoding", "decode_payload", "decoded_version"]
+__all__ = [
+    "BatchDecoding",
+    "decode_outputs",
+    "decode_part",
+    "decode_payload",
+    "decode_state_changes",
+    "decoded_version",
+]
 
 T = TypeVar("T")
 
@@ -79,6 +87,31 @@ def decode_payload(path: Path, data: bytes, kind: type[T], what: str) -> T:
         return msgspec.msgpack.decode(data, type=kind)
     except DECODE_ERRORS as exc:
         raise CorruptLogError(path, f"damaged {what}: {exc}") from None
+
+
+decode_state_changes: Callable[[bytes | msgspec.Raw], list[StateChangeRecord]] = (
+    msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
+)
+"""A cycle record's state changes (its ``state_changes`` part), decoded."""
+decode_outputs: Callable[[bytes | msgspec.Raw], dict[str, Any]] = msgspec.msgpack.Decoder(
+    dict[str, Any]
+).decode
+"""A cycle record's outputs (its ``outputs`` part), decoded."""
+
+
+def decode_part(
+    path: Path,
+    data: bytes | msgspec.Raw,
+    decode: Callable[[bytes | msgspec.Raw], T],
+    what: str,
+    cycle: int,
+) -> T:
+    """``data``, a part of cycle ``cycle``'s record, decoded with ``decode``, or a corrupt
+    log naming ``what`` was damaged in that cycle."""
+    try:
+        return decode(data)
+    except DECODE_ERRORS as exc:
+        raise CorruptLogError(path, f"damaged {what} in cycle {cycle}: {exc}") from None
 
 
 def decoded_version(path: Path, data: bytes) -> int:

@@ -11,13 +11,13 @@ import msgspec
 
 from beatlog.errors import CorruptLogError
 from beatlog.log.format import (
-    DECODE_ERRORS,
     EMPTY_LIST,
     EMPTY_MAP,
     CycleRecord,
     StateChangeRecord,
     payload_encoder,
 )
+from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.divergences import Divergences
@@ -92,8 +92,6 @@ class CycleJudge:
             else encoder
         )
         self._same_catalogue = self.executor.behavior_ids == self.expected_names
-        self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
-        self._outputs_decoder = msgspec.msgpack.Decoder(dict[str, Any])
         self.divergences = Divergences(
             replayer,
             comparison,
@@ -244,17 +242,9 @@ class CycleJudge:
         context = self.executor.context
         self.divergences.log_ended(why, context.cycle, context.time_ns)
 
-    def _decode(self, data: msgspec.Raw, decode: Any, what: str) -> Any:
-        try:
-            return decode(data)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(
-                self.path, f"damaged {what} in cycle {self.executor.context.cycle}: {exc}"
-            ) from None
-
     def _expected_outputs(self, raw_outputs: msgspec.Raw) -> dict[str, Any]:
-        result: dict[str, Any] = self._decode(raw_outputs, self._outputs_decoder.decode, "outputs")
-        return result
+        cycle = self.executor.context.cycle
+        return decode_part(self.path, raw_outputs, decode_outputs, "outputs", cycle)
 
     def _changes_agree(self, raw_changes: msgspec.Raw, changes: list[StateChangeRecord]) -> bool:
         actual = self.divergences.named_actual(changes)
@@ -270,12 +260,13 @@ class CycleJudge:
         """
         names = self.expected_names
         renamed = self.comparison.renamed
-        recorded = self._decode(raw_changes, self._changes_decoder.decode, "state changes")
+        cycle = self.executor.context.cycle
+        recorded = decode_part(self.path, raw_changes, decode_state_changes, "state changes", cycle)
         for index, _, _ in recorded:
             if not 0 <= index < len(names):
                 raise CorruptLogError(
                     self.path,
-                    f"damaged state changes in cycle {self.executor.context.cycle}: behavior "
+                    f"damaged state changes in cycle {cycle}: behavior "
                     f"#{index} is not in the catalogue of {len(names)}",
                 )
         return [

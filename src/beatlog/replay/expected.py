@@ -16,15 +16,14 @@ from typing import Any
 
 import msgspec
 
-from beatlog.errors import CorruptLogError
 from beatlog.log.format import (
-    DECODE_ERRORS,
     EMPTY_LIST,
     EMPTY_MAP,
     CycleRecord,
     StateChangeRecord,
     payload_encoder,
 )
+from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.replay.departures import apply_outputs, hold
 from beatlog.replay.expectation import Expectation, TracedOutput
 from beatlog.replay.verdict import StateChange
@@ -115,7 +114,6 @@ class ExpectedRecords:
         expected: dict[bytes, msgspec.Raw] = {}
         """The expected outputs of the recorded ones met while ``held`` holds: a robot's
         outputs repeat, so most cycles find theirs here."""
-        decode = msgspec.msgpack.Decoder(dict[str, Any]).decode
         encode = self._encoder.encode
         cycle = 0
         for batch in batches:
@@ -131,12 +129,8 @@ class ExpectedRecords:
                     recorded = bytes(record.outputs)
                     outputs = expected.get(recorded)
                     if outputs is None:
-                        try:
-                            values = apply_outputs(decode(recorded), held)
-                        except DECODE_ERRORS as exc:
-                            raise CorruptLogError(
-                                path, f"damaged outputs in cycle {cycle}: {exc}"
-                            ) from None
+                        decoded = decode_part(path, recorded, decode_outputs, "outputs", cycle)
+                        values = apply_outputs(decoded, held)
                         outputs = msgspec.Raw(encode(values)) if values else EMPTY_MAP
                         expected[recorded] = outputs
                     record.outputs = outputs
