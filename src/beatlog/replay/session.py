@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypedDict, Unpack
 
 from beatlog.closing import Closing
 from beatlog.log.format import CycleRecord, SessionHeader
@@ -23,7 +23,7 @@ from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.pins import PinChecker
 
-__all__ = ["FieldsRead", "Observer", "ReadTracker", "ReplaySession", "fields_read"]
+__all__ = ["FieldsRead", "Observer", "ReadTracker", "ReplayOptions", "ReplaySession", "fields_read"]
 
 
 class Observer(Protocol):
@@ -96,6 +96,18 @@ class FieldsRead:
         return tuple(self.tracker.read)
 
 
+class ReplayOptions(TypedDict, total=False):
+    """How a :class:`ReplaySession` replays: the keyword arguments it passes on to its
+    :class:`~beatlog.replay.core.Replayer`, each as the replayer documents it."""
+
+    perception: Perception | None
+    break_at: int | None
+    living: bool
+    rename: Callable[[str], str]
+    migration: StateMigration | None
+    state_pins: PinChecker | None
+
+
 class ReplaySession(Closing):
     """A log opened and checked once, and a system set up to replay it; a context manager.
 
@@ -119,30 +131,14 @@ class ReplaySession(Closing):
         self,
         log: str | Path,
         system: System | None,
-        *,
-        perception: Perception | None = None,
-        break_at: int | None = None,
-        living: bool = False,
-        rename: Callable[[str], str] = str,
-        migration: StateMigration | None = None,
-        state_pins: PinChecker | None = None,
+        **options: Unpack[ReplayOptions],
     ) -> None:
         self.reader = SessionLogReader(log)
         try:
             self.replayer = (
                 None
                 if system is None
-                else Replayer(
-                    system,
-                    self.reader.header,
-                    self.reader.path,
-                    perception=perception,
-                    break_at=break_at,
-                    living=living,
-                    rename=rename,
-                    migration=migration,
-                    state_pins=state_pins,
-                )
+                else Replayer(system, self.reader.header, self.reader.path, **options)
             )
         except BaseException:
             self.reader.close()
