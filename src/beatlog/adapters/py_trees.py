@@ -36,8 +36,8 @@ import itertools
 import random as stdlib_random
 import threading
 import time as wall_clock
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from typing import Any, Generic, TypeVar
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any, TypeVar
 
 import msgspec
 
@@ -48,7 +48,7 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
         "beatlog.adapters.py_trees needs py_trees: pip install 'beatlog[py_trees]'"
     ) from exc
 
-from beatlog.model.behavior import Behavior, BehaviorState
+from beatlog.model.behavior import Behavior, BehaviorState, CataloguedSystem
 from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
@@ -73,7 +73,7 @@ class _Tick(threading.local):
 _TICK = _Tick()
 
 
-class TreeSystem(Generic[RS]):
+class TreeSystem(CataloguedSystem[RS]):
     """A py_trees tree as a beatlog system: one tick per heartbeat.
 
     :param build: builds the tree and returns its root; called after the blackboard
@@ -83,6 +83,9 @@ class TreeSystem(Generic[RS]):
     :param blackboard: keys whose values are observed as behaviors
         (``blackboard/KEY``); their values must encode in a log (names, numbers,
         flags, Enums, structs).
+
+    Its catalogue holds every node in tree order (a parent before its children), then
+    the watched keys.
     """
 
     def __init__(
@@ -96,7 +99,6 @@ class TreeSystem(Generic[RS]):
         self._writer = py_trees.blackboard.Client(name="beatlog")
         self._writer.register_key(ROBOT_STATE_KEY, access=py_trees.common.Access.WRITE)
         self.root = build()
-        self._robot_state = robot_state
         catalogue: dict[str, Behavior] = {}
         self._actors: dict[Node, int] = {}
         for path, node in _paths(self.root, _escape(self.root.name)):
@@ -109,17 +111,7 @@ class TreeSystem(Generic[RS]):
             if name in catalogue:
                 raise ValueError(f"{name!r} is both a tree node and a watched blackboard key")
             catalogue[name] = _BlackboardValue(key)
-        self._catalogue = catalogue
-
-    @property
-    def robot_state(self) -> type[RS]:
-        """The robot state type written to the blackboard."""
-        return self._robot_state
-
-    @property
-    def behaviors(self) -> Mapping[str, Behavior]:
-        """Every node in tree order (a parent before its children), then the watched keys."""
-        return self._catalogue
+        super().__init__(robot_state, catalogue)
 
     def actor(self, node: Node) -> int:
         """The catalogue index of a node of this tree."""

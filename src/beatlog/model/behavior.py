@@ -14,7 +14,14 @@ import msgspec
 
 from beatlog.model.context import Context, Outputs
 
-__all__ = ["Behavior", "BehaviorState", "PlainBehavior", "PriorityArbiter", "System"]
+__all__ = [
+    "Behavior",
+    "BehaviorState",
+    "CataloguedSystem",
+    "PlainBehavior",
+    "PriorityArbiter",
+    "System",
+]
 
 BehaviorState = str | int | bool | None
 """What a behavior's observable state may be: a name, a number or a flag (Enums of str/int fit)."""
@@ -70,12 +77,32 @@ class PlainBehavior(Protocol[RS_contra]):
         ...
 
 
-class PriorityArbiter(Generic[RS]):
+class CataloguedSystem(Generic[RS]):
+    """What a :class:`System` exposes, held once it is built: its robot state type and
+    its catalogue of behaviors (a subclass defines ``update``)."""
+
+    def __init__(self, robot_state: type[RS], catalogue: Mapping[str, Behavior]) -> None:
+        self._robot_state = robot_state
+        self._catalogue = catalogue
+
+    @property
+    def robot_state(self) -> type[RS]:
+        """The robot state type the behaviors read."""
+        return self._robot_state
+
+    @property
+    def behaviors(self) -> Mapping[str, Behavior]:
+        """The behaviors in catalogue order, each by its name."""
+        return self._catalogue
+
+
+class PriorityArbiter(CataloguedSystem[RS]):
     """Subsumption-style arbitration: every behavior steps, the highest-priority one that
     asks for control wins, and its outputs are emitted.
 
     The arbiter is itself a behavior whose state is the name of the winner (``"idle"``
-    when none asks), so a change of control is a state change in the log.
+    when none asks), so a change of control is a state change in the log. Its
+    catalogue holds the arbiter first, then its behaviors from highest to lowest priority.
     """
 
     def __init__(
@@ -87,24 +114,13 @@ class PriorityArbiter(Generic[RS]):
     ) -> None:
         self.name = name
         self.state: BehaviorState = "idle"
-        self._robot_state = robot_state
         self._children = tuple(behaviors)
         catalogue: dict[str, Behavior] = {name: self}
         for behavior in self._children:
             if behavior.name in catalogue:
                 raise ValueError(f"two behaviors are named {behavior.name!r}")
             catalogue[behavior.name] = behavior
-        self._catalogue = catalogue
-
-    @property
-    def robot_state(self) -> type[RS]:
-        """The robot state type the behaviors read."""
-        return self._robot_state
-
-    @property
-    def behaviors(self) -> Mapping[str, Behavior]:
-        """The arbiter first, then its behaviors from highest to lowest priority."""
-        return self._catalogue
+        super().__init__(robot_state, catalogue)
 
     def update(self, state: RS, context: Context) -> None:
         """Step every behavior in priority order and emit the winner's outputs."""
