@@ -49,24 +49,20 @@ class _ReadCycleRecord(CycleRecord, forbid_unknown_fields=True):
     defines is damaged, not cut short (the writer's own records stay as they are)."""
 
 
-_ReadCycleBatch: Any = msgspec.defstruct(
-    "_ReadCycleBatch",
-    [("cycles", list[_ReadCycleRecord])],
-    bases=(CycleBatch,),
-    array_like=True,
-    forbid_unknown_fields=True,
-)
-"""A cycles message as the reader decodes it: nothing after its cycles, each as read."""
+def _as_read(name: str, batch: type[msgspec.Struct]) -> Any:
+    """A cycles message of type ``batch`` as the reader decodes it: nothing after its
+    cycles (its columns, in format 3), each cycle as read."""
+    return msgspec.defstruct(
+        name,
+        [("cycles", list[_ReadCycleRecord])],
+        bases=(batch,),
+        array_like=True,
+        forbid_unknown_fields=True,
+    )
 
 
-_ReadColumnBatch: Any = msgspec.defstruct(
-    "_ReadColumnBatch",
-    [("cycles", list[_ReadCycleRecord])],
-    bases=(ColumnBatch,),
-    array_like=True,
-    forbid_unknown_fields=True,
-)
-"""A format-3 cycles message as the reader decodes it: nothing after its columns."""
+_ReadCycleBatch = _as_read("_ReadCycleBatch", CycleBatch)
+_ReadColumnBatch = _as_read("_ReadColumnBatch", ColumnBatch)
 _NIL = msgspec.Raw(b"\xc0")
 _COLUMN_BATCHES = msgspec.msgpack.Decoder(_ReadColumnBatch)
 _CYCLE_BATCHES = msgspec.msgpack.Decoder(_ReadCycleBatch)

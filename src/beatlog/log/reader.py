@@ -310,11 +310,19 @@ class SessionLogReader(Closing):
             raise CorruptLogError(self.path, _index_damaged(problem))
         self._status = LogStatus(True, self._cycles, problem)
 
+    def _defined_before(
+        self, what: str, known: Schema | Channel | None, record: Schema | Channel
+    ) -> bool:
+        """Whether ``record`` (a ``what``) repeats ``known``, the one of its id met before;
+        one that defines the id otherwise is damage."""
+        if known is None:
+            return False
+        if known != record:
+            raise CorruptLogError(self.path, f"{what} {record.id} is defined twice")
+        return True
+
     def _add_schema(self, schema: Schema) -> None:
-        known = self._schemas.get(schema.id)
-        if known is not None:
-            if known != schema:
-                raise CorruptLogError(self.path, f"schema {schema.id} is defined twice")
+        if self._defined_before("schema", self._schemas.get(schema.id), schema):
             return
         if schema.encoding != SCHEMA_ENCODING or not any(
             schema.name in names for names in _SCHEMAS.values()
@@ -327,10 +335,7 @@ class SessionLogReader(Closing):
         self._schemas[schema.id] = schema
 
     def _add_channel(self, channel: Channel) -> None:
-        known = self._channels.get(channel.id)
-        if known is not None:
-            if known != channel:
-                raise CorruptLogError(self.path, f"channel {channel.id} is defined twice")
+        if self._defined_before("channel", self._channels.get(channel.id), channel):
             return
         schema = self._schemas.get(channel.schema_id)
         if channel.topic not in _SCHEMAS or channel.topic in self._topics:
