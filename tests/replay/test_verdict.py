@@ -94,6 +94,19 @@ def test_a_divergence_tells_its_robot_time_in_seconds() -> None:
     assert divergence.traceback is None
 
 
+def test_a_divergence_tells_its_outputs_as_name_and_value_expected_then_actual() -> None:
+    divergence = Divergence(
+        DivergenceKind.OUTPUTS,
+        41,
+        1_245_000_000,
+        "speed differs",
+        expected_outputs={"speed": 0.5, "mode": "cruise"},
+        actual_outputs={"speed": 0.25},
+    )
+
+    assert divergence.output_sides == (["speed = 0.5", "mode = 'cruise'"], ["speed = 0.25"])
+
+
 def test_divergences_do_not_share_their_default_tables() -> None:
     first = Divergence(DivergenceKind.OUTPUTS, 1, 30, "a")
     second = Divergence(DivergenceKind.OUTPUTS, 2, 60, "b")

@@ -151,6 +151,14 @@ class Divergence:
         )
 
     @property
+    def output_sides(self) -> tuple[list[str], list[str]]:
+        """The outputs as ``name = value``: expected, and actual."""
+        return (
+            [f"{name} = {value!r}" for name, value in self.expected_outputs.items()],
+            [f"{name} = {value!r}" for name, value in self.actual_outputs.items()],
+        )
+
+    @property
     def samples_text(self) -> str:
         """The cycle's samples on one line: ``range [1.0, 1]; imu 0.0``."""
         return "; ".join(f"{sensor} {value!r}" for sensor, value in self.samples)

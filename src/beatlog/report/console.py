@@ -125,13 +125,7 @@ def _divergence(divergence: Divergence) -> RenderableType:
         )
     completed = divergence.kind in (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
     if completed and divergence.expected_outputs != divergence.actual_outputs:
-        parts.append(
-            _side_by_side(
-                "outputs",
-                _items(divergence.expected_outputs),
-                _items(divergence.actual_outputs),
-            )
-        )
+        parts.append(_side_by_side("outputs", *divergence.output_sides))
     if divergence.random_recorded or divergence.random_drawn:
         parts.append(
             _side_by_side("random numbers", divergence.random_recorded, divergence.random_drawn)
@@ -154,10 +148,6 @@ def _rename_proposal(renames: dict[str, str]) -> Text:
         ("\nIf intended, add to the spec: ", "yellow"),
         f"renames = {{ {table} }}",
     )
-
-
-def _items(values: dict[str, Any]) -> list[str]:
-    return [f"{name} = {value!r}" for name, value in values.items()]
 
 
 def _side_by_side(

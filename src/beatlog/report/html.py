@@ -11,7 +11,6 @@ from __future__ import annotations
 import html
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Any
 
 from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
@@ -217,13 +216,7 @@ def _divergence(divergence: Divergence, rerun: str) -> str:
 def _details(divergence: Divergence) -> str:
     parts = []
     if divergence.expected_outputs or divergence.actual_outputs:
-        parts.append(
-            _side_by_side(
-                "outputs",
-                _items(divergence.expected_outputs),
-                _items(divergence.actual_outputs),
-            )
-        )
+        parts.append(_side_by_side("outputs", *divergence.output_sides))
     if divergence.random_recorded or divergence.random_drawn:
         parts.append(
             _side_by_side("random numbers", divergence.random_recorded, divergence.random_drawn)
@@ -241,10 +234,6 @@ def _details(divergence: Divergence) -> str:
     if divergence.traceback:
         parts.append(f'<pre class="traceback">{_e(divergence.traceback)}</pre>')
     return "\n".join(parts)
-
-
-def _items(values: dict[str, Any]) -> list[str]:
-    return [f"{name} = {value!r}" for name, value in values.items()]
 
 
 def _side_by_side(
