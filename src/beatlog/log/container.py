@@ -13,6 +13,7 @@ import struct
 import threading
 import zlib
 from io import BytesIO
+from typing import cast
 
 import zstandard
 from mcap.data_stream import ReadDataStream
@@ -106,7 +107,9 @@ def read_chunk(body: bytes) -> Chunk:
     at = _CHUNK_HEAD.size + name_length
     compression = str(body[_CHUNK_HEAD.size : at], "utf-8")
     (length,) = struct.unpack_from("<Q", body, at)
-    data = body[at + 8 :]
+    # Not copied (a chunk is most of a log's bytes): a view, which every reader of a
+    # chunk's data reads as it reads bytes.
+    data = cast("bytes", memoryview(body)[at + 8 :])
     if len(data) != length:
         raise RecordDamageError(
             f"a chunk holds {len(data)} bytes of records where it declares {length}"
@@ -203,6 +206,7 @@ def split_records(data: bytes, allowed: frozenset[int], where: str) -> list[Mcap
     in ``allowed``."""
     records: list[McapRecord] = []
     position = 0
+    view = cast("bytes", memoryview(data))  # a message's payload is a view, not a copy
     while position < len(data):
         if position + RECORD_HEAD > len(data):
             raise RecordDamageError(f"a record inside {where} is cut off")
@@ -215,7 +219,7 @@ def split_records(data: bytes, allowed: frozenset[int], where: str) -> list[Mcap
             if length < _MESSAGE_HEAD.size:
                 raise RecordDamageError(f"a message inside {where} is cut off")
             channel, sequence, log_time, publish_time = _MESSAGE_HEAD.unpack_from(data, start)
-            body = data[start + _MESSAGE_HEAD.size : position]
+            body = view[start + _MESSAGE_HEAD.size : position]
             records.append(Message(channel, log_time, body, publish_time, sequence))
             continue
         if opcode == Opcode.CHUNK_INDEX:  # one a chunk

@@ -49,12 +49,12 @@ class _ReadCycleRecord(CycleRecord, forbid_unknown_fields=True):
     defines is damaged, not cut short (the writer's own records stay as they are)."""
 
 
-def _as_read(name: str, batch: type[msgspec.Struct]) -> Any:
+def _as_read(name: str, batch: type[msgspec.Struct], *fields: tuple[str, Any, Any]) -> Any:
     """A cycles message of type ``batch`` as the reader decodes it: nothing after its
-    cycles (its columns, in format 3), each cycle as read."""
+    cycles (its columns, in format 3), each cycle as read, ``fields`` as given."""
     return msgspec.defstruct(
         name,
-        [("cycles", list[_ReadCycleRecord])],
+        [("cycles", list[_ReadCycleRecord]), *fields],
         bases=(batch,),
         array_like=True,
         forbid_unknown_fields=True,
@@ -62,7 +62,8 @@ def _as_read(name: str, batch: type[msgspec.Struct]) -> Any:
 
 
 _ReadCycleBatch = _as_read("_ReadCycleBatch", CycleBatch)
-_ReadColumnBatch = _as_read("_ReadColumnBatch", ColumnBatch)
+_ReadColumnBatch = _as_read("_ReadColumnBatch", ColumnBatch, ("data", memoryview, memoryview(b"")))
+"""Its columns' ``data`` is a view of the message, not a copy (most of a wide log's bytes)."""
 _NIL = msgspec.Raw(b"\xc0")
 _COLUMN_BATCHES = msgspec.msgpack.Decoder(_ReadColumnBatch)
 _CYCLE_BATCHES = msgspec.msgpack.Decoder(_ReadCycleBatch)

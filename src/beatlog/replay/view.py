@@ -105,18 +105,11 @@ class StateViews:
         self.checking = checking
         self.path = path
         self.convert = convert
-        struct = isinstance(checking, type) and issubclass(checking, msgspec.Struct)
-        self.fields = (
-            {info.name: info for info in msgspec.structs.fields(checking)} if struct else {}
-        )
-        self._recorded = {info.encode_name: info.name for info in self.fields.values()}
-        self.decoders: dict[str, Callable[[bytes], list[Any]]] = {}
+        self.shape = _shape(system_type, checking)
+        """What views of these types share in a process: their fields, classes, decoders."""
+        self.fields = self.shape.fields
         self.read: dict[str, None] = {}
         """The fields read so far, in the order first read: each view holds them."""
-        self._whole = msgspec.msgpack.Decoder(checking).decode
-        self._namespace = {**_methods(system_type, self.fields), **_VIEW_METHODS}
-        self._namespace["__class__"] = system_type
-        self._types: dict[tuple[str, ...], Any] = {}
         self._checked: list[str] | None = None
         self._index: dict[str, int] = {}
         self._indexed: list[str] | None = None
@@ -146,16 +139,7 @@ class StateViews:
         self._columns = columns
         self._first = columns.first_cycle
         held = tuple(self.read)
-        view = self._types.get(held)
-        if view is None:
-            view = self._types[held] = msgspec.defstruct(
-                self.system_type.__name__,
-                [(_BATCH, Any), (_INDEX, int), *((name, Any) for name in held)],
-                module=self.system_type.__module__,
-                namespace={**self._namespace, "__qualname__": self.system_type.__qualname__},
-                gc=False,
-                weakref=False,
-            )
+        view = self.shape.view_type(held)
         values = [batch.values(name) for name in held]
         self._views = list(map(view, repeat(batch), range(columns.count), *values))
 
@@ -163,7 +147,7 @@ class StateViews:
         """A batch's fields must be the type's: none it lacks, every one it requires."""
         names = columns.names
         if names is not None:
-            unknown = [name for name in names if name not in self._recorded]
+            unknown = [name for name in names if name not in self.shape.recorded]
             required = {
                 info.encode_name for info in self.fields.values() if info.required
             }.difference(names)
@@ -207,7 +191,7 @@ class StateViews:
     def decode_whole(self, encoded: bytes, cycle: int) -> Any:
         """RS_t of ``cycle`` decoded whole from its encoding, the system's."""
         try:
-            decoded = self._whole(encoded)
+            decoded = self.shape.whole(encoded)
         except DECODE_ERRORS as exc:
             raise SchemaMismatchError(
                 self.path,
@@ -242,9 +226,7 @@ class _Batch:
             else:
                 found = [info.default] * count
         else:
-            decode = views.decoders.get(name)
-            if decode is None:
-                decode = views.decoders[name] = msgspec.msgpack.Decoder(list[info.type]).decode  # type: ignore[name-defined]
+            decode = views.shape.decoder(name)
             found = self.columns.values(at, decode, views.system_type.__name__)
             if views.convert is not None and name in views.convert.fields:
                 found = self._converted(name, found)
@@ -283,6 +265,67 @@ class _Batch:
         """The batch's ``index``-th RS_t decoded whole, the system's."""
         cycle = self.columns.first_cycle + index
         return self.views.decode_whole(self.columns.raw_state(cycle), cycle)
+
+
+class _Shape:
+    """What the views of one robot state type (``system_type``, checked as ``checking``)
+    share, made once per pair in a process (:func:`_shape`): a suite replays many logs
+    of one robot, and at 1,000 fields reading the fields alone takes milliseconds."""
+
+    def __init__(self, system_type: type[Any], checking: type[Any]) -> None:
+        self.system_type = system_type
+        struct = isinstance(checking, type) and issubclass(checking, msgspec.Struct)
+        self.fields: dict[str, Any] = (
+            {info.name: info for info in msgspec.structs.fields(checking)} if struct else {}
+        )
+        self.recorded = {info.encode_name: info.name for info in self.fields.values()}
+        """Each field's name by its encoded name."""
+        self.whole: Callable[[bytes], Any] = msgspec.msgpack.Decoder(checking).decode
+        """RS_t decoded whole, as ``checking``."""
+        namespace = {**_methods(system_type, self.fields), **_VIEW_METHODS}
+        self._namespace = {
+            **namespace,
+            "__class__": system_type,
+            "__qualname__": system_type.__qualname__,
+        }
+        self._types: dict[tuple[str, ...], Any] = {}
+        self._decoders: dict[str, Callable[[bytes], list[Any]]] = {}
+
+    def view_type(self, held: tuple[str, ...]) -> Any:
+        """The class of views that hold the fields ``held``."""
+        found = self._types.get(held)
+        if found is None:
+            found = self._types[held] = msgspec.defstruct(
+                self.system_type.__name__,
+                [(_BATCH, Any), (_INDEX, int), *((name, Any) for name in held)],
+                module=self.system_type.__module__,
+                namespace=self._namespace,
+                gc=False,
+                weakref=False,
+            )
+        return found
+
+    def decoder(self, name: str) -> Callable[[bytes], list[Any]]:
+        """What decodes a column of field ``name`` (a msgpack array) as the field's type."""
+        found = self._decoders.get(name)
+        if found is None:
+            kind = self.fields[name].type
+            found = self._decoders[name] = msgspec.msgpack.Decoder(list[kind]).decode  # type: ignore[valid-type]
+        return found
+
+
+_SHAPES: dict[tuple[type[Any], type[Any]], _Shape] = {}
+_MAX_SHAPES = 64
+
+
+def _shape(system_type: type[Any], checking: type[Any]) -> _Shape:
+    """The :class:`_Shape` of the pair, made on first need (at most 64 kept)."""
+    found = _SHAPES.get((system_type, checking))
+    if found is None:
+        if len(_SHAPES) >= _MAX_SHAPES:
+            _SHAPES.clear()
+        found = _SHAPES[system_type, checking] = _Shape(system_type, checking)
+    return found
 
 
 def _methods(system_type: type[Any], fields: dict[str, Any]) -> dict[str, Any]:
