@@ -22,9 +22,11 @@ opening its columns one by one (``BENCHMARKS.md``).
 
 from __future__ import annotations
 
+import functools
+import operator
 import re
 import struct
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from itertools import accumulate
 from pathlib import Path
 from typing import Any
@@ -173,8 +175,11 @@ class StateColumns:
         names = batch.state_fields
         self.names = header_fields if names == [] else names
         """The fields' names in column order; None where the records hold the states."""
-        self._batch = batch
-        self._encoded: dict[int, bytes | bytearray] = {}
+        # Not the batch itself: its records hold this, and a cycle of references would
+        # keep every batch read alive until the garbage collector found it.
+        self._widths = batch.widths
+        self._data = batch.data
+        self._encoded: dict[int, bytes] = {}
         expected = 0 if self.names is None else len(self.names)
         if (len(batch.widths), len(batch.sizes)) != (expected, 4 * expected):
             raise self._damaged(f"its column table does not describe {expected} columns")
@@ -200,7 +205,7 @@ class StateColumns:
     def _check_sizes(self, sizes: tuple[int, ...]) -> None:
         """Every column of values of one width must hold exactly one value a cycle."""
         count = self.count
-        for index, (width, size) in enumerate(zip(self._batch.widths, sizes, strict=True)):
+        for index, (width, size) in enumerate(zip(self._widths, sizes, strict=True)):
             if width > MAX_VALUE_WIDTH or (width and size != width * count):
                 raise self._damaged(
                     f"{self.name(index)} holds {size} bytes, not {count} values of {width} "
@@ -214,30 +219,41 @@ class StateColumns:
     def _damaged(self, problem: str) -> CorruptLogError:
         return CorruptLogError(self.path, f"damaged batch from cycle {self.first_cycle}: {problem}")
 
-    def encoded(self, index: int) -> bytes | bytearray:
+    def encoded(self, index: int) -> bytes:
         """A column as one msgpack array of the batch's values, un-split (once; kept for
         the batch)."""
         found = self._encoded.get(index)
-        if found is not None:
-            return found
-        batch = self._batch
-        start = self._ends[index - 1] if index else 0
-        end = self._ends[index]
-        width = batch.widths[index]
+        if found is None:
+            self.unsplit((index,))
+            found = self._encoded[index]
+        return found
+
+    def unsplit(self, indices: Iterable[int]) -> None:
+        """Make the columns ``indices`` msgpack arrays (:meth:`encoded`) at once: the
+        byte-split ones of one width take that many strided copies all together, not
+        that many each (a copy costs about as much for 30 columns as for one)."""
+        data = self._data
+        widths = self._widths
+        ends = self._ends
         head = array_head(self.count)
-        encoded: bytes | bytearray
-        if width > 1:
-            at = len(head)
-            encoded = bytearray(at + end - start)
-            encoded[:at] = head
-            data = batch.data
-            count = self.count
-            for k in range(width):
-                encoded[at + k :: width] = data[start + k * count : start + (k + 1) * count]
-        else:
-            encoded = head + batch.data[start:end]
-        self._encoded[index] = encoded
-        return encoded
+        split: dict[int, dict[int, int]] = {}  # by width: each column's start by index
+        for index in indices:
+            if index in self._encoded:
+                continue
+            width = widths[index]
+            start = ends[index - 1] if index else 0
+            if width > 1:
+                split.setdefault(width, {})[index] = start
+            else:
+                self._encoded[index] = head + data[start : ends[index]]
+        for width, starts in split.items():
+            size = width * self.count
+            values = bytearray(size * len(starts))
+            join = bytearray().join  # a bytearray is copied into place without a copy of it
+            for byte, planes in enumerate(_planes(tuple(starts.values()), width, self.count)):
+                values[byte::width] = join(planes(data))
+            for at, index in enumerate(starts):
+                self._encoded[index] = head + values[at * size : (at + 1) * size]
 
     def _walk(self, index: int) -> None:
         """A column of values of varied width must hold exactly one value a cycle."""
@@ -269,6 +285,23 @@ class StateColumns:
             raise CorruptLogError(
                 self.path, f"damaged {self.name(index)} in cycle {self._cycle(exc)}: {exc}"
             ) from None
+
+    def decoded(
+        self, indices: list[int], decoders: list[Callable[[Any], list[Any]]], type_name: str
+    ) -> list[list[Any]]:
+        """The columns ``indices`` decoded, each with its decoder, as :meth:`values` does
+        one: un-split together first (:meth:`unsplit`).
+
+        :raises beatlog.errors.SchemaMismatchError: a value does not fit its field's type.
+        :raises beatlog.errors.CorruptLogError: a column is damaged.
+        """
+        self.unsplit(indices)
+        encoded = self._encoded
+        columns = list(zip(indices, decoders, strict=True))
+        try:
+            return [decode(encoded[index]) for index, decode in columns]
+        except (msgspec.ValidationError, *DECODE_ERRORS):  # found again, to say where
+            return [self.values(index, decode, type_name) for index, decode in columns]
 
     def _cycle(self, exc: Exception) -> int:
         """The cycle a decoding error points at (the batch's first when it says none)."""
@@ -305,6 +338,19 @@ class StateColumns:
         at = cycle - self.first_cycle
         values = [column[at] for column in self._raw_columns()]
         return msgspec.Raw(_ENCODER.encode(dict(zip(self.names or (), values, strict=True))))
+
+
+@functools.lru_cache(maxsize=256)
+def _planes(starts: tuple[int, ...], width: int, count: int) -> list[Callable[[Any], Any]]:
+    """For columns of ``width``-byte values starting at ``starts`` in a batch's data, a
+    getter per byte of a value: it takes that byte's plane of every column, in order."""
+    return [
+        operator.itemgetter(
+            *[slice(start + byte * count, start + (byte + 1) * count) for start in starts],
+            slice(0, 0),  # so that one column's getter also gives a tuple
+        )
+        for byte in range(width)
+    ]
 
 
 _RAWS = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode

@@ -113,6 +113,9 @@ class StateViews:
         self._checked: list[str] | None = None
         self._index: dict[str, int] = {}
         self._indexed: list[str] | None = None
+        self._plans: dict[
+            tuple[str, ...], tuple[list[str], list[int], list[Callable[[Any], list[Any]]]]
+        ] = {}
         self._columns: StateColumns | None = None
         self._views: list[Any] = []
         self._first = 0
@@ -140,7 +143,7 @@ class StateViews:
         self._first = columns.first_cycle
         held = tuple(self.read)
         view = self.shape.view_type(held)
-        values = [batch.values(name) for name in held]
+        values = batch.held(held)
         self._views = list(map(view, repeat(batch), range(columns.count), *values))
 
     def _check(self, columns: StateColumns) -> None:
@@ -169,7 +172,22 @@ class StateViews:
         if names is not self._indexed:
             self._index = {name: at for at, name in enumerate(names or ())}
             self._indexed = names
+            self._plans = {}
         return self._index
+
+    def plan(
+        self, names: list[str] | None, fresh: tuple[str, ...]
+    ) -> tuple[list[str], list[int], list[Callable[[Any], list[Any]]]]:
+        """Of the fields ``fresh``, those a batch of the columns ``names`` holds, each
+        one's column and what decodes it (made once per batch layout)."""
+        index = self.index(names)
+        found = self._plans.get(fresh)
+        if found is None:
+            fields = self.fields
+            stored = [name for name in fresh if fields[name].encode_name in index]
+            at = [index[fields[name].encode_name] for name in stored]
+            found = self._plans[fresh] = (stored, at, list(map(self.shape.decoder, stored)))
+        return found
 
     def adopt(self, state: Any, cycle: int) -> Any:
         """A state decoded as :attr:`checking` made the system's, its fields converted.
@@ -210,6 +228,21 @@ class _Batch:
         self.columns = columns
         self.index = views.index(columns.names)
         self.decoded: dict[str, list[Any]] = {}
+
+    def held(self, names: tuple[str, ...]) -> list[list[Any]]:
+        """Fields ``names`` of every cycle of the batch, the system's: the columns not
+        decoded yet are decoded together (:meth:`StateColumns.decoded`)."""
+        decoded = self.decoded
+        fresh = tuple(name for name in names if name not in decoded)
+        if fresh:
+            views = self.views
+            stored, at, decoders = views.plan(self.columns.names, fresh)
+            found = self.columns.decoded(at, decoders, views.system_type.__name__)
+            convert = views.convert
+            for name, values in zip(stored, found, strict=True):
+                converts = convert is not None and name in convert.fields
+                decoded[name] = self._converted(name, values) if converts else values
+        return [decoded[name] if name in decoded else self.values(name) for name in names]
 
     def values(self, name: str) -> list[Any]:
         """Field ``name`` of every cycle of the batch, the system's."""
