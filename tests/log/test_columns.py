@@ -3,14 +3,17 @@ and a column that does not hold one value a cycle is a damaged log, read or not.
 
 from __future__ import annotations
 
+import gc
+import weakref
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import msgspec
 import pytest
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.columns import column_batches, encode_column
+from beatlog.log.columns import StateColumns, column_batches, encode_column
 from beatlog.log.format import Column, SessionEnd, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -130,3 +133,41 @@ def test_a_short_column_is_found_though_replay_would_not_read_it(tmp_path: Path)
         with pytest.raises(CorruptLogError, match="field 'speed' holds 71 bytes") as raised:
             list(reader.batches())
     assert str(raised.value).startswith(f"{damaged}: damaged batch from cycle 8")
+
+
+def test_columns_decoded_together_are_each_column_decoded_alone(tmp_path: Path) -> None:
+    states = [wide(t) for t in range(30)]
+    log = write(tmp_path / "v3.beatlog", states, by_field=True)
+    fields = msgspec.structs.fields(Wide)
+    decoders = [msgspec.msgpack.Decoder(list[f.type]).decode for f in fields]  # type: ignore[name-defined]
+    indices = list(range(len(fields)))
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Wide)
+        batch = next(reader.batches())
+        together: Any = batch[0].robot_state
+        assert isinstance(together, StateColumns)
+        together.decoded([0, 4], [decoders[0], decoders[4]], "Wide")  # two un-split first
+        found = together.decoded(indices, decoders, "Wide")
+        reader_again = SessionLogReader(log)
+    with reader_again:
+        reader_again.decode_states(Wide)
+        alone: Any = next(reader_again.batches())[0].robot_state
+        one_by_one = [alone.values(i, decode, "Wide") for i, decode in enumerate(decoders)]
+    expected = [[getattr(state, f.name) for state in states[:8]] for f in fields]
+    encode = payload_encoder().encode  # NaN among the values: compared as bytes
+    assert (encode(found), encode(one_by_one)) == (encode(expected), encode(expected))
+
+
+def test_a_batch_read_by_field_is_freed_without_the_garbage_collector(tmp_path: Path) -> None:
+    log = write(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Wide)
+        batches = reader.batches()
+        gc.disable()
+        try:
+            columns = weakref.ref(next(batches)[0].robot_state)
+            next(batches)
+            freed = columns() is None
+        finally:
+            gc.enable()
+    assert freed
