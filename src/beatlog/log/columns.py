@@ -143,8 +143,8 @@ class _Values(msgspec.Struct, array_like=True, gc=False):
 
 _WALK = msgspec.msgpack.Decoder(_Values).decode
 _CHECKED_TABLES = 256
-"""Column tables (widths, sizes, cycles) a reader remembers as checked: consecutive
-batches of one robot mostly share theirs."""
+"""Column tables (widths, sizes, cycles) a reader remembers as checked, with where each
+column ends: consecutive batches of one robot mostly share theirs."""
 
 
 class StateColumns:
@@ -153,7 +153,8 @@ class StateColumns:
     Opening checks, without decoding a value, that each column holds exactly one value
     a cycle: the column table has a width and a size per field and no field twice, the
     sizes add up to the data, a column of values of one width takes that width times
-    the cycles (a table already seen is checked once: ``checked``), and a column of
+    the cycles (a table already seen is checked once: ``checked`` keeps each one's
+    column ends), and a column of
     values of varied width walks through as many values as there are cycles. A value's
     type is checked when its column is decoded: replay decodes the fields its behaviors
     read, anything that shows whole states decodes them all; the chunk's CRC covers
@@ -167,7 +168,7 @@ class StateColumns:
         path: Path,
         batch: ColumnBatch,
         header_fields: list[str],
-        checked: set[tuple[bytes, bytes, int]] | None = None,
+        checked: dict[tuple[bytes, bytes, int], list[int]] | None = None,
     ) -> None:
         self.path = path
         self.first_cycle = batch.first_cycle
@@ -185,18 +186,20 @@ class StateColumns:
             raise self._damaged(f"its column table does not describe {expected} columns")
         if names and len(set(names)) != len(names):
             raise self._damaged("a field is named twice")
-        sizes = struct.unpack(f"<{expected}I", batch.sizes)
-        self._ends = list(accumulate(sizes))
-        held = self._ends[-1] if self._ends else 0
+        table = (batch.widths, batch.sizes, self.count)
+        ends = None if checked is None else checked.get(table)
+        if ends is None:
+            sizes = struct.unpack(f"<{expected}I", batch.sizes)
+            ends = list(accumulate(sizes))
+            self._check_sizes(sizes)
+            if checked is not None and len(checked) < _CHECKED_TABLES:
+                checked[table] = ends
+        self._ends = ends
+        held = ends[-1] if ends else 0
         if held != len(batch.data):
             raise self._damaged(
                 f"its columns take {held} bytes, not the {len(batch.data)} it holds"
             )
-        table = (batch.widths, batch.sizes, self.count)
-        if checked is None or table not in checked:
-            self._check_sizes(sizes)
-            if checked is not None and len(checked) < _CHECKED_TABLES:
-                checked.add(table)
         index = batch.widths.find(0)
         while index >= 0:  # the columns of values of varied width
             self._walk(index)

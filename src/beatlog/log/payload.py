@@ -157,7 +157,7 @@ class BatchDecoding:
         )
         self._raw = self.decoder
         self._state_type: type[Any] | None = None
-        self._checked: set[tuple[bytes, bytes, int]] = set()
+        self._checked: dict[tuple[bytes, bytes, int], list[int]] = {}
         self._nil: Any = _NIL
         """A robot state stored by field, as the records hold it."""
 
