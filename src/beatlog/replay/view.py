@@ -46,11 +46,21 @@ def full_state(state: Any) -> Any:
     return state
 
 
-def _view_getattr(self: Any, name: str) -> Any:
-    """A field not held by the view: decoded from its column (and held from the next
-    batch on)."""
-    batch: _Batch = object.__getattribute__(self, _BATCH)
-    return batch.miss(object.__getattribute__(self, _INDEX), name)
+class _Unheld:
+    """A field a view does not hold, as an attribute of its class: read, it is decoded
+    from its column (and held from the next batch on). A class attribute rather than a
+    ``__getattr__``, which would make every attribute read look for it first."""
+
+    __slots__ = ("name",)
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __get__(self, view: Any, owner: type[Any] | None = None) -> Any:
+        if view is None:
+            return self
+        batch: _Batch = getattr(view, _BATCH)
+        return batch.miss(getattr(view, _INDEX), self.name)
 
 
 def _view_eq(self: Any, other: Any) -> Any:
@@ -74,7 +84,6 @@ def _view_reduce(self: Any) -> Any:
 
 
 _VIEW_METHODS = {
-    "__getattr__": _view_getattr,
     "__eq__": _view_eq,
     "__repr__": _view_repr,
     "__copy__": _view_copy,
@@ -328,11 +337,12 @@ class _Shape:
         """The class of views that hold the fields ``held``."""
         found = self._types.get(held)
         if found is None:
+            unheld = {name: _Unheld(name) for name in self.fields if name not in held}
             found = self._types[held] = msgspec.defstruct(
                 self.system_type.__name__,
                 [(_BATCH, Any), (_INDEX, int), *((name, Any) for name in held)],
                 module=self.system_type.__module__,
-                namespace=self._namespace,
+                namespace={**self._namespace, **unheld},
                 gc=False,
                 weakref=False,
             )
