@@ -16,8 +16,8 @@ the chunk's zstd finds a float column's marker and exponent bytes side by side (
 reason format 3 is no larger than format 2 at any width). A log whose header names no
 robot-state fields keeps its robot states in the cycle records, as format 2 does: the
 recorder names them for a state of at least
-:data:`COLUMNS_FROM` fields, since decoding a narrow state whole costs less than
-opening its columns one by one (``BENCHMARKS.md``).
+:data:`COLUMNS_FROM` fields, since decoding a narrower state whole costs less than
+opening its columns (measured with 30 fields read: ``BENCHMARKS.md``).
 """
 
 from __future__ import annotations
@@ -45,8 +45,10 @@ __all__ = [
     "encode_column",
 ]
 
-COLUMNS_FROM = 128
-"""The fewest fields a robot state has for the recorder to have it stored by field."""
+COLUMNS_FROM = 100
+"""The fewest fields a robot state has for the recorder to have it stored by field:
+with 30 fields read, replay by field costs 3 % less than from the records at 100
+fields and 3 % more at 80 (``BENCHMARKS.md``, "Format 3")."""
 
 
 def array_head(count: int) -> bytes:
@@ -187,19 +189,18 @@ class StateColumns:
         if names and len(set(names)) != len(names):
             raise self._damaged("a field is named twice")
         table = (batch.widths, batch.sizes, self.count)
-        ends = None if checked is None else checked.get(table)
-        if ends is None:
-            sizes = struct.unpack(f"<{expected}I", batch.sizes)
-            ends = list(accumulate(sizes))
-            self._check_sizes(sizes)
-            if checked is not None and len(checked) < _CHECKED_TABLES:
-                checked[table] = ends
-        self._ends = ends
+        known = None if checked is None else checked.get(table)
+        sizes = struct.unpack(f"<{expected}I", batch.sizes) if known is None else ()
+        self._ends = ends = list(accumulate(sizes)) if known is None else known
         held = ends[-1] if ends else 0
         if held != len(batch.data):
             raise self._damaged(
                 f"its columns take {held} bytes, not the {len(batch.data)} it holds"
             )
+        if known is None:
+            self._check_sizes(sizes)
+            if checked is not None and len(checked) < _CHECKED_TABLES:
+                checked[table] = ends
         index = batch.widths.find(0)
         while index >= 0:  # the columns of values of varied width
             self._walk(index)
