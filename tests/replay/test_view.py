@@ -131,6 +131,22 @@ def test_a_view_is_the_state_where_the_whole_state_is_needed(by_field: Path) -> 
     assert (view.label, view.joints, view.pose) == ("", [0, 1, 2], Pose(3.0, -3.0))
 
 
+def test_an_attribute_the_state_lacks_is_missing_from_its_view_as_from_the_state(
+    by_field: Path,
+) -> None:
+    with SessionLogReader(by_field) as reader:
+        reader.decode_states(Arm)
+        columns: Any = next(reader.batches())[3].robot_state
+        view = StateViews(Arm, Arm, by_field).view(columns, 3)
+    missing = []
+    for state in (arm(3), view):
+        with pytest.raises(AttributeError) as raised:
+            _ = state.nope
+        missing.append(str(raised.value))
+    assert missing == ["'Arm' object has no attribute 'nope'"] * 2
+    assert (view.reach, hasattr(view, "nope")) == (arm(3).reach, False)
+
+
 def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
     by_field: Path, tmp_path: Path
 ) -> None:

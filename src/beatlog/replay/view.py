@@ -294,10 +294,8 @@ class _Batch:
 
     def miss(self, index: int, name: str) -> Any:
         """Field ``name`` of the batch's ``index``-th cycle, read for the first time in
-        this batch; an attribute the type lacks raises as the type's would."""
+        this batch."""
         views = self.views
-        if name not in views.fields or name.startswith("__"):
-            raise AttributeError(f"{views.system_type.__name__!r} object has no attribute {name!r}")
         if name not in views.read:
             views.read[name] = None
             views.stale = True
