@@ -28,14 +28,7 @@ import msgspec
 import zstandard
 from mcap import records
 
-from beatlog.log.format import CYCLES_TOPIC, CycleRecord, SessionEnd
-from beatlog.log.payload import decode_payload
-from beatlog.log.reader import SessionLogReader
-from beatlog_examples.rover import record_lockstep, system
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from tests.factories import (
+from beatlog.log.crafting import (
     PERIOD_NS,
     Message,
     chunks,
@@ -48,6 +41,10 @@ from tests.factories import (
     replace_chunk_content,
     standard_messages,
 )
+from beatlog.log.format import CYCLES_TOPIC, CycleRecord, SessionEnd
+from beatlog.log.payload import decode_payload
+from beatlog.log.reader import SessionLogReader
+from beatlog_examples.rover import record_lockstep, system
 
 replay_module: Any = importlib.import_module("beatlog.replay.judge")
 """The module (``beatlog.replay.judge`` the attribute is the function of that name)."""

@@ -10,11 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.log.format import FORMAT_VERSION
-from tests.commands import Beatlog
-from tests.conftest import RecordFn
-from tests.factories import (
-    PROBE_CYCLE_DAMAGE,
+from beatlog.log.crafting import (
     STANDARD_CHANNELS,
     Channel,
     chunks,
@@ -24,10 +20,12 @@ from tests.factories import (
     drop_chunk,
     end_message,
     header_message,
-    rewrite_cycle,
     standard_messages,
-    with_damaged_index,
 )
+from beatlog.log.format import FORMAT_VERSION
+from tests.commands import Beatlog
+from tests.conftest import RecordFn
+from tests.factories import PROBE_CYCLE_DAMAGE, rewrite_cycle, with_damaged_index
 from tests.specs import GAUGE, PROBE, write_spec
 
 

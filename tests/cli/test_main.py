@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 from mcap.writer import Writer
 
+from beatlog.log.crafting import session_header
 from beatlog.log.writer import SessionLogWriter
 from tests.commands import Beatlog, assert_one_line_error
 from tests.conftest import RecordFn
-from tests.factories import session_header
 from tests.specs import PROBE
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")

@@ -17,6 +17,7 @@ from beatlog.errors import (
     NotABeatlogError,
     UnsupportedVersionError,
 )
+from beatlog.log.crafting import craft_log, header_message, session_header, top_level_records
 from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -30,14 +31,7 @@ from tests.chunked import (
     write,
 )
 from tests.conftest import PERIOD_NS
-from tests.factories import (
-    MAGIC_LENGTH,
-    RECORD_HEAD,
-    craft_log,
-    header_message,
-    session_header,
-    top_level_records,
-)
+from tests.factories import MAGIC_LENGTH, RECORD_HEAD
 
 CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8
 """Where a zstd chunk's compressed records start, from the start of its record."""
