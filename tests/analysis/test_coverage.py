@@ -18,6 +18,7 @@ from beatlog.suite.spec import load_spec
 from tests.commands import closing_counts
 from tests.conftest import PERIOD_NS, Dice, Probe, RecordFn, distances, probe_system
 from tests.specs import PROBE, write_spec
+from tests.text import whole_lines
 
 
 class Mood(enum.Enum):
@@ -130,7 +131,7 @@ def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
     code = main(["test", "-j", "1", "--coverage", "--coverage-json", str(report), str(specs)])
     out = capsys.readouterr().out
     assert code == 0
-    assert "transition coverage" in out
+    assert "transition coverage" in whole_lines(out)
     assert '"far" → "near"' in out
     document = json.loads(report.read_text())
     assert document["dtcs"] == ["approach.dtc.toml::approach", "idle.dtc.toml::idle"]

@@ -16,6 +16,7 @@ from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from tests.commands import Beatlog, assert_one_line_error, at_a_terminal
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.text import whole_lines
 
 AGAIN = "tests.systems:probe_system_changed_again"
 
@@ -58,7 +59,7 @@ def test_a_failing_run_never_overwrites_the_accepted_baseline(beatlog: Beatlog, 
     failed = beatlog("test", "--update", spec)
 
     assert failed.code == 1
-    assert "differ from the approved baseline" in failed.out
+    assert "behavior state changes differ from the approved baseline" in whole_lines(failed.out)
     assert expected_path(spec).read_bytes() == accepted
     assert pending_path(spec).exists()
 
@@ -70,7 +71,7 @@ def test_nothing_is_written_when_ci_is_set(
 
     updated = beatlog("test", "--update", spec)
     assert updated.code == 1
-    assert "CI is set: no pending baselines written" in updated.out
+    assert "CI is set: no pending baselines written" in whole_lines(updated.out)
     assert not pending_path(spec).exists()
 
     monkeypatch.delenv("CI")
@@ -90,7 +91,7 @@ def test_a_stale_pending_file_goes_when_the_dtc_passes(
     run = beatlog("test", "--update", spec)
 
     assert run.code == 0
-    assert f"removed stale {pending_path(spec)}" in run.out
+    assert f"removed stale {pending_path(spec)}: avoid-pole passes" in whole_lines(run.out)
     assert not pending_path(spec).exists()
 
 
@@ -143,7 +144,7 @@ def test_orphaned_baselines_are_named(beatlog: Beatlog, spec: Path) -> None:
 
     run = beatlog("test", spec.parent)
 
-    assert f"orphaned baseline {orphan}: no spec beside it" in run.out
+    assert f"orphaned baseline {orphan}: no spec beside it; delete it" in whole_lines(run.out)
 
 
 def test_a_baseline_made_from_another_recording_is_an_error(
@@ -232,8 +233,10 @@ def test_a_renamed_behavior_gets_a_rename_proposal_and_the_spec_rename_fixes_it(
 
     failed = beatlog("test", spec)
     assert failed.code == 1
-    assert "differs only by renamed behaviors: near → close" in failed.out
-    assert 'renames = { "near" = "close" }' in failed.out
+    assert "The whole trace differs only by renamed behaviors: near → close" in whole_lines(
+        failed.out
+    )
+    assert 'If intended, add to the spec: renames = { "near" = "close" }' in whole_lines(failed.out)
 
     write_spec(spec.parent, "avoid-pole", log, "tests.conftest:probe_system_renamed",
                renames={"near": "close"})  # fmt: skip
@@ -266,8 +269,10 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
         rest = terminal.type("A", until="accepted")
         code = terminal.program.wait(timeout=60)
 
-    assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip" in first
-    assert "maybe" in again
+    assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip:" in whole_lines(
+        first
+    )
+    assert "maybe" in whole_lines(again)
     assert "accepted" in rest
     assert code == 0
     assert expected_path(spec).exists()

@@ -26,6 +26,7 @@ from tests.perceptions import (
     record_with_samples,
 )
 from tests.specs import write_spec
+from tests.text import whole_lines
 
 SHIFTED = "tests.perceptions:shifted_perception"
 NUDGED = "tests.perceptions:nudged_perception"
@@ -102,7 +103,11 @@ def test_a_perception_that_changes_again_fails_against_the_baseline(
     )
     back = beatlog("test", write_spec(tmp_path, "sensors", log, perception=PERCEPTION))
     assert back.code == 1
-    assert "it differs from the recording in no field, the approved one in distance" in back.out
+    assert (
+        "the robot state rebuilt from the samples differs from the approved baseline by its "
+        "digest; it differs from the recording in no field, the approved one in distance "
+        "(cycles 0–10)" in whole_lines(back.out)
+    )
     assert "│ distance = 1.0" in back.out  # recorded and rebuilt alike, side by side
 
 
@@ -173,7 +178,10 @@ def test_the_state_changes_that_follow_a_perception_change_are_pinned_too(
 
     monkeypatch.setattr("sys.stdin", io.StringIO("accept\n"))
     review = beatlog("review", spec)
-    assert 'robot state "distance" rebuilt otherwise in cycles 0–299 (300 cycles)' in review.out
+    assert (
+        'robot state "distance" rebuilt otherwise in cycles 0–299 (300 cycles), first: "distance" '
+        "1.0 → 0.95" in whole_lines(review.out)
+    )
     changes = {line[0] for line in review.out.splitlines() if '"near": "far" -> "near"' in line}
     assert changes == {"-", "+"}  # near sees the pole in other cycles
 
@@ -187,7 +195,10 @@ def test_a_perception_that_raises_or_builds_no_robot_state_is_not_re_baselined(
     spec = write_spec(tmp_path, "sensors", log, perception=f"tests.perceptions:{factory}")
     update = beatlog("test", "--update", spec)
     assert update.code == 1
-    assert "not updated sensors: perception raised or built no robot state" in update.out
+    assert (
+        "not updated sensors: perception raised or built no robot state: a baseline pins what "
+        "perception rebuilds; fix it first"
+    ) in whole_lines(update.out)
     assert not pending_path(spec).exists()
 
 
@@ -204,4 +215,4 @@ def test_a_perception_change_the_behaviors_do_not_notice_pins_no_copy_of_the_tra
     assert [line for line in pinned if "robot_state " not in line] == []  # no open loop
     run = beatlog("test", planted)
     assert run.code == 1
-    assert "behavior state changes differ from the recording" in run.out
+    assert "behavior state changes differ from the recording" in whole_lines(run.out)

@@ -217,7 +217,11 @@ def test_draws_of_a_behavior_the_system_lacks_are_named_from_the_recording(
     log = record_probe(20)
     result = replay(log, system_with(Probe))
     assert result.divergence is not None
-    assert "drawn by dice" in result.divergence.message
+    assert (
+        result.divergence.message
+        == "behavior state changes differ from the recording, and then the behaviors drew 0 random "
+        "numbers where 1 were recorded; the next recorded one was a randint drawn by dice"
+    )
 
 
 class Counted(RobotState, kw_only=True):

@@ -18,6 +18,7 @@ from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
 from tests.conftest import RecordFn
 from tests.specs import write_spec
+from tests.text import whole_lines
 
 GREEDY = "tests.systems:probe_system_greedy"
 
@@ -57,7 +58,7 @@ def test_the_replay_command_passes_what_test_passes_and_says_why(
     assert code == 0
     assert "note: judged against the approved baseline avoid-pole.dtc.expected" in passed
     assert recording == 1
-    assert f"reproduce: beatlog replay {log} --system {GREEDY} --recording" in failed
+    assert f"reproduce: beatlog replay {log} --system {GREEDY} --recording" in whole_lines(failed)
 
 
 def test_a_log_no_spec_names_is_judged_against_its_recording(

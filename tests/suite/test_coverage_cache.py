@@ -18,6 +18,7 @@ from beatlog.suite.coverage_cache import (
 )
 from tests.conftest import Probe, RecordFn
 from tests.specs import PROBE, write_spec
+from tests.text import whole_lines
 
 
 @pytest.fixture
@@ -210,7 +211,7 @@ def test_a_damaged_memory_is_a_warning_and_is_replaced(
     assert code == 0
     assert err.startswith(f"beatlog: warning: {path}: not a beatlog coverage memory")
     assert err.count("\n") == 1
-    assert "transition coverage" in out
+    assert "transition coverage" in whole_lines(out)
     assert json.loads(path.read_text())["version"] == 2
 
 

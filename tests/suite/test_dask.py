@@ -25,6 +25,7 @@ from tests.commands import Run, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.text import whole_lines
 
 DYING = "tests.conftest:dying_system"
 
@@ -145,7 +146,9 @@ def test_fleet_logs_behind_an_http_url_are_downloaded_once_each_by_the_workers(
 
     assert run.code == 1, run.err
     assert closing_counts(run.out) == "0 passed, 2 failed"
-    assert f"reproduce: beatlog test --logs {url}/dock.beatlog --system {CHANGED}" in run.out
+    assert f"reproduce: beatlog test --logs {url}/dock.beatlog --system {CHANGED}" in whole_lines(
+        run.out
+    )
     assert [served.downloads(name) for name in ("dock.beatlog", "yard.beatlog")] == [1, 1]
 
 
@@ -163,7 +166,7 @@ def test_a_spec_whose_log_is_a_url_gets_the_verdict_of_a_local_run(
     assert remote.code == local.code == 1, remote.err
     assert [closing_counts(run.out) for run in (local, remote)] == ["1 passed, 1 failed"] * 2
     assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
-    assert f"reproduce: beatlog test {folder / 'yard.dtc.toml'}" in remote.out
+    assert f"reproduce: beatlog test {folder / 'yard.dtc.toml'}" in whole_lines(remote.out)
     assert (local_downloads, served.downloads("dock.beatlog")) == (1, 2)
 
 
@@ -212,7 +215,7 @@ def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
 
     assert marker.exists()
     assert run.code == 0, run.err
-    assert "retried unlucky: the worker replaying it died (1 time)" in run.out
+    assert "retried unlucky: the worker replaying it died (1 time)" in whole_lines(run.out)
     assert "passed (retried 1×)" in run.out
     assert junit_cases(tmp_path / "dtc.xml") == [("unlucky", ["properties", "flakyError"])]
     assert '<span class="verdict">passed (retried 1×)</span>' in page.read_text()

@@ -20,6 +20,7 @@ from tests.conftest import RecordFn, distances
 from tests.factories import cut_in_half, vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
 from tests.systems import quiet_system, record_scatter
+from tests.text import whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -133,8 +134,8 @@ def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
     assert run.code == 1
     assert run.out.startswith(f"FAIL {log}")
     assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
-    assert "behavior state changes differ from the recording" in run.out
-    assert f"reproduce: beatlog replay {log} --system {CHANGED}" in run.out
+    assert "behavior state changes differ from the recording" in whole_lines(run.out)
+    assert f"reproduce: beatlog replay {log} --system {CHANGED}" in whole_lines(run.out)
     assert run.err == ""
 
 

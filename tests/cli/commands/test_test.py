@@ -26,6 +26,7 @@ from tests.conftest import RecordFn
 from tests.factories import vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots, write_spec
 from tests.systems import leaks, leaky_system, quiet_system, record_session
+from tests.text import whole_lines
 
 BeatlogTest = Callable[..., Run]
 
@@ -112,10 +113,10 @@ def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
 
     assert run.code == 1
     assert run.err == ""
-    assert f"DTC avoid-pole-earlier ({earlier})" in run.out
+    assert f"DTC avoid-pole-earlier ({earlier})" in whole_lines(run.out)
     assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
-    assert "behavior state changes differ from the recording" in run.out
-    assert f"reproduce: beatlog test {earlier}" in run.out
+    assert "behavior state changes differ from the recording" in whole_lines(run.out)
+    assert f"reproduce: beatlog test {earlier}" in whole_lines(run.out)
     assert re.search(
         rf"avoid-pole-earlier\s+│ failed .* cycle {FIRST_CHANGED_CYCLE}, state", run.out
     )
@@ -172,7 +173,7 @@ def test_a_system_that_fails_to_build_is_one_line_on_stderr_with_its_traceback_o
     assert quiet.err.startswith(line)
     assert quiet.err.count("\n") == 1
     assert verbose.err.startswith("Traceback (most recent call last):\n")
-    assert 'raise RuntimeError("the arena map is missing")' in verbose.err
+    assert 'raise RuntimeError("the arena map is missing")' in whole_lines(verbose.err)
     assert verbose.err.splitlines()[-1] == quiet.err.rstrip("\n")
     error = ET.parse(report).getroot().find("testcase[@name='broken']/error")
     assert error is not None
@@ -365,7 +366,7 @@ def test_worker_processes_give_the_same_verdicts(
     run = beatlog_test(specs, "-j", "2")
 
     assert run.code == 1
-    assert f"reproduce: beatlog test {earlier}" in run.out
+    assert f"reproduce: beatlog test {earlier}" in whole_lines(run.out)
     assert_counts(run, "2 passed, 1 failed", 600 + FIRST_CHANGED_CYCLE + 1)
 
 
@@ -543,11 +544,11 @@ def test_audit_names_every_leak_and_fails_the_run(
     assert "determinism audit" not in unaudited.out
     assert run.code == 1
     assert run.err == ""
-    assert f"AUDIT leaky ({leaky})" in run.out
+    assert f"AUDIT leaky ({leaky})" in whole_lines(run.out)
     assert "AUDIT avoid-pole" not in run.out
     for call, site in leaks():
         assert re.search(rf"{re.escape(call)}\s+│ {re.escape(site)}\s+│\s+20 │", run.out), call
-    assert f"determinism audit: {len(leaks())} findings in 1 of 2 DTCs" in run.out
+    assert f"determinism audit: {len(leaks())} findings in 1 of 2 DTCs" in whole_lines(run.out)
     assert_counts(run, "2 passed, 0 failed", 320)
     (failure,) = ET.parse(report).getroot().findall("testcase/failure")
     assert failure.get("message") == f"determinism audit: {len(leaks())} findings"
@@ -580,7 +581,9 @@ def test_a_long_suite_lists_what_did_not_pass_and_every_dtc_with_verbose(
     assert brief.code == verbose.code == 1
     assert "lap-changed " in brief.out
     assert "lap-00 " not in brief.out
-    assert "… and 33 passed, not listed: run with --verbose to list every DTC" in brief.out
+    assert "… and 33 passed, not listed: run with --verbose to list every DTC" in whole_lines(
+        brief.out
+    )
     assert all(f"lap-{n:02} " in verbose.out for n in range(33))
     assert "not listed" not in verbose.out
 

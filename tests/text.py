@@ -1,0 +1,15 @@
+"""Checks on what a command or a report printed: a test asserts that a whole line is
+among its lines, so a fragment of another line ("complete" in "incomplete") cannot pass."""
+
+from __future__ import annotations
+
+__all__ = ["whole_lines"]
+
+
+BORDERS = " \t│╭╮╰╯─"
+"""What frames a line of a console report: its indent and a panel's or a table's edges."""
+
+
+def whole_lines(text: str) -> list[str]:
+    """The lines of ``text``, each without what frames it (its indent, a panel's edges)."""
+    return [line.strip(BORDERS) for line in text.splitlines()]
