@@ -34,14 +34,18 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
 ) -> None:
     updated = beatlog("test", "--update", spec)
     assert updated.code == 1
-    assert f"pending {pending_path(spec)}" in updated.out
+    assert (
+        f"pending {pending_path(spec)} (16 state changes, 12 output changes, open loop since "
+        f"cycle {FIRST_CHANGED_CYCLE} (0.660 s)): review with beatlog review {spec}, accept with "
+        f"beatlog approve {spec}"
+    ) in whole_lines(updated.out)
     assert not expected_path(spec).exists()
     pending = read_baseline(pending_path(spec))
     assert any(change.cycle == FIRST_CHANGED_CYCLE for change in pending.expectation.changes)
 
     approved = beatlog("approve", spec)
     assert approved.code == 0
-    assert "approved avoid-pole" in approved.out
+    assert f"approved avoid-pole: {expected_path(spec)}" in whole_lines(approved.out)
     assert not pending_path(spec).exists()
     assert read_baseline(expected_path(spec)).expectation.changes == pending.expectation.changes
 
@@ -157,7 +161,10 @@ def test_a_baseline_made_from_another_recording_is_an_error(
     run = beatlog("test", spec)
 
     assert run.code == 2
-    assert f"{expected_path(spec)}: approved for another recording than probe.beatlog" in run.err
+    assert run.err == (
+        f"beatlog: error: avoid-pole ({spec}): {expected_path(spec)}: approved for another "
+        "recording than probe.beatlog; delete it\n"
+    )
 
 
 def test_a_divergence_in_random_numbers_is_rebaselined_and_its_draws_approved(
@@ -273,7 +280,7 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
         first
     )
     assert "maybe" in whole_lines(again)
-    assert "accepted" in rest
+    assert f"accepted {expected_path(spec)}" in whole_lines(rest)
     assert code == 0
     assert expected_path(spec).exists()
     assert not pending_path(spec).exists()

@@ -113,7 +113,10 @@ def test_a_spec_whose_log_is_a_fifo_is_an_error_not_a_hang(tmp_path: Path) -> No
         check=False,
     )
     assert done.returncode == 2
-    assert "not a regular file" in done.stderr
+    assert done.stderr == (
+        f"beatlog: error: hostile ({tmp_path / 'hostile.dtc.toml'}): {fifo}: is not a regular "
+        "file (a FIFO, socket or device)\n"
+    )
     assert "Traceback" not in done.stderr
 
 

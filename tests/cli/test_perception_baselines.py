@@ -66,7 +66,11 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
     update = beatlog("test", "--update", spec)
     assert update.code == 1
     assert "1 robot-state field rebuilt otherwise" not in update.out
-    assert f"robot state rebuilt otherwise in {LONG} cycles): review with" in update.out
+    assert (
+        f"pending {pending_path(spec)} (0 state changes, 0 output changes, robot state rebuilt "
+        f"otherwise in {LONG} cycles): review with beatlog review {spec}, accept with beatlog "
+        f"approve {spec}"
+    ) in whole_lines(update.out)
     pins = read_baseline(pending_path(spec)).expectation.state_pins
     assert pins.cycles == LONG
     assert [(run.cycle, run.last, run.fields) for run in pins.runs] == [
@@ -117,7 +121,7 @@ def test_a_one_ulp_change_of_one_field_in_one_cycle_fails_in_that_cycle(
     run = beatlog("test", write_spec(tmp_path, "sensors", log, perception=ONE_ULP))
 
     assert run.code == 1
-    assert f"first divergence: cycle {ULP_CYCLE}, " in run.out
+    assert f"first divergence: cycle {ULP_CYCLE}, t = 2.880 s, perception" in whole_lines(run.out)
     assert (
         "differs from the approved baseline by its digest; it differs from the recording in "
         "distance, the approved one in distance (cycles 90–110)" in run.out

@@ -142,9 +142,13 @@ def test_replay_against_another_robots_state_is_bad_input_naming_both(
     with pytest.raises(SchemaMismatchError) as raised:
         replay(log, system_with(Rover))
     message = str(raised.value)
-    assert message.startswith(f"{log}: recorded with robot state tests.conftest.Probe")
-    assert "does not fit the system's tests.replay.test_fit.Rover" in message
-    assert "field 'distance' is gone" in message
+    assert message == (
+        f"{log}: recorded with robot state tests.conftest.Probe, which does not fit the system's "
+        "tests.replay.test_fit.Rover: Probe is not Rover (a robot state type renamed since keeps "
+        "exactly its fields); field 'distance' is gone; field 'reading' is gone; the system "
+        "has 'heading' (number) in its place: if renamed, add field_renames = "
+        '{ reading = "heading" } to the spec (beatlog replay: --rename-field reading=heading)'
+    )
     assert "\n" not in message
 
 

@@ -64,9 +64,10 @@ def test_a_recorded_session_replays_and_passes(record_probe: RecordFn) -> None:
 
 
 def test_a_system_given_by_reference_replays_too(record_probe: RecordFn) -> None:
-    result = replay(record_probe(50), "tests.conftest:probe_system")
+    log = record_probe(50)
+    result = replay(log, "tests.conftest:probe_system")
     assert result.ok
-    assert "--system tests.conftest:probe_system" in result.reproduce
+    assert result.reproduce == f"beatlog replay {log} --system tests.conftest:probe_system"
 
 
 def test_without_a_system_the_log_s_own_is_used_only_where_the_project_vouches_for_it(

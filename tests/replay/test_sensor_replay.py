@@ -169,7 +169,9 @@ def test_a_perception_named_by_reference_is_in_the_reproduce_command(tmp_path: P
     reference = CHANGED
     result = replay(log, "tests.conftest:probe_system", perception=reference)
     assert not result.ok
-    assert f"--perception {reference}" in result.reproduce
+    assert result.reproduce == (
+        f"beatlog replay {log} --system tests.conftest:probe_system --perception {reference}"
+    )
 
 
 def test_keep_going_counts_every_cycle_perception_rebuilds_differently(tmp_path: Path) -> None:
@@ -283,8 +285,10 @@ def test_a_tolerance_for_a_field_the_recorded_state_lacks_is_an_error(tmp_path: 
     with pytest.raises(FieldError) as raised:
         replay(log, probe_system(), perception=perception(), comparison=unknown)
     message = str(raised.value)
-    assert message.startswith(f"{log}: robot-state tolerance for 'distanse'")
-    assert "tests.conftest.Probe has no such field (it has distance, reading)" in message
+    assert message == (
+        f"{log}: robot-state tolerance for 'distanse': the recorded robot state "
+        "tests.conftest.Probe has no such field (it has distance, reading)"
+    )
 
 
 def test_a_spec_tolerates_robot_state_fields(tmp_path: Path) -> None:
@@ -302,4 +306,7 @@ def test_a_spec_tolerates_robot_state_fields(tmp_path: Path) -> None:
     outcome = run_spec(load_spec(unknown))
     assert outcome.verdict is Verdict.ERROR
     assert outcome.error is not None
-    assert "robot-state tolerance for 'speed'" in outcome.error
+    assert outcome.error == (
+        f"{log}: robot-state tolerance for 'speed': the recorded robot state "
+        "tests.conftest.Probe has no such field (it has distance, reading)"
+    )

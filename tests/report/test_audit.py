@@ -64,7 +64,7 @@ def test_findings_name_the_dtc_each_call_its_site_and_count(outcome: SpecOutcome
 def test_a_hash_seed_dependence_is_a_finding_too(outcome: SpecOutcome) -> None:
     text = plain_text(render_audit(audited(outcome, wander=LEAKY, heading=UNORDERED)), width=200)
 
-    assert "AUDIT heading" in text
+    assert f"AUDIT heading ({outcome.spec.path})" in whole_lines(text)
     assert UNORDERED.hash_seed_dependence is not None
     assert UNORDERED.hash_seed_dependence in text
     assert text.rstrip().endswith("determinism audit: 3 findings in 2 of 2 DTCs")

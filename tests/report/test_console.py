@@ -43,7 +43,7 @@ def test_a_failure_shows_cycle_changes_state_and_an_unwrapped_command(
 ) -> None:
     log = record_probe(300, name="a-rather-long-name-for-a-session-log-" * 3 + ".beatlog")
     text = plain_text(render_replay(replay(log, probe_system(threshold=0.6))), width=80)
-    assert "first divergence: cycle 21" in text
+    assert "first divergence: cycle 21, t = 0.660 s, state changes" in whole_lines(text)
     assert "arbiter: 'dice' -> 'near'" in text
     assert "robot state RS_t" in whole_lines(text)
     (command,) = [line for line in text.splitlines() if line.startswith("reproduce: ")]

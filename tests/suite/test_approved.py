@@ -56,7 +56,10 @@ def test_the_replay_command_passes_what_test_passes_and_says_why(
     failed = capsys.readouterr().out
 
     assert code == 0
-    assert "note: judged against the approved baseline avoid-pole.dtc.expected" in passed
+    assert (
+        "note: judged against the approved baseline avoid-pole.dtc.expected, as beatlog test "
+        f"{log.parent / 'avoid-pole.dtc.toml'} judges it"
+    ) in whole_lines(passed)
     assert recording == 1
     assert f"reproduce: beatlog replay {log} --system {GREEDY} --recording" in whole_lines(failed)
 

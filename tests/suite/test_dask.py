@@ -96,7 +96,10 @@ def test_a_cluster_gives_the_verdicts_reports_and_exit_code_of_a_local_run(
     rerun = f"reproduce: beatlog test {suite / 'changed.dtc.toml'}"
     assert rerun in local.out
     assert rerun in remote.out
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in remote.out
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(remote.out)
+    )
     assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
     assert junit_cases(tmp_path / "dask.xml") == [
         ("changed", ["properties", "failure"]),

@@ -15,6 +15,7 @@ from beatlog.suite.runner import SpecOutcome, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.text import whole_lines
 
 
 def describe(outcome: SpecOutcome) -> str:
@@ -105,7 +106,10 @@ def test_a_failure_carries_the_divergence_message_and_the_full_report(
     assert case.find("error") is None
     assert failure.get("message") == "behavior state changes differ from the recording"
     assert failure.text is not None
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in failure.text
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(failure.text)
+    )
     reproduce = f"reproduce: beatlog test {outcomes[1].spec.path}"
     assert reproduce in " ".join(failure.text.split())  # plain_text wraps at 100 columns
 

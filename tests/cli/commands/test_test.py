@@ -95,7 +95,10 @@ def test_a_spec_without_a_system_replays_against_the_one_its_project_vouches_for
     assert (
         f"note: avoid-pole: replayed against {PROBE}, which its log records and the project lists\n"
     ) in run.out
-    assert "unnamed.beatlog: records no system; name one (module:factory)" in run.err
+    assert (
+        f"beatlog: error: unnamed ({specs / 'unnamed.dtc.toml'}): "
+        f"{specs / '..' / 'unnamed.beatlog'}: records no system; name one (module:factory)"
+    ) in whole_lines(run.err)
     assert (
         f"hostile.beatlog: records the system 'tempfile:mkdtemp', which this project does "
         f"not vouch for; name it (--system, or system = in the spec) or list it under "
@@ -114,7 +117,10 @@ def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
     assert run.code == 1
     assert run.err == ""
     assert f"DTC avoid-pole-earlier ({earlier})" in whole_lines(run.out)
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(run.out)
+    )
     assert "behavior state changes differ from the recording" in whole_lines(run.out)
     assert f"reproduce: beatlog test {earlier}" in whole_lines(run.out)
     assert re.search(
@@ -249,7 +255,9 @@ def test_fail_fast_stops_at_the_first_failure_and_counts_what_did_not_run(
     run = beatlog_test(specs, "--fail-fast")
 
     assert run.code == 1
-    assert "DTC b-avoid-pole-earlier" in run.out
+    assert f"DTC b-avoid-pole-earlier ({specs / 'b-avoid-pole-earlier.dtc.toml'})" in whole_lines(
+        run.out
+    )
     assert "c-dock" not in run.out
     assert "d-dock-earlier" not in run.out
     assert_counts(run, "1 passed, 1 failed, 2 not run", 300 + FIRST_CHANGED_CYCLE + 1)

@@ -45,7 +45,10 @@ def test_a_fleet_log_that_diverges_fails_and_its_rerun_command_reproduces_it(
     run = beatlog("test", "--logs", f"{logs}/*.beatlog", "--system", CHANGED, "--junit-xml", report)
 
     assert run.code == 1
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(run.out)
+    )
     rerun = f"beatlog test --logs {logs}/dock.beatlog --system {CHANGED}"
     assert f"reproduce: {rerun}" in whole_lines(run.out)
     cases = ET.parse(report).getroot().iter("testcase")
@@ -54,7 +57,10 @@ def test_a_fleet_log_that_diverges_fails_and_its_rerun_command_reproduces_it(
     again = beatlog(*shlex.split(rerun)[1:])
 
     assert again.code == 1
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in again.out
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(again.out)
+    )
 
 
 def test_a_log_that_cannot_be_read_is_an_error_of_its_dtc(beatlog: Beatlog, logs: Path) -> None:
