@@ -3,7 +3,7 @@ among its lines, so a fragment of another line ("complete" in "incomplete") cann
 
 from __future__ import annotations
 
-__all__ = ["whole_lines"]
+__all__ = ["table_row", "whole_lines"]
 
 
 BORDERS = " \t│╭╮╰╯─"
@@ -13,3 +13,13 @@ BORDERS = " \t│╭╮╰╯─"
 def whole_lines(text: str) -> list[str]:
     """The lines of ``text``, each without what frames it (its indent, a panel's edges)."""
     return [line.strip(BORDERS) for line in text.splitlines()]
+
+
+def table_row(text: str, first: str) -> list[str]:
+    """The cells of the row of a console table whose first cell is ``first`` (empty where
+    no row is), e.g. ``["dock", "passed", "300", "9.0 s", "0.01 s"]``."""
+    for line in whole_lines(text):
+        cells = [cell.strip() for cell in line.split("│")]
+        if cells[0] == first:
+            return cells
+    return []

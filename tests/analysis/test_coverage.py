@@ -189,4 +189,4 @@ def test_a_damaged_log_leaves_the_coverage_and_html_reports_of_the_others(
     ]
     assert closing_counts(captured.out) == "1 passed, 0 failed, 1 error"
     assert json.loads(report.read_text())["dtcs"] == ["approach.dtc.toml::approach"]
-    assert "damaged" in html.read_text()
+    assert '<h2><span class="verdict">error</span> damaged</h2>' in whole_lines(html.read_text())

@@ -112,12 +112,14 @@ def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
     run = beatlog("review", spec.parent)
 
     assert run.code == 0
-    assert "recorded (probe.beatlog)" in run.out
+    assert "208 state and output changes recorded (probe.beatlog) → 178 pending" in whole_lines(
+        run.out
+    )
     lines = run.out.splitlines()
     assert "--- recorded (probe.beatlog)" in lines
     assert "+++ pending" in lines
     assert any(line.startswith(f"+{FIRST_CHANGED_CYCLE:>8}") for line in lines)
-    assert f"left pending: accept with beatlog approve {spec}" in run.out
+    assert f"left pending: accept with beatlog approve {spec}" in whole_lines(run.out)
     assert pending_path(spec).exists()
 
 

@@ -20,6 +20,7 @@ from tests.cli.slow_systems import MARKERS
 from tests.commands import Run, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, PROBE, write_spec
+from tests.text import table_row
 
 SLOW = "tests.cli.slow_systems:slow_system"
 SLOW_IN_AUDIT = "tests.cli.slow_systems:slow_in_audit_system"
@@ -88,8 +89,8 @@ def assert_stopped(run: Run) -> None:
 
 
 def assert_complete_results_printed(run: Run) -> None:
-    assert "a-fast" in run.out
-    assert "b-changed" in run.out
+    assert table_row(run.out, "a-fast")[:2] == ["a-fast", "passed"]
+    assert table_row(run.out, "b-changed")[:2] == ["b-changed", "failed"]
     assert closing_counts(run.out) == "1 passed, 1 failed, 2 not run"
 
 

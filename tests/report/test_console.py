@@ -22,7 +22,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn, probe_system
 from tests.specs import CHANGED, PROBE, write_spec
-from tests.text import whole_lines
+from tests.text import table_row, whole_lines
 
 
 def test_a_pass_is_one_verdict_line(record_probe: RecordFn) -> None:
@@ -134,14 +134,14 @@ def test_the_cycles_around_a_divergence_are_a_table(record_probe: RecordFn) -> N
     result = replay(record_probe(300), probe_system(threshold=0.6), context_cycles=40)
     text = plain_text(render_replay(result))
     assert "state changes around it" in whole_lines(text)
-    assert "▶ 21" in text
+    assert table_row(text, "▶ 21") == ["▶ 21", "0.660", "—", "arbiter: 'dice' -> 'near'"]
 
 
 def test_a_failure_shows_only_the_robot_state_fields_read(record_probe: RecordFn) -> None:
     result = replay(record_probe(300), CHANGED)
     text = plain_text(render_replay(result), width=120)
     assert "robot state RS_t, fields read in this cycle" in whole_lines(text)
-    assert "distance" in text
+    assert table_row(text, "distance") == ["distance", "0.58"]
     assert "reading" not in text
     assert "1 more field not read" in whole_lines(text)
 

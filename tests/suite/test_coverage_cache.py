@@ -18,7 +18,7 @@ from beatlog.suite.coverage_cache import (
 )
 from tests.conftest import Probe, RecordFn
 from tests.specs import PROBE, write_spec
-from tests.text import whole_lines
+from tests.text import table_row, whole_lines
 
 
 @pytest.fixture
@@ -75,7 +75,7 @@ def test_a_dtc_left_out_of_a_run_did_not_lose_what_it_reached(
 
     out = capsys.readouterr().out
     assert code == 0
-    assert "idle" in out
+    assert table_row(out, "idle")[:4] == ["idle", "passed", "40", "1.2 s"]
     assert "seen before" not in out
 
 

@@ -25,7 +25,7 @@ from tests.commands import Run, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
-from tests.text import whole_lines
+from tests.text import table_row, whole_lines
 
 DYING = "tests.conftest:dying_system"
 
@@ -219,7 +219,7 @@ def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
     assert marker.exists()
     assert run.code == 0, run.err
     assert "retried unlucky: the worker replaying it died (1 time)" in whole_lines(run.out)
-    assert "passed (retried 1×)" in run.out
+    assert table_row(run.out, "unlucky")[:4] == ["unlucky", "passed (retried 1×)", "120", "3.6 s"]
     assert junit_cases(tmp_path / "dtc.xml") == [("unlucky", ["properties", "flakyError"])]
     assert '<span class="verdict">passed (retried 1×)</span>' in page.read_text()
 

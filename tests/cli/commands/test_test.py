@@ -26,7 +26,7 @@ from tests.conftest import RecordFn
 from tests.factories import vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots, write_spec
 from tests.systems import leaks, leaky_system, quiet_system, record_session
-from tests.text import whole_lines
+from tests.text import table_row, whole_lines
 
 BeatlogTest = Callable[..., Run]
 
@@ -214,7 +214,7 @@ def test_dash_k_matches_tags_as_under_pytest(
     run = beatlog_test(specs, "-k", "touch")
 
     assert_counts(run, "1 passed, 0 failed", 300)
-    assert "head-pat" in run.out
+    assert table_row(run.out, "head-pat")[:4] == ["head-pat", "passed", "300", "9.0 s"]
     assert "push-over" not in run.out
 
 
@@ -241,7 +241,12 @@ def test_tags_run_the_dtcs_that_carry_every_tag_given(
     assert "dock" not in obstacles.out
     assert smoke_obstacles.code == 0
     assert_counts(smoke_obstacles, "1 passed, 0 failed", 300)
-    assert "avoid-pole" in smoke_obstacles.out
+    assert table_row(smoke_obstacles.out, "avoid-pole")[:4] == [
+        "avoid-pole",
+        "passed",
+        "300",
+        "9.0 s",
+    ]
 
 
 def test_fail_fast_stops_at_the_first_failure_and_counts_what_did_not_run(

@@ -15,7 +15,7 @@ from beatlog.suite.baseline import expected_path
 from tests.commands import Beatlog, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
-from tests.text import whole_lines
+from tests.text import table_row, whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -34,7 +34,7 @@ def test_every_log_that_matches_is_replayed_as_a_dtc(beatlog: Beatlog, logs: Pat
 
     assert run.code == 0, run.err
     for name in ("dock", "patrol", "yard"):
-        assert f"{name} " in run.out
+        assert table_row(run.out, name)[:4] == [name, "passed", "300", "9.0 s"]
     assert run.out.splitlines()[-1].startswith("3 passed, 0 failed")
 
 
