@@ -28,6 +28,7 @@ from beatlog.suite.baseline import (
     write_baseline,
 )
 from tests.factories import rebuilt_states, speed_state
+from tests.specs import baseline_file
 
 CHANGES = (
     TracedChange(0, 30_000_000, StateChange("arbiter", "idle", "wander")),
@@ -272,16 +273,14 @@ def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Pat
 def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
     tmp_path: Path,
 ) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes, outputs and robot states, format 3\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  robot_state "distance" = 0.55\n'
-        '      12     0.360  robot_state "pose" = [1.0, -0.0]\n'
-        '      12     0.360  "avoid": "off" -> "turning"\n'
-        '      12     0.360  output "speed" = 0.0\n'
-        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001\n',
-        encoding="utf-8",
+    path = baseline_file(
+        tmp_path,
+        3,
+        '      12     0.360  robot_state "distance" = 0.55',
+        '      12     0.360  robot_state "pose" = [1.0, -0.0]',
+        '      12     0.360  "avoid": "off" -> "turning"',
+        '      12     0.360  output "speed" = 0.0',
+        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001',
     )
 
     baseline = read_baseline(path)
@@ -296,26 +295,22 @@ def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
 
 
 def test_robot_state_lines_out_of_cycle_order_are_an_error(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes, outputs and robot states, format 3\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      13     0.390  robot_state "distance" = 1.0\n'
-        '      12     0.360  robot_state "distance" = 1.0\n',
-        encoding="utf-8",
+    path = baseline_file(
+        tmp_path,
+        3,
+        '      13     0.390  robot_state "distance" = 1.0',
+        '      12     0.360  robot_state "distance" = 1.0',
     )
     with pytest.raises(BaselineError, match="robot_state lines are not in cycle order"):
         read_baseline(path)
 
 
 def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes and outputs, format 2\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  "avoid": "off" -> "turning"\n'
-        '      12     0.360  output "speed" = 0.0\n',
-        encoding="utf-8",
+    path = baseline_file(
+        tmp_path,
+        2,
+        '      12     0.360  "avoid": "off" -> "turning"',
+        '      12     0.360  output "speed" = 0.0',
     )
     baseline = read_baseline(path)
     assert baseline.expectation.outputs == (TracedOutput(12, 360_000_000, "speed", 0.0),)
@@ -323,12 +318,7 @@ def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path
 
 
 def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        f"# beatlog expected state changes, format 1\n# spec a\n# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  "avoid": "off" -> "turning"\n',
-        encoding="utf-8",
-    )
+    path = baseline_file(tmp_path, 1, '      12     0.360  "avoid": "off" -> "turning"', spec=True)
 
     baseline = read_baseline(path)
 
@@ -376,14 +366,7 @@ RUN = "robot_state otherwise in 7..7 (1 cycle)"
 def test_a_damaged_output_line_is_an_error_naming_file_and_line(
     tmp_path: Path, magic: int, line: str, problem: str
 ) -> None:
-    header = {
-        1: "# beatlog expected state changes, format 1",
-        2: "# beatlog expected state changes and outputs, format 2",
-        3: "# beatlog expected state changes, outputs and robot states, format 3",
-        4: "# beatlog expected state changes, outputs, robot states and draws, format 4",
-    }[magic]
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(f"{header}\n# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n", encoding="utf-8")
+    path = baseline_file(tmp_path, magic, "#", line)
 
     with pytest.raises(BaselineError) as raised:
         read_baseline(path)
@@ -443,14 +426,10 @@ def test_a_whole_trace_is_no_longer_written(tmp_path: Path, log: Path) -> None:
 
 
 def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_path: Path) -> None:
-    header = (
-        "# beatlog expected state changes, outputs, robot states and draws, format 4\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
+    whole = baseline_file(
+        tmp_path, 4, '      12     0.360  "avoid": "off" -> "turning"', name="whole"
     )
-    whole = tmp_path / "whole.dtc.expected"
-    whole.write_text(header + '      12     0.360  "avoid": "off" -> "turning"\n', encoding="utf-8")
-    recorded = tmp_path / "recorded.dtc.expected"
-    recorded.write_text(header + "state changes and outputs as recorded\n", encoding="utf-8")
+    recorded = baseline_file(tmp_path, 4, "state changes and outputs as recorded", name="recorded")
 
     trace = read_baseline(whole).expectation
     assert (trace.departures, trace.as_recorded) == (False, False)
@@ -469,24 +448,17 @@ def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_pat
     ],
 )
 def test_a_format_4_baseline_holds_no_departures(tmp_path: Path, line: str, problem: str) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes, outputs, robot states and draws, format 4\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n",
-        encoding="utf-8",
-    )
+    path = baseline_file(tmp_path, 4, "#", line)
     with pytest.raises(BaselineError, match=problem):
         read_baseline(path)
 
 
 def test_a_cycle_with_state_changes_and_none_is_an_error(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected departures from the recording, format 5\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  "avoid": "off" -> "turning"\n'
-        "      12     0.360  no state changes\n",
-        encoding="utf-8",
+    path = baseline_file(
+        tmp_path,
+        5,
+        '      12     0.360  "avoid": "off" -> "turning"',
+        "      12     0.360  no state changes",
     )
     with pytest.raises(BaselineError, match="cycle 12 has state changes and none"):
         read_baseline(path)
