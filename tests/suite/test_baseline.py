@@ -45,15 +45,17 @@ def log(tmp_path: Path) -> Path:
     return path
 
 
+def baseline_of(log: Path, path: Path, expectation: Expectation) -> Path:
+    """``expectation`` written to ``path`` as the baseline of spec ``a``, recorded as ``log``."""
+    write_baseline(
+        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
+    )
+    return path
+
+
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation(CHANGES, (), departures=True),
-    )
+    baseline_of(log, path, Expectation(CHANGES, (), departures=True))
 
     baseline = read_baseline(path)
 
@@ -73,13 +75,7 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation(CHANGES[:2], (), departures=True),
-    )
+    baseline_of(log, path, Expectation(CHANGES[:2], (), departures=True))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -93,13 +89,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation((), (), departures=True),
-    )
+    baseline_of(log, path, Expectation((), (), departures=True))
     assert read_baseline(path).expectation.changes == ()
 
 
@@ -181,13 +171,7 @@ def test_an_output_value_reads_back_bit_for_bit(
 ) -> None:
     path = tmp_path / "a.dtc.expected"
     outputs = (TracedOutput(5, 180_000_000, "motor", value),)
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation((), outputs, departures=True),
-    )
+    baseline_of(log, path, Expectation((), outputs, departures=True))
 
     assert path.read_text(encoding="utf-8").splitlines()[-1] == (
         f'       5     0.180  output "motor" = {written}'
@@ -204,13 +188,7 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         TracedOutput(12, 360_012_000, "speed", 0.0),
         TracedOutput(13, 390_000_000, "speed", ABSENT),
     )
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation(CHANGES[:2], outputs, departures=True),
-    )
+    baseline_of(log, path, Expectation(CHANGES[:2], outputs, departures=True))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -239,9 +217,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
     changes = (TracedChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
     expectation = Expectation(changes, outputs, state_pins=pins, departures=True)
-    write_baseline(
-        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
-    )
+    baseline_of(log, path, expectation)
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -261,13 +237,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
 def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Path) -> None:
     states = (TracedState(12, 360_012_000, "distance", 0.55),)
     with pytest.raises(ValueError, match="format 3 robot-state pins cannot be written"):
-        write_baseline(
-            tmp_path / "a.dtc.pending",
-            spec_name="a",
-            log_name=log.name,
-            digest=log_digest(log),
-            expectation=Expectation((), (), states, departures=True),
-        )
+        baseline_of(log, tmp_path / "a.dtc.pending", Expectation((), (), states, departures=True))
 
 
 def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
@@ -292,17 +262,6 @@ def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
     ]
     assert baseline.expectation.states_by_cycle()[12] == {"distance": 0.55, "pose": [1.0, -0.0]}
     assert baseline.expectation.state_pins == StatePins()
-
-
-def test_robot_state_lines_out_of_cycle_order_are_an_error(tmp_path: Path) -> None:
-    path = baseline_file(
-        tmp_path,
-        3,
-        '      13     0.390  robot_state "distance" = 1.0',
-        '      12     0.360  robot_state "distance" = 1.0',
-    )
-    with pytest.raises(BaselineError, match="robot_state lines are not in cycle order"):
-        read_baseline(path)
 
 
 def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path) -> None:
@@ -391,9 +350,7 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
         departures=True,
         quiet=((15, 450_000_000),),
     )
-    write_baseline(
-        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
-    )
+    baseline_of(log, path, expectation)
 
     assert path.read_text(encoding="utf-8").splitlines()[-6:] == [
         "      12     0.360  open loop",
@@ -416,13 +373,7 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
 
 def test_a_whole_trace_is_no_longer_written(tmp_path: Path, log: Path) -> None:
     with pytest.raises(ValueError, match="a whole trace cannot be written"):
-        write_baseline(
-            tmp_path / "a.dtc.pending",
-            spec_name="a",
-            log_name=log.name,
-            digest=log_digest(log),
-            expectation=Expectation(CHANGES, ()),
-        )
+        baseline_of(log, tmp_path / "a.dtc.pending", Expectation(CHANGES, ()))
 
 
 def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_path: Path) -> None:
@@ -441,24 +392,28 @@ def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_pat
 
 
 @pytest.mark.parametrize(
-    ("line", "problem"),
+    ("version", "lines", "problem"),
     [
-        ('  7  0.210  output "speed" as recorded', "line 4: expected '=' at column"),
-        ("  7  0.210  no state changes", "line 4: Expecting value"),
+        (
+            3,
+            [
+                '  13  0.390  robot_state "distance" = 1.0',
+                '  12  0.360  robot_state "distance" = 1.0',
+            ],
+            "robot_state lines are not in cycle order",
+        ),
+        (4, ["#", '  7  0.210  output "speed" as recorded'], "line 4: expected '=' at column"),
+        (4, ["#", "  7  0.210  no state changes"], "line 4: Expecting value"),
+        (
+            5,
+            ['  12  0.360  "avoid": "off" -> "turning"', "  12  0.360  no state changes"],
+            "cycle 12 has state changes and none",
+        ),
     ],
+    ids=["robot states out of order", "format 4 as recorded", "format 4 none", "both"],
 )
-def test_a_format_4_baseline_holds_no_departures(tmp_path: Path, line: str, problem: str) -> None:
-    path = baseline_file(tmp_path, 4, "#", line)
+def test_a_baseline_that_breaks_its_formats_rules_is_an_error(
+    tmp_path: Path, version: int, lines: list[str], problem: str
+) -> None:
     with pytest.raises(BaselineError, match=problem):
-        read_baseline(path)
-
-
-def test_a_cycle_with_state_changes_and_none_is_an_error(tmp_path: Path) -> None:
-    path = baseline_file(
-        tmp_path,
-        5,
-        '      12     0.360  "avoid": "off" -> "turning"',
-        "      12     0.360  no state changes",
-    )
-    with pytest.raises(BaselineError, match="cycle 12 has state changes and none"):
-        read_baseline(path)
+        read_baseline(baseline_file(tmp_path, version, *lines))
