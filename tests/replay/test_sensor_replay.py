@@ -9,11 +9,12 @@ import pytest
 
 from beatlog.cli.main import main
 from beatlog.errors import FieldError
+from beatlog.model.perception import Perception
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome
 from beatlog.replay.judge import NO_SAMPLES, replay
 from beatlog.replay.migration import StateMigration
-from beatlog.replay.verdict import DivergenceKind, FieldDifference
+from beatlog.replay.verdict import Divergence, DivergenceKind, FieldDifference
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
@@ -35,6 +36,16 @@ from tests.perceptions import (
 from tests.specs import write_spec
 from tests.systems import probe_system_ranged
 from tests.text import table_row, whole_lines
+
+
+def perception_divergence(folder: Path, perception: Perception) -> Divergence:
+    """The divergence of the probe replayed from samples through ``perception``: it must be
+    a perception divergence."""
+    log = record_with_samples(folder / "samples.beatlog")
+    divergence = replay(log, probe_system(), perception=perception).divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.PERCEPTION
+    return divergence
 
 
 @pytest.mark.parametrize("by_field", [False, True], ids=["in-records", "by-field"])
@@ -102,10 +113,7 @@ def test_a_changed_perception_is_a_perception_divergence_naming_fields_and_sampl
 
 
 def test_a_perception_that_raises_is_a_perception_divergence(tmp_path: Path) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
-    divergence = replay(log, probe_system(), perception=broken_perception()).divergence
-    assert divergence is not None
-    assert divergence.kind is DivergenceKind.PERCEPTION
+    divergence = perception_divergence(tmp_path, broken_perception())
     assert divergence.message == "perception raised ValueError: no range sensor"
     assert divergence.traceback is not None
     assert "perceptions.py" in divergence.traceback
@@ -116,10 +124,7 @@ def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
 ) -> None:
     # A dict of the probe's fields encodes to the recorded bytes; the behaviors would
     # then fail on it, and the report blame them.
-    log = record_with_samples(tmp_path / "samples.beatlog")
-    divergence = replay(log, probe_system(), perception=dict_perception()).divergence
-    assert divergence is not None
-    assert divergence.kind is DivergenceKind.PERCEPTION
+    divergence = perception_divergence(tmp_path, dict_perception())
     assert divergence.message == "perception returned a dict, not a Probe"
     assert divergence.traceback is None
 
@@ -127,10 +132,7 @@ def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
 def test_a_rebuilt_state_holding_numpy_values_is_reported_as_plain_numbers(
     tmp_path: Path,
 ) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
-    divergence = replay(log, probe_system(), perception=numpy_perception()).divergence
-    assert divergence is not None
-    assert divergence.kind is DivergenceKind.PERCEPTION
+    divergence = perception_divergence(tmp_path, numpy_perception())
     assert divergence.robot_state == {"distance": 2.0, "reading": 0.0}
 
 
