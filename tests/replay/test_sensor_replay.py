@@ -38,13 +38,16 @@ from tests.systems import probe_system_ranged
 from tests.text import table_row, whole_lines
 
 
-def perception_divergence(folder: Path, perception: Perception) -> Divergence:
-    """The divergence of the probe replayed from samples through ``perception``: it must be
-    a perception divergence."""
+def divergence_from_samples(
+    folder: Path, perception: Perception, comparison: Comparison | None = None
+) -> Divergence:
+    """The first divergence of the probe replayed from samples through ``perception``
+    (judged by ``comparison``); there must be one."""
     log = record_with_samples(folder / "samples.beatlog")
-    divergence = replay(log, probe_system(), perception=perception).divergence
+    divergence = replay(
+        log, probe_system(), perception=perception, comparison=comparison
+    ).divergence
     assert divergence is not None
-    assert divergence.kind is DivergenceKind.PERCEPTION
     return divergence
 
 
@@ -113,7 +116,8 @@ def test_a_changed_perception_is_a_perception_divergence_naming_fields_and_sampl
 
 
 def test_a_perception_that_raises_is_a_perception_divergence(tmp_path: Path) -> None:
-    divergence = perception_divergence(tmp_path, broken_perception())
+    divergence = divergence_from_samples(tmp_path, broken_perception())
+    assert divergence.kind is DivergenceKind.PERCEPTION
     assert divergence.message == "perception raised ValueError: no range sensor"
     assert divergence.traceback is not None
     assert "perceptions.py" in divergence.traceback
@@ -124,7 +128,8 @@ def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
 ) -> None:
     # A dict of the probe's fields encodes to the recorded bytes; the behaviors would
     # then fail on it, and the report blame them.
-    divergence = perception_divergence(tmp_path, dict_perception())
+    divergence = divergence_from_samples(tmp_path, dict_perception())
+    assert divergence.kind is DivergenceKind.PERCEPTION
     assert divergence.message == "perception returned a dict, not a Probe"
     assert divergence.traceback is None
 
@@ -132,7 +137,8 @@ def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
 def test_a_rebuilt_state_holding_numpy_values_is_reported_as_plain_numbers(
     tmp_path: Path,
 ) -> None:
-    divergence = perception_divergence(tmp_path, numpy_perception())
+    divergence = divergence_from_samples(tmp_path, numpy_perception())
+    assert divergence.kind is DivergenceKind.PERCEPTION
     assert divergence.robot_state == {"distance": 2.0, "reading": 0.0}
 
 
@@ -260,23 +266,15 @@ def test_a_difference_within_the_robot_state_tolerance_passes(tmp_path: Path) ->
 
 
 def test_a_tolerance_on_another_field_excuses_nothing(tmp_path: Path) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
     other = Comparison(state_tolerance={"reading": 1.0})
-    divergence = replay(
-        log, probe_system(), perception=nudged_perception(), comparison=other
-    ).divergence
-    assert divergence is not None
+    divergence = divergence_from_samples(tmp_path, nudged_perception(), other)
     assert divergence.kind is DivergenceKind.PERCEPTION
     assert [difference.field for difference in divergence.perception] == ["distance"]
 
 
 def test_within_the_tolerance_the_behaviors_run_on_the_rebuilt_state(tmp_path: Path) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
     lenient = Comparison(state_tolerance={"distance": 0.1})
-    divergence = replay(
-        log, probe_system(), perception=shifted_perception(), comparison=lenient
-    ).divergence
-    assert divergence is not None
+    divergence = divergence_from_samples(tmp_path, shifted_perception(), lenient)
     assert divergence.kind is DivergenceKind.STATE_CHANGES  # near saw the obstacle earlier
     assert divergence.robot_state["distance"] < 0.5 <= divergence.robot_state["distance"] + 0.05
 
