@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,7 @@ from beatlog.log.crafting import chunks, drop_chunk
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
-from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
@@ -735,31 +736,44 @@ def test_a_damaged_array_draw_is_damage_not_the_behavior_failing(tmp_path: Path)
     )
 
 
-def test_a_behavior_change_that_skips_a_draw_is_headlined_as_the_behavior_change(
+@pytest.mark.parametrize(
+    ("system", "cycles", "expected"),
+    [
+        (
+            dozy_system,
+            100,
+            (
+                10,
+                DivergenceKind.STATE_CHANGES,
+                "dice",
+                "behavior state changes differ from the recording, and then the behaviors drew 0 "
+                "random numbers where 1 were recorded; the next recorded one was a randint drawn "
+                "by dice",
+            ),
+        ),
+        (
+            impostor_system,
+            60,
+            (
+                0,
+                DivergenceKind.RANDOM_MISMATCH,
+                "near",
+                "near called randint(1, 6), which dice drew in the recording",
+            ),
+        ),
+    ],
+    ids=["a draw skipped: headlined as the behavior change", "a draw credited to another"],
+)
+def test_a_draw_that_differs_from_the_recording_is_headlined_by_what_changed_first(
     record_probe: RecordFn,
+    system: Callable[[], System],
+    cycles: int,
+    expected: tuple[int, DivergenceKind, str, str],
 ) -> None:
-    result = replay(record_probe(100), dozy_system())
+    divergence = replay(record_probe(cycles), system()).divergence
 
-    assert result.divergence is not None
-    assert (result.divergence.cycle, result.divergence.kind) == (10, DivergenceKind.STATE_CHANGES)
-    assert result.divergence.behavior == "dice"
-    assert result.divergence.message == (
-        "behavior state changes differ from the recording, and then the behaviors drew 0 "
-        "random numbers where 1 were recorded; the next recorded one was a randint drawn "
-        "by dice"
-    )
-
-
-def test_a_draw_credited_to_another_behavior_than_recorded_diverges(
-    record_probe: RecordFn,
-) -> None:
-    result = replay(record_probe(60), impostor_system())
-
-    assert result.divergence is not None
-    assert (result.divergence.cycle, result.divergence.kind) == (0, DivergenceKind.RANDOM_MISMATCH)
-    assert result.divergence.message == (
-        "near called randint(1, 6), which dice drew in the recording"
-    )
+    assert divergence is not None
+    assert (divergence.cycle, divergence.kind, divergence.behavior, divergence.message) == expected
 
 
 def test_draws_are_matched_to_behaviors_by_name_not_by_position(record_probe: RecordFn) -> None:
