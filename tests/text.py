@@ -3,7 +3,9 @@ among its lines, so a fragment of another line ("complete" in "incomplete") cann
 
 from __future__ import annotations
 
-__all__ = ["table_row", "whole_lines"]
+import re
+
+__all__ = ["frames", "table_row", "whole_lines"]
 
 
 BORDERS = " \t│╭╮╰╯─"
@@ -23,3 +25,16 @@ def table_row(text: str, first: str) -> list[str]:
         if cells[0] == first:
             return cells
     return []
+
+
+_FRAME = re.compile(r'\s*File "(?P<file>[^"]+)", line \d+, in (?P<function>\S+)')
+
+
+def frames(traceback: str) -> list[tuple[str, str]]:
+    """The frames of a printed traceback, outermost first: each one's file and function
+    (their line numbers left out, so that editing a file does not break a test)."""
+    return [
+        (found["file"], found["function"])
+        for found in map(_FRAME.fullmatch, traceback.splitlines())
+        if found is not None
+    ]

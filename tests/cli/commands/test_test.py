@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import inspect
 import json
 import os
 import re
@@ -22,11 +23,11 @@ from tests.commands import (
     at_a_terminal,
     hide_matplotlib,
 )
-from tests.conftest import RecordFn
+from tests.conftest import RecordFn, broken_probe
 from tests.factories import vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots, write_spec
 from tests.systems import leaks, leaky_system, quiet_system, record_session
-from tests.text import table_row, whole_lines
+from tests.text import frames, table_row, whole_lines
 
 BeatlogTest = Callable[..., Run]
 
@@ -184,7 +185,7 @@ def test_a_system_that_fails_to_build_is_one_line_on_stderr_with_its_traceback_o
     error = ET.parse(report).getroot().find("testcase[@name='broken']/error")
     assert error is not None
     assert error.text is not None
-    assert "in broken_probe" in error.text
+    assert (inspect.getsourcefile(broken_probe), "broken_probe") in frames(error.text)
 
 
 def test_dash_k_runs_the_dtcs_whose_name_matches(
