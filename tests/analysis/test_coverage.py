@@ -18,7 +18,7 @@ from beatlog.suite.spec import load_spec
 from tests.commands import closing_counts
 from tests.conftest import PERIOD_NS, Dice, Probe, RecordFn, distances, probe_system
 from tests.specs import PROBE, write_spec
-from tests.text import whole_lines
+from tests.text import table_row, whole_lines
 
 
 class Mood(enum.Enum):
@@ -132,7 +132,7 @@ def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
     out = capsys.readouterr().out
     assert code == 0
     assert "transition coverage" in whole_lines(out)
-    assert '"far" → "near"' in out
+    assert table_row(out, "near")[2] == '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC'
     document = json.loads(report.read_text())
     assert document["dtcs"] == ["approach.dtc.toml::approach", "idle.dtc.toml::idle"]
 

@@ -201,11 +201,12 @@ def test_the_cli_replays_from_samples_and_shows_the_fields_and_samples(
     )
     out = capsys.readouterr().out
     assert code == 1
-    assert "perception" in out
+    assert "first divergence: cycle 0, t = 0.030 s, perception" in whole_lines(out)
     assert "robot state from the samples" in whole_lines(out)
     assert table_row(out, "distance = 1.0") == ["distance = 1.0", "distance = 1.1"]
     assert "samples: range [1.0, 1]" in whole_lines(out)
-    assert f"--perception {reference}" in out
+    reproduce = f"reproduce: beatlog replay {log} --system tests.conftest:probe_system"
+    assert f"{reproduce} --perception {reference}" in whole_lines(out)
 
 
 def test_a_spec_names_its_perception_and_the_suite_replays_from_samples(tmp_path: Path) -> None:

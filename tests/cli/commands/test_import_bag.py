@@ -40,8 +40,11 @@ def test_an_imported_bag_and_its_spec_pass_beatlog_test(
     )
 
     assert run.code == 0, run.err
-    assert run.out.startswith("imported 438 messages on 3 topics into 94 cycles (2.82 s)")
-    assert f"DTC spec {spec}" in run.out
+    assert run.out == (
+        "imported 438 messages on 3 topics into 94 cycles (2.82 s) to "
+        f"{bag.with_suffix('.beatlog')}; 17 messages after the last clock message left out; "
+        f"DTC spec {spec}\n"
+    )
     test = beatlog("test", spec)
     assert test.code == 0, test.out
     assert closing_counts(test.out) == "1 passed, 0 failed"

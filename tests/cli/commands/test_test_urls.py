@@ -18,7 +18,7 @@ from tests.commands import Beatlog, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE, write_spec
-from tests.text import whole_lines
+from tests.text import table_row, whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -102,7 +102,7 @@ def test_coverage_reads_logs_behind_urls_too(
     run = beatlog("test", suite, "--coverage", "-k", "dock")
 
     assert run.code == 0, run.err
-    assert '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC' in run.out
+    assert table_row(run.out, "near")[2] == '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC'
     assert served.downloads("dock.beatlog") == 2  # the replay's copy, then coverage's
 
 
