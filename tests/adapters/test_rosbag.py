@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import inspect
+import re
 import shutil
 import sqlite3
 from collections.abc import Callable
@@ -238,7 +239,12 @@ def test_a_failing_perception_names_the_cycle_and_keeps_the_users_traceback(
     with pytest.raises(BagError) as raised:
         imported(tmp_path, perception="tests.bags:broken_perception")
 
-    assert "cycle 13: the perception step raised ValueError: sonar blinded" in str(raised.value)
+    source = re.escape(inspect.getsourcefile(broken_perception) or "")
+    assert re.fullmatch(
+        rf"{re.escape(str(tmp_path / 'bag'))}: cycle 13: the perception step raised "
+        rf"ValueError: sonar blinded \(line \d+ of {source}\)",
+        str(raised.value),
+    ), raised.value
     assert raised.value.user_traceback is not None
     assert (inspect.getsourcefile(broken_perception), "broken") in frames(
         raised.value.user_traceback

@@ -8,6 +8,7 @@ sends SIGINT to the group, as a terminal does.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import time
 from collections.abc import Callable, Sequence
@@ -20,7 +21,7 @@ from tests.cli.slow_systems import MARKERS
 from tests.commands import Run, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, PROBE, write_spec
-from tests.text import table_row
+from tests.text import table_row, whole_lines
 
 SLOW = "tests.cli.slow_systems:slow_system"
 SLOW_IN_AUDIT = "tests.cli.slow_systems:slow_in_audit_system"
@@ -172,8 +173,10 @@ def test_ctrl_c_ends_a_recording_with_a_complete_log(
         assert reader.status.complete
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
-    assert f"recorded {cycles} cycles (" in run.out
-    assert run.out.rstrip("\n").endswith(f"to {out}")
+    assert re.fullmatch(
+        rf"recorded {cycles} cycles \(\d+\.\d\d s, \d+ overruns\) to {re.escape(str(out))}",
+        whole_lines(run.out)[-1],
+    ), run.out
 
 
 @pytest.mark.slow
