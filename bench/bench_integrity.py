@@ -28,26 +28,11 @@ import msgspec
 import zstandard
 from mcap import records
 
+from beatlog.log import crafting
 from beatlog.log.format import CYCLES_TOPIC, CycleRecord, SessionEnd
 from beatlog.log.payload import decode_payload
 from beatlog.log.reader import SessionLogReader
 from beatlog_examples.rover import record_lockstep, system
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from tests.factories import (
-    PERIOD_NS,
-    Message,
-    chunks,
-    craft_log,
-    cycle_messages,
-    deeply_nested,
-    drop_chunk,
-    end_message,
-    header_message,
-    replace_chunk_content,
-    standard_messages,
-)
 
 replay_module: Any = importlib.import_module("beatlog.replay.judge")
 """The module (``beatlog.replay.judge`` the attribute is the function of that name)."""
@@ -115,19 +100,23 @@ def bench_checks(log: Path, rounds: int) -> dict[str, float]:
 
 def hostile_files(folder: Path, real: Path) -> dict[str, Path]:
     files = {
-        "50 MB robot id": craft_log(
+        "50 MB robot id": crafting.craft_log(
             folder / "robot-id.beatlog",
-            [header_message(robot_id="r" * 50_000_000), *cycle_messages(5)],
+            [crafting.header_message(robot_id="r" * 50_000_000), *crafting.cycle_messages(5)],
         ),
-        "200,000 behaviors": craft_log(
+        "200,000 behaviors": crafting.craft_log(
             folder / "behaviors.beatlog",
-            [header_message(behaviors=[f"b{i}" for i in range(200_000)]), *cycle_messages(5)],
+            [
+                crafting.header_message(behaviors=[f"b{i}" for i in range(200_000)]),
+                *crafting.cycle_messages(5),
+            ],
         ),
-        "msgpack 100,000 deep": craft_log(
-            folder / "deep.beatlog", [header_message(robot_state_schema=deeply_nested())]
+        "msgpack 100,000 deep": crafting.craft_log(
+            folder / "deep.beatlog",
+            [crafting.header_message(robot_state_schema=crafting.deeply_nested())],
         ),
     }
-    bomb_log = craft_log(folder / "bomb.beatlog", standard_messages(30))
+    bomb_log = crafting.craft_log(folder / "bomb.beatlog", crafting.standard_messages(30))
     data = bomb_log.read_bytes()
     bomb = zstandard.compress(b"\0" * (1 << 30))
     for name, declared in (
@@ -135,7 +124,9 @@ def hostile_files(folder: Path, real: Path) -> dict[str, Path]:
         ("zstd bomb claiming 1 KiB", 1 << 10),
     ):
         path = folder / f"bomb-{declared}.beatlog"
-        path.write_bytes(replace_chunk_content(data, chunks(data)[1], bomb, declared=declared))
+        path.write_bytes(
+            crafting.replace_chunk_content(data, crafting.chunks(data)[1], bomb, declared=declared)
+        )
         files[name] = path
     real_data = real.read_bytes()[: 1 << 20]
     files["real log cut at 1 MB"] = folder / "cut.beatlog"
@@ -145,13 +136,15 @@ def hostile_files(folder: Path, real: Path) -> dict[str, Path]:
         flipped[position] ^= 0x55
     files["real log, 20 bytes flipped"] = folder / "flipped.beatlog"
     files["real log, 20 bytes flipped"].write_bytes(bytes(flipped))
-    files["9M identical minimal cycles"] = craft_log(
+    files["9M identical minimal cycles"] = crafting.craft_log(
         folder / "minimal.beatlog", minimal_cycles(9_000_000), chunk_size=1 << 20
     )
-    whole = craft_log(folder / "whole.beatlog", standard_messages(2000))
+    whole = crafting.craft_log(folder / "whole.beatlog", crafting.standard_messages(2000))
     whole_data = whole.read_bytes()
     files["chunk dropped"] = folder / "dropped.beatlog"
-    files["chunk dropped"].write_bytes(drop_chunk(whole_data, chunks(whole_data)[50]))
+    files["chunk dropped"].write_bytes(
+        crafting.drop_chunk(whole_data, crafting.chunks(whole_data)[50])
+    )
     return files
 
 
@@ -166,16 +159,16 @@ print(done.returncode, usage.ru_utime + usage.ru_stime, usage.ru_maxrss, said)
 """Runs ``beatlog show`` as its only child, so the child's CPU time and peak RSS are its own."""
 
 
-def minimal_cycles(count: int) -> list[Message]:
+def minimal_cycles(count: int) -> list[crafting.Message]:
     """A valid log's messages whose cycles are all the smallest possible: the most work
     a file of a given size can ask for (it compresses about 100 times)."""
-    smallest = msgspec.Raw(msgspec.msgpack.encode([PERIOD_NS, {}, [], [], {}, []]))
-    messages = [header_message()]
+    smallest = msgspec.Raw(msgspec.msgpack.encode([crafting.PERIOD_NS, {}, [], [], {}, []]))
+    messages = [crafting.header_message()]
     for first in range(0, count, 256):
         size = min(256, count - first)
         payload = msgspec.msgpack.encode([first, [smallest] * size])
-        messages.append(Message(CYCLES_TOPIC, (first + 1) * PERIOD_NS, payload))
-    return [*messages, end_message(count)]
+        messages.append(crafting.Message(CYCLES_TOPIC, (first + 1) * crafting.PERIOD_NS, payload))
+    return [*messages, crafting.end_message(count)]
 
 
 def show_in_child(path: Path) -> dict[str, Any]:

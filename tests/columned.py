@@ -11,6 +11,7 @@ from typing import Any
 import msgspec
 
 from beatlog.log.columns import array_head, column_batches
+from beatlog.log.crafting import Message, craft_log
 from beatlog.log.format import (
     CYCLES_TOPIC,
     END_TOPIC,
@@ -20,7 +21,6 @@ from beatlog.log.format import (
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
-from tests.factories import Message, craft_log
 
 Damage = Callable[[ColumnBatch], ColumnBatch]
 

@@ -1,4 +1,5 @@
-"""DTC specs written by the tests: ``write_spec``, and the system references they name."""
+"""DTC specs written by the tests: ``write_spec``, the system references they name, and
+baseline files written by hand in any format (``baseline_file``)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ from tests.systems import Rover, rover_system
 PROBE = "tests.conftest:probe_system"
 CHANGED = "tests.conftest:probe_system_changed"
 GAUGE = "tests.systems:gauge_system"
-"""The system of the logs ``tests.factories`` crafts."""
+"""The system of the logs :mod:`beatlog.log.crafting` crafts."""
 ROVER = "tests.systems:rover_system"
 """Another robot, whose behaviors have the probe's names."""
 
@@ -110,3 +111,26 @@ def written_dtc(
 ) -> DtcSpec:
     """Write a spec (see :func:`write_spec`) and load it back, as discovery would."""
     return load_spec(write_spec(folder, name, log, system, **extra))
+
+
+BASELINE_MAGIC = {
+    1: "# beatlog expected state changes, format 1",
+    2: "# beatlog expected state changes and outputs, format 2",
+    3: "# beatlog expected state changes, outputs and robot states, format 3",
+    4: "# beatlog expected state changes, outputs, robot states and draws, format 4",
+    5: "# beatlog expected departures from the recording, format 5",
+}
+"""The first line of a baseline file of each format."""
+
+
+def baseline_file(
+    folder: Path, version: int, *lines: str, name: str = "a", spec: bool = False
+) -> Path:
+    """A baseline file ``NAME.dtc.expected`` in ``folder`` as format ``version`` starts one
+    (with a ``# spec NAME`` line where ``spec``), for a log ``a.beatlog`` whose digest is
+    all zeros, holding ``lines`` after its header."""
+    header = [BASELINE_MAGIC[version], *([f"# spec {name}"] if spec else [])]
+    path = folder / f"{name}.dtc.expected"
+    text = "\n".join([*header, f"# log a.beatlog sha256 {'0' * 64}", *lines])
+    path.write_text(f"{text}\n", encoding="utf-8")
+    return path

@@ -173,3 +173,40 @@ def test_no_import_cycle_spans_files() -> None:
     }
 
     graphlib.TopologicalSorter(graph).prepare()  # raises CycleError, naming the cycle
+
+
+REPOSITORY = Path(__file__).resolve().parent.parent
+SUITES = {
+    "tests": ["tests", "examples/tests"],
+    "benchmarks": ["bench", "examples/bench"],
+}
+"""The library's and the examples' tests, and their benchmarks: neither side imports the
+other (a factory both need is the library's, e.g. :mod:`beatlog.log.crafting`)."""
+
+
+def imported_modules(folder: Path) -> set[str]:
+    """The top-level names of every module the Python files under ``folder`` import."""
+    names: set[str] = set()
+    for path in folder.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names |= {alias.name.split(".")[0] for alias in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                names.add(node.module.split(".")[0])
+    return names
+
+
+def own_modules(folder: Path) -> set[str]:
+    """The names the files under ``folder`` are imported by: its package, or (a folder of
+    scripts) each script's."""
+    if (folder / "__init__.py").is_file():
+        return {folder.name}
+    return {path.stem for path in folder.glob("*.py")}
+
+
+@pytest.mark.parametrize(("side", "other"), [("tests", "benchmarks"), ("benchmarks", "tests")])
+def test_tests_and_benchmarks_import_nothing_of_each_other(side: str, other: str) -> None:
+    theirs = set().union(*(own_modules(REPOSITORY / folder) for folder in SUITES[other]))
+    imported = set().union(*(imported_modules(REPOSITORY / folder) for folder in SUITES[side]))
+
+    assert sorted(imported & theirs) == []

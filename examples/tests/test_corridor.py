@@ -36,4 +36,6 @@ def test_an_existing_folder_is_never_overwritten(
         main([str(tmp_path / "corridor")])
 
     assert exited.value.code == 2
-    assert "exists already" in capsys.readouterr().err
+    assert (
+        capsys.readouterr().err == f"{tmp_path / 'corridor'}: exists already; give a new folder\n"
+    )

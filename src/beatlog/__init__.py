@@ -16,40 +16,20 @@ if TYPE_CHECKING:
     from beatlog._version import __version__ as __version__
     from beatlog.errors import BeatlogError as BeatlogError
     from beatlog.log import SessionLogReader as SessionLogReader
-    from beatlog.model import (
-        Context as Context,
-    )
-    from beatlog.model import (
-        LiveHeartbeat as LiveHeartbeat,
-    )
-    from beatlog.model import (
-        PriorityArbiter as PriorityArbiter,
-    )
-    from beatlog.model import (
-        RobotState as RobotState,
-    )
-    from beatlog.model import (
-        SensorInbox as SensorInbox,
-    )
-    from beatlog.model import (
-        System as System,
-    )
+    from beatlog.model import Context as Context
+    from beatlog.model import LiveHeartbeat as LiveHeartbeat
+    from beatlog.model import PriorityArbiter as PriorityArbiter
+    from beatlog.model import RobotState as RobotState
+    from beatlog.model import SensorInbox as SensorInbox
+    from beatlog.model import System as System
     from beatlog.model.inbox import Sample as Sample
     from beatlog.model.perception import Perception as Perception
     from beatlog.model.robot import Robot as Robot
     from beatlog.record import Recorder as Recorder
-    from beatlog.replay import (
-        Divergence as Divergence,
-    )
-    from beatlog.replay import (
-        DivergenceKind as DivergenceKind,
-    )
-    from beatlog.replay import (
-        ReplayResult as ReplayResult,
-    )
-    from beatlog.replay import (
-        StateChange as StateChange,
-    )
+    from beatlog.replay import Divergence as Divergence
+    from beatlog.replay import DivergenceKind as DivergenceKind
+    from beatlog.replay import ReplayResult as ReplayResult
+    from beatlog.replay import StateChange as StateChange
     from beatlog.suite.approved import replay as replay
 
 __getattr__ = lazy_names(__name__)

@@ -31,6 +31,8 @@ from beatlog.adapters.rosbag import import_bag
 from beatlog.analysis.summary import summarize
 from beatlog.cli.main import main
 from beatlog.errors import ExportError
+from beatlog.log.crafting import Message as LogMessage
+from beatlog.log.crafting import craft_log, cycle, cycle_messages, end_message, header_message
 from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
@@ -48,8 +50,6 @@ from tests.bags import (
     write_bag,
 )
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
-from tests.factories import Message as LogMessage
-from tests.factories import craft_log, cycle, cycle_messages, end_message, header_message
 from tests.perceptions import record_with_samples
 from tests.systems import record_scatter
 from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
@@ -844,7 +844,7 @@ def test_a_truncated_log_is_exported_up_to_its_last_cycle(
             "robot_id": "bench",
             "software_version": "test",
             "system": "",
-            "robot_state_type": "tests.factories.Gauge",
+            "robot_state_type": "beatlog.log.crafting.Gauge",
             "period_ns": str(PERIOD_NS),
             "start_time_ns": "0",
             "cycles": "20",
@@ -1368,7 +1368,7 @@ def test_parquet_metadata_names_the_log_and_where_it_ends(tmp_path: Path) -> Non
         "beatlog.robot_id": "bench",
         "beatlog.software_version": "test",
         "beatlog.system": "",
-        "beatlog.robot_state_type": "tests.factories.Gauge",
+        "beatlog.robot_state_type": "beatlog.log.crafting.Gauge",
         "beatlog.period_ns": str(PERIOD_NS),
         "beatlog.start_time_ns": "0",
         "beatlog.cycles": "20",

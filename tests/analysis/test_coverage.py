@@ -18,6 +18,7 @@ from beatlog.suite.spec import load_spec
 from tests.commands import closing_counts
 from tests.conftest import PERIOD_NS, Dice, Probe, RecordFn, distances, probe_system
 from tests.specs import PROBE, write_spec
+from tests.text import table_row, whole_lines
 
 
 class Mood(enum.Enum):
@@ -130,8 +131,8 @@ def test_beatlog_test_shows_coverage_writes_json_and_runs_by_behavior(
     code = main(["test", "-j", "1", "--coverage", "--coverage-json", str(report), str(specs)])
     out = capsys.readouterr().out
     assert code == 0
-    assert "transition coverage" in out
-    assert '"far" → "near"' in out
+    assert "transition coverage" in whole_lines(out)
+    assert table_row(out, "near")[2] == '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC'
     document = json.loads(report.read_text())
     assert document["dtcs"] == ["approach.dtc.toml::approach", "idle.dtc.toml::idle"]
 
@@ -188,4 +189,4 @@ def test_a_damaged_log_leaves_the_coverage_and_html_reports_of_the_others(
     ]
     assert closing_counts(captured.out) == "1 passed, 0 failed, 1 error"
     assert json.loads(report.read_text())["dtcs"] == ["approach.dtc.toml::approach"]
-    assert "damaged" in html.read_text()
+    assert '<h2><span class="verdict">error</span> damaged</h2>' in whole_lines(html.read_text())

@@ -10,11 +10,12 @@ import msgspec
 import pytest
 
 from beatlog.analysis.summary import summarize
+from beatlog.log.crafting import session_header
 from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe, RecordFn, distances
-from tests.factories import session_header, with_damaged_index
+from tests.factories import with_damaged_index
 
 
 def changes_and_draws_in(log: Path) -> tuple[Counter[str], Counter[str]]:

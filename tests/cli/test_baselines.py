@@ -16,6 +16,7 @@ from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from tests.commands import Beatlog, assert_one_line_error, at_a_terminal
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.text import whole_lines
 
 AGAIN = "tests.systems:probe_system_changed_again"
 
@@ -33,14 +34,18 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
 ) -> None:
     updated = beatlog("test", "--update", spec)
     assert updated.code == 1
-    assert f"pending {pending_path(spec)}" in updated.out
+    assert (
+        f"pending {pending_path(spec)} (16 state changes, 12 output changes, open loop since "
+        f"cycle {FIRST_CHANGED_CYCLE} (0.660 s)): review with beatlog review {spec}, accept with "
+        f"beatlog approve {spec}"
+    ) in whole_lines(updated.out)
     assert not expected_path(spec).exists()
     pending = read_baseline(pending_path(spec))
     assert any(change.cycle == FIRST_CHANGED_CYCLE for change in pending.expectation.changes)
 
     approved = beatlog("approve", spec)
     assert approved.code == 0
-    assert "approved avoid-pole" in approved.out
+    assert f"approved avoid-pole: {expected_path(spec)}" in whole_lines(approved.out)
     assert not pending_path(spec).exists()
     assert read_baseline(expected_path(spec)).expectation.changes == pending.expectation.changes
 
@@ -58,7 +63,7 @@ def test_a_failing_run_never_overwrites_the_accepted_baseline(beatlog: Beatlog, 
     failed = beatlog("test", "--update", spec)
 
     assert failed.code == 1
-    assert "differ from the approved baseline" in failed.out
+    assert "behavior state changes differ from the approved baseline" in whole_lines(failed.out)
     assert expected_path(spec).read_bytes() == accepted
     assert pending_path(spec).exists()
 
@@ -70,7 +75,7 @@ def test_nothing_is_written_when_ci_is_set(
 
     updated = beatlog("test", "--update", spec)
     assert updated.code == 1
-    assert "CI is set: no pending baselines written" in updated.out
+    assert "CI is set: no pending baselines written" in whole_lines(updated.out)
     assert not pending_path(spec).exists()
 
     monkeypatch.delenv("CI")
@@ -90,7 +95,7 @@ def test_a_stale_pending_file_goes_when_the_dtc_passes(
     run = beatlog("test", "--update", spec)
 
     assert run.code == 0
-    assert f"removed stale {pending_path(spec)}" in run.out
+    assert f"removed stale {pending_path(spec)}: avoid-pole passes" in whole_lines(run.out)
     assert not pending_path(spec).exists()
 
 
@@ -107,12 +112,14 @@ def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
     run = beatlog("review", spec.parent)
 
     assert run.code == 0
-    assert "recorded (probe.beatlog)" in run.out
+    assert "208 state and output changes recorded (probe.beatlog) → 178 pending" in whole_lines(
+        run.out
+    )
     lines = run.out.splitlines()
     assert "--- recorded (probe.beatlog)" in lines
     assert "+++ pending" in lines
     assert any(line.startswith(f"+{FIRST_CHANGED_CYCLE:>8}") for line in lines)
-    assert f"left pending: accept with beatlog approve {spec}" in run.out
+    assert f"left pending: accept with beatlog approve {spec}" in whole_lines(run.out)
     assert pending_path(spec).exists()
 
 
@@ -143,7 +150,7 @@ def test_orphaned_baselines_are_named(beatlog: Beatlog, spec: Path) -> None:
 
     run = beatlog("test", spec.parent)
 
-    assert f"orphaned baseline {orphan}: no spec beside it" in run.out
+    assert f"orphaned baseline {orphan}: no spec beside it; delete it" in whole_lines(run.out)
 
 
 def test_a_baseline_made_from_another_recording_is_an_error(
@@ -156,7 +163,10 @@ def test_a_baseline_made_from_another_recording_is_an_error(
     run = beatlog("test", spec)
 
     assert run.code == 2
-    assert f"{expected_path(spec)}: approved for another recording than probe.beatlog" in run.err
+    assert run.err == (
+        f"beatlog: error: avoid-pole ({spec}): {expected_path(spec)}: approved for another "
+        "recording than probe.beatlog; delete it\n"
+    )
 
 
 def test_a_divergence_in_random_numbers_is_rebaselined_and_its_draws_approved(
@@ -232,8 +242,10 @@ def test_a_renamed_behavior_gets_a_rename_proposal_and_the_spec_rename_fixes_it(
 
     failed = beatlog("test", spec)
     assert failed.code == 1
-    assert "differs only by renamed behaviors: near → close" in failed.out
-    assert 'renames = { "near" = "close" }' in failed.out
+    assert "The whole trace differs only by renamed behaviors: near → close" in whole_lines(
+        failed.out
+    )
+    assert 'If intended, add to the spec: renames = { "near" = "close" }' in whole_lines(failed.out)
 
     write_spec(spec.parent, "avoid-pole", log, "tests.conftest:probe_system_renamed",
                renames={"near": "close"})  # fmt: skip
@@ -266,9 +278,11 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
         rest = terminal.type("A", until="accepted")
         code = terminal.program.wait(timeout=60)
 
-    assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip" in first
-    assert "maybe" in again
-    assert "accepted" in rest
+    assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip:" in whole_lines(
+        first
+    )
+    assert "maybe" in whole_lines(again)
+    assert f"accepted {expected_path(spec)}" in whole_lines(rest)
     assert code == 0
     assert expected_path(spec).exists()
     assert not pending_path(spec).exists()

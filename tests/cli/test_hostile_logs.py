@@ -10,11 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.log.format import FORMAT_VERSION
-from tests.commands import Beatlog
-from tests.conftest import RecordFn
-from tests.factories import (
-    PROBE_CYCLE_DAMAGE,
+from beatlog.log.crafting import (
     STANDARD_CHANNELS,
     Channel,
     chunks,
@@ -24,10 +20,12 @@ from tests.factories import (
     drop_chunk,
     end_message,
     header_message,
-    rewrite_cycle,
     standard_messages,
-    with_damaged_index,
 )
+from beatlog.log.format import FORMAT_VERSION
+from tests.commands import Beatlog
+from tests.conftest import RecordFn
+from tests.factories import PROBE_CYCLE_DAMAGE, rewrite_cycle, with_damaged_index
 from tests.specs import GAUGE, PROBE, write_spec
 
 
@@ -115,7 +113,10 @@ def test_a_spec_whose_log_is_a_fifo_is_an_error_not_a_hang(tmp_path: Path) -> No
         check=False,
     )
     assert done.returncode == 2
-    assert "not a regular file" in done.stderr
+    assert done.stderr == (
+        f"beatlog: error: hostile ({tmp_path / 'hostile.dtc.toml'}): {fifo}: is not a regular "
+        "file (a FIFO, socket or device)\n"
+    )
     assert "Traceback" not in done.stderr
 
 

@@ -8,6 +8,7 @@ sends SIGINT to the group, as a terminal does.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import time
 from collections.abc import Callable, Sequence
@@ -20,6 +21,7 @@ from tests.cli.slow_systems import MARKERS
 from tests.commands import Run, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, PROBE, write_spec
+from tests.text import table_row, whole_lines
 
 SLOW = "tests.cli.slow_systems:slow_system"
 SLOW_IN_AUDIT = "tests.cli.slow_systems:slow_in_audit_system"
@@ -88,8 +90,8 @@ def assert_stopped(run: Run) -> None:
 
 
 def assert_complete_results_printed(run: Run) -> None:
-    assert "a-fast" in run.out
-    assert "b-changed" in run.out
+    assert table_row(run.out, "a-fast")[:2] == ["a-fast", "passed"]
+    assert table_row(run.out, "b-changed")[:2] == ["b-changed", "failed"]
     assert closing_counts(run.out) == "1 passed, 1 failed, 2 not run"
 
 
@@ -171,8 +173,10 @@ def test_ctrl_c_ends_a_recording_with_a_complete_log(
         assert reader.status.complete
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
-    assert f"recorded {cycles} cycles (" in run.out
-    assert run.out.rstrip("\n").endswith(f"to {out}")
+    assert re.fullmatch(
+        rf"recorded {cycles} cycles \(\d+\.\d\d s, \d+ overruns\) to {re.escape(str(out))}",
+        whole_lines(run.out)[-1],
+    ), run.out
 
 
 @pytest.mark.slow

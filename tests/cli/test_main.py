@@ -3,6 +3,7 @@ the user's code imported from where the command runs."""
 
 from __future__ import annotations
 
+import inspect
 import shutil
 import subprocess
 import sys
@@ -12,11 +13,12 @@ from pathlib import Path
 import pytest
 from mcap.writer import Writer
 
+from beatlog.log.crafting import session_header
 from beatlog.log.writer import SessionLogWriter
 from tests.commands import Beatlog, assert_one_line_error
-from tests.conftest import RecordFn
-from tests.factories import session_header
+from tests.conftest import RecordFn, broken_probe
 from tests.specs import PROBE
+from tests.text import frames
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -119,7 +121,7 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
     assert verbose.code == 2
     assert verbose.out == ""
     assert verbose.err.startswith("Traceback (most recent call last):\n")
-    assert "in broken_probe" in verbose.err
+    assert (inspect.getsourcefile(broken_probe), "broken_probe") in frames(verbose.err)
     assert "beatlog/engine" not in verbose.err
     assert verbose.err.endswith(quiet.err)
 

@@ -26,6 +26,7 @@ from tests.perceptions import (
     record_with_samples,
 )
 from tests.specs import write_spec
+from tests.text import table_row, whole_lines
 
 SHIFTED = "tests.perceptions:shifted_perception"
 NUDGED = "tests.perceptions:nudged_perception"
@@ -65,7 +66,11 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
     update = beatlog("test", "--update", spec)
     assert update.code == 1
     assert "1 robot-state field rebuilt otherwise" not in update.out
-    assert f"robot state rebuilt otherwise in {LONG} cycles): review with" in update.out
+    assert (
+        f"pending {pending_path(spec)} (0 state changes, 0 output changes, robot state rebuilt "
+        f"otherwise in {LONG} cycles): review with beatlog review {spec}, accept with beatlog "
+        f"approve {spec}"
+    ) in whole_lines(update.out)
     pins = read_baseline(pending_path(spec)).expectation.state_pins
     assert pins.cycles == LONG
     assert [(run.cycle, run.last, run.fields) for run in pins.runs] == [
@@ -102,8 +107,13 @@ def test_a_perception_that_changes_again_fails_against_the_baseline(
     )
     back = beatlog("test", write_spec(tmp_path, "sensors", log, perception=PERCEPTION))
     assert back.code == 1
-    assert "it differs from the recording in no field, the approved one in distance" in back.out
-    assert "│ distance = 1.0" in back.out  # recorded and rebuilt alike, side by side
+    assert (
+        "the robot state rebuilt from the samples differs from the approved baseline by its "
+        "digest; it differs from the recording in no field, the approved one in distance "
+        "(cycles 0–10)" in whole_lines(back.out)
+    )
+    # recorded and rebuilt alike, side by side
+    assert table_row(back.out, "distance = 1.0") == ["distance = 1.0", "distance = 1.0"]
 
 
 def test_a_one_ulp_change_of_one_field_in_one_cycle_fails_in_that_cycle(
@@ -112,7 +122,7 @@ def test_a_one_ulp_change_of_one_field_in_one_cycle_fails_in_that_cycle(
     run = beatlog("test", write_spec(tmp_path, "sensors", log, perception=ONE_ULP))
 
     assert run.code == 1
-    assert f"first divergence: cycle {ULP_CYCLE}, " in run.out
+    assert f"first divergence: cycle {ULP_CYCLE}, t = 2.880 s, perception" in whole_lines(run.out)
     assert (
         "differs from the approved baseline by its digest; it differs from the recording in "
         "distance, the approved one in distance (cycles 90–110)" in run.out
@@ -173,7 +183,10 @@ def test_the_state_changes_that_follow_a_perception_change_are_pinned_too(
 
     monkeypatch.setattr("sys.stdin", io.StringIO("accept\n"))
     review = beatlog("review", spec)
-    assert 'robot state "distance" rebuilt otherwise in cycles 0–299 (300 cycles)' in review.out
+    assert (
+        'robot state "distance" rebuilt otherwise in cycles 0–299 (300 cycles), first: "distance" '
+        "1.0 → 0.95" in whole_lines(review.out)
+    )
     changes = {line[0] for line in review.out.splitlines() if '"near": "far" -> "near"' in line}
     assert changes == {"-", "+"}  # near sees the pole in other cycles
 
@@ -187,7 +200,10 @@ def test_a_perception_that_raises_or_builds_no_robot_state_is_not_re_baselined(
     spec = write_spec(tmp_path, "sensors", log, perception=f"tests.perceptions:{factory}")
     update = beatlog("test", "--update", spec)
     assert update.code == 1
-    assert "not updated sensors: perception raised or built no robot state" in update.out
+    assert (
+        "not updated sensors: perception raised or built no robot state: a baseline pins what "
+        "perception rebuilds; fix it first"
+    ) in whole_lines(update.out)
     assert not pending_path(spec).exists()
 
 
@@ -204,4 +220,4 @@ def test_a_perception_change_the_behaviors_do_not_notice_pins_no_copy_of_the_tra
     assert [line for line in pinned if "robot_state " not in line] == []  # no open loop
     run = beatlog("test", planted)
     assert run.code == 1
-    assert "behavior state changes differ from the recording" in run.out
+    assert "behavior state changes differ from the recording" in whole_lines(run.out)

@@ -28,12 +28,9 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader
 
 from beatlog.log import SessionEnd, SessionHeader, SessionLogWriter
-from beatlog.log.format import CYCLES_TOPIC
-from tests.conformance.format3 import DAMAGES, damaged, header, written
-from tests.factories import (
+from beatlog.log.crafting import (
     FORMAT_1_CHANNELS,
     PERIOD_NS,
-    RECORD_HEAD,
     Message,
     chunks,
     craft_log,
@@ -44,6 +41,9 @@ from tests.factories import (
     header_message,
     session_header,
 )
+from beatlog.log.format import CYCLES_TOPIC
+from tests.conformance.format3 import DAMAGES, damaged, header, written
+from tests.factories import RECORD_HEAD
 
 CASES = Path(__file__).parent / "cases"
 FLUSH_INTERVAL_NS = 250_000_000

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 from mcap.opcode import Opcode
 
+from beatlog.log.crafting import chunks, top_level_records
 from tests.chunked import (
     CYCLES,
     CYCLES_PER_CHUNK,
@@ -13,7 +14,6 @@ from tests.chunked import (
     read_all,
     write_chunked_log,
 )
-from tests.factories import chunks, top_level_records
 
 
 @pytest.fixture(scope="module")

@@ -14,6 +14,7 @@ import pytest
 
 from beatlog.errors import CorruptLogError
 from beatlog.log.columns import StateColumns, column_batches, encode_column
+from beatlog.log.crafting import session_header
 from beatlog.log.format import Column, SessionEnd, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -21,7 +22,6 @@ from beatlog.model.state import state_fields
 from tests.chunked import read_all
 from tests.columned import Damage, foreign_value, rewrite_by_field, short_column, table_off
 from tests.conftest import PERIOD_NS
-from tests.factories import session_header
 
 
 class Pose(msgspec.Struct):

@@ -11,6 +11,7 @@ from typing import Any
 import msgspec
 import pytest
 
+from beatlog.log.crafting import session_header
 from beatlog.log.format import (
     CHANNEL_TOPICS,
     EMPTY_LIST,
@@ -24,7 +25,6 @@ from beatlog.log.writer import SessionLogWriter
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
-from tests.factories import session_header
 
 
 def float_from_bits(bits: int) -> float:

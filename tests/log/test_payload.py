@@ -9,11 +9,7 @@ import msgspec
 import pytest
 
 from beatlog.errors import CorruptLogError, SchemaMismatchError
-from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord
-from beatlog.log.reader import SessionLogReader
-from tests.chunked import read_all
-from tests.conftest import PERIOD_NS
-from tests.factories import (
+from beatlog.log.crafting import (
     FORMAT_1_CHANNELS,
     STANDARD_CHANNELS,
     Gauge,
@@ -24,6 +20,10 @@ from tests.factories import (
     header_message,
     standard_messages,
 )
+from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord
+from beatlog.log.reader import SessionLogReader
+from tests.chunked import read_all
+from tests.conftest import PERIOD_NS
 
 
 @pytest.mark.parametrize("version", [1, FORMAT_VERSION])

@@ -3,6 +3,7 @@ what stepping it gives, for cycles that match and cycles that do not."""
 
 from __future__ import annotations
 
+import inspect
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -27,8 +28,10 @@ from tests.systems import (
     PxPose,
     PxPosed,
     Scatter,
+    centimetres_unless_close,
     probe_system_centimetred,
 )
+from tests.text import frames
 
 
 def fragile_system() -> PriorityArbiter[Probe]:
@@ -137,7 +140,9 @@ def test_a_conversion_that_fails_is_bad_input_naming_the_field_and_the_cycle(
         "convert"
     )
     assert raised.value.user_traceback is not None
-    assert "in centimetres_unless_close" in raised.value.user_traceback
+    assert (inspect.getsourcefile(centimetres_unless_close), "centimetres_unless_close") in frames(
+        raised.value.user_traceback
+    )
 
 
 class Side:

@@ -22,6 +22,7 @@ from tests.conftest import Probe, RecordFn, probe_system, probe_system_changed
 from tests.factories import cut_short
 from tests.perceptions import changed_perception, record_with_samples
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
+from tests.text import whole_lines
 
 BANNER = (
     "beatlog: cycle 75 of probe.beatlog, t = 2.280 s (HB_t 30.000 ms), just before the "
@@ -100,7 +101,9 @@ def test_break_on_divergence_stops_at_the_first_divergence(
     code = main(["replay", str(log), "--system", CHANGED, "--break-on-divergence"])
     assert code == 1
     assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE]
-    assert "first divergence" in capsys.readouterr().out
+    assert "first divergence: cycle 21, t = 0.660 s, state changes" in whole_lines(
+        capsys.readouterr().out
+    )
 
 
 def test_without_a_break_the_debugger_is_never_entered(

@@ -3,6 +3,7 @@ converter turns recorded values into the system's types, nested structs and all.
 
 from __future__ import annotations
 
+import inspect
 from typing import Any
 
 import msgspec
@@ -10,6 +11,8 @@ import pytest
 
 from beatlog.errors import SystemLoadError
 from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
+from tests.systems import centimetres_unless_close
+from tests.text import frames
 
 NESTED = StateMigration(
     {"pose": "where", "pose.x": "where.px", "battery": "charge"},
@@ -104,7 +107,9 @@ def test_a_conversion_that_raises_names_the_field_and_keeps_the_users_traceback(
         "0.05 m is too close to convert"
     )
     assert raised.value.user_traceback is not None
-    assert "in centimetres_unless_close" in raised.value.user_traceback
+    assert (inspect.getsourcefile(centimetres_unless_close), "centimetres_unless_close") in frames(
+        raised.value.user_traceback
+    )
 
 
 def test_a_converted_value_of_another_type_than_the_fields_names_the_field() -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import math
 from pathlib import Path
 
@@ -9,11 +10,12 @@ import pytest
 
 from beatlog.cli.main import main
 from beatlog.errors import FieldError
+from beatlog.model.perception import Perception
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome
 from beatlog.replay.judge import NO_SAMPLES, replay
 from beatlog.replay.migration import StateMigration
-from beatlog.replay.verdict import DivergenceKind, FieldDifference
+from beatlog.replay.verdict import Divergence, DivergenceKind, FieldDifference
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
@@ -34,6 +36,20 @@ from tests.perceptions import (
 )
 from tests.specs import write_spec
 from tests.systems import probe_system_ranged
+from tests.text import frames, table_row, whole_lines
+
+
+def divergence_from_samples(
+    folder: Path, perception: Perception, comparison: Comparison | None = None
+) -> Divergence:
+    """The first divergence of the probe replayed from samples through ``perception``
+    (judged by ``comparison``); there must be one."""
+    log = record_with_samples(folder / "samples.beatlog")
+    divergence = replay(
+        log, probe_system(), perception=perception, comparison=comparison
+    ).divergence
+    assert divergence is not None
+    return divergence
 
 
 @pytest.mark.parametrize("by_field", [False, True], ids=["in-records", "by-field"])
@@ -101,13 +117,11 @@ def test_a_changed_perception_is_a_perception_divergence_naming_fields_and_sampl
 
 
 def test_a_perception_that_raises_is_a_perception_divergence(tmp_path: Path) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
-    divergence = replay(log, probe_system(), perception=broken_perception()).divergence
-    assert divergence is not None
+    divergence = divergence_from_samples(tmp_path, broken_perception())
     assert divergence.kind is DivergenceKind.PERCEPTION
     assert divergence.message == "perception raised ValueError: no range sensor"
     assert divergence.traceback is not None
-    assert "perceptions.py" in divergence.traceback
+    assert (inspect.getsourcefile(broken_perception), "broken") in frames(divergence.traceback)
 
 
 def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
@@ -115,9 +129,7 @@ def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
 ) -> None:
     # A dict of the probe's fields encodes to the recorded bytes; the behaviors would
     # then fail on it, and the report blame them.
-    log = record_with_samples(tmp_path / "samples.beatlog")
-    divergence = replay(log, probe_system(), perception=dict_perception()).divergence
-    assert divergence is not None
+    divergence = divergence_from_samples(tmp_path, dict_perception())
     assert divergence.kind is DivergenceKind.PERCEPTION
     assert divergence.message == "perception returned a dict, not a Probe"
     assert divergence.traceback is None
@@ -126,9 +138,7 @@ def test_a_perception_that_builds_no_robot_state_is_a_perception_divergence(
 def test_a_rebuilt_state_holding_numpy_values_is_reported_as_plain_numbers(
     tmp_path: Path,
 ) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
-    divergence = replay(log, probe_system(), perception=numpy_perception()).divergence
-    assert divergence is not None
+    divergence = divergence_from_samples(tmp_path, numpy_perception())
     assert divergence.kind is DivergenceKind.PERCEPTION
     assert divergence.robot_state == {"distance": 2.0, "reading": 0.0}
 
@@ -168,7 +178,9 @@ def test_a_perception_named_by_reference_is_in_the_reproduce_command(tmp_path: P
     reference = CHANGED
     result = replay(log, "tests.conftest:probe_system", perception=reference)
     assert not result.ok
-    assert f"--perception {reference}" in result.reproduce
+    assert result.reproduce == (
+        f"beatlog replay {log} --system tests.conftest:probe_system --perception {reference}"
+    )
 
 
 def test_keep_going_counts_every_cycle_perception_rebuilds_differently(tmp_path: Path) -> None:
@@ -189,11 +201,12 @@ def test_the_cli_replays_from_samples_and_shows_the_fields_and_samples(
     )
     out = capsys.readouterr().out
     assert code == 1
-    assert "perception" in out
-    assert "robot state from the samples" in out
-    assert "distance = 1.0" in out
-    assert "samples: range [1.0, 1]" in out
-    assert f"--perception {reference}" in out
+    assert "first divergence: cycle 0, t = 0.030 s, perception" in whole_lines(out)
+    assert "robot state from the samples" in whole_lines(out)
+    assert table_row(out, "distance = 1.0") == ["distance = 1.0", "distance = 1.1"]
+    assert "samples: range [1.0, 1]" in whole_lines(out)
+    reproduce = f"reproduce: beatlog replay {log} --system tests.conftest:probe_system"
+    assert f"{reproduce} --perception {reference}" in whole_lines(out)
 
 
 def test_a_spec_names_its_perception_and_the_suite_replays_from_samples(tmp_path: Path) -> None:
@@ -236,9 +249,9 @@ def test_show_says_how_many_samples_each_sensor_logged(
     with_samples = record_with_samples(tmp_path / "samples.beatlog", 40)
     without = record_with_samples(tmp_path / "plain.beatlog", 40, log_samples=False)
     assert main(["show", str(with_samples)]) == 0
-    assert "samples         40 (range 40)" in capsys.readouterr().out
+    assert "samples         40 (range 40)" in whole_lines(capsys.readouterr().out)
     assert main(["show", str(without)]) == 0
-    assert "samples         not logged" in capsys.readouterr().out
+    assert "samples         not logged" in whole_lines(capsys.readouterr().out)
 
 
 # robot-state tolerances
@@ -255,23 +268,15 @@ def test_a_difference_within_the_robot_state_tolerance_passes(tmp_path: Path) ->
 
 
 def test_a_tolerance_on_another_field_excuses_nothing(tmp_path: Path) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
     other = Comparison(state_tolerance={"reading": 1.0})
-    divergence = replay(
-        log, probe_system(), perception=nudged_perception(), comparison=other
-    ).divergence
-    assert divergence is not None
+    divergence = divergence_from_samples(tmp_path, nudged_perception(), other)
     assert divergence.kind is DivergenceKind.PERCEPTION
     assert [difference.field for difference in divergence.perception] == ["distance"]
 
 
 def test_within_the_tolerance_the_behaviors_run_on_the_rebuilt_state(tmp_path: Path) -> None:
-    log = record_with_samples(tmp_path / "samples.beatlog")
     lenient = Comparison(state_tolerance={"distance": 0.1})
-    divergence = replay(
-        log, probe_system(), perception=shifted_perception(), comparison=lenient
-    ).divergence
-    assert divergence is not None
+    divergence = divergence_from_samples(tmp_path, shifted_perception(), lenient)
     assert divergence.kind is DivergenceKind.STATE_CHANGES  # near saw the obstacle earlier
     assert divergence.robot_state["distance"] < 0.5 <= divergence.robot_state["distance"] + 0.05
 
@@ -282,8 +287,10 @@ def test_a_tolerance_for_a_field_the_recorded_state_lacks_is_an_error(tmp_path: 
     with pytest.raises(FieldError) as raised:
         replay(log, probe_system(), perception=perception(), comparison=unknown)
     message = str(raised.value)
-    assert message.startswith(f"{log}: robot-state tolerance for 'distanse'")
-    assert "tests.conftest.Probe has no such field (it has distance, reading)" in message
+    assert message == (
+        f"{log}: robot-state tolerance for 'distanse': the recorded robot state "
+        "tests.conftest.Probe has no such field (it has distance, reading)"
+    )
 
 
 def test_a_spec_tolerates_robot_state_fields(tmp_path: Path) -> None:
@@ -301,4 +308,7 @@ def test_a_spec_tolerates_robot_state_fields(tmp_path: Path) -> None:
     outcome = run_spec(load_spec(unknown))
     assert outcome.verdict is Verdict.ERROR
     assert outcome.error is not None
-    assert "robot-state tolerance for 'speed'" in outcome.error
+    assert outcome.error == (
+        f"{log}: robot-state tolerance for 'speed': the recorded robot state "
+        "tests.conftest.Probe has no such field (it has distance, reading)"
+    )

@@ -160,7 +160,10 @@ def test_a_value_of_another_type_is_found_where_it_is_read(by_field: Path, tmp_p
     damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", retyped_value(4, "oops"), 1)
     with pytest.raises(SchemaMismatchError, match=r"does not fit Arm: field 'joints'") as raised:
         beatlog.replay(damaged, watcher_system())
-    assert "robot state of cycle " in str(raised.value)
+    assert str(raised.value) == (
+        f"{damaged}: robot state of cycle 35 does not fit Arm: field 'joints': "
+        "Expected `array`, got `str` - at `$[0]`"
+    )
 
 
 Renamed = msgspec.defstruct(

@@ -14,6 +14,7 @@ from beatlog.suite.runner import SpecOutcome, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
 from tests.specs import write_spec
+from tests.text import whole_lines
 
 RUNS = (SeedRun(1, True, 300, None, None, "ab"), SeedRun(2, True, 300, None, None, "ab"))
 SOUND = AuditReport(findings=(), runs=RUNS, hash_seed_dependence=None)
@@ -48,7 +49,7 @@ def audited(outcome: SpecOutcome, **reports: AuditReport) -> list[SpecOutcome]:
 def test_findings_name_the_dtc_each_call_its_site_and_count(outcome: SpecOutcome) -> None:
     text = plain_text(render_audit(audited(outcome, wander=LEAKY, dock=SOUND)), width=200)
 
-    assert f"AUDIT wander ({outcome.spec.path})" in text
+    assert f"AUDIT wander ({outcome.spec.path})" in whole_lines(text)
     assert "dock" not in text
     header = next(line for line in text.splitlines() if "┃" in line)
     assert [cell.strip() for cell in header.split("┃")[1:-1]] == ["call", "site", "calls"]
@@ -63,7 +64,7 @@ def test_findings_name_the_dtc_each_call_its_site_and_count(outcome: SpecOutcome
 def test_a_hash_seed_dependence_is_a_finding_too(outcome: SpecOutcome) -> None:
     text = plain_text(render_audit(audited(outcome, wander=LEAKY, heading=UNORDERED)), width=200)
 
-    assert "AUDIT heading" in text
+    assert f"AUDIT heading ({outcome.spec.path})" in whole_lines(text)
     assert UNORDERED.hash_seed_dependence is not None
     assert UNORDERED.hash_seed_dependence in text
     assert text.rstrip().endswith("determinism audit: 3 findings in 2 of 2 DTCs")

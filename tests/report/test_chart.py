@@ -48,7 +48,10 @@ def test_the_first_divergence_is_marked_on_every_strip(record_probe: RecordFn) -
     figure = draw_timeline(build_timeline(log, probe_system(threshold=0.6), divergence=divergence))
 
     lanes, *signals = figure.axes[:3]
-    assert f"first divergence: cycle {divergence.cycle}, t = " in lanes.get_title(loc="right")
+    assert (
+        lanes.get_title(loc="right")
+        == f"first divergence: cycle {divergence.cycle}, t = 0.660 s (state changes)"
+    )
     for ax in (lanes, *signals):
         marks = [
             line

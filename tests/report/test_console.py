@@ -22,6 +22,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn, probe_system
 from tests.specs import CHANGED, PROBE, write_spec
+from tests.text import table_row, whole_lines
 
 
 def test_a_pass_is_one_verdict_line(record_probe: RecordFn) -> None:
@@ -42,9 +43,9 @@ def test_a_failure_shows_cycle_changes_state_and_an_unwrapped_command(
 ) -> None:
     log = record_probe(300, name="a-rather-long-name-for-a-session-log-" * 3 + ".beatlog")
     text = plain_text(render_replay(replay(log, probe_system(threshold=0.6))), width=80)
-    assert "first divergence: cycle 21" in text
+    assert "first divergence: cycle 21, t = 0.660 s, state changes" in whole_lines(text)
     assert "arbiter: 'dice' -> 'near'" in text
-    assert "robot state RS_t" in text
+    assert "robot state RS_t" in whole_lines(text)
     (command,) = [line for line in text.splitlines() if line.startswith("reproduce: ")]
     assert command.endswith("--system tests.conftest:probe_system")
     assert len(text.splitlines()) < 50
@@ -132,24 +133,24 @@ def test_the_summary_names_every_behavior(record_probe: RecordFn) -> None:
 def test_the_cycles_around_a_divergence_are_a_table(record_probe: RecordFn) -> None:
     result = replay(record_probe(300), probe_system(threshold=0.6), context_cycles=40)
     text = plain_text(render_replay(result))
-    assert "state changes around it" in text
-    assert "▶ 21" in text
+    assert "state changes around it" in whole_lines(text)
+    assert table_row(text, "▶ 21") == ["▶ 21", "0.660", "—", "arbiter: 'dice' -> 'near'"]
 
 
 def test_a_failure_shows_only_the_robot_state_fields_read(record_probe: RecordFn) -> None:
     result = replay(record_probe(300), CHANGED)
     text = plain_text(render_replay(result), width=120)
-    assert "robot state RS_t, fields read in this cycle" in text
-    assert "distance" in text
+    assert "robot state RS_t, fields read in this cycle" in whole_lines(text)
+    assert table_row(text, "distance") == ["distance", "0.58"]
     assert "reading" not in text
-    assert "1 more field not read" in text
+    assert "1 more field not read" in whole_lines(text)
 
 
 def test_a_rename_proposal_gives_the_line_for_the_spec(record_probe: RecordFn) -> None:
     result = replay(record_probe(300), "tests.conftest:probe_system_renamed")
     text = plain_text(render_replay(result), width=200)
-    assert "differs only by renamed behaviors: near → close" in text
-    assert 'add to the spec: renames = { "near" = "close" }' in text
+    assert "The whole trace differs only by renamed behaviors: near → close" in whole_lines(text)
+    assert 'If intended, add to the spec: renames = { "near" = "close" }' in whole_lines(text)
 
 
 def outcomes(passed: int, failed: int = 0, errors: int = 0) -> list[SpecOutcome]:

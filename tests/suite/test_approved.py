@@ -18,6 +18,7 @@ from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
 from tests.conftest import RecordFn
 from tests.specs import write_spec
+from tests.text import table_row, whole_lines
 
 GREEDY = "tests.systems:probe_system_greedy"
 
@@ -55,9 +56,12 @@ def test_the_replay_command_passes_what_test_passes_and_says_why(
     failed = capsys.readouterr().out
 
     assert code == 0
-    assert "note: judged against the approved baseline avoid-pole.dtc.expected" in passed
+    assert (
+        "note: judged against the approved baseline avoid-pole.dtc.expected, as beatlog test "
+        f"{log.parent / 'avoid-pole.dtc.toml'} judges it"
+    ) in whole_lines(passed)
     assert recording == 1
-    assert f"reproduce: beatlog replay {log} --system {GREEDY} --recording" in failed
+    assert f"reproduce: beatlog replay {log} --system {GREEDY} --recording" in whole_lines(failed)
 
 
 def test_a_log_no_spec_names_is_judged_against_its_recording(
@@ -117,5 +121,10 @@ def test_show_and_test_name_the_approved_baseline_and_where_it_goes_open_loop(
         "approved baseline avoid-pole.dtc.expected (spec avoid-pole.dtc.toml): "
         f"open loop since cycle {cycle} ({time_ns / 1e9:.3f} s)"
     )
-    assert f"passed (approved baseline, open loop since cycle {cycle})" in tested
+    assert table_row(tested, "avoid-pole")[:4] == [
+        "avoid-pole",
+        f"passed (approved baseline, open loop since cycle {cycle})",
+        "300",
+        "9.0 s",
+    ]
     assert "1 passed, 0 failed, 1 open loop (worth re-recording when convenient)" in tested

@@ -28,6 +28,7 @@ from beatlog.suite.baseline import (
     write_baseline,
 )
 from tests.factories import rebuilt_states, speed_state
+from tests.specs import baseline_file
 
 CHANGES = (
     TracedChange(0, 30_000_000, StateChange("arbiter", "idle", "wander")),
@@ -44,15 +45,17 @@ def log(tmp_path: Path) -> Path:
     return path
 
 
+def baseline_of(log: Path, path: Path, expectation: Expectation) -> Path:
+    """``expectation`` written to ``path`` as the baseline of spec ``a``, recorded as ``log``."""
+    write_baseline(
+        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
+    )
+    return path
+
+
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation(CHANGES, (), departures=True),
-    )
+    baseline_of(log, path, Expectation(CHANGES, (), departures=True))
 
     baseline = read_baseline(path)
 
@@ -72,13 +75,7 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation(CHANGES[:2], (), departures=True),
-    )
+    baseline_of(log, path, Expectation(CHANGES[:2], (), departures=True))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -92,13 +89,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation((), (), departures=True),
-    )
+    baseline_of(log, path, Expectation((), (), departures=True))
     assert read_baseline(path).expectation.changes == ()
 
 
@@ -180,13 +171,7 @@ def test_an_output_value_reads_back_bit_for_bit(
 ) -> None:
     path = tmp_path / "a.dtc.expected"
     outputs = (TracedOutput(5, 180_000_000, "motor", value),)
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation((), outputs, departures=True),
-    )
+    baseline_of(log, path, Expectation((), outputs, departures=True))
 
     assert path.read_text(encoding="utf-8").splitlines()[-1] == (
         f'       5     0.180  output "motor" = {written}'
@@ -203,13 +188,7 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         TracedOutput(12, 360_012_000, "speed", 0.0),
         TracedOutput(13, 390_000_000, "speed", ABSENT),
     )
-    write_baseline(
-        path,
-        spec_name="a",
-        log_name=log.name,
-        digest=log_digest(log),
-        expectation=Expectation(CHANGES[:2], outputs, departures=True),
-    )
+    baseline_of(log, path, Expectation(CHANGES[:2], outputs, departures=True))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -238,9 +217,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
     changes = (TracedChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
     expectation = Expectation(changes, outputs, state_pins=pins, departures=True)
-    write_baseline(
-        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
-    )
+    baseline_of(log, path, expectation)
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -260,28 +237,20 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
 def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Path) -> None:
     states = (TracedState(12, 360_012_000, "distance", 0.55),)
     with pytest.raises(ValueError, match="format 3 robot-state pins cannot be written"):
-        write_baseline(
-            tmp_path / "a.dtc.pending",
-            spec_name="a",
-            log_name=log.name,
-            digest=log_digest(log),
-            expectation=Expectation((), (), states, departures=True),
-        )
+        baseline_of(log, tmp_path / "a.dtc.pending", Expectation((), (), states, departures=True))
 
 
 def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
     tmp_path: Path,
 ) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes, outputs and robot states, format 3\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  robot_state "distance" = 0.55\n'
-        '      12     0.360  robot_state "pose" = [1.0, -0.0]\n'
-        '      12     0.360  "avoid": "off" -> "turning"\n'
-        '      12     0.360  output "speed" = 0.0\n'
-        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001\n',
-        encoding="utf-8",
+    path = baseline_file(
+        tmp_path,
+        3,
+        '      12     0.360  robot_state "distance" = 0.55',
+        '      12     0.360  robot_state "pose" = [1.0, -0.0]',
+        '      12     0.360  "avoid": "off" -> "turning"',
+        '      12     0.360  output "speed" = 0.0',
+        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001',
     )
 
     baseline = read_baseline(path)
@@ -295,27 +264,12 @@ def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
     assert baseline.expectation.state_pins == StatePins()
 
 
-def test_robot_state_lines_out_of_cycle_order_are_an_error(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes, outputs and robot states, format 3\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      13     0.390  robot_state "distance" = 1.0\n'
-        '      12     0.360  robot_state "distance" = 1.0\n',
-        encoding="utf-8",
-    )
-    with pytest.raises(BaselineError, match="robot_state lines are not in cycle order"):
-        read_baseline(path)
-
-
 def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes and outputs, format 2\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  "avoid": "off" -> "turning"\n'
-        '      12     0.360  output "speed" = 0.0\n',
-        encoding="utf-8",
+    path = baseline_file(
+        tmp_path,
+        2,
+        '      12     0.360  "avoid": "off" -> "turning"',
+        '      12     0.360  output "speed" = 0.0',
     )
     baseline = read_baseline(path)
     assert baseline.expectation.outputs == (TracedOutput(12, 360_000_000, "speed", 0.0),)
@@ -323,12 +277,7 @@ def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path
 
 
 def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        f"# beatlog expected state changes, format 1\n# spec a\n# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  "avoid": "off" -> "turning"\n',
-        encoding="utf-8",
-    )
+    path = baseline_file(tmp_path, 1, '      12     0.360  "avoid": "off" -> "turning"', spec=True)
 
     baseline = read_baseline(path)
 
@@ -376,14 +325,7 @@ RUN = "robot_state otherwise in 7..7 (1 cycle)"
 def test_a_damaged_output_line_is_an_error_naming_file_and_line(
     tmp_path: Path, magic: int, line: str, problem: str
 ) -> None:
-    header = {
-        1: "# beatlog expected state changes, format 1",
-        2: "# beatlog expected state changes and outputs, format 2",
-        3: "# beatlog expected state changes, outputs and robot states, format 3",
-        4: "# beatlog expected state changes, outputs, robot states and draws, format 4",
-    }[magic]
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(f"{header}\n# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n", encoding="utf-8")
+    path = baseline_file(tmp_path, magic, "#", line)
 
     with pytest.raises(BaselineError) as raised:
         read_baseline(path)
@@ -408,9 +350,7 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
         departures=True,
         quiet=((15, 450_000_000),),
     )
-    write_baseline(
-        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
-    )
+    baseline_of(log, path, expectation)
 
     assert path.read_text(encoding="utf-8").splitlines()[-6:] == [
         "      12     0.360  open loop",
@@ -433,24 +373,14 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
 
 def test_a_whole_trace_is_no_longer_written(tmp_path: Path, log: Path) -> None:
     with pytest.raises(ValueError, match="a whole trace cannot be written"):
-        write_baseline(
-            tmp_path / "a.dtc.pending",
-            spec_name="a",
-            log_name=log.name,
-            digest=log_digest(log),
-            expectation=Expectation(CHANGES, ()),
-        )
+        baseline_of(log, tmp_path / "a.dtc.pending", Expectation(CHANGES, ()))
 
 
 def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_path: Path) -> None:
-    header = (
-        "# beatlog expected state changes, outputs, robot states and draws, format 4\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
+    whole = baseline_file(
+        tmp_path, 4, '      12     0.360  "avoid": "off" -> "turning"', name="whole"
     )
-    whole = tmp_path / "whole.dtc.expected"
-    whole.write_text(header + '      12     0.360  "avoid": "off" -> "turning"\n', encoding="utf-8")
-    recorded = tmp_path / "recorded.dtc.expected"
-    recorded.write_text(header + "state changes and outputs as recorded\n", encoding="utf-8")
+    recorded = baseline_file(tmp_path, 4, "state changes and outputs as recorded", name="recorded")
 
     trace = read_baseline(whole).expectation
     assert (trace.departures, trace.as_recorded) == (False, False)
@@ -462,31 +392,28 @@ def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_pat
 
 
 @pytest.mark.parametrize(
-    ("line", "problem"),
+    ("version", "lines", "problem"),
     [
-        ('  7  0.210  output "speed" as recorded', "line 4: expected '=' at column"),
-        ("  7  0.210  no state changes", "line 4: Expecting value"),
+        (
+            3,
+            [
+                '  13  0.390  robot_state "distance" = 1.0',
+                '  12  0.360  robot_state "distance" = 1.0',
+            ],
+            "robot_state lines are not in cycle order",
+        ),
+        (4, ["#", '  7  0.210  output "speed" as recorded'], "line 4: expected '=' at column"),
+        (4, ["#", "  7  0.210  no state changes"], "line 4: Expecting value"),
+        (
+            5,
+            ['  12  0.360  "avoid": "off" -> "turning"', "  12  0.360  no state changes"],
+            "cycle 12 has state changes and none",
+        ),
     ],
+    ids=["robot states out of order", "format 4 as recorded", "format 4 none", "both"],
 )
-def test_a_format_4_baseline_holds_no_departures(tmp_path: Path, line: str, problem: str) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected state changes, outputs, robot states and draws, format 4\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n#\n{line}\n",
-        encoding="utf-8",
-    )
+def test_a_baseline_that_breaks_its_formats_rules_is_an_error(
+    tmp_path: Path, version: int, lines: list[str], problem: str
+) -> None:
     with pytest.raises(BaselineError, match=problem):
-        read_baseline(path)
-
-
-def test_a_cycle_with_state_changes_and_none_is_an_error(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_text(
-        "# beatlog expected departures from the recording, format 5\n"
-        f"# log a.beatlog sha256 {'0' * 64}\n"
-        '      12     0.360  "avoid": "off" -> "turning"\n'
-        "      12     0.360  no state changes\n",
-        encoding="utf-8",
-    )
-    with pytest.raises(BaselineError, match="cycle 12 has state changes and none"):
-        read_baseline(path)
+        read_baseline(baseline_file(tmp_path, version, *lines))

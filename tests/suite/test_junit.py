@@ -15,6 +15,7 @@ from beatlog.suite.runner import SpecOutcome, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.text import whole_lines
 
 
 def describe(outcome: SpecOutcome) -> str:
@@ -35,17 +36,21 @@ def outcomes(tmp_path: Path, record_probe: RecordFn) -> list[SpecOutcome]:
     ]
 
 
+@pytest.fixture
+def report(tmp_path: Path, outcomes: list[SpecOutcome]) -> Path:
+    """The JUnit report of :func:`outcomes`."""
+    path = tmp_path / "report.xml"
+    write_junit(path, outcomes, describe=describe)
+    return path
+
+
 def read_report(path: Path) -> ET.Element:
     return ET.parse(path).getroot()
 
 
 def test_the_testsuite_counts_tests_failures_and_errors(
-    tmp_path: Path, outcomes: list[SpecOutcome]
+    outcomes: list[SpecOutcome], report: Path
 ) -> None:
-    report = tmp_path / "report.xml"
-
-    write_junit(report, outcomes, describe=describe)
-
     suite = read_report(report)
     assert report.read_bytes().startswith(b"<?xml version='1.0' encoding='utf-8'?>")
     assert suite.tag == "testsuite"
@@ -57,12 +62,8 @@ def test_the_testsuite_counts_tests_failures_and_errors(
 
 
 def test_each_dtc_is_one_testcase_named_after_its_spec(
-    tmp_path: Path, outcomes: list[SpecOutcome]
+    tmp_path: Path, outcomes: list[SpecOutcome], report: Path
 ) -> None:
-    report = tmp_path / "report.xml"
-
-    write_junit(report, outcomes, describe=describe)
-
     cases = read_report(report).findall("testcase")
     assert [case.get("name") for case in cases] == ["avoid-pole", "avoid-pole-earlier", "lost"]
     assert [case.get("file") for case in cases] == [str(o.spec.path) for o in outcomes]
@@ -70,13 +71,7 @@ def test_each_dtc_is_one_testcase_named_after_its_spec(
     assert [child.tag for child in cases[0]] == ["properties"]  # neither failure nor error
 
 
-def test_a_dtc_that_ran_carries_what_it_checked_as_properties(
-    tmp_path: Path, outcomes: list[SpecOutcome]
-) -> None:
-    report = tmp_path / "report.xml"
-
-    write_junit(report, outcomes, describe=describe)
-
+def test_a_dtc_that_ran_carries_what_it_checked_as_properties(report: Path) -> None:
     cases = read_report(report).findall("testcase")
     properties = [
         {item.get("name"): item.get("value") for item in case.iter("property")} for case in cases
@@ -93,30 +88,25 @@ def test_a_dtc_that_ran_carries_what_it_checked_as_properties(
 
 
 def test_a_failure_carries_the_divergence_message_and_the_full_report(
-    tmp_path: Path, outcomes: list[SpecOutcome]
+    outcomes: list[SpecOutcome], report: Path
 ) -> None:
-    report = tmp_path / "report.xml"
-
-    write_junit(report, outcomes, describe=describe)
-
     case = read_report(report).findall("testcase")[1]
     failure = case.find("failure")
     assert failure is not None
     assert case.find("error") is None
     assert failure.get("message") == "behavior state changes differ from the recording"
     assert failure.text is not None
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in failure.text
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(failure.text)
+    )
     reproduce = f"reproduce: beatlog test {outcomes[1].spec.path}"
     assert reproduce in " ".join(failure.text.split())  # plain_text wraps at 100 columns
 
 
 def test_an_error_carries_the_reason_the_dtc_could_not_run(
-    tmp_path: Path, outcomes: list[SpecOutcome]
+    outcomes: list[SpecOutcome], report: Path
 ) -> None:
-    report = tmp_path / "report.xml"
-
-    write_junit(report, outcomes, describe=describe)
-
     case = read_report(report).findall("testcase")[2]
     error = case.find("error")
     assert error is not None

@@ -37,6 +37,7 @@ import random as stdlib_random
 import threading
 import time as wall_clock
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import msgspec
@@ -151,26 +152,22 @@ def random(node: Node) -> RandomSource:
     return context(node).random
 
 
+@dataclass(frozen=True, slots=True)
 class _Status:
     """A node as a catalogued behavior: its state is its status's name."""
 
-    __slots__ = ("node",)
-
-    def __init__(self, node: Node) -> None:
-        self.node = node
+    node: Node
 
     @property
     def state(self) -> BehaviorState:
         return str(self.node.status.value)
 
 
+@dataclass(frozen=True, slots=True)
 class _BlackboardValue:
     """A watched blackboard key as a catalogued behavior; None until it is set."""
 
-    __slots__ = ("key",)
-
-    def __init__(self, key: str) -> None:
-        self.key = key
+    key: str
 
     @property
     def state(self) -> Any:

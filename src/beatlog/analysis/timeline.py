@@ -167,24 +167,15 @@ class TimelineCollector:
         self._replayed = system is not None
 
     @property
-    def time_ns(self) -> int:
-        """Robot time of the cycles added so far."""
-        return self._lanes.time_ns
-
-    @property
     def replaying(self) -> bool:
         """Whether the actual lanes still follow the replay (it has not stopped)."""
         return self._lanes.replaying
 
     @property
-    def done(self) -> bool:
-        """Whether the cycles added so far reach past the window: more change nothing."""
-        return self.grid.end_ns is not None and self.time_ns >= self.grid.end_ns
-
-    @property
     def reading(self) -> bool:
-        """Whether more cycles change the timeline."""
-        return not self.done
+        """Whether more cycles change the timeline: those added so far do not yet reach
+        past the window."""
+        return self.grid.end_ns is None or self._lanes.time_ns < self.grid.end_ns
 
     @property
     def held(self) -> int:

@@ -10,20 +10,10 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.audit.replays import (
-        Auditors as Auditors,
-    )
-    from beatlog.audit.replays import (
-        AuditReport as AuditReport,
-    )
-    from beatlog.audit.replays import (
-        Finding as Finding,
-    )
-    from beatlog.audit.replays import (
-        SeedRun as SeedRun,
-    )
-    from beatlog.audit.replays import (
-        audit as audit,
-    )
+    from beatlog.audit.replays import Auditors as Auditors
+    from beatlog.audit.replays import AuditReport as AuditReport
+    from beatlog.audit.replays import Finding as Finding
+    from beatlog.audit.replays import SeedRun as SeedRun
+    from beatlog.audit.replays import audit as audit
 
 __getattr__ = lazy_names(__name__)

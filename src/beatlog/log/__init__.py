@@ -9,18 +9,10 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.log.format import (
-        FORMAT_VERSION as FORMAT_VERSION,
-    )
-    from beatlog.log.format import (
-        CycleRecord as CycleRecord,
-    )
-    from beatlog.log.format import (
-        SessionEnd as SessionEnd,
-    )
-    from beatlog.log.format import (
-        SessionHeader as SessionHeader,
-    )
+    from beatlog.log.format import FORMAT_VERSION as FORMAT_VERSION
+    from beatlog.log.format import CycleRecord as CycleRecord
+    from beatlog.log.format import SessionEnd as SessionEnd
+    from beatlog.log.format import SessionHeader as SessionHeader
     from beatlog.log.index import recorded_cycles as recorded_cycles
     from beatlog.log.reader import LogStatus as LogStatus
     from beatlog.log.reader import SessionLogReader as SessionLogReader

@@ -53,6 +53,7 @@ __all__ = [
     "SessionEnd",
     "SessionHeader",
     "StateChangeRecord",
+    "cycles_record",
     "payload_encoder",
     "samples_shape",
     "schema_name",
@@ -276,3 +277,11 @@ def samples_shape(header: SessionHeader) -> type[msgspec.Struct]:
 def schema_name(record: type[msgspec.Struct]) -> str:
     """The MCAP schema name of a record type, e.g. ``beatlog.SessionHeader``."""
     return f"beatlog.{record.__name__}"
+
+
+def cycles_record(version: int) -> type[msgspec.Struct]:
+    """The record type a log of format ``version`` writes its cycles messages as (its
+    cycles channel's schema is named after it)."""
+    if version >= COLUMNS_SINCE:
+        return ColumnBatch
+    return CycleBatch if version >= CYCLE_BATCH_SINCE else CycleRecord

@@ -19,8 +19,6 @@ from mcap.records import Channel, Message, Schema
 from beatlog.closing import Closing
 from beatlog.errors import CorruptLogError, UnsupportedVersionError
 from beatlog.log.format import (
-    COLUMNS_SINCE,
-    CYCLE_BATCH_SINCE,
     CYCLES_TOPIC,
     DECODE_ERRORS,
     END_TOPIC,
@@ -33,6 +31,7 @@ from beatlog.log.format import (
     CycleRecord,
     SessionEnd,
     SessionHeader,
+    cycles_record,
     schema_name,
 )
 
@@ -190,13 +189,7 @@ class SessionLogReader(Closing):
         header = decode_payload(self.path, message.data, SessionHeader, "session header")
         if (problem := header.problem()) is not None:
             raise CorruptLogError(self.path, f"damaged session header: {problem}")
-        expected = schema_name(
-            ColumnBatch
-            if version >= COLUMNS_SINCE
-            else CycleBatch
-            if version >= CYCLE_BATCH_SINCE
-            else CycleRecord
-        )
+        expected = schema_name(cycles_record(version))
         cycles = self._topics.get(CYCLES_TOPIC)
         found = None if cycles is None else self._schemas[self._channels[cycles].schema_id].name
         if found != expected:

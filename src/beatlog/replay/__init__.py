@@ -15,23 +15,11 @@ if TYPE_CHECKING:
     from beatlog.replay.expectation import Expectation as Expectation
     from beatlog.replay.judge import replay as replay
     from beatlog.replay.migration import StateMigration as StateMigration
-    from beatlog.replay.verdict import (
-        Checked as Checked,
-    )
-    from beatlog.replay.verdict import (
-        Divergence as Divergence,
-    )
-    from beatlog.replay.verdict import (
-        DivergenceKind as DivergenceKind,
-    )
-    from beatlog.replay.verdict import (
-        DrawReport as DrawReport,
-    )
-    from beatlog.replay.verdict import (
-        ReplayResult as ReplayResult,
-    )
-    from beatlog.replay.verdict import (
-        StateChange as StateChange,
-    )
+    from beatlog.replay.verdict import Checked as Checked
+    from beatlog.replay.verdict import Divergence as Divergence
+    from beatlog.replay.verdict import DivergenceKind as DivergenceKind
+    from beatlog.replay.verdict import DrawReport as DrawReport
+    from beatlog.replay.verdict import ReplayResult as ReplayResult
+    from beatlog.replay.verdict import StateChange as StateChange
 
 __getattr__ = lazy_names(__name__)

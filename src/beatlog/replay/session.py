@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Protocol, TypedDict, Unpack
 
 from beatlog.closing import Closing
-from beatlog.log.format import CycleRecord, SessionHeader
+from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
@@ -143,16 +143,6 @@ class ReplaySession(Closing):
         except BaseException:
             self.reader.close()
             raise
-
-    @property
-    def header(self) -> SessionHeader:
-        """The log's session header."""
-        return self.reader.header
-
-    @property
-    def path(self) -> Path:
-        """The log's path."""
-        return self.reader.path
 
     def records(self) -> Iterator[CycleRecord]:
         """The log's cycles, in order, read batch by batch."""

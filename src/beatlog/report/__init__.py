@@ -9,18 +9,10 @@ from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.report.audit import render_audit as render_audit
-    from beatlog.report.console import (
-        plain_text as plain_text,
-    )
-    from beatlog.report.console import (
-        render_replay as render_replay,
-    )
-    from beatlog.report.console import (
-        render_suite as render_suite,
-    )
-    from beatlog.report.console import (
-        render_summary as render_summary,
-    )
+    from beatlog.report.console import plain_text as plain_text
+    from beatlog.report.console import render_replay as render_replay
+    from beatlog.report.console import render_suite as render_suite
+    from beatlog.report.console import render_summary as render_summary
     from beatlog.report.counts import plural as plural
     from beatlog.report.counts import verdict_counts as verdict_counts
     from beatlog.report.suite import SuiteReport as SuiteReport

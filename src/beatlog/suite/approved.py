@@ -11,9 +11,9 @@ it, the one whose ``system`` is the system replayed is its spec.
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from beatlog.errors import BaselineError
 from beatlog.model.behavior import System
@@ -25,8 +25,7 @@ from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 __all__ = ["Approved", "approved_baseline", "approved_baselines", "replay"]
 
 
-@dataclass(frozen=True)
-class Approved:
+class Approved(NamedTuple):
     """A log's approved baseline and the spec it belongs to."""
 
     spec: DtcSpec

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 
 from beatlog.log.reader import SessionLogReader
+from beatlog_examples.dog import SUITE_DIR
 from tests.commands import Beatlog
+from tests.text import whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -21,9 +24,12 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
     log = tmp_path / "demo" / "dog.beatlog"
     assert run.code == 0, run.out
     assert f"PASS {log}" in run.out
-    assert "22 DTCs recorded on the dog" in run.out
-    assert "22 passed, 0 failed" in run.out
-    assert f"The demo log is kept at {log}" in run.out
+    assert f"22 DTCs recorded on the dog, replayed on all cores ({SUITE_DIR})." in whole_lines(
+        run.out
+    )
+    counts = re.compile(r"22 passed, 0 failed in \d+\.\d\d s \(36,317 cycles\)")
+    assert len([line for line in whole_lines(run.out) if counts.fullmatch(line)]) == 1
+    assert f"The demo log is kept at {log}; try `beatlog show {log}`." in whole_lines(run.out)
     with SessionLogReader(log) as reader:
         cycles = sum(1 for _ in reader.cycles())
         assert reader.header.system == "beatlog_examples.dog:system"

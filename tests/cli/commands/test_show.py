@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import re
 import sys
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from tests.commands import Beatlog
 from tests.conftest import RecordFn
 from tests.factories import cut_in_half, with_damaged_index
 from tests.systems import record_scatter
+from tests.text import whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -42,7 +44,7 @@ def test_show_describes_a_log(beatlog: Beatlog, record_probe: RecordFn) -> None:
     assert about["status"] == "complete"
     assert about["robot"] == "probe-1"
     assert about["cycles"] == "300"
-    assert "60 (randint 60)" in run.out
+    assert "random numbers  60 (randint 60)" in whole_lines(run.out)
     assert table_rows(run.out) == [
         [str(index), name, str(count)]
         for index, (name, count) in enumerate(summary.transitions.items())
@@ -56,8 +58,11 @@ def test_show_says_a_cut_off_log_is_truncated(beatlog: Beatlog, record_chunked: 
     run = beatlog("show", log)
 
     assert run.code == 0
-    assert "truncated at cycle" in run.out
-    assert "unknown (no end record)" in run.out
+    status = re.compile(r"status +truncated at cycle \d+: the last record is cut off at byte \d+")
+    assert len([line for line in whole_lines(run.out) if status.fullmatch(line)]) == 1
+    assert "overruns        unknown (no end record); 0 beats later than 1.5 periods" in whole_lines(
+        run.out
+    )
 
 
 def test_show_says_a_log_whose_index_is_damaged_holds_its_data_intact(

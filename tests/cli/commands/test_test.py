@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import inspect
 import json
 import os
 import re
@@ -22,10 +23,11 @@ from tests.commands import (
     at_a_terminal,
     hide_matplotlib,
 )
-from tests.conftest import RecordFn
+from tests.conftest import RecordFn, broken_probe
 from tests.factories import vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots, write_spec
 from tests.systems import leaks, leaky_system, quiet_system, record_session
+from tests.text import frames, table_row, whole_lines
 
 BeatlogTest = Callable[..., Run]
 
@@ -94,7 +96,10 @@ def test_a_spec_without_a_system_replays_against_the_one_its_project_vouches_for
     assert (
         f"note: avoid-pole: replayed against {PROBE}, which its log records and the project lists\n"
     ) in run.out
-    assert "unnamed.beatlog: records no system; name one (module:factory)" in run.err
+    assert (
+        f"beatlog: error: unnamed ({specs / 'unnamed.dtc.toml'}): "
+        f"{specs / '..' / 'unnamed.beatlog'}: records no system; name one (module:factory)"
+    ) in whole_lines(run.err)
     assert (
         f"hostile.beatlog: records the system 'tempfile:mkdtemp', which this project does "
         f"not vouch for; name it (--system, or system = in the spec) or list it under "
@@ -112,10 +117,13 @@ def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
 
     assert run.code == 1
     assert run.err == ""
-    assert f"DTC avoid-pole-earlier ({earlier})" in run.out
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
-    assert "behavior state changes differ from the recording" in run.out
-    assert f"reproduce: beatlog test {earlier}" in run.out
+    assert f"DTC avoid-pole-earlier ({earlier})" in whole_lines(run.out)
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(run.out)
+    )
+    assert "behavior state changes differ from the recording" in whole_lines(run.out)
+    assert f"reproduce: beatlog test {earlier}" in whole_lines(run.out)
     assert re.search(
         rf"avoid-pole-earlier\s+│ failed .* cycle {FIRST_CHANGED_CYCLE}, state", run.out
     )
@@ -172,12 +180,12 @@ def test_a_system_that_fails_to_build_is_one_line_on_stderr_with_its_traceback_o
     assert quiet.err.startswith(line)
     assert quiet.err.count("\n") == 1
     assert verbose.err.startswith("Traceback (most recent call last):\n")
-    assert 'raise RuntimeError("the arena map is missing")' in verbose.err
+    assert 'raise RuntimeError("the arena map is missing")' in whole_lines(verbose.err)
     assert verbose.err.splitlines()[-1] == quiet.err.rstrip("\n")
     error = ET.parse(report).getroot().find("testcase[@name='broken']/error")
     assert error is not None
     assert error.text is not None
-    assert "in broken_probe" in error.text
+    assert (inspect.getsourcefile(broken_probe), "broken_probe") in frames(error.text)
 
 
 def test_dash_k_runs_the_dtcs_whose_name_matches(
@@ -207,7 +215,7 @@ def test_dash_k_matches_tags_as_under_pytest(
     run = beatlog_test(specs, "-k", "touch")
 
     assert_counts(run, "1 passed, 0 failed", 300)
-    assert "head-pat" in run.out
+    assert table_row(run.out, "head-pat")[:4] == ["head-pat", "passed", "300", "9.0 s"]
     assert "push-over" not in run.out
 
 
@@ -234,7 +242,12 @@ def test_tags_run_the_dtcs_that_carry_every_tag_given(
     assert "dock" not in obstacles.out
     assert smoke_obstacles.code == 0
     assert_counts(smoke_obstacles, "1 passed, 0 failed", 300)
-    assert "avoid-pole" in smoke_obstacles.out
+    assert table_row(smoke_obstacles.out, "avoid-pole")[:4] == [
+        "avoid-pole",
+        "passed",
+        "300",
+        "9.0 s",
+    ]
 
 
 def test_fail_fast_stops_at_the_first_failure_and_counts_what_did_not_run(
@@ -248,7 +261,9 @@ def test_fail_fast_stops_at_the_first_failure_and_counts_what_did_not_run(
     run = beatlog_test(specs, "--fail-fast")
 
     assert run.code == 1
-    assert "DTC b-avoid-pole-earlier" in run.out
+    assert f"DTC b-avoid-pole-earlier ({specs / 'b-avoid-pole-earlier.dtc.toml'})" in whole_lines(
+        run.out
+    )
     assert "c-dock" not in run.out
     assert "d-dock-earlier" not in run.out
     assert_counts(run, "1 passed, 1 failed, 2 not run", 300 + FIRST_CHANGED_CYCLE + 1)
@@ -365,7 +380,7 @@ def test_worker_processes_give_the_same_verdicts(
     run = beatlog_test(specs, "-j", "2")
 
     assert run.code == 1
-    assert f"reproduce: beatlog test {earlier}" in run.out
+    assert f"reproduce: beatlog test {earlier}" in whole_lines(run.out)
     assert_counts(run, "2 passed, 1 failed", 600 + FIRST_CHANGED_CYCLE + 1)
 
 
@@ -543,11 +558,11 @@ def test_audit_names_every_leak_and_fails_the_run(
     assert "determinism audit" not in unaudited.out
     assert run.code == 1
     assert run.err == ""
-    assert f"AUDIT leaky ({leaky})" in run.out
+    assert f"AUDIT leaky ({leaky})" in whole_lines(run.out)
     assert "AUDIT avoid-pole" not in run.out
     for call, site in leaks():
         assert re.search(rf"{re.escape(call)}\s+│ {re.escape(site)}\s+│\s+20 │", run.out), call
-    assert f"determinism audit: {len(leaks())} findings in 1 of 2 DTCs" in run.out
+    assert f"determinism audit: {len(leaks())} findings in 1 of 2 DTCs" in whole_lines(run.out)
     assert_counts(run, "2 passed, 0 failed", 320)
     (failure,) = ET.parse(report).getroot().findall("testcase/failure")
     assert failure.get("message") == f"determinism audit: {len(leaks())} findings"
@@ -580,7 +595,9 @@ def test_a_long_suite_lists_what_did_not_pass_and_every_dtc_with_verbose(
     assert brief.code == verbose.code == 1
     assert "lap-changed " in brief.out
     assert "lap-00 " not in brief.out
-    assert "… and 33 passed, not listed: run with --verbose to list every DTC" in brief.out
+    assert "… and 33 passed, not listed: run with --verbose to list every DTC" in whole_lines(
+        brief.out
+    )
     assert all(f"lap-{n:02} " in verbose.out for n in range(33))
     assert "not listed" not in verbose.out
 

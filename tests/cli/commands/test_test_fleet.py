@@ -15,6 +15,7 @@ from beatlog.suite.baseline import expected_path
 from tests.commands import Beatlog, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
+from tests.text import table_row, whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -33,7 +34,7 @@ def test_every_log_that_matches_is_replayed_as_a_dtc(beatlog: Beatlog, logs: Pat
 
     assert run.code == 0, run.err
     for name in ("dock", "patrol", "yard"):
-        assert f"{name} " in run.out
+        assert table_row(run.out, name)[:4] == [name, "passed", "300", "9.0 s"]
     assert run.out.splitlines()[-1].startswith("3 passed, 0 failed")
 
 
@@ -44,16 +45,22 @@ def test_a_fleet_log_that_diverges_fails_and_its_rerun_command_reproduces_it(
     run = beatlog("test", "--logs", f"{logs}/*.beatlog", "--system", CHANGED, "--junit-xml", report)
 
     assert run.code == 1
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in run.out
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(run.out)
+    )
     rerun = f"beatlog test --logs {logs}/dock.beatlog --system {CHANGED}"
-    assert f"reproduce: {rerun}" in run.out
+    assert f"reproduce: {rerun}" in whole_lines(run.out)
     cases = ET.parse(report).getroot().iter("testcase")
     assert [case.get("name") for case in cases] == ["dock", "patrol"]
 
     again = beatlog(*shlex.split(rerun)[1:])
 
     assert again.code == 1
-    assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in again.out
+    assert (
+        f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
+        in whole_lines(again.out)
+    )
 
 
 def test_a_log_that_cannot_be_read_is_an_error_of_its_dtc(beatlog: Beatlog, logs: Path) -> None:
@@ -104,7 +111,10 @@ def test_logs_behind_a_file_url_are_replayed(beatlog: Beatlog, logs: Path) -> No
     run = beatlog("test", "--logs", f"file://{logs}/*.beatlog", "--system", CHANGED)
 
     assert run.code == 1
-    assert f"reproduce: beatlog test --logs file://{logs}/dock.beatlog" in run.out
+    assert (
+        f"reproduce: beatlog test --logs file://{logs}/dock.beatlog "
+        "--system tests.conftest:probe_system_changed" in whole_lines(run.out)
+    )
 
 
 @pytest.fixture
@@ -164,4 +174,6 @@ def test_a_fleet_run_reads_no_baseline_and_looks_for_no_orphan(
     assert run.code == 0, run.err
     assert "orphaned baseline" not in run.out
     assert specs.code == 2  # the spec's baseline is read, and is no baseline
-    assert "orphaned baseline gone.dtc.expected" in specs.out
+    assert "orphaned baseline gone.dtc.expected: no spec beside it; delete it" in whole_lines(
+        specs.out
+    )

@@ -18,6 +18,7 @@ from tests.commands import Beatlog, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE, write_spec
+from tests.text import table_row, whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -42,7 +43,7 @@ def test_specs_whose_logs_are_urls_are_judged_each_log_downloaded_once(
 
     assert run.code == 1, run.err
     assert closing_counts(run.out) == "1 passed, 1 failed"
-    assert f"reproduce: beatlog test {suite / 'yard.dtc.toml'}" in run.out
+    assert f"reproduce: beatlog test {suite / 'yard.dtc.toml'}" in whole_lines(run.out)
     assert [served.downloads(name) for name in LOGS] == [1, 1]
     cases = ET.parse(junit).getroot().iter("testcase")
     assert [case.get("file") for case in cases] == [
@@ -101,7 +102,7 @@ def test_coverage_reads_logs_behind_urls_too(
     run = beatlog("test", suite, "--coverage", "-k", "dock")
 
     assert run.code == 0, run.err
-    assert '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC' in run.out
+    assert table_row(run.out, "near")[2] == '"far" → "near" ×3 in 1 DTC; "near" → "far" ×3 in 1 DTC'
     assert served.downloads("dock.beatlog") == 2  # the replay's copy, then coverage's
 
 
