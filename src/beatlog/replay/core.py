@@ -187,6 +187,19 @@ class Replayer:
             samples=sensed.samples,
         )
 
+    def changes_but_for_draws(self) -> list[StateChangeRecord] | None:
+        """BS'_t of the cycle replayed last when it went cleanly but for draws made
+        otherwise than recorded (living replay), which the caller judges: the update
+        completed, no draw was refused and perception rebuilt RS_t as expected; else None."""
+        _, _, changes, failure, sensed = self._last
+        if (
+            failure is not None
+            or self.random.mismatch is not None
+            or (sensed is not None and (sensed.differs or sensed.failure is not None))
+        ):
+            return None
+        return changes
+
     def stop(self, outcome: CycleOutcome) -> Stop | None:
         """Why replay cannot go on past ``outcome``'s cycle, if it cannot: perception
         failed, a behavior raised, a draw was not the one recorded (or one too many), or
@@ -296,7 +309,10 @@ class Replayer:
                 changes = None
                 failure = exc
             self._last = (record, state, changes, failure, sensed)
-            drew_otherwise = settle() if living else random.mismatch is not None
+            if living:  # a cycle that neither drew nor had draws recorded has none to settle
+                drew_otherwise = bool((random.recorded or random.drawn) and settle())
+            else:
+                drew_otherwise = random.mismatch is not None
             if changes is not None and (
                 drew_otherwise
                 or len(random.drawn) != len(random.recorded)
@@ -332,7 +348,7 @@ class Replayer:
             encoded = None
         cycle = self.executor.context.cycle + 1
         pins = self.state_pins
-        if pins is not None and cycle in pins:  # the approved state is expected, not the recorded
+        if pins is not None and cycle in pins.cycles:  # the approved state is expected
             differs = encoded is None or pins.mismatch(cycle, encoded) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state

@@ -75,6 +75,7 @@ class CycleJudge:
             list(header.behaviors) if self._expected is None else self._expected.names
         )
         ledger = None if expected is None else DrawLedger(expected.draws)
+        self._ledger = ledger
         """In living replay (an approved baseline), the draws it lets differ."""
         self._draw_cycles = frozenset() if ledger is None else ledger.cycles
         pinned_states: dict[int, dict[str, Any]] = {}
@@ -184,6 +185,7 @@ class CycleJudge:
         raw = msgspec.Raw
         pinned_states = self._pinned_cycles
         draw_cycles = self._draw_cycles
+        ledger = self._ledger
         random = self.replayer.random
         changed = reported = drawn = 0
         for index, record in enumerate(batch):
@@ -195,8 +197,17 @@ class CycleJudge:
             if changes is None or (
                 (pinned_states and context.cycle in pinned_states) or context.cycle in draw_cycles
             ):
-                outcome = outcome or outcome_of()  # judged by its robot state, then as usual
-                changes = outcome.changes if divergences.agrees_but_for_pins(outcome) else None
+                changes = None
+                if (
+                    ledger is not None
+                    and context.cycle in draw_cycles
+                    and not (pinned_states and context.cycle in pinned_states)
+                    and ledger.approves(context.cycle, random.differences)
+                ):  # made otherwise than recorded only as approved: judged as usual
+                    changes = self.replayer.changes_but_for_draws()
+                if changes is None:
+                    outcome = outcome or outcome_of()  # judged by its robot state, then as usual
+                    changes = outcome.changes if divergences.agrees_but_for_pins(outcome) else None
             unloggable: Exception | None = None
             if changes is not None:
                 outputs = context.outputs

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import base64
 import bisect
+import functools
 import hashlib
 import re
 import string
@@ -267,9 +268,11 @@ class PinChecker:
             while gap >= 0:
                 del self._at[block.cycle + gap // TAG_CHARS]
                 gap = block.tags.find(UNPINNED, gap + TAG_CHARS)
+        self.cycles = frozenset(self._at)
+        """The pinned cycles."""
         self._runs = pins.runs
         self._starts = [run.cycle for run in pins.runs]
-        self._index = -1
+        self._block = DigestBlock(-1, 0, "", b"")
         """The block being judged."""
         self._bits: list[int] = []
         """Its cycles' tags as bits (-1 for a gap)."""
@@ -285,71 +288,77 @@ class PinChecker:
     def __contains__(self, cycle: object) -> bool:
         return cycle in self._at
 
-    @property
-    def cycles(self) -> frozenset[int]:
-        """The pinned cycles."""
-        return frozenset(self._at)
-
     def run_at(self, cycle: int) -> PinnedRun:
         """The run a pinned cycle is in."""
         return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
 
-    def _enter(self, index: int) -> None:
-        """Start judging the block at ``index``."""
-        tags = self._blocks[index].tags
-        self._index = index
-        self._bits = [
-            -1 if tag == UNPINNED else _tag_bits(tag)
-            for tag in (tags[at : at + TAG_CHARS] for at in range(0, len(tags), TAG_CHARS))
-        ]
-        self._places = []
+    def _enter(self, cycle: int) -> None:
+        """Start judging the block of the pinned ``cycle``."""
+        block = self._blocks[self._at[cycle]]
+        self._block = block
+        self._bits = bits = list(map(_tag_table().__getitem__, _PAIRS.findall(block.tags)))
+        self._places = places = []
         place = 0
-        for bits in self._bits:
-            self._places.append(-1 if bits < 0 else place)
-            place += bits >= 0
-        self._final = max(offset for offset, bits in enumerate(self._bits) if bits >= 0)
+        for offset, tag in enumerate(bits):
+            if tag < 0:
+                places.append(-1)
+            else:
+                places.append(place)
+                place += 1
+                self._final = offset
 
     def mismatch(self, cycle: int, encoded: bytes) -> str | None:
         """How the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would) was found
         to differ from the approved one: ``"by its digest"`` (its tag), or ``"by the
         digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle);
-        None when it agrees. Asked again about the same cycle, the same answer."""
+        None when it agrees. Asked again about the same cycle, the same answer.
+
+        :raises KeyError: ``cycle`` is not pinned.
+        """
         if cycle == self._last_cycle:
             return self._last_found
-        index = self._at[cycle]
-        if index != self._index:
-            self._enter(index)
-        block = self._blocks[index]
+        block = self._block
         offset = cycle - block.cycle
+        if not 0 <= offset < len(self._bits):
+            self._enter(cycle)
+            block = self._block
+            offset = cycle - block.cycle
         place = self._places[offset]
-        digests = self._digests
-        if place == 0:
-            digests = self._digests = []
+        if place <= 0:
+            if place < 0:
+                raise KeyError(cycle)
+            self._digests = []
             self._intact = True
-        elif place != len(digests):  # a pinned cycle of the block went unjudged
+        elif place != len(self._digests):  # a pinned cycle of the block went unjudged
             self._intact = False
         hasher = _HASHER.copy()
         hasher.update(encoded)
         digest = hasher.digest()
-        digests.append(digest)
+        self._digests.append(digest)
         found = None
         if (digest[0] << 4 | digest[1] >> 4) != self._bits[offset]:
             self._intact = False  # reported here, not again for the block
             found = "by its digest"
-        elif offset == self._final and self._intact and _block_digest(digests) != block.digest:
+        elif (
+            offset == self._final and self._intact and _block_digest(self._digests) != block.digest
+        ):
             found = f"by the digest of cycles {block.cycle}–{cycle}"
-        self._last_cycle, self._last_found = cycle, found
+        self._last_cycle = cycle
+        self._last_found = found
         return found
 
 
-_B64 = {
-    char: value
-    for value, char in enumerate(
-        string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
-    )
-}
+_PAIRS = re.compile("." * TAG_CHARS, re.DOTALL)
+"""A block's tags, one by one."""
 
 
-def _tag_bits(tag: str) -> int:
-    """The 12 bits a tag stands for: the first of its digest's (:func:`_tag`)."""
-    return _B64[tag[0]] << 6 | _B64[tag[1]]
+@functools.cache
+def _tag_table() -> dict[str, int]:
+    """Each tag with the 12 bits it stands for, the first of its digest's (:func:`_tag`);
+    :data:`UNPINNED` with -1."""
+    digits = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
+    table = {
+        high + low: i << 6 | j for i, high in enumerate(digits) for j, low in enumerate(digits)
+    }
+    table[UNPINNED] = -1
+    return table
