@@ -30,6 +30,7 @@ import hashlib
 import re
 import string
 from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -254,21 +255,21 @@ class PinChecker:
     """Judges the robot states perception rebuilds against :class:`StatePins`, one
     pinned cycle after another, in cycle order.
 
-    It costs a digest and a few look-ups a pinned cycle: the cycles map to their
-    blocks when it is made, and a block's tags are read when replay reaches it.
+    It costs a digest and a few look-ups a pinned cycle: the pinned cycles are
+    gathered when it is made, and a block's tags are read when replay reaches it.
     """
 
     def __init__(self, pins: StatePins) -> None:
         self._blocks = pins.blocks
-        self._at: dict[int, int] = {}
-        """Each pinned cycle, with the index of its block."""
-        for index, block in enumerate(pins.blocks):
-            self._at.update(dict.fromkeys(range(block.cycle, block.cycle + block.cycles), index))
+        self._block_starts = [block.cycle for block in pins.blocks]
+        pinned: set[int] = set()
+        for block in pins.blocks:
+            pinned.update(range(block.cycle, block.cycle + block.cycles))
             gap = block.tags.find(UNPINNED)
             while gap >= 0:
-                del self._at[block.cycle + gap // TAG_CHARS]
+                pinned.discard(block.cycle + gap // TAG_CHARS)
                 gap = block.tags.find(UNPINNED, gap + TAG_CHARS)
-        self.cycles = frozenset(self._at)
+        self.cycles: AbstractSet[int] = pinned
         """The pinned cycles."""
         self._runs = pins.runs
         self._starts = [run.cycle for run in pins.runs]
@@ -286,15 +287,20 @@ class PinChecker:
         self._last_found: str | None = None
 
     def __contains__(self, cycle: object) -> bool:
-        return cycle in self._at
+        return cycle in self.cycles
 
     def run_at(self, cycle: int) -> PinnedRun:
         """The run a pinned cycle is in."""
         return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
 
     def _enter(self, cycle: int) -> None:
-        """Start judging the block of the pinned ``cycle``."""
-        block = self._blocks[self._at[cycle]]
+        """Start judging the block of the pinned ``cycle``.
+
+        :raises KeyError: ``cycle`` is not pinned.
+        """
+        if cycle not in self.cycles:
+            raise KeyError(cycle)
+        block = self._blocks[bisect.bisect_right(self._block_starts, cycle) - 1]
         self._block = block
         self._bits = bits = list(map(_tag_table().__getitem__, _PAIRS.findall(block.tags)))
         self._places = places = []
