@@ -93,6 +93,12 @@ class CycleJudge:
             else encoder
         )
         self._same_catalogue = self.executor.behavior_ids == self.expected_names
+        expected_at: dict[str, int] = {}
+        for position, name in enumerate(self.expected_names):
+            expected_at.setdefault(comparison.rename(name), position)
+        self._expected_index = [expected_at.get(name, -1) for name in self.executor.behavior_ids]
+        """Each behavior's index in the expected catalogue (-1: none there), for comparing
+        the state changes as bytes when the catalogues differ."""
         self.divergences = Divergences(
             replayer,
             comparison,
@@ -182,6 +188,7 @@ class CycleJudge:
         context = self.executor.context
         observe = self._observe
         same_catalogue = self._same_catalogue
+        expected_index = self._expected_index
         raw = msgspec.Raw
         pinned_states = self._pinned_cycles
         draw_cycles = self._draw_cycles
@@ -216,7 +223,14 @@ class CycleJudge:
                         (
                             record.state_changes == EMPTY_LIST
                             if not changes
-                            else same_catalogue and record.state_changes == raw(encode(changes))
+                            else record.state_changes
+                            == raw(
+                                encode(
+                                    changes
+                                    if same_catalogue
+                                    else [(expected_index[i], b, a) for i, b, a in changes]
+                                )
+                            )
                         )
                         or self._changes_agree(record.state_changes, changes)
                     ) and (
