@@ -269,20 +269,25 @@ class PinChecker:
             while gap >= 0:
                 pinned.discard(block.cycle + gap // TAG_CHARS)
                 gap = block.tags.find(UNPINNED, gap + TAG_CHARS)
-        self.cycles: AbstractSet[int] = pinned
-        """The pinned cycles."""
+        self.cycles: AbstractSet[int] = dict.fromkeys(pinned).keys()
+        """The pinned cycles (the keys of a dict of ints, which the garbage collector
+        need not look into, unlike a set)."""
         self._runs = pins.runs
         self._starts = [run.cycle for run in pins.runs]
         self._block = DigestBlock(-1, 0, "", b"")
         """The block being judged."""
+        self._start = 0
+        """Its first cycle."""
         self._bits: list[int] = []
         """Its cycles' tags as bits (-1 for a gap)."""
-        self._places: list[int] = []
-        """Its cycles' places among its pinned cycles (-1 for a gap)."""
-        self._final = 0
-        """The offset of its last pinned cycle."""
+        self._span = 0
+        """How many cycles it spans."""
+        self._final = -1
+        """Its last pinned cycle."""
+        self._pinned = 0
+        """How many cycles it pins."""
         self._digests: list[bytes] = []
-        self._intact = False
+        """The digests of its cycles judged so far whose tags agreed."""
         self._last_cycle = -1
         self._last_found: str | None = None
 
@@ -302,53 +307,48 @@ class PinChecker:
             raise KeyError(cycle)
         block = self._blocks[bisect.bisect_right(self._block_starts, cycle) - 1]
         self._block = block
+        self._start = block.cycle
         self._bits = bits = list(map(_tag_table().__getitem__, _PAIRS.findall(block.tags)))
-        self._places = places = []
-        place = 0
-        for offset, tag in enumerate(bits):
-            if tag < 0:
-                places.append(-1)
-            else:
-                places.append(place)
-                place += 1
-                self._final = offset
+        self._span = len(bits)
+        self._final = block.cycle + len(bits) - 1
+        while bits[self._final - block.cycle] < 0:
+            self._final -= 1
+        self._pinned = len(bits) - bits.count(-1)
+        self._digests = []
 
     def mismatch(self, cycle: int, encoded: bytes) -> str | None:
         """How the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would) was found
         to differ from the approved one: ``"by its digest"`` (its tag), or ``"by the
-        digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle);
+        digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle
+        when every pinned cycle of the block was judged, each agreeing with its tag);
         None when it agrees. Asked again about the same cycle, the same answer.
 
         :raises KeyError: ``cycle`` is not pinned.
         """
         if cycle == self._last_cycle:
             return self._last_found
-        block = self._block
-        offset = cycle - block.cycle
-        if not 0 <= offset < len(self._bits):
+        offset = cycle - self._start
+        if not 0 <= offset < self._span:
             self._enter(cycle)
-            block = self._block
-            offset = cycle - block.cycle
-        place = self._places[offset]
-        if place <= 0:
-            if place < 0:
-                raise KeyError(cycle)
-            self._digests = []
-            self._intact = True
-        elif place != len(self._digests):  # a pinned cycle of the block went unjudged
-            self._intact = False
+            offset = cycle - self._start
+        bits = self._bits[offset]
+        if bits < 0:
+            raise KeyError(cycle)
         hasher = _HASHER.copy()
         hasher.update(encoded)
         digest = hasher.digest()
-        self._digests.append(digest)
         found = None
-        if (digest[0] << 4 | digest[1] >> 4) != self._bits[offset]:
-            self._intact = False  # reported here, not again for the block
-            found = "by its digest"
-        elif (
-            offset == self._final and self._intact and _block_digest(self._digests) != block.digest
-        ):
-            found = f"by the digest of cycles {block.cycle}–{cycle}"
+        if (digest[0] << 4 | digest[1] >> 4) != bits:
+            found = "by its digest"  # reported here, not again for the block
+        else:
+            digests = self._digests
+            digests.append(digest)
+            if (
+                cycle == self._final
+                and len(digests) == self._pinned
+                and _block_digest(digests) != self._block.digest
+            ):
+                found = f"by the digest of cycles {self._start}–{cycle}"
         self._last_cycle = cycle
         self._last_found = found
         return found
