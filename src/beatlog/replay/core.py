@@ -188,17 +188,11 @@ class Replayer:
         )
 
     def changes_but_for_draws(self) -> list[StateChangeRecord] | None:
-        """BS'_t of the cycle replayed last when it went cleanly but for draws made
-        otherwise than recorded (living replay), which the caller judges: the update
-        completed, no draw was refused and perception rebuilt RS_t as expected; else None."""
+        """BS'_t of the cycle replayed last if it went cleanly but for draws made otherwise
+        than recorded (living replay; the caller judges those), else None."""
         _, _, changes, failure, sensed = self._last
-        if (
-            failure is not None
-            or self.random.mismatch is not None
-            or (sensed is not None and (sensed.differs or sensed.failure is not None))
-        ):
-            return None
-        return changes
+        clean = sensed is None or not (sensed.differs or sensed.failure is not None)
+        return changes if failure is None and self.random.mismatch is None and clean else None
 
     def stop(self, outcome: CycleOutcome) -> Stop | None:
         """Why replay cannot go on past ``outcome``'s cycle, if it cannot: perception
