@@ -22,6 +22,8 @@ from beatlog.model.source import RandomSource
 
 __all__ = ["DrawDifference", "RandomMismatch", "ReplayRandom"]
 
+_RANDOM = DrawKind.RANDOM.value
+
 
 class DrawDifference(NamedTuple):
     """A draw that living replay made otherwise than recorded (see
@@ -83,6 +85,8 @@ class ReplayRandom(RandomSource):
         self._recorded_now: Sequence[str] = ()
         self._key = b""
         self._used: list[bool] | None = None
+        self._owners: list[int | None] = []
+        """Once a draw differed: the behavior that made each recorded draw, by its index now."""
         """In living replay, once a draw differed: which recorded draws are taken."""
 
     def expect_actors(
@@ -153,10 +157,15 @@ class ReplayRandom(RandomSource):
 
     def _drawn_by(self, draw: Draw, actor: int) -> bool:
         """Whether the recording credits ``draw`` to the behavior ``actor`` is now."""
+        return self._owner(draw) == actor
+
+    def _owner(self, draw: Draw) -> int | None:
+        """The behavior the recording credits ``draw`` to, by its index now (None: one
+        the system no longer has)."""
         actors = self._actors
         if actors is None or draw.actor < 0:
-            return draw.actor == actor
-        return draw.actor < len(actors) and actors[draw.actor] == actor
+            return draw.actor
+        return actors[draw.actor] if draw.actor < len(actors) else None
 
     def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         index = len(self.drawn)
@@ -200,7 +209,8 @@ class ReplayRandom(RandomSource):
                     return draw.value
             taken = min(index, len(recorded))
             used = self._used = [True] * taken + [False] * (len(recorded) - taken)
-        mine = [i for i, d in enumerate(recorded) if not used[i] and self._drawn_by(d, actor)]
+            self._owners = [self._owner(draw) for draw in recorded]
+        mine = [i for i, owner in enumerate(self._owners) if owner == actor and not used[i]]
         match = next((i for i in mine if recorded[i].kind == name), None)
         if match is None and name in SCALAR_VALUES:  # another kind, its luck re-mapped
             match = next((i for i in mine if _luck(recorded[i]) is not None), None)
@@ -297,6 +307,6 @@ def _request(draw: Draw) -> str:
 
 def _luck(draw: Draw) -> Luck | None:
     """The luck of a recorded scalar draw, where it can be known."""
-    if draw.kind == DrawKind.RANDOM.value:
+    if draw.kind == _RANDOM:
         return scalar_luck(draw.kind, draw.value, ())
     return scalar_luck(draw.kind, draw.value, draw.params) if draw.params else None
