@@ -21,11 +21,13 @@ Run it as ``python bench/bench_living.py [--json FILE]``; about seven minutes on
 cores. Nothing here asserts anything: it reports.
 
 For instruction counts, ``--passes rebaselined|rerecorded --times N`` re-baselines the
-suite for all seven changes and re-records it as above, then replays the 22 DTCs
-(``beatlog.replay`` with each one's approved baseline, or strictly the re-recorded logs)
-once each way as a warm-up and N more times the way named: under ``PYTHONHASHSEED=0
-valgrind --tool=cachegrind --cache-sim=no``, the difference of the ``I refs`` counts of
-N = 1 and N = 0 is one pass, the set-up left out.
+suite for all seven changes (or ``--change N`` alone) and re-records it as above, then
+replays the 22 DTCs (``beatlog.replay`` with each one's approved baseline, or strictly
+the re-recorded logs) once each way as a warm-up and N more times the way named: under
+``PYTHONHASHSEED=0 valgrind --tool=cachegrind --cache-sim=no``, the difference of the
+``I refs`` counts of N = 1 and N = 0 is one pass, the set-up left out. ``--prepared DIR``
+prepares the two suites in DIR once and reuses them in later runs (and across trees, to
+compare them on the same baselines).
 """
 
 from __future__ import annotations
@@ -172,22 +174,33 @@ def _history(folder: Path, title: str, changes: Sequence[Change], jobs: int) -> 
     }
 
 
-def _passes(rerecorded: bool, times: int) -> None:
-    """Re-baseline the suite for all seven changes and re-record it, then replay it a
-    warm-up and ``times`` more passes, re-baselined or as re-recorded (see the docstring)."""
+def _prepare(folder: Path, changes: Sequence[Change]) -> None:
+    """Re-baseline the suite for ``changes`` in ``folder`` and re-record it."""
+    suite = folder / "suite"
+    suite.mkdir()
+    for log in SUITE_DIR.glob("*.beatlog"):
+        shutil.copy(log, suite)
+    specs = _specs(folder, suite, changes)
+    update_baselines(run_suite(specs, jobs=1, update=UpdateMode.NEW), UpdateMode.NEW)
+    approve([suite])
+    again = folder / "again"
+    again.mkdir()
+    for spec in specs:
+        _rerecorded(spec, again)
+
+
+def _passes(rerecorded: bool, times: int, changes: Sequence[Change], prepared: Path | None) -> None:
+    """Re-baseline the suite for ``changes`` and re-record it (or take what ``prepared``
+    holds from an earlier run, preparing it where it is empty), then replay it a warm-up
+    and ``times`` more passes, re-baselined or as re-recorded (see the docstring)."""
     with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
+        folder = Path(tmp) if prepared is None else prepared.resolve()
         sys.path.insert(0, str(folder))
-        suite = folder / "suite"
-        suite.mkdir()
-        for log in SUITE_DIR.glob("*.beatlog"):
-            shutil.copy(log, suite)
-        specs = _specs(folder, suite, CHANGES)
-        update_baselines(run_suite(specs, jobs=1, update=UpdateMode.NEW), UpdateMode.NEW)
-        approve([suite])
-        again = folder / "again"
-        again.mkdir()
-        copies = [_rerecorded(spec, again) for spec in specs]
+        if not (folder / "again").is_dir():
+            folder.mkdir(parents=True, exist_ok=True)
+            _prepare(folder, changes)
+        specs = discover_specs([folder / "suite"])
+        copies = discover_specs([folder / "again"])
 
         def one_pass(which: list[DtcSpec]) -> None:
             for spec in which:
@@ -210,9 +223,21 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2, help="replay jobs (default 2)")
     parser.add_argument("--passes", choices=("rebaselined", "rerecorded"))
     parser.add_argument("--times", type=int, default=1, help="passes after the warm-up")
+    parser.add_argument(
+        "--prepared",
+        type=Path,
+        help="with --passes: a folder to prepare the suites in once, then reuse",
+    )
+    parser.add_argument(
+        "--change",
+        type=int,
+        choices=range(1, len(CHANGES) + 1),
+        help="with --passes: only this one of the changes (1 to 7), not all seven",
+    )
     args = parser.parse_args()
     if args.passes:
-        _passes(args.passes == "rerecorded", args.times)
+        changes = CHANGES if args.change is None else [CHANGES[args.change - 1]]
+        _passes(args.passes == "rerecorded", args.times, changes, args.prepared)
         return
     rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -41,3 +41,20 @@ def test_the_ledger_names_an_approved_difference_not_made() -> None:
     ledger = DrawLedger(draw_rules([(12, RETUNED), (12, RETUNED)]))
 
     assert ledger.check(12, [RETUNED]) == Unapproved(RETUNED, made=False, approved_elsewhere=True)
+
+
+def test_the_ledger_approves_a_cycle_exactly_where_it_finds_nothing_to_name() -> None:
+    ledger = DrawLedger(draw_rules([(12, RETUNED), (12, RETUNED), (12, NEW)]))
+    cycles = [
+        (12, [NEW, RETUNED, RETUNED]),
+        (12, [RETUNED, NEW]),
+        (12, [RETUNED, RETUNED, NEW, NEW]),
+        (12, []),
+        (13, []),
+        (13, [NEW]),
+    ]
+
+    approved = [ledger.approves(cycle, made) for cycle, made in cycles]
+
+    assert approved == [True, False, False, False, True, False]
+    assert approved == [ledger.check(cycle, made) is None for cycle, made in cycles]

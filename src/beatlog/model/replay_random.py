@@ -22,6 +22,8 @@ from beatlog.model.source import RandomSource
 
 __all__ = ["DrawDifference", "RandomMismatch", "ReplayRandom"]
 
+_RANDOM = DrawKind.RANDOM.value
+
 
 class DrawDifference(NamedTuple):
     """A draw that living replay made otherwise than recorded (see
@@ -83,6 +85,8 @@ class ReplayRandom(RandomSource):
         self._recorded_now: Sequence[str] = ()
         self._key = b""
         self._used: list[bool] | None = None
+        self._owners: list[int | None] = []
+        """Once a draw differed: the behavior that made each recorded draw, by its index now."""
         """In living replay, once a draw differed: which recorded draws are taken."""
 
     def expect_actors(
@@ -153,18 +157,24 @@ class ReplayRandom(RandomSource):
 
     def _drawn_by(self, draw: Draw, actor: int) -> bool:
         """Whether the recording credits ``draw`` to the behavior ``actor`` is now."""
+        return self._owner(draw) == actor
+
+    def _owner(self, draw: Draw) -> int | None:
+        """The behavior the recording credits ``draw`` to, by its index now (None: one
+        the system no longer has)."""
         actors = self._actors
         if actors is None or draw.actor < 0:
-            return draw.actor == actor
-        return draw.actor < len(actors) and actors[draw.actor] == actor
+            return draw.actor
+        return actors[draw.actor] if draw.actor < len(actors) else None
 
     def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         index = len(self.drawn)
         actor = self._actor
         if self.living:
             return self._living(kind, params, index, actor)
+        name = kind._value_
         if index >= len(self.recorded):
-            asked = Draw(actor, kind.value, None, params)
+            asked = Draw(actor, name, None, params)
             self._fail(
                 f"called {asked.call()} (#{index + 1}) but only {index} were recorded",
                 actor,
@@ -172,71 +182,77 @@ class ReplayRandom(RandomSource):
                 asked=asked,
             )
         draw = self.recorded[index]
-        if draw.kind != kind.value or (draw.params and not same_params(draw.params, params)):
-            asked = Draw(actor, kind.value, None, params)
+        if draw.kind != name or (draw.params and not same_params(draw.params, params)):
+            asked = Draw(actor, name, None, params)
             recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
             self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
         if self._actors is not None and draw.actor != actor:
             self._check_actor(draw, actor, kind, params)
-        self.drawn.append(Draw(actor, kind.value, draw.value, params))
+        self.drawn.append(Draw(actor, name, draw.value, params))
         return draw.value
 
     def _living(self, kind: DrawKind, params: tuple[Any, ...], index: int, actor: int) -> Any:
         """A draw in living replay: the recorded one while the cycle follows the
         recording, else the behavior's match (:meth:`live`)."""
+        name = kind._value_
         recorded = self.recorded
-        if self._used is None:
-            if (
-                index < len(recorded)
-                and recorded[index].kind == kind.value
-                and (not recorded[index].params or same_params(recorded[index].params, params))
-                and self._drawn_by(recorded[index], actor)
-            ):
-                value = recorded[index].value
-                self.drawn.append(Draw(actor, kind.value, value, params))
-                return value
-            self._used = [position < index for position in range(len(recorded))]
         used = self._used
-        mine = [i for i, d in enumerate(recorded) if not used[i] and self._drawn_by(d, actor)]
-        match = next((i for i in mine if recorded[i].kind == kind.value), None)
-        if match is None and kind.value in SCALAR_VALUES:  # another kind, its luck re-mapped
+        if used is None:
+            if index < len(recorded):
+                draw = recorded[index]
+                if (
+                    draw.kind == name
+                    and (not draw.params or same_params(draw.params, params))
+                    and self._drawn_by(draw, actor)
+                ):
+                    self.drawn.append(Draw(actor, name, draw.value, params))
+                    return draw.value
+            taken = min(index, len(recorded))
+            used = self._used = [True] * taken + [False] * (len(recorded) - taken)
+            self._owners = [self._owner(draw) for draw in recorded]
+        mine = [i for i, owner in enumerate(self._owners) if owner == actor and not used[i]]
+        match = next((i for i in mine if recorded[i].kind == name), None)
+        if match is None and name in SCALAR_VALUES:  # another kind, its luck re-mapped
             match = next((i for i in mine if _luck(recorded[i]) is not None), None)
-        place = Place(
-            self._context.cycle if self._context is not None else -1,
-            self._name(actor),
-            sum(1 for d in self.drawn if d.actor == actor),
-        )
-        value = self._living_value(kind, params, None if match is None else recorded[match], place)
-        asked = Draw(actor, kind.value, value, params)
+        behavior = self._name(actor)
         if match is None:
-            self.differences.append(DrawDifference(place.behavior, None, asked.call()))
+            value = self._fresh_value(name, params, None, behavior, actor)
+            asked = Draw(actor, name, value, params)
+            self.differences.append(DrawDifference(behavior, None, asked.call()))
         else:
             used[match] = True
             draw = recorded[match]
-            if draw.kind != kind.value or (draw.params and not same_params(draw.params, params)):
-                self.differences.append(
-                    DrawDifference(place.behavior, _request(draw), asked.call())
+            if draw.kind == name and (not draw.params or same_params(draw.params, params)):
+                value = draw.value  # as recorded, in another place
+                asked = Draw(actor, name, value, params)
+            else:
+                luck = None if name in ARRAY_KINDS else _luck(draw)
+                value = (
+                    scalar_value(name, params, luck)
+                    if luck is not None
+                    else self._fresh_value(name, params, draw, behavior, actor)
                 )
+                asked = Draw(actor, name, value, params)
+                self.differences.append(DrawDifference(behavior, _request(draw), asked.call()))
         self.drawn.append(asked)
         return value
 
-    def _living_value(
-        self, kind: DrawKind, params: tuple[Any, ...], draw: Draw | None, place: Place
+    def _fresh_value(
+        self, name: str, params: tuple[Any, ...], draw: Draw | None, behavior: str, actor: int
     ) -> Any:
-        """The value of a request with the luck of ``draw`` (fresh where it has none)."""
-        if (
-            draw is not None
-            and draw.kind == kind.value
-            and (not draw.params or same_params(draw.params, params))
-        ):
-            return draw.value
-        if kind.value in ARRAY_KINDS:
+        """The value of a request with fresh luck, keyed by its place; an array's with
+        the luck of the recorded ``draw`` where it has one."""
+        place = Place(
+            self._context.cycle if self._context is not None else -1,
+            behavior,
+            sum(1 for d in self.drawn if d.actor == actor),
+        )
+        if name in ARRAY_KINDS:
             old = None
             if draw is not None and draw.params:
                 old = (draw.kind, draw.params, unpack_array(draw.value))
-            return pack_array(array_value(kind.value, params, old, place.seed(self._key)))
-        luck = None if draw is None else _luck(draw)
-        return scalar_value(kind.value, params, luck or fresh_luck(self._key, place))
+            return pack_array(array_value(name, params, old, place.seed(self._key)))
+        return scalar_value(name, params, fresh_luck(self._key, place))
 
     def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
         """Refuse a draw the recording credits to another behavior (by its name now)."""
@@ -291,6 +307,6 @@ def _request(draw: Draw) -> str:
 
 def _luck(draw: Draw) -> Luck | None:
     """The luck of a recorded scalar draw, where it can be known."""
-    if draw.kind == DrawKind.RANDOM.value:
+    if draw.kind == _RANDOM:
         return scalar_luck(draw.kind, draw.value, ())
     return scalar_luck(draw.kind, draw.value, draw.params) if draw.params else None

@@ -187,6 +187,13 @@ class Replayer:
             samples=sensed.samples,
         )
 
+    def changes_but_for_draws(self) -> list[StateChangeRecord] | None:
+        """BS'_t of the cycle replayed last if it went cleanly but for draws made otherwise
+        than recorded (living replay; the caller judges those), else None."""
+        _, _, changes, failure, sensed = self._last
+        clean = sensed is None or not (sensed.differs or sensed.failure is not None)
+        return changes if failure is None and self.random.mismatch is None and clean else None
+
     def stop(self, outcome: CycleOutcome) -> Stop | None:
         """Why replay cannot go on past ``outcome``'s cycle, if it cannot: perception
         failed, a behavior raised, a draw was not the one recorded (or one too many), or
@@ -296,7 +303,10 @@ class Replayer:
                 changes = None
                 failure = exc
             self._last = (record, state, changes, failure, sensed)
-            drew_otherwise = settle() if living else random.mismatch is not None
+            if living:  # a cycle that neither drew nor had draws recorded has none to settle
+                drew_otherwise = bool((random.recorded or random.drawn) and settle())
+            else:
+                drew_otherwise = random.mismatch is not None
             if changes is not None and (
                 drew_otherwise
                 or len(random.drawn) != len(random.recorded)
@@ -332,7 +342,7 @@ class Replayer:
             encoded = None
         cycle = self.executor.context.cycle + 1
         pins = self.state_pins
-        if pins is not None and cycle in pins:  # the approved state is expected, not the recorded
+        if pins is not None and cycle in pins.cycles:  # the approved state is expected
             differs = encoded is None or pins.mismatch(cycle, encoded) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state

@@ -75,6 +75,7 @@ class CycleJudge:
             list(header.behaviors) if self._expected is None else self._expected.names
         )
         ledger = None if expected is None else DrawLedger(expected.draws)
+        self._ledger = ledger
         """In living replay (an approved baseline), the draws it lets differ."""
         self._draw_cycles = frozenset() if ledger is None else ledger.cycles
         pinned_states: dict[int, dict[str, Any]] = {}
@@ -92,6 +93,12 @@ class CycleJudge:
             else encoder
         )
         self._same_catalogue = self.executor.behavior_ids == self.expected_names
+        expected_at: dict[str, int] = {}
+        for position, name in enumerate(self.expected_names):
+            expected_at.setdefault(comparison.rename(name), position)
+        self._expected_index = [expected_at.get(name, -1) for name in self.executor.behavior_ids]
+        """Each behavior's index in the expected catalogue (-1: none there), for comparing
+        the state changes as bytes when the catalogues differ."""
         self.divergences = Divergences(
             replayer,
             comparison,
@@ -181,9 +188,11 @@ class CycleJudge:
         context = self.executor.context
         observe = self._observe
         same_catalogue = self._same_catalogue
+        expected_index = self._expected_index
         raw = msgspec.Raw
         pinned_states = self._pinned_cycles
         draw_cycles = self._draw_cycles
+        ledger = self._ledger
         random = self.replayer.random
         changed = reported = drawn = 0
         for index, record in enumerate(batch):
@@ -195,8 +204,17 @@ class CycleJudge:
             if changes is None or (
                 (pinned_states and context.cycle in pinned_states) or context.cycle in draw_cycles
             ):
-                outcome = outcome or outcome_of()  # judged by its robot state, then as usual
-                changes = outcome.changes if divergences.agrees_but_for_pins(outcome) else None
+                changes = None
+                if (
+                    ledger is not None
+                    and context.cycle in draw_cycles
+                    and not (pinned_states and context.cycle in pinned_states)
+                    and ledger.approves(context.cycle, random.differences)
+                ):  # made otherwise than recorded only as approved: judged as usual
+                    changes = self.replayer.changes_but_for_draws()
+                if changes is None:
+                    outcome = outcome or outcome_of()  # judged by its robot state, then as usual
+                    changes = outcome.changes if divergences.agrees_but_for_pins(outcome) else None
             unloggable: Exception | None = None
             if changes is not None:
                 outputs = context.outputs
@@ -205,7 +223,14 @@ class CycleJudge:
                         (
                             record.state_changes == EMPTY_LIST
                             if not changes
-                            else same_catalogue and record.state_changes == raw(encode(changes))
+                            else record.state_changes
+                            == raw(
+                                encode(
+                                    changes
+                                    if same_catalogue
+                                    else [(expected_index[i], b, a) for i, b, a in changes]
+                                )
+                            )
                         )
                         or self._changes_agree(record.state_changes, changes)
                     ) and (

@@ -25,10 +25,12 @@ from __future__ import annotations
 
 import base64
 import bisect
+import functools
 import hashlib
 import re
 import string
 from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -253,103 +255,116 @@ class PinChecker:
     """Judges the robot states perception rebuilds against :class:`StatePins`, one
     pinned cycle after another, in cycle order.
 
-    It costs a digest and a few look-ups a pinned cycle: the cycles map to their
-    blocks when it is made, and a block's tags are read when replay reaches it.
+    It costs a digest and a few look-ups a pinned cycle: the pinned cycles are
+    gathered when it is made, and a block's tags are read when replay reaches it.
     """
 
     def __init__(self, pins: StatePins) -> None:
         self._blocks = pins.blocks
-        self._at: dict[int, int] = {}
-        """Each pinned cycle, with the index of its block."""
-        for index, block in enumerate(pins.blocks):
-            self._at.update(dict.fromkeys(range(block.cycle, block.cycle + block.cycles), index))
+        self._block_starts = [block.cycle for block in pins.blocks]
+        pinned: set[int] = set()
+        for block in pins.blocks:
+            pinned.update(range(block.cycle, block.cycle + block.cycles))
             gap = block.tags.find(UNPINNED)
             while gap >= 0:
-                del self._at[block.cycle + gap // TAG_CHARS]
+                pinned.discard(block.cycle + gap // TAG_CHARS)
                 gap = block.tags.find(UNPINNED, gap + TAG_CHARS)
+        self.cycles: AbstractSet[int] = dict.fromkeys(pinned).keys()
+        """The pinned cycles (the keys of a dict of ints, which the garbage collector
+        need not look into, unlike a set)."""
         self._runs = pins.runs
         self._starts = [run.cycle for run in pins.runs]
-        self._index = -1
+        self._block = DigestBlock(-1, 0, "", b"")
         """The block being judged."""
+        self._start = 0
+        """Its first cycle."""
         self._bits: list[int] = []
         """Its cycles' tags as bits (-1 for a gap)."""
-        self._places: list[int] = []
-        """Its cycles' places among its pinned cycles (-1 for a gap)."""
-        self._final = 0
-        """The offset of its last pinned cycle."""
+        self._span = 0
+        """How many cycles it spans."""
+        self._final = -1
+        """Its last pinned cycle."""
+        self._pinned = 0
+        """How many cycles it pins."""
         self._digests: list[bytes] = []
-        self._intact = False
+        """The digests of its cycles judged so far whose tags agreed."""
         self._last_cycle = -1
         self._last_found: str | None = None
 
     def __contains__(self, cycle: object) -> bool:
-        return cycle in self._at
-
-    @property
-    def cycles(self) -> frozenset[int]:
-        """The pinned cycles."""
-        return frozenset(self._at)
+        return cycle in self.cycles
 
     def run_at(self, cycle: int) -> PinnedRun:
         """The run a pinned cycle is in."""
         return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
 
-    def _enter(self, index: int) -> None:
-        """Start judging the block at ``index``."""
-        tags = self._blocks[index].tags
-        self._index = index
-        self._bits = [
-            -1 if tag == UNPINNED else _tag_bits(tag)
-            for tag in (tags[at : at + TAG_CHARS] for at in range(0, len(tags), TAG_CHARS))
-        ]
-        self._places = []
-        place = 0
-        for bits in self._bits:
-            self._places.append(-1 if bits < 0 else place)
-            place += bits >= 0
-        self._final = max(offset for offset, bits in enumerate(self._bits) if bits >= 0)
+    def _enter(self, cycle: int) -> None:
+        """Start judging the block of the pinned ``cycle``.
+
+        :raises KeyError: ``cycle`` is not pinned.
+        """
+        if cycle not in self.cycles:
+            raise KeyError(cycle)
+        block = self._blocks[bisect.bisect_right(self._block_starts, cycle) - 1]
+        self._block = block
+        self._start = block.cycle
+        self._bits = bits = list(map(_tag_table().__getitem__, _PAIRS.findall(block.tags)))
+        self._span = len(bits)
+        self._final = block.cycle + len(bits) - 1
+        while bits[self._final - block.cycle] < 0:
+            self._final -= 1
+        self._pinned = len(bits) - bits.count(-1)
+        self._digests = []
 
     def mismatch(self, cycle: int, encoded: bytes) -> str | None:
         """How the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would) was found
         to differ from the approved one: ``"by its digest"`` (its tag), or ``"by the
-        digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle);
-        None when it agrees. Asked again about the same cycle, the same answer."""
+        digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle
+        when every pinned cycle of the block was judged, each agreeing with its tag);
+        None when it agrees. Asked again about the same cycle, the same answer.
+
+        :raises KeyError: ``cycle`` is not pinned.
+        """
         if cycle == self._last_cycle:
             return self._last_found
-        index = self._at[cycle]
-        if index != self._index:
-            self._enter(index)
-        block = self._blocks[index]
-        offset = cycle - block.cycle
-        place = self._places[offset]
-        digests = self._digests
-        if place == 0:
-            digests = self._digests = []
-            self._intact = True
-        elif place != len(digests):  # a pinned cycle of the block went unjudged
-            self._intact = False
+        offset = cycle - self._start
+        if not 0 <= offset < self._span:
+            self._enter(cycle)
+            offset = cycle - self._start
+        bits = self._bits[offset]
+        if bits < 0:
+            raise KeyError(cycle)
         hasher = _HASHER.copy()
         hasher.update(encoded)
         digest = hasher.digest()
-        digests.append(digest)
         found = None
-        if (digest[0] << 4 | digest[1] >> 4) != self._bits[offset]:
-            self._intact = False  # reported here, not again for the block
-            found = "by its digest"
-        elif offset == self._final and self._intact and _block_digest(digests) != block.digest:
-            found = f"by the digest of cycles {block.cycle}–{cycle}"
-        self._last_cycle, self._last_found = cycle, found
+        if (digest[0] << 4 | digest[1] >> 4) != bits:
+            found = "by its digest"  # reported here, not again for the block
+        else:
+            digests = self._digests
+            digests.append(digest)
+            if (
+                cycle == self._final
+                and len(digests) == self._pinned
+                and _block_digest(digests) != self._block.digest
+            ):
+                found = f"by the digest of cycles {self._start}–{cycle}"
+        self._last_cycle = cycle
+        self._last_found = found
         return found
 
 
-_B64 = {
-    char: value
-    for value, char in enumerate(
-        string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
-    )
-}
+_PAIRS = re.compile("." * TAG_CHARS, re.DOTALL)
+"""A block's tags, one by one."""
 
 
-def _tag_bits(tag: str) -> int:
-    """The 12 bits a tag stands for: the first of its digest's (:func:`_tag`)."""
-    return _B64[tag[0]] << 6 | _B64[tag[1]]
+@functools.cache
+def _tag_table() -> dict[str, int]:
+    """Each tag with the 12 bits it stands for, the first of its digest's (:func:`_tag`);
+    :data:`UNPINNED` with -1."""
+    digits = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
+    table = {
+        high + low: i << 6 | j for i, high in enumerate(digits) for j, low in enumerate(digits)
+    }
+    table[UNPINNED] = -1
+    return table

@@ -50,6 +50,16 @@ _DIGESTS = re.compile(
     rf"digests (?P<cycles>\d+) (?P<digest>[0-9a-f]{{{2 * DIGEST_BYTES}}}) (?P<tags>[A-Za-z0-9+/.]+)"
 )
 _JSON = json.JSONDecoder()
+_OUTPUT_LINE = re.compile(
+    r'\s*(\d+)\s+(\d+\.\d{3})\s+output "([A-Za-z0-9_.\-]*)"(?: = (.*)| (absent|as recorded)\s*)'
+)
+"""The most common line since format 5, an output with a plain name, read at once (every
+line it matches reads the same as :func:`parse_line` reads it)."""
+_DIGESTS_LINE = re.compile(
+    r"\s*(\d+)\s+(\d+\.\d{3})\s+robot_state "
+    rf"digests (\d+) ([0-9a-f]{{{2 * DIGEST_BYTES}}}) ([A-Za-z0-9+/.]+)\s*"
+)
+"""A block of digests, read at once likewise (since format 4)."""
 
 
 class _OpenLoop(NamedTuple):
@@ -81,6 +91,16 @@ class ParsedLines:
         :raises ValueError: the line is not one that format holds, or a second
             ``open loop`` line.
         """
+        if version >= 5 and (output := _OUTPUT_LINE.fullmatch(line)) is not None:
+            self.outputs.append(_output(output))
+            return
+        if version >= 4 and (block := _DIGESTS_LINE.fullmatch(line)) is not None:
+            cycles, tags = int(block[3]), block[5]
+            if len(tags) == cycles * TAG_CHARS:
+                self.blocks.append(
+                    DigestBlock(int(block[1]), _time_ns(block[2]), tags, bytes.fromhex(block[4]))
+                )
+                return
         parsed = _parse_draw(line, version) if line[:6] == "draws " else parse_line(line, version)
         if isinstance(parsed, _OpenLoop):
             if self.open_loop is not None:
@@ -125,6 +145,21 @@ def _parse_draw(line: str, version: int) -> DrawRule:
     )
 
 
+def _time_ns(seconds: str) -> int:
+    """A line's robot time, written in seconds with three decimals, in nanoseconds."""
+    return round(float(seconds) * 1e9)
+
+
+def _output(found: re.Match[str]) -> TracedOutput:
+    """An output line matched by :data:`_OUTPUT_LINE`."""
+    cycle, seconds, name, text, word = found.groups()
+    if word is None:
+        value = _decode_value(text.rstrip())
+    else:
+        value = ABSENT if word == "absent" else AS_RECORDED
+    return TracedOutput(int(cycle), _time_ns(seconds), name, value)
+
+
 def parse_line(line: str, version: int) -> _Line:
     """A line of the cycle columns, as a file of format ``version`` holds it."""
     found = _CHANGE_LINE.fullmatch(line)
@@ -133,7 +168,7 @@ def parse_line(line: str, version: int) -> _Line:
             "expected 'CYCLE TIME \"behavior\": BEFORE -> AFTER', "
             "'CYCLE TIME output \"field\" = VALUE' or 'CYCLE TIME robot_state ...'"
         )
-    cycle, time_ns, text = int(found["cycle"]), round(float(found["time"]) * 1e9), found["change"]
+    cycle, time_ns, text = int(found["cycle"]), _time_ns(found["time"]), found["change"]
     if text == OPEN_LOOP and version >= 4:
         return _OpenLoop(cycle, time_ns)
     if text == QUIET and version >= 5:
