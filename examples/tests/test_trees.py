@@ -31,6 +31,24 @@ def test_recording_again_gives_the_committed_files(tmp_path: Path) -> None:
         assert (tmp_path / spec.path.name).read_text() == spec.path.read_text()
 
 
+def test_a_log_already_recorded_is_kept_and_named_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main([str(tmp_path), "--only", "patrol"]) == 0
+    recorded = (tmp_path / "patrol.beatlog").read_bytes()
+    capsys.readouterr()
+
+    with pytest.raises(SystemExit) as exit_:
+        main([str(tmp_path), "--only", "patrol"])
+
+    assert exit_.value.code == 2
+    assert capsys.readouterr().err == (
+        f"error: {tmp_path / 'patrol.beatlog'}: already recorded; --overwrite records it again\n"
+    )
+    assert (tmp_path / "patrol.beatlog").read_bytes() == recorded
+    assert main([str(tmp_path), "--only", "patrol", "--overwrite"]) == 0
+
+
 def test_one_case_is_recorded_alone(tmp_path: Path) -> None:
     assert main([str(tmp_path), "--only", "patrol"]) == 0
     assert sorted(path.name for path in tmp_path.iterdir()) == [

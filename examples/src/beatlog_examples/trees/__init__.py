@@ -5,7 +5,7 @@
   Sequences, decorators, the blackboard, py_trees' ``Timer`` and ``Timeout``, random
   waypoints) and the system that wraps it.
 - :mod:`~beatlog_examples.trees.record`: a toy yard and the scenarios; re-records the
-  DTCs in ``suite/`` (``python -m beatlog_examples.trees.record``).
+  DTCs in ``suite/`` (``python -m beatlog_examples.trees.record --overwrite``).
 
 Factories for the CLI: ``beatlog_examples.trees:system`` and ``:changed_system``
 (the low-battery threshold lowered from 25 % to 20 %). Needs ``beatlog[py_trees]``.

@@ -2,11 +2,12 @@
 
 ::
 
-    python -m beatlog_examples.trees.record                     # both, into suite/
-    python -m beatlog_examples.trees.record --only low-battery  # one test case
-    python -m beatlog_examples.trees.record some/folder         # somewhere else
+    python -m beatlog_examples.trees.record --overwrite             # both, into suite/
+    python -m beatlog_examples.trees.record --overwrite --only low-battery  # one case
+    python -m beatlog_examples.trees.record some/folder             # somewhere else
 
-Each test case gets its session log ``NAME.beatlog`` and its spec ``NAME.dtc.toml``.
+Each test case gets its session log ``NAME.beatlog`` and its spec ``NAME.dtc.toml``; a
+log already there is kept (recordings are immutable) unless ``--overwrite`` is given.
 The yard, the heartbeat jitter and the tree's random numbers are seeded, so
 recording again gives the same bytes.
 """
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from beatlog import Recorder
+from beatlog.errors import LogExistsError
 from beatlog.model.context import Outputs
 from beatlog.suite import spec
 from beatlog.suite.spec import SPEC_SUFFIX
@@ -53,7 +55,7 @@ class Scenario:
             f"Start the rover in the yard with its battery at {self.battery:.0%}.",
             f"A person stands in its way at {people}.",
             f"Record {self.duration_s:g} s in lockstep: "
-            f"python -m beatlog_examples.trees.record --only {self.name}",
+            f"python -m beatlog_examples.trees.record --overwrite --only {self.name}",
         ]
 
 
@@ -118,13 +120,15 @@ class Yard:
         self.time_s += dt
 
 
-def record(log: Path, scenario: Scenario) -> int:
-    """Record one scenario into ``log``; the number of cycles recorded."""
+def record(log: Path, scenario: Scenario, *, overwrite: bool = False) -> int:
+    """Record one scenario into ``log`` (``overwrite``: replace a log already there);
+    the number of cycles recorded."""
     yard = Yard(scenario)
     jitter = np.random.default_rng(scenario.seed)  # the heartbeat timer's, not the behaviors'
     with Recorder(
         log,
         system(),
+        overwrite=overwrite,
         robot_id="patrol-rover",
         system_ref=SYSTEM_REF,
         period_ns=PERIOD_NS,
@@ -165,6 +169,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         choices=[scenario.name for scenario in SCENARIOS],
         help="record just this case",
     )
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace the logs already in the folder"
+    )
     args = parser.parse_args(argv)
     folder: Path = args.folder
     folder.mkdir(parents=True, exist_ok=True)
@@ -172,7 +179,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.only and scenario.name not in args.only:
             continue
         log = folder / f"{scenario.name}.beatlog"
-        cycles = record(log, scenario)
+        try:
+            cycles = record(log, scenario, overwrite=args.overwrite)
+        except LogExistsError as exc:
+            parser.exit(2, f"error: {exc.path}: already recorded; --overwrite records it again\n")
         (folder / f"{scenario.name}{SPEC_SUFFIX}").write_text(
             spec_text(scenario, log.name), encoding="utf-8"
         )
