@@ -250,12 +250,14 @@ class StateColumns:
                 split.setdefault(width, {})[index] = start
             else:
                 self._encoded[index] = head + data[start : ends[index]]
+        join = bytearray().join  # a bytearray is copied into place without a copy of it
         for width, starts in split.items():
             size = width * self.count
+            blocks = [slice(start, start + size) for start in starts.values()]
+            group = join(operator.itemgetter(*blocks, slice(0, 0))(data))
             values = bytearray(size * len(starts))
-            join = bytearray().join  # a bytearray is copied into place without a copy of it
-            for byte, planes in enumerate(_planes(tuple(starts.values()), width, self.count)):
-                values[byte::width] = join(planes(data))
+            for byte, planes in enumerate(_planes(len(starts), width, self.count)):
+                values[byte::width] = join(planes(group))
             for at, index in enumerate(starts):
                 self._encoded[index] = head + values[at * size : (at + 1) * size]
 
@@ -345,9 +347,11 @@ class StateColumns:
 
 
 @functools.lru_cache(maxsize=256)
-def _planes(starts: tuple[int, ...], width: int, count: int) -> list[Callable[[Any], Any]]:
-    """For columns of ``width``-byte values starting at ``starts`` in a batch's data, a
-    getter per byte of a value: it takes that byte's plane of every column, in order."""
+def _planes(columns: int, width: int, count: int) -> list[Callable[[Any], Any]]:
+    """For ``columns`` byte-split columns of ``count`` ``width``-byte values laid end to
+    end, a getter per byte of a value: it takes that byte's plane of every column, in
+    order. Made once per shape, whichever columns of a batch are gathered."""
+    starts = range(0, columns * width * count, width * count)
     return [
         operator.itemgetter(
             *[slice(start + byte * count, start + (byte + 1) * count) for start in starts],
