@@ -4,8 +4,9 @@ among its lines, so a fragment of another line ("complete" in "incomplete") cann
 from __future__ import annotations
 
 import re
+import xml.etree.ElementTree as ET
 
-__all__ = ["frames", "table_row", "whole_lines"]
+__all__ = ["frames", "svg_texts", "table_row", "whole_lines"]
 
 
 BORDERS = " \t│╭╮╰╯─"
@@ -38,3 +39,8 @@ def frames(traceback: str) -> list[tuple[str, str]]:
         for found in map(_FRAME.fullmatch, traceback.splitlines())
         if found is not None
     ]
+
+
+def svg_texts(svg: str) -> list[str]:
+    """The texts an SVG chart draws, in order, as a reader sees them (entities decoded)."""
+    return [text.text or "" for text in ET.fromstring(svg).iter("{http://www.w3.org/2000/svg}text")]
