@@ -50,7 +50,7 @@ def test_a_diverging_replay_of_a_url_reproduces_with_the_url(
 
     assert run.code == 1, run.err
     assert run.out.startswith(f"FAIL {url}  ")
-    assert f"reproduce: beatlog replay {url} --system {CHANGED}\n" in run.out
+    assert run.out.splitlines()[-1] == f"reproduce: beatlog replay {url} --system {CHANGED}"
     assert "beatlog-remote-" not in run.out
     assert served.downloads("dock.beatlog") == 1
 
