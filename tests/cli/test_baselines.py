@@ -116,8 +116,12 @@ def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
         run.out
     )
     lines = run.out.splitlines()
-    assert "--- recorded (probe.beatlog)" in lines
-    assert "+++ pending" in lines
+    assert lines[2:6] == [
+        f"open loop since cycle {FIRST_CHANGED_CYCLE} (0.660 s)",
+        "--- recorded (probe.beatlog)",
+        "+++ pending",
+        "@@ -26,11 +26,6 @@",
+    ]
     assert any(line.startswith(f"+{FIRST_CHANGED_CYCLE:>8}") for line in lines)
     assert f"left pending: accept with beatlog approve {spec}" in whole_lines(run.out)
     assert pending_path(spec).exists()
