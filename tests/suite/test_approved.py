@@ -16,6 +16,7 @@ from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
+from tests.commands import closing_counts
 from tests.conftest import RecordFn
 from tests.specs import write_spec
 from tests.text import table_row, whole_lines
@@ -127,4 +128,6 @@ def test_show_and_test_name_the_approved_baseline_and_where_it_goes_open_loop(
         "300",
         "9.0 s",
     ]
-    assert "1 passed, 0 failed, 1 open loop (worth re-recording when convenient)" in tested
+    assert closing_counts(tested) == (
+        "1 passed, 0 failed, 1 open loop (worth re-recording when convenient)"
+    )
