@@ -19,6 +19,7 @@ from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
 from tests.systems import leaks, leaky_system, quiet_system, record_session
+from tests.text import svg_texts
 
 
 @pytest.fixture
@@ -131,11 +132,19 @@ def test_timelines_for_reports_are_gathered_only_when_asked(tmp_path: Path, log:
     )
     assert run_spec(lost, SpecOptions(timelines=True)).timelines == ()
 
-    assert "avoid-pole: the whole session, 300 cycles" in whole.svg
-    assert "first divergence" not in whole.svg
-    for chart in (close_up, whole_failing):
-        assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in chart.svg
-    assert "avoid-pole-earlier: close-up of the first divergence" in close_up.svg
+    divergence = f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s (state changes)"
+    assert svg_texts(whole.svg)[:2] == [
+        "avoid-pole: the whole session, 300 cycles, 9.0 s",
+        "behavior states",
+    ]
+    assert svg_texts(close_up.svg)[:2] == [
+        "avoid-pole-earlier: close-up of the first divergence, 0.000–3.660 s",
+        divergence,
+    ]
+    assert svg_texts(whole_failing.svg)[:2] == [
+        "avoid-pole-earlier: the whole session, 300 cycles, 9.0 s",
+        divergence,
+    ]
     assert {"far", "near"} <= set(close_up.states) <= set(whole_failing.states)
 
 
