@@ -158,7 +158,8 @@ def test_a_spec_whose_perception_cannot_run_passes_with_a_note(
     log = record_with_samples(tmp_path / "plain.beatlog", 40, log_samples=False)
     spec = write_spec(tmp_path, "plain", log, perception=CHANGED)
     assert main(["test", "--jobs", "1", str(spec)]) == 0
-    assert f"\nnote: plain: {NO_SAMPLES}\n" in capsys.readouterr().out
+    notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note: ")]
+    assert notes == [f"note: plain: {NO_SAMPLES}"]
 
 
 def test_a_note_many_dtcs_share_is_one_line(
