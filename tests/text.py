@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 import xml.etree.ElementTree as ET
 
-__all__ = ["frames", "svg_texts", "table_row", "whole_lines"]
+__all__ = ["frames", "suite_names", "svg_texts", "table_row", "whole_lines"]
 
 
 BORDERS = " \t│╭╮╰╯─"
@@ -26,6 +26,22 @@ def table_row(text: str, first: str) -> list[str]:
         if cells[0] == first:
             return cells
     return []
+
+
+def suite_names(text: str) -> list[str]:
+    """The DTCs listed, in order, in the table that ``beatlog test`` prints under "DTC suite"
+    (empty where it printed none)."""
+    lines = whole_lines(text)
+    if "DTC suite" not in lines:
+        return []
+    names = []
+    for line in lines[lines.index("DTC suite") + 1 :]:
+        if line.startswith("└"):
+            break
+        first = line.split("│")[0].strip()
+        if "│" in line and first:
+            names.append(first)
+    return names
 
 
 _FRAME = re.compile(r'\s*File "(?P<file>[^"]+)", line \d+, in (?P<function>\S+)')
