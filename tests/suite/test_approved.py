@@ -40,7 +40,7 @@ def test_the_python_api_judges_against_the_approved_baseline_of_the_spec_beside(
 ) -> None:
     result = beatlog.replay(log, GREEDY)
 
-    assert result.ok
+    assert (result.ok, result.divergence, result.cycles) == (True, None, 300)
     assert result.notes[0] == (
         "judged against the approved baseline avoid-pole.dtc.expected, "
         f"as beatlog test {log.parent / 'avoid-pole.dtc.toml'} judges it"
@@ -100,7 +100,11 @@ def test_of_several_specs_naming_a_log_the_one_of_the_system_replayed_is_its_spe
 
     assert beatlog.replay(log, GREEDY).ok
     as_recorded = beatlog.replay(log, "tests.conftest:probe_system")
-    assert as_recorded.ok
+    assert (as_recorded.ok, as_recorded.divergence, as_recorded.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 45, "outputs": 453, "draws": 60, "samples": 0},
+    )
     assert as_recorded.notes == ()
 
 

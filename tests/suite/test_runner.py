@@ -42,7 +42,11 @@ def test_a_spec_replayed_against_its_own_system_passes(tmp_path: Path, log: Path
     assert outcome.spec == spec
     assert outcome.verdict is Verdict.PASSED
     assert outcome.result is not None
-    assert outcome.result.ok
+    assert (outcome.result.ok, outcome.result.divergence, outcome.result.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 45, "outputs": 453, "draws": 60, "samples": 0},
+    )
     assert outcome.result.cycles == 300
     assert outcome.error is None
     assert outcome.wall_time_s > 0
