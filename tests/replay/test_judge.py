@@ -26,7 +26,7 @@ from beatlog.errors import (
 )
 from beatlog.log.crafting import chunks, drop_chunk
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
@@ -61,11 +61,8 @@ def test_a_recorded_session_replays_and_passes(record_probe: RecordFn) -> None:
         None,
         {"cycles": 300, "state_changes": 45, "outputs": 453, "draws": 60, "samples": 0},
     )
-    assert result.divergence is None
-    assert result.cycles == 300
     assert result.robot_time_ns == sum(PERIOD_NS + (t % 3) * 1000 for t in range(300))
-    assert result.status is not None
-    assert result.status.complete
+    assert result.status == LogStatus(complete=True, cycles=300)
 
 
 def test_a_system_given_by_reference_replays_too(record_probe: RecordFn) -> None:
@@ -329,8 +326,7 @@ def test_a_truncated_log_fails_as_ending_early_unless_allowed(record_probe: Reco
     assert divergence is not None
     assert divergence.kind is DivergenceKind.LOG_ENDED
     assert result.status is not None
-    assert not result.status.complete
-    assert divergence.cycle == result.status.cycles
+    assert (result.status.complete, result.status.cycles) == (False, divergence.cycle)
     assert re.fullmatch(
         rf"the log ends early \(truncated at cycle {divergence.cycle}: the last record is cut off "
         r"at byte \d+\); if the session ended there \(a crash\), accept what it holds with "

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog_examples.dog import SUITE_DIR
 from tests.commands import Beatlog
 from tests.text import whole_lines
@@ -33,7 +33,7 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
     with SessionLogReader(log) as reader:
         cycles = sum(1 for _ in reader.cycles())
         assert reader.header.system == "beatlog_examples.dog:system"
-        assert reader.status.complete
+        assert reader.status == LogStatus(complete=True, cycles=cycles)
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
         assert reader.end.robot_time_ns >= 500_000_000

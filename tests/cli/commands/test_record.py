@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import system
 from tests.commands import ROOT, Beatlog, assert_one_line_error
@@ -83,7 +83,7 @@ def test_a_disk_that_fills_up_while_recording_gives_the_summary_and_exit_1(
     assert found is not None, summary
     with SessionLogReader(out) as reader:
         kept = len(list(reader.cycles()))
-        assert not reader.status.complete
+        assert (reader.status.complete, reader.status.cycles) == (False, kept)
     assert 0 < kept == int(found.group(2)) < int(found.group(1))
 
 
@@ -199,7 +199,7 @@ def test_record_writes_a_complete_log_that_replays(beatlog: Beatlog, tmp_path: P
     assert recorded.code == 0, recorded.err
     with SessionLogReader(out) as reader:
         cycles = sum(1 for _ in reader.cycles())
-        assert reader.status.complete
+        assert reader.status == LogStatus(complete=True, cycles=cycles)
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
         assert reader.end.robot_time_ns >= 500_000_000
