@@ -57,7 +57,7 @@ def test_a_changed_system_fails_at_the_first_divergence(tmp_path: Path, log: Pat
 
     assert outcome.verdict is Verdict.FAILED
     assert outcome.result is not None
-    assert not outcome.result.ok
+    assert (outcome.result.ok, outcome.result.divergent_cycles) == (False, 1)
     divergence = outcome.result.divergence
     assert divergence is not None
     assert divergence.cycle == FIRST_CHANGED_CYCLE
