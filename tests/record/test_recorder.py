@@ -101,8 +101,7 @@ def test_run_loops_on_a_live_heartbeat_and_logs_samples(tmp_path: Path) -> None:
     robot = PushRobot()
     with Recorder(log, robot.system, period_ns=2_000_000, log_samples=True, software="t") as rec:
         summary = rec.run(robot, duration_s=0.03, heartbeat=LiveHeartbeat(2_000_000))
-    assert robot.started
-    assert robot.stopped
+    assert (robot.started, robot.stopped) == (True, True)
     assert summary.cycles == len(robot.acted) >= 1
     assert summary.robot_time_ns >= 30_000_000
     with SessionLogReader(log) as reader:
