@@ -16,6 +16,7 @@ from beatlog.remote import MAX_BYTES_VARIABLE, TIMEOUT_VARIABLE
 from tests.commands import (
     Beatlog,
     Run,
+    assert_error,
     assert_one_line_error,
     beatlog_process,
     plain,
@@ -145,7 +146,7 @@ def test_a_log_url_not_found_is_one_line_naming_it(
 
     run = beatlog(command, url)
 
-    assert_one_line_error(run, f"{url}: no such log")
+    assert_error(run, f"{url}: no such log")
 
 
 @pytest.mark.parametrize(

@@ -22,7 +22,7 @@ from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.policy import SpecOptions
 from beatlog.suite.runner import SpecOutcome
-from tests.commands import Run, assert_one_line_error, closing_counts
+from tests.commands import Run, assert_error, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
@@ -313,7 +313,11 @@ def test_a_cluster_that_cannot_be_reached_is_one_line_and_exit_2(
     with dask.config.set({"distributed.comm.timeouts.connect": "0.5s"}):
         run = beatlog("test", suite, "--dask", address)
 
-    assert_one_line_error(run, f"--dask {address}: cannot reach the cluster")
+    assert_error(
+        run,
+        f"--dask {address}: cannot reach the cluster: "
+        f"Timed out trying to connect to {address} after 0.5 s",
+    )
 
 
 def test_a_server_that_never_answers_the_handshake_is_one_line_and_exit_2(
@@ -361,16 +365,20 @@ def test_a_local_cluster_of_no_workers_is_one_line_and_exit_2(
 ) -> None:
     run = beatlog("test", suite, "--dask", address)
 
-    assert_one_line_error(run, f"--dask {address}: expected local, or local:N")
+    assert_error(
+        run, f"--dask {address}: expected local, or local:N with N worker processes from 1"
+    )
 
 
 def test_dask_and_jobs_exclude_each_other(beatlog: Callable[..., Run], suite: Path) -> None:
     run = beatlog("test", suite, "--dask", "local:2", "-j", "2")
 
-    assert_one_line_error(run, "argument -j/--jobs: not allowed with argument --dask")
+    assert_error(
+        run, "argument -j/--jobs: not allowed with argument --dask (see 'beatlog test --help')"
+    )
 
 
 def test_break_points_and_dask_exclude_each_other(beatlog: Callable[..., Run], suite: Path) -> None:
     run = beatlog("test", suite, "--dask", "local:2", "--break-on-divergence")
 
-    assert_one_line_error(run, "break points stop in this process: leave out --dask")
+    assert_error(run, "break points stop in this process: leave out --dask")

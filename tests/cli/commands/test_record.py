@@ -16,7 +16,7 @@ import pytest
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import system
-from tests.commands import ROOT, Beatlog, assert_one_line_error
+from tests.commands import ROOT, Beatlog, assert_error, assert_one_line_error
 from tests.conftest import RecordFn
 from tests.factories import fill_the_disk
 from tests.specs import PROBE
@@ -143,7 +143,7 @@ def test_record_into_a_missing_directory_is_one_line(beatlog: Beatlog, tmp_path:
 
     run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 1)
 
-    assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
+    assert_error(run, f"{out}: directory {out.parent} does not exist")
 
 
 def test_record_checks_the_system_reference_before_recording(
@@ -172,7 +172,11 @@ def test_record_needs_a_robot_not_a_system(beatlog: Beatlog, tmp_path: Path) -> 
 
     run = beatlog("record", "--robot", PROBE, "-o", out, "--duration", 1)
 
-    assert_one_line_error(run, f"'{PROBE}': built a PriorityArbiter, not a robot")
+    assert_error(
+        run,
+        f"'{PROBE}': built a PriorityArbiter, not a robot "
+        "(it needs system, inbox, start, stop, perceive and act)",
+    )
     assert not out.exists()
 
 

@@ -15,7 +15,7 @@ import pytest
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.random import RecordingRandom
 from beatlog.record.recorder import Recorder
-from tests.commands import Beatlog, assert_one_line_error
+from tests.commands import Beatlog, assert_error, assert_one_line_error
 from tests.conftest import RecordFn, distances
 from tests.factories import cut_in_half, vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
@@ -65,7 +65,7 @@ def test_replay_without_a_system_of_a_log_that_records_none_is_one_line(
 
     run = beatlog("replay", log)
 
-    assert_one_line_error(run, f"{log}: records no system; name one (module:factory)")
+    assert_error(run, f"{log}: records no system; name one (module:factory)")
 
 
 TRAP = "import pathlib\npathlib.Path('sprung').write_text('imported')\ndef trap(): pass\n"

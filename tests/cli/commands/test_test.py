@@ -19,6 +19,7 @@ from tests.commands import (
     ROOT,
     Beatlog,
     Run,
+    assert_error,
     assert_one_line_error,
     at_a_terminal,
     hide_matplotlib,
@@ -225,7 +226,7 @@ def test_a_malformed_dash_k_is_one_line(beatlog_test: BeatlogTest, specs: Path, 
 
     run = beatlog_test(specs, "-k", "touch or")
 
-    assert_one_line_error(run, "-k 'touch or': ends where a word was expected")
+    assert_error(run, "-k 'touch or': ends where a word was expected")
 
 
 def test_tags_run_the_dtcs_that_carry_every_tag_given(
@@ -513,8 +514,8 @@ def test_a_selection_that_matches_nothing_is_a_usage_error(
     by_name = beatlog_test(specs, "-k", "dock")
     by_tag = beatlog_test(specs, "--tag", "night")
 
-    assert_one_line_error(by_name, f"none of the 1 DTC specs in {specs} match -k/--tag")
-    assert_one_line_error(by_tag, f"none of the 1 DTC specs in {specs} match -k/--tag")
+    assert_error(by_name, f"none of the 1 DTC specs in {specs} match -k/--tag")
+    assert_error(by_tag, f"none of the 1 DTC specs in {specs} match -k/--tag")
 
 
 def test_a_bad_spec_is_one_line_naming_the_file_and_key(
@@ -525,13 +526,13 @@ def test_a_bad_spec_is_one_line_naming_the_file_and_key(
 
     run = beatlog_test(specs)
 
-    assert_one_line_error(run, f"{bad}: key 'tags': expected `array`, got `str`")
+    assert_error(run, f"{bad}: key 'tags': expected `array`, got `str`")
 
 
 def test_a_path_that_does_not_exist_is_one_line(beatlog_test: BeatlogTest, tmp_path: Path) -> None:
     run = beatlog_test(tmp_path / "nowhere")
 
-    assert_one_line_error(run, f"{tmp_path / 'nowhere'}: no such file or folder")
+    assert_error(run, f"{tmp_path / 'nowhere'}: no such file or folder")
 
 
 @pytest.mark.parametrize(
@@ -667,7 +668,9 @@ def test_break_at_with_more_than_one_dtc_selected_is_a_usage_error(
 
     run = beatlog_test(specs, "--break-at", "12")
 
-    assert_one_line_error(run, "--break-at stops in one DTC, and 2 are selected")
+    assert_error(
+        run, "--break-at stops in one DTC, and 2 are selected: name its spec or select it with -k"
+    )
     assert breaks == []
 
 
