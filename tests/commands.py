@@ -48,7 +48,8 @@ def assert_one_line_error(run: Run, *fragments: str) -> None:
 def assert_error(run: Run, message: str) -> None:
     """The command refused its input in one line: exit 2, nothing on stdout, and
     ``beatlog: error: MESSAGE`` on stderr."""
-    assert (run.code, run.out, run.err) == (2, "", f"beatlog: error: {message}\n")
+    expected = (2, "", f"beatlog: error: {message}\n")
+    assert (run.code, run.out, run.err) == expected, f"{run!r} is not {expected!r}"
 
 
 def closing_counts(out: str) -> str:

@@ -305,6 +305,19 @@ def unused_port() -> int:
         return port
 
 
+def assert_unreachable(run: Run, address: str) -> None:
+    """One line saying the cluster at ``address`` cannot be reached, in either of the ways a
+    half-second connect ends: a connection that timed out, or a peer that never answered."""
+    assert (run.code, run.out) == (2, "")
+    at = re.escape(address)
+    assert re.fullmatch(
+        rf"beatlog: error: --dask {at}: cannot reach the cluster: "
+        rf"(Timed out trying to connect to {at} after 0\.5 s"
+        r"|no Dask scheduler answered there within 0\.5 s)\n",
+        run.err,
+    ), run.err
+
+
 def test_a_cluster_that_cannot_be_reached_is_one_line_and_exit_2(
     beatlog: Callable[..., Run], suite: Path
 ) -> None:
@@ -313,11 +326,7 @@ def test_a_cluster_that_cannot_be_reached_is_one_line_and_exit_2(
     with dask.config.set({"distributed.comm.timeouts.connect": "0.5s"}):
         run = beatlog("test", suite, "--dask", address)
 
-    assert_error(
-        run,
-        f"--dask {address}: cannot reach the cluster: "
-        f"Timed out trying to connect to {address} after 0.5 s",
-    )
+    assert_unreachable(run, address)
 
 
 def test_a_server_that_never_answers_the_handshake_is_one_line_and_exit_2(
@@ -330,9 +339,7 @@ def test_a_server_that_never_answers_the_handshake_is_one_line_and_exit_2(
         with dask.config.set({"distributed.comm.timeouts.connect": "0.5s"}):
             run = beatlog("test", suite, "--dask", address)
 
-    assert_one_line_error(
-        run, f"--dask {address}: cannot reach the cluster: no Dask scheduler answered there"
-    )
+    assert_unreachable(run, address)
 
 
 def test_a_server_that_is_not_a_scheduler_is_one_line_and_exit_2(

@@ -134,7 +134,7 @@ def test_record_refuses_to_overwrite_a_log(beatlog: Beatlog, record_probe: Recor
 
     run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", log, "--duration", 1)
 
-    assert_one_line_error(run, f"{log}: already exists", "--force")
+    assert_error(run, f"{log}: already exists; recordings are immutable (use --force)")
     assert log.read_bytes() == before
 
 

@@ -20,7 +20,6 @@ from tests.commands import (
     Beatlog,
     Run,
     assert_error,
-    assert_one_line_error,
     at_a_terminal,
     hide_matplotlib,
 )
@@ -503,7 +502,7 @@ def test_a_folder_without_specs_is_a_usage_error(beatlog_test: BeatlogTest, spec
 
     run = beatlog_test(specs)
 
-    assert_one_line_error(run, f"no DTC specs to run in {specs}", "(looked for *.dtc.toml)")
+    assert_error(run, f"no DTC specs to run in {specs} (looked for *.dtc.toml)")
 
 
 def test_a_selection_that_matches_nothing_is_a_usage_error(
@@ -536,7 +535,11 @@ def test_a_path_that_does_not_exist_is_one_line(beatlog_test: BeatlogTest, tmp_p
 
 
 @pytest.mark.parametrize(
-    ("jobs", "problem"), [("0", "must be positive: '0'"), ("x", "not a whole number: 'x'")]
+    ("jobs", "problem"),
+    [
+        ("0", "must be positive: '0' (see 'beatlog test --help')"),
+        ("x", "not a whole number: 'x' (see 'beatlog test --help')"),
+    ],
 )
 def test_jobs_must_be_a_positive_whole_number(
     beatlog_test: BeatlogTest, specs: Path, log: Path, jobs: str, problem: str
@@ -545,7 +548,7 @@ def test_jobs_must_be_a_positive_whole_number(
 
     run = beatlog_test(specs, "-j", jobs)
 
-    assert_one_line_error(run, "argument -j/--jobs", problem)
+    assert_error(run, f"argument -j/--jobs: {problem}")
 
 
 # --audit: the determinism audit
