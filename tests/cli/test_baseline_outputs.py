@@ -35,6 +35,7 @@ def spec(tmp_path: Path, record_probe: RecordFn, beatlog: Beatlog) -> Path:
 
 def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
     baseline = read_baseline(expected_path(spec))
+    assert baseline.expectation.outputs is not None
     assert {traced.field for traced in baseline.expectation.outputs} == {"speed", "time"}
     lines = expected_path(spec).read_text(encoding="utf-8").splitlines()
     assert lines[0] == "# beatlog expected departures from the recording, format 5"
