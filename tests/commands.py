@@ -45,6 +45,13 @@ def assert_one_line_error(run: Run, *fragments: str) -> None:
         assert fragment in run.err
 
 
+def assert_error(run: Run, message: str) -> None:
+    """The command refused its input in one line: exit 2, nothing on stdout, and
+    ``beatlog: error: MESSAGE`` on stderr."""
+    expected = (2, "", f"beatlog: error: {message}\n")
+    assert (run.code, run.out, run.err) == expected, f"{run!r} is not {expected!r}"
+
+
 def closing_counts(out: str) -> str:
     """The counts of ``beatlog test``'s closing line (``2 passed, 1 failed, 1 not run``),
     without the wall time and the cycles that follow them."""

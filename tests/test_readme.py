@@ -51,7 +51,12 @@ def test_the_readme_example_runs(capsys: pytest.CaptureFixture[str]) -> None:
     assert blocks, "README.md has no Python example"
     for block in blocks:
         exec(compile(block, str(README), "exec"), {"__name__": "readme"})
-    assert "cycles replayed at" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert re.fullmatch(
+        r"imported 200 messages on 1 topic into 67 cycles \(2\.01 s\) to \S+/corridor\.beatlog\n"
+        r"200 cycles replayed at [\d,]+× real time\n",
+        out,
+    ), out
 
 
 def test_the_readme_specs_are_valid_specs(tmp_path: Path) -> None:

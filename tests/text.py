@@ -4,8 +4,9 @@ among its lines, so a fragment of another line ("complete" in "incomplete") cann
 from __future__ import annotations
 
 import re
+import xml.etree.ElementTree as ET
 
-__all__ = ["frames", "table_row", "whole_lines"]
+__all__ = ["frames", "suite_names", "svg_texts", "table_row", "whole_lines"]
 
 
 BORDERS = " \t│╭╮╰╯─"
@@ -27,6 +28,22 @@ def table_row(text: str, first: str) -> list[str]:
     return []
 
 
+def suite_names(text: str) -> list[str]:
+    """The DTCs listed, in order, in the table that ``beatlog test`` prints under "DTC suite"
+    (empty where it printed none)."""
+    lines = whole_lines(text)
+    if "DTC suite" not in lines:
+        return []
+    names = []
+    for line in lines[lines.index("DTC suite") + 1 :]:
+        if line.startswith("└"):
+            break
+        first = line.split("│")[0].strip()
+        if "│" in line and first:
+            names.append(first)
+    return names
+
+
 _FRAME = re.compile(r'\s*File "(?P<file>[^"]+)", line \d+, in (?P<function>\S+)')
 
 
@@ -38,3 +55,8 @@ def frames(traceback: str) -> list[tuple[str, str]]:
         for found in map(_FRAME.fullmatch, traceback.splitlines())
         if found is not None
     ]
+
+
+def svg_texts(svg: str) -> list[str]:
+    """The texts an SVG chart draws, in order, as a reader sees them (entities decoded)."""
+    return [text.text or "" for text in ET.fromstring(svg).iter("{http://www.w3.org/2000/svg}text")]

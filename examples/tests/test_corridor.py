@@ -22,7 +22,11 @@ def test_the_bag_imports_into_a_session_the_system_brakes_in(tmp_path: Path) -> 
     )
     result = beatlog.replay(imported.log, system(), perception=perception())
 
-    assert result.ok
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 67, "state_changes": 2, "outputs": 17, "draws": 0, "samples": 200},
+    )
     assert imported.topics == ("/sonar",)
     assert imported.samples == 200
 

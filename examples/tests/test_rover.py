@@ -37,7 +37,11 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_a_lockstep_session_replays_and_passes(session: Path) -> None:
     result = replay(session, system())
-    assert result.ok
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 3999, "state_changes": 340, "outputs": 7998, "draws": 148, "samples": 0},
+    )
     assert result.cycles > 3900
     assert result.robot_time_s == pytest.approx(120.0, abs=0.1)
 

@@ -38,7 +38,11 @@ def test_a_session_recorded_from_the_thermostat_s_own_loop_replays_and_passes(
 ) -> None:
     result = replay(session, system())
 
-    assert result.ok, result.divergence
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 720, "state_changes": 23, "outputs": 720, "draws": 2, "samples": 0},
+    )
     assert result.cycles == 720
     summary = summarize(session)
     assert summary.heartbeat_mean_ms == 10_000.0  # each beat measured on the room's clock
@@ -93,7 +97,11 @@ def test_python_m_records_the_thermostat(tmp_path: Path) -> None:
     main(["-o", str(log), "--hours", "0.5", "--seed", "1"])
 
     result = replay(log, system())
-    assert result.ok, result.divergence
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 180, "state_changes": 7, "outputs": 180, "draws": 1, "samples": 0},
+    )
     assert result.cycles == 180
     with SessionLogReader(log) as reader:
         assert reader.header.system == "beatlog_examples.thermostat:system"

@@ -12,7 +12,7 @@ import pytest
 from beatlog.analysis.summary import summarize
 from beatlog.log.crafting import session_header
 from beatlog.log.format import SessionEnd
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe, RecordFn, distances
 from tests.factories import with_damaged_index
@@ -39,7 +39,7 @@ def test_a_probe_log_is_summarized_in_figures(record_probe: RecordFn) -> None:
     summary = summarize(log)
 
     assert summary.path == log
-    assert summary.status.complete
+    assert summary.status == LogStatus(complete=True, cycles=300)
     assert summary.end is not None
     assert summary.end.cycles == 300
     assert summary.cycles == 300
@@ -122,7 +122,7 @@ def test_a_log_without_cycles_has_zero_figures(tmp_path: Path) -> None:
 
     summary = summarize(log)
 
-    assert summary.status.complete
+    assert summary.status == LogStatus(complete=True, cycles=0)
     assert summary.cycles == summary.robot_time_ns == summary.late_beats == 0
     assert summary.heartbeat_mean_ms == summary.heartbeat_max_ms == 0.0
     assert summary.transitions == {"near": 0, "dice": 0}

@@ -71,9 +71,11 @@ def test_a_passing_replay_gives_the_same_lanes_recorded_and_replayed(
 
     times = cycle_times(300)
     assert (timeline.cycles, timeline.start_ns, timeline.end_ns) == (300, 0, times[-1])
-    assert timeline.replayed
-    assert timeline.replayed_until_ns == times[-1]
-    assert timeline.divergence is None
+    assert (timeline.replayed, timeline.replayed_until_ns, timeline.divergence) == (
+        True,
+        times[-1],
+        None,
+    )
     assert [lane.behavior for lane in timeline.lanes] == ["arbiter", "near", "dice"]
     for found in timeline.lanes:
         assert found.expected == found.actual
@@ -111,8 +113,7 @@ def test_without_a_system_only_the_recording_is_read(record_probe: RecordFn) -> 
     recorded = build_timeline(log)
     replayed = build_timeline(log, "tests.conftest:probe_system")
 
-    assert not recorded.replayed
-    assert recorded.divergence is None
+    assert (recorded.replayed, recorded.divergence) == (False, None)
     assert all(found.actual == () for found in recorded.lanes)
     assert [found.expected for found in recorded.lanes] == [
         found.expected for found in replayed.lanes

@@ -35,7 +35,7 @@ def spec(tmp_path: Path, record_probe: RecordFn, beatlog: Beatlog) -> Path:
 
 def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
     baseline = read_baseline(expected_path(spec))
-    assert baseline.expectation.outputs
+    assert baseline.expectation.outputs is not None
     assert {traced.field for traced in baseline.expectation.outputs} == {"speed", "time"}
     lines = expected_path(spec).read_text(encoding="utf-8").splitlines()
     assert lines[0] == "# beatlog expected departures from the recording, format 5"
@@ -47,7 +47,13 @@ def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
         '      21     0.660  output "speed" = 0.0',
         '      21     0.660  output "time" absent',
     ]
-    assert '      80     2.430  output "speed" as recorded' in lines
+    assert lines[9:14] == [
+        "      26     0.810  no state changes",
+        '      75     2.280  "dice": "odd" -> "even"',
+        '      80     2.430  "arbiter": "near" -> "dice"',
+        '      80     2.430  "near": "near" -> "far"',
+        '      80     2.430  output "speed" as recorded',
+    ]
 
 
 def test_a_changed_motor_gain_fails_against_the_approved_baseline(
@@ -75,8 +81,17 @@ def test_review_shows_the_output_changes_of_the_changed_cycles(
 
     assert run.code == 0
     lines = run.out.splitlines()
-    assert f"--- approved ({expected_path(spec).name})" in lines
-    assert f'+{GAIN_CYCLE:>8}     0.360  output "speed" = 0.55' in lines
+    approved = expected_path(spec).name
+    assert lines[1:9] == [
+        f"178 state and output changes approved ({approved}) → 184 pending",
+        f"open loop since cycle {GAIN_CYCLE} (0.360 s)",
+        f"--- approved ({approved})",
+        "+++ pending",
+        "@@ -15,2 +15,3 @@",
+        '       10     0.330  output "time" = 0.33001',
+        f'+{GAIN_CYCLE:>8}     0.360  output "speed" = 0.55',
+        f'{GAIN_CYCLE:>9}     0.360  output "time" = 0.360012',
+    ]
     changed = [line for line in lines if line[:1] in "+-" and line[:3] not in ("+++", "---")]
     assert all('output "speed"' in line for line in changed)  # only the gain changed
     assert len(lines) < 80  # changed cycles with a line of context, not the whole file

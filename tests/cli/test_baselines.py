@@ -13,7 +13,7 @@ from rich.console import Console
 
 from beatlog.cli.baselines import review
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
-from tests.commands import Beatlog, assert_one_line_error, at_a_terminal
+from tests.commands import Beatlog, assert_error, at_a_terminal
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 from tests.text import whole_lines
@@ -81,7 +81,7 @@ def test_nothing_is_written_when_ci_is_set(
     monkeypatch.delenv("CI")
     beatlog("test", "--update", spec)
     monkeypatch.setenv("CI", "1")
-    assert_one_line_error(beatlog("approve", spec), "CI is set")
+    assert_error(beatlog("approve", spec), "CI is set: beatlog never writes baselines in CI")
     assert pending_path(spec).exists()
     assert not expected_path(spec).exists()
 
@@ -100,7 +100,10 @@ def test_a_stale_pending_file_goes_when_the_dtc_passes(
 
 
 def test_approve_without_anything_pending_is_a_usage_error(beatlog: Beatlog, spec: Path) -> None:
-    assert_one_line_error(beatlog("approve", spec), str(spec), "nothing pending to approve")
+    assert_error(
+        beatlog("approve", spec),
+        f"{spec}: nothing pending to approve (run 'beatlog test --update' first)",
+    )
 
 
 def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
@@ -116,8 +119,12 @@ def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
         run.out
     )
     lines = run.out.splitlines()
-    assert "--- recorded (probe.beatlog)" in lines
-    assert "+++ pending" in lines
+    assert lines[2:6] == [
+        f"open loop since cycle {FIRST_CHANGED_CYCLE} (0.660 s)",
+        "--- recorded (probe.beatlog)",
+        "+++ pending",
+        "@@ -26,11 +26,6 @@",
+    ]
     assert any(line.startswith(f"+{FIRST_CHANGED_CYCLE:>8}") for line in lines)
     assert f"left pending: accept with beatlog approve {spec}" in whole_lines(run.out)
     assert pending_path(spec).exists()

@@ -58,20 +58,33 @@ def many_behaviors(path: Path) -> Path:
 
 
 HOSTILE: dict[str, tuple[Callable[[Path], Path], str]] = {
-    "dropped-chunk": (dropped_chunk, "a chunk missing, repeated or moved"),
-    "foreign-topic": (foreign_cycles_topic, "a foreign channel '/beatlog/cycles2'"),
-    "end-count": (end_count_mismatch, "the end record counts 999 cycles"),
-    "deep-nesting": (deep_robot_id, "damaged session header"),
-    "huge-robot-id": (huge_robot_id, "damaged"),
-    "many-behaviors": (many_behaviors, "damaged session header"),
+    "dropped-chunk": (
+        dropped_chunk,
+        "cycles out of order: a batch starts at cycle 20 where cycle 10 is next "
+        "(a chunk missing, repeated or moved)",
+    ),
+    "foreign-topic": (
+        foreign_cycles_topic,
+        "a foreign channel '/beatlog/cycles2' in a session log",
+    ),
+    "end-count": (
+        end_count_mismatch,
+        "the end record counts 999 cycles and 29970000000 ns of robot time, "
+        "but the log holds 20 cycles and 600000000 ns",
+    ),
+    "deep-nesting": (
+        deep_robot_id,
+        "damaged session header: maximum recursion depth exceeded while deserializing an object",
+    ),
+    "huge-robot-id": (
+        huge_robot_id,
+        "damaged record at byte 52: a chunk claims 50000601 bytes uncompressed",
+    ),
+    "many-behaviors": (
+        many_behaviors,
+        "damaged session header: 3089164 bytes, more than the 1048576 a header may hold",
+    ),
 }
-
-
-def assert_one_line(err: str, log: Path, fragment: str) -> None:
-    assert err.count("\n") == 1, err
-    assert "Traceback" not in err
-    assert f"{log}: " in err
-    assert fragment in err
 
 
 @pytest.mark.parametrize("name", HOSTILE)
@@ -79,26 +92,25 @@ def assert_one_line(err: str, log: Path, fragment: str) -> None:
 def test_show_and_replay_refuse_a_hostile_log_in_one_line(
     tmp_path: Path, beatlog: Beatlog, name: str, command: str
 ) -> None:
-    build, fragment = HOSTILE[name]
+    build, problem = HOSTILE[name]
     log = build(tmp_path / f"{name}.beatlog")
     extra = ["--system", GAUGE, "--allow-truncated"] if command == "replay" else []
     code, out, err = beatlog(command, log, *extra)
     assert code == 2
     assert out == ""
-    assert_one_line(err, log, fragment)
+    assert err == f"beatlog: error: {log}: {problem}\n"
 
 
 @pytest.mark.parametrize("name", HOSTILE)
 def test_beatlog_test_reports_a_hostile_log_as_an_error(
     tmp_path: Path, beatlog: Beatlog, name: str
 ) -> None:
-    build, fragment = HOSTILE[name]
+    build, problem = HOSTILE[name]
     log = build(tmp_path / f"{name}.beatlog")
-    write_spec(tmp_path, "hostile", log, GAUGE)
+    spec = write_spec(tmp_path, "hostile", log, GAUGE)
     code, _out, err = beatlog("test", tmp_path)
     assert code == 2
-    assert "Traceback" not in err
-    assert fragment in err
+    assert err == f"beatlog: error: hostile ({spec}): {log}: {problem}\n"
 
 
 def test_a_spec_whose_log_is_a_fifo_is_an_error_not_a_hang(tmp_path: Path) -> None:

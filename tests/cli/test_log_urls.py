@@ -16,6 +16,7 @@ from beatlog.remote import MAX_BYTES_VARIABLE, TIMEOUT_VARIABLE
 from tests.commands import (
     Beatlog,
     Run,
+    assert_error,
     assert_one_line_error,
     beatlog_process,
     plain,
@@ -50,7 +51,7 @@ def test_a_diverging_replay_of_a_url_reproduces_with_the_url(
 
     assert run.code == 1, run.err
     assert run.out.startswith(f"FAIL {url}  ")
-    assert f"reproduce: beatlog replay {url} --system {CHANGED}\n" in run.out
+    assert run.out.splitlines()[-1] == f"reproduce: beatlog replay {url} --system {CHANGED}"
     assert "beatlog-remote-" not in run.out
     assert served.downloads("dock.beatlog") == 1
 
@@ -145,7 +146,7 @@ def test_a_log_url_not_found_is_one_line_naming_it(
 
     run = beatlog(command, url)
 
-    assert_one_line_error(run, f"{url}: no such log")
+    assert_error(run, f"{url}: no such log")
 
 
 @pytest.mark.parametrize(

@@ -15,7 +15,7 @@ from mcap.writer import Writer
 
 from beatlog.log.crafting import session_header
 from beatlog.log.writer import SessionLogWriter
-from tests.commands import Beatlog, assert_one_line_error
+from tests.commands import Beatlog, assert_error, assert_one_line_error
 from tests.conftest import RecordFn, broken_probe
 from tests.specs import PROBE
 from tests.text import frames
@@ -67,10 +67,12 @@ def directory(tmp_path: Path) -> Path:
 BAD_LOGS = [
     pytest.param(missing, "no such file", id="missing"),
     pytest.param(empty, "empty file", id="empty"),
-    pytest.param(garbage, "not a session log", id="garbage"),
-    pytest.param(foreign, "profile 'ros2'", id="foreign-mcap"),
+    pytest.param(garbage, "not a session log (not an MCAP file)", id="garbage"),
+    pytest.param(
+        foreign, "an MCAP file with profile 'ros2', not a beatlog session log", id="foreign-mcap"
+    ),
     pytest.param(cut_before_header, "cut off before its session header", id="cut-before-header"),
-    pytest.param(directory, "is a directory", id="directory"),
+    pytest.param(directory, "is a directory, not a session log", id="directory"),
 ]
 
 
@@ -87,7 +89,7 @@ def test_a_bad_log_is_one_line_naming_the_file(
 
     run = beatlog(command[0], log, *command[1:])
 
-    assert_one_line_error(run, f"{log}: ", problem)
+    assert_error(run, f"{log}: {problem}")
 
 
 @pytest.mark.parametrize(
@@ -129,13 +131,33 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
 @pytest.mark.parametrize(
     ("args", "problem"),
     [
-        (["replay", "x.beatlog", "--system", PROBE, "--frobnicate"], "--frobnicate"),
-        (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "soon"], "'soon'"),
-        (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "-1"], "'-1'"),
-        (["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "0"], "'0'"),
-        (["record", "--robot", "r:robot", "--duration", "1"], "-o/--output"),
-        (["play", "x.beatlog"], "'play'"),
-        ([], "command"),
+        (
+            ["replay", "x.beatlog", "--system", PROBE, "--frobnicate"],
+            "unrecognized arguments: --frobnicate (see 'beatlog --help')",
+        ),
+        (
+            ["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "soon"],
+            "argument --duration: not a number: 'soon' (see 'beatlog record --help')",
+        ),
+        (
+            ["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "-1"],
+            "argument --duration: must be positive: '-1' (see 'beatlog record --help')",
+        ),
+        (
+            ["record", "--robot", "r:robot", "-o", "x.beatlog", "--duration", "0"],
+            "argument --duration: must be positive: '0' (see 'beatlog record --help')",
+        ),
+        (
+            ["record", "--robot", "r:robot", "--duration", "1"],
+            "the following arguments are required: -o/--output (see 'beatlog record --help')",
+        ),
+        (
+            ["play", "x.beatlog"],
+            "argument command: invalid choice: 'play' (choose from 'record', 'replay', 'test', "
+            "'review', 'approve', 'show', 'plot', 'export', 'import-bag', 'help', 'demo') "
+            "(see 'beatlog --help')",
+        ),
+        ([], "the following arguments are required: command (see 'beatlog --help')"),
     ],
     ids=[
         "unknown-flag",
@@ -152,7 +174,7 @@ def test_a_bad_option_is_one_line_pointing_at_help(
 ) -> None:
     run = beatlog(*args)
 
-    assert_one_line_error(run, problem, "--help')")
+    assert_error(run, problem)
 
 
 def test_a_system_in_the_working_directory_can_be_named(

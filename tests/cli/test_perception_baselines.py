@@ -157,7 +157,11 @@ def test_a_format_3_baseline_still_judges_the_field_values_it_pins(
     assert beatlog("test", approved).code == 0
     again = beatlog("test", write_spec(tmp_path, "sensors", log, perception=CHANGED_AGAIN))
     assert again.code == 1
-    assert "differs from the approved baseline in distance " in again.out
+    assert whole_lines(again.out)[2:4] == [
+        "first divergence: cycle 0, t = 0.030 s, perception",
+        "the robot state rebuilt from the samples differs from the approved baseline in distance",
+    ]
+    assert table_row(again.out, "distance = 1.1") == ["distance = 1.1", "distance = 1.2"]
 
 
 def test_a_retuned_perception_pins_a_long_log_in_a_few_bytes_a_cycle(

@@ -6,6 +6,7 @@ import pytest
 from mcap.opcode import Opcode
 
 from beatlog.log.crafting import chunks, top_level_records
+from beatlog.log.reader import LogStatus
 from tests.chunked import (
     CYCLES,
     CYCLES_PER_CHUNK,
@@ -21,7 +22,7 @@ def original(tmp_path_factory: pytest.TempPathFactory) -> Original:
     path = write_chunked_log(tmp_path_factory.mktemp("original") / "chunked.beatlog")
     data = path.read_bytes()
     cycles, status = read_all(path)
-    assert status.complete
+    assert status == LogStatus(complete=True, cycles=len(cycles))
     assert len(cycles) == CYCLES
     all_chunks = chunks(data)
     assert len(all_chunks) == 1 + CYCLES // CYCLES_PER_CHUNK + 1, "header, cycles, end"

@@ -21,7 +21,7 @@ from beatlog.log.crafting import (
     standard_messages,
 )
 from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from tests.chunked import read_all
 from tests.conftest import PERIOD_NS
 
@@ -41,7 +41,7 @@ def test_robot_states_decoded_with_their_batches_are_the_states_the_bytes_hold(
         status = reader.status
 
     states: list[Any] = [cycle.robot_state for cycle in decoded]
-    assert status.complete
+    assert status == LogStatus(complete=True, cycles=30)
     assert states == [msgspec.msgpack.decode(cycle.robot_state, type=Gauge) for cycle in raw]
     assert [cycle.heartbeat_ns for cycle in decoded] == [cycle.heartbeat_ns for cycle in raw]
     assert all(isinstance(cycle, CycleRecord) for cycle in decoded)

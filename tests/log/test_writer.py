@@ -79,7 +79,9 @@ def test_cycles_become_readable_while_the_writer_is_still_open(tmp_path: Path) -
         assert wait_for(all_25_cycles_on_disk), f"only {len(seen)} cycles readable"
         assert readings(seen) == [float(t) for t in range(25)]
         [status] = statuses
-        assert not status.complete
+        assert status == LogStatus(
+            complete=False, cycles=25, problem="the recording stopped before the log was closed"
+        )
         assert status.describe() == (
             "truncated at cycle 25: the recording stopped before the log was closed"
         )
@@ -173,7 +175,7 @@ def test_a_full_disk_stops_the_log_but_never_the_robot(tmp_path: Path) -> None:
     cycles, status = read_all(log)
     assert 10 <= len(cycles) < 100
     assert readings(cycles) == [float(t) for t in range(len(cycles))]
-    assert not status.complete
+    assert (status.complete, status.cycles) == (False, len(cycles))
     assert status.describe().startswith(f"truncated at cycle {len(cycles)}: ")
 
 

@@ -18,7 +18,7 @@ import pytest
 from beatlog import replay
 from beatlog.analysis.summary import summarize
 from beatlog.errors import LogExistsError, NumpyMissingError
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
@@ -39,7 +39,7 @@ def test_step_returns_outputs_and_the_header_describes_the_session(tmp_path: Pat
     with SessionLogReader(log) as reader:
         header = reader.header
         cycles = list(reader.cycles())
-        assert reader.status.complete
+        assert reader.status == LogStatus(complete=True, cycles=2)
         assert reader.end is not None
         assert reader.end.cycles == 2
     assert header.robot_id == "dog-7"
@@ -101,8 +101,7 @@ def test_run_loops_on_a_live_heartbeat_and_logs_samples(tmp_path: Path) -> None:
     robot = PushRobot()
     with Recorder(log, robot.system, period_ns=2_000_000, log_samples=True, software="t") as rec:
         summary = rec.run(robot, duration_s=0.03, heartbeat=LiveHeartbeat(2_000_000))
-    assert robot.started
-    assert robot.stopped
+    assert (robot.started, robot.stopped) == (True, True)
     assert summary.cycles == len(robot.acted) >= 1
     assert summary.robot_time_ns >= 30_000_000
     with SessionLogReader(log) as reader:
@@ -142,7 +141,7 @@ def test_a_full_disk_never_stops_the_control_loop_and_the_log_is_valid_up_to_it(
     assert recorder.error == "OSError: [Errno 28] No space left on device"
     with SessionLogReader(log) as reader:
         kept = len(list(reader.cycles()))
-        assert not reader.status.complete
+        assert (reader.status.complete, reader.status.cycles) == (False, kept)
     assert 0 < kept < 2_000
     assert replay(log, probe_system(), allow_truncated=True).ok
 

@@ -368,7 +368,11 @@ def test_a_field_renamed_by_the_migration_replays_as_recorded(record_probe: Reco
 
     result = replay(log, probe_system_ranged(), migration=StateMigration({"distance": "range"}))
 
-    assert result.ok
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 45, "outputs": 453, "draws": 60, "samples": 0},
+    )
     assert result.checked == replay(log, probe_system()).checked
     assert result.reproduce.endswith(" --rename-field distance=range")
 

@@ -56,7 +56,11 @@ def divergence_from_samples(
 def test_the_recorded_perception_rebuilds_every_robot_state(tmp_path: Path, by_field: bool) -> None:
     log = record_with_samples(tmp_path / "samples.beatlog", by_field=by_field)
     result = replay(log, probe_system(), perception=perception())
-    assert result.ok, result.divergence
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 41, "outputs": 453, "draws": 60, "samples": 300},
+    )
     assert result.cycles == 300
 
 
@@ -75,7 +79,11 @@ def test_a_state_rebuilt_under_fields_renamed_since_is_the_one_recorded(tmp_path
         observe=observe,
     )
 
-    assert result.ok, result.divergence
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 41, "outputs": 453, "draws": 60, "samples": 300},
+    )
     assert differs == [False] * 300
 
 
@@ -146,7 +154,11 @@ def test_a_rebuilt_state_holding_numpy_values_is_reported_as_plain_numbers(
 def test_a_log_without_samples_replays_its_recorded_states_and_says_so(tmp_path: Path) -> None:
     log = record_with_samples(tmp_path / "plain.beatlog", log_samples=False)
     result = replay(log, probe_system(), perception=changed_perception())
-    assert result.ok
+    assert (result.ok, result.divergence, result.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 41, "outputs": 453, "draws": 60, "samples": 0},
+    )
     assert result.notes == (NO_SAMPLES,)
     assert replay(log, probe_system()).notes == ()
 
@@ -158,7 +170,8 @@ def test_a_spec_whose_perception_cannot_run_passes_with_a_note(
     log = record_with_samples(tmp_path / "plain.beatlog", 40, log_samples=False)
     spec = write_spec(tmp_path, "plain", log, perception=CHANGED)
     assert main(["test", "--jobs", "1", str(spec)]) == 0
-    assert f"\nnote: plain: {NO_SAMPLES}\n" in capsys.readouterr().out
+    notes = [line for line in capsys.readouterr().out.splitlines() if line.startswith("note: ")]
+    assert notes == [f"note: plain: {NO_SAMPLES}"]
 
 
 def test_a_note_many_dtcs_share_is_one_line(
@@ -177,7 +190,7 @@ def test_a_perception_named_by_reference_is_in_the_reproduce_command(tmp_path: P
     log = record_with_samples(tmp_path / "samples.beatlog")
     reference = CHANGED
     result = replay(log, "tests.conftest:probe_system", perception=reference)
-    assert not result.ok
+    assert (result.ok, result.divergent_cycles) == (False, 1)
     assert result.reproduce == (
         f"beatlog replay {log} --system tests.conftest:probe_system --perception {reference}"
     )
@@ -264,7 +277,11 @@ def test_a_difference_within_the_robot_state_tolerance_passes(tmp_path: Path) ->
     tolerated = replay(log, probe_system(), perception=nudged_perception(), comparison=lenient)
     assert exact.divergence is not None
     assert exact.divergence.kind is DivergenceKind.PERCEPTION
-    assert tolerated.ok, tolerated.divergence
+    assert (tolerated.ok, tolerated.divergence, tolerated.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 41, "outputs": 453, "draws": 60, "samples": 300},
+    )
 
 
 def test_a_tolerance_on_another_field_excuses_nothing(tmp_path: Path) -> None:

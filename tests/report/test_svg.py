@@ -13,6 +13,7 @@ from beatlog.report.palette import PALETTE, state_key, state_styles
 from beatlog.report.svg import svg_chart, timeline_states
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
 from tests.systems import HOSTILE, TEX, hostile_system, moody_system, record_moody
+from tests.text import svg_texts
 
 
 def test_the_svg_keeps_text_as_text_and_is_the_same_every_time(record_probe: RecordFn) -> None:
@@ -25,9 +26,14 @@ def test_the_svg_keeps_text_as_text_and_is_the_same_every_time(record_probe: Rec
 
     assert svg.startswith("<svg")
     assert svg.endswith("</svg>")
-    for text in ("avoid-pole", "near: recorded", "replayed", "distance", "robot time (s)"):
-        assert f">{text}</text>" in svg
-    assert f"first divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s" in svg
+    texts = svg_texts(svg)
+    assert texts[:3] == [
+        "avoid-pole",
+        "first divergence: cycle 21, t = 0.660 s (state changes)",
+        "behavior states",
+    ]
+    for text in ("near: recorded", "replayed", "distance", "robot time (s)"):
+        assert text in texts
     assert " id=" not in svg  # charts share a page without renaming anything
     assert svg_chart(timeline, title="avoid-pole") == svg
 
@@ -35,8 +41,17 @@ def test_the_svg_keeps_text_as_text_and_is_the_same_every_time(record_probe: Rec
 def test_a_passing_replay_has_no_divergence_mark(record_probe: RecordFn) -> None:
     svg = svg_chart(build_timeline(record_probe(50), probe_system()))
 
-    assert "first divergence" not in svg
-    assert "probe.beatlog: 50 cycles" in svg
+    assert svg_texts(svg) == [
+        "probe.beatlog: 50 cycles",
+        "behavior states",
+        *("arbiter: recorded", "dice", "near", "replayed", "dice", "near"),
+        *("near: recorded", "far", "near", "replayed", "far", "near"),
+        *("dice: recorded", *["odd", "even"] * 3, "replayed", *["odd", "even"] * 3),
+        *("distance", "0.5", "1"),
+        *("reading", "-1", "-0.5", "0", "0.5", "1"),
+        *("0", "0.2", "0.4", "0.6", "0.8", "1", "1.2", "1.4", "robot time (s)"),
+        *("idle", "dice", "near", "far", "even", "odd"),
+    ]
 
 
 def test_names_and_states_are_text_never_markup(tmp_path: Path) -> None:
@@ -49,9 +64,17 @@ def test_names_and_states_are_text_never_markup(tmp_path: Path) -> None:
 
     assert "<script" not in svg
     assert "<b>" not in svg
-    assert "&lt;script&gt;alert('x')&lt;/script&gt;: recorded" in svg
-    assert "&lt;b&gt;near&lt;/b&gt;" in svg
-    assert TEX in svg  # drawn as typed
+    near = "<b>near</b>"
+    assert svg_texts(svg) == [  # names and states drawn as typed, TeX included
+        HOSTILE,
+        "behavior states",
+        *("arbiter: recorded", "idle", "replayed", "idle"),
+        *(f"{HOSTILE}: recorded", TEX, near, TEX, "replayed", TEX, near, TEX),
+        *("distance", "0", "0.5", "1"),
+        *("reading", "-1", "-0.5", "0", "0.5", "1"),
+        *("0", "0.2", "0.4", "0.6", "0.8", "1", "robot time (s)"),
+        *("idle", TEX, near),
+    ]
 
 
 def test_a_flag_reads_false_and_true_on_its_axis(tmp_path: Path) -> None:

@@ -16,6 +16,7 @@ from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
+from tests.commands import closing_counts
 from tests.conftest import RecordFn
 from tests.specs import write_spec
 from tests.text import table_row, whole_lines
@@ -39,7 +40,7 @@ def test_the_python_api_judges_against_the_approved_baseline_of_the_spec_beside(
 ) -> None:
     result = beatlog.replay(log, GREEDY)
 
-    assert result.ok
+    assert (result.ok, result.divergence, result.cycles) == (True, None, 300)
     assert result.notes[0] == (
         "judged against the approved baseline avoid-pole.dtc.expected, "
         f"as beatlog test {log.parent / 'avoid-pole.dtc.toml'} judges it"
@@ -99,7 +100,11 @@ def test_of_several_specs_naming_a_log_the_one_of_the_system_replayed_is_its_spe
 
     assert beatlog.replay(log, GREEDY).ok
     as_recorded = beatlog.replay(log, "tests.conftest:probe_system")
-    assert as_recorded.ok
+    assert (as_recorded.ok, as_recorded.divergence, as_recorded.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 45, "outputs": 453, "draws": 60, "samples": 0},
+    )
     assert as_recorded.notes == ()
 
 
@@ -127,4 +132,6 @@ def test_show_and_test_name_the_approved_baseline_and_where_it_goes_open_loop(
         "300",
         "9.0 s",
     ]
-    assert "1 passed, 0 failed, 1 open loop (worth re-recording when convenient)" in tested
+    assert closing_counts(tested) == (
+        "1 passed, 0 failed, 1 open loop (worth re-recording when convenient)"
+    )

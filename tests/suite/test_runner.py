@@ -19,6 +19,7 @@ from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
 from tests.systems import leaks, leaky_system, quiet_system, record_session
+from tests.text import svg_texts
 
 
 @pytest.fixture
@@ -41,7 +42,11 @@ def test_a_spec_replayed_against_its_own_system_passes(tmp_path: Path, log: Path
     assert outcome.spec == spec
     assert outcome.verdict is Verdict.PASSED
     assert outcome.result is not None
-    assert outcome.result.ok
+    assert (outcome.result.ok, outcome.result.divergence, outcome.result.counts) == (
+        True,
+        None,
+        {"cycles": 300, "state_changes": 45, "outputs": 453, "draws": 60, "samples": 0},
+    )
     assert outcome.result.cycles == 300
     assert outcome.error is None
     assert outcome.wall_time_s > 0
@@ -52,7 +57,7 @@ def test_a_changed_system_fails_at_the_first_divergence(tmp_path: Path, log: Pat
 
     assert outcome.verdict is Verdict.FAILED
     assert outcome.result is not None
-    assert not outcome.result.ok
+    assert (outcome.result.ok, outcome.result.divergent_cycles) == (False, 1)
     divergence = outcome.result.divergence
     assert divergence is not None
     assert divergence.cycle == FIRST_CHANGED_CYCLE
@@ -131,11 +136,19 @@ def test_timelines_for_reports_are_gathered_only_when_asked(tmp_path: Path, log:
     )
     assert run_spec(lost, SpecOptions(timelines=True)).timelines == ()
 
-    assert "avoid-pole: the whole session, 300 cycles" in whole.svg
-    assert "first divergence" not in whole.svg
-    for chart in (close_up, whole_failing):
-        assert f"first divergence: cycle {FIRST_CHANGED_CYCLE}," in chart.svg
-    assert "avoid-pole-earlier: close-up of the first divergence" in close_up.svg
+    divergence = f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s (state changes)"
+    assert svg_texts(whole.svg)[:2] == [
+        "avoid-pole: the whole session, 300 cycles, 9.0 s",
+        "behavior states",
+    ]
+    assert svg_texts(close_up.svg)[:2] == [
+        "avoid-pole-earlier: close-up of the first divergence, 0.000–3.660 s",
+        divergence,
+    ]
+    assert svg_texts(whole_failing.svg)[:2] == [
+        "avoid-pole-earlier: the whole session, 300 cycles, 9.0 s",
+        divergence,
+    ]
     assert {"far", "near"} <= set(close_up.states) <= set(whole_failing.states)
 
 
@@ -165,7 +178,7 @@ def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> No
     assert [finding.call for finding in leaky.audit.findings] == [call for call, _ in leaks()]
     assert leaky.audit_findings == len(leaks())
     assert probe.audit is not None
-    assert probe.audit.ok
+    assert (probe.audit.findings, probe.audit.hash_seed_dependence) == ((), None)
     assert lost.audit is None
 
 

@@ -73,14 +73,11 @@ def test_tags_and_allowances_are_optional(tmp_path: Path) -> None:
     assert spec.allow_empty is False
 
 
-def assert_spec_error(path: Path, *fragments: str) -> None:
+def assert_spec_error(path: Path, problem: str) -> None:
+    """Loading ``path`` must raise a SpecError of one line: the path, then ``problem``."""
     with pytest.raises(SpecError) as raised:
         load_spec(path)
-    message = str(raised.value)
-    assert message.startswith(f"{path}: ")
-    assert "\n" not in message
-    for fragment in fragments:
-        assert fragment in message, message
+    assert str(raised.value) == f"{path}: {problem}"
 
 
 def test_without_a_system_a_spec_replays_against_the_one_its_log_records(
@@ -99,7 +96,7 @@ def test_invalid_toml_is_a_spec_error_with_the_line(tmp_path: Path) -> None:
     path = tmp_path / "broken.dtc.toml"
     path.write_text('name = "unterminated\n', encoding="utf-8")
 
-    assert_spec_error(path, "not valid TOML", "line 1")
+    assert_spec_error(path, "not valid TOML: Illegal character '\\n' (at line 1, column 21)")
 
 
 @pytest.mark.parametrize("key", ["name", "purpose", "procedure", "log"])
@@ -113,7 +110,12 @@ def test_every_required_key_must_be_there(tmp_path: Path, key: str) -> None:
     ("key", "value", "where", "problem"),
     [
         ("procedure", "Drive toward the pole.", "key 'procedure'", "expected `array`, got `str`"),
-        ("procedure", ["Drive toward the pole.", 30], "key 'procedure[1]'", "expected `str`"),
+        (
+            "procedure",
+            ["Drive toward the pole.", 30],
+            "key 'procedure[1]'",
+            "expected `str`, got `int`",
+        ),
         ("tags", "obstacles", "key 'tags'", "expected `array`, got `str`"),
         ("allow_truncated", "yes", "key 'allow_truncated'", "expected `bool`, got `str`"),
         ("allow_empty", 1, "key 'allow_empty'", "expected `bool`, got `int`"),
@@ -131,13 +133,13 @@ def test_a_wrong_type_names_the_key(
 ) -> None:
     path = write_spec(tmp_path, "typo", "probe.beatlog", **{key: value})
 
-    assert_spec_error(path, where, problem)
+    assert_spec_error(path, f"{where}: {problem}")
 
 
 def test_an_unknown_key_is_rejected_so_typos_do_not_pass_silently(tmp_path: Path) -> None:
     path = write_spec(tmp_path, "typo", "probe.beatlog", allow_truncate=True)
 
-    assert_spec_error(path, "unknown key 'allow_truncate'")
+    assert_spec_error(path, "unknown key 'allow_truncate' (did you mean 'allow_truncated'?)")
 
 
 @pytest.mark.parametrize(
@@ -169,13 +171,13 @@ def test_every_unknown_and_missing_key_is_named_at_once(tmp_path: Path) -> None:
 def test_an_empty_name_is_rejected(tmp_path: Path) -> None:
     path = write_spec(tmp_path, "blank", "probe.beatlog", name="  ")
 
-    assert_spec_error(path, "key 'name'", "must not be empty")
+    assert_spec_error(path, "key 'name': must not be empty")
 
 
 def test_a_system_without_a_colon_is_rejected(tmp_path: Path) -> None:
     path = write_spec(tmp_path, "no-factory", "probe.beatlog", system="tests.conftest")
 
-    assert_spec_error(path, "key 'system'", "expected module:factory", "'tests.conftest'")
+    assert_spec_error(path, "key 'system': expected module:factory, got 'tests.conftest'")
 
 
 def test_comparison_allowances_load_into_the_spec(tmp_path: Path) -> None:
@@ -204,26 +206,27 @@ def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    ("extra", "fragments"),
+    ("extra", "problem"),
     [
-        ({"tolerance": {"speed": -1.0}}, ("key 'tolerance.speed'", "finite number >= 0")),
-        ({"tolerance": {"speed": "tiny"}}, ("key 'tolerance.*'", "expected `float`")),
+        ({"tolerance": {"speed": -1.0}},
+         "key 'tolerance.speed': expected a finite number >= 0, got -1.0"),
+        ({"tolerance": {"speed": "tiny"}}, "key 'tolerance.*': expected `float`, got `str`"),
         ({"robot_state_tolerance": {"distance": -1e-3}},
-         ("key 'robot_state_tolerance.distance'", "finite number >= 0")),
+         "key 'robot_state_tolerance.distance': expected a finite number >= 0, got -0.001"),
         ({"robot_state_tolerance": {"distance": float("nan")}},
-         ("key 'robot_state_tolerance.distance'", "finite number >= 0, got nan")),
+         "key 'robot_state_tolerance.distance': expected a finite number >= 0, got nan"),
         ({"robot_state_tolerance": {"distance": float("inf")}},
-         ("key 'robot_state_tolerance.distance'", "finite number >= 0, got inf")),
+         "key 'robot_state_tolerance.distance': expected a finite number >= 0, got inf"),
         ({"robot_state_tolerance": {"distance": "tiny"}},
-         ("key 'robot_state_tolerance.*'", "expected `float`")),
-        ({"renames": {"a": "c", "b": "c"}}, ("key 'renames'", "'a' and 'b' are both renamed")),
-        ({"renames": {"a": 1}}, ("key 'renames.*'", "expected `str`")),
-        ({"ignore_behaviors": "dice"}, ("key 'ignore_behaviors'", "expected `array`")),
+         "key 'robot_state_tolerance.*': expected `float`, got `str`"),
+        ({"renames": {"a": "c", "b": "c"}}, "key 'renames': 'a' and 'b' are both renamed to 'c'"),
+        ({"renames": {"a": 1}}, "key 'renames.*': expected `str`, got `int`"),
+        ({"ignore_behaviors": "dice"}, "key 'ignore_behaviors': expected `array`, got `str`"),
         ({"field_renames": {"a": "c", "b": "c"}},
-         ("key 'field_renames'", "'a' and 'b' are both renamed to 'c'")),
-        ({"field_renames": {"pose": {"x": 1}}}, ("key 'field_renames.*'", "expected `str`")),
+         "key 'field_renames': 'a' and 'b' are both renamed to 'c'"),
+        ({"field_renames": {"pose": {"x": 1}}}, "key 'field_renames.*': expected `str`, got `int`"),
         ({"field_conversions": {"battery": "percent"}},
-         ("key 'field_conversions.battery': expected module:function, got 'percent'",)),
+         "key 'field_conversions.battery': expected module:function, got 'percent'"),
     ],
     ids=["negative-tolerance", "tolerance-not-number", "negative-state-tolerance",
          "nan-state-tolerance", "infinite-state-tolerance", "state-tolerance-not-number",
@@ -232,9 +235,9 @@ def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
          "field-rename-not-string", "conversion-not-a-reference"],
 )  # fmt: skip
 def test_bad_allowances_name_the_key(
-    tmp_path: Path, extra: dict[str, object], fragments: tuple[str, ...]
+    tmp_path: Path, extra: dict[str, object], problem: str
 ) -> None:
-    assert_spec_error(write_spec(tmp_path, "bad", "probe.beatlog", **extra), *fragments)
+    assert_spec_error(write_spec(tmp_path, "bad", "probe.beatlog", **extra), problem)
 
 
 def test_project_renames_come_from_pyproject_and_the_spec_adds_to_them(tmp_path: Path) -> None:

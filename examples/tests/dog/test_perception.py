@@ -40,11 +40,8 @@ def test_a_touch_anywhere_between_heartbeats_counts() -> None:
         None,
         [sample("touch", (0.0, 0.0, 3.0, 0.0)), sample("touch", (0.0, 0.0, 0.0, 0.0))],
     )
-    assert state.touch_chin
-    assert not state.touch_head
-    assert not state.touch_back
-    assert not state.bumped
-    assert not perceive(state, []).touch_chin
+    assert state == DogState(touch_chin=True)
+    assert perceive(state, []) == DogState()
 
 
 def test_tilt_comes_from_the_accelerometer_and_heading_from_the_gyro() -> None:

@@ -32,5 +32,9 @@ def test_an_unknown_case_is_a_usage_error(
     with pytest.raises(SystemExit) as exit_info:
         main([str(tmp_path), "--only", "fetch"])
     assert exit_info.value.code == 2
-    assert "no scenario named 'fetch'" in capsys.readouterr().err
+    names = ", ".join(sorted(case.name for case in SUITE))
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "python -m beatlog_examples.dog.record_suite: error: "
+        f"no scenario named 'fetch'; choose from {names}"
+    )
     assert not list(tmp_path.iterdir())

@@ -6,6 +6,7 @@ import pytest
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
+from beatlog.log.reader import LogStatus
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import Verdict
@@ -23,7 +24,7 @@ def test_the_suite_has_a_spec_and_a_log_for_every_scenario_within_20_mb() -> Non
     for spec in SPECS:
         summary = summarize(spec.log)
         assert 30.0 <= summary.robot_time_ns / 1e9 <= 180.5, spec.name
-        assert summary.status.complete, spec.name
+        assert summary.status == LogStatus(complete=True, cycles=summary.cycles), spec.name
 
 
 def test_every_dtc_passes_against_the_current_behaviors() -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog_examples.dog import SUITE_DIR
 from tests.commands import Beatlog
 from tests.text import whole_lines
@@ -23,7 +23,13 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
 
     log = tmp_path / "demo" / "dog.beatlog"
     assert run.code == 0, run.out
-    assert f"PASS {log}" in run.out
+    passes = [line for line in whole_lines(run.out) if line.startswith("PASS ")]
+    assert len(passes) == 1, passes
+    assert re.fullmatch(
+        rf"PASS {re.escape(str(log))}  \d+ cycles, \d+ state changes?, \d+ outputs, "
+        r"\d+ draws? checked; 0\.5 s robot time in [^;]+; log complete",
+        passes[0],
+    ), passes[0]
     assert f"22 DTCs recorded on the dog, replayed on all cores ({SUITE_DIR})." in whole_lines(
         run.out
     )
@@ -33,7 +39,7 @@ def test_the_demo_records_and_replays_the_dog_then_its_suite(
     with SessionLogReader(log) as reader:
         cycles = sum(1 for _ in reader.cycles())
         assert reader.header.system == "beatlog_examples.dog:system"
-        assert reader.status.complete
+        assert reader.status == LogStatus(complete=True, cycles=cycles)
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
         assert reader.end.robot_time_ns >= 500_000_000

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from beatlog.cli.main import main
-from tests.commands import Beatlog, assert_one_line_error
+from tests.commands import Beatlog, assert_error
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -28,4 +28,9 @@ def test_help_prints_the_page_help_does(
 def test_help_of_an_unknown_command_is_one_line(beatlog: Beatlog) -> None:
     run = beatlog("help", "nope")
 
-    assert_one_line_error(run, "argument COMMAND: invalid choice: 'nope'")
+    assert_error(
+        run,
+        "argument COMMAND: invalid choice: 'nope' (choose from 'approve', 'demo', 'export', "
+        "'help', 'import-bag', 'plot', 'record', 'replay', 'review', 'show', 'test') "
+        "(see 'beatlog help --help')",
+    )

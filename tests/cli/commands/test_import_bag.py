@@ -13,7 +13,7 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin
 
 from tests.bags import edit_metadata, name_other_qos, storage_file, write_bag
-from tests.commands import ROOT, Beatlog, Run, assert_one_line_error, closing_counts
+from tests.commands import ROOT, Beatlog, Run, assert_error, assert_one_line_error, closing_counts
 from tests.specs import CHANGED, PROBE
 from tests.text import whole_lines
 
@@ -109,7 +109,7 @@ def test_bad_input_is_one_line_and_exit_code_2(
 def test_a_missing_bag_is_named(beatlog: Beatlog, tmp_path: Path) -> None:
     run = import_bag(beatlog, tmp_path / "nowhere", "--perception", PERCEPTION)
 
-    assert_one_line_error(run, f"{tmp_path / 'nowhere'}: no such bag")
+    assert_error(run, f"{tmp_path / 'nowhere'}: no such bag")
 
 
 def test_verbose_shows_the_traceback_of_the_perception_step_that_failed(

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.log.reader import SessionLogReader
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import system
-from tests.commands import ROOT, Beatlog, assert_one_line_error
+from tests.commands import ROOT, Beatlog, assert_error, assert_one_line_error
 from tests.conftest import RecordFn
 from tests.factories import fill_the_disk
 from tests.specs import PROBE
@@ -83,7 +83,7 @@ def test_a_disk_that_fills_up_while_recording_gives_the_summary_and_exit_1(
     assert found is not None, summary
     with SessionLogReader(out) as reader:
         kept = len(list(reader.cycles()))
-        assert not reader.status.complete
+        assert (reader.status.complete, reader.status.cycles) == (False, kept)
     assert 0 < kept == int(found.group(2)) < int(found.group(1))
 
 
@@ -134,7 +134,7 @@ def test_record_refuses_to_overwrite_a_log(beatlog: Beatlog, record_probe: Recor
 
     run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", log, "--duration", 1)
 
-    assert_one_line_error(run, f"{log}: already exists", "--force")
+    assert_error(run, f"{log}: already exists; recordings are immutable (use --force)")
     assert log.read_bytes() == before
 
 
@@ -143,7 +143,7 @@ def test_record_into_a_missing_directory_is_one_line(beatlog: Beatlog, tmp_path:
 
     run = beatlog("record", "--robot", "beatlog_examples.rover:robot", "-o", out, "--duration", 1)
 
-    assert_one_line_error(run, f"{out}: directory {out.parent} does not exist")
+    assert_error(run, f"{out}: directory {out.parent} does not exist")
 
 
 def test_record_checks_the_system_reference_before_recording(
@@ -172,7 +172,11 @@ def test_record_needs_a_robot_not_a_system(beatlog: Beatlog, tmp_path: Path) -> 
 
     run = beatlog("record", "--robot", PROBE, "-o", out, "--duration", 1)
 
-    assert_one_line_error(run, f"'{PROBE}': built a PriorityArbiter, not a robot")
+    assert_error(
+        run,
+        f"'{PROBE}': built a PriorityArbiter, not a robot "
+        "(it needs system, inbox, start, stop, perceive and act)",
+    )
     assert not out.exists()
 
 
@@ -199,7 +203,7 @@ def test_record_writes_a_complete_log_that_replays(beatlog: Beatlog, tmp_path: P
     assert recorded.code == 0, recorded.err
     with SessionLogReader(out) as reader:
         cycles = sum(1 for _ in reader.cycles())
-        assert reader.status.complete
+        assert reader.status == LogStatus(complete=True, cycles=cycles)
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
         assert reader.end.robot_time_ns >= 500_000_000

@@ -12,7 +12,7 @@ import fsspec
 import pytest
 
 from beatlog.suite.baseline import expected_path
-from tests.commands import Beatlog, assert_one_line_error, closing_counts
+from tests.commands import Beatlog, assert_error, assert_one_line_error, closing_counts
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 from tests.text import table_row, whole_lines
@@ -139,7 +139,7 @@ def test_a_pattern_that_matches_nothing_is_named(beatlog: Beatlog, logs: Path) -
 
     run = beatlog("test", "--logs", pattern, "--system", PROBE)
 
-    assert_one_line_error(run, f"--logs {pattern}: no log matches")
+    assert_error(run, f"--logs {pattern}: no log matches")
 
 
 @pytest.mark.parametrize(
