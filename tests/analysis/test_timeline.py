@@ -334,7 +334,8 @@ def collect(log: Path, cycles: int, buckets: int) -> TimelineCollector:
         replayer = Replayer(system, reader.header, reader.path)
         collector = TimelineCollector(reader, system, buckets=buckets)
         for record in itertools.islice(reader.cycles(), cycles):
-            collector.add(record, replayer.step(record))
+            replayer.advance(record)
+            collector.add(record, replayer.outcome())
     return collector
 
 

@@ -6,20 +6,22 @@ from __future__ import annotations
 import inspect
 import sys
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from beatlog.errors import NumpyMissingError, SchemaMismatchError
-from beatlog.log.format import CycleRecord
+from beatlog.log.format import CycleRecord, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.record.recorder import Recorder
-from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.core import AGREED, CycleOutcome, Expected, Replayer
 from beatlog.replay.judge import replay
 from beatlog.replay.migration import StateMigration
+from beatlog.replay.session import ReplaySession
 from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, probe_system
 from tests.systems import (
     Fragile,
@@ -71,21 +73,58 @@ def seen(outcome: CycleOutcome) -> tuple[Any, ...]:
     )
 
 
+@dataclass
+class Keeping:
+    """An observer that keeps what every outcome of the whole log held in its cycle."""
+
+    kept: list[tuple[Any, ...]] = field(default_factory=list)
+    replaying: bool = True
+    reading: bool = True
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        assert outcome is not None
+        self.kept.append(seen(outcome))
+
+
 @pytest.mark.parametrize("name", SYSTEMS)
-def test_advancing_then_asking_for_the_outcome_is_stepping(
+def test_observers_see_the_outcomes_the_core_gives_and_advance_answers_the_clean_ones(
     record_probe: RecordFn, name: str
 ) -> None:
     log = record_probe(120)
-    stepper, records = replayer(log, SYSTEMS[name]())
-    advancer, _ = replayer(log, SYSTEMS[name]())
+    core, records = replayer(log, SYSTEMS[name]())
+    answers, outcomes = [], []
     for record in records:
-        stepped = stepper.step(record)
-        changes = advancer.advance(record)
-        outcome = advancer.outcome()
-        assert seen(outcome) == seen(stepped)
-        assert (changes is not None) == outcome.completed
-        if changes is not None:
-            assert changes == outcome.changes
+        answers.append(core.advance(record))
+        outcomes.append(seen(core.outcome()))  # an outcome holds in its cycle
+    keeping = Keeping()
+
+    with ReplaySession(log, SYSTEMS[name]()) as session:
+        session.run([keeping])
+
+    assert keeping.kept == outcomes
+    completed = [outcome[-1] for outcome in outcomes]
+    assert [changes is not None for changes in answers] == completed
+    clean = [outcome[4] for outcome in outcomes if outcome[-1]]
+    assert [changes for changes in answers if changes is not None] == clean
+
+
+@pytest.mark.parametrize("name", SYSTEMS)
+def test_a_cycle_agrees_at_once_exactly_where_its_bytes_are_the_ones_expected(
+    record_probe: RecordFn, name: str
+) -> None:
+    core, records = replayer(record_probe(120), SYSTEMS[name]())
+    core.expect(Expected(None, payload_encoder(), frozenset({30})))
+    answers = []
+    for record in records:
+        changes = core.advance(record)
+        outcome = core.outcome()
+        clean = changes is not None and outcome.completed
+        agrees = clean and outcome.changes is not None and core.agrees(record, outcome.changes)
+        answers.append((changes is AGREED, agrees and outcome.cycle != 30))
+
+    assert [at_once for at_once, _ in answers] == [expected for _, expected in answers]
+    judged = [cycle for cycle, (at_once, _) in enumerate(answers) if not at_once]
+    assert judged == [30] if name == "same" else len(judged) > 1  # cycle 30 judged whole
 
 
 def test_a_cycle_that_raised_advances_to_none_with_the_failure_in_its_outcome(
@@ -122,7 +161,7 @@ def test_the_behaviors_see_a_retyped_field_converted(record_probe: RecordFn) -> 
     migration = StateMigration(conversions={"distance": "tests.systems:centimetres"})
     with SessionLogReader(log) as reader:
         core = Replayer(probe_system_centimetred(), reader.header, log, migration=migration)
-        states = [core.step(record).state for record in reader.cycles()]
+        states = [(core.advance(record), core.outcome())[1].state for record in reader.cycles()]
 
     assert [state.distance for state in states[:3]] == [100, 98, 96]
     assert {type(state).__name__ for state in states} == {"Centimetred"}
@@ -205,7 +244,7 @@ def test_a_fresh_array_draw_in_living_replay_without_numpy_names_the_log_and_the
     monkeypatch.setitem(sys.modules, "numpy", None)
 
     with pytest.raises(NumpyMissingError) as raised:
-        living.step(first)
+        living.advance(first)
 
     assert str(raised.value) == (
         f"{log}: array draws (uniform_array, normal_array, integers_array) need numpy: "

@@ -9,6 +9,7 @@ import pytest
 from beatlog.errors import SchemaMismatchError
 from beatlog.log.format import CycleRecord
 from beatlog.replay.core import CycleOutcome
+from beatlog.replay.judge import replay
 from beatlog.replay.session import FieldsRead, ReplaySession, fields_read
 from tests.conftest import RecordFn, probe_system
 from tests.systems import moody_system
@@ -96,3 +97,29 @@ def test_no_fields_are_read_past_a_cycle_that_did_not_complete(
         session.run([], fields_read=reads)
 
     assert reads.fields == ()
+
+
+def test_the_verdict_and_its_observers_share_one_replay(record_probe: RecordFn) -> None:
+    log = record_probe(100)
+    counting = Counting(replayed=100, read=100)
+
+    result = replay(log, probe_system(), observers=[lambda reader: counting])
+
+    assert result.ok
+    assert (counting.outcomes, counting.records) == (list(range(100)), 100)
+
+
+def test_an_observer_past_its_replay_gets_the_cycles_the_verdict_follows_then_the_recording(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(100)
+    counting = Counting(replayed=0, read=100)
+
+    result = replay(
+        log, probe_system(threshold=0.6), context_cycles=3, observers=[lambda reader: counting]
+    )
+
+    assert result.divergence is not None
+    cycle = result.divergence.cycle
+    assert counting.outcomes == [cycle + 1, cycle + 2, cycle + 3]  # replayed for the verdict
+    assert counting.records == 100

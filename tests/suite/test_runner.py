@@ -5,9 +5,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
+from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replay.verdict import Checked, DivergenceKind
@@ -229,6 +231,25 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
     assert outcome.update is not None
     assert len(outcome.timelines) == 2
     assert CountingArbiter.replays == 2
+
+
+def test_a_failed_dtc_opens_its_log_twice_for_every_report(
+    tmp_path: Path, log: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    spec = written_dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
+    opened: list[str] = []
+    open_log = SessionLogReader.__init__
+
+    def counted(reader: SessionLogReader, path: str | Path, **options: Any) -> None:
+        opened.append(Path(path).name)
+        open_log(reader, path, **options)
+
+    monkeypatch.setattr(SessionLogReader, "__init__", counted)
+
+    outcome = run_spec(spec, SpecOptions(update=UpdateMode.NEW, timelines=True))
+
+    assert (outcome.verdict, len(outcome.timelines)) == (Verdict.FAILED, 2)
+    assert opened == [log.name, log.name]  # the verdict's replay, and its details'
 
 
 # break points

@@ -190,10 +190,6 @@ class TimelineCollector:
         self._sampler.add(record, time_ns)
         self._lanes.add(record, outcome)
 
-    def observe(self, outcome: CycleOutcome) -> None:
-        """Add the next cycle from its outcome, as the verdict's replay hands it over."""
-        self.add(outcome.record, outcome)
-
     def timeline(self, divergence: Divergence | None) -> Timeline:
         """The timeline of the cycles added so far, marking ``divergence`` (the verdict's)."""
         lanes = self._lanes

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
-from collections.abc import Callable, Generator, Iterable, Iterator
+from collections.abc import Callable, Generator
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -27,6 +27,7 @@ from beatlog.log.columns import StateColumns
 from beatlog.log.format import (
     COLUMNS_SINCE,
     EMPTY_LIST,
+    EMPTY_MAP,
     CycleRecord,
     SessionHeader,
     StateChangeRecord,
@@ -39,16 +40,16 @@ from beatlog.model.random import RandomMismatch, ReplayRandom
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.fit import check_fit, recorded_state_type
 from beatlog.replay.migration import StateConverter, StateMigration
-from beatlog.replay.outcome import CycleOutcome, Sensed, Stop, actor_name
+from beatlog.replay.outcome import AGREED, CycleOutcome, Expected, Sensed, Stop, actor_name
 from beatlog.replay.pins import PinChecker
 from beatlog.replay.verdict import DivergenceKind
 from beatlog.replay.view import StateViews
 
-__all__ = ["CycleOutcome", "Replayer", "Stop", "actor_name", "log_key"]
+__all__ = ["AGREED", "CycleOutcome", "Expected", "Replayer", "Stop", "actor_name", "log_key"]
 
 
 Observe = Callable[[Any], Any]
-Advance = Callable[[CycleRecord], "list[StateChangeRecord] | None"]
+Advance = Callable[[CycleRecord | None], "list[StateChangeRecord] | None"]
 _READ = object()
 """In place of a recorded RS_t not decoded yet (sensor-level replay decodes it only
 where it is needed)."""
@@ -68,7 +69,8 @@ class Replayer:
 
     :attr:`advance` replays a cycle and says only whether it went cleanly, which is all
     the verdict needs for the cycles that match; :meth:`outcome` then tells everything
-    about it. :meth:`step` does both. A replayer that raised a
+    about it. A :class:`~beatlog.replay.session.ReplaySession` is what steps it, for
+    the verdict and its other observers. A replayer that raised a
     :class:`~beatlog.errors.LogError` cannot go on.
     """
 
@@ -125,34 +127,69 @@ class Replayer:
         """RS_t of a format-3 log: views that decode only the fields read."""
         self._reader = CycleReader(header, path, self._views)
         """The log's cycle records, read and checked as the header declares them."""
-        self._observe: Observe | None = None
-        """What wraps RS_t in the cycle :meth:`step` replays (none on the hot path)."""
+        self.observe: Observe | None = None
+        """What wraps RS_t before the behaviors see it, in the cycles replayed while it
+        is set (none on the hot path): e.g. a stand-in that notes the fields read."""
         self._last: tuple[
             CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, Sensed | None
         ]
-        stepping = self._stepping()
-        next(stepping)
-        self.advance: Advance = stepping.send
-        """Replay the next cycle like :meth:`step`, without building its outcome.
+        self._expected: Expected | None = None
+        self._agreed = (0, 0, 0)
+        self.advance: Advance = self._stepper()
+        """Replay the next cycle; :meth:`outcome` then tells everything about it.
 
         It returns BS'_t, the replayed state changes, when the cycle went cleanly: the
         update completed, drew exactly the recorded random numbers and, in sensor-level
         replay, ran on a robot state rebuilt as recorded; otherwise None, and
-        :meth:`outcome` says what happened. It raises as :meth:`step` does.
-        """
-
-    def step(self, record: CycleRecord, *, observe: Observe | None = None) -> CycleOutcome:
-        """Replay the next cycle; ``observe`` may wrap RS_t before the behaviors see it.
+        :meth:`outcome` says what happened. Where it went cleanly and replayed the bytes
+        expected of it (:meth:`expect`), it returns :data:`AGREED` instead.
 
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
         """
-        self._observe = observe
-        try:
-            self.advance(record)
-        finally:
-            self._observe = None
-        return self.outcome()
+
+    def expect(self, expected: Expected) -> None:
+        """Before the first cycle: compare each cycle that goes cleanly with its
+        record, byte for byte, and answer :data:`AGREED` where they agree."""
+        self._expected = expected
+        self.advance = self._stepper()
+
+    @property
+    def agreed(self) -> tuple[int, int, int]:
+        """What the cycles that agreed at once (:meth:`expect`) held: state changes,
+        outputs and draws."""
+        self.advance(None)  # the stepping loop keeps them; sent None, it hands them over
+        return self._agreed
+
+    def agrees(self, record: CycleRecord, changes: list[StateChangeRecord]) -> bool:
+        """Whether ``changes`` and the outputs of the cycle replayed last are the bytes
+        its ``record`` expects (:meth:`expect`): the hot loop's check, inlined there.
+
+        :raises msgspec.EncodeError: they cannot be logged (or a ``TypeError`` or
+            ``ValueError`` from an encoding hook).
+        """
+        assert self._expected is not None  # only an expectation says what agrees
+        positions = self._expected.positions
+        outputs = self.executor.context.outputs
+        return (
+            record.state_changes == EMPTY_LIST
+            if not changes
+            else record.state_changes
+            == msgspec.Raw(
+                self._encode(
+                    changes if positions is None else [(positions[i], b, a) for i, b, a in changes]
+                )
+            )
+        ) and (
+            record.outputs == EMPTY_MAP
+            if not outputs
+            else record.outputs == msgspec.Raw(self._expected.outputs.encode(outputs))
+        )
+
+    def _stepper(self) -> Advance:
+        stepping = self._stepping()
+        next(stepping)
+        return stepping.send
 
     def outcome(self) -> CycleOutcome:
         """Everything about the cycle replayed last."""
@@ -229,7 +266,7 @@ class Replayer:
 
     def _stepping(  # noqa: PLR0915 - the hot loop, inlined on purpose
         self,
-    ) -> Generator[list[StateChangeRecord] | None, CycleRecord, NoReturn]:
+    ) -> Generator[list[StateChangeRecord] | None, CycleRecord | None, NoReturn]:
         """The one loop that steps the system through the log: sent a cycle's record, it
         replays the cycle and answers as :attr:`advance` does.
 
@@ -255,10 +292,19 @@ class Replayer:
         # converted where a migration converts them (only then is there more to do).
         adopt = self._views.adopt if checking is not self._robot_state and self._convert else None
         as_system = self._robot_state if checking is not self._robot_state and not adopt else None
+        expected = self._expected
+        positions = None if expected is None else expected.positions
+        encode = self._encode
+        encode_outputs = None if expected is None else expected.outputs.encode
+        judged = frozenset() if expected is None else expected.judged
+        changed = reported = drawn = 0
         changes: list[StateChangeRecord] | None = None
         while True:
             record = yield changes
-            observe = self._observe
+            if record is None:  # asked what the cycles that agreed held
+                self._agreed = (changed, reported, drawn)
+                continue
+            observe = self.observe
             state: Any = _READ
             # Sensor-level replay decodes the recorded RS_t only where it is needed:
             # the rebuilt one encodes to other bytes, perception fails, or a break.
@@ -313,6 +359,31 @@ class Replayer:
                 or (sensed is not None and (sensed.differs or sensed.failure is not None))
             ):
                 changes = None
+            if encode_outputs is not None and changes is not None and context.cycle not in judged:
+                outputs = context.outputs
+                try:
+                    if (
+                        record.state_changes == EMPTY_LIST
+                        if not changes
+                        else record.state_changes
+                        == raw(
+                            encode(
+                                changes
+                                if positions is None
+                                else [(positions[i], b, a) for i, b, a in changes]
+                            )
+                        )
+                    ) and (
+                        record.outputs == EMPTY_MAP
+                        if not outputs
+                        else record.outputs == raw(encode_outputs(outputs))
+                    ):
+                        changed += len(changes)
+                        reported += len(outputs)
+                        drawn += len(random.recorded)  # an agreeing cycle drew them all
+                        changes = AGREED
+                except (TypeError, ValueError, msgspec.EncodeError):
+                    pass  # cannot be logged: the verdict says so
 
     def _perceive(self, record: CycleRecord, recorded: Any) -> Sensed:
         """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
@@ -380,12 +451,6 @@ class Replayer:
                 recorded_draws=recorded_draws,
             )
         )
-
-    def outcomes(self, records: Iterable[CycleRecord]) -> Iterator[CycleOutcome]:
-        """Replay ``records`` one after another."""
-        step = self.step
-        for record in records:
-            yield step(record)
 
 
 def log_key(header: SessionHeader) -> bytes:

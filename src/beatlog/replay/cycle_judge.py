@@ -1,26 +1,24 @@
-"""The judge's hot loop: step each cycle and compare its state changes and outputs
-with the expected ones, byte for byte first, and by the spec's comparison only when
-the bytes differ (:mod:`beatlog.replay.judge` runs it over a log)."""
+"""The verdict as an observer of a replay session: compare each cycle's state changes
+and outputs with the expected ones, byte for byte first, and by the spec's comparison
+only when the bytes differ (:mod:`beatlog.replay.judge` runs it over a log)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from typing import Any
 
 import msgspec
 
 from beatlog.errors import CorruptLogError
 from beatlog.log.format import (
-    EMPTY_LIST,
-    EMPTY_MAP,
     CycleRecord,
     StateChangeRecord,
     payload_encoder,
 )
 from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
 from beatlog.replay.compare import Comparison
-from beatlog.replay.core import CycleOutcome, Replayer
-from beatlog.replay.divergences import Divergences
+from beatlog.replay.core import CycleOutcome, Expected, Replayer
+from beatlog.replay.divergences import Divergences, Follower
 from beatlog.replay.draws import DrawLedger
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.expected import ExpectedRecords
@@ -31,9 +29,11 @@ __all__ = ["CycleJudge"]
 
 
 class CycleJudge:
-    """Replays cycles and keeps the first divergence; the hot loop lives in :meth:`run`.
+    """Judges the cycles a replay session steps and keeps the first divergence: the
+    session's :class:`~beatlog.replay.session.Judge`, whose :attr:`judge` is the hot path.
 
     ``expected`` is an approved baseline to judge against instead of the recording.
+    Past the divergence where it stops, a :class:`Follower` gathers what happened next.
     """
 
     def __init__(
@@ -44,7 +44,6 @@ class CycleJudge:
         context: int,
         comparison: Comparison,
         expected: Expectation | None,
-        observe: Callable[[CycleOutcome], object] | None = None,
     ) -> None:
         header, path = replayer.header, replayer.path
         self.comparison = comparison
@@ -56,14 +55,12 @@ class CycleJudge:
             header.behaviors, replayer.executor.behavior_ids, comparison.rename
         )
         self.executor = replayer.executor
-        self._observe = observe
         self._stopped_at: tuple[int, int] | None = None
-        self._changes_checked = self._outputs_checked = self._draws_checked = 0
-        """The state changes, outputs and draws of the cycles that agreed."""
         self._samples_perceived = 0
-        """The replay core's count of samples perceived, when the last batch ended."""
+        """The replay core's count of samples perceived, where judging stopped or ended."""
+        self._follower: Follower | None = None
+        """What follows replay past the divergence where judging stopped."""
         encoder = payload_encoder()
-        self._encoder = encoder
         self._expected = (
             None
             if expected is None or expected.as_recorded
@@ -111,15 +108,27 @@ class CycleJudge:
             pinned_states=pinned_states,
             against=(self._against(), self._outputs_against()),
         )
+        self._changes_checked = self._outputs_checked = self._draws_checked = 0
+        """The state changes, outputs and draws of the cycles that agreed here (those
+        that agreed at once the replay core counts)."""
+        self._judged = self._pinned_cycles | self._draw_cycles
+        replayer.expect(
+            Expected(
+                None if self._same_catalogue else self._expected_index,
+                self._outputs_encoder,
+                self._judged,
+            )
+        )
 
-    def expected_batches(
-        self, batches: Iterator[Sequence[CycleRecord]]
-    ) -> Iterator[Sequence[CycleRecord]]:
+    def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches, with an approved baseline's state changes and outputs in
-        place of the recorded ones where it expects others."""
-        if self._expected is None:
-            return batches
-        return self._expected.batches(batches, self.path)
+        place of the recorded ones where it expects others; each kept for the cycles
+        before a divergence as it is handed on."""
+        if self._expected is not None:
+            batches = self._expected.batches(batches, self.path)
+        for batch in batches:
+            self.divergences.remember(batch)
+            yield batch
 
     def _against(self) -> str:
         """What replay is judged against, for messages."""
@@ -156,116 +165,85 @@ class CycleJudge:
     @property
     def checked(self) -> Checked:
         """What the cycles judged that agreed checked."""
+        changes, outputs, draws = self.replayer.agreed
         return Checked(
-            self._changes_checked,
-            self._outputs_checked,
-            self._draws_checked,
+            changes + self._changes_checked,
+            outputs + self._outputs_checked,
+            draws + self._draws_checked,
             self._samples_perceived - self.divergences.samples_diverged,
         )
 
-    def _tally(self, changes: int, outputs: int, draws: int) -> None:
-        """Add what a batch's cycles that agreed checked (counted as they are judged)."""
-        self._changes_checked += changes
-        self._outputs_checked += outputs
-        self._draws_checked += draws
-        self._samples_perceived = self.replayer.samples_perceived
+    @property
+    def judging(self) -> bool:
+        """Whether it still judges cycles: it has not stopped at a divergence."""
+        return self._stopped_at is None
 
-    def run(self, batch: Sequence[CycleRecord]) -> int | None:
-        """Replay a batch of cycles; the index of the cycle where replay stops, if it does.
-
-        Each cycle is stepped by the replay core; a cycle agrees when it went cleanly
-        (:meth:`Replayer.advance`) and its state changes and outputs match: byte for
-        byte first, else by :class:`Comparison` (state changes as a set, allowances
-        applied). Only a cycle that does not agree gets its full outcome. What the cycles
-        that agree checked is counted as they are judged: a few additions a cycle.
-        """
-        divergences = self.divergences
-        divergences.remember(batch)
-        encode = self._encoder.encode
-        encode_outputs = self._outputs_encoder.encode
-        advance = self.replayer.advance
-        outcome_of = self.replayer.outcome
-        context = self.executor.context
-        observe = self._observe
-        same_catalogue = self._same_catalogue
-        expected_index = self._expected_index
-        raw = msgspec.Raw
-        pinned_states = self._pinned_cycles
-        draw_cycles = self._draw_cycles
-        ledger = self._ledger
-        random = self.replayer.random
-        changed = reported = drawn = 0
-        for index, record in enumerate(batch):
-            changes = advance(record)
-            outcome: CycleOutcome | None = None
-            if observe is not None:
-                outcome = outcome_of()
-                observe(outcome)
-            if changes is None or (
-                (pinned_states and context.cycle in pinned_states) or context.cycle in draw_cycles
-            ):
-                changes = None
-                if (
-                    ledger is not None
-                    and context.cycle in draw_cycles
-                    and not (pinned_states and context.cycle in pinned_states)
-                    and ledger.approves(context.cycle, random.differences)
-                ):  # made otherwise than recorded only as approved: judged as usual
-                    changes = self.replayer.changes_but_for_draws()
-                if changes is None:
-                    outcome = outcome or outcome_of()  # judged by its robot state, then as usual
-                    changes = outcome.changes if divergences.agrees_but_for_pins(outcome) else None
-            unloggable: Exception | None = None
-            if changes is not None:
-                outputs = context.outputs
-                try:
-                    if (
-                        (
-                            record.state_changes == EMPTY_LIST
-                            if not changes
-                            else record.state_changes
-                            == raw(
-                                encode(
-                                    changes
-                                    if same_catalogue
-                                    else [(expected_index[i], b, a) for i, b, a in changes]
-                                )
-                            )
-                        )
-                        or self._changes_agree(record.state_changes, changes)
-                    ) and (
-                        (
-                            record.outputs == EMPTY_MAP
-                            if not outputs
-                            else record.outputs == raw(encode_outputs(outputs))
-                        )
-                        or self._outputs_agree(record.outputs, outputs)
-                    ):
-                        changed += len(changes)
-                        reported += len(outputs)
-                        drawn += len(random.recorded)  # an agreeing cycle drew them all
-                        continue
-                except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
-                    unloggable = exc
-            outcome = outcome or outcome_of()
-            if unloggable is not None:
-                outcome = outcome._replace(failure=unloggable)
-            divergences.add(outcome, index)
-            if not self._keep_going:
-                self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
-                self._tally(changed, reported, drawn)
-                return index
-        self._tally(changed, reported, drawn)
-        return None
-
-    def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
-        """Replay past the divergence (see :meth:`Divergences.follow`)."""
-        self.divergences.follow(rest, batches)
+    def end(self) -> None:
+        """Take the end of the session: what was followed past a divergence is written
+        into it, and the samples perceived are counted."""
+        if self._follower is not None:
+            self._follower.end()
+        if self._stopped_at is None:
+            self._samples_perceived = self.replayer.samples_perceived
 
     def log_ended(self, why: str) -> None:
         """Record that the log stopped before the recording closed it."""
         context = self.executor.context
         self.divergences.log_ended(why, context.cycle, context.time_ns)
+
+    def judge(
+        self,
+        index: int,
+        record: CycleRecord,
+        changes: list[StateChangeRecord] | None,
+        outcome: CycleOutcome | None,
+    ) -> Follower | None:
+        """Judge a cycle that did not agree at once, the ``index``-th of its batch (see
+        :meth:`~beatlog.replay.session.Judge.judge`): it agrees when it went cleanly
+        (or only as an approved baseline lets it differ) and its state changes and
+        outputs match: byte for byte, else by the :class:`Comparison` (state changes as
+        a set, allowances applied). Only a cycle that does not agree gets its full
+        outcome."""
+        replayer = self.replayer
+        cycle = self.executor.context.cycle
+        if changes is None or cycle in self._judged:
+            changes = None
+            ledger = self._ledger
+            if (
+                ledger is not None
+                and cycle in self._draw_cycles
+                and cycle not in self._pinned_cycles
+                and ledger.approves(cycle, replayer.random.differences)
+            ):  # made otherwise than recorded only as approved: judged as usual
+                changes = replayer.changes_but_for_draws()
+            if changes is None:
+                outcome = outcome or replayer.outcome()  # judged by its robot state, then as usual
+                agrees = self.divergences.agrees_but_for_pins(outcome)
+                changes = outcome.changes if agrees else None
+        unloggable: Exception | None = None
+        if changes is not None:
+            outputs = self.executor.context.outputs
+            try:
+                if replayer.agrees(record, changes) or (
+                    self._changes_agree(record.state_changes, changes)
+                    and self._outputs_agree(record.outputs, outputs)
+                ):
+                    self._changes_checked += len(changes)
+                    self._outputs_checked += len(outputs)
+                    self._draws_checked += len(replayer.random.recorded)  # it drew them all
+                    return None
+            except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
+                unloggable = exc
+        outcome = outcome or replayer.outcome()
+        if unloggable is not None:
+            outcome = outcome._replace(failure=unloggable)
+        self.divergences.add(outcome, index)
+        if self._keep_going:
+            return None
+        self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
+        self._samples_perceived = replayer.samples_perceived
+        self._follower = Follower(self.divergences)
+        return self._follower
 
     def _expected_outputs(self, raw_outputs: msgspec.Raw) -> dict[str, Any]:
         cycle = self.executor.context.cycle

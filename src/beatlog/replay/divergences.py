@@ -10,9 +10,8 @@ approved), and if not writes the first divergence up and counts the others.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 from collections import deque
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import msgspec
@@ -35,7 +34,7 @@ from beatlog.replay.verdict import (
 )
 from beatlog.usercode import user_traceback
 
-__all__ = ["Divergences"]
+__all__ = ["Divergences", "Follower"]
 
 
 class Divergences:
@@ -64,7 +63,8 @@ class Divergences:
     ) -> None:
         self.replayer = replayer
         self.comparison = comparison
-        self._context = context
+        self.context = context
+        """Cycles shown either side of the first divergence."""
         self._keep_going = keep_going
         self._named = named
         self._outputs_of = outputs_of
@@ -128,21 +128,13 @@ class Divergences:
         *earlier, last = self._batches
         records = [record for batch in earlier for record in batch]
         records.extend(last[: index + 1])
-        return records[-(self._context + 1) :]
+        return records[-(self.context + 1) :]
 
-    def follow(self, rest: Sequence[CycleRecord], batches: Iterator[Sequence[CycleRecord]]) -> None:
-        """Replay past the divergence: a few cycles to show what happened next, or the
-        whole rest of the log when the divergence looks like a renamed behavior."""
-        suspect = self._rename_suspected()
-        rows: list[ContextRow] = []
-        records = itertools.chain(rest, itertools.chain.from_iterable(batches))
-        limit = None if suspect else self._context
-        for outcome in self.replayer.outcomes(itertools.islice(records, limit)):
-            if outcome.changes is None or outcome.failure is not None:
-                suspect = False  # the first divergence is reported; replay cannot go on
-                break
-            rows.append(self._row(outcome))
-        self._add_context(rows[: self._context])
+    def followed(self, rows: list[ContextRow], *, suspect: bool) -> None:
+        """Write the cycles replayed past the divergence into it and, where the
+        divergence looked like a renamed behavior (``suspect``) all through the rest of
+        the log, the rename map they propose."""
+        self._add_context(rows[: self.context])
         if suspect and self.divergence is not None:
             kept = self.comparison.kept
             cycles = [(self.divergence.expected, self.divergence.actual)]
@@ -150,15 +142,17 @@ class Divergences:
             renames = propose_renames((kept(want), kept(got)) for want, got in cycles)
             self.divergence = dataclasses.replace(self.divergence, proposed_renames=renames)
 
-    def _rename_suspected(self) -> bool:
-        """Whether the divergence is in state changes and expected behaviors are missing."""
+    def rename_suspected(self) -> bool:
+        """Whether the divergence is in state changes and expected behaviors are missing:
+        replay past it then follows the whole rest of the log, for a rename map."""
         if self.divergence is None or self.divergence.kind is not DivergenceKind.STATE_CHANGES:
             return False
         rename = self.comparison.rename
         current = set(self.replayer.executor.behavior_ids)
         return not {rename(name) for name in self._expected_names} <= current
 
-    def _row(self, outcome: CycleOutcome) -> ContextRow:
+    def row(self, outcome: CycleOutcome) -> ContextRow:
+        """A cycle replayed past the divergence, as its context shows it."""
         return ContextRow(
             outcome.cycle,
             outcome.time_ns,
@@ -359,3 +353,47 @@ def _reports(draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
         DrawReport(actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
         for d in draws
     ]
+
+
+class Follower:
+    """Follows replay past the first divergence, as an observer of the replay session:
+    a few cycles to show what happened next, or the whole rest of the log when the
+    divergence looks like a renamed behavior; :meth:`end` writes them into it."""
+
+    def __init__(self, divergences: Divergences) -> None:
+        self._divergences = divergences
+        self._suspect = divergences.rename_suspected()
+        self._rows: list[ContextRow] = []
+        self._limit = None if self._suspect else divergences.context
+        self._done = False
+        if self._limit == 0:
+            self.end()
+
+    @property
+    def replaying(self) -> bool:
+        """Whether it follows still."""
+        return not self._done
+
+    @property
+    def reading(self) -> bool:
+        """Whether it needs more cycles."""
+        return not self._done
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        """Take the next cycle past the divergence; replay cannot go on past one that
+        does not go cleanly."""
+        if self._done or outcome is None:
+            return
+        if outcome.changes is None or outcome.failure is not None:
+            self._suspect = False  # the first divergence is reported; replay cannot go on
+            self.end()
+            return
+        self._rows.append(self._divergences.row(outcome))
+        if len(self._rows) == self._limit:
+            self.end()
+
+    def end(self) -> None:
+        """Write what was followed into the divergence (once)."""
+        if not self._done:
+            self._done = True
+            self._divergences.followed(self._rows, suspect=self._suspect)

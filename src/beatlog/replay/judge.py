@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from beatlog.errors import EmptyCheckError
+from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
@@ -25,7 +26,7 @@ from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_state_fields
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.pins import PinChecker
-from beatlog.replay.session import ReplaySession, fields_read
+from beatlog.replay.session import Observer, ReplaySession, fields_read
 from beatlog.replay.verdict import DivergenceKind, ReplayResult, reproduce_command
 from beatlog.usercode import load_perception, load_system
 
@@ -52,6 +53,7 @@ def replay(
     perception: Perception | str | None = None,
     break_at: int | None = None,
     observe: Callable[[CycleOutcome], object] | None = None,
+    observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
     migration: StateMigration | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
@@ -88,7 +90,10 @@ def replay(
     just before the behaviors update in that cycle. ``observe`` is given every cycle's
     outcome up to the first divergence (the one that stops replay included), e.g. a
     :class:`~beatlog.analysis.timeline.TimelineCollector`'s, so a report is gathered in
-    the verdict's own replay. ``migration`` maps robot-state fields renamed or retyped
+    the verdict's own replay; ``observers`` build, from the opened log, observers of
+    that replay (:class:`~beatlog.replay.session.Observer`), which take every cycle the
+    verdict's replay steps (past the first divergence, those it follows too), then the
+    recording alone while they read on. ``migration`` maps robot-state fields renamed or retyped
     since the recording onto the system's (:mod:`beatlog.replay.migration`); the
     reproduce command carries it.
 
@@ -135,28 +140,20 @@ def replay(
             context=context_cycles,
             comparison=comparison,
             expected=expected,
-            observe=observe,
         )
-        if judge.replayer.perception is None and observe is None:
+        watching = [factory(reader) for factory in observers]
+        if observe is not None:
+            watching.append(_Watch(observe, judge))
+        if judge.replayer.perception is None and not watching:
             # State-level replay without observers needs RS_t decoded, and only that:
             # decoded with each batch, it is read once (the log fits: checked above).
             reader.decode_states(judge.replayer.state_type)
-        status = None
-        batches = judge.expected_batches(reader.batches())
-        for batch in batches:
-            stop = judge.run(batch)
-            if stop is not None:
-                wall = time.perf_counter() - started
-                judge.follow(batch[stop + 1 :], batches)
-                for _ in batches:  # a damaged log is bad input, wherever the damage is
-                    pass
-                status = reader.status
-                break
-        else:
-            status = reader.status
-            if not status.complete and not allow_truncated:
-                judge.log_ended(status.describe())
-            wall = time.perf_counter() - started
+        session.run(watching, judge=judge)
+        judge.end()
+        status = reader.status
+        if judge.judging and not status.complete and not allow_truncated:
+            judge.log_ended(status.describe())
+        wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
     if divergence is None and not allow_empty and not checked.anything:
@@ -192,6 +189,27 @@ def replay(
         ),
         notes=(NO_SAMPLES,) if perception is not None and judge.replayer.perception is None else (),
     )
+
+
+class _Watch:
+    """An ``observe`` callback as an observer of the verdict's replay: given every
+    cycle's outcome while the verdict judges."""
+
+    def __init__(self, observe: Callable[[CycleOutcome], object], judge: CycleJudge) -> None:
+        self._observe = observe
+        self._judge = judge
+
+    @property
+    def replaying(self) -> bool:
+        return self._judge.judging
+
+    @property
+    def reading(self) -> bool:
+        return self._judge.judging
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        if outcome is not None:
+            self._observe(outcome)
 
 
 def _nothing_checked(cycles: int) -> str:

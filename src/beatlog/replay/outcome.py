@@ -7,13 +7,33 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
+import msgspec
+
 from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample
 from beatlog.model.random import Draw, DrawDifference, RandomMismatch
 from beatlog.replay.verdict import DivergenceKind
 
-__all__ = ["CycleOutcome", "Sensed", "Stop", "actor_name"]
+__all__ = ["AGREED", "CycleOutcome", "Expected", "Sensed", "Stop", "actor_name"]
+
+
+AGREED: list[StateChangeRecord] = []
+"""What :attr:`~beatlog.replay.core.Replayer.advance` answers for a cycle that replayed
+the bytes expected of it (:class:`Expected`): the one object, never another list."""
+
+
+class Expected(NamedTuple):
+    """What a cycle must replay, byte for byte, to agree with its record at once: the
+    verdict's hot path, in the replay core."""
+
+    positions: list[int] | None
+    """Each behavior's index in the expected catalogue (-1: none there), to encode the
+    state changes as the record holds them; None where the catalogues are the same."""
+    outputs: msgspec.msgpack.Encoder
+    """How the record's outputs are encoded (a whole-trace baseline sorts their keys)."""
+    judged: frozenset[int]
+    """The cycles the verdict judges whole, whatever their bytes."""
 
 
 class CycleOutcome(NamedTuple):

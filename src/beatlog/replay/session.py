@@ -1,11 +1,14 @@
 """A replay session: open and check a log once, step a system through it once, and hand
 every cycle to the observers that gather what they need from it.
 
-Traces, the fields read, timelines and a failed DTC's details are observers of one
-session, the way py_trees hangs visitors off one tick loop: none of them opens a log
-or steps a system on its own. Stepping stops for good when no observer needs more
+The verdict, traces, the fields read, timelines and a failed DTC's details are
+observers of one session, the way py_trees hangs visitors off one tick loop: none of
+them opens a log or steps a system on its own. The verdict (a :class:`Judge`) judges
+most cycles from the replayed state changes alone, on the hot path; the others take
+each cycle's full outcome. Stepping stops for good when no observer needs more
 replayed cycles (a replay cannot resume once skipped); the recording alone goes on to
-the observers that still read it, and reading stops when none does.
+the observers that still read it, and reading stops when none does, or at the end of
+the log where a judge must see every byte of it.
 """
 
 from __future__ import annotations
@@ -15,15 +18,23 @@ from pathlib import Path
 from typing import Any, Protocol, TypedDict, Unpack
 
 from beatlog.closing import Closing
-from beatlog.log.format import CycleRecord
+from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
-from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.core import AGREED, CycleOutcome, Replayer
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.pins import PinChecker
 
-__all__ = ["FieldsRead", "Observer", "ReadTracker", "ReplayOptions", "ReplaySession", "fields_read"]
+__all__ = [
+    "FieldsRead",
+    "Judge",
+    "Observer",
+    "ReadTracker",
+    "ReplayOptions",
+    "ReplaySession",
+    "fields_read",
+]
 
 
 class Observer(Protocol):
@@ -39,6 +50,28 @@ class Observer(Protocol):
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         """Take the next recorded cycle and, while the session replays, its outcome."""
+
+
+class Judge(Protocol):
+    """The verdict, as a replay session hands it the cycles: the replay core compares
+    each cycle with the bytes it expects (:meth:`~beatlog.replay.core.Replayer.expect`),
+    and the judge judges the cycles that did not agree at once, building a cycle's full
+    outcome only where it does not agree at all (the hot path)."""
+
+    def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
+        """The log's batches as it judges them."""
+
+    def judge(
+        self,
+        index: int,
+        record: CycleRecord,
+        changes: list[StateChangeRecord] | None,
+        outcome: CycleOutcome | None,
+    ) -> Observer | None:
+        """Judge the cycle replayed last, the ``index``-th of its batch, which did not
+        agree at once: ``changes`` is what :attr:`~beatlog.replay.core.Replayer.advance`
+        returned, ``outcome`` the cycle's outcome where other observers asked for it.
+        Where judging stops, the observer that follows replay past that cycle."""
 
 
 class ReadTracker:
@@ -122,9 +155,7 @@ class ReplaySession(Closing):
     (:meth:`~beatlog.model.random.ReplayRandom.live`; ``rename`` maps a recorded
     behavior's name to its name now), as it does judged against an approved baseline.
 
-    The verdict (:func:`beatlog.replay.judge.replay`) steps the session's replayer in
-    a loop of its own, which builds a cycle's full outcome only where the cycle does
-    not agree with the recording (and for an ``observe`` callback): the hot path.
+    The verdict (:func:`beatlog.replay.judge.replay`) is the session's :class:`Judge`.
     """
 
     def __init__(
@@ -149,25 +180,91 @@ class ReplaySession(Closing):
         for batch in self.reader.batches():
             yield from batch
 
-    def run(self, observers: Sequence[Observer], *, fields_read: FieldsRead | None = None) -> None:
-        """Step through the log once for ``observers`` (and ``fields_read``, whose
-        tracker stands in for the robot state in its cycle), until none needs more."""
-        everyone: list[Observer] = [*observers, *([fields_read] if fields_read else [])]
-        step = None if self.replayer is None else self.replayer.step
+    def run(
+        self,
+        observers: Sequence[Observer],
+        *,
+        judge: Judge | None = None,
+        fields_read: FieldsRead | None = None,
+    ) -> None:
+        """Step through the log once for ``observers``, ``judge`` (the verdict) and
+        ``fields_read`` (whose tracker stands in for the robot state in its cycle),
+        until none needs more. With a judge the log is read to its end: a damaged log
+        is bad input, wherever the damage is."""
+        watching: list[Observer] = [*observers, *([fields_read] if fields_read else [])]
+        replayer = self.replayer
+        if replayer is None:  # the recording alone (a judge needs a system to judge)
+            self._read(watching)
+            return
+        batches: Iterator[Sequence[CycleRecord]] = self.reader.batches()
+        if judge is not None:
+            batches = judge.batches(batches)
+        advance, outcome_of = replayer.advance, replayer.outcome
+        verdict = None if judge is None else judge.judge
+        stand_in_at = -1 if fields_read is None else fields_read.cycle
+        context = replayer.executor.context
+        agreed = AGREED
         replaying = True
-        for cycle, record in enumerate(self.records()):
-            reading = [observer for observer in everyone if observer.reading]
-            if not reading:
+        observing = False
+        for batch in batches:
+            start = 0
+            if verdict is not None and not watching:  # the verdict alone: the hot path
+                for index, record in enumerate(batch):
+                    changes = advance(record)
+                    if changes is agreed:
+                        continue
+                    follower = verdict(index, record, changes, None)
+                    if follower is not None:
+                        verdict = None
+                        watching.append(follower)
+                        start = index + 1
+                        break
+                else:
+                    continue
+            for index in range(start, len(batch)):
+                record = batch[index]
+                if watching:
+                    watching = [observer for observer in watching if observer.reading]
+                    observing = replaying and any(observer.replaying for observer in watching)
+                replaying = observing or verdict is not None
+                if not replaying:
+                    if not watching and judge is None:
+                        return
+                    for observer in watching:
+                        observer.add(record, None)
+                    continue
+                if context.cycle + 1 == stand_in_at and fields_read is not None:
+                    changes = self._standing_in(record, fields_read.tracker)
+                else:
+                    changes = advance(record)
+                outcome = outcome_of() if observing else None
+                for observer in watching:
+                    observer.add(record, outcome)
+                if verdict is not None and changes is not agreed:
+                    follower = verdict(index, record, changes, outcome)
+                    if follower is not None:
+                        verdict = None
+                        watching.append(follower)
+
+    def _standing_in(
+        self, record: CycleRecord, tracker: ReadTracker
+    ) -> list[StateChangeRecord] | None:
+        """Replay the next cycle with ``tracker`` standing in for its robot state."""
+        assert self.replayer is not None  # only a replay has a robot state to stand in for
+        self.replayer.observe = tracker.stand_in
+        try:
+            return self.replayer.advance(record)
+        finally:
+            self.replayer.observe = None
+
+    def _read(self, observers: list[Observer]) -> None:
+        """Hand the recording alone to ``observers`` while they read it."""
+        for record in self.records():
+            observers = [observer for observer in observers if observer.reading]
+            if not observers:
                 return
-            replaying = replaying and any(observer.replaying for observer in reading)
-            outcome = None
-            if replaying and step is not None:
-                stand_in: Callable[[Any], Any] | None = None
-                if fields_read is not None and cycle == fields_read.cycle:
-                    stand_in = fields_read.tracker.stand_in
-                outcome = step(record, observe=stand_in)
-            for observer in reading:
-                observer.add(record, outcome)
+            for observer in observers:
+                observer.add(record, None)
 
     def close(self) -> None:
         """Close the log."""

@@ -9,6 +9,7 @@ import dataclasses
 import functools
 import glob
 import time
+from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from enum import StrEnum
@@ -31,6 +32,7 @@ if TYPE_CHECKING:
     from beatlog.analysis.details import Details
     from beatlog.analysis.timeline import Timeline, TimelineCollector
     from beatlog.audit.replays import Auditors, AuditReport
+    from beatlog.log.reader import SessionLogReader
     from beatlog.model.behavior import System
 
 __all__ = ["SpecOutcome", "Verdict", "run_spec", "suite_auditors"]
@@ -181,14 +183,10 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             migration=spec.migration,
         )
         replayed: System | str = system
-        collector = None
+        charts: list[TimelineCollector] = []
         if timelines:
-            replayed, collector = _collector(spec, system, expected)
-        result = judged(
-            replayed,
-            break_at=options.break_at,
-            observe=None if collector is None else collector.observe,
-        )
+            replayed, chart = _charting(system, expected, charts)
+        result = judged(replayed, break_at=options.break_at, observers=[chart] if timelines else ())
         wall = time.perf_counter() - started
         divergence = result.divergence
         notes = result.notes + unreached_break(options.break_at, result)
@@ -222,7 +220,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
                 migration=spec.migration,
                 auditors=auditors,
             )
-        drawn = _timelines(collector, details)
+        drawn = _timelines(charts, details)
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
@@ -256,30 +254,30 @@ def _rerun(spec: DtcSpec) -> str:
     return reproduce_command("test", "--logs", log, *system, *perception)
 
 
-def _collector(
-    spec: DtcSpec, system: str, expected: Expectation | None
-) -> tuple[System, TimelineCollector]:
-    """The system to replay and a timeline collector to watch its replay."""
+def _charting(
+    system: str, expected: Expectation | None, charts: list[TimelineCollector]
+) -> tuple[System, Callable[[SessionLogReader], TimelineCollector]]:
+    """The system to replay, and what builds a timeline collector of its replay from
+    the log the verdict opens (kept in ``charts``)."""
     from beatlog.analysis.timeline import TimelineCollector  # noqa: PLC0415 - when charting
-    from beatlog.log.reader import SessionLogReader  # noqa: PLC0415
 
     loaded = load_system(system)
-    with SessionLogReader(spec.log) as reader:
-        collector = TimelineCollector(
-            reader, loaded, expected=None if expected is None else expected.changes_override()
-        )
-    return loaded, collector
+    override = None if expected is None else expected.changes_override()
+
+    def chart(reader: SessionLogReader) -> TimelineCollector:
+        charts.append(TimelineCollector(reader, loaded, expected=override))
+        return charts[-1]
+
+    return loaded, chart
 
 
-def _timelines(
-    collector: TimelineCollector | None, details: Details | None
-) -> tuple[Timeline, ...]:
+def _timelines(charts: list[TimelineCollector], details: Details | None) -> tuple[Timeline, ...]:
     """The DTC's timelines: from the details of a failure, else from the verdict's replay."""
-    if collector is None:
+    if not charts:
         return ()
     if details is not None and details.timelines:
         return details.timelines
-    return (collector.timeline(None),)
+    return (charts[0].timeline(None),)
 
 
 def _details(
