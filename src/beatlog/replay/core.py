@@ -15,7 +15,6 @@ are read and checked by :mod:`beatlog.replay.cycle_reader`.
 from __future__ import annotations
 
 import functools
-import hashlib
 from collections.abc import Callable, Generator
 from pathlib import Path
 from typing import Any, NoReturn
@@ -35,24 +34,22 @@ from beatlog.log.format import (
 )
 from beatlog.model.behavior import System
 from beatlog.model.cycle import CycleExecutor
-from beatlog.model.perception import Perception, PerceptionTypeError, perception_problem
+from beatlog.model.perception import Perception
 from beatlog.model.random import RandomMismatch, ReplayRandom
 from beatlog.replay.cycle_reader import CycleReader
+from beatlog.replay.draws import log_key
 from beatlog.replay.fit import check_fit, recorded_state_type
 from beatlog.replay.migration import StateConverter, StateMigration
 from beatlog.replay.outcome import AGREED, CycleOutcome, Expected, Sensed, Stop, actor_name
 from beatlog.replay.pins import PinChecker
-from beatlog.replay.verdict import DivergenceKind
+from beatlog.replay.sensing import UNREAD, Perceiver
 from beatlog.replay.view import StateViews
 
-__all__ = ["AGREED", "CycleOutcome", "Expected", "Replayer", "Stop", "actor_name", "log_key"]
+__all__ = ["AGREED", "CycleOutcome", "Expected", "Replayer", "Stop", "actor_name"]
 
 
 Observe = Callable[[Any], Any]
 Advance = Callable[[CycleRecord | None], "list[StateChangeRecord] | None"]
-_READ = object()
-"""In place of a recorded RS_t not decoded yet (sensor-level replay decodes it only
-where it is needed)."""
 
 
 class Replayer:
@@ -108,13 +105,10 @@ class Replayer:
             self.random.expect_actors(header.behaviors, self.executor.behavior_ids, rename)
             self.random.live(log_key(header))
         self.perception = perception if header.samples_logged else None
+        """The perception step in use: None unless the log holds samples."""
         self.state_pins = state_pins
         """The robot states an approved baseline pins by digest: in their cycles the
         rebuilt state is judged against them, not the recorded one."""
-        """The perception step in use: None unless the log holds samples."""
-        self.samples_perceived = 0
-        """The samples the perception step was given so far, every cycle's."""
-        self._rebuilt: Any = None
         self._encode = payload_encoder().encode
         self._robot_state = system.robot_state
         self._convert = (
@@ -127,6 +121,18 @@ class Replayer:
         """RS_t of a format-3 log: views that decode only the fields read."""
         self._reader = CycleReader(header, path, self._views)
         """The log's cycle records, read and checked as the header declares them."""
+        self._perceiver = (
+            None
+            if self.perception is None
+            else Perceiver(
+                self.perception,
+                system.robot_state,
+                self._reader,
+                self._encode,
+                state_pins=state_pins,
+                migrated=self._migrated,
+            )
+        )
         self.observe: Observe | None = None
         """What wraps RS_t before the behaviors see it, in the cycles replayed while it
         is set (none on the hot path): e.g. a stand-in that notes the fields read."""
@@ -147,6 +153,11 @@ class Replayer:
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
         """
+
+    @property
+    def samples_perceived(self) -> int:
+        """The samples the perception step was given so far, every cycle's."""
+        return 0 if self._perceiver is None else self._perceiver.samples_perceived
 
     def expect(self, expected: Expected) -> None:
         """Before the first cycle: compare each cycle that goes cleanly with its
@@ -216,7 +227,7 @@ class Replayer:
         return outcome._replace(
             recorded_state=(
                 self._reader.recorded_state(record, context.cycle)
-                if recorded is _READ
+                if recorded is UNREAD
                 else recorded
             ),
             perception_differs=sensed.differs,
@@ -232,37 +243,9 @@ class Replayer:
         return changes if failure is None and self.random.mismatch is None and clean else None
 
     def stop(self, outcome: CycleOutcome) -> Stop | None:
-        """Why replay cannot go on past ``outcome``'s cycle, if it cannot: perception
-        failed, a behavior raised, a draw was not the one recorded (or one too many), or
-        fewer random numbers were drawn than recorded."""
-        if outcome.perception_failure is not None:
-            problem = perception_problem(outcome.perception_failure)
-            return Stop(DivergenceKind.PERCEPTION, problem, None)
-        names = self.executor.behavior_ids
-        if outcome.failure is not None:
-            behavior = actor_name(names, outcome.actor)
-            failure = outcome.failure
-            message = f"{behavior} raised {type(failure).__name__}: {failure}"
-            return Stop(DivergenceKind.EXCEPTION, message, behavior)
-        mismatch = outcome.draw_problem
-        if mismatch is not None:
-            kind = (
-                DivergenceKind.RANDOM_OVERDRAWN
-                if mismatch.overdrawn
-                else DivergenceKind.RANDOM_MISMATCH
-            )
-            behavior = actor_name(names, mismatch.actor)
-            return Stop(kind, f"{behavior} {mismatch.problem}", behavior)
-        if outcome.underdrawn:
-            drawn, recorded = len(outcome.drawn), len(outcome.recorded_draws)
-            missing = outcome.recorded_draws[drawn]
-            behavior = actor_name(self.header.behaviors, missing.actor)
-            message = (
-                f"drew {drawn} random numbers where {recorded} were recorded; the next "
-                f"recorded one was a {missing.kind} drawn by {behavior}"
-            )
-            return Stop(DivergenceKind.RANDOM_UNDERDRAWN, message, behavior)
-        return None
+        """Why replay cannot go on past ``outcome``'s cycle, if it cannot
+        (:meth:`~beatlog.replay.outcome.CycleOutcome.stop`)."""
+        return outcome.stop(self.executor.behavior_ids, self.header.behaviors)
 
     def _stepping(  # noqa: PLR0915 - the hot loop, inlined on purpose
         self,
@@ -282,7 +265,7 @@ class Replayer:
         read_state = self._reader.state
         decode_draws = self._reader.draws
         break_at = self.break_at
-        perception = self.perception
+        perceiver = self._perceiver
         raw = msgspec.Raw
         # Format 3: RS_t may come as its batch's columns (never in an older log).
         columns = StateColumns if self.header.format_version >= COLUMNS_SINCE else None
@@ -305,10 +288,10 @@ class Replayer:
                 self._agreed = (changed, reported, drawn)
                 continue
             observe = self.observe
-            state: Any = _READ
+            state: Any = UNREAD
             # Sensor-level replay decodes the recorded RS_t only where it is needed:
             # the rebuilt one encodes to other bytes, perception fails, or a break.
-            if perception is None or context.cycle + 1 == break_at:
+            if perceiver is None or context.cycle + 1 == break_at:
                 state = record.robot_state  # decoded with the batch, or still bytes
                 kind = state.__class__
                 if kind is raw:
@@ -321,11 +304,11 @@ class Replayer:
                     adopt(state, context.cycle + 1)
             if context.cycle + 1 == break_at:
                 self._pause(context.cycle + 1, state, record)
-            if perception is None:
+            if perceiver is None:
                 sensed = None
             else:
-                sensed = self._perceive(record, state)
-                state = self._rebuilt
+                sensed = perceiver.perceive(record, state, context.cycle + 1)
+                state = perceiver.rebuilt
             draws = record.random_numbers
             # Load RN_t, unless there is none and nothing is left of the last cycle's (a
             # draw is kept only when one was recorded; a draw too many leaves a mismatch).
@@ -385,48 +368,6 @@ class Replayer:
                 except (TypeError, ValueError, msgspec.EncodeError):
                     pass  # cannot be logged: the verdict says so
 
-    def _perceive(self, record: CycleRecord, recorded: Any) -> Sensed:
-        """Rebuild RS_t with the perception step (kept as ``_rebuilt``) and compare it.
-
-        When perception raises, or returns something other than the system's robot
-        state (a :class:`PerceptionTypeError`), the behaviors run on the recorded RS_t,
-        so replay can go on; the outcome carries the failure.
-        """
-        assert self.perception is not None
-        samples = self._reader.samples(record, self.executor.context.cycle + 1)
-        self.samples_perceived += len(samples)
-        try:
-            rebuilt = self.perception(self._rebuilt, samples)
-            if not isinstance(rebuilt, self._robot_state):
-                raise PerceptionTypeError(rebuilt, self._robot_state)
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit) as exc:  # perception failing is an outcome
-            if recorded is _READ:
-                recorded = self._reader.recorded_state(record, self.executor.context.cycle + 1)
-            self._rebuilt = recorded
-            return Sensed(recorded, False, exc, samples)
-        self._rebuilt = rebuilt
-        try:
-            encoded = self._encode(rebuilt)
-        except (TypeError, msgspec.EncodeError):  # perception built something unloggable
-            encoded = None
-        cycle = self.executor.context.cycle + 1
-        pins = self.state_pins
-        if pins is not None and cycle in pins.cycles:  # the approved state is expected
-            differs = encoded is None or pins.mismatch(cycle, encoded) is not None
-        else:
-            differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
-            if differs and encoded is not None and self._migrated:
-                # Recorded under other names or types: the same state holds other bytes.
-                recorded = (
-                    self._reader.recorded_state(record, cycle) if recorded is _READ else recorded
-                )
-                differs = encoded != self._encode(recorded)
-        if differs and recorded is _READ:
-            recorded = self._reader.recorded_state(record, cycle)
-        return Sensed(recorded, differs, None, samples)
-
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: stop in ``cycle`` just before the behaviors update, once
         the context is the cycle's (:func:`beatlog.replay.debugger.pause`), with
@@ -451,11 +392,3 @@ class Replayer:
                 recorded_draws=recorded_draws,
             )
         )
-
-
-def log_key(header: SessionHeader) -> bytes:
-    """What keys the fresh draws of living replay: the recording's identity (robot,
-    software, start time, seed), so that two sessions get different fresh luck and the
-    same session always the same."""
-    identity = [header.robot_id, header.software_version, header.start_time_ns, header.random_seed]
-    return hashlib.blake2b(msgspec.msgpack.encode(identity), digest_size=32).digest()

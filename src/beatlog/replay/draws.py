@@ -7,18 +7,23 @@ line each however long the session, with the cycles where they happen (``wander:
 uniform(0.8, 1.6) -> uniform(0.7, 1.5), 14 draws, in cycles 12 40 ...``): small, and
 what a reviewer wants to read. The verdict keeps a :class:`DrawLedger` and judges each
 cycle's differences exactly, as strict replay judges the draws themselves: one that no
-rule approves in that cycle, or an approved one not made, diverges there.
+rule approves in that cycle, or an approved one not made, diverges there. The fresh
+draws of living replay are keyed by the recording (:func:`log_key`).
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Sequence
 from typing import NamedTuple
 
+import msgspec
+
+from beatlog.log.format import SessionHeader
 from beatlog.model.random import DrawDifference
 
-__all__ = ["DrawLedger", "DrawRule", "Unapproved", "draw_rules"]
+__all__ = ["DrawLedger", "DrawRule", "Unapproved", "draw_rules", "log_key"]
 
 
 class DrawRule(NamedTuple):
@@ -109,3 +114,11 @@ class DrawLedger:
             if made[difference] < times:
                 return Unapproved(difference, False, True)
         return None
+
+
+def log_key(header: SessionHeader) -> bytes:
+    """What keys the fresh draws of living replay: the recording's identity (robot,
+    software, start time, seed), so that two sessions get different fresh luck and the
+    same session always the same."""
+    identity = [header.robot_id, header.software_version, header.start_time_ns, header.random_seed]
+    return hashlib.blake2b(msgspec.msgpack.encode(identity), digest_size=32).digest()

@@ -12,6 +12,7 @@ import msgspec
 from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample
+from beatlog.model.perception import perception_problem
 from beatlog.model.random import Draw, DrawDifference, RandomMismatch
 from beatlog.replay.verdict import DivergenceKind
 
@@ -88,6 +89,39 @@ class CycleOutcome(NamedTuple):
             and self.draw_problem is None
             and (self.draw_differences is not None or len(self.drawn) == len(self.recorded_draws))
         )
+
+    def stop(self, names: Sequence[str], recorded_names: Sequence[str]) -> Stop | None:
+        """Why replay cannot go on past this cycle, if it cannot: perception failed, a
+        behavior raised, a draw was not the one recorded (or one too many), or fewer
+        random numbers were drawn than recorded. ``names`` are the behaviors' names now,
+        ``recorded_names`` the recording's catalogue."""
+        if self.perception_failure is not None:
+            problem = perception_problem(self.perception_failure)
+            return Stop(DivergenceKind.PERCEPTION, problem, None)
+        if self.failure is not None:
+            behavior = actor_name(names, self.actor)
+            failure = self.failure
+            message = f"{behavior} raised {type(failure).__name__}: {failure}"
+            return Stop(DivergenceKind.EXCEPTION, message, behavior)
+        mismatch = self.draw_problem
+        if mismatch is not None:
+            kind = (
+                DivergenceKind.RANDOM_OVERDRAWN
+                if mismatch.overdrawn
+                else DivergenceKind.RANDOM_MISMATCH
+            )
+            behavior = actor_name(names, mismatch.actor)
+            return Stop(kind, f"{behavior} {mismatch.problem}", behavior)
+        if self.underdrawn:
+            drawn, recorded = len(self.drawn), len(self.recorded_draws)
+            missing = self.recorded_draws[drawn]
+            behavior = actor_name(recorded_names, missing.actor)
+            message = (
+                f"drew {drawn} random numbers where {recorded} were recorded; the next "
+                f"recorded one was a {missing.kind} drawn by {behavior}"
+            )
+            return Stop(DivergenceKind.RANDOM_UNDERDRAWN, message, behavior)
+        return None
 
 
 class Stop(NamedTuple):
