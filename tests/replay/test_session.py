@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import ast
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import pytest
 
+import beatlog
 from beatlog.errors import SchemaMismatchError
 from beatlog.log.format import CycleRecord
 from beatlog.replay.core import CycleOutcome
@@ -121,3 +124,15 @@ def test_observers_of_the_verdicts_replay_take_the_cycles_up_to_its_divergence(
     cycle = result.divergence.cycle
     assert counting.outcomes == list(range(cycle + 1))  # the divergence included
     assert counting.records == cycle + 1
+
+
+def test_nothing_but_the_replay_session_steps_the_replay_core() -> None:
+    package = Path(beatlog.__file__).parent
+    stepping = {
+        path.relative_to(package).as_posix()
+        for path in package.rglob("*.py")
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        if isinstance(node, ast.Attribute) and node.attr == "advance"
+    }
+
+    assert sorted(stepping) == ["replay/core.py", "replay/session.py"]
