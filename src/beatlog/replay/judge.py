@@ -26,7 +26,7 @@ from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_state_fields
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.pins import PinChecker
-from beatlog.replay.session import Observer, ReplaySession, fields_read
+from beatlog.replay.session import BatchReader, Observer, ReplaySession, fields_read
 from beatlog.replay.verdict import DivergenceKind, ReplayResult, reproduce_command
 from beatlog.usercode import load_perception, load_system
 
@@ -54,6 +54,7 @@ def replay(
     break_at: int | None = None,
     observe: Callable[[CycleOutcome], object] | None = None,
     observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
+    readers: Sequence[Callable[[SessionLogReader], BatchReader]] = (),
     migration: StateMigration | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
@@ -92,9 +93,12 @@ def replay(
     ``observers`` build, from the opened log, observers
     (:class:`~beatlog.replay.session.Observer`, e.g. a
     :class:`~beatlog.analysis.timeline.TimelineCollector`) that take the same cycles, so
-    that a report is gathered in the verdict's own replay. ``migration`` maps robot-state
-    fields renamed or retyped since the recording onto the system's
-    (:mod:`beatlog.replay.migration`); the reproduce command carries it.
+    that a report is gathered in the verdict's own replay; ``readers`` build readers of
+    its batches as recorded (:class:`~beatlog.replay.session.BatchReader`, e.g. a
+    :class:`~beatlog.analysis.recorded.RecordedChanges` for the coverage), which take
+    the whole log. ``migration`` maps robot-state fields renamed or retyped since the
+    recording onto the system's (:mod:`beatlog.replay.migration`); the reproduce command
+    carries it.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
@@ -147,7 +151,7 @@ def replay(
             # State-level replay without observers needs RS_t decoded, and only that:
             # decoded with each batch, it is read once (the log fits: checked above).
             reader.decode_states(judge.replayer.state_type)
-        session.run(watching, judge=judge)
+        session.run(watching, judge=judge, readers=[factory(reader) for factory in readers])
         judge.end()
         status = reader.status
         if judge.judging and not status.complete and not allow_truncated:
