@@ -20,13 +20,12 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from itertools import repeat
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import msgspec
 
-from beatlog.errors import SchemaMismatchError
+from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import DECODE_ERRORS
 from beatlog.replay.migration import ConversionError, StateConverter
@@ -125,6 +124,7 @@ class StateViews:
         self._plans: dict[
             tuple[str, ...], tuple[list[str], list[int], list[Callable[[Any], list[Any]]]]
         ] = {}
+        self._layouts: dict[tuple[bytes, tuple[str, ...]], _Layout] = {}
         self._columns: StateColumns | None = None
         self._views: list[Any] = []
         self._first = 0
@@ -150,10 +150,7 @@ class StateViews:
         self.stale = False
         self._columns = columns
         self._first = columns.first_cycle
-        held = tuple(self.read)
-        view = self.shape.view_type(held)
-        values = batch.held(held)
-        self._views = list(map(view, repeat(batch), range(columns.count), *values))
+        self._views = batch.views(tuple(self.read))
 
     def _check(self, columns: StateColumns) -> None:
         """A batch's fields must be the type's: none it lacks, every one it requires."""
@@ -198,6 +195,32 @@ class StateViews:
             found = self._plans[fresh] = (stored, at, list(map(self.shape.decoder, stored)))
         return found
 
+    def layout(self, columns: StateColumns, held: tuple[str, ...]) -> _Layout:
+        """How a batch of ``columns`` gives views holding the fields ``held`` (made once
+        per batch layout): the fields stored in columns of one width, not converted, are
+        decoded a cycle at a time from its :meth:`~StateColumns.rows`; the others are
+        decoded a column at a time and set on the views."""
+        index = self.index(columns.names)
+        key = (columns.widths, held)
+        found = self._layouts.get(key)
+        if found is None:
+            fields = self.fields
+            converted = self.convert.fields if self.convert is not None else ()
+            at = [index.get(fields[name].encode_name) for name in held]
+            in_rows = {
+                name: column
+                for column, name in sorted(zip(at, held, strict=True), key=_column)
+                if column is not None and columns.widths[column] and name not in converted
+            }
+            rest = tuple(name for name in held if name not in in_rows)
+            view = self.shape.view_type(tuple(in_rows), rest)
+            if len(self._layouts) >= _MAX_LAYOUTS:
+                self._layouts.clear()
+            found = self._layouts[key] = _Layout(
+                list(in_rows.values()), rest, self.shape.decoder_of(view)
+            )
+        return found
+
     def adopt(self, state: Any, cycle: int) -> Any:
         """A state decoded as :attr:`checking` made the system's, its fields converted.
 
@@ -227,16 +250,62 @@ class StateViews:
         return self.adopt(decoded, cycle)
 
 
+class _Layout(NamedTuple):
+    """How a batch gives its views (:meth:`StateViews.layout`)."""
+
+    columns: list[int]
+    """The columns decoded a cycle at a time, in the order of the views' fields."""
+    rest: tuple[str, ...]
+    """The fields held decoded a column at a time."""
+    decode: Callable[[bytes], Any]
+    """A view decoded from a cycle's array of the values of :attr:`columns`."""
+
+
+_MAX_LAYOUTS = 64
+
+
+def _column(found: tuple[int | None, str]) -> int:
+    """Where a field's column is among the batch's (-1 where it has none)."""
+    return -1 if found[0] is None else found[0]
+
+
 class _Batch:
     """One batch's columns as its views read them: each decoded once, on first read."""
 
-    __slots__ = ("columns", "decoded", "index", "views")
+    __slots__ = ("columns", "decoded", "index", "views_of")
 
     def __init__(self, views: StateViews, columns: StateColumns) -> None:
-        self.views = views
+        self.views_of = views
         self.columns = columns
         self.index = views.index(columns.names)
         self.decoded: dict[str, list[Any]] = {}
+
+    def views(self, held: tuple[str, ...]) -> list[Any]:
+        """The batch's views, holding the fields ``held``: most decoded a cycle at a
+        time, each cycle's fields at once (:meth:`StateViews.layout`).
+
+        :raises beatlog.errors.SchemaMismatchError: a value does not fit its field's type
+            (found as decoding the columns in the order read would find it).
+        :raises beatlog.errors.CorruptLogError: a column is damaged.
+        """
+        owner = self.views_of
+        layout = owner.layout(self.columns, held)
+        try:
+            views = list(map(layout.decode, self.columns.rows(layout.columns)))
+        except (msgspec.ValidationError, *DECODE_ERRORS):
+            self.held(held)  # found again, to say where
+            raise CorruptLogError(
+                owner.path,
+                f"damaged batch from cycle {self.columns.first_cycle}: a column of values "
+                "of one width does not hold one value of that width a cycle",
+            ) from None
+        for index, view in enumerate(views):
+            setattr(view, _BATCH, self)
+            setattr(view, _INDEX, index)
+        for name, values in zip(layout.rest, self.held(layout.rest), strict=True):
+            for view, value in zip(views, values, strict=True):
+                setattr(view, name, value)
+        return views
 
     def held(self, names: tuple[str, ...]) -> list[list[Any]]:
         """Fields ``names`` of every cycle of the batch, the system's: the columns not
@@ -244,7 +313,7 @@ class _Batch:
         decoded = self.decoded
         fresh = tuple(name for name in names if name not in decoded)
         if fresh:
-            views = self.views
+            views = self.views_of
             stored, at, decoders = views.plan(self.columns.names, fresh)
             found = self.columns.decoded(at, decoders, views.system_type.__name__)
             convert = views.convert
@@ -258,7 +327,7 @@ class _Batch:
         found = self.decoded.get(name)
         if found is not None:
             return found
-        views = self.views
+        views = self.views_of
         info = views.fields[name]
         at = self.index.get(info.encode_name)
         count = self.columns.count
@@ -277,7 +346,7 @@ class _Batch:
 
     def _converted(self, name: str, values: list[Any]) -> list[Any]:
         """Recorded values of a field the migration converts, made the system's."""
-        convert = self.views.convert
+        convert = self.views_of.convert
         assert convert is not None
         first = self.columns.first_cycle
         converted = []
@@ -286,7 +355,7 @@ class _Batch:
                 converted.append(convert.value(name, value))
             except ConversionError as exc:
                 error = SchemaMismatchError(
-                    self.views.path, f"robot state of cycle {first + offset}: {exc}"
+                    self.views_of.path, f"robot state of cycle {first + offset}: {exc}"
                 )
                 error.user_traceback = exc.user_traceback
                 raise error from None
@@ -295,7 +364,7 @@ class _Batch:
     def miss(self, index: int, name: str) -> Any:
         """Field ``name`` of the batch's ``index``-th cycle, read for the first time in
         this batch."""
-        views = self.views
+        views = self.views_of
         if name not in views.read:
             views.read[name] = None
             views.stale = True
@@ -304,7 +373,7 @@ class _Batch:
     def whole(self, index: int) -> Any:
         """The batch's ``index``-th RS_t decoded whole, the system's."""
         cycle = self.columns.first_cycle + index
-        return self.views.decode_whole(self.columns.raw_state(cycle), cycle)
+        return self.views_of.decode_whole(self.columns.raw_state(cycle), cycle)
 
 
 class _Shape:
@@ -328,23 +397,37 @@ class _Shape:
             "__class__": system_type,
             "__qualname__": system_type.__qualname__,
         }
-        self._types: dict[tuple[str, ...], Any] = {}
+        self._types: dict[tuple[tuple[str, ...], tuple[str, ...]], Any] = {}
         self._decoders: dict[str, Callable[[bytes], list[Any]]] = {}
 
-    def view_type(self, held: tuple[str, ...]) -> Any:
-        """The class of views that hold the fields ``held``."""
-        found = self._types.get(held)
+    def view_type(self, in_rows: tuple[str, ...], rest: tuple[str, ...]) -> Any:
+        """The class of views that hold the fields ``in_rows`` and ``rest``: decoded
+        from an array of the values of ``in_rows`` (as their types), ``rest`` set after."""
+        found = self._types.get((in_rows, rest))
         if found is None:
+            held = {*in_rows, *rest}
             unheld = {name: _Unheld(name) for name in self.fields if name not in held}
-            found = self._types[held] = msgspec.defstruct(
+            if len(self._types) >= _MAX_LAYOUTS:
+                self._types.clear()
+            found = self._types[in_rows, rest] = msgspec.defstruct(
                 self.system_type.__name__,
-                [(_BATCH, Any), (_INDEX, int), *((name, Any) for name in held)],
+                [
+                    *((name, self.fields[name].type) for name in in_rows),
+                    *((name, Any, None) for name in rest),
+                    (_BATCH, Any, None),
+                    (_INDEX, int, 0),
+                ],
                 module=self.system_type.__module__,
                 namespace={**self._namespace, **unheld},
+                array_like=True,
                 gc=False,
                 weakref=False,
             )
         return found
+
+    def decoder_of(self, view_type: Any) -> Callable[[bytes], Any]:
+        """What decodes a view of ``view_type`` from an array of its fields' values."""
+        return msgspec.msgpack.Decoder(view_type).decode
 
     def decoder(self, name: str) -> Callable[[bytes], list[Any]]:
         """What decodes a column of field ``name`` (a msgpack array) as the field's type."""
