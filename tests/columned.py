@@ -123,6 +123,25 @@ def retyped_value(index: int, value: Any) -> Damage:
     return damage
 
 
+def same_width_values(index: int, *values: Any) -> Damage:
+    """Column ``index`` (of values of one width, byte-split) with its first values
+    ``values``, which take as many bytes as that many of the column's: each of the
+    width, or one short and the next spilling into its place."""
+
+    def damage(batch: ColumnBatch) -> ColumnBatch:
+        width, count = batch.widths[index], len(batch.cycles)
+        encoded = b"".join(map(msgspec.msgpack.encode, values))
+        assert len(encoded) == width * len(values)
+        data = bytearray(batch.data)
+        start = _column_start(batch, index)
+        for at, byte in enumerate(encoded):
+            cycle, plane = divmod(at, width)
+            data[start + plane * count + cycle] = byte
+        return msgspec.structs.replace(batch, data=bytes(data))
+
+    return damage
+
+
 def state_in_record(batch: ColumnBatch) -> ColumnBatch:
     """The first record holds a robot state the batch also stores by field."""
     records: list[Any] = list(batch.cycles)

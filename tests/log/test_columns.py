@@ -158,6 +158,28 @@ def test_columns_decoded_together_are_each_column_decoded_alone(tmp_path: Path) 
     assert (encode(found), encode(one_by_one)) == (encode(expected), encode(expected))
 
 
+@pytest.mark.parametrize(
+    "fields",
+    [["speed", "bumped", "pose"], ["pose", "speed"], ["bumped"], []],
+    ids=["in-order", "reordered", "one", "none"],
+)
+def test_a_cycle_of_columns_of_one_width_is_one_array_of_its_values(
+    tmp_path: Path, fields: list[str]
+) -> None:
+    states = [wide(t) for t in range(30)]
+    log = write(tmp_path / "v3.beatlog", states, by_field=True)
+    names = [f.name for f in msgspec.structs.fields(Wide)]
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Wide)
+        batches: list[Any] = [batch[0].robot_state for batch in reader.batches()]
+    assert [batches[0].widths[names.index(name)] for name in fields] == [
+        {"speed": 9, "bumped": 1, "pose": 23}[name] for name in fields
+    ]
+    rows = [row for columns in batches for row in columns.rows(list(map(names.index, fields)))]
+    encode = msgspec.msgpack.encode
+    assert rows == [encode([getattr(state, name) for name in fields]) for state in states]
+
+
 def test_a_batch_read_by_field_is_freed_without_the_garbage_collector(tmp_path: Path) -> None:
     log = write(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
     with SessionLogReader(log) as reader:

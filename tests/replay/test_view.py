@@ -16,8 +16,9 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model import BehaviorState, Context, Outputs, PriorityArbiter, RobotState
 from beatlog.record import Recorder
 from beatlog.replay import StateMigration
+from beatlog.replay.core import CycleOutcome
 from beatlog.replay.view import StateViews, full_state
-from tests.columned import retyped_value, rewrite_by_field, short_column
+from tests.columned import retyped_value, rewrite_by_field, same_width_values, short_column
 from tests.conftest import PERIOD_NS
 
 LATE = 200
@@ -164,6 +165,45 @@ def test_a_value_of_another_type_is_found_where_it_is_read(by_field: Path, tmp_p
         f"{damaged}: robot state of cycle 35 does not fit Arm: field 'joints': "
         "Expected `array`, got `str` - at `$[0]`"
     )
+
+
+def test_a_value_of_another_type_held_from_an_earlier_batch_is_found_alike(
+    by_field: Path, tmp_path: Path
+) -> None:
+    retyped = same_width_values(0, "8 chars!")  # 'reach', read from the first cycle on
+    damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", retyped, 1)
+    with pytest.raises(SchemaMismatchError) as raised:
+        beatlog.replay(damaged, watcher_system())
+    assert str(raised.value) == (
+        f"{damaged}: robot state of cycle 35 does not fit Arm: field 'reach': "
+        "Expected `float`, got `str` - at `$[0]`"
+    )
+
+
+def test_a_value_spilling_into_the_next_ones_place_is_a_damaged_log(
+    by_field: Path, tmp_path: Path
+) -> None:
+    spilling = {"x": 1.0, "y": 2.0, "z": "s" * 19}  # 45 bytes after a 1-byte Pose
+    damage = same_width_values(3, {}, spilling)  # 'pose', two values of 23 bytes
+    damaged = rewrite_by_field(by_field, tmp_path / "spilling.beatlog", damage, 1)
+    with pytest.raises(CorruptLogError) as raised:
+        beatlog.replay(damaged, watcher_system())
+    assert str(raised.value) == (
+        f"{damaged}: damaged batch from cycle 35: a column of values of one width does not "
+        "hold one value of that width a cycle"
+    )
+
+
+def test_views_made_a_cycle_at_a_time_hold_the_recorded_states(by_field: Path) -> None:
+    read: list[list[Any]] = []
+
+    def read_every_field(outcome: CycleOutcome) -> None:
+        read.append([getattr(outcome.state, name) for name in Arm.__struct_fields__])
+
+    result = beatlog.replay(by_field, watcher_system(), observe=read_every_field)
+    assert (result.ok, result.cycles) == (True, 300)
+    recorded = [arm(t) for t in range(300)]
+    assert read == [[getattr(s, name) for name in Arm.__struct_fields__] for s in recorded]
 
 
 Renamed = msgspec.defstruct(

@@ -3,10 +3,12 @@ the first time a behavior reads the field.
 
 A format-3 batch stores each robot-state field's values in a column of their own
 (:mod:`beatlog.log.columns`). Replay hands the behaviors, for each cycle, a view of the
-system's robot state type that holds the fields read so far in the replay, decoded a
-column at a time for the whole batch; a field first read later is decoded then (its
-column, once per batch) and held from the next batch on. Decoding follows the fields
-read, not the width of the state.
+system's robot state type that holds the fields read so far in the replay: the batch's
+views are decoded a cycle at a time, each one array of the cycle's values of those
+fields (:meth:`~beatlog.log.columns.StateColumns.rows`: one decoder call a cycle, not
+one a column), the fields of varied width or converted decoded a column at a time; a
+field first read later is decoded then (its column, once per batch) and held from the
+next batch on. Decoding follows the fields read, not the width of the state.
 
 What a behavior can rely on (README, "Wide robot states"): reading any field gives the
 recorded value, its type checked as it is decoded; ``isinstance(state, YourState)``
