@@ -18,7 +18,13 @@ from beatlog.record import Recorder
 from beatlog.replay import StateMigration
 from beatlog.replay.core import CycleOutcome
 from beatlog.replay.view import StateViews, full_state
-from tests.columned import retyped_value, rewrite_by_field, same_width_values, short_column
+from tests.columned import (
+    retyped_value,
+    rewrite_by_field,
+    same_width_values,
+    short_column,
+    write_states,
+)
 from tests.conftest import PERIOD_NS
 
 LATE = 200
@@ -256,3 +262,33 @@ def test_renamed_converted_and_added_fields_read_as_the_system_has_them(
     result = beatlog.replay(by_field, system, migration=migration)
     assert (result.ok, result.cycles) == (True, 300)
     assert watcher.read == [(arm(t).reach, as_text(t * 0.25), 7) for t in range(300)]
+
+
+class Sparse(RobotState, omit_defaults=True):
+    """A robot state whose cycles encode one field or the other."""
+
+    a: float = 0.0
+    b: float = 0.0
+
+
+def sparse(t: int) -> Sparse:
+    """Only ``a`` in the first 8 cycles (a batch), only ``b`` in the next 8, and so on."""
+    return Sparse(a=t + 0.5) if t // 8 % 2 == 0 else Sparse(b=t + 0.5)
+
+
+def test_batches_of_other_fields_in_columns_of_the_same_widths_read_each_their_own(
+    tmp_path: Path,
+) -> None:
+    log = write_states(tmp_path / "sparse.beatlog", [sparse(t) for t in range(32)], by_field=True)
+    names, read = [], []
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Sparse)
+        views = StateViews(Sparse, Sparse, log)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            names.append((columns.names, columns.widths))
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                view = views.view(columns, cycle)
+                read.append((view.a, view.b))
+    assert names == [(["a"], b"\x09"), (["b"], b"\x09")] * 2
+    assert read == [(sparse(t).a, sparse(t).b) for t in range(32)]

@@ -181,6 +181,7 @@ class StateViews:
             self._index = {name: at for at, name in enumerate(names or ())}
             self._indexed = names
             self._plans = {}
+            self._layouts = {}
         return self._index
 
     def plan(
@@ -215,11 +216,10 @@ class StateViews:
                 if column is not None and columns.widths[column] and name not in converted
             }
             rest = tuple(name for name in held if name not in in_rows)
-            view = self.shape.view_type(tuple(in_rows), rest)
             if len(self._layouts) >= _MAX_LAYOUTS:
                 self._layouts.clear()
             found = self._layouts[key] = _Layout(
-                list(in_rows.values()), rest, self.shape.decoder_of(view)
+                list(in_rows.values()), rest, self.shape.view_decoder(tuple(in_rows), rest)
             )
         return found
 
@@ -399,19 +399,21 @@ class _Shape:
             "__class__": system_type,
             "__qualname__": system_type.__qualname__,
         }
-        self._types: dict[tuple[tuple[str, ...], tuple[str, ...]], Any] = {}
+        self._view_decoders: dict[
+            tuple[tuple[str, ...], tuple[str, ...]], Callable[[bytes], Any]
+        ] = {}
         self._decoders: dict[str, Callable[[bytes], list[Any]]] = {}
 
-    def view_type(self, in_rows: tuple[str, ...], rest: tuple[str, ...]) -> Any:
-        """The class of views that hold the fields ``in_rows`` and ``rest``: decoded
-        from an array of the values of ``in_rows`` (as their types), ``rest`` set after."""
-        found = self._types.get((in_rows, rest))
+    def view_decoder(
+        self, in_rows: tuple[str, ...], rest: tuple[str, ...]
+    ) -> Callable[[bytes], Any]:
+        """What decodes a view holding the fields ``in_rows`` and ``rest`` from an array
+        of the values of ``in_rows`` (each as its field's type), ``rest`` set after."""
+        found = self._view_decoders.get((in_rows, rest))
         if found is None:
             held = {*in_rows, *rest}
             unheld = {name: _Unheld(name) for name in self.fields if name not in held}
-            if len(self._types) >= _MAX_LAYOUTS:
-                self._types.clear()
-            found = self._types[in_rows, rest] = msgspec.defstruct(
+            view = msgspec.defstruct(
                 self.system_type.__name__,
                 [
                     *((name, self.fields[name].type) for name in in_rows),
@@ -425,11 +427,10 @@ class _Shape:
                 gc=False,
                 weakref=False,
             )
+            if len(self._view_decoders) >= _MAX_LAYOUTS:
+                self._view_decoders.clear()
+            found = self._view_decoders[in_rows, rest] = msgspec.msgpack.Decoder(view).decode
         return found
-
-    def decoder_of(self, view_type: Any) -> Callable[[bytes], Any]:
-        """What decodes a view of ``view_type`` from an array of its fields' values."""
-        return msgspec.msgpack.Decoder(view_type).decode
 
     def decoder(self, name: str) -> Callable[[bytes], list[Any]]:
         """What decodes a column of field ``name`` (a msgpack array) as the field's type."""
