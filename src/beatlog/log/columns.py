@@ -6,9 +6,10 @@ records without their robot states, and each robot-state field's values, in cycl
 order, in a column of its own. A reader opens a batch as
 :class:`StateColumns`, which checks the batch's column table on opening and decodes a
 column only when asked for it: a replay whose behaviors read 30 of 1,000 fields decodes
-30 columns. The values are the bytes the writer was given, so a robot state put back
-together (:meth:`StateColumns.raw_states`) is byte for byte the one a format-2 log
-holds.
+30 columns, or those 30 fields of each cycle as one array (:meth:`StateColumns.rows`:
+one decoder call a cycle rather than one a column). The values are the bytes the
+writer was given, so a robot state put back together (:meth:`StateColumns.raw_states`)
+is byte for byte the one a format-2 log holds.
 
 A column of values all encoded in the same width (a float field: 9 bytes each) is
 stored byte-split: byte 0 of every value, then byte 1 of every value, and so on, so that

@@ -23,27 +23,25 @@ from __future__ import annotations
 import copy
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import msgspec
 
-from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.errors import SchemaMismatchError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import DECODE_ERRORS
 from beatlog.replay.migration import ConversionError, StateConverter
+from beatlog.replay.view_batch import BATCH, INDEX, BatchLayout, ViewedBatch
 
 __all__ = ["StateViews", "full_state"]
-
-_BATCH = "_beatlog_batch"
-_INDEX = "_beatlog_index"
 
 
 def full_state(state: Any) -> Any:
     """The robot state itself, every field decoded, for a view (:class:`StateViews`);
     any other state as it is."""
-    batch = getattr(state, _BATCH, None)
-    if isinstance(batch, _Batch):
-        return batch.whole(getattr(state, _INDEX))
+    batch = getattr(state, BATCH, None)
+    if isinstance(batch, ViewedBatch):
+        return batch.whole(getattr(state, INDEX))
     return state
 
 
@@ -60,8 +58,8 @@ class _Unheld:
     def __get__(self, view: Any, owner: type[Any] | None = None) -> Any:
         if view is None:
             return self
-        batch: _Batch = getattr(view, _BATCH)
-        return batch.miss(getattr(view, _INDEX), self.name)
+        batch: ViewedBatch = getattr(view, BATCH)
+        return batch.miss(getattr(view, INDEX), self.name)
 
 
 def _view_eq(self: Any, other: Any) -> Any:
@@ -126,11 +124,11 @@ class StateViews:
         self._plans: dict[
             tuple[str, ...], tuple[list[str], list[int], list[Callable[[Any], list[Any]]]]
         ] = {}
-        self._layouts: dict[tuple[bytes, tuple[str, ...]], _Layout] = {}
+        self._layouts: dict[tuple[bytes, tuple[str, ...]], BatchLayout] = {}
         self._columns: StateColumns | None = None
         self._views: list[Any] = []
         self._first = 0
-        self._batch: _Batch | None = None
+        self._batch: ViewedBatch | None = None
         self.stale = False
         """Whether a field was first read in the batch the views are of."""
 
@@ -148,7 +146,7 @@ class StateViews:
         else:
             if columns.names is not self._checked:
                 self._check(columns)
-            batch = self._batch = _Batch(self, columns)
+            batch = self._batch = ViewedBatch(self, columns)
         self.stale = False
         self._columns = columns
         self._first = columns.first_cycle
@@ -198,7 +196,7 @@ class StateViews:
             found = self._plans[fresh] = (stored, at, list(map(self.shape.decoder, stored)))
         return found
 
-    def layout(self, columns: StateColumns, held: tuple[str, ...]) -> _Layout:
+    def layout(self, columns: StateColumns, held: tuple[str, ...]) -> BatchLayout:
         """How a batch of ``columns`` gives views holding the fields ``held`` (made once
         per batch layout): the fields stored in columns of one width, not converted, are
         decoded a cycle at a time from its :meth:`~StateColumns.rows`; the others are
@@ -218,7 +216,7 @@ class StateViews:
             rest = tuple(name for name in held if name not in in_rows)
             if len(self._layouts) >= _MAX_LAYOUTS:
                 self._layouts.clear()
-            found = self._layouts[key] = _Layout(
+            found = self._layouts[key] = BatchLayout(
                 list(in_rows.values()), rest, self.shape.view_decoder(tuple(in_rows), rest)
             )
         return found
@@ -252,130 +250,12 @@ class StateViews:
         return self.adopt(decoded, cycle)
 
 
-class _Layout(NamedTuple):
-    """How a batch gives its views (:meth:`StateViews.layout`)."""
-
-    columns: list[int]
-    """The columns decoded a cycle at a time, in the order of the views' fields."""
-    rest: tuple[str, ...]
-    """The fields held decoded a column at a time."""
-    decode: Callable[[bytes], Any]
-    """A view decoded from a cycle's array of the values of :attr:`columns`."""
-
-
 _MAX_LAYOUTS = 64
 
 
 def _column(found: tuple[int | None, str]) -> int:
     """Where a field's column is among the batch's (-1 where it has none)."""
     return -1 if found[0] is None else found[0]
-
-
-class _Batch:
-    """One batch's columns as its views read them: each decoded once, on first read."""
-
-    __slots__ = ("columns", "decoded", "index", "views_of")
-
-    def __init__(self, views: StateViews, columns: StateColumns) -> None:
-        self.views_of = views
-        self.columns = columns
-        self.index = views.index(columns.names)
-        self.decoded: dict[str, list[Any]] = {}
-
-    def views(self, held: tuple[str, ...]) -> list[Any]:
-        """The batch's views, holding the fields ``held``: most decoded a cycle at a
-        time, each cycle's fields at once (:meth:`StateViews.layout`).
-
-        :raises beatlog.errors.SchemaMismatchError: a value does not fit its field's type
-            (found as decoding the columns in the order read would find it).
-        :raises beatlog.errors.CorruptLogError: a column is damaged.
-        """
-        owner = self.views_of
-        layout = owner.layout(self.columns, held)
-        try:
-            views = list(map(layout.decode, self.columns.rows(layout.columns)))
-        except (msgspec.ValidationError, *DECODE_ERRORS):
-            self.held(held)  # found again, to say where
-            raise CorruptLogError(
-                owner.path,
-                f"damaged batch from cycle {self.columns.first_cycle}: a column of values "
-                "of one width does not hold one value of that width a cycle",
-            ) from None
-        for index, view in enumerate(views):
-            setattr(view, _BATCH, self)
-            setattr(view, _INDEX, index)
-        for name, values in zip(layout.rest, self.held(layout.rest), strict=True):
-            for view, value in zip(views, values, strict=True):
-                setattr(view, name, value)
-        return views
-
-    def held(self, names: tuple[str, ...]) -> list[list[Any]]:
-        """Fields ``names`` of every cycle of the batch, the system's: the columns not
-        decoded yet are decoded together (:meth:`StateColumns.decoded`)."""
-        decoded = self.decoded
-        fresh = tuple(name for name in names if name not in decoded)
-        if fresh:
-            views = self.views_of
-            stored, at, decoders = views.plan(self.columns.names, fresh)
-            found = self.columns.decoded(at, decoders, views.system_type.__name__)
-            convert = views.convert
-            for name, values in zip(stored, found, strict=True):
-                converts = convert is not None and name in convert.fields
-                decoded[name] = self._converted(name, values) if converts else values
-        return [decoded[name] if name in decoded else self.values(name) for name in names]
-
-    def values(self, name: str) -> list[Any]:
-        """Field ``name`` of every cycle of the batch, the system's."""
-        found = self.decoded.get(name)
-        if found is not None:
-            return found
-        views = self.views_of
-        info = views.fields[name]
-        at = self.index.get(info.encode_name)
-        count = self.columns.count
-        if at is None:  # a field the system gained since the recording
-            if info.default_factory is not msgspec.NODEFAULT:
-                found = [info.default_factory() for _ in range(count)]
-            else:
-                found = [info.default] * count
-        else:
-            decode = views.shape.decoder(name)
-            found = self.columns.values(at, decode, views.system_type.__name__)
-            if views.convert is not None and name in views.convert.fields:
-                found = self._converted(name, found)
-        self.decoded[name] = found
-        return found
-
-    def _converted(self, name: str, values: list[Any]) -> list[Any]:
-        """Recorded values of a field the migration converts, made the system's."""
-        convert = self.views_of.convert
-        assert convert is not None
-        first = self.columns.first_cycle
-        converted = []
-        for offset, value in enumerate(values):
-            try:
-                converted.append(convert.value(name, value))
-            except ConversionError as exc:
-                error = SchemaMismatchError(
-                    self.views_of.path, f"robot state of cycle {first + offset}: {exc}"
-                )
-                error.user_traceback = exc.user_traceback
-                raise error from None
-        return converted
-
-    def miss(self, index: int, name: str) -> Any:
-        """Field ``name`` of the batch's ``index``-th cycle, read for the first time in
-        this batch."""
-        views = self.views_of
-        if name not in views.read:
-            views.read[name] = None
-            views.stale = True
-        return self.values(name)[index]
-
-    def whole(self, index: int) -> Any:
-        """The batch's ``index``-th RS_t decoded whole, the system's."""
-        cycle = self.columns.first_cycle + index
-        return self.views_of.decode_whole(self.columns.raw_state(cycle), cycle)
 
 
 class _Shape:
@@ -418,8 +298,8 @@ class _Shape:
                 [
                     *((name, self.fields[name].type) for name in in_rows),
                     *((name, Any, None) for name in rest),
-                    (_BATCH, Any, None),
-                    (_INDEX, int, 0),
+                    (BATCH, Any, None),
+                    (INDEX, int, 0),
                 ],
                 module=self.system_type.__module__,
                 namespace={**self._namespace, **unheld},
