@@ -19,6 +19,7 @@ from beatlog.replay import StateMigration
 from beatlog.replay.core import CycleOutcome
 from beatlog.replay.view import StateViews, full_state
 from tests.columned import (
+    Damage,
     retyped_value,
     rewrite_by_field,
     same_width_values,
@@ -163,27 +164,24 @@ def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
     assert str(raised.value).startswith(f"{damaged}: damaged batch from cycle ")
 
 
-def test_a_value_of_another_type_is_found_where_it_is_read(by_field: Path, tmp_path: Path) -> None:
-    damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", retyped_value(4, "oops"), 1)
-    with pytest.raises(SchemaMismatchError, match=r"does not fit Arm: field 'joints'") as raised:
-        beatlog.replay(damaged, watcher_system())
-    assert str(raised.value) == (
-        f"{damaged}: robot state of cycle 35 does not fit Arm: field 'joints': "
-        "Expected `array`, got `str` - at `$[0]`"
-    )
-
-
-def test_a_value_of_another_type_held_from_an_earlier_batch_is_found_alike(
-    by_field: Path, tmp_path: Path
+@pytest.mark.parametrize(
+    ("damage", "problem"),
+    [
+        (retyped_value(4, "oops"), "field 'joints': Expected `array`, got `str` - at `$[0]`"),
+        (
+            same_width_values(0, "8 chars!"),
+            "field 'reach': Expected `float`, got `str` - at `$[0]`",
+        ),
+    ],
+    ids=["varied-width", "one-width"],  # decoded a column at a time, a cycle at a time
+)
+def test_a_value_of_another_type_is_found_where_it_is_read(
+    by_field: Path, tmp_path: Path, damage: Damage, problem: str
 ) -> None:
-    retyped = same_width_values(0, "8 chars!")  # 'reach', read from the first cycle on
-    damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", retyped, 1)
+    damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", damage, 1)
     with pytest.raises(SchemaMismatchError) as raised:
         beatlog.replay(damaged, watcher_system())
-    assert str(raised.value) == (
-        f"{damaged}: robot state of cycle 35 does not fit Arm: field 'reach': "
-        "Expected `float`, got `str` - at `$[0]`"
-    )
+    assert str(raised.value) == f"{damaged}: robot state of cycle 35 does not fit Arm: {problem}"
 
 
 def test_a_value_spilling_into_the_next_ones_place_is_a_damaged_log(
