@@ -150,12 +150,18 @@ def test_columns_decoded_together_are_each_column_decoded_alone(tmp_path: Path) 
 
 
 @pytest.mark.parametrize(
-    "fields",
-    [["speed", "bumped", "pose"], ["pose", "speed"], ["bumped"], []],
-    ids=["in-order", "reordered", "one", "none"],
+    ("fixed", "varied"),
+    [
+        (["speed", "bumped", "pose"], []),
+        (["pose", "speed"], []),
+        (["bumped"], ["ranges", "ticks"]),
+        ([], ["ticks"]),
+        ([], []),
+    ],
+    ids=["in-order", "reordered", "and-varied", "varied", "none"],
 )
-def test_a_cycle_of_columns_of_one_width_is_one_array_of_its_values(
-    tmp_path: Path, fields: list[str]
+def test_a_cycle_of_columns_is_one_array_of_its_values(
+    tmp_path: Path, fixed: list[str], varied: list[str]
 ) -> None:
     states = [wide(t) for t in range(30)]
     log = write_states(tmp_path / "v3.beatlog", states, by_field=True)
@@ -163,12 +169,14 @@ def test_a_cycle_of_columns_of_one_width_is_one_array_of_its_values(
     with SessionLogReader(log) as reader:
         reader.decode_states(Wide)
         batches: list[Any] = [batch[0].robot_state for batch in reader.batches()]
-    assert [batches[0].widths[names.index(name)] for name in fields] == [
-        {"speed": 9, "bumped": 1, "pose": 23}[name] for name in fields
-    ]
-    rows = [row for columns in batches for row in columns.rows(list(map(names.index, fields)))]
+    widths = {"speed": 9, "bumped": 1, "pose": 23, "ranges": 0, "ticks": 0}
+    assert [
+        [columns.widths[names.index(name)] for name in fixed + varied] for columns in batches
+    ] == [[widths[name] for name in fixed + varied]] * len(batches)
+    at = [list(map(names.index, fixed)), list(map(names.index, varied))]
+    rows = [row for columns in batches for row in columns.rows(*at)]
     encode = msgspec.msgpack.encode
-    assert rows == [encode([getattr(state, name) for name in fields]) for state in states]
+    assert rows == [encode([getattr(state, name) for name in fixed + varied]) for state in states]
 
 
 def test_a_batch_read_by_field_is_freed_without_the_garbage_collector(tmp_path: Path) -> None:

@@ -16,7 +16,6 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model import BehaviorState, Context, Outputs, PriorityArbiter, RobotState
 from beatlog.record import Recorder
 from beatlog.replay import StateMigration
-from beatlog.replay.core import CycleOutcome
 from beatlog.replay.view import StateViews, full_state
 from tests.columned import (
     Damage,
@@ -198,16 +197,30 @@ def test_a_value_spilling_into_the_next_ones_place_is_a_damaged_log(
     )
 
 
-def test_views_made_a_cycle_at_a_time_hold_the_recorded_states(by_field: Path) -> None:
-    read: list[list[Any]] = []
-
-    def read_every_field(outcome: CycleOutcome) -> None:
-        read.append([getattr(outcome.state, name) for name in Arm.__struct_fields__])
-
-    result = beatlog.replay(by_field, watcher_system(), observe=read_every_field)
-    assert (result.ok, result.cycles) == (True, 300)
-    recorded = [arm(t) for t in range(300)]
-    assert read == [[getattr(s, name) for name in Arm.__struct_fields__] for s in recorded]
+@pytest.mark.parametrize(
+    ("fields", "layout"),
+    [
+        (["reach", "late", "pose"], ([0, 1, 3], [], ())),  # of one width: a cycle at a time
+        (list(Arm.__struct_fields__), ([0, 1, 3], [2, 4], ())),  # of varied width joined on
+        (["label", "joints", "reach"], ([], [], ("label", "joints", "reach"))),  # by column
+    ],
+    ids=["one-width", "most-of-one-width", "most-of-varied-width"],
+)
+def test_views_hold_the_recorded_states_however_they_are_decoded(
+    by_field: Path, fields: list[str], layout: tuple[list[int], list[int], tuple[str, ...]]
+) -> None:
+    read, layouts = [], set()
+    with SessionLogReader(by_field) as reader:
+        reader.decode_states(Arm)
+        views = StateViews(Arm, Arm, by_field)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                read.append([getattr(views.view(columns, cycle), name) for name in fields])
+            made = views.layout(columns, tuple(fields))
+            layouts.add((tuple(made.columns), tuple(made.varied), made.rest))
+    assert read == [[getattr(arm(t), name) for name in fields] for t in range(300)]
+    assert layouts == {(tuple(layout[0]), tuple(layout[1]), layout[2])}
 
 
 Renamed = msgspec.defstruct(

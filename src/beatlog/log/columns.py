@@ -263,31 +263,40 @@ class StateColumns:
             for at, index in enumerate(starts):
                 self._encoded[index] = head + values[at * size : (at + 1) * size]
 
-    def rows(self, indices: Sequence[int]) -> list[bytes]:
+    def rows(self, fixed: Sequence[int], varied: Sequence[int] = ()) -> list[bytes]:
         """Each cycle of the batch as one msgpack array of its values in the columns
-        ``indices``, in that order, each a column of values of one width.
+        ``fixed`` (each of values of one width), then ``varied`` (of varied width).
 
-        Such a column is ``width`` planes of a byte a cycle (one plane if not split), so
-        byte ``t`` of every plane, taken in order, is cycle ``t``'s value: with the
-        columns laid end to end after the array head's bytes (a plane each), a cycle's
-        array is one strided slice, however many columns there are. Columns next to
-        each other in the batch are taken together.
+        A column of one width is ``width`` planes of a byte a cycle (one plane if not
+        split), so byte ``t`` of every plane, taken in order, is cycle ``t``'s value:
+        with the columns laid end to end after the array head's bytes (a plane each),
+        a cycle's values are one strided slice, however many columns there are (columns
+        next to each other in the batch are taken together). A value of varied width is
+        found by walking its column, and joined on.
+
+        :raises msgspec.DecodeError: a column of varied width is damaged.
         """
         count = self.count
         ends = [0, *self._ends]
         data = memoryview(self._data)
         planes: list[bytes | memoryview] = [
-            bytes([byte]) * count for byte in array_head(len(indices))
+            bytes([byte]) * count for byte in array_head(len(fixed) + len(varied))
         ]
         start = end = 0
-        for index in indices:
+        for index in fixed:
             if ends[index] != end:
                 planes.append(data[start:end])
                 start = ends[index]
             end = ends[index + 1]
         planes.append(data[start:end])
         group = b"".join(planes)
-        return [group[cycle::count] for cycle in range(count)]
+        rows = [group[cycle::count] for cycle in range(count)]
+        if not varied:
+            return rows
+        self.unsplit(varied)
+        encoded = self._encoded
+        values = [_RAWS(encoded[index]) for index in varied]
+        return list(map(b"".join, zip(rows, *values, strict=True)))
 
     def _walk(self, index: int) -> None:
         """A column of values of varied width must hold exactly one value a cycle."""

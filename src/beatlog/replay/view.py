@@ -198,26 +198,39 @@ class StateViews:
 
     def layout(self, columns: StateColumns, held: tuple[str, ...]) -> BatchLayout:
         """How a batch of ``columns`` gives views holding the fields ``held`` (made once
-        per batch layout): the fields stored in columns of one width, not converted, are
-        decoded a cycle at a time from its :meth:`~StateColumns.rows`; the others are
-        decoded a column at a time and set on the views."""
+        per batch layout).
+
+        The fields it stores, unless converted, are decoded a cycle at a time from its
+        :meth:`~StateColumns.rows` (those of one width first, in column order), the
+        others decoded a column at a time and set on the views; where most of the
+        fields stored are of varied width, all are decoded a column at a time, which
+        costs less for them (``BENCHMARKS.md``)."""
         index = self.index(columns.names)
         key = (columns.widths, held)
         found = self._layouts.get(key)
         if found is None:
             fields = self.fields
+            widths = columns.widths
             converted = self.convert.fields if self.convert is not None else ()
-            at = [index.get(fields[name].encode_name) for name in held]
-            in_rows = {
-                name: column
-                for column, name in sorted(zip(at, held, strict=True), key=_column)
-                if column is not None and columns.widths[column] and name not in converted
-            }
+            stored = [
+                (not widths[column], column, name)
+                for name in held
+                if (column := index.get(fields[name].encode_name)) is not None
+                and name not in converted
+            ]
+            stored.sort()
+            varied = sum(of_varied for of_varied, _, _ in stored)
+            if 2 * varied > len(stored):
+                stored = []
+            in_rows = tuple(name for _, _, name in stored)
             rest = tuple(name for name in held if name not in in_rows)
             if len(self._layouts) >= _MAX_LAYOUTS:
                 self._layouts.clear()
             found = self._layouts[key] = BatchLayout(
-                list(in_rows.values()), rest, self.shape.view_decoder(tuple(in_rows), rest)
+                [column for of_varied, column, _ in stored if not of_varied],
+                [column for of_varied, column, _ in stored if of_varied],
+                rest,
+                *self.shape.view_class(in_rows, rest),
             )
         return found
 
@@ -253,11 +266,6 @@ class StateViews:
 _MAX_LAYOUTS = 64
 
 
-def _column(found: tuple[int | None, str]) -> int:
-    """Where a field's column is among the batch's (-1 where it has none)."""
-    return -1 if found[0] is None else found[0]
-
-
 class _Shape:
     """What the views of one robot state type (``system_type``, checked as ``checking``)
     share, made once per pair in a process (:func:`_shape`): a suite replays many logs
@@ -279,17 +287,19 @@ class _Shape:
             "__class__": system_type,
             "__qualname__": system_type.__qualname__,
         }
-        self._view_decoders: dict[
-            tuple[tuple[str, ...], tuple[str, ...]], Callable[[bytes], Any]
+        self._views: dict[
+            tuple[tuple[str, ...], tuple[str, ...]],
+            tuple[type[Any], Callable[[bytes], Any]],
         ] = {}
         self._decoders: dict[str, Callable[[bytes], list[Any]]] = {}
 
-    def view_decoder(
+    def view_class(
         self, in_rows: tuple[str, ...], rest: tuple[str, ...]
-    ) -> Callable[[bytes], Any]:
-        """What decodes a view holding the fields ``in_rows`` and ``rest`` from an array
-        of the values of ``in_rows`` (each as its field's type), ``rest`` set after."""
-        found = self._view_decoders.get((in_rows, rest))
+    ) -> tuple[type[Any], Callable[[bytes], Any]]:
+        """The class of views holding the fields ``in_rows`` and ``rest``, and what
+        decodes one from an array of the values of ``in_rows`` (each as its field's
+        type), ``rest`` set after; without ``in_rows``, views are made positionally."""
+        found = self._views.get((in_rows, rest))
         if found is None:
             held = {*in_rows, *rest}
             unheld = {name: _Unheld(name) for name in self.fields if name not in held}
@@ -307,9 +317,9 @@ class _Shape:
                 gc=False,
                 weakref=False,
             )
-            if len(self._view_decoders) >= _MAX_LAYOUTS:
-                self._view_decoders.clear()
-            found = self._view_decoders[in_rows, rest] = msgspec.msgpack.Decoder(view).decode
+            if len(self._views) >= _MAX_LAYOUTS:
+                self._views.clear()
+            found = self._views[in_rows, rest] = (view, msgspec.msgpack.Decoder(view).decode)
         return found
 
     def decoder(self, name: str) -> Callable[[bytes], list[Any]]:

@@ -4,6 +4,7 @@ its columns decoded once each, on first read, or its cycles' fields decoded at o
 from __future__ import annotations
 
 from collections.abc import Callable
+from itertools import repeat
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import msgspec
@@ -28,11 +29,17 @@ class BatchLayout(NamedTuple):
     """How a batch gives its views (:meth:`StateViews.layout`)."""
 
     columns: list[int]
-    """The columns decoded a cycle at a time, in the order of the views' fields."""
+    """The columns of values of one width decoded a cycle at a time, in the order of
+    the views' fields."""
+    varied: list[int]
+    """The columns of values of varied width decoded a cycle at a time, after them."""
     rest: tuple[str, ...]
-    """The fields held decoded a column at a time."""
+    """The fields held decoded a column at a time, after them."""
+    view: type[Any]
+    """The class of the views."""
     decode: Callable[[bytes], Any]
-    """A view decoded from a cycle's array of the values of :attr:`columns`."""
+    """A view decoded from a cycle's array of the values of :attr:`columns` and
+    :attr:`varied`."""
 
 
 class ViewedBatch:
@@ -47,8 +54,8 @@ class ViewedBatch:
         self.decoded: dict[str, list[Any]] = {}
 
     def views(self, held: tuple[str, ...]) -> list[Any]:
-        """The batch's views, holding the fields ``held``: most decoded a cycle at a
-        time, each cycle's fields at once (:meth:`StateViews.layout`).
+        """The batch's views, holding the fields ``held``: decoded a cycle at a time,
+        each cycle's fields at once, or a column at a time (:meth:`StateViews.layout`).
 
         :raises beatlog.errors.SchemaMismatchError: a value does not fit its field's type
             (found as decoding the columns in the order read would find it).
@@ -56,8 +63,11 @@ class ViewedBatch:
         """
         owner = self.views_of
         layout = owner.layout(self.columns, held)
+        if not layout.columns and not layout.varied:
+            values = self.held(layout.rest)
+            return list(map(layout.view, *values, repeat(self), range(self.columns.count)))
         try:
-            views = list(map(layout.decode, self.columns.rows(layout.columns)))
+            views = list(map(layout.decode, self.columns.rows(layout.columns, layout.varied)))
         except (msgspec.ValidationError, *DECODE_ERRORS):
             self.held(held)  # found again, to say where
             raise CorruptLogError(
