@@ -223,7 +223,8 @@ class StateViews:
             if 2 * varied > len(stored):
                 stored = []
             in_rows = tuple(name for _, _, name in stored)
-            rest = tuple(name for name in held if name not in in_rows)
+            taken = set(in_rows)
+            rest = tuple(name for name in held if name not in taken)
             if len(self._layouts) >= _MAX_LAYOUTS:
                 self._layouts.clear()
             found = self._layouts[key] = BatchLayout(
