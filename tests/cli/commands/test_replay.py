@@ -15,7 +15,7 @@ import pytest
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.random import RecordingRandom
 from beatlog.record.recorder import Recorder
-from tests.commands import Beatlog, assert_error, assert_one_line_error
+from tests.commands import Beatlog, assert_error
 from tests.conftest import RecordFn, distances
 from tests.factories import cut_in_half, vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
@@ -91,10 +91,11 @@ def test_a_log_never_chooses_the_code_replay_imports(
 
     run = beatlog("replay", log)
 
-    assert_one_line_error(
+    assert_error(
         run,
-        f"{log}: records the system {recorded!r}, which this project does not vouch for",
-        f"[tool.beatlog] systems in {tmp_path / 'pyproject.toml'}",
+        f"{log}: records the system {recorded!r}, which this project does not vouch for; "
+        "name it (--system, or system = in the spec) or list it under [tool.beatlog] systems "
+        f"in {tmp_path / 'pyproject.toml'}",
     )
     assert not (tmp_path / "sprung").exists()
     assert set(sys.modules) - imported <= {"beatlog.replay.judge", "beatlog.report.console"}
@@ -152,21 +153,24 @@ def test_replay_maps_robot_state_fields_renamed_or_retyped_since_the_recording(
     assert beatlog("replay", log, *renamed, "--rename-field", "distance=range").code == 0
     converted = ("--convert-field", "distance=tests.systems:centimetres")
     assert beatlog("replay", log, *retyped, *converted).code == 0
-    assert_one_line_error(
+    assert_error(
         beatlog("replay", log, *renamed),
-        "field 'distance' is gone; the system has 'range' (number) in its place: if "
-        'renamed, add field_renames = { distance = "range" } to the spec (beatlog replay: '
-        "--rename-field distance=range)",
+        f"{log}: recorded with robot state tests.conftest.Probe, which does not fit the "
+        "system's tests.systems.Ranged: Probe is not Ranged (a robot state type renamed since "
+        "keeps exactly its fields); field 'distance' is gone; the system has 'range' (number) "
+        'in its place: if renamed, add field_renames = { distance = "range" } to the spec '
+        "(beatlog replay: --rename-field distance=range)",
     )
-    assert_one_line_error(
+    assert_error(
         beatlog("replay", log, *renamed, "--rename-field", "distance"),
-        "argument --rename-field: expected NAME=VALUE: 'distance'",
+        "argument --rename-field: expected NAME=VALUE: 'distance' (see 'beatlog replay --help')",
     )
     failing = ("--convert-field", "distance=tests.systems:centimetres_unless_close")
-    assert_one_line_error(
+    assert_error(
         beatlog("replay", log, *retyped, *failing),
         f"{log}: robot state of cycle 46: field 'distance': "
-        "tests.systems:centimetres_unless_close raised ValueError: 0.08 m is too close",
+        "tests.systems:centimetres_unless_close raised ValueError: 0.08 m is too close to "
+        "convert",
     )
 
 
@@ -266,10 +270,10 @@ def test_a_replay_that_checks_nothing_is_bad_input_unless_allowed(
     refused = beatlog("replay", log, "--system", system, "--allow-truncated")
     allowed = beatlog("replay", log, "--system", system, "--allow-truncated", "--allow-empty")
 
-    assert_one_line_error(refused)
-    assert refused.err == (
-        f"beatlog: error: {log}: the replay checked nothing (0 cycles); if nothing is meant "
-        "to happen in it, accept it with --allow-empty (in a spec: allow_empty = true)\n"
+    assert_error(
+        refused,
+        f"{log}: the replay checked nothing (0 cycles); if nothing is meant "
+        "to happen in it, accept it with --allow-empty (in a spec: allow_empty = true)",
     )
     assert allowed.code == 0
     timing = r"in (under 1 ms|\d+\.\d{3} s \([\d,]+× real time\))"  # a loaded machine is slow
@@ -294,8 +298,7 @@ def test_replaying_array_draws_without_numpy_is_one_line_naming_the_log_and_the_
 
     run = beatlog("replay", log, "--system", "tests.systems:scatter_system")
 
-    assert_one_line_error(run)
-    assert run.err == f"beatlog: error: {log}: {NUMPY_NEEDED}\n"
+    assert_error(run, f"{log}: {NUMPY_NEEDED}")
 
 
 def test_a_divergence_shows_recorded_array_draws_without_numpy(
