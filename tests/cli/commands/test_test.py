@@ -93,19 +93,18 @@ def test_a_spec_without_a_system_replays_against_the_one_its_project_vouches_for
     run = beatlog_test(specs)
 
     assert run.code == 2
-    assert re.search(r"avoid-pole\s+│ passed", run.out)
+    assert table_row(run.out, "avoid-pole")[:4] == ["avoid-pole", "passed", "300", "9.0 s"]
     assert (
-        f"note: avoid-pole: replayed against {PROBE}, which its log records and the project lists\n"
-    ) in run.out
-    assert (
+        f"note: avoid-pole: replayed against {PROBE}, which its log records and the project lists"
+    ) in whole_lines(run.out)
+    assert run.err == (
+        f"beatlog: error: hostile ({specs / 'hostile.dtc.toml'}): "
+        f"{specs / '..' / 'hostile.beatlog'}: records the system 'tempfile:mkdtemp', which this "
+        "project does not vouch for; name it (--system, or system = in the spec) or list it "
+        f"under [tool.beatlog] systems in {specs / 'pyproject.toml'}\n"
         f"beatlog: error: unnamed ({specs / 'unnamed.dtc.toml'}): "
-        f"{specs / '..' / 'unnamed.beatlog'}: records no system; name one (module:factory)"
-    ) in whole_lines(run.err)
-    assert (
-        f"hostile.beatlog: records the system 'tempfile:mkdtemp', which this project does "
-        f"not vouch for; name it (--system, or system = in the spec) or list it under "
-        f"[tool.beatlog] systems in {specs / 'pyproject.toml'}"
-    ) in run.err
+        f"{specs / '..' / 'unnamed.beatlog'}: records no system; name one (module:factory)\n"
+    )
 
 
 def test_a_diverging_dtc_fails_and_says_how_to_rerun_it(
@@ -587,7 +586,7 @@ def test_audit_of_a_sound_suite_passes(beatlog_test: BeatlogTest, specs: Path, l
     assert run.code == 0
     assert (
         "determinism audit: no findings in 1 DTC (each replayed with PYTHONHASHSEED=1 and 2)"
-        in run.out
+        in whole_lines(run.out)
     )
     assert_counts(run, "1 passed, 0 failed", 300)
 
