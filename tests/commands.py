@@ -4,6 +4,7 @@ checks every command test shares."""
 from __future__ import annotations
 
 import contextlib
+import inspect
 import os
 import pty
 import re
@@ -61,6 +62,12 @@ def cannot_import(module: str) -> str:
             "pyproject.toml)"
         )
     )
+
+
+def failing_line(factory: Callable[[], object]) -> str:
+    """Where ``factory``, which raises on its last line, failed, as beatlog names it."""
+    lines, first = inspect.getsourcelines(factory)
+    return f"line {first + len(lines) - 1} of {inspect.getsourcefile(factory)}"
 
 
 def closing_counts(out: str) -> str:

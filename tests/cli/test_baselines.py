@@ -305,6 +305,7 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
     beatlog: Beatlog, spec: Path
 ) -> None:
     beatlog("test", "--update", spec)
+    waiting = pending_path(spec).read_bytes()
     environment = {key: value for key, value in os.environ.items() if key != "CI"}
     review_command: list[str | Path] = ["-m", "beatlog.cli.main", "review", spec.parent]
     with at_a_terminal(review_command, env=environment) as terminal:
@@ -319,5 +320,5 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
     assert "maybe" in whole_lines(again)
     assert f"accepted {expected_path(spec)}" in whole_lines(rest)
     assert code == 0
-    assert expected_path(spec).exists()
+    assert expected_path(spec).read_bytes() == waiting
     assert not pending_path(spec).exists()

@@ -16,7 +16,13 @@ from mcap.writer import Writer
 
 from beatlog.log.crafting import session_header
 from beatlog.log.writer import SessionLogWriter
-from tests.commands import Beatlog, assert_error, assert_error_matching, cannot_import
+from tests.commands import (
+    Beatlog,
+    assert_error,
+    assert_error_matching,
+    cannot_import,
+    failing_line,
+)
 from tests.conftest import RecordFn, broken_probe
 from tests.specs import PROBE
 from tests.text import frames
@@ -91,12 +97,6 @@ def test_a_bad_log_is_one_line_naming_the_file(
     run = beatlog(command[0], log, *command[1:])
 
     assert_error(run, f"{log}: {problem}")
-
-
-def failing_line(factory: Callable[[], object]) -> str:
-    """Where ``factory`` raises, as beatlog names it: its last line, in its file."""
-    lines, first = inspect.getsourcelines(factory)
-    return f"line {first + len(lines) - 1} of {inspect.getsourcefile(factory)}"
 
 
 @pytest.mark.parametrize(

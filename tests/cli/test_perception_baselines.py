@@ -78,6 +78,7 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
     ]
     assert pins.runs[0].first == {"distance": 1.1}
 
+    waiting = pending_path(spec).read_bytes()
     monkeypatch.setattr("sys.stdin", io.StringIO("accept\n"))
     review = beatlog("review", spec)
     assert review.code == 0
@@ -89,7 +90,7 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
         '+       0     0.030  robot_state otherwise in 0..10 (11 cycles): ["distance"], '
         'first {"distance": 1.1}' in whole_lines(review.out)
     )
-    assert expected_path(spec).exists()
+    assert expected_path(spec).read_bytes() == waiting
 
     assert beatlog("test", spec).code == 0
     assert _digest(log) == recorded

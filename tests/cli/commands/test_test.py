@@ -21,6 +21,7 @@ from tests.commands import (
     Run,
     assert_error,
     at_a_terminal,
+    failing_line,
     hide_matplotlib,
 )
 from tests.conftest import RecordFn, broken_probe
@@ -172,13 +173,11 @@ def test_a_system_that_fails_to_build_is_one_line_on_stderr_with_its_traceback_o
     quiet = beatlog_test(specs)
     verbose = beatlog_test(specs, "--verbose", "--junit-xml", report)
 
-    line = (
-        f"beatlog: error: broken ({broken}): 'tests.conftest:broken_probe': the factory raised "
-        "RuntimeError: the arena map is missing (line "
-    )
     assert quiet.code == verbose.code == 2
-    assert quiet.err.startswith(line)
-    assert quiet.err.count("\n") == 1
+    assert quiet.err == (
+        f"beatlog: error: broken ({broken}): 'tests.conftest:broken_probe': the factory raised "
+        f"RuntimeError: the arena map is missing ({failing_line(broken_probe)})\n"
+    )
     assert verbose.err.startswith("Traceback (most recent call last):\n")
     assert 'raise RuntimeError("the arena map is missing")' in whole_lines(verbose.err)
     assert verbose.err.splitlines()[-1] == quiet.err.rstrip("\n")
