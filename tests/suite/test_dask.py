@@ -131,9 +131,9 @@ def test_a_suite_given_by_a_relative_path_is_reported_by_it_as_a_local_run_is(
             r"FAIL suite/\.\./first\.beatlog  22 cycles, 0\.7 s robot time in [^;]+; log complete",
             failed,
         ), failed
-        assert run.err.startswith(
+        assert run.err == (
             "beatlog: error: broken (suite/broken.dtc.toml): "
-            "suite/broken.beatlog: not a session log"
+            "suite/broken.beatlog: not a session log (not an MCAP file)\n"
         )
 
 
