@@ -70,6 +70,17 @@ def failing_line(factory: Callable[[], object]) -> str:
     return f"line {first + len(lines) - 1} of {inspect.getsourcefile(factory)}"
 
 
+def replay_line(verdict: str, log: str | Path, checked: str) -> str:
+    """The pattern of the line ``beatlog replay`` sums a complete log up in, e.g. ``PASS
+    LOG  300 cycles, ...; 9.0 s robot time in 0.004 s (2,250× real time); log complete``:
+    how fast it replayed varies, from run to run and machine to machine."""
+    return (
+        re.escape(f"{verdict} {log}  {checked} in ")
+        + r"(under 1 ms|\d+\.\d{3} s \([\d,]+× real time\))"
+        + re.escape("; log complete")
+    )
+
+
 def closing_counts(out: str) -> str:
     """The counts of ``beatlog test``'s closing line (``2 passed, 1 failed, 1 not run``),
     without the wall time and the cycles that follow them."""

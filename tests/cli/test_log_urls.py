@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import sys
 from pathlib import Path
@@ -19,12 +20,13 @@ from tests.commands import (
     assert_error,
     beatlog_process,
     plain,
+    replay_line,
     signalled,
 )
 from tests.conftest import RecordFn
 from tests.factories import vouch
 from tests.served import LogServer
-from tests.specs import CHANGED, PROBE
+from tests.specs import CHANGED, PROBE, PROBE_CHECKED
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
 
@@ -37,7 +39,7 @@ def test_replay_judges_a_log_behind_a_url_and_names_the_url(
     run = beatlog("replay", url, "--system", PROBE)
 
     assert run.code == 0, run.err
-    assert run.out.startswith(f"PASS {url}  300 cycles")
+    assert re.fullmatch(replay_line("PASS", url, PROBE_CHECKED) + "\n", run.out), run.out
     assert served.downloads("dock.beatlog") == 1
 
 
@@ -49,7 +51,8 @@ def test_a_diverging_replay_of_a_url_reproduces_with_the_url(
     run = beatlog("replay", url, "--system", CHANGED)
 
     assert run.code == 1, run.err
-    assert run.out.startswith(f"FAIL {url}  ")
+    first = run.out.splitlines()[0]
+    assert re.fullmatch(replay_line("FAIL", url, "22 cycles, 0.7 s robot time"), first), first
     assert run.out.splitlines()[-1] == f"reproduce: beatlog replay {url} --system {CHANGED}"
     assert "beatlog-remote-" not in run.out
     assert served.downloads("dock.beatlog") == 1

@@ -42,7 +42,7 @@ def test_every_log_that_matches_is_replayed_as_a_dtc(beatlog: Beatlog, logs: Pat
     assert run.code == 0, run.err
     for name in ("dock", "patrol", "yard"):
         assert table_row(run.out, name)[:4] == [name, "passed", "300", "9.0 s"]
-    assert run.out.splitlines()[-1].startswith("3 passed, 0 failed")
+    assert closing_counts(run.out) == "3 passed, 0 failed"
 
 
 def test_a_fleet_log_that_diverges_fails_and_its_rerun_command_reproduces_it(
@@ -108,9 +108,9 @@ def test_a_fleet_run_can_be_sharded(beatlog: Beatlog, logs: Path) -> None:
         for shard in ("1/2", "2/2")
     ]
 
-    assert [run.out.splitlines()[-1][:17] for run in runs] == [
-        "2 passed, 0 faile",
-        "1 passed, 0 faile",
+    assert [closing_counts(run.out) for run in runs] == [
+        "2 passed, 0 failed",
+        "1 passed, 0 failed",
     ]
 
 
@@ -138,7 +138,7 @@ def test_logs_behind_any_fsspec_url_are_replayed(beatlog: Beatlog, memory_logs: 
     run = beatlog("test", "--logs", f"{memory_logs}/**/*.beatlog", "--system", PROBE)
 
     assert run.code == 0, run.err
-    assert run.out.splitlines()[-1].startswith("3 passed, 0 failed")
+    assert closing_counts(run.out) == "3 passed, 0 failed"
 
 
 def test_a_pattern_that_matches_nothing_is_named(beatlog: Beatlog, logs: Path) -> None:
