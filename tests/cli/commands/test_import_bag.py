@@ -83,7 +83,10 @@ def test_period_and_topics_choose_the_heartbeats_and_the_samples(
         beatlog, bag, "--perception", PERCEPTION, "--period-ms", "20", "--topic", "/sonar"
     )
 
-    assert run.out.startswith("imported 300 messages on 1 topic into 150 cycles (3.00 s)")
+    assert run.out == (
+        "imported 300 messages on 1 topic into 150 cycles (3.00 s) to "
+        f"{bag.with_suffix('.beatlog')}\n"
+    )
 
 
 @pytest.mark.parametrize(
@@ -271,4 +274,7 @@ def test_a_topic_whose_definition_does_not_fit_is_named_with_how_to_import_the_o
     others = import_bag(
         beatlog, bag, "--perception", PERCEPTION, "--topic", "/sonar", "--topic", "/speed"
     )
-    assert others.out.startswith("imported 360 messages on 2 topics")
+    assert others.out == (
+        "imported 360 messages on 2 topics into 100 cycles (3.00 s) to "
+        f"{bag.with_suffix('.beatlog')}\n"
+    )
