@@ -4,23 +4,27 @@ with every CRC holding: shared by the log, replay and conformance tests."""
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import msgspec
 
 from beatlog.log.columns import array_head, column_batches
-from beatlog.log.crafting import Message, craft_log
+from beatlog.log.crafting import Message, craft_log, session_header
 from beatlog.log.format import (
     CYCLES_TOPIC,
     END_TOPIC,
     HEADER_TOPIC,
     ColumnBatch,
     CycleRecord,
+    SessionEnd,
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
+from beatlog.log.writer import SessionLogWriter
+from beatlog.model.state import state_fields
+from tests.conftest import PERIOD_NS
 
 Damage = Callable[[ColumnBatch], ColumnBatch]
 
@@ -47,6 +51,20 @@ def rewrite_by_field(log: Path, path: Path, damage: Damage, batch: int) -> Path:
     assert end is not None
     messages.append(Message(END_TOPIC, end.robot_time_ns, encode(end)))
     return craft_log(path, messages)
+
+
+def write_states(
+    path: Path, states: Sequence[msgspec.Struct], *, by_field: bool, version: int = 3
+) -> Path:
+    """A log at ``path`` of ``states`` (format ``version``, batches of 8 cycles), stored
+    ``by_field`` or in the records."""
+    fields = state_fields(type(states[0])) if by_field else []
+    header = session_header(format_version=version, state_fields=fields)
+    with SessionLogWriter(path, header, batch_cycles=8) as writer:
+        for t, state in enumerate(states):
+            writer.append(PERIOD_NS, state, [], [], {"t": t})
+        writer.close(SessionEnd(cycles=len(states), robot_time_ns=len(states) * PERIOD_NS))
+    return path
 
 
 def _without_state(record: CycleRecord) -> list[Any]:
@@ -119,6 +137,25 @@ def retyped_value(index: int, value: Any) -> Damage:
         data = batch.data[:start] + column + batch.data[end:]
         packed = struct.pack(f"<{len(sizes)}I", *sizes)
         return msgspec.structs.replace(batch, sizes=packed, data=data)
+
+    return damage
+
+
+def same_width_values(index: int, *values: Any) -> Damage:
+    """Column ``index`` (of values of one width, byte-split) with its first values
+    ``values``, which take as many bytes as that many of the column's: each of the
+    width, or one short and the next spilling into its place."""
+
+    def damage(batch: ColumnBatch) -> ColumnBatch:
+        width, count = batch.widths[index], len(batch.cycles)
+        encoded = b"".join(map(msgspec.msgpack.encode, values))
+        assert len(encoded) == width * len(values)
+        data = bytearray(batch.data)
+        start = _column_start(batch, index)
+        for at, byte in enumerate(encoded):
+            cycle, plane = divmod(at, width)
+            data[start + plane * count + cycle] = byte
+        return msgspec.structs.replace(batch, data=bytes(data))
 
     return damage
 

@@ -257,3 +257,16 @@ def rebuilt_states(states: dict[int, dict[str, Any]]) -> list[RebuiltState]:
 def through_log(draws: list[Draw]) -> list[Draw]:
     """What replay sees: the draws after msgpack encoding and decoding."""
     return msgspec.msgpack.decode(msgspec.msgpack.encode(draws), type=list[Draw])
+
+
+def opened_logs(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The names of the logs opened from now on, in order, one entry an opening."""
+    opened: list[str] = []
+    open_log = SessionLogReader.__init__
+
+    def counted(reader: SessionLogReader, path: str | Path, **options: Any) -> None:
+        opened.append(Path(path).name)
+        open_log(reader, path, **options)
+
+    monkeypatch.setattr(SessionLogReader, "__init__", counted)
+    return opened

@@ -11,6 +11,7 @@ import pytest
 from beatlog.errors import OptionError
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.baseline import expected_path, pending_path
+from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.options import SuiteOptions
@@ -18,6 +19,7 @@ from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite_session import SuiteSession, conclude, prepare_report, run_session
 from tests.conftest import RecordFn
+from tests.factories import opened_logs
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
 
@@ -156,3 +158,17 @@ def test_conclude_measures_nothing_unless_asked(specs: Path) -> None:
 
     assert (report.orphans, report.coverage, report.written) == ((), None, ())
     assert not cache_path(specs).exists()
+
+
+def test_a_run_with_coverage_reads_each_log_once_and_measures_what_the_logs_hold(
+    specs: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from_logs = suite_coverage(discover_specs([specs]))
+    opened = opened_logs(monkeypatch)
+
+    report = run_session(SuiteOptions(paths=(specs,), jobs=1, coverage=True))
+
+    assert report.coverage is not None
+    assert report.coverage.to_json() == from_logs.to_json()
+    assert [o.recorded is not None for o in report.outcomes] == [True, True]
+    assert opened == ["probe.beatlog"] * 3  # each DTC's verdict, and the failure's details

@@ -14,7 +14,7 @@ import contextlib
 import dataclasses
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -33,6 +33,7 @@ from beatlog.suite.runner import SpecOutcome
 from beatlog.suite.selection import Selection, check_break_at, fleet_of, select_suite
 
 if TYPE_CHECKING:
+    from beatlog.analysis.recorded import RecordedChanges
     from beatlog.suite.cluster import DaskExecutor
     from beatlog.suite.spec import DtcSpec
 
@@ -100,6 +101,7 @@ class SuiteSession:
                     on_outcome=done,
                     break_at=options.break_at,
                     break_on_divergence=options.break_on_divergence,
+                    coverage=options.coverage or options.coverage_json is not None,
                     executor=executor,
                 )
         except KeyboardInterrupt as stop:
@@ -142,6 +144,7 @@ class SuiteSession:
             orphans_in=options.paths if options.logs is None else (),
             coverage=options.coverage,
             coverage_json=options.coverage_json,
+            recorded={o.spec.id: o.recorded for o in outcomes if o.recorded is not None},
         )
         if options.html is not None:
             from beatlog.report.html import write_html  # noqa: PLC0415 - charts, when asked for
@@ -172,17 +175,20 @@ def conclude(
     orphans_in: Sequence[Path],
     coverage: bool = False,
     coverage_json: Path | None = None,
+    recorded: Mapping[str, RecordedChanges] | None = None,
 ) -> SuiteReport:
     """The end of a suite session whose DTCs ``ran``: ``report`` with the orphaned
     baselines under ``orphans_in`` and, where asked for, the transition coverage of the
     DTCs, shown or written as JSON. The coverage is marked with what earlier runs saw,
     and remembered for the next, in the coverage memory of ``root``'s project (a
     fleet run's, without ``root``, is not remembered); ``found`` names every DTC of the
-    suite, run or not. Nothing more is written once a report could not be."""
+    suite, run or not; ``recorded`` holds, by DTC id, the state changes their logs
+    recorded where the run gathered them (the others' logs are read for them). Nothing
+    more is written once a report could not be."""
     report = dataclasses.replace(report, orphans=tuple(find_orphans(orphans_in)))
     if report.error is not None or not (coverage or coverage_json is not None):
         return report
-    measured = suite_coverage(ran)
+    measured = suite_coverage(ran, recorded or {})
     warnings = report.warnings
     if root is not None:
         warning = recall(measured, cache_path(root), {spec.id: spec.name for spec in found}).warning

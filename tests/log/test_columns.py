@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import gc
 import weakref
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -14,13 +13,17 @@ import pytest
 
 from beatlog.errors import CorruptLogError
 from beatlog.log.columns import StateColumns, column_batches, encode_column
-from beatlog.log.crafting import session_header
-from beatlog.log.format import Column, SessionEnd, payload_encoder
+from beatlog.log.format import Column, payload_encoder
 from beatlog.log.reader import SessionLogReader
-from beatlog.log.writer import SessionLogWriter
-from beatlog.model.state import state_fields
 from tests.chunked import read_all
-from tests.columned import Damage, foreign_value, rewrite_by_field, short_column, table_off
+from tests.columned import (
+    Damage,
+    foreign_value,
+    rewrite_by_field,
+    short_column,
+    table_off,
+    write_states,
+)
 from tests.conftest import PERIOD_NS
 
 
@@ -58,23 +61,11 @@ def wide(t: int) -> Wide:
     )
 
 
-def write(
-    path: Path, states: Sequence[msgspec.Struct], *, by_field: bool, version: int = 3
-) -> Path:
-    fields = state_fields(type(states[0])) if by_field else []
-    header = session_header(format_version=version, state_fields=fields)
-    with SessionLogWriter(path, header, batch_cycles=8) as writer:
-        for t, state in enumerate(states):
-            writer.append(PERIOD_NS, state, [], [], {"t": t})
-        writer.close(SessionEnd(cycles=len(states), robot_time_ns=len(states) * PERIOD_NS))
-    return path
-
-
 def test_states_by_field_read_back_as_the_bytes_format_2_holds(tmp_path: Path) -> None:
     states = [wide(t) for t in range(30)]
-    by_field, _ = read_all(write(tmp_path / "v3.beatlog", states, by_field=True))
-    in_records, _ = read_all(write(tmp_path / "v3r.beatlog", states, by_field=False))
-    format_2, _ = read_all(write(tmp_path / "v2.beatlog", states, by_field=False, version=2))
+    by_field, _ = read_all(write_states(tmp_path / "v3.beatlog", states, by_field=True))
+    in_records, _ = read_all(write_states(tmp_path / "v3r.beatlog", states, by_field=False))
+    format_2, _ = read_all(write_states(tmp_path / "v2.beatlog", states, by_field=False, version=2))
     encode = payload_encoder().encode
     assert [bytes(c.robot_state) for c in by_field] == [encode(s) for s in states]
     assert [msgspec.structs.astuple(c) for c in by_field] == [
@@ -96,7 +87,7 @@ def test_a_state_of_other_fields_starts_a_batch_that_names_them(tmp_path: Path) 
         (3, 3, None),  # no field at all: the state stays in its record
         (4, 4, []),  # the header's fields
     ]
-    log = write(tmp_path / "sparse.beatlog", states, by_field=True)
+    log = write_states(tmp_path / "sparse.beatlog", states, by_field=True)
     assert [bytes(c.robot_state) for c in read_all(log)[0]] == [encode(s) for s in states]
 
 
@@ -118,7 +109,7 @@ def test_a_column_of_one_width_is_stored_byte_split() -> None:
 def test_a_column_that_does_not_hold_one_value_a_cycle_is_a_damaged_log(
     tmp_path: Path, damage: Damage, words: str
 ) -> None:
-    log = write(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
+    log = write_states(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
     damaged = rewrite_by_field(log, tmp_path / "damaged.beatlog", damage, 1)
     with pytest.raises(CorruptLogError, match="damaged batch from cycle 8") as raised:
         read_all(damaged)
@@ -126,7 +117,7 @@ def test_a_column_that_does_not_hold_one_value_a_cycle_is_a_damaged_log(
 
 
 def test_a_short_column_is_found_though_replay_would_not_read_it(tmp_path: Path) -> None:
-    log = write(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
+    log = write_states(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
     damaged = rewrite_by_field(log, tmp_path / "damaged.beatlog", short_column(0), 1)
     with SessionLogReader(damaged) as reader:
         reader.decode_states(Wide)  # states stay in their columns: none is decoded
@@ -140,7 +131,7 @@ def test_a_short_column_is_found_though_replay_would_not_read_it(tmp_path: Path)
 
 def test_columns_decoded_together_are_each_column_decoded_alone(tmp_path: Path) -> None:
     states = [wide(t) for t in range(30)]
-    log = write(tmp_path / "v3.beatlog", states, by_field=True)
+    log = write_states(tmp_path / "v3.beatlog", states, by_field=True)
     fields = msgspec.structs.fields(Wide)
     decoders = [msgspec.msgpack.Decoder(list[f.type]).decode for f in fields]  # type: ignore[name-defined]
     indices = list(range(len(fields)))
@@ -161,8 +152,38 @@ def test_columns_decoded_together_are_each_column_decoded_alone(tmp_path: Path) 
     assert (encode(found), encode(one_by_one)) == (encode(expected), encode(expected))
 
 
+@pytest.mark.parametrize(
+    ("fixed", "varied"),
+    [
+        (["speed", "bumped", "pose"], []),
+        (["pose", "speed"], []),
+        (["bumped"], ["ranges", "ticks"]),
+        ([], ["ticks"]),
+        ([], []),
+    ],
+    ids=["in-order", "reordered", "and-varied", "varied", "none"],
+)
+def test_a_cycle_of_columns_is_one_array_of_its_values(
+    tmp_path: Path, fixed: list[str], varied: list[str]
+) -> None:
+    states = [wide(t) for t in range(30)]
+    log = write_states(tmp_path / "v3.beatlog", states, by_field=True)
+    names = [f.name for f in msgspec.structs.fields(Wide)]
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Wide)
+        batches: list[Any] = [batch[0].robot_state for batch in reader.batches()]
+    widths = {"speed": 9, "bumped": 1, "pose": 23, "ranges": 0, "ticks": 0}
+    assert [
+        [columns.widths[names.index(name)] for name in fixed + varied] for columns in batches
+    ] == [[widths[name] for name in fixed + varied]] * len(batches)
+    at = [list(map(names.index, fixed)), list(map(names.index, varied))]
+    rows = [row for columns in batches for row in columns.rows(*at)]
+    encode = msgspec.msgpack.encode
+    assert rows == [encode([getattr(state, name) for name in fixed + varied]) for state in states]
+
+
 def test_a_batch_read_by_field_is_freed_without_the_garbage_collector(tmp_path: Path) -> None:
-    log = write(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
+    log = write_states(tmp_path / "v3.beatlog", [wide(t) for t in range(30)], by_field=True)
     with SessionLogReader(log) as reader:
         reader.decode_states(Wide)
         batches = reader.batches()

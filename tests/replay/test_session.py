@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import ast
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import pytest
 
+import beatlog
 from beatlog.errors import SchemaMismatchError
 from beatlog.log.format import CycleRecord
 from beatlog.replay.core import CycleOutcome
@@ -109,17 +112,27 @@ def test_the_verdict_and_its_observers_share_one_replay(record_probe: RecordFn) 
     assert (counting.outcomes, counting.records) == (list(range(100)), 100)
 
 
-def test_an_observer_past_its_replay_gets_the_cycles_the_verdict_follows_then_the_recording(
+def test_observers_of_the_verdicts_replay_take_the_cycles_up_to_its_divergence(
     record_probe: RecordFn,
 ) -> None:
     log = record_probe(100)
-    counting = Counting(replayed=0, read=100)
+    counting = Counting(replayed=100, read=100)
 
-    result = replay(
-        log, probe_system(threshold=0.6), context_cycles=3, observers=[lambda reader: counting]
-    )
+    result = replay(log, probe_system(threshold=0.6), observers=[lambda reader: counting])
 
     assert result.divergence is not None
     cycle = result.divergence.cycle
-    assert counting.outcomes == [cycle + 1, cycle + 2, cycle + 3]  # replayed for the verdict
-    assert counting.records == 100
+    assert counting.outcomes == list(range(cycle + 1))  # the divergence included
+    assert counting.records == cycle + 1
+
+
+def test_nothing_but_the_replay_session_steps_the_replay_core() -> None:
+    package = Path(beatlog.__file__).parent
+    stepping = {
+        path.relative_to(package).as_posix()
+        for path in package.rglob("*.py")
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        if isinstance(node, ast.Attribute) and node.attr == "advance"
+    }
+
+    assert sorted(stepping) == ["replay/core.py", "replay/session.py"]

@@ -17,7 +17,14 @@ from beatlog.model import BehaviorState, Context, Outputs, PriorityArbiter, Robo
 from beatlog.record import Recorder
 from beatlog.replay import StateMigration
 from beatlog.replay.view import StateViews, full_state
-from tests.columned import retyped_value, rewrite_by_field, short_column
+from tests.columned import (
+    Damage,
+    retyped_value,
+    rewrite_by_field,
+    same_width_values,
+    short_column,
+    write_states,
+)
 from tests.conftest import PERIOD_NS
 
 LATE = 200
@@ -156,14 +163,64 @@ def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
     assert str(raised.value).startswith(f"{damaged}: damaged batch from cycle ")
 
 
-def test_a_value_of_another_type_is_found_where_it_is_read(by_field: Path, tmp_path: Path) -> None:
-    damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", retyped_value(4, "oops"), 1)
-    with pytest.raises(SchemaMismatchError, match=r"does not fit Arm: field 'joints'") as raised:
+@pytest.mark.parametrize(
+    ("damage", "problem"),
+    [
+        (retyped_value(4, "oops"), "field 'joints': Expected `array`, got `str` - at `$[0]`"),
+        (
+            same_width_values(0, "8 chars!"),
+            "field 'reach': Expected `float`, got `str` - at `$[0]`",
+        ),
+    ],
+    ids=["varied-width", "one-width"],  # decoded a column at a time, a cycle at a time
+)
+def test_a_value_of_another_type_is_found_where_it_is_read(
+    by_field: Path, tmp_path: Path, damage: Damage, problem: str
+) -> None:
+    damaged = rewrite_by_field(by_field, tmp_path / "typed.beatlog", damage, 1)
+    with pytest.raises(SchemaMismatchError) as raised:
+        beatlog.replay(damaged, watcher_system())
+    assert str(raised.value) == f"{damaged}: robot state of cycle 35 does not fit Arm: {problem}"
+
+
+def test_a_value_spilling_into_the_next_ones_place_is_a_damaged_log(
+    by_field: Path, tmp_path: Path
+) -> None:
+    spilling = {"x": 1.0, "y": 2.0, "z": "s" * 19}  # 45 bytes after a 1-byte Pose
+    damage = same_width_values(3, {}, spilling)  # 'pose', two values of 23 bytes
+    damaged = rewrite_by_field(by_field, tmp_path / "spilling.beatlog", damage, 1)
+    with pytest.raises(CorruptLogError) as raised:
         beatlog.replay(damaged, watcher_system())
     assert str(raised.value) == (
-        f"{damaged}: robot state of cycle 35 does not fit Arm: field 'joints': "
-        "Expected `array`, got `str` - at `$[0]`"
+        f"{damaged}: damaged batch from cycle 35: a column of values of one width does not "
+        "hold one value of that width a cycle"
     )
+
+
+@pytest.mark.parametrize(
+    ("fields", "layout"),
+    [
+        (["reach", "late", "pose"], ([0, 1, 3], [], ())),  # of one width: a cycle at a time
+        (list(Arm.__struct_fields__), ([0, 1, 3], [2, 4], ())),  # of varied width joined on
+        (["label", "joints", "reach"], ([], [], ("label", "joints", "reach"))),  # by column
+    ],
+    ids=["one-width", "most-of-one-width", "most-of-varied-width"],
+)
+def test_views_hold_the_recorded_states_however_they_are_decoded(
+    by_field: Path, fields: list[str], layout: tuple[list[int], list[int], tuple[str, ...]]
+) -> None:
+    read, layouts = [], set()
+    with SessionLogReader(by_field) as reader:
+        reader.decode_states(Arm)
+        views = StateViews(Arm, Arm, by_field)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                read.append([getattr(views.view(columns, cycle), name) for name in fields])
+            made = views.layout(columns, tuple(fields))
+            layouts.add((tuple(made.columns), tuple(made.varied), made.rest))
+    assert read == [[getattr(arm(t), name) for name in fields] for t in range(300)]
+    assert layouts == {(tuple(layout[0]), tuple(layout[1]), layout[2])}
 
 
 Renamed = msgspec.defstruct(
@@ -216,3 +273,33 @@ def test_renamed_converted_and_added_fields_read_as_the_system_has_them(
     result = beatlog.replay(by_field, system, migration=migration)
     assert (result.ok, result.cycles) == (True, 300)
     assert watcher.read == [(arm(t).reach, as_text(t * 0.25), 7) for t in range(300)]
+
+
+class Sparse(RobotState, omit_defaults=True):
+    """A robot state whose cycles encode one field or the other."""
+
+    a: float = 0.0
+    b: float = 0.0
+
+
+def sparse(t: int) -> Sparse:
+    """Only ``a`` in the first 8 cycles (a batch), only ``b`` in the next 8, and so on."""
+    return Sparse(a=t + 0.5) if t // 8 % 2 == 0 else Sparse(b=t + 0.5)
+
+
+def test_batches_of_other_fields_in_columns_of_the_same_widths_read_each_their_own(
+    tmp_path: Path,
+) -> None:
+    log = write_states(tmp_path / "sparse.beatlog", [sparse(t) for t in range(32)], by_field=True)
+    names, read = [], []
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Sparse)
+        views = StateViews(Sparse, Sparse, log)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            names.append((columns.names, columns.widths))
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                view = views.view(columns, cycle)
+                read.append((view.a, view.b))
+    assert names == [(["a"], b"\x09"), (["b"], b"\x09")] * 2
+    assert read == [(sparse(t).a, sparse(t).b) for t in range(32)]

@@ -5,11 +5,9 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
 
 import pytest
 
-from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replay.verdict import Checked, DivergenceKind
@@ -18,7 +16,7 @@ from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn
-from tests.factories import cut_short
+from tests.factories import cut_short, opened_logs
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
 from tests.systems import leaks, leaky_system, quiet_system, record_session
 from tests.text import svg_texts
@@ -237,14 +235,7 @@ def test_a_failed_dtc_opens_its_log_twice_for_every_report(
     tmp_path: Path, log: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     spec = written_dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
-    opened: list[str] = []
-    open_log = SessionLogReader.__init__
-
-    def counted(reader: SessionLogReader, path: str | Path, **options: Any) -> None:
-        opened.append(Path(path).name)
-        open_log(reader, path, **options)
-
-    monkeypatch.setattr(SessionLogReader, "__init__", counted)
+    opened = opened_logs(monkeypatch)
 
     outcome = run_spec(spec, SpecOptions(update=UpdateMode.NEW, timelines=True))
 

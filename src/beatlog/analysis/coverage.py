@@ -10,8 +10,8 @@ that no DTC reaches now.
 
 Behaviors are kept system by system: two robots of one repository may each have an
 ``avoid``, and what one robot's DTCs reach says nothing of the other's. A DTC's system
-is the ``module:factory`` it replays against (:func:`recorded_system_name` where its
-spec names none).
+is the ``module:factory`` it replays against (where its spec names none, the one its
+log records, or its robot-state type: :attr:`~beatlog.analysis.recorded.RecordedChanges.system`).
 """
 
 from __future__ import annotations
@@ -19,13 +19,12 @@ from __future__ import annotations
 import enum
 import json
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from beatlog.analysis.trace import read_changes
-from beatlog.log.reader import SessionLogReader
+from beatlog.analysis.recorded import read_changes
 from beatlog.model.behavior import System
 from beatlog.replay.expectation import TracedChange
 
@@ -36,7 +35,6 @@ __all__ = [
     "cover",
     "cover_changes",
     "declared_states",
-    "recorded_system_name",
 ]
 
 
@@ -194,26 +192,25 @@ def declared_states(system: System) -> dict[str, tuple[str, ...]]:
     return declared
 
 
-def recorded_system_name(log: str | Path) -> str:
-    """The system a log was recorded with, as coverage names it: the ``module:factory``
-    its header records, or its robot-state type where it records none."""
-    with SessionLogReader(log) as reader:
-        header = reader.header
-    return header.system or header.robot_state_type
-
-
 def cover(
     dtcs: Iterable[tuple[str, str | Path, System | None]],
 ) -> SuiteCoverage:
     """The coverage of DTCs given as (id, log, a fresh system or None), each of the
-    system its log was recorded with (:func:`recorded_system_name`).
+    system its log was recorded with
+    (:attr:`~beatlog.analysis.recorded.RecordedChanges.system`).
 
     The system, when given, tells each behavior's first state (a behavior that never
     changes still counts its cycles there) and its declared states.
     """
-    return cover_changes(
-        (dtc, recorded_system_name(log), *read_changes(log), system) for dtc, log, system in dtcs
-    )
+    return cover_changes(_recorded(dtcs))
+
+
+def _recorded(
+    dtcs: Iterable[tuple[str, str | Path, System | None]],
+) -> Iterator[tuple[str, str, Sequence[TracedChange], int, System | None]]:
+    for dtc, log, system in dtcs:
+        recorded = read_changes(log)
+        yield dtc, recorded.system, recorded.changes, recorded.cycles, system
 
 
 def cover_changes(

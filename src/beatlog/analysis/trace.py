@@ -16,8 +16,9 @@ from typing import Any
 
 import msgspec
 
-from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
-from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
+from beatlog.analysis.recorded import read_changes
+from beatlog.log.format import EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
@@ -38,7 +39,6 @@ from beatlog.replay.verdict import StateChange
 __all__ = [
     "ReplayedTrace",
     "TraceCollector",
-    "read_changes",
     "recorded_outputs",
     "recorded_states",
     "recorded_trace",
@@ -91,26 +91,7 @@ class ReplayedTrace:
 
 def recorded_trace(log: str | Path) -> list[TracedChange]:
     """Every state change the log recorded, named by the log's behavior catalogue."""
-    return read_changes(log)[0]
-
-
-def read_changes(log: str | Path) -> tuple[list[TracedChange], int]:
-    """Every state change the log recorded, and how many cycles it holds."""
-    cycle = -1
-    with SessionLogReader(log) as reader:
-        names = reader.header.behaviors
-        changes: list[TracedChange] = []
-        time_ns = 0
-        for cycle, record in enumerate(_records(reader)):
-            time_ns += record.heartbeat_ns
-            if record.state_changes != EMPTY_LIST:
-                recorded = decode_part(
-                    reader.path, record.state_changes, decode_state_changes, "state changes", cycle
-                )
-                for index, before, after in recorded:
-                    name = names[index] if 0 <= index < len(names) else f"#{index}"
-                    changes.append(TracedChange(cycle, time_ns, StateChange(name, before, after)))
-    return changes, cycle + 1
+    return read_changes(log).changes
 
 
 def recorded_outputs(log: str | Path) -> list[TracedOutput]:

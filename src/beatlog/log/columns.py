@@ -6,9 +6,10 @@ records without their robot states, and each robot-state field's values, in cycl
 order, in a column of its own. A reader opens a batch as
 :class:`StateColumns`, which checks the batch's column table on opening and decodes a
 column only when asked for it: a replay whose behaviors read 30 of 1,000 fields decodes
-30 columns. The values are the bytes the writer was given, so a robot state put back
-together (:meth:`StateColumns.raw_states`) is byte for byte the one a format-2 log
-holds.
+30 columns, or those 30 fields of each cycle as one array (:meth:`StateColumns.rows`:
+one decoder call a cycle rather than one a column). The values are the bytes the
+writer was given, so a robot state put back together (:meth:`StateColumns.raw_states`)
+is byte for byte the one a format-2 log holds.
 
 A column of values all encoded in the same width (a float field: 9 bytes each) is
 stored byte-split: byte 0 of every value, then byte 1 of every value, and so on, so that
@@ -180,7 +181,8 @@ class StateColumns:
         """The fields' names in column order; None where the records hold the states."""
         # Not the batch itself: its records hold this, and a cycle of references would
         # keep every batch read alive until the garbage collector found it.
-        self._widths = batch.widths
+        self.widths = batch.widths
+        """Each column's width: that of all its values, 0 where they vary."""
         self._data = batch.data
         self._encoded: dict[int, bytes] = {}
         expected = 0 if self.names is None else len(self.names)
@@ -209,7 +211,7 @@ class StateColumns:
     def _check_sizes(self, sizes: tuple[int, ...]) -> None:
         """Every column of values of one width must hold exactly one value a cycle."""
         count = self.count
-        for index, (width, size) in enumerate(zip(self._widths, sizes, strict=True)):
+        for index, (width, size) in enumerate(zip(self.widths, sizes, strict=True)):
             if width > MAX_VALUE_WIDTH or (width and size != width * count):
                 raise self._damaged(
                     f"{self.name(index)} holds {size} bytes, not {count} values of {width} "
@@ -237,7 +239,7 @@ class StateColumns:
         byte-split ones of one width take that many strided copies all together, not
         that many each (a copy costs about as much for 30 columns as for one)."""
         data = self._data
-        widths = self._widths
+        widths = self.widths
         ends = self._ends
         head = array_head(self.count)
         split: dict[int, dict[int, int]] = {}  # by width: each column's start by index
@@ -260,6 +262,41 @@ class StateColumns:
                 values[byte::width] = join(planes(group))
             for at, index in enumerate(starts):
                 self._encoded[index] = head + values[at * size : (at + 1) * size]
+
+    def rows(self, fixed: Sequence[int], varied: Sequence[int] = ()) -> list[bytes]:
+        """Each cycle of the batch as one msgpack array of its values in the columns
+        ``fixed`` (each of values of one width), then ``varied`` (of varied width).
+
+        A column of one width is ``width`` planes of a byte a cycle (one plane if not
+        split), so byte ``t`` of every plane, taken in order, is cycle ``t``'s value:
+        with the columns laid end to end after the array head's bytes (a plane each),
+        a cycle's values are one strided slice, however many columns there are (columns
+        next to each other in the batch are taken together). A value of varied width is
+        found by walking its column, and joined on.
+
+        :raises msgspec.DecodeError: a column of varied width is damaged.
+        """
+        count = self.count
+        ends = [0, *self._ends]
+        data = memoryview(self._data)
+        planes: list[bytes | memoryview] = [
+            bytes([byte]) * count for byte in array_head(len(fixed) + len(varied))
+        ]
+        start = end = 0
+        for index in fixed:
+            if ends[index] != end:
+                planes.append(data[start:end])
+                start = ends[index]
+            end = ends[index + 1]
+        planes.append(data[start:end])
+        group = b"".join(planes)
+        rows = [group[cycle::count] for cycle in range(count)]
+        if not varied:
+            return rows
+        self.unsplit(varied)
+        encoded = self._encoded
+        values = [_RAWS(encoded[index]) for index in varied]
+        return list(map(b"".join, zip(rows, *values, strict=True)))
 
     def _walk(self, index: int) -> None:
         """A column of values of varied width must hold exactly one value a cycle."""

@@ -130,6 +130,7 @@ def pytest_configure(config: pytest.Config) -> None:
         else config.invocation_params.dir / coverage_json,
         break_at=break_at,
         break_on_divergence=break_on_divergence,
+        worker=hasattr(config, "workerinput"),  # an xdist worker's
     )
     config.pluginmanager.register(config.stash[RUN], "beatlog-run")
 

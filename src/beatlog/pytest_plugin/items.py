@@ -73,6 +73,8 @@ class DtcItem(pytest.Item):
         run = self.config.stash[RUN]
         with quitting_as_pytest():
             outcome = self.outcome = run_spec(self.spec, run.options)
+        if outcome.recorded is not None:
+            run.recorded[self.spec.path] = outcome.recorded
         self.user_properties.append((VERDICT, outcome.verdict.value))
         self.user_properties.append((SPEC, str(self.spec.path)))
         if outcome.open_loop is not None:

@@ -16,6 +16,7 @@ from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import DtcSpec, load_spec
 
 if TYPE_CHECKING:
+    from beatlog.analysis.recorded import RecordedChanges
     from beatlog.report.suite import SuiteReport
     from beatlog.suite.runner import Verdict
 
@@ -34,6 +35,8 @@ class BeatlogRun:
     coverage_json: Path | None = None
     break_at: int | None = None
     break_on_divergence: bool = False
+    worker: bool = False
+    """Whether this is an xdist worker's run: its DTCs' verdicts go to the controller's."""
     verdicts: list[Verdict] = field(default_factory=list)
     specs: set[Path] = field(default_factory=set)
     """The specs that ran: their folders are where orphaned baselines are looked for."""
@@ -41,6 +44,9 @@ class BeatlogRun:
     """What updating the baselines did."""
     open_loop: int = 0
     """The DTCs judged against baselines whose behaviors left the recording."""
+    recorded: dict[Path, RecordedChanges] = field(default_factory=dict)
+    """By spec, the state changes its log recorded, as its verdict's replay read them
+    for the coverage (here; an xdist worker's DTCs' logs are read again for it)."""
 
     @property
     def options(self) -> SpecOptions:
@@ -50,6 +56,7 @@ class BeatlogRun:
             audit=self.audit,
             break_at=self.break_at,
             break_on_divergence=self.break_on_divergence,
+            coverage=(self.coverage or self.coverage_json is not None) and not self.worker,
         )
 
     def pytest_collection_finish(self, session: pytest.Session) -> None:
@@ -136,5 +143,8 @@ class BeatlogRun:
             orphans_in=folders,
             coverage=self.coverage and measured,
             coverage_json=self.coverage_json if measured else None,
+            recorded={
+                spec.id: self.recorded[spec.path] for spec in ran if spec.path in self.recorded
+            },
         )
         return report, problem

@@ -26,7 +26,7 @@ from beatlog.replay.expectation import Expectation
 from beatlog.replay.fit import check_state_fields
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.pins import PinChecker
-from beatlog.replay.session import Observer, ReplaySession, fields_read
+from beatlog.replay.session import BatchReader, Observer, ReplaySession, fields_read
 from beatlog.replay.verdict import DivergenceKind, ReplayResult, reproduce_command
 from beatlog.usercode import load_perception, load_system
 
@@ -54,6 +54,7 @@ def replay(
     break_at: int | None = None,
     observe: Callable[[CycleOutcome], object] | None = None,
     observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
+    readers: Sequence[Callable[[SessionLogReader], BatchReader]] = (),
     migration: StateMigration | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
@@ -88,14 +89,16 @@ def replay(
     samples), and the behaviors run on the rebuilt state, tolerated differences and all.
     ``break_at`` stops in the debugger (``breakpoint()``, honouring ``PYTHONBREAKPOINT``)
     just before the behaviors update in that cycle. ``observe`` is given every cycle's
-    outcome up to the first divergence (the one that stops replay included), e.g. a
-    :class:`~beatlog.analysis.timeline.TimelineCollector`'s, so a report is gathered in
-    the verdict's own replay; ``observers`` build, from the opened log, observers of
-    that replay (:class:`~beatlog.replay.session.Observer`), which take every cycle the
-    verdict's replay steps (past the first divergence, those it follows too), then the
-    recording alone while they read on. ``migration`` maps robot-state fields renamed or retyped
-    since the recording onto the system's (:mod:`beatlog.replay.migration`); the
-    reproduce command carries it.
+    outcome up to the first divergence (the one that stops replay included), and
+    ``observers`` build, from the opened log, observers
+    (:class:`~beatlog.replay.session.Observer`, e.g. a
+    :class:`~beatlog.analysis.timeline.TimelineCollector`) that take the same cycles, so
+    that a report is gathered in the verdict's own replay; ``readers`` build readers of
+    its batches as recorded (:class:`~beatlog.replay.session.BatchReader`, e.g. a
+    :class:`~beatlog.analysis.recorded.RecordedChanges` for the coverage), which take
+    the whole log. ``migration`` maps robot-state fields renamed or retyped since the
+    recording onto the system's (:mod:`beatlog.replay.migration`); the reproduce command
+    carries it.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replay.fit`).
@@ -141,14 +144,14 @@ def replay(
             comparison=comparison,
             expected=expected,
         )
-        watching = [factory(reader) for factory in observers]
+        watching = [_WhileJudging(factory(reader), judge) for factory in observers]
         if observe is not None:
-            watching.append(_Watch(observe, judge))
+            watching.append(_WhileJudging(_Calling(observe), judge))
         if judge.replayer.perception is None and not watching:
             # State-level replay without observers needs RS_t decoded, and only that:
             # decoded with each batch, it is read once (the log fits: checked above).
             reader.decode_states(judge.replayer.state_type)
-        session.run(watching, judge=judge)
+        session.run(watching, judge=judge, readers=[factory(reader) for factory in readers])
         judge.end()
         status = reader.status
         if judge.judging and not status.complete and not allow_truncated:
@@ -191,21 +194,33 @@ def replay(
     )
 
 
-class _Watch:
-    """An ``observe`` callback as an observer of the verdict's replay: given every
-    cycle's outcome while the verdict judges."""
+class _WhileJudging:
+    """An observer of the verdict's replay for as long as the verdict judges: the cycles
+    up to the first divergence, the one that stops replay included."""
 
-    def __init__(self, observe: Callable[[CycleOutcome], object], judge: CycleJudge) -> None:
-        self._observe = observe
+    def __init__(self, observer: Observer, judge: CycleJudge) -> None:
+        self._observer = observer
         self._judge = judge
 
     @property
     def replaying(self) -> bool:
-        return self._judge.judging
+        return self._judge.judging and self._observer.replaying
 
     @property
     def reading(self) -> bool:
-        return self._judge.judging
+        return self._judge.judging and self._observer.reading
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        self._observer.add(record, outcome)
+
+
+class _Calling:
+    """An ``observe`` callback as an observer: given every outcome."""
+
+    replaying = reading = True
+
+    def __init__(self, observe: Callable[[CycleOutcome], object]) -> None:
+        self._observe = observe
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         if outcome is not None:

@@ -27,6 +27,7 @@ from beatlog.replay.migration import StateMigration
 from beatlog.replay.pins import PinChecker
 
 __all__ = [
+    "BatchReader",
     "FieldsRead",
     "Judge",
     "Observer",
@@ -50,6 +51,14 @@ class Observer(Protocol):
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         """Take the next recorded cycle and, while the session replays, its outcome."""
+
+
+class BatchReader(Protocol):
+    """What reads the recording alone, a batch at a time, as a replay session reads
+    the log: the whole log, whatever the observers need."""
+
+    def read(self, batch: Sequence[CycleRecord]) -> None:
+        """Take the log's next batch, as recorded."""
 
 
 class Judge(Protocol):
@@ -186,17 +195,22 @@ class ReplaySession(Closing):
         *,
         judge: Judge | None = None,
         fields_read: FieldsRead | None = None,
+        readers: Sequence[BatchReader] = (),
     ) -> None:
         """Step through the log once for ``observers``, ``judge`` (the verdict) and
         ``fields_read`` (whose tracker stands in for the robot state in its cycle),
         until none needs more. With a judge the log is read to its end: a damaged log
-        is bad input, wherever the damage is."""
+        is bad input, wherever the damage is; ``readers`` take each of its batches as
+        recorded, to its end."""
         watching: list[Observer] = [*observers, *([fields_read] if fields_read else [])]
+        batches: Iterator[Sequence[CycleRecord]] = self.reader.batches()
+        if readers:
+            batches = _read_by(readers, batches)
+        to_end = judge is not None or bool(readers)
         replayer = self.replayer
         if replayer is None:  # the recording alone (a judge needs a system to judge)
-            self._read(watching)
+            _read(watching, batches, to_end=to_end)
             return
-        batches: Iterator[Sequence[CycleRecord]] = self.reader.batches()
         if judge is not None:
             batches = judge.batches(batches)
         advance, outcome_of = replayer.advance, replayer.outcome
@@ -228,7 +242,7 @@ class ReplaySession(Closing):
                     observing = replaying and any(observer.replaying for observer in watching)
                 replaying = observing or verdict is not None
                 if not replaying:
-                    if not watching and judge is None:
+                    if not watching and not to_end:
                         return
                     for observer in watching:
                         observer.add(record, None)
@@ -257,18 +271,32 @@ class ReplaySession(Closing):
         finally:
             self.replayer.observe = None
 
-    def _read(self, observers: list[Observer]) -> None:
-        """Hand the recording alone to ``observers`` while they read it."""
-        for record in self.records():
+    def close(self) -> None:
+        """Close the log."""
+        self.reader.close()
+
+
+def _read(
+    observers: list[Observer], batches: Iterator[Sequence[CycleRecord]], *, to_end: bool
+) -> None:
+    """Hand the recording alone to ``observers`` while they read it (or to its end)."""
+    for batch in batches:
+        for record in batch:
             observers = [observer for observer in observers if observer.reading]
-            if not observers:
+            if not observers and not to_end:
                 return
             for observer in observers:
                 observer.add(record, None)
 
-    def close(self) -> None:
-        """Close the log."""
-        self.reader.close()
+
+def _read_by(
+    readers: Sequence[BatchReader], batches: Iterator[Sequence[CycleRecord]]
+) -> Iterator[Sequence[CycleRecord]]:
+    """``batches``, each read by ``readers`` first."""
+    for batch in batches:
+        for reader in readers:
+            reader.read(batch)
+        yield batch
 
 
 def fields_read(

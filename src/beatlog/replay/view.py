@@ -3,10 +3,12 @@ the first time a behavior reads the field.
 
 A format-3 batch stores each robot-state field's values in a column of their own
 (:mod:`beatlog.log.columns`). Replay hands the behaviors, for each cycle, a view of the
-system's robot state type that holds the fields read so far in the replay, decoded a
-column at a time for the whole batch; a field first read later is decoded then (its
-column, once per batch) and held from the next batch on. Decoding follows the fields
-read, not the width of the state.
+system's robot state type that holds the fields read so far in the replay: the batch's
+views are decoded a cycle at a time, each one array of the cycle's values of those
+fields (:meth:`~beatlog.log.columns.StateColumns.rows`: one decoder call a cycle, not
+one a column), the fields of varied width or converted decoded a column at a time; a
+field first read later is decoded then (its column, once per batch) and held from the
+next batch on. Decoding follows the fields read, not the width of the state.
 
 What a behavior can rely on (README, "Wide robot states"): reading any field gives the
 recorded value, its type checked as it is decoded; ``isinstance(state, YourState)``
@@ -20,7 +22,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable
-from itertools import repeat
 from pathlib import Path
 from typing import Any
 
@@ -30,19 +31,17 @@ from beatlog.errors import SchemaMismatchError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import DECODE_ERRORS
 from beatlog.replay.migration import ConversionError, StateConverter
+from beatlog.replay.view_batch import BATCH, INDEX, BatchLayout, ViewedBatch
 
 __all__ = ["StateViews", "full_state"]
-
-_BATCH = "_beatlog_batch"
-_INDEX = "_beatlog_index"
 
 
 def full_state(state: Any) -> Any:
     """The robot state itself, every field decoded, for a view (:class:`StateViews`);
     any other state as it is."""
-    batch = getattr(state, _BATCH, None)
-    if isinstance(batch, _Batch):
-        return batch.whole(getattr(state, _INDEX))
+    batch = getattr(state, BATCH, None)
+    if isinstance(batch, ViewedBatch):
+        return batch.whole(getattr(state, INDEX))
     return state
 
 
@@ -59,8 +58,8 @@ class _Unheld:
     def __get__(self, view: Any, owner: type[Any] | None = None) -> Any:
         if view is None:
             return self
-        batch: _Batch = getattr(view, _BATCH)
-        return batch.miss(getattr(view, _INDEX), self.name)
+        batch: ViewedBatch = getattr(view, BATCH)
+        return batch.miss(getattr(view, INDEX), self.name)
 
 
 def _view_eq(self: Any, other: Any) -> Any:
@@ -125,10 +124,11 @@ class StateViews:
         self._plans: dict[
             tuple[str, ...], tuple[list[str], list[int], list[Callable[[Any], list[Any]]]]
         ] = {}
+        self._layouts: dict[tuple[bytes, tuple[str, ...]], BatchLayout] = {}
         self._columns: StateColumns | None = None
         self._views: list[Any] = []
         self._first = 0
-        self._batch: _Batch | None = None
+        self._batch: ViewedBatch | None = None
         self.stale = False
         """Whether a field was first read in the batch the views are of."""
 
@@ -146,14 +146,11 @@ class StateViews:
         else:
             if columns.names is not self._checked:
                 self._check(columns)
-            batch = self._batch = _Batch(self, columns)
+            batch = self._batch = ViewedBatch(self, columns)
         self.stale = False
         self._columns = columns
         self._first = columns.first_cycle
-        held = tuple(self.read)
-        view = self.shape.view_type(held)
-        values = batch.held(held)
-        self._views = list(map(view, repeat(batch), range(columns.count), *values))
+        self._views = batch.views(tuple(self.read))
 
     def _check(self, columns: StateColumns) -> None:
         """A batch's fields must be the type's: none it lacks, every one it requires."""
@@ -182,6 +179,7 @@ class StateViews:
             self._index = {name: at for at, name in enumerate(names or ())}
             self._indexed = names
             self._plans = {}
+            self._layouts = {}
         return self._index
 
     def plan(
@@ -196,6 +194,45 @@ class StateViews:
             stored = [name for name in fresh if fields[name].encode_name in index]
             at = [index[fields[name].encode_name] for name in stored]
             found = self._plans[fresh] = (stored, at, list(map(self.shape.decoder, stored)))
+        return found
+
+    def layout(self, columns: StateColumns, held: tuple[str, ...]) -> BatchLayout:
+        """How a batch of ``columns`` gives views holding the fields ``held`` (made once
+        per batch layout).
+
+        The fields it stores, unless converted, are decoded a cycle at a time from its
+        :meth:`~StateColumns.rows` (those of one width first, in column order), the
+        others decoded a column at a time and set on the views; where most of the
+        fields stored are of varied width, all are decoded a column at a time, which
+        costs less for them (``BENCHMARKS.md``)."""
+        index = self.index(columns.names)
+        key = (columns.widths, held)
+        found = self._layouts.get(key)
+        if found is None:
+            fields = self.fields
+            widths = columns.widths
+            converted = self.convert.fields if self.convert is not None else ()
+            stored = [
+                (not widths[column], column, name)
+                for name in held
+                if (column := index.get(fields[name].encode_name)) is not None
+                and name not in converted
+            ]
+            stored.sort()
+            varied = sum(of_varied for of_varied, _, _ in stored)
+            if 2 * varied > len(stored):
+                stored = []
+            in_rows = tuple(name for _, _, name in stored)
+            taken = set(in_rows)
+            rest = tuple(name for name in held if name not in taken)
+            if len(self._layouts) >= _MAX_LAYOUTS:
+                self._layouts.clear()
+            found = self._layouts[key] = BatchLayout(
+                [column for of_varied, column, _ in stored if not of_varied],
+                [column for of_varied, column, _ in stored if of_varied],
+                rest,
+                *self.shape.view_class(in_rows, rest),
+            )
         return found
 
     def adopt(self, state: Any, cycle: int) -> Any:
@@ -227,84 +264,7 @@ class StateViews:
         return self.adopt(decoded, cycle)
 
 
-class _Batch:
-    """One batch's columns as its views read them: each decoded once, on first read."""
-
-    __slots__ = ("columns", "decoded", "index", "views")
-
-    def __init__(self, views: StateViews, columns: StateColumns) -> None:
-        self.views = views
-        self.columns = columns
-        self.index = views.index(columns.names)
-        self.decoded: dict[str, list[Any]] = {}
-
-    def held(self, names: tuple[str, ...]) -> list[list[Any]]:
-        """Fields ``names`` of every cycle of the batch, the system's: the columns not
-        decoded yet are decoded together (:meth:`StateColumns.decoded`)."""
-        decoded = self.decoded
-        fresh = tuple(name for name in names if name not in decoded)
-        if fresh:
-            views = self.views
-            stored, at, decoders = views.plan(self.columns.names, fresh)
-            found = self.columns.decoded(at, decoders, views.system_type.__name__)
-            convert = views.convert
-            for name, values in zip(stored, found, strict=True):
-                converts = convert is not None and name in convert.fields
-                decoded[name] = self._converted(name, values) if converts else values
-        return [decoded[name] if name in decoded else self.values(name) for name in names]
-
-    def values(self, name: str) -> list[Any]:
-        """Field ``name`` of every cycle of the batch, the system's."""
-        found = self.decoded.get(name)
-        if found is not None:
-            return found
-        views = self.views
-        info = views.fields[name]
-        at = self.index.get(info.encode_name)
-        count = self.columns.count
-        if at is None:  # a field the system gained since the recording
-            if info.default_factory is not msgspec.NODEFAULT:
-                found = [info.default_factory() for _ in range(count)]
-            else:
-                found = [info.default] * count
-        else:
-            decode = views.shape.decoder(name)
-            found = self.columns.values(at, decode, views.system_type.__name__)
-            if views.convert is not None and name in views.convert.fields:
-                found = self._converted(name, found)
-        self.decoded[name] = found
-        return found
-
-    def _converted(self, name: str, values: list[Any]) -> list[Any]:
-        """Recorded values of a field the migration converts, made the system's."""
-        convert = self.views.convert
-        assert convert is not None
-        first = self.columns.first_cycle
-        converted = []
-        for offset, value in enumerate(values):
-            try:
-                converted.append(convert.value(name, value))
-            except ConversionError as exc:
-                error = SchemaMismatchError(
-                    self.views.path, f"robot state of cycle {first + offset}: {exc}"
-                )
-                error.user_traceback = exc.user_traceback
-                raise error from None
-        return converted
-
-    def miss(self, index: int, name: str) -> Any:
-        """Field ``name`` of the batch's ``index``-th cycle, read for the first time in
-        this batch."""
-        views = self.views
-        if name not in views.read:
-            views.read[name] = None
-            views.stale = True
-        return self.values(name)[index]
-
-    def whole(self, index: int) -> Any:
-        """The batch's ``index``-th RS_t decoded whole, the system's."""
-        cycle = self.columns.first_cycle + index
-        return self.views.decode_whole(self.columns.raw_state(cycle), cycle)
+_MAX_LAYOUTS = 64
 
 
 class _Shape:
@@ -328,22 +288,39 @@ class _Shape:
             "__class__": system_type,
             "__qualname__": system_type.__qualname__,
         }
-        self._types: dict[tuple[str, ...], Any] = {}
+        self._views: dict[
+            tuple[tuple[str, ...], tuple[str, ...]],
+            tuple[type[Any], Callable[[bytes], Any]],
+        ] = {}
         self._decoders: dict[str, Callable[[bytes], list[Any]]] = {}
 
-    def view_type(self, held: tuple[str, ...]) -> Any:
-        """The class of views that hold the fields ``held``."""
-        found = self._types.get(held)
+    def view_class(
+        self, in_rows: tuple[str, ...], rest: tuple[str, ...]
+    ) -> tuple[type[Any], Callable[[bytes], Any]]:
+        """The class of views holding the fields ``in_rows`` and ``rest``, and what
+        decodes one from an array of the values of ``in_rows`` (each as its field's
+        type), ``rest`` set after; without ``in_rows``, views are made positionally."""
+        found = self._views.get((in_rows, rest))
         if found is None:
+            held = {*in_rows, *rest}
             unheld = {name: _Unheld(name) for name in self.fields if name not in held}
-            found = self._types[held] = msgspec.defstruct(
+            view = msgspec.defstruct(
                 self.system_type.__name__,
-                [(_BATCH, Any), (_INDEX, int), *((name, Any) for name in held)],
+                [
+                    *((name, self.fields[name].type) for name in in_rows),
+                    *((name, Any, None) for name in rest),
+                    (BATCH, Any, None),
+                    (INDEX, int, 0),
+                ],
                 module=self.system_type.__module__,
                 namespace={**self._namespace, **unheld},
+                array_like=True,
                 gc=False,
                 weakref=False,
             )
+            if len(self._views) >= _MAX_LAYOUTS:
+                self._views.clear()
+            found = self._views[in_rows, rest] = (view, msgspec.msgpack.Decoder(view).decode)
         return found
 
     def decoder(self, name: str) -> Callable[[bytes], list[Any]]:

@@ -35,6 +35,7 @@ def run_suite(
     on_outcome: Callable[[SpecOutcome], object] | None = None,
     break_at: int | None = None,
     break_on_divergence: bool = False,
+    coverage: bool = False,
     executor: Executor | None = None,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time, or with ``executor`` (``jobs`` then unused);
@@ -49,8 +50,9 @@ def run_suite(
     carries its new expectation (nothing is written here: see
     :mod:`beatlog.suite.maintenance`);
     with ``audit`` each spec's determinism is audited too; with ``timelines`` its
-    timelines are built for charts. ``break_at`` and ``break_on_divergence`` stop in
-    the debugger (see :func:`run_spec`); they replay every spec in this process.
+    timelines are built for charts; with ``coverage`` the state changes each log
+    recorded come back with its outcome. ``break_at`` and ``break_on_divergence`` stop
+    in the debugger (see :func:`run_spec`); they replay every spec in this process.
     """
     update = UpdateMode.parse(update)
     outcomes: dict[Path, SpecOutcome] = {}
@@ -61,7 +63,7 @@ def run_suite(
             on_outcome(outcome)
         return fail_fast and outcome.verdict is not Verdict.PASSED
 
-    options = SpecOptions(update, audit, timelines, break_at, break_on_divergence)
+    options = SpecOptions(update, audit, timelines, break_at, break_on_divergence, coverage)
     breaking = break_at is not None or break_on_divergence
     if breaking and executor is not None:
         raise ValueError("break points stop in this process; they cannot run on an executor")

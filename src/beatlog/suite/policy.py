@@ -60,3 +60,6 @@ class SpecOptions:
     """Stop in the debugger just before the behaviors update in this cycle."""
     break_on_divergence: bool = False
     """Replay a failing DTC again, stopping in the debugger at its first divergence."""
+    coverage: bool = False
+    """Gather the state changes its log recorded, for the suite's coverage, as the
+    verdict's replay reads them."""

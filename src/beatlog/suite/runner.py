@@ -16,6 +16,7 @@ from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.remote import named_as_given
@@ -83,6 +84,9 @@ class SpecOutcome:
     open_loop: tuple[int, int] | None = None
     """Where the approved baseline says the behaviors left the recording (cycle, robot
     time in ns): from there the recorded world no longer answers to them."""
+    recorded: RecordedChanges | None = None
+    """The state changes its log recorded, when run with ``coverage`` and its log could
+    be read to the end."""
 
     @property
     def verdict_label(self) -> str:
@@ -186,7 +190,13 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         charts: list[TimelineCollector] = []
         if timelines:
             replayed, chart = _charting(system, expected, charts)
-        result = judged(replayed, break_at=options.break_at, observers=[chart] if timelines else ())
+        recorded: list[RecordedChanges] = []
+        result = judged(
+            replayed,
+            break_at=options.break_at,
+            observers=[chart] if timelines else (),
+            readers=[functools.partial(_kept, recorded)] if options.coverage else (),
+        )
         wall = time.perf_counter() - started
         divergence = result.divergence
         notes = result.notes + unreached_break(options.break_at, result)
@@ -239,6 +249,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         timelines=drawn,
         log_digest=digest,
         open_loop=None if expected is None else expected.open_loop,
+        recorded=recorded[0] if recorded else None,
     )
 
 
@@ -269,6 +280,12 @@ def _charting(
         return charts[-1]
 
     return loaded, chart
+
+
+def _kept(kept: list[RecordedChanges], reader: SessionLogReader) -> RecordedChanges:
+    """A reader of what the log recorded, kept in ``kept``."""
+    kept.append(RecordedChanges(reader))
+    return kept[-1]
 
 
 def _timelines(charts: list[TimelineCollector], details: Details | None) -> tuple[Timeline, ...]:

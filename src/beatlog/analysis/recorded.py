@@ -1,0 +1,70 @@
+"""What a log recorded, gathered batch by batch: its state changes, by the log's
+behavior catalogue, for the transition coverage. A :class:`RecordedChanges` reads
+the batches a replay session reads (the verdict's own, in a suite run), or a log of
+its own (:func:`read_changes`)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from beatlog.log.format import EMPTY_LIST, CycleRecord
+from beatlog.log.payload import decode_part, decode_state_changes
+from beatlog.log.reader import SessionLogReader
+from beatlog.replay.expectation import TracedChange
+from beatlog.replay.verdict import StateChange
+
+__all__ = ["RecordedChanges", "read_changes"]
+
+
+class RecordedChanges:
+    """The state changes a log recorded, named by its behavior catalogue, and its cycles,
+    gathered from its batches in order (:meth:`read`).
+
+    ``system`` is the system it was recorded with as coverage names it: the
+    ``module:factory`` its header records (:attr:`reference`), or its robot-state type
+    where it records none.
+    """
+
+    def __init__(self, reader: SessionLogReader) -> None:
+        header = reader.header
+        self.reference = header.system
+        """The ``module:factory`` the header records, if any."""
+        self.system = header.system or header.robot_state_type
+        self.changes: list[TracedChange] = []
+        self.cycles = 0
+        self._names = header.behaviors
+        self._path = reader.path
+        self._time_ns = 0
+
+    def read(self, batch: Sequence[CycleRecord]) -> None:
+        """Take the log's next batch.
+
+        :raises beatlog.errors.CorruptLogError: a cycle's state changes are damaged.
+        """
+        names, changes = self._names, self.changes
+        for record in batch:
+            self._time_ns += record.heartbeat_ns
+            if record.state_changes != EMPTY_LIST:
+                recorded = decode_part(
+                    self._path,
+                    record.state_changes,
+                    decode_state_changes,
+                    "state changes",
+                    self.cycles,
+                )
+                for index, before, after in recorded:
+                    name = names[index] if 0 <= index < len(names) else f"#{index}"
+                    changes.append(
+                        TracedChange(self.cycles, self._time_ns, StateChange(name, before, after))
+                    )
+            self.cycles += 1
+
+
+def read_changes(log: str | Path) -> RecordedChanges:
+    """Every state change ``log`` recorded, and how many cycles it holds."""
+    with SessionLogReader(log) as reader:
+        recorded = RecordedChanges(reader)
+        for batch in reader.batches():
+            recorded.read(batch)
+    return recorded
