@@ -1,6 +1,7 @@
 """What importing beatlog costs: the public names are imported on first use, so a
 program, the CLI's ``--help`` or a suite worker loads only what it uses. And which way
-imports point: every one from a layer to a lower one, none in a cycle of files."""
+imports point: every one from a layer to a lower one, none in a cycle of files; and
+every module small enough to hold one job."""
 
 from __future__ import annotations
 
@@ -164,6 +165,16 @@ def test_no_import_runs_up_the_layers_or_across_one() -> None:
     )
 
     assert upward == []
+
+
+def test_every_module_is_under_400_lines() -> None:
+    long = sorted(
+        f"{path.relative_to(SOURCE).as_posix()}: {lines} lines"
+        for path in SOURCE.rglob("*.py")
+        if (lines := len(path.read_text(encoding="utf-8").splitlines())) >= 400
+    )
+
+    assert long == []
 
 
 def test_no_import_cycle_spans_files() -> None:

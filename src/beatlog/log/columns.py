@@ -6,10 +6,9 @@ records without their robot states, and each robot-state field's values, in cycl
 order, in a column of its own. A reader opens a batch as
 :class:`StateColumns`, which checks the batch's column table on opening and decodes a
 column only when asked for it: a replay whose behaviors read 30 of 1,000 fields decodes
-30 columns, or those 30 fields of each cycle as one array (:meth:`StateColumns.rows`:
-one decoder call a cycle rather than one a column). The values are the bytes the
-writer was given, so a robot state put back together (:meth:`StateColumns.raw_states`)
-is byte for byte the one a format-2 log holds.
+30 columns, or those 30 fields of each cycle as one array (:meth:`StateColumns.rows`).
+The values are the bytes the writer was given, so a robot state put back together
+(:meth:`StateColumns.raw_states`) is byte for byte the one a format-2 log holds.
 
 A column of values all encoded in the same width (a float field: 9 bytes each) is
 stored byte-split: byte 0 of every value, then byte 1 of every value, and so on, so that
@@ -267,12 +266,10 @@ class StateColumns:
         """Each cycle of the batch as one msgpack array of its values in the columns
         ``fixed`` (each of values of one width), then ``varied`` (of varied width).
 
-        A column of one width is ``width`` planes of a byte a cycle (one plane if not
-        split), so byte ``t`` of every plane, taken in order, is cycle ``t``'s value:
-        with the columns laid end to end after the array head's bytes (a plane each),
-        a cycle's values are one strided slice, however many columns there are (columns
-        next to each other in the batch are taken together). A value of varied width is
-        found by walking its column, and joined on.
+        A column of one width is ``width`` planes of a byte a cycle (one if not split),
+        so with the columns laid end to end after the array head's bytes (a plane each),
+        a cycle's values are one strided slice however many columns there are. A value
+        of varied width is found by walking its column, and joined on.
 
         :raises msgspec.DecodeError: a column of varied width is damaged.
         """
