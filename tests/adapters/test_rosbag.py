@@ -371,15 +371,18 @@ def test_a_folder_whose_storage_file_is_another_bags_is_refused(
     [
         (
             lambda information: information.update(storage_identifier="sqlite3"),
-            "not a readable ROS bag: AnyReaderError: Cannot open database",
+            re.escape("not a readable ROS bag: AnyReaderError: Cannot open database ") + ".+",
         ),
         (
             lambda information: information.update(storage_identifier="bag_v2"),
-            "not a readable ROS bag: AnyReaderError: Storage plugin 'bag_v2' not supported",
+            re.escape(
+                "not a readable ROS bag: AnyReaderError: Storage plugin 'bag_v2' not supported"
+            )
+            + ".*",
         ),
         (
             lambda information: information.update(message_count=361),
-            "its metadata counts 361 messages but 360 on its topics; the bag is damaged",
+            re.escape("its metadata counts 361 messages but 360 on its topics; the bag is damaged"),
         ),
     ],
     ids=["other storage", "unknown storage", "total"],
@@ -390,7 +393,8 @@ def test_a_folder_whose_metadata_does_not_fit_its_files_is_refused(
     bag = write_bag(tmp_path / "bag")
     edit_metadata(bag, edit)
 
-    assert refused(tmp_path, bag).startswith(f"{bag}: {problem}")
+    found = refused(tmp_path, bag)  # rosbags' words follow what it could not read
+    assert re.fullmatch(re.escape(f"{bag}: ") + problem, found), found
 
 
 def test_a_folder_naming_a_storage_file_it_lacks_names_that_file(tmp_path: Path) -> None:

@@ -103,7 +103,8 @@ def test_a_format_1_baseline_judges_outputs_against_the_recording_until_re_appro
     path = expected_path(spec)
     lines = path.read_text(encoding="utf-8").splitlines()
     log = spec.parent.parent / "probe.beatlog"
-    trace = whole_trace(read_baseline(path).expectation, log)
+    approved = read_baseline(path).expectation
+    trace = whole_trace(approved, log)
     path.write_text(  # a format 1 file held the whole trace of state changes, and no outputs
         "\n".join(["# beatlog expected state changes, format 1", *lines[1:3]])
         + "\n"
@@ -121,7 +122,7 @@ def test_a_format_1_baseline_judges_outputs_against_the_recording_until_re_appro
     )
     assert pending_path(spec).exists()
     assert beatlog("approve", spec).code == 0
-    assert read_baseline(path).expectation.outputs
+    assert read_baseline(path).expectation.outputs == approved.outputs
     assert beatlog("test", spec).code == 0
 
 

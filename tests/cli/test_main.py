@@ -4,6 +4,7 @@ the user's code imported from where the command runs."""
 from __future__ import annotations
 
 import inspect
+import re
 import shutil
 import subprocess
 import sys
@@ -15,7 +16,13 @@ from mcap.writer import Writer
 
 from beatlog.log.crafting import session_header
 from beatlog.log.writer import SessionLogWriter
-from tests.commands import Beatlog, assert_error, assert_one_line_error
+from tests.commands import (
+    Beatlog,
+    assert_error,
+    assert_error_matching,
+    cannot_import,
+    failing_line,
+)
 from tests.conftest import RecordFn, broken_probe
 from tests.specs import PROBE
 from tests.text import frames
@@ -95,11 +102,20 @@ def test_a_bad_log_is_one_line_naming_the_file(
 @pytest.mark.parametrize(
     ("reference", "problem"),
     [
-        ("tests.conftest", "expected module:factory"),
-        ("tests.no_such_module:system", "cannot import tests.no_such_module"),
-        ("tests.conftest:no_such_factory", "tests.conftest has no no_such_factory"),
-        ("tests.systems:not_a_system", "built a dict, not a system"),
-        ("tests.conftest:broken_probe", "raised RuntimeError: the arena map is missing"),
+        ("tests.conftest", re.escape("expected module:factory, e.g. mypkg.robot:system")),
+        ("tests.no_such_module:system", cannot_import("tests.no_such_module")),
+        ("tests.conftest:no_such_factory", re.escape("tests.conftest has no no_such_factory")),
+        (
+            "tests.systems:not_a_system",
+            re.escape("built a dict, not a system (it needs robot_state, behaviors and update)"),
+        ),
+        (
+            "tests.conftest:broken_probe",
+            re.escape(
+                "the factory raised RuntimeError: the arena map is missing "
+                f"({failing_line(broken_probe)})"
+            ),
+        ),
     ],
 )
 def test_a_bad_system_reference_is_one_line_naming_it(
@@ -107,7 +123,7 @@ def test_a_bad_system_reference_is_one_line_naming_it(
 ) -> None:
     run = beatlog("replay", record_probe(10), "--system", reference)
 
-    assert_one_line_error(run, f"'{reference}': ", problem)
+    assert_error_matching(run, f"{re.escape(repr(reference))}: {problem}")
 
 
 def test_verbose_shows_the_traceback_of_a_factory_that_failed(
@@ -119,7 +135,11 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
     quiet = beatlog("replay", log, "--system", reference)
     verbose = beatlog("replay", log, "--system", reference, "-v")
 
-    assert_one_line_error(quiet, "the factory raised RuntimeError: the arena map is missing")
+    assert_error(
+        quiet,
+        f"{reference!r}: the factory raised RuntimeError: the arena map is missing "
+        f"({failing_line(broken_probe)})",
+    )
     assert verbose.code == 2
     assert verbose.out == ""
     assert verbose.err.startswith("Traceback (most recent call last):\n")

@@ -93,20 +93,23 @@ def test_the_top_level_help_ends_with_the_exit_codes(capsys: pytest.CaptureFixtu
 def test_verbose_says_what_it_does_for_the_command_at_hand(
     command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    page = " ".join(help_page(command, capsys).split())
-
-    verbose = re.search(r" -v, --verbose (.*?) (-|exit codes:)", page)
-    assert verbose is not None, page
-    assert verbose[1] == "also print the traceback of user code that failed to load"
+    assert verbose_help(command, capsys) == (
+        "also print the traceback of user code that failed to load"
+    )
 
 
 def test_test_verbose_lists_every_dtc(capsys: pytest.CaptureFixture[str]) -> None:
-    page = " ".join(help_page("test", capsys).split())
+    assert verbose_help("test", capsys) == (
+        "list every DTC in the summary, and print the traceback of user code that failed to load"
+    )
 
-    assert (
-        "-v, --verbose list every DTC in the summary, and print the traceback of user code "
-        "that failed to load"
-    ) in page
+
+def verbose_help(command: str, capsys: pytest.CaptureFixture[str]) -> str:
+    """What the help page of ``command`` says ``--verbose`` does, on one line."""
+    page = " ".join(help_page(command, capsys).split())
+    verbose = re.search(r" -v, --verbose (.*?) (-|exit codes:)", page)
+    assert verbose is not None, page
+    return verbose[1]
 
 
 def test_review_help_says_it_asks_at_the_terminal(capsys: pytest.CaptureFixture[str]) -> None:

@@ -121,9 +121,12 @@ def test_a_short_column_is_found_though_replay_would_not_read_it(tmp_path: Path)
     damaged = rewrite_by_field(log, tmp_path / "damaged.beatlog", short_column(0), 1)
     with SessionLogReader(damaged) as reader:
         reader.decode_states(Wide)  # states stay in their columns: none is decoded
-        with pytest.raises(CorruptLogError, match="field 'speed' holds 71 bytes") as raised:
+        with pytest.raises(CorruptLogError) as raised:
             list(reader.batches())
-    assert str(raised.value).startswith(f"{damaged}: damaged batch from cycle 8")
+    assert str(raised.value) == (
+        f"{damaged}: damaged batch from cycle 8: field 'speed' holds 71 bytes, not 8 values of "
+        "9 bytes (a value missing, repeated or foreign)"
+    )
 
 
 def test_columns_decoded_together_are_each_column_decoded_alone(tmp_path: Path) -> None:

@@ -403,15 +403,18 @@ def test_a_divergence_shows_the_cycles_around_it(record_probe: RecordFn) -> None
     log = record_probe(300)
     divergence = replay(log, probe_system(threshold=0.6), context_cycles=30).divergence
     assert divergence is not None
-    cycles = [row.cycle for row in divergence.context]
-    assert cycles == sorted(cycles)
-    assert divergence.cycle in cycles
-    assert all(abs(cycle - divergence.cycle) <= 30 for cycle in cycles)
-    before = [row for row in divergence.context if row.cycle < divergence.cycle]
-    after = [row for row in divergence.context if row.cycle > divergence.cycle]
-    assert before
-    assert all(row.expected == row.actual for row in before)
-    assert any(row.expected != row.actual for row in after)
+    assert divergence.cycle == 21
+    # the cycles within 30 of it that it shows, and whether recording and replay agree there
+    assert [(row.cycle, row.expected == row.actual) for row in divergence.context] == [
+        (0, True),
+        (10, True),
+        (15, True),
+        (21, False),
+        (26, False),
+        (35, True),
+        (40, True),
+        (45, True),
+    ]
     intervals = [PERIOD_NS + (t % 3) * 1000 for t in range(300)]
     for row in divergence.context:
         assert row.time_ns == sum(intervals[: row.cycle + 1])
@@ -513,7 +516,7 @@ def geared_system(threshold: float = 0.6) -> PriorityArbiter[Probe]:
 def test_an_approved_baseline_still_pins_the_outputs(record_probe: RecordFn) -> None:
     log = record_probe(300)
     baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
-    assert baseline.outputs
+    assert len(baseline.outputs or ()) == 12
 
     result = replay(log, geared_system(), expected=baseline)
 

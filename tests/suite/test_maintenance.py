@@ -159,10 +159,11 @@ def test_each_decision_does_what_it_says(pending: DtcSpec, decision: Decision) -
 
 
 def test_an_unknown_decision_names_the_decisions_there_are(pending: DtcSpec) -> None:
+    waiting = pending_path(pending.path).read_bytes()
     with pytest.raises(OptionError) as raised:
         decide(pending, "maybe")
     assert str(raised.value) == "unknown decision 'maybe': choose one of 'accept', 'reject', 'skip'"
-    assert pending_path(pending.path).exists()
+    assert pending_path(pending.path).read_bytes() == waiting
 
 
 @pytest.mark.parametrize("decision", [Decision.ACCEPT, Decision.REJECT])
@@ -170,12 +171,13 @@ def test_no_decision_is_written_in_ci(
     pending: DtcSpec, decision: Decision, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("CI", "1")
+    waiting = pending_path(pending.path).read_bytes()
 
     with pytest.raises(CiWriteError):
         decide(pending, decision)
     decide(pending, Decision.SKIP)
 
-    assert pending_path(pending.path).exists()
+    assert pending_path(pending.path).read_bytes() == waiting
     assert not expected_path(pending.path).exists()
 
 
@@ -183,22 +185,24 @@ def test_a_pending_file_from_another_recording_is_never_accepted(
     pending: DtcSpec, log: Path, record_probe: RecordFn
 ) -> None:
     record_probe(200, name="rerecorded.beatlog").replace(log)
+    waiting = pending_path(pending.path).read_bytes()
 
     with pytest.raises(BaselineError, match=r"made from another recording than probe\.beatlog"):
         decide(pending, Decision.ACCEPT)
 
-    assert pending_path(pending.path).exists()
+    assert pending_path(pending.path).read_bytes() == waiting
     assert not expected_path(pending.path).exists()
 
 
 def test_approve_accepts_everything_pending_in_a_folder(pending: DtcSpec, log: Path) -> None:
     write_dtc(pending.path.parent, log, AS_RECORDED, name="untouched")
     folder = pending.path.parent
+    waiting = pending_path(pending.path).read_bytes()
 
     assert pending_specs([folder]) == [pending]
     assert approve([folder]) == [pending]
     assert pending_specs([folder]) == []
-    assert expected_path(pending.path).exists()
+    assert expected_path(pending.path).read_bytes() == waiting
 
 
 def test_approve_with_nothing_pending_or_in_ci_writes_nothing(

@@ -302,7 +302,9 @@ def test_bad_project_renames_name_the_pyproject(tmp_path: Path) -> None:
 
     with pytest.raises(SpecError) as raised:
         load_spec(path)
-    assert str(raised.value).startswith(f"{pyproject}: key 'tool.beatlog.renames'")
+    assert str(raised.value) == (
+        f"{pyproject}: key 'tool.beatlog.renames': expected `object`, got `int`"
+    )
 
 
 def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:

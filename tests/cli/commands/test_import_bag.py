@@ -4,6 +4,7 @@ test`` replays at sensor level; bad input is one line naming the file, exit code
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from collections.abc import Callable
@@ -13,7 +14,7 @@ import pytest
 from rosbags.rosbag2 import StoragePlugin
 
 from tests.bags import edit_metadata, name_other_qos, storage_file, write_bag
-from tests.commands import ROOT, Beatlog, Run, assert_error, assert_one_line_error, closing_counts
+from tests.commands import ROOT, Beatlog, Run, assert_error, assert_error_matching, closing_counts
 from tests.specs import CHANGED, PROBE
 from tests.text import whole_lines
 
@@ -82,27 +83,50 @@ def test_period_and_topics_choose_the_heartbeats_and_the_samples(
         beatlog, bag, "--perception", PERCEPTION, "--period-ms", "20", "--topic", "/sonar"
     )
 
-    assert run.out.startswith("imported 300 messages on 1 topic into 150 cycles (3.00 s)")
+    assert run.out == (
+        "imported 300 messages on 1 topic into 150 cycles (3.00 s) to "
+        f"{bag.with_suffix('.beatlog')}\n"
+    )
 
 
 @pytest.mark.parametrize(
-    ("options", "fragments"),
+    ("options", "message"),
     [
-        (["--topic", "/camera"], ["bag: no topic '/camera' (the bag has: /sonar, /speed)"]),
-        (["--perception", "tests.bags:broken_perception"], ["bag: cycle 13: the perception"]),
-        (["--period-ms", "0"], ["--period-ms: must be positive"]),
-        (["--period-ms", "20", "--clock-topic", "/speed"], ["not allowed with argument"]),
+        (["--topic", "/camera"], "{bag}: no topic '/camera' (the bag has: /sonar, /speed)"),
+        (
+            ["--period-ms", "0"],
+            "argument --period-ms: must be positive: '0' (see 'beatlog import-bag --help')",
+        ),
+        (
+            ["--period-ms", "20", "--clock-topic", "/speed"],
+            "argument --clock-topic: not allowed with argument --period-ms "
+            "(see 'beatlog import-bag --help')",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_code_2(
-    beatlog: Beatlog, tmp_path: Path, options: list[str], fragments: list[str]
+    beatlog: Beatlog, tmp_path: Path, options: list[str], message: str
 ) -> None:
     bag = write_bag(tmp_path / "bag")
-    perception = [] if "--perception" in options else ["--perception", PERCEPTION]
 
-    run = import_bag(beatlog, bag, *perception, *options)
+    run = import_bag(beatlog, bag, "--perception", PERCEPTION, *options)
 
-    assert_one_line_error(run, *fragments)
+    assert_error(run, message.format(bag=bag))
+    assert not bag.with_suffix(".beatlog").exists()
+
+
+def test_a_perception_step_that_failed_is_one_line_naming_the_cycle_and_the_line(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    bag = write_bag(tmp_path / "bag")
+
+    run = import_bag(beatlog, bag, "--perception", "tests.bags:broken_perception")
+
+    assert_error_matching(
+        run,
+        re.escape(f"{bag}: cycle 13: the perception step raised ValueError: sonar blinded (line ")
+        + rf"\d+ of {re.escape(str(ROOT / 'tests' / 'bags.py'))}\)",
+    )
     assert not bag.with_suffix(".beatlog").exists()
 
 
@@ -130,10 +154,10 @@ def test_an_existing_log_or_spec_is_kept_unless_forced(beatlog: Beatlog, tmp_pat
     assert import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec).code == 0
 
     again = import_bag(beatlog, bag, "--perception", PERCEPTION)
-    assert_one_line_error(again, "bag.beatlog: already exists (use --force)")
+    assert_error(again, f"{bag.with_suffix('.beatlog')}: already exists (use --force)")
     bag.with_suffix(".beatlog").unlink()
     spec_again = import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec)
-    assert_one_line_error(spec_again, "bag.dtc.toml: already exists (use --force)")
+    assert_error(spec_again, f"{spec}: already exists (use --force)")
     forced = import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec, "--force")
     assert forced.code == 0
 
@@ -147,7 +171,7 @@ def test_without_rosbags_the_command_says_what_to_install(
 
     run = import_bag(beatlog, bag, "--perception", PERCEPTION)
 
-    assert_one_line_error(run, 'needs rosbags (pip install "beatlog[ros]")')
+    assert_error(run, f'{bag}: importing a ROS bag needs rosbags (pip install "beatlog[ros]")')
 
 
 @pytest.mark.parametrize("storage", list(StoragePlugin), ids=lambda storage: storage.name)
@@ -160,12 +184,12 @@ def test_a_folder_whose_files_rosbags_cannot_match_is_an_error_not_an_empty_dtc(
 
     run = import_bag(beatlog, bag, "--perception", PERCEPTION, "--spec", spec)
 
-    assert run.err == (
-        f"beatlog: error: {bag}: read 0 of the 360 messages its metadata counts "
+    assert_error(
+        run,
+        f"{bag}: read 0 of the 360 messages its metadata counts "
         "(topic /sonar: 0 of 300, topic /speed: 0 of 60); the bag is damaged, or its "
-        "metadata.yaml does not match its storage files\n"
+        "metadata.yaml does not match its storage files",
     )
-    assert_one_line_error(run)
     assert sorted(path.name for path in tmp_path.iterdir()) == ["talker"]
 
 
@@ -174,10 +198,7 @@ def test_an_empty_bag_is_an_error(beatlog: Beatlog, tmp_path: Path) -> None:
 
     run = import_bag(beatlog, bag, "--perception", PERCEPTION)
 
-    assert run.err == (
-        f"beatlog: error: {bag}: its metadata counts no messages on /sonar, /speed\n"
-    )
-    assert_one_line_error(run)
+    assert_error(run, f"{bag}: its metadata counts no messages on /sonar, /speed")
     assert not bag.with_suffix(".beatlog").exists()
 
 
@@ -244,13 +265,16 @@ def test_a_topic_whose_definition_does_not_fit_is_named_with_how_to_import_the_o
 
     run = import_bag(beatlog, bag, "--perception", PERCEPTION)
 
-    assert run.err == (
-        f"beatlog: error: {bag}: topic /rosout: its message definition of "
+    assert_error(
+        run,
+        f"{bag}: topic /rosout: its message definition of "
         "rcl_interfaces/msg/Log does not fit its messages (a stub definition?); import the "
-        "others with --topic /sonar --topic /speed\n"
+        "others with --topic /sonar --topic /speed",
     )
-    assert_one_line_error(run)
     others = import_bag(
         beatlog, bag, "--perception", PERCEPTION, "--topic", "/sonar", "--topic", "/speed"
     )
-    assert others.out.startswith("imported 360 messages on 2 topics")
+    assert others.out == (
+        "imported 360 messages on 2 topics into 100 cycles (3.00 s) to "
+        f"{bag.with_suffix('.beatlog')}\n"
+    )

@@ -15,10 +15,10 @@ import pytest
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.random import RecordingRandom
 from beatlog.record.recorder import Recorder
-from tests.commands import Beatlog, assert_error, assert_one_line_error
+from tests.commands import Beatlog, assert_error, replay_line
 from tests.conftest import RecordFn, distances
 from tests.factories import cut_in_half, vouch
-from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, PROBE_CHECKED
 from tests.systems import quiet_system, record_scatter
 from tests.text import whole_lines
 
@@ -33,11 +33,7 @@ def test_replay_passes_a_log_against_the_system_that_recorded_it(
     run = beatlog("replay", log, "--system", PROBE)
 
     assert run.code == 0
-    assert run.out.startswith(
-        f"PASS {log}  300 cycles, 45 state changes, 453 outputs, 60 draws checked; "
-        "9.0 s robot time in "
-    )
-    assert run.out.endswith("; log complete\n")
+    assert re.fullmatch(replay_line("PASS", log, PROBE_CHECKED) + "\n", run.out), run.out
     assert run.err == ""
 
 
@@ -51,7 +47,7 @@ def test_replay_without_a_system_uses_and_names_the_one_the_project_vouches_for(
     run = beatlog("replay", log)
 
     assert run.code == 0
-    assert run.out.startswith(f"PASS {log}")
+    assert re.fullmatch(replay_line("PASS", log, PROBE_CHECKED) + "\n", run.out), run.out
     assert run.err == (
         f"beatlog: replaying against {PROBE}, as recorded in {log} "
         "and listed in the project's [tool.beatlog] systems\n"
@@ -91,10 +87,11 @@ def test_a_log_never_chooses_the_code_replay_imports(
 
     run = beatlog("replay", log)
 
-    assert_one_line_error(
+    assert_error(
         run,
-        f"{log}: records the system {recorded!r}, which this project does not vouch for",
-        f"[tool.beatlog] systems in {tmp_path / 'pyproject.toml'}",
+        f"{log}: records the system {recorded!r}, which this project does not vouch for; "
+        "name it (--system, or system = in the spec) or list it under [tool.beatlog] systems "
+        f"in {tmp_path / 'pyproject.toml'}",
     )
     assert not (tmp_path / "sprung").exists()
     assert set(sys.modules) - imported <= {"beatlog.replay.judge", "beatlog.report.console"}
@@ -132,7 +129,8 @@ def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
     run = beatlog("replay", log, "--system", CHANGED)
 
     assert run.code == 1
-    assert run.out.startswith(f"FAIL {log}")
+    first = run.out.splitlines()[0]
+    assert re.fullmatch(replay_line("FAIL", log, "22 cycles, 0.7 s robot time"), first), first
     assert (
         f"first divergence: cycle {FIRST_CHANGED_CYCLE}, t = 0.660 s, state changes"
         in whole_lines(run.out)
@@ -152,21 +150,24 @@ def test_replay_maps_robot_state_fields_renamed_or_retyped_since_the_recording(
     assert beatlog("replay", log, *renamed, "--rename-field", "distance=range").code == 0
     converted = ("--convert-field", "distance=tests.systems:centimetres")
     assert beatlog("replay", log, *retyped, *converted).code == 0
-    assert_one_line_error(
+    assert_error(
         beatlog("replay", log, *renamed),
-        "field 'distance' is gone; the system has 'range' (number) in its place: if "
-        'renamed, add field_renames = { distance = "range" } to the spec (beatlog replay: '
-        "--rename-field distance=range)",
+        f"{log}: recorded with robot state tests.conftest.Probe, which does not fit the "
+        "system's tests.systems.Ranged: Probe is not Ranged (a robot state type renamed since "
+        "keeps exactly its fields); field 'distance' is gone; the system has 'range' (number) "
+        'in its place: if renamed, add field_renames = { distance = "range" } to the spec '
+        "(beatlog replay: --rename-field distance=range)",
     )
-    assert_one_line_error(
+    assert_error(
         beatlog("replay", log, *renamed, "--rename-field", "distance"),
-        "argument --rename-field: expected NAME=VALUE: 'distance'",
+        "argument --rename-field: expected NAME=VALUE: 'distance' (see 'beatlog replay --help')",
     )
     failing = ("--convert-field", "distance=tests.systems:centimetres_unless_close")
-    assert_one_line_error(
+    assert_error(
         beatlog("replay", log, *retyped, *failing),
         f"{log}: robot state of cycle 46: field 'distance': "
-        "tests.systems:centimetres_unless_close raised ValueError: 0.08 m is too close",
+        "tests.systems:centimetres_unless_close raised ValueError: 0.08 m is too close to "
+        "convert",
     )
 
 
@@ -266,10 +267,10 @@ def test_a_replay_that_checks_nothing_is_bad_input_unless_allowed(
     refused = beatlog("replay", log, "--system", system, "--allow-truncated")
     allowed = beatlog("replay", log, "--system", system, "--allow-truncated", "--allow-empty")
 
-    assert_one_line_error(refused)
-    assert refused.err == (
-        f"beatlog: error: {log}: the replay checked nothing (0 cycles); if nothing is meant "
-        "to happen in it, accept it with --allow-empty (in a spec: allow_empty = true)\n"
+    assert_error(
+        refused,
+        f"{log}: the replay checked nothing (0 cycles); if nothing is meant "
+        "to happen in it, accept it with --allow-empty (in a spec: allow_empty = true)",
     )
     assert allowed.code == 0
     timing = r"in (under 1 ms|\d+\.\d{3} s \([\d,]+× real time\))"  # a loaded machine is slow
@@ -294,8 +295,7 @@ def test_replaying_array_draws_without_numpy_is_one_line_naming_the_log_and_the_
 
     run = beatlog("replay", log, "--system", "tests.systems:scatter_system")
 
-    assert_one_line_error(run)
-    assert run.err == f"beatlog: error: {log}: {NUMPY_NEEDED}\n"
+    assert_error(run, f"{log}: {NUMPY_NEEDED}")
 
 
 def test_a_divergence_shows_recorded_array_draws_without_numpy(

@@ -3,6 +3,7 @@ spec per log, with the reports and exit codes of a suite of specs."""
 
 from __future__ import annotations
 
+import re
 import shlex
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
@@ -12,7 +13,13 @@ import fsspec
 import pytest
 
 from beatlog.suite.baseline import expected_path
-from tests.commands import Beatlog, assert_error, assert_one_line_error, closing_counts
+from tests.commands import (
+    Beatlog,
+    assert_error,
+    assert_error_matching,
+    cannot_import,
+    closing_counts,
+)
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 from tests.text import table_row, whole_lines
@@ -35,7 +42,7 @@ def test_every_log_that_matches_is_replayed_as_a_dtc(beatlog: Beatlog, logs: Pat
     assert run.code == 0, run.err
     for name in ("dock", "patrol", "yard"):
         assert table_row(run.out, name)[:4] == [name, "passed", "300", "9.0 s"]
-    assert run.out.splitlines()[-1].startswith("3 passed, 0 failed")
+    assert closing_counts(run.out) == "3 passed, 0 failed"
 
 
 def test_a_fleet_log_that_diverges_fails_and_its_rerun_command_reproduces_it(
@@ -79,9 +86,9 @@ def test_a_log_that_cannot_be_read_is_an_error_of_its_dtc(beatlog: Beatlog, logs
 @pytest.mark.parametrize(
     ("option", "reference", "problem"),
     [
-        ("--system", "tests.nowhere:system", "cannot import tests.nowhere"),
-        ("--system", "tests.conftest:nothing", "tests.conftest has no nothing"),
-        ("--perception", "tests.conftest:nothing", "tests.conftest has no nothing"),
+        ("--system", "tests.nowhere:system", cannot_import("tests.nowhere")),
+        ("--system", "tests.conftest:nothing", re.escape("tests.conftest has no nothing")),
+        ("--perception", "tests.conftest:nothing", re.escape("tests.conftest has no nothing")),
     ],
 )
 def test_a_reference_that_cannot_be_built_is_one_line_for_the_run_not_one_per_log(
@@ -92,7 +99,7 @@ def test_a_reference_that_cannot_be_built_is_one_line_for_the_run_not_one_per_lo
 
     run = beatlog("test", "--logs", f"{logs}/**/*.beatlog", "--system", system, *extra)
 
-    assert_one_line_error(run, f"beatlog: error: {option} '{reference}': {problem}")
+    assert_error_matching(run, f"{option} {re.escape(repr(reference))}: {problem}")
 
 
 def test_a_fleet_run_can_be_sharded(beatlog: Beatlog, logs: Path) -> None:
@@ -101,9 +108,9 @@ def test_a_fleet_run_can_be_sharded(beatlog: Beatlog, logs: Path) -> None:
         for shard in ("1/2", "2/2")
     ]
 
-    assert [run.out.splitlines()[-1][:17] for run in runs] == [
-        "2 passed, 0 faile",
-        "1 passed, 0 faile",
+    assert [closing_counts(run.out) for run in runs] == [
+        "2 passed, 0 failed",
+        "1 passed, 0 failed",
     ]
 
 
@@ -131,7 +138,7 @@ def test_logs_behind_any_fsspec_url_are_replayed(beatlog: Beatlog, memory_logs: 
     run = beatlog("test", "--logs", f"{memory_logs}/**/*.beatlog", "--system", PROBE)
 
     assert run.code == 0, run.err
-    assert run.out.splitlines()[-1].startswith("3 passed, 0 failed")
+    assert closing_counts(run.out) == "3 passed, 0 failed"
 
 
 def test_a_pattern_that_matches_nothing_is_named(beatlog: Beatlog, logs: Path) -> None:
@@ -145,18 +152,30 @@ def test_a_pattern_that_matches_nothing_is_named(beatlog: Beatlog, logs: Path) -
 @pytest.mark.parametrize(
     ("arguments", "problem"),
     [
-        (["--logs", "fleet/*.beatlog"], "--logs needs --system MODULE:FACTORY"),
-        (["--system", PROBE], "--system and --perception go with --logs"),
-        (["--perception", PROBE], "--system and --perception go with --logs"),
+        (
+            ["--logs", "fleet/*.beatlog"],
+            "--logs needs --system MODULE:FACTORY to replay the logs against",
+        ),
+        (["--system", PROBE], "--system and --perception go with --logs: a spec names its own"),
+        (
+            ["--perception", PROBE],
+            "--system and --perception go with --logs: a spec names its own",
+        ),
         (["specs", "--logs", "fleet/*", "--system", PROBE], "give DTC specs or --logs, not both"),
-        (["--logs", "fleet/*", "--system", PROBE, "--update"], "--logs runs have none"),
-        (["--logs", "fleet/*", "--system", "tests.conftest"], "expected module:factory"),
+        (
+            ["--logs", "fleet/*", "--system", PROBE, "--update"],
+            "--update writes the baselines of specs; --logs runs have none",
+        ),
+        (
+            ["--logs", "fleet/*", "--system", "tests.conftest"],
+            "--system: expected module:factory, got 'tests.conftest'",
+        ),
     ],
 )
 def test_options_that_do_not_go_together_are_usage_errors(
     beatlog: Beatlog, arguments: list[str], problem: str
 ) -> None:
-    assert_one_line_error(beatlog("test", *arguments), problem)
+    assert_error(beatlog("test", *arguments), problem)
 
 
 def test_a_fleet_run_reads_no_baseline_and_looks_for_no_orphan(

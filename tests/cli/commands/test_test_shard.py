@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.commands import Beatlog, assert_one_line_error, closing_counts
+from tests.commands import Beatlog, assert_error, closing_counts
 from tests.conftest import RecordFn
 from tests.specs import write_spec
 from tests.text import suite_names, table_row
@@ -63,12 +63,16 @@ def test_shards_are_taken_of_the_dtcs_selected(beatlog: Beatlog, specs: Path) ->
 @pytest.mark.parametrize(
     ("shard", "problem"),
     [
-        ("0/4", "argument --shard: shard '0/4': I must be from 1 to 4"),
-        ("5/4", "argument --shard: shard '5/4': I must be from 1 to 4"),
-        ("x", "argument --shard: expected a shard I/N such as 2/4, got 'x'"),
+        ("0/4", "argument --shard: shard '0/4': I must be from 1 to 4 (see 'beatlog test --help')"),
+        ("5/4", "argument --shard: shard '5/4': I must be from 1 to 4 (see 'beatlog test --help')"),
+        (
+            "x",
+            "argument --shard: expected a shard I/N such as 2/4, got 'x' "
+            "(see 'beatlog test --help')",
+        ),
     ],
 )
 def test_a_shard_that_does_not_exist_is_a_usage_error(
     beatlog: Beatlog, specs: Path, shard: str, problem: str
 ) -> None:
-    assert_one_line_error(beatlog("test", specs, "--shard", shard), problem)
+    assert_error(beatlog("test", specs, "--shard", shard), problem)
