@@ -18,6 +18,7 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
+from tests.commands import Beatlog, Run
 from tests.served import LogServer, serve
 
 pytest_plugins = ["pytester"]
@@ -217,3 +218,21 @@ def breaks(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[dict[str, Any]]]:
     BREAKS.clear()
     yield BREAKS
     BREAKS.clear()
+
+
+@pytest.fixture
+def beatlog(capsys: pytest.CaptureFixture[str]) -> Beatlog:
+    """Any ``beatlog`` command, in process; ``test`` with one worker (a pool costs ~0.5 s).
+    The command is imported when the fixture is used: specs name systems in this module,
+    and a suite's workers import it, which must not load the CLI."""
+    from beatlog.cli.main import main  # noqa: PLC0415 - see the docstring
+
+    def run(*args: str | Path) -> Run:
+        argv = [str(arg) for arg in args]
+        if argv[:1] == ["test"]:
+            argv[1:1] = ["-j", "1"]
+        code = main(argv)
+        captured = capsys.readouterr()
+        return Run(code, captured.out, captured.err)
+
+    return run

@@ -29,7 +29,6 @@ from mcap.reader import make_reader
 from beatlog.adapters.export import ExportFormat, export
 from beatlog.adapters.rosbag import import_bag
 from beatlog.analysis.summary import summarize
-from beatlog.cli.main import main
 from beatlog.errors import ExportError
 from beatlog.log.crafting import Message as LogMessage
 from beatlog.log.crafting import craft_log, cycle, cycle_messages, end_message, header_message
@@ -49,7 +48,7 @@ from tests.bags import (
     perception,
     write_bag,
 )
-from tests.commands import Beatlog, Run, assert_error, assert_error_matching, cannot_import
+from tests.commands import Beatlog, assert_error, assert_error_matching, cannot_import
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
 from tests.perceptions import record_with_samples
 from tests.systems import record_scatter
@@ -217,16 +216,6 @@ def log_times(log: Path) -> list[int]:
     with SessionLogReader(log) as reader:
         start_ns = reader.header.start_time_ns
     return [start_ns + time for time in robot_times(log)]
-
-
-@pytest.fixture
-def beatlog_export(capsys: pytest.CaptureFixture[str]) -> Beatlog:
-    def run(*args: str | Path) -> Run:
-        code = main(["export", *(str(arg) for arg in args)])
-        captured = capsys.readouterr()
-        return Run(code, captured.out, captured.err)
-
-    return run
 
 
 @pytest.fixture
@@ -639,12 +628,10 @@ def test_behavior_states_that_are_no_strings_are_json_text(tmp_path: Path) -> No
     assert [m.value["state"] for m in read.messages["/behaviors/quiet"]] == ["null"]
 
 
-def test_a_robot_state_field_named_non_finite_is_one_line(
-    beatlog_export: Beatlog, tmp_path: Path
-) -> None:
+def test_a_robot_state_field_named_non_finite_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     log = craft_cycles(tmp_path / "clash.beatlog", [cycle(state={"non_finite": 1.0})])
 
-    run = beatlog_export(log, "-o", tmp_path / "x.mcap")
+    run = beatlog("export", log, "-o", tmp_path / "x.mcap")
 
     assert_error(
         run,
@@ -665,12 +652,12 @@ def test_without_a_system_there_is_no_divergence_channel(probe_log: Path, tmp_pa
 
 
 def test_a_system_adds_its_first_divergence(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path
 ) -> None:
     exported = tmp_path / "changed.mcap"
 
-    run = beatlog_export(
-        probe_log, "-o", exported, "--system", "tests.conftest:probe_system_changed"
+    run = beatlog(
+        "export", probe_log, "-o", exported, "--system", "tests.conftest:probe_system_changed"
     )
 
     first = next(t for t, d in enumerate(distances(300)) if (d < 0.6) != (d < 0.5))
@@ -692,11 +679,11 @@ def test_a_system_adds_its_first_divergence(
 
 
 def test_a_system_that_passes_adds_no_divergence(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path
 ) -> None:
     exported = tmp_path / "same.mcap"
 
-    run = beatlog_export(probe_log, "-o", exported, "--system", "tests.conftest:probe_system")
+    run = beatlog("export", probe_log, "-o", exported, "--system", "tests.conftest:probe_system")
 
     assert (run.code, run.out) == (
         0,
@@ -817,13 +804,11 @@ def test_the_viewer_rules_accept_what_the_viewers_read() -> None:
     )
 
 
-def test_a_truncated_log_is_exported_up_to_its_last_cycle(
-    beatlog_export: Beatlog, tmp_path: Path
-) -> None:
+def test_a_truncated_log_is_exported_up_to_its_last_cycle(beatlog: Beatlog, tmp_path: Path) -> None:
     log = craft_log(tmp_path / "cut.beatlog", [header_message(), *cycle_messages(20)])
     exported = tmp_path / "cut.mcap"
 
-    run = beatlog_export(log, "-o", exported)
+    run = beatlog("export", log, "-o", exported)
 
     assert (run.code, run.out) == (
         0,
@@ -1175,11 +1160,11 @@ def test_a_robot_state_without_x_y_and_a_heading_has_no_pose(
 
 
 def test_a_parquet_table_has_a_row_per_cycle_and_a_column_per_field(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path
 ) -> None:
     table_path = tmp_path / "probe.parquet"
 
-    run = beatlog_export(probe_log, "-o", table_path, "--format", "parquet")
+    run = beatlog("export", probe_log, "-o", table_path, "--format", "parquet")
 
     assert run.code == 0
     table = pq.read_table(table_path)
@@ -1263,12 +1248,12 @@ def test_a_parquet_column_of_mixed_types_holds_json_text(tmp_path: Path) -> None
 
 
 def test_a_robot_state_field_named_like_another_column_is_one_line(
-    beatlog_export: Beatlog, tmp_path: Path
+    beatlog: Beatlog, tmp_path: Path
 ) -> None:
     log = craft_cycles(tmp_path / "clash.beatlog", [cycle(state={"cycle": 1.0})] * 2)
     table_path = tmp_path / "clash.csv"
 
-    run = beatlog_export(log, "-o", table_path, "--format", "csv")
+    run = beatlog("export", log, "-o", table_path, "--format", "csv")
 
     assert_error(
         run,
@@ -1377,9 +1362,7 @@ def test_parquet_metadata_names_the_log_and_where_it_ends(tmp_path: Path) -> Non
     }
 
 
-def test_a_value_unlike_its_declared_type_is_one_line(
-    beatlog_export: Beatlog, tmp_path: Path
-) -> None:
+def test_a_value_unlike_its_declared_type_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     schema = {"type": "object", "properties": {"level": {"type": "number"}}}
     log = craft_log(
         tmp_path / "liar.beatlog",
@@ -1393,7 +1376,7 @@ def test_a_value_unlike_its_declared_type_is_one_line(
     )
     table_path = tmp_path / "liar.parquet"
 
-    run = beatlog_export(log, "-o", table_path)
+    run = beatlog("export", log, "-o", table_path)
 
     assert_error_matching(  # pyarrow's words for the value it cannot convert follow
         run, re.escape(f"{log}: column 'level' does not hold the double it is declared as: ") + ".+"
@@ -1404,26 +1387,24 @@ def test_a_value_unlike_its_declared_type_is_one_line(
 # bad input: exit 2 and one line
 
 
-def test_a_missing_log_is_one_line(beatlog_export: Beatlog, tmp_path: Path) -> None:
-    run = beatlog_export(tmp_path / "lost.beatlog", "-o", tmp_path / "x.mcap")
+def test_a_missing_log_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
+    run = beatlog("export", tmp_path / "lost.beatlog", "-o", tmp_path / "x.mcap")
 
     assert_error(run, f"{tmp_path / 'lost.beatlog'}: no such file")
     assert not (tmp_path / "x.mcap").exists()
 
 
-def test_a_file_that_is_no_session_log_is_one_line(beatlog_export: Beatlog, tmp_path: Path) -> None:
+def test_a_file_that_is_no_session_log_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     junk = tmp_path / "junk.beatlog"
     junk.write_bytes(b"not an mcap file at all")
 
-    run = beatlog_export(junk, "-o", tmp_path / "x.mcap")
+    run = beatlog("export", junk, "-o", tmp_path / "x.mcap")
 
     assert_error(run, f"{junk}: not a session log (not an MCAP file)")
 
 
-def test_an_unknown_format_is_one_line(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
-) -> None:
-    run = beatlog_export(probe_log, "-o", tmp_path / "x.xls", "--format", "xls")
+def test_an_unknown_format_is_one_line(beatlog: Beatlog, probe_log: Path, tmp_path: Path) -> None:
+    run = beatlog("export", probe_log, "-o", tmp_path / "x.xls", "--format", "xls")
 
     assert_error(
         run,
@@ -1440,17 +1421,26 @@ def test_the_library_names_the_formats_it_writes(probe_log: Path, tmp_path: Path
 
 
 def test_a_system_for_a_table_is_one_line(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path
 ) -> None:
-    run = beatlog_export(
-        probe_log, "-o", tmp_path / "x.csv", "--format", "csv", "--system", "tests.conftest:x"
+    run = beatlog(
+        "export",
+        probe_log,
+        "-o",
+        tmp_path / "x.csv",
+        "--format",
+        "csv",
+        "--system",
+        "tests.conftest:x",
     )
 
     assert_error(run, "a replay's divergence is exported to MCAP only, not csv")
 
 
-def test_a_bad_system_is_one_line(beatlog_export: Beatlog, probe_log: Path, tmp_path: Path) -> None:
-    run = beatlog_export(probe_log, "-o", tmp_path / "x.mcap", "--system", "tests.nowhere:system")
+def test_a_bad_system_is_one_line(beatlog: Beatlog, probe_log: Path, tmp_path: Path) -> None:
+    run = beatlog(
+        "export", probe_log, "-o", tmp_path / "x.mcap", "--system", "tests.nowhere:system"
+    )
 
     assert_error_matching(
         run, re.escape("'tests.nowhere:system': ") + cannot_import("tests.nowhere")
@@ -1458,27 +1448,25 @@ def test_a_bad_system_is_one_line(beatlog_export: Beatlog, probe_log: Path, tmp_
 
 
 def test_an_unwritable_output_is_one_line_naming_it(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path
 ) -> None:
     output = tmp_path / "no" / "such" / "x.mcap"
 
-    run = beatlog_export(probe_log, "-o", output)
+    run = beatlog("export", probe_log, "-o", output)
 
     assert_error(run, f"{output}: cannot write: No such file or directory")
 
 
-def test_the_log_itself_is_never_the_output(beatlog_export: Beatlog, probe_log: Path) -> None:
+def test_the_log_itself_is_never_the_output(beatlog: Beatlog, probe_log: Path) -> None:
     before = probe_log.read_bytes()
 
-    run = beatlog_export(probe_log, "-o", probe_log, "--format", "mcap")
+    run = beatlog("export", probe_log, "-o", probe_log, "--format", "mcap")
 
     assert_error(run, f"{probe_log}: is the session log being exported; name another file")
     assert probe_log.read_bytes() == before
 
 
-def test_a_schema_reference_the_header_lacks_is_one_line(
-    beatlog_export: Beatlog, tmp_path: Path
-) -> None:
+def test_a_schema_reference_the_header_lacks_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     log = craft_log(
         tmp_path / "dangling.beatlog",
         [
@@ -1488,7 +1476,7 @@ def test_a_schema_reference_the_header_lacks_is_one_line(
         ],
     )
 
-    run = beatlog_export(log, "-o", tmp_path / "x.mcap")
+    run = beatlog("export", log, "-o", tmp_path / "x.mcap")
 
     assert_error(
         run, f"{log}: the robot-state schema refers to '#/definitions/Gone', which it lacks"
@@ -1496,9 +1484,7 @@ def test_a_schema_reference_the_header_lacks_is_one_line(
     assert not (tmp_path / "x.mcap").exists()
 
 
-def test_a_schema_that_inlines_exponentially_is_one_line(
-    beatlog_export: Beatlog, tmp_path: Path
-) -> None:
+def test_a_schema_that_inlines_exponentially_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     defs = {
         f"T{level}": {
             "type": "object",
@@ -1519,30 +1505,30 @@ def test_a_schema_that_inlines_exponentially_is_one_line(
         ],
     )
 
-    run = beatlog_export(log, "-o", tmp_path / "x.mcap")
+    run = beatlog("export", log, "-o", tmp_path / "x.mcap")
 
     assert_error(run, f"{log}: the robot-state schema inlines to more than 100000 nodes")
 
 
 def test_without_pyarrow_parquet_says_which_extra_to_install(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     for name in [name for name in sys.modules if name.startswith("pyarrow")]:
         monkeypatch.setitem(sys.modules, name, None)
     monkeypatch.setitem(sys.modules, "pyarrow", None)
 
-    run = beatlog_export(probe_log, "-o", tmp_path / "x.parquet", "--format", "parquet")
+    run = beatlog("export", probe_log, "-o", tmp_path / "x.parquet", "--format", "parquet")
 
     assert_error(run, 'Parquet export needs pyarrow (pip install "beatlog[export]")')
 
 
 @pytest.mark.parametrize("suffix", [".mcap", ".parquet", ".csv"])
 def test_the_output_suffix_picks_the_format(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path, suffix: str
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path, suffix: str
 ) -> None:
     output = tmp_path / f"probe{suffix.upper()}"
 
-    run = beatlog_export(probe_log, "-o", output)
+    run = beatlog("export", probe_log, "-o", output)
 
     format = suffix.removeprefix(".")
     assert (run.code, run.out) == (
@@ -1558,13 +1544,13 @@ def test_the_output_suffix_picks_the_format(
 
 
 def test_a_format_the_suffix_contradicts_is_one_line_and_nothing_is_written(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path
 ) -> None:
     table_path = tmp_path / "probe.parquet"
     export(probe_log, table_path)
     before = table_path.read_bytes()
 
-    run = beatlog_export(probe_log, "-o", table_path, "--format", "mcap")
+    run = beatlog("export", probe_log, "-o", table_path, "--format", "mcap")
 
     assert_error(
         run,
@@ -1574,12 +1560,12 @@ def test_a_format_the_suffix_contradicts_is_one_line_and_nothing_is_written(
 
 
 def test_an_output_suffix_of_no_format_needs_the_format_named(
-    beatlog_export: Beatlog, probe_log: Path, tmp_path: Path
+    beatlog: Beatlog, probe_log: Path, tmp_path: Path
 ) -> None:
     output = tmp_path / "probe.txt"
 
-    refused = beatlog_export(probe_log, "-o", output)
-    named = beatlog_export(probe_log, "-o", output, "--format", "csv")
+    refused = beatlog("export", probe_log, "-o", output)
+    named = beatlog("export", probe_log, "-o", output, "--format", "csv")
 
     assert_error(
         refused,
@@ -1590,9 +1576,7 @@ def test_an_output_suffix_of_no_format_needs_the_format_named(
     assert output.read_text().startswith("cycle,time_ns,heartbeat_ns,distance,")
 
 
-def test_a_log_time_past_what_mcap_can_stamp_is_one_line(
-    beatlog_export: Beatlog, tmp_path: Path
-) -> None:
+def test_a_log_time_past_what_mcap_can_stamp_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     late = 2**63 + 1
     log = craft_log(
         tmp_path / "late.beatlog",
@@ -1604,13 +1588,13 @@ def test_a_log_time_past_what_mcap_can_stamp_is_one_line(
     )
     output = tmp_path / "late.mcap"
 
-    run = beatlog_export(log, "-o", output)
+    run = beatlog("export", log, "-o", output)
 
     assert_error(run, f"{log}: cycle 0 ends past the latest time MCAP can stamp")
     assert not output.exists()
 
 
-def test_a_sample_nested_too_deep_is_one_line(beatlog_export: Beatlog, tmp_path: Path) -> None:
+def test_a_sample_nested_too_deep_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
     deep = msgspec.Raw(b"\x91" * 700 + b"\xc0")  # a list in a list ... 700 deep
     records = [cycle(samples=[["sonar", 0, deep]])]
     log = craft_log(
@@ -1623,7 +1607,7 @@ def test_a_sample_nested_too_deep_is_one_line(beatlog_export: Beatlog, tmp_path:
     )
     output = tmp_path / "deep.mcap"
 
-    run = beatlog_export(log, "-o", output)
+    run = beatlog("export", log, "-o", output)
 
     assert_error(run, f"{log}: a sample of cycle 0 is nested too deep")
     assert not output.exists()

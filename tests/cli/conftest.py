@@ -2,12 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
-
-from beatlog.cli.main import main
-from tests.commands import Beatlog, Run
 
 
 @pytest.fixture
@@ -21,18 +16,3 @@ def wide_plain_console(monkeypatch: pytest.MonkeyPatch) -> None:
 def outside_ci(monkeypatch: pytest.MonkeyPatch) -> None:
     """Not on CI, where ``beatlog test`` refuses to write baselines."""
     monkeypatch.delenv("CI", raising=False)
-
-
-@pytest.fixture
-def beatlog(capsys: pytest.CaptureFixture[str]) -> Beatlog:
-    """Any ``beatlog`` command, in process; ``test`` with one worker (a pool costs ~0.5 s)."""
-
-    def run(*args: str | Path) -> Run:
-        argv = [str(arg) for arg in args]
-        if argv[:1] == ["test"]:
-            argv[1:1] = ["-j", "1"]
-        code = main(argv)
-        captured = capsys.readouterr()
-        return Run(code, captured.out, captured.err)
-
-    return run
