@@ -184,11 +184,6 @@ class ReplaySession(Closing):
             self.reader.close()
             raise
 
-    def records(self) -> Iterator[CycleRecord]:
-        """The log's cycles, in order, read batch by batch."""
-        for batch in self.reader.batches():
-            yield from batch
-
     def run(
         self,
         observers: Sequence[Observer],
