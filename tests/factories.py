@@ -29,7 +29,8 @@ from beatlog.log.format import (
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
-from beatlog.replay.pins import RebuiltState, state_digest
+from beatlog.replay.pins import RebuiltState
+from beatlog.replay.state_digests import XXH3, PinDigest, state_digest
 from beatlog.replay.verdict import Checked
 
 MAGIC_LENGTH = 8
@@ -243,12 +244,17 @@ def encoded(state: dict[str, Any]) -> bytes:
     return payload_encoder().encode(state)
 
 
-def rebuilt_states(states: dict[int, dict[str, Any]]) -> list[RebuiltState]:
+def rebuilt_states(
+    states: dict[int, dict[str, Any]], scheme: PinDigest = XXH3
+) -> list[RebuiltState]:
     """The states as a trace collects them where perception rebuilt their speed
-    otherwise, in cycle order (1 ms a cycle)."""
+    otherwise, in cycle order (1 ms a cycle), digested with ``scheme``."""
     return [
         RebuiltState(
-            cycle, cycle * 1_000_000, {"speed": state["speed"]}, state_digest(encoded(state))
+            cycle,
+            cycle * 1_000_000,
+            {"speed": state["speed"]},
+            state_digest(encoded(state), scheme),
         )
         for cycle, state in sorted(states.items())
     ]

@@ -121,6 +121,7 @@ BASELINE_MAGIC = {
     3: "# beatlog expected state changes, outputs and robot states, format 3",
     4: "# beatlog expected state changes, outputs, robot states and draws, format 4",
     5: "# beatlog expected departures from the recording, format 5",
+    6: "# beatlog expected departures from the recording, format 6",
 }
 """The first line of a baseline file of each format."""
 

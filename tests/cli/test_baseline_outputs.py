@@ -38,7 +38,7 @@ def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
     assert baseline.expectation.outputs is not None
     assert {traced.field for traced in baseline.expectation.outputs} == {"speed", "time"}
     lines = expected_path(spec).read_text(encoding="utf-8").splitlines()
-    assert lines[0] == "# beatlog expected departures from the recording, format 5"
+    assert lines[0] == "# beatlog expected departures from the recording, format 6"
     # Only where the outputs depart from the recording, and where they follow it again.
     assert lines[4:9] == [
         "      21     0.660  open loop",

@@ -18,8 +18,8 @@ from beatlog.replay.pins import (
     PinnedRun,
     StatePins,
     rebuilt_otherwise,
-    state_digest,
 )
+from beatlog.replay.state_digests import BLAKE2B, XXH3, PinDigest
 from tests.factories import encoded, rebuilt_states, speed_state
 
 
@@ -32,11 +32,21 @@ def _judged(pins: StatePins, states: dict[int, dict[str, Any]]) -> dict[int, str
     return {cycle: how for cycle, how in found.items() if how is not None}
 
 
-def test_a_digest_counts_every_bit_of_the_state_as_a_log_encodes_it() -> None:
-    assert state_digest(encoded({"a": 1, "b": 0.5})) == state_digest(encoded({"a": 1, "b": 0.5}))
-    assert state_digest(encoded({"a": 0.0})) != state_digest(encoded({"a": -0.0}))
-    assert state_digest(encoded({"a": 1})) != state_digest(encoded({"a": 1.0}))
-    assert len(state_digest(b"")) == 8
+@pytest.mark.parametrize("scheme", [XXH3, BLAKE2B], ids=lambda scheme: scheme.name)
+def test_pins_of_either_digest_judge_by_that_digest(scheme: PinDigest) -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(100)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states, scheme), scheme)
+    changed = {**states, 40: {**states[40], "bumped": True}}
+
+    assert (_judged(pins, states), _judged(pins, changed)) == ({}, {40: "by its digest"})
+
+
+def test_pins_judged_by_the_other_digest_fail_from_their_first_cycle() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(10)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states, BLAKE2B), BLAKE2B)
+    misread = StatePins(pins.runs, pins.blocks, XXH3)
+
+    assert min(_judged(misread, states), default=None) == 0
 
 
 def test_only_the_fields_that_differ_bit_for_bit_are_rebuilt_otherwise() -> None:

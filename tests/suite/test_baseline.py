@@ -19,9 +19,11 @@ from beatlog.replay.expectation import (
     TracedState,
 )
 from beatlog.replay.pins import StatePins
+from beatlog.replay.state_digests import BLAKE2B, XXH3, PinDigest
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline import (
     expected_path,
+    format_lines,
     log_digest,
     pending_path,
     read_baseline,
@@ -79,7 +81,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[0] == "# beatlog expected departures from the recording, format 5"
+    assert lines[0] == "# beatlog expected departures from the recording, format 6"
     assert lines[2] == f"# log session.beatlog sha256 {log_digest(log)}"
     assert lines[-2:] == [
         '       0     0.030  "arbiter": "idle" -> "wander"',
@@ -241,13 +243,24 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     assert lines[-4:] == [
         "      12     0.012  robot_state otherwise in 12..16 (3 cycles): "
         '["speed"], first {"speed": 0.012}',
-        "      12     0.012  robot_state digests 5 2757be29f6e5b7d2 WfzB....1Q",
+        "      12     0.012  robot_state digests 5 15095c189dfb391c JaYc....tY",
         '      12     0.012  "avoid": "off" -> "turning"',
         '      12     0.012  output "speed" = 0.0',
     ]
     baseline = read_baseline(path)
     assert baseline.expectation.state_pins == pins
     assert baseline.expectation.robot_states == ()
+
+
+@pytest.mark.parametrize(("version", "scheme"), [(5, BLAKE2B), (6, XXH3)])
+def test_a_baselines_robot_states_read_back_pinned_by_its_formats_digest(
+    tmp_path: Path, version: int, scheme: PinDigest
+) -> None:
+    states = {cycle: speed_state(cycle) for cycle in (12, 13, 16, 40)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states, scheme), scheme)
+    path = baseline_file(tmp_path, version, *format_lines((), (), state_pins=pins))
+
+    assert read_baseline(path).expectation.state_pins == pins
 
 
 def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Path) -> None:
@@ -277,7 +290,7 @@ def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
         (13, "distance", _bits(PAYLOAD_NAN)),
     ]
     assert baseline.expectation.states_by_cycle()[12] == {"distance": 0.55, "pose": [1.0, -0.0]}
-    assert baseline.expectation.state_pins == StatePins()
+    assert baseline.expectation.state_pins == StatePins(scheme=BLAKE2B)
 
 
 def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path) -> None:

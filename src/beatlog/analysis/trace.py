@@ -32,8 +32,9 @@ from beatlog.replay.expectation import (
     TracedChange,
     TracedOutput,
 )
-from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise, state_digest
+from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise
 from beatlog.replay.session import ReplaySession
+from beatlog.replay.state_digests import state_digest
 from beatlog.replay.verdict import StateChange
 
 __all__ = [

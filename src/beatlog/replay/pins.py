@@ -9,16 +9,20 @@ rebuilt values in its first cycle, for review), blocks of up to
 :data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
 digest of the block.
 
-A cycle's :func:`state_digest` is a keyed BLAKE2b of the rebuilt state as a log
-encodes it (msgpack of the system's robot-state type, its fields in their order, floats
-as 64-bit IEEE), so any bit of any field counts, and the replay core, which encodes
-each rebuilt state to compare it with the recorded one, digests the same bytes. Its
-first 12 bits, as two base64 characters, are the cycle's tag: a state that differs
-from the approved one is caught in its own cycle, except once in 4,096; the block's
-digest, of its pinned cycles' whole digests, then catches it at the block's last
-pinned cycle (missed once in 2**64). Two characters a cycle keep a retuned
-perception's pins near 3.2 bytes a cycle, 1.4 % of the dog's logs
-(``bench/bench_baselines.py``); a whole digest a cycle would take 11 characters.
+A cycle's :func:`~beatlog.replay.state_digests.state_digest` is the XXH3-64 digest (seed
+0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
+system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
+of any field counts, and the replay core, which encodes each rebuilt state to compare it
+with the recorded one, digests the same bytes. Its first 12 bits, as two base64
+characters, are the cycle's tag: a state that differs from the approved one is caught in
+its own cycle, except once in 4,096; the block's digest, of its pinned cycles' whole
+digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
+characters a cycle keep a retuned perception's pins near 3.2 bytes a cycle, 1.4 % of the
+dog's logs (``bench/bench_baselines.py``); a whole digest a cycle would take 11
+characters.
+
+Baselines of format 5 and older pin by a keyed BLAKE2b, still judged as written
+(:mod:`beatlog.replay.state_digests`).
 """
 
 from __future__ import annotations
@@ -26,21 +30,19 @@ from __future__ import annotations
 import base64
 import bisect
 import functools
-import hashlib
 import re
 import string
+import struct
 from collections.abc import Iterable, Iterator, Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-import msgspec
-
 from beatlog.replay.compare import Comparison
+from beatlog.replay.state_digests import DIGEST_BYTES, XXH3, PinDigest
 
 __all__ = [
     "CYCLES_PER_BLOCK",
-    "DIGEST_BYTES",
     "MAX_GAP",
     "TAG_CHARS",
     "UNPINNED",
@@ -50,11 +52,8 @@ __all__ = [
     "RebuiltState",
     "StatePins",
     "rebuilt_otherwise",
-    "state_digest",
 ]
 
-DIGEST_BYTES = 8
-"""The size of a cycle's state digest and of a block's digest."""
 TAG_CHARS = 2
 """A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
 CYCLES_PER_BLOCK = 64
@@ -62,26 +61,12 @@ CYCLES_PER_BLOCK = 64
 MAX_GAP = 16
 """The most cycles perception may rebuild as recorded inside one run: a gap costs a
 tag each, a new run a line of names and values."""
+_TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
+"""A digest shifted right by this many bits is its tag's bits."""
 UNPINNED = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
 _TAGS = re.compile(r"(?:[A-Za-z0-9+/]{2}|\.\.)+")
-_KEY = b"beatlog robot state"
-_HASHER = hashlib.blake2b(digest_size=DIGEST_BYTES, key=_KEY)
-"""Copied for each :func:`state_digest`: cheaper than keying a new one."""
-_SORTED = msgspec.msgpack.Encoder(order="sorted")
 _EXACT = Comparison()
-
-
-def state_digest(encoded: bytes) -> bytes:
-    """The digest of a robot state as a log encodes it
-    (:func:`~beatlog.log.format.payload_encoder`), bit for bit."""
-    hasher = _HASHER.copy()
-    hasher.update(encoded)
-    return hasher.digest()
-
-
-def _block_digest(digests: Iterable[bytes]) -> bytes:
-    return hashlib.blake2b(b"".join(digests), digest_size=DIGEST_BYTES, key=_KEY).digest()
 
 
 def rebuilt_otherwise(recorded: Mapping[str, Any], rebuilt: Mapping[str, Any]) -> dict[str, Any]:
@@ -103,7 +88,7 @@ class RebuiltState(NamedTuple):
     fields: dict[str, Any]
     """The fields that differ from the recording, with their rebuilt values."""
     digest: bytes
-    """The :func:`state_digest` of the whole rebuilt state."""
+    """The :func:`~beatlog.replay.state_digests.state_digest` of the whole rebuilt state."""
 
 
 class PinnedRun(NamedTuple):
@@ -159,6 +144,8 @@ class StatePins:
 
     runs: tuple[PinnedRun, ...] = ()
     blocks: tuple[DigestBlock, ...] = ()
+    scheme: PinDigest = XXH3
+    """How the blocks' digests and tags were made."""
 
     def __post_init__(self) -> None:
         problem = _coverage_problem(self.runs, self.blocks)
@@ -166,8 +153,9 @@ class StatePins:
             raise ValueError(problem)
 
     @classmethod
-    def from_rebuilt(cls, states: Iterable[RebuiltState]) -> StatePins:
-        """Pin the rebuilt states a trace collected (in cycle order)."""
+    def from_rebuilt(cls, states: Iterable[RebuiltState], scheme: PinDigest = XXH3) -> StatePins:
+        """Pin the rebuilt states a trace collected (in cycle order, digested by
+        :func:`~beatlog.replay.state_digests.state_digest` with ``scheme``)."""
         runs: list[PinnedRun] = []
         blocks: list[DigestBlock] = []
         for run in _runs(states):
@@ -178,8 +166,8 @@ class StatePins:
                     head.cycle, head.time_ns, tail.cycle, len(run), tuple(fields), head.fields
                 )
             )
-            blocks.extend(_blocks(run))
-        return cls(tuple(runs), tuple(blocks))
+            blocks.extend(_blocks(run, scheme))
+        return cls(tuple(runs), tuple(blocks), scheme)
 
     @property
     def cycles(self) -> int:
@@ -203,7 +191,7 @@ def _runs(states: Iterable[RebuiltState]) -> Iterator[list[RebuiltState]]:
         yield run
 
 
-def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
+def _blocks(run: list[RebuiltState], scheme: PinDigest) -> Iterator[DigestBlock]:
     """A run's blocks: each starts at a pinned cycle and spans at most
     :data:`CYCLES_PER_BLOCK`, ending at the last pinned cycle it reaches."""
     start = 0
@@ -216,7 +204,7 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         tags = [UNPINNED] * (chunk[-1].cycle - first + 1)
         for state in chunk:
             tags[state.cycle - first] = _tag(state.digest)
-        digest = _block_digest(state.digest for state in chunk)
+        digest = scheme.block(b"".join(state.digest for state in chunk))
         yield DigestBlock(first, run[start].time_ns, "".join(tags), digest)
         start = end
 
@@ -261,6 +249,8 @@ class PinChecker:
 
     def __init__(self, pins: StatePins) -> None:
         self._blocks = pins.blocks
+        self._state_digest = pins.scheme.state
+        self._block_digest = pins.scheme.block
         self._block_starts = [block.cycle for block in pins.blocks]
         pinned: set[int] = set()
         for block in pins.blocks:
@@ -286,7 +276,7 @@ class PinChecker:
         """Its last pinned cycle."""
         self._pinned = 0
         """How many cycles it pins."""
-        self._digests: list[bytes] = []
+        self._digests: list[int] = []
         """The digests of its cycles judged so far whose tags agreed."""
         self._last_cycle = -1
         self._last_found: str | None = None
@@ -334,11 +324,9 @@ class PinChecker:
         bits = self._bits[offset]
         if bits < 0:
             raise KeyError(cycle)
-        hasher = _HASHER.copy()
-        hasher.update(encoded)
-        digest = hasher.digest()
+        digest = self._state_digest(encoded)
         found = None
-        if (digest[0] << 4 | digest[1] >> 4) != bits:
+        if digest >> _TAG_SHIFT != bits:
             found = "by its digest"  # reported here, not again for the block
         else:
             digests = self._digests
@@ -346,7 +334,8 @@ class PinChecker:
             if (
                 cycle == self._final
                 and len(digests) == self._pinned
-                and _block_digest(digests) != self._block.digest
+                and self._block_digest(struct.pack(f">{len(digests)}Q", *digests))
+                != self._block.digest
             ):
                 found = f"by the digest of cycles {self._start}–{cycle}"
         self._last_cycle = cycle

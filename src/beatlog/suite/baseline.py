@@ -9,7 +9,7 @@ depart from it (:mod:`beatlog.replay.departures`), in plain text, a state change
 output a line, and the robot states perception rebuilds a few characters a cycle: a
 re-baseline reads as a diff in code review::
 
-    # beatlog expected departures from the recording, format 5
+    # beatlog expected departures from the recording, format 6
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
     draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97 240
@@ -17,7 +17,7 @@ re-baseline reads as a diff in code review::
     #  cycle      time  "behavior": before -> after | no state changes | output ...
           12     0.360  open loop
           12     0.360  robot_state otherwise in 12..16 (3 cycles): ["range"], first {"range": 0.55}
-          12     0.360  robot_state digests 5 2757be29f6e5b7d2 WfzB....1Q
+          12     0.360  robot_state digests 5 15095c189dfb391c JaYc....tY
           12     0.360  "avoid": "idle" -> "turning"
           12     0.360  output "speed" = 0.0
           30     0.900  no state changes
@@ -41,7 +41,9 @@ run of such cycles (short gaps rebuilt as recorded included) names the fields th
 differ and their values in its first cycle, for review; then a line per block of up to
 64 of its cycles gives, after the count of cycles, the hex digest of the block and two
 base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
-gap). Replay judges a pinned cycle's whole rebuilt state by its digest, bit for bit,
+gap): XXH3-64 of the state as the log encodes it
+(:func:`~beatlog.replay.pins.state_digest`), and of its pinned cycles' digests end to end
+for the block. Replay judges a pinned cycle's whole rebuilt state by its digest, bit for bit,
 and any other cycle against the recording. Behavior names, states and values are
 JSON, floats written so they read back bit for bit (``NaN``, ``Infinity``,
 ``-Infinity``, ``-0.0`` included); a value JSON cannot hold exactly (a NaN with a
@@ -57,10 +59,12 @@ replay, cycle by cycle: any other draw made otherwise, or an approved one not ma
 diverges in its cycle.
 
 Older formats still read and judge as they did; a new baseline is always written in
-format 5. Format 4 files hold the whole trace of state changes and outputs, not only
-where it departs: an output line appears in the cycles where that field's value
-changes, and a cycle without state-change lines has none; or the line ``state changes
-and outputs as recorded`` says they are the recording's. Format 3 files approve no
+format 6. Format 5 files hold format 6's lines, their robot states digested by a keyed
+BLAKE2b (:data:`~beatlog.replay.pins.BLAKE2B`), ten times as dear to check. Format 4
+files hold the whole trace of state changes and outputs, not only where it departs: an
+output line appears in the cycles where that field's value changes, and a cycle
+without state-change lines has none; or the line ``state changes and outputs as
+recorded`` says they are the recording's. Format 3 files approve no
 draws (replay must draw as recorded) and pin robot states a line per field per cycle,
 ``12  0.360  robot_state "range" = 0.55``: the recorded state with these fields is what
 perception must rebuild, within the spec's tolerances. Format 2 files pin no robot
@@ -80,6 +84,7 @@ from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, read_small_text, replacing
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.pins import StatePins
+from beatlog.replay.state_digests import BLAKE2B, XXH3
 from beatlog.suite.baseline_parse import ParsedLines
 from beatlog.suite.baseline_text import COLUMNS, draw_line, format_lines
 from beatlog.suite.spec import SPEC_SUFFIX
@@ -101,9 +106,10 @@ EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
 MAX_BASELINE_BYTES = 1 << 28
 """A baseline is a line per change; a file bigger than this is not one."""
-_MAGIC = "# beatlog expected departures from the recording, format 5"
+_MAGIC = "# beatlog expected departures from the recording, format 6"
 _VERSIONS = {
-    _MAGIC: 5,
+    _MAGIC: 6,
+    "# beatlog expected departures from the recording, format 5": 5,
     "# beatlog expected state changes, outputs, robot states and draws, format 4": 4,
     "# beatlog expected state changes, outputs and robot states, format 3": 3,
     "# beatlog expected state changes and outputs, format 2": 2,
@@ -239,7 +245,7 @@ def _expectation(path: Path, found: ParsedLines, version: int, *, as_recorded: b
     if both:
         raise BaselineError(path, f"cycle {min(both)} has state changes and none")
     try:
-        pins = StatePins(tuple(found.runs), tuple(found.blocks))
+        pins = StatePins(tuple(found.runs), tuple(found.blocks), XXH3 if version >= 6 else BLAKE2B)
     except ValueError as exc:
         raise BaselineError(path, str(exc)) from None
     return Expectation(

@@ -23,7 +23,8 @@ from beatlog.replay.expectation import (
     TracedOutput,
     TracedState,
 )
-from beatlog.replay.pins import DIGEST_BYTES, TAG_CHARS, DigestBlock, PinnedRun
+from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
+from beatlog.replay.state_digests import DIGEST_BYTES
 from beatlog.replay.verdict import StateChange
 from beatlog.suite.baseline_text import (
     AS_RECORDED_TEXT,
