@@ -42,7 +42,7 @@ differ and their values in its first cycle, for review; then a line per block of
 64 of its cycles gives, after the count of cycles, the hex digest of the block and two
 base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
 gap): XXH3-64 of the state as the log encodes it
-(:func:`~beatlog.replay.pins.state_digest`), and of its pinned cycles' digests end to end
+(:func:`~beatlog.replay.state_digests.state_digest`), and of its pinned cycles' digests end to end
 for the block. Replay judges a pinned cycle's whole rebuilt state by its digest, bit for bit,
 and any other cycle against the recording. Behavior names, states and values are
 JSON, floats written so they read back bit for bit (``NaN``, ``Infinity``,
@@ -60,7 +60,7 @@ diverges in its cycle.
 
 Older formats still read and judge as they did; a new baseline is always written in
 format 6. Format 5 files hold format 6's lines, their robot states digested by a keyed
-BLAKE2b (:data:`~beatlog.replay.pins.BLAKE2B`), ten times as dear to check. Format 4
+BLAKE2b (:data:`~beatlog.replay.state_digests.BLAKE2B`), ten times as dear to check. Format 4
 files hold the whole trace of state changes and outputs, not only where it departs: an
 output line appears in the cycles where that field's value changes, and a cycle
 without state-change lines has none; or the line ``state changes and outputs as
