@@ -6,41 +6,136 @@ import pytest
 
 from beatlog.suite.baseline_parse import ParsedLines, parse_line
 
-_LINES = [
+_COMMON = [
     '      33     1.022  output "happiness" = 49',
     '      66     2.010  output "happiness" as recorded',
-    '     114     3.450  output "turn" = 0.5438990161239847  ',
-    '       7     0.210  output "speed" absent',
-    '       7     0.210  output "leds" = [1, 2, {"a": null}]',
-    '       7     0.210  output "image" = msgpack:93010203',
-    '       7     0.210  output "odd.name-2" = "text"',
-    "      64     1.950  robot_state digests 2 1b8e16e08f698ba7 Wu4H",
-    "      64     1.950  robot_state digests 3 1b8e16e08f698ba7 Wu..4H  ",
+    '     114     3.450  output "turn" = 0.5438990161239847',
+    '     114     3.450  output "odd name ü" = -0.0',
+    '     115     3.480  output "" = NaN',
+    '     115     3.480  output "speed" = -Infinity',
+    '     115     3.480  output "speed" = 1e5',
+    '     116     3.510  output "mode" = "a, b -> c"',
+    '     116     3.510  output "flag" = true',
+    '     116     3.510  output "none" = null',
+    '     117     3.540  output "speed" absent',
+    "     120     3.600  robot_state digests 2 1b8e16e08f698ba7 Wu4H",
+    "     123     3.690  robot_state digests 3 1b8e16e08f698ba7 Wu..4H",
+    '     130 999999.999  "avoid": "idle" -> "turning"',
+    '     130     3.900  "count": -3 -> 0',
+    '     130     3.900  "": true -> null',
+    '     130    03.900  "avoid": false -> 1',
+    "     131     3.930  no state changes",
 ]
+"""Lines of every common shape, each read at once by ``read_common``."""
+_OTHERS = [
+    "# a comment",
+    "   ",
+    "      40     1.200  open loop",
+    '      41     1.230  output "image" = msgpack:93010203',
+    '      41     1.230  output "escaped\\"" = [1, 2, {"a": null}]',
+    '      41     1.230  output "speed" = 0.5  ',
+    '      42     1.260  "escaped\\"": "a" -> "b"',
+    '      43     1.290  robot_state otherwise in 43..43 (1 cycle): ["a"], first {"a": 1}',
+    '     120 1000000.000  output "speed" = 1',
+]
+"""Lines near the common shapes that ``read_common`` leaves to ``add``."""
+_ODD = [
+    '    0120     3.600  output "speed" = 1',
+    "      64     1.950  robot_state digests 03 1b8e16e08f698ba7 Wu4H12",
+    '    0064     1.950  "avoid": 0 -> 1',
+]
+"""Lines of a common shape, yet not as it is written: the file is read line by line."""
 
 
-@pytest.mark.parametrize("line", _LINES)
-def test_a_common_line_reads_as_any_line_does(line: str) -> None:
+def _read(lines: list[str], version: int = 5) -> tuple[ParsedLines, list[int]]:
+    """The lines read as a baseline's are, and the numbers of those left to ``add``."""
     found = ParsedLines()
+    others = []
+    for number, line in found.read_common(lines, version, start=1):
+        others.append(number)
+        if line.strip() and not line.startswith("#"):
+            found.add(line, version)
+    return found, others
 
-    found.add(line, 5)
 
-    assert [*found.outputs, *found.blocks] == [parse_line(line, 5)]
+def _read_one_by_one(lines: list[str], version: int = 5) -> ParsedLines:
+    found = ParsedLines()
+    for line in lines:
+        if line.strip() and not line.startswith("#"):
+            found.add(line, version)
+    return found
+
+
+def test_common_lines_read_at_once_read_as_each_line_alone_bit_for_bit() -> None:
+    lines = [*_OTHERS[:3], *_COMMON[:5], *_OTHERS[3:], "", *_COMMON[5:]]
+
+    found, others = _read(lines)
+
+    assert repr(found) == repr(_read_one_by_one(lines))
+    assert others == [1, 2, 3, *range(9, 9 + len(_OTHERS) - 3)]
+
+
+@pytest.mark.parametrize("line", _COMMON)
+def test_each_common_line_reads_as_parse_line_reads_it(line: str) -> None:
+    found, others = _read([line])
+
+    assert others == []
+    parsed = parse_line(line, 5)
+    kept = [*found.outputs, *found.blocks, *found.changes, *found.quiet]
+    assert repr(kept) == repr([parsed[:2] if type(parsed).__name__ == "_Quiet" else parsed])
+
+
+@pytest.mark.parametrize("line", _OTHERS)
+def test_a_line_near_the_common_shapes_is_left_to_add(line: str) -> None:
+    assert _read([_COMMON[0], line])[1] == [2]
+
+
+@pytest.mark.parametrize("line", _ODD)
+def test_a_file_with_a_line_of_a_common_shape_written_otherwise_is_read_line_by_line(
+    line: str,
+) -> None:
+    lines = [_COMMON[0], line, _COMMON[1]]
+
+    found, others = _read(lines)
+
+    assert (repr(found), others) == (repr(_read_one_by_one(lines)), [1, 2, 3])
 
 
 @pytest.mark.parametrize(
     ("line", "problem"),
     [
-        ('       7     0.210  output "speed" = ', "Expecting value"),
-        ('       7     0.210  output "speed"  absent', "expected '=' at column"),
-        ('       7     0.210  output "speed" = 1 2', "unexpected ' 2' after the value"),
+        ('       7     0.210  output "speed" = 1.2.3', "unexpected '.3' after the value"),
+        ('       7     0.210  output "speed" = 012', "unexpected '12' after the value"),
+        ('       7     0.210  output "speed" = nope', "Expecting value"),
+        ('       7     0.210  "avoid": 1 -> truth', "Expecting value"),
+        ('       7     0.210  "avoid": 0.5 -> 1', "a state must be a string"),
         ("      64     1.950  robot_state digests 3 1b8e16e08f698ba7 Wu4H", "expected 6 char"),
+        ("      64     1.950  robot_state digests 2 1B8E16E08F698BA7 Wu4H", "expected 'robot_st"),
     ],
 )
-def test_a_common_line_that_does_not_read_fails_as_any_line_does(line: str, problem: str) -> None:
+def test_a_line_that_does_not_read_fails_as_parse_line_fails(line: str, problem: str) -> None:
     with pytest.raises(ValueError, match=problem) as general:
         parse_line(line, 5)
-    with pytest.raises(ValueError, match=problem) as common:
-        ParsedLines().add(line, 5)
+    with pytest.raises(ValueError, match=problem) as read:
+        _read([_COMMON[0], line, _COMMON[1]])
 
-    assert str(common.value) == str(general.value)
+    assert str(read.value) == str(general.value)
+
+
+def test_before_format_5_every_line_is_read_one_by_one() -> None:
+    lines = [_COMMON[0], _COMMON[11]]
+
+    found, others = _read(lines, version=4)
+
+    assert (repr(found), others) == (repr(_read_one_by_one(lines, version=4)), [1, 2])
+
+
+def test_robot_times_read_at_once_to_the_nanosecond_as_each_alone() -> None:
+    lines = [
+        f"{cycle:>8} {millis // 1000:>5}.{millis % 1000:03}  no state changes"
+        for cycle, millis in enumerate(range(0, 10**9, 49_999))
+    ]
+
+    found, others = _read(lines)
+
+    assert (found.quiet, others) == (_read_one_by_one(lines).quiet, [])

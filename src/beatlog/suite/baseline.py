@@ -207,7 +207,7 @@ def read_baseline(path: Path) -> Baseline:
     digest = ""
     found = ParsedLines()
     as_recorded = False
-    for number, line in enumerate(lines[1:], start=2):
+    for number, line in found.read_common(lines[1:], version, start=2):
         if line.startswith("#"):
             log_line = _LOG_LINE.fullmatch(line)
             digest = log_line["digest"] if log_line else digest
