@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from beatlog.replay.draws import DrawRule
 from beatlog.suite.baseline_parse import ParsedLines, parse_line
 
 _COMMON = [
@@ -139,3 +140,41 @@ def test_robot_times_read_at_once_to_the_nanosecond_as_each_alone() -> None:
     found, others = _read(lines)
 
     assert (found.quiet, others) == (_read_one_by_one(lines).quiet, [])
+
+
+@pytest.mark.parametrize(
+    ("line", "rule"),
+    [
+        (
+            'draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97 240',
+            DrawRule("wander", "uniform(0.8, 1.6)", "uniform(0.7, 1.5)", (12, 97, 240)),
+        ),
+        (
+            'draws "a -> b": - -> x in cycles y -> z in cycles 0 007 \u0661\u0662',
+            DrawRule("a -> b", None, "x in cycles y -> z", (0, 7, 12)),
+        ),
+        ('draws "e\\u00e9": random() -> - in cycles 5', DrawRule("eé", "random()", None, (5,))),
+        ('draws "w": a -> b in cycles 1 in cycles 2', DrawRule("w", "a", "b in cycles 1", (2,))),
+    ],
+)
+def test_a_draws_line_reads_whole(line: str, rule: DrawRule) -> None:
+    found = ParsedLines()
+
+    found.add(line, 5)
+
+    assert found.draws == [rule]
+
+
+@pytest.mark.parametrize(
+    ("line", "problem"),
+    [
+        ('draws "w": a -> b in cycles 1  2', 'expected \'draws "behavior": RECORDED'),
+        ('draws "w": a -> b in cycles 1 2 ', 'expected \'draws "behavior": RECORDED'),
+        ('draws "w": a -> b in cycles  1', 'expected \'draws "behavior": RECORDED'),
+        ('draws "w": a -> a in cycles 1', "a draw of a as recorded is no difference"),
+        ('draws "w\\x": a -> b in cycles 1', "Invalid \\\\escape: line 1 column 3"),
+    ],
+)
+def test_a_draws_line_that_does_not_read_says_why(line: str, problem: str) -> None:
+    with pytest.raises(ValueError, match=problem):
+        ParsedLines().add(line, 5)

@@ -46,8 +46,10 @@ __all__ = ["ParsedLines", "parse_line"]
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
 _DRAW_LINE = re.compile(
     r'draws (?P<behavior>"(?:[^"\\]|\\.)*"): '
-    r"(?P<recorded>.+?) -> (?P<asked>.+) in cycles (?P<cycles>\d+(?: \d+)*)"
+    r"(?P<recorded>.+?) -> (?P<asked>.+) in cycles (?P<cycles>\d[\d ]*)"
 )
+"""A draws line, its cycles to be numbers between single spaces (a pattern that says so
+costs a step a digit)."""
 _RUN = re.compile(
     r"otherwise in (?P<first>\d+)\.\.(?P<last>\d+) \((?P<cycles>\d+) cycles?\): (?P<rest>.*)"
 )
@@ -234,9 +236,9 @@ def _parse_draw(line: str, version: int) -> DrawRule:
     if version < 4:
         raise ValueError(f"a format {version} baseline holds no draws")
     found = _DRAW_LINE.fullmatch(line)
-    if found is None:
+    if found is None or "  " in found["cycles"] or found["cycles"].endswith(" "):
         raise ValueError("expected 'draws \"behavior\": RECORDED -> ASKED in cycles N N ...'")
-    behavior = json.loads(found["behavior"])
+    behavior = _JSON.decode(found["behavior"])
     recorded, asked = found["recorded"], found["asked"]
     if recorded == asked:
         raise ValueError(f"a draw of {asked} as recorded is no difference")
@@ -244,8 +246,17 @@ def _parse_draw(line: str, version: int) -> DrawRule:
         behavior,
         None if recorded == NONE else recorded,
         None if asked == NONE else asked,
-        tuple(map(int, found["cycles"].split())),
+        _cycles(found["cycles"]),
     )
+
+
+def _cycles(numbers: str) -> tuple[int, ...]:
+    """The cycles of a draws line, as :func:`int` reads each: at once as JSON, unless
+    they are not JSON (a leading zero, digits other than ASCII)."""
+    try:
+        return tuple(_decoded(numbers.split(" ")))
+    except ValueError:
+        return tuple(map(int, numbers.split()))
 
 
 def _time_ns(seconds: str) -> int:
