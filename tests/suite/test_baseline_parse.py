@@ -178,3 +178,9 @@ def test_a_draws_line_reads_whole(line: str, rule: DrawRule) -> None:
 def test_a_draws_line_that_does_not_read_says_why(line: str, problem: str) -> None:
     with pytest.raises(ValueError, match=problem):
         ParsedLines().add(line, 5)
+
+
+def test_lines_with_line_breaks_in_them_are_each_left_to_add() -> None:
+    lines = [f"{_COMMON[0]}\n{_COMMON[1]}", _COMMON[2]]
+
+    assert list(ParsedLines().read_common(lines, 5, start=1)) == [(1, lines[0]), (2, lines[1])]

@@ -2,7 +2,9 @@
 
 Reading never evaluates anything: names, states and values are JSON (or msgpack in
 hex, :func:`~beatlog.suite.baseline_text.format_value`), and each line either parses
-whole or raises :class:`ValueError` saying what was expected.
+whole or raises :class:`ValueError` saying what was expected. The most common lines
+since format 5 are read a file at a time (:meth:`ParsedLines.read_common`), each to the
+value it reads to alone.
 """
 
 from __future__ import annotations
@@ -105,10 +107,11 @@ class ParsedLines:
     open_loop: tuple[int, int] | None = None
 
     def read_common(self, lines: list[str], version: int, start: int) -> Iterator[tuple[int, str]]:
-        """Read the lines of the most common shapes at once, and yield each other line with
-        its number (``lines`` numbered from ``start``), in order: comments, blank lines and
-        lines for :meth:`add`, each to be read or skipped before the next is asked for, so
-        that the lines of each kind are kept in the order of the file.
+        """Read the lines of the most common shapes at once, and yield each other line but
+        empty ones with its number (``lines``, as :meth:`str.splitlines` gives them,
+        numbered from ``start``), in order: comments, and lines for :meth:`add`, each to be
+        read or skipped before the next is asked for, so that the lines of each kind are
+        kept in the order of the file.
 
         Before format 5, or when a line of a common shape does not read (a value that is
         no JSON, a block of digests without as many tags as it says), every line is
@@ -170,6 +173,8 @@ def _common_lines(lines: list[str]) -> tuple[list[int], list[tuple[list[int], li
     with the indices of its lines; None when one of them does not read, to be read line
     by line (and refused there)."""
     rows = _COMMON.findall("\n".join(lines) + "\n")
+    if len(rows) != len(lines):  # no lines, or lines with line breaks in them
+        return None
     indices = range(len(rows))
     kinds = []
     try:
@@ -192,7 +197,8 @@ def _common_lines(lines: list[str]) -> tuple[list[int], list[tuple[list[int], li
 
 def _times_ns(seconds: Iterable[str]) -> list[int]:
     """Robot times in seconds, with three decimals, in nanoseconds, as :func:`_time_ns`
-    reads each: under 10**6 s, the float it reads is within 0.13 ns of the time."""
+    reads each: under 10**6 s, the float it reads is within 0.13 ns of the time (and
+    rounds to it for each of the 10**9 times, checked one by one)."""
     return [int(text.replace(".", "")) * 1_000_000 for text in seconds]
 
 
