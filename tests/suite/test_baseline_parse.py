@@ -155,6 +155,8 @@ def test_robot_times_read_at_once_to_the_nanosecond_as_each_alone() -> None:
         ),
         ('draws "e\\u00e9": random() -> - in cycles 5', DrawRule("eé", "random()", None, (5,))),
         ('draws "w": a -> b in cycles 1 in cycles 2', DrawRule("w", "a", "b in cycles 1", (2,))),
+        ('draws "a\\"b": x -> y in cycles 1', DrawRule('a"b', "x", "y", (1,))),
+        ('draws "a\\\\": "x" -> y in cycles 1', DrawRule("a\\", '"x"', "y", (1,))),
     ],
 )
 def test_a_draws_line_reads_whole(line: str, rule: DrawRule) -> None:
@@ -172,6 +174,7 @@ def test_a_draws_line_reads_whole(line: str, rule: DrawRule) -> None:
         ('draws "w": a -> b in cycles 1 2 ', 'expected \'draws "behavior": RECORDED'),
         ('draws "w": a -> b in cycles  1', 'expected \'draws "behavior": RECORDED'),
         ('draws "w": a -> a in cycles 1', "a draw of a as recorded is no difference"),
+        ('draws "a\\\\"b": x -> y in cycles 1', 'expected \'draws "behavior": RECORDED'),
         ('draws "w\\x": a -> b in cycles 1', "Invalid \\\\escape: line 1 column 3"),
     ],
 )

@@ -47,11 +47,12 @@ __all__ = ["ParsedLines", "parse_line"]
 
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
 _DRAW_LINE = re.compile(
-    r'draws (?P<behavior>"(?:[^"\\]|\\.)*"): '
+    r'draws (?P<behavior>"[^"\\]*(?:\\.[^"\\]*)*"): '
     r"(?P<recorded>.+?) -> (?P<asked>.+) in cycles (?P<cycles>\d[\d ]*)"
 )
 """A draws line, its cycles to be numbers between single spaces (a pattern that says so
-costs a step a digit)."""
+costs a step a digit); the behavior is the first quoted string, up to its first quote
+not escaped."""
 _RUN = re.compile(
     r"otherwise in (?P<first>\d+)\.\.(?P<last>\d+) \((?P<cycles>\d+) cycles?\): (?P<rest>.*)"
 )
@@ -244,7 +245,7 @@ def _parse_draw(line: str, version: int) -> DrawRule:
     found = _DRAW_LINE.fullmatch(line)
     if found is None or "  " in found["cycles"] or found["cycles"].endswith(" "):
         raise ValueError("expected 'draws \"behavior\": RECORDED -> ASKED in cycles N N ...'")
-    behavior = _JSON.decode(found["behavior"])
+    behavior = _JSON.raw_decode(found["behavior"])[0]  # all of it, up to its one last quote
     recorded, asked = found["recorded"], found["asked"]
     if recorded == asked:
         raise ValueError(f"a draw of {asked} as recorded is no difference")
@@ -260,7 +261,7 @@ def _cycles(numbers: str) -> tuple[int, ...]:
     """The cycles of a draws line, as :func:`int` reads each: at once as JSON, unless
     they are not JSON (a leading zero, digits other than ASCII)."""
     try:
-        return tuple(_decoded(numbers.split(" ")))
+        return tuple(_JSON.raw_decode(f"[{numbers.replace(' ', ',')}]")[0])
     except ValueError:
         return tuple(map(int, numbers.split()))
 
