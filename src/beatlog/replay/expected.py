@@ -23,9 +23,8 @@ from beatlog.log.format import (
     StateChangeRecord,
     payload_encoder,
 )
-from beatlog.log.payload import decode_outputs, decode_part
-from beatlog.replay.departures import apply_outputs, hold
 from beatlog.replay.expectation import Expectation, TracedOutput
+from beatlog.replay.held_outputs import HeldOutputs
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["ExpectedRecords"]
@@ -110,11 +109,8 @@ class ExpectedRecords:
         changes = self._changes
         lines = itertools.groupby(self._outputs or (), key=lambda o: o.cycle)
         line = next(lines, None)
-        held: dict[str, Any] = {}
-        expected: dict[bytes, msgspec.Raw] = {}
-        """The expected outputs of the recorded ones met while ``held`` holds: a robot's
-        outputs repeat, so most cycles find theirs here."""
-        encode = self._encoder.encode
+        held = HeldOutputs(path)
+        holding = False
         last: tuple[msgspec.Raw | None, msgspec.Raw] = (None, EMPTY_MAP)
         """The last cycle's recorded outputs and expected ones: most cycles repeat them."""
         cycle = 0
@@ -124,24 +120,14 @@ class ExpectedRecords:
                 if departed is not None:
                     record.state_changes = departed
                 if line is not None and line[0] == cycle:
-                    hold(held, line[1])
+                    holding = held.hold(line[1])
                     line = next(lines, None)
-                    expected = {}
                     last = (None, EMPTY_MAP)
-                if held:
+                if holding:
                     raw = record.outputs
-                    if raw == last[0]:
-                        record.outputs = last[1]
-                    else:
-                        recorded = bytes(raw)
-                        outputs = expected.get(recorded)
-                        if outputs is None:
-                            decoded = decode_part(path, recorded, decode_outputs, "outputs", cycle)
-                            values = apply_outputs(decoded, held)
-                            outputs = msgspec.Raw(encode(values)) if values else EMPTY_MAP
-                            expected[recorded] = outputs
-                        record.outputs = outputs
-                        last = (raw, outputs)
+                    if raw != last[0]:
+                        last = (raw, held.expected(raw, cycle))
+                    record.outputs = last[1]
                 cycle += 1
             yield batch
 
