@@ -1,5 +1,5 @@
-"""Held outputs: the recorded outputs with the held values in place, bit for bit as
-decoding, applying and encoding them gives, each shape decoded once."""
+"""Held outputs: each recorded cycle's outputs with the held values in place, bit for
+bit as applying them to the decoded outputs gives, repeated outputs decoded once."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 from beatlog.errors import CorruptLogError
 from beatlog.log import payload
-from beatlog.log.format import payload_encoder
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.replay import held_outputs
 from beatlog.replay.departures import apply_outputs
 from beatlog.replay.expectation import ABSENT, AS_RECORDED, TracedOutput
@@ -26,66 +26,63 @@ def as_logged(outputs: dict[str, Any]) -> msgspec.Raw:
     return msgspec.Raw(ENCODE(outputs))
 
 
-WALKING = [
+RECORDED = [
     as_logged({"happiness": 41, "motion": "walk", "speed": 0.15, "turn": 0.024}),
-    as_logged({"happiness": 42, "motion": "walk", "speed": 0.15, "turn": -0.0}),
-    as_logged({"happiness": -7, "motion": "walk", "speed": float("nan"), "turn": 1e300}),
-    as_logged({"happiness": 300, "motion": "walk", "speed": 0.18, "turn": 0.0}),
-    as_logged({"happiness": 301, "motion": "walk", "speed": 0.18, "turn": 0.5}),
-    as_logged({"happiness": 3, "motion": "lie"}),
-    as_logged({"happiness": 4, "motion": "lie"}),
-    as_logged({"happiness": 4, "motion": "walk", "speed": [0.1, 0.2], "turn": True}),
-    as_logged({"happiness": 4, "motion": "walk", "speed": [0.1, 0.3], "turn": None}),
-    as_logged({"happiness": 5, "motion": "sit", "speed": 0.0, "turn": 0.0}),
-    as_logged({f"f{n}": float(n) for n in range(16)}),
-    as_logged({f"f{n}": float(n + 1) for n in range(16)}),
+    as_logged({"happiness": 41, "motion": "walk", "speed": 0.15, "turn": 0.024}),
+    as_logged({"happiness": -7, "motion": "walk", "speed": float("nan"), "turn": -0.0}),
+    as_logged({"happiness": 300, "motion": "lie"}),
+    as_logged({"speed": [0.1, 0.2], "turn": True, "motion": None}),
     msgspec.Raw(b"\x81\xa5speed\xca" + struct.pack(">f", 0.5)),  # a float32
-    msgspec.Raw(b"\x81\xa5speed\xcc\x05"),  # 5, not in its shortest form
     msgspec.Raw(b"\x82\xa5speed\x01\xa5speed\x02"),  # a field twice
-    as_logged({}),
+    EMPTY_MAP,
 ]
-"""Recorded outputs, each shape more than once where numbers change."""
+"""Recorded outputs, one a cycle."""
 
 HELD: list[list[tuple[str, Any]]] = [
     [],
-    [("turn", 0.0)],  # the same size as the recorded floats
+    [("turn", 0.0)],
     [("happiness", 47), ("turn", 0.0)],
-    [("happiness", 200)],  # longer than a fixint
     [("turn", ABSENT)],
     [("turn", AS_RECORDED), ("speed", ABSENT), ("motion", "run")],
-    [("speed", 0.0), ("wag", [1, 2])],  # a field the recording lacks
-    [("f3", ABSENT), ("f4", -1), ("happiness", AS_RECORDED), ("motion", AS_RECORDED)],
+    [("speed", 0.0), ("wag", [1, 2]), ("sound", "woof")],  # fields the recording lacks
+    [("wag", AS_RECORDED), ("happiness", AS_RECORDED), ("motion", AS_RECORDED)],
 ]
-"""The held values as output lines take them, one set after another."""
+"""The output lines of one cycle after another."""
 
 
-def reference(recorded: msgspec.Raw, held: dict[str, Any]) -> bytes:
-    """Decoding, applying the held values and encoding them again."""
-    return ENCODE(apply_outputs(msgspec.msgpack.decode(recorded), held))
+def records(outputs: list[msgspec.Raw]) -> list[CycleRecord]:
+    return [
+        CycleRecord(30 * cycle, EMPTY_MAP, EMPTY_LIST, EMPTY_LIST, raw, EMPTY_LIST)
+        for cycle, raw in enumerate(outputs)
+    ]
 
 
 def lines(held: list[tuple[str, Any]]) -> list[TracedOutput]:
     return [TracedOutput(0, 0, field, value) for field, value in held]
 
 
-def test_held_values_in_place_bit_for_bit_as_decoding_and_encoding_gives() -> None:
+def test_held_values_in_place_bit_for_bit_as_applying_them_gives() -> None:
     outputs = HeldOutputs(LOG)
     held: dict[str, Any] = {}
     got, wanted = [], []
-    for cycle, changes in enumerate(HELD):
+    for changes in HELD:
         outputs.hold(lines(changes))
         for field, value in changes:
             if value is AS_RECORDED:
                 held.pop(field, None)
             else:
                 held[field] = value
-        for recorded in [*WALKING, *WALKING]:
-            got.append(bytes(outputs.expected(recorded, cycle)))
-            wanted.append(reference(recorded, held))
+        cycles = records(RECORDED)
+        outputs.put(cycles[:3], 0)
+        outputs.put(cycles[3:], 3)
+        got.append([bytes(record.outputs) for record in cycles])
+        wanted.append(
+            [ENCODE(apply_outputs(msgspec.msgpack.decode(raw), held)) for raw in RECORDED]
+        )
     assert got == wanted
 
 
-def test_each_shape_is_decoded_once(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_outputs_recorded_again_are_not_decoded_again(monkeypatch: pytest.MonkeyPatch) -> None:
     decoded: list[bytes] = []
 
     def decode(data: bytes | msgspec.Raw) -> dict[str, Any]:
@@ -95,12 +92,12 @@ def test_each_shape_is_decoded_once(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(held_outputs, "decode_outputs", decode)
     outputs = HeldOutputs(LOG)
     outputs.hold(lines([("turn", 0.0)]))
-    expected = [bytes(outputs.expected(recorded, 3)) for recorded in WALKING[:7]]
+    outputs.put(records(RECORDED[:2]), 0)
+    outputs.put(records(RECORDED[1:3]), 2)
+    outputs.hold(lines([("turn", 0.5)]))
+    outputs.put(records(RECORDED[2:3]), 4)
 
-    # Outputs 1 and 6 have the shapes of 0 and 5; an integer past its type byte (3, 4)
-    # has a shape of its own.
-    assert decoded == [bytes(WALKING[n]) for n in (0, 2, 3, 4, 5)]
-    assert expected == [reference(recorded, {"turn": 0.0}) for recorded in WALKING[:7]]
+    assert decoded == [bytes(RECORDED[n]) for n in (0, 2, 2)]
 
 
 def test_whether_a_field_holds_a_value() -> None:
@@ -116,6 +113,7 @@ def test_whether_a_field_holds_a_value() -> None:
 def test_damaged_outputs_are_an_error_in_their_cycle() -> None:
     outputs = HeldOutputs(LOG)
     outputs.hold(lines([("turn", 0.0)]))
+    damaged = records([RECORDED[0], RECORDED[2], msgspec.Raw(b"\x82\xa5speed\xcb\x00")])
     with pytest.raises(CorruptLogError) as raised:
-        outputs.expected(msgspec.Raw(b"\x82\xa5speed\xcb\x00"), 12)
+        outputs.put(damaged, 10)
     assert str(raised.value) == f"{LOG}: damaged outputs in cycle 12: Input data was truncated"

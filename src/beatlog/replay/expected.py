@@ -107,28 +107,29 @@ class ExpectedRecords:
         self, batches: Iterator[Sequence[CycleRecord]], path: Any
     ) -> Iterator[Sequence[CycleRecord]]:
         changes = self._changes
-        lines = itertools.groupby(self._outputs or (), key=lambda o: o.cycle)
-        line = next(lines, None)
+        lines = {
+            cycle: list(outputs)
+            for cycle, outputs in itertools.groupby(self._outputs or (), key=lambda o: o.cycle)
+        }
+        events = iter(sorted(changes.keys() | lines.keys()))
+        """The cycles with departing state changes or output lines."""
+        event = next(events, None)
         held = HeldOutputs(path)
         holding = False
-        last: tuple[msgspec.Raw | None, msgspec.Raw] = (None, EMPTY_MAP)
-        """The last cycle's recorded outputs and expected ones: most cycles repeat them."""
         cycle = 0
         for batch in batches:
-            for record in batch:
-                departed = changes.get(cycle)
-                if departed is not None:
-                    record.state_changes = departed
-                if line is not None and line[0] == cycle:
-                    holding = held.hold(line[1])
-                    line = next(lines, None)
-                    last = (None, EMPTY_MAP)
+            start, end = cycle, cycle + len(batch)
+            while event is not None and event < end:
                 if holding:
-                    raw = record.outputs
-                    if raw != last[0]:
-                        last = (raw, held.expected(raw, cycle))
-                    record.outputs = last[1]
-                cycle += 1
+                    held.put(batch[start - cycle : event - cycle], start)
+                if event in changes:
+                    batch[event - cycle].state_changes = changes[event]
+                if event in lines:
+                    holding = held.hold(lines[event])
+                start, event = event, next(events, None)
+            if holding:
+                held.put(batch[start - cycle :] if start > cycle else batch, start)
+            cycle = end
             yield batch
 
 
