@@ -23,9 +23,8 @@ from beatlog.log.format import (
     StateChangeRecord,
     payload_encoder,
 )
-from beatlog.log.payload import decode_outputs, decode_part
-from beatlog.replay.departures import apply_outputs, hold
 from beatlog.replay.expectation import Expectation, TracedOutput
+from beatlog.replay.held_outputs import HeldOutputs
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["ExpectedRecords"]
@@ -108,41 +107,29 @@ class ExpectedRecords:
         self, batches: Iterator[Sequence[CycleRecord]], path: Any
     ) -> Iterator[Sequence[CycleRecord]]:
         changes = self._changes
-        lines = itertools.groupby(self._outputs or (), key=lambda o: o.cycle)
-        line = next(lines, None)
-        held: dict[str, Any] = {}
-        expected: dict[bytes, msgspec.Raw] = {}
-        """The expected outputs of the recorded ones met while ``held`` holds: a robot's
-        outputs repeat, so most cycles find theirs here."""
-        encode = self._encoder.encode
-        last: tuple[msgspec.Raw | None, msgspec.Raw] = (None, EMPTY_MAP)
-        """The last cycle's recorded outputs and expected ones: most cycles repeat them."""
+        lines = {
+            cycle: list(outputs)
+            for cycle, outputs in itertools.groupby(self._outputs or (), key=lambda o: o.cycle)
+        }
+        events = iter(sorted(changes.keys() | lines.keys()))
+        """The cycles with departing state changes or output lines."""
+        event = next(events, None)
+        held = HeldOutputs(path)
+        holding = False
         cycle = 0
         for batch in batches:
-            for record in batch:
-                departed = changes.get(cycle)
-                if departed is not None:
-                    record.state_changes = departed
-                if line is not None and line[0] == cycle:
-                    hold(held, line[1])
-                    line = next(lines, None)
-                    expected = {}
-                    last = (None, EMPTY_MAP)
-                if held:
-                    raw = record.outputs
-                    if raw == last[0]:
-                        record.outputs = last[1]
-                    else:
-                        recorded = bytes(raw)
-                        outputs = expected.get(recorded)
-                        if outputs is None:
-                            decoded = decode_part(path, recorded, decode_outputs, "outputs", cycle)
-                            values = apply_outputs(decoded, held)
-                            outputs = msgspec.Raw(encode(values)) if values else EMPTY_MAP
-                            expected[recorded] = outputs
-                        record.outputs = outputs
-                        last = (raw, outputs)
-                cycle += 1
+            start, end = cycle, cycle + len(batch)
+            while event is not None and event < end:
+                if holding:
+                    held.put(batch[start - cycle : event - cycle], start)
+                if event in changes:
+                    batch[event - cycle].state_changes = changes[event]
+                if event in lines:
+                    holding = held.hold(lines[event])
+                start, event = event, next(events, None)
+            if holding:
+                held.put(batch[start - cycle :] if start > cycle else batch, start)
+            cycle = end
             yield batch
 
 
