@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import base64
 import bisect
-import functools
 import re
 import string
 import struct
@@ -281,8 +280,8 @@ class PinChecker:
         """The block being judged."""
         self._start = 0
         """Its first cycle."""
-        self._bits: list[int] = []
-        """Its cycles' tags as bits (-1 for a gap)."""
+        self._sixes = b""
+        """Its tags' characters as the six bits each stands for (:data:`_GAP` in a gap)."""
         self._span = 0
         """How many cycles it spans."""
         self._final = -1
@@ -311,12 +310,10 @@ class PinChecker:
         block = self._blocks[bisect.bisect_right(self._block_starts, cycle) - 1]
         self._block = block
         self._start = block.cycle
-        self._bits = bits = list(map(_tag_table().__getitem__, _PAIRS.findall(block.tags)))
-        self._span = len(bits)
-        self._final = block.cycle + len(bits) - 1
-        while bits[self._final - block.cycle] < 0:
-            self._final -= 1
-        self._pinned = len(bits) - bits.count(-1)
+        self._sixes = block.tags.encode().translate(_SIXES)
+        self._span = block.cycles
+        self._final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
+        self._pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
         self._digests = []
 
     def mismatch(self, cycle: int, encoded: bytes) -> str | None:
@@ -334,12 +331,13 @@ class PinChecker:
         if not 0 <= offset < self._span:
             self._enter(cycle)
             offset = cycle - self._start
-        bits = self._bits[offset]
-        if bits < 0:
+        sixes = self._sixes
+        high = sixes[offset * TAG_CHARS]
+        if high == _GAP:
             raise KeyError(cycle)
         digest = self._state_digest(encoded)
         found = None
-        if digest >> _TAG_SHIFT != bits:
+        if digest >> _TAG_SHIFT != high << 6 | sixes[offset * TAG_CHARS + 1]:
             found = "by its digest"  # reported here, not again for the block
         else:
             digests = self._digests
@@ -356,16 +354,8 @@ class PinChecker:
         return found
 
 
-_PAIRS = re.compile("." * TAG_CHARS, re.DOTALL)
-"""A block's tags, one by one."""
-
-
-@functools.cache
-def _tag_table() -> dict[str, int]:
-    """Each tag with the 12 bits it stands for, the first of its digest's (:func:`_tag`);
-    :data:`UNPINNED` with -1."""
-    table = {
-        high + low: i << 6 | j for i, high in enumerate(_DIGITS) for j, low in enumerate(_DIGITS)
-    }
-    table[UNPINNED] = -1
-    return table
+_GAP = 0xFF
+"""What :data:`_SIXES` makes of a gap's characters."""
+_SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
+"""Each tag character as the six bits it stands for: a cycle's tag is the first 12
+bits of its digest (:func:`_tag`), high six first."""
