@@ -181,12 +181,20 @@ def main() -> None:
     _leave_interrupts()
     tasks, answers, *path = sys.argv[1:]
     sys.path[:] = path
-    with (
-        contextlib.suppress(KeyboardInterrupt),  # stopped: what it did has unwound
-        os.fdopen(int(tasks), "rb") as inbox,
-        os.fdopen(int(answers), "wb") as outbox,
-    ):
-        serve(inbox, outbox)
+    try:
+        with os.fdopen(int(tasks), "rb") as inbox, os.fdopen(int(answers), "wb") as outbox:
+            serve(inbox, outbox)
+    except KeyboardInterrupt:  # stopped: what it did has unwound
+        _end_stopped()
+
+
+def _end_stopped() -> None:
+    """End a stopped worker at once, its work unwound: a download it stopped can leave a
+    read scheduled on fsspec's event-loop thread and never started, which the
+    interpreter's usual ending would report as a coroutine never awaited."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)
 
 
 if __name__ == "__main__":
