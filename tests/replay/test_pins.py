@@ -138,14 +138,37 @@ def test_a_pinned_cycle_left_unjudged_leaves_its_block_digest_unchecked() -> Non
     assert found == [None] * 63
 
 
-def test_the_same_cycle_asked_again_gets_the_same_answer() -> None:
+def test_a_cycle_found_to_differ_is_found_so_when_asked_again() -> None:
     states = {cycle: speed_state(cycle) for cycle in range(3)}
     checker = PinChecker(StatePins.from_rebuilt(rebuilt_states(states)))
     wrong = {**states[0], "speed": 9.0}
 
     assert checker.mismatch(0, encoded(wrong)) == "by its digest"
-    assert checker.mismatch(0, encoded({})) == "by its digest"
+    assert checker.found(0, encoded(states[0])) == "by its digest"
     assert checker.mismatch(1, encoded(states[1])) is None
+    assert checker.found(1, encoded(states[1])) is None
+
+
+def test_a_block_found_to_differ_is_found_so_when_its_last_cycle_is_asked_again() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(4)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+    (block,) = pins.blocks
+    checker = PinChecker(StatePins(pins.runs, (block._replace(digest=bytes(8)),)))
+    found = [checker.mismatch(cycle, encoded(states[cycle])) for cycle in range(4)]
+
+    assert found == [None, None, None, "by the digest of cycles 0–3"]
+    assert checker.found(3, encoded(states[3])) == "by the digest of cycles 0–3"
+
+
+def test_a_block_is_judged_by_its_own_cycles_only() -> None:
+    states = {cycle: speed_state(cycle) for cycle in range(2 * CYCLES_PER_BLOCK)}
+    checker = PinChecker(StatePins.from_rebuilt(rebuilt_states(states)))
+    # The first block's last cycle and all but the second's last are never judged:
+    # as many digests are left as the second block pins, none of them its own.
+    judged = [*range(CYCLES_PER_BLOCK - 1), 2 * CYCLES_PER_BLOCK - 1]
+    found = {cycle: checker.mismatch(cycle, encoded(states[cycle])) for cycle in judged}
+
+    assert set(found.values()) == {None}
 
 
 def _run(cycle: int, last: int, cycles: int) -> PinnedRun:

@@ -280,7 +280,7 @@ class Divergences:
         actual = state_fields(outcome.state)
         pins = self._state_pins
         if pins is not None and outcome.cycle in pins:
-            if pins.mismatch(outcome.cycle, self._state_bytes(outcome.state)) is None:
+            if pins.found(outcome.cycle, self._state_bytes(outcome.state)) is None:
                 return ()
             named = {*pins.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
             return tuple(
@@ -316,7 +316,7 @@ class Divergences:
         now = list(rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt))
         return (
             "the robot state rebuilt from the samples differs from the approved baseline "
-            f"{pins.mismatch(outcome.cycle, self._state_bytes(outcome.state))}; "
+            f"{pins.found(outcome.cycle, self._state_bytes(outcome.state))}; "
             "it differs from the recording in "
             f"{', '.join(now) or 'no field'}, the approved one in {', '.join(run.fields)} "
             f"(cycles {run.cycle}–{run.last})"

@@ -35,6 +35,7 @@ import struct
 from collections.abc import Iterable, Iterator, Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
+from operator import add
 from typing import Any, NamedTuple
 
 from beatlog.replay.compare import Comparison
@@ -255,43 +256,42 @@ class PinChecker:
     """Judges the robot states perception rebuilds against :class:`StatePins`, one
     pinned cycle after another, in cycle order.
 
-    It costs a digest and a few look-ups a pinned cycle: the pinned cycles are
-    gathered when it is made, and a block's tags are read when replay reaches it.
+    It costs a digest and a few look-ups a pinned cycle: each block's tags are read
+    into the pinned cycles' tags when it is made, in C, and a block's digest is checked
+    at its last pinned cycle.
     """
 
     def __init__(self, pins: StatePins) -> None:
-        self._blocks = pins.blocks
         self._state_digest = pins.scheme.state
         self._block_digest = pins.scheme.block
-        self._block_starts = [block.cycle for block in pins.blocks]
-        pinned: set[int] = set()
+        tags: dict[int, int] = {}
+        self._finals: dict[int, DigestBlock] = {}
+        """Each block by its last pinned cycle, where its digest is checked."""
         for block in pins.blocks:
-            pinned.update(range(block.cycle, block.cycle + block.cycles))
+            sixes = block.tags.encode().translate(_SIXES)
+            cycles = range(block.cycle, block.cycle + block.cycles)
+            tags.update(
+                zip(cycles, map(add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]), strict=True)
+            )
             gap = block.tags.find(UNPINNED)
             while gap >= 0:
-                pinned.discard(block.cycle + gap // TAG_CHARS)
+                del tags[block.cycle + gap // TAG_CHARS]
                 gap = block.tags.find(UNPINNED, gap + TAG_CHARS)
-        self.cycles: AbstractSet[int] = dict.fromkeys(pinned).keys()
-        """The pinned cycles (the keys of a dict of ints, which the garbage collector
-        need not look into, unlike a set)."""
+            final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
+            self._finals[final] = block
+        self._tags = tags
+        """Each pinned cycle's tag: the first 12 bits of its digest."""
+        self.cycles: AbstractSet[int] = tags.keys()
+        """The pinned cycles."""
+        self._digests: list[int] = []
+        """The digests of the cycles judged since the last block's end whose tags
+        agreed, in cycle order."""
+        self._opened = -1
+        """The first cycle of them."""
+        self._found: dict[int, str] = {}
+        """How the cycles found to differ were found to."""
         self._runs = pins.runs
         self._starts = [run.cycle for run in pins.runs]
-        self._block = DigestBlock(-1, 0, "", b"")
-        """The block being judged."""
-        self._start = 0
-        """Its first cycle."""
-        self._sixes = b""
-        """Its tags' characters as the six bits each stands for (:data:`_GAP` in a gap)."""
-        self._span = 0
-        """How many cycles it spans."""
-        self._final = -1
-        """Its last pinned cycle."""
-        self._pinned = 0
-        """How many cycles it pins."""
-        self._digests: list[int] = []
-        """The digests of its cycles judged so far whose tags agreed."""
-        self._last_cycle = -1
-        self._last_found: str | None = None
 
     def __contains__(self, cycle: object) -> bool:
         return cycle in self.cycles
@@ -300,62 +300,53 @@ class PinChecker:
         """The run a pinned cycle is in."""
         return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
 
-    def _enter(self, cycle: int) -> None:
-        """Start judging the block of the pinned ``cycle``.
-
-        :raises KeyError: ``cycle`` is not pinned.
-        """
-        if cycle not in self.cycles:
-            raise KeyError(cycle)
-        block = self._blocks[bisect.bisect_right(self._block_starts, cycle) - 1]
-        self._block = block
-        self._start = block.cycle
-        self._sixes = block.tags.encode().translate(_SIXES)
-        self._span = block.cycles
-        self._final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
-        self._pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
-        self._digests = []
-
     def mismatch(self, cycle: int, encoded: bytes) -> str | None:
-        """How the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would) was found
-        to differ from the approved one: ``"by its digest"`` (its tag), or ``"by the
-        digest of cycles A–B"`` (its block's, checked at the block's last pinned cycle
-        when every pinned cycle of the block was judged, each agreeing with its tag);
-        None when it agrees. Asked again about the same cycle, the same answer.
+        """Judge the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would),
+        each pinned cycle once, in cycle order: how it was found to differ from the
+        approved one, ``"by its digest"`` (its tag), or ``"by the digest of cycles
+        A–B"`` (its block's, checked at the block's last pinned cycle when every pinned
+        cycle of the block was judged, each agreeing with its tag); None when it
+        agrees. :meth:`found` asks again.
 
         :raises KeyError: ``cycle`` is not pinned.
         """
-        if cycle == self._last_cycle:
-            return self._last_found
-        offset = cycle - self._start
-        if not 0 <= offset < self._span:
-            self._enter(cycle)
-            offset = cycle - self._start
-        sixes = self._sixes
-        high = sixes[offset * TAG_CHARS]
-        if high == _GAP:
-            raise KeyError(cycle)
         digest = self._state_digest(encoded)
-        found = None
-        if digest >> _TAG_SHIFT != high << 6 | sixes[offset * TAG_CHARS + 1]:
-            found = "by its digest"  # reported here, not again for the block
-        else:
-            digests = self._digests
-            digests.append(digest)
-            if (
-                cycle == self._final
-                and len(digests) == self._pinned
-                and self._block_digest(struct.pack(f">{len(digests)}Q", *digests))
-                != self._block.digest
-            ):
-                found = f"by the digest of cycles {self._start}–{cycle}"
-        self._last_cycle = cycle
-        self._last_found = found
+        if digest >> _TAG_SHIFT != self._tags[cycle]:
+            self._found[cycle] = "by its digest"  # reported here, not again for the block
+            return "by its digest"
+        digests = self._digests
+        if not digests:
+            self._opened = cycle
+        digests.append(digest)
+        return self._block_mismatch(cycle) if cycle in self._finals else None
+
+    def found(self, cycle: int, encoded: bytes) -> str | None:
+        """How the robot state of a pinned ``cycle`` was found to differ when it was
+        judged; one not judged yet is judged now (:meth:`mismatch`)."""
+        if cycle in self._found:
+            return self._found[cycle]
+        return self.mismatch(cycle, encoded)
+
+    def _block_mismatch(self, final: int) -> str | None:
+        """How the block ending at pinned cycle ``final`` was found to differ by its
+        digest: None when it agrees, or when not every pinned cycle of it was judged,
+        each agreeing with its tag (one that disagreed was reported in its own cycle)."""
+        block = self._finals[final]
+        digests, self._digests = self._digests, []
+        pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
+        if self._opened != block.cycle or len(digests) != pinned:
+            return None
+        if self._block_digest(struct.pack(f">{pinned}Q", *digests)) == block.digest:
+            return None
+        found = self._found[final] = f"by the digest of cycles {block.cycle}–{final}"
         return found
 
 
 _GAP = 0xFF
 """What :data:`_SIXES` makes of a gap's characters."""
+_HIGH = [six << 6 for six in range(256)]
+"""The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
+it: a tag is ``_HIGH[first] + second``."""
 _SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
 """Each tag character as the six bits it stands for: a cycle's tag is the first 12
 bits of its digest (:func:`_tag`), high six first."""
