@@ -46,13 +46,11 @@ from beatlog.suite.baseline_text import (
 __all__ = ["ParsedLines", "parse_line"]
 
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
-_DRAW_LINE = re.compile(
-    r'draws (?P<behavior>"[^"\\]*(?:\\.[^"\\]*)*"): '
-    r"(?P<recorded>.+?) -> (?P<asked>.+) in cycles (?P<cycles>\d[\d ]*)"
-)
-"""A draws line, its cycles to be numbers between single spaces (a pattern that says so
-costs a step a digit); the behavior is the first quoted string, up to its first quote
-not escaped."""
+_DRAW_HEAD = re.compile(r'draws (?P<behavior>"[^"\\]*(?:\\.[^"\\]*)*"): ')
+"""The start of a draws line, up to its recorded draw: the behavior is the first quoted
+string, up to its first quote not escaped."""
+_TO = " -> "
+_IN_CYCLES = " in cycles "
 _RUN = re.compile(
     r"otherwise in (?P<first>\d+)\.\.(?P<last>\d+) \((?P<cycles>\d+) cycles?\): (?P<rest>.*)"
 )
@@ -242,18 +240,30 @@ def _records(record: type[_Record], *fields: Iterable[Any]) -> list[_Record]:
 def _parse_draw(line: str, version: int) -> DrawRule:
     if version < 4:
         raise ValueError(f"a format {version} baseline holds no draws")
-    found = _DRAW_LINE.fullmatch(line)
-    if found is None or "  " in found["cycles"] or found["cycles"].endswith(" "):
+    head = _DRAW_HEAD.match(line)
+    rest = line[head.end() :] if head else ""
+    split = rest.rfind(_IN_CYCLES)  # the only one that numbers may follow
+    arrow = rest.find(_TO, 1, split - 1) if split > 0 else -1  # the first, a draw each side
+    cycles = rest[split + len(_IN_CYCLES) :]
+    if (
+        head is None
+        or arrow < 0
+        or "\n" in rest  # as a regular expression's ``.`` takes no line break
+        or not cycles[:1].isdecimal()  # numbers (digits as \d takes them), single spaces
+        or not cycles.replace(" ", "").isdecimal()
+        or "  " in cycles
+        or cycles.endswith(" ")
+    ):
         raise ValueError("expected 'draws \"behavior\": RECORDED -> ASKED in cycles N N ...'")
-    behavior = _JSON.raw_decode(found["behavior"])[0]  # all of it, up to its one last quote
-    recorded, asked = found["recorded"], found["asked"]
+    behavior = _JSON.raw_decode(head["behavior"])[0]  # all of it, up to its one last quote
+    recorded, asked = rest[:arrow], rest[arrow + len(_TO) : split]
     if recorded == asked:
         raise ValueError(f"a draw of {asked} as recorded is no difference")
     return DrawRule(
         behavior,
         None if recorded == NONE else recorded,
         None if asked == NONE else asked,
-        _cycles(found["cycles"]),
+        _cycles(cycles),
     )
 
 
