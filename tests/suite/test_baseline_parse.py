@@ -25,6 +25,7 @@ _COMMON = [
     '     130     3.900  "count": -3 -> 0',
     '     130     3.900  "": true -> null',
     '     130    03.900  "avoid": false -> 1',
+    '     130     3.900  "big": 123456789012345678901234567890 -> -0',
     "     131     3.930  no state changes",
 ]
 """Lines of every common shape, each read at once by ``read_common``."""
@@ -135,6 +136,18 @@ def test_robot_times_read_at_once_to_the_nanosecond_as_each_alone() -> None:
     lines = [
         f"{cycle:>8} {millis // 1000:>5}.{millis % 1000:03}  no state changes"
         for cycle, millis in enumerate(range(0, 10**9, 49_999))
+    ]
+
+    found, others = _read(lines)
+
+    assert (found.quiet, others) == (_read_one_by_one(lines).quiet, [])
+
+
+@pytest.mark.parametrize("first", [0, 1])
+def test_robot_times_under_a_second_read_at_once_as_each_alone(first: int) -> None:
+    lines = [
+        f"{cycle:>8} {millis // 1000:>5}.{millis % 1000:03}  no state changes"
+        for cycle, millis in enumerate([*range(first, 1000), 1000, 1001, 10_000, 999_999_999])
     ]
 
     found, others = _read(lines)

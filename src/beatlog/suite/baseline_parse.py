@@ -12,11 +12,9 @@ from __future__ import annotations
 import bisect
 import json
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from itertools import compress, repeat
-from operator import itemgetter
-from typing import Any, NamedTuple, TypeVar
+from typing import Any, NamedTuple
 
 import msgspec
 
@@ -32,6 +30,7 @@ from beatlog.replay.expectation import (
 from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
 from beatlog.replay.state_digests import DIGEST_BYTES
 from beatlog.replay.verdict import StateChange
+from beatlog.suite.baseline_common import common_lines
 from beatlog.suite.baseline_text import (
     AS_RECORDED_TEXT,
     MSGPACK,
@@ -58,28 +57,7 @@ _DIGESTS = re.compile(
     rf"digests (?P<cycles>\d+) (?P<digest>[0-9a-f]{{{2 * DIGEST_BYTES}}}) (?P<tags>[A-Za-z0-9+/.]+)"
 )
 _JSON = json.JSONDecoder()
-_PLAIN = r'"[^"\\\x00-\x1f]*"'
-"""A JSON string without escapes or control characters: it reads as what it quotes."""
-_VALUE = rf"[-+.0-9A-Za-z]+|{_PLAIN}"
-"""A JSON number, literal or plain string, or no JSON at all (then the file is read line
-by line): one value, as it holds no comma, bracket or space outside quotes."""
-_STATE = rf"-?[0-9]+|[a-z]+|{_PLAIN}"
-"""Likewise a JSON integer, literal or plain string, the values a state takes."""
-_COMMON = re.compile(
-    r" *([0-9]+) +([0-9]{1,6}\.[0-9]{3}) +(?:"
-    rf"output ({_PLAIN}) (?:= ({_VALUE})|(absent|{AS_RECORDED_TEXT}))"
-    rf"|robot_state digests ([0-9]+) ([0-9a-f]{{{2 * DIGEST_BYTES}}}) ([A-Za-z0-9+/.]+)"
-    rf"|({_PLAIN}): ({_STATE}) -> ({_STATE})"
-    rf"|({QUIET})"
-    r")\n|(.*)\n"
-)
-"""A line of the most common shapes since format 5, an output, a block of digests, a
-state change or a quiet cycle, with plain names and JSON scalars for values (read at once
-by :meth:`ParsedLines.read_common`, as :func:`parse_line` reads each), else any line."""
-_NAME, _VALUE_TEXT, _WORD, _COUNT, _DIGEST, _TAGS, _BEHAVIOR, _BEFORE, _AFTER = range(2, 11)
-_QUIET, _OTHER = 11, 12
-_WORDS = {"absent": ABSENT, AS_RECORDED_TEXT: AS_RECORDED}
-_Record = TypeVar("_Record", bound=tuple[Any, ...])
+_CYCLES = msgspec.json.Decoder(tuple[int, ...])
 
 
 class _OpenLoop(NamedTuple):
@@ -116,7 +94,7 @@ class ParsedLines:
         no JSON, a block of digests without as many tags as it says), every line is
         yielded, to be read one by one and refused at the right line.
         """
-        common = _common_lines(lines) if version >= 5 else None
+        common = common_lines(lines) if version >= 5 else None
         if common is None:
             yield from enumerate(lines, start)
             return
@@ -166,77 +144,6 @@ _Line = (
 ) | _Quiet
 
 
-def _common_lines(lines: list[str]) -> tuple[list[int], list[tuple[list[int], list[Any]]]] | None:
-    """The indices of the lines not of the common shapes (:data:`_COMMON`), and the
-    others read, by kind (outputs, blocks of digests, state changes, quiet cycles), each
-    with the indices of its lines; None when one of them does not read, to be read line
-    by line (and refused there)."""
-    rows = _COMMON.findall("\n".join(lines) + "\n")
-    if len(rows) != len(lines):  # no lines, or lines with line breaks in them
-        return None
-    indices = range(len(rows))
-    kinds = []
-    try:
-        for marker, read in (
-            (_NAME, _outputs),
-            (_COUNT, _blocks),
-            (_BEFORE, _changes),
-            (_QUIET, _quiet),
-        ):
-            where = list(compress(indices, map(itemgetter(marker), rows)))
-            kind = [rows[index] for index in where]
-            columns: list[tuple[str, ...]] = (
-                list(zip(*kind, strict=True)) if kind else [()] * (_OTHER + 1)
-            )
-            kinds.append((where, read(columns, _decoded(columns[0]), _times_ns(columns[1]))))
-    except ValueError:
-        return None
-    return list(compress(indices, map(itemgetter(_OTHER), rows))), kinds
-
-
-def _times_ns(seconds: Iterable[str]) -> list[int]:
-    """Robot times in seconds, with three decimals, in nanoseconds, as :func:`_time_ns`
-    reads each: under 10**6 s, the float it reads is within 0.13 ns of the time (and
-    rounds to it for each of the 10**9 times, checked one by one)."""
-    return [int(text.replace(".", "")) * 1_000_000 for text in seconds]
-
-
-def _outputs(columns: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    value, word = columns[_VALUE_TEXT], columns[_WORD]
-    values = iter(_decoded(compress(value, value)))
-    fields = _decoded(columns[_NAME])
-    said = [_WORDS[text] if text else next(values) for text in word]
-    return _records(TracedOutput, cycles, times, fields, said)
-
-
-def _blocks(columns: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    tags = columns[_TAGS]
-    if list(map(len, tags)) != [TAG_CHARS * count for count in _decoded(columns[_COUNT])]:
-        raise ValueError("a block of digests holds not as many tags as it says")
-    return _records(DigestBlock, cycles, times, tags, map(bytes.fromhex, columns[_DIGEST]))
-
-
-def _changes(columns: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    states = [_decoded(columns[kind]) for kind in (_BEHAVIOR, _BEFORE, _AFTER)]
-    return _records(TracedChange, cycles, times, _records(StateChange, *states))
-
-
-def _quiet(_: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    return list(zip(cycles, times, strict=True))
-
-
-def _decoded(values: Iterable[str]) -> list[Any]:
-    """JSON values, each one whole, read at once: each as :data:`_JSON` reads it alone."""
-    decoded: list[Any] = _JSON.raw_decode("[" + ",".join(values) + "]")[0]
-    return decoded
-
-
-def _records(record: type[_Record], *fields: Iterable[Any]) -> list[_Record]:
-    """A ``record`` (a NamedTuple) of each row of ``fields``, made at once, as
-    ``record._make`` makes one."""
-    return list(map(tuple.__new__, repeat(record), zip(*fields, strict=True)))
-
-
 def _parse_draw(line: str, version: int) -> DrawRule:
     if version < 4:
         raise ValueError(f"a format {version} baseline holds no draws")
@@ -271,7 +178,7 @@ def _cycles(numbers: str) -> tuple[int, ...]:
     """The cycles of a draws line, as :func:`int` reads each: at once as JSON, unless
     they are not JSON (a leading zero, digits other than ASCII)."""
     try:
-        return tuple(_JSON.raw_decode(f"[{numbers.replace(' ', ',')}]")[0])
+        return _CYCLES.decode(f"[{numbers.replace(' ', ',')}]")
     except ValueError:
         return tuple(map(int, numbers.split()))
 
