@@ -74,6 +74,7 @@ def common_lines(lines: list[str]) -> tuple[list[int], list[tuple[list[int], lis
     if len(parts) != len(lines) * _GROUPS + 1:  # no lines, or lines with line breaks in them
         return None
     columns = [parts[group::_GROUPS] for group in range(1, _GROUPS)]
+    del parts  # not looked into by the garbage collector while the lines are read
     indices = range(len(lines))
     kinds = []
     try:
