@@ -65,17 +65,18 @@ _Column = list[Any]
 _Record = TypeVar("_Record", bound=tuple[Any, ...])
 
 
-def common_lines(lines: list[str]) -> tuple[list[int], list[tuple[list[int], list[Any]]]] | None:
-    """The indices of the lines not of the common shapes (:data:`_COMMON`), and the
-    others read, by kind (outputs, blocks of digests, state changes, quiet cycles), each
-    with the indices of its lines; None when one of them does not read, to be read line
-    by line (and refused there)."""
-    parts = _COMMON.split("\n".join(lines) + "\n")  # a match a line, nothing between
-    if len(parts) != len(lines) * _GROUPS + 1:  # no lines, or lines with line breaks in them
-        return None
+def common_lines(
+    text: str,
+) -> tuple[int, list[tuple[int, str]], list[tuple[list[int], list[Any]]]] | None:
+    """How many lines ``text`` holds (each ended by a line feed alone, the last perhaps
+    not), those not of the common shapes (:data:`_COMMON`) but empty ones, each with its
+    index, and the others read, by kind (outputs, blocks of digests, state changes, quiet
+    cycles), each with the indices of its lines; None when one of them does not read, to
+    be read line by line (and refused there)."""
+    parts = _COMMON.split(text if text[-1:] == "\n" else text + "\n")  # a match a line
     columns = [parts[group::_GROUPS] for group in range(1, _GROUPS)]
     del parts  # not looked into by the garbage collector while the lines are read
-    indices = range(len(lines))
+    indices = range(len(columns[_OTHER]))
     kinds = []
     try:
         for marker, read in (
@@ -88,7 +89,8 @@ def common_lines(lines: list[str]) -> tuple[list[int], list[tuple[list[int], lis
             kinds.append((where, read(columns, where) if where else []))
     except ValueError:
         return None
-    return list(compress(indices, columns[_OTHER])), kinds
+    other = columns[_OTHER]
+    return len(indices), [(index, other[index]) for index in compress(indices, other)], kinds
 
 
 def _picked(columns: list[_Column], where: list[int], *which: int) -> list[Sequence[Any]]:

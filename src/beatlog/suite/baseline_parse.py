@@ -42,7 +42,7 @@ from beatlog.suite.baseline_text import (
     RUN_FIRST,
 )
 
-__all__ = ["ParsedLines", "parse_line"]
+__all__ = ["ParsedLines", "parse_line", "split_header"]
 
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
 _DRAW_HEAD = re.compile(r'draws (?P<behavior>"[^"\\]*(?:\\.[^"\\]*)*"): ')
@@ -57,6 +57,8 @@ _DIGESTS = re.compile(
     rf"digests (?P<cycles>\d+) (?P<digest>[0-9a-f]{{{2 * DIGEST_BYTES}}}) (?P<tags>[A-Za-z0-9+/.]+)"
 )
 _JSON = json.JSONDecoder()
+_OTHER_BREAKS = "\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+"""What :meth:`str.splitlines` breaks lines at besides a line feed."""
 _CYCLES = msgspec.json.Decoder(tuple[int, ...])
 
 
@@ -83,33 +85,33 @@ class ParsedLines:
     quiet: list[tuple[int, int]] = field(default_factory=list)
     open_loop: tuple[int, int] | None = None
 
-    def read_common(self, lines: list[str], version: int, start: int) -> Iterator[tuple[int, str]]:
+    def read_common(self, text: str, version: int, start: int) -> Iterator[tuple[int, str]]:
         """Read the lines of the most common shapes at once, and yield each other line but
-        empty ones with its number (``lines``, as :meth:`str.splitlines` gives them,
-        numbered from ``start``), in order: comments, and lines for :meth:`add`, each to be
-        read or skipped before the next is asked for, so that the lines of each kind are
-        kept in the order of the file.
+        empty ones with its number (``text``: lines each ended by a line feed alone, the
+        last perhaps not, as :func:`split_header` gives them, numbered from ``start``), in
+        order: comments, and lines for :meth:`add`, each to be read or skipped before the
+        next is asked for, so that the lines of each kind are kept in the order of the file.
 
         Before format 5, or when a line of a common shape does not read (a value that is
         no JSON, a block of digests without as many tags as it says), every line is
         yielded, to be read one by one and refused at the right line.
         """
-        common = common_lines(lines) if version >= 5 else None
+        common = common_lines(text) if version >= 5 else None
         if common is None:
-            yield from enumerate(lines, start)
+            yield from enumerate(text.splitlines(), start)
             return
-        others, kinds = common
+        count, others, kinds = common
         kept: tuple[list[Any], ...] = (self.outputs, self.blocks, self.changes, self.quiet)
         taken = [0] * len(kept)
         previous = -1
-        for index in [*others, len(lines)]:
+        for index, line in [*others, (count, "")]:
             if index > previous + 1:  # lines of the common shapes since the previous other
                 for kind, (rows, items) in enumerate(kinds):
                     upto = bisect.bisect_left(rows, index, taken[kind])
                     kept[kind].extend(items[taken[kind] : upto])
                     taken[kind] = upto
-            if index < len(lines):
-                yield start + index, lines[index]
+            if index < count:
+                yield start + index, line
             previous = index
 
     def add(self, line: str, version: int) -> None:
@@ -137,6 +139,16 @@ class ParsedLines:
             self.blocks.append(parsed)
         else:
             self.changes.append(parsed)
+
+
+def split_header(text: str) -> tuple[str, str]:
+    """A file's first line, and its other lines, each ended by a line feed alone (the last
+    perhaps not), as :meth:`str.splitlines` breaks them, for :meth:`ParsedLines.read_common`:
+    a file with no other line breaks is cut once, not into a string a line."""
+    if any(other in text for other in _OTHER_BREAKS):
+        text = "\n".join(text.splitlines())
+    first, _, rest = text.partition("\n")
+    return first, rest
 
 
 _Line = (
