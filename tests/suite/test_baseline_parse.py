@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from beatlog.replay.draws import DrawRule
-from beatlog.suite.baseline_parse import ParsedLines, parse_line
+from beatlog.suite.baseline_parse import ParsedLines, parse_line, split_header
 
 _COMMON = [
     '      33     1.022  output "happiness" = 49',
@@ -25,6 +25,7 @@ _COMMON = [
     '     130     3.900  "count": -3 -> 0',
     '     130     3.900  "": true -> null',
     '     130    03.900  "avoid": false -> 1',
+    '     130     3.900  "big": 123456789012345678901234567890 -> -0',
     "     131     3.930  no state changes",
 ]
 """Lines of every common shape, each read at once by ``read_common``."""
@@ -52,7 +53,7 @@ def _read(lines: list[str], version: int = 5) -> tuple[ParsedLines, list[int]]:
     """The lines read as a baseline's are, and the numbers of those left to ``add``."""
     found = ParsedLines()
     others = []
-    for number, line in found.read_common(lines, version, start=1):
+    for number, line in found.read_common("\n".join(lines), version, start=1):
         others.append(number)
         if line.strip() and not line.startswith("#"):
             found.add(line, version)
@@ -142,6 +143,18 @@ def test_robot_times_read_at_once_to_the_nanosecond_as_each_alone() -> None:
     assert (found.quiet, others) == (_read_one_by_one(lines).quiet, [])
 
 
+@pytest.mark.parametrize("first", [0, 1])
+def test_robot_times_under_a_second_read_at_once_as_each_alone(first: int) -> None:
+    lines = [
+        f"{cycle:>8} {millis // 1000:>5}.{millis % 1000:03}  no state changes"
+        for cycle, millis in enumerate([*range(first, 1000), 1000, 1001, 10_000, 999_999_999])
+    ]
+
+    found, others = _read(lines)
+
+    assert (found.quiet, others) == (_read_one_by_one(lines).quiet, [])
+
+
 @pytest.mark.parametrize(
     ("line", "rule"),
     [
@@ -183,7 +196,14 @@ def test_a_draws_line_that_does_not_read_says_why(line: str, problem: str) -> No
         ParsedLines().add(line, 5)
 
 
-def test_lines_with_line_breaks_in_them_are_each_left_to_add() -> None:
-    lines = [f"{_COMMON[0]}\n{_COMMON[1]}", _COMMON[2]]
+@pytest.mark.parametrize("end", ["\n", "\r\n", "\r", "\x0c", "\x1e", "\x85", "\u2028"])
+@pytest.mark.parametrize("ended", [True, False])
+def test_a_file_reads_as_the_lines_splitlines_breaks_it_into(end: str, ended: bool) -> None:
+    lines = ["# header", _COMMON[0], "", *_OTHERS[2:4], _COMMON[11], _COMMON[-1]]
+    text = end.join(lines) + (end if ended else "")
 
-    assert list(ParsedLines().read_common(lines, 5, start=1)) == [(1, lines[0]), (2, lines[1])]
+    first, rest = split_header(text)
+    found, others = _read(rest.split("\n"))
+
+    assert (first, repr(found)) == ("# header", repr(_read_one_by_one(text.splitlines()[1:])))
+    assert others == [3, 4]

@@ -85,7 +85,7 @@ from beatlog.files import irregular_file_problem, read_small_text, replacing
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.pins import StatePins
 from beatlog.replay.state_digests import BLAKE2B, XXH3
-from beatlog.suite.baseline_parse import ParsedLines
+from beatlog.suite.baseline_parse import ParsedLines, split_header
 from beatlog.suite.baseline_text import COLUMNS, draw_line, format_lines
 from beatlog.suite.spec import SPEC_SUFFIX
 
@@ -200,14 +200,14 @@ def write_baseline(
 def read_baseline(path: Path) -> Baseline:
     """Read a baseline file; anything else raises :class:`BaselineError` naming the line."""
     text = read_small_text(path, limit=MAX_BASELINE_BYTES, kind="baseline", error=BaselineError)
-    lines = text.splitlines()
-    version = _VERSIONS.get(lines[0]) if lines else None
+    first, rest = split_header(text)
+    version = _VERSIONS.get(first)
     if version is None:
         raise BaselineError(path, "not a beatlog baseline (its first line is not the header)")
     digest = ""
     found = ParsedLines()
     as_recorded = False
-    for number, line in found.read_common(lines[1:], version, start=2):
+    for number, line in found.read_common(rest, version, start=2):
         if line.startswith("#"):
             log_line = _LOG_LINE.fullmatch(line)
             digest = log_line["digest"] if log_line else digest

@@ -12,11 +12,9 @@ from __future__ import annotations
 import bisect
 import json
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from itertools import compress, repeat
-from operator import itemgetter
-from typing import Any, NamedTuple, TypeVar
+from typing import Any, NamedTuple
 
 import msgspec
 
@@ -32,6 +30,7 @@ from beatlog.replay.expectation import (
 from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
 from beatlog.replay.state_digests import DIGEST_BYTES
 from beatlog.replay.verdict import StateChange
+from beatlog.suite.baseline_common import common_lines
 from beatlog.suite.baseline_text import (
     AS_RECORDED_TEXT,
     MSGPACK,
@@ -43,16 +42,14 @@ from beatlog.suite.baseline_text import (
     RUN_FIRST,
 )
 
-__all__ = ["ParsedLines", "parse_line"]
+__all__ = ["ParsedLines", "parse_line", "split_header"]
 
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
-_DRAW_LINE = re.compile(
-    r'draws (?P<behavior>"[^"\\]*(?:\\.[^"\\]*)*"): '
-    r"(?P<recorded>.+?) -> (?P<asked>.+) in cycles (?P<cycles>\d[\d ]*)"
-)
-"""A draws line, its cycles to be numbers between single spaces (a pattern that says so
-costs a step a digit); the behavior is the first quoted string, up to its first quote
-not escaped."""
+_DRAW_HEAD = re.compile(r'draws (?P<behavior>"[^"\\]*(?:\\.[^"\\]*)*"): ')
+"""The start of a draws line, up to its recorded draw: the behavior is the first quoted
+string, up to its first quote not escaped."""
+_TO = " -> "
+_IN_CYCLES = " in cycles "
 _RUN = re.compile(
     r"otherwise in (?P<first>\d+)\.\.(?P<last>\d+) \((?P<cycles>\d+) cycles?\): (?P<rest>.*)"
 )
@@ -60,28 +57,9 @@ _DIGESTS = re.compile(
     rf"digests (?P<cycles>\d+) (?P<digest>[0-9a-f]{{{2 * DIGEST_BYTES}}}) (?P<tags>[A-Za-z0-9+/.]+)"
 )
 _JSON = json.JSONDecoder()
-_PLAIN = r'"[^"\\\x00-\x1f]*"'
-"""A JSON string without escapes or control characters: it reads as what it quotes."""
-_VALUE = rf"[-+.0-9A-Za-z]+|{_PLAIN}"
-"""A JSON number, literal or plain string, or no JSON at all (then the file is read line
-by line): one value, as it holds no comma, bracket or space outside quotes."""
-_STATE = rf"-?[0-9]+|[a-z]+|{_PLAIN}"
-"""Likewise a JSON integer, literal or plain string, the values a state takes."""
-_COMMON = re.compile(
-    r" *([0-9]+) +([0-9]{1,6}\.[0-9]{3}) +(?:"
-    rf"output ({_PLAIN}) (?:= ({_VALUE})|(absent|{AS_RECORDED_TEXT}))"
-    rf"|robot_state digests ([0-9]+) ([0-9a-f]{{{2 * DIGEST_BYTES}}}) ([A-Za-z0-9+/.]+)"
-    rf"|({_PLAIN}): ({_STATE}) -> ({_STATE})"
-    rf"|({QUIET})"
-    r")\n|(.*)\n"
-)
-"""A line of the most common shapes since format 5, an output, a block of digests, a
-state change or a quiet cycle, with plain names and JSON scalars for values (read at once
-by :meth:`ParsedLines.read_common`, as :func:`parse_line` reads each), else any line."""
-_NAME, _VALUE_TEXT, _WORD, _COUNT, _DIGEST, _TAGS, _BEHAVIOR, _BEFORE, _AFTER = range(2, 11)
-_QUIET, _OTHER = 11, 12
-_WORDS = {"absent": ABSENT, AS_RECORDED_TEXT: AS_RECORDED}
-_Record = TypeVar("_Record", bound=tuple[Any, ...])
+_OTHER_BREAKS = "\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+"""What :meth:`str.splitlines` breaks lines at besides a line feed."""
+_CYCLES = msgspec.json.Decoder(tuple[int, ...])
 
 
 class _OpenLoop(NamedTuple):
@@ -107,33 +85,33 @@ class ParsedLines:
     quiet: list[tuple[int, int]] = field(default_factory=list)
     open_loop: tuple[int, int] | None = None
 
-    def read_common(self, lines: list[str], version: int, start: int) -> Iterator[tuple[int, str]]:
+    def read_common(self, text: str, version: int, start: int) -> Iterator[tuple[int, str]]:
         """Read the lines of the most common shapes at once, and yield each other line but
-        empty ones with its number (``lines``, as :meth:`str.splitlines` gives them,
-        numbered from ``start``), in order: comments, and lines for :meth:`add`, each to be
-        read or skipped before the next is asked for, so that the lines of each kind are
-        kept in the order of the file.
+        empty ones with its number (``text``: lines each ended by a line feed alone, the
+        last perhaps not, as :func:`split_header` gives them, numbered from ``start``), in
+        order: comments, and lines for :meth:`add`, each to be read or skipped before the
+        next is asked for, so that the lines of each kind are kept in the order of the file.
 
         Before format 5, or when a line of a common shape does not read (a value that is
         no JSON, a block of digests without as many tags as it says), every line is
         yielded, to be read one by one and refused at the right line.
         """
-        common = _common_lines(lines) if version >= 5 else None
+        common = common_lines(text) if version >= 5 else None
         if common is None:
-            yield from enumerate(lines, start)
+            yield from enumerate(text.splitlines(), start)
             return
-        others, kinds = common
+        count, others, kinds = common
         kept: tuple[list[Any], ...] = (self.outputs, self.blocks, self.changes, self.quiet)
         taken = [0] * len(kept)
         previous = -1
-        for index in [*others, len(lines)]:
+        for index, line in [*others, (count, "")]:
             if index > previous + 1:  # lines of the common shapes since the previous other
                 for kind, (rows, items) in enumerate(kinds):
                     upto = bisect.bisect_left(rows, index, taken[kind])
                     kept[kind].extend(items[taken[kind] : upto])
                     taken[kind] = upto
-            if index < len(lines):
-                yield start + index, lines[index]
+            if index < count:
+                yield start + index, line
             previous = index
 
     def add(self, line: str, version: int) -> None:
@@ -163,97 +141,48 @@ class ParsedLines:
             self.changes.append(parsed)
 
 
+def split_header(text: str) -> tuple[str, str]:
+    """A file's first line, and its other lines, each ended by a line feed alone (the last
+    perhaps not), as :meth:`str.splitlines` breaks them, for :meth:`ParsedLines.read_common`:
+    a file with no other line breaks is cut once, not into a string a line."""
+    if any(other in text for other in _OTHER_BREAKS):
+        text = "\n".join(text.splitlines())
+    first, _, rest = text.partition("\n")
+    return first, rest
+
+
 _Line = (
     TracedChange | TracedOutput | TracedState | PinnedRun | DigestBlock | DrawRule | _OpenLoop
 ) | _Quiet
 
 
-def _common_lines(lines: list[str]) -> tuple[list[int], list[tuple[list[int], list[Any]]]] | None:
-    """The indices of the lines not of the common shapes (:data:`_COMMON`), and the
-    others read, by kind (outputs, blocks of digests, state changes, quiet cycles), each
-    with the indices of its lines; None when one of them does not read, to be read line
-    by line (and refused there)."""
-    rows = _COMMON.findall("\n".join(lines) + "\n")
-    if len(rows) != len(lines):  # no lines, or lines with line breaks in them
-        return None
-    indices = range(len(rows))
-    kinds = []
-    try:
-        for marker, read in (
-            (_NAME, _outputs),
-            (_COUNT, _blocks),
-            (_BEFORE, _changes),
-            (_QUIET, _quiet),
-        ):
-            where = list(compress(indices, map(itemgetter(marker), rows)))
-            kind = [rows[index] for index in where]
-            columns: list[tuple[str, ...]] = (
-                list(zip(*kind, strict=True)) if kind else [()] * (_OTHER + 1)
-            )
-            kinds.append((where, read(columns, _decoded(columns[0]), _times_ns(columns[1]))))
-    except ValueError:
-        return None
-    return list(compress(indices, map(itemgetter(_OTHER), rows))), kinds
-
-
-def _times_ns(seconds: Iterable[str]) -> list[int]:
-    """Robot times in seconds, with three decimals, in nanoseconds, as :func:`_time_ns`
-    reads each: under 10**6 s, the float it reads is within 0.13 ns of the time (and
-    rounds to it for each of the 10**9 times, checked one by one)."""
-    return [int(text.replace(".", "")) * 1_000_000 for text in seconds]
-
-
-def _outputs(columns: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    value, word = columns[_VALUE_TEXT], columns[_WORD]
-    values = iter(_decoded(compress(value, value)))
-    fields = _decoded(columns[_NAME])
-    said = [_WORDS[text] if text else next(values) for text in word]
-    return _records(TracedOutput, cycles, times, fields, said)
-
-
-def _blocks(columns: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    tags = columns[_TAGS]
-    if list(map(len, tags)) != [TAG_CHARS * count for count in _decoded(columns[_COUNT])]:
-        raise ValueError("a block of digests holds not as many tags as it says")
-    return _records(DigestBlock, cycles, times, tags, map(bytes.fromhex, columns[_DIGEST]))
-
-
-def _changes(columns: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    states = [_decoded(columns[kind]) for kind in (_BEHAVIOR, _BEFORE, _AFTER)]
-    return _records(TracedChange, cycles, times, _records(StateChange, *states))
-
-
-def _quiet(_: list[tuple[str, ...]], cycles: list[int], times: list[int]) -> list[Any]:
-    return list(zip(cycles, times, strict=True))
-
-
-def _decoded(values: Iterable[str]) -> list[Any]:
-    """JSON values, each one whole, read at once: each as :data:`_JSON` reads it alone."""
-    decoded: list[Any] = _JSON.raw_decode("[" + ",".join(values) + "]")[0]
-    return decoded
-
-
-def _records(record: type[_Record], *fields: Iterable[Any]) -> list[_Record]:
-    """A ``record`` (a NamedTuple) of each row of ``fields``, made at once, as
-    ``record._make`` makes one."""
-    return list(map(tuple.__new__, repeat(record), zip(*fields, strict=True)))
-
-
 def _parse_draw(line: str, version: int) -> DrawRule:
     if version < 4:
         raise ValueError(f"a format {version} baseline holds no draws")
-    found = _DRAW_LINE.fullmatch(line)
-    if found is None or "  " in found["cycles"] or found["cycles"].endswith(" "):
+    head = _DRAW_HEAD.match(line)
+    rest = line[head.end() :] if head else ""
+    split = rest.rfind(_IN_CYCLES)  # the only one that numbers may follow
+    arrow = rest.find(_TO, 1, split - 1) if split > 0 else -1  # the first, a draw each side
+    cycles = rest[split + len(_IN_CYCLES) :]
+    if (
+        head is None
+        or arrow < 0
+        or "\n" in rest  # as a regular expression's ``.`` takes no line break
+        or not cycles[:1].isdecimal()  # numbers (digits as \d takes them), single spaces
+        or not cycles.replace(" ", "").isdecimal()
+        or "  " in cycles
+        or cycles.endswith(" ")
+    ):
         raise ValueError("expected 'draws \"behavior\": RECORDED -> ASKED in cycles N N ...'")
-    behavior = _JSON.raw_decode(found["behavior"])[0]  # all of it, up to its one last quote
-    recorded, asked = found["recorded"], found["asked"]
+    behavior = _JSON.raw_decode(head["behavior"])[0]  # all of it, up to its one last quote
+    recorded, asked = rest[:arrow], rest[arrow + len(_TO) : split]
     if recorded == asked:
         raise ValueError(f"a draw of {asked} as recorded is no difference")
     return DrawRule(
         behavior,
         None if recorded == NONE else recorded,
         None if asked == NONE else asked,
-        _cycles(found["cycles"]),
+        _cycles(cycles),
     )
 
 
@@ -261,7 +190,7 @@ def _cycles(numbers: str) -> tuple[int, ...]:
     """The cycles of a draws line, as :func:`int` reads each: at once as JSON, unless
     they are not JSON (a leading zero, digits other than ASCII)."""
     try:
-        return tuple(_JSON.raw_decode(f"[{numbers.replace(' ', ',')}]")[0])
+        return _CYCLES.decode(f"[{numbers.replace(' ', ',')}]")
     except ValueError:
         return tuple(map(int, numbers.split()))
 
