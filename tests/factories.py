@@ -30,7 +30,7 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.replay.pins import RebuiltState
-from beatlog.replay.state_digests import XXH3, PinDigest, state_digest
+from beatlog.replay.state_digests import XXH64, PinDigest, state_digest
 from beatlog.replay.verdict import Checked
 
 MAGIC_LENGTH = 8
@@ -245,7 +245,7 @@ def encoded(state: dict[str, Any]) -> bytes:
 
 
 def rebuilt_states(
-    states: dict[int, dict[str, Any]], scheme: PinDigest = XXH3
+    states: dict[int, dict[str, Any]], scheme: PinDigest = XXH64
 ) -> list[RebuiltState]:
     """The states as a trace collects them where perception rebuilt their speed
     otherwise, in cycle order (1 ms a cycle), digested with ``scheme``."""

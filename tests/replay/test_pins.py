@@ -19,7 +19,7 @@ from beatlog.replay.pins import (
     StatePins,
     rebuilt_otherwise,
 )
-from beatlog.replay.state_digests import BLAKE2B, XXH3, PinDigest
+from beatlog.replay.state_digests import BLAKE2B, XXH64, PinDigest
 from tests.factories import encoded, rebuilt_states, speed_state
 
 
@@ -32,7 +32,7 @@ def _judged(pins: StatePins, states: dict[int, dict[str, Any]]) -> dict[int, str
     return {cycle: how for cycle, how in found.items() if how is not None}
 
 
-@pytest.mark.parametrize("scheme", [XXH3, BLAKE2B], ids=lambda scheme: scheme.name)
+@pytest.mark.parametrize("scheme", [XXH64, BLAKE2B], ids=lambda scheme: scheme.name)
 def test_pins_of_either_digest_judge_by_that_digest(scheme: PinDigest) -> None:
     states = {cycle: speed_state(cycle) for cycle in range(100)}
     pins = StatePins.from_rebuilt(rebuilt_states(states, scheme), scheme)
@@ -44,7 +44,7 @@ def test_pins_of_either_digest_judge_by_that_digest(scheme: PinDigest) -> None:
 def test_pins_judged_by_the_other_digest_fail_from_their_first_cycle() -> None:
     states = {cycle: speed_state(cycle) for cycle in range(10)}
     pins = StatePins.from_rebuilt(rebuilt_states(states, BLAKE2B), BLAKE2B)
-    misread = StatePins(pins.runs, pins.blocks, XXH3)
+    misread = StatePins(pins.runs, pins.blocks, XXH64)
 
     assert min(_judged(misread, states), default=None) == 0
 

@@ -9,7 +9,7 @@ rebuilt values in its first cycle, for review), blocks of up to
 :data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
 digest of the block.
 
-A cycle's :func:`~beatlog.replay.state_digests.state_digest` is the XXH3-64 digest (seed
+A cycle's :func:`~beatlog.replay.state_digests.state_digest` is the XXH64 digest (seed
 0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
 system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
 of any field counts, and the replay core, which encodes each rebuilt state to compare it
@@ -38,7 +38,7 @@ from operator import add
 from typing import Any, NamedTuple
 
 from beatlog.replay.compare import Comparison
-from beatlog.replay.state_digests import DIGEST_BYTES, XXH3, PinDigest
+from beatlog.replay.state_digests import DIGEST_BYTES, XXH64, PinDigest
 
 __all__ = [
     "CYCLES_PER_BLOCK",
@@ -150,7 +150,7 @@ class StatePins:
 
     runs: tuple[PinnedRun, ...] = ()
     blocks: tuple[DigestBlock, ...] = ()
-    scheme: PinDigest = XXH3
+    scheme: PinDigest = XXH64
     """How the blocks' digests and tags were made."""
 
     def __post_init__(self) -> None:
@@ -159,7 +159,7 @@ class StatePins:
             raise ValueError(problem)
 
     @classmethod
-    def from_rebuilt(cls, states: Iterable[RebuiltState], scheme: PinDigest = XXH3) -> StatePins:
+    def from_rebuilt(cls, states: Iterable[RebuiltState], scheme: PinDigest = XXH64) -> StatePins:
         """Pin the rebuilt states a trace collected (in cycle order, digested by
         :func:`~beatlog.replay.state_digests.state_digest` with ``scheme``)."""
         runs: list[PinnedRun] = []

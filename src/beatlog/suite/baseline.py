@@ -17,7 +17,7 @@ re-baseline reads as a diff in code review::
     #  cycle      time  "behavior": before -> after | no state changes | output ...
           12     0.360  open loop
           12     0.360  robot_state otherwise in 12..16 (3 cycles): ["range"], first {"range": 0.55}
-          12     0.360  robot_state digests 5 15095c189dfb391c JaYc....tY
+          12     0.360  robot_state digests 5 45b024220a80a3e9 Zsc2....aF
           12     0.360  "avoid": "idle" -> "turning"
           12     0.360  output "speed" = 0.0
           30     0.900  no state changes
@@ -41,7 +41,7 @@ run of such cycles (short gaps rebuilt as recorded included) names the fields th
 differ and their values in its first cycle, for review; then a line per block of up to
 64 of its cycles gives, after the count of cycles, the hex digest of the block and two
 base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
-gap): XXH3-64 of the state as the log encodes it
+gap): XXH64 of the state as the log encodes it
 (:func:`~beatlog.replay.state_digests.state_digest`), and of its pinned cycles' digests end to end
 for the block. Replay judges a pinned cycle's whole rebuilt state by its digest, bit for bit,
 and any other cycle against the recording. Behavior names, states and values are
@@ -60,7 +60,7 @@ diverges in its cycle.
 
 Older formats still read and judge as they did; a new baseline is always written in
 format 6. Format 5 files hold format 6's lines, their robot states digested by a keyed
-BLAKE2b (:data:`~beatlog.replay.state_digests.BLAKE2B`), ten times as dear to check. Format 4
+BLAKE2b (:data:`~beatlog.replay.state_digests.BLAKE2B`), seven times as dear to check. Format 4
 files hold the whole trace of state changes and outputs, not only where it departs: an
 output line appears in the cycles where that field's value changes, and a cycle
 without state-change lines has none; or the line ``state changes and outputs as
@@ -84,7 +84,7 @@ from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, read_small_text, replacing
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.pins import StatePins
-from beatlog.replay.state_digests import BLAKE2B, XXH3
+from beatlog.replay.state_digests import BLAKE2B, XXH64
 from beatlog.suite.baseline_parse import ParsedLines, split_header
 from beatlog.suite.baseline_text import COLUMNS, draw_line, format_lines
 from beatlog.suite.spec import SPEC_SUFFIX
@@ -245,7 +245,7 @@ def _expectation(path: Path, found: ParsedLines, version: int, *, as_recorded: b
     if both:
         raise BaselineError(path, f"cycle {min(both)} has state changes and none")
     try:
-        pins = StatePins(tuple(found.runs), tuple(found.blocks), XXH3 if version >= 6 else BLAKE2B)
+        pins = StatePins(tuple(found.runs), tuple(found.blocks), XXH64 if version >= 6 else BLAKE2B)
     except ValueError as exc:
         raise BaselineError(path, str(exc)) from None
     return Expectation(
