@@ -29,10 +29,10 @@ from __future__ import annotations
 
 import base64
 import bisect
+import functools
 import string
 import struct
 from collections.abc import Iterable, Iterator, Mapping
-from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from operator import add
 from typing import Any, NamedTuple
@@ -43,7 +43,9 @@ from beatlog.replay.state_digests import DIGEST_BYTES, XXH64, PinDigest
 __all__ = [
     "CYCLES_PER_BLOCK",
     "MAX_GAP",
+    "NOT_PINNED",
     "TAG_CHARS",
+    "TAG_SHIFT",
     "UNPINNED",
     "DigestBlock",
     "PinChecker",
@@ -60,8 +62,6 @@ CYCLES_PER_BLOCK = 64
 MAX_GAP = 16
 """The most cycles perception may rebuild as recorded inside one run: a gap costs a
 tag each, a new run a line of names and values."""
-_TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
-"""A digest shifted right by this many bits is its tag's bits."""
 UNPINNED = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
 _DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
@@ -261,49 +261,84 @@ def _tagged(tags: str) -> int | None:
     return marks.count(_DIGIT) // TAG_CHARS
 
 
+_GAP = 0xFF
+"""What :data:`_SIXES` makes of a gap's characters."""
+TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
+"""A digest shifted right by this many bits is its tag's bits."""
+_TAG_BITS = (1 << 6 * TAG_CHARS) - 1
+_OPENS = 1 << 6 * TAG_CHARS
+"""Marks the tag of a block's first pinned cycle (:attr:`PinChecker.tags`)."""
+_CLOSES = 2 << 6 * TAG_CHARS
+"""Marks the tag of a block's last pinned cycle."""
+NOT_PINNED = (_GAP << 6) + _GAP
+"""In :attr:`PinChecker.tags`, a cycle not pinned: a gap's two characters read as a tag,
+above any tag however marked."""
+_HIGH = [six << 6 for six in range(256)]
+"""The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
+it: a tag is ``_HIGH[first] + second``."""
+_SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
+"""Each tag character as the six bits it stands for: a cycle's tag is the first 12
+bits of its digest (:func:`_tag`), high six first."""
+
+
 class PinChecker:
     """Judges the robot states perception rebuilds against :class:`StatePins`, one
     pinned cycle after another, in cycle order.
 
     It costs a digest and a few look-ups a pinned cycle: each block's tags are read
-    into the pinned cycles' tags when it is made, in C, and a block's digest is checked
-    at its last pinned cycle.
+    into :attr:`tags` when it is made, in C, and a block's digest is checked at its
+    last pinned cycle. The replay core's perception step inlines the common case of
+    :meth:`mismatch` (:attr:`tags`, :attr:`digest`, :attr:`digests`) and leaves the
+    rest to :meth:`judge_digest`.
     """
 
     def __init__(self, pins: StatePins) -> None:
-        self._state_digest = pins.scheme.state
+        self.digest = pins.scheme.state
+        """A rebuilt state's digest, of its bytes as a log encodes them."""
         self._block_digest = pins.scheme.block
-        tags: dict[int, int] = {}
-        self._finals: dict[int, DigestBlock] = {}
-        """Each block by its last pinned cycle, where its digest is checked."""
-        for block in pins.blocks:
+        blocks = pins.blocks
+        tags = [NOT_PINNED] * (blocks[-1].cycle + blocks[-1].cycles if blocks else 0)
+        self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
+        """Each block by its last pinned cycle, where its digest is checked, with its
+        first pinned cycle and how many it pins."""
+        for block in blocks:
             sixes = block.tags.encode().translate(_SIXES)
-            cycles = range(block.cycle, block.cycle + block.cycles)
-            tags.update(
-                zip(cycles, map(add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]), strict=True)
+            tags[block.cycle : block.cycle + block.cycles] = map(
+                add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]
             )
-            gap = block.tags.find(UNPINNED)
-            while gap >= 0:
-                del tags[block.cycle + gap // TAG_CHARS]
-                gap = block.tags.find(UNPINNED, gap + TAG_CHARS)
+            first = block.cycle + (len(block.tags) - len(block.tags.lstrip(UNPINNED))) // TAG_CHARS
             final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
-            self._finals[final] = block
-        self._tags = tags
-        """Each pinned cycle's tag: the first 12 bits of its digest."""
-        self.cycles: AbstractSet[int] = tags.keys()
-        """The pinned cycles."""
-        self._digests: list[int] = []
-        """The digests of the cycles judged since the last block's end whose tags
-        agreed, in cycle order."""
+            if first > final:  # no cycle pinned (a baseline's coverage check refuses it)
+                continue
+            tags[first] |= _OPENS
+            tags[final] |= _CLOSES
+            pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
+            self._finals[final] = (block, first, pinned)
+        self.tags: list[int] = tags
+        """By cycle, from 0 to the last pinned one: a pinned cycle's tag (the first 12
+        bits of its digest, :data:`TAG_SHIFT`), marked above those bits where a block
+        opens or closes; :data:`NOT_PINNED` or more for a cycle not pinned. A digest
+        whose tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any
+        other is for :meth:`judge_digest`."""
+        self.digests: list[int] = []
+        """The digests of the cycles judged since the last block opened whose tags
+        agreed, in cycle order: checked with the block's digest where it closes."""
         self._opened = -1
-        """The first cycle of them."""
+        """The first pinned cycle of the block they are of."""
         self._found: dict[int, str] = {}
         """How the cycles found to differ were found to."""
         self._runs = pins.runs
         self._starts = [run.cycle for run in pins.runs]
 
+    @functools.cached_property
+    def cycles(self) -> frozenset[int]:
+        """The pinned cycles."""
+        return frozenset(cycle for cycle, tag in enumerate(self.tags) if tag < NOT_PINNED)
+
     def __contains__(self, cycle: object) -> bool:
-        return cycle in self.cycles
+        return (
+            isinstance(cycle, int) and 0 <= cycle < len(self.tags) and self.tags[cycle] < NOT_PINNED
+        )
 
     def run_at(self, cycle: int) -> PinnedRun:
         """The run a pinned cycle is in."""
@@ -319,15 +354,26 @@ class PinChecker:
 
         :raises KeyError: ``cycle`` is not pinned.
         """
-        digest = self._state_digest(encoded)
-        if digest >> _TAG_SHIFT != self._tags[cycle]:
+        if cycle not in self:
+            raise KeyError(cycle)
+        digest = self.digest(encoded)
+        if digest >> TAG_SHIFT == self.tags[cycle]:  # agrees, inside its block
+            self.digests.append(digest)
+            return None
+        return self.judge_digest(cycle, digest)
+
+    def judge_digest(self, cycle: int, digest: int) -> str | None:
+        """:meth:`mismatch` for the ``digest`` of pinned ``cycle`` where its tag is not
+        the cycle's unmarked tag: a block opens or closes there, or it differs."""
+        tag = self.tags[cycle]
+        if digest >> TAG_SHIFT != tag & _TAG_BITS:
             self._found[cycle] = "by its digest"  # reported here, not again for the block
             return "by its digest"
-        digests = self._digests
-        if not digests:
+        if tag & _OPENS:
             self._opened = cycle
-        digests.append(digest)
-        return self._block_mismatch(cycle) if cycle in self._finals else None
+            self.digests.clear()
+        self.digests.append(digest)
+        return self._block_mismatch(cycle) if tag & _CLOSES else None
 
     def found(self, cycle: int, encoded: bytes) -> str | None:
         """How the robot state of a pinned ``cycle`` was found to differ when it was
@@ -337,25 +383,15 @@ class PinChecker:
         return self.mismatch(cycle, encoded)
 
     def _block_mismatch(self, final: int) -> str | None:
-        """How the block ending at pinned cycle ``final`` was found to differ by its
+        """How the block closing at pinned cycle ``final`` was found to differ by its
         digest: None when it agrees, or when not every pinned cycle of it was judged,
         each agreeing with its tag (one that disagreed was reported in its own cycle)."""
-        block = self._finals[final]
-        digests, self._digests = self._digests, []
-        pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
-        if self._opened != block.cycle or len(digests) != pinned:
-            return None
-        if self._block_digest(struct.pack(f">{pinned}Q", *digests)) == block.digest:
+        block, first, pinned = self._finals[final]
+        digests = self.digests
+        agreed = self._opened == first and len(digests) == pinned
+        packed = struct.pack(f">{pinned}Q", *digests) if agreed else b""
+        digests.clear()
+        if not agreed or self._block_digest(packed) == block.digest:
             return None
         found = self._found[final] = f"by the digest of cycles {block.cycle}–{final}"
         return found
-
-
-_GAP = 0xFF
-"""What :data:`_SIXES` makes of a gap's characters."""
-_HIGH = [six << 6 for six in range(256)]
-"""The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
-it: a tag is ``_HIGH[first] + second``."""
-_SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
-"""Each tag character as the six bits it stands for: a cycle's tag is the first 12
-bits of its digest (:func:`_tag`), high six first."""

@@ -15,7 +15,7 @@ from beatlog.log.format import CycleRecord
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.outcome import Sensed
-from beatlog.replay.pins import PinChecker
+from beatlog.replay.pins import NOT_PINNED, TAG_SHIFT, PinChecker
 
 __all__ = ["UNREAD", "Perceiver"]
 
@@ -53,6 +53,7 @@ class Perceiver:
         self._reader = reader
         self._encode = encode
         self._pins = state_pins
+        self._tags = () if state_pins is None else state_pins.tags
         self._migrated = migrated
 
     def perceive(self, record: CycleRecord, recorded: Any, cycle: int) -> Sensed:
@@ -81,9 +82,19 @@ class Perceiver:
             encoded = self._encode(rebuilt)
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
             encoded = None
-        pins = self._pins
-        if pins is not None and cycle in pins.cycles:  # the approved state is expected
-            differs = encoded is None or pins.mismatch(cycle, encoded) is not None
+        tags = self._tags
+        if cycle < len(tags) and tags[cycle] < NOT_PINNED:  # the approved state is expected
+            pins = self._pins
+            assert pins is not None  # only pins have tags
+            if encoded is None:
+                differs = True
+            else:  # PinChecker.mismatch, its common case inlined: the hot path
+                digest = pins.digest(encoded)
+                if digest >> TAG_SHIFT == tags[cycle]:
+                    pins.digests.append(digest)
+                    differs = False
+                else:
+                    differs = pins.judge_digest(cycle, digest) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
             if differs and encoded is not None and self._migrated:
