@@ -18,6 +18,7 @@ from beatlog.log.format import (
     EMPTY_MAP,
     FORMAT_VERSION,
     CycleRecord,
+    Draw,
     SessionHeader,
 )
 from beatlog.log.reader import SessionLogReader
@@ -185,3 +186,27 @@ def test_a_header_with_a_field_added_later_in_the_same_version_still_reads() -> 
 def test_the_three_channels_have_distinct_beatlog_topics() -> None:
     assert len(set(CHANNEL_TOPICS)) == 3
     assert all(topic.startswith("/beatlog/") for topic in CHANNEL_TOPICS)
+
+
+@pytest.mark.parametrize(
+    ("params", "text"),
+    [
+        ((0.8, 1.6), "uniform(0.8, 1.6)"),
+        ((2, 5), "uniform(2, 5)"),
+        ((2.0, 5), "uniform(2.0, 5)"),
+        ((-0.0, 1.0), "uniform(-0.0, 1.0)"),
+        ((0.0, 1.0), "uniform(0.0, 1.0)"),
+        ((True, 2), "uniform(True, 2)"),
+        ((float("nan"), float("-inf")), "uniform(nan, -inf)"),
+        ((10**30, 1.5), "uniform(1000000000000000000000000000000, 1.5)"),
+        ((0.0, 1.0, [3, 2]), "uniform(0.0, 1.0, [3, 2])"),
+        ((), "uniform()"),
+    ],
+)
+def test_a_draw_writes_its_request_exactly_as_code_every_time(
+    params: tuple[Any, ...], text: str
+) -> None:
+    Draw(0, "uniform", 0.5, (0.0, 1.0)).call()  # equal as numbers to some above, written first
+    draws = [Draw(0, "uniform", 0.5, params), Draw(1, "uniform", 0.7, params)]
+
+    assert [draw.call() for draw in draws] == [text, text]
