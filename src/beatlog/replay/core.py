@@ -235,13 +235,6 @@ class Replayer:
             samples=sensed.samples,
         )
 
-    def changes_but_for_draws(self) -> list[StateChangeRecord] | None:
-        """BS'_t of the cycle replayed last if it went cleanly but for draws made otherwise
-        than recorded (living replay; the caller judges those), else None."""
-        _, _, changes, failure, sensed = self._last
-        clean = sensed is None or not (sensed.differs or sensed.failure is not None)
-        return changes if failure is None and self.random.mismatch is None and clean else None
-
     def stop(self, outcome: CycleOutcome) -> Stop | None:
         """Why replay cannot go on past ``outcome``'s cycle, if it cannot
         (:meth:`~beatlog.replay.outcome.CycleOutcome.stop`)."""
@@ -280,6 +273,7 @@ class Replayer:
         encode = self._encode
         encode_outputs = None if expected is None else expected.outputs.encode
         judged = frozenset() if expected is None else expected.judged
+        approves = None if expected is None else expected.draws
         changed = reported = drawn = 0
         changes: list[StateChangeRecord] | None = None
         while True:
@@ -332,13 +326,17 @@ class Replayer:
                 changes = None
                 failure = exc
             self._last = (record, state, changes, failure, sensed)
-            if living:  # a cycle that neither drew nor had draws recorded has none to settle
-                drew_otherwise = bool((random.recorded or random.drawn) and settle())
+            if random.mismatch is not None:
+                drew_otherwise = True
+            elif living:  # a cycle that neither drew nor had draws recorded has none to settle
+                differences = settle() if random.recorded or random.drawn else ()
+                drew_otherwise = bool(differences) and not (
+                    approves is not None and approves(context.cycle, differences)
+                )
             else:
-                drew_otherwise = random.mismatch is not None
+                drew_otherwise = len(random.drawn) != len(random.recorded)
             if changes is not None and (
                 drew_otherwise
-                or len(random.drawn) != len(random.recorded)
                 or (sensed is not None and (sensed.differs or sensed.failure is not None))
             ):
                 changes = None

@@ -72,9 +72,6 @@ class CycleJudge:
             list(header.behaviors) if self._expected is None else self._expected.names
         )
         ledger = None if expected is None else DrawLedger(expected.draws)
-        self._ledger = ledger
-        """In living replay (an approved baseline), the draws it lets differ."""
-        self._draw_cycles = frozenset() if ledger is None else ledger.cycles
         pinned_states: dict[int, dict[str, Any]] = {}
         """The robot states a format 3 baseline pins: fields by cycle (sensor-level replay)."""
         if expected is not None and replayer.perception is not None:
@@ -111,12 +108,12 @@ class CycleJudge:
         self._changes_checked = self._outputs_checked = self._draws_checked = 0
         """The state changes, outputs and draws of the cycles that agreed here (those
         that agreed at once the replay core counts)."""
-        self._judged = self._pinned_cycles | self._draw_cycles
         replayer.expect(
             Expected(
                 None if self._same_catalogue else self._expected_index,
                 self._outputs_encoder,
-                self._judged,
+                self._pinned_cycles,
+                None if ledger is None else ledger.approves,
             )
         )
 
@@ -206,20 +203,10 @@ class CycleJudge:
         outcome."""
         replayer = self.replayer
         cycle = self.executor.context.cycle
-        if changes is None or cycle in self._judged:
-            changes = None
-            ledger = self._ledger
-            if (
-                ledger is not None
-                and cycle in self._draw_cycles
-                and cycle not in self._pinned_cycles
-                and ledger.approves(cycle, replayer.random.differences)
-            ):  # made otherwise than recorded only as approved: judged as usual
-                changes = replayer.changes_but_for_draws()
-            if changes is None:
-                outcome = outcome or replayer.outcome()  # judged by its robot state, then as usual
-                agrees = self.divergences.agrees_but_for_pins(outcome)
-                changes = outcome.changes if agrees else None
+        if changes is None or cycle in self._pinned_cycles:
+            outcome = outcome or replayer.outcome()  # judged by its robot state, then as usual
+            agrees = self.divergences.agrees_but_for_pins(outcome)
+            changes = outcome.changes if agrees else None
         unloggable: Exception | None = None
         if changes is not None:
             outputs = self.executor.context.outputs

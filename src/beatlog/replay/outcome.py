@@ -4,7 +4,7 @@ these; the replay core (:mod:`beatlog.replay.core`) makes them."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 import msgspec
@@ -35,6 +35,10 @@ class Expected(NamedTuple):
     """How the record's outputs are encoded (a whole-trace baseline sorts their keys)."""
     judged: frozenset[int]
     """The cycles the verdict judges whole, whatever their bytes."""
+    draws: Callable[[int, Sequence[DrawDifference]], bool] | None = None
+    """In living replay against a baseline, whether it approves a cycle's draws made
+    otherwise than recorded, exactly (:meth:`~beatlog.replay.draws.DrawLedger.approves`):
+    a cycle that drew only as approved goes on to the byte comparison."""
 
 
 class CycleOutcome(NamedTuple):
