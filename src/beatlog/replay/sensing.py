@@ -15,7 +15,7 @@ from beatlog.log.format import CycleRecord
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.outcome import Sensed
-from beatlog.replay.pins import NOT_PINNED, TAG_SHIFT, PinChecker
+from beatlog.replay.pins import NOT_PINNED, TAG_SHIFT, PinChecker, StatePins
 
 __all__ = ["UNREAD", "Perceiver"]
 
@@ -52,8 +52,12 @@ class Perceiver:
         self._robot_state = robot_state
         self._reader = reader
         self._encode = encode
-        self._pins = state_pins
-        self._tags = () if state_pins is None else state_pins.tags
+        pins = state_pins or PinChecker(StatePins())  # what a pinned cycle asks, looked up once
+        self._tags = pins.tags
+        """The pins' tags by cycle (:attr:`PinChecker.tags`): none without pins."""
+        self._digest = pins.digest
+        self._digests = pins.digests
+        self._judge_digest = pins.judge_digest
         self._migrated = migrated
 
     def perceive(self, record: CycleRecord, recorded: Any, cycle: int) -> Sensed:
@@ -83,18 +87,17 @@ class Perceiver:
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
             encoded = None
         tags = self._tags
-        if cycle < len(tags) and tags[cycle] < NOT_PINNED:  # the approved state is expected
-            pins = self._pins
-            assert pins is not None  # only pins have tags
+        tag = tags[cycle] if cycle < len(tags) else NOT_PINNED
+        if tag < NOT_PINNED:  # pinned: the approved state is expected
             if encoded is None:
                 differs = True
             else:  # PinChecker.mismatch, its common case inlined: the hot path
-                digest = pins.digest(encoded)
-                if digest >> TAG_SHIFT == tags[cycle]:
-                    pins.digests.append(digest)
+                digest = self._digest(encoded)
+                if digest >> TAG_SHIFT == tag:
+                    self._digests.append(digest)
                     differs = False
                 else:
-                    differs = pins.judge_digest(cycle, digest) is not None
+                    differs = self._judge_digest(cycle, digest) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
             if differs and encoded is not None and self._migrated:
