@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+import struct
 import subprocess
 import sys
+from statistics import NormalDist
 
 import numpy as np
 import pytest
@@ -65,6 +67,18 @@ def test_a_kind_change_maps_by_quantile() -> None:
 
     assert scalar_value("gauss", (3.0, 1.0), median) == pytest.approx(3.0)
     assert scalar_value("randint", (0, 9), median) == 5
+
+
+@pytest.mark.parametrize("value", [-7.5, -1e-300, -0.0, 0.0, 0.3, 2.9999, 1e300, math.inf])
+def test_a_normal_draws_quantile_is_the_normal_distributions_cdf_bit_for_bit(
+    value: float,
+) -> None:
+    luck = scalar_luck("gauss", value, (0.0, 3.0))
+    assert luck is not None
+
+    z = value / 3.0
+    expected = NormalDist().cdf(z) if math.isfinite(z) else 0.5
+    assert struct.pack("<d", luck.u) == struct.pack("<d", min(expected, 1.0 - 2.0**-53))
 
 
 def test_a_format_1_draw_has_no_known_luck() -> None:

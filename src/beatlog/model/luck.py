@@ -35,6 +35,7 @@ if TYPE_CHECKING:
 __all__ = ["Luck", "Place", "array_value", "fresh_luck", "scalar_luck", "scalar_value"]
 
 _NORMAL = NormalDist()
+_SQRT2 = math.sqrt(2.0)
 _TINY = 2.0**-53
 _TOP = 1.0 - _TINY
 _SCALARS = frozenset({"random", "uniform", "gauss", "randint", "choice"})
@@ -67,14 +68,10 @@ class Place(NamedTuple):
         return hashlib.blake2b(text, key=key[:64], digest_size=8).digest()
 
 
-def _unit(seed: bytes) -> float:
-    """A float in [0, 1) from 8 bytes: 53 bits, as generators make them."""
-    return (int.from_bytes(seed, "little") >> 11) * _TINY
-
-
 def fresh_luck(key: bytes, place: Place) -> Luck:
-    """The luck of a draw the recording does not have, at ``place`` in the log ``key``."""
-    return Luck(_unit(place.seed(key)))
+    """The luck of a draw the recording does not have, at ``place`` in the log ``key``:
+    the place's 8 bytes as a float in [0, 1), 53 bits, as generators make them."""
+    return Luck((int.from_bytes(place.seed(key), "little") >> 11) * _TINY)
 
 
 def _clamped(u: float) -> float:
@@ -94,7 +91,8 @@ def scalar_luck(kind: str, value: Any, params: tuple[Any, ...]) -> Luck | None:
     if kind == "gauss":
         mu, sigma = params
         z = (value - mu) / sigma if sigma else 0.0
-        return Luck(_clamped(_NORMAL.cdf(z)) if math.isfinite(z) else 0.5, z)
+        u = 0.5 * (1.0 + math.erf(z / _SQRT2))  # NormalDist().cdf(z), bit for bit
+        return Luck(_clamped(u) if math.isfinite(z) else 0.5, z)
     low, count = (params[0], params[1] - params[0] + 1) if kind == "randint" else (0, params[0])
     return Luck(_clamped((value - low + 0.5) / count) if count > 0 else 0.5)
 
@@ -112,7 +110,7 @@ def scalar_value(kind: str, params: tuple[Any, ...], luck: Luck) -> Any:
         return a + (b - a) * luck.u
     if kind == "gauss":
         mu, sigma = params
-        return mu + sigma * luck.score()
+        return mu + sigma * (luck.z if luck.z is not None else luck.score())
     low, count = (params[0], params[1] - params[0] + 1) if kind == "randint" else (0, params[0])
     if count < 1:
         raise ValueError(f"{kind}{tuple(params)!r} has no values to draw from")

@@ -5,6 +5,7 @@ that names the behavior, or, in living replay, a difference noted for the verdic
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from operator import attrgetter
 from typing import Any, NamedTuple
 
 from beatlog.log.format import Draw
@@ -23,6 +24,10 @@ from beatlog.model.source import RandomSource
 __all__ = ["DrawDifference", "RandomMismatch", "ReplayRandom"]
 
 _RANDOM = DrawKind.RANDOM.value
+_ACTOR = attrgetter("actor")
+_made = tuple.__new__
+"""A NamedTuple made of its fields in C, as its ``_make`` makes one without the Python
+call its constructor costs: living replay makes two for most draws."""
 
 
 class DrawDifference(NamedTuple):
@@ -149,16 +154,6 @@ class ReplayRandom(RandomSource):
         names = self._recorded_now
         return names[actor] if actor < len(names) else f"#{actor}"
 
-    def _name(self, actor: int) -> str:
-        if actor < 0:
-            return "system"
-        names = self._names_now
-        return names[actor] if actor < len(names) else f"#{actor}"
-
-    def _drawn_by(self, draw: Draw, actor: int) -> bool:
-        """Whether the recording credits ``draw`` to the behavior ``actor`` is now."""
-        return self._owner(draw) == actor
-
     def _owner(self, draw: Draw) -> int | None:
         """The behavior the recording credits ``draw`` to, by its index now (None: one
         the system no longer has)."""
@@ -167,11 +162,14 @@ class ReplayRandom(RandomSource):
             return draw.actor
         return actors[draw.actor] if draw.actor < len(actors) else None
 
-    def _next(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
+    def _draw(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
+        """The value of the next draw: the recorded one, checked (:meth:`_strict`), or in
+        living replay the behavior's match (:meth:`_living`)."""
+        return self._living(kind, params) if self.living else self._strict(kind, params)
+
+    def _strict(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         index = len(self.drawn)
         actor = self._actor
-        if self.living:
-            return self._living(kind, params, index, actor)
         name = kind._value_
         if index >= len(self.recorded):
             asked = Draw(actor, name, None, params)
@@ -191,40 +189,59 @@ class ReplayRandom(RandomSource):
         self.drawn.append(Draw(actor, name, draw.value, params))
         return draw.value
 
-    def _living(self, kind: DrawKind, params: tuple[Any, ...], index: int, actor: int) -> Any:
+    def _living(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         """A draw in living replay: the recorded one while the cycle follows the
-        recording, else the behavior's match (:meth:`live`)."""
+        recording, else the behavior's match (:meth:`live`). Most of a changed
+        behavior's draws come here; written out flat, as each call costs."""
         name = kind._value_
+        actor = -1 if self._context is None else self._context.actor
         recorded = self.recorded
+        drawn = self.drawn
         used = self._used
         if used is None:
+            index = len(drawn)
             if index < len(recorded):
                 draw = recorded[index]
-                if (
-                    draw.kind == name
-                    and (not draw.params or same_params(draw.params, params))
-                    and self._drawn_by(draw, actor)
-                ):
-                    self.drawn.append(Draw(actor, name, draw.value, params))
-                    return draw.value
+                if draw.kind == name and (not draw.params or same_params(draw.params, params)):
+                    credited = draw.actor  # self._owner(draw), inlined: every draw asks it
+                    actors = self._actors
+                    owner = (
+                        credited
+                        if credited < 0 or actors is None
+                        else actors[credited]
+                        if credited < len(actors)
+                        else None
+                    )
+                    if owner == actor:  # the recording credits it to this behavior
+                        drawn.append(_made(Draw, (actor, name, draw.value, params)))
+                        return draw.value
             taken = min(index, len(recorded))
             used = self._used = [True] * taken + [False] * (len(recorded) - taken)
-            self._owners = [self._owner(draw) for draw in recorded]
-        mine = [i for i, owner in enumerate(self._owners) if owner == actor and not used[i]]
-        match = next((i for i in mine if recorded[i].kind == name), None)
-        if match is None and name in SCALAR_VALUES:  # another kind, its luck re-mapped
-            match = next((i for i in mine if _luck(recorded[i]) is not None), None)
-        behavior = self._name(actor)
-        if match is None:
+            self._owners = list(map(self._owner, recorded))
+        owners = self._owners
+        match = -1  # the behavior's first recorded draw left of the kind asked for
+        for i, owner in enumerate(owners):
+            if owner == actor and not used[i] and recorded[i].kind == name:
+                match = i
+                break
+        else:
+            if name in SCALAR_VALUES:  # else of another kind, its luck re-mapped
+                for i, owner in enumerate(owners):
+                    if owner == actor and not used[i] and _luck(recorded[i]) is not None:
+                        match = i
+                        break
+        names = self._names_now
+        behavior = "system" if actor < 0 else names[actor] if actor < len(names) else f"#{actor}"
+        if match < 0:
             value = self._fresh_value(name, params, None, behavior, actor)
-            asked = Draw(actor, name, value, params)
-            self.differences.append(DrawDifference(behavior, None, asked.call()))
+            asked = _made(Draw, (actor, name, value, params))
+            self.differences.append(_made(DrawDifference, (behavior, None, asked.call())))
         else:
             used[match] = True
             draw = recorded[match]
             if draw.kind == name and (not draw.params or same_params(draw.params, params)):
                 value = draw.value  # as recorded, in another place
-                asked = Draw(actor, name, value, params)
+                asked = _made(Draw, (actor, name, value, params))
             else:
                 luck = None if name in ARRAY_KINDS else _luck(draw)
                 value = (
@@ -232,9 +249,10 @@ class ReplayRandom(RandomSource):
                     if luck is not None
                     else self._fresh_value(name, params, draw, behavior, actor)
                 )
-                asked = Draw(actor, name, value, params)
-                self.differences.append(DrawDifference(behavior, _request(draw), asked.call()))
-        self.drawn.append(asked)
+                asked = _made(Draw, (actor, name, value, params))
+                difference = (behavior, _request(draw), asked.call())
+                self.differences.append(_made(DrawDifference, difference))
+        drawn.append(asked)
         return value
 
     def _fresh_value(
@@ -245,7 +263,7 @@ class ReplayRandom(RandomSource):
         place = Place(
             self._context.cycle if self._context is not None else -1,
             behavior,
-            sum(1 for d in self.drawn if d.actor == actor),
+            list(map(_ACTOR, self.drawn)).count(actor),
         )
         if name in ARRAY_KINDS:
             old = None
@@ -283,7 +301,7 @@ class ReplayRandom(RandomSource):
         raise self.mismatch
 
     def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
-        value = self._next(kind, params)
+        value = self._draw(kind, params)
         if kind is DrawKind.CHOICE and not 0 <= value < b:
             self._fail(
                 f"recorded choice index {value} is out of range for {int(b)} items", self._actor
@@ -292,7 +310,7 @@ class ReplayRandom(RandomSource):
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
         need_numpy()  # before a fresh draw of living replay, too
-        array = unpack_array(self._next(kind, (a, b, list(shape))))
+        array = unpack_array(self._draw(kind, (a, b, list(shape))))
         if array.shape != shape:
             self._fail(
                 f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
