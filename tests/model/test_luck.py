@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import math
 import struct
 import subprocess
@@ -11,7 +12,15 @@ from statistics import NormalDist
 import numpy as np
 import pytest
 
-from beatlog.model.luck import Luck, Place, array_value, fresh_luck, scalar_luck, scalar_value
+from beatlog.model.luck import (
+    FreshLuck,
+    Luck,
+    Place,
+    array_value,
+    fresh_luck,
+    scalar_luck,
+    scalar_value,
+)
 
 KEY = b"a log"
 
@@ -89,6 +98,17 @@ def test_a_format_1_draw_has_no_known_luck() -> None:
 def test_a_request_with_no_values_raises_as_a_generator_would() -> None:
     with pytest.raises(ValueError, match=r"randint\(5, 3\) has no values"):
         scalar_value("randint", (5, 3), Luck(0.5))
+
+
+@pytest.mark.parametrize("key", [b"", KEY, bytes(range(100))], ids=["empty", "short", "long"])
+def test_a_places_seed_is_its_keyed_blake2b_whichever_way_it_is_asked(key: bytes) -> None:
+    place = Place(cycle=517, behavior="escape", call=2)
+    keyed = hashlib.blake2b(b"517\x00escape\x002", key=key[:64], digest_size=8).digest()
+    fresh = FreshLuck(key)
+
+    assert place.seed(key) == fresh.seed(place) == keyed
+    assert fresh_luck(key, place) == fresh.luck(place)
+    assert fresh.luck(place).u == (int.from_bytes(keyed, "little") >> 11) * 2.0**-53
 
 
 def test_fresh_luck_is_keyed_by_the_log_and_the_place() -> None:

@@ -32,13 +32,24 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-__all__ = ["Luck", "Place", "array_value", "fresh_luck", "scalar_luck", "scalar_value"]
+__all__ = [
+    "FreshLuck",
+    "Luck",
+    "Place",
+    "array_value",
+    "fresh_luck",
+    "scalar_luck",
+    "scalar_value",
+]
 
 _NORMAL = NormalDist()
 _SQRT2 = math.sqrt(2.0)
 _TINY = 2.0**-53
 _TOP = 1.0 - _TINY
 _SCALARS = frozenset({"random", "uniform", "gauss", "randint", "choice"})
+_made = tuple.__new__
+"""A NamedTuple made of its fields in C, as its ``_make`` makes one, without the Python
+call its constructor costs."""
 
 
 class Luck(NamedTuple):
@@ -64,14 +75,36 @@ class Place(NamedTuple):
 
     def seed(self, key: bytes) -> bytes:
         """Eight bytes for this place in the log keyed by ``key``."""
-        text = f"{self.cycle}\x00{self.behavior}\x00{self.call}".encode()
-        return hashlib.blake2b(text, key=key[:64], digest_size=8).digest()
+        return FreshLuck(key).seed(self)
+
+
+class FreshLuck:
+    """The fresh luck of one log's places, keyed by ``key`` (its first 64 bytes): a
+    place's seed is the BLAKE2b digest, 8 bytes, keyed so, of ``cycle``, ``behavior`` and
+    ``call`` as text, each ended by a NUL but the last. A source that draws many keeps
+    one: the key is hashed once."""
+
+    __slots__ = ("_keyed",)
+
+    def __init__(self, key: bytes) -> None:
+        self._keyed = hashlib.blake2b(key=key[:64], digest_size=8)
+
+    def seed(self, place: Place) -> bytes:
+        """Eight bytes for ``place``."""
+        hasher = self._keyed.copy()
+        hasher.update(f"{place[0]}\x00{place[1]}\x00{place[2]}".encode())
+        return hasher.digest()
+
+    def luck(self, place: Place) -> Luck:
+        """The luck of a draw the recording does not have, at ``place``: its seed as a
+        float in [0, 1), 53 bits, as generators make them."""
+        return _made(Luck, ((int.from_bytes(self.seed(place), "little") >> 11) * _TINY, None))
 
 
 def fresh_luck(key: bytes, place: Place) -> Luck:
-    """The luck of a draw the recording does not have, at ``place`` in the log ``key``:
-    the place's 8 bytes as a float in [0, 1), 53 bits, as generators make them."""
-    return Luck((int.from_bytes(place.seed(key), "little") >> 11) * _TINY)
+    """The luck of a draw the recording does not have, at ``place`` in the log ``key``
+    (:meth:`FreshLuck.luck`)."""
+    return FreshLuck(key).luck(place)
 
 
 def _clamped(u: float) -> float:

@@ -26,7 +26,7 @@ from beatlog.model.draws import (
     plain_value,
     recorded_draw_problem,
 )
-from beatlog.model.luck import Place, array_value, fresh_luck, scalar_value
+from beatlog.model.luck import FreshLuck, Place, array_value, scalar_value
 from beatlog.model.replay_random import DrawDifference, RandomMismatch, ReplayRandom
 from beatlog.model.source import RandomSource
 
@@ -57,7 +57,7 @@ class RecordingRandom(RandomSource):
     def __init__(self, seed: int | None = None) -> None:
         super().__init__()
         self.seed = seed if seed is not None else secrets.randbits(63)
-        self._key = str(self.seed).encode()
+        self._fresh = FreshLuck(str(self.seed).encode())
         self._count = 0
         self.draws: list[Draw] = []
 
@@ -72,7 +72,7 @@ class RecordingRandom(RandomSource):
         return Place(0, "", self._count - 1)
 
     def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
-        luck = fresh_luck(self._key, self._place())
+        luck = self._fresh.luck(self._place())
         value = SCALAR_VALUES[kind.value](scalar_value(kind.value, params, luck))
         self.draws.append(Draw(self._actor, kind.value, value, params))
         return value
@@ -80,6 +80,6 @@ class RecordingRandom(RandomSource):
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
         need_numpy()
         params = (a, b, list(shape))
-        array = array_value(kind.value, params, None, self._place().seed(self._key))
+        array = array_value(kind.value, params, None, self._fresh.seed(self._place()))
         self.draws.append(Draw(self._actor, kind.value, pack_array(array), params))
         return array

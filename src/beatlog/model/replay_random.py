@@ -18,7 +18,7 @@ from beatlog.model.draws import (
     same_params,
     unpack_array,
 )
-from beatlog.model.luck import Luck, Place, array_value, fresh_luck, scalar_luck, scalar_value
+from beatlog.model.luck import FreshLuck, Luck, Place, array_value, scalar_luck, scalar_value
 from beatlog.model.source import RandomSource
 
 __all__ = ["DrawDifference", "RandomMismatch", "ReplayRandom"]
@@ -88,7 +88,7 @@ class ReplayRandom(RandomSource):
         self._recorded_names: Sequence[str] = ()
         self._names_now: Sequence[str] = ()
         self._recorded_now: Sequence[str] = ()
-        self._key = b""
+        self._fresh = FreshLuck(b"")
         self._used: list[bool] | None = None
         self._owners: list[int | None] = []
         """Once a draw differed: the behavior that made each recorded draw, by its index now."""
@@ -121,7 +121,7 @@ class ReplayRandom(RandomSource):
         dropped. Each is a :class:`DrawDifference`. Same log, same code: same draws.
         """
         self.living = True
-        self._key = key
+        self._fresh = FreshLuck(key)
 
     def load(self, recorded: Sequence[Draw]) -> None:
         """Set the draws recorded for the next cycle."""
@@ -260,17 +260,14 @@ class ReplayRandom(RandomSource):
     ) -> Any:
         """The value of a request with fresh luck, keyed by its place; an array's with
         the luck of the recorded ``draw`` where it has one."""
-        place = Place(
-            self._context.cycle if self._context is not None else -1,
-            behavior,
-            list(map(_ACTOR, self.drawn)).count(actor),
-        )
+        cycle = self._context.cycle if self._context is not None else -1
+        place = _made(Place, (cycle, behavior, list(map(_ACTOR, self.drawn)).count(actor)))
         if name in ARRAY_KINDS:
             old = None
             if draw is not None and draw.params:
                 old = (draw.kind, draw.params, unpack_array(draw.value))
-            return pack_array(array_value(name, params, old, place.seed(self._key)))
-        return scalar_value(name, params, fresh_luck(self._key, place))
+            return pack_array(array_value(name, params, old, self._fresh.seed(place)))
+        return scalar_value(name, params, self._fresh.luck(place))
 
     def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
         """Refuse a draw the recording credits to another behavior (by its name now)."""
