@@ -162,12 +162,8 @@ class ReplayRandom(RandomSource):
             return draw.actor
         return actors[draw.actor] if draw.actor < len(actors) else None
 
-    def _draw(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
-        """The value of the next draw: the recorded one, checked (:meth:`_strict`), or in
-        living replay the behavior's match (:meth:`_living`)."""
-        return self._living(kind, params) if self.living else self._strict(kind, params)
-
     def _strict(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
+        """The recorded draw, checked against the request: any difference is a mismatch."""
         index = len(self.drawn)
         actor = self._actor
         name = kind._value_
@@ -298,7 +294,7 @@ class ReplayRandom(RandomSource):
         raise self.mismatch
 
     def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
-        value = self._draw(kind, params)
+        value = self._living(kind, params) if self.living else self._strict(kind, params)
         if kind is DrawKind.CHOICE and not 0 <= value < b:
             self._fail(
                 f"recorded choice index {value} is out of range for {int(b)} items", self._actor
@@ -307,7 +303,9 @@ class ReplayRandom(RandomSource):
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
         need_numpy()  # before a fresh draw of living replay, too
-        array = unpack_array(self._draw(kind, (a, b, list(shape))))
+        params = (a, b, list(shape))
+        draw = self._living if self.living else self._strict
+        array = unpack_array(draw(kind, params))
         if array.shape != shape:
             self._fail(
                 f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
