@@ -58,3 +58,13 @@ def test_the_ledger_approves_a_cycle_exactly_where_it_finds_nothing_to_name() ->
 
     assert approved == [True, False, False, False, True, False]
     assert approved == [ledger.check(cycle, made) is None for cycle, made in cycles]
+
+
+def test_the_ledger_approves_a_single_difference_only_where_it_alone_is_approved() -> None:
+    ledger = DrawLedger(draw_rules([(12, NEW), (14, RETUNED), (14, RETUNED), (15, RETUNED)]))
+    cycles = [(12, [NEW]), (12, [RETUNED]), (14, [RETUNED]), (15, [RETUNED]), (16, [NEW])]
+
+    approved = [ledger.approves(cycle, made) for cycle, made in cycles]
+
+    assert approved == [True, False, False, True, False]
+    assert approved == [ledger.check(cycle, made) is None for cycle, made in cycles]

@@ -117,17 +117,17 @@ def scalar_luck(kind: str, value: Any, params: tuple[Any, ...]) -> Luck | None:
     if kind not in _SCALARS or (kind != "random" and not params):
         return None
     if kind == "random":
-        return Luck(_clamped(value))
+        return _made(Luck, (_clamped(value), None))
     if kind == "uniform":
         a, b = params
-        return Luck(_clamped((value - a) / (b - a)) if b != a else 0.5)
+        return _made(Luck, (_clamped((value - a) / (b - a)) if b != a else 0.5, None))
     if kind == "gauss":
         mu, sigma = params
         z = (value - mu) / sigma if sigma else 0.0
         u = 0.5 * (1.0 + math.erf(z / _SQRT2))  # NormalDist().cdf(z), bit for bit
-        return Luck(_clamped(u) if math.isfinite(z) else 0.5, z)
+        return _made(Luck, (_clamped(u) if math.isfinite(z) else 0.5, z))
     low, count = (params[0], params[1] - params[0] + 1) if kind == "randint" else (0, params[0])
-    return Luck(_clamped((value - low + 0.5) / count) if count > 0 else 0.5)
+    return _made(Luck, (_clamped((value - low + 0.5) / count) if count > 0 else 0.5, None))
 
 
 def scalar_value(kind: str, params: tuple[Any, ...], luck: Luck) -> Any:

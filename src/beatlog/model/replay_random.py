@@ -90,6 +90,9 @@ class ReplayRandom(RandomSource):
         self._recorded_now: Sequence[str] = ()
         self._fresh = FreshLuck(b"")
         self._used: list[bool] | None = None
+        self._owner_of: dict[int, int | None] | None = None
+        """The behavior each recorded actor is now, by its index (None: one the system
+        no longer has), once :meth:`expect_actors` says so; the system stays -1."""
         self._owners: list[int | None] = []
         """Once a draw differed: the behavior that made each recorded draw, by its index now."""
         """In living replay, once a draw differed: which recorded draws are taken."""
@@ -106,6 +109,7 @@ class ReplayRandom(RandomSource):
         parameters only (in living replay, it is left unused)."""
         ids = {name: index for index, name in enumerate(system)}
         self._actors = [ids.get(rename(name)) for name in recorded]
+        self._owner_of = {-1: -1, **dict(enumerate(self._actors))}
         self._recorded_names = recorded
         self._names_now = system
         self._recorded_now = [rename(name) for name in recorded]
@@ -143,9 +147,8 @@ class ReplayRandom(RandomSource):
         for index in range(start, len(self.recorded)):
             if used is None or not used[index]:
                 draw = self.recorded[index]
-                self.differences.append(
-                    DrawDifference(self._recorded_name(draw.actor), _request(draw), None)
-                )
+                difference = (self._recorded_name(draw.actor), _request(draw), None)
+                self.differences.append(_made(DrawDifference, difference))
         return self.differences
 
     def _recorded_name(self, actor: int) -> str:
@@ -153,14 +156,6 @@ class ReplayRandom(RandomSource):
             return "system"
         names = self._recorded_now
         return names[actor] if actor < len(names) else f"#{actor}"
-
-    def _owner(self, draw: Draw) -> int | None:
-        """The behavior the recording credits ``draw`` to, by its index now (None: one
-        the system no longer has)."""
-        actors = self._actors
-        if actors is None or draw.actor < 0:
-            return draw.actor
-        return actors[draw.actor] if draw.actor < len(actors) else None
 
     def _strict(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         """The recorded draw, checked against the request: any difference is a mismatch."""
@@ -199,21 +194,16 @@ class ReplayRandom(RandomSource):
             if index < len(recorded):
                 draw = recorded[index]
                 if draw.kind == name and (not draw.params or same_params(draw.params, params)):
-                    credited = draw.actor  # self._owner(draw), inlined: every draw asks it
-                    actors = self._actors
-                    owner = (
-                        credited
-                        if credited < 0 or actors is None
-                        else actors[credited]
-                        if credited < len(actors)
-                        else None
-                    )
+                    owner_of = self._owner_of
+                    owner = draw.actor if owner_of is None else owner_of.get(draw.actor)
                     if owner == actor:  # the recording credits it to this behavior
                         drawn.append(_made(Draw, (actor, name, draw.value, params)))
                         return draw.value
             taken = min(index, len(recorded))
             used = self._used = [True] * taken + [False] * (len(recorded) - taken)
-            self._owners = list(map(self._owner, recorded))
+            owner_of = self._owner_of
+            actors = map(_ACTOR, recorded)
+            self._owners = list(actors if owner_of is None else map(owner_of.get, actors))
         owners = self._owners
         match = -1  # the behavior's first recorded draw left of the kind asked for
         for i, owner in enumerate(owners):

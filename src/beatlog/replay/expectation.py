@@ -13,6 +13,7 @@ import enum
 import itertools
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import Any, NamedTuple
 
 import msgspec
@@ -32,6 +33,8 @@ __all__ = [
     "TracedOutput",
     "TracedState",
 ]
+
+_CYCLE = attrgetter("cycle")
 
 
 class TracedChange(NamedTuple):
@@ -191,7 +194,7 @@ class Expectation:
     def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
         """Each cycle where an output changes, with every output field from then on."""
         current: dict[str, Any] = {}
-        for cycle, changes in itertools.groupby(self.outputs or (), key=lambda o: o.cycle):
+        for cycle, changes in itertools.groupby(self.outputs or (), key=_CYCLE):
             for change in changes:
                 if change.value is ABSENT:
                     current.pop(change.field, None)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Iterator, Sequence
+from operator import attrgetter
 from typing import Any
 
 import msgspec
@@ -28,6 +29,8 @@ from beatlog.replay.held_outputs import HeldOutputs
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["ExpectedRecords"]
+
+_CYCLE = attrgetter("cycle")
 
 
 class ExpectedRecords:
@@ -109,7 +112,7 @@ class ExpectedRecords:
         changes = self._changes
         lines = {
             cycle: list(outputs)
-            for cycle, outputs in itertools.groupby(self._outputs or (), key=lambda o: o.cycle)
+            for cycle, outputs in itertools.groupby(self._outputs or (), key=_CYCLE)
         }
         events = iter(sorted(changes.keys() | lines.keys()))
         """The cycles with departing state changes or output lines."""
