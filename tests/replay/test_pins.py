@@ -171,6 +171,26 @@ def test_a_block_is_judged_by_its_own_cycles_only() -> None:
     assert set(found.values()) == {None}
 
 
+@pytest.mark.parametrize("tag", ["//", "A/", "/A", "AA"])
+def test_a_one_cycle_block_opens_and_closes_on_its_own_tag(tag: str) -> None:
+    high, low = (_DIGIT_SIX[char] for char in tag)
+    digest = (high << 58) | (low << 52) | 0x12345
+    block = DigestBlock(7, 0, tag, XXH64.block(digest.to_bytes(8)))
+    checker = PinChecker(StatePins((_run(7, 7, 1),), (block,)))
+    other = digest ^ (1 << 52)
+
+    assert [cycle in checker for cycle in (6, 7, 8)] == [False, True, False]
+    assert checker.judge_digest(7, digest) is None
+    assert checker.judge_digest(7, other) == "by its digest"
+    assert checker.judge_digest(7, digest ^ 1) == "by the digest of cycles 7–7"
+
+
+_DIGIT_SIX = {
+    char: six
+    for six, char in enumerate("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/")
+}
+
+
 def _run(cycle: int, last: int, cycles: int) -> PinnedRun:
     return PinnedRun(cycle, 0, last, cycles, ("speed",), {"speed": 1.0})
 
