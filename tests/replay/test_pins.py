@@ -185,6 +185,23 @@ def test_a_one_cycle_block_opens_and_closes_on_its_own_tag(tag: str) -> None:
     assert checker.judge_digest(7, digest ^ 1) == "by the digest of cycles 7–7"
 
 
+def test_a_checker_reads_each_tag_as_the_first_12_bits_of_its_digest() -> None:
+    digits = list(_DIGIT_SIX)
+    tags = [*(a + b for a, b in zip(digits, reversed(digits), strict=True)), "/A", "A/", "//"]
+    tags[10] = UNPINNED  # a gap
+    blocks = (
+        DigestBlock(0, 0, "".join(tags[:64]), bytes(8)),
+        DigestBlock(64, 0, "".join(tags[64:]), bytes(8)),
+    )
+    checker = PinChecker(StatePins((_run(0, 63, 63), _run(64, 66, 3)), blocks))
+    expected = [
+        None if tag == UNPINNED else _DIGIT_SIX[tag[0]] << 6 | _DIGIT_SIX[tag[1]] for tag in tags
+    ]
+
+    read = [tag & 0xFFF if cycle in checker else None for cycle, tag in enumerate(checker.tags)]
+    assert read == expected
+
+
 _DIGIT_SIX = {
     char: six
     for six, char in enumerate("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/")

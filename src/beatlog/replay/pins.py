@@ -34,6 +34,7 @@ import string
 import struct
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
+from operator import add
 from typing import Any, NamedTuple
 
 from beatlog.replay.compare import Comparison
@@ -41,13 +42,11 @@ from beatlog.replay.state_digests import DIGEST_BYTES, XXH64, PinDigest
 
 __all__ = [
     "CYCLES_PER_BLOCK",
-    "HIGH_SHIFT",
-    "LOW_SHIFT",
     "MAX_GAP",
-    "SIX_BITS",
+    "NOT_PINNED",
     "TAG_CHARS",
+    "TAG_SHIFT",
     "UNPINNED",
-    "UNPINNED_SIX",
     "DigestBlock",
     "PinChecker",
     "PinnedRun",
@@ -263,21 +262,20 @@ def _tagged(tags: str) -> int | None:
 
 
 _GAP = 0xFF
-"""What :data:`_SIXES` makes of a gap's characters: in :attr:`PinChecker.sixes`, a
-cycle not pinned."""
-UNPINNED_SIX = _GAP
-"""The first of a cycle's two :attr:`PinChecker.sixes` where it is not pinned."""
-HIGH_SHIFT = 8 * DIGEST_BYTES - 6
-"""A digest shifted right by this many bits is the six bits of its tag's first
-character."""
-LOW_SHIFT = HIGH_SHIFT - 6
-"""A digest shifted right by this many bits ends with the six bits of its tag's second
-character (:data:`SIX_BITS`)."""
-SIX_BITS = 0x3F
-_OPENS = 0x40
-"""Marks the second six of a block's first pinned cycle."""
-_CLOSES = 0x80
-"""Marks the second six of a block's last pinned cycle."""
+"""What :data:`_SIXES` makes of a gap's characters."""
+TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
+"""A digest shifted right by this many bits is its tag's bits."""
+_TAG_BITS = (1 << 6 * TAG_CHARS) - 1
+_OPENS = 1 << 6 * TAG_CHARS
+"""Marks the tag of a block's first pinned cycle (:attr:`PinChecker.tags`)."""
+_CLOSES = 2 << 6 * TAG_CHARS
+"""Marks the tag of a block's last pinned cycle."""
+NOT_PINNED = (_GAP << 6) + _GAP
+"""In :attr:`PinChecker.tags`, a cycle not pinned: a gap's two characters read as a tag,
+above any tag however marked."""
+_HIGH = [six << 6 for six in range(256)]
+"""The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
+it: a tag is ``_HIGH[first] + second``."""
 _SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
 """Each tag character as the six bits it stands for: a cycle's tag is the first 12
 bits of its digest (:func:`_tag`), high six first."""
@@ -287,11 +285,11 @@ class PinChecker:
     """Judges the robot states perception rebuilds against :class:`StatePins`, one
     pinned cycle after another, in cycle order.
 
-    It costs a digest and a few look-ups a pinned cycle: each block's tags are
-    translated into :attr:`sixes` when it is made, in one call, and a block's digest is
-    checked at its last pinned cycle. The replay core's perception step inlines the
-    common case of :meth:`mismatch` (:attr:`sixes`, :attr:`digest`, :attr:`digests`)
-    and leaves the rest to :meth:`judge_digest`.
+    It costs a digest and a few look-ups a pinned cycle: each block's tags are read
+    into :attr:`tags` when it is made, in C, and a block's digest is checked at its
+    last pinned cycle. The replay core's perception step inlines the common case of
+    :meth:`mismatch` (:attr:`tags`, :attr:`digest`, :attr:`digests`) and leaves the
+    rest to :meth:`judge_digest`.
     """
 
     def __init__(self, pins: StatePins) -> None:
@@ -299,28 +297,29 @@ class PinChecker:
         """A rebuilt state's digest, of its bytes as a log encodes them."""
         self._block_digest = pins.scheme.block
         blocks = pins.blocks
-        sixes = bytearray([_GAP]) * (2 * (blocks[-1].cycle + blocks[-1].cycles) if blocks else 0)
+        tags = [NOT_PINNED] * (blocks[-1].cycle + blocks[-1].cycles if blocks else 0)
         self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
         """Each block by its last pinned cycle, where its digest is checked, with its
         first pinned cycle and how many it pins."""
         for block in blocks:
-            at = TAG_CHARS * block.cycle
-            sixes[at : at + len(block.tags)] = block.tags.encode().translate(_SIXES)
+            sixes = block.tags.encode().translate(_SIXES)
+            tags[block.cycle : block.cycle + block.cycles] = map(
+                add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]
+            )
             first = block.cycle + (len(block.tags) - len(block.tags.lstrip(UNPINNED))) // TAG_CHARS
             final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
             if first > final:  # no cycle pinned (a baseline's coverage check refuses it)
                 continue
-            sixes[TAG_CHARS * first + 1] |= _OPENS
-            sixes[TAG_CHARS * final + 1] |= _CLOSES
+            tags[first] |= _OPENS
+            tags[final] |= _CLOSES
             pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
             self._finals[final] = (block, first, pinned)
-        self.sixes = bytes(sixes)
-        """By cycle, from 0 to the last pinned one, two bytes: the six bits each
-        character of a pinned cycle's tag stands for (its digest's first 12 bits:
-        :data:`HIGH_SHIFT`, :data:`LOW_SHIFT`), the second marked above them where a
-        block opens or closes; :data:`UNPINNED_SIX` first for a cycle not pinned. A
-        digest whose tag is the cycle's, unmarked, agrees and goes on :attr:`digests`;
-        any other is for :meth:`judge_digest`."""
+        self.tags: list[int] = tags
+        """By cycle, from 0 to the last pinned one: a pinned cycle's tag (the first 12
+        bits of its digest, :data:`TAG_SHIFT`), marked above those bits where a block
+        opens or closes; :data:`NOT_PINNED` or more for a cycle not pinned. A digest
+        whose tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any
+        other is for :meth:`judge_digest`."""
         self.digests: list[int] = []
         """The digests of the cycles judged since the last block opened whose tags
         agreed, in cycle order: checked with the block's digest where it closes."""
@@ -334,14 +333,11 @@ class PinChecker:
     @functools.cached_property
     def cycles(self) -> frozenset[int]:
         """The pinned cycles."""
-        firsts = self.sixes[::TAG_CHARS]
-        return frozenset(cycle for cycle, six in enumerate(firsts) if six != UNPINNED_SIX)
+        return frozenset(cycle for cycle, tag in enumerate(self.tags) if tag < NOT_PINNED)
 
     def __contains__(self, cycle: object) -> bool:
         return (
-            isinstance(cycle, int)
-            and 0 <= TAG_CHARS * cycle < len(self.sixes)
-            and self.sixes[TAG_CHARS * cycle] != UNPINNED_SIX
+            isinstance(cycle, int) and 0 <= cycle < len(self.tags) and self.tags[cycle] < NOT_PINNED
         )
 
     def run_at(self, cycle: int) -> PinnedRun:
@@ -361,26 +357,23 @@ class PinChecker:
         if cycle not in self:
             raise KeyError(cycle)
         digest = self.digest(encoded)
-        at = TAG_CHARS * cycle
-        sixes = self.sixes
-        if digest >> HIGH_SHIFT == sixes[at] and (digest >> LOW_SHIFT) & SIX_BITS == sixes[at + 1]:
-            self.digests.append(digest)  # agrees, inside its block
+        if digest >> TAG_SHIFT == self.tags[cycle]:  # agrees, inside its block
+            self.digests.append(digest)
             return None
         return self.judge_digest(cycle, digest)
 
     def judge_digest(self, cycle: int, digest: int) -> str | None:
         """:meth:`mismatch` for the ``digest`` of pinned ``cycle`` where its tag is not
         the cycle's unmarked tag: a block opens or closes there, or it differs."""
-        at = TAG_CHARS * cycle
-        high, low = self.sixes[at], self.sixes[at + 1]
-        if digest >> HIGH_SHIFT != high or (digest >> LOW_SHIFT) & SIX_BITS != low & SIX_BITS:
+        tag = self.tags[cycle]
+        if digest >> TAG_SHIFT != tag & _TAG_BITS:
             self._found[cycle] = "by its digest"  # reported here, not again for the block
             return "by its digest"
-        if low & _OPENS:
+        if tag & _OPENS:
             self._opened = cycle
             self.digests.clear()
         self.digests.append(digest)
-        return self._block_mismatch(cycle) if low & _CLOSES else None
+        return self._block_mismatch(cycle) if tag & _CLOSES else None
 
     def found(self, cycle: int, encoded: bytes) -> str | None:
         """How the robot state of a pinned ``cycle`` was found to differ when it was

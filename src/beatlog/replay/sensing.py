@@ -15,14 +15,7 @@ from beatlog.log.format import CycleRecord
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.outcome import Sensed
-from beatlog.replay.pins import (
-    HIGH_SHIFT,
-    LOW_SHIFT,
-    SIX_BITS,
-    UNPINNED_SIX,
-    PinChecker,
-    StatePins,
-)
+from beatlog.replay.pins import NOT_PINNED, TAG_SHIFT, PinChecker, StatePins
 
 __all__ = ["UNREAD", "Perceiver"]
 
@@ -60,8 +53,8 @@ class Perceiver:
         self._reader = reader
         self._encode = encode
         pins = state_pins or PinChecker(StatePins())  # what a pinned cycle asks, looked up once
-        self._sixes = pins.sixes
-        """The pins' tags by cycle (:attr:`PinChecker.sixes`): none without pins."""
+        self._tags = pins.tags
+        """The pins' tags by cycle (:attr:`PinChecker.tags`): none without pins."""
         self._digest = pins.digest
         self._digests = pins.digests
         self._judge_digest = pins.judge_digest
@@ -93,18 +86,14 @@ class Perceiver:
             encoded = self._encode(rebuilt)
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
             encoded = None
-        sixes = self._sixes
-        at = cycle + cycle  # a cycle's tag: two sixes
-        high = sixes[at] if at < len(sixes) else UNPINNED_SIX
-        if high != UNPINNED_SIX:  # pinned: the approved state is expected
+        tags = self._tags
+        tag = tags[cycle] if cycle < len(tags) else NOT_PINNED
+        if tag < NOT_PINNED:  # pinned: the approved state is expected
             if encoded is None:
                 differs = True
             else:  # PinChecker.mismatch, its common case inlined: the hot path
                 digest = self._digest(encoded)
-                if (
-                    digest >> HIGH_SHIFT == high
-                    and (digest >> LOW_SHIFT) & SIX_BITS == sixes[at + 1]
-                ):
+                if digest >> TAG_SHIFT == tag:
                     self._digests.append(digest)
                     differs = False
                 else:
