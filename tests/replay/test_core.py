@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import inspect
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -17,6 +17,7 @@ from beatlog.log.format import CycleRecord, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
+from beatlog.model.random import DrawDifference
 from beatlog.record.recorder import Recorder
 from beatlog.replay.core import AGREED, CycleOutcome, Expected, Replayer
 from beatlog.replay.judge import replay
@@ -250,3 +251,36 @@ def test_a_fresh_array_draw_in_living_replay_without_numpy_names_the_log_and_the
         f"{log}: array draws (uniform_array, normal_array, integers_array) need numpy: "
         'pip install "beatlog[arrays]"'
     )
+
+
+@pytest.mark.parametrize("approved", [True, False, None], ids=["approved", "refused", "none"])
+def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
+    record_probe: RecordFn, approved: bool | None
+) -> None:
+    log = record_probe(60)  # a die rolled every fifth cycle
+    asked: list[tuple[int, list[str]]] = []
+
+    def approves(cycle: int, differences: Sequence[DrawDifference]) -> bool:
+        asked.append((cycle, [str(difference) for difference in differences]))
+        return bool(approved)
+
+    with SessionLogReader(log) as reader:
+        core = Replayer(probe_system(draws=2), reader.header, reader.path, living=True)
+        records = list(reader.cycles())
+    core.expect(
+        Expected(None, payload_encoder(), frozenset(), None if approved is None else approves)
+    )
+    answers = []
+    for record in records:
+        changes = core.advance(record)
+        outcome = core.outcome()
+        same = outcome.changes is not None and core.agrees(record, outcome.changes)
+        answers.append((outcome.cycle, changes is AGREED, same))
+
+    rolled = [cycle for cycle, _, _ in answers if cycle % 5 == 0]
+    assert [cycle for cycle, _ in asked] == ([] if approved is None else rolled)
+    assert {differences[0] for _, differences in asked} <= {"dice: new randint(1, 6)"}
+    agreed = [cycle for cycle, at_once, _ in answers if at_once and cycle % 5 == 0]
+    same = [cycle for cycle, _, same in answers if same and cycle % 5 == 0]
+    assert agreed == (same if approved else [])
+    assert same  # some rolls keep the recorded parity: they agree where approved
