@@ -92,7 +92,7 @@ class FreshLuck:
     def seed(self, place: Place) -> bytes:
         """Eight bytes for ``place``."""
         hasher = self._keyed.copy()
-        hasher.update(f"{place[0]}\x00{place[1]}\x00{place[2]}".encode())
+        hasher.update(f"{place.cycle}\x00{place.behavior}\x00{place.call}".encode())
         return hasher.digest()
 
     def luck(self, place: Place) -> Luck:
