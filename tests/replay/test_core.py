@@ -274,8 +274,8 @@ def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
     for record in records:
         changes = core.advance(record)
         outcome = core.outcome()
-        same = outcome.changes is not None and core.agrees(record, outcome.changes)
-        answers.append((outcome.cycle, changes is AGREED, same))
+        as_recorded = outcome.changes is not None and core.agrees(record, outcome.changes)
+        answers.append((outcome.cycle, changes is AGREED, as_recorded))
 
     rolled = [cycle for cycle, _, _ in answers if cycle % 5 == 0]
     assert [cycle for cycle, _ in asked] == ([] if approved is None else rolled)
