@@ -90,12 +90,12 @@ class ReplayRandom(RandomSource):
         self._recorded_now: Sequence[str] = ()
         self._fresh = FreshLuck(b"")
         self._used: list[bool] | None = None
+        """In living replay, once a draw differed: which recorded draws are taken."""
         self._owner_of: dict[int, int | None] | None = None
         """The behavior each recorded actor is now, by its index (None: one the system
         no longer has), once :meth:`expect_actors` says so; the system stays -1."""
         self._owners: list[int | None] = []
         """Once a draw differed: the behavior that made each recorded draw, by its index now."""
-        """In living replay, once a draw differed: which recorded draws are taken."""
 
     def expect_actors(
         self,
