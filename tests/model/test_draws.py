@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from fractions import Fraction
+from typing import Any
+
 import pytest
 
 from beatlog.log.format import Draw
-from beatlog.model.draws import recorded_draw_problem
+from beatlog.model.draws import recorded_draw_problem, same_params
 
 SIXTEEN = bytes(16)
 
@@ -47,3 +50,31 @@ SIXTEEN = bytes(16)
 )
 def test_a_draw_no_recording_makes_is_named(draw: Draw, problem: str) -> None:
     assert recorded_draw_problem(draw, 1) == problem
+
+
+NAN = float("nan")
+
+
+@pytest.mark.parametrize(
+    ("recorded", "asked", "same"),
+    [
+        ((2.0, 5.0), (2, 5), True),
+        ((-0.0,), (0.0,), True),
+        ((NAN, 1.0), (float("nan"), 1.0), True),
+        ((NAN,), (0.0,), False),
+        ((2.0,), (2.0000001,), False),
+        ((0.0, 1.0), (0.0, 1.5), False),
+        ((1,), (True,), True),
+        ((0.0, 1.0, [2, 3]), (0.0, 1.0, (2, 3)), True),
+        ((0.0, 1.0, [2, 3]), (0.0, 1.0, [3, 2]), False),
+        ((0.5,), (Fraction(1, 2),), True),
+        (("north",), ("north",), True),
+        (("north",), ("south",), False),
+        ((1.0,), (1.0, 2.0), False),
+        ((), (), True),
+    ],
+)
+def test_a_draw_is_asked_for_with_its_recorded_parameters_exactly_by_value(
+    recorded: tuple[Any, ...], asked: tuple[Any, ...], same: bool
+) -> None:
+    assert (same_params(recorded, asked), same_params(asked, recorded)) == (same, same)
