@@ -95,19 +95,12 @@ def same_params(recorded: Sequence[Any], asked: Sequence[Any]) -> bool:
     by value, exactly (``2`` asks for what ``2.0`` does, as ``-0.0`` does for ``0.0``,
     while ``2.0000001`` does not; NaN matches only NaN), shapes element by element,
     anything else as it encodes in the log."""
-    if len(recorded) != len(asked):
-        return False
-    for want, got in zip(recorded, asked, strict=True):  # a loop: C calling each costs more
-        if type(want) in _PLAIN_NUMBERS and type(got) in _PLAIN_NUMBERS:  # the common case
-            if want != got and not (isnan(want) and isnan(got)):
-                return False
-        elif not _same_param(want, got):
-            return False
-    return True
+    return len(recorded) == len(asked) and all(map(_same_param, recorded, asked))
 
 
 def _same_param(want: Any, got: Any) -> bool:
-    """:func:`same_params` of one parameter that is not a plain number on both sides."""
+    if type(want) in _PLAIN_NUMBERS and type(got) in _PLAIN_NUMBERS:  # the common case
+        return want == got or (isnan(want) and isnan(got))
     if isinstance(want, list | tuple) and isinstance(got, list | tuple):
         return same_params(want, got)
     if isinstance(want, Real) and isinstance(got, Real):
