@@ -143,7 +143,7 @@ def scalar_value(kind: str, params: tuple[Any, ...], luck: Luck) -> Any:
         return a + (b - a) * luck.u
     if kind == "gauss":
         mu, sigma = params
-        return mu + sigma * (luck.z if luck.z is not None else luck.score())
+        return mu + sigma * luck.score()
     low, count = (params[0], params[1] - params[0] + 1) if kind == "randint" else (0, params[0])
     if count < 1:
         raise ValueError(f"{kind}{tuple(params)!r} has no values to draw from")
