@@ -154,14 +154,19 @@ def _searched() -> str:
 
 
 @contextlib.contextmanager
-def importable_near(path: Path) -> Iterator[None]:
+def importable_near(path: Path | None) -> Iterator[None]:
     """While inside, references also import from ``path``'s folder and its project root.
 
     So a spec's ``system = "linebot:system"`` imports ``linebot.py`` beside the spec or
     at the root of its project, from any working directory and under the ``pytest``
     console script alike. The folders are put first on ``sys.path``, as pytest's
     default import mode puts a test's root there, and taken off again afterwards.
+    ``None`` (a fleet log, which has no spec) adds nothing: a log's folder never goes
+    on ``sys.path``, so code planted beside downloaded logs is never imported.
     """
+    if path is None:
+        yield
+        return
     folder = path.resolve().parent
     root = project_root(folder)
     added = [str(found) for found in (folder, root) if found is not None]

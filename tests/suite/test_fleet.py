@@ -11,9 +11,9 @@ from pathlib import Path
 import fsspec
 import pytest
 
-from beatlog.errors import FleetError
+from beatlog.errors import FleetError, SystemLoadError
 from beatlog.suite.baseline import expected_path, pending_path
-from beatlog.suite.fleet import FLEET_PURPOSE, fleet_specs
+from beatlog.suite.fleet import FLEET_PURPOSE, check_references, fleet_specs
 from beatlog.suite.maintenance import update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
@@ -189,3 +189,18 @@ def test_a_fleet_log_over_http_is_named_as_the_file_is(served: LogServer) -> Non
 
     assert [spec.name for spec in specs] == ["dock at noon"]
     assert specs[0].log_url == f"{served.url}/dock%20at%20noon.beatlog"
+
+
+def test_code_beside_fleet_logs_is_never_imported(logs: Path) -> None:
+    planted = logs / "planted_beside_logs"
+    planted.mkdir()
+    (planted / "__init__.py").write_text("raise SystemExit('planted code ran')\n")
+    [spec] = fleet_specs(f"{logs}/*.beatlog", system="planted_beside_logs:system")
+
+    with pytest.raises(SystemLoadError, match="cannot import planted_beside_logs"):
+        check_references(spec)
+    [outcome] = run_suite([spec])
+
+    assert outcome.verdict is Verdict.ERROR
+    assert "planted code ran" not in str(outcome.error)
+    assert "planted_beside_logs" not in sys.modules

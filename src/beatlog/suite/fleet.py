@@ -72,7 +72,7 @@ def check_references(spec: DtcSpec) -> None:
         ("--system", spec.system, load_system),
         ("--perception", spec.perception, load_perception),
     )
-    with importable_near(spec.path):
+    with importable_near(spec.spec_file):
         for option, reference, load in references:
             if reference is None:
                 continue

@@ -138,7 +138,7 @@ def run_spec(
     A log behind a URL is copied here first, and the copy removed after; one that
     cannot be copied is an error of the DTC. The audit runs in ``auditors``' interpreters
     (see :func:`suite_auditors`), else in interpreters of its own."""
-    with importable_near(spec.path):
+    with importable_near(spec.spec_file):
         try:
             with spec.readable_log() as log:
                 outcome = _run_spec(

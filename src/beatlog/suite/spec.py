@@ -170,6 +170,12 @@ class DtcSpec:
         return str(self.path) if self.source is None else self.source
 
     @property
+    def spec_file(self) -> Path | None:
+        """The spec file whose folder and project root the DTC's code imports from; None
+        for a fleet log, whose folder is never trusted to choose code."""
+        return self.path if self.source is None else None
+
+    @property
     def log_name(self) -> str:
         """The log as reports name it: its URL, or its path."""
         return str(self.log) if self.log_url is None else self.log_url
