@@ -64,3 +64,68 @@ def test_catalogue_lists_arbiter_then_behaviors_in_priority_order() -> None:
 def test_duplicate_names_are_refused() -> None:
     with pytest.raises(ValueError, match="two behaviors are named 'same'"):
         PriorityArbiter([Wants("same", 1), Wants("same", 2)], robot_state=Level)
+
+
+class Proposes:
+    """Proposes its outputs once the level reaches its threshold."""
+
+    def __init__(self, name: str, threshold: int, outputs: Outputs) -> None:
+        self.name = name
+        self.state: BehaviorState = "quiet"
+        self.threshold = threshold
+        self.outputs = outputs
+
+    def step(self, rs: Level, ctx: Context) -> Outputs | None:
+        return self.outputs if rs.level >= self.threshold else None
+
+
+def driver(*, per_output: bool) -> PriorityArbiter[Level]:
+    """A driving stack: an emergency brake over car following (both longitudinal),
+    and lane keeping (lateral) below them."""
+    behaviors = [
+        Proposes("brake", 3, {"acceleration": -5.0}),
+        Proposes("follow", 1, {"acceleration": 1.0}),
+        Proposes("keep_lane", 0, {"steering": 0.1}),
+    ]
+    return PriorityArbiter(behaviors, robot_state=Level, per_output=per_output)
+
+
+@pytest.mark.parametrize(
+    ("level", "winners", "outputs"),
+    [
+        (0, "steering: keep_lane", {"steering": 0.1}),
+        (1, "acceleration: follow, steering: keep_lane", {"acceleration": 1.0, "steering": 0.1}),
+        (3, "acceleration: brake, steering: keep_lane", {"acceleration": -5.0, "steering": 0.1}),
+    ],
+)
+def test_per_output_each_output_goes_to_its_highest_proposer(
+    level: int, winners: str, outputs: Outputs
+) -> None:
+    arbiter = driver(per_output=True)
+    context = Context(RecordingRandom(seed=0))
+
+    arbiter.update(Level(level=level), context)
+
+    assert arbiter.state == winners
+    assert context.outputs == outputs
+    assert context.actor == 0
+
+
+def test_per_output_is_idle_while_nothing_is_proposed() -> None:
+    arbiter = PriorityArbiter(
+        [Proposes("follow", 1, {"acceleration": 1.0})], robot_state=Level, per_output=True
+    )
+    context = Context(RecordingRandom(seed=0))
+
+    arbiter.update(Level(level=0), context)
+
+    assert (arbiter.state, context.outputs) == ("idle", {})
+
+
+def test_one_winner_takes_every_output_by_default() -> None:
+    arbiter = driver(per_output=False)
+    context = Context(RecordingRandom(seed=0))
+
+    arbiter.update(Level(level=1), context)
+
+    assert (arbiter.state, context.outputs) == ("follow", {"acceleration": 1.0})

@@ -103,6 +103,12 @@ class PriorityArbiter(CataloguedSystem[RS]):
     The arbiter is itself a behavior whose state is the name of the winner (``"idle"``
     when none asks), so a change of control is a state change in the log. Its
     catalogue holds the arbiter first, then its behaviors from highest to lowest priority.
+
+    With ``per_output``, each output is arbitrated on its own, as subsumption arbitrates
+    each actuator: it goes to the highest-priority behavior that proposes it, so a
+    longitudinal behavior (``acceleration``) and a lateral one (``steering``) each keep
+    control of their own output. The state then names each output's winner, by output
+    (``"acceleration: follow, steering: keep_lane"``; ``"idle"`` when none proposes one).
     """
 
     def __init__(
@@ -111,9 +117,11 @@ class PriorityArbiter(CataloguedSystem[RS]):
         *,
         robot_state: type[RS],
         name: str = "arbiter",
+        per_output: bool = False,
     ) -> None:
         self.name = name
         self.state: BehaviorState = "idle"
+        self.per_output = per_output
         self._children = tuple(behaviors)
         catalogue: dict[str, Behavior] = {name: self}
         for behavior in self._children:
@@ -123,7 +131,11 @@ class PriorityArbiter(CataloguedSystem[RS]):
         super().__init__(robot_state, catalogue)
 
     def update(self, state: RS, context: Context) -> None:
-        """Step every behavior in priority order and emit the winner's outputs."""
+        """Step every behavior in priority order and emit the winner's outputs (each
+        output's winner's, ``per_output``)."""
+        if self.per_output:
+            self._update_per_output(state, context)
+            return
         winner: PlainBehavior[RS] | None = None
         command: Outputs | None = None
         for actor, behavior in enumerate(self._children, start=1):
@@ -135,3 +147,18 @@ class PriorityArbiter(CataloguedSystem[RS]):
         self.state = "idle" if winner is None else winner.name
         if command:
             context.outputs.update(command)
+
+    def _update_per_output(self, state: RS, context: Context) -> None:
+        command: Outputs = {}
+        winners: dict[str, str] = {}
+        for actor, behavior in enumerate(self._children, start=1):
+            context.actor = actor
+            proposal = behavior.step(state, context)
+            for output, value in (proposal or {}).items():
+                if output not in command:
+                    command[output] = value
+                    winners[output] = behavior.name
+        context.actor = 0
+        owned = [f"{output}: {winners[output]}" for output in sorted(winners)]
+        self.state = ", ".join(owned) if owned else "idle"
+        context.outputs.update(command)
