@@ -267,6 +267,41 @@ def gambler_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Gambler()], robot_state=Probe)
 
 
+class Drifter:
+    """Picks a heading with a numpy generator of its own, made without a seed, as code
+    written for a simulator does; ``seed`` seeds it."""
+
+    name = "drifter"
+    state = "left"
+
+    def __init__(self, seed: int | None = None) -> None:
+        self.rng = np.random.default_rng(seed)  # made
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = HEADINGS[self.rng.integers(len(HEADINGS))]  # drawn
+        return None
+
+
+def drifter_sites() -> tuple[str, str]:
+    """Where :class:`Drifter` makes its generator, and where it draws from it."""
+    sites = []
+    for method in (Drifter.__init__, Drifter.step):
+        lines, first = inspect.getsourcelines(method)
+        offset = next(
+            i for i, text in enumerate(lines) if text.rstrip().endswith(("# made", "# drawn"))
+        )
+        sites.append(f"{__file__}:{first + offset} in {method.__qualname__}")
+    return sites[0], sites[1]
+
+
+def drifter_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Drifter()], robot_state=Probe)
+
+
+def seeded_drifter_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Drifter(seed=7)], robot_state=Probe)
+
+
 class Moody(RobotState, kw_only=True):
     """A robot state with a text field, a number and a flag."""
 

@@ -17,11 +17,18 @@ import numpy as np
 import pytest
 
 import beatlog
-from beatlog.audit.leaks import Finding, LeakScreen, LeakWatch
+from beatlog.audit.leaks import Finding, LeakScreen, LeakWatch, built_watched
 from beatlog.model.context import Context
 from beatlog.model.random import RecordingRandom
 from tests.conftest import Near, Probe, RecordFn, probe_system
-from tests.systems import Disciplined, Leaky, leaks
+from tests.systems import (
+    Disciplined,
+    Leaky,
+    drifter_sites,
+    drifter_system,
+    leaks,
+    seeded_drifter_system,
+)
 
 
 @pytest.fixture
@@ -200,3 +207,44 @@ def test_calls_outside_the_screen_are_not_seen(context: Context) -> None:
     random.random()
 
     assert not screen.suspicious
+
+
+def test_a_generator_the_set_up_made_without_a_seed_is_named_where_it_draws(
+    context: Context,
+) -> None:
+    made, drawn = drifter_sites()
+    system, generators = built_watched(drifter_system)
+    watch = LeakWatch()
+    watch.generators = generators
+
+    for _ in range(3):
+        with watch:
+            system.update(Probe(), context)
+
+    call = f"unseeded numpy.random.Generator made at {made}"
+    assert [generator.name for generator in generators] == [call]
+    assert watch.findings() == [Finding(call, drawn, 3)]
+
+
+def test_a_generator_the_set_up_seeded_is_no_leak(context: Context) -> None:
+    system, generators = built_watched(seeded_drifter_system)
+    watch = LeakWatch()
+    watch.generators = generators
+
+    with watch:
+        system.update(Probe(), context)
+
+    assert generators == []
+    assert watch.findings() == []
+
+
+def test_the_screen_sees_a_generator_the_set_up_made_without_a_seed(context: Context) -> None:
+    system, generators = built_watched(drifter_system)
+    screen = LeakScreen()
+    screen.generators = generators
+
+    with screen:
+        system.update(Probe(), context)
+
+    assert screen.suspicious
+    assert screen.numpy_moved

@@ -21,6 +21,7 @@ from beatlog_examples.rover import record_lockstep
 from tests.conftest import RecordFn
 from tests.systems import (
     HEADINGS,
+    drifter_sites,
     hand_ticked_tree,
     leaks,
     leaky_system,
@@ -228,3 +229,21 @@ def test_an_audit_without_auditors_stops_its_own_interpreters(
     for pid in signed:
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+def test_replays_that_differ_by_an_unseeded_generator_of_the_systems_own_name_it(
+    auditors: Auditors, tmp_path: Path
+) -> None:
+    made, drawn = drifter_sites()
+    log = record_session(tmp_path / "drifter.beatlog", scripted_system(["left"] * 20))
+
+    report = audit(log, f"{SYSTEMS}:drifter_system", auditors=auditors)
+
+    generator = f"numpy.random.Generator made at {made}"
+    assert report.hash_seed_dependence is not None
+    assert report.hash_seed_dependence.startswith(
+        f"the replay draws from an unseeded random generator ({generator}): "
+    ), report.hash_seed_dependence
+    assert [(finding.call, finding.site) for finding in report.findings] == [
+        (f"unseeded {generator}", drawn)
+    ]

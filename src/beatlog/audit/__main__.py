@@ -24,7 +24,7 @@ from typing import Any
 
 import msgspec
 
-from beatlog.audit.leaks import LeakScreen, LeakWatch
+from beatlog.audit.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.audit.replays import CYCLE_DIGEST_SIZE, Answer, Request
 from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
@@ -91,7 +91,11 @@ def _replay_watched(request: Request) -> Answer:
 
 
 def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
-    system = _AuditedSystem(load_system(request.system), watch)
+    if watch is None:
+        built = load_system(request.system)
+    else:  # the numpy generators the set-up seeded from the OS are watched too
+        built, watch.generators = built_watched(lambda: load_system(request.system))
+    system = _AuditedSystem(built, watch)
     result = replay(
         request.log,
         system,

@@ -5,8 +5,9 @@ profile hook sees every call of a builtin and of a Python function, so it catche
 ``time.monotonic`` or ``random.choice`` however a behavior module bound them
 (``from time import monotonic`` included). numpy's compiled functions are invisible to
 profiling, so a trace hook follows the lines of user code instead and notices when
-numpy's global generator moved. Every call is attributed to the nearest frame of
-user code: not beatlog's own, not the standard library, not an
+numpy's global generator moved, or a generator of the system's own that its set-up
+seeded from the OS (:func:`built_watched` finds them). Every call is attributed to the
+nearest frame of user code: not beatlog's own, not the standard library, not an
 installed package; or, when no user code is on the way (a system that is itself an
 installed package), to the nearest frame of an installed package.
 
@@ -19,20 +20,25 @@ import collections
 import cProfile
 import random
 import sys
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import CodeType, FrameType
-from typing import Any
+from typing import Any, TypeVar
 
 from beatlog.audit.origins import Origin, Origins
 from beatlog.audit.watched import (
+    ENTROPY_READ,
     GlobalNumpyGenerator,
+    PrivateGenerator,
     builtin_call,
     marked,
     python_calls,
     screened_builtins,
 )
 
-__all__ = ["Finding", "LeakScreen", "LeakWatch"]
+__all__ = ["Finding", "LeakScreen", "LeakWatch", "built_watched"]
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -77,6 +83,9 @@ class LeakWatch:
         self._python_calls = python_calls()
         self._counts: collections.Counter[tuple[str, str, str | None]] = collections.Counter()
         self._numpy: GlobalNumpyGenerator | None = None
+        self.generators: Sequence[PrivateGenerator] = ()
+        """The system's own unseeded generators, watched as numpy's global one is
+        (:func:`built_watched`)."""
         self._boundary: FrameType | None = None
         self._inside: FrameType | None = None
         self._where: Where | None = None
@@ -91,6 +100,8 @@ class LeakWatch:
     def __enter__(self) -> LeakWatch:
         self._boundary = sys._getframe(1)  # the frame that runs the update
         self._numpy = marked(self._numpy)
+        for generator in self.generators:
+            generator.moved()
         self._inside = None
         self._where = None
         self._saved = (sys.getprofile(), sys.gettrace())
@@ -104,8 +115,9 @@ class LeakWatch:
         sys.setprofile(profile)
         sys.settrace(trace)
         self._boundary = None
-        if not self._lines and self._numpy is not None and self._numpy.moved():
-            self.numpy_moved = True
+        if not self._lines and self._numpy is not None:
+            moved = [self._numpy.moved(), *(generator.moved() for generator in self.generators)]
+            self.numpy_moved = self.numpy_moved or any(moved)
 
     def _profile(self, frame: FrameType, event: str, arg: Any) -> None:
         if event == "c_call":
@@ -150,6 +162,9 @@ class LeakWatch:
         assert self._numpy is not None
         if self._numpy.moved() and self._where is not None:
             self._counts["numpy.random", _site(self._where), None] += 1
+        for generator in self.generators:
+            if generator.moved() and self._where is not None:
+                self._counts[generator.name, _site(self._where), None] += 1
 
     def _count(self, call: str, caller: FrameType) -> None:
         if self._origins.is_logging(caller.f_code):
@@ -193,19 +208,24 @@ class LeakScreen:
     def __init__(self) -> None:
         self._profiler = cProfile.Profile()
         self._numpy: GlobalNumpyGenerator | None = None
+        self.generators: Sequence[PrivateGenerator] = ()
+        """The system's own unseeded generators, screened as numpy's global one is."""
         self.numpy_moved = False
-        """Whether numpy's global generator moved inside the screen."""
+        """Whether numpy's global generator, or one of :attr:`generators`, moved inside
+        the screen."""
 
     def __enter__(self) -> LeakScreen:
         self._numpy = marked(self._numpy)
+        for generator in self.generators:
+            generator.moved()
         self._profiler.enable()
         return self
 
     def __exit__(self, *exc_info: object) -> None:
         self._profiler.disable()
         assert self._numpy is not None
-        if self._numpy.moved():
-            self.numpy_moved = True
+        moved = [self._numpy.moved(), *(generator.moved() for generator in self.generators)]
+        self.numpy_moved = self.numpy_moved or any(moved)
 
     @property
     def suspicious(self) -> bool:
@@ -222,3 +242,36 @@ class LeakScreen:
     def findings(self) -> list[Finding]:
         """None: a screen only says whether a watch is needed."""
         return []
+
+
+def built_watched(build: Callable[[], T]) -> tuple[T, list[PrivateGenerator]]:
+    """What ``build`` builds (a system), and the numpy generators of its own that it
+    seeded from the OS, each named by the line of user code that made it, for a watch
+    or a screen to watch (their :attr:`~LeakWatch.generators`).
+
+    A profile hook notes the entropy each generator made without a seed reads (numpy
+    reads it with ``secrets.randbits``) and the nearest line of user code that read it;
+    the generators keeping those entropies are then looked for in what was built. numpy
+    is imported first, where installed: its own global generator reads entropy too.
+    """
+    GlobalNumpyGenerator()  # imports numpy.random, where installed
+    origins = Origins()
+    boundary = sys._getframe(0)
+    made: dict[int, str] = {}
+
+    def profile(frame: FrameType, event: str, arg: Any) -> None:
+        if event == "return" and frame.f_code is ENTROPY_READ and isinstance(arg, int):
+            caller = frame.f_back
+            while caller is not None and caller is not boundary:
+                if origins.of(caller.f_code) is Origin.USER:
+                    made[arg] = _site((caller.f_code, caller.f_lineno))
+                    return
+                caller = caller.f_back
+
+    saved = sys.getprofile()
+    sys.setprofile(profile)
+    try:
+        built = build()
+    finally:
+        sys.setprofile(saved)
+    return built, PrivateGenerator.found(built, made) if made else []

@@ -319,11 +319,16 @@ def _merge(*runs: list[Finding]) -> tuple[Finding, ...]:
 
 
 _GLOBAL_RANDOM = ("random.", "numpy.random", "os.urandom", "uuid.")
+_UNSEEDED = "unseeded "
+"""How a finding of a generator of the system's own made without a seed begins."""
 
 
 def _cause(findings: tuple[Finding, ...]) -> str:
-    """What makes two replays differ, from the findings: an unseeded global random
-    generator when the behaviors draw from one, else the hash seed."""
+    """What makes two replays differ, from the findings: an unseeded random generator of
+    the system's own or a global one when the behaviors draw from one, else the hash seed."""
+    own = sorted({f.call.removeprefix(_UNSEEDED) for f in findings if f.call.startswith(_UNSEEDED)})
+    if own:
+        return f"the replay draws from an unseeded random generator ({', '.join(own)})"
     draws = sorted({f.call for f in findings if f.call.startswith(_GLOBAL_RANDOM)})
     if draws:
         return f"the replay draws from an unseeded global random generator ({', '.join(draws)})"

@@ -12,8 +12,14 @@ moves nothing and goes uncounted); ``os.urandom``
 (so ``secrets`` too); ``uuid.uuid1`` and ``uuid.uuid4``. Not watched: the forms of
 ``time.localtime``, ``gmtime``, ``ctime`` and ``strftime`` that read the clock when
 given no time (their arguments are invisible to a profile hook), unseeded private
-generators (``random.Random()``, ``np.random.default_rng()``), other threads, and the
+generators of the standard library (``random.Random()``), other threads, and the
 clock reads of the ``logging`` package (record timestamps reach no decision).
+
+A numpy generator the system's set-up seeds from the OS (``np.random.default_rng()``,
+``np.random.Generator(np.random.PCG64())``, ``np.random.RandomState()``, made in a
+factory, a behavior's ``__init__`` or a behavior module) is watched as the global one
+is, by :class:`PrivateGenerator`, once it is found in the system built (up to
+:data:`SEARCHED` objects from it): one seeded by the user is no leak.
 """
 
 from __future__ import annotations
@@ -22,15 +28,20 @@ import cProfile
 import ctypes
 import datetime as dt
 import functools
+import gc
 import os
 import random
 import time
 import uuid
-from types import CodeType
+from collections.abc import Mapping
+from types import CodeType, ModuleType
 from typing import Any
 
 __all__ = [
+    "ENTROPY_READ",
+    "SEARCHED",
     "GlobalNumpyGenerator",
+    "PrivateGenerator",
     "builtin_call",
     "marked",
     "python_calls",
@@ -53,6 +64,11 @@ _NOW = frozenset({"now", "utcnow", "today"})
 _URANDOM_OWNER = getattr(os.urandom, "__self__", None)
 _MT19937_POSITION = 624 * 4
 """Offset of ``pos`` after the 624-word key in numpy's ``mt19937_state``."""
+ENTROPY_READ = random.SystemRandom.getrandbits.__code__
+"""What numpy's ``SeedSequence`` calls for the entropy of a generator made without a
+seed (``secrets.randbits``); it returns the entropy the generator keeps."""
+SEARCHED = 200_000
+"""The most objects searched from a system for its unseeded generators."""
 
 
 class GlobalNumpyGenerator:
@@ -164,3 +180,59 @@ def screened_builtins() -> frozenset[str]:
         for entry in profiler.getstats()
         if isinstance(entry.code, str) and "_lsprof.Profiler" not in entry.code
     )
+
+
+class PrivateGenerator:
+    """A numpy generator of the system's own that its set-up seeded from the OS: it
+    notices when the generator draws, as :class:`GlobalNumpyGenerator` does for numpy's
+    global one, and is named by its type and the line that made it."""
+
+    def __init__(self, generator: Any, made: str) -> None:
+        self._bit_generator = _bit_generator(generator)
+        self.name = f"unseeded numpy.random.{type(generator).__name__} made at {made}"
+        """How findings name it, e.g. ``unseeded numpy.random.Generator made at
+        driver.py:12 in Follow.__init__``."""
+        self._mark = self._read()
+
+    def moved(self) -> bool:
+        """Whether the generator moved since the last call."""
+        mark = self._read()
+        if mark == self._mark:
+            return False
+        self._mark = mark
+        return True
+
+    def _read(self) -> str:
+        return repr(self._bit_generator.state)
+
+    @staticmethod
+    def found(system: object, made: Mapping[int, str]) -> list[PrivateGenerator]:
+        """The numpy generators reachable from ``system`` (not through modules) whose
+        entropy is a key of ``made``, the entropies read while it was built by the line
+        that read each: the generators its set-up made without a seed."""
+        try:
+            import numpy as np  # noqa: PLC0415 - optional: numpy is the arrays extra
+        except ImportError:
+            return []
+        kinds = (np.random.Generator, np.random.RandomState)
+        legacy = np.random.mtrand._rand  # numpy's global generator: watched as such
+        found: list[PrivateGenerator] = []
+        seen: set[int] = set()
+        waiting: list[object] = [system]
+        while waiting and len(seen) < SEARCHED:
+            item = waiting.pop()
+            if id(item) in seen or isinstance(item, ModuleType):
+                continue
+            seen.add(id(item))
+            if isinstance(item, kinds) and item is not legacy:
+                entropy = getattr(_bit_generator(item).seed_seq, "entropy", None)
+                if isinstance(entropy, int) and entropy in made:
+                    found.append(PrivateGenerator(item, made[entropy]))
+                continue
+            waiting.extend(gc.get_referents(item))
+        return found
+
+
+def _bit_generator(generator: Any) -> Any:
+    """A numpy ``Generator``'s or ``RandomState``'s bit generator."""
+    return getattr(generator, "bit_generator", None) or generator._bit_generator
