@@ -175,8 +175,11 @@ class RandomSource(ABC):
         ``replace``, ``uniform_array(0.0, 1.0, [n])``, a key per element, the smallest
         ``size`` of them picked (keys scaled by ``p`` where given).
         """
-        population = None if a.__class__ is int or isinstance(a, Integral) else a
-        count = operator.index(a) if population is None else len(population)
+        population: Any = a
+        try:
+            count = len(a)
+        except TypeError:  # numpy's choice of range(a)
+            population, count = None, operator.index(a)
         if count < 1:
             if population is None:
                 raise ValueError(f"choice: cannot choose from range({count})")
