@@ -9,8 +9,8 @@ from typing import Any
 import msgspec
 import pytest
 
-from beatlog.errors import SystemLoadError
-from beatlog.replay.migration import ConversionError, StateConverter, StateMigration
+from beatlog.errors import ConversionError, SystemLoadError
+from beatlog.replay.migration import StateConverter, StateMigration
 from tests.systems import centimetres_unless_close
 from tests.text import frames
 

@@ -24,9 +24,10 @@ from typing import Any
 
 import msgspec
 
+from beatlog.errors import ConversionError
 from beatlog.usercode import load_conversion, user_traceback
 
-__all__ = ["ConversionError", "StateConverter", "StateMigration"]
+__all__ = ["StateConverter", "StateMigration"]
 
 
 @dataclass(frozen=True)
@@ -95,15 +96,6 @@ def _options(option: str, pairs: Mapping[str, str]) -> Iterator[str]:
         yield f"{name}={value}"
 
 
-class ConversionError(Exception):
-    """A recorded value that did not become the system's: names the field and why; the
-    cause is the user's conversion that raised, if one did."""
-
-    def __init__(self, field: str, problem: str, cause: BaseException | None = None) -> None:
-        super().__init__(f"field {field!r}: {problem}")
-        self.user_traceback = None if cause is None else user_traceback(cause)
-
-
 @dataclass
 class _Fix:
     """What becomes of one recorded value: its current name, its conversion, and the
@@ -118,14 +110,16 @@ class _Fix:
         """The recorded ``value`` converted, or with its inner fields renamed and
         converted.
 
-        :raises ConversionError: the conversion raised.
+        :raises beatlog.errors.ConversionError: the conversion raised.
         """
         if self.convert is not None:
             try:
                 return self.convert(value)
             except (Exception, SystemExit) as exc:  # the user's conversion failing is bad input
                 raise ConversionError(
-                    path, f"{self.reference} raised {type(exc).__name__}: {exc}", exc
+                    path,
+                    f"{self.reference} raised {type(exc).__name__}: {exc}",
+                    user_traceback=user_traceback(exc),
                 ) from None
         if self.inner and isinstance(value, dict):
             found = [(fix, value.pop(key)) for key, fix in self.inner.items() if key in value]
@@ -164,7 +158,7 @@ class StateConverter:
     def __call__(self, state: Any) -> None:
         """Convert the fields of ``state`` in place.
 
-        :raises ConversionError: a conversion raised, or a value does not fit its
+        :raises beatlog.errors.ConversionError: a conversion raised, or a value does not fit its
             field's type once converted.
         """
         for attribute in self._fields:
@@ -173,7 +167,7 @@ class StateConverter:
     def value(self, attribute: str, recorded: Any) -> Any:
         """The recorded value of field ``attribute`` (one of :attr:`fields`), converted.
 
-        :raises ConversionError: the conversion raised, or the value does not fit the
+        :raises beatlog.errors.ConversionError: the conversion raised, or the value does not fit the
             field's type once converted.
         """
         kind, fix = self._fields[attribute]

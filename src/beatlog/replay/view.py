@@ -27,10 +27,10 @@ from typing import Any
 
 import msgspec
 
-from beatlog.errors import SchemaMismatchError
+from beatlog.errors import ConversionError, SchemaMismatchError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replay.migration import ConversionError, StateConverter
+from beatlog.replay.migration import StateConverter
 from beatlog.replay.view_batch import BATCH, INDEX, BatchLayout, ViewedBatch
 
 __all__ = ["StateViews", "full_state"]

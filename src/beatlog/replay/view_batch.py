@@ -9,10 +9,9 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import msgspec
 
-from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.errors import ConversionError, CorruptLogError, SchemaMismatchError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replay.migration import ConversionError
 
 if TYPE_CHECKING:
     from beatlog.replay.view import StateViews
