@@ -28,11 +28,13 @@ import msgspec
 import zstandard
 from mcap import records
 
-from beatlog.log import crafting
 from beatlog.log.format import CYCLES_TOPIC, CycleRecord, SessionEnd
 from beatlog.log.payload import decode_payload
 from beatlog.log.reader import SessionLogReader
 from beatlog_examples.rover import record_lockstep, system
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' crafted logs
+from tests import crafting
 
 replay_module: Any = importlib.import_module("beatlog.replay.judge")
 """The module (``beatlog.replay.judge`` the attribute is the function of that name)."""

@@ -192,18 +192,25 @@ SUITES = {
     "benchmarks": ["bench", "examples/bench"],
 }
 """The library's and the examples' tests, and their benchmarks: neither side imports the
-other (a factory both need is the library's, e.g. :mod:`beatlog.log.crafting`)."""
+other, but for :data:`SHARED`."""
+SHARED = {"tests.crafting"}
+"""What the benchmarks take from the tests: the session logs crafted by hand, hostile ones
+included, that the integrity benchmark times the reader on (a test tool, not shipped)."""
 
 
 def imported_modules(folder: Path) -> set[str]:
-    """The top-level names of every module the Python files under ``folder`` import."""
+    """The top-level names of every module the Python files under ``folder`` import,
+    but for :data:`SHARED`."""
     names: set[str] = set()
     for path in folder.rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            found: list[str] = []
             if isinstance(node, ast.Import):
-                names |= {alias.name.split(".")[0] for alias in node.names}
+                found = [alias.name for alias in node.names]
             elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
-                names.add(node.module.split(".")[0])
+                found = [node.module, *(f"{node.module}.{alias.name}" for alias in node.names)]
+            if not SHARED.intersection(found):
+                names |= {name.split(".")[0] for name in found}
     return names
 
 

@@ -10,7 +10,6 @@ import msgspec
 import pytest
 
 from beatlog.errors import FieldError, SchemaMismatchError
-from beatlog.log.crafting import session_header
 from beatlog.model.behavior import Behavior, PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.model.state import RobotState, state_schema, state_type_name
@@ -22,6 +21,7 @@ from beatlog.replay.judge import replay
 from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
+from tests.crafting import session_header
 from tests.systems import (
     Centimetred,
     PxPosed,

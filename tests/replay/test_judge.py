@@ -24,7 +24,6 @@ from beatlog.errors import (
     SchemaMismatchError,
     SystemLoadError,
 )
-from beatlog.log.crafting import chunks, drop_chunk
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -48,6 +47,7 @@ from tests.conftest import (
     probe_system_changed,
     probe_system_renamed,
 )
+from tests.crafting import chunks, drop_chunk
 from tests.factories import PROBE_CYCLE_DAMAGE, as_format_1, logged_counts, rewrite_cycle, vouch
 from tests.systems import Fragile, dozy_system, impostor_system, quiet_system, record_session
 from tests.text import frames, whole_lines

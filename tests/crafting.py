@@ -80,7 +80,7 @@ def session_header(**changes: Any) -> SessionHeader:
         "system": "",
         "period_ns": PERIOD_NS,
         "start_time_ns": 0,
-        "robot_state_type": "beatlog.log.crafting.Gauge",
+        "robot_state_type": "tests.crafting.Gauge",
         "robot_state_schema": {},
         "behaviors": [],
     }
@@ -181,7 +181,7 @@ def craft_log(
     """
     with path.open("wb") as file:
         writer = Writer(file, chunk_size=chunk_size, compression=CompressionType.ZSTD)
-        writer.start(profile=profile, library="beatlog.log.crafting")
+        writer.start(profile=profile, library="tests.crafting")
         ids: dict[str, int] = {}
         for channel in channels:
             schema = writer.register_schema(channel.schema, SCHEMA_ENCODING, b"{}")
