@@ -15,7 +15,7 @@ import pytest
 
 from beatlog.audit.replays import Auditors, AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
-from beatlog.replay.migration import StateMigration
+from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import RecordFn

@@ -20,8 +20,8 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.random import DrawDifference
 from beatlog.record.recorder import Recorder
 from beatlog.replay.core import AGREED, CycleOutcome, Expected, Replayer
+from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.judge import replay
-from beatlog.replay.migration import StateMigration
 from beatlog.replay.session import ReplaySession
 from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, probe_system
 from tests.systems import (

@@ -13,8 +13,8 @@ from beatlog.errors import FieldError
 from beatlog.model.perception import Perception
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome
+from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.judge import NO_SAMPLES, replay
-from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import Divergence, DivergenceKind, FieldDifference
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec

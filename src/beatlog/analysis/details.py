@@ -17,7 +17,7 @@ from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_wind
 from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
-from beatlog.replay.migration import StateMigration
+from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.session import FieldsRead, ReplaySession
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 

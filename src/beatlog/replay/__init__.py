@@ -13,8 +13,8 @@ from beatlog._lazy import lazy_names
 if TYPE_CHECKING:
     from beatlog.replay.compare import Comparison as Comparison
     from beatlog.replay.expectation import Expectation as Expectation
+    from beatlog.replay.fit.migration import StateMigration as StateMigration
     from beatlog.replay.judge import replay as replay
-    from beatlog.replay.migration import StateMigration as StateMigration
     from beatlog.replay.verdict import Checked as Checked
     from beatlog.replay.verdict import Divergence as Divergence
     from beatlog.replay.verdict import DivergenceKind as DivergenceKind

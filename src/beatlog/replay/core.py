@@ -38,8 +38,9 @@ from beatlog.model.perception import Perception
 from beatlog.model.random import RandomMismatch, ReplayRandom
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.draws import log_key
-from beatlog.replay.fit import check_fit, recorded_state_type
-from beatlog.replay.migration import StateConverter, StateMigration
+from beatlog.replay.fit.check import check_fit
+from beatlog.replay.fit.migration import StateConverter, StateMigration
+from beatlog.replay.fit.schema import recorded_state_type
 from beatlog.replay.outcome import AGREED, CycleOutcome, Expected, Sensed, Stop, actor_name
 from beatlog.replay.pins import PinChecker
 from beatlog.replay.sensing import UNREAD, Perceiver

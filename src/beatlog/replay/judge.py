@@ -35,8 +35,8 @@ from beatlog.replay.core import CycleOutcome, Expected, Replayer, actor_name
 from beatlog.replay.draws import DrawLedger, Unapproved
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.expected import ExpectedRecords
-from beatlog.replay.fit import check_catalogue, check_state_fields
-from beatlog.replay.migration import StateMigration
+from beatlog.replay.fit.check import check_catalogue, check_state_fields
+from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.pins import PinChecker, rebuilt_otherwise
 from beatlog.replay.session import BatchReader, Observer, ReplaySession, fields_read
 from beatlog.replay.verdict import (
@@ -121,7 +121,7 @@ def replay(
     its batches as recorded (:class:`~beatlog.replay.session.BatchReader`, e.g. a
     :class:`~beatlog.analysis.recorded.RecordedChanges` for the coverage), which take
     the whole log. ``migration`` maps robot-state fields renamed or retyped since the
-    recording onto the system's (:mod:`beatlog.replay.migration`); the reproduce command
+    recording onto the system's (:mod:`beatlog.replay.fit.migration`); the reproduce command
     carries it.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot

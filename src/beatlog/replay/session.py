@@ -23,7 +23,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.replay.core import AGREED, CycleOutcome, Replayer
-from beatlog.replay.migration import StateMigration
+from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.pins import PinChecker
 
 __all__ = [

@@ -32,7 +32,7 @@ import msgspec
 from beatlog.errors import ConversionError, CorruptLogError, SchemaMismatchError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replay.migration import StateConverter
+from beatlog.replay.fit.migration import StateConverter
 
 __all__ = ["StateViews", "full_state"]
 
@@ -102,7 +102,7 @@ class StateViews:
     """Views of the system's robot state over format-3 batches, for the replay core.
 
     ``checking`` is the type each RS_t must fit
-    (:func:`~beatlog.replay.fit.recorded_state_type`): a batch may hold no field it
+    (:func:`~beatlog.replay.fit.schema.recorded_state_type`): a batch may hold no field it
     lacks, and must hold every one it requires; each column is decoded as the field's
     type there (under its recorded name), and the fields ``convert`` converts are
     turned into the system's as they are decoded.

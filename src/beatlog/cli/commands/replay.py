@@ -83,8 +83,8 @@ def run(args: argparse.Namespace, console: Console) -> int:
     import msgspec
 
     from beatlog.replay.debugger import break_on_divergence, unreached_break
+    from beatlog.replay.fit.migration import StateMigration
     from beatlog.replay.judge import recorded_system
-    from beatlog.replay.migration import StateMigration
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
 

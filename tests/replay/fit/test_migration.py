@@ -10,7 +10,7 @@ import msgspec
 import pytest
 
 from beatlog.errors import ConversionError, SystemLoadError
-from beatlog.replay.migration import StateConverter, StateMigration
+from beatlog.replay.fit.migration import StateConverter, StateMigration
 from tests.systems import centimetres_unless_close
 from tests.text import frames
 

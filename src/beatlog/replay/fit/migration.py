@@ -9,7 +9,7 @@ dotted path (``pose.x``). Both are the user's word (a spec, the project's
 ``pyproject.toml``, ``beatlog replay --rename-field``), never the log's: a conversion is
 imported only from a reference the user gave.
 
-The fit check (:func:`beatlog.replay.fit.check_fit`) checks a migration against the log
+The fit check (:func:`beatlog.replay.fit.check.check_fit`) checks a migration against the log
 and the system. A renamed field of the robot state itself costs nothing per cycle: the
 type RS_t is decoded with reads it under its recorded name. A converted field, or one
 with renamed fields inside, is decoded as recorded and turned into the system's type as
@@ -27,7 +27,7 @@ import msgspec
 from beatlog.errors import ConversionError
 from beatlog.usercode import load_conversion, user_traceback
 
-__all__ = ["StateConverter", "StateMigration"]
+__all__ = ["NO_MIGRATION", "StateConverter", "StateMigration"]
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,10 @@ class StateMigration:
             *_options("--rename-field", self.renames),
             *_options("--convert-field", self.conversions),
         )
+
+
+NO_MIGRATION = StateMigration()
+"""No field renamed or retyped since the recording."""
 
 
 def _mapped(name: str, renames: Mapping[str, str]) -> str:

@@ -16,9 +16,9 @@ from beatlog.model.state import RobotState, state_schema, state_type_name
 from beatlog.record.recorder import Recorder
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome
-from beatlog.replay.fit import check_fit, state_differences
+from beatlog.replay.fit.check import check_fit, state_differences
+from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.judge import replay
-from beatlog.replay.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
 from tests.crafting import session_header
@@ -144,9 +144,9 @@ def test_replay_against_another_robots_state_is_bad_input_naming_both(
     message = str(raised.value)
     assert message == (
         f"{log}: recorded with robot state tests.conftest.Probe, which does not fit the system's "
-        "tests.replay.test_fit.Rover: Probe is not Rover (a robot state type renamed since keeps "
-        "exactly its fields); field 'distance' is gone; field 'reading' is gone; the system "
-        "has 'heading' (number) in its place: if renamed, add field_renames = "
+        "tests.replay.fit.test_check.Rover: Probe is not Rover (a robot state type renamed "
+        "since keeps exactly its fields); field 'distance' is gone; field 'reading' is gone; "
+        "the system has 'heading' (number) in its place: if renamed, add field_renames = "
         '{ reading = "heading" } to the spec (beatlog replay: --rename-field reading=heading)'
     )
     assert "\n" not in message
@@ -172,7 +172,7 @@ def test_another_type_that_holds_the_recorded_fields_among_more_does_not_fit(
         replay(log, PriorityArbiter([Near(), Dice()], robot_state=Grown))
     assert str(raised.value) == (
         f"{log}: recorded with robot state tests.conftest.Probe, which does not fit the "
-        "system's tests.replay.test_fit.Grown: Probe is not Grown (a robot state type "
+        "system's tests.replay.fit.test_check.Grown: Probe is not Grown (a robot state type "
         "renamed since keeps exactly its fields)"
     )
 

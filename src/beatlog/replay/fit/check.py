@@ -1,22 +1,6 @@
-"""Whether a session log fits the system it is replayed against.
-
-A log fits when its robot state is the system's: the same type (its module may have
-moved; a type renamed since keeps exactly its fields), every robot-state field it
-recorded in the system's state with a type that holds the recorded values (the same,
-or a wider one: an int that became a float, a type that became optional, a nested
-struct that gained fields with defaults), and every field the system's state added
-since with a default. A field renamed or retyped otherwise since the recording is
-mapped by a :class:`~beatlog.replay.migration.StateMigration` the user gives (a
-spec's ``field_renames`` and ``field_conversions``); one that is not leaves a message
-proposing the rename. Anything else would replay on a state silently filled with
-defaults, so it is bad input, never a verdict. The same goes for a log none of whose
-behaviors is the system's (:func:`check_catalogue`): another robot's log. A behavior
-the system lacks among others is a verdict, with rename proposals, because behavior
-changes are what DTCs exist to catch.
-
-:func:`recorded_state_type` (:mod:`.recorded_type`) is the system's robot state as the
-log's cycles must hold it; how two schemas differ is :mod:`.schema_diff`.
-"""
+"""The fit check: a log's robot state, behaviors and any migration the user gives
+against the system's, each misfit one message naming both sides (and the spec keys
+that fix it, where renames or conversions would)."""
 
 from __future__ import annotations
 
@@ -33,9 +17,8 @@ from beatlog.log.format import SessionHeader
 from beatlog.model.behavior import System
 from beatlog.model.state import state_schema, state_type_name
 from beatlog.project import one_to_one_problem
-from beatlog.replay.migration import StateMigration
-from beatlog.replay.recorded_type import recorded_state_type
-from beatlog.replay.schema_diff import (
+from beatlog.replay.fit.migration import NO_MIGRATION, StateMigration
+from beatlog.replay.fit.schema import (
     PROBLEMS,
     FieldDifference,
     Sides,
@@ -50,12 +33,10 @@ __all__ = [
     "check_catalogue",
     "check_fit",
     "check_state_fields",
-    "recorded_state_type",
     "state_differences",
 ]
 
 _SHOWN = 3
-_NO_MIGRATION = StateMigration()
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 """A TOML key that needs no quotes."""
 
@@ -71,7 +52,7 @@ def check_fit(
     header: SessionHeader,
     system: System,
     path: Path,
-    migration: StateMigration = _NO_MIGRATION,
+    migration: StateMigration = NO_MIGRATION,
 ) -> None:
     """Raise :class:`SchemaMismatchError` naming both sides when the log does not fit,
     its fields renamed and converted by ``migration``; the message proposes the
@@ -271,7 +252,7 @@ def check_state_fields(
     names: Iterable[str],
     path: Path,
     what: str,
-    migration: StateMigration = _NO_MIGRATION,
+    migration: StateMigration = NO_MIGRATION,
 ) -> None:
     """Raise :class:`FieldError` naming the log when a field named (``what`` says where,
     e.g. a tolerance) is not in the robot state the log recorded (under its current
