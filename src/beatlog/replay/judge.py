@@ -35,7 +35,7 @@ from beatlog.replay.core import CycleOutcome, Expected, Replayer, actor_name
 from beatlog.replay.draws import DrawLedger, Unapproved
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.expected import ExpectedRecords
-from beatlog.replay.fit.check import check_catalogue, check_state_fields
+from beatlog.replay.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.pins import PinChecker, rebuilt_otherwise
 from beatlog.replay.session import BatchReader, Observer, ReplaySession, fields_read
@@ -183,6 +183,7 @@ def replay(
         wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
+    no_samples = NO_SAMPLES if perception is not None and judge.replayer.perception is None else ""
     if divergence is None and not allow_empty and not checked.anything:
         raise EmptyCheckError(reader.path, _nothing_checked(judge.cycles))
     if (
@@ -214,7 +215,7 @@ def replay(
             *(["--allow-empty"] if allow_empty else []),
             *migration.arguments(),
         ),
-        notes=(NO_SAMPLES,) if perception is not None and judge.replayer.perception is None else (),
+        notes=tuple(note for note in (period_note(reader.header, system), no_samples) if note),
     )
 
 

@@ -144,12 +144,54 @@ def test_replay_against_another_robots_state_is_bad_input_naming_both(
     message = str(raised.value)
     assert message == (
         f"{log}: recorded with robot state tests.conftest.Probe, which does not fit the system's "
-        "tests.replay.fit.test_check.Rover: Probe is not Rover (a robot state type renamed "
-        "since keeps exactly its fields); field 'distance' is gone; field 'reading' is gone; "
-        "the system has 'heading' (number) in its place: if renamed, add field_renames = "
-        '{ reading = "heading" } to the spec (beatlog replay: --rename-field reading=heading)'
+        "tests.replay.fit.test_check.Rover: this looks like another robot's log (robot "
+        "'robot'): Rover holds only 0 of the 2 fields Probe recorded; field 'distance' is "
+        "gone; field 'reading' is gone"
     )
     assert "\n" not in message
+
+
+class Gauge(RobotState, kw_only=True):
+    """The probe's state under another name, one of its two fields renamed since."""
+
+    distance: float = 1.0
+    range: float = 0.0
+
+
+def test_a_state_type_renamed_with_a_field_renamed_is_still_offered_the_rename(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(5)
+    with pytest.raises(SchemaMismatchError) as raised:
+        replay(log, system_with(Gauge))
+
+    assert "another robot's log" not in str(raised.value)
+    assert 'add field_renames = { reading = "range" }' in str(raised.value)
+
+
+def test_a_log_recorded_at_another_heartbeat_period_says_so_and_runs_open_loop(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    faster = PriorityArbiter([Near(), Dice()], robot_state=Probe, period_ns=20_000_000)
+
+    result = replay(log, faster)
+
+    assert result.ok
+    assert result.notes == (
+        "heartbeat period: the log was recorded at 30 ms, the system runs at 20 ms; the "
+        "behaviors replay the recorded heartbeats, so this DTC runs open loop from cycle 0 "
+        "(record it again at the new period)",
+    )
+
+
+def test_a_log_recorded_at_the_systems_heartbeat_period_has_no_note(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    same = PriorityArbiter([Near(), Dice()], robot_state=Probe, period_ns=PERIOD_NS)
+
+    assert replay(log, same).notes == ()
 
 
 def test_a_state_that_gained_a_field_with_a_default_still_replays(record_probe: RecordFn) -> None:

@@ -28,6 +28,7 @@ if TYPE_CHECKING:
     from beatlog.replay.fit.check import check_catalogue as check_catalogue
     from beatlog.replay.fit.check import check_fit as check_fit
     from beatlog.replay.fit.check import check_state_fields as check_state_fields
+    from beatlog.replay.fit.check import period_note as period_note
     from beatlog.replay.fit.check import state_differences as state_differences
     from beatlog.replay.fit.migration import StateConverter as StateConverter
     from beatlog.replay.fit.migration import StateMigration as StateMigration

@@ -33,6 +33,7 @@ __all__ = [
     "check_catalogue",
     "check_fit",
     "check_state_fields",
+    "period_note",
     "state_differences",
 ]
 
@@ -82,9 +83,14 @@ def check_fit(
     was = _short_name(header.robot_state_type)
     now = _short_name(state_type_name(system.robot_state))
     if was != now and not (same_fields and not problems):
-        problems.insert(
-            0, f"{was} is not {now} (a robot state type renamed since keeps exactly its fields)"
-        )
+        foreign = _foreign(header, differences, recorded, current, (was, now))
+        if foreign:
+            problems.insert(0, foreign)
+            hints = ""
+        else:
+            problems.insert(
+                0, f"{was} is not {now} (a robot state type renamed since keeps exactly its fields)"
+            )
     if not problems:
         return
     shown = "; ".join(problems[:_SHOWN])
@@ -93,6 +99,53 @@ def check_fit(
         path,
         f"recorded with robot state {header.robot_state_type}, which does not fit the "
         f"system's {state_type_name(system.robot_state)}: {shown}{more}{hints}",
+    )
+
+
+def _foreign(
+    header: SessionHeader,
+    differences: list[FieldDifference],
+    recorded: dict[str, Any],
+    current: dict[str, Any],
+    names: tuple[str, str],
+) -> str:
+    """Why a log of another robot state type looks like another robot's log, or nothing
+    when it does not: most of the fields it recorded are gone or retyped (a struct whose
+    fields changed inside counts as kept), and the renames proposed explain no more than
+    half of them. Renames proposed for the few fields left would mislead."""
+    fields = len(schema_fields(recorded))
+    kept = fields - sum(
+        difference.kind in ("gone", "retyped") and "." not in difference.path
+        for difference in differences
+    )
+    renamed = sum("." not in old for old in _proposed_renames(differences, recorded, current))
+    if 2 * kept >= fields or 2 * (kept + renamed) > fields:
+        return ""
+    robot = f" (robot {header.robot_id!r})" if header.robot_id else ""
+    was, now = names
+    return (
+        f"this looks like another robot's log{robot}: {now} holds only {kept} of the "
+        f"{fields} fields {was} recorded"
+    )
+
+
+def period_note(header: SessionHeader, system: System) -> str | None:
+    """A note on a log recorded at another heartbeat period than the one the system
+    declares (its ``period_ns``), or None.
+
+    Replay hands the behaviors the recorded heartbeats: the DTC still checks exactly what
+    they do on the recorded beats, so it is no failure, but the recording no longer
+    answers to the robot as it runs (a beat of 30 ms where it now beats every 20), which
+    is open loop from the first cycle.
+    """
+    declared = getattr(system, "period_ns", None)
+    if not isinstance(declared, int) or declared == header.period_ns:
+        return None
+    return (
+        f"heartbeat period: the log was recorded at {header.period_ns / 1e6:g} ms, the "
+        f"system runs at {declared / 1e6:g} ms; the behaviors replay the recorded "
+        "heartbeats, so this DTC runs open loop from cycle 0 (record it again at the new "
+        "period)"
     )
 
 
