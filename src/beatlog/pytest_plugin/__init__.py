@@ -36,8 +36,14 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from beatlog.errors import BeatlogError
-from beatlog.pytest_plugin.items import RUN, DtcFile, DtcItem, failure_text, quitting_as_pytest
-from beatlog.pytest_plugin.run import BeatlogRun
+from beatlog.pytest_plugin.run import (
+    RUN,
+    BeatlogRun,
+    DtcFile,
+    DtcItem,
+    failure_text,
+    quitting_as_pytest,
+)
 from beatlog.suite.policy import UpdateMode
 from beatlog.suite.spec import SPEC_SUFFIX
 
