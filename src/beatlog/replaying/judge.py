@@ -121,8 +121,10 @@ def replay(
     its batches as recorded (:class:`~beatlog.replaying.session.BatchReader`, e.g. a
     :class:`~beatlog.analysis.recorded.RecordedChanges` for the coverage), which take
     the whole log. ``migration`` maps robot-state fields renamed or retyped since the
-    recording onto the system's (:mod:`beatlog.replaying.fit.migration`); the reproduce command
-    carries it.
+    recording onto the system's (:mod:`beatlog.replaying.fit.migration`); the reproduce
+    command carries it. A log recorded at another heartbeat period than the system
+    declares replays with a note saying so
+    (:func:`~beatlog.replaying.fit.check.period_note`).
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replaying.fit`).
