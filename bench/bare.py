@@ -37,7 +37,7 @@ from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.cycle import state_change_finder, state_reader
 from beatlog.model.random import Draw, ReplayRandom
-from beatlog.replay.view import StateViews
+from beatlog.replaying.view import StateViews
 
 __all__ = [
     "BareInputs",

@@ -28,14 +28,16 @@ import msgspec
 import zstandard
 from mcap import records
 
-from beatlog.log import crafting
 from beatlog.log.format import CYCLES_TOPIC, CycleRecord, SessionEnd
 from beatlog.log.payload import decode_payload
 from beatlog.log.reader import SessionLogReader
 from beatlog_examples.rover import record_lockstep, system
 
-replay_module: Any = importlib.import_module("beatlog.replay.judge")
-"""The module (``beatlog.replay.judge`` the attribute is the function of that name)."""
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' crafted logs
+from tests import crafting
+
+replay_module: Any = importlib.import_module("beatlog.replaying.judge")
+"""The module (``beatlog.replaying.judge`` the attribute is the function of that name)."""
 
 DURATION_S = 1050.0
 """The paper's 17.5 minutes: 35,000 cycles at 30 ms."""

@@ -51,8 +51,8 @@ from rich.table import Table
 from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
-from beatlog.replay.core import CycleOutcome
-from beatlog.replay.judge import replay
+from beatlog.replaying.core import CycleOutcome
+from beatlog.replaying.judge import replay
 from beatlog.suite.baseline import expected_path, read_baseline
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import UpdateAction, approve, update_baselines

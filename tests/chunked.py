@@ -8,11 +8,11 @@ from typing import NamedTuple
 
 import msgspec
 
-from beatlog.log.crafting import Record, session_header
 from beatlog.log.format import CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe
+from tests.crafting import Record, session_header
 
 CYCLES = 200
 CYCLES_PER_CHUNK = 10

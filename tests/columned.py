@@ -11,7 +11,6 @@ from typing import Any
 import msgspec
 
 from beatlog.log.columns import array_head, column_batches
-from beatlog.log.crafting import Message, craft_log, session_header
 from beatlog.log.format import (
     CYCLES_TOPIC,
     END_TOPIC,
@@ -25,6 +24,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.state import state_fields
 from tests.conftest import PERIOD_NS
+from tests.crafting import Message, craft_log, session_header
 
 Damage = Callable[[ColumnBatch], ColumnBatch]
 

@@ -1,7 +1,7 @@
 """Factories for tests: logs rewritten (as format 1, cut, with a damaged index), projects
 that vouch for systems, counts read from a log, a disk that fills up.
 
-Logs crafted message by message and chunk by chunk come from :mod:`beatlog.log.crafting`,
+Logs crafted message by message and chunk by chunk come from :mod:`tests.crafting`,
 which the benchmarks use too. Everything is built in ``tmp_path``; no test commits a binary.
 """
 
@@ -19,7 +19,6 @@ import msgspec
 import pytest
 from mcap.opcode import Opcode
 
-from beatlog.log.crafting import FORMAT_1_CHANNELS, Message, craft_log, top_level_records
 from beatlog.log.format import (
     CYCLES_TOPIC,
     END_TOPIC,
@@ -29,9 +28,10 @@ from beatlog.log.format import (
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
-from beatlog.replay.pins import RebuiltState
-from beatlog.replay.state_digests import XXH64, PinDigest, state_digest
-from beatlog.replay.verdict import Checked
+from beatlog.replaying.pins import RebuiltState
+from beatlog.replaying.state_digests import XXH64, PinDigest, state_digest
+from beatlog.replaying.verdict import Checked
+from tests.crafting import FORMAT_1_CHANNELS, Message, craft_log, top_level_records
 
 MAGIC_LENGTH = 8
 RECORD_HEAD = 9

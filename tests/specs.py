@@ -16,7 +16,7 @@ from tests.systems import Rover, rover_system
 PROBE = "tests.conftest:probe_system"
 CHANGED = "tests.conftest:probe_system_changed"
 GAUGE = "tests.systems:gauge_system"
-"""The system of the logs :mod:`beatlog.log.crafting` crafts."""
+"""The system of the logs :mod:`tests.crafting` crafts."""
 ROVER = "tests.systems:rover_system"
 """Another robot, whose behaviors have the probe's names."""
 

@@ -25,12 +25,12 @@ import msgspec
 import numpy as np
 import py_trees
 
-from beatlog.log.crafting import Gauge
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, probe_system
+from tests.crafting import Gauge
 
 HEADINGS = ("left", "right", "straight", "back")
 HOSTILE = "<script>alert('x')</script>"

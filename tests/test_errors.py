@@ -11,6 +11,7 @@ import beatlog.errors
 from beatlog.errors import (
     BaselineError,
     BeatlogError,
+    ConversionError,
     CorruptLogError,
     FieldError,
     LogError,
@@ -75,3 +76,11 @@ def test_a_system_load_error_keeps_the_users_traceback() -> None:
 def test_an_error_not_from_user_code_has_no_user_traceback() -> None:
     assert CorruptLogError("probe.beatlog", "bad CRC").user_traceback is None
     assert FieldError("probe.beatlog: no field 'speed'").user_traceback is None
+
+
+def test_a_conversion_error_is_a_beatlog_error_naming_the_field() -> None:
+    error = ConversionError("pose.x", "cm() raised ValueError: too close", user_traceback="...")
+
+    assert isinstance(error, BeatlogError)
+    assert str(error) == "field 'pose.x': cm() raised ValueError: too close"
+    assert error.user_traceback == "..."

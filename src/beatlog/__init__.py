@@ -7,7 +7,6 @@ when the behaviors no longer do what they did.
 The public names are imported on first use: ``import beatlog`` stays light.
 """
 
-import importlib
 from typing import TYPE_CHECKING
 
 from beatlog._lazy import lazy_names
@@ -26,16 +25,10 @@ if TYPE_CHECKING:
     from beatlog.model.perception import Perception as Perception
     from beatlog.model.robot import Robot as Robot
     from beatlog.record import Recorder as Recorder
-    from beatlog.replay import Divergence as Divergence
-    from beatlog.replay import DivergenceKind as DivergenceKind
-    from beatlog.replay import ReplayResult as ReplayResult
-    from beatlog.replay import StateChange as StateChange
+    from beatlog.replaying import Divergence as Divergence
+    from beatlog.replaying import DivergenceKind as DivergenceKind
+    from beatlog.replaying import ReplayResult as ReplayResult
+    from beatlog.replaying import StateChange as StateChange
     from beatlog.suite.approved import replay as replay
 
 __getattr__ = lazy_names(__name__)
-
-# The subpackage beatlog.replay shares its name with the function beatlog.replay, and
-# importing the subpackage binds the name to it. Import it now (its own names are lazy,
-# so it costs nothing) and unbind the name: it is __getattr__'s, which gives the function.
-importlib.import_module("beatlog.replay")
-del globals()["replay"]

@@ -10,6 +10,7 @@ __all__ = [
     "BeatlogError",
     "CiWriteError",
     "ClusterError",
+    "ConversionError",
     "CorruptLogError",
     "EmptyCheckError",
     "ExportError",
@@ -153,6 +154,17 @@ class SystemLoadError(BeatlogError):
 
     def __init__(self, message: str, *, user_traceback: str | None = None) -> None:
         super().__init__(message)
+        self.user_traceback = user_traceback
+
+
+class ConversionError(BeatlogError):
+    """A recorded robot-state value that did not become the system's under a field
+    conversion or rename: names the field and why; ``user_traceback`` is that of the
+    user's conversion, if it raised."""
+
+    def __init__(self, field: str, problem: str, *, user_traceback: str | None = None) -> None:
+        super().__init__(f"field {field!r}: {problem}")
+        self.field = field
         self.user_traceback = user_traceback
 
 

@@ -30,8 +30,6 @@ from beatlog.adapters.export import ExportFormat, export
 from beatlog.adapters.rosbag import import_bag
 from beatlog.analysis.summary import summarize
 from beatlog.errors import ExportError
-from beatlog.log.crafting import Message as LogMessage
-from beatlog.log.crafting import craft_log, cycle, cycle_messages, end_message, header_message
 from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
@@ -50,6 +48,8 @@ from tests.bags import (
 )
 from tests.commands import Beatlog, assert_error, assert_error_matching, cannot_import
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
+from tests.crafting import Message as LogMessage
+from tests.crafting import craft_log, cycle, cycle_messages, end_message, header_message
 from tests.perceptions import record_with_samples
 from tests.systems import record_scatter
 from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
@@ -823,7 +823,7 @@ def test_a_truncated_log_is_exported_up_to_its_last_cycle(beatlog: Beatlog, tmp_
             "robot_id": "bench",
             "software_version": "test",
             "system": "",
-            "robot_state_type": "beatlog.log.crafting.Gauge",
+            "robot_state_type": "tests.crafting.Gauge",
             "period_ns": str(PERIOD_NS),
             "start_time_ns": "0",
             "cycles": "20",
@@ -1353,7 +1353,7 @@ def test_parquet_metadata_names_the_log_and_where_it_ends(tmp_path: Path) -> Non
         "beatlog.robot_id": "bench",
         "beatlog.software_version": "test",
         "beatlog.system": "",
-        "beatlog.robot_state_type": "beatlog.log.crafting.Gauge",
+        "beatlog.robot_state_type": "tests.crafting.Gauge",
         "beatlog.period_ns": str(PERIOD_NS),
         "beatlog.start_time_ns": "0",
         "beatlog.cycles": "20",

@@ -10,11 +10,11 @@ import msgspec
 import pytest
 
 from beatlog.analysis.summary import summarize
-from beatlog.log.crafting import session_header
 from beatlog.log.format import SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe, RecordFn, distances
+from tests.crafting import session_header
 from tests.factories import with_damaged_index
 
 

@@ -22,9 +22,9 @@ from beatlog.analysis.timeline import (
 from beatlog.errors import FieldError, NotABeatlogError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
-from beatlog.replay.core import Replayer
-from beatlog.replay.expectation import EveryCycle
-from beatlog.replay.verdict import DivergenceKind, StateChange
+from beatlog.replaying.core import Replayer
+from beatlog.replaying.expectation import EveryCycle
+from beatlog.replaying.verdict import DivergenceKind, StateChange
 from tests.conftest import (
     PERIOD_NS,
     Near,

@@ -10,7 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.log.crafting import (
+from beatlog.log.format import FORMAT_VERSION
+from tests.commands import Beatlog
+from tests.conftest import RecordFn
+from tests.crafting import (
     STANDARD_CHANNELS,
     Channel,
     chunks,
@@ -22,9 +25,6 @@ from beatlog.log.crafting import (
     header_message,
     standard_messages,
 )
-from beatlog.log.format import FORMAT_VERSION
-from tests.commands import Beatlog
-from tests.conftest import RecordFn
 from tests.factories import PROBE_CYCLE_DAMAGE, rewrite_cycle, with_damaged_index
 from tests.specs import GAUGE, PROBE, write_spec
 
@@ -78,11 +78,11 @@ HOSTILE: dict[str, tuple[Callable[[Path], Path], str]] = {
     ),
     "huge-robot-id": (
         huge_robot_id,
-        "damaged record at byte 52: a chunk claims 50000601 bytes uncompressed",
+        "damaged record at byte 46: a chunk claims 50000595 bytes uncompressed",
     ),
     "many-behaviors": (
         many_behaviors,
-        "damaged session header: 3089164 bytes, more than the 1048576 a header may hold",
+        "damaged session header: 3089158 bytes, more than the 1048576 a header may hold",
     ),
 }
 

@@ -14,7 +14,6 @@ from pathlib import Path
 import pytest
 from mcap.writer import Writer
 
-from beatlog.log.crafting import session_header
 from beatlog.log.writer import SessionLogWriter
 from tests.commands import (
     Beatlog,
@@ -24,6 +23,7 @@ from tests.commands import (
     failing_line,
 )
 from tests.conftest import RecordFn, broken_probe
+from tests.crafting import session_header
 from tests.specs import PROBE
 from tests.text import frames
 

@@ -28,7 +28,9 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader
 
 from beatlog.log import SessionEnd, SessionHeader, SessionLogWriter
-from beatlog.log.crafting import (
+from beatlog.log.format import CYCLES_TOPIC
+from tests.conformance.format3 import DAMAGES, damaged, header, written
+from tests.crafting import (
     FORMAT_1_CHANNELS,
     PERIOD_NS,
     Message,
@@ -41,8 +43,6 @@ from beatlog.log.crafting import (
     header_message,
     session_header,
 )
-from beatlog.log.format import CYCLES_TOPIC
-from tests.conformance.format3 import DAMAGES, damaged, header, written
 from tests.factories import RECORD_HEAD
 
 CASES = Path(__file__).parent / "cases"

@@ -5,7 +5,6 @@ from __future__ import annotations
 import pytest
 from mcap.opcode import Opcode
 
-from beatlog.log.crafting import chunks, top_level_records
 from beatlog.log.reader import LogStatus
 from tests.chunked import (
     CYCLES,
@@ -15,6 +14,7 @@ from tests.chunked import (
     read_all,
     write_chunked_log,
 )
+from tests.crafting import chunks, top_level_records
 
 
 @pytest.fixture(scope="module")

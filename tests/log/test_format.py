@@ -11,7 +11,6 @@ from typing import Any
 import msgspec
 import pytest
 
-from beatlog.log.crafting import session_header
 from beatlog.log.format import (
     CHANNEL_TOPICS,
     EMPTY_LIST,
@@ -26,6 +25,7 @@ from beatlog.log.writer import SessionLogWriter
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
+from tests.crafting import session_header
 
 
 def float_from_bits(bits: int) -> float:

@@ -8,9 +8,9 @@ import pytest
 from mcap.opcode import Opcode
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.crafting import chunks, top_level_records
 from beatlog.log.index import recorded_cycles
 from tests.chunked import CYCLES, Original, cut_points, read_all, write, write_chunked_log
+from tests.crafting import chunks, top_level_records
 from tests.factories import MAGIC_LENGTH, RECORD_HEAD
 
 

@@ -12,7 +12,13 @@ import pytest
 import zstandard
 
 from beatlog.errors import CorruptLogError, LogError, NotABeatlogError
-from beatlog.log.crafting import (
+from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, SessionHeader
+from beatlog.log.limits import MAX_BEHAVIORS, MAX_CHUNK_BYTES, MAX_NAME_LENGTH
+from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog.replaying.judge import replay
+from beatlog_examples.dog import SUITE_DIR
+from tests.conftest import RecordFn, probe_system
+from tests.crafting import (
     FORMAT_1_CHANNELS,
     STANDARD_CHANNELS,
     Channel,
@@ -29,12 +35,6 @@ from beatlog.log.crafting import (
     standard_messages,
     swap_chunks,
 )
-from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, SessionHeader
-from beatlog.log.limits import MAX_BEHAVIORS, MAX_CHUNK_BYTES, MAX_NAME_LENGTH
-from beatlog.log.reader import LogStatus, SessionLogReader
-from beatlog.replay.judge import replay
-from beatlog_examples.dog import SUITE_DIR
-from tests.conftest import RecordFn, probe_system
 
 DOG_SUITE = SUITE_DIR
 COMMITTED_LOGS = sorted(DOG_SUITE.glob("*.beatlog"))

@@ -9,7 +9,11 @@ import msgspec
 import pytest
 
 from beatlog.errors import CorruptLogError, SchemaMismatchError
-from beatlog.log.crafting import (
+from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord
+from beatlog.log.reader import LogStatus, SessionLogReader
+from tests.chunked import read_all
+from tests.conftest import PERIOD_NS
+from tests.crafting import (
     FORMAT_1_CHANNELS,
     STANDARD_CHANNELS,
     Gauge,
@@ -20,10 +24,6 @@ from beatlog.log.crafting import (
     header_message,
     standard_messages,
 )
-from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord
-from beatlog.log.reader import LogStatus, SessionLogReader
-from tests.chunked import read_all
-from tests.conftest import PERIOD_NS
 
 
 @pytest.mark.parametrize("version", [1, FORMAT_VERSION])

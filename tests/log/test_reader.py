@@ -17,7 +17,6 @@ from beatlog.errors import (
     NotABeatlogError,
     UnsupportedVersionError,
 )
-from beatlog.log.crafting import craft_log, header_message, session_header, top_level_records
 from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
@@ -31,6 +30,7 @@ from tests.chunked import (
     write,
 )
 from tests.conftest import PERIOD_NS
+from tests.crafting import craft_log, header_message, session_header, top_level_records
 from tests.factories import MAGIC_LENGTH, RECORD_HEAD
 
 CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8

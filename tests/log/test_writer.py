@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 from beatlog.errors import LogError, LogExistsError
-from beatlog.log.crafting import session_header
 from beatlog.log.format import CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from tests.chunked import read_all
 from tests.conftest import PERIOD_NS, Probe
+from tests.crafting import session_header
 from tests.factories import fill_the_disk
 
 if TYPE_CHECKING:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.replay.verdict import FieldDifference
+from beatlog.replaying.verdict import FieldDifference
 from beatlog.report.baselines import render_orphans, render_pending_diff, render_updates
 from beatlog.report.console import plain_text
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction

@@ -10,7 +10,7 @@ import msgspec
 import pytest
 
 from beatlog.errors import BaselineError
-from beatlog.replay.expectation import (
+from beatlog.replaying.expectation import (
     ABSENT,
     AS_RECORDED,
     Expectation,
@@ -18,9 +18,9 @@ from beatlog.replay.expectation import (
     TracedOutput,
     TracedState,
 )
-from beatlog.replay.pins import StatePins
-from beatlog.replay.state_digests import BLAKE2B, XXH64, PinDigest
-from beatlog.replay.verdict import StateChange
+from beatlog.replaying.pins import StatePins
+from beatlog.replaying.state_digests import BLAKE2B, XXH64, PinDigest
+from beatlog.replaying.verdict import StateChange
 from beatlog.suite.baseline import (
     expected_path,
     format_lines,

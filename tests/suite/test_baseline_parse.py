@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from beatlog.replay.draws import DrawRule
+from beatlog.replaying.draws import DrawRule
 from beatlog.suite.baseline_parse import ParsedLines, parse_line, split_header
 
 _COMMON = [

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import BaselineError, CiWriteError, OptionError
-from beatlog.replay.verdict import DivergenceKind
+from beatlog.replaying.verdict import DivergenceKind
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.maintenance import (
     Decision,

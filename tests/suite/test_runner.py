@@ -10,7 +10,7 @@ import pytest
 
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
-from beatlog.replay.verdict import Checked, DivergenceKind
+from beatlog.replaying.verdict import Checked, DivergenceKind
 from beatlog.report.figures import dtc_charts
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import SpecOptions, UpdateMode

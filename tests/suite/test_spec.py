@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import SpecError
-from beatlog.replay.compare import Comparison
-from beatlog.replay.migration import StateMigration
+from beatlog.replaying.compare import Comparison
+from beatlog.replaying.fit.migration import StateMigration
 from beatlog.suite.spec import load_spec, spec_text
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec

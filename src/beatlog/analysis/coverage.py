@@ -26,7 +26,7 @@ from typing import Any
 
 from beatlog.analysis.recorded import read_changes
 from beatlog.model.behavior import System
-from beatlog.replay.expectation import TracedChange
+from beatlog.replaying.expectation import TracedChange
 
 __all__ = [
     "BehaviorCoverage",

@@ -3,7 +3,7 @@
 The verdict's replay stops at the first divergence. Reports want more: the robot-state
 fields the behaviors read in the diverging cycle, the whole new trace for
 re-baselining, and timelines for charts. :func:`replay_details` replays the log once
-more in one :class:`~beatlog.replay.session.ReplaySession` whose observers gather
+more in one :class:`~beatlog.replaying.session.ReplaySession` whose observers gather
 them all, so a DTC is replayed at most twice in all.
 """
 
@@ -17,9 +17,9 @@ from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_wind
 from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
-from beatlog.replay.migration import StateMigration
-from beatlog.replay.session import FieldsRead, ReplaySession
-from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
+from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.session import FieldsRead, ReplaySession
+from beatlog.replaying.verdict import Divergence, DivergenceKind, StateChange
 
 __all__ = ["Details", "replay_details"]
 

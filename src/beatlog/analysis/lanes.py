@@ -19,8 +19,8 @@ from beatlog.log.format import (
     StateChangeRecord,
 )
 from beatlog.model.behavior import BehaviorState, System
-from beatlog.replay.core import CycleOutcome
-from beatlog.replay.verdict import StateChange
+from beatlog.replaying.core import CycleOutcome
+from beatlog.replaying.verdict import StateChange
 
 __all__ = ["Lanes"]
 

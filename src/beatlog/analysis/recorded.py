@@ -11,8 +11,8 @@ from pathlib import Path
 from beatlog.log.format import EMPTY_LIST, CycleRecord
 from beatlog.log.payload import decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
-from beatlog.replay.expectation import TracedChange
-from beatlog.replay.verdict import StateChange
+from beatlog.replaying.expectation import TracedChange
+from beatlog.replaying.verdict import StateChange
 
 __all__ = ["RecordedChanges", "read_changes"]
 

@@ -27,9 +27,9 @@ from beatlog.analysis.signals import DEFAULT_FIELDS, Sampler, Signal
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.replay.core import CycleOutcome
-from beatlog.replay.session import ReplaySession
-from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
+from beatlog.replaying.core import CycleOutcome
+from beatlog.replaying.session import ReplaySession
+from beatlog.replaying.verdict import Divergence, DivergenceKind, StateChange
 from beatlog.usercode import load_system
 
 __all__ = [
@@ -111,7 +111,7 @@ def build_timeline(
     ``fields`` names the robot-state fields to sample (default: the first
     :data:`DEFAULT_FIELDS` numeric ones). ``expected`` replaces the recorded state
     changes in the cycles it holds (cycle to changes, e.g. an approved baseline's
-    :meth:`~beatlog.replay.expectation.Expectation.changes_override`). ``divergence`` is the
+    :meth:`~beatlog.replaying.expectation.Expectation.changes_override`). ``divergence`` is the
     verdict's first divergence, marked on the chart. Robot time is kept in
     ``max_points`` buckets (see :class:`TimelineCollector`), so a chart stays small.
     The actual lanes end where replay cannot go on (an exception, a random-number

@@ -22,20 +22,20 @@ from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
-from beatlog.replay.compare import WHOLE_STATE, state_fields
-from beatlog.replay.core import CycleOutcome, Replayer
-from beatlog.replay.departures import DepartureCollector, Departures, apply_outputs, hold
-from beatlog.replay.draws import DrawRule, draw_rules
-from beatlog.replay.expectation import (
+from beatlog.replaying.compare import WHOLE_STATE, state_fields
+from beatlog.replaying.core import CycleOutcome, Replayer
+from beatlog.replaying.departures import DepartureCollector, Departures, apply_outputs, hold
+from beatlog.replaying.draws import DrawRule, draw_rules
+from beatlog.replaying.expectation import (
     Expectation,
     OutputTracker,
     TracedChange,
     TracedOutput,
 )
-from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise
-from beatlog.replay.session import ReplaySession
-from beatlog.replay.state_digests import state_digest
-from beatlog.replay.verdict import StateChange
+from beatlog.replaying.pins import RebuiltState, StatePins, rebuilt_otherwise
+from beatlog.replaying.session import ReplaySession
+from beatlog.replaying.state_digests import state_digest
+from beatlog.replaying.verdict import StateChange
 
 __all__ = [
     "ReplayedTrace",
@@ -163,7 +163,7 @@ def _renamed(change: StateChange, rename: Callable[[str], str]) -> StateChange:
 
 def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[str, Any]]:
     """The robot states the log recorded in ``cycles``, as fields (see
-    :func:`~beatlog.replay.compare.state_fields`); read without the system."""
+    :func:`~beatlog.replaying.compare.state_fields`); read without the system."""
     found: dict[int, dict[str, Any]] = {}
     if not cycles:
         return found
@@ -199,7 +199,7 @@ def replayed_trace(
 class TraceCollector:
     """Gathers a whole-session trace from the replay core's outcomes, up to the cycle
     where replay cannot go on (an exception, a random-number problem: the replayer's
-    :meth:`~beatlog.replay.core.Replayer.stop`)."""
+    :meth:`~beatlog.replaying.core.Replayer.stop`)."""
 
     def __init__(self, replayer: Replayer, rename: Callable[[str], str] = str) -> None:
         self._names = replayer.executor.behavior_ids

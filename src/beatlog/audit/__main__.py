@@ -30,7 +30,7 @@ from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
 from beatlog.model.behavior import Behavior, System
 from beatlog.model.context import Context
-from beatlog.replay.judge import replay
+from beatlog.replaying.judge import replay
 from beatlog.usercode import load_system
 
 __all__ = ["main"]

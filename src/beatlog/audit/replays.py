@@ -27,8 +27,8 @@ import msgspec
 from beatlog.audit.leaks import Finding
 from beatlog.closing import Closing
 from beatlog.errors import BeatlogError
-from beatlog.replay.migration import StateMigration
-from beatlog.replay.verdict import DivergenceKind
+from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.verdict import DivergenceKind
 
 __all__ = ["AuditReport", "Auditors", "Finding", "SeedRun", "audit"]
 

@@ -78,7 +78,7 @@ def _import_from_working_directory() -> None:
 def _interruption(stop: KeyboardInterrupt) -> str:
     """What stopped the command: Ctrl-C, or the debugger quit at a break (which says so).
     Nothing is imported on the way out: a break imported the debugger where there was one."""
-    debugger = sys.modules.get("beatlog.replay.debugger")
+    debugger = sys.modules.get("beatlog.replaying.debugger")
     if debugger is not None and isinstance(stop, debugger.DebuggerQuit):
         return str(stop)
     return "interrupted"

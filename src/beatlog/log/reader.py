@@ -143,7 +143,7 @@ class SessionLogReader(Closing):
         and their ``samples`` are checked against the header (:func:`samples_shape`), not
         kept. In format 3 (robot states by field) it is the batch's
         :class:`~beatlog.log.columns.StateColumns` instead, to decode only the fields
-        read (the replay core does: :mod:`beatlog.replay.view`).
+        read (the replay core does: :mod:`beatlog.replaying.view`).
 
         Decoding in the same pass as the batch reads every robot state once instead of
         skipping it and decoding it again. A robot state that does not fit the type is a

@@ -42,7 +42,12 @@ class Behavior(Protocol):
 
 @runtime_checkable
 class System(Protocol):
-    """The behavior software under test: what record and replay drive, cycle by cycle."""
+    """The behavior software under test: what record and replay drive, cycle by cycle.
+
+    A system may also declare ``period_ns``, the heartbeat period its behaviors are
+    written for (as :class:`CataloguedSystem` does): a log recorded at another period
+    then replays with a note saying so.
+    """
 
     @property
     def robot_state(self) -> type[msgspec.Struct]:
@@ -78,12 +83,21 @@ class PlainBehavior(Protocol[RS_contra]):
 
 
 class CataloguedSystem(Generic[RS]):
-    """What a :class:`System` exposes, held once it is built: its robot state type and
-    its catalogue of behaviors (a subclass defines ``update``)."""
+    """What a :class:`System` exposes, held once it is built: its robot state type, its
+    catalogue of behaviors and, if given, its heartbeat period (a subclass defines
+    ``update``)."""
 
-    def __init__(self, robot_state: type[RS], catalogue: Mapping[str, Behavior]) -> None:
+    def __init__(
+        self,
+        robot_state: type[RS],
+        catalogue: Mapping[str, Behavior],
+        *,
+        period_ns: int | None = None,
+    ) -> None:
         self._robot_state = robot_state
         self._catalogue = catalogue
+        self.period_ns = period_ns
+        """The heartbeat period the behaviors are written for, in ns; None: not declared."""
 
     @property
     def robot_state(self) -> type[RS]:
@@ -109,6 +123,7 @@ class PriorityArbiter(CataloguedSystem[RS]):
     longitudinal behavior (``acceleration``) and a lateral one (``steering``) each keep
     control of their own output. The state then names each output's winner, by output
     (``"acceleration: follow, steering: keep_lane"``; ``"idle"`` when none proposes one).
+    ``period_ns`` declares the heartbeat period the behaviors are written for.
     """
 
     def __init__(
@@ -118,6 +133,7 @@ class PriorityArbiter(CataloguedSystem[RS]):
         robot_state: type[RS],
         name: str = "arbiter",
         per_output: bool = False,
+        period_ns: int | None = None,
     ) -> None:
         self.name = name
         self.state: BehaviorState = "idle"
@@ -128,7 +144,7 @@ class PriorityArbiter(CataloguedSystem[RS]):
             if behavior.name in catalogue:
                 raise ValueError(f"two behaviors are named {behavior.name!r}")
             catalogue[behavior.name] = behavior
-        super().__init__(robot_state, catalogue)
+        super().__init__(robot_state, catalogue, period_ns=period_ns)
 
     def update(self, state: RS, context: Context) -> None:
         """Step every behavior in priority order and emit the winner's outputs (each

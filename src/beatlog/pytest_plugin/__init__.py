@@ -20,9 +20,9 @@ Break points, as ``beatlog replay`` has them: ``--beatlog-break-at CYCLE`` stops
 debugger just before the behaviors update in that cycle of the one DTC selected (with
 ``-k`` or its path), ``--beatlog-break-on-divergence`` replays each failing DTC again
 and stops at its first divergence. They stop as ``beatlog replay`` does
-(:mod:`beatlog.replay.debugger`): ``PYTHONBREAKPOINT`` is honoured, pytest suspends its
+(:mod:`beatlog.replaying.debugger`): ``PYTHONBREAKPOINT`` is honoured, pytest suspends its
 output capture while pdb runs, and quitting pdb ends the session as quitting pytest's
-pdb does (pytest's pdb is built on :class:`~beatlog.replay.debugger.Debugger` for that,
+pdb does (pytest's pdb is built on :class:`~beatlog.replaying.debugger.Debugger` for that,
 unless ``--pdbcls`` names another). A break past the end of the selected DTC's log is a
 usage error. They need the DTCs run in the pytest process (no ``-n`` of pytest-xdist).
 """
@@ -36,14 +36,20 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from beatlog.errors import BeatlogError
-from beatlog.pytest_plugin.items import RUN, DtcFile, DtcItem, failure_text, quitting_as_pytest
-from beatlog.pytest_plugin.run import BeatlogRun
+from beatlog.pytest_plugin.run import (
+    RUN,
+    BeatlogRun,
+    DtcFile,
+    DtcItem,
+    failure_text,
+    quitting_as_pytest,
+)
 from beatlog.suite.policy import UpdateMode
 from beatlog.suite.spec import SPEC_SUFFIX
 
 if TYPE_CHECKING:
     from beatlog.model.behavior import System
-    from beatlog.replay.verdict import ReplayResult
+    from beatlog.replaying.verdict import ReplayResult
 
 # The engines and reports are imported where a DTC runs or the summary is written: every
 # pytest process loads this plugin (each xdist worker too), most of them to run no DTC.
@@ -118,7 +124,7 @@ def pytest_configure(config: pytest.Config) -> None:
                 "run without pytest-xdist's -n (or with -n 0)"
             )
         if config.option.usepdb_cls is None:  # pytest's pdb, quitting wherever it stops
-            config.option.usepdb_cls = ("beatlog.replay.debugger", "Debugger")
+            config.option.usepdb_cls = ("beatlog.replaying.debugger", "Debugger")
     coverage_json = config.getoption("beatlog_coverage_json")
     config.stash[RUN] = BeatlogRun(
         update=UpdateMode.parse(config.getoption("beatlog_update")),
@@ -161,7 +167,7 @@ def beatlog_replay(request: pytest.FixtureRequest) -> Callable[..., ReplayResult
     """
 
     def run(log: str | Path, system: System | str, **options: Any) -> ReplayResult:
-        from beatlog.replay.judge import replay  # noqa: PLC0415 - see the imports
+        from beatlog.replaying.judge import replay  # noqa: PLC0415 - see the imports
         from beatlog.usercode import importable_near  # noqa: PLC0415
 
         try:

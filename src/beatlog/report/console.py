@@ -15,7 +15,7 @@ from rich.text import Text
 
 from beatlog.analysis.summary import LogSummary
 from beatlog.log.format import FORMAT_VERSION
-from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult
+from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult
 from beatlog.report.counts import plural
 from beatlog.suite.runner import SpecOutcome, Verdict
 

@@ -15,7 +15,7 @@ from pathlib import Path
 from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
 from beatlog.files import replacing
-from beatlog.replay.verdict import Divergence, DrawReport, StateChange
+from beatlog.replaying.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
 from beatlog.report.figures import Chart, dtc_charts

@@ -17,8 +17,8 @@ from typing import Any, NamedTuple
 
 from beatlog.errors import BaselineError
 from beatlog.model.behavior import System
-from beatlog.replay.judge import replay as judge
-from beatlog.replay.verdict import ReplayResult
+from beatlog.replaying.judge import replay as judge
+from beatlog.replaying.verdict import ReplayResult
 from beatlog.suite.baseline import Baseline, expected_path, log_digest, read_baseline
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
@@ -111,7 +111,7 @@ def replay(
     approved: bool = True,
     **options: Any,
 ) -> ReplayResult:
-    """Replay ``log`` as :func:`beatlog.replay.judge.replay` does (the same options), and
+    """Replay ``log`` as :func:`beatlog.replaying.judge.replay` does (the same options), and
     judge it against the approved baseline of the spec beside it that names it, with
     that spec's comparison, when there is one and neither ``expected`` nor
     ``comparison`` is given; ``approved=False`` judges against the recording. The

@@ -17,15 +17,15 @@ from typing import Any, TypeVar
 
 import msgspec
 
-from beatlog.replay.expectation import (
+from beatlog.replaying.expectation import (
     ABSENT,
     AS_RECORDED,
     TracedChange,
     TracedOutput,
 )
-from beatlog.replay.pins import TAG_CHARS, DigestBlock
-from beatlog.replay.state_digests import DIGEST_BYTES
-from beatlog.replay.verdict import StateChange
+from beatlog.replaying.pins import TAG_CHARS, DigestBlock
+from beatlog.replaying.state_digests import DIGEST_BYTES
+from beatlog.replaying.verdict import StateChange
 from beatlog.suite.baseline_text import AS_RECORDED_TEXT, QUIET
 
 __all__ = ["common_lines"]

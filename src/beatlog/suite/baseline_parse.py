@@ -19,17 +19,17 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import (
+from beatlog.replaying.draws import DrawRule
+from beatlog.replaying.expectation import (
     ABSENT,
     AS_RECORDED,
     TracedChange,
     TracedOutput,
     TracedState,
 )
-from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
-from beatlog.replay.state_digests import DIGEST_BYTES
-from beatlog.replay.verdict import StateChange
+from beatlog.replaying.pins import TAG_CHARS, DigestBlock, PinnedRun
+from beatlog.replaying.state_digests import DIGEST_BYTES
+from beatlog.replaying.verdict import StateChange
 from beatlog.suite.baseline_common import common_lines
 from beatlog.suite.baseline_text import (
     AS_RECORDED_TEXT,

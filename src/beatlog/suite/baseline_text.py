@@ -14,9 +14,15 @@ from typing import Any
 
 import msgspec
 
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import ABSENT, AS_RECORDED, TracedChange, TracedOutput, TracedState
-from beatlog.replay.pins import StatePins
+from beatlog.replaying.draws import DrawRule
+from beatlog.replaying.expectation import (
+    ABSENT,
+    AS_RECORDED,
+    TracedChange,
+    TracedOutput,
+    TracedState,
+)
+from beatlog.replaying.pins import StatePins
 
 __all__ = [
     "AS_RECORDED_TEXT",

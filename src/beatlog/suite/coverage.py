@@ -10,7 +10,7 @@ from beatlog.analysis.recorded import RecordedChanges, read_changes
 from beatlog.errors import BeatlogError, LogError, OptionError, RemoteLogError
 from beatlog.model.behavior import System
 from beatlog.project import vouched_system
-from beatlog.replay.expectation import TracedChange
+from beatlog.replaying.expectation import TracedChange
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import load_system
 

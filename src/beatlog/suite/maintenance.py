@@ -25,11 +25,11 @@ from beatlog.analysis.trace import (
     whole_trace,
 )
 from beatlog.errors import BaselineError, OptionError
-from beatlog.replay.compare import Comparison
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import Expectation, TracedChange, TracedState
-from beatlog.replay.pins import StatePins
-from beatlog.replay.verdict import FieldDifference
+from beatlog.replaying.compare import Comparison
+from beatlog.replaying.draws import DrawRule
+from beatlog.replaying.expectation import Expectation, TracedChange, TracedState
+from beatlog.replaying.pins import StatePins
+from beatlog.replaying.verdict import FieldDifference
 from beatlog.suite.baseline import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,

@@ -20,10 +20,10 @@ from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.remote import named_as_given
-from beatlog.replay.debugger import break_on_divergence, unreached_break
-from beatlog.replay.expectation import Expectation
-from beatlog.replay.judge import recorded_system, replay
-from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
+from beatlog.replaying.debugger import break_on_divergence, unreached_break
+from beatlog.replaying.expectation import Expectation
+from beatlog.replaying.judge import recorded_system, replay
+from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import DtcSpec
@@ -133,7 +133,7 @@ def run_spec(
     judges exactly as this run did. The spec's references also import from its folder
     and its project root (:func:`beatlog.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
-    ``--break-on-divergence`` do (:mod:`beatlog.replay.debugger`); a break past the end
+    ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
     of the log is noted in the result.
     A log behind a URL is copied here first, and the copy removed after; one that
     cannot be copied is an error of the DTC. The audit runs in ``auditors``' interpreters

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.errors import OptionError
-from beatlog.replay.debugger import beyond_the_log
+from beatlog.replaying.debugger import beyond_the_log
 from beatlog.suite.coverage import select_exercising
 from beatlog.suite.discovery import discover_specs, distinguished, select_specs
 from beatlog.suite.fleet import check_references, fleet_specs

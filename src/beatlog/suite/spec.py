@@ -47,7 +47,7 @@ Renames that hold for every spec go into the project's ``pyproject.toml``, under
 ``[tool.beatlog.renames]``; a spec's own renames come on top. The same goes for
 ``field_renames`` and ``field_conversions`` (``[tool.beatlog.field_renames]``,
 ``[tool.beatlog.field_conversions]``), which map robot-state fields renamed or retyped
-since the recording onto the system's (:mod:`beatlog.replay.migration`): a field of a
+since the recording onto the system's (:mod:`beatlog.replaying.fit.migration`): a field of a
 nested struct is named by its dotted path (``"pose.x" = "pose.px"``, or TOML's own
 ``pose.x = "pose.px"``), and a conversion is a ``module:function`` that takes the
 recorded value and returns the field's new one, imported as ``system`` is.
@@ -79,8 +79,8 @@ from beatlog.project import (
     project_config,
 )
 from beatlog.remote import fetched_log, is_url, url_name
-from beatlog.replay.compare import Comparison
-from beatlog.replay.migration import StateMigration
+from beatlog.replaying.compare import Comparison
+from beatlog.replaying.fit.migration import StateMigration
 
 __all__ = [
     "SPEC_SUFFIX",

@@ -88,8 +88,8 @@ from beatlog.adapters.export.viewer import write_mcap
 from beatlog.errors import ExportError
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.replay.judge import replay
-from beatlog.replay.verdict import Divergence
+from beatlog.replaying.judge import replay
+from beatlog.replaying.verdict import Divergence
 
 __all__ = ["ExportFormat", "ExportResult", "export", "export_format"]
 

@@ -32,7 +32,7 @@ from beatlog.log.format import (
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState
 from beatlog.model.inbox import Sample
-from beatlog.replay.verdict import StateChange
+from beatlog.replaying.verdict import StateChange
 
 __all__ = [
     "Cycle",

@@ -37,7 +37,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     """Draw the chart, with the first divergence where a system is given."""
     _need_matplotlib("plot")
     from beatlog.analysis.timeline import build_timeline
-    from beatlog.replay.judge import replay
+    from beatlog.replaying.judge import replay
     from beatlog.report.chart import chart_format, write_chart
 
     chart_format(args.output)  # an unknown suffix is refused before anything runs

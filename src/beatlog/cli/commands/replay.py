@@ -82,9 +82,9 @@ def run(args: argparse.Namespace, console: Console) -> int:
 
     import msgspec
 
-    from beatlog.replay.debugger import break_on_divergence, unreached_break
-    from beatlog.replay.judge import recorded_system
-    from beatlog.replay.migration import StateMigration
+    from beatlog.replaying.debugger import break_on_divergence, unreached_break
+    from beatlog.replaying.fit.migration import StateMigration
+    from beatlog.replaying.judge import recorded_system
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
 
@@ -127,7 +127,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
 def _check_break(break_at: int, log: Path) -> None:
     """A break past the end of the log, as its end record counts its cycles, is a usage
     error before anything replays."""
-    from beatlog.replay.debugger import beyond_the_log
+    from beatlog.replaying.debugger import beyond_the_log
 
     problem = beyond_the_log(break_at, log)
     if problem is not None:

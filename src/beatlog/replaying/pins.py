@@ -1,0 +1,397 @@
+"""Robot states pinned by digest: what an approved perception change rebuilds, compactly.
+
+In sensor-level replay an intended perception change (a constant retuned) rebuilds
+RS_t otherwise than recorded, often in nearly every cycle. A baseline pins those
+states without copying them: for each run of cycles in which perception rebuilds
+otherwise, gaps of up to :data:`MAX_GAP` cycles rebuilt as recorded included
+(:class:`PinnedRun`, naming the fields that differ from the recording and giving their
+rebuilt values in its first cycle, for review), blocks of up to
+:data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
+digest of the block.
+
+A cycle's :func:`~beatlog.replaying.state_digests.state_digest` is the XXH64 digest (seed
+0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
+system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
+of any field counts, and the replay core, which encodes each rebuilt state to compare it
+with the recorded one, digests the same bytes. Its first 12 bits, as two base64
+characters, are the cycle's tag: a state that differs from the approved one is caught in
+its own cycle, except once in 4,096; the block's digest, of its pinned cycles' whole
+digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
+characters a cycle keep a retuned perception's pins near 3.2 bytes a cycle, 1.4 % of the
+dog's logs (``bench/bench_baselines.py``); a whole digest a cycle would take 11
+characters.
+
+Baselines of format 5 and older pin by a keyed BLAKE2b, still judged as written
+(:mod:`beatlog.replaying.state_digests`).
+"""
+
+from __future__ import annotations
+
+import base64
+import bisect
+import functools
+import string
+import struct
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from operator import add
+from typing import Any, NamedTuple
+
+from beatlog.replaying.compare import Comparison
+from beatlog.replaying.state_digests import DIGEST_BYTES, XXH64, PinDigest
+
+__all__ = [
+    "CYCLES_PER_BLOCK",
+    "MAX_GAP",
+    "NOT_PINNED",
+    "TAG_CHARS",
+    "TAG_SHIFT",
+    "UNPINNED",
+    "DigestBlock",
+    "PinChecker",
+    "PinnedRun",
+    "RebuiltState",
+    "StatePins",
+    "rebuilt_otherwise",
+]
+
+TAG_CHARS = 2
+"""A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
+CYCLES_PER_BLOCK = 64
+"""The most cycles one block (one line of a baseline) spans."""
+MAX_GAP = 16
+"""The most cycles perception may rebuild as recorded inside one run: a gap costs a
+tag each, a new run a line of names and values."""
+UNPINNED = ".."
+"""The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
+_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
+"""The base64 digits, in the order of the six bits each stands for."""
+_DIGIT = ord("x")
+_MARKS = bytes(
+    _DIGIT if chr(byte) in _DIGITS else byte if chr(byte) == UNPINNED[0] else 0
+    for byte in range(256)
+)
+"""Each digit as ``x``, so that a gap's dots stand out, and any other character as 0."""
+_EXACT = Comparison()
+
+
+def rebuilt_otherwise(recorded: Mapping[str, Any], rebuilt: Mapping[str, Any]) -> dict[str, Any]:
+    """The fields of a rebuilt robot state that differ from the recorded one, bit for
+    bit, with their rebuilt values (a field the rebuilt state lacks is left out)."""
+    return {
+        name: rebuilt[name]
+        for name in _EXACT.state_differences(recorded, rebuilt)
+        if name in rebuilt
+    }
+
+
+class RebuiltState(NamedTuple):
+    """A cycle in which perception rebuilt the robot state otherwise than recorded, as a
+    trace collects it."""
+
+    cycle: int
+    time_ns: int
+    fields: dict[str, Any]
+    """The fields that differ from the recording, with their rebuilt values."""
+    digest: bytes
+    """The :func:`~beatlog.replaying.state_digests.state_digest` of the whole rebuilt state."""
+
+
+class PinnedRun(NamedTuple):
+    """Cycles in which perception rebuilds the robot state otherwise than recorded, from
+    ``cycle`` to ``last`` with gaps of at most :data:`MAX_GAP` cycles (as recorded): what
+    a review needs of them."""
+
+    cycle: int
+    """The first of them."""
+    time_ns: int
+    last: int
+    """The last of them."""
+    cycles: int
+    """How many are pinned: ``last - cycle + 1`` less the gaps."""
+    fields: tuple[str, ...]
+    """The fields that differ from the recording in any of them, sorted."""
+    first: dict[str, Any]
+    """The fields that differ in the first cycle, with their rebuilt values."""
+
+
+class DigestBlock(NamedTuple):
+    """Up to :data:`CYCLES_PER_BLOCK` consecutive cycles of a run: a tag each
+    (:data:`UNPINNED` for a gap), and the digest of the pinned ones' whole digests."""
+
+    cycle: int
+    """The first of them, a pinned one."""
+    time_ns: int
+    tags: str
+    """:data:`TAG_CHARS` a cycle, in cycle order."""
+    digest: bytes
+
+    @property
+    def cycles(self) -> int:
+        """How many cycles the block spans."""
+        return len(self.tags) // TAG_CHARS
+
+    def tag(self, offset: int) -> str:
+        """The tag of the block's cycle ``cycle + offset``."""
+        return self.tags[offset * TAG_CHARS : (offset + 1) * TAG_CHARS]
+
+    @property
+    def pinned(self) -> list[int]:
+        """The offsets of the cycles it pins (not gaps)."""
+        return [offset for offset in range(self.cycles) if self.tag(offset) != UNPINNED]
+
+
+@dataclass(frozen=True)
+class StatePins:
+    """The robot states a baseline pins by digest: runs, and the blocks that cover them.
+
+    :raises ValueError: the blocks do not cover the runs, in order.
+    """
+
+    runs: tuple[PinnedRun, ...] = ()
+    blocks: tuple[DigestBlock, ...] = ()
+    scheme: PinDigest = XXH64
+    """How the blocks' digests and tags were made."""
+
+    def __post_init__(self) -> None:
+        problem = _coverage_problem(self.runs, self.blocks)
+        if problem is not None:
+            raise ValueError(problem)
+
+    @classmethod
+    def from_rebuilt(cls, states: Iterable[RebuiltState], scheme: PinDigest = XXH64) -> StatePins:
+        """Pin the rebuilt states a trace collected (in cycle order, digested by
+        :func:`~beatlog.replaying.state_digests.state_digest` with ``scheme``)."""
+        runs: list[PinnedRun] = []
+        blocks: list[DigestBlock] = []
+        for run in _runs(states):
+            head, tail = run[0], run[-1]
+            fields = sorted({name for state in run for name in state.fields})
+            runs.append(
+                PinnedRun(
+                    head.cycle, head.time_ns, tail.cycle, len(run), tuple(fields), head.fields
+                )
+            )
+            blocks.extend(_blocks(run, scheme))
+        return cls(tuple(runs), tuple(blocks), scheme)
+
+    @property
+    def cycles(self) -> int:
+        """How many cycles are pinned."""
+        return sum(run.cycles for run in self.runs)
+
+
+def _tag(digest: bytes) -> str:
+    return base64.b64encode(digest[:3]).decode()[:TAG_CHARS]
+
+
+def _runs(states: Iterable[RebuiltState]) -> Iterator[list[RebuiltState]]:
+    """The states in runs whose gaps are at most :data:`MAX_GAP` cycles."""
+    run: list[RebuiltState] = []
+    for state in states:
+        if run and state.cycle - run[-1].cycle - 1 > MAX_GAP:
+            yield run
+            run = []
+        run.append(state)
+    if run:
+        yield run
+
+
+def _blocks(run: list[RebuiltState], scheme: PinDigest) -> Iterator[DigestBlock]:
+    """A run's blocks: each starts at a pinned cycle and spans at most
+    :data:`CYCLES_PER_BLOCK`, ending at the last pinned cycle it reaches."""
+    start = 0
+    while start < len(run):
+        first = run[start].cycle
+        end = start
+        while end < len(run) and run[end].cycle < first + CYCLES_PER_BLOCK:
+            end += 1
+        chunk = run[start:end]
+        tags = [UNPINNED] * (chunk[-1].cycle - first + 1)
+        for state in chunk:
+            tags[state.cycle - first] = _tag(state.digest)
+        digest = scheme.block(b"".join(state.digest for state in chunk))
+        yield DigestBlock(first, run[start].time_ns, "".join(tags), digest)
+        start = end
+
+
+def _coverage_problem(runs: tuple[PinnedRun, ...], blocks: tuple[DigestBlock, ...]) -> str | None:
+    """Why the blocks do not cover the runs, in order, if they do not."""
+    index = 0
+    end = -1
+    for run in runs:
+        where = f"the robot-state run from cycle {run.cycle}"
+        if run.cycle <= end or run.last < run.cycle:
+            return f"{where} is out of order"
+        if not run.first or not set(run.first) <= set(run.fields):
+            return f"{where} names no fields that differ in its first cycle"
+        start, pinned = run.cycle, 0
+        while index < len(blocks) and blocks[index].cycle <= run.last:
+            block = blocks[index]
+            if block.cycle < start or (pinned == 0 and block.cycle != run.cycle):
+                return f"{where} has its digests of cycle {block.cycle} out of place"
+            cycles = len(block.tags) // TAG_CHARS
+            tagged = _tagged(block.tags)
+            if tagged is None or not 0 < cycles <= CYCLES_PER_BLOCK:
+                return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
+            start = block.cycle + cycles
+            pinned += tagged
+            index += 1
+        if start != run.last + 1:
+            return f"{where} has digests that do not end at its last cycle, {run.last}"
+        if pinned != run.cycles:
+            return f"{where} says {run.cycles} cycles, its digests pin {pinned}"
+        end = run.last
+    if index < len(blocks):
+        return f"the digests from cycle {blocks[index].cycle} are in no robot-state run"
+    return None
+
+
+def _tagged(tags: str) -> int | None:
+    """How many cycles ``tags`` pin, if they are tags of :data:`TAG_CHARS` base64 digits,
+    or :data:`UNPINNED`, one after another: read as bytes (a regular expression saying
+    so, or a translation of the characters as text, costs ten times as much)."""
+    if len(tags) % TAG_CHARS or not tags.isascii():
+        return None
+    marks = tags.encode().translate(_MARKS)
+    if 0 in marks:  # a character neither a digit nor a dot (an int: a byte found at once)
+        return None
+    if marks[::2] != marks[1::2]:  # a tag's two characters: both dots or neither
+        return None
+    return marks.count(_DIGIT) // TAG_CHARS
+
+
+_GAP = 0xFF
+"""What :data:`_SIXES` makes of a gap's characters."""
+TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
+"""A digest shifted right by this many bits is its tag's bits."""
+_TAG_BITS = (1 << 6 * TAG_CHARS) - 1
+_OPENS = 1 << 6 * TAG_CHARS
+"""Marks the tag of a block's first pinned cycle (:attr:`PinChecker.tags`)."""
+_CLOSES = 2 << 6 * TAG_CHARS
+"""Marks the tag of a block's last pinned cycle."""
+NOT_PINNED = (_GAP << 6) + _GAP
+"""In :attr:`PinChecker.tags`, a cycle not pinned: a gap's two characters read as a tag,
+above any tag however marked."""
+_HIGH = [six << 6 for six in range(256)]
+"""The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
+it: a tag is ``_HIGH[first] + second``."""
+_SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
+"""Each tag character as the six bits it stands for: a cycle's tag is the first 12
+bits of its digest (:func:`_tag`), high six first."""
+
+
+class PinChecker:
+    """Judges the robot states perception rebuilds against :class:`StatePins`, one
+    pinned cycle after another, in cycle order.
+
+    It costs a digest and a few look-ups a pinned cycle: each block's tags are read
+    into :attr:`tags` when it is made, in C, and a block's digest is checked at its
+    last pinned cycle. The replay core's perception step inlines the common case of
+    :meth:`mismatch` (:attr:`tags`, :attr:`digest`, :attr:`digests`) and leaves the
+    rest to :meth:`judge_digest`.
+    """
+
+    def __init__(self, pins: StatePins) -> None:
+        self.digest = pins.scheme.state
+        """A rebuilt state's digest, of its bytes as a log encodes them."""
+        self._block_digest = pins.scheme.block
+        blocks = pins.blocks
+        tags = [NOT_PINNED] * (blocks[-1].cycle + blocks[-1].cycles if blocks else 0)
+        self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
+        """Each block by its last pinned cycle, where its digest is checked, with its
+        first pinned cycle and how many it pins."""
+        for block in blocks:
+            sixes = block.tags.encode().translate(_SIXES)
+            tags[block.cycle : block.cycle + block.cycles] = map(
+                add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]
+            )
+            first = block.cycle + (len(block.tags) - len(block.tags.lstrip(UNPINNED))) // TAG_CHARS
+            final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
+            if first > final:  # no cycle pinned (a baseline's coverage check refuses it)
+                continue
+            tags[first] |= _OPENS
+            tags[final] |= _CLOSES
+            pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
+            self._finals[final] = (block, first, pinned)
+        self.tags: list[int] = tags
+        """By cycle, from 0 to the last pinned one: a pinned cycle's tag (the first 12
+        bits of its digest, :data:`TAG_SHIFT`), marked above those bits where a block
+        opens or closes; :data:`NOT_PINNED` or more for a cycle not pinned. A digest
+        whose tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any
+        other is for :meth:`judge_digest`."""
+        self.digests: list[int] = []
+        """The digests of the cycles judged since the last block opened whose tags
+        agreed, in cycle order: checked with the block's digest where it closes."""
+        self._opened = -1
+        """The first pinned cycle of the block they are of."""
+        self._found: dict[int, str] = {}
+        """How the cycles found to differ were found to."""
+        self._runs = pins.runs
+        self._starts = [run.cycle for run in pins.runs]
+
+    @functools.cached_property
+    def cycles(self) -> frozenset[int]:
+        """The pinned cycles."""
+        return frozenset(cycle for cycle, tag in enumerate(self.tags) if tag < NOT_PINNED)
+
+    def __contains__(self, cycle: object) -> bool:
+        return (
+            isinstance(cycle, int) and 0 <= cycle < len(self.tags) and self.tags[cycle] < NOT_PINNED
+        )
+
+    def run_at(self, cycle: int) -> PinnedRun:
+        """The run a pinned cycle is in."""
+        return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
+
+    def mismatch(self, cycle: int, encoded: bytes) -> str | None:
+        """Judge the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would),
+        each pinned cycle once, in cycle order: how it was found to differ from the
+        approved one, ``"by its digest"`` (its tag), or ``"by the digest of cycles
+        A–B"`` (its block's, checked at the block's last pinned cycle when every pinned
+        cycle of the block was judged, each agreeing with its tag); None when it
+        agrees. :meth:`found` asks again.
+
+        :raises KeyError: ``cycle`` is not pinned.
+        """
+        if cycle not in self:
+            raise KeyError(cycle)
+        digest = self.digest(encoded)
+        if digest >> TAG_SHIFT == self.tags[cycle]:  # agrees, inside its block
+            self.digests.append(digest)
+            return None
+        return self.judge_digest(cycle, digest)
+
+    def judge_digest(self, cycle: int, digest: int) -> str | None:
+        """:meth:`mismatch` for the ``digest`` of pinned ``cycle`` where its tag is not
+        the cycle's unmarked tag: a block opens or closes there, or it differs."""
+        tag = self.tags[cycle]
+        if digest >> TAG_SHIFT != tag & _TAG_BITS:
+            self._found[cycle] = "by its digest"  # reported here, not again for the block
+            return "by its digest"
+        if tag & _OPENS:
+            self._opened = cycle
+            self.digests.clear()
+        self.digests.append(digest)
+        return self._block_mismatch(cycle) if tag & _CLOSES else None
+
+    def found(self, cycle: int, encoded: bytes) -> str | None:
+        """How the robot state of a pinned ``cycle`` was found to differ when it was
+        judged; one not judged yet is judged now (:meth:`mismatch`)."""
+        if cycle in self._found:
+            return self._found[cycle]
+        return self.mismatch(cycle, encoded)
+
+    def _block_mismatch(self, final: int) -> str | None:
+        """How the block closing at pinned cycle ``final`` was found to differ by its
+        digest: None when it agrees, or when not every pinned cycle of it was judged,
+        each agreeing with its tag (one that disagreed was reported in its own cycle)."""
+        block, first, pinned = self._finals[final]
+        digests = self.digests
+        agreed = self._opened == first and len(digests) == pinned
+        packed = struct.pack(f">{pinned}Q", *digests) if agreed else b""
+        digests.clear()
+        if not agreed or self._block_digest(packed) == block.digest:
+            return None
+        found = self._found[final] = f"by the digest of cycles {block.cycle}–{final}"
+        return found
