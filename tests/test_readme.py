@@ -113,6 +113,14 @@ def test_the_readme_starts_with_its_two_set_up_commands_and_stays_short() -> Non
     assert lines[4].endswith("pytest -n auto")
 
 
+def test_every_link_of_the_readme_leads_to_a_file_of_the_repository() -> None:
+    links = re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", README.read_text(encoding="utf-8"))
+    local = [link for link in links if "://" not in link]
+
+    assert len(local) >= 20
+    assert [link for link in local if not (ROOT / link).is_file()] == []
+
+
 def test_the_readme_robot_records_and_replays_as_a_dtc(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
