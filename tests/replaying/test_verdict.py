@@ -75,8 +75,8 @@ def test_every_divergence_kind_is_its_words_in_a_report() -> None:
     assert [str(kind) for kind in DivergenceKind] == [
         "state changes",
         "outputs",
-        "random overdrawn",
-        "random underdrawn",
+        "extra random draw",
+        "missing random draw",
         "random mismatch",
         "exception",
         "perception",

@@ -17,7 +17,7 @@ reason format 3 is no larger than format 2 at any width). A log whose header nam
 robot-state fields keeps its robot states in the cycle records, as format 2 does: the
 recorder names them for a state of at least
 :data:`COLUMNS_FROM` fields, since decoding a narrower state whole costs less than
-opening its columns (measured with 30 fields read: ``BENCHMARKS.md``).
+opening its columns when the behaviors read a few dozen fields.
 """
 
 from __future__ import annotations
@@ -47,8 +47,8 @@ __all__ = [
 
 COLUMNS_FROM = 100
 """The fewest fields a robot state has for the recorder to have it stored by field:
-with 30 fields read, replay by field costs 3 % less than from the records at 100
-fields and 3 % more at 80 (``BENCHMARKS.md``, "Format 3")."""
+with 30 fields read, replay by field costs a little less than from the records at 100
+fields, and a little more at 80."""
 
 
 def array_head(count: int) -> bytes:

@@ -62,8 +62,8 @@ def state_change_finder(size: int) -> ChangeFinder:
     Call it when the two lists differ. Its source is written out for the size, in
     blocks of 32 behaviors: a block whose states are all the same is passed over by one
     list comparison in C, so what a cycle costs beyond that follows the blocks in which
-    a state changed; a loop over every behavior cost several times as much at a
-    thousand behaviors (``bench/bench_width.py``). Made once per size: a thousand
+    a state changed; a loop over every behavior costs several times as much at a
+    thousand behaviors. Made once per size: a thousand
     behaviors take some 45 ms to compile.
     """
     lines = ["def find(now, seen):", "    found = []"]

@@ -88,8 +88,7 @@ class Recorder:
     :param by_field: store the robot states by field (format 3's columns: a replay
         decodes only the fields its behaviors read), or in the cycle records; by
         default by field for a state of at least
-        :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay
-        (``BENCHMARKS.md``).
+        :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay.
     """
 
     def __init__(

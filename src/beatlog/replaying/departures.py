@@ -7,7 +7,7 @@ differ lists its own (or is *quiet*: the recorded ones are gone, none stand in);
 output field that differs holds its approved value from a cycle on, whatever was
 recorded, until it is :data:`~beatlog.replaying.expectation.AS_RECORDED` again. After an
 intended change most outputs still follow the recorded robot states, so departures
-are a fraction of a whole trace (``bench/bench_living.py``).
+are a fraction of a whole trace.
 
 :class:`DepartureCollector` finds them as a trace replays every cycle; replay
 applies them to the recorded cycles as it reads them

@@ -17,9 +17,8 @@ with the recorded one, digests the same bytes. Its first 12 bits, as two base64
 characters, are the cycle's tag: a state that differs from the approved one is caught in
 its own cycle, except once in 4,096; the block's digest, of its pinned cycles' whole
 digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
-characters a cycle keep a retuned perception's pins near 3.2 bytes a cycle, 1.4 % of the
-dog's logs (``bench/bench_baselines.py``); a whole digest a cycle would take 11
-characters.
+characters a cycle keep the pins of a perception retuned for every cycle near 3.2 bytes
+a cycle, a small fraction of the log; a whole digest a cycle would take 11 characters.
 
 Baselines of format 5 and older pin by a keyed BLAKE2b, still judged as written
 (:mod:`beatlog.replaying.state_digests`).

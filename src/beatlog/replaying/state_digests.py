@@ -5,9 +5,9 @@ Baselines of format 6 on digest a state, as a log encodes it, with XXH64
 dear, still judged as they were written. The pins guard against accidental change,
 not a hostile baseline (which could pin anything), so a fast non-cryptographic digest
 serves. XXH64, not XXH3: XXH3 digests a state this long with vector instructions (AVX2,
-AVX-512), which left a replay around them slower than their count says (the dog's
-perception retune re-baselined: 1.13 times its re-recorded suite in CPU with XXH3, 1.05
-with XXH64, in about as many instructions; BENCHMARKS.md).
+AVX-512), which leave a replay around them slower than their count of instructions says:
+a re-baselined perception change costs more CPU with XXH3 than with XXH64 in about as
+many instructions.
 """
 
 from __future__ import annotations

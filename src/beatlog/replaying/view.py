@@ -210,7 +210,7 @@ class StateViews:
         :meth:`~StateColumns.rows` (those of one width first, in column order), the
         others decoded a column at a time and set on the views; where most of the
         fields stored are of varied width, all are decoded a column at a time, which
-        costs less for them (``BENCHMARKS.md``)."""
+        costs less for them."""
         index = self.index(columns.names)
         key = (columns.widths, held)
         found = self._layouts.get(key)

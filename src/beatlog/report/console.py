@@ -20,7 +20,9 @@ from beatlog.report.counts import plural
 from beatlog.suite.runner import SpecOutcome, Verdict
 
 __all__ = [
+    "LEGEND",
     "MAX_LISTED",
+    "SUMMARY_COLUMNS",
     "plain_text",
     "render_outcome",
     "render_passed",
@@ -31,6 +33,12 @@ __all__ = [
 
 MAX_LISTED = 30
 """The most DTCs a suite's summary table lists whole: about a screenful."""
+
+SUMMARY_COLUMNS = ("DTC", "verdict", "cycles", "robot time", "wall", "first divergence")
+"""The columns of a suite's summary table."""
+
+LEGEND = "beatlog help WORD explains a word above, e.g. beatlog help open-loop"
+"""The line under a suite's summary table: where its words are explained, offline."""
 
 MEASURABLE_S = 0.001
 """The shortest wall time a replay's figures report, and compute a speed-up from."""
@@ -266,9 +274,9 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
     listed = outcomes
     if not every and len(outcomes) > MAX_LISTED:
         listed = [outcome for outcome in outcomes if outcome.verdict is not Verdict.PASSED]
-    table = Table(title="DTC suite", title_justify="left")
+    table = Table(title="DTC suite", title_justify="left", caption=LEGEND, caption_justify="left")
     table.add_column("DTC", overflow="fold")  # an id folds, never cut to its shared start
-    for column in ("verdict", "cycles", "robot time", "wall", "first divergence"):
+    for column in SUMMARY_COLUMNS[1:]:
         table.add_column(column, justify="right" if column in ("cycles", "wall") else "left")
     styles = {Verdict.PASSED: "green", Verdict.FAILED: "red", Verdict.ERROR: "magenta"}
     for outcome in listed:

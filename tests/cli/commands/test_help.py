@@ -1,4 +1,4 @@
-"""``beatlog help [COMMAND]``: the page ``--help`` prints."""
+"""``beatlog help [COMMAND | TERM]``: the page ``--help`` prints, or what a word means."""
 
 from __future__ import annotations
 
@@ -25,12 +25,39 @@ def test_help_prints_the_page_help_does(
     assert capsys.readouterr().out == page
 
 
-def test_help_of_an_unknown_command_is_one_line(beatlog: Beatlog) -> None:
-    run = beatlog("help", "nope")
+def test_help_of_a_word_prints_its_glossary_entry(beatlog: Beatlog) -> None:
+    run = beatlog("help", "open-loop")
+
+    assert run.code == 0
+    lines = run.out.splitlines()
+    assert lines[0] == "open loop"
+    assert lines[1].startswith("  From the first cycle where an approved change")
+    assert lines[-2:] == [
+        "  also printed as: open loop since cycle, worth re-recording when convenient",
+        "  more: docs/how-to/intended-changes.md",
+    ]
+
+
+@pytest.mark.parametrize("words", [["RS_t"], ["robot", "state"], ["Robot-State"]])
+def test_help_finds_a_word_by_any_spelling(words: list[str], beatlog: Beatlog) -> None:
+    run = beatlog("help", *words)
+
+    assert (run.code, run.out.splitlines()[0]) == (0, "robot state")
+
+
+def test_help_lists_the_whole_glossary(beatlog: Beatlog) -> None:
+    run = beatlog("help", "--glossary")
+
+    terms = [line for line in run.out.splitlines() if line and not line.startswith(" ")]
+    assert run.code == 0
+    assert {"open loop", "vouch", "extra random draw", "pending", "arbiter"} <= set(terms)
+
+
+def test_help_of_an_unknown_word_is_one_line_with_the_nearest(beatlog: Beatlog) -> None:
+    run = beatlog("help", "opn", "loop")
 
     assert_error(
         run,
-        "argument COMMAND: invalid choice: 'nope' (choose from 'approve', 'demo', 'export', "
-        "'help', 'import-bag', 'plot', 'record', 'replay', 'review', 'show', 'test') "
-        "(see 'beatlog help --help')",
+        "'opn loop' is neither a command nor a word of the glossary; did you mean "
+        "'open loop'? (beatlog help --glossary lists them)",
     )

@@ -604,7 +604,7 @@ def test_a_long_suite_lists_what_did_not_pass_and_every_dtc_with_verbose(
     assert brief.code == verbose.code == 1
     failed = table_row(brief.out, "lap-changed")
     del failed[4]  # its wall time
-    assert failed == ["lap-changed", "failed", "1", "0.0 s", "cycle 0, random overdrawn"]
+    assert failed == ["lap-changed", "failed", "1", "0.0 s", "cycle 0, extra random draw"]
     assert table_row(brief.out, "lap-00") == []
     assert "… and 33 passed, not listed: run with --verbose to list every DTC" in whole_lines(
         brief.out

@@ -80,7 +80,7 @@ COMMANDS: dict[str, Command] = {
         import_bag.run,
     ),
     "help": Command(
-        "show the help of beatlog or of one of its commands",
+        "show the help of beatlog or of one of its commands, or what a word it prints means",
         lambda parser: helping.add_arguments(parser, topics=COMMANDS),
         helping.run,
         runs_user_code=False,
