@@ -1,6 +1,6 @@
 """MkDocs hooks: the pages that are generated from the code at build time, so that they
 cannot drift from it: the CLI reference (every ``--help`` page the parser prints) and the
-glossary (:mod:`beatlog.glossary`, the entries ``beatlog help TERM`` prints)."""
+glossary (:mod:`beatlog.report.glossary`, the entries ``beatlog help TERM`` prints)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import io
 import os
 from typing import Any
 
-from beatlog import glossary
 from beatlog.cli.commands import COMMANDS
 from beatlog.cli.parser import build_parser
+from beatlog.report import glossary
 
 WIDTH = "88"
 """The columns the help pages are wrapped to."""

@@ -1,5 +1,5 @@
 """``beatlog help [COMMAND | TERM]``: the help page ``--help`` prints, or what a word the
-terminal printed means (from the glossary, :mod:`beatlog.glossary`)."""
+terminal printed means (from the glossary, :mod:`beatlog.report.glossary`)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from beatlog.errors import OptionError
 if TYPE_CHECKING:
     from rich.console import Console
 
-    from beatlog.glossary import Entry
+    from beatlog.report.glossary import Entry
 
 __all__ = ["add_arguments", "run"]
 
@@ -36,7 +36,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     """Print the help page of beatlog or of the command named, with the parser that
     parsed ``args`` (:func:`beatlog.cli.parser.build_parser` hands it over), or the
     glossary's entry for the term named, or the whole glossary."""
-    from beatlog import glossary
+    from beatlog.report import glossary
 
     topic = " ".join(args.topic)
     if args.glossary:

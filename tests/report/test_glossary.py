@@ -5,12 +5,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from beatlog import glossary
 from beatlog.replaying.verdict import DivergenceKind
+from beatlog.report import glossary
 from beatlog.report.console import SUMMARY_COLUMNS
 from beatlog.suite.runner import Verdict
 
-DOCS = Path(__file__).parent.parent / "docs"
+DOCS = Path(__file__).parents[2] / "docs"
 
 PRINTED = [
     # the closing counts and the verdict labels

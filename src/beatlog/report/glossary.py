@@ -34,7 +34,7 @@ class Entry(NamedTuple):
 @functools.cache
 def entries() -> tuple[Entry, ...]:
     """Every entry, in the order of the glossary file."""
-    text = resources.files("beatlog").joinpath("glossary.toml").read_text(encoding="utf-8")
+    text = resources.files("beatlog.report").joinpath("glossary.toml").read_text(encoding="utf-8")
     return tuple(
         Entry(
             term=row["term"],
