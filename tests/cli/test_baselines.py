@@ -405,3 +405,34 @@ def test_approve_names_each_loss_it_accepts(beatlog: Beatlog, blind: Path) -> No
         f"accepted loss in avoid-pole: {ARBITER_LOST}",
         f"accepted loss in avoid-pole: {NEAR_LOST}",
     ]
+
+
+def test_a_suite_past_its_open_loop_limits_fails_naming_the_sessions_to_re_record(
+    beatlog: Beatlog, spec: Path
+) -> None:
+    write_spec(spec.parent, "untouched", spec.parent.parent / "probe.beatlog")
+    beatlog("test", "--update", spec)
+    beatlog("approve", spec)
+    pyproject = spec.parent.parent / "pyproject.toml"
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_dtcs = 1\n", encoding="utf-8")
+    assert beatlog("test", spec.parent).code == 0
+
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_share = 0.5\n", encoding="utf-8")
+    stale = beatlog("test", spec.parent)
+
+    assert stale.code == 1
+    assert whole_lines(stale.out)[-3:-1] == [
+        "stale suite ([tool.beatlog]): 1 runs open loop for more than 50 % of its cycles "
+        "(max_open_loop_share = 0.5)",
+        "re-record first: avoid-pole (93 % open loop)",
+    ]
+
+
+def test_a_bad_open_loop_limit_is_a_one_line_error(beatlog: Beatlog, spec: Path) -> None:
+    pyproject = spec.parent.parent / "pyproject.toml"
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_dtcs = -1\n", encoding="utf-8")
+
+    assert_error(
+        beatlog("test", spec),
+        f"{pyproject}: key 'tool.beatlog.max_open_loop_dtcs': expected `int` >= 0",
+    )

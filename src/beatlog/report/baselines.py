@@ -16,6 +16,7 @@ from beatlog.report.counts import plural
 from beatlog.suite.approved import Approved
 from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
+from beatlog.suite.policy import StaleSuite
 
 __all__ = [
     "closed_loop_text",
@@ -25,6 +26,7 @@ __all__ = [
     "render_losses",
     "render_orphans",
     "render_pending_diff",
+    "render_stale",
     "render_updates",
 ]
 
@@ -142,6 +144,37 @@ def render_approved(approved: Approved) -> Text:
         f" {baseline.path.name} (spec {approved.spec.path.name})",
         ": " + (open_loop_text(open_loop) if open_loop else "closed loop, as recorded"),
     )
+
+
+def render_stale(stale: StaleSuite | None) -> list[Text]:
+    """How a suite is past its open-loop limits, and the sessions to re-record first."""
+    if stale is None:
+        return []
+    why = []
+    count, over = stale.open_loop, stale.over_share
+    if stale.max_dtcs is not None and count > stale.max_dtcs:
+        runs = "runs" if count == 1 else "run"
+        why.append(
+            f"{plural(count, 'DTC')} {runs} open loop (max_open_loop_dtcs = {stale.max_dtcs})"
+        )
+    if over and stale.max_share is not None:
+        runs, its = ("runs", "its") if over == 1 else ("run", "their")
+        why.append(
+            f"{over} {runs} open loop for more than {_percent(stale.max_share)} of {its} "
+            f"cycles (max_open_loop_share = {stale.max_share})"
+        )
+    first = ", ".join(
+        f"{name} ({_percent(share)}{' open loop' if not n else ''})"
+        for n, (name, share) in enumerate(stale.rerecord)
+    )
+    return [
+        Text.assemble(("stale suite", "red"), f" ([tool.beatlog]): {'; '.join(why)}"),
+        Text(f"re-record first: {first}"),
+    ]
+
+
+def _percent(share: float) -> str:
+    return f"{round(100 * share)} %"
 
 
 def render_orphans(orphans: Iterable[Path]) -> list[Text]:
