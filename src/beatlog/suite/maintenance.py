@@ -119,6 +119,8 @@ def update_baselines(
             continue
         pending = pending_path(spec.path)
         if update is not None:
+            with spec.readable_log() as log:
+                weighed = _weigh(spec, log, update)[2]
             action = UpdateAction.WITHHELD if ci else UpdateAction.WRITTEN
             if not ci:
                 write_baseline(
@@ -133,7 +135,7 @@ def update_baselines(
                     spec,
                     action,
                     pending,
-                    outcome.shift,
+                    weighed,
                     len(update.outputs or ()),
                     robot_state_cycles=update.state_pins.cycles,
                     draws=update.draws,
@@ -279,32 +281,20 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     their values before and after, for a format 3 pending file); what the pending
     baseline loses and gains is weighed (:func:`~beatlog.analysis.shift.shift`)."""
     expected = expected_path(spec.path)
-    approved = read_baseline(expected).expectation if expected.exists() else None
     pending = read_baseline(pending_path(spec.path)).expectation
-    rename = spec.comparison.rename
     with spec.readable_log() as log:
-        today = today_trace(approved, log, rename)
-        if approved is not None:
+        today, whole, weighed = _weigh(spec, log, pending)
+        if expected.exists():
             source = f"approved ({expected.name})"
             if today.outputs is None:
                 source += ", no outputs pinned"
         else:
             source = f"recorded ({spec.log.name})"
-        old = format_lines(today.changes, today.outputs, today.robot_states, today.state_pins)
         fields = _field_changes(log, today.robot_states, pending.robot_states)
-        pending = whole_trace(pending, log, rename)
-        runs = _rebuilt_runs(log, pending.state_pins)
-        cycles = read_changes(log).cycles
-    new = format_lines(pending.changes, pending.outputs, pending.robot_states, pending.state_pins)
+        runs = _rebuilt_runs(log, whole.state_pins)
+    old = format_lines(today.changes, today.outputs, today.robot_states, today.state_pins)
+    new = format_lines(whole.changes, whole.outputs, whole.robot_states, whole.state_pins)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
-    weighed = shift(
-        (today.changes, today.outputs or ()),
-        (pending.changes, pending.outputs or ()),
-        cycles=cycles,
-        open_loop=None if pending.open_loop is None else pending.open_loop[0],
-        draws_before=today.draws,
-        draws_after=pending.draws,
-    )
     return PendingDiff(
         spec,
         source,
@@ -314,9 +304,29 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         weighed,
         fields,
         runs,
-        pending.draws,
-        pending.open_loop,
+        whole.draws,
+        whole.open_loop,
     )
+
+
+def _weigh(
+    spec: DtcSpec, log: Path, pending: Expectation
+) -> tuple[Expectation, Expectation, Shift]:
+    """Today's expectation of ``spec`` (approved, else recorded) and ``pending``, both
+    as whole traces, and what ``pending`` loses and gains against today's."""
+    expected = expected_path(spec.path)
+    approved = read_baseline(expected).expectation if expected.exists() else None
+    today = today_trace(approved, log, spec.comparison.rename)
+    whole = whole_trace(pending, log, spec.comparison.rename)
+    weighed = shift(
+        (today.changes, today.outputs or ()),
+        (whole.changes, whole.outputs or ()),
+        cycles=read_changes(log).cycles,
+        open_loop=None if whole.open_loop is None else whole.open_loop[0],
+        draws_before=today.draws,
+        draws_after=whole.draws,
+    )
+    return today, whole, weighed
 
 
 def _rebuilt_runs(log: Path, pins: StatePins) -> tuple[RebuiltRun, ...]:

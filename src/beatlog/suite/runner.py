@@ -17,8 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.analysis.recorded import RecordedChanges
-from beatlog.analysis.shift import Shift, shift
-from beatlog.analysis.trace import ReplayedTrace, today_trace
+from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.remote import named_as_given
 from beatlog.replay.debugger import break_on_divergence, unreached_break
@@ -68,8 +67,6 @@ class SpecOutcome:
     in :attr:`UpdateMode.NEW` and the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
-    shift: Shift | None = None
-    """With an :attr:`update`: what it loses and gains against today's expectation."""
     audit: AuditReport | None = None
     """The determinism audit, when one was asked for and the DTC could run."""
     timelines: tuple[Timeline, ...] = ()
@@ -218,12 +215,10 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         result = dataclasses.replace(
             result, divergence=divergence, reproduce=_rerun(spec), notes=notes
         )
-        changes = digest = weighed = None
+        changes = digest = None
         if details is not None and details.trace is not None and refused is None:
             changes, refused = _new_expectation(details.trace)
-            if changes is not None:
-                digest = log_digest(spec.log)
-                weighed = _weighed(spec, expected, details.trace)
+            digest = None if changes is None else log_digest(spec.log)
         report = None
         if audit:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
@@ -250,7 +245,6 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         baseline=baseline if expected is not None else None,
         update=changes,
         update_refused=refused,
-        shift=weighed,
         audit=report,
         timelines=drawn,
         log_digest=digest,
@@ -351,20 +345,6 @@ def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | No
     if trace.stopped is not None:
         return None, f"replay cannot go on past {trace.stopped}: re-record the session"
     return trace.expectation, None
-
-
-def _weighed(spec: DtcSpec, approved: Expectation | None, trace: ReplayedTrace) -> Shift:
-    """What the whole new ``trace`` loses and gains against today's expectation."""
-    today = today_trace(approved, spec.log, spec.comparison.rename)
-    open_loop = trace.open_loop
-    return shift(
-        (today.changes, today.outputs or ()),
-        (trace.changes, trace.outputs),
-        cycles=trace.cycles,
-        open_loop=None if open_loop is None else open_loop[0],
-        draws_before=today.draws,
-        draws_after=trace.draws,
-    )
 
 
 def suite_auditors(options: SpecOptions) -> AbstractContextManager[Auditors | None]:
