@@ -61,3 +61,13 @@ def test_draws_left_unused_already_approved_are_no_new_loss() -> None:
     )  # fmt: skip
 
     assert weighed.losses == ()
+
+
+def test_a_state_change_still_in_its_cycle_is_matched_there_before_any_is_moved() -> None:
+    backing = StateChange("escape", "idle", "backing")
+    twice = [TracedChange(100, 0, backing), TracedChange(500, 0, backing)]
+
+    weighed = shift((twice, []), (twice[1:], []), cycles=600, open_loop=100)
+
+    assert weighed.losses == (Loss(LossKind.STATE_CHANGES, "escape", (100,)),)
+    assert (weighed.lost, weighed.gained, weighed.moved) == (1, 0, 0)

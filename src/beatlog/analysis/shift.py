@@ -5,12 +5,14 @@ of the session stays closed loop.
 A reviewer approves a pending baseline from this, so each loss is kept apart, to be
 named in its own words (:mod:`beatlog.report.baselines`), never folded into a count: a
 change that stops a behavior acting leaves the suite testing less. A state change is
-matched with the next one of its behavior and transition, in order: one that happens
-in another cycle now has *moved*; only those left without a counterpart are lost or new.
+matched with one of its behavior and transition in its own cycle, else with the next
+left over, in order: one that happens in another cycle now has *moved*; only those
+left without a counterpart are lost or new.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -92,8 +94,9 @@ def shift(
         old, new = was.get(behavior, {}), now.get(behavior, {})
         gone: list[int] = []
         for transition in old.keys() | new.keys():
-            first, then = old.get(transition, []), new.get(transition, [])
-            moved += sum(a != b for a, b in zip(first, then, strict=False))
+            was_at, now_at = Counter(old.get(transition, ())), Counter(new.get(transition, ()))
+            first, then = sorted((was_at - now_at).elements()), sorted((now_at - was_at).elements())
+            moved += min(len(first), len(then))
             gone.extend(first[len(then) :])
             gained += max(0, len(then) - len(first))
         lost += len(gone)
