@@ -121,7 +121,7 @@ def _piped(console: Console) -> Ask:
 
     def ask(question: str) -> str:
         answer = sys.stdin.readline().strip()
-        console.print(f"{question}: {answer}", markup=False, highlight=False)
+        console.print(f"{question}: {answer}".rstrip(), markup=False, highlight=False)
         return answer
 
     return ask
