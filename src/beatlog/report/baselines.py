@@ -50,8 +50,8 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
             lines.append(
                 Text.assemble(
                     ("pending", "cyan"),
-                    f" {update.path} ({_counts(update.shift)}"
-                    f"{update.output_changes} output changes{_fields(update)}): review with ",
+                    f" {update.path} ({_counts(update.shift)}{update.output_changes} output "
+                    f"changes{_fields(update)}): review with ",
                     (f"beatlog review {spec.path}", "bold"),
                     ", accept with ",
                     (f"beatlog approve {spec.path}", "bold"),
@@ -70,12 +70,12 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
     return lines
 
 
-def _counts(weighed: Shift | None) -> str:
-    """``3 state changes lost, 0 new, 2 moved, ``."""
+def _counts(weighed: Shift | None, then: str = ", ") -> str:
+    """``3 state changes lost, 0 new, 2 moved``, and ``then``."""
     if weighed is None:
         return ""
     lost = plural(weighed.lost, "state change")
-    return f"{lost} lost, {weighed.gained} new, {weighed.moved} moved, "
+    return f"{lost} lost, {weighed.gained} new, {weighed.moved} moved{then}"
 
 
 def render_losses(weighed: Shift | None, lead: str) -> list[Text]:
@@ -226,7 +226,7 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
         Rule(f"{spec.name} ({spec.path})"),
         Text(
             f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} "
-            f"pending: {_counts(diff.shift)[:-2]}"
+            f"pending: {_counts(diff.shift, '')}"
         ),
         _loop_line(diff),
         *render_losses(diff.shift, "lost: "),
