@@ -42,6 +42,12 @@ def probe_system_changed_again() -> PriorityArbiter[Probe]:
     return probe_system(0.7)
 
 
+def probe_system_blind() -> PriorityArbiter[Probe]:
+    """A probe whose near never sees the pole: its state changes are lost, as the dog's
+    escapes were when a retune left it never stuck."""
+    return probe_system(0.0)
+
+
 class Geared(Dice):
     """Dice with a new motor gain near the obstacle: a change in outputs only."""
 

@@ -139,3 +139,34 @@ def test_bad_field_migrations_name_the_pyproject_and_the_key(
         project_config(tmp_path)
 
     assert str(raised.value) == f"{pyproject}: {problem}"
+
+
+def test_the_open_loop_limits_are_read_from_the_project(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        "[tool.beatlog]\nmax_open_loop_share = 0.5\nmax_open_loop_dtcs = 3\n", encoding="utf-8"
+    )
+
+    config = project_config(tmp_path)
+
+    assert (config.max_open_loop_share, config.max_open_loop_dtcs) == (0.5, 3)
+
+
+@pytest.mark.parametrize(
+    ("line", "problem"),
+    [
+        ("max_open_loop_share = 1.5", "max_open_loop_share': expected `float` <= 1.0"),
+        ('max_open_loop_share = "half"', "max_open_loop_share': expected `float`, got `str`"),
+        ("max_open_loop_dtcs = -1", "max_open_loop_dtcs': expected `int` >= 0"),
+        ("max_open_loop_dtcs = 2.5", "max_open_loop_dtcs': expected `int`, got `float`"),
+    ],
+)
+def test_bad_open_loop_limits_name_the_pyproject_and_the_key(
+    tmp_path: Path, line: str, problem: str
+) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text(f"[tool.beatlog]\n{line}\n", encoding="utf-8")
+
+    with pytest.raises(SpecError) as raised:
+        project_config(tmp_path)
+
+    assert str(raised.value) == f"{pyproject}: key 'tool.beatlog.{problem}"

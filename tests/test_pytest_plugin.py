@@ -278,9 +278,9 @@ def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
     updated.assert_outcomes(passed=1, failed=1)
     updated.stdout.fnmatch_lines(
         [
-            f"pending {pending_path(spec)} (10 state changes, 8 output changes, "
-            "open loop since cycle 21 (0.660 s)): "
-            f"review with beatlog review {spec}, accept with beatlog approve {spec}",
+            f"pending {pending_path(spec)} (0 state changes lost, 0 new, 8 moved, 8 output "
+            "changes, open loop since cycle 21 (0.660 s), closed loop for 21 of 200 cycles "
+            f"(10 %)): review with beatlog review {spec}, accept with beatlog approve {spec}",
             f"orphaned baseline {orphan}: no spec beside it; delete it",
             "2 DTCs: 1 passed, 1 failed",
         ]

@@ -1,8 +1,9 @@
 """The project's own configuration: ``[tool.beatlog]`` in the nearest ``pyproject.toml``.
 
 It is the user's word, as their specs and command lines are: the behavior renames and
-the robot-state field renames and conversions that hold for every spec, and the
-systems the project vouches for. A log records the
+the robot-state field renames and conversions that hold for every spec, the
+systems the project vouches for, and how much of the suite may run open loop before
+it counts as stale (:mod:`beatlog.suite.policy`). A log records the
 ``module:factory`` it was recorded with, but bytes from a log never choose code: that
 reference is used only when the project lists it under ``systems`` (see
 :func:`vouched_system`).
@@ -15,7 +16,7 @@ import re
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import msgspec
 
@@ -52,6 +53,12 @@ class ProjectConfig(msgspec.Struct, frozen=True):
     current name) -> the ``module:function`` that converts a recorded value."""
     systems: list[str] = []
     """The ``module:factory`` references a log may name for replay without ``--system``."""
+    max_open_loop_share: Annotated[float, msgspec.Meta(ge=0, le=1)] | None = None
+    """The largest share of a DTC's cycles (0 to 1) that its approved baseline may run
+    open loop; a DTC past it makes ``beatlog test`` fail, naming it to re-record."""
+    max_open_loop_dtcs: Annotated[int, msgspec.Meta(ge=0)] | None = None
+    """How many DTCs may run open loop; more make ``beatlog test`` fail, naming the
+    sessions to re-record first."""
 
 
 def project_config(folder: Path) -> ProjectConfig:
@@ -164,6 +171,7 @@ def explain_validation(message: str, prefix: str = "") -> str:
     match = re.fullmatch(r"(.*) - at `\$\.?(.*)`", message)
     if match:
         problem, key = match.groups()
+        problem = problem.replace(" | null`", "`")  # an optional key: TOML has no null
         key = key.replace("[...]", ".*")  # a value of a table
         return f"key {prefix + key!r}: {problem[0].lower()}{problem[1:]}"
     unknown = re.fullmatch(r"Object contains unknown field `(.*)`", message)

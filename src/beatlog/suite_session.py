@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 
 from beatlog.errors import OptionError
 from beatlog.files import write_json
+from beatlog.project import ProjectConfig, project_config
 from beatlog.report.console import plain_text, render_outcome
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import suite_coverage
@@ -29,7 +30,8 @@ from beatlog.suite.junit import write_junit
 from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.runner import SpecOutcome
+from beatlog.suite.policy import open_loop_share, stale_suite
+from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.selection import Selection, check_break_at, fleet_of, select_suite
 
 if TYPE_CHECKING:
@@ -48,7 +50,7 @@ class SuiteSession:
 
     :raises OptionError: a report cannot be written, nothing is selected, or the break
         points cannot be made.
-    :raises SpecError: a spec cannot be read.
+    :raises SpecError: a spec, or the project's ``[tool.beatlog]``, cannot be read.
     :raises FleetError: a fleet run's logs cannot be listed.
     :raises SystemLoadError: a fleet run's system cannot be built.
     """
@@ -59,6 +61,9 @@ class SuiteSession:
         for report in options.reports:
             prepare_report(report)
         self.selection: Selection = select_suite(options, fleet)
+        root = self.selection.rootdir
+        self.project = ProjectConfig() if root is None else project_config(root)
+        """The project's configuration: its open-loop limits judge the suite."""
         check_break_at(options.break_at, self.specs, option="--break-at")
         if options.breaking and options.dask is not None:
             raise OptionError("break points stop in this process: leave out --dask")
@@ -126,7 +131,17 @@ class SuiteSession:
         if report.interrupted is not None:
             return report
         report = dataclasses.replace(
-            report, updates=tuple(update_baselines(outcomes, options.update))
+            report,
+            updates=tuple(update_baselines(outcomes, options.update)),
+            stale=stale_suite(
+                [
+                    (o.spec.label, open_loop_share(o.result.cycles, o.open_loop[0]))
+                    for o in outcomes
+                    if o.verdict is Verdict.PASSED and o.result and o.open_loop
+                ],
+                max_share=self.project.max_open_loop_share,
+                max_dtcs=self.project.max_open_loop_dtcs,
+            ),
         )
         if options.junit_xml is not None:
             report = _written(

@@ -83,8 +83,10 @@ def test_review_shows_the_output_changes_of_the_changed_cycles(
     lines = run.out.splitlines()
     approved = expected_path(spec).name
     assert lines[1:9] == [
-        f"178 state and output changes approved ({approved}) → 184 pending",
-        f"open loop since cycle {GAIN_CYCLE} (0.360 s)",
+        f"178 state and output changes approved ({approved}) → 184 pending: 0 state changes "
+        "lost, 0 new, 0 moved",
+        f"open loop since cycle {GAIN_CYCLE} (0.360 s): closed loop for {GAIN_CYCLE} of 300 "
+        f"cycles ({GAIN_CYCLE * 100 // 300} %)",
         f"--- approved ({approved})",
         "+++ pending",
         "@@ -15,2 +15,3 @@",

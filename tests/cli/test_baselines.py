@@ -35,9 +35,10 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
     updated = beatlog("test", "--update", spec)
     assert updated.code == 1
     assert (
-        f"pending {pending_path(spec)} (16 state changes, 12 output changes, open loop since "
-        f"cycle {FIRST_CHANGED_CYCLE} (0.660 s)): review with beatlog review {spec}, accept with "
-        f"beatlog approve {spec}"
+        f"pending {pending_path(spec)} (0 state changes lost, 0 new, 12 moved, 12 output changes, "
+        f"open loop since cycle {FIRST_CHANGED_CYCLE} (0.660 s), closed loop for "
+        f"{FIRST_CHANGED_CYCLE} of 300 cycles (7 %)): review with beatlog review {spec}, "
+        f"accept with beatlog approve {spec}"
     ) in whole_lines(updated.out)
     assert not expected_path(spec).exists()
     pending = read_baseline(pending_path(spec))
@@ -103,11 +104,18 @@ def test_a_stale_pending_file_goes_when_the_dtc_passes(
     assert not pending_path(spec).exists()
 
 
-def test_approve_without_anything_pending_is_a_usage_error(beatlog: Beatlog, spec: Path) -> None:
-    assert_error(
-        beatlog("approve", spec),
-        f"{spec}: nothing pending to approve (run 'beatlog test --update' first)",
-    )
+def test_approve_after_review_accepted_everything_has_nothing_to_do_and_succeeds(
+    beatlog: Beatlog, spec: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The tour's order: review accepts (``a``), then approve finds nothing left."""
+    beatlog("test", "--update", spec)
+    monkeypatch.setattr("sys.stdin", io.StringIO("a\n"))
+    assert beatlog("review", spec).code == 0
+
+    approved = beatlog("approve", spec)
+
+    assert (approved.code, approved.out, approved.err) == (0, "nothing pending to approve\n", "")
+    assert expected_path(spec).exists()
 
 
 def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
@@ -120,11 +128,11 @@ def test_review_shows_the_change_as_a_diff_and_leaves_it_without_a_terminal(
     run = beatlog("review", spec.parent)
 
     assert run.code == 0
-    assert "208 state and output changes recorded (probe.beatlog) → 178 pending" in whole_lines(
-        run.out
-    )
-    assert run.out.splitlines()[2:22] == [
-        f"open loop since cycle {FIRST_CHANGED_CYCLE} (0.660 s)",
+    assert run.out.splitlines()[1:22] == [
+        "208 state and output changes recorded (probe.beatlog) → 178 pending: 0 state changes "
+        "lost, 0 new, 12 moved",
+        f"open loop since cycle {FIRST_CHANGED_CYCLE} (0.660 s): closed loop for "
+        f"{FIRST_CHANGED_CYCLE} of 300 cycles (7 %)",
         "--- recorded (probe.beatlog)",
         "+++ pending",
         "@@ -26,11 +26,6 @@",
@@ -162,7 +170,7 @@ def test_review_accepts_or_rejects_what_the_reviewer_says(
 
     counts = review([spec.parent], Console(width=200), ask=ask)
 
-    assert questions == ["accept the new expectation of avoid-pole?"]
+    assert questions == ["accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip"]
     assert counts == ((1, 0, 0) if accepted else (0, 1, 0))
     assert not pending_path(spec).exists()
     assert expected_path(spec).exists() is accepted
@@ -212,19 +220,21 @@ def test_a_divergence_in_random_numbers_is_rebaselined_and_its_draws_approved(
     # the greedy system's new draws are live: how many changes follow them, and from
     # which cycle, vary from run to run
     loop = r"open loop since cycle \d+ \(\d+\.\d{3} s\)"
+    closed = r"closed loop for \d+ of 300 cycles \(\d+ %\)"
     (pending,) = [line for line in whole_lines(updated.out) if line.startswith("pending ")]
     assert re.fullmatch(
-        rf"pending {re.escape(str(pending_path(spec)))} \(\d+ state changes, 0 output changes, "
-        rf"60 draws made otherwise, {loop}\): "
+        rf"pending {re.escape(str(pending_path(spec)))} \(\d+ state changes? lost, \d+ new, \d+ "
+        rf"moved, 0 output changes, 60 draws made otherwise, {loop}, {closed}\): "
         + re.escape(f"review with beatlog review {spec}, accept with beatlog approve {spec}"),
         pending,
     ), pending
-    head = "\n".join(reviewed.out.splitlines()[1:4])
+    head = "\n".join(reviewed.out.splitlines()[1:3])
     assert re.fullmatch(
-        r"208 state and output changes recorded \(probe\.beatlog\) → \d+ pending\n"
-        rf"draws dice: 60 new draws of randint\(1, 6\)\n{loop}",
+        r"208 state and output changes recorded \(probe\.beatlog\) → \d+ pending: \d+ state "
+        rf"changes? lost, \d+ new, \d+ moved\n{loop}: {closed}",
         head,
     ), head
+    assert "draws dice: 60 new draws of randint(1, 6)" in whole_lines(reviewed.out)
     assert approved.code == 0
     assert judged.code == 0, judged.out
     draws = [line for line in expected_path(spec).read_text().splitlines() if line[:6] == "draws "]
@@ -322,3 +332,107 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
     assert code == 0
     assert expected_path(spec).read_bytes() == waiting
     assert not pending_path(spec).exists()
+
+
+BLIND = "tests.systems:probe_system_blind"
+NEAR_LOST = (
+    '"near": 6 state changes no longer happen (cycles 26, 75, 126, 175, 226, 275); it never '
+    "changes state in this DTC any more"
+)
+ARBITER_LOST = '"arbiter": 6 state changes no longer happen (cycles 26, 75, 126, 175, 226, 275)'
+
+
+@pytest.fixture
+def blind(spec: Path) -> Path:
+    """The spec, its near behavior blind since: its state changes are lost."""
+    return write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog", BLIND)
+
+
+def test_update_counts_and_names_the_state_changes_a_change_loses(
+    beatlog: Beatlog, blind: Path
+) -> None:
+    updated = beatlog("test", "--update", blind)
+
+    lines = whole_lines(updated.out)
+    (pending,) = [line for line in lines if line.startswith("pending ")]
+    assert pending.startswith(
+        f"pending {pending_path(blind)} (12 state changes lost, 0 new, 0 moved, 151 output "
+        "changes, open loop since cycle 26 (0.810 s), closed loop for 26 of 300 cycles (8 %)): "
+    )
+    at = lines.index(pending)
+    assert lines[at + 1 : at + 3] == [
+        f"lost in avoid-pole: {ARBITER_LOST}",
+        f"lost in avoid-pole: {NEAR_LOST}",
+    ]
+
+
+@pytest.mark.parametrize(("answers", "accepted"), [("a\ny\ny\n", True), ("a\ny\n\n", False)])
+def test_review_asks_about_each_loss_in_its_own_words_and_shows_piped_answers(
+    beatlog: Beatlog,
+    blind: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    answers: str,
+    *,
+    accepted: bool,
+) -> None:
+    beatlog("test", "--update", blind)
+    monkeypatch.setattr("sys.stdin", io.StringIO(answers))
+
+    run = beatlog("review", blind)
+
+    lines = whole_lines(run.out)
+    assert [f"lost: {ARBITER_LOST}", f"lost: {NEAR_LOST}"] == lines[3:5]
+    last = "y" if accepted else ""
+    asked = lines.index("accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip: a")
+    assert lines[asked + 1 : asked + 4] == [
+        f"{ARBITER_LOST}: accept this loss? [y/N]: y",
+        f"{NEAR_LOST}: accept this loss? [y/N]: {last}".rstrip(),
+        f"accepted {expected_path(blind)}"
+        if accepted
+        else f"left pending: a loss was not accepted; accept with beatlog approve {blind}",
+    ]
+    assert expected_path(blind).exists() is accepted
+    assert pending_path(blind).exists() is not accepted
+
+
+def test_approve_names_each_loss_it_accepts(beatlog: Beatlog, blind: Path) -> None:
+    beatlog("test", "--update", blind)
+
+    approved = beatlog("approve", blind.parent)
+
+    assert whole_lines(approved.out) == [
+        f"approved avoid-pole: {expected_path(blind)}",
+        f"accepted loss in avoid-pole: {ARBITER_LOST}",
+        f"accepted loss in avoid-pole: {NEAR_LOST}",
+    ]
+
+
+def test_a_suite_past_its_open_loop_limits_fails_naming_the_sessions_to_re_record(
+    beatlog: Beatlog, spec: Path
+) -> None:
+    write_spec(spec.parent, "untouched", spec.parent.parent / "probe.beatlog")
+    beatlog("test", "--update", spec)
+    beatlog("approve", spec)
+    pyproject = spec.parent.parent / "pyproject.toml"
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_dtcs = 1\n", encoding="utf-8")
+    assert beatlog("test", spec.parent).code == 0
+
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_share = 0.5\n", encoding="utf-8")
+    stale = beatlog("test", spec.parent)
+
+    assert stale.code == 1
+    assert whole_lines(stale.out)[-3:-1] == [
+        "stale suite ([tool.beatlog]): 1 runs open loop for more than 50 % of its cycles "
+        "(max_open_loop_share = 0.5)",
+        "re-record first: avoid-pole (93 % open loop)",
+    ]
+
+
+def test_a_bad_open_loop_limit_is_a_one_line_error(beatlog: Beatlog, spec: Path) -> None:
+    pyproject = spec.parent.parent / "pyproject.toml"
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_dtcs = -1\n", encoding="utf-8")
+
+    assert_error(
+        beatlog("test", spec),
+        f"{pyproject}: key 'tool.beatlog.max_open_loop_dtcs': expected `int` >= 0",
+    )

@@ -112,13 +112,18 @@ def verbose_help(command: str, capsys: pytest.CaptureFixture[str]) -> str:
     return verbose[1]
 
 
-def test_review_help_says_it_asks_at_the_terminal(capsys: pytest.CaptureFixture[str]) -> None:
-    page = " ".join(help_page("review", capsys).split())
+def test_review_help_says_it_asks_about_each_change_and_loss_and_approve_does_not_ask(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    review = " ".join(help_page("review", capsys).split())
+    approve = " ".join(help_page("approve", capsys).split())
 
-    assert page.startswith(
-        "usage: beatlog review [-h] [-v] [paths ...] Show each pending baseline change and "
-        "ask at the terminal whether to accept, reject or skip it."
+    assert review.startswith(
+        "usage: beatlog review [-h] [-v] [paths ...] Show each pending baseline change with "
+        "what it loses, and ask whether to accept, reject or skip it (and each loss); "
+        "accepting writes the approved baseline."
     )
+    assert "Accept every pending baseline of DTC specs without asking, naming each loss" in approve
 
 
 def test_the_commands_are_those_of_the_table_once_each_in_its_order(

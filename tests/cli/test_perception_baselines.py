@@ -67,7 +67,8 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
     assert update.code == 1
     assert "1 robot-state field rebuilt otherwise" not in update.out
     assert (
-        f"pending {pending_path(spec)} (0 state changes, 0 output changes, robot state rebuilt "
+        f"pending {pending_path(spec)} (0 state changes lost, 0 new, 0 moved, 0 output changes, "
+        "robot state rebuilt "
         f"otherwise in {LONG} cycles): review with beatlog review {spec}, accept with beatlog "
         f"approve {spec}"
     ) in whole_lines(update.out)

@@ -1,12 +1,19 @@
 """When baselines may be written: the update mode, validated like vcrpy's record modes,
-and the CI rule that overrides every mode."""
+the CI rule that overrides every mode, and the open-loop limits that make a suite stale."""
 
 from __future__ import annotations
 
 import pytest
 
 from beatlog.errors import CiWriteError, OptionError
-from beatlog.suite.policy import UpdateMode, in_ci, require_writable
+from beatlog.suite.policy import (
+    StaleSuite,
+    UpdateMode,
+    in_ci,
+    open_loop_share,
+    require_writable,
+    stale_suite,
+)
 
 
 @pytest.mark.parametrize("mode", list(UpdateMode))
@@ -41,3 +48,31 @@ def test_nothing_is_writable_in_ci(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("CI", "true")
     with pytest.raises(CiWriteError, match="CI is set: beatlog never writes baselines in CI"):
         require_writable()
+
+
+SHARES = [("dock", 0.0), ("held-back", 0.75), ("imu-late", 0.74), ("escape", 0.42), ("yard", 0.1)]
+"""DTCs with the share of their cycles each runs open loop."""
+
+
+def test_a_suite_within_its_open_loop_limits_is_not_stale() -> None:
+    assert stale_suite(SHARES, max_share=None, max_dtcs=None) is None
+    assert stale_suite(SHARES, max_share=0.8, max_dtcs=4) is None
+
+
+def test_the_dtcs_over_the_share_come_first_to_re_record_most_open_loop_first() -> None:
+    stale = stale_suite(SHARES, max_share=0.5, max_dtcs=None)
+
+    assert stale == StaleSuite(4, 2, (("held-back", 0.75), ("imu-late", 0.74)), 0.5, None)
+
+
+def test_too_many_open_loop_dtcs_name_as_many_to_re_record_as_are_too_many() -> None:
+    assert stale_suite(SHARES, max_share=None, max_dtcs=2) == StaleSuite(
+        4, 0, (("held-back", 0.75), ("imu-late", 0.74)), None, 2
+    )
+    assert stale_suite(SHARES, max_share=0.5, max_dtcs=1) == StaleSuite(
+        4, 2, (("held-back", 0.75), ("imu-late", 0.74), ("escape", 0.42)), 0.5, 1
+    )
+
+
+def test_the_open_loop_share_is_of_the_cycles_from_the_open_loop_on() -> None:
+    assert [open_loop_share(300, cycle) for cycle in (None, 0, 75, 300)] == [0.0, 1.0, 0.75, 0.0]

@@ -44,6 +44,7 @@ __all__ = [
     "recorded_states",
     "recorded_trace",
     "replayed_trace",
+    "today_trace",
     "whole_trace",
 ]
 
@@ -154,6 +155,23 @@ def whole_trace(
             outputs.extend(tracker.observe(cycle, time_ns, apply_outputs(values, held)))
     return dataclasses.replace(
         expectation, changes=tuple(changes), outputs=tuple(outputs), departures=False, quiet=()
+    )
+
+
+def today_trace(
+    approved: Expectation | None, log: str | Path, rename: Callable[[str], str] = str
+) -> Expectation:
+    """What replay judges ``log`` against today, as a whole trace: its ``approved``
+    baseline's (:func:`whole_trace`), else the recording's state changes (behaviors
+    named as ``rename`` names them now) and outputs."""
+    if approved is not None:
+        return whole_trace(approved, log, rename)
+    return Expectation(
+        tuple(
+            TracedChange(c.cycle, c.time_ns, _renamed(c.change, rename))
+            for c in recorded_trace(log)
+        ),
+        tuple(recorded_outputs(log)),
     )
 
 

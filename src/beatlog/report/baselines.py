@@ -11,27 +11,36 @@ from rich.console import Group, RenderableType
 from rich.rule import Rule
 from rich.text import Text
 
+from beatlog.analysis.shift import Loss, LossKind, Shift
 from beatlog.report.counts import plural
 from beatlog.suite.approved import Approved
 from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
+from beatlog.suite.policy import StaleSuite
 
 __all__ = [
+    "closed_loop_text",
+    "loss_text",
     "open_loop_text",
     "render_approved",
+    "render_losses",
     "render_orphans",
     "render_pending_diff",
+    "render_stale",
     "render_updates",
 ]
 
 _DIFF_STYLES = {"+": "green", "-": "red", "@": "cyan"}
 _MAX_RUNS = 20
 """The runs of rebuilt robot states a review sums up; a file with more names them all."""
+_SHOWN_CYCLES = 10
+"""The cycles a loss names before it counts the rest."""
 
 
 def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
-    """One line per pending file written, refused or removed, saying how to go on; one
-    line for all the failures whose expectation ``CI`` withheld."""
+    """One line per pending file written, refused or removed, saying how to go on, and
+    under a pending file a line per loss; one line for all the failures whose
+    expectation ``CI`` withheld."""
     lines: list[Text] = []
     if any(update.action is UpdateAction.WITHHELD for update in updates):
         lines.append(Text("CI is set: no pending baselines written", style="yellow"))
@@ -41,8 +50,8 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
             lines.append(
                 Text.assemble(
                     ("pending", "cyan"),
-                    f" {update.path} ({update.state_changes} state changes, "
-                    f"{update.output_changes} output changes{_fields(update)}): review with ",
+                    f" {update.path} ({_counts(update.shift)}{update.output_changes} output "
+                    f"changes{_fields(update)}): review with ",
                     (f"beatlog review {spec.path}", "bold"),
                     ", accept with ",
                     (f"beatlog approve {spec.path}", "bold"),
@@ -56,7 +65,56 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
             lines.append(
                 Text.assemble(("removed stale", "cyan"), f" {update.path}: {spec.label} passes")
             )
+        if update.action in (UpdateAction.WRITTEN, UpdateAction.WITHHELD):
+            lines.extend(render_losses(update.shift, f"  lost in {spec.label}: "))
     return lines
+
+
+def _counts(weighed: Shift | None, then: str = ", ") -> str:
+    """``3 state changes lost, 0 new, 2 moved``, and ``then``."""
+    if weighed is None:
+        return ""
+    lost = plural(weighed.lost, "state change")
+    return f"{lost} lost, {weighed.gained} new, {weighed.moved} moved{then}"
+
+
+def render_losses(weighed: Shift | None, lead: str) -> list[Text]:
+    """A line per loss, each after ``lead``."""
+    if weighed is None:
+        return []
+    return [Text.assemble((lead, "red"), loss_text(loss)) for loss in weighed.losses]
+
+
+def loss_text(loss: Loss) -> str:
+    """A loss in its own words: ``"escape": 3 state changes no longer happen (cycles
+    291, 325, 367); it never changes state in this DTC any more``."""
+    name, count = json.dumps(loss.name), len(loss.cycles)
+    if loss.kind is LossKind.OUTPUT:
+        return f"output {name}: never output any more (output today from cycle {loss.cycles[0]})"
+    if loss.kind is LossKind.DRAWS:
+        draws = plural(count, "recorded draw")
+        return f"draws {name}: {draws} of {loss.request} no longer made ({_cycles(loss.cycles)})"
+    happen = "happens" if count == 1 else "happen"
+    silent = "; it never changes state in this DTC any more" if loss.silent else ""
+    changes = plural(count, "state change")
+    return f"{name}: {changes} no longer {happen} ({_cycles(loss.cycles)}){silent}"
+
+
+def _cycles(cycles: Sequence[int]) -> str:
+    """``cycle 12``, ``cycles 12, 40, 97``, ``cycles 1, 2, … 10 and 5 more``."""
+    if len(cycles) == 1:
+        return f"cycle {cycles[0]}"
+    more = len(cycles) - _SHOWN_CYCLES
+    shown = ", ".join(map(str, cycles[:_SHOWN_CYCLES]))
+    return f"cycles {shown}" + (f" and {more} more" if more > 0 else "")
+
+
+def closed_loop_text(weighed: Shift) -> str:
+    """``closed loop for 290 of 583 cycles (50 %)``: the cycles before the behaviors
+    leave the recording, of all."""
+    closed, cycles = weighed.closed_loop, weighed.cycles
+    share = 100 * closed // cycles if cycles else 100
+    return f"closed loop for {closed} of {plural(cycles, 'cycle')} ({share} %)"
 
 
 def _fields(update: PendingUpdate) -> str:
@@ -67,6 +125,7 @@ def _fields(update: PendingUpdate) -> str:
         rebuilt
         + (f", {plural(drawn, 'draw')} made otherwise" if drawn else "")
         + (f", {open_loop_text(update.open_loop)}" if update.open_loop else "")
+        + (f", {closed_loop_text(update.shift)}" if update.shift and update.open_loop else "")
     )
 
 
@@ -85,6 +144,37 @@ def render_approved(approved: Approved) -> Text:
         f" {baseline.path.name} (spec {approved.spec.path.name})",
         ": " + (open_loop_text(open_loop) if open_loop else "closed loop, as recorded"),
     )
+
+
+def render_stale(stale: StaleSuite | None) -> list[Text]:
+    """How a suite is past its open-loop limits, and the sessions to re-record first."""
+    if stale is None:
+        return []
+    why = []
+    count, over = stale.open_loop, stale.over_share
+    if stale.max_dtcs is not None and count > stale.max_dtcs:
+        runs = "runs" if count == 1 else "run"
+        why.append(
+            f"{plural(count, 'DTC')} {runs} open loop (max_open_loop_dtcs = {stale.max_dtcs})"
+        )
+    if over and stale.max_share is not None:
+        runs, its = ("runs", "its") if over == 1 else ("run", "their")
+        why.append(
+            f"{over} {runs} open loop for more than {_percent(stale.max_share)} of {its} "
+            f"cycles (max_open_loop_share = {stale.max_share})"
+        )
+    first = ", ".join(
+        f"{name} ({_percent(share)}{' open loop' if not n else ''})"
+        for n, (name, share) in enumerate(stale.rerecord)
+    )
+    return [
+        Text.assemble(("stale suite", "red"), f" ([tool.beatlog]): {'; '.join(why)}"),
+        Text(f"re-record first: {first}"),
+    ]
+
+
+def _percent(share: float) -> str:
+    return f"{round(100 * share)} %"
 
 
 def render_orphans(orphans: Iterable[Path]) -> list[Text]:
@@ -121,12 +211,25 @@ def _run_line(run: RebuiltRun) -> Text:
     )
 
 
+def _loop_line(diff: PendingDiff) -> Text:
+    """``open loop since cycle 291 (8.760 s): closed loop for 291 of 1164 cycles (25 %)``."""
+    closed = closed_loop_text(diff.shift)
+    if diff.open_loop is None:
+        return Text(closed)
+    return Text(f"{open_loop_text(diff.open_loop)}: {closed}", style="yellow")
+
+
 def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> RenderableType:
     """The pending expectation against today's, at most ``max_lines`` lines of diff."""
     spec = diff.spec
     parts: list[RenderableType] = [
         Rule(f"{spec.name} ({spec.path})"),
-        Text(f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} pending"),
+        Text(
+            f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} "
+            f"pending: {_counts(diff.shift, '')}"
+        ),
+        _loop_line(diff),
+        *render_losses(diff.shift, "lost: "),
         *(
             Text.assemble(
                 ("robot state ", "cyan"),
@@ -139,11 +242,11 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
             for change in diff.robot_states
         ),
         *(_run_line(run) for run in diff.rebuilt_runs[:_MAX_RUNS]),
-        *(Text.assemble(("draws ", "cyan"), str(rule)) for rule in diff.draws),
         *(
-            [Text(open_loop_text(diff.open_loop), style="yellow")]
-            if diff.open_loop is not None
-            else []
+            Text.assemble(("draws ", "cyan"), str(rule))
+            for rule in diff.draws
+            if Loss(LossKind.DRAWS, rule.behavior, rule.cycles, request=rule.recorded)
+            not in diff.shift.losses  # named as a loss
         ),
     ]
     if len(diff.rebuilt_runs) > _MAX_RUNS:

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from rich.console import RenderableType
 from rich.text import Text
 
-from beatlog.report.baselines import render_orphans, render_updates
+from beatlog.report.baselines import render_orphans, render_stale, render_updates
 from beatlog.report.console import plain_text, render_suite
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import render_coverage
@@ -22,6 +22,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict
 if TYPE_CHECKING:
     from beatlog.analysis.coverage import SuiteCoverage
     from beatlog.suite.maintenance import PendingUpdate
+    from beatlog.suite.policy import StaleSuite
 
 __all__ = ["NAMED_IN_NOTES", "SuiteReport", "plain_lines"]
 
@@ -45,6 +46,8 @@ class SuiteReport:
     """What updating the baselines did."""
     orphans: tuple[Path, ...] = ()
     """Expected and pending files whose spec is gone."""
+    stale: StaleSuite | None = None
+    """How the suite is past its project's open-loop limits, if it is."""
     coverage: SuiteCoverage | None = None
     """The transition coverage, where it was asked for (shown, or written as JSON)."""
     shows_coverage: bool = False
@@ -72,12 +75,13 @@ class SuiteReport:
     @property
     def exit_code(self) -> int:
         """As ``beatlog test`` exits: 2 when a DTC could not run or a report could not
-        be written, 1 when one failed or its audit found something, else 0."""
+        be written, 1 when one failed, its audit found something or the suite is stale
+        (past its project's open-loop limits), else 0."""
         verdicts = {outcome.verdict for outcome in self.outcomes}
         if Verdict.ERROR in verdicts or self.error is not None:
             return 2
         unsound = any(outcome.audit_findings for outcome in self.outcomes)
-        return 1 if Verdict.FAILED in verdicts or unsound else 0
+        return 1 if Verdict.FAILED in verdicts or unsound or self.stale else 0
 
     def lines(self, *, every: bool = False) -> list[RenderableType]:
         """Everything the session has to tell but the closing counts, in order (with
@@ -97,8 +101,9 @@ class SuiteReport:
         return lines
 
     def baseline_lines(self) -> list[Text]:
-        """What updating the baselines did, then the orphaned baselines."""
-        return [*render_updates(self.updates), *self.orphan_lines()]
+        """What updating the baselines did, the orphaned baselines, and how the suite is
+        stale."""
+        return [*render_updates(self.updates), *self.orphan_lines(), *render_stale(self.stale)]
 
     def note_lines(self) -> list[Text]:
         """What the passing DTCs' replays note (a failure's report has its own), one

@@ -18,16 +18,13 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from beatlog.analysis.trace import (
-    recorded_outputs,
-    recorded_states,
-    recorded_trace,
-    whole_trace,
-)
+from beatlog.analysis.recorded import read_changes
+from beatlog.analysis.shift import Shift, shift
+from beatlog.analysis.trace import recorded_states, today_trace, whole_trace
 from beatlog.errors import BaselineError, OptionError
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import Expectation, TracedChange, TracedState
+from beatlog.replaying.expectation import Expectation, TracedState
 from beatlog.replaying.pins import StatePins
 from beatlog.replaying.verdict import FieldDifference
 from beatlog.suite.baseline import (
@@ -85,8 +82,8 @@ class PendingUpdate:
     action: UpdateAction
     path: Path
     """The pending file."""
-    state_changes: int = 0
-    """State changes in the expectation written (or withheld)."""
+    shift: Shift | None = None
+    """What the expectation written (or withheld) loses and gains against today's."""
     output_changes: int = 0
     """Output changes in the expectation written (or withheld)."""
     reason: str | None = None
@@ -122,6 +119,8 @@ def update_baselines(
             continue
         pending = pending_path(spec.path)
         if update is not None:
+            with spec.readable_log() as log:
+                weighed = _weigh(spec, log, update)[2]
             action = UpdateAction.WITHHELD if ci else UpdateAction.WRITTEN
             if not ci:
                 write_baseline(
@@ -136,7 +135,7 @@ def update_baselines(
                     spec,
                     action,
                     pending,
-                    len(update.changes),
+                    weighed,
                     len(update.outputs or ()),
                     robot_state_cycles=update.state_pins.cycles,
                     draws=update.draws,
@@ -207,18 +206,18 @@ def decide(spec: DtcSpec, decision: Decision | str) -> None:
     pending.replace(expected_path(spec.path))
 
 
-def approve(paths: Sequence[Path]) -> list[DtcSpec]:
+def approve(paths: Sequence[Path]) -> list[tuple[DtcSpec, Shift]]:
     """Accept the pending baseline of every spec given (or found in the folders given);
-    the specs approved. Nothing pending is a :class:`BaselineError`, ``CI`` set a
+    the specs approved, each with what its new baseline lost and gained against the
+    one it replaced (none when nothing is pending). ``CI`` set is a
     :class:`~beatlog.errors.CiWriteError`."""
     require_writable()
-    waiting = pending_specs(paths)
-    if not waiting:
-        where = paths[0] if len(paths) == 1 else Path(" ".join(str(path) for path in paths))
-        raise BaselineError(where, "nothing pending to approve (run 'beatlog test --update' first)")
-    for spec in waiting:
+    approved = []
+    for spec in pending_specs(paths):
+        weighed = pending_diff(spec).shift
         decide(spec, Decision.ACCEPT)
-    return waiting
+        approved.append((spec, weighed))
+    return approved
 
 
 class FieldChange(NamedTuple):
@@ -261,6 +260,8 @@ class PendingDiff:
     """State and output changes pending."""
     lines: tuple[str, ...]
     """The diff: changed cycles with a line of context either side."""
+    shift: Shift
+    """What the pending baseline loses and gains against today's expectation."""
     robot_states: tuple[FieldChange, ...] = ()
     """The robot-state fields a format 3 pending file pins, field by field."""
     rebuilt_runs: tuple[RebuiltRun, ...] = ()
@@ -277,31 +278,22 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     changes interleave by cycle, as baseline files hold them; the robot states
     perception now rebuilds otherwise are also summed up run by run, with the values
     that differ in each run's first cycle as recorded and rebuilt (field by field, with
-    their values before and after, for a format 3 pending file)."""
+    their values before and after, for a format 3 pending file); what the pending
+    baseline loses and gains is weighed (:func:`~beatlog.analysis.shift.shift`)."""
     expected = expected_path(spec.path)
-    approved = read_baseline(expected).expectation if expected.exists() else None
     pending = read_baseline(pending_path(spec.path)).expectation
-    rename = spec.comparison.rename
     with spec.readable_log() as log:
-        if approved is not None:
-            approved = whole_trace(approved, log, rename)
-            old_states = approved.robot_states
-            old = format_lines(approved.changes, approved.outputs, old_states, approved.state_pins)
+        today, whole, weighed = _weigh(spec, log, pending)
+        if expected.exists():
             source = f"approved ({expected.name})"
-            if approved.outputs is None:
+            if today.outputs is None:
                 source += ", no outputs pinned"
         else:
-            renamed = spec.comparison.renamed
-            old_states = ()
-            old = format_lines(
-                (TracedChange(c.cycle, c.time_ns, renamed(c.change)) for c in recorded_trace(log)),
-                recorded_outputs(log),
-            )
             source = f"recorded ({spec.log.name})"
-        fields = _field_changes(log, old_states, pending.robot_states)
-        pending = whole_trace(pending, log, rename)
-        runs = _rebuilt_runs(log, pending.state_pins)
-    new = format_lines(pending.changes, pending.outputs, pending.robot_states, pending.state_pins)
+        fields = _field_changes(log, today.robot_states, pending.robot_states)
+        runs = _rebuilt_runs(log, whole.state_pins)
+    old = format_lines(today.changes, today.outputs, today.robot_states, today.state_pins)
+    new = format_lines(whole.changes, whole.outputs, whole.robot_states, whole.state_pins)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
     return PendingDiff(
         spec,
@@ -309,11 +301,32 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         len(old),
         len(new),
         tuple(diff),
+        weighed,
         fields,
         runs,
-        pending.draws,
-        pending.open_loop,
+        whole.draws,
+        whole.open_loop,
     )
+
+
+def _weigh(
+    spec: DtcSpec, log: Path, pending: Expectation
+) -> tuple[Expectation, Expectation, Shift]:
+    """Today's expectation of ``spec`` (approved, else recorded) and ``pending``, both
+    as whole traces, and what ``pending`` loses and gains against today's."""
+    expected = expected_path(spec.path)
+    approved = read_baseline(expected).expectation if expected.exists() else None
+    today = today_trace(approved, log, spec.comparison.rename)
+    whole = whole_trace(pending, log, spec.comparison.rename)
+    weighed = shift(
+        (today.changes, today.outputs or ()),
+        (whole.changes, whole.outputs or ()),
+        cycles=read_changes(log).cycles,
+        open_loop=None if whole.open_loop is None else whole.open_loop[0],
+        draws_before=today.draws,
+        draws_after=whole.draws,
+    )
+    return today, whole, weighed
 
 
 def _rebuilt_runs(log: Path, pins: StatePins) -> tuple[RebuiltRun, ...]:

@@ -1,20 +1,37 @@
-"""When beatlog may write baselines: the update mode a run asks for, and the CI rule.
+"""When beatlog may write baselines: the update mode a run asks for, and the CI rule;
+and when approved baselines have gone stale: the project's limits on open loop.
 
 Like vcrpy's record modes, the update mode is a str Enum: ``"none"`` (the default)
 never writes, ``"new"`` writes the new expectation of each failing DTC to its pending
 file for review. Whatever the mode, nothing is written when the ``CI`` environment
 variable is set: a CI run judges against the committed baselines, it never makes them.
+
+An approved baseline that leaves the recording runs *open loop* from there: the recorded
+world no longer answers to what the behaviors do, so the DTC tests less the longer it
+runs so. A project may bound that (``max_open_loop_share``, ``max_open_loop_dtcs`` in
+``[tool.beatlog]``): past the bounds the suite is stale and fails, naming the sessions
+to re-record first (:func:`stale_suite`).
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
+from typing import NamedTuple
 
 from beatlog.errors import CiWriteError, OptionError
 
-__all__ = ["SpecOptions", "UpdateMode", "in_ci", "require_writable"]
+__all__ = [
+    "SpecOptions",
+    "StaleSuite",
+    "UpdateMode",
+    "in_ci",
+    "open_loop_share",
+    "require_writable",
+    "stale_suite",
+]
 
 
 class UpdateMode(StrEnum):
@@ -63,3 +80,40 @@ class SpecOptions:
     coverage: bool = False
     """Gather the state changes its log recorded, for the suite's coverage, as the
     verdict's replay reads them."""
+
+
+def open_loop_share(cycles: int, open_loop: int | None) -> float:
+    """The share of a DTC's ``cycles`` that run open loop, from cycle ``open_loop``."""
+    if open_loop is None or cycles <= 0:
+        return 0.0
+    return max(0, cycles - open_loop) / cycles
+
+
+class StaleSuite(NamedTuple):
+    """A suite past its project's open-loop limits."""
+
+    open_loop: int
+    """The DTCs that run open loop."""
+    over_share: int
+    """Those that run open loop for more of their cycles than the project allows."""
+    rerecord: tuple[tuple[str, float], ...]
+    """The DTCs to re-record first (each with its open-loop share), most open loop first:
+    those over the share, then as many more as the number allowed needs."""
+    max_share: float | None
+    max_dtcs: int | None
+
+
+def stale_suite(
+    shares: Sequence[tuple[str, float]], *, max_share: float | None, max_dtcs: int | None
+) -> StaleSuite | None:
+    """Whether the DTCs, each named with the share of its cycles run open loop, are past
+    the limits: none of them more open loop than ``max_share``, no more than ``max_dtcs``
+    open loop at all (None: no limit); None when they are within them."""
+    ranked = sorted((dtc for dtc in shares if dtc[1] > 0), key=lambda dtc: -dtc[1])
+    over = [dtc for dtc in ranked if max_share is not None and dtc[1] > max_share]
+    extra = 0 if max_dtcs is None else max(0, len(ranked) - len(over) - max_dtcs)
+    rest = [dtc for dtc in ranked if dtc not in over][:extra]
+    if not over and not rest:
+        return None
+    chosen = tuple(dtc for dtc in ranked if dtc in over or dtc in rest)
+    return StaleSuite(len(ranked), len(over), chosen, max_share, max_dtcs)

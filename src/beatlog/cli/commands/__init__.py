@@ -57,13 +57,16 @@ COMMANDS: dict[str, Command] = {
         "that failed to load",
     ),
     "review": Command(
-        "show each pending baseline change and ask at the terminal whether to accept, "
-        "reject or skip it",
+        "show each pending baseline change with what it loses, and ask whether to accept, "
+        "reject or skip it (and each loss); accepting writes the approved baseline",
         review.add_arguments,
         review.run,
     ),
     "approve": Command(
-        "accept the pending baselines of DTC specs", approve.add_arguments, approve.run
+        "accept every pending baseline of DTC specs without asking, naming each loss it "
+        "accepts (nothing pending is no error)",
+        approve.add_arguments,
+        approve.run,
     ),
     "show": Command("describe a session log", show.add_arguments, show.run, runs_user_code=False),
     "plot": Command(

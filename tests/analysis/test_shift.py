@@ -1,0 +1,73 @@
+"""What an intended change loses and gains: lost state changes are named per behavior,
+with their cycles, never folded into a count; a change that only moves is no loss."""
+
+from __future__ import annotations
+
+from beatlog.analysis.shift import Loss, LossKind, shift
+from beatlog.replaying.draws import DrawRule
+from beatlog.replaying.expectation import ABSENT, TracedChange, TracedOutput
+from beatlog.replaying.verdict import StateChange
+
+ESCAPES = [
+    TracedChange(291, 0, StateChange("escape", "idle", "backing")),
+    TracedChange(325, 0, StateChange("escape", "backing", "turning")),
+    TracedChange(367, 0, StateChange("escape", "turning", "idle")),
+]
+WANDERS = [
+    TracedChange(10, 0, StateChange("wander", "left", "right")),
+    TracedChange(50, 0, StateChange("wander", "right", "left")),
+]
+
+
+def test_state_changes_that_no_longer_happen_are_losses_of_their_behavior() -> None:
+    moved = [c._replace(cycle=c.cycle + 1) for c in WANDERS]
+    turned = [TracedOutput(291, 0, "turn", 0.5), TracedOutput(400, 0, "turn", ABSENT)]
+    unused = DrawRule("escape", "choice(2)", None, (325,))
+
+    weighed = shift(
+        ([*WANDERS, *ESCAPES], [TracedOutput(0, 0, "speed", 0.2), *turned]),
+        (moved, [TracedOutput(0, 0, "speed", 0.2)]),
+        cycles=583,
+        open_loop=11,
+        draws_after=[unused],
+    )
+
+    assert weighed.losses == (
+        Loss(LossKind.STATE_CHANGES, "escape", (291, 325, 367), silent=True),
+        Loss(LossKind.OUTPUT, "turn", (291,)),
+        Loss(LossKind.DRAWS, "escape", (325,), request="choice(2)"),
+    )
+    assert (weighed.lost, weighed.gained, weighed.moved) == (3, 0, 2)
+    assert weighed.closed_loop == 11
+
+
+def test_a_behavior_that_still_acts_is_not_silent_and_new_changes_are_no_loss() -> None:
+    fewer = [*WANDERS, ESCAPES[0], ESCAPES[2]._replace(cycle=300)]
+    extra = TracedChange(500, 0, StateChange("escape", "idle", "backing"))
+
+    weighed = shift(([*WANDERS, *ESCAPES], []), ([*fewer, extra], []), cycles=583, open_loop=None)
+
+    assert weighed.losses == (Loss(LossKind.STATE_CHANGES, "escape", (325,)),)
+    assert (weighed.lost, weighed.gained, weighed.moved) == (1, 1, 1)
+    assert weighed.closed_loop == 583
+
+
+def test_draws_left_unused_already_approved_are_no_new_loss() -> None:
+    unused = DrawRule("escape", "choice(2)", None, (325,))
+
+    weighed = shift(
+        (ESCAPES, []), (ESCAPES, []), cycles=400, open_loop=None,
+        draws_before=[unused], draws_after=[unused],
+    )  # fmt: skip
+
+    assert weighed.losses == ()
+
+
+def test_a_state_change_still_in_its_cycle_is_matched_there_before_any_is_moved() -> None:
+    backing = StateChange("escape", "idle", "backing")
+    twice = [TracedChange(100, 0, backing), TracedChange(500, 0, backing)]
+
+    weighed = shift((twice, []), (twice[1:], []), cycles=600, open_loop=100)
+
+    assert weighed.losses == (Loss(LossKind.STATE_CHANGES, "escape", (100,)),)
+    assert (weighed.lost, weighed.gained, weighed.moved) == (1, 0, 0)
