@@ -18,9 +18,9 @@ from typing import IO, Any, NamedTuple
 import msgspec
 
 from beatlog._version import __version__
-from beatlog.errors import NumpyMissingError
+from beatlog.errors import NumpyMissingError, SchemaMismatchError
 from beatlog.log.columns import COLUMNS_FROM
-from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
+from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader, payload_encoder
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import System
 from beatlog.model.clock import DEFAULT_PERIOD_NS, LiveHeartbeat
@@ -142,6 +142,10 @@ class Recorder:
         self._writer = SessionLogWriter(
             path, header, overwrite=overwrite, flush_interval_s=flush_interval_s, fsync=fsync
         )
+        self._encode = payload_encoder().encode
+        self._as_logged = msgspec.msgpack.Decoder(system.robot_state).decode
+        """RS_t as the log gives it back to replay: the behaviors see it live too, so a
+        float32 or an int subclass, a tuple for a list, reaches them as replay hands it."""
 
     @property
     def cycles(self) -> int:
@@ -177,17 +181,32 @@ class Recorder:
         A robot that runs its own loop says ``overrun=True`` when this heartbeat came
         late; the end record counts them, as :meth:`run` does. Returns the outputs the
         behaviors emitted. Never blocks on disk.
+
+        The behaviors see ``state`` as the log stores it, encoded and decoded back as
+        its type (a ``numpy.float32`` becomes the ``float`` that replay hands them), so
+        that live is what replay is; a state that does not decode as its type (a
+        ``str`` in a ``float`` field) is refused by a
+        :class:`~beatlog.errors.SchemaMismatchError` naming the field.
         """
         self._overruns += overrun
         executor = self._executor
+        encoded = self._encode(state)
         try:
-            changes = executor.step(interval_ns, state)
+            logged = self._as_logged(encoded)
+        except msgspec.ValidationError as exc:
+            raise SchemaMismatchError(
+                self._writer.path or "<output>",
+                f"robot state of cycle {executor.context.cycle + 1} cannot be replayed as "
+                f"{executor.system.robot_state.__name__}: {exc}",
+            ) from None
+        try:
+            changes = executor.step(interval_ns, logged)
         except NumpyMissingError:
             raise NumpyMissingError(self._writer.path or "<output>") from None
         context = executor.context
         self._writer.append(
             interval_ns,
-            state,
+            msgspec.Raw(encoded),
             changes,
             self.random.take(),
             context.outputs,
