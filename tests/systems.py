@@ -32,6 +32,7 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
+from beatlog_examples.rover import RoverRobot, RoverState
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, probe_system
 
 HEADINGS = ("left", "right", "straight", "back")
@@ -513,3 +514,8 @@ def perceive_simulated(previous: Simulated | None, samples: Sequence[Sample]) ->
     """A perception step as a simulator's: the last range reading, as a float32."""
     u = samples[-1].value if samples else 1.0
     return Simulated(u=np.float32(u), xs=(u,))  # type: ignore[arg-type]
+
+
+def gambling_rover() -> RoverRobot:
+    """The example rover driven by a :class:`Gambler`: no session of it replays."""
+    return RoverRobot(behaviors=PriorityArbiter([Gambler()], robot_state=RoverState))

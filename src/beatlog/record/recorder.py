@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any, NamedTuple
+from typing import IO, TYPE_CHECKING, Any, NamedTuple
 
 import msgspec
 
@@ -30,6 +30,9 @@ from beatlog.model.inbox import Sample
 from beatlog.model.random import RecordingRandom
 from beatlog.model.robot import Robot
 from beatlog.model.state import state_fields, state_schema, state_type_name
+
+if TYPE_CHECKING:
+    from beatlog.record.certify import Certificate
 
 __all__ = ["RecordSummary", "Recorder", "software_version"]
 
@@ -90,6 +93,10 @@ class Recorder:
         default by field for a state of at least
         :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay
         (``BENCHMARKS.md``).
+    :param certify: a factory of the recorded system: when the session ends (without an
+        exception), the log is replayed against a fresh system from it and
+        :attr:`certificate` says whether it replays, or the first cycle that does not
+        and the calls to blame (:mod:`beatlog.record.certify`); needs a ``path``.
     """
 
     def __init__(
@@ -109,7 +116,10 @@ class Recorder:
         start_time_ns: int | None = None,
         clock: Callable[[], int] = time.monotonic_ns,
         by_field: bool | None = None,
+        certify: Callable[[], System] | None = None,
     ) -> None:
+        if certify is not None and not isinstance(path, str | Path):
+            raise ValueError("Recorder: certify replays the log, so it needs a path to read")
         self.period_ns = period_ns
         self._clock = clock
         self._last_beat_ns: int | None = None
@@ -119,6 +129,10 @@ class Recorder:
         self._overruns = 0
         self._warned = False
         self._close_error: OSError | None = None
+        self._certify = certify
+        self.certificate: Certificate | None = None
+        """Whether the log replays against a fresh system, once the session ended, when
+        asked for (``certify``)."""
         fields = state_fields(system.robot_state)
         header = SessionHeader(
             format_version=FORMAT_VERSION,
@@ -283,6 +297,18 @@ class Recorder:
             self._writer.close(end)
         except OSError as exc:  # the file's last buffered bytes did not fit either
             self._close_error = exc
+        if self._certify is not None and error is None and self.error is None:
+            self.certificate = self._certified(self._certify)
+
+    def _certified(self, system: Callable[[], System]) -> Certificate:
+        """The certificate of the log just closed, its lack logged as an error."""
+        from beatlog.record.certify import certify  # noqa: PLC0415 - replay, when asked
+
+        assert self._writer.path is not None  # certify needs a path: checked when built
+        certificate = certify(self._writer.path, system)
+        if not certificate.ok:
+            _log.error("%s: %s", self._writer.path, certificate.describe())
+        return certificate
 
     def __enter__(self) -> Recorder:
         return self
