@@ -128,7 +128,9 @@ def run_spec(
     also traces the new state changes and outputs (nothing is written here: see
     :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
     ``timelines`` what it did is charted: a passing DTC from the verdict's own replay, a
-    failing one from the one more replay its details take. The outcome's wall time is
+    failing one from the one more replay its details take. A failed DTC is replayed
+    once more, against a fresh system, to see that its first divergence repeats: where
+    it does not, a note says so and points to the audit. The outcome's wall time is
     the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
     judges exactly as this run did. The spec's references also import from its folder
     and its project root (:func:`beatlog.usercode.importable_near`). The options' break
