@@ -23,6 +23,9 @@ def test_a_deterministic_system_is_certified(tmp_path: Path) -> None:
     assert recorder.certificate.describe() == (
         "certified: the log replays against a fresh system (60 cycles)"
     )
+    certificate = recorder.certificate
+    recorder.close()
+    assert recorder.certificate is certificate  # certified once, however often closed
 
 
 def test_a_behavior_drawing_from_the_global_random_is_not_certified_and_named(

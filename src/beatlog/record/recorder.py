@@ -297,8 +297,9 @@ class Recorder:
             self._writer.close(end)
         except OSError as exc:  # the file's last buffered bytes did not fit either
             self._close_error = exc
-        if self._certify is not None and error is None and self.error is None:
-            self.certificate = self._certified(self._certify)
+        certify, self._certify = self._certify, None  # once, however often it is closed
+        if certify is not None and error is None and self.error is None:
+            self.certificate = self._certified(certify)
 
     def _certified(self, system: Callable[[], System]) -> Certificate:
         """The certificate of the log just closed, its lack logged as an error."""
