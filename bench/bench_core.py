@@ -228,7 +228,7 @@ def live_recording(path: Path, seconds: float) -> tuple[LiveRun, list[int]]:
 
         def timed_append(
             hb_ns: int,
-            state: msgspec.Struct,
+            state: msgspec.Struct | msgspec.Raw,
             changes: Sequence[Any],
             draws: Sequence[Any],
             outputs: Outputs,

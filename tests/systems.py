@@ -16,6 +16,7 @@ import random
 import secrets
 import time
 import uuid
+from collections.abc import Sequence
 from datetime import datetime as wall_datetime
 from pathlib import Path
 from time import monotonic
@@ -27,8 +28,10 @@ import py_trees
 
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
+from beatlog.model.inbox import Sample
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
+from beatlog_examples.rover import RoverRobot, RoverState
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, probe_system
 from tests.crafting import Gauge
 
@@ -520,3 +523,40 @@ def record_scatter(path: Path, cycles: int = 30, *, seed: int = 3) -> Path:
         for _ in range(cycles):
             recorder.step(PERIOD_NS, Probe())
     return path
+
+
+class Simulated(RobotState, kw_only=True):
+    """A robot state as a simulator may fill it: with numpy scalars, subclasses of int
+    and float, or a tuple for a list; the log stores each as the field's type."""
+
+    u: float = 0.0
+    n: int = 0
+    flag: bool = False
+    xs: list[float] = msgspec.field(default_factory=list)
+
+
+class Typist:
+    """Computes with the robot state's values, and names their types in its state: it
+    acts on the values exactly as they reach it."""
+
+    name = "typist"
+    state: BehaviorState = ""
+
+    def step(self, rs: Simulated, ctx: Context) -> Outputs | None:
+        self.state = ",".join(type(value).__name__ for value in (rs.u, rs.n, rs.flag, rs.xs))
+        return {"u2": rs.u * rs.u - 0.98}
+
+
+def typist_system() -> PriorityArbiter[Simulated]:
+    return PriorityArbiter([Typist()], robot_state=Simulated)
+
+
+def perceive_simulated(previous: Simulated | None, samples: Sequence[Sample]) -> Simulated:
+    """A perception step as a simulator's: the last range reading, as a float32."""
+    u = samples[-1].value if samples else 1.0
+    return Simulated(u=np.float32(u), xs=(u,))  # type: ignore[arg-type]
+
+
+def gambling_rover() -> RoverRobot:
+    """The example rover driven by a :class:`Gambler`: no session of it replays."""
+    return RoverRobot(behaviors=PriorityArbiter([Gambler()], robot_state=RoverState))

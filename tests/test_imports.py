@@ -89,9 +89,10 @@ LAYERS = [
     {"log"},
     {"model"},
     {"usercode"},
-    {"record", "replaying"},
+    {"replaying"},
     {"analysis"},
     {"audit"},
+    {"record"},
     {"suite"},
     {"report"},
     {"suite_session"},
@@ -102,8 +103,9 @@ LAYERS = [
 """beatlog's parts (its subpackages and top-level modules), from the ground up: a part
 imports its own modules and those of the layers below it, never one above or beside.
 The log format knows nothing of the execution model, the model nothing of replay; the
-reports render what suites and replays give; the suite session puts suites and reports
-together for the shells (the CLI, the pytest plugin); ``beatlog/__init__`` is the API."""
+record engine certifies a session with replay and the audit's leak watch; the reports
+render what suites and replays give; the suite session puts suites and reports together
+for the shells (the CLI, the pytest plugin); ``beatlog/__init__`` is the API."""
 
 SOURCE = Path(beatlog.__file__).parent
 

@@ -171,4 +171,4 @@ def test_a_run_with_coverage_reads_each_log_once_and_measures_what_the_logs_hold
     assert report.coverage is not None
     assert report.coverage.to_json() == from_logs.to_json()
     assert [o.recorded is not None for o in report.outcomes] == [True, True]
-    assert opened == ["probe.beatlog"] * 3  # each DTC's verdict, and the failure's details
+    assert opened == ["probe.beatlog"] * 4  # each DTC's verdict, the failure's repeat and details

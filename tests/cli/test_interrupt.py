@@ -173,10 +173,12 @@ def test_ctrl_c_ends_a_recording_with_a_complete_log(
         assert reader.status == LogStatus(complete=True, cycles=cycles)
         assert reader.end is not None
         assert reader.end.cycles == cycles > 0
+    recorded, certified = whole_lines(run.out)[-2:]
     assert re.fullmatch(
         rf"recorded {cycles} cycles \(\d+\.\d\d s, \d+ overruns\) to {re.escape(str(out))}",
-        whole_lines(run.out)[-1],
+        recorded,
     ), run.out
+    assert certified == f"certified: the log replays against a fresh system ({cycles} cycles)"
 
 
 @pytest.mark.slow

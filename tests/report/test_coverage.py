@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import html
 import io
+from pathlib import Path
 
 from rich.console import Console
 
-from beatlog.analysis.coverage import Seen, SuiteCoverage
+from beatlog.analysis.coverage import Seen, SuiteCoverage, cover
+from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.context import Context, Outputs
 from beatlog.report.coverage import coverage_html, render_coverage
+from tests.conftest import Probe
+from tests.systems import record_session
 
 
 def _text(coverage: SuiteCoverage, width: int) -> str:
@@ -45,5 +51,40 @@ def test_a_behavior_of_two_systems_is_a_row_of_each_that_names_its_system() -> N
     ]
     assert coverage_html(coverage).splitlines()[0] == (
         '<section id="coverage"><h2>Transition coverage</h2><table><tr><th>system</th>'
-        "<th>behavior</th><th>states reached</th><th>transitions</th><th>unreached</th></tr>"
+        "<th>behavior</th><th>states reached</th><th>changes between heartbeats</th>"
+        "<th>unreached</th></tr>"
     )
+
+
+class Hasty:
+    """Goes 2 → 3 → 1 within the heartbeat of cycle 5: the log holds 2, then 1."""
+
+    name = "hasty"
+
+    def __init__(self) -> None:
+        self.state: BehaviorState = 2
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if ctx.cycle == 5:
+            self.state = 3
+            self.state = 1
+        return None
+
+
+def test_a_change_within_a_heartbeat_is_labelled_as_the_states_at_successive_heartbeats(
+    tmp_path: Path,
+) -> None:
+    log = record_session(tmp_path / "hasty.beatlog", PriorityArbiter([Hasty()], robot_state=Probe))
+    coverage = cover([("hasty", log, None)])
+
+    text = " ".join(_text(coverage, 300).split())
+    page = html.unescape(coverage_html(coverage))
+
+    assert "│ hasty │ 2 (1 DTC, 5 cycles), 1 (1 DTC, 15 cycles) │ 2 → 1 ×1 in 1 DTC │" in text
+    for shown in (text, page):
+        assert "changes between heartbeats" in shown
+        assert (
+            "a change between heartbeats is a behavior's state at one heartbeat → its state "
+            "at the next: a state passed through within one heartbeat is not logged "
+            "(2 → 3 → 1 in one heartbeat shows as 2 → 1)"
+        ) in shown

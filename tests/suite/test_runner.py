@@ -3,6 +3,7 @@ its break points."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -18,7 +19,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short, opened_logs
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
-from tests.systems import leaks, leaky_system, quiet_system, record_session
+from tests.systems import gambler_system, leaks, leaky_system, quiet_system, record_session
 from tests.text import svg_texts
 
 
@@ -216,7 +217,9 @@ def test_a_passing_dtc_is_charted_from_its_verdicts_own_replay(tmp_path: Path, l
     assert CountingArbiter.replays == 1
 
 
-def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path, log: Path) -> None:
+def test_a_failed_dtc_is_replayed_three_times_at_most_for_every_report(
+    tmp_path: Path, log: Path
+) -> None:
     spec = written_dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
     CountingArbiter.replays = 0
 
@@ -228,10 +231,10 @@ def test_a_failed_dtc_is_replayed_at_most_twice_for_every_report(tmp_path: Path,
     assert outcome.result.divergence.fields_read == ("distance",)
     assert outcome.update is not None
     assert len(outcome.timelines) == 2
-    assert CountingArbiter.replays == 2
+    assert CountingArbiter.replays == 3  # the verdict's, its repeat, and its details'
 
 
-def test_a_failed_dtc_opens_its_log_twice_for_every_report(
+def test_a_failed_dtc_opens_its_log_three_times_for_every_report(
     tmp_path: Path, log: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     spec = written_dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
@@ -240,7 +243,7 @@ def test_a_failed_dtc_opens_its_log_twice_for_every_report(
     outcome = run_spec(spec, SpecOptions(update=UpdateMode.NEW, timelines=True))
 
     assert (outcome.verdict, len(outcome.timelines)) == (Verdict.FAILED, 2)
-    assert opened == [log.name, log.name]  # the verdict's replay, and its details'
+    assert opened == [log.name] * 3  # the verdict's replay, its repeat, and its details'
 
 
 # break points
@@ -292,3 +295,32 @@ def test_break_points_replay_every_spec_in_this_process_whatever_the_jobs(
 
     assert verdicts(outcomes) == [("first", Verdict.FAILED), ("second", Verdict.FAILED)]
     assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE] * 2
+
+
+def test_a_failure_that_moves_between_runs_says_so_and_points_to_the_audit(
+    tmp_path: Path,
+) -> None:
+    log = record_session(tmp_path / "gamble.beatlog", gambler_system(), cycles=60)
+    spec = written_dtc(tmp_path, "gamble", log, "tests.systems:gambler_system")
+
+    outcome = run_spec(spec)
+
+    assert outcome.result is not None
+    divergence = outcome.result.divergence
+    assert divergence is not None
+    (note,) = outcome.result.notes
+    assert re.fullmatch(
+        rf"fails (at a different cycle each run \({divergence.cycle}, then \d+\)"
+        rf"|otherwise each run at cycle {divergence.cycle}) on unchanged code: the behaviors "
+        rf"are not deterministic; run `beatlog test --audit {re.escape(str(spec.path))}` "
+        "to find the call",
+        note,
+    )
+
+
+def test_a_failure_that_repeats_itself_says_nothing_more(tmp_path: Path, log: Path) -> None:
+    outcome = run_spec(written_dtc(tmp_path, "avoid-pole", log, CHANGED))
+
+    assert outcome.result is not None
+    assert outcome.result.divergence is not None
+    assert outcome.result.notes == ()

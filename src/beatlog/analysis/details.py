@@ -4,7 +4,8 @@ The verdict's replay stops at the first divergence. Reports want more: the robot
 fields the behaviors read in the diverging cycle, the whole new trace for
 re-baselining, and timelines for charts. :func:`replay_details` replays the log once
 more in one :class:`~beatlog.replaying.session.ReplaySession` whose observers gather
-them all, so a DTC is replayed at most twice in all.
+them all: however many are asked for, they cost one replay (a failed DTC is replayed
+once more besides, up to its first divergence, to see that it repeats).
 """
 
 from __future__ import annotations

@@ -56,6 +56,14 @@ class Finding:
     """When ``site`` is in an installed package, the first frame of user code that led
     there (``file:line in function``); None when ``site`` is user code or none led there."""
 
+    def __str__(self) -> str:
+        """``random.choice at FILE:LINE in FUNCTION (12 times)``, then where user code
+        led there when the site is a package's."""
+        times = "once" if self.count == 1 else f"{self.count:,} times"
+        return f"{self.call} at {self.site} ({times})" + (
+            "" if self.via is None else f", from {self.via}"
+        )
+
 
 Where = tuple[CodeType, int]
 

@@ -82,18 +82,10 @@ class AuditReport:
 
     def lines(self) -> list[str]:
         """Every problem in one line each, for reports."""
-        lines = [
-            f"{finding.call} at {finding.site} ({_times(finding.count)})"
-            + ("" if finding.via is None else f", from {finding.via}")
-            for finding in self.findings
-        ]
+        lines = [str(finding) for finding in self.findings]
         if self.hash_seed_dependence is not None:
             lines.append(self.hash_seed_dependence)
         return lines
-
-
-def _times(count: int) -> str:
-    return "once" if count == 1 else f"{count:,} times"
 
 
 def audit(

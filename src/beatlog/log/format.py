@@ -87,11 +87,15 @@ EMPTY_MAP = msgspec.Raw(b"\x80")
 
 
 def _encode_array_like(obj: Any) -> Any:
-    """Encode numpy scalars and arrays that behaviors may put into states or outputs."""
+    """Encode numpy scalars and arrays that behaviors may put into states or outputs,
+    and subclasses of ``float``, ``int`` and ``str`` (a unit's float) as their base."""
     tolist = getattr(obj, "tolist", None)
-    if tolist is None:
-        raise TypeError(f"cannot record a value of type {type(obj).__name__}")
-    return tolist()
+    if tolist is not None:
+        return tolist()
+    for plain in (float, int, str):
+        if isinstance(obj, plain):
+            return plain(obj)
+    raise TypeError(f"cannot record a value of type {type(obj).__name__}")
 
 
 def payload_encoder() -> msgspec.msgpack.Encoder:

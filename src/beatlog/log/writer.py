@@ -155,13 +155,14 @@ class SessionLogWriter(Closing):
     def append(  # noqa: PLR0917 - positional on purpose: it runs every cycle
         self,
         hb_ns: int,
-        state: msgspec.Struct,
+        state: msgspec.Struct | msgspec.Raw,
         changes: Sequence[Any],
         draws: Sequence[Any],
         outputs: dict[str, Any],
         samples: Sequence[Any] = (),
     ) -> None:
-        """Queue one cycle, encoded now so later mutation of its parts cannot change it.
+        """Queue one cycle, encoded now so later mutation of its parts cannot change it;
+        ``state`` is RS_t, or its encoding as a :class:`msgspec.Raw` (the recorder's).
 
         Never blocks and never raises for an I/O problem; after a write failure the
         cycle is dropped and :attr:`error` says why.

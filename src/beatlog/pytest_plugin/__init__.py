@@ -79,8 +79,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         "--beatlog-coverage",
         action="store_true",
         dest="beatlog_coverage",
-        help="show which behavior states and transitions the DTCs that ran exercise, and the "
-        "states declared or seen by earlier runs that none reaches",
+        help="show which behavior states the DTCs that ran exercise and the changes between "
+        "them from one heartbeat to the next, and the states declared or seen by earlier "
+        "runs that none reaches",
     )
     group.addoption(
         "--beatlog-coverage-json",

@@ -13,14 +13,14 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import TracebackType
-from typing import IO, Any, NamedTuple
+from typing import IO, TYPE_CHECKING, Any, NamedTuple
 
 import msgspec
 
 from beatlog._version import __version__
-from beatlog.errors import NumpyMissingError
+from beatlog.errors import NumpyMissingError, SchemaMismatchError
 from beatlog.log.columns import COLUMNS_FROM
-from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader
+from beatlog.log.format import FORMAT_VERSION, SessionEnd, SessionHeader, payload_encoder
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import System
 from beatlog.model.clock import DEFAULT_PERIOD_NS, LiveHeartbeat
@@ -30,6 +30,9 @@ from beatlog.model.inbox import Sample
 from beatlog.model.random import RecordingRandom
 from beatlog.model.robot import Robot
 from beatlog.model.state import state_fields, state_schema, state_type_name
+
+if TYPE_CHECKING:
+    from beatlog.record.certify import Certificate
 
 __all__ = ["RecordSummary", "Recorder", "software_version"]
 
@@ -89,6 +92,10 @@ class Recorder:
         decodes only the fields its behaviors read), or in the cycle records; by
         default by field for a state of at least
         :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay.
+    :param certify: a factory of the recorded system: when the session ends (without an
+        exception), the log is replayed against a fresh system from it and
+        :attr:`certificate` says whether it replays, or the first cycle that does not
+        and the calls to blame (:mod:`beatlog.record.certify`); needs a ``path``.
     """
 
     def __init__(
@@ -108,7 +115,10 @@ class Recorder:
         start_time_ns: int | None = None,
         clock: Callable[[], int] = time.monotonic_ns,
         by_field: bool | None = None,
+        certify: Callable[[], System] | None = None,
     ) -> None:
+        if certify is not None and not isinstance(path, str | Path):
+            raise ValueError("Recorder: certify replays the log, so it needs a path to read")
         self.period_ns = period_ns
         self._clock = clock
         self._last_beat_ns: int | None = None
@@ -118,6 +128,10 @@ class Recorder:
         self._overruns = 0
         self._warned = False
         self._close_error: OSError | None = None
+        self._certify = certify
+        self.certificate: Certificate | None = None
+        """Whether the log replays against a fresh system, once the session ended, when
+        asked for (``certify``)."""
         fields = state_fields(system.robot_state)
         header = SessionHeader(
             format_version=FORMAT_VERSION,
@@ -141,6 +155,10 @@ class Recorder:
         self._writer = SessionLogWriter(
             path, header, overwrite=overwrite, flush_interval_s=flush_interval_s, fsync=fsync
         )
+        self._encode = payload_encoder().encode
+        self._as_logged = msgspec.msgpack.Decoder(system.robot_state).decode
+        """RS_t as the log gives it back to replay: the behaviors see it live too, so a
+        float32 or an int subclass, a tuple for a list, reaches them as replay hands it."""
 
     @property
     def cycles(self) -> int:
@@ -176,17 +194,32 @@ class Recorder:
         A robot that runs its own loop says ``overrun=True`` when this heartbeat came
         late; the end record counts them, as :meth:`run` does. Returns the outputs the
         behaviors emitted. Never blocks on disk.
+
+        The behaviors see ``state`` as the log stores it, encoded and decoded back as
+        its type (a ``numpy.float32`` becomes the ``float`` that replay hands them), so
+        that live is what replay is; a state that does not decode as its type (a
+        ``str`` in a ``float`` field) is refused by a
+        :class:`~beatlog.errors.SchemaMismatchError` naming the field.
         """
         self._overruns += overrun
         executor = self._executor
+        encoded = self._encode(state)
         try:
-            changes = executor.step(interval_ns, state)
+            logged = self._as_logged(encoded)
+        except msgspec.ValidationError as exc:
+            raise SchemaMismatchError(
+                self._writer.path or "<output>",
+                f"robot state of cycle {executor.context.cycle + 1} cannot be replayed as "
+                f"{executor.system.robot_state.__name__}: {exc}",
+            ) from None
+        try:
+            changes = executor.step(interval_ns, logged)
         except NumpyMissingError:
             raise NumpyMissingError(self._writer.path or "<output>") from None
         context = executor.context
         self._writer.append(
             interval_ns,
-            state,
+            msgspec.Raw(encoded),
             changes,
             self.random.take(),
             context.outputs,
@@ -263,6 +296,19 @@ class Recorder:
             self._writer.close(end)
         except OSError as exc:  # the file's last buffered bytes did not fit either
             self._close_error = exc
+        certify, self._certify = self._certify, None  # once, however often it is closed
+        if certify is not None and error is None and self.error is None:
+            self.certificate = self._certified(certify)
+
+    def _certified(self, system: Callable[[], System]) -> Certificate:
+        """The certificate of the log just closed, its lack logged as an error."""
+        from beatlog.record.certify import certify  # noqa: PLC0415 - replay, when asked
+
+        assert self._writer.path is not None  # certify needs a path: checked when built
+        certificate = certify(self._writer.path, system)
+        if not certificate.ok:
+            _log.error("%s: %s", self._writer.path, certificate.describe())
+        return certificate
 
     def __enter__(self) -> Recorder:
         return self

@@ -303,7 +303,7 @@ class Replayer:
                 sensed = None
             else:
                 sensed = perceiver.perceive(record, state, context.cycle + 1)
-                state = perceiver.rebuilt
+                state = perceiver.seen
             draws = record.random_numbers
             # Load RN_t, unless there is none and nothing is left of the last cycle's (a
             # draw is kept only when one was recorded; a draw too many leaves a mismatch).

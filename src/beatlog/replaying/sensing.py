@@ -46,7 +46,13 @@ class Perceiver:
     ) -> None:
         self.perception = perception
         self.rebuilt: Any = None
-        """The robot state rebuilt last: the behaviors see it."""
+        """The robot state rebuilt last, as perception built it: perception is given it
+        with the next cycle's samples."""
+        self.seen: Any = None
+        """The robot state rebuilt last as the log would store it (encoded, and decoded
+        back as its type): the behaviors see it, as they see RS_t when it is recorded
+        (:meth:`~beatlog.record.recorder.Recorder.step`)."""
+        self._as_logged: Callable[[bytes], Any] = msgspec.msgpack.Decoder(robot_state).decode
         self.samples_perceived = 0
         """The samples the perception step was given so far, every cycle's."""
         self._robot_state = robot_state
@@ -79,12 +85,15 @@ class Perceiver:
         except (Exception, SystemExit) as exc:  # perception failing is an outcome
             if recorded is UNREAD:
                 recorded = self._reader.recorded_state(record, cycle)
-            self.rebuilt = recorded
+            self.rebuilt = self.seen = recorded
             return Sensed(recorded, False, exc, samples)
-        self.rebuilt = rebuilt
+        self.rebuilt = self.seen = rebuilt
         try:
             encoded = self._encode(rebuilt)
+            self.seen = self._as_logged(encoded)
         except (TypeError, msgspec.EncodeError):  # perception built something unloggable
+            encoded = None
+        except msgspec.ValidationError:  # or what the log cannot give back as its type
             encoded = None
         tags = self._tags
         tag = tags[cycle] if cycle < len(tags) else NOT_PINNED

@@ -10,7 +10,17 @@ from rich.text import Text
 from beatlog.analysis.coverage import BehaviorCoverage, SuiteCoverage
 from beatlog.report.counts import plural
 
-__all__ = ["coverage_html", "render_coverage"]
+__all__ = ["BETWEEN_HEARTBEATS", "coverage_html", "render_coverage"]
+
+CHANGES = "changes between heartbeats"
+"""The column of the pairs (before → after) a behavior's logged state changes make."""
+BETWEEN_HEARTBEATS = (
+    "a change between heartbeats is a behavior's state at one heartbeat → its state at "
+    "the next: a state passed through within one heartbeat is not logged "
+    "(2 → 3 → 1 in one heartbeat shows as 2 → 1)"
+)
+"""What the pairs are, and are not: the log holds each behavior's state once a heartbeat,
+so a pair is no transition the code need have."""
 
 
 def _states(cover: BehaviorCoverage) -> str:
@@ -44,7 +54,7 @@ def _unreached(coverage: SuiteCoverage, cover: BehaviorCoverage) -> str:
 def _columns(coverage: SuiteCoverage) -> list[str]:
     """The table's columns, led by the system when the run covers more than one."""
     several = ["system"] if len(coverage.systems) > 1 else []
-    return [*several, "behavior", "states reached", "transitions", "unreached"]
+    return [*several, "behavior", "states reached", CHANGES, "unreached"]
 
 
 def _rows(coverage: SuiteCoverage) -> list[list[str]]:
@@ -62,14 +72,20 @@ def _rows(coverage: SuiteCoverage) -> list[list[str]]:
     ]
 
 
-_RATIOS = {"states reached": 2, "transitions": 3, "unreached": 2}
+_RATIOS = {"states reached": 2, CHANGES: 3, "unreached": 2}
 
 
 def render_coverage(coverage: SuiteCoverage) -> Table:
-    """One row per behavior: states reached, transitions taken, and the states declared or
-    seen by earlier runs that no DTC reaches; with more than one system, which one each
-    behavior is of."""
-    table = Table(title="transition coverage", title_justify="left", expand=True)
+    """One row per behavior: states reached, changes between heartbeats, and the states
+    declared or seen by earlier runs that no DTC reaches; with more than one system, which
+    one each behavior is of. The caption says what a change between heartbeats is."""
+    table = Table(
+        title="transition coverage",
+        title_justify="left",
+        caption=BETWEEN_HEARTBEATS,
+        caption_justify="left",
+        expand=True,
+    )
     for column in _columns(coverage):
         style = "yellow" if column == "unreached" else ""
         table.add_column(column, style=style, ratio=_RATIOS.get(column), overflow="fold")
@@ -87,5 +103,5 @@ def coverage_html(coverage: SuiteCoverage) -> str:
     )
     return (
         '<section id="coverage"><h2>Transition coverage</h2><table>'
-        f"<tr>{head}</tr>\n{rows}\n</table></section>"
+        f"<tr>{head}</tr>\n{rows}\n</table><p>{html.escape(BETWEEN_HEARTBEATS)}</p></section>"
     )

@@ -128,7 +128,9 @@ def run_spec(
     also traces the new state changes and outputs (nothing is written here: see
     :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
     ``timelines`` what it did is charted: a passing DTC from the verdict's own replay, a
-    failing one from the one more replay its details take. The outcome's wall time is
+    failing one from the one more replay its details take. A failed DTC is replayed
+    once more, against a fresh system, to see that its first divergence repeats: where
+    it does not, a note says so and points to the audit. The outcome's wall time is
     the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
     judges exactly as this run did. The spec's references also import from its folder
     and its project root (:func:`beatlog.usercode.importable_near`). The options' break
@@ -202,6 +204,8 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         notes = result.notes + unreached_break(options.break_at, result)
         if options.break_on_divergence:
             notes += break_on_divergence(result, lambda cycle: judged(system, break_at=cycle))
+        if divergence is not None and divergence.kind is not DivergenceKind.LOG_ENDED:
+            notes += _moving(divergence, judged(system).divergence, spec)
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
         details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
@@ -253,16 +257,46 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     )
 
 
-def _rerun(spec: DtcSpec) -> str:
+def _rerun(spec: DtcSpec, *options: str) -> str:
     """``beatlog test SPEC``: the one command that judges a DTC as a suite run does,
     with the spec's allowances and approved baseline; for a fleet log, ``beatlog test
-    --logs LOG --system MODULE:FACTORY``."""
+    --logs LOG --system MODULE:FACTORY``; ``options`` go before them."""
     if spec.source is None:
-        return reproduce_command("test", spec.path)
+        return reproduce_command("test", *options, spec.path)
     perception = () if spec.perception is None else ("--perception", spec.perception)
     system = () if spec.system is None else ("--system", spec.system)
     log = glob.escape(spec.source)
-    return reproduce_command("test", "--logs", log, *system, *perception)
+    return reproduce_command("test", *options, "--logs", log, *system, *perception)
+
+
+def _moving(first: Divergence, again: Divergence | None, spec: DtcSpec) -> tuple[str, ...]:
+    """The note on a failure that a second replay, of a fresh system in this process,
+    does not repeat: where the first divergence moves between two runs of unchanged
+    code, the behaviors depend on something besides their log (the global ``random``,
+    the wall clock, state kept between replays), which the audit names."""
+    if again is not None and _same(first, again):
+        return ()
+    if again is None:
+        how = f"fails at cycle {first.cycle} in one run and passes in the next"
+    elif again.cycle != first.cycle:
+        how = f"fails at a different cycle each run ({first.cycle}, then {again.cycle})"
+    else:
+        how = f"fails otherwise each run at cycle {first.cycle}"
+    return (
+        f"{how} on unchanged code: the behaviors are not deterministic; run "
+        f"`{_rerun(spec, '--audit')}` to find the call",
+    )
+
+
+def _same(first: Divergence, again: Divergence) -> bool:
+    """Whether two divergences are the same: cycle, kind, and what replay did there
+    (compared as text, so that a NaN equals itself)."""
+
+    def seen(divergence: Divergence) -> tuple[object, ...]:
+        done = (divergence.actual, divergence.actual_outputs, divergence.random_drawn)
+        return divergence.cycle, divergence.kind, repr(done)
+
+    return seen(first) == seen(again)
 
 
 def _charting(

@@ -209,8 +209,31 @@ def test_record_writes_a_complete_log_that_replays(beatlog: Beatlog, tmp_path: P
         assert reader.header.robot_id == "rover-1"
         assert reader.header.random_seed == 11
     assert re.fullmatch(
-        rf"recorded {cycles} cycles \(\d+\.\d\d s, \d+ overruns\) to {re.escape(str(out))}\n",
+        rf"recorded {cycles} cycles \(\d+\.\d\d s, \d+ overruns\) to {re.escape(str(out))}\n"
+        rf"certified: the log replays against a fresh system \({cycles} cycles\)\n",
         recorded.out,
     ), recorded.out
     replayed = beatlog("replay", out, "--system", "beatlog_examples.rover:system")
     assert replayed.code == 0, replayed.out
+
+
+def test_record_fails_a_session_that_does_not_replay_naming_the_cycle_and_the_call(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    out = tmp_path / "gamble.beatlog"
+    robot = "tests.systems:gambling_rover"
+
+    recorded = beatlog("record", "--robot", robot, "-o", out, "--duration", 0.3)
+    unchecked = beatlog(
+        "record", "--robot", robot, "-o", tmp_path / "b.beatlog", "--duration", 0.1, "--no-certify"
+    )
+
+    assert recorded.code == 1, recorded.err
+    recorded_line, certificate = recorded.out.splitlines()
+    assert recorded_line.startswith("recorded ")
+    assert re.match(
+        r"not certified: a fresh system replays the log otherwise from cycle \d+ ", certificate
+    )
+    assert re.search(r"random\.choice at \S+/tests/systems\.py:\d+ in Gambler\.step", certificate)
+    assert unchecked.code == 0, unchecked.err
+    assert "certified" not in unchecked.out

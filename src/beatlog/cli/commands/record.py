@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -50,6 +51,14 @@ def add_arguments(record: argparse.ArgumentParser) -> None:
     )
     record.add_argument("--fsync", action="store_true", help="fsync at every flush")
     record.add_argument("--force", action="store_true", help="overwrite an existing log")
+    record.add_argument(
+        "--no-certify",
+        dest="certify",
+        action="store_false",
+        help="do not replay the log against a fresh system when the session ends (by "
+        "default it is, and a log that does not replay fails the command, naming the "
+        "first cycle that replays otherwise and the calls to blame)",
+    )
 
 
 def run(args: argparse.Namespace, console: Console) -> int:
@@ -61,6 +70,13 @@ def run(args: argparse.Namespace, console: Console) -> int:
     robot = load_robot(args.robot)
     if args.system_ref:
         load_system(args.system_ref)  # replay will need it: a typo is found now, not then
+    certify = None
+    if args.certify:  # the system replay will use, else the recorded one from a new robot
+        certify = (
+            functools.partial(load_system, args.system_ref)
+            if args.system_ref
+            else (lambda: load_robot(args.robot).system)
+        )
     output: Path = args.output
     check_output(output)
     interrupted = False
@@ -76,6 +92,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
             flush_interval_s=args.flush_interval,
             fsync=args.fsync,
             log_samples=args.log_samples,
+            certify=certify,
         )
     except LogExistsError:
         raise OptionError(
@@ -100,9 +117,13 @@ def run(args: argparse.Namespace, console: Console) -> int:
     if recorder.error is not None:
         line += f"; {_write_failure(output, recorder.error)}"
     console.print(line, markup=False, highlight=False)
+    certificate = recorder.certificate
+    if certificate is not None:
+        console.print(certificate.describe(), markup=False, highlight=False)
     if interrupted:
         raise KeyboardInterrupt
-    return EXIT_OK if recorder.error is None else EXIT_FAILED
+    certified = certificate is None or certificate.ok
+    return EXIT_OK if recorder.error is None and certified else EXIT_FAILED
 
 
 def _write_failure(log: Path, error: str) -> str:

@@ -78,8 +78,9 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
     test.add_argument(
         "--coverage",
         action="store_true",
-        help="show which behavior states and transitions the DTCs exercise, and the states "
-        "declared or seen by earlier runs (remembered in .beatlog_cache/) that none reaches",
+        help="show which behavior states the DTCs exercise and the changes between them from "
+        "one heartbeat to the next, and the states declared or seen by earlier runs "
+        "(remembered in .beatlog_cache/) that none reaches",
     )
     test.add_argument(
         "--coverage-json", type=Path, metavar="FILE", help="write the transition coverage as JSON"
