@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime
 import inspect
+import itertools
 import logging
 import os
 import random
@@ -274,6 +275,32 @@ class Gambler:
 
 def gambler_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Gambler()], robot_state=Probe)
+
+
+_BUILT = itertools.count()
+
+
+class Restless:
+    """Takes, at its fifth heartbeat, a state named after how many of its kind were built
+    before it: module state that outlives a replay, so every replay of one log fails
+    otherwise, whatever the order of the tests."""
+
+    name = "restless"
+    state = "waiting"
+
+    def __init__(self) -> None:
+        self.built = next(_BUILT)
+        self.beats = 0
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.beats += 1
+        if self.beats == 5:
+            self.state = f"built {self.built}"
+        return None
+
+
+def restless_system() -> PriorityArbiter[Probe]:
+    return PriorityArbiter([Restless()], robot_state=Probe)
 
 
 class Drifter:

@@ -19,7 +19,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short, opened_logs
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
-from tests.systems import gambler_system, leaks, leaky_system, quiet_system, record_session
+from tests.systems import leaks, leaky_system, quiet_system, record_session, restless_system
 from tests.text import svg_texts
 
 
@@ -300,8 +300,8 @@ def test_break_points_replay_every_spec_in_this_process_whatever_the_jobs(
 def test_a_failure_that_moves_between_runs_says_so_and_points_to_the_audit(
     tmp_path: Path,
 ) -> None:
-    log = record_session(tmp_path / "gamble.beatlog", gambler_system(), cycles=60)
-    spec = written_dtc(tmp_path, "gamble", log, "tests.systems:gambler_system")
+    log = record_session(tmp_path / "restless.beatlog", restless_system(), cycles=20)
+    spec = written_dtc(tmp_path, "restless", log, "tests.systems:restless_system")
 
     outcome = run_spec(spec)
 
