@@ -19,7 +19,7 @@ from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.errors import OptionError
+from beatlog.errors import BaselineError, OptionError
 from beatlog.files import write_json
 from beatlog.report.console import plain_text, render_outcome
 from beatlog.report.suite import SuiteReport
@@ -120,14 +120,16 @@ class SuiteSession:
 
     def finish(self) -> SuiteReport:
         """Update the baselines and write the reports of a run that went to its end
-        (the first report that cannot be written stops the writing: the report says
-        why); what the session did."""
+        (the first pending file or report that cannot be written stops the writing: the
+        report says why); what the session did."""
         options, outcomes, report = self.options, self.outcomes, self._ran()
         if report.interrupted is not None:
             return report
-        report = dataclasses.replace(
-            report, updates=tuple(update_baselines(outcomes, options.update))
-        )
+        try:
+            updates = tuple(update_baselines(outcomes, options.update))
+        except BaselineError as exc:  # a full disk: the pending files written stay whole
+            return dataclasses.replace(report, error=str(exc))
+        report = dataclasses.replace(report, updates=updates)
         if options.junit_xml is not None:
             report = _written(
                 report,

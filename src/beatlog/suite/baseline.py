@@ -171,6 +171,8 @@ def write_baseline(
     """Write a baseline file atomically: readers see the old file or the new one.
     ``log_name`` and ``digest`` (:func:`log_digest`) bind it to its recording.
 
+    :raises BaselineError: the file cannot be written (a full disk): the old file, if
+        any, stays whole.
     :raises ValueError: ``expectation`` is a whole trace (baseline formats 1 to 4),
         not departures from the recording, or pins robot-state fields value by value, as
         only format 3 files did: trace the log again.
@@ -193,8 +195,11 @@ def write_baseline(
             quiet=expectation.quiet,
         ),
     ]
-    with replacing(path) as file:
-        file.write(("\n".join(lines) + "\n").encode())
+    try:
+        with replacing(path) as file:
+            file.write(("\n".join(lines) + "\n").encode())
+    except OSError as exc:
+        raise BaselineError(path, f"cannot write: {exc.strerror or exc}") from None
 
 
 def read_baseline(path: Path) -> Baseline:
