@@ -26,6 +26,7 @@ from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path, recall
 from beatlog.suite.junit import write_junit
+from beatlog.suite.last_failed import last_failed_path, remember_failed
 from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.parallel import run_suite
@@ -46,7 +47,8 @@ class SuiteSession:
     points the selection cannot take; :meth:`run` runs the DTCs, :meth:`finish` updates
     their baselines and writes the reports.
 
-    :raises OptionError: a report cannot be written, nothing is selected, or the break
+    :raises EmptySelectionError: DTC specs are found, and none is selected.
+    :raises OptionError: a report cannot be written, nothing is found, or the break
         points cannot be made.
     :raises SpecError: a spec cannot be read.
     :raises FleetError: a fleet run's logs cannot be listed.
@@ -121,7 +123,8 @@ class SuiteSession:
     def finish(self) -> SuiteReport:
         """Update the baselines and write the reports of a run that went to its end
         (the first pending file or report that cannot be written stops the writing: the
-        report says why); what the session did."""
+        report says why), and remember which DTCs failed, for ``--lf``; what the
+        session did."""
         options, outcomes, report = self.options, self.outcomes, self._ran()
         if report.interrupted is not None:
             return report
@@ -154,6 +157,12 @@ class SuiteSession:
             coverage = report.coverage
             report = _written(
                 report, options.html, lambda path: write_html(outcomes, path, coverage=coverage)
+            )
+        root = self.selection.rootdir
+        if report.error is None and root is not None:  # for the next run's --lf
+            warning = remember_failed(outcomes, last_failed_path(root))
+            report = dataclasses.replace(
+                report, warnings=report.warnings + (() if warning is None else (warning,))
             )
         return report
 
