@@ -539,3 +539,12 @@ def test_an_error_after_the_first_block_names_its_line(
         read_baseline(path)
 
     assert str(raised.value) == f"{path}: line 43: Expecting value: line 1 column 1 (char 0)"
+
+
+def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path) -> None:
+    expectation = read_baseline(_big_baseline(tmp_path, 300)).expectation
+    outputs, changes = expectation.outputs or (), expectation.changes
+
+    assert all(output.field is outputs[0].field for output in outputs[::2])
+    assert all(output.time_ns is outputs[0].time_ns for output in outputs[:2])
+    assert all(change.change.after is changes[0].change.after for change in changes)
