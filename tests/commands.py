@@ -76,7 +76,7 @@ def replay_line(verdict: str, log: str | Path, checked: str) -> str:
     how fast it replayed varies, from run to run and machine to machine."""
     return (
         re.escape(f"{verdict} {log}  {checked} in ")
-        + r"(under 1 ms|\d+\.\d{3} s \([\d,]+× real time\))"
+        + r"(under 1 ms|\d+\.\d{3} s( \([\d,.]+× real time\))?)"
         + re.escape("; log complete")
     )
 

@@ -104,6 +104,22 @@ def fill_the_disk(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr("beatlog.log.writer.open", FullDiskFile, raising=False)
 
 
+def fill_the_disk_after(monkeypatch: pytest.MonkeyPatch, files: int) -> None:
+    """Fill the disk once ``files`` files were opened for writing through ``Path.open``:
+    every later one is created, but each write to it fails with ENOSPC."""
+    opened = 0
+    real_open = Path.open
+
+    def open_on_a_filling_disk(path: Path, mode: str = "r", *args: Any, **kwargs: Any) -> Any:
+        nonlocal opened
+        opened += "w" in mode
+        if "w" in mode and opened > files:
+            return FullDiskFile(path, "w")
+        return real_open(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "open", open_on_a_filling_disk)
+
+
 def cycle_parts(record: CycleRecord) -> list[Any]:
     """A cycle record's six parts, decoded: heartbeat, robot state, state changes, draws,
     outputs, samples."""

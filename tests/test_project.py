@@ -93,6 +93,18 @@ def test_systems_that_are_not_a_list_of_strings_name_the_key(tmp_path: Path) -> 
     )
 
 
+def test_an_unknown_key_is_named_with_the_key_it_may_mean(tmp_path: Path) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text('[tool.beatlog]\nsystem = ["robot.nav:system"]\n', encoding="utf-8")
+
+    with pytest.raises(SpecError) as raised:
+        project_config(tmp_path)
+
+    assert str(raised.value) == (
+        f"{pyproject}: unknown key 'tool.beatlog.system' (did you mean 'tool.beatlog.systems'?)"
+    )
+
+
 def test_field_renames_and_conversions_hold_dotted_paths_for_nested_fields(
     tmp_path: Path,
 ) -> None:

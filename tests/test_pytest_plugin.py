@@ -19,7 +19,7 @@ from beatlog.suite.spec import find_rootdir
 from beatlog_examples.rover import record_lockstep
 from tests.commands import at_a_terminal
 from tests.conftest import Probe, RecordFn
-from tests.factories import logged_counts
+from tests.factories import fill_the_disk_after, logged_counts
 from tests.specs import FIRST_CHANGED_CYCLE, PROBE, ROVER, two_robots
 from tests.systems import BUILT, leaks, leaky_system, quiet_system, record_session
 
@@ -254,6 +254,21 @@ def test_dtcs_run_under_xdist_and_measure_behavior_coverage(
     result = pytester.runpytest_subprocess("-n", "2", f"--cov={folder}", "--cov-report=term")
     result.assert_outcomes(passed=3)
     result.stdout.fnmatch_lines(["*2 workers*", "*rover/behaviors.py*"])
+
+
+def test_update_on_a_full_disk_is_one_line_naming_the_pending_file(
+    pytester: pytest.Pytester, log: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    changed = "tests.conftest:probe_system_changed"
+    spec = pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log, changed))
+    monkeypatch.delenv("CI", raising=False)
+    fill_the_disk_after(monkeypatch, files=0)
+
+    result = pytester.runpytest("--beatlog-update", "-p", "no:cacheprovider")
+
+    result.assert_outcomes(errors=1)
+    result.stdout.fnmatch_lines([f"*{pending_path(spec)}: cannot write: No space left on device"])
+    result.stdout.no_fnmatch_line("*BaselineError*")  # one line, no traceback of beatlog's
 
 
 def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(

@@ -10,16 +10,17 @@ import pytest
 
 from beatlog.errors import OptionError
 from beatlog.report.suite import SuiteReport
-from beatlog.suite.baseline import expected_path, pending_path
+from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.suite.spec import load_spec
 from beatlog.suite_session import SuiteSession, conclude, prepare_report, run_session
 from tests.conftest import RecordFn
-from tests.factories import opened_logs
+from tests.factories import fill_the_disk_after, opened_logs
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 
 
@@ -68,6 +69,22 @@ def test_an_update_writes_the_failures_pending_baselines(specs: Path) -> None:
         ("changed", pending_path(specs / "changed.dtc.toml"))
     ]
     assert pending_path(specs / "changed.dtc.toml").is_file()
+
+
+def test_a_full_disk_stops_the_update_in_one_line_keeping_what_was_written_whole(
+    specs: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    write_spec(specs, "later-change", load_spec(specs / "changed.dtc.toml").log, CHANGED)
+    fill_the_disk_after(monkeypatch, files=1)
+
+    report = run_session(SuiteOptions(paths=(specs,), jobs=1, update=UpdateMode.NEW))
+
+    written = pending_path(specs / "changed.dtc.toml")
+    unwritten = pending_path(specs / "later-change.dtc.toml")
+    assert report.error == f"{unwritten}: cannot write: No space left on device"
+    assert report.exit_code == 2
+    assert read_baseline(written).expectation.changes
+    assert sorted(path.name for path in specs.iterdir() if "pending" in path.name) == [written.name]
 
 
 def test_the_session_selects_before_anything_runs(specs: Path) -> None:

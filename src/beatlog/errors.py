@@ -13,6 +13,7 @@ __all__ = [
     "ConversionError",
     "CorruptLogError",
     "EmptyCheckError",
+    "EmptySelectionError",
     "ExportError",
     "FieldError",
     "FileProblemError",
@@ -140,6 +141,11 @@ class ClusterError(BeatlogError):
 
 class OptionError(BeatlogError):
     """An option given a value it does not take; the message lists the values it does."""
+
+
+class EmptySelectionError(OptionError):
+    """DTC specs are found, and the selection (``-k``, ``--tag``) leaves none to run:
+    ``beatlog test`` exits 5 for it, as pytest does when no test is selected."""
 
 
 class CiWriteError(BeatlogError):

@@ -16,6 +16,7 @@ __all__ = [
     "irregular_file_problem",
     "project_root",
     "read_small_text",
+    "read_text_blocks",
     "replacing",
     "write_json",
 ]
@@ -46,15 +47,57 @@ def read_small_text(
     """The UTF-8 text of a small file of ``kind`` (a spec, a baseline); a file that is
     not a regular one, is larger than ``limit`` bytes or cannot be read as UTF-8 raises
     ``error(path, problem)``."""
+    _check_size(path, limit=limit, kind=kind, error=error)
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise error(path, f"cannot read: {exc}") from None
+
+
+def read_text_blocks(
+    path: Path,
+    *,
+    limit: int,
+    kind: str,
+    error: Callable[[Path, str], Exception],
+    block_bytes: int,
+) -> Iterator[str]:
+    """The UTF-8 text of a file of ``kind`` (a baseline) in blocks of whole lines, each
+    of about ``block_bytes`` and ended by a line feed (the last perhaps not), so that a
+    large file is read in bounded memory; refused as :func:`read_small_text` refuses
+    one, a block that cannot be read as UTF-8 raising ``error`` too."""
+    _check_size(path, limit=limit, kind=kind, error=error)
+    read = 0
+    try:
+        with path.open("rb") as file:
+            rest = b""
+            while block := file.read(block_bytes):
+                end = block.rfind(b"\n") + 1
+                if not end:  # a line longer than a block: read on to its end
+                    rest += block
+                    continue
+                text, rest = rest + block[:end], block[end:]
+                yield text.decode("utf-8")
+                read += len(text)
+            if rest:
+                yield rest.decode("utf-8")
+    except OSError as exc:
+        raise error(path, f"cannot read: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise error(
+            path, f"cannot read: {exc.reason} at byte {read + exc.start} (not UTF-8 text)"
+        ) from None
+
+
+def _check_size(
+    path: Path, *, limit: int, kind: str, error: Callable[[Path, str], Exception]
+) -> None:
+    """Refuse a file that is not a regular one, or is larger than ``limit`` bytes."""
     problem = irregular_file_problem(path)
     if problem is not None:
         raise error(path, problem)
     if path.stat().st_size > limit:
         raise error(path, f"is larger than {limit} bytes; not a {kind}")
-    try:
-        return path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(path, f"cannot read: {exc}") from None
 
 
 def project_root(start: Path) -> Path | None:

@@ -11,6 +11,7 @@ reference is used only when the project lists it under ``systems`` (see
 
 from __future__ import annotations
 
+import difflib
 import functools
 import re
 import tomllib
@@ -29,6 +30,7 @@ __all__ = [
     "check_one_to_one",
     "dotted_keys",
     "explain_validation",
+    "keys_problem",
     "one_to_one_problem",
     "project_config",
     "vouched_system",
@@ -89,6 +91,8 @@ def _read(path: Path, _mtime_ns: int, _size: int) -> ProjectConfig:
         raise SpecError(path, f"cannot read: {exc}") from None
     section = data.get("tool", {}).get("beatlog", {})
     if isinstance(section, dict):
+        if (problem := keys_problem(section, ProjectConfig, prefix="tool.beatlog.")) is not None:
+            raise SpecError(path, problem)
         section = {
             key: dotted_keys(value) if key in _FIELD_TABLES else value
             for key, value in section.items()
@@ -164,6 +168,28 @@ def dotted_keys(table: Any) -> Any:
         else:
             flat[key] = value
     return flat
+
+
+def keys_problem(
+    data: Mapping[str, Any], table: type[msgspec.Struct], prefix: str = ""
+) -> str | None:
+    """Every key of ``data`` unknown to ``table`` (with the key it may mean) and every
+    one ``table`` requires that is missing, at once; each named with ``prefix``."""
+    fields = msgspec.structs.fields(table)
+    known = [field.name for field in fields]
+    problems = []
+    for key in data:
+        if key not in known:
+            near = difflib.get_close_matches(key, known, n=1)
+            problems.append(
+                f"unknown key {prefix + key!r}"
+                + (f" (did you mean {prefix + near[0]!r}?)" if near else "")
+            )
+    missing = [prefix + field.name for field in fields if field.required and field.name not in data]
+    if missing:
+        listed = ", ".join(repr(key) for key in missing)
+        problems.append(f"missing key{'s' if len(missing) > 1 else ''} {listed}")
+    return "; ".join(problems) or None
 
 
 def explain_validation(message: str, prefix: str = "") -> str:

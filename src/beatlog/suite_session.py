@@ -19,7 +19,7 @@ from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.errors import OptionError
+from beatlog.errors import BaselineError, OptionError
 from beatlog.files import write_json
 from beatlog.project import ProjectConfig, project_config
 from beatlog.report.console import plain_text, render_outcome
@@ -27,6 +27,7 @@ from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path, recall
 from beatlog.suite.junit import write_junit
+from beatlog.suite.last_failed import last_failed_path, remember_failed
 from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.parallel import run_suite
@@ -48,7 +49,8 @@ class SuiteSession:
     points the selection cannot take; :meth:`run` runs the DTCs, :meth:`finish` updates
     their baselines and writes the reports.
 
-    :raises OptionError: a report cannot be written, nothing is selected, or the break
+    :raises EmptySelectionError: DTC specs are found, and none is selected.
+    :raises OptionError: a report cannot be written, nothing is found, or the break
         points cannot be made.
     :raises SpecError: a spec, or the project's ``[tool.beatlog]``, cannot be read.
     :raises FleetError: a fleet run's logs cannot be listed.
@@ -125,14 +127,19 @@ class SuiteSession:
 
     def finish(self) -> SuiteReport:
         """Update the baselines and write the reports of a run that went to its end
-        (the first report that cannot be written stops the writing: the report says
-        why); what the session did."""
+        (the first pending file or report that cannot be written stops the writing: the
+        report says why), and remember which DTCs failed, for ``--lf``; what the
+        session did."""
         options, outcomes, report = self.options, self.outcomes, self._ran()
         if report.interrupted is not None:
             return report
+        try:
+            updates = tuple(update_baselines(outcomes, options.update))
+        except BaselineError as exc:  # a full disk: the pending files written stay whole
+            return dataclasses.replace(report, error=str(exc))
         report = dataclasses.replace(
             report,
-            updates=tuple(update_baselines(outcomes, options.update)),
+            updates=updates,
             stale=stale_suite(
                 [
                     (o.spec.label, open_loop_share(o.result.cycles, o.open_loop[0]))
@@ -167,6 +174,12 @@ class SuiteSession:
             coverage = report.coverage
             report = _written(
                 report, options.html, lambda path: write_html(outcomes, path, coverage=coverage)
+            )
+        root = self.selection.rootdir
+        if report.error is None and root is not None:  # for the next run's --lf
+            warning = remember_failed(outcomes, last_failed_path(root))
+            report = dataclasses.replace(
+                report, warnings=report.warnings + (() if warning is None else (warning,))
             )
         return report
 

@@ -15,6 +15,7 @@ from beatlog.cli.baselines import review
 from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from tests.commands import Beatlog, assert_error, at_a_terminal
 from tests.conftest import RecordFn
+from tests.factories import fill_the_disk_after
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
 from tests.text import table_row, whole_lines
 
@@ -56,6 +57,20 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
         "avoid-pole",
         f"passed (approved baseline, open loop since cycle {FIRST_CHANGED_CYCLE})",
     ]
+
+
+def test_an_update_on_a_full_disk_is_one_line_and_exit_2(
+    beatlog: Beatlog, spec: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    fill_the_disk_after(monkeypatch, files=0)
+
+    updated = beatlog("test", "--update", spec)
+
+    assert (updated.code, updated.err) == (
+        2,
+        f"beatlog: error: {pending_path(spec)}: cannot write: No space left on device\n",
+    )
+    assert sorted(path.name for path in spec.parent.iterdir()) == [spec.name]
 
 
 def test_a_failing_run_never_overwrites_the_accepted_baseline(beatlog: Beatlog, spec: Path) -> None:

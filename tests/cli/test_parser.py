@@ -47,7 +47,7 @@ def test_every_help_page_describes_the_command_its_arguments_and_exit_codes(
     assert all(len(line.split()) > 1 for line in positionals.splitlines())
     assert page.rstrip().endswith(EXIT_CODES.rstrip())
     codes = page.partition("exit codes:\n")[2].splitlines()
-    assert [line.split()[0] for line in codes] == ["0", "1", "2", "130", "143"]
+    assert [line.split()[0] for line in codes] == ["0", "1", "2", "5", "130", "143"]
 
 
 @pytest.mark.parametrize(
@@ -71,7 +71,7 @@ def test_test_help_says_what_k_and_repeated_tags_mean(
 ) -> None:
     page = " ".join(help_page("test", capsys).split())
 
-    helps = re.search(r" -k EXPRESSION (.*) --tag TAG (.*) --fail-fast ", page)
+    helps = re.search(r" -k EXPRESSION (.*) --tag TAG (.*) -x, --exitfirst, --fail-fast ", page)
     assert helps is not None, page
     assert helps.groups() == (
         "only DTCs matching this expression, as pytest's -k: words matched against names and "

@@ -62,6 +62,30 @@ def test_step_returns_outputs_and_the_header_describes_the_session(tmp_path: Pat
     assert [c.heartbeat_ns for c in cycles] == [PERIOD_NS, PERIOD_NS]
 
 
+def test_the_same_session_gives_the_same_records_only_the_start_time_differs(
+    tmp_path: Path,
+) -> None:
+    def recorded(name: str, start_time_ns: int | None) -> Path:
+        log = tmp_path / name
+        with Recorder(
+            log, probe_system(), seed=7, software="v1", start_time_ns=start_time_ns
+        ) as recorder:
+            for cycle in range(40):
+                recorder.step(PERIOD_NS, Probe(distance=cycle / 40))
+        return log
+
+    now, later = recorded("now", None), recorded("later", None)
+    fixed, same = recorded("fixed", 1_000), recorded("same", 1_000)
+
+    with SessionLogReader(now) as first, SessionLogReader(later) as second:
+        assert first.header.start_time_ns != second.header.start_time_ns
+        assert msgspec.structs.replace(first.header, start_time_ns=0) == msgspec.structs.replace(
+            second.header, start_time_ns=0
+        )
+        assert list(first.cycles()) == list(second.cycles())
+    assert fixed.read_bytes() == same.read_bytes()
+
+
 def test_a_recording_never_replaces_an_existing_log_unless_asked(tmp_path: Path) -> None:
     log = tmp_path / "s.beatlog"
     with Recorder(log, probe_system(), software="first") as recorder:

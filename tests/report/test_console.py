@@ -118,6 +118,19 @@ def test_a_replay_too_short_to_time_reports_no_speed_up(record_probe: RecordFn) 
     )
 
 
+def test_a_replay_slower_than_real_time_says_how_much_slower(record_probe: RecordFn) -> None:
+    log = record_probe(1)
+    result = replay(log, probe_system())
+    slow = dataclasses.replace(result, wall_time_s=0.1)
+    still = dataclasses.replace(result, wall_time_s=0.1, robot_time_ns=0)
+
+    verdict = f"PASS {log}  1 cycle, 2 state changes, 2 outputs, 1 draw checked; 0.0 s robot time"
+    assert plain_text(render_replay(slow), width=400) == (
+        f"{verdict} in 0.100 s (0.3× real time); log complete\n"
+    )
+    assert plain_text(render_replay(still), width=400) == f"{verdict} in 0.100 s; log complete\n"
+
+
 def test_a_truncated_log_suggests_allowing_it_in_full(record_chunked: RecordFn) -> None:
     log = record_chunked(300)
     log.write_bytes(log.read_bytes()[: log.stat().st_size // 2])

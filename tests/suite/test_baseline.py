@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import struct
+import tracemalloc
 from pathlib import Path
 
 import msgspec
@@ -488,3 +489,62 @@ def test_a_baseline_that_breaks_its_formats_rules_is_an_error(
 ) -> None:
     with pytest.raises(BaselineError, match=problem):
         read_baseline(baseline_file(tmp_path, version, *lines))
+
+
+def _big_baseline(folder: Path, cycles: int) -> Path:
+    """A format 6 baseline departing in every cycle: two outputs, and a state change in
+    every third cycle."""
+    lines = ["      12     0.360  open loop"]
+    for cycle in range(12, 12 + cycles):
+        time = f"{cycle * 0.03:.3f}"
+        lines.append(f'{cycle:8d}  {time:>8}  output "speed" = {cycle / 7!r}')
+        lines.append(f'{cycle:8d}  {time:>8}  output "turn" = {cycle % 5}')
+        if cycle % 3 == 0:
+            lines.append(f'{cycle:8d}  {time:>8}  "avoid": "idle" -> "turning"')
+    return baseline_file(folder, 6, *lines, name=f"big{cycles}")
+
+
+def _reading_overhead(path: Path) -> int:
+    """The most memory reading ``path`` held beyond the baseline it read, in bytes."""
+    tracemalloc.start()
+    try:
+        baseline = read_baseline(path)
+        kept, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(baseline.expectation.changes) > 0
+    return peak - kept
+
+
+def test_a_big_baseline_is_read_a_block_at_a_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("beatlog.suite.baseline.BLOCK_BYTES", 4096)
+    small, large = _big_baseline(tmp_path, 1_000), _big_baseline(tmp_path, 4_000)
+    lines_added = len(large.read_bytes().splitlines()) - len(small.read_bytes().splitlines())
+
+    grown = _reading_overhead(large) - _reading_overhead(small)
+
+    assert grown / lines_added < 40, "bytes more per line: not a block at a time"
+
+
+def test_an_error_after_the_first_block_names_its_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("beatlog.suite.baseline.BLOCK_BYTES", 64)
+    lines = [f'{cycle:8d}  {cycle * 0.03:8.3f}  output "speed" = {cycle}' for cycle in range(40)]
+    path = baseline_file(tmp_path, 6, *lines, f'      40  {1.2:8.3f}  output "speed" = x', "")
+
+    with pytest.raises(BaselineError) as raised:
+        read_baseline(path)
+
+    assert str(raised.value) == f"{path}: line 43: Expecting value: line 1 column 1 (char 0)"
+
+
+def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path) -> None:
+    expectation = read_baseline(_big_baseline(tmp_path, 300)).expectation
+    outputs, changes = expectation.outputs or (), expectation.changes
+
+    assert all(output.field is outputs[0].field for output in outputs[::2])
+    assert all(output.time_ns is outputs[0].time_ns for output in outputs[:2])
+    assert all(change.change.after is changes[0].change.after for change in changes)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from beatlog.replaying.draws import DrawRule
-from beatlog.suite.baseline_parse import ParsedLines, parse_line, split_header
+from beatlog.suite.baseline_parse import ParsedLines, line_feeds, parse_line
 
 _COMMON = [
     '      33     1.022  output "happiness" = 49',
@@ -198,12 +198,14 @@ def test_a_draws_line_that_does_not_read_says_why(line: str, problem: str) -> No
 
 @pytest.mark.parametrize("end", ["\n", "\r\n", "\r", "\x0c", "\x1e", "\x85", "\u2028"])
 @pytest.mark.parametrize("ended", [True, False])
-def test_a_file_reads_as_the_lines_splitlines_breaks_it_into(end: str, ended: bool) -> None:
+def test_a_block_reads_as_the_lines_splitlines_breaks_it_into(end: str, ended: bool) -> None:
     lines = ["# header", _COMMON[0], "", *_OTHERS[2:4], _COMMON[11], _COMMON[-1]]
     text = end.join(lines) + (end if ended else "")
 
-    first, rest = split_header(text)
-    found, others = _read(rest.split("\n"))
+    fed, count = line_feeds(text)
+    first, _, rest = fed.partition("\n")
+    found, others = _read(rest.removesuffix("\n").split("\n"))
 
+    assert count == len(lines)
     assert (first, repr(found)) == ("# header", repr(_read_one_by_one(text.splitlines()[1:])))
     assert others == [3, 4]

@@ -30,6 +30,10 @@ from tests.specs import PROBE
             {"logs": "*.beatlog", "system": PROBE, "update": UpdateMode.NEW},
             "--update writes the baselines of specs; --logs runs have none",
         ),
+        (
+            {"logs": "*.beatlog", "system": PROBE, "last_failed": True},
+            "--lf reruns the specs that failed; --logs runs are not remembered",
+        ),
     ],
     ids=[
         "system-without-logs",
@@ -37,6 +41,7 @@ from tests.specs import PROBE
         "logs-alone",
         "logs-and-specs",
         "update",
+        "last-failed",
     ],
 )
 def test_options_that_do_not_go_together_are_refused(

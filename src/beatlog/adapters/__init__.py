@@ -2,7 +2,7 @@
 
 Each adapter is its own module and imports its tool only when it is used, so
 ``import beatlog`` never needs them: :mod:`beatlog.adapters.py_trees` records and
-replays a py_trees behaviour tree (``pip install 'beatlog[py_trees]'``);
+replays a py_trees behaviour tree (``pip install 'beatlog[py-trees]'``);
 :mod:`beatlog.adapters.export` writes a session log as MCAP with JSON payloads for
 Foxglove and Lichtblick (with Foxglove's well-known schemas from
 :mod:`beatlog.adapters.foxglove`), or as a table (Parquet, CSV) for analysis;

@@ -46,7 +46,7 @@ try:
     import py_trees
 except ImportError as exc:  # pragma: no cover - depends on the environment
     raise ImportError(
-        "beatlog.adapters.py_trees needs py_trees: pip install 'beatlog[py_trees]'"
+        "beatlog.adapters.py_trees needs py_trees: pip install 'beatlog[py-trees]'"
     ) from exc
 
 from beatlog.model.behavior import Behavior, BehaviorState, CataloguedSystem

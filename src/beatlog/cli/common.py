@@ -16,6 +16,7 @@ __all__ = [
     "EXIT_CODES",
     "EXIT_FAILED",
     "EXIT_INTERRUPTED",
+    "EXIT_NOTHING_SELECTED",
     "EXIT_OK",
     "EXIT_TERMINATED",
     "EXIT_USAGE",
@@ -25,10 +26,13 @@ __all__ = [
 ]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
+EXIT_NOTHING_SELECTED = 5
+"""``beatlog test`` found DTC specs and selected none, as pytest's exit code 5."""
 EXIT_CODES = """exit codes:
   0    passed (or done)
   1    a replay diverged, a DTC failed or a recording failed
   2    bad input or usage: one line on stderr naming the file and the problem
+  5    beatlog test selected no DTC (-k and --tag match none of the specs found)
   130  interrupted (Ctrl-C, or quitting the debugger at a break)
   143  terminated (SIGTERM), stopped as Ctrl-C stops it"""
 

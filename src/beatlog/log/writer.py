@@ -214,7 +214,8 @@ class SessionLogWriter(Closing):
         """Batch cycles, and close a chunk whenever a flush interval of robot time passed.
 
         Batches and chunks depend only on the cycles, never on the wall clock, so the
-        same session always gives the same bytes.
+        same session gives the same records (and, with the same start time in its
+        header, the same bytes).
         """
         pending: list[tuple[int, Any, int]] = []
         pending_bytes = 0

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
 from typing import Any
 
 import msgspec
@@ -31,8 +33,35 @@ def state_schema(state_type: type[msgspec.Struct]) -> dict[str, Any]:
 
 
 def state_type_name(state_type: type[Any]) -> str:
-    """The dotted name of a robot state type, for headers and messages."""
-    return f"{state_type.__module__}.{state_type.__qualname__}"
+    """The dotted name of a robot state type, for headers and messages: a type defined
+    in the script being run (``__main__``) is named by the module that script is when
+    imported, as replay meets it (``vacuum.VacState``), where there is one."""
+    module = state_type.__module__
+    if module == "__main__":
+        module = _main_module() or module
+    return f"{module}.{state_type.__qualname__}"
+
+
+def _main_module() -> str | None:
+    """The name under which the script being run can be imported: the module ``python
+    -m`` ran, or the script's path below the first folder of ``sys.path`` that holds it;
+    None when there is none (an interactive session, a script outside ``sys.path``)."""
+    main = sys.modules.get("__main__")
+    spec = getattr(main, "__spec__", None)
+    if spec is not None and spec.name and spec.name != "__main__":
+        return str(spec.name)
+    script = getattr(main, "__file__", None)
+    if not script:
+        return None
+    path = Path(script).resolve()
+    for folder in sys.path:
+        try:
+            parts = path.with_suffix("").relative_to(Path(folder or ".").resolve()).parts
+        except ValueError:
+            continue
+        if path.suffix == ".py" and parts and all(part.isidentifier() for part in parts):
+            return ".".join(parts)
+    return None
 
 
 def state_fields(state_type: type[Any]) -> list[str]:

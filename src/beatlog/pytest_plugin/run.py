@@ -90,7 +90,11 @@ class DtcItem(pytest.Item):
             self.user_properties.extend(
                 (f"beatlog_{name}", count) for name, count in outcome.result.counts.items()
             )
-        for line in render_updates(update_baselines([outcome], run.update)):
+        try:
+            updates = update_baselines([outcome], run.update)
+        except BeatlogError as exc:  # a full disk: one line, as beatlog test says it
+            pytest.fail(str(exc), pytrace=False)
+        for line in render_updates(updates):
             self.user_properties.append((UPDATE, line.plain))
         if outcome.verdict is Verdict.ERROR:
             shown = outcome.error_traceback if self.config.get_verbosity() > 0 else None

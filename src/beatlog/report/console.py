@@ -44,6 +44,23 @@ MEASURABLE_S = 0.001
 """The shortest wall time a replay's figures report, and compute a speed-up from."""
 
 
+def _timed(result: ReplayResult) -> str:
+    """How long a replay took, and how many times real time that is: to two figures
+    when slower than ten times (a short replay, where opening the log is most of the
+    time, is not "0×"); no speed for a replay too short to time or of no robot time."""
+    if result.wall_time_s < MEASURABLE_S:
+        return "in under 1 ms"  # too short to time: a speed-up would be noise
+    took = f"in {result.wall_time_s:.3f} s"
+    if result.robot_time_ns <= 0:
+        return took
+    speedup = result.speedup
+    return (
+        f"{took} ({speedup:,.0f}× real time)"
+        if speedup >= 10
+        else f"{took} ({speedup:.2g}× real time)"
+    )
+
+
 def _checked_text(result: ReplayResult) -> str:
     """What a replay checked, the counts that are not 0: ``167 cycles, 12 state changes,
     40 outputs, 9 draws checked``; a pass allowed to check nothing says so."""
@@ -85,11 +102,7 @@ def render_outcome(outcome: SpecOutcome) -> RenderableType:
 
 def render_replay(result: ReplayResult) -> RenderableType:
     """A pass line with what it checked, or the first divergence in one screen."""
-    timing = f"{result.robot_time_s:.1f} s robot time " + (
-        "in under 1 ms"  # too short to time: a speed-up would be noise
-        if result.wall_time_s < MEASURABLE_S
-        else f"in {result.wall_time_s:.3f} s ({result.speedup:,.0f}× real time)"
-    )
+    timing = f"{result.robot_time_s:.1f} s robot time {_timed(result)}"
     status = "" if result.status is None else f"; log {result.status.describe()}"
     notes = [Text.assemble(("note: ", "yellow"), note) for note in result.notes]
     if result.ok:

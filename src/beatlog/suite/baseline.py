@@ -81,15 +81,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.errors import BaselineError, NotABeatlogError
-from beatlog.files import irregular_file_problem, read_small_text, replacing
+from beatlog.files import irregular_file_problem, read_text_blocks, replacing
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.pins import StatePins
 from beatlog.replaying.state_digests import BLAKE2B, XXH64
-from beatlog.suite.baseline_parse import ParsedLines, split_header
+from beatlog.suite.baseline_parse import ParsedLines, line_feeds
 from beatlog.suite.baseline_text import COLUMNS, draw_line, format_lines
 from beatlog.suite.spec import SPEC_SUFFIX
 
 __all__ = [
+    "BLOCK_BYTES",
     "EXPECTED_SUFFIX",
     "MAX_BASELINE_BYTES",
     "PENDING_SUFFIX",
@@ -106,6 +107,9 @@ EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
 MAX_BASELINE_BYTES = 1 << 28
 """A baseline is a line per change; a file bigger than this is not one."""
+BLOCK_BYTES = 1 << 20
+"""How much of a baseline is read at a time: reading holds a block of its text, and
+what its lines read to, not the whole file's text."""
 _MAGIC = "# beatlog expected departures from the recording, format 6"
 _VERSIONS = {
     _MAGIC: 6,
@@ -116,6 +120,7 @@ _VERSIONS = {
     "# beatlog expected state changes, format 1": 1,
 }
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
+_NOT_A_BASELINE = "not a beatlog baseline (its first line is not the header)"
 _AS_RECORDED = "state changes and outputs as recorded"
 """A format 4 line: the behaviors' state changes and outputs are the recording's."""
 
@@ -171,6 +176,8 @@ def write_baseline(
     """Write a baseline file atomically: readers see the old file or the new one.
     ``log_name`` and ``digest`` (:func:`log_digest`) bind it to its recording.
 
+    :raises BaselineError: the file cannot be written (a full disk): the old file, if
+        any, stays whole.
     :raises ValueError: ``expectation`` is a whole trace (baseline formats 1 to 4),
         not departures from the recording, or pins robot-state fields value by value, as
         only format 3 files did: trace the log again.
@@ -193,31 +200,49 @@ def write_baseline(
             quiet=expectation.quiet,
         ),
     ]
-    with replacing(path) as file:
-        file.write(("\n".join(lines) + "\n").encode())
+    try:
+        with replacing(path) as file:
+            file.write(("\n".join(lines) + "\n").encode())
+    except OSError as exc:
+        raise BaselineError(path, f"cannot write: {exc.strerror or exc}") from None
 
 
 def read_baseline(path: Path) -> Baseline:
-    """Read a baseline file; anything else raises :class:`BaselineError` naming the line."""
-    text = read_small_text(path, limit=MAX_BASELINE_BYTES, kind="baseline", error=BaselineError)
-    first, rest = split_header(text)
-    version = _VERSIONS.get(first)
-    if version is None:
-        raise BaselineError(path, "not a beatlog baseline (its first line is not the header)")
+    """Read a baseline file, a block of lines at a time (:data:`BLOCK_BYTES`); anything
+    else raises :class:`BaselineError` naming the line."""
+    version = None
+    number = 1
     digest = ""
     found = ParsedLines()
     as_recorded = False
-    for number, line in found.read_common(rest, version, start=2):
-        if line.startswith("#"):
-            log_line = _LOG_LINE.fullmatch(line)
-            digest = log_line["digest"] if log_line else digest
-        elif line == _AS_RECORDED and version == 4:
-            as_recorded = True
-        elif line.strip():
-            try:
-                found.add(line, version)
-            except (ValueError, RecursionError) as exc:
-                raise BaselineError(path, f"line {number}: {exc}") from None
+    for block in read_text_blocks(
+        path,
+        limit=MAX_BASELINE_BYTES,
+        kind="baseline",
+        error=BaselineError,
+        block_bytes=BLOCK_BYTES,
+    ):
+        text, count = line_feeds(block)
+        if version is None:
+            first, _, text = text.partition("\n")
+            version = _VERSIONS.get(first)
+            if version is None:
+                raise BaselineError(path, _NOT_A_BASELINE)
+            number, count = 2, count - 1
+        for at, line in found.read_common(text, version, start=number):
+            if line.startswith("#"):
+                log_line = _LOG_LINE.fullmatch(line)
+                digest = log_line["digest"] if log_line else digest
+            elif line == _AS_RECORDED and version == 4:
+                as_recorded = True
+            elif line.strip():
+                try:
+                    found.add(line, version)
+                except (ValueError, RecursionError) as exc:
+                    raise BaselineError(path, f"line {at}: {exc}") from None
+        number += count
+    if version is None:  # an empty file
+        raise BaselineError(path, _NOT_A_BASELINE)
     if not digest:
         raise BaselineError(path, "no '# log NAME sha256 DIGEST' line")
     if as_recorded and (found.changes or found.outputs or found.open_loop):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from itertools import compress, repeat
 from operator import itemgetter
 from typing import Any, TypeVar
@@ -108,7 +108,11 @@ def _outputs(columns: list[_Column], where: list[int]) -> list[Any]:
     values = iter(_decoded(filter(None, value)))
     said = [_WORDS[text] if text else next(values) for text in word]
     return _records(
-        TracedOutput, _listed(_INTS, cycles), _times_ns(times), _listed(_NAMES, names), said
+        TracedOutput,
+        _shared(cycles, _ints),
+        _shared(times, _times_ns),
+        _shared(names, _names),
+        said,
     )
 
 
@@ -129,16 +133,37 @@ def _changes(columns: list[_Column], where: list[int]) -> list[Any]:
     )
     changes = _records(
         StateChange,
-        _listed(_NAMES, behaviors),
-        _listed(_STATES, before),
-        _listed(_STATES, after),
+        _shared(behaviors, _names),
+        _shared(before, _states),
+        _shared(after, _states),
     )
-    return _records(TracedChange, _listed(_INTS, cycles), _times_ns(times), changes)
+    return _records(TracedChange, _shared(cycles, _ints), _shared(times, _times_ns), changes)
 
 
 def _quiet(columns: list[_Column], where: list[int]) -> list[Any]:
     cycles, times = _picked(columns, where, _CYCLE, _TIME)
     return list(zip(_listed(_INTS, cycles), _times_ns(times), strict=True))
+
+
+def _shared(texts: Sequence[str], read: Callable[[Sequence[str]], list[Any]]) -> list[Any]:
+    """The values of ``texts`` as ``read`` reads them, each distinct text read once: the
+    lines of one cycle, or naming one field, behavior or state, hold one object for it,
+    not one each (in a big baseline they would cost more than the values)."""
+    distinct = list(dict.fromkeys(texts))
+    values = dict(zip(distinct, read(distinct), strict=True))
+    return [values[text] for text in texts]
+
+
+def _ints(texts: Sequence[str]) -> list[int]:
+    return _listed(_INTS, texts)
+
+
+def _names(texts: Sequence[str]) -> list[str]:
+    return _listed(_NAMES, texts)
+
+
+def _states(texts: Sequence[str]) -> list[Any]:
+    return _listed(_STATES, texts)
 
 
 def _listed(decoder: msgspec.json.Decoder[list[Any]], values: Sequence[str]) -> list[Any]:

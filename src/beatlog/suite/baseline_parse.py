@@ -3,8 +3,8 @@
 Reading never evaluates anything: names, states and values are JSON (or msgpack in
 hex, :func:`~beatlog.suite.baseline_text.format_value`), and each line either parses
 whole or raises :class:`ValueError` saying what was expected. The most common lines
-since format 5 are read a file at a time (:meth:`ParsedLines.read_common`), each to the
-value it reads to alone.
+since format 5 are read a block of lines at a time (:meth:`ParsedLines.read_common`),
+each to the value it reads to alone.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ from beatlog.suite.baseline_text import (
     RUN_FIRST,
 )
 
-__all__ = ["ParsedLines", "parse_line", "split_header"]
+__all__ = ["ParsedLines", "line_feeds", "parse_line"]
 
 _CHANGE_LINE = re.compile(r"\s*(?P<cycle>\d+)\s+(?P<time>\d+\.\d{3})\s+(?P<change>.*)")
 _DRAW_HEAD = re.compile(r'draws (?P<behavior>"[^"\\]*(?:\\.[^"\\]*)*"): ')
@@ -88,7 +88,7 @@ class ParsedLines:
     def read_common(self, text: str, version: int, start: int) -> Iterator[tuple[int, str]]:
         """Read the lines of the most common shapes at once, and yield each other line but
         empty ones with its number (``text``: lines each ended by a line feed alone, the
-        last perhaps not, as :func:`split_header` gives them, numbered from ``start``), in
+        last perhaps not, as :func:`line_feeds` gives them, numbered from ``start``), in
         order: comments, and lines for :meth:`add`, each to be read or skipped before the
         next is asked for, so that the lines of each kind are kept in the order of the file.
 
@@ -141,14 +141,15 @@ class ParsedLines:
             self.changes.append(parsed)
 
 
-def split_header(text: str) -> tuple[str, str]:
-    """A file's first line, and its other lines, each ended by a line feed alone (the last
-    perhaps not), as :meth:`str.splitlines` breaks them, for :meth:`ParsedLines.read_common`:
-    a file with no other line breaks is cut once, not into a string a line."""
-    if any(other in text for other in _OTHER_BREAKS):
-        text = "\n".join(text.splitlines())
-    first, _, rest = text.partition("\n")
-    return first, rest
+def line_feeds(block: str) -> tuple[str, int]:
+    """A block of whole lines, each ended by a line feed alone (the last perhaps not),
+    as :meth:`str.splitlines` breaks them, for :meth:`ParsedLines.read_common`, and how
+    many lines it holds: a block with no other line breaks is kept whole, not cut into
+    a string a line."""
+    if any(other in block for other in _OTHER_BREAKS):
+        lines = block.splitlines()
+        return "\n".join(lines) + "\n", len(lines)
+    return block, block.count("\n") + (block[-1:] not in ("\n", ""))
 
 
 _Line = (

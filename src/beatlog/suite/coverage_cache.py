@@ -4,10 +4,11 @@ A state reached by no DTC today may only be one that no behavior declares; remem
 what earlier runs saw catches it anyway (a DTC deleted, a recording replaced). Like
 pytest's ``.pytest_cache``, the memory lives in a cache folder at the project root
 (the nearest ``pyproject.toml``, else the suite's folder), ``.beatlog_cache``, which
-ignores itself in git. Its one file, ``coverage.json``, keeps each system's behaviors
-apart and names DTCs by their ids; it is small and bounded (at most :data:`MAX_STATES`
-states and :data:`MAX_TRANSITIONS` transitions per behavior, each with up to
-:data:`MAX_DTCS` DTC ids) and is checked on loading: a damaged or foreign file is
+ignores itself in git (:func:`cache_file`, :func:`read_cached`, :func:`write_cached`,
+which :mod:`beatlog.suite.last_failed` shares). Its file ``coverage.json`` keeps each
+system's behaviors apart and names DTCs by their ids; it is small and bounded (at most
+:data:`MAX_STATES` states and :data:`MAX_TRANSITIONS` transitions per behavior, each with
+up to :data:`MAX_DTCS` DTC ids) and is checked on loading: a damaged or foreign file is
 ignored with a warning, never a crash. Delete the folder to forget.
 
 A version 1 file, written before systems were told apart, is read too: each behavior it
@@ -21,7 +22,7 @@ from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import msgspec
 
@@ -37,8 +38,11 @@ __all__ = [
     "MAX_SYSTEMS",
     "MAX_TRANSITIONS",
     "Recall",
+    "cache_file",
     "cache_path",
+    "read_cached",
     "recall",
+    "write_cached",
 ]
 
 CACHE_FOLDER = ".beatlog_cache"
@@ -90,10 +94,52 @@ class Recall:
     warning: str | None = None
 
 
+def cache_file(suite: Path, name: str) -> Path:
+    """The file ``name`` of the cache folder of the suite at ``suite`` (a spec or a
+    folder of specs): at its project root, else in its folder."""
+    folder = suite if suite.is_dir() else suite.parent
+    return (project_root(folder) or folder.resolve()) / CACHE_FOLDER / name
+
+
 def cache_path(suite: Path) -> Path:
     """The coverage memory of the suite at ``suite`` (a spec or a folder of specs)."""
-    folder = suite if suite.is_dir() else suite.parent
-    return (project_root(folder) or folder.resolve()) / CACHE_FOLDER / "coverage.json"
+    return cache_file(suite, "coverage.json")
+
+
+def read_cached(path: Path, kind: Any, what: str) -> tuple[Any, str | None]:
+    """The JSON document of type ``kind`` in the cache file at ``path``, or None when
+    there is none or it cannot be read or trusted (too large, damaged, foreign: ``what``
+    it is not), with a warning then saying why and that it is ignored.
+    """
+    if not path.exists():
+        return None, None
+    problem = irregular_file_problem(path)
+    if problem is None and path.stat().st_size > _MAX_FILE_BYTES:
+        problem = f"is larger than {_MAX_FILE_BYTES} bytes"
+    if problem is None:
+        try:
+            return msgspec.json.decode(path.read_bytes(), type=kind), None
+        except OSError as exc:
+            problem = f"cannot read: {exc.strerror or exc}"
+        except (msgspec.DecodeError, RecursionError) as exc:
+            problem = f"not {what} ({exc})"
+    return None, f"{path}: {problem}; ignored, and replaced by what this run saw"
+
+
+def write_cached(path: Path, document: object) -> None:
+    """Write a JSON document to the cache file at ``path``, whole or not at all; the
+    cache folder, made when missing, ignores itself in git and tells backup tools it is
+    a cache.
+
+    :raises OSError: it cannot be written.
+    """
+    folder = path.parent
+    if not folder.is_dir():
+        folder.mkdir(parents=True)
+        (folder / ".gitignore").write_bytes(_GITIGNORE)
+        (folder / "CACHEDIR.TAG").write_bytes(_CACHEDIR_TAG)
+    with replacing(path) as file:
+        file.write(msgspec.json.format(msgspec.json.encode(document)) + b"\n")
 
 
 def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> Recall:
@@ -126,7 +172,7 @@ def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> Rec
         }
     _name_remembered(coverage, suite)
     try:
-        _save(path, _merged(earlier, coverage))
+        write_cached(path, _merged(earlier, coverage))
     except OSError as exc:
         warning = warning or f"{path}: cannot write: {exc.strerror or exc}; nothing remembered"
     return Recall(path, warning)
@@ -147,22 +193,10 @@ def _name_remembered(coverage: SuiteCoverage, suite: Mapping[str, str]) -> None:
 
 
 def _load(path: Path, suite: Mapping[str, str]) -> tuple[_Memory, str | None]:
-    empty = _Memory(systems={})
-    if not path.exists():
-        return empty, None
-    problem = irregular_file_problem(path)
-    if problem is None and path.stat().st_size > _MAX_FILE_BYTES:
-        problem = f"is larger than {_MAX_FILE_BYTES} bytes"
-    if problem is None:
-        try:
-            memory = msgspec.json.decode(path.read_bytes(), type=_Memory | _MemoryV1)
-        except OSError as exc:
-            problem = f"cannot read: {exc.strerror or exc}"
-        except (msgspec.DecodeError, RecursionError) as exc:
-            problem = f"not a beatlog coverage memory ({exc})"
-        else:
-            return (memory if isinstance(memory, _Memory) else _upgraded(memory, suite)), None
-    return empty, f"{path}: {problem}; ignored, and replaced by what this run saw"
+    memory, warning = read_cached(path, _Memory | _MemoryV1, "a beatlog coverage memory")
+    if memory is None:
+        return _Memory(systems={}), warning
+    return (memory if isinstance(memory, _Memory) else _upgraded(memory, suite)), None
 
 
 def _upgraded(memory: _MemoryV1, suite: Mapping[str, str]) -> _Memory:
@@ -248,13 +282,3 @@ def _names(first: Sequence[str], then: Sequence[str]) -> list[str]:
     """The DTCs that reached something: ``first``, then ``then``, bounded."""
     names = [name for name in (*first, *then) if len(name) <= MAX_TEXT_LENGTH]
     return list(dict.fromkeys(names))[:MAX_DTCS]
-
-
-def _save(path: Path, memory: _Memory) -> None:
-    folder = path.parent
-    if not folder.is_dir():
-        folder.mkdir(parents=True)
-        (folder / ".gitignore").write_bytes(_GITIGNORE)
-        (folder / "CACHEDIR.TAG").write_bytes(_CACHEDIR_TAG)
-    with replacing(path) as file:
-        file.write(msgspec.json.format(msgspec.json.encode(memory)) + b"\n")

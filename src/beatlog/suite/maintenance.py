@@ -108,6 +108,9 @@ def update_baselines(
     of fleet logs (no spec file) have none. In :attr:`UpdateMode.NONE` nothing is done.
     When ``CI`` is set nothing is written: each failure whose new expectation was traced
     is reported :attr:`UpdateAction.WITHHELD`.
+
+    :raises BaselineError: a pending file cannot be written (a full disk); those
+        written before it stay, each whole.
     """
     if UpdateMode.parse(mode) is UpdateMode.NONE:
         return []

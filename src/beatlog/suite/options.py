@@ -25,7 +25,8 @@ class SuiteOptions:
 
     :raises OptionError: options that do not go together, named as ``beatlog test``
         names them: ``system`` or ``perception`` without ``logs`` (a spec names its
-        own), ``logs`` without ``system``, or with ``paths`` or an update.
+        own), ``logs`` without ``system``, or with ``paths``, an update or
+        ``last_failed``.
     """
 
     paths: tuple[Path, ...] = _HERE
@@ -49,6 +50,10 @@ class SuiteOptions:
     dask: str | None = None
     """The Dask cluster to run on (:class:`~beatlog.suite.cluster.DaskExecutor`)."""
     fail_fast: bool = False
+    """Stop after the first DTC that fails or cannot run; those not started are not run."""
+    last_failed: bool = False
+    """Run only the DTCs selected that failed last time, or all when none did
+    (:mod:`beatlog.suite.last_failed`)."""
     update: UpdateMode = UpdateMode.NONE
     audit: bool = False
     coverage: bool = False
@@ -73,6 +78,8 @@ class SuiteOptions:
             raise OptionError("give DTC specs or --logs, not both")
         if self.update is not UpdateMode.NONE:
             raise OptionError("--update writes the baselines of specs; --logs runs have none")
+        if self.last_failed:
+            raise OptionError("--lf reruns the specs that failed; --logs runs are not remembered")
 
     @property
     def reports(self) -> tuple[Path, ...]:

@@ -8,11 +8,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from beatlog.errors import OptionError
+from beatlog.errors import EmptySelectionError, OptionError
 from beatlog.replaying.debugger import beyond_the_log
 from beatlog.suite.coverage import select_exercising
 from beatlog.suite.discovery import discover_specs, distinguished, select_specs
 from beatlog.suite.fleet import check_references, fleet_specs
+from beatlog.suite.last_failed import last_failed_path, rerun_failed
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.sharding import shard
 from beatlog.suite.spec import DtcSpec, find_rootdir
@@ -31,6 +32,8 @@ class Selection:
     their ids (:func:`~beatlog.suite.discovery.distinguished`)."""
     rootdir: Path | None
     """The rootdir of the specs, as pytest would take it; None for a fleet run's logs."""
+    note: str | None = None
+    """What ``--lf`` did to the selection, for the reader."""
 
 
 def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
@@ -51,9 +54,10 @@ def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
 def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> Selection:
     """The specs found under the options' paths (or the ``fleet`` given), and those the
     session runs: selected by ``-k`` and the tags, then by the behavior they exercise,
-    and of those the shard's share.
+    then with ``--lf`` those that failed last time, and of those the shard's share.
 
-    :raises OptionError: nothing is found, or nothing found is selected.
+    :raises EmptySelectionError: specs are found, and none is selected.
+    :raises OptionError: nothing is found.
     :raises SpecError: a spec cannot be read.
     """
     found = discover_specs(options.paths) if fleet is None else fleet
@@ -64,11 +68,16 @@ def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> S
     if not specs:
         where = " ".join(map(str, options.paths)) if fleet is None else options.logs
         if found:
-            raise OptionError(f"none of the {len(found)} DTC specs in {where} match -k/--tag")
+            raise EmptySelectionError(
+                f"none of the {len(found)} DTC specs in {where} match -k/--tag"
+            )
         raise OptionError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
+    note = None
+    if options.last_failed and rootdir is not None:
+        specs, note = rerun_failed(specs, last_failed_path(rootdir))
     if options.shard is not None:
         specs = shard(specs, options.shard.index, options.shard.count)
-    return Selection(found, distinguished(specs), rootdir)
+    return Selection(found, distinguished(specs), rootdir, note)
 
 
 def check_break_at(break_at: int | None, specs: Sequence[DtcSpec], *, option: str) -> None:

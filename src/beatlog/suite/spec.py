@@ -56,7 +56,6 @@ recorded value and returns the field's new one, imported as ``system`` is.
 from __future__ import annotations
 
 import contextlib
-import difflib
 import json
 import math
 import os
@@ -65,7 +64,6 @@ from collections.abc import Iterable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import msgspec
 
@@ -76,6 +74,7 @@ from beatlog.project import (
     check_one_to_one,
     dotted_keys,
     explain_validation,
+    keys_problem,
     project_config,
 )
 from beatlog.remote import fetched_log, is_url, url_name
@@ -201,7 +200,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(path, f"not valid TOML: {exc}") from None
-    if (problem := _keys_problem(data)) is not None:
+    if (problem := keys_problem(data, _SpecFile)) is not None:
         raise SpecError(path, problem)
     for key in ("field_renames", "field_conversions"):
         if key in data:
@@ -256,24 +255,6 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
         ),
         migration=StateMigration(field_renames, conversions),
     )
-
-
-def _keys_problem(data: dict[str, Any]) -> str | None:
-    """Every unknown key (with the key it may mean) and every missing one, at once."""
-    fields = msgspec.structs.fields(_SpecFile)
-    known = [field.name for field in fields]
-    problems = []
-    for key in data:
-        if key not in known:
-            near = difflib.get_close_matches(key, known, n=1)
-            problems.append(
-                f"unknown key {key!r}" + (f" (did you mean {near[0]!r}?)" if near else "")
-            )
-    missing = [field.name for field in fields if field.required and field.name not in data]
-    if missing:
-        listed = ", ".join(repr(key) for key in missing)
-        problems.append(f"missing key{'s' if len(missing) > 1 else ''} {listed}")
-    return "; ".join(problems) or None
 
 
 def _dtc_id(path: Path, name: str, rootdir: Path) -> str:

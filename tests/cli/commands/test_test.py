@@ -267,6 +267,77 @@ def test_fail_fast_stops_at_the_first_failure_and_counts_what_did_not_run(
     assert_counts(run, "1 passed, 1 failed, 2 not run", 300 + FIRST_CHANGED_CYCLE + 1)
 
 
+@pytest.mark.parametrize("option", ["-x", "--exitfirst"])
+def test_dash_x_stops_after_the_first_failure_as_pytest_does(
+    beatlog_test: BeatlogTest, specs: Path, log: Path, option: str
+) -> None:
+    write_spec(specs, "a-avoid-pole-earlier", log, CHANGED)
+    write_spec(specs, "b-dock-earlier", log, CHANGED)
+
+    run = beatlog_test(specs, option)
+
+    assert run.code == 1
+    assert suite_names(run.out) == ["a-avoid-pole-earlier"]
+    assert_counts(run, "0 passed, 1 failed, 1 not run", FIRST_CHANGED_CYCLE + 1)
+
+
+def test_dash_x_with_workers_stops_submitting_after_the_first_failure(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    for name in ("a", "b", "c", "d", "e", "f"):
+        write_spec(specs, f"{name}-earlier", log, CHANGED)
+
+    run = beatlog_test(specs, "-x", "-j", "2")
+
+    assert run.code == 1
+    assert closing_line(run).startswith("0 passed, ")
+    assert "not run" in closing_line(run), "the rest are neither started nor waited for"
+
+
+def test_lf_reruns_only_the_dtcs_that_failed_last_time(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    write_spec(specs, "avoid-pole-earlier", log, CHANGED)
+    write_spec(specs, "dock", log)
+    assert beatlog_test(specs).code == 1
+
+    rerun = beatlog_test(specs, "--lf")
+
+    assert rerun.code == 1
+    assert "--lf: rerunning the 1 DTC that failed last time" in whole_lines(rerun.out)
+    assert suite_names(rerun.out) == ["avoid-pole-earlier"]
+    assert_counts(rerun, "0 passed, 1 failed", FIRST_CHANGED_CYCLE + 1)
+
+
+def test_lf_runs_everything_when_nothing_failed_last_time(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log)
+    write_spec(specs, "dock", log)
+    assert beatlog_test(specs).code == 0
+
+    rerun = beatlog_test(specs, "--last-failed")
+
+    assert rerun.code == 0
+    assert "--lf: no DTC selected failed last time; running all 2" in whole_lines(rerun.out)
+    assert suite_names(rerun.out) == ["avoid-pole", "dock"]
+
+
+def test_lf_forgets_a_failure_once_it_passes_and_keeps_those_not_run(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "avoid-pole", log, CHANGED)
+    write_spec(specs, "dock", log, CHANGED)
+    assert beatlog_test(specs).code == 1
+    write_spec(specs, "avoid-pole", log)
+    assert beatlog_test(specs, "--lf", "-k", "avoid").code == 0
+
+    rerun = beatlog_test(specs, "--lf")
+
+    assert suite_names(rerun.out) == ["dock"]
+
+
 def test_junit_xml_reports_every_dtc_for_ci(
     beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
 ) -> None:
@@ -503,7 +574,7 @@ def test_a_folder_without_specs_is_a_usage_error(beatlog_test: BeatlogTest, spec
     assert_error(run, f"no DTC specs to run in {specs} (looked for *.dtc.toml)")
 
 
-def test_a_selection_that_matches_nothing_is_a_usage_error(
+def test_a_selection_that_matches_nothing_exits_5_as_pytest_does(
     beatlog_test: BeatlogTest, specs: Path, log: Path
 ) -> None:
     write_spec(specs, "avoid-pole", log)
@@ -511,8 +582,12 @@ def test_a_selection_that_matches_nothing_is_a_usage_error(
     by_name = beatlog_test(specs, "-k", "dock")
     by_tag = beatlog_test(specs, "--tag", "night")
 
-    assert_error(by_name, f"none of the 1 DTC specs in {specs} match -k/--tag")
-    assert_error(by_tag, f"none of the 1 DTC specs in {specs} match -k/--tag")
+    for run in (by_name, by_tag):
+        assert run == (
+            5,
+            "",
+            f"beatlog: error: none of the 1 DTC specs in {specs} match -k/--tag\n",
+        )
 
 
 def test_a_bad_spec_is_one_line_naming_the_file_and_key(

@@ -8,7 +8,7 @@
   DTCs in ``suite/`` (``python -m beatlog_examples.trees.record --overwrite``).
 
 Factories for the CLI: ``beatlog_examples.trees:system`` and ``:changed_system``
-(the low-battery threshold lowered from 25 % to 20 %). Needs ``beatlog[py_trees]``.
+(the low-battery threshold lowered from 25 % to 20 %). Needs ``beatlog[py-trees]``.
 """
 
 from pathlib import Path

@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.cli.arguments import add_factory, add_paths, cycle_number, positive_int, shard
-from beatlog.cli.common import print_error
-from beatlog.errors import OptionError
+from beatlog.cli.common import EXIT_NOTHING_SELECTED, print_error
+from beatlog.errors import EmptySelectionError, OptionError
 from beatlog.suite.policy import UpdateMode
 
 if TYPE_CHECKING:
@@ -57,7 +57,22 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
         default=[],
         help="only DTCs with this tag; given more than once, only DTCs with every tag given",
     )
-    test.add_argument("--fail-fast", action="store_true", help="stop at the first failure")
+    test.add_argument(
+        "-x",
+        "--exitfirst",
+        "--fail-fast",
+        dest="fail_fast",
+        action="store_true",
+        help="stop after the first DTC that fails or cannot run; those not started are not run",
+    )
+    test.add_argument(
+        "--lf",
+        "--last-failed",
+        dest="last_failed",
+        action="store_true",
+        help="run only the DTCs that failed last time (remembered in .beatlog_cache/), "
+        "or all of them when none did",
+    )
     test.add_argument("--junit-xml", type=Path, metavar="FILE", help="write a JUnit report")
     test.add_argument(
         "--html", type=Path, metavar="FILE", help="write an HTML report with timeline charts"
@@ -139,6 +154,7 @@ def _options(args: argparse.Namespace) -> SuiteOptions:
         jobs=args.jobs,
         dask=args.dask,
         fail_fast=args.fail_fast,
+        last_failed=args.last_failed,
         update=args.update,
         audit=args.audit,
         coverage=args.coverage,
@@ -152,10 +168,17 @@ def _options(args: argparse.Namespace) -> SuiteOptions:
 
 def run(args: argparse.Namespace, console: Console) -> int:
     """Run the suite with a progress bar, each failure (every DTC with ``--verbose``)
-    shown as it comes, then the session's report and its counts."""
+    shown as it comes, then the session's report and its counts; exit 5 when nothing
+    is selected, as pytest does."""
     from beatlog.suite_session import SuiteSession
 
-    session = SuiteSession(_options(args))
+    try:
+        session = SuiteSession(_options(args))
+    except EmptySelectionError as exc:
+        print_error(str(exc))
+        return EXIT_NOTHING_SELECTED
+    if session.selection.note is not None:
+        console.print(session.selection.note, markup=False, highlight=False)
     progress = _progress(console, breaking=session.options.breaking)
     started = time.perf_counter()
     cycles = 0
