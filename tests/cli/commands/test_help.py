@@ -54,10 +54,10 @@ def test_help_lists_the_whole_glossary(beatlog: Beatlog) -> None:
 
 
 def test_help_of_an_unknown_word_is_one_line_with_the_nearest(beatlog: Beatlog) -> None:
-    run = beatlog("help", "opn", "loop")
+    run = beatlog("help", "vouhc")
 
     assert_error(
         run,
-        "'opn loop' is neither a command nor a word of the glossary; did you mean "
-        "'open loop'? (beatlog help --glossary lists them)",
+        "'vouhc' is neither a command nor a word of the glossary; did you mean "
+        "'vouch'? (beatlog help --glossary lists them)",
     )
