@@ -26,6 +26,7 @@ from beatlog.errors import CorruptLogError, EmptyCheckError
 from beatlog.log.format import CycleRecord, StateChangeRecord, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
+from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.model.random import Draw, plain_value
@@ -64,7 +65,7 @@ NO_SAMPLES = (
 
 
 def replay(
-    log: str | Path,
+    log: LogSource,
     system: System | str | None = None,
     *,
     keep_going: bool = False,
@@ -134,7 +135,7 @@ def replay(
         nothing either, and ``allow_empty`` is not set.
     """
     if system is None:
-        system = recorded_system(log)
+        system = recorded_system(Path(log))
     reference = system if isinstance(system, str) else None
     if isinstance(system, str):
         system = load_system(system)
@@ -197,7 +198,7 @@ def replay(
         read = fields_read(log, load_system(reference), divergence.cycle, migration=migration)
         divergence = dataclasses.replace(divergence, fields_read=read)
     return ReplayResult(
-        log=Path(log),
+        log=reader.path,
         ok=divergence is None,
         cycles=judge.cycles,
         checked=checked,
@@ -208,7 +209,7 @@ def replay(
         divergent_cycles=judge.divergent_cycles,
         reproduce=reproduce_command(
             "replay",
-            log,
+            reader.path,
             "--system",
             reference or reader.header.system or "MODULE:FACTORY",
             *(["--perception", perception_reference] if perception_reference else []),
