@@ -27,6 +27,7 @@ from beatlog.replaying.judge import recorded_system, replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import Baseline, expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
+from beatlog.suite.repeats import repeat_note
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import importable_near, load_perception, load_system
 
@@ -222,7 +223,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             and divergence.kind is not DivergenceKind.LOG_ENDED
             and log.data is not None
         ):
-            notes += _moving(divergence, judged(system).divergence, spec)
+            notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
         details = _details(
@@ -302,36 +303,6 @@ def _rerun(spec: DtcSpec, *options: str) -> str:
     system = () if spec.system is None else ("--system", spec.system)
     log = glob.escape(spec.source)
     return reproduce_command("test", *options, "--logs", log, *system, *perception)
-
-
-def _moving(first: Divergence, again: Divergence | None, spec: DtcSpec) -> tuple[str, ...]:
-    """The note on a failure that a second replay, of a fresh system in this process,
-    does not repeat: where the first divergence moves between two runs of unchanged
-    code, the behaviors depend on something besides their log (the global ``random``,
-    the wall clock, state kept between replays), which the audit names."""
-    if again is not None and _same(first, again):
-        return ()
-    if again is None:
-        how = f"fails at cycle {first.cycle} in one run and passes in the next"
-    elif again.cycle != first.cycle:
-        how = f"fails at a different cycle each run ({first.cycle}, then {again.cycle})"
-    else:
-        how = f"fails otherwise each run at cycle {first.cycle}"
-    return (
-        f"{how} on unchanged code: the behaviors are not deterministic; run "
-        f"`{_rerun(spec, '--audit')}` to find the call",
-    )
-
-
-def _same(first: Divergence, again: Divergence) -> bool:
-    """Whether two divergences are the same: cycle, kind, and what replay did there
-    (compared as text, so that a NaN equals itself)."""
-
-    def seen(divergence: Divergence) -> tuple[object, ...]:
-        done = (divergence.actual, divergence.actual_outputs, divergence.random_drawn)
-        return divergence.cycle, divergence.kind, repr(done)
-
-    return seen(first) == seen(again)
 
 
 def _charting(
