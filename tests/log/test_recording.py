@@ -7,7 +7,7 @@ import os
 import pickle
 from pathlib import Path
 
-from beatlog.log.reader import LogStatus
+from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.recording import Recording
 from tests.chunked import Original, encoded, read_all, write
 
@@ -50,15 +50,26 @@ def test_a_log_larger_than_the_bound_is_hashed_but_not_kept(
     assert recording.data is None
 
 
+def test_a_log_cut_off_is_hashed_and_kept_whole(tmp_path: Path, original: Original) -> None:
+    cut = original.data[: len(original.data) // 2]
+    recording = Recording(write(tmp_path / "a.beatlog", cut))
+    cycles, status = read_all(recording)
+
+    again = read_all(recording)
+
+    assert not status.complete
+    assert (recording.digest, recording.data) == (hashlib.sha256(cut).hexdigest(), cut)
+    assert (encoded(again[0]), again[1]) == (encoded(cycles), status)
+
+
 def test_a_read_that_stops_short_of_the_end_takes_no_digest(
     tmp_path: Path, original: Original
 ) -> None:
-    path = write(tmp_path / "a.beatlog", original.data[: len(original.data) // 2])
-    recording = Recording(path)
+    recording = Recording(write(tmp_path / "a.beatlog", original.data))
 
-    _, status = read_all(recording)
+    with SessionLogReader(recording) as reader:
+        next(reader.batches())
 
-    assert not status.complete
     assert (recording.digest, recording.data) == (None, None)
 
 

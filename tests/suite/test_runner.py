@@ -277,6 +277,19 @@ def test_a_dtc_opens_its_log_once(
     assert opened == 1
 
 
+def test_a_dtc_of_a_log_cut_off_opens_it_once(tmp_path: Path, record_probe: RecordFn) -> None:
+    cut = cut_short(record_probe(300, flush_interval_s=1.0))
+    spec = written_dtc(tmp_path, "cut", cut, CHANGED, allow_truncated=True)
+    outcomes: list[SpecOutcome] = []
+
+    opened = files_opened(
+        cut, lambda: outcomes.append(run_spec(spec, SpecOptions(update=UpdateMode.NEW)))
+    )
+
+    assert (outcomes[0].verdict, outcomes[0].update is not None) == (Verdict.FAILED, True)
+    assert opened == 1
+
+
 def test_a_dtc_passing_against_its_baseline_opens_its_log_once(tmp_path: Path, log: Path) -> None:
     spec = written_dtc(tmp_path, "counted", log, CHANGED)
     update_baselines([run_spec(spec, SpecOptions(update=UpdateMode.NEW))], UpdateMode.NEW)

@@ -100,6 +100,15 @@ class RecordStream(Closing):
             self._recording.take(piece)
         return piece
 
+    def finish(self) -> None:
+        """Hand the recording the rest of a file whose records ended early (cut off):
+        its digest and copy are of every byte, as for a log closed cleanly."""
+        if self._recording is None:
+            return
+        while self._read(1 << 20):
+            pass
+        self._recording.ended(self.size)
+
     def _open(self, source: Path | Recording) -> tuple[IO[bytes], int]:
         if isinstance(source, Recording) and source.data is not None:
             kept = BytesIO(source.data)

@@ -279,6 +279,7 @@ class SessionLogReader(Closing):
                     self._add_channel(record)
         except TruncatedError as cut:
             self._status = LogStatus(False, self._cycles, str(cut))
+            self._stream.finish()
             return
         except IndexDamageError as damage:
             self._index_damage(str(damage))
