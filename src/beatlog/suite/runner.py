@@ -140,10 +140,10 @@ def run_spec(
     once: the verdict's replay takes its digest (which must be its approved baseline's)
     and keeps its bytes (:class:`~beatlog.log.recording.Recording`), which the details
     and the repeat replay from memory; a log too large to keep
-    (:data:`~beatlog.log.recording.KEPT_BYTES`) is not replayed a third time to see that
-    its failure repeats, and its details read it again. The outcome's wall time is the replay's
-    alone. The result's reproduce command is ``beatlog test SPEC``, which judges
-    exactly as this run did. The spec's references also import from its folder
+    (:data:`~beatlog.log.recording.KEPT_BYTES`) is not replayed a third time to see
+    that its failure repeats, and its details read it again. The outcome's wall time is
+    the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
+    judges exactly as this run did. The spec's references also import from its folder
     and its project root (:func:`beatlog.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
     ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
