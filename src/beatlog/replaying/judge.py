@@ -14,6 +14,7 @@ those expected only by a consistent renaming.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -198,7 +199,7 @@ def replay(
         read = fields_read(log, load_system(reference), divergence.cycle, migration=migration)
         divergence = dataclasses.replace(divergence, fields_read=read)
     return ReplayResult(
-        log=reader.path,
+        log=Path(log),
         ok=divergence is None,
         cycles=judge.cycles,
         checked=checked,
@@ -209,7 +210,7 @@ def replay(
         divergent_cycles=judge.divergent_cycles,
         reproduce=reproduce_command(
             "replay",
-            reader.path,
+            os.fspath(log),
             "--system",
             reference or reader.header.system or "MODULE:FACTORY",
             *(["--perception", perception_reference] if perception_reference else []),
