@@ -10,6 +10,7 @@ import msgspec
 
 from beatlog.log.format import CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog.log.recording import LogSource
 from beatlog.log.writer import SessionLogWriter
 from tests.conftest import PERIOD_NS, Probe
 from tests.crafting import Record, session_header
@@ -45,7 +46,7 @@ class Original(NamedTuple):
     footer: Record
 
 
-def read_all(path: Path) -> tuple[list[CycleRecord], LogStatus]:
+def read_all(path: LogSource) -> tuple[list[CycleRecord], LogStatus]:
     with SessionLogReader(path) as reader:
         cycles = list(reader.cycles())
         return cycles, reader.status

@@ -4,7 +4,8 @@ its break points."""
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+import sys
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import pytest
@@ -13,12 +14,14 @@ from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replaying.verdict import Checked, DivergenceKind
 from beatlog.report.figures import dtc_charts
+from beatlog.suite.baseline import expected_path
+from beatlog.suite.maintenance import PendingUpdate, UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn
-from tests.factories import cut_short, opened_logs
-from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
+from tests.factories import cut_short
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, written_dtc
 from tests.systems import leaks, leaky_system, quiet_system, record_session, restless_system
 from tests.text import svg_texts
 
@@ -234,16 +237,103 @@ def test_a_failed_dtc_is_replayed_three_times_at_most_for_every_report(
     assert CountingArbiter.replays == 3  # the verdict's, its repeat, and its details'
 
 
-def test_a_failed_dtc_opens_its_log_three_times_for_every_report(
-    tmp_path: Path, log: Path, monkeypatch: pytest.MonkeyPatch
+def files_opened(path: Path, run: Callable[[], object]) -> int:
+    """How many times ``run`` opens the file at ``path``, as the interpreter's audit
+    events tell (every ``open`` of a file, whoever calls it)."""
+    opened: list[str] = []
+    watching = [True]
+    target = str(path)
+
+    def hook(event: str, args: tuple[object, ...]) -> None:
+        if watching[0] and event == "open" and args and str(args[0]) == target:
+            opened.append(target)
+
+    sys.addaudithook(hook)  # a hook cannot be removed: it stops listening instead
+    try:
+        run()
+    finally:
+        watching[0] = False
+    return len(opened)
+
+
+@pytest.mark.parametrize(
+    ("system", "update", "verdict"),
+    [
+        (PROBE, UpdateMode.NONE, Verdict.PASSED),
+        (CHANGED, UpdateMode.NONE, Verdict.FAILED),
+        (CHANGED, UpdateMode.NEW, Verdict.FAILED),
+    ],
+    ids=["passing", "failing", "failing under --update"],
+)
+def test_a_dtc_opens_its_log_once(
+    tmp_path: Path, log: Path, system: str, update: UpdateMode, verdict: Verdict
 ) -> None:
-    spec = written_dtc(tmp_path, "counted", log, "tests.suite.test_runner:counting_system")
-    opened = opened_logs(monkeypatch)
+    spec = written_dtc(tmp_path, "counted", log, system)
+    outcomes: list[SpecOutcome] = []
 
-    outcome = run_spec(spec, SpecOptions(update=UpdateMode.NEW, timelines=True))
+    opened = files_opened(log, lambda: outcomes.append(run_spec(spec, SpecOptions(update=update))))
 
-    assert (outcome.verdict, len(outcome.timelines)) == (Verdict.FAILED, 2)
-    assert opened == [log.name] * 3  # the verdict's replay, its repeat, and its details'
+    assert outcomes[0].verdict is verdict
+    assert opened == 1
+
+
+def test_a_dtc_of_a_log_cut_off_opens_it_once(tmp_path: Path, record_probe: RecordFn) -> None:
+    cut = cut_short(record_probe(300, flush_interval_s=1.0))
+    spec = written_dtc(tmp_path, "cut", cut, CHANGED, allow_truncated=True)
+    outcomes: list[SpecOutcome] = []
+
+    opened = files_opened(
+        cut, lambda: outcomes.append(run_spec(spec, SpecOptions(update=UpdateMode.NEW)))
+    )
+
+    assert (outcomes[0].verdict, outcomes[0].update is not None) == (Verdict.FAILED, True)
+    assert opened == 1
+
+
+def test_a_dtc_passing_against_its_baseline_opens_its_log_once(tmp_path: Path, log: Path) -> None:
+    spec = written_dtc(tmp_path, "counted", log, CHANGED)
+    update_baselines([run_spec(spec, SpecOptions(update=UpdateMode.NEW))], UpdateMode.NEW)
+    approve([spec.path])
+    outcomes: list[SpecOutcome] = []
+
+    opened = files_opened(log, lambda: outcomes.append(run_spec(spec)))
+
+    assert (outcomes[0].verdict, outcomes[0].baseline) == (Verdict.PASSED, expected_path(spec.path))
+    assert opened == 1
+
+
+def test_a_pending_baseline_is_weighed_without_opening_its_log_again(
+    tmp_path: Path, log: Path
+) -> None:
+    spec = written_dtc(tmp_path, "counted", log, CHANGED)
+    updates: list[PendingUpdate] = []
+
+    def run() -> None:
+        outcome = run_spec(spec, SpecOptions(update=UpdateMode.NEW))
+        updates.extend(update_baselines([outcome], UpdateMode.NEW))
+
+    opened = files_opened(log, run)
+
+    assert [update.action for update in updates] == [UpdateAction.WRITTEN]
+    assert opened == 1
+
+
+def test_a_baseline_approved_for_another_recording_is_refused_after_its_one_read(
+    tmp_path: Path, log: Path, record_probe: RecordFn
+) -> None:
+    spec = written_dtc(tmp_path, "counted", log, CHANGED)
+    update_baselines([run_spec(spec, SpecOptions(update=UpdateMode.NEW))], UpdateMode.NEW)
+    approve([spec.path])
+    log.write_bytes(record_probe(300, name="other.beatlog", seed=8).read_bytes())
+    outcomes: list[SpecOutcome] = []
+
+    opened = files_opened(log, lambda: outcomes.append(run_spec(spec)))
+
+    assert outcomes[0].verdict is Verdict.ERROR
+    assert outcomes[0].error == (
+        f"{expected_path(spec.path)}: approved for another recording than {log.name}; delete it"
+    )
+    assert opened == 1
 
 
 # break points

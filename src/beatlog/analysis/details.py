@@ -5,17 +5,19 @@ fields the behaviors read in the diverging cycle, the whole new trace for
 re-baselining, and timelines for charts. :func:`replay_details` replays the log once
 more in one :class:`~beatlog.replaying.session.ReplaySession` whose observers gather
 them all: however many are asked for, they cost one replay (a failed DTC is replayed
-once more besides, up to its first divergence, to see that it repeats).
+once more besides, up to its first divergence, to see that it repeats). Given the
+:class:`~beatlog.log.recording.Recording` the verdict's replay kept, it replays the
+bytes kept in memory: the file is not read again.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 
 from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_window
 from beatlog.analysis.trace import ReplayedTrace, TraceCollector
+from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.replaying.fit.migration import StateMigration
@@ -38,7 +40,7 @@ class Details:
 
 
 def replay_details(
-    log: str | Path,
+    log: LogSource,
     system: System,
     divergence: Divergence | None,
     *,

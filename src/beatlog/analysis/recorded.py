@@ -6,11 +6,11 @@ its own (:func:`read_changes`)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord
 from beatlog.log.payload import decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
+from beatlog.log.recording import LogSource
 from beatlog.replaying.expectation import TracedChange
 from beatlog.replaying.verdict import StateChange
 
@@ -61,7 +61,7 @@ class RecordedChanges:
             self.cycles += 1
 
 
-def read_changes(log: str | Path) -> RecordedChanges:
+def read_changes(log: LogSource) -> RecordedChanges:
     """Every state change ``log`` recorded, and how many cycles it holds."""
     with SessionLogReader(log) as reader:
         recorded = RecordedChanges(reader)

@@ -20,6 +20,7 @@ from beatlog.analysis.recorded import read_changes
 from beatlog.log.format import EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
+from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
 from beatlog.replaying.compare import WHOLE_STATE, state_fields
@@ -91,12 +92,12 @@ class ReplayedTrace:
         )
 
 
-def recorded_trace(log: str | Path) -> list[TracedChange]:
+def recorded_trace(log: LogSource) -> list[TracedChange]:
     """Every state change the log recorded, named by the log's behavior catalogue."""
     return read_changes(log).changes
 
 
-def recorded_outputs(log: str | Path) -> list[TracedOutput]:
+def recorded_outputs(log: LogSource) -> list[TracedOutput]:
     """The outputs the log recorded, as the cycles where a field changed value."""
     tracker = OutputTracker()
     changes: list[TracedOutput] = []
@@ -122,7 +123,7 @@ def _with_outputs(
 
 
 def whole_trace(
-    expectation: Expectation, log: str | Path, rename: Callable[[str], str] = str
+    expectation: Expectation, log: LogSource, rename: Callable[[str], str] = str
 ) -> Expectation:
     """An expectation with its state changes and outputs as a whole trace: those of
     departures (:attr:`Expectation.departures`) applied to the ones ``log`` recorded
@@ -159,7 +160,7 @@ def whole_trace(
 
 
 def today_trace(
-    approved: Expectation | None, log: str | Path, rename: Callable[[str], str] = str
+    approved: Expectation | None, log: LogSource, rename: Callable[[str], str] = str
 ) -> Expectation:
     """What replay judges ``log`` against today, as a whole trace: its ``approved``
     baseline's (:func:`whole_trace`), else the recording's state changes (behaviors

@@ -51,6 +51,7 @@ from beatlog.log.container import (
 )
 from beatlog.log.format import DECODE_ERRORS, PROFILE
 from beatlog.log.limits import MAX_CHUNK_BYTES, MAX_EXPANSION, MAX_RECORD_BYTES
+from beatlog.log.recording import Recording
 
 __all__ = ["IndexDamageError", "RecordStream", "TruncatedError"]
 
@@ -69,11 +70,18 @@ class RecordStream(Closing):
     Opening checks that the path is a regular file holding an MCAP container (a FIFO or
     a device could block or never end). Iterating :meth:`records` yields the data
     section's records; the summary section is kept for :meth:`check_summary`.
+
+    Given a :class:`~beatlog.log.recording.Recording`, it reads the bytes the recording
+    keeps, once a read has kept them; else it reads the file and hands the recording
+    every byte, in order, for its digest and its copy.
     """
 
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        self.file, self.size = self._open()
+    def __init__(self, source: Path | Recording) -> None:
+        self.path = Path(source)
+        self._recording = source if isinstance(source, Recording) and source.streaming else None
+        if self._recording is not None:
+            self._recording.start()
+        self.file, self.size = self._open(source)
         self.footer: Footer | None = None
         self.summary_crc = 0
         self._chunks: list[tuple[int, int]] = []
@@ -85,7 +93,27 @@ class RecordStream(Closing):
         """Close the file."""
         self.file.close()
 
-    def _open(self) -> tuple[IO[bytes], int]:
+    def _read(self, size: int) -> bytes:
+        """The next ``size`` bytes of the file (fewer at its end), handed to the recording."""
+        piece = self.file.read(size)
+        if self._recording is not None:
+            self._recording.take(piece)
+        return piece
+
+    def finish(self) -> None:
+        """Hand the recording the rest of a file whose records ended early (cut off):
+        its digest and copy are of every byte, as for a log closed cleanly."""
+        if self._recording is None:
+            return
+        while self._read(1 << 20):
+            pass
+        self._recording.ended(self.size)
+
+    def _open(self, source: Path | Recording) -> tuple[IO[bytes], int]:
+        if isinstance(source, Recording) and source.data is not None:
+            kept = BytesIO(source.data)
+            kept.seek(len(MAGIC))  # checked as the file was read
+            return kept, len(source.data)
         problem = irregular_file_problem(self.path)
         if problem is not None:
             if problem == "is a directory":
@@ -96,7 +124,8 @@ class RecordStream(Closing):
         except OSError as exc:
             raise NotABeatlogError(self.path, f"cannot open: {exc.strerror}") from None
         size = os.fstat(file.fileno()).st_size
-        magic = file.read(len(MAGIC))
+        self.file = file
+        magic = self._read(len(MAGIC))
         if magic != MAGIC:
             file.close()
             what = "empty file" if not magic else "not a session log (not an MCAP file)"
@@ -105,14 +134,13 @@ class RecordStream(Closing):
 
     def records(self) -> Iterator[McapRecord]:
         """The container's records in file order, up to the footer."""
-        file = self.file
         size = self.size
         offset = len(MAGIC)
         first = True
         summary = False
         allowed = DATA_RECORDS | {Opcode.FOOTER}
         while self.footer is None:
-            head = file.read(RECORD_HEAD)
+            head = self._read(RECORD_HEAD)
             if not head:
                 raise TruncatedError("the recording stopped before the log was closed")
             if len(head) < RECORD_HEAD:
@@ -125,7 +153,7 @@ class RecordStream(Closing):
                 if opcode in KNOWN_OPCODES and length <= MAX_RECORD_BYTES:
                     raise TruncatedError(f"the last record is cut off at byte {offset}")
                 raise self._damaged_record(f"damaged record at byte {offset}", summary=summary)
-            body = file.read(length)
+            body = self._read(length)
             try:
                 if not first and opcode not in allowed:
                     raise RecordDamageError(f"unexpected record (opcode {opcode:#x})")
@@ -153,8 +181,10 @@ class RecordStream(Closing):
             else:
                 yield from records
             offset = end
-        if file.read(len(MAGIC) + 1) != MAGIC:
+        if self._read(len(MAGIC) + 1) != MAGIC:
             raise IndexDamageError("damaged or extra bytes after the log's footer")
+        if self._recording is not None:
+            self._recording.ended(size)
 
     def _damaged_record(self, problem: str, *, summary: bool) -> Exception:
         """A record not as written: damage to the index in the summary section, else a

@@ -40,6 +40,7 @@ from beatlog.log.index import recorded_cycles as recorded_cycles  # noqa: PLC041
 from beatlog.log.integrity import IndexDamageError, RecordStream, TruncatedError
 from beatlog.log.limits import MAX_SCHEMA_BYTES
 from beatlog.log.payload import BatchDecoding, decode_payload, decoded_version
+from beatlog.log.recording import LogSource, Recording
 
 __all__ = ["LogStatus", "SessionLogReader"]
 
@@ -86,12 +87,15 @@ class SessionLogReader(Closing):
     against the footer's summary CRC) is a :class:`~beatlog.errors.CorruptLogError`
     even when every cycle and the end record read back intact, unless
     ``tolerate_damaged_index``: the status then says so (for people looking at a log).
+
+    Given a :class:`~beatlog.log.recording.Recording`, the first reader to reach the end
+    of the file takes its digest and keeps its bytes, and readers after it read those.
     """
 
-    def __init__(self, path: str | Path, *, tolerate_damaged_index: bool = False) -> None:
+    def __init__(self, path: LogSource, *, tolerate_damaged_index: bool = False) -> None:
         self.path = Path(path)
         self._tolerate_damaged_index = tolerate_damaged_index
-        self._stream = RecordStream(self.path)
+        self._stream = RecordStream(path if isinstance(path, Recording) else self.path)
         self._channels: dict[int, Channel] = {}
         self._topics: dict[str, int] = {}
         self._schemas: dict[int, Schema] = {}
@@ -275,6 +279,7 @@ class SessionLogReader(Closing):
                     self._add_channel(record)
         except TruncatedError as cut:
             self._status = LogStatus(False, self._cycles, str(cut))
+            self._stream.finish()
             return
         except IndexDamageError as damage:
             self._index_damage(str(damage))

@@ -14,6 +14,7 @@ those expected only by a consistent renaming.
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -26,6 +27,7 @@ from beatlog.errors import CorruptLogError, EmptyCheckError
 from beatlog.log.format import CycleRecord, StateChangeRecord, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
+from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.model.random import Draw, plain_value
@@ -64,7 +66,7 @@ NO_SAMPLES = (
 
 
 def replay(
-    log: str | Path,
+    log: LogSource,
     system: System | str | None = None,
     *,
     keep_going: bool = False,
@@ -134,7 +136,7 @@ def replay(
         nothing either, and ``allow_empty`` is not set.
     """
     if system is None:
-        system = recorded_system(log)
+        system = recorded_system(Path(log))
     reference = system if isinstance(system, str) else None
     if isinstance(system, str):
         system = load_system(system)
@@ -208,7 +210,7 @@ def replay(
         divergent_cycles=judge.divergent_cycles,
         reproduce=reproduce_command(
             "replay",
-            log,
+            os.fspath(log),
             "--system",
             reference or reader.header.system or "MODULE:FACTORY",
             *(["--perception", perception_reference] if perception_reference else []),

@@ -14,12 +14,12 @@ the log where a judge must see every byte of it.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from pathlib import Path
 from typing import Any, Protocol, TypedDict, Unpack
 
 from beatlog.closing import Closing
 from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
+from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.replaying.core import AGREED, CycleOutcome, Replayer
@@ -169,7 +169,7 @@ class ReplaySession(Closing):
 
     def __init__(
         self,
-        log: str | Path,
+        log: LogSource,
         system: System | None,
         **options: Unpack[ReplayOptions],
     ) -> None:
@@ -295,7 +295,7 @@ def _read_by(
 
 
 def fields_read(
-    log: str | Path, system: System, cycle: int, *, migration: StateMigration | None = None
+    log: LogSource, system: System, cycle: int, *, migration: StateMigration | None = None
 ) -> tuple[str, ...]:
     """The robot-state fields a fresh ``system`` reads in ``cycle`` of ``log``, in order
     (see :class:`FieldsRead`), the log's fields renamed and converted by ``migration``."""

@@ -11,8 +11,10 @@ what they did; they never print: the CLI and the pytest plugin render the result
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 from collections.abc import Iterable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -22,6 +24,7 @@ from beatlog.analysis.recorded import read_changes
 from beatlog.analysis.shift import Shift, shift
 from beatlog.analysis.trace import recorded_states, today_trace, whole_trace
 from beatlog.errors import BaselineError, OptionError
+from beatlog.log.recording import LogSource
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.draws import DrawRule
 from beatlog.replaying.expectation import Expectation, TracedState
@@ -122,7 +125,7 @@ def update_baselines(
             continue
         pending = pending_path(spec.path)
         if update is not None:
-            with spec.readable_log() as log:
+            with _replayed_log(spec, outcome) as log:
                 weighed = _weigh(spec, log, update)[2]
             action = UpdateAction.WITHHELD if ci else UpdateAction.WRITTEN
             if not ci:
@@ -312,8 +315,15 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     )
 
 
+def _replayed_log(spec: DtcSpec, outcome: SpecOutcome) -> AbstractContextManager[LogSource]:
+    """The log of ``spec`` as its run kept it in memory, else a readable copy of it."""
+    if outcome.recording is not None:
+        return contextlib.nullcontext(outcome.recording)
+    return spec.readable_log()
+
+
 def _weigh(
-    spec: DtcSpec, log: Path, pending: Expectation
+    spec: DtcSpec, log: LogSource, pending: Expectation
 ) -> tuple[Expectation, Expectation, Shift]:
     """Today's expectation of ``spec`` (approved, else recorded) and ``pending``, both
     as whole traces, and what ``pending`` loses and gains against today's."""

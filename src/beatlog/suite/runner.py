@@ -19,13 +19,15 @@ from typing import TYPE_CHECKING
 from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
+from beatlog.log.recording import Recording
 from beatlog.remote import named_as_given
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.judge import recorded_system, replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
-from beatlog.suite.baseline import expected_path, log_digest, read_baseline
+from beatlog.suite.baseline import Baseline, expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
+from beatlog.suite.repeats import repeat_note
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import importable_near, load_perception, load_system
 
@@ -87,6 +89,10 @@ class SpecOutcome:
     recorded: RecordedChanges | None = None
     """The state changes its log recorded, when run with ``coverage`` and its log could
     be read to the end."""
+    recording: Recording | None = None
+    """Its log as the verdict's replay read it, with an :attr:`update`, where it is small
+    enough to keep: the pending baseline is weighed against it without reading the
+    file again (:mod:`beatlog.suite.maintenance`)."""
 
     @property
     def verdict_label(self) -> str:
@@ -130,7 +136,12 @@ def run_spec(
     ``timelines`` what it did is charted: a passing DTC from the verdict's own replay, a
     failing one from the one more replay its details take. A failed DTC is replayed
     once more, against a fresh system, to see that its first divergence repeats: where
-    it does not, a note says so and points to the audit. The outcome's wall time is
+    it does not, a note says so and points to the audit. The log is opened and read
+    once: the verdict's replay takes its digest (which must be its approved baseline's)
+    and keeps its bytes (:class:`~beatlog.log.recording.Recording`), which the details
+    and the repeat replay from memory; a log too large to keep
+    (:data:`~beatlog.log.recording.KEPT_BYTES`) is not replayed a third time to see
+    that its failure repeats, and its details read it again. The outcome's wall time is
     the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
     judges exactly as this run did. The spec's references also import from its folder
     and its project root (:func:`beatlog.usercode.importable_near`). The options' break
@@ -167,19 +178,16 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     update, audit, timelines = options.update, options.audit, options.timelines
     started = time.perf_counter()
     baseline = expected_path(spec.path)
+    log = Recording(spec.log)
     try:
-        expected = None
+        approved = None
         if spec.source is None and baseline.exists():
             approved = read_baseline(baseline)
-            if approved.log_digest != log_digest(spec.log):
-                raise BaselineError(
-                    baseline, f"approved for another recording than {spec.log.name}; delete it"
-                )
-            expected = approved.expectation
+        expected = None if approved is None else approved.expectation
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
         judged = functools.partial(
             replay,
-            spec.log,
+            log,
             allow_truncated=spec.allow_truncated,
             allow_empty=spec.allow_empty,
             comparison=spec.comparison,
@@ -193,22 +201,34 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         if timelines:
             replayed, chart = _charting(system, expected, charts)
         recorded: list[RecordedChanges] = []
-        result = judged(
-            replayed,
-            break_at=options.break_at,
-            observers=[chart] if timelines else (),
-            readers=[functools.partial(_kept, recorded)] if options.coverage else (),
-        )
+        try:
+            result = judged(
+                replayed,
+                break_at=options.break_at,
+                observers=[chart] if timelines else (),
+                readers=[functools.partial(_kept, recorded)] if options.coverage else (),
+            )
+        except BeatlogError:
+            if log.digest is not None:  # the baseline's own error, if it is not this log's
+                _approved_for(approved, baseline, log)
+            raise
+        _approved_for(approved, baseline, log)
         wall = time.perf_counter() - started
         divergence = result.divergence
         notes = result.notes + unreached_break(options.break_at, result)
         if options.break_on_divergence:
             notes += break_on_divergence(result, lambda cycle: judged(system, break_at=cycle))
-        if divergence is not None and divergence.kind is not DivergenceKind.LOG_ENDED:
-            notes += _moving(divergence, judged(system).divergence, spec)
+        if (
+            divergence is not None
+            and divergence.kind is not DivergenceKind.LOG_ENDED
+            and log.data is not None
+        ):
+            notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
         updating = update is UpdateMode.NEW and divergence is not None
         refused = _refusal(divergence) if updating and divergence is not None else None
-        details = _details(spec, system, divergence, expected, trace=updating, timelines=timelines)
+        details = _details(
+            spec, log, system, divergence, expected, trace=updating, timelines=timelines
+        )
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         if spec.system is None:  # the log named it: say which, on every run
@@ -222,7 +242,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         changes = digest = None
         if details is not None and details.trace is not None and refused is None:
             changes, refused = _new_expectation(details.trace)
-            digest = None if changes is None else log_digest(spec.log)
+            digest = None if changes is None else log.digest or log_digest(spec.log)
         report = None
         if audit:
             from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
@@ -254,7 +274,23 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         log_digest=digest,
         open_loop=None if expected is None else expected.open_loop,
         recorded=recorded[0] if recorded else None,
+        recording=None if changes is None or log.data is None else log,
     )
+
+
+def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> None:
+    """Refuse an ``approved`` baseline made from another recording than ``log``: its
+    digest, taken as the replay read the log (or, where the replay stopped short of the
+    log's end, from the file), must be the baseline's.
+
+    :raises beatlog.errors.BaselineError: it was approved for another recording.
+    """
+    if approved is None:
+        return
+    if approved.log_digest != (log.digest or log_digest(log.path)):
+        raise BaselineError(
+            baseline, f"approved for another recording than {log.path.name}; delete it"
+        )
 
 
 def _rerun(spec: DtcSpec, *options: str) -> str:
@@ -267,36 +303,6 @@ def _rerun(spec: DtcSpec, *options: str) -> str:
     system = () if spec.system is None else ("--system", spec.system)
     log = glob.escape(spec.source)
     return reproduce_command("test", *options, "--logs", log, *system, *perception)
-
-
-def _moving(first: Divergence, again: Divergence | None, spec: DtcSpec) -> tuple[str, ...]:
-    """The note on a failure that a second replay, of a fresh system in this process,
-    does not repeat: where the first divergence moves between two runs of unchanged
-    code, the behaviors depend on something besides their log (the global ``random``,
-    the wall clock, state kept between replays), which the audit names."""
-    if again is not None and _same(first, again):
-        return ()
-    if again is None:
-        how = f"fails at cycle {first.cycle} in one run and passes in the next"
-    elif again.cycle != first.cycle:
-        how = f"fails at a different cycle each run ({first.cycle}, then {again.cycle})"
-    else:
-        how = f"fails otherwise each run at cycle {first.cycle}"
-    return (
-        f"{how} on unchanged code: the behaviors are not deterministic; run "
-        f"`{_rerun(spec, '--audit')}` to find the call",
-    )
-
-
-def _same(first: Divergence, again: Divergence) -> bool:
-    """Whether two divergences are the same: cycle, kind, and what replay did there
-    (compared as text, so that a NaN equals itself)."""
-
-    def seen(divergence: Divergence) -> tuple[object, ...]:
-        done = (divergence.actual, divergence.actual_outputs, divergence.random_drawn)
-        return divergence.cycle, divergence.kind, repr(done)
-
-    return seen(first) == seen(again)
 
 
 def _charting(
@@ -333,6 +339,7 @@ def _timelines(charts: list[TimelineCollector], details: Details | None) -> tupl
 
 def _details(
     spec: DtcSpec,
+    log: Recording,
     system: str,
     divergence: Divergence | None,
     expected: Expectation | None,
@@ -340,13 +347,14 @@ def _details(
     trace: bool,
     timelines: bool,
 ) -> Details | None:
-    """One more replay, of a failed DTC, gathering what reports need."""
+    """One more replay, of a failed DTC, gathering what reports need: of the bytes its
+    verdict's replay kept, where it kept them."""
     if divergence is None:
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
 
     return replay_details(
-        spec.log,
+        log,
         load_system(system),
         divergence,
         trace=trace,
