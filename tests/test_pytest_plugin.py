@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 import beatlog_examples.rover
-from beatlog.suite.baseline import expected_path, pending_path, read_baseline
+from beatlog.baseline.file import expected_path, pending_path, read_baseline
 from beatlog.suite.discovery import discover_specs, select_specs
 from beatlog.suite.spec import find_rootdir
 from beatlog_examples.rover import record_lockstep

@@ -9,12 +9,12 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replaying.verdict import Checked, DivergenceKind
 from beatlog.report.figures import dtc_charts
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short, opened_logs

@@ -12,11 +12,11 @@ from rich.rule import Rule
 from rich.text import Text
 
 from beatlog.analysis.shift import Loss, LossKind, Shift
+from beatlog.baseline.file import pending_path
+from beatlog.baseline.policy import StaleSuite
 from beatlog.report.counts import plural
 from beatlog.suite.approved import Approved
-from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
-from beatlog.suite.policy import StaleSuite
 
 __all__ = [
     "closed_loop_text",

@@ -1,6 +1,6 @@
 """The re-baselining workflow: update, review, approve, and the orphans left behind.
 
-A run in :attr:`UpdateMode.NEW <beatlog.suite.policy.UpdateMode.NEW>` writes each
+A run in :attr:`UpdateMode.NEW <beatlog.baseline.policy.UpdateMode.NEW>` writes each
 failing DTC's new expectation to its pending file (:func:`update_baselines`); a
 reviewer reads it as a diff (:func:`pending_diff`) and decides (:func:`decide`), or
 accepts everything pending at once (:func:`approve`). An accepted baseline is never
@@ -21,26 +21,26 @@ from typing import Any, NamedTuple
 from beatlog.analysis.recorded import read_changes
 from beatlog.analysis.shift import Shift, shift
 from beatlog.analysis.trace import recorded_states, today_trace, whole_trace
+from beatlog.baseline.file import (
+    EXPECTED_SUFFIX,
+    PENDING_SUFFIX,
+    SPEC_SUFFIX,
+    expected_path,
+    log_digest,
+    pending_path,
+    read_baseline,
+)
+from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
+from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError, OptionError
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.draws import DrawRule
 from beatlog.replaying.expectation import Expectation, TracedState
 from beatlog.replaying.pins import StatePins
 from beatlog.replaying.verdict import FieldDifference
-from beatlog.suite.baseline import (
-    EXPECTED_SUFFIX,
-    PENDING_SUFFIX,
-    expected_path,
-    format_lines,
-    log_digest,
-    pending_path,
-    read_baseline,
-    write_baseline,
-)
 from beatlog.suite.discovery import discover_specs
-from beatlog.suite.policy import UpdateMode, in_ci, require_writable
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec
+from beatlog.suite.spec import DtcSpec
 
 __all__ = [
     "Decision",
@@ -295,8 +295,8 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
             source = f"recorded ({spec.log.name})"
         fields = _field_changes(log, today.robot_states, pending.robot_states)
         runs = _rebuilt_runs(log, whole.state_pins)
-    old = format_lines(today.changes, today.outputs, today.robot_states, today.state_pins)
-    new = format_lines(whole.changes, whole.outputs, whole.robot_states, whole.state_pins)
+    old = format_lines(today.changes, today.outputs, today.state_pins)
+    new = format_lines(whole.changes, whole.outputs, whole.state_pins)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
     return PendingDiff(
         spec,
