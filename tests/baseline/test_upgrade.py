@@ -176,5 +176,5 @@ def test_a_whole_trace_upgrades_to_where_it_departs_from_the_recording(
 def test_a_whole_trace_needs_its_own_recording_beside_it(tmp_path: Path) -> None:
     path = baseline_file(tmp_path, 4, '      12     0.360  "avoid": "off" -> "turning"')
 
-    with pytest.raises(BaselineError, match=r"its recording .*a\.beatlog is not beside it"):
+    with pytest.raises(BaselineError, match=r"its recording .*a\.beatlog is not as it was"):
         upgrade_baseline(path)

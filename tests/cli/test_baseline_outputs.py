@@ -121,9 +121,10 @@ def test_a_format_1_baseline_is_upgraded_to_judge_outputs_against_the_recording(
     upgraded = beatlog("upgrade-baselines", spec.parent)
 
     assert refused.code == 2
-    assert refused.err.strip() == (
-        f"beatlog: error: {path}: a format 1 baseline: "
-        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 6"
+    assert refused.err.count("\n") == 1
+    assert refused.err.endswith(
+        f": {path}: a format 1 baseline: "
+        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 6\n"
     )
     assert (upgraded.code, upgraded.out) == (0, f"upgraded {path}: format 1 -> 6\n")
     upgrade = read_baseline(path).expectation

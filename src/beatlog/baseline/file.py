@@ -89,6 +89,7 @@ __all__ = [
     "log_digest",
     "pending_path",
     "read_baseline",
+    "spec_path",
     "upgrade_hint",
 ]
 
@@ -138,6 +139,15 @@ def expected_path(spec: Path) -> Path:
 def pending_path(spec: Path) -> Path:
     """Where the pending (not yet approved) baseline of the spec at ``spec`` lives."""
     return spec.with_name(_base(spec) + PENDING_SUFFIX)
+
+
+def spec_path(baseline: Path) -> Path:
+    """The spec an approved or pending baseline at ``baseline`` belongs to."""
+    name = baseline.name
+    for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
+        if name.endswith(suffix):
+            return baseline.with_name(name[: -len(suffix)] + SPEC_SUFFIX)
+    return baseline.with_suffix(SPEC_SUFFIX)
 
 
 def log_digest(log: Path) -> str:

@@ -4,8 +4,8 @@ Each older format is read as a translation of its lines into format 6's. A forma
 file holds format 6's lines under another first line. Formats 1 to 4 held the whole
 trace of state changes and outputs, not where it departs from the recording (or, in
 format 4, the line ``state changes and outputs as recorded``); their lines are format
-6's, and the recording beside the file (the one its ``# log`` line names, by digest)
-gives the departures: a cycle whose state changes differ lists the trace's (or none,
+6's, and the recording (the one its ``# log`` line names, found by its spec, and bound
+by its digest) gives the departures: a cycle whose state changes differ lists the trace's (or none,
 quiet), an output field that differs holds the trace's value. Format 1 pinned no
 outputs, so its outputs are the recording's.
 
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -42,7 +42,11 @@ from beatlog.files import read_text_blocks, replacing
 from beatlog.replaying.departures import OutputDepartures
 from beatlog.replaying.expectation import AS_RECORDED, Expectation, TracedChange, TracedOutput
 
-__all__ = ["Upgraded", "baseline_files", "upgrade_baseline", "upgrade_baselines"]
+__all__ = ["Recordings", "Upgraded", "baseline_files", "upgrade_baseline", "upgrade_baselines"]
+
+Recordings = Callable[[Path, str], Path]
+"""Where the recording of a baseline is, given the baseline's path and the log name its
+``# log`` line gives (the spec beside it says; the shells know how to read one)."""
 
 _AS_RECORDED = "state changes and outputs as recorded"
 """A format 4 line: the behaviors' state changes and outputs are the recording's."""
@@ -77,18 +81,24 @@ def baseline_files(paths: Iterable[Path]) -> list[Path]:
     return found
 
 
-def upgrade_baselines(paths: Sequence[Path]) -> list[Upgraded]:
+def beside(baseline: Path, log_name: str) -> Path:
+    """The recording named ``log_name`` in the baseline's folder."""
+    return baseline.with_name(log_name)
+
+
+def upgrade_baselines(paths: Sequence[Path], recordings: Recordings = beside) -> list[Upgraded]:
     """Rewrite in format 6 every baseline of an older format among ``paths`` (files, or
     folders searched for ``*.dtc.expected`` and ``*.dtc.pending``); those of format 6
-    are left as they are.
+    are left as they are. ``recordings`` finds the recording a whole trace departs from.
 
     :raises BaselineError: a file is no baseline, is damaged, or cannot be upgraded
         (the files before it are upgraded, it and those after are left as they were).
     """
-    return [upgraded for path in baseline_files(paths) if (upgraded := upgrade_baseline(path))]
+    upgrades = (upgrade_baseline(path, recordings) for path in baseline_files(paths))
+    return [upgraded for upgraded in upgrades if upgraded]
 
 
-def upgrade_baseline(path: Path) -> Upgraded | None:
+def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | None:
     """Rewrite a baseline of an older format in format 6; None if it is of format 6
     already (it is read whole, so damage is still refused)."""
     text = "".join(
@@ -122,9 +132,14 @@ def upgrade_baseline(path: Path) -> Upgraded | None:
     finally:
         scratch.unlink(missing_ok=True)
     expectation = read.expectation
-    if version < 5:
-        expectation = _departures(path, version, lines, expectation, as_recorded=as_recorded)
     spec_name, log_name = _names(lines)
+    if version < 5 and not as_recorded:
+        log = recordings(path, log_name)
+        if not log.is_file() or log_digest(log) != read.log_digest:
+            raise BaselineError(path, f"its recording {log} is not as it was: {_RE_APPROVE}")
+        expectation = _departures(path, version, log, expectation)
+    elif as_recorded:
+        expectation = _as_recorded(path, expectation)
     write_baseline(
         path,
         spec_name=spec_name,
@@ -148,22 +163,20 @@ def _names(lines: Sequence[str]) -> tuple[str, str]:
     return spec, log.rpartition(" sha256 ")[0]
 
 
-def _departures(
-    path: Path, version: int, lines: Sequence[str], whole: Expectation, *, as_recorded: bool
-) -> Expectation:
-    """Where a whole trace of format ``version`` departs from the recording beside it."""
+def _as_recorded(path: Path, expectation: Expectation) -> Expectation:
+    """A format 4 baseline of the line ``state changes and outputs as recorded``."""
+    if expectation.changes or expectation.outputs or expectation.open_loop or expectation.quiet:
+        raise BaselineError(
+            path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
+        )
+    return expectation
+
+
+def _departures(path: Path, version: int, log: Path, whole: Expectation) -> Expectation:
+    """Where a whole trace of format ``version`` departs from the recording ``log``."""
     if whole.quiet or any(line.value is AS_RECORDED for line in whole.outputs or ()):
         said = QUIET if whole.quiet else f"{OUTPUT}... as recorded"
         raise BaselineError(path, f"a format {version} baseline holds no '{said.strip()}' lines")
-    if as_recorded:
-        if whole.changes or whole.outputs or whole.open_loop:
-            raise BaselineError(
-                path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
-            )
-        return whole
-    log = path.with_name(_names(lines)[1])
-    if not log.is_file() or log_digest(log) != _digest(lines):
-        raise BaselineError(path, f"its recording {log} is not beside it as it was: {_RE_APPROVE}")
     changes, quiet = _change_departures(whole.changes, recorded_trace(log))
     outputs: tuple[TracedOutput, ...] = ()
     if version >= 2:
@@ -173,10 +186,6 @@ def _departures(
     return dataclasses.replace(
         whole, changes=changes, outputs=outputs, quiet=quiet, open_loop=min(starts, default=None)
     )
-
-
-def _digest(lines: Sequence[str]) -> str:
-    return next((line.rpartition(" ")[2] for line in lines if line.startswith("# log ")), "")
 
 
 def _change_departures(

@@ -24,11 +24,11 @@ from beatlog.analysis.trace import recorded_states, today_trace, whole_trace
 from beatlog.baseline.file import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,
-    SPEC_SUFFIX,
     expected_path,
     log_digest,
     pending_path,
     read_baseline,
+    spec_path,
 )
 from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
 from beatlog.baseline.write import format_lines, write_baseline
@@ -381,7 +381,6 @@ def find_orphans(folders: Iterable[Path]) -> list[Path]:
         for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
             for path in folder.rglob(f"*{suffix}"):
                 hidden = any(p.startswith(".") for p in path.relative_to(folder).parts[:-1])
-                spec = path.with_name(path.name[: -len(suffix)] + SPEC_SUFFIX)
-                if path.is_file() and not hidden and not spec.is_file():
+                if path.is_file() and not hidden and not spec_path(path).is_file():
                     orphans.add(path)
     return sorted(orphans)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.cli.arguments import add_paths
@@ -16,16 +17,25 @@ __all__ = ["add_arguments", "run"]
 
 def add_arguments(upgrade: argparse.ArgumentParser) -> None:
     """The arguments of ``beatlog upgrade-baselines``."""
-    add_paths(upgrade, "baselines, or folders with approved and pending baselines")
+    add_paths(upgrade, "baselines, specs, or folders with approved and pending baselines")
 
 
 def run(args: argparse.Namespace, console: Console) -> int:
     """Upgrade each older baseline given, naming each and the format it had."""
     from beatlog.baseline.upgrade import upgrade_baselines
 
-    upgraded = upgrade_baselines(args.paths)
+    upgraded = upgrade_baselines(args.paths, _recording)
     if not upgraded:
         console.print("no baseline of an older format", highlight=False)
     for path, version in upgraded:
         console.print(f"[green]upgraded[/] {path}: format {version} -> 6", highlight=False)
     return EXIT_OK
+
+
+def _recording(baseline: Path, log_name: str) -> Path:
+    """The recording its spec names, else the one named ``log_name`` beside it."""
+    from beatlog.baseline.file import spec_path
+    from beatlog.suite.spec import load_spec
+
+    spec = spec_path(baseline)
+    return load_spec(spec).log if spec.is_file() else baseline.with_name(log_name)
