@@ -19,7 +19,6 @@ from beatlog.replaying.expectation import (
     Expectation,
     TracedChange,
     TracedOutput,
-    TracedState,
 )
 from beatlog.replaying.pins import StatePins
 from beatlog.replaying.state_digests import XXH64
@@ -52,7 +51,7 @@ def baseline_of(log: Path, path: Path, expectation: Expectation) -> Path:
 
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    baseline_of(log, path, Expectation(CHANGES, (), departures=True))
+    baseline_of(log, path, Expectation(CHANGES, ()))
 
     baseline = read_baseline(path)
 
@@ -72,7 +71,7 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    baseline_of(log, path, Expectation(CHANGES[:2], (), departures=True))
+    baseline_of(log, path, Expectation(CHANGES[:2], ()))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -86,7 +85,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    baseline_of(log, path, Expectation((), (), departures=True))
+    baseline_of(log, path, Expectation((), ()))
     assert read_baseline(path).expectation.changes == ()
 
 
@@ -187,7 +186,7 @@ def test_an_output_value_reads_back_bit_for_bit(
 ) -> None:
     path = tmp_path / "a.dtc.expected"
     outputs = (TracedOutput(5, 180_000_000, "motor", value),)
-    baseline_of(log, path, Expectation((), outputs, departures=True))
+    baseline_of(log, path, Expectation((), outputs))
 
     assert path.read_text(encoding="utf-8").splitlines()[-1] == (
         f'       5     0.180  output "motor" = {written}'
@@ -204,7 +203,7 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         TracedOutput(12, 360_012_000, "speed", 0.0),
         TracedOutput(13, 390_000_000, "speed", ABSENT),
     )
-    baseline_of(log, path, Expectation(CHANGES[:2], outputs, departures=True))
+    baseline_of(log, path, Expectation(CHANGES[:2], outputs))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -232,7 +231,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     pins = StatePins.from_rebuilt(rebuilt_states(states))
     outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
     changes = (TracedChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
-    expectation = Expectation(changes, outputs, state_pins=pins, departures=True)
+    expectation = Expectation(changes, outputs, state_pins=pins)
     baseline_of(log, path, expectation)
 
     lines = path.read_text(encoding="utf-8").splitlines()
@@ -247,7 +246,6 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     ]
     baseline = read_baseline(path)
     assert baseline.expectation.state_pins == pins
-    assert baseline.expectation.robot_states == ()
 
 
 def test_a_baselines_robot_states_read_back_pinned_by_their_xxh64_digests(
@@ -258,12 +256,6 @@ def test_a_baselines_robot_states_read_back_pinned_by_their_xxh64_digests(
     path = baseline_file(tmp_path, 6, *format_lines((), (), state_pins=pins))
 
     assert read_baseline(path).expectation.state_pins == pins
-
-
-def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Path) -> None:
-    states = (TracedState(12, 360_012_000, "distance", 0.55),)
-    with pytest.raises(ValueError, match="format 3 robot-state pins cannot be written"):
-        baseline_of(log, tmp_path / "a.dtc.pending", Expectation((), (), states, departures=True))
 
 
 RUN = "robot_state otherwise in 7..7 (1 cycle)"
@@ -358,7 +350,6 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
         CHANGES[1:2],
         outputs,
         open_loop=(12, 360_012_000),
-        departures=True,
         quiet=((15, 450_000_000),),
     )
     baseline_of(log, path, expectation)
@@ -380,11 +371,6 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
     )
     assert read.changes_override() == {12: [CHANGES[1].change], 15: []}
     assert not read.as_recorded
-
-
-def test_a_whole_trace_is_no_longer_written(tmp_path: Path, log: Path) -> None:
-    with pytest.raises(ValueError, match="a whole trace cannot be written"):
-        baseline_of(log, tmp_path / "a.dtc.pending", Expectation(CHANGES, ()))
 
 
 @pytest.mark.parametrize(

@@ -34,7 +34,6 @@ DEPARTURES = Expectation(
         TracedOutput(20, 600_000_000, "speed", AS_RECORDED),
     ),
     open_loop=(12, 360_000_000),
-    departures=True,
     quiet=((15, 450_000_000),),
 )
 

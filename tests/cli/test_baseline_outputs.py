@@ -148,7 +148,7 @@ def test_a_format_4_baseline_of_the_whole_trace_upgrades_to_the_same_departures(
     departures = path.read_text(encoding="utf-8")
     approved = read_baseline(path).expectation
     trace = whole_trace(approved, spec.parent.parent / "probe.beatlog")
-    lines = format_lines(trace.changes, trace.outputs, open_loop=trace.open_loop)
+    lines = format_lines(trace.changes, trace.outputs, open_loop=trace.baseline.open_loop)
     path.write_text(
         "\n".join(
             [

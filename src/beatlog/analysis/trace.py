@@ -7,12 +7,11 @@ traced compactly: a field appears only in the cycles where its value changes.
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import msgspec
 
@@ -40,6 +39,7 @@ from beatlog.replaying.verdict import StateChange
 __all__ = [
     "ReplayedTrace",
     "TraceCollector",
+    "WholeTrace",
     "recorded_outputs",
     "recorded_states",
     "recorded_trace",
@@ -86,9 +86,18 @@ class ReplayedTrace:
             state_pins=self.state_pins,
             draws=self.draws,
             open_loop=departures.first,
-            departures=True,
             quiet=departures.quiet,
         )
+
+
+class WholeTrace(NamedTuple):
+    """A session's state changes and outputs in every cycle, as an approved baseline
+    (or the recording) has them, for review: ``baseline`` is the rest it approves
+    (robot-state pins, draws, where it goes open loop)."""
+
+    changes: tuple[TracedChange, ...]
+    outputs: tuple[TracedOutput, ...]
+    baseline: Expectation
 
 
 def recorded_trace(log: str | Path) -> list[TracedChange]:
@@ -123,14 +132,12 @@ def _with_outputs(
 
 def whole_trace(
     expectation: Expectation, log: str | Path, rename: Callable[[str], str] = str
-) -> Expectation:
-    """An expectation with its state changes and outputs as a whole trace: those of
-    departures (:attr:`Expectation.departures`) applied to the ones ``log`` recorded
-    (behaviors named as ``rename`` names them now); a whole one as it is."""
-    if not expectation.departures:
-        return expectation
+) -> WholeTrace:
+    """The state changes and outputs of an approved baseline as a whole trace: its
+    departures applied to the ones ``log`` recorded (behaviors named as ``rename`` names
+    them now)."""
     override = expectation.changes_override() or {}
-    lines = itertools.groupby(expectation.outputs or (), key=lambda o: o.cycle)
+    lines = itertools.groupby(expectation.outputs, key=lambda o: o.cycle)
     line = next(lines, None)
     held: dict[str, Any] = {}
     changes: list[TracedChange] = []
@@ -153,25 +160,24 @@ def whole_trace(
                 hold(held, line[1])
                 line = next(lines, None)
             outputs.extend(tracker.observe(cycle, time_ns, apply_outputs(values, held)))
-    return dataclasses.replace(
-        expectation, changes=tuple(changes), outputs=tuple(outputs), departures=False, quiet=()
-    )
+    return WholeTrace(tuple(changes), tuple(outputs), expectation)
 
 
 def today_trace(
     approved: Expectation | None, log: str | Path, rename: Callable[[str], str] = str
-) -> Expectation:
+) -> WholeTrace:
     """What replay judges ``log`` against today, as a whole trace: its ``approved``
     baseline's (:func:`whole_trace`), else the recording's state changes (behaviors
     named as ``rename`` names them now) and outputs."""
     if approved is not None:
         return whole_trace(approved, log, rename)
-    return Expectation(
+    return WholeTrace(
         tuple(
             TracedChange(c.cycle, c.time_ns, _renamed(c.change, rename))
             for c in recorded_trace(log)
         ),
         tuple(recorded_outputs(log)),
+        Expectation(()),
     )
 
 

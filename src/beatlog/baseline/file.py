@@ -230,10 +230,8 @@ def _expectation(path: Path, found: ParsedLines) -> Expectation:
     return Expectation(
         tuple(found.changes),
         tuple(found.outputs),
-        (),
         pins,
         tuple(found.draws),
         found.open_loop,
-        departures=True,
-        quiet=tuple(found.quiet),
+        tuple(found.quiet),
     )

@@ -166,18 +166,12 @@ def write_baseline(
     expectation: Expectation,
 ) -> None:
     """Write a baseline file atomically: readers see the old file or the new one.
-    ``log_name`` and ``digest`` (:func:`log_digest`) bind it to its recording.
+    ``log_name`` and ``digest`` (:func:`~beatlog.baseline.file.log_digest`) bind it to
+    its recording.
 
     :raises BaselineError: the file cannot be written (a full disk): the old file, if
         any, stays whole.
-    :raises ValueError: ``expectation`` is a whole trace (baseline formats 1 to 4),
-        not departures from the recording, or pins robot-state fields value by value, as
-        only format 3 files did: trace the log again.
     """
-    if expectation.robot_states:
-        raise ValueError("format 3 robot-state pins cannot be written: trace the log again")
-    if not expectation.departures:
-        raise ValueError("a whole trace cannot be written, only departures: trace the log again")
     lines = [
         HEADER,
         f"# spec {spec_name}",

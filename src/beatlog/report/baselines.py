@@ -230,17 +230,6 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
         ),
         _loop_line(diff),
         *render_losses(diff.shift, "lost: "),
-        *(
-            Text.assemble(
-                ("robot state ", "cyan"),
-                f"{json.dumps(change.field)} rebuilt otherwise in "
-                f"{plural(change.cycles, 'cycle')}, first in cycle {change.first_cycle}: ",
-                (_value(change.before), "red"),
-                " → ",
-                (_value(change.after), "green"),
-            )
-            for change in diff.robot_states
-        ),
         *(_run_line(run) for run in diff.rebuilt_runs[:_MAX_RUNS]),
         *(
             Text.assemble(("draws ", "cyan"), str(rule))
