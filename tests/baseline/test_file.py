@@ -21,7 +21,6 @@ from beatlog.replaying.expectation import (
     TracedOutput,
 )
 from beatlog.replaying.pins import StatePins
-from beatlog.replaying.state_digests import XXH64
 from beatlog.replaying.verdict import StateChange
 from tests.factories import rebuilt_states, speed_state
 from tests.specs import baseline_file
@@ -248,11 +247,11 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     assert baseline.expectation.state_pins == pins
 
 
-def test_a_baselines_robot_states_read_back_pinned_by_their_xxh64_digests(
+def test_a_baselines_robot_states_read_back_pinned_by_their_digests(
     tmp_path: Path,
 ) -> None:
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16, 40)}
-    pins = StatePins.from_rebuilt(rebuilt_states(states, XXH64), XXH64)
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
     path = baseline_file(tmp_path, 6, *format_lines((), (), state_pins=pins))
 
     assert read_baseline(path).expectation.state_pins == pins

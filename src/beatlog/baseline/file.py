@@ -75,7 +75,6 @@ from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.files import irregular_file_problem, read_text_blocks
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.pins import StatePins
-from beatlog.replaying.state_digests import XXH64
 
 __all__ = [
     "BLOCK_BYTES",
@@ -224,7 +223,7 @@ def _expectation(path: Path, found: ParsedLines) -> Expectation:
     if both:
         raise BaselineError(path, f"cycle {min(both)} has state changes and none")
     try:
-        pins = StatePins(tuple(found.runs), tuple(found.blocks), XXH64)
+        pins = StatePins(tuple(found.runs), tuple(found.blocks))
     except ValueError as exc:
         raise BaselineError(path, str(exc)) from None
     return Expectation(
