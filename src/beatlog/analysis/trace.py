@@ -7,6 +7,7 @@ traced compactly: a field appears only in the cycles where its value changes.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
@@ -23,7 +24,7 @@ from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
 from beatlog.replaying.compare import WHOLE_STATE, state_fields
 from beatlog.replaying.core import CycleOutcome, Replayer
-from beatlog.replaying.departures import DepartureCollector, Departures, apply_outputs, hold
+from beatlog.replaying.departures import DepartureCollector, apply_outputs, hold
 from beatlog.replaying.draws import DrawRule, draw_rules
 from beatlog.replaying.expectation import (
     Expectation,
@@ -66,28 +67,20 @@ class ReplayedTrace:
     recorded, pinned by digest in each cycle where it did."""
     draws: tuple[DrawRule, ...] = ()
     """In living replay, the draws made otherwise than recorded."""
-    departures: Departures = field(default_factory=Departures)
+    departures: Expectation = field(default_factory=lambda: Expectation(()))
     """Where the state changes and outputs depart from the recording's."""
 
     @property
     def open_loop(self) -> tuple[int, int] | None:
         """The first cycle (and its robot time) whose state changes or outputs differ
         from the recording's."""
-        return self.departures.first
+        return self.departures.open_loop
 
     @property
     def expectation(self) -> Expectation:
         """This trace as the expectation a baseline pins: where it departs from the
         recording."""
-        departures = self.departures
-        return Expectation(
-            departures.changes,
-            departures.outputs,
-            state_pins=self.state_pins,
-            draws=self.draws,
-            open_loop=departures.first,
-            quiet=departures.quiet,
-        )
+        return dataclasses.replace(self.departures, state_pins=self.state_pins, draws=self.draws)
 
 
 class WholeTrace(NamedTuple):
