@@ -22,11 +22,11 @@ import tempfile
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from beatlog.suite.baseline import pending_path
+from beatlog.baseline.file import pending_path
+from beatlog.baseline.policy import UpdateMode
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import UpdateAction, update_baselines
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import UpdateMode
 from beatlog_examples.dog import SUITE_DIR, perception
 
 _MODULE = "retuned_perception"

@@ -48,16 +48,16 @@ import msgspec
 from rich.console import Console
 from rich.table import Table
 
+from beatlog.baseline.file import expected_path, read_baseline
+from beatlog.baseline.policy import UpdateMode
 from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.judge import replay
-from beatlog.suite.baseline import expected_path, read_baseline
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import load_system

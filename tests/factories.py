@@ -29,7 +29,7 @@ from beatlog.log.format import (
 )
 from beatlog.log.reader import SessionLogReader
 from beatlog.replaying.pins import RebuiltState
-from beatlog.replaying.state_digests import XXH64, PinDigest, state_digest
+from beatlog.replaying.state_digests import state_digest
 from beatlog.replaying.verdict import Checked
 from tests.crafting import FORMAT_1_CHANNELS, Message, craft_log, top_level_records
 
@@ -260,17 +260,15 @@ def encoded(state: dict[str, Any]) -> bytes:
     return payload_encoder().encode(state)
 
 
-def rebuilt_states(
-    states: dict[int, dict[str, Any]], scheme: PinDigest = XXH64
-) -> list[RebuiltState]:
+def rebuilt_states(states: dict[int, dict[str, Any]]) -> list[RebuiltState]:
     """The states as a trace collects them where perception rebuilt their speed
-    otherwise, in cycle order (1 ms a cycle), digested with ``scheme``."""
+    otherwise, in cycle order (1 ms a cycle)."""
     return [
         RebuiltState(
             cycle,
             cycle * 1_000_000,
             {"speed": state["speed"]},
-            state_digest(encoded(state), scheme),
+            state_digest(encoded(state)),
         )
         for cycle, state in sorted(states.items())
     ]

@@ -20,6 +20,7 @@ PACKAGES = [
     "beatlog",
     "beatlog.analysis",
     "beatlog.audit",
+    "beatlog.baseline",
     "beatlog.log",
     "beatlog.model",
     "beatlog.record",
@@ -93,6 +94,7 @@ LAYERS = [
     {"analysis"},
     {"audit"},
     {"record"},
+    {"baseline"},
     {"suite"},
     {"report"},
     {"suite_session"},
@@ -103,7 +105,8 @@ LAYERS = [
 """beatlog's parts (its subpackages and top-level modules), from the ground up: a part
 imports its own modules and those of the layers below it, never one above or beside.
 The log format knows nothing of the execution model, the model nothing of replay; the
-record engine certifies a session with replay and the audit's leak watch; the reports
+record engine certifies a session with replay and the audit's leak watch; a baseline
+is read against the recording it departs from; the reports
 render what suites and replays give; the suite session puts suites and reports together
 for the shells (the CLI, the pytest plugin); ``beatlog/__init__`` is the API."""
 
@@ -170,10 +173,11 @@ def test_no_import_runs_up_the_layers_or_across_one() -> None:
     assert upward == []
 
 
-ONE_IDEA = {"replaying/judge.py", "replaying/view.py"}
+ONE_IDEA = {"replaying/judge.py", "replaying/view.py", "baseline/read.py"}
 """Modules past 400 lines that each hold one idea whole, folded rather than cut in two:
-the judge (the verdict, the first divergence written up, what follows it) and the views
-of a robot state over a format-3 log (the views and the batches they read)."""
+the judge (the verdict, the first divergence written up, what follows it), the views
+of a robot state over a format-3 log (the views and the batches they read) and the
+reading of a baseline's lines (each alone, and the common ones a block at a time)."""
 
 
 def test_every_module_is_under_400_lines() -> None:

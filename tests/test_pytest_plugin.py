@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 import beatlog_examples.rover
-from beatlog.suite.baseline import expected_path, pending_path, read_baseline
+from beatlog.baseline.file import expected_path, pending_path, read_baseline
 from beatlog.suite.discovery import discover_specs, select_specs
 from beatlog.suite.spec import find_rootdir
 from beatlog_examples.rover import record_lockstep
@@ -269,6 +269,26 @@ def test_update_on_a_full_disk_is_one_line_naming_the_pending_file(
     result.assert_outcomes(errors=1)
     result.stdout.fnmatch_lines([f"*{pending_path(spec)}: cannot write: No space left on device"])
     result.stdout.no_fnmatch_line("*BaselineError*")  # one line, no traceback of beatlog's
+
+
+def test_an_older_baseline_is_one_line_naming_the_command_that_upgrades_it(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    spec = pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    old = expected_path(spec)
+    old.write_text(
+        f"# beatlog expected departures from the recording, format 5\n"
+        f"# log {log.name} sha256 {'0' * 64}\n",
+        encoding="utf-8",
+    )
+
+    result = pytester.runpytest()
+
+    result.assert_outcomes(errors=1)
+    result.stdout.fnmatch_lines(
+        [f"*{old}: a format 5 baseline: run 'beatlog upgrade-baselines {old}' to rewrite it*"]
+    )
+    result.stdout.no_fnmatch_line("*BaselineError*")
 
 
 def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(

@@ -8,14 +8,14 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.baseline.file import expected_path, pending_path, read_baseline
+from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import OptionError
 from beatlog.report.suite import SuiteReport
-from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.options import SuiteOptions
-from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import load_spec
 from beatlog.suite_session import SuiteSession, conclude, prepare_report, run_session

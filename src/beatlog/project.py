@@ -3,7 +3,7 @@
 It is the user's word, as their specs and command lines are: the behavior renames and
 the robot-state field renames and conversions that hold for every spec, the
 systems the project vouches for, and how much of the suite may run open loop before
-it counts as stale (:mod:`beatlog.suite.policy`). A log records the
+it counts as stale (:mod:`beatlog.baseline.policy`). A log records the
 ``module:factory`` it was recorded with, but bytes from a log never choose code: that
 reference is used only when the project lists it under ``systems`` (see
 :func:`vouched_system`).

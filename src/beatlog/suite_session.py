@@ -19,6 +19,7 @@ from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from beatlog.baseline.policy import open_loop_share, stale_suite
 from beatlog.errors import BaselineError, OptionError
 from beatlog.files import write_json
 from beatlog.project import ProjectConfig, project_config
@@ -31,7 +32,6 @@ from beatlog.suite.last_failed import last_failed_path, remember_failed
 from beatlog.suite.maintenance import find_orphans, update_baselines
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import open_loop_share, stale_suite
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.selection import Selection, check_break_at, fleet_of, select_suite
 

@@ -23,8 +23,7 @@ from beatlog.errors import FieldError, NotABeatlogError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.replaying.core import Replayer
-from beatlog.replaying.expectation import EveryCycle
-from beatlog.replaying.verdict import DivergenceKind, StateChange
+from beatlog.replaying.verdict import DivergenceKind
 from tests.conftest import (
     PERIOD_NS,
     Near,
@@ -174,25 +173,6 @@ def test_random_numbers_that_do_not_match_are_marked(
     assert timeline.divergence == Mark(cycle, cycle_times(50)[cycle], kind)
     # Drawing too many stops replay at once; drawing too few leaves it able to go on.
     assert (timeline.replayed_until_ns == timeline.end_ns) is replayed_to_the_end
-
-
-def test_an_approved_baseline_replaces_the_recording_as_the_expected_trace(
-    record_probe: RecordFn,
-) -> None:
-    log = record_probe(300)
-    times = cycle_times(300)
-    baseline = EveryCycle({3: [StateChange("near", "far", "near")]})  # a whole trace
-
-    recorded_only = build_timeline(log, expected=baseline)
-    replayed = build_timeline(log, probe_system(), expected=baseline)
-
-    near, _ = lane(recorded_only, "near")
-    assert near == (Interval(0, times[3], "far"), Interval(times[3], times[-1], "near"))
-    arbiter, _ = lane(recorded_only, "arbiter")
-    assert arbiter == (Interval(0, times[-1], "idle"),)  # never changed: its recorded state
-    arbiter, _ = lane(replayed, "arbiter")
-    assert arbiter == (Interval(0, times[-1], "idle"),)  # the system's own first state
-    assert replayed.divergence is None  # a timeline marks only the verdict it is given
 
 
 def test_departures_replace_the_recording_only_in_the_cycles_they_hold(

@@ -9,7 +9,6 @@ import numpy as np
 
 from beatlog import replay
 from beatlog.analysis.trace import recorded_outputs, recorded_trace, replayed_trace, whole_trace
-from beatlog.replaying.departures import Departures
 from beatlog.replaying.expectation import ABSENT, Expectation, OutputTracker, TracedOutput
 from beatlog.replaying.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
@@ -111,13 +110,12 @@ def test_departures_applied_to_the_recording_give_back_the_whole_trace(
 
     whole = whole_trace(departures, log)
 
-    assert departures.departures
     assert 0 < len(departures.outputs or ()) < len(replayed.outputs)
     assert (whole.changes, whole.outputs) == (replayed.changes, replayed.outputs)
-    assert whole.open_loop == replayed.open_loop == (departures.changes[0].cycle, ANY)
+    assert whole.baseline.open_loop == replayed.open_loop == (departures.changes[0].cycle, ANY)
 
 
 def test_a_trace_as_recorded_departs_nowhere(record_probe: RecordFn) -> None:
     replayed = replayed_trace(record_probe(300), probe_system(), living=True)
-    assert replayed.departures == Departures()
+    assert replayed.departures == Expectation(())
     assert replayed.expectation.as_recorded

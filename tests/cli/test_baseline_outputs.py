@@ -1,6 +1,7 @@
 """An approved baseline keeps every check: it pins the outputs too, ``--update`` and
-``approve`` write them, ``review`` shows their changes, and a format 1 baseline (state
-changes only) still judges outputs against the recording until it is re-approved."""
+``approve`` write them, ``review`` shows their changes, and a baseline of an older
+format, refused until upgraded, upgrades to the departures it stood for (a format 1
+one, state changes only, to outputs as recorded)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,8 @@ from pathlib import Path
 import pytest
 
 from beatlog.analysis.trace import whole_trace
-from beatlog.suite.baseline import expected_path, format_lines, pending_path, read_baseline
+from beatlog.baseline.file import expected_path, read_baseline
+from beatlog.baseline.write import format_lines
 from tests.commands import Beatlog
 from tests.conftest import RecordFn, first_cycle_below
 from tests.specs import CHANGED, write_spec
@@ -99,7 +101,7 @@ def test_review_shows_the_output_changes_of_the_changed_cycles(
     assert len(lines) < 80  # changed cycles with a line of context, not the whole file
 
 
-def test_a_format_1_baseline_judges_outputs_against_the_recording_until_re_approved(
+def test_a_format_1_baseline_is_upgraded_to_judge_outputs_against_the_recording(
     spec: Path, beatlog: Beatlog
 ) -> None:
     path = expected_path(spec)
@@ -115,46 +117,57 @@ def test_a_format_1_baseline_judges_outputs_against_the_recording_until_re_appro
         encoding="utf-8",
     )
 
-    run = beatlog("test", "--update", spec)
+    refused = beatlog("test", spec)
+    upgraded = beatlog("upgrade-baselines", spec.parent)
 
-    assert run.code == 1
-    assert (
-        "outputs differ from the recording (the approved baseline pins no outputs: re-approve it)"
-        in whole_lines(run.out)
+    assert refused.code == 2
+    assert refused.err.count("\n") == 1
+    assert refused.err.endswith(
+        f": {path}: a format 1 baseline: "
+        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 6\n"
     )
-    assert pending_path(spec).exists()
+    assert (upgraded.code, upgraded.out) == (0, f"upgraded {path}: format 1 -> 6\n")
+    upgrade = read_baseline(path).expectation
+    assert (upgrade.changes, upgrade.quiet, upgrade.outputs) == (
+        approved.changes,
+        approved.quiet,
+        (),
+    )
+    run = beatlog("test", "--update", spec)
+    assert run.code == 1
+    assert "outputs differ from the approved baseline" in whole_lines(run.out)
     assert beatlog("approve", spec).code == 0
     assert read_baseline(path).expectation.outputs == approved.outputs
     assert beatlog("test", spec).code == 0
 
 
-def test_a_format_4_baseline_of_the_whole_trace_still_judges_and_reviews(
-    spec: Path, beatlog: Beatlog, monkeypatch: pytest.MonkeyPatch
+def test_a_format_4_baseline_of_the_whole_trace_upgrades_to_the_same_departures(
+    spec: Path, beatlog: Beatlog
 ) -> None:
     path = expected_path(spec)
-    departures = path.read_text(encoding="utf-8").splitlines()
-    trace = whole_trace(read_baseline(path).expectation, spec.parent.parent / "probe.beatlog")
-    lines = format_lines(trace.changes, trace.outputs, open_loop=trace.open_loop)
+    departures = path.read_text(encoding="utf-8")
+    approved = read_baseline(path).expectation
+    trace = whole_trace(approved, spec.parent.parent / "probe.beatlog")
+    lines = format_lines(trace.changes, trace.outputs, open_loop=trace.baseline.open_loop)
     path.write_text(
         "\n".join(
             [
                 "# beatlog expected state changes, outputs, robot states and draws, format 4",
-                *departures[1:3],
+                *departures.splitlines()[1:3],
                 *lines,
             ]
         )
         + "\n",
         encoding="utf-8",
     )
-    assert len(lines) > len(departures)  # the whole trace, not only where it departs
+    assert len(lines) > len(departures.splitlines())  # the whole trace
+
+    run = beatlog("upgrade-baselines", path)
+
+    assert (run.code, run.out) == (0, f"upgraded {path}: format 4 -> 6\n")
+    assert read_baseline(path).expectation == approved
+    assert path.read_text(encoding="utf-8") == departures
     assert beatlog("test", spec).code == 0
-    monkeypatch.setattr("sys.stdin", io.StringIO(""))
-    write_spec(spec.parent, "avoid-pole", spec.parent.parent / "probe.beatlog", GEARED)
-    assert beatlog("test", "--update", spec).code == 1
-
-    run = beatlog("review", spec)
-
-    changed = [line for line in run.out.splitlines() if line[:1] in "+-"]
-    assert changed[:2] == [f"--- approved ({path.name})", "+++ pending"]
-    assert len(changed) > 2
-    assert all('output "speed"' in line for line in changed[2:])  # only the gain changed
+    again = beatlog("upgrade-baselines", path)
+    assert (again.code, again.out) == (0, "no baseline of an older format\n")
+    assert path.read_text(encoding="utf-8") == departures

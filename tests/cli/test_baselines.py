@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
+from beatlog.baseline.file import expected_path, pending_path, read_baseline
 from beatlog.cli.baselines import review
-from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from tests.commands import Beatlog, assert_error, at_a_terminal
 from tests.conftest import RecordFn
 from tests.factories import fill_the_disk_after

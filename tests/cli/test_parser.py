@@ -18,6 +18,7 @@ SUBCOMMANDS = [
     "test",
     "review",
     "approve",
+    "upgrade-baselines",
     "show",
     "plot",
     "export",

@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 
 from beatlog.analysis.trace import recorded_outputs, recorded_trace
-from beatlog.suite.baseline import expected_path, format_lines, pending_path, read_baseline
+from beatlog.baseline.file import expected_path, pending_path, read_baseline
+from beatlog.baseline.write import format_lines
 from tests.commands import Beatlog
 from tests.conftest import distances
 from tests.perceptions import (
@@ -132,8 +133,8 @@ def test_a_one_ulp_change_of_one_field_in_one_cycle_fails_in_that_cycle(
     )
 
 
-def test_a_format_3_baseline_still_judges_the_field_values_it_pins(
-    tmp_path: Path, log: Path, beatlog: Beatlog, approved: Path
+def test_a_format_3_baseline_pinning_field_values_is_left_to_re_approve(
+    log: Path, beatlog: Beatlog, approved: Path
 ) -> None:
     lines = expected_path(approved).read_text(encoding="utf-8").splitlines()
     fields = [
@@ -143,28 +144,25 @@ def test_a_format_3_baseline_still_judges_the_field_values_it_pins(
     ]
     comments = [line for line in lines[1:] if line.startswith("# ")]
     trace = format_lines(recorded_trace(log), recorded_outputs(log))  # format 3 held it all
-    kept = [*comments, *trace]
-    expected_path(approved).write_text(
-        "\n".join(
-            [
-                "# beatlog expected state changes, outputs and robot states, format 3",
-                *kept,
-                *fields,
-            ]
-        )
-        + "\n",
-        encoding="utf-8",
+    path = expected_path(approved)
+    text = "\n".join(
+        [
+            "# beatlog expected state changes, outputs and robot states, format 3",
+            *comments,
+            *trace,
+            *fields,
+        ]
     )
-    assert len(read_baseline(expected_path(approved)).expectation.robot_states) == LONG
+    path.write_text(text + "\n", encoding="utf-8")
 
-    assert beatlog("test", approved).code == 0
-    again = beatlog("test", write_spec(tmp_path, "sensors", log, perception=CHANGED_AGAIN))
-    assert again.code == 1
-    assert whole_lines(again.out)[2:4] == [
-        "first divergence: cycle 0, t = 0.030 s, perception",
-        "the robot state rebuilt from the samples differs from the approved baseline in distance",
-    ]
-    assert table_row(again.out, "distance = 1.1") == ["distance = 1.1", "distance = 1.2"]
+    run = beatlog("upgrade-baselines", approved)
+
+    assert (run.code, run.out) == (2, "")
+    assert run.err == (
+        f"beatlog: error: {path}: its robot states are pinned as format 3 pinned them: "
+        "re-approve it from its recording ('beatlog test --update', then 'beatlog approve')\n"
+    )
+    assert path.read_text(encoding="utf-8") == text + "\n"
 
 
 def test_a_retuned_perception_pins_a_long_log_in_a_few_bytes_a_cycle(

@@ -53,13 +53,12 @@ BASELINE = Expectation(
         output(8, "turn", AS_RECORDED),
         output(8, "wag", AS_RECORDED),
     ),
-    departures=True,
     quiet=((6, 180),),
 )
 
 
 def test_departures_stand_in_for_the_recording_in_their_cycles_only() -> None:
-    expected = ExpectedRecords(BASELINE, NAMES, NAMES, lambda name: name)
+    expected = ExpectedRecords(BASELINE, NAMES, lambda name: name)
     batches = [
         [recorded(cycle) for cycle in cycles] for cycles in ([0, 1, 2], [3], [4, 5, 6, 7], [8, 9])
     ]

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.cli.main import main
 from beatlog.errors import FieldError
 from beatlog.model.perception import Perception
@@ -16,7 +17,6 @@ from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.judge import NO_SAMPLES, replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, FieldDifference
-from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import distances, probe_system

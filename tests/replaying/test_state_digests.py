@@ -1,9 +1,8 @@
-"""A robot state's digest: every bit of the state as a log encodes it, by the
-digest of the baseline's format."""
+"""A robot state's digest: every bit of the state as a log encodes it, by XXH64."""
 
 from __future__ import annotations
 
-from beatlog.replaying.state_digests import BLAKE2B, state_digest
+from beatlog.replaying.state_digests import state_digest
 from tests.factories import encoded
 
 
@@ -17,8 +16,3 @@ def test_a_digest_counts_every_bit_of_the_state_as_a_log_encodes_it() -> None:
 def test_a_digest_is_xxh64_as_its_specification_gives_it() -> None:
     # the empty input's XXH64 (seed 0), from the xxHash specification's test vectors
     assert state_digest(b"") == bytes.fromhex("ef46db3751d8e999")
-
-
-def test_format_5_digests_are_still_the_keyed_blake2b_they_were() -> None:
-    # as format 5 baselines were written (beatlog 0.3.0)
-    assert state_digest(encoded({"a": 1}), BLAKE2B) == bytes.fromhex("f9db70fa119ca0cc")

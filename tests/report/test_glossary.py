@@ -98,6 +98,9 @@ PRINTED = [
     "looks like another robot's log",
     "unseeded numpy.random.Generator",
     "findings",
+    # beatlog upgrade-baselines
+    "upgraded",
+    "older format",
 ]
 """The words the CLI's messages and reports print that no enum or constant lists."""
 

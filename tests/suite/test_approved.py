@@ -9,13 +9,13 @@ from pathlib import Path
 import pytest
 
 import beatlog
+from beatlog.baseline.policy import UpdateMode
 from beatlog.cli.main import main
 from beatlog.errors import BaselineError
 from beatlog.suite.approved import approved_baseline
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import UpdateMode
 from tests.commands import closing_counts
 from tests.conftest import RecordFn
 from tests.specs import write_spec

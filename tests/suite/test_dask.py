@@ -17,10 +17,10 @@ import dask
 import pytest
 from distributed import Client, LocalCluster
 
+from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
 from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor
 from beatlog.suite.discovery import discover_specs
-from beatlog.suite.policy import SpecOptions
 from beatlog.suite.runner import SpecOutcome
 from tests.commands import Run, assert_error, assert_error_matching, closing_counts
 from tests.conftest import RecordFn

@@ -11,12 +11,12 @@ from pathlib import Path
 import fsspec
 import pytest
 
+from beatlog.baseline.file import expected_path, pending_path
+from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import FleetError, SystemLoadError
-from beatlog.suite.baseline import expected_path, pending_path
 from beatlog.suite.fleet import FLEET_PURPOSE, check_references, fleet_specs
 from beatlog.suite.maintenance import update_baselines
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import Verdict
 from tests.conftest import RecordFn
 from tests.served import LogServer

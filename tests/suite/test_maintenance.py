@@ -9,9 +9,10 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.baseline.file import expected_path, pending_path, read_baseline
+from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import BaselineError, CiWriteError, OptionError
 from beatlog.replaying.verdict import DivergenceKind
-from beatlog.suite.baseline import expected_path, pending_path, read_baseline
 from beatlog.suite.maintenance import (
     Decision,
     UpdateAction,
@@ -23,7 +24,6 @@ from beatlog.suite.maintenance import (
     update_baselines,
 )
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn

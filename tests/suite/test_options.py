@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import OptionError
 from beatlog.suite.options import SuiteOptions
-from beatlog.suite.policy import UpdateMode
 from tests.specs import PROBE
 
 

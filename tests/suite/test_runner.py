@@ -9,15 +9,15 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import pytest
+from beatlog.suite.baseline import expected_path
 
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replaying.verdict import Checked, DivergenceKind
 from beatlog.report.figures import dtc_charts
-from beatlog.suite.baseline import expected_path
 from beatlog.suite.maintenance import PendingUpdate, UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.suite.policy import SpecOptions
+from beatlog.baseline.policy import SpecOptions
 from beatlog.suite.runner import Verdict
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker, WorkerLostError

@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.baseline.policy import UpdateMode
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
 from beatlog_examples.dog import SUITE_DIR

@@ -12,7 +12,7 @@ import itertools
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import msgspec
 
@@ -25,7 +25,7 @@ from beatlog.model.behavior import System
 from beatlog.model.random import DrawDifference
 from beatlog.replaying.compare import WHOLE_STATE, state_fields
 from beatlog.replaying.core import CycleOutcome, Replayer
-from beatlog.replaying.departures import DepartureCollector, Departures, apply_outputs, hold
+from beatlog.replaying.departures import DepartureCollector, apply_outputs, hold
 from beatlog.replaying.draws import DrawRule, draw_rules
 from beatlog.replaying.expectation import (
     Expectation,
@@ -41,6 +41,7 @@ from beatlog.replaying.verdict import StateChange
 __all__ = [
     "ReplayedTrace",
     "TraceCollector",
+    "WholeTrace",
     "recorded_outputs",
     "recorded_states",
     "recorded_trace",
@@ -67,29 +68,30 @@ class ReplayedTrace:
     recorded, pinned by digest in each cycle where it did."""
     draws: tuple[DrawRule, ...] = ()
     """In living replay, the draws made otherwise than recorded."""
-    departures: Departures = field(default_factory=Departures)
+    departures: Expectation = field(default_factory=lambda: Expectation(()))
     """Where the state changes and outputs depart from the recording's."""
 
     @property
     def open_loop(self) -> tuple[int, int] | None:
         """The first cycle (and its robot time) whose state changes or outputs differ
         from the recording's."""
-        return self.departures.first
+        return self.departures.open_loop
 
     @property
     def expectation(self) -> Expectation:
         """This trace as the expectation a baseline pins: where it departs from the
         recording."""
-        departures = self.departures
-        return Expectation(
-            departures.changes,
-            departures.outputs,
-            state_pins=self.state_pins,
-            draws=self.draws,
-            open_loop=departures.first,
-            departures=True,
-            quiet=departures.quiet,
-        )
+        return dataclasses.replace(self.departures, state_pins=self.state_pins, draws=self.draws)
+
+
+class WholeTrace(NamedTuple):
+    """A session's state changes and outputs in every cycle, as an approved baseline
+    (or the recording) has them, for review: ``baseline`` is the rest it approves
+    (robot-state pins, draws, where it goes open loop)."""
+
+    changes: tuple[TracedChange, ...]
+    outputs: tuple[TracedOutput, ...]
+    baseline: Expectation
 
 
 def recorded_trace(log: LogSource) -> list[TracedChange]:
@@ -124,14 +126,12 @@ def _with_outputs(
 
 def whole_trace(
     expectation: Expectation, log: LogSource, rename: Callable[[str], str] = str
-) -> Expectation:
-    """An expectation with its state changes and outputs as a whole trace: those of
-    departures (:attr:`Expectation.departures`) applied to the ones ``log`` recorded
-    (behaviors named as ``rename`` names them now); a whole one as it is."""
-    if not expectation.departures:
-        return expectation
+) -> WholeTrace:
+    """The state changes and outputs of an approved baseline as a whole trace: its
+    departures applied to the ones ``log`` recorded (behaviors named as ``rename`` names
+    them now)."""
     override = expectation.changes_override() or {}
-    lines = itertools.groupby(expectation.outputs or (), key=lambda o: o.cycle)
+    lines = itertools.groupby(expectation.outputs, key=lambda o: o.cycle)
     line = next(lines, None)
     held: dict[str, Any] = {}
     changes: list[TracedChange] = []
@@ -154,25 +154,24 @@ def whole_trace(
                 hold(held, line[1])
                 line = next(lines, None)
             outputs.extend(tracker.observe(cycle, time_ns, apply_outputs(values, held)))
-    return dataclasses.replace(
-        expectation, changes=tuple(changes), outputs=tuple(outputs), departures=False, quiet=()
-    )
+    return WholeTrace(tuple(changes), tuple(outputs), expectation)
 
 
 def today_trace(
     approved: Expectation | None, log: LogSource, rename: Callable[[str], str] = str
-) -> Expectation:
+) -> WholeTrace:
     """What replay judges ``log`` against today, as a whole trace: its ``approved``
     baseline's (:func:`whole_trace`), else the recording's state changes (behaviors
     named as ``rename`` names them now) and outputs."""
     if approved is not None:
         return whole_trace(approved, log, rename)
-    return Expectation(
+    return WholeTrace(
         tuple(
             TracedChange(c.cycle, c.time_ns, _renamed(c.change, rename))
             for c in recorded_trace(log)
         ),
         tuple(recorded_outputs(log)),
+        Expectation(()),
     )
 
 

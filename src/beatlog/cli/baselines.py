@@ -13,6 +13,8 @@ from rich.markup import escape
 from rich.prompt import Prompt
 from rich.text import Text
 
+from beatlog.baseline.file import expected_path
+from beatlog.baseline.policy import require_writable
 from beatlog.errors import OptionError
 from beatlog.report.baselines import (
     loss_text,
@@ -20,7 +22,6 @@ from beatlog.report.baselines import (
     render_orphans,
     render_pending_diff,
 )
-from beatlog.suite.baseline import expected_path
 from beatlog.suite.maintenance import (
     Decision,
     approve,
@@ -29,7 +30,6 @@ from beatlog.suite.maintenance import (
     pending_diff,
     pending_specs,
 )
-from beatlog.suite.policy import require_writable
 
 __all__ = ["approve_command", "print_lines", "report_orphans", "review"]
 

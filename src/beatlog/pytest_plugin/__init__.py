@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import BeatlogError
 from beatlog.pytest_plugin.run import (
     RUN,
@@ -44,7 +45,6 @@ from beatlog.pytest_plugin.run import (
     failure_text,
     quitting_as_pytest,
 )
-from beatlog.suite.policy import UpdateMode
 from beatlog.suite.spec import SPEC_SUFFIX
 
 if TYPE_CHECKING:

@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BeatlogError, OptionError, SpecError
 from beatlog.suite.discovery import discover_specs, distinguished
-from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.spec import DtcSpec, load_spec
 
 if TYPE_CHECKING:

@@ -18,29 +18,22 @@ them back into a whole trace for review.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from typing import Any, NamedTuple
+from typing import Any
 
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.replaying.core import actor_name
-from beatlog.replaying.expectation import ABSENT, AS_RECORDED, TracedChange, TracedOutput
+from beatlog.replaying.expectation import (
+    ABSENT,
+    AS_RECORDED,
+    Expectation,
+    TracedChange,
+    TracedOutput,
+)
 from beatlog.replaying.verdict import StateChange
 
-__all__ = ["DepartureCollector", "Departures", "OutputDepartures", "apply_outputs", "hold"]
-
-
-class Departures(NamedTuple):
-    """The state changes and outputs of a session where they depart from the recording."""
-
-    changes: tuple[TracedChange, ...] = ()
-    """The state changes of the cycles whose state changes differ from the recorded ones."""
-    quiet: tuple[tuple[int, int], ...] = ()
-    """The cycles (and robot times) whose recorded state changes are gone, none in their place."""
-    outputs: tuple[TracedOutput, ...] = ()
-    """Where an output field departs from the recording, or follows it again."""
-    first: tuple[int, int] | None = None
-    """The first cycle (and robot time) that departs: where the session goes open loop."""
+__all__ = ["DepartureCollector", "OutputDepartures", "apply_outputs", "hold"]
 
 
 class OutputDepartures:
@@ -164,8 +157,12 @@ class DepartureCollector:
         }
         return was != {(names[i], encode(b), encode(a)) for i, b, a in changes}
 
-    def departures(self) -> Departures:
-        """The departures gathered so far."""
-        return Departures(
-            tuple(self._changes), tuple(self._quiet), tuple(self._outputs), self._first
+    def departures(self) -> Expectation:
+        """The departures gathered so far, as a baseline holds them (no robot states
+        pinned, no draws approved: those are gathered apart)."""
+        return Expectation(
+            tuple(self._changes),
+            tuple(self._outputs),
+            open_loop=self._first,
+            quiet=tuple(self._quiet),
         )

@@ -263,33 +263,15 @@ class CycleJudge:
         self._expected = (
             None
             if expected is None or expected.as_recorded
-            else ExpectedRecords(
-                expected, self.executor.behavior_ids, header.behaviors, comparison.rename
-            )
+            else ExpectedRecords(expected, header.behaviors, comparison.rename)
         )
         self.expected_names = (
             list(header.behaviors) if self._expected is None else self._expected.names
         )
         self._ledger = None if expected is None else DrawLedger(expected.draws)
         """The draws the approved baseline approves."""
-        self._pinned_states: dict[int, dict[str, Any]] = (
-            expected.states_by_cycle()
-            if expected is not None and replayer.perception is not None
-            else {}
-        )
-        """The robot states a format 3 baseline pins: fields by cycle (sensor-level replay)."""
-        self._pinned_cycles = frozenset(self._pinned_states)
-        """The cycles a format 3 baseline pins (the replay core judges the cycles pinned
-        by digest)."""
         self._state_pins: PinChecker | None = (
             replayer.state_pins if replayer.perception is not None else None
-        )
-        # Whole-trace outputs are encoded with sorted keys, whatever order the behaviors
-        # report them in; recorded ones (and departures') in the order they were reported.
-        outputs_encoder = (
-            msgspec.msgpack.Encoder(enc_hook=encoder.enc_hook, order="sorted")
-            if self._expected is not None and self._expected.sorted_outputs
-            else encoder
         )
         expected_at: dict[str, int] = {}
         for position, name in enumerate(self.expected_names):
@@ -297,14 +279,7 @@ class CycleJudge:
         expected_index = [expected_at.get(name, -1) for name in self.executor.behavior_ids]
         """Each behavior's index in the expected catalogue (-1: none there), for comparing
         the state changes as bytes when the catalogues differ."""
-        if self._expected is None:
-            self._against = self._outputs_against = "the recording"
-        else:
-            self._against = self._outputs_against = "the approved baseline"
-            if not self._expected.pins_outputs:
-                self._outputs_against = (
-                    "the recording (the approved baseline pins no outputs: re-approve it)"
-                )
+        self._against = "the recording" if self._expected is None else "the approved baseline"
         self._batches: deque[Sequence[CycleRecord]] = deque(maxlen=context + 1)
         """The last batches: they hold the cycles before a divergence (none is empty)."""
         self._recent: list[CycleRecord] = []
@@ -320,8 +295,8 @@ class CycleJudge:
         replayer.expect(
             Expected(
                 None if self.executor.behavior_ids == self.expected_names else expected_index,
-                outputs_encoder,
-                self._pinned_cycles,
+                encoder,
+                frozenset(),
                 None if self._ledger is None else self._ledger.approves,
             )
         )
@@ -397,8 +372,7 @@ class CycleJudge:
         a set, allowances applied). Only a cycle that does not agree gets its full
         outcome."""
         replayer = self.replayer
-        cycle = self.executor.context.cycle
-        if changes is None or cycle in self._pinned_cycles:
+        if changes is None:
             outcome = outcome or replayer.outcome()  # judged by its robot state, then as usual
             changes = outcome.changes if self._agrees_but_for_pins(outcome) else None
         unloggable: Exception | None = None
@@ -473,9 +447,7 @@ class CycleJudge:
             return False
         if (
             self.replayer.perception is not None
-            # A rebuilt state the core found as expected (the recorded one, or as
-            # pinned) differs only where a format 3 baseline pins other values.
-            and (outcome.perception_differs or outcome.cycle in self._pinned_states)
+            and outcome.perception_differs
             and self._state_differences(outcome)
         ):
             return False
@@ -590,7 +562,7 @@ class CycleJudge:
             kind, message, behavior = _unapproved(unapproved)
         else:
             kind = DivergenceKind.OUTPUTS
-            message = f"outputs differ from {self._outputs_against}"
+            message = f"outputs differ from {self._against}"
         if kind is not DivergenceKind.STATE_CHANGES and self.comparison.only_order_differs(
             expected, actual
         ):
@@ -637,7 +609,6 @@ class CycleJudge:
                 for name in dict.fromkeys([*expected, *actual])
                 if name in named
             )
-        expected.update(self._pinned_states.get(outcome.cycle, ()))
         return tuple(
             FieldDifference(name, expected.get(name), actual.get(name))
             for name in self.comparison.state_differences(expected, actual)
@@ -657,8 +628,7 @@ class CycleJudge:
         pins = self._state_pins
         if pins is None or outcome.cycle not in pins:
             names = ", ".join(d.field for d in differences)
-            pinned = self._pinned_states or (pins and pins.cycles)
-            against = " from the approved baseline" if pinned else ""
+            against = " from the approved baseline" if pins and pins.cycles else ""
             return f"the robot state rebuilt from the samples differs{against} in {names}"
         run = pins.run_at(outcome.cycle)
         rebuilt = state_fields(outcome.state)

@@ -19,9 +19,6 @@ its own cycle, except once in 4,096; the block's digest, of its pinned cycles' w
 digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
 characters a cycle keep the pins of a perception retuned for every cycle near 3.2 bytes
 a cycle, a small fraction of the log; a whole digest a cycle would take 11 characters.
-
-Baselines of format 5 and older pin by a keyed BLAKE2b, still judged as written
-(:mod:`beatlog.replaying.state_digests`).
 """
 
 from __future__ import annotations
@@ -37,7 +34,7 @@ from operator import add
 from typing import Any, NamedTuple
 
 from beatlog.replaying.compare import Comparison
-from beatlog.replaying.state_digests import DIGEST_BYTES, XXH64, PinDigest
+from beatlog.replaying.state_digests import DIGEST_BYTES, block_digest, state_number
 
 __all__ = [
     "CYCLES_PER_BLOCK",
@@ -149,8 +146,6 @@ class StatePins:
 
     runs: tuple[PinnedRun, ...] = ()
     blocks: tuple[DigestBlock, ...] = ()
-    scheme: PinDigest = XXH64
-    """How the blocks' digests and tags were made."""
 
     def __post_init__(self) -> None:
         problem = _coverage_problem(self.runs, self.blocks)
@@ -158,9 +153,9 @@ class StatePins:
             raise ValueError(problem)
 
     @classmethod
-    def from_rebuilt(cls, states: Iterable[RebuiltState], scheme: PinDigest = XXH64) -> StatePins:
+    def from_rebuilt(cls, states: Iterable[RebuiltState]) -> StatePins:
         """Pin the rebuilt states a trace collected (in cycle order, digested by
-        :func:`~beatlog.replaying.state_digests.state_digest` with ``scheme``)."""
+        :func:`~beatlog.replaying.state_digests.state_digest`)."""
         runs: list[PinnedRun] = []
         blocks: list[DigestBlock] = []
         for run in _runs(states):
@@ -171,8 +166,8 @@ class StatePins:
                     head.cycle, head.time_ns, tail.cycle, len(run), tuple(fields), head.fields
                 )
             )
-            blocks.extend(_blocks(run, scheme))
-        return cls(tuple(runs), tuple(blocks), scheme)
+            blocks.extend(_blocks(run))
+        return cls(tuple(runs), tuple(blocks))
 
     @property
     def cycles(self) -> int:
@@ -196,7 +191,7 @@ def _runs(states: Iterable[RebuiltState]) -> Iterator[list[RebuiltState]]:
         yield run
 
 
-def _blocks(run: list[RebuiltState], scheme: PinDigest) -> Iterator[DigestBlock]:
+def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
     """A run's blocks: each starts at a pinned cycle and spans at most
     :data:`CYCLES_PER_BLOCK`, ending at the last pinned cycle it reaches."""
     start = 0
@@ -209,7 +204,7 @@ def _blocks(run: list[RebuiltState], scheme: PinDigest) -> Iterator[DigestBlock]
         tags = [UNPINNED] * (chunk[-1].cycle - first + 1)
         for state in chunk:
             tags[state.cycle - first] = _tag(state.digest)
-        digest = scheme.block(b"".join(state.digest for state in chunk))
+        digest = block_digest(b"".join(state.digest for state in chunk))
         yield DigestBlock(first, run[start].time_ns, "".join(tags), digest)
         start = end
 
@@ -292,9 +287,9 @@ class PinChecker:
     """
 
     def __init__(self, pins: StatePins) -> None:
-        self.digest = pins.scheme.state
+        self.digest = state_number
         """A rebuilt state's digest, of its bytes as a log encodes them."""
-        self._block_digest = pins.scheme.block
+        self._block_digest = block_digest
         blocks = pins.blocks
         tags = [NOT_PINNED] * (blocks[-1].cycle + blocks[-1].cycles if blocks else 0)
         self._finals: dict[int, tuple[DigestBlock, int, int]] = {}

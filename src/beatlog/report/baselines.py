@@ -12,11 +12,11 @@ from rich.rule import Rule
 from rich.text import Text
 
 from beatlog.analysis.shift import Loss, LossKind, Shift
+from beatlog.baseline.file import pending_path
+from beatlog.baseline.policy import StaleSuite
 from beatlog.report.counts import plural
 from beatlog.suite.approved import Approved
-from beatlog.suite.baseline import pending_path
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
-from beatlog.suite.policy import StaleSuite
 
 __all__ = [
     "closed_loop_text",
@@ -230,17 +230,6 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
         ),
         _loop_line(diff),
         *render_losses(diff.shift, "lost: "),
-        *(
-            Text.assemble(
-                ("robot state ", "cyan"),
-                f"{json.dumps(change.field)} rebuilt otherwise in "
-                f"{plural(change.cycles, 'cycle')}, first in cycle {change.first_cycle}: ",
-                (_value(change.before), "red"),
-                " → ",
-                (_value(change.after), "green"),
-            )
-            for change in diff.robot_states
-        ),
         *(_run_line(run) for run in diff.rebuilt_runs[:_MAX_RUNS]),
         *(
             Text.assemble(("draws ", "cyan"), str(rule))

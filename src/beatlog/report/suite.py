@@ -21,8 +21,8 @@ from beatlog.suite.runner import SpecOutcome, Verdict
 
 if TYPE_CHECKING:
     from beatlog.analysis.coverage import SuiteCoverage
+    from beatlog.baseline.policy import StaleSuite
     from beatlog.suite.maintenance import PendingUpdate
-    from beatlog.suite.policy import StaleSuite
 
 __all__ = ["NAMED_IN_NOTES", "SuiteReport", "plain_lines"]
 

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 from beatlog._lazy import lazy_names
 
 if TYPE_CHECKING:
+    from beatlog.baseline.policy import UpdateMode as UpdateMode
     from beatlog.suite.cluster import DaskExecutor as DaskExecutor
     from beatlog.suite.discovery import discover_specs as discover_specs
     from beatlog.suite.discovery import select_specs as select_specs
@@ -23,7 +24,6 @@ if TYPE_CHECKING:
     from beatlog.suite.maintenance import update_baselines as update_baselines
     from beatlog.suite.options import SuiteOptions as SuiteOptions
     from beatlog.suite.parallel import run_suite as run_suite
-    from beatlog.suite.policy import UpdateMode as UpdateMode
     from beatlog.suite.runner import SpecOutcome as SpecOutcome
     from beatlog.suite.runner import Verdict as Verdict
     from beatlog.suite.runner import run_spec as run_spec

@@ -15,11 +15,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
 from beatlog.errors import BaselineError
 from beatlog.model.behavior import System
 from beatlog.replaying.judge import replay as judge
 from beatlog.replaying.verdict import ReplayResult
-from beatlog.suite.baseline import Baseline, expected_path, log_digest, read_baseline
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
 __all__ = ["Approved", "approved_baseline", "approved_baselines", "replay"]

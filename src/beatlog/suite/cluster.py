@@ -25,16 +25,16 @@ import uuid
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from beatlog.baseline.file import expected_path
 from beatlog.closing import Closing
 from beatlog.errors import ClusterError, first_line
-from beatlog.suite.baseline import expected_path
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
 
 if TYPE_CHECKING:
     from distributed import Future, LocalCluster
 
-    from beatlog.suite.policy import SpecOptions
+    from beatlog.baseline.policy import SpecOptions
     from beatlog.suite.spec import DtcSpec
 
 __all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor"]

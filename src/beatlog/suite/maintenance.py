@@ -1,6 +1,6 @@
 """The re-baselining workflow: update, review, approve, and the orphans left behind.
 
-A run in :attr:`UpdateMode.NEW <beatlog.suite.policy.UpdateMode.NEW>` writes each
+A run in :attr:`UpdateMode.NEW <beatlog.baseline.policy.UpdateMode.NEW>` writes each
 failing DTC's new expectation to its pending file (:func:`update_baselines`); a
 reviewer reads it as a diff (:func:`pending_diff`) and decides (:func:`decide`), or
 accepts everything pending at once (:func:`approve`). An accepted baseline is never
@@ -18,36 +18,34 @@ from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 from beatlog.analysis.recorded import read_changes
 from beatlog.analysis.shift import Shift, shift
-from beatlog.analysis.trace import recorded_states, today_trace, whole_trace
-from beatlog.errors import BaselineError, OptionError
-from beatlog.log.recording import LogSource
-from beatlog.replaying.compare import Comparison
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import Expectation, TracedState
-from beatlog.replaying.pins import StatePins
-from beatlog.replaying.verdict import FieldDifference
-from beatlog.suite.baseline import (
+from beatlog.analysis.trace import WholeTrace, recorded_states, today_trace, whole_trace
+from beatlog.baseline.file import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,
     expected_path,
-    format_lines,
     log_digest,
     pending_path,
     read_baseline,
-    write_baseline,
+    spec_path,
 )
+from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
+from beatlog.baseline.write import format_lines, write_baseline
+from beatlog.errors import BaselineError, OptionError
+from beatlog.log.recording import LogSource
+from beatlog.replaying.draws import DrawRule
+from beatlog.replaying.expectation import Expectation
+from beatlog.replaying.pins import StatePins
+from beatlog.replaying.verdict import FieldDifference
 from beatlog.suite.discovery import discover_specs
-from beatlog.suite.policy import UpdateMode, in_ci, require_writable
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec
+from beatlog.suite.spec import DtcSpec
 
 __all__ = [
     "Decision",
-    "FieldChange",
     "PendingDiff",
     "PendingUpdate",
     "RebuiltRun",
@@ -59,9 +57,6 @@ __all__ = [
     "pending_specs",
     "update_baselines",
 ]
-
-
-_EXACT = Comparison()
 
 
 class UpdateAction(StrEnum):
@@ -226,19 +221,6 @@ def approve(paths: Sequence[Path]) -> list[tuple[DtcSpec, Shift]]:
     return approved
 
 
-class FieldChange(NamedTuple):
-    """How one robot-state field a pending baseline pins differs from today's expectation."""
-
-    field: str
-    cycles: int
-    """Cycles in which it differs."""
-    first_cycle: int
-    before: Any
-    """Today's expected value in the first cycle: approved, else recorded."""
-    after: Any
-    """The pending value in the first cycle."""
-
-
 class RebuiltRun(NamedTuple):
     """Cycles in which the perception of a pending baseline rebuilds the robot state
     otherwise than recorded (a run of them, with short gaps rebuilt as recorded)."""
@@ -268,8 +250,6 @@ class PendingDiff:
     """The diff: changed cycles with a line of context either side."""
     shift: Shift
     """What the pending baseline loses and gains against today's expectation."""
-    robot_states: tuple[FieldChange, ...] = ()
-    """The robot-state fields a format 3 pending file pins, field by field."""
     rebuilt_runs: tuple[RebuiltRun, ...] = ()
     """The runs of cycles in which perception now rebuilds the robot state otherwise."""
     draws: tuple[DrawRule, ...] = ()
@@ -283,23 +263,18 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     recording when none is approved yet. Robot-state pins, state changes and output
     changes interleave by cycle, as baseline files hold them; the robot states
     perception now rebuilds otherwise are also summed up run by run, with the values
-    that differ in each run's first cycle as recorded and rebuilt (field by field, with
-    their values before and after, for a format 3 pending file); what the pending
+    that differ in each run's first cycle as recorded and rebuilt; what the pending
     baseline loses and gains is weighed (:func:`~beatlog.analysis.shift.shift`)."""
     expected = expected_path(spec.path)
     pending = read_baseline(pending_path(spec.path)).expectation
     with spec.readable_log() as log:
         today, whole, weighed = _weigh(spec, log, pending)
-        if expected.exists():
-            source = f"approved ({expected.name})"
-            if today.outputs is None:
-                source += ", no outputs pinned"
-        else:
-            source = f"recorded ({spec.log.name})"
-        fields = _field_changes(log, today.robot_states, pending.robot_states)
-        runs = _rebuilt_runs(log, whole.state_pins)
-    old = format_lines(today.changes, today.outputs, today.robot_states, today.state_pins)
-    new = format_lines(whole.changes, whole.outputs, whole.robot_states, whole.state_pins)
+        source = (
+            f"approved ({expected.name})" if expected.exists() else f"recorded ({spec.log.name})"
+        )
+        runs = _rebuilt_runs(log, whole.baseline.state_pins)
+    old = format_lines(today.changes, today.outputs, today.baseline.state_pins)
+    new = format_lines(whole.changes, whole.outputs, whole.baseline.state_pins)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
     return PendingDiff(
         spec,
@@ -308,10 +283,9 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         len(new),
         tuple(diff),
         weighed,
-        fields,
         runs,
-        whole.draws,
-        whole.open_loop,
+        whole.baseline.draws,
+        whole.baseline.open_loop,
     )
 
 
@@ -324,7 +298,7 @@ def _replayed_log(spec: DtcSpec, outcome: SpecOutcome) -> AbstractContextManager
 
 def _weigh(
     spec: DtcSpec, log: LogSource, pending: Expectation
-) -> tuple[Expectation, Expectation, Shift]:
+) -> tuple[WholeTrace, WholeTrace, Shift]:
     """Today's expectation of ``spec`` (approved, else recorded) and ``pending``, both
     as whole traces, and what ``pending`` loses and gains against today's."""
     expected = expected_path(spec.path)
@@ -332,12 +306,12 @@ def _weigh(
     today = today_trace(approved, log, spec.comparison.rename)
     whole = whole_trace(pending, log, spec.comparison.rename)
     weighed = shift(
-        (today.changes, today.outputs or ()),
-        (whole.changes, whole.outputs or ()),
+        (today.changes, today.outputs),
+        (whole.changes, whole.outputs),
         cycles=read_changes(log).cycles,
-        open_loop=None if whole.open_loop is None else whole.open_loop[0],
-        draws_before=today.draws,
-        draws_after=whole.draws,
+        open_loop=None if whole.baseline.open_loop is None else whole.baseline.open_loop[0],
+        draws_before=today.baseline.draws,
+        draws_after=whole.baseline.draws,
     )
     return today, whole, weighed
 
@@ -360,28 +334,6 @@ def _rebuilt_runs(log: Path, pins: StatePins) -> tuple[RebuiltRun, ...]:
     )
 
 
-def _field_changes(
-    log: Path, old: Sequence[TracedState], new: Sequence[TracedState]
-) -> tuple[FieldChange, ...]:
-    """Field by field, the cycles where the pinned robot states differ (a field not
-    pinned in a cycle is expected as recorded)."""
-    before = Expectation((), robot_states=tuple(old)).states_by_cycle()
-    after = Expectation((), robot_states=tuple(new)).states_by_cycle()
-    recorded = recorded_states(log, before.keys() | after.keys())
-    found: dict[str, FieldChange] = {}
-    for cycle in sorted(recorded):
-        was = {**recorded[cycle], **before.get(cycle, {})}
-        now = {**recorded[cycle], **after.get(cycle, {})}
-        for name in _EXACT.state_differences(was, now):
-            seen = found.get(name)
-            found[name] = (
-                FieldChange(name, 1, cycle, was.get(name), now.get(name))
-                if seen is None
-                else seen._replace(cycles=seen.cycles + 1)
-            )
-    return tuple(found.values())
-
-
 def find_orphans(folders: Iterable[Path]) -> list[Path]:
     """Expected and pending files under ``folders`` whose spec no longer exists."""
     orphans: set[Path] = set()
@@ -391,7 +343,6 @@ def find_orphans(folders: Iterable[Path]) -> list[Path]:
         for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
             for path in folder.rglob(f"*{suffix}"):
                 hidden = any(p.startswith(".") for p in path.relative_to(folder).parts[:-1])
-                spec = path.with_name(path.name[: -len(suffix)] + SPEC_SUFFIX)
-                if path.is_file() and not hidden and not spec.is_file():
+                if path.is_file() and not hidden and not spec_path(path).is_file():
                     orphans.add(path)
     return sorted(orphans)

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import OptionError
-from beatlog.suite.policy import UpdateMode
 
 if TYPE_CHECKING:
     from beatlog.suite.sharding import Shard

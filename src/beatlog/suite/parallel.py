@@ -10,7 +10,7 @@ import threading
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from beatlog.suite.policy import SpecOptions, UpdateMode
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, suite_auditors
 from beatlog.suite.sharding import longest_first
 from beatlog.suite.spec import DtcSpec

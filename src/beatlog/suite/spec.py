@@ -67,6 +67,7 @@ from pathlib import Path
 
 import msgspec
 
+from beatlog.baseline.file import SPEC_SUFFIX
 from beatlog.errors import SpecError
 from beatlog.files import project_root, read_small_text
 from beatlog.project import (
@@ -89,7 +90,6 @@ __all__ = [
     "spec_text",
 ]
 
-SPEC_SUFFIX = ".dtc.toml"
 MAX_SPEC_BYTES = 1 << 20
 """A spec is a few lines; anything bigger is not one."""
 

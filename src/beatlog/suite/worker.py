@@ -24,7 +24,7 @@ from beatlog.closing import Closing
 
 if TYPE_CHECKING:
     from beatlog.audit.replays import Auditors
-    from beatlog.suite.policy import SpecOptions
+    from beatlog.baseline.policy import SpecOptions
     from beatlog.suite.runner import SpecOutcome
     from beatlog.suite.spec import DtcSpec
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import fsspec
 import pytest
 
-from beatlog.suite.baseline import expected_path
+from beatlog.baseline.file import expected_path
 from tests.commands import (
     Beatlog,
     assert_error,

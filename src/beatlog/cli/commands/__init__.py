@@ -21,6 +21,7 @@ from beatlog.cli.commands import (
     review,
     show,
     test,
+    upgrade_baselines,
 )
 from beatlog.cli.commands import help as helping
 
@@ -67,6 +68,12 @@ COMMANDS: dict[str, Command] = {
         "accepts (nothing pending is no error)",
         approve.add_arguments,
         approve.run,
+    ),
+    "upgrade-baselines": Command(
+        "rewrite baselines of older formats in the current one (recordings are untouched)",
+        upgrade_baselines.add_arguments,
+        upgrade_baselines.run,
+        runs_user_code=False,
     ),
     "show": Command("describe a session log", show.add_arguments, show.run, runs_user_code=False),
     "plot": Command(

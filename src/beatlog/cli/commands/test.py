@@ -10,10 +10,10 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from beatlog.baseline.policy import UpdateMode
 from beatlog.cli.arguments import add_factory, add_paths, cycle_number, positive_int, shard
 from beatlog.cli.common import EXIT_NOTHING_SELECTED, print_error
 from beatlog.errors import EmptySelectionError, OptionError
-from beatlog.suite.policy import UpdateMode
 
 if TYPE_CHECKING:
     from rich.console import Console

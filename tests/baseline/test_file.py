@@ -10,6 +10,8 @@ from pathlib import Path
 import msgspec
 import pytest
 
+from beatlog.baseline.file import expected_path, log_digest, pending_path, read_baseline
+from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError
 from beatlog.replaying.expectation import (
     ABSENT,
@@ -17,19 +19,9 @@ from beatlog.replaying.expectation import (
     Expectation,
     TracedChange,
     TracedOutput,
-    TracedState,
 )
 from beatlog.replaying.pins import StatePins
-from beatlog.replaying.state_digests import BLAKE2B, XXH64, PinDigest
 from beatlog.replaying.verdict import StateChange
-from beatlog.suite.baseline import (
-    expected_path,
-    format_lines,
-    log_digest,
-    pending_path,
-    read_baseline,
-    write_baseline,
-)
 from tests.factories import rebuilt_states, speed_state
 from tests.specs import baseline_file
 
@@ -58,7 +50,7 @@ def baseline_of(log: Path, path: Path, expectation: Expectation) -> Path:
 
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    baseline_of(log, path, Expectation(CHANGES, (), departures=True))
+    baseline_of(log, path, Expectation(CHANGES, ()))
 
     baseline = read_baseline(path)
 
@@ -78,7 +70,7 @@ def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> No
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    baseline_of(log, path, Expectation(CHANGES[:2], (), departures=True))
+    baseline_of(log, path, Expectation(CHANGES[:2], ()))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -92,7 +84,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    baseline_of(log, path, Expectation((), (), departures=True))
+    baseline_of(log, path, Expectation((), ()))
     assert read_baseline(path).expectation.changes == ()
 
 
@@ -101,7 +93,10 @@ def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     [
         ("", "not a beatlog baseline (its first line is not the header)"),
         ("cycle,behavior\n1,a\n", "not a beatlog baseline (its first line is not the header)"),
-        ("# beatlog expected state changes, format 1\n", "no '# log NAME sha256 DIGEST' line"),
+        (
+            "# beatlog expected departures from the recording, format 6\n",
+            "no '# log NAME sha256 DIGEST' line",
+        ),
         (
             "HEADER\n  7  0.210  avoid: 1 -> 2\n",
             "line 5: Expecting value: line 1 column 1 (char 0)",
@@ -133,7 +128,7 @@ def test_a_damaged_or_foreign_baseline_is_an_error_naming_file_and_line(
     tmp_path: Path, text: str, problem: str
 ) -> None:
     header = (
-        "# beatlog expected state changes, format 1\n# spec a\n"
+        "# beatlog expected departures from the recording, format 6\n# spec a\n"
         f"# log a.beatlog sha256 {'0' * 64}\n# comment"
     )
     path = tmp_path / "a.dtc.expected"
@@ -190,7 +185,7 @@ def test_an_output_value_reads_back_bit_for_bit(
 ) -> None:
     path = tmp_path / "a.dtc.expected"
     outputs = (TracedOutput(5, 180_000_000, "motor", value),)
-    baseline_of(log, path, Expectation((), outputs, departures=True))
+    baseline_of(log, path, Expectation((), outputs))
 
     assert path.read_text(encoding="utf-8").splitlines()[-1] == (
         f'       5     0.180  output "motor" = {written}'
@@ -207,7 +202,7 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         TracedOutput(12, 360_012_000, "speed", 0.0),
         TracedOutput(13, 390_000_000, "speed", ABSENT),
     )
-    baseline_of(log, path, Expectation(CHANGES[:2], outputs, departures=True))
+    baseline_of(log, path, Expectation(CHANGES[:2], outputs))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -235,7 +230,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     pins = StatePins.from_rebuilt(rebuilt_states(states))
     outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
     changes = (TracedChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
-    expectation = Expectation(changes, outputs, state_pins=pins, departures=True)
+    expectation = Expectation(changes, outputs, state_pins=pins)
     baseline_of(log, path, expectation)
 
     lines = path.read_text(encoding="utf-8").splitlines()
@@ -250,71 +245,16 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     ]
     baseline = read_baseline(path)
     assert baseline.expectation.state_pins == pins
-    assert baseline.expectation.robot_states == ()
 
 
-@pytest.mark.parametrize(("version", "scheme"), [(5, BLAKE2B), (6, XXH64)])
-def test_a_baselines_robot_states_read_back_pinned_by_its_formats_digest(
-    tmp_path: Path, version: int, scheme: PinDigest
-) -> None:
-    states = {cycle: speed_state(cycle) for cycle in (12, 13, 16, 40)}
-    pins = StatePins.from_rebuilt(rebuilt_states(states, scheme), scheme)
-    path = baseline_file(tmp_path, version, *format_lines((), (), state_pins=pins))
-
-    assert read_baseline(path).expectation.state_pins == pins
-
-
-def test_a_baseline_pins_no_robot_state_values_any_more(tmp_path: Path, log: Path) -> None:
-    states = (TracedState(12, 360_012_000, "distance", 0.55),)
-    with pytest.raises(ValueError, match="format 3 robot-state pins cannot be written"):
-        baseline_of(log, tmp_path / "a.dtc.pending", Expectation((), (), states, departures=True))
-
-
-def test_a_format_3_baseline_still_reads_its_robot_state_fields_bit_for_bit(
+def test_a_baselines_robot_states_read_back_pinned_by_their_digests(
     tmp_path: Path,
 ) -> None:
-    path = baseline_file(
-        tmp_path,
-        3,
-        '      12     0.360  robot_state "distance" = 0.55',
-        '      12     0.360  robot_state "pose" = [1.0, -0.0]',
-        '      12     0.360  "avoid": "off" -> "turning"',
-        '      12     0.360  output "speed" = 0.0',
-        '      13     0.390  robot_state "distance" = msgpack:cb7ff8000000000001',
-    )
+    states = {cycle: speed_state(cycle) for cycle in (12, 13, 16, 40)}
+    pins = StatePins.from_rebuilt(rebuilt_states(states))
+    path = baseline_file(tmp_path, 6, *format_lines((), (), state_pins=pins))
 
-    baseline = read_baseline(path)
-
-    assert [(s.cycle, s.field, _bits(s.value)) for s in baseline.expectation.robot_states] == [
-        (12, "distance", _bits(0.55)),
-        (12, "pose", _bits([1.0, -0.0])),
-        (13, "distance", _bits(PAYLOAD_NAN)),
-    ]
-    assert baseline.expectation.states_by_cycle()[12] == {"distance": 0.55, "pose": [1.0, -0.0]}
-    assert baseline.expectation.state_pins == StatePins(scheme=BLAKE2B)
-
-
-def test_a_format_2_baseline_still_reads_and_pins_no_robot_states(tmp_path: Path) -> None:
-    path = baseline_file(
-        tmp_path,
-        2,
-        '      12     0.360  "avoid": "off" -> "turning"',
-        '      12     0.360  output "speed" = 0.0',
-    )
-    baseline = read_baseline(path)
-    assert baseline.expectation.outputs == (TracedOutput(12, 360_000_000, "speed", 0.0),)
-    assert baseline.expectation.robot_states == ()
-
-
-def test_a_format_1_baseline_still_reads_and_pins_no_outputs(tmp_path: Path) -> None:
-    path = baseline_file(tmp_path, 1, '      12     0.360  "avoid": "off" -> "turning"', spec=True)
-
-    baseline = read_baseline(path)
-
-    assert [c.change for c in baseline.expectation.changes] == [
-        StateChange("avoid", "off", "turning")
-    ]
-    assert baseline.expectation.outputs is None
+    assert read_baseline(path).expectation.state_pins == pins
 
 
 RUN = "robot_state otherwise in 7..7 (1 cycle)"
@@ -322,74 +262,64 @@ NO_STATE_LINE = (
     "line 4: expected 'robot_state otherwise in FIRST..LAST (N cycles): [FIELDS], "
     "first {VALUES}' or 'robot_state digests N DIGEST TAGS'"
 )
-"""What a format 4 baseline says of a robot-state line of neither of its shapes."""
+"""What a baseline says of a robot-state line of neither of its shapes."""
 
 
 @pytest.mark.parametrize(
     ("magic", "line", "problem"),
     [
-        (1, '  7  0.210  output "speed" = 1', "line 4: a format 1 baseline holds no outputs"),
-        (2, "  7  0.210  output speed = 1", "line 4: Expecting value: line 1 column 1 (char 0)"),
-        (2, "  7  0.210  output 3 = 1", "line 4: the field must be a JSON string"),
-        (2, '  7  0.210  output "speed" 1', "line 4: expected '=' at column 8"),
-        (2, '  7  0.210  output "speed" = 1 2', "line 4: unexpected ' 2' after the value"),
+        (6, "  7  0.210  output speed = 1", "line 4: Expecting value: line 1 column 1 (char 0)"),
+        (6, "  7  0.210  output 3 = 1", "line 4: the field must be a JSON string"),
+        (6, '  7  0.210  output "speed" 1', "line 4: expected '=' at column 8"),
+        (6, '  7  0.210  output "speed" = 1 2', "line 4: unexpected ' 2' after the value"),
         (
-            2,
+            6,
             '  7  0.210  output "speed" = msgpack:zz',
             "line 4: a damaged msgpack value: "
             "non-hexadecimal number found in fromhex() arg at position 0",
         ),
         (
-            2,
+            6,
             '  7  0.210  output "speed" = msgpack:c1',
             "line 4: a damaged msgpack value: "
             "MessagePack data is malformed: invalid opcode '\\xc1' (byte 0)",
         ),
-        (2, '  7  0.210  robot_state "x" = 1', "line 4: a format 2 baseline holds no robot states"),
-        (3, '  7  0.210  robot_state "x" absent', "line 4: a robot-state field is never absent"),
-        (3, "  7  0.210  robot_state x = 1", "line 4: Expecting value: line 1 column 1 (char 0)"),
-        (3, '  7  0.210  robot_state "x" = 1 2', "line 4: unexpected ' 2' after the value"),
-        (3, '  7  0.210  sensor "x" = 1', "line 4: Expecting value: line 1 column 1 (char 0)"),
+        (6, '  7  0.210  sensor "x" = 1', "line 4: Expecting value: line 1 column 1 (char 0)"),
+        (6, '  7  0.210  robot_state "x" = 1', NO_STATE_LINE),
+        (6, "  7  0.210  robot_state digests 1 00 AA", NO_STATE_LINE),
         (
-            3,
-            "  7  0.210  robot_state digests 1 0000000000000000 AA",
-            "line 4: Expecting value: line 1 column 1 (char 0)",
-        ),
-        (4, '  7  0.210  robot_state "x" = 1', NO_STATE_LINE),
-        (4, "  7  0.210  robot_state digests 1 00 AA", NO_STATE_LINE),
-        (
-            4,
+            6,
             "  7  0.210  robot_state digests 1 0000000000000000 A",
             "line 4: expected 2 characters of tags, found 1",
         ),
         (
-            4,
+            6,
             "  7  0.210  robot_state digests 2 000000000000000f AA",
             "line 4: expected 4 characters of tags, found 2",
         ),
         (
-            4,
+            6,
             f"  7  0.210  {RUN}: [1], first {{}}",
             "line 4: the fields must be a JSON list of strings",
         ),
-        (4, f'  7  0.210  {RUN}: ["x"] first {{}}', "line 4: expected ', first' at column 6"),
+        (6, f'  7  0.210  {RUN}: ["x"] first {{}}', "line 4: expected ', first' at column 6"),
         (
-            4,
+            6,
             f'  7  0.210  {RUN}: ["x"], first [1]',
             "line 4: the first cycle's values must be a JSON object",
         ),
         (
-            4,
+            6,
             f'  7  0.210  {RUN}: ["x"], first {{"x": 1}} 2',
             "line 4: unexpected ' 2' after the value",
         ),
         (
-            4,
+            6,
             f'  8  0.210  {RUN}: ["x"], first {{"x": 1}}',
             "line 4: a run of cycles from 7 on a line of cycle 8",
         ),
         (
-            4,
+            6,
             f'  7  0.210  {RUN}: ["x"], first {{"x": 1}}',
             "the robot-state run from cycle 7 has digests that do not end at its last cycle, 7",
         ),
@@ -419,7 +349,6 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
         CHANGES[1:2],
         outputs,
         open_loop=(12, 360_012_000),
-        departures=True,
         quiet=((15, 450_000_000),),
     )
     baseline_of(log, path, expectation)
@@ -443,46 +372,21 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
     assert not read.as_recorded
 
 
-def test_a_whole_trace_is_no_longer_written(tmp_path: Path, log: Path) -> None:
-    with pytest.raises(ValueError, match="a whole trace cannot be written"):
-        baseline_of(log, tmp_path / "a.dtc.pending", Expectation(CHANGES, ()))
-
-
-def test_a_format_4_baseline_still_reads_as_a_whole_trace_or_as_recorded(tmp_path: Path) -> None:
-    whole = baseline_file(
-        tmp_path, 4, '      12     0.360  "avoid": "off" -> "turning"', name="whole"
-    )
-    recorded = baseline_file(tmp_path, 4, "state changes and outputs as recorded", name="recorded")
-
-    trace = read_baseline(whole).expectation
-    assert (trace.departures, trace.as_recorded) == (False, False)
-    override = trace.changes_override()
-    assert override is not None
-    assert (override[12], 11 in override, override[11]) == ([CHANGES[1].change], True, [])
-    assert read_baseline(recorded).expectation.as_recorded
-    assert read_baseline(recorded).expectation.changes_override() is None
-
-
 @pytest.mark.parametrize(
     ("version", "lines", "problem"),
     [
         (
-            3,
-            [
-                '  13  0.390  robot_state "distance" = 1.0',
-                '  12  0.360  robot_state "distance" = 1.0',
-            ],
-            "robot_state lines are not in cycle order",
+            6,
+            ['  13  0.390  output "speed" = 1.0', '  12  0.360  output "speed" = 2.0'],
+            "output lines are not in cycle order",
         ),
-        (4, ["#", '  7  0.210  output "speed" as recorded'], "line 4: expected '=' at column"),
-        (4, ["#", "  7  0.210  no state changes"], "line 4: Expecting value"),
         (
-            5,
+            6,
             ['  12  0.360  "avoid": "off" -> "turning"', "  12  0.360  no state changes"],
             "cycle 12 has state changes and none",
         ),
     ],
-    ids=["robot states out of order", "format 4 as recorded", "format 4 none", "both"],
+    ids=["outputs out of order", "both"],
 )
 def test_a_baseline_that_breaks_its_formats_rules_is_an_error(
     tmp_path: Path, version: int, lines: list[str], problem: str
@@ -519,7 +423,7 @@ def _reading_overhead(path: Path) -> int:
 def test_a_big_baseline_is_read_a_block_at_a_time(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr("beatlog.suite.baseline.BLOCK_BYTES", 4096)
+    monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 4096)
     small, large = _big_baseline(tmp_path, 1_000), _big_baseline(tmp_path, 4_000)
     lines_added = len(large.read_bytes().splitlines()) - len(small.read_bytes().splitlines())
 
@@ -531,7 +435,7 @@ def test_a_big_baseline_is_read_a_block_at_a_time(
 def test_an_error_after_the_first_block_names_its_line(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr("beatlog.suite.baseline.BLOCK_BYTES", 64)
+    monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 64)
     lines = [f'{cycle:8d}  {cycle * 0.03:8.3f}  output "speed" = {cycle}' for cycle in range(40)]
     path = baseline_file(tmp_path, 6, *lines, f'      40  {1.2:8.3f}  output "speed" = x', "")
 
@@ -548,3 +452,18 @@ def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path
     assert all(output.field is outputs[0].field for output in outputs[::2])
     assert all(output.time_ns is outputs[0].time_ns for output in outputs[:2])
     assert all(change.change.after is changes[0].change.after for change in changes)
+
+
+@pytest.mark.parametrize("version", [1, 2, 3, 4, 5])
+def test_an_older_baseline_is_refused_naming_the_command_that_upgrades_it(
+    tmp_path: Path, version: int
+) -> None:
+    path = baseline_file(tmp_path, version, '      12     0.360  "avoid": "off" -> "turning"')
+
+    with pytest.raises(BaselineError) as raised:
+        read_baseline(path)
+
+    assert str(raised.value) == (
+        f"{path}: a format {version} baseline: "
+        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 6"
+    )

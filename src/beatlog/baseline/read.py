@@ -1,10 +1,12 @@
-"""The lines of a baseline file, read: each line of any format version to a value.
+"""The lines of a baseline file, read: each line of the current format to a value.
 
 Reading never evaluates anything: names, states and values are JSON (or msgpack in
-hex, :func:`~beatlog.suite.baseline_text.format_value`), and each line either parses
-whole or raises :class:`ValueError` saying what was expected. The most common lines
-since format 5 are read a block of lines at a time (:meth:`ParsedLines.read_common`),
-each to the value it reads to alone.
+hex, :func:`~beatlog.baseline.write.format_value`), and each line either parses whole
+or raises :class:`ValueError` saying what was expected. Outputs, blocks of digests,
+state changes and quiet cycles, with plain names and JSON scalars for values, are nine
+lines in ten: one regular expression takes them all (:data:`_COMMON`), a block of lines
+at a time (:meth:`ParsedLines.read_common`), and each column of each kind is read at
+once, each line to the value it reads to alone (:func:`parse_line`).
 """
 
 from __future__ import annotations
@@ -12,26 +14,15 @@ from __future__ import annotations
 import bisect
 import json
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from itertools import compress, repeat
+from operator import itemgetter
+from typing import Any, NamedTuple, TypeVar
 
 import msgspec
 
-from beatlog.log.format import DECODE_ERRORS
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import (
-    ABSENT,
-    AS_RECORDED,
-    TracedChange,
-    TracedOutput,
-    TracedState,
-)
-from beatlog.replaying.pins import TAG_CHARS, DigestBlock, PinnedRun
-from beatlog.replaying.state_digests import DIGEST_BYTES
-from beatlog.replaying.verdict import StateChange
-from beatlog.suite.baseline_common import common_lines
-from beatlog.suite.baseline_text import (
+from beatlog.baseline.write import (
     AS_RECORDED_TEXT,
     MSGPACK,
     NONE,
@@ -41,6 +32,17 @@ from beatlog.suite.baseline_text import (
     ROBOT_STATE,
     RUN_FIRST,
 )
+from beatlog.log.format import DECODE_ERRORS
+from beatlog.replaying.draws import DrawRule
+from beatlog.replaying.expectation import (
+    ABSENT,
+    AS_RECORDED,
+    TracedChange,
+    TracedOutput,
+)
+from beatlog.replaying.pins import TAG_CHARS, DigestBlock, PinnedRun
+from beatlog.replaying.state_digests import DIGEST_BYTES
+from beatlog.replaying.verdict import StateChange
 
 __all__ = ["ParsedLines", "line_feeds", "parse_line"]
 
@@ -78,25 +80,24 @@ class ParsedLines:
 
     changes: list[TracedChange] = field(default_factory=list)
     outputs: list[TracedOutput] = field(default_factory=list)
-    states: list[TracedState] = field(default_factory=list)
     runs: list[PinnedRun] = field(default_factory=list)
     blocks: list[DigestBlock] = field(default_factory=list)
     draws: list[DrawRule] = field(default_factory=list)
     quiet: list[tuple[int, int]] = field(default_factory=list)
     open_loop: tuple[int, int] | None = None
 
-    def read_common(self, text: str, version: int, start: int) -> Iterator[tuple[int, str]]:
+    def read_common(self, text: str, start: int) -> Iterator[tuple[int, str]]:
         """Read the lines of the most common shapes at once, and yield each other line but
         empty ones with its number (``text``: lines each ended by a line feed alone, the
         last perhaps not, as :func:`line_feeds` gives them, numbered from ``start``), in
         order: comments, and lines for :meth:`add`, each to be read or skipped before the
         next is asked for, so that the lines of each kind are kept in the order of the file.
 
-        Before format 5, or when a line of a common shape does not read (a value that is
-        no JSON, a block of digests without as many tags as it says), every line is
-        yielded, to be read one by one and refused at the right line.
+        When a line of a common shape does not read (a value that is no JSON, a block of
+        digests without as many tags as it says), every line is yielded, to be read one
+        by one and refused at the right line.
         """
-        common = common_lines(text) if version >= 5 else None
+        common = _common_lines(text)
         if common is None:
             yield from enumerate(text.splitlines(), start)
             return
@@ -114,13 +115,13 @@ class ParsedLines:
                 yield start + index, line
             previous = index
 
-    def add(self, line: str, version: int) -> None:
-        """Read one line of the body of a file of format ``version`` and keep it.
+    def add(self, line: str) -> None:
+        """Read one line of the body of a baseline file and keep it.
 
         :raises ValueError: the line is not one that format holds, or a second
             ``open loop`` line.
         """
-        parsed = _parse_draw(line, version) if line[:6] == "draws " else parse_line(line, version)
+        parsed = _parse_draw(line) if line[:6] == "draws " else parse_line(line)
         if isinstance(parsed, _OpenLoop):
             if self.open_loop is not None:
                 raise ValueError("a second 'open loop' line")
@@ -131,8 +132,6 @@ class ParsedLines:
             self.draws.append(parsed)
         elif isinstance(parsed, TracedOutput):
             self.outputs.append(parsed)
-        elif isinstance(parsed, TracedState):
-            self.states.append(parsed)
         elif isinstance(parsed, PinnedRun):
             self.runs.append(parsed)
         elif isinstance(parsed, DigestBlock):
@@ -152,14 +151,10 @@ def line_feeds(block: str) -> tuple[str, int]:
     return block, block.count("\n") + (block[-1:] not in ("\n", ""))
 
 
-_Line = (
-    TracedChange | TracedOutput | TracedState | PinnedRun | DigestBlock | DrawRule | _OpenLoop
-) | _Quiet
+_Line = TracedChange | TracedOutput | PinnedRun | DigestBlock | DrawRule | _OpenLoop | _Quiet
 
 
-def _parse_draw(line: str, version: int) -> DrawRule:
-    if version < 4:
-        raise ValueError(f"a format {version} baseline holds no draws")
+def _parse_draw(line: str) -> DrawRule:
     head = _DRAW_HEAD.match(line)
     rest = line[head.end() :] if head else ""
     split = rest.rfind(_IN_CYCLES)  # the only one that numbers may follow
@@ -201,8 +196,8 @@ def _time_ns(seconds: str) -> int:
     return round(float(seconds) * 1e9)
 
 
-def parse_line(line: str, version: int) -> _Line:
-    """A line of the cycle columns, as a file of format ``version`` holds it."""
+def parse_line(line: str) -> _Line:
+    """A line of the cycle columns."""
     found = _CHANGE_LINE.fullmatch(line)
     if found is None:
         raise ValueError(
@@ -210,42 +205,33 @@ def parse_line(line: str, version: int) -> _Line:
             "'CYCLE TIME output \"field\" = VALUE' or 'CYCLE TIME robot_state ...'"
         )
     cycle, time_ns, text = int(found["cycle"]), _time_ns(found["time"]), found["change"]
-    if text == OPEN_LOOP and version >= 4:
+    if text == OPEN_LOOP:
         return _OpenLoop(cycle, time_ns)
-    if text == QUIET and version >= 5:
+    if text == QUIET:
         return _Quiet(cycle, time_ns)
     if text.startswith(OUTPUT):
-        if version < 2:
-            raise ValueError("a format 1 baseline holds no outputs")
-        name, value = _parse_value(text[len(OUTPUT) :], as_recorded=version >= 5)
+        name, value = _parse_value(text[len(OUTPUT) :])
         return TracedOutput(cycle, time_ns, name, value)
     if text.startswith(ROBOT_STATE):
-        if version < 3:
-            raise ValueError(f"a format {version} baseline holds no robot states")
-        if version >= 4:
-            return _parse_pin(text[len(ROBOT_STATE) :], cycle, time_ns)
-        name, value = _parse_value(text[len(ROBOT_STATE) :])
-        if value is ABSENT:
-            raise ValueError("a robot-state field is never absent")
-        return TracedState(cycle, time_ns, name, value)
+        return _parse_pin(text[len(ROBOT_STATE) :], cycle, time_ns)
     return TracedChange(cycle, time_ns, _parse_change(text))
 
 
-def _parse_value(text: str, *, as_recorded: bool = False) -> tuple[str, Any]:
+def _parse_value(text: str) -> tuple[str, Any]:
     name, end = _JSON.raw_decode(text)
     if not isinstance(name, str):
         raise ValueError("the field must be a JSON string")
     rest = text[end:].rstrip()
     if rest == " absent":
         return name, ABSENT
-    if as_recorded and rest == " " + AS_RECORDED_TEXT:
+    if rest == " " + AS_RECORDED_TEXT:
         return name, AS_RECORDED
     end = _expect(text, end, " = ")
     return name, _decode_value(text[end:].rstrip())
 
 
 def _decode_value(value_text: str) -> Any:
-    """A value as :func:`~beatlog.suite.baseline_text.format_value` writes it."""
+    """A value as :func:`~beatlog.baseline.write.format_value` writes it."""
     if value_text.startswith(MSGPACK):
         try:
             return msgspec.msgpack.decode(bytes.fromhex(value_text[len(MSGPACK) :]))
@@ -258,7 +244,7 @@ def _decode_value(value_text: str) -> Any:
 
 
 def _parse_pin(text: str, cycle: int, time_ns: int) -> PinnedRun | DigestBlock:
-    """A robot-state line since format 4: a run of pinned cycles, or a block of their digests."""
+    """A robot-state line: a run of pinned cycles, or a block of their digests."""
     block = _DIGESTS.fullmatch(text.rstrip())
     if block is not None:
         tags = block["tags"]
@@ -305,3 +291,172 @@ def _expect(text: str, position: int, separator: str) -> int:
     if not text.startswith(separator, position):
         raise ValueError(f"expected {separator.strip()!r} at column {position + 1}")
     return position + len(separator)
+
+
+_INTS = msgspec.json.Decoder(list[int])
+_NAMES = msgspec.json.Decoder(list[str])
+_STATES = msgspec.json.Decoder(list[str | int | bool | None])
+_PLAIN = r'"[^"\\\x00-\x1f]*"'
+"""A JSON string without escapes or control characters: it reads as what it quotes."""
+_VALUE = rf"[-+.0-9A-Za-z]+|{_PLAIN}"
+"""A JSON number, literal or plain string, or no JSON at all (then the file is read line
+by line): one value, as it holds no comma, bracket or space outside quotes."""
+_STATE = rf"-?[0-9]+|[a-z]+|{_PLAIN}"
+"""Likewise a JSON integer, literal or plain string, the values a state takes."""
+_COMMON = re.compile(
+    r" *([0-9]+) +([0-9]{1,6}\.[0-9]{3}) +(?:"
+    rf"output ({_PLAIN}) (?:= ({_VALUE})|(absent|{AS_RECORDED_TEXT}))"
+    rf"|robot_state digests ([0-9]+) ([0-9a-f]{{{2 * DIGEST_BYTES}}}) ([A-Za-z0-9+/.]+)"
+    rf"|({_PLAIN}): ({_STATE}) -> ({_STATE})"
+    rf"|({QUIET})"
+    r")\n|(.*)\n"
+)
+"""A line of the most common shapes, an output, a block of digests, a
+state change or a quiet cycle, with plain names and JSON scalars for values (read at once
+by :func:`_common_lines`, as :func:`parse_line` reads each),
+else any line."""
+_CYCLE, _TIME, _NAME, _VALUE_TEXT, _WORD, _COUNT, _DIGEST, _TAGS = range(8)
+_BEHAVIOR, _BEFORE, _AFTER = range(8, 11)
+_QUIET, _OTHER = 11, 12
+_GROUPS = 14
+"""What :meth:`re.Pattern.split` gives of each line: the text before it (none), and
+each group of :data:`_COMMON` (None where it took no part)."""
+_WORDS = {"absent": ABSENT, AS_RECORDED_TEXT: AS_RECORDED}
+_Column = list[Any]
+"""A group of :data:`_COMMON` in each line: its text, or None where it took no part."""
+_Record = TypeVar("_Record", bound=tuple[Any, ...])
+
+
+def _common_lines(
+    text: str,
+) -> tuple[int, list[tuple[int, str]], list[tuple[list[int], list[Any]]]] | None:
+    """How many lines ``text`` holds (each ended by a line feed alone, the last perhaps
+    not), those not of the common shapes (:data:`_COMMON`) but empty ones, each with its
+    index, and the others read, by kind (outputs, blocks of digests, state changes, quiet
+    cycles), each with the indices of its lines; None when one of them does not read, to
+    be read line by line (and refused there)."""
+    parts = _COMMON.split(text if text[-1:] == "\n" else text + "\n")  # a match a line
+    columns = [parts[group::_GROUPS] for group in range(1, _GROUPS)]
+    del parts  # not looked into by the garbage collector while the lines are read
+    indices = range(len(columns[_OTHER]))
+    kinds = []
+    try:
+        for marker, read in (
+            (_NAME, _outputs),
+            (_COUNT, _blocks),
+            (_BEFORE, _changes),
+            (_QUIET, _quiet),
+        ):
+            where = list(compress(indices, columns[marker]))
+            kinds.append((where, read(columns, where) if where else []))
+    except ValueError:
+        return None
+    other = columns[_OTHER]
+    return len(indices), [(index, other[index]) for index in compress(indices, other)], kinds
+
+
+def _picked(columns: list[_Column], where: list[int], *which: int) -> list[Sequence[Any]]:
+    """The columns ``which`` of the lines ``where`` (at least one), each taken at once."""
+    if len(where) == 1:
+        return [(columns[column][where[0]],) for column in which]
+    take = itemgetter(*where)  # a tuple of as many, as there are two or more
+    return [take(columns[column]) for column in which]
+
+
+def _outputs(columns: list[_Column], where: list[int]) -> list[Any]:
+    cycles, times, names, value, word = _picked(
+        columns, where, _CYCLE, _TIME, _NAME, _VALUE_TEXT, _WORD
+    )
+    values = iter(_decoded(filter(None, value)))
+    said = [_WORDS[text] if text else next(values) for text in word]
+    return _records(
+        TracedOutput,
+        _shared(cycles, _ints),
+        _shared(times, _times_ns),
+        _shared(names, _names),
+        said,
+    )
+
+
+def _blocks(columns: list[_Column], where: list[int]) -> list[Any]:
+    cycles, times, counts, digests, tags = _picked(
+        columns, where, _CYCLE, _TIME, _COUNT, _DIGEST, _TAGS
+    )
+    if list(map(len, tags)) != [TAG_CHARS * count for count in _listed(_INTS, counts)]:
+        raise ValueError("a block of digests holds not as many tags as it says")
+    return _records(
+        DigestBlock, _listed(_INTS, cycles), _times_ns(times), tags, map(bytes.fromhex, digests)
+    )
+
+
+def _changes(columns: list[_Column], where: list[int]) -> list[Any]:
+    cycles, times, behaviors, before, after = _picked(
+        columns, where, _CYCLE, _TIME, _BEHAVIOR, _BEFORE, _AFTER
+    )
+    changes = _records(
+        StateChange,
+        _shared(behaviors, _names),
+        _shared(before, _states),
+        _shared(after, _states),
+    )
+    return _records(TracedChange, _shared(cycles, _ints), _shared(times, _times_ns), changes)
+
+
+def _quiet(columns: list[_Column], where: list[int]) -> list[Any]:
+    cycles, times = _picked(columns, where, _CYCLE, _TIME)
+    return list(zip(_listed(_INTS, cycles), _times_ns(times), strict=True))
+
+
+def _shared(texts: Sequence[str], read: Callable[[Sequence[str]], list[Any]]) -> list[Any]:
+    """The values of ``texts`` as ``read`` reads them, each distinct text read once: the
+    lines of one cycle, or naming one field, behavior or state, hold one object for it,
+    not one each (in a big baseline they would cost more than the values)."""
+    distinct = list(dict.fromkeys(texts))
+    values = dict(zip(distinct, read(distinct), strict=True))
+    return [values[text] for text in texts]
+
+
+def _ints(texts: Sequence[str]) -> list[int]:
+    return _listed(_INTS, texts)
+
+
+def _names(texts: Sequence[str]) -> list[str]:
+    return _listed(_NAMES, texts)
+
+
+def _states(texts: Sequence[str]) -> list[Any]:
+    return _listed(_STATES, texts)
+
+
+def _listed(decoder: msgspec.json.Decoder[list[Any]], values: Sequence[str]) -> list[Any]:
+    """JSON values, each one whole, read at once by ``decoder``: plain strings, integers
+    and flags, each to what :data:`_JSON` reads it to (msgspec reads them for a third
+    of the instructions)."""
+    return decoder.decode("[" + ",".join(values) + "]")
+
+
+def _times_ns(seconds: Sequence[str]) -> list[int]:
+    """Robot times in seconds, with three decimals, in nanoseconds, as a line alone reads
+    each (``round(float(seconds) * 1e9)``: under 10**6 s, the float is within 0.13 ns of
+    the time, and rounds to it for each of the 10**9 times, checked one by one). Read at
+    once, as JSON integers: each time's milliseconds, without leading zeros, and six
+    zeros; one by one where one has them still (0 s, or a time written ``00.030``)."""
+    text = "," + ",".join(seconds)
+    for under_a_second in (",0.00", ",0.0", ",0."):
+        text = text.replace(under_a_second, ",")
+    try:
+        return _INTS.decode(f"[{text[1:].replace('.', '').replace(',', '000000,')}000000]")
+    except ValueError:
+        return [int(time.replace(".", "")) * 1_000_000 for time in seconds]
+
+
+def _decoded(values: Iterable[str]) -> list[Any]:
+    """JSON values, each one whole, read at once: each as :data:`_JSON` reads it alone."""
+    decoded: list[Any] = _JSON.raw_decode("[" + ",".join(values) + "]")[0]
+    return decoded
+
+
+def _records(record: type[_Record], *fields: Iterable[Any]) -> list[_Record]:
+    """A ``record`` (a NamedTuple) of each row of ``fields``, made at once, as
+    ``record._make`` makes one."""
+    return list(map(tuple.__new__, repeat(record), zip(*fields, strict=True)))

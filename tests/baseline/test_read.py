@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from beatlog.baseline.read import ParsedLines, line_feeds, parse_line
 from beatlog.replaying.draws import DrawRule
-from beatlog.suite.baseline_parse import ParsedLines, line_feeds, parse_line
 
 _COMMON = [
     '      33     1.022  output "happiness" = 49',
@@ -49,22 +49,22 @@ _ODD = [
 """Lines of a common shape, yet not as it is written: the file is read line by line."""
 
 
-def _read(lines: list[str], version: int = 5) -> tuple[ParsedLines, list[int]]:
+def _read(lines: list[str]) -> tuple[ParsedLines, list[int]]:
     """The lines read as a baseline's are, and the numbers of those left to ``add``."""
     found = ParsedLines()
     others = []
-    for number, line in found.read_common("\n".join(lines), version, start=1):
+    for number, line in found.read_common("\n".join(lines), start=1):
         others.append(number)
         if line.strip() and not line.startswith("#"):
-            found.add(line, version)
+            found.add(line)
     return found, others
 
 
-def _read_one_by_one(lines: list[str], version: int = 5) -> ParsedLines:
+def _read_one_by_one(lines: list[str]) -> ParsedLines:
     found = ParsedLines()
     for line in lines:
         if line.strip() and not line.startswith("#"):
-            found.add(line, version)
+            found.add(line)
     return found
 
 
@@ -82,7 +82,7 @@ def test_each_common_line_reads_as_parse_line_reads_it(line: str) -> None:
     found, others = _read([line])
 
     assert others == []
-    parsed = parse_line(line, 5)
+    parsed = parse_line(line)
     kept = [*found.outputs, *found.blocks, *found.changes, *found.quiet]
     assert repr(kept) == repr([parsed[:2] if type(parsed).__name__ == "_Quiet" else parsed])
 
@@ -117,19 +117,11 @@ def test_a_file_with_a_line_of_a_common_shape_written_otherwise_is_read_line_by_
 )
 def test_a_line_that_does_not_read_fails_as_parse_line_fails(line: str, problem: str) -> None:
     with pytest.raises(ValueError, match=problem) as general:
-        parse_line(line, 5)
+        parse_line(line)
     with pytest.raises(ValueError, match=problem) as read:
         _read([_COMMON[0], line, _COMMON[1]])
 
     assert str(read.value) == str(general.value)
-
-
-def test_before_format_5_every_line_is_read_one_by_one() -> None:
-    lines = [_COMMON[0], _COMMON[11]]
-
-    found, others = _read(lines, version=4)
-
-    assert (repr(found), others) == (repr(_read_one_by_one(lines, version=4)), [1, 2])
 
 
 def test_robot_times_read_at_once_to_the_nanosecond_as_each_alone() -> None:
@@ -175,7 +167,7 @@ def test_robot_times_under_a_second_read_at_once_as_each_alone(first: int) -> No
 def test_a_draws_line_reads_whole(line: str, rule: DrawRule) -> None:
     found = ParsedLines()
 
-    found.add(line, 5)
+    found.add(line)
 
     assert found.draws == [rule]
 
@@ -193,7 +185,7 @@ def test_a_draws_line_reads_whole(line: str, rule: DrawRule) -> None:
 )
 def test_a_draws_line_that_does_not_read_says_why(line: str, problem: str) -> None:
     with pytest.raises(ValueError, match=problem):
-        ParsedLines().add(line, 5)
+        ParsedLines().add(line)
 
 
 @pytest.mark.parametrize("end", ["\n", "\r\n", "\r", "\x0c", "\x1e", "\x85", "\u2028"])

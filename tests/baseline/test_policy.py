@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from beatlog.errors import CiWriteError, OptionError
-from beatlog.suite.policy import (
+from beatlog.baseline.policy import (
     StaleSuite,
     UpdateMode,
     in_ci,
@@ -14,6 +13,7 @@ from beatlog.suite.policy import (
     require_writable,
     stale_suite,
 )
+from beatlog.errors import CiWriteError, OptionError
 
 
 @pytest.mark.parametrize("mode", list(UpdateMode))

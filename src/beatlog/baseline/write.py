@@ -1,32 +1,36 @@
-"""The lines of a baseline file, written: state changes, outputs, robot-state pins, draws.
+"""A baseline file, written: its header, draws, state changes, outputs, robot-state pins.
 
 Each line of the cycle columns starts with the cycle and its robot time in seconds;
 behavior names, states and values are JSON, floats written so they read back bit for
 bit, and a value JSON cannot hold exactly is ``msgpack:HEX``. The format is specified
-in :mod:`beatlog.suite.baseline`; :mod:`beatlog.suite.baseline_parse` reads it.
+in :mod:`beatlog.baseline.file`; :mod:`beatlog.baseline.read` reads it.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
 import msgspec
 
+from beatlog.errors import BaselineError
+from beatlog.files import replacing
 from beatlog.replaying.draws import DrawRule
 from beatlog.replaying.expectation import (
     ABSENT,
     AS_RECORDED,
+    Expectation,
     TracedChange,
     TracedOutput,
-    TracedState,
 )
 from beatlog.replaying.pins import StatePins
 
 __all__ = [
     "AS_RECORDED_TEXT",
     "COLUMNS",
+    "HEADER",
     "MSGPACK",
     "NONE",
     "OPEN_LOOP",
@@ -37,15 +41,19 @@ __all__ = [
     "draw_line",
     "format_lines",
     "format_value",
+    "write_baseline",
 ]
+
+HEADER = "# beatlog expected departures from the recording, format 6"
+"""The first line of a baseline file of the current format."""
 
 NONE = "-"
 """The side of a draws line with no draw (a new draw, or a recorded one left unused)."""
 OPEN_LOOP = "open loop"
 QUIET = "no state changes"
-"""A cycle whose recorded state changes are gone, none in their place (format 5)."""
+"""A cycle whose recorded state changes are gone, none in their place."""
 AS_RECORDED_TEXT = "as recorded"
-"""An output field that follows the recording again (format 5)."""
+"""An output field that follows the recording again."""
 OUTPUT = "output "
 ROBOT_STATE = "robot_state "
 RUN_FIRST = ", first "
@@ -63,7 +71,6 @@ _SORTED = msgspec.msgpack.Encoder(order="sorted")
 def format_lines(
     changes: Iterable[TracedChange],
     outputs: Iterable[TracedOutput] | None = None,
-    robot_states: Iterable[TracedState] = (),
     state_pins: StatePins | None = None,
     *,
     open_loop: tuple[int, int] | None = None,
@@ -72,14 +79,13 @@ def format_lines(
     """The text lines of the pinned robot states, state changes and output changes, by
     cycle, as baseline files hold them: in each cycle in that order, as replay meets
     them, after the line that says the behaviors left the recording there
-    (``open_loop``). ``quiet`` cycles lost their recorded state changes (departures)."""
-    keyed = [(s.cycle, 0, _value_line(ROBOT_STATE, s)) for s in robot_states]
-    keyed.extend((cycle, 0, line) for cycle, line in _pin_lines(state_pins or StatePins()))
+    (``open_loop``). ``quiet`` cycles lost their recorded state changes."""
+    keyed = [(cycle, 0, line) for cycle, line in _pin_lines(state_pins or StatePins())]
     if open_loop is not None:
         keyed.append((open_loop[0], -1, _columns(*open_loop) + OPEN_LOOP))
     keyed.extend((c.cycle, 1, _change_line(c)) for c in changes)
     keyed.extend((cycle, 1, _columns(cycle, time_ns) + QUIET) for cycle, time_ns in quiet)
-    keyed.extend((o.cycle, 2, _value_line(OUTPUT, o)) for o in outputs or ())
+    keyed.extend((o.cycle, 2, _output_line(o)) for o in outputs or ())
     keyed.sort(key=lambda item: item[:2])  # stable: the order within a cycle is kept
     return [line for _, _, line in keyed]
 
@@ -92,7 +98,7 @@ def _change_line(traced: TracedChange) -> str:
     )
 
 
-def _value_line(kind: str, traced: TracedOutput | TracedState) -> str:
+def _output_line(traced: TracedOutput) -> str:
     cycle, time_ns, name, value = traced
     what = (
         "absent"
@@ -101,7 +107,7 @@ def _value_line(kind: str, traced: TracedOutput | TracedState) -> str:
         if value is AS_RECORDED
         else f"= {format_value(value)}"
     )
-    return f"{_columns(cycle, time_ns)}{kind}{json.dumps(name)} {what}"
+    return f"{_columns(cycle, time_ns)}{OUTPUT}{json.dumps(name)} {what}"
 
 
 def _pin_lines(pins: StatePins) -> list[tuple[int, str]]:
@@ -149,3 +155,39 @@ def draw_line(rule: DrawRule) -> str:
     recorded, asked = rule.recorded or NONE, rule.asked or NONE
     cycles = " ".join(map(str, rule.cycles))
     return f"draws {json.dumps(rule.behavior)}: {recorded} -> {asked} in cycles {cycles}"
+
+
+def write_baseline(
+    path: Path,
+    *,
+    spec_name: str,
+    log_name: str,
+    digest: str,
+    expectation: Expectation,
+) -> None:
+    """Write a baseline file atomically: readers see the old file or the new one.
+    ``log_name`` and ``digest`` (:func:`~beatlog.baseline.file.log_digest`) bind it to
+    its recording.
+
+    :raises BaselineError: the file cannot be written (a full disk): the old file, if
+        any, stays whole.
+    """
+    lines = [
+        HEADER,
+        f"# spec {spec_name}",
+        f"# log {log_name} sha256 {digest}",
+        *map(draw_line, expectation.draws),
+        COLUMNS,
+        *format_lines(
+            expectation.changes,
+            expectation.outputs or (),
+            state_pins=expectation.state_pins,
+            open_loop=expectation.open_loop,
+            quiet=expectation.quiet,
+        ),
+    ]
+    try:
+        with replacing(path) as file:
+            file.write(("\n".join(lines) + "\n").encode())
+    except OSError as exc:
+        raise BaselineError(path, f"cannot write: {exc.strerror or exc}") from None

@@ -58,19 +58,8 @@ recorded one left unused (``-`` for the asked side). A baseline is judged in liv
 replay, cycle by cycle: any other draw made otherwise, or an approved one not made,
 diverges in its cycle.
 
-Older formats still read and judge as they did; a new baseline is always written in
-format 6. Format 5 files hold format 6's lines, their robot states digested by a keyed
-BLAKE2b (:data:`~beatlog.replaying.state_digests.BLAKE2B`), seven times as dear to check. Format 4
-files hold the whole trace of state changes and outputs, not only where it departs: an
-output line appears in the cycles where that field's value changes, and a cycle
-without state-change lines has none; or the line ``state changes and outputs as
-recorded`` says they are the recording's. Format 3 files approve no
-draws (replay must draw as recorded) and pin robot states a line per field per cycle,
-``12  0.360  robot_state "range" = 0.55``: the recorded state with these fields is what
-perception must rebuild, within the spec's tolerances. Format 2 files pin no robot
-states: perception must rebuild the recording. Format 1 files (state changes only) pin
-no outputs either, so replay judges outputs against the recording and says so when
-they differ; re-approve to pin them.
+A baseline is read in this format alone: a file of an older one is refused, naming
+the command that rewrites it in this one (:mod:`beatlog.baseline.upgrade`).
 """
 
 from __future__ import annotations
@@ -80,28 +69,31 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from beatlog.baseline.read import ParsedLines, line_feeds
+from beatlog.baseline.write import HEADER
 from beatlog.errors import BaselineError, NotABeatlogError
-from beatlog.files import irregular_file_problem, read_text_blocks, replacing
+from beatlog.files import irregular_file_problem, read_text_blocks
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.pins import StatePins
-from beatlog.replaying.state_digests import BLAKE2B, XXH64
-from beatlog.suite.baseline_parse import ParsedLines, line_feeds
-from beatlog.suite.baseline_text import COLUMNS, draw_line, format_lines
-from beatlog.suite.spec import SPEC_SUFFIX
 
 __all__ = [
     "BLOCK_BYTES",
     "EXPECTED_SUFFIX",
     "MAX_BASELINE_BYTES",
+    "OLD_HEADERS",
     "PENDING_SUFFIX",
+    "SPEC_SUFFIX",
     "Baseline",
     "expected_path",
-    "format_lines",
     "log_digest",
     "pending_path",
     "read_baseline",
-    "write_baseline",
+    "spec_path",
+    "upgrade_hint",
 ]
+
+SPEC_SUFFIX = ".dtc.toml"
+"""How a DTC spec's file name ends; its baselines are named after it."""
 
 EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
@@ -110,19 +102,17 @@ MAX_BASELINE_BYTES = 1 << 28
 BLOCK_BYTES = 1 << 20
 """How much of a baseline is read at a time: reading holds a block of its text, and
 what its lines read to, not the whole file's text."""
-_MAGIC = "# beatlog expected departures from the recording, format 6"
-_VERSIONS = {
-    _MAGIC: 6,
+OLD_HEADERS = {
     "# beatlog expected departures from the recording, format 5": 5,
     "# beatlog expected state changes, outputs, robot states and draws, format 4": 4,
     "# beatlog expected state changes, outputs and robot states, format 3": 3,
     "# beatlog expected state changes and outputs, format 2": 2,
     "# beatlog expected state changes, format 1": 1,
 }
+"""The first lines of the older formats, each with its number: read only to upgrade."""
+UPGRADE_COMMAND = "beatlog upgrade-baselines"
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _NOT_A_BASELINE = "not a beatlog baseline (its first line is not the header)"
-_AS_RECORDED = "state changes and outputs as recorded"
-"""A format 4 line: the behaviors' state changes and outputs are the recording's."""
 
 
 @dataclass(frozen=True)
@@ -150,6 +140,15 @@ def pending_path(spec: Path) -> Path:
     return spec.with_name(_base(spec) + PENDING_SUFFIX)
 
 
+def spec_path(baseline: Path) -> Path:
+    """The spec an approved or pending baseline at ``baseline`` belongs to."""
+    name = baseline.name
+    for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
+        if name.endswith(suffix):
+            return baseline.with_name(name[: -len(suffix)] + SPEC_SUFFIX)
+    return baseline.with_suffix(SPEC_SUFFIX)
+
+
 def log_digest(log: Path) -> str:
     """The SHA-256 of a session log, binding a baseline to the recording it was made from."""
     problem = irregular_file_problem(log)
@@ -165,56 +164,19 @@ def log_digest(log: Path) -> str:
     return digest.hexdigest()
 
 
-def write_baseline(
-    path: Path,
-    *,
-    spec_name: str,
-    log_name: str,
-    digest: str,
-    expectation: Expectation,
-) -> None:
-    """Write a baseline file atomically: readers see the old file or the new one.
-    ``log_name`` and ``digest`` (:func:`log_digest`) bind it to its recording.
-
-    :raises BaselineError: the file cannot be written (a full disk): the old file, if
-        any, stays whole.
-    :raises ValueError: ``expectation`` is a whole trace (baseline formats 1 to 4),
-        not departures from the recording, or pins robot-state fields value by value, as
-        only format 3 files did: trace the log again.
-    """
-    if expectation.robot_states:
-        raise ValueError("format 3 robot-state pins cannot be written: trace the log again")
-    if not expectation.departures:
-        raise ValueError("a whole trace cannot be written, only departures: trace the log again")
-    lines = [
-        _MAGIC,
-        f"# spec {spec_name}",
-        f"# log {log_name} sha256 {digest}",
-        *map(draw_line, expectation.draws),
-        COLUMNS,
-        *format_lines(
-            expectation.changes,
-            expectation.outputs or (),
-            state_pins=expectation.state_pins,
-            open_loop=expectation.open_loop,
-            quiet=expectation.quiet,
-        ),
-    ]
-    try:
-        with replacing(path) as file:
-            file.write(("\n".join(lines) + "\n").encode())
-    except OSError as exc:
-        raise BaselineError(path, f"cannot write: {exc.strerror or exc}") from None
+def upgrade_hint(path: Path, version: int) -> str:
+    """What an older baseline's error says: its format, and the command that rewrites it."""
+    return f"a format {version} baseline: run '{UPGRADE_COMMAND} {path}' to rewrite it in format 6"
 
 
 def read_baseline(path: Path) -> Baseline:
     """Read a baseline file, a block of lines at a time (:data:`BLOCK_BYTES`); anything
-    else raises :class:`BaselineError` naming the line."""
-    version = None
+    else, a file of an older format included, raises :class:`BaselineError` naming the
+    line (or the command that upgrades it)."""
+    started = False
     number = 1
     digest = ""
     found = ParsedLines()
-    as_recorded = False
     for block in read_text_blocks(
         path,
         limit=MAX_BASELINE_BYTES,
@@ -223,46 +185,37 @@ def read_baseline(path: Path) -> Baseline:
         block_bytes=BLOCK_BYTES,
     ):
         text, count = line_feeds(block)
-        if version is None:
+        if not started:
             first, _, text = text.partition("\n")
-            version = _VERSIONS.get(first)
-            if version is None:
+            if first in OLD_HEADERS:
+                raise BaselineError(path, upgrade_hint(path, OLD_HEADERS[first]))
+            if first != HEADER:
                 raise BaselineError(path, _NOT_A_BASELINE)
-            number, count = 2, count - 1
-        for at, line in found.read_common(text, version, start=number):
+            started, number, count = True, 2, count - 1
+        for at, line in found.read_common(text, start=number):
             if line.startswith("#"):
                 log_line = _LOG_LINE.fullmatch(line)
                 digest = log_line["digest"] if log_line else digest
-            elif line == _AS_RECORDED and version == 4:
-                as_recorded = True
             elif line.strip():
                 try:
-                    found.add(line, version)
+                    found.add(line)
                 except (ValueError, RecursionError) as exc:
                     raise BaselineError(path, f"line {at}: {exc}") from None
         number += count
-    if version is None:  # an empty file
+    if not started:  # an empty file
         raise BaselineError(path, _NOT_A_BASELINE)
     if not digest:
         raise BaselineError(path, "no '# log NAME sha256 DIGEST' line")
-    if as_recorded and (found.changes or found.outputs or found.open_loop):
-        raise BaselineError(
-            path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
-        )
-    return Baseline(path, digest, _expectation(path, found, version, as_recorded=as_recorded))
+    return Baseline(path, digest, _expectation(path, found))
 
 
-def _expectation(path: Path, found: ParsedLines, version: int, *, as_recorded: bool) -> Expectation:
-    """What the lines of a file of format ``version`` expect.
+def _expectation(path: Path, found: ParsedLines) -> Expectation:
+    """What the lines of a baseline file expect.
 
     :raises BaselineError: lines out of cycle order, a cycle both quiet and with
         state changes, or robot-state pins that do not hold together.
     """
-    for what, traced in (
-        ("output", found.outputs),
-        ("robot_state", found.states),
-        ("state change", found.changes),
-    ):
+    for what, traced in (("output", found.outputs), ("state change", found.changes)):
         cycles = [item.cycle for item in traced]
         if cycles != sorted(cycles):
             raise BaselineError(path, f"{what} lines are not in cycle order")
@@ -270,16 +223,14 @@ def _expectation(path: Path, found: ParsedLines, version: int, *, as_recorded: b
     if both:
         raise BaselineError(path, f"cycle {min(both)} has state changes and none")
     try:
-        pins = StatePins(tuple(found.runs), tuple(found.blocks), XXH64 if version >= 6 else BLAKE2B)
+        pins = StatePins(tuple(found.runs), tuple(found.blocks))
     except ValueError as exc:
         raise BaselineError(path, str(exc)) from None
     return Expectation(
         tuple(found.changes),
-        tuple(found.outputs) if version >= 2 else None,
-        tuple(found.states),
+        tuple(found.outputs),
         pins,
         tuple(found.draws),
         found.open_loop,
-        departures=version >= 5 or as_recorded,
-        quiet=tuple(found.quiet),
+        tuple(found.quiet),
     )
