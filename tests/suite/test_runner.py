@@ -9,8 +9,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import pytest
-from beatlog.suite.baseline import expected_path
 
+from beatlog.baseline.file import expected_path
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
