@@ -74,6 +74,7 @@ def test_the_tour_starts_in_the_first_commands_environment() -> None:
     assert first.command.startswith(". .venv/bin/activate")
 
 
+@pytest.mark.slow
 @pytest.mark.first  # the suite's longest test: a minute
 def test_the_readme_tour_runs_as_written(tmp_path: Path) -> None:
     for part in ("examples", "pyproject.toml"):  # the tour runs at the repository's root

@@ -137,6 +137,7 @@ def test_a_suite_given_by_a_relative_path_is_reported_by_it_as_a_local_run_is(
         )
 
 
+@pytest.mark.slow
 def test_local_n_starts_a_cluster_of_n_worker_processes_for_the_run(
     beatlog: Callable[..., Run], suite: Path
 ) -> None:

@@ -27,12 +27,19 @@ def test_the_suite_has_a_spec_and_a_log_for_every_scenario_within_20_mb() -> Non
         assert summary.status == LogStatus(complete=True, cycles=summary.cycles), spec.name
 
 
+@pytest.mark.slow
 def test_every_dtc_passes_against_the_current_behaviors() -> None:
     outcomes = run_suite(SPECS)
     assert [o.spec.name for o in outcomes if o.verdict is not Verdict.PASSED] == []
 
 
-@pytest.mark.parametrize("behavior", sorted(CHANGES))
+@pytest.mark.parametrize(
+    "behavior",
+    [
+        pytest.param(name, marks=pytest.mark.slow) if name == "sleep" else name  # the costliest
+        for name in sorted(CHANGES)
+    ],
+)
 def test_a_change_to_any_single_behavior_fails_at_least_one_dtc(behavior: str) -> None:
     for spec in SHORTEST_FIRST:
         result = replay(spec.log, changed_system(behavior), context_cycles=0)
