@@ -267,7 +267,7 @@ def test_an_xdist_worker_s_dtcs_are_counted_and_covered_by_the_controller(
     pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
     pytester.makefile(".dtc.toml", changed=spec_text("changed", log, changed))
 
-    result = pytester.runpytest_subprocess("-n", "1", "--beatlog-coverage")
+    result = pytester.runpytest("-n", "1", "--beatlog-coverage")
 
     result.assert_outcomes(passed=1, failed=1)
     result.stdout.fnmatch_lines(
