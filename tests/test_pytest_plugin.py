@@ -240,6 +240,7 @@ def test_the_fixture_fails_cleanly_naming_a_missing_log(pytester: pytest.Pyteste
     result.stdout.no_fnmatch_line("*Traceback*")
 
 
+@pytest.mark.slow
 def test_dtcs_run_under_xdist_and_measure_behavior_coverage(
     pytester: pytest.Pytester, tmp_path: Path
 ) -> None:
@@ -289,6 +290,30 @@ def test_an_older_baseline_is_one_line_naming_the_command_that_upgrades_it(
         [f"*{old}: a format 5 baseline: run 'beatlog upgrade-baselines {old}' to rewrite it*"]
     )
     result.stdout.no_fnmatch_line("*BaselineError*")
+
+
+def test_an_xdist_worker_s_dtcs_are_counted_and_covered_by_the_controller(
+    pytester: pytest.Pytester, log: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Under pytest-xdist the DTCs run in a worker: their verdicts and the transition
+    coverage of their logs are summed up by the controller, as in one process."""
+    monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent.parent), prepend=os.pathsep)
+    changed = "tests.conftest:probe_system_changed"
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log))
+    pytester.makefile(".dtc.toml", changed=spec_text("changed", log, changed))
+
+    result = pytester.runpytest("-n", "1", "--beatlog-coverage")
+
+    result.assert_outcomes(passed=1, failed=1)
+    result.stdout.fnmatch_lines(
+        [
+            "*1 worker*",
+            "*= beatlog =*",
+            "*transition coverage*",
+            '*"far" → "near"*',
+            "2 DTCs: 1 passed, 1 failed",
+        ]
+    )
 
 
 def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
@@ -351,7 +376,10 @@ def test_audit_fails_a_dtc_whose_behaviors_leak_and_passes_a_sound_one(
     audited.stdout.fnmatch_lines(["2 DTCs: 2 passed, 0 failed"])
 
 
-@pytest.mark.parametrize("workers", [[], ["-n", "2"]], ids=["alone", "xdist"])
+@pytest.mark.parametrize(
+    "workers",
+    [pytest.param([], id="alone"), pytest.param(["-n", "2"], id="xdist", marks=pytest.mark.slow)],
+)
 def test_coverage_is_shown_and_written_at_the_end_of_the_session(
     pytester: pytest.Pytester,
     record_probe: RecordFn,

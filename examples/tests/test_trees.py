@@ -57,7 +57,15 @@ def test_one_case_is_recorded_alone(tmp_path: Path) -> None:
     ]
 
 
-@pytest.mark.parametrize("spec", SPECS, ids=[spec.name for spec in SPECS])
+@pytest.mark.parametrize(
+    "spec",
+    [  # each audit starts fresh interpreters: one DTC by default, the other under -m slow
+        pytest.param(
+            spec, id=spec.name, marks=() if spec.name == "low-battery" else pytest.mark.slow
+        )
+        for spec in SPECS
+    ],
+)
 def test_replay_reads_no_wall_clock_and_no_global_random(spec: DtcSpec) -> None:
     report = audit(spec.log, "beatlog_examples.trees:system")
     assert report == AuditReport(findings=(), runs=report.runs, hash_seed_dependence=None)

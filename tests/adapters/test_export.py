@@ -50,12 +50,22 @@ from tests.commands import Beatlog, assert_error, assert_error_matching, cannot_
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
 from tests.crafting import Message as LogMessage
 from tests.crafting import craft_log, cycle, cycle_messages, end_message, header_message
+from tests.marks import one_by_default
 from tests.perceptions import record_with_samples
 from tests.systems import record_scatter
 from tests.viewer_schema import ViewerSchemaError, check_viewer_schema
 
 COMMITTED = sorted((Path(__file__).parents[2] / "examples/src").glob("**/suite/*.beatlog"))
 """Every DTC log the examples commit: the dog's suite and the py_trees patrol's."""
+SMALL_COMMITTED = COMMITTED[0].parents[2] / "trees/suite/low-battery.beatlog"
+"""The smallest of them, exported in the default run (the others under ``-m slow``)."""
+
+
+def committed_id(log: Path) -> str:
+    """A committed log's test id: its example and its name."""
+    return f"{log.parts[-3]}/{log.stem}"
+
+
 PER_CYCLE_TOPICS = ("/robot_state", "/heartbeat", "/outputs")
 PROBE_TOPICS = [
     *("/behaviors/arbiter", "/behaviors/dice", "/behaviors/near"),
@@ -834,8 +844,7 @@ def test_a_truncated_log_is_exported_up_to_its_last_cycle(beatlog: Beatlog, tmp_
     }
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("log", COMMITTED, ids=[f"{p.parts[-3]}/{p.stem}" for p in COMMITTED])
+@pytest.mark.parametrize("log", one_by_default(COMMITTED, SMALL_COMMITTED, committed_id))
 def test_every_committed_dtc_exports_for_the_viewers_and_validates(
     log: Path, tmp_path: Path
 ) -> None:

@@ -106,7 +106,7 @@ def test_ctrl_c_stops_a_suite_and_prints_what_is_complete(
     assert closing_counts(run.out) == "1 passed, 1 failed, 2 not run"
 
 
-@pytest.mark.parametrize("jobs", ["1", "2"])
+@pytest.mark.parametrize("jobs", ["1", pytest.param("2", marks=pytest.mark.slow)])
 def test_ctrl_c_stops_the_audit_interpreters(
     press_ctrl_c: Callable[..., Run],
     tmp_path: Path,

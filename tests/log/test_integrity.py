@@ -35,6 +35,7 @@ from tests.crafting import (
     standard_messages,
     swap_chunks,
 )
+from tests.marks import one_by_default
 
 DOG_SUITE = SUITE_DIR
 COMMITTED_LOGS = sorted(DOG_SUITE.glob("*.beatlog"))
@@ -132,7 +133,10 @@ def test_a_format_1_log_cut_off_mid_session_is_checked_by_robot_time(tmp_path: P
     )
 
 
-@pytest.mark.parametrize("log", COMMITTED_LOGS, ids=lambda p: p.stem)
+@pytest.mark.parametrize(
+    "log",
+    one_by_default(COMMITTED_LOGS, DOG_SUITE / "remote-into-wall.beatlog", lambda log: log.stem),
+)
 def test_no_chunk_of_a_committed_log_can_be_dropped_repeated_or_moved(
     tmp_path: Path, log: Path
 ) -> None:

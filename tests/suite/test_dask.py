@@ -137,6 +137,16 @@ def test_a_suite_given_by_a_relative_path_is_reported_by_it_as_a_local_run_is(
         )
 
 
+def test_local_1_starts_a_cluster_of_one_worker_process_for_the_run(
+    beatlog: Callable[..., Run], suite: Path
+) -> None:
+    run = beatlog("test", suite, "--dask", "local:1", "-k", "second")
+
+    assert run.code == 0, run.err
+    assert closing_counts(run.out) == "1 passed, 0 failed"
+
+
+@pytest.mark.slow
 def test_local_n_starts_a_cluster_of_n_worker_processes_for_the_run(
     beatlog: Callable[..., Run], suite: Path
 ) -> None:

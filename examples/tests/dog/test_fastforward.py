@@ -25,6 +25,7 @@ def test_the_same_seed_and_intervals_give_the_same_log_byte_for_byte(tmp_path: P
     assert first.read_bytes() == second.read_bytes()
 
 
+@pytest.mark.slow
 def test_heartbeats_are_drawn_from_the_measured_intervals_and_the_log_replays(
     tmp_path: Path,
 ) -> None:
@@ -39,6 +40,16 @@ def test_heartbeats_are_drawn_from_the_measured_intervals_and_the_log_replays(
     assert transitions["remote"] >= 6  # three drives, each started and released
     with SessionLogReader(log) as reader:
         assert reader.header.system == "beatlog_examples.dog:system"
+
+
+def test_a_short_log_s_heartbeats_are_drawn_from_the_measured_intervals_and_it_replays(
+    tmp_path: Path,
+) -> None:
+    log = tmp_path / "short.beatlog"
+    record_fast(log, scenario("remote-drive"), intervals=JITTER, seed=1, duration_s=2.0)
+    intervals = measured_intervals([log])
+    assert set(intervals) == set(JITTER)
+    assert replay(log, "beatlog_examples.dog:system").ok
 
 
 def test_fast_forward_needs_intervals(tmp_path: Path) -> None:
@@ -56,6 +67,7 @@ def test_while_the_imu_boots_perception_keeps_the_robot_states_defaults(tmp_path
     assert states[-1]["accel_z"] != DogState().accel_z
 
 
+@pytest.mark.slow
 def test_a_remote_link_that_drops_sends_no_release_and_the_dog_times_out(tmp_path: Path) -> None:
     log = tmp_path / "dropped.beatlog"
     record_fast(log, scenario("remote-dropped"), intervals=JITTER, seed=2)

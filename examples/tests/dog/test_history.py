@@ -47,6 +47,7 @@ def suite(tmp_path: Path) -> Path:
     return folder
 
 
+@pytest.mark.slow
 def test_every_intended_change_is_kept_and_a_planted_bug_is_caught_after(
     tmp_path: Path, suite: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -8,11 +8,32 @@ from pathlib import Path
 import pytest
 
 from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog_examples import demo
 from beatlog_examples.dog import SUITE_DIR
 from tests.commands import Beatlog
 from tests.text import whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
+
+
+def test_the_demo_is_the_registered_one_run_with_the_options_given(
+    beatlog: Beatlog, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """What the slow test below runs whole: the demo the examples register under the
+    ``beatlog.demo`` entry points, given the duration and folder; its result is the exit
+    code."""
+    given: list[tuple[float, Path]] = []
+
+    def run_demo(console: object, *, duration_s: float, out: Path) -> int:
+        given.append((duration_s, out))
+        return 1
+
+    monkeypatch.setattr(demo, "run_demo", run_demo)
+
+    run = beatlog("demo", "--duration", 0.5, "--out", tmp_path / "demo")
+
+    assert run.code == 1
+    assert given == [(0.5, tmp_path / "demo")]
 
 
 @pytest.mark.slow

@@ -179,7 +179,6 @@ def test_record_needs_a_robot_not_a_system(beatlog: Beatlog, tmp_path: Path) -> 
     assert not out.exists()
 
 
-@pytest.mark.slow
 def test_record_writes_a_complete_log_that_replays(beatlog: Beatlog, tmp_path: Path) -> None:
     out = tmp_path / "rover.beatlog"
 

@@ -543,6 +543,7 @@ def test_two_robots_of_one_repository_each_have_a_dtc_of_one_name(
     assert document["systems"][ROVER]["near"]["no_longer_reached"] == []
 
 
+@pytest.mark.slow
 def test_beatlog_test_at_this_repository_s_root_runs_every_example_suite(
     beatlog_test: BeatlogTest, monkeypatch: pytest.MonkeyPatch
 ) -> None:
