@@ -18,7 +18,7 @@ import pytest
 from distributed import Client, LocalCluster
 
 from beatlog.cli.main import main
-from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor
+from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor, WorkerDeaths
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.policy import SpecOptions
 from beatlog.suite.runner import SpecOutcome
@@ -188,6 +188,26 @@ def test_a_spec_whose_log_is_not_found_is_an_error_of_its_dtc(
     assert run.code == 2
     assert run.err == f"beatlog: error: lost ({spec}): {served.url}/lost.beatlog: no such log\n"
     assert closing_counts(run.out) == "0 passed, 0 failed, 1 error"
+
+
+def removed(keys: list[str], *, expected: bool = False) -> tuple[float, object]:
+    """The scheduler's event of a worker removed while it ran ``keys``."""
+    message = {"action": "remove-worker", "processing-tasks": keys, "expected": expected}
+    return (0.0, message)
+
+
+def test_retries_are_counted_from_the_workers_removed_unexpectedly_while_running_a_dtc() -> None:
+    deaths = WorkerDeaths()
+    for event in (
+        removed(["dtc-a", "dtc-b"]),
+        (0.0, {"action": "add-worker", "worker": "tcp://127.0.0.1:1"}),
+        removed(["dtc-a"]),
+        removed(["dtc-c"], expected=True),  # retired on purpose: not the DTC's doing
+        (0.0, "a message of another kind"),
+    ):
+        deaths.seen(event)
+
+    assert [deaths.count(key) for key in ("dtc-a", "dtc-b", "dtc-c", "dtc-d")] == [2, 1, 0, 0]
 
 
 def write_dying_once(folder: Path, marker: Path) -> str:

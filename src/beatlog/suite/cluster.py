@@ -11,13 +11,17 @@ package must be installed on the workers, as it is here.
 A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
 DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
 (``distributed.scheduler.allowed-failures``, 3 by default), and the outcome counts the
-retries; past them the DTC is an error. A cluster of one's own is best run with
+retries; past them the DTC is an error. The retries are counted here from the
+scheduler's own events (a worker removed while it was replaying the DTC), which reach
+this client before the DTC's outcome does: an outcome costs no request of its own. A
+cluster of one's own is best run with
 :data:`ONE_DTC_PER_THREAD`. Needs ``pip install "beatlog[dask]"``.
 """
 
 from __future__ import annotations
 
 import asyncio
+import collections
 import dataclasses
 import logging
 import re
@@ -37,7 +41,7 @@ if TYPE_CHECKING:
     from beatlog.suite.policy import SpecOptions
     from beatlog.suite.spec import DtcSpec
 
-__all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor"]
+__all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor", "WorkerDeaths"]
 
 ONE_DTC_PER_THREAD = {"distributed.scheduler.worker-saturation": 1.0}
 """The scheduler's setting for DTC suites, and that of the cluster ``local`` starts: a
@@ -74,6 +78,7 @@ class DaskExecutor(Closing):
                 f"--dask {address}: expected local, or local:N with N worker processes from 1"
             )
         self._cluster: LocalCluster | None = None
+        self._deaths = WorkerDeaths()
         try:
             if local is None:
                 _handshake(address)
@@ -89,6 +94,7 @@ class DaskExecutor(Closing):
                         silence_logs=logging.CRITICAL,
                     )
                 self._client = Client(self._cluster, set_as_default=False)
+            self._client.subscribe_topic("all", self._deaths.seen)
         except (OSError, ValueError) as exc:  # TimeoutError is an OSError
             self.close()
             raise ClusterError(
@@ -132,8 +138,7 @@ class DaskExecutor(Closing):
             tries = exc.allowed_failures + 1
             problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
             return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
-        retries: int = self._client.run_on_scheduler(_retries, key=future.key)
-        return _as_given(outcome, spec, retries)
+        return _as_given(outcome, spec, self._deaths.count(str(future.key)))
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
@@ -142,6 +147,31 @@ class DaskExecutor(Closing):
             client.close()
         if self._cluster is not None:
             self._cluster.close()
+
+
+class WorkerDeaths:
+    """How many workers died while running each task, counted from the scheduler's
+    events of the topic ``all`` as the scheduler counts them (a task's ``suspicious``):
+    a worker removed unexpectedly (not retired nor closed on purpose) counts once for
+    each task it was running. The scheduler sends the event before it runs the task
+    again, on the same stream as the task's result, so a result always finds its count.
+    """
+
+    def __init__(self) -> None:
+        self._counts: collections.Counter[str] = collections.Counter()
+
+    def seen(self, event: tuple[float, Any]) -> None:
+        """Take one event ``(time, message)`` of the topic ``all``."""
+        _, message = event
+        if not isinstance(message, dict) or message.get("action") != "remove-worker":
+            return
+        if message.get("expected"):
+            return
+        self._counts.update(str(key) for key in message.get("processing-tasks", ()))
+
+    def count(self, key: str) -> int:
+        """How many workers died while running the task ``key``."""
+        return self._counts[key]
 
 
 def _handshake(address: str) -> None:
@@ -173,12 +203,6 @@ def _handshake(address: str) -> None:
     else:
         return
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
-
-
-def _retries(dask_scheduler: Any, key: str) -> int:
-    """On the scheduler: how many workers died while running the task ``key``."""
-    task = dask_scheduler.tasks.get(key)
-    return 0 if task is None else int(task.suspicious)
 
 
 def _absolute(spec: DtcSpec) -> DtcSpec:
