@@ -5,7 +5,10 @@ local runner's workers run, and sends back its :class:`~beatlog.suite.runner.Spe
 as it is; outcomes stream back as they complete, to the same progress bar and reports.
 A spec travels with absolute paths, so a worker of another machine finds its files on
 a shared filesystem; a log behind a URL (a spec's, or a fleet's) is copied by the worker
-that replays it, and by no other process (see :mod:`beatlog.remote`). The system's
+that replays it, and by no other process (see :mod:`beatlog.remote`), into its
+machine's cache of logs; a task also fetches the log of the DTC its worker is likely to
+replay next (the one as many DTCs further on as the cluster has threads) while it
+replays its own (:mod:`beatlog.suite.prefetch`). The system's
 package must be installed on the workers, as it is here.
 
 A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
@@ -25,6 +28,7 @@ import collections
 import dataclasses
 import logging
 import re
+import time
 import uuid
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
@@ -32,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 from beatlog.closing import Closing
 from beatlog.errors import ClusterError, first_line
 from beatlog.suite.baseline import expected_path
+from beatlog.suite.prefetch import fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
 
@@ -114,11 +119,14 @@ class DaskExecutor(Closing):
 
         given: dict[str, DtcSpec] = {}
         futures: list[Future[SpecOutcome]] = []
-        for spec in longest_first(specs):  # the scheduler starts them in this order
+        ordered = longest_first(specs)  # the scheduler starts them in this order
+        threads = max(1, sum(self._client.nthreads().values()))
+        for index, spec in enumerate(ordered):
             key = f"dtc-{spec.name}-{uuid.uuid4().hex}"
             given[key] = spec
+            ahead = ordered[index + threads].log_url if index + threads < len(ordered) else None
             futures.append(
-                self._client.submit(run_spec, _absolute(spec), options, key=key, pure=False)
+                self._client.submit(_replayed, _absolute(spec), options, ahead, key=key, pure=False)
             )
         try:
             for future in as_completed(futures, loop=self._client.loop):
@@ -203,6 +211,24 @@ def _handshake(address: str) -> None:
     else:
         return
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
+
+
+def _replayed(spec: DtcSpec, options: SpecOptions, ahead: str | None) -> SpecOutcome:
+    """On a worker: :func:`run_spec`, while the log of ``ahead`` (a URL), the DTC this
+    worker's thread is likely to replay next, is fetched into the machine's cache; a
+    log that this process is fetching ahead already is waited for, the time counted as
+    waiting on storage."""
+    if ahead is not None:
+        fetch_ahead(ahead)
+    if spec.log_url is None:
+        return run_spec(spec, options)
+    asked = time.perf_counter()
+    wait_for(spec.log_url)
+    waited = time.perf_counter() - asked
+    outcome = run_spec(spec, options)
+    if outcome.storage_wait_s is None:
+        return outcome
+    return dataclasses.replace(outcome, storage_wait_s=outcome.storage_wait_s + waited)
 
 
 def _absolute(spec: DtcSpec) -> DtcSpec:
