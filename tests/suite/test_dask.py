@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import re
+import shutil
 import socket
 import threading
 import xml.etree.ElementTree as ET
@@ -316,6 +317,52 @@ def test_ctrl_c_cancels_the_tasks_not_complete(
             assert watcher.run_on_scheduler(dtc_tasks) == 0
         finally:
             release.touch()
+
+
+@pytest.mark.slow
+def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
+    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    release = tmp_path / "release"
+    waiting = write_waiting(tmp_path / "code", release)  # installed on the workers alone
+    (tmp_path / "checkout").mkdir()
+    log = record_probe(60, name="checkout/walk.beatlog")
+    write_spec(tmp_path / "checkout", "a-quick", log)
+    for name in ("b-waits", "c-waits", "d-waits"):
+        write_spec(tmp_path / "checkout", name, log, waiting)
+    specs = discover_specs([tmp_path / "checkout"])
+    outcomes: list[SpecOutcome] = []
+
+    def checkout_gone(outcome: SpecOutcome) -> bool:
+        """Once the first DTC is judged, the checkout is no more."""
+        outcomes.append(outcome)
+        if not release.exists():
+            shutil.rmtree(tmp_path / "checkout")
+            release.touch()
+        return False
+
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    monkeypatch.syspath_prepend(tmp_path / "code")  # workers start with this sys.path
+    with (
+        dask.config.set(ONE_DTC_PER_THREAD),
+        LocalCluster(
+            n_workers=1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.CRITICAL,
+        ) as elsewhere,
+        DaskExecutor(elsewhere.scheduler_address) as executor,
+    ):
+        executor(specs, SpecOptions(), checkout_gone)
+
+    assert sorted((o.spec.name, o.verdict.value, o.error) for o in outcomes) == [
+        ("a-quick", "passed", None),
+        ("b-waits", "passed", None),
+        ("c-waits", "passed", None),
+        ("d-waits", "passed", None),
+    ]
 
 
 def unused_port() -> int:

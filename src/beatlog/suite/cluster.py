@@ -3,13 +3,16 @@
 One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function the
 local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
 as it is; outcomes stream back as they complete, to the same progress bar and reports.
-A spec travels with absolute paths, so a worker of another machine finds its files on
-a shared filesystem; a log behind a URL (a spec's, or a fleet's) is copied by the worker
+A spec travels with absolute paths to a cluster of this machine's (``local``); to
+another (an address), with the files of this machine its replay reads, its baseline and
+local log among them (:mod:`beatlog.suite.shipping`), so the workers need no filesystem
+shared with this one; a log behind a URL (a spec's, or a fleet's) is copied by the worker
 that replays it, and by no other process (see :mod:`beatlog.remote`), into its
 machine's cache of logs; a task also fetches the log of the DTC its worker is likely to
 replay next (the one as many DTCs further on as the cluster has threads) while it
 replays its own (:mod:`beatlog.suite.prefetch`). The system's
-package must be installed on the workers, as it is here.
+package must be installed on the workers, as it is here: a worker without it makes the
+DTC an error that says so.
 
 A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
 DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
@@ -28,9 +31,12 @@ import collections
 import dataclasses
 import logging
 import re
+import socket
+import tempfile
 import time
 import uuid
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beatlog.closing import Closing
@@ -39,12 +45,14 @@ from beatlog.suite.baseline import expected_path
 from beatlog.suite.prefetch import fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
+from beatlog.suite.shipping import Packed, as_here, missing_system, packed, unpacked
+from beatlog.suite.spec import DtcSpec
+from beatlog.usercode import importable_near
 
 if TYPE_CHECKING:
     from distributed import Future, LocalCluster
 
     from beatlog.suite.policy import SpecOptions
-    from beatlog.suite.spec import DtcSpec
 
 __all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor", "WorkerDeaths"]
 
@@ -83,6 +91,7 @@ class DaskExecutor(Closing):
                 f"--dask {address}: expected local, or local:N with N worker processes from 1"
             )
         self._cluster: LocalCluster | None = None
+        self._ships = local is None  # a cluster of this machine shares its files
         self._deaths = WorkerDeaths()
         try:
             if local is None:
@@ -125,8 +134,9 @@ class DaskExecutor(Closing):
             key = f"dtc-{spec.name}-{uuid.uuid4().hex}"
             given[key] = spec
             ahead = ordered[index + threads].log_url if index + threads < len(ordered) else None
+            sent = packed(_absolute(spec)) if self._ships else _absolute(spec)
             futures.append(
-                self._client.submit(_replayed, _absolute(spec), options, ahead, key=key, pure=False)
+                self._client.submit(_replayed, sent, options, ahead, key=key, pure=False)
             )
         try:
             for future in as_completed(futures, loop=self._client.loop):
@@ -213,13 +223,32 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
-def _replayed(spec: DtcSpec, options: SpecOptions, ahead: str | None) -> SpecOutcome:
-    """On a worker: :func:`run_spec`, while the log of ``ahead`` (a URL), the DTC this
-    worker's thread is likely to replay next, is fetched into the machine's cache; a
-    log that this process is fetching ahead already is waited for, the time counted as
-    waiting on storage."""
+def _replayed(sent: DtcSpec | Packed, options: SpecOptions, ahead: str | None) -> SpecOutcome:
+    """On a worker: :func:`run_spec` of the DTC sent, with the files shipped with it
+    where it was packed, while the log of ``ahead`` (a URL), the DTC this worker's
+    thread is likely to replay next, is fetched into the machine's cache."""
     if ahead is not None:
         fetch_ahead(ahead)
+    if isinstance(sent, DtcSpec):
+        return _waited(sent, options)
+    with (
+        tempfile.TemporaryDirectory(prefix="beatlog-dtc-") as name,
+        importable_near(sent.spec_file),  # where the worker shares the spec's folder
+    ):
+        folder = Path(name)
+        spec = unpacked(sent, folder)
+        problem = missing_system(spec, socket.gethostname())
+        if problem is not None:
+            return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0)
+        outcome = _waited(spec, options)
+    if outcome.error is None:
+        return outcome
+    return dataclasses.replace(outcome, error=as_here(outcome.error, sent, folder))
+
+
+def _waited(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
+    """:func:`run_spec`, after the log this process is fetching ahead for the DTC, if it
+    is, the time waited for it counted as waiting for storage."""
     if spec.log_url is None:
         return run_spec(spec, options)
     asked = time.perf_counter()
