@@ -162,6 +162,8 @@ class DaskExecutor(Closing):
         """Close the connection, and the local cluster if this executor started one."""
         client = getattr(self, "_client", None)
         if client is not None:
+            if client.status == "running":  # or the scheduler tells it of its own closing
+                client.unsubscribe_topic("all")
             client.close()
         if self._cluster is not None:
             self._cluster.close()
