@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.suite.fleet import fleet_specs
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
@@ -70,3 +71,11 @@ def test_a_worker_without_the_systems_package_is_one_line(
         "install the system's package on the cluster's workers"
     )
     assert missing_system(load_spec(checkout / "dtc" / "walk.dtc.toml"), "host-3") is None
+
+
+def test_a_fleet_log_ships_alone(checkout: Path) -> None:
+    [spec] = fleet_specs(f"{checkout}/logs/*.beatlog", system=CHANGED)
+
+    shipped = packed(spec)
+
+    assert list(shipped.files) == ["logs/walk.beatlog"]

@@ -126,18 +126,15 @@ class DaskExecutor(Closing):
         not complete are cancelled."""
         from distributed import as_completed  # noqa: PLC0415 - with the client's package
 
-        given: dict[str, DtcSpec] = {}
-        futures: list[Future[SpecOutcome]] = []
         ordered = longest_first(specs)  # the scheduler starts them in this order
         threads = max(1, sum(self._client.nthreads().values()))
-        for index, spec in enumerate(ordered):
-            key = f"dtc-{spec.name}-{uuid.uuid4().hex}"
-            given[key] = spec
-            ahead = ordered[index + threads].log_url if index + threads < len(ordered) else None
-            sent = packed(_absolute(spec)) if self._ships else _absolute(spec)
-            futures.append(
-                self._client.submit(_replayed, sent, options, ahead, key=key, pure=False)
-            )
+        keys = [f"dtc-{spec.name}-{uuid.uuid4().hex}" for spec in ordered]
+        given = dict(zip(keys, ordered, strict=True))
+        sent = [packed(_absolute(spec)) if self._ships else _absolute(spec) for spec in ordered]
+        ahead = [spec.log_url for spec in ordered[threads:]] + [None] * min(threads, len(ordered))
+        futures: list[Future[SpecOutcome]] = self._client.map(  # one message for all
+            _replayed, sent, ahead, options=options, key=keys, pure=False
+        )
         try:
             for future in as_completed(futures, loop=self._client.loop):
                 if done(self._outcome(future, given[future.key])):
@@ -225,7 +222,7 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
-def _replayed(sent: DtcSpec | Packed, options: SpecOptions, ahead: str | None) -> SpecOutcome:
+def _replayed(sent: DtcSpec | Packed, ahead: str | None, *, options: SpecOptions) -> SpecOutcome:
     """On a worker: :func:`run_spec` of the DTC sent, with the files shipped with it
     where it was packed, while the log of ``ahead`` (a URL), the DTC this worker's
     thread is likely to replay next, is fetched into the machine's cache."""

@@ -43,12 +43,14 @@ class Packed:
 
 def packed(spec: DtcSpec) -> Packed:
     """``spec`` with the files of this machine its replay reads (its baseline, its log
-    if local, its project's ``pyproject.toml``), where they exist."""
+    if local, its project's ``pyproject.toml``), where they exist; a fleet's log reads
+    only its own."""
     folder = spec.path.absolute().parent
     root = project_root(folder) or folder
     files: dict[str, bytes] = {}
-    for path in (root / "pyproject.toml", expected_path(spec.path), spec.log):
-        if (spec.log_url is None or path != spec.log) and path.is_file():
+    read = [] if spec.spec_file is None else [root / "pyproject.toml", expected_path(spec.path)]
+    for path in read if spec.log_url is not None else [*read, spec.log]:
+        if path.is_file():
             files[_relative(path, root).as_posix()] = path.read_bytes()
     log = spec.log if spec.log_url is not None else _relative(spec.log, root)
     relative = dataclasses.replace(spec, path=_relative(spec.path, root), log=log)
