@@ -14,6 +14,7 @@ from typing import Any
 import pytest
 
 from beatlog.log.writer import SessionLogWriter
+from beatlog.log_cache import CACHE_DIR_VARIABLE
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
@@ -83,6 +84,25 @@ def first_cycle_below(threshold: float, cycles: int = 300) -> int:
 
 
 RecordFn = Callable[..., Path]
+
+
+@pytest.fixture(scope="session", autouse=True)
+def session_log_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """The cache of logs behind URLs in a folder of the test session's, never the
+    user's: worker processes that a module's fixture starts inherit it."""
+    folder = tmp_path_factory.mktemp("log-cache")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv(CACHE_DIR_VARIABLE, str(folder))
+        yield folder
+
+
+@pytest.fixture(autouse=True)
+def log_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Each test's own cache of logs behind URLs: what one test downloads, another
+    downloads too."""
+    folder = tmp_path_factory.mktemp("log-cache")
+    monkeypatch.setenv(CACHE_DIR_VARIABLE, str(folder))
+    return folder
 
 
 @pytest.fixture

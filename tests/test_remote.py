@@ -275,12 +275,15 @@ def test_a_url_without_fsspec_says_what_to_install(monkeypatch: pytest.MonkeyPat
     )
 
 
-def test_the_fleet_extra_brings_what_http_urls_need() -> None:
+def test_the_fleet_extra_brings_what_http_urls_and_the_cache_need() -> None:
     pyproject = Path(__file__).parents[1] / "pyproject.toml"
     extras = tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]
     fleet = [Requirement(line) for line in extras["optional-dependencies"]["fleet"]]
 
-    assert [(req.name, req.extras) for req in fleet] == [("fsspec", {"http"})]
+    assert [(req.name, req.extras) for req in fleet] == [
+        ("fsspec", {"http"}),
+        ("platformdirs", set()),
+    ]
 
 
 def test_an_http_url_without_aiohttp_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:

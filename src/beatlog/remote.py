@@ -2,9 +2,10 @@
 ``memory://``), where fsspec is installed (``pip install "beatlog[fleet]"``).
 
 The reader needs a regular, seekable file, so the process that reads a log behind a
-URL copies it whole into a temporary folder of its own machine first
-(:func:`fetched_log`), and removes the copy when done, interrupted or not; nothing else
-downloads it. Planning work (splitting a suite into shards) asks only for its size
+URL copies it whole onto its own machine first (:func:`fetched_log`), and removes the
+copy when done, interrupted or not; nothing else downloads it. The copy is kept in the
+machine's cache of logs (:mod:`beatlog.log_cache`), so a log unchanged since is not
+downloaded again. Planning work (splitting a suite into shards) asks only for its size
 (:func:`log_size`).
 
 A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
@@ -24,7 +25,6 @@ import math
 import os
 import re
 import sys
-import tempfile
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path, PurePosixPath
@@ -32,6 +32,7 @@ from typing import Any, NamedTuple, TypeVar
 from urllib.parse import quote, unquote, urlsplit, urlunsplit
 
 from beatlog.errors import RemoteLogError, first_line
+from beatlog.log_cache import cached_copy
 
 __all__ = [
     "MAX_BYTES_VARIABLE",
@@ -131,8 +132,9 @@ def _filesystem(url: str, *, streaming: bool) -> tuple[Any, str]:
 def fetched_log(
     url: str, max_bytes: int | None = None, *, progress: bool = False
 ) -> Iterator[Path]:
-    """A copy of the log behind ``url`` in a temporary folder of this machine, under the
-    URL's file name, removed on exit (an exception, Ctrl-C included, is an exit).
+    """A copy of the log behind ``url`` on this machine, under the URL's file name,
+    removed on exit (an exception, Ctrl-C included, is an exit); the machine's cache of
+    logs gives it where it holds the object as it is now.
 
     ``max_bytes`` bounds the copy (``BEATLOG_URL_MAX_BYTES``, or :data:`MAX_LOG_BYTES`,
     unless given). With ``progress``, a download past :data:`PROGRESS_BYTES` shows a bar
@@ -146,10 +148,19 @@ def fetched_log(
         max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
     timeout = _timeout(url)
     filesystem, path = _filesystem(url, streaming=True)
-    with tempfile.TemporaryDirectory(prefix="beatlog-remote-") as folder:
-        copy = Path(folder, url_name(url))
+    try:
+        info: dict[str, Any] = filesystem.info(path)
+    except FileNotFoundError as exc:
+        raise _not_found(url, exc, "cannot copy") from None
+    except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
+        raise _failed(url, exc, "cannot copy") from None
+
+    def fetch(copy: Path) -> None:
         with _progress_bar(url_name(url), shown=progress) as meter:
-            _copy(filesystem, path, copy, url, _Bounds(max_bytes, timeout, meter))
+            bounds = _Bounds(max_bytes, timeout, meter)
+            _copy(filesystem, path, copy, url, bounds, size=info.get("size"))
+
+    with cached_copy(url, info, url_name(url), fetch) as copy:
         yield copy
 
 
@@ -185,15 +196,17 @@ class _Bounds(NamedTuple):
     meter: Callable[[int, int | None], None]
 
 
-def _copy(filesystem: Any, path: str, copy: Path, url: str, bounds: _Bounds) -> None:
-    """Copy one remote log whole within ``bounds``, or raise."""
+def _copy(
+    filesystem: Any, path: str, copy: Path, url: str, bounds: _Bounds, *, size: int | None
+) -> None:
+    """Copy one remote log of the ``size`` its filesystem lists (None: unknown) whole
+    within ``bounds``, or raise."""
     too_big = (
         f"larger than the {bounds.max_bytes} bytes a log behind a URL may have "
         f"({MAX_BYTES_VARIABLE})"
     )
     try:
         started = time.monotonic()
-        size = filesystem.size(path)
         if size is not None and size > bounds.max_bytes:
             raise RemoteLogError(url, too_big)
         copied = 0

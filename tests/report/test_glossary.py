@@ -19,6 +19,7 @@ PRINTED = [
     "worth re-recording when convenient",
     "approved baseline",
     "retried",
+    "waiting for storage",
     "errors",
     # the failure panel and a replay's lines
     "first divergence",

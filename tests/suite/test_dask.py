@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import re
+import shutil
 import socket
 import threading
 import xml.etree.ElementTree as ET
@@ -19,7 +20,7 @@ from distributed import Client, LocalCluster
 
 from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
-from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor
+from beatlog.suite.cluster import ONE_DTC_PER_THREAD, DaskExecutor, WorkerDeaths
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.runner import SpecOutcome
 from tests.commands import Run, assert_error, assert_error_matching, closing_counts
@@ -200,6 +201,26 @@ def test_a_spec_whose_log_is_not_found_is_an_error_of_its_dtc(
     assert closing_counts(run.out) == "0 passed, 0 failed, 1 error"
 
 
+def removed(keys: list[str], *, expected: bool = False) -> tuple[float, object]:
+    """The scheduler's event of a worker removed while it ran ``keys``."""
+    message = {"action": "remove-worker", "processing-tasks": keys, "expected": expected}
+    return (0.0, message)
+
+
+def test_retries_are_counted_from_the_workers_removed_unexpectedly_while_running_a_dtc() -> None:
+    deaths = WorkerDeaths()
+    for event in (
+        removed(["dtc-a", "dtc-b"]),
+        (0.0, {"action": "add-worker", "worker": "tcp://127.0.0.1:1"}),
+        removed(["dtc-a"]),
+        removed(["dtc-c"], expected=True),  # retired on purpose: not the DTC's doing
+        (0.0, "a message of another kind"),
+    ):
+        deaths.seen(event)
+
+    assert [deaths.count(key) for key in ("dtc-a", "dtc-b", "dtc-c", "dtc-d")] == [2, 1, 0, 0]
+
+
 def write_dying_once(folder: Path, marker: Path) -> str:
     """A system module beside the specs whose factory ends its process the first time
     (``marker`` then exists) and builds the probe system after."""
@@ -306,6 +327,52 @@ def test_ctrl_c_cancels_the_tasks_not_complete(
             assert watcher.run_on_scheduler(dtc_tasks) == 0
         finally:
             release.touch()
+
+
+@pytest.mark.slow
+def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
+    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    release = tmp_path / "release"
+    waiting = write_waiting(tmp_path / "code", release)  # installed on the workers alone
+    (tmp_path / "checkout").mkdir()
+    log = record_probe(60, name="checkout/walk.beatlog")
+    write_spec(tmp_path / "checkout", "a-quick", log)
+    for name in ("b-waits", "c-waits", "d-waits"):
+        write_spec(tmp_path / "checkout", name, log, waiting)
+    specs = discover_specs([tmp_path / "checkout"])
+    outcomes: list[SpecOutcome] = []
+
+    def checkout_gone(outcome: SpecOutcome) -> bool:
+        """Once the first DTC is judged, the checkout is no more."""
+        outcomes.append(outcome)
+        if not release.exists():
+            shutil.rmtree(tmp_path / "checkout")
+            release.touch()
+        return False
+
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    monkeypatch.syspath_prepend(tmp_path / "code")  # workers start with this sys.path
+    with (
+        dask.config.set(ONE_DTC_PER_THREAD),
+        LocalCluster(
+            n_workers=1,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.CRITICAL,
+        ) as elsewhere,
+        DaskExecutor(elsewhere.scheduler_address) as executor,
+    ):
+        executor(specs, SpecOptions(), checkout_gone)
+
+    assert sorted((o.spec.name, o.verdict.value, o.error) for o in outcomes) == [
+        ("a-quick", "passed", None),
+        ("b-waits", "passed", None),
+        ("c-waits", "passed", None),
+        ("d-waits", "passed", None),
+    ]
 
 
 def unused_port() -> int:

@@ -18,6 +18,7 @@ from beatlog.suite.fleet import FLEET_PURPOSE, check_references, fleet_specs
 from beatlog.suite.maintenance import update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import Verdict
+from beatlog.suite.sharding import longest_first, split
 from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, PROBE
@@ -119,6 +120,26 @@ def test_logs_behind_a_url_are_listed_not_copied_and_replayed_from_copies(
     outcomes = run_suite(specs)
     assert [outcome.verdict for outcome in outcomes] == [Verdict.PASSED] * 2
     assert [outcome.spec for outcome in outcomes] == specs
+
+
+def test_the_listing_of_logs_behind_a_url_gives_their_sizes(memory: str, logs: Path) -> None:
+    specs = fleet_specs(f"{memory}/**/*.beatlog", system=PROBE)
+
+    assert [spec.log_size for spec in specs] == [
+        (logs / "monday.beatlog").stat().st_size,
+        (logs / "tuesday" / "dock.beatlog").stat().st_size,
+    ]
+
+
+def test_a_fleets_order_and_shards_come_from_its_listing_with_no_request_per_log(
+    memory: str,
+) -> None:
+    specs = fleet_specs(f"{memory}/**/*.beatlog", system=PROBE)
+    for spec in specs:  # sizes asked for now could not be had
+        fsspec.filesystem("memory").rm(spec.log_url)
+
+    assert [spec.name for spec in longest_first(specs)] == ["dock", "monday"]
+    assert split(specs, 2) == [[specs[1]], [specs[0]]]
 
 
 def test_listing_logs_behind_an_http_url_downloads_none(served: LogServer) -> None:

@@ -80,10 +80,14 @@ def _checked_text(result: ReplayResult) -> str:
 
 
 def render_passed(outcome: SpecOutcome) -> Text:
-    """A passing DTC's line with what it checked, for a run that lists every DTC."""
+    """A passing DTC's line with what it checked, for a run that lists every DTC, and,
+    for a log behind a URL, how long it waited for its copy."""
     assert outcome.result is not None
+    waited = outcome.storage_wait_s
+    storage = "" if waited is None else f"; {waited:.2f} s waiting for storage"
     return Text.assemble(
-        ("PASS ", "bold green"), f"{outcome.spec.label}: {_checked_text(outcome.result)}"
+        ("PASS ", "bold green"),
+        f"{outcome.spec.label}: {_checked_text(outcome.result)}{storage}",
     )
 
 

@@ -3,41 +3,58 @@
 One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function the
 local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
 as it is; outcomes stream back as they complete, to the same progress bar and reports.
-A spec travels with absolute paths, so a worker of another machine finds its files on
-a shared filesystem; a log behind a URL (a spec's, or a fleet's) is copied by the worker
-that replays it, and by no other process (see :mod:`beatlog.remote`). The system's
-package must be installed on the workers, as it is here.
+A spec travels with absolute paths to a cluster of this machine's (``local``); to
+another (an address), with the files of this machine its replay reads, its baseline and
+local log among them (:mod:`beatlog.suite.shipping`), so the workers need no filesystem
+shared with this one; a log behind a URL (a spec's, or a fleet's) is copied by the worker
+that replays it, and by no other process (see :mod:`beatlog.remote`), into its
+machine's cache of logs; a task also fetches the log of the DTC its worker is likely to
+replay next (the one as many DTCs further on as the cluster has threads) while it
+replays its own (:mod:`beatlog.suite.prefetch`). The system's
+package must be installed on the workers, as it is here: a worker without it makes the
+DTC an error that says so.
 
 A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
 DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
 (``distributed.scheduler.allowed-failures``, 3 by default), and the outcome counts the
-retries; past them the DTC is an error. A cluster of one's own is best run with
+retries; past them the DTC is an error. The retries are counted here from the
+scheduler's own events (a worker removed while it was replaying the DTC), which reach
+this client before the DTC's outcome does: an outcome costs no request of its own. A
+cluster of one's own is best run with
 :data:`ONE_DTC_PER_THREAD`. Needs ``pip install "beatlog[dask]"``.
 """
 
 from __future__ import annotations
 
 import asyncio
+import collections
 import dataclasses
 import logging
 import re
+import socket
+import tempfile
+import time
 import uuid
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beatlog.baseline.file import expected_path
 from beatlog.closing import Closing
 from beatlog.errors import ClusterError, first_line
+from beatlog.suite.prefetch import fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
+from beatlog.suite.shipping import Packed, as_here, missing_system, packed, unpacked
+from beatlog.suite.spec import DtcSpec
+from beatlog.usercode import importable_near
 
 if TYPE_CHECKING:
     from distributed import Future, LocalCluster
 
     from beatlog.baseline.policy import SpecOptions
-    from beatlog.suite.spec import DtcSpec
 
-__all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor"]
+__all__ = ["ONE_DTC_PER_THREAD", "DaskExecutor", "WorkerDeaths"]
 
 ONE_DTC_PER_THREAD = {"distributed.scheduler.worker-saturation": 1.0}
 """The scheduler's setting for DTC suites, and that of the cluster ``local`` starts: a
@@ -74,6 +91,8 @@ class DaskExecutor(Closing):
                 f"--dask {address}: expected local, or local:N with N worker processes from 1"
             )
         self._cluster: LocalCluster | None = None
+        self._ships = local is None  # a cluster of this machine shares its files
+        self._deaths = WorkerDeaths()
         try:
             if local is None:
                 _handshake(address)
@@ -89,6 +108,7 @@ class DaskExecutor(Closing):
                         silence_logs=logging.CRITICAL,
                     )
                 self._client = Client(self._cluster, set_as_default=False)
+            self._client.subscribe_topic("all", self._deaths.seen)
         except (OSError, ValueError) as exc:  # TimeoutError is an OSError
             self.close()
             raise ClusterError(
@@ -106,14 +126,15 @@ class DaskExecutor(Closing):
         not complete are cancelled."""
         from distributed import as_completed  # noqa: PLC0415 - with the client's package
 
-        given: dict[str, DtcSpec] = {}
-        futures: list[Future[SpecOutcome]] = []
-        for spec in longest_first(specs):  # the scheduler starts them in this order
-            key = f"dtc-{spec.name}-{uuid.uuid4().hex}"
-            given[key] = spec
-            futures.append(
-                self._client.submit(run_spec, _absolute(spec), options, key=key, pure=False)
-            )
+        ordered = longest_first(specs)  # the scheduler starts them in this order
+        threads = max(1, sum(self._client.nthreads().values()))
+        keys = [f"dtc-{spec.name}-{uuid.uuid4().hex}" for spec in ordered]
+        given = dict(zip(keys, ordered, strict=True))
+        sent = [packed(_absolute(spec)) if self._ships else _absolute(spec) for spec in ordered]
+        ahead = [spec.log_url for spec in ordered[threads:]] + [None] * min(threads, len(ordered))
+        futures: list[Future[SpecOutcome]] = self._client.map(  # one message for all
+            _replayed, sent, ahead, options=options, key=keys, pure=False
+        )
         try:
             for future in as_completed(futures, loop=self._client.loop):
                 if done(self._outcome(future, given[future.key])):
@@ -132,16 +153,42 @@ class DaskExecutor(Closing):
             tries = exc.allowed_failures + 1
             problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
             return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
-        retries: int = self._client.run_on_scheduler(_retries, key=future.key)
-        return _as_given(outcome, spec, retries)
+        return _as_given(outcome, spec, self._deaths.count(str(future.key)))
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
         client = getattr(self, "_client", None)
         if client is not None:
+            if client.status == "running":  # or the scheduler tells it of its own closing
+                client.unsubscribe_topic("all")
             client.close()
         if self._cluster is not None:
             self._cluster.close()
+
+
+class WorkerDeaths:
+    """How many workers died while running each task, counted from the scheduler's
+    events of the topic ``all`` as the scheduler counts them (a task's ``suspicious``):
+    a worker removed unexpectedly (not retired nor closed on purpose) counts once for
+    each task it was running. The scheduler sends the event before it runs the task
+    again, on the same stream as the task's result, so a result always finds its count.
+    """
+
+    def __init__(self) -> None:
+        self._counts: collections.Counter[str] = collections.Counter()
+
+    def seen(self, event: tuple[float, Any]) -> None:
+        """Take one event ``(time, message)`` of the topic ``all``."""
+        _, message = event
+        if not isinstance(message, dict) or message.get("action") != "remove-worker":
+            return
+        if message.get("expected"):
+            return
+        self._counts.update(str(key) for key in message.get("processing-tasks", ()))
+
+    def count(self, key: str) -> int:
+        """How many workers died while running the task ``key``."""
+        return self._counts[key]
 
 
 def _handshake(address: str) -> None:
@@ -175,10 +222,41 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
-def _retries(dask_scheduler: Any, key: str) -> int:
-    """On the scheduler: how many workers died while running the task ``key``."""
-    task = dask_scheduler.tasks.get(key)
-    return 0 if task is None else int(task.suspicious)
+def _replayed(sent: DtcSpec | Packed, ahead: str | None, *, options: SpecOptions) -> SpecOutcome:
+    """On a worker: :func:`run_spec` of the DTC sent, with the files shipped with it
+    where it was packed, while the log of ``ahead`` (a URL), the DTC this worker's
+    thread is likely to replay next, is fetched into the machine's cache."""
+    if ahead is not None:
+        fetch_ahead(ahead)
+    if isinstance(sent, DtcSpec):
+        return _waited(sent, options)
+    with (
+        tempfile.TemporaryDirectory(prefix="beatlog-dtc-") as name,
+        importable_near(sent.spec_file),  # where the worker shares the spec's folder
+    ):
+        folder = Path(name)
+        spec = unpacked(sent, folder)
+        problem = missing_system(spec, socket.gethostname())
+        if problem is not None:
+            return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0)
+        outcome = _waited(spec, options)
+    if outcome.error is None:
+        return outcome
+    return dataclasses.replace(outcome, error=as_here(outcome.error, sent, folder))
+
+
+def _waited(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
+    """:func:`run_spec`, after the log this process is fetching ahead for the DTC, if it
+    is, the time waited for it counted as waiting for storage."""
+    if spec.log_url is None:
+        return run_spec(spec, options)
+    asked = time.perf_counter()
+    wait_for(spec.log_url)
+    waited = time.perf_counter() - asked
+    outcome = run_spec(spec, options)
+    if outcome.storage_wait_s is None:
+        return outcome
+    return dataclasses.replace(outcome, storage_wait_s=outcome.storage_wait_s + waited)
 
 
 def _absolute(spec: DtcSpec) -> DtcSpec:

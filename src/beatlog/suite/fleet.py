@@ -5,9 +5,10 @@ Each log becomes a DTC of its own, named after its file (and identified by its p
 URL: two logs may share a file name) and judged against its recording: a fleet log has
 no approved baseline. The pattern is a local glob, or any
 fsspec URL (``s3://bucket/2024-*/*.beatlog``) where fsspec is installed
-(``pip install "beatlog[fleet]"``). A URL's pattern is expanded by listing alone:
-each log behind it is copied only by the process that replays it, locally or on a
-Dask worker (see :mod:`beatlog.remote`).
+(``pip install "beatlog[fleet]"``). A URL's pattern is expanded by listing alone,
+one call that gives each log's size too (what orders the work): each log behind it is
+copied only by the process that replays it, locally or on a Dask worker (see
+:mod:`beatlog.remote`).
 """
 
 from __future__ import annotations
@@ -40,7 +41,9 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
     if perception is not None and ":" not in perception:
         raise FleetError(f"--perception: expected module:factory, got {perception!r}")
 
-    def spec(path: Path, source: str, log_url: str | None = None) -> DtcSpec:
+    def spec(
+        path: Path, source: str, log_url: str | None = None, size: int | None = None
+    ) -> DtcSpec:
         return DtcSpec(
             path=path,
             name=PurePosixPath(path if log_url is None else url_name(log_url)).stem,
@@ -51,13 +54,17 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
             perception=perception,
             source=source,
             log_url=log_url,
+            log_size=size,
         )
 
     if not is_url(pattern):
         return [spec(Path(path), path) for path in _local_logs(pattern)]
     filesystem, found = _remote_logs(pattern)
-    urls = [filesystem.unstrip_protocol(path) for path in found]
-    return [spec(Path(path), url, url) for path, url in zip(found, urls, strict=True)]
+    return [
+        spec(Path(path), url, url, size)
+        for path, size in found
+        for url in [filesystem.unstrip_protocol(path)]
+    ]
 
 
 def check_references(spec: DtcSpec) -> None:
@@ -96,8 +103,10 @@ def _local_logs(pattern: str) -> list[str]:
     return found
 
 
-def _remote_logs(pattern: str) -> tuple[Any, list[str]]:
-    """The filesystem behind a URL and the files its glob matches, sorted."""
+def _remote_logs(pattern: str) -> tuple[Any, list[tuple[str, int | None]]]:
+    """The filesystem behind a URL and the files its glob matches, sorted, each with its
+    size in bytes as the same listing gives it (None where it does not say): planning
+    the work then asks the storage nothing per log."""
     try:
         filesystem, root = url_filesystem(http_quoted(pattern))
     except RemoteLogError as exc:
@@ -106,7 +115,17 @@ def _remote_logs(pattern: str) -> tuple[Any, list[str]]:
         matches: dict[str, dict[str, Any]] = filesystem.glob(root, detail=True)
     except (ImportError, OSError, ValueError) as exc:  # ImportError: a backend's package
         raise FleetError(f"--logs {pattern}: cannot list: {exc}") from None
-    found = sorted(path for path, info in matches.items() if info.get("type") != "directory")
+    found = sorted(
+        (path, _listed_size(info))
+        for path, info in matches.items()
+        if info.get("type") != "directory"
+    )
     if not found:
         raise FleetError(f"--logs {pattern}: no log matches")
     return filesystem, found
+
+
+def _listed_size(info: dict[str, Any]) -> int | None:
+    """A listed file's size in bytes, None where the listing does not give one."""
+    size = info.get("size")
+    return size if isinstance(size, int) and size >= 0 else None

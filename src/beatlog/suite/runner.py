@@ -86,6 +86,9 @@ class SpecOutcome:
     open_loop: tuple[int, int] | None = None
     """Where the approved baseline says the behaviors left the recording (cycle, robot
     time in ns): from there the recorded world no longer answers to them."""
+    storage_wait_s: float | None = None
+    """For a log behind a URL: the seconds spent waiting for its copy (a download, or
+    the cache) before the replay could start; None for a log of this machine."""
     recorded: RecordedChanges | None = None
     """The state changes its log recorded, when run with ``coverage`` and its log could
     be read to the end."""
@@ -148,12 +151,16 @@ def run_spec(
     points stop in the debugger as ``beatlog replay --break-at`` and
     ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
     of the log is noted in the result.
-    A log behind a URL is copied here first, and the copy removed after; one that
-    cannot be copied is an error of the DTC. The audit runs in ``auditors``' interpreters
+    A log behind a URL is copied here first (the time waited for it is the outcome's
+    ``storage_wait_s``), and the copy removed after; one that cannot be copied is an
+    error of the DTC. The audit runs in ``auditors``' interpreters
     (see :func:`suite_auditors`), else in interpreters of its own."""
     with importable_near(spec.spec_file):
         try:
-            with spec.readable_log() as log:
+            with contextlib.ExitStack() as copied:
+                asked = time.perf_counter()
+                log = copied.enter_context(spec.readable_log())
+                waited = time.perf_counter() - asked
                 outcome = _run_spec(
                     dataclasses.replace(spec, log=log), options or SpecOptions(), auditors
                 )
@@ -161,6 +168,7 @@ def run_spec(
             return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
         if spec.log_url is None:
             return outcome
+        outcome = dataclasses.replace(outcome, storage_wait_s=waited)
         return _named_as_given(outcome, spec, str(log), spec.log_url)
 
 

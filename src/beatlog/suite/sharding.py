@@ -7,10 +7,12 @@ recording first, to the shard with the fewest cycles so far (the first such shar
 tie). A log whose cycle count cannot be read cheaply (one cut off, damaged or missing)
 counts 0 cycles: it still lands in exactly one shard, and its run says what is wrong.
 
-When a log lies behind a URL, every log of the suite weighs its size in bytes instead,
-as its filesystem lists it (:func:`beatlog.remote.log_size`): no log is downloaded to
-plan the work. A size that cannot be had fails the split (a job must not guess what
-the others may not), and counts 0 where only the order of the work depends on it.
+When a log lies behind a URL, every log of the suite weighs its size in bytes instead:
+the size the listing of a fleet's logs gave, or, for a spec's log, the size its
+filesystem lists (:func:`beatlog.remote.log_size`, asked for all such logs at once):
+no log is downloaded to plan the work, and a fleet's is planned with no request per
+log. A size that cannot be had fails the split (a job must not guess what the others
+may not), and counts 0 where only the order of the work depends on it.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import heapq
 import re
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 from beatlog.errors import OptionError, RemoteLogError
@@ -27,6 +30,9 @@ from beatlog.remote import log_size
 from beatlog.suite.spec import DtcSpec
 
 __all__ = ["Shard", "longest_first", "shard", "split"]
+
+_SIZE_REQUESTS = 16
+"""How many sizes of logs behind URLs are asked for at once, where no listing gave them."""
 
 
 @dataclass(frozen=True)
@@ -82,7 +88,9 @@ def _weighed(specs: Sequence[DtcSpec], *, strict: bool) -> list[tuple[DtcSpec, i
     or with its log's size when one lies behind a URL, the longest first; a stable
     sort, so ties keep their order. ``strict``: a size that cannot be had raises."""
     if any(spec.log_url is not None for spec in specs):
-        weights = [(spec, _size(spec, strict=strict)) for spec in specs]
+        with ThreadPoolExecutor(_SIZE_REQUESTS) as pool:  # waits, not work: one at a time is slow
+            sizes = list(pool.map(lambda spec: _size(spec, strict=strict), specs))
+        weights = list(zip(specs, sizes, strict=True))
     else:
         weights = [(spec, recorded_cycles(spec.log) or 0) for spec in specs]
     return sorted(weights, key=lambda weighed: -weighed[1])
@@ -92,6 +100,8 @@ def _size(spec: DtcSpec, *, strict: bool) -> int:
     """The size in bytes of the spec's log, here or behind its URL; 0 where unknown."""
     if spec.log_url is None:
         return spec.log.stat().st_size if irregular_file_problem(spec.log) is None else 0
+    if spec.log_size is not None:
+        return spec.log_size
     try:
         return log_size(spec.log_url) or 0
     except RemoteLogError:

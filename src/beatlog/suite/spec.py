@@ -144,6 +144,10 @@ class DtcSpec:
     log_url: str | None = None
     """The URL of the log when it lies behind one: the process that replays the DTC
     copies it first, and ``log`` is then the URL's file name alone, no file here."""
+    log_size: int | None = None
+    """The size in bytes of the log behind ``log_url`` as the listing that found it gave
+    it (a fleet run's), so that planning the work asks the storage nothing more; None
+    where no listing said."""
     id: str = ""
     """What identifies the DTC, as pytest's node id does a test: its spec's path from the
     rootdir, ``::`` and its name (``dtc/dock.dtc.toml::dock``); a fleet log's path or

@@ -56,6 +56,23 @@ def test_specs_whose_logs_are_urls_are_judged_each_log_downloaded_once(
     ]
 
 
+def test_a_rerun_and_an_audit_download_no_log_again(
+    beatlog: Beatlog, served: LogServer, suite: Path
+) -> None:
+    runs = [beatlog("test", suite), beatlog("test", suite), beatlog("test", suite, "--audit")]
+
+    assert [closing_counts(run.out) for run in runs] == ["1 passed, 1 failed"] * 3
+    assert [served.downloads(name) for name in LOGS] == [1, 1]
+
+
+def test_verbose_says_how_long_a_dtc_waited_for_its_log_behind_a_url(
+    beatlog: Beatlog, suite: Path
+) -> None:
+    run = beatlog("test", suite, "-v")
+
+    assert re.search(r"PASS dock: \d+ cycles, .* checked; \d+\.\d\d s waiting for storage", run.out)
+
+
 def test_a_log_url_not_found_is_an_error_of_its_dtc_naming_spec_and_url(
     beatlog: Beatlog, served: LogServer, suite: Path
 ) -> None:

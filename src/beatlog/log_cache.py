@@ -1,0 +1,183 @@
+"""A cache of the logs copied from URLs, on this machine's disk, shared by its processes:
+a rerun, an audit or a DTC run again on a cluster's worker does not download its log
+again.
+
+An entry is keyed by what the storage says of the object: its URL and its ETag where it
+gives one (S3, GCS, most web servers), which changes whenever the object does; else,
+a weaker key, its URL, size and time of last change (``Last-Modified``, ``mtime``),
+which misses a change that keeps the size within the same second. An object that says
+neither is never cached. A changed object has a new key, so it is downloaded again.
+
+Each entry's name holds its size and SHA-256 digest, checked before every use: an entry
+damaged on disk is removed and the log downloaded again, never replayed. Entries are
+written whole before they get their name (a hard link to the finished copy), and used
+through a hard link of their own, so the processes of a machine share the cache with no
+lock: one that removes an entry never pulls it from under another that uses it.
+
+The cache lives in ``BEATLOG_CACHE_DIR`` (the user's cache folder's ``beatlog/logs``
+unless set) and holds ``BEATLOG_CACHE_MAX_BYTES`` bytes at most (:data:`MAX_CACHE_BYTES`
+unless set; 0 turns the cache off), the least recently used entries going first.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+from beatlog.errors import RemoteLogError
+
+__all__ = [
+    "CACHE_DIR_VARIABLE",
+    "CACHE_MAX_BYTES_VARIABLE",
+    "MAX_CACHE_BYTES",
+    "cache_folder",
+    "cache_key",
+    "cached_copy",
+]
+
+MAX_CACHE_BYTES = 4 << 30
+"""The most bytes of logs the cache holds, unless ``BEATLOG_CACHE_MAX_BYTES`` says
+otherwise: a few hundred of the reference dog's hour-long sessions."""
+CACHE_DIR_VARIABLE = "BEATLOG_CACHE_DIR"
+"""The environment variable that sets the cache's folder."""
+CACHE_MAX_BYTES_VARIABLE = "BEATLOG_CACHE_MAX_BYTES"
+"""The environment variable that sets the most bytes the cache holds (0: no cache)."""
+_ETAGS = ("ETag", "etag")
+_CHANGE_TIMES = ("mtime", "LastModified", "Last-Modified", "last_modified", "updated", "created")
+_ENTRIES = "entries"
+_IN_USE = "in-use"
+
+
+def cache_key(url: str, info: Mapping[str, Any]) -> str | None:
+    """The key of the object behind ``url`` whose storage describes it by ``info`` (an
+    fsspec ``info()``): from its ETag, else from its size and time of last change; None
+    where it gives neither, and the object is not cached."""
+    etag = next((info[name] for name in _ETAGS if info.get(name)), None)
+    if etag is not None:
+        parts = [url, "etag", str(etag)]
+    else:
+        changed = next((info[name] for name in _CHANGE_TIMES if info.get(name)), None)
+        if changed is None or info.get("size") is None:
+            return None
+        parts = [url, "size-time", str(info["size"]), str(changed)]
+    return hashlib.sha256("\0".join(parts).encode()).hexdigest()
+
+
+def cache_folder() -> Path:
+    """The cache's folder: ``BEATLOG_CACHE_DIR``, or the user's cache folder's
+    ``beatlog/logs``."""
+    given = os.environ.get(CACHE_DIR_VARIABLE, "").strip()
+    if given:
+        return Path(given).expanduser()
+    import platformdirs  # noqa: PLC0415 - with fsspec, in the fleet extra
+
+    return Path(platformdirs.user_cache_dir("beatlog"), "logs")
+
+
+@contextlib.contextmanager
+def cached_copy(
+    url: str, info: Mapping[str, Any], name: str, fetch: Callable[[Path], None]
+) -> Iterator[Path]:
+    """A copy of the log behind ``url`` named ``name``, on this machine until the block
+    ends: the cache's where it holds a sound one for the object ``info`` describes, else
+    one that ``fetch`` writes to the path it is given (then kept in the cache).
+
+    :raises RemoteLogError: ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0;
+        and what ``fetch`` raises.
+    """
+    bound = _max_bytes(url)
+    key = cache_key(url, info)
+    if bound == 0 or key is None:
+        with tempfile.TemporaryDirectory(prefix="beatlog-remote-") as folder:
+            fetch(Path(folder, name))
+            yield Path(folder, name)
+        return
+    entries = cache_folder() / _ENTRIES
+    in_use = cache_folder() / _IN_USE
+    entries.mkdir(parents=True, exist_ok=True)
+    in_use.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=in_use) as folder:
+        copy = Path(folder, name)
+        if not _used(entries, key, copy):
+            fetch(copy)
+            _keep(entries, key, copy, bound)
+        yield copy
+
+
+def _used(entries: Path, key: str, copy: Path) -> bool:
+    """Whether a sound entry of ``key`` is now at ``copy``; damaged ones are removed."""
+    for entry in entries.glob(f"{key}.*"):
+        _, size, digest = entry.name.split(".", 2)
+        with contextlib.suppress(FileNotFoundError):  # another process removed it
+            _link(entry, copy)
+            if copy.stat().st_size == int(size) and _digest(copy) == digest:
+                os.utime(entry)  # recently used: the last to go
+                return True
+            entry.unlink(missing_ok=True)
+        copy.unlink(missing_ok=True)
+    return False
+
+
+def _keep(entries: Path, key: str, copy: Path, bound: int) -> None:
+    """Add ``copy`` to the cache under ``key``, then remove the least recently used
+    entries past ``bound`` bytes; a copy larger than the bound is not kept."""
+    size = copy.stat().st_size
+    if size > bound:
+        return
+    with contextlib.suppress(FileExistsError):  # another process kept the same copy
+        _link(copy, entries / f"{key}.{size}.{_digest(copy)}")
+    kept = []
+    for entry in entries.iterdir():
+        with contextlib.suppress(FileNotFoundError):
+            status = entry.stat()
+            kept.append((status.st_mtime, status.st_size, entry))
+    total = sum(size for _, size, _ in kept)
+    for _, size, entry in sorted(kept):
+        if total <= bound:
+            break
+        entry.unlink(missing_ok=True)
+        total -= size
+
+
+def _link(source: Path, target: Path) -> None:
+    """``target`` as a hard link to ``source``, or, on a filesystem without links, a
+    copy written whole before it gets its name.
+
+    :raises FileExistsError: ``target`` exists.
+    """
+    try:
+        os.link(source, target)
+    except (FileExistsError, FileNotFoundError):
+        raise
+    except OSError:
+        partial = target.with_name(f".{target.name}.{os.getpid()}")
+        shutil.copyfile(source, partial)
+        if target.exists():
+            partial.unlink()
+            raise FileExistsError(target) from None
+        partial.replace(target)
+
+
+def _digest(path: Path) -> str:
+    """The SHA-256 digest of a file, in hex."""
+    with path.open("rb") as file:
+        return hashlib.file_digest(file, "sha256").hexdigest()
+
+
+def _max_bytes(url: str) -> int:
+    """The most bytes the cache holds.
+
+    :raises RemoteLogError: ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0.
+    """
+    text = os.environ.get(CACHE_MAX_BYTES_VARIABLE, "").strip()
+    if not text:
+        return MAX_CACHE_BYTES
+    if not text.isdigit():
+        raise RemoteLogError(url, f"{CACHE_MAX_BYTES_VARIABLE}={text}: not a number of bytes")
+    return int(text)

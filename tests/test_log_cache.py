@@ -1,0 +1,189 @@
+"""The cache of logs copied from URLs: keyed by what the storage says of the object,
+bounded in size with the least recently used entries going first, never replaying a
+damaged entry, and a changed object downloaded again."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import fsspec
+import pytest
+
+from beatlog.errors import RemoteLogError
+from beatlog.log_cache import CACHE_DIR_VARIABLE, CACHE_MAX_BYTES_VARIABLE, cache_folder, cache_key
+from beatlog.remote import fetched_log
+from tests.conftest import RecordFn
+from tests.served import LogServer
+
+URL = "s3://fleet/dock.beatlog"
+
+
+@pytest.fixture
+def memory(tmp_path: Path) -> Iterator[str]:
+    """A folder of this test's own in fsspec's in-memory filesystem."""
+    filesystem = fsspec.filesystem("memory")
+    folder = f"/{tmp_path.name}"
+    filesystem.mkdir(folder)
+    yield f"memory://{folder}"
+    filesystem.rm(folder, recursive=True)
+
+
+def fetched(url: str) -> bytes:
+    with fetched_log(url) as copy:
+        return copy.read_bytes()
+
+
+def sent(served: LogServer, name: str) -> int:
+    with served.lock:
+        return served.sent[f"/{name}"]
+
+
+def test_an_objects_etag_keys_it_whatever_its_time_of_change() -> None:
+    tagged = {"size": 10, "ETag": '"abc"', "LastModified": "2026-11-28T10:00:00"}
+
+    assert cache_key(URL, tagged) == cache_key(URL, {**tagged, "LastModified": "later"})
+    assert cache_key(URL, tagged) != cache_key(URL, {**tagged, "ETag": '"abd"'})
+    assert cache_key(URL, tagged) != cache_key("s3://fleet/yard.beatlog", tagged)
+
+
+def test_without_an_etag_size_and_time_of_change_key_an_object() -> None:
+    dated = {"size": 10, "mtime": 1_700_000_000.0}
+
+    assert cache_key(URL, dated) == cache_key(URL, dict(dated))
+    assert cache_key(URL, dated) != cache_key(URL, {**dated, "size": 11})
+    assert cache_key(URL, dated) != cache_key(URL, {**dated, "mtime": 1_700_000_001.0})
+    assert cache_key(URL, {**dated, "ETag": '"abc"'}) != cache_key(URL, dated)
+
+
+def test_an_object_that_says_neither_etag_nor_time_of_change_is_not_cached() -> None:
+    assert cache_key(URL, {"size": 10}) is None
+
+
+def test_a_log_fetched_again_comes_from_the_cache(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    first = fetched(url)
+
+    assert fetched(url) == first == (served.folder / "dock.beatlog").read_bytes()
+    assert served.downloads("dock.beatlog") == 1
+
+
+def test_a_changed_object_is_fetched_again(memory: str) -> None:
+    filesystem = fsspec.filesystem("memory")
+    url = f"{memory}/dock.beatlog"
+    filesystem.pipe(url, b"before")
+    assert fetched(url) == b"before"
+
+    filesystem.pipe(url, b"after!")
+
+    assert fetched(url) == b"after!"
+
+
+def test_a_changed_file_on_a_web_server_is_fetched_again(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    log = served.folder / "dock.beatlog"
+    fetched(url)
+    changed = log.read_bytes()[::-1]
+    log.write_bytes(changed)
+    os.utime(log, (log.stat().st_atime, log.stat().st_mtime + 10))
+
+    assert fetched(url) == changed
+    assert sent(served, "dock.beatlog") == 2 * len(changed)
+
+
+def test_a_damaged_cache_entry_is_fetched_again_never_replayed(
+    served: LogServer, log_cache: Path
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+    whole = fetched(url)
+    [entry] = (log_cache / "entries").iterdir()
+    damaged = bytearray(entry.read_bytes())
+    damaged[len(damaged) // 2] ^= 0xFF
+    entry.write_bytes(damaged)
+
+    assert fetched(url) == whole
+    assert served.downloads("dock.beatlog") == 2
+    assert fetched(url) == whole
+    assert served.downloads("dock.beatlog") == 2
+
+
+def test_a_cut_cache_entry_is_fetched_again(served: LogServer, log_cache: Path) -> None:
+    url = f"{served.url}/dock.beatlog"
+    whole = fetched(url)
+    [entry] = (log_cache / "entries").iterdir()
+    entry.write_bytes(whole[:100])
+
+    assert fetched(url) == whole
+    assert served.downloads("dock.beatlog") == 2
+
+
+def test_the_cache_keeps_its_bound_the_least_recently_used_going_first(
+    served: LogServer, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    record_probe(200, name="served/gate.beatlog")
+    sizes = {
+        name: (served.folder / name).stat().st_size for name in ("dock.beatlog", "yard.beatlog")
+    }
+    monkeypatch.setenv(CACHE_MAX_BYTES_VARIABLE, str(sum(sizes.values()) + 100))
+    for name in ("dock.beatlog", "yard.beatlog", "dock.beatlog", "gate.beatlog"):
+        fetched(f"{served.url}/{name}")
+
+    fetched(f"{served.url}/dock.beatlog")
+    fetched(f"{served.url}/yard.beatlog")
+
+    assert served.downloads("dock.beatlog") == 1
+    assert served.downloads("yard.beatlog") == 2
+
+
+def test_a_log_larger_than_the_cache_is_not_kept(
+    served: LogServer, monkeypatch: pytest.MonkeyPatch, log_cache: Path
+) -> None:
+    monkeypatch.setenv(CACHE_MAX_BYTES_VARIABLE, "1000")
+    fetched(f"{served.url}/dock.beatlog")
+    fetched(f"{served.url}/dock.beatlog")
+
+    assert served.downloads("dock.beatlog") == 2
+    assert list((log_cache / "entries").iterdir()) == []
+
+
+def test_a_cache_of_0_bytes_is_none(
+    served: LogServer, monkeypatch: pytest.MonkeyPatch, log_cache: Path
+) -> None:
+    monkeypatch.setenv(CACHE_MAX_BYTES_VARIABLE, "0")
+    fetched(f"{served.url}/dock.beatlog")
+    fetched(f"{served.url}/dock.beatlog")
+
+    assert served.downloads("dock.beatlog") == 2
+    assert not log_cache.joinpath("entries").exists()
+
+
+def test_a_cache_bound_that_is_no_number_is_one_line(
+    served: LogServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv(CACHE_MAX_BYTES_VARIABLE, "lots")
+    url = f"{served.url}/dock.beatlog"
+
+    with pytest.raises(RemoteLogError) as raised, fetched_log(url):
+        pass
+
+    assert str(raised.value) == f"{url}: {CACHE_MAX_BYTES_VARIABLE}=lots: not a number of bytes"
+
+
+def test_the_copy_in_use_is_gone_after_the_block_and_the_entry_stays(
+    served: LogServer, log_cache: Path
+) -> None:
+    with fetched_log(f"{served.url}/dock.beatlog") as copy:
+        assert copy.name == "dock.beatlog"
+
+    assert not copy.exists()
+    assert list((log_cache / "in-use").iterdir()) == []
+    assert len(list((log_cache / "entries").iterdir())) == 1
+
+
+def test_the_cache_is_in_the_users_cache_folder_unless_set(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.delenv(CACHE_DIR_VARIABLE)
+
+    assert cache_folder().parts[-2:] == ("beatlog", "logs")
