@@ -226,6 +226,20 @@ def test_a_generator_the_set_up_made_without_a_seed_is_named_where_it_draws(
     assert watch.findings() == [Finding(call, drawn, 3)]
 
 
+def test_a_generator_is_found_beside_a_big_state_in_a_big_process() -> None:
+    def build() -> object:
+        system = drifter_system()
+        system.history = [float(beat) for beat in range(300_000)]  # type: ignore[attr-defined]
+        return system
+
+    made, _ = drifter_sites()
+    _, generators = built_watched(build)
+
+    assert [generator.name for generator in generators] == [
+        f"unseeded numpy.random.Generator made at {made}"
+    ]
+
+
 def test_a_generator_the_set_up_seeded_is_no_leak(context: Context) -> None:
     system, generators = built_watched(seeded_drifter_system)
     watch = LeakWatch()

@@ -24,6 +24,7 @@ is, by :class:`PrivateGenerator`, once it is found in the system built (up to
 
 from __future__ import annotations
 
+import collections
 import cProfile
 import ctypes
 import datetime as dt
@@ -207,9 +208,11 @@ class PrivateGenerator:
 
     @staticmethod
     def found(system: object, made: Mapping[int, str]) -> list[PrivateGenerator]:
-        """The numpy generators reachable from ``system`` (not through modules) whose
-        entropy is a key of ``made``, the entropies read while it was built by the line
-        that read each: the generators its set-up made without a seed."""
+        """The numpy generators reachable from ``system`` (not through modules or
+        classes) whose entropy is a key of ``made``, the entropies read while it was
+        built by the line that read each: the generators its set-up made without a seed.
+        The search goes breadth first, so what the system holds is seen before what
+        its functions' globals reach, however many modules the process has loaded."""
         try:
             import numpy as np  # noqa: PLC0415 - optional: numpy is the arrays extra
         except ImportError:
@@ -218,10 +221,10 @@ class PrivateGenerator:
         legacy = np.random.mtrand._rand  # numpy's global generator: watched as such
         found: list[PrivateGenerator] = []
         seen: set[int] = set()
-        waiting: list[object] = [system]
+        waiting: collections.deque[object] = collections.deque([system])
         while waiting and len(seen) < SEARCHED:
-            item = waiting.pop()
-            if id(item) in seen or isinstance(item, ModuleType):
+            item = waiting.popleft()
+            if id(item) in seen or isinstance(item, _NOT_SEARCHED):
                 continue
             seen.add(id(item))
             if isinstance(item, kinds) and item is not legacy:
@@ -231,6 +234,11 @@ class PrivateGenerator:
                 continue
             waiting.extend(gc.get_referents(item))
         return found
+
+
+_NOT_SEARCHED = (ModuleType, type, int, float, complex, str, bytes)
+"""What the search for a system's generators never looks into: modules and classes (a
+generator the set-up made lives in what was built), and values that hold no others."""
 
 
 def _bit_generator(generator: Any) -> Any:
