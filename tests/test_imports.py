@@ -85,7 +85,7 @@ def test_beatlog_replay_is_the_function_and_only_that() -> None:
 
 LAYERS = [
     {"_version", "_lazy", "errors", "files", "closing"},
-    {"project", "remote"},
+    {"project"},
     {"log"},
     {"model"},
     {"usercode"},

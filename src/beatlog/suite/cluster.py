@@ -5,7 +5,7 @@ local runner's workers run, and sends back its :class:`~beatlog.suite.runner.Spe
 as it is; outcomes stream back as they complete, to the same progress bar and reports.
 A spec travels with absolute paths, so a worker of another machine finds its files on
 a shared filesystem; a log behind a URL (a spec's, or a fleet's) is copied by the worker
-that replays it, and by no other process (see :mod:`beatlog.remote`). The system's
+that replays it, and by no other process (see :mod:`beatlog.suite.remote`). The system's
 package must be installed on the workers, as it is here.
 
 A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the

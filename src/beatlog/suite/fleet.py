@@ -7,7 +7,7 @@ no approved baseline. The pattern is a local glob, or any
 fsspec URL (``s3://bucket/2024-*/*.beatlog``) where fsspec is installed
 (``pip install "beatlog[fleet]"``). A URL's pattern is expanded by listing alone:
 each log behind it is copied only by the process that replays it, locally or on a
-Dask worker (see :mod:`beatlog.remote`).
+Dask worker (see :mod:`beatlog.suite.remote`).
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from beatlog.errors import FleetError, RemoteLogError, SystemLoadError
-from beatlog.remote import http_quoted, is_url, url_filesystem, url_name
+from beatlog.suite.remote import http_quoted, is_url, url_filesystem, url_name
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import importable_near, load_perception, load_system
 

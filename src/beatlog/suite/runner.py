@@ -19,13 +19,13 @@ from typing import TYPE_CHECKING
 from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
-from beatlog.remote import named_as_given
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.judge import recorded_system, replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
+from beatlog.suite.remote import named_as_given
 from beatlog.suite.spec import DtcSpec
 from beatlog.usercode import importable_near, load_perception, load_system
 

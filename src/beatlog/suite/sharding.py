@@ -8,7 +8,7 @@ tie). A log whose cycle count cannot be read cheaply (one cut off, damaged or mi
 counts 0 cycles: it still lands in exactly one shard, and its run says what is wrong.
 
 When a log lies behind a URL, every log of the suite weighs its size in bytes instead,
-as its filesystem lists it (:func:`beatlog.remote.log_size`): no log is downloaded to
+as its filesystem lists it (:func:`beatlog.suite.remote.log_size`): no log is downloaded to
 plan the work. A size that cannot be had fails the split (a job must not guess what
 the others may not), and counts 0 where only the order of the work depends on it.
 """
@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from beatlog.errors import OptionError, RemoteLogError
 from beatlog.files import irregular_file_problem
 from beatlog.log.reader import recorded_cycles
-from beatlog.remote import log_size
+from beatlog.suite.remote import log_size
 from beatlog.suite.spec import DtcSpec
 
 __all__ = ["Shard", "longest_first", "shard", "split"]

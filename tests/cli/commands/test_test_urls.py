@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.remote import MAX_BYTES_VARIABLE
 from beatlog.suite.baseline import pending_path
+from beatlog.suite.remote import MAX_BYTES_VARIABLE
 from tests.commands import Beatlog, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.served import LogServer
