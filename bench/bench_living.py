@@ -51,6 +51,7 @@ from rich.table import Table
 from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
+from beatlog.project.usercode import load_system
 from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.judge import replay
 from beatlog.suite.baseline import expected_path, read_baseline
@@ -60,7 +61,6 @@ from beatlog.suite.parallel import run_suite
 from beatlog.suite.policy import UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import load_system
 from beatlog_examples.dog import SUITE_DIR
 from beatlog_examples.dog.history import CHANGES, PLANTED_BUG, Change, changed_dog
 

@@ -14,12 +14,11 @@ from beatlog.model.context import Context
 from beatlog.model.random import (
     Draw,
     DrawKind,
-    RandomMismatch,
     RandomSource,
     RecordingRandom,
-    ReplayRandom,
     recorded_draw_problem,
 )
+from beatlog.replaying.random import RandomMismatch, ReplayRandom
 from tests.factories import through_log
 
 

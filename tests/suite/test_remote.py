@@ -276,7 +276,7 @@ def test_a_url_without_fsspec_says_what_to_install(monkeypatch: pytest.MonkeyPat
 
 
 def test_the_fleet_extra_brings_what_http_urls_need() -> None:
-    pyproject = Path(__file__).parents[1] / "pyproject.toml"
+    pyproject = Path(__file__).parents[2] / "pyproject.toml"
     extras = tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]
     fleet = [Requirement(line) for line in extras["optional-dependencies"]["fleet"]]
 

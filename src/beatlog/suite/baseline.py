@@ -81,7 +81,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.errors import BaselineError, NotABeatlogError
-from beatlog.files import irregular_file_problem, read_text_blocks, replacing
+from beatlog.log.files import irregular_file_problem, read_text_blocks, replacing
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.pins import StatePins
 from beatlog.replaying.state_digests import BLAKE2B, XXH64

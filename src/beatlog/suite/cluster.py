@@ -25,8 +25,8 @@ import uuid
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from beatlog.closing import Closing
 from beatlog.errors import ClusterError, first_line
+from beatlog.log.files import Closing
 from beatlog.suite.baseline import expected_path
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first

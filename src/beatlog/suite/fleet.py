@@ -18,9 +18,9 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from beatlog.errors import FleetError, RemoteLogError, SystemLoadError
+from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.suite.remote import http_quoted, is_url, url_filesystem, url_name
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import importable_near, load_perception, load_system
 
 __all__ = ["FLEET_PURPOSE", "check_references", "fleet_specs"]
 

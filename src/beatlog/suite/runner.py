@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
+from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.judge import recorded_system, replay
@@ -27,7 +28,6 @@ from beatlog.suite.baseline import expected_path, log_digest, read_baseline
 from beatlog.suite.policy import SpecOptions, UpdateMode
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import importable_near, load_perception, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -133,7 +133,7 @@ def run_spec(
     it does not, a note says so and points to the audit. The outcome's wall time is
     the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
     judges exactly as this run did. The spec's references also import from its folder
-    and its project root (:func:`beatlog.usercode.importable_near`). The options' break
+    and its project root (:func:`beatlog.project.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
     ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
     of the log is noted in the result.

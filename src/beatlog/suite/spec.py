@@ -36,7 +36,7 @@ the object itself when it is not callable; it imports from the working directory
 spec's folder and the spec's project root (the nearest folder above it with a
 ``pyproject.toml``). A spec without ``system`` replays against the one its log
 records only where the project lists it under ``[tool.beatlog] systems``: a log never
-chooses code on its own (:mod:`beatlog.project`).
+chooses code on its own (:mod:`beatlog.project.config`).
 
 A ``log`` that is a URL (``https://host/suite/avoid-pole.beatlog``, ``s3://...``: any
 URL fsspec reads, see :mod:`beatlog.suite.remote`) is copied by the process that replays the
@@ -68,8 +68,8 @@ from pathlib import Path
 import msgspec
 
 from beatlog.errors import SpecError
-from beatlog.files import project_root, read_small_text
-from beatlog.project import (
+from beatlog.log.files import project_root, read_small_text
+from beatlog.project.config import (
     check_conversions,
     check_one_to_one,
     dotted_keys,

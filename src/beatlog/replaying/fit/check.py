@@ -16,7 +16,7 @@ from beatlog.errors import CorruptLogError, FieldError, SchemaMismatchError
 from beatlog.log.format import SessionHeader
 from beatlog.model.behavior import System
 from beatlog.model.state import state_schema, state_type_name
-from beatlog.project import one_to_one_problem
+from beatlog.project.config import one_to_one_problem
 from beatlog.replaying.fit.migration import NO_MIGRATION, StateMigration
 from beatlog.replaying.fit.schema import (
     PROBLEMS,

@@ -4,7 +4,8 @@ draws than were recorded, and notes each difference."""
 from __future__ import annotations
 
 from beatlog.model.context import Context
-from beatlog.model.random import Draw, DrawDifference, ReplayRandom
+from beatlog.model.random import Draw
+from beatlog.replaying.random import DrawDifference, ReplayRandom
 from tests.factories import through_log
 
 
