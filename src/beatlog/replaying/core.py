@@ -175,7 +175,7 @@ class Replayer:
 
     def agrees(self, record: CycleRecord, changes: list[StateChangeRecord]) -> bool:
         """Whether ``changes`` and the outputs of the cycle replayed last are the bytes
-        its ``record`` expects (:meth:`expect`): the hot loop's check, inlined there.
+        its ``record`` expects (:meth:`expect`): the hot loop's check.
 
         :raises msgspec.EncodeError: they cannot be logged (or a ``TypeError`` or
             ``ValueError`` from an encoding hook).
@@ -269,9 +269,7 @@ class Replayer:
         # converted where a migration converts them.
         adopt = self._views.adopt if checking is not self._robot_state else None
         expected = self._expected
-        positions = None if expected is None else expected.positions
-        encode = self._encode
-        encode_outputs = None if expected is None else expected.outputs.encode
+        agrees = self.agrees
         judged = frozenset() if expected is None else expected.judged
         approves = None if expected is None else expected.draws
         changed = reported = drawn = 0
@@ -338,27 +336,11 @@ class Replayer:
                 or (sensed is not None and (sensed.differs or sensed.failure is not None))
             ):
                 changes = None
-            if encode_outputs is not None and changes is not None and context.cycle not in judged:
-                outputs = context.outputs
+            if expected is not None and changes is not None and context.cycle not in judged:
                 try:
-                    if (
-                        record.state_changes == EMPTY_LIST
-                        if not changes
-                        else record.state_changes
-                        == raw(
-                            encode(
-                                changes
-                                if positions is None
-                                else [(positions[i], b, a) for i, b, a in changes]
-                            )
-                        )
-                    ) and (
-                        record.outputs == EMPTY_MAP
-                        if not outputs
-                        else record.outputs == raw(encode_outputs(outputs))
-                    ):
+                    if agrees(record, changes):
                         changed += len(changes)
-                        reported += len(outputs)
+                        reported += len(context.outputs)
                         drawn += len(random.recorded)  # an agreeing cycle drew them all
                         changes = AGREED
                 except (TypeError, ValueError, msgspec.EncodeError):
