@@ -99,8 +99,7 @@ class RandomSource(ABC):
         """A float in [low, high) (``random.Random.uniform(a, b)``, positionally); with
         ``size``, an array of them (numpy's ``uniform``, as ``uniform_array``)."""
         if size is None:
-            if low.__class__ not in _PLAIN or high.__class__ not in _PLAIN:
-                low, high = _number(low), _number(high)
+            low, high = _number(low), _number(high)
             return float(self._scalar(DrawKind.UNIFORM, low, high, (low, high)))
         return self._drawn_array(DrawKind.UNIFORM_ARRAY, low, high, size)  # type: ignore[no-any-return]
 
