@@ -36,7 +36,8 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.cycle import state_change_finder, state_reader
-from beatlog.model.random import Draw, ReplayRandom
+from beatlog.model.random import Draw
+from beatlog.replaying.random import ReplayRandom
 from beatlog.replaying.view import StateViews
 
 __all__ = [

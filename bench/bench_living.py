@@ -53,6 +53,7 @@ from beatlog.baseline.policy import UpdateMode
 from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
+from beatlog.project.usercode import load_system
 from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.judge import replay
 from beatlog.suite.discovery import discover_specs
@@ -60,7 +61,6 @@ from beatlog.suite.maintenance import UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import load_system
 from beatlog_examples.dog import SUITE_DIR
 from beatlog_examples.dog.history import CHANGES, PLANTED_BUG, Change, changed_dog
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from bare import load_bare_inputs, replay_fresh, run_bare, run_checked
 from beatlog.model.behavior import System
-from beatlog.usercode import load_system
+from beatlog.project.usercode import load_system
 
 
 def main() -> None:

@@ -1,5 +1,5 @@
 """A griffe extension for the API reference: a lazy package ``__init__``
-(:mod:`beatlog._lazy`) lists its public names once, as the imports of its
+(:mod:`beatlog.log._lazy`) lists its public names once, as the imports of its
 ``if TYPE_CHECKING:`` block; this makes them its exports, as ``__all__`` would."""
 
 from __future__ import annotations

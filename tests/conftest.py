@@ -14,11 +14,11 @@ from typing import Any
 import pytest
 
 from beatlog.log.writer import SessionLogWriter
-from beatlog.log_cache import CACHE_DIR_VARIABLE
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
+from beatlog.suite.log_cache import CACHE_DIR_VARIABLE
 from tests.commands import Beatlog, Run
 from tests.served import LogServer, serve
 

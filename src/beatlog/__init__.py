@@ -9,7 +9,7 @@ The public names are imported on first use: ``import beatlog`` stays light.
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog._version import __version__ as __version__

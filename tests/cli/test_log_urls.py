@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.remote import MAX_BYTES_VARIABLE, TIMEOUT_VARIABLE
+from beatlog.suite.remote import MAX_BYTES_VARIABLE, TIMEOUT_VARIABLE
 from tests.commands import (
     Beatlog,
     Run,
@@ -210,7 +210,7 @@ def test_a_log_url_cut_off_without_a_length_is_no_truncated_log(
 def test_show_draws_a_big_download_s_progress_on_a_terminal(
     beatlog: Beatlog, served: LogServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr("beatlog.remote.PROGRESS_BYTES", 0)
+    monkeypatch.setattr("beatlog.suite.remote.PROGRESS_BYTES", 0)
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)
     url = f"{served.url}/dock.beatlog"
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import sys
 from collections.abc import Callable
 
@@ -12,14 +11,12 @@ import pytest
 
 from beatlog.model.context import Context
 from beatlog.model.random import (
-    Draw,
     DrawKind,
-    RandomMismatch,
     RandomSource,
     RecordingRandom,
-    ReplayRandom,
     recorded_draw_problem,
 )
+from beatlog.replaying.random import ReplayRandom
 from tests.factories import through_log
 
 
@@ -115,176 +112,6 @@ def test_an_array_draw_without_numpy_says_what_to_install(
             draw(source)
         assert str(raised.value) == message
         assert raised.value.name == "numpy"
-
-
-def test_drawing_more_than_recorded_is_a_mismatch() -> None:
-    player = ReplayRandom()
-    player.load([Draw(0, "uniform", 0.5)])
-    player.uniform(0, 1)
-    with pytest.raises(RandomMismatch) as caught:
-        player.uniform(0, 1)
-    assert (caught.value.problem, caught.value.overdrawn) == (
-        "called uniform(0, 1) (#2) but only 1 were recorded",
-        True,
-    )
-
-
-def test_drawing_another_kind_is_a_mismatch() -> None:
-    player = ReplayRandom()
-    player.load([Draw(0, "gauss", 0.5)])
-    with pytest.raises(RandomMismatch, match=r"called uniform\(0, 1\) where gauss was recorded"):
-        player.uniform(0, 1)
-    assert player.mismatch is not None
-    assert (player.mismatch.problem, player.mismatch.overdrawn) == (
-        "called uniform(0, 1) where gauss was recorded",
-        False,
-    )
-    assert player.drawn == [Draw(-1, "uniform", None, (0, 1))]
-
-
-def test_drawing_another_kind_names_both_requests() -> None:
-    player = ReplayRandom()
-    player.load([Draw(0, "uniform", 0.5, (2.0, 5.0))])
-    with pytest.raises(RandomMismatch) as caught:
-        player.gauss(0.0, 0.4)
-    assert caught.value.problem == "called gauss(0.0, 0.4) where uniform(2.0, 5.0) was recorded"
-
-
-def test_a_swallowed_mismatch_is_still_remembered() -> None:
-    player = ReplayRandom()
-    player.load([])
-    with contextlib.suppress(BaseException):  # a careless behavior swallowing everything
-        player.random()
-    assert player.mismatch is not None
-
-
-def test_an_array_of_another_shape_is_a_mismatch() -> None:
-    recorder = RecordingRandom(seed=1)
-    recorder.uniform_array(0, 1, 3)
-    player = ReplayRandom()
-    player.load(through_log(recorder.take()))
-    with pytest.raises(RandomMismatch, match=r"uniform_array\(0, 1, \[4\]\) where .*\[3\]"):
-        player.uniform_array(0, 1, 4)
-
-
-def test_a_format_1_array_of_another_shape_is_still_a_mismatch() -> None:
-    recorder = RecordingRandom(seed=1)
-    recorder.uniform_array(0, 1, 3)
-    player = ReplayRandom()
-    player.load([draw._replace(params=()) for draw in through_log(recorder.take())])
-    with pytest.raises(RandomMismatch, match="shape"):
-        player.uniform_array(0, 1, 4)
-
-
-@pytest.mark.parametrize(
-    ("recorded", "replayed", "message"),
-    [
-        (
-            lambda r: r.uniform(2.0, 5.0),
-            lambda r: r.uniform(2.5, 5.0),
-            "called uniform(2.5, 5.0) where uniform(2.0, 5.0) was recorded",
-        ),
-        (
-            lambda r: r.gauss(0.0, 0.4),
-            lambda r: r.gauss(0.5, 0.4),
-            "called gauss(0.5, 0.4) where gauss(0.0, 0.4) was recorded",
-        ),
-        (
-            lambda r: r.randint(1, 6),
-            lambda r: r.randint(1, 7),
-            "called randint(1, 7) where randint(1, 6) was recorded",
-        ),
-        (
-            lambda r: r.choice("abc"),
-            lambda r: r.choice("abcd"),
-            "called choice(4) where choice(3) was recorded",
-        ),
-        (
-            lambda r: r.normal_array(0.0, 1.0, (2, 2)),
-            lambda r: r.normal_array(0.0, 2.0, (2, 2)),
-            "called normal_array(0.0, 2.0, [2, 2]) where normal_array(0.0, 1.0, [2, 2])",
-        ),
-        (
-            lambda r: r.gauss(float("nan"), 1.0),
-            lambda r: r.gauss(0.0, 1.0),
-            "called gauss(0.0, 1.0) where gauss(nan, 1.0) was recorded",
-        ),
-        (
-            lambda r: r.uniform(2.0, 5.0),
-            lambda r: r.uniform(2.0000000000000004, 5.0),
-            "called uniform(2.0000000000000004, 5.0) where uniform(2.0, 5.0) was recorded",
-        ),
-        (
-            lambda r: r.integers_array(0, 10, (2, 2)),
-            lambda r: r.integers_array(0, 10, (2, 2, 1)),
-            "called integers_array(0, 10, [2, 2, 1]) where integers_array(0, 10, [2, 2])",
-        ),
-    ],
-)
-def test_a_draw_asked_with_other_parameters_is_a_mismatch(
-    recorded: Callable[[RandomSource], object],
-    replayed: Callable[[RandomSource], object],
-    message: str,
-) -> None:
-    recorder = RecordingRandom(seed=1)
-    recorded(recorder)
-    player = ReplayRandom()
-    player.load(through_log(recorder.take()))
-    with pytest.raises(RandomMismatch) as raised:
-        replayed(player)
-    assert message in raised.value.problem
-
-
-@pytest.mark.parametrize(
-    ("recorded", "replayed"),
-    [
-        (lambda r: r.gauss(-0.0, 1.0), lambda r: r.gauss(-0.0, 1.0)),
-        (lambda r: r.gauss(float("nan"), 1.0), lambda r: r.gauss(float("nan"), 1.0)),
-        (lambda r: r.uniform(1.5, 3), lambda r: r.uniform(np.float64(1.5), np.int64(3))),
-        (lambda r: r.randint(1, 6), lambda r: r.randint(np.int64(1), 6)),
-        (lambda r: r.uniform_array(0.0, 1.0, (2, 3)), lambda r: r.uniform_array(0.0, 1.0, (2, 3))),
-        # the same numbers written otherwise: 1 == 1.0 == True, -0.0 == 0.0
-        (lambda r: r.uniform(1, 2), lambda r: r.uniform(1.0, 2)),
-        (lambda r: r.uniform(1.0, 2.0), lambda r: r.uniform(1, 2.0)),
-        (lambda r: r.randint(1, 6), lambda r: r.randint(True, 6)),
-        (lambda r: r.gauss(-0.0, 1.0), lambda r: r.gauss(0.0, 1.0)),
-        (lambda r: r.integers_array(0, 10, (2, 2)), lambda r: r.integers_array(0, 10, (2.0, 2))),
-    ],
-)
-def test_the_same_numbers_asked_for_replay(
-    recorded: Callable[[RandomSource], object],
-    replayed: Callable[[RandomSource], object],
-) -> None:
-    """Numbers compare by value, exactly, however written: numpy scalars, ints for
-    floats; a NaN is the NaN recorded. They draw the same."""
-    recorder = RecordingRandom(seed=1)
-    recorded(recorder)
-    player = ReplayRandom()
-    player.load(through_log(recorder.take()))
-    replayed(player)
-    assert player.mismatch is None
-    assert len(player.drawn) == 1
-
-
-def test_the_same_parameters_replay_the_recorded_value() -> None:
-    recorder = RecordingRandom(seed=1)
-    value = recorder.uniform(2.0, 5.0)
-    player = ReplayRandom()
-    player.load(through_log(recorder.take()))
-    assert player.uniform(2.0, 5.0) == value
-
-
-def test_a_format_1_draw_has_no_parameters_and_is_checked_for_kind_only() -> None:
-    player = ReplayRandom()
-    player.load([Draw(0, "uniform", 0.25)])
-    assert player.uniform(2.5, 5.0) == 0.25
-
-
-def test_a_recorded_choice_must_fit_the_sequence() -> None:
-    player = ReplayRandom()
-    player.load([Draw(0, "choice", 5)])
-    with pytest.raises(RandomMismatch, match="out of range"):
-        player.choice([1, 2])
 
 
 def test_every_draw_a_recording_makes_reads_back_without_a_problem() -> None:

@@ -11,12 +11,11 @@ import numpy as np
 import pytest
 
 from beatlog.model.random import (
-    RandomMismatch,
     RandomSource,
     RecordingRandom,
-    ReplayRandom,
     recorded_draw_problem,
 )
+from beatlog.replaying.random import RandomMismatch, ReplayRandom
 from tests.factories import through_log
 
 

@@ -17,11 +17,11 @@ from beatlog.log.format import CycleRecord, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
-from beatlog.model.random import DrawDifference
 from beatlog.record.recorder import Recorder
 from beatlog.replaying.core import AGREED, CycleOutcome, Expected, Replayer
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.judge import replay
+from beatlog.replaying.random import DrawDifference
 from beatlog.replaying.session import ReplaySession
 from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, probe_system
 from tests.systems import (

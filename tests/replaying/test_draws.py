@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from beatlog.model.random import DrawDifference
 from beatlog.replaying.draws import DrawLedger, DrawRule, Unapproved, draw_rules
+from beatlog.replaying.random import DrawDifference
 
 RETUNED = DrawDifference("wander", "uniform(0.8, 1.6)", "uniform(0.7, 1.5)")
 NEW = DrawDifference("escape", None, "uniform(4.0, 8.0)")

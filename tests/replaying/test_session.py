@@ -132,7 +132,9 @@ def test_nothing_but_the_replay_session_steps_the_replay_core() -> None:
         path.relative_to(package).as_posix()
         for path in package.rglob("*.py")
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
-        if isinstance(node, ast.Attribute) and node.attr == "advance"
+        if isinstance(node, ast.Attribute)
+        and node.attr == "advance"
+        and not ast.unparse(node.value).endswith("clock")  # a heartbeat clock's
     }
 
     assert sorted(stepping) == ["replaying/core.py", "replaying/session.py"]

@@ -4,8 +4,8 @@ DTC's own copy."""
 
 from __future__ import annotations
 
-from beatlog.remote import fetched_log
 from beatlog.suite.prefetch import fetch_ahead, wait_for
+from beatlog.suite.remote import fetched_log
 from tests.served import LogServer
 
 

@@ -17,7 +17,7 @@ from pathlib import Path, PurePath
 from typing import TYPE_CHECKING, Any
 
 from beatlog.errors import BagError
-from beatlog.files import irregular_file_problem
+from beatlog.log.files import irregular_file_problem
 from beatlog.model.inbox import Sample
 
 if TYPE_CHECKING:

@@ -48,7 +48,7 @@ from beatlog.errors import (
     OptionError,
     SpecError,
 )
-from beatlog.files import replacing
+from beatlog.log.files import replacing
 from beatlog.log.format import payload_encoder
 from beatlog.log.limits import MAX_NAME_LENGTH
 from beatlog.log.writer import MAX_CYCLE_BYTES
@@ -56,9 +56,9 @@ from beatlog.model.behavior import System
 from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
+from beatlog.project.usercode import failure_site, load_perception, load_system, user_traceback
 from beatlog.record.recorder import Recorder
 from beatlog.suite.spec import spec_text
-from beatlog.usercode import failure_site, load_perception, load_system, user_traceback
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader

@@ -27,10 +27,10 @@ from beatlog.analysis.signals import DEFAULT_FIELDS, Sampler, Signal
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.project.usercode import load_system
 from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.session import ReplaySession
 from beatlog.replaying.verdict import Divergence, DivergenceKind, StateChange
-from beatlog.usercode import load_system
 
 __all__ = [
     "BUCKETS",

@@ -22,7 +22,6 @@ from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
-from beatlog.model.random import DrawDifference
 from beatlog.replaying.compare import WHOLE_STATE, state_fields
 from beatlog.replaying.core import CycleOutcome, Replayer
 from beatlog.replaying.departures import DepartureCollector, apply_outputs, hold
@@ -34,6 +33,7 @@ from beatlog.replaying.expectation import (
     TracedOutput,
 )
 from beatlog.replaying.pins import RebuiltState, StatePins, rebuilt_otherwise
+from beatlog.replaying.random import DrawDifference
 from beatlog.replaying.session import ReplaySession
 from beatlog.replaying.state_digests import state_digest
 from beatlog.replaying.verdict import StateChange

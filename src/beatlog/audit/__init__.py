@@ -7,7 +7,7 @@ names here are imported on first use, so that it starts light.
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.audit.replays import Auditors as Auditors

@@ -30,8 +30,8 @@ from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
 from beatlog.model.behavior import Behavior, System
 from beatlog.model.context import Context
+from beatlog.project.usercode import load_system
 from beatlog.replaying.judge import replay
-from beatlog.usercode import load_system
 
 __all__ = ["main"]
 

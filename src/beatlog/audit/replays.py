@@ -25,8 +25,8 @@ from typing import IO
 import msgspec
 
 from beatlog.audit.leaks import Finding
-from beatlog.closing import Closing
 from beatlog.errors import BeatlogError
+from beatlog.log.files import Closing
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.verdict import DivergenceKind
 

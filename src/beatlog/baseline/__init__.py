@@ -11,7 +11,7 @@ in :mod:`beatlog.suite.maintenance`. The names are imported on first use.
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.baseline.file import Baseline as Baseline

@@ -72,7 +72,7 @@ from pathlib import Path
 from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import HEADER
 from beatlog.errors import BaselineError, NotABeatlogError
-from beatlog.files import irregular_file_problem, read_text_blocks
+from beatlog.log.files import irregular_file_problem, read_text_blocks
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.pins import StatePins
 

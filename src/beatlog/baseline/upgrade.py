@@ -38,7 +38,7 @@ from beatlog.baseline.file import (
 )
 from beatlog.baseline.write import HEADER, OUTPUT, QUIET, ROBOT_STATE, write_baseline
 from beatlog.errors import BaselineError
-from beatlog.files import read_text_blocks, replacing
+from beatlog.log.files import read_text_blocks, replacing
 from beatlog.replaying.departures import OutputDepartures
 from beatlog.replaying.expectation import AS_RECORDED, Expectation, TracedChange, TracedOutput
 

@@ -16,7 +16,7 @@ from typing import Any
 import msgspec
 
 from beatlog.errors import BaselineError
-from beatlog.files import replacing
+from beatlog.log.files import replacing
 from beatlog.replaying.draws import DrawRule
 from beatlog.replaying.expectation import (
     ABSENT,

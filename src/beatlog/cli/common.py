@@ -55,11 +55,11 @@ def check_output(output: Path) -> None:
 @contextlib.contextmanager
 def readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
     """``args.log`` as a file of this machine while the block runs: a log behind a URL
-    is copied once (:func:`beatlog.remote.fetched_log`, with a progress bar on a
+    is copied once (:func:`beatlog.suite.remote.fetched_log`, with a progress bar on a
     terminal) and ``args.log`` names the copy, which is removed after. The block is
     given a function that names the copy by its URL in a text, and errors raised in it
     are named so too; None for a local log."""
-    from beatlog.remote import fetched_log, is_url, named_as_given
+    from beatlog.suite.remote import fetched_log, is_url, named_as_given
 
     url = str(args.log)
     if not is_url(url):

@@ -6,7 +6,7 @@ The names are imported on first use: replay reads logs without loading the write
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.log.format import FORMAT_VERSION as FORMAT_VERSION

@@ -120,7 +120,7 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     software_version: Name
     system: Text
     """The ``module:factory`` the session was recorded with; only a name: a replay
-    imports it only where the user's project vouches for it (:mod:`beatlog.project`)."""
+    imports it only where the user's project vouches for it (:mod:`beatlog.project.config`)."""
     period_ns: Annotated[int, msgspec.Meta(gt=0)]
     start_time_ns: Annotated[int, msgspec.Meta(ge=0, le=2**63 - 1)]
     """Wall-clock start of the recording (Unix ns); never used by replay."""

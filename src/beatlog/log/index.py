@@ -15,7 +15,6 @@ from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, ChunkIndex, Footer, Message
 
-from beatlog.files import irregular_file_problem
 from beatlog.log.container import (
     CHUNK_RECORDS,
     FOOTER_BYTES,
@@ -28,6 +27,7 @@ from beatlog.log.container import (
     split_records,
     unpack_chunk,
 )
+from beatlog.log.files import irregular_file_problem
 from beatlog.log.format import DECODE_ERRORS, END_TOPIC, SessionEnd
 from beatlog.log.limits import MAX_CHUNK_BYTES
 

@@ -31,9 +31,7 @@ from mcap.records import (
     Statistics,
 )
 
-from beatlog.closing import Closing
 from beatlog.errors import CorruptLogError, NotABeatlogError
-from beatlog.files import irregular_file_problem
 from beatlog.log.container import (
     CHUNK_RECORDS,
     DATA_RECORDS,
@@ -49,6 +47,7 @@ from beatlog.log.container import (
     summary_crc,
     unpack_chunk,
 )
+from beatlog.log.files import Closing, irregular_file_problem
 from beatlog.log.format import DECODE_ERRORS, PROFILE
 from beatlog.log.limits import MAX_CHUNK_BYTES, MAX_EXPANSION, MAX_RECORD_BYTES
 from beatlog.log.recording import Recording

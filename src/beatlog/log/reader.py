@@ -16,8 +16,8 @@ from typing import Any
 
 from mcap.records import Channel, Message, Schema
 
-from beatlog.closing import Closing
 from beatlog.errors import CorruptLogError, UnsupportedVersionError
+from beatlog.log.files import Closing
 from beatlog.log.format import (
     CYCLES_TOPIC,
     DECODE_ERRORS,

@@ -25,9 +25,9 @@ from typing import IO, Any, Final
 import msgspec
 from mcap.writer import CompressionType, Writer
 
-from beatlog.closing import Closing
 from beatlog.errors import LogError, LogExistsError
 from beatlog.log.columns import column_batches
+from beatlog.log.files import Closing
 from beatlog.log.format import (
     COLUMNS_SINCE,
     CYCLES_TOPIC,

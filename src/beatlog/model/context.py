@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from beatlog.model.random import RandomSource
+    from beatlog.model.source import RandomSource
 
 __all__ = ["Context", "Outputs"]
 

@@ -6,7 +6,6 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -34,73 +33,33 @@ ChangeFinder = Callable[[list[BehaviorState], list[BehaviorState]], list[StateCh
 
 
 def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
-    """A function that reads every behavior's state, in catalogue order.
+    """A function that reads every behavior's state, in catalogue order."""
+    catalogue = tuple(behaviors)
 
-    Its source is written out for the catalogue (as :mod:`dataclasses` writes an
-    ``__init__``), from nothing but the catalogue's size: each behavior's state is then
-    read by an attribute access of its own, which the interpreter specialises for that
-    behavior's class. One access in a loop sees every class and stays generic, several
-    times slower; reading the states is a fixed cost of every cycle.
-    """
-    read: Callable[[], list[BehaviorState]] = _reader_binder(len(behaviors))(*behaviors)
+    def read() -> list[BehaviorState]:
+        return [behavior.state for behavior in catalogue]
+
     return read
 
 
-_BLOCK = 32
-"""Behaviors whose states :func:`state_change_finder` compares at once, in C."""
-
-
-@functools.lru_cache(maxsize=16)
 def state_change_finder(size: int) -> ChangeFinder:
     """A function ``find(now, seen)`` that, given the states of a catalogue of ``size``
     behaviors read now and those seen last (both in catalogue order), returns BS_t: a
     ``(index, before, after)`` for each state that is another object and not equal to
     the one seen, in catalogue order. It sets those, and only those, in ``seen``: a state
     equal to the one seen but another object leaves the one seen in place (``1``, then
-    ``True``, then ``2`` is one change, from ``1`` to ``2``).
+    ``True``, then ``2`` is one change, from ``1`` to ``2``)."""
 
-    Call it when the two lists differ. Its source is written out for the size, in
-    blocks of 32 behaviors: a block whose states are all the same is passed over by one
-    list comparison in C, so what a cycle costs beyond that follows the blocks in which
-    a state changed; a loop over every behavior costs several times as much at a
-    thousand behaviors. Made once per size: a thousand
-    behaviors take some 45 ms to compile.
-    """
-    lines = ["def find(now, seen):", "    found = []"]
-    for start in range(0, size, _BLOCK):
-        stop = min(start + _BLOCK, size)
-        indent = "    "
-        if size > _BLOCK:
-            lines.append(f"    if now[{start}:{stop}] != seen[{start}:{stop}]:")
-            indent += "    "
-        for index in range(start, stop):
-            now, seen = f"now[{index}]", f"seen[{index}]"
-            lines += [
-                f"{indent}if {now} is not {seen} and {now} != {seen}:",
-                f"{indent}    found.append(({index}, {seen}, {now}))",
-                f"{indent}    {seen} = {now}",
-            ]
-    lines += ["    return found", ""]
-    namespace: dict[str, Any] = {}
-    exec("\n".join(lines), namespace)  # noqa: S102 - our own source, of indices only
-    find: ChangeFinder = namespace["find"]
+    def find(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
+        found: list[StateChangeRecord] = []
+        for index in range(size):
+            state, last = now[index], seen[index]
+            if state is not last and state != last:
+                found.append((index, last, state))
+                seen[index] = state
+        return found
+
     return find
-
-
-@functools.lru_cache(maxsize=16)
-def _reader_binder(size: int) -> Callable[..., Callable[[], list[BehaviorState]]]:
-    """:func:`state_reader`'s code for a catalogue of ``size``, compiled once per size."""
-    names = [f"b{index}" for index in range(size)]
-    source = (
-        f"def bind({', '.join(names)}):\n"
-        f"    def read():\n"
-        f"        return [{', '.join(f'{name}.state' for name in names)}]\n"
-        f"    return read\n"
-    )
-    namespace: dict[str, Any] = {}
-    exec(source, namespace)  # noqa: S102 - our own source, of names b0, b1, ... only
-    bind: Callable[..., Callable[[], list[BehaviorState]]] = namespace["bind"]
-    return bind
 
 
 class CycleExecutor:
@@ -123,8 +82,7 @@ class CycleExecutor:
         context = self.context
         context.cycle += 1
         context.dt_ns = interval_ns
-        clock = self.clock  # SimulatedHeartbeat.advance, inline: the hot path
-        context.time_ns = clock.now_ns = clock.now_ns + interval_ns
+        context.time_ns = self.clock.advance(interval_ns)
         context.actor = -1
         if context.outputs:
             context.outputs = {}

@@ -60,7 +60,6 @@ ARRAY_KINDS = frozenset(
     {DrawKind.UNIFORM_ARRAY.value, DrawKind.NORMAL_ARRAY.value, DrawKind.INTEGERS_ARRAY.value}
 )
 _encode_params = payload_encoder().encode
-_PLAIN_NUMBERS = frozenset({int, float, bool})
 SCALAR_VALUES: dict[str, type[int | float]] = {
     DrawKind.RANDOM.value: float,
     DrawKind.UNIFORM.value: float,
@@ -99,8 +98,6 @@ def same_params(recorded: Sequence[Any], asked: Sequence[Any]) -> bool:
 
 
 def _same_param(want: Any, got: Any) -> bool:
-    if type(want) in _PLAIN_NUMBERS and type(got) in _PLAIN_NUMBERS:  # the common case
-        return want == got or (isnan(want) and isnan(got))
     if isinstance(want, list | tuple) and isinstance(got, list | tuple):
         return same_params(want, got)
     if isinstance(want, Real) and isinstance(got, Real):

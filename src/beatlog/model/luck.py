@@ -47,9 +47,6 @@ _SQRT2 = math.sqrt(2.0)
 _TINY = 2.0**-53
 _TOP = 1.0 - _TINY
 _SCALARS = frozenset({"random", "uniform", "gauss", "randint", "choice"})
-_made = tuple.__new__
-"""A NamedTuple made of its fields in C, as its ``_make`` makes one, without the Python
-call its constructor costs."""
 
 
 class Luck(NamedTuple):
@@ -98,7 +95,7 @@ class FreshLuck:
     def luck(self, place: Place) -> Luck:
         """The luck of a draw the recording does not have, at ``place``: its seed as a
         float in [0, 1), 53 bits, as generators make them."""
-        return _made(Luck, ((int.from_bytes(self.seed(place), "little") >> 11) * _TINY, None))
+        return Luck((int.from_bytes(self.seed(place), "little") >> 11) * _TINY)
 
 
 def fresh_luck(key: bytes, place: Place) -> Luck:
@@ -117,17 +114,17 @@ def scalar_luck(kind: str, value: Any, params: tuple[Any, ...]) -> Luck | None:
     if kind not in _SCALARS or (kind != "random" and not params):
         return None
     if kind == "random":
-        return _made(Luck, (_clamped(value), None))
+        return Luck(_clamped(value))
     if kind == "uniform":
         a, b = params
-        return _made(Luck, (_clamped((value - a) / (b - a)) if b != a else 0.5, None))
+        return Luck(_clamped((value - a) / (b - a)) if b != a else 0.5)
     if kind == "gauss":
         mu, sigma = params
         z = (value - mu) / sigma if sigma else 0.0
         u = 0.5 * (1.0 + math.erf(z / _SQRT2))  # NormalDist().cdf(z), bit for bit
-        return _made(Luck, (_clamped(u) if math.isfinite(z) else 0.5, z))
+        return Luck(_clamped(u) if math.isfinite(z) else 0.5, z)
     low, count = (params[0], params[1] - params[0] + 1) if kind == "randint" else (0, params[0])
-    return _made(Luck, (_clamped((value - low + 0.5) / count) if count > 0 else 0.5, None))
+    return Luck(_clamped((value - low + 0.5) / count) if count > 0 else 0.5)
 
 
 def scalar_value(kind: str, params: tuple[Any, ...], luck: Luck) -> Any:

@@ -8,8 +8,8 @@ fewer, a different kind or with different parameters than was recorded is a dive
 that names the cycle and the behavior.
 
 This module holds the recording source; the interface behaviors draw from
-(:mod:`.source`), the replaying source (:mod:`.replay_random`) and the draws' kinds
-and values (:mod:`.draws`) are importable from here too.
+(:mod:`.source`) and the draws' kinds and values (:mod:`.draws`) are importable from
+here too. The replaying source is replay's (:mod:`beatlog.replaying.random`).
 """
 
 from __future__ import annotations
@@ -27,17 +27,13 @@ from beatlog.model.draws import (
     recorded_draw_problem,
 )
 from beatlog.model.luck import FreshLuck, Place, array_value, scalar_value
-from beatlog.model.replay_random import DrawDifference, RandomMismatch, ReplayRandom
 from beatlog.model.source import RandomSource
 
 __all__ = [
     "Draw",
-    "DrawDifference",
     "DrawKind",
-    "RandomMismatch",
     "RandomSource",
     "RecordingRandom",
-    "ReplayRandom",
     "plain_value",
     "recorded_draw_problem",
 ]

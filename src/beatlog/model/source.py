@@ -1,6 +1,6 @@
 """The random source behaviors draw from: the only randomness they use, each draw
 attributed to the behavior that makes it (:class:`~beatlog.model.random.RecordingRandom`
-live, :class:`~beatlog.model.replay_random.ReplayRandom` in replay).
+live, :class:`~beatlog.replaying.random.ReplayRandom` in replay).
 
 It speaks both dialects of Python code that draws: :class:`random.Random`'s
 (``random()``, ``uniform(a, b)``, ``gauss``, ``randint``, ``choice(seq)``) and numpy's
@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from itertools import accumulate
 from math import isclose, prod
 from numbers import Integral, Real
-from typing import TYPE_CHECKING, Any, TypeVar, overload
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, overload
 
 from beatlog.model.draws import DrawKind, need_numpy
 
@@ -30,7 +30,6 @@ if TYPE_CHECKING:
     import numpy as np
     import numpy.typing as npt
 
-    from beatlog.model.context import Context
 
 __all__ = ["RandomSource", "Size"]
 
@@ -40,13 +39,22 @@ Size = int | Sequence[int]
 _PLAIN = frozenset({int, float})
 
 
+class Stepping(Protocol):
+    """What a source reads of the context it is bound to
+    (:class:`~beatlog.model.context.Context`), to attribute each draw: the behavior
+    stepping (-1 for the system) and the heartbeat's index."""
+
+    actor: int
+    cycle: int
+
+
 class RandomSource(ABC):
     """Random numbers for behaviors, attributed to the behavior that draws them."""
 
     def __init__(self) -> None:
-        self._context: Context | None = None
+        self._context: Stepping | None = None
 
-    def bind(self, context: Context) -> None:
+    def bind(self, context: Stepping) -> None:
         """Attach the context whose ``actor`` names the drawing behavior."""
         self._context = context
 
@@ -91,8 +99,7 @@ class RandomSource(ABC):
         """A float in [low, high) (``random.Random.uniform(a, b)``, positionally); with
         ``size``, an array of them (numpy's ``uniform``, as ``uniform_array``)."""
         if size is None:
-            if low.__class__ not in _PLAIN or high.__class__ not in _PLAIN:
-                low, high = _number(low), _number(high)
+            low, high = _number(low), _number(high)
             return float(self._scalar(DrawKind.UNIFORM, low, high, (low, high)))
         return self._drawn_array(DrawKind.UNIFORM_ARRAY, low, high, size)  # type: ignore[no-any-return]
 

@@ -168,8 +168,8 @@ def beatlog_replay(request: pytest.FixtureRequest) -> Callable[..., ReplayResult
     """
 
     def run(log: str | Path, system: System | str, **options: Any) -> ReplayResult:
+        from beatlog.project.usercode import importable_near  # noqa: PLC0415
         from beatlog.replaying.judge import replay  # noqa: PLC0415 - see the imports
-        from beatlog.usercode import importable_near  # noqa: PLC0415
 
         try:
             with importable_near(request.path), quitting_as_pytest():

@@ -242,10 +242,10 @@ class BeatlogRun:
 
     def _report(self) -> tuple[SuiteReport, str | None]:
         """The end of the session, as ``beatlog test`` ends one (see
-        :func:`beatlog.suite_session.conclude`), for the specs that ran; with why there
+        :func:`beatlog.report.session.conclude`), for the specs that ran; with why there
         is no coverage where it was asked for and the specs could not be read again."""
+        from beatlog.report.session import conclude  # noqa: PLC0415
         from beatlog.report.suite import SuiteReport  # noqa: PLC0415 - see the imports
-        from beatlog.suite_session import conclude  # noqa: PLC0415
 
         folders = sorted({spec.parent for spec in self.specs})
         measured = self.coverage or self.coverage_json is not None

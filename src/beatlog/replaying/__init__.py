@@ -9,7 +9,7 @@ system and maps robot-state fields renamed or retyped since the recording, and
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.replaying.compare import Comparison as Comparison

@@ -35,7 +35,6 @@ from beatlog.log.format import (
 from beatlog.model.behavior import System
 from beatlog.model.cycle import CycleExecutor
 from beatlog.model.perception import Perception
-from beatlog.model.random import RandomMismatch, ReplayRandom
 from beatlog.replaying.cycle_reader import CycleReader
 from beatlog.replaying.draws import log_key
 from beatlog.replaying.fit.check import check_fit
@@ -43,6 +42,7 @@ from beatlog.replaying.fit.migration import StateConverter, StateMigration
 from beatlog.replaying.fit.schema import recorded_state_type
 from beatlog.replaying.outcome import AGREED, CycleOutcome, Expected, Sensed, Stop, actor_name
 from beatlog.replaying.pins import PinChecker
+from beatlog.replaying.random import RandomMismatch, ReplayRandom
 from beatlog.replaying.sensing import UNREAD, Perceiver
 from beatlog.replaying.view import StateViews
 
@@ -100,7 +100,7 @@ class Replayer:
         self.executor = CycleExecutor(system, self.random)
         self.living = living
         """Whether replay goes on when the behaviors draw otherwise than recorded
-        (:meth:`~beatlog.model.random.ReplayRandom.live`); ``rename`` maps a recorded
+        (:meth:`~beatlog.replaying.random.ReplayRandom.live`); ``rename`` maps a recorded
         behavior's name to its name now, matching each behavior's draws."""
         if living:
             self.random.expect_actors(header.behaviors, self.executor.behavior_ids, rename)
@@ -175,7 +175,7 @@ class Replayer:
 
     def agrees(self, record: CycleRecord, changes: list[StateChangeRecord]) -> bool:
         """Whether ``changes`` and the outputs of the cycle replayed last are the bytes
-        its ``record`` expects (:meth:`expect`): the hot loop's check, inlined there.
+        its ``record`` expects (:meth:`expect`): the hot loop's check.
 
         :raises msgspec.EncodeError: they cannot be logged (or a ``TypeError`` or
             ``ValueError`` from an encoding hook).
@@ -266,13 +266,10 @@ class Replayer:
         view = self._views.view
         checking = self.state_type
         # A state decoded as the checking subclass becomes the system's, its fields
-        # converted where a migration converts them (only then is there more to do).
-        adopt = self._views.adopt if checking is not self._robot_state and self._convert else None
-        as_system = self._robot_state if checking is not self._robot_state and not adopt else None
+        # converted where a migration converts them.
+        adopt = self._views.adopt if checking is not self._robot_state else None
         expected = self._expected
-        positions = None if expected is None else expected.positions
-        encode = self._encode
-        encode_outputs = None if expected is None else expected.outputs.encode
+        agrees = self.agrees
         judged = frozenset() if expected is None else expected.judged
         approves = None if expected is None else expected.draws
         changed = reported = drawn = 0
@@ -293,8 +290,6 @@ class Replayer:
                     state = read_state(record, context.cycle + 1)
                 elif kind is columns:  # format 3 by field: a view of the batch's columns
                     state = view(state, context.cycle + 1)
-                elif as_system is not None:  # decoded as the checking subclass
-                    state.__class__ = as_system
                 elif adopt is not None and kind is checking:
                     adopt(state, context.cycle + 1)
             if context.cycle + 1 == break_at:
@@ -341,27 +336,11 @@ class Replayer:
                 or (sensed is not None and (sensed.differs or sensed.failure is not None))
             ):
                 changes = None
-            if encode_outputs is not None and changes is not None and context.cycle not in judged:
-                outputs = context.outputs
+            if expected is not None and changes is not None and context.cycle not in judged:
                 try:
-                    if (
-                        record.state_changes == EMPTY_LIST
-                        if not changes
-                        else record.state_changes
-                        == raw(
-                            encode(
-                                changes
-                                if positions is None
-                                else [(positions[i], b, a) for i, b, a in changes]
-                            )
-                        )
-                    ) and (
-                        record.outputs == EMPTY_MAP
-                        if not outputs
-                        else record.outputs == raw(encode_outputs(outputs))
-                    ):
+                    if agrees(record, changes):
                         changed += len(changes)
-                        reported += len(outputs)
+                        reported += len(context.outputs)
                         drawn += len(random.recorded)  # an agreeing cycle drew them all
                         changes = AGREED
                 except (TypeError, ValueError, msgspec.EncodeError):

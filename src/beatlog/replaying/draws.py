@@ -1,8 +1,8 @@
 """Draws an approved baseline lets replay make otherwise than recorded.
 
-In living replay (:meth:`~beatlog.model.random.ReplayRandom.live`) a behavior that
+In living replay (:meth:`~beatlog.replaying.random.ReplayRandom.live`) a behavior that
 asks for other draws than were recorded goes on, and each draw made otherwise is a
-:class:`~beatlog.model.random.DrawDifference`. A baseline approves them as rules, one
+:class:`~beatlog.replaying.random.DrawDifference`. A baseline approves them as rules, one
 line each however long the session, with the cycles where they happen (``wander:
 uniform(0.8, 1.6) -> uniform(0.7, 1.5), 14 draws, in cycles 12 40 ...``): small, and
 what a reviewer wants to read. The verdict keeps a :class:`DrawLedger` and judges each
@@ -21,7 +21,7 @@ from typing import NamedTuple
 import msgspec
 
 from beatlog.log.format import SessionHeader
-from beatlog.model.random import DrawDifference
+from beatlog.replaying.random import DrawDifference
 
 __all__ = ["DrawLedger", "DrawRule", "Unapproved", "draw_rules", "log_key"]
 

@@ -31,7 +31,8 @@ from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.model.random import Draw, plain_value
-from beatlog.project import vouched_system
+from beatlog.project.config import vouched_system
+from beatlog.project.usercode import load_perception, load_system, user_traceback
 from beatlog.replaying.compare import Comparison, state_fields
 from beatlog.replaying.core import CycleOutcome, Expected, Replayer, actor_name
 from beatlog.replaying.draws import DrawLedger, Unapproved
@@ -52,7 +53,6 @@ from beatlog.replaying.verdict import (
     StateChange,
     reproduce_command,
 )
-from beatlog.usercode import load_perception, load_system, user_traceback
 
 __all__ = ["NO_SAMPLES", "CycleJudge", "Follower", "propose_renames", "recorded_system", "replay"]
 
@@ -802,7 +802,7 @@ def recorded_system(log: str | Path, *, project: Path | None = None) -> str:
 
     ``project`` is a folder of the project whose ``[tool.beatlog] systems`` must list
     the reference (the working directory by default; a spec's folder for a spec), see
-    :func:`beatlog.project.vouched_system`.
+    :func:`beatlog.project.config.vouched_system`.
 
     :raises beatlog.errors.SystemLoadError: the log records none, or one the project
         does not list.

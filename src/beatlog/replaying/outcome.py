@@ -13,7 +13,8 @@ from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import perception_problem
-from beatlog.model.random import Draw, DrawDifference, RandomMismatch
+from beatlog.model.random import Draw
+from beatlog.replaying.random import DrawDifference, RandomMismatch
 from beatlog.replaying.verdict import DivergenceKind
 
 __all__ = ["AGREED", "CycleOutcome", "Expected", "Sensed", "Stop", "actor_name"]
@@ -76,7 +77,7 @@ class CycleOutcome(NamedTuple):
     samples: Sequence[Sample] = ()
     """In sensor-level replay, the samples of the cycle."""
     draw_differences: Sequence[DrawDifference] | None = None
-    """In living replay (:meth:`~beatlog.model.random.ReplayRandom.live`), the draws made
+    """In living replay (:meth:`~beatlog.replaying.random.ReplayRandom.live`), the draws made
     otherwise than recorded, which replay went on with; None in strict replay."""
 
     @property

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Protocol, TypedDict, Unpack
 
-from beatlog.closing import Closing
+from beatlog.log.files import Closing
 from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
@@ -161,7 +161,7 @@ class ReplaySession(Closing):
     Without a system, nothing is replayed: the observers read the recording alone.
     ``break_at`` stops in the debugger just before the behaviors update in that cycle.
     ``living`` replay goes on where the behaviors draw otherwise than recorded
-    (:meth:`~beatlog.model.random.ReplayRandom.live`; ``rename`` maps a recorded
+    (:meth:`~beatlog.replaying.random.ReplayRandom.live`; ``rename`` maps a recorded
     behavior's name to its name now), as it does judged against an approved baseline.
 
     The verdict (:func:`beatlog.replaying.judge.replay`) is the session's :class:`Judge`.

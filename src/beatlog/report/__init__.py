@@ -5,7 +5,7 @@ The names are imported on first use (they need rich).
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.report.audit import render_audit as render_audit

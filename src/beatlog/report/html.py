@@ -14,7 +14,7 @@ from pathlib import Path
 
 from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
-from beatlog.files import replacing
+from beatlog.log.files import replacing
 from beatlog.replaying.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html

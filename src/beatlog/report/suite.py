@@ -32,7 +32,7 @@ NAMED_IN_NOTES = 5
 
 @dataclass(frozen=True, kw_only=True)
 class SuiteReport:
-    """What a suite session did (see :class:`beatlog.suite_session.SuiteSession`)."""
+    """What a suite session did (see :class:`beatlog.report.session.SuiteSession`)."""
 
     outcomes: tuple[SpecOutcome, ...] = ()
     """The DTCs that ran to a verdict, in spec order."""

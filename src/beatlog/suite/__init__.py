@@ -1,7 +1,7 @@
 """DTC specs and suites: ``*.dtc.toml`` files, fleet runs of logs without specs, the
 parallel runner and its Dask executor, shards for a CI matrix, JUnit output and the
 re-baselining workflow (update, review, approve) with its CI rule. The session every
-shell runs puts these and the reports together (:mod:`beatlog.suite_session`).
+shell runs puts these and the reports together (:mod:`beatlog.report.session`).
 
 The names are imported on first use, so that a suite worker
 (:mod:`beatlog.suite.worker`) starts with nothing but what replay needs.
@@ -9,7 +9,7 @@ The names are imported on first use, so that a suite worker
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.baseline.policy import UpdateMode as UpdateMode

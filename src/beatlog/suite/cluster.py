@@ -7,7 +7,7 @@ A spec travels with absolute paths to a cluster of this machine's (``local``); t
 another (an address), with the files of this machine its replay reads, its baseline and
 local log among them (:mod:`beatlog.suite.shipping`), so the workers need no filesystem
 shared with this one; a log behind a URL (a spec's, or a fleet's) is copied by the worker
-that replays it, and by no other process (see :mod:`beatlog.remote`), into its
+that replays it, and by no other process (see :mod:`beatlog.suite.remote`), into its
 machine's cache of logs; a task also fetches the log of the DTC its worker is likely to
 replay next (the one as many DTCs further on as the cluster has threads) while it
 replays its own (:mod:`beatlog.suite.prefetch`). The system's
@@ -40,14 +40,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beatlog.baseline.file import expected_path
-from beatlog.closing import Closing
 from beatlog.errors import ClusterError, first_line
+from beatlog.log.files import Closing
+from beatlog.project.usercode import importable_near
 from beatlog.suite.prefetch import fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
 from beatlog.suite.shipping import Packed, as_here, missing_system, packed, unpacked
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import importable_near
 
 if TYPE_CHECKING:
     from distributed import Future, LocalCluster

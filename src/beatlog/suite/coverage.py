@@ -9,10 +9,10 @@ from beatlog.analysis.coverage import SuiteCoverage, cover_changes
 from beatlog.analysis.recorded import RecordedChanges, read_changes
 from beatlog.errors import BeatlogError, LogError, OptionError, RemoteLogError
 from beatlog.model.behavior import System
-from beatlog.project import vouched_system
+from beatlog.project.config import vouched_system
+from beatlog.project.usercode import load_system
 from beatlog.replaying.expectation import TracedChange
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import load_system
 
 __all__ = ["select_exercising", "suite_coverage"]
 

@@ -27,7 +27,7 @@ from typing import Annotated, Any
 import msgspec
 
 from beatlog.analysis.coverage import BehaviorCoverage, SuiteCoverage
-from beatlog.files import irregular_file_problem, project_root, replacing
+from beatlog.log.files import irregular_file_problem, project_root, replacing
 from beatlog.log.limits import MAX_BEHAVIORS, MAX_NAME_LENGTH, MAX_TEXT_LENGTH
 from beatlog.suite.spec import SPEC_SUFFIX
 

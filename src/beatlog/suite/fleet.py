@@ -8,7 +8,7 @@ fsspec URL (``s3://bucket/2024-*/*.beatlog``) where fsspec is installed
 (``pip install "beatlog[fleet]"``). A URL's pattern is expanded by listing alone,
 one call that gives each log's size too (what orders the work): each log behind it is
 copied only by the process that replays it, locally or on a Dask worker (see
-:mod:`beatlog.remote`).
+:mod:`beatlog.suite.remote`).
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ from pathlib import Path, PurePosixPath
 from typing import Any
 
 from beatlog.errors import FleetError, RemoteLogError, SystemLoadError
-from beatlog.remote import http_quoted, is_url, url_filesystem, url_name
+from beatlog.project.usercode import importable_near, load_perception, load_system
+from beatlog.suite.remote import http_quoted, is_url, url_filesystem, url_name
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import importable_near, load_perception, load_system
 
 __all__ = ["FLEET_PURPOSE", "check_references", "fleet_specs"]
 

@@ -19,7 +19,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from beatlog.files import replacing
+from beatlog.log.files import replacing
 from beatlog.suite.runner import SpecOutcome, Verdict
 
 __all__ = ["write_junit"]

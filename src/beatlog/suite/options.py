@@ -21,7 +21,7 @@ _HERE = (Path(),)
 
 @dataclass(frozen=True, kw_only=True)
 class SuiteOptions:
-    """A suite session's options (see :class:`beatlog.suite_session.SuiteSession`).
+    """A suite session's options (see :class:`beatlog.report.session.SuiteSession`).
 
     :raises OptionError: options that do not go together, named as ``beatlog test``
         names them: ``system`` or ``perception`` without ``logs`` (a spec names its

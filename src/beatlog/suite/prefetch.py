@@ -1,5 +1,5 @@
 """Logs behind URLs fetched ahead: a cluster's worker copies the log of a DTC it is
-likely to replay next into its machine's cache of logs (:mod:`beatlog.log_cache`) in a
+likely to replay next into its machine's cache of logs (:mod:`beatlog.suite.log_cache`) in a
 background thread while it replays the current one, so that replaying waits on storage
 as little as it can.
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 import threading
 
 from beatlog.errors import RemoteLogError
-from beatlog.remote import fetched_log
+from beatlog.suite.remote import fetched_log
 
 __all__ = ["fetch_ahead", "wait_for"]
 

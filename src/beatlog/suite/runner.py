@@ -22,14 +22,14 @@ from beatlog.baseline.file import Baseline, expected_path, log_digest, read_base
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
-from beatlog.remote import named_as_given
+from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.judge import recorded_system, replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
+from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
 from beatlog.suite.spec import DtcSpec
-from beatlog.usercode import importable_near, load_perception, load_system
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -147,7 +147,7 @@ def run_spec(
     that its failure repeats, and its details read it again. The outcome's wall time is
     the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
     judges exactly as this run did. The spec's references also import from its folder
-    and its project root (:func:`beatlog.usercode.importable_near`). The options' break
+    and its project root (:func:`beatlog.project.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
     ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
     of the log is noted in the result.

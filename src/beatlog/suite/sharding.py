@@ -9,7 +9,7 @@ counts 0 cycles: it still lands in exactly one shard, and its run says what is w
 
 When a log lies behind a URL, every log of the suite weighs its size in bytes instead:
 the size the listing of a fleet's logs gave, or, for a spec's log, the size its
-filesystem lists (:func:`beatlog.remote.log_size`, asked for all such logs at once):
+filesystem lists (:func:`beatlog.suite.remote.log_size`, asked for all such logs at once):
 no log is downloaded to plan the work, and a fleet's is planned with no request per
 log. A size that cannot be had fails the split (a job must not guess what the others
 may not), and counts 0 where only the order of the work depends on it.
@@ -24,9 +24,9 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 from beatlog.errors import OptionError, RemoteLogError
-from beatlog.files import irregular_file_problem
+from beatlog.log.files import irregular_file_problem
 from beatlog.log.reader import recorded_cycles
-from beatlog.remote import log_size
+from beatlog.suite.remote import log_size
 from beatlog.suite.spec import DtcSpec
 
 __all__ = ["Shard", "longest_first", "shard", "split"]

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.baseline.file import expected_path
-from beatlog.files import project_root
+from beatlog.log.files import project_root
 from beatlog.suite.spec import DtcSpec
 
 __all__ = ["Packed", "as_here", "missing_system", "packed", "unpacked"]

@@ -36,10 +36,10 @@ the object itself when it is not callable; it imports from the working directory
 spec's folder and the spec's project root (the nearest folder above it with a
 ``pyproject.toml``). A spec without ``system`` replays against the one its log
 records only where the project lists it under ``[tool.beatlog] systems``: a log never
-chooses code on its own (:mod:`beatlog.project`).
+chooses code on its own (:mod:`beatlog.project.config`).
 
 A ``log`` that is a URL (``https://host/suite/avoid-pole.beatlog``, ``s3://...``: any
-URL fsspec reads, see :mod:`beatlog.remote`) is copied by the process that replays the
+URL fsspec reads, see :mod:`beatlog.suite.remote`) is copied by the process that replays the
 DTC, whether here or on a cluster's worker. Specs themselves are local files: their
 baselines are written beside them.
 
@@ -69,8 +69,8 @@ import msgspec
 
 from beatlog.baseline.file import SPEC_SUFFIX
 from beatlog.errors import SpecError
-from beatlog.files import project_root, read_small_text
-from beatlog.project import (
+from beatlog.log.files import project_root, read_small_text
+from beatlog.project.config import (
     check_conversions,
     check_one_to_one,
     dotted_keys,
@@ -78,9 +78,9 @@ from beatlog.project import (
     keys_problem,
     project_config,
 )
-from beatlog.remote import fetched_log, is_url, url_name
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.suite.remote import fetched_log, is_url, url_name
 
 __all__ = [
     "SPEC_SUFFIX",
@@ -185,7 +185,7 @@ class DtcSpec:
 
     def readable_log(self) -> AbstractContextManager[Path]:
         """The log as a file of this machine: its own, or a copy of the one behind its
-        URL, removed when the block ends (:func:`beatlog.remote.fetched_log`).
+        URL, removed when the block ends (:func:`beatlog.suite.remote.fetched_log`).
 
         :raises beatlog.errors.RemoteLogError: the log behind the URL cannot be copied.
         """

@@ -20,7 +20,7 @@ import warnings
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any
 
-from beatlog.closing import Closing
+from beatlog.log.files import Closing
 
 if TYPE_CHECKING:
     from beatlog.audit.replays import Auditors

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.baseline.file import pending_path
-from beatlog.remote import MAX_BYTES_VARIABLE
+from beatlog.suite.remote import MAX_BYTES_VARIABLE
 from tests.commands import Beatlog, closing_counts, signalled
 from tests.conftest import RecordFn
 from tests.served import LogServer

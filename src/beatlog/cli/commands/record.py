@@ -63,9 +63,9 @@ def add_arguments(record: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, console: Console) -> int:
     """Record until the duration is reached or Ctrl-C; the log is complete either way."""
+    from beatlog.project.usercode import load_robot, load_system
     from beatlog.record.recorder import Recorder
     from beatlog.report.counts import plural
-    from beatlog.usercode import load_robot, load_system
 
     robot = load_robot(args.robot)
     if args.system_ref:

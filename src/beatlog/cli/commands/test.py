@@ -1,5 +1,5 @@
 """``beatlog test``: run DTC specs, or a fleet's logs, as one suite session
-(:mod:`beatlog.suite_session`); this module reads the options and prints the report."""
+(:mod:`beatlog.report.session`); this module reads the options and prints the report."""
 
 from __future__ import annotations
 
@@ -170,7 +170,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     """Run the suite with a progress bar, each failure (every DTC with ``--verbose``)
     shown as it comes, then the session's report and its counts; exit 5 when nothing
     is selected, as pytest does."""
-    from beatlog.suite_session import SuiteSession
+    from beatlog.report.session import SuiteSession
 
     try:
         session = SuiteSession(_options(args))

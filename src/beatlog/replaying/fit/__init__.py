@@ -22,7 +22,7 @@ the recording. The names are imported on first use.
 
 from typing import TYPE_CHECKING
 
-from beatlog._lazy import lazy_names
+from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
     from beatlog.replaying.fit.check import check_catalogue as check_catalogue

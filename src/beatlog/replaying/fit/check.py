@@ -16,7 +16,7 @@ from beatlog.errors import CorruptLogError, FieldError, SchemaMismatchError
 from beatlog.log.format import SessionHeader
 from beatlog.model.behavior import System
 from beatlog.model.state import state_schema, state_type_name
-from beatlog.project import one_to_one_problem
+from beatlog.project.config import one_to_one_problem
 from beatlog.replaying.fit.migration import NO_MIGRATION, StateMigration
 from beatlog.replaying.fit.schema import (
     PROBLEMS,
@@ -69,12 +69,7 @@ def check_fit(
         if migration:
             _check_migration(header, system, current, migration, path)
             recorded = renamed_schema(recorded, migration.renames)
-        # The common case, a log of the system's own robot state, compared in C.
-        differences = (
-            []
-            if recorded == current and not migration
-            else field_differences(recorded, current, frozenset(migration.conversions))
-        )
+        differences = field_differences(recorded, current, frozenset(migration.conversions))
         same_fields = schema_fields(recorded).keys() == schema_fields(current).keys()
         problems = [_message(found) for found in differences if found.kind in PROBLEMS]
         hints = _hints(differences, recorded, current) if problems else ""

@@ -25,7 +25,7 @@ from typing import Any
 import msgspec
 
 from beatlog.errors import ConversionError
-from beatlog.usercode import load_conversion, user_traceback
+from beatlog.project.usercode import load_conversion, user_traceback
 
 __all__ = ["NO_MIGRATION", "StateConverter", "StateMigration"]
 

@@ -22,7 +22,7 @@ from typing import Annotated, Any
 import msgspec
 
 from beatlog.errors import SpecError, SystemLoadError
-from beatlog.files import project_root
+from beatlog.log.files import project_root
 
 __all__ = [
     "ProjectConfig",

@@ -11,6 +11,7 @@ import pytest
 from beatlog.baseline.file import expected_path, pending_path, read_baseline
 from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import OptionError
+from beatlog.report.session import SuiteSession, conclude, prepare_report, run_session
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path
@@ -18,7 +19,6 @@ from beatlog.suite.discovery import discover_specs
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import load_spec
-from beatlog.suite_session import SuiteSession, conclude, prepare_report, run_session
 from tests.conftest import RecordFn
 from tests.factories import fill_the_disk_after, opened_logs
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec

@@ -12,8 +12,13 @@ import fsspec
 import pytest
 
 from beatlog.errors import RemoteLogError
-from beatlog.log_cache import CACHE_DIR_VARIABLE, CACHE_MAX_BYTES_VARIABLE, cache_folder, cache_key
-from beatlog.remote import fetched_log
+from beatlog.suite.log_cache import (
+    CACHE_DIR_VARIABLE,
+    CACHE_MAX_BYTES_VARIABLE,
+    cache_folder,
+    cache_key,
+)
+from beatlog.suite.remote import fetched_log
 from tests.conftest import RecordFn
 from tests.served import LogServer
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import SpecError, SystemLoadError
-from beatlog.project import ProjectConfig, project_config, vouched_system
+from beatlog.project.config import ProjectConfig, project_config, vouched_system
 from tests.factories import vouch
 
 LOG = Path("walk.beatlog")

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import SpecError
-from beatlog.files import irregular_file_problem, read_small_text, replacing
+from beatlog.log.files import Closing, irregular_file_problem, read_small_text, replacing
 
 
 def test_a_regular_file_has_no_problem(tmp_path: Path) -> None:
@@ -134,3 +134,24 @@ def test_a_small_text_file_that_is_not_regular_is_refused_unopened(tmp_path: Pat
         read_spec(fifo)
 
     assert str(raised.value) == f"{fifo}: is not a regular file (a FIFO, socket or device)"
+
+
+class Held(Closing):
+    def __init__(self) -> None:
+        self.closed = 0
+
+    def close(self) -> None:
+        self.closed += 1
+
+
+def test_the_block_gets_the_object_and_closes_it() -> None:
+    with Held() as held:
+        assert held.closed == 0
+    assert held.closed == 1
+
+
+def test_a_block_that_raises_still_closes_and_the_error_goes_on() -> None:
+    held = Held()
+    with pytest.raises(ValueError, match="boom"), held:
+        raise ValueError("boom")
+    assert held.closed == 1

@@ -4,7 +4,7 @@
 The reader needs a regular, seekable file, so the process that reads a log behind a
 URL copies it whole onto its own machine first (:func:`fetched_log`), and removes the
 copy when done, interrupted or not; nothing else downloads it. The copy is kept in the
-machine's cache of logs (:mod:`beatlog.log_cache`), so a log unchanged since is not
+machine's cache of logs (:mod:`beatlog.suite.log_cache`), so a log unchanged since is not
 downloaded again. Planning work (splitting a suite into shards) asks only for its size
 (:func:`log_size`).
 
@@ -32,7 +32,7 @@ from typing import Any, NamedTuple, TypeVar
 from urllib.parse import quote, unquote, urlsplit, urlunsplit
 
 from beatlog.errors import RemoteLogError, first_line
-from beatlog.log_cache import cached_copy
+from beatlog.suite.log_cache import cached_copy
 
 __all__ = [
     "MAX_BYTES_VARIABLE",

@@ -17,7 +17,7 @@ import pytest
 from packaging.requirements import Requirement
 
 from beatlog.errors import RemoteLogError
-from beatlog.remote import (
+from beatlog.suite.remote import (
     MAX_BYTES_VARIABLE,
     TIMEOUT_VARIABLE,
     fetched_log,
@@ -208,7 +208,7 @@ def test_a_big_download_shows_its_progress_on_a_terminal(
     served: LogServer, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     (served.folder / "big.beatlog").write_bytes(b"x" * 100_000)
-    monkeypatch.setattr("beatlog.remote.PROGRESS_BYTES", 50_000)
+    monkeypatch.setattr("beatlog.suite.remote.PROGRESS_BYTES", 50_000)
     monkeypatch.setattr(sys, "stderr", stderr := Terminal())
 
     with fetched_log(f"{served.url}/big.beatlog", progress=True):
@@ -222,7 +222,7 @@ def test_a_big_download_shows_its_progress_on_a_terminal(
 def test_a_download_shows_no_progress_off_a_terminal_or_unasked(
     served: LogServer, monkeypatch: pytest.MonkeyPatch, progress: bool, terminal: bool
 ) -> None:
-    monkeypatch.setattr("beatlog.remote.PROGRESS_BYTES", 0)
+    monkeypatch.setattr("beatlog.suite.remote.PROGRESS_BYTES", 0)
     monkeypatch.setattr(sys, "stderr", stderr := Terminal() if terminal else io.StringIO())
 
     with fetched_log(f"{served.url}/dock.beatlog", progress=progress):
@@ -276,7 +276,7 @@ def test_a_url_without_fsspec_says_what_to_install(monkeypatch: pytest.MonkeyPat
 
 
 def test_the_fleet_extra_brings_what_http_urls_and_the_cache_need() -> None:
-    pyproject = Path(__file__).parents[1] / "pyproject.toml"
+    pyproject = Path(__file__).parents[2] / "pyproject.toml"
     extras = tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]
     fleet = [Requirement(line) for line in extras["optional-dependencies"]["fleet"]]
 

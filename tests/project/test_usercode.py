@@ -19,8 +19,7 @@ from beatlog.errors import SystemLoadError
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.random import RecordingRandom
-from beatlog.record.recorder import Recorder
-from beatlog.usercode import (
+from beatlog.project.usercode import (
     failure_site,
     importable_near,
     load_conversion,
@@ -30,6 +29,7 @@ from beatlog.usercode import (
     load_system,
     user_traceback,
 )
+from beatlog.record.recorder import Recorder
 from tests.commands import closing_counts
 from tests.conftest import Probe
 from tests.specs import write_spec

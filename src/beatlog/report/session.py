@@ -5,8 +5,8 @@ coverage JSON and HTML. What it did comes back as a
 ``beatlog test`` prints them, and the pytest plugin, which runs each DTC as a test
 item, ends its run with :func:`conclude` as ``beatlog test`` does.
 
-The session sits above the suite (:mod:`beatlog.suite`) and the reports
-(:mod:`beatlog.report`), which it puts together; the shells sit above it."""
+It sits above the suite (:mod:`beatlog.suite`) and the other reports, which it puts
+together; the shells sit above it."""
 
 from __future__ import annotations
 
@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING
 
 from beatlog.baseline.policy import open_loop_share, stale_suite
 from beatlog.errors import BaselineError, OptionError
-from beatlog.files import write_json
-from beatlog.project import ProjectConfig, project_config
+from beatlog.log.files import write_json
+from beatlog.project.config import ProjectConfig, project_config
 from beatlog.report.console import plain_text, render_outcome
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import suite_coverage

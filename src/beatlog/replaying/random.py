@@ -5,7 +5,6 @@ that names the behavior, or, in living replay, a difference noted for the verdic
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from operator import attrgetter
 from typing import Any, NamedTuple
 
 from beatlog.log.format import Draw
@@ -24,10 +23,6 @@ from beatlog.model.source import RandomSource
 __all__ = ["DrawDifference", "RandomMismatch", "ReplayRandom"]
 
 _RANDOM = DrawKind.RANDOM.value
-_ACTOR = attrgetter("actor")
-_made = tuple.__new__
-"""A NamedTuple made of its fields in C, as its ``_make`` makes one without the Python
-call its constructor costs: living replay makes two for most draws."""
 
 
 class DrawDifference(NamedTuple):
@@ -147,8 +142,8 @@ class ReplayRandom(RandomSource):
         for index in range(start, len(self.recorded)):
             if used is None or not used[index]:
                 draw = self.recorded[index]
-                difference = (self._recorded_name(draw.actor), _request(draw), None)
-                self.differences.append(_made(DrawDifference, difference))
+                name = self._recorded_name(draw.actor)
+                self.differences.append(DrawDifference(name, _request(draw), None))
         return self.differences
 
     def _recorded_name(self, actor: int) -> str:
@@ -171,7 +166,7 @@ class ReplayRandom(RandomSource):
                 asked=asked,
             )
         draw = self.recorded[index]
-        if draw.kind != name or (draw.params and not same_params(draw.params, params)):
+        if not _asks(draw, name, params):
             asked = Draw(actor, name, None, params)
             recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
             self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
@@ -182,64 +177,73 @@ class ReplayRandom(RandomSource):
 
     def _living(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         """A draw in living replay: the recorded one while the cycle follows the
-        recording, else the behavior's match (:meth:`live`). Most of a changed
-        behavior's draws come here; written out flat, as each call costs."""
+        recording, else the behavior's match (:meth:`live`)."""
         name = kind._value_
-        actor = -1 if self._context is None else self._context.actor
-        recorded = self.recorded
-        drawn = self.drawn
-        used = self._used
-        if used is None:
-            index = len(drawn)
-            if index < len(recorded):
-                draw = recorded[index]
-                if draw.kind == name and (not draw.params or same_params(draw.params, params)):
-                    owner_of = self._owner_of
-                    owner = draw.actor if owner_of is None else owner_of.get(draw.actor)
-                    if owner == actor:  # the recording credits it to this behavior
-                        drawn.append(_made(Draw, (actor, name, draw.value, params)))
-                        return draw.value
-            taken = min(index, len(recorded))
-            used = self._used = [True] * taken + [False] * (len(recorded) - taken)
-            owner_of = self._owner_of
-            actors = map(_ACTOR, recorded)
-            self._owners = list(actors if owner_of is None else map(owner_of.get, actors))
-        owners = self._owners
-        match = -1  # the behavior's first recorded draw left of the kind asked for
-        for i, owner in enumerate(owners):
-            if owner == actor and not used[i] and recorded[i].kind == name:
-                match = i
-                break
-        else:
-            if name in SCALAR_VALUES:  # else of another kind, its luck re-mapped
-                for i, owner in enumerate(owners):
-                    if owner == actor and not used[i] and _luck(recorded[i]) is not None:
-                        match = i
-                        break
-        names = self._names_now
-        behavior = "system" if actor < 0 else names[actor] if actor < len(names) else f"#{actor}"
-        if match < 0:
+        actor = self._actor
+        if self._used is None:
+            index = len(self.drawn)
+            if index < len(self.recorded):
+                draw = self.recorded[index]
+                if _asks(draw, name, params) and self._owner(draw.actor) == actor:
+                    self.drawn.append(Draw(actor, name, draw.value, params))
+                    return draw.value
+            self._follow_no_more()
+        assert self._used is not None
+        match = self._match(actor, name)
+        behavior = self._name_now(actor)
+        if match is None:
             value = self._fresh_value(name, params, None, behavior, actor)
-            asked = _made(Draw, (actor, name, value, params))
-            self.differences.append(_made(DrawDifference, (behavior, None, asked.call())))
+            asked = Draw(actor, name, value, params)
+            self.differences.append(DrawDifference(behavior, None, asked.call()))
         else:
-            used[match] = True
-            draw = recorded[match]
-            if draw.kind == name and (not draw.params or same_params(draw.params, params)):
+            self._used[match] = True
+            draw = self.recorded[match]
+            if _asks(draw, name, params):
                 value = draw.value  # as recorded, in another place
-                asked = _made(Draw, (actor, name, value, params))
+                asked = Draw(actor, name, value, params)
             else:
                 luck = None if name in ARRAY_KINDS else _luck(draw)
-                value = (
-                    scalar_value(name, params, luck)
-                    if luck is not None
-                    else self._fresh_value(name, params, draw, behavior, actor)
-                )
-                asked = _made(Draw, (actor, name, value, params))
-                difference = (behavior, _request(draw), asked.call())
-                self.differences.append(_made(DrawDifference, difference))
-        drawn.append(asked)
+                if luck is None:
+                    value = self._fresh_value(name, params, draw, behavior, actor)
+                else:
+                    value = scalar_value(name, params, luck)
+                asked = Draw(actor, name, value, params)
+                self.differences.append(DrawDifference(behavior, _request(draw), asked.call()))
+        self.drawn.append(asked)
         return value
+
+    def _owner(self, actor: int) -> int | None:
+        """The behavior a recorded actor is now, by its index (None: one the system no
+        longer has)."""
+        return actor if self._owner_of is None else self._owner_of.get(actor)
+
+    def _follow_no_more(self) -> None:
+        """The cycle's draws no longer follow the recording: from here on each is
+        matched with its behavior's recorded draws, those drawn so far taken."""
+        taken = min(len(self.drawn), len(self.recorded))
+        self._used = [True] * taken + [False] * (len(self.recorded) - taken)
+        self._owners = [self._owner(draw.actor) for draw in self.recorded]
+
+    def _match(self, actor: int, name: str) -> int | None:
+        """The behavior's first recorded draw left of the kind asked for; for a scalar
+        with none, its first left of another kind whose luck is known (re-mapped)."""
+        assert self._used is not None
+        left = [
+            index
+            for index, owner in enumerate(self._owners)
+            if owner == actor and not self._used[index]
+        ]
+        same = next((index for index in left if self.recorded[index].kind == name), None)
+        if same is not None or name not in SCALAR_VALUES:
+            return same
+        return next((index for index in left if _luck(self.recorded[index]) is not None), None)
+
+    def _name_now(self, actor: int) -> str:
+        """A behavior's name now, by its index."""
+        if actor < 0:
+            return "system"
+        names = self._names_now
+        return names[actor] if actor < len(names) else f"#{actor}"
 
     def _fresh_value(
         self, name: str, params: tuple[Any, ...], draw: Draw | None, behavior: str, actor: int
@@ -247,7 +251,7 @@ class ReplayRandom(RandomSource):
         """The value of a request with fresh luck, keyed by its place; an array's with
         the luck of the recorded ``draw`` where it has one."""
         cycle = self._context.cycle if self._context is not None else -1
-        place = _made(Place, (cycle, behavior, list(map(_ACTOR, self.drawn)).count(actor)))
+        place = Place(cycle, behavior, [draw.actor for draw in self.drawn].count(actor))
         if name in ARRAY_KINDS:
             old = None
             if draw is not None and draw.params:
@@ -301,6 +305,12 @@ class ReplayRandom(RandomSource):
                 f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
             )
         return array
+
+
+def _asks(draw: Draw, kind: str, params: tuple[Any, ...]) -> bool:
+    """Whether a recorded draw is what is asked for: its kind, and its parameters where
+    it recorded them (format 1 recorded none)."""
+    return draw.kind == kind and (not draw.params or same_params(draw.params, params))
 
 
 def _request(draw: Draw) -> str:

@@ -4,7 +4,7 @@ robot-state field's conversion from a ``module:function``), and tell where it fa
 
 Only references the user names are imported: typed, written in a spec, or listed
 by the project (a log's recorded reference counts only when the project's
-``[tool.beatlog] systems`` lists it, see :mod:`beatlog.project`); reading or showing
+``[tool.beatlog] systems`` lists it, see :mod:`beatlog.project.config`); reading or showing
 a log never runs code.
 
 A reference is imported from ``sys.path``, to which the CLI adds the working
@@ -33,7 +33,7 @@ from types import ModuleType
 from typing import Any
 
 from beatlog.errors import SystemLoadError
-from beatlog.files import project_root
+from beatlog.log.files import project_root
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.model.robot import Robot
@@ -49,7 +49,7 @@ __all__ = [
     "user_traceback",
 ]
 
-_PACKAGE_DIR = str(Path(__file__).parent) + os.sep
+_PACKAGE_DIR = str(Path(__file__).parent.parent) + os.sep
 _IMPORTLIB_DIR = str(Path(importlib.__file__).parent)
 
 

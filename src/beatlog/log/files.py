@@ -10,9 +10,10 @@ import os
 import stat
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, Self
 
 __all__ = [
+    "Closing",
     "irregular_file_problem",
     "project_root",
     "read_small_text",
@@ -131,3 +132,19 @@ def write_json(path: Path, document: object) -> None:
     """
     with replacing(path) as file:
         file.write(json.dumps(document, indent=2).encode() + b"\n")
+
+
+class Closing:
+    """A context manager for an object with :meth:`close`: the ``with`` block ends by
+    closing it, whether the block raised or not. One shape for everything beatlog opens
+    and must close."""
+
+    def close(self) -> None:
+        """Release what the object holds (a file, a thread, a process)."""
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
