@@ -10,10 +10,12 @@ from beatlog.baseline.policy import (
     UpdateMode,
     in_ci,
     open_loop_share,
+    refusal,
     require_writable,
     stale_suite,
 )
 from beatlog.errors import CiWriteError, OptionError
+from beatlog.replaying.verdict import Divergence, DivergenceKind
 
 
 @pytest.mark.parametrize("mode", list(UpdateMode))
@@ -76,3 +78,28 @@ def test_too_many_open_loop_dtcs_name_as_many_to_re_record_as_are_too_many() -> 
 
 def test_the_open_loop_share_is_of_the_cycles_from_the_open_loop_on() -> None:
     assert [open_loop_share(300, cycle) for cycle in (None, 0, 75, 300)] == [0.0, 1.0, 0.75, 0.0]
+
+
+@pytest.mark.parametrize(
+    ("kind", "refused"),
+    [
+        (DivergenceKind.STATE_CHANGES, None),
+        (DivergenceKind.OUTPUTS, None),
+        (DivergenceKind.RANDOM_OVERDRAWN, None),
+        (DivergenceKind.RANDOM_UNDERDRAWN, None),
+        (DivergenceKind.RANDOM_MISMATCH, None),
+        (DivergenceKind.EXCEPTION, "a behavior raised: an exception is a bug, never a baseline"),
+        (DivergenceKind.LOG_ENDED, "a divergence in log ended cannot be re-baselined"),
+        (DivergenceKind.PERCEPTION, "perception raised or built no robot state"),
+    ],
+)
+def test_what_a_baseline_can_hold_and_what_needs_a_fix_or_a_recording(
+    kind: DivergenceKind, refused: str | None
+) -> None:
+    why = refusal(Divergence(kind, 3, 90_000_000, "differs"))
+
+    if refused is None:
+        assert why is None
+    else:
+        assert why is not None
+        assert why.startswith(refused)

@@ -19,9 +19,12 @@ import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from beatlog.errors import CiWriteError, OptionError
+
+if TYPE_CHECKING:
+    from beatlog.replaying.verdict import Divergence
 
 __all__ = [
     "SpecOptions",
@@ -29,6 +32,7 @@ __all__ = [
     "UpdateMode",
     "in_ci",
     "open_loop_share",
+    "refusal",
     "require_writable",
     "stale_suite",
 ]
@@ -117,3 +121,22 @@ def stale_suite(
         return None
     chosen = tuple(dtc for dtc in ranked if dtc in over or dtc in rest)
     return StaleSuite(len(ranked), len(over), chosen, max_share, max_dtcs)
+
+
+def refusal(divergence: Divergence) -> str | None:
+    """Why a divergence cannot be re-baselined, if it cannot: a behavior that raised is
+    a bug, a log that ended early or perception that built nothing needs fixing or a new
+    recording."""
+    from beatlog.replaying.verdict import DivergenceKind  # noqa: PLC0415 - the CLI starts without it
+
+    kind = divergence.kind
+    if kind is DivergenceKind.EXCEPTION:
+        return "a behavior raised: an exception is a bug, never a baseline; fix it first"
+    if kind is DivergenceKind.LOG_ENDED:
+        return f"a divergence in {kind} cannot be re-baselined: re-record the session"
+    if kind is DivergenceKind.PERCEPTION and not divergence.perception:
+        return (
+            "perception raised or built no robot state: a baseline pins what perception "
+            "rebuilds; fix it first"
+        )
+    return None

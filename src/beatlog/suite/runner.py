@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
-from beatlog.baseline.policy import SpecOptions, UpdateMode
+from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
 from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
@@ -117,16 +117,6 @@ class SpecOutcome:
     def audit_findings(self) -> int:
         """What the determinism audit found; 0 without an audit."""
         return self.audit.problems if self.audit is not None else 0
-
-
-_UPDATABLE = (
-    DivergenceKind.STATE_CHANGES,
-    DivergenceKind.OUTPUTS,
-    DivergenceKind.PERCEPTION,
-    DivergenceKind.RANDOM_OVERDRAWN,
-    DivergenceKind.RANDOM_UNDERDRAWN,
-    DivergenceKind.RANDOM_MISMATCH,
-)
 
 
 def run_spec(
@@ -233,7 +223,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         ):
             notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
         updating = update is UpdateMode.NEW and divergence is not None
-        refused = _refusal(divergence) if updating and divergence is not None else None
+        refused = refusal(divergence) if updating and divergence is not None else None
         details = _details(
             spec, log, system, divergence, expected, trace=updating, timelines=timelines
         )
@@ -373,20 +363,6 @@ def _details(
         rename=spec.comparison.rename,
         migration=spec.migration,
     )
-
-
-def _refusal(divergence: Divergence) -> str | None:
-    """Why a divergence cannot be re-baselined, if it cannot."""
-    if divergence.kind is DivergenceKind.EXCEPTION:
-        return "a behavior raised: an exception is a bug, never a baseline; fix it first"
-    if divergence.kind not in _UPDATABLE:
-        return f"a divergence in {divergence.kind} cannot be re-baselined: re-record the session"
-    if divergence.kind is DivergenceKind.PERCEPTION and not divergence.perception:
-        return (
-            "perception raised or built no robot state: a baseline pins what perception "
-            "rebuilds; fix it first"
-        )
-    return None
 
 
 def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | None]:
