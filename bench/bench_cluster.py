@@ -18,10 +18,7 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -33,21 +30,8 @@ from beatlog.suite.cluster import DaskExecutor
 from beatlog.suite.runner import run_spec
 from beatlog.suite.spec import load_spec
 from beatlog_examples.rover import record_lockstep
+from bench_dask import run_suite
 from bench_suite import write_specs
-
-
-def children_cpu() -> float:
-    """CPU time, user and system, of every child process waited for so far."""
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
-
-
-def run_suite(folder: Path, where: list[str]) -> tuple[float, float]:
-    """Wall and CPU time of ``beatlog test WHERE FOLDER``, which must pass."""
-    command = [sys.executable, "-m", "beatlog.cli.main", "test", *where, str(folder)]
-    cpu, started = children_cpu(), time.perf_counter()
-    subprocess.run(command, check=True, capture_output=True)
-    return time.perf_counter() - started, children_cpu() - cpu
 
 
 def cluster_startup(workers: int) -> float:

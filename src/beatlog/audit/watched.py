@@ -72,7 +72,25 @@ SEARCHED = 200_000
 """The most objects searched from a system for its unseeded generators."""
 
 
-class GlobalNumpyGenerator:
+class _Marked:
+    """A generator watched by a mark of its state: :meth:`moved` says whether the mark
+    changed since the last call."""
+
+    _mark: object
+
+    def _read(self) -> object:
+        raise NotImplementedError
+
+    def moved(self) -> bool:
+        """Whether the generator moved since the last call."""
+        mark = self._read()
+        if mark == self._mark:
+            return False
+        self._mark = mark
+        return True
+
+
+class GlobalNumpyGenerator(_Marked):
     """Notices when numpy's global generator draws, is seeded or is replaced; never,
     where numpy is not installed."""
 
@@ -90,14 +108,6 @@ class GlobalNumpyGenerator:
         self._key0: ctypes.c_uint32 | None = None
         self._position: ctypes.c_int | None = None
         self._mark = self._read()
-
-    def moved(self) -> bool:
-        """Whether the generator moved since the last call."""
-        mark = self._read()
-        if mark == self._mark:
-            return False
-        self._mark = mark
-        return True
 
     def _read(self) -> tuple[object, ...]:
         if self._legacy is None:
@@ -183,7 +193,7 @@ def screened_builtins() -> frozenset[str]:
     )
 
 
-class PrivateGenerator:
+class PrivateGenerator(_Marked):
     """A numpy generator of the system's own that its set-up seeded from the OS: it
     notices when the generator draws, as :class:`GlobalNumpyGenerator` does for numpy's
     global one, and is named by its type and the line that made it."""
@@ -194,14 +204,6 @@ class PrivateGenerator:
         """How findings name it, e.g. ``unseeded numpy.random.Generator made at
         driver.py:12 in Follow.__init__``."""
         self._mark = self._read()
-
-    def moved(self) -> bool:
-        """Whether the generator moved since the last call."""
-        mark = self._read()
-        if mark == self._mark:
-            return False
-        self._mark = mark
-        return True
 
     def _read(self) -> str:
         return repr(self._bit_generator.state)
