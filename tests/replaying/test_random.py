@@ -235,6 +235,26 @@ def test_a_format_1_array_of_another_shape_is_still_a_mismatch() -> None:
             lambda r: r.integers_array(0, 10, (2, 2, 1)),
             "called integers_array(0, 10, [2, 2, 1]) where integers_array(0, 10, [2, 2])",
         ),
+        (
+            lambda r: r.integers(0, 10),
+            lambda r: r.integers(0, 11),
+            "called randint(0, 10) where randint(0, 9) was recorded",
+        ),
+        (
+            lambda r: r.normal(30.0, 2.5),
+            lambda r: r.normal(30.0, 3.0),
+            "called gauss(30.0, 3.0) where gauss(30.0, 2.5) was recorded",
+        ),
+        (
+            lambda r: r.uniform(0.0, 1.0, size=3),
+            lambda r: r.uniform(0.0, 1.0, size=4),
+            "called uniform_array(0.0, 1.0, [4]) where uniform_array(0.0, 1.0, [3])",
+        ),
+        (
+            lambda r: r.choice(4, size=2, replace=False),
+            lambda r: r.choice(5, size=2, replace=False),
+            "called uniform_array(0.0, 1.0, [5]) where uniform_array(0.0, 1.0, [4])",
+        ),
     ],
 )
 def test_a_draw_asked_with_other_parameters_is_a_mismatch(
