@@ -131,7 +131,9 @@ def render_replay(result: ReplayResult) -> RenderableType:
 
 def _divergence(divergence: Divergence) -> RenderableType:
     title = (
-        f"first divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, "
+        f"first divergence: at set-up, before cycle 0, {divergence.kind.value}"
+        if divergence.kind is DivergenceKind.SETUP
+        else f"first divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, "
         f"{divergence.kind.value}"
     )
     # Wrapped inside the panel even on a soft-wrapping console, which would clip it.

@@ -347,13 +347,13 @@ def _details(
 ) -> Details | None:
     """One more replay, of a failed DTC, gathering what reports need: of the bytes its
     verdict's replay kept, where it kept them."""
-    if divergence is None:
+    if divergence is None or divergence.kind is DivergenceKind.SETUP:  # no cycle replayed
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
 
     return replay_details(
         log,
-        load_system(system),
+        functools.partial(load_system, system),
         divergence,
         trace=trace,
         timelines=timelines,
