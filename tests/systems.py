@@ -633,3 +633,20 @@ def record_driver(path: Path, cycles: int = 20) -> Path:
         for cycle in range(cycles):
             recorder.step(PERIOD_NS, Probe(distance=1.0 - cycle / cycles))
     return path
+
+
+class Heading:
+    """Keeps the heading it picked when it was built, and says so every cycle."""
+
+    name = "heading"
+
+    def __init__(self, random: RandomSource) -> None:
+        self.state: BehaviorState = random.choice(HEADINGS)
+
+    def step(self, rs: RoverState, ctx: Context) -> Outputs | None:
+        return {"heading": self.state}
+
+
+def heading_rover(random: RandomSource) -> RoverRobot:
+    """The example rover driven by a :class:`Heading`: its factory draws at set-up."""
+    return RoverRobot(behaviors=PriorityArbiter([Heading(random)], robot_state=RoverState))
