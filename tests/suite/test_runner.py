@@ -81,13 +81,17 @@ def test_a_dtc_whose_system_draws_at_set_up_passes_and_fails_at_set_up(
 ) -> None:
     log = record_driver(tmp_path / "driver.beatlog")
 
-    passed = run_spec(written_dtc(tmp_path, "drive", log, "tests.systems:driver_system"))
+    passed = run_spec(
+        written_dtc(tmp_path, "drive", log, "tests.systems:driver_system"),
+        SpecOptions(timelines=True),
+    )
     failed = run_spec(
         written_dtc(tmp_path, "drive-more", log, "tests.systems:driver_system_drawing_more"),
         SpecOptions(update=UpdateMode.NEW),
     )
 
     assert passed.verdict is Verdict.PASSED
+    assert [timeline.cycles for timeline in passed.timelines] == [20]
     assert failed.verdict is Verdict.FAILED
     assert failed.result is not None
     divergence = failed.result.divergence
