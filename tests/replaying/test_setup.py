@@ -44,7 +44,7 @@ def test_a_reference_to_a_factory_that_draws_at_set_up_replays_clean(tmp_path: P
 
 def test_a_draw_too_many_at_set_up_is_a_set_up_divergence(tmp_path: Path) -> None:
     log = record_driver(tmp_path / "driver.beatlog")
-    result = replay(log, driver_system_drawing_more)
+    result = replay(log, "tests.systems:driver_system_drawing_more")
     divergence = result.divergence
     assert divergence is not None
     assert divergence.kind is DivergenceKind.SETUP
@@ -52,6 +52,9 @@ def test_a_draw_too_many_at_set_up_is_a_set_up_divergence(tmp_path: Path) -> Non
         "at set-up, the system's factory called randint(0, 2) (#3) but only 2 were recorded"
     )
     assert (result.cycles, result.checked.draws) == (0, 0)
+    assert result.reproduce == (
+        f"beatlog replay {log} --system tests.systems:driver_system_drawing_more"
+    )
 
 
 def test_a_draw_too_few_at_set_up_is_a_set_up_divergence(tmp_path: Path) -> None:

@@ -182,7 +182,8 @@ def replay(
             state_pins=None if expected is None else PinChecker(expected.state_pins),
         )
     except SetupDrawError as diverged:
-        return _diverged_at_setup(Path(log), diverged, time.perf_counter() - started, reproduce(""))
+        wall = time.perf_counter() - started
+        return _diverged_at_setup(Path(log), diverged, wall, reproduce(diverged.recorded_system))
     with session:
         reader = session.reader
         check_state_fields(

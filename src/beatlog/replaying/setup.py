@@ -31,11 +31,13 @@ class SetupDrawError(BeatlogError):
     one line naming the log.
     """
 
-    def __init__(self, path: Path, problem: str) -> None:
+    def __init__(self, path: Path, problem: str, *, recorded_system: str = "") -> None:
         super().__init__(f"{path}: {problem}")
         self.path = path
         self.problem = problem
         self.kind = DivergenceKind.SETUP
+        self.recorded_system = recorded_system
+        """The ``module:factory`` the log's header records, for a reproduce command."""
 
 
 def built_for_replay(
@@ -51,9 +53,9 @@ def built_for_replay(
     """
     recorded = header.drawn_at_setup()
     for number, draw in enumerate(recorded, 1):
-        problem = recorded_draw_problem(draw, len(header.behaviors))
-        if problem is not None:
-            raise CorruptLogError(path, f"damaged set-up draw {number}: {problem}")
+        damage = recorded_draw_problem(draw, len(header.behaviors))
+        if damage is not None:
+            raise CorruptLogError(path, f"damaged set-up draw {number}: {damage}")
     if isinstance(system, System):
         if recorded:
             raise SystemLoadError(
@@ -64,21 +66,21 @@ def built_for_replay(
             )
         return system
     random.load(recorded)
+    problem: str | None
     try:
         built = build_system(system, random)
     except RandomMismatch as mismatch:
-        raise SetupDrawError(path, _at_setup(mismatch.problem)) from None
-    if random.mismatch is not None:  # raised in the factory, and swallowed there
-        raise SetupDrawError(path, _at_setup(random.mismatch.problem))
+        problem = mismatch.problem
+    else:
+        problem = None if random.mismatch is None else random.mismatch.problem  # swallowed
     drawn = len(random.drawn)
-    if drawn < len(recorded):
+    if problem is None and drawn < len(recorded):
+        problem = (
+            f"drew {drawn} of the {len(recorded)} random numbers recorded; the first not "
+            f"drawn: {recorded[drawn].call()}"
+        )
+    if problem is not None:
         raise SetupDrawError(
-            path,
-            f"at set-up, the system's factory drew {drawn} of the {len(recorded)} random "
-            f"numbers recorded; the first not drawn: {recorded[drawn].call()}",
+            path, f"at set-up, the system's factory {problem}", recorded_system=header.system
         )
     return built
-
-
-def _at_setup(problem: str) -> str:
-    return f"at set-up, the system's factory {problem}"
