@@ -122,7 +122,8 @@ def header_message(**changes: Any) -> Message:
     """The session header message; ``changes`` replace fields (values may be msgspec.Raw)."""
     fields = msgspec.structs.asdict(session_header())
     fields.update(changes)
-    return Message(HEADER_TOPIC, 0, msgspec.msgpack.encode(fields))
+    written = {key: value for key, value in fields.items() if value is not msgspec.UNSET}
+    return Message(HEADER_TOPIC, 0, msgspec.msgpack.encode(written))
 
 
 def cycle(heartbeat_ns: int = PERIOD_NS, state: Any = None, **parts: Any) -> list[Any]:

@@ -30,6 +30,8 @@ import py_trees
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample
+from beatlog.model.random import RecordingRandom
+from beatlog.model.source import RandomSource
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import RoverRobot, RoverState
@@ -587,3 +589,64 @@ def perceive_simulated(previous: Simulated | None, samples: Sequence[Sample]) ->
 def gambling_rover() -> RoverRobot:
     """The example rover driven by a :class:`Gambler`: no session of it replays."""
     return RoverRobot(behaviors=PriorityArbiter([Gambler()], robot_state=RoverState))
+
+
+class Driver:
+    """A driver whose desired speed and headway are picked once, when it is built (as
+    driving code picks them per episode), in ``random.Random``'s dialect and numpy's;
+    ``more`` draws that many integers besides."""
+
+    name = "driver"
+
+    def __init__(self, random: RandomSource, *, more: int = 0) -> None:
+        self.state: BehaviorState = "cruise"
+        self.speed = random.uniform(20.0, 30.0)
+        self.headway = float(random.normal(2.0, 0.5, size=2).mean())
+        self.lanes = [int(random.integers(0, 3)) for _ in range(more)]
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.state = "brake" if rs.distance < 0.5 else "cruise"
+        return {"speed": self.speed, "headway": self.headway}
+
+
+def driver_system(random: RandomSource) -> PriorityArbiter[Probe]:
+    """A system whose factory draws at set-up: the probe's near, and a driver."""
+    return PriorityArbiter([Near(), Driver(random)], robot_state=Probe)
+
+
+def driver_system_drawing_more(random: RandomSource) -> PriorityArbiter[Probe]:
+    """:func:`driver_system` whose driver draws one number more at set-up."""
+    return PriorityArbiter([Near(), Driver(random, more=1)], robot_state=Probe)
+
+
+def driver_system_settled(random: RandomSource) -> PriorityArbiter[Probe]:
+    """:func:`driver_system` whose factory takes the random source but draws nothing:
+    its driver draws from a source of its own, seeded 0."""
+    return PriorityArbiter([Near(), Driver(RecordingRandom(seed=0))], robot_state=Probe)
+
+
+def record_driver(path: Path, cycles: int = 20) -> Path:
+    """Record ``cycles`` cycles of :func:`driver_system`, its set-up drawn from the
+    recording's random source, approaching the pole."""
+    random = RecordingRandom(seed=3)
+    with Recorder(path, driver_system(random=random), random=random, software="test") as recorder:
+        for cycle in range(cycles):
+            recorder.step(PERIOD_NS, Probe(distance=1.0 - cycle / cycles))
+    return path
+
+
+class Heading:
+    """Keeps the heading it picked when it was built, and says so every cycle."""
+
+    name = "heading"
+
+    def __init__(self, random: RandomSource) -> None:
+        self.state: BehaviorState = random.choice(HEADINGS)
+
+    def step(self, rs: RoverState, ctx: Context) -> Outputs | None:
+        return {"heading": self.state}
+
+
+def heading_rover(random: RandomSource) -> RoverRobot:
+    """The example rover driven by a :class:`Heading`: its factory draws at set-up."""
+    return RoverRobot(behaviors=PriorityArbiter([Heading(random)], robot_state=RoverState))

@@ -94,6 +94,22 @@ def test_a_bag_with_a_message_type_of_its_own_imports_and_its_dtc_passes(
     assert summary.header.software_version.startswith("ROS 2 bag")
 
 
+def test_a_system_drawing_at_set_up_imports_with_its_set_up_draws(tmp_path: Path) -> None:
+    bag = write_bag(tmp_path / "sonar-run", storage=StoragePlugin.SQLITE3)
+    spec = tmp_path / "sonar-run.dtc.toml"
+
+    result = import_bag(
+        bag,
+        tmp_path / "sonar-run.beatlog",
+        system="tests.systems:driver_system",
+        perception=CHECKING,
+        spec=spec,
+    )
+
+    assert len(summarize(result.log).header.drawn_at_setup()) == 2
+    assert run_spec(load_spec(spec)).verdict is Verdict.PASSED
+
+
 def test_the_bag_file_itself_imports_as_its_folder_does(tmp_path: Path) -> None:
     bag = write_bag(tmp_path / "bag", storage=StoragePlugin.SQLITE3)
     [storage_file] = bag.glob("*.db3")

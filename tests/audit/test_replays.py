@@ -25,6 +25,7 @@ from tests.systems import (
     hand_ticked_tree,
     leaks,
     leaky_system,
+    record_driver,
     record_session,
     scripted_system,
 )
@@ -166,6 +167,15 @@ def test_a_log_whose_robot_state_fields_changed_is_audited_with_its_migration(
     assert [run.describe() for run in report.runs] == ["passed", "passed"]
     with pytest.raises(BeatlogError, match="field 'distance' is gone"):
         audit(log, f"{SYSTEMS}:probe_system_ranged", auditors=auditors)
+
+
+def test_draws_at_set_up_are_no_non_determinism(auditors: Auditors, tmp_path: Path) -> None:
+    log = record_driver(tmp_path / "driver.beatlog")
+
+    report = audit(log, f"{SYSTEMS}:driver_system", auditors=auditors)
+
+    assert report == AuditReport(findings=(), runs=report.runs, hash_seed_dependence=None)
+    assert [run.describe() for run in report.runs] == ["passed", "passed"]
 
 
 def test_bad_input_is_a_beatlog_error_naming_the_file(auditors: Auditors, tmp_path: Path) -> None:

@@ -10,7 +10,7 @@ from typing import Any
 import msgspec
 
 from beatlog.log import SessionHeader, SessionLogWriter
-from beatlog.log.format import FORMAT_VERSION
+from beatlog.log.format import COLUMNS_SINCE
 from tests.columned import (
     Damage,
     foreign_value,
@@ -35,7 +35,7 @@ DAMAGES: dict[str, tuple[Damage, str]] = {
 def header(by_field: bool, base: SessionHeader) -> SessionHeader:
     """The format-2 cases' header in format 3, naming its robot-state fields or not."""
     fields = FIELDS if by_field else []
-    return msgspec.structs.replace(base, format_version=FORMAT_VERSION, state_fields=fields)
+    return msgspec.structs.replace(base, format_version=COLUMNS_SINCE, state_fields=fields)
 
 
 def written(

@@ -28,7 +28,7 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader
 
 from beatlog.log import SessionEnd, SessionHeader, SessionLogWriter
-from beatlog.log.format import CYCLES_TOPIC
+from beatlog.log.format import CYCLES_TOPIC, SETUP_DRAWS_SINCE, Draw
 from tests.conformance.format3 import DAMAGES, damaged, header, written
 from tests.crafting import (
     FORMAT_1_CHANNELS,
@@ -126,11 +126,11 @@ def end_of(cycles: Sequence[tuple[Any, ...]]) -> SessionEnd:
     )
 
 
-def write_session(path: Path, *, end: bool = True) -> None:
-    """Record the format-2 session with beatlog's own writer."""
+def write_session(path: Path, *, end: bool = True, header: SessionHeader = HEADER) -> None:
+    """Record the session with beatlog's own writer (format 2, unless ``header`` says)."""
     cycles = recorded_cycles()
     with SessionLogWriter(
-        path, HEADER, flush_interval_s=FLUSH_INTERVAL_NS / 1e9, batch_cycles=4, overwrite=True
+        path, header, flush_interval_s=FLUSH_INTERVAL_NS / 1e9, batch_cycles=4, overwrite=True
     ) as writer:
         for parts in cycles:
             writer.append(*parts)
@@ -158,7 +158,9 @@ def json_value(value: Any) -> Any:
     if isinstance(value, dict):
         if not all(isinstance(key, str) for key in value):
             raise ValueError(f"a map with keys that are not strings: {value!r}")
-        return {key: json_value(item) for key, item in value.items()}
+        return {  # a field left unset is not in the log
+            key: json_value(item) for key, item in value.items() if item is not msgspec.UNSET
+        }
     if isinstance(value, list | tuple):
         return [json_value(item) for item in value]
     return value
@@ -331,6 +333,26 @@ def format_3(folder: Path) -> dict[str, tuple[bytes, dict[str, Any]]]:
     return found
 
 
+SETUP_DRAWS = [
+    Draw(-1, "uniform", 2.75, (2.0, 5.0)),
+    Draw(-1, "normal_array", ["<f8", [2], struct.pack("<2d", 1.5, -0.5)], (0.0, 1.0, [2])),
+]
+"""The set-up draws of the format-4 case: what its system drew while it was built."""
+
+
+def format_4(folder: Path) -> tuple[bytes, dict[str, Any]]:
+    """The session in format 4, robot states by field, with the draws its system made
+    at set-up in the header."""
+    path = folder / "format-4-setup-draws.beatlog"
+    written_header = msgspec.structs.replace(
+        header(True, HEADER), format_version=SETUP_DRAWS_SINCE, setup_draws=SETUP_DRAWS
+    )
+    write_session(path, header=written_header)
+    cycles = recorded_cycles()
+    document = readable(written_header, cycles, (True, CYCLES, None), end_of(cycles))
+    return path.read_bytes(), document
+
+
 def cases() -> dict[str, tuple[bytes, dict[str, Any]]]:
     """Every case by name: the log's bytes and the document a reader must produce."""
     with TemporaryDirectory() as scratch:
@@ -342,6 +364,7 @@ def cases() -> dict[str, tuple[bytes, dict[str, Any]]]:
             **damaged_variants(folder),
             **refused_files(folder),
             **format_3(folder),
+            "format-4-setup-draws": format_4(folder),
         }
 
 

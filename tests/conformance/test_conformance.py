@@ -71,7 +71,7 @@ def test_the_suite_covers_every_kind_of_case() -> None:
     documents = [expectation(name) for name in NAMES]
     assert {d["error"] for d in documents if "error" in d} == set(ERRORS)
     readable = [d for d in documents if "error" not in d]
-    assert {d["format_version"] for d in readable} == {1, 2, 3}
+    assert {d["format_version"] for d in readable} == {1, 2, 3, 4}
     assert {d["status"]["complete"] for d in readable} == {True, False}
 
 

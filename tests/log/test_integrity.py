@@ -315,6 +315,14 @@ def test_msgpack_nested_deep_in_any_header_field_is_a_corrupt_log(
             f"Expected `str` of length <= {MAX_NAME_LENGTH} - at `$.behaviors[0]`",
         ),
         ({"start_time_ns": -1}, "Expected `int` >= 0 - at `$.start_time_ns`"),
+        (
+            {"setup_draws": [[0, "uniform", 2.5, [2.0, 3.0]]]},
+            "set-up draw 1 is behavior #0's, not the system's",
+        ),
+        (
+            {"format_version": 3, "setup_draws": [[-1, "uniform", 2.5, [2.0, 3.0]]]},
+            "set-up draws in a log of format 3",
+        ),
     ],
     ids=[
         "version-0",
@@ -326,6 +334,8 @@ def test_msgpack_nested_deep_in_any_header_field_is_a_corrupt_log(
         "too-many-behaviors",
         "long-behavior-name",
         "negative-start",
+        "set-up-draw-of-a-behavior",
+        "set-up-draws-in-format-3",
     ],
 )
 def test_header_fields_out_of_bounds_are_refused(

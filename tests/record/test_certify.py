@@ -9,9 +9,10 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.model.random import RecordingRandom
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, distances, probe_system
-from tests.systems import Gambler, gambler_system
+from tests.systems import Gambler, driver_system, gambler_system
 
 
 def test_a_deterministic_system_is_certified(tmp_path: Path) -> None:
@@ -68,3 +69,15 @@ def test_a_session_ended_by_an_exception_is_not_certified(tmp_path: Path) -> Non
     with pytest.raises(RuntimeError):
         fall_over()
     assert recorder.certificate is None
+
+
+def test_a_system_drawing_at_set_up_is_certified_against_its_factory(tmp_path: Path) -> None:
+    random = RecordingRandom(seed=5)
+    system = driver_system(random=random)
+    with Recorder(tmp_path / "d.beatlog", system, random=random, certify=driver_system) as recorder:
+        for distance in distances(30):
+            recorder.step(PERIOD_NS, Probe(distance=distance))
+    assert recorder.certificate is not None
+    assert recorder.certificate.describe() == (
+        "certified: the log replays against a fresh system (30 cycles)"
+    )

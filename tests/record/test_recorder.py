@@ -20,14 +20,17 @@ import pytest
 from beatlog import replay
 from beatlog.analysis.summary import summarize
 from beatlog.errors import LogExistsError, NumpyMissingError, SchemaMismatchError
+from beatlog.log.format import SETUP_DRAWS_SINCE
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
+from beatlog.model.random import RecordingRandom
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, probe_system
 from tests.systems import (
     Simulated,
+    driver_system,
     fragile_system,
     perceive_simulated,
     record_scatter,
@@ -321,3 +324,25 @@ def test_behaviors_see_a_state_rebuilt_from_samples_as_they_saw_it_live(tmp_path
             state = perceive_simulated(state, samples)
             recorder.step(PERIOD_NS, state, samples)
     assert replay(log, typist_system(), perception=perceive_simulated).ok
+
+
+def test_the_draws_a_system_made_while_it_was_built_are_its_set_up_draws(
+    tmp_path: Path,
+) -> None:
+    random = RecordingRandom(seed=5)
+    system = driver_system(random=random)
+    with Recorder(tmp_path / "d.beatlog", system, random=random) as recorder:
+        recorder.step(PERIOD_NS, Probe())
+    with SessionLogReader(tmp_path / "d.beatlog") as reader:
+        header = reader.header
+        assert [(d.actor, d.call()) for d in header.drawn_at_setup()] == [
+            (-1, "uniform(20.0, 30.0)"),
+            (-1, "normal_array(2.0, 0.5, [2])"),
+        ]
+        assert header.random_seed == 5
+        assert header.format_version == SETUP_DRAWS_SINCE
+
+
+def test_a_recorder_takes_a_seed_or_a_random_source_not_both(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="give the seed to the random source, not both"):
+        Recorder(tmp_path / "d.beatlog", probe_system(), seed=1, random=RecordingRandom(seed=1))

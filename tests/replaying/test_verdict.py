@@ -78,6 +78,7 @@ def test_every_divergence_kind_is_its_words_in_a_report() -> None:
         "extra random draw",
         "missing random draw",
         "random mismatch",
+        "set-up draws",
         "exception",
         "perception",
         "log ended",

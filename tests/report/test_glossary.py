@@ -99,6 +99,7 @@ PRINTED = [
     "looks like another robot's log",
     "unseeded numpy.random.Generator",
     "findings",
+    "at set-up",
     # beatlog upgrade-baselines
     "upgraded",
     "older format",

@@ -22,7 +22,14 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn
 from tests.factories import cut_short
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, written_dtc
-from tests.systems import leaks, leaky_system, quiet_system, record_session, restless_system
+from tests.systems import (
+    leaks,
+    leaky_system,
+    quiet_system,
+    record_driver,
+    record_session,
+    restless_system,
+)
 from tests.text import svg_texts
 
 
@@ -67,6 +74,32 @@ def test_a_changed_system_fails_at_the_first_divergence(tmp_path: Path, log: Pat
     assert divergence.cycle == FIRST_CHANGED_CYCLE
     assert divergence.kind is DivergenceKind.STATE_CHANGES
     assert outcome.error is None
+
+
+def test_a_dtc_whose_system_draws_at_set_up_passes_and_fails_at_set_up(
+    tmp_path: Path,
+) -> None:
+    log = record_driver(tmp_path / "driver.beatlog")
+
+    passed = run_spec(
+        written_dtc(tmp_path, "drive", log, "tests.systems:driver_system"),
+        SpecOptions(timelines=True),
+    )
+    failed = run_spec(
+        written_dtc(tmp_path, "drive-more", log, "tests.systems:driver_system_drawing_more"),
+        SpecOptions(update=UpdateMode.NEW),
+    )
+
+    assert passed.verdict is Verdict.PASSED
+    assert [timeline.cycles for timeline in passed.timelines] == [20]
+    assert failed.verdict is Verdict.FAILED
+    assert failed.result is not None
+    divergence = failed.result.divergence
+    assert divergence is not None
+    assert divergence.kind is DivergenceKind.SETUP
+    assert failed.update_refused == (
+        "a divergence in set-up draws cannot be re-baselined: re-record the session"
+    )
 
 
 def test_a_missing_log_is_an_error_not_a_failure(tmp_path: Path) -> None:

@@ -56,6 +56,7 @@ from beatlog.model.behavior import System
 from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
+from beatlog.model.random import RecordingRandom
 from beatlog.project.usercode import failure_site, load_perception, load_system, user_traceback
 from beatlog.record.recorder import Recorder
 from beatlog.suite.spec import spec_text
@@ -147,7 +148,8 @@ def import_bag(
         raise LogExistsError(output)
     if spec_path is not None and spec_path.exists() and not overwrite:
         raise SpecError(spec_path, "already exists (overwrite=True replaces it)")
-    built = load_system(system) if isinstance(system, str) else system
+    random = RecordingRandom(seed)  # a factory that takes it draws its set-up from it
+    built = load_system(system, random=random) if isinstance(system, str) else system
     perceive = load_perception(perception) if isinstance(perception, str) else perception
     if not output.parent.is_dir():
         raise LogError(output, f"cannot write: directory {output.parent} does not exist")
@@ -164,7 +166,7 @@ def import_bag(
                     built,
                     system_ref=system if isinstance(system, str) else "",
                     period_ns=period,
-                    seed=seed,
+                    random=random,
                     log_samples=True,
                     robot_id=bag.name[:MAX_NAME_LENGTH] or "bag",
                     software=_software(reader),

@@ -20,6 +20,7 @@ from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
+from beatlog.model.setup import SystemFactory
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.session import FieldsRead, ReplaySession
 from beatlog.replaying.verdict import Divergence, DivergenceKind, StateChange
@@ -41,7 +42,7 @@ class Details:
 
 def replay_details(
     log: LogSource,
-    system: System,
+    system: System | SystemFactory,
     divergence: Divergence | None,
     *,
     trace: bool = False,
@@ -52,7 +53,8 @@ def replay_details(
     rename: Callable[[str], str] = str,
     migration: StateMigration | None = None,
 ) -> Details:
-    """Replay ``log`` on a fresh ``system`` once, gathering what is asked for.
+    """Replay ``log`` on a fresh ``system`` (or one its factory builds) once, gathering
+    what is asked for.
 
     ``divergence`` is the verdict's; the fields read are those of its cycle.
     ``expected`` stands in for the recorded state changes in the timelines, in the
@@ -74,15 +76,16 @@ def replay_details(
         log, system, perception=perception, living=living, rename=rename, migration=migration
     ) as session:
         assert session.replayer is not None  # a session with a system replays
+        built = session.replayer.system
         tracer = TraceCollector(session.replayer, rename) if trace else None
         charts: list[TimelineCollector] = []
         if timelines:
             if divergence is not None:  # the close-up first
                 window = close_up_window(divergence)
                 charts.append(
-                    TimelineCollector(session.reader, system, expected=expected, window_ns=window)
+                    TimelineCollector(session.reader, built, expected=expected, window_ns=window)
                 )
-            charts.append(TimelineCollector(session.reader, system, expected=expected))
+            charts.append(TimelineCollector(session.reader, built, expected=expected))
         session.run([*([tracer] if tracer else []), *charts], fields_read=reads)
     return Details(
         fields_read=() if reads is None else reads.fields,

@@ -16,6 +16,7 @@ the lanes and signals kept in them come from :mod:`beatlog.analysis.lanes` and
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +28,7 @@ from beatlog.analysis.signals import DEFAULT_FIELDS, Sampler, Signal
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
+from beatlog.model.setup import SystemFactory
 from beatlog.project.usercode import load_system
 from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.session import ReplaySession
@@ -98,7 +100,7 @@ def close_up_window(divergence: Divergence) -> tuple[int, int]:
 
 def build_timeline(
     log: str | Path,
-    system: System | str | None = None,
+    system: System | SystemFactory | str | None = None,
     *,
     fields: Sequence[str] | None = None,
     expected: Mapping[int, Sequence[StateChange]] | None = None,
@@ -122,11 +124,12 @@ def build_timeline(
     :raises beatlog.errors.FieldError: a named field is missing or not a number.
     """
     if isinstance(system, str):
-        system = load_system(system)
+        system = functools.partial(load_system, system)
     with ReplaySession(log, system) as session:
+        replayer = session.replayer
         collector = TimelineCollector(
             session.reader,
-            system,
+            None if replayer is None else replayer.system,
             fields=fields,
             expected=expected,
             buckets=max_points,

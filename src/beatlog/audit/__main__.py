@@ -30,6 +30,7 @@ from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
 from beatlog.model.behavior import Behavior, System
 from beatlog.model.context import Context
+from beatlog.model.source import RandomSource
 from beatlog.project.usercode import load_system
 from beatlog.replaying.judge import replay
 
@@ -91,14 +92,23 @@ def _replay_watched(request: Request) -> Answer:
 
 
 def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
-    if watch is None:
-        built = load_system(request.system)
-    else:  # the numpy generators the set-up seeded from the OS are watched too
-        built, watch.generators = built_watched(lambda: load_system(request.system))
-    system = _AuditedSystem(built, watch)
+    audited: list[_AuditedSystem] = []
+
+    def build(random: RandomSource) -> _AuditedSystem:
+        """The audited system, built once the header is read: its factory draws the
+        recorded set-up draws, which are no leak."""
+        if watch is None:
+            built = load_system(request.system, random=random)
+        else:  # the numpy generators the set-up seeded from the OS are watched too
+            built, watch.generators = built_watched(
+                lambda: load_system(request.system, random=random)
+            )
+        audited.append(_AuditedSystem(built, watch))
+        return audited[-1]
+
     result = replay(
         request.log,
-        system,
+        build,
         keep_going=True,
         allow_truncated=request.allow_truncated,
         allow_empty=True,  # the audit compares replays; the verdict judges what they checked
@@ -110,7 +120,7 @@ def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
         cycles=result.cycles,
         divergence_cycle=divergence.cycle if divergence else None,
         divergence_kind=divergence.kind if divergence else None,
-        trace=b"".join(system.trace),
+        trace=b"".join(audited[0].trace) if audited else b"",
         findings=[] if watch is None else watch.findings(),
     )
 

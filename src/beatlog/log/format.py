@@ -26,6 +26,7 @@ from beatlog.log.limits import (
     MAX_BEHAVIORS,
     MAX_FIELDS,
     MAX_NAME_LENGTH,
+    MAX_SETUP_DRAWS,
     MAX_TEXT_LENGTH,
     MAX_VALUE_WIDTH,
 )
@@ -45,6 +46,7 @@ __all__ = [
     "OLDEST_FORMAT_VERSION",
     "PROFILE",
     "SCHEMA_ENCODING",
+    "SETUP_DRAWS_SINCE",
     "Column",
     "ColumnBatch",
     "CycleBatch",
@@ -60,7 +62,7 @@ __all__ = [
     "schema_name",
 ]
 
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
 """Raised whenever a change would make older readers misread a log."""
 OLDEST_FORMAT_VERSION = 1
 """The oldest format version this beatlog still reads (and replays)."""
@@ -68,6 +70,9 @@ CYCLE_BATCH_SINCE = 2
 """From this version on, each cycles message is a :class:`CycleBatch` with its first cycle."""
 COLUMNS_SINCE = 3
 """From this version on, each cycles message is a :class:`ColumnBatch`: robot states by field."""
+SETUP_DRAWS_SINCE = 4
+"""From this version on, the header holds the draws the system made while it was built
+(:attr:`SessionHeader.setup_draws`)."""
 
 PROFILE = "beatlog"
 MESSAGE_ENCODING = "msgpack"
@@ -138,6 +143,13 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     """The robot state's fields as its cycles encode them, in order (format 3): where the
     header names them, batches store robot states by field, and a batch of states of
     exactly these fields names none (:class:`ColumnBatch`)."""
+    setup_draws: (
+        Annotated[list[Draw], msgspec.Meta(max_length=MAX_SETUP_DRAWS)] | msgspec.UnsetType
+    ) = msgspec.UNSET
+    """The random numbers the system drew while its factory built it, before cycle 0
+    (format 4), each the system's (actor -1): replay builds the system with them. Unset
+    (and not written) where it drew none, so a header without them has the bytes of
+    format 3; :meth:`drawn_at_setup` reads them either way."""
 
     def problem(self) -> str | None:
         """What makes this header unreadable beyond its field bounds, or None."""
@@ -158,7 +170,17 @@ class SessionHeader(msgspec.Struct, kw_only=True):
             return "a robot-state field is named twice"
         if self.initial_states and len(self.initial_states) != len(self.behaviors):
             return f"{len(self.initial_states)} initial states for {len(self.behaviors)} behaviors"
+        setup_draws = self.drawn_at_setup()
+        if setup_draws and self.format_version < SETUP_DRAWS_SINCE:
+            return f"set-up draws in a log of format {self.format_version}"
+        for number, draw in enumerate(setup_draws, 1):
+            if draw.actor != -1:
+                return f"set-up draw {number} is behavior #{draw.actor}'s, not the system's"
         return None
+
+    def drawn_at_setup(self) -> list[Draw]:
+        """The set-up draws, in the order drawn; none where the header holds none."""
+        return [] if isinstance(self.setup_draws, msgspec.UnsetType) else self.setup_draws
 
     def initial_states_by_name(self) -> dict[str, Any]:
         """The recorded state before cycle 0 of each behavior, by name (empty when unknown)."""

@@ -15,6 +15,7 @@ __all__ = [
     "MAX_NAME_LENGTH",
     "MAX_RECORD_BYTES",
     "MAX_SCHEMA_BYTES",
+    "MAX_SETUP_DRAWS",
     "MAX_TEXT_LENGTH",
     "MAX_VALUE_WIDTH",
 ]
@@ -35,6 +36,8 @@ MAX_BEHAVIORS = 4096
 """Most behaviors in a catalogue."""
 MAX_SCHEMA_BYTES = 1 << 20
 """Largest header message (the robot-state JSON schema is most of it)."""
+MAX_SETUP_DRAWS = 1 << 16
+"""Most random numbers a system draws while it is built (the header holds them)."""
 MAX_FIELDS = 1 << 16
 """Most robot-state fields (columns) in a format-3 batch."""
 MAX_VALUE_WIDTH = 64

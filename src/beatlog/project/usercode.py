@@ -12,6 +12,11 @@ directory (as ``python -m`` does) and a DTC spec adds its own folder and its pro
 root (see :func:`importable_near`); when the module is still not found, the error
 names the folders it was looked for in.
 
+A factory that takes a keyword parameter ``random`` is handed the random source it
+may draw from while it builds (draws at set-up, :mod:`beatlog.model.setup`): the one
+given, or, where none is (a system built only to be looked at, never to record or
+replay), a recording source of seed 0.
+
 Whatever the user's code does while it is imported or called (raise, fail to
 compile, call ``sys.exit``) becomes a :class:`~beatlog.errors.SystemLoadError`
 whose message is one line naming the reference and the cause, with the user's
@@ -36,7 +41,10 @@ from beatlog.errors import SystemLoadError
 from beatlog.log.files import project_root
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
+from beatlog.model.random import RecordingRandom
 from beatlog.model.robot import Robot
+from beatlog.model.setup import takes_random
+from beatlog.model.source import RandomSource
 
 __all__ = [
     "failure_site",
@@ -80,12 +88,15 @@ def failure_site(exc: BaseException) -> str | None:
     return f"line {frames[-1].lineno} of {frames[-1].filename}"
 
 
-def load_factory(reference: str) -> Any:
-    """Import ``module:attribute`` and return the attribute called (if callable)."""
+def load_factory(reference: str, *, random: RandomSource | None = None) -> Any:
+    """Import ``module:attribute`` and return the attribute called (if callable), with
+    ``random=`` where it takes the random source (see the module's docstring)."""
     factory = _attribute(reference, "module:factory, e.g. mypkg.robot:system")
     if not callable(factory):
         return factory
     try:
+        if takes_random(factory):
+            return factory(random=RecordingRandom(0) if random is None else random)
         return factory()
     except (Exception, SystemExit) as exc:
         raise _failed(reference, "the factory", exc) from None
@@ -196,17 +207,19 @@ def _failed(reference: str, doing: str, exc: BaseException) -> SystemLoadError:
     )
 
 
-def load_system(reference: str) -> System:
-    """Build the system a ``module:factory`` reference names, checking it is one."""
-    system = load_factory(reference)
+def load_system(reference: str, *, random: RandomSource | None = None) -> System:
+    """Build the system a ``module:factory`` reference names, checking it is one; a
+    factory that takes ``random`` draws its set-up from ``random``."""
+    system = load_factory(reference, random=random)
     if isinstance(system, System):
         return system
     raise _not_a(reference, system, "a system (it needs robot_state, behaviors and update)")
 
 
-def load_robot(reference: str) -> Robot:
-    """Build the robot a ``module:factory`` reference names, checking it is one."""
-    robot = load_factory(reference)
+def load_robot(reference: str, *, random: RandomSource | None = None) -> Robot:
+    """Build the robot a ``module:factory`` reference names, checking it is one; a
+    factory that takes ``random`` draws its system's set-up from ``random``."""
+    robot = load_factory(reference, random=random)
     if isinstance(robot, Robot):
         return robot
     raise _not_a(

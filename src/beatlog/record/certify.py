@@ -10,12 +10,11 @@ the calls to blame and where they are made.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.audit.leaks import Finding, LeakWatch
-from beatlog.model.behavior import System
+from beatlog.model.setup import SystemFactory
 from beatlog.replaying.judge import replay
 from beatlog.replaying.verdict import ReplayResult
 
@@ -57,17 +56,17 @@ class Certificate:
         )
 
 
-def certify(log: str | Path, system: Callable[[], System]) -> Certificate:
-    """Replay ``log`` against ``system()``, a fresh system; where it diverges, replay it
-    once more against another under a leak watch, to name the calls to blame.
+def certify(log: str | Path, system: SystemFactory) -> Certificate:
+    """Replay ``log`` against a fresh system from the factory ``system`` (handed the
+    recorded set-up draws where it takes ``random``); where it diverges, replay it once
+    more against another under a leak watch, to name the calls to blame.
 
     :raises beatlog.errors.BeatlogError: the log cannot be read or does not fit.
     """
-    result = replay(log, system(), allow_empty=True, explain=False)
+    result = replay(log, system, allow_empty=True, explain=False)
     if result.ok:
         return Certificate(result)
     watch = LeakWatch()
-    fresh = system()
     with watch:
-        replay(log, fresh, allow_empty=True, explain=False)
+        replay(log, system, allow_empty=True, explain=False)
     return Certificate(result, tuple(watch.findings()))

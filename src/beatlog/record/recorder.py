@@ -29,6 +29,7 @@ from beatlog.model.cycle import CycleExecutor
 from beatlog.model.inbox import Sample
 from beatlog.model.random import RecordingRandom
 from beatlog.model.robot import Robot
+from beatlog.model.setup import SystemFactory
 from beatlog.model.state import state_fields, state_schema, state_type_name
 
 if TYPE_CHECKING:
@@ -78,6 +79,10 @@ class Recorder:
         system uses it only where the project lists it under ``[tool.beatlog] systems``).
     :param period_ns: the heartbeat period the robot aims for, in ns.
     :param seed: seed of the random source; a fresh one from the OS when None.
+    :param random: the random source the system was built with, where its factory drew
+        from it (draws at set-up, :mod:`beatlog.model.setup`): the draws it made so far
+        are the set-up draws, kept in the header, and it goes on as the session's
+        source; not with ``seed`` (give the seed to the source).
     :param flush_interval_s: robot time between flushes to disk; a recorder killed
         loses at most this much.
     :param fsync: also ``fsync`` at every flush.
@@ -92,8 +97,9 @@ class Recorder:
         decodes only the fields its behaviors read), or in the cycle records; by
         default by field for a state of at least
         :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay.
-    :param certify: a factory of the recorded system: when the session ends (without an
-        exception), the log is replayed against a fresh system from it and
+    :param certify: a factory of the recorded system (handed the set-up draws where it
+        takes ``random``): when the session ends (without an exception), the log is
+        replayed against a fresh system from it and
         :attr:`certificate` says whether it replays, or the first cycle that does not
         and the calls to blame (:mod:`beatlog.record.certify`); needs a ``path``.
     """
@@ -115,14 +121,18 @@ class Recorder:
         start_time_ns: int | None = None,
         clock: Callable[[], int] = time.monotonic_ns,
         by_field: bool | None = None,
-        certify: Callable[[], System] | None = None,
+        certify: SystemFactory | None = None,
+        random: RecordingRandom | None = None,
     ) -> None:
         if certify is not None and not isinstance(path, str | Path):
             raise ValueError("Recorder: certify replays the log, so it needs a path to read")
+        if random is not None and seed is not None:
+            raise ValueError("Recorder: give the seed to the random source, not both")
         self.period_ns = period_ns
         self._clock = clock
         self._last_beat_ns: int | None = None
-        self.random = RecordingRandom(seed)
+        self.random = RecordingRandom(seed) if random is None else random
+        setup_draws = self.random.take() or msgspec.UNSET
         self._executor = CycleExecutor(system, self.random)
         self._log_samples = log_samples
         self._overruns = 0
@@ -149,6 +159,7 @@ class Recorder:
             behaviors=list(self._executor.behavior_ids),
             initial_states=[behavior.state for behavior in system.behaviors.values()],
             random_seed=self.random.seed,
+            setup_draws=setup_draws,
             samples_logged=log_samples,
             flush_interval_ns=int(flush_interval_s * 1e9),
         )
@@ -300,7 +311,7 @@ class Recorder:
         if certify is not None and error is None and self.error is None:
             self.certificate = self._certified(certify)
 
-    def _certified(self, system: Callable[[], System]) -> Certificate:
+    def _certified(self, system: SystemFactory) -> Certificate:
         """The certificate of the log just closed, its lack logged as an error."""
         from beatlog.record.certify import certify  # noqa: PLC0415 - replay, when asked
 

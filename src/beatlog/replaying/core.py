@@ -84,6 +84,7 @@ class Replayer:
         rename: Callable[[str], str] = str,
         migration: StateMigration | None = None,
         state_pins: PinChecker | None = None,
+        random: ReplayRandom | None = None,
     ) -> None:
         migration = migration or StateMigration()
         check_fit(header, system, path, migration)
@@ -96,7 +97,8 @@ class Replayer:
         self.system = system
         self.header = header
         self.path = path
-        self.random = ReplayRandom()
+        self.random = ReplayRandom() if random is None else random
+        """The random source: ``random``, the one the system drew its set-up from, if given."""
         self.executor = CycleExecutor(system, self.random)
         self.living = living
         """Whether replay goes on when the behaviors draw otherwise than recorded

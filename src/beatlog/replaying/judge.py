@@ -14,6 +14,7 @@ those expected only by a consistent renaming.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
 import time
 from collections import deque
@@ -31,6 +32,7 @@ from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.model.random import Draw, plain_value
+from beatlog.model.setup import SystemFactory
 from beatlog.project.config import vouched_system
 from beatlog.project.usercode import load_perception, load_system, user_traceback
 from beatlog.replaying.compare import Comparison, state_fields
@@ -42,6 +44,7 @@ from beatlog.replaying.fit.check import check_catalogue, check_state_fields, per
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.pins import PinChecker, rebuilt_otherwise
 from beatlog.replaying.session import BatchReader, Observer, ReplaySession, fields_read
+from beatlog.replaying.setup import SetupDrawError
 from beatlog.replaying.verdict import (
     Checked,
     ContextRow,
@@ -67,7 +70,7 @@ NO_SAMPLES = (
 
 def replay(
     log: LogSource,
-    system: System | str | None = None,
+    system: System | SystemFactory | str | None = None,
     *,
     keep_going: bool = False,
     allow_truncated: bool = False,
@@ -83,8 +86,15 @@ def replay(
     readers: Sequence[Callable[[SessionLogReader], BatchReader]] = (),
     migration: StateMigration | None = None,
 ) -> ReplayResult:
-    """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
-    by default the reference recorded in the log's header, see :func:`recorded_system`).
+    """Replay ``log`` against ``system`` (a system, a factory that builds one, or a
+    ``module:factory`` reference; by default the reference recorded in the log's
+    header, see :func:`recorded_system`).
+
+    A factory (a reference names one) builds the system once the header is read: one
+    that takes ``random`` is handed the recorded set-up draws
+    (:mod:`beatlog.model.setup`), and drawing otherwise fails with a divergence of kind
+    :attr:`~beatlog.replaying.verdict.DivergenceKind.SETUP`. A log with set-up draws
+    needs a factory: a system already built is refused.
 
     Stops at the first divergence unless ``keep_going`` is set, in which case it
     replays every cycle and counts the ones that diverged. A truncated log fails
@@ -139,23 +149,42 @@ def replay(
         system = recorded_system(Path(log))
     reference = system if isinstance(system, str) else None
     if isinstance(system, str):
-        system = load_system(system)
+        system = functools.partial(load_system, system)
     perception_reference = perception if isinstance(perception, str) else None
     if isinstance(perception, str):
         perception = load_perception(perception)
     comparison = comparison or Comparison()
     migration = migration or StateMigration()
     started = time.perf_counter()  # the replay's wall time counts opening and checking the log
-    with ReplaySession(
-        log,
-        system,
-        perception=perception,
-        break_at=break_at,
-        migration=migration,
-        living=expected is not None,
-        rename=comparison.rename,
-        state_pins=None if expected is None else PinChecker(expected.state_pins),
-    ) as session:
+
+    def reproduce(recorded: str) -> str:
+        return reproduce_command(
+            "replay",
+            os.fspath(log),
+            "--system",
+            reference or recorded or "MODULE:FACTORY",
+            *(["--perception", perception_reference] if perception_reference else []),
+            *(["--keep-going"] if keep_going else []),
+            *(["--allow-truncated"] if allow_truncated else []),
+            *(["--allow-empty"] if allow_empty else []),
+            *migration.arguments(),
+        )
+
+    try:
+        session = ReplaySession(
+            log,
+            system,
+            perception=perception,
+            break_at=break_at,
+            migration=migration,
+            living=expected is not None,
+            rename=comparison.rename,
+            state_pins=None if expected is None else PinChecker(expected.state_pins),
+        )
+    except SetupDrawError as diverged:
+        wall = time.perf_counter() - started
+        return _diverged_at_setup(Path(log), diverged, wall, reproduce(diverged.recorded_system))
+    with session:
         reader = session.reader
         check_state_fields(
             reader.header,
@@ -165,6 +194,7 @@ def replay(
             migration,
         )
         assert session.replayer is not None  # a session with a system replays
+        built = session.replayer.system
         judge = CycleJudge(
             session.replayer,
             keep_going=keep_going,
@@ -187,6 +217,8 @@ def replay(
         wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
+    if setup_draws := reader.header.drawn_at_setup():  # the factory drew them as recorded
+        checked = dataclasses.replace(checked, draws=checked.draws + len(setup_draws))
     no_samples = NO_SAMPLES if perception is not None and judge.replayer.perception is None else ""
     if divergence is None and not allow_empty and not checked.anything:
         raise EmptyCheckError(reader.path, _nothing_checked(judge.cycles))
@@ -196,7 +228,8 @@ def replay(
         and reference
         and divergence.kind is not DivergenceKind.LOG_ENDED
     ):
-        read = fields_read(log, load_system(reference), divergence.cycle, migration=migration)
+        factory = functools.partial(load_system, reference)
+        read = fields_read(log, factory, divergence.cycle, migration=migration)
         divergence = dataclasses.replace(divergence, fields_read=read)
     return ReplayResult(
         log=Path(log),
@@ -208,18 +241,26 @@ def replay(
         status=status,
         divergence=divergence,
         divergent_cycles=judge.divergent_cycles,
-        reproduce=reproduce_command(
-            "replay",
-            os.fspath(log),
-            "--system",
-            reference or reader.header.system or "MODULE:FACTORY",
-            *(["--perception", perception_reference] if perception_reference else []),
-            *(["--keep-going"] if keep_going else []),
-            *(["--allow-truncated"] if allow_truncated else []),
-            *(["--allow-empty"] if allow_empty else []),
-            *migration.arguments(),
-        ),
-        notes=tuple(note for note in (period_note(reader.header, system), no_samples) if note),
+        reproduce=reproduce(reader.header.system),
+        notes=tuple(note for note in (period_note(reader.header, built), no_samples) if note),
+    )
+
+
+def _diverged_at_setup(
+    log: Path, diverged: SetupDrawError, wall: float, reproduce: str
+) -> ReplayResult:
+    """The verdict of a replay whose system drew otherwise at set-up: no cycle replayed."""
+    return ReplayResult(
+        log=log,
+        ok=False,
+        cycles=0,
+        checked=Checked(),
+        robot_time_ns=0,
+        wall_time_s=wall,
+        status=None,
+        divergence=Divergence(kind=diverged.kind, cycle=0, time_ns=0, message=diverged.problem),
+        divergent_cycles=1,
+        reproduce=reproduce,
     )
 
 

@@ -22,9 +22,12 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
+from beatlog.model.setup import SystemFactory
 from beatlog.replaying.core import AGREED, CycleOutcome, Replayer
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.pins import PinChecker
+from beatlog.replaying.random import ReplayRandom
+from beatlog.replaying.setup import built_for_replay
 
 __all__ = [
     "BatchReader",
@@ -153,11 +156,13 @@ class ReplayOptions(TypedDict, total=False):
 class ReplaySession(Closing):
     """A log opened and checked once, and a system set up to replay it; a context manager.
 
-    Building one reads the header and checks that the log fits the system
-    (:mod:`beatlog.replaying.fit`), its robot-state fields renamed and converted by
-    ``migration``; ``state_pins``, an approved baseline's robot states, are what
-    perception must rebuild in their cycles. :meth:`run` steps through the log for its
-    observers.
+    Building one reads the header, builds the system where it is given its factory
+    (handed the recorded set-up draws, :mod:`beatlog.replaying.setup`; a
+    :class:`~beatlog.replaying.setup.SetupDrawError` where it draws otherwise) and
+    checks that the log fits the system (:mod:`beatlog.replaying.fit`), its robot-state
+    fields renamed and converted by ``migration``; ``state_pins``, an approved
+    baseline's robot states, are what perception must rebuild in their cycles.
+    :meth:`run` steps through the log for its observers.
     Without a system, nothing is replayed: the observers read the recording alone.
     ``break_at`` stops in the debugger just before the behaviors update in that cycle.
     ``living`` replay goes on where the behaviors draw otherwise than recorded
@@ -170,16 +175,17 @@ class ReplaySession(Closing):
     def __init__(
         self,
         log: LogSource,
-        system: System | None,
+        system: System | SystemFactory | None,
         **options: Unpack[ReplayOptions],
     ) -> None:
-        self.reader = SessionLogReader(log)
+        self.reader = reader = SessionLogReader(log)
         try:
-            self.replayer = (
-                None
-                if system is None
-                else Replayer(system, self.reader.header, self.reader.path, **options)
-            )
+            self.replayer: Replayer | None = None
+            if system is not None:
+                random = ReplayRandom()
+                header, path = reader.header, reader.path
+                built = built_for_replay(system, header, path, random)
+                self.replayer = Replayer(built, header, path, random=random, **options)
         except BaseException:
             self.reader.close()
             raise
@@ -295,9 +301,14 @@ def _read_by(
 
 
 def fields_read(
-    log: LogSource, system: System, cycle: int, *, migration: StateMigration | None = None
+    log: LogSource,
+    system: System | SystemFactory,
+    cycle: int,
+    *,
+    migration: StateMigration | None = None,
 ) -> tuple[str, ...]:
-    """The robot-state fields a fresh ``system`` reads in ``cycle`` of ``log``, in order
+    """The robot-state fields a fresh ``system`` (or one its factory builds) reads in
+    ``cycle`` of ``log``, in order
     (see :class:`FieldsRead`), the log's fields renamed and converted by ``migration``."""
     reads = FieldsRead(cycle)
     with ReplaySession(log, system, migration=migration) as session:

@@ -45,6 +45,9 @@ class DivergenceKind(StrEnum):
     """The behaviors drew fewer random numbers than were recorded."""
     RANDOM_MISMATCH = "random mismatch"
     """The behaviors drew a different kind or shape of random number."""
+    SETUP = "set-up draws"
+    """The system's factory drew other random numbers while it built the system than
+    were recorded at set-up (before cycle 0)."""
     EXCEPTION = "exception"
     """Behavior code raised an exception."""
     PERCEPTION = "perception"
@@ -174,7 +177,8 @@ class Checked:
     outputs: int = 0
     """Output values (one per name reported in a cycle)."""
     draws: int = 0
-    """Random numbers drawn, each checked for what was asked."""
+    """Random numbers drawn, each checked for what was asked (those drawn at set-up
+    included)."""
     samples: int = 0
     """Sensor samples that perception rebuilt a recorded robot state from (sensor-level
     replay)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as dt
 import io
 import json
+from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
@@ -131,7 +132,9 @@ def render_replay(result: ReplayResult) -> RenderableType:
 
 def _divergence(divergence: Divergence) -> RenderableType:
     title = (
-        f"first divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, "
+        f"first divergence: at set-up, before cycle 0, {divergence.kind.value}"
+        if divergence.kind is DivergenceKind.SETUP
+        else f"first divergence: cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, "
         f"{divergence.kind.value}"
     )
     # Wrapped inside the panel even on a soft-wrapping console, which would clip it.
@@ -253,6 +256,11 @@ def render_summary(summary: LogSummary) -> RenderableType:
         ("overruns", f"{overruns}; {summary.late_beats} beats later than 1.5 periods"),
         ("robot state", header.robot_state_type),
         ("random numbers", _counts(summary.random_draws) or "none"),
+        *(
+            [("set-up draws", _counts(Counter(draw.kind for draw in setup_draws)))]
+            if (setup_draws := header.drawn_at_setup())
+            else []
+        ),
         (
             "samples",
             "not logged" if summary.samples is None else _counts(summary.samples) or "none",

@@ -18,6 +18,7 @@ from typing import Any, NamedTuple
 from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
 from beatlog.errors import BaselineError
 from beatlog.model.behavior import System
+from beatlog.model.setup import SystemFactory
 from beatlog.replaying.judge import replay as judge
 from beatlog.replaying.verdict import ReplayResult
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
@@ -106,7 +107,7 @@ def approved_baseline(log: str | Path, system: object = None) -> Approved | None
 
 def replay(
     log: str | Path,
-    system: System | str | None = None,
+    system: System | SystemFactory | str | None = None,
     *,
     approved: bool = True,
     **options: Any,

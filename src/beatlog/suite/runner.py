@@ -26,6 +26,8 @@ from beatlog.project.usercode import importable_near, load_perception, load_syst
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.judge import recorded_system, replay
+from beatlog.replaying.random import ReplayRandom
+from beatlog.replaying.setup import built_for_replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
@@ -36,7 +38,6 @@ if TYPE_CHECKING:
     from beatlog.analysis.timeline import Timeline, TimelineCollector
     from beatlog.audit.replays import Auditors, AuditReport
     from beatlog.log.reader import SessionLogReader
-    from beatlog.model.behavior import System
 
 __all__ = ["SpecOutcome", "Verdict", "run_spec", "suite_auditors"]
 
@@ -194,16 +195,13 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             perception=spec.perception,
             migration=spec.migration,
         )
-        replayed: System | str = system
         charts: list[TimelineCollector] = []
-        if timelines:
-            replayed, chart = _charting(system, expected, charts)
         recorded: list[RecordedChanges] = []
         try:
             result = judged(
-                replayed,
+                system,
                 break_at=options.break_at,
-                observers=[chart] if timelines else (),
+                observers=[_charting(system, expected, charts)] if timelines else (),
                 readers=[functools.partial(_kept, recorded)] if options.coverage else (),
             )
         except BeatlogError:
@@ -305,19 +303,21 @@ def _rerun(spec: DtcSpec, *options: str) -> str:
 
 def _charting(
     system: str, expected: Expectation | None, charts: list[TimelineCollector]
-) -> tuple[System, Callable[[SessionLogReader], TimelineCollector]]:
-    """The system to replay, and what builds a timeline collector of its replay from
-    the log the verdict opens (kept in ``charts``)."""
+) -> Callable[[SessionLogReader], TimelineCollector]:
+    """What builds a timeline collector of the verdict's replay from the log it opens
+    (kept in ``charts``): its lanes start from the states of a system built as the
+    replayed one is, set-up draws and all."""
     from beatlog.analysis.timeline import TimelineCollector  # noqa: PLC0415 - when charting
 
-    loaded = load_system(system)
     override = None if expected is None else expected.changes_override()
+    factory = functools.partial(load_system, system)
 
     def chart(reader: SessionLogReader) -> TimelineCollector:
-        charts.append(TimelineCollector(reader, loaded, expected=override))
+        built = built_for_replay(factory, reader.header, reader.path, ReplayRandom())
+        charts.append(TimelineCollector(reader, built, expected=override))
         return charts[-1]
 
-    return loaded, chart
+    return chart
 
 
 def _kept(kept: list[RecordedChanges], reader: SessionLogReader) -> RecordedChanges:
@@ -347,13 +347,13 @@ def _details(
 ) -> Details | None:
     """One more replay, of a failed DTC, gathering what reports need: of the bytes its
     verdict's replay kept, where it kept them."""
-    if divergence is None:
+    if divergence is None or divergence.kind is DivergenceKind.SETUP:  # no cycle replayed
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
 
     return replay_details(
         log,
-        load_system(system),
+        functools.partial(load_system, system),
         divergence,
         trace=trace,
         timelines=timelines,

@@ -236,3 +236,18 @@ def test_record_fails_a_session_that_does_not_replay_naming_the_cycle_and_the_ca
     assert re.search(r"random\.choice at \S+/tests/systems\.py:\d+ in Gambler\.step", certificate)
     assert unchecked.code == 0, unchecked.err
     assert "certified" not in unchecked.out
+
+
+def test_record_hands_a_robot_factory_that_takes_random_the_session_source(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    out = tmp_path / "heading.beatlog"
+
+    recorded = beatlog(
+        "record", "--robot", "tests.systems:heading_rover", "-o", out, "--duration", 0.2
+    )
+
+    assert recorded.code == 0, recorded.err
+    assert recorded.out.splitlines()[1].startswith("certified: the log replays")
+    with SessionLogReader(out) as reader:
+        assert [draw.kind for draw in reader.header.drawn_at_setup()] == ["choice"]

@@ -13,7 +13,7 @@ from beatlog.analysis.summary import summarize
 from tests.commands import Beatlog
 from tests.conftest import RecordFn
 from tests.factories import cut_in_half, with_damaged_index
-from tests.systems import record_scatter
+from tests.systems import record_driver, record_scatter
 from tests.text import whole_lines
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
@@ -50,6 +50,16 @@ def test_show_describes_a_log(beatlog: Beatlog, record_probe: RecordFn) -> None:
         for index, (name, count) in enumerate(summary.transitions.items())
     ]
     assert [row[1] for row in table_rows(run.out)] == ["arbiter", "near", "dice"]
+
+
+def test_show_counts_the_draws_made_at_set_up(beatlog: Beatlog, tmp_path: Path) -> None:
+    log = record_driver(tmp_path / "driver.beatlog")
+
+    run = beatlog("show", log)
+
+    assert run.code == 0
+    assert about_rows(run.out)["set-up draws"] == "2 (uniform 1, normal_array 1)"
+    assert "set-up draws" not in beatlog("show", record_scatter(tmp_path / "s.beatlog")).out
 
 
 def test_show_says_a_cut_off_log_is_truncated(beatlog: Beatlog, record_chunked: RecordFn) -> None:

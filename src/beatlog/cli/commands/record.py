@@ -15,6 +15,8 @@ if TYPE_CHECKING:
     from rich.console import Console
     from rich.progress import Progress
 
+    from beatlog.model.behavior import System
+
 __all__ = ["add_arguments", "run"]
 
 
@@ -63,20 +65,22 @@ def add_arguments(record: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, console: Console) -> int:
     """Record until the duration is reached or Ctrl-C; the log is complete either way."""
+    from beatlog.model.random import RandomSource, RecordingRandom
     from beatlog.project.usercode import load_robot, load_system
     from beatlog.record.recorder import Recorder
     from beatlog.report.counts import plural
 
-    robot = load_robot(args.robot)
+    random = RecordingRandom(args.seed)
+    robot = load_robot(args.robot, random=random)  # its system's set-up draws from it
     if args.system_ref:
         load_system(args.system_ref)  # replay will need it: a typo is found now, not then
     certify = None
     if args.certify:  # the system replay will use, else the recorded one from a new robot
-        certify = (
-            functools.partial(load_system, args.system_ref)
-            if args.system_ref
-            else (lambda: load_robot(args.robot).system)
-        )
+
+        def recorded(random: RandomSource) -> System:
+            return load_robot(args.robot, random=random).system
+
+        certify = functools.partial(load_system, args.system_ref) if args.system_ref else recorded
     output: Path = args.output
     check_output(output)
     interrupted = False
@@ -88,7 +92,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
             robot_id=args.robot_id,
             system_ref=args.system_ref,
             period_ns=int(args.period_ms * 1e6),
-            seed=args.seed,
+            random=random,
             flush_interval_s=args.flush_interval,
             fsync=args.fsync,
             log_samples=args.log_samples,
