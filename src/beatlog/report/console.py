@@ -15,7 +15,7 @@ from rich.table import Table
 from rich.text import Text
 
 from beatlog.analysis.summary import LogSummary
-from beatlog.log.format import FORMAT_VERSION
+from beatlog.log.format import COLUMNS_SINCE
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult
 from beatlog.report.counts import plural
 from beatlog.suite.runner import SpecOutcome, Verdict
@@ -280,7 +280,7 @@ def render_summary(summary: LogSummary) -> RenderableType:
 
 
 def _format_version(version: int) -> str:
-    if version == FORMAT_VERSION:
+    if version >= COLUMNS_SINCE:  # every integrity check of the current format
         return f"version {version}"
     return f"version {version} (older: replays with the integrity checks it supports)"
 
