@@ -155,6 +155,18 @@ def test_an_earlier_violation_wins_over_a_later_divergence(log: Path) -> None:
     )
 
 
+def test_in_a_cycle_that_also_differs_the_violation_is_the_headline(log: Path) -> None:
+    def near_only_when_close(cycle: Cycle) -> None:
+        if cycle.states["near"] == "near" and cycle.robot_state.distance >= 0.5:
+            raise AssertionError("near too soon")
+
+    divergence = replay(log, probe_system_changed(), invariants=[near_only_when_close]).divergence
+
+    assert divergence is not None
+    assert (divergence.kind, divergence.cycle) == (DivergenceKind.INVARIANT, FIRST_CHANGED_CYCLE)
+    assert divergence.expected != divergence.actual  # the difference is shown beside it
+
+
 def test_keeping_going_counts_every_cycle_that_does_not_hold(log: Path) -> None:
     result = replay(log, probe_system(), invariants=[never_close], keep_going=True)
 

@@ -132,9 +132,10 @@ def replay(
 
     ``invariants`` (:mod:`beatlog.model.invariant`: callables, classes instantiated afresh
     for this replay, or ``module:attribute`` references to either) are checked in every
-    cycle that agrees, open-loop stretches against an approved baseline included: the
-    first that does not hold (or whose own code raises) is an INVARIANT divergence of
-    its cycle, unless a divergence came before it. The reproduce command carries the
+    cycle whose update completes, open-loop stretches against an approved baseline
+    included: the first that does not hold (or whose own code raises) is an INVARIANT
+    divergence of its cycle, unless a divergence came in an earlier cycle (in the same
+    cycle, the invariant is the headline). The reproduce command carries the
     references.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
@@ -241,10 +242,11 @@ class CycleJudge:
 
     ``expected`` is an approved baseline to judge against instead of the recording: its
     state changes and outputs, the draws it approves and the robot states it pins.
-    ``invariants`` are checked in every cycle that agrees (so none agrees at once: only
-    a replay with invariants pays for every cycle's outcome); the first that does not
-    hold is a divergence of its cycle. Past the divergence where it stops, a
-    :class:`Follower` gathers what happened next.
+    ``invariants`` are checked in every cycle that completes (so none agrees at once:
+    only a replay with invariants pays for every cycle's outcome); the first that does
+    not hold is a divergence of its cycle, and the headline where the cycle also
+    differs. Past the divergence where it stops, a :class:`Follower` gathers what
+    happened next.
     """
 
     def __init__(
@@ -419,7 +421,10 @@ class CycleJudge:
         outcome = outcome or replayer.outcome()
         if unloggable is not None:
             outcome = outcome._replace(failure=unloggable)
-        return self._stop(index, outcome, None)
+        # In a cycle that differs, an invariant that does not hold is the headline: it
+        # says what is wrong, where the difference says only that something changed.
+        violation = None if self._invariants is None else self._invariants.check(outcome)
+        return self._stop(index, outcome, violation)
 
     def _stop(
         self, index: int, outcome: CycleOutcome, violation: Divergence | None
