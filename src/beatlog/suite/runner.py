@@ -29,7 +29,7 @@ from beatlog.replaying.judge import recorded_system, replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
-from beatlog.suite.spec import DtcSpec
+from beatlog.suite.spec import DtcSpec, importable_invariants
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -193,6 +193,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             explain=False,
             perception=spec.perception,
             migration=spec.migration,
+            invariants=importable_invariants(spec),
         )
         replayed: System | str = system
         charts: list[TimelineCollector] = []
