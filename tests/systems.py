@@ -30,6 +30,7 @@ import py_trees
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample
+from beatlog.model.invariant import Cycle
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import RoverRobot, RoverState
@@ -587,3 +588,14 @@ def perceive_simulated(previous: Simulated | None, samples: Sequence[Sample]) ->
 def gambling_rover() -> RoverRobot:
     """The example rover driven by a :class:`Gambler`: no session of it replays."""
     return RoverRobot(behaviors=PriorityArbiter([Gambler()], robot_state=RoverState))
+
+
+def never_close(cycle: Cycle) -> None:
+    """An invariant of the probe that does not hold within 0.3 m of the pole."""
+    if cycle.robot_state.distance <= 0.3:
+        raise AssertionError(f"{cycle.robot_state.distance} m from the pole")
+
+
+def never_holds(cycle: Cycle) -> None:
+    """An invariant that holds in no cycle of any robot."""
+    raise AssertionError(f"cycle {cycle.cycle}")

@@ -344,6 +344,7 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
         system="myrobot:system",
         tags=["touch", "falls"],
         perception="myrobot:perception",
+        invariants=["myrobot.checks:upright", "myrobot.checks:Docks"],
     )
     path = tmp_path / "tip.dtc.toml"
     path.write_text(text, encoding="utf-8")
@@ -358,3 +359,4 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
         "myrobot:perception",
     )
     assert list(spec.tags) == ["touch", "falls"]
+    assert spec.invariants == ("myrobot.checks:upright", "myrobot.checks:Docks")
