@@ -67,12 +67,10 @@ def test_walking_while_getting_up_does_not_hold() -> None:
 
 
 def test_walking_forward_at_an_obstacle_holds_only_when_a_person_drives() -> None:
-    close = {"range_front": 0.2}
-
     with pytest.raises(AssertionError, match=r"obstacle 0.2 m ahead \(avoid distance 0.35 m\)"):
-        never_walks_into_an_obstacle(cycle(**close))
-    never_walks_into_an_obstacle(cycle(states={"arbiter": "remote"}, **close))
-    never_walks_into_an_obstacle(cycle(outputs={"speed": -0.12}, **close))  # backing away
+        never_walks_into_an_obstacle(cycle(range_front=0.2))
+    never_walks_into_an_obstacle(cycle(states={"arbiter": "remote"}, range_front=0.2))
+    never_walks_into_an_obstacle(cycle(outputs={"speed": -0.12}, range_front=0.2))  # backing
 
 
 def test_a_low_battery_must_lead_to_docking_in_time() -> None:
