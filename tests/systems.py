@@ -30,6 +30,7 @@ import py_trees
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample
+from beatlog.model.invariant import Cycle
 from beatlog.model.random import RecordingRandom
 from beatlog.model.source import RandomSource
 from beatlog.model.state import RobotState
@@ -650,3 +651,14 @@ class Heading:
 def heading_rover(random: RandomSource) -> RoverRobot:
     """The example rover driven by a :class:`Heading`: its factory draws at set-up."""
     return RoverRobot(behaviors=PriorityArbiter([Heading(random)], robot_state=RoverState))
+
+
+def never_close(cycle: Cycle) -> None:
+    """An invariant of the probe that does not hold within 0.3 m of the pole."""
+    if cycle.robot_state.distance <= 0.3:
+        raise AssertionError(f"{cycle.robot_state.distance} m from the pole")
+
+
+def never_holds(cycle: Cycle) -> None:
+    """An invariant that holds in no cycle of any robot."""
+    raise AssertionError(f"cycle {cycle.cycle}")

@@ -124,14 +124,17 @@ def stale_suite(
 
 
 def refusal(divergence: Divergence) -> str | None:
-    """Why a divergence cannot be re-baselined, if it cannot: a behavior that raised is
-    a bug, a log that ended early or perception that built nothing needs fixing or a new
-    recording, and so do set-up draws made otherwise (a baseline holds none)."""
+    """Why a divergence cannot be re-baselined, if it cannot: a behavior that raised,
+    or an invariant that does not hold, is a bug; a log that ended early, perception
+    that built nothing or set-up draws made otherwise (a baseline holds none) need
+    fixing or a new recording."""
     from beatlog.replaying.verdict import DivergenceKind  # noqa: PLC0415 - the CLI starts without it
 
     kind = divergence.kind
     if kind is DivergenceKind.EXCEPTION:
         return "a behavior raised: an exception is a bug, never a baseline; fix it first"
+    if kind is DivergenceKind.INVARIANT:
+        return "an invariant does not hold: a violation is a bug, never a baseline; fix it first"
     if kind in (DivergenceKind.LOG_ENDED, DivergenceKind.SETUP):
         return f"a divergence in {kind} cannot be re-baselined: re-record the session"
     if kind is DivergenceKind.PERCEPTION and not divergence.perception:

@@ -31,7 +31,7 @@ from beatlog.replaying.setup import built_for_replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
-from beatlog.suite.spec import DtcSpec
+from beatlog.suite.spec import DtcSpec, importable_invariants
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -194,6 +194,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             explain=False,
             perception=spec.perception,
             migration=spec.migration,
+            invariants=importable_invariants(spec),
         )
         charts: list[TimelineCollector] = []
         recorded: list[RecordedChanges] = []

@@ -251,3 +251,48 @@ def test_record_hands_a_robot_factory_that_takes_random_the_session_source(
     assert recorded.out.splitlines()[1].startswith("certified: the log replays")
     with SessionLogReader(out) as reader:
         assert [draw.kind for draw in reader.header.drawn_at_setup()] == ["choice"]
+
+
+def test_record_checks_invariants_live_and_fails_without_stopping_the_robot(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    recorded = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "-o",
+        out,
+        "--duration",
+        0.1,
+        "--no-certify",
+        "--invariants",
+        "tests.systems:never_holds",
+    )
+
+    assert recorded.code == 1
+    with SessionLogReader(out) as reader:
+        cycles = sum(1 for _ in reader.cycles())
+        assert reader.status == LogStatus(complete=True, cycles=cycles)
+    assert f"{cycles} invariant violations while recording" in recorded.out
+    assert "the first: cycle 0, t = " in recorded.out
+
+
+def test_record_checks_the_invariants_before_recording(beatlog: Beatlog, tmp_path: Path) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    run = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "-o",
+        out,
+        "--duration",
+        1,
+        "--invariants",
+        "tests.systems:nothing",
+    )
+
+    assert_error(run, "'tests.systems:nothing': tests.systems has no nothing")
+    assert not out.exists()
