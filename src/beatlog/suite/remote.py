@@ -5,10 +5,9 @@ The reader needs a regular, seekable file, so the process that reads a log behin
 URL copies it whole onto its own machine first (:func:`fetched_log`), and removes the
 copy when done, interrupted or not; nothing else downloads it. The copy is kept in the
 machine's cache of logs (:mod:`beatlog.suite.log_cache`), so a log unchanged since is not
-downloaded again; a cluster's worker fetches the log of the DTC it is likely to replay
-next into that cache in a background thread (:func:`fetch_ahead`) while it replays the
-current one. Planning work (splitting a suite into shards) asks only for its size
-(:func:`log_size`).
+downloaded again, and a cluster's worker fetches the next DTC's log into it while it
+replays one (:func:`fetch_ahead`). Planning work (splitting a suite into shards) asks
+only for its size (:func:`log_size`).
 
 A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
 (:data:`MAX_LOG_BYTES` unless set). Over ``http(s)`` a server must connect, and send
@@ -108,20 +107,15 @@ def http_quoted(url: str) -> str:
     return urlunsplit(split._replace(path=quote(split.path, safe="/%*?[]!:@&=+$,;~")))
 
 
-def url_filesystem(url: str) -> tuple[Any, str]:
+def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
     """The fsspec filesystem behind ``url``, and the URL's path on it; over ``http(s)``
-    each request (a size, a listing) ends within ``BEATLOG_URL_TIMEOUT``.
+    each request (a size, a listing) ends within ``BEATLOG_URL_TIMEOUT``, but for a
+    download (``streaming``), whose own bounds end it.
 
     :raises RemoteLogError: fsspec is not installed, or knows no such URL (an unknown
         scheme, or one whose backend's package is missing), or ``BEATLOG_URL_TIMEOUT``
         holds no number.
     """
-    return _filesystem(url, streaming=False)
-
-
-def _filesystem(url: str, *, streaming: bool) -> tuple[Any, str]:
-    """:func:`url_filesystem`; ``streaming``: for a download, whose requests have no
-    total timeout over ``http(s)`` (the download's own bounds end it)."""
     try:
         from fsspec.core import url_to_fs  # noqa: PLC0415 - an optional dependency
     except ModuleNotFoundError:
@@ -155,7 +149,7 @@ def fetched_log(
     if max_bytes is None:
         max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
     timeout = _timeout(url)
-    filesystem, path = _filesystem(url, streaming=True)
+    filesystem, path = url_filesystem(url, streaming=True)
     try:
         info: dict[str, Any] = filesystem.info(path)
     except FileNotFoundError as exc:
