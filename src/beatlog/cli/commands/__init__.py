@@ -60,18 +60,18 @@ COMMANDS: dict[str, Command] = {
         "show each pending baseline change with what it loses, and ask whether to accept, "
         "reject or skip it (and each loss); accepting writes the approved baseline",
         baselines.add_review_arguments,
-        baselines.review,
+        baselines.run_review,
     ),
     "approve": Command(
         "accept every pending baseline of DTC specs without asking, naming each loss it "
         "accepts (nothing pending is no error)",
         baselines.add_approve_arguments,
-        baselines.approve,
+        baselines.run_approve,
     ),
     "upgrade-baselines": Command(
         "rewrite baselines of older formats in the current one (recordings are untouched)",
         baselines.add_upgrade_arguments,
-        baselines.upgrade,
+        baselines.run_upgrade,
         runs_user_code=False,
     ),
     "show": Command("describe a session log", show.add_arguments, show.run, runs_user_code=False),
