@@ -1,6 +1,6 @@
 """The subcommands of ``beatlog``, one module each (the baseline commands share
 :mod:`~beatlog.cli.commands.baselines`), listed once in :data:`COMMANDS`: the
-parser is built from the table (:func:`beatlog.cli.parser.build_parser`) and the entry
+parser is built from the table (:func:`beatlog.cli.main.build_parser`) and the entry
 point runs from it. A module declares its command's arguments (``add_arguments``) and
 carries it out (``run``), importing what it uses when it runs, so that ``beatlog
 --help`` loads neither the engines nor rich."""
