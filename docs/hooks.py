@@ -10,7 +10,7 @@ import os
 from typing import Any
 
 from beatlog.cli.commands import COMMANDS
-from beatlog.cli.parser import build_parser
+from beatlog.cli.main import build_parser
 from beatlog.report import glossary
 
 WIDTH = "88"

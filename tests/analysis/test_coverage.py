@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.analysis.coverage import cover, declared_states
+from beatlog.analysis.coverage import SuiteCoverage, cover_changes, declared_states
+from beatlog.analysis.recorded import read_changes
 from beatlog.cli.main import main
-from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.record.recorder import Recorder
 from beatlog.suite.coverage import select_exercising, suite_coverage
@@ -19,6 +20,12 @@ from tests.commands import closing_counts
 from tests.conftest import PERIOD_NS, Dice, Probe, RecordFn, distances, probe_system
 from tests.specs import PROBE, write_spec
 from tests.text import table_row, whole_lines
+
+
+def _cover(dtcs: list[tuple[str, Path, System | None]]) -> SuiteCoverage:
+    """The coverage of DTCs given as (id, log, a fresh system or None)."""
+    recorded = [(dtc, read_changes(log), system) for dtc, log, system in dtcs]
+    return cover_changes((d, r.system, r.changes, r.cycles, s) for d, r, s in recorded)
 
 
 class Mood(enum.Enum):
@@ -52,7 +59,7 @@ def crossings(cycles: int) -> int:
 
 def test_states_and_transitions_are_counted_with_dtcs_and_cycles(record_probe: RecordFn) -> None:
     log = record_probe(300)
-    coverage = cover([("approach", log, probe_system())])
+    coverage = _cover([("approach", log, probe_system())])
     assert list(coverage.systems) == [PROBE]  # the one its log records
     near = coverage.systems[PROBE]["near"]
     far_to_near = near.transitions[('"far"', '"near"')]
@@ -71,7 +78,7 @@ def test_a_declared_state_no_dtc_reaches_is_unreached(tmp_path: Path) -> None:
         for distance in distances(300):
             recorder.step(PERIOD_NS, Probe(distance=distance))
     assert declared_states(watchful_system()) == {"watchful": ('"calm"', '"alert"', '"asleep"')}
-    coverage = cover([("watch", log, watchful_system())])
+    coverage = _cover([("watch", log, watchful_system())])
     assert list(coverage.systems) == ["tests.conftest.Probe"]  # its log records no reference
     assert coverage.systems["tests.conftest.Probe"]["watchful"].unreached == ('"asleep"',)
 
@@ -93,7 +100,7 @@ def test_a_state_that_is_an_enum_member_counts_as_its_value(tmp_path: Path) -> N
     with Recorder(log, system, seed=1, software="test") as recorder:
         for distance in distances(300):
             recorder.step(PERIOD_NS, Probe(distance=distance))
-    moody = cover([("moody", log, PriorityArbiter([Moody()], robot_state=Probe))])
+    moody = _cover([("moody", log, PriorityArbiter([Moody()], robot_state=Probe))])
     states = moody.systems["tests.conftest.Probe"]["watchful"].states
     assert set(states) == {'"calm"', '"alert"'}
     assert sum(seen.cycles for seen in states.values()) == 300

@@ -8,12 +8,19 @@ from pathlib import Path
 
 from rich.console import Console
 
-from beatlog.analysis.coverage import Seen, SuiteCoverage, cover
-from beatlog.model.behavior import BehaviorState, PriorityArbiter
+from beatlog.analysis.coverage import Seen, SuiteCoverage, cover_changes
+from beatlog.analysis.recorded import read_changes
+from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.report.coverage import coverage_html, render_coverage
 from tests.conftest import Probe
 from tests.systems import record_session
+
+
+def _cover(dtcs: list[tuple[str, Path, System | None]]) -> SuiteCoverage:
+    """The coverage of DTCs given as (id, log, a fresh system or None)."""
+    recorded = [(dtc, read_changes(log), system) for dtc, log, system in dtcs]
+    return cover_changes((d, r.system, r.changes, r.cycles, s) for d, r, s in recorded)
 
 
 def _text(coverage: SuiteCoverage, width: int) -> str:
@@ -75,7 +82,7 @@ def test_a_change_within_a_heartbeat_is_labelled_as_the_states_at_successive_hea
     tmp_path: Path,
 ) -> None:
     log = record_session(tmp_path / "hasty.beatlog", PriorityArbiter([Hasty()], robot_state=Probe))
-    coverage = cover([("hasty", log, None)])
+    coverage = _cover([("hasty", log, None)])
 
     text = " ".join(_text(coverage, 300).split())
     page = html.unescape(coverage_html(coverage))

@@ -4,6 +4,7 @@ back as a report that prints nothing."""
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -11,7 +12,7 @@ import pytest
 from beatlog.baseline.file import expected_path, pending_path, read_baseline
 from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import OptionError
-from beatlog.report.session import SuiteSession, conclude, prepare_report, run_session
+from beatlog.report.session import SuiteSession, conclude, prepare_report
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path
@@ -22,6 +23,15 @@ from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
 from tests.factories import fill_the_disk_after, opened_logs
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+
+
+def _run_session(
+    options: SuiteOptions, on_outcome: Callable[[SpecOutcome], object] | None = None
+) -> SuiteReport:
+    """Select, run and report a suite as ``beatlog test`` does."""
+    session = SuiteSession(options)
+    session.run(on_outcome)
+    return session.finish()
 
 
 @pytest.fixture
@@ -40,7 +50,7 @@ def test_a_session_runs_the_dtcs_and_writes_the_reports_printing_nothing(
     junit, coverage = tmp_path / "reports" / "junit.xml", tmp_path / "coverage.json"
     seen: list[SpecOutcome] = []
 
-    report = run_session(
+    report = _run_session(
         SuiteOptions(paths=(specs,), jobs=1, junit_xml=junit, coverage_json=coverage),
         on_outcome=seen.append,
     )
@@ -63,7 +73,7 @@ def test_a_session_runs_the_dtcs_and_writes_the_reports_printing_nothing(
 
 
 def test_an_update_writes_the_failures_pending_baselines(specs: Path) -> None:
-    report = run_session(SuiteOptions(paths=(specs,), jobs=1, update=UpdateMode.NEW))
+    report = _run_session(SuiteOptions(paths=(specs,), jobs=1, update=UpdateMode.NEW))
 
     assert [(update.spec.name, update.path) for update in report.updates] == [
         ("changed", pending_path(specs / "changed.dtc.toml"))
@@ -77,7 +87,7 @@ def test_a_full_disk_stops_the_update_in_one_line_keeping_what_was_written_whole
     write_spec(specs, "later-change", load_spec(specs / "changed.dtc.toml").log, CHANGED)
     fill_the_disk_after(monkeypatch, files=1)
 
-    report = run_session(SuiteOptions(paths=(specs,), jobs=1, update=UpdateMode.NEW))
+    report = _run_session(SuiteOptions(paths=(specs,), jobs=1, update=UpdateMode.NEW))
 
     written = pending_path(specs / "changed.dtc.toml")
     unwritten = pending_path(specs / "later-change.dtc.toml")
@@ -183,7 +193,7 @@ def test_a_run_with_coverage_reads_each_log_once_and_measures_what_the_logs_hold
     from_logs = suite_coverage(discover_specs([specs]))
     opened = opened_logs(monkeypatch)
 
-    report = run_session(SuiteOptions(paths=(specs,), jobs=1, coverage=True))
+    report = _run_session(SuiteOptions(paths=(specs,), jobs=1, coverage=True))
 
     assert report.coverage is not None
     assert report.coverage.to_json() == from_logs.to_json()

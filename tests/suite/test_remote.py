@@ -20,10 +20,12 @@ from beatlog.errors import RemoteLogError
 from beatlog.suite.remote import (
     MAX_BYTES_VARIABLE,
     TIMEOUT_VARIABLE,
+    fetch_ahead,
     fetched_log,
     is_url,
     log_size,
     url_name,
+    wait_for,
 )
 from tests.commands import plain
 from tests.served import LogServer
@@ -294,3 +296,25 @@ def test_an_http_url_without_aiohttp_is_one_line(monkeypatch: pytest.MonkeyPatch
         pass
 
     assert str(raised.value) == f"{url}: cannot open: import of aiohttp halted; None in sys.modules"
+
+
+# fetched ahead, in the background, into the machine's cache
+
+
+def test_a_log_fetched_ahead_is_replayed_from_the_cache(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    fetch_ahead(url)
+    fetch_ahead(url)  # already at it: not twice
+    wait_for(url)
+
+    with fetched_log(url) as copy:
+        assert copy.read_bytes() == (served.folder / "dock.beatlog").read_bytes()
+    assert served.downloads("dock.beatlog") == 1
+
+
+def test_a_log_that_cannot_be_fetched_ahead_is_left_to_its_dtc(served: LogServer) -> None:
+    url = f"{served.url}/lost.beatlog"
+    fetch_ahead(url)
+    wait_for(url)
+
+    wait_for(f"{served.url}/never-asked.beatlog")

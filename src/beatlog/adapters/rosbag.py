@@ -35,7 +35,7 @@ from __future__ import annotations
 import itertools
 import os
 import statistics
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -254,24 +254,14 @@ class _Import(BagMessages):
                     f"cycle {cycle} holds {held} bytes of messages, more than a cycle of a "
                     "log may; choose a shorter heartbeat period or fewer topics",
                 )
-            try:
-                state = self.perception(state, samples)
-            except BeatlogError:
-                raise
-            except (Exception, SystemExit) as exc:
-                raise self._failed("the perception step", cycle, exc) from None
+            state = self._run("the perception step", cycle, self.perception, state, samples)
             if not isinstance(state, robot_state):
                 raise BagError(
                     self.bag,
                     f"cycle {cycle}: the perception step built a {type(state).__name__}, "
                     f"not a {robot_state.__name__} (the system's robot state)",
                 )
-            try:
-                recorder.step(interval_ns, state, samples)
-            except BeatlogError:
-                raise
-            except (Exception, SystemExit) as exc:
-                raise self._failed("the system", cycle, exc) from None
+            self._run("the system", cycle, recorder.step, interval_ns, state, samples)
             self.folded += len(samples)
 
     def _checked_size(self, sample: Sample) -> int:
@@ -285,16 +275,23 @@ class _Import(BagMessages):
             )
         return size
 
-    def _failed(self, who: str, cycle: int, exc: BaseException) -> BagError:
-        message = " ".join(str(exc).split())
-        site = failure_site(exc)
-        return BagError(
-            self.bag,
-            f"cycle {cycle}: {who} raised {type(exc).__name__}"
-            + (f": {message}" if message else "")
-            + (f" ({site})" if site else ""),
-            user_traceback=user_traceback(exc),
-        )
+    def _run(self, who: str, cycle: int, call: Callable[..., Any], *args: Any) -> Any:
+        """``call(*args)``; what the user's code (``who``) raises is a :class:`BagError`
+        naming the cycle, with the user's traceback."""
+        try:
+            return call(*args)
+        except BeatlogError:
+            raise
+        except (Exception, SystemExit) as exc:
+            message = " ".join(str(exc).split())
+            site = failure_site(exc)
+            raise BagError(
+                self.bag,
+                f"cycle {cycle}: {who} raised {type(exc).__name__}"
+                + (f": {message}" if message else "")
+                + (f" ({site})" if site else ""),
+                user_traceback=user_traceback(exc),
+            ) from None
 
 
 def _by_period(

@@ -23,12 +23,10 @@ from __future__ import annotations
 import enum
 import json
 from collections import defaultdict
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
-from beatlog.analysis.recorded import read_changes
 from beatlog.model.behavior import System
 from beatlog.replaying.expectation import TracedChange
 
@@ -36,7 +34,6 @@ __all__ = [
     "BehaviorCoverage",
     "Seen",
     "SuiteCoverage",
-    "cover",
     "cover_changes",
     "declared_states",
 ]
@@ -196,32 +193,15 @@ def declared_states(system: System) -> dict[str, tuple[str, ...]]:
     return declared
 
 
-def cover(
-    dtcs: Iterable[tuple[str, str | Path, System | None]],
-) -> SuiteCoverage:
-    """The coverage of DTCs given as (id, log, a fresh system or None), each of the
-    system its log was recorded with
-    (:attr:`~beatlog.analysis.recorded.RecordedChanges.system`).
-
-    The system, when given, tells each behavior's first state (a behavior that never
-    changes still counts its cycles there) and its declared states.
-    """
-    return cover_changes(_recorded(dtcs))
-
-
-def _recorded(
-    dtcs: Iterable[tuple[str, str | Path, System | None]],
-) -> Iterator[tuple[str, str, Sequence[TracedChange], int, System | None]]:
-    for dtc, log, system in dtcs:
-        recorded = read_changes(log)
-        yield dtc, recorded.system, recorded.changes, recorded.cycles, system
-
-
 def cover_changes(
     dtcs: Iterable[tuple[str, str, Sequence[TracedChange], int, System | None]],
 ) -> SuiteCoverage:
     """The coverage of DTCs given as (id, the name of their system, the state changes
-    their log recorded, its cycles, a fresh system or None), as :func:`cover` reads them."""
+    their log recorded, its cycles, a fresh system or None), as a log's
+    :class:`~beatlog.analysis.recorded.RecordedChanges` hold them.
+
+    The system, when given, tells each behavior's first state (a behavior that never
+    changes still counts its cycles there) and its declared states."""
     suite = SuiteCoverage()
     for dtc, name, changes, cycles, system in dtcs:
         initial = {} if system is None else {n: b.state for n, b in system.behaviors.items()}

@@ -7,17 +7,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-import msgspec
-
 from beatlog.analysis.grid import TimeGrid
-from beatlog.errors import CorruptLogError
-from beatlog.log.format import (
-    DECODE_ERRORS,
-    EMPTY_LIST,
-    CycleRecord,
-    SessionHeader,
-    StateChangeRecord,
-)
+from beatlog.analysis.recorded import named_changes
+from beatlog.log.format import EMPTY_LIST, CycleRecord, SessionHeader
 from beatlog.model.behavior import BehaviorState, System
 from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.verdict import StateChange
@@ -115,7 +107,6 @@ class Lanes:
         self._grid = grid
         self._catalogue = list(header.behaviors)
         self._override = expected
-        self._changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
         self._expected: dict[str, _Lane] = {}
         self._actual: dict[str, _Lane] = {}
         recorded = header.initial_states_by_name()
@@ -159,7 +150,7 @@ class Lanes:
         elif record.state_changes == EMPTY_LIST:
             expected = []
         else:
-            expected = self._recorded(record.state_changes)
+            expected = named_changes(self.path, record.state_changes, self._catalogue, self.cycle)
         if expected:
             self._add(self._expected, expected)
         if outcome is None or self._stopped_ns is not None:
@@ -180,19 +171,6 @@ class Lanes:
             if lane is None:
                 lane = lanes[change.behavior] = _Lane(None, self._grid)
             lane.change(self.time_ns, change)
-
-    def _recorded(self, raw: msgspec.Raw) -> list[StateChange]:
-        try:
-            changes = self._changes_decoder.decode(raw)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(
-                self.path, f"damaged state changes in cycle {self.cycle}: {exc}"
-            ) from None
-        names = self._catalogue
-        return [
-            StateChange(names[index] if 0 <= index < len(names) else f"#{index}", before, after)
-            for index, before, after in changes
-        ]
 
     def lanes(self, end_ns: int) -> tuple[BehaviorLane, ...]:
         names = list(self._expected) + [n for n in self._actual if n not in self._expected]

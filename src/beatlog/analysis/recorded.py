@@ -6,6 +6,9 @@ its own (:func:`read_changes`)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
+
+import msgspec
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord
 from beatlog.log.payload import decode_part, decode_state_changes
@@ -14,7 +17,7 @@ from beatlog.log.recording import LogSource
 from beatlog.replaying.expectation import TracedChange
 from beatlog.replaying.verdict import StateChange
 
-__all__ = ["RecordedChanges", "read_changes"]
+__all__ = ["RecordedChanges", "named_changes", "read_changes"]
 
 
 class RecordedChanges:
@@ -46,19 +49,29 @@ class RecordedChanges:
         for record in batch:
             self._time_ns += record.heartbeat_ns
             if record.state_changes != EMPTY_LIST:
-                recorded = decode_part(
-                    self._path,
-                    record.state_changes,
-                    decode_state_changes,
-                    "state changes",
-                    self.cycles,
-                )
-                for index, before, after in recorded:
-                    name = names[index] if 0 <= index < len(names) else f"#{index}"
-                    changes.append(
-                        TracedChange(self.cycles, self._time_ns, StateChange(name, before, after))
+                changes.extend(
+                    TracedChange(self.cycles, self._time_ns, change)
+                    for change in named_changes(
+                        self._path, record.state_changes, names, self.cycles
                     )
+                )
             self.cycles += 1
+
+
+def named_changes(
+    path: Path, raw: msgspec.Raw, names: Sequence[str], cycle: int
+) -> list[StateChange]:
+    """The state changes cycle ``cycle`` recorded, each behavior named by the log's
+    catalogue ``names`` (``#N`` for an index outside it).
+
+    :raises beatlog.errors.CorruptLogError: they are damaged.
+    """
+    return [
+        StateChange(names[index] if 0 <= index < len(names) else f"#{index}", before, after)
+        for index, before, after in decode_part(
+            path, raw, decode_state_changes, "state changes", cycle
+        )
+    ]
 
 
 def read_changes(log: LogSource) -> RecordedChanges:

@@ -12,6 +12,7 @@ order of strings leaks into the behaviors' decisions.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
 import subprocess
@@ -110,16 +111,6 @@ def audit(
 
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
-    if auditors is None:
-        with Auditors() as alone:
-            return audit(
-                log,
-                system,
-                allow_truncated=allow_truncated,
-                hash_seeds=hash_seeds,
-                migration=migration,
-                auditors=alone,
-            )
     migration = migration or StateMigration()
     request = Request(
         str(log),
@@ -130,12 +121,14 @@ def audit(
         field_renames=dict(migration.renames),
         field_conversions=dict(migration.conversions),
     )
-    replays = auditors.replays
-    first, second = replays(hash_seeds, [request, msgspec.structs.replace(request, watch=False)])
-    runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
-    if _compare(runs, first.trace, second.trace, "") is not None:  # the runs took other paths
-        first, second = replays(hash_seeds, [request, request])
+    with Auditors() if auditors is None else contextlib.nullcontext(auditors) as used:
+        first, second = used.replays(
+            hash_seeds, [request, msgspec.structs.replace(request, watch=False)]
+        )
         runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
+        if _compare(runs, first.trace, second.trace, "") is not None:  # they took other paths
+            first, second = used.replays(hash_seeds, [request, request])
+            runs = (_seed_run(hash_seeds[0], first), _seed_run(hash_seeds[1], second))
     findings = _merge(first.findings, second.findings)
     return AuditReport(
         findings=findings,

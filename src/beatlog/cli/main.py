@@ -2,8 +2,9 @@
 
 The subcommands are listed once, in :data:`beatlog.cli.commands.COMMANDS`; each imports
 what it uses when it runs, so that ``beatlog --help`` loads neither the engines nor
-rich. This module is the entry point: it parses the command line, runs the subcommand,
-and turns what stops it into an exit code.
+rich. This module is the entry point: it builds the parser from that table (each
+subcommand with a ``--help`` page that says what it does and ends with the exit codes),
+parses the command line, runs the subcommand, and turns what stops it into an exit code.
 
 Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
 input (one line on stderr naming the file and the problem, never a traceback; with
@@ -16,6 +17,7 @@ removed).
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import os
 import signal
@@ -24,6 +26,8 @@ import threading
 from collections.abc import Iterator, Sequence
 from types import FrameType
 
+from beatlog._version import __version__
+from beatlog.cli.arguments import Parser
 from beatlog.cli.commands import COMMANDS
 from beatlog.cli.common import (
     EXIT_CODES,
@@ -32,10 +36,9 @@ from beatlog.cli.common import (
     EXIT_USAGE,
     print_error,
 )
-from beatlog.cli.parser import build_parser
 from beatlog.errors import BeatlogError
 
-__all__ = ["EXIT_CODES", "main"]
+__all__ = ["EXIT_CODES", "build_parser", "main"]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -61,6 +64,33 @@ def main(argv: Sequence[str] | None = None) -> int:
                 return EXIT_TERMINATED
             print(f"beatlog: {_interruption(stop)}", file=sys.stderr)
             return EXIT_INTERRUPTED
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of ``beatlog`` and of every subcommand in
+    :data:`~beatlog.cli.commands.COMMANDS`."""
+    parser = Parser(
+        prog="beatlog",
+        description="Record robot sessions and replay them as deterministic test cases.",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"beatlog {__version__}")
+    parser.set_defaults(beatlog_parser=parser)  # for ``beatlog help``, which prints its pages
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for name, command in COMMANDS.items():
+        common = Parser(add_help=False)
+        common.add_argument("-v", "--verbose", action="store_true", help=command.verbose)
+        subcommand = commands.add_parser(
+            name,
+            parents=[common],
+            help=command.help,
+            description=command.help[0].upper() + command.help[1:] + ".",
+            epilog=EXIT_CODES,
+            formatter_class=argparse.RawDescriptionHelpFormatter,
+        )
+        command.add_arguments(subcommand)
+    return parser
 
 
 def _import_from_working_directory() -> None:

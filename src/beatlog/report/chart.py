@@ -18,6 +18,7 @@ from matplotlib.patches import Patch
 from beatlog.analysis.timeline import Interval, Signal, Timeline
 from beatlog.errors import OptionError
 from beatlog.report.palette import PALETTE, state_label
+from beatlog.report.svg import timeline_states
 
 __all__ = [
     "CHART_FORMATS",
@@ -125,13 +126,8 @@ def _value_axis(ax: Axes, signal: Signal) -> None:
 
 def _state_colors(timeline: Timeline) -> dict[str, Any]:
     """One color per state name, in order of first appearance, the same in every lane."""
-    colors: dict[str, Any] = {}
-    for lane in timeline.lanes:
-        for interval in (*lane.expected, *lane.actual):
-            label = state_label(interval.state)
-            if label not in colors:
-                colors[label] = PALETTE[len(colors) % len(PALETTE)]
-    return colors
+    labels = timeline_states(timeline)
+    return {label: PALETTE[index % len(PALETTE)] for index, label in enumerate(labels)}
 
 
 def _draw_lanes(ax: Axes, timeline: Timeline, colors: dict[str, Any], duration_s: float) -> None:

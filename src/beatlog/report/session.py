@@ -40,7 +40,7 @@ if TYPE_CHECKING:
     from beatlog.suite.cluster import DaskExecutor
     from beatlog.suite.spec import DtcSpec
 
-__all__ = ["SuiteSession", "conclude", "prepare_report", "run_session"]
+__all__ = ["SuiteSession", "conclude", "prepare_report"]
 
 
 class SuiteSession:
@@ -182,16 +182,6 @@ class SuiteSession:
                 report, warnings=report.warnings + (() if warning is None else (warning,))
             )
         return report
-
-
-def run_session(
-    options: SuiteOptions, *, on_outcome: Callable[[SpecOutcome], object] | None = None
-) -> SuiteReport:
-    """Select, run and report a suite as ``beatlog test`` does (see
-    :class:`SuiteSession`); what the session did."""
-    session = SuiteSession(options)
-    session.run(on_outcome)
-    return session.finish()
 
 
 def conclude(

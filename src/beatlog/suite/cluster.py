@@ -10,7 +10,7 @@ shared with this one; a log behind a URL (a spec's, or a fleet's) is copied by t
 that replays it, and by no other process (see :mod:`beatlog.suite.remote`), into its
 machine's cache of logs; a task also fetches the log of the DTC its worker is likely to
 replay next (the one as many DTCs further on as the cluster has threads) while it
-replays its own (:mod:`beatlog.suite.prefetch`). The system's
+replays its own (:func:`~beatlog.suite.remote.fetch_ahead`). The system's
 package must be installed on the workers, as it is here: a worker without it makes the
 DTC an error that says so.
 
@@ -43,7 +43,7 @@ from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
 from beatlog.log.files import Closing
 from beatlog.project.usercode import importable_near
-from beatlog.suite.prefetch import fetch_ahead, wait_for
+from beatlog.suite.remote import fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
 from beatlog.suite.shipping import Packed, as_here, missing_system, packed, unpacked

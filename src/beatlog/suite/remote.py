@@ -5,8 +5,9 @@ The reader needs a regular, seekable file, so the process that reads a log behin
 URL copies it whole onto its own machine first (:func:`fetched_log`), and removes the
 copy when done, interrupted or not; nothing else downloads it. The copy is kept in the
 machine's cache of logs (:mod:`beatlog.suite.log_cache`), so a log unchanged since is not
-downloaded again. Planning work (splitting a suite into shards) asks only for its size
-(:func:`log_size`).
+downloaded again, and a cluster's worker fetches the next DTC's log into it while it
+replays one (:func:`fetch_ahead`). Planning work (splitting a suite into shards) asks
+only for its size (:func:`log_size`).
 
 A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
 (:data:`MAX_LOG_BYTES` unless set). Over ``http(s)`` a server must connect, and send
@@ -25,6 +26,7 @@ import math
 import os
 import re
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path, PurePosixPath
@@ -41,6 +43,7 @@ __all__ = [
     "PROGRESS_BYTES",
     "TIMEOUT_S",
     "TIMEOUT_VARIABLE",
+    "fetch_ahead",
     "fetched_log",
     "http_quoted",
     "is_url",
@@ -48,6 +51,7 @@ __all__ = [
     "named_as_given",
     "url_filesystem",
     "url_name",
+    "wait_for",
 ]
 
 MAX_LOG_BYTES = 256 << 20
@@ -69,6 +73,9 @@ Number = TypeVar("Number", int, float)
 _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _BLOCK = 1 << 20
 _HTTP = ("http", "https")
+_fetching_lock = threading.Lock()
+_fetching: dict[str, threading.Thread] = {}
+"""The logs this process fetches ahead, by URL."""
 
 
 def is_url(text: str) -> bool:
@@ -100,20 +107,15 @@ def http_quoted(url: str) -> str:
     return urlunsplit(split._replace(path=quote(split.path, safe="/%*?[]!:@&=+$,;~")))
 
 
-def url_filesystem(url: str) -> tuple[Any, str]:
+def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
     """The fsspec filesystem behind ``url``, and the URL's path on it; over ``http(s)``
-    each request (a size, a listing) ends within ``BEATLOG_URL_TIMEOUT``.
+    each request (a size, a listing) ends within ``BEATLOG_URL_TIMEOUT``, but for a
+    download (``streaming``), whose own bounds end it.
 
     :raises RemoteLogError: fsspec is not installed, or knows no such URL (an unknown
         scheme, or one whose backend's package is missing), or ``BEATLOG_URL_TIMEOUT``
         holds no number.
     """
-    return _filesystem(url, streaming=False)
-
-
-def _filesystem(url: str, *, streaming: bool) -> tuple[Any, str]:
-    """:func:`url_filesystem`; ``streaming``: for a download, whose requests have no
-    total timeout over ``http(s)`` (the download's own bounds end it)."""
     try:
         from fsspec.core import url_to_fs  # noqa: PLC0415 - an optional dependency
     except ModuleNotFoundError:
@@ -147,7 +149,7 @@ def fetched_log(
     if max_bytes is None:
         max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
     timeout = _timeout(url)
-    filesystem, path = _filesystem(url, streaming=True)
+    filesystem, path = url_filesystem(url, streaming=True)
     try:
         info: dict[str, Any] = filesystem.info(path)
     except FileNotFoundError as exc:
@@ -162,6 +164,39 @@ def fetched_log(
 
     with cached_copy(url, info, url_name(url), fetch) as copy:
         yield copy
+
+
+def fetch_ahead(url: str) -> None:
+    """Start copying the log behind ``url`` into this machine's cache in the background,
+    unless this process is already at it (:func:`wait_for` waits for it). A log fetched
+    ahead by another machine is simply fetched again where it is replayed; one that
+    cannot be fetched is left to the DTC's own copy, which says what is wrong."""
+    with _fetching_lock:
+        if url in _fetching:
+            return
+        thread = threading.Thread(target=_fetch, args=(url,), name="beatlog-fetch", daemon=True)
+        _fetching[url] = thread
+        thread.start()
+
+
+def wait_for(url: str) -> None:
+    """Return once this process is no longer fetching ``url`` ahead."""
+    with _fetching_lock:
+        thread = _fetching.get(url)
+    if thread is not None:
+        thread.join()
+
+
+def _fetch(url: str) -> None:
+    """Copy the log behind ``url`` into the cache, and forget it is being fetched."""
+    try:
+        with fetched_log(url):
+            pass
+    except RemoteLogError:
+        pass  # the DTC's own copy says what is wrong
+    finally:
+        with _fetching_lock:
+            del _fetching[url]
 
 
 def named_as_given(text: str, copy: str | Path, url: str) -> str:

@@ -1,5 +1,9 @@
 """The JSON schemas of the MCAP export's channels, in the one shape Foxglove's and
-Lichtblick's schema parser reads (see :mod:`beatlog.adapters.export`)."""
+Lichtblick's schema parser reads (see :mod:`beatlog.adapters.export`).
+
+Two are Foxglove's well-known schemas as published in foxglove/foxglove-sdk
+(``schemas/jsonschema/*.json``): the name makes Foxglove's panels take the channel (the
+Log panel a ``foxglove.Log``, the 3D panel a ``foxglove.FrameTransform``)."""
 
 from __future__ import annotations
 
@@ -12,7 +16,9 @@ from beatlog.replaying.verdict import DivergenceKind
 __all__ = [
     "BEHAVIOR_SCHEMA",
     "DIVERGENCE_SCHEMA",
+    "FRAME_TRANSFORM_SCHEMA",
     "HEARTBEAT_SCHEMA",
+    "LOG_SCHEMA",
     "RANDOM_SCHEMA",
     "outputs_schema",
     "robot_state_schema",
@@ -88,6 +94,78 @@ DIVERGENCE_SCHEMA = _record_schema(
     actual={"type": "array", "items": _CHANGE},
     reproduce={"type": "string"},
 )
+
+
+def _time(description: str) -> dict[str, Any]:
+    return {
+        "type": "object",
+        "title": "time",
+        "properties": {
+            "sec": {"type": "integer", "minimum": 0},
+            "nsec": {"type": "integer", "minimum": 0, "maximum": 999999999},
+        },
+        "description": description,
+    }
+
+
+def _numbers(title: str, description: str, names: str, what: str) -> dict[str, Any]:
+    return {
+        "title": title,
+        "description": description,
+        "type": "object",
+        "properties": {name: {"type": "number", "description": f"{name} {what}"} for name in names},
+        "required": list(names),
+    }
+
+
+# foxglove.Log, except its level: there a oneOf of the level constants, which
+# Lichtblick's parser rejects in releases that predate its enum support, here an integer.
+LOG_SCHEMA = {
+    "title": "Log",
+    "description": "A log message",
+    "type": "object",
+    "properties": {
+        "timestamp": _time("Timestamp of log message"),
+        "level": {
+            "type": "integer",
+            "minimum": 0,
+            "maximum": 5,
+            "title": "LogLevel: Log level",
+            "description": "Log level: 0 UNKNOWN, 1 DEBUG, 2 INFO, 3 WARNING, 4 ERROR, 5 FATAL",
+        },
+        "message": {"type": "string", "description": "Log message"},
+        "name": {"type": "string", "description": "Process or node name"},
+        "file": {"type": "string", "description": "Filename"},
+        "line": {"type": "integer", "minimum": 0, "description": "Line number in the file"},
+    },
+}
+FRAME_TRANSFORM_SCHEMA = {
+    "title": "foxglove.FrameTransform",
+    "description": "A transform between two reference frames in 3D space. The transform "
+    "defines the position and orientation of a child frame within a parent frame. Foxglove "
+    "applies the translation first and then the rotation.",
+    "type": "object",
+    "properties": {
+        "timestamp": _time("Timestamp of transform"),
+        "parent_frame_id": {"type": "string", "description": "Name of the parent frame"},
+        "child_frame_id": {"type": "string", "description": "Name of the child frame"},
+        "translation": _numbers(
+            "foxglove.Vector3",
+            "Translation component of the transform, representing the position of the "
+            "child frame's origin in the parent frame.",
+            "xyz",
+            "coordinate length",
+        ),
+        "rotation": _numbers(
+            "foxglove.Quaternion",
+            "Rotation component of the transform, representing the orientation of the "
+            "child frame in the parent frame",
+            "xyzw",
+            "value",
+        ),
+    },
+    "required": ["timestamp", "parent_frame_id", "child_frame_id", "translation", "rotation"],
+}
 
 
 def robot_state_schema(title: str, robot_state: Field) -> dict[str, Any]:

@@ -10,7 +10,6 @@ from pathlib import Path
 from typing import Any
 
 from beatlog.adapters.export.fields import BASE64, BY_TYPE, Field, Kind, json_text, state_text
-from beatlog.adapters.export.formats import ExportFormat
 from beatlog.adapters.export.reading import Session, log_metadata, states_after
 from beatlog.errors import CorruptLogError, ExportError
 
@@ -21,9 +20,10 @@ _FIRST_COLUMNS = ("cycle", "time_ns", "heartbeat_ns")
 _DRAWS_COLUMN = "draws"
 
 
-def write_table(part: Path, session: Session, chosen: ExportFormat) -> None:
-    """One row per cycle, the columns typed by the robot-state schema, the catalogue and
-    the outputs' types, so every log of a system has the same columns of the same types."""
+def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
+    """One row per cycle, as CSV or else Parquet, the columns typed by the robot-state
+    schema, the catalogue and the outputs' types, so every log of a system has the same
+    columns of the same types."""
     log, first = session.log, session.first
     states = dict(first.initial)
     state_columns = _state_columns(first.robot_state.fields)
@@ -62,7 +62,7 @@ def write_table(part: Path, session: Session, chosen: ExportFormat) -> None:
         for name, column in output_columns.items():
             values[column].append(cycle.outputs.get(name))
         values[_DRAWS_COLUMN].append(len(cycle.draws))
-    if chosen is ExportFormat.CSV:
+    if as_csv:
         with part.open("w", encoding="utf-8", newline="") as file:
             table = csv.writer(file)
             table.writerow(columns)

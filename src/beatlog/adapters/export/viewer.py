@@ -11,7 +11,6 @@ from typing import Any, NamedTuple
 from mcap.writer import Writer
 
 from beatlog._version import __version__
-from beatlog.adapters import foxglove
 from beatlog.adapters.export.fields import (
     BY_TYPE,
     GAP,
@@ -30,7 +29,9 @@ from beatlog.adapters.export.reading import Cycle, Session, log_metadata, states
 from beatlog.adapters.export.schemas import (
     BEHAVIOR_SCHEMA,
     DIVERGENCE_SCHEMA,
+    FRAME_TRANSFORM_SCHEMA,
     HEARTBEAT_SCHEMA,
+    LOG_SCHEMA,
     RANDOM_SCHEMA,
     outputs_schema,
     robot_state_schema,
@@ -162,7 +163,7 @@ def write_mcap(part: Path, session: Session, replayed: ReplayResult | None) -> N
             name: channels.add(f"/behaviors/{name}", "beatlog.BehaviorState", BEHAVIOR_SCHEMA)
             for name in header.behaviors
         }
-        state_changes = channels.add("/state_changes", "foxglove.Log", foxglove.LOG_SCHEMA)
+        state_changes = channels.add("/state_changes", "foxglove.Log", LOG_SCHEMA)
         outputs = channels.add("/outputs", "beatlog.Outputs", outputs_schema(outputs_field))
         random_numbers = channels.add("/random_numbers", "beatlog.RandomNumbers", RANDOM_SCHEMA)
         heartbeat = channels.add("/heartbeat", "beatlog.Heartbeat", HEARTBEAT_SCHEMA)
@@ -257,9 +258,7 @@ class _PoseChannel:
             if pose is None
             else (
                 pose,
-                channels.add(
-                    _POSE_TOPIC, "foxglove.FrameTransform", foxglove.FRAME_TRANSFORM_SCHEMA
-                ),
+                channels.add(_POSE_TOPIC, "foxglove.FrameTransform", FRAME_TRANSFORM_SCHEMA),
             )
         )
 
@@ -271,8 +270,7 @@ class _PoseChannel:
         placed = pose.of(cycle.robot_state)
         if placed is not None:
             position, yaw = placed
-            time_ns = self._channels.stamp(cycle)
-            message = foxglove.frame_transform(time_ns, *_POSE_FRAMES, position, yaw)
+            message = _frame_transform(self._channels.stamp(cycle), position, yaw)
             self._channels.write(channel, cycle, message, "pose")
 
 
@@ -282,10 +280,38 @@ def _with_non_finite(message: dict[str, Any], non_finite: list[str]) -> dict[str
     return message
 
 
+def _timestamp(time_ns: int) -> dict[str, int]:
+    seconds, nanoseconds = divmod(time_ns, 1_000_000_000)
+    return {"sec": seconds, "nsec": nanoseconds}
+
+
 def _log_message(time_ns: int, change: StateChange) -> dict[str, Any]:
-    """A behavior state change as a ``foxglove.Log`` message."""
-    message = f"{change.behavior}: {change.before} -> {change.after}"
-    return foxglove.log_message(time_ns, foxglove.LOG_INFO, message, change.behavior)
+    """A behavior state change as a ``foxglove.Log`` message stamped ``time_ns`` (Unix
+    ns), of level INFO (2)."""
+    return {
+        "timestamp": _timestamp(time_ns),
+        "level": 2,
+        "message": f"{change.behavior}: {change.before} -> {change.after}",
+        "name": change.behavior,
+        "file": "",
+        "line": 0,
+    }
+
+
+def _frame_transform(
+    time_ns: int, position: tuple[float, float, float], yaw: float
+) -> dict[str, Any]:
+    """A ``foxglove.FrameTransform`` placing the robot's frame at ``position`` in the fixed
+    frame, turned ``yaw`` radians counter-clockwise about the z axis."""
+    x, y, z = position
+    parent, child = _POSE_FRAMES
+    return {
+        "timestamp": _timestamp(time_ns),
+        "parent_frame_id": parent,
+        "child_frame_id": child,
+        "translation": {"x": x, "y": y, "z": z},
+        "rotation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)},
+    }
 
 
 def _draws_message(cycle: Cycle, log: Path) -> dict[str, Any]:

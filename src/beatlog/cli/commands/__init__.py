@@ -1,5 +1,6 @@
-"""The subcommands of ``beatlog``, one module each, listed once in :data:`COMMANDS`: the
-parser is built from the table (:func:`beatlog.cli.parser.build_parser`) and the entry
+"""The subcommands of ``beatlog``, one module each (the baseline commands share
+:mod:`~beatlog.cli.commands.baselines`), listed once in :data:`COMMANDS`: the
+parser is built from the table (:func:`beatlog.cli.main.build_parser`) and the entry
 point runs from it. A module declares its command's arguments (``add_arguments``) and
 carries it out (``run``), importing what it uses when it runs, so that ``beatlog
 --help`` loads neither the engines nor rich."""
@@ -11,17 +12,15 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
 from beatlog.cli.commands import (
-    approve,
+    baselines,
     demo,
     export,
     import_bag,
     plot,
     record,
     replay,
-    review,
     show,
     test,
-    upgrade_baselines,
 )
 from beatlog.cli.commands import help as helping
 
@@ -60,19 +59,19 @@ COMMANDS: dict[str, Command] = {
     "review": Command(
         "show each pending baseline change with what it loses, and ask whether to accept, "
         "reject or skip it (and each loss); accepting writes the approved baseline",
-        review.add_arguments,
-        review.run,
+        baselines.add_review_arguments,
+        baselines.run_review,
     ),
     "approve": Command(
         "accept every pending baseline of DTC specs without asking, naming each loss it "
         "accepts (nothing pending is no error)",
-        approve.add_arguments,
-        approve.run,
+        baselines.add_approve_arguments,
+        baselines.run_approve,
     ),
     "upgrade-baselines": Command(
         "rewrite baselines of older formats in the current one (recordings are untouched)",
-        upgrade_baselines.add_arguments,
-        upgrade_baselines.run,
+        baselines.add_upgrade_arguments,
+        baselines.run_upgrade,
         runs_user_code=False,
     ),
     "show": Command("describe a session log", show.add_arguments, show.run, runs_user_code=False),

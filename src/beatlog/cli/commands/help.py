@@ -34,7 +34,7 @@ def add_arguments(helping: argparse.ArgumentParser, *, topics: Collection[str]) 
 
 def run(args: argparse.Namespace, console: Console) -> int:
     """Print the help page of beatlog or of the command named, with the parser that
-    parsed ``args`` (:func:`beatlog.cli.parser.build_parser` hands it over), or the
+    parsed ``args`` (:func:`beatlog.cli.main.build_parser` hands it over), or the
     glossary's entry for the term named, or the whole glossary."""
     from beatlog.report import glossary
 
