@@ -141,6 +141,33 @@ def fragile_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Near(), Fragile()], robot_state=Probe)
 
 
+class Weary(Near):
+    """Near that wears out: it raises on its fourth approach to the pole, a bug that
+    only a state reached late in a session (after three approaches) triggers."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.approaches = 0
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        was = self.state
+        outputs = super().step(rs, ctx)
+        if was == "far" and self.state == "near":
+            self.approaches += 1
+            if self.approaches == WORN_OUT:
+                raise RuntimeError("worn out")
+        return outputs
+
+
+WORN_OUT = 4
+"""The approach on which :class:`Weary` raises."""
+
+
+def weary_system() -> PriorityArbiter[Probe]:
+    """The probe with a near that raises on its fourth approach."""
+    return PriorityArbiter([Weary(), Dice()], robot_state=Probe)
+
+
 class Hostile:
     """A behavior whose name and states are markup and TeX, as user data may be."""
 

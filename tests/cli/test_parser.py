@@ -16,6 +16,7 @@ SUBCOMMANDS = [
     "record",
     "replay",
     "test",
+    "shrink",
     "review",
     "approve",
     "upgrade-baselines",

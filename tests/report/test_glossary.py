@@ -102,6 +102,12 @@ PRINTED = [
     # beatlog upgrade-baselines
     "upgraded",
     "older format",
+    # beatlog shrink, and a spec's window
+    "shrunk",
+    "nothing to shrink",
+    "replays tried",
+    "window",
+    "before the window",
 ]
 """The words the CLI's messages and reports print that no enum or constant lists."""
 

@@ -9,7 +9,7 @@ import pytest
 from beatlog.errors import SpecError
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
-from beatlog.suite.spec import load_spec, spec_text
+from beatlog.suite.spec import load_spec, read_spec_data, spec_from_data, spec_text, spec_toml
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec
 
@@ -174,6 +174,34 @@ def test_an_empty_name_is_rejected(tmp_path: Path) -> None:
     assert_spec_error(path, "key 'name': must not be empty")
 
 
+def test_a_window_of_cycles_loads_into_the_spec(tmp_path: Path) -> None:
+    spec = load_spec(write_spec(tmp_path, "window", "probe.beatlog", start_cycle=40, end_cycle=60))
+
+    assert (spec.start_cycle, spec.end_cycle) == (40, 60)
+
+
+def test_without_a_window_a_spec_judges_every_cycle(tmp_path: Path) -> None:
+    spec = load_spec(write_spec(tmp_path, "whole", "probe.beatlog"))
+
+    assert (spec.start_cycle, spec.end_cycle) == (0, None)
+
+
+@pytest.mark.parametrize(
+    ("window", "problem"),
+    [
+        ({"start_cycle": -1}, "key 'start_cycle': expected a cycle number >= 0, got -1"),
+        ({"end_cycle": -3}, "key 'end_cycle': expected a cycle number >= 0, got -3"),
+        ({"start_cycle": 61, "end_cycle": 60}, "key 'start_cycle': 61 is after end_cycle 60"),
+    ],
+)
+def test_a_window_that_holds_no_cycle_is_rejected(
+    tmp_path: Path, window: dict[str, int], problem: str
+) -> None:
+    path = write_spec(tmp_path, "window", "probe.beatlog", **window)
+
+    assert_spec_error(path, problem)
+
+
 def test_a_system_without_a_colon_is_rejected(tmp_path: Path) -> None:
     path = write_spec(tmp_path, "no-factory", "probe.beatlog", system="tests.conftest")
 
@@ -330,3 +358,22 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
         "myrobot:perception",
     )
     assert list(spec.tags) == ["touch", "falls"]
+
+
+def test_a_specs_data_written_as_toml_loads_back_the_same(tmp_path: Path) -> None:
+    path = write_spec(
+        tmp_path,
+        "round-trip",
+        "probe.beatlog",
+        tags=["a b"],
+        end_cycle=60,
+        renames={"near": "close"},
+        field_renames={"pose.x": "pose.px"},
+        tolerance={"speed": 1e-9},
+    )
+    data = read_spec_data(path)
+    again = tmp_path / "again.dtc.toml"
+    again.write_text(spec_toml(data), encoding="utf-8")
+
+    assert read_spec_data(again) == data
+    assert spec_from_data(again, data) == load_spec(again)

@@ -23,7 +23,7 @@ from typing import Any
 
 import msgspec
 
-from beatlog.errors import CorruptLogError, EmptyCheckError
+from beatlog.errors import CorruptLogError, EmptyCheckError, WindowError
 from beatlog.log.format import CycleRecord, StateChangeRecord, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
@@ -82,6 +82,8 @@ def replay(
     observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
     readers: Sequence[Callable[[SessionLogReader], BatchReader]] = (),
     migration: StateMigration | None = None,
+    start_cycle: int = 0,
+    end_cycle: int | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
     by default the reference recorded in the log's header, see :func:`recorded_system`).
@@ -128,12 +130,22 @@ def replay(
     declares replays with a note saying so
     (:func:`~beatlog.replaying.fit.check.period_note`).
 
+    ``start_cycle`` and ``end_cycle`` (both inclusive) narrow the verdict to a window of
+    cycles: the cycles before ``start_cycle`` are replayed as recorded, to rebuild the
+    behaviors' state, and are not judged, except that replay must be able to go on past
+    each (a behavior that raises there, or cannot draw as recorded, fails the replay
+    "before the window"); replay stops after ``end_cycle``, and the rest of the log is
+    not read (the part read is checked as ever). The result then counts the window's
+    cycles alone, and has no status: the log's end was not read.
+
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replaying.fit`).
     :raises beatlog.errors.FieldError: a robot-state tolerance names a field the recorded
         robot state lacks.
     :raises beatlog.errors.EmptyCheckError: the replay found no difference, but checked
         nothing either, and ``allow_empty`` is not set.
+    :raises beatlog.errors.WindowError: the window starts or ends past the log's last
+        cycle.
     """
     if system is None:
         system = recorded_system(Path(log))
@@ -171,6 +183,8 @@ def replay(
             context=context_cycles,
             comparison=comparison,
             expected=expected,
+            start_cycle=start_cycle,
+            end_cycle=end_cycle,
         )
         watching = [_WhileJudging(factory(reader), judge) for factory in observers]
         if observe is not None:
@@ -181,9 +195,12 @@ def replay(
             reader.decode_states(judge.replayer.state_type)
         session.run(watching, judge=judge, readers=[factory(reader) for factory in readers])
         judge.end()
-        status = reader.status
-        if judge.judging and not status.complete and not allow_truncated:
-            judge.log_ended(status.describe())
+        status = None if judge.window_closed else reader.status
+        if status is not None and judge.judging:
+            if not status.complete and not allow_truncated:
+                judge.log_ended(status.describe())
+            else:
+                judge.check_window(status.cycles)
         wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
@@ -218,6 +235,8 @@ def replay(
             *(["--allow-truncated"] if allow_truncated else []),
             *(["--allow-empty"] if allow_empty else []),
             *migration.arguments(),
+            *(["--start-cycle", str(start_cycle)] if start_cycle else []),
+            *([] if end_cycle is None else ["--end-cycle", str(end_cycle)]),
         ),
         notes=tuple(note for note in (period_note(reader.header, system), no_samples) if note),
     )
@@ -231,6 +250,9 @@ class CycleJudge:
     ``expected`` is an approved baseline to judge against instead of the recording: its
     state changes and outputs, the draws it approves and the robot states it pins.
     Past the divergence where it stops, a :class:`Follower` gathers what happened next.
+    It judges the cycles from ``start_cycle`` to ``end_cycle`` (both inclusive; None: to
+    the log's end): the earlier ones must only let replay go on, and the log's batches
+    end after ``end_cycle``.
     """
 
     def __init__(
@@ -241,12 +263,24 @@ class CycleJudge:
         context: int,
         comparison: Comparison,
         expected: Expectation | None,
+        start_cycle: int = 0,
+        end_cycle: int | None = None,
     ) -> None:
         header, path = replayer.header, replayer.path
         self.comparison = comparison
         self.context = context
         """Cycles shown either side of the first divergence."""
         self._keep_going = keep_going
+        self._start = start_cycle
+        """The first cycle judged: those before it only rebuild the behaviors' state."""
+        self._end = end_cycle
+        """The last cycle judged and read; None: the log's last."""
+        self._start_ns = 0
+        """Robot time where the window starts."""
+        self._samples_before = 0
+        """Samples perceived before the window: not judged."""
+        self.window_closed = False
+        """Whether the log's batches stopped at the window's end, the rest unread."""
         self.path = path
         self.replayer = replayer
         check_catalogue(header, replayer.system, path, comparison.renames)
@@ -296,7 +330,7 @@ class CycleJudge:
             Expected(
                 None if self.executor.behavior_ids == self.expected_names else expected_index,
                 encoder,
-                frozenset(),
+                frozenset(range(start_cycle)),
                 None if self._ledger is None else self._ledger.approves,
             )
         )
@@ -307,19 +341,30 @@ class CycleJudge:
         before a divergence as it is handed on."""
         if self._expected is not None:
             batches = self._expected.batches(batches, self.path)
+        left = None if self._end is None else self._end + 1
         for batch in batches:
+            if left is not None and len(batch) >= left:
+                self.window_closed = True
+                batch = batch[:left]  # noqa: PLW2901 - the window's end: the last batch read
             self._batches.append(batch)
             yield batch
+            if self.window_closed:
+                return
+            if left is not None:
+                left -= len(batch)
 
     @property
     def cycles(self) -> int:
-        """Cycles judged: up to the divergence that stopped replay, or all of them."""
-        return self._stopped_at[0] if self._stopped_at else self.executor.context.cycle + 1
+        """Cycles judged: from the window's start up to the divergence that stopped
+        replay, or all of them."""
+        end = self._stopped_at[0] if self._stopped_at else self.executor.context.cycle + 1
+        return max(0, end - self._start)
 
     @property
     def robot_time_ns(self) -> int:
         """Robot time judged, matching :attr:`cycles`."""
-        return self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
+        end = self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
+        return max(0, end - self._start_ns)
 
     @property
     def checked(self) -> Checked:
@@ -329,7 +374,7 @@ class CycleJudge:
             changes + self._changes_checked,
             outputs + self._outputs_checked,
             draws + self._draws_checked,
-            self._samples_perceived - self._samples_diverged,
+            self._samples_perceived - self._samples_before - self._samples_diverged,
         )
 
     @property
@@ -344,6 +389,17 @@ class CycleJudge:
             self._follower.end()
         if self._stopped_at is None:
             self._samples_perceived = self.replayer.samples_perceived
+
+    def check_window(self, cycles: int) -> None:
+        """Refuse a window the log, complete with ``cycles`` cycles, does not hold.
+
+        :raises beatlog.errors.WindowError: it starts or ends past the last cycle.
+        """
+        for key, cycle in (("end_cycle", self._end), ("start_cycle", self._start or None)):
+            if cycle is not None and cycle >= cycles:
+                raise WindowError(
+                    self.path, key, f"{cycle} is past the log's last cycle ({cycles - 1})"
+                )
 
     def log_ended(self, why: str) -> None:
         """Record that the log stopped before the recording closed it."""
@@ -370,8 +426,18 @@ class CycleJudge:
         (or only as an approved baseline lets it differ) and its state changes and
         outputs match: byte for byte, else by the :class:`Comparison` (state changes as
         a set, allowances applied). Only a cycle that does not agree gets its full
-        outcome."""
+        outcome. A cycle before the window is not judged: it fails only where replay
+        cannot go on past it."""
         replayer = self.replayer
+        if self.executor.context.cycle < self._start:
+            self._start_ns = self.executor.clock.now_ns
+            self._samples_before = replayer.samples_perceived
+            if changes is not None:
+                return None
+            outcome = outcome or replayer.outcome()
+            if replayer.stop(outcome) is None:
+                return None
+            return self._stop(index, outcome)
         if changes is None:
             outcome = outcome or replayer.outcome()  # judged by its robot state, then as usual
             changes = outcome.changes if self._agrees_but_for_pins(outcome) else None
@@ -396,6 +462,12 @@ class CycleJudge:
         outcome = outcome or replayer.outcome()
         if unloggable is not None:
             outcome = outcome._replace(failure=unloggable)
+        return self._stop(index, outcome)
+
+    def _stop(self, index: int, outcome: CycleOutcome) -> Follower | None:
+        """Write up the cycle of ``outcome``, the ``index``-th of its batch, as a
+        divergence; judging stops there unless it keeps going."""
+        replayer = self.replayer
         first = self.divergence is None
         if first:
             self._recent = self._window(index)
@@ -570,6 +642,8 @@ class CycleJudge:
                 "; the state changes differ only in the order behaviors are listed,"
                 " which is no difference"
             )
+        if outcome.cycle < self._start:
+            message = f"before the window (cycle {self._start} on): {message}"
         completed = failure is None and outcome.draw_problem is None
         self.divergence = Divergence(
             kind=kind,

@@ -20,7 +20,7 @@ from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
 from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
-from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
+from beatlog.errors import BaselineError, BeatlogError, RemoteLogError, WindowError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
@@ -193,6 +193,8 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             explain=False,
             perception=spec.perception,
             migration=spec.migration,
+            start_cycle=spec.start_cycle,
+            end_cycle=spec.end_cycle,
         )
         replayed: System | str = system
         charts: list[TimelineCollector] = []
@@ -220,12 +222,17 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             divergence is not None
             and divergence.kind is not DivergenceKind.LOG_ENDED
             and log.data is not None
+            and not options.verdict_only
         ):
             notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
         updating = update is UpdateMode.NEW and divergence is not None
         refused = refusal(divergence) if updating and divergence is not None else None
-        details = _details(
-            spec, log, system, divergence, expected, trace=updating, timelines=timelines
+        details = (
+            None
+            if options.verdict_only
+            else _details(
+                spec, log, system, divergence, expected, trace=updating, timelines=timelines
+            )
         )
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
@@ -256,7 +263,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
-            spec, Verdict.ERROR, None, str(exc), wall, error_traceback=exc.user_traceback
+            spec, Verdict.ERROR, None, _problem(spec, exc), wall, error_traceback=exc.user_traceback
         )
     return SpecOutcome(
         spec,
@@ -274,6 +281,14 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         recorded=recorded[0] if recorded else None,
         recording=None if changes is None or log.data is None else log,
     )
+
+
+def _problem(spec: DtcSpec, error: BeatlogError) -> str:
+    """Why the DTC could not run, in one line: a window its log does not hold is a
+    problem of the spec's key."""
+    if isinstance(error, WindowError):
+        return f"{spec.path}: key {error.key!r}: {error.detail}"
+    return str(error)
 
 
 def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> None:

@@ -17,6 +17,8 @@ the system factory to replay it against::
     field_conversions = { battery = "mypkg.compat:percent" }  # retyped: field = converter
     ignore_behaviors = ["blink"]            # their state changes are not compared
     ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
+    start_cycle = 4200                      # judge only cycles 4200 to 4380 (inclusive):
+    end_cycle = 4380                        # earlier ones rebuild state, later are not read
 
     [tolerance]                             # largest accepted difference per output field
     wheel_speed = 1e-9
@@ -51,6 +53,11 @@ since the recording onto the system's (:mod:`beatlog.replaying.fit.migration`): 
 nested struct is named by its dotted path (``"pose.x" = "pose.px"``, or TOML's own
 ``pose.x = "pose.px"``), and a conversion is a ``module:function`` that takes the
 recorded value and returns the field's new one, imported as ``system`` is.
+
+``start_cycle`` and ``end_cycle`` narrow the DTC to a window of its log (what ``beatlog
+shrink`` writes): the cycles before ``start_cycle`` replay as recorded, unjudged, to
+rebuild the behaviors' state; replay stops after ``end_cycle``, the rest of the log
+unread. A window past the log's last cycle is an error of the spec.
 """
 
 from __future__ import annotations
@@ -60,10 +67,11 @@ import json
 import math
 import os
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import msgspec
 
@@ -87,7 +95,10 @@ __all__ = [
     "DtcSpec",
     "find_rootdir",
     "load_spec",
+    "read_spec_data",
+    "spec_from_data",
     "spec_text",
+    "spec_toml",
 ]
 
 MAX_SPEC_BYTES = 1 << 20
@@ -111,6 +122,8 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     ignore_fields: list[str] = []
     tolerance: dict[str, float] = {}
     robot_state_tolerance: dict[str, float] = {}
+    start_cycle: int | None = None
+    end_cycle: int | None = None
 
 
 @dataclass(frozen=True)
@@ -155,6 +168,10 @@ class DtcSpec:
     named_by_id: bool = False
     """Whether reports name the DTC by its id: another DTC of the run has its name (see
     :func:`~beatlog.suite.discovery.distinguished`)."""
+    start_cycle: int = 0
+    """The first cycle judged: the cycles before it replay as recorded, unjudged."""
+    end_cycle: int | None = None
+    """The last cycle judged and read (inclusive); None: the log's last."""
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -199,11 +216,27 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
     Its id starts from ``rootdir`` (by default, the one :func:`find_rootdir` finds for
     it)."""
     path = Path(path)
+    return spec_from_data(path, read_spec_data(path), rootdir=rootdir)
+
+
+def read_spec_data(path: Path) -> dict[str, Any]:
+    """A spec file's TOML, as data, unchecked (:func:`spec_from_data` checks it): what
+    tools that write a spec from another (``beatlog shrink``) start from.
+
+    :raises beatlog.errors.SpecError: it cannot be read, or is not TOML.
+    """
     text = read_small_text(path, limit=MAX_SPEC_BYTES, kind="DTC spec", error=SpecError)
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(path, f"not valid TOML: {exc}") from None
+
+
+def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None = None) -> DtcSpec:
+    """The spec that ``data`` (a spec file's TOML) makes when it lies at ``path``,
+    validated as :func:`load_spec` validates a file; problems raise :class:`SpecError`
+    naming ``path`` and the key."""
+    data = dict(data)
     if (problem := keys_problem(data, _SpecFile)) is not None:
         raise SpecError(path, problem)
     for key in ("field_renames", "field_conversions"):
@@ -215,6 +248,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
         raise SpecError(path, explain_validation(str(exc))) from None
     if not spec.name.strip():
         raise SpecError(path, "key 'name': must not be empty")
+    _check_window(path, spec.start_cycle, spec.end_cycle)
     for key, reference in (("system", spec.system), ("perception", spec.perception)):
         if reference is not None and ":" not in reference:
             raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
@@ -258,7 +292,18 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
             state_tolerance=spec.robot_state_tolerance,
         ),
         migration=StateMigration(field_renames, conversions),
+        start_cycle=spec.start_cycle or 0,
+        end_cycle=spec.end_cycle,
     )
+
+
+def _check_window(path: Path, start: int | None, end: int | None) -> None:
+    """Refuse a window that holds no cycle: a negative cycle, or a start past the end."""
+    for key, cycle in (("start_cycle", start), ("end_cycle", end)):
+        if cycle is not None and cycle < 0:
+            raise SpecError(path, f"key {key!r}: expected a cycle number >= 0, got {cycle}")
+    if start is not None and end is not None and start > end:
+        raise SpecError(path, f"key 'start_cycle': {start} is after end_cycle {end}")
 
 
 def _dtc_id(path: Path, name: str, rootdir: Path) -> str:
@@ -305,6 +350,43 @@ def spec_text(
         f"tags = [{', '.join(map(_toml_string, tags))}]",
     ]
     return "\n".join(lines) + "\n"
+
+
+def spec_toml(data: Mapping[str, Any]) -> str:
+    """A spec's data (strings, numbers, booleans, arrays and tables of them, as
+    :func:`read_spec_data` reads them) as TOML text: its keys first, then its tables."""
+    tables = {key: value for key, value in data.items() if isinstance(value, Mapping)}
+    lines = [
+        f"{_toml_key(key)} = {_toml_value(value)}"
+        for key, value in data.items()
+        if key not in tables
+    ]
+    for name, table in tables.items():
+        lines.extend(["", f"[{_toml_key(name)}]"])
+        lines.extend(f"{_toml_key(key)} = {_toml_value(value)}" for key, value in table.items())
+    return "\n".join(lines) + "\n"
+
+
+def _toml_key(key: str) -> str:
+    """A TOML key: bare where TOML allows it, else quoted."""
+    bare = key and all(c.isascii() and (c.isalnum() or c in "-_") for c in key)
+    return key if bare else _toml_string(key)
+
+
+def _toml_value(value: object) -> str:
+    """A TOML value of a spec's data: inline tables within its tables."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(value)  # TOML spells inf and nan as Python does
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(map(_toml_value, value)) + "]"
+    if isinstance(value, Mapping):
+        items = (f"{_toml_key(key)} = {_toml_value(item)}" for key, item in value.items())
+        return "{ " + ", ".join(items) + " }"
+    raise TypeError(f"no TOML for {value!r}")
 
 
 def _toml_string(text: str) -> str:

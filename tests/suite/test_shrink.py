@@ -1,0 +1,85 @@
+"""Shrinking a failing DTC: the shortest window that fails the same way, written as a
+spec beside it that ``beatlog test`` fails the same way."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from beatlog.errors import BeatlogError
+from beatlog.replaying.verdict import DivergenceKind
+from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink, shrunk_path
+from beatlog.suite.spec import load_spec
+from tests.conftest import RecordFn, first_cycle_below
+from tests.specs import PROBE, write_spec
+from tests.systems import WORN_OUT
+
+WEARY = "tests.systems:weary_system"
+WORN_OUT_CYCLE = first_cycle_below(0.5) + 100 * (WORN_OUT - 1)
+"""Where the weary probe raises in a probe log: on its fourth approach to the pole."""
+
+
+@pytest.fixture
+def weary(tmp_path: Path, record_probe: RecordFn) -> Path:
+    """A spec whose system raises at cycle 326 of its log's 600, on a state (three
+    approaches made) that only the cycles after 250 reach."""
+    return write_spec(tmp_path, "weary", record_probe(600), WEARY, tags=["wear"])
+
+
+def test_a_failing_dtc_shrinks_to_a_window_that_ends_where_it_fails(weary: Path) -> None:
+    shrunk = shrink(weary)
+
+    assert shrunk.path == shrunk_path(weary) == weary.with_name("weary.shrunk.dtc.toml")
+    assert (shrunk.kind, shrunk.behavior) == (DivergenceKind.EXCEPTION, "near")
+    assert shrunk.cycle == shrunk.end_cycle == WORN_OUT_CYCLE
+    assert 0 < shrunk.start_cycle <= shrunk.end_cycle
+    assert shrunk.cycles_before == WORN_OUT_CYCLE + 1
+    assert shrunk.perturbations_before == shrunk.perturbations == ()
+
+
+def test_the_shrunk_spec_names_the_same_log_and_system_with_its_window(weary: Path) -> None:
+    shrunk = shrink(weary)
+
+    spec, original = load_spec(shrunk.path), load_spec(weary)
+
+    assert spec.name == shrunk.name == "weary-shrunk"
+    assert (spec.log.resolve(), spec.system, spec.tags) == (
+        original.log.resolve(),
+        WEARY,
+        ("wear",),
+    )
+    assert (spec.start_cycle, spec.end_cycle) == (shrunk.start_cycle, shrunk.end_cycle)
+
+
+def test_every_replay_tried_after_the_first_stops_at_the_failing_cycle(weary: Path) -> None:
+    tried: list[Attempt] = []
+
+    shrunk = shrink(weary, progress=tried.append)
+
+    first, *rest = tried
+    assert (first.end_cycle, first.failed) == (None, True)
+    assert rest
+    assert all(attempt.end_cycle == WORN_OUT_CYCLE for attempt in rest)
+    assert [attempt.replays for attempt in tried] == list(range(1, shrunk.replays + 1))
+
+
+def test_a_spec_that_passes_has_nothing_to_shrink(tmp_path: Path, record_probe: RecordFn) -> None:
+    spec = write_spec(tmp_path, "calm", record_probe(60), PROBE)
+
+    with pytest.raises(NothingToShrinkError) as raised:
+        shrink(spec)
+
+    assert str(raised.value) == f"{spec}: nothing to shrink: it passes"
+    assert not shrunk_path(spec).exists()
+
+
+def test_a_spec_whose_window_ends_past_its_log_is_an_error_naming_it(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    spec = write_spec(tmp_path, "long", record_probe(60), WEARY, end_cycle=60)
+
+    with pytest.raises(BeatlogError) as raised:
+        shrink(spec)
+
+    assert str(raised.value) == (f"{spec}: key 'end_cycle': 60 is past the log's last cycle (59)")
