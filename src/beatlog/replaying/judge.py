@@ -277,8 +277,9 @@ class CycleJudge:
         """The last cycle judged and read; None: the log's last."""
         self._start_ns = 0
         """Robot time where the window starts."""
-        self._samples_before = 0
-        """Samples perceived before the window: not judged."""
+        self._before = (0, 0, 0, 0)
+        """What the replay core counted before the window (state changes, outputs and
+        draws of the cycles that agreed at once, samples perceived): not judged."""
         self.window_closed = False
         """Whether the log's batches stopped at the window's end, the rest unread."""
         self.path = path
@@ -330,7 +331,7 @@ class CycleJudge:
             Expected(
                 None if self.executor.behavior_ids == self.expected_names else expected_index,
                 encoder,
-                frozenset(range(start_cycle)),
+                frozenset(),
                 None if self._ledger is None else self._ledger.approves,
             )
         )
@@ -338,20 +339,38 @@ class CycleJudge:
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches, with an approved baseline's state changes and outputs in
         place of the recorded ones where it expects others; each kept for the cycles
-        before a divergence as it is handed on."""
+        before a divergence as it is handed on. A batch is cut where the window starts,
+        so that what the replay core counted before it is known, and where it ends,
+        the last read."""
         if self._expected is not None:
             batches = self._expected.batches(batches, self.path)
-        left = None if self._end is None else self._end + 1
-        for batch in batches:
-            if left is not None and len(batch) >= left:
+        first = 0
+        """The cycle the next batch starts with."""
+        for whole in batches:
+            batch = whole
+            if self._end is not None and first + len(batch) > self._end:
                 self.window_closed = True
-                batch = batch[:left]  # noqa: PLW2901 - the window's end: the last batch read
-            self._batches.append(batch)
-            yield batch
+                batch = batch[: self._end + 1 - first]
+            if first < self._start < first + len(batch):
+                yield self._kept(batch[: self._start - first])
+                batch = batch[self._start - first :]
+                self._window_opens()
+            elif first == self._start > 0:
+                self._window_opens()
+            yield self._kept(batch)
             if self.window_closed:
                 return
-            if left is not None:
-                left -= len(batch)
+            first += len(whole)
+
+    def _kept(self, batch: Sequence[CycleRecord]) -> Sequence[CycleRecord]:
+        """``batch``, kept for the cycles before a divergence."""
+        self._batches.append(batch)
+        return batch
+
+    def _window_opens(self) -> None:
+        """Note what the replay core counted before the window, which opens now."""
+        self._start_ns = self.executor.clock.now_ns
+        self._before = (*self.replayer.agreed, self.replayer.samples_perceived)
 
     @property
     def cycles(self) -> int:
@@ -370,11 +389,12 @@ class CycleJudge:
     def checked(self) -> Checked:
         """What the cycles judged that agreed checked."""
         changes, outputs, draws = self.replayer.agreed
+        changes_before, outputs_before, draws_before, samples_before = self._before
         return Checked(
-            changes + self._changes_checked,
-            outputs + self._outputs_checked,
-            draws + self._draws_checked,
-            self._samples_perceived - self._samples_before - self._samples_diverged,
+            changes - changes_before + self._changes_checked,
+            outputs - outputs_before + self._outputs_checked,
+            draws - draws_before + self._draws_checked,
+            self._samples_perceived - samples_before - self._samples_diverged,
         )
 
     @property
@@ -430,8 +450,6 @@ class CycleJudge:
         cannot go on past it."""
         replayer = self.replayer
         if self.executor.context.cycle < self._start:
-            self._start_ns = self.executor.clock.now_ns
-            self._samples_before = replayer.samples_perceived
             if changes is not None:
                 return None
             outcome = outcome or replayer.outcome()
