@@ -24,6 +24,15 @@ the system factory to replay it against::
     [robot_state_tolerance]                 # the same per robot-state field, when the
     heading = 1e-6                          # perception step rebuilds RS_t from samples
 
+    [variants]                              # replay it perturbed too (docs: variants)
+    count = 8                               # variants per run, unless --variants says
+    heartbeat_jitter = 0.002                # +- seconds on each heartbeat interval
+    noise = { battery = 0.05, "pose.x" = 0.01 }  # +- per numeric robot-state field
+
+A spec written for a failing variant (:mod:`beatlog.suite.variants`) has ``variant = N``
+too: it replays variant N with its own ``[variants]`` alone (no project default), so
+it fails the same way whatever the original spec or the project say later.
+
 ``name``, ``purpose``, ``procedure`` and ``log`` are required; every other key is
 optional, and a key beatlog does not know is an error (naming the key it may mean).
 A DTC is identified as pytest identifies a test, by its id: its spec's path from the
@@ -64,6 +73,7 @@ from collections.abc import Iterable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated, Any
 
 import msgspec
 
@@ -71,15 +81,18 @@ from beatlog.baseline.file import SPEC_SUFFIX
 from beatlog.errors import SpecError
 from beatlog.log.files import project_root, read_small_text
 from beatlog.project.config import (
+    VariantsConfig,
     check_conversions,
     check_one_to_one,
     dotted_keys,
     explain_validation,
     keys_problem,
     project_config,
+    variants_table,
 )
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.variant import Perturbations
 from beatlog.suite.remote import fetched_log, is_url, url_name
 
 __all__ = [
@@ -88,6 +101,7 @@ __all__ = [
     "find_rootdir",
     "load_spec",
     "spec_text",
+    "toml_string",
 ]
 
 MAX_SPEC_BYTES = 1 << 20
@@ -111,6 +125,8 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     ignore_fields: list[str] = []
     tolerance: dict[str, float] = {}
     robot_state_tolerance: dict[str, float] = {}
+    variant: Annotated[int, msgspec.Meta(ge=1)] | None = None
+    variants: VariantsConfig | None = None
 
 
 @dataclass(frozen=True)
@@ -155,6 +171,14 @@ class DtcSpec:
     named_by_id: bool = False
     """Whether reports name the DTC by its id: another DTC of the run has its name (see
     :func:`~beatlog.suite.discovery.distinguished`)."""
+    perturbations: Perturbations | None = None
+    """What its variants perturb (the project's ``[tool.beatlog.variants]`` and the
+    spec's ``[variants]``); None where it declares no variants."""
+    variant_count: int = 0
+    """How many variants a run makes of it unless ``--variants`` says otherwise."""
+    variant: int | None = None
+    """For a variant, its number (from 1): replayed with :attr:`perturbations`, judged
+    by the behaviors not raising and the invariants; None for the DTC itself."""
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -177,6 +201,16 @@ class DtcSpec:
         """The spec file whose folder and project root the DTC's code imports from; None
         for a fleet log, whose folder is never trusted to choose code."""
         return self.path if self.source is None else None
+
+    @property
+    def own_spec(self) -> Path:
+        """The spec that runs this DTC alone: its own, or for a variant made by a run, the
+        one written for it when it fails, ``<stem>.variant-<n>.dtc.toml`` beside its DTC's
+        (:mod:`beatlog.suite.variants`)."""
+        if self.variant is None or not self.id.endswith(f"[variant-{self.variant}]"):
+            return self.path
+        stem = self.path.name.removesuffix(SPEC_SUFFIX)
+        return self.path.with_name(f"{stem}.variant-{self.variant}{SPEC_SUFFIX}")
 
     @property
     def log_name(self) -> str:
@@ -209,6 +243,8 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
     for key in ("field_renames", "field_conversions"):
         if key in data:
             data[key] = dotted_keys(data[key])
+    if "variants" in data:
+        data["variants"] = variants_table(data["variants"])
     try:
         spec = msgspec.convert(data, _SpecFile)
     except msgspec.ValidationError as exc:
@@ -236,6 +272,11 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
                 raise SpecError(
                     path, f"key '{key}.{name}': expected a finite number >= 0, got {tolerance}"
                 )
+    # A variant's own spec replays with its own perturbations alone: it reproduces.
+    inherited = [] if spec.variant is not None or project.variants is None else [project.variants]
+    perturbations, count = _variants(
+        path, [*inherited, *([] if spec.variants is None else [spec.variants])]
+    )
     log_url = spec.log if is_url(spec.log) else None
     return DtcSpec(
         path=path,
@@ -258,7 +299,34 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
             state_tolerance=spec.robot_state_tolerance,
         ),
         migration=StateMigration(field_renames, conversions),
+        perturbations=(
+            Perturbations() if perturbations is None and spec.variant is not None else perturbations
+        ),
+        variant_count=count,
+        variant=spec.variant,
     )
+
+
+def _variants(path: Path, tables: list[VariantsConfig]) -> tuple[Perturbations | None, int]:
+    """The perturbations ``tables`` declare, each on top of the one before, and the
+    variants to run; none where there is no table."""
+    if not tables:
+        return None, 0
+    merged: dict[str, Any] = {}
+    noise: dict[str, float] = {}
+    for table in tables:
+        given = msgspec.structs.asdict(table)
+        noise.update(given.pop("noise"))
+        merged.update((key, value) for key, value in given.items() if value is not None)
+    bounds = {f"noise.{name}": bound for name, bound in noise.items()}
+    bounds["heartbeat_jitter"] = merged.get("heartbeat_jitter", 0.0)
+    for key, bound in bounds.items():
+        if not (math.isfinite(bound) and bound >= 0):
+            raise SpecError(
+                path, f"key 'variants.{key}': expected a finite number >= 0, got {bound}"
+            )
+    count = merged.pop("count", 0)
+    return Perturbations(**merged, noise=noise), count
 
 
 def _dtc_id(path: Path, name: str, rootdir: Path) -> str:
@@ -287,26 +355,27 @@ def spec_text(
     purpose: str,
     procedure: Iterable[str],
     log: str,
-    system: str,
+    system: str | None,
     tags: Iterable[str] = (),
     perception: str | None = None,
 ) -> str:
     """A new spec as TOML text, for tools that write one beside a recording (``beatlog
-    import-bag --spec``, a suite's recording script); ``log`` is relative to the spec."""
+    import-bag --spec``, a suite's recording script, a failing variant); ``log`` is
+    relative to the spec, and a spec without ``system`` replays the one its log records."""
     lines = [
-        f"name = {_toml_string(name)}",
-        f"purpose = {_toml_string(purpose)}",
+        f"name = {toml_string(name)}",
+        f"purpose = {toml_string(purpose)}",
         "procedure = [",
-        *(f"    {_toml_string(step)}," for step in procedure),
+        *(f"    {toml_string(step)}," for step in procedure),
         "]",
-        f"log = {_toml_string(log)}",
-        f"system = {_toml_string(system)}",
-        *([] if perception is None else [f"perception = {_toml_string(perception)}"]),
-        f"tags = [{', '.join(map(_toml_string, tags))}]",
+        f"log = {toml_string(log)}",
+        *([] if system is None else [f"system = {toml_string(system)}"]),
+        *([] if perception is None else [f"perception = {toml_string(perception)}"]),
+        f"tags = [{', '.join(map(toml_string, tags))}]",
     ]
     return "\n".join(lines) + "\n"
 
 
-def _toml_string(text: str) -> str:
+def toml_string(text: str) -> str:
     """A TOML basic string: JSON's escapes, and DEL escaped too (TOML forbids it bare)."""
     return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
