@@ -614,3 +614,18 @@ def perceive_simulated(previous: Simulated | None, samples: Sequence[Sample]) ->
 def gambling_rover() -> RoverRobot:
     """The example rover driven by a :class:`Gambler`: no session of it replays."""
     return RoverRobot(behaviors=PriorityArbiter([Gambler()], robot_state=RoverState))
+
+
+class Fussy(Near):
+    """``near``, which raises where the distance is below zero: a bug no recording of
+    the probe reaches (its distances never are), and noise on ``distance`` does."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if rs.distance < 0:
+            raise ValueError(f"a negative distance: {rs.distance}")
+        return super().step(rs, ctx)
+
+
+def fussy_system() -> PriorityArbiter[Probe]:
+    """The probe system with :class:`Fussy` for ``near``."""
+    return PriorityArbiter([Fussy(), Dice()], robot_state=Probe)

@@ -9,6 +9,7 @@ import pytest
 from beatlog.errors import SpecError
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.variant import Perturbations
 from beatlog.suite.spec import load_spec, read_spec_data, spec_from_data, spec_text, spec_toml
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec
@@ -377,3 +378,86 @@ def test_a_specs_data_written_as_toml_loads_back_the_same(tmp_path: Path) -> Non
 
     assert read_spec_data(again) == data
     assert spec_from_data(again, data) == load_spec(again)
+
+
+def test_a_spec_declares_its_variants_in_a_table(tmp_path: Path) -> None:
+    path = write_spec(
+        tmp_path,
+        "varied",
+        "probe.beatlog",
+        variants={"count": 8, "heartbeat_jitter": 0.002, "noise": {"distance": 0.05}},
+    )
+
+    spec = load_spec(path)
+
+    assert spec.perturbations == Perturbations(heartbeat_jitter=0.002, noise={"distance": 0.05})
+    assert spec.variant_count == 8
+    assert spec.variant is None
+
+
+def test_a_spec_without_variants_declares_none(tmp_path: Path) -> None:
+    spec = load_spec(write_spec(tmp_path, "plain", "probe.beatlog"))
+
+    assert spec.perturbations is None
+    assert spec.variant_count == 0
+
+
+def test_the_projects_variants_apply_to_every_spec_and_the_spec_comes_on_top(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[project]\nname = "robot"\n\n[tool.beatlog.variants]\ncount = 4\ndraws = false\n'
+        "noise = { distance = 0.1, pose.x = 0.01 }\n",
+        encoding="utf-8",
+    )
+    plain = write_spec(tmp_path / "specs", "plain", "probe.beatlog")
+    own = write_spec(
+        tmp_path / "specs", "own", "probe.beatlog", variants={"noise": {"distance": 0.2}}
+    )
+
+    assert load_spec(plain).perturbations == Perturbations(
+        draws=False, noise={"distance": 0.1, "pose.x": 0.01}
+    )
+    assert load_spec(own).perturbations == Perturbations(
+        draws=False, noise={"distance": 0.2, "pose.x": 0.01}
+    )
+    assert load_spec(own).variant_count == 4
+
+
+def test_a_variants_own_spec_ignores_the_projects_variants(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[project]\nname = "robot"\n\n[tool.beatlog.variants]\nnoise = { distance = 0.1 }\n',
+        encoding="utf-8",
+    )
+    bare = write_spec(tmp_path / "specs", "bare", "probe.beatlog", variant=3)
+    own = write_spec(
+        tmp_path / "specs", "own", "probe.beatlog", variant=2, variants={"draws": False}
+    )
+
+    assert load_spec(bare).perturbations == Perturbations()
+    assert load_spec(bare).variant == 3
+    assert load_spec(own).perturbations == Perturbations(draws=False)
+
+
+@pytest.mark.parametrize(
+    ("extra", "problem"),
+    [
+        ({"variants": {"noise": {"distance": -0.1}}},
+         "key 'variants.noise.distance': expected a finite number >= 0, got -0.1"),
+        ({"variants": {"noise": {"distance": float("nan")}}},
+         "key 'variants.noise.distance': expected a finite number >= 0, got nan"),
+        ({"variants": {"heartbeat_jitter": float("inf")}},
+         "key 'variants.heartbeat_jitter': expected a finite number >= 0, got inf"),
+        ({"variants": {"heartbeat_jitter": -0.001}},
+         "key 'variants.heartbeat_jitter': expected `float` >= 0.0"),
+        ({"variants": {"drop_samples": 1.5}},
+         "key 'variants.drop_samples': expected `float` <= 1.0"),
+        ({"variants": {"count": -1}}, "key 'variants.count': expected `int` >= 0"),
+        ({"variants": {"jitter": 0.1}}, "key 'variants': object contains unknown field `jitter`"),
+        ({"variant": 0}, "key 'variant': expected `int` >= 1"),
+    ],
+    ids=["negative-noise", "nan-noise", "infinite-jitter", "negative-jitter", "share-above-one",
+         "negative-count", "unknown-key", "variant-zero"],
+)  # fmt: skip
+def test_bad_variants_name_the_key(tmp_path: Path, extra: dict[str, object], problem: str) -> None:
+    assert_spec_error(write_spec(tmp_path, "bad", "probe.beatlog", **extra), problem)

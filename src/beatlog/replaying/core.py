@@ -135,8 +135,9 @@ class Replayer:
             )
         )
         self.observe: Observe | None = None
-        """What wraps RS_t before the behaviors see it, in the cycles replayed while it
-        is set (none on the hot path): e.g. a stand-in that notes the fields read."""
+        """What takes the place of RS_t before the behaviors see it (the outcome then
+        holds what they saw), in the cycles replayed while it is set (none on the hot
+        path): e.g. a stand-in that notes the fields read, or a variant's noise."""
         self._last: tuple[
             CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, Sensed | None
         ]
@@ -309,9 +310,11 @@ class Replayer:
                 or random.mismatch is not None
             ):
                 load(() if draws == EMPTY_LIST else decode_draws(record, context.cycle + 1))
+            if observe is not None:
+                state = observe(state)
             failure = None
             try:
-                changes = step(record.heartbeat_ns, state if observe is None else observe(state))
+                changes = step(record.heartbeat_ns, state)
             except RandomMismatch:
                 changes = None
             except NumpyMissingError:

@@ -30,6 +30,7 @@ from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, 
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
 from beatlog.suite.spec import DtcSpec
+from beatlog.suite.variants import replay_variant_of
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -140,7 +141,7 @@ def run_spec(
     and its project root (:func:`beatlog.project.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
     ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
-    of the log is noted in the result.
+    of the log is noted in the result. A variant is replayed perturbed, judged alone.
     A log behind a URL is copied here first (the time waited for it is the outcome's
     ``storage_wait_s``), and the copy removed after; one that cannot be copied is an
     error of the DTC. The audit runs in ``auditors``' interpreters
@@ -179,10 +180,12 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     log = Recording(spec.log)
     try:
         approved = None
-        if spec.source is None and baseline.exists():
+        if spec.source is None and spec.variant is None and baseline.exists():
             approved = read_baseline(baseline)
         expected = None if approved is None else approved.expectation
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
+        if spec.variant is not None:  # no baseline; judged by not raising, and no more
+            return _variant_outcome(spec, system)
         judged = functools.partial(
             replay,
             log,
@@ -291,6 +294,13 @@ def _problem(spec: DtcSpec, error: BeatlogError) -> str:
     return str(error)
 
 
+def _variant_outcome(spec: DtcSpec, system: str) -> SpecOutcome:
+    """The outcome of a variant (:func:`~beatlog.suite.variants.replay_variant_of`)."""
+    result = replay_variant_of(spec, system)
+    verdict = Verdict.PASSED if result.ok else Verdict.FAILED
+    return SpecOutcome(spec, verdict, result, None, result.wall_time_s)
+
+
 def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> None:
     """Refuse an ``approved`` baseline made from another recording than ``log``: its
     digest, taken as the replay read the log (or, where the replay stopped short of the
@@ -309,9 +319,10 @@ def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> 
 def _rerun(spec: DtcSpec, *options: str) -> str:
     """``beatlog test SPEC``: the one command that judges a DTC as a suite run does,
     with the spec's allowances and approved baseline; for a fleet log, ``beatlog test
-    --logs LOG --system MODULE:FACTORY``; ``options`` go before them."""
+    --logs LOG --system MODULE:FACTORY``; for a variant, its own spec's (as written when
+    it fails); ``options`` go before them."""
     if spec.source is None:
-        return reproduce_command("test", *options, spec.path)
+        return reproduce_command("test", *options, spec.own_spec)
     perception = () if spec.perception is None else ("--perception", spec.perception)
     system = () if spec.system is None else ("--system", spec.system)
     log = glob.escape(spec.source)

@@ -26,6 +26,15 @@ the system factory to replay it against::
     [robot_state_tolerance]                 # the same per robot-state field, when the
     heading = 1e-6                          # perception step rebuilds RS_t from samples
 
+    [variants]                              # replay it perturbed too (docs: variants)
+    count = 8                               # variants per run, unless --variants says
+    heartbeat_jitter = 0.002                # +- seconds on each heartbeat interval
+    noise = { battery = 0.05, "pose.x" = 0.01 }  # +- per numeric robot-state field
+
+A spec written for a failing variant (:mod:`beatlog.suite.variants`) has ``variant = N``
+too: it replays variant N with its own ``[variants]`` alone (no project default), so
+it fails the same way whatever the original spec or the project say later.
+
 ``name``, ``purpose``, ``procedure`` and ``log`` are required; every other key is
 optional, and a key beatlog does not know is an error (naming the key it may mean).
 A DTC is identified as pytest identifies a test, by its id: its spec's path from the
@@ -71,7 +80,7 @@ from collections.abc import Iterable, Mapping
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import msgspec
 
@@ -79,15 +88,18 @@ from beatlog.baseline.file import SPEC_SUFFIX
 from beatlog.errors import SpecError
 from beatlog.log.files import project_root, read_small_text
 from beatlog.project.config import (
+    VariantsConfig,
     check_conversions,
     check_one_to_one,
     dotted_keys,
     explain_validation,
     keys_problem,
     project_config,
+    variants_table,
 )
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.variant import Perturbations
 from beatlog.suite.remote import fetched_log, is_url, url_name
 
 __all__ = [
@@ -99,6 +111,7 @@ __all__ = [
     "spec_from_data",
     "spec_text",
     "spec_toml",
+    "toml_string",
 ]
 
 MAX_SPEC_BYTES = 1 << 20
@@ -124,6 +137,8 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     robot_state_tolerance: dict[str, float] = {}
     start_cycle: int | None = None
     end_cycle: int | None = None
+    variant: Annotated[int, msgspec.Meta(ge=1)] | None = None
+    variants: VariantsConfig | None = None
 
 
 @dataclass(frozen=True)
@@ -172,6 +187,14 @@ class DtcSpec:
     """The first cycle judged: the cycles before it replay as recorded, unjudged."""
     end_cycle: int | None = None
     """The last cycle judged and read (inclusive); None: the log's last."""
+    perturbations: Perturbations | None = None
+    """What its variants perturb (the project's ``[tool.beatlog.variants]`` and the
+    spec's ``[variants]``); None where it declares no variants."""
+    variant_count: int = 0
+    """How many variants a run makes of it unless ``--variants`` says otherwise."""
+    variant: int | None = None
+    """For a variant, its number (from 1): replayed with :attr:`perturbations`, judged
+    by the behaviors not raising and the invariants; None for the DTC itself."""
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -194,6 +217,16 @@ class DtcSpec:
         """The spec file whose folder and project root the DTC's code imports from; None
         for a fleet log, whose folder is never trusted to choose code."""
         return self.path if self.source is None else None
+
+    @property
+    def own_spec(self) -> Path:
+        """The spec that runs this DTC alone: its own, or for a variant made by a run, the
+        one written for it when it fails, ``<stem>.variant-<n>.dtc.toml`` beside its DTC's
+        (:mod:`beatlog.suite.variants`)."""
+        if self.variant is None or not self.id.endswith(f"[variant-{self.variant}]"):
+            return self.path
+        stem = self.path.name.removesuffix(SPEC_SUFFIX)
+        return self.path.with_name(f"{stem}.variant-{self.variant}{SPEC_SUFFIX}")
 
     @property
     def log_name(self) -> str:
@@ -242,6 +275,8 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
     for key in ("field_renames", "field_conversions"):
         if key in data:
             data[key] = dotted_keys(data[key])
+    if "variants" in data:
+        data["variants"] = variants_table(data["variants"])
     try:
         spec = msgspec.convert(data, _SpecFile)
     except msgspec.ValidationError as exc:
@@ -270,6 +305,11 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
                 raise SpecError(
                     path, f"key '{key}.{name}': expected a finite number >= 0, got {tolerance}"
                 )
+    # A variant's own spec replays with its own perturbations alone: it reproduces.
+    inherited = [] if spec.variant is not None or project.variants is None else [project.variants]
+    perturbations, count = _variants(
+        path, [*inherited, *([] if spec.variants is None else [spec.variants])]
+    )
     log_url = spec.log if is_url(spec.log) else None
     return DtcSpec(
         path=path,
@@ -294,6 +334,11 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
         migration=StateMigration(field_renames, conversions),
         start_cycle=spec.start_cycle or 0,
         end_cycle=spec.end_cycle,
+        perturbations=(
+            Perturbations() if perturbations is None and spec.variant is not None else perturbations
+        ),
+        variant_count=count,
+        variant=spec.variant,
     )
 
 
@@ -304,6 +349,28 @@ def _check_window(path: Path, start: int | None, end: int | None) -> None:
             raise SpecError(path, f"key {key!r}: expected a cycle number >= 0, got {cycle}")
     if start is not None and end is not None and start > end:
         raise SpecError(path, f"key 'start_cycle': {start} is after end_cycle {end}")
+
+
+def _variants(path: Path, tables: list[VariantsConfig]) -> tuple[Perturbations | None, int]:
+    """The perturbations ``tables`` declare, each on top of the one before, and the
+    variants to run; none where there is no table."""
+    if not tables:
+        return None, 0
+    merged: dict[str, Any] = {}
+    noise: dict[str, float] = {}
+    for table in tables:
+        given = msgspec.structs.asdict(table)
+        noise.update(given.pop("noise"))
+        merged.update((key, value) for key, value in given.items() if value is not None)
+    bounds = {f"noise.{name}": bound for name, bound in noise.items()}
+    bounds["heartbeat_jitter"] = merged.get("heartbeat_jitter", 0.0)
+    for key, bound in bounds.items():
+        if not (math.isfinite(bound) and bound >= 0):
+            raise SpecError(
+                path, f"key 'variants.{key}': expected a finite number >= 0, got {bound}"
+            )
+    count = merged.pop("count", 0)
+    return Perturbations(**merged, noise=noise), count
 
 
 def _dtc_id(path: Path, name: str, rootdir: Path) -> str:
@@ -332,22 +399,23 @@ def spec_text(
     purpose: str,
     procedure: Iterable[str],
     log: str,
-    system: str,
+    system: str | None,
     tags: Iterable[str] = (),
     perception: str | None = None,
 ) -> str:
     """A new spec as TOML text, for tools that write one beside a recording (``beatlog
-    import-bag --spec``, a suite's recording script); ``log`` is relative to the spec."""
+    import-bag --spec``, a suite's recording script, a failing variant); ``log`` is
+    relative to the spec, and a spec without ``system`` replays the one its log records."""
     lines = [
-        f"name = {_toml_string(name)}",
-        f"purpose = {_toml_string(purpose)}",
+        f"name = {toml_string(name)}",
+        f"purpose = {toml_string(purpose)}",
         "procedure = [",
-        *(f"    {_toml_string(step)}," for step in procedure),
+        *(f"    {toml_string(step)}," for step in procedure),
         "]",
-        f"log = {_toml_string(log)}",
-        f"system = {_toml_string(system)}",
-        *([] if perception is None else [f"perception = {_toml_string(perception)}"]),
-        f"tags = [{', '.join(map(_toml_string, tags))}]",
+        f"log = {toml_string(log)}",
+        *([] if system is None else [f"system = {toml_string(system)}"]),
+        *([] if perception is None else [f"perception = {toml_string(perception)}"]),
+        f"tags = [{', '.join(map(toml_string, tags))}]",
     ]
     return "\n".join(lines) + "\n"
 
@@ -370,7 +438,7 @@ def spec_toml(data: Mapping[str, Any]) -> str:
 def _toml_key(key: str) -> str:
     """A TOML key: bare where TOML allows it, else quoted."""
     bare = key and all(c.isascii() and (c.isalnum() or c in "-_") for c in key)
-    return key if bare else _toml_string(key)
+    return key if bare else toml_string(key)
 
 
 def _toml_value(value: object) -> str:
@@ -380,7 +448,7 @@ def _toml_value(value: object) -> str:
     if isinstance(value, int | float):
         return repr(value)  # TOML spells inf and nan as Python does
     if isinstance(value, str):
-        return _toml_string(value)
+        return toml_string(value)
     if isinstance(value, list | tuple):
         return "[" + ", ".join(map(_toml_value, value)) + "]"
     if isinstance(value, Mapping):
@@ -389,6 +457,6 @@ def _toml_value(value: object) -> str:
     raise TypeError(f"no TOML for {value!r}")
 
 
-def _toml_string(text: str) -> str:
+def toml_string(text: str) -> str:
     """A TOML basic string: JSON's escapes, and DEL escaped too (TOML forbids it bare)."""
     return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
