@@ -9,9 +9,10 @@ from typing import Any, NamedTuple
 import pytest
 
 from beatlog import replay
-from beatlog.errors import FieldError
+from beatlog.errors import FieldError, WindowError
 from beatlog.log.format import CycleRecord
 from beatlog.model.behavior import System
+from beatlog.project.usercode import load_system
 from beatlog.replaying.core import CycleOutcome
 from beatlog.replaying.variant import Perturbations, Variant, replay_variant, variant_key
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult
@@ -249,3 +250,48 @@ def test_samples_are_left_alone_without_a_perception_step(tmp_path: Path) -> Non
     cycles = replayed(log, 1, Perturbations(drop_samples=1.0, draws=False))[1]
 
     assert [cycle.distance for cycle in cycles] == distances(50)
+
+
+NOISY = Variant(1, Perturbations(noise={"distance": 0.3}))
+"""A variant whose noise on ``distance`` makes the fussy probe raise."""
+
+
+def test_a_window_perturbs_and_judges_its_cycles_alone(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    whole = replay_variant(log, fussy_system(), NOISY)
+    assert whole.divergence is not None
+    cycle = whole.divergence.cycle
+
+    there = replay_variant(log, fussy_system(), NOISY, start_cycle=cycle, end_cycle=cycle)
+    before = replay_variant(log, fussy_system(), NOISY, end_cycle=cycle - 1)
+    after = replay_variant(log, fussy_system(), NOISY, start_cycle=cycle + 1, end_cycle=cycle + 1)
+
+    assert there.divergence is not None
+    assert (there.divergence.cycle, there.divergence.message, there.cycles) == (
+        cycle,
+        whole.divergence.message,  # the same noise in its cycle, however far it is read
+        1,
+    )
+    assert (before.ok, before.cycles, before.status) == (True, cycle, None)
+    assert after.ok  # the cycle before the window is replayed unperturbed
+
+
+def test_a_variant_that_raises_before_its_window_fails_there(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    fragile = load_system("tests.systems:fragile_system")
+
+    result = replay_variant(log, fragile, NOISY, start_cycle=290, end_cycle=299)
+
+    assert result.divergence is not None
+    assert result.divergence.message == (
+        "before the window (cycle 290 on): dice raised ZeroDivisionError: fragile dice"
+    )
+
+
+def test_a_variant_window_past_the_log_is_an_error(record_probe: RecordFn) -> None:
+    log = record_probe(30)
+
+    with pytest.raises(WindowError) as raised:
+        replay_variant(log, probe_system(), NOISY, end_cycle=30)
+
+    assert str(raised.value) == f"{log}: end_cycle 30 is past the log's last cycle (29)"

@@ -8,7 +8,9 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import BeatlogError
+from beatlog.replaying.variant import Perturbations
 from beatlog.replaying.verdict import DivergenceKind
+from beatlog.suite.runner import run_spec
 from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink, shrunk_path
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn, first_cycle_below
@@ -16,6 +18,7 @@ from tests.specs import PROBE, write_spec
 from tests.systems import WORN_OUT
 
 WEARY = "tests.systems:weary_system"
+FUSSY = "tests.systems:fussy_system"
 WORN_OUT_CYCLE = first_cycle_below(0.5) + 100 * (WORN_OUT - 1)
 """Where the weary probe raises in a probe log: on its fourth approach to the pole."""
 
@@ -62,6 +65,44 @@ def test_every_replay_tried_after_the_first_stops_at_the_failing_cycle(weary: Pa
     assert rest
     assert all(attempt.end_cycle == WORN_OUT_CYCLE for attempt in rest)
     assert [attempt.replays for attempt in tried] == list(range(1, shrunk.replays + 1))
+
+
+def test_a_failing_variant_keeps_only_the_perturbations_it_needs(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    perturbations = {
+        "draws": True,
+        "heartbeat_jitter": 0.002,
+        "noise": {"distance": 0.3, "reading": 0.5},
+        "drop_samples": 0.0,
+    }
+    spec = write_spec(
+        tmp_path, "fussy", record_probe(600), FUSSY, variant=1, variants=perturbations
+    )
+
+    shrunk = shrink(spec)
+
+    assert (shrunk.kind, shrunk.behavior) == (DivergenceKind.EXCEPTION, "near")
+    assert shrunk.perturbations_before == (
+        "draws",
+        "heartbeat_jitter",
+        "noise.distance",
+        "noise.reading",
+    )
+    assert shrunk.perturbations == ("noise.distance",)
+    assert shrunk.cycle == shrunk.end_cycle
+    written = load_spec(shrunk.path)
+    assert written.variant == 1
+    assert written.perturbations == Perturbations(draws=False, noise={"distance": 0.3})
+    again = run_spec(written)
+    assert again.result is not None
+    assert again.result.divergence is not None
+    failure = again.result.divergence
+    assert (failure.kind, failure.behavior, failure.cycle) == (
+        DivergenceKind.EXCEPTION,
+        "near",
+        shrunk.cycle,
+    )
 
 
 def test_a_spec_that_passes_has_nothing_to_shrink(tmp_path: Path, record_probe: RecordFn) -> None:

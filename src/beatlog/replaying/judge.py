@@ -23,7 +23,7 @@ from typing import Any
 
 import msgspec
 
-from beatlog.errors import CorruptLogError, EmptyCheckError, WindowError
+from beatlog.errors import CorruptLogError, EmptyCheckError
 from beatlog.log.format import CycleRecord, StateChangeRecord, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
@@ -41,7 +41,14 @@ from beatlog.replaying.expected import ExpectedRecords
 from beatlog.replaying.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.pins import PinChecker, rebuilt_otherwise
-from beatlog.replaying.session import BatchReader, Observer, ReplaySession, fields_read
+from beatlog.replaying.session import (
+    BatchReader,
+    Observer,
+    ReplaySession,
+    check_window,
+    fields_read,
+    through,
+)
 from beatlog.replaying.verdict import (
     Checked,
     ContextRow,
@@ -346,21 +353,20 @@ class CycleJudge:
             batches = self._expected.batches(batches, self.path)
         first = 0
         """The cycle the next batch starts with."""
-        for whole in batches:
-            batch = whole
-            if self._end is not None and first + len(batch) > self._end:
-                self.window_closed = True
-                batch = batch[: self._end + 1 - first]
-            if first < self._start < first + len(batch):
-                yield self._kept(batch[: self._start - first])
-                batch = batch[self._start - first :]
+        for batch in through(batches, self._end, self._close):
+            at, first = first, first + len(batch)
+            if at < self._start < first:
+                yield self._kept(batch[: self._start - at])
                 self._window_opens()
-            elif first == self._start > 0:
+                yield self._kept(batch[self._start - at :])
+                continue
+            if at == self._start > 0:
                 self._window_opens()
             yield self._kept(batch)
-            if self.window_closed:
-                return
-            first += len(whole)
+
+    def _close(self) -> None:
+        """The window's end is reached: the rest of the log is not read."""
+        self.window_closed = True
 
     def _kept(self, batch: Sequence[CycleRecord]) -> Sequence[CycleRecord]:
         """``batch``, kept for the cycles before a divergence."""
@@ -411,15 +417,9 @@ class CycleJudge:
             self._samples_perceived = self.replayer.samples_perceived
 
     def check_window(self, cycles: int) -> None:
-        """Refuse a window the log, complete with ``cycles`` cycles, does not hold.
-
-        :raises beatlog.errors.WindowError: it starts or ends past the last cycle.
-        """
-        for key, cycle in (("end_cycle", self._end), ("start_cycle", self._start or None)):
-            if cycle is not None and cycle >= cycles:
-                raise WindowError(
-                    self.path, key, f"{cycle} is past the log's last cycle ({cycles - 1})"
-                )
+        """Refuse a window the log, complete with ``cycles`` cycles, does not hold
+        (:func:`~beatlog.replaying.session.check_window`)."""
+        check_window(self.path, cycles, self._start, self._end)
 
     def log_ended(self, why: str) -> None:
         """Record that the log stopped before the recording closed it."""

@@ -46,7 +46,7 @@ from beatlog.replaying.core import CycleOutcome, Replayer
 from beatlog.replaying.draws import log_key
 from beatlog.replaying.fit.check import check_state_fields
 from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.session import Observer, ReplaySession
+from beatlog.replaying.session import Observer, ReplaySession, check_window, through
 from beatlog.replaying.verdict import (
     Checked,
     Divergence,
@@ -113,8 +113,12 @@ class _Perturber:
         replayer: Replayer,
         where: Path,
         migration: StateMigration,
+        *,
+        start_cycle: int = 0,
     ) -> None:
         perturbations = variant.perturbations
+        self._start = start_cycle
+        """The first cycle perturbed: those before it replay as recorded."""
         self._luck = FreshLuck(variant_key(log_key(header), variant.number))
         self._jitter_ns = round(perturbations.heartbeat_jitter * _NS)
         self._draws = perturbations.draws
@@ -156,6 +160,8 @@ class _Perturber:
         """One record perturbed; ``late`` holds the samples delayed into this cycle, and
         then those delayed out of it."""
         changed: dict[str, Any] = {}
+        if cycle < self._start:
+            return record
         if self._jitter_ns:
             offset = round((2.0 * self._u(cycle, "heartbeat") - 1.0) * self._jitter_ns)
             changed["heartbeat_ns"] = max(1, record.heartbeat_ns + offset)
@@ -180,6 +186,8 @@ class _Perturber:
         """RS_t with each field named offset within its bound (the replay core's
         ``observe`` hook)."""
         cycle = self._context.cycle + 1
+        if cycle < self._start:
+            return state
         state = full_state(state)
         for index, (name, path, bound) in enumerate(self._noise):
             offset = (2.0 * self._u(cycle, "noise", index) - 1.0) * bound
@@ -215,7 +223,7 @@ class _Ended:
 
 class _WhileJudged:
     """An observer of a variant's replay for as long as the variant is judged: the
-    cycles up to the one that fails it, that one included."""
+    cycles of its window up to the one that fails it, that one included."""
 
     def __init__(self, observer: Observer, judge: _VariantJudge) -> None:
         self._observer = observer
@@ -230,7 +238,8 @@ class _WhileJudged:
         return self._judge.divergence is None and self._observer.reading
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
-        self._observer.add(record, outcome)
+        if outcome is None or outcome.cycle >= self._judge.start_cycle:
+            self._observer.add(record, outcome)
 
 
 class _VariantJudge:
@@ -243,20 +252,34 @@ class _VariantJudge:
         replayer: Replayer,
         perturber: _Perturber,
         judging: Sequence[Judging],
+        *,
+        start_cycle: int = 0,
+        end_cycle: int | None = None,
     ) -> None:
         self._replayer = replayer
         self._perturber = perturber
         self._judging = judging
         self._first = replayer.executor.context.cycle + 1
+        self.start_cycle = start_cycle
+        """The first cycle judged: those before it must only not raise."""
+        self._end = end_cycle
+        self.start_ns = 0
+        """Robot time where the window starts."""
+        self.window_closed = False
+        """Whether the log's batches stopped at the window's end, the rest unread."""
         self.divergence: Divergence | None = None
         self.changes = self.outputs = self.draws = 0
         """What the behaviors did in the cycles that went cleanly."""
 
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
-        """The log's batches, perturbed."""
+        """The log's batches up to the window's end, perturbed."""
+        batches = through(batches, self._end, self._close)
         if not self._perturber.rewrites:
             return batches
         return self._perturber.records(batches, self._first)
+
+    def _close(self) -> None:
+        self.window_closed = True
 
     def judge(
         self,
@@ -266,17 +289,24 @@ class _VariantJudge:
         outcome: CycleOutcome | None,
     ) -> Observer | None:
         """Judge the cycle replayed last: its behaviors raised, or an observer that judges
-        found it wrong; else count what it did."""
+        found it wrong; else count what it did. Before the window only raising fails."""
         replayer = self._replayer
+        context = replayer.executor.context
+        before = context.cycle < self.start_cycle
+        if before:
+            self.start_ns = context.time_ns
         if changes is not None:
-            self.changes += len(changes)
-            self.outputs += len(replayer.executor.context.outputs)
-            self.draws += len(replayer.random.drawn)
+            if not before:
+                self.changes += len(changes)
+                self.outputs += len(context.outputs)
+                self.draws += len(replayer.random.drawn)
         else:
             outcome = outcome or replayer.outcome()
             if outcome.failure is not None or outcome.perception_failure is not None:
                 self.divergence = self._raised(outcome)
                 return _Ended()
+        if before:
+            return None
         for observer in self._judging:
             found = observer.divergence
             if found is not None:
@@ -292,11 +322,16 @@ class _VariantJudge:
         failure = outcome.failure or outcome.perception_failure
         assert failure is not None
         names = replayer.executor.behavior_ids
+        before = (
+            f"before the window (cycle {self.start_cycle} on): "
+            if outcome.cycle < self.start_cycle
+            else ""
+        )
         return Divergence(
             kind=stop.kind,
             cycle=outcome.cycle,
             time_ns=outcome.time_ns,
-            message=stop.message,
+            message=before + stop.message,
             behavior=stop.behavior,
             robot_state=state_fields(outcome.state),
             random_drawn=tuple(
@@ -323,6 +358,8 @@ def replay_variant(
     observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
     where: Path | None = None,
     reproduce: str = "",
+    start_cycle: int = 0,
+    end_cycle: int | None = None,
 ) -> ReplayResult:
     """Replay ``variant`` of ``log`` against ``system``: every cycle, perturbed, until
     behavior code (or ``perception``) raises or an observer that judges
@@ -333,9 +370,15 @@ def replay_variant(
     field of the recorded robot state is blamed on; ``reproduce`` is the command the
     result gives (a suite's: ``beatlog test`` with the variant's spec).
 
+    ``start_cycle`` and ``end_cycle`` narrow it to a window, as they do
+    :func:`~beatlog.replaying.judge.replay`: the cycles before it replay as recorded,
+    unperturbed and unjudged but for raising, and replay stops after its end.
+
     :raises beatlog.errors.LogError: the log is missing, damaged or does not fit.
     :raises beatlog.errors.FieldError: a noise bound names no field of the recorded robot
         state, or one that holds no number.
+    :raises beatlog.errors.WindowError: the window starts or ends past the log's last
+        cycle.
     """
     migration = migration or StateMigration()
     started = time.perf_counter()
@@ -347,15 +390,31 @@ def replay_variant(
         assert replayer is not None  # a session with a system replays
         key = log_key(reader.header)
         replayer.random.live(variant_key(key, variant.number))
-        perturber = _Perturber(variant, reader.header, replayer, where or reader.path, migration)
+        perturber = _Perturber(
+            variant,
+            reader.header,
+            replayer,
+            where or reader.path,
+            migration,
+            start_cycle=start_cycle,
+        )
         watching = [factory(reader) for factory in observers]
         judging = [observer for observer in watching if isinstance(observer, Judging)]
-        judge = _VariantJudge(replayer, perturber, judging)
+        judge = _VariantJudge(
+            replayer, perturber, judging, start_cycle=start_cycle, end_cycle=end_cycle
+        )
         session.run([_WhileJudged(observer, judge) for observer in watching], judge=judge)
         context = replayer.executor.context
-        status = reader.status
+        status = None if judge.window_closed else reader.status
         divergence = judge.divergence
-        if divergence is None and not status.complete and not allow_truncated:
+        if divergence is None and status is not None and status.complete:
+            check_window(reader.path, status.cycles, start_cycle, end_cycle)
+        if (
+            divergence is None
+            and status is not None
+            and not status.complete
+            and not allow_truncated
+        ):
             divergence = Divergence(
                 kind=DivergenceKind.LOG_ENDED,
                 cycle=context.cycle + 1,
@@ -368,9 +427,9 @@ def replay_variant(
     return ReplayResult(
         log=Path(log),
         ok=divergence is None,
-        cycles=context.cycle + 1,
+        cycles=max(0, context.cycle + 1 - start_cycle),
         checked=Checked(judge.changes, judge.outputs, judge.draws, replayer.samples_perceived),
-        robot_time_ns=context.time_ns,
+        robot_time_ns=max(0, context.time_ns - judge.start_ns),
         wall_time_s=wall,
         status=status,
         divergence=divergence,

@@ -274,36 +274,31 @@ def _way(divergence: Divergence) -> tuple[DivergenceKind, str | None]:
 
 def _perturbations(data: Mapping[str, Any]) -> tuple[str, ...]:
     """The perturbations a spec's data declares, by name: each key of its ``[variants]``
-    table but ``count`` (``draws`` where true), and each field of its ``noise``."""
+    table but ``count`` that is on (``draws = true``, a bound above 0), and each field of
+    its ``noise`` with a bound above 0 (``noise.battery``)."""
     return tuple(_named(data.get(PERTURBATIONS, {})))
 
 
 def _named(table: Mapping[str, Any]) -> Iterator[str]:
     for key, value in table.items():
-        if key in _NOT_PERTURBATIONS or value is False:
+        if key in _NOT_PERTURBATIONS:
             continue
         if isinstance(value, Mapping):
-            yield from (f"{key}.{field}" for field in value)
-        else:
+            yield from (f"{key}.{field}" for field, bound in value.items() if bound)
+        elif value:
             yield key
 
 
 def _without(table: Mapping[str, Any], name: str) -> dict[str, Any]:
-    """The perturbations ``table`` without the one named: ``draws`` turned off (it is on
-    by default), a field of a table left out (the table with it, when it is the last),
-    another key left out."""
+    """The perturbations ``table`` without the one named: turned off where it is a key
+    (``draws = false``, a bound of 0, so that no default takes its place), left out where
+    it is a field of a table."""
     fewer = dict(table)
     key, _, field = name.partition(".")
-    if key == "draws":
-        fewer[key] = False
-    elif field and isinstance(fewer.get(key), Mapping):
-        rest = {k: v for k, v in fewer[key].items() if k != field}
-        if rest:
-            fewer[key] = rest
-        else:
-            del fewer[key]
+    if field:
+        fewer[key] = {k: v for k, v in fewer[key].items() if k != field}
     else:
-        fewer.pop(key, None)
+        fewer[key] = False if isinstance(fewer[key], bool) else 0.0
     return fewer
 
 

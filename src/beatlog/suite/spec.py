@@ -452,8 +452,8 @@ def _toml_value(value: object) -> str:
     if isinstance(value, list | tuple):
         return "[" + ", ".join(map(_toml_value, value)) + "]"
     if isinstance(value, Mapping):
-        items = (f"{_toml_key(key)} = {_toml_value(item)}" for key, item in value.items())
-        return "{ " + ", ".join(items) + " }"
+        items = ", ".join(f"{_toml_key(key)} = {_toml_value(item)}" for key, item in value.items())
+        return "{ " + items + " }" if items else "{}"
     raise TypeError(f"no TOML for {value!r}")
 
 

@@ -40,6 +40,8 @@ def replay_variant_of(spec: DtcSpec, system: str) -> ReplayResult:
         allow_truncated=spec.allow_truncated,
         where=spec.path,
         reproduce=reproduce_command("test", spec.own_spec),
+        start_cycle=spec.start_cycle,
+        end_cycle=spec.end_cycle,
     )
 
 

@@ -52,13 +52,16 @@ def _report(shrunk: Shrunk, console: Console) -> None:
     """What the shrink found: the failure, the window against the cycles before, the
     perturbations left, the replays tried and the spec written."""
     where = f" in {shrunk.behavior}" if shrunk.behavior else ""
-    kept = ", ".join(shrunk.perturbations) or "none"
+    kept = f" ({', '.join(shrunk.perturbations)})" if shrunk.perturbations else ""
     lines = [
         f"shrunk {shrunk.kind.value}{where} at cycle {shrunk.cycle}: "
         f"{shrunk.cycles_before} cycles to the failure -> window {shrunk.start_cycle}-"
         f"{shrunk.end_cycle} ({shrunk.cycles_judged} judged)",
         *(
-            [f"perturbations: {len(shrunk.perturbations_before)} -> {kept}"]
+            [
+                f"perturbations: {len(shrunk.perturbations_before)} -> "
+                f"{len(shrunk.perturbations)}{kept}"
+            ]
             if shrunk.perturbations_before
             else []
         ),
