@@ -30,6 +30,7 @@ import py_trees
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample
+from beatlog.model.invariant import Cycle
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import RoverRobot, RoverState
@@ -629,3 +630,30 @@ class Fussy(Near):
 def fussy_system() -> PriorityArbiter[Probe]:
     """The probe system with :class:`Fussy` for ``near``."""
     return PriorityArbiter([Fussy(), Dice()], robot_state=Probe)
+
+
+def never_close(cycle: Cycle) -> None:
+    """An invariant of the probe that does not hold within 0.3 m of the pole."""
+    if cycle.robot_state.distance <= 0.3:
+        raise AssertionError(f"{cycle.robot_state.distance} m from the pole")
+
+
+def never_holds(cycle: Cycle) -> None:
+    """An invariant that holds in no cycle of any robot."""
+    raise AssertionError(f"cycle {cycle.cycle}")
+
+
+class NeverLingers:
+    """An invariant of the probe that looks across cycles: it is never within 0.5 m of
+    the pole for more than ten cycles in a row (it is, on every approach)."""
+
+    def __init__(self) -> None:
+        self.near = 0
+
+    def __call__(self, cycle: Cycle) -> None:
+        self.near = self.near + 1 if cycle.robot_state.distance < 0.5 else 0
+        assert self.near <= LINGER, f"{self.near} cycles within 0.5 m of the pole"
+
+
+LINGER = 10
+"""The cycles in a row :class:`NeverLingers` lets the probe stay near the pole."""

@@ -15,10 +15,11 @@ from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink, shrunk_p
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn, first_cycle_below
 from tests.specs import PROBE, write_spec
-from tests.systems import WORN_OUT
+from tests.systems import LINGER, WORN_OUT
 
 WEARY = "tests.systems:weary_system"
 FUSSY = "tests.systems:fussy_system"
+LINGERS = "tests.systems:NeverLingers"
 WORN_OUT_CYCLE = first_cycle_below(0.5) + 100 * (WORN_OUT - 1)
 """Where the weary probe raises in a probe log: on its fourth approach to the pole."""
 
@@ -34,7 +35,11 @@ def test_a_failing_dtc_shrinks_to_a_window_that_ends_where_it_fails(weary: Path)
     shrunk = shrink(weary)
 
     assert shrunk.path == shrunk_path(weary) == weary.with_name("weary.shrunk.dtc.toml")
-    assert (shrunk.kind, shrunk.behavior) == (DivergenceKind.EXCEPTION, "near")
+    assert (shrunk.kind, shrunk.behavior, shrunk.invariant) == (
+        DivergenceKind.EXCEPTION,
+        "near",
+        None,
+    )
     assert shrunk.cycle == shrunk.end_cycle == WORN_OUT_CYCLE
     assert 0 < shrunk.start_cycle <= shrunk.end_cycle
     assert shrunk.cycles_before == WORN_OUT_CYCLE + 1
@@ -53,6 +58,19 @@ def test_the_shrunk_spec_names_the_same_log_and_system_with_its_window(weary: Pa
         ("wear",),
     )
     assert (spec.start_cycle, spec.end_cycle) == (shrunk.start_cycle, shrunk.end_cycle)
+
+
+def test_a_failing_invariant_keeps_the_cycles_it_looks_across(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    spec = write_spec(tmp_path, "linger", record_probe(600), PROBE, invariants=[LINGERS])
+    first_near = first_cycle_below(0.5)
+
+    shrunk = shrink(spec)
+
+    assert (shrunk.kind, shrunk.invariant) == (DivergenceKind.INVARIANT, "NeverLingers")
+    assert (shrunk.start_cycle, shrunk.end_cycle) == (first_near, first_near + LINGER)
+    assert shrunk.cycle == first_near + LINGER
 
 
 def test_every_replay_tried_after_the_first_stops_at_the_failing_cycle(weary: Path) -> None:

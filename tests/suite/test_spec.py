@@ -336,6 +336,34 @@ def test_bad_project_renames_name_the_pyproject(tmp_path: Path) -> None:
     )
 
 
+def test_project_invariants_come_first_and_the_spec_adds_to_them(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[tool.beatlog]\ninvariants = ["robot.checks:a", "robot.checks:b"]\n', encoding="utf-8"
+    )
+    path = write_spec(
+        tmp_path / "specs",
+        "checked",
+        "probe.beatlog",
+        invariants=["robot.checks:c", "robot.checks:a"],
+    )
+
+    assert load_spec(path).invariants == ("robot.checks:a", "robot.checks:b", "robot.checks:c")
+
+
+def test_by_default_a_spec_checks_no_invariant(tmp_path: Path) -> None:
+    assert load_spec(write_spec(tmp_path, "plain", "probe.beatlog")).invariants == ()
+
+
+def test_an_invariant_without_a_colon_is_rejected_naming_the_spec(tmp_path: Path) -> None:
+    path = write_spec(tmp_path, "checked", "probe.beatlog", invariants=["robot.checks"])
+
+    with pytest.raises(SpecError) as raised:
+        load_spec(path)
+    assert str(raised.value) == (
+        f"{path}: key 'invariants[0]': expected module:attribute, got 'robot.checks'"
+    )
+
+
 def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
     text = spec_text(
         name='tip "over"\x7f',
@@ -345,6 +373,7 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
         system="myrobot:system",
         tags=["touch", "falls"],
         perception="myrobot:perception",
+        invariants=["myrobot.checks:upright", "myrobot.checks:Docks"],
     )
     path = tmp_path / "tip.dtc.toml"
     path.write_text(text, encoding="utf-8")
@@ -359,6 +388,7 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
         "myrobot:perception",
     )
     assert list(spec.tags) == ["touch", "falls"]
+    assert spec.invariants == ("myrobot.checks:upright", "myrobot.checks:Docks")
 
 
 def test_a_specs_data_written_as_toml_loads_back_the_same(tmp_path: Path) -> None:

@@ -81,7 +81,9 @@ class Shrunk:
     name: str
     kind: DivergenceKind
     behavior: str | None
-    """The behavior (or invariant) the failure concerns, if any."""
+    """The behavior the failure concerns, if any."""
+    invariant: str | None
+    """The invariant that did not hold, in an invariant's failure."""
     cycle: int
     """The cycle where the shrunk spec fails."""
     start_cycle: int
@@ -152,6 +154,7 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
         name=name,
         kind=last.kind,
         behavior=last.behavior,
+        invariant=last.invariant,
         cycle=last.cycle,
         start_cycle=search.start,
         end_cycle=search.end,
@@ -178,7 +181,7 @@ class _Search:
         self.end: int | None = given.end_cycle
         self.perturbations: dict[str, Any] = dict(data.get(PERTURBATIONS, {}))
         self.replays = 0
-        self._same: tuple[DivergenceKind, str | None] | None = None
+        self._same: tuple[DivergenceKind, str | None, str | None] | None = None
         self.failure: Divergence
 
     def first(self) -> Divergence | None:
@@ -266,10 +269,10 @@ class _Search:
         return outcome.result.divergence
 
 
-def _way(divergence: Divergence) -> tuple[DivergenceKind, str | None]:
-    """How a DTC fails, as shrinking keeps it: the kind of divergence and its behavior
-    (or invariant)."""
-    return divergence.kind, divergence.behavior
+def _way(divergence: Divergence) -> tuple[DivergenceKind, str | None, str | None]:
+    """How a DTC fails, as shrinking keeps it: the kind of divergence, its behavior and
+    its invariant."""
+    return divergence.kind, divergence.behavior, divergence.invariant
 
 
 def _perturbations(data: Mapping[str, Any]) -> tuple[str, ...]:

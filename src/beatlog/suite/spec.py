@@ -19,6 +19,7 @@ the system factory to replay it against::
     ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
     start_cycle = 4200                      # judge only cycles 4200 to 4380 (inclusive):
     end_cycle = 4380                        # earlier ones rebuild state, later are not read
+    invariants = ["myrobot.invariants:never_stuck"]  # checked in every cycle
 
     [tolerance]                             # largest accepted difference per output field
     wheel_speed = 1e-9
@@ -63,6 +64,10 @@ nested struct is named by its dotted path (``"pose.x" = "pose.px"``, or TOML's o
 ``pose.x = "pose.px"``), and a conversion is a ``module:function`` that takes the
 recorded value and returns the field's new one, imported as ``system`` is.
 
+``invariants`` (:mod:`beatlog.model.invariant`) are ``module:attribute`` references to
+properties that must hold at every heartbeat, imported as ``system`` is: the project's
+``[tool.beatlog] invariants`` apply to every spec, and a spec's own come on top.
+
 ``start_cycle`` and ``end_cycle`` narrow the DTC to a window of its log (what ``beatlog
 shrink`` writes): the cycles before ``start_cycle`` replay as recorded, unjudged, to
 rebuild the behaviors' state; replay stops after ``end_cycle``, the rest of the log
@@ -85,18 +90,20 @@ from typing import Annotated, Any
 import msgspec
 
 from beatlog.baseline.file import SPEC_SUFFIX
-from beatlog.errors import SpecError
+from beatlog.errors import SpecError, SystemLoadError
 from beatlog.log.files import project_root, read_small_text
 from beatlog.project.config import (
     VariantsConfig,
     check_conversions,
     check_one_to_one,
+    check_references,
     dotted_keys,
     explain_validation,
     keys_problem,
     project_config,
     variants_table,
 )
+from beatlog.project.usercode import load_invariant
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.variant import Perturbations
@@ -106,6 +113,7 @@ __all__ = [
     "SPEC_SUFFIX",
     "DtcSpec",
     "find_rootdir",
+    "importable_invariants",
     "load_spec",
     "read_spec_data",
     "spec_from_data",
@@ -133,6 +141,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     field_conversions: dict[str, str] = {}
     ignore_behaviors: list[str] = []
     ignore_fields: list[str] = []
+    invariants: list[str] = []
     tolerance: dict[str, float] = {}
     robot_state_tolerance: dict[str, float] = {}
     start_cycle: int | None = None
@@ -195,6 +204,9 @@ class DtcSpec:
     variant: int | None = None
     """For a variant, its number (from 1): replayed with :attr:`perturbations`, judged
     by the behaviors not raising and the invariants; None for the DTC itself."""
+    invariants: tuple[str, ...] = ()
+    """The ``module:attribute`` references of the invariants checked in every cycle: the
+    project's (``[tool.beatlog] invariants``), then the spec's own."""
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -288,6 +300,7 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
         if reference is not None and ":" not in reference:
             raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
     project = project_config(path.resolve().parent)
+    check_references(path, "invariants", spec.invariants)
     renames = {**project.renames, **spec.renames}
     check_one_to_one(path, "renames", spec.renames)
     check_one_to_one(path, "renames", renames)
@@ -339,6 +352,7 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
         ),
         variant_count=count,
         variant=spec.variant,
+        invariants=tuple(dict.fromkeys([*project.invariants, *spec.invariants])),
     )
 
 
@@ -373,6 +387,27 @@ def _variants(path: Path, tables: list[VariantsConfig]) -> tuple[Perturbations |
     return Perturbations(**merged, noise=noise), count
 
 
+def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
+    """The spec's invariants, each imported once here, so that one that does not import
+    is an error naming where it is listed: the spec (the DTC's error names it) or its
+    project's ``pyproject.toml``. Each replay then imports its own.
+
+    :raises beatlog.errors.SystemLoadError: one does not import, or is no invariant.
+    """
+    folder = spec.path.resolve().parent
+    project = project_config(folder).invariants if spec.source is None else []
+    for reference in spec.invariants:
+        try:
+            load_invariant(reference)
+        except SystemLoadError as exc:
+            root = project_root(folder)
+            if root is None or reference not in project:
+                raise
+            listed = f"listed under [tool.beatlog] invariants in {root / 'pyproject.toml'}"
+            raise SystemLoadError(f"{exc} ({listed})", user_traceback=exc.user_traceback) from None
+    return spec.invariants
+
+
 def _dtc_id(path: Path, name: str, rootdir: Path) -> str:
     """The id pytest gives the DTC of the spec at ``path``: its path from ``rootdir``
     (with ``..`` where it lies outside), ``::`` and its name."""
@@ -402,6 +437,7 @@ def spec_text(
     system: str | None,
     tags: Iterable[str] = (),
     perception: str | None = None,
+    invariants: Iterable[str] = (),
 ) -> str:
     """A new spec as TOML text, for tools that write one beside a recording (``beatlog
     import-bag --spec``, a suite's recording script, a failing variant); ``log`` is
@@ -417,6 +453,8 @@ def spec_text(
         *([] if perception is None else [f"perception = {toml_string(perception)}"]),
         f"tags = [{', '.join(map(toml_string, tags))}]",
     ]
+    if checked := list(invariants):
+        lines += ["invariants = [", *(f"    {toml_string(name)}," for name in checked), "]"]
     return "\n".join(lines) + "\n"
 
 

@@ -51,7 +51,13 @@ def run(args: argparse.Namespace, console: Console) -> int:
 def _report(shrunk: Shrunk, console: Console) -> None:
     """What the shrink found: the failure, the window against the cycles before, the
     perturbations left, the replays tried and the spec written."""
-    where = f" in {shrunk.behavior}" if shrunk.behavior else ""
+    where = (
+        f" {shrunk.invariant}"
+        if shrunk.invariant
+        else f" in {shrunk.behavior}"
+        if shrunk.behavior
+        else ""
+    )
     kept = f" ({', '.join(shrunk.perturbations)})" if shrunk.perturbations else ""
     lines = [
         f"shrunk {shrunk.kind.value}{where} at cycle {shrunk.cycle}: "
