@@ -370,27 +370,32 @@ class CycleJudge:
         the last read."""
         if self._expected is not None:
             batches = self._expected.batches(batches, self.path)
+        if self._start or self._end is not None:
+            batches = self._windowed(batches)
+        for batch in batches:
+            self._batches.append(batch)
+            yield batch
+
+    def _windowed(
+        self, batches: Iterator[Sequence[CycleRecord]]
+    ) -> Iterator[Sequence[CycleRecord]]:
+        """``batches`` cut where the window starts and after it ends (none read after)."""
         first = 0
         """The cycle the next batch starts with."""
         for batch in through(batches, self._end, self._close):
             at, first = first, first + len(batch)
             if at < self._start < first:
-                yield self._kept(batch[: self._start - at])
+                yield batch[: self._start - at]
                 self._window_opens()
-                yield self._kept(batch[self._start - at :])
+                yield batch[self._start - at :]
                 continue
             if at == self._start > 0:
                 self._window_opens()
-            yield self._kept(batch)
+            yield batch
 
     def _close(self) -> None:
         """The window's end is reached: the rest of the log is not read."""
         self.window_closed = True
-
-    def _kept(self, batch: Sequence[CycleRecord]) -> Sequence[CycleRecord]:
-        """``batch``, kept for the cycles before a divergence."""
-        self._batches.append(batch)
-        return batch
 
     def _window_opens(self) -> None:
         """Note what the replay core counted before the window, which opens now."""

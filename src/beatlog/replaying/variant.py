@@ -273,7 +273,8 @@ class _VariantJudge:
 
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches up to the window's end, perturbed."""
-        batches = through(batches, self._end, self._close)
+        if self._end is not None:
+            batches = through(batches, self._end, self._close)
         if not self._perturber.rewrites:
             return batches
         return self._perturber.records(batches, self._first)
