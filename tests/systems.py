@@ -146,8 +146,8 @@ class Weary(Near):
     """Near that wears out: it raises on its fourth approach to the pole, a bug that
     only a state reached late in a session (after three approaches) triggers."""
 
-    def __init__(self) -> None:
-        super().__init__()
+    def __init__(self, threshold: float = 0.5) -> None:
+        super().__init__(threshold)
         self.approaches = 0
 
     def step(self, rs: Probe, ctx: Context) -> Outputs | None:
@@ -167,6 +167,12 @@ WORN_OUT = 4
 def weary_system() -> PriorityArbiter[Probe]:
     """The probe with a near that raises on its fourth approach."""
     return PriorityArbiter([Weary(), Dice()], robot_state=Probe)
+
+
+def weary_system_changed() -> PriorityArbiter[Probe]:
+    """``probe_system_changed`` (near reacts earlier), with a near that raises on its
+    fourth approach."""
+    return PriorityArbiter([Weary(0.6), Dice()], robot_state=Probe)
 
 
 class Hostile:

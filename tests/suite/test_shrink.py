@@ -7,14 +7,17 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.baseline.file import expected_path
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BeatlogError
 from beatlog.replaying.variant import Perturbations
 from beatlog.replaying.verdict import DivergenceKind
+from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.runner import run_spec
 from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink, shrunk_path
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn, first_cycle_below
-from tests.specs import PROBE, write_spec
+from tests.specs import CHANGED, PROBE, write_spec
 from tests.systems import LINGER, WORN_OUT
 
 WEARY = "tests.systems:weary_system"
@@ -71,6 +74,33 @@ def test_a_failing_invariant_keeps_the_cycles_it_looks_across(
     assert (shrunk.kind, shrunk.invariant) == (DivergenceKind.INVARIANT, "NeverLingers")
     assert (shrunk.start_cycle, shrunk.end_cycle) == (first_near, first_near + LINGER)
     assert shrunk.cycle == first_near + LINGER
+
+
+def test_a_dtc_judged_against_its_approved_baseline_is_shrunk_with_a_copy_of_it(
+    tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("CI", raising=False)
+    log = record_probe(600)
+    spec = write_spec(tmp_path, "retuned", log, CHANGED)
+    update_baselines(
+        [run_spec(load_spec(spec), SpecOptions(update=UpdateMode.NEW))], UpdateMode.NEW
+    )
+    approve([spec])
+    write_spec(tmp_path, "retuned", log, "tests.systems:weary_system_changed")  # a bug on top
+
+    shrunk = shrink(spec)
+
+    assert expected_path(shrunk.path).read_bytes() == expected_path(spec).read_bytes()
+    outcome = run_spec(load_spec(shrunk.path))
+    assert outcome.baseline == expected_path(shrunk.path)
+    assert outcome.result is not None
+    failure = outcome.result.divergence
+    assert failure is not None
+    assert (failure.kind, failure.behavior, failure.cycle) == (
+        DivergenceKind.EXCEPTION,
+        "near",
+        shrunk.cycle,
+    )
 
 
 def test_every_replay_tried_after_the_first_stops_at_the_failing_cycle(weary: Path) -> None:
