@@ -197,10 +197,12 @@ class _Search:
         self, start: int, end: int | None, perturbations: Mapping[str, Any] | None = None
     ) -> bool:
         """Whether the spec fails the same way in the window ``start``-``end`` with
-        ``perturbations`` (by default, those kept so far)."""
+        ``perturbations`` (by default, those kept so far): in the window, not before it."""
         kept = self.perturbations if perturbations is None else perturbations
         divergence = self._replay(start, end, kept)
-        failed = divergence is not None and _way(divergence) == self._same
+        failed = (
+            divergence is not None and divergence.cycle >= start and _way(divergence) == self._same
+        )
         self._tell(start, end, kept, failed=failed)
         if failed and divergence is not None:
             self.failure = divergence

@@ -9,6 +9,7 @@ import pytest
 
 from tests.commands import Beatlog, assert_error
 from tests.conftest import RecordFn, first_cycle_below
+from tests.factories import cut_in_half
 from tests.specs import PROBE, write_spec
 from tests.systems import WORN_OUT
 
@@ -83,3 +84,13 @@ def test_a_missing_spec_is_one_line_and_exit_2(beatlog: Beatlog, tmp_path: Path)
     run = beatlog("shrink", tmp_path / "gone.dtc.toml")
 
     assert_error(run, f"{tmp_path / 'gone.dtc.toml'}: no such file")
+
+
+def test_a_dtc_failing_only_because_its_log_was_cut_off_is_one_line_and_exit_2(
+    beatlog: Beatlog, tmp_path: Path, record_chunked: RecordFn
+) -> None:
+    spec = write_spec(tmp_path, "cut", cut_in_half(record_chunked(300)), PROBE)
+
+    run = beatlog("shrink", spec)
+
+    assert_error(run, f"{spec}: fails only because its log was cut off: no window repeats that")
