@@ -108,6 +108,18 @@ def test_a_written_variant_names_the_log_and_every_perturbation_and_keeps_them(
     assert 'log = "../probe.beatlog"' in written.path.read_text(encoding="utf-8")
 
 
+def test_a_written_variant_of_a_window_keeps_the_window(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(100)
+    window = {"start_cycle": 20, "end_cycle": 60}
+    spec = load_spec(write_spec(tmp_path, "dock", log, FUSSY, variants=NOISY, **window))
+
+    written = load_spec(write_variant_spec(with_variants([spec], 1)[1]))
+
+    assert (written.start_cycle, written.end_cycle) == (20, 60)
+
+
 def test_a_written_variant_is_found_as_a_dtc_of_its_own_with_no_variants(
     tmp_path: Path, record_probe: RecordFn
 ) -> None:

@@ -67,9 +67,9 @@ def with_variants(specs: Iterable[DtcSpec], count: int | None = None) -> list[Dt
 
 
 def variant_spec_text(spec: DtcSpec) -> str:
-    """The spec of variant ``spec`` of a DTC: its log (no copy), system, number and
-    perturbations, all of them, so that it reproduces whatever the original spec or the
-    project say later."""
+    """The spec of variant ``spec`` of a DTC: its log (no copy), system, window, number
+    and perturbations, all of them, so that it reproduces whatever the original spec or
+    the project say later."""
     assert spec.variant is not None  # a variant's
     assert spec.perturbations is not None
     base = spec.name.removesuffix(f"[variant-{spec.variant}]")
@@ -88,6 +88,8 @@ def variant_spec_text(spec: DtcSpec) -> str:
         *(["allow_truncated = true"] if spec.allow_truncated else []),
         *([f"field_renames = {_table(renames)}"] if renames else []),
         *([f"field_conversions = {_table(conversions)}"] if conversions else []),
+        *([f"start_cycle = {spec.start_cycle}"] if spec.start_cycle else []),
+        *([] if spec.end_cycle is None else [f"end_cycle = {spec.end_cycle}"]),
         f"variant = {spec.variant}",
         "",
         "[variants]",
