@@ -25,6 +25,7 @@ source keyed by the variant; a replay that is no variant pays nothing.
 from __future__ import annotations
 
 import hashlib
+import struct
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -33,12 +34,17 @@ from typing import Any, Protocol, runtime_checkable
 
 import msgspec
 
-from beatlog.errors import FieldError
-from beatlog.log.format import EMPTY_LIST, CycleRecord, SessionHeader, StateChangeRecord
+from beatlog.errors import CorruptLogError, FieldError
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    CycleRecord,
+    SessionHeader,
+    StateChangeRecord,
+)
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
-from beatlog.model.luck import FreshLuck, Place
 from beatlog.model.perception import Perception
 from beatlog.project.usercode import user_traceback
 from beatlog.replaying.compare import state_fields
@@ -59,6 +65,12 @@ from beatlog.replaying.view import full_state
 __all__ = ["Judging", "Perturbations", "Variant", "replay_variant", "variant_key"]
 
 _NS = 1_000_000_000
+_TINY = 2.0**-53
+_PER_BLOCK = 8
+_BLOCKS = [struct.Struct(f"<{count}Q") for count in range(_PER_BLOCK + 1)]
+"""The first numbers of a BLAKE2b digest of 64 bytes, by how many (up to eight)."""
+_SAMPLES = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
+"""A cycle's samples, each as its bytes."""
 
 
 @dataclass(frozen=True)
@@ -102,9 +114,32 @@ class Judging(Observer, Protocol):
         """What it found wrong, once it found it."""
 
 
+class _Uniforms:
+    """Uniform numbers in [0, 1) keyed by a variant: those of one kind in one cycle are
+    the 53-bit floats of BLAKE2b digests (64 bytes, eight numbers each) keyed so, of the
+    cycle, the kind and the digest's index; each kind its own, so that one perturbation
+    left out leaves the others' numbers as they were."""
+
+    __slots__ = ("_keyed",)
+
+    def __init__(self, key: bytes) -> None:
+        self._keyed = hashlib.blake2b(key=key[:64], digest_size=64)
+
+    def draw(self, cycle: int, kind: str, count: int) -> list[float]:
+        """``count`` numbers of ``kind`` in ``cycle``."""
+        numbers: list[float] = []
+        keyed = self._keyed
+        for block in range(0, count, _PER_BLOCK):
+            hasher = keyed.copy()
+            hasher.update(f"{cycle}\x00{kind}\x00{block // _PER_BLOCK}".encode())
+            unpack = _BLOCKS[min(count - block, _PER_BLOCK)].unpack_from
+            numbers.extend([(n >> 11) * _TINY for n in unpack(hasher.digest())])
+        return numbers
+
+
 class _Perturber:
     """The perturbations of one variant of one log: its records rewritten, its robot
-    states made noisy, each from the keyed source at the cycle's place."""
+    states made noisy, each from the variant's keyed numbers of the cycle."""
 
     def __init__(
         self,
@@ -115,7 +150,7 @@ class _Perturber:
         migration: StateMigration,
     ) -> None:
         perturbations = variant.perturbations
-        self._luck = FreshLuck(variant_key(log_key(header), variant.number))
+        self._uniforms = _Uniforms(variant_key(log_key(header), variant.number))
         self._jitter_ns = round(perturbations.heartbeat_jitter * _NS)
         self._draws = perturbations.draws
         sensing = replayer.perception is not None
@@ -126,13 +161,10 @@ class _Perturber:
             (name, tuple(name.split(".")), bound) for name, bound in perturbations.noise.items()
         )
         self._where = where
+        self._log = replayer.path
         self._context = replayer.executor.context
         if self._noise:
             replayer.observe = self.noisy
-
-    def _u(self, cycle: int, what: str, index: int = 0) -> float:
-        """A uniform number in [0, 1) for ``what`` at ``index`` in ``cycle``."""
-        return self._luck.luck(Place(cycle, what, index)).u
 
     @property
     def rewrites(self) -> bool:
@@ -144,7 +176,7 @@ class _Perturber:
     ) -> Iterator[Sequence[CycleRecord]]:
         """``batches`` with each record perturbed, cycle ``first`` the first."""
         cycle = first
-        late: list[Any] = []
+        late: list[msgspec.Raw] = []
         for batch in batches:
             rewritten = []
             for record in batch:
@@ -152,55 +184,71 @@ class _Perturber:
                 cycle += 1
             yield rewritten
 
-    def _record(self, record: CycleRecord, cycle: int, late: list[Any]) -> CycleRecord:
+    def _record(self, record: CycleRecord, cycle: int, late: list[msgspec.Raw]) -> CycleRecord:
         """One record perturbed; ``late`` holds the samples delayed into this cycle, and
         then those delayed out of it."""
         changed: dict[str, Any] = {}
         if self._jitter_ns:
-            offset = round((2.0 * self._u(cycle, "heartbeat") - 1.0) * self._jitter_ns)
-            changed["heartbeat_ns"] = max(1, record.heartbeat_ns + offset)
+            u = self._uniforms.draw(cycle, "heartbeat", 1)[0]
+            changed["heartbeat_ns"] = max(
+                1, record.heartbeat_ns + round((2 * u - 1) * self._jitter_ns)
+            )
         if self._draws and record.random_numbers != EMPTY_LIST:
             changed["random_numbers"] = EMPTY_LIST
         if self._drop or self._delay:
-            samples = msgspec.msgpack.decode(record.samples)
-            if isinstance(samples, list):
-                kept = late[:]
-                late.clear()
-                for index, sample in enumerate(samples):
-                    if self._u(cycle, "drop sample", index) < self._drop:
-                        continue
-                    if self._u(cycle, "delay sample", index) < self._delay:
-                        late.append(sample)
-                    else:
-                        kept.append(sample)
-                changed["samples"] = msgspec.Raw(msgspec.msgpack.encode(kept))
+            samples = self._samples(record, cycle, late)
+            if samples is not None:
+                changed["samples"] = samples
         return msgspec.structs.replace(record, **changed) if changed else record
+
+    def _samples(
+        self, record: CycleRecord, cycle: int, late: list[msgspec.Raw]
+    ) -> msgspec.Raw | None:
+        """The cycle's samples, those delayed into it first, less those dropped or
+        delayed out of it (kept in ``late``); None where they are as recorded."""
+        try:
+            samples = _SAMPLES(record.samples)
+        except DECODE_ERRORS as exc:
+            raise CorruptLogError(self._log, f"damaged samples in cycle {cycle}: {exc}") from None
+        drops = self._uniforms.draw(cycle, "drop sample", len(samples))
+        delays = self._uniforms.draw(cycle, "delay sample", len(samples))
+        kept = late[:]
+        late.clear()
+        for sample, drop, delay in zip(samples, drops, delays, strict=False):
+            if drop < self._drop:
+                continue
+            (late if delay < self._delay else kept).append(sample)
+        if kept == samples:
+            return None
+        return msgspec.Raw(msgspec.msgpack.encode(kept))
 
     def noisy(self, state: Any) -> Any:
         """RS_t with each field named offset within its bound (the replay core's
         ``observe`` hook)."""
-        cycle = self._context.cycle + 1
+        noise = self._noise
+        uniforms = self._uniforms.draw(self._context.cycle + 1, "noise", len(noise))
         state = full_state(state)
-        for index, (name, path, bound) in enumerate(self._noise):
-            offset = (2.0 * self._u(cycle, "noise", index) - 1.0) * bound
-            state = self._offset(state, path, name, offset)
-        return state
+        moved: dict[str, Any] = {}
+        for (name, path, bound), u in zip(noise, uniforms, strict=False):
+            top = path[0]
+            value = moved[top] if top in moved else getattr(state, top)
+            moved[top] = self._offset(value, path[1:], name, (2 * u - 1) * bound)
+        return msgspec.structs.replace(state, **moved)
 
-    def _offset(self, state: Any, path: tuple[str, ...], name: str, offset: float) -> Any:
-        """``state`` with the field at ``path`` moved by ``offset``."""
-        value = getattr(state, path[0])
-        if len(path) > 1:
-            moved = self._offset(value, path[1:], name, offset)
-        elif isinstance(value, bool) or not isinstance(value, int | float):
+    def _offset(self, value: Any, path: tuple[str, ...], name: str, offset: float) -> Any:
+        """``value`` with the field at ``path`` in it (``value`` itself, for none) moved
+        by ``offset``."""
+        if path:
+            inner = self._offset(getattr(value, path[0]), path[1:], name, offset)
+            return msgspec.structs.replace(value, **{path[0]: inner})
+        if isinstance(value, bool) or not isinstance(value, int | float):
             raise FieldError(
                 f"{self._where}: noise bound for {name!r}: the field holds "
                 f"{type(value).__name__} {value!r}, not a number"
             )
-        elif isinstance(value, int):
-            moved = value + round(offset)
-        else:
-            moved = value + offset
-        return msgspec.structs.replace(state, **{path[0]: moved})
+        if isinstance(value, int):
+            return value + round(offset)
+        return value + offset
 
 
 class _Ended:
