@@ -8,7 +8,7 @@ CPU time (``time.process_time``), the two alternated round by round in one run; 
 ratio is the sums' over the suite, medians of the rounds, and a DTC's own where asked.
 A variant that fails stops early: the cycles each replayed are reported beside.
 
-Run it as ``python bench/bench_variants.py [--rounds 5] [--json FILE]``. For
+Run it as ``python bench/bench_variants.py [--rounds 5] [--dtc NAME] [--json FILE]``. For
 instruction counts, ``--run replay|variant --times N`` replays the suite once each way
 as a warm-up and N more times the way named: under ``PYTHONHASHSEED=0 valgrind
 --tool=cachegrind --cache-sim=no``, the difference of the ``I refs`` counts of N = 1
@@ -79,8 +79,11 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     parser.add_argument("--run", choices=("replay", "variant"))
     parser.add_argument("--times", type=int, default=1)
+    parser.add_argument("--dtc", action="append", help="only this DTC (again for more)")
     args = parser.parse_args()
-    specs = discover_specs([SUITE_DIR])
+    specs = [
+        spec for spec in discover_specs([SUITE_DIR]) if args.dtc is None or spec.name in args.dtc
+    ]
     if args.run is not None:
         for spec in specs:
             as_judged(spec)

@@ -25,7 +25,6 @@ source keyed by the variant; a replay that is no variant pays nothing.
 from __future__ import annotations
 
 import hashlib
-import struct
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -65,10 +64,12 @@ from beatlog.replaying.view import full_state
 __all__ = ["Judging", "Perturbations", "Variant", "replay_variant", "variant_key"]
 
 _NS = 1_000_000_000
-_TINY = 2.0**-53
-_PER_BLOCK = 8
-_BLOCKS = [struct.Struct(f"<{count}Q") for count in range(_PER_BLOCK + 1)]
-"""The first numbers of a BLAKE2b digest of 64 bytes, by how many (up to eight)."""
+_TINY = 2.0**-32
+_MASK = (1 << 64) - 1
+_GOLDEN = 0x9E3779B97F4A7C15
+"""SplitMix64's increment."""
+_INDEX_BITS = 20
+"""Room for the numbers of one kind in one cycle: a million."""
 _SAMPLES = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
 """A cycle's samples, each as its bytes."""
 
@@ -115,25 +116,43 @@ class Judging(Observer, Protocol):
 
 
 class _Uniforms:
-    """Uniform numbers in [0, 1) keyed by a variant: those of one kind in one cycle are
-    the 53-bit floats of BLAKE2b digests (64 bytes, eight numbers each) keyed so, of the
-    cycle, the kind and the digest's index; each kind its own, so that one perturbation
-    left out leaves the others' numbers as they were."""
+    """Uniform numbers in [0, 1) keyed by a variant, SplitMix64's: the ``i``-th pair of
+    one kind in one cycle (from 0) are the two halves, 32 bits each, of the
+    ``(cycle << 20) + i + 1``-th SplitMix64 output of a stream seeded by the BLAKE2b
+    digest (8 bytes) of the kind, keyed by the variant.
+    Each kind is its own stream, so that one perturbation left out leaves the others'
+    numbers as they were, and any cycle's numbers are had at once (no state carried
+    from cycle to cycle, no global generator): plain integer arithmetic, the same on
+    every machine."""
 
-    __slots__ = ("_keyed",)
+    __slots__ = ("_key", "_seeds")
 
     def __init__(self, key: bytes) -> None:
-        self._keyed = hashlib.blake2b(key=key[:64], digest_size=64)
+        self._key = key[:64]
+        self._seeds: dict[str, int] = {}
+
+    def _seed(self, kind: str) -> int:
+        seed = int.from_bytes(
+            hashlib.blake2b(kind.encode(), key=self._key, digest_size=8).digest(), "little"
+        )
+        self._seeds[kind] = seed
+        return seed
 
     def draw(self, cycle: int, kind: str, count: int) -> list[float]:
-        """``count`` numbers of ``kind`` in ``cycle``."""
+        """``count`` numbers of ``kind`` in ``cycle`` (one more where ``count`` is odd):
+        two of 32 bits from each output."""
+        seed = self._seeds.get(kind)
+        if seed is None:
+            seed = self._seed(kind)
+        state = seed + (cycle << _INDEX_BITS) * _GOLDEN
         numbers: list[float] = []
-        keyed = self._keyed
-        for block in range(0, count, _PER_BLOCK):
-            hasher = keyed.copy()
-            hasher.update(f"{cycle}\x00{kind}\x00{block // _PER_BLOCK}".encode())
-            unpack = _BLOCKS[min(count - block, _PER_BLOCK)].unpack_from
-            numbers.extend([(n >> 11) * _TINY for n in unpack(hasher.digest())])
+        for _ in range(0, count, 2):
+            state += _GOLDEN
+            x = state & _MASK
+            x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & _MASK
+            x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & _MASK
+            x ^= x >> 31
+            numbers += ((x >> 32) * _TINY, (x & 0xFFFFFFFF) * _TINY)
         return numbers
 
 
@@ -174,52 +193,41 @@ class _Perturber:
     def records(
         self, batches: Iterator[Sequence[CycleRecord]], first: int
     ) -> Iterator[Sequence[CycleRecord]]:
-        """``batches`` with each record perturbed, cycle ``first`` the first."""
+        """``batches`` with each record perturbed in place (the session's reader decoded
+        them for this replay alone), cycle ``first`` the first."""
         cycle = first
         late: list[msgspec.Raw] = []
+        jitter_ns = self._jitter_ns
+        resampling = self._drop or self._delay
         for batch in batches:
-            rewritten = []
             for record in batch:
-                rewritten.append(self._record(record, cycle, late))
+                if jitter_ns:
+                    (u,) = self._uniforms.draw(cycle, "heartbeat", 1)[:1]
+                    offset = round((2 * u - 1) * jitter_ns)
+                    record.heartbeat_ns = max(1, record.heartbeat_ns + offset)
+                if self._draws:
+                    record.random_numbers = EMPTY_LIST
+                if resampling:
+                    record.samples = self._samples(record, cycle, late)
                 cycle += 1
-            yield rewritten
+            yield batch
 
-    def _record(self, record: CycleRecord, cycle: int, late: list[msgspec.Raw]) -> CycleRecord:
-        """One record perturbed; ``late`` holds the samples delayed into this cycle, and
-        then those delayed out of it."""
-        changed: dict[str, Any] = {}
-        if self._jitter_ns:
-            u = self._uniforms.draw(cycle, "heartbeat", 1)[0]
-            changed["heartbeat_ns"] = max(
-                1, record.heartbeat_ns + round((2 * u - 1) * self._jitter_ns)
-            )
-        if self._draws and record.random_numbers != EMPTY_LIST:
-            changed["random_numbers"] = EMPTY_LIST
-        if self._drop or self._delay:
-            samples = self._samples(record, cycle, late)
-            if samples is not None:
-                changed["samples"] = samples
-        return msgspec.structs.replace(record, **changed) if changed else record
-
-    def _samples(
-        self, record: CycleRecord, cycle: int, late: list[msgspec.Raw]
-    ) -> msgspec.Raw | None:
+    def _samples(self, record: CycleRecord, cycle: int, late: list[msgspec.Raw]) -> msgspec.Raw:
         """The cycle's samples, those delayed into it first, less those dropped or
-        delayed out of it (kept in ``late``); None where they are as recorded."""
+        delayed out of it (kept in ``late``)."""
         try:
             samples = _SAMPLES(record.samples)
         except DECODE_ERRORS as exc:
             raise CorruptLogError(self._log, f"damaged samples in cycle {cycle}: {exc}") from None
-        drops = self._uniforms.draw(cycle, "drop sample", len(samples))
-        delays = self._uniforms.draw(cycle, "delay sample", len(samples))
+        numbers = self._uniforms.draw(cycle, "samples", 2 * len(samples))
         kept = late[:]
         late.clear()
-        for sample, drop, delay in zip(samples, drops, delays, strict=False):
+        for sample, drop, delay in zip(samples, numbers[::2], numbers[1::2], strict=False):
             if drop < self._drop:
                 continue
             (late if delay < self._delay else kept).append(sample)
         if kept == samples:
-            return None
+            return record.samples
         return msgspec.Raw(msgspec.msgpack.encode(kept))
 
     def noisy(self, state: Any) -> Any:
@@ -320,11 +328,9 @@ class _VariantJudge:
             self.changes += len(changes)
             self.outputs += len(replayer.executor.context.outputs)
             self.draws += len(replayer.random.drawn)
-        else:
-            outcome = outcome or replayer.outcome()
-            if outcome.failure is not None or outcome.perception_failure is not None:
-                self.divergence = self._raised(outcome)
-                return _Ended()
+        elif replayer.raised is not None:
+            self.divergence = self._raised(outcome or replayer.outcome())
+            return _Ended()
         for observer in self._judging:
             found = observer.divergence
             if found is not None:
