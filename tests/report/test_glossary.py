@@ -102,6 +102,11 @@ PRINTED = [
     # beatlog upgrade-baselines
     "upgraded",
     "older format",
+    # variants
+    "variant",
+    "of them variants",
+    "written",
+    "a failing variant, now a DTC of its own",
 ]
 """The words the CLI's messages and reports print that no enum or constant lists."""
 
