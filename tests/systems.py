@@ -30,6 +30,7 @@ import py_trees
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample
+from beatlog.model.invariant import Cycle
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog_examples.rover import RoverRobot, RoverState
@@ -602,3 +603,20 @@ class Fussy(Near):
 def fussy_system() -> PriorityArbiter[Probe]:
     """The probe system with :class:`Fussy` for ``near``."""
     return PriorityArbiter([Fussy(), Dice()], robot_state=Probe)
+
+
+def never_close(cycle: Cycle) -> None:
+    """An invariant of the probe that does not hold within 0.3 m of the pole."""
+    if cycle.robot_state.distance <= 0.3:
+        raise AssertionError(f"{cycle.robot_state.distance} m from the pole")
+
+
+def never_holds(cycle: Cycle) -> None:
+    """An invariant that holds in no cycle of any robot."""
+    raise AssertionError(f"cycle {cycle.cycle}")
+
+
+def never_negative(cycle: Cycle) -> None:
+    """An invariant of the probe that every recording of it keeps, and noise on its
+    distance may not."""
+    assert cycle.robot_state.distance >= 0, f"a distance of {cycle.robot_state.distance} m"

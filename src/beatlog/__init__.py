@@ -22,6 +22,8 @@ if TYPE_CHECKING:
     from beatlog.model import SensorInbox as SensorInbox
     from beatlog.model import System as System
     from beatlog.model.inbox import Sample as Sample
+    from beatlog.model.invariant import Cycle as Cycle
+    from beatlog.model.invariant import Invariant as Invariant
     from beatlog.model.perception import Perception as Perception
     from beatlog.model.robot import Robot as Robot
     from beatlog.record import Recorder as Recorder

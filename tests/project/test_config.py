@@ -182,3 +182,31 @@ def test_bad_open_loop_limits_name_the_pyproject_and_the_key(
         project_config(tmp_path)
 
     assert str(raised.value) == f"{pyproject}: key 'tool.beatlog.{problem}"
+
+
+def test_the_invariants_of_every_spec_are_read_from_the_project(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[tool.beatlog]\ninvariants = ["robot.checks:never_fall", "robot.checks:Docks"]\n',
+        encoding="utf-8",
+    )
+
+    assert project_config(tmp_path).invariants == ["robot.checks:never_fall", "robot.checks:Docks"]
+
+
+@pytest.mark.parametrize(
+    ("value", "problem"),
+    [
+        ('["robot.checks"]', "invariants[0]': expected module:attribute, got 'robot.checks'"),
+        ('"robot.checks:never_fall"', "invariants': expected `array`, got `str`"),
+    ],
+)
+def test_bad_invariants_name_the_pyproject_and_the_key(
+    tmp_path: Path, value: str, problem: str
+) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text(f"[tool.beatlog]\ninvariants = {value}\n", encoding="utf-8")
+
+    with pytest.raises(SpecError) as raised:
+        project_config(tmp_path)
+
+    assert str(raised.value) == f"{pyproject}: key 'tool.beatlog.{problem}"

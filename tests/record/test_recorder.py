@@ -24,6 +24,7 @@ from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample, SensorInbox
+from beatlog.model.invariant import Cycle
 from beatlog.record.recorder import Recorder
 from tests.conftest import PERIOD_NS, Probe, probe_system
 from tests.systems import (
@@ -321,3 +322,50 @@ def test_behaviors_see_a_state_rebuilt_from_samples_as_they_saw_it_live(tmp_path
             state = perceive_simulated(state, samples)
             recorder.step(PERIOD_NS, state, samples)
     assert replay(log, typist_system(), perception=perceive_simulated).ok
+
+
+def never_close(cycle: Cycle) -> None:
+    if cycle.robot_state.distance <= 0.3:
+        raise AssertionError(f"{cycle.robot_state.distance:.2f} m from the pole")
+
+
+def broken(cycle: Cycle) -> None:
+    if cycle.cycle == 3:
+        raise KeyError("no such sensor")
+
+
+def test_invariants_are_checked_live_and_never_stop_the_robot(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    distances = [1.0, 0.2, 0.25, 0.9, 0.1]
+    with Recorder(
+        tmp_path / "live.beatlog", probe_system(), software="t", invariants=[never_close, broken]
+    ) as recorder:
+        for distance in distances:
+            recorder.step(PERIOD_NS, Probe(distance=distance))
+
+    assert recorder.cycles == len(distances)
+    assert [(v.invariant, v.cycle.cycle) for v in recorder.violations] == [
+        ("never_close", 1),
+        ("never_close", 2),
+        ("broken", 3),
+        ("never_close", 4),
+    ]
+    assert (
+        recorder.violations[0].message
+        == "invariant never_close does not hold: 0.20 m from the pole"
+    )
+    assert [record.getMessage() for record in caplog.records] == [
+        "cycle 1, t = 0.060 s: invariant never_close does not hold: 0.20 m from the pole; "
+        "the robot runs on",
+        "cycle 3, t = 0.120 s: invariant broken raised KeyError: 'no such sensor'; "
+        "the robot runs on",
+    ]
+    assert replay(tmp_path / "live.beatlog", probe_system()).ok
+
+
+def test_a_recorder_checks_nothing_unless_asked(tmp_path: Path) -> None:
+    with Recorder(tmp_path / "plain.beatlog", probe_system(), software="t") as recorder:
+        recorder.step(PERIOD_NS, Probe(distance=0.1))
+
+    assert recorder.violations == []

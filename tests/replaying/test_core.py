@@ -114,18 +114,29 @@ def test_a_cycle_agrees_at_once_exactly_where_its_bytes_are_the_ones_expected(
     record_probe: RecordFn, name: str
 ) -> None:
     core, records = replayer(record_probe(120), SYSTEMS[name]())
-    core.expect(Expected(None, payload_encoder(), frozenset({30})))
+    core.expect(Expected(None, payload_encoder(), judged=False))
     answers = []
     for record in records:
         changes = core.advance(record)
         outcome = core.outcome()
         clean = changes is not None and outcome.completed
         agrees = clean and outcome.changes is not None and core.agrees(record, outcome.changes)
-        answers.append((changes is AGREED, agrees and outcome.cycle != 30))
+        answers.append((changes is AGREED, agrees))
 
     assert [at_once for at_once, _ in answers] == [expected for _, expected in answers]
     judged = [cycle for cycle, (at_once, _) in enumerate(answers) if not at_once]
-    assert judged == [30] if name == "same" else len(judged) > 1  # cycle 30 judged whole
+    assert judged == [] if name == "same" else len(judged) > 1
+
+
+def test_no_cycle_agrees_at_once_where_the_verdict_judges_every_cycle_whole(
+    record_probe: RecordFn,
+) -> None:
+    core, records = replayer(record_probe(120), probe_system())
+    core.expect(Expected(None, payload_encoder(), judged=True))
+
+    answers = [core.advance(record) for record in records]
+
+    assert all(changes is not None and changes is not AGREED for changes in answers)
 
 
 def test_a_cycle_that_raised_advances_to_none_with_the_failure_in_its_outcome(
@@ -267,9 +278,7 @@ def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
     with SessionLogReader(log) as reader:
         core = Replayer(probe_system(draws=2), reader.header, reader.path, living=True)
         records = list(reader.cycles())
-    core.expect(
-        Expected(None, payload_encoder(), frozenset(), None if approved is None else approves)
-    )
+    core.expect(Expected(None, payload_encoder(), False, None if approved is None else approves))
     answers = []
     for record in records:
         changes = core.advance(record)

@@ -81,6 +81,7 @@ def test_every_divergence_kind_is_its_words_in_a_report() -> None:
         "exception",
         "perception",
         "log ended",
+        "invariant",
     ]
     assert all(DivergenceKind(kind.value) is kind for kind in DivergenceKind)
 

@@ -38,6 +38,9 @@ PRINTED = [
     "HB_t",
     "RN_t",
     "BS_t",
+    "behavior states after the update",
+    "does not hold",
+    "invariant violation",
     # beatlog show
     "format",
     "status",

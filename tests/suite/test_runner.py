@@ -19,7 +19,7 @@ from beatlog.report.figures import dtc_charts
 from beatlog.suite.maintenance import PendingUpdate, UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
-from tests.conftest import Dice, Near, Probe, RecordFn
+from tests.conftest import Dice, Near, Probe, RecordFn, distances
 from tests.factories import cut_short
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, written_dtc
 from tests.systems import leaks, leaky_system, quiet_system, record_session, restless_system
@@ -414,3 +414,90 @@ def test_a_failure_that_repeats_itself_says_nothing_more(tmp_path: Path, log: Pa
     assert outcome.result is not None
     assert outcome.result.divergence is not None
     assert outcome.result.notes == ()
+
+
+# invariants
+
+CHECKS = '''
+def never_close(cycle):
+    if cycle.robot_state.distance <= 0.3:
+        raise AssertionError(f"{cycle.robot_state.distance} m from the pole")
+
+
+def near_late(cycle):
+    """Holds on the probe; not on the changed probe, whose near goes near sooner."""
+    if cycle.states["near"] == "near":
+        assert cycle.robot_state.distance < 0.5, "near too soon"
+'''
+"""Invariants of the probe, beside the specs that name them (``checks:never_close``)."""
+
+FIRST_CLOSE = next(t for t, d in enumerate(distances(300)) if d <= 0.3)
+
+
+def test_a_dtc_fails_at_the_first_cycle_its_invariants_do_not_hold(
+    tmp_path: Path, log: Path
+) -> None:
+    (tmp_path / "checks.py").write_text(CHECKS, encoding="utf-8")
+    spec = written_dtc(tmp_path, "checked", log, invariants=["checks:never_close"])
+
+    outcome = run_spec(spec)
+
+    assert outcome.verdict is Verdict.FAILED
+    assert outcome.result is not None
+    divergence = outcome.result.divergence
+    assert divergence is not None
+    assert (divergence.kind, divergence.cycle, divergence.invariant) == (
+        DivergenceKind.INVARIANT,
+        FIRST_CLOSE,
+        "never_close",
+    )
+    assert outcome.result.reproduce == f"beatlog test {spec.path}"
+    assert outcome.result.notes == ()  # the failure repeats in a fresh replay
+
+
+def test_the_invariants_judge_the_cycles_a_baseline_runs_open_loop(
+    tmp_path: Path, log: Path
+) -> None:
+    spec = written_dtc(tmp_path, "retuned", log, CHANGED)
+    update_baselines([run_spec(spec, SpecOptions(update=UpdateMode.NEW))], UpdateMode.NEW)
+    approve([spec.path])
+    (tmp_path / "checks.py").write_text(CHECKS, encoding="utf-8")
+    checked = written_dtc(tmp_path, "retuned", log, CHANGED, invariants=["checks:near_late"])
+
+    outcome = run_spec(checked)
+
+    assert outcome.baseline == expected_path(spec.path)
+    assert outcome.result is not None
+    divergence = outcome.result.divergence
+    assert divergence is not None
+    assert (divergence.kind, divergence.cycle) == (DivergenceKind.INVARIANT, FIRST_CHANGED_CYCLE)
+    assert divergence.message == "invariant near_late does not hold: near too soon"
+
+
+def test_an_invariant_that_does_not_import_is_an_error_of_the_dtc(
+    tmp_path: Path, log: Path
+) -> None:
+    (tmp_path / "checks.py").write_text(CHECKS, encoding="utf-8")
+    spec = written_dtc(tmp_path, "checked", log, invariants=["checks:never_far"])
+
+    outcome = run_spec(spec)
+
+    assert outcome.verdict is Verdict.ERROR
+    assert (
+        outcome.error == "'checks:never_far': checks has no never_far (did you mean 'never_close'?)"
+    )
+
+
+def test_a_project_invariant_that_does_not_import_names_the_pyproject(
+    tmp_path: Path, log: Path
+) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text('[tool.beatlog]\ninvariants = ["checks:gone"]\n', encoding="utf-8")
+    (tmp_path / "checks.py").write_text(CHECKS, encoding="utf-8")
+
+    outcome = run_spec(written_dtc(tmp_path / "specs", "checked", log))
+
+    assert outcome.verdict is Verdict.ERROR
+    assert outcome.error == (
+        f"'checks:gone': checks has no gone (listed under [tool.beatlog] invariants in {pyproject})"
+    )

@@ -9,7 +9,7 @@ import pytest
 from beatlog.errors import SpecError
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.variant import Perturbations
+from beatlog.replaying.perturbation import Perturbations
 from beatlog.suite.spec import load_spec, spec_text
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec
@@ -308,6 +308,34 @@ def test_bad_project_renames_name_the_pyproject(tmp_path: Path) -> None:
     )
 
 
+def test_project_invariants_come_first_and_the_spec_adds_to_them(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[tool.beatlog]\ninvariants = ["robot.checks:a", "robot.checks:b"]\n', encoding="utf-8"
+    )
+    path = write_spec(
+        tmp_path / "specs",
+        "checked",
+        "probe.beatlog",
+        invariants=["robot.checks:c", "robot.checks:a"],
+    )
+
+    assert load_spec(path).invariants == ("robot.checks:a", "robot.checks:b", "robot.checks:c")
+
+
+def test_by_default_a_spec_checks_no_invariant(tmp_path: Path) -> None:
+    assert load_spec(write_spec(tmp_path, "plain", "probe.beatlog")).invariants == ()
+
+
+def test_an_invariant_without_a_colon_is_rejected_naming_the_spec(tmp_path: Path) -> None:
+    path = write_spec(tmp_path, "checked", "probe.beatlog", invariants=["robot.checks"])
+
+    with pytest.raises(SpecError) as raised:
+        load_spec(path)
+    assert str(raised.value) == (
+        f"{path}: key 'invariants[0]': expected module:attribute, got 'robot.checks'"
+    )
+
+
 def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
     text = spec_text(
         name='tip "over"\x7f',
@@ -317,6 +345,7 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
         system="myrobot:system",
         tags=["touch", "falls"],
         perception="myrobot:perception",
+        invariants=["myrobot.checks:upright", "myrobot.checks:Docks"],
     )
     path = tmp_path / "tip.dtc.toml"
     path.write_text(text, encoding="utf-8")
@@ -331,6 +360,7 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
         "myrobot:perception",
     )
     assert list(spec.tags) == ["touch", "falls"]
+    assert spec.invariants == ("myrobot.checks:upright", "myrobot.checks:Docks")
 
 
 def test_a_spec_declares_its_variants_in_a_table(tmp_path: Path) -> None:

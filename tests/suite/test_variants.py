@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from beatlog.replaying.verdict import DivergenceKind
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
@@ -134,3 +135,25 @@ def test_unchanged_code_passes_every_variant(tmp_path: Path, record_probe: Recor
 
     assert [outcome.verdict for outcome in outcomes] == [Verdict.PASSED] * 9
     assert [outcome.spec.variant for outcome in outcomes] == [None, *range(1, 9)]
+
+
+def test_a_variant_that_breaks_an_invariant_is_written_with_it_and_fails_again(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(100, start_time_ns=STARTED)
+    invariants = ["tests.systems:never_negative"]
+    spec = load_spec(
+        write_spec(tmp_path, "dock", log, PROBE, variants=NOISY, invariants=invariants)
+    )
+    assert run_spec(spec).verdict is Verdict.PASSED
+    variant, outcome = failing_variant(spec)
+
+    written = load_spec(write_variant_spec(variant))
+    again = run_spec(written)
+
+    assert written.invariants == ("tests.systems:never_negative",)
+    assert outcome.result is not None
+    assert again.result is not None
+    assert outcome.result.divergence is not None
+    assert outcome.result.divergence.kind is DivergenceKind.INVARIANT
+    assert again.result.divergence == outcome.result.divergence

@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.suite.spec import load_spec
+from beatlog_examples.dog import invariants
 from beatlog_examples.dog.record_suite import main, spec_text
 from beatlog_examples.dog.scenarios import SUITE, scenario
 
@@ -24,6 +25,7 @@ def test_every_scenario_gives_a_valid_spec(case: object, tmp_path: Path) -> None
     assert spec.log == tmp_path / f"{chosen.name}.beatlog"
     assert spec.system == "beatlog_examples.dog:system"
     assert spec.tags == chosen.tags
+    assert spec.invariants == tuple(invariants.ALL)
 
 
 def test_an_unknown_case_is_a_usage_error(

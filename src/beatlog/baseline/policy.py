@@ -124,14 +124,16 @@ def stale_suite(
 
 
 def refusal(divergence: Divergence) -> str | None:
-    """Why a divergence cannot be re-baselined, if it cannot: a behavior that raised is
-    a bug, a log that ended early or perception that built nothing needs fixing or a new
-    recording."""
+    """Why a divergence cannot be re-baselined, if it cannot: a behavior that raised,
+    or an invariant that does not hold, is a bug; a log that ended early or perception
+    that built nothing needs fixing or a new recording."""
     from beatlog.replaying.verdict import DivergenceKind  # noqa: PLC0415 - the CLI starts without it
 
     kind = divergence.kind
     if kind is DivergenceKind.EXCEPTION:
         return "a behavior raised: an exception is a bug, never a baseline; fix it first"
+    if kind is DivergenceKind.INVARIANT:
+        return "an invariant does not hold: a violation is a bug, never a baseline; fix it first"
     if kind is DivergenceKind.LOG_ENDED:
         return f"a divergence in {kind} cannot be re-baselined: re-record the session"
     if kind is DivergenceKind.PERCEPTION and not divergence.perception:

@@ -64,6 +64,30 @@ def add_factory(
     parser.add_argument(option, required=required, metavar="MODULE:FACTORY", help=what)
 
 
+def add_invariants(parser: argparse.ArgumentParser, doing: str) -> None:
+    """``--invariants``: the invariants to check in each cycle, as ``MODULE:ATTRIBUTE``
+    references, comma-separated or the option repeated."""
+    parser.add_argument(
+        "--invariants",
+        action="extend",
+        type=references,
+        default=[],
+        metavar="MODULE:ATTRIBUTE[,...]",
+        help=f"invariants to check in each cycle {doing} (functions, or classes "
+        "instantiated afresh); comma-separated, or repeat the option",
+    )
+
+
+def references(text: str) -> list[str]:
+    """Comma-separated ``module:attribute`` references."""
+    found = [reference.strip() for reference in text.split(",")]
+    for reference in found:
+        module, _, attribute = reference.partition(":")
+        if not (module and attribute):
+            raise argparse.ArgumentTypeError(f"expected MODULE:ATTRIBUTE, got {reference!r}")
+    return found
+
+
 def shard(text: str) -> Shard:
     """``I/N``: one shard of a suite."""
     from beatlog.suite.sharding import Shard

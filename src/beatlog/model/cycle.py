@@ -6,8 +6,9 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 from beatlog.log.format import StateChangeRecord
 from beatlog.model.behavior import Behavior, BehaviorState, System
@@ -18,7 +19,9 @@ from beatlog.model.random import RandomSource
 __all__ = [
     "ChangeFinder",
     "CycleExecutor",
+    "DrawReport",
     "Pause",
+    "StateChange",
     "Update",
     "state_change_finder",
     "state_reader",
@@ -30,6 +33,40 @@ Pause = Callable[[Update, Any, Context], None]
 """Takes the place of one update: given it, RS_t and the context, it must run it."""
 ChangeFinder = Callable[[list[BehaviorState], list[BehaviorState]], list[StateChangeRecord]]
 """Given the states read now and those seen last, BS_t (:func:`state_change_finder`)."""
+
+
+class StateChange(NamedTuple):
+    """A behavior's state change in one cycle (an entry of BS_t), by the behavior's name."""
+
+    behavior: str
+    before: Any
+    after: Any
+
+    def __str__(self) -> str:
+        return f"{self.behavior}: {self.before!r} -> {self.after!r}"
+
+
+_SHORT = reprlib.Repr()
+"""Values in one line: an array draw's first few elements."""
+_SHORT.maxlist = 3
+
+
+class DrawReport(NamedTuple):
+    """A random number drawn in a cycle, with the behavior that drew it, as reports and
+    invariants see it."""
+
+    behavior: str
+    kind: str
+    value: Any
+    """The value as plain Python (an array as nested lists); None for a draw refused
+    because it was not the one recorded."""
+    call: str = ""
+    """The request as code (``uniform(2.0, 5.0)``); empty where the log recorded none
+    (format 1)."""
+
+    def __str__(self) -> str:
+        asked = f"{self.behavior}: {self.call or self.kind}"
+        return asked if self.value is None else f"{asked} = {_SHORT.repr(self.value)}"
 
 
 def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:

@@ -2,11 +2,11 @@
 
 It is the user's word, as their specs and command lines are: the behavior renames and
 the robot-state field renames and conversions that hold for every spec, the
-systems the project vouches for, and how much of the suite may run open loop before
-it counts as stale (:mod:`beatlog.baseline.policy`). A log records the
-``module:factory`` it was recorded with, but bytes from a log never choose code: that
-reference is used only when the project lists it under ``systems`` (see
-:func:`vouched_system`).
+invariants every spec is checked with, the systems the project vouches for, and
+how much of the suite may run open loop before it counts as stale
+(:mod:`beatlog.baseline.policy`). A log records the ``module:factory`` it was
+recorded with, but bytes from a log never choose code: that reference is used only
+when the project lists it under ``systems`` (see :func:`vouched_system`).
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ __all__ = [
     "VariantsConfig",
     "check_conversions",
     "check_one_to_one",
+    "check_references",
     "dotted_keys",
     "explain_validation",
     "keys_problem",
@@ -84,6 +85,9 @@ class ProjectConfig(msgspec.Struct, frozen=True):
     current name) -> the ``module:function`` that converts a recorded value."""
     systems: list[str] = []
     """The ``module:factory`` references a log may name for replay without ``--system``."""
+    invariants: list[str] = []
+    """The invariants every spec of the project is checked with, as ``module:attribute``
+    references (a spec's own come on top; :mod:`beatlog.model.invariant`)."""
     max_open_loop_share: Annotated[float, msgspec.Meta(ge=0, le=1)] | None = None
     """The largest share of a DTC's cycles (0 to 1) that its approved baseline may run
     open loop; a DTC past it makes ``beatlog test`` fail, naming it to re-record."""
@@ -140,6 +144,7 @@ def _read(path: Path, _mtime_ns: int, _size: int) -> ProjectConfig:
     check_one_to_one(path, "tool.beatlog.renames", config.renames)
     check_one_to_one(path, "tool.beatlog.field_renames", config.field_renames)
     check_conversions(path, "tool.beatlog.field_conversions", config.field_conversions)
+    check_references(path, "tool.beatlog.invariants", config.invariants)
     return config
 
 
@@ -178,6 +183,16 @@ def check_conversions(path: Path, key: str, conversions: Mapping[str, str]) -> N
         if ":" not in reference:
             raise SpecError(
                 path, f"key '{key}.{name}': expected module:function, got {reference!r}"
+            )
+
+
+def check_references(path: Path, key: str, references: list[str]) -> None:
+    """Refuse an invariant that is no ``module:attribute`` reference."""
+    for index, reference in enumerate(references):
+        module, _, attribute = reference.partition(":")
+        if not (module and attribute):
+            raise SpecError(
+                path, f"key '{key}[{index}]': expected module:attribute, got {reference!r}"
             )
 
 

@@ -1,5 +1,6 @@
 """User code: import a system or robot from a ``module:factory`` reference (or a
-robot-state field's conversion from a ``module:function``), and tell where it failed
+robot-state field's conversion from a ``module:function``, an invariant from a
+``module:attribute``), and tell where it failed
 (its traceback cut down to the user's frames).
 
 Only references the user names are imported: typed, written in a spec, or listed
@@ -43,6 +44,7 @@ __all__ = [
     "importable_near",
     "load_conversion",
     "load_factory",
+    "load_invariant",
     "load_perception",
     "load_robot",
     "load_system",
@@ -99,6 +101,20 @@ def load_conversion(reference: str) -> Callable[[Any], Any]:
     if not callable(function):
         raise SystemLoadError(f"{reference!r}: {type(function).__name__} is not a function")
     return function  # type: ignore[no-any-return]
+
+
+def load_invariant(reference: str) -> Callable[[Any], object]:
+    """Import the invariant a ``module:attribute`` reference names: a function, as is,
+    or a class, instantiated (afresh at each load, so each replay has its own)."""
+    found = _attribute(reference, "module:attribute, e.g. mypkg.invariants:never_fall")
+    if isinstance(found, type):
+        try:
+            found = found()
+        except (Exception, SystemExit) as exc:
+            raise _failed(reference, "building the invariant", exc) from None
+    if not callable(found):
+        raise SystemLoadError(f"{reference!r}: {type(found).__name__} is not callable")
+    return found  # type: ignore[no-any-return]
 
 
 def _attribute(reference: str, expected: str) -> Any:

@@ -32,11 +32,25 @@ from beatlog.model.robot import Robot
 from beatlog.model.state import state_fields, state_schema, state_type_name
 
 if TYPE_CHECKING:
+    from beatlog.model.invariant import Invariant
     from beatlog.record.certify import Certificate
+    from beatlog.replaying.invariants import InvariantChecker, Violation
 
-__all__ = ["RecordSummary", "Recorder", "software_version"]
+__all__ = ["MAX_VIOLATIONS", "RecordSummary", "Recorder", "software_version"]
 
 _log = logging.getLogger(__name__)
+
+
+MAX_VIOLATIONS = 1000
+"""The most invariant violations a recorder keeps: a robot may run for hours."""
+
+
+def _checker(invariants: Sequence[Invariant | type | str], system: System) -> InvariantChecker:
+    """What checks ``invariants`` in each cycle of ``system`` (replay's checker: the
+    same invariants, the same cycles)."""
+    from beatlog.replaying.invariants import InvariantChecker  # noqa: PLC0415 - when asked
+
+    return InvariantChecker(invariants, system)
 
 
 class RecordSummary(NamedTuple):
@@ -96,6 +110,10 @@ class Recorder:
         exception), the log is replayed against a fresh system from it and
         :attr:`certificate` says whether it replays, or the first cycle that does not
         and the calls to blame (:mod:`beatlog.record.certify`); needs a ``path``.
+    :param invariants: invariants to check in each cycle as it is recorded (callables,
+        classes or ``module:attribute`` references, see :mod:`beatlog.model.invariant`):
+        a violation never stops the robot; it is kept in :attr:`violations` and each
+        invariant's first is logged (``logging``, as a warning).
     """
 
     def __init__(
@@ -116,6 +134,7 @@ class Recorder:
         clock: Callable[[], int] = time.monotonic_ns,
         by_field: bool | None = None,
         certify: Callable[[], System] | None = None,
+        invariants: Sequence[Invariant | type | str] = (),
     ) -> None:
         if certify is not None and not isinstance(path, str | Path):
             raise ValueError("Recorder: certify replays the log, so it needs a path to read")
@@ -132,6 +151,11 @@ class Recorder:
         self.certificate: Certificate | None = None
         """Whether the log replays against a fresh system, once the session ended, when
         asked for (``certify``)."""
+        self._checker = None if not invariants else _checker(invariants, system)
+        self.violations: list[Violation] = []
+        """The invariants that did not hold as the session was recorded, in order (the
+        first :data:`MAX_VIOLATIONS` kept)."""
+        self._reported: set[str] = set()
         fields = state_fields(system.robot_state)
         header = SessionHeader(
             format_version=FORMAT_VERSION,
@@ -217,14 +241,26 @@ class Recorder:
         except NumpyMissingError:
             raise NumpyMissingError(self._writer.path or "<output>") from None
         context = executor.context
+        draws = self.random.take()
         self._writer.append(
             interval_ns,
             msgspec.Raw(encoded),
             changes,
-            self.random.take(),
+            draws,
             context.outputs,
             samples if self._log_samples else (),
         )
+        if self._checker is not None:
+            cycle = self._checker.cycle(
+                context.cycle,
+                time_ns=context.time_ns,
+                dt_ns=interval_ns,
+                state=logged,
+                changes=changes,
+                outputs=context.outputs,
+                draws=draws,
+            )
+            self._violated(self._checker.violated(cycle))
         if self._writer.error is not None and not self._warned:
             self._warned = True
             _log.error(
@@ -233,6 +269,15 @@ class Recorder:
                 self.error,
             )
         return context.outputs
+
+    def _violated(self, violations: list[Violation]) -> None:
+        """Keep the violations of a cycle; log each invariant's first."""
+        for violation in violations:
+            if len(self.violations) < MAX_VIOLATIONS:
+                self.violations.append(violation)
+            if violation.invariant not in self._reported:
+                self._reported.add(violation.invariant)
+                _log.warning("%s; the robot runs on", violation)
 
     def beat(self, state: msgspec.Struct, samples: Sequence[Sample] = ()) -> Outputs:
         """Run one cycle of the robot's own loop with robot state RS_t; log it.

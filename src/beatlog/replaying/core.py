@@ -278,7 +278,7 @@ class Replayer:
         adopt = self._views.adopt if checking is not self._robot_state else None
         expected = self._expected
         agrees = self.agrees
-        judged = frozenset() if expected is None else expected.judged
+        compares = expected is not None and not expected.judged
         approves = None if expected is None else expected.draws
         changed = reported = drawn = 0
         changes: list[StateChangeRecord] | None = None
@@ -346,7 +346,7 @@ class Replayer:
                 or (sensed is not None and (sensed.differs or sensed.failure is not None))
             ):
                 changes = None
-            if expected is not None and changes is not None and context.cycle not in judged:
+            if compares and changes is not None:
                 try:
                     if agrees(record, changes):
                         changed += len(changes)

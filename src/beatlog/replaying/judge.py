@@ -29,17 +29,19 @@ from beatlog.log.payload import decode_outputs, decode_part, decode_state_change
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
+from beatlog.model.invariant import Invariant
 from beatlog.model.perception import Perception, PerceptionTypeError
-from beatlog.model.random import Draw, plain_value
 from beatlog.project.config import vouched_system
 from beatlog.project.usercode import load_perception, load_system, user_traceback
 from beatlog.replaying.compare import Comparison, state_fields
-from beatlog.replaying.core import CycleOutcome, Expected, Replayer, actor_name
+from beatlog.replaying.core import CycleOutcome, Expected, Replayer
 from beatlog.replaying.draws import DrawLedger, Unapproved
 from beatlog.replaying.expectation import Expectation
 from beatlog.replaying.expected import ExpectedRecords
 from beatlog.replaying.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.invariants import InvariantChecker
+from beatlog.replaying.outcome import draw_reports
 from beatlog.replaying.pins import PinChecker, rebuilt_otherwise
 from beatlog.replaying.session import BatchReader, Observer, ReplaySession, fields_read
 from beatlog.replaying.verdict import (
@@ -47,7 +49,6 @@ from beatlog.replaying.verdict import (
     ContextRow,
     Divergence,
     DivergenceKind,
-    DrawReport,
     FieldDifference,
     ReplayResult,
     StateChange,
@@ -82,6 +83,7 @@ def replay(
     observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
     readers: Sequence[Callable[[SessionLogReader], BatchReader]] = (),
     migration: StateMigration | None = None,
+    invariants: Sequence[Invariant | type | str] = (),
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
     by default the reference recorded in the log's header, see :func:`recorded_system`).
@@ -128,6 +130,14 @@ def replay(
     declares replays with a note saying so
     (:func:`~beatlog.replaying.fit.check.period_note`).
 
+    ``invariants`` (:mod:`beatlog.model.invariant`: callables, classes instantiated afresh
+    for this replay, or ``module:attribute`` references to either) are checked in every
+    cycle whose update completes, open-loop stretches against an approved baseline
+    included: the first that does not hold (or whose own code raises) is an INVARIANT
+    divergence of its cycle, unless a divergence came in an earlier cycle (in the same
+    cycle, the invariant is the headline). The reproduce command carries the
+    references.
+
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replaying.fit`).
     :raises beatlog.errors.FieldError: a robot-state tolerance names a field the recorded
@@ -171,6 +181,7 @@ def replay(
             context=context_cycles,
             comparison=comparison,
             expected=expected,
+            invariants=InvariantChecker(invariants, system) if invariants else None,
         )
         watching = [_WhileJudging(factory(reader), judge) for factory in observers]
         if observe is not None:
@@ -218,6 +229,7 @@ def replay(
             *(["--allow-truncated"] if allow_truncated else []),
             *(["--allow-empty"] if allow_empty else []),
             *migration.arguments(),
+            *_invariant_arguments(invariants),
         ),
         notes=tuple(note for note in (period_note(reader.header, system), no_samples) if note),
     )
@@ -230,7 +242,11 @@ class CycleJudge:
 
     ``expected`` is an approved baseline to judge against instead of the recording: its
     state changes and outputs, the draws it approves and the robot states it pins.
-    Past the divergence where it stops, a :class:`Follower` gathers what happened next.
+    ``invariants`` are checked in every cycle that completes (so none agrees at once:
+    only a replay with invariants pays for every cycle's outcome); the first that does
+    not hold is a divergence of its cycle, and the headline where the cycle also
+    differs. Past the divergence where it stops, a :class:`Follower` gathers what
+    happened next.
     """
 
     def __init__(
@@ -241,8 +257,11 @@ class CycleJudge:
         context: int,
         comparison: Comparison,
         expected: Expectation | None,
+        invariants: InvariantChecker | None = None,
     ) -> None:
         header, path = replayer.header, replayer.path
+        self._invariants = invariants
+        """What checks the invariants in each cycle that agrees; None: there are none."""
         self.comparison = comparison
         self.context = context
         """Cycles shown either side of the first divergence."""
@@ -296,7 +315,7 @@ class CycleJudge:
             Expected(
                 None if self.executor.behavior_ids == self.expected_names else expected_index,
                 encoder,
-                frozenset(),
+                invariants is not None,
                 None if self._ledger is None else self._ledger.approves,
             )
         )
@@ -390,22 +409,38 @@ class CycleJudge:
                     self._changes_checked += len(changes)
                     self._outputs_checked += len(outputs)
                     self._draws_checked += len(replayer.random.recorded)  # it drew them all
-                    return None
+                    if self._invariants is None:
+                        return None
+                    outcome = outcome or replayer.outcome()
+                    violation = self._invariants.check(outcome)
+                    if violation is None:
+                        return None
+                    return self._stop(index, outcome, violation)
             except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
                 unloggable = exc
         outcome = outcome or replayer.outcome()
         if unloggable is not None:
             outcome = outcome._replace(failure=unloggable)
+        # In a cycle that differs, an invariant that does not hold is the headline: it
+        # says what is wrong, where the difference says only that something changed.
+        violation = None if self._invariants is None else self._invariants.check(outcome)
+        return self._stop(index, outcome, violation)
+
+    def _stop(
+        self, index: int, outcome: CycleOutcome, violation: Divergence | None
+    ) -> Follower | None:
+        """Write up a cycle that diverged (``violation``: an invariant that did not hold
+        in it) and, unless told to keep going, stop judging there."""
         first = self.divergence is None
         if first:
             self._recent = self._window(index)
-        self._diverge(outcome)
+        self._diverge(outcome, violation)
         if self._keep_going:
             if first:
                 self._add_context([])
             return None
         self._stopped_at = (outcome.cycle + 1, outcome.time_ns)
-        self._samples_perceived = replayer.samples_perceived
+        self._samples_perceived = self.replayer.samples_perceived
         self._follower = Follower(self)
         return self._follower
 
@@ -511,13 +546,23 @@ class CycleJudge:
         context = tuple(row for row in rows if row is here or row.expected or row.actual)
         self.divergence = dataclasses.replace(divergence, context=context)
 
-    def _diverge(self, outcome: CycleOutcome) -> None:
+    def _diverge(self, outcome: CycleOutcome, violation: Divergence | None = None) -> None:
         self.divergent_cycles += 1
         self._samples_diverged += len(outcome.samples)
         if self.divergence is not None:
             return
         record = outcome.record
         expected = self._named(record.state_changes)
+        if violation is not None:  # what was expected of the cycle, beside what it saw
+            self.divergence = dataclasses.replace(
+                violation,
+                expected=tuple(expected),
+                expected_outputs=self._expected_outputs(record.outputs),
+                random_recorded=tuple(
+                    draw_reports(outcome.recorded_draws, self.replayer.header.behaviors)
+                ),
+            )
+            return
         actual = self._named_actual(outcome.changes or [])
         failure = outcome.failure
         trace: str | None = None
@@ -582,8 +627,10 @@ class CycleJudge:
             expected_outputs=self._expected_outputs(record.outputs),
             actual_outputs=dict(outcome.outputs) if completed else {},
             robot_state=state_fields(outcome.state),
-            random_recorded=tuple(_reports(outcome.recorded_draws, self.replayer.header.behaviors)),
-            random_drawn=tuple(_reports(outcome.drawn, self.replayer.executor.behavior_ids)),
+            random_recorded=tuple(
+                draw_reports(outcome.recorded_draws, self.replayer.header.behaviors)
+            ),
+            random_drawn=tuple(draw_reports(outcome.drawn, self.replayer.executor.behavior_ids)),
             traceback=trace,
             perception=differences,
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
@@ -665,13 +712,6 @@ def _unapproved(unapproved: Unapproved) -> tuple[DivergenceKind, str, str]:
         return DivergenceKind.RANDOM_UNDERDRAWN, message, behavior
     message = f"{behavior} called {asked} where {recorded} was recorded, {baseline}"
     return DivergenceKind.RANDOM_MISMATCH, message, behavior
-
-
-def _reports(draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
-    return [
-        DrawReport(actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
-        for d in draws
-    ]
 
 
 class Follower:
@@ -780,6 +820,13 @@ class _Calling:
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         if outcome is not None:
             self._observe(outcome)
+
+
+def _invariant_arguments(invariants: Sequence[object]) -> list[str]:
+    """The ``--invariants`` option that names the invariants given as references (one
+    given as an object has no name a command line could carry)."""
+    named = [invariant for invariant in invariants if isinstance(invariant, str)]
+    return ["--invariants", ",".join(named)] if named else []
 
 
 def _nothing_checked(cycles: int) -> str:

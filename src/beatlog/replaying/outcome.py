@@ -13,11 +13,11 @@ from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import perception_problem
-from beatlog.model.random import Draw
+from beatlog.model.random import Draw, plain_value
 from beatlog.replaying.random import DrawDifference, RandomMismatch
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replaying.verdict import DivergenceKind, DrawReport
 
-__all__ = ["AGREED", "CycleOutcome", "Expected", "Sensed", "Stop", "actor_name"]
+__all__ = ["AGREED", "CycleOutcome", "Expected", "Sensed", "Stop", "actor_name", "draw_reports"]
 
 
 AGREED: list[StateChangeRecord] = []
@@ -34,8 +34,9 @@ class Expected(NamedTuple):
     state changes as the record holds them; None where the catalogues are the same."""
     outputs: msgspec.msgpack.Encoder
     """How the record's outputs are encoded (a whole-trace baseline sorts their keys)."""
-    judged: frozenset[int]
-    """The cycles the verdict judges whole, whatever their bytes."""
+    judged: bool
+    """Whether the verdict judges every cycle whole, whatever its bytes: it checks
+    invariants in each, so none agrees at once."""
     draws: Callable[[int, Sequence[DrawDifference]], bool] | None = None
     """In living replay against a baseline, whether it approves a cycle's draws made
     otherwise than recorded, exactly (:meth:`~beatlog.replaying.draws.DrawLedger.approves`):
@@ -154,3 +155,11 @@ def actor_name(names: Sequence[str], actor: int) -> str:
     if actor < 0:
         return "system"
     return names[actor] if actor < len(names) else f"#{actor}"
+
+
+def draw_reports(draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
+    """Draws as reports show them, each with the behavior (of ``names``) that drew it."""
+    return [
+        DrawReport(actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
+        for d in draws
+    ]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import reprlib
 import shlex
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -10,6 +9,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from beatlog.log.reader import LogStatus
+from beatlog.model.cycle import DrawReport, StateChange
 
 __all__ = [
     "Checked",
@@ -52,39 +52,8 @@ class DivergenceKind(StrEnum):
     (sensor-level replay), or perception raised."""
     LOG_ENDED = "log ended"
     """The log ends early: it was truncated before the recording closed it."""
-
-
-class StateChange(NamedTuple):
-    """A behavior's state change in one cycle."""
-
-    behavior: str
-    before: Any
-    after: Any
-
-    def __str__(self) -> str:
-        return f"{self.behavior}: {self.before!r} -> {self.after!r}"
-
-
-_SHORT = reprlib.Repr()
-"""Values in one line: an array draw's first few elements."""
-_SHORT.maxlist = 3
-
-
-class DrawReport(NamedTuple):
-    """A random number in a divergence report, with the behavior that drew it."""
-
-    behavior: str
-    kind: str
-    value: Any
-    """The value as plain Python (an array as nested lists); None for a draw refused
-    because it was not the one recorded."""
-    call: str = ""
-    """The request as code (``uniform(2.0, 5.0)``); empty where the log recorded none
-    (format 1)."""
-
-    def __str__(self) -> str:
-        asked = f"{self.behavior}: {self.call or self.kind}"
-        return asked if self.value is None else f"{asked} = {_SHORT.repr(self.value)}"
+    INVARIANT = "invariant"
+    """An invariant did not hold in a replayed cycle, or its own code raised."""
 
 
 class FieldDifference(NamedTuple):
@@ -134,6 +103,10 @@ class Divergence:
     """In a perception divergence: the fields rebuilt differently from the samples."""
     samples: tuple[tuple[str, Any], ...] = ()
     """In a perception divergence: the cycle's samples (sensor, value), in order."""
+    invariant: str | None = None
+    """In an invariant divergence: the invariant that did not hold (or raised)."""
+    states: dict[str, Any] = field(default_factory=dict)
+    """In an invariant divergence: every behavior's state after the cycle's update."""
 
     @property
     def time_s(self) -> float:

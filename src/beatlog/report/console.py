@@ -155,6 +155,9 @@ def _divergence(divergence: Divergence) -> RenderableType:
         parts.append(
             _side_by_side("random numbers", divergence.random_recorded, divergence.random_drawn)
         )
+    if divergence.kind is DivergenceKind.INVARIANT:
+        parts.append(_values("behavior states after the update", divergence.states))
+        parts.append(_values("outputs", divergence.actual_outputs))
     if len(divergence.context) > 1:
         parts.append(_context(divergence))
     if divergence.robot_state:
@@ -208,6 +211,18 @@ def _context(divergence: Divergence) -> Table:
             Text("\n".join(map(str, row.actual)) or "—"),
             style="bold" if here or row.expected != row.actual else "dim",
         )
+    return table
+
+
+def _values(title: str, values: dict[str, Any]) -> Table:
+    """Named values, one a row: what an invariant saw."""
+    table = Table(title=title, title_justify="left", show_header=False, expand=True)
+    table.add_column("name", style="cyan")
+    table.add_column("value")
+    for name, value in values.items():
+        table.add_row(name, Text(repr(value)))
+    if not values:
+        table.add_row("—", "")
     return table
 
 

@@ -224,16 +224,21 @@ def _details(divergence: Divergence) -> str:
     if divergence.context:
         parts.append(_context(divergence))
     if divergence.robot_state:
-        rows = "".join(
-            _row([_e(name), f'<span class="value">{_e(repr(value))}</span>'])
-            for name, value in divergence.robot_state.items()
-        )
-        parts.append(
-            f'<table class="robot-state"><caption>robot state RS_t</caption>{rows}</table>'
-        )
+        parts.append(_values("robot state RS_t", divergence.robot_state))
+    if divergence.states:
+        parts.append(_values("behavior states after the update", divergence.states))
     if divergence.traceback:
         parts.append(f'<pre class="traceback">{_e(divergence.traceback)}</pre>')
     return "\n".join(parts)
+
+
+def _values(caption: str, values: dict[str, object]) -> str:
+    """Named values, one a row (a robot state, the behaviors' states)."""
+    rows = "".join(
+        _row([_e(name), f'<span class="value">{_e(repr(value))}</span>'])
+        for name, value in values.items()
+    )
+    return f'<table class="robot-state"><caption>{_e(caption)}</caption>{rows}</table>'
 
 
 def _side_by_side(

@@ -29,7 +29,7 @@ from beatlog.replaying.judge import recorded_system, replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
-from beatlog.suite.spec import DtcSpec
+from beatlog.suite.spec import DtcSpec, importable_invariants
 from beatlog.suite.variants import replay_variant_of
 
 if TYPE_CHECKING:
@@ -196,6 +196,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             explain=False,
             perception=spec.perception,
             migration=spec.migration,
+            invariants=importable_invariants(spec),
         )
         replayed: System | str = system
         charts: list[TimelineCollector] = []

@@ -17,6 +17,7 @@ the system factory to replay it against::
     field_conversions = { battery = "mypkg.compat:percent" }  # retyped: field = converter
     ignore_behaviors = ["blink"]            # their state changes are not compared
     ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
+    invariants = ["myrobot.invariants:never_stuck"]  # checked in every cycle
 
     [tolerance]                             # largest accepted difference per output field
     wheel_speed = 1e-9
@@ -60,6 +61,10 @@ since the recording onto the system's (:mod:`beatlog.replaying.fit.migration`): 
 nested struct is named by its dotted path (``"pose.x" = "pose.px"``, or TOML's own
 ``pose.x = "pose.px"``), and a conversion is a ``module:function`` that takes the
 recorded value and returns the field's new one, imported as ``system`` is.
+
+``invariants`` (:mod:`beatlog.model.invariant`) are ``module:attribute`` references to
+properties that must hold at every heartbeat, imported as ``system`` is: the project's
+``[tool.beatlog] invariants`` apply to every spec, and a spec's own come on top.
 """
 
 from __future__ import annotations
@@ -73,32 +78,35 @@ from collections.abc import Iterable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import msgspec
 
 from beatlog.baseline.file import SPEC_SUFFIX
-from beatlog.errors import SpecError
+from beatlog.errors import SpecError, SystemLoadError
 from beatlog.log.files import project_root, read_small_text
 from beatlog.project.config import (
     VariantsConfig,
     check_conversions,
     check_one_to_one,
+    check_references,
     dotted_keys,
     explain_validation,
     keys_problem,
     project_config,
     variants_table,
 )
+from beatlog.project.usercode import load_invariant
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.variant import Perturbations
+from beatlog.replaying.perturbation import Perturbations, declared
 from beatlog.suite.remote import fetched_log, is_url, url_name
 
 __all__ = [
     "SPEC_SUFFIX",
     "DtcSpec",
     "find_rootdir",
+    "importable_invariants",
     "load_spec",
     "spec_text",
     "toml_string",
@@ -123,6 +131,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     field_conversions: dict[str, str] = {}
     ignore_behaviors: list[str] = []
     ignore_fields: list[str] = []
+    invariants: list[str] = []
     tolerance: dict[str, float] = {}
     robot_state_tolerance: dict[str, float] = {}
     variant: Annotated[int, msgspec.Meta(ge=1)] | None = None
@@ -171,6 +180,9 @@ class DtcSpec:
     named_by_id: bool = False
     """Whether reports name the DTC by its id: another DTC of the run has its name (see
     :func:`~beatlog.suite.discovery.distinguished`)."""
+    invariants: tuple[str, ...] = ()
+    """The ``module:attribute`` references of the invariants checked in every cycle: the
+    project's (``[tool.beatlog] invariants``), then the spec's own."""
     perturbations: Perturbations | None = None
     """What its variants perturb (the project's ``[tool.beatlog.variants]`` and the
     spec's ``[variants]``); None where it declares no variants."""
@@ -255,6 +267,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
         if reference is not None and ":" not in reference:
             raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
     project = project_config(path.resolve().parent)
+    check_references(path, "invariants", spec.invariants)
     renames = {**project.renames, **spec.renames}
     check_one_to_one(path, "renames", spec.renames)
     check_one_to_one(path, "renames", renames)
@@ -274,7 +287,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
                 )
     # A variant's own spec replays with its own perturbations alone: it reproduces.
     inherited = [] if spec.variant is not None or project.variants is None else [project.variants]
-    perturbations, count = _variants(
+    perturbations, count = declared(
         path, [*inherited, *([] if spec.variants is None else [spec.variants])]
     )
     log_url = spec.log if is_url(spec.log) else None
@@ -299,6 +312,7 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
             state_tolerance=spec.robot_state_tolerance,
         ),
         migration=StateMigration(field_renames, conversions),
+        invariants=tuple(dict.fromkeys([*project.invariants, *spec.invariants])),
         perturbations=(
             Perturbations() if perturbations is None and spec.variant is not None else perturbations
         ),
@@ -307,26 +321,25 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
     )
 
 
-def _variants(path: Path, tables: list[VariantsConfig]) -> tuple[Perturbations | None, int]:
-    """The perturbations ``tables`` declare, each on top of the one before, and the
-    variants to run; none where there is no table."""
-    if not tables:
-        return None, 0
-    merged: dict[str, Any] = {}
-    noise: dict[str, float] = {}
-    for table in tables:
-        given = msgspec.structs.asdict(table)
-        noise.update(given.pop("noise"))
-        merged.update((key, value) for key, value in given.items() if value is not None)
-    bounds = {f"noise.{name}": bound for name, bound in noise.items()}
-    bounds["heartbeat_jitter"] = merged.get("heartbeat_jitter", 0.0)
-    for key, bound in bounds.items():
-        if not (math.isfinite(bound) and bound >= 0):
-            raise SpecError(
-                path, f"key 'variants.{key}': expected a finite number >= 0, got {bound}"
-            )
-    count = merged.pop("count", 0)
-    return Perturbations(**merged, noise=noise), count
+def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
+    """The spec's invariants, each imported once here, so that one that does not import
+    is an error naming where it is listed: the spec (the DTC's error names it) or its
+    project's ``pyproject.toml``. Each replay then imports its own.
+
+    :raises beatlog.errors.SystemLoadError: one does not import, or is no invariant.
+    """
+    folder = spec.path.resolve().parent
+    project = project_config(folder).invariants if spec.source is None else []
+    for reference in spec.invariants:
+        try:
+            load_invariant(reference)
+        except SystemLoadError as exc:
+            root = project_root(folder)
+            if root is None or reference not in project:
+                raise
+            listed = f"listed under [tool.beatlog] invariants in {root / 'pyproject.toml'}"
+            raise SystemLoadError(f"{exc} ({listed})", user_traceback=exc.user_traceback) from None
+    return spec.invariants
 
 
 def _dtc_id(path: Path, name: str, rootdir: Path) -> str:
@@ -358,6 +371,7 @@ def spec_text(
     system: str | None,
     tags: Iterable[str] = (),
     perception: str | None = None,
+    invariants: Iterable[str] = (),
 ) -> str:
     """A new spec as TOML text, for tools that write one beside a recording (``beatlog
     import-bag --spec``, a suite's recording script, a failing variant); ``log`` is
@@ -373,6 +387,8 @@ def spec_text(
         *([] if perception is None else [f"perception = {toml_string(perception)}"]),
         f"tags = [{', '.join(map(toml_string, tags))}]",
     ]
+    if checked := list(invariants):
+        lines += ["invariants = [", *(f"    {toml_string(name)}," for name in checked), "]"]
     return "\n".join(lines) + "\n"
 
 

@@ -236,3 +236,48 @@ def test_record_fails_a_session_that_does_not_replay_naming_the_cycle_and_the_ca
     assert re.search(r"random\.choice at \S+/tests/systems\.py:\d+ in Gambler\.step", certificate)
     assert unchecked.code == 0, unchecked.err
     assert "certified" not in unchecked.out
+
+
+def test_record_checks_invariants_live_and_fails_without_stopping_the_robot(
+    beatlog: Beatlog, tmp_path: Path
+) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    recorded = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "-o",
+        out,
+        "--duration",
+        0.1,
+        "--no-certify",
+        "--invariants",
+        "tests.systems:never_holds",
+    )
+
+    assert recorded.code == 1
+    with SessionLogReader(out) as reader:
+        cycles = sum(1 for _ in reader.cycles())
+        assert reader.status == LogStatus(complete=True, cycles=cycles)
+    assert f"{cycles} invariant violations while recording" in recorded.out
+    assert "the first: cycle 0, t = " in recorded.out
+
+
+def test_record_checks_the_invariants_before_recording(beatlog: Beatlog, tmp_path: Path) -> None:
+    out = tmp_path / "rover.beatlog"
+
+    run = beatlog(
+        "record",
+        "--robot",
+        "beatlog_examples.rover:robot",
+        "-o",
+        out,
+        "--duration",
+        1,
+        "--invariants",
+        "tests.systems:nothing",
+    )
+
+    assert_error(run, "'tests.systems:nothing': tests.systems has no nothing")
+    assert not out.exists()

@@ -328,3 +328,27 @@ def test_a_divergence_shows_recorded_array_draws_without_numpy(
     assert run.code == 1
     (draw,) = json.loads(run.out)["divergence"]["random_recorded"]
     assert draw == ["scatter", "uniform_array", recorded, "uniform_array(0.0, 1.0, [2, 2])"]
+
+
+def test_replay_checks_the_invariants_it_is_given_and_reproduces_with_them(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", PROBE, "--invariants", "tests.systems:never_close")
+
+    assert run.code == 1
+    assert "invariant never_close does not hold: 0.3 m from the pole" in run.out
+    assert whole_lines(run.out)[-1] == (
+        f"reproduce: beatlog replay {log} --system {PROBE} --invariants tests.systems:never_close"
+    )
+
+
+def test_an_invariant_that_does_not_import_is_one_line(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    run = beatlog(
+        "replay", record_probe(30), "--system", PROBE, "--invariants", "tests.systems:nothing"
+    )
+
+    assert_error(run, "'tests.systems:nothing': tests.systems has no nothing")

@@ -7,9 +7,9 @@
     python -m beatlog_examples.dog.record_suite some/folder      # somewhere else
 
 Each test case gets its session log ``NAME.beatlog`` and its spec ``NAME.dtc.toml``
-(name, purpose, the scenario's procedure, log, system, tags); a log already there is
-replaced, as re-recording means. Recording takes as long as the sessions last (about
-18 minutes for the whole suite).
+(name, purpose, the scenario's procedure, log, system, tags, the dog's invariants); a
+log already there is replaced, as re-recording means. Recording takes as long as the
+sessions last (about 18 minutes for the whole suite).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from pathlib import Path
 
 from beatlog.suite import spec
 from beatlog.suite.spec import SPEC_SUFFIX
-from beatlog_examples.dog import SUITE_DIR
+from beatlog_examples.dog import SUITE_DIR, invariants
 from beatlog_examples.dog.robot import PERCEPTION_REF, SYSTEM_REF, record_live
 from beatlog_examples.dog.scenarios import SUITE, Scenario
 
@@ -38,6 +38,7 @@ def spec_text(scenario: Scenario, log: str) -> str:
         system=SYSTEM_REF,
         tags=scenario.tags,
         perception=PERCEPTION_REF,
+        invariants=invariants.ALL,
     )
 
 

@@ -7,7 +7,7 @@ import functools
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import add_factory, positive_float
+from beatlog.cli.arguments import add_factory, add_invariants, positive_float
 from beatlog.cli.common import EXIT_FAILED, EXIT_OK, check_output
 from beatlog.errors import BeatlogError, LogExistsError, OptionError
 
@@ -43,6 +43,7 @@ def add_arguments(record: argparse.ArgumentParser) -> None:
         "(checked before recording starts)",
     )
     record.add_argument("--log-samples", action="store_true", help="also log raw sensor samples")
+    add_invariants(record, "as it is recorded, never stopping the robot")
     record.add_argument(
         "--flush-interval",
         type=positive_float,
@@ -93,6 +94,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
             fsync=args.fsync,
             log_samples=args.log_samples,
             certify=certify,
+            invariants=args.invariants,
         )
     except LogExistsError:
         raise OptionError(
@@ -120,10 +122,18 @@ def run(args: argparse.Namespace, console: Console) -> int:
     certificate = recorder.certificate
     if certificate is not None:
         console.print(certificate.describe(), markup=False, highlight=False)
+    violations = recorder.violations
+    if violations:
+        console.print(
+            f"{plural(len(violations), 'invariant violation')} while recording "
+            f"(each invariant's first is logged); the first: {violations[0]}",
+            markup=False,
+            highlight=False,
+        )
     if interrupted:
         raise KeyboardInterrupt
     certified = certificate is None or certificate.ok
-    return EXIT_OK if recorder.error is None and certified else EXIT_FAILED
+    return EXIT_OK if recorder.error is None and certified and not violations else EXIT_FAILED
 
 
 def _write_failure(log: Path, error: str) -> str:

@@ -7,7 +7,13 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import add_factory, add_log, cycle_number, field_pair
+from beatlog.cli.arguments import (
+    add_factory,
+    add_invariants,
+    add_log,
+    cycle_number,
+    field_pair,
+)
 from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
 from beatlog.errors import OptionError
 
@@ -73,6 +79,7 @@ def add_arguments(play: argparse.ArgumentParser) -> None:
         help="a robot-state field retyped since the recording, and the function that "
         "converts its recorded value; repeat for more",
     )
+    add_invariants(play, "replayed")
     play.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
@@ -107,6 +114,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
             "perception": args.perception,
             "approved": not args.recording,
             "migration": StateMigration(dict(args.rename_field), dict(args.convert_field)),
+            "invariants": args.invariants,
         }
         result = replay(args.log, system, break_at=args.break_at, **options)
         notes = unreached_break(args.break_at, result)
