@@ -1,14 +1,18 @@
 """What a variant costs against one replay of its DTC: the target is at most 1.1 x.
 
 On the dog's committed suite (sensor-level, its samples logged), each DTC is replayed
-as ``beatlog test`` judges it (``replay(log, system, perception=...)``, the fast path)
-and as variant 1 of it (``replay_variant``) with every perturbation on: fresh draws,
-heartbeat jitter, noise on two robot-state fields, and samples dropped and delayed.
+as ``beatlog test`` judges it (``replay(log, system, perception=..., invariants=...)``
+with the spec's invariants) and as variant 1 of it (``replay_variant``, the same
+invariants) with the perturbations named: by default every one, fresh draws, heartbeat
+jitter, noise on two robot-state fields, and samples dropped and delayed;
+``--perturb draws,jitter,noise,samples`` names fewer. ``--no-invariants`` leaves the
+invariants out of both.
 CPU time (``time.process_time``), the two alternated round by round in one run; the
 ratio is the sums' over the suite, medians of the rounds, and a DTC's own where asked.
 A variant that fails stops early: the cycles each replayed are reported beside.
 
-Run it as ``python bench/bench_variants.py [--rounds 5] [--json FILE]``. For
+Run it as ``python bench/bench_variants.py [--rounds 5] [--dtc NAME] [--perturb ...]
+[--no-invariants] [--json FILE]``. For
 instruction counts, ``--run replay|variant --times N`` replays the suite once each way
 as a warm-up and N more times the way named: under ``PYTHONHASHSEED=0 valgrind
 --tool=cachegrind --cache-sim=no``, the difference of the ``I refs`` counts of N = 1
@@ -26,7 +30,8 @@ from pathlib import Path
 
 from beatlog.project.usercode import load_perception, load_system
 from beatlog.replaying.judge import replay
-from beatlog.replaying.variant import Perturbations, Variant, replay_variant
+from beatlog.replaying.perturbation import Perturbations, Variant
+from beatlog.replaying.variant import replay_variant
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.spec import DtcSpec
 from beatlog_examples.dog import SUITE_DIR
@@ -40,7 +45,19 @@ PERTURBED = Perturbations(
 """Every perturbation a variant makes."""
 
 
-def as_judged(spec: DtcSpec) -> int:
+def perturbations(names: str) -> Perturbations:
+    """Those of :data:`PERTURBED` named (``draws,jitter,noise,samples``)."""
+    named = set(names.split(","))
+    return Perturbations(
+        draws="draws" in named,
+        heartbeat_jitter=PERTURBED.heartbeat_jitter if "jitter" in named else 0.0,
+        noise=PERTURBED.noise if "noise" in named else {},
+        drop_samples=PERTURBED.drop_samples if "samples" in named else 0.0,
+        delay_samples=PERTURBED.delay_samples if "samples" in named else 0.0,
+    )
+
+
+def as_judged(spec: DtcSpec, invariants: bool) -> int:
     """Replay the DTC as ``beatlog test`` judges it; its cycles."""
     assert spec.system is not None
     assert spec.perception is not None
@@ -49,20 +66,22 @@ def as_judged(spec: DtcSpec) -> int:
         load_system(spec.system),
         perception=load_perception(spec.perception),
         explain=False,
+        invariants=spec.invariants if invariants else (),
     )
     assert result.ok, (spec.name, result.divergence)
     return result.cycles
 
 
-def as_variant(spec: DtcSpec, perturbations: Perturbations = PERTURBED) -> int:
+def as_variant(spec: DtcSpec, invariants: bool, perturbed: Perturbations = PERTURBED) -> int:
     """Replay variant 1 of the DTC; its cycles."""
     assert spec.system is not None
     assert spec.perception is not None
     result = replay_variant(
         spec.log,
         load_system(spec.system),
-        Variant(1, perturbations),
+        Variant(1, perturbed),
         perception=load_perception(spec.perception),
+        invariants=spec.invariants if invariants else (),
     )
     return result.cycles
 
@@ -79,23 +98,37 @@ def main() -> None:
     parser.add_argument("--json", type=Path)
     parser.add_argument("--run", choices=("replay", "variant"))
     parser.add_argument("--times", type=int, default=1)
+    parser.add_argument("--dtc", action="append", help="only this DTC (again for more)")
+    parser.add_argument("--perturb", default="draws,jitter,noise,samples")
+    parser.add_argument("--no-invariants", dest="invariants", action="store_false")
     args = parser.parse_args()
-    specs = discover_specs([SUITE_DIR])
+    perturbed = perturbations(args.perturb)
+    checks = args.invariants
+
+    def judged_run(spec: DtcSpec) -> int:
+        return as_judged(spec, checks)
+
+    def variant_run(spec: DtcSpec) -> int:
+        return as_variant(spec, checks, perturbed)
+
+    specs = [
+        spec for spec in discover_specs([SUITE_DIR]) if args.dtc is None or spec.name in args.dtc
+    ]
     if args.run is not None:
         for spec in specs:
-            as_judged(spec)
-            as_variant(spec)
+            judged_run(spec)
+            variant_run(spec)
         for _ in range(args.times):
             for spec in specs:
-                (as_judged if args.run == "replay" else as_variant)(spec)
+                (judged_run if args.run == "replay" else variant_run)(spec)
         return
-    cycles = {spec.name: (as_judged(spec), as_variant(spec)) for spec in specs}  # warm-up
+    cycles = {spec.name: (judged_run(spec), variant_run(spec)) for spec in specs}  # warm-up
     judged: dict[str, list[float]] = {spec.name: [] for spec in specs}
     varied: dict[str, list[float]] = {spec.name: [] for spec in specs}
     for _ in range(args.rounds):
         for spec in specs:
-            judged[spec.name].append(timed(lambda spec=spec: as_judged(spec)))  # type: ignore[misc]
-            varied[spec.name].append(timed(lambda spec=spec: as_variant(spec)))  # type: ignore[misc]
+            judged[spec.name].append(timed(lambda spec=spec: judged_run(spec)))  # type: ignore[misc]
+            varied[spec.name].append(timed(lambda spec=spec: variant_run(spec)))  # type: ignore[misc]
     rounds = range(args.rounds)
     judged_total = statistics.median(sum(judged[n][r] for n in judged) for r in rounds)
     varied_total = statistics.median(sum(varied[n][r] for n in varied) for r in rounds)

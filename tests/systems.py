@@ -663,3 +663,9 @@ class NeverLingers:
 
 LINGER = 10
 """The cycles in a row :class:`NeverLingers` lets the probe stay near the pole."""
+
+
+def never_negative(cycle: Cycle) -> None:
+    """An invariant of the probe that every recording of it keeps, and noise on its
+    distance may not."""
+    assert cycle.robot_state.distance >= 0, f"a distance of {cycle.robot_state.distance} m"

@@ -181,12 +181,7 @@ class SpecError(FileProblemError):
 
 class WindowError(FileProblemError):
     """A window of cycles (``start_cycle``, ``end_cycle``) that the log does not hold:
-    names the log, the key and the cycle past its end."""
-
-    def __init__(self, path: str | Path, key: str, detail: str) -> None:
-        super().__init__(path, f"{key} {detail}")
-        self.key = key
-        self.detail = detail
+    names the spec that set it (or the log), the key and the cycle past the log's end."""
 
 
 class BaselineError(SpecError):

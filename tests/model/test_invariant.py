@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from types import MappingProxyType
 
 import pytest
@@ -34,7 +33,7 @@ def test_a_cycle_tells_its_times_in_seconds() -> None:
 def test_a_cycle_cannot_be_changed_by_an_invariant() -> None:
     cycle = a_cycle()
 
-    with pytest.raises(dataclasses.FrozenInstanceError):
+    with pytest.raises(AttributeError):
         cycle.cycle = 4  # type: ignore[misc]
     with pytest.raises(TypeError):
         cycle.outputs["speed"] = 1.0  # type: ignore[index]

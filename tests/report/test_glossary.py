@@ -111,6 +111,11 @@ PRINTED = [
     "replays tried",
     "window",
     "before the window",
+    # variants
+    "variant",
+    "of them variants",
+    "written",
+    "a failing variant, now a DTC of its own",
 ]
 """The words the CLI's messages and reports print that no enum or constant lists."""
 

@@ -85,7 +85,7 @@ def test_a_window_past_the_logs_end_is_an_error_of_the_spec(tmp_path: Path, log:
     outcome = run_spec(spec)
 
     assert outcome.verdict is Verdict.ERROR
-    assert outcome.error == f"{spec.path}: key 'end_cycle': 300 is past the log's last cycle (299)"
+    assert outcome.error == f"{spec.path}: end_cycle 300 is past the log's last cycle (299)"
 
 
 def test_a_windowed_spec_is_judged_in_its_window_alone(tmp_path: Path, log: Path) -> None:

@@ -10,7 +10,7 @@ import pytest
 from beatlog.baseline.file import expected_path
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BeatlogError
-from beatlog.replaying.variant import Perturbations
+from beatlog.replaying.perturbation import Perturbations
 from beatlog.replaying.verdict import DivergenceKind
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.runner import run_spec
@@ -171,4 +171,4 @@ def test_a_spec_whose_window_ends_past_its_log_is_an_error_naming_it(
     with pytest.raises(BeatlogError) as raised:
         shrink(spec)
 
-    assert str(raised.value) == (f"{spec}: key 'end_cycle': 60 is past the log's last cycle (59)")
+    assert str(raised.value) == (f"{spec}: end_cycle 60 is past the log's last cycle (59)")

@@ -9,8 +9,9 @@ import pytest
 from beatlog.errors import SpecError
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.variant import Perturbations
-from beatlog.suite.spec import load_spec, read_spec_data, spec_from_data, spec_text, spec_toml
+from beatlog.replaying.perturbation import Perturbations
+from beatlog.suite.spec import load_spec
+from beatlog.suite.spec_writing import spec_text
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec
 
@@ -389,25 +390,6 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
     )
     assert list(spec.tags) == ["touch", "falls"]
     assert spec.invariants == ("myrobot.checks:upright", "myrobot.checks:Docks")
-
-
-def test_a_specs_data_written_as_toml_loads_back_the_same(tmp_path: Path) -> None:
-    path = write_spec(
-        tmp_path,
-        "round-trip",
-        "probe.beatlog",
-        tags=["a b"],
-        end_cycle=60,
-        renames={"near": "close"},
-        field_renames={"pose.x": "pose.px"},
-        tolerance={"speed": 1e-9},
-    )
-    data = read_spec_data(path)
-    again = tmp_path / "again.dtc.toml"
-    again.write_text(spec_toml(data), encoding="utf-8")
-
-    assert read_spec_data(again) == data
-    assert spec_from_data(again, data) == load_spec(again)
 
 
 def test_a_spec_declares_its_variants_in_a_table(tmp_path: Path) -> None:

@@ -13,17 +13,16 @@ battery leads to docking within 20 s") keeps its own state.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from beatlog.model.cycle import DrawReport, StateChange
 
 __all__ = ["Cycle", "Invariant"]
 
 
-@dataclass(frozen=True, slots=True)
-class Cycle:
-    """What one cycle had, replayed or live, as an invariant reads it."""
+class Cycle(NamedTuple):
+    """What one cycle had, replayed or live, as an invariant reads it: read-only, and a
+    named tuple, which costs the least to build (a replay builds one every cycle)."""
 
     cycle: int
     """The heartbeat's index t, from 0."""

@@ -237,6 +237,13 @@ class Replayer:
             samples=sensed.samples,
         )
 
+    @property
+    def raised(self) -> BaseException | None:
+        """What the behavior code (or, first, the perception step) raised in the cycle
+        replayed last, if it raised: :meth:`outcome` tells more, at a cost."""
+        sensed = self._last[4]
+        return self._last[3] if sensed is None or sensed.failure is None else sensed.failure
+
     def stop(self, outcome: CycleOutcome) -> Stop | None:
         """Why replay cannot go on past ``outcome``'s cycle, if it cannot
         (:meth:`~beatlog.replaying.outcome.CycleOutcome.stop`)."""

@@ -10,7 +10,8 @@ not is a divergence of its own.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from operator import attrgetter
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
@@ -25,6 +26,27 @@ from beatlog.replaying.verdict import Divergence, DivergenceKind, StateChange
 __all__ = ["InvariantChecker", "Violation", "invariant_name"]
 
 _NO_OUTPUTS: MappingProxyType[str, Any] = MappingProxyType({})
+_STATE = attrgetter("state")
+
+
+class _States(Mapping[str, Any]):
+    """Every behavior's state as read after a cycle's update, by name: read in one go,
+    looked up by name only as an invariant asks (a replay checks every cycle)."""
+
+    __slots__ = ("_at", "_values")
+
+    def __init__(self, at: Mapping[str, int], values: tuple[Any, ...]) -> None:
+        self._at = at
+        self._values = values
+
+    def __getitem__(self, name: str) -> Any:
+        return self._values[self._at[name]]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._at)
+
+    def __len__(self) -> int:
+        return len(self._values)
 
 
 class Violation(NamedTuple):
@@ -68,6 +90,7 @@ class InvariantChecker:
         ]
         catalogue = system.behaviors
         self._names = list(catalogue)
+        self._at = {name: index for index, name in enumerate(self._names)}
         self._behaviors = list(catalogue.values())
         self.violation: Divergence | None = None
         """The first violation seen as an observer, if any."""
@@ -118,21 +141,16 @@ class InvariantChecker:
         """A cycle as the invariants see it, the behaviors' states read now."""
         names = self._names
         return Cycle(
-            cycle=number,
-            time_ns=time_ns,
-            dt_ns=dt_ns,
-            robot_state=state,
-            states=MappingProxyType(
-                {
-                    name: behavior.state
-                    for name, behavior in zip(names, self._behaviors, strict=True)
-                }
-            ),
-            changes=tuple(
-                StateChange(names[index], before, after) for index, before, after in changes
-            ),
-            outputs=MappingProxyType(outputs) if outputs else _NO_OUTPUTS,
-            draws=tuple(draw_reports(draws, names)),
+            number,
+            time_ns,
+            dt_ns,
+            state,
+            _States(self._at, tuple(map(_STATE, self._behaviors))),
+            tuple(StateChange(names[index], before, after) for index, before, after in changes)
+            if changes
+            else (),
+            MappingProxyType(outputs) if outputs else _NO_OUTPUTS,
+            tuple(draw_reports(draws, names)) if draws else (),
         )
 
     def violated(self, cycle: Cycle, *, first: bool = False) -> list[Violation]:

@@ -93,6 +93,7 @@ def replay(
     start_cycle: int = 0,
     end_cycle: int | None = None,
     invariants: Sequence[Invariant | type | str] = (),
+    where: Path | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, or a ``module:factory`` reference;
     by default the reference recorded in the log's header, see :func:`recorded_system`).
@@ -153,7 +154,8 @@ def replay(
     each (a behavior that raises there, or cannot draw as recorded, fails the replay
     "before the window"); replay stops after ``end_cycle``, and the rest of the log is
     not read (the part read is checked as ever). The result then counts the window's
-    cycles alone, and has no status: the log's end was not read.
+    cycles alone, and has no status: the log's end was not read. A window past the
+    log's last cycle is an error of ``where`` (the spec that set it; by default the log).
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replaying.fit`).
@@ -218,7 +220,7 @@ def replay(
             if not status.complete and not allow_truncated:
                 judge.log_ended(status.describe())
             else:
-                judge.check_window(status.cycles)
+                check_window(where or reader.path, status.cycles, start_cycle, end_cycle)
         wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
@@ -439,11 +441,6 @@ class CycleJudge:
             self._follower.end()
         if self._stopped_at is None:
             self._samples_perceived = self.replayer.samples_perceived
-
-    def check_window(self, cycles: int) -> None:
-        """Refuse a window the log, complete with ``cycles`` cycles, does not hold
-        (:func:`~beatlog.replaying.session.check_window`)."""
-        check_window(self.path, cycles, self._start, self._end)
 
     def log_ended(self, why: str) -> None:
         """Record that the log stopped before the recording closed it."""

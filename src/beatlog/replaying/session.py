@@ -314,15 +314,16 @@ def through(
         first += len(batch)
 
 
-def check_window(path: Path, cycles: int, start_cycle: int, end_cycle: int | None) -> None:
-    """Refuse a window that the log at ``path``, read to its end with ``cycles`` cycles,
-    does not hold.
+def check_window(where: Path, cycles: int, start_cycle: int, end_cycle: int | None) -> None:
+    """Refuse a window that a log read to its end with ``cycles`` cycles does not hold;
+    ``where`` (the spec that set it, or the log) is what the error names.
 
     :raises beatlog.errors.WindowError: it starts or ends past the last cycle.
     """
     for key, cycle in (("end_cycle", end_cycle), ("start_cycle", start_cycle or None)):
         if cycle is not None and cycle >= cycles:
-            raise WindowError(path, key, f"{cycle} is past the log's last cycle ({cycles - 1})")
+            last = f"{cycle} is past the log's last cycle ({cycles - 1})"
+            raise WindowError(where, f"{key} {last}")
 
 
 def fields_read(

@@ -1,12 +1,9 @@
-"""Variants of a recording: the log replayed with deterministic perturbations, judged by
-the behaviors not raising and by the observers that judge (the invariants), never by
-equality with the recording.
+"""Variants of a recording: the log replayed with deterministic perturbations
+(:mod:`beatlog.replaying.perturbation`), judged by the behaviors not raising and by the
+invariants, never by equality with the recording.
 
-Variant n of a log perturbs what the behaviors get, each value from a generator keyed by
-the log (:func:`~beatlog.replaying.draws.log_key`), n and the cycle (the keyed source of
-:mod:`beatlog.model.luck`), never the wall clock or a global generator: the same log,
-code and n give the same bytes on every run and machine. What it perturbs
-(:class:`Perturbations`):
+Variant n of a log perturbs what the behaviors get, each value from numbers keyed by
+the log, n and the cycle:
 
 - random draws: every draw is fresh, keyed by (log, n) and its place, instead of the
   recorded one;
@@ -17,198 +14,34 @@ code and n give the same bytes on every run and machine. What it perturbs
 - for sensor-level replay (a perception step, a log recorded with samples): each sample
   is dropped, or delayed to the next cycle, with the share given.
 
-The replay core stays as it is: the records are rewritten before it reads them, the
-noise is added through its ``observe`` hook, and the draws come from its living random
-source keyed by the variant; a replay that is no variant pays nothing.
+A variant replays every cycle, up to the first where behavior code raises or an
+invariant does not hold.
 """
 
 from __future__ import annotations
 
-import hashlib
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
 
-import msgspec
-
-from beatlog.errors import FieldError
-from beatlog.log.format import EMPTY_LIST, CycleRecord, SessionHeader, StateChangeRecord
+from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
-from beatlog.model.luck import FreshLuck, Place
+from beatlog.model.invariant import Invariant
 from beatlog.model.perception import Perception
 from beatlog.project.usercode import user_traceback
 from beatlog.replaying.compare import state_fields
 from beatlog.replaying.core import CycleOutcome, Replayer
 from beatlog.replaying.draws import log_key
-from beatlog.replaying.fit.check import check_state_fields
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.invariants import InvariantChecker
+from beatlog.replaying.outcome import draw_reports
+from beatlog.replaying.perturbation import Perturber, Variant, variant_key
 from beatlog.replaying.session import Observer, ReplaySession, check_window, through
-from beatlog.replaying.verdict import (
-    Checked,
-    Divergence,
-    DivergenceKind,
-    DrawReport,
-    ReplayResult,
-)
-from beatlog.replaying.view import full_state
+from beatlog.replaying.verdict import Checked, Divergence, DivergenceKind, ReplayResult
 
-__all__ = ["Judging", "Perturbations", "Variant", "replay_variant", "variant_key"]
-
-_NS = 1_000_000_000
-
-
-@dataclass(frozen=True)
-class Perturbations:
-    """What a variant perturbs, and within which bounds (a spec's ``[variants]``)."""
-
-    draws: bool = True
-    """Draw every random number fresh, keyed by the log and the variant's number."""
-    heartbeat_jitter: float = 0.0
-    """The +- bound, in seconds, on the offset added to each HB_t (which stays >= 1 ns)."""
-    noise: Mapping[str, float] = field(default_factory=dict)
-    """The +- bound on the offset added to each numeric robot-state field named (dotted
-    paths for fields of nested structs)."""
-    drop_samples: float = 0.0
-    """Sensor-level replay: the share of samples dropped."""
-    delay_samples: float = 0.0
-    """Sensor-level replay: the share of samples delayed by one cycle."""
-
-
-@dataclass(frozen=True)
-class Variant:
-    """Variant ``number`` (from 1) of a recording, with its ``perturbations``."""
-
-    number: int
-    perturbations: Perturbations
-
-
-def variant_key(key: bytes, number: int) -> bytes:
-    """What keys every perturbation of variant ``number`` of the log keyed by ``key``
-    (:func:`~beatlog.replaying.draws.log_key`): 32 bytes of BLAKE2b."""
-    return hashlib.blake2b(b"variant\x00%d" % number, key=key[:64], digest_size=32).digest()
-
-
-@runtime_checkable
-class Judging(Observer, Protocol):
-    """An observer that judges a variant (the invariants): the first cycle where it
-    reports a divergence ends the variant, failed."""
-
-    @property
-    def divergence(self) -> Divergence | None:
-        """What it found wrong, once it found it."""
-
-
-class _Perturber:
-    """The perturbations of one variant of one log: its records rewritten, its robot
-    states made noisy, each from the keyed source at the cycle's place."""
-
-    def __init__(
-        self,
-        variant: Variant,
-        header: SessionHeader,
-        replayer: Replayer,
-        where: Path,
-        migration: StateMigration,
-        *,
-        start_cycle: int = 0,
-    ) -> None:
-        perturbations = variant.perturbations
-        self._start = start_cycle
-        """The first cycle perturbed: those before it replay as recorded."""
-        self._luck = FreshLuck(variant_key(log_key(header), variant.number))
-        self._jitter_ns = round(perturbations.heartbeat_jitter * _NS)
-        self._draws = perturbations.draws
-        sensing = replayer.perception is not None
-        self._drop = perturbations.drop_samples if sensing else 0.0
-        self._delay = perturbations.delay_samples if sensing else 0.0
-        check_state_fields(header, perturbations.noise, where, "noise bound for", migration)
-        self._noise = tuple(
-            (name, tuple(name.split(".")), bound) for name, bound in perturbations.noise.items()
-        )
-        self._where = where
-        self._context = replayer.executor.context
-        if self._noise:
-            replayer.observe = self.noisy
-
-    def _u(self, cycle: int, what: str, index: int = 0) -> float:
-        """A uniform number in [0, 1) for ``what`` at ``index`` in ``cycle``."""
-        return self._luck.luck(Place(cycle, what, index)).u
-
-    @property
-    def rewrites(self) -> bool:
-        """Whether the records are rewritten at all."""
-        return bool(self._jitter_ns or self._draws or self._drop or self._delay)
-
-    def records(
-        self, batches: Iterator[Sequence[CycleRecord]], first: int
-    ) -> Iterator[Sequence[CycleRecord]]:
-        """``batches`` with each record perturbed, cycle ``first`` the first."""
-        cycle = first
-        late: list[Any] = []
-        for batch in batches:
-            rewritten = []
-            for record in batch:
-                rewritten.append(self._record(record, cycle, late))
-                cycle += 1
-            yield rewritten
-
-    def _record(self, record: CycleRecord, cycle: int, late: list[Any]) -> CycleRecord:
-        """One record perturbed; ``late`` holds the samples delayed into this cycle, and
-        then those delayed out of it."""
-        changed: dict[str, Any] = {}
-        if cycle < self._start:
-            return record
-        if self._jitter_ns:
-            offset = round((2.0 * self._u(cycle, "heartbeat") - 1.0) * self._jitter_ns)
-            changed["heartbeat_ns"] = max(1, record.heartbeat_ns + offset)
-        if self._draws and record.random_numbers != EMPTY_LIST:
-            changed["random_numbers"] = EMPTY_LIST
-        if self._drop or self._delay:
-            samples = msgspec.msgpack.decode(record.samples)
-            if isinstance(samples, list):
-                kept = late[:]
-                late.clear()
-                for index, sample in enumerate(samples):
-                    if self._u(cycle, "drop sample", index) < self._drop:
-                        continue
-                    if self._u(cycle, "delay sample", index) < self._delay:
-                        late.append(sample)
-                    else:
-                        kept.append(sample)
-                changed["samples"] = msgspec.Raw(msgspec.msgpack.encode(kept))
-        return msgspec.structs.replace(record, **changed) if changed else record
-
-    def noisy(self, state: Any) -> Any:
-        """RS_t with each field named offset within its bound (the replay core's
-        ``observe`` hook)."""
-        cycle = self._context.cycle + 1
-        if cycle < self._start:
-            return state
-        state = full_state(state)
-        for index, (name, path, bound) in enumerate(self._noise):
-            offset = (2.0 * self._u(cycle, "noise", index) - 1.0) * bound
-            state = self._offset(state, path, name, offset)
-        return state
-
-    def _offset(self, state: Any, path: tuple[str, ...], name: str, offset: float) -> Any:
-        """``state`` with the field at ``path`` moved by ``offset``."""
-        value = getattr(state, path[0])
-        if len(path) > 1:
-            moved = self._offset(value, path[1:], name, offset)
-        elif isinstance(value, bool) or not isinstance(value, int | float):
-            raise FieldError(
-                f"{self._where}: noise bound for {name!r}: the field holds "
-                f"{type(value).__name__} {value!r}, not a number"
-            )
-        elif isinstance(value, int):
-            moved = value + round(offset)
-        else:
-            moved = value + offset
-        return msgspec.structs.replace(state, **{path[0]: moved})
+__all__ = ["replay_variant"]
 
 
 class _Ended:
@@ -244,24 +77,24 @@ class _WhileJudged:
 
 class _VariantJudge:
     """Judges a variant's cycles for a replay session: every cycle replayed, its
-    records perturbed, until behavior code raises or an observer that judges reports
-    a divergence."""
+    records perturbed, until behavior code raises or an invariant does not hold; in a
+    window from ``start_cycle`` to ``end_cycle``, the cycles before it must only not
+    raise, and none after it is read."""
 
     def __init__(
         self,
         replayer: Replayer,
-        perturber: _Perturber,
-        judging: Sequence[Judging],
+        perturber: Perturber,
+        invariants: InvariantChecker | None,
         *,
         start_cycle: int = 0,
         end_cycle: int | None = None,
     ) -> None:
         self._replayer = replayer
         self._perturber = perturber
-        self._judging = judging
+        self._invariants = invariants
         self._first = replayer.executor.context.cycle + 1
         self.start_cycle = start_cycle
-        """The first cycle judged: those before it must only not raise."""
         self._end = end_cycle
         self.start_ns = 0
         """Robot time where the window starts."""
@@ -289,8 +122,8 @@ class _VariantJudge:
         changes: list[StateChangeRecord] | None,
         outcome: CycleOutcome | None,
     ) -> Observer | None:
-        """Judge the cycle replayed last: its behaviors raised, or an observer that judges
-        found it wrong; else count what it did. Before the window only raising fails."""
+        """Judge the cycle replayed last: its behaviors raised, or an invariant does not
+        hold in it; else count what it did. Before the window only raising fails."""
         replayer = self._replayer
         context = replayer.executor.context
         before = context.cycle < self.start_cycle
@@ -301,17 +134,14 @@ class _VariantJudge:
                 self.changes += len(changes)
                 self.outputs += len(context.outputs)
                 self.draws += len(replayer.random.drawn)
-        else:
-            outcome = outcome or replayer.outcome()
-            if outcome.failure is not None or outcome.perception_failure is not None:
-                self.divergence = self._raised(outcome)
-                return _Ended()
+        elif replayer.raised is not None:
+            self.divergence = self._raised(outcome or replayer.outcome())
+            return _Ended()
         if before:
             return None
-        for observer in self._judging:
-            found = observer.divergence
-            if found is not None:
-                self.divergence = found
+        if self._invariants is not None:
+            self.divergence = self._invariants.check(outcome or replayer.outcome())
+            if self.divergence is not None:
                 return _Ended()
         return None
 
@@ -335,15 +165,7 @@ class _VariantJudge:
             message=before + stop.message,
             behavior=stop.behavior,
             robot_state=state_fields(outcome.state),
-            random_drawn=tuple(
-                DrawReport(
-                    names[d.actor] if 0 <= d.actor < len(names) else "system",
-                    d.kind,
-                    d.value,
-                    d.call(),
-                )
-                for d in outcome.drawn
-            ),
+            random_drawn=tuple(draw_reports(outcome.drawn, names)),
             traceback=user_traceback(failure),
         )
 
@@ -356,6 +178,7 @@ def replay_variant(
     perception: Perception | None = None,
     migration: StateMigration | None = None,
     allow_truncated: bool = False,
+    invariants: Sequence[Invariant | type | str] = (),
     observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
     where: Path | None = None,
     reproduce: str = "",
@@ -363,10 +186,11 @@ def replay_variant(
     end_cycle: int | None = None,
 ) -> ReplayResult:
     """Replay ``variant`` of ``log`` against ``system``: every cycle, perturbed, until
-    behavior code (or ``perception``) raises or an observer that judges
-    (:class:`Judging`, built like the rest of ``observers`` from the opened log)
-    reports a divergence, which becomes the result's. A variant is never compared with
-    the recording. A log cut short fails as a replay does unless ``allow_truncated``.
+    behavior code (or ``perception``) raises or one of ``invariants`` (as
+    :func:`~beatlog.replay` takes them) does not hold, which becomes the result's
+    divergence. A variant is never compared with the recording. ``observers``, built
+    from the opened log, take the cycles up to the one that fails it, that one included.
+    A log cut short fails as a replay does unless ``allow_truncated``.
     ``where`` (the spec, by default the log) is what a noise bound naming no numeric
     field of the recorded robot state is blamed on; ``reproduce`` is the command the
     result gives (a suite's: ``beatlog test`` with the variant's spec).
@@ -378,6 +202,7 @@ def replay_variant(
     :raises beatlog.errors.LogError: the log is missing, damaged or does not fit.
     :raises beatlog.errors.FieldError: a noise bound names no field of the recorded robot
         state, or one that holds no number.
+    :raises beatlog.errors.SystemLoadError: an invariant named does not import.
     :raises beatlog.errors.WindowError: the window starts or ends past the log's last
         cycle.
     """
@@ -391,7 +216,7 @@ def replay_variant(
         assert replayer is not None  # a session with a system replays
         key = log_key(reader.header)
         replayer.random.live(variant_key(key, variant.number))
-        perturber = _Perturber(
+        perturber = Perturber(
             variant,
             reader.header,
             replayer,
@@ -399,17 +224,17 @@ def replay_variant(
             migration,
             start_cycle=start_cycle,
         )
-        watching = [factory(reader) for factory in observers]
-        judging = [observer for observer in watching if isinstance(observer, Judging)]
+        checker = InvariantChecker(invariants, system) if invariants else None
         judge = _VariantJudge(
-            replayer, perturber, judging, start_cycle=start_cycle, end_cycle=end_cycle
+            replayer, perturber, checker, start_cycle=start_cycle, end_cycle=end_cycle
         )
-        session.run([_WhileJudged(observer, judge) for observer in watching], judge=judge)
+        watching = [_WhileJudged(factory(reader), judge) for factory in observers]
+        session.run(watching, judge=judge)
         context = replayer.executor.context
         status = None if judge.window_closed else reader.status
         divergence = judge.divergence
         if divergence is None and status is not None and status.complete:
-            check_window(reader.path, status.cycles, start_cycle, end_cycle)
+            check_window(where or reader.path, status.cycles, start_cycle, end_cycle)
         if (
             divergence is None
             and status is not None

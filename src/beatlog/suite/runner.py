@@ -20,7 +20,7 @@ from beatlog.analysis.recorded import RecordedChanges
 from beatlog.analysis.trace import ReplayedTrace
 from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
 from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
-from beatlog.errors import BaselineError, BeatlogError, RemoteLogError, WindowError
+from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
@@ -198,6 +198,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             migration=spec.migration,
             start_cycle=spec.start_cycle,
             end_cycle=spec.end_cycle,
+            where=spec.path,
             invariants=importable_invariants(spec),
         )
         replayed: System | str = system
@@ -231,13 +232,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
         updating = update is UpdateMode.NEW and divergence is not None
         refused = refusal(divergence) if updating and divergence is not None else None
-        details = (
-            None
-            if options.verdict_only
-            else _details(
-                spec, log, system, divergence, expected, trace=updating, timelines=timelines
-            )
-        )
+        details = _details(spec, log, system, divergence, expected, trace=updating, options=options)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         if spec.system is None:  # the log named it: say which, on every run
@@ -267,7 +262,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
-            spec, Verdict.ERROR, None, _problem(spec, exc), wall, error_traceback=exc.user_traceback
+            spec, Verdict.ERROR, None, str(exc), wall, error_traceback=exc.user_traceback
         )
     return SpecOutcome(
         spec,
@@ -285,14 +280,6 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         recorded=recorded[0] if recorded else None,
         recording=None if changes is None or log.data is None else log,
     )
-
-
-def _problem(spec: DtcSpec, error: BeatlogError) -> str:
-    """Why the DTC could not run, in one line: a window its log does not hold is a
-    problem of the spec's key."""
-    if isinstance(error, WindowError):
-        return f"{spec.path}: key {error.key!r}: {error.detail}"
-    return str(error)
 
 
 def _variant_outcome(spec: DtcSpec, system: str) -> SpecOutcome:
@@ -370,11 +357,12 @@ def _details(
     expected: Expectation | None,
     *,
     trace: bool,
-    timelines: bool,
+    options: SpecOptions,
 ) -> Details | None:
-    """One more replay, of a failed DTC, gathering what reports need: of the bytes its
-    verdict's replay kept, where it kept them."""
-    if divergence is None:
+    """One more replay, of a failed DTC, gathering what reports need (none where
+    ``options`` ask for the verdict alone): of the bytes its verdict's replay kept,
+    where it kept them."""
+    if divergence is None or options.verdict_only:
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
 
@@ -383,7 +371,7 @@ def _details(
         load_system(system),
         divergence,
         trace=trace,
-        timelines=timelines,
+        timelines=options.timelines,
         expected=None if expected is None else expected.changes_override(),
         perception=None if spec.perception is None else load_perception(spec.perception),
         living=trace or expected is not None,

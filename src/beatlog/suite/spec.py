@@ -67,17 +67,13 @@ recorded value and returns the field's new one, imported as ``system`` is.
 ``invariants`` (:mod:`beatlog.model.invariant`) are ``module:attribute`` references to
 properties that must hold at every heartbeat, imported as ``system`` is: the project's
 ``[tool.beatlog] invariants`` apply to every spec, and a spec's own come on top.
-
-``start_cycle`` and ``end_cycle`` narrow the DTC to a window of its log (what ``beatlog
-shrink`` writes): the cycles before ``start_cycle`` replay as recorded, unjudged, to
-rebuild the behaviors' state; replay stops after ``end_cycle``, the rest of the log
-unread. A window past the log's last cycle is an error of the spec.
+A window (``start_cycle``, ``end_cycle``: what ``beatlog shrink`` writes) past the log's
+last cycle is an error of the spec.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import os
 import tomllib
@@ -106,7 +102,7 @@ from beatlog.project.config import (
 from beatlog.project.usercode import load_invariant
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.variant import Perturbations
+from beatlog.replaying.perturbation import Perturbations, declared
 from beatlog.suite.remote import fetched_log, is_url, url_name
 
 __all__ = [
@@ -117,9 +113,6 @@ __all__ = [
     "load_spec",
     "read_spec_data",
     "spec_from_data",
-    "spec_text",
-    "spec_toml",
-    "toml_string",
 ]
 
 MAX_SPEC_BYTES = 1 << 20
@@ -196,6 +189,9 @@ class DtcSpec:
     """The first cycle judged: the cycles before it replay as recorded, unjudged."""
     end_cycle: int | None = None
     """The last cycle judged and read (inclusive); None: the log's last."""
+    invariants: tuple[str, ...] = ()
+    """The ``module:attribute`` references of the invariants checked in every cycle: the
+    project's (``[tool.beatlog] invariants``), then the spec's own."""
     perturbations: Perturbations | None = None
     """What its variants perturb (the project's ``[tool.beatlog.variants]`` and the
     spec's ``[variants]``); None where it declares no variants."""
@@ -204,9 +200,6 @@ class DtcSpec:
     variant: int | None = None
     """For a variant, its number (from 1): replayed with :attr:`perturbations`, judged
     by the behaviors not raising and the invariants; None for the DTC itself."""
-    invariants: tuple[str, ...] = ()
-    """The ``module:attribute`` references of the invariants checked in every cycle: the
-    project's (``[tool.beatlog] invariants``), then the spec's own."""
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -320,7 +313,7 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
                 )
     # A variant's own spec replays with its own perturbations alone: it reproduces.
     inherited = [] if spec.variant is not None or project.variants is None else [project.variants]
-    perturbations, count = _variants(
+    perturbations, count = declared(
         path, [*inherited, *([] if spec.variants is None else [spec.variants])]
     )
     log_url = spec.log if is_url(spec.log) else None
@@ -365,28 +358,6 @@ def _check_window(path: Path, start: int | None, end: int | None) -> None:
         raise SpecError(path, f"key 'start_cycle': {start} is after end_cycle {end}")
 
 
-def _variants(path: Path, tables: list[VariantsConfig]) -> tuple[Perturbations | None, int]:
-    """The perturbations ``tables`` declare, each on top of the one before, and the
-    variants to run; none where there is no table."""
-    if not tables:
-        return None, 0
-    merged: dict[str, Any] = {}
-    noise: dict[str, float] = {}
-    for table in tables:
-        given = msgspec.structs.asdict(table)
-        noise.update(given.pop("noise"))
-        merged.update((key, value) for key, value in given.items() if value is not None)
-    bounds = {f"noise.{name}": bound for name, bound in noise.items()}
-    bounds["heartbeat_jitter"] = merged.get("heartbeat_jitter", 0.0)
-    for key, bound in bounds.items():
-        if not (math.isfinite(bound) and bound >= 0):
-            raise SpecError(
-                path, f"key 'variants.{key}': expected a finite number >= 0, got {bound}"
-            )
-    count = merged.pop("count", 0)
-    return Perturbations(**merged, noise=noise), count
-
-
 def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
     """The spec's invariants, each imported once here, so that one that does not import
     is an error naming where it is listed: the spec (the DTC's error names it) or its
@@ -426,75 +397,3 @@ def find_rootdir(paths: Iterable[str | Path]) -> Path:
         return Path.cwd()
     common = Path(os.path.commonpath(folders))
     return project_root(common) or common
-
-
-def spec_text(
-    *,
-    name: str,
-    purpose: str,
-    procedure: Iterable[str],
-    log: str,
-    system: str | None,
-    tags: Iterable[str] = (),
-    perception: str | None = None,
-    invariants: Iterable[str] = (),
-) -> str:
-    """A new spec as TOML text, for tools that write one beside a recording (``beatlog
-    import-bag --spec``, a suite's recording script, a failing variant); ``log`` is
-    relative to the spec, and a spec without ``system`` replays the one its log records."""
-    lines = [
-        f"name = {toml_string(name)}",
-        f"purpose = {toml_string(purpose)}",
-        "procedure = [",
-        *(f"    {toml_string(step)}," for step in procedure),
-        "]",
-        f"log = {toml_string(log)}",
-        *([] if system is None else [f"system = {toml_string(system)}"]),
-        *([] if perception is None else [f"perception = {toml_string(perception)}"]),
-        f"tags = [{', '.join(map(toml_string, tags))}]",
-    ]
-    if checked := list(invariants):
-        lines += ["invariants = [", *(f"    {toml_string(name)}," for name in checked), "]"]
-    return "\n".join(lines) + "\n"
-
-
-def spec_toml(data: Mapping[str, Any]) -> str:
-    """A spec's data (strings, numbers, booleans, arrays and tables of them, as
-    :func:`read_spec_data` reads them) as TOML text: its keys first, then its tables."""
-    tables = {key: value for key, value in data.items() if isinstance(value, Mapping)}
-    lines = [
-        f"{_toml_key(key)} = {_toml_value(value)}"
-        for key, value in data.items()
-        if key not in tables
-    ]
-    for name, table in tables.items():
-        lines.extend(["", f"[{_toml_key(name)}]"])
-        lines.extend(f"{_toml_key(key)} = {_toml_value(value)}" for key, value in table.items())
-    return "\n".join(lines) + "\n"
-
-
-def _toml_key(key: str) -> str:
-    """A TOML key: bare where TOML allows it, else quoted."""
-    bare = key and all(c.isascii() and (c.isalnum() or c in "-_") for c in key)
-    return key if bare else toml_string(key)
-
-
-def _toml_value(value: object) -> str:
-    """A TOML value of a spec's data: inline tables within its tables."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int | float):
-        return repr(value)  # TOML spells inf and nan as Python does
-    if isinstance(value, str):
-        return toml_string(value)
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(map(_toml_value, value)) + "]"
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_toml_key(key)} = {_toml_value(item)}" for key, item in value.items())
-        return "{ " + items + " }" if items else "{}"
-    raise TypeError(f"no TOML for {value!r}")
-
-
-def toml_string(text: str) -> str:
-    """A TOML basic string: JSON's escapes, and DEL escaped too (TOML forbids it bare)."""
-    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")

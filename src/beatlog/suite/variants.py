@@ -13,9 +13,11 @@ from pathlib import Path
 
 from beatlog.errors import SpecError
 from beatlog.project.usercode import load_perception, load_system
-from beatlog.replaying.variant import Perturbations, Variant, replay_variant
+from beatlog.replaying.perturbation import Perturbations, Variant
+from beatlog.replaying.variant import replay_variant
 from beatlog.replaying.verdict import ReplayResult, reproduce_command
-from beatlog.suite.spec import DtcSpec, spec_text, toml_string
+from beatlog.suite.spec import DtcSpec, importable_invariants
+from beatlog.suite.spec_writing import spec_text, toml_string
 
 __all__ = [
     "replay_variant_of",
@@ -28,7 +30,8 @@ __all__ = [
 def replay_variant_of(spec: DtcSpec, system: str) -> ReplayResult:
     """Replay variant ``spec`` of a DTC against ``system`` (``module:factory``) as a
     suite does (:func:`~beatlog.replaying.variant.replay_variant`): perturbed, judged by
-    its behaviors not raising; its reproduce command runs its own spec."""
+    its behaviors not raising and its invariants; its reproduce command runs its own
+    spec."""
     assert spec.variant is not None  # a variant's
     perception = None if spec.perception is None else load_perception(spec.perception)
     return replay_variant(
@@ -38,6 +41,7 @@ def replay_variant_of(spec: DtcSpec, system: str) -> ReplayResult:
         perception=perception,
         migration=spec.migration,
         allow_truncated=spec.allow_truncated,
+        invariants=importable_invariants(spec),
         where=spec.path,
         reproduce=reproduce_command("test", spec.own_spec),
         start_cycle=spec.start_cycle,
@@ -67,9 +71,9 @@ def with_variants(specs: Iterable[DtcSpec], count: int | None = None) -> list[Dt
 
 
 def variant_spec_text(spec: DtcSpec) -> str:
-    """The spec of variant ``spec`` of a DTC: its log (no copy), system, window, number
-    and perturbations, all of them, so that it reproduces whatever the original spec or
-    the project say later."""
+    """The spec of variant ``spec`` of a DTC: its log (no copy), system, invariants,
+    window, number and perturbations, all of them, so that it reproduces whatever the
+    original spec or the project say later."""
     assert spec.variant is not None  # a variant's
     assert spec.perturbations is not None
     base = spec.name.removesuffix(f"[variant-{spec.variant}]")
@@ -82,6 +86,7 @@ def variant_spec_text(spec: DtcSpec) -> str:
         system=spec.system,
         tags=spec.tags,
         perception=spec.perception,
+        invariants=spec.invariants,
     )
     renames, conversions = spec.migration.renames, spec.migration.conversions
     extra = [

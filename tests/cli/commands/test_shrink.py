@@ -62,7 +62,7 @@ def test_a_spec_that_passes_is_one_line_and_exit_1(
         ({"start_cycle": 20, "end_cycle": 10}, "key 'start_cycle': 20 is after end_cycle 10"),
         (
             {"end_cycle": 60},
-            "key 'end_cycle': 60 is past the log's last cycle (59)",
+            "end_cycle 60 is past the log's last cycle (59)",
         ),
     ],
 )
