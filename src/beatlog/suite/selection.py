@@ -34,7 +34,7 @@ class Selection:
     rootdir: Path | None
     """The rootdir of the specs, as pytest would take it; None for a fleet run's logs."""
     note: str | None = None
-    """What ``--lf`` did to the selection, for the reader."""
+    """What ``--lf`` or ``--variants`` did to the selection, for the reader."""
 
 
 def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
@@ -82,6 +82,12 @@ def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> S
         specs = shard(specs, options.shard.index, options.shard.count)
     if not options.breaking:
         specs = with_variants(specs, options.variants)
+    if options.variants and not any(spec.variant for spec in specs):
+        unvaried = (
+            "--variants: no DTC selected declares variants "
+            "([variants] in its spec, or [tool.beatlog.variants])"
+        )
+        note = unvaried if note is None else f"{note}\n{unvaried}"
     return Selection(found, distinguished(specs), rootdir, note)
 
 
