@@ -109,6 +109,7 @@ PRINTED = [
     "shrunk",
     "nothing to shrink",
     "replays tried",
+    "perturbations",
     "window",
     "before the window",
     # variants

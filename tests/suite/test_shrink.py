@@ -153,6 +153,27 @@ def test_a_failing_variant_keeps_only_the_perturbations_it_needs(
     )
 
 
+def test_a_variant_failing_an_invariant_keeps_the_same_invariant_failing(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    perturbations = {"heartbeat_jitter": 0.002, "noise": {"distance": 0.3}}
+    spec = write_spec(
+        tmp_path,
+        "negative",
+        record_probe(600),
+        PROBE,
+        invariants=["tests.systems:never_negative"],
+        variant=2,
+        variants=perturbations,
+    )
+
+    shrunk = shrink(spec)
+
+    assert (shrunk.kind, shrunk.invariant) == (DivergenceKind.INVARIANT, "never_negative")
+    assert shrunk.perturbations == ("noise.distance",)
+    assert shrunk.start_cycle == shrunk.end_cycle == shrunk.cycle  # a cycle's noise alone
+
+
 def test_a_spec_that_passes_has_nothing_to_shrink(tmp_path: Path, record_probe: RecordFn) -> None:
     spec = write_spec(tmp_path, "calm", record_probe(60), PROBE)
 
