@@ -881,6 +881,9 @@ def test_a_window_judges_its_cycles_alone(record_probe: RecordFn) -> None:
 
     assert result.ok
     assert result.cycles == 31
+    assert result.notes == (
+        "30 cycles before the window replayed as recorded to rebuild the state, unjudged",
+    )
     upto_end, before = logged_counts(log, 61), logged_counts(log, 30)
     assert result.checked == Checked(
         *(

@@ -259,8 +259,20 @@ def replay(
             *([] if end_cycle is None else ["--end-cycle", str(end_cycle)]),
             *_invariant_arguments(invariants),
         ),
-        notes=tuple(note for note in (period_note(reader.header, system), no_samples) if note),
+        notes=tuple(
+            note
+            for note in (period_note(reader.header, system), no_samples, _before(start_cycle))
+            if note
+        ),
     )
+
+
+def _before(start_cycle: int) -> str:
+    """The note on a window's cycles before it: replayed, not judged, not counted."""
+    if not start_cycle:
+        return ""
+    cycles = f"{start_cycle} cycle{'' if start_cycle == 1 else 's'}"
+    return f"{cycles} before the window replayed as recorded to rebuild the state, unjudged"
 
 
 class CycleJudge:
