@@ -5,14 +5,22 @@ cycle."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from beatlog.errors import FieldError
-from beatlog.replaying.perturbation import Perturbations, variant_key
+from beatlog.log.format import CycleRecord
+from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
+from beatlog.model.context import Context, Outputs
+from beatlog.record.recorder import Recorder
+from beatlog.replaying.core import CycleOutcome
+from beatlog.replaying.perturbation import Perturbations, Variant, variant_key
+from beatlog.replaying.variant import replay_variant
 from tests.conftest import PERIOD_NS, RecordFn, distances
 from tests.perceptions import perceive, record_with_samples
 from tests.perturbed import replayed
+from tests.systems import Pose, Posed, moody_system, record_moody
 
 
 def test_one_variant_twice_draws_perturbs_and_changes_the_same(record_probe: RecordFn) -> None:
@@ -122,3 +130,91 @@ def test_samples_are_left_alone_without_a_perception_step(tmp_path: Path) -> Non
     cycles = replayed(log, 1, Perturbations(drop_samples=1.0, draws=False))[1]
 
     assert [cycle.distance for cycle in cycles] == distances(50)
+
+
+class States:
+    """An observer that keeps the robot state of every cycle, as the behaviors saw it."""
+
+    replaying = reading = True
+
+    def __init__(self) -> None:
+        self.states: list[Any] = []
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        if outcome is not None:
+            self.states.append(outcome.state)
+
+
+def states_of(log: Path, system: System, noise: dict[str, float], **options: Any) -> list[Any]:
+    seen = States()
+    replay_variant(
+        log,
+        system,
+        Variant(1, Perturbations(noise=noise)),
+        observers=[lambda reader: seen],
+        **options,
+    )
+    return seen.states
+
+
+class Still:
+    """A behavior that never changes state: the robot state is all that moves."""
+
+    name = "still"
+    state: BehaviorState = "still"
+
+    def step(self, rs: Any, ctx: Context) -> Outputs | None:
+        return {"x": rs.pose.x}
+
+
+def test_noise_on_a_field_of_a_nested_struct_moves_that_field_alone(tmp_path: Path) -> None:
+    system: PriorityArbiter[Posed] = PriorityArbiter([Still()], robot_state=Posed)
+    with Recorder(tmp_path / "posed.beatlog", system, software="t") as recorder:
+        for t in range(20):
+            recorder.step(PERIOD_NS, Posed(pose=Pose(x=float(t), y=1.0)))
+
+    states = states_of(tmp_path / "posed.beatlog", system, {"pose.x": 0.1})
+
+    assert [state.pose.y for state in states] == [1.0] * 20
+    assert all(abs(state.pose.x - t) <= 0.1 for t, state in enumerate(states))
+    assert [state.pose.x for state in states] != [float(t) for t in range(20)]
+
+
+def test_an_integer_field_moves_by_whole_numbers(tmp_path: Path) -> None:
+    log = record_moody(tmp_path / "moody.beatlog")
+
+    states = states_of(log, moody_system(), {"level": 2.0})
+
+    assert all(isinstance(state.level, int) for state in states)
+    assert all(abs(state.level - t) <= 2 for t, state in enumerate(states))
+    assert [state.level for state in states] != list(range(10))
+
+
+@pytest.mark.parametrize(("field", "held"), [("mood", "str 'calm'"), ("bumped", "bool False")])
+def test_a_noise_bound_on_a_field_holding_no_number_is_one_error_naming_the_spec(
+    tmp_path: Path, field: str, held: str
+) -> None:
+    log = record_moody(tmp_path / "moody.beatlog")
+    spec = tmp_path / "moody.dtc.toml"
+
+    with pytest.raises(FieldError) as raised:
+        states_of(log, moody_system(), {field: 0.5}, where=spec)
+
+    assert str(raised.value) == (
+        f"{spec}: noise bound for {field!r}: the field holds {held}, not a number"
+    )
+
+
+def test_a_noise_bound_naming_no_field_of_a_nested_struct_is_one_error(tmp_path: Path) -> None:
+    system: PriorityArbiter[Posed] = PriorityArbiter([Still()], robot_state=Posed)
+    with Recorder(tmp_path / "posed.beatlog", system, software="t") as recorder:
+        recorder.step(PERIOD_NS, Posed())
+    spec = tmp_path / "posed.dtc.toml"
+
+    with pytest.raises(FieldError) as raised:
+        states_of(tmp_path / "posed.beatlog", system, {"pose.z": 0.1}, where=spec)
+
+    assert str(raised.value) == (
+        f"{spec}: noise bound for 'pose.z': the recorded robot state tests.systems.Posed "
+        "has no such field"
+    )

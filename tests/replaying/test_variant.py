@@ -3,6 +3,8 @@ behaviors not raising and by the invariants, never by the recording."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from beatlog import replay
@@ -12,6 +14,7 @@ from beatlog.replaying.perturbation import Perturbations, Variant
 from beatlog.replaying.variant import replay_variant
 from beatlog.replaying.verdict import DivergenceKind
 from tests.conftest import RecordFn, probe_system
+from tests.perceptions import broken_perception, record_with_samples
 from tests.perturbed import PERTURBED, Seen, replayed
 from tests.systems import fussy_system
 
@@ -87,6 +90,18 @@ def test_a_log_cut_short_fails_a_variant_unless_allowed(record_probe: RecordFn) 
     assert result.divergence is not None
     assert result.divergence.kind is DivergenceKind.LOG_ENDED
     assert allowed.ok
+
+
+def test_a_perception_step_that_raises_fails_the_variant(tmp_path: Path) -> None:
+    log = record_with_samples(tmp_path / "sensed.beatlog", 100)
+
+    result = replay_variant(
+        log, probe_system(), Variant(1, Perturbations()), perception=broken_perception()
+    )
+
+    assert result.divergence is not None
+    assert result.divergence.kind is DivergenceKind.PERCEPTION
+    assert "no range sensor" in (result.divergence.traceback or "")
 
 
 NOISY = Variant(1, Perturbations(noise={"distance": 0.3}))

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -24,6 +24,7 @@ from beatlog.project.config import VariantsConfig
 from beatlog.replaying.draws import log_key
 from beatlog.replaying.fit.check import check_state_fields
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.fit.schema import field_schema
 from beatlog.replaying.view import full_state
 
 if TYPE_CHECKING:
@@ -137,13 +138,14 @@ class Perturber:
         sensing = replayer.perception is not None
         self._drop = perturbations.drop_samples if sensing else 0.0
         self._delay = perturbations.delay_samples if sensing else 0.0
-        check_state_fields(header, perturbations.noise, where, "noise bound for", migration)
+        _check_noise(header, perturbations.noise, where, migration)
         self._noise = tuple(
             (name, tuple(name.split(".")), bound) for name, bound in perturbations.noise.items()
         )
         self._where = where
         self._log = replayer.path
         self._context = replayer.executor.context
+        self._robot_state = replayer.system.robot_state
         if self._noise:
             replayer.observe = self.noisy
 
@@ -203,12 +205,17 @@ class Perturber:
         if cycle < self._start:
             return state
         uniforms = self._uniforms.draw(cycle, "noise", len(noise))
-        state = full_state(state)
+        if state.__class__ is not self._robot_state:  # a view of a format-3 batch
+            state = full_state(state)
         moved: dict[str, Any] = {}
         for (name, path, bound), u in zip(noise, uniforms, strict=False):
             top = path[0]
             value = moved[top] if top in moved else getattr(state, top)
-            moved[top] = self._offset(value, path[1:], name, (2 * u - 1) * bound)
+            offset = (2 * u - 1) * bound
+            if value.__class__ is float and len(path) == 1:  # the common case, at once
+                moved[top] = value + offset
+            else:
+                moved[top] = self._offset(value, path[1:], name, offset)
         return msgspec.structs.replace(state, **moved)
 
     def _offset(self, value: Any, path: tuple[str, ...], name: str, offset: float) -> Any:
@@ -225,6 +232,30 @@ class Perturber:
         if isinstance(value, int):
             return value + round(offset)
         return value + offset
+
+
+def _check_noise(
+    header: SessionHeader, names: Iterable[str], where: Path, migration: StateMigration
+) -> None:
+    """Refuse a noise bound naming no field of the recorded robot state (a dotted name:
+    no field of its nested struct), as :func:`check_state_fields` does, naming ``where``.
+
+    :raises beatlog.errors.FieldError: one names no such field.
+    """
+    names = list(names)
+    check_state_fields(
+        header, [n for n in names if "." not in n], where, "noise bound for", migration
+    )
+    for name in names:
+        try:
+            found = field_schema(header.robot_state_schema, migration.recorded_name(name))
+        except (RecursionError, TypeError, KeyError, AttributeError):
+            found = None
+        if found is None and "." in name:
+            raise FieldError(
+                f"{where}: noise bound for {name!r}: the recorded robot state "
+                f"{header.robot_state_type} has no such field"
+            )
 
 
 def declared(path: Path, tables: Sequence[VariantsConfig]) -> tuple[Perturbations | None, int]:

@@ -150,7 +150,7 @@ class _VariantJudge:
         replayer = self._replayer
         stop = replayer.stop(outcome)
         assert stop is not None  # it raised
-        failure = outcome.failure or outcome.perception_failure
+        failure = outcome.perception_failure or outcome.failure  # as stop() headlines them
         assert failure is not None
         names = replayer.executor.behavior_ids
         before = (
