@@ -482,7 +482,7 @@ class CycleJudge:
         outcome. A cycle before the window is not judged: it fails only where replay
         cannot go on past it."""
         replayer = self.replayer
-        if self.executor.context.cycle < self._start:
+        if self._start and self.executor.context.cycle < self._start:
             if changes is not None:
                 return None
             outcome = outcome or replayer.outcome()
