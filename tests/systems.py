@@ -144,6 +144,39 @@ def fragile_system() -> PriorityArbiter[Probe]:
     return PriorityArbiter([Near(), Fragile()], robot_state=Probe)
 
 
+class Weary(Near):
+    """Near that wears out: it raises on its fourth approach to the pole, a bug that
+    only a state reached late in a session (after three approaches) triggers."""
+
+    def __init__(self, threshold: float = 0.5) -> None:
+        super().__init__(threshold)
+        self.approaches = 0
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        was = self.state
+        outputs = super().step(rs, ctx)
+        if was == "far" and self.state == "near":
+            self.approaches += 1
+            if self.approaches == WORN_OUT:
+                raise RuntimeError("worn out")
+        return outputs
+
+
+WORN_OUT = 4
+"""The approach on which :class:`Weary` raises."""
+
+
+def weary_system() -> PriorityArbiter[Probe]:
+    """The probe with a near that raises on its fourth approach."""
+    return PriorityArbiter([Weary(), Dice()], robot_state=Probe)
+
+
+def weary_system_changed() -> PriorityArbiter[Probe]:
+    """``probe_system_changed`` (near reacts earlier), with a near that raises on its
+    fourth approach."""
+    return PriorityArbiter([Weary(0.6), Dice()], robot_state=Probe)
+
+
 class Hostile:
     """A behavior whose name and states are markup and TeX, as user data may be."""
 
@@ -653,6 +686,21 @@ def heading_rover(random: RandomSource) -> RoverRobot:
     return RoverRobot(behaviors=PriorityArbiter([Heading(random)], robot_state=RoverState))
 
 
+class Fussy(Near):
+    """``near``, which raises where the distance is below zero: a bug no recording of
+    the probe reaches (its distances never are), and noise on ``distance`` does."""
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        if rs.distance < 0:
+            raise ValueError(f"a negative distance: {rs.distance}")
+        return super().step(rs, ctx)
+
+
+def fussy_system() -> PriorityArbiter[Probe]:
+    """The probe system with :class:`Fussy` for ``near``."""
+    return PriorityArbiter([Fussy(), Dice()], robot_state=Probe)
+
+
 def never_close(cycle: Cycle) -> None:
     """An invariant of the probe that does not hold within 0.3 m of the pole."""
     if cycle.robot_state.distance <= 0.3:
@@ -662,3 +710,25 @@ def never_close(cycle: Cycle) -> None:
 def never_holds(cycle: Cycle) -> None:
     """An invariant that holds in no cycle of any robot."""
     raise AssertionError(f"cycle {cycle.cycle}")
+
+
+class NeverLingers:
+    """An invariant of the probe that looks across cycles: it is never within 0.5 m of
+    the pole for more than ten cycles in a row (it is, on every approach)."""
+
+    def __init__(self) -> None:
+        self.near = 0
+
+    def __call__(self, cycle: Cycle) -> None:
+        self.near = self.near + 1 if cycle.robot_state.distance < 0.5 else 0
+        assert self.near <= LINGER, f"{self.near} cycles within 0.5 m of the pole"
+
+
+LINGER = 10
+"""The cycles in a row :class:`NeverLingers` lets the probe stay near the pole."""
+
+
+def never_negative(cycle: Cycle) -> None:
+    """An invariant of the probe that every recording of it keeps, and noise on its
+    distance may not."""
+    assert cycle.robot_state.distance >= 0, f"a distance of {cycle.robot_state.distance} m"

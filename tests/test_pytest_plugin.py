@@ -566,3 +566,47 @@ def test_k_selects_the_dtcs_pytest_selects(
 
     ran = sorted(line.partition("::")[2] for line in collected.outlines if "::" in line)
     assert sorted(spec.name for spec in selected) == ran
+
+
+NOISY = "\n[variants]\ncount = 2\nnoise = { distance = 0.05 }\n"
+STARTED = 1_700_000_000_000_000_000
+"""When the logs whose variants must fail were recorded: it keys their variants."""
+
+
+def test_each_variant_a_dtc_declares_is_a_test_of_its_own(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log) + NOISY)
+
+    result = pytester.runpytest("-v", "--beatlog-variants", "3")
+
+    result.assert_outcomes(passed=4)
+    result.stdout.fnmatch_lines(
+        [
+            "*approach.dtc.toml::approach-wall PASSED*",
+            "*approach.dtc.toml::approach-wall[[]variant-1[]] PASSED*",
+            "*approach.dtc.toml::approach-wall[[]variant-2[]] PASSED*",
+            "*approach.dtc.toml::approach-wall[[]variant-3[]] PASSED*",
+        ]
+    )
+
+
+def test_a_failing_variant_is_written_as_a_spec_the_next_session_runs(
+    pytester: pytest.Pytester, record_probe: RecordFn
+) -> None:
+    log = record_probe(200, start_time_ns=STARTED)  # the same variants on every run
+    fussy = spec_text("approach-wall", log, "tests.systems:fussy_system")
+    pytester.makefile(".dtc.toml", approach=fussy + NOISY)
+
+    first = pytester.runpytest()
+
+    written = sorted(pytester.path.glob("approach.variant-*.dtc.toml"))
+    assert written
+    first.stdout.fnmatch_lines(
+        [f"written: *{written[0].name} (a failing variant, now a DTC of its own: commit it)"]
+    )
+    failed = first.parseoutcomes()["failed"]
+    again = pytester.runpytest("-v", "--beatlog-variants", "0", "-p", "no:cacheprovider")
+    again.assert_outcomes(passed=1, failed=failed)
+    number = written[0].name.split(".")[1]
+    again.stdout.fnmatch_lines([f"*{written[0].name}::approach-wall-{number} FAILED*"])

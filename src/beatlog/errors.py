@@ -28,6 +28,7 @@ __all__ = [
     "SpecError",
     "SystemLoadError",
     "UnsupportedVersionError",
+    "WindowError",
 ]
 
 
@@ -176,6 +177,11 @@ class ConversionError(BeatlogError):
 
 class SpecError(FileProblemError):
     """A DTC spec (``*.dtc.toml``) that cannot be read; the message names the file and key."""
+
+
+class WindowError(FileProblemError):
+    """A window of cycles (``start_cycle``, ``end_cycle``) that the log does not hold:
+    names the spec that set it (or the log), the key and the cycle past the log's end."""
 
 
 class BaselineError(SpecError):

@@ -157,6 +157,18 @@ def test_ctrl_c_stops_a_replay(
     assert run.out == ""
 
 
+def test_ctrl_c_stops_a_shrink_and_writes_no_spec(
+    press_ctrl_c: Callable[..., Run], record_probe: RecordFn, markers: Path, tmp_path: Path
+) -> None:
+    spec = write_spec(tmp_path, "slow", record_probe(300), SLOW)
+
+    run = press_ctrl_c(["shrink", spec], marked(markers))
+
+    assert_stopped(run)
+    assert run.out == ""
+    assert not (tmp_path / "slow.shrunk.dtc.toml").exists()
+
+
 def test_ctrl_c_ends_a_recording_with_a_complete_log(
     press_ctrl_c: Callable[..., Run], tmp_path: Path
 ) -> None:

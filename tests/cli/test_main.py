@@ -177,8 +177,8 @@ def test_verbose_shows_the_traceback_of_a_factory_that_failed(
         (
             ["play", "x.beatlog"],
             "argument command: invalid choice: 'play' (choose from 'record', 'replay', 'test', "
-            "'review', 'approve', 'upgrade-baselines', 'show', 'plot', 'export', 'import-bag', "
-            "'help', 'demo') "
+            "'shrink', 'review', 'approve', 'upgrade-baselines', 'show', 'plot', 'export', "
+            "'import-bag', 'help', 'demo') "
             "(see 'beatlog --help')",
         ),
         ([], "the following arguments are required: command (see 'beatlog --help')"),
@@ -244,6 +244,7 @@ SUBCOMMANDS = [
     "record",
     "replay",
     "test",
+    "shrink",
     "review",
     "approve",
     "upgrade-baselines",

@@ -23,15 +23,17 @@ from beatlog.errors import (
     LogError,
     SchemaMismatchError,
     SystemLoadError,
+    WindowError,
 )
 from beatlog.log.format import FORMAT_VERSION, SessionHeader
 from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog.log.recording import Recording
 from beatlog.log.writer import SessionLogWriter
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
-from beatlog.replaying import core, fit
+from beatlog.replaying import core, fit, judge
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.expectation import Expectation, TracedChange
 from beatlog.replaying.judge import propose_renames
@@ -866,3 +868,100 @@ def test_rename_proposal_a_changed_state_is_not_a_rename() -> None:
 
 def test_rename_proposal_a_missing_change_is_not_a_rename() -> None:
     assert propose_renames([([StateChange("a", 0, 1)], [])]) == {}
+
+
+# a window of cycles
+
+
+def test_a_window_judges_its_cycles_alone(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    assert not replay(log, probe_system_changed()).ok  # it diverges before cycle 30
+
+    result = replay(log, probe_system_changed(), start_cycle=30, end_cycle=60)
+
+    assert result.ok
+    assert result.cycles == 31
+    assert result.notes == (
+        "30 cycles before the window replayed as recorded to rebuild the state, unjudged",
+    )
+    upto_end, before = logged_counts(log, 61), logged_counts(log, 30)
+    assert result.checked == Checked(
+        *(
+            a - b
+            for a, b in zip(dataclasses.astuple(upto_end), dataclasses.astuple(before), strict=True)
+        )
+    )
+
+
+def test_a_divergence_in_the_window_fails_it_where_it_comes(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    changed = next(t for t, d in enumerate(distances(300)) if t >= 30 and (d < 0.6) != (d < 0.5))
+
+    result = replay(log, probe_system_changed(), start_cycle=30, end_cycle=200)
+
+    assert result.divergence is not None
+    assert result.divergence.kind is DivergenceKind.STATE_CHANGES
+    assert result.divergence.cycle == changed
+    assert result.reproduce.endswith("--start-cycle 30 --end-cycle 200")
+
+
+def test_a_behavior_that_raises_before_the_window_fails_it_there(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    fragile = "tests.systems:fragile_system"
+    cycle = first_cycle_below(0.3)
+
+    result = replay(log, fragile, start_cycle=cycle + 10, end_cycle=cycle + 20, explain=False)
+
+    assert result.divergence is not None
+    assert result.divergence.kind is DivergenceKind.EXCEPTION
+    assert result.divergence.cycle == cycle
+    assert result.divergence.message == (
+        f"before the window (cycle {cycle + 10} on): dice raised ZeroDivisionError: fragile dice"
+    )
+
+
+def test_a_windowed_replay_reads_the_log_no_further_than_its_end(
+    record_chunked: RecordFn,
+) -> None:
+    recording = Recording(record_chunked(300))
+    read: list[int] = []
+
+    class Counting:
+        def __init__(self, reader: SessionLogReader) -> None:
+            pass
+
+        def read(self, batch: Any) -> None:
+            read.append(len(batch))
+
+    result = judge.replay(recording, probe_system(), end_cycle=44, readers=[Counting])
+
+    assert result.ok
+    assert result.cycles == 45
+    assert result.status is None  # its end never read
+    assert sum(read[:-1]) <= 44 < sum(read)  # the last batch read holds cycle 44
+    assert recording.digest is None  # the file was not read to its end
+
+
+def test_a_windowed_replay_still_finds_damage_in_what_it_reads(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    damage = PROBE_CYCLE_DAMAGE["robot-state-empty"]
+    log = rewrite_cycle(record_probe(60), tmp_path / "damaged.beatlog", damage.cycle, damage.edit)
+
+    with pytest.raises(LogError) as raised:
+        replay(log, probe_system(), start_cycle=damage.cycle + 1, end_cycle=damage.cycle + 2)
+
+    assert str(raised.value) == f"{log}: {damage.problem}"
+
+
+@pytest.mark.parametrize(("key", "window"), [("end_cycle", (0, 300)), ("start_cycle", (300, None))])
+def test_a_window_past_the_logs_last_cycle_is_an_error(
+    record_probe: RecordFn, key: str, window: tuple[int, int | None]
+) -> None:
+    log = record_probe(300)
+    start, end = window
+
+    with pytest.raises(WindowError) as raised:
+        replay(log, probe_system(), start_cycle=start, end_cycle=end)
+
+    assert str(raised.value) == f"{log}: {key} 300 is past the log's last cycle (299)"

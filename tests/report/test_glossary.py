@@ -106,6 +106,18 @@ PRINTED = [
     # beatlog upgrade-baselines
     "upgraded",
     "older format",
+    # beatlog shrink, and a spec's window
+    "shrunk",
+    "nothing to shrink",
+    "replays tried",
+    "perturbations",
+    "window",
+    "before the window",
+    # variants
+    "variant",
+    "of them variants",
+    "written",
+    "a failing variant, now a DTC of its own",
 ]
 """The words the CLI's messages and reports print that no enum or constant lists."""
 

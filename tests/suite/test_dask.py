@@ -468,3 +468,23 @@ def test_break_points_and_dask_exclude_each_other(beatlog: Callable[..., Run], s
     run = beatlog("test", suite, "--dask", "local:2", "--break-on-divergence")
 
     assert_error(run, "break points stop in this process: leave out --dask")
+
+
+def test_variants_run_on_the_cluster_as_they_run_here(
+    beatlog: Callable[..., Run], cluster: str, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(100, start_time_ns=1_700_000_000_000_000_000)  # its variants keyed
+    folder = tmp_path / "suite"
+    variants = {"count": 3, "noise": {"distance": 0.05}}
+    write_spec(folder, "dock", log, "tests.systems:fussy_system", variants=variants)
+
+    local = beatlog("test", folder, "-j", "1", "--junit-xml", tmp_path / "local.xml")
+    written = sorted(folder.glob("*.variant-*.dtc.toml"))
+    for path in written:
+        path.unlink()
+    remote = beatlog("test", folder, "--dask", cluster, "--junit-xml", tmp_path / "dask.xml")
+
+    assert remote.code == local.code == 1
+    assert closing_counts(remote.out) == closing_counts(local.out)
+    assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
+    assert sorted(folder.glob("*.variant-*.dtc.toml")) == written

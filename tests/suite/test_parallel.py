@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Iterable
 from pathlib import Path
@@ -11,6 +12,7 @@ import pytest
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
+from beatlog.suite.variants import with_variants
 from tests.conftest import MEETING, RecordFn
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, written_dtc
 
@@ -124,3 +126,24 @@ def test_with_two_jobs_specs_run_here_and_in_a_worker_at_once(
     pids = {int(sign.name) for sign in meeting.iterdir()}
     assert len(pids) == 2
     assert os.getpid() in pids
+
+
+def test_variants_spread_over_worker_processes_each_with_its_own_outcome(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(100, start_time_ns=1_700_000_000_000_000_000)  # its variants keyed
+    spec = written_dtc(
+        tmp_path, "dock", log, "tests.systems:fussy_system", variants={"noise": {"distance": 0.05}}
+    )
+    suite = with_variants([spec], 4)
+
+    sequential = run_suite(suite, jobs=1)
+    parallel = run_suite(suite, jobs=2)
+
+    assert [o.spec.id for o in parallel] == [spec.id for spec in suite]
+    assert [(o.verdict, o.result) for o in parallel] == [
+        (o.verdict, dataclasses.replace(o.result, wall_time_s=p.result.wall_time_s))
+        for o, p in zip(sequential, parallel, strict=True)
+        if o.result is not None and p.result is not None
+    ]
+    assert Verdict.FAILED in {o.verdict for o in parallel}

@@ -112,6 +112,26 @@ def test_a_missing_log_is_an_error_not_a_failure(tmp_path: Path) -> None:
     assert outcome.error == f"{tmp_path / 'lost.beatlog'}: no such file"
 
 
+def test_a_window_past_the_logs_end_is_an_error_of_the_spec(tmp_path: Path, log: Path) -> None:
+    spec = written_dtc(tmp_path, "long", log, start_cycle=10, end_cycle=300)
+
+    outcome = run_spec(spec)
+
+    assert outcome.verdict is Verdict.ERROR
+    assert outcome.error == f"{spec.path}: end_cycle 300 is past the log's last cycle (299)"
+
+
+def test_a_windowed_spec_is_judged_in_its_window_alone(tmp_path: Path, log: Path) -> None:
+    spec = written_dtc(tmp_path, "window", log, CHANGED, start_cycle=30, end_cycle=60)
+
+    outcome = run_spec(spec)
+
+    assert outcome.verdict is Verdict.PASSED
+    assert outcome.result is not None
+    assert outcome.result.cycles == 31
+    assert outcome.reproduce == f"beatlog test {spec.path}"
+
+
 def test_a_system_that_cannot_be_imported_is_an_error(tmp_path: Path, log: Path) -> None:
     outcome = run_spec(written_dtc(tmp_path, "ghost", log, "tests.no_such_module:system"))
 

@@ -107,3 +107,36 @@ def test_a_break_past_the_end_of_the_log_is_refused(specs: Path) -> None:
 
 def test_no_break_takes_any_selection(specs: Path) -> None:
     check_break_at(None, select_suite(SuiteOptions(paths=(specs,))).specs, option="--break-at")
+
+
+def test_variants_asked_of_dtcs_that_declare_none_are_noted(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(50)
+    write_spec(tmp_path, "plain", log)
+
+    selection = select_suite(SuiteOptions(paths=(tmp_path,), variants=3))
+
+    assert [spec.name for spec in selection.specs] == ["plain"]
+    assert selection.note == (
+        "--variants: no DTC selected declares variants "
+        "([variants] in its spec, or [tool.beatlog.variants])"
+    )
+
+
+def test_variants_follow_each_dtc_that_declares_them(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(50)
+    write_spec(tmp_path, "varied", log, variants={"count": 1})
+    write_spec(tmp_path, "zplain", log)
+
+    selection = select_suite(SuiteOptions(paths=(tmp_path,), variants=2))
+
+    assert [spec.name for spec in selection.specs] == [
+        "varied",
+        "varied[variant-1]",
+        "varied[variant-2]",
+        "zplain",
+    ]
+    assert selection.note is None

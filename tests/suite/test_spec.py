@@ -9,7 +9,9 @@ import pytest
 from beatlog.errors import SpecError
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
-from beatlog.suite.spec import load_spec, spec_text
+from beatlog.replaying.perturbation import Perturbations
+from beatlog.suite.spec import load_spec
+from beatlog.suite.spec_writing import spec_text
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec
 
@@ -172,6 +174,34 @@ def test_an_empty_name_is_rejected(tmp_path: Path) -> None:
     path = write_spec(tmp_path, "blank", "probe.beatlog", name="  ")
 
     assert_spec_error(path, "key 'name': must not be empty")
+
+
+def test_a_window_of_cycles_loads_into_the_spec(tmp_path: Path) -> None:
+    spec = load_spec(write_spec(tmp_path, "window", "probe.beatlog", start_cycle=40, end_cycle=60))
+
+    assert (spec.start_cycle, spec.end_cycle) == (40, 60)
+
+
+def test_without_a_window_a_spec_judges_every_cycle(tmp_path: Path) -> None:
+    spec = load_spec(write_spec(tmp_path, "whole", "probe.beatlog"))
+
+    assert (spec.start_cycle, spec.end_cycle) == (0, None)
+
+
+@pytest.mark.parametrize(
+    ("window", "problem"),
+    [
+        ({"start_cycle": -1}, "key 'start_cycle': expected a cycle number >= 0, got -1"),
+        ({"end_cycle": -3}, "key 'end_cycle': expected a cycle number >= 0, got -3"),
+        ({"start_cycle": 61, "end_cycle": 60}, "key 'start_cycle': 61 is after end_cycle 60"),
+    ],
+)
+def test_a_window_that_holds_no_cycle_is_rejected(
+    tmp_path: Path, window: dict[str, int], problem: str
+) -> None:
+    path = write_spec(tmp_path, "window", "probe.beatlog", **window)
+
+    assert_spec_error(path, problem)
 
 
 def test_a_system_without_a_colon_is_rejected(tmp_path: Path) -> None:
@@ -360,3 +390,86 @@ def test_a_written_spec_loads_back_as_written(tmp_path: Path) -> None:
     )
     assert list(spec.tags) == ["touch", "falls"]
     assert spec.invariants == ("myrobot.checks:upright", "myrobot.checks:Docks")
+
+
+def test_a_spec_declares_its_variants_in_a_table(tmp_path: Path) -> None:
+    path = write_spec(
+        tmp_path,
+        "varied",
+        "probe.beatlog",
+        variants={"count": 8, "heartbeat_jitter": 0.002, "noise": {"distance": 0.05}},
+    )
+
+    spec = load_spec(path)
+
+    assert spec.perturbations == Perturbations(heartbeat_jitter=0.002, noise={"distance": 0.05})
+    assert spec.variant_count == 8
+    assert spec.variant is None
+
+
+def test_a_spec_without_variants_declares_none(tmp_path: Path) -> None:
+    spec = load_spec(write_spec(tmp_path, "plain", "probe.beatlog"))
+
+    assert spec.perturbations is None
+    assert spec.variant_count == 0
+
+
+def test_the_projects_variants_apply_to_every_spec_and_the_spec_comes_on_top(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[project]\nname = "robot"\n\n[tool.beatlog.variants]\ncount = 4\ndraws = false\n'
+        "noise = { distance = 0.1, pose.x = 0.01 }\n",
+        encoding="utf-8",
+    )
+    plain = write_spec(tmp_path / "specs", "plain", "probe.beatlog")
+    own = write_spec(
+        tmp_path / "specs", "own", "probe.beatlog", variants={"noise": {"distance": 0.2}}
+    )
+
+    assert load_spec(plain).perturbations == Perturbations(
+        draws=False, noise={"distance": 0.1, "pose.x": 0.01}
+    )
+    assert load_spec(own).perturbations == Perturbations(
+        draws=False, noise={"distance": 0.2, "pose.x": 0.01}
+    )
+    assert load_spec(own).variant_count == 4
+
+
+def test_a_variants_own_spec_ignores_the_projects_variants(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        '[project]\nname = "robot"\n\n[tool.beatlog.variants]\nnoise = { distance = 0.1 }\n',
+        encoding="utf-8",
+    )
+    bare = write_spec(tmp_path / "specs", "bare", "probe.beatlog", variant=3)
+    own = write_spec(
+        tmp_path / "specs", "own", "probe.beatlog", variant=2, variants={"draws": False}
+    )
+
+    assert load_spec(bare).perturbations == Perturbations()
+    assert load_spec(bare).variant == 3
+    assert load_spec(own).perturbations == Perturbations(draws=False)
+
+
+@pytest.mark.parametrize(
+    ("extra", "problem"),
+    [
+        ({"variants": {"noise": {"distance": -0.1}}},
+         "key 'variants.noise.distance': expected a finite number >= 0, got -0.1"),
+        ({"variants": {"noise": {"distance": float("nan")}}},
+         "key 'variants.noise.distance': expected a finite number >= 0, got nan"),
+        ({"variants": {"heartbeat_jitter": float("inf")}},
+         "key 'variants.heartbeat_jitter': expected a finite number >= 0, got inf"),
+        ({"variants": {"heartbeat_jitter": -0.001}},
+         "key 'variants.heartbeat_jitter': expected `float` >= 0.0"),
+        ({"variants": {"drop_samples": 1.5}},
+         "key 'variants.drop_samples': expected `float` <= 1.0"),
+        ({"variants": {"count": -1}}, "key 'variants.count': expected `int` >= 0"),
+        ({"variants": {"jitter": 0.1}}, "key 'variants': object contains unknown field `jitter`"),
+        ({"variant": 0}, "key 'variant': expected `int` >= 1"),
+    ],
+    ids=["negative-noise", "nan-noise", "infinite-jitter", "negative-jitter", "share-above-one",
+         "negative-count", "unknown-key", "variant-zero"],
+)  # fmt: skip
+def test_bad_variants_name_the_key(tmp_path: Path, extra: dict[str, object], problem: str) -> None:
+    assert_spec_error(write_spec(tmp_path, "bad", "probe.beatlog", **extra), problem)

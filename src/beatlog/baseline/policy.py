@@ -84,6 +84,9 @@ class SpecOptions:
     coverage: bool = False
     """Gather the state changes its log recorded, for the suite's coverage, as the
     verdict's replay reads them."""
+    verdict_only: bool = False
+    """The verdict's replay alone: a failure is neither replayed again to see that it
+    repeats nor for its details (what ``beatlog shrink`` asks of each window it tries)."""
 
 
 def open_loop_share(cycles: int, open_loop: int | None) -> float:

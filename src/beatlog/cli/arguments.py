@@ -19,6 +19,7 @@ __all__ = [
     "add_log",
     "add_output",
     "add_paths",
+    "count",
     "cycle_number",
     "positive_float",
     "positive_int",
@@ -106,6 +107,17 @@ def cycle_number(text: str) -> int:
     if cycle < 0:
         raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
     return cycle
+
+
+def count(text: str) -> int:
+    """How many of something: a whole number, 0 or more."""
+    try:
+        number = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if number < 0:
+        raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
+    return number
 
 
 def positive_float(text: str) -> float:

@@ -30,7 +30,7 @@ EXIT_NOTHING_SELECTED = 5
 """``beatlog test`` found DTC specs and selected none, as pytest's exit code 5."""
 EXIT_CODES = """exit codes:
   0    passed (or done)
-  1    a replay diverged, a DTC failed or a recording failed
+  1    a replay diverged, a DTC failed or a recording failed (shrink: it passes)
   2    bad input or usage: one line on stderr naming the file and the problem
   5    beatlog test selected no DTC (-k and --tag match none of the specs found)
   130  interrupted (Ctrl-C, or quitting the debugger at a break)

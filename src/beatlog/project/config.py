@@ -26,6 +26,7 @@ from beatlog.log.files import project_root
 
 __all__ = [
     "ProjectConfig",
+    "VariantsConfig",
     "check_conversions",
     "check_one_to_one",
     "check_references",
@@ -34,6 +35,7 @@ __all__ = [
     "keys_problem",
     "one_to_one_problem",
     "project_config",
+    "variants_table",
     "vouched_system",
 ]
 
@@ -41,6 +43,33 @@ _SHOWN = 80
 """The most characters of a recorded reference an error repeats (it comes from a log)."""
 _FIELD_TABLES = frozenset({"field_renames", "field_conversions"})
 """The tables keyed by robot-state fields, where a dotted key names a nested field."""
+
+
+class VariantsConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """A ``[variants]`` table: how many variants of a DTC run and what they perturb
+    (:class:`~beatlog.replaying.variant.Perturbations`); a key left out is the
+    project's, or the default. A spec's comes on top of the project's."""
+
+    count: Annotated[int, msgspec.Meta(ge=0)] | None = None
+    """Variants run per DTC unless ``beatlog test --variants`` says otherwise."""
+    draws: bool | None = None
+    """Whether every random number is drawn fresh (default true)."""
+    heartbeat_jitter: Annotated[float, msgspec.Meta(ge=0)] | None = None
+    """The +- bound, in seconds, on each heartbeat interval's offset."""
+    noise: dict[str, float] = {}
+    """The +- bound per numeric robot-state field (dotted paths for nested fields)."""
+    drop_samples: Annotated[float, msgspec.Meta(ge=0, le=1)] | None = None
+    """Sensor-level DTCs: the share of samples dropped."""
+    delay_samples: Annotated[float, msgspec.Meta(ge=0, le=1)] | None = None
+    """Sensor-level DTCs: the share of samples delayed by one cycle."""
+
+
+def variants_table(table: Any) -> Any:
+    """A ``[variants]`` table as read from TOML, its ``noise`` keyed by dotted paths
+    (see :func:`dotted_keys`); anything but a table as it is."""
+    if isinstance(table, dict) and "noise" in table:
+        return {**table, "noise": dotted_keys(table["noise"])}
+    return table
 
 
 class ProjectConfig(msgspec.Struct, frozen=True):
@@ -65,6 +94,9 @@ class ProjectConfig(msgspec.Struct, frozen=True):
     max_open_loop_dtcs: Annotated[int, msgspec.Meta(ge=0)] | None = None
     """How many DTCs may run open loop; more make ``beatlog test`` fail, naming the
     sessions to re-record first."""
+    variants: VariantsConfig | None = None
+    """The variants every DTC of the project runs, and what they perturb
+    (``[tool.beatlog.variants]``); a spec's ``[variants]`` comes on top."""
 
 
 def project_config(folder: Path) -> ProjectConfig:
@@ -98,7 +130,11 @@ def _read(path: Path, _mtime_ns: int, _size: int) -> ProjectConfig:
         if (problem := keys_problem(section, ProjectConfig, prefix="tool.beatlog.")) is not None:
             raise SpecError(path, problem)
         section = {
-            key: dotted_keys(value) if key in _FIELD_TABLES else value
+            key: dotted_keys(value)
+            if key in _FIELD_TABLES
+            else variants_table(value)
+            if key == "variants"
+            else value
             for key, value in section.items()
         }
     try:

@@ -13,8 +13,12 @@ the new expectation of each failing DTC to its pending baseline for review, as
 also audits each DTC's determinism and fails the ones it finds leaking;
 ``--beatlog-coverage`` shows the transition coverage of the DTCs that ran, as
 ``beatlog test --coverage`` does (remembering what earlier runs saw), and
-``--beatlog-coverage-json FILE`` writes it for tools. The terminal summary says what
-was written, names orphaned baselines and counts the verdicts.
+``--beatlog-coverage-json FILE`` writes it for tools. A DTC that declares variants
+(``[variants]``) is followed by its variants, each a test of its own
+(``dock[variant-3]``), as many as it declares or ``--beatlog-variants N`` says; a
+failing variant is written as a spec beside its DTC, as ``beatlog test`` writes it.
+The terminal summary says what was written, names orphaned baselines and counts the
+verdicts.
 
 Break points, as ``beatlog replay`` has them: ``--beatlog-break-at CYCLE`` stops in the
 debugger just before the behaviors update in that cycle of the one DTC selected (with
@@ -91,6 +95,15 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         help="write the transition coverage of the DTCs that ran as JSON",
     )
     group.addoption(
+        "--beatlog-variants",
+        type=int,
+        metavar="N",
+        dest="beatlog_variants",
+        help="also run variants 1..N of each DTC that declares variants ([variants]), each "
+        "a test of its own (NAME[variant-N]); a failing one is written as a spec beside "
+        "its DTC (default: each DTC's own count)",
+    )
+    group.addoption(
         "--beatlog-break-at",
         type=int,
         metavar="CYCLE",
@@ -118,6 +131,9 @@ def pytest_configure(config: pytest.Config) -> None:
     break_on_divergence = config.getoption("beatlog_break_on_divergence")
     if break_at is not None and break_at < 0:
         raise pytest.UsageError(f"--beatlog-break-at: must be 0 or more, got {break_at}")
+    variants = config.getoption("beatlog_variants")
+    if variants is not None and variants < 0:
+        raise pytest.UsageError(f"--beatlog-variants: must be 0 or more, got {variants}")
     if break_at is not None or break_on_divergence:
         if _distributed(config):
             raise pytest.UsageError(
@@ -137,6 +153,7 @@ def pytest_configure(config: pytest.Config) -> None:
         else config.invocation_params.dir / coverage_json,
         break_at=break_at,
         break_on_divergence=break_on_divergence,
+        variants=variants,
         worker=hasattr(config, "workerinput"),  # an xdist worker's
     )
     config.pluginmanager.register(config.stash[RUN], "beatlog-run")

@@ -16,6 +16,7 @@ from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BeatlogError, OptionError, SpecError
 from beatlog.suite.discovery import discover_specs, distinguished
 from beatlog.suite.spec import DtcSpec, load_spec
+from beatlog.suite.variants import with_variants
 
 if TYPE_CHECKING:
     from beatlog.analysis.recorded import RecordedChanges
@@ -50,14 +51,15 @@ class DtcFailedError(AssertionError):
 
 
 class DtcFile(pytest.File):
-    """A ``*.dtc.toml`` spec file: one test item."""
+    """A ``*.dtc.toml`` spec file: one test item, and one per variant it declares."""
 
     def collect(self) -> Iterator[pytest.Item]:
         try:
             spec = load_spec(self.path, rootdir=self.config.rootpath)
         except SpecError as exc:
             raise self.CollectError(str(exc)) from None
-        yield DtcItem.from_parent(self, name=spec.name, spec=spec)
+        for dtc in with_variants([spec], self.config.stash[RUN].variants):
+            yield DtcItem.from_parent(self, name=dtc.name, spec=dtc)
 
 
 class DtcItem(pytest.Item):
@@ -74,7 +76,11 @@ class DtcItem(pytest.Item):
         """Judge the DTC: one that cannot run (its log or system is bad input) is an error
         of this phase, so pytest reports it as an ERROR, as ``beatlog test`` does."""
         from beatlog.report.baselines import render_updates  # noqa: PLC0415 - see the imports
-        from beatlog.suite.maintenance import update_baselines  # noqa: PLC0415
+        from beatlog.report.suite import variant_lines  # noqa: PLC0415
+        from beatlog.suite.maintenance import (  # noqa: PLC0415
+            update_baselines,
+            write_failed_variants,
+        )
         from beatlog.suite.runner import Verdict, run_spec  # noqa: PLC0415
 
         run = self.config.stash[RUN]
@@ -94,7 +100,11 @@ class DtcItem(pytest.Item):
             updates = update_baselines([outcome], run.update)
         except BeatlogError as exc:  # a full disk: one line, as beatlog test says it
             pytest.fail(str(exc), pytrace=False)
-        for line in render_updates(updates):
+        try:
+            written = write_failed_variants([outcome])
+        except BeatlogError as exc:
+            pytest.fail(str(exc), pytrace=False)
+        for line in [*render_updates(updates), *variant_lines(written)]:
             self.user_properties.append((UPDATE, line.plain))
         if outcome.verdict is Verdict.ERROR:
             shown = outcome.error_traceback if self.config.get_verbosity() > 0 else None
@@ -160,6 +170,8 @@ class BeatlogRun:
     coverage_json: Path | None = None
     break_at: int | None = None
     break_on_divergence: bool = False
+    variants: int | None = None
+    """Variants of each DTC that declares them; None: as many as each declares."""
     worker: bool = False
     """Whether this is an xdist worker's run: its DTCs' verdicts go to the controller's."""
     verdicts: list[Verdict] = field(default_factory=list)

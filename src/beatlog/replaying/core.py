@@ -138,7 +138,12 @@ class Replayer:
         )
         self.observe: Observe | None = None
         """What wraps RS_t before the behaviors see it, in the cycles replayed while it
-        is set (none on the hot path): e.g. a stand-in that notes the fields read."""
+        is set (none on the hot path): e.g. a stand-in that notes the fields read; the
+        outcome holds the state it wraps."""
+        self.perturb: Observe | None = None
+        """What takes the place of RS_t before the behaviors see it, in every cycle
+        replayed while it is set (none on the hot path): a variant's noise; the outcome
+        holds what the behaviors saw."""
         self._last: tuple[
             CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, Sensed | None
         ]
@@ -238,6 +243,13 @@ class Replayer:
             samples=sensed.samples,
         )
 
+    @property
+    def raised(self) -> BaseException | None:
+        """What the behavior code (or, first, the perception step) raised in the cycle
+        replayed last, if it raised: :meth:`outcome` tells more, at a cost."""
+        sensed = self._last[4]
+        return self._last[3] if sensed is None or sensed.failure is None else sensed.failure
+
     def stop(self, outcome: CycleOutcome) -> Stop | None:
         """Why replay cannot go on past ``outcome``'s cycle, if it cannot
         (:meth:`~beatlog.replaying.outcome.CycleOutcome.stop`)."""
@@ -311,6 +323,9 @@ class Replayer:
                 or random.mismatch is not None
             ):
                 load(() if draws == EMPTY_LIST else decode_draws(record, context.cycle + 1))
+            perturb = self.perturb
+            if perturb is not None:
+                state = perturb(state)
             failure = None
             try:
                 changes = step(record.heartbeat_ns, state if observe is None else observe(state))

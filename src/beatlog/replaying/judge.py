@@ -45,7 +45,14 @@ from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.invariants import InvariantChecker
 from beatlog.replaying.outcome import draw_reports
 from beatlog.replaying.pins import PinChecker, rebuilt_otherwise
-from beatlog.replaying.session import BatchReader, Observer, ReplaySession, fields_read
+from beatlog.replaying.session import (
+    BatchReader,
+    Observer,
+    ReplaySession,
+    check_window,
+    fields_read,
+    through,
+)
 from beatlog.replaying.setup import SetupDrawError
 from beatlog.replaying.verdict import (
     Checked,
@@ -86,7 +93,10 @@ def replay(
     observers: Sequence[Callable[[SessionLogReader], Observer]] = (),
     readers: Sequence[Callable[[SessionLogReader], BatchReader]] = (),
     migration: StateMigration | None = None,
+    start_cycle: int = 0,
+    end_cycle: int | None = None,
     invariants: Sequence[Invariant | type | str] = (),
+    where: Path | None = None,
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, a factory that builds one, or a
     ``module:factory`` reference; by default the reference recorded in the log's
@@ -148,12 +158,23 @@ def replay(
     cycle, the invariant is the headline). The reproduce command carries the
     references.
 
+    ``start_cycle`` and ``end_cycle`` (both inclusive) narrow the verdict to a window of
+    cycles: the cycles before ``start_cycle`` are replayed as recorded, to rebuild the
+    behaviors' state, and are not judged, except that replay must be able to go on past
+    each (a behavior that raises there, or cannot draw as recorded, fails the replay
+    "before the window"); replay stops after ``end_cycle``, and the rest of the log is
+    not read (the part read is checked as ever). The result then counts the window's
+    cycles alone, and has no status: the log's end was not read. A window past the
+    log's last cycle is an error of ``where`` (the spec that set it; by default the log).
+
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replaying.fit`).
     :raises beatlog.errors.FieldError: a robot-state tolerance names a field the recorded
         robot state lacks.
     :raises beatlog.errors.EmptyCheckError: the replay found no difference, but checked
         nothing either, and ``allow_empty`` is not set.
+    :raises beatlog.errors.WindowError: the window starts or ends past the log's last
+        cycle.
     """
     if system is None:
         system = recorded_system(Path(log))
@@ -178,6 +199,8 @@ def replay(
             *(["--allow-truncated"] if allow_truncated else []),
             *(["--allow-empty"] if allow_empty else []),
             *migration.arguments(),
+            *(["--start-cycle", str(start_cycle)] if start_cycle else []),
+            *([] if end_cycle is None else ["--end-cycle", str(end_cycle)]),
             *_invariant_arguments(invariants),
         )
 
@@ -212,6 +235,8 @@ def replay(
             context=context_cycles,
             comparison=comparison,
             expected=expected,
+            start_cycle=start_cycle,
+            end_cycle=end_cycle,
             invariants=InvariantChecker(invariants, built) if invariants else None,
         )
         watching = [_WhileJudging(factory(reader), judge) for factory in observers]
@@ -223,9 +248,12 @@ def replay(
             reader.decode_states(judge.replayer.state_type)
         session.run(watching, judge=judge, readers=[factory(reader) for factory in readers])
         judge.end()
-        status = reader.status
-        if judge.judging and not status.complete and not allow_truncated:
-            judge.log_ended(status.describe())
+        status = None if judge.window_closed else reader.status
+        if status is not None and judge.judging:
+            if not status.complete and not allow_truncated:
+                judge.log_ended(status.describe())
+            else:
+                check_window(where or reader.path, status.cycles, start_cycle, end_cycle)
         wall = time.perf_counter() - started
     divergence = judge.divergence
     checked = judge.checked
@@ -254,7 +282,11 @@ def replay(
         divergence=divergence,
         divergent_cycles=judge.divergent_cycles,
         reproduce=reproduce(reader.header.system),
-        notes=tuple(note for note in (period_note(reader.header, built), no_samples) if note),
+        notes=tuple(
+            note
+            for note in (period_note(reader.header, built), no_samples, _before(start_cycle))
+            if note
+        ),
     )
 
 
@@ -276,6 +308,14 @@ def _diverged_at_setup(
     )
 
 
+def _before(start_cycle: int) -> str:
+    """The note on a window's cycles before it: replayed, not judged, not counted."""
+    if not start_cycle:
+        return ""
+    cycles = f"{start_cycle} cycle{'' if start_cycle == 1 else 's'}"
+    return f"{cycles} before the window replayed as recorded to rebuild the state, unjudged"
+
+
 class CycleJudge:
     """Judges the cycles a replay session steps and writes up the first divergence, with
     up to ``context`` cycles either side, counting the cycles that diverge: the session's
@@ -288,6 +328,9 @@ class CycleJudge:
     not hold is a divergence of its cycle, and the headline where the cycle also
     differs. Past the divergence where it stops, a :class:`Follower` gathers what
     happened next.
+    It judges the cycles from ``start_cycle`` to ``end_cycle`` (both inclusive; None: to
+    the log's end): the earlier ones must only let replay go on, and the log's batches
+    end after ``end_cycle``.
     """
 
     def __init__(
@@ -298,6 +341,8 @@ class CycleJudge:
         context: int,
         comparison: Comparison,
         expected: Expectation | None,
+        start_cycle: int = 0,
+        end_cycle: int | None = None,
         invariants: InvariantChecker | None = None,
     ) -> None:
         header, path = replayer.header, replayer.path
@@ -307,6 +352,17 @@ class CycleJudge:
         self.context = context
         """Cycles shown either side of the first divergence."""
         self._keep_going = keep_going
+        self._start = start_cycle
+        """The first cycle judged: those before it only rebuild the behaviors' state."""
+        self._end = end_cycle
+        """The last cycle judged and read; None: the log's last."""
+        self._start_ns = 0
+        """Robot time where the window starts."""
+        self._before = (0, 0, 0, 0)
+        """What the replay core counted before the window (state changes, outputs and
+        draws of the cycles that agreed at once, samples perceived): not judged."""
+        self.window_closed = False
+        """Whether the log's batches stopped at the window's end, the rest unread."""
         self.path = path
         self.replayer = replayer
         check_catalogue(header, replayer.system, path, comparison.renames)
@@ -364,32 +420,66 @@ class CycleJudge:
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches, with an approved baseline's state changes and outputs in
         place of the recorded ones where it expects others; each kept for the cycles
-        before a divergence as it is handed on."""
+        before a divergence as it is handed on. A batch is cut where the window starts,
+        so that what the replay core counted before it is known, and where it ends,
+        the last read."""
         if self._expected is not None:
             batches = self._expected.batches(batches, self.path)
+        if self._start or self._end is not None:
+            batches = self._windowed(batches)
         for batch in batches:
             self._batches.append(batch)
             yield batch
 
+    def _windowed(
+        self, batches: Iterator[Sequence[CycleRecord]]
+    ) -> Iterator[Sequence[CycleRecord]]:
+        """``batches`` cut where the window starts and after it ends (none read after)."""
+        first = 0
+        """The cycle the next batch starts with."""
+        for batch in through(batches, self._end, self._close):
+            at, first = first, first + len(batch)
+            if at < self._start < first:
+                yield batch[: self._start - at]
+                self._window_opens()
+                yield batch[self._start - at :]
+                continue
+            if at == self._start > 0:
+                self._window_opens()
+            yield batch
+
+    def _close(self) -> None:
+        """The window's end is reached: the rest of the log is not read."""
+        self.window_closed = True
+
+    def _window_opens(self) -> None:
+        """Note what the replay core counted before the window, which opens now."""
+        self._start_ns = self.executor.clock.now_ns
+        self._before = (*self.replayer.agreed, self.replayer.samples_perceived)
+
     @property
     def cycles(self) -> int:
-        """Cycles judged: up to the divergence that stopped replay, or all of them."""
-        return self._stopped_at[0] if self._stopped_at else self.executor.context.cycle + 1
+        """Cycles judged: from the window's start up to the divergence that stopped
+        replay, or all of them."""
+        end = self._stopped_at[0] if self._stopped_at else self.executor.context.cycle + 1
+        return max(0, end - self._start)
 
     @property
     def robot_time_ns(self) -> int:
         """Robot time judged, matching :attr:`cycles`."""
-        return self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
+        end = self._stopped_at[1] if self._stopped_at else self.executor.clock.now_ns
+        return max(0, end - self._start_ns)
 
     @property
     def checked(self) -> Checked:
         """What the cycles judged that agreed checked."""
         changes, outputs, draws = self.replayer.agreed
+        changes_before, outputs_before, draws_before, samples_before = self._before
         return Checked(
-            changes + self._changes_checked,
-            outputs + self._outputs_checked,
-            draws + self._draws_checked,
-            self._samples_perceived - self._samples_diverged,
+            changes - changes_before + self._changes_checked,
+            outputs - outputs_before + self._outputs_checked,
+            draws - draws_before + self._draws_checked,
+            self._samples_perceived - samples_before - self._samples_diverged,
         )
 
     @property
@@ -430,8 +520,16 @@ class CycleJudge:
         (or only as an approved baseline lets it differ) and its state changes and
         outputs match: byte for byte, else by the :class:`Comparison` (state changes as
         a set, allowances applied). Only a cycle that does not agree gets its full
-        outcome."""
+        outcome. A cycle before the window is not judged: it fails only where replay
+        cannot go on past it."""
         replayer = self.replayer
+        if self._start and self.executor.context.cycle < self._start:
+            if changes is not None:
+                return None
+            outcome = outcome or replayer.outcome()
+            if replayer.stop(outcome) is None:
+                return None
+            return self._stop(index, outcome, None)
         if changes is None:
             outcome = outcome or replayer.outcome()  # judged by its robot state, then as usual
             changes = outcome.changes if self._agrees_but_for_pins(outcome) else None
@@ -656,6 +754,8 @@ class CycleJudge:
                 "; the state changes differ only in the order behaviors are listed,"
                 " which is no difference"
             )
+        if outcome.cycle < self._start:
+            message = f"before the window (cycle {self._start} on): {message}"
         completed = failure is None and outcome.draw_problem is None
         self.divergence = Divergence(
             kind=kind,

@@ -14,8 +14,10 @@ the log where a judge must see every byte of it.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
 from typing import Any, Protocol, TypedDict, Unpack
 
+from beatlog.errors import WindowError
 from beatlog.log.files import Closing
 from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
@@ -37,7 +39,9 @@ __all__ = [
     "ReadTracker",
     "ReplayOptions",
     "ReplaySession",
+    "check_window",
     "fields_read",
+    "through",
 ]
 
 
@@ -298,6 +302,34 @@ def _read_by(
         for reader in readers:
             reader.read(batch)
         yield batch
+
+
+def through(
+    batches: Iterator[Sequence[CycleRecord]], end_cycle: int | None, reached: Callable[[], None]
+) -> Iterator[Sequence[CycleRecord]]:
+    """``batches`` up to cycle ``end_cycle`` (None: all of them): the one that holds it
+    is cut after it, and none is read after it (a window's end, see
+    :func:`beatlog.replaying.judge.replay`); ``reached`` is called once it is."""
+    first = 0
+    for batch in batches:
+        if end_cycle is not None and first + len(batch) > end_cycle:
+            reached()
+            yield batch[: end_cycle + 1 - first]
+            return
+        yield batch
+        first += len(batch)
+
+
+def check_window(where: Path, cycles: int, start_cycle: int, end_cycle: int | None) -> None:
+    """Refuse a window that a log read to its end with ``cycles`` cycles does not hold;
+    ``where`` (the spec that set it, or the log) is what the error names.
+
+    :raises beatlog.errors.WindowError: it starts or ends past the last cycle.
+    """
+    for key, cycle in (("end_cycle", end_cycle), ("start_cycle", start_cycle or None)):
+        if cycle is not None and cycle >= cycles:
+            last = f"{cycle} is past the log's last cycle ({cycles - 1})"
+            raise WindowError(where, f"{key} {last}")
 
 
 def fields_read(

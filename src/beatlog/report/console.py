@@ -310,10 +310,17 @@ def _counts(counts: dict[str, int]) -> str:
 def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> RenderableType:
     """The summary table of a suite run, one row per DTC; with more than
     :data:`MAX_LISTED` DTCs, unless ``every``, only those that did not pass, and a line
-    that counts the others."""
+    that counts the others. A variant that passed is never listed unless ``every``: a
+    line counts them."""
     listed = outcomes
-    if not every and len(outcomes) > MAX_LISTED:
-        listed = [outcome for outcome in outcomes if outcome.verdict is not Verdict.PASSED]
+    if not every:
+        many = len(outcomes) > MAX_LISTED
+        listed = [
+            outcome
+            for outcome in outcomes
+            if outcome.verdict is not Verdict.PASSED
+            or not (many or outcome.spec.variant is not None)
+        ]
     table = Table(title="DTC suite", title_justify="left", caption=LEGEND, caption_justify="left")
     table.add_column("DTC", overflow="fold")  # an id folds, never cut to its shared start
     for column in SUMMARY_COLUMNS[1:]:
@@ -337,10 +344,15 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
     if len(listed) == len(outcomes):
         return table
     hidden = len(outcomes) - len(listed)
+    variants = sum(
+        outcome.spec.variant is not None and outcome.verdict is Verdict.PASSED
+        for outcome in outcomes
+    )
+    among = f" ({variants} of them variants)" if variants else ""
     return Group(
         table,
         Text(
-            f"… and {hidden} passed, not listed: run with --verbose to list every DTC",
+            f"… and {hidden} passed{among}, not listed: run with --verbose to list every DTC",
             style="dim",
         ),
     )

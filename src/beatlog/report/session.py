@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.baseline.policy import open_loop_share, stale_suite
-from beatlog.errors import BaselineError, OptionError
+from beatlog.errors import OptionError, SpecError
 from beatlog.log.files import write_json
 from beatlog.project.config import ProjectConfig, project_config
 from beatlog.report.console import plain_text, render_outcome
@@ -29,7 +29,7 @@ from beatlog.suite.coverage import suite_coverage
 from beatlog.suite.coverage_cache import cache_path, recall
 from beatlog.suite.junit import write_junit
 from beatlog.suite.last_failed import last_failed_path, remember_failed
-from beatlog.suite.maintenance import find_orphans, update_baselines
+from beatlog.suite.maintenance import find_orphans, update_baselines, write_failed_variants
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict
@@ -69,7 +69,7 @@ class SuiteSession:
         check_break_at(options.break_at, self.specs, option="--break-at")
         if options.breaking and options.dask is not None:
             raise OptionError("break points stop in this process: leave out --dask")
-        self._outcomes: dict[Path, SpecOutcome] = {}
+        self._outcomes: dict[str, SpecOutcome] = {}
         self._wall_s = 0.0
         self._interrupted: KeyboardInterrupt | None = None
 
@@ -81,7 +81,7 @@ class SuiteSession:
     @property
     def outcomes(self) -> list[SpecOutcome]:
         """The outcomes of the DTCs that ran, in spec order."""
-        return [self._outcomes[spec.path] for spec in self.specs if spec.path in self._outcomes]
+        return [self._outcomes[spec.id] for spec in self.specs if spec.id in self._outcomes]
 
     def run(self, on_outcome: Callable[[SpecOutcome], object] | None = None) -> SuiteReport:
         """Run the DTCs (see :func:`~beatlog.suite.parallel.run_suite`), each outcome given
@@ -91,7 +91,7 @@ class SuiteSession:
         options = self.options
 
         def done(outcome: SpecOutcome) -> None:
-            self._outcomes[outcome.spec.path] = outcome
+            self._outcomes[outcome.spec.id] = outcome
             if on_outcome is not None:
                 on_outcome(outcome)
 
@@ -135,11 +135,13 @@ class SuiteSession:
             return report
         try:
             updates = tuple(update_baselines(outcomes, options.update))
-        except BaselineError as exc:  # a full disk: the pending files written stay whole
+            variants = tuple(write_failed_variants(outcomes))
+        except SpecError as exc:  # a full disk: the files written stay whole
             return dataclasses.replace(report, error=str(exc))
         report = dataclasses.replace(
             report,
             updates=updates,
+            variant_specs=variants,
             stale=stale_suite(
                 [
                     (o.spec.label, open_loop_share(o.result.cycles, o.open_loop[0]))
@@ -160,7 +162,7 @@ class SuiteSession:
             )
         report = conclude(
             report,
-            [outcome.spec for outcome in outcomes],
+            [outcome.spec for outcome in outcomes if outcome.spec.variant is None],
             found=self.selection.found,
             root=self.selection.rootdir,
             orphans_in=options.paths if options.logs is None else (),

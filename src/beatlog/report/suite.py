@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from beatlog.baseline.policy import StaleSuite
     from beatlog.suite.maintenance import PendingUpdate
 
-__all__ = ["NAMED_IN_NOTES", "SuiteReport", "plain_lines"]
+__all__ = ["NAMED_IN_NOTES", "SuiteReport", "plain_lines", "variant_lines"]
 
 NAMED_IN_NOTES = 5
 """DTCs named in a note before the rest are counted."""
@@ -46,6 +46,8 @@ class SuiteReport:
     """What updating the baselines did."""
     orphans: tuple[Path, ...] = ()
     """Expected and pending files whose spec is gone."""
+    variant_specs: tuple[Path, ...] = ()
+    """The specs written for the variants that failed."""
     stale: StaleSuite | None = None
     """How the suite is past its project's open-loop limits, if it is."""
     coverage: SuiteCoverage | None = None
@@ -103,7 +105,16 @@ class SuiteReport:
     def baseline_lines(self) -> list[Text]:
         """What updating the baselines did, the orphaned baselines, and how the suite is
         stale."""
-        return [*render_updates(self.updates), *self.orphan_lines(), *render_stale(self.stale)]
+        return [
+            *render_updates(self.updates),
+            *self.variant_lines(),
+            *self.orphan_lines(),
+            *render_stale(self.stale),
+        ]
+
+    def variant_lines(self) -> list[Text]:
+        """One line per spec written for a failing variant."""
+        return variant_lines(self.variant_specs)
 
     def note_lines(self) -> list[Text]:
         """What the passing DTCs' replays note (a failure's report has its own), one
@@ -145,6 +156,14 @@ class SuiteReport:
         return (
             f"{self.counts()} in {self.wall_s:.2f} s ({cycles:,} cycle{'' if cycles == 1 else 's'})"
         )
+
+
+def variant_lines(written: Iterable[Path]) -> list[Text]:
+    """One line per spec written for a failing variant (:mod:`beatlog.suite.variants`)."""
+    return [
+        Text(f"written: {path} (a failing variant, now a DTC of its own: commit it)")
+        for path in written
+    ]
 
 
 def plain_lines(lines: Iterable[RenderableType]) -> list[str]:

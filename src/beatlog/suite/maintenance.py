@@ -43,6 +43,7 @@ from beatlog.replaying.verdict import FieldDifference
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
+from beatlog.suite.variants import write_variant_spec
 
 __all__ = [
     "Decision",
@@ -56,6 +57,7 @@ __all__ = [
     "pending_diff",
     "pending_specs",
     "update_baselines",
+    "write_failed_variants",
 ]
 
 
@@ -95,6 +97,22 @@ class PendingUpdate:
     """Where the behaviors leave the recording (cycle, robot time in ns), if they do."""
 
 
+def write_failed_variants(outcomes: Iterable[SpecOutcome]) -> list[Path]:
+    """Write every variant of ``outcomes`` that failed, and has no spec of its own yet,
+    as a spec beside its DTC (:func:`~beatlog.suite.variants.write_variant_spec`); the
+    paths written. Unlike a pending baseline, it is written in CI too.
+
+    :raises beatlog.errors.SpecError: one cannot be written; those before it stay.
+    """
+    return [
+        write_variant_spec(outcome.spec)
+        for outcome in outcomes
+        if outcome.spec.variant is not None
+        and outcome.verdict is Verdict.FAILED
+        and outcome.spec.own_spec != outcome.spec.path
+    ]
+
+
 def update_baselines(
     outcomes: Iterable[SpecOutcome], mode: UpdateMode | str
 ) -> list[PendingUpdate]:
@@ -103,7 +121,7 @@ def update_baselines(
     In :attr:`UpdateMode.NEW` every failure that carries a new expectation (the suite
     was run in that mode) gets it written to its pending file, and a passing DTC's
     stale pending file is removed; accepted baselines are never touched, and the DTCs
-    of fleet logs (no spec file) have none. In :attr:`UpdateMode.NONE` nothing is done.
+    of fleet logs (no spec file) and variants have none. In :attr:`UpdateMode.NONE` nothing is done.
     When ``CI`` is set nothing is written: each failure whose new expectation was traced
     is reported :attr:`UpdateAction.WITHHELD`.
 
@@ -116,7 +134,7 @@ def update_baselines(
     ci = in_ci()
     for outcome in outcomes:
         spec, update = outcome.spec, outcome.update
-        if spec.source is not None:  # a fleet log: no spec file, so no baselines
+        if spec.source is not None or spec.variant is not None:  # no baselines of their own
             continue
         pending = pending_path(spec.path)
         if update is not None:

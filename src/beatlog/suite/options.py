@@ -66,6 +66,9 @@ class SuiteOptions:
     DTC selected."""
     break_on_divergence: bool = False
     """Replay each failing DTC again and stop in the debugger at its first divergence."""
+    variants: int | None = None
+    """Variants 1..N of each DTC that declares variants (``[variants]``); None: as many
+    as each declares (its ``count``)."""
 
     def __post_init__(self) -> None:
         if self.logs is None:

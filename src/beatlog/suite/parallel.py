@@ -8,7 +8,6 @@ import collections
 import queue
 import threading
 from collections.abc import Callable, Sequence
-from pathlib import Path
 
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, suite_auditors
@@ -55,10 +54,10 @@ def run_suite(
     in the debugger (see :func:`run_spec`); they replay every spec in this process.
     """
     update = UpdateMode.parse(update)
-    outcomes: dict[Path, SpecOutcome] = {}
+    outcomes: dict[str, SpecOutcome] = {}
 
     def done(outcome: SpecOutcome) -> bool:
-        outcomes[outcome.spec.path] = outcome
+        outcomes[outcome.spec.id] = outcome
         if on_outcome is not None:
             on_outcome(outcome)
         return fail_fast and outcome.verdict is not Verdict.PASSED
@@ -77,7 +76,7 @@ def run_suite(
                     break
     else:
         _run_with_workers(specs, workers, options, done)
-    return [outcomes[spec.path] for spec in specs if spec.path in outcomes]
+    return [outcomes[spec.id] for spec in specs if spec.id in outcomes]
 
 
 Answer = SpecOutcome | BaseException

@@ -32,6 +32,7 @@ from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, 
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
 from beatlog.suite.spec import DtcSpec, importable_invariants
+from beatlog.suite.variants import replay_variant_of
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details
@@ -141,7 +142,7 @@ def run_spec(
     and its project root (:func:`beatlog.project.usercode.importable_near`). The options' break
     points stop in the debugger as ``beatlog replay --break-at`` and
     ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
-    of the log is noted in the result.
+    of the log is noted in the result. A variant is replayed perturbed, judged alone.
     A log behind a URL is copied here first (the time waited for it is the outcome's
     ``storage_wait_s``), and the copy removed after; one that cannot be copied is an
     error of the DTC. The audit runs in ``auditors``' interpreters
@@ -180,10 +181,12 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     log = Recording(spec.log)
     try:
         approved = None
-        if spec.source is None and baseline.exists():
+        if spec.source is None and spec.variant is None and baseline.exists():
             approved = read_baseline(baseline)
         expected = None if approved is None else approved.expectation
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
+        if spec.variant is not None:  # no baseline; judged by not raising, and no more
+            return _variant_outcome(spec, system)
         judged = functools.partial(
             replay,
             log,
@@ -194,6 +197,9 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             explain=False,
             perception=spec.perception,
             migration=spec.migration,
+            start_cycle=spec.start_cycle,
+            end_cycle=spec.end_cycle,
+            where=spec.path,
             invariants=importable_invariants(spec),
         )
         charts: list[TimelineCollector] = []
@@ -219,13 +225,12 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             divergence is not None
             and divergence.kind is not DivergenceKind.LOG_ENDED
             and log.data is not None
+            and not options.verdict_only
         ):
             notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
         updating = update is UpdateMode.NEW and divergence is not None
         refused = refusal(divergence) if updating and divergence is not None else None
-        details = _details(
-            spec, log, system, divergence, expected, trace=updating, timelines=timelines
-        )
+        details = _details(spec, log, system, divergence, expected, trace=updating, options=options)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         if spec.system is None:  # the log named it: say which, on every run
@@ -275,6 +280,13 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     )
 
 
+def _variant_outcome(spec: DtcSpec, system: str) -> SpecOutcome:
+    """The outcome of a variant (:func:`~beatlog.suite.variants.replay_variant_of`)."""
+    result = replay_variant_of(spec, system)
+    verdict = Verdict.PASSED if result.ok else Verdict.FAILED
+    return SpecOutcome(spec, verdict, result, None, result.wall_time_s)
+
+
 def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> None:
     """Refuse an ``approved`` baseline made from another recording than ``log``: its
     digest, taken as the replay read the log (or, where the replay stopped short of the
@@ -293,9 +305,10 @@ def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> 
 def _rerun(spec: DtcSpec, *options: str) -> str:
     """``beatlog test SPEC``: the one command that judges a DTC as a suite run does,
     with the spec's allowances and approved baseline; for a fleet log, ``beatlog test
-    --logs LOG --system MODULE:FACTORY``; ``options`` go before them."""
+    --logs LOG --system MODULE:FACTORY``; for a variant, its own spec's (as written when
+    it fails); ``options`` go before them."""
     if spec.source is None:
-        return reproduce_command("test", *options, spec.path)
+        return reproduce_command("test", *options, spec.own_spec)
     perception = () if spec.perception is None else ("--perception", spec.perception)
     system = () if spec.system is None else ("--system", spec.system)
     log = glob.escape(spec.source)
@@ -344,11 +357,12 @@ def _details(
     expected: Expectation | None,
     *,
     trace: bool,
-    timelines: bool,
+    options: SpecOptions,
 ) -> Details | None:
-    """One more replay, of a failed DTC, gathering what reports need: of the bytes its
-    verdict's replay kept, where it kept them."""
-    if divergence is None or divergence.kind is DivergenceKind.SETUP:  # no cycle replayed
+    """One more replay, of a failed DTC, gathering what reports need (none where
+    ``options`` ask for the verdict alone): of the bytes its verdict's replay kept,
+    where it kept them."""
+    if divergence is None or options.verdict_only or divergence.kind is DivergenceKind.SETUP:
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
 
@@ -357,7 +371,7 @@ def _details(
         functools.partial(load_system, system),
         divergence,
         trace=trace,
-        timelines=timelines,
+        timelines=options.timelines,
         expected=None if expected is None else expected.changes_override(),
         perception=None if spec.perception is None else load_perception(spec.perception),
         living=trace or expected is not None,

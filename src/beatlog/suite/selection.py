@@ -17,6 +17,7 @@ from beatlog.suite.last_failed import last_failed_path, rerun_failed
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.sharding import shard
 from beatlog.suite.spec import DtcSpec, find_rootdir
+from beatlog.suite.variants import with_variants
 
 __all__ = ["Selection", "check_break_at", "fleet_of", "select_suite"]
 
@@ -33,7 +34,7 @@ class Selection:
     rootdir: Path | None
     """The rootdir of the specs, as pytest would take it; None for a fleet run's logs."""
     note: str | None = None
-    """What ``--lf`` did to the selection, for the reader."""
+    """What ``--lf`` or ``--variants`` did to the selection, for the reader."""
 
 
 def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
@@ -54,7 +55,9 @@ def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
 def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> Selection:
     """The specs found under the options' paths (or the ``fleet`` given), and those the
     session runs: selected by ``-k`` and the tags, then by the behavior they exercise,
-    then with ``--lf`` those that failed last time, and of those the shard's share.
+    then with ``--lf`` those that failed last time, and of those the shard's share;
+    each followed by its variants (:func:`~beatlog.suite.variants.with_variants`),
+    unless the run stops in the debugger.
 
     :raises EmptySelectionError: specs are found, and none is selected.
     :raises OptionError: nothing is found.
@@ -77,6 +80,14 @@ def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> S
         specs, note = rerun_failed(specs, last_failed_path(rootdir))
     if options.shard is not None:
         specs = shard(specs, options.shard.index, options.shard.count)
+    if not options.breaking:
+        specs = with_variants(specs, options.variants)
+    if options.variants and not any(spec.variant for spec in specs):
+        unvaried = (
+            "--variants: no DTC selected declares variants "
+            "([variants] in its spec, or [tool.beatlog.variants])"
+        )
+        note = unvaried if note is None else f"{note}\n{unvaried}"
     return Selection(found, distinguished(specs), rootdir, note)
 
 

@@ -17,6 +17,8 @@ the system factory to replay it against::
     field_conversions = { battery = "mypkg.compat:percent" }  # retyped: field = converter
     ignore_behaviors = ["blink"]            # their state changes are not compared
     ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
+    start_cycle = 4200                      # judge only cycles 4200 to 4380 (inclusive):
+    end_cycle = 4380                        # earlier ones rebuild state, later are not read
     invariants = ["myrobot.invariants:never_stuck"]  # checked in every cycle
 
     [tolerance]                             # largest accepted difference per output field
@@ -24,6 +26,15 @@ the system factory to replay it against::
 
     [robot_state_tolerance]                 # the same per robot-state field, when the
     heading = 1e-6                          # perception step rebuilds RS_t from samples
+
+    [variants]                              # replay it perturbed too (docs: variants)
+    count = 8                               # variants per run, unless --variants says
+    heartbeat_jitter = 0.002                # +- seconds on each heartbeat interval
+    noise = { battery = 0.05, "pose.x" = 0.01 }  # +- per numeric robot-state field
+
+A spec written for a failing variant (:mod:`beatlog.suite.variants`) has ``variant = N``
+too: it replays variant N with its own ``[variants]`` alone (no project default), so
+it fails the same way whatever the original spec or the project say later.
 
 ``name``, ``purpose``, ``procedure`` and ``log`` are required; every other key is
 optional, and a key beatlog does not know is an error (naming the key it may mean).
@@ -56,19 +67,21 @@ recorded value and returns the field's new one, imported as ``system`` is.
 ``invariants`` (:mod:`beatlog.model.invariant`) are ``module:attribute`` references to
 properties that must hold at every heartbeat, imported as ``system`` is: the project's
 ``[tool.beatlog] invariants`` apply to every spec, and a spec's own come on top.
+A window (``start_cycle``, ``end_cycle``: what ``beatlog shrink`` writes) past the log's
+last cycle is an error of the spec.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import os
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated, Any
 
 import msgspec
 
@@ -76,6 +89,7 @@ from beatlog.baseline.file import SPEC_SUFFIX
 from beatlog.errors import SpecError, SystemLoadError
 from beatlog.log.files import project_root, read_small_text
 from beatlog.project.config import (
+    VariantsConfig,
     check_conversions,
     check_one_to_one,
     check_references,
@@ -83,10 +97,12 @@ from beatlog.project.config import (
     explain_validation,
     keys_problem,
     project_config,
+    variants_table,
 )
 from beatlog.project.usercode import load_invariant
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
+from beatlog.replaying.perturbation import Perturbations, declared
 from beatlog.suite.remote import fetched_log, is_url, url_name
 
 __all__ = [
@@ -95,7 +111,8 @@ __all__ = [
     "find_rootdir",
     "importable_invariants",
     "load_spec",
-    "spec_text",
+    "read_spec_data",
+    "spec_from_data",
 ]
 
 MAX_SPEC_BYTES = 1 << 20
@@ -120,6 +137,10 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     invariants: list[str] = []
     tolerance: dict[str, float] = {}
     robot_state_tolerance: dict[str, float] = {}
+    start_cycle: int | None = None
+    end_cycle: int | None = None
+    variant: Annotated[int, msgspec.Meta(ge=1)] | None = None
+    variants: VariantsConfig | None = None
 
 
 @dataclass(frozen=True)
@@ -164,9 +185,21 @@ class DtcSpec:
     named_by_id: bool = False
     """Whether reports name the DTC by its id: another DTC of the run has its name (see
     :func:`~beatlog.suite.discovery.distinguished`)."""
+    start_cycle: int = 0
+    """The first cycle judged: the cycles before it replay as recorded, unjudged."""
+    end_cycle: int | None = None
+    """The last cycle judged and read (inclusive); None: the log's last."""
     invariants: tuple[str, ...] = ()
     """The ``module:attribute`` references of the invariants checked in every cycle: the
     project's (``[tool.beatlog] invariants``), then the spec's own."""
+    perturbations: Perturbations | None = None
+    """What its variants perturb (the project's ``[tool.beatlog.variants]`` and the
+    spec's ``[variants]``); None where it declares no variants."""
+    variant_count: int = 0
+    """How many variants a run makes of it unless ``--variants`` says otherwise."""
+    variant: int | None = None
+    """For a variant, its number (from 1): replayed with :attr:`perturbations`, judged
+    by the behaviors not raising and the invariants; None for the DTC itself."""
 
     def __post_init__(self) -> None:
         if not self.id:
@@ -191,6 +224,16 @@ class DtcSpec:
         return self.path if self.source is None else None
 
     @property
+    def own_spec(self) -> Path:
+        """The spec that runs this DTC alone: its own, or for a variant made by a run, the
+        one written for it when it fails, ``<stem>.variant-<n>.dtc.toml`` beside its DTC's
+        (:mod:`beatlog.suite.variants`)."""
+        if self.variant is None or not self.id.endswith(f"[variant-{self.variant}]"):
+            return self.path
+        stem = self.path.name.removesuffix(SPEC_SUFFIX)
+        return self.path.with_name(f"{stem}.variant-{self.variant}{SPEC_SUFFIX}")
+
+    @property
     def log_name(self) -> str:
         """The log as reports name it: its URL, or its path."""
         return str(self.log) if self.log_url is None else self.log_url
@@ -211,22 +254,41 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
     Its id starts from ``rootdir`` (by default, the one :func:`find_rootdir` finds for
     it)."""
     path = Path(path)
+    return spec_from_data(path, read_spec_data(path), rootdir=rootdir)
+
+
+def read_spec_data(path: Path) -> dict[str, Any]:
+    """A spec file's TOML, as data, unchecked (:func:`spec_from_data` checks it): what
+    tools that write a spec from another (``beatlog shrink``) start from.
+
+    :raises beatlog.errors.SpecError: it cannot be read, or is not TOML.
+    """
     text = read_small_text(path, limit=MAX_SPEC_BYTES, kind="DTC spec", error=SpecError)
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SpecError(path, f"not valid TOML: {exc}") from None
+
+
+def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None = None) -> DtcSpec:
+    """The spec that ``data`` (a spec file's TOML) makes when it lies at ``path``,
+    validated as :func:`load_spec` validates a file; problems raise :class:`SpecError`
+    naming ``path`` and the key."""
+    data = dict(data)
     if (problem := keys_problem(data, _SpecFile)) is not None:
         raise SpecError(path, problem)
     for key in ("field_renames", "field_conversions"):
         if key in data:
             data[key] = dotted_keys(data[key])
+    if "variants" in data:
+        data["variants"] = variants_table(data["variants"])
     try:
         spec = msgspec.convert(data, _SpecFile)
     except msgspec.ValidationError as exc:
         raise SpecError(path, explain_validation(str(exc))) from None
     if not spec.name.strip():
         raise SpecError(path, "key 'name': must not be empty")
+    _check_window(path, spec.start_cycle, spec.end_cycle)
     for key, reference in (("system", spec.system), ("perception", spec.perception)):
         if reference is not None and ":" not in reference:
             raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
@@ -249,6 +311,11 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
                 raise SpecError(
                     path, f"key '{key}.{name}': expected a finite number >= 0, got {tolerance}"
                 )
+    # A variant's own spec replays with its own perturbations alone: it reproduces.
+    inherited = [] if spec.variant is not None or project.variants is None else [project.variants]
+    perturbations, count = declared(
+        path, [*inherited, *([] if spec.variants is None else [spec.variants])]
+    )
     log_url = spec.log if is_url(spec.log) else None
     return DtcSpec(
         path=path,
@@ -271,8 +338,24 @@ def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
             state_tolerance=spec.robot_state_tolerance,
         ),
         migration=StateMigration(field_renames, conversions),
+        start_cycle=spec.start_cycle or 0,
+        end_cycle=spec.end_cycle,
+        perturbations=(
+            Perturbations() if perturbations is None and spec.variant is not None else perturbations
+        ),
+        variant_count=count,
+        variant=spec.variant,
         invariants=tuple(dict.fromkeys([*project.invariants, *spec.invariants])),
     )
+
+
+def _check_window(path: Path, start: int | None, end: int | None) -> None:
+    """Refuse a window that holds no cycle: a negative cycle, or a start past the end."""
+    for key, cycle in (("start_cycle", start), ("end_cycle", end)):
+        if cycle is not None and cycle < 0:
+            raise SpecError(path, f"key {key!r}: expected a cycle number >= 0, got {cycle}")
+    if start is not None and end is not None and start > end:
+        raise SpecError(path, f"key 'start_cycle': {start} is after end_cycle {end}")
 
 
 def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
@@ -314,37 +397,3 @@ def find_rootdir(paths: Iterable[str | Path]) -> Path:
         return Path.cwd()
     common = Path(os.path.commonpath(folders))
     return project_root(common) or common
-
-
-def spec_text(
-    *,
-    name: str,
-    purpose: str,
-    procedure: Iterable[str],
-    log: str,
-    system: str,
-    tags: Iterable[str] = (),
-    perception: str | None = None,
-    invariants: Iterable[str] = (),
-) -> str:
-    """A new spec as TOML text, for tools that write one beside a recording (``beatlog
-    import-bag --spec``, a suite's recording script); ``log`` is relative to the spec."""
-    lines = [
-        f"name = {_toml_string(name)}",
-        f"purpose = {_toml_string(purpose)}",
-        "procedure = [",
-        *(f"    {_toml_string(step)}," for step in procedure),
-        "]",
-        f"log = {_toml_string(log)}",
-        f"system = {_toml_string(system)}",
-        *([] if perception is None else [f"perception = {_toml_string(perception)}"]),
-        f"tags = [{', '.join(map(_toml_string, tags))}]",
-    ]
-    if checked := list(invariants):
-        lines += ["invariants = [", *(f"    {_toml_string(name)}," for name in checked), "]"]
-    return "\n".join(lines) + "\n"
-
-
-def _toml_string(text: str) -> str:
-    """A TOML basic string: JSON's escapes, and DEL escaped too (TOML forbids it bare)."""
-    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")

@@ -158,6 +158,25 @@ def test_replay_fails_at_the_first_changed_cycle_and_says_how_to_reproduce(
     assert run.err == ""
 
 
+def test_replay_judges_a_window_of_cycles_alone(beatlog: Beatlog, record_probe: RecordFn) -> None:
+    log = record_probe(300)
+
+    run = beatlog("replay", log, "--system", CHANGED, "--start-cycle", "30", "--end-cycle", "60")
+
+    assert run.code == 0, run
+    first = run.out.splitlines()[0]
+    assert first.startswith(f"PASS {log}  31 cycles, "), first
+    assert "log complete" not in first  # its end was not read
+
+
+def test_a_window_that_starts_after_it_ends_is_one_line(
+    beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    run = beatlog("replay", record_probe(30), "--start-cycle", "9", "--end-cycle", "8")
+
+    assert_error(run, "--start-cycle 9 is after --end-cycle 8")
+
+
 def test_replay_maps_robot_state_fields_renamed_or_retyped_since_the_recording(
     beatlog: Beatlog, record_probe: RecordFn
 ) -> None:

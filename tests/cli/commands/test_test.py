@@ -792,3 +792,65 @@ def test_break_on_divergence_stops_each_failing_dtc_at_its_first_divergence(
 
     assert run.code == 1
     assert [stop["cycle"] for stop in breaks] == [FIRST_CHANGED_CYCLE]
+
+
+VARIANTS = {"noise": {"distance": 0.05}}
+STARTED = 1_700_000_000_000_000_000
+"""When the logs whose variants must fail were recorded: it keys their variants."""
+
+
+def test_variants_run_as_dtcs_and_a_failing_one_is_written_as_a_spec_that_fails_again(
+    beatlog_test: BeatlogTest, specs: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(100, start_time_ns=STARTED)
+    write_spec(specs, "dock", log, "tests.systems:fussy_system", variants=VARIANTS)
+
+    run = beatlog_test("--variants", "4", specs)
+
+    written = sorted(specs.glob("dock.variant-*.dtc.toml"))
+    assert run.code == 1
+    assert written
+    for path in written:
+        assert f"written: {path} (a failing variant, now a DTC of its own: commit it)" in (
+            whole_lines(run.out)
+        )
+        assert f"reproduce: beatlog test {path}" in whole_lines(run.out)
+    assert re.search(r"dock\[variant-\d\]\s+│ failed .* exception", run.out)
+    again = beatlog_test(written[0])
+    assert again.code == 1
+    assert "near raised ValueError: a negative distance" in again.out
+    assert "written:" not in again.out
+
+
+def test_passing_variants_are_counted_not_listed(
+    beatlog_test: BeatlogTest, specs: Path, log: Path
+) -> None:
+    write_spec(specs, "dock", log, variants={**VARIANTS, "count": 8})
+
+    run = beatlog_test(specs)
+
+    assert run.code == 0
+    assert "dock[variant-" not in run.out
+    assert "… and 8 passed (8 of them variants), not listed" in run.out
+    assert_counts(run, "9 passed, 0 failed", 9 * 300)
+    assert list(specs.glob("*.variant-*")) == []
+
+
+def test_update_leaves_variants_alone(beatlog_test: BeatlogTest, specs: Path, log: Path) -> None:
+    write_spec(specs, "dock", log, CHANGED, variants={**VARIANTS, "count": 2})
+
+    run = beatlog_test("--update", specs)
+
+    assert run.code == 1
+    written = sorted(path.name for path in specs.glob("dock*"))
+    assert written == ["dock.dtc.pending", "dock.dtc.toml"]
+    assert_counts(run, "2 passed, 1 failed", FIRST_CHANGED_CYCLE + 1 + 2 * 300)
+
+
+def test_a_negative_number_of_variants_is_a_usage_error(
+    beatlog_test: BeatlogTest, specs: Path
+) -> None:
+    run = beatlog_test("--variants", "-1", specs)
+
+    assert run.code == 2
+    assert "--variants: must be 0 or more: '-1'" in run.err

@@ -20,6 +20,7 @@ from beatlog.cli.commands import (
     record,
     replay,
     show,
+    shrink,
     test,
 )
 from beatlog.cli.commands import help as helping
@@ -55,6 +56,12 @@ COMMANDS: dict[str, Command] = {
         test.run,
         verbose="list every DTC in the summary, and print the traceback of user code "
         "that failed to load",
+    ),
+    "shrink": Command(
+        "find the shortest window of cycles (and fewest perturbations) that still fails a "
+        "DTC the same way, and write it as a spec beside it",
+        shrink.add_arguments,
+        shrink.run,
     ),
     "review": Command(
         "show each pending baseline change with what it loses, and ask whether to accept, "

@@ -55,6 +55,19 @@ def add_arguments(play: argparse.ArgumentParser) -> None:
         action="store_true",
         help="replay again and stop in the debugger at the first divergence",
     )
+    play.add_argument(
+        "--start-cycle",
+        type=cycle_number,
+        default=0,
+        metavar="CYCLE",
+        help="judge from this cycle on: the cycles before it replay as recorded, unjudged",
+    )
+    play.add_argument(
+        "--end-cycle",
+        type=cycle_number,
+        metavar="CYCLE",
+        help="judge up to this cycle (inclusive) and read the log no further",
+    )
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument(
         "--allow-empty",
@@ -96,6 +109,8 @@ def run(args: argparse.Namespace, console: Console) -> int:
     from beatlog.suite.approved import replay
 
     given = args.log
+    if args.end_cycle is not None and args.start_cycle > args.end_cycle:
+        raise OptionError(f"--start-cycle {args.start_cycle} is after --end-cycle {args.end_cycle}")
     with readable(args) as named:
         if args.break_at is not None:
             _check_break(args.break_at, Path(args.log))
@@ -114,6 +129,8 @@ def run(args: argparse.Namespace, console: Console) -> int:
             "perception": args.perception,
             "approved": not args.recording,
             "migration": StateMigration(dict(args.rename_field), dict(args.convert_field)),
+            "start_cycle": args.start_cycle,
+            "end_cycle": args.end_cycle,
             "invariants": args.invariants,
         }
         result = replay(args.log, system, break_at=args.break_at, **options)

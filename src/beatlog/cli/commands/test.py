@@ -11,7 +11,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.baseline.policy import UpdateMode
-from beatlog.cli.arguments import add_factory, add_paths, cycle_number, positive_int, shard
+from beatlog.cli.arguments import (
+    add_factory,
+    add_paths,
+    count,
+    cycle_number,
+    positive_int,
+    shard,
+)
 from beatlog.cli.common import EXIT_NOTHING_SELECTED, print_error
 from beatlog.errors import EmptySelectionError, OptionError
 
@@ -125,6 +132,15 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
         "the perception step of a --logs run: rebuild each robot state from the samples",
     )
     test.add_argument(
+        "--variants",
+        type=count,
+        metavar="N",
+        help="also replay variants 1..N of each DTC that declares variants ([variants] in "
+        "its spec or [tool.beatlog.variants]), perturbed, judged by its behaviors not "
+        "raising and its invariants; a failing variant is written as a spec beside its DTC "
+        "(default: each DTC's own count)",
+    )
+    test.add_argument(
         "--break-at",
         type=cycle_number,
         metavar="CYCLE",
@@ -163,6 +179,7 @@ def _options(args: argparse.Namespace) -> SuiteOptions:
         html=args.html,
         break_at=args.break_at,
         break_on_divergence=args.break_on_divergence,
+        variants=args.variants,
     )
 
 

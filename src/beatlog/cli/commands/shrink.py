@@ -1,0 +1,93 @@
+"""``beatlog shrink``: the shortest window of cycles, and the fewest perturbations, that
+still fail a DTC the same way, written as a spec beside it."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from beatlog.suite.shrink import Shrunk
+
+__all__ = ["add_arguments", "run"]
+
+
+def add_arguments(shrink: argparse.ArgumentParser) -> None:
+    """The arguments of ``beatlog shrink``."""
+    shrink.add_argument(
+        "spec",
+        type=Path,
+        help="the failing DTC spec (.dtc.toml); NAME.shrunk.dtc.toml is written beside it",
+    )
+
+
+def run(args: argparse.Namespace, console: Console) -> int:
+    """Shrink the spec; what it found in a few lines, or one line where it passes."""
+    from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink
+
+    with _progress(console) as bar:
+        task = bar.add_task(f"shrinking {args.spec.name}", total=None, window="")
+
+        def tried(attempt: Attempt) -> None:
+            end = "end" if attempt.end_cycle is None else attempt.end_cycle
+            window = f"cycles {attempt.start_cycle}-{end}"
+            bar.update(task, completed=attempt.replays, window=window)
+
+        try:
+            shrunk = shrink(args.spec, progress=tried)
+        except NothingToShrinkError as passes:
+            console.print(str(passes), highlight=False, markup=False)
+            return EXIT_FAILED
+    _report(shrunk, console)
+    return EXIT_OK
+
+
+def _report(shrunk: Shrunk, console: Console) -> None:
+    """What the shrink found: the failure, the window against the cycles before, the
+    perturbations left, the replays tried and the spec written."""
+    where = (
+        f" {shrunk.invariant}"
+        if shrunk.invariant
+        else f" in {shrunk.behavior}"
+        if shrunk.behavior
+        else ""
+    )
+    kept = f" ({', '.join(shrunk.perturbations)})" if shrunk.perturbations else ""
+    lines = [
+        f"shrunk {shrunk.kind.value}{where} at cycle {shrunk.cycle}: "
+        f"{shrunk.cycles_before} cycles to the failure -> window {shrunk.start_cycle}-"
+        f"{shrunk.end_cycle} ({shrunk.cycles_judged} judged)",
+        *(
+            [
+                f"perturbations: {len(shrunk.perturbations_before)} -> "
+                f"{len(shrunk.perturbations)}{kept}"
+            ]
+            if shrunk.perturbations_before
+            else []
+        ),
+        f"replays tried: {shrunk.replays}",
+        f"wrote {shrunk.path} (beatlog test {shrunk.path})",
+    ]
+    for line in lines:
+        console.print(line, highlight=False, markup=False)
+
+
+def _progress(console: Console) -> Progress:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed} replays"),
+        TextColumn("{task.fields[window]}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
+    )

@@ -1,0 +1,325 @@
+"""Shrinking a failing DTC: the shortest window of cycles, and the fewest perturbations,
+that still fail the same way, written as a spec of their own.
+
+A DTC that fails at cycle 9400 of a 17.5-minute session replays 9400 cycles and reads
+the whole log each time it is run. :func:`shrink` cuts it down by delta debugging on
+the spec's data, each try a replay that stops at its window's end:
+
+* the window ends where the DTC failed (no cycle after the failure is needed);
+* its perturbations (the spec's ``[variants]`` table: other random draws, heartbeat
+  jitter, noise per robot-state field, samples dropped or delayed) are taken out one
+  at a time, each kept out where the DTC still fails the same way;
+* its start is the latest that still fails the same way: stepped back from the
+  failing cycle in doubling strides, then bisected. The cycles before the start
+  replay as recorded and unjudged, rebuilding the behaviors' state.
+
+"The same way" is the same kind of divergence in the same behavior (for an invariant,
+the same invariant), wherever in the window it comes. The result is written beside
+the spec as ``<stem>.shrunk.dtc.toml``, named ``<name>-shrunk``, with the same log (no
+copy), its window (``start_cycle``, ``end_cycle``) and the perturbations left; an
+approved baseline of the spec is copied beside it, so that it is judged as the tries
+were.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, NamedTuple
+
+from beatlog.baseline.file import SPEC_SUFFIX, expected_path
+from beatlog.baseline.policy import SpecOptions
+from beatlog.errors import BeatlogError, SpecError
+from beatlog.log.files import replacing
+from beatlog.replaying.verdict import Divergence, DivergenceKind
+from beatlog.suite.runner import Verdict, run_spec
+from beatlog.suite.spec import read_spec_data, spec_from_data
+from beatlog.suite.spec_writing import spec_toml
+
+__all__ = [
+    "Attempt",
+    "NothingToShrinkError",
+    "Shrunk",
+    "shrink",
+    "shrunk_path",
+]
+
+SHRUNK_SUFFIX = ".shrunk" + SPEC_SUFFIX
+
+PERTURBATIONS = "variants"
+"""The spec's table of perturbations: each of its keys but ``count`` is one, and each
+field of its tables (``noise``)."""
+
+_NOT_PERTURBATIONS = frozenset({"count"})
+
+
+class NothingToShrinkError(BeatlogError):
+    """The spec passes: there is no failure to shrink."""
+
+
+class Attempt(NamedTuple):
+    """One replay a shrink tried: its window, and whether it failed the same way."""
+
+    start_cycle: int
+    end_cycle: int | None
+    """None: the log's last cycle."""
+    perturbations: int
+    """The perturbations it kept."""
+    failed: bool
+    replays: int
+    """The replays tried so far, this one included."""
+
+
+@dataclass(frozen=True)
+class Shrunk:
+    """What :func:`shrink` found, and where it wrote it."""
+
+    path: Path
+    """The shrunk spec written."""
+    name: str
+    kind: DivergenceKind
+    behavior: str | None
+    """The behavior the failure concerns, if any."""
+    invariant: str | None
+    """The invariant that did not hold, in an invariant's failure."""
+    cycle: int
+    """The cycle where the shrunk spec fails."""
+    start_cycle: int
+    end_cycle: int
+    cycles_before: int
+    """The cycles the spec's replay stepped through to its failure."""
+    perturbations_before: tuple[str, ...]
+    perturbations: tuple[str, ...]
+    """The perturbations left, by name (``noise.battery``, ``heartbeat_jitter``)."""
+    replays: int
+    """The replays tried, the first (the spec as given) included."""
+
+    @property
+    def cycles_judged(self) -> int:
+        """The cycles the shrunk spec judges."""
+        return self.end_cycle - self.start_cycle + 1
+
+
+def shrunk_path(spec: Path) -> Path:
+    """Where the shrunk spec of the spec at ``spec`` is written."""
+    name = spec.name
+    stem = name[: -len(SPEC_SUFFIX)] if name.endswith(SPEC_SUFFIX) else spec.stem
+    return spec.with_name(stem + SHRUNK_SUFFIX)
+
+
+def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -> Shrunk:
+    """Shrink the failing DTC of the spec at ``spec`` (see the module) and write the
+    result beside it; ``progress`` is told of every replay tried. Each replay stops at
+    its window's end; none is judged otherwise than ``beatlog test`` judges the spec.
+
+    :raises NothingToShrinkError: the spec passes.
+    :raises beatlog.errors.SpecError: the spec cannot be read, or fails only because
+        its log was cut off, or not repeatably.
+    :raises beatlog.errors.BeatlogError: the spec cannot run (its log or system is bad
+        input, its window past the log's end).
+    """
+    data = read_spec_data(spec)
+    search = _Search(spec, data, progress)
+    first = search.first()
+    if first is None:
+        raise NothingToShrinkError(f"{spec}: nothing to shrink: it passes")
+    if first.kind is DivergenceKind.LOG_ENDED:
+        raise SpecError(spec, "fails only because its log was cut off: no window repeats that")
+    before = _perturbations(data)
+    if not search.fails(search.start, first.cycle):
+        raise SpecError(
+            spec,
+            f"fails at cycle {first.cycle} and then not there: its behaviors are not "
+            "deterministic (beatlog test --audit finds the call)",
+        )
+    search.end = first.cycle
+    kept = search.fewest(before)
+    search.latest_start()
+    shrunk = shrunk_path(spec)
+    name = f"{data['name']}-shrunk"
+    written = {
+        **{key: value for key, value in data.items() if key != PERTURBATIONS},
+        "name": name,
+        "start_cycle": search.start,
+        "end_cycle": search.end,
+        **({PERTURBATIONS: kept} if PERTURBATIONS in data else {}),
+    }
+    spec_from_data(shrunk, written)  # what is written loads
+    _write(spec, shrunk, spec_toml(written))
+    last = search.failure
+    return Shrunk(
+        path=shrunk,
+        name=name,
+        kind=last.kind,
+        behavior=last.behavior,
+        invariant=last.invariant,
+        cycle=last.cycle,
+        start_cycle=search.start,
+        end_cycle=search.end,
+        cycles_before=first.cycle + 1,
+        perturbations_before=before,
+        perturbations=_perturbations({PERTURBATIONS: kept}),
+        replays=search.replays,
+    )
+
+
+class _Search:
+    """The tries of one shrink: each replays the spec's data with a window and
+    perturbations, stopping at the window's end, and says whether it failed the same
+    way as the spec (:meth:`first`)."""
+
+    def __init__(
+        self, path: Path, data: Mapping[str, Any], progress: Callable[[Attempt], object] | None
+    ) -> None:
+        self._path = path
+        self._data = dict(data)
+        self._progress = progress
+        given = spec_from_data(path, data)
+        self.start = given.start_cycle
+        self.end: int | None = given.end_cycle
+        self.perturbations: dict[str, Any] = dict(data.get(PERTURBATIONS, {}))
+        self.replays = 0
+        self._same: tuple[DivergenceKind, str | None, str | None] | None = None
+        self.failure: Divergence
+
+    def first(self) -> Divergence | None:
+        """Replay the spec as given: its failure, which the tries must repeat, or None."""
+        divergence = self._replay(self.start, self.end, self.perturbations)
+        self._tell(self.start, self.end, self.perturbations, failed=divergence is not None)
+        if divergence is not None:
+            self._same = _way(divergence)
+            self.failure = divergence
+        return divergence
+
+    def fails(
+        self, start: int, end: int | None, perturbations: Mapping[str, Any] | None = None
+    ) -> bool:
+        """Whether the spec fails the same way in the window ``start``-``end`` with
+        ``perturbations`` (by default, those kept so far): in the window, not before it."""
+        kept = self.perturbations if perturbations is None else perturbations
+        divergence = self._replay(start, end, kept)
+        failed = (
+            divergence is not None and divergence.cycle >= start and _way(divergence) == self._same
+        )
+        self._tell(start, end, kept, failed=failed)
+        if failed and divergence is not None:
+            self.failure = divergence
+        return failed
+
+    def _tell(
+        self, start: int, end: int | None, perturbations: Mapping[str, Any], *, failed: bool
+    ) -> None:
+        if self._progress is not None:
+            kept = len(_perturbations({PERTURBATIONS: perturbations}))
+            self._progress(Attempt(start, end, kept, failed, self.replays))
+
+    def fewest(self, given: tuple[str, ...]) -> dict[str, Any]:
+        """Take out each perturbation in turn, keeping it out where the spec still fails
+        the same way (one-minimal, as delta debugging ends); the window's end moves to
+        where the last failure came."""
+        for name in given:
+            fewer = _without(self.perturbations, name)
+            if self.fails(self.start, self.end, fewer):
+                self.perturbations = fewer
+                self.end = self.failure.cycle
+        return self.perturbations
+
+    def latest_start(self) -> None:
+        """The latest start that still fails the same way (the window from the start
+        kept so far fails): stepped back from the end in doubling strides (the end, one
+        before, three before, seven...) until one fails, then bisected between it and
+        the earliest that passed."""
+        end = self.failure.cycle
+        failing, passed = self.start, end + 1
+        stride, candidate = 1, end
+        while candidate > failing:
+            if self.fails(candidate, end):
+                failing = candidate
+                break
+            passed = candidate
+            candidate = max(failing, end + 1 - 2 * stride)
+            stride *= 2
+        while passed - failing > 1:
+            middle = (failing + passed) // 2
+            if self.fails(middle, end):
+                failing = middle
+            else:
+                passed = middle
+        self.start, self.end = failing, end
+
+    def _replay(
+        self, start: int, end: int | None, perturbations: Mapping[str, Any]
+    ) -> Divergence | None:
+        """The divergence of one replay of the spec's data with this window."""
+        data = {**self._data, "start_cycle": start}
+        if end is None:
+            data.pop("end_cycle", None)
+        else:
+            data["end_cycle"] = end
+        if PERTURBATIONS in self._data:
+            data[PERTURBATIONS] = dict(perturbations)
+        spec = dataclasses.replace(spec_from_data(self._path, data), allow_empty=True)
+        self.replays += 1
+        outcome = run_spec(spec, SpecOptions(verdict_only=True))
+        if outcome.verdict is Verdict.ERROR:  # bad input: its error names the file
+            cannot = BeatlogError(outcome.error)
+            cannot.user_traceback = outcome.error_traceback
+            raise cannot
+        assert outcome.result is not None  # a verdict that is no error has its result
+        return outcome.result.divergence
+
+
+def _way(divergence: Divergence) -> tuple[DivergenceKind, str | None, str | None]:
+    """How a DTC fails, as shrinking keeps it: the kind of divergence, its behavior and
+    its invariant."""
+    return divergence.kind, divergence.behavior, divergence.invariant
+
+
+def _perturbations(data: Mapping[str, Any]) -> tuple[str, ...]:
+    """The perturbations a spec's data declares, by name: each key of its ``[variants]``
+    table but ``count`` that is on (``draws = true``, a bound above 0), and each field of
+    its ``noise`` with a bound above 0 (``noise.battery``)."""
+    return tuple(_named(data.get(PERTURBATIONS, {})))
+
+
+def _named(table: Mapping[str, Any]) -> Iterator[str]:
+    for key, value in table.items():
+        if key in _NOT_PERTURBATIONS:
+            continue
+        if isinstance(value, Mapping):
+            yield from (f"{key}.{field}" for field, bound in value.items() if bound)
+        elif value:
+            yield key
+
+
+def _without(table: Mapping[str, Any], name: str) -> dict[str, Any]:
+    """The perturbations ``table`` without the one named: turned off where it is a key
+    (``draws = false``, a bound of 0, so that no default takes its place), left out where
+    it is a field of a table."""
+    fewer = dict(table)
+    key, _, field = name.partition(".")
+    if field:
+        fewer[key] = {k: v for k, v in fewer[key].items() if k != field}
+    else:
+        fewer[key] = False if isinstance(fewer[key], bool) else 0.0
+    return fewer
+
+
+def _write(spec: Path, shrunk: Path, text: str) -> None:
+    """Write the shrunk spec, whole or not at all, and beside it a copy of the spec's
+    approved baseline, if it has one.
+
+    :raises beatlog.errors.SpecError: it cannot be written.
+    """
+    baseline = expected_path(spec)
+    try:
+        if baseline.exists():
+            with replacing(expected_path(shrunk)) as file, baseline.open("rb") as source:
+                shutil.copyfileobj(source, file)
+        with replacing(shrunk) as file:
+            file.write(text.encode())
+    except OSError as exc:
+        raise SpecError(shrunk, f"cannot write: {exc.strerror or exc}") from None

@@ -1,0 +1,137 @@
+"""Variants in a suite: each DTC that declares variants (a ``[variants]`` table in its
+spec or its project's ``[tool.beatlog.variants]``) runs as itself and as variants 1..N,
+each a DTC of its own (:attr:`~beatlog.suite.spec.DtcSpec.variant`); a variant that
+fails is written as a spec beside the original, ``<stem>.variant-<n>.dtc.toml``, which
+later runs and pytest find and run as a DTC of its own, failing the same way."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+from beatlog.errors import SpecError
+from beatlog.project.usercode import load_perception, load_system
+from beatlog.replaying.perturbation import Perturbations, Variant
+from beatlog.replaying.variant import replay_variant
+from beatlog.replaying.verdict import ReplayResult, reproduce_command
+from beatlog.suite.spec import DtcSpec, importable_invariants
+from beatlog.suite.spec_writing import spec_text, toml_string
+
+__all__ = [
+    "replay_variant_of",
+    "variant_spec_text",
+    "with_variants",
+    "write_variant_spec",
+]
+
+
+def replay_variant_of(spec: DtcSpec, system: str) -> ReplayResult:
+    """Replay variant ``spec`` of a DTC against ``system`` (``module:factory``) as a
+    suite does (:func:`~beatlog.replaying.variant.replay_variant`): perturbed, judged by
+    its behaviors not raising and its invariants; its reproduce command runs its own
+    spec."""
+    assert spec.variant is not None  # a variant's
+    perception = None if spec.perception is None else load_perception(spec.perception)
+    return replay_variant(
+        spec.log,
+        load_system(system),
+        Variant(spec.variant, spec.perturbations or Perturbations()),
+        perception=perception,
+        migration=spec.migration,
+        allow_truncated=spec.allow_truncated,
+        invariants=importable_invariants(spec),
+        where=spec.path,
+        reproduce=reproduce_command("test", spec.own_spec),
+        start_cycle=spec.start_cycle,
+        end_cycle=spec.end_cycle,
+    )
+
+
+def with_variants(specs: Iterable[DtcSpec], count: int | None = None) -> list[DtcSpec]:
+    """``specs``, each DTC that declares variants followed by its variants 1..N: N is
+    ``count`` where given (``--variants``), else the DTC's own count. A variant's spec is
+    one already, and a fleet log has none."""
+    run: list[DtcSpec] = []
+    for spec in specs:
+        run.append(spec)
+        if spec.perturbations is None or spec.variant is not None or spec.source is not None:
+            continue
+        for number in range(1, (spec.variant_count if count is None else count) + 1):
+            run.append(
+                dataclasses.replace(
+                    spec,
+                    name=f"{spec.name}[variant-{number}]",
+                    id=f"{spec.id}[variant-{number}]",
+                    variant=number,
+                )
+            )
+    return run
+
+
+def variant_spec_text(spec: DtcSpec) -> str:
+    """The spec of variant ``spec`` of a DTC: its log (no copy), system, invariants,
+    window, number and perturbations, all of them, so that it reproduces whatever the
+    original spec or the project say later."""
+    assert spec.variant is not None  # a variant's
+    assert spec.perturbations is not None
+    base = spec.name.removesuffix(f"[variant-{spec.variant}]")
+    log = spec.log_url or os.path.relpath(spec.log, spec.path.parent)
+    text = spec_text(
+        name=f"{base}-variant-{spec.variant}",
+        purpose=f"Variant {spec.variant} of {base}, which failed: {spec.purpose}",
+        procedure=spec.procedure,
+        log=Path(log).as_posix() if spec.log_url is None else log,
+        system=spec.system,
+        tags=spec.tags,
+        perception=spec.perception,
+        invariants=spec.invariants,
+    )
+    renames, conversions = spec.migration.renames, spec.migration.conversions
+    extra = [
+        *(["allow_truncated = true"] if spec.allow_truncated else []),
+        *([f"field_renames = {_table(renames)}"] if renames else []),
+        *([f"field_conversions = {_table(conversions)}"] if conversions else []),
+        *([f"start_cycle = {spec.start_cycle}"] if spec.start_cycle else []),
+        *([] if spec.end_cycle is None else [f"end_cycle = {spec.end_cycle}"]),
+        f"variant = {spec.variant}",
+        "",
+        "[variants]",
+        *_perturbations(spec.perturbations),
+    ]
+    return text + "\n".join(extra) + "\n"
+
+
+def _perturbations(perturbations: Perturbations) -> list[str]:
+    """A ``[variants]`` table's keys for ``perturbations``, every one (no count)."""
+    return [
+        f"draws = {'true' if perturbations.draws else 'false'}",
+        f"heartbeat_jitter = {perturbations.heartbeat_jitter!r}",
+        f"noise = {_table(perturbations.noise)}",
+        f"drop_samples = {perturbations.drop_samples!r}",
+        f"delay_samples = {perturbations.delay_samples!r}",
+    ]
+
+
+def _table(table: Mapping[str, object]) -> str:
+    """An inline TOML table of strings or numbers, its keys quoted."""
+    items = ", ".join(
+        f"{toml_string(key)} = {toml_string(value) if isinstance(value, str) else repr(value)}"
+        for key, value in table.items()
+    )
+    return "{ " + items + " }" if items else "{}"
+
+
+def write_variant_spec(spec: DtcSpec) -> Path:
+    """Write variant ``spec`` of a DTC as a spec beside the original
+    (:attr:`~beatlog.suite.spec.DtcSpec.own_spec`); its path.
+
+    :raises beatlog.errors.SpecError: it cannot be written.
+    """
+    path = spec.own_spec
+    try:
+        path.write_text(variant_spec_text(spec), encoding="utf-8")
+    except OSError as exc:
+        raise SpecError(path, f"cannot write: {exc.strerror}") from None
+    return path
