@@ -14,8 +14,7 @@ from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import OptionError
 from beatlog.report.session import SuiteSession, conclude, prepare_report
 from beatlog.report.suite import SuiteReport
-from beatlog.suite.coverage import suite_coverage
-from beatlog.suite.coverage_cache import cache_path
+from beatlog.suite.coverage import cache_path, suite_coverage
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.options import SuiteOptions
 from beatlog.suite.runner import SpecOutcome, Verdict

@@ -5,7 +5,7 @@ module reads the state changes each DTC's log recorded (or its approved baseline
 and gathers, per behavior, the states reached and the (before → after) transitions
 taken, with how many DTCs and cycles. States a behavior declares (a ``states``
 attribute: an Enum or a sequence) but no DTC reaches are listed as unreached, and so
-are states and transitions earlier runs saw (see :mod:`beatlog.suite.coverage_cache`)
+are states and transitions earlier runs saw (see :mod:`beatlog.suite.coverage`)
 that no DTC reaches now.
 
 A transition here is a behavior's state at one heartbeat and its state at the next, as

@@ -8,8 +8,8 @@ profiling, so a trace hook follows the lines of user code instead and notices wh
 numpy's global generator moved, or a generator of the system's own that its set-up
 seeded from the OS (:func:`built_watched` finds them). Every call is attributed to the
 nearest frame of user code: not beatlog's own, not the standard library, not an
-installed package; or, when no user code is on the way (a system that is itself an
-installed package), to the nearest frame of an installed package.
+installed package (:class:`Origins` tells them apart); or, when no user code is on the
+way (a system that is itself an installed package), to the nearest frame of a package.
 
 What is watched, and what not: :mod:`beatlog.audit.watched`.
 """
@@ -18,14 +18,19 @@ from __future__ import annotations
 
 import collections
 import cProfile
+import enum
+import logging
+import os
 import random
+import site
 import sys
+import sysconfig
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from types import CodeType, FrameType
 from typing import Any, TypeVar
 
-from beatlog.audit.origins import Origin, Origins
 from beatlog.audit.watched import (
     ENTROPY_READ,
     GlobalNumpyGenerator,
@@ -36,9 +41,67 @@ from beatlog.audit.watched import (
     screened_builtins,
 )
 
-__all__ = ["Finding", "LeakScreen", "LeakWatch", "built_watched"]
+__all__ = ["Finding", "LeakScreen", "LeakWatch", "Origin", "Origins", "built_watched"]
 
 T = TypeVar("T")
+
+
+class Origin(enum.Enum):
+    """Who wrote the code a frame runs."""
+
+    USER = enum.auto()
+    """The code under test: a finding's site."""
+    LIBRARY = enum.auto()
+    """An installed package: a site only when no user code called it."""
+    EXEMPT = enum.auto()
+    """beatlog itself or the standard library."""
+
+
+_BEATLOG_DIR = str(Path(__file__).resolve().parent.parent) + os.sep
+
+
+def _prefixes(*paths: str) -> tuple[str, ...]:
+    return tuple(str(Path(path).resolve()) + os.sep for path in paths if path)
+
+
+def _package_dir(module: Any) -> str:
+    return str(Path(module.__file__).resolve().parent) + os.sep
+
+
+class Origins:
+    """Classifies source files by origin, once per file."""
+
+    def __init__(self) -> None:
+        paths = sysconfig.get_paths()
+        self._beatlog = _BEATLOG_DIR
+        self._libraries = _prefixes(
+            paths["purelib"], paths["platlib"], *site.getsitepackages(), site.getusersitepackages()
+        )
+        self._stdlib = _prefixes(paths["stdlib"], paths["platstdlib"])
+        self._logging = _package_dir(logging)
+        self._known: dict[str, Origin] = {}
+
+    def of(self, code: CodeType) -> Origin:
+        filename = code.co_filename
+        origin = self._known.get(filename)
+        if origin is None:
+            origin = self._known[filename] = self._classify(filename)
+        return origin
+
+    def _classify(self, filename: str) -> Origin:
+        if filename.startswith("<"):  # frozen modules, exec'd strings
+            return Origin.EXEMPT
+        path = str(Path(filename).resolve())
+        if path.startswith(self._beatlog):
+            return Origin.EXEMPT
+        if path.startswith(self._libraries):
+            return Origin.LIBRARY
+        if path.startswith(self._stdlib):
+            return Origin.EXEMPT
+        return Origin.USER
+
+    def is_logging(self, code: CodeType) -> bool:
+        return code.co_filename.startswith(self._logging)
 
 
 @dataclass(frozen=True)

@@ -25,8 +25,7 @@ from beatlog.log.files import write_json
 from beatlog.project.config import ProjectConfig, project_config
 from beatlog.report.console import plain_text, render_outcome
 from beatlog.report.suite import SuiteReport
-from beatlog.suite.coverage import suite_coverage
-from beatlog.suite.coverage_cache import cache_path, recall
+from beatlog.suite.coverage import cache_path, recall, suite_coverage
 from beatlog.suite.junit import write_junit
 from beatlog.suite.last_failed import last_failed_path, remember_failed
 from beatlog.suite.maintenance import find_orphans, update_baselines, write_failed_variants

@@ -1,7 +1,7 @@
 """The DTCs that failed last time, for ``beatlog test --lf`` as pytest's ``--lf``.
 
 They are remembered by id in the project's cache folder
-(:mod:`beatlog.suite.coverage_cache`), in ``lastfailed.json``. Each run forgets the
+(:mod:`beatlog.suite.coverage`), in ``lastfailed.json``. Each run forgets the
 DTCs it ran that passed and adds those that failed or could not run; a DTC it did not
 run (left out by ``-k``, or after ``-x`` stopped the run) stays as it was. A file that
 cannot be read or trusted is ignored with a warning, never a crash.
@@ -16,7 +16,7 @@ from typing import Annotated
 import msgspec
 
 from beatlog.log.limits import MAX_TEXT_LENGTH
-from beatlog.suite.coverage_cache import cache_file, read_cached, write_cached
+from beatlog.suite.coverage import cache_file, read_cached, write_cached
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
 

@@ -10,7 +10,7 @@ import pytest
 
 from beatlog.analysis.coverage import Seen, SuiteCoverage
 from beatlog.cli.main import main
-from beatlog.suite.coverage_cache import (
+from beatlog.suite.coverage import (
     CACHE_FOLDER,
     MAX_DTCS,
     MAX_STATES,
