@@ -74,7 +74,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[0] == "# beatlog expected departures from the recording, format 6"
+    assert lines[0] == "# beatlog expected departures from the recording, format 7"
     assert lines[2] == f"# log session.beatlog sha256 {log_digest(log)}"
     assert lines[-2:] == [
         '       0     0.030  "arbiter": "idle" -> "wander"',
@@ -94,7 +94,7 @@ def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
         ("", "not a beatlog baseline (its first line is not the header)"),
         ("cycle,behavior\n1,a\n", "not a beatlog baseline (its first line is not the header)"),
         (
-            "# beatlog expected departures from the recording, format 6\n",
+            "# beatlog expected departures from the recording, format 7\n",
             "no '# log NAME sha256 DIGEST' line",
         ),
         (
@@ -128,7 +128,7 @@ def test_a_damaged_or_foreign_baseline_is_an_error_naming_file_and_line(
     tmp_path: Path, text: str, problem: str
 ) -> None:
     header = (
-        "# beatlog expected departures from the recording, format 6\n# spec a\n"
+        "# beatlog expected departures from the recording, format 7\n# spec a\n"
         f"# log a.beatlog sha256 {'0' * 64}\n# comment"
     )
     path = tmp_path / "a.dtc.expected"
@@ -252,7 +252,7 @@ def test_a_baselines_robot_states_read_back_pinned_by_their_digests(
 ) -> None:
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16, 40)}
     pins = StatePins.from_rebuilt(rebuilt_states(states))
-    path = baseline_file(tmp_path, 6, *format_lines((), (), state_pins=pins))
+    path = baseline_file(tmp_path, 7, *format_lines((), (), state_pins=pins))
 
     assert read_baseline(path).expectation.state_pins == pins
 
@@ -268,58 +268,58 @@ NO_STATE_LINE = (
 @pytest.mark.parametrize(
     ("magic", "line", "problem"),
     [
-        (6, "  7  0.210  output speed = 1", "line 4: Expecting value: line 1 column 1 (char 0)"),
-        (6, "  7  0.210  output 3 = 1", "line 4: the field must be a JSON string"),
-        (6, '  7  0.210  output "speed" 1', "line 4: expected '=' at column 8"),
-        (6, '  7  0.210  output "speed" = 1 2', "line 4: unexpected ' 2' after the value"),
+        (7, "  7  0.210  output speed = 1", "line 4: Expecting value: line 1 column 1 (char 0)"),
+        (7, "  7  0.210  output 3 = 1", "line 4: the field must be a JSON string"),
+        (7, '  7  0.210  output "speed" 1', "line 4: expected '=' at column 8"),
+        (7, '  7  0.210  output "speed" = 1 2', "line 4: unexpected ' 2' after the value"),
         (
-            6,
+            7,
             '  7  0.210  output "speed" = msgpack:zz',
             "line 4: a damaged msgpack value: "
             "non-hexadecimal number found in fromhex() arg at position 0",
         ),
         (
-            6,
+            7,
             '  7  0.210  output "speed" = msgpack:c1',
             "line 4: a damaged msgpack value: "
             "MessagePack data is malformed: invalid opcode '\\xc1' (byte 0)",
         ),
-        (6, '  7  0.210  sensor "x" = 1', "line 4: Expecting value: line 1 column 1 (char 0)"),
-        (6, '  7  0.210  robot_state "x" = 1', NO_STATE_LINE),
-        (6, "  7  0.210  robot_state digests 1 00 AA", NO_STATE_LINE),
+        (7, '  7  0.210  sensor "x" = 1', "line 4: Expecting value: line 1 column 1 (char 0)"),
+        (7, '  7  0.210  robot_state "x" = 1', NO_STATE_LINE),
+        (7, "  7  0.210  robot_state digests 1 00 AA", NO_STATE_LINE),
         (
-            6,
+            7,
             "  7  0.210  robot_state digests 1 0000000000000000 A",
             "line 4: expected 2 characters of tags, found 1",
         ),
         (
-            6,
+            7,
             "  7  0.210  robot_state digests 2 000000000000000f AA",
             "line 4: expected 4 characters of tags, found 2",
         ),
         (
-            6,
+            7,
             f"  7  0.210  {RUN}: [1], first {{}}",
             "line 4: the fields must be a JSON list of strings",
         ),
-        (6, f'  7  0.210  {RUN}: ["x"] first {{}}', "line 4: expected ', first' at column 6"),
+        (7, f'  7  0.210  {RUN}: ["x"] first {{}}', "line 4: expected ', first' at column 6"),
         (
-            6,
+            7,
             f'  7  0.210  {RUN}: ["x"], first [1]',
             "line 4: the first cycle's values must be a JSON object",
         ),
         (
-            6,
+            7,
             f'  7  0.210  {RUN}: ["x"], first {{"x": 1}} 2',
             "line 4: unexpected ' 2' after the value",
         ),
         (
-            6,
+            7,
             f'  8  0.210  {RUN}: ["x"], first {{"x": 1}}',
             "line 4: a run of cycles from 7 on a line of cycle 8",
         ),
         (
-            6,
+            7,
             f'  7  0.210  {RUN}: ["x"], first {{"x": 1}}',
             "the robot-state run from cycle 7 has digests that do not end at its last cycle, 7",
         ),
@@ -376,12 +376,12 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
     ("version", "lines", "problem"),
     [
         (
-            6,
+            7,
             ['  13  0.390  output "speed" = 1.0', '  12  0.360  output "speed" = 2.0'],
             "output lines are not in cycle order",
         ),
         (
-            6,
+            7,
             ['  12  0.360  "avoid": "off" -> "turning"', "  12  0.360  no state changes"],
             "cycle 12 has state changes and none",
         ),
@@ -396,7 +396,7 @@ def test_a_baseline_that_breaks_its_formats_rules_is_an_error(
 
 
 def _big_baseline(folder: Path, cycles: int) -> Path:
-    """A format 6 baseline departing in every cycle: two outputs, and a state change in
+    """A baseline departing in every cycle: two outputs, and a state change in
     every third cycle."""
     lines = ["      12     0.360  open loop"]
     for cycle in range(12, 12 + cycles):
@@ -405,7 +405,7 @@ def _big_baseline(folder: Path, cycles: int) -> Path:
         lines.append(f'{cycle:8d}  {time:>8}  output "turn" = {cycle % 5}')
         if cycle % 3 == 0:
             lines.append(f'{cycle:8d}  {time:>8}  "avoid": "idle" -> "turning"')
-    return baseline_file(folder, 6, *lines, name=f"big{cycles}")
+    return baseline_file(folder, 7, *lines, name=f"big{cycles}")
 
 
 def _reading_overhead(path: Path) -> int:
@@ -437,7 +437,7 @@ def test_an_error_after_the_first_block_names_its_line(
 ) -> None:
     monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 64)
     lines = [f'{cycle:8d}  {cycle * 0.03:8.3f}  output "speed" = {cycle}' for cycle in range(40)]
-    path = baseline_file(tmp_path, 6, *lines, f'      40  {1.2:8.3f}  output "speed" = x', "")
+    path = baseline_file(tmp_path, 7, *lines, f'      40  {1.2:8.3f}  output "speed" = x', "")
 
     with pytest.raises(BaselineError) as raised:
         read_baseline(path)
@@ -454,7 +454,7 @@ def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path
     assert all(change.change.after is changes[0].change.after for change in changes)
 
 
-@pytest.mark.parametrize("version", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("version", [1, 2, 3, 4, 5, 6])
 def test_an_older_baseline_is_refused_naming_the_command_that_upgrades_it(
     tmp_path: Path, version: int
 ) -> None:
@@ -465,5 +465,5 @@ def test_an_older_baseline_is_refused_naming_the_command_that_upgrades_it(
 
     assert str(raised.value) == (
         f"{path}: a format {version} baseline: "
-        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 6"
+        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 7"
     )

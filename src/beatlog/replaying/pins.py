@@ -25,9 +25,10 @@ from __future__ import annotations
 
 import base64
 import bisect
-import functools
+import heapq
 import string
 import struct
+from collections import deque
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from operator import add
@@ -45,6 +46,7 @@ __all__ = [
     "UNPINNED",
     "DigestBlock",
     "PinChecker",
+    "PinCoverage",
     "PinnedRun",
     "RebuiltState",
     "StatePins",
@@ -148,7 +150,8 @@ class StatePins:
     blocks: tuple[DigestBlock, ...] = ()
 
     def __post_init__(self) -> None:
-        problem = _coverage_problem(self.runs, self.blocks)
+        coverage = PinCoverage()
+        problem = coverage.add(self.runs, self.blocks) or coverage.end()
         if problem is not None:
             raise ValueError(problem)
 
@@ -209,36 +212,74 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         start = end
 
 
-def _coverage_problem(runs: tuple[PinnedRun, ...], blocks: tuple[DigestBlock, ...]) -> str | None:
-    """Why the blocks do not cover the runs, in order, if they do not."""
-    index = 0
-    end = -1
-    for run in runs:
+class PinCoverage:
+    """Checks that blocks of digests cover their runs, in order, as a baseline is read:
+    a part of its runs and blocks at a time (:meth:`add`), then :meth:`end`. Each says
+    why they do not, if they do not."""
+
+    def __init__(self) -> None:
+        self._run: PinnedRun | None = None
+        """The run whose blocks are read now."""
+        self._start = 0
+        """The cycle its next block starts at."""
+        self._pinned = 0
+        """How many cycles its blocks pinned so far."""
+
+    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> str | None:
+        """Take the next runs and blocks, those of a part of a baseline."""
+        lines: Iterable[tuple[int, int, int, PinnedRun | DigestBlock]] = heapq.merge(
+            ((run.cycle, 0, index, run) for index, run in enumerate(runs)),
+            ((block.cycle, 1, index, block) for index, block in enumerate(blocks)),
+        )
+        for *_, line in lines:
+            problem = self._open(line) if isinstance(line, PinnedRun) else self._block(line)
+            if problem is not None:
+                return problem
+        return None
+
+    def end(self) -> str | None:
+        """Take the end of the baseline."""
+        return self._close()
+
+    def _open(self, run: PinnedRun) -> str | None:
         where = f"the robot-state run from cycle {run.cycle}"
-        if run.cycle <= end or run.last < run.cycle:
+        after = self._start if self._run is None else self._run.last + 1
+        if run.cycle < after or run.last < run.cycle:
             return f"{where} is out of order"
+        problem = self._close()
+        if problem is not None:
+            return problem
         if not run.first or not set(run.first) <= set(run.fields):
             return f"{where} names no fields that differ in its first cycle"
-        start, pinned = run.cycle, 0
-        while index < len(blocks) and blocks[index].cycle <= run.last:
-            block = blocks[index]
-            if block.cycle < start or (pinned == 0 and block.cycle != run.cycle):
-                return f"{where} has its digests of cycle {block.cycle} out of place"
-            cycles = len(block.tags) // TAG_CHARS
-            tagged = _tagged(block.tags)
-            if tagged is None or not 0 < cycles <= CYCLES_PER_BLOCK:
-                return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
-            start = block.cycle + cycles
-            pinned += tagged
-            index += 1
-        if start != run.last + 1:
+        self._run, self._start, self._pinned = run, run.cycle, 0
+        return None
+
+    def _block(self, block: DigestBlock) -> str | None:
+        run = self._run
+        if run is None or block.cycle > run.last:
+            return f"the digests from cycle {block.cycle} are in no robot-state run"
+        where = f"the robot-state run from cycle {run.cycle}"
+        if block.cycle < self._start or (self._pinned == 0 and block.cycle != run.cycle):
+            return f"{where} has its digests of cycle {block.cycle} out of place"
+        cycles = len(block.tags) // TAG_CHARS
+        tagged = _tagged(block.tags)
+        if tagged is None or not 0 < cycles <= CYCLES_PER_BLOCK:
+            return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
+        self._start = block.cycle + cycles
+        self._pinned += tagged
+        return None
+
+    def _close(self) -> str | None:
+        """Check the run read last, and leave it."""
+        run, self._run = self._run, None
+        if run is None:
+            return None
+        where = f"the robot-state run from cycle {run.cycle}"
+        if self._start != run.last + 1:
             return f"{where} has digests that do not end at its last cycle, {run.last}"
-        if pinned != run.cycles:
-            return f"{where} says {run.cycles} cycles, its digests pin {pinned}"
-        end = run.last
-    if index < len(blocks):
-        return f"the digests from cycle {blocks[index].cycle} are in no robot-state run"
-    return None
+        if self._pinned != run.cycles:
+            return f"{where} says {run.cycles} cycles, its digests pin {self._pinned}"
+        return None
 
 
 def _tagged(tags: str) -> int | None:
@@ -280,25 +321,59 @@ class PinChecker:
     pinned cycle after another, in cycle order.
 
     It costs a digest and a few look-ups a pinned cycle: each block's tags are read
-    into :attr:`tags` when it is made, in C, and a block's digest is checked at its
+    into :attr:`tags` when it is added, in C, and a block's digest is checked at its
     last pinned cycle. The replay core's perception step inlines the common case of
     :meth:`mismatch` (:attr:`tags`, :attr:`digest`, :attr:`digests`) and leaves the
-    rest to :meth:`judge_digest`.
+    rest to :meth:`judge_digest`. Replay adds a baseline's pins as it reads them
+    (:meth:`add`), and forgets those of the cycles it has judged (:meth:`forget`), so
+    that it holds the pins of the cycles at hand, however many the baseline has.
+    ``pinned`` says whether the baseline pins any robot state at all.
     """
 
-    def __init__(self, pins: StatePins) -> None:
+    def __init__(self, pins: StatePins | None = None, *, pinned: bool | None = None) -> None:
         self.digest = state_number
         """A rebuilt state's digest, of its bytes as a log encodes them."""
         self._block_digest = block_digest
-        blocks = pins.blocks
-        tags = [NOT_PINNED] * (blocks[-1].cycle + blocks[-1].cycles if blocks else 0)
+        self.tags: dict[int, int] = {}
+        """By cycle, the pinned ones added and not forgotten: a pinned cycle's tag (the
+        first 12 bits of its digest, :data:`TAG_SHIFT`), marked above those bits where
+        a block opens or closes; :data:`NOT_PINNED` or more for a gap. A digest whose
+        tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any other is
+        for :meth:`judge_digest`."""
         self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
         """Each block by its last pinned cycle, where its digest is checked, with its
         first pinned cycle and how many it pins."""
+        self._blocks: deque[DigestBlock] = deque()
+        """The blocks added and not forgotten, in cycle order."""
+        self.digests: list[int] = []
+        """The digests of the cycles judged since the last block opened whose tags
+        agreed, in cycle order: checked with the block's digest where it closes."""
+        self._opened = -1
+        """The first pinned cycle of the block they are of."""
+        self._found: dict[int, str] = {}
+        """How the cycles found to differ were found to."""
+        self._runs: list[PinnedRun] = []
+        self._starts: list[int] = []
+        if pins is not None:
+            self.add(pins.runs, pins.blocks)
+        self.pinned = bool(self.tags) if pinned is None else pinned
+
+    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> None:
+        """Add the runs and blocks of the cycles that follow those added (read and
+        checked as a baseline's are)."""
+        for run in runs:
+            self._runs.append(run)
+            self._starts.append(run.cycle)
+        tags = self.tags
         for block in blocks:
+            self._blocks.append(block)
             sixes = block.tags.encode().translate(_SIXES)
-            tags[block.cycle : block.cycle + block.cycles] = map(
-                add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]
+            tags.update(
+                zip(
+                    range(block.cycle, block.cycle + block.cycles),
+                    map(add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]),
+                    strict=True,
+                )
             )
             first = block.cycle + (len(block.tags) - len(block.tags.lstrip(UNPINNED))) // TAG_CHARS
             final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
@@ -308,31 +383,26 @@ class PinChecker:
             tags[final] |= _CLOSES
             pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
             self._finals[final] = (block, first, pinned)
-        self.tags: list[int] = tags
-        """By cycle, from 0 to the last pinned one: a pinned cycle's tag (the first 12
-        bits of its digest, :data:`TAG_SHIFT`), marked above those bits where a block
-        opens or closes; :data:`NOT_PINNED` or more for a cycle not pinned. A digest
-        whose tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any
-        other is for :meth:`judge_digest`."""
-        self.digests: list[int] = []
-        """The digests of the cycles judged since the last block opened whose tags
-        agreed, in cycle order: checked with the block's digest where it closes."""
-        self._opened = -1
-        """The first pinned cycle of the block they are of."""
-        self._found: dict[int, str] = {}
-        """How the cycles found to differ were found to."""
-        self._runs = pins.runs
-        self._starts = [run.cycle for run in pins.runs]
 
-    @functools.cached_property
+    def forget(self, before: int) -> None:
+        """Forget the pins of the blocks and runs that end before cycle ``before``."""
+        blocks, tags, finals = self._blocks, self.tags, self._finals
+        while blocks and blocks[0].cycle + blocks[0].cycles <= before:
+            block = blocks.popleft()
+            for cycle in range(block.cycle, block.cycle + block.cycles):
+                tags.pop(cycle, None)
+                finals.pop(cycle, None)
+        ended = bisect.bisect_left([run.last for run in self._runs], before)
+        if ended:
+            del self._runs[:ended], self._starts[:ended]
+
+    @property
     def cycles(self) -> frozenset[int]:
-        """The pinned cycles."""
-        return frozenset(cycle for cycle, tag in enumerate(self.tags) if tag < NOT_PINNED)
+        """The pinned cycles added and not forgotten."""
+        return frozenset(cycle for cycle, tag in self.tags.items() if tag < NOT_PINNED)
 
     def __contains__(self, cycle: object) -> bool:
-        return (
-            isinstance(cycle, int) and 0 <= cycle < len(self.tags) and self.tags[cycle] < NOT_PINNED
-        )
+        return isinstance(cycle, int) and self.tags.get(cycle, NOT_PINNED) < NOT_PINNED
 
     def run_at(self, cycle: int) -> PinnedRun:
         """The run a pinned cycle is in."""

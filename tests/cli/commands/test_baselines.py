@@ -1,6 +1,6 @@
 """The re-baselining workflow from the command line: update, review, approve — and the
 promises around it: a failure never overwrites an accepted baseline, CI never writes;
-and ``upgrade-baselines``: older baselines rewritten in format 6, each named, which
+and ``upgrade-baselines``: older baselines rewritten in format 7, each named, which
 ``review`` and ``approve`` refuse in one line that names the command."""
 
 from __future__ import annotations
@@ -476,7 +476,7 @@ def test_each_older_baseline_is_named_as_it_is_upgraded(beatlog: Beatlog, tmp_pa
 
     assert (run.code, run.out, run.err) == (
         0,
-        f"upgraded {first}: format 5 -> 6\nupgraded {second}: format 5 -> 6\n",
+        f"upgraded {first}: format 5 -> 7\nupgraded {second}: format 5 -> 7\n",
         "",
     )
     assert (again.code, again.out) == (0, "no baseline of an older format\n")
@@ -504,6 +504,6 @@ def test_review_and_approve_refuse_an_older_pending_baseline(
     assert_error(
         run,
         f"{pending}: a format 5 baseline: "
-        f"run 'beatlog upgrade-baselines {pending}' to rewrite it in format 6",
+        f"run 'beatlog upgrade-baselines {pending}' to rewrite it in format 7",
     )
     assert not expected_path(spec).exists()
