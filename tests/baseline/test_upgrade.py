@@ -55,11 +55,14 @@ def log(tmp_path: Path) -> Path:
     return path
 
 
-def test_a_format_5_baseline_is_rewritten_in_format_7_once(tmp_path: Path, log: Path) -> None:
-    path = written(tmp_path / "a.dtc.expected", log, DEPARTURES, 5)
+@pytest.mark.parametrize("version", [5, 6])
+def test_a_format_5_or_6_baseline_is_rewritten_in_format_7_once(
+    tmp_path: Path, log: Path, version: int
+) -> None:
+    path = written(tmp_path / "a.dtc.expected", log, DEPARTURES, version)
     current = written(tmp_path / "b.dtc.expected", log, DEPARTURES, 7).read_text(encoding="utf-8")
 
-    assert upgrade_baseline(path) == Upgraded(path, 5)
+    assert upgrade_baseline(path) == Upgraded(path, version)
     assert read_baseline(path).expectation == DEPARTURES
     assert path.read_text(encoding="utf-8") == current
     assert upgrade_baseline(path) is None
@@ -177,3 +180,12 @@ def test_a_whole_trace_needs_its_own_recording_beside_it(tmp_path: Path) -> None
 
     with pytest.raises(BaselineError, match=r"its recording .*a\.beatlog is not as it was"):
         upgrade_baseline(path)
+
+
+def test_robot_states_pinned_by_format_6_digests_are_kept(tmp_path: Path, log: Path) -> None:
+    states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
+    pinned = Expectation((), state_pins=StatePins.from_rebuilt(rebuilt_states(states)))
+    path = written(tmp_path / "a.dtc.expected", log, pinned, 6)
+
+    assert upgrade_baseline(path) == Upgraded(path, 6)
+    assert read_baseline(path).expectation == pinned

@@ -74,9 +74,10 @@ COLUMNS = (
 )
 """The comment that heads the cycle columns."""
 _SORTED = msgspec.msgpack.Encoder(order="sorted")
-_LEVEL = 19
-"""zstd's level: a baseline is written once and read often, and even at this level a
-megabyte of lines is compressed in well under a second."""
+_LEVELS = ((1 << 20, 19), (1 << 62, 3))
+"""zstd's level for text of up to so many bytes: a baseline is written once and read
+often, so up to a megabyte (half a second) as small as zstd makes it, and a bigger one
+at zstd's default level, its speed (some 100 MB a second)."""
 
 
 def format_lines(
@@ -201,7 +202,8 @@ def write_baseline(
     if len(text) > COMPRESS_BYTES:
         import zstandard  # noqa: PLC0415 - only a long baseline needs it
 
-        text = zstandard.ZstdCompressor(level=_LEVEL).compress(text)
+        level = next(level for size, level in _LEVELS if len(text) <= size)
+        text = zstandard.ZstdCompressor(level=level).compress(text)
     try:
         with replacing(path) as file:
             file.write(text)
