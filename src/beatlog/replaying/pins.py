@@ -25,8 +25,6 @@ from __future__ import annotations
 
 import base64
 import bisect
-import heapq
-import string
 import struct
 from collections import deque
 from collections.abc import Iterable, Iterator, Mapping
@@ -35,6 +33,15 @@ from operator import add
 from typing import Any, NamedTuple
 
 from beatlog.replaying.compare import Comparison
+from beatlog.replaying.pin_lines import (
+    BASE64_DIGITS,
+    CYCLES_PER_BLOCK,
+    TAG_CHARS,
+    UNPINNED,
+    DigestBlock,
+    PinCoverage,
+    PinnedRun,
+)
 from beatlog.replaying.state_digests import DIGEST_BYTES, block_digest, state_number
 
 __all__ = [
@@ -53,23 +60,9 @@ __all__ = [
     "rebuilt_otherwise",
 ]
 
-TAG_CHARS = 2
-"""A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
-CYCLES_PER_BLOCK = 64
-"""The most cycles one block (one line of a baseline) spans."""
 MAX_GAP = 16
 """The most cycles perception may rebuild as recorded inside one run: a gap costs a
 tag each, a new run a line of names and values."""
-UNPINNED = ".."
-"""The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
-_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
-"""The base64 digits, in the order of the six bits each stands for."""
-_DIGIT = ord("x")
-_MARKS = bytes(
-    _DIGIT if chr(byte) in _DIGITS else byte if chr(byte) == UNPINNED[0] else 0
-    for byte in range(256)
-)
-"""Each digit as ``x``, so that a gap's dots stand out, and any other character as 0."""
 _EXACT = Comparison()
 
 
@@ -93,50 +86,6 @@ class RebuiltState(NamedTuple):
     """The fields that differ from the recording, with their rebuilt values."""
     digest: bytes
     """The :func:`~beatlog.replaying.state_digests.state_digest` of the whole rebuilt state."""
-
-
-class PinnedRun(NamedTuple):
-    """Cycles in which perception rebuilds the robot state otherwise than recorded, from
-    ``cycle`` to ``last`` with gaps of at most :data:`MAX_GAP` cycles (as recorded): what
-    a review needs of them."""
-
-    cycle: int
-    """The first of them."""
-    time_ns: int
-    last: int
-    """The last of them."""
-    cycles: int
-    """How many are pinned: ``last - cycle + 1`` less the gaps."""
-    fields: tuple[str, ...]
-    """The fields that differ from the recording in any of them, sorted."""
-    first: dict[str, Any]
-    """The fields that differ in the first cycle, with their rebuilt values."""
-
-
-class DigestBlock(NamedTuple):
-    """Up to :data:`CYCLES_PER_BLOCK` consecutive cycles of a run: a tag each
-    (:data:`UNPINNED` for a gap), and the digest of the pinned ones' whole digests."""
-
-    cycle: int
-    """The first of them, a pinned one."""
-    time_ns: int
-    tags: str
-    """:data:`TAG_CHARS` a cycle, in cycle order."""
-    digest: bytes
-
-    @property
-    def cycles(self) -> int:
-        """How many cycles the block spans."""
-        return len(self.tags) // TAG_CHARS
-
-    def tag(self, offset: int) -> str:
-        """The tag of the block's cycle ``cycle + offset``."""
-        return self.tags[offset * TAG_CHARS : (offset + 1) * TAG_CHARS]
-
-    @property
-    def pinned(self) -> list[int]:
-        """The offsets of the cycles it pins (not gaps)."""
-        return [offset for offset in range(self.cycles) if self.tag(offset) != UNPINNED]
 
 
 @dataclass(frozen=True)
@@ -212,90 +161,6 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         start = end
 
 
-class PinCoverage:
-    """Checks that blocks of digests cover their runs, in order, as a baseline is read:
-    a part of its runs and blocks at a time (:meth:`add`), then :meth:`end`. Each says
-    why they do not, if they do not."""
-
-    def __init__(self) -> None:
-        self._run: PinnedRun | None = None
-        """The run whose blocks are read now."""
-        self._start = 0
-        """The cycle its next block starts at."""
-        self._pinned = 0
-        """How many cycles its blocks pinned so far."""
-
-    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> str | None:
-        """Take the next runs and blocks, those of a part of a baseline."""
-        lines: Iterable[tuple[int, int, int, PinnedRun | DigestBlock]] = heapq.merge(
-            ((run.cycle, 0, index, run) for index, run in enumerate(runs)),
-            ((block.cycle, 1, index, block) for index, block in enumerate(blocks)),
-        )
-        for *_, line in lines:
-            problem = self._open(line) if isinstance(line, PinnedRun) else self._block(line)
-            if problem is not None:
-                return problem
-        return None
-
-    def end(self) -> str | None:
-        """Take the end of the baseline."""
-        return self._close()
-
-    def _open(self, run: PinnedRun) -> str | None:
-        where = f"the robot-state run from cycle {run.cycle}"
-        after = self._start if self._run is None else self._run.last + 1
-        if run.cycle < after or run.last < run.cycle:
-            return f"{where} is out of order"
-        problem = self._close()
-        if problem is not None:
-            return problem
-        if not run.first or not set(run.first) <= set(run.fields):
-            return f"{where} names no fields that differ in its first cycle"
-        self._run, self._start, self._pinned = run, run.cycle, 0
-        return None
-
-    def _block(self, block: DigestBlock) -> str | None:
-        run = self._run
-        if run is None or block.cycle > run.last:
-            return f"the digests from cycle {block.cycle} are in no robot-state run"
-        where = f"the robot-state run from cycle {run.cycle}"
-        if block.cycle < self._start or (self._pinned == 0 and block.cycle != run.cycle):
-            return f"{where} has its digests of cycle {block.cycle} out of place"
-        cycles = len(block.tags) // TAG_CHARS
-        tagged = _tagged(block.tags)
-        if tagged is None or not 0 < cycles <= CYCLES_PER_BLOCK:
-            return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
-        self._start = block.cycle + cycles
-        self._pinned += tagged
-        return None
-
-    def _close(self) -> str | None:
-        """Check the run read last, and leave it."""
-        run, self._run = self._run, None
-        if run is None:
-            return None
-        where = f"the robot-state run from cycle {run.cycle}"
-        if self._start != run.last + 1:
-            return f"{where} has digests that do not end at its last cycle, {run.last}"
-        if self._pinned != run.cycles:
-            return f"{where} says {run.cycles} cycles, its digests pin {self._pinned}"
-        return None
-
-
-def _tagged(tags: str) -> int | None:
-    """How many cycles ``tags`` pin, if they are tags of :data:`TAG_CHARS` base64 digits,
-    or :data:`UNPINNED`, one after another: read as bytes (a regular expression saying
-    so, or a translation of the characters as text, costs ten times as much)."""
-    if len(tags) % TAG_CHARS or not tags.isascii():
-        return None
-    marks = tags.encode().translate(_MARKS)
-    if 0 in marks:  # a character neither a digit nor a dot (an int: a byte found at once)
-        return None
-    if marks[::2] != marks[1::2]:  # a tag's two characters: both dots or neither
-        return None
-    return marks.count(_DIGIT) // TAG_CHARS
-
-
 _GAP = 0xFF
 """What :data:`_SIXES` makes of a gap's characters."""
 TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
@@ -311,7 +176,9 @@ above any tag however marked."""
 _HIGH = [six << 6 for six in range(256)]
 """The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
 it: a tag is ``_HIGH[first] + second``."""
-_SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
+_SIXES = bytes.maketrans(
+    f"{BASE64_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(BASE64_DIGITS)), _GAP])
+)
 """Each tag character as the six bits it stands for: a cycle's tag is the first 12
 bits of its digest (:func:`_tag`), high six first."""
 
