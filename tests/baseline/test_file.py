@@ -445,6 +445,19 @@ def test_an_error_after_the_first_block_names_its_line(
     assert str(raised.value) == f"{path}: line 43: Expecting value: line 1 column 1 (char 0)"
 
 
+def test_a_line_of_an_earlier_cycle_than_a_block_before_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 64)
+    lines = [f'{cycle:8d}  {cycle * 0.03:8.3f}  output "speed" = {cycle}' for cycle in range(40)]
+    path = baseline_file(tmp_path, 7, *lines, f'      12  {0.36:8.3f}  "avoid": "off" -> "on"')
+
+    with pytest.raises(BaselineError) as raised:
+        read_baseline(path)
+
+    assert str(raised.value) == f"{path}: the lines of cycle 12 are not in cycle order"
+
+
 def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path) -> None:
     expectation = read_baseline(_big_baseline(tmp_path, 300)).expectation
     outputs, changes = expectation.outputs or (), expectation.changes

@@ -78,7 +78,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.baseline.read import ParsedLines, line_feeds
-from beatlog.baseline.write import FORMAT, HEADER
+from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
 from beatlog.replaying.draws import DrawRule
@@ -129,6 +129,8 @@ OLD_HEADERS = {
 UPGRADE_COMMAND = "beatlog upgrade-baselines"
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _NOT_A_BASELINE = "not a beatlog baseline (its first line is not the header)"
+_KINDS = ("output", "state change", f"'{QUIET}'")
+"""The kinds of lines each in cycle order, as errors name them."""
 
 
 @dataclass(frozen=True)
@@ -261,8 +263,8 @@ class _Reading:
         self._coverage = PinCoverage()
         self._last = -1
         """The last cycle of the lines read."""
-        self._lasts = {"output": -1, "state change": -1, "quiet": -1}
-        """The last cycle of each kind of line read."""
+        self._lasts = [-1, -1, -1]
+        """The last cycle of each kind of line read (:data:`_KINDS`)."""
 
     def parts(self) -> Iterator[ParsedLines]:
         """The lines of each block, read and checked.
@@ -321,25 +323,26 @@ class _Reading:
                 raise BaselineError(path, "a second 'open loop' line")
             self.open_loop = found.open_loop
         lasts = self._lasts
-        kinds = (
-            ("output", [item.cycle for item in found.outputs]),
-            ("state change", [item.cycle for item in found.changes]),
-            ("quiet", [cycle for cycle, _ in found.quiet]),
+        listed = (
+            [traced.cycle for traced in found.outputs],
+            [traced.cycle for traced in found.changes],
+            [cycle for cycle, _ in found.quiet],
         )
-        for what, cycles in kinds:
-            if cycles != sorted(cycles) or (cycles and cycles[0] < lasts[what]):
+        for what, cycles, last in zip(_KINDS, listed, lasts, strict=True):
+            if cycles != sorted(cycles) or (cycles and cycles[0] < last):
                 raise BaselineError(path, f"{what} lines are not in cycle order")
-        both = set(kinds[2][1]) & {*kinds[1][1], lasts["state change"]}
-        both |= set(kinds[1][1]) & {lasts["quiet"]}
+        _, changes, quiet = listed
+        both = set(quiet) & {*changes, lasts[1]} | set(changes) & {lasts[2]}
         if both:
             raise BaselineError(path, f"cycle {min(both)} has state changes and none")
-        part = ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
-        firsts = [cycles[0] for _, cycles in kinds if cycles]
+        firsts = [cycles[0] for cycles in listed if cycles]
         firsts.extend(kind[0].cycle for kind in (found.runs, found.blocks) if kind)
         if min(firsts, default=self._last) < self._last:
             raise BaselineError(path, f"the lines of cycle {min(firsts)} are not in cycle order")
-        for what, cycles in kinds:
-            lasts[what] = cycles[-1] if cycles else lasts[what]
+        self._lasts = [
+            cycles[-1] if cycles else last for cycles, last in zip(listed, lasts, strict=True)
+        ]
+        part = ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
         self._last = max(self._last, part.last)
         problem = self._coverage.add(found.runs, found.blocks)
         if problem is not None:
