@@ -360,7 +360,9 @@ def _details(
         divergence,
         trace=trace,
         timelines=timelines,
-        expected=None if approved is None else approved.expectation.changes_override(),
+        expected=(  # read whole for the timelines alone
+            None if approved is None or not timelines else approved.expectation.changes_override()
+        ),
         perception=None if spec.perception is None else load_perception(spec.perception),
         living=trace or approved is not None,
         rename=spec.comparison.rename,
