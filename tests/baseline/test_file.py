@@ -487,3 +487,16 @@ def test_an_older_baseline_is_refused_naming_the_command_that_upgrades_it(
         f"{path}: a format {version} baseline: "
         f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 7"
     )
+
+
+def test_a_baseline_changed_after_it_was_read_is_an_error_when_replay_reads_it(
+    tmp_path: Path,
+) -> None:
+    path = baseline_file(tmp_path, 7, '      12     0.360  "avoid": "off" -> "turning"')
+    baseline = read_baseline(path)
+    baseline_file(tmp_path, 7, '      12     0.360  "escape": "off" -> "on"')
+
+    with pytest.raises(BaselineError) as raised:
+        list(baseline.stream.parts())
+
+    assert str(raised.value) == f"{path}: changed while it was read: run again"

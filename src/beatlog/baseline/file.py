@@ -239,15 +239,21 @@ def read_baseline(path: Path) -> Baseline:
         departs=departs,
         pinned=pinned,
         behaviors=tuple(behaviors),
-        parts=functools.partial(_parts, path),
+        parts=functools.partial(_parts, path, frozenset(behaviors)),
     )
     return Baseline(path, reading.digest, stream)
 
 
-def _parts(path: Path) -> Iterator[ExpectedPart]:
+def _parts(path: Path, behaviors: frozenset[str]) -> Iterator[ExpectedPart]:
     """The lines of cycles of the baseline at ``path``, read and checked a block at a
-    time."""
+    time; their state changes name only ``behaviors``, as when it was first read.
+
+    :raises BaselineError: a line does not read, breaks the format's rules, or the file
+        changed since it was first read.
+    """
     for found in _Reading(path).parts():
+        if not {traced.change.behavior for traced in found.changes} <= behaviors:
+            raise BaselineError(path, "changed while it was read: run again")
         yield ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
 
 
