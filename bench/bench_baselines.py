@@ -4,9 +4,9 @@ The dog's committed suite is copied to a temporary folder with a copy of its
 perception module, ``SPEED_SMOOTHING`` retuned (0.05 to 0.1 by default: the speed
 then differs in nearly every cycle). Every spec names the copy; the suite runs with
 ``--update``, and each pending baseline written is weighed against its log: the whole
-file, and its robot-state lines alone (what pins the rebuilt robot states). DTCs the
-change cannot re-baseline (their behaviors then draw other random numbers) write no
-file and are left out of the sums.
+file as written (a long one zstd-compressed), its text, and its robot-state lines alone
+(what pins the rebuilt robot states). DTCs the change cannot re-baseline (their
+behaviors then draw other random numbers) write no file and are left out of the sums.
 
 Run it as ``python bench/bench_baselines.py [--smoothing 0.1] [--jobs N] [--json FILE]``.
 """
@@ -22,8 +22,10 @@ import tempfile
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from beatlog.baseline.file import pending_path
+from beatlog.baseline.file import BLOCK_BYTES, MAX_BASELINE_BYTES, pending_path
 from beatlog.baseline.policy import UpdateMode
+from beatlog.errors import BaselineError
+from beatlog.log.files import read_text_blocks
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import UpdateAction, update_baselines
 from beatlog.suite.parallel import run_suite
@@ -38,6 +40,9 @@ class Weight(NamedTuple):
     name: str
     log: int
     baseline: int
+    """The file as written."""
+    text: int
+    """Its text (the file's own bytes, unless it is compressed)."""
     robot_states: int
     """The robot-state lines of the baseline."""
     pinned_cycles: int
@@ -74,9 +79,18 @@ def weigh(suite: Path, jobs: int) -> list[Weight]:
         if update.action is not UpdateAction.WRITTEN:
             continue
         pending = pending_path(update.spec.path)
+        text = "".join(
+            read_text_blocks(
+                pending,
+                limit=MAX_BASELINE_BYTES,
+                kind="baseline",
+                error=BaselineError,
+                block_bytes=BLOCK_BYTES,
+            )
+        )
         pins = sum(
             len(line.encode())
-            for line in pending.read_text(encoding="utf-8").splitlines(keepends=True)
+            for line in text.splitlines(keepends=True)
             if not line.startswith("#") and "  robot_state " in line
         )
         weights.append(
@@ -84,6 +98,7 @@ def weigh(suite: Path, jobs: int) -> list[Weight]:
                 update.spec.name,
                 update.spec.log.stat().st_size,
                 pending.stat().st_size,
+                len(text.encode()),
                 pins,
                 update.robot_state_cycles,
             )
@@ -103,14 +118,17 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         weights = weigh(retuned_suite(Path(folder), args.smoothing), args.jobs)
-    print(f"{'DTC':<20} {'log':>9} {'baseline':>9} {'':>7} {'robot states':>12} {'':>7}")
+    print(
+        f"{'DTC':<20} {'log':>9} {'baseline':>9} {'':>7} {'text':>9} {'robot states':>12} {'':>7}"
+    )
     for w in weights:
         print(
             f"{w.name:<20} {w.log:>9} {w.baseline:>9} {_percent(w.baseline, w.log)} "
-            f"{w.robot_states:>12} {_percent(w.robot_states, w.log)}"
+            f"{w.text:>9} {w.robot_states:>12} {_percent(w.robot_states, w.log)}"
         )
     logs = sum(w.log for w in weights)
     baselines = sum(w.baseline for w in weights)
+    texts = sum(w.text for w in weights)
     states = sum(w.robot_states for w in weights)
     cycles = sum(w.pinned_cycles for w in weights)
     figures: dict[str, Any] = {
@@ -118,13 +136,15 @@ def main() -> None:
         "dtcs": len(weights),
         "log_bytes": logs,
         "baseline_bytes": baselines,
+        "text_bytes": texts,
         "robot_state_bytes": states,
         "pinned_cycles": cycles,
         "per_dtc": [w._asdict() for w in weights],
     }
     print(
         f"{len(weights)} pending baselines: {baselines} bytes, {_percent(baselines, logs)} of "
-        f"their logs' {logs}; robot-state lines {states} bytes, {_percent(states, logs)}, "
+        f"their logs' {logs} (their text {texts} bytes); robot-state lines {states} bytes, "
+        f"{_percent(states, logs)}, "
         f"{states / max(cycles, 1):.2f} bytes a pinned cycle ({cycles} cycles)"
     )
     if args.json is not None:

@@ -35,4 +35,5 @@ def test_a_pending_baseline_is_weighed_against_its_log(tmp_path: Path) -> None:
     assert weight.name == "tip-over"
     assert weight.log == (SUITE_DIR / "tip-over.beatlog").stat().st_size
     assert weight.baseline == (suite / "tip-over.dtc.pending").stat().st_size
+    assert weight.text >= weight.baseline
     assert (weight.pinned_cycles, weight.robot_states) == (983, 3076)

@@ -122,6 +122,7 @@ BASELINE_MAGIC = {
     4: "# beatlog expected state changes, outputs, robot states and draws, format 4",
     5: "# beatlog expected departures from the recording, format 5",
     6: "# beatlog expected departures from the recording, format 6",
+    7: "# beatlog expected departures from the recording, format 7",
 }
 """The first line of a baseline file of each format."""
 

@@ -12,6 +12,7 @@ import datetime
 import inspect
 import itertools
 import logging
+import math
 import os
 import random
 import secrets
@@ -732,3 +733,36 @@ def never_negative(cycle: Cycle) -> None:
     """An invariant of the probe that every recording of it keeps, and noise on its
     distance may not."""
     assert cycle.robot_state.distance >= 0, f"a distance of {cycle.robot_state.distance} m"
+
+
+class Headway:
+    """Keeps its distance to what is ahead: it accelerates in proportion to the gap past
+    a headway, so that its one output takes another value in every cycle."""
+
+    name = "headway"
+
+    def __init__(self, gain: float) -> None:
+        self.state: BehaviorState = "following"
+        self.gain = gain
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs:
+        return {"accel": self.gain * (rs.distance - 0.3)}
+
+
+def headway_system() -> PriorityArbiter[Probe]:
+    """A car-follower with one tuned constant, the gain of its headway control."""
+    return PriorityArbiter([Headway(0.5)], robot_state=Probe)
+
+
+def headway_system_retuned() -> PriorityArbiter[Probe]:
+    """The car-follower, its gain retuned by 5 %: its output differs in every cycle."""
+    return PriorityArbiter([Headway(0.525)], robot_state=Probe)
+
+
+def record_headway(path: Path, cycles: int) -> Path:
+    """Record ``cycles`` cycles of the car-follower behind a vehicle whose distance
+    wanders, never repeating, and return the log."""
+    with Recorder(path, headway_system(), seed=3, software="test") as recorder:
+        for cycle in range(cycles):
+            recorder.step(PERIOD_NS, Probe(distance=1.0 + 0.5 * math.sin(cycle / 37) + cycle / 5e3))
+    return path

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import struct
 import tracemalloc
+from collections.abc import Callable
 from pathlib import Path
 
 import msgspec
@@ -74,7 +75,7 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
-    assert lines[0] == "# beatlog expected departures from the recording, format 6"
+    assert lines[0] == "# beatlog expected departures from the recording, format 7"
     assert lines[2] == f"# log session.beatlog sha256 {log_digest(log)}"
     assert lines[-2:] == [
         '       0     0.030  "arbiter": "idle" -> "wander"',
@@ -94,7 +95,7 @@ def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
         ("", "not a beatlog baseline (its first line is not the header)"),
         ("cycle,behavior\n1,a\n", "not a beatlog baseline (its first line is not the header)"),
         (
-            "# beatlog expected departures from the recording, format 6\n",
+            "# beatlog expected departures from the recording, format 7\n",
             "no '# log NAME sha256 DIGEST' line",
         ),
         (
@@ -128,7 +129,7 @@ def test_a_damaged_or_foreign_baseline_is_an_error_naming_file_and_line(
     tmp_path: Path, text: str, problem: str
 ) -> None:
     header = (
-        "# beatlog expected departures from the recording, format 6\n# spec a\n"
+        "# beatlog expected departures from the recording, format 7\n# spec a\n"
         f"# log a.beatlog sha256 {'0' * 64}\n# comment"
     )
     path = tmp_path / "a.dtc.expected"
@@ -252,7 +253,7 @@ def test_a_baselines_robot_states_read_back_pinned_by_their_digests(
 ) -> None:
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16, 40)}
     pins = StatePins.from_rebuilt(rebuilt_states(states))
-    path = baseline_file(tmp_path, 6, *format_lines((), (), state_pins=pins))
+    path = baseline_file(tmp_path, 7, *format_lines((), (), state_pins=pins))
 
     assert read_baseline(path).expectation.state_pins == pins
 
@@ -268,58 +269,58 @@ NO_STATE_LINE = (
 @pytest.mark.parametrize(
     ("magic", "line", "problem"),
     [
-        (6, "  7  0.210  output speed = 1", "line 4: Expecting value: line 1 column 1 (char 0)"),
-        (6, "  7  0.210  output 3 = 1", "line 4: the field must be a JSON string"),
-        (6, '  7  0.210  output "speed" 1', "line 4: expected '=' at column 8"),
-        (6, '  7  0.210  output "speed" = 1 2', "line 4: unexpected ' 2' after the value"),
+        (7, "  7  0.210  output speed = 1", "line 4: Expecting value: line 1 column 1 (char 0)"),
+        (7, "  7  0.210  output 3 = 1", "line 4: the field must be a JSON string"),
+        (7, '  7  0.210  output "speed" 1', "line 4: expected '=' at column 8"),
+        (7, '  7  0.210  output "speed" = 1 2', "line 4: unexpected ' 2' after the value"),
         (
-            6,
+            7,
             '  7  0.210  output "speed" = msgpack:zz',
             "line 4: a damaged msgpack value: "
             "non-hexadecimal number found in fromhex() arg at position 0",
         ),
         (
-            6,
+            7,
             '  7  0.210  output "speed" = msgpack:c1',
             "line 4: a damaged msgpack value: "
             "MessagePack data is malformed: invalid opcode '\\xc1' (byte 0)",
         ),
-        (6, '  7  0.210  sensor "x" = 1', "line 4: Expecting value: line 1 column 1 (char 0)"),
-        (6, '  7  0.210  robot_state "x" = 1', NO_STATE_LINE),
-        (6, "  7  0.210  robot_state digests 1 00 AA", NO_STATE_LINE),
+        (7, '  7  0.210  sensor "x" = 1', "line 4: Expecting value: line 1 column 1 (char 0)"),
+        (7, '  7  0.210  robot_state "x" = 1', NO_STATE_LINE),
+        (7, "  7  0.210  robot_state digests 1 00 AA", NO_STATE_LINE),
         (
-            6,
+            7,
             "  7  0.210  robot_state digests 1 0000000000000000 A",
             "line 4: expected 2 characters of tags, found 1",
         ),
         (
-            6,
+            7,
             "  7  0.210  robot_state digests 2 000000000000000f AA",
             "line 4: expected 4 characters of tags, found 2",
         ),
         (
-            6,
+            7,
             f"  7  0.210  {RUN}: [1], first {{}}",
             "line 4: the fields must be a JSON list of strings",
         ),
-        (6, f'  7  0.210  {RUN}: ["x"] first {{}}', "line 4: expected ', first' at column 6"),
+        (7, f'  7  0.210  {RUN}: ["x"] first {{}}', "line 4: expected ', first' at column 6"),
         (
-            6,
+            7,
             f'  7  0.210  {RUN}: ["x"], first [1]',
             "line 4: the first cycle's values must be a JSON object",
         ),
         (
-            6,
+            7,
             f'  7  0.210  {RUN}: ["x"], first {{"x": 1}} 2',
             "line 4: unexpected ' 2' after the value",
         ),
         (
-            6,
+            7,
             f'  8  0.210  {RUN}: ["x"], first {{"x": 1}}',
             "line 4: a run of cycles from 7 on a line of cycle 8",
         ),
         (
-            6,
+            7,
             f'  7  0.210  {RUN}: ["x"], first {{"x": 1}}',
             "the robot-state run from cycle 7 has digests that do not end at its last cycle, 7",
         ),
@@ -376,12 +377,12 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
     ("version", "lines", "problem"),
     [
         (
-            6,
+            7,
             ['  13  0.390  output "speed" = 1.0', '  12  0.360  output "speed" = 2.0'],
             "output lines are not in cycle order",
         ),
         (
-            6,
+            7,
             ['  12  0.360  "avoid": "off" -> "turning"', "  12  0.360  no state changes"],
             "cycle 12 has state changes and none",
         ),
@@ -396,7 +397,7 @@ def test_a_baseline_that_breaks_its_formats_rules_is_an_error(
 
 
 def _big_baseline(folder: Path, cycles: int) -> Path:
-    """A format 6 baseline departing in every cycle: two outputs, and a state change in
+    """A baseline departing in every cycle: two outputs, and a state change in
     every third cycle."""
     lines = ["      12     0.360  open loop"]
     for cycle in range(12, 12 + cycles):
@@ -405,31 +406,37 @@ def _big_baseline(folder: Path, cycles: int) -> Path:
         lines.append(f'{cycle:8d}  {time:>8}  output "turn" = {cycle % 5}')
         if cycle % 3 == 0:
             lines.append(f'{cycle:8d}  {time:>8}  "avoid": "idle" -> "turning"')
-    return baseline_file(folder, 6, *lines, name=f"big{cycles}")
+    return baseline_file(folder, 7, *lines, name=f"big{cycles}")
 
 
-def _reading_overhead(path: Path) -> int:
-    """The most memory reading ``path`` held beyond the baseline it read, in bytes."""
+def _peak(read: Callable[[], object]) -> int:
+    """The most memory ``read`` held at once, in bytes."""
     tracemalloc.start()
     try:
-        baseline = read_baseline(path)
-        kept, peak = tracemalloc.get_traced_memory()
+        read()
+        _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    assert len(baseline.expectation.changes) > 0
-    return peak - kept
+    return peak
 
 
-def test_a_big_baseline_is_read_a_block_at_a_time(
+def _every_line(path: Path) -> int:
+    """How many output lines replay reads of the baseline at ``path``, as it reads them."""
+    return sum(len(part.outputs) for part in read_baseline(path).stream.parts())
+
+
+def test_a_big_baseline_is_read_in_memory_that_does_not_grow_with_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 4096)
     small, large = _big_baseline(tmp_path, 1_000), _big_baseline(tmp_path, 4_000)
-    lines_added = len(large.read_bytes().splitlines()) - len(small.read_bytes().splitlines())
+    assert large.stat().st_size > 3 * small.stat().st_size
 
-    grown = _reading_overhead(large) - _reading_overhead(small)
-
-    assert grown / lines_added < 40, "bytes more per line: not a block at a time"
+    checked = _peak(lambda: read_baseline(large)) - _peak(lambda: read_baseline(small))
+    assert checked < 64 * 1024, "reading keeps more than a block"
+    assert _every_line(large) == 8_000
+    replayed = _peak(lambda: _every_line(large)) - _peak(lambda: _every_line(small))
+    assert replayed < 64 * 1024, "replay reads more than a block at a time"
 
 
 def test_an_error_after_the_first_block_names_its_line(
@@ -437,12 +444,25 @@ def test_an_error_after_the_first_block_names_its_line(
 ) -> None:
     monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 64)
     lines = [f'{cycle:8d}  {cycle * 0.03:8.3f}  output "speed" = {cycle}' for cycle in range(40)]
-    path = baseline_file(tmp_path, 6, *lines, f'      40  {1.2:8.3f}  output "speed" = x', "")
+    path = baseline_file(tmp_path, 7, *lines, f'      40  {1.2:8.3f}  output "speed" = x', "")
 
     with pytest.raises(BaselineError) as raised:
         read_baseline(path)
 
     assert str(raised.value) == f"{path}: line 43: Expecting value: line 1 column 1 (char 0)"
+
+
+def test_a_line_of_an_earlier_cycle_than_a_block_before_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 64)
+    lines = [f'{cycle:8d}  {cycle * 0.03:8.3f}  output "speed" = {cycle}' for cycle in range(40)]
+    path = baseline_file(tmp_path, 7, *lines, f'      12  {0.36:8.3f}  "avoid": "off" -> "on"')
+
+    with pytest.raises(BaselineError) as raised:
+        read_baseline(path)
+
+    assert str(raised.value) == f"{path}: the lines of cycle 12 are not in cycle order"
 
 
 def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path) -> None:
@@ -454,7 +474,7 @@ def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path
     assert all(change.change.after is changes[0].change.after for change in changes)
 
 
-@pytest.mark.parametrize("version", [1, 2, 3, 4, 5])
+@pytest.mark.parametrize("version", [1, 2, 3, 4, 5, 6])
 def test_an_older_baseline_is_refused_naming_the_command_that_upgrades_it(
     tmp_path: Path, version: int
 ) -> None:
@@ -465,5 +485,18 @@ def test_an_older_baseline_is_refused_naming_the_command_that_upgrades_it(
 
     assert str(raised.value) == (
         f"{path}: a format {version} baseline: "
-        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 6"
+        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 7"
     )
+
+
+def test_a_baseline_changed_after_it_was_read_is_an_error_when_replay_reads_it(
+    tmp_path: Path,
+) -> None:
+    path = baseline_file(tmp_path, 7, '      12     0.360  "avoid": "off" -> "turning"')
+    baseline = read_baseline(path)
+    baseline_file(tmp_path, 7, '      12     0.360  "escape": "off" -> "on"')
+
+    with pytest.raises(BaselineError) as raised:
+        list(baseline.stream.parts())
+
+    assert str(raised.value) == f"{path}: changed while it was read: run again"

@@ -1,5 +1,5 @@
-"""Baselines of older formats are rewritten in format 6 by one command, reading to the
-departures they stood for; a format 6 one is left as it is, damage is still refused,
+"""Baselines of older formats are rewritten in format 7 by one command, reading to the
+departures they stood for; a format 7 one is left as it is, damage is still refused,
 and robot states pinned the old ways are left to re-approve."""
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ DEPARTURES = Expectation(
 
 
 def written(path: Path, log: Path, expectation: Expectation, version: int) -> Path:
-    """``expectation`` written in format 6, its first line then that of ``version``."""
+    """``expectation`` written in format 7, its first line then that of ``version``."""
     write_baseline(
         path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
     )
@@ -55,11 +55,14 @@ def log(tmp_path: Path) -> Path:
     return path
 
 
-def test_a_format_5_baseline_is_rewritten_in_format_6_once(tmp_path: Path, log: Path) -> None:
-    path = written(tmp_path / "a.dtc.expected", log, DEPARTURES, 5)
-    current = written(tmp_path / "b.dtc.expected", log, DEPARTURES, 6).read_text(encoding="utf-8")
+@pytest.mark.parametrize("version", [5, 6])
+def test_a_format_5_or_6_baseline_is_rewritten_in_format_7_once(
+    tmp_path: Path, log: Path, version: int
+) -> None:
+    path = written(tmp_path / "a.dtc.expected", log, DEPARTURES, version)
+    current = written(tmp_path / "b.dtc.expected", log, DEPARTURES, 7).read_text(encoding="utf-8")
 
-    assert upgrade_baseline(path) == Upgraded(path, 5)
+    assert upgrade_baseline(path) == Upgraded(path, version)
     assert read_baseline(path).expectation == DEPARTURES
     assert path.read_text(encoding="utf-8") == current
     assert upgrade_baseline(path) is None
@@ -73,7 +76,7 @@ def test_every_baseline_under_a_folder_or_beside_a_spec_is_upgraded(
     pending = written(pending_path(tmp_path / "a.dtc.toml"), log, DEPARTURES, 5)
     (tmp_path / "deep").mkdir()
     deep = written(tmp_path / "deep" / "b.dtc.expected", log, DEPARTURES, 5)
-    current = written(tmp_path / "deep" / "c.dtc.pending", log, DEPARTURES, 6)
+    current = written(tmp_path / "deep" / "c.dtc.pending", log, DEPARTURES, 7)
 
     assert upgrade_baselines([tmp_path / "a.dtc.toml"]) == [
         Upgraded(approved, 5),
@@ -98,8 +101,8 @@ def test_damage_in_an_older_baseline_is_refused_naming_the_file_and_line(
     assert sorted(tmp_path.iterdir()) == [log, path]
 
 
-def test_damage_in_a_format_6_baseline_is_still_refused(tmp_path: Path) -> None:
-    path = baseline_file(tmp_path, 6, '      12     0.360  "avoid": "off" => "turning"')
+def test_damage_in_a_current_baseline_is_still_refused(tmp_path: Path) -> None:
+    path = baseline_file(tmp_path, 7, '      12     0.360  "avoid": "off" => "turning"')
 
     with pytest.raises(BaselineError, match="line 3: expected '->' at column"):
         upgrade_baseline(path)
@@ -177,3 +180,12 @@ def test_a_whole_trace_needs_its_own_recording_beside_it(tmp_path: Path) -> None
 
     with pytest.raises(BaselineError, match=r"its recording .*a\.beatlog is not as it was"):
         upgrade_baseline(path)
+
+
+def test_robot_states_pinned_by_format_6_digests_are_kept(tmp_path: Path, log: Path) -> None:
+    states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
+    pinned = Expectation((), state_pins=StatePins.from_rebuilt(rebuilt_states(states)))
+    path = written(tmp_path / "a.dtc.expected", log, pinned, 6)
+
+    assert upgrade_baseline(path) == Upgraded(path, 6)
+    assert read_baseline(path).expectation == pinned

@@ -40,7 +40,7 @@ def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
     assert baseline.expectation.outputs is not None
     assert {traced.field for traced in baseline.expectation.outputs} == {"speed", "time"}
     lines = expected_path(spec).read_text(encoding="utf-8").splitlines()
-    assert lines[0] == "# beatlog expected departures from the recording, format 6"
+    assert lines[0] == "# beatlog expected departures from the recording, format 7"
     # Only where the outputs depart from the recording, and where they follow it again.
     assert lines[4:9] == [
         "      21     0.660  open loop",
@@ -124,9 +124,9 @@ def test_a_format_1_baseline_is_upgraded_to_judge_outputs_against_the_recording(
     assert refused.err.count("\n") == 1
     assert refused.err.endswith(
         f": {path}: a format 1 baseline: "
-        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 6\n"
+        f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 7\n"
     )
-    assert (upgraded.code, upgraded.out) == (0, f"upgraded {path}: format 1 -> 6\n")
+    assert (upgraded.code, upgraded.out) == (0, f"upgraded {path}: format 1 -> 7\n")
     upgrade = read_baseline(path).expectation
     assert (upgrade.changes, upgrade.quiet, upgrade.outputs) == (
         approved.changes,
@@ -164,7 +164,7 @@ def test_a_format_4_baseline_of_the_whole_trace_upgrades_to_the_same_departures(
 
     run = beatlog("upgrade-baselines", path)
 
-    assert (run.code, run.out) == (0, f"upgraded {path}: format 4 -> 6\n")
+    assert (run.code, run.out) == (0, f"upgraded {path}: format 4 -> 7\n")
     assert read_baseline(path).expectation == approved
     assert path.read_text(encoding="utf-8") == departures
     assert beatlog("test", spec).code == 0

@@ -3,6 +3,8 @@ reads them, batch by batch, wherever in a batch they start or end."""
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +15,7 @@ from beatlog.replaying.expectation import (
     ABSENT,
     AS_RECORDED,
     Expectation,
+    ExpectedPart,
     TracedChange,
     TracedOutput,
 )
@@ -58,7 +61,7 @@ BASELINE = Expectation(
 
 
 def test_departures_stand_in_for_the_recording_in_their_cycles_only() -> None:
-    expected = ExpectedRecords(BASELINE, NAMES, lambda name: name)
+    expected = ExpectedRecords(BASELINE.stream(), NAMES, lambda name: name, None)
     batches = [
         [recorded(cycle) for cycle in cycles] for cycles in ([0, 1, 2], [3], [4, 5, 6, 7], [8, 9])
     ]
@@ -92,3 +95,27 @@ def test_departures_stand_in_for_the_recording_in_their_cycles_only() -> None:
         {"speed": 0.7, "turn": 8.0},
         {"speed": 0.7, "turn": 9.0},
     ]
+
+
+def test_the_baseline_is_read_alongside_the_log_a_part_at_a_time() -> None:
+    lines = [output(cycle, "turn", float(-cycle)) for cycle in range(100)]
+    pulled: list[int] = []
+
+    def parts() -> Iterator[ExpectedPart]:
+        for line in lines:  # a part a cycle, the last cycle's split in two
+            pulled.append(line.cycle)
+            yield ExpectedPart((), (), (line,), (), ())
+        yield ExpectedPart((), (), (output(99, "speed", 1.5),), (), ())
+
+    stream = dataclasses.replace(Expectation((), tuple(lines)).stream(), parts=parts)
+    expected = ExpectedRecords(stream, NAMES, lambda name: name, None)
+    batches = [[recorded(c) for c in range(start, start + 10)] for start in range(0, 100, 10)]
+    read = []
+    for batch in expected.batches(iter(batches), Path("walk.beatlog")):
+        read.append(max(pulled))
+        assert [msgspec.msgpack.decode(r.outputs)["turn"] for r in batch] == [
+            -float(cycle) for cycle in range(len(read) * 10 - 10, len(read) * 10)
+        ]
+
+    assert read == [10, 20, 30, 40, 50, 60, 70, 80, 90, 99], "read ahead by one part at most"
+    assert msgspec.msgpack.decode(batches[-1][-1].outputs)["speed"] == 1.5

@@ -189,7 +189,7 @@ def test_a_checker_reads_each_tag_as_the_first_12_bits_of_its_digest() -> None:
         None if tag == UNPINNED else _DIGIT_SIX[tag[0]] << 6 | _DIGIT_SIX[tag[1]] for tag in tags
     ]
 
-    read = [tag & 0xFFF if cycle in checker else None for cycle, tag in enumerate(checker.tags)]
+    read = [tag & 0xFFF if cycle in checker else None for cycle, tag in checker.tags.items()]
     assert read == expected
 
 
@@ -243,3 +243,13 @@ def test_blocks_must_cover_their_runs(
         return
     with pytest.raises(ValueError, match=problem):
         StatePins(runs, blocks)
+
+
+def test_a_pin_at_a_far_cycle_costs_no_more_than_a_near_one() -> None:
+    far = 10**12  # a cycle number a baseline may give: bounded by nothing but its digits
+    pins = StatePins((_run(far, far + 1, 2),), (_block(far, "AAAB"),))
+
+    checker = PinChecker(pins)
+
+    assert checker.cycles == frozenset({far, far + 1})
+    assert far - 1 not in checker

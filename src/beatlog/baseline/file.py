@@ -9,7 +9,7 @@ depart from it (:mod:`beatlog.replaying.departures`), in plain text, a state cha
 output a line, and the robot states perception rebuilds a few characters a cycle: a
 re-baseline reads as a diff in code review::
 
-    # beatlog expected departures from the recording, format 6
+    # beatlog expected departures from the recording, format 7
     # spec avoid-pole
     # log avoid-pole.beatlog sha256 5f0c...
     draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97 240
@@ -58,23 +58,38 @@ recorded one left unused (``-`` for the asked side). A baseline is judged in liv
 replay, cycle by cycle: any other draw made otherwise, or an approved one not made,
 diverges in its cycle.
 
+A baseline whose text is longer than
+:data:`~beatlog.baseline.write.COMPRESS_BYTES` (a change that departs in nearly every
+cycle, such as a retuned output) is written as one zstd frame of that text, a sixth
+of its size or less; it is read as the text it holds, which may not be longer than
+:data:`MAX_BASELINE_BYTES` either. Format 7 is format 6 and its compression.
+
 A baseline is read in this format alone: a file of an older one is refused, naming
 the command that rewrites it in this one (:mod:`beatlog.baseline.upgrade`).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 from beatlog.baseline.read import ParsedLines, line_feeds
-from beatlog.baseline.write import HEADER
+from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
-from beatlog.replaying.expectation import Expectation
-from beatlog.replaying.pins import StatePins
+from beatlog.replaying.draws import DrawRule
+from beatlog.replaying.expectation import (
+    Expectation,
+    ExpectedPart,
+    ExpectedStream,
+    TracedChange,
+    TracedOutput,
+)
+from beatlog.replaying.pins import DigestBlock, PinCoverage, PinnedRun, StatePins
 
 __all__ = [
     "BLOCK_BYTES",
@@ -103,6 +118,7 @@ BLOCK_BYTES = 1 << 20
 """How much of a baseline is read at a time: reading holds a block of its text, and
 what its lines read to, not the whole file's text."""
 OLD_HEADERS = {
+    "# beatlog expected departures from the recording, format 6": 6,
     "# beatlog expected departures from the recording, format 5": 5,
     "# beatlog expected state changes, outputs, robot states and draws, format 4": 4,
     "# beatlog expected state changes, outputs and robot states, format 3": 3,
@@ -113,16 +129,46 @@ OLD_HEADERS = {
 UPGRADE_COMMAND = "beatlog upgrade-baselines"
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _NOT_A_BASELINE = "not a beatlog baseline (its first line is not the header)"
+_KINDS = ("output", "state change", f"'{QUIET}'")
+"""The kinds of lines each in cycle order, as errors name them."""
 
 
 @dataclass(frozen=True)
 class Baseline:
-    """A baseline file: the recording it was made from and what replay judges against."""
+    """A baseline file: the recording it was made from and what replay judges against,
+    read as replay reads it (:attr:`stream`): its lines of cycles are read from the
+    file each time they are asked for, so the file must stay where it is."""
 
     path: Path
     log_digest: str
     """The SHA-256 of the recording (:func:`log_digest`)."""
-    expectation: Expectation
+    stream: ExpectedStream
+    """What replay judges against, its lines of cycles read afresh from the file a block
+    at a time: replay holds no more of it than a block."""
+
+    @property
+    def expectation(self) -> Expectation:
+        """The whole expectation, read again into memory (for a review, a diff)."""
+        changes: list[TracedChange] = []
+        quiet: list[tuple[int, int]] = []
+        outputs: list[TracedOutput] = []
+        runs: list[PinnedRun] = []
+        blocks: list[DigestBlock] = []
+        for part in self.stream.parts():
+            changes.extend(part.changes)
+            quiet.extend(part.quiet)
+            outputs.extend(part.outputs)
+            runs.extend(part.runs)
+            blocks.extend(part.blocks)
+        stream = self.stream
+        return Expectation(
+            tuple(changes),
+            tuple(outputs),
+            StatePins(tuple(runs), tuple(blocks)),
+            stream.draws,
+            stream.open_loop,
+            tuple(quiet),
+        )
 
 
 def _base(spec: Path) -> str:
@@ -166,71 +212,144 @@ def log_digest(log: Path) -> str:
 
 def upgrade_hint(path: Path, version: int) -> str:
     """What an older baseline's error says: its format, and the command that rewrites it."""
-    return f"a format {version} baseline: run '{UPGRADE_COMMAND} {path}' to rewrite it in format 6"
+    return (
+        f"a format {version} baseline: run '{UPGRADE_COMMAND} {path}' to rewrite it in "
+        f"format {FORMAT}"
+    )
 
 
 def read_baseline(path: Path) -> Baseline:
-    """Read a baseline file, a block of lines at a time (:data:`BLOCK_BYTES`); anything
-    else, a file of an older format included, raises :class:`BaselineError` naming the
-    line (or the command that upgrades it)."""
-    started = False
-    number = 1
-    digest = ""
-    found = ParsedLines()
-    for block in read_text_blocks(
-        path,
-        limit=MAX_BASELINE_BYTES,
-        kind="baseline",
-        error=BaselineError,
-        block_bytes=BLOCK_BYTES,
-    ):
-        text, count = line_feeds(block)
-        if not started:
-            first, _, text = text.partition("\n")
-            if first in OLD_HEADERS:
-                raise BaselineError(path, upgrade_hint(path, OLD_HEADERS[first]))
-            if first != HEADER:
-                raise BaselineError(path, _NOT_A_BASELINE)
-            started, number, count = True, 2, count - 1
-        for at, line in found.read_common(text, start=number):
-            if line.startswith("#"):
-                log_line = _LOG_LINE.fullmatch(line)
-                digest = log_line["digest"] if log_line else digest
-            elif line.strip():
-                try:
-                    found.add(line)
-                except (ValueError, RecursionError) as exc:
-                    raise BaselineError(path, f"line {at}: {exc}") from None
-        number += count
-    if not started:  # an empty file
-        raise BaselineError(path, _NOT_A_BASELINE)
-    if not digest:
-        raise BaselineError(path, "no '# log NAME sha256 DIGEST' line")
-    return Baseline(path, digest, _expectation(path, found))
-
-
-def _expectation(path: Path, found: ParsedLines) -> Expectation:
-    """What the lines of a baseline file expect.
-
-    :raises BaselineError: lines out of cycle order, a cycle both quiet and with
-        state changes, or robot-state pins that do not hold together.
-    """
-    for what, traced in (("output", found.outputs), ("state change", found.changes)):
-        cycles = [item.cycle for item in traced]
-        if cycles != sorted(cycles):
-            raise BaselineError(path, f"{what} lines are not in cycle order")
-    both = {cycle for cycle, _ in found.quiet} & {change.cycle for change in found.changes}
-    if both:
-        raise BaselineError(path, f"cycle {min(both)} has state changes and none")
-    try:
-        pins = StatePins(tuple(found.runs), tuple(found.blocks))
-    except ValueError as exc:
-        raise BaselineError(path, str(exc)) from None
-    return Expectation(
-        tuple(found.changes),
-        tuple(found.outputs),
-        pins,
-        tuple(found.draws),
-        found.open_loop,
-        tuple(found.quiet),
+    """Read and check a baseline file, a block of lines at a time (:data:`BLOCK_BYTES`),
+    keeping what applies to the whole session; its lines of cycles are read again, the
+    same way, as replay needs them (:attr:`Baseline.stream`). Anything else, a file of
+    an older format included, raises :class:`BaselineError` naming the line (or the
+    command that upgrades it)."""
+    reading = _Reading(path)
+    draws: list[DrawRule] = []
+    departs = pinned = False
+    behaviors: dict[str, None] = {}
+    for found in reading.parts():
+        draws.extend(found.draws)
+        departs = departs or bool(found.changes or found.quiet or found.outputs)
+        pinned = pinned or bool(found.blocks)
+        behaviors.update(dict.fromkeys(traced.change.behavior for traced in found.changes))
+    stream = ExpectedStream(
+        tuple(draws),
+        reading.open_loop,
+        departs=departs,
+        pinned=pinned,
+        behaviors=tuple(behaviors),
+        parts=functools.partial(_parts, path, frozenset(behaviors)),
     )
+    return Baseline(path, reading.digest, stream)
+
+
+def _parts(path: Path, behaviors: frozenset[str]) -> Iterator[ExpectedPart]:
+    """The lines of cycles of the baseline at ``path``, read and checked a block at a
+    time; their state changes name only ``behaviors``, as when it was first read.
+
+    :raises BaselineError: a line does not read, breaks the format's rules, or the file
+        changed since it was first read.
+    """
+    for found in _Reading(path).parts():
+        if not {traced.change.behavior for traced in found.changes} <= behaviors:
+            raise BaselineError(path, "changed while it was read: run again")
+        yield ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
+
+
+class _Reading:
+    """A baseline file read a block of lines at a time, each block's lines checked
+    against the rules of the format as they are read, and those before."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.digest = ""
+        """The log's digest, from the ``# log`` line."""
+        self.open_loop: tuple[int, int] | None = None
+        self._coverage = PinCoverage()
+        self._last = -1
+        """The last cycle of the lines read."""
+        self._lasts = [-1, -1, -1]
+        """The last cycle of each kind of line read (:data:`_KINDS`)."""
+
+    def parts(self) -> Iterator[ParsedLines]:
+        """The lines of each block, read and checked.
+
+        :raises BaselineError: a line does not read, or breaks the format's rules.
+        """
+        path = self.path
+        started = False
+        number = 1
+        for block in read_text_blocks(
+            path,
+            limit=MAX_BASELINE_BYTES,
+            kind="baseline",
+            error=BaselineError,
+            block_bytes=BLOCK_BYTES,
+        ):
+            text, count = line_feeds(block)
+            if not started:
+                first, _, text = text.partition("\n")
+                if first in OLD_HEADERS:
+                    raise BaselineError(path, upgrade_hint(path, OLD_HEADERS[first]))
+                if first != HEADER:
+                    raise BaselineError(path, _NOT_A_BASELINE)
+                started, number, count = True, 2, count - 1
+            found = ParsedLines()
+            for at, line in found.read_common(text, start=number):
+                if line.startswith("#"):
+                    log_line = _LOG_LINE.fullmatch(line)
+                    self.digest = log_line["digest"] if log_line else self.digest
+                elif line.strip():
+                    try:
+                        found.add(line)
+                    except (ValueError, RecursionError) as exc:
+                        raise BaselineError(path, f"line {at}: {exc}") from None
+            number += count
+            self._check(found)
+            yield found
+        if not started:  # an empty file
+            raise BaselineError(path, _NOT_A_BASELINE)
+        if not self.digest:
+            raise BaselineError(path, "no '# log NAME sha256 DIGEST' line")
+        problem = self._coverage.end()
+        if problem is not None:
+            raise BaselineError(path, problem)
+
+    def _check(self, found: ParsedLines) -> None:
+        """Check a block's lines against the format's rules, and those before them.
+
+        :raises BaselineError: lines out of cycle order, a cycle both quiet and with
+            state changes, a second ``open loop`` line, or robot-state pins that do not
+            hold together.
+        """
+        path = self.path
+        if found.open_loop is not None:
+            if self.open_loop is not None:
+                raise BaselineError(path, "a second 'open loop' line")
+            self.open_loop = found.open_loop
+        lasts = self._lasts
+        listed = (
+            [traced.cycle for traced in found.outputs],
+            [traced.cycle for traced in found.changes],
+            [cycle for cycle, _ in found.quiet],
+        )
+        for what, cycles, last in zip(_KINDS, listed, lasts, strict=True):
+            if cycles != sorted(cycles) or (cycles and cycles[0] < last):
+                raise BaselineError(path, f"{what} lines are not in cycle order")
+        _, changes, quiet = listed
+        both = set(quiet) & {*changes, lasts[1]} | set(changes) & {lasts[2]}
+        if both:
+            raise BaselineError(path, f"cycle {min(both)} has state changes and none")
+        firsts = [cycles[0] for cycles in listed if cycles]
+        firsts.extend(kind[0].cycle for kind in (found.runs, found.blocks) if kind)
+        if min(firsts, default=self._last) < self._last:
+            raise BaselineError(path, f"the lines of cycle {min(firsts)} are not in cycle order")
+        self._lasts = [
+            cycles[-1] if cycles else last for cycles, last in zip(listed, lasts, strict=True)
+        ]
+        part = ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
+        self._last = max(self._last, part.last)
+        problem = self._coverage.add(found.runs, found.blocks)
+        if problem is not None:
+            raise BaselineError(path, problem)

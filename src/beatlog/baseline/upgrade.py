@@ -1,18 +1,20 @@
 """Baselines of older formats rewritten in the current one: the one place they are read.
 
-Each older format is read as a translation of its lines into format 6's. A format 5
-file holds format 6's lines under another first line. Formats 1 to 4 held the whole
-trace of state changes and outputs, not where it departs from the recording (or, in
-format 4, the line ``state changes and outputs as recorded``); their lines are format
-6's, and the recording (the one its ``# log`` line names, found by its spec, and bound
-by its digest) gives the departures: a cycle whose state changes differ lists the trace's (or none,
-quiet), an output field that differs holds the trace's value. Format 1 pinned no
-outputs, so its outputs are the recording's.
+Each older format is read as a translation of its lines into format 7's. Format 5
+and 6 files hold format 7's lines under another first line (format 7 compresses a
+long baseline). Formats 1 to 4 held the whole trace of state changes and outputs, not
+where it departs from the recording (or, in format 4, the line ``state changes and
+outputs as recorded``); their lines are format 7's, and the recording (the one its
+``# log`` line names, found by its spec, and bound by its digest) gives the
+departures: a cycle whose state changes differ lists the trace's (or none, quiet), an
+output field that differs holds the trace's value. Format 1 pinned no outputs, so its
+outputs are the recording's.
 
 Robot states pinned before format 6 (format 3 by field values, formats 4 and 5 by a
 keyed BLAKE2b of each state) are not translated: only perception rebuilding them again
-gives their format 6 digests, so such a file is refused, to be re-approved from its
-recording. A file is rewritten atomically, and only once it reads back in format 6.
+gives their digests as format 6 and 7 pin them, so such a file is refused, to be
+re-approved from its recording. A file is rewritten atomically, and only once it reads
+back in the current format.
 """
 
 from __future__ import annotations
@@ -54,7 +56,7 @@ _RE_APPROVE = "re-approve it from its recording ('beatlog test --update', then '
 
 
 class Upgraded(NamedTuple):
-    """A baseline file rewritten in format 6, and the format it had."""
+    """A baseline file rewritten in the current format, and the format it had."""
 
     path: Path
     version: int
@@ -87,9 +89,10 @@ def beside(baseline: Path, log_name: str) -> Path:
 
 
 def upgrade_baselines(paths: Sequence[Path], recordings: Recordings = beside) -> list[Upgraded]:
-    """Rewrite in format 6 every baseline of an older format among ``paths`` (files, or
-    folders searched for ``*.dtc.expected`` and ``*.dtc.pending``); those of format 6
-    are left as they are. ``recordings`` finds the recording a whole trace departs from.
+    """Rewrite in the current format every baseline of an older format among ``paths``
+    (files, or folders searched for ``*.dtc.expected`` and ``*.dtc.pending``); those of
+    the current format are left as they are. ``recordings`` finds the recording a whole
+    trace departs from.
 
     :raises BaselineError: a file is no baseline, is damaged, or cannot be upgraded
         (the files before it are upgraded, it and those after are left as they were).
@@ -99,8 +102,8 @@ def upgrade_baselines(paths: Sequence[Path], recordings: Recordings = beside) ->
 
 
 def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | None:
-    """Rewrite a baseline of an older format in format 6; None if it is of format 6
-    already (it is read whole, so damage is still refused)."""
+    """Rewrite a baseline of an older format in the current one; None if it is of the
+    current format already (it is read whole, so damage is still refused)."""
     text = "".join(
         read_text_blocks(
             path,
@@ -113,10 +116,10 @@ def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | 
     first, _, body = text.partition("\n")
     version = OLD_HEADERS.get(first)
     if version is None:
-        read_baseline(path)  # format 6 (or refused as no baseline, naming the line)
+        read_baseline(path)  # the current format (or refused as no baseline, naming the line)
         return None
     lines = body.splitlines()
-    if any(_columns_of(line).startswith(ROBOT_STATE) for line in lines):
+    if version < 6 and any(_columns_of(line).startswith(ROBOT_STATE) for line in lines):
         raise BaselineError(
             path, f"its robot states are pinned as format {version} pinned them: {_RE_APPROVE}"
         )
@@ -127,11 +130,11 @@ def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | 
         with replacing(scratch) as file:
             file.write(translated.encode())
         read = read_baseline(scratch)
+        expectation = read.expectation  # read whole before the scratch file goes
     except BaselineError as exc:
         raise BaselineError(path, exc.problem.replace(str(scratch), str(path))) from None
     finally:
         scratch.unlink(missing_ok=True)
-    expectation = read.expectation
     spec_name, log_name = _names(lines)
     if version < 5 and not as_recorded:
         log = recordings(path, log_name)

@@ -30,6 +30,8 @@ from beatlog.replaying.pins import StatePins
 __all__ = [
     "AS_RECORDED_TEXT",
     "COLUMNS",
+    "COMPRESS_BYTES",
+    "FORMAT",
     "HEADER",
     "MSGPACK",
     "NONE",
@@ -44,8 +46,14 @@ __all__ = [
     "write_baseline",
 ]
 
-HEADER = "# beatlog expected departures from the recording, format 6"
+FORMAT = 7
+"""The baseline format written, and the only one read."""
+HEADER = f"# beatlog expected departures from the recording, format {FORMAT}"
 """The first line of a baseline file of the current format."""
+COMPRESS_BYTES = 1 << 16
+"""A baseline whose text is longer is written zstd-compressed: 64 KiB is over a
+thousand lines, past what a review reads as a diff, and a change that departs in every
+cycle (a retune) writes its lines in about a sixth of the bytes."""
 
 NONE = "-"
 """The side of a draws line with no draw (a new draw, or a recorded one left unused)."""
@@ -66,6 +74,10 @@ COLUMNS = (
 )
 """The comment that heads the cycle columns."""
 _SORTED = msgspec.msgpack.Encoder(order="sorted")
+_LEVELS = ((1 << 20, 19), (1 << 62, 3))
+"""zstd's level for text of up to so many bytes: a baseline is written once and read
+often, so up to a megabyte (half a second) as small as zstd makes it, and a bigger one
+at zstd's default level, its speed (some 100 MB a second)."""
 
 
 def format_lines(
@@ -167,7 +179,7 @@ def write_baseline(
 ) -> None:
     """Write a baseline file atomically: readers see the old file or the new one.
     ``log_name`` and ``digest`` (:func:`~beatlog.baseline.file.log_digest`) bind it to
-    its recording.
+    its recording. Text longer than :data:`COMPRESS_BYTES` is written as a zstd frame.
 
     :raises BaselineError: the file cannot be written (a full disk): the old file, if
         any, stays whole.
@@ -186,8 +198,14 @@ def write_baseline(
             quiet=expectation.quiet,
         ),
     ]
+    text = ("\n".join(lines) + "\n").encode()
+    if len(text) > COMPRESS_BYTES:
+        import zstandard  # noqa: PLC0415 - only a long baseline needs it
+
+        level = next(level for size, level in _LEVELS if len(text) <= size)
+        text = zstandard.ZstdCompressor(level=level).compress(text)
     try:
         with replacing(path) as file:
-            file.write(("\n".join(lines) + "\n").encode())
+            file.write(text)
     except OSError as exc:
         raise BaselineError(path, f"cannot write: {exc.strerror or exc}") from None

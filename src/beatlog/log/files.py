@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import IO, Self
 
 __all__ = [
+    "ZSTD_MAGIC",
     "Closing",
     "irregular_file_problem",
     "project_root",
@@ -21,6 +22,9 @@ __all__ = [
     "replacing",
     "write_json",
 ]
+
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+"""How a zstd frame starts: a file that does is read as the text it holds compressed."""
 
 
 def irregular_file_problem(path: Path) -> str | None:
@@ -66,13 +70,25 @@ def read_text_blocks(
     """The UTF-8 text of a file of ``kind`` (a baseline) in blocks of whole lines, each
     of about ``block_bytes`` and ended by a line feed (the last perhaps not), so that a
     large file is read in bounded memory; refused as :func:`read_small_text` refuses
-    one, a block that cannot be read as UTF-8 raising ``error`` too."""
+    one, a block that cannot be read as UTF-8 raising ``error`` too. A file of zstd
+    frames (:data:`ZSTD_MAGIC`) is read as the text they hold, which may not be longer
+    than ``limit`` bytes either: it is refused as soon as it is."""
     _check_size(path, limit=limit, kind=kind, error=error)
     read = 0
+    damaged: tuple[type[Exception], ...] = ()
     try:
-        with path.open("rb") as file:
+        with path.open("rb") as raw:
+            file: IO[bytes] = raw
+            if raw.read(len(ZSTD_MAGIC)) == ZSTD_MAGIC:
+                import zstandard  # noqa: PLC0415 - only a compressed file needs it
+
+                damaged = (zstandard.ZstdError,)
+                file = zstandard.ZstdDecompressor().stream_reader(raw, read_across_frames=True)
+            raw.seek(0)
             rest = b""
             while block := file.read(block_bytes):
+                if read + len(rest) + len(block) > limit:
+                    raise error(path, f"holds more than {limit} bytes of text; not a {kind}")
                 end = block.rfind(b"\n") + 1
                 if not end:  # a line longer than a block: read on to its end
                     rest += block
@@ -88,6 +104,8 @@ def read_text_blocks(
         raise error(
             path, f"cannot read: {exc.reason} at byte {read + exc.start} (not UTF-8 text)"
         ) from None
+    except damaged as exc:
+        raise error(path, f"cannot read: damaged zstd data ({exc})") from None
 
 
 def _check_size(

@@ -4,13 +4,18 @@ being as recorded; and the traces of state changes and outputs it is made from.
 
 Outputs are traced compactly: a field appears only in the cycles where its value
 changes (:class:`OutputTracker`).
+
+Replay reads an expectation as it reads the log, a part at a time in cycle order
+(:class:`ExpectedStream`), so that a big baseline is judged in bounded memory: what it
+holds whole is only what applies to the whole session (its draws, where it leaves the
+recording, the behaviors it names).
 """
 
 from __future__ import annotations
 
 import enum
 import itertools
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from operator import attrgetter
 from typing import Any, NamedTuple
@@ -19,13 +24,15 @@ import msgspec
 
 from beatlog.log.format import payload_encoder
 from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.pins import StatePins
+from beatlog.replaying.pins import DigestBlock, PinnedRun, StatePins
 from beatlog.replaying.verdict import StateChange
 
 __all__ = [
     "ABSENT",
     "AS_RECORDED",
     "Expectation",
+    "ExpectedPart",
+    "ExpectedStream",
     "OutputTracker",
     "TracedChange",
     "TracedOutput",
@@ -156,3 +163,55 @@ class Expectation:
                 else:
                     current[change.field] = change.value
             yield cycle, dict(current)
+
+    def stream(self) -> ExpectedStream:
+        """This expectation as replay reads it: in one part."""
+        pins = self.state_pins
+        part = ExpectedPart(self.changes, self.quiet, self.outputs, pins.runs, pins.blocks)
+        return ExpectedStream(
+            self.draws,
+            self.open_loop,
+            departs=not self.as_recorded,
+            pinned=bool(pins.blocks),
+            behaviors=tuple(dict.fromkeys(c.change.behavior for c in self.changes)),
+            parts=lambda: iter((part,)),
+        )
+
+
+class ExpectedPart(NamedTuple):
+    """Some of an expectation's lines of cycles, each kind in cycle order: a part of an
+    :class:`ExpectedStream`, whose next part has none of an earlier cycle than these."""
+
+    changes: Sequence[TracedChange]
+    quiet: Sequence[tuple[int, int]]
+    outputs: Sequence[TracedOutput]
+    runs: Sequence[PinnedRun]
+    blocks: Sequence[DigestBlock]
+
+    @property
+    def last(self) -> int:
+        """The last cycle it has a line of (-1: none): each line's first field is its
+        cycle."""
+        kinds: tuple[Sequence[tuple[Any, ...]], ...] = tuple(self)
+        return max((kind[-1][0] for kind in kinds if kind), default=-1)
+
+
+@dataclass(frozen=True)
+class ExpectedStream:
+    """An expectation as replay reads it, alongside the log: what applies to the whole
+    session, and its lines of cycles read afresh a part at a time, in cycle order
+    (:attr:`parts`), so that replay holds no more of a big baseline than a part and the
+    cycles of the log's batch it judges.
+
+    ``departs`` says whether any state changes or outputs depart from the recording,
+    ``pinned`` whether any robot states are pinned, ``behaviors`` the names the state
+    changes give, in the order they first appear.
+    """
+
+    draws: tuple[DrawRule, ...]
+    open_loop: tuple[int, int] | None
+    departs: bool
+    pinned: bool
+    behaviors: tuple[str, ...]
+    parts: Callable[[], Iterator[ExpectedPart]]
+    """Each call reads the lines afresh, from the first."""

@@ -5,31 +5,39 @@ Replay judges a cycle by comparing the bytes the behaviors produce with the reco
 puts the expected state changes and outputs in each record as replay reads it,
 encoded as a log would: the baseline's departures
 (:mod:`beatlog.replaying.departures`) where the behaviors depart from the recording,
-every other cycle keeping its recorded bytes.
+every other cycle keeping its recorded bytes. It reads the baseline as replay reads the
+log, a part at a time (:class:`~beatlog.replaying.expectation.ExpectedStream`), holding
+only what the batch at hand and the part read last need: its robot-state pins go to the
+replay's :class:`~beatlog.replaying.pins.PinChecker` the same way.
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Iterator, Sequence
-from operator import attrgetter
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from operator import attrgetter, itemgetter
 from typing import Any
 
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord, payload_encoder
-from beatlog.replaying.expectation import Expectation
+from beatlog.replaying.expectation import ExpectedPart, ExpectedStream, TracedOutput
 from beatlog.replaying.held_outputs import HeldOutputs
+from beatlog.replaying.pins import PinChecker
 from beatlog.replaying.verdict import StateChange
 
 __all__ = ["ExpectedRecords"]
 
 _CYCLE = attrgetter("cycle")
+_FIRST = itemgetter(0)
+_ALL = 1 << 62
+"""Past any cycle: every part is read."""
 
 
 class ExpectedRecords:
     """An approved baseline's state changes and outputs, encoded to stand in for the
-    recorded ones, cycle by cycle.
+    recorded ones, cycle by cycle, and its robot-state pins handed to ``pins``.
 
     ``recorded_names`` is the log's behavior catalogue and ``rename`` maps a recorded
     name to its name now. :attr:`names` is the catalogue the expected state changes are
@@ -39,58 +47,102 @@ class ExpectedRecords:
 
     def __init__(
         self,
-        expectation: Expectation,
+        expected: ExpectedStream,
         recorded_names: Sequence[str],
         rename: Callable[[str], str],
+        pins: PinChecker | None,
     ) -> None:
         self._encoder = payload_encoder()
         names = list(recorded_names)
         index: dict[str, int] = {}
         for position, name in enumerate(names):
             index.setdefault(rename(name), position)
-        self._changes: dict[int, msgspec.Raw] = {}
-        for cycle, changes in (expectation.changes_override() or {}).items():
-            self._changes[cycle] = self._encode_changes(changes, names, index)
-        self.names = names
-        self._outputs = expectation.outputs
-
-    def _encode_changes(
-        self, changes: list[StateChange], names: list[str], index: dict[str, int]
-    ) -> msgspec.Raw:
-        records: list[StateChangeRecord] = []
-        for behavior, before, after in changes:
+        for behavior in expected.behaviors:
             if behavior not in index:
                 index[behavior] = len(names)
                 names.append(behavior)
-            records.append((index[behavior], before, after))
+        self.names = names
+        self._index = index
+        self._expected = expected
+        self._pins = pins
+        self._changes: deque[tuple[int, list[StateChange]]] = deque()
+        """The state changes of the cycles read and not yet handed on, by cycle."""
+        self._lines: deque[tuple[int, list[TracedOutput]]] = deque()
+        """Likewise the output lines."""
+        self._read = -1
+        """The last cycle of the parts read: every line of an earlier one is read."""
+
+    def _encode_changes(self, changes: list[StateChange]) -> msgspec.Raw:
+        index = self._index
+        records: list[StateChangeRecord] = [
+            (index[behavior], before, after) for behavior, before, after in changes
+        ]
         return msgspec.Raw(self._encoder.encode(records)) if records else EMPTY_LIST
+
+    def _read_to(self, parts: Iterator[ExpectedPart], end: int) -> None:
+        """Read parts until every line of a cycle before ``end`` is read."""
+        while self._read < end:
+            part = next(parts, None)
+            if part is None:
+                self._read = _ALL
+                return
+            grouped: dict[int, list[StateChange]] = {}
+            for traced in part.changes:
+                grouped.setdefault(traced.cycle, []).append(traced.change)
+            for cycle, _ in part.quiet:
+                grouped[cycle] = []
+            _queue(self._changes, sorted(grouped.items(), key=_FIRST))
+            _queue(
+                self._lines,
+                ((cycle, list(lines)) for cycle, lines in itertools.groupby(part.outputs, _CYCLE)),
+            )
+            if self._pins is not None:
+                self._pins.add(part.runs, part.blocks)
+            self._read = max(self._read, part.last)
 
     def batches(
         self, batches: Iterator[Sequence[CycleRecord]], path: Any
     ) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches with the expected state changes and outputs in place of the
-        recorded ones (``path`` names the log in errors)."""
-        changes = self._changes
-        lines = {
-            cycle: list(outputs) for cycle, outputs in itertools.groupby(self._outputs, key=_CYCLE)
-        }
-        events = iter(sorted(changes.keys() | lines.keys()))
-        """The cycles with departing state changes or output lines."""
-        event = next(events, None)
+        recorded ones (``path`` names the log in errors), the baseline read alongside."""
+        parts = self._expected.parts()
+        self._read = -1
+        queued_changes, queued_lines = self._changes, self._lines
         held = HeldOutputs(path)
         holding = False
         cycle = 0
         for batch in batches:
             start, end = cycle, cycle + len(batch)
-            while event is not None and event < end:
+            self._read_to(parts, end)
+            if self._pins is not None:
+                self._pins.forget(start)
+            changes: dict[int, msgspec.Raw] = {}
+            while queued_changes and queued_changes[0][0] < end:
+                at, cycle_changes = queued_changes.popleft()
+                changes[at] = self._encode_changes(cycle_changes)
+            lines: dict[int, list[TracedOutput]] = {}
+            while queued_lines and queued_lines[0][0] < end:
+                at, cycle_lines = queued_lines.popleft()
+                lines[at] = cycle_lines
+            for event in sorted(changes.keys() | lines.keys()):
                 if holding:
                     held.put(batch[start - cycle : event - cycle], start)
                 if event in changes:
                     batch[event - cycle].state_changes = changes[event]
                 if event in lines:
                     holding = held.hold(lines[event])
-                start, event = event, next(events, None)
+                start = event
             if holding:
                 held.put(batch[start - cycle :] if start > cycle else batch, start)
             cycle = end
             yield batch
+
+
+def _queue(queue: deque[tuple[int, list[Any]]], by_cycle: Iterable[tuple[int, list[Any]]]) -> None:
+    """Queue the lines of each cycle, those of the cycle queued last joining its own
+    (a part may end within a cycle's lines)."""
+    for cycle, lines in by_cycle:
+        if queue and queue[-1][0] == cycle:
+            queue[-1][1].extend(lines)
+        else:
+            queue.append((cycle, lines))

@@ -38,7 +38,7 @@ from beatlog.project.usercode import load_perception, load_system, user_tracebac
 from beatlog.replaying.compare import Comparison, state_fields
 from beatlog.replaying.core import CycleOutcome, Expected, Replayer
 from beatlog.replaying.draws import DrawLedger, Unapproved
-from beatlog.replaying.expectation import Expectation
+from beatlog.replaying.expectation import Expectation, ExpectedStream
 from beatlog.replaying.expected import ExpectedRecords
 from beatlog.replaying.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replaying.fit.migration import StateMigration
@@ -85,7 +85,7 @@ def replay(
     allow_empty: bool = False,
     context_cycles: int = 5,
     comparison: Comparison | None = None,
-    expected: Expectation | None = None,
+    expected: Expectation | ExpectedStream | None = None,
     explain: bool = True,
     perception: Perception | str | None = None,
     break_at: int | None = None,
@@ -119,14 +119,16 @@ def replay(
 
     ``comparison`` says what counts as the same (renames, ignored behaviors and output
     fields, tolerances; exact by default). ``expected`` is an approved baseline to judge
-    against instead of the recording: its state changes, and its outputs when it pins
-    them (else the recorded outputs); the recording's heartbeats, robot states and
-    random numbers are still used (and in sensor-level replay, the robot states it pins
-    instead of the recorded ones). When the behaviors differ from what was expected
-    only by a consistent renaming, the divergence proposes the rename map. Given a
-    ``module:factory`` reference and ``explain``, the divergence also names the
-    robot-state fields the behaviors read in that cycle (one more replay, of a fresh
-    system; a suite gathers them with its other details instead). The result's
+    against instead of the recording (read alongside the log, a part at a time, when
+    it is an :class:`~beatlog.replaying.expectation.ExpectedStream`): its state changes,
+    and its outputs when it pins them (else the recorded outputs); the recording's
+    heartbeats, robot states and random numbers are still used (and in sensor-level
+    replay, the robot states it pins instead of the recorded ones). When the behaviors
+    differ from what was expected only by a consistent renaming, the divergence
+    proposes the rename map. Given a ``module:factory`` reference and ``explain``, the
+    divergence also names the robot-state fields the behaviors read in that cycle (one
+    more replay, of a fresh system; a suite gathers them with its other details
+    instead). The result's
     reproduce command replays with these options, except ``comparison`` and
     ``expected``, which a spec carries (see :func:`beatlog.suite.run_spec`).
 
@@ -186,6 +188,8 @@ def replay(
         perception = load_perception(perception)
     comparison = comparison or Comparison()
     migration = migration or StateMigration()
+    if isinstance(expected, Expectation):
+        expected = expected.stream()
     started = time.perf_counter()  # the replay's wall time counts opening and checking the log
 
     def reproduce(recorded: str) -> str:
@@ -213,7 +217,7 @@ def replay(
             migration=migration,
             living=expected is not None,
             rename=comparison.rename,
-            state_pins=None if expected is None else PinChecker(expected.state_pins),
+            state_pins=None if expected is None else PinChecker(pinned=expected.pinned),
         )
     except SetupDrawError as diverged:
         wall = time.perf_counter() - started
@@ -340,7 +344,7 @@ class CycleJudge:
         keep_going: bool,
         context: int,
         comparison: Comparison,
-        expected: Expectation | None,
+        expected: ExpectedStream | None,
         start_cycle: int = 0,
         end_cycle: int | None = None,
         invariants: InvariantChecker | None = None,
@@ -356,8 +360,7 @@ class CycleJudge:
         """The first cycle judged: those before it only rebuild the behaviors' state."""
         self._end = end_cycle
         """The last cycle judged and read; None: the log's last."""
-        self._start_ns = 0
-        """Robot time where the window starts."""
+        self._start_ns = 0  # robot time where the window starts
         self._before = (0, 0, 0, 0)
         """What the replay core counted before the window (state changes, outputs and
         draws of the cycles that agreed at once, samples perceived): not judged."""
@@ -376,26 +379,27 @@ class CycleJudge:
         self._follower: Follower | None = None
         """What follows replay past the divergence where judging stopped."""
         self._encoder = encoder = payload_encoder()
+        self._state_pins: PinChecker | None = (
+            replayer.state_pins if replayer.perception is not None else None
+        )
         self._expected = (
             None
-            if expected is None or expected.as_recorded
-            else ExpectedRecords(expected, header.behaviors, comparison.rename)
+            if expected is None
+            else ExpectedRecords(expected, header.behaviors, comparison.rename, self._state_pins)
         )
         self.expected_names = (
             list(header.behaviors) if self._expected is None else self._expected.names
         )
         self._ledger = None if expected is None else DrawLedger(expected.draws)
         """The draws the approved baseline approves."""
-        self._state_pins: PinChecker | None = (
-            replayer.state_pins if replayer.perception is not None else None
-        )
         expected_at: dict[str, int] = {}
         for position, name in enumerate(self.expected_names):
             expected_at.setdefault(comparison.rename(name), position)
         expected_index = [expected_at.get(name, -1) for name in self.executor.behavior_ids]
         """Each behavior's index in the expected catalogue (-1: none there), for comparing
         the state changes as bytes when the catalogues differ."""
-        self._against = "the recording" if self._expected is None else "the approved baseline"
+        departs = expected is not None and expected.departs
+        self._against = "the approved baseline" if departs else "the recording"
         self._batches: deque[Sequence[CycleRecord]] = deque(maxlen=context + 1)
         """The last batches: they hold the cycles before a divergence (none is empty)."""
         self._recent: list[CycleRecord] = []
@@ -816,7 +820,7 @@ class CycleJudge:
         pins = self._state_pins
         if pins is None or outcome.cycle not in pins:
             names = ", ".join(d.field for d in differences)
-            against = " from the approved baseline" if pins and pins.cycles else ""
+            against = " from the approved baseline" if pins and pins.pinned else ""
             return f"the robot state rebuilt from the samples differs{against} in {names}"
         run = pins.run_at(outcome.cycle)
         rebuilt = state_fields(outcome.state)

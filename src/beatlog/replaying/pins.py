@@ -25,15 +25,23 @@ from __future__ import annotations
 
 import base64
 import bisect
-import functools
-import string
 import struct
+from collections import deque
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from operator import add
 from typing import Any, NamedTuple
 
 from beatlog.replaying.compare import Comparison
+from beatlog.replaying.pin_lines import (
+    BASE64_DIGITS,
+    CYCLES_PER_BLOCK,
+    TAG_CHARS,
+    UNPINNED,
+    DigestBlock,
+    PinCoverage,
+    PinnedRun,
+)
 from beatlog.replaying.state_digests import DIGEST_BYTES, block_digest, state_number
 
 __all__ = [
@@ -45,29 +53,16 @@ __all__ = [
     "UNPINNED",
     "DigestBlock",
     "PinChecker",
+    "PinCoverage",
     "PinnedRun",
     "RebuiltState",
     "StatePins",
     "rebuilt_otherwise",
 ]
 
-TAG_CHARS = 2
-"""A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
-CYCLES_PER_BLOCK = 64
-"""The most cycles one block (one line of a baseline) spans."""
 MAX_GAP = 16
 """The most cycles perception may rebuild as recorded inside one run: a gap costs a
 tag each, a new run a line of names and values."""
-UNPINNED = ".."
-"""The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
-_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
-"""The base64 digits, in the order of the six bits each stands for."""
-_DIGIT = ord("x")
-_MARKS = bytes(
-    _DIGIT if chr(byte) in _DIGITS else byte if chr(byte) == UNPINNED[0] else 0
-    for byte in range(256)
-)
-"""Each digit as ``x``, so that a gap's dots stand out, and any other character as 0."""
 _EXACT = Comparison()
 
 
@@ -93,50 +88,6 @@ class RebuiltState(NamedTuple):
     """The :func:`~beatlog.replaying.state_digests.state_digest` of the whole rebuilt state."""
 
 
-class PinnedRun(NamedTuple):
-    """Cycles in which perception rebuilds the robot state otherwise than recorded, from
-    ``cycle`` to ``last`` with gaps of at most :data:`MAX_GAP` cycles (as recorded): what
-    a review needs of them."""
-
-    cycle: int
-    """The first of them."""
-    time_ns: int
-    last: int
-    """The last of them."""
-    cycles: int
-    """How many are pinned: ``last - cycle + 1`` less the gaps."""
-    fields: tuple[str, ...]
-    """The fields that differ from the recording in any of them, sorted."""
-    first: dict[str, Any]
-    """The fields that differ in the first cycle, with their rebuilt values."""
-
-
-class DigestBlock(NamedTuple):
-    """Up to :data:`CYCLES_PER_BLOCK` consecutive cycles of a run: a tag each
-    (:data:`UNPINNED` for a gap), and the digest of the pinned ones' whole digests."""
-
-    cycle: int
-    """The first of them, a pinned one."""
-    time_ns: int
-    tags: str
-    """:data:`TAG_CHARS` a cycle, in cycle order."""
-    digest: bytes
-
-    @property
-    def cycles(self) -> int:
-        """How many cycles the block spans."""
-        return len(self.tags) // TAG_CHARS
-
-    def tag(self, offset: int) -> str:
-        """The tag of the block's cycle ``cycle + offset``."""
-        return self.tags[offset * TAG_CHARS : (offset + 1) * TAG_CHARS]
-
-    @property
-    def pinned(self) -> list[int]:
-        """The offsets of the cycles it pins (not gaps)."""
-        return [offset for offset in range(self.cycles) if self.tag(offset) != UNPINNED]
-
-
 @dataclass(frozen=True)
 class StatePins:
     """The robot states a baseline pins by digest: runs, and the blocks that cover them.
@@ -148,7 +99,8 @@ class StatePins:
     blocks: tuple[DigestBlock, ...] = ()
 
     def __post_init__(self) -> None:
-        problem = _coverage_problem(self.runs, self.blocks)
+        coverage = PinCoverage()
+        problem = coverage.add(self.runs, self.blocks) or coverage.end()
         if problem is not None:
             raise ValueError(problem)
 
@@ -209,52 +161,6 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         start = end
 
 
-def _coverage_problem(runs: tuple[PinnedRun, ...], blocks: tuple[DigestBlock, ...]) -> str | None:
-    """Why the blocks do not cover the runs, in order, if they do not."""
-    index = 0
-    end = -1
-    for run in runs:
-        where = f"the robot-state run from cycle {run.cycle}"
-        if run.cycle <= end or run.last < run.cycle:
-            return f"{where} is out of order"
-        if not run.first or not set(run.first) <= set(run.fields):
-            return f"{where} names no fields that differ in its first cycle"
-        start, pinned = run.cycle, 0
-        while index < len(blocks) and blocks[index].cycle <= run.last:
-            block = blocks[index]
-            if block.cycle < start or (pinned == 0 and block.cycle != run.cycle):
-                return f"{where} has its digests of cycle {block.cycle} out of place"
-            cycles = len(block.tags) // TAG_CHARS
-            tagged = _tagged(block.tags)
-            if tagged is None or not 0 < cycles <= CYCLES_PER_BLOCK:
-                return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
-            start = block.cycle + cycles
-            pinned += tagged
-            index += 1
-        if start != run.last + 1:
-            return f"{where} has digests that do not end at its last cycle, {run.last}"
-        if pinned != run.cycles:
-            return f"{where} says {run.cycles} cycles, its digests pin {pinned}"
-        end = run.last
-    if index < len(blocks):
-        return f"the digests from cycle {blocks[index].cycle} are in no robot-state run"
-    return None
-
-
-def _tagged(tags: str) -> int | None:
-    """How many cycles ``tags`` pin, if they are tags of :data:`TAG_CHARS` base64 digits,
-    or :data:`UNPINNED`, one after another: read as bytes (a regular expression saying
-    so, or a translation of the characters as text, costs ten times as much)."""
-    if len(tags) % TAG_CHARS or not tags.isascii():
-        return None
-    marks = tags.encode().translate(_MARKS)
-    if 0 in marks:  # a character neither a digit nor a dot (an int: a byte found at once)
-        return None
-    if marks[::2] != marks[1::2]:  # a tag's two characters: both dots or neither
-        return None
-    return marks.count(_DIGIT) // TAG_CHARS
-
-
 _GAP = 0xFF
 """What :data:`_SIXES` makes of a gap's characters."""
 TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
@@ -270,7 +176,9 @@ above any tag however marked."""
 _HIGH = [six << 6 for six in range(256)]
 """The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
 it: a tag is ``_HIGH[first] + second``."""
-_SIXES = bytes.maketrans(f"{_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(_DIGITS)), _GAP]))
+_SIXES = bytes.maketrans(
+    f"{BASE64_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(BASE64_DIGITS)), _GAP])
+)
 """Each tag character as the six bits it stands for: a cycle's tag is the first 12
 bits of its digest (:func:`_tag`), high six first."""
 
@@ -280,25 +188,59 @@ class PinChecker:
     pinned cycle after another, in cycle order.
 
     It costs a digest and a few look-ups a pinned cycle: each block's tags are read
-    into :attr:`tags` when it is made, in C, and a block's digest is checked at its
+    into :attr:`tags` when it is added, in C, and a block's digest is checked at its
     last pinned cycle. The replay core's perception step inlines the common case of
     :meth:`mismatch` (:attr:`tags`, :attr:`digest`, :attr:`digests`) and leaves the
-    rest to :meth:`judge_digest`.
+    rest to :meth:`judge_digest`. Replay adds a baseline's pins as it reads them
+    (:meth:`add`), and forgets those of the cycles it has judged (:meth:`forget`), so
+    that it holds the pins of the cycles at hand, however many the baseline has.
+    ``pinned`` says whether the baseline pins any robot state at all.
     """
 
-    def __init__(self, pins: StatePins) -> None:
+    def __init__(self, pins: StatePins | None = None, *, pinned: bool | None = None) -> None:
         self.digest = state_number
         """A rebuilt state's digest, of its bytes as a log encodes them."""
         self._block_digest = block_digest
-        blocks = pins.blocks
-        tags = [NOT_PINNED] * (blocks[-1].cycle + blocks[-1].cycles if blocks else 0)
+        self.tags: dict[int, int] = {}
+        """By cycle, the pinned ones added and not forgotten: a pinned cycle's tag (the
+        first 12 bits of its digest, :data:`TAG_SHIFT`), marked above those bits where
+        a block opens or closes; :data:`NOT_PINNED` or more for a gap. A digest whose
+        tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any other is
+        for :meth:`judge_digest`."""
         self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
         """Each block by its last pinned cycle, where its digest is checked, with its
         first pinned cycle and how many it pins."""
+        self._blocks: deque[DigestBlock] = deque()
+        """The blocks added and not forgotten, in cycle order."""
+        self.digests: list[int] = []
+        """The digests of the cycles judged since the last block opened whose tags
+        agreed, in cycle order: checked with the block's digest where it closes."""
+        self._opened = -1
+        """The first pinned cycle of the block they are of."""
+        self._found: dict[int, str] = {}
+        """How the cycles found to differ were found to."""
+        self._runs: list[PinnedRun] = []
+        self._starts: list[int] = []
+        if pins is not None:
+            self.add(pins.runs, pins.blocks)
+        self.pinned = bool(self.tags) if pinned is None else pinned
+
+    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> None:
+        """Add the runs and blocks of the cycles that follow those added (read and
+        checked as a baseline's are)."""
+        for run in runs:
+            self._runs.append(run)
+            self._starts.append(run.cycle)
+        tags = self.tags
         for block in blocks:
+            self._blocks.append(block)
             sixes = block.tags.encode().translate(_SIXES)
-            tags[block.cycle : block.cycle + block.cycles] = map(
-                add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]
+            tags.update(
+                zip(
+                    range(block.cycle, block.cycle + block.cycles),
+                    map(add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]),
+                    strict=True,
+                )
             )
             first = block.cycle + (len(block.tags) - len(block.tags.lstrip(UNPINNED))) // TAG_CHARS
             final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
@@ -308,31 +250,26 @@ class PinChecker:
             tags[final] |= _CLOSES
             pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
             self._finals[final] = (block, first, pinned)
-        self.tags: list[int] = tags
-        """By cycle, from 0 to the last pinned one: a pinned cycle's tag (the first 12
-        bits of its digest, :data:`TAG_SHIFT`), marked above those bits where a block
-        opens or closes; :data:`NOT_PINNED` or more for a cycle not pinned. A digest
-        whose tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any
-        other is for :meth:`judge_digest`."""
-        self.digests: list[int] = []
-        """The digests of the cycles judged since the last block opened whose tags
-        agreed, in cycle order: checked with the block's digest where it closes."""
-        self._opened = -1
-        """The first pinned cycle of the block they are of."""
-        self._found: dict[int, str] = {}
-        """How the cycles found to differ were found to."""
-        self._runs = pins.runs
-        self._starts = [run.cycle for run in pins.runs]
 
-    @functools.cached_property
+    def forget(self, before: int) -> None:
+        """Forget the pins of the blocks and runs that end before cycle ``before``."""
+        blocks, tags, finals = self._blocks, self.tags, self._finals
+        while blocks and blocks[0].cycle + blocks[0].cycles <= before:
+            block = blocks.popleft()
+            for cycle in range(block.cycle, block.cycle + block.cycles):
+                tags.pop(cycle, None)
+                finals.pop(cycle, None)
+        ended = bisect.bisect_left([run.last for run in self._runs], before)
+        if ended:
+            del self._runs[:ended], self._starts[:ended]
+
+    @property
     def cycles(self) -> frozenset[int]:
-        """The pinned cycles."""
-        return frozenset(cycle for cycle, tag in enumerate(self.tags) if tag < NOT_PINNED)
+        """The pinned cycles added and not forgotten."""
+        return frozenset(cycle for cycle, tag in self.tags.items() if tag < NOT_PINNED)
 
     def __contains__(self, cycle: object) -> bool:
-        return (
-            isinstance(cycle, int) and 0 <= cycle < len(self.tags) and self.tags[cycle] < NOT_PINNED
-        )
+        return isinstance(cycle, int) and self.tags.get(cycle, NOT_PINNED) < NOT_PINNED
 
     def run_at(self, cycle: int) -> PinnedRun:
         """The run a pinned cycle is in."""

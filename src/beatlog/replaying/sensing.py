@@ -15,7 +15,7 @@ from beatlog.log.format import CycleRecord
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.replaying.cycle_reader import CycleReader
 from beatlog.replaying.outcome import Sensed
-from beatlog.replaying.pins import NOT_PINNED, TAG_SHIFT, PinChecker, StatePins
+from beatlog.replaying.pins import NOT_PINNED, TAG_SHIFT, PinChecker
 
 __all__ = ["UNREAD", "Perceiver"]
 
@@ -58,9 +58,10 @@ class Perceiver:
         self._robot_state = robot_state
         self._reader = reader
         self._encode = encode
-        pins = state_pins or PinChecker(StatePins())  # what a pinned cycle asks, looked up once
+        pins = state_pins or PinChecker()  # what a pinned cycle asks, looked up once
         self._tags = pins.tags
-        """The pins' tags by cycle (:attr:`PinChecker.tags`): none without pins."""
+        """The pins' tags by cycle (:attr:`PinChecker.tags`, kept up to date as replay
+        reads the baseline): none without pins."""
         self._digest = pins.digest
         self._digests = pins.digests
         self._judge_digest = pins.judge_digest
@@ -95,8 +96,7 @@ class Perceiver:
             encoded = None
         except msgspec.ValidationError:  # or what the log cannot give back as its type
             encoded = None
-        tags = self._tags
-        tag = tags[cycle] if cycle < len(tags) else NOT_PINNED
+        tag = self._tags.get(cycle, NOT_PINNED)
         if tag < NOT_PINNED:  # pinned: the approved state is expected
             if encoded is None:
                 differs = True

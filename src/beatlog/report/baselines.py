@@ -138,7 +138,7 @@ def open_loop_text(open_loop: tuple[int, int]) -> str:
 def render_approved(approved: Approved) -> Text:
     """The approved baseline a log is judged against, and where it goes open loop."""
     baseline = approved.baseline
-    open_loop = baseline.expectation.open_loop
+    open_loop = baseline.stream.open_loop
     return Text.assemble(
         ("approved baseline", "cyan"),
         f" {baseline.path.name} (spec {approved.spec.path.name})",

@@ -131,7 +131,7 @@ def replay(
     result = judge(
         log,
         system,
-        expected=found.baseline.expectation,
+        expected=found.baseline.stream,
         comparison=found.spec.comparison,
         **options,
     )

@@ -183,7 +183,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         approved = None
         if spec.source is None and spec.variant is None and baseline.exists():
             approved = read_baseline(baseline)
-        expected = None if approved is None else approved.expectation
+        expected = None if approved is None else approved.stream
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
         if spec.variant is not None:  # no baseline; judged by not raising, and no more
             return _variant_outcome(spec, system)
@@ -208,7 +208,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             result = judged(
                 system,
                 break_at=options.break_at,
-                observers=[_charting(system, expected, charts)] if timelines else (),
+                observers=[_charting(system, approved, charts)] if timelines else (),
                 readers=[functools.partial(_kept, recorded)] if options.coverage else (),
             )
         except BeatlogError:
@@ -230,7 +230,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
         updating = update is UpdateMode.NEW and divergence is not None
         refused = refusal(divergence) if updating and divergence is not None else None
-        details = _details(spec, log, system, divergence, expected, trace=updating, options=options)
+        details = _details(spec, log, system, divergence, approved, trace=updating, options=options)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         if spec.system is None:  # the log named it: say which, on every run
@@ -316,14 +316,15 @@ def _rerun(spec: DtcSpec, *options: str) -> str:
 
 
 def _charting(
-    system: str, expected: Expectation | None, charts: list[TimelineCollector]
+    system: str, approved: Baseline | None, charts: list[TimelineCollector]
 ) -> Callable[[SessionLogReader], TimelineCollector]:
     """What builds a timeline collector of the verdict's replay from the log it opens
-    (kept in ``charts``): its lanes start from the states of a system built as the
-    replayed one is, set-up draws and all."""
+    (kept in ``charts``), against the ``approved`` baseline (read whole): its lanes
+    start from the states of a system built as the replayed one is, set-up draws and
+    all."""
     from beatlog.analysis.timeline import TimelineCollector  # noqa: PLC0415 - when charting
 
-    override = None if expected is None else expected.changes_override()
+    override = None if approved is None else approved.expectation.changes_override()
     factory = functools.partial(load_system, system)
 
     def chart(reader: SessionLogReader) -> TimelineCollector:
@@ -354,14 +355,14 @@ def _details(
     log: Recording,
     system: str,
     divergence: Divergence | None,
-    expected: Expectation | None,
+    approved: Baseline | None,
     *,
     trace: bool,
     options: SpecOptions,
 ) -> Details | None:
     """One more replay, of a failed DTC, gathering what reports need (none where
     ``options`` ask for the verdict alone): of the bytes its verdict's replay kept,
-    where it kept them."""
+    where it kept them; the timelines against the ``approved`` baseline (read whole)."""
     if divergence is None or options.verdict_only or divergence.kind is DivergenceKind.SETUP:
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed
@@ -372,9 +373,13 @@ def _details(
         divergence,
         trace=trace,
         timelines=options.timelines,
-        expected=None if expected is None else expected.changes_override(),
+        expected=(  # read whole for the timelines alone
+            None
+            if approved is None or not options.timelines
+            else approved.expectation.changes_override()
+        ),
         perception=None if spec.perception is None else load_perception(spec.perception),
-        living=trace or expected is not None,
+        living=trace or approved is not None,
         rename=spec.comparison.rename,
         migration=spec.migration,
     )

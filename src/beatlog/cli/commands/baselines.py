@@ -177,12 +177,13 @@ def add_upgrade_arguments(upgrade: argparse.ArgumentParser) -> None:
 def run_upgrade(args: argparse.Namespace, console: Console) -> int:
     """Upgrade each older baseline given, naming each and the format it had."""
     from beatlog.baseline.upgrade import upgrade_baselines
+    from beatlog.baseline.write import FORMAT
 
     upgraded = upgrade_baselines(args.paths, _recording)
     if not upgraded:
         console.print("no baseline of an older format", highlight=False)
     for path, version in upgraded:
-        console.print(f"[green]upgraded[/] {path}: format {version} -> 6", highlight=False)
+        console.print(f"[green]upgraded[/] {path}: format {version} -> {FORMAT}", highlight=False)
     return EXIT_OK
 
 
