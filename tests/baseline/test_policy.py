@@ -91,6 +91,7 @@ def test_the_open_loop_share_is_of_the_cycles_from_the_open_loop_on() -> None:
         (DivergenceKind.EXCEPTION, "a behavior raised: an exception is a bug, never a baseline"),
         (DivergenceKind.LOG_ENDED, "a divergence in log ended cannot be re-baselined"),
         (DivergenceKind.PERCEPTION, "perception raised or built no robot state"),
+        (DivergenceKind.INVARIANT, "an invariant does not hold: a violation is a bug"),
     ],
 )
 def test_what_a_baseline_can_hold_and_what_needs_a_fix_or_a_recording(

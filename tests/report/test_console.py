@@ -22,6 +22,7 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.spec import DtcSpec, load_spec
 from tests.conftest import RecordFn, probe_system
 from tests.specs import CHANGED, PROBE, write_spec
+from tests.systems import never_close
 from tests.text import suite_names, table_row, whole_lines
 
 
@@ -253,3 +254,17 @@ def test_text_in_square_brackets_is_shown_as_written_never_taken_for_markup() ->
     text = plain_text(render_suite([dataclasses.replace(outcome, error=error)]), width=200)
 
     assert table_row(text, "dtc-000") == ["dtc-000", "error", "—", "—", "0.01 s", error]
+
+
+def test_an_invariant_that_does_not_hold_shows_what_it_saw(record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    text = plain_text(
+        render_replay(replay(log, probe_system(), invariants=[never_close])), width=100
+    )
+    lines = whole_lines(text)
+
+    assert "first divergence: cycle 35, t = 1.080 s, invariant" in lines[1]
+    assert "invariant never_close does not hold: 0.3 m from the pole" in lines
+    assert "behavior states after the update" in lines
+    assert table_row(text, "near") == ["near", "'near'"]
+    assert table_row(text, "speed") == ["speed", "0.0"]

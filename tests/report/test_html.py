@@ -21,7 +21,7 @@ from beatlog.report.html import write_html
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog_examples.rover import record_lockstep
-from tests.conftest import PERIOD_NS, Probe
+from tests.conftest import PERIOD_NS, Probe, RecordFn
 from tests.perceptions import CHANGED, record_with_samples
 from tests.specs import written_dtc
 from tests.systems import HOSTILE, hostile_system
@@ -301,3 +301,22 @@ def test_chromium_draws_every_chart(report: Report) -> None:
     colors = np.unique(pixels.reshape(-1, pixels.shape[-1]), axis=0)
     assert len(colors) > 20
     assert errors == []
+
+
+def test_an_invariant_divergence_shows_the_behavior_states(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    spec = written_dtc(
+        tmp_path,
+        "close",
+        record_probe(300),
+        "tests.conftest:probe_system",
+        invariants=["tests.systems:never_close"],
+    )
+    path = tmp_path / "report.html"
+    write_html(run_suite([spec]), path)
+    close = section(path.read_text(encoding="utf-8"), 1)
+
+    assert "invariant never_close does not hold: 0.3 m from the pole" in close
+    assert "<caption>behavior states after the update</caption>" in close
+    assert '<tr><td>near</td><td><span class="value">&#x27;near&#x27;</span></td></tr>' in close

@@ -1,6 +1,9 @@
-"""Invariants checked in every cycle a replay session steps (or a recorder records): an
-observer of the session, whose first violation is the verdict's when no divergence
-comes before it (:func:`beatlog.replaying.judge.replay`).
+"""Invariants checked in every cycle a replay session steps (or a recorder records).
+
+The checker is an observer of a replay session, keeping the first violation; in the
+verdict's own replay (:func:`beatlog.replaying.judge.replay`) the judge checks each
+cycle with it instead, so that the earliest failure, a violation or a difference from
+the recording, is the verdict.
 
 Each cycle is handed to the invariants as a :class:`~beatlog.model.invariant.Cycle`:
 RS_t as the behaviors saw it, every behavior's state after the update, BS_t, the
