@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import SpecError, SystemLoadError
-from beatlog.project.config import ProjectConfig, project_config, vouched_system
+from beatlog.project.config import ProjectConfig, VariantsConfig, project_config, vouched_system
 from tests.factories import vouch
 
 LOG = Path("walk.beatlog")
@@ -205,6 +205,37 @@ def test_bad_invariants_name_the_pyproject_and_the_key(
 ) -> None:
     pyproject = tmp_path / "pyproject.toml"
     pyproject.write_text(f"[tool.beatlog]\ninvariants = {value}\n", encoding="utf-8")
+
+    with pytest.raises(SpecError) as raised:
+        project_config(tmp_path)
+
+    assert str(raised.value) == f"{pyproject}: key 'tool.beatlog.{problem}"
+
+
+def test_the_variants_of_every_spec_are_read_from_the_project(tmp_path: Path) -> None:
+    (tmp_path / "pyproject.toml").write_text(
+        "[tool.beatlog.variants]\ncount = 8\nnoise = { battery = 0.05, pose.x = 0.01 }\n",
+        encoding="utf-8",
+    )
+
+    assert project_config(tmp_path).variants == VariantsConfig(
+        count=8, noise={"battery": 0.05, "pose.x": 0.01}
+    )
+
+
+@pytest.mark.parametrize(
+    ("line", "problem"),
+    [
+        ("count = -1", "variants.count': expected `int` >= 0"),
+        ("delay_samples = 2.0", "variants.delay_samples': expected `float` <= 1.0"),
+        ("draw = true", "variants': object contains unknown field `draw`"),
+    ],
+)
+def test_bad_variants_name_the_pyproject_and_the_key(
+    tmp_path: Path, line: str, problem: str
+) -> None:
+    pyproject = tmp_path / "pyproject.toml"
+    pyproject.write_text(f"[tool.beatlog.variants]\n{line}\n", encoding="utf-8")
 
     with pytest.raises(SpecError) as raised:
         project_config(tmp_path)
