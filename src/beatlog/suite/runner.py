@@ -186,7 +186,9 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         expected = None if approved is None else approved.stream
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
         if spec.variant is not None:  # no baseline; judged by not raising, and no more
-            return _variant_outcome(spec, system)
+            result = replay_variant_of(spec, system)
+            verdict = Verdict.PASSED if result.ok else Verdict.FAILED
+            return SpecOutcome(spec, verdict, result, None, result.wall_time_s)
         judged = functools.partial(
             replay,
             log,
@@ -278,13 +280,6 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         recorded=recorded[0] if recorded else None,
         recording=None if changes is None or log.data is None else log,
     )
-
-
-def _variant_outcome(spec: DtcSpec, system: str) -> SpecOutcome:
-    """The outcome of a variant (:func:`~beatlog.suite.variants.replay_variant_of`)."""
-    result = replay_variant_of(spec, system)
-    verdict = Verdict.PASSED if result.ok else Verdict.FAILED
-    return SpecOutcome(spec, verdict, result, None, result.wall_time_s)
 
 
 def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> None:
