@@ -354,6 +354,32 @@ def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
     )
 
 
+def test_a_suite_past_its_open_loop_limits_fails_under_pytest_as_under_beatlog_test(
+    pytester: pytest.Pytester, log: Path
+) -> None:
+    changed = "tests.conftest:probe_system_changed"
+    spec = pytester.makefile(".dtc.toml", approach=spec_text("approach-wall", log, changed))
+    pytester.makefile(".dtc.toml", steady=spec_text("steady", log))
+    pytester.runpytest("--beatlog-update")
+    pending_path(spec).replace(expected_path(spec))
+    pyproject = pytester.path / "pyproject.toml"
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_dtcs = 1\n", encoding="utf-8")
+    assert pytester.runpytest().ret == pytest.ExitCode.OK
+
+    pyproject.write_text("[tool.beatlog]\nmax_open_loop_share = 0.5\n", encoding="utf-8")
+    stale = pytester.runpytest()
+
+    stale.assert_outcomes(passed=2)
+    assert stale.ret == pytest.ExitCode.TESTS_FAILED
+    stale.stdout.fnmatch_lines(
+        [
+            "stale suite ([tool.beatlog]): 1 runs open loop for more than 50 % of its cycles "
+            "(max_open_loop_share = 0.5)",
+            "re-record first: approach-wall (90 % open loop)",
+        ]
+    )
+
+
 def test_audit_fails_a_dtc_whose_behaviors_leak_and_passes_a_sound_one(
     pytester: pytest.Pytester, log: Path, tmp_path: Path
 ) -> None:

@@ -12,7 +12,13 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from beatlog.baseline.policy import SpecOptions, UpdateMode
+from beatlog.baseline.policy import (
+    SpecOptions,
+    StaleSuite,
+    UpdateMode,
+    open_loop_share,
+    stale_suite,
+)
 from beatlog.errors import BeatlogError, OptionError, SpecError
 from beatlog.suite.discovery import discover_specs, distinguished
 from beatlog.suite.spec import DtcSpec, load_spec
@@ -90,8 +96,10 @@ class DtcItem(pytest.Item):
             run.recorded[self.spec.path] = outcome.recorded
         self.user_properties.append((VERDICT, outcome.verdict.value))
         self.user_properties.append((SPEC, str(self.spec.path)))
-        if outcome.open_loop is not None:
-            self.user_properties.append((OPEN_LOOP, outcome.open_loop[0]))
+        if outcome.open_loop is not None and outcome.result is not None:
+            share = open_loop_share(outcome.result.cycles, outcome.open_loop[0])
+            passed = int(outcome.verdict is Verdict.PASSED)  # only those passing judge the suite
+            self.user_properties.append((OPEN_LOOP, f"{passed} {share!r} {self.spec.label}"))
         if outcome.result is not None:  # what it checked, as beatlog test's JUnit has it
             self.user_properties.extend(
                 (f"beatlog_{name}", count) for name, count in outcome.result.counts.items()
@@ -179,8 +187,11 @@ class BeatlogRun:
     """The specs that ran: their folders are where orphaned baselines are looked for."""
     lines: list[str] = field(default_factory=list)
     """What updating the baselines did."""
-    open_loop: int = 0
-    """The DTCs judged against baselines whose behaviors left the recording."""
+    open_loop: list[tuple[bool, str, float]] = field(default_factory=list)
+    """The DTCs judged against baselines whose behaviors left the recording: whether
+    each passed, its label and the share of its cycles run open loop."""
+    stale: StaleSuite | None = None
+    """Whether the DTCs that ran are past the project's open-loop limits."""
     recorded: dict[Path, RecordedChanges] = field(default_factory=dict)
     """By spec, the state changes its log recorded, as its verdict's replay read them
     for the coverage (here; an xdist worker's DTCs' logs are read again for it)."""
@@ -229,13 +240,32 @@ class BeatlogRun:
             elif name == UPDATE:
                 self.lines.append(str(value))
             elif name == OPEN_LOOP:
-                self.open_loop += 1
+                passed, share, label = str(value).split(" ", 2)
+                self.open_loop.append((passed == "1", label, float(share)))
+
+    @pytest.hookimpl(tryfirst=True)
+    def pytest_sessionfinish(self, session: pytest.Session) -> None:
+        """Fail a run whose DTCs passed but are past the project's open-loop limits
+        (``[tool.beatlog]`` ``max_open_loop_share``, ``max_open_loop_dtcs``), as
+        ``beatlog test`` does."""
+        if self.worker or not self.open_loop:
+            return
+        from beatlog.project.config import project_config  # noqa: PLC0415 - see the imports
+
+        project = project_config(self.root)
+        passed = [(label, share) for ok, label, share in self.open_loop if ok]
+        self.stale = stale_suite(
+            passed, max_share=project.max_open_loop_share, max_dtcs=project.max_open_loop_dtcs
+        )
+        if self.stale is not None and session.exitstatus == pytest.ExitCode.OK:
+            session.exitstatus = pytest.ExitCode.TESTS_FAILED
 
     def pytest_terminal_summary(self, terminalreporter: pytest.TerminalReporter) -> None:
         """The pending baselines written, the orphans, the coverage and the DTCs' verdicts."""
         if not self.verdicts:
             return
-        from beatlog.report.counts import plural, verdict_counts  # noqa: PLC0415 - see the imports
+        from beatlog.report.baselines import render_stale  # noqa: PLC0415 - see the imports
+        from beatlog.report.counts import plural, verdict_counts  # noqa: PLC0415
         from beatlog.report.suite import plain_lines  # noqa: PLC0415
 
         report, problem = self._report()
@@ -244,12 +274,13 @@ class BeatlogRun:
             lines.append(f"beatlog: {problem}")
         lines.extend(f"beatlog: warning: {warning}" for warning in report.warnings)
         lines.extend(plain_lines(report.coverage_lines()))
+        lines.extend(plain_lines(render_stale(self.stale)))
         if report.error is not None:
             lines.append(f"beatlog: warning: {report.error}")
         terminalreporter.section("beatlog")
         for line in lines:
             terminalreporter.write_line(line)
-        counts = verdict_counts(self.verdicts, open_loop=self.open_loop)
+        counts = verdict_counts(self.verdicts, open_loop=len(self.open_loop))
         terminalreporter.write_line(f"{plural(len(self.verdicts), 'DTC')}: {counts}")
 
     def _report(self) -> tuple[SuiteReport, str | None]:
