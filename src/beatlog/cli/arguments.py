@@ -100,21 +100,19 @@ def shard(text: str) -> Shard:
 
 def cycle_number(text: str) -> int:
     """A cycle of a log: 0 or more."""
-    try:
-        cycle = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a cycle number: {text!r}") from None
-    if cycle < 0:
-        raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
-    return cycle
+    return _zero_or_more(text, "a cycle number")
 
 
 def count(text: str) -> int:
     """How many of something: a whole number, 0 or more."""
+    return _zero_or_more(text, "a whole number")
+
+
+def _zero_or_more(text: str, what: str) -> int:
     try:
         number = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+        raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
     if number < 0:
         raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
     return number
