@@ -1,4 +1,5 @@
-"""Re-recording the suite: specs written for each scenario load as DTC specs."""
+"""Re-recording the suite: specs written for each scenario load as DTC specs, and are the
+committed ones."""
 
 from __future__ import annotations
 
@@ -6,10 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.replaying.perturbation import Perturbations
 from beatlog.suite.spec import load_spec
-from beatlog_examples.dog import invariants
+from beatlog_examples.dog import SUITE_DIR, invariants
 from beatlog_examples.dog.record_suite import main, spec_text
-from beatlog_examples.dog.scenarios import SUITE, scenario
+from beatlog_examples.dog.scenarios import SUITE, Scenario, scenario
+from beatlog_examples.dog.variants import VARIANTS
 
 
 @pytest.mark.parametrize("case", SUITE, ids=lambda case: case.name)
@@ -26,6 +29,14 @@ def test_every_scenario_gives_a_valid_spec(case: object, tmp_path: Path) -> None
     assert spec.system == "beatlog_examples.dog:system"
     assert spec.tags == chosen.tags
     assert spec.invariants == tuple(invariants.ALL)
+    assert spec.perturbations == Perturbations(**VARIANTS)
+    assert spec.variant_count == 0
+
+
+@pytest.mark.parametrize("case", SUITE, ids=lambda case: case.name)
+def test_every_committed_spec_is_the_one_recording_writes(case: Scenario) -> None:
+    committed = SUITE_DIR / f"{case.name}.dtc.toml"
+    assert committed.read_text(encoding="utf-8") == spec_text(case, f"{case.name}.beatlog")
 
 
 def test_an_unknown_case_is_a_usage_error(

@@ -21,10 +21,12 @@ def spec_text(
     tags: Iterable[str] = (),
     perception: str | None = None,
     invariants: Iterable[str] = (),
+    variants: Mapping[str, Any] | None = None,
 ) -> str:
     """A new spec as TOML text, for tools that write one beside a recording (``beatlog
     import-bag --spec``, a suite's recording script, a failing variant); ``log`` is
-    relative to the spec, and a spec without ``system`` replays the one its log records."""
+    relative to the spec, and a spec without ``system`` replays the one its log records.
+    ``variants`` is its ``[variants]`` table, where it declares variants."""
     lines = [
         f"name = {toml_string(name)}",
         f"purpose = {toml_string(purpose)}",
@@ -38,6 +40,9 @@ def spec_text(
     ]
     if checked := list(invariants):
         lines += ["invariants = [", *(f"    {toml_string(name)}," for name in checked), "]"]
+    if variants is not None:
+        table = (f"{_toml_key(key)} = {_toml_value(value)}" for key, value in variants.items())
+        lines += ["", "[variants]", *table]
     return "\n".join(lines) + "\n"
 
 

@@ -7,7 +7,8 @@
     python -m beatlog_examples.dog.record_suite some/folder      # somewhere else
 
 Each test case gets its session log ``NAME.beatlog`` and its spec ``NAME.dtc.toml``
-(name, purpose, the scenario's procedure, log, system, tags, the dog's invariants); a
+(name, purpose, the scenario's procedure, log, system, tags, the dog's invariants and
+what its variants perturb, :mod:`beatlog_examples.dog.variants`); a
 log already there is replaced, as re-recording means. Recording takes as long as the
 sessions last (about 18 minutes for the whole suite).
 """
@@ -24,6 +25,7 @@ from beatlog.suite.spec import SPEC_SUFFIX
 from beatlog_examples.dog import SUITE_DIR, invariants
 from beatlog_examples.dog.robot import PERCEPTION_REF, SYSTEM_REF, record_live
 from beatlog_examples.dog.scenarios import SUITE, Scenario
+from beatlog_examples.dog.variants import VARIANTS
 
 __all__ = ["main", "spec_text"]
 
@@ -39,6 +41,7 @@ def spec_text(scenario: Scenario, log: str) -> str:
         tags=scenario.tags,
         perception=PERCEPTION_REF,
         invariants=invariants.ALL,
+        variants=VARIANTS,
     )
 
 
