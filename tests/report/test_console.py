@@ -214,6 +214,12 @@ def test_a_longer_suite_lists_only_what_did_not_pass_and_counts_the_rest() -> No
     )
 
 
+def test_a_longer_suite_that_passes_whole_is_one_line_without_a_table() -> None:
+    text = plain_text(render_suite(outcomes(140)), width=120)
+
+    assert text == "140 passed, not listed: run with --verbose to list every DTC\n"
+
+
 def test_every_dtc_of_a_longer_suite_is_listed_when_asked() -> None:
     text = plain_text(render_suite(outcomes(140, failed=2), every=True), width=120)
 

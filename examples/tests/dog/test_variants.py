@@ -65,7 +65,7 @@ def test_the_unchanged_dog_passes_every_variant_of_its_suite(
 
     out = capsys.readouterr().out
     assert code == 0, out
-    assert "… and 66 passed (44 of them variants), not listed" in out
+    assert "66 passed (44 of them variants), not listed" in out
     assert out.splitlines()[-1].startswith("66 passed, 0 failed in ")
     assert len(out.splitlines()) <= 12
     assert list(SUITE_DIR.glob("*.variant-*")) == []

@@ -349,13 +349,12 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
         for outcome in outcomes
     )
     among = f" ({variants} of them variants)" if variants else ""
-    return Group(
-        table,
-        Text(
-            f"… and {hidden} passed{among}, not listed: run with --verbose to list every DTC",
-            style="dim",
-        ),
+    rest = Text(
+        f"{'… and ' if listed else ''}{hidden} passed{among}, not listed: "
+        "run with --verbose to list every DTC",
+        style="dim",
     )
+    return Group(table, rest) if listed else rest  # no table of nothing
 
 
 def plain_text(renderable: RenderableType, *, width: int = 100) -> str:
