@@ -47,8 +47,8 @@ class UncheckedReader(SessionLogReader):
     """The reader with the integrity checks of format 2 switched off: batches are only
     decoded, the end record and the summary are not compared, channels not vetted."""
 
-    def _batch(self, message: records.Message) -> list[CycleRecord]:
-        decoded = self._batch_decoder.decode(message.data)
+    def _batch(self, message: records.Message, *, skim: bool = False) -> list[CycleRecord]:
+        decoded = (self._decoding.skimming if skim else self._batch_decoder).decode(message.data)
         batch: list[CycleRecord] = decoded.cycles if hasattr(decoded, "cycles") else decoded
         self._cycles += len(batch)
         return batch

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import itertools
 import re
 import time
 from collections.abc import Callable
@@ -965,3 +966,87 @@ def test_a_window_past_the_logs_last_cycle_is_an_error(
         replay(log, probe_system(), start_cycle=start, end_cycle=end)
 
     assert str(raised.value) == f"{log}: {key} 300 is past the log's last cycle (299)"
+
+
+# a window from a fresh start
+
+
+class Noting(Dice):
+    """Dice that notes each cycle it steps in and the robot time it sees there."""
+
+    def __init__(self, seen: list[tuple[int, int]]) -> None:
+        super().__init__()
+        self.seen = seen
+
+    def step(self, rs: Probe, ctx: Context) -> Outputs | None:
+        self.seen.append((ctx.cycle, ctx.time_ns))
+        return super().step(rs, ctx)
+
+
+def recorded_times(log: Path) -> list[int]:
+    """The robot time at the end of each cycle of ``log``, as recorded."""
+    with SessionLogReader(log) as reader:
+        return list(itertools.accumulate(cycle.heartbeat_ns for cycle in reader.cycles()))
+
+
+def test_a_fresh_start_steps_the_windows_cycles_alone_at_their_recorded_times(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    seen: list[tuple[int, int]] = []
+    system = PriorityArbiter([Near(), Noting(seen)], robot_state=Probe)
+
+    result = replay(log, system, start_cycle=200, end_cycle=220, fresh_start=True, keep_going=True)
+
+    times = recorded_times(log)
+    assert seen == [(cycle, times[cycle]) for cycle in range(200, 221)]
+    assert result.cycles == 21
+    assert result.robot_time_ns == times[220] - times[199]
+    assert result.notes == (
+        "fresh start: the behaviors start from rest at cycle 200; "
+        "200 cycles before it not replayed",
+    )
+    assert result.reproduce.endswith("--start-cycle 200 --end-cycle 220 --fresh-start")
+
+
+def test_a_fresh_start_fails_where_its_window_fails_with_the_recorded_cycle_and_time(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    cycle = first_cycle_below(0.3) + 200  # the third approach
+
+    result = replay(log, "tests.systems:fragile_system", start_cycle=cycle, fresh_start=True)
+
+    assert result.divergence is not None
+    assert (result.divergence.kind, result.divergence.behavior) == (
+        DivergenceKind.EXCEPTION,
+        "dice",
+    )
+    assert (result.divergence.cycle, result.divergence.time_ns) == (
+        cycle,
+        recorded_times(log)[cycle],
+    )
+    assert result.divergence.fields_read == ("distance",)
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [
+        lambda data: drop_chunk(data, chunks(data)[3]),
+        lambda data: flip_byte(data, chunks(data)[3].offset + 60),
+    ],
+    ids=["chunk-dropped", "chunk-damaged"],
+)
+def test_a_log_damaged_before_a_fresh_start_is_still_bad_input(
+    record_chunked: RecordFn, damage: Callable[[bytes], bytes]
+) -> None:
+    log = record_chunked(300)
+    log.write_bytes(damage(log.read_bytes()))
+
+    with pytest.raises(CorruptLogError):
+        replay(log, probe_system(), start_cycle=200, end_cycle=220, fresh_start=True)
+
+
+def flip_byte(data: bytes, at: int) -> bytes:
+    """``data`` with the byte at ``at`` inverted."""
+    return data[:at] + bytes([data[at] ^ 0xFF]) + data[at + 1 :]

@@ -22,6 +22,7 @@ from tests.systems import LINGER, WORN_OUT
 
 WEARY = "tests.systems:weary_system"
 FUSSY = "tests.systems:fussy_system"
+FRAGILE = "tests.systems:fragile_system"
 LINGERS = "tests.systems:NeverLingers"
 WORN_OUT_CYCLE = first_cycle_below(0.5) + 100 * (WORN_OUT - 1)
 """Where the weary probe raises in a probe log: on its fourth approach to the pole."""
@@ -47,6 +48,48 @@ def test_a_failing_dtc_shrinks_to_a_window_that_ends_where_it_fails(weary: Path)
     assert 0 < shrunk.start_cycle <= shrunk.end_cycle
     assert shrunk.cycles_before == WORN_OUT_CYCLE + 1
     assert shrunk.perturbations_before == shrunk.perturbations == ()
+
+
+def test_a_failure_that_depends_on_history_replays_the_cycles_before_its_window(
+    weary: Path,
+) -> None:
+    tried: list[Attempt] = []
+
+    shrunk = shrink(weary, progress=tried.append)
+
+    assert (shrunk.start_cycle, shrunk.end_cycle) == (WORN_OUT_CYCLE, WORN_OUT_CYCLE)
+    assert not shrunk.fresh_start  # the near of a fresh start has made no approach yet
+    assert shrunk.cycles_replayed == WORN_OUT_CYCLE + 1
+    assert any(attempt.fresh_start for attempt in tried)  # tried first, and failed
+    assert not load_spec(shrunk.path).fresh_start
+
+
+def test_a_failure_that_does_not_depend_on_history_starts_fresh_at_the_failing_cycle(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    spec = write_spec(tmp_path, "fragile", record_probe(600), FRAGILE)
+    cycle = first_cycle_below(0.3)
+
+    shrunk = shrink(spec)
+
+    assert (shrunk.kind, shrunk.behavior, shrunk.cycle) == (
+        DivergenceKind.EXCEPTION,
+        "dice",
+        cycle,
+    )
+    assert (shrunk.start_cycle, shrunk.end_cycle, shrunk.fresh_start) == (cycle, cycle, True)
+    assert shrunk.cycles_replayed == 1
+    written = load_spec(shrunk.path)
+    assert (written.start_cycle, written.end_cycle, written.fresh_start) == (cycle, cycle, True)
+    again = run_spec(written)
+    assert again.result is not None
+    failure = again.result.divergence
+    assert failure is not None
+    assert (failure.kind, failure.behavior, failure.cycle) == (
+        DivergenceKind.EXCEPTION,
+        "dice",
+        cycle,
+    )
 
 
 def test_the_shrunk_spec_names_the_same_log_and_system_with_its_window(weary: Path) -> None:

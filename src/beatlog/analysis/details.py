@@ -52,6 +52,7 @@ def replay_details(
     living: bool = False,
     rename: Callable[[str], str] = str,
     migration: StateMigration | None = None,
+    fresh_from: int = 0,
 ) -> Details:
     """Replay ``log`` on a fresh ``system`` (or one its factory builds) once, gathering
     what is asked for.
@@ -64,6 +65,8 @@ def replay_details(
     there. ``living`` replay goes on where the behaviors draw otherwise than recorded
     (as the verdict's does against an approved baseline, and as a trace for a new
     baseline must); ``rename`` maps a recorded behavior's name to its name now.
+    ``fresh_from`` starts the behaviors from rest in that cycle, as a window's fresh
+    start does (:class:`~beatlog.replaying.session.ReplaySession`).
     Stepping stops as soon as nothing asked for needs more.
     """
     diverged_at = (
@@ -73,7 +76,13 @@ def replay_details(
     )
     reads = None if diverged_at is None else FieldsRead(diverged_at)
     with ReplaySession(
-        log, system, perception=perception, living=living, rename=rename, migration=migration
+        log,
+        system,
+        perception=perception,
+        living=living,
+        rename=rename,
+        migration=migration,
+        fresh_from=fresh_from,
     ) as session:
         assert session.replayer is not None  # a session with a system replays
         built = session.replayer.system

@@ -155,7 +155,9 @@ class BatchDecoding:
         self.decoder: Any = (
             _COLUMN_BATCHES if self.columns else _CYCLE_BATCHES if self._batched else _RECORDS
         )
-        self._raw = self.decoder
+        self.skimming: Any = self.decoder
+        """Decodes a message as :attr:`decoder` first does: every part of its records
+        left as raw msgpack, and a format-3 batch's columns unread."""
         self._state_type: type[Any] | None = None
         self._checked: dict[tuple[bytes, bytes, int], list[int]] = {}
         self._nil: Any = _NIL
@@ -245,7 +247,7 @@ class BatchDecoding:
         batch itself is, or (when robot states are decoded with it) a cycle's robot state
         does not fit its type or its samples are not what the header declares."""
         try:
-            decoded = self._raw.decode(data)
+            decoded = self.skimming.decode(data)
         except DECODE_ERRORS as damage:
             return self._damaged_cycle(data, first_cycle) or CorruptLogError(
                 self.path, f"damaged {where}: {damage}"

@@ -131,11 +131,27 @@ class SessionLogReader(Closing):
         """The end record, if the recording closed cleanly."""
         return self._end
 
-    def batches(self) -> Iterator[list[CycleRecord]]:
-        """Yield the cycles in the batches they were written in, each checked in place."""
+    def batches(self, start: int = 0) -> Iterator[list[CycleRecord]]:
+        """Yield the cycles in the batches they were written in, each checked in place,
+        from cycle ``start`` on: the batch that holds it is cut there.
+
+        The batches before ``start`` are skimmed, not yielded: read and checked as
+        every batch is (each chunk's bounds and CRC, each batch in order, stamped with
+        its robot time, each cycle a record of the format's shape), their cycles'
+        parts (robot state, state changes, draws, outputs, samples) left undecoded, and
+        a format-3 batch's robot-state columns unchecked. :attr:`robot_time_ns` counts
+        them all the same.
+        """
         for topic, message in self._messages:
             if topic == CYCLES_TOPIC:
-                yield self._batch(message)
+                if self._cycles >= start:
+                    yield self._batch(message)
+                    continue
+                first, time_ns = self._cycles, self._robot_time_ns
+                self._batch(message, skim=True)
+                if self._cycles > start:  # it holds ``start``: read again, whole
+                    self._cycles, self._robot_time_ns = first, time_ns
+                    yield self._batch(message)[start - first :]
             elif topic == END_TOPIC:
                 self._read_end(message)
             else:
@@ -203,12 +219,14 @@ class SessionLogReader(Closing):
             )
         return header
 
-    def _batch(self, message: Message) -> list[CycleRecord]:
-        """Decode one cycles message and check it continues exactly where the last ended."""
+    def _batch(self, message: Message, *, skim: bool = False) -> list[CycleRecord]:
+        """Decode one cycles message and check it continues exactly where the last ended;
+        skimmed, with its cycles' parts left undecoded (see :meth:`batches`)."""
         where = f"the batch after cycle {self._cycles}"
+        decoder = self._decoding.skimming if skim else self._batch_decoder
         try:
-            decoded = self._batch_decoder.decode(message.data)
-        except DECODE_ERRORS as exc:
+            decoded = decoder.decode(message.data)
+        except DECODE_ERRORS as exc:  # skimmed, its raw decoding fails as well: damage
             raise self._decoding.problem(message.data, where, self._cycles, exc) from None
         if isinstance(decoded, CycleBatch | ColumnBatch):
             if decoded.first_cycle != self._cycles:
@@ -219,7 +237,7 @@ class SessionLogReader(Closing):
                 )
             batch = (
                 decoded.cycles
-                if isinstance(decoded, CycleBatch)
+                if skim or isinstance(decoded, CycleBatch)
                 else self._decoding.records(decoded)
             )
         else:

@@ -101,16 +101,24 @@ class ExpectedRecords:
             self._read = max(self._read, part.last)
 
     def batches(
-        self, batches: Iterator[Sequence[CycleRecord]], path: Any
+        self, batches: Iterator[Sequence[CycleRecord]], path: Any, first: int = 0
     ) -> Iterator[Sequence[CycleRecord]]:
-        """The log's batches with the expected state changes and outputs in place of the
-        recorded ones (``path`` names the log in errors), the baseline read alongside."""
+        """The log's batches, cycle ``first`` on (a fresh start's), with the expected
+        state changes and outputs in place of the recorded ones (``path`` names the log
+        in errors), the baseline read alongside: what it expects of the cycles before
+        ``first`` is read past, the output values it holds from them kept."""
         parts = self._expected.parts()
         self._read = -1
         queued_changes, queued_lines = self._changes, self._lines
         held = HeldOutputs(path)
         holding = False
-        cycle = 0
+        cycle = first
+        if first:
+            self._read_to(parts, first)
+            while queued_changes and queued_changes[0][0] < first:
+                queued_changes.popleft()
+            while queued_lines and queued_lines[0][0] < first:
+                holding = held.hold(queued_lines.popleft()[1])
         for batch in batches:
             start, end = cycle, cycle + len(batch)
             self._read_to(parts, end)

@@ -95,6 +95,7 @@ def replay(
     migration: StateMigration | None = None,
     start_cycle: int = 0,
     end_cycle: int | None = None,
+    fresh_start: bool = False,
     invariants: Sequence[Invariant | type | str] = (),
     where: Path | None = None,
 ) -> ReplayResult:
@@ -168,6 +169,13 @@ def replay(
     not read (the part read is checked as ever). The result then counts the window's
     cycles alone, and has no status: the log's end was not read. A window past the
     log's last cycle is an error of ``where`` (the spec that set it; by default the log).
+    With ``fresh_start`` the behaviors start from rest at ``start_cycle`` instead: the
+    system is built as for the log's start and first updates in ``start_cycle``, at its
+    recorded cycle number and robot time, and the cycles before it are not replayed,
+    only read as far as checking the log needs
+    (:class:`~beatlog.replaying.session.ReplaySession`); a behavior's state there is
+    its initial one, not the recording's, which a DTC judged against its recording
+    sees as a difference.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replaying.fit`).
@@ -205,6 +213,7 @@ def replay(
             *migration.arguments(),
             *(["--start-cycle", str(start_cycle)] if start_cycle else []),
             *([] if end_cycle is None else ["--end-cycle", str(end_cycle)]),
+            *(["--fresh-start"] if fresh_start and start_cycle else []),
             *_invariant_arguments(invariants),
         )
 
@@ -218,6 +227,7 @@ def replay(
             living=expected is not None,
             rename=comparison.rename,
             state_pins=None if expected is None else PinChecker(pinned=expected.pinned),
+            fresh_from=start_cycle if fresh_start else 0,
         )
     except SetupDrawError as diverged:
         wall = time.perf_counter() - started
@@ -273,7 +283,9 @@ def replay(
         and divergence.kind is not DivergenceKind.LOG_ENDED
     ):
         factory = functools.partial(load_system, reference)
-        read = fields_read(log, factory, divergence.cycle, migration=migration)
+        read = fields_read(
+            log, factory, divergence.cycle, migration=migration, fresh_from=session.fresh_from
+        )
         divergence = dataclasses.replace(divergence, fields_read=read)
     return ReplayResult(
         log=Path(log),
@@ -288,7 +300,11 @@ def replay(
         reproduce=reproduce(reader.header.system),
         notes=tuple(
             note
-            for note in (period_note(reader.header, built), no_samples, _before(start_cycle))
+            for note in (
+                period_note(reader.header, built),
+                no_samples,
+                _before(start_cycle, fresh=bool(session.fresh_from)),
+            )
             if note
         ),
     )
@@ -312,11 +328,15 @@ def _diverged_at_setup(
     )
 
 
-def _before(start_cycle: int) -> str:
-    """The note on a window's cycles before it: replayed, not judged, not counted."""
+def _before(start_cycle: int, *, fresh: bool) -> str:
+    """The note on a window's cycles before it: replayed, not judged, not counted; or,
+    from a fresh start, not replayed at all."""
     if not start_cycle:
         return ""
     cycles = f"{start_cycle} cycle{'' if start_cycle == 1 else 's'}"
+    if fresh:
+        start = f"fresh start: the behaviors start from rest at cycle {start_cycle}"
+        return f"{start}; {cycles} before it not replayed"
     return f"{cycles} before the window replayed as recorded to rebuild the state, unjudged"
 
 
@@ -427,21 +447,21 @@ class CycleJudge:
         before a divergence as it is handed on. A batch is cut where the window starts,
         so that what the replay core counted before it is known, and where it ends,
         the last read."""
+        first = self.executor.context.cycle + 1  # 0, or a fresh start's cycle
         if self._expected is not None:
-            batches = self._expected.batches(batches, self.path)
+            batches = self._expected.batches(batches, self.path, first)
         if self._start or self._end is not None:
-            batches = self._windowed(batches)
+            batches = self._windowed(batches, first)
         for batch in batches:
             self._batches.append(batch)
             yield batch
 
     def _windowed(
-        self, batches: Iterator[Sequence[CycleRecord]]
+        self, batches: Iterator[Sequence[CycleRecord]], first: int
     ) -> Iterator[Sequence[CycleRecord]]:
-        """``batches`` cut where the window starts and after it ends (none read after)."""
-        first = 0
-        """The cycle the next batch starts with."""
-        for batch in through(batches, self._end, self._close):
+        """``batches``, cycle ``first`` on, cut where the window starts and after it ends
+        (none read after)."""
+        for batch in through(batches, self._end, self._close, first):
             at, first = first, first + len(batch)
             if at < self._start < first:
                 yield batch[: self._start - at]

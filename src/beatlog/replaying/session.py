@@ -23,6 +23,7 @@ from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
+from beatlog.model.cycle import CycleExecutor
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
 from beatlog.replaying.core import AGREED, CycleOutcome, Replayer
@@ -173,6 +174,12 @@ class ReplaySession(Closing):
     (:meth:`~beatlog.replaying.random.ReplayRandom.live`; ``rename`` maps a recorded
     behavior's name to its name now), as it does judged against an approved baseline.
 
+    ``fresh_from`` (a cycle) starts the behaviors from rest there: the system is built
+    as for the log's start and first updates in that cycle, at the cycle number and
+    robot time recorded for it; the cycles before it are skimmed (read and checked as
+    :meth:`~beatlog.log.reader.SessionLogReader.batches` skims them), not replayed, and
+    no observer gets them.
+
     The verdict (:func:`beatlog.replaying.judge.replay`) is the session's :class:`Judge`.
     """
 
@@ -180,9 +187,12 @@ class ReplaySession(Closing):
         self,
         log: LogSource,
         system: System | SystemFactory | None,
+        *,
+        fresh_from: int = 0,
         **options: Unpack[ReplayOptions],
     ) -> None:
         self.reader = reader = SessionLogReader(log)
+        self.fresh_from = fresh_from
         try:
             self.replayer: Replayer | None = None
             if system is not None:
@@ -190,6 +200,7 @@ class ReplaySession(Closing):
                 header, path = reader.header, reader.path
                 built = built_for_replay(system, header, path, random)
                 self.replayer = Replayer(built, header, path, random=random, **options)
+                self.replayer.executor.context.cycle = fresh_from - 1
         except BaseException:
             self.reader.close()
             raise
@@ -208,7 +219,7 @@ class ReplaySession(Closing):
         is bad input, wherever the damage is; ``readers`` take each of its batches as
         recorded, to its end."""
         watching: list[Observer] = [*observers, *([fields_read] if fields_read else [])]
-        batches: Iterator[Sequence[CycleRecord]] = self.reader.batches()
+        batches = self._batches()
         if readers:
             batches = _read_by(readers, batches)
         to_end = judge is not None or bool(readers)
@@ -265,6 +276,26 @@ class ReplaySession(Closing):
                         verdict = None
                         watching.append(follower)
 
+    def _batches(self) -> Iterator[Sequence[CycleRecord]]:
+        """The log's batches, from the fresh start on where there is one."""
+        batches = self.reader.batches(self.fresh_from)
+        if not self.fresh_from or self.replayer is None:
+            return batches
+        return self._from_rest(batches, self.replayer.executor)
+
+    def _from_rest(
+        self, batches: Iterator[Sequence[CycleRecord]], executor: CycleExecutor
+    ) -> Iterator[Sequence[CycleRecord]]:
+        """``batches``, from the fresh start on, with ``executor``'s clock set to the
+        robot time recorded before it once that is known (its batch read)."""
+        first = True
+        for batch in batches:
+            if first:
+                first = False
+                now_ns = self.reader.robot_time_ns - sum([c.heartbeat_ns for c in batch])
+                executor.clock.now_ns = executor.context.time_ns = now_ns
+            yield batch
+
     def _standing_in(
         self, record: CycleRecord, tracker: ReadTracker
     ) -> list[StateChangeRecord] | None:
@@ -305,12 +336,14 @@ def _read_by(
 
 
 def through(
-    batches: Iterator[Sequence[CycleRecord]], end_cycle: int | None, reached: Callable[[], None]
+    batches: Iterator[Sequence[CycleRecord]],
+    end_cycle: int | None,
+    reached: Callable[[], None],
+    first: int = 0,
 ) -> Iterator[Sequence[CycleRecord]]:
-    """``batches`` up to cycle ``end_cycle`` (None: all of them): the one that holds it
-    is cut after it, and none is read after it (a window's end, see
-    :func:`beatlog.replaying.judge.replay`); ``reached`` is called once it is."""
-    first = 0
+    """``batches``, cycle ``first`` on, up to cycle ``end_cycle`` (None: all of them):
+    the one that holds it is cut after it, and none is read after it (a window's end,
+    see :func:`beatlog.replaying.judge.replay`); ``reached`` is called once it is."""
     for batch in batches:
         if end_cycle is not None and first + len(batch) > end_cycle:
             reached()
@@ -338,11 +371,13 @@ def fields_read(
     cycle: int,
     *,
     migration: StateMigration | None = None,
+    fresh_from: int = 0,
 ) -> tuple[str, ...]:
     """The robot-state fields a fresh ``system`` (or one its factory builds) reads in
     ``cycle`` of ``log``, in order
-    (see :class:`FieldsRead`), the log's fields renamed and converted by ``migration``."""
+    (see :class:`FieldsRead`), the log's fields renamed and converted by ``migration``;
+    from rest at ``fresh_from`` (see :class:`ReplaySession`)."""
     reads = FieldsRead(cycle)
-    with ReplaySession(log, system, migration=migration) as session:
+    with ReplaySession(log, system, migration=migration, fresh_from=fresh_from) as session:
         session.run([], fields_read=reads)
     return reads.fields

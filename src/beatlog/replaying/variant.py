@@ -107,7 +107,7 @@ class _VariantJudge:
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches up to the window's end, perturbed."""
         if self._end is not None:
-            batches = through(batches, self._end, self._close)
+            batches = through(batches, self._end, self._close, self._first)
         if not self._perturber.rewrites:
             return batches
         return self._perturber.records(batches, self._first)
@@ -127,8 +127,8 @@ class _VariantJudge:
         replayer = self._replayer
         context = replayer.executor.context
         before = context.cycle < self.start_cycle
-        if before:
-            self.start_ns = context.time_ns
+        if context.cycle == self.start_cycle:
+            self.start_ns = context.time_ns - context.dt_ns
         if changes is not None:
             if not before:
                 self.changes += len(changes)
@@ -184,6 +184,7 @@ def replay_variant(
     reproduce: str = "",
     start_cycle: int = 0,
     end_cycle: int | None = None,
+    fresh_start: bool = False,
 ) -> ReplayResult:
     """Replay ``variant`` of ``log`` against ``system``: every cycle, perturbed, until
     behavior code (or ``perception``) raises or one of ``invariants`` (as
@@ -197,7 +198,9 @@ def replay_variant(
 
     ``start_cycle`` and ``end_cycle`` narrow it to a window, as they do
     :func:`~beatlog.replaying.judge.replay`: the cycles before it replay as recorded,
-    unperturbed and unjudged but for raising, and replay stops after its end.
+    unperturbed and unjudged but for raising, and replay stops after its end; with
+    ``fresh_start``, the behaviors start from rest at ``start_cycle`` and the cycles
+    before it are not replayed.
 
     :raises beatlog.errors.LogError: the log is missing, damaged or does not fit.
     :raises beatlog.errors.FieldError: a noise bound names no field of the recorded robot
@@ -209,7 +212,12 @@ def replay_variant(
     migration = migration or StateMigration()
     started = time.perf_counter()
     with ReplaySession(
-        log, system, perception=perception, migration=migration, living=True
+        log,
+        system,
+        perception=perception,
+        migration=migration,
+        living=True,
+        fresh_from=start_cycle if fresh_start else 0,
     ) as session:
         reader = session.reader
         replayer = session.replayer

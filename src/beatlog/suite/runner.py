@@ -201,6 +201,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             migration=spec.migration,
             start_cycle=spec.start_cycle,
             end_cycle=spec.end_cycle,
+            fresh_start=spec.fresh_start,
             where=spec.path,
             invariants=importable_invariants(spec),
         )
@@ -377,6 +378,7 @@ def _details(
         living=trace or approved is not None,
         rename=spec.comparison.rename,
         migration=spec.migration,
+        fresh_from=spec.start_cycle if spec.fresh_start else 0,
     )
 
 

@@ -10,11 +10,16 @@ the spec's data, each try a replay that stops at its window's end:
   jitter, noise per robot-state field, samples dropped or delayed) are taken out one
   at a time, each kept out where the DTC still fails the same way;
 * its start is the latest that still fails the same way: stepped back from the
-  failing cycle in doubling strides, then bisected. The cycles before the start
-  replay as recorded and unjudged, rebuilding the behaviors' state.
+  failing cycle in doubling strides, then bisected. Each start is tried first as a
+  fresh start (the behaviors from rest there, the cycles before it not replayed: the
+  window then costs only its own cycles), kept where it fails the same way in the
+  same cycle; else with the cycles before it replayed as recorded and unjudged,
+  rebuilding the behaviors' state, for a failure that depends on that history.
 
 "The same way" is the same kind of divergence in the same behavior (for an invariant,
-the same invariant), wherever in the window it comes. The result is written beside
+the same invariant), wherever in the window it comes; from a fresh start, in the
+cycle where the spec fails, since one that fails earlier fails for want of the
+history it left out. The result is written beside
 the spec as ``<stem>.shrunk.dtc.toml``, named ``<name>-shrunk``, with the same log (no
 copy), its window (``start_cycle``, ``end_cycle``) and the perturbations left; an
 approved baseline of the spec is copied beside it, so that it is judged as the tries
@@ -55,6 +60,9 @@ field of its tables (``noise``)."""
 
 _NOT_PERTURBATIONS = frozenset({"count"})
 
+FRESH = "fresh_start"
+"""The spec's key for a window whose behaviors start from rest."""
+
 
 class NothingToShrinkError(BeatlogError):
     """The spec passes: there is no failure to shrink."""
@@ -71,6 +79,8 @@ class Attempt(NamedTuple):
     failed: bool
     replays: int
     """The replays tried so far, this one included."""
+    fresh_start: bool = False
+    """Whether it started the behaviors from rest at ``start_cycle``."""
 
 
 @dataclass(frozen=True)
@@ -89,6 +99,9 @@ class Shrunk:
     """The cycle where the shrunk spec fails."""
     start_cycle: int
     end_cycle: int
+    fresh_start: bool
+    """Whether the behaviors start from rest at ``start_cycle``, the cycles before it
+    not replayed (else they replay as recorded to rebuild the behaviors' state)."""
     cycles_before: int
     """The cycles the spec's replay stepped through to its failure."""
     perturbations_before: tuple[str, ...]
@@ -101,6 +114,12 @@ class Shrunk:
     def cycles_judged(self) -> int:
         """The cycles the shrunk spec judges."""
         return self.end_cycle - self.start_cycle + 1
+
+    @property
+    def cycles_replayed(self) -> int:
+        """The cycles the shrunk spec replays: those it judges, and from a start that is
+        not fresh, those before them."""
+        return self.cycles_judged if self.fresh_start else self.end_cycle + 1
 
 
 def shrunk_path(spec: Path) -> Path:
@@ -141,10 +160,11 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
     shrunk = shrunk_path(spec)
     name = f"{data['name']}-shrunk"
     written = {
-        **{key: value for key, value in data.items() if key != PERTURBATIONS},
+        **{key: value for key, value in data.items() if key not in (PERTURBATIONS, FRESH)},
         "name": name,
         "start_cycle": search.start,
         "end_cycle": search.end,
+        **({FRESH: True} if search.fresh else {}),
         **({PERTURBATIONS: kept} if PERTURBATIONS in data else {}),
     }
     spec_from_data(shrunk, written)  # what is written loads
@@ -159,6 +179,7 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
         cycle=last.cycle,
         start_cycle=search.start,
         end_cycle=search.end,
+        fresh_start=search.fresh,
         cycles_before=first.cycle + 1,
         perturbations_before=before,
         perturbations=_perturbations({PERTURBATIONS: kept}),
@@ -180,6 +201,7 @@ class _Search:
         given = spec_from_data(path, data)
         self.start = given.start_cycle
         self.end: int | None = given.end_cycle
+        self.fresh = given.fresh_start
         self.perturbations: dict[str, Any] = dict(data.get(PERTURBATIONS, {}))
         self.replays = 0
         self._same: tuple[DivergenceKind, str | None, str | None] | None = None
@@ -187,34 +209,58 @@ class _Search:
 
     def first(self) -> Divergence | None:
         """Replay the spec as given: its failure, which the tries must repeat, or None."""
-        divergence = self._replay(self.start, self.end, self.perturbations)
-        self._tell(self.start, self.end, self.perturbations, failed=divergence is not None)
+        divergence = self._replay(self.start, self.end, self.perturbations, fresh=self.fresh)
+        self._tell(
+            self.start,
+            self.end,
+            self.perturbations,
+            failed=divergence is not None,
+            fresh=self.fresh,
+        )
         if divergence is not None:
             self._same = _way(divergence)
             self.failure = divergence
         return divergence
 
     def fails(
-        self, start: int, end: int | None, perturbations: Mapping[str, Any] | None = None
+        self,
+        start: int,
+        end: int | None,
+        perturbations: Mapping[str, Any] | None = None,
+        *,
+        fresh: bool | None = None,
     ) -> bool:
         """Whether the spec fails the same way in the window ``start``-``end`` with
-        ``perturbations`` (by default, those kept so far): in the window, not before it."""
+        ``perturbations`` (by default, those kept so far): in the window, not before it.
+        From a ``fresh`` start (by default, as kept so far) it must fail in the cycle
+        the spec failed in last: one that fails earlier fails for want of the history
+        the fresh start left out."""
         kept = self.perturbations if perturbations is None else perturbations
-        divergence = self._replay(start, end, kept)
+        fresh = self.fresh if fresh is None else fresh
+        divergence = self._replay(start, end, kept, fresh=fresh)
         failed = (
-            divergence is not None and divergence.cycle >= start and _way(divergence) == self._same
+            divergence is not None
+            and divergence.cycle >= start
+            and _way(divergence) == self._same
+            and (not fresh or divergence.cycle == self.failure.cycle)
         )
-        self._tell(start, end, kept, failed=failed)
+        self._tell(start, end, kept, failed=failed, fresh=fresh)
         if failed and divergence is not None:
             self.failure = divergence
         return failed
 
     def _tell(
-        self, start: int, end: int | None, perturbations: Mapping[str, Any], *, failed: bool
+        self,
+        start: int,
+        end: int | None,
+        perturbations: Mapping[str, Any],
+        *,
+        failed: bool,
+        fresh: bool,
     ) -> None:
         if self._progress is not None:
             kept = len(_perturbations({PERTURBATIONS: perturbations}))
-            self._progress(Attempt(start, end, kept, failed, self.replays))
+            self._progress(Attempt(start, end, kept, failed, self.replays, fresh))
 
     def fewest(self, given: tuple[str, ...]) -> dict[str, Any]:
         """Take out each perturbation in turn, keeping it out where the spec still fails
@@ -231,30 +277,44 @@ class _Search:
         """The latest start that still fails the same way (the window from the start
         kept so far fails): stepped back from the end in doubling strides (the end, one
         before, three before, seven...) until one fails, then bisected between it and
-        the earliest that passed."""
+        the earliest that passed. Each start is tried fresh first, then with the cycles
+        before it replayed (:meth:`tries`)."""
         end = self.failure.cycle
-        failing, passed = self.start, end + 1
+        failing, passed, fresh = self.start, end + 1, self.fresh
         stride, candidate = 1, end
         while candidate > failing:
-            if self.fails(candidate, end):
-                failing = candidate
+            found = self.tries(candidate, end)
+            if found is not None:
+                failing, fresh = candidate, found
                 break
             passed = candidate
             candidate = max(failing, end + 1 - 2 * stride)
             stride *= 2
         while passed - failing > 1:
             middle = (failing + passed) // 2
-            if self.fails(middle, end):
-                failing = middle
+            found = self.tries(middle, end)
+            if found is not None:
+                failing, fresh = middle, found
             else:
                 passed = middle
-        self.start, self.end = failing, end
+        self.start, self.end, self.fresh = failing, end, fresh
+
+    def tries(self, start: int, end: int) -> bool | None:
+        """Whether the window ``start``-``end`` fails the same way from a fresh start
+        (True), only with the cycles before it replayed (False), or not at all (None).
+        The fresh start is tried first: it costs the window's cycles alone."""
+        if start > 0 and self.fails(start, end, fresh=True):
+            return True
+        if self.fails(start, end, fresh=False):
+            return False
+        return None
 
     def _replay(
-        self, start: int, end: int | None, perturbations: Mapping[str, Any]
+        self, start: int, end: int | None, perturbations: Mapping[str, Any], *, fresh: bool
     ) -> Divergence | None:
-        """The divergence of one replay of the spec's data with this window."""
-        data = {**self._data, "start_cycle": start}
+        """The divergence of one replay of the spec's data with this window, from a
+        ``fresh`` start or not."""
+        data = {**self._data, "start_cycle": start, FRESH: fresh}
         if end is None:
             data.pop("end_cycle", None)
         else:

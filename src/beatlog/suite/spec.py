@@ -19,6 +19,7 @@ the system factory to replay it against::
     ignore_fields = ["debug_*"]             # output fields not compared (names or globs)
     start_cycle = 4200                      # judge only cycles 4200 to 4380 (inclusive):
     end_cycle = 4380                        # earlier ones rebuild state, later are not read
+    fresh_start = true                      # or: behaviors start from rest at start_cycle
     invariants = ["myrobot.invariants:never_stuck"]  # checked in every cycle
 
     [tolerance]                             # largest accepted difference per output field
@@ -68,7 +69,9 @@ recorded value and returns the field's new one, imported as ``system`` is.
 properties that must hold at every heartbeat, imported as ``system`` is: the project's
 ``[tool.beatlog] invariants`` apply to every spec, and a spec's own come on top.
 A window (``start_cycle``, ``end_cycle``: what ``beatlog shrink`` writes) past the log's
-last cycle is an error of the spec.
+last cycle is an error of the spec. With ``fresh_start = true`` the behaviors start from
+rest at ``start_cycle``, and the cycles before it are not replayed, only read as far as
+checking the log needs (:func:`beatlog.replay`).
 """
 
 from __future__ import annotations
@@ -139,6 +142,7 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     robot_state_tolerance: dict[str, float] = {}
     start_cycle: int | None = None
     end_cycle: int | None = None
+    fresh_start: bool = False
     variant: Annotated[int, msgspec.Meta(ge=1)] | None = None
     variants: VariantsConfig | None = None
 
@@ -189,6 +193,9 @@ class DtcSpec:
     """The first cycle judged: the cycles before it replay as recorded, unjudged."""
     end_cycle: int | None = None
     """The last cycle judged and read (inclusive); None: the log's last."""
+    fresh_start: bool = False
+    """Whether the behaviors start from rest at ``start_cycle``, the cycles before it
+    not replayed."""
     invariants: tuple[str, ...] = ()
     """The ``module:attribute`` references of the invariants checked in every cycle: the
     project's (``[tool.beatlog] invariants``), then the spec's own."""
@@ -340,6 +347,7 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
         migration=StateMigration(field_renames, conversions),
         start_cycle=spec.start_cycle or 0,
         end_cycle=spec.end_cycle,
+        fresh_start=spec.fresh_start,
         perturbations=(
             Perturbations() if perturbations is None and spec.variant is not None else perturbations
         ),

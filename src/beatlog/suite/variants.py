@@ -46,6 +46,7 @@ def replay_variant_of(spec: DtcSpec, system: str) -> ReplayResult:
         reproduce=reproduce_command("test", spec.own_spec),
         start_cycle=spec.start_cycle,
         end_cycle=spec.end_cycle,
+        fresh_start=spec.fresh_start,
     )
 
 
@@ -95,6 +96,7 @@ def variant_spec_text(spec: DtcSpec) -> str:
         *([f"field_conversions = {_table(conversions)}"] if conversions else []),
         *([f"start_cycle = {spec.start_cycle}"] if spec.start_cycle else []),
         *([] if spec.end_cycle is None else [f"end_cycle = {spec.end_cycle}"]),
+        *(["fresh_start = true"] if spec.fresh_start else []),
         f"variant = {spec.variant}",
         "",
         "[variants]",

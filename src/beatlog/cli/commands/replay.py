@@ -68,6 +68,12 @@ def add_arguments(play: argparse.ArgumentParser) -> None:
         metavar="CYCLE",
         help="judge up to this cycle (inclusive) and read the log no further",
     )
+    play.add_argument(
+        "--fresh-start",
+        action="store_true",
+        help="start the behaviors from rest at --start-cycle: the cycles before it are "
+        "not replayed",
+    )
     play.add_argument("--allow-truncated", action="store_true", help="pass a log that was cut off")
     play.add_argument(
         "--allow-empty",
@@ -131,6 +137,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
             "migration": StateMigration(dict(args.rename_field), dict(args.convert_field)),
             "start_cycle": args.start_cycle,
             "end_cycle": args.end_cycle,
+            "fresh_start": args.fresh_start,
             "invariants": args.invariants,
         }
         result = replay(args.log, system, break_at=args.break_at, **options)

@@ -36,7 +36,8 @@ def run(args: argparse.Namespace, console: Console) -> int:
 
         def tried(attempt: Attempt) -> None:
             end = "end" if attempt.end_cycle is None else attempt.end_cycle
-            window = f"cycles {attempt.start_cycle}-{end}"
+            fresh = ", fresh start" if attempt.fresh_start else ""
+            window = f"cycles {attempt.start_cycle}-{end}{fresh}"
             bar.update(task, completed=attempt.replays, window=window)
 
         try:
@@ -59,10 +60,14 @@ def _report(shrunk: Shrunk, console: Console) -> None:
         else ""
     )
     kept = f" ({', '.join(shrunk.perturbations)})" if shrunk.perturbations else ""
+    start = shrunk.start_cycle
+    before = (
+        ", fresh start" if shrunk.fresh_start else f", {start} replayed before it" if start else ""
+    )
     lines = [
         f"shrunk {shrunk.kind.value}{where} at cycle {shrunk.cycle}: "
-        f"{shrunk.cycles_before} cycles to the failure -> window {shrunk.start_cycle}-"
-        f"{shrunk.end_cycle} ({shrunk.cycles_judged} judged)",
+        f"{shrunk.cycles_before} cycles to the failure -> window {start}-"
+        f"{shrunk.end_cycle} ({shrunk.cycles_judged} judged{before})",
         *(
             [
                 f"perturbations: {len(shrunk.perturbations_before)} -> "
