@@ -29,9 +29,10 @@ from tests.chunked import (
     read_all,
     write,
 )
-from tests.conftest import PERIOD_NS
+from tests.columned import write_states
+from tests.conftest import PERIOD_NS, Probe, RecordFn
 from tests.crafting import craft_log, header_message, session_header, top_level_records
-from tests.factories import MAGIC_LENGTH, RECORD_HEAD
+from tests.factories import MAGIC_LENGTH, PROBE_CYCLE_DAMAGE, RECORD_HEAD, rewrite_cycle
 
 CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8
 """Where a zstd chunk's compressed records start, from the start of its record."""
@@ -377,3 +378,59 @@ def test_a_header_name_with_control_characters_is_a_corrupt_log(
     assert str(raised.value) == (
         f"{log}: damaged session header: {named} {shown} holds control characters"
     )
+
+
+# reading from a cycle on (a window's fresh start)
+
+
+def test_batches_from_a_cycle_on_are_the_logs_cycles_from_there_checked_to_its_end(
+    record_chunked: RecordFn,
+) -> None:
+    log = record_chunked(300)
+    with SessionLogReader(log) as reader:
+        every = [cycle for batch in reader.batches() for cycle in batch]
+
+    with SessionLogReader(log) as reader:
+        later = [cycle for batch in reader.batches(123) for cycle in batch]
+        status, robot_time_ns = reader.status, reader.robot_time_ns
+
+    assert later == every[123:]
+    assert status == LogStatus(True, 300)
+    assert robot_time_ns == sum(cycle.heartbeat_ns for cycle in every)
+
+
+def test_batches_from_a_cycle_on_still_refuse_a_damaged_record_before_it(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    damage = PROBE_CYCLE_DAMAGE["record-extra-element"]
+    log = rewrite_cycle(record_probe(60), tmp_path / "damaged.beatlog", damage.cycle, damage.edit)
+
+    with SessionLogReader(log) as reader, pytest.raises(CorruptLogError) as raised:
+        list(reader.batches(damage.cycle + 10))
+
+    assert str(raised.value) == f"{log}: {damage.problem}"
+
+
+def test_batches_from_a_cycle_on_leave_the_parts_of_the_cycles_before_it_undecoded(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    damage = PROBE_CYCLE_DAMAGE["robot-state-empty"]  # no robot state a replay could take
+    log = rewrite_cycle(record_probe(60), tmp_path / "damaged.beatlog", damage.cycle, damage.edit)
+
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Probe)
+        later = [cycle for batch in reader.batches(damage.cycle + 1) for cycle in batch]
+
+    assert len(later) == 60 - damage.cycle - 1
+
+
+def test_batches_from_a_cycle_on_of_a_log_stored_by_field(tmp_path: Path) -> None:
+    states = [Probe(distance=t / 10) for t in range(40)]
+    log = write_states(tmp_path / "by-field.beatlog", states, by_field=True)
+    with SessionLogReader(log) as reader:
+        every = [cycle for batch in reader.batches() for cycle in batch]
+
+    with SessionLogReader(log) as reader:
+        later = [cycle for batch in reader.batches(13) for cycle in batch]
+
+    assert later == every[13:]

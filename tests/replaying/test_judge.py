@@ -1050,3 +1050,24 @@ def test_a_log_damaged_before_a_fresh_start_is_still_bad_input(
 def flip_byte(data: bytes, at: int) -> bytes:
     """``data`` with the byte at ``at`` inverted."""
     return data[:at] + bytes([data[at] ^ 0xFF]) + data[at + 1 :]
+
+
+def test_a_fresh_start_is_judged_against_an_approved_baseline_from_its_own_cycle(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    baseline = replayed_trace(log, probe_system_changed()).expectation
+
+    result = replay(
+        log,
+        probe_system_changed(),
+        expected=baseline,
+        start_cycle=150,
+        end_cycle=299,
+        fresh_start=True,
+        keep_going=True,
+    )
+
+    assert result.divergent_cycles == 1  # the fresh arbiter starts idle, and no more
+    assert result.divergence is not None
+    assert (result.divergence.cycle, result.divergence.behavior) == (150, "arbiter")

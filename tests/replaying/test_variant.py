@@ -129,6 +129,27 @@ def test_a_window_perturbs_and_judges_its_cycles_alone(record_probe: RecordFn) -
     assert after.divergence is None or after.divergence.cycle == cycle + 1
 
 
+def test_a_variant_from_a_fresh_start_fails_as_its_whole_replay_does_in_that_cycle(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    whole = replay_variant(log, fussy_system(), NOISY)
+    assert whole.divergence is not None
+    cycle = whole.divergence.cycle
+
+    fresh = replay_variant(
+        log, fussy_system(), NOISY, start_cycle=cycle - 10, end_cycle=cycle, fresh_start=True
+    )
+
+    assert fresh.divergence is not None
+    assert (fresh.divergence.cycle, fresh.divergence.time_ns, fresh.divergence.message) == (
+        cycle,
+        whole.divergence.time_ns,  # the recorded time, the same noise in its cycle
+        whole.divergence.message,
+    )
+    assert fresh.cycles == 11
+
+
 def test_a_variant_that_raises_before_its_window_fails_there(record_probe: RecordFn) -> None:
     log = record_probe(300)
     fragile = load_system("tests.systems:fragile_system")

@@ -180,6 +180,15 @@ def test_a_window_of_cycles_loads_into_the_spec(tmp_path: Path) -> None:
     spec = load_spec(write_spec(tmp_path, "window", "probe.beatlog", start_cycle=40, end_cycle=60))
 
     assert (spec.start_cycle, spec.end_cycle) == (40, 60)
+    assert not spec.fresh_start
+
+
+def test_a_window_may_start_fresh(tmp_path: Path) -> None:
+    path = write_spec(tmp_path, "fresh", "probe.beatlog", start_cycle=40, fresh_start=True)
+
+    spec = load_spec(path)
+
+    assert (spec.start_cycle, spec.fresh_start) == (40, True)
 
 
 def test_without_a_window_a_spec_judges_every_cycle(tmp_path: Path) -> None:

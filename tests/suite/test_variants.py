@@ -115,12 +115,12 @@ def test_a_written_variant_of_a_window_keeps_the_window(
     tmp_path: Path, record_probe: RecordFn
 ) -> None:
     log = record_probe(100)
-    window = {"start_cycle": 20, "end_cycle": 60}
+    window = {"start_cycle": 20, "end_cycle": 60, "fresh_start": True}
     spec = load_spec(write_spec(tmp_path, "dock", log, FUSSY, variants=NOISY, **window))
 
     written = load_spec(write_variant_spec(with_variants([spec], 1)[1]))
 
-    assert (written.start_cycle, written.end_cycle) == (20, 60)
+    assert (written.start_cycle, written.end_cycle, written.fresh_start) == (20, 60, True)
 
 
 def test_a_written_variant_is_found_as_a_dtc_of_its_own_with_no_variants(

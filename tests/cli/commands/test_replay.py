@@ -16,7 +16,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.random import RecordingRandom
 from beatlog.record.recorder import Recorder
 from tests.commands import Beatlog, assert_error, replay_line
-from tests.conftest import RecordFn, distances
+from tests.conftest import RecordFn, distances, first_cycle_below
 from tests.factories import cut_in_half, vouch
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, PROBE_CHECKED
 from tests.systems import quiet_system, record_scatter
@@ -167,6 +167,23 @@ def test_replay_judges_a_window_of_cycles_alone(beatlog: Beatlog, record_probe: 
     first = run.out.splitlines()[0]
     assert first.startswith(f"PASS {log}  31 cycles, "), first
     assert "log complete" not in first  # its end was not read
+
+
+def test_replay_starts_a_window_fresh_where_asked(beatlog: Beatlog, record_probe: RecordFn) -> None:
+    log = record_probe(300)
+    cycle = first_cycle_below(0.3) + 100
+    window = ("--start-cycle", str(cycle), "--end-cycle", str(cycle + 5), "--fresh-start")
+
+    run = beatlog("replay", log, "--system", "tests.systems:fragile_system", *window)
+
+    assert run.code == 1, run
+    assert f"cycle {cycle}" in run.out
+    assert "dice raised ZeroDivisionError: fragile dice" in whole_lines(run.out)
+    assert (
+        f"note: fresh start: the behaviors start from rest at cycle {cycle}; "
+        f"{cycle} cycles before it not replayed"
+    ) in whole_lines(run.out)
+    assert run.out.rstrip().endswith(" ".join(window))  # the reproduce command
 
 
 def test_a_window_that_starts_after_it_ends_is_one_line(

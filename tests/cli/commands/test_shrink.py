@@ -30,9 +30,10 @@ def test_a_shrunk_spec_fails_the_same_way_under_beatlog_test(
 
     assert (run.code, run.err) == (0, "")
     lines = run.out.splitlines()
-    assert lines[0].startswith(
+    assert lines[0] == (
         f"shrunk exception in near at cycle {WORN_OUT_CYCLE}: "
         f"{WORN_OUT_CYCLE + 1} cycles to the failure -> window "
+        f"{WORN_OUT_CYCLE}-{WORN_OUT_CYCLE} (1 judged, {WORN_OUT_CYCLE} replayed before it)"
     )
     assert lines[1:] == [
         lines[1],
@@ -44,6 +45,22 @@ def test_a_shrunk_spec_fails_the_same_way_under_beatlog_test(
     assert raised in original.out
     assert raised in again.out
     assert f"cycle {WORN_OUT_CYCLE}" in again.out
+
+
+def test_a_failure_that_needs_no_history_is_shrunk_to_a_fresh_start(
+    beatlog: Beatlog, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    spec = write_spec(tmp_path, "fragile", record_probe(300), "tests.systems:fragile_system")
+    cycle = first_cycle_below(0.3)
+
+    run = beatlog("shrink", spec)
+
+    assert (run.code, run.err) == (0, "")
+    assert run.out.splitlines()[0] == (
+        f"shrunk exception in dice at cycle {cycle}: {cycle + 1} cycles to the failure "
+        f"-> window {cycle}-{cycle} (1 judged, fresh start)"
+    )
+    assert "fresh_start = true" in (tmp_path / "fragile.shrunk.dtc.toml").read_text("utf-8")
 
 
 def test_a_spec_that_passes_is_one_line_and_exit_1(
