@@ -113,6 +113,9 @@ PRINTED = [
     "perturbations",
     "window",
     "before the window",
+    "fresh start",
+    "replayed before it",
+    "not replayed",
     # variants
     "variant",
     "of them variants",
