@@ -200,8 +200,8 @@ def test_without_a_window_a_spec_judges_every_cycle(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("window", "problem"),
     [
-        ({"start_cycle": -1}, "key 'start_cycle': expected a cycle number >= 0, got -1"),
-        ({"end_cycle": -3}, "key 'end_cycle': expected a cycle number >= 0, got -3"),
+        ({"start_cycle": -1}, "key 'start_cycle': expected `int` >= 0"),
+        ({"end_cycle": -3}, "key 'end_cycle': expected `int` >= 0"),
         ({"start_cycle": 61, "end_cycle": 60}, "key 'start_cycle': 61 is after end_cycle 60"),
     ],
 )

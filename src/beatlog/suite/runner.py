@@ -356,9 +356,8 @@ def _details(
     trace: bool,
     options: SpecOptions,
 ) -> Details | None:
-    """One more replay, of a failed DTC, gathering what reports need (none where
-    ``options`` ask for the verdict alone): of the bytes its verdict's replay kept,
-    where it kept them; the timelines against the ``approved`` baseline (read whole)."""
+    """One more replay of a failed DTC for what reports need (none for the verdict alone),
+    of the bytes the verdict's replay kept; timelines against ``approved`` (read whole)."""
     if divergence is None or options.verdict_only or divergence.kind is DivergenceKind.SETUP:
         return None
     from beatlog.analysis.details import replay_details  # noqa: PLC0415 - numpy, when needed

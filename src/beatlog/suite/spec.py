@@ -68,10 +68,8 @@ recorded value and returns the field's new one, imported as ``system`` is.
 ``invariants`` (:mod:`beatlog.model.invariant`) are ``module:attribute`` references to
 properties that must hold at every heartbeat, imported as ``system`` is: the project's
 ``[tool.beatlog] invariants`` apply to every spec, and a spec's own come on top.
-A window (``start_cycle``, ``end_cycle``: what ``beatlog shrink`` writes) past the log's
-last cycle is an error of the spec. With ``fresh_start = true`` the behaviors start from
-rest at ``start_cycle``, and the cycles before it are not replayed, only read as far as
-checking the log needs (:func:`beatlog.replay`).
+A window (``start_cycle``, ``end_cycle``, ``fresh_start``: what ``beatlog shrink``
+writes) past the log's last cycle is an error of the spec.
 """
 
 from __future__ import annotations
@@ -140,8 +138,8 @@ class _SpecFile(msgspec.Struct, kw_only=True, forbid_unknown_fields=True):
     invariants: list[str] = []
     tolerance: dict[str, float] = {}
     robot_state_tolerance: dict[str, float] = {}
-    start_cycle: int | None = None
-    end_cycle: int | None = None
+    start_cycle: Annotated[int, msgspec.Meta(ge=0)] | None = None
+    end_cycle: Annotated[int, msgspec.Meta(ge=0)] | None = None
     fresh_start: bool = False
     variant: Annotated[int, msgspec.Meta(ge=1)] | None = None
     variants: VariantsConfig | None = None
@@ -295,7 +293,8 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
         raise SpecError(path, explain_validation(str(exc))) from None
     if not spec.name.strip():
         raise SpecError(path, "key 'name': must not be empty")
-    _check_window(path, spec.start_cycle, spec.end_cycle)
+    if spec.end_cycle is not None and (start := spec.start_cycle or 0) > spec.end_cycle:
+        raise SpecError(path, f"key 'start_cycle': {start} is after end_cycle {spec.end_cycle}")
     for key, reference in (("system", spec.system), ("perception", spec.perception)):
         if reference is not None and ":" not in reference:
             raise SpecError(path, f"key {key!r}: expected module:factory, got {reference!r}")
@@ -355,15 +354,6 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
         variant=spec.variant,
         invariants=tuple(dict.fromkeys([*project.invariants, *spec.invariants])),
     )
-
-
-def _check_window(path: Path, start: int | None, end: int | None) -> None:
-    """Refuse a window that holds no cycle: a negative cycle, or a start past the end."""
-    for key, cycle in (("start_cycle", start), ("end_cycle", end)):
-        if cycle is not None and cycle < 0:
-            raise SpecError(path, f"key {key!r}: expected a cycle number >= 0, got {cycle}")
-    if start is not None and end is not None and start > end:
-        raise SpecError(path, f"key 'start_cycle': {start} is after end_cycle {end}")
 
 
 def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
