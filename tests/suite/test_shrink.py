@@ -16,7 +16,7 @@ from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.runner import run_spec
 from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink, shrunk_path
 from beatlog.suite.spec import load_spec
-from tests.conftest import RecordFn, first_cycle_below
+from tests.conftest import Probe, RecordFn, distances, first_cycle_below
 from tests.specs import CHANGED, PROBE, write_spec
 from tests.systems import LINGER, WORN_OUT
 
@@ -62,6 +62,22 @@ def test_a_failure_that_depends_on_history_replays_the_cycles_before_its_window(
     assert shrunk.cycles_replayed == WORN_OUT_CYCLE + 1
     assert any(attempt.fresh_start for attempt in tried)  # tried first, and failed
     assert not load_spec(shrunk.path).fresh_start
+
+
+def test_a_variant_failing_for_a_short_history_starts_fresh_where_that_begins(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    calm = [Probe(distance=1.0)] * 1000  # the pole first comes near at cycle 1026
+    log = record_probe(states=[*calm, *(Probe(distance=d) for d in distances(400))])
+    spec = write_spec(tmp_path, "weary-later", log, WEARY, variant=1, variants={"draws": True})
+    worn_out = 1000 + WORN_OUT_CYCLE
+
+    shrunk = shrink(spec)
+
+    assert (shrunk.cycle, shrunk.end_cycle, shrunk.fresh_start) == (worn_out, worn_out, True)
+    last_near = max(t for t, d in enumerate(distances(100)) if d < 0.5)
+    assert shrunk.start_cycle == 1000 + last_near  # a fresh near takes it for the first approach
+    assert shrunk.cycles_replayed < worn_out - 1000
 
 
 def test_a_failure_that_does_not_depend_on_history_starts_fresh_at_the_failing_cycle(
@@ -117,6 +133,7 @@ def test_a_failing_invariant_keeps_the_cycles_it_looks_across(
     assert (shrunk.kind, shrunk.invariant) == (DivergenceKind.INVARIANT, "NeverLingers")
     assert (shrunk.start_cycle, shrunk.end_cycle) == (first_near, first_near + LINGER)
     assert shrunk.cycle == first_near + LINGER
+    assert not shrunk.fresh_start  # judged against its recording: the arbiter's state
 
 
 def test_a_dtc_judged_against_its_approved_baseline_is_shrunk_with_a_copy_of_it(

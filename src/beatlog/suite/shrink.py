@@ -10,11 +10,12 @@ the spec's data, each try a replay that stops at its window's end:
   jitter, noise per robot-state field, samples dropped or delayed) are taken out one
   at a time, each kept out where the DTC still fails the same way;
 * its start is the latest that still fails the same way: stepped back from the
-  failing cycle in doubling strides, then bisected. Each start is tried first as a
-  fresh start (the behaviors from rest there, the cycles before it not replayed: the
-  window then costs only its own cycles), kept where it fails the same way in the
-  same cycle; else with the cycles before it replayed as recorded and unjudged,
-  rebuilding the behaviors' state, for a failure that depends on that history.
+  failing cycle in doubling strides, then bisected. First from a fresh start (the
+  behaviors from rest there, the cycles before it not replayed: the window then costs
+  its own cycles alone), moved back as far as the history the failure needs; then
+  with the cycles before it replayed as recorded and unjudged, rebuilding the
+  behaviors' state. The fresh start is kept unless the failure needs so long a history
+  that its window costs about as much as replaying up to the other's.
 
 "The same way" is the same kind of divergence in the same behavior (for an invariant,
 the same invariant), wherever in the window it comes; from a fresh start, in the
@@ -274,40 +275,50 @@ class _Search:
         return self.perturbations
 
     def latest_start(self) -> None:
-        """The latest start that still fails the same way (the window from the start
-        kept so far fails): stepped back from the end in doubling strides (the end, one
-        before, three before, seven...) until one fails, then bisected between it and
-        the earliest that passed. Each start is tried fresh first, then with the cycles
-        before it replayed (:meth:`tries`)."""
+        """The window's start: the latest that fails the same way from a fresh start,
+        found first (its tries cost their windows alone), then the latest after it that
+        fails with the cycles before it replayed. The fresh start is kept where the
+        cycles it leaves unreplayed outnumber the cycles it judges beyond the other's
+        window: a failure that needs a long history (a behavior that wears out on its
+        300th approach) keeps replaying it, one that needs a short one starts fresh
+        before it."""
         end = self.failure.cycle
-        failing, passed, fresh = self.start, end + 1, self.fresh
-        stride, candidate = 1, end
-        while candidate > failing:
-            found = self.tries(candidate, end)
-            if found is not None:
-                failing, fresh = candidate, found
-                break
+        known = self.fresh and self.start > 0
+        fresh = self._latest(end, max(self.start, 1), fresh=True, known=known)
+        if fresh == end:  # a window of the failing cycle alone, from rest
+            self.start, self.end, self.fresh = end, end, True
+            return
+        lowest = self.start if fresh is None else fresh + 1
+        known = fresh is None and not self.fresh
+        replayed = self._latest(end, lowest, fresh=False, known=known)
+        if fresh is not None and (replayed is None or fresh > replayed - fresh):
+            self.start, self.end, self.fresh = fresh, end, True
+        elif replayed is not None:
+            self.start, self.end, self.fresh = replayed, end, False
+
+    def _latest(self, end: int, lowest: int, *, fresh: bool, known: bool) -> int | None:
+        """The latest start from ``lowest`` to ``end`` whose window fails the same way
+        from a ``fresh`` start or not, or None: stepped back from the end in doubling
+        strides (the end, one before, three before, seven...) until one fails, then
+        bisected between it and the earliest that passed. ``known``: ``lowest`` fails
+        so, and is not tried again."""
+        if lowest > end:
+            return None
+        passed, stride, candidate = end + 1, 1, end
+        while not (candidate == lowest and known) and not self.fails(candidate, end, fresh=fresh):
+            if candidate == lowest:
+                return None
             passed = candidate
-            candidate = max(failing, end + 1 - 2 * stride)
+            candidate = max(lowest, end + 1 - 2 * stride)
             stride *= 2
+        failing = candidate
         while passed - failing > 1:
             middle = (failing + passed) // 2
-            found = self.tries(middle, end)
-            if found is not None:
-                failing, fresh = middle, found
+            if self.fails(middle, end, fresh=fresh):
+                failing = middle
             else:
                 passed = middle
-        self.start, self.end, self.fresh = failing, end, fresh
-
-    def tries(self, start: int, end: int) -> bool | None:
-        """Whether the window ``start``-``end`` fails the same way from a fresh start
-        (True), only with the cycles before it replayed (False), or not at all (None).
-        The fresh start is tried first: it costs the window's cycles alone."""
-        if start > 0 and self.fails(start, end, fresh=True):
-            return True
-        if self.fails(start, end, fresh=False):
-            return False
-        return None
+        return failing
 
     def _replay(
         self, start: int, end: int | None, perturbations: Mapping[str, Any], *, fresh: bool
