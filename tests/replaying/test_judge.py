@@ -1068,6 +1068,21 @@ def test_a_fresh_start_is_judged_against_an_approved_baseline_from_its_own_cycle
         keep_going=True,
     )
 
-    assert result.divergent_cycles == 1  # the fresh arbiter starts idle, and no more
-    assert result.divergence is not None
-    assert (result.divergence.cycle, result.divergence.behavior) == (150, "arbiter")
+    assert result.ok  # the fresh behaviors' states are the expected ones there
+    assert result.cycles == 150
+
+
+def test_a_fresh_start_finds_the_state_changes_against_the_recorded_states(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+    drawn = 150  # dice draws here: its fresh state is then the recorded one
+    assert replay(log, probe_system(), start_cycle=drawn, fresh_start=True).ok
+
+    result = replay(log, probe_system(), start_cycle=drawn - 2, fresh_start=True)
+
+    assert result.divergence is not None  # the fresh dice has not rolled yet
+    assert (result.divergence.kind, result.divergence.behavior) == (
+        DivergenceKind.STATE_CHANGES,
+        "dice",
+    )

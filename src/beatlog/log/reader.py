@@ -9,7 +9,7 @@ record, if any, counts exactly the cycles read. The records come checked from
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -131,16 +131,18 @@ class SessionLogReader(Closing):
         """The end record, if the recording closed cleanly."""
         return self._end
 
-    def batches(self, start: int = 0) -> Iterator[list[CycleRecord]]:
+    def batches(
+        self, start: int = 0, skimmed: Callable[[list[CycleRecord]], object] | None = None
+    ) -> Iterator[list[CycleRecord]]:
         """Yield the cycles in the batches they were written in, each checked in place,
         from cycle ``start`` on: the batch that holds it is cut there.
 
-        The batches before ``start`` are skimmed, not yielded: read and checked as
-        every batch is (each chunk's bounds and CRC, each batch in order, stamped with
-        its robot time, each cycle a record of the format's shape), their cycles'
-        parts (robot state, state changes, draws, outputs, samples) left undecoded, and
-        a format-3 batch's robot-state columns unchecked. :attr:`robot_time_ns` counts
-        them all the same.
+        The cycles before ``start`` are skimmed, not yielded: read and checked as every
+        batch is (each chunk's bounds and CRC, each batch in order, stamped with its
+        robot time, each cycle a record of the format's shape), their parts (robot
+        state, state changes, draws, outputs, samples) left undecoded, and a format-3
+        batch's robot-state columns unchecked; ``skimmed`` is handed them, a batch at a
+        time. :attr:`robot_time_ns` counts them all the same.
         """
         for topic, message in self._messages:
             if topic == CYCLES_TOPIC:
@@ -148,10 +150,14 @@ class SessionLogReader(Closing):
                     yield self._batch(message)
                     continue
                 first, time_ns = self._cycles, self._robot_time_ns
-                self._batch(message, skim=True)
+                batch = self._batch(message, skim=True)
                 if self._cycles > start:  # it holds ``start``: read again, whole
                     self._cycles, self._robot_time_ns = first, time_ns
-                    yield self._batch(message)[start - first :]
+                    batch = self._batch(message)
+                if skimmed is not None:
+                    skimmed(batch[: start - first])
+                if len(batch) > start - first:
+                    yield batch[start - first :]
             elif topic == END_TOPIC:
                 self._read_end(message)
             else:

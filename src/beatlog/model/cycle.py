@@ -7,7 +7,7 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 from __future__ import annotations
 
 import reprlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
 from beatlog.log.format import StateChangeRecord
@@ -129,6 +129,14 @@ class CycleExecutor:
         if now == states:  # the common case, compared in C: same objects or equal values
             return []
         return self._find_changes(now, states)
+
+    def assume(self, states: Mapping[int, BehaviorState]) -> None:
+        """Take ``states`` (by catalogue position) as the behaviors' states seen last:
+        the next cycle's BS_t is found against them. A fresh start in replay assumes the
+        states the recording has there, so that a behavior whose fresh state is the
+        recorded one shows no change, and one whose state is not, does."""
+        for index, state in states.items():
+            self._states[index] = state
 
     def pause_next_update(self, pause: Pause) -> None:
         """Hand the next cycle's update to ``pause``, once: :meth:`step` advances the

@@ -174,8 +174,9 @@ def replay(
     recorded cycle number and robot time, and the cycles before it are not replayed,
     only read as far as checking the log needs
     (:class:`~beatlog.replaying.session.ReplaySession`); a behavior's state there is
-    its initial one, not the recording's, which a DTC judged against its recording
-    sees as a difference.
+    its initial one, not the recording's, and its state changes are found against the
+    recorded states, so that one whose fresh state is not the recorded one differs
+    there.
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or its robot
         state does not fit the system's robot state type (see :mod:`beatlog.replaying.fit`).

@@ -30,6 +30,7 @@ from beatlog.replaying.core import AGREED, CycleOutcome, Replayer
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.pins import PinChecker
 from beatlog.replaying.random import ReplayRandom
+from beatlog.replaying.recorded_states import RecordedStates
 from beatlog.replaying.setup import built_for_replay
 
 __all__ = [
@@ -176,9 +177,11 @@ class ReplaySession(Closing):
 
     ``fresh_from`` (a cycle) starts the behaviors from rest there: the system is built
     as for the log's start and first updates in that cycle, at the cycle number and
-    robot time recorded for it; the cycles before it are skimmed (read and checked as
-    :meth:`~beatlog.log.reader.SessionLogReader.batches` skims them), not replayed, and
-    no observer gets them.
+    robot time recorded for it, its BS_t found against the behavior states recorded
+    before it (:meth:`~beatlog.model.cycle.CycleExecutor.assume`); the cycles before it
+    are skimmed (read and checked as
+    :meth:`~beatlog.log.reader.SessionLogReader.batches` skims them, their state
+    changes decoded), not replayed, and no observer gets them.
 
     The verdict (:func:`beatlog.replaying.judge.replay`) is the session's :class:`Judge`.
     """
@@ -193,6 +196,7 @@ class ReplaySession(Closing):
     ) -> None:
         self.reader = reader = SessionLogReader(log)
         self.fresh_from = fresh_from
+        self._rename = options.get("rename", str)
         try:
             self.replayer: Replayer | None = None
             if system is not None:
@@ -278,22 +282,28 @@ class ReplaySession(Closing):
 
     def _batches(self) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches, from the fresh start on where there is one."""
-        batches = self.reader.batches(self.fresh_from)
         if not self.fresh_from or self.replayer is None:
-            return batches
-        return self._from_rest(batches, self.replayer.executor)
+            return self.reader.batches()
+        recorded = RecordedStates(self.reader.path, self.reader.header.behaviors)
+        batches = self.reader.batches(self.fresh_from, recorded.take)
+        return self._from_rest(batches, self.replayer.executor, recorded)
 
     def _from_rest(
-        self, batches: Iterator[Sequence[CycleRecord]], executor: CycleExecutor
+        self,
+        batches: Iterator[Sequence[CycleRecord]],
+        executor: CycleExecutor,
+        recorded: RecordedStates,
     ) -> Iterator[Sequence[CycleRecord]]:
         """``batches``, from the fresh start on, with ``executor``'s clock set to the
-        robot time recorded before it once that is known (its batch read)."""
+        robot time recorded before it and the behavior states recorded there assumed,
+        once they are known (its batch read)."""
         first = True
         for batch in batches:
             if first:
                 first = False
                 now_ns = self.reader.robot_time_ns - sum([c.heartbeat_ns for c in batch])
                 executor.clock.now_ns = executor.context.time_ns = now_ns
+                executor.assume(recorded.by_position(executor.behavior_ids, self._rename))
             yield batch
 
     def _standing_in(
