@@ -52,7 +52,14 @@ from tests.conftest import (
     probe_system_renamed,
 )
 from tests.crafting import chunks, drop_chunk
-from tests.factories import PROBE_CYCLE_DAMAGE, as_format_1, logged_counts, rewrite_cycle, vouch
+from tests.factories import (
+    PROBE_CYCLE_DAMAGE,
+    as_format_1,
+    cut_in_half,
+    logged_counts,
+    rewrite_cycle,
+    vouch,
+)
 from tests.systems import Fragile, dozy_system, impostor_system, quiet_system, record_session
 from tests.text import frames, whole_lines
 
@@ -1086,3 +1093,18 @@ def test_a_fresh_start_finds_the_state_changes_against_the_recorded_states(
         DivergenceKind.STATE_CHANGES,
         "dice",
     )
+
+
+def test_a_log_cut_off_before_a_fresh_start_ends_where_it_was_cut(
+    record_chunked: RecordFn,
+) -> None:
+    log = cut_in_half(record_chunked(300))
+    with SessionLogReader(log) as reader:
+        for _ in reader.batches():
+            pass
+        cycles = reader.status.cycles
+
+    result = replay(log, probe_system(), start_cycle=cycles + 20, fresh_start=True)
+
+    assert result.divergence is not None
+    assert (result.divergence.kind, result.divergence.cycle) == (DivergenceKind.LOG_ENDED, cycles)

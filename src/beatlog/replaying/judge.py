@@ -266,7 +266,7 @@ def replay(
         status = None if judge.window_closed else reader.status
         if status is not None and judge.judging:
             if not status.complete and not allow_truncated:
-                judge.log_ended(status.describe())
+                judge.log_ended(status.describe(), status.cycles)
             else:
                 check_window(where or reader.path, status.cycles, start_cycle, end_cycle)
         wall = time.perf_counter() - started
@@ -520,13 +520,14 @@ class CycleJudge:
         if self._stopped_at is None:
             self._samples_perceived = self.replayer.samples_perceived
 
-    def log_ended(self, why: str) -> None:
-        """Record that the log stopped before the recording closed it."""
+    def log_ended(self, why: str, cycles: int) -> None:
+        """Record that the log stopped before the recording closed it, after ``cycles``
+        cycles (before a fresh start, if it stopped there)."""
         context = self.executor.context
         if self.divergence is None:
             self.divergence = Divergence(
                 kind=DivergenceKind.LOG_ENDED,
-                cycle=context.cycle + 1,
+                cycle=min(context.cycle + 1, cycles),
                 time_ns=context.time_ns,
                 message=f"the log ends early ({why}); if the session ended there (a crash), "
                 "accept what it holds with --allow-truncated (in a spec: allow_truncated = true)",

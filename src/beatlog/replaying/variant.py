@@ -251,7 +251,7 @@ def replay_variant(
         ):
             divergence = Divergence(
                 kind=DivergenceKind.LOG_ENDED,
-                cycle=context.cycle + 1,
+                cycle=min(context.cycle + 1, status.cycles),
                 time_ns=context.time_ns,
                 message=f"the log ends early ({status.describe()}); if the session ended "
                 "there (a crash), accept what it holds with --allow-truncated "
