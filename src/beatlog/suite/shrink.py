@@ -285,23 +285,26 @@ class _Search:
         end = self.failure.cycle
         known = self.fresh and self.start > 0
         fresh = self._latest(end, max(self.start, 1), fresh=True, known=known)
-        if fresh == end:  # a window of the failing cycle alone, from rest
-            self.start, self.end, self.fresh = end, end, True
-            return
-        lowest = self.start if fresh is None else fresh + 1
-        known = fresh is None and not self.fresh
-        replayed = self._latest(end, lowest, fresh=False, known=known)
-        if fresh is not None and (replayed is None or fresh > replayed - fresh):
-            self.start, self.end, self.fresh = fresh, end, True
+        replayed = None
+        if fresh is None or fresh[0] < end:  # a later start may still fail, replayed to
+            lowest = self.start if fresh is None else fresh[0] + 1
+            known = fresh is None and not self.fresh
+            replayed = self._latest(end, lowest, fresh=False, known=known)
+        if fresh is not None and (replayed is None or fresh[0] > replayed[0] - fresh[0]):
+            (self.start, self.failure), self.fresh = fresh, True
         elif replayed is not None:
-            self.start, self.end, self.fresh = replayed, end, False
+            (self.start, self.failure), self.fresh = replayed, False
+        self.end = end
 
-    def _latest(self, end: int, lowest: int, *, fresh: bool, known: bool) -> int | None:
+    def _latest(
+        self, end: int, lowest: int, *, fresh: bool, known: bool
+    ) -> tuple[int, Divergence] | None:
         """The latest start from ``lowest`` to ``end`` whose window fails the same way
-        from a ``fresh`` start or not, or None: stepped back from the end in doubling
-        strides (the end, one before, three before, seven...) until one fails, then
-        bisected between it and the earliest that passed. ``known``: ``lowest`` fails
-        so, and is not tried again."""
+        from a ``fresh`` start or not, and its failure; None where none does: stepped
+        back from the end in doubling strides (the end, one before, three before,
+        seven...) until one fails, then bisected between it and the earliest that
+        passed. ``known``: ``lowest`` fails so, as the failure kept so far says, and is
+        not tried again."""
         if lowest > end:
             return None
         passed, stride, candidate = end + 1, 1, end
@@ -311,14 +314,14 @@ class _Search:
             passed = candidate
             candidate = max(lowest, end + 1 - 2 * stride)
             stride *= 2
-        failing = candidate
+        failing, found = candidate, self.failure
         while passed - failing > 1:
             middle = (failing + passed) // 2
             if self.fails(middle, end, fresh=fresh):
-                failing = middle
+                failing, found = middle, self.failure
             else:
                 passed = middle
-        return failing
+        return failing, found
 
     def _replay(
         self, start: int, end: int | None, perturbations: Mapping[str, Any], *, fresh: bool
