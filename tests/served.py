@@ -25,11 +25,13 @@ _ENDLESS_BLOCK = b"\0" * (64 << 10)
 @dataclass
 class LogServer:
     """A folder served over HTTP; ``sent`` counts the bytes of file bodies sent per URL
-    path (``/dock.beatlog``), HEAD requests sending none."""
+    path (``/dock.beatlog``), HEAD requests sending none, and ``requests`` the requests
+    answered, by method and path (``GET /dock.beatlog``)."""
 
     url: str
     folder: Path
     sent: collections.Counter[str] = field(default_factory=collections.Counter)
+    requests: collections.Counter[str] = field(default_factory=collections.Counter)
     lock: threading.Lock = field(default_factory=threading.Lock)
     stopping: threading.Event = field(default_factory=threading.Event)
 
@@ -51,6 +53,8 @@ class _Misbehaving(http.server.SimpleHTTPRequestHandler):
 
     def send_head(self) -> IO[bytes] | None:  # type: ignore[override]
         """Misbehave where the path asks for it; otherwise serve the file."""
+        with self.server_state.lock:
+            self.server_state.requests[f"{self.command} {self.path}"] += 1
         way, _, name = self.path.lstrip("/").partition("/")
         misbehaviour = MISBEHAVIOURS.get(way)
         if misbehaviour is None:
