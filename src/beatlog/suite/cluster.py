@@ -3,6 +3,8 @@
 One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function the
 local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
 as it is; outcomes stream back as they complete, to the same progress bar and reports.
+Tasks are submitted as outcomes come, two a cluster thread ahead of them, so the
+files they ship are read, and held here and by the scheduler, for those DTCs alone.
 A spec travels with absolute paths to a cluster of this machine's (``local``); to
 another (an address), with the files of this machine its replay reads (:func:`packed`):
 its spec's approved baseline, its log where it is a local file, and its project's
