@@ -11,10 +11,11 @@ neither is never cached. A changed object has a new key, so it is downloaded aga
 Each entry's name holds its size and SHA-256 digest, checked before every use: an entry
 damaged on disk is removed and the log downloaded again, never replayed. Entries are
 written whole before they get their name (a hard link to the finished copy), and used
-through a hard link of their own, so the processes of a machine share the cache with no
-lock: one that removes an entry never pulls it from under another that uses it. Only
-fetching an object takes a lock, of that object alone, so that two processes that want
-it at once download it once.
+through a hard link of their own, so the processes of a machine share the cache without
+waiting on one another: one that removes an entry never pulls it from under another that
+uses it. Only two that fetch the same object at once wait, the second for the first's
+copy (a lock of that object alone, an empty file in ``fetching``), so it is downloaded
+once.
 
 A copy in use (being downloaded, or replayed) lies in a folder of its own, which its
 process holds locked (``flock``) until it removes it. A process killed meanwhile leaves
