@@ -34,6 +34,8 @@ class LogServer:
     requests: collections.Counter[str] = field(default_factory=collections.Counter)
     lock: threading.Lock = field(default_factory=threading.Lock)
     stopping: threading.Event = field(default_factory=threading.Event)
+    gate: threading.Event = field(default_factory=threading.Event)
+    """Opened, it lets the ``gated`` downloads send their bodies."""
 
     def downloads(self, name: str) -> float:
         """How many times the file ``name`` was sent whole (0.5: half of it once)."""
@@ -91,6 +93,13 @@ class _Misbehaving(http.server.SimpleHTTPRequestHandler):
             self.wfile.flush()
             self.server_state.stopping.wait()
 
+    def gated(self, log: bytes) -> None:
+        """Promise the log, then send it once the server's gate opens."""
+        if self.headers_for(len(log)):
+            self.wfile.flush()
+            self.server_state.gate.wait()
+            self.wfile.write(log)
+
     def trickle(self, log: bytes) -> None:
         """A chunked body sent a byte at a time, never ending while the client reads."""
         if self.headers_for(None, chunked=True):
@@ -140,6 +149,7 @@ class _Misbehaving(http.server.SimpleHTTPRequestHandler):
 
 MISBEHAVIOURS: dict[str, Callable[[_Misbehaving, bytes], None]] = {
     "stall": _Misbehaving.stall,
+    "gated": _Misbehaving.gated,
     "trickle": _Misbehaving.trickle,
     "endless": _Misbehaving.endless,
     "cut-length": _Misbehaving.cut_length,
@@ -181,5 +191,6 @@ def serve(folder: Path) -> Iterator[LogServer]:
             yield server
         finally:
             server.stopping.set()
+            server.gate.set()
             httpd.shutdown()
             thread.join()

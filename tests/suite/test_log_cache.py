@@ -8,6 +8,7 @@ import contextlib
 import os
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,7 +23,7 @@ from beatlog.suite.log_cache import (
     cache_folder,
     cache_key,
 )
-from beatlog.suite.remote import fetched_log
+from beatlog.suite.remote import Listed, fetched_log
 from tests.conftest import RecordFn
 from tests.served import LogServer
 
@@ -39,8 +40,9 @@ def memory(tmp_path: Path) -> Iterator[str]:
     filesystem.rm(folder, recursive=True)
 
 
-def fetched(url: str) -> bytes:
-    with fetched_log(url) as copy:
+def fetched(url: str, size: int | None = None) -> bytes:
+    """The log behind ``url``, as a listing of ``size`` and ETag ``v1`` finds it if given."""
+    with fetched_log(url, listed=None if size is None else Listed(size, "v1")) as copy:
         return copy.read_bytes()
 
 
@@ -286,3 +288,29 @@ def test_a_folder_in_use_without_its_lock_is_removed_once_a_minute_old(
     fetched(url)
 
     assert in_use(log_cache) == [new]
+
+
+def test_a_log_another_process_is_fetching_is_waited_for_not_fetched_again(
+    served: LogServer, log_cache: Path
+) -> None:
+    url = f"{served.url}/gated/dock.beatlog"  # sent once the gate opens
+    size = (served.folder / "dock.beatlog").stat().st_size
+    copies: list[bytes] = []
+    with subprocess.Popen([sys.executable, "-c", HOLD, url, str(size)]) as process:
+        try:
+            while not list((log_cache / "in-use").glob("*/dock.beatlog")):
+                assert process.poll() is None
+                time.sleep(0.05)
+            here = threading.Thread(target=lambda: copies.append(fetched(url, size)))
+            here.start()
+            while len(in_use(log_cache)) < 2:  # this process's copy is under way
+                assert here.is_alive()
+                time.sleep(0.05)
+            time.sleep(0.2)  # time to ask for it too, were it not waiting
+            served.gate.set()
+            here.join()
+        finally:
+            process.kill()
+
+    assert copies == [(served.folder / "dock.beatlog").read_bytes()]
+    assert served.requests["GET /gated/dock.beatlog"] == 1
