@@ -18,7 +18,7 @@ import pytest
 
 from beatlog.baseline.file import expected_path, pending_path
 from beatlog.baseline.policy import UpdateMode
-from beatlog.errors import FleetError, SystemLoadError
+from beatlog.errors import FleetError, RemoteLogError, SystemLoadError
 from beatlog.suite.fleet import FLEET_PURPOSE, check_references, fleet_specs
 from beatlog.suite.maintenance import update_baselines
 from beatlog.suite.parallel import run_suite
@@ -246,7 +246,8 @@ class S3Server:
 
 @pytest.fixture
 def s3(monkeypatch: pytest.MonkeyPatch) -> Iterator[S3Server]:
-    """A server of moto's, where moto and s3fs are installed; s3fs reaches it."""
+    """A server of moto's, where moto and s3fs are installed; s3fs reaches it. Its
+    buckets are the process's (moto's): each test makes its own."""
     pytest.importorskip("s3fs")
     werkzeug_app = pytest.importorskip("moto.moto_server.werkzeug_app")
     serving = pytest.importorskip("werkzeug.serving")
@@ -301,3 +302,22 @@ def test_a_fleet_in_s3_is_one_request_a_log_then_none_from_the_cache(
         ]
     )
     assert all(spec.log_etag for spec in specs)
+
+
+@pytest.mark.slow
+def test_a_log_changed_in_s3_since_its_listing_is_an_error_never_a_copy(
+    s3: S3Server, logs: Path
+) -> None:
+    storage = fsspec.filesystem("s3", endpoint_url=s3.url, skip_instance_cache=True)
+    storage.mkdir("changed")
+    whole = (logs / "monday.beatlog").read_bytes()
+    storage.pipe("changed/monday.beatlog", whole)
+    [spec] = fleet_specs("s3://changed/*.beatlog", system=PROBE)
+    storage.pipe("changed/monday.beatlog", whole[::-1])  # the same size
+    fsspec.filesystem("s3").invalidate_cache()
+
+    for _ in range(2):  # nothing of it kept
+        with pytest.raises(RemoteLogError) as raised, spec.readable_log():
+            pass
+        assert str(raised.value).startswith("s3://changed/monday.beatlog: cannot copy: ")
+        assert "no longer exists" in str(raised.value)

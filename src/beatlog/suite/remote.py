@@ -77,6 +77,7 @@ Number = TypeVar("Number", int, float)
 _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _BLOCK = 1 << 20
 _HTTP = ("http", "https")
+_S3 = ("s3", "s3a")
 _fetching_lock = threading.Lock()
 _fetching: dict[str, threading.Thread] = {}
 """The logs this process fetches ahead, by URL."""
@@ -134,9 +135,11 @@ def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
     except ModuleNotFoundError:
         raise RemoteLogError(url, 'a URL needs fsspec (pip install "beatlog[fleet]")') from None
     try:
-        options = {}
+        options: dict[str, Any] = {}
         if urlsplit(url).scheme in _HTTP:
             options["client_kwargs"] = _http_client_options(url, streaming=streaming)
+        if urlsplit(url).scheme in _S3:
+            options["local_expiry_check"] = True  # a download's ETag checked against ours
         filesystem, path = url_to_fs(url, **options)
     except (ImportError, ValueError) as exc:  # ImportError: a backend's package
         raise RemoteLogError(url, f"cannot open: {exc}") from None
@@ -269,7 +272,8 @@ def _copy(
     """Copy one remote log, which its filesystem describes by ``info``, whole within
     ``bounds``, or raise. Where ``info`` gives its size, the file is opened with it, so
     that opening asks the storage nothing; where it gives its ETag, a download of an
-    object that has changed since is refused (by the backends that check it: s3fs)."""
+    object that has changed since is refused, by the backends that check it (s3fs, told
+    to check the ETag each answer carries)."""
     from fsspec.spec import AbstractBufferedFile  # noqa: PLC0415 - an optional dependency
 
     size: int | None = info.get("size")
