@@ -285,7 +285,7 @@ def test_a_fleet_in_s3_is_one_request_a_log_then_none_from_the_cache(
     s3.requests.clear()
 
     specs = fleet_specs("s3://fleet/*.beatlog", system=PROBE)
-    fsspec.filesystem("s3").invalidate_cache()  # as a worker's, which never saw the listing
+    fsspec.get_filesystem_class("s3").clear_instance_cache()  # as on a worker: no listing seen
     copies = []
     for _ in range(2):
         for spec in specs:
@@ -314,7 +314,7 @@ def test_a_log_changed_in_s3_since_its_listing_is_an_error_never_a_copy(
     storage.pipe("changed/monday.beatlog", whole)
     [spec] = fleet_specs("s3://changed/*.beatlog", system=PROBE)
     storage.pipe("changed/monday.beatlog", whole[::-1])  # the same size
-    fsspec.filesystem("s3").invalidate_cache()
+    fsspec.get_filesystem_class("s3").clear_instance_cache()
 
     for _ in range(2):  # nothing of it kept
         with pytest.raises(RemoteLogError) as raised, spec.readable_log():
