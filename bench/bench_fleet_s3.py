@@ -7,8 +7,9 @@ the requests the server answered before the first task was submitted (listing an
 ordering the fleet), the cluster's start-up, the time from submission to the first
 outcome and to the last, the sum of the replays' wall times (each DTC's own, as its
 worker timed it) against the fleet's wall time per worker, the time the DTCs spent
-waiting for storage, and the bytes of logs the server sent; then the same run again on
-a fresh cluster, which must fetch no log again (the machine's cache of logs).
+waiting for storage, the server's requests by method a log, and the bytes of logs the
+server sent; then the same run again on a fresh cluster, which must fetch no log again
+(the machine's cache of logs) nor ask the server anything of one.
 
 Needs ``pip install s3fs "moto[server]"``. Run it as ``python bench/bench_fleet_s3.py
 [--logs N] [--workers W] [--latency-ms L] [--seconds S]``.
@@ -51,14 +52,20 @@ class Delayed:
         self.lock = threading.Lock()
 
     def __call__(self, environ: dict[str, Any], start: Callable[..., Any]) -> Iterable[bytes]:
+        listing = "list-type" in environ["QUERY_STRING"]
         with self.lock:
-            self.requests[environ["REQUEST_METHOD"]] += 1
+            self.requests["LIST" if listing else environ["REQUEST_METHOD"]] += 1
         time.sleep(self.latency)
         body = b"".join(self.app(environ, start))
         if environ["REQUEST_METHOD"] == "GET" and "list-type" not in environ["QUERY_STRING"]:
             with self.lock:
                 self.sent += len(body)
         return [body]
+
+    def by_method(self) -> collections.Counter[str]:
+        """Requests so far by method, a listing as ``LIST``."""
+        with self.lock:
+            return collections.Counter(self.requests)
 
     def counted(self) -> tuple[int, int]:
         """Requests and bytes sent so far."""
@@ -97,6 +104,7 @@ def upload(endpoint: str, log: Path, count: int) -> None:
 def run_fleet(workers: int, delayed: Delayed) -> dict[str, float]:
     """One fleet run on a fresh local cluster; its figures."""
     requests, sent = delayed.counted()
+    methods = delayed.by_method()
     started = time.perf_counter()
     with DaskExecutor(f"local:{workers}") as executor:
         ready = time.perf_counter()
@@ -127,6 +135,11 @@ def run_fleet(workers: int, delayed: Delayed) -> dict[str, float]:
         "median wait for storage ms": statistics.median(waits) * 1000,
         "total wait for storage s": sum(waits),
         "requests": delayed.counted()[0] - requests,
+        **{
+            f"{method} a log": count / len(outcomes)
+            for method, count in (delayed.by_method() - methods).items()
+            if method != "LIST"
+        },
         "log bytes sent": delayed.counted()[1] - sent,
     }
 

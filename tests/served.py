@@ -25,13 +25,17 @@ _ENDLESS_BLOCK = b"\0" * (64 << 10)
 @dataclass
 class LogServer:
     """A folder served over HTTP; ``sent`` counts the bytes of file bodies sent per URL
-    path (``/dock.beatlog``), HEAD requests sending none."""
+    path (``/dock.beatlog``), HEAD requests sending none, and ``requests`` the requests
+    answered, by method and path (``GET /dock.beatlog``)."""
 
     url: str
     folder: Path
     sent: collections.Counter[str] = field(default_factory=collections.Counter)
+    requests: collections.Counter[str] = field(default_factory=collections.Counter)
     lock: threading.Lock = field(default_factory=threading.Lock)
     stopping: threading.Event = field(default_factory=threading.Event)
+    gate: threading.Event = field(default_factory=threading.Event)
+    """Opened, it lets the ``gated`` downloads send their bodies."""
 
     def downloads(self, name: str) -> float:
         """How many times the file ``name`` was sent whole (0.5: half of it once)."""
@@ -51,6 +55,8 @@ class _Misbehaving(http.server.SimpleHTTPRequestHandler):
 
     def send_head(self) -> IO[bytes] | None:  # type: ignore[override]
         """Misbehave where the path asks for it; otherwise serve the file."""
+        with self.server_state.lock:
+            self.server_state.requests[f"{self.command} {self.path}"] += 1
         way, _, name = self.path.lstrip("/").partition("/")
         misbehaviour = MISBEHAVIOURS.get(way)
         if misbehaviour is None:
@@ -86,6 +92,13 @@ class _Misbehaving(http.server.SimpleHTTPRequestHandler):
         if self.headers_for(len(log)):
             self.wfile.flush()
             self.server_state.stopping.wait()
+
+    def gated(self, log: bytes) -> None:
+        """Promise the log, then send it once the server's gate opens."""
+        if self.headers_for(len(log)):
+            self.wfile.flush()
+            self.server_state.gate.wait()
+            self.wfile.write(log)
 
     def trickle(self, log: bytes) -> None:
         """A chunked body sent a byte at a time, never ending while the client reads."""
@@ -136,6 +149,7 @@ class _Misbehaving(http.server.SimpleHTTPRequestHandler):
 
 MISBEHAVIOURS: dict[str, Callable[[_Misbehaving, bytes], None]] = {
     "stall": _Misbehaving.stall,
+    "gated": _Misbehaving.gated,
     "trickle": _Misbehaving.trickle,
     "endless": _Misbehaving.endless,
     "cut-length": _Misbehaving.cut_length,
@@ -177,5 +191,6 @@ def serve(folder: Path) -> Iterator[LogServer]:
             yield server
         finally:
             server.stopping.set()
+            server.gate.set()
             httpd.shutdown()
             thread.join()

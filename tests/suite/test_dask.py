@@ -6,10 +6,12 @@ and cancels on Ctrl-C."""
 from __future__ import annotations
 
 import logging
+import os
 import re
 import shutil
 import socket
 import threading
+import tracemalloc
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -350,8 +352,7 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
     (tmp_path / "checkout").mkdir()
     log = record_probe(60, name="checkout/walk.beatlog")
     write_spec(tmp_path / "checkout", "a-quick", log)
-    for name in ("b-waits", "c-waits", "d-waits"):
-        write_spec(tmp_path / "checkout", name, log, waiting)
+    write_spec(tmp_path / "checkout", "b-waits", log, waiting)  # on the scheduler, sent
     specs = discover_specs([tmp_path / "checkout"])
     outcomes: list[SpecOutcome] = []
 
@@ -382,8 +383,6 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
     assert sorted((o.spec.name, o.verdict.value, o.error) for o in outcomes) == [
         ("a-quick", "passed", None),
         ("b-waits", "passed", None),
-        ("c-waits", "passed", None),
-        ("d-waits", "passed", None),
     ]
 
 
@@ -565,3 +564,33 @@ def test_a_fleet_log_ships_alone(checkout: Path) -> None:
     shipped = packed(spec)
 
     assert list(shipped.files) == ["logs/walk.beatlog"]
+
+
+@pytest.mark.slow
+def test_local_logs_are_read_for_the_cluster_only_as_their_dtcs_are_submitted(
+    cluster: str, tmp_path: Path
+) -> None:
+    (tmp_path / "fleet").mkdir()
+    first = tmp_path / "fleet" / "log-000.beatlog"
+    first.write_bytes(os.urandom(1 << 20))
+    for index in range(1, 200):  # links: 200 MiB of logs to ship, 1 MiB on disk
+        os.link(first, tmp_path / "fleet" / f"log-{index:03}.beatlog")
+    specs = fleet_specs(f"{tmp_path}/fleet/*.beatlog", system=CHANGED)
+    outcomes: list[SpecOutcome] = []
+
+    def judged(outcome: SpecOutcome) -> bool:
+        outcomes.append(outcome)
+        return False
+
+    tracemalloc.start()
+    try:
+        with DaskExecutor(cluster) as executor:
+            executor(specs, SpecOptions(), judged)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+
+    assert len(outcomes) == 200
+    assert all(outcome.verdict is Verdict.ERROR for outcome in outcomes)
+    assert "no such" not in (outcomes[0].error or "")  # the worker read the log shipped
+    assert peak < 40 << 20, f"{peak >> 20} MiB held to ship 200 MiB of logs"

@@ -3,17 +3,22 @@ against its recording; the logs behind a URL are listed, not copied, until repla
 
 from __future__ import annotations
 
+import collections
 import shutil
 import sys
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import fsspec
+import fsspec.config
 import pytest
 
 from beatlog.baseline.file import expected_path, pending_path
 from beatlog.baseline.policy import UpdateMode
-from beatlog.errors import FleetError, SystemLoadError
+from beatlog.errors import FleetError, RemoteLogError, SystemLoadError
 from beatlog.suite.fleet import FLEET_PURPOSE, check_references, fleet_specs
 from beatlog.suite.maintenance import update_baselines
 from beatlog.suite.parallel import run_suite
@@ -225,3 +230,94 @@ def test_code_beside_fleet_logs_is_never_imported(logs: Path) -> None:
     assert outcome.verdict is Verdict.ERROR
     assert "planted code ran" not in str(outcome.error)
     assert "planted_beside_logs" not in sys.modules
+
+
+# a fleet in S3: one request a log, none once cached
+
+
+@dataclass
+class S3Server:
+    """An S3-compatible server on the loopback (moto's), counting its requests by
+    method, a listing as ``LIST``."""
+
+    url: str
+    requests: collections.Counter[str] = field(default_factory=collections.Counter)
+
+
+@pytest.fixture
+def s3(monkeypatch: pytest.MonkeyPatch) -> Iterator[S3Server]:
+    """A server of moto's, where moto and s3fs are installed; s3fs reaches it. Its
+    buckets are the process's (moto's): each test makes its own."""
+    pytest.importorskip("s3fs")
+    werkzeug_app = pytest.importorskip("moto.moto_server.werkzeug_app")
+    serving = pytest.importorskip("werkzeug.serving")
+    app = werkzeug_app.DomainDispatcherApplication(werkzeug_app.create_backend_app)
+    server = S3Server("")
+
+    def counted(environ: dict[str, Any], start: Callable[..., Any]) -> Any:
+        listing = "list-type" in environ["QUERY_STRING"]
+        server.requests["LIST" if listing else environ["REQUEST_METHOD"]] += 1
+        return app(environ, start)
+
+    httpd = serving.make_server("127.0.0.1", 0, counted, threaded=True)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    server.url = f"http://127.0.0.1:{httpd.server_address[1]}"
+    for name, value in (("AWS_ACCESS_KEY_ID", "k"), ("AWS_SECRET_ACCESS_KEY", "s")):
+        monkeypatch.setenv(name, value)
+    monkeypatch.setenv("AWS_DEFAULT_REGION", "us-east-1")
+    monkeypatch.setitem(fsspec.config.conf, "s3", {"endpoint_url": server.url})
+    try:
+        yield server
+    finally:
+        httpd.shutdown()
+        thread.join()
+
+
+@pytest.mark.slow
+def test_a_fleet_in_s3_is_one_request_a_log_then_none_from_the_cache(
+    s3: S3Server, logs: Path
+) -> None:
+    storage = fsspec.filesystem("s3", endpoint_url=s3.url, skip_instance_cache=True)
+    storage.mkdir("fleet")
+    for log in ("monday.beatlog", "tuesday/dock.beatlog"):
+        storage.pipe(f"fleet/{Path(log).name}", (logs / log).read_bytes())
+    s3.requests.clear()
+
+    specs = fleet_specs("s3://fleet/*.beatlog", system=PROBE)
+    fsspec.get_filesystem_class("s3").clear_instance_cache()  # as on a worker: no listing seen
+    copies = []
+    for _ in range(2):
+        for spec in specs:
+            with spec.readable_log() as copy:
+                copies.append(copy.read_bytes())
+
+    assert s3.requests == {"LIST": 1, "GET": 2}
+    assert (
+        copies[:2]
+        == copies[2:]
+        == [
+            (logs / "tuesday" / "dock.beatlog").read_bytes(),
+            (logs / "monday.beatlog").read_bytes(),
+        ]
+    )
+    assert all(spec.log_etag for spec in specs)
+
+
+@pytest.mark.slow
+def test_a_log_changed_in_s3_since_its_listing_is_an_error_never_a_copy(
+    s3: S3Server, logs: Path
+) -> None:
+    storage = fsspec.filesystem("s3", endpoint_url=s3.url, skip_instance_cache=True)
+    storage.mkdir("changed")
+    whole = (logs / "monday.beatlog").read_bytes()
+    storage.pipe("changed/monday.beatlog", whole)
+    [spec] = fleet_specs("s3://changed/*.beatlog", system=PROBE)
+    storage.pipe("changed/monday.beatlog", whole[::-1])  # the same size
+    fsspec.get_filesystem_class("s3").clear_instance_cache()
+
+    for _ in range(2):  # nothing of it kept
+        with pytest.raises(RemoteLogError) as raised, spec.readable_log():
+            pass
+        assert str(raised.value).startswith("s3://changed/monday.beatlog: cannot copy: ")
+        assert "no longer exists" in str(raised.value)

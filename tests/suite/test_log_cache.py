@@ -4,7 +4,12 @@ damaged entry, and a changed object downloaded again."""
 
 from __future__ import annotations
 
+import contextlib
 import os
+import subprocess
+import sys
+import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -18,7 +23,7 @@ from beatlog.suite.log_cache import (
     cache_folder,
     cache_key,
 )
-from beatlog.suite.remote import fetched_log
+from beatlog.suite.remote import Listed, fetched_log
 from tests.conftest import RecordFn
 from tests.served import LogServer
 
@@ -35,8 +40,9 @@ def memory(tmp_path: Path) -> Iterator[str]:
     filesystem.rm(folder, recursive=True)
 
 
-def fetched(url: str) -> bytes:
-    with fetched_log(url) as copy:
+def fetched(url: str, size: int | None = None) -> bytes:
+    """The log behind ``url``, as a listing of ``size`` and ETag ``v1`` finds it if given."""
+    with fetched_log(url, listed=None if size is None else Listed(size, "v1")) as copy:
         return copy.read_bytes()
 
 
@@ -192,3 +198,119 @@ def test_the_cache_is_in_the_users_cache_folder_unless_set(
     monkeypatch.delenv(CACHE_DIR_VARIABLE)
 
     assert cache_folder().parts[-2:] == ("beatlog", "logs")
+
+
+# copies in use: a process killed while it fetched or replayed leaves its folder
+
+
+HOLD = """
+import sys, threading
+from beatlog.suite import remote
+listed = remote.Listed(int(sys.argv[2]), "v1") if len(sys.argv) > 2 else None
+with remote.fetched_log(sys.argv[1], **({} if listed is None else {"listed": listed})) as copy:
+    print(copy.parent, flush=True)
+    threading.Event().wait()
+"""
+
+
+@contextlib.contextmanager
+def holding(url: str) -> Iterator[tuple[subprocess.Popen[str], Path]]:
+    """Another process that holds a copy of the log behind ``url`` until killed, and the
+    folder of its copy."""
+    with subprocess.Popen(
+        [sys.executable, "-c", HOLD, url], stdout=subprocess.PIPE, text=True
+    ) as process:
+        try:
+            assert process.stdout is not None
+            yield process, Path(process.stdout.readline().strip())
+        finally:
+            process.kill()
+
+
+def in_use(log_cache: Path) -> list[Path]:
+    return sorted((log_cache / "in-use").iterdir())
+
+
+def test_the_folder_of_a_process_killed_while_fetching_is_removed_never_replayed(
+    served: LogServer, log_cache: Path
+) -> None:
+    stalled = f"{served.url}/stall/dock.beatlog"  # promises the log, never sends it
+    size = str((served.folder / "dock.beatlog").stat().st_size)
+    with subprocess.Popen([sys.executable, "-c", HOLD, stalled, size]) as process:
+        while not list((log_cache / "in-use").glob("*/dock.beatlog")):
+            assert process.poll() is None
+            time.sleep(0.05)
+        process.kill()
+    [left] = in_use(log_cache)
+
+    whole = fetched(f"{served.url}/dock.beatlog")
+
+    assert whole == (served.folder / "dock.beatlog").read_bytes()
+    assert in_use(log_cache) == []
+    assert not left.exists()
+
+
+def test_the_folder_of_a_process_killed_while_replaying_is_removed(
+    served: LogServer, log_cache: Path
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+    with holding(url) as (process, folder):
+        assert in_use(log_cache) == [folder]
+        process.kill()
+        process.wait()
+
+    fetched(url)
+
+    assert in_use(log_cache) == []
+    assert served.downloads("dock.beatlog") == 1
+
+
+def test_the_folder_of_a_live_process_is_kept(served: LogServer, log_cache: Path) -> None:
+    url = f"{served.url}/dock.beatlog"
+    with holding(url) as (_, folder):
+        fetched(url)
+
+        assert in_use(log_cache) == [folder]
+        assert (folder / "dock.beatlog").read_bytes() == fetched(url)
+
+
+def test_a_folder_in_use_without_its_lock_is_removed_once_a_minute_old(
+    served: LogServer, log_cache: Path
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+    fetched(url)  # makes the cache's folders
+    old, new = log_cache / "in-use" / "old", log_cache / "in-use" / "new"
+    for folder in (old, new):
+        folder.mkdir()
+        (folder / "dock.beatlog").write_bytes(b"partial")
+    os.utime(old, (old.stat().st_atime, old.stat().st_mtime - 61))
+
+    fetched(url)
+
+    assert in_use(log_cache) == [new]
+
+
+def test_a_log_another_process_is_fetching_is_waited_for_not_fetched_again(
+    served: LogServer, log_cache: Path
+) -> None:
+    url = f"{served.url}/gated/dock.beatlog"  # sent once the gate opens
+    size = (served.folder / "dock.beatlog").stat().st_size
+    copies: list[bytes] = []
+    with subprocess.Popen([sys.executable, "-c", HOLD, url, str(size)]) as process:
+        try:
+            while not list((log_cache / "in-use").glob("*/dock.beatlog")):
+                assert process.poll() is None
+                time.sleep(0.05)
+            here = threading.Thread(target=lambda: copies.append(fetched(url, size)))
+            here.start()
+            while len(in_use(log_cache)) < 2:  # this process's copy is under way
+                assert here.is_alive()
+                time.sleep(0.05)
+            time.sleep(0.2)  # time to ask for it too, were it not waiting
+            served.gate.set()
+            here.join()
+        finally:
+            process.kill()
+
+    assert copies == [(served.folder / "dock.beatlog").read_bytes()]
+    assert served.requests["GET /gated/dock.beatlog"] == 1

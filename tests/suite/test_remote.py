@@ -20,6 +20,7 @@ from beatlog.errors import RemoteLogError
 from beatlog.suite.remote import (
     MAX_BYTES_VARIABLE,
     TIMEOUT_VARIABLE,
+    Listed,
     fetch_ahead,
     fetched_log,
     is_url,
@@ -318,3 +319,50 @@ def test_a_log_that_cannot_be_fetched_ahead_is_left_to_its_dtc(served: LogServer
     wait_for(url)
 
     wait_for(f"{served.url}/never-asked.beatlog")
+
+
+# a log a listing found: its size and ETag already said
+
+
+def listed(served: LogServer, name: str, etag: str) -> Listed:
+    return Listed((served.folder / name).stat().st_size, etag)
+
+
+def test_a_listed_log_is_one_request_and_none_once_in_the_cache(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    for _ in range(2):
+        with fetched_log(url, listed=listed(served, "dock.beatlog", '"v1"')) as copy:
+            assert copy.read_bytes() == (served.folder / "dock.beatlog").read_bytes()
+
+    assert served.requests == {"GET /dock.beatlog": 1}
+
+
+def test_a_log_listed_with_another_etag_is_fetched_again(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    with fetched_log(url, listed=listed(served, "dock.beatlog", '"v1"')):
+        pass
+
+    with fetched_log(url, listed=listed(served, "dock.beatlog", '"v2"')):
+        pass
+
+    assert served.requests == {"GET /dock.beatlog": 2}
+
+
+def test_a_listed_log_fetched_ahead_is_one_request(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    fetch_ahead(url, listed(served, "dock.beatlog", '"v1"'))
+    wait_for(url)
+
+    with fetched_log(url, listed=listed(served, "dock.beatlog", '"v1"')):
+        pass
+
+    assert served.requests == {"GET /dock.beatlog": 1}
+
+
+def test_a_log_no_listing_found_is_asked_its_size_once_before_its_download(
+    served: LogServer,
+) -> None:
+    with fetched_log(f"{served.url}/dock.beatlog"):
+        pass
+
+    assert served.requests == {"HEAD /dock.beatlog": 1, "GET /dock.beatlog": 1}

@@ -3,6 +3,8 @@
 One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function the
 local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
 as it is; outcomes stream back as they complete, to the same progress bar and reports.
+Tasks are submitted as outcomes come, two a cluster thread ahead of them, so the
+files they ship are read, and held here and by the scheduler, for those DTCs alone.
 A spec travels with absolute paths to a cluster of this machine's (``local``); to
 another (an address), with the files of this machine its replay reads (:func:`packed`):
 its spec's approved baseline, its log where it is a local file, and its project's
@@ -34,6 +36,7 @@ import asyncio
 import collections
 import dataclasses
 import importlib.util
+import itertools
 import logging
 import re
 import socket
@@ -49,7 +52,7 @@ from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
 from beatlog.log.files import Closing, project_root
 from beatlog.project.usercode import importable_near
-from beatlog.suite.remote import fetch_ahead, wait_for
+from beatlog.suite.remote import Listed, fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
 from beatlog.suite.spec import DtcSpec
@@ -76,6 +79,10 @@ worker is sent no more DTCs than it has threads, so one that dies takes only the
 it was replaying with it (with Dask's default, 1.1, a worker of one thread also holds
 the next DTC, which would count as retried too)."""
 
+_IN_FLIGHT_PER_THREAD = 2
+"""How many DTCs a run keeps submitted for each thread of the cluster: each thread has
+the next at hand, and the files that DTCs ship (a local log, a baseline) are held, here
+and by the scheduler, for that many alone, however long the suite."""
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
 
 
@@ -142,19 +149,39 @@ class DaskExecutor(Closing):
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
         threads = max(1, sum(self._client.nthreads().values()))
-        keys = [f"dtc-{spec.name}-{uuid.uuid4().hex}" for spec in ordered]
-        given = dict(zip(keys, ordered, strict=True))
-        sent = [packed(_absolute(spec)) if self._ships else _absolute(spec) for spec in ordered]
-        ahead = [spec.log_url for spec in ordered[threads:]] + [None] * min(threads, len(ordered))
-        futures: list[Future[SpecOutcome]] = self._client.map(  # one message for all
-            _replayed, sent, ahead, options=options, key=keys, pure=False
-        )
+        ahead = [_ahead(spec) for spec in ordered[threads:]] + [None] * min(threads, len(ordered))
+        waiting = iter(zip(ordered, ahead, strict=True))
+        pending: dict[str, tuple[Future[SpecOutcome], DtcSpec]] = {}
+
+        def submit(count: int) -> list[Future[SpecOutcome]]:
+            """Submit the next ``count`` DTCs, reading the files they ship only now."""
+            chosen = list(itertools.islice(waiting, count))
+            if not chosen:
+                return []
+            keys = [f"dtc-{spec.name}-{uuid.uuid4().hex}" for spec, _ in chosen]
+            sent = [self._sent(spec) for spec, _ in chosen]
+            later = [next_ for _, next_ in chosen]
+            futures: list[Future[SpecOutcome]] = self._client.map(  # one message for all
+                _replayed, sent, later, options=options, key=keys, pure=False
+            )
+            for future, (spec, _) in zip(futures, chosen, strict=True):
+                pending[str(future.key)] = (future, spec)
+            return futures
+
+        completed = as_completed(submit(_IN_FLIGHT_PER_THREAD * threads), loop=self._client.loop)
         try:
-            for future in as_completed(futures, loop=self._client.loop):
-                if done(self._outcome(future, given[future.key])):
+            for future in completed:
+                _, spec = pending.pop(str(future.key))
+                if done(self._outcome(future, spec)):
                     return
+                completed.update(submit(1))
         finally:
-            self._client.cancel(futures, force=True)
+            self._client.cancel([future for future, _ in pending.values()], force=True)
+
+    def _sent(self, spec: DtcSpec) -> DtcSpec | Packed:
+        """The spec as its task carries it: with the files it reads, to a cluster that
+        does not share this machine's."""
+        return packed(_absolute(spec)) if self._ships else _absolute(spec)
 
     def _outcome(self, future: Future[SpecOutcome], spec: DtcSpec) -> SpecOutcome:
         """The outcome of a completed task, told as a local run tells it, with the
@@ -236,12 +263,21 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
-def _replayed(sent: DtcSpec | Packed, ahead: str | None, *, options: SpecOptions) -> SpecOutcome:
+def _ahead(spec: DtcSpec) -> tuple[str, Listed | None] | None:
+    """What a worker needs to fetch the spec's log ahead: its URL and what its listing
+    said of it; None for a local log."""
+    return None if spec.log_url is None else (spec.log_url, spec.listed_log)
+
+
+def _replayed(
+    sent: DtcSpec | Packed, ahead: tuple[str, Listed | None] | None, *, options: SpecOptions
+) -> SpecOutcome:
     """On a worker: :func:`run_spec` of the DTC sent, with the files shipped with it
-    where it was packed, while the log of ``ahead`` (a URL), the DTC this worker's
-    thread is likely to replay next, is fetched into the machine's cache."""
+    where it was packed, while the log of ``ahead`` (a URL, and what its listing said of
+    it), the DTC this worker's thread is likely to replay next, is fetched into the
+    machine's cache."""
     if ahead is not None:
-        fetch_ahead(ahead)
+        fetch_ahead(*ahead)
     if isinstance(sent, DtcSpec):
         return _waited(sent, options)
     with (

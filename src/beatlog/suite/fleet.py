@@ -6,9 +6,10 @@ URL: two logs may share a file name) and judged against its recording: a fleet l
 no approved baseline. The pattern is a local glob, or any
 fsspec URL (``s3://bucket/2024-*/*.beatlog``) where fsspec is installed
 (``pip install "beatlog[fleet]"``). A URL's pattern is expanded by listing alone,
-one call that gives each log's size too (what orders the work): each log behind it is
-copied only by the process that replays it, locally or on a Dask worker (see
-:mod:`beatlog.suite.remote`).
+one call that gives each log's size (what orders the work) and ETag too: each log
+behind it is copied only by the process that replays it, locally or on a Dask worker,
+with that one download its only request, and none where the machine's cache holds
+the object of that ETag (see :mod:`beatlog.suite.remote`).
 """
 
 from __future__ import annotations
@@ -42,7 +43,11 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
         raise FleetError(f"--perception: expected module:factory, got {perception!r}")
 
     def spec(
-        path: Path, source: str, log_url: str | None = None, size: int | None = None
+        path: Path,
+        source: str,
+        log_url: str | None = None,
+        size: int | None = None,
+        etag: str | None = None,
     ) -> DtcSpec:
         return DtcSpec(
             path=path,
@@ -55,14 +60,15 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
             source=source,
             log_url=log_url,
             log_size=size,
+            log_etag=etag,
         )
 
     if not is_url(pattern):
         return [spec(Path(path), path) for path in _local_logs(pattern)]
     filesystem, found = _remote_logs(pattern)
     return [
-        spec(Path(path), url, url, size)
-        for path, size in found
+        spec(Path(path), url, url, size, etag)
+        for path, size, etag in found
         for url in [filesystem.unstrip_protocol(path)]
     ]
 
@@ -103,10 +109,11 @@ def _local_logs(pattern: str) -> list[str]:
     return found
 
 
-def _remote_logs(pattern: str) -> tuple[Any, list[tuple[str, int | None]]]:
+def _remote_logs(pattern: str) -> tuple[Any, list[tuple[str, int | None, str | None]]]:
     """The filesystem behind a URL and the files its glob matches, sorted, each with its
-    size in bytes as the same listing gives it (None where it does not say): planning
-    the work then asks the storage nothing per log."""
+    size in bytes and its ETag as the same listing gives them (None where it does not
+    say): planning the work then asks the storage nothing per log, nor, with both,
+    copying a log anything but its download."""
     try:
         filesystem, root = url_filesystem(http_quoted(pattern))
     except RemoteLogError as exc:
@@ -116,7 +123,7 @@ def _remote_logs(pattern: str) -> tuple[Any, list[tuple[str, int | None]]]:
     except (ImportError, OSError, ValueError) as exc:  # ImportError: a backend's package
         raise FleetError(f"--logs {pattern}: cannot list: {exc}") from None
     found = sorted(
-        (path, _listed_size(info))
+        (path, _listed_size(info), _listed_etag(info))
         for path, info in matches.items()
         if info.get("type") != "directory"
     )
@@ -129,3 +136,9 @@ def _listed_size(info: dict[str, Any]) -> int | None:
     """A listed file's size in bytes, None where the listing does not give one."""
     size = info.get("size")
     return size if isinstance(size, int) and size >= 0 else None
+
+
+def _listed_etag(info: dict[str, Any]) -> str | None:
+    """A listed file's ETag, None where the listing does not give one."""
+    etag = info.get("ETag", info.get("etag"))
+    return etag if isinstance(etag, str) and etag else None

@@ -11,8 +11,18 @@ neither is never cached. A changed object has a new key, so it is downloaded aga
 Each entry's name holds its size and SHA-256 digest, checked before every use: an entry
 damaged on disk is removed and the log downloaded again, never replayed. Entries are
 written whole before they get their name (a hard link to the finished copy), and used
-through a hard link of their own, so the processes of a machine share the cache with no
-lock: one that removes an entry never pulls it from under another that uses it.
+through a hard link of their own, so the processes of a machine share the cache without
+waiting on one another: one that removes an entry never pulls it from under another that
+uses it. Only two that fetch the same object at once wait, the second for the first's
+copy (a lock of that object alone, an empty file in ``fetching``), so it is downloaded
+once.
+
+A copy in use (being downloaded, or replayed) lies in a folder of its own, which its
+process holds locked (``flock``) until it removes it. A process killed meanwhile leaves
+its folder, whose lock the system releases: the next process to use the cache removes
+it, so a partial copy is never replayed nor keeps its disk space. A folder without its
+lock (its process killed in the instant between making the folder and locking it) is
+removed once a minute old.
 
 The cache lives in ``BEATLOG_CACHE_DIR`` (the user's cache folder's ``beatlog/logs``
 unless set) and holds ``BEATLOG_CACHE_MAX_BYTES`` bytes at most (:data:`MAX_CACHE_BYTES`
@@ -22,10 +32,12 @@ unless set; 0 turns the cache off), the least recently used entries going first.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -52,6 +64,11 @@ _ETAGS = ("ETag", "etag")
 _CHANGE_TIMES = ("mtime", "LastModified", "Last-Modified", "last_modified", "updated", "created")
 _ENTRIES = "entries"
 _IN_USE = "in-use"
+_FETCHING = "fetching"
+_OWNER = "owner"
+"""The file in a folder of copies in use that its process holds locked."""
+_UNLOCKED_GRACE_S = 60.0
+"""How old a folder of copies in use whose lock is missing must be to be removed."""
 
 
 def cache_key(url: str, info: Mapping[str, Any]) -> str | None:
@@ -102,12 +119,77 @@ def cached_copy(
     in_use = cache_folder() / _IN_USE
     entries.mkdir(parents=True, exist_ok=True)
     in_use.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=in_use) as folder:
-        copy = Path(folder, name)
+    _remove_abandoned(in_use)
+    with _owned_folder(in_use) as folder:
+        copy = folder / name
         if not _used(entries, key, copy):
-            fetch(copy)
-            _keep(entries, key, copy, bound)
+            with _fetching(cache_folder() / _FETCHING, key):
+                if not _used(entries, key, copy):  # another process's fetch came first
+                    fetch(copy)
+                    _keep(entries, key, copy, bound)
         yield copy
+
+
+@contextlib.contextmanager
+def _fetching(folder: Path, key: str) -> Iterator[None]:
+    """Hold the lock of fetching the object of ``key`` until the block ends: a process
+    that fetches an object another one of the machine is fetching (a log fetched ahead
+    by one worker and replayed by another) waits for that copy instead of downloading
+    it again."""
+    folder.mkdir(exist_ok=True)
+    lock = folder / key
+    held = os.open(lock, os.O_WRONLY | os.O_CREAT, 0o600)
+    try:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        yield
+    finally:
+        lock.unlink(missing_ok=True)  # a rare race left: two fetches, no harm
+        os.close(held)
+
+
+@contextlib.contextmanager
+def _owned_folder(in_use: Path) -> Iterator[Path]:
+    """A new folder in ``in_use``, locked by this process until the block ends, when it
+    is removed."""
+    folder = Path(tempfile.mkdtemp(dir=in_use))
+    owner = None
+    try:
+        unnamed = folder / f".{_OWNER}"
+        owner = os.open(unnamed, os.O_WRONLY | os.O_CREAT, 0o600)
+        fcntl.flock(owner, fcntl.LOCK_EX)
+        unnamed.rename(folder / _OWNER)  # locked from the moment it has its name
+        yield folder
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)  # before the lock is let go
+        if owner is not None:
+            os.close(owner)
+
+
+def _remove_abandoned(in_use: Path) -> None:
+    """Remove the folders of copies in use whose process is gone (killed while it
+    downloaded or replayed): their lock is free."""
+    for folder in in_use.iterdir():
+        with contextlib.suppress(FileNotFoundError, NotADirectoryError):  # removed meanwhile
+            if _abandoned(folder):
+                shutil.rmtree(folder, ignore_errors=True)
+
+
+def _abandoned(folder: Path) -> bool:
+    """Whether no process holds ``folder``, a folder of copies in use.
+
+    :raises FileNotFoundError: the folder is gone.
+    """
+    try:
+        owner = os.open(folder / _OWNER, os.O_RDONLY)
+    except FileNotFoundError:
+        return time.time() - folder.stat().st_mtime > _UNLOCKED_GRACE_S
+    try:
+        fcntl.flock(owner, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    finally:
+        os.close(owner)  # lets go of the lock, if taken
+    return True
 
 
 def _used(entries: Path, key: str, copy: Path) -> bool:

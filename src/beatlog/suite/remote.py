@@ -7,7 +7,10 @@ copy when done, interrupted or not; nothing else downloads it. The copy is kept 
 machine's cache of logs (:mod:`beatlog.suite.log_cache`), so a log unchanged since is not
 downloaded again, and a cluster's worker fetches the next DTC's log into it while it
 replays one (:func:`fetch_ahead`). Planning work (splitting a suite into shards) asks
-only for its size (:func:`log_size`).
+only for its size (:func:`log_size`). A log that a listing found (a fleet's) comes with
+what the listing said of it, its size and ETag (:class:`Listed`): its download is then
+one request, with nothing asked before it, and a copy in the cache needs no request at
+all, since the listing's ETag already says whether the object changed.
 
 A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
 (:data:`MAX_LOG_BYTES` unless set). Over ``http(s)`` a server must connect, and send
@@ -43,6 +46,7 @@ __all__ = [
     "PROGRESS_BYTES",
     "TIMEOUT_S",
     "TIMEOUT_VARIABLE",
+    "Listed",
     "fetch_ahead",
     "fetched_log",
     "http_quoted",
@@ -73,9 +77,19 @@ Number = TypeVar("Number", int, float)
 _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _BLOCK = 1 << 20
 _HTTP = ("http", "https")
+_S3 = ("s3", "s3a")
 _fetching_lock = threading.Lock()
 _fetching: dict[str, threading.Thread] = {}
 """The logs this process fetches ahead, by URL."""
+
+
+class Listed(NamedTuple):
+    """What the listing that found a log behind a URL said of it."""
+
+    size: int
+    """Its size in bytes."""
+    etag: str
+    """Its ETag, which changes whenever the object does."""
 
 
 def is_url(text: str) -> bool:
@@ -121,9 +135,11 @@ def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
     except ModuleNotFoundError:
         raise RemoteLogError(url, 'a URL needs fsspec (pip install "beatlog[fleet]")') from None
     try:
-        options = {}
+        options: dict[str, Any] = {}
         if urlsplit(url).scheme in _HTTP:
             options["client_kwargs"] = _http_client_options(url, streaming=streaming)
+        if urlsplit(url).scheme in _S3:
+            options["local_expiry_check"] = True  # a download's ETag checked against ours
         filesystem, path = url_to_fs(url, **options)
     except (ImportError, ValueError) as exc:  # ImportError: a backend's package
         raise RemoteLogError(url, f"cannot open: {exc}") from None
@@ -132,7 +148,7 @@ def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
 
 @contextlib.contextmanager
 def fetched_log(
-    url: str, max_bytes: int | None = None, *, progress: bool = False
+    url: str, max_bytes: int | None = None, *, progress: bool = False, listed: Listed | None = None
 ) -> Iterator[Path]:
     """A copy of the log behind ``url`` on this machine, under the URL's file name,
     removed on exit (an exception, Ctrl-C included, is an exit); the machine's cache of
@@ -140,7 +156,9 @@ def fetched_log(
 
     ``max_bytes`` bounds the copy (``BEATLOG_URL_MAX_BYTES``, or :data:`MAX_LOG_BYTES`,
     unless given). With ``progress``, a download past :data:`PROGRESS_BYTES` shows a bar
-    on stderr where stderr is a terminal.
+    on stderr where stderr is a terminal. ``listed``: what the listing that found the
+    log said of it; then the storage is asked nothing but the download itself, and
+    nothing at all where the cache holds the object of that ETag.
 
     :raises RemoteLogError: the URL needs fsspec, or the log cannot be copied (missing,
         unreachable, too slow, cut off) or is larger than the bound; or a bound's
@@ -150,31 +168,29 @@ def fetched_log(
         max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
     timeout = _timeout(url)
     filesystem, path = url_filesystem(url, streaming=True)
-    try:
-        info: dict[str, Any] = filesystem.info(path)
-    except FileNotFoundError as exc:
-        raise _not_found(url, exc, "cannot copy") from None
-    except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise _failed(url, exc, "cannot copy") from None
+    info = _described(filesystem, path, url) if listed is None else _as_info(listed)
 
     def fetch(copy: Path) -> None:
         with _progress_bar(url_name(url), shown=progress) as meter:
             bounds = _Bounds(max_bytes, timeout, meter)
-            _copy(filesystem, path, copy, url, bounds, size=info.get("size"))
+            _copy(filesystem, path, copy, url, bounds, info=info)
 
     with cached_copy(url, info, url_name(url), fetch) as copy:
         yield copy
 
 
-def fetch_ahead(url: str) -> None:
-    """Start copying the log behind ``url`` into this machine's cache in the background,
-    unless this process is already at it (:func:`wait_for` waits for it). A log fetched
+def fetch_ahead(url: str, listed: Listed | None = None) -> None:
+    """Start copying the log behind ``url`` (which a listing described as ``listed``, if
+    given) into this machine's cache in the background, unless this process is already
+    at it (:func:`wait_for` waits for it). A log fetched
     ahead by another machine is simply fetched again where it is replayed; one that
     cannot be fetched is left to the DTC's own copy, which says what is wrong."""
     with _fetching_lock:
         if url in _fetching:
             return
-        thread = threading.Thread(target=_fetch, args=(url,), name="beatlog-fetch", daemon=True)
+        thread = threading.Thread(
+            target=_fetch, args=(url, listed), name="beatlog-fetch", daemon=True
+        )
         _fetching[url] = thread
         thread.start()
 
@@ -187,10 +203,10 @@ def wait_for(url: str) -> None:
         thread.join()
 
 
-def _fetch(url: str) -> None:
+def _fetch(url: str, listed: Listed | None) -> None:
     """Copy the log behind ``url`` into the cache, and forget it is being fetched."""
     try:
-        with fetched_log(url):
+        with fetched_log(url, listed=listed):
             pass
     except RemoteLogError:
         pass  # the DTC's own copy says what is wrong
@@ -222,6 +238,25 @@ def log_size(url: str) -> int | None:
     return None if size is None else int(size)
 
 
+def _described(filesystem: Any, path: str, url: str) -> dict[str, Any]:
+    """What the storage says of the log at ``path`` (its size, ETag, time of change).
+
+    :raises RemoteLogError: the log is missing or unreachable.
+    """
+    try:
+        info: dict[str, Any] = filesystem.info(path)
+    except FileNotFoundError as exc:
+        raise _not_found(url, exc, "cannot copy") from None
+    except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
+        raise _failed(url, exc, "cannot copy") from None
+    return info
+
+
+def _as_info(listed: Listed) -> dict[str, Any]:
+    """What a listing said of a log, as fsspec's ``info()`` says it."""
+    return {"size": listed.size, "ETag": listed.etag}
+
+
 class _Bounds(NamedTuple):
     """What a download may take (bytes, and seconds of waiting), and what to tell of its
     progress (the bytes copied so far and the size, None where unknown)."""
@@ -232,10 +267,16 @@ class _Bounds(NamedTuple):
 
 
 def _copy(
-    filesystem: Any, path: str, copy: Path, url: str, bounds: _Bounds, *, size: int | None
+    filesystem: Any, path: str, copy: Path, url: str, bounds: _Bounds, *, info: dict[str, Any]
 ) -> None:
-    """Copy one remote log of the ``size`` its filesystem lists (None: unknown) whole
-    within ``bounds``, or raise."""
+    """Copy one remote log, which its filesystem describes by ``info``, whole within
+    ``bounds``, or raise. Where ``info`` gives its size, the file is opened with it, so
+    that opening asks the storage nothing; where it gives its ETag, a download of an
+    object that has changed since is refused, by the backends that check it (s3fs, told
+    to check the ETag each answer carries)."""
+    from fsspec.spec import AbstractBufferedFile  # noqa: PLC0415 - an optional dependency
+
+    size: int | None = info.get("size")
     too_big = (
         f"larger than the {bounds.max_bytes} bytes a log behind a URL may have "
         f"({MAX_BYTES_VARIABLE})"
@@ -245,10 +286,13 @@ def _copy(
         if size is not None and size > bounds.max_bytes:
             raise RemoteLogError(url, too_big)
         copied = 0
+        opened = _streamed(filesystem) | ({} if size is None else {"size": size})
         with (
-            filesystem.open(path, "rb", **_streamed(filesystem)) as source,
+            filesystem.open(path, "rb", **opened) as source,
             copy.open("wb") as target,
         ):
+            if isinstance(source, AbstractBufferedFile):  # asks for these before reading
+                source.details = {"name": path, **info}  # unless told
             if size is None:
                 _check_framed(url, source)
             while block := source.read(_BLOCK):

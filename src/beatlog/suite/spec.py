@@ -104,7 +104,7 @@ from beatlog.project.usercode import load_invariant
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.perturbation import Perturbations, declared
-from beatlog.suite.remote import fetched_log, is_url, url_name
+from beatlog.suite.remote import Listed, fetched_log, is_url, url_name
 
 __all__ = [
     "SPEC_SUFFIX",
@@ -180,6 +180,10 @@ class DtcSpec:
     """The size in bytes of the log behind ``log_url`` as the listing that found it gave
     it (a fleet run's), so that planning the work asks the storage nothing more; None
     where no listing said."""
+    log_etag: str | None = None
+    """The ETag of the log behind ``log_url`` as the listing that found it gave it:
+    with its size, its copy needs no request but the download, and none where the
+    machine's cache holds that object; None where no listing said."""
     id: str = ""
     """What identifies the DTC, as pytest's node id does a test: its spec's path from the
     rootdir, ``::`` and its name (``dtc/dock.dtc.toml::dock``); a fleet log's path or
@@ -251,7 +255,15 @@ class DtcSpec:
         """
         if self.log_url is None:
             return contextlib.nullcontext(self.log)
-        return fetched_log(self.log_url)
+        return fetched_log(self.log_url, listed=self.listed_log)
+
+    @property
+    def listed_log(self) -> Listed | None:
+        """What the listing that found the log behind ``log_url`` said of it, where it
+        gave both its size and its ETag."""
+        if self.log_size is None or self.log_etag is None:
+            return None
+        return Listed(self.log_size, self.log_etag)
 
 
 def load_spec(path: str | Path, *, rootdir: Path | None = None) -> DtcSpec:
