@@ -21,12 +21,10 @@ from beatlog.suite.remote import (
     MAX_BYTES_VARIABLE,
     TIMEOUT_VARIABLE,
     Listed,
-    fetch_ahead,
     fetched_log,
     is_url,
     log_size,
     url_name,
-    wait_for,
 )
 from tests.commands import plain
 from tests.served import LogServer
@@ -299,28 +297,6 @@ def test_an_http_url_without_aiohttp_is_one_line(monkeypatch: pytest.MonkeyPatch
     assert str(raised.value) == f"{url}: cannot open: import of aiohttp halted; None in sys.modules"
 
 
-# fetched ahead, in the background, into the machine's cache
-
-
-def test_a_log_fetched_ahead_is_replayed_from_the_cache(served: LogServer) -> None:
-    url = f"{served.url}/dock.beatlog"
-    fetch_ahead(url)
-    fetch_ahead(url)  # already at it: not twice
-    wait_for(url)
-
-    with fetched_log(url) as copy:
-        assert copy.read_bytes() == (served.folder / "dock.beatlog").read_bytes()
-    assert served.downloads("dock.beatlog") == 1
-
-
-def test_a_log_that_cannot_be_fetched_ahead_is_left_to_its_dtc(served: LogServer) -> None:
-    url = f"{served.url}/lost.beatlog"
-    fetch_ahead(url)
-    wait_for(url)
-
-    wait_for(f"{served.url}/never-asked.beatlog")
-
-
 # a log a listing found: its size and ETag already said
 
 
@@ -346,17 +322,6 @@ def test_a_log_listed_with_another_etag_is_fetched_again(served: LogServer) -> N
         pass
 
     assert served.requests == {"GET /dock.beatlog": 2}
-
-
-def test_a_listed_log_fetched_ahead_is_one_request(served: LogServer) -> None:
-    url = f"{served.url}/dock.beatlog"
-    fetch_ahead(url, listed(served, "dock.beatlog", '"v1"'))
-    wait_for(url)
-
-    with fetched_log(url, listed=listed(served, "dock.beatlog", '"v1"')):
-        pass
-
-    assert served.requests == {"GET /dock.beatlog": 1}
 
 
 def test_a_log_no_listing_found_is_asked_its_size_once_before_its_download(

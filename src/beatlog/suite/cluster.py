@@ -15,7 +15,7 @@ a URL (a spec's, or a fleet's) is copied by the worker that replays it, and by n
 process (see :mod:`beatlog.suite.remote`), into its machine's cache of logs; a task also
 fetches the log of the DTC its worker is likely to replay next (the one as many DTCs
 further on as the cluster has threads) while it replays its own
-(:func:`~beatlog.suite.remote.fetch_ahead`). Code is not shipped: the system's package
+(:func:`~beatlog.suite.prefetch.fetch_ahead`). Code is not shipped: the system's package
 must be installed on the workers, as it is here (or they share the spec's folder, from
 which its code also imports); a worker without it makes the DTC an error that says so
 (:func:`missing_system`).
@@ -35,7 +35,6 @@ from __future__ import annotations
 import asyncio
 import collections
 import dataclasses
-import importlib.util
 import itertools
 import logging
 import re
@@ -44,17 +43,18 @@ import tempfile
 import time
 import uuid
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
-from beatlog.log.files import Closing, project_root
+from beatlog.log.files import Closing
 from beatlog.project.usercode import importable_near
-from beatlog.suite.remote import Listed, fetch_ahead, wait_for
+from beatlog.suite.prefetch import fetch_ahead, wait_for
+from beatlog.suite.remote import Listed
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
+from beatlog.suite.shipping import Packed, as_here, missing_system, packed, unpacked
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -330,80 +330,3 @@ def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
             error = error.replace(str(absolute), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
     return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
-
-
-_OUTSIDE = "outside"
-
-
-@dataclass(frozen=True)
-class Packed:
-    """A DTC with its paths relative to its project's root, and the files it reads, by
-    those paths."""
-
-    spec: DtcSpec
-    files: dict[str, bytes]
-    root: str
-    """The project's root here, where the relative paths start."""
-    spec_file: Path | None
-    """The spec file here, whose folder and project root the DTC's code also imports
-    from where the worker shares them (None for a fleet log)."""
-
-
-def packed(spec: DtcSpec) -> Packed:
-    """``spec`` with the files of this machine its replay reads (its baseline, its log
-    if local, its project's ``pyproject.toml``), where they exist; a fleet's log reads
-    only its own."""
-    folder = spec.path.absolute().parent
-    root = project_root(folder) or folder
-    files: dict[str, bytes] = {}
-    read = [] if spec.spec_file is None else [root / "pyproject.toml", expected_path(spec.path)]
-    for path in read if spec.log_url is not None else [*read, spec.log]:
-        if path.is_file():
-            files[_relative(path, root).as_posix()] = path.read_bytes()
-    log = spec.log if spec.log_url is not None else _relative(spec.log, root)
-    relative = dataclasses.replace(spec, path=_relative(spec.path, root), log=log)
-    here = None if spec.spec_file is None else spec.spec_file.absolute()
-    return Packed(relative, files, str(root), here)
-
-
-def unpacked(shipped: Packed, folder: Path) -> DtcSpec:
-    """Write the shipped files into ``folder`` and return the DTC with its paths there."""
-    for name, data in shipped.files.items():
-        path = folder / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(data)
-    spec = shipped.spec
-    log = spec.log if spec.log_url is not None else folder / spec.log
-    return dataclasses.replace(spec, path=folder / spec.path, log=log)
-
-
-def as_here(text: str, shipped: Packed, folder: Path) -> str:
-    """``text`` (a message) with the paths of the files unpacked into ``folder`` named
-    as they are on the machine that packed them."""
-    text = text.replace(f"{folder / _OUTSIDE}", "")
-    return text.replace(str(folder), shipped.root)
-
-
-def missing_system(spec: DtcSpec, where: str) -> str | None:
-    """Why the DTC cannot run at ``where`` (a worker): its system's (or perception
-    step's) package is not installed there; None where it is, or the log names it."""
-    for reference in (spec.system, spec.perception):
-        if reference is None:
-            continue
-        package = reference.partition(":")[0].partition(".")[0]
-        if importlib.util.find_spec(package) is None:
-            return (
-                f"the worker {where} has no package {package!r} ({reference}): "
-                "install the system's package on the cluster's workers"
-            )
-    return None
-
-
-def _relative(path: Path, root: Path) -> Path:
-    """Where ``path`` goes in the worker's folder: its place under the project's root,
-    or under ``outside/`` by its absolute path where it lies elsewhere."""
-    absolute = path.absolute()
-    try:
-        return absolute.resolve().relative_to(root.resolve())
-    except ValueError:
-        return Path(_OUTSIDE, *absolute.parts[1:])

@@ -3,14 +3,11 @@
 
 The reader needs a regular, seekable file, so the process that reads a log behind a
 URL copies it whole onto its own machine first (:func:`fetched_log`), and removes the
-copy when done, interrupted or not; nothing else downloads it. The copy is kept in the
-machine's cache of logs (:mod:`beatlog.suite.log_cache`), so a log unchanged since is not
-downloaded again, and a cluster's worker fetches the next DTC's log into it while it
-replays one (:func:`fetch_ahead`). Planning work (splitting a suite into shards) asks
-only for its size (:func:`log_size`). A log that a listing found (a fleet's) comes with
-what the listing said of it, its size and ETag (:class:`Listed`): its download is then
-one request, with nothing asked before it, and a copy in the cache needs no request at
-all, since the listing's ETag already says whether the object changed.
+copy when done, interrupted or not. The copy is kept in the machine's cache of logs
+(:mod:`beatlog.suite.log_cache`, filled ahead by :mod:`beatlog.suite.prefetch`), so a
+log unchanged since is not downloaded again. A log a listing found (a fleet's) comes
+with its size and ETag (:class:`Listed`): its download is then one request, nothing
+asked before it, and a copy in the cache none, the ETag saying whether it changed.
 
 A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
 (:data:`MAX_LOG_BYTES` unless set). Over ``http(s)`` a server must connect, and send
@@ -29,7 +26,6 @@ import math
 import os
 import re
 import sys
-import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path, PurePosixPath
@@ -47,7 +43,6 @@ __all__ = [
     "TIMEOUT_S",
     "TIMEOUT_VARIABLE",
     "Listed",
-    "fetch_ahead",
     "fetched_log",
     "http_quoted",
     "is_url",
@@ -55,7 +50,6 @@ __all__ = [
     "named_as_given",
     "url_filesystem",
     "url_name",
-    "wait_for",
 ]
 
 MAX_LOG_BYTES = 256 << 20
@@ -78,9 +72,6 @@ _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _BLOCK = 1 << 20
 _HTTP = ("http", "https")
 _S3 = ("s3", "s3a")
-_fetching_lock = threading.Lock()
-_fetching: dict[str, threading.Thread] = {}
-"""The logs this process fetches ahead, by URL."""
 
 
 class Listed(NamedTuple):
@@ -177,42 +168,6 @@ def fetched_log(
 
     with cached_copy(url, info, url_name(url), fetch) as copy:
         yield copy
-
-
-def fetch_ahead(url: str, listed: Listed | None = None) -> None:
-    """Start copying the log behind ``url`` (which a listing described as ``listed``, if
-    given) into this machine's cache in the background, unless this process is already
-    at it (:func:`wait_for` waits for it). A log fetched
-    ahead by another machine is simply fetched again where it is replayed; one that
-    cannot be fetched is left to the DTC's own copy, which says what is wrong."""
-    with _fetching_lock:
-        if url in _fetching:
-            return
-        thread = threading.Thread(
-            target=_fetch, args=(url, listed), name="beatlog-fetch", daemon=True
-        )
-        _fetching[url] = thread
-        thread.start()
-
-
-def wait_for(url: str) -> None:
-    """Return once this process is no longer fetching ``url`` ahead."""
-    with _fetching_lock:
-        thread = _fetching.get(url)
-    if thread is not None:
-        thread.join()
-
-
-def _fetch(url: str, listed: Listed | None) -> None:
-    """Copy the log behind ``url`` into the cache, and forget it is being fetched."""
-    try:
-        with fetched_log(url, listed=listed):
-            pass
-    except RemoteLogError:
-        pass  # the DTC's own copy says what is wrong
-    finally:
-        with _fetching_lock:
-            del _fetching[url]
 
 
 def named_as_given(text: str, copy: str | Path, url: str) -> str:

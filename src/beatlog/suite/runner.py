@@ -31,8 +31,8 @@ from beatlog.replaying.setup import built_for_replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
-from beatlog.suite.spec import DtcSpec, importable_invariants
-from beatlog.suite.variants import replay_variant_of
+from beatlog.suite.spec import DtcSpec
+from beatlog.suite.variants import importable_invariants, replay_variant_of
 
 if TYPE_CHECKING:
     from beatlog.analysis.details import Details

@@ -56,20 +56,13 @@ URL fsspec reads, see :mod:`beatlog.suite.remote`) is copied by the process that
 DTC, whether here or on a cluster's worker. Specs themselves are local files: their
 baselines are written beside them.
 
-Renames that hold for every spec go into the project's ``pyproject.toml``, under
-``[tool.beatlog.renames]``; a spec's own renames come on top. The same goes for
-``field_renames`` and ``field_conversions`` (``[tool.beatlog.field_renames]``,
-``[tool.beatlog.field_conversions]``), which map robot-state fields renamed or retyped
-since the recording onto the system's (:mod:`beatlog.replaying.fit.migration`): a field of a
-nested struct is named by its dotted path (``"pose.x" = "pose.px"``, or TOML's own
-``pose.x = "pose.px"``), and a conversion is a ``module:function`` that takes the
-recorded value and returns the field's new one, imported as ``system`` is.
-
-``invariants`` (:mod:`beatlog.model.invariant`) are ``module:attribute`` references to
-properties that must hold at every heartbeat, imported as ``system`` is: the project's
-``[tool.beatlog] invariants`` apply to every spec, and a spec's own come on top.
-A window (``start_cycle``, ``end_cycle``, ``fresh_start``: what ``beatlog shrink``
-writes) past the log's last cycle is an error of the spec.
+The project's ``pyproject.toml`` holds what applies to every spec under ``[tool.beatlog]``
+(``renames``, ``field_renames``, ``field_conversions``, ``invariants``, ``variants``:
+:mod:`beatlog.project.config`); a spec's own come on top. Robot-state fields renamed or
+retyped since the recording are mapped by :mod:`beatlog.replaying.fit.migration` (a
+nested field by its dotted path; a conversion is a ``module:function`` imported as
+``system`` is); ``invariants`` are ``module:attribute`` references
+(:mod:`beatlog.model.invariant`). A window past the log's last cycle is an error.
 """
 
 from __future__ import annotations
@@ -87,7 +80,7 @@ from typing import Annotated, Any
 import msgspec
 
 from beatlog.baseline.file import SPEC_SUFFIX
-from beatlog.errors import SpecError, SystemLoadError
+from beatlog.errors import SpecError
 from beatlog.log.files import project_root, read_small_text
 from beatlog.project.config import (
     VariantsConfig,
@@ -100,7 +93,6 @@ from beatlog.project.config import (
     project_config,
     variants_table,
 )
-from beatlog.project.usercode import load_invariant
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.perturbation import Perturbations, declared
@@ -110,7 +102,6 @@ __all__ = [
     "SPEC_SUFFIX",
     "DtcSpec",
     "find_rootdir",
-    "importable_invariants",
     "load_spec",
     "read_spec_data",
     "spec_from_data",
@@ -366,27 +357,6 @@ def spec_from_data(path: Path, data: Mapping[str, Any], *, rootdir: Path | None 
         variant=spec.variant,
         invariants=tuple(dict.fromkeys([*project.invariants, *spec.invariants])),
     )
-
-
-def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
-    """The spec's invariants, each imported once here, so that one that does not import
-    is an error naming where it is listed: the spec (the DTC's error names it) or its
-    project's ``pyproject.toml``. Each replay then imports its own.
-
-    :raises beatlog.errors.SystemLoadError: one does not import, or is no invariant.
-    """
-    folder = spec.path.resolve().parent
-    project = project_config(folder).invariants if spec.source is None else []
-    for reference in spec.invariants:
-        try:
-            load_invariant(reference)
-        except SystemLoadError as exc:
-            root = project_root(folder)
-            if root is None or reference not in project:
-                raise
-            listed = f"listed under [tool.beatlog] invariants in {root / 'pyproject.toml'}"
-            raise SystemLoadError(f"{exc} ({listed})", user_traceback=exc.user_traceback) from None
-    return spec.invariants
 
 
 def _dtc_id(path: Path, name: str, rootdir: Path) -> str:

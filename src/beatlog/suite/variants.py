@@ -11,15 +11,18 @@ import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from beatlog.errors import SpecError
-from beatlog.project.usercode import load_perception, load_system
+from beatlog.errors import SpecError, SystemLoadError
+from beatlog.log.files import project_root
+from beatlog.project.config import project_config
+from beatlog.project.usercode import load_invariant, load_perception, load_system
 from beatlog.replaying.perturbation import Perturbations, Variant
 from beatlog.replaying.variant import replay_variant
 from beatlog.replaying.verdict import ReplayResult, reproduce_command
-from beatlog.suite.spec import DtcSpec, importable_invariants
+from beatlog.suite.spec import DtcSpec
 from beatlog.suite.spec_writing import spec_text, toml_string
 
 __all__ = [
+    "importable_invariants",
     "replay_variant_of",
     "variant_spec_text",
     "with_variants",
@@ -137,3 +140,24 @@ def write_variant_spec(spec: DtcSpec) -> Path:
     except OSError as exc:
         raise SpecError(path, f"cannot write: {exc.strerror}") from None
     return path
+
+
+def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
+    """The spec's invariants, each imported once here, so that one that does not import
+    is an error naming where it is listed: the spec (the DTC's error names it) or its
+    project's ``pyproject.toml``. Each replay then imports its own.
+
+    :raises beatlog.errors.SystemLoadError: one does not import, or is no invariant.
+    """
+    folder = spec.path.resolve().parent
+    project = project_config(folder).invariants if spec.source is None else []
+    for reference in spec.invariants:
+        try:
+            load_invariant(reference)
+        except SystemLoadError as exc:
+            root = project_root(folder)
+            if root is None or reference not in project:
+                raise
+            listed = f"listed under [tool.beatlog] invariants in {root / 'pyproject.toml'}"
+            raise SystemLoadError(f"{exc} ({listed})", user_traceback=exc.user_traceback) from None
+    return spec.invariants
