@@ -1,15 +1,17 @@
 """The perturbations of a variant of a recording, and how they are made: each value from
 numbers keyed by the log (:func:`~beatlog.replaying.draws.log_key`), the variant's
-number and the cycle, never the wall clock or a global generator, so that the same log,
-code and number give the same bytes on every run and machine (:class:`Perturbations`
-says what is perturbed). The records are rewritten before the replay core reads them
-and the noise is added through its ``perturb`` hook: a replay that is no variant pays
-nothing. :mod:`beatlog.replaying.variant` replays and judges a variant.
+number and the batch of the log its cycle is in (a hash call a batch, the numbers in
+order of cycle), never the wall clock or a global generator, so that the same log, code
+and number give the same bytes on every run and machine (:class:`Perturbations` says
+what is perturbed). The records are rewritten before the replay core reads them and the
+noise is added through its ``perturb`` hook: a replay that is no variant pays nothing.
+:mod:`beatlog.replaying.variant` replays and judges a variant.
 """
 
 from __future__ import annotations
 
 import hashlib
+import itertools
 import math
 import struct
 from collections.abc import Iterable, Iterator, Mapping, Sequence
@@ -118,12 +120,10 @@ class Perturber:
         self._drop = perturbations.drop_samples * _SPAN if sensing else 0.0
         self._delay = perturbations.delay_samples * _SPAN if sensing else 0.0
         _check_noise(header, perturbations.noise, where, migration)
-        self._noise = tuple(
-            (name, tuple(name.split(".")), bound * _HALF_TINY, bound)
-            for name, bound in perturbations.noise.items()
-        )
-        self._offsets: tuple[int, ...] = ()
-        """The noise's numbers for the batch being replayed, field by field, cycle by
+        self._noise = tuple((name, tuple(name.split("."))) for name in perturbations.noise)
+        self._bounds = tuple(perturbations.noise.values())
+        self._offsets: list[float] = []
+        """The noise's offsets for the batch being replayed, field by field, cycle by
         cycle from :attr:`_first`."""
         self._first = 0
         self._where = where
@@ -157,7 +157,13 @@ class Perturber:
             if perturbed:
                 if fields:
                     self._first = cycle
-                    self._offsets = uniforms.block(b"noise", cycle, size * fields)
+                    self._offsets = [
+                        (u * _HALF_TINY - 1.0) * bound
+                        for u, bound in zip(
+                            uniforms.block(b"noise", cycle, size * fields),
+                            itertools.cycle(self._bounds),
+                        )
+                    ]
                 if jitter_ns:
                     beats = uniforms.block(b"heartbeat", cycle, size)
                     for record, u in zip(perturbed, beats[skip:], strict=True):
@@ -188,29 +194,21 @@ class Perturber:
         numbers = self._uniforms.block(b"samples", first, 2 * sum(map(len, decoded)))
         drop, delay = self._drop, self._delay
         at = 0
-        for index, (record, samples) in enumerate(zip(batch, decoded, strict=True)):
+        for index, samples in enumerate(decoded):
             end = at + 2 * len(samples)
-            if index < skip:
-                at = end
-                continue
-            cycle_numbers = numbers[at:end]
+            drops, delays = numbers[at:end:2], numbers[at + 1 : end : 2]
             at = end
-            if (
-                not late
-                and min(cycle_numbers[::2], default=_SPAN) >= drop
-                and min(cycle_numbers[1::2], default=_SPAN) >= delay
+            if index < skip or not (
+                late or min(drops, default=_SPAN) < drop or min(delays, default=_SPAN) < delay
             ):
-                continue  # none dropped or delayed, none late: as recorded
-            kept = late[:]
-            late.clear()
-            for sample, dropped, delayed in zip(
-                samples, cycle_numbers[::2], cycle_numbers[1::2], strict=True
-            ):
-                if dropped < drop:
-                    continue
-                (late if delayed < delay else kept).append(sample)
+                continue  # before the window, or none late, dropped or delayed
+            fates = tuple(zip(samples, drops, delays, strict=True))
+            kept = late + [
+                s for s, dropped, delayed in fates if dropped >= drop and delayed >= delay
+            ]
+            late[:] = [s for s, dropped, delayed in fates if dropped >= drop and delayed < delay]
             if kept != samples:
-                record.samples = msgspec.Raw(msgspec.msgpack.encode(kept))
+                batch[index].samples = msgspec.Raw(msgspec.msgpack.encode(kept))
 
     def noisy(self, state: Any) -> Any:
         """RS_t with each field named offset within its bound (the replay core's
@@ -224,11 +222,9 @@ class Perturber:
         if state.__class__ is not self._robot_state:  # a view of a format-3 batch
             state = full_state(state)
         moved: dict[str, Any] = {}
-        numbers = self._offsets[at : at + len(noise)]
-        for (name, path, scale, bound), u in zip(noise, numbers, strict=True):
+        for (name, path), offset in zip(noise, self._offsets[at : at + len(noise)], strict=True):
             top = path[0]
             value = moved[top] if top in moved else getattr(state, top)
-            offset = u * scale - bound  # (2 * u / 2**32 - 1) * bound
             if value.__class__ is float and len(path) == 1:  # the common case, at once
                 moved[top] = value + offset
             else:
