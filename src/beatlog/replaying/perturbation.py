@@ -201,14 +201,13 @@ class Perturber:
             if index < skip or not (
                 late or min(drops, default=_SPAN) < drop or min(delays, default=_SPAN) < delay
             ):
-                continue  # before the window, or none late, dropped or delayed
-            fates = tuple(zip(samples, drops, delays, strict=True))
-            kept = late + [
-                s for s, dropped, delayed in fates if dropped >= drop and delayed >= delay
-            ]
-            late[:] = [s for s, dropped, delayed in fates if dropped >= drop and delayed < delay]
-            if kept != samples:
-                batch[index].samples = msgspec.Raw(msgspec.msgpack.encode(kept))
+                continue  # before the window, or none late, dropped or delayed: as recorded
+            kept = late[:]
+            late.clear()
+            for sample, dropped, delayed in zip(samples, drops, delays, strict=True):
+                if dropped >= drop:
+                    (late if delayed < delay else kept).append(sample)
+            batch[index].samples = msgspec.Raw(msgspec.msgpack.encode(kept))
 
     def noisy(self, state: Any) -> Any:
         """RS_t with each field named offset within its bound (the replay core's
