@@ -16,7 +16,10 @@ Run it as ``python bench/bench_variants.py [--rounds 5] [--dtc NAME] [--perturb 
 instruction counts, ``--run replay|variant --times N`` replays the suite once each way
 as a warm-up and N more times the way named: under ``PYTHONHASHSEED=0 valgrind
 --tool=cachegrind --cache-sim=no``, the difference of the ``I refs`` counts of N = 1
-and N = 0 is one pass, the set-up left out.
+and N = 0 is one pass, the set-up left out. ``--blind`` (with ``--run variant``) hands
+the behaviors one robot state whatever the variant makes of it, and checks no invariant
+(a blind dog breaks them): what a variant costs beyond ``--perturb none`` is then the
+perturbations' own work, the behaviors' reaction to a perturbed world left out.
 """
 
 from __future__ import annotations
@@ -27,7 +30,10 @@ import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+from beatlog.model.behavior import PriorityArbiter, System
+from beatlog.model.context import Context
 from beatlog.project.usercode import load_perception, load_system
 from beatlog.replaying.judge import replay
 from beatlog.replaying.perturbation import Perturbations, Variant
@@ -57,6 +63,28 @@ def perturbations(names: str) -> Perturbations:
     )
 
 
+class Blind(PriorityArbiter[Any]):
+    """A system's behaviors, each cycle given one robot state, its type's default."""
+
+    _held: Any = None
+
+    def update(self, state: Any, context: Context) -> None:
+        super().update(self._held, context)
+
+    @classmethod
+    def of(cls, system: System) -> Blind:
+        assert isinstance(system, PriorityArbiter)
+        children: list[Any] = [b for b in system.behaviors.values() if b is not system]
+        blind = cls(
+            children,
+            robot_state=system.robot_state,
+            name=system.name,
+            per_output=system.per_output,
+        )
+        blind._held = system.robot_state()
+        return blind
+
+
 def as_judged(spec: DtcSpec, invariants: bool) -> int:
     """Replay the DTC as ``beatlog test`` judges it; its cycles."""
     assert spec.system is not None
@@ -72,16 +100,19 @@ def as_judged(spec: DtcSpec, invariants: bool) -> int:
     return result.cycles
 
 
-def as_variant(spec: DtcSpec, invariants: bool, perturbed: Perturbations = PERTURBED) -> int:
-    """Replay variant 1 of the DTC; its cycles."""
+def as_variant(
+    spec: DtcSpec, invariants: bool, perturbed: Perturbations = PERTURBED, blind: bool = False
+) -> int:
+    """Replay variant 1 of the DTC (its behaviors ``blind``: see :class:`Blind`); its cycles."""
     assert spec.system is not None
     assert spec.perception is not None
+    system = load_system(spec.system)
     result = replay_variant(
         spec.log,
-        load_system(spec.system),
+        Blind.of(system) if blind else system,
         Variant(1, perturbed),
         perception=load_perception(spec.perception),
-        invariants=spec.invariants if invariants else (),
+        invariants=spec.invariants if invariants and not blind else (),
     )
     return result.cycles
 
@@ -101,6 +132,7 @@ def main() -> None:
     parser.add_argument("--dtc", action="append", help="only this DTC (again for more)")
     parser.add_argument("--perturb", default="draws,jitter,noise,samples")
     parser.add_argument("--no-invariants", dest="invariants", action="store_false")
+    parser.add_argument("--blind", action="store_true", help="with --run variant: see Blind")
     args = parser.parse_args()
     perturbed = perturbations(args.perturb)
     checks = args.invariants
@@ -109,7 +141,7 @@ def main() -> None:
         return as_judged(spec, checks)
 
     def variant_run(spec: DtcSpec) -> int:
-        return as_variant(spec, checks, perturbed)
+        return as_variant(spec, checks, perturbed, args.blind)
 
     specs = [
         spec for spec in discover_specs([SUITE_DIR]) if args.dtc is None or spec.name in args.dtc

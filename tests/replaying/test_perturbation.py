@@ -75,6 +75,19 @@ def test_noise_and_jitter_stay_within_their_bounds(record_probe: RecordFn) -> No
     assert len({cycle.heartbeat_ns for cycle in cycles}) > 90
 
 
+def test_a_window_starting_mid_batch_is_perturbed_as_the_whole_variant_is(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(300)
+
+    whole = replayed(log, 4)[1]
+    window = replayed(log, 4, start_cycle=101, end_cycle=250)[1]
+
+    assert [(c.heartbeat_ns, c.distance) for c in window] == [
+        (c.heartbeat_ns, c.distance) for c in whole[101:251]
+    ]
+
+
 def test_a_heartbeat_never_drops_below_one_nanosecond(record_probe: RecordFn) -> None:
     log = record_probe(50)
 

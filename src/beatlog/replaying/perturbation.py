@@ -1,16 +1,19 @@
 """The perturbations of a variant of a recording, and how they are made: each value from
 numbers keyed by the log (:func:`~beatlog.replaying.draws.log_key`), the variant's
-number and the cycle, never the wall clock or a global generator, so that the same log,
-code and number give the same bytes on every run and machine (:class:`Perturbations`
-says what is perturbed). The records are rewritten before the replay core reads them
-and the noise is added through its ``perturb`` hook: a replay that is no variant pays
-nothing. :mod:`beatlog.replaying.variant` replays and judges a variant.
+number and the batch of the log its cycle is in (a hash call a batch, the numbers in
+order of cycle), never the wall clock or a global generator, so that the same log, code
+and number give the same bytes on every run and machine (:class:`Perturbations` says
+what is perturbed). The records are rewritten before the replay core reads them and the
+noise is added through its ``perturb`` hook: a replay that is no variant pays nothing.
+:mod:`beatlog.replaying.variant` replays and judges a variant.
 """
 
 from __future__ import annotations
 
 import hashlib
+import itertools
 import math
+import struct
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,12 +36,10 @@ if TYPE_CHECKING:
 __all__ = ["Perturbations", "Perturber", "Variant", "declared", "variant_key"]
 
 _NS = 1_000_000_000
-_TINY = 2.0**-32
-_MASK = (1 << 64) - 1
-_GOLDEN = 0x9E3779B97F4A7C15
-"""SplitMix64's increment."""
-_INDEX_BITS = 20
-"""Room for the numbers of one kind in one cycle: a million."""
+_SPAN = 2.0**32
+"""How many values a keyed number takes (32 bits)."""
+_HALF_TINY = 2.0**-31
+"""A keyed number times this, less 1, is in [-1, 1)."""
 _SAMPLES = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
 """A cycle's samples, each as its bytes."""
 
@@ -75,49 +76,29 @@ def variant_key(key: bytes, number: int) -> bytes:
 
 
 class _Uniforms:
-    """Uniform numbers in [0, 1) keyed by a variant, SplitMix64's: the ``i``-th pair of
-    one kind in one cycle (from 0) are the two halves, 32 bits each, of the
-    ``(cycle << 20) + i + 1``-th SplitMix64 output of a stream seeded by the BLAKE2b
-    digest (8 bytes) of the kind, keyed by the variant.
-    Each kind is its own stream, so that one perturbation left out leaves the others'
-    numbers as they were, and any cycle's numbers are had at once (no state carried
-    from cycle to cycle, no global generator): plain integer arithmetic, the same on
-    every machine."""
+    """Uniform numbers keyed by a variant, as 32-bit integers (``u / 2**32`` is in
+    [0, 1)): those of one kind in one batch of the log, in order, are the SHAKE128
+    output of the variant's key, the kind and the batch's first cycle.
+    One hash call a batch rather than arithmetic a number (a number costs next to
+    nothing), each kind its own stream, so that one perturbation left out leaves the
+    others' numbers as they were, and a cycle's numbers are the same whatever window
+    is replayed: no state carried from batch to batch, no global generator, the same
+    bytes on every machine."""
 
-    __slots__ = ("_key", "_seeds")
+    __slots__ = ("_key",)
 
     def __init__(self, key: bytes) -> None:
-        self._key = key[:64]
-        self._seeds: dict[str, int] = {}
+        self._key = key
 
-    def _seed(self, kind: str) -> int:
-        seed = int.from_bytes(
-            hashlib.blake2b(kind.encode(), key=self._key, digest_size=8).digest(), "little"
-        )
-        self._seeds[kind] = seed
-        return seed
-
-    def draw(self, cycle: int, kind: str, count: int) -> list[float]:
-        """``count`` numbers of ``kind`` in ``cycle`` (one more where ``count`` is odd):
-        two of 32 bits from each output."""
-        seed = self._seeds.get(kind)
-        if seed is None:
-            seed = self._seed(kind)
-        state = seed + (cycle << _INDEX_BITS) * _GOLDEN
-        numbers: list[float] = []
-        for _ in range(0, count, 2):
-            state += _GOLDEN
-            x = state & _MASK
-            x = ((x ^ (x >> 30)) * 0xBF58476D1CE4E5B9) & _MASK
-            x = ((x ^ (x >> 27)) * 0x94D049BB133111EB) & _MASK
-            x ^= x >> 31
-            numbers += ((x >> 32) * _TINY, (x & 0xFFFFFFFF) * _TINY)
-        return numbers
+    def block(self, kind: bytes, first: int, count: int) -> tuple[int, ...]:
+        """The ``count`` numbers of ``kind`` in the batch that starts at cycle ``first``."""
+        digest = hashlib.shake_128(b"%s%s\x00%d" % (self._key, kind, first)).digest(4 * count)
+        return struct.unpack(f"<{count}I", digest)
 
 
 class Perturber:
     """The perturbations of one variant of one log: its records rewritten, its robot
-    states made noisy, each from the variant's keyed numbers of the cycle."""
+    states made noisy, each from the variant's keyed numbers of the batch."""
 
     def __init__(
         self,
@@ -136,12 +117,15 @@ class Perturber:
         self._jitter_ns = round(perturbations.heartbeat_jitter * _NS)
         self._draws = perturbations.draws
         sensing = replayer.perception is not None
-        self._drop = perturbations.drop_samples if sensing else 0.0
-        self._delay = perturbations.delay_samples if sensing else 0.0
+        self._drop = perturbations.drop_samples * _SPAN if sensing else 0.0
+        self._delay = perturbations.delay_samples * _SPAN if sensing else 0.0
         _check_noise(header, perturbations.noise, where, migration)
-        self._noise = tuple(
-            (name, tuple(name.split(".")), bound) for name, bound in perturbations.noise.items()
-        )
+        self._noise = tuple((name, tuple(name.split("."))) for name in perturbations.noise)
+        self._bounds = tuple(perturbations.noise.values())
+        self._offsets: list[float] = []
+        """The noise's offsets for the batch being replayed, field by field, cycle by
+        cycle from :attr:`_first`."""
+        self._first = 0
         self._where = where
         self._log = replayer.path
         self._context = replayer.executor.context
@@ -151,67 +135,95 @@ class Perturber:
 
     @property
     def rewrites(self) -> bool:
-        """Whether the records are rewritten at all."""
-        return bool(self._jitter_ns or self._draws or self._drop or self._delay)
+        """Whether the records are rewritten, or their batches' noise drawn, at all."""
+        return bool(self._jitter_ns or self._draws or self._drop or self._delay or self._noise)
 
     def records(
         self, batches: Iterator[Sequence[CycleRecord]], first: int
     ) -> Iterator[Sequence[CycleRecord]]:
         """``batches`` with each record perturbed in place (the session's reader decoded
-        them for this replay alone), cycle ``first`` the first; none before the window."""
+        them for this replay alone), cycle ``first`` the first; none before the window.
+        Each batch's noise is drawn with it, for :meth:`noisy`."""
         cycle = first
         late: list[msgspec.Raw] = []
         jitter_ns = self._jitter_ns
         resampling = self._drop or self._delay
+        uniforms = self._uniforms
+        fields = len(self._noise)
         for batch in batches:
-            for record in batch:
-                if cycle < self._start:
-                    cycle += 1
-                    continue
+            size = len(batch)
+            skip = min(size, max(0, self._start - cycle))
+            perturbed = batch[skip:] if skip else batch
+            if perturbed:
+                if fields:
+                    self._first = cycle
+                    self._offsets = [
+                        (u * _HALF_TINY - 1.0) * bound
+                        for u, bound in zip(
+                            uniforms.block(b"noise", cycle, size * fields),
+                            itertools.cycle(self._bounds),
+                        )
+                    ]
                 if jitter_ns:
-                    (u,) = self._uniforms.draw(cycle, "heartbeat", 1)[:1]
-                    offset = round((2 * u - 1) * jitter_ns)
-                    record.heartbeat_ns = max(1, record.heartbeat_ns + offset)
+                    beats = uniforms.block(b"heartbeat", cycle, size)
+                    for record, u in zip(perturbed, beats[skip:], strict=True):
+                        offset = round((u * _HALF_TINY - 1.0) * jitter_ns)
+                        record.heartbeat_ns = max(1, record.heartbeat_ns + offset)
                 if self._draws:
-                    record.random_numbers = EMPTY_LIST
+                    for record in perturbed:
+                        record.random_numbers = EMPTY_LIST
                 if resampling:
-                    record.samples = self._samples(record, cycle, late)
-                cycle += 1
+                    self._resample(batch, skip, cycle, late)
+            cycle += size
             yield batch
 
-    def _samples(self, record: CycleRecord, cycle: int, late: list[msgspec.Raw]) -> msgspec.Raw:
-        """The cycle's samples, those delayed into it first, less those dropped or
-        delayed out of it (kept in ``late``)."""
-        try:
-            samples = _SAMPLES(record.samples)
-        except DECODE_ERRORS as exc:
-            raise CorruptLogError(self._log, f"damaged samples in cycle {cycle}: {exc}") from None
-        numbers = self._uniforms.draw(cycle, "samples", 2 * len(samples))
-        kept = late[:]
-        late.clear()
-        for sample, drop, delay in zip(samples, numbers[::2], numbers[1::2], strict=False):
-            if drop < self._drop:
-                continue
-            (late if delay < self._delay else kept).append(sample)
-        if kept == samples:
-            return record.samples
-        return msgspec.Raw(msgspec.msgpack.encode(kept))
+    def _resample(
+        self, batch: Sequence[CycleRecord], skip: int, first: int, late: list[msgspec.Raw]
+    ) -> None:
+        """Each record's samples from the ``skip``-th on (the batch's first is cycle
+        ``first``): those delayed into it first, less those dropped or delayed out of
+        it (kept in ``late``). Two numbers a sample, the batch's samples in order."""
+        decoded: list[list[msgspec.Raw]] = []
+        for cycle, record in enumerate(batch, first):
+            try:
+                decoded.append(_SAMPLES(record.samples))
+            except DECODE_ERRORS as exc:
+                raise CorruptLogError(
+                    self._log, f"damaged samples in cycle {cycle}: {exc}"
+                ) from None
+        numbers = self._uniforms.block(b"samples", first, 2 * sum(map(len, decoded)))
+        drop, delay = self._drop, self._delay
+        at = 0
+        for index, samples in enumerate(decoded):
+            end = at + 2 * len(samples)
+            drops, delays = numbers[at:end:2], numbers[at + 1 : end : 2]
+            at = end
+            if index < skip or not (
+                late or min(drops, default=_SPAN) < drop or min(delays, default=_SPAN) < delay
+            ):
+                continue  # before the window, or none late, dropped or delayed: as recorded
+            kept = late[:]
+            late.clear()
+            for sample, dropped, delayed in zip(samples, drops, delays, strict=True):
+                if dropped >= drop:
+                    (late if delayed < delay else kept).append(sample)
+            batch[index].samples = msgspec.Raw(msgspec.msgpack.encode(kept))
 
     def noisy(self, state: Any) -> Any:
         """RS_t with each field named offset within its bound (the replay core's
-        ``perturb`` hook); before the window, RS_t as recorded."""
-        noise = self._noise
+        ``perturb`` hook), by the numbers :meth:`records` drew for the cycle's batch;
+        before the window, RS_t as recorded."""
         cycle = self._context.cycle + 1
         if cycle < self._start:
             return state
-        uniforms = self._uniforms.draw(cycle, "noise", len(noise))
+        noise = self._noise
+        at = (cycle - self._first) * len(noise)
         if state.__class__ is not self._robot_state:  # a view of a format-3 batch
             state = full_state(state)
         moved: dict[str, Any] = {}
-        for (name, path, bound), u in zip(noise, uniforms, strict=False):
+        for (name, path), offset in zip(noise, self._offsets[at : at + len(noise)], strict=True):
             top = path[0]
             value = moved[top] if top in moved else getattr(state, top)
-            offset = (2 * u - 1) * bound
             if value.__class__ is float and len(path) == 1:  # the common case, at once
                 moved[top] = value + offset
             else:

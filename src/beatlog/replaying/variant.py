@@ -3,7 +3,7 @@
 invariants, never by equality with the recording.
 
 Variant n of a log perturbs what the behaviors get, each value from numbers keyed by
-the log, n and the cycle:
+the log, n and the batch of the log its cycle is in:
 
 - random draws: every draw is fresh, keyed by (log, n) and its place, instead of the
   recorded one;
