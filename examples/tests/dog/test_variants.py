@@ -78,7 +78,7 @@ def test_a_bug_where_no_recording_goes_is_found_by_a_variant_and_shrunk(
     assert main(["test", "back-touch.dtc.toml", "-j", "1"]) == 0
     capsys.readouterr()
 
-    assert main(["test", "back-touch.dtc.toml", "--variants", "8", "-j", "1"]) == 1
+    assert main(["test", "back-touch.dtc.toml", "--variants", "24", "-j", "1"]) == 1
     found = capsys.readouterr().out
     written = sorted(planted.glob("back-touch.variant-*.dtc.toml"))
     assert written

@@ -11,7 +11,6 @@ noise is added through its ``perturb`` hook: a replay that is no variant pays no
 from __future__ import annotations
 
 import hashlib
-import itertools
 import math
 import struct
 from collections.abc import Iterable, Iterator, Mapping, Sequence
@@ -38,6 +37,8 @@ __all__ = ["Perturbations", "Perturber", "Variant", "declared", "variant_key"]
 _NS = 1_000_000_000
 _SPAN = 2.0**32
 """How many values a keyed number takes (32 bits)."""
+_GROUP = 64
+"""Cycles whose numbers of one kind come from one hash call."""
 _HALF_TINY = 2.0**-31
 """A keyed number times this, less 1, is in [-1, 1)."""
 _SAMPLES = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
@@ -77,23 +78,33 @@ def variant_key(key: bytes, number: int) -> bytes:
 
 class _Uniforms:
     """Uniform numbers keyed by a variant, as 32-bit integers (``u / 2**32`` is in
-    [0, 1)): those of one kind in one batch of the log, in order, are the SHAKE128
-    output of the variant's key, the kind and the batch's first cycle.
-    One hash call a batch rather than arithmetic a number (a number costs next to
-    nothing), each kind its own stream, so that one perturbation left out leaves the
-    others' numbers as they were, and a cycle's numbers are the same whatever window
-    is replayed: no state carried from batch to batch, no global generator, the same
-    bytes on every machine."""
+    [0, 1)): those of one kind for a group of :data:`_GROUP` cycles (or for one cycle),
+    in order, are the SHAKE128 output of the variant's key, the kind and the group's
+    number. One hash call a group rather than arithmetic a number, each kind its own
+    stream, so that one perturbation left out leaves the others' numbers as they were,
+    and a cycle's numbers are the same whatever window is replayed, fresh start or
+    not: no state carried from group to group, no global generator, the same bytes on
+    every machine."""
 
     __slots__ = ("_key",)
 
     def __init__(self, key: bytes) -> None:
         self._key = key
 
-    def block(self, kind: bytes, first: int, count: int) -> tuple[int, ...]:
-        """The ``count`` numbers of ``kind`` in the batch that starts at cycle ``first``."""
-        digest = hashlib.shake_128(b"%s%s\x00%d" % (self._key, kind, first)).digest(4 * count)
+    def block(self, kind: bytes, at: int, count: int) -> tuple[int, ...]:
+        """The first ``count`` numbers of ``kind`` at ``at`` (a group, or a cycle)."""
+        digest = hashlib.shake_128(b"%s%s\x00%d" % (self._key, kind, at)).digest(4 * count)
         return struct.unpack(f"<{count}I", digest)
+
+    def span(self, kind: bytes, first: int, count: int) -> list[int]:
+        """One number of ``kind`` for each of the ``count`` cycles from ``first``."""
+        numbers: list[int] = []
+        end = first + count
+        for group in range(first // _GROUP, (end + _GROUP - 1) // _GROUP):
+            start = group * _GROUP
+            block = self.block(kind, group, min(end, start + _GROUP) - start)
+            numbers.extend(block[max(first, start) - start :])
+        return numbers
 
 
 class Perturber:
@@ -157,15 +168,18 @@ class Perturber:
             if perturbed:
                 if fields:
                     self._first = cycle
+                    # each field its own stream: one left out leaves the others' noise
+                    streams = [
+                        uniforms.span(b"noise " + name.encode(), cycle, size)
+                        for name, _ in self._noise
+                    ]
                     self._offsets = [
                         (u * _HALF_TINY - 1.0) * bound
-                        for u, bound in zip(
-                            uniforms.block(b"noise", cycle, size * fields),
-                            itertools.cycle(self._bounds),
-                        )
+                        for row in zip(*streams, strict=True)
+                        for u, bound in zip(row, self._bounds, strict=True)
                     ]
                 if jitter_ns:
-                    beats = uniforms.block(b"heartbeat", cycle, size)
+                    beats = uniforms.span(b"heartbeat", cycle, size)
                     for record, u in zip(perturbed, beats[skip:], strict=True):
                         offset = round((u * _HALF_TINY - 1.0) * jitter_ns)
                         record.heartbeat_ns = max(1, record.heartbeat_ns + offset)
@@ -182,7 +196,7 @@ class Perturber:
     ) -> None:
         """Each record's samples from the ``skip``-th on (the batch's first is cycle
         ``first``): those delayed into it first, less those dropped or delayed out of
-        it (kept in ``late``). Two numbers a sample, the batch's samples in order."""
+        it (kept in ``late``). Two numbers a sample, each cycle's own."""
         decoded: list[list[msgspec.Raw]] = []
         for cycle, record in enumerate(batch, first):
             try:
@@ -191,17 +205,14 @@ class Perturber:
                 raise CorruptLogError(
                     self._log, f"damaged samples in cycle {cycle}: {exc}"
                 ) from None
-        numbers = self._uniforms.block(b"samples", first, 2 * sum(map(len, decoded)))
         drop, delay = self._drop, self._delay
-        at = 0
         for index, samples in enumerate(decoded):
-            end = at + 2 * len(samples)
-            drops, delays = numbers[at:end:2], numbers[at + 1 : end : 2]
-            at = end
-            if index < skip or not (
-                late or min(drops, default=_SPAN) < drop or min(delays, default=_SPAN) < delay
-            ):
-                continue  # before the window, or none late, dropped or delayed: as recorded
+            if index < skip:
+                continue  # before the window: as recorded
+            numbers = self._uniforms.block(b"samples", first + index, 2 * len(samples))
+            drops, delays = numbers[::2], numbers[1::2]
+            if not (late or min(drops, default=_SPAN) < drop or min(delays, default=_SPAN) < delay):
+                continue  # none late, dropped or delayed: as recorded
             kept = late[:]
             late.clear()
             for sample, dropped, delayed in zip(samples, drops, delays, strict=True):
