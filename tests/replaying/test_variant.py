@@ -46,6 +46,7 @@ def test_unchanged_code_passes_every_variant(record_probe: RecordFn) -> None:
     assert all(result.ok for result in results)
     assert {result.cycles for result in results} == {100}
     assert all(result.checked.anything for result in results)
+    assert all(result.checked.draws == 20 for result in results)  # fresh, counted too
 
 
 def test_an_invariant_that_does_not_hold_fails_the_variant_there(

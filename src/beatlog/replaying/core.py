@@ -250,6 +250,13 @@ class Replayer:
         sensed = self._last[4]
         return self._last[3] if sensed is None or sensed.failure is None else sensed.failure
 
+    @property
+    def stepped(self) -> list[StateChangeRecord] | None:
+        """BS'_t of the cycle replayed last where its update completed, whether or not it
+        drew as recorded (:attr:`advance` answers None for a cycle that drew otherwise);
+        None where it did not complete."""
+        return self._last[2]
+
     def stop(self, outcome: CycleOutcome) -> Stop | None:
         """Why replay cannot go on past ``outcome``'s cycle, if it cannot
         (:meth:`~beatlog.replaying.outcome.CycleOutcome.stop`)."""

@@ -129,14 +129,14 @@ class _VariantJudge:
         before = context.cycle < self.start_cycle
         if context.cycle == self.start_cycle:
             self.start_ns = context.time_ns - context.dt_ns
-        if changes is not None:
-            if not before:
-                self.changes += len(changes)
-                self.outputs += len(context.outputs)
-                self.draws += len(replayer.random.drawn)
-        elif replayer.raised is not None:
+        if changes is None and replayer.raised is not None:
             self.divergence = self._raised(outcome or replayer.outcome())
             return _Ended()
+        stepped = replayer.stepped  # a cycle that drew otherwise than recorded counts too
+        if stepped is not None and not before:
+            self.changes += len(stepped)
+            self.outputs += len(context.outputs)
+            self.draws += len(replayer.random.drawn)
         if before:
             return None
         if self._invariants is not None:
