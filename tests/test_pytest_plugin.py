@@ -292,6 +292,7 @@ def test_an_older_baseline_is_one_line_naming_the_command_that_upgrades_it(
     result.stdout.no_fnmatch_line("*BaselineError*")
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_an_xdist_worker_s_dtcs_are_counted_and_covered_by_the_controller(
     pytester: pytest.Pytester, log: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -380,6 +381,7 @@ def test_a_suite_past_its_open_loop_limits_fails_under_pytest_as_under_beatlog_t
     )
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_audit_fails_a_dtc_whose_behaviors_leak_and_passes_a_sound_one(
     pytester: pytest.Pytester, log: Path, tmp_path: Path
 ) -> None:
@@ -406,6 +408,7 @@ def test_audit_fails_a_dtc_whose_behaviors_leak_and_passes_a_sound_one(
     "workers",
     [pytest.param([], id="alone"), pytest.param(["-n", "2"], id="xdist", marks=pytest.mark.slow)],
 )
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_coverage_is_shown_and_written_at_the_end_of_the_session(
     pytester: pytest.Pytester,
     record_probe: RecordFn,
@@ -486,6 +489,7 @@ def test_break_at_past_the_end_of_the_dtcs_log_is_a_usage_error(
     assert breaks == []
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_quitting_the_debugger_ends_the_session_as_quitting_pytests_pdb_does(
     pytester: pytest.Pytester, log: Path
 ) -> None:

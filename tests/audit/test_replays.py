@@ -55,6 +55,7 @@ def set_order(hash_seed: int) -> list[str]:
     return shown.stdout.split()
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_every_leak_is_a_finding_with_its_site_and_count(
     auditors: Auditors, tmp_path: Path
 ) -> None:
@@ -190,6 +191,7 @@ def test_a_replay_that_dies_is_a_loud_error(auditors: Auditors, tmp_path: Path) 
         audit(log, f"{SYSTEMS}:exiting_system", auditors=auditors)
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_replays_that_differ_by_an_unseeded_global_generator_say_so(
     auditors: Auditors, tmp_path: Path
 ) -> None:
@@ -209,6 +211,7 @@ def test_replays_that_differ_by_an_unseeded_global_generator_say_so(
     assert [finding.call for finding in report.findings] == ["random.choice"]
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_the_audit_interpreters_are_kept_for_the_next_audit_and_stopped_at_the_end(
     record_probe: RecordFn, meeting: Path
 ) -> None:

@@ -95,6 +95,7 @@ def assert_complete_results_printed(run: Run) -> None:
     assert closing_counts(run.out) == "1 passed, 1 failed, 2 not run"
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_ctrl_c_stops_a_suite_and_prints_what_is_complete(
     press_ctrl_c: Callable[..., Run], suite: Path, markers: Path, jobs: str
@@ -125,6 +126,7 @@ def test_ctrl_c_stops_the_audit_interpreters(
     assert closing_counts(run.out) == "0 passed, 0 failed, 3 not run"
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_ctrl_c_writes_no_report_and_no_pending_file(
     press_ctrl_c: Callable[..., Run], suite: Path, markers: Path, tmp_path: Path
 ) -> None:
@@ -157,6 +159,7 @@ def test_ctrl_c_stops_a_replay(
     assert run.out == ""
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_ctrl_c_stops_a_shrink_and_writes_no_spec(
     press_ctrl_c: Callable[..., Run], record_probe: RecordFn, markers: Path, tmp_path: Path
 ) -> None:
@@ -169,6 +172,7 @@ def test_ctrl_c_stops_a_shrink_and_writes_no_spec(
     assert not (tmp_path / "slow.shrunk.dtc.toml").exists()
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_ctrl_c_ends_a_recording_with_a_complete_log(
     press_ctrl_c: Callable[..., Run], tmp_path: Path
 ) -> None:

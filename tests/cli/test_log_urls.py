@@ -180,6 +180,7 @@ def test_a_damaged_log_behind_a_url_is_one_line_naming_the_url_not_the_copy(
         ),
     ],
 )
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_a_log_url_whose_server_stalls_or_trickles_is_given_up(
     served: LogServer, way: str, problem: str
 ) -> None:

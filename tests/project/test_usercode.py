@@ -350,6 +350,7 @@ def test_beatlog_test_imports_a_specs_system_from_its_project_root_anywhere(
     assert closing_counts(done.stdout) == "1 passed, 0 failed"
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_the_pytest_console_script_imports_a_specs_system(linebot_project: Path) -> None:
     done = run_from(linebot_project, console_script("pytest"), "-p", "no:cacheprovider", "dtc")
 

@@ -254,6 +254,7 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 CHROMEDRIVER = shutil.which("chromedriver")
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_chromium_draws_every_chart(report: Report) -> None:
     """Open the page in headless Chromium: every chart has its size, lanes and colors."""
     if CHROMIUM is None or CHROMEDRIVER is None:

@@ -93,6 +93,7 @@ def junit_cases(path: Path) -> list[tuple[str | None, list[str]]]:
     return [(case.get("name"), [child.tag for child in case]) for case in cases]
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_a_cluster_gives_the_verdicts_reports_and_exit_code_of_a_local_run(
     beatlog: Callable[..., Run], cluster: str, suite: Path, tmp_path: Path
 ) -> None:
@@ -145,6 +146,7 @@ def test_a_suite_given_by_a_relative_path_is_reported_by_it_as_a_local_run_is(
         )
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_local_1_starts_a_cluster_of_one_worker_process_for_the_run(
     beatlog: Callable[..., Run], suite: Path
 ) -> None:
@@ -272,6 +274,7 @@ def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
     assert rows == [("passed", "unlucky", "passed (retried 1×)", "120")]
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_a_dtc_whose_workers_keep_dying_is_an_error_never_lost(
     beatlog: Callable[..., Run], cluster: str, tmp_path: Path, record_probe: RecordFn
 ) -> None:

@@ -212,6 +212,7 @@ def test_timelines_for_reports_are_gathered_only_when_asked(tmp_path: Path, log:
 # the determinism audit
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_each_worker_audits_its_spec_when_asked(tmp_path: Path, log: Path) -> None:
     leaky_log = record_session(tmp_path / "leaky.beatlog", leaky_system())
     specs = tmp_path / "specs"

@@ -235,6 +235,7 @@ def fifo_named_by_metadata(tmp_path: Path) -> tuple[Path, Path]:
     [fifo_as_bag_file, fifo_as_metadata, fifo_as_storage_file, fifo_named_by_metadata],
     ids=["bag file", "metadata.yaml", "storage file", "second storage file"],
 )
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_a_fifo_in_a_bag_is_refused_before_anything_opens_it(
     tmp_path: Path, fifo: Callable[[Path], tuple[Path, Path]]
 ) -> None:

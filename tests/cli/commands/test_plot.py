@@ -82,6 +82,7 @@ def test_plot_of_a_passing_replay_names_no_divergence(
 @pytest.mark.parametrize(
     ("suffix", "magic"), [(".svg", b"<?xml"), (".pdf", b"%PDF-"), (".PNG", b"\x89PNG")]
 )
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_the_suffix_picks_the_format(
     plot: Plot, log: Path, tmp_path: Path, suffix: str, magic: bytes
 ) -> None:

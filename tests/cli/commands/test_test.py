@@ -628,6 +628,7 @@ def test_jobs_must_be_a_positive_whole_number(
 # --audit: the determinism audit
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_audit_names_every_leak_and_fails_the_run(
     beatlog_test: BeatlogTest, specs: Path, log: Path, tmp_path: Path
 ) -> None:
@@ -653,6 +654,7 @@ def test_audit_names_every_leak_and_fails_the_run(
     assert failure.get("message") == f"determinism audit: {len(leaks())} findings"
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_audit_of_a_sound_suite_passes(beatlog_test: BeatlogTest, specs: Path, log: Path) -> None:
     write_spec(specs, "avoid-pole", log)
 

@@ -56,6 +56,7 @@ def test_specs_whose_logs_are_urls_are_judged_each_log_downloaded_once(
     ]
 
 
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_a_rerun_and_an_audit_download_no_log_again(
     beatlog: Beatlog, served: LogServer, suite: Path
 ) -> None:
@@ -166,6 +167,7 @@ def test_a_spec_allowing_truncation_fails_on_a_log_url_cut_off(
     [(signal.SIGTERM, 143, "terminated"), (signal.SIGINT, 130, "interrupted")],
     ids=["SIGTERM", "Ctrl-C"],
 )
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_a_stopped_run_removes_the_copies_its_workers_were_downloading(
     served: LogServer, tmp_path: Path, signum: int, code: int, said: str
 ) -> None:
