@@ -54,6 +54,10 @@ PRINTED = [
     "robot state",
     "not logged",
     "catalogue",
+    "robot",
+    "software",
+    "p99",
+    "recording error",
     # re-baselining: test --update, review, approve, baseline files
     "pending",
     "nothing pending",
@@ -75,6 +79,7 @@ PRINTED = [
     "closed loop, as recorded",
     "state changes lost",
     "moved",
+    "output changes",
     "no longer happen",
     "never output any more",
     "no longer made",
