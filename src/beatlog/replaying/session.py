@@ -14,10 +14,8 @@ the log where a judge must see every byte of it.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from pathlib import Path
 from typing import Any, Protocol, TypedDict, Unpack
 
-from beatlog.errors import WindowError
 from beatlog.log.files import Closing
 from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
@@ -41,9 +39,7 @@ __all__ = [
     "ReadTracker",
     "ReplayOptions",
     "ReplaySession",
-    "check_window",
     "fields_read",
-    "through",
 ]
 
 
@@ -89,7 +85,8 @@ class Judge(Protocol):
         """Judge the cycle replayed last, the ``index``-th of its batch, which did not
         agree at once: ``changes`` is what :attr:`~beatlog.replaying.core.Replayer.advance`
         returned, ``outcome`` the cycle's outcome where other observers asked for it.
-        Where judging stops, the observer that follows replay past that cycle."""
+        Where judging stops, the observer that follows replay past that cycle, which
+        alone the session goes on for: the others take the cycles up to that one."""
 
 
 class ReadTracker:
@@ -250,7 +247,7 @@ class ReplaySession(Closing):
                     follower = verdict(index, record, changes, None)
                     if follower is not None:
                         verdict = None
-                        watching.append(follower)
+                        watching = [follower]
                         start = index + 1
                         break
                 else:
@@ -278,7 +275,7 @@ class ReplaySession(Closing):
                     follower = verdict(index, record, changes, outcome)
                     if follower is not None:
                         verdict = None
-                        watching.append(follower)
+                        watching = [follower]  # the others saw the cycle that stops it
 
     def _batches(self) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches, from the fresh start on where there is one."""
@@ -343,36 +340,6 @@ def _read_by(
         for reader in readers:
             reader.read(batch)
         yield batch
-
-
-def through(
-    batches: Iterator[Sequence[CycleRecord]],
-    end_cycle: int | None,
-    reached: Callable[[], None],
-    first: int = 0,
-) -> Iterator[Sequence[CycleRecord]]:
-    """``batches``, cycle ``first`` on, up to cycle ``end_cycle`` (None: all of them):
-    the one that holds it is cut after it, and none is read after it (a window's end,
-    see :func:`beatlog.replaying.judge.replay`); ``reached`` is called once it is."""
-    for batch in batches:
-        if end_cycle is not None and first + len(batch) > end_cycle:
-            reached()
-            yield batch[: end_cycle + 1 - first]
-            return
-        yield batch
-        first += len(batch)
-
-
-def check_window(where: Path, cycles: int, start_cycle: int, end_cycle: int | None) -> None:
-    """Refuse a window that a log read to its end with ``cycles`` cycles does not hold;
-    ``where`` (the spec that set it, or the log) is what the error names.
-
-    :raises beatlog.errors.WindowError: it starts or ends past the last cycle.
-    """
-    for key, cycle in (("end_cycle", end_cycle), ("start_cycle", start_cycle or None)):
-        if cycle is not None and cycle >= cycles:
-            last = f"{cycle} is past the log's last cycle ({cycles - 1})"
-            raise WindowError(where, f"{key} {last}")
 
 
 def fields_read(
