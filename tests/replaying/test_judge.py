@@ -36,8 +36,8 @@ from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog.replaying import core, fit, judge
 from beatlog.replaying.compare import Comparison
+from beatlog.replaying.divergence import propose_renames
 from beatlog.replaying.expectation import Expectation, TracedChange
-from beatlog.replaying.judge import propose_renames
 from beatlog.replaying.verdict import Checked
 from tests.conftest import (
     PERIOD_NS,

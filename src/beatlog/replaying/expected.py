@@ -22,7 +22,12 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord, payload_encoder
-from beatlog.replaying.expectation import ExpectedPart, ExpectedStream, TracedOutput
+from beatlog.replaying.expectation import (
+    ExpectedPart,
+    ExpectedStream,
+    TracedOutput,
+    changes_by_cycle,
+)
 from beatlog.replaying.held_outputs import HeldOutputs
 from beatlog.replaying.pins import PinChecker
 from beatlog.replaying.verdict import StateChange
@@ -86,11 +91,7 @@ class ExpectedRecords:
             if part is None:
                 self._read = _ALL
                 return
-            grouped: dict[int, list[StateChange]] = {}
-            for traced in part.changes:
-                grouped.setdefault(traced.cycle, []).append(traced.change)
-            for cycle, _ in part.quiet:
-                grouped[cycle] = []
+            grouped = changes_by_cycle(part.changes, part.quiet)
             _queue(self._changes, sorted(grouped.items(), key=_FIRST))
             _queue(
                 self._lines,

@@ -1,66 +1,53 @@
 """The verdict (the paper's Algorithm 2): replay a system on a session log and judge it.
 
-Each cycle advances a simulated clock by HB_t, loads RS_t, updates the behaviors with RN_t
-as their random numbers and compares their state changes and outputs with the recorded
-ones: byte for byte first (the replay core), and only where the bytes differ by the
-spec's comparison, which takes a cycle's state changes as a set. The first cycle that
-still differs, unless only as an approved baseline allows, is written up as the
-divergence: its kind and message, the robot state and draws, the cycles around it, and
-the rename map when the behaviors differ only by a consistent renaming.
+Each cycle's state changes and outputs are compared with the recorded ones (or an
+approved baseline's): byte for byte first, in the replay core, and only where the bytes
+differ by the spec's comparison. The first cycle that still differs is the divergence.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import itertools
 import os
 import time
-from collections import deque
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
 
 import msgspec
 
 from beatlog.errors import EmptyCheckError
-from beatlog.log.format import CycleRecord, StateChangeRecord, payload_encoder
-from beatlog.log.payload import decode_outputs, decode_part
+from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.invariant import Invariant
-from beatlog.model.perception import Perception, PerceptionTypeError
+from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
-from beatlog.project.config import vouched_system
-from beatlog.project.usercode import load_perception, load_system, user_traceback
-from beatlog.replaying.compare import Comparison, state_fields
-from beatlog.replaying.core import CycleOutcome, Expected, Replayer
-from beatlog.replaying.draws import DrawLedger, Unapproved
+from beatlog.project.usercode import load_perception, load_system
+from beatlog.replaying.compare import Comparison
+from beatlog.replaying.core import CycleOutcome, Replayer
+from beatlog.replaying.divergence import DivergenceWriter, Follower
+from beatlog.replaying.draws import DrawLedger
 from beatlog.replaying.expectation import Expectation, ExpectedStream
 from beatlog.replaying.expected import ExpectedRecords
 from beatlog.replaying.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.invariants import InvariantChecker
-from beatlog.replaying.outcome import draw_reports
-from beatlog.replaying.pins import PinChecker, rebuilt_otherwise
-from beatlog.replaying.recorded_states import recorded_changes
-from beatlog.replaying.session import BatchReader, Observer, ReplaySession, fields_read
-from beatlog.replaying.setup import SetupDrawError
+from beatlog.replaying.pins import PinChecker
+from beatlog.replaying.session import BatchReader, Calling, Observer, ReplaySession, fields_read
+from beatlog.replaying.setup import SetupDrawError, recorded_system
 from beatlog.replaying.verdict import (
     Checked,
-    ContextRow,
     Divergence,
     DivergenceKind,
-    FieldDifference,
     ReplayResult,
-    StateChange,
     log_ended,
     reproduce_command,
 )
 from beatlog.replaying.window import Window
 
-__all__ = ["NO_SAMPLES", "CycleJudge", "Follower", "propose_renames", "recorded_system", "replay"]
+__all__ = ["NO_SAMPLES", "CycleJudge", "replay"]
 
 NO_SAMPLES = (
     "perception not run: the log holds no samples (record with --log-samples); "
@@ -94,27 +81,20 @@ def replay(
 ) -> ReplayResult:
     """Replay ``log`` against ``system`` (a system, a factory that builds one, or a
     ``module:factory`` reference; by default the one the log's header records, see
-    :func:`recorded_system`) and judge it.
-
-    A factory is handed the recorded set-up draws (:mod:`beatlog.model.setup`); drawing
-    otherwise there is a divergence of kind
-    :attr:`~beatlog.replaying.verdict.DivergenceKind.SETUP`, and a log with set-up draws
-    refuses a system already built.
+    :func:`~beatlog.replaying.setup.recorded_system`) and judge it. A factory is handed
+    the recorded set-up draws (:mod:`beatlog.replaying.setup`).
 
     Replay stops at the first divergence unless ``keep_going``, which replays every
     cycle and counts those that diverge. A truncated log fails with a LOG_ENDED
     divergence unless ``allow_truncated``. The divergence shows up to
-    ``context_cycles`` cycles either side of it. A replay that checked nothing (no
-    state change, output, draw or sample: :class:`~beatlog.replaying.verdict.Checked`)
-    is no pass: it raises :class:`~beatlog.errors.EmptyCheckError` unless
-    ``allow_empty``.
+    ``context_cycles`` cycles either side of it. A replay that checked nothing
+    (:class:`~beatlog.replaying.verdict.Checked`) is no pass unless ``allow_empty``.
 
     ``comparison`` says what counts as the same (renames, ignored behaviors and output
     fields, tolerances; exact by default). ``expected`` is an approved baseline to judge
     against instead of the recording (read alongside the log when it is an
     :class:`~beatlog.replaying.expectation.ExpectedStream`): its state changes, outputs,
-    approved draws and pinned robot states; the recording's heartbeats, robot states and
-    random numbers are still replayed. Given a ``module:factory`` reference and
+    approved draws and pinned robot states. Given a ``module:factory`` reference and
     ``explain``, the divergence names the robot-state fields the behaviors read in its
     cycle (one more replay, of a fresh system). The result's reproduce command replays
     with these options but ``comparison`` and ``expected``, which a spec carries.
@@ -123,11 +103,10 @@ def replay(
     sensor-level replay when the log holds samples: RS_t is rebuilt from each cycle's
     samples and compared with the recorded one within the comparison's robot-state
     tolerances (a PERCEPTION divergence otherwise), and the behaviors run on it.
-    ``break_at`` stops in the debugger (``breakpoint()``) just before the behaviors
-    update in that cycle. ``observe`` is given every cycle's outcome up to the one that
-    stops replay, and so are the observers (:class:`~beatlog.replaying.session.Observer`)
-    that ``observers`` build from the opened log, so that a report is gathered in the
-    verdict's own replay; ``readers`` build readers of its batches as recorded
+    ``break_at`` stops in the debugger just before the behaviors update in that cycle.
+    ``observe`` is given every cycle's outcome up to the one that stops replay, and so
+    are the :class:`~beatlog.replaying.session.Observer` that ``observers`` build from
+    the opened log; ``readers`` build readers of its batches as recorded
     (:class:`~beatlog.replaying.session.BatchReader`), which take the whole log.
     ``migration`` maps robot-state fields renamed or retyped since the recording
     (:mod:`beatlog.replaying.fit.migration`). A log recorded at another heartbeat
@@ -139,13 +118,10 @@ def replay(
     divergence of its cycle, its headline where the cycle also differs.
 
     ``start_cycle`` and ``end_cycle`` (both inclusive) narrow the verdict to a window
-    (:mod:`beatlog.replaying.window`): the cycles before it are replayed as recorded,
-    and fail the replay only where it cannot go on past them; none after it is read,
-    and the result counts the window's cycles alone, without a status. With
-    ``fresh_start`` the behaviors start from rest at ``start_cycle`` instead, at its
-    recorded cycle number and robot time, their state changes there found against the
-    recorded states. A window past the log's last cycle is an error of ``where`` (the
-    spec that set it; by default the log).
+    (:mod:`beatlog.replaying.window`), from a fresh start with ``fresh_start``; the
+    result then counts the window's cycles alone, and has no status where the log was
+    not read to its end. A window past the log's last cycle is an error of ``where``
+    (the spec that set it; by default the log).
 
     :raises beatlog.errors.LogError: the log is missing, foreign, corrupt or does not fit
         the system's robot state type (see :mod:`beatlog.replaying.fit`).
@@ -158,11 +134,11 @@ def replay(
     if system is None:
         system = recorded_system(Path(log))
     reference = system if isinstance(system, str) else None
-    if reference is not None:
-        system = functools.partial(load_system, reference)
+    if isinstance(system, str):
+        system = functools.partial(load_system, system)
     perception_reference = perception if isinstance(perception, str) else None
-    if perception_reference is not None:
-        perception = load_perception(perception_reference)
+    if isinstance(perception, str):
+        perception = load_perception(perception)
     comparison = comparison or Comparison()
     migration = migration or StateMigration()
     if isinstance(expected, Expectation):
@@ -189,8 +165,8 @@ def replay(
     try:
         session = ReplaySession(
             log,
-            system,  # type: ignore[arg-type]  # a reference is a factory by now
-            perception=perception,  # type: ignore[arg-type]  # likewise built by now
+            system,
+            perception=perception,
             break_at=break_at,
             migration=migration,
             living=expected is not None,
@@ -226,7 +202,7 @@ def replay(
         )
         watching = [factory(reader) for factory in observers]
         if observe is not None:
-            watching.append(_Calling(observe))
+            watching.append(Calling(observe))
         if replayer.perception is None and not watching:
             # State-level replay without observers needs RS_t decoded, and only that:
             # decoded with each batch, it is read once (the log fits: checked above).
@@ -265,14 +241,9 @@ def replay(
 
 class CycleJudge:
     """The verdict as a replay session's :class:`~beatlog.replaying.session.Judge`: judges
-    the cycles that do not agree at once (:meth:`judge`, the hot path) and writes up the
-    first divergence, with up to ``context`` cycles either side, counting those that
-    diverge.
-
-    ``expected`` is an approved baseline to judge against instead of the recording.
-    ``invariants`` are checked in every cycle that completes (none then agrees at once).
-    The cycles before ``window`` must only let replay go on. Past the divergence where
-    it stops, a :class:`Follower` gathers what happened next.
+    the cycles that do not agree at once (:meth:`judge`, the hot path) against the
+    recording or the ``expected`` baseline, and the ``invariants`` in every cycle (none
+    then agrees at once), writes up the first divergence and counts those that diverge.
     """
 
     def __init__(
@@ -286,63 +257,51 @@ class CycleJudge:
         keep_going: bool,
         context: int,
     ) -> None:
-        header, self.path, self.executor = replayer.header, replayer.path, replayer.executor
-        check_catalogue(header, replayer.system, self.path, comparison.renames)
+        header, self.executor = replayer.header, replayer.executor
+        check_catalogue(header, replayer.system, replayer.path, comparison.renames)
         names = self.executor.behavior_ids
         replayer.random.expect_actors(header.behaviors, names, comparison.rename)
         self.replayer, self.comparison, self.window = replayer, comparison, window
-        self._invariants, self._keep_going, self.context = invariants, keep_going, context
-        self._encoder = payload_encoder()
-        self._pins = replayer.state_pins if replayer.perception is not None else None
-        self._expected = None
-        self.expected_names = list(header.behaviors)
-        self._ledger = None if expected is None else DrawLedger(expected.draws)
-        """The draws the approved baseline approves."""
-        if expected is not None:
-            self._expected = ExpectedRecords(
-                expected, header.behaviors, comparison.rename, self._pins
-            )
-            self.expected_names = self._expected.names
-        departs = expected is not None and expected.departs
-        self._against = "the approved baseline" if departs else "the recording"
-        self._batches: deque[Sequence[CycleRecord]] = deque(maxlen=context + 1)
-        """The last batches: they hold the cycles before a divergence (none is empty)."""
-        self._rows_before: list[ContextRow] = []
+        self._invariants, self._keep_going = invariants, keep_going
+        pins = replayer.state_pins if replayer.perception is not None else None
+        ledger = None if expected is None else DrawLedger(expected.draws)
+        self._expected = (
+            None
+            if expected is None
+            else ExpectedRecords(expected, header.behaviors, comparison.rename, pins)
+        )
+        expected_names = list(header.behaviors) if self._expected is None else self._expected.names
+        self._writer = DivergenceWriter(
+            replayer,
+            comparison,
+            expected_names,
+            ledger=ledger,
+            pins=pins,
+            departs=expected is not None and expected.departs,
+            start=window.start,
+            context=context,
+        )
         self.divergence: Divergence | None = None
-        """The first divergence, if any."""
         self.divergent_cycles = 0
-        self.judging = True
-        """Whether it still judges cycles: it has not stopped at a divergence."""
+        self.judging = True  # until it stops at a divergence
         self._stopped: tuple[int, int, int] | None = None  # cycle, robot time, samples
         self._follower: Follower | None = None
         self._counted = [0, 0, 0, 0]
         """State changes, outputs and draws of the cycles that agreed here (those that
         agreed at once the replay core counts), and samples of those that diverged."""
-        self.cycles = self.robot_time_ns = 0
-        """Cycles and robot time judged, from the window's start up to the divergence
-        that stopped replay, or to the end: known at :meth:`end`, with :attr:`checked`."""
+        self.cycles = self.robot_time_ns = 0  # judged, known at the end, as is checked
         self.checked = Checked()
-        at: dict[str, int] = {}
-        for position, name in enumerate(self.expected_names):
-            at.setdefault(comparison.rename(name), position)
-        replayer.expect(
-            Expected(
-                None if names == self.expected_names else [at.get(name, -1) for name in names],
-                self._encoder,
-                invariants is not None,
-                None if self._ledger is None else self._ledger.approves,
-            )
-        )
+        self._writer.expect(judged=invariants is not None)
 
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches, with an approved baseline's state changes and outputs in
-        place of the recorded ones and cut by the window; each kept, for the cycles
-        before a divergence, as it is handed on."""
+        place of the recorded ones and cut by the window; each kept for the context of
+        a divergence as it is handed on."""
         if self._expected is not None:
             first = self.executor.context.cycle + 1  # 0, or a fresh start's cycle
-            batches = self._expected.batches(batches, self.path, first)
+            batches = self._expected.batches(batches, self.replayer.path, first)
         for batch in self.window.batches(batches, self.replayer):
-            self._batches.append(batch)
+            self._writer.keep(batch)
             yield batch
 
     def judge(
@@ -353,11 +312,10 @@ class CycleJudge:
         outcome: CycleOutcome | None,
     ) -> Follower | None:
         """Judge a cycle that did not agree at once, the ``index``-th of its batch: it
-        agrees when it went cleanly (or only as an approved baseline lets it differ) and
-        its state changes and outputs match by the :class:`Comparison`, and every
-        invariant holds. A cycle before the window fails only where replay cannot go on
-        past it."""
-        replayer = self.replayer
+        agrees when it went cleanly (or only as an approved baseline lets it differ), its
+        state changes and outputs match by the :class:`Comparison` and every invariant
+        holds. A cycle before the window fails only where replay cannot go on past it."""
+        replayer, writer = self.replayer, self._writer
         if self.executor.context.cycle < self.window.start:
             if changes is not None:
                 return None
@@ -365,16 +323,12 @@ class CycleJudge:
             return None if replayer.stop(outcome) is None else self._stop(index, outcome, None)
         if changes is None:
             outcome = outcome or replayer.outcome()  # judged by its robot state, then as usual
-            changes = outcome.changes if self._agrees_but_for_pins(outcome) else None
+            changes = outcome.changes if writer.allows(outcome) else None
         agrees, unloggable = False, None
         if changes is not None:
             outputs = self.executor.context.outputs
-            compare = self.comparison
             try:
-                agrees = replayer.agrees(record, changes) or (
-                    compare.changes_agree(self._named(record.state_changes), self._actual(changes))
-                    and compare.outputs_agree(self._expected_outputs(record.outputs), outputs)
-                )
+                agrees = replayer.agrees(record, changes) or writer.agrees(record, changes)
             except (TypeError, ValueError, msgspec.EncodeError) as exc:  # cannot be logged
                 unloggable = exc
             if agrees:
@@ -399,338 +353,36 @@ class CycleJudge:
         self.divergent_cycles += 1
         self._counted[3] += len(outcome.samples)
         if self.divergence is None:
-            self.divergence = divergence = self._write_up(outcome, violation)
-            *earlier, last = self._batches
-            recent = [*itertools.chain(*earlier), *last[: index + 1]][-(self.context + 1) :]
-            time_ns = divergence.time_ns
-            for offset in range(1, len(recent)):
-                time_ns -= recent[-offset].heartbeat_ns
-                if expected := tuple(self._named(recent[-offset - 1].state_changes)):
-                    row = ContextRow(divergence.cycle - offset, time_ns, expected, expected)
-                    self._rows_before.insert(0, row)
+            self.divergence = self._writer.first(index, outcome, violation)
         if self._keep_going:
             return None
         self.judging = False
         self._stopped = (outcome.cycle + 1, outcome.time_ns, self.replayer.samples_perceived)
-        assert self.divergence is not None  # written up above
-        rename = self.comparison.rename
-        suspect = self.divergence.kind is DivergenceKind.STATE_CHANGES and not {
-            rename(name) for name in self.expected_names
-        } <= set(self.executor.behavior_ids)
-        self._follower = Follower(self._row, None if suspect else self.context, suspect)
+        self._follower = self._writer.follower(self.divergence)
         return self._follower
 
     def end(self, status: LogStatus | None, where: Path, *, allow_truncated: bool) -> None:
         """Take the end of the session: count what was judged, write the cycles around
-        the divergence into it, and judge how the log ended (``status``,
-        see :meth:`~beatlog.replaying.window.Window.ended_early`)."""
-        context = self.executor.context
-        cycle, time_ns, samples = self._stopped or (
-            context.cycle + 1,
-            context.time_ns,
-            self.replayer.samples_perceived,
-        )
-        window = self.window
-        changes, outputs, draws, samples_before = window.before
-        agreed = self.replayer.agreed
+        the divergence into it, and judge how the log ended (``status``, see
+        :meth:`~beatlog.replaying.window.Window.ended_early`)."""
+        context, window = self.executor.context, self.window
+        now = (context.cycle + 1, context.time_ns, self.replayer.samples_perceived)
+        cycle, time_ns, samples = self._stopped or now
+        (changes, outputs, draws), before, here = self.replayer.agreed, window.before, self._counted
         self.cycles = max(0, cycle - window.start)
         self.robot_time_ns = max(0, time_ns - window.start_ns)
         self.checked = Checked(
-            agreed[0] - changes + self._counted[0],
-            agreed[1] - outputs + self._counted[1],
-            agreed[2] - draws + self._counted[2],
-            samples - samples_before - self._counted[3],
+            changes - before[0] + here[0],
+            outputs - before[1] + here[1],
+            draws - before[2] + here[2],
+            samples - before[3] - here[3],
         )
-        self._write_context()
+        if self.divergence is not None:
+            self.divergence = self._writer.with_context(self.divergence, self._follower)
         if self.judging and window.ended_early(status, where, allow_truncated=allow_truncated):
             assert status is not None  # a log that ended early says how
             self.divergent_cycles += 1
             self.divergence = self.divergence or log_ended(status, cycle, time_ns)
-
-    def _write_context(self) -> None:
-        """Write the cycles around the divergence into it, and the rename map the rest
-        of the log proposes where it looked like a renamed behavior."""
-        divergence, follower = self.divergence, self._follower
-        if divergence is None:
-            return
-        here = ContextRow(
-            divergence.cycle, divergence.time_ns, divergence.expected, divergence.actual
-        )
-        after = [] if follower is None else follower.rows[: self.context]
-        context_rows = (
-            *self._rows_before,
-            here,
-            *(row for row in after if row.expected or row.actual),
-        )
-        renames: dict[str, str] = {}
-        if follower is not None and follower.suspect:
-            kept = self.comparison.kept
-            cycles = [(divergence.expected, divergence.actual)]
-            cycles.extend((row.expected, row.actual) for row in follower.rows)
-            renames = propose_renames((kept(want), kept(got)) for want, got in cycles)
-        self.divergence = dataclasses.replace(
-            divergence, context=context_rows, proposed_renames=renames
-        )
-
-    def _write_up(self, outcome: CycleOutcome, violation: Divergence | None) -> Divergence:
-        """The divergence of a cycle: what was expected of it beside what it saw, headed
-        by why it differs (an invariant's ``violation``, if any)."""
-        record = outcome.record
-        expected = tuple(self._named(record.state_changes))
-        expected_outputs = self._expected_outputs(record.outputs)
-        recorded = tuple(draw_reports(outcome.recorded_draws, self.replayer.header.behaviors))
-        if violation is not None:
-            return dataclasses.replace(
-                violation,
-                expected=expected,
-                expected_outputs=expected_outputs,
-                random_recorded=recorded,
-            )
-        actual = tuple(self._actual(outcome.changes or []))
-        failure, trace, behavior = outcome.failure, None, None
-        perceiving = self.replayer.perception is not None and outcome.perception_failure is None
-        differences = self._state_differences(outcome) if perceiving else ()
-        stop = self.replayer.stop(outcome)
-        ledger, draws = self._ledger, outcome.draw_differences or ()
-        unapproved = None if ledger is None else ledger.check(outcome.cycle, draws)
-        compare = self.comparison
-        kind: DivergenceKind
-        if stop is not None and stop.kind is DivergenceKind.PERCEPTION:
-            kind, message = stop.kind, stop.message
-            problem = outcome.perception_failure
-            if problem is not None and not isinstance(problem, PerceptionTypeError):
-                trace = user_traceback(problem)
-        elif differences:
-            kind = DivergenceKind.PERCEPTION
-            message = self._perception_message(outcome, differences)
-        elif stop is not None and stop.kind is not DivergenceKind.RANDOM_UNDERDRAWN:
-            kind, message, behavior = stop
-            if failure is not None:
-                trace = user_traceback(failure)
-        elif unapproved is not None and unapproved.made and unapproved.difference.asked:
-            kind, message, behavior = _unapproved(unapproved)
-        elif not compare.changes_agree(expected, actual):
-            # The first behavior difference is the headline, even when the changed
-            # behavior then drew fewer random numbers than were recorded.
-            kind = DivergenceKind.STATE_CHANGES
-            message = f"behavior state changes differ from {self._against}"
-            behavior = compare.first_differing_behavior(expected, actual)
-            if stop is not None:
-                message += f", and then the behaviors {stop.message}"
-        elif stop is not None:
-            kind, message, behavior = stop
-        elif unapproved is not None:
-            kind, message, behavior = _unapproved(unapproved)
-        else:
-            kind, message = DivergenceKind.OUTPUTS, f"outputs differ from {self._against}"
-        if kind is not DivergenceKind.STATE_CHANGES and compare.only_order_differs(
-            expected, actual
-        ):
-            message += (
-                "; the state changes differ only in the order behaviors are listed,"
-                " which is no difference"
-            )
-        if outcome.cycle < self.window.start:
-            message = f"before the window (cycle {self.window.start} on): {message}"
-        completed = failure is None and outcome.draw_problem is None
-        return Divergence(
-            kind=kind,
-            cycle=outcome.cycle,
-            time_ns=outcome.time_ns,
-            message=message,
-            behavior=behavior,
-            expected=expected,
-            actual=actual,
-            expected_outputs=expected_outputs,
-            actual_outputs=dict(outcome.outputs) if completed else {},
-            robot_state=state_fields(outcome.state),
-            random_recorded=recorded,
-            random_drawn=tuple(draw_reports(outcome.drawn, self.executor.behavior_ids)),
-            traceback=trace,
-            perception=differences,
-            samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
-        )
-
-    def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
-        """The robot-state fields perception rebuilt otherwise than expected, beyond their
-        tolerance: expected is the recorded RS_t, or in a cycle an approved baseline pins,
-        its digest (then the fields named are those that differ from the recording now or
-        did in the baseline's run of cycles)."""
-        expected, actual = state_fields(outcome.recorded_state), state_fields(outcome.state)
-        pins = self._pins
-        if pins is None or outcome.cycle not in pins:
-            named = set(self.comparison.state_differences(expected, actual))
-        elif pins.found(outcome.cycle, self._state_bytes(outcome.state)) is None:
-            return ()
-        else:
-            named = {*pins.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
-        return tuple(
-            FieldDifference(name, expected.get(name), actual.get(name))
-            for name in dict.fromkeys([*expected, *actual])
-            if name in named
-        )
-
-    def _state_bytes(self, state: Any) -> bytes:
-        """A robot state as a log encodes it; no bytes where it cannot be encoded."""
-        try:
-            return self._encoder.encode(state)
-        except (TypeError, msgspec.EncodeError):
-            return b""
-
-    def _perception_message(
-        self, outcome: CycleOutcome, differences: tuple[FieldDifference, ...]
-    ) -> str:
-        """Why the robot state rebuilt in a cycle is not the one expected."""
-        pins = self._pins
-        if pins is None or outcome.cycle not in pins:
-            names = ", ".join(d.field for d in differences)
-            against = " from the approved baseline" if pins and pins.pinned else ""
-            return f"the robot state rebuilt from the samples differs{against} in {names}"
-        run = pins.run_at(outcome.cycle)
-        rebuilt = state_fields(outcome.state)
-        now = list(rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt))
-        return (
-            "the robot state rebuilt from the samples differs from the approved baseline "
-            f"{pins.found(outcome.cycle, self._state_bytes(outcome.state))}; "
-            "it differs from the recording in "
-            f"{', '.join(now) or 'no field'}, the approved one in {', '.join(run.fields)} "
-            f"(cycles {run.cycle}–{run.last})"
-        )
-
-    def _agrees_but_for_pins(self, outcome: CycleOutcome) -> bool:
-        """Whether a cycle the core did not call clean went cleanly but for what the
-        approved baseline allows: perception rebuilt the robot state as expected, and
-        the draws made otherwise than recorded are ones it approves (using them up)."""
-        if not outcome.completed or outcome.perception_failure is not None:
-            return False
-        perceived = self.replayer.perception is not None and outcome.perception_differs
-        if perceived and self._state_differences(outcome):
-            return False
-        differences = outcome.draw_differences
-        if self._ledger is None:
-            return not differences
-        return self._ledger.check(outcome.cycle, differences or ()) is None
-
-    def _expected_outputs(self, raw_outputs: msgspec.Raw) -> dict[str, Any]:
-        cycle = self.executor.context.cycle
-        return decode_part(self.path, raw_outputs, decode_outputs, "outputs", cycle)
-
-    def _named(self, raw_changes: msgspec.Raw) -> list[StateChange]:
-        """Expected state changes in current names.
-
-        :raises beatlog.errors.CorruptLogError: one names a behavior the catalogue lacks.
-        """
-        names, renamed = self.expected_names, self.comparison.renamed
-        cycle = self.executor.context.cycle
-        recorded = recorded_changes(self.path, raw_changes, cycle, len(names))
-        return [
-            renamed(StateChange(names[index], before, after)) for index, before, after in recorded
-        ]
-
-    def _actual(self, changes: list[StateChangeRecord]) -> list[StateChange]:
-        """State changes the behaviors made, by name."""
-        names = self.executor.behavior_ids
-        return [StateChange(names[index], before, after) for index, before, after in changes]
-
-    def _row(self, outcome: CycleOutcome) -> ContextRow:
-        """A cycle replayed past the divergence, as its context shows it."""
-        expected = tuple(self._named(outcome.record.state_changes))
-        return ContextRow(
-            outcome.cycle, outcome.time_ns, expected, tuple(self._actual(outcome.changes or []))
-        )
-
-
-class Follower:
-    """Follows replay past the first divergence, as an observer of the replay session:
-    up to ``limit`` cycles (None: the rest of the log, where the divergence is
-    ``suspect`` of a renamed behavior) as ``row`` writes them, up to one replay cannot
-    go on past."""
-
-    def __init__(
-        self, row: Callable[[CycleOutcome], ContextRow], limit: int | None, suspect: bool
-    ) -> None:
-        self._row, self._limit, self.suspect = row, limit, suspect
-        self.rows: list[ContextRow] = []
-        self.replaying = self.reading = limit != 0
-
-    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
-        """Take the next cycle past the divergence."""
-        if not self.reading or outcome is None:
-            return
-        if outcome.changes is None or outcome.failure is not None:
-            self.suspect = self.replaying = self.reading = False
-            return
-        self.rows.append(self._row(outcome))
-        self.replaying = self.reading = len(self.rows) != self._limit
-
-
-class _Calling:
-    """An ``observe`` callback as an observer: given every outcome."""
-
-    replaying = reading = True
-
-    def __init__(self, observe: Callable[[CycleOutcome], object]) -> None:
-        self._observe = observe
-
-    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
-        if outcome is not None:
-            self._observe(outcome)
-
-
-def propose_renames(
-    cycles: Iterable[tuple[Sequence[StateChange], Sequence[StateChange]]],
-) -> dict[str, str]:
-    """The behavior rename map (old → new) that turns every expected cycle into the actual.
-
-    ``cycles`` pairs each cycle's expected state changes with the actual ones. The
-    substitution of behavior names must hold across all of them and be one-to-one; a
-    state may differ only where it names a renamed behavior (an arbiter's winner).
-    Returns an empty map when the traces differ in any other way, or not at all.
-    """
-    forward: dict[str, str] = {}
-    backward: dict[str, str] = {}
-    states: set[tuple[str, str]] = set()
-    encode = msgspec.msgpack.encode
-    for expected, actual in cycles:
-        if len(expected) != len(actual):
-            return {}
-        for want, got in zip(expected, actual, strict=True):
-            old, new = want.behavior, got.behavior
-            if forward.setdefault(old, new) != new or backward.setdefault(new, old) != old:
-                return {}
-            for before, after in ((want.before, got.before), (want.after, got.after)):
-                if isinstance(before, str) and isinstance(after, str):
-                    if before != after:
-                        states.add((before, after))
-                elif encode(before) != encode(after):
-                    return {}
-    if any(forward.get(old) != new for old, new in states):
-        return {}
-    return {old: new for old, new in forward.items() if old != new}
-
-
-def _unapproved(unapproved: Unapproved) -> tuple[DivergenceKind, str, str]:
-    """How a draw made otherwise than recorded, and not as approved, diverges."""
-    (behavior, recorded, asked), made, elsewhere = unapproved
-    if not made:
-        what = (
-            f"a new {asked}"
-            if recorded is None
-            else f"{recorded} left unused"
-            if asked is None
-            else f"{recorded} re-mapped to {asked}"
-        )
-        message = f"{behavior} did not make the draw the approved baseline holds: {what}"
-        return DivergenceKind.RANDOM_UNDERDRAWN, message, behavior
-    baseline = f"which the approved baseline does not hold{' in this cycle' if elsewhere else ''}"
-    if recorded is None:
-        message = f"{behavior} called {asked}, a draw the recording does not have, {baseline}"
-        return DivergenceKind.RANDOM_OVERDRAWN, message, behavior
-    if asked is None:
-        message = f"{behavior} did not draw the recorded {recorded}, {baseline}"
-        return DivergenceKind.RANDOM_UNDERDRAWN, message, behavior
-    message = f"{behavior} called {asked} where {recorded} was recorded, {baseline}"
-    return DivergenceKind.RANDOM_MISMATCH, message, behavior
 
 
 def _nothing_checked(cycles: int) -> str:
@@ -744,19 +396,3 @@ def _nothing_checked(cycles: int) -> str:
         f"the replay checked nothing ({what}); if nothing is meant to happen in it, "
         "accept it with --allow-empty (in a spec: allow_empty = true)"
     )
-
-
-def recorded_system(log: str | Path, *, project: Path | None = None) -> str:
-    """The system reference the log's header records (``beatlog record --system-ref``),
-    once the project vouches for it: bytes from a log never choose code on their own.
-
-    ``project`` is a folder of the project whose ``[tool.beatlog] systems`` must list
-    the reference (the working directory by default; a spec's folder for a spec), see
-    :func:`beatlog.project.config.vouched_system`.
-
-    :raises beatlog.errors.SystemLoadError: the log records none, or one the project
-        does not list.
-    """
-    with SessionLogReader(log) as reader:
-        reference = reader.header.system
-    return vouched_system(log, reference, project=Path.cwd() if project is None else project)

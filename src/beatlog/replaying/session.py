@@ -21,7 +21,6 @@ from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
-from beatlog.model.cycle import CycleExecutor
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
 from beatlog.replaying.core import AGREED, CycleOutcome, Replayer
@@ -33,6 +32,7 @@ from beatlog.replaying.setup import built_for_replay
 
 __all__ = [
     "BatchReader",
+    "Calling",
     "FieldsRead",
     "Judge",
     "Observer",
@@ -87,6 +87,20 @@ class Judge(Protocol):
         returned, ``outcome`` the cycle's outcome where other observers asked for it.
         Where judging stops, the observer that follows replay past that cycle, which
         alone the session goes on for: the others take the cycles up to that one."""
+
+
+class Calling:
+    """A callback as an observer: given every cycle's outcome."""
+
+    replaying = reading = True
+
+    def __init__(self, call: Callable[[CycleOutcome], object]) -> None:
+        self._call = call
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        """Hand the callback the cycle's outcome."""
+        if outcome is not None:
+            self._call(outcome)
 
 
 class ReadTracker:
@@ -278,27 +292,17 @@ class ReplaySession(Closing):
                         watching = [follower]  # the others saw the cycle that stops it
 
     def _batches(self) -> Iterator[Sequence[CycleRecord]]:
-        """The log's batches, from the fresh start on where there is one."""
+        """The log's batches, from the fresh start on where there is one: there the
+        clock is set to the robot time recorded before it, and the behavior states
+        recorded then assumed, once they are known (its batch read)."""
         if not self.fresh_from or self.replayer is None:
-            return self.reader.batches()
-        recorded = RecordedStates(self.reader.path, self.reader.header.behaviors)
-        batches = self.reader.batches(self.fresh_from, recorded.take)
-        return self._from_rest(batches, self.replayer.executor, recorded)
-
-    def _from_rest(
-        self,
-        batches: Iterator[Sequence[CycleRecord]],
-        executor: CycleExecutor,
-        recorded: RecordedStates,
-    ) -> Iterator[Sequence[CycleRecord]]:
-        """``batches``, from the fresh start on, with ``executor``'s clock set to the
-        robot time recorded before it and the behavior states recorded there assumed,
-        once they are known (its batch read)."""
-        first = True
-        for batch in batches:
-            if first:
-                first = False
-                now_ns = self.reader.robot_time_ns - sum([c.heartbeat_ns for c in batch])
+            yield from self.reader.batches()
+            return
+        executor, reader = self.replayer.executor, self.reader
+        recorded = RecordedStates(reader.path, reader.header.behaviors)
+        for number, batch in enumerate(reader.batches(self.fresh_from, recorded.take)):
+            if not number:
+                now_ns = reader.robot_time_ns - sum([c.heartbeat_ns for c in batch])
                 executor.clock.now_ns = executor.context.time_ns = now_ns
                 executor.assume(recorded.by_position(executor.behavior_ids, self._rename))
             yield batch
