@@ -21,8 +21,10 @@ from beatlog.project.usercode import user_traceback
 from beatlog.replaying.compare import Comparison, state_fields
 from beatlog.replaying.core import CycleOutcome, Expected, Replayer
 from beatlog.replaying.draws import DrawLedger, Unapproved
+from beatlog.replaying.expectation import ExpectedStream
+from beatlog.replaying.expected import ExpectedRecords
 from beatlog.replaying.outcome import draw_reports
-from beatlog.replaying.pins import PinChecker, rebuilt_otherwise
+from beatlog.replaying.pins import rebuilt_otherwise
 from beatlog.replaying.recorded_states import recorded_changes
 from beatlog.replaying.verdict import (
     ContextRow,
@@ -36,28 +38,32 @@ __all__ = ["DivergenceWriter", "Follower", "propose_renames"]
 
 
 class DivergenceWriter:
-    """What is expected of the cycles of ``replayer``'s replay, and the write-up of the
-    first that differs, with up to ``context`` cycles either side.
-
-    Expected is the recording or an approved baseline, whose state changes name the
-    behaviors of ``names``, whose ``ledger`` approves draws, whose ``pins`` pin robot
-    states (in sensor-level replay) and which ``departs`` from the recording or not.
-    A cycle before ``start`` is written up as before the window."""
+    """What is expected of the cycles of ``replayer``'s replay (the recording, or the
+    ``expected`` baseline: its state changes and outputs, the draws it approves, the
+    robot states it pins), and the write-up of the first that differs, with up to
+    ``context`` cycles either side; a cycle before ``start`` is before the window."""
 
     def __init__(
         self,
         replayer: Replayer,
         comparison: Comparison,
-        names: list[str],
+        expected: ExpectedStream | None,
         *,
-        ledger: DrawLedger | None,
-        pins: PinChecker | None,
-        departs: bool,
         start: int,
         context: int,
     ) -> None:
-        self.replayer, self.comparison, self.names = replayer, comparison, names
-        self._ledger, self._pins, self._start, self._context = ledger, pins, start, context
+        self.replayer, self.comparison = replayer, comparison
+        self._start, self._context = start, context
+        behaviors = replayer.header.behaviors
+        self._pins = replayer.state_pins if replayer.perception is not None else None
+        self._ledger = None if expected is None else DrawLedger(expected.draws)
+        self.records = None
+        """The recorded cycles as the baseline expects them (None: as recorded)."""
+        if expected is not None:
+            self.records = ExpectedRecords(expected, behaviors, comparison.rename, self._pins)
+        self.names = list(behaviors) if self.records is None else self.records.names
+        """The catalogue of behaviors the expected state changes name."""
+        departs = expected is not None and expected.departs
         self._against = "the approved baseline" if departs else "the recording"
         self._encoder = payload_encoder()
         self._batches: deque[Sequence[CycleRecord]] = deque(maxlen=context + 1)
@@ -106,8 +112,7 @@ class DivergenceWriter:
 
     def agrees(self, record: CycleRecord, changes: list[StateChangeRecord]) -> bool:
         """Whether the state changes and outputs of the cycle replayed last match its
-        ``record`` by the :class:`~beatlog.replaying.compare.Comparison` (state changes as
-        a set, allowances applied).
+        ``record`` by the comparison (state changes as a set, allowances applied).
 
         :raises msgspec.EncodeError: they cannot be logged (or a ``TypeError`` or
             ``ValueError`` from an encoding hook).
@@ -298,17 +303,14 @@ class DivergenceWriter:
             divergence.cycle, divergence.time_ns, divergence.expected, divergence.actual
         )
         after = [] if follower is None else follower.rows
-        shown = (
-            *self._before,
-            here,
-            *(row for row in after[: self._context] if row.expected or row.actual),
-        )
+        shown = [*self._before, here, *after[: self._context]]
+        context = tuple(row for row in shown if row is here or row.expected or row.actual)
         renames: dict[str, str] = {}
         if follower is not None and follower.suspect:
             kept = self.comparison.kept
             cycles = [(here.expected, here.actual), *((row.expected, row.actual) for row in after)]
             renames = propose_renames((kept(want), kept(got)) for want, got in cycles)
-        return dataclasses.replace(divergence, context=shown, proposed_renames=renames)
+        return dataclasses.replace(divergence, context=context, proposed_renames=renames)
 
 
 class Follower:

@@ -1,14 +1,8 @@
 """What replay judges against: an approved baseline (:class:`Expectation`), where the
-behaviors depart from the recording (:mod:`beatlog.replaying.departures`), the rest
-being as recorded; and the traces of state changes and outputs it is made from.
-
-Outputs are traced compactly: a field appears only in the cycles where its value
-changes (:class:`OutputTracker`).
-
-Replay reads an expectation as it reads the log, a part at a time in cycle order
-(:class:`ExpectedStream`), so that a big baseline is judged in bounded memory: what it
-holds whole is only what applies to the whole session (its draws, where it leaves the
-recording, the behaviors it names).
+behaviors depart from the recording, read a part at a time in cycle order
+(:class:`ExpectedStream`) so that a big baseline is judged in bounded memory; and the
+traces it is made from, an output traced only where its value changes
+(:class:`OutputTracker`).
 """
 
 from __future__ import annotations

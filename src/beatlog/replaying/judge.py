@@ -28,9 +28,7 @@ from beatlog.project.usercode import load_perception, load_system
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.core import CycleOutcome, Replayer
 from beatlog.replaying.divergence import DivergenceWriter, Follower
-from beatlog.replaying.draws import DrawLedger
 from beatlog.replaying.expectation import Expectation, ExpectedStream
-from beatlog.replaying.expected import ExpectedRecords
 from beatlog.replaying.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.invariants import InvariantChecker
@@ -175,10 +173,9 @@ def replay(
             fresh_from=window.fresh_from,
         )
     except SetupDrawError as diverged:  # no cycle replayed
-        at_setup = Divergence(kind=diverged.kind, cycle=0, time_ns=0, message=diverged.problem)
-        wall = time.perf_counter() - started
-        reproduced = reproduce(diverged.recorded_system)
-        return ReplayResult(Path(log), False, 0, Checked(), 0, wall, None, at_setup, 1, reproduced)
+        setup = Divergence(DivergenceKind.SETUP, 0, 0, diverged.problem)
+        wall, reproduced = time.perf_counter() - started, reproduce(diverged.recorded_system)
+        return ReplayResult(Path(log), False, 0, Checked(), 0, wall, None, setup, 1, reproduced)
     with session:
         reader = session.reader
         check_state_fields(
@@ -261,25 +258,10 @@ class CycleJudge:
         check_catalogue(header, replayer.system, replayer.path, comparison.renames)
         names = self.executor.behavior_ids
         replayer.random.expect_actors(header.behaviors, names, comparison.rename)
-        self.replayer, self.comparison, self.window = replayer, comparison, window
+        self.replayer, self.window = replayer, window
         self._invariants, self._keep_going = invariants, keep_going
-        pins = replayer.state_pins if replayer.perception is not None else None
-        ledger = None if expected is None else DrawLedger(expected.draws)
-        self._expected = (
-            None
-            if expected is None
-            else ExpectedRecords(expected, header.behaviors, comparison.rename, pins)
-        )
-        expected_names = list(header.behaviors) if self._expected is None else self._expected.names
         self._writer = DivergenceWriter(
-            replayer,
-            comparison,
-            expected_names,
-            ledger=ledger,
-            pins=pins,
-            departs=expected is not None and expected.departs,
-            start=window.start,
-            context=context,
+            replayer, comparison, expected, start=window.start, context=context
         )
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
@@ -297,9 +279,9 @@ class CycleJudge:
         """The log's batches, with an approved baseline's state changes and outputs in
         place of the recorded ones and cut by the window; each kept for the context of
         a divergence as it is handed on."""
-        if self._expected is not None:
+        if self._writer.records is not None:
             first = self.executor.context.cycle + 1  # 0, or a fresh start's cycle
-            batches = self._expected.batches(batches, self.replayer.path, first)
+            batches = self._writer.records.batches(batches, self.replayer.path, first)
         for batch in self.window.batches(batches, self.replayer):
             self._writer.keep(batch)
             yield batch

@@ -1,14 +1,12 @@
 """A replay session: open and check a log once, step a system through it once, and hand
-every cycle to the observers that gather what they need from it.
+every cycle to the observers that gather what they need from it (the verdict, traces,
+the fields read, timelines, a failed DTC's details), the way py_trees hangs visitors
+off one tick loop.
 
-The verdict, traces, the fields read, timelines and a failed DTC's details are
-observers of one session, the way py_trees hangs visitors off one tick loop: none of
-them opens a log or steps a system on its own. The verdict (a :class:`Judge`) judges
-most cycles from the replayed state changes alone, on the hot path; the others take
-each cycle's full outcome. Stepping stops for good when no observer needs more
-replayed cycles (a replay cannot resume once skipped); the recording alone goes on to
-the observers that still read it, and reading stops when none does, or at the end of
-the log where a judge must see every byte of it.
+The verdict (a :class:`Judge`) judges most cycles from the replayed state changes
+alone, on the hot path. Stepping stops for good when no observer needs more replayed
+cycles; reading stops when none reads on, or at the log's end where a judge must see
+every byte of it.
 """
 
 from __future__ import annotations
@@ -139,9 +137,7 @@ class FieldsRead:
     def replaying(self) -> bool:
         return not self._lost and self._next <= self.cycle
 
-    @property
-    def reading(self) -> bool:
-        return self.replaying
+    reading = replaying
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         if outcome is None:
@@ -174,27 +170,17 @@ class ReplaySession(Closing):
     """A log opened and checked once, and a system set up to replay it; a context manager.
 
     Building one reads the header, builds the system where it is given its factory
-    (handed the recorded set-up draws, :mod:`beatlog.replaying.setup`; a
-    :class:`~beatlog.replaying.setup.SetupDrawError` where it draws otherwise) and
-    checks that the log fits the system (:mod:`beatlog.replaying.fit`), its robot-state
-    fields renamed and converted by ``migration``; ``state_pins``, an approved
-    baseline's robot states, are what perception must rebuild in their cycles.
-    :meth:`run` steps through the log for its observers.
-    Without a system, nothing is replayed: the observers read the recording alone.
-    ``break_at`` stops in the debugger just before the behaviors update in that cycle.
-    ``living`` replay goes on where the behaviors draw otherwise than recorded
-    (:meth:`~beatlog.replaying.random.ReplayRandom.live`; ``rename`` maps a recorded
-    behavior's name to its name now), as it does judged against an approved baseline.
+    (:mod:`beatlog.replaying.setup`) and checks that the log fits it
+    (:mod:`beatlog.replaying.fit`); the ``options`` go to its
+    :class:`~beatlog.replaying.core.Replayer`. :meth:`run` steps through the log for
+    its observers. Without a system, nothing is replayed: the observers read the
+    recording alone.
 
-    ``fresh_from`` (a cycle) starts the behaviors from rest there: the system is built
-    as for the log's start and first updates in that cycle, at the cycle number and
-    robot time recorded for it, its BS_t found against the behavior states recorded
-    before it (:meth:`~beatlog.model.cycle.CycleExecutor.assume`); the cycles before it
-    are skimmed (read and checked as
-    :meth:`~beatlog.log.reader.SessionLogReader.batches` skims them, their state
-    changes decoded), not replayed, and no observer gets them.
-
-    The verdict (:func:`beatlog.replaying.judge.replay`) is the session's :class:`Judge`.
+    ``fresh_from`` (a cycle) starts the behaviors from rest there: the system first
+    updates in that cycle, at the cycle number and robot time recorded for it, its BS_t
+    found against the behavior states recorded before it
+    (:meth:`~beatlog.model.cycle.CycleExecutor.assume`); the cycles before it are read
+    and checked, not replayed, and no observer gets them.
     """
 
     def __init__(

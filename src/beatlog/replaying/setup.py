@@ -20,7 +20,6 @@ from beatlog.model.draws import recorded_draw_problem
 from beatlog.model.setup import SystemFactory, build_system
 from beatlog.project.config import vouched_system
 from beatlog.replaying.random import RandomMismatch, ReplayRandom
-from beatlog.replaying.verdict import DivergenceKind
 
 __all__ = ["SetupDrawError", "built_for_replay", "recorded_system"]
 
@@ -37,7 +36,6 @@ class SetupDrawError(BeatlogError):
         super().__init__(f"{path}: {problem}")
         self.path = path
         self.problem = problem
-        self.kind = DivergenceKind.SETUP
         self.recorded_system = recorded_system
         """The ``module:factory`` the log's header records, for a reproduce command."""
 

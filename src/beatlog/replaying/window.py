@@ -1,12 +1,7 @@
-"""A window of cycles: a replay judged from one cycle to another (both inclusive), as a
-DTC's ``start_cycle`` and ``end_cycle`` set it, to shrink a failure to the cycles that
-show it.
-
-The cycles before the window are replayed as recorded to rebuild the behaviors' state
-and are judged only by whether replay can go on past them; from a fresh start the
-behaviors start from rest at the window instead, and the cycles before it are not
-replayed (:class:`~beatlog.replaying.session.ReplaySession`). No cycle after the window
-is read.
+"""A window of cycles, as a DTC's ``start_cycle`` and ``end_cycle`` set it: a replay
+judged from one cycle to another (both inclusive), the cycles before it replayed as
+recorded to rebuild the behaviors' state (or, from a fresh start, not replayed at all),
+judged only by whether replay can go on past them, and none after it read.
 """
 
 from __future__ import annotations
