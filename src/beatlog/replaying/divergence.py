@@ -89,7 +89,7 @@ class DivergenceWriter:
         """Keep the batch replay reads next, for the cycles before a divergence."""
         self._batches.append(batch)
 
-    def expected(self, raw_changes: msgspec.Raw) -> list[StateChange]:
+    def _expected(self, raw_changes: msgspec.Raw) -> list[StateChange]:
         """The state changes expected of the cycle replayed last, in current names.
 
         :raises beatlog.errors.CorruptLogError: one names a behavior the catalogue lacks.
@@ -99,12 +99,12 @@ class DivergenceWriter:
         recorded = recorded_changes(replayer.path, raw_changes, cycle, len(names))
         return [renamed(StateChange(names[i], before, after)) for i, before, after in recorded]
 
-    def actual(self, changes: list[StateChangeRecord]) -> list[StateChange]:
+    def _actual(self, changes: list[StateChangeRecord]) -> list[StateChange]:
         """State changes the behaviors made, by name."""
         names = self.replayer.executor.behavior_ids
         return [StateChange(names[i], before, after) for i, before, after in changes]
 
-    def outputs(self, raw_outputs: msgspec.Raw) -> dict[str, Any]:
+    def _outputs(self, raw_outputs: msgspec.Raw) -> dict[str, Any]:
         """The outputs expected of the cycle replayed last."""
         replayer = self.replayer
         cycle = replayer.executor.context.cycle
@@ -119,8 +119,8 @@ class DivergenceWriter:
         """
         compare, outputs = self.comparison, self.replayer.executor.context.outputs
         return compare.changes_agree(
-            self.expected(record.state_changes), self.actual(changes)
-        ) and compare.outputs_agree(self.outputs(record.outputs), outputs)
+            self._expected(record.state_changes), self._actual(changes)
+        ) and compare.outputs_agree(self._outputs(record.outputs), outputs)
 
     def allows(self, outcome: CycleOutcome) -> bool:
         """Whether a cycle the core did not call clean went cleanly but for what an
@@ -129,14 +129,14 @@ class DivergenceWriter:
         if not outcome.completed or outcome.perception_failure is not None:
             return False
         perceived = self.replayer.perception is not None and outcome.perception_differs
-        if perceived and self.state_differences(outcome):
+        if perceived and self._state_differences(outcome):
             return False
         differences = outcome.draw_differences
         if self._ledger is None:
             return not differences
         return self._ledger.check(outcome.cycle, differences or ()) is None
 
-    def state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
+    def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
         tolerance: expected is the recorded RS_t or, in a cycle the baseline pins, its
         digest (the fields named then differ from the recording now or did in the
@@ -158,23 +158,23 @@ class DivergenceWriter:
     def first(self, index: int, outcome: CycleOutcome, violation: Divergence | None) -> Divergence:
         """The first divergence, of the ``index``-th cycle of the batch kept last; the
         cycles before it are kept for its context."""
-        divergence = self.divergence(outcome, violation)
+        divergence = self._divergence(outcome, violation)
         *earlier, last = self._batches
         recent = [*itertools.chain(*earlier), *last[: index + 1]][-(self._context + 1) :]
         time_ns = divergence.time_ns
         for offset in range(1, len(recent)):
             time_ns -= recent[-offset].heartbeat_ns
-            if expected := tuple(self.expected(recent[-offset - 1].state_changes)):
+            if expected := tuple(self._expected(recent[-offset - 1].state_changes)):
                 row = ContextRow(divergence.cycle - offset, time_ns, expected, expected)
                 self._before.insert(0, row)
         return divergence
 
-    def divergence(self, outcome: CycleOutcome, violation: Divergence | None) -> Divergence:
+    def _divergence(self, outcome: CycleOutcome, violation: Divergence | None) -> Divergence:
         """The divergence of a cycle, headed by why it differs (an invariant's
         ``violation``, if any), with what was expected of it beside what it did."""
         record = outcome.record
-        expected = tuple(self.expected(record.state_changes))
-        expected_outputs = self.outputs(record.outputs)
+        expected = tuple(self._expected(record.state_changes))
+        expected_outputs = self._outputs(record.outputs)
         recorded = tuple(draw_reports(outcome.recorded_draws, self.replayer.header.behaviors))
         if violation is not None:
             return dataclasses.replace(
@@ -183,9 +183,9 @@ class DivergenceWriter:
                 expected_outputs=expected_outputs,
                 random_recorded=recorded,
             )
-        actual = tuple(self.actual(outcome.changes or []))
+        actual = tuple(self._actual(outcome.changes or []))
         perceiving = self.replayer.perception is not None and outcome.perception_failure is None
-        differences = self.state_differences(outcome) if perceiving else ()
+        differences = self._state_differences(outcome) if perceiving else ()
         kind, message, behavior, failure = self._headline(outcome, expected, actual, differences)
         if kind is not DivergenceKind.STATE_CHANGES and self.comparison.only_order_differs(
             expected, actual
@@ -291,8 +291,8 @@ class DivergenceWriter:
 
     def _row(self, outcome: CycleOutcome) -> ContextRow:
         """A cycle replayed past the divergence, as its context shows it."""
-        expected = tuple(self.expected(outcome.record.state_changes))
-        actual = tuple(self.actual(outcome.changes or []))
+        expected = tuple(self._expected(outcome.record.state_changes))
+        actual = tuple(self._actual(outcome.changes or []))
         return ContextRow(outcome.cycle, outcome.time_ns, expected, actual)
 
     def with_context(self, divergence: Divergence, follower: Follower | None) -> Divergence:
