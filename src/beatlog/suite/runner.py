@@ -25,9 +25,9 @@ from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
 from beatlog.replaying.expectation import Expectation
-from beatlog.replaying.judge import recorded_system, replay
+from beatlog.replaying.judge import replay
 from beatlog.replaying.random import ReplayRandom
-from beatlog.replaying.setup import built_for_replay
+from beatlog.replaying.setup import built_for_replay, recorded_system
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.remote import named_as_given
 from beatlog.suite.repeats import repeat_note
