@@ -24,13 +24,13 @@ from typing import Any
 
 import msgspec
 
-from beatlog.audit.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.audit.replays import CYCLE_DIGEST_SIZE, Answer, Request
 from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
 from beatlog.model.behavior import Behavior, System
 from beatlog.model.context import Context
 from beatlog.model.source import RandomSource
+from beatlog.project.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.project.usercode import load_system
 from beatlog.replaying.judge import replay
 
@@ -77,9 +77,9 @@ class _AuditedSystem:
 def _replay_watched(request: Request) -> Answer:
     """The answer of a replay, watched for leaks when the request asks.
 
-    A screened replay comes first (:class:`~beatlog.audit.leaks.LeakScreen`, cheap);
+    A screened replay comes first (:class:`~beatlog.project.leaks.LeakScreen`, cheap);
     only when it saw a watched call is the replay run again under a
-    :class:`~beatlog.audit.leaks.LeakWatch` without following lines, and when numpy's
+    :class:`~beatlog.project.leaks.LeakWatch` without following lines, and when numpy's
     global generator moved, once more following them to the lines that moved it.
     """
     if not request.watch:

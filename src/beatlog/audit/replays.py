@@ -3,7 +3,7 @@
 :func:`audit` replays a log twice, each time in an interpreter of its own with its own
 ``PYTHONHASHSEED``; :class:`Auditors` owns the two interpreters, started at its first
 audit and kept for the next ones until it closes, so a suite pays their start-up once.
-During each replay a :class:`~beatlog.audit.leaks.LeakWatch` turns the wall-clock
+During each replay a :class:`~beatlog.project.leaks.LeakWatch` turns the wall-clock
 reads and global random calls the system makes while it updates into findings that
 name the call site, and every cycle's behavior states and outputs are hashed. The two
 replays must agree on the verdict and on every cycle; where they do not, set or dict
@@ -25,9 +25,9 @@ from typing import IO
 
 import msgspec
 
-from beatlog.audit.leaks import Finding
 from beatlog.errors import BeatlogError
 from beatlog.log.files import Closing
+from beatlog.project.leaks import Finding
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.verdict import DivergenceKind
 

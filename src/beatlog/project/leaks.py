@@ -11,7 +11,7 @@ nearest frame of user code: not beatlog's own, not the standard library, not an
 installed package (:class:`Origins` tells them apart); or, when no user code is on the
 way (a system that is itself an installed package), to the nearest frame of a package.
 
-What is watched, and what not: :mod:`beatlog.audit.watched`.
+What is watched, and what not: :mod:`beatlog.project.watched`.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from pathlib import Path
 from types import CodeType, FrameType
 from typing import Any, TypeVar
 
-from beatlog.audit.watched import (
+from beatlog.project.watched import (
     ENTROPY_READ,
     GlobalNumpyGenerator,
     PrivateGenerator,
