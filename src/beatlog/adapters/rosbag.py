@@ -2,32 +2,16 @@
 
 :func:`import_bag` reads a ROS 2 bag (MCAP or sqlite3 storage, or a ROS 1 bag) with
 `rosbags <https://gitlab.com/ternaris/rosbags>`_, no ROS install needed
-(``pip install "beatlog[ros]"``). Message types come from the bag itself where it
-carries their definitions (every MCAP bag and sqlite3 bags from Iron on), so a
-message type beatlog has never seen imports; older bags fall back to the standard
-types of the latest ROS 2 release.
-
-Each message becomes a raw :class:`~beatlog.model.inbox.Sample` named by its topic,
-stamped with its log time, holding the message as plain data: a message is a dict of
-its fields (not its type's constants), arrays are lists, and byte arrays (``uint8[]``,
-``int8[]``: images, point clouds) are bytes, exactly as replay decodes them from the
-log. The messages are grouped into heartbeats, either fixed periods from the first
-message imported, or the intervals between messages on a clock topic (the messages
-up to and including each clock message make up that heartbeat; those after the last
-one are left out). The log starts where its first heartbeat does (its header's
-``start_time_ns``: that first message, or the first clock message), so the log's
-robot time added to it is the bag's time, as an export stamps it. At each
-heartbeat the user's perception step folds the samples into RS_t and the system runs
-on it, recording BS_t, RN_t and outputs with the samples, as a robot recording with
-``log_samples`` would. A DTC of the log replays at sensor level: a changed
-perception step fails it with a PERCEPTION divergence, a changed system with the
-behavior state changes it made.
-
-A bag is trusted only as far as its metadata: every message it counts on the topics
-imported must be read, at a log time within its span, or the import is refused as
-damaged; nothing is written then. A topic whose first message does not deserialize
-is refused as one whose message definition does not fit its messages (rosbag2's own
-``talker`` test bags carry a stub definition of ``rcl_interfaces/msg/Log``).
+(``pip install "beatlog[ros]"``), with the message types the bag defines (else the
+standard ones of the latest ROS 2 release). Each message becomes a
+:class:`~beatlog.model.inbox.Sample` of plain data, as replay decodes it from the log
+(:mod:`beatlog.adapters.bag`), named by its topic and stamped with its log time. The
+messages are grouped into heartbeats, fixed periods from the first message imported
+or the intervals between messages on a clock topic (each clock message closes a
+heartbeat; messages after the last are left out), and the log starts with its first
+heartbeat, so its robot time added to its start is the bag's time. The user's
+perception step folds each heartbeat's samples into RS_t and the system steps on it,
+recorded with the samples, so a DTC of the log replays at sensor level.
 """
 
 from __future__ import annotations

@@ -32,6 +32,7 @@ from beatlog.model.context import Context
 from beatlog.model.source import RandomSource
 from beatlog.project.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.project.usercode import load_system
+from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.judge import replay
 
 __all__ = ["main"]
@@ -112,7 +113,7 @@ def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
         keep_going=True,
         allow_truncated=request.allow_truncated,
         allow_empty=True,  # the audit compares replays; the verdict judges what they checked
-        migration=request.migration,
+        migration=StateMigration(request.field_renames, request.field_conversions),
     )
     divergence = result.divergence
     return Answer(

@@ -263,11 +263,6 @@ class Request(msgspec.Struct, array_like=True):
     field_conversions: dict[str, str] = {}
     """Robot-state fields retyped since the recording, and their conversions."""
 
-    @property
-    def migration(self) -> StateMigration:
-        """The robot-state migration to replay with."""
-        return StateMigration(self.field_renames, self.field_conversions)
-
 
 class Answer(msgspec.Struct, kw_only=True):
     """What a child replay tells its parent, as JSON on its own stdout."""

@@ -44,7 +44,6 @@ __all__ = [
     "GlobalNumpyGenerator",
     "PrivateGenerator",
     "builtin_call",
-    "marked",
     "python_calls",
     "screened_builtins",
 ]
@@ -76,6 +75,8 @@ class _Marked:
     """A generator watched by a mark of its state: :meth:`moved` says whether the mark
     changed since the last call."""
 
+    name: str
+    """How findings name it."""
     _mark: object
 
     def _read(self) -> object:
@@ -93,6 +94,8 @@ class _Marked:
 class GlobalNumpyGenerator(_Marked):
     """Notices when numpy's global generator draws, is seeded or is replaced; never,
     where numpy is not installed."""
+
+    name = "numpy.random"
 
     def __init__(self) -> None:
         self._legacy: Any = None  # behind np.random.rand & co
@@ -128,15 +131,6 @@ class GlobalNumpyGenerator(_Marked):
             address = bit_generator.ctypes.state_address
             self._key0 = ctypes.c_uint32.from_address(address)
             self._position = ctypes.c_int.from_address(address + _MT19937_POSITION)
-
-
-def marked(generator: GlobalNumpyGenerator | None) -> GlobalNumpyGenerator:
-    """A watcher of numpy's global generator, marked where it stands now: draws between
-    updates are the framework's or the test's."""
-    if generator is None:
-        return GlobalNumpyGenerator()
-    generator.moved()
-    return generator
 
 
 def builtin_call(function: Any) -> str | None:

@@ -1,34 +1,14 @@
 """The pytest plugin: DTC specs become test items, and a fixture replays logs in tests.
 
-Registered under the ``pytest11`` entry point, so installing beatlog is enough:
-``pytest`` collects every ``*.dtc.toml`` file as one test named after the spec. Set
-``beatlog_collect = false`` in the pytest ini options to turn collection off. DTC
-items carry the ``dtc`` marker, and ``-k`` matches their names and tags. A DTC is
-judged in its item's setup: one that cannot run (its log or system is bad input,
-``beatlog test``'s error) is an ERROR, one that diverges fails.
-
-Options (the ``beatlog`` group; the default is neither): ``--beatlog-update`` writes
-the new expectation of each failing DTC to its pending baseline for review, as
-``beatlog test --update`` does, and never when ``CI`` is set; ``--beatlog-audit``
-also audits each DTC's determinism and fails the ones it finds leaking;
-``--beatlog-coverage`` shows the transition coverage of the DTCs that ran, as
-``beatlog test --coverage`` does (remembering what earlier runs saw), and
-``--beatlog-coverage-json FILE`` writes it for tools. A DTC that declares variants
-(``[variants]``) is followed by its variants, each a test of its own
-(``dock[variant-3]``), as many as it declares or ``--beatlog-variants N`` says; a
-failing variant is written as a spec beside its DTC, as ``beatlog test`` writes it.
-The terminal summary says what was written, names orphaned baselines and counts the
-verdicts.
-
-Break points, as ``beatlog replay`` has them: ``--beatlog-break-at CYCLE`` stops in the
-debugger just before the behaviors update in that cycle of the one DTC selected (with
-``-k`` or its path), ``--beatlog-break-on-divergence`` replays each failing DTC again
-and stops at its first divergence. They stop as ``beatlog replay`` does
-(:mod:`beatlog.replaying.debugger`): ``PYTHONBREAKPOINT`` is honoured, pytest suspends its
-output capture while pdb runs, and quitting pdb ends the session as quitting pytest's
-pdb does (pytest's pdb is built on :class:`~beatlog.replaying.debugger.Debugger` for that,
-unless ``--pdbcls`` names another). A break past the end of the selected DTC's log is a
-usage error. They need the DTCs run in the pytest process (no ``-n`` of pytest-xdist).
+Registered under the ``pytest11`` entry point, so installing beatlog is enough: every
+``*.dtc.toml`` is one test named after the spec (``beatlog_collect = false`` in the ini
+options turns that off), marked ``dtc`` and matched by ``-k`` on its name and tags, and
+each variant it declares is a test of its own (``dock[variant-3]``). A DTC is judged in
+its item's setup: one that cannot run (``beatlog test``'s error) is an ERROR, one that
+diverges fails. The options of the ``beatlog`` group do what ``beatlog test``'s do (see
+:func:`pytest_addoption`); the break points stop as ``beatlog replay``'s do
+(:mod:`beatlog.replaying.debugger`), with pytest's pdb built on its debugger so that
+quitting ends the session, and need the DTCs run in this process (no ``-n``).
 """
 
 from __future__ import annotations

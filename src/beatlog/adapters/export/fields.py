@@ -28,7 +28,6 @@ __all__ = [
     "add_types",
     "array_field",
     "find_non_finite_arrays",
-    "holds_number_arrays",
     "inferred",
     "json_text",
     "json_type",
@@ -224,13 +223,6 @@ def typed_object(types: Mapping[str, str | None]) -> Field:
 
 def _path(within: str, name: str) -> str:
     return f"{within}.{name}" if within else name
-
-
-def holds_number_arrays(field: Field) -> bool:
-    if field.kind is Kind.OBJECT:
-        return any(holds_number_arrays(inner) for inner in field.fields.values())
-    items = field.items
-    return items is not None and (items.kind is Kind.NUMBER or holds_number_arrays(items))
 
 
 def find_non_finite_arrays(field: Field, value: Any, path: str, found: set[str]) -> None:

@@ -20,7 +20,6 @@ from beatlog.adapters.export.fields import (
     add_types,
     array_field,
     find_non_finite_arrays,
-    holds_number_arrays,
     inferred,
     json_type,
     merged,
@@ -209,7 +208,6 @@ def first_read(log: Path) -> FirstRead:
         output_types: dict[str, str | None] = {}
         declared = declared_object(header.robot_state_schema, log)
         state_types: dict[str, str | None] = {}
-        scan = declared is not None and holds_number_arrays(declared)
         non_finite: set[str] = set()
         samples: dict[str, Field | None] = {}
         for cycle in decoded_cycles(reader):
@@ -218,7 +216,7 @@ def first_read(log: Path) -> FirstRead:
             add_types(output_types, cycle.outputs)
             if declared is None:
                 add_types(state_types, cycle.robot_state)
-            elif scan:
+            else:
                 find_non_finite_arrays(declared, cycle.robot_state, "", non_finite)
             for sample in cycle.samples:
                 samples[sample.sensor] = merged(
