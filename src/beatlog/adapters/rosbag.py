@@ -41,7 +41,7 @@ from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
 from beatlog.model.random import RecordingRandom
-from beatlog.project.usercode import failure_site, load_perception, load_system, user_traceback
+from beatlog.project.usercode import failure, load_perception, load_system, user_traceback
 from beatlog.record.recorder import Recorder
 from beatlog.suite.spec_writing import spec_text
 
@@ -140,9 +140,9 @@ def import_bag(
     if spec_path is not None and not spec_path.parent.is_dir():
         raise SpecError(spec_path, f"cannot write: directory {spec_path.parent} does not exist")
     with open_bag(bag) as reader:
-        imported = _Import(bag, reader, built, perceive)
-        selected = imported.select(topics, clock_topic)
-        period, start, beats = imported.heartbeats(selected, period_ns, clock_topic)
+        messages = BagMessages(bag, reader)
+        selected = messages.select(topics, clock_topic)
+        period, start, beats = _heartbeats(messages, selected, period_ns, clock_topic)
         try:
             with replacing(output) as file:
                 recorder = Recorder(
@@ -157,7 +157,7 @@ def import_bag(
                     start_time_ns=start,
                 )
                 with recorder:
-                    imported.record(recorder, beats)
+                    folded = _record(messages, recorder, built, perceive, beats)
                 if recorder.error is not None:
                     raise LogError(output, f"cannot write: {recorder.error}")
                 if spec_path is not None:  # before the log is in place: both or neither
@@ -170,10 +170,10 @@ def import_bag(
         log=output,
         spec=spec_path,
         cycles=recorder.cycles,
-        samples=imported.folded,
+        samples=folded,
         topics=tuple(sorted({connection.topic for connection in selected})),
         robot_time_ns=recorder.robot_time_ns,
-        left_out=imported.read - imported.folded,
+        left_out=messages.read - folded,
     )
 
 
@@ -186,96 +186,90 @@ def _software(reader: AnyReader) -> str:
     return "ROS 2 bag" if not distro else f"ROS 2 bag ({distro})"[:MAX_NAME_LENGTH]
 
 
-class _Import(BagMessages):
-    """One bag being imported: its messages as samples, folded cycle by cycle."""
-
-    def __init__(
-        self, bag: Path, reader: AnyReader, system: System, perception: Perception
-    ) -> None:
-        super().__init__(bag, reader)
-        self.system = system
-        self.perception = perception
-        self.folded = 0
-        """Samples folded into a cycle."""
-        self._size = payload_encoder().encode
-
-    def heartbeats(
-        self, selected: Sequence[Connection], period_ns: int | None, clock_topic: str | None
-    ) -> tuple[int, int, Iterator[tuple[int, list[Sample]]]]:
-        """The period and start for the log's header, and each heartbeat's interval and
-        samples. The first heartbeat starts at the first message imported, or at the
-        first clock message: the log's start, from which its robot time is the bag's."""
-        samples = self.samples(selected)
-        if clock_topic is None:
-            period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
-            span = self.reader.end_time - self.reader.start_time
-            if span // period > MAX_HEARTBEATS:
-                raise BagError(
-                    self.bag,
-                    f"its messages span {span / 1e9:.0f} s, {span // period} heartbeats of "
-                    f"{period / 1e6:g} ms, more than an import writes ({MAX_HEARTBEATS}); "
-                    "choose a longer heartbeat period or a clock topic",
-                )
-            first = next(samples)  # select() counted one: reading fails before it ends
-            return (
-                period,
-                first.stamp_ns,
-                _by_period(itertools.chain([first], samples), first.stamp_ns, period),
-            )
-        ticks = self.ticks(clock_topic)
-        typical = statistics.median(after - before for before, after in itertools.pairwise(ticks))
-        return max(1, int(typical)), ticks[0], _by_clock(samples, ticks)
-
-    def record(self, recorder: Recorder, beats: Iterable[tuple[int, list[Sample]]]) -> None:
-        """Fold each heartbeat's samples into RS_t and step the system on it."""
-        state: Any = None
-        robot_state = self.system.robot_state
-        for cycle, (interval_ns, samples) in enumerate(beats):
-            held = sum(self._checked_size(sample) for sample in samples)
-            if held > MAX_CYCLE_BYTES // 2:
-                raise BagError(
-                    self.bag,
-                    f"cycle {cycle} holds {held} bytes of messages, more than a cycle of a "
-                    "log may; choose a shorter heartbeat period or fewer topics",
-                )
-            state = self._run("the perception step", cycle, self.perception, state, samples)
-            if not isinstance(state, robot_state):
-                raise BagError(
-                    self.bag,
-                    f"cycle {cycle}: the perception step built a {type(state).__name__}, "
-                    f"not a {robot_state.__name__} (the system's robot state)",
-                )
-            self._run("the system", cycle, recorder.step, interval_ns, state, samples)
-            self.folded += len(samples)
-
-    def _checked_size(self, sample: Sample) -> int:
-        """The bytes ``sample`` takes in the log, checked against :data:`MAX_SAMPLE_BYTES`."""
-        size = len(self._size(sample))
-        if size > MAX_SAMPLE_BYTES:
+def _heartbeats(
+    bag: BagMessages,
+    selected: Sequence[Connection],
+    period_ns: int | None,
+    clock_topic: str | None,
+) -> tuple[int, int, Iterator[tuple[int, list[Sample]]]]:
+    """The period and start for the log's header, and each heartbeat's interval and
+    samples. The first heartbeat starts at the first message imported, or at the
+    first clock message: the log's start, from which its robot time is the bag's."""
+    samples = bag.samples(selected)
+    if clock_topic is None:
+        period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
+        span = bag.reader.end_time - bag.reader.start_time
+        if span // period > MAX_HEARTBEATS:
             raise BagError(
-                self.bag,
-                f"a message on {sample.sensor!r} is {size} bytes, more than a sample may "
-                f"hold ({MAX_SAMPLE_BYTES})" + self.others(sample.sensor),
+                bag.bag,
+                f"its messages span {span / 1e9:.0f} s, {span // period} heartbeats of "
+                f"{period / 1e6:g} ms, more than an import writes ({MAX_HEARTBEATS}); "
+                "choose a longer heartbeat period or a clock topic",
             )
-        return size
+        first = next(samples)  # select() counted one: reading fails before it ends
+        return (
+            period,
+            first.stamp_ns,
+            _by_period(itertools.chain([first], samples), first.stamp_ns, period),
+        )
+    ticks = bag.ticks(clock_topic)
+    typical = statistics.median(after - before for before, after in itertools.pairwise(ticks))
+    return max(1, int(typical)), ticks[0], _by_clock(samples, ticks)
 
-    def _run(self, who: str, cycle: int, call: Callable[..., Any], *args: Any) -> Any:
-        """``call(*args)``; what the user's code (``who``) raises is a :class:`BagError`
-        naming the cycle, with the user's traceback."""
-        try:
-            return call(*args)
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit) as exc:
-            message = " ".join(str(exc).split())
-            site = failure_site(exc)
+
+def _record(
+    bag: BagMessages,
+    recorder: Recorder,
+    system: System,
+    perception: Perception,
+    beats: Iterable[tuple[int, list[Sample]]],
+) -> int:
+    """Fold each heartbeat's samples into RS_t and step the system on it; the samples
+    folded."""
+    state: Any = None
+    folded = 0
+    encode = payload_encoder().encode
+    robot_state = system.robot_state
+    for cycle, (interval_ns, samples) in enumerate(beats):
+        held = 0
+        for sample in samples:
+            size = len(encode(sample))
+            if size > MAX_SAMPLE_BYTES:
+                raise BagError(
+                    bag.bag,
+                    f"a message on {sample.sensor!r} is {size} bytes, more than a sample "
+                    f"may hold ({MAX_SAMPLE_BYTES})" + bag.others(sample.sensor),
+                )
+            held += size
+        if held > MAX_CYCLE_BYTES // 2:
             raise BagError(
-                self.bag,
-                f"cycle {cycle}: {who} raised {type(exc).__name__}"
-                + (f": {message}" if message else "")
-                + (f" ({site})" if site else ""),
-                user_traceback=user_traceback(exc),
-            ) from None
+                bag.bag,
+                f"cycle {cycle} holds {held} bytes of messages, more than a cycle of a "
+                "log may; choose a shorter heartbeat period or fewer topics",
+            )
+        state = _run(bag.bag, "the perception step", cycle, perception, state, samples)
+        if not isinstance(state, robot_state):
+            raise BagError(
+                bag.bag,
+                f"cycle {cycle}: the perception step built a {type(state).__name__}, "
+                f"not a {robot_state.__name__} (the system's robot state)",
+            )
+        _run(bag.bag, "the system", cycle, recorder.step, interval_ns, state, samples)
+        folded += len(samples)
+    return folded
+
+
+def _run(bag: Path, who: str, cycle: int, call: Callable[..., Any], *args: Any) -> Any:
+    """``call(*args)``; what the user's code (``who``) raises is a :class:`BagError`
+    naming the cycle, with the user's traceback."""
+    try:
+        return call(*args)
+    except BeatlogError:
+        raise
+    except (Exception, SystemExit) as exc:
+        raise BagError(
+            bag, f"cycle {cycle}: {who} {failure(exc)}", user_traceback=user_traceback(exc)
+        ) from None
 
 
 def _by_period(

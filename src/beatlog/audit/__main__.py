@@ -139,20 +139,15 @@ def main() -> None:
     for line in requests:
         request = msgspec.json.decode(line, type=Request)
         sys.path[:] = request.path
-        _take_environment(request.environ)
+        seed = os.environ["PYTHONHASHSEED"]  # the request's environment, but our hash seed
+        os.environ.clear()
+        os.environ.update(request.environ, PYTHONHASHSEED=seed)
         try:
             answer = _replay_watched(request)
         except BeatlogError as exc:
             answer = Answer(error=str(exc))
         answers.write(msgspec.json.encode(answer) + b"\n")
         answers.flush()
-
-
-def _take_environment(environ: dict[str, str]) -> None:
-    """The auditing process's environment, but this interpreter's own hash seed."""
-    seed = os.environ["PYTHONHASHSEED"]
-    os.environ.clear()
-    os.environ.update(environ, PYTHONHASHSEED=seed)
 
 
 def _exit_when_orphaned(lifeline: int) -> None:

@@ -325,15 +325,12 @@ def _compare(runs: tuple[SeedRun, SeedRun], first: bytes, second: bytes, cause: 
         )
     if first == second:
         return None
-    cycle = next(
-        (
-            offset // CYCLE_DIGEST_SIZE
-            for offset in range(0, min(len(first), len(second)), CYCLE_DIGEST_SIZE)
-            if first[offset : offset + CYCLE_DIGEST_SIZE]
-            != second[offset : offset + CYCLE_DIGEST_SIZE]
-        ),
-        min(len(first), len(second)) // CYCLE_DIGEST_SIZE,
+    size, common = CYCLE_DIGEST_SIZE, min(len(first), len(second))
+    offset = next(
+        (at for at in range(0, common, size) if first[at : at + size] != second[at : at + size]),
+        common,
     )
+    cycle = offset // size
     return (
         f"{cause}: with PYTHONHASHSEED={a.hash_seed} and "
         f"{b.hash_seed} the behavior states and outputs differ from cycle {cycle}"

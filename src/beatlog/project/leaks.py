@@ -1,17 +1,13 @@
 """Catches behavior code reading the wall clock or a global random number generator.
 
-A :class:`LeakWatch` is entered around a system's update in an audited replay. Its
-profile hook sees every call of a builtin and of a Python function, so it catches
-``time.monotonic`` or ``random.choice`` however a behavior module bound them
-(``from time import monotonic`` included). numpy's compiled functions are invisible to
-profiling, so a trace hook follows the lines of user code instead and notices when
-numpy's global generator moved, or a generator of the system's own that its set-up
-seeded from the OS (:func:`built_watched` finds them). Every call is attributed to the
-nearest frame of user code: not beatlog's own, not the standard library, not an
-installed package (:class:`Origins` tells them apart); or, when no user code is on the
-way (a system that is itself an installed package), to the nearest frame of a package.
-
-What is watched, and what not: :mod:`beatlog.project.watched`.
+A :class:`LeakWatch` entered around a system's update sees, through a profile hook,
+every call of a builtin and of a Python function, however a behavior module bound it
+(``from time import monotonic`` too). numpy's compiled functions are invisible to it,
+so a trace hook follows the lines of user code and notices when numpy's global
+generator moved, or an unseeded one of the system's own (:func:`built_watched`). Each
+call is put on the nearest frame of user code (not beatlog's, the standard library's
+or an installed package's: :class:`Origins`), or of a package where no user code led
+there. What is watched, and what not: :mod:`beatlog.project.watched`.
 """
 
 from __future__ import annotations
@@ -233,8 +229,9 @@ class LeakWatch(_Watch):
             self._where = (frame.f_code, frame.f_lineno)
         elif event == "return":
             self._check_numpy()
-            if frame.f_back is not None:
-                self._where = self._nearest(frame.f_back)
+            if frame.f_back is not None:  # the nearest user frame, else a package's
+                site, via = self._culprit(frame.f_back)
+                self._where = via or site
         return self._trace_lines
 
     def _check_numpy(self) -> None:
@@ -249,11 +246,6 @@ class LeakWatch(_Watch):
         site, via = self._culprit(caller)
         if site is not None:
             self._counts[call, _site(site), None if via is None else _site(via)] += 1
-
-    def _nearest(self, frame: FrameType | None) -> Where | None:
-        """The nearest user frame below the boundary, else the nearest installed package's."""
-        site, via = self._culprit(frame)
-        return via or site
 
     def _culprit(self, frame: FrameType | None) -> tuple[Where | None, Where | None]:
         """The line that made the call (the nearest frame of user code or of an installed

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from beatlog.baseline.policy import UpdateMode
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BeatlogError
 from beatlog.pytest_plugin.run import (
     RUN,
@@ -115,35 +115,34 @@ def pytest_configure(config: pytest.Config) -> None:
     if variants is not None and variants < 0:
         raise pytest.UsageError(f"--beatlog-variants: must be 0 or more, got {variants}")
     if break_at is not None or break_on_divergence:
-        if _distributed(config):
+        if getattr(config.option, "numprocesses", None) and config.option.dist != "no":
             raise pytest.UsageError(
                 "the beatlog break points stop in the debugger of this process: "
                 "run without pytest-xdist's -n (or with -n 0)"
             )
         if config.option.usepdb_cls is None:  # pytest's pdb, quitting wherever it stops
             config.option.usepdb_cls = ("beatlog.replaying.debugger", "Debugger")
+    coverage = config.getoption("beatlog_coverage")
     coverage_json = config.getoption("beatlog_coverage_json")
-    config.stash[RUN] = BeatlogRun(
+    worker = hasattr(config, "workerinput")  # an xdist worker's run
+    options = SpecOptions(
         update=UpdateMode.parse(config.getoption("beatlog_update")),
         audit=config.getoption("beatlog_audit"),
+        break_at=break_at,
+        break_on_divergence=break_on_divergence,
+        coverage=(coverage or coverage_json is not None) and not worker,
+    )
+    config.stash[RUN] = BeatlogRun(
+        options,
         root=config.rootpath,
-        coverage=config.getoption("beatlog_coverage"),
+        coverage=coverage,
         coverage_json=None
         if coverage_json is None
         else config.invocation_params.dir / coverage_json,
-        break_at=break_at,
-        break_on_divergence=break_on_divergence,
         variants=variants,
-        worker=hasattr(config, "workerinput"),  # an xdist worker's
+        worker=worker,
     )
     config.pluginmanager.register(config.stash[RUN], "beatlog-run")
-
-
-def _distributed(config: pytest.Config) -> bool:
-    """Whether pytest-xdist runs the tests in worker processes."""
-    return bool(getattr(config.option, "numprocesses", None)) and (
-        getattr(config.option, "dist", "no") != "no"
-    )
 
 
 def pytest_collect_file(parent: pytest.Collector, file_path: Path) -> pytest.Collector | None:

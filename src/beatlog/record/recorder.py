@@ -46,14 +46,6 @@ MAX_VIOLATIONS = 1000
 """The most invariant violations a recorder keeps: a robot may run for hours."""
 
 
-def _checker(invariants: Sequence[Invariant | type | str], system: System) -> InvariantChecker:
-    """What checks ``invariants`` in each cycle of ``system`` (replay's checker: the
-    same invariants, the same cycles)."""
-    from beatlog.replaying.invariants import InvariantChecker  # noqa: PLC0415 - when asked
-
-    return InvariantChecker(invariants, system)
-
-
 class RecordSummary(NamedTuple):
     """What a recording run produced."""
 
@@ -161,7 +153,11 @@ class Recorder:
         self.certificate: Certificate | None = None
         """Whether the log replays against a fresh system, once the session ended, when
         asked for (``certify``)."""
-        self._checker = None if not invariants else _checker(invariants, system)
+        self._checker: InvariantChecker | None = None
+        if invariants:  # replay's checker: the same invariants, the same cycles
+            from beatlog.replaying.invariants import InvariantChecker  # noqa: PLC0415
+
+            self._checker = InvariantChecker(invariants, system)
         self.violations: list[Violation] = []
         """The invariants that did not hold as the session was recorded, in order (the
         first :data:`MAX_VIOLATIONS` kept)."""
@@ -354,17 +350,12 @@ class Recorder:
             self._close_error = exc
         certify, self._certify = self._certify, None  # once, however often it is closed
         if certify is not None and error is None and self.error is None:
-            self.certificate = self._certified(certify)
+            from beatlog.record.certify import certify as certified  # noqa: PLC0415 - replay
 
-    def _certified(self, system: SystemFactory) -> Certificate:
-        """The certificate of the log just closed, its lack logged as an error."""
-        from beatlog.record.certify import certify  # noqa: PLC0415 - replay, when asked
-
-        assert self._writer.path is not None  # certify needs a path: checked when built
-        certificate = certify(self._writer.path, system)
-        if not certificate.ok:
-            _log.error("%s: %s", self._writer.path, certificate.describe())
-        return certificate
+            assert self._writer.path is not None  # certify needs a path: checked when built
+            self.certificate = certified(self._writer.path, certify)
+            if not self.certificate.ok:
+                _log.error("%s: %s", self._writer.path, self.certificate.describe())
 
     def __enter__(self) -> Recorder:
         return self

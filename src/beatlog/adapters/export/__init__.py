@@ -16,10 +16,11 @@ from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
-from beatlog.adapters.export.reading import Session, decoded_cycles, first_read, replacing_output
+from beatlog.adapters.export.reading import Session, decoded_cycles, first_read
 from beatlog.adapters.export.tables import pyarrow_modules, write_table
 from beatlog.adapters.export.viewer import write_mcap
 from beatlog.errors import ExportError
+from beatlog.log.files import replacing
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.replaying.judge import replay
@@ -142,13 +143,16 @@ def export(
         else replay(log, system, allow_truncated=True, allow_empty=True, explain=False)
     )
     first = first_read(log)
-    with SessionLogReader(log) as reader, replacing_output(output) as part:
-        session = Session(log, reader.header, decoded_cycles(reader), first)
-        if chosen is ExportFormat.MCAP:
-            write_mcap(part, session, replayed)
-        else:
-            write_table(part, session, as_csv=chosen is ExportFormat.CSV)
-        status = reader.status
+    try:
+        with SessionLogReader(log) as reader, replacing(output) as file:
+            session = Session(log, reader.header, decoded_cycles(reader), first)
+            if chosen is ExportFormat.MCAP:
+                write_mcap(file, session, replayed)
+            else:
+                write_table(file, session, as_csv=chosen is ExportFormat.CSV)
+            status = reader.status
+    except OSError as exc:
+        raise ExportError(f"{output}: cannot write: {exc.strerror or exc}") from None
     return ExportResult(
         log=log,
         output=output,

@@ -201,24 +201,17 @@ def json_type(value: Any) -> str:
     return "string" if isinstance(value, str) else "json"
 
 
-def add_types(types: dict[str, str | None], values: Mapping[str, Any]) -> None:
-    """Merge the types of ``values`` into ``types``: integers and floats make a number,
-    any other mix is JSON text; a field that is always null stays None."""
+def add_types(fields: dict[str, Field | None], values: Mapping[str, Any]) -> None:
+    """Merge the types of ``values`` into ``fields`` (see :func:`merged`: integers and
+    floats make a number, any other mix is JSON text); one always null stays None."""
     for name, value in values.items():
-        seen = types.get(name)
-        if value is None:
-            types.setdefault(name, None)
-        elif seen is None:
-            types[name] = json_type(value)
-        elif seen != "json":
-            kind = json_type(value)
-            if kind != seen:
-                types[name] = "number" if {kind, seen} == {"integer", "number"} else "json"
+        typed = None if value is None else BY_TYPE[json_type(value)]
+        fields[name] = merged(fields.get(name), typed)
 
 
-def typed_object(types: Mapping[str, str | None]) -> Field:
+def typed_object(fields: Mapping[str, Field | None]) -> Field:
     """An object of the fields a first read of the log found, typed as it found them."""
-    return object_field({name: BY_TYPE[kind or "json"] for name, kind in types.items()})
+    return object_field({name: field or BY_TYPE["json"] for name, field in fields.items()})
 
 
 def _path(within: str, name: str) -> str:

@@ -6,7 +6,6 @@ header does not declare, and the metadata every export carries."""
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -26,7 +25,7 @@ from beatlog.adapters.export.fields import (
     object_field,
     typed_object,
 )
-from beatlog.errors import CorruptLogError, ExportError
+from beatlog.errors import CorruptLogError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
@@ -46,7 +45,6 @@ __all__ = [
     "decoded_cycles",
     "first_read",
     "log_metadata",
-    "replacing_output",
     "states_after",
 ]
 
@@ -74,8 +72,8 @@ class FirstRead(NamedTuple):
     initial: Mapping[str, BehaviorState]
     """Each catalogue behavior's state at the start: the ``before`` of its first change
     (None for a behavior that never changes in the log)."""
-    output_types: Mapping[str, str | None]
-    """Each output's JSON-schema type over the whole log (see ``add_types``)."""
+    output_types: Mapping[str, Field | None]
+    """Each output's field over the whole log (see ``add_types``)."""
     status: LogStatus
     """How the log ends."""
     robot_state: Field
@@ -205,9 +203,9 @@ def first_read(log: Path) -> FirstRead:
     with SessionLogReader(log) as reader:
         header = reader.header
         states: dict[str, BehaviorState] = header.initial_states_by_name()
-        output_types: dict[str, str | None] = {}
+        output_types: dict[str, Field | None] = {}
         declared = declared_object(header.robot_state_schema, log)
-        state_types: dict[str, str | None] = {}
+        state_types: dict[str, Field | None] = {}
         non_finite: set[str] = set()
         samples: dict[str, Field | None] = {}
         for cycle in decoded_cycles(reader):
@@ -234,22 +232,6 @@ def states_after(states: dict[str, BehaviorState], changes: Sequence[StateChange
     for change in changes:
         if change.behavior in states:
             states[change.behavior] = change.after
-
-
-@contextmanager
-def replacing_output(output: Path) -> Iterator[Path]:
-    """A file to write next to ``output``, moved over it when the block completes."""
-    part = output.with_name(f".{output.name}.part")
-    try:
-        yield part
-        part.replace(output)
-    except OSError as exc:
-        raise ExportError(f"{output}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        part.unlink(missing_ok=True)
-
-
-# JSON
 
 
 def log_metadata(session: Session) -> dict[str, str]:

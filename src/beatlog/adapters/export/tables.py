@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import base64
 import csv
+import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from beatlog.adapters.export.fields import BASE64, BY_TYPE, Field, Kind, json_text, state_text
 from beatlog.adapters.export.reading import Session, log_metadata, states_after
@@ -20,7 +21,7 @@ _FIRST_COLUMNS = ("cycle", "time_ns", "heartbeat_ns")
 _DRAWS_COLUMN = "draws"
 
 
-def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
+def write_table(file: IO[bytes], session: Session, *, as_csv: bool) -> None:
     """One row per cycle, as CSV or else Parquet, the columns typed by the robot-state
     schema, the catalogue and the outputs' types, so every log of a system has the same
     columns of the same types."""
@@ -41,8 +42,8 @@ def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
         **{column: field for column, (_, field) in state_columns.items()},
         **dict.fromkeys(behavior_columns.values(), BY_TYPE["string"]),
         **{
-            column: BY_TYPE["number" if kind == "integer" else kind or "json"]
-            for column, kind in zip(
+            column: BY_TYPE["number"] if field == BY_TYPE["integer"] else field or BY_TYPE["json"]
+            for column, field in zip(
                 output_columns.values(), first.output_types.values(), strict=True
             )
         },
@@ -63,13 +64,13 @@ def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
             values[column].append(cycle.outputs.get(name))
         values[_DRAWS_COLUMN].append(len(cycle.draws))
     if as_csv:
-        with part.open("w", encoding="utf-8", newline="") as file:
-            table = csv.writer(file)
+        with io.TextIOWrapper(file, encoding="utf-8", newline="") as text:
+            table = csv.writer(text)
             table.writerow(columns)
             for number, row in enumerate(zip(*values.values(), strict=True)):
                 table.writerow([_cell(value, log, f"cycle {number}") for value in row])
         return
-    _write_parquet(part, session, columns, values)
+    _write_parquet(file, session, columns, values)
 
 
 def _state_columns(
@@ -97,7 +98,10 @@ def _at(value: Any, keys: Sequence[str]) -> Any:
 
 
 def _write_parquet(
-    part: Path, session: Session, columns: Mapping[str, Field], values: Mapping[str, list[Any]]
+    file: IO[bytes],
+    session: Session,
+    columns: Mapping[str, Field],
+    values: Mapping[str, list[Any]],
 ) -> None:
     """Parquet with an Arrow schema from ``columns`` and the log described in its metadata."""
     pa, parquet = pyarrow_modules()
@@ -122,7 +126,7 @@ def _write_parquet(
         [pa.field(column, array.type) for column, array in zip(columns, arrays, strict=True)],
         metadata=metadata,
     )
-    parquet.write_table(pa.Table.from_arrays(arrays, schema=schema), part)
+    parquet.write_table(pa.Table.from_arrays(arrays, schema=schema), file)
 
 
 def _arrow_type(pa: Any, field: Field) -> tuple[Any, bool]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from mcap.writer import Writer
 
@@ -187,15 +187,14 @@ def _placed(
     return numbers if len(numbers) == len(names) else None
 
 
-def write_mcap(part: Path, session: Session, replayed: ReplayResult | None) -> None:
-    with part.open("wb") as file:
-        writer = Writer(file)
-        writer.start(profile="", library=f"beatlog {__version__}")
-        writer.add_metadata("beatlog", {**log_metadata(session), "log_time": _LOG_TIME})
-        mcap = _Mcap(writer, session, replayed)
-        for cycle in session.cycles:
-            mcap.write(cycle)
-        writer.finish()  # type: ignore[no-untyped-call]
+def write_mcap(file: IO[bytes], session: Session, replayed: ReplayResult | None) -> None:
+    writer = Writer(file)
+    writer.start(profile="", library=f"beatlog {__version__}")
+    writer.add_metadata("beatlog", {**log_metadata(session), "log_time": _LOG_TIME})
+    mcap = _Mcap(writer, session, replayed)
+    for cycle in session.cycles:
+        mcap.write(cycle)
+    writer.finish()  # type: ignore[no-untyped-call]
 
 
 def _timestamp(time_ns: int) -> dict[str, int]:
