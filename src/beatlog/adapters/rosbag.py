@@ -103,20 +103,14 @@ def import_bag(
     """Import the ROS bag ``bag`` (a rosbag2 folder, its ``.mcap`` or ``.db3`` file, or a
     ROS 1 ``.bag``) as the session log ``output``, written whole or not at all.
 
-    ``system`` and ``perception`` are objects or ``module:factory`` references.
-    Heartbeats come every ``period_ns`` from the first message imported (30 ms when
-    neither option is given) or at each message on ``clock_topic``. ``topics`` are the
-    topics imported as samples (default: every topic). ``spec`` also writes a DTC spec
-    there that replays the log at sensor level; it needs ``system`` and ``perception``
-    as references. ``seed`` seeds the random numbers the behaviors draw (fresh when
-    None).
-    An existing log or spec is replaced only with ``overwrite``.
+    ``system`` and ``perception`` are objects or ``module:factory`` references (which a
+    ``spec``, a DTC spec written beside the log, needs). Heartbeats come every
+    ``period_ns`` (30 ms by default) or at each message on ``clock_topic``; ``topics``
+    are imported as samples (default: all); ``seed`` seeds the behaviors' random numbers.
 
-    :raises beatlog.errors.BagError: the bag is missing, damaged or not a regular file,
-        holds no messages on the topics asked for, yields fewer or more messages than its
-        metadata counts, a topic's message definition does not fit its messages, a
-        message is too large, or the perception step or the system raised (the message
-        names the cycle; the user's traceback is kept).
+    :raises beatlog.errors.BagError: the bag is missing, damaged or foreign, or does
+        not fit its metadata, a message is too large, or the user's code raised (named
+        by cycle, its traceback kept).
     :raises beatlog.errors.OptionError: both a period and a clock topic, or a period
         that is not positive.
     """

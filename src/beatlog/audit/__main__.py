@@ -19,7 +19,6 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Mapping
 from typing import Any
 
 import msgspec
@@ -27,7 +26,7 @@ import msgspec
 from beatlog.audit.replays import CYCLE_DIGEST_SIZE, Answer, Request
 from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
-from beatlog.model.behavior import Behavior, System
+from beatlog.model.behavior import System
 from beatlog.model.context import Context
 from beatlog.model.source import RandomSource
 from beatlog.project.leaks import LeakScreen, LeakWatch, built_watched
@@ -45,17 +44,11 @@ class _AuditedSystem:
     def __init__(self, system: System, watch: LeakWatch | LeakScreen | None) -> None:
         self._system = system
         self._watch = watch
+        self.robot_state = system.robot_state
+        self.behaviors = system.behaviors
         self._behaviors = list(system.behaviors.values())
         self._encode = payload_encoder().encode
         self.trace: list[bytes] = []
-
-    @property
-    def robot_state(self) -> type[msgspec.Struct]:
-        return self._system.robot_state
-
-    @property
-    def behaviors(self) -> Mapping[str, Behavior]:
-        return self._system.behaviors
 
     def update(self, state: Any, context: Context) -> None:
         try:
@@ -76,13 +69,9 @@ class _AuditedSystem:
 
 
 def _replay_watched(request: Request) -> Answer:
-    """The answer of a replay, watched for leaks when the request asks.
-
-    A screened replay comes first (:class:`~beatlog.project.leaks.LeakScreen`, cheap);
-    only when it saw a watched call is the replay run again under a
-    :class:`~beatlog.project.leaks.LeakWatch` without following lines, and when numpy's
-    global generator moved, once more following them to the lines that moved it.
-    """
+    """The answer of a replay, watched for leaks when the request asks: screened first
+    (cheap), and only where the screen saw a watched call run again under a watch, which
+    follows the lines of user code where numpy's global generator moved."""
     if not request.watch:
         return _replay(request, None)
     screen = LeakScreen()

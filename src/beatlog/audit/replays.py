@@ -98,16 +98,13 @@ def audit(
     migration: StateMigration | None = None,
     auditors: Auditors | None = None,
 ) -> AuditReport:
-    """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash seed.
+    """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash
+    seed, at once, each in an audit interpreter of ``auditors`` (by default this audit's
+    own) importing from this process's ``sys.path``, every cycle, diverging or not.
 
     The first replay is watched for leaks, the second only hashed: they run the same
     code unless the hash seed changes what it does, which the hashes show; then both are
-    run again, watched, so that no leak on either path goes unseen. Both replays run at
-    once, each in an audit interpreter (``python -m beatlog.audit``,
-    see :mod:`beatlog.audit.__main__`) with that ``PYTHONHASHSEED`` of ``auditors``
-    (without, of :class:`Auditors` of this audit alone), importing from this process's
-    ``sys.path``; each replays every cycle, diverging or not, so the runs compare in full.
-    ``migration`` maps robot-state fields renamed or retyped since the recording.
+    run again, watched, so that no leak on either path goes unseen.
 
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
@@ -186,12 +183,9 @@ class Auditors(Closing):
 
 
 class _Auditor:
-    """An audit interpreter with one ``PYTHONHASHSEED``, replaying request after request.
-
-    It exits when its lifeline closes (this process closed it or died); what it writes
-    to stderr (behaviors' prints too) is kept for the last request only, to show if it
-    crashes.
-    """
+    """An audit interpreter with one ``PYTHONHASHSEED``, replaying request after request,
+    until its lifeline closes; its stderr is kept for the last request, to show if it
+    crashes."""
 
     def __init__(self, hash_seed: int) -> None:
         self.hash_seed = hash_seed

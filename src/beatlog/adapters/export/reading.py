@@ -26,13 +26,7 @@ from beatlog.adapters.export.fields import (
     typed_object,
 )
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import (
-    DECODE_ERRORS,
-    EMPTY_LIST,
-    Draw,
-    SessionHeader,
-    StateChangeRecord,
-)
+from beatlog.log.format import DECODE_ERRORS, Draw, SessionHeader, StateChangeRecord
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState
 from beatlog.model.inbox import Sample
@@ -106,14 +100,10 @@ def decoded_cycles(reader: SessionLogReader) -> Iterator[Cycle]:
         time_ns += record.heartbeat_ns
         try:
             state = decode_map(record.robot_state)
-            changes = (
-                [] if record.state_changes == EMPTY_LIST else decode_changes(record.state_changes)
-            )
-            draws = (
-                [] if record.random_numbers == EMPTY_LIST else decode_draws(record.random_numbers)
-            )
+            changes = decode_changes(record.state_changes)
+            draws = decode_draws(record.random_numbers)
             outputs = decode_map(record.outputs)
-            samples = [] if record.samples == EMPTY_LIST else decode_samples(record.samples)
+            samples = decode_samples(record.samples)
         except DECODE_ERRORS as exc:
             raise CorruptLogError(reader.path, f"damaged cycle {number}: {exc}") from None
         yield Cycle(
