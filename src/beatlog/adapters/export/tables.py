@@ -18,7 +18,6 @@ __all__ = ["pyarrow_modules", "write_table"]
 
 
 _FIRST_COLUMNS = ("cycle", "time_ns", "heartbeat_ns")
-_DRAWS_COLUMN = "draws"
 
 
 def write_table(file: IO[bytes], session: Session, *, as_csv: bool) -> None:
@@ -30,7 +29,7 @@ def write_table(file: IO[bytes], session: Session, *, as_csv: bool) -> None:
     state_columns = _state_columns(first.robot_state.fields)
     behavior_columns = {name: f"behavior.{name}" for name in session.header.behaviors}
     output_columns = {name: f"out.{name}" for name in first.output_types}
-    others = [*_FIRST_COLUMNS, *behavior_columns.values(), *output_columns.values(), _DRAWS_COLUMN]
+    others = [*_FIRST_COLUMNS, *behavior_columns.values(), *output_columns.values(), "draws"]
     clash = next((name for name in state_columns if name in others), None)
     if clash is not None:
         raise ExportError(
@@ -41,13 +40,13 @@ def write_table(file: IO[bytes], session: Session, *, as_csv: bool) -> None:
         **dict.fromkeys(_FIRST_COLUMNS, BY_TYPE["integer"]),
         **{column: field for column, (_, field) in state_columns.items()},
         **dict.fromkeys(behavior_columns.values(), BY_TYPE["string"]),
-        **{
-            column: BY_TYPE["number"] if field == BY_TYPE["integer"] else field or BY_TYPE["json"]
-            for column, field in zip(
-                output_columns.values(), first.output_types.values(), strict=True
-            )
+        **{  # an output of integers is doubles: another log may hold floats
+            f"out.{name}": BY_TYPE["number"]
+            if field == BY_TYPE["integer"]
+            else field or BY_TYPE["json"]
+            for name, field in first.output_types.items()
         },
-        _DRAWS_COLUMN: BY_TYPE["integer"],
+        "draws": BY_TYPE["integer"],
     }
     values: dict[str, list[Any]] = {column: [] for column in columns}
     for cycle in session.cycles:
@@ -62,7 +61,7 @@ def write_table(file: IO[bytes], session: Session, *, as_csv: bool) -> None:
             values[column].append(None if state is None else state_text(state))
         for name, column in output_columns.items():
             values[column].append(cycle.outputs.get(name))
-        values[_DRAWS_COLUMN].append(len(cycle.draws))
+        values["draws"].append(len(cycle.draws))
     if as_csv:
         with io.TextIOWrapper(file, encoding="utf-8", newline="") as text:
             table = csv.writer(text)
