@@ -18,12 +18,12 @@ from beatlog.adapters.export.fields import (
     Kind,
     add_types,
     array_field,
-    find_non_finite_arrays,
     inferred,
     json_type,
     merged,
     object_field,
     typed_object,
+    with_number_texts,
 )
 from beatlog.errors import CorruptLogError
 from beatlog.log.format import DECODE_ERRORS, Draw, SessionHeader, StateChangeRecord
@@ -72,9 +72,9 @@ class FirstRead(NamedTuple):
     """How the log ends."""
     robot_state: Field
     """The robot state's fields: as the header declares them, else as the log holds them."""
-    non_finite_arrays: frozenset[str]
-    """The robot-state arrays of numbers that hold a NaN or ±inf somewhere in the log, as
-    paths (``ranges``, ``pose.cov``, ``blips[].values``)."""
+    viewed_state: Field
+    """The robot state as the viewers get it: its arrays of numbers that hold a NaN or
+    ±inf somewhere in the log are arrays of their texts."""
     samples: Mapping[str, Field | None]
     """Each sensor's sample values as the log holds them (None: only nulls)."""
 
@@ -195,17 +195,17 @@ def first_read(log: Path) -> FirstRead:
         states: dict[str, BehaviorState] = header.initial_states_by_name()
         output_types: dict[str, Field | None] = {}
         declared = declared_object(header.robot_state_schema, log)
+        viewed = declared
         state_types: dict[str, Field | None] = {}
-        non_finite: set[str] = set()
         samples: dict[str, Field | None] = {}
         for cycle in decoded_cycles(reader):
             for change in cycle.changes:
                 states.setdefault(change.behavior, change.before)
             add_types(output_types, cycle.outputs)
-            if declared is None:
+            if viewed is None:
                 add_types(state_types, cycle.robot_state)
             else:
-                find_non_finite_arrays(declared, cycle.robot_state, "", non_finite)
+                viewed = with_number_texts(viewed, cycle.robot_state)
             for sample in cycle.samples:
                 samples[sample.sensor] = merged(
                     samples.get(sample.sensor), inferred(sample.value, log, cycle.number)
@@ -213,7 +213,7 @@ def first_read(log: Path) -> FirstRead:
         initial = {name: states.get(name) for name in header.behaviors}
         robot_state = typed_object(state_types) if declared is None else declared
         return FirstRead(
-            initial, output_types, reader.status, robot_state, frozenset(non_finite), samples
+            initial, output_types, reader.status, robot_state, viewed or robot_state, samples
         )
 
 

@@ -18,7 +18,6 @@ from beatlog.adapters.export.fields import (
     Field,
     Kind,
     json_text,
-    numbers_as_text,
     state_text,
     too_deep,
     typed_object,
@@ -64,7 +63,7 @@ class _Mcap:
             )
         self._writer, self._log, self._start_ns = writer, log, header.start_time_ns
         self._schemas: dict[str, int] = {}
-        self.state_field = numbers_as_text(first.robot_state, first.non_finite_arrays)
+        self.state_field = first.viewed_state
         self.outputs_field = typed_object(first.output_types)
         self.states = dict(first.initial)
         name = header.robot_state_type or "beatlog.RobotState"
