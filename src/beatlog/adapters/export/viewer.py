@@ -11,7 +11,6 @@ from typing import IO, Any
 from mcap.writer import Writer
 
 from beatlog._version import __version__
-from beatlog.adapters.export import schemas
 from beatlog.adapters.export.fields import (
     BY_TYPE,
     GAP,
@@ -26,6 +25,17 @@ from beatlog.adapters.export.fields import (
     written_value,
 )
 from beatlog.adapters.export.reading import Cycle, Session, log_metadata, states_after
+from beatlog.adapters.export.schemas import (
+    BEHAVIOR_SCHEMA,
+    DIVERGENCE_SCHEMA,
+    FRAME_TRANSFORM_SCHEMA,
+    HEARTBEAT_SCHEMA,
+    LOG_SCHEMA,
+    RANDOM_SCHEMA,
+    outputs_schema,
+    robot_state_schema,
+    sample_schema,
+)
 from beatlog.errors import CorruptLogError, ExportError
 from beatlog.replaying.verdict import Divergence, ReplayResult, StateChange
 
@@ -58,36 +68,32 @@ class _Mcap:
         self.states = dict(first.initial)
         name = header.robot_state_type or "beatlog.RobotState"
         self.robot_state = self._add(
-            "/robot_state", name, schemas.robot_state_schema(name, self.state_field)
+            "/robot_state", name, robot_state_schema(name, self.state_field)
         )
         self.behaviors = {
-            name: self._add(f"/behaviors/{name}", "beatlog.BehaviorState", schemas.BEHAVIOR_SCHEMA)
+            name: self._add(f"/behaviors/{name}", "beatlog.BehaviorState", BEHAVIOR_SCHEMA)
             for name in header.behaviors
         }
-        self.state_changes = self._add("/state_changes", "foxglove.Log", schemas.LOG_SCHEMA)
-        self.outputs = self._add(
-            "/outputs", "beatlog.Outputs", schemas.outputs_schema(self.outputs_field)
-        )
-        self.random_numbers = self._add(
-            "/random_numbers", "beatlog.RandomNumbers", schemas.RANDOM_SCHEMA
-        )
-        self.heartbeat = self._add("/heartbeat", "beatlog.Heartbeat", schemas.HEARTBEAT_SCHEMA)
+        self.state_changes = self._add("/state_changes", "foxglove.Log", LOG_SCHEMA)
+        self.outputs = self._add("/outputs", "beatlog.Outputs", outputs_schema(self.outputs_field))
+        self.random_numbers = self._add("/random_numbers", "beatlog.RandomNumbers", RANDOM_SCHEMA)
+        self.heartbeat = self._add("/heartbeat", "beatlog.Heartbeat", HEARTBEAT_SCHEMA)
         self.sensors = {}
         for sensor, field in first.samples.items():
             topic = f"/samples/{sensor.removeprefix('/')}"
             value = field or BY_TYPE["json"]
             name = f"beatlog.Sample{topic.removeprefix('/samples')}"
             self.sensors[sensor] = (
-                self._add(topic, name, schemas.sample_schema(sensor, value)),
+                self._add(topic, name, sample_schema(sensor, value)),
                 value,
             )
         self.pose = _pose_of(first.robot_state)
         if self.pose is not None:
-            self.tf = self._add("/tf", "foxglove.FrameTransform", schemas.FRAME_TRANSFORM_SCHEMA)
+            self.tf = self._add("/tf", "foxglove.FrameTransform", FRAME_TRANSFORM_SCHEMA)
         self.divergence = None if replayed is None else replayed.divergence
         self.reproduce = "" if replayed is None else replayed.reproduce
         if self.divergence is not None:
-            self.found = self._add("/divergence", "beatlog.Divergence", schemas.DIVERGENCE_SCHEMA)
+            self.found = self._add("/divergence", "beatlog.Divergence", DIVERGENCE_SCHEMA)
 
     def _add(self, topic: str, name: str, schema: Mapping[str, Any]) -> int:
         if name not in self._schemas:
