@@ -223,6 +223,22 @@ def test_views_hold_the_recorded_states_however_they_are_decoded(
     assert layouts == {(tuple(layout[0]), tuple(layout[1]), layout[2])}
 
 
+def test_a_state_decoded_for_checking_is_the_one_a_plain_decode_gives(tmp_path: Path) -> None:
+    """RS_t decoded as the checking subclass becomes the system's by its ``__class__``
+    set (for speed): the behaviors get exactly what decoding as the system's type gives."""
+    log = record(tmp_path / "rows.beatlog", by_field=False)
+    outcomes: list[Any] = []
+    assert beatlog.replay(log, watcher_system(), observe=outcomes.append).ok
+    with SessionLogReader(log) as reader:
+        plain = [msgspec.msgpack.decode(r.robot_state, type=Arm) for r in reader.cycles()]
+    seen = [outcome.state for outcome in outcomes]
+    assert [type(state) for state in seen] == [Arm] * 300
+    assert seen == plain
+    assert [msgspec.msgpack.encode(state) for state in seen] == list(
+        map(msgspec.msgpack.encode, plain)
+    )
+
+
 Renamed = msgspec.defstruct(
     "Arm",
     [
