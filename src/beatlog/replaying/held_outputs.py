@@ -45,14 +45,8 @@ class HeldOutputs:
         """Take a cycle's output lines; whether any field holds a value now."""
         held = self._held
         hold(held, lines)
-        values: dict[str, Any] = {}
-        absent: list[str] = []
-        for name, value in held.items():
-            if value is ABSENT:
-                absent.append(name)
-            else:
-                values[name] = value
-        self._values, self._absent = values, tuple(absent)
+        self._values = {name: value for name, value in held.items() if value is not ABSENT}
+        self._absent = tuple(name for name, value in held.items() if value is ABSENT)
         self._last = (None, EMPTY_MAP)
         return bool(held)
 

@@ -279,7 +279,12 @@ def _checking_type(
         if optional and is_positional and not required:
             optional_before = True
         if required or name != field.encode_name or kind is not field.type:
-            default = _default(field) if optional and not required else {}
+            if not optional or required:
+                default: dict[str, Any] = {}
+            elif field.default_factory is not msgspec.NODEFAULT:
+                default = {"default_factory": field.default_factory}
+            else:
+                default = {"default": field.default}
             spec = msgspec.field(name=name, **default)
             (positional if is_positional else keywords).append((field.name, kind, spec))
     strict: type[Any] = state_type
@@ -297,10 +302,3 @@ def _checking_type(
             tag=config.tag,
         )
     return strict
-
-
-def _default(field: msgspec.structs.FieldInfo) -> dict[str, Any]:
-    """The default of an optional field, as :func:`msgspec.field` takes it."""
-    if field.default_factory is not msgspec.NODEFAULT:
-        return {"default_factory": field.default_factory}
-    return {"default": field.default}
