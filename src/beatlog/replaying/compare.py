@@ -1,10 +1,7 @@
-"""How strictly replay judges a cycle: exact by default, or with a spec's allowances.
-
-A spec may rename behaviors (so a renamed behavior needs no re-recording), ignore
-some behaviors' state changes or some output fields, and give a float tolerance per
-output field and, for sensor-level replay, per robot-state field. Replay first compares
-bytes; only a cycle whose bytes differ is judged again here, so the allowances cost
-nothing while a DTC passes.
+"""How strictly replay judges a cycle: exact by default, or with a spec's allowances
+(behaviors renamed or ignored, output fields ignored, float tolerances). Replay first
+compares bytes; only a cycle whose bytes differ is judged again here, so the allowances
+cost nothing while a DTC passes.
 """
 
 from __future__ import annotations

@@ -1,14 +1,10 @@
 """Draws an approved baseline lets replay make otherwise than recorded.
 
-In living replay (:meth:`~beatlog.replaying.random.ReplayRandom.live`) a behavior that
-asks for other draws than were recorded goes on, and each draw made otherwise is a
-:class:`~beatlog.replaying.random.DrawDifference`. A baseline approves them as rules, one
-line each however long the session, with the cycles where they happen (``wander:
-uniform(0.8, 1.6) -> uniform(0.7, 1.5), 14 draws, in cycles 12 40 ...``): small, and
-what a reviewer wants to read. The verdict keeps a :class:`DrawLedger` and judges each
-cycle's differences exactly, as strict replay judges the draws themselves: one that no
-rule approves in that cycle, or an approved one not made, diverges there. The fresh
-draws of living replay are keyed by the recording (:func:`log_key`).
+In living replay (:meth:`~beatlog.replaying.random.ReplayRandom.live`) each draw made
+otherwise is a :class:`~beatlog.replaying.random.DrawDifference`. A baseline approves
+them as rules, one line each with the cycles where they happen: what a reviewer wants
+to read. The verdict judges each cycle's differences exactly (:class:`DrawLedger`): one
+that no rule approves in that cycle, or an approved one not made, diverges there.
 """
 
 from __future__ import annotations

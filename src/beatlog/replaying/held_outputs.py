@@ -1,12 +1,10 @@
 """The held values of departing output fields, put into the recorded cycles' outputs.
 
 Against a baseline of departures (:mod:`beatlog.replaying.departures`), an output field
-that departs holds its approved value from a cycle on, whatever was recorded: a cycle's
-expected outputs are its recorded ones with the held values in place, as
-:func:`~beatlog.replaying.departures.apply_outputs` puts them. :class:`HeldOutputs` puts
-them into a run of records at a time, the hot path of replay against such a baseline:
-most cycles repeat the last one's recorded outputs and take its expected ones; the
-others are decoded, given the held values and encoded again.
+that departs holds its approved value from a cycle on, whatever was recorded.
+:class:`HeldOutputs` puts them into a run of records at a time: most cycles repeat the
+last one's recorded outputs and take its expected ones; the others are decoded, given
+the held values and encoded again.
 """
 
 from __future__ import annotations

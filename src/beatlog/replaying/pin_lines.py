@@ -1,8 +1,6 @@
-"""Robot-state pins as a baseline's lines hold them: runs of cycles that perception
-rebuilds otherwise than recorded (:class:`PinnedRun`) and blocks of their tags
-(:class:`DigestBlock`), and the check that the blocks cover their runs, in order,
-made as a baseline is read (:class:`PinCoverage`). :mod:`beatlog.replaying.pins` pins
-and judges robot states with them.
+"""Robot-state pins as a baseline's lines hold them (:class:`PinnedRun`,
+:class:`DigestBlock`), and the check, as a baseline is read, that the blocks cover
+their runs in order (:class:`PinCoverage`).
 """
 
 from __future__ import annotations
