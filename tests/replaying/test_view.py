@@ -12,6 +12,7 @@ import pytest
 
 import beatlog
 from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.format import ColumnBatch
 from beatlog.log.reader import SessionLogReader
 from beatlog.model import BehaviorState, Context, Outputs, PriorityArbiter, RobotState
 from beatlog.record import Recorder
@@ -181,6 +182,23 @@ def test_a_value_of_another_type_is_found_where_it_is_read(
     with pytest.raises(SchemaMismatchError) as raised:
         beatlog.replay(damaged, watcher_system())
     assert str(raised.value) == f"{damaged}: robot state of cycle 35 does not fit Arm: {problem}"
+
+
+def test_a_batch_naming_a_field_the_state_lacks_does_not_fit(
+    by_field: Path, tmp_path: Path
+) -> None:
+    with SessionLogReader(by_field) as reader:
+        names = ["nope" if name == "late" else name for name in reader.header.state_fields]
+
+    def renamed(batch: ColumnBatch) -> ColumnBatch:
+        return msgspec.structs.replace(batch, state_fields=names)
+
+    damaged = rewrite_by_field(by_field, tmp_path / "renamed.beatlog", renamed, 1)
+    with pytest.raises(SchemaMismatchError) as raised:
+        beatlog.replay(damaged, watcher_system())
+    assert str(raised.value) == (
+        f"{damaged}: robot state of cycle 35 does not fit Arm: object contains unknown field `nope`"
+    )
 
 
 def test_a_value_spilling_into_the_next_ones_place_is_a_damaged_log(
