@@ -127,7 +127,6 @@ class Perturber:
         self._where = where
         self._log = replayer.path
         self._context = replayer.executor.context
-        self._robot_state = replayer.system.robot_state
         if self._noise:
             replayer.perturb = self.noisy
 
@@ -216,8 +215,7 @@ class Perturber:
             return state
         noise = self._noise
         at = (cycle - self._first) * len(noise)
-        if state.__class__ is not self._robot_state:  # a view of a format-3 batch
-            state = full_state(state)
+        state = full_state(state)  # a view of a format-3 batch made whole
         moved: dict[str, Any] = {}
         for (name, path), offset in zip(noise, self._offsets[at : at + len(noise)], strict=True):
             top = path[0]
@@ -256,12 +254,12 @@ def _check_noise(
     check_state_fields(
         header, [n for n in names if "." not in n], where, "noise bound for", migration
     )
-    for name in names:
+    for name in (n for n in names if "." in n):
         try:
             found = field_schema(header.robot_state_schema, migration.recorded_name(name))
         except (RecursionError, TypeError, KeyError, AttributeError):
             found = None
-        if found is None and "." in name:
+        if found is None:
             raise FieldError(
                 f"{where}: noise bound for {name!r}: the recorded robot state "
                 f"{header.robot_state_type} has no such field"
