@@ -30,7 +30,7 @@ UNPINNED = ".."
 BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
 """The base64 digits, in the order of the six bits each stands for."""
 _TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(UNPINNED)})*")
-"""Tags one after another."""
+"""Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`UNPINNED`."""
 
 
 class PinnedRun(NamedTuple):
@@ -126,12 +126,10 @@ class PinCoverage:
         where = f"the robot-state run from cycle {run.cycle}"
         if block.cycle < self._start or (self._pinned == 0 and block.cycle != run.cycle):
             return f"{where} has its digests of cycle {block.cycle} out of place"
-        cycles = len(block.tags) // TAG_CHARS
-        tagged = _tagged(block.tags)
-        if tagged is None or not 0 < cycles <= CYCLES_PER_BLOCK:
+        if not (_TAGS.fullmatch(block.tags) and 0 < block.cycles <= CYCLES_PER_BLOCK):
             return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
-        self._start = block.cycle + cycles
-        self._pinned += tagged
+        self._start = block.cycle + block.cycles
+        self._pinned += block.cycles - block.tags.count(UNPINNED)
         return None
 
     def _close(self) -> str | None:
@@ -145,11 +143,3 @@ class PinCoverage:
         if self._pinned != run.cycles:
             return f"{where} says {run.cycles} cycles, its digests pin {self._pinned}"
         return None
-
-
-def _tagged(tags: str) -> int | None:
-    """How many cycles ``tags`` pin, if they are tags of :data:`TAG_CHARS` base64 digits,
-    or :data:`UNPINNED`, one after another."""
-    if _TAGS.fullmatch(tags) is None:
-        return None
-    return len(tags) // TAG_CHARS - tags.count(UNPINNED)
