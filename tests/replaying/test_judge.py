@@ -37,6 +37,7 @@ from beatlog.record.recorder import Recorder
 from beatlog.replaying import core, judge
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.expectation import Expectation, TracedChange
+from beatlog.replaying.fit.check import check_fit
 from beatlog.replaying.verdict import Checked
 from tests.conftest import (
     PERIOD_NS,
@@ -824,7 +825,6 @@ def test_the_wall_time_counts_opening_and_checking_the_log(
     log = record_probe(30)
     system = probe_system()
     checked: list[bool] = []
-    check_fit = core.check_fit
 
     def slow_check(*args: Any, **options: Any) -> None:
         checked.append(True)
