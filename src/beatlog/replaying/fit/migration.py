@@ -101,10 +101,7 @@ class _Fix:
 
     def apply(self, value: Any, path: str) -> Any:
         """The recorded ``value`` converted, or with its inner fields renamed and
-        converted.
-
-        :raises beatlog.errors.ConversionError: the conversion raised.
-        """
+        converted; a :class:`~beatlog.errors.ConversionError` where the conversion raised."""
         if self.convert is not None:
             try:
                 return self.convert(value)
@@ -149,11 +146,7 @@ class StateConverter:
         """The fields (attribute names) it converts."""
 
     def __call__(self, state: Any) -> None:
-        """Convert the fields of ``state`` in place.
-
-        :raises beatlog.errors.ConversionError: a conversion raised, or a value does not fit its
-            field's type once converted.
-        """
+        """Convert the fields of ``state`` in place, as :meth:`value` converts each."""
         for attribute in self._fields:
             setattr(state, attribute, self.value(attribute, getattr(state, attribute)))
 
