@@ -34,9 +34,10 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
-from beatlog.replaying import core, fit, judge
+from beatlog.replaying import core, judge
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.expectation import Expectation, TracedChange
+from beatlog.replaying.fit.check import check_fit
 from beatlog.replaying.verdict import Checked
 from tests.conftest import (
     PERIOD_NS,
@@ -824,7 +825,6 @@ def test_the_wall_time_counts_opening_and_checking_the_log(
     log = record_probe(30)
     system = probe_system()
     checked: list[bool] = []
-    check_fit = fit.check_fit
 
     def slow_check(*args: Any, **options: Any) -> None:
         checked.append(True)
