@@ -42,8 +42,7 @@ from beatlog.errors import BeatlogError, SpecError
 from beatlog.log.files import replacing
 from beatlog.replaying.verdict import Divergence, DivergenceKind
 from beatlog.suite.runner import Verdict, run_spec
-from beatlog.suite.spec import read_spec_data, spec_from_data
-from beatlog.suite.spec_writing import spec_toml
+from beatlog.suite.spec import read_spec_data, spec_from_data, spec_toml
 
 __all__ = [
     "Attempt",
