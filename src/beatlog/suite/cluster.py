@@ -1,33 +1,28 @@
 """Suites on a Dask cluster: ``beatlog test --dask ADDRESS`` (or ``--dask local:N``).
 
-One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function the
-local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
-as it is; outcomes stream back as they complete, to the same progress bar and reports.
-Tasks are submitted as outcomes come, two a cluster thread ahead of them, so the
-files they ship are read, and held here and by the scheduler, for those DTCs alone.
+One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, as the local runner's
+workers do, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`; outcomes
+stream back as they complete, to the same progress bar and reports. Tasks are submitted
+as outcomes come, two a cluster thread ahead of them, so the files they ship are read,
+and held here and by the scheduler, for those DTCs alone.
+
 A spec travels with absolute paths to a cluster of this machine's (``local``); to
-another (an address), with the files of this machine its replay reads (:func:`packed`):
-its spec's approved baseline, its log where it is a local file, and its project's
-``pyproject.toml``, with their paths relative to the project's root (a file outside it
-goes under ``outside/``), written into a folder of the worker's in the same places
-(:func:`unpacked`), so the workers need no filesystem shared with this one. A log behind
-a URL (a spec's, or a fleet's) is copied by the worker that replays it, and by no other
-process (see :mod:`beatlog.suite.remote`), into its machine's cache of logs; a task also
-fetches the log of the DTC its worker is likely to replay next (the one as many DTCs
-further on as the cluster has threads) while it replays its own
-(:func:`~beatlog.suite.prefetch.fetch_ahead`). Code is not shipped: the system's package
-must be installed on the workers, as it is here (or they share the spec's folder, from
-which its code also imports); a worker without it makes the DTC an error that says so
-(:func:`missing_system`).
+another, with the files of this machine its replay reads (:func:`packed`): its approved
+baseline, its log where it is a local file, and its project's ``pyproject.toml``, by
+their paths from the project's root (a file outside it goes under ``outside/``),
+written into a folder of the worker's in the same places (:func:`unpacked`). A log
+behind a URL is copied by the worker that replays it into its machine's cache of logs,
+and a task also fetches ahead the log of the DTC its worker is likely to replay next
+(:func:`~beatlog.suite.remote.fetch_ahead`). Code is not shipped: the system's package
+must be installed on the workers (or they share the spec's folder); a worker without it
+makes the DTC an error that says so (:func:`missing_system`).
 
 A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
 DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
 (``distributed.scheduler.allowed-failures``, 3 by default), and the outcome counts the
-retries; past them the DTC is an error. The retries are counted here from the
-scheduler's own events (a worker removed while it was replaying the DTC), which reach
-this client before the DTC's outcome does: an outcome costs no request of its own. A
-cluster of one's own is best run with
-:data:`ONE_DTC_PER_THREAD`. Needs ``pip install "beatlog[dask]"``.
+retries, from the scheduler's own events (:class:`WorkerDeaths`); past them the DTC is
+an error. A cluster of one's own is best run with :data:`ONE_DTC_PER_THREAD`. Needs
+``pip install "beatlog[dask]"``.
 """
 
 from __future__ import annotations
@@ -35,6 +30,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import dataclasses
+import importlib.util
 import itertools
 import logging
 import re
@@ -43,18 +39,17 @@ import tempfile
 import time
 import uuid
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
-from beatlog.log.files import Closing
+from beatlog.log.files import Closing, project_root
 from beatlog.project.usercode import importable_near
-from beatlog.suite.prefetch import fetch_ahead, wait_for
-from beatlog.suite.remote import Listed
+from beatlog.suite.remote import Listed, fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.sharding import longest_first
-from beatlog.suite.shipping import Packed, as_here, missing_system, packed, unpacked
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -80,10 +75,9 @@ it was replaying with it (with Dask's default, 1.1, a worker of one thread also 
 the next DTC, which would count as retried too)."""
 
 _IN_FLIGHT_PER_THREAD = 2
-"""How many DTCs a run keeps submitted for each thread of the cluster: each thread has
-the next at hand, and the files that DTCs ship (a local log, a baseline) are held, here
-and by the scheduler, for that many alone, however long the suite."""
+"""How many DTCs a run keeps submitted for each thread of the cluster."""
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
+_OUTSIDE = "outside"
 
 
 class DaskExecutor(Closing):
@@ -149,7 +143,11 @@ class DaskExecutor(Closing):
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
         threads = max(1, sum(self._client.nthreads().values()))
-        ahead = [_ahead(spec) for spec in ordered[threads:]] + [None] * min(threads, len(ordered))
+        # the log a worker's thread is likely to replay next, fetched ahead: a URL's
+        ahead = [
+            None if spec.log_url is None else (spec.log_url, spec.listed_log)
+            for spec in ordered[threads:]
+        ] + [None] * min(threads, len(ordered))
         waiting = iter(zip(ordered, ahead, strict=True))
         pending: dict[str, tuple[Future[SpecOutcome], DtcSpec]] = {}
 
@@ -159,7 +157,9 @@ class DaskExecutor(Closing):
             if not chosen:
                 return []
             keys = [f"dtc-{spec.name}-{uuid.uuid4().hex}" for spec, _ in chosen]
-            sent = [self._sent(spec) for spec, _ in chosen]
+            sent = [
+                packed(_absolute(spec)) if self._ships else _absolute(spec) for spec, _ in chosen
+            ]
             later = [next_ for _, next_ in chosen]
             futures: list[Future[SpecOutcome]] = self._client.map(  # one message for all
                 _replayed, sent, later, options=options, key=keys, pure=False
@@ -177,11 +177,6 @@ class DaskExecutor(Closing):
                 completed.update(submit(1))
         finally:
             self._client.cancel([future for future, _ in pending.values()], force=True)
-
-    def _sent(self, spec: DtcSpec) -> DtcSpec | Packed:
-        """The spec as its task carries it: with the files it reads, to a cluster that
-        does not share this machine's."""
-        return packed(_absolute(spec)) if self._ships else _absolute(spec)
 
     def _outcome(self, future: Future[SpecOutcome], spec: DtcSpec) -> SpecOutcome:
         """The outcome of a completed task, told as a local run tells it, with the
@@ -263,12 +258,6 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
-def _ahead(spec: DtcSpec) -> tuple[str, Listed | None] | None:
-    """What a worker needs to fetch the spec's log ahead: its URL and what its listing
-    said of it; None for a local log."""
-    return None if spec.log_url is None else (spec.log_url, spec.listed_log)
-
-
 def _replayed(
     sent: DtcSpec | Packed, ahead: tuple[str, Listed | None] | None, *, options: SpecOptions
 ) -> SpecOutcome:
@@ -298,10 +287,9 @@ def _replayed(
 def _waited(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
     """:func:`run_spec`, after the log this process is fetching ahead for the DTC, if it
     is, the time waited for it counted as waiting for storage."""
-    if spec.log_url is None:
-        return run_spec(spec, options)
     asked = time.perf_counter()
-    wait_for(spec.log_url)
+    if spec.log_url is not None:
+        wait_for(spec.log_url)
     waited = time.perf_counter() - asked
     outcome = run_spec(spec, options)
     if outcome.storage_wait_s is None:
@@ -330,3 +318,77 @@ def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
             error = error.replace(str(absolute), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
     return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
+
+
+@dataclass(frozen=True)
+class Packed:
+    """A DTC with its paths relative to its project's root, and the files it reads, by
+    those paths."""
+
+    spec: DtcSpec
+    files: dict[str, bytes]
+    root: str
+    """The project's root here, where the relative paths start."""
+    spec_file: Path | None
+    """The spec file here, whose folder and project root the DTC's code also imports
+    from where the worker shares them (None for a fleet log)."""
+
+
+def packed(spec: DtcSpec) -> Packed:
+    """``spec`` with the files of this machine its replay reads (its baseline, its log
+    if local, its project's ``pyproject.toml``), where they exist; a fleet's log reads
+    only its own."""
+    folder = spec.path.absolute().parent
+    root = project_root(folder) or folder
+    files: dict[str, bytes] = {}
+    read = [] if spec.spec_file is None else [root / "pyproject.toml", expected_path(spec.path)]
+    for path in read if spec.log_url is not None else [*read, spec.log]:
+        if path.is_file():
+            files[_relative(path, root).as_posix()] = path.read_bytes()
+    log = spec.log if spec.log_url is not None else _relative(spec.log, root)
+    relative = dataclasses.replace(spec, path=_relative(spec.path, root), log=log)
+    here = None if spec.spec_file is None else spec.spec_file.absolute()
+    return Packed(relative, files, str(root), here)
+
+
+def unpacked(shipped: Packed, folder: Path) -> DtcSpec:
+    """Write the shipped files into ``folder`` and return the DTC with its paths there."""
+    for name, data in shipped.files.items():
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+    spec = shipped.spec
+    log = spec.log if spec.log_url is not None else folder / spec.log
+    return dataclasses.replace(spec, path=folder / spec.path, log=log)
+
+
+def as_here(text: str, shipped: Packed, folder: Path) -> str:
+    """``text`` (a message) with the paths of the files unpacked into ``folder`` named
+    as they are on the machine that packed them."""
+    text = text.replace(f"{folder / _OUTSIDE}", "")
+    return text.replace(str(folder), shipped.root)
+
+
+def missing_system(spec: DtcSpec, where: str) -> str | None:
+    """Why the DTC cannot run at ``where`` (a worker): its system's (or perception
+    step's) package is not installed there; None where it is, or the log names it."""
+    for reference in (spec.system, spec.perception):
+        if reference is None:
+            continue
+        package = reference.partition(":")[0].partition(".")[0]
+        if importlib.util.find_spec(package) is None:
+            return (
+                f"the worker {where} has no package {package!r} ({reference}): "
+                "install the system's package on the cluster's workers"
+            )
+    return None
+
+
+def _relative(path: Path, root: Path) -> Path:
+    """Where ``path`` goes in the worker's folder: its place under the project's root,
+    or under ``outside/`` by its absolute path where it lies elsewhere."""
+    absolute = path.absolute()
+    try:
+        return absolute.resolve().relative_to(root.resolve())
+    except ValueError:
+        return Path(_OUTSIDE, *absolute.parts[1:])
