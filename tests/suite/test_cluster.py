@@ -32,10 +32,10 @@ from beatlog.suite.cluster import (
     unpacked,
 )
 from beatlog.suite.discovery import discover_specs
-from beatlog.suite.fleet import fleet_specs
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+from beatlog.suite.selection import fleet_specs
 from beatlog.suite.spec import load_spec
 from tests.commands import Run, assert_error, assert_error_matching, closing_counts
 from tests.conftest import RecordFn

@@ -6,7 +6,7 @@ what earlier runs saw catches it anyway (a DTC deleted, a recording replaced). L
 pytest's ``.pytest_cache``, the memory lives in a cache folder at the project root
 (the nearest ``pyproject.toml``, else the suite's folder), ``.beatlog_cache``, which
 ignores itself in git (:func:`cache_file`, :func:`read_cached`, :func:`write_cached`,
-which :mod:`beatlog.suite.last_failed` shares). Its file ``coverage.json`` keeps each
+which :mod:`beatlog.suite.selection` shares). Its file ``coverage.json`` keeps each
 system's behaviors apart and names DTCs by their ids; it is small and bounded (at most
 :data:`MAX_STATES` states and :data:`MAX_TRANSITIONS` transitions per behavior, each with
 up to :data:`MAX_DTCS` DTC ids) and is checked on loading: a damaged or foreign file is
