@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import shutil
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -44,24 +44,7 @@ from beatlog.replaying.verdict import Divergence, DivergenceKind
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import read_spec_data, spec_from_data, spec_toml
 
-__all__ = [
-    "Attempt",
-    "NothingToShrinkError",
-    "Shrunk",
-    "shrink",
-    "shrunk_path",
-]
-
-SHRUNK_SUFFIX = ".shrunk" + SPEC_SUFFIX
-
-PERTURBATIONS = "variants"
-"""The spec's table of perturbations: each of its keys but ``count`` is one, and each
-field of its tables (``noise``)."""
-
-_NOT_PERTURBATIONS = frozenset({"count"})
-
-FRESH = "fresh_start"
-"""The spec's key for a window whose behaviors start from rest."""
+__all__ = ["Attempt", "NothingToShrinkError", "Shrunk", "shrink", "shrunk_path"]
 
 
 class NothingToShrinkError(BeatlogError):
@@ -124,9 +107,8 @@ class Shrunk:
 
 def shrunk_path(spec: Path) -> Path:
     """Where the shrunk spec of the spec at ``spec`` is written."""
-    name = spec.name
-    stem = name[: -len(SPEC_SUFFIX)] if name.endswith(SPEC_SUFFIX) else spec.stem
-    return spec.with_name(stem + SHRUNK_SUFFIX)
+    stem = spec.name.removesuffix(SPEC_SUFFIX) if spec.name.endswith(SPEC_SUFFIX) else spec.stem
+    return spec.with_name(f"{stem}.shrunk{SPEC_SUFFIX}")
 
 
 def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -> Shrunk:
@@ -147,7 +129,7 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
         raise NothingToShrinkError(f"{spec}: nothing to shrink: it passes")
     if first.kind is DivergenceKind.LOG_ENDED:
         raise SpecError(spec, "fails only because its log was cut off: no window repeats that")
-    before = _perturbations(data)
+    before = _perturbations(data.get("variants", {}))
     if not search.fails(search.start, first.cycle):
         raise SpecError(
             spec,
@@ -160,12 +142,12 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
     shrunk = shrunk_path(spec)
     name = f"{data['name']}-shrunk"
     written = {
-        **{key: value for key, value in data.items() if key not in (PERTURBATIONS, FRESH)},
+        **{key: value for key, value in data.items() if key not in ("variants", "fresh_start")},
         "name": name,
         "start_cycle": search.start,
         "end_cycle": search.end,
-        **({FRESH: True} if search.fresh else {}),
-        **({PERTURBATIONS: kept} if PERTURBATIONS in data else {}),
+        **({"fresh_start": True} if search.fresh else {}),
+        **({"variants": kept} if "variants" in data else {}),
     }
     spec_from_data(shrunk, written)  # what is written loads
     _write(spec, shrunk, spec_toml(written))
@@ -182,15 +164,16 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
         fresh_start=search.fresh,
         cycles_before=first.cycle + 1,
         perturbations_before=before,
-        perturbations=_perturbations({PERTURBATIONS: kept}),
+        perturbations=_perturbations(kept),
         replays=search.replays,
     )
 
 
 class _Search:
     """The tries of one shrink: each replays the spec's data with a window and
-    perturbations, stopping at the window's end, and says whether it failed the same
-    way as the spec (:meth:`first`)."""
+    perturbations (its ``[variants]`` table), stopping at the window's end, and says
+    whether it failed the same way as the spec: the same kind of divergence, behavior
+    and invariant."""
 
     def __init__(
         self, path: Path, data: Mapping[str, Any], progress: Callable[[Attempt], object] | None
@@ -202,23 +185,16 @@ class _Search:
         self.start = given.start_cycle
         self.end: int | None = given.end_cycle
         self.fresh = given.fresh_start
-        self.perturbations: dict[str, Any] = dict(data.get(PERTURBATIONS, {}))
+        self.perturbations: dict[str, Any] = dict(data.get("variants", {}))
         self.replays = 0
         self._same: tuple[DivergenceKind, str | None, str | None] | None = None
         self.failure: Divergence
 
     def first(self) -> Divergence | None:
         """Replay the spec as given: its failure, which the tries must repeat, or None."""
-        divergence = self._replay(self.start, self.end, self.perturbations, fresh=self.fresh)
-        self._tell(
-            self.start,
-            self.end,
-            self.perturbations,
-            failed=divergence is not None,
-            fresh=self.fresh,
-        )
+        divergence = self._replay(self.start, self.end, self.perturbations, self.fresh)
         if divergence is not None:
-            self._same = _way(divergence)
+            self._same = divergence.kind, divergence.behavior, divergence.invariant
             self.failure = divergence
         return divergence
 
@@ -237,30 +213,10 @@ class _Search:
         the fresh start left out."""
         kept = self.perturbations if perturbations is None else perturbations
         fresh = self.fresh if fresh is None else fresh
-        divergence = self._replay(start, end, kept, fresh=fresh)
-        failed = (
-            divergence is not None
-            and divergence.cycle >= start
-            and _way(divergence) == self._same
-            and (not fresh or divergence.cycle == self.failure.cycle)
-        )
-        self._tell(start, end, kept, failed=failed, fresh=fresh)
-        if failed and divergence is not None:
+        divergence = self._replay(start, end, kept, fresh, same=True)
+        if divergence is not None:
             self.failure = divergence
-        return failed
-
-    def _tell(
-        self,
-        start: int,
-        end: int | None,
-        perturbations: Mapping[str, Any],
-        *,
-        failed: bool,
-        fresh: bool,
-    ) -> None:
-        if self._progress is not None:
-            kept = len(_perturbations({PERTURBATIONS: perturbations}))
-            self._progress(Attempt(start, end, kept, failed, self.replays, fresh))
+        return divergence is not None
 
     def fewest(self, given: tuple[str, ...]) -> dict[str, Any]:
         """Take out each perturbation in turn, keeping it out where the spec still fails
@@ -323,17 +279,24 @@ class _Search:
         return failing, found
 
     def _replay(
-        self, start: int, end: int | None, perturbations: Mapping[str, Any], *, fresh: bool
+        self,
+        start: int,
+        end: int | None,
+        perturbations: Mapping[str, Any],
+        fresh: bool,
+        *,
+        same: bool = False,
     ) -> Divergence | None:
         """The divergence of one replay of the spec's data with this window, from a
-        ``fresh`` start or not."""
-        data = {**self._data, "start_cycle": start, FRESH: fresh}
+        ``fresh`` start or not, told to ``progress``; with ``same``, only one that
+        fails the same way (see :meth:`fails`)."""
+        data = {**self._data, "start_cycle": start, "fresh_start": fresh}
         if end is None:
             data.pop("end_cycle", None)
         else:
             data["end_cycle"] = end
-        if PERTURBATIONS in self._data:
-            data[PERTURBATIONS] = dict(perturbations)
+        if "variants" in self._data:
+            data["variants"] = dict(perturbations)
         spec = dataclasses.replace(spec_from_data(self._path, data), allow_empty=True)
         self.replays += 1
         outcome = run_spec(spec, SpecOptions(verdict_only=True))
@@ -342,30 +305,31 @@ class _Search:
             cannot.user_traceback = outcome.error_traceback
             raise cannot
         assert outcome.result is not None  # a verdict that is no error has its result
-        return outcome.result.divergence
+        divergence = outcome.result.divergence
+        if same and not (
+            divergence is not None
+            and divergence.cycle >= start
+            and (divergence.kind, divergence.behavior, divergence.invariant) == self._same
+            and (not fresh or divergence.cycle == self.failure.cycle)
+        ):
+            divergence = None
+        if self._progress is not None:
+            kept = len(_perturbations(perturbations))
+            self._progress(Attempt(start, end, kept, divergence is not None, self.replays, fresh))
+        return divergence
 
 
-def _way(divergence: Divergence) -> tuple[DivergenceKind, str | None, str | None]:
-    """How a DTC fails, as shrinking keeps it: the kind of divergence, its behavior and
-    its invariant."""
-    return divergence.kind, divergence.behavior, divergence.invariant
-
-
-def _perturbations(data: Mapping[str, Any]) -> tuple[str, ...]:
-    """The perturbations a spec's data declares, by name: each key of its ``[variants]``
-    table but ``count`` that is on (``draws = true``, a bound above 0), and each field of
-    its ``noise`` with a bound above 0 (``noise.battery``)."""
-    return tuple(_named(data.get(PERTURBATIONS, {})))
-
-
-def _named(table: Mapping[str, Any]) -> Iterator[str]:
+def _perturbations(table: Mapping[str, Any]) -> tuple[str, ...]:
+    """The perturbations a ``[variants]`` table declares, by name: each of its keys but
+    ``count`` that is on (``draws = true``, a bound above 0), and each field of its
+    ``noise`` with a bound above 0 (``noise.battery``)."""
+    named: list[str] = []
     for key, value in table.items():
-        if key in _NOT_PERTURBATIONS:
-            continue
         if isinstance(value, Mapping):
-            yield from (f"{key}.{field}" for field, bound in value.items() if bound)
-        elif value:
-            yield key
+            named.extend(f"{key}.{field}" for field, bound in value.items() if bound)
+        elif value and key != "count":
+            named.append(key)
+    return tuple(named)
 
 
 def _without(table: Mapping[str, Any], name: str) -> dict[str, Any]:
