@@ -216,7 +216,7 @@ def conclude(
     measured = suite_coverage(ran, recorded or {})
     warnings = report.warnings
     if root is not None:
-        warning = recall(measured, cache_path(root), {spec.id: spec.name for spec in found}).warning
+        warning = recall(measured, cache_path(root), {spec.id: spec.name for spec in found})
         warnings += () if warning is None else (warning,)
     report = dataclasses.replace(
         report, coverage=measured, shows_coverage=coverage, warnings=warnings

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -44,7 +43,6 @@ __all__ = [
     "MAX_STATES",
     "MAX_SYSTEMS",
     "MAX_TRANSITIONS",
-    "Recall",
     "cache_file",
     "cache_path",
     "read_cached",
@@ -85,7 +83,8 @@ def _dtcs(
         changes = recorded.get(spec.id)
         if changes is None:
             try:
-                changes = _read(spec)
+                with spec.readable_log() as log:
+                    changes = read_changes(log)
             except (LogError, RemoteLogError):
                 unreadable.add(spec.path)
                 continue
@@ -99,12 +98,6 @@ def _dtcs(
             except BeatlogError:  # the verdict reports it; coverage counts the log
                 system = None
         yield spec.id, spec.system or changes.system, changes.changes, changes.cycles, system
-
-
-def _read(spec: DtcSpec) -> RecordedChanges:
-    """The state changes ``spec``'s log recorded, read from it."""
-    with spec.readable_log() as log:
-        return read_changes(log)
 
 
 def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
@@ -170,14 +163,6 @@ class _MemoryV1(msgspec.Struct, forbid_unknown_fields=True, tag_field="version",
     behaviors: Behaviors
 
 
-@dataclass(frozen=True)
-class Recall:
-    """What remembering did: the cache file, and a warning when it could not be used."""
-
-    path: Path
-    warning: str | None = None
-
-
 def cache_file(suite: Path, name: str) -> Path:
     """The file ``name`` of the cache folder of the suite at ``suite`` (a spec or a
     folder of specs): at its project root, else in its folder."""
@@ -226,10 +211,10 @@ def write_cached(path: Path, document: object) -> None:
         file.write(msgspec.json.format(msgspec.json.encode(document)) + b"\n")
 
 
-def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> Recall:
+def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> str | None:
     """Mark on ``coverage`` what earlier runs saw (from the file at ``path``), then
     remember what this run saw too. A file that cannot be read or trusted is ignored,
-    one that cannot be written left as it is; either way the warning says why.
+    one that cannot be written left as it is; either way a warning says why.
 
     Only what concerns this run is marked: the behaviors its DTCs have, and of those
     the states and transitions that a DTC reached before which ran now, or which the
@@ -259,7 +244,7 @@ def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> Rec
         write_cached(path, _merged(earlier, coverage))
     except OSError as exc:
         warning = warning or f"{path}: cannot write: {exc.strerror or exc}; nothing remembered"
-    return Recall(path, warning)
+    return warning
 
 
 def _name_remembered(coverage: SuiteCoverage, suite: Mapping[str, str]) -> None:

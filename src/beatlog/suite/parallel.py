@@ -38,20 +38,14 @@ def run_suite(
     executor: Executor | None = None,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time, or with ``executor`` (``jobs`` then unused);
-    outcomes in spec order.
+    outcomes in spec order, each as :func:`run_spec` gives it with these options.
 
     With more than one job, this process replays specs too while ``jobs - 1`` worker
     processes start and then take the next spec each as they become free, the longest
-    recording first (:func:`~beatlog.suite.sharding.longest_first`): a suite too
-    small to gain from workers is done before they are ready, and none is slower than
-    with one job. With ``fail_fast`` the first failure or error stops the run: specs not
-    started are not run and the workers are stopped. In :attr:`UpdateMode.NEW` each failure
-    carries its new expectation (nothing is written here: see
-    :mod:`beatlog.suite.maintenance`);
-    with ``audit`` each spec's determinism is audited too; with ``timelines`` its
-    timelines are built for charts; with ``coverage`` the state changes each log
-    recorded come back with its outcome. ``break_at`` and ``break_on_divergence`` stop
-    in the debugger (see :func:`run_spec`); they replay every spec in this process.
+    recording first: a suite too small to gain from workers is done before they are
+    ready. With ``fail_fast`` the first failure or error stops the run: specs not
+    started are not run and the workers are stopped. Break points replay every spec in
+    this process.
     """
     update = UpdateMode.parse(update)
     outcomes: dict[str, SpecOutcome] = {}

@@ -2,17 +2,12 @@
 every DTC exactly once, with about the same number of recorded cycles each.
 
 The split depends only on the specs' paths and their logs' cycle counts, so every job
-of the matrix computes the same one: specs are sorted by path, then given, the longest
-recording first, to the shard with the fewest cycles so far (the first such shard on a
-tie). A log whose cycle count cannot be read cheaply (one cut off, damaged or missing)
-counts 0 cycles: it still lands in exactly one shard, and its run says what is wrong.
-
-When a log lies behind a URL, every log of the suite weighs its size in bytes instead:
-the size the listing of a fleet's logs gave, or, for a spec's log, the size its
-filesystem lists (:func:`beatlog.suite.remote.log_size`, asked for all such logs at once):
-no log is downloaded to plan the work, and a fleet's is planned with no request per
-log. A size that cannot be had fails the split (a job must not guess what the others
-may not), and counts 0 where only the order of the work depends on it.
+computes the same one: specs sorted by path go, the longest recording first, to the
+shard with the fewest cycles so far. A log whose cycle count cannot be read cheaply
+counts 0 cycles; its run says what is wrong. Where a log lies behind a URL, every log
+weighs its size in bytes instead, as its listing or its filesystem gives it: no log is
+downloaded to plan the work, and a size that cannot be had fails the split (a job must
+not guess what the others may not).
 """
 
 from __future__ import annotations
