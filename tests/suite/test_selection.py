@@ -20,7 +20,7 @@ from beatlog.baseline.file import expected_path, pending_path
 from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import FleetError, OptionError, RemoteLogError, SystemLoadError
 from beatlog.suite.maintenance import update_baselines
-from beatlog.suite.parallel import run_suite
+from beatlog.suite.parallel import Shard, longest_first, run_suite, split
 from beatlog.suite.runner import Verdict
 from beatlog.suite.selection import (
     FLEET_PURPOSE,
@@ -34,7 +34,6 @@ from beatlog.suite.selection import (
     rerun_failed,
     select_suite,
 )
-from beatlog.suite.sharding import Shard, longest_first, split
 from beatlog.suite.spec import DtcSpec, find_rootdir, load_spec
 from tests.conftest import RecordFn
 from tests.served import LogServer

@@ -1,28 +1,21 @@
 """Suites on a Dask cluster: ``beatlog test --dask ADDRESS`` (or ``--dask local:N``).
 
-One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, as the local runner's
-workers do, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`; outcomes
-stream back as they complete, to the same progress bar and reports. Tasks are submitted
-as outcomes come, two a cluster thread ahead of them, so the files they ship are read,
-and held here and by the scheduler, for those DTCs alone.
+One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec` and sends back its
+outcome; outcomes stream back as they complete, to the same progress bar and reports.
+Tasks are submitted as outcomes come, two a cluster thread ahead of them, so the files
+they ship are held for those DTCs alone. A spec travels with absolute paths to a
+cluster of this machine's (``local``); to another, with the files of this machine its
+replay reads (:func:`packed`: its baseline, its local log, its project's
+``pyproject.toml``), written into a folder of the worker's in the same places
+(:func:`unpacked`). A log behind a URL is copied by the worker that replays it, which
+also fetches ahead the log it is likely to replay next. Code is not shipped: a worker
+without the system's package makes the DTC an error that says so
+(:func:`missing_system`).
 
-A spec travels with absolute paths to a cluster of this machine's (``local``); to
-another, with the files of this machine its replay reads (:func:`packed`): its approved
-baseline, its log where it is a local file, and its project's ``pyproject.toml``, by
-their paths from the project's root (a file outside it goes under ``outside/``),
-written into a folder of the worker's in the same places (:func:`unpacked`). A log
-behind a URL is copied by the worker that replays it into its machine's cache of logs,
-and a task also fetches ahead the log of the DTC its worker is likely to replay next
-(:func:`~beatlog.suite.remote.fetch_ahead`). Code is not shipped: the system's package
-must be installed on the workers (or they share the spec's folder); a worker without it
-makes the DTC an error that says so (:func:`missing_system`).
-
-A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
-DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
-(``distributed.scheduler.allowed-failures``, 3 by default), and the outcome counts the
-retries, from the scheduler's own events (:class:`WorkerDeaths`); past them the DTC is
-an error. A cluster of one's own is best run with :data:`ONE_DTC_PER_THREAD`. Needs
-``pip install "beatlog[dask]"``.
+A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs it
+again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
+outcome counts the retries (:class:`WorkerDeaths`); past them the DTC is an error.
+Needs ``pip install "beatlog[dask]"``.
 """
 
 from __future__ import annotations
@@ -47,9 +40,9 @@ from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
 from beatlog.log.files import Closing, project_root
 from beatlog.project.usercode import importable_near
+from beatlog.suite.parallel import longest_first
 from beatlog.suite.remote import Listed, fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
-from beatlog.suite.sharding import longest_first
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:

@@ -32,7 +32,8 @@ __all__ = ["KeywordExpression", "discover_specs", "distinguished", "select_specs
 
 
 def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
-    """Every spec in the given files and folders (recursively), sorted by path, with ids
+    """Every spec in the given files and folders (recursively, hidden folders such as
+    ``.git`` left out), sorted by path, with ids
     from ``rootdir`` (by default, the one :func:`find_rootdir` finds for ``paths``).
     Specs may share a name; a spec file holds one DTC and is loaded once, so no two have
     one id."""
@@ -43,7 +44,8 @@ def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) 
             found.extend(
                 path
                 for path in given.rglob(f"*{SPEC_SUFFIX}")
-                if path.is_file() and not _hidden(path.relative_to(given))
+                if path.is_file()
+                and not any(part.startswith(".") for part in path.relative_to(given).parts[:-1])
             )
         elif given.name.endswith(SPEC_SUFFIX):
             found.append(given)
@@ -65,11 +67,6 @@ def distinguished(specs: Iterable[DtcSpec]) -> list[DtcSpec]:
     specs = list(specs)
     counts = Counter(spec.name for spec in specs)
     return [dataclasses.replace(spec, named_by_id=counts[spec.name] > 1) for spec in specs]
-
-
-def _hidden(relative: Path) -> bool:
-    """Whether a path found under a folder lies in a hidden folder (.git, .venv, ...)."""
-    return any(part.startswith(".") for part in relative.parts[:-1])
 
 
 def select_specs(
@@ -113,6 +110,7 @@ _OPERATORS = frozenset({"and", "or", "not"})
 Match = Callable[[str], bool]
 """Whether a word matches what is being selected."""
 Node = Callable[[Match], bool]
+Combine = Callable[[Iterable[bool]], bool]
 
 
 @dataclass(frozen=True)
@@ -174,16 +172,17 @@ class _Parser:
         return False
 
     def expression(self) -> Node:
-        terms = [self.term()]
-        while self.take("or"):
-            terms.append(self.term())
-        return terms[0] if len(terms) == 1 else lambda match: any(t(match) for t in terms)
+        return self.chain("or", self.term, any)
 
     def term(self) -> Node:
-        factors = [self.factor()]
-        while self.take("and"):
-            factors.append(self.factor())
-        return factors[0] if len(factors) == 1 else lambda match: all(f(match) for f in factors)
+        return self.chain("and", self.factor, all)
+
+    def chain(self, word: str, operand: Callable[[], Node], combine: Combine) -> Node:
+        """Operands joined by ``word`` (``or``, ``and``), one node if there is one."""
+        nodes = [operand()]
+        while self.take(word):
+            nodes.append(operand())
+        return nodes[0] if len(nodes) == 1 else lambda match: combine(n(match) for n in nodes)
 
     def factor(self) -> Node:
         if self.take("not"):

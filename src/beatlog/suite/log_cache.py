@@ -2,27 +2,19 @@
 a rerun, an audit or a DTC run again on a cluster's worker does not download its log
 again.
 
-An entry is keyed by what the storage says of the object: its URL and its ETag where it
-gives one (S3, GCS, most web servers), which changes whenever the object does; else,
-a weaker key, its URL, size and time of last change (``Last-Modified``, ``mtime``),
-which misses a change that keeps the size within the same second. An object that says
-neither is never cached. A changed object has a new key, so it is downloaded again.
+An entry is keyed by the object's URL and ETag where the storage gives one, which
+changes whenever the object does; else, a weaker key, by its URL, size and time of last
+change; an object that says neither is never cached. Each entry's name holds its size
+and SHA-256 digest, checked before every use: a damaged entry is removed and the log
+downloaded again, never replayed. Entries are written whole before they get their name
+and used through hard links of their own, so one process that removes an entry never
+pulls it from under another; only two that fetch the same object at once wait, the
+second for the first's copy (a lock of that object alone, in ``fetching``).
 
-Each entry's name holds its size and SHA-256 digest, checked before every use: an entry
-damaged on disk is removed and the log downloaded again, never replayed. Entries are
-written whole before they get their name (a hard link to the finished copy), and used
-through a hard link of their own, so the processes of a machine share the cache without
-waiting on one another: one that removes an entry never pulls it from under another that
-uses it. Only two that fetch the same object at once wait, the second for the first's
-copy (a lock of that object alone, an empty file in ``fetching``), so it is downloaded
-once.
-
-A copy in use (being downloaded, or replayed) lies in a folder of its own, which its
-process holds locked (``flock``) until it removes it. A process killed meanwhile leaves
-its folder, whose lock the system releases: the next process to use the cache removes
-it, so a partial copy is never replayed nor keeps its disk space. A folder without its
-lock (its process killed in the instant between making the folder and locking it) is
-removed once a minute old.
+A copy in use lies in a folder of its own, which its process holds locked (``flock``)
+until it removes it: the folder of a process killed meanwhile is removed by the next
+process to use the cache (or, without its lock, once a minute old), so a partial copy
+is never replayed nor keeps its disk space.
 
 The cache lives in ``BEATLOG_CACHE_DIR`` (the user's cache folder's ``beatlog/logs``
 unless set) and holds ``BEATLOG_CACHE_MAX_BYTES`` bytes at most (:data:`MAX_CACHE_BYTES`

@@ -4,20 +4,16 @@
 ``--lf`` those that failed last time (:func:`rerun_failed`); the shard's share of them;
 and the break points such a selection can take.
 
-A fleet run replays every session log that matches a pattern against one system, with
-no spec per log (``beatlog test --logs 'logs/**/*.beatlog' --system MODULE:FACTORY``).
-Each log becomes a DTC of its own, named after its file, identified by its path or URL,
-and judged against its recording. The pattern is a local glob, or any fsspec URL
-(``s3://bucket/2024-*/*.beatlog``) where fsspec is installed (``pip install
-"beatlog[fleet]"``), expanded by listing alone, one call that gives each log's size and
-ETag too: each log is copied only by the process that replays it (see
-:mod:`beatlog.suite.remote`).
+A fleet run replays every log that matches a local glob or an fsspec URL
+(``s3://bucket/2024-*/*.beatlog``, with ``pip install "beatlog[fleet]"``) against one
+system, each a DTC named after its file and judged against its recording. A URL's
+pattern is expanded by listing alone, which gives each log's size and ETag too: each
+log is copied only by the process that replays it (:mod:`beatlog.suite.remote`).
 
-The DTCs that failed are remembered by id in the project's cache folder
-(:func:`~beatlog.suite.coverage.cache_file`), in ``lastfailed.json``, as pytest's
-``--lf`` remembers them: each run forgets the DTCs it ran that passed and adds those
-that failed or could not run; a DTC it did not run stays as it was. A file that cannot
-be read or trusted is ignored with a warning, never a crash.
+The DTCs that failed are remembered by id in the project's cache folder, in
+``lastfailed.json``, as pytest's ``--lf`` remembers them: each run forgets the DTCs it
+ran that passed and adds those that failed or could not run. A file that cannot be read
+or trusted is ignored with a warning, never a crash.
 """
 
 from __future__ import annotations
@@ -44,9 +40,9 @@ from beatlog.project.usercode import importable_near, load_perception, load_syst
 from beatlog.replaying.debugger import beyond_the_log
 from beatlog.suite.coverage import cache_file, read_cached, select_exercising, write_cached
 from beatlog.suite.discovery import discover_specs, distinguished, select_specs
+from beatlog.suite.parallel import Shard, shard
 from beatlog.suite.remote import http_quoted, is_url, url_filesystem, url_name
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.sharding import Shard, shard
 from beatlog.suite.spec import DtcSpec, find_rootdir
 from beatlog.suite.variants import with_variants
 
@@ -239,10 +235,7 @@ def check_break_at(break_at: int | None, specs: Sequence[DtcSpec], *, option: st
             f"{option} stops in one DTC, and {len(specs)} are selected: "
             "name its spec or select it with -k"
         )
-    problem = None
-    if specs and specs[0].log_url is None:
-        problem = beyond_the_log(break_at, specs[0].log)
-    if problem is not None:
+    if specs and specs[0].log_url is None and (problem := beyond_the_log(break_at, specs[0].log)):
         raise OptionError(f"{option} {break_at}: {problem}")
 
 
