@@ -254,10 +254,9 @@ def _handshake(address: str) -> None:
 def _replayed(
     sent: DtcSpec | Packed, ahead: tuple[str, Listed | None] | None, *, options: SpecOptions
 ) -> SpecOutcome:
-    """On a worker: :func:`run_spec` of the DTC sent, with the files shipped with it
-    where it was packed, while the log of ``ahead`` (a URL, and what its listing said of
-    it), the DTC this worker's thread is likely to replay next, is fetched into the
-    machine's cache."""
+    """On a worker: :func:`run_spec` of the DTC sent, with its files where it was
+    packed, while the log of ``ahead``, which this thread likely replays next, is
+    fetched into the machine's cache."""
     if ahead is not None:
         fetch_ahead(*ahead)
     if isinstance(sent, DtcSpec):

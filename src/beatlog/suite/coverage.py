@@ -56,13 +56,10 @@ __all__ = [
 def suite_coverage(
     specs: Sequence[DtcSpec], recorded: Mapping[str, RecordedChanges] | None = None
 ) -> SuiteCoverage:
-    """The coverage of ``specs``: the state changes their logs recorded (from
-    ``recorded``, by spec id, where their run gathered them; else read from the logs),
-    with each behavior's first and declared states from a fresh system of each spec,
-    system by system (a spec's ``system``, else the one its log records). A log that
-    cannot be read (damaged, not a log, behind a URL that cannot be copied) counts
-    nothing: its DTC's verdict says what is wrong, and the other logs still count. DTCs
-    are known by their ids, and named as the specs' labels say."""
+    """The coverage of ``specs``, system by system: the state changes their logs
+    recorded (from ``recorded``, by spec id, where their run gathered them), with each
+    behavior's first and declared states from a fresh system. A log that cannot be read
+    counts nothing: its DTC's verdict says what is wrong."""
     coverage = cover_changes(_dtcs(specs, unreadable=set(), recorded=recorded or {}))
     coverage.labels = {spec.id: spec.label for spec in specs}
     return coverage
@@ -76,9 +73,8 @@ def _dtcs(
     recorded: Mapping[str, RecordedChanges],
 ) -> Iterator[tuple[str, str, list[TracedChange], int, System | None]]:
     """Each readable spec's id and system, the state changes its log recorded and its
-    cycles (from ``recorded``, else read from the log, one behind a URL copied for as
-    long as it is read), and a fresh system when ``systems`` (None where none can be
-    built); the paths of the specs whose log cannot be read go to ``unreadable``."""
+    cycles, and a fresh system when ``systems`` (None where none can be built); the
+    paths of the specs whose log cannot be read go to ``unreadable``."""
     for spec in specs:
         changes = recorded.get(spec.id)
         if changes is None:
@@ -101,12 +97,10 @@ def _dtcs(
 
 
 def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
-    """The specs whose recordings change ``behavior``'s state (read from the logs alone:
-    no system is built), and those whose log cannot be read, so that their verdicts say
-    what is wrong with it.
+    """The specs whose recordings change ``behavior``'s state (no system is built), and
+    those whose log cannot be read, so that their verdicts say what is wrong with it.
 
-    :raises beatlog.errors.OptionError: none does and every log could be read; the
-        message names the behaviors whose states they change.
+    :raises beatlog.errors.OptionError: none does and every log could be read.
     """
     unreadable: set[Path] = set()
     coverage = cover_changes(_dtcs(specs, unreadable=unreadable, systems=False, recorded={}))
@@ -176,10 +170,8 @@ def cache_path(suite: Path) -> Path:
 
 
 def read_cached(path: Path, kind: Any, what: str) -> tuple[Any, str | None]:
-    """The JSON document of type ``kind`` in the cache file at ``path``, or None when
-    there is none or it cannot be read or trusted (too large, damaged, foreign: ``what``
-    it is not), with a warning then saying why and that it is ignored.
-    """
+    """The JSON document of type ``kind`` in the cache file at ``path``, or None with a
+    warning where it cannot be read or trusted (too large, damaged, not ``what``)."""
     if not path.exists():
         return None, None
     problem = irregular_file_problem(path)
@@ -196,12 +188,9 @@ def read_cached(path: Path, kind: Any, what: str) -> tuple[Any, str | None]:
 
 
 def write_cached(path: Path, document: object) -> None:
-    """Write a JSON document to the cache file at ``path``, whole or not at all; the
-    cache folder, made when missing, ignores itself in git and tells backup tools it is
-    a cache.
-
-    :raises OSError: it cannot be written.
-    """
+    """Write a JSON document to the cache file at ``path``, whole or not at all (else an
+    :class:`OSError`); the cache folder, made when missing, ignores itself in git and
+    tells backup tools it is a cache."""
     folder = path.parent
     if not folder.is_dir():
         folder.mkdir(parents=True)

@@ -33,10 +33,8 @@ __all__ = ["KeywordExpression", "discover_specs", "distinguished", "select_specs
 
 def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
     """Every spec in the given files and folders (recursively, hidden folders such as
-    ``.git`` left out), sorted by path, with ids
-    from ``rootdir`` (by default, the one :func:`find_rootdir` finds for ``paths``).
-    Specs may share a name; a spec file holds one DTC and is loaded once, so no two have
-    one id."""
+    ``.git`` left out), each loaded once, sorted by path, with ids from ``rootdir`` (by
+    default, the one :func:`find_rootdir` finds for ``paths``)."""
     paths = list(paths)
     found: list[Path] = []
     for given in map(Path, paths):
@@ -76,14 +74,9 @@ def select_specs(
     tags: Sequence[str] = (),
     rootdir: Path | None = None,
 ) -> list[DtcSpec]:
-    """Specs that match ``pattern`` and carry every tag in ``tags``.
-
-    ``pattern`` is a ``-k`` expression as pytest reads it (``touch or pat``): each word
-    a case-insensitive substring of one of the names pytest matches for the DTC: its
-    name, its spec file's name, the folders from ``rootdir`` down to it, its tags, and
-    the ``dtc`` marker (see :class:`KeywordExpression`). ``rootdir`` is the folder
-    pytest would take for its rootdir (by default, as :func:`find_rootdir` finds it for the
-    specs' own folders).
+    """Specs that match ``pattern``, a ``-k`` expression as pytest reads it (see the
+    module), and carry every tag in ``tags``. ``rootdir`` is the folder pytest would
+    take for its rootdir (by default, as :func:`find_rootdir` finds it for the specs).
     """
     expression = KeywordExpression.parse(pattern or "")
     root = rootdir if rootdir is not None else find_rootdir(spec.path for spec in specs)

@@ -125,9 +125,7 @@ def cached_copy(
 @contextlib.contextmanager
 def _fetching(folder: Path, key: str) -> Iterator[None]:
     """Hold the lock of fetching the object of ``key`` until the block ends: a process
-    that fetches an object another one of the machine is fetching (a log fetched ahead
-    by one worker and replayed by another) waits for that copy instead of downloading
-    it again."""
+    that fetches an object another one is fetching waits for that copy."""
     folder.mkdir(exist_ok=True)
     lock = folder / key
     held = os.open(lock, os.O_WRONLY | os.O_CREAT, 0o600)
@@ -167,10 +165,8 @@ def _remove_abandoned(in_use: Path) -> None:
 
 
 def _abandoned(folder: Path) -> bool:
-    """Whether no process holds ``folder``, a folder of copies in use.
-
-    :raises FileNotFoundError: the folder is gone.
-    """
+    """Whether no process holds ``folder``, a folder of copies in use (raises
+    :class:`FileNotFoundError` where it is gone)."""
     try:
         owner = os.open(folder / _OWNER, os.O_RDONLY)
     except FileNotFoundError:
@@ -245,10 +241,8 @@ def _digest(path: Path) -> str:
 
 
 def _max_bytes(url: str) -> int:
-    """The most bytes the cache holds.
-
-    :raises RemoteLogError: ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0.
-    """
+    """The most bytes the cache holds; a :class:`RemoteLogError` where
+    ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0."""
     text = os.environ.get(CACHE_MAX_BYTES_VARIABLE, "").strip()
     if not text:
         return MAX_CACHE_BYTES

@@ -200,11 +200,9 @@ def pending_specs(paths: Sequence[Path]) -> list[DtcSpec]:
 
 
 def decide(spec: DtcSpec, decision: Decision | str) -> None:
-    """Accept or reject the pending baseline of ``spec``, or leave it (skip).
-
-    Accepting checks the pending file first: a damaged one, or one made from another
-    recording than the spec's, raises :class:`BaselineError` and changes nothing.
-    Accepting or rejecting raises :class:`~beatlog.errors.CiWriteError` when ``CI`` is set.
+    """Accept or reject the pending baseline of ``spec``, or leave it (skip). A damaged
+    pending file, or one made from another recording, is a :class:`BaselineError` and
+    changes nothing; with ``CI`` set a decision is a :class:`~beatlog.errors.CiWriteError`.
     """
     decision = Decision.parse(decision)
     if decision is Decision.SKIP:
@@ -275,11 +273,9 @@ class PendingDiff:
 
 def pending_diff(spec: DtcSpec) -> PendingDiff:
     """Compare the pending baseline of ``spec`` with its approved one, or with its
-    recording when none is approved yet. Robot-state pins, state changes and output
-    changes interleave by cycle, as baseline files hold them; the robot states
-    perception now rebuilds otherwise are also summed up run by run, with the values
-    that differ in each run's first cycle as recorded and rebuilt; what the pending
-    baseline loses and gains is weighed (:func:`~beatlog.analysis.shift.shift`)."""
+    recording when none is approved yet, interleaved by cycle as baseline files hold
+    them; with the robot states perception now rebuilds otherwise, run by run, and what
+    the pending baseline loses and gains."""
     expected = expected_path(spec.path)
     pending = read_baseline(pending_path(spec.path)).expectation
     with spec.readable_log() as log:

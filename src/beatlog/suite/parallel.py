@@ -101,13 +101,10 @@ def _run_with_workers(
     options: SpecOptions,
     done: Callable[[SpecOutcome], bool],
 ) -> None:
-    """Run the specs here and in ``workers`` worker processes until ``done`` says stop.
-
-    One thread per worker hands it the next spec once it is ready and free. On leaving,
-    Ctrl-C included, the specs not started are dropped, the workers are stopped (see
-    :meth:`Worker.stop`), and the outcomes that had come back by then are still given
-    to ``done``.
-    """
+    """Run the specs here and in ``workers`` worker processes until ``done`` says stop,
+    one thread per worker handing it the next spec. On leaving, Ctrl-C included, the
+    specs not started are dropped, the workers are stopped, and the outcomes that had
+    come back by then still go to ``done``."""
     pending = collections.deque(longest_first(specs))  # work spread by cycles
     answers: queue.Queue[Answer] = queue.Queue()
     pool: list[Worker] = []
@@ -200,9 +197,8 @@ class Shard:
 
 
 def split(specs: Sequence[DtcSpec], count: int) -> list[list[DtcSpec]]:
-    """The specs in ``count`` shards balanced by recorded cycles, each in path order.
-
-    No shard has more cycles than another by more than the longest recording's.
+    """The specs in ``count`` shards balanced by recorded cycles, each in path order: no
+    shard has more cycles than another by more than the longest recording's.
 
     :raises RemoteLogError: the size of a log behind a URL cannot be had.
     """
@@ -251,11 +247,9 @@ def _size(spec: DtcSpec, *, strict: bool) -> int:
 
 
 def shard(specs: Sequence[DtcSpec], index: int, count: int) -> list[DtcSpec]:
-    """The specs of shard ``index`` of ``count`` (1-based) of :func:`split`.
-
-    With more shards than specs, those past the number of specs are empty (the first
-    shard with nothing yet always takes the next spec), so the split is computed over
-    that many alone: a matrix of ``--shard I/1000000`` costs what its suite does.
+    """The specs of shard ``index`` of ``count`` (1-based) of :func:`split`. The shards
+    past the number of specs are empty, so the split is computed over that many alone:
+    a matrix of ``--shard I/1000000`` costs what its suite does.
 
     :raises RemoteLogError: the size of a log behind a URL cannot be had.
     """

@@ -116,12 +116,10 @@ def http_quoted(url: str) -> str:
 
 def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
     """The fsspec filesystem behind ``url``, and the URL's path on it; over ``http(s)``
-    each request (a size, a listing) ends within ``BEATLOG_URL_TIMEOUT``, but for a
-    download (``streaming``), whose own bounds end it.
+    each request but a download (``streaming``) ends within ``BEATLOG_URL_TIMEOUT``.
 
-    :raises RemoteLogError: fsspec is not installed, or knows no such URL (an unknown
-        scheme, or one whose backend's package is missing), or ``BEATLOG_URL_TIMEOUT``
-        holds no number.
+    :raises RemoteLogError: fsspec, or the URL's backend, is not installed, the scheme
+        is unknown, or ``BEATLOG_URL_TIMEOUT`` holds no number.
     """
     try:
         from fsspec.core import url_to_fs  # noqa: PLC0415 - an optional dependency
@@ -156,18 +154,13 @@ def fetched_log(
     url: str, max_bytes: int | None = None, *, progress: bool = False, listed: Listed | None = None
 ) -> Iterator[Path]:
     """A copy of the log behind ``url`` on this machine, under the URL's file name,
-    removed on exit (an exception, Ctrl-C included, is an exit); the machine's cache of
-    logs gives it where it holds the object as it is now.
-
-    ``max_bytes`` bounds the copy (``BEATLOG_URL_MAX_BYTES``, or :data:`MAX_LOG_BYTES`,
-    unless given). With ``progress``, a download past :data:`PROGRESS_BYTES` shows a bar
-    on stderr where stderr is a terminal. ``listed``: what the listing that found the
-    log said of it; then the storage is asked nothing but the download itself, and
-    nothing at all where the cache holds the object of that ETag.
+    removed on exit, Ctrl-C included; the cache's where it holds the object as it is.
+    ``max_bytes`` bounds it (by default ``BEATLOG_URL_MAX_BYTES``); with ``progress``, a
+    long download shows a bar on a terminal's stderr; with ``listed``, the storage is
+    asked nothing but the download, and nothing where the cache holds that ETag.
 
     :raises RemoteLogError: the URL needs fsspec, or the log cannot be copied (missing,
-        unreachable, too slow, cut off) or is larger than the bound; or a bound's
-        environment variable holds no number.
+        unreachable, too slow, cut off, too large), or a bound's variable is no number.
     """
     if max_bytes is None:
         max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
@@ -243,12 +236,8 @@ def named_as_given(text: str, copy: str | Path, url: str) -> str:
 
 
 def log_size(url: str) -> int | None:
-    """The size in bytes of the log behind ``url``, as its filesystem lists it (an HTTP
-    ``HEAD``, an object's metadata): nothing of the log is read. None where the
-    filesystem does not say.
-
-    :raises RemoteLogError: the URL needs fsspec, or the log is missing or unreachable.
-    """
+    """The size in bytes of the log behind ``url`` as its filesystem lists it, nothing of
+    the log read; None where it does not say (else :class:`RemoteLogError`)."""
     filesystem, path = url_filesystem(url)
     with _answering(url, "cannot read its size"):
         size = filesystem.size(path)
@@ -309,18 +298,13 @@ def _answering(url: str, doing: str) -> Iterator[None]:
 
 
 def _timeout(url: str) -> float:
-    """How long a server may keep a download of ``url`` waiting, in seconds.
-
-    :raises RemoteLogError: ``BEATLOG_URL_TIMEOUT`` is set to no number above 0.
-    """
+    """How long a server may keep a download of ``url`` waiting, in seconds."""
     return _bound(url, TIMEOUT_VARIABLE, TIMEOUT_S, float, "a number of seconds")
 
 
 def _bound(url: str, variable: str, default: Number, kind: type[Number], what: str) -> Number:
-    """A bound from the environment variable ``variable``, ``default`` where unset.
-
-    :raises RemoteLogError: the variable is set to no such number above 0.
-    """
+    """A bound from the environment variable ``variable``, ``default`` where unset; a
+    :class:`RemoteLogError` where it is set to no such number above 0."""
     text = os.environ.get(variable, "").strip()
     if not text:
         return default

@@ -184,10 +184,8 @@ def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
 
 def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> Selection:
     """The specs found under the options' paths (or the ``fleet`` given), and those the
-    session runs: selected by ``-k`` and the tags, then by the behavior they exercise,
-    then with ``--lf`` those that failed last time, and of those the shard's share;
-    each followed by its variants (:func:`~beatlog.suite.variants.with_variants`),
-    unless the run stops in the debugger.
+    session runs: selected by ``-k``, the tags, the behavior, ``--lf`` and the shard,
+    each followed by its variants unless the run stops in the debugger.
 
     :raises EmptySelectionError: specs are found, and none is selected.
     :raises OptionError: nothing is found.
@@ -222,9 +220,8 @@ def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> S
 
 
 def check_break_at(break_at: int | None, specs: Sequence[DtcSpec], *, option: str) -> None:
-    """A break at a cycle stops in one DTC: refuse a selection of more, or one whose log
-    ends before the break (as its end record counts its cycles; a log behind a URL is
-    not read for it). ``option`` is the break's option, as the error names it.
+    """A break at a cycle stops in one DTC: refuse a selection of more, or one whose
+    local log ends before the break. ``option`` is the break's option, as named.
 
     :raises OptionError: the break cannot be made.
     """
@@ -241,8 +238,7 @@ def check_break_at(break_at: int | None, specs: Sequence[DtcSpec], *, option: st
 
 def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> list[DtcSpec]:
     """The DTCs of the logs that match ``pattern``, in the order of their paths, each
-    replayed against ``system`` (and ``perception``, when given). Nothing behind a URL
-    is read: the listing names the logs, with their sizes and ETags where it gives them.
+    replayed against ``system`` (and ``perception``); nothing behind a URL is read.
 
     :raises FleetError: nothing matches, a URL needs fsspec, or its listing fails.
     """
@@ -293,12 +289,10 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
 
 
 def check_references(spec: DtcSpec) -> None:
-    """Build the system (and perception step) of a fleet's DTC once, as its replay
-    builds them: every log of a fleet names the same ones, so one that cannot be built
-    is one error of the run, not one per log.
+    """Build the system (and perception step) of a fleet's DTC once: every log of a
+    fleet names the same ones, so one that cannot be built is one error of the run.
 
-    :raises SystemLoadError: the reference cannot be imported or does not build one; the
-        message starts with the option that gave it.
+    :raises SystemLoadError: it cannot be built; the message starts with its option.
     """
     references = (
         ("--system", spec.system, load_system),

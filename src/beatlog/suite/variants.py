@@ -24,10 +24,8 @@ __all__ = ["importable_invariants", "replay_variant_of", "with_variants", "write
 
 
 def replay_variant_of(spec: DtcSpec, system: str) -> ReplayResult:
-    """Replay variant ``spec`` of a DTC against ``system`` (``module:factory``) as a
-    suite does (:func:`~beatlog.replaying.variant.replay_variant`): perturbed, judged by
-    its behaviors not raising and its invariants; its reproduce command runs its own
-    spec."""
+    """Replay variant ``spec`` of a DTC against ``system`` (``module:factory``):
+    perturbed, judged by its behaviors not raising and its invariants."""
     assert spec.variant is not None  # a variant's
     perception = None if spec.perception is None else load_perception(spec.perception)
     return replay_variant(
