@@ -234,7 +234,7 @@ def test_retries_are_counted_from_the_workers_removed_unexpectedly_while_running
     ):
         deaths.seen(event)
 
-    assert [deaths.count(key) for key in ("dtc-a", "dtc-b", "dtc-c", "dtc-d")] == [2, 1, 0, 0]
+    assert [deaths[key] for key in ("dtc-a", "dtc-b", "dtc-c", "dtc-d")] == [2, 1, 0, 0]
 
 
 def write_dying_once(folder: Path, marker: Path) -> str:

@@ -182,7 +182,7 @@ class DaskExecutor(Closing):
             tries = exc.allowed_failures + 1
             problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
             return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
-        return _as_given(outcome, spec, self._deaths.count(str(future.key)))
+        return _as_given(outcome, spec, self._deaths[str(future.key)])
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
@@ -195,29 +195,19 @@ class DaskExecutor(Closing):
             self._cluster.close()
 
 
-class WorkerDeaths:
-    """How many workers died while running each task, counted from the scheduler's
-    events of the topic ``all`` as the scheduler counts them (a task's ``suspicious``):
-    a worker removed unexpectedly (not retired nor closed on purpose) counts once for
-    each task it was running. The scheduler sends the event before it runs the task
-    again, on the same stream as the task's result, so a result always finds its count.
-    """
-
-    def __init__(self) -> None:
-        self._counts: collections.Counter[str] = collections.Counter()
+class WorkerDeaths(collections.Counter[str]):
+    """How many workers died while running each task, by its key, counted from the
+    scheduler's events of the topic ``all`` as the scheduler counts them (a task's
+    ``suspicious``): a worker removed unexpectedly counts once for each task it was
+    running. The scheduler sends the event before it runs the task again, on the same
+    stream as the task's result, so a result always finds its count."""
 
     def seen(self, event: tuple[float, Any]) -> None:
         """Take one event ``(time, message)`` of the topic ``all``."""
         _, message = event
-        if not isinstance(message, dict) or message.get("action") != "remove-worker":
-            return
-        if message.get("expected"):
-            return
-        self._counts.update(str(key) for key in message.get("processing-tasks", ()))
-
-    def count(self, key: str) -> int:
-        """How many workers died while running the task ``key``."""
-        return self._counts[key]
+        removed = isinstance(message, dict) and message.get("action") == "remove-worker"
+        if removed and not message.get("expected"):  # not retired nor closed on purpose
+            self.update(str(key) for key in message.get("processing-tasks", ()))
 
 
 def _handshake(address: str) -> None:

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from beatlog.analysis.recorded import RecordedChanges
 from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
 from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
-from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
+from beatlog.errors import BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
@@ -28,6 +28,7 @@ from beatlog.replaying.judge import recorded_system, replay
 from beatlog.replaying.random import ReplayRandom
 from beatlog.replaying.setup import built_for_replay
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
+from beatlog.suite.approved import approved_for
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.variants import importable_invariants, replay_variant_of
 
@@ -156,9 +157,8 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     baseline = expected_path(spec.path)
     log = Recording(spec.log)
     try:
-        approved = None
-        if spec.source is None and spec.variant is None and baseline.exists():
-            approved = read_baseline(baseline)
+        own = spec.source is None and spec.variant is None  # fleet logs and variants: none
+        approved = read_baseline(baseline) if own and baseline.exists() else None
         expected = None if approved is None else approved.stream
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
         if spec.variant is not None:  # no baseline; judged by not raising, and no more
@@ -190,11 +190,12 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
                 observers=[_charting(system, approved, charts)] if options.timelines else (),
                 readers=[functools.partial(_kept, recorded)] if options.coverage else (),
             )
-        except BeatlogError:
-            if log.digest is not None:  # the baseline's own error, if it is not this log's
-                _approved_for(approved, baseline, log)
+        except BeatlogError:  # a baseline of another log says so, not what it made fail
+            if approved is not None and log.digest is not None:
+                approved_for(approved, log.path, log.digest)
             raise
-        _approved_for(approved, baseline, log)
+        if approved is not None:  # made from this log, as the replay read it
+            approved_for(approved, log.path, log.digest)
         wall = time.perf_counter() - started
         divergence = result.divergence
         notes = result.notes + unreached_break(options.break_at, result)
@@ -277,19 +278,6 @@ def repeat_note(first: Divergence, again: Divergence | None, audit: str) -> tupl
         f"{how} on unchanged code: the behaviors are not deterministic; run "
         f"`{audit}` to find the call",
     )
-
-
-def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> None:
-    """Refuse an ``approved`` baseline made from another recording than ``log``: its
-    digest, taken as the replay read the log (or, where the replay stopped short of the
-    log's end, from the file), must be the baseline's.
-
-    :raises beatlog.errors.BaselineError: it was approved for another recording.
-    """
-    if approved is not None and approved.log_digest != (log.digest or log_digest(log.path)):
-        raise BaselineError(
-            baseline, f"approved for another recording than {log.path.name}; delete it"
-        )
 
 
 def _rerun(spec: DtcSpec, *options: str) -> str:

@@ -1,30 +1,22 @@
 """Shrinking a failing DTC: the shortest window of cycles, and the fewest perturbations,
 that still fail the same way, written as a spec of their own.
 
-A DTC that fails at cycle 9400 of a 17.5-minute session replays 9400 cycles and reads
-the whole log each time it is run. :func:`shrink` cuts it down by delta debugging on
-the spec's data, each try a replay that stops at its window's end:
+:func:`shrink` cuts a failing DTC down by delta debugging on the spec's data, each try a
+replay that stops at its window's end: the window ends where the DTC failed; its
+perturbations (the spec's ``[variants]`` table) are taken out one at a time, each kept
+out where the DTC still fails the same way; its start is the latest that still fails the
+same way, stepped back from the failing cycle in doubling strides, then bisected. First
+from a fresh start (the behaviors from rest there, the cycles before it not replayed),
+then with the cycles before it replayed as recorded, rebuilding the behaviors' state;
+the fresh start is kept unless the failure needs so long a history that its window
+costs about as much as replaying up to the other's.
 
-* the window ends where the DTC failed (no cycle after the failure is needed);
-* its perturbations (the spec's ``[variants]`` table: other random draws, heartbeat
-  jitter, noise per robot-state field, samples dropped or delayed) are taken out one
-  at a time, each kept out where the DTC still fails the same way;
-* its start is the latest that still fails the same way: stepped back from the
-  failing cycle in doubling strides, then bisected. First from a fresh start (the
-  behaviors from rest there, the cycles before it not replayed: the window then costs
-  its own cycles alone), moved back as far as the history the failure needs; then
-  with the cycles before it replayed as recorded and unjudged, rebuilding the
-  behaviors' state. The fresh start is kept unless the failure needs so long a history
-  that its window costs about as much as replaying up to the other's.
-
-"The same way" is the same kind of divergence in the same behavior (for an invariant,
-the same invariant), wherever in the window it comes; from a fresh start, in the
-cycle where the spec fails, since one that fails earlier fails for want of the
-history it left out. The result is written beside
-the spec as ``<stem>.shrunk.dtc.toml``, named ``<name>-shrunk``, with the same log (no
-copy), its window (``start_cycle``, ``end_cycle``) and the perturbations left; an
-approved baseline of the spec is copied beside it, so that it is judged as the tries
-were.
+"The same way" is the same kind of divergence in the same behavior (or invariant),
+wherever in the window it comes; from a fresh start, in the cycle where the spec fails,
+since one that fails earlier fails for want of the history it left out. The result is
+written beside the spec as ``<stem>.shrunk.dtc.toml``, named ``<name>-shrunk``, with the
+same log, its window and the perturbations left, and a copy of the spec's approved
+baseline, so that it is judged as the tries were.
 """
 
 from __future__ import annotations
@@ -113,8 +105,8 @@ def shrunk_path(spec: Path) -> Path:
 
 def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -> Shrunk:
     """Shrink the failing DTC of the spec at ``spec`` (see the module) and write the
-    result beside it; ``progress`` is told of every replay tried. Each replay stops at
-    its window's end; none is judged otherwise than ``beatlog test`` judges the spec.
+    result beside it; ``progress`` is told of every replay tried, each judged as
+    ``beatlog test`` judges the spec.
 
     :raises NothingToShrinkError: the spec passes.
     :raises beatlog.errors.SpecError: the spec cannot be read, or fails only because
@@ -171,9 +163,7 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
 
 class _Search:
     """The tries of one shrink: each replays the spec's data with a window and
-    perturbations (its ``[variants]`` table), stopping at the window's end, and says
-    whether it failed the same way as the spec: the same kind of divergence, behavior
-    and invariant."""
+    perturbations, and says whether it failed the same way as the spec."""
 
     def __init__(
         self, path: Path, data: Mapping[str, Any], progress: Callable[[Attempt], object] | None
@@ -206,11 +196,9 @@ class _Search:
         *,
         fresh: bool | None = None,
     ) -> bool:
-        """Whether the spec fails the same way in the window ``start``-``end`` with
-        ``perturbations`` (by default, those kept so far): in the window, not before it.
-        From a ``fresh`` start (by default, as kept so far) it must fail in the cycle
-        the spec failed in last: one that fails earlier fails for want of the history
-        the fresh start left out."""
+        """Whether the spec fails the same way in the window ``start``-``end``, not
+        before it, with ``perturbations`` (by default, those kept so far); from a
+        ``fresh`` start (by default, as kept so far), in the cycle it failed in last."""
         kept = self.perturbations if perturbations is None else perturbations
         fresh = self.fresh if fresh is None else fresh
         divergence = self._replay(start, end, kept, fresh, same=True)
@@ -233,10 +221,7 @@ class _Search:
         """The window's start: the latest that fails the same way from a fresh start,
         found first (its tries cost their windows alone), then the latest after it that
         fails with the cycles before it replayed. The fresh start is kept where the
-        cycles it leaves unreplayed outnumber the cycles it judges beyond the other's
-        window: a failure that needs a long history (a behavior that wears out on its
-        300th approach) keeps replaying it, one that needs a short one starts fresh
-        before it."""
+        cycles it leaves unreplayed outnumber those it judges beyond the other's."""
         end = self.failure.cycle
         known = self.fresh and self.start > 0
         fresh = self._latest(end, max(self.start, 1), fresh=True, known=known)
@@ -255,11 +240,9 @@ class _Search:
         self, end: int, lowest: int, *, fresh: bool, known: bool
     ) -> tuple[int, Divergence] | None:
         """The latest start from ``lowest`` to ``end`` whose window fails the same way
-        from a ``fresh`` start or not, and its failure; None where none does: stepped
-        back from the end in doubling strides (the end, one before, three before,
-        seven...) until one fails, then bisected between it and the earliest that
-        passed. ``known``: ``lowest`` fails so, as the failure kept so far says, and is
-        not tried again."""
+        from a ``fresh`` start or not, and its failure (None where none does): stepped
+        back in doubling strides until one fails, then bisected. ``known``: ``lowest``
+        fails so, and is not tried again."""
         if lowest > end:
             return None
         passed, stride, candidate = end + 1, 1, end

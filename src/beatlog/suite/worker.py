@@ -19,7 +19,7 @@ import sys
 import traceback
 import warnings
 from types import FrameType
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any, cast
 
 from beatlog.log.files import Closing
 
@@ -91,8 +91,7 @@ class Worker(Closing):
         answer = self._receive()
         if isinstance(answer, BaseException):
             raise answer
-        outcome: SpecOutcome = answer
-        return outcome
+        return cast("SpecOutcome", answer)
 
     def _receive(self) -> Any:
         try:
