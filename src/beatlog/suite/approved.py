@@ -86,11 +86,10 @@ def approved_baselines(log: str | Path) -> list[Approved]:
 
 def approved_baseline(log: str | Path, system: object = None) -> Approved | None:
     """The approved baseline of the spec beside ``log`` that names it, if there is one;
-    where several name it, of the one whose ``system`` is ``system`` (a
-    ``module:factory`` reference; a system object matches none of them).
+    where several name it, of the one whose ``system`` is ``system`` (a ``module:factory``).
 
-    :raises beatlog.errors.BaselineError: as :func:`approved_baselines`, or several specs
-        name the log, one with an approved baseline, and ``system`` does not tell which.
+    :raises beatlog.errors.BaselineError: as :func:`approved_baselines`, or ``system``
+        does not tell which of several specs it is.
     :raises beatlog.errors.SpecError: a spec that names it is not a valid spec.
     """
     path = Path(log)
@@ -116,11 +115,9 @@ def replay(
     approved: bool = True,
     **options: Any,
 ) -> ReplayResult:
-    """Replay ``log`` as :func:`beatlog.replaying.judge.replay` does (the same options), and
-    judge it against the approved baseline of the spec beside it that names it, with
-    that spec's comparison, when there is one and neither ``expected`` nor
-    ``comparison`` is given; ``approved=False`` judges against the recording. The
-    result's notes say which baseline was used.
+    """Replay ``log`` as :func:`beatlog.replaying.judge.replay` does, judged against the
+    approved baseline of the spec beside it that names it, with its comparison, unless
+    ``expected`` or ``comparison`` is given or ``approved`` is False; the notes say so.
     """
     found = (
         approved_baseline(log, system)

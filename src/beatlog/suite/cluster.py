@@ -75,11 +75,9 @@ _OUTSIDE = "outside"
 
 class DaskExecutor(Closing):
     """A connection to a Dask cluster that runs suites, one task per DTC (an
-    :data:`~beatlog.suite.parallel.Executor` for :func:`~beatlog.suite.parallel.run_suite`).
-
-    ``address`` is a scheduler's (``tcp://host:8786``), or ``local`` for a cluster of
-    worker processes on this machine, one per core, or ``local:N`` for N of them, closed
-    with the executor.
+    :data:`~beatlog.suite.parallel.Executor`): a scheduler's ``address``
+    (``tcp://host:8786``), or ``local`` (``local:N``) for worker processes on this
+    machine, one per core (N), closed with the executor.
 
     :raises ClusterError: the address is not one, or no scheduler answers there within
         ``distributed.comm.timeouts.connect``.
@@ -211,10 +209,9 @@ class WorkerDeaths(collections.Counter[str]):
 
 
 def _handshake(address: str) -> None:
-    """Connect to ``address`` and exchange Dask's handshake, all within
-    ``distributed.comm.timeouts.connect``: a client's own connection waits for the
-    handshake without end, so a server that is not a Dask scheduler (a dashboard's
-    port, a web server) would hang the run, or answer with bytes it cannot decode.
+    """Connect to ``address`` and exchange Dask's handshake within
+    ``distributed.comm.timeouts.connect``: a client's own connection waits for it
+    without end, so a server that is not a Dask scheduler would hang the run.
 
     :raises ClusterError: no scheduler answers there in time, or what answers is not one.
     """

@@ -1,20 +1,16 @@
 """A suite's transition coverage, from its specs: what each DTC's recording exercises,
-and what earlier coverage runs saw: the states and transitions each behavior reached.
+and what earlier coverage runs saw: the states and transitions each behavior reached,
+which catches a state no DTC reaches today (a DTC deleted, a recording replaced).
 
-A state reached by no DTC today may only be one that no behavior declares; remembering
-what earlier runs saw catches it anyway (a DTC deleted, a recording replaced). Like
-pytest's ``.pytest_cache``, the memory lives in a cache folder at the project root
-(the nearest ``pyproject.toml``, else the suite's folder), ``.beatlog_cache``, which
-ignores itself in git (:func:`cache_file`, :func:`read_cached`, :func:`write_cached`,
-which :mod:`beatlog.suite.selection` shares). Its file ``coverage.json`` keeps each
-system's behaviors apart and names DTCs by their ids; it is small and bounded (at most
-:data:`MAX_STATES` states and :data:`MAX_TRANSITIONS` transitions per behavior, each with
-up to :data:`MAX_DTCS` DTC ids) and is checked on loading: a damaged or foreign file is
-ignored with a warning, never a crash. Delete the folder to forget.
-
-A version 1 file, written before systems were told apart, is read too: each behavior it
-remembers counts for a behavior of that name in any system, until a run covers one,
-and each DTC name for the DTCs of the suite that have it.
+Like pytest's ``.pytest_cache``, the memory lives in ``.beatlog_cache`` at the project
+root (else the suite's folder), which ignores itself in git (:func:`cache_file`,
+:func:`read_cached`, :func:`write_cached`, which ``--lf`` shares). Its ``coverage.json``
+keeps each system's behaviors apart, names DTCs by their ids, is bounded
+(:data:`MAX_STATES`, :data:`MAX_TRANSITIONS`, :data:`MAX_DTCS`) and is checked on
+loading: a damaged or foreign file is ignored with a warning. Delete the folder to
+forget. A version 1 file, from before systems were told apart, is read too: each
+behavior counts for one of its name in any system until a run covers it, and each DTC
+name for the suite's DTCs of that name.
 """
 
 from __future__ import annotations

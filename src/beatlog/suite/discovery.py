@@ -2,13 +2,11 @@
 its id from the rootdir pytest would take, and the specs a ``-k`` expression and tags
 select, as pytest selects their items.
 
-A ``-k`` word matches a DTC when it is a substring of one of the names pytest gives its
-item, ignoring case: the DTC's name, its spec file's name, the folders between the
-rootdir and the spec, its tags and the ``dtc`` marker, as pytest's ``-k`` matches a
-test's name, its parents' names and its keywords; so ``beatlog test -k EXPR`` selects
-the DTCs that ``pytest -k EXPR`` runs. pytest is not needed: its matcher is private
-(``_pytest.mark.expression``) and beatlog does not depend on pytest, so
-:class:`KeywordExpression` is a small parser of the same grammar::
+A ``-k`` word matches a DTC when it is a case-insensitive substring of one of the names
+pytest gives its item: the DTC's name, its spec file's name, the folders between the
+rootdir and the spec, its tags and the ``dtc`` marker; so ``beatlog test -k EXPR``
+selects the DTCs that ``pytest -k EXPR`` runs. pytest's matcher is private and beatlog
+does not depend on pytest, so :class:`KeywordExpression` parses the same grammar::
 
     expression := term ("or" term)*
     term       := factor ("and" factor)*

@@ -2,19 +2,15 @@
 a rerun, an audit or a DTC run again on a cluster's worker does not download its log
 again.
 
-An entry is keyed by the object's URL and ETag where the storage gives one, which
-changes whenever the object does; else, a weaker key, by its URL, size and time of last
-change; an object that says neither is never cached. Each entry's name holds its size
-and SHA-256 digest, checked before every use: a damaged entry is removed and the log
-downloaded again, never replayed. Entries are written whole before they get their name
-and used through hard links of their own, so one process that removes an entry never
-pulls it from under another; only two that fetch the same object at once wait, the
-second for the first's copy (a lock of that object alone, in ``fetching``).
-
-A copy in use lies in a folder of its own, which its process holds locked (``flock``)
-until it removes it: the folder of a process killed meanwhile is removed by the next
-process to use the cache (or, without its lock, once a minute old), so a partial copy
-is never replayed nor keeps its disk space.
+An entry is keyed by the object's URL and ETag where the storage gives one, else by its
+URL, size and time of last change; an object that says neither is never cached. Each
+entry's name holds its size and SHA-256 digest, checked before every use: a damaged
+entry is removed and the log downloaded again, never replayed. Entries are written whole
+before they get their name and used through hard links of their own, so one process
+that removes an entry never pulls it from under another; two that fetch the same object
+at once share one download (a lock of that object alone, in ``fetching``). A copy in
+use lies in a folder its process holds locked (``flock``): one a killed process left is
+removed by the next process to use the cache, so a partial copy is never replayed.
 
 The cache lives in ``BEATLOG_CACHE_DIR`` (the user's cache folder's ``beatlog/logs``
 unless set) and holds ``BEATLOG_CACHE_MAX_BYTES`` bytes at most (:data:`MAX_CACHE_BYTES`

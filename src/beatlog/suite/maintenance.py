@@ -221,10 +221,8 @@ def decide(spec: DtcSpec, decision: Decision | str) -> None:
 
 
 def approve(paths: Sequence[Path]) -> list[tuple[DtcSpec, Shift]]:
-    """Accept the pending baseline of every spec given (or found in the folders given);
-    the specs approved, each with what its new baseline lost and gained against the
-    one it replaced (none when nothing is pending). ``CI`` set is a
-    :class:`~beatlog.errors.CiWriteError`."""
+    """Accept the pending baseline of every spec given (or found in the folders given),
+    as :func:`decide` does; the specs approved, each with what it lost and gained."""
     require_writable()
     approved = []
     for spec in pending_specs(paths):

@@ -1,16 +1,11 @@
 """Runs DTC suites: specs replayed here and, with more than one job, in worker processes
-as well (:mod:`beatlog.suite.worker`), all cores by default, each with
-:func:`~beatlog.suite.runner.run_spec`; and splits a suite into shards for a CI matrix:
-N jobs that each run ``--shard I/N`` cover every DTC exactly once. Both spread the DTCs
-by weight: their logs' recorded cycles, the longest first.
-
-A shard depends only on the specs' paths and their logs' cycle counts, so every job
-computes the same split: specs sorted by path go, the longest recording first, to the
-shard with the fewest cycles so far. A log whose cycle count cannot be read cheaply
-counts 0 cycles; its run says what is wrong. Where a log lies behind a URL, every log
-weighs its size in bytes instead, as its listing or its filesystem gives it: no log is
-downloaded to plan the work, and a size that cannot be had fails the split (a job must
-not guess what the others may not).
+as well (:mod:`beatlog.suite.worker`), all cores by default; and splits a suite into
+shards for a CI matrix: N jobs that each run ``--shard I/N`` cover every DTC once. Both
+spread the DTCs by their logs' recorded cycles, the longest first (a log that cannot be
+read cheaply counts 0; its run says what is wrong), or, where a log lies behind a URL,
+by every log's size as its listing or filesystem gives it, no log downloaded. A shard
+depends only on the specs' paths and these weights, so every job computes the same
+split; a size that cannot be had fails it (a job must not guess what others may not).
 """
 
 from __future__ import annotations

@@ -4,19 +4,17 @@
 The reader needs a regular, seekable file, so the process that reads a log behind a
 URL copies it whole onto its own machine first (:func:`fetched_log`), and removes the
 copy when done, interrupted or not. The copy is kept in the machine's cache of logs
-(:mod:`beatlog.suite.log_cache`), so a log unchanged since is not downloaded again; a
-cluster's worker fills it ahead (:func:`fetch_ahead`). A log a listing found (a
-fleet's) comes with its size and ETag (:class:`Listed`): its download is then one
-request, nothing asked before it, and a copy in the cache none.
+(:mod:`beatlog.suite.log_cache`), which a cluster's worker fills ahead
+(:func:`fetch_ahead`). A log a listing found comes with its size and ETag
+(:class:`Listed`): its download is then one request, and a copy in the cache none.
 
-A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
-(:data:`MAX_LOG_BYTES` unless set). Over ``http(s)`` a server must connect, and send
-each next bytes, within ``BEATLOG_URL_TIMEOUT`` seconds (:data:`TIMEOUT_S` unless set),
-and answer a size or a listing whole within it. Once a download of any scheme has run
-that long it must average :data:`MIN_RATE` bytes a second, so that a trickle ends too.
-A download that does not end cleanly (cut off, a size other than the one listed, or a
-server that says neither its length nor where its body ends) is an error: no partial
-copy reaches the reader.
+A download is bounded: ``BEATLOG_URL_MAX_BYTES`` bytes at most (:data:`MAX_LOG_BYTES`
+unless set). Over ``http(s)`` a server must connect, send each next bytes, and answer a
+size or a listing whole within ``BEATLOG_URL_TIMEOUT`` seconds (:data:`TIMEOUT_S` unless
+set); once a download of any scheme has run that long it must average
+:data:`MIN_RATE` bytes a second. A download that does not end cleanly (cut off, a size
+other than the one listed, or a body whose end the server does not say) is an error:
+no partial copy reaches the reader.
 """
 
 from __future__ import annotations

@@ -119,15 +119,11 @@ def run_spec(
 ) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
     if it has one; its outcome, whose wall time is the replay's alone. ``options`` may
-    ask for more: in :attr:`UpdateMode.NEW` a failure's new expectation, with ``audit``
-    its determinism audited (in ``auditors``' interpreters, see :func:`suite_auditors`),
-    with ``timelines`` charts, and break points as ``beatlog replay`` takes them.
-
-    The log is read once: the verdict's replay takes its digest (which must be its
-    approved baseline's) and keeps its bytes, from which a failure's details and a
-    repeat replay come (:func:`repeat_note`); a log too large to keep is read again for
-    the details, and not repeated. A log behind a URL is copied here first; one that
-    cannot be copied is an error of the DTC."""
+    ask for a failure's new expectation, an audit (in ``auditors``' interpreters),
+    timelines and break points. The log is read once: the verdict's replay takes its
+    digest and keeps its bytes, from which a failure's details and a repeat replay come
+    (:func:`repeat_note`); a log too large to keep is read again for the details, and
+    not repeated. A log behind a URL is copied here first."""
     with importable_near(spec.spec_file):
         try:
             asked = time.perf_counter()

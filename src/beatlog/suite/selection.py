@@ -5,15 +5,11 @@
 and the break points such a selection can take.
 
 A fleet run replays every log that matches a local glob or an fsspec URL
-(``s3://bucket/2024-*/*.beatlog``, with ``pip install "beatlog[fleet]"``) against one
-system, each a DTC named after its file and judged against its recording. A URL's
-pattern is expanded by listing alone, which gives each log's size and ETag too: each
-log is copied only by the process that replays it (:mod:`beatlog.suite.remote`).
-
-The DTCs that failed are remembered by id in the project's cache folder, in
-``lastfailed.json``, as pytest's ``--lf`` remembers them: each run forgets the DTCs it
-ran that passed and adds those that failed or could not run. A file that cannot be read
-or trusted is ignored with a warning, never a crash.
+(``s3://bucket/2024-*/*.beatlog``) against one system, each a DTC named after its file
+and judged against its recording; a URL's pattern is expanded by listing alone. The
+DTCs that failed are remembered by id in the project's cache folder, in
+``lastfailed.json``, as pytest's ``--lf`` remembers them; a file that cannot be read or
+trusted is ignored with a warning, never a crash.
 """
 
 from __future__ import annotations
@@ -38,7 +34,7 @@ from beatlog.errors import (
 from beatlog.log.limits import MAX_TEXT_LENGTH
 from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import beyond_the_log
-from beatlog.suite.coverage import cache_file, read_cached, select_exercising, write_cached
+from beatlog.suite.coverage import Text, cache_file, read_cached, select_exercising, write_cached
 from beatlog.suite.discovery import discover_specs, distinguished, select_specs
 from beatlog.suite.parallel import Shard, shard
 from beatlog.suite.remote import http_quoted, is_url, url_filesystem, url_name
@@ -69,10 +65,7 @@ _HERE = (Path(),)
 
 
 class _LastFailed(msgspec.Struct, forbid_unknown_fields=True, tag_field="version", tag=1):
-    dtcs: Annotated[
-        list[Annotated[str, msgspec.Meta(max_length=MAX_TEXT_LENGTH)]],
-        msgspec.Meta(max_length=MAX_REMEMBERED),
-    ]
+    dtcs: Annotated[list[Text], msgspec.Meta(max_length=MAX_REMEMBERED)]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -168,12 +161,8 @@ class Selection:
 
 
 def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
-    """The DTCs of a fleet run's logs, their system (and perception step) built once to
-    check it; None without ``logs``.
-
-    :raises FleetError: no log matches, or they cannot be listed.
-    :raises SystemLoadError: the system or the perception step cannot be built.
-    """
+    """The DTCs of a fleet run's logs (:func:`fleet_specs`), their system checked once
+    (:func:`check_references`); None without ``logs``."""
     if options.logs is None:
         return None
     assert options.system is not None, "SuiteOptions checks it"

@@ -1,16 +1,11 @@
 """DTC specs: one small TOML file per deterministic test case, as the paper prescribes,
-read (:func:`load_spec`) and written (:func:`spec_text`, :func:`spec_toml`).
-
-A spec names the test case, says what it is for and how it was recorded, and points at
-its session log (relative to the spec, or a URL) and the ``module:factory`` of the
-system to replay it against (by default the one its log records, where the project
-lists it: a log never chooses code on its own)::
+read (:func:`load_spec`) and written (:func:`spec_text`, :func:`spec_toml`)::
 
     name = "avoid-pole"
     purpose = "The rover turns away from a pole in its path."
     procedure = ["Place the rover 1 m before the pole.", "Let it drive for 30 s."]
-    log = "avoid-pole.beatlog"
-    system = "myrobot.behaviors:system"
+    log = "avoid-pole.beatlog"             # relative to the spec, or a URL
+    system = "myrobot.behaviors:system"    # by default, the log's, where the project lists it
 
 Its optional keys are those of the spec reference; an unknown key is an error naming
 the key it may mean. The project's ``[tool.beatlog]`` holds what applies to every spec

@@ -66,10 +66,8 @@ def with_variants(specs: Iterable[DtcSpec], count: int | None = None) -> list[Dt
 
 
 def write_variant_spec(spec: DtcSpec) -> Path:
-    """Write variant ``spec`` of a DTC as a spec beside the original
-    (:attr:`~beatlog.suite.spec.DtcSpec.own_spec`), its path: its log (no copy), system,
-    invariants, window, number and perturbations, all of them, so that it reproduces
-    whatever the original spec or the project say later.
+    """Write variant ``spec`` of a DTC as a spec beside the original, its path: with all
+    it replays with, so that it reproduces whatever the original or the project say later.
 
     :raises beatlog.errors.SpecError: it cannot be written.
     """
@@ -104,8 +102,7 @@ def write_variant_spec(spec: DtcSpec) -> Path:
 
 def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
     """The spec's invariants, each imported once here, so that one that does not import
-    is an error naming where it is listed: the spec (the DTC's error names it) or its
-    project's ``pyproject.toml``. Each replay then imports its own.
+    is an error naming where it is listed: the spec or its ``pyproject.toml``.
 
     :raises beatlog.errors.SystemLoadError: one does not import, or is no invariant.
     """

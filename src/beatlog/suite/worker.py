@@ -67,10 +67,7 @@ class Worker(Closing):
         self._stopped = False
 
     def wait_ready(self) -> None:
-        """Block until the worker has started and waits for specs.
-
-        :raises WorkerLostError: the worker ended first.
-        """
+        """Block until the worker waits for specs (:class:`WorkerLostError` if it ended)."""
         if not self._ready:
             self._receive()
             self._ready = True
