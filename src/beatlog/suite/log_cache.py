@@ -91,11 +91,8 @@ def cached_copy(
 ) -> Iterator[Path]:
     """A copy of the log behind ``url`` named ``name``, on this machine until the block
     ends: the cache's where it holds a sound one for the object ``info`` describes, else
-    one that ``fetch`` writes to the path it is given (then kept in the cache).
-
-    :raises RemoteLogError: ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0;
-        and what ``fetch`` raises.
-    """
+    one that ``fetch`` writes to the path it is given (then kept in the cache). Raises
+    what ``fetch`` raises, and :class:`RemoteLogError` for a bad cache bound."""
     bound = _max_bytes(url)
     key = cache_key(url, info)
     if bound == 0 or key is None:
@@ -213,10 +210,7 @@ def _keep(entries: Path, key: str, copy: Path, bound: int) -> None:
 
 def _link(source: Path, target: Path) -> None:
     """``target`` as a hard link to ``source``, or, on a filesystem without links, a
-    copy written whole before it gets its name.
-
-    :raises FileExistsError: ``target`` exists.
-    """
+    copy written whole before it gets its name (:class:`FileExistsError` if it exists)."""
     try:
         os.link(source, target)
     except (FileExistsError, FileNotFoundError):

@@ -86,8 +86,7 @@ class SpecOutcome:
     storage_wait_s: float | None = None
     """For a log behind a URL: the seconds its copy took (a download, or the cache)."""
     recorded: RecordedChanges | None = None
-    """The state changes its log recorded, when run with ``coverage`` and its log could
-    be read to the end."""
+    """The state changes its log recorded, when run with ``coverage`` (and read whole)."""
     recording: Recording | None = None
     """Its log as the verdict's replay read it, with an :attr:`update`, where it is small
     enough to keep: the pending baseline is weighed against it, not the file again."""
