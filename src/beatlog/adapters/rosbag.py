@@ -43,7 +43,7 @@ from beatlog.model.perception import Perception
 from beatlog.model.random import RecordingRandom
 from beatlog.project.usercode import failure, load_perception, load_system, user_traceback
 from beatlog.record.recorder import Recorder
-from beatlog.suite.spec_writing import spec_text
+from beatlog.suite.spec import spec_text
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, NoReturn, TypeVar
 from beatlog.errors import OptionError
 
 if TYPE_CHECKING:
-    from beatlog.suite.sharding import Shard
+    from beatlog.suite.parallel import Shard
 
 __all__ = [
     "Parser",
@@ -90,7 +90,7 @@ def references(text: str) -> list[str]:
 
 def shard(text: str) -> Shard:
     """``I/N``: one shard of a suite."""
-    from beatlog.suite.sharding import Shard
+    from beatlog.suite.parallel import Shard
 
     try:
         return Shard.parse(text)

@@ -26,8 +26,8 @@ if TYPE_CHECKING:
     from rich.console import Console
     from rich.progress import Progress
 
-    from beatlog.suite.options import SuiteOptions
     from beatlog.suite.runner import SpecOutcome
+    from beatlog.suite.selection import SuiteOptions
 
 __all__ = ["add_arguments", "run"]
 
@@ -156,7 +156,7 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
 
 
 def _options(args: argparse.Namespace) -> SuiteOptions:
-    from beatlog.suite.options import SuiteOptions
+    from beatlog.suite.selection import SuiteOptions
 
     return SuiteOptions(
         paths=tuple(args.paths),
