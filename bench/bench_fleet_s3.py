@@ -22,6 +22,7 @@ import collections
 import io
 import logging
 import os
+import resource
 import statistics
 import tempfile
 import threading
@@ -33,7 +34,7 @@ from typing import Any
 from beatlog.baseline.policy import SpecOptions
 from beatlog.suite.cluster import DaskExecutor
 from beatlog.suite.parallel import longest_first
-from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.selection import fleet_specs
 from beatlog_examples.rover import record_lockstep
 
@@ -105,6 +106,7 @@ def run_fleet(workers: int, delayed: Delayed) -> dict[str, float]:
     """One fleet run on a fresh local cluster; its figures."""
     requests, sent = delayed.counted()
     methods = delayed.by_method()
+    own, children = _cpu(resource.RUSAGE_SELF), _cpu(resource.RUSAGE_CHILDREN)
     started = time.perf_counter()
     with DaskExecutor(f"local:{workers}") as executor:
         ready = time.perf_counter()
@@ -120,6 +122,7 @@ def run_fleet(workers: int, delayed: Delayed) -> dict[str, float]:
 
         executor(specs, SpecOptions(), done)
         finished = time.perf_counter()
+    own, children = _cpu(resource.RUSAGE_SELF) - own, _cpu(resource.RUSAGE_CHILDREN) - children
     assert all(outcome.verdict is Verdict.PASSED for _, outcome in outcomes), [
         outcome.error for _, outcome in outcomes if outcome.verdict is not Verdict.PASSED
     ][:3]
@@ -141,7 +144,36 @@ def run_fleet(workers: int, delayed: Delayed) -> dict[str, float]:
             if method != "LIST"
         },
         "log bytes sent": delayed.counted()[1] - sent,
+        "client, scheduler and server CPU a DTC ms": own / len(outcomes) * 1000,
+        "workers' CPU a DTC ms (start-up included)": children / len(outcomes) * 1000,
     }
+
+
+def idle_cluster(workers: int) -> dict[str, float]:
+    """The CPU of starting and closing a cluster that replays nothing, to take from a
+    fleet run's for the CPU a DTC costs."""
+    own, children = _cpu(resource.RUSAGE_SELF), _cpu(resource.RUSAGE_CHILDREN)
+    with DaskExecutor(f"local:{workers}"):
+        pass
+    return {
+        "client": _cpu(resource.RUSAGE_SELF) - own,
+        "workers": _cpu(resource.RUSAGE_CHILDREN) - children,
+    }
+
+
+def _cpu(who: int) -> float:
+    """CPU seconds used so far by this process (``RUSAGE_SELF``) or its ended children."""
+    usage = resource.getrusage(who)
+    return usage.ru_utime + usage.ru_stime
+
+
+def replay_cpu(specs: list[Any]) -> float:
+    """The CPU seconds of replaying ``specs`` one after another in this process, from
+    the machine's cache of logs: the fleet's replay CPU, without a cluster."""
+    started = time.process_time()
+    for spec in specs:
+        assert run_spec(spec, SpecOptions()).verdict is Verdict.PASSED
+    return time.process_time() - started
 
 
 def main() -> None:
@@ -173,9 +205,22 @@ def main() -> None:
             f"{args.workers} workers, {args.latency_ms:g} ms per request",
             file=out,
         )
+        idle = idle_cluster(args.workers)
+        print(
+            f"a cluster started and closed, replaying nothing: client and scheduler CPU "
+            f"{idle['client']:.3g} s, workers' CPU {idle['workers']:.3g} s",
+            file=out,
+        )
         for run in ("first run", "rerun"):
             figures = run_fleet(args.workers, delayed)
             print(run + ": " + ", ".join(f"{k} {v:.3g}" for k, v in figures.items()), file=out)
+        specs = fleet_specs(f"s3://{BUCKET}/fleet/*.beatlog", system=ROVER)
+        cpu = replay_cpu(specs)
+        print(
+            f"replays in one process, from the cache: {cpu / len(specs) * 1000:.3g} ms CPU a DTC, "
+            f"sum / workers {cpu / args.workers:.3g} s",
+            file=out,
+        )
         print(out.getvalue(), end="")
 
 

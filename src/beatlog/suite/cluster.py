@@ -159,28 +159,35 @@ class DaskExecutor(Closing):
                 pending[str(future.key)] = (future, spec)
             return futures
 
-        completed = as_completed(submit(_IN_FLIGHT_PER_THREAD * threads), loop=self._client.loop)
+        completed = as_completed(
+            submit(_IN_FLIGHT_PER_THREAD * threads),
+            loop=self._client.loop,
+            with_results=True,  # gathered as they complete: no round trip a DTC here
+            raise_errors=False,
+        )
         try:
-            for future in completed:
+            for future, result in completed:
                 _, spec = pending.pop(str(future.key))
-                if done(self._outcome(future, spec)):
+                if done(self._outcome(future, result, spec)):
                     return
                 completed.update(submit(1))
         finally:
             self._client.cancel([future for future, _ in pending.values()], force=True)
 
-    def _outcome(self, future: Future[SpecOutcome], spec: DtcSpec) -> SpecOutcome:
-        """The outcome of a completed task, told as a local run tells it, with the
-        times the DTC was run again because its worker died."""
+    def _outcome(self, future: Future[SpecOutcome], result: Any, spec: DtcSpec) -> SpecOutcome:
+        """The outcome of a completed task from its ``result`` (a failed task's is
+        ``(type, exception, traceback)``, a cancelled one's the exception), told as a
+        local run tells it, with the times the DTC was run again because its worker died."""
         from distributed import KilledWorker  # noqa: PLC0415 - with the client's package
 
-        try:
-            outcome = future.result()
-        except KilledWorker as exc:
-            tries = exc.allowed_failures + 1
-            problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
-            return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
-        return _as_given(outcome, spec, self._deaths[str(future.key)])
+        if future.status == "finished":
+            return _as_given(result, spec, self._deaths[str(future.key)])
+        exc = result[1].with_traceback(result[2]) if isinstance(result, tuple) else result
+        if not isinstance(exc, KilledWorker):
+            raise exc
+        tries = exc.allowed_failures + 1
+        problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
+        return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
