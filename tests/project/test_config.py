@@ -65,7 +65,10 @@ def test_a_log_that_records_no_system_says_so(tmp_path: Path) -> None:
     with pytest.raises(SystemLoadError) as raised:
         vouched_system(LOG, "", project=tmp_path)
 
-    assert str(raised.value) == "walk.beatlog: records no system; name one (module:factory)"
+    assert (
+        str(raised.value) == "walk.beatlog: records no system; name one as module:factory "
+        "(--system, or system = in the spec)"
+    )
 
 
 def test_a_long_recorded_reference_is_cut_in_the_message(tmp_path: Path) -> None:

@@ -152,7 +152,10 @@ def vouched_system(log: str | Path, recorded: str, *, project: Path) -> str:
         project does not list; the message says how to name one.
     """
     if not recorded:
-        raise SystemLoadError(f"{log}: records no system; name one (module:factory)")
+        raise SystemLoadError(
+            f"{log}: records no system; name one as module:factory "
+            "(--system, or system = in the spec)"
+        )
     project = project.resolve()
     if recorded in project_config(project).systems:
         return recorded

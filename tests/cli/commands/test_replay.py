@@ -79,7 +79,10 @@ def test_replay_without_a_system_of_a_log_that_records_none_is_one_line(
 
     run = beatlog("replay", log)
 
-    assert_error(run, f"{log}: records no system; name one (module:factory)")
+    assert_error(
+        run,
+        f"{log}: records no system; name one as module:factory (--system, or system = in the spec)",
+    )
 
 
 TRAP = "import pathlib\npathlib.Path('sprung').write_text('imported')\ndef trap(): pass\n"

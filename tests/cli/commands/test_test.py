@@ -104,7 +104,8 @@ def test_a_spec_without_a_system_replays_against_the_one_its_project_vouches_for
         "project does not vouch for; name it (--system, or system = in the spec) or list it "
         f"under [tool.beatlog] systems in {specs / 'pyproject.toml'}\n"
         f"beatlog: error: unnamed ({specs / 'unnamed.dtc.toml'}): "
-        f"{specs / '..' / 'unnamed.beatlog'}: records no system; name one (module:factory)\n"
+        f"{specs / '..' / 'unnamed.beatlog'}: records no system; name one as module:factory "
+        "(--system, or system = in the spec)\n"
     )
 
 
