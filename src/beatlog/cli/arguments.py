@@ -100,41 +100,32 @@ def shard(text: str) -> Shard:
 
 def cycle_number(text: str) -> int:
     """A cycle of a log: 0 or more."""
-    return _zero_or_more(text, "a cycle number")
+    return _number(text, int, "a cycle number", zero=True)
 
 
 def count(text: str) -> int:
     """How many of something: a whole number, 0 or more."""
-    return _zero_or_more(text, "a whole number")
-
-
-def _zero_or_more(text: str, what: str) -> int:
-    try:
-        number = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
-    if number < 0:
-        raise argparse.ArgumentTypeError(f"must be 0 or more: {text!r}")
-    return number
+    return _number(text, int, "a whole number", zero=True)
 
 
 def positive_float(text: str) -> float:
     """A number above 0."""
-    return _positive(text, float, "a number")
+    return _number(text, float, "a number")
 
 
 def positive_int(text: str) -> int:
     """A whole number above 0."""
-    return _positive(text, int, "a whole number")
+    return _number(text, int, "a whole number")
 
 
-def _positive(text: str, kind: Callable[[str], Number], what: str) -> Number:
+def _number(text: str, kind: Callable[[str], Number], what: str, *, zero: bool = False) -> Number:
+    """``text`` as a ``kind`` above 0, or (``zero``) 0 or more."""
     try:
         value = kind(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be positive: {text!r}")
+    if value < 0 or not (zero or value > 0):
+        raise argparse.ArgumentTypeError(f"must be {'0 or more' if zero else 'positive'}: {text!r}")
     return value
 
 

@@ -1,16 +1,20 @@
-"""What the subcommands share: the exit codes, the one-line error, and the session logs
-and outputs they name."""
+"""What the subcommands share: the exit codes, the one-line error, the session logs
+and outputs they name, and the progress bar."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-import functools
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from beatlog.errors import BeatlogError, OptionError
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.progress import Progress
 
 __all__ = [
     "EXIT_CODES",
@@ -22,6 +26,7 @@ __all__ = [
     "EXIT_USAGE",
     "check_output",
     "print_error",
+    "progress",
     "readable",
 ]
 
@@ -53,12 +58,11 @@ def check_output(output: Path) -> None:
 
 
 @contextlib.contextmanager
-def readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
+def readable(args: argparse.Namespace) -> Iterator[str | None]:
     """``args.log`` as a file of this machine while the block runs: a log behind a URL
-    is copied once (:func:`beatlog.suite.remote.fetched_log`, with a progress bar on a
-    terminal) and ``args.log`` names the copy, which is removed after. The block is
-    given a function that names the copy by its URL in a text, and errors raised in it
-    are named so too; None for a local log."""
+    is copied once (with a progress bar on a terminal), ``args.log`` names the copy,
+    which is removed after, and errors raised in the block name it by its URL. The
+    block is given the URL; None for a local log."""
     from beatlog.suite.remote import fetched_log, is_url, named_as_given
 
     url = str(args.log)
@@ -68,7 +72,24 @@ def readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
     with fetched_log(url, progress=True) as copy:
         args.log = copy
         try:
-            yield functools.partial(named_as_given, copy=copy, url=url)
+            yield url
         except BeatlogError as exc:
             exc.args = (named_as_given(str(exc), copy, url),)
             raise
+
+
+def progress(console: Console, *figures: str, hidden: bool = False) -> Progress:
+    """A transient progress bar: what runs, the bar, ``figures`` (templates of the
+    task's fields) and the time taken; drawn only where it can be redrawn (a terminal:
+    no blank line left behind) and not ``hidden``."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        *map(TextColumn, figures),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal or hidden,
+    )

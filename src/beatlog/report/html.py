@@ -11,18 +11,20 @@ from __future__ import annotations
 import html
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import NamedTuple
 
 from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
+from beatlog.analysis.timeline import Timeline
 from beatlog.log.files import replacing
 from beatlog.replaying.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
-from beatlog.report.figures import Chart, dtc_charts
 from beatlog.report.palette import state_styles
+from beatlog.report.svg import svg_chart, timeline_states
 from beatlog.suite.runner import SpecOutcome
 
-__all__ = ["render_html", "write_html"]
+__all__ = ["Chart", "dtc_charts", "render_html", "write_html"]
 
 _CSS = """
 body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 1260px;
@@ -52,6 +54,34 @@ dl.facts { display: grid; grid-template-columns: max-content auto; gap: 0.1em 1e
 dl.facts dt { color: #666; }
 dl.facts dd { margin: 0; }
 """
+
+
+class Chart(NamedTuple):
+    """One drawn chart of a DTC."""
+
+    svg: str
+    """The ``<svg>`` element."""
+    states: tuple[str, ...]
+    """The state labels it shows, in order of first appearance (the page colours them)."""
+    caption: str
+
+
+def dtc_charts(name: str, timelines: Sequence[Timeline]) -> tuple[Chart, ...]:
+    """The charts of the DTC ``name``: every timeline but the last is a close-up of
+    the first divergence."""
+    charts = []
+    for index, timeline in enumerate(timelines):
+        start_s, end_s = timeline.start_ns / 1e9, timeline.end_ns / 1e9
+        if index < len(timelines) - 1:
+            title = f"{name}: close-up of the first divergence, {start_s:.3f}–{end_s:.3f} s"
+        else:
+            title = f"{name}: the whole session, {timeline.cycles:,} cycles, {end_s:.1f} s"
+        caption = "Behavior states as recorded and as replayed, with robot-state fields" + (
+            "; the red line marks the first divergence." if timeline.divergence else "."
+        )
+        svg = svg_chart(timeline, title=title)
+        charts.append(Chart(svg, tuple(timeline_states(timeline)), caption))
+    return tuple(charts)
 
 
 def write_html(

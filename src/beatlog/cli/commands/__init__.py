@@ -8,9 +8,11 @@ carries it out (``run``), importing what it uses when it runs, so that ``beatlog
 from __future__ import annotations
 
 import argparse
+import functools
 from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
+from beatlog.cli.arguments import add_paths
 from beatlog.cli.commands import (
     baselines,
     demo,
@@ -66,7 +68,7 @@ COMMANDS: dict[str, Command] = {
     "review": Command(
         "show each pending baseline change with what it loses, and ask whether to accept, "
         "reject or skip it (and each loss); accepting writes the approved baseline",
-        baselines.add_review_arguments,
+        functools.partial(add_paths, what="specs or folders with pending baselines"),
         baselines.run_review,
     ),
     "approve": Command(
@@ -77,7 +79,9 @@ COMMANDS: dict[str, Command] = {
     ),
     "upgrade-baselines": Command(
         "rewrite baselines of older formats in the current one (recordings are untouched)",
-        baselines.add_upgrade_arguments,
+        functools.partial(
+            add_paths, what="baselines, specs, or folders with approved and pending baselines"
+        ),
         baselines.run_upgrade,
         runs_user_code=False,
     ),

@@ -12,20 +12,16 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import add_paths
 from beatlog.cli.common import EXIT_OK
 from beatlog.errors import OptionError
 
 if TYPE_CHECKING:
     from rich.console import Console
-    from rich.text import Text
 
     from beatlog.suite.maintenance import Decision
 
 __all__ = [
     "add_approve_arguments",
-    "add_review_arguments",
-    "add_upgrade_arguments",
     "review",
     "run_approve",
     "run_review",
@@ -35,11 +31,6 @@ __all__ = [
 Ask = Callable[[str], str]
 """Asks the reviewer a question (its choices shown in it) and returns the answer typed."""
 _CHOICES = "[a]ccept/[r]eject/[s]kip"
-
-
-def add_review_arguments(review: argparse.ArgumentParser) -> None:
-    """The arguments of ``beatlog review``."""
-    add_paths(review, "specs or folders with pending baselines")
 
 
 def run_review(args: argparse.Namespace, console: Console) -> int:
@@ -70,7 +61,8 @@ def review(
     )
 
     specs = pending_specs(paths)
-    _print_lines(render_orphans(find_orphans(paths)), console)
+    for line in render_orphans(find_orphans(paths)):
+        console.print(line, highlight=False)
     if not specs:
         console.print("nothing pending")
         return 0, 0, 0
@@ -140,12 +132,6 @@ def _piped(console: Console) -> Ask:
     return ask
 
 
-def _print_lines(lines: Sequence[Text], console: Console) -> None:
-    """Each line on its own, as it is (no markup or highlighting read into paths)."""
-    for line in lines:
-        console.print(line, highlight=False)
-
-
 def add_approve_arguments(approve: argparse.ArgumentParser) -> None:
     """The arguments of ``beatlog approve``."""
     approve.add_argument(
@@ -165,13 +151,9 @@ def run_approve(args: argparse.Namespace, console: Console) -> int:
         console.print("nothing pending to approve", highlight=False)
     for spec, weighed in approved:
         console.print(f"[green]approved[/] {spec.name}: {expected_path(spec.path)}")
-        _print_lines(render_losses(weighed, f"  accepted loss in {spec.name}: "), console)
+        for line in render_losses(weighed, f"  accepted loss in {spec.name}: "):
+            console.print(line, highlight=False)
     return EXIT_OK
-
-
-def add_upgrade_arguments(upgrade: argparse.ArgumentParser) -> None:
-    """The arguments of ``beatlog upgrade-baselines``."""
-    add_paths(upgrade, "baselines, specs, or folders with approved and pending baselines")
 
 
 def run_upgrade(args: argparse.Namespace, console: Console) -> int:

@@ -42,10 +42,8 @@ def run(args: argparse.Namespace, console: Console) -> int:
     from beatlog.adapters.export import export, export_format
 
     chosen = export_format(args.output, args.format)  # refused before anything runs
-    given = args.log
-    with readable(args) as named:
+    with readable(args) as url:
         result = export(args.log, args.output, format=chosen, system=args.system)
-    if named is not None:
-        result = dataclasses.replace(result, url=given)
+    result = dataclasses.replace(result, url=url)
     console.print(result.describe(), markup=False, highlight=False)
     return EXIT_OK if result.divergence is None else EXIT_FAILED

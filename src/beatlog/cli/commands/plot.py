@@ -41,8 +41,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     from beatlog.report.chart import chart_format, write_chart
 
     chart_format(args.output)  # an unknown suffix is refused before anything runs
-    given = args.log
-    with readable(args):
+    with readable(args) as url:
         divergence = (
             None
             if args.system is None
@@ -55,7 +54,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
         raise OptionError(f"{args.output}: cannot write: {exc.strerror}") from None
     mark = timeline.divergence
     console.print(
-        f"drew {timeline.cycles} cycles of {given} to {args.output}"
+        f"drew {timeline.cycles} cycles of {url or args.log} to {args.output}"
         + ("" if mark is None else f"; first divergence at cycle {mark.cycle} ({mark.kind})"),
         markup=False,
         highlight=False,

@@ -8,12 +8,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.cli.arguments import add_factory, add_invariants, positive_float
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK, check_output
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK, check_output, progress
 from beatlog.errors import BeatlogError, LogExistsError, OptionError
 
 if TYPE_CHECKING:
     from rich.console import Console
-    from rich.progress import Progress
 
     from beatlog.model.behavior import System
 
@@ -106,13 +105,13 @@ def run(args: argparse.Namespace, console: Console) -> int:
         ) from None
     with recording as recorder:
         try:
-            with _progress(console) as progress:
+            with progress(console, "{task.completed} cycles") as bar:
                 total = int(args.duration * 1e3 / args.period_ms)
-                task = progress.add_task("recording", total=total)
+                task = bar.add_task("recording", total=total)
                 recorder.run(
                     robot,
                     duration_s=args.duration,
-                    on_cycle=lambda cycles: progress.update(task, completed=cycles),
+                    on_cycle=lambda cycles: bar.update(task, completed=cycles),
                 )
         except KeyboardInterrupt:  # the log is closed as it is; say what it holds
             interrupted = True
@@ -149,17 +148,3 @@ def _write_failure(log: Path, error: str) -> str:
     except BeatlogError:
         return f"recording failed: {error} (the log cannot be read)"
     return f"recording failed at cycle {kept}: {error} (the log is valid up to there)"
-
-
-def _progress(console: Console) -> Progress:
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed} cycles"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
-    )

@@ -113,18 +113,18 @@ def run(args: argparse.Namespace, console: Console) -> int:
     from beatlog.replaying.judge import recorded_system
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
+    from beatlog.suite.remote import named_as_given
 
-    given = args.log
     if args.end_cycle is not None and args.start_cycle > args.end_cycle:
         raise OptionError(f"--start-cycle {args.start_cycle} is after --end-cycle {args.end_cycle}")
-    with readable(args) as named:
+    with readable(args) as url:
         if args.break_at is not None:
             _check_break(args.break_at, Path(args.log))
         system = args.system
         if system is None:
             system = recorded_system(args.log)
             print(
-                f"beatlog: replaying against {system}, as recorded in {given} "
+                f"beatlog: replaying against {system}, as recorded in {url or args.log} "
                 "and listed in the project's [tool.beatlog] systems",
                 file=sys.stderr,
             )
@@ -147,8 +147,9 @@ def run(args: argparse.Namespace, console: Console) -> int:
                 result, lambda cycle: replay(args.log, system, break_at=cycle, **options)
             )
         result = dataclasses.replace(result, notes=result.notes + notes)
-    if named is not None:
-        result = dataclasses.replace(result, url=given, reproduce=named(result.reproduce))
+    if url is not None:
+        reproduce = named_as_given(result.reproduce, args.log, url)
+        result = dataclasses.replace(result, url=url, reproduce=reproduce)
     if args.json:
         sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
     else:

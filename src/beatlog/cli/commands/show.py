@@ -29,12 +29,9 @@ def run(args: argparse.Namespace, console: Console) -> int:
     from beatlog.report.console import render_summary
     from beatlog.suite.approved import approved_baselines
 
-    given = args.log
-    with readable(args) as named:
-        summary = summarize(args.log)
-        approved = [] if named is not None else approved_baselines(args.log)
-    if named is not None:
-        summary = dataclasses.replace(summary, url=given)
+    with readable(args) as url:
+        summary = dataclasses.replace(summarize(args.log), url=url)
+        approved = [] if url is not None else approved_baselines(args.log)
     console.print(render_summary(summary))
     for baseline in approved:
         console.print(render_approved(baseline))

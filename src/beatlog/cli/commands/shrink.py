@@ -7,11 +7,10 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK, progress
 
 if TYPE_CHECKING:
     from rich.console import Console
-    from rich.progress import Progress
 
     from beatlog.suite.shrink import Shrunk
 
@@ -31,7 +30,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     """Shrink the spec; what it found in a few lines, or one line where it passes."""
     from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink
 
-    with _progress(console) as bar:
+    with progress(console, "{task.completed} replays", "{task.fields[window]}") as bar:
         task = bar.add_task(f"shrinking {args.spec.name}", total=None, window="")
 
         def tried(attempt: Attempt) -> None:
@@ -81,18 +80,3 @@ def _report(shrunk: Shrunk, console: Console) -> None:
     ]
     for line in lines:
         console.print(line, highlight=False, markup=False)
-
-
-def _progress(console: Console) -> Progress:
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed} replays"),
-        TextColumn("{task.fields[window]}"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
-    )
