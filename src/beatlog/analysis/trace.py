@@ -126,7 +126,10 @@ def whole_trace(
                 changes.extend(TracedChange(cycle, time_ns, c) for c in override[cycle])
             elif record.state_changes != EMPTY_LIST:
                 recorded = named_changes(path, record.state_changes, names, cycle)
-                changes.extend(TracedChange(cycle, time_ns, _renamed(c, rename)) for c in recorded)
+                changes.extend(
+                    TracedChange(cycle, time_ns, c._replace(behavior=rename(c.behavior)))
+                    for c in recorded
+                )
             if line is not None and line[0] == cycle:
                 hold(held, line[1])
                 line = next(lines, None)
@@ -137,10 +140,6 @@ def whole_trace(
             )
             outputs.extend(tracker.observe(cycle, time_ns, apply_outputs(values, held)))
     return WholeTrace(tuple(changes), tuple(outputs), baseline)
-
-
-def _renamed(change: StateChange, rename: Callable[[str], str]) -> StateChange:
-    return change._replace(behavior=rename(change.behavior))
 
 
 def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[str, Any]]:

@@ -1,18 +1,9 @@
 """The ``beatlog`` command: a thin shell over the library.
 
-The subcommands are listed once, in :data:`beatlog.cli.commands.COMMANDS`; each imports
-what it uses when it runs, so that ``beatlog --help`` loads neither the engines nor
-rich. This module is the entry point: it builds the parser from that table (each
-subcommand with a ``--help`` page that says what it does and ends with the exit codes),
-parses the command line, runs the subcommand, and turns what stops it into an exit code.
-
-Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
-input (one line on stderr naming the file and the problem, never a traceback; with
-``--verbose`` the traceback of the user's code that failed comes first), 130
-interrupted (Ctrl-C, or quitting the debugger at a break: what was complete is printed,
-no report is half written), 143
-terminated (SIGTERM: stopped as Ctrl-C stops it, temporary copies of logs behind URLs
-removed).
+It builds the parser from :data:`beatlog.cli.commands.COMMANDS` (each subcommand's
+``--help`` page ends with the exit codes, :data:`~beatlog.cli.common.EXIT_CODES`), runs
+the subcommand, and turns what stops it into an exit code: a :class:`BeatlogError` into
+one line on stderr and 2, Ctrl-C into 130, SIGTERM into 143.
 """
 
 from __future__ import annotations

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import html
 from collections.abc import Iterable, Sequence
+from itertools import zip_longest
 from pathlib import Path
 from typing import NamedTuple
 
@@ -116,7 +117,8 @@ def render_html(
         '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
         f"<title>{_e(title)}: {_e(counts)}</title>",
-        f"<style>{_CSS}{_state_styles(charts)}</style></head><body>",
+        f"<style>{_CSS}{state_styles(s for drawn in charts for c in drawn for s in c.states)}"
+        "</style></head><body>",
         f"<h1>{_e(title)}</h1>",
         f'<p class="counts">{_e(counts)}, {_cycles(outcomes)} cycles replayed '
         f"(beatlog {_e(__version__)})</p>",
@@ -130,11 +132,6 @@ def render_html(
         parts.append(coverage_html(coverage))
     parts.append("</body></html>\n")
     return "\n".join(parts)
-
-
-def _state_styles(charts: Sequence[Sequence[Chart]]) -> str:
-    """One colour per state in every chart of the page, by first appearance in it."""
-    return state_styles(label for drawn in charts for chart in drawn for label in chart.states)
 
 
 def _e(value: object) -> str:
@@ -194,7 +191,10 @@ def _section(index: int, outcome: SpecOutcome, charts: Sequence[Chart]) -> str:
             parts.append(f'<pre class="traceback">{_e(outcome.error_traceback)}</pre>')
     elif result.divergence is not None:
         parts.append(_divergence(result.divergence, rerun))
-    parts.extend(_figure(chart) for chart in charts)
+    parts.extend(
+        f'<figure class="timeline">{chart.svg}<figcaption>{_e(chart.caption)}</figcaption></figure>'
+        for chart in charts
+    )
     if result is not None and result.divergence is not None:
         parts.append(_details(result.divergence))
     facts = [
@@ -215,12 +215,6 @@ def _section(index: int, outcome: SpecOutcome, charts: Sequence[Chart]) -> str:
     items = "".join(f"<dt>{_e(name)}</dt><dd>{_e(value)}</dd>" for name, value in facts)
     parts.append(f'<dl class="facts">{items}</dl></section>')
     return "\n".join(parts)
-
-
-def _figure(chart: Chart) -> str:
-    return (
-        f'<figure class="timeline">{chart.svg}<figcaption>{_e(chart.caption)}</figcaption></figure>'
-    )
 
 
 def _divergence(divergence: Divergence, rerun: str) -> str:
@@ -276,11 +270,11 @@ def _side_by_side(
     expected: Sequence[StateChange | DrawReport | str],
     actual: Sequence[StateChange | DrawReport | str],
 ) -> str:
-    rows = []
-    for row in range(max(len(expected), len(actual), 1)):
-        want = str(expected[row]) if row < len(expected) else "—"
-        got = str(actual[row]) if row < len(actual) else "—"
-        rows.append(_row([_e(want), _e(got)], css="" if want == got else "differs"))
+    pairs = [*zip_longest(map(str, expected), map(str, actual), fillvalue="—")]
+    rows = [
+        _row([_e(want), _e(got)], css="" if want == got else "differs")
+        for want, got in pairs or [("—", "—")]
+    ]
     head = _row(["recorded", "replayed"], cell="th")
     return f"<table><caption>{_e(what)}</caption>{head}{''.join(rows)}</table>"
 

@@ -35,7 +35,10 @@ def add_arguments(plot: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace, console: Console) -> int:
     """Draw the chart, with the first divergence where a system is given."""
-    _need_matplotlib("plot")
+    try:
+        import matplotlib  # noqa: F401
+    except ModuleNotFoundError:
+        raise OptionError('plot needs matplotlib (pip install "beatlog[plot]")') from None
     from beatlog.analysis.timeline import build_timeline
     from beatlog.replaying.judge import replay
     from beatlog.report.chart import chart_format, write_chart
@@ -60,11 +63,3 @@ def run(args: argparse.Namespace, console: Console) -> int:
         highlight=False,
     )
     return EXIT_OK
-
-
-def _need_matplotlib(command: str) -> None:
-    """Charts need the optional ``plot`` extra; say so in one line when it is missing."""
-    try:
-        import matplotlib  # noqa: F401
-    except ModuleNotFoundError:
-        raise OptionError(f'{command} needs matplotlib (pip install "beatlog[plot]")') from None

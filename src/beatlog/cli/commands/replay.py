@@ -108,7 +108,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
 
     import msgspec
 
-    from beatlog.replaying.debugger import break_on_divergence, unreached_break
+    from beatlog.replaying.debugger import beyond_the_log, break_on_divergence, unreached_break
     from beatlog.replaying.fit.migration import StateMigration
     from beatlog.replaying.judge import recorded_system
     from beatlog.report.console import render_replay
@@ -118,8 +118,9 @@ def run(args: argparse.Namespace, console: Console) -> int:
     if args.end_cycle is not None and args.start_cycle > args.end_cycle:
         raise OptionError(f"--start-cycle {args.start_cycle} is after --end-cycle {args.end_cycle}")
     with readable(args) as url:
-        if args.break_at is not None:
-            _check_break(args.break_at, Path(args.log))
+        problem = None if args.break_at is None else beyond_the_log(args.break_at, Path(args.log))
+        if problem is not None:  # a break past the end of the log, as its end record counts
+            raise OptionError(f"--break-at {args.break_at}: {problem}")
         system = args.system
         if system is None:
             system = recorded_system(args.log)
@@ -155,13 +156,3 @@ def run(args: argparse.Namespace, console: Console) -> int:
     else:
         console.print(render_replay(result))
     return EXIT_OK if result.ok else EXIT_FAILED
-
-
-def _check_break(break_at: int, log: Path) -> None:
-    """A break past the end of the log, as its end record counts its cycles, is a usage
-    error before anything replays."""
-    from beatlog.replaying.debugger import beyond_the_log
-
-    problem = beyond_the_log(break_at, log)
-    if problem is not None:
-        raise OptionError(f"--break-at {break_at}: {problem}")
