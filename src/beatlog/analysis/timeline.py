@@ -54,6 +54,10 @@ class Mark(NamedTuple):
     time_ns: int
     kind: DivergenceKind
 
+    def describe(self) -> str:
+        """How a chart marks it: ``first divergence: cycle 21, t = 0.660 s (outputs)``."""
+        return f"first divergence: cycle {self.cycle}, t = {self.time_ns / 1e9:.3f} s ({self.kind})"
+
 
 @dataclass(frozen=True)
 class Timeline:
@@ -73,6 +77,16 @@ class Timeline:
     replayed_until_ns: int
     """Actual intervals end here: the session's end, or where replay could not go on."""
     divergence: Mark | None
+
+    @property
+    def title(self) -> str:
+        """A chart's title where none is given."""
+        return f"{self.log.name}: {self.cycles} cycles"
+
+    def states(self) -> list[str]:
+        """The states of the lanes (as charts name them), in order of first appearance."""
+        intervals = (i for lane in self.lanes for i in (*lane.expected, *lane.actual))
+        return list(dict.fromkeys(str(interval.state) for interval in intervals))
 
     def rows(self) -> list[tuple[str, tuple[Interval, ...], bool]]:
         """A chart's rows, top to bottom: each lane as recorded, then as replayed (when

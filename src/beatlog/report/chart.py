@@ -17,8 +17,7 @@ from matplotlib.patches import Patch
 
 from beatlog.analysis.timeline import Interval, Signal, Timeline
 from beatlog.errors import OptionError
-from beatlog.report.palette import PALETTE, state_label
-from beatlog.report.svg import timeline_states
+from beatlog.report.palette import PALETTE
 
 __all__ = [
     "CHART_FORMATS",
@@ -73,7 +72,8 @@ def _draw(timeline: Timeline, title: str | None) -> Figure:
     )[:, 0]
     start_s = timeline.start_ns / 1e9
     end_s = max(timeline.end_ns / 1e9, start_s + 1e-3)
-    colors = _state_colors(timeline)
+    # one colour per state, in order of first appearance, the same in every lane
+    colors = {label: PALETTE[n % len(PALETTE)] for n, label in enumerate(timeline.states())}
     _draw_lanes(axes[0], timeline, colors, end_s - start_s)
     for ax, signal in zip(axes[1:], timeline.signals, strict=True):
         ax.plot(
@@ -94,16 +94,10 @@ def _draw(timeline: Timeline, title: str | None) -> Figure:
             color=_DIVERGENCE_COLOR,
             clip_on=False,
         )
-        axes[0].set_title(
-            f"first divergence: cycle {mark.cycle}, t = {mark.time_ns / 1e9:.3f} s "
-            f"({mark.kind.value})",
-            loc="right",
-            color=_DIVERGENCE_COLOR,
-            fontsize=10,
-        )
+        axes[0].set_title(mark.describe(), loc="right", color=_DIVERGENCE_COLOR, fontsize=10)
     axes[-1].set_xlim(start_s, end_s)
     axes[-1].set_xlabel("robot time (s)")
-    figure.suptitle(title or f"{timeline.log.name}: {timeline.cycles} cycles")
+    figure.suptitle(title or timeline.title)
     handles = [Patch(facecolor=color, label=label) for label, color in colors.items()]
     if handles:
         figure.legend(
@@ -122,12 +116,6 @@ def _value_axis(ax: Axes, signal: Signal) -> None:
     if signal.flag:
         ax.set_yticks([0, 1], ["False", "True"])
         ax.set_ylim(-0.15, 1.15)
-
-
-def _state_colors(timeline: Timeline) -> dict[str, Any]:
-    """One color per state name, in order of first appearance, the same in every lane."""
-    labels = timeline_states(timeline)
-    return {label: PALETTE[index % len(PALETTE)] for index, label in enumerate(labels)}
 
 
 def _draw_lanes(ax: Axes, timeline: Timeline, colors: dict[str, Any], duration_s: float) -> None:
@@ -162,7 +150,7 @@ def _draw_row(
         ax.broken_barh(
             [(i.start_ns / 1e9, (i.end_ns - i.start_ns) / 1e9) for i in chosen],
             (y - 0.4, 0.8),
-            facecolors=[colors[state_label(i.state)] for i in chosen],
+            facecolors=[colors[str(i.state)] for i in chosen],
             edgecolors="white" if flickering else "none",
             hatch="////" if flickering else None,
         )
@@ -172,7 +160,7 @@ def _draw_row(
             ax.text(
                 interval.start_ns / 1e9 + width_s / 2,
                 y,
-                state_label(interval.state),
+                str(interval.state),
                 ha="center",
                 va="center",
                 fontsize=7,

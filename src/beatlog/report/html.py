@@ -22,7 +22,7 @@ from beatlog.replaying.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
 from beatlog.report.palette import state_styles
-from beatlog.report.svg import svg_chart, timeline_states
+from beatlog.report.svg import svg_chart
 from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["Chart", "dtc_charts", "render_html", "write_html"]
@@ -81,7 +81,7 @@ def dtc_charts(name: str, timelines: Sequence[Timeline]) -> tuple[Chart, ...]:
             "; the red line marks the first divergence." if timeline.divergence else "."
         )
         svg = svg_chart(timeline, title=title)
-        charts.append(Chart(svg, tuple(timeline_states(timeline)), caption))
+        charts.append(Chart(svg, tuple(timeline.states()), caption))
     return tuple(charts)
 
 

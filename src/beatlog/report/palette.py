@@ -12,9 +12,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Iterable
 
-from beatlog.model.behavior import BehaviorState
-
-__all__ = ["PALETTE", "fallback_color", "state_key", "state_label", "state_styles"]
+__all__ = ["PALETTE", "fallback_color", "state_key", "state_styles"]
 
 PALETTE = (
     "#1f77b4",
@@ -39,11 +37,6 @@ PALETTE = (
     "#9edae5",
 )
 """matplotlib's ``tab20``: ten hues, each dark and light."""
-
-
-def state_label(state: BehaviorState) -> str:
-    """How a state is named in charts and legends."""
-    return str(state)
 
 
 def state_key(label: str) -> str:

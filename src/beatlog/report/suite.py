@@ -1,7 +1,5 @@
-"""What a suite session did, as the lines a shell shows: the summary table, the notes
-of the passing DTCs, the determinism audit, what updating the baselines did, orphaned
-baselines, the transition coverage and the closing counts. It never prints:
-``beatlog test`` prints the lines, the pytest plugin writes them in its summary."""
+"""What a suite session did, as the lines a shell shows (the summary table, notes,
+audit, baseline updates, orphans, coverage and closing counts); it never prints."""
 
 from __future__ import annotations
 
@@ -107,14 +105,10 @@ class SuiteReport:
         stale."""
         return [
             *render_updates(self.updates),
-            *self.variant_lines(),
+            *variant_lines(self.variant_specs),
             *self.orphan_lines(),
             *render_stale(self.stale),
         ]
-
-    def variant_lines(self) -> list[Text]:
-        """One line per spec written for a failing variant."""
-        return variant_lines(self.variant_specs)
 
     def note_lines(self) -> list[Text]:
         """What the passing DTCs' replays note (a failure's report has its own), one
@@ -142,20 +136,16 @@ class SuiteReport:
             return []
         return [render_coverage(self.coverage)]
 
-    def counts(self) -> str:
-        """``2 passed, 1 failed``, then the errors and the DTCs not run."""
-        return verdict_counts(
+    def closing_line(self) -> str:
+        """``2 passed, 1 failed`` (then the errors, the DTCs not run and those open
+        loop), with how long the run took and the cycles it replayed."""
+        counts = verdict_counts(
             (outcome.verdict for outcome in self.outcomes),
             not_run=self.not_run,
             open_loop=sum(outcome.open_loop is not None for outcome in self.outcomes),
         )
-
-    def closing_line(self) -> str:
-        """The counts, with how long the run took and the cycles it replayed."""
         cycles = self.cycles
-        return (
-            f"{self.counts()} in {self.wall_s:.2f} s ({cycles:,} cycle{'' if cycles == 1 else 's'})"
-        )
+        return f"{counts} in {self.wall_s:.2f} s ({cycles:,} cycle{'' if cycles == 1 else 's'})"
 
 
 def variant_lines(written: Iterable[Path]) -> list[Text]:

@@ -16,9 +16,9 @@ from collections.abc import Sequence
 from html import escape
 
 from beatlog.analysis.timeline import Interval, Signal, Timeline
-from beatlog.report.palette import fallback_color, state_key, state_label
+from beatlog.report.palette import fallback_color, state_key
 
-__all__ = ["WIDTH_PX", "svg_chart", "timeline_states"]
+__all__ = ["WIDTH_PX", "svg_chart"]
 
 WIDTH_PX = 1200
 _LEFT = 200
@@ -39,19 +39,9 @@ _NOT_REPLAYED = "#bbbbbb"
 _FONT = 'font-family="sans-serif"'
 
 
-def timeline_states(timeline: Timeline) -> list[str]:
-    """The state labels of a timeline's lanes, in order of first appearance."""
-    labels = dict.fromkeys(
-        state_label(interval.state)
-        for lane in timeline.lanes
-        for interval in (*lane.expected, *lane.actual)
-    )
-    return list(labels)
-
-
 def svg_chart(timeline: Timeline, *, title: str | None = None) -> str:
     """The timeline as an inline ``<svg>`` element, the same for the same timeline."""
-    return _Drawing(timeline).draw(title or f"{timeline.log.name}: {timeline.cycles} cycles")
+    return _Drawing(timeline).draw(title or timeline.title)
 
 
 class _Drawing:
@@ -73,13 +63,11 @@ class _Drawing:
         if mark is not None:
             add(
                 f'<text x="{WIDTH_PX - _RIGHT}" y="44" text-anchor="end" font-size="12" '
-                f'fill="{_DIVERGENCE}" {_FONT}>first divergence: cycle {mark.cycle}, '
-                f"t = {mark.time_ns / 1e9:.3f} s ({_text(mark.kind.value)})</text>"
+                f'fill="{_DIVERGENCE}" {_FONT}>{_text(mark.describe())}</text>'
             )
         add(f'<text x="{_LEFT}" y="44" font-size="12" {_FONT}>behavior states</text>')
         top = 54
-        lanes_bottom = self._lanes(top)
-        bottom = lanes_bottom
+        bottom = self._lanes(top)
         for signal in timeline.signals:
             bottom = self._signal(signal, bottom + _SIGNAL_GAP)
         if mark is not None and timeline.start_ns <= mark.time_ns <= timeline.end_ns:
@@ -128,7 +116,7 @@ class _Drawing:
         for interval in intervals:
             x = self.x(interval.start_ns)
             width = self.x(interval.end_ns) - x
-            label = state_label(interval.state)
+            label = str(interval.state)
             flicker = ' fill-opacity="0.45"' if interval.flicker else ""
             add(
                 f'<rect x="{x:.1f}" y="{y}" width="{max(width, 0.3):.1f}" height="{_BAR}" '
@@ -191,7 +179,7 @@ class _Drawing:
         return top + 40
 
     def _legend(self, top: int) -> int:
-        labels = timeline_states(self.timeline)[:_MAX_LEGEND]
+        labels = self.timeline.states()[:_MAX_LEGEND]
         add = self.parts.append
         width = _PLOT / _LEGEND_COLUMNS
         for index, label in enumerate(labels):

@@ -1,5 +1,5 @@
-"""The subcommands of ``beatlog``, one module each (the baseline commands share
-:mod:`~beatlog.cli.commands.baselines`), listed once in :data:`COMMANDS`: the
+"""The subcommands of ``beatlog``, a module for each job (those of one log, of
+baselines, of new logs share one), listed once in :data:`COMMANDS`: the
 parser is built from the table (:func:`beatlog.cli.main.build_parser`) and the entry
 point runs from it. A module declares its command's arguments (``add_arguments``) and
 carries it out (``run``), importing what it uses when it runs, so that ``beatlog
@@ -16,12 +16,9 @@ from beatlog.cli.arguments import add_paths
 from beatlog.cli.commands import (
     baselines,
     demo,
-    export,
-    import_bag,
-    plot,
+    logs,
     record,
     replay,
-    show,
     shrink,
     test,
 )
@@ -85,19 +82,23 @@ COMMANDS: dict[str, Command] = {
         baselines.run_upgrade,
         runs_user_code=False,
     ),
-    "show": Command("describe a session log", show.add_arguments, show.run, runs_user_code=False),
+    "show": Command(
+        "describe a session log", logs.add_show_arguments, logs.run_show, runs_user_code=False
+    ),
     "plot": Command(
-        "draw a timeline chart of a session log (PNG, SVG or PDF)", plot.add_arguments, plot.run
+        "draw a timeline chart of a session log (PNG, SVG or PDF)",
+        logs.add_plot_arguments,
+        logs.run_plot,
     ),
     "export": Command(
         "write a session log as MCAP for Foxglove and Lichtblick, or a table",
-        export.add_arguments,
-        export.run,
+        logs.add_export_arguments,
+        logs.run_export,
     ),
     "import-bag": Command(
         "turn a ROS bag into a session log with samples, replayable at sensor level",
-        import_bag.add_arguments,
-        import_bag.run,
+        record.add_bag_arguments,
+        record.run_bag,
     ),
     "help": Command(
         "show the help of beatlog or of one of its commands, or what a word it prints means",
