@@ -1,9 +1,7 @@
 """Writes a suite's outcomes as one self-contained HTML page: no scripts, no network.
 
-A summary table on top, then one section per DTC: its verdict, the first divergence
-(cycle, time, what changed, the command that reruns just that DTC) and its timeline
-chart as inline SVG, with the details below. Every piece of user data (names,
-messages, states, values) is escaped.
+A summary table, then a section per DTC: its verdict, first divergence and rerun
+command, its charts as inline SVG, and the details. All user data is escaped.
 """
 
 from __future__ import annotations

@@ -1,10 +1,8 @@
 """State colours, the same in every chart: a fixed palette and a stable key per state.
 
-A state's colour in one chart is its palette entry by order of first appearance; across
-the charts of an HTML report the page's stylesheet gives each state's key one colour,
-by its first appearance in the report (:func:`state_styles`), so a state looks the same
-in a close-up and in the whole session, and in every DTC. Outside a page (a chart
-alone) a state falls back to a colour chosen by its key.
+An HTML report's stylesheet gives each state's key one colour by its first appearance
+in the report (:func:`state_styles`), so a state looks the same in every chart; a chart
+alone falls back to a colour chosen by its key.
 """
 
 from __future__ import annotations

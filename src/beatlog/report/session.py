@@ -38,10 +38,9 @@ __all__ = ["SuiteSession", "conclude", "prepare_report"]
 
 
 class SuiteSession:
-    """A suite run as ``beatlog test`` makes it. Made from its options, it selects the
-    DTCs and refuses, before anything runs, a report it could not write and break
-    points the selection cannot take; :meth:`run` runs the DTCs, :meth:`finish` updates
-    their baselines and writes the reports.
+    """A suite run as ``beatlog test`` makes it: made, it selects the DTCs and refuses
+    a report it could not write or break points the selection cannot take;
+    :meth:`run` runs them, :meth:`finish` updates their baselines and writes reports.
 
     :raises EmptySelectionError: DTC specs are found, and none is selected.
     :raises OptionError: a report cannot be written, nothing is found, or the break

@@ -1,12 +1,9 @@
 """Draws a timeline as an ``<svg>`` element for the HTML report, with nothing but strings.
 
-The same chart as :mod:`beatlog.report.chart` draws with matplotlib for ``beatlog
-plot``: behavior lanes (recorded vs replayed) over robot-state signals, the first
-divergence marked; but in a few milliseconds instead of most of a second, so a suite's
-workers draw their DTCs' charts as they judge them. Every text is escaped, the markup
-has no ids (charts share a page freely) and each bar carries its state's class
-(:func:`beatlog.report.palette.state_key`) so the page colours a state alike in every
-chart.
+The chart :mod:`beatlog.report.chart` draws with matplotlib, in milliseconds instead of
+most of a second. Every text is escaped, the markup has no ids (charts share a page) and
+each bar carries its state's class (:func:`~beatlog.report.palette.state_key`), so the
+page colours a state alike in every chart.
 """
 
 from __future__ import annotations

@@ -66,8 +66,7 @@ def review(
     if not specs:
         console.print("nothing pending")
         return 0, 0, 0
-    if ask is None:
-        ask = _prompt(console) if sys.stdin.isatty() else _piped(console)
+    ask = ask or _asking(console)
     decided = dict.fromkeys(Decision, 0)
     for spec in specs:
         diff = pending_diff(spec)
@@ -105,26 +104,21 @@ def _decision(ask: Ask, question: str, console: Console) -> Decision:
             console.print(str(exc), style="yellow")
 
 
-def _prompt(console: Console) -> Ask:
-    """Ask at the terminal; the end of input answers nothing."""
+def _asking(console: Console) -> Ask:
+    """Ask at a terminal by prompting, else read the next answer from standard input (a
+    pipe), showing the question and the answer as a terminal would; the end of input
+    answers nothing."""
     from rich.markup import escape
     from rich.prompt import Prompt
 
-    def ask(question: str) -> str:
-        try:
-            # the question escaped, or rich reads its brackets as styles
-            return Prompt.ask(escape(question), console=console)
-        except EOFError:
-            return ""
-
-    return ask
-
-
-def _piped(console: Console) -> Ask:
-    """Read the next answer from standard input (not a terminal), showing the question
-    and the answer as a terminal would; none left answers nothing."""
+    terminal = sys.stdin.isatty()
 
     def ask(question: str) -> str:
+        if terminal:
+            try:  # the question escaped, or rich reads its brackets as styles
+                return Prompt.ask(escape(question), console=console)
+            except EOFError:
+                return ""
         answer = sys.stdin.readline().strip()
         console.print(f"{question}: {answer}".rstrip(), markup=False, highlight=False)
         return answer

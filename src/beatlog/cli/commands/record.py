@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -78,13 +78,13 @@ def run(args: argparse.Namespace, console: Console) -> int:
     robot = load_robot(args.robot, random=random)  # its system's set-up draws from it
     if args.system_ref:
         load_system(args.system_ref)  # replay will need it: a typo is found now, not then
-    certify = None
+    certify: Callable[[RandomSource], System] | None = None
     if args.certify:  # the system replay will use, else the recorded one from a new robot
-
-        def recorded(random: RandomSource) -> System:
-            return load_robot(args.robot, random=random).system
-
-        certify = functools.partial(load_system, args.system_ref) if args.system_ref else recorded
+        certify = (
+            functools.partial(load_system, args.system_ref)
+            if args.system_ref
+            else lambda random: load_robot(args.robot, random=random).system
+        )
     output: Path = args.output
     interrupted = False
     with _new_log(output, "; recordings are immutable"):

@@ -26,7 +26,6 @@ from beatlog.errors import EmptySelectionError, OptionError
 if TYPE_CHECKING:
     from rich.console import Console
 
-    from beatlog.suite.options import SuiteOptions
     from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["add_arguments", "run"]
@@ -157,22 +156,19 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
     )
 
 
-def _options(args: argparse.Namespace) -> SuiteOptions:
-    """The suite's options, each from the option of the same name."""
-    from beatlog.suite.options import SuiteOptions
-
-    given = {field.name: getattr(args, field.name) for field in dataclasses.fields(SuiteOptions)}
-    return SuiteOptions(**given | {"paths": tuple(args.paths), "tags": tuple(args.tags)})
-
-
 def run(args: argparse.Namespace, console: Console) -> int:
     """Run the suite with a progress bar, each failure (every DTC with ``--verbose``)
     shown as it comes, then the session's report and its counts; exit 5 when nothing
     is selected, as pytest does."""
     from beatlog.report.session import SuiteSession
+    from beatlog.suite.options import SuiteOptions
 
+    # each of the suite's options from the option of the same name
+    given = {field.name: getattr(args, field.name) for field in dataclasses.fields(SuiteOptions)}
     try:
-        session = SuiteSession(_options(args))
+        session = SuiteSession(
+            SuiteOptions(**given | {"paths": tuple(args.paths), "tags": tuple(args.tags)})
+        )
     except EmptySelectionError as exc:
         print_error(str(exc))
         return EXIT_NOTHING_SELECTED
