@@ -54,15 +54,11 @@ class _Drawing:
     def draw(self, title: str) -> str:
         timeline = self.timeline
         add = self.parts.append
-        add(f'<text x="{WIDTH_PX / 2}" y="22" text-anchor="middle" font-size="15" {_FONT}>')
-        add(f"{_text(title)}</text>")
+        add(_label(WIDTH_PX / 2, 22, title, 15, "middle"))
         mark = timeline.divergence
         if mark is not None:
-            add(
-                f'<text x="{WIDTH_PX - _RIGHT}" y="44" text-anchor="end" font-size="12" '
-                f'fill="{_DIVERGENCE}" {_FONT}>{_text(mark.describe())}</text>'
-            )
-        add(f'<text x="{_LEFT}" y="44" font-size="12" {_FONT}>behavior states</text>')
+            add(_label(WIDTH_PX - _RIGHT, 44, mark.describe(), 12, "end", fill=_DIVERGENCE))
+        add(_label(_LEFT, 44, "behavior states", 12))
         top = 54
         bottom = self._lanes(top)
         for signal in timeline.signals:
@@ -89,10 +85,7 @@ class _Drawing:
         rows = timeline.rows()
         for row, (label, intervals, replayed) in enumerate(rows):
             y = top + row * _ROW
-            add(
-                f'<text x="{_LEFT - 6}" y="{y + _ROW / 2 + 4}" text-anchor="end" '
-                f'font-size="11" {_FONT}>{_text(label)}</text>'
-            )
+            add(_label(_LEFT - 6, y + _ROW / 2 + 4, label, 11, "end"))
             self._bars(intervals, y + (_ROW - _BAR) / 2)
             if replayed and timeline.replayed_until_ns < timeline.end_ns:
                 x = self.x(timeline.replayed_until_ns)
@@ -101,12 +94,8 @@ class _Drawing:
                     f'width="{self.x(timeline.end_ns) - x:.1f}" height="{_BAR}" '
                     f'fill="{_NOT_REPLAYED}" fill-opacity="0.4"/>'
                 )
-        bottom = top + max(len(rows), 1) * _ROW
-        add(
-            f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{bottom - top}" '
-            'fill="none" stroke="#888"/>'
-        )
-        return bottom
+        add(_frame(top, max(len(rows), 1) * _ROW))
+        return top + max(len(rows), 1) * _ROW
 
     def _bars(self, intervals: Sequence[Interval], y: float) -> None:
         add = self.parts.append
@@ -120,10 +109,7 @@ class _Drawing:
                 f'class="{state_key(label)}" fill="{fallback_color(label)}"{flicker}/>'
             )
             if width >= _LABEL_SHARE * _PLOT and not interval.flicker:
-                add(
-                    f'<text x="{x + width / 2:.1f}" y="{y + _BAR / 2 + 3}" text-anchor="middle" '
-                    f'font-size="9" {_FONT}>{_text(label)}</text>'
-                )
+                add(_label(f"{x + width / 2:.1f}", y + _BAR / 2 + 3, label, 9, "middle"))
 
     def _signal(self, signal: Signal, top: int) -> int:
         add = self.parts.append
@@ -134,19 +120,10 @@ class _Drawing:
         def y(value: float) -> float:
             return bottom - (value - low) / (high - low) * height
 
-        add(
-            f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{height}" '
-            'fill="none" stroke="#888"/>'
-        )
-        add(
-            f'<text x="{_LEFT - 50}" y="{top + height / 2 + 4}" text-anchor="end" '
-            f'font-size="11" {_FONT}>{_text(signal.field)}</text>'
-        )
+        add(_frame(top, height))
+        add(_label(_LEFT - 50, top + height / 2 + 4, signal.field, 11, "end"))
         for value, label in ticks:
-            add(
-                f'<text x="{_LEFT - 4}" y="{y(value) + 3:.1f}" text-anchor="end" '
-                f'font-size="9" {_FONT}>{_text(label)}</text>'
-            )
+            add(_label(_LEFT - 4, f"{y(value) + 3:.1f}", label, 9, "end"))
             add(
                 f'<line x1="{_LEFT}" y1="{y(value):.1f}" x2="{_LEFT + _PLOT}" '
                 f'y2="{y(value):.1f}" stroke="#ddd"/>'
@@ -165,14 +142,8 @@ class _Drawing:
         for tick in _ticks(self.start_s, end_s, 10):
             x = _LEFT + (tick - self.start_s) / self.span_s * _PLOT
             add(f'<line x1="{x:.1f}" y1="{top}" x2="{x:.1f}" y2="{top + 4}" stroke="#444"/>')
-            add(
-                f'<text x="{x:.1f}" y="{top + 16}" text-anchor="middle" font-size="10" '
-                f"{_FONT}>{tick:g}</text>"
-            )
-        add(
-            f'<text x="{_LEFT + _PLOT / 2}" y="{top + 32}" text-anchor="middle" '
-            f'font-size="11" {_FONT}>robot time (s)</text>'
-        )
+            add(_label(f"{x:.1f}", top + 16, f"{tick:g}", 10, "middle"))
+        add(_label(_LEFT + _PLOT / 2, top + 32, "robot time (s)", 11, "middle"))
         return top + 40
 
     def _legend(self, top: int) -> int:
@@ -186,7 +157,7 @@ class _Drawing:
                 f'<rect x="{x:.1f}" y="{y}" width="12" height="12" '
                 f'class="{state_key(label)}" fill="{fallback_color(label)}"/>'
             )
-            add(f'<text x="{x + 16:.1f}" y="{y + 10}" font-size="10" {_FONT}>{_text(label)}</text>')
+            add(_label(f"{x + 16:.1f}", y + 10, label, 10))
         rows = -(-len(labels) // _LEGEND_COLUMNS)
         return top + rows * _LEGEND_ROW + 6
 
@@ -215,5 +186,16 @@ def _ticks(low: float, high: float, count: int) -> list[float]:
     return [round(index * step, 10) for index in range(first, math.floor(high / step) + 1)]
 
 
-def _text(value: str) -> str:
-    return escape(value, quote=False)
+def _label(x: object, y: object, text: str, size: int, anchor: str = "", *, fill: str = "") -> str:
+    """A ``<text>`` of ``text``, escaped, at ``x`` and ``y`` (as given)."""
+    anchor = f' text-anchor="{anchor}"' if anchor else ""
+    fill = f' fill="{fill}"' if fill else ""
+    text = escape(text, quote=False)
+    return f'<text x="{x}" y="{y}"{anchor} font-size="{size}"{fill} {_FONT}>{text}</text>'
+
+
+def _frame(top: int, height: int) -> str:
+    """The frame of a strip of the chart."""
+    return (
+        f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{height}" fill="none" stroke="#888"/>'
+    )
