@@ -57,11 +57,7 @@ def _timed(result: ReplayResult) -> str:
     if result.robot_time_ns <= 0:
         return took
     speedup = result.speedup
-    return (
-        f"{took} ({speedup:,.0f}× real time)"
-        if speedup >= 10
-        else f"{took} ({speedup:.2g}× real time)"
-    )
+    return f"{took} ({format(speedup, ',.0f' if speedup >= 10 else '.2g')}× real time)"
 
 
 def _checked_text(result: ReplayResult) -> str:

@@ -118,7 +118,8 @@ def render_html(
         f"<style>{_CSS}{state_styles(s for drawn in charts for c in drawn for s in c.states)}"
         "</style></head><body>",
         f"<h1>{_e(title)}</h1>",
-        f'<p class="counts">{_e(counts)}, {_cycles(outcomes)} cycles replayed '
+        f'<p class="counts">{_e(counts)}, {sum(o.result.cycles for o in outcomes if o.result):,} '
+        "cycles replayed "
         f"(beatlog {_e(__version__)})</p>",
         _summary_table(outcomes),
     ]
@@ -137,19 +138,14 @@ def _e(value: object) -> str:
     return html.escape(str(value), quote=True)
 
 
-def _cycles(outcomes: Sequence[SpecOutcome]) -> str:
-    return f"{sum(o.result.cycles for o in outcomes if o.result):,}"
-
-
 def _summary_table(outcomes: Sequence[SpecOutcome]) -> str:
     rows = []
     for index, outcome in enumerate(outcomes, start=1):
         result = outcome.result
         divergence = result.divergence if result else None
+        first = outcome.error or ""
         if divergence is not None:
             first = f"cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, {divergence.kind}"
-        else:
-            first = outcome.error or ""
         rows.append(
             _row(
                 [
