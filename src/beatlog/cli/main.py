@@ -18,13 +18,13 @@ from collections.abc import Iterator, Sequence
 from types import FrameType
 
 from beatlog._version import __version__
-from beatlog.cli.arguments import Parser
 from beatlog.cli.commands import COMMANDS
 from beatlog.cli.common import (
     EXIT_CODES,
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
     EXIT_USAGE,
+    Parser,
     print_error,
 )
 from beatlog.errors import BeatlogError

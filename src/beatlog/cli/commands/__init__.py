@@ -12,7 +12,6 @@ import functools
 from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
-from beatlog.cli.arguments import add_paths
 from beatlog.cli.commands import (
     baselines,
     demo,
@@ -23,6 +22,7 @@ from beatlog.cli.commands import (
     test,
 )
 from beatlog.cli.commands import help as helping
+from beatlog.cli.common import add_paths
 
 if TYPE_CHECKING:
     from rich.console import Console

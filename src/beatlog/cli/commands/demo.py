@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import positive_float
+from beatlog.cli.common import positive_float
 from beatlog.errors import BeatlogError
 
 if TYPE_CHECKING:

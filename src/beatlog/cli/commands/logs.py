@@ -7,8 +7,7 @@ import argparse
 import dataclasses
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import add_factory, add_log, add_output
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK, add_factory, add_log, add_output, readable
 from beatlog.errors import OptionError
 
 if TYPE_CHECKING:

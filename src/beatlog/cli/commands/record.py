@@ -11,8 +11,15 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import add_factory, add_invariants, positive_float
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK, check_output, progress
+from beatlog.cli.common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    add_factory,
+    add_invariants,
+    check_output,
+    positive_float,
+    progress,
+)
 from beatlog.errors import BeatlogError, LogExistsError, OptionError
 
 if TYPE_CHECKING:

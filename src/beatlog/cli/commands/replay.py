@@ -7,14 +7,16 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import (
+from beatlog.cli.common import (
+    EXIT_FAILED,
+    EXIT_OK,
     add_factory,
     add_invariants,
     add_log,
     cycle_number,
     field_pair,
+    readable,
 )
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
 from beatlog.errors import OptionError
 
 if TYPE_CHECKING:

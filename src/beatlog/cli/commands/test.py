@@ -12,15 +12,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.baseline.policy import UpdateMode
-from beatlog.cli.arguments import (
+from beatlog.cli.common import (
+    EXIT_NOTHING_SELECTED,
     add_factory,
     add_paths,
     count,
     cycle_number,
     positive_int,
+    print_error,
+    progress,
     shard,
 )
-from beatlog.cli.common import EXIT_NOTHING_SELECTED, print_error, progress
 from beatlog.errors import EmptySelectionError, OptionError
 
 if TYPE_CHECKING:
