@@ -43,8 +43,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
             command = COMMANDS[args.command]
-            if command.runs_user_code:
-                _import_from_working_directory()
+            if command.runs_user_code and not {"", os.getcwd()} & set(sys.path):
+                # MODULE:FACTORY names a module of the working directory, as with python -m
+                # (the console script's sys.path starts with its own bin directory)
+                sys.path.insert(0, os.getcwd())
             return command.run(args, console)
         except BeatlogError as exc:
             print_error(str(exc), exc.user_traceback if verbose else None)
@@ -70,30 +72,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.set_defaults(beatlog_parser=parser)  # for ``beatlog help``, which prints its pages
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for name, command in COMMANDS.items():
-        common = Parser(add_help=False)
-        common.add_argument("-v", "--verbose", action="store_true", help=command.verbose)
         subcommand = commands.add_parser(
             name,
-            parents=[common],
             help=command.help,
             description=command.help[0].upper() + command.help[1:] + ".",
             epilog=EXIT_CODES,
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
+        subcommand.add_argument("-v", "--verbose", action="store_true", help=command.verbose)
         command.add_arguments(subcommand)
     return parser
-
-
-def _import_from_working_directory() -> None:
-    """Let MODULE:FACTORY name a module of the working directory, as ``python -m`` does.
-
-    The console script's ``sys.path`` starts with its own bin directory, so without
-    this ``beatlog replay x.beatlog --system tests.robot:system`` (the reproduce
-    command replay prints) fails to import from a project's root.
-    """
-    cwd = os.getcwd()
-    if "" not in sys.path and cwd not in sys.path:
-        sys.path.insert(0, cwd)
 
 
 def _interruption(stop: KeyboardInterrupt) -> str:
