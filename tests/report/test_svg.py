@@ -9,8 +9,7 @@ from pathlib import Path
 from beatlog import replay
 from beatlog.analysis.timeline import build_timeline
 from beatlog.record.recorder import Recorder
-from beatlog.report.palette import PALETTE, state_key, state_styles
-from beatlog.report.svg import svg_chart
+from beatlog.report.svg import PALETTE, state_key, state_styles, svg_chart
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
 from tests.systems import HOSTILE, TEX, hostile_system, moody_system, record_moody
 from tests.text import svg_texts

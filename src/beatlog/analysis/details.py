@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
-from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_window
+from beatlog.analysis.timeline import CLOSE_UP_NS, Timeline, TimelineCollector
 from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
@@ -78,7 +78,7 @@ def replay_details(
         charts: list[TimelineCollector] = []
         if timelines:
             if divergence is not None:  # the close-up first
-                window = close_up_window(divergence)
+                window = (divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS)
                 charts.append(
                     TimelineCollector(session.reader, built, expected=expected, window_ns=window)
                 )

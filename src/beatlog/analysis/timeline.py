@@ -38,7 +38,6 @@ __all__ = [
     "Timeline",
     "TimelineCollector",
     "build_timeline",
-    "close_up_window",
 ]
 
 CLOSE_UP_NS = 3_000_000_000
@@ -97,12 +96,6 @@ class Timeline:
             if self.replayed:
                 rows.append(("replayed", lane.actual, True))
         return rows
-
-
-def close_up_window(divergence: Divergence) -> tuple[int, int]:
-    """The robot time a report's close-up shows: :data:`CLOSE_UP_NS` either side of
-    the first divergence."""
-    return divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS
 
 
 def build_timeline(

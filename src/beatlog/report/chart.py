@@ -17,7 +17,7 @@ from matplotlib.patches import Patch
 
 from beatlog.analysis.timeline import Timeline
 from beatlog.errors import OptionError
-from beatlog.report.palette import PALETTE
+from beatlog.report.svg import PALETTE
 
 __all__ = [
     "CHART_FORMATS",

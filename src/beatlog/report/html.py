@@ -19,8 +19,7 @@ from beatlog.log.files import replacing
 from beatlog.replaying.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
-from beatlog.report.palette import state_styles
-from beatlog.report.svg import svg_chart
+from beatlog.report.svg import state_styles, svg_chart
 from beatlog.suite.runner import SpecOutcome
 
 __all__ = ["Chart", "dtc_charts", "render_html", "write_html"]

@@ -2,20 +2,66 @@
 
 The chart :mod:`beatlog.report.chart` draws with matplotlib, in milliseconds instead of
 most of a second. Every text is escaped, the markup has no ids (charts share a page) and
-each bar carries its state's class (:func:`~beatlog.report.palette.state_key`), so the
-page colours a state alike in every chart.
+each bar carries its state's class (:func:`state_key`): an HTML report's stylesheet
+gives each state one colour by its first appearance in the report (:func:`state_styles`),
+so a state looks the same in every chart; a chart alone falls back to a colour chosen by
+its key.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable
 from html import escape
 
-from beatlog.analysis.timeline import Interval, Signal, Timeline
-from beatlog.report.palette import fallback_color, state_key
+from beatlog.analysis.timeline import Signal, Timeline
 
-__all__ = ["WIDTH_PX", "svg_chart"]
+__all__ = ["PALETTE", "WIDTH_PX", "fallback_color", "state_key", "state_styles", "svg_chart"]
+
+PALETTE = (
+    "#1f77b4",
+    "#aec7e8",
+    "#ff7f0e",
+    "#ffbb78",
+    "#2ca02c",
+    "#98df8a",
+    "#d62728",
+    "#ff9896",
+    "#9467bd",
+    "#c5b0d5",
+    "#8c564b",
+    "#c49c94",
+    "#e377c2",
+    "#f7b6d2",
+    "#7f7f7f",
+    "#c7c7c7",
+    "#bcbd22",
+    "#dbdb8d",
+    "#17becf",
+    "#9edae5",
+)
+"""matplotlib's ``tab20``: ten hues, each dark and light."""
+
+
+def state_key(label: str) -> str:
+    """A CSS class for a state label, the same in every process and run: ``s-`` and hex."""
+    return "s-" + hashlib.blake2b(label.encode(), digest_size=4).hexdigest()
+
+
+def fallback_color(label: str) -> str:
+    """The colour a state has by its key alone, where no stylesheet says otherwise."""
+    return PALETTE[int(state_key(label)[2:], 16) % len(PALETTE)]
+
+
+def state_styles(labels: Iterable[str]) -> str:
+    """CSS rules giving each state (in order of first appearance) the next palette colour."""
+    ordered = dict.fromkeys(labels)
+    return "".join(
+        f".{state_key(label)}{{fill:{PALETTE[index % len(PALETTE)]}}}"
+        for index, label in enumerate(ordered)
+    )
+
 
 WIDTH_PX = 1200
 _LEFT = 200
@@ -86,7 +132,18 @@ class _Drawing:
         for row, (label, intervals, replayed) in enumerate(rows):
             y = top + row * _ROW
             add(_label(_LEFT - 6, y + _ROW / 2 + 4, label, 11, "end"))
-            self._bars(intervals, y + (_ROW - _BAR) / 2)
+            bar_y = y + (_ROW - _BAR) / 2
+            for interval in intervals:
+                x = self.x(interval.start_ns)
+                width = self.x(interval.end_ns) - x
+                state = str(interval.state)
+                flicker = ' fill-opacity="0.45"' if interval.flicker else ""
+                add(
+                    f'<rect x="{x:.1f}" y="{bar_y}" width="{max(width, 0.3):.1f}" height="{_BAR}" '
+                    f'class="{state_key(state)}" fill="{fallback_color(state)}"{flicker}/>'
+                )
+                if width >= _LABEL_SHARE * _PLOT and not interval.flicker:
+                    add(_label(f"{x + width / 2:.1f}", bar_y + _BAR / 2 + 3, state, 9, "middle"))
             if replayed and timeline.replayed_until_ns < timeline.end_ns:
                 x = self.x(timeline.replayed_until_ns)
                 add(
@@ -96,20 +153,6 @@ class _Drawing:
                 )
         add(_frame(top, max(len(rows), 1) * _ROW))
         return top + max(len(rows), 1) * _ROW
-
-    def _bars(self, intervals: Sequence[Interval], y: float) -> None:
-        add = self.parts.append
-        for interval in intervals:
-            x = self.x(interval.start_ns)
-            width = self.x(interval.end_ns) - x
-            label = str(interval.state)
-            flicker = ' fill-opacity="0.45"' if interval.flicker else ""
-            add(
-                f'<rect x="{x:.1f}" y="{y}" width="{max(width, 0.3):.1f}" height="{_BAR}" '
-                f'class="{state_key(label)}" fill="{fallback_color(label)}"{flicker}/>'
-            )
-            if width >= _LABEL_SHARE * _PLOT and not interval.flicker:
-                add(_label(f"{x + width / 2:.1f}", y + _BAR / 2 + 3, label, 9, "middle"))
 
     def _signal(self, signal: Signal, top: int) -> int:
         add = self.parts.append
