@@ -208,7 +208,7 @@ def _context(divergence: Divergence) -> Table:
 
 
 def _values(title: str, values: dict[str, Any]) -> Table:
-    """Named values, one a row: what an invariant saw."""
+    """Named values, one a row: what an invariant saw, a robot state."""
     table = Table(title=title, title_justify="left", show_header=False, expand=True)
     table.add_column("name", style="cyan")
     table.add_column("value")
@@ -223,11 +223,7 @@ def _robot_state(state: dict[str, Any], read: Sequence[str]) -> Table:
     """RS_t: the fields the behaviors read in the cycle when known, else all of them."""
     shown = [name for name in read if name in state] or list(state)
     title = "robot state RS_t" + (", fields read in this cycle" if read else "")
-    table = Table(title=title, title_justify="left", show_header=False, expand=True)
-    table.add_column("field", style="cyan")
-    table.add_column("value")
-    for name in shown:
-        table.add_row(name, Text(repr(state[name])))
+    table = _values(title, {name: state[name] for name in shown})
     if len(shown) < len(state):
         hidden = len(state) - len(shown)
         more = f"{plural(hidden, 'more field')} not read"
