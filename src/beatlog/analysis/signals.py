@@ -3,7 +3,6 @@ read from the log without running any code."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -31,44 +30,56 @@ class Signal(NamedTuple):
 
 
 class _Buckets:
-    """One signal's lowest and highest value in each bucket, each with its robot time:
-    ``[low_ns, low, high_ns, high]``, None where the bucket holds no number."""
+    """One signal's minimum and maximum (with their robot times) in each bucket."""
 
     def __init__(self, grid: TimeGrid) -> None:
-        self.slots: list[list[Any] | None] = [None] * grid.count
+        count = grid.count
+        self.low = [float("inf")] * count
+        self.low_ns = [0] * count
+        self.high = [float("-inf")] * count
+        self.high_ns = [0] * count
+        self._used = 0
+        """Buckets up to here may hold values: those past it need no merging."""
 
     def add(self, index: int, time_ns: int, value: float) -> None:
-        slot = self.slots[index]
-        if slot is None:
-            self.slots[index] = [time_ns, value, time_ns, value]
-        elif value < slot[1]:
-            slot[0:2] = time_ns, value
-        elif value > slot[3]:
-            slot[2:4] = time_ns, value
+        if index >= self._used:
+            self._used = index + 1
+        if value < self.low[index]:
+            self.low[index] = value
+            self.low_ns[index] = time_ns
+        if value > self.high[index]:
+            self.high[index] = value
+            self.high_ns[index] = time_ns
 
     def merge(self, factor: int) -> None:
         """Merge each run of ``factor`` neighbours into one: the buckets grew as long."""
-        count = len(self.slots)
-        merged = [_merged(self.slots[start : start + factor]) for start in range(0, count, factor)]
-        self.slots = merged + [None] * (count - len(merged))
+        count = self._used
+        self._used = -(-count // factor)
+        for target in range(count):
+            low, low_ns, high, high_ns = float("inf"), 0, float("-inf"), 0
+            for source in range(target * factor, min((target + 1) * factor, count)):
+                if self.low[source] < low:
+                    low, low_ns = self.low[source], self.low_ns[source]
+                if self.high[source] > high:
+                    high, high_ns = self.high[source], self.high_ns[source]
+            self.low[target], self.low_ns[target] = low, low_ns
+            self.high[target], self.high_ns[target] = high, high_ns
 
     def points(self) -> list[tuple[int, float]]:
-        """Each bucket's lowest and highest value, in time order, each point once."""
+        """Each bucket's minimum and maximum, in time order, each point once."""
         points: list[tuple[int, float]] = []
-        for slot in self.slots:
-            if slot is not None:
-                low_ns, low, high_ns, high = slot
-                points.extend(dict.fromkeys(sorted([(low_ns, low), (high_ns, high)])))
+        for low, low_ns, high, high_ns in zip(
+            self.low, self.low_ns, self.high, self.high_ns, strict=True
+        ):
+            if low > high:  # no number in this bucket
+                continue
+            pair = (
+                [(low_ns, low), (high_ns, high)]
+                if low_ns <= high_ns
+                else [(high_ns, high), (low_ns, low)]
+            )
+            points.extend(pair if pair[0] != pair[1] else pair[:1])
         return points
-
-
-def _merged(slots: list[list[Any] | None]) -> list[Any] | None:
-    """One slot of the lowest and the highest of ``slots``."""
-    kept = [slot for slot in slots if slot is not None]
-    if not kept:
-        return None
-    low, high = min(kept, key=lambda slot: slot[1]), max(kept, key=lambda slot: slot[3])
-    return [*low[:2], *high[2:]]
 
 
 class Sampler:
@@ -87,7 +98,7 @@ class Sampler:
 
     @property
     def held(self) -> int:
-        return sum(len(buckets.slots) for buckets in self._buckets)
+        return sum(len(buckets.low) for buckets in self._buckets)
 
     def add(self, record: CycleRecord, time_ns: int) -> None:
         if self._fields is None:
@@ -99,7 +110,7 @@ class Sampler:
             values = msgspec.structs.astuple(self._decoded(record))
             index = self._grid.index(time_ns)
             for buckets, value in zip(self._buckets, values, strict=True):
-                if isinstance(value, int | float) and not math.isnan(value):  # NaN: no point
+                if isinstance(value, int | float):
                     buckets.add(index, time_ns, float(value))
         self._seen += 1
 
