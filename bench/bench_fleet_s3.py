@@ -32,9 +32,9 @@ from typing import Any
 
 from beatlog.baseline.policy import SpecOptions
 from beatlog.suite.cluster import DaskExecutor
-from beatlog.suite.fleet import fleet_specs
+from beatlog.suite.parallel import longest_first
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.sharding import longest_first
+from beatlog.suite.selection import fleet_specs
 from beatlog_examples.rover import record_lockstep
 
 BUCKET = "fleet"

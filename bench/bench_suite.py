@@ -28,8 +28,7 @@ from rich.console import Console
 from rich.table import Table
 
 from beatlog.suite.runner import run_spec
-from beatlog.suite.spec import load_spec
-from beatlog.suite.spec_writing import spec_text
+from beatlog.suite.spec import load_spec, spec_text
 from beatlog_examples.rover import record_lockstep
 
 SYSTEM = "beatlog_examples.rover:system"

@@ -11,7 +11,7 @@ import pytest
 
 from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.record.recorder import Recorder
-from beatlog.suite.spec_writing import spec_text
+from beatlog.suite.spec import spec_text
 from bench_mutation import Mutant, Outcome, Target, Workers, mutants, run_mutant
 
 TOY = '''"""An alarm that rings while the level is above half."""

@@ -34,10 +34,10 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
-from beatlog.replaying import core, fit, judge
+from beatlog.replaying import core, judge
 from beatlog.replaying.compare import Comparison
 from beatlog.replaying.expectation import Expectation, TracedChange
-from beatlog.replaying.judge import propose_renames
+from beatlog.replaying.fit.check import check_fit
 from beatlog.replaying.verdict import Checked
 from tests.conftest import (
     PERIOD_NS,
@@ -825,7 +825,6 @@ def test_the_wall_time_counts_opening_and_checking_the_log(
     log = record_probe(30)
     system = probe_system()
     checked: list[bool] = []
-    check_fit = fit.check_fit
 
     def slow_check(*args: Any, **options: Any) -> None:
         checked.append(True)
@@ -836,46 +835,6 @@ def test_the_wall_time_counts_opening_and_checking_the_log(
     result = replay(log, system)
     assert checked == [True]
     assert result.wall_time_s >= 0.05
-
-
-def test_rename_proposal_a_consistent_substitution_is_proposed_with_the_winner_states() -> None:
-    cycles = [
-        ([StateChange("arbiter", "idle", "near"), StateChange("near", "far", "near")],
-         [StateChange("arbiter", "idle", "close"), StateChange("close", "far", "near")]),
-        ([StateChange("arbiter", "near", "idle")], [StateChange("arbiter", "close", "idle")]),
-    ]  # fmt: skip
-    assert propose_renames(cycles) == {"near": "close"}
-
-
-def test_rename_proposal_identical_traces_propose_nothing() -> None:
-    same = [StateChange("a", 1, 2)]
-    assert propose_renames([(same, same)]) == {}
-
-
-def test_rename_proposal_an_inconsistent_substitution_is_not_a_rename() -> None:
-    cycles = [
-        ([StateChange("a", 0, 1)], [StateChange("b", 0, 1)]),
-        ([StateChange("a", 1, 0)], [StateChange("c", 1, 0)]),
-    ]
-    assert propose_renames(cycles) == {}
-
-
-def test_rename_proposal_two_names_becoming_one_is_not_a_rename() -> None:
-    cycles = [
-        ([StateChange("a", 0, 1)], [StateChange("c", 0, 1)]),
-        ([StateChange("b", 1, 0)], [StateChange("c", 1, 0)]),
-    ]
-    assert propose_renames(cycles) == {}
-
-
-def test_rename_proposal_a_changed_state_is_not_a_rename() -> None:
-    assert propose_renames([([StateChange("a", 0, 1)], [StateChange("b", 0, 2)])]) == {}
-    assert propose_renames([([StateChange("a", "x", "y")], [StateChange("b", "x", "z")])]) == {}
-    assert propose_renames([([StateChange("a", True, False)], [StateChange("b", 1, 0)])]) == {}
-
-
-def test_rename_proposal_a_missing_change_is_not_a_rename() -> None:
-    assert propose_renames([([StateChange("a", 0, 1)], [])]) == {}
 
 
 # a window of cycles

@@ -170,3 +170,18 @@ def test_a_variant_window_past_the_log_is_an_error(record_probe: RecordFn) -> No
         replay_variant(log, probe_system(), NOISY, end_cycle=30)
 
     assert str(raised.value) == f"{log}: end_cycle 30 is past the log's last cycle (29)"
+
+
+def test_a_variant_window_past_a_log_cut_short_is_an_error_as_in_a_replay(
+    record_probe: RecordFn,
+) -> None:
+    log = record_probe(100)
+    data = log.read_bytes()
+    log.write_bytes(data[: len(data) * 2 // 3])
+
+    with pytest.raises(WindowError) as raised:
+        replay_variant(log, probe_system(), NOISY, end_cycle=200, allow_truncated=True)
+    with pytest.raises(WindowError) as replayed:
+        replay(log, probe_system(), end_cycle=200, allow_truncated=True)
+
+    assert str(raised.value) == str(replayed.value)

@@ -12,6 +12,7 @@ import pytest
 
 import beatlog
 from beatlog.errors import CorruptLogError, SchemaMismatchError
+from beatlog.log.format import ColumnBatch
 from beatlog.log.reader import SessionLogReader
 from beatlog.model import BehaviorState, Context, Outputs, PriorityArbiter, RobotState
 from beatlog.record import Recorder
@@ -183,6 +184,23 @@ def test_a_value_of_another_type_is_found_where_it_is_read(
     assert str(raised.value) == f"{damaged}: robot state of cycle 35 does not fit Arm: {problem}"
 
 
+def test_a_batch_naming_a_field_the_state_lacks_does_not_fit(
+    by_field: Path, tmp_path: Path
+) -> None:
+    with SessionLogReader(by_field) as reader:
+        names = ["nope" if name == "late" else name for name in reader.header.state_fields]
+
+    def renamed(batch: ColumnBatch) -> ColumnBatch:
+        return msgspec.structs.replace(batch, state_fields=names)
+
+    damaged = rewrite_by_field(by_field, tmp_path / "renamed.beatlog", renamed, 1)
+    with pytest.raises(SchemaMismatchError) as raised:
+        beatlog.replay(damaged, watcher_system())
+    assert str(raised.value) == (
+        f"{damaged}: robot state of cycle 35 does not fit Arm: object contains unknown field `nope`"
+    )
+
+
 def test_a_value_spilling_into_the_next_ones_place_is_a_damaged_log(
     by_field: Path, tmp_path: Path
 ) -> None:
@@ -221,6 +239,22 @@ def test_views_hold_the_recorded_states_however_they_are_decoded(
             layouts.add((tuple(made.columns), tuple(made.varied), made.rest))
     assert read == [[getattr(arm(t), name) for name in fields] for t in range(300)]
     assert layouts == {(tuple(layout[0]), tuple(layout[1]), layout[2])}
+
+
+def test_a_state_decoded_for_checking_is_the_one_a_plain_decode_gives(tmp_path: Path) -> None:
+    """RS_t decoded as the checking subclass becomes the system's by its ``__class__``
+    set (for speed): the behaviors get exactly what decoding as the system's type gives."""
+    log = record(tmp_path / "rows.beatlog", by_field=False)
+    outcomes: list[Any] = []
+    assert beatlog.replay(log, watcher_system(), observe=outcomes.append).ok
+    with SessionLogReader(log) as reader:
+        plain = [msgspec.msgpack.decode(r.robot_state, type=Arm) for r in reader.cycles()]
+    seen = [outcome.state for outcome in outcomes]
+    assert [type(state) for state in seen] == [Arm] * 300
+    assert seen == plain
+    assert [msgspec.msgpack.encode(state) for state in seen] == list(
+        map(msgspec.msgpack.encode, plain)
+    )
 
 
 Renamed = msgspec.defstruct(

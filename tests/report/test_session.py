@@ -16,8 +16,8 @@ from beatlog.report.session import SuiteSession, conclude, prepare_report
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import cache_path, suite_coverage
 from beatlog.suite.discovery import discover_specs
-from beatlog.suite.options import SuiteOptions
 from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.suite.selection import SuiteOptions
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
 from tests.factories import fill_the_disk_after, opened_logs

@@ -94,7 +94,7 @@ def test_behaviors_this_run_does_not_have_are_remembered_not_reported(tmp_path: 
     now = SuiteCoverage(dtcs=["walk"])
     now.behavior("rover", "wander").states['"roam"'] = Seen({"walk"}, 9)
 
-    assert recall(now, path, {"walk": "walk"}).warning is None
+    assert recall(now, path, {"walk": "walk"}) is None
 
     assert [cover.behavior for cover in now.behaviors] == ["wander"]
     remembered = json.loads(path.read_text())["systems"]
@@ -155,7 +155,7 @@ def test_a_dtc_only_earlier_runs_saw_is_named_by_its_id_where_another_has_its_na
     now = SuiteCoverage(dtcs=[other_x])
     now.behavior("robot", "dock").states['"idle"'] = Seen({other_x}, 9)
 
-    assert recall(now, path, {other_x: "x"}).warning is None
+    assert recall(now, path, {other_x: "x"}) is None
 
     assert now.labels == {x: x, y: "y"}
 
@@ -244,12 +244,12 @@ def test_the_memory_is_bounded(tmp_path: Path) -> None:
     for state in range(MAX_STATES + 10):
         busy.states[json.dumps(state)] = Seen({f"dtc{n}" for n in range(MAX_DTCS + 3)}, 1)
     path = tmp_path / CACHE_FOLDER / "coverage.json"
-    assert recall(coverage, path, {}).warning is None
+    assert recall(coverage, path, {}) is None
 
     remembered = json.loads(path.read_text())["systems"]["robot"]["busy"]["states"]
     assert len(remembered) == MAX_STATES
     assert all(len(dtcs) == MAX_DTCS for dtcs in remembered.values())
     again = SuiteCoverage()
     busy = again.behavior("robot", "busy")
-    assert recall(again, path, {}).warning is None
+    assert recall(again, path, {}) is None
     assert len(busy.no_longer_reached) == MAX_STATES

@@ -21,10 +21,12 @@ from beatlog.suite.remote import (
     MAX_BYTES_VARIABLE,
     TIMEOUT_VARIABLE,
     Listed,
+    fetch_ahead,
     fetched_log,
     is_url,
     log_size,
     url_name,
+    wait_for,
 )
 from tests.commands import plain
 from tests.served import LogServer
@@ -331,3 +333,37 @@ def test_a_log_no_listing_found_is_asked_its_size_once_before_its_download(
         pass
 
     assert served.requests == {"HEAD /dock.beatlog": 1, "GET /dock.beatlog": 1}
+
+
+# fetching logs ahead
+
+
+def test_a_log_fetched_ahead_is_replayed_from_the_cache(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    fetch_ahead(url)
+    fetch_ahead(url)  # already at it: not twice
+    wait_for(url)
+
+    with fetched_log(url) as copy:
+        assert copy.read_bytes() == (served.folder / "dock.beatlog").read_bytes()
+    assert served.downloads("dock.beatlog") == 1
+
+
+def test_a_log_that_cannot_be_fetched_ahead_is_left_to_its_dtc(served: LogServer) -> None:
+    url = f"{served.url}/lost.beatlog"
+    fetch_ahead(url)
+    wait_for(url)
+
+    wait_for(f"{served.url}/never-asked.beatlog")
+
+
+def test_a_listed_log_fetched_ahead_is_one_request(served: LogServer) -> None:
+    url = f"{served.url}/dock.beatlog"
+    listed = Listed((served.folder / "dock.beatlog").stat().st_size, '"v1"')
+    fetch_ahead(url, listed)
+    wait_for(url)
+
+    with fetched_log(url, listed=listed):
+        pass
+
+    assert served.requests == {"GET /dock.beatlog": 1}

@@ -3,6 +3,7 @@ its break points."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import sys
 from collections.abc import Callable, Iterable
@@ -14,11 +15,11 @@ from beatlog.baseline.file import expected_path
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
-from beatlog.replaying.verdict import Checked, DivergenceKind
+from beatlog.replaying.verdict import Checked, Divergence, DivergenceKind
 from beatlog.report.html import dtc_charts
 from beatlog.suite.maintenance import PendingUpdate, UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
-from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+from beatlog.suite.runner import SpecOutcome, Verdict, repeat_note, run_spec
 from tests.conftest import Dice, Near, Probe, RecordFn, distances
 from tests.factories import cut_short
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, written_dtc
@@ -555,3 +556,28 @@ def test_a_project_invariant_that_does_not_import_names_the_pyproject(
     assert outcome.error == (
         f"'checks:gone': checks has no gone (listed under [tool.beatlog] invariants in {pyproject})"
     )
+
+
+# whether a failure repeats
+
+
+FIRST = Divergence(kind=DivergenceKind.OUTPUTS, cycle=12, time_ns=360, message="outputs differ")
+AUDIT = "beatlog test --audit a.dtc.toml"
+
+
+def test_a_failure_that_repeats_itself_has_no_note() -> None:
+    assert repeat_note(FIRST, dataclasses.replace(FIRST, message="as before"), AUDIT) == ()
+
+
+def test_a_failure_that_moves_or_passes_the_next_time_points_to_the_audit() -> None:
+    moved = dataclasses.replace(FIRST, cycle=14)
+    otherwise = dataclasses.replace(FIRST, actual_outputs={"speed": float("nan")})
+
+    notes = [repeat_note(FIRST, again, AUDIT) for again in (None, moved, otherwise)]
+
+    assert [note[0].split(" on unchanged code")[0] for note in notes] == [
+        "fails at cycle 12 in one run and passes in the next",
+        "fails at a different cycle each run (12, then 14)",
+        "fails otherwise each run at cycle 12",
+    ]
+    assert all(note[0].endswith(f"run `{AUDIT}` to find the call") for note in notes)

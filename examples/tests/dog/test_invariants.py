@@ -13,8 +13,7 @@ from beatlog import Cycle, DivergenceKind
 from beatlog.record.recorder import Recorder
 from beatlog.report.console import plain_text, render_outcome
 from beatlog.suite.runner import Verdict, run_spec
-from beatlog.suite.spec import load_spec
-from beatlog.suite.spec_writing import spec_text
+from beatlog.suite.spec import load_spec, spec_text
 from beatlog_examples.dog.behaviors import DogState, system
 from beatlog_examples.dog.invariants import (
     ALL,

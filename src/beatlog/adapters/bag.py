@@ -139,8 +139,7 @@ class BagMessages:
         return selected
 
     def others(self, topic: str) -> str:
-        """The end of the message on a topic that cannot be imported: how to import the
-        other topics with messages, if there are any."""
+        """How to import the other topics with messages, to end an error about ``topic``."""
         others = " ".join(
             f"--topic {other}" for other in self.topics if other != topic and self.counted[other]
         )
@@ -167,8 +166,7 @@ class BagMessages:
     def _messages(
         self, connections: Sequence[Connection], *, deserialize: bool = False
     ) -> Iterator[tuple[Connection, int, object]]:
-        """The messages on ``connections`` in log-time order, raw or deserialized; a bag
-        rosbags cannot read on is a :class:`BagError`."""
+        """The messages on ``connections`` in log-time order, raw or deserialized."""
         reader = self.reader
         read: Counter[str] = Counter()
         try:
@@ -227,8 +225,7 @@ class BagMessages:
         raise BagError(self.bag, f"{problem}; {self._damaged()}")
 
     def _damaged(self) -> str:
-        """The end of the message on messages that do not fit the bag's metadata: what
-        may be wrong."""
+        """What may be wrong, to end an error about messages that do not fit the metadata."""
         if self.bag.is_dir():
             return "the bag is damaged, or its metadata.yaml does not match its storage files"
         return "the bag is damaged"

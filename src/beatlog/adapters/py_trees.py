@@ -1,31 +1,16 @@
 """Record and replay a py_trees behaviour tree as a beatlog system.
 
-:class:`TreeSystem` wraps the tree a user function builds. Its catalogue names every
-node by its path of names from the root (``Rover/Tasks/Charge/Dock``; a second
-sibling of the same name is ``…/Wait#2``), never by py_trees' per-run uuids, and its
-state is the node's status (``"RUNNING"``, ``"SUCCESS"``, ``"FAILURE"``,
-``"INVALID"``). Chosen blackboard keys join the catalogue as ``blackboard/KEY``.
-Each heartbeat the robot state is written to the blackboard under ``robot_state``,
-so behaviours read sensors the py_trees way (``robot_state.battery`` in a
-:class:`~py_trees.common.ComparisonExpression`), and the tree is ticked once.
-
-Time and chance come from beatlog while a tree ticks. A behaviour's own code asks
-:func:`context` (``context(self).time``, ``.emit(...)``) or :func:`random`
-(``random(self).choice(...)``). py_trees' own :class:`~py_trees.timers.Timer` and
-:class:`~py_trees.decorators.Timeout` read ``time.time()`` and ``time.monotonic()``,
-and :class:`~py_trees.behaviours.ProbabilisticBehaviour` the global ``random``: on
-import this module gives those three py_trees modules stand-ins for ``time`` and
-``random`` that answer with robot time (``context.time``) and beatlog's random source
-while a :class:`TreeSystem` ticks in the calling thread, and with the wall clock and
-the global ``random`` module otherwise (in other threads, between ticks, in trees
-ticked without beatlog). The tick in progress is thread-local, so trees ticking in
-other threads are untouched. Every node's ``initialise``, ``update`` and
-``terminate`` are wrapped so that random numbers drawn in them are credited to the
-node (``context.actor`` is its catalogue index).
-
-py_trees' blackboard is global to the process: building a :class:`TreeSystem`
-clears it first, so nothing leaks from an earlier build. Two trees must therefore
-not be built and ticked in turns in one process.
+:class:`TreeSystem` ticks the tree once per heartbeat with RS_t on the blackboard under
+``robot_state``; its behaviors are the nodes, named by their paths of names from the
+root (``Rover/Tasks/Dock``, a second sibling of one name ``…/Wait#2``), never by
+py_trees' per-run uuids, each with its status as its state, and the blackboard keys
+asked for (``blackboard/KEY``). A behaviour asks :func:`context` and :func:`random` for
+robot time and random numbers, credited to it. py_trees' own timers and
+``ProbabilisticBehaviour`` read the ``time`` and ``random`` modules: on import this
+module gives those py_trees modules stand-ins that answer with robot time and
+beatlog's random source while a :class:`TreeSystem` ticks in the calling thread, and
+as the modules do otherwise. py_trees' blackboard is global to the process: building a
+:class:`TreeSystem` clears it, so two trees must not be built and ticked in turns.
 """
 
 from __future__ import annotations
@@ -212,18 +197,15 @@ def _credited(method: Callable[..., Any], actor: int) -> Callable[..., Any]:
 
 
 class _TreeTime:
-    """The ``time`` module as py_trees' timers see it: robot time during a tick."""
+    """The ``time`` module as py_trees' timers see it: ``time()`` and ``monotonic()``
+    are robot time during a tick."""
 
     def __getattr__(self, name: str) -> Any:
-        return getattr(wall_clock, name)
-
-    def time(self) -> float:
         current = _TICK.current
-        return wall_clock.time() if current is None else current[1].time
-
-    def monotonic(self) -> float:
-        current = _TICK.current
-        return wall_clock.monotonic() if current is None else current[1].time
+        if current is None or name not in ("time", "monotonic"):
+            return getattr(wall_clock, name)
+        now = current[1].time
+        return lambda: now
 
 
 class _TreeRandom:

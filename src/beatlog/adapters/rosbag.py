@@ -2,32 +2,16 @@
 
 :func:`import_bag` reads a ROS 2 bag (MCAP or sqlite3 storage, or a ROS 1 bag) with
 `rosbags <https://gitlab.com/ternaris/rosbags>`_, no ROS install needed
-(``pip install "beatlog[ros]"``). Message types come from the bag itself where it
-carries their definitions (every MCAP bag and sqlite3 bags from Iron on), so a
-message type beatlog has never seen imports; older bags fall back to the standard
-types of the latest ROS 2 release.
-
-Each message becomes a raw :class:`~beatlog.model.inbox.Sample` named by its topic,
-stamped with its log time, holding the message as plain data: a message is a dict of
-its fields (not its type's constants), arrays are lists, and byte arrays (``uint8[]``,
-``int8[]``: images, point clouds) are bytes, exactly as replay decodes them from the
-log. The messages are grouped into heartbeats, either fixed periods from the first
-message imported, or the intervals between messages on a clock topic (the messages
-up to and including each clock message make up that heartbeat; those after the last
-one are left out). The log starts where its first heartbeat does (its header's
-``start_time_ns``: that first message, or the first clock message), so the log's
-robot time added to it is the bag's time, as an export stamps it. At each
-heartbeat the user's perception step folds the samples into RS_t and the system runs
-on it, recording BS_t, RN_t and outputs with the samples, as a robot recording with
-``log_samples`` would. A DTC of the log replays at sensor level: a changed
-perception step fails it with a PERCEPTION divergence, a changed system with the
-behavior state changes it made.
-
-A bag is trusted only as far as its metadata: every message it counts on the topics
-imported must be read, at a log time within its span, or the import is refused as
-damaged; nothing is written then. A topic whose first message does not deserialize
-is refused as one whose message definition does not fit its messages (rosbag2's own
-``talker`` test bags carry a stub definition of ``rcl_interfaces/msg/Log``).
+(``pip install "beatlog[ros]"``), with the message types the bag defines (else the
+standard ones of the latest ROS 2 release). Each message becomes a
+:class:`~beatlog.model.inbox.Sample` of plain data, as replay decodes it from the log
+(:mod:`beatlog.adapters.bag`), named by its topic and stamped with its log time. The
+messages are grouped into heartbeats, fixed periods from the first message imported
+or the intervals between messages on a clock topic (each clock message closes a
+heartbeat; messages after the last are left out), and the log starts with its first
+heartbeat, so its robot time added to its start is the bag's time. The user's
+perception step folds each heartbeat's samples into RS_t and the system steps on it,
+recorded with the samples, so a DTC of the log replays at sensor level.
 """
 
 from __future__ import annotations
@@ -57,9 +41,9 @@ from beatlog.model.clock import DEFAULT_PERIOD_NS
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
 from beatlog.model.random import RecordingRandom
-from beatlog.project.usercode import failure_site, load_perception, load_system, user_traceback
+from beatlog.project.usercode import failure, load_perception, load_system, user_traceback
 from beatlog.record.recorder import Recorder
-from beatlog.suite.spec_writing import spec_text
+from beatlog.suite.spec import spec_text
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -119,20 +103,14 @@ def import_bag(
     """Import the ROS bag ``bag`` (a rosbag2 folder, its ``.mcap`` or ``.db3`` file, or a
     ROS 1 ``.bag``) as the session log ``output``, written whole or not at all.
 
-    ``system`` and ``perception`` are objects or ``module:factory`` references.
-    Heartbeats come every ``period_ns`` from the first message imported (30 ms when
-    neither option is given) or at each message on ``clock_topic``. ``topics`` are the
-    topics imported as samples (default: every topic). ``spec`` also writes a DTC spec
-    there that replays the log at sensor level; it needs ``system`` and ``perception``
-    as references. ``seed`` seeds the random numbers the behaviors draw (fresh when
-    None).
-    An existing log or spec is replaced only with ``overwrite``.
+    ``system`` and ``perception`` are objects or ``module:factory`` references (which a
+    ``spec``, a DTC spec written beside the log, needs). Heartbeats come every
+    ``period_ns`` (30 ms by default) or at each message on ``clock_topic``; ``topics``
+    are imported as samples (default: all); ``seed`` seeds the behaviors' random numbers.
 
-    :raises beatlog.errors.BagError: the bag is missing, damaged or not a regular file,
-        holds no messages on the topics asked for, yields fewer or more messages than its
-        metadata counts, a topic's message definition does not fit its messages, a
-        message is too large, or the perception step or the system raised (the message
-        names the cycle; the user's traceback is kept).
+    :raises beatlog.errors.BagError: the bag is missing, damaged or foreign, or does
+        not fit its metadata, a message is too large, or the user's code raised (named
+        by cycle, its traceback kept).
     :raises beatlog.errors.OptionError: both a period and a clock topic, or a period
         that is not positive.
     """
@@ -156,9 +134,9 @@ def import_bag(
     if spec_path is not None and not spec_path.parent.is_dir():
         raise SpecError(spec_path, f"cannot write: directory {spec_path.parent} does not exist")
     with open_bag(bag) as reader:
-        imported = _Import(bag, reader, built, perceive)
-        selected = imported.select(topics, clock_topic)
-        period, start, beats = imported.heartbeats(selected, period_ns, clock_topic)
+        messages = BagMessages(bag, reader)
+        selected = messages.select(topics, clock_topic)
+        period, start, beats = _heartbeats(messages, selected, period_ns, clock_topic)
         try:
             with replacing(output) as file:
                 recorder = Recorder(
@@ -173,7 +151,7 @@ def import_bag(
                     start_time_ns=start,
                 )
                 with recorder:
-                    imported.record(recorder, beats)
+                    folded = _record(messages, recorder, built, perceive, beats)
                 if recorder.error is not None:
                     raise LogError(output, f"cannot write: {recorder.error}")
                 if spec_path is not None:  # before the log is in place: both or neither
@@ -186,10 +164,10 @@ def import_bag(
         log=output,
         spec=spec_path,
         cycles=recorder.cycles,
-        samples=imported.folded,
+        samples=folded,
         topics=tuple(sorted({connection.topic for connection in selected})),
         robot_time_ns=recorder.robot_time_ns,
-        left_out=imported.read - imported.folded,
+        left_out=messages.read - folded,
     )
 
 
@@ -202,96 +180,90 @@ def _software(reader: AnyReader) -> str:
     return "ROS 2 bag" if not distro else f"ROS 2 bag ({distro})"[:MAX_NAME_LENGTH]
 
 
-class _Import(BagMessages):
-    """One bag being imported: its messages as samples, folded cycle by cycle."""
-
-    def __init__(
-        self, bag: Path, reader: AnyReader, system: System, perception: Perception
-    ) -> None:
-        super().__init__(bag, reader)
-        self.system = system
-        self.perception = perception
-        self.folded = 0
-        """Samples folded into a cycle."""
-        self._size = payload_encoder().encode
-
-    def heartbeats(
-        self, selected: Sequence[Connection], period_ns: int | None, clock_topic: str | None
-    ) -> tuple[int, int, Iterator[tuple[int, list[Sample]]]]:
-        """The period and start for the log's header, and each heartbeat's interval and
-        samples. The first heartbeat starts at the first message imported, or at the
-        first clock message: the log's start, from which its robot time is the bag's."""
-        samples = self.samples(selected)
-        if clock_topic is None:
-            period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
-            span = self.reader.end_time - self.reader.start_time
-            if span // period > MAX_HEARTBEATS:
-                raise BagError(
-                    self.bag,
-                    f"its messages span {span / 1e9:.0f} s, {span // period} heartbeats of "
-                    f"{period / 1e6:g} ms, more than an import writes ({MAX_HEARTBEATS}); "
-                    "choose a longer heartbeat period or a clock topic",
-                )
-            first = next(samples)  # select() counted one: reading fails before it ends
-            return (
-                period,
-                first.stamp_ns,
-                _by_period(itertools.chain([first], samples), first.stamp_ns, period),
-            )
-        ticks = self.ticks(clock_topic)
-        typical = statistics.median(after - before for before, after in itertools.pairwise(ticks))
-        return max(1, int(typical)), ticks[0], _by_clock(samples, ticks)
-
-    def record(self, recorder: Recorder, beats: Iterable[tuple[int, list[Sample]]]) -> None:
-        """Fold each heartbeat's samples into RS_t and step the system on it."""
-        state: Any = None
-        robot_state = self.system.robot_state
-        for cycle, (interval_ns, samples) in enumerate(beats):
-            held = sum(self._checked_size(sample) for sample in samples)
-            if held > MAX_CYCLE_BYTES // 2:
-                raise BagError(
-                    self.bag,
-                    f"cycle {cycle} holds {held} bytes of messages, more than a cycle of a "
-                    "log may; choose a shorter heartbeat period or fewer topics",
-                )
-            state = self._run("the perception step", cycle, self.perception, state, samples)
-            if not isinstance(state, robot_state):
-                raise BagError(
-                    self.bag,
-                    f"cycle {cycle}: the perception step built a {type(state).__name__}, "
-                    f"not a {robot_state.__name__} (the system's robot state)",
-                )
-            self._run("the system", cycle, recorder.step, interval_ns, state, samples)
-            self.folded += len(samples)
-
-    def _checked_size(self, sample: Sample) -> int:
-        """The bytes ``sample`` takes in the log, checked against :data:`MAX_SAMPLE_BYTES`."""
-        size = len(self._size(sample))
-        if size > MAX_SAMPLE_BYTES:
+def _heartbeats(
+    bag: BagMessages,
+    selected: Sequence[Connection],
+    period_ns: int | None,
+    clock_topic: str | None,
+) -> tuple[int, int, Iterator[tuple[int, list[Sample]]]]:
+    """The period and start for the log's header, and each heartbeat's interval and
+    samples. The first heartbeat starts at the first message imported, or at the
+    first clock message: the log's start, from which its robot time is the bag's."""
+    samples = bag.samples(selected)
+    if clock_topic is None:
+        period = DEFAULT_PERIOD_NS if period_ns is None else period_ns
+        span = bag.reader.end_time - bag.reader.start_time
+        if span // period > MAX_HEARTBEATS:
             raise BagError(
-                self.bag,
-                f"a message on {sample.sensor!r} is {size} bytes, more than a sample may "
-                f"hold ({MAX_SAMPLE_BYTES})" + self.others(sample.sensor),
+                bag.bag,
+                f"its messages span {span / 1e9:.0f} s, {span // period} heartbeats of "
+                f"{period / 1e6:g} ms, more than an import writes ({MAX_HEARTBEATS}); "
+                "choose a longer heartbeat period or a clock topic",
             )
-        return size
+        first = next(samples)  # select() counted one: reading fails before it ends
+        return (
+            period,
+            first.stamp_ns,
+            _by_period(itertools.chain([first], samples), first.stamp_ns, period),
+        )
+    ticks = bag.ticks(clock_topic)
+    typical = statistics.median(after - before for before, after in itertools.pairwise(ticks))
+    return max(1, int(typical)), ticks[0], _by_clock(samples, ticks)
 
-    def _run(self, who: str, cycle: int, call: Callable[..., Any], *args: Any) -> Any:
-        """``call(*args)``; what the user's code (``who``) raises is a :class:`BagError`
-        naming the cycle, with the user's traceback."""
-        try:
-            return call(*args)
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit) as exc:
-            message = " ".join(str(exc).split())
-            site = failure_site(exc)
+
+def _record(
+    bag: BagMessages,
+    recorder: Recorder,
+    system: System,
+    perception: Perception,
+    beats: Iterable[tuple[int, list[Sample]]],
+) -> int:
+    """Fold each heartbeat's samples into RS_t and step the system on it; the samples
+    folded."""
+    state: Any = None
+    folded = 0
+    encode = payload_encoder().encode
+    robot_state = system.robot_state
+    for cycle, (interval_ns, samples) in enumerate(beats):
+        held = 0
+        for sample in samples:
+            size = len(encode(sample))
+            if size > MAX_SAMPLE_BYTES:
+                raise BagError(
+                    bag.bag,
+                    f"a message on {sample.sensor!r} is {size} bytes, more than a sample "
+                    f"may hold ({MAX_SAMPLE_BYTES})" + bag.others(sample.sensor),
+                )
+            held += size
+        if held > MAX_CYCLE_BYTES // 2:
             raise BagError(
-                self.bag,
-                f"cycle {cycle}: {who} raised {type(exc).__name__}"
-                + (f": {message}" if message else "")
-                + (f" ({site})" if site else ""),
-                user_traceback=user_traceback(exc),
-            ) from None
+                bag.bag,
+                f"cycle {cycle} holds {held} bytes of messages, more than a cycle of a "
+                "log may; choose a shorter heartbeat period or fewer topics",
+            )
+        state = _run(bag.bag, "the perception step", cycle, perception, state, samples)
+        if not isinstance(state, robot_state):
+            raise BagError(
+                bag.bag,
+                f"cycle {cycle}: the perception step built a {type(state).__name__}, "
+                f"not a {robot_state.__name__} (the system's robot state)",
+            )
+        _run(bag.bag, "the system", cycle, recorder.step, interval_ns, state, samples)
+        folded += len(samples)
+    return folded
+
+
+def _run(bag: Path, who: str, cycle: int, call: Callable[..., Any], *args: Any) -> Any:
+    """``call(*args)``; what the user's code (``who``) raises is a :class:`BagError`
+    naming the cycle, with the user's traceback."""
+    try:
+        return call(*args)
+    except BeatlogError:
+        raise
+    except (Exception, SystemExit) as exc:
+        raise BagError(
+            bag, f"cycle {cycle}: {who} {failure(exc)}", user_traceback=user_traceback(exc)
+        ) from None
 
 
 def _by_period(

@@ -19,19 +19,19 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Mapping
 from typing import Any
 
 import msgspec
 
-from beatlog.audit.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.audit.replays import CYCLE_DIGEST_SIZE, Answer, Request
 from beatlog.errors import BeatlogError
 from beatlog.log.format import payload_encoder
-from beatlog.model.behavior import Behavior, System
+from beatlog.model.behavior import System
 from beatlog.model.context import Context
 from beatlog.model.source import RandomSource
+from beatlog.project.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.project.usercode import load_system
+from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.judge import replay
 
 __all__ = ["main"]
@@ -44,17 +44,11 @@ class _AuditedSystem:
     def __init__(self, system: System, watch: LeakWatch | LeakScreen | None) -> None:
         self._system = system
         self._watch = watch
+        self.robot_state = system.robot_state
+        self.behaviors = system.behaviors
         self._behaviors = list(system.behaviors.values())
         self._encode = payload_encoder().encode
         self.trace: list[bytes] = []
-
-    @property
-    def robot_state(self) -> type[msgspec.Struct]:
-        return self._system.robot_state
-
-    @property
-    def behaviors(self) -> Mapping[str, Behavior]:
-        return self._system.behaviors
 
     def update(self, state: Any, context: Context) -> None:
         try:
@@ -75,13 +69,9 @@ class _AuditedSystem:
 
 
 def _replay_watched(request: Request) -> Answer:
-    """The answer of a replay, watched for leaks when the request asks.
-
-    A screened replay comes first (:class:`~beatlog.audit.leaks.LeakScreen`, cheap);
-    only when it saw a watched call is the replay run again under a
-    :class:`~beatlog.audit.leaks.LeakWatch` without following lines, and when numpy's
-    global generator moved, once more following them to the lines that moved it.
-    """
+    """The answer of a replay, watched for leaks when the request asks: screened first
+    (cheap), and only where the screen saw a watched call run again under a watch, which
+    follows the lines of user code where numpy's global generator moved."""
     if not request.watch:
         return _replay(request, None)
     screen = LeakScreen()
@@ -112,7 +102,7 @@ def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
         keep_going=True,
         allow_truncated=request.allow_truncated,
         allow_empty=True,  # the audit compares replays; the verdict judges what they checked
-        migration=request.migration,
+        migration=StateMigration(request.field_renames, request.field_conversions),
     )
     divergence = result.divergence
     return Answer(
@@ -138,20 +128,15 @@ def main() -> None:
     for line in requests:
         request = msgspec.json.decode(line, type=Request)
         sys.path[:] = request.path
-        _take_environment(request.environ)
+        seed = os.environ["PYTHONHASHSEED"]  # the request's environment, but our hash seed
+        os.environ.clear()
+        os.environ.update(request.environ, PYTHONHASHSEED=seed)
         try:
             answer = _replay_watched(request)
         except BeatlogError as exc:
             answer = Answer(error=str(exc))
         answers.write(msgspec.json.encode(answer) + b"\n")
         answers.flush()
-
-
-def _take_environment(environ: dict[str, str]) -> None:
-    """The auditing process's environment, but this interpreter's own hash seed."""
-    seed = os.environ["PYTHONHASHSEED"]
-    os.environ.clear()
-    os.environ.update(environ, PYTHONHASHSEED=seed)
 
 
 def _exit_when_orphaned(lifeline: int) -> None:

@@ -3,7 +3,7 @@
 :func:`audit` replays a log twice, each time in an interpreter of its own with its own
 ``PYTHONHASHSEED``; :class:`Auditors` owns the two interpreters, started at its first
 audit and kept for the next ones until it closes, so a suite pays their start-up once.
-During each replay a :class:`~beatlog.audit.leaks.LeakWatch` turns the wall-clock
+During each replay a :class:`~beatlog.project.leaks.LeakWatch` turns the wall-clock
 reads and global random calls the system makes while it updates into findings that
 name the call site, and every cycle's behavior states and outputs are hashed. The two
 replays must agree on the verdict and on every cycle; where they do not, set or dict
@@ -25,9 +25,9 @@ from typing import IO
 
 import msgspec
 
-from beatlog.audit.leaks import Finding
 from beatlog.errors import BeatlogError
 from beatlog.log.files import Closing
+from beatlog.project.leaks import Finding
 from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.verdict import DivergenceKind
 
@@ -98,16 +98,13 @@ def audit(
     migration: StateMigration | None = None,
     auditors: Auditors | None = None,
 ) -> AuditReport:
-    """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash seed.
+    """Replay ``log`` against ``system`` (a ``module:factory`` reference) once per hash
+    seed, at once, each in an audit interpreter of ``auditors`` (by default this audit's
+    own) importing from this process's ``sys.path``, every cycle, diverging or not.
 
     The first replay is watched for leaks, the second only hashed: they run the same
     code unless the hash seed changes what it does, which the hashes show; then both are
-    run again, watched, so that no leak on either path goes unseen. Both replays run at
-    once, each in an audit interpreter (``python -m beatlog.audit``,
-    see :mod:`beatlog.audit.__main__`) with that ``PYTHONHASHSEED`` of ``auditors``
-    (without, of :class:`Auditors` of this audit alone), importing from this process's
-    ``sys.path``; each replays every cycle, diverging or not, so the runs compare in full.
-    ``migration`` maps robot-state fields renamed or retyped since the recording.
+    run again, watched, so that no leak on either path goes unseen.
 
     :raises beatlog.errors.BeatlogError: the log or the system is bad input.
     """
@@ -186,12 +183,9 @@ class Auditors(Closing):
 
 
 class _Auditor:
-    """An audit interpreter with one ``PYTHONHASHSEED``, replaying request after request.
-
-    It exits when its lifeline closes (this process closed it or died); what it writes
-    to stderr (behaviors' prints too) is kept for the last request only, to show if it
-    crashes.
-    """
+    """An audit interpreter with one ``PYTHONHASHSEED``, replaying request after request,
+    until its lifeline closes; its stderr is kept for the last request, to show if it
+    crashes."""
 
     def __init__(self, hash_seed: int) -> None:
         self.hash_seed = hash_seed
@@ -263,11 +257,6 @@ class Request(msgspec.Struct, array_like=True):
     field_conversions: dict[str, str] = {}
     """Robot-state fields retyped since the recording, and their conversions."""
 
-    @property
-    def migration(self) -> StateMigration:
-        """The robot-state migration to replay with."""
-        return StateMigration(self.field_renames, self.field_conversions)
-
 
 class Answer(msgspec.Struct, kw_only=True):
     """What a child replay tells its parent, as JSON on its own stdout."""
@@ -330,15 +319,12 @@ def _compare(runs: tuple[SeedRun, SeedRun], first: bytes, second: bytes, cause: 
         )
     if first == second:
         return None
-    cycle = next(
-        (
-            offset // CYCLE_DIGEST_SIZE
-            for offset in range(0, min(len(first), len(second)), CYCLE_DIGEST_SIZE)
-            if first[offset : offset + CYCLE_DIGEST_SIZE]
-            != second[offset : offset + CYCLE_DIGEST_SIZE]
-        ),
-        min(len(first), len(second)) // CYCLE_DIGEST_SIZE,
+    size, common = CYCLE_DIGEST_SIZE, min(len(first), len(second))
+    offset = next(
+        (at for at in range(0, common, size) if first[at : at + size] != second[at : at + size]),
+        common,
     )
+    cycle = offset // size
     return (
         f"{cause}: with PYTHONHASHSEED={a.hash_seed} and "
         f"{b.hash_seed} the behavior states and outputs differ from cycle {cycle}"

@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from rich.console import Console
     from rich.progress import Progress
 
-    from beatlog.suite.sharding import Shard
+    from beatlog.suite.parallel import Shard
 
 __all__ = [
     "EXIT_CODES",
@@ -175,7 +175,7 @@ def references(text: str) -> list[str]:
 
 def shard(text: str) -> Shard:
     """``I/N``: one shard of a suite."""
-    from beatlog.suite.sharding import Shard
+    from beatlog.suite.parallel import Shard
 
     try:
         return Shard.parse(text)

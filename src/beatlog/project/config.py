@@ -1,12 +1,8 @@
-"""The project's own configuration: ``[tool.beatlog]`` in the nearest ``pyproject.toml``.
-
-It is the user's word, as their specs and command lines are: the behavior renames and
-the robot-state field renames and conversions that hold for every spec, the
-invariants every spec is checked with, the systems the project vouches for, and
-how much of the suite may run open loop before it counts as stale
-(:mod:`beatlog.baseline.policy`). A log records the ``module:factory`` it was
-recorded with, but bytes from a log never choose code: that reference is used only
-when the project lists it under ``systems`` (see :func:`vouched_system`).
+"""The project's own configuration: ``[tool.beatlog]`` in the nearest ``pyproject.toml``,
+the user's word for every spec (renames, conversions, invariants, variants, open-loop
+limits, the systems the project vouches for). Bytes from a log never choose code: a
+log's recorded ``module:factory`` is used only when the project lists it under
+``systems`` (:func:`vouched_system`).
 """
 
 from __future__ import annotations

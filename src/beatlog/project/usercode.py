@@ -1,27 +1,15 @@
-"""User code: import a system or robot from a ``module:factory`` reference (or a
-robot-state field's conversion from a ``module:function``, an invariant from a
-``module:attribute``), and tell where it failed
-(its traceback cut down to the user's frames).
+"""User code: the systems, robots, perception steps, conversions and invariants that
+``module:factory`` (``module:function``, ``module:attribute``) references name, and
+where that code failed (its traceback cut down to the user's frames).
 
-Only references the user names are imported: typed, written in a spec, or listed
-by the project (a log's recorded reference counts only when the project's
-``[tool.beatlog] systems`` lists it, see :mod:`beatlog.project.config`); reading or showing
-a log never runs code.
-
-A reference is imported from ``sys.path``, to which the CLI adds the working
-directory (as ``python -m`` does) and a DTC spec adds its own folder and its project
-root (see :func:`importable_near`); when the module is still not found, the error
-names the folders it was looked for in.
-
-A factory that takes a keyword parameter ``random`` is handed the random source it
-may draw from while it builds (draws at set-up, :mod:`beatlog.model.setup`): the one
-given, or, where none is (a system built only to be looked at, never to record or
-replay), a recording source of seed 0.
-
-Whatever the user's code does while it is imported or called (raise, fail to
-compile, call ``sys.exit``) becomes a :class:`~beatlog.errors.SystemLoadError`
-whose message is one line naming the reference and the cause, with the user's
-traceback kept on it; only ``KeyboardInterrupt`` goes through.
+Only references the user names are imported (a log's recorded one only when the
+project lists it, :mod:`beatlog.project.config`): reading a log never runs code. A
+reference imports from ``sys.path``, to which the CLI adds the working directory and a
+spec its folder and project root (:func:`importable_near`). A factory that takes a
+keyword ``random`` is handed the random source to draw its set-up from (seed 0 where
+none is given). Whatever the user's code raises, or ``sys.exit``, becomes one
+:class:`~beatlog.errors.SystemLoadError` line, the user's traceback kept on it; only
+``KeyboardInterrupt`` goes through.
 """
 
 from __future__ import annotations
@@ -48,6 +36,7 @@ from beatlog.model.setup import takes_random
 from beatlog.model.source import RandomSource
 
 __all__ = [
+    "failure",
     "failure_site",
     "importable_near",
     "load_conversion",
@@ -207,8 +196,9 @@ def importable_near(path: Path | None) -> Iterator[None]:
                 sys.path.remove(entry)
 
 
-def _failed(reference: str, doing: str, exc: BaseException) -> SystemLoadError:
-    """One line for user code that raised or exited, its traceback kept for ``--verbose``."""
+def failure(exc: BaseException) -> str:
+    """What the user's code did, in one line: ``raised ValueError: no dock (line 3 of
+    robot.py)``, or ``called sys.exit(2)``."""
     if isinstance(exc, SystemExit):
         cause = f"called sys.exit({exc.code!r})"
     elif isinstance(exc, SyntaxError):
@@ -217,9 +207,13 @@ def _failed(reference: str, doing: str, exc: BaseException) -> SystemLoadError:
         message = " ".join(str(exc).split())  # one line, whatever the message holds
         cause = f"raised {type(exc).__name__}" + (f": {message}" if message else "")
     site = failure_site(exc)
-    where = f" ({site})" if site else ""
+    return f"{cause} ({site})" if site else cause
+
+
+def _failed(reference: str, doing: str, exc: BaseException) -> SystemLoadError:
+    """One line for user code that raised or exited, its traceback kept for ``--verbose``."""
     return SystemLoadError(
-        f"{reference!r}: {doing} {cause}{where}", user_traceback=user_traceback(exc)
+        f"{reference!r}: {doing} {failure(exc)}", user_traceback=user_traceback(exc)
     )
 
 
@@ -245,14 +239,13 @@ def load_robot(reference: str, *, random: RandomSource | None = None) -> Robot:
 
 def _not_a(reference: str, built: object, wanted: str) -> SystemLoadError:
     """The error for a factory that built something other than ``wanted``."""
-    return SystemLoadError(f"{reference!r}: {_built(built)}, not {wanted}")
-
-
-def _built(thing: object) -> str:
-    if thing is None:
-        return "returned None"
-    name = type(thing).__name__
-    return f"built {'an' if name[0].lower() in 'aeiou' else 'a'} {name}"
+    name = type(built).__name__
+    what = (
+        "returned None"
+        if built is None
+        else f"built {'an' if name[0] in 'aeiouAEIOU' else 'a'} {name}"
+    )
+    return SystemLoadError(f"{reference!r}: {what}, not {wanted}")
 
 
 def load_perception(reference: str) -> Perception:

@@ -1,34 +1,14 @@
 """The pytest plugin: DTC specs become test items, and a fixture replays logs in tests.
 
-Registered under the ``pytest11`` entry point, so installing beatlog is enough:
-``pytest`` collects every ``*.dtc.toml`` file as one test named after the spec. Set
-``beatlog_collect = false`` in the pytest ini options to turn collection off. DTC
-items carry the ``dtc`` marker, and ``-k`` matches their names and tags. A DTC is
-judged in its item's setup: one that cannot run (its log or system is bad input,
-``beatlog test``'s error) is an ERROR, one that diverges fails.
-
-Options (the ``beatlog`` group; the default is neither): ``--beatlog-update`` writes
-the new expectation of each failing DTC to its pending baseline for review, as
-``beatlog test --update`` does, and never when ``CI`` is set; ``--beatlog-audit``
-also audits each DTC's determinism and fails the ones it finds leaking;
-``--beatlog-coverage`` shows the transition coverage of the DTCs that ran, as
-``beatlog test --coverage`` does (remembering what earlier runs saw), and
-``--beatlog-coverage-json FILE`` writes it for tools. A DTC that declares variants
-(``[variants]``) is followed by its variants, each a test of its own
-(``dock[variant-3]``), as many as it declares or ``--beatlog-variants N`` says; a
-failing variant is written as a spec beside its DTC, as ``beatlog test`` writes it.
-The terminal summary says what was written, names orphaned baselines and counts the
-verdicts.
-
-Break points, as ``beatlog replay`` has them: ``--beatlog-break-at CYCLE`` stops in the
-debugger just before the behaviors update in that cycle of the one DTC selected (with
-``-k`` or its path), ``--beatlog-break-on-divergence`` replays each failing DTC again
-and stops at its first divergence. They stop as ``beatlog replay`` does
-(:mod:`beatlog.replaying.debugger`): ``PYTHONBREAKPOINT`` is honoured, pytest suspends its
-output capture while pdb runs, and quitting pdb ends the session as quitting pytest's
-pdb does (pytest's pdb is built on :class:`~beatlog.replaying.debugger.Debugger` for that,
-unless ``--pdbcls`` names another). A break past the end of the selected DTC's log is a
-usage error. They need the DTCs run in the pytest process (no ``-n`` of pytest-xdist).
+Registered under the ``pytest11`` entry point, so installing beatlog is enough: every
+``*.dtc.toml`` is one test named after the spec (``beatlog_collect = false`` in the ini
+options turns that off), marked ``dtc`` and matched by ``-k`` on its name and tags, and
+each variant it declares is a test of its own (``dock[variant-3]``). A DTC is judged in
+its item's setup: one that cannot run (``beatlog test``'s error) is an ERROR, one that
+diverges fails. The options of the ``beatlog`` group do what ``beatlog test``'s do (see
+:func:`pytest_addoption`); the break points stop as ``beatlog replay``'s do
+(:mod:`beatlog.replaying.debugger`), with pytest's pdb built on its debugger so that
+quitting ends the session, and need the DTCs run in this process (no ``-n``).
 """
 
 from __future__ import annotations
@@ -39,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from beatlog.baseline.policy import UpdateMode
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BeatlogError
 from beatlog.pytest_plugin.run import (
     RUN,
@@ -135,35 +115,34 @@ def pytest_configure(config: pytest.Config) -> None:
     if variants is not None and variants < 0:
         raise pytest.UsageError(f"--beatlog-variants: must be 0 or more, got {variants}")
     if break_at is not None or break_on_divergence:
-        if _distributed(config):
+        if getattr(config.option, "numprocesses", None) and config.option.dist != "no":
             raise pytest.UsageError(
                 "the beatlog break points stop in the debugger of this process: "
                 "run without pytest-xdist's -n (or with -n 0)"
             )
         if config.option.usepdb_cls is None:  # pytest's pdb, quitting wherever it stops
             config.option.usepdb_cls = ("beatlog.replaying.debugger", "Debugger")
+    coverage = config.getoption("beatlog_coverage")
     coverage_json = config.getoption("beatlog_coverage_json")
-    config.stash[RUN] = BeatlogRun(
+    worker = hasattr(config, "workerinput")  # an xdist worker's run
+    options = SpecOptions(
         update=UpdateMode.parse(config.getoption("beatlog_update")),
         audit=config.getoption("beatlog_audit"),
+        break_at=break_at,
+        break_on_divergence=break_on_divergence,
+        coverage=(coverage or coverage_json is not None) and not worker,
+    )
+    config.stash[RUN] = BeatlogRun(
+        options,
         root=config.rootpath,
-        coverage=config.getoption("beatlog_coverage"),
+        coverage=coverage,
         coverage_json=None
         if coverage_json is None
         else config.invocation_params.dir / coverage_json,
-        break_at=break_at,
-        break_on_divergence=break_on_divergence,
         variants=variants,
-        worker=hasattr(config, "workerinput"),  # an xdist worker's
+        worker=worker,
     )
     config.pluginmanager.register(config.stash[RUN], "beatlog-run")
-
-
-def _distributed(config: pytest.Config) -> bool:
-    """Whether pytest-xdist runs the tests in worker processes."""
-    return bool(getattr(config.option, "numprocesses", None)) and (
-        getattr(config.option, "dist", "no") != "no"
-    )
 
 
 def pytest_collect_file(parent: pytest.Collector, file_path: Path) -> pytest.Collector | None:

@@ -15,7 +15,6 @@ import pytest
 from beatlog.baseline.policy import (
     SpecOptions,
     StaleSuite,
-    UpdateMode,
     open_loop_share,
     stale_suite,
 )
@@ -30,19 +29,7 @@ if TYPE_CHECKING:
     from beatlog.report.suite import SuiteReport
     from beatlog.suite.runner import SpecOutcome, Verdict
 
-__all__ = [
-    "OPEN_LOOP",
-    "RUN",
-    "SPEC",
-    "UPDATE",
-    "VERDICT",
-    "BeatlogRun",
-    "DtcFailedError",
-    "DtcFile",
-    "DtcItem",
-    "failure_text",
-    "quitting_as_pytest",
-]
+__all__ = ["RUN", "BeatlogRun", "DtcFile", "DtcItem", "failure_text", "quitting_as_pytest"]
 
 VERDICT, SPEC, UPDATE = "beatlog_verdict", "beatlog_spec", "beatlog_update"
 OPEN_LOOP = "beatlog_open_loop"
@@ -105,12 +92,9 @@ class DtcItem(pytest.Item):
                 (f"beatlog_{name}", count) for name, count in outcome.result.counts.items()
             )
         try:
-            updates = update_baselines([outcome], run.update)
-        except BeatlogError as exc:  # a full disk: one line, as beatlog test says it
-            pytest.fail(str(exc), pytrace=False)
-        try:
+            updates = update_baselines([outcome], run.options.update)
             written = write_failed_variants([outcome])
-        except BeatlogError as exc:
+        except BeatlogError as exc:  # a full disk: one line, as beatlog test says it
             pytest.fail(str(exc), pytrace=False)
         for line in [*render_updates(updates), *variant_lines(written)]:
             self.user_properties.append((UPDATE, line.plain))
@@ -170,14 +154,12 @@ def failure_text(result: ReplayResult) -> str:
 class BeatlogRun:
     """What this pytest run asks of its DTCs, and what they did, for the terminal summary."""
 
-    update: UpdateMode
-    audit: bool
+    options: SpecOptions
+    """What each DTC is run with."""
     root: Path
     """pytest's rootdir: the coverage memory goes to its project root."""
     coverage: bool = False
     coverage_json: Path | None = None
-    break_at: int | None = None
-    break_on_divergence: bool = False
     variants: int | None = None
     """Variants of each DTC that declares them; None: as many as each declares."""
     worker: bool = False
@@ -196,17 +178,6 @@ class BeatlogRun:
     """By spec, the state changes its log recorded, as its verdict's replay read them
     for the coverage (here; an xdist worker's DTCs' logs are read again for it)."""
 
-    @property
-    def options(self) -> SpecOptions:
-        """What each DTC is run with."""
-        return SpecOptions(
-            update=self.update,
-            audit=self.audit,
-            break_at=self.break_at,
-            break_on_divergence=self.break_on_divergence,
-            coverage=(self.coverage or self.coverage_json is not None) and not self.worker,
-        )
-
     def pytest_collection_finish(self, session: pytest.Session) -> None:
         """A break at a cycle stops in one DTC: refuse a run that selects more, or one
         whose log ends before the break (as ``beatlog test`` does). The DTCs selected
@@ -214,14 +185,13 @@ class BeatlogRun:
         selected = [item for item in session.items if isinstance(item, DtcItem)]
         for item, spec in zip(selected, distinguished(item.spec for item in selected), strict=True):
             item.spec = spec
-        if self.break_at is None:
+        break_at = self.options.break_at
+        if break_at is None:
             return
         from beatlog.suite.selection import check_break_at  # noqa: PLC0415 - see the imports
 
         try:
-            check_break_at(
-                self.break_at, [item.spec for item in selected], option="--beatlog-break-at"
-            )
+            check_break_at(break_at, [item.spec for item in selected], option="--beatlog-break-at")
         except OptionError as exc:
             raise pytest.UsageError(str(exc)) from None
 

@@ -3,9 +3,9 @@ against a fresh system from the factory that built the recording one.
 
 A behavior that reads the global ``random`` or the wall clock records a session that
 no replay reproduces; certifying at the end of the recording catches it on the robot,
-not later in CI. A log that does not replay is replayed once more under the
-determinism audit's leak watch (:class:`~beatlog.audit.leaks.LeakWatch`), which names
-the calls to blame and where they are made.
+not later in CI. A log that does not replay is replayed once more under the leak
+watch (:class:`~beatlog.project.leaks.LeakWatch`), which names the calls to blame and
+where they are made.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from beatlog.audit.leaks import Finding, LeakWatch
 from beatlog.model.setup import SystemFactory
+from beatlog.project.leaks import Finding, LeakWatch
 from beatlog.replaying.judge import replay
 from beatlog.replaying.verdict import ReplayResult
 

@@ -46,14 +46,6 @@ MAX_VIOLATIONS = 1000
 """The most invariant violations a recorder keeps: a robot may run for hours."""
 
 
-def _checker(invariants: Sequence[Invariant | type | str], system: System) -> InvariantChecker:
-    """What checks ``invariants`` in each cycle of ``system`` (replay's checker: the
-    same invariants, the same cycles)."""
-    from beatlog.replaying.invariants import InvariantChecker  # noqa: PLC0415 - when asked
-
-    return InvariantChecker(invariants, system)
-
-
 class RecordSummary(NamedTuple):
     """What a recording run produced."""
 
@@ -89,14 +81,13 @@ class Recorder:
         never touched and :class:`~beatlog.errors.LogExistsError` names it.
     :param robot_id: the robot's name, kept in the header (``beatlog show`` prints it).
     :param system_ref: the ``module:factory`` that built the system, kept in the header
-        so reports can print a command that replays the log (a replay without a
-        system uses it only where the project lists it under ``[tool.beatlog] systems``).
+        for reports' replay commands (and replays without a system, where the project
+        lists it under ``[tool.beatlog] systems``).
     :param period_ns: the heartbeat period the robot aims for, in ns.
     :param seed: seed of the random source; a fresh one from the OS when None.
-    :param random: the random source the system was built with, where its factory drew
-        from it (draws at set-up, :mod:`beatlog.model.setup`): the draws it made so far
-        are the set-up draws, kept in the header, and it goes on as the session's
-        source; not with ``seed`` (give the seed to the source).
+    :param random: the random source the system's factory drew its set-up from
+        (:mod:`beatlog.model.setup`): those draws are kept in the header, and it goes on
+        as the session's source; not with ``seed`` (give the seed to the source).
     :param flush_interval_s: robot time between flushes to disk; a recorder killed
         loses at most this much.
     :param fsync: also ``fsync`` at every flush.
@@ -108,18 +99,14 @@ class Recorder:
     :param clock: the monotonic clock, in ns, that :meth:`beat` measures the heartbeat
         intervals with; a simulated robot passes its simulator's.
     :param by_field: store the robot states by field (format 3's columns: a replay
-        decodes only the fields its behaviors read), or in the cycle records; by
-        default by field for a state of at least
-        :data:`~beatlog.log.columns.COLUMNS_FROM` fields, which costs less to replay.
-    :param certify: a factory of the recorded system (handed the set-up draws where it
-        takes ``random``): when the session ends (without an exception), the log is
-        replayed against a fresh system from it and
-        :attr:`certificate` says whether it replays, or the first cycle that does not
-        and the calls to blame (:mod:`beatlog.record.certify`); needs a ``path``.
-    :param invariants: invariants to check in each cycle as it is recorded (callables,
-        classes or ``module:attribute`` references, see :mod:`beatlog.model.invariant`):
-        a violation never stops the robot; it is kept in :attr:`violations` and each
-        invariant's first is logged (``logging``, as a warning).
+        decodes only the fields its behaviors read), or in the cycle records; by default
+        by field from :data:`~beatlog.log.columns.COLUMNS_FROM` fields.
+    :param certify: a factory of the recorded system: when the session ends without an
+        exception, the log (at a ``path``) is replayed against a fresh system from it, and
+        :attr:`certificate` says whether it replays (:mod:`beatlog.record.certify`).
+    :param invariants: invariants to check in each cycle as it is recorded
+        (:mod:`beatlog.model.invariant`): a violation never stops the robot; it is kept
+        in :attr:`violations`, each invariant's first logged as a warning.
     """
 
     def __init__(
@@ -161,7 +148,11 @@ class Recorder:
         self.certificate: Certificate | None = None
         """Whether the log replays against a fresh system, once the session ended, when
         asked for (``certify``)."""
-        self._checker = None if not invariants else _checker(invariants, system)
+        self._checker: InvariantChecker | None = None
+        if invariants:  # replay's checker: the same invariants, the same cycles
+            from beatlog.replaying.invariants import InvariantChecker  # noqa: PLC0415
+
+            self._checker = InvariantChecker(invariants, system)
         self.violations: list[Violation] = []
         """The invariants that did not hold as the session was recorded, in order (the
         first :data:`MAX_VIOLATIONS` kept)."""
@@ -224,17 +215,14 @@ class Recorder:
         *,
         overrun: bool = False,
     ) -> Outputs:
-        """Run one cycle with heartbeat interval HB_t and robot state RS_t; log it.
+        """Run one cycle with heartbeat interval HB_t and robot state RS_t; log it, never
+        blocking on disk, and return the outputs the behaviors emitted. ``overrun``: this
+        heartbeat came late (the end record counts them, as :meth:`run` does).
 
-        A robot that runs its own loop says ``overrun=True`` when this heartbeat came
-        late; the end record counts them, as :meth:`run` does. Returns the outputs the
-        behaviors emitted. Never blocks on disk.
-
-        The behaviors see ``state`` as the log stores it, encoded and decoded back as
-        its type (a ``numpy.float32`` becomes the ``float`` that replay hands them), so
-        that live is what replay is; a state that does not decode as its type (a
-        ``str`` in a ``float`` field) is refused by a
-        :class:`~beatlog.errors.SchemaMismatchError` naming the field.
+        The behaviors see ``state`` as replay will hand it to them, encoded and decoded
+        back as its type (a ``numpy.float32`` becomes a ``float``); a state that does not
+        decode as its type is refused by a :class:`~beatlog.errors.SchemaMismatchError`
+        naming the field.
         """
         self._overruns += overrun
         executor = self._executor
@@ -354,17 +342,12 @@ class Recorder:
             self._close_error = exc
         certify, self._certify = self._certify, None  # once, however often it is closed
         if certify is not None and error is None and self.error is None:
-            self.certificate = self._certified(certify)
+            from beatlog.record.certify import certify as certified  # noqa: PLC0415 - replay
 
-    def _certified(self, system: SystemFactory) -> Certificate:
-        """The certificate of the log just closed, its lack logged as an error."""
-        from beatlog.record.certify import certify  # noqa: PLC0415 - replay, when asked
-
-        assert self._writer.path is not None  # certify needs a path: checked when built
-        certificate = certify(self._writer.path, system)
-        if not certificate.ok:
-            _log.error("%s: %s", self._writer.path, certificate.describe())
-        return certificate
+            assert self._writer.path is not None  # certify needs a path: checked when built
+            self.certificate = certified(self._writer.path, certify)
+            if not self.certificate.ok:
+                _log.error("%s: %s", self._writer.path, self.certificate.describe())
 
     def __enter__(self) -> Recorder:
         return self

@@ -1,10 +1,7 @@
-"""How strictly replay judges a cycle: exact by default, or with a spec's allowances.
-
-A spec may rename behaviors (so a renamed behavior needs no re-recording), ignore
-some behaviors' state changes or some output fields, and give a float tolerance per
-output field and, for sensor-level replay, per robot-state field. Replay first compares
-bytes; only a cycle whose bytes differ is judged again here, so the allowances cost
-nothing while a DTC passes.
+"""How strictly replay judges a cycle: exact by default, or with a spec's allowances
+(behaviors renamed or ignored, output fields ignored, float tolerances). Replay first
+compares bytes; only a cycle whose bytes differ is judged again here, so the allowances
+cost nothing while a DTC passes.
 """
 
 from __future__ import annotations
@@ -115,37 +112,14 @@ class Comparison:
 
     def outputs_agree(self, expected: Mapping[str, Any], actual: Mapping[str, Any]) -> bool:
         """Whether the outputs are the same field by field, bit for bit unless tolerated."""
-        wanted, got = self._fields(expected), self._fields(actual)
-        if wanted.keys() != got.keys():
-            return False
-        for name, value in wanted.items():
-            tolerance = self.tolerance.get(name)
-            if tolerance is None:
-                if _SORTED.encode(value) != _SORTED.encode(got[name]):
-                    return False
-            elif not _within(value, got[name], tolerance):
-                return False
-        return True
+        return not _differing(self._fields(expected), self._fields(actual), self.tolerance)
 
     def state_differences(
         self, expected: Mapping[str, Any], actual: Mapping[str, Any]
     ) -> list[str]:
         """The robot-state fields whose values differ (see :func:`state_fields`): bit
         for bit, or by more than their tolerance. A field on one side only differs."""
-        differing = []
-        for name in dict.fromkeys([*expected, *actual]):
-            if name not in expected or name not in actual:
-                differing.append(name)
-                continue
-            want, got = expected[name], actual[name]
-            tolerance = self.state_tolerance.get(name)
-            if (
-                _SORTED.encode(want) != _SORTED.encode(got)
-                if tolerance is None
-                else not _within(want, got, tolerance)
-            ):
-                differing.append(name)
-        return differing
+        return _differing(expected, actual, self.state_tolerance)
 
     def _fields(self, outputs: Mapping[str, Any]) -> dict[str, Any]:
         patterns = self.ignore_fields
@@ -154,6 +128,27 @@ class Comparison:
             for name, value in outputs.items()
             if not any(fnmatch.fnmatchcase(name, pattern) for pattern in patterns)
         }
+
+
+def _differing(
+    expected: Mapping[str, Any], actual: Mapping[str, Any], tolerances: Mapping[str, float]
+) -> list[str]:
+    """The fields on one side only, or whose values differ bit for bit or, where
+    ``tolerances`` gives one, by more than their tolerance."""
+    differing = []
+    for name in dict.fromkeys([*expected, *actual]):
+        tolerance = tolerances.get(name)
+        if (
+            name not in expected
+            or name not in actual
+            or (
+                _SORTED.encode(expected[name]) != _SORTED.encode(actual[name])
+                if tolerance is None
+                else not _within(expected[name], actual[name], tolerance)
+            )
+        ):
+            differing.append(name)
+    return differing
 
 
 def _by_behavior(changes: Iterable[StateChange]) -> dict[str, list[StateChange]]:

@@ -1,15 +1,10 @@
 """The replay core: the one place that steps a system through a session log.
 
-For each recorded cycle t it decodes RS_t (or, in sensor-level replay, rebuilds it
-with the perception step from the cycle's logged samples and compares it with the
-recorded one), loads RN_t into the random source, advances the simulated clock by
-HB_t and updates the behaviors, then hands back a
-:class:`~beatlog.replaying.outcome.CycleOutcome` with everything anyone needs: the
-recording, the state the behaviors saw, what they changed and output, the random
-numbers drawn against the recorded ones, and any problem. The verdict
-(:mod:`beatlog.replaying.judge`), traces, the fields read, timelines and the audit all
-consume these outcomes; nothing else steps a system through a log. The cycle records
-are read and checked by :mod:`beatlog.replaying.cycle_reader`.
+For each recorded cycle t it decodes RS_t (or, in sensor-level replay, rebuilds it from
+the cycle's samples and compares it with the recorded one), loads RN_t into the random
+source, advances the simulated clock by HB_t and updates the behaviors, then hands back
+a :class:`~beatlog.replaying.outcome.CycleOutcome` with everything anyone needs. The
+verdict, traces, timelines and the audit all consume these outcomes.
 """
 
 from __future__ import annotations
@@ -58,18 +53,14 @@ class Replayer:
 
     Building one checks that the log fits the system (:mod:`beatlog.replaying.fit`), its
     robot-state fields renamed and converted by ``migration``, and imports the
-    migration's conversions.
-    Given a ``perception`` and a log recorded with its samples, RS_t is rebuilt from
-    the samples (sensor-level replay); otherwise it is read from the log. Each cycle
-    must hold what the header declares: a robot state of exactly the recorded fields
-    (:attr:`state_type`), the samples it logged, and draws a recording makes; anything
-    else is a :class:`~beatlog.errors.LogError` naming the cycle.
+    migration's conversions. Given a ``perception`` and a log recorded with its samples,
+    RS_t is rebuilt from the samples (sensor-level replay). Each cycle must hold what the
+    header declares, or it is a :class:`~beatlog.errors.LogError` naming the cycle, after
+    which the replayer cannot go on.
 
     :attr:`advance` replays a cycle and says only whether it went cleanly, which is all
     the verdict needs for the cycles that match; :meth:`outcome` then tells everything
-    about it. A :class:`~beatlog.replaying.session.ReplaySession` is what steps it, for
-    the verdict and its other observers. A replayer that raised a
-    :class:`~beatlog.errors.LogError` cannot go on.
+    about it. A :class:`~beatlog.replaying.session.ReplaySession` is what steps it.
     """
 
     def __init__(
@@ -113,14 +104,8 @@ class Replayer:
         """The robot states an approved baseline pins by digest: in their cycles the
         rebuilt state is judged against them, not the recorded one."""
         self._encode = payload_encoder().encode
-        self._robot_state = system.robot_state
-        self._convert = (
-            StateConverter(system.robot_state, migration) if migration.converted() else None
-        )
-        """What turns the fields the migration converts into the system's, if any."""
-        self._migrated = bool(migration)
-        """Whether RS_t was recorded under other names or types than the system's."""
-        self._views = StateViews(system.robot_state, self.state_type, path, self._convert)
+        convert = StateConverter(system.robot_state, migration) if migration.converted() else None
+        self._views = StateViews(system.robot_state, self.state_type, path, convert)
         """RS_t of a format-3 log: views that decode only the fields read."""
         self._reader = CycleReader(header, path, self._views)
         """The log's cycle records, read and checked as the header declares them."""
@@ -133,17 +118,15 @@ class Replayer:
                 self._reader,
                 self._encode,
                 state_pins=state_pins,
-                migrated=self._migrated,
+                migrated=bool(migration),
             )
         )
         self.observe: Observe | None = None
-        """What wraps RS_t before the behaviors see it, in the cycles replayed while it
-        is set (none on the hot path): e.g. a stand-in that notes the fields read; the
-        outcome holds the state it wraps."""
+        """What wraps RS_t before the behaviors see it while set (e.g. a stand-in that
+        notes the fields read); the outcome holds the state it wraps."""
         self.perturb: Observe | None = None
-        """What takes the place of RS_t before the behaviors see it, in every cycle
-        replayed while it is set (none on the hot path): a variant's noise; the outcome
-        holds what the behaviors saw."""
+        """What takes the place of RS_t before the behaviors see it while set (a
+        variant's noise); the outcome holds what the behaviors saw."""
         self._last: tuple[
             CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, Sensed | None
         ]
@@ -152,11 +135,10 @@ class Replayer:
         self.advance: Advance = self._stepper()
         """Replay the next cycle; :meth:`outcome` then tells everything about it.
 
-        It returns BS'_t, the replayed state changes, when the cycle went cleanly: the
-        update completed, drew exactly the recorded random numbers and, in sensor-level
-        replay, ran on a robot state rebuilt as recorded; otherwise None, and
-        :meth:`outcome` says what happened. Where it went cleanly and replayed the bytes
-        expected of it (:meth:`expect`), it returns :data:`AGREED` instead.
+        It returns BS'_t, the replayed state changes, when the cycle went cleanly (the
+        update completed, drew as recorded and, in sensor-level replay, ran on a robot
+        state rebuilt as recorded), else None; :data:`AGREED` where it also replayed the
+        bytes expected of it (:meth:`expect`).
 
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
@@ -288,7 +270,7 @@ class Replayer:
         checking = self.state_type
         # A state decoded as the checking subclass becomes the system's, its fields
         # converted where a migration converts them.
-        adopt = self._views.adopt if checking is not self._robot_state else None
+        adopt = self._views.adopt if checking is not self.system.robot_state else None
         expected = self._expected
         agrees = self.agrees
         compares = expected is not None and not expected.judged

@@ -1,17 +1,11 @@
 """The replay debugger: stop in pdb just before the behaviors update in a chosen cycle.
 
 A break (``beatlog replay --break-at CYCLE``, ``replay(..., break_at=)``) hands that
-cycle's update to :func:`pause`
-(:meth:`~beatlog.model.cycle.CycleExecutor.pause_next_update`): the context is already
-the cycle's, as the behaviors will see it, and the debugger stops on the line that calls
-``system.update``, so one ``s`` steps into it. A banner says where it stopped and what
-is at hand.
-
-The stop honours ``breakpoint()``'s choice of debugger: ``PYTHONBREAKPOINT=0`` turns it
-off, another ``PYTHONBREAKPOINT`` or ``sys.breakpointhook`` (an IDE's) picks another,
-and pytest's ``pdb.set_trace`` lifts its output capture. Quitting the debugger raises
-:class:`DebuggerQuit`, a ``KeyboardInterrupt``: the replay stops as at Ctrl-C, where the
-``BdbQuit`` pdb raises would pass for the behaviors failing.
+cycle's update to :func:`pause`, with the context already the cycle's: the debugger stops
+on the line that calls ``system.update``, so one ``s`` steps into it. The stop honours
+``breakpoint()``'s choice of debugger (``PYTHONBREAKPOINT``, ``sys.breakpointhook``,
+pytest's ``pdb.set_trace``). Quitting it raises :class:`DebuggerQuit`: the replay stops
+as at Ctrl-C, where the ``BdbQuit`` pdb raises would pass for the behaviors failing.
 """
 
 from __future__ import annotations
@@ -85,7 +79,17 @@ def pause(
     ``recorded_draws`` (RN_t), ``recorded_state`` (RS_t as recorded; in sensor-level
     replay the behaviors get it rebuilt from the samples) and ``log``.
     """
-    header = _banner(log, context, rebuilt=recorded_state is not robot_state)
+    state = (
+        "robot_state (RS_t rebuilt from the samples), recorded_state (RS_t as recorded)"
+        if recorded_state is not robot_state
+        else "robot_state (RS_t)"
+    )
+    header = (
+        f"beatlog: cycle {context.cycle} of {log.name}, t = {context.time:.3f} s "
+        f"(HB_t {context.dt_ns / 1e6:.3f} ms), just before the behaviors update\n"
+        f"at hand: {state}, recorded_changes (BS_t), recorded_draws (RN_t), context, system\n"
+        "`s` steps into system.update, `c` replays on, `q` stops"
+    )
     debugger = _chosen_debugger()
     try:
         if debugger == "pdb":
@@ -100,21 +104,6 @@ def pause(
         update(robot_state, context)  # `s` steps into system.update
     except _quits():
         raise DebuggerQuit from None
-
-
-def _banner(log: Path, context: Context, *, rebuilt: bool) -> str:
-    """What the debugger says first: where it stopped, what is at hand, how to go on."""
-    state = (
-        "robot_state (RS_t rebuilt from the samples), recorded_state (RS_t as recorded)"
-        if rebuilt
-        else "robot_state (RS_t)"
-    )
-    return (
-        f"beatlog: cycle {context.cycle} of {log.name}, t = {context.time:.3f} s "
-        f"(HB_t {context.dt_ns / 1e6:.3f} ms), just before the behaviors update\n"
-        f"at hand: {state}, recorded_changes (BS_t), recorded_draws (RN_t), context, system\n"
-        "`s` steps into system.update, `c` replays on, `q` stops"
-    )
 
 
 def _chosen_debugger() -> Literal["pdb", "set_trace", "hook", "off"]:

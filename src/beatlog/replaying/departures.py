@@ -1,18 +1,11 @@
-"""Where the behaviors depart from the recording: what a baseline since format 5 holds.
+"""Where the behaviors depart from the recording: what a baseline holds since format 5.
 
-The recording is immutable and always beside its baseline, so a baseline need not
-copy it: it says where the approved state changes and outputs differ from the
-recorded ones, and everything else is as recorded. A cycle whose state changes
-differ lists its own (or is *quiet*: the recorded ones are gone, none stand in); an
-output field that differs holds its approved value from a cycle on, whatever was
-recorded, until it is :data:`~beatlog.replaying.expectation.AS_RECORDED` again. After an
-intended change most outputs still follow the recorded robot states, so departures
-are a fraction of a whole trace.
-
-:class:`DepartureCollector` finds them as a trace replays every cycle; replay
-applies them to the recorded cycles as it reads them
-(:mod:`beatlog.replaying.expected`); :func:`~beatlog.analysis.trace.whole_trace` turns
-them back into a whole trace for review.
+The recording always lies beside its baseline, so a baseline holds only where the
+approved state changes and outputs differ from the recorded ones: a cycle's own state
+changes (none, where it is *quiet*), and an output field's approved value from a cycle
+on, until it is :data:`~beatlog.replaying.expectation.AS_RECORDED` again.
+:class:`DepartureCollector` finds them as a trace replays; replay applies them as it
+reads the recorded cycles (:mod:`beatlog.replaying.expected`).
 """
 
 from __future__ import annotations

@@ -1,14 +1,10 @@
 """Draws an approved baseline lets replay make otherwise than recorded.
 
-In living replay (:meth:`~beatlog.replaying.random.ReplayRandom.live`) a behavior that
-asks for other draws than were recorded goes on, and each draw made otherwise is a
-:class:`~beatlog.replaying.random.DrawDifference`. A baseline approves them as rules, one
-line each however long the session, with the cycles where they happen (``wander:
-uniform(0.8, 1.6) -> uniform(0.7, 1.5), 14 draws, in cycles 12 40 ...``): small, and
-what a reviewer wants to read. The verdict keeps a :class:`DrawLedger` and judges each
-cycle's differences exactly, as strict replay judges the draws themselves: one that no
-rule approves in that cycle, or an approved one not made, diverges there. The fresh
-draws of living replay are keyed by the recording (:func:`log_key`).
+In living replay (:meth:`~beatlog.replaying.random.ReplayRandom.live`) each draw made
+otherwise is a :class:`~beatlog.replaying.random.DrawDifference`. A baseline approves
+them as rules, one line each with the cycles where they happen: what a reviewer wants
+to read. The verdict judges each cycle's differences exactly (:class:`DrawLedger`): one
+that no rule approves in that cycle, or an approved one not made, diverges there.
 """
 
 from __future__ import annotations
@@ -80,16 +76,13 @@ class DrawLedger:
     """The draws an approved baseline's rules allow, cycle by cycle."""
 
     def __init__(self, rules: Iterable[DrawRule]) -> None:
-        self._by_cycle: defaultdict[int, dict[DrawDifference, int]] = defaultdict(dict)
+        rules = list(rules)
+        self._by_cycle: defaultdict[int, Counter[DrawDifference]] = defaultdict(Counter)
         """Each cycle's approved differences, with how many of each."""
-        approved: set[DrawDifference] = set()
         for rule in rules:
-            difference = rule.difference
-            approved.add(difference)
             for cycle in rule.cycles:
-                held = self._by_cycle[cycle]
-                held[difference] = held.get(difference, 0) + 1
-        self._approved = frozenset(approved)
+                self._by_cycle[cycle][rule.difference] += 1
+        self._approved = frozenset(rule.difference for rule in rules)
         self.cycles = frozenset(self._by_cycle)
         """The cycles where the baseline holds draws made otherwise than recorded."""
 
@@ -98,19 +91,16 @@ class DrawLedger:
         finds none)."""
         if len(differences) == 1:  # the usual
             return self._by_cycle.get(cycle) == {differences[0]: 1}
-        made: dict[DrawDifference, int] = {}
-        for difference in differences:
-            made[difference] = made.get(difference, 0) + 1
-        return made == self._by_cycle.get(cycle, {})
+        return Counter(differences) == self._by_cycle.get(cycle, Counter())
 
     def check(self, cycle: int, differences: Sequence[DrawDifference]) -> Unapproved | None:
         """The first of a cycle's differences the baseline does not hold there, or the
         first it holds there that replay did not make; None when they are exactly the
         approved ones."""
-        allowed = self._by_cycle.get(cycle, {})
+        allowed = self._by_cycle.get(cycle, Counter())
         made = Counter(differences)
         for difference in differences:
-            if made[difference] > allowed.get(difference, 0):
+            if made[difference] > allowed[difference]:
                 return Unapproved(difference, True, difference in self._approved)
         for difference, times in allowed.items():
             if made[difference] < times:

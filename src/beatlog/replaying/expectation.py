@@ -1,21 +1,15 @@
 """What replay judges against: an approved baseline (:class:`Expectation`), where the
-behaviors depart from the recording (:mod:`beatlog.replaying.departures`), the rest
-being as recorded; and the traces of state changes and outputs it is made from.
-
-Outputs are traced compactly: a field appears only in the cycles where its value
-changes (:class:`OutputTracker`).
-
-Replay reads an expectation as it reads the log, a part at a time in cycle order
-(:class:`ExpectedStream`), so that a big baseline is judged in bounded memory: what it
-holds whole is only what applies to the whole session (its draws, where it leaves the
-recording, the behaviors it names).
+behaviors depart from the recording, read a part at a time in cycle order
+(:class:`ExpectedStream`) so that a big baseline is judged in bounded memory; and the
+traces it is made from, an output traced only where its value changes
+(:class:`OutputTracker`).
 """
 
 from __future__ import annotations
 
 import enum
 import itertools
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from operator import attrgetter
 from typing import Any, NamedTuple
@@ -36,6 +30,7 @@ __all__ = [
     "OutputTracker",
     "TracedChange",
     "TracedOutput",
+    "changes_by_cycle",
 ]
 
 _CYCLE = attrgetter("cycle")
@@ -47,6 +42,18 @@ class TracedChange(NamedTuple):
     cycle: int
     time_ns: int
     change: StateChange
+
+
+def changes_by_cycle(
+    changes: Iterable[TracedChange], quiet: Iterable[tuple[int, int]]
+) -> dict[int, list[StateChange]]:
+    """State changes grouped by cycle, a ``quiet`` cycle (and robot time) with none."""
+    grouped: dict[int, list[StateChange]] = {}
+    for traced in changes:
+        grouped.setdefault(traced.cycle, []).append(traced.change)
+    for cycle, _ in quiet:
+        grouped[cycle] = []
+    return grouped
 
 
 class _Marker(enum.Enum):
@@ -139,19 +146,11 @@ class Expectation:
     def changes_override(self) -> dict[int, list[StateChange]] | None:
         """The state changes that stand in for the recorded ones, in the cycles the
         mapping holds; None where the recording's hold in every cycle."""
-        if self.as_recorded:
-            return None
-        grouped = self.changes_by_cycle()
-        for cycle, _ in self.quiet:
-            grouped[cycle] = []
-        return grouped
+        return None if self.as_recorded else changes_by_cycle(self.changes, self.quiet)
 
     def changes_by_cycle(self) -> dict[int, list[StateChange]]:
         """The state changes grouped by cycle."""
-        grouped: dict[int, list[StateChange]] = {}
-        for traced in self.changes:
-            grouped.setdefault(traced.cycle, []).append(traced.change)
-        return grouped
+        return changes_by_cycle(self.changes, ())
 
     def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
         """Each cycle where an output changes, with every output field from then on."""

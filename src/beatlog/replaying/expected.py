@@ -1,14 +1,8 @@
-"""The recorded cycles as an approved baseline expects them, for the judge to compare.
-
-Replay judges a cycle by comparing the bytes the behaviors produce with the record's
-(:mod:`beatlog.replaying.judge`). Against an approved baseline, :class:`ExpectedRecords`
-puts the expected state changes and outputs in each record as replay reads it,
-encoded as a log would: the baseline's departures
-(:mod:`beatlog.replaying.departures`) where the behaviors depart from the recording,
-every other cycle keeping its recorded bytes. It reads the baseline as replay reads the
-log, a part at a time (:class:`~beatlog.replaying.expectation.ExpectedStream`), holding
-only what the batch at hand and the part read last need: its robot-state pins go to the
-replay's :class:`~beatlog.replaying.pins.PinChecker` the same way.
+"""The recorded cycles as an approved baseline expects them: :class:`ExpectedRecords`
+puts its state changes and outputs, encoded as a log would, in each record replay reads
+where the behaviors depart from the recording, so that the judge compares bytes as ever.
+It reads the baseline alongside the log, a part at a time, and hands its robot-state
+pins to the replay's :class:`~beatlog.replaying.pins.PinChecker` the same way.
 """
 
 from __future__ import annotations
@@ -22,7 +16,12 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord, payload_encoder
-from beatlog.replaying.expectation import ExpectedPart, ExpectedStream, TracedOutput
+from beatlog.replaying.expectation import (
+    ExpectedPart,
+    ExpectedStream,
+    TracedOutput,
+    changes_by_cycle,
+)
 from beatlog.replaying.held_outputs import HeldOutputs
 from beatlog.replaying.pins import PinChecker
 from beatlog.replaying.verdict import StateChange
@@ -86,11 +85,7 @@ class ExpectedRecords:
             if part is None:
                 self._read = _ALL
                 return
-            grouped: dict[int, list[StateChange]] = {}
-            for traced in part.changes:
-                grouped.setdefault(traced.cycle, []).append(traced.change)
-            for cycle, _ in part.quiet:
-                grouped[cycle] = []
+            grouped = changes_by_cycle(part.changes, part.quiet)
             _queue(self._changes, sorted(grouped.items(), key=_FIRST))
             _queue(
                 self._lines,

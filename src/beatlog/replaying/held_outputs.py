@@ -1,12 +1,10 @@
 """The held values of departing output fields, put into the recorded cycles' outputs.
 
 Against a baseline of departures (:mod:`beatlog.replaying.departures`), an output field
-that departs holds its approved value from a cycle on, whatever was recorded: a cycle's
-expected outputs are its recorded ones with the held values in place, as
-:func:`~beatlog.replaying.departures.apply_outputs` puts them. :class:`HeldOutputs` puts
-them into a run of records at a time, the hot path of replay against such a baseline:
-most cycles repeat the last one's recorded outputs and take its expected ones; the
-others are decoded, given the held values and encoded again.
+that departs holds its approved value from a cycle on, whatever was recorded.
+:class:`HeldOutputs` puts them into a run of records at a time: most cycles repeat the
+last one's recorded outputs and take its expected ones; the others are decoded, given
+the held values and encoded again.
 """
 
 from __future__ import annotations
@@ -45,14 +43,8 @@ class HeldOutputs:
         """Take a cycle's output lines; whether any field holds a value now."""
         held = self._held
         hold(held, lines)
-        values: dict[str, Any] = {}
-        absent: list[str] = []
-        for name, value in held.items():
-            if value is ABSENT:
-                absent.append(name)
-            else:
-                values[name] = value
-        self._values, self._absent = values, tuple(absent)
+        self._values = {name: value for name, value in held.items() if value is not ABSENT}
+        self._absent = tuple(name for name, value in held.items() if value is ABSENT)
         self._last = (None, EMPTY_MAP)
         return bool(held)
 

@@ -1,14 +1,7 @@
-"""Invariants checked in every cycle a replay session steps (or a recorder records).
-
-The checker is an observer of a replay session, keeping the first violation; in the
-verdict's own replay (:func:`beatlog.replaying.judge.replay`) the judge checks each
-cycle with it instead, so that the earliest failure, a violation or a difference from
-the recording, is the verdict.
-
-Each cycle is handed to the invariants as a :class:`~beatlog.model.invariant.Cycle`:
-RS_t as the behaviors saw it, every behavior's state after the update, BS_t, the
-outputs and the draws. Only cycles whose update completed are checked; one that did
-not is a divergence of its own.
+"""Invariants checked in every cycle a replay steps (or a recorder records), each handed
+a :class:`~beatlog.model.invariant.Cycle`: RS_t as the behaviors saw it, every
+behavior's state after the update, BS_t, the outputs and the draws. Only cycles whose
+update completed are checked; one that did not is a divergence of its own.
 """
 
 from __future__ import annotations
@@ -73,10 +66,9 @@ def invariant_name(invariant: object) -> str:
 
 
 class InvariantChecker:
-    """Checks ``invariants`` in each cycle of ``system``: an observer of a replay session
-    (:class:`~beatlog.replaying.session.Observer`) that keeps the first violation as a
-    :class:`~beatlog.replaying.verdict.Divergence`, and what a recorder checks each
-    recorded cycle with.
+    """Checks ``invariants`` in each cycle of ``system``: for the verdict's judge, which
+    checks each cycle with it so that the earliest failure is the verdict; for a
+    recorder; or as an observer of a replay session that keeps the first violation.
 
     Each invariant is a callable, a class (instantiated here, afresh for each checker,
     so that one that looks across cycles starts clean) or a ``module:attribute``
@@ -100,13 +92,10 @@ class InvariantChecker:
 
     @property
     def replaying(self) -> bool:
-        """Whether it still needs cycles replayed: until the first violation."""
+        """Whether it still needs cycles replayed (and read): until the first violation."""
         return self.violation is None
 
-    @property
-    def reading(self) -> bool:
-        """Whether it needs more cycles: until the first violation."""
-        return self.violation is None
+    reading = replaying
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         """Check the cycle replayed (nothing where it was not replayed)."""

@@ -1,11 +1,8 @@
-"""The perturbations of a variant of a recording, and how they are made: each value from
-numbers keyed by the log (:func:`~beatlog.replaying.draws.log_key`), the variant's
-number and the batch of the log its cycle is in (a hash call a batch, the numbers in
-order of cycle), never the wall clock or a global generator, so that the same log, code
-and number give the same bytes on every run and machine (:class:`Perturbations` says
-what is perturbed). The records are rewritten before the replay core reads them and the
-noise is added through its ``perturb`` hook: a replay that is no variant pays nothing.
-:mod:`beatlog.replaying.variant` replays and judges a variant.
+"""The perturbations of a variant of a recording (:class:`Perturbations`), each value
+from numbers keyed by the log, the variant's number and the cycle, never the wall clock
+or a global generator: the same log, code and number give the same bytes on every run
+and machine. The records are rewritten before the replay core reads them and the noise
+is added through its ``perturb`` hook, so a replay that is no variant pays nothing.
 """
 
 from __future__ import annotations
@@ -76,35 +73,25 @@ def variant_key(key: bytes, number: int) -> bytes:
     return hashlib.blake2b(b"variant\x00%d" % number, key=key[:64], digest_size=32).digest()
 
 
-class _Uniforms:
-    """Uniform numbers keyed by a variant, as 32-bit integers (``u / 2**32`` is in
-    [0, 1)): those of one kind for a group of :data:`_GROUP` cycles (or for one cycle),
-    in order, are the SHAKE128 output of the variant's key, the kind and the group's
-    number. One hash call a group rather than arithmetic a number, each kind its own
-    stream, so that one perturbation left out leaves the others' numbers as they were,
-    and a cycle's numbers are the same whatever window is replayed, fresh start or
-    not: no state carried from group to group, no global generator, the same bytes on
-    every machine."""
+def _block(key: bytes, kind: bytes, at: int, count: int) -> tuple[int, ...]:
+    """The first ``count`` uniform numbers of ``kind`` (as 32-bit integers) at ``at``, a
+    group of :data:`_GROUP` cycles or one cycle: the SHAKE128 output of the variant's
+    ``key``, the kind and ``at``. Each kind its own stream, so that one perturbation left
+    out leaves the others' numbers as they were, and no state carried from group to
+    group, so that a cycle's numbers are the same whatever window is replayed."""
+    digest = hashlib.shake_128(b"%s%s\x00%d" % (key, kind, at)).digest(4 * count)
+    return struct.unpack(f"<{count}I", digest)
 
-    __slots__ = ("_key",)
 
-    def __init__(self, key: bytes) -> None:
-        self._key = key
-
-    def block(self, kind: bytes, at: int, count: int) -> tuple[int, ...]:
-        """The first ``count`` numbers of ``kind`` at ``at`` (a group, or a cycle)."""
-        digest = hashlib.shake_128(b"%s%s\x00%d" % (self._key, kind, at)).digest(4 * count)
-        return struct.unpack(f"<{count}I", digest)
-
-    def span(self, kind: bytes, first: int, count: int) -> list[int]:
-        """One number of ``kind`` for each of the ``count`` cycles from ``first``."""
-        numbers: list[int] = []
-        end = first + count
-        for group in range(first // _GROUP, (end + _GROUP - 1) // _GROUP):
-            start = group * _GROUP
-            block = self.block(kind, group, min(end, start + _GROUP) - start)
-            numbers.extend(block[max(first, start) - start :])
-        return numbers
+def _span(key: bytes, kind: bytes, first: int, count: int) -> list[int]:
+    """One number of ``kind`` for each of the ``count`` cycles from ``first``."""
+    numbers: list[int] = []
+    end = first + count
+    for group in range(first // _GROUP, (end + _GROUP - 1) // _GROUP):
+        start = group * _GROUP
+        block = _block(key, kind, group, min(end, start + _GROUP) - start)
+        numbers.extend(block[max(first, start) - start :])
+    return numbers
 
 
 class Perturber:
@@ -124,7 +111,7 @@ class Perturber:
         perturbations = variant.perturbations
         self._start = start_cycle
         """The first cycle perturbed (a window's start): those before replay as recorded."""
-        self._uniforms = _Uniforms(variant_key(log_key(header), variant.number))
+        self._key = variant_key(log_key(header), variant.number)
         self._jitter_ns = round(perturbations.heartbeat_jitter * _NS)
         self._draws = perturbations.draws
         sensing = replayer.perception is not None
@@ -140,7 +127,6 @@ class Perturber:
         self._where = where
         self._log = replayer.path
         self._context = replayer.executor.context
-        self._robot_state = replayer.system.robot_state
         if self._noise:
             replayer.perturb = self.noisy
 
@@ -159,7 +145,7 @@ class Perturber:
         late: list[msgspec.Raw] = []
         jitter_ns = self._jitter_ns
         resampling = self._drop or self._delay
-        uniforms = self._uniforms
+        key = self._key
         fields = len(self._noise)
         for batch in batches:
             size = len(batch)
@@ -170,7 +156,7 @@ class Perturber:
                     self._first = cycle
                     # each field its own stream: one left out leaves the others' noise
                     streams = [
-                        uniforms.span(b"noise " + name.encode(), cycle, size)
+                        _span(key, b"noise " + name.encode(), cycle, size)
                         for name, _ in self._noise
                     ]
                     self._offsets = [
@@ -179,7 +165,7 @@ class Perturber:
                         for u, bound in zip(row, self._bounds, strict=True)
                     ]
                 if jitter_ns:
-                    beats = uniforms.span(b"heartbeat", cycle, size)
+                    beats = _span(key, b"heartbeat", cycle, size)
                     for record, u in zip(perturbed, beats[skip:], strict=True):
                         offset = round((u * _HALF_TINY - 1.0) * jitter_ns)
                         record.heartbeat_ns = max(1, record.heartbeat_ns + offset)
@@ -209,7 +195,7 @@ class Perturber:
         for index, samples in enumerate(decoded):
             if index < skip:
                 continue  # before the window: as recorded
-            numbers = self._uniforms.block(b"samples", first + index, 2 * len(samples))
+            numbers = _block(self._key, b"samples", first + index, 2 * len(samples))
             drops, delays = numbers[::2], numbers[1::2]
             if not (late or min(drops, default=_SPAN) < drop or min(delays, default=_SPAN) < delay):
                 continue  # none late, dropped or delayed: as recorded
@@ -229,8 +215,7 @@ class Perturber:
             return state
         noise = self._noise
         at = (cycle - self._first) * len(noise)
-        if state.__class__ is not self._robot_state:  # a view of a format-3 batch
-            state = full_state(state)
+        state = full_state(state)  # a view of a format-3 batch made whole
         moved: dict[str, Any] = {}
         for (name, path), offset in zip(noise, self._offsets[at : at + len(noise)], strict=True):
             top = path[0]
@@ -269,12 +254,12 @@ def _check_noise(
     check_state_fields(
         header, [n for n in names if "." not in n], where, "noise bound for", migration
     )
-    for name in names:
+    for name in (n for n in names if "." in n):
         try:
             found = field_schema(header.robot_state_schema, migration.recorded_name(name))
         except (RecursionError, TypeError, KeyError, AttributeError):
             found = None
-        if found is None and "." in name:
+        if found is None:
             raise FieldError(
                 f"{where}: noise bound for {name!r}: the recorded robot state "
                 f"{header.robot_state_type} has no such field"

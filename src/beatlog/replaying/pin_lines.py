@@ -1,13 +1,12 @@
-"""Robot-state pins as a baseline's lines hold them: runs of cycles that perception
-rebuilds otherwise than recorded (:class:`PinnedRun`) and blocks of their tags
-(:class:`DigestBlock`), and the check that the blocks cover their runs, in order,
-made as a baseline is read (:class:`PinCoverage`). :mod:`beatlog.replaying.pins` pins
-and judges robot states with them.
+"""Robot-state pins as a baseline's lines hold them (:class:`PinnedRun`,
+:class:`DigestBlock`), and the check, as a baseline is read, that the blocks cover
+their runs in order (:class:`PinCoverage`).
 """
 
 from __future__ import annotations
 
 import heapq
+import re
 import string
 from collections.abc import Iterable
 from typing import Any, NamedTuple
@@ -30,12 +29,8 @@ UNPINNED = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
 BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
 """The base64 digits, in the order of the six bits each stands for."""
-_DIGIT = ord("x")
-_MARKS = bytes(
-    _DIGIT if chr(byte) in BASE64_DIGITS else byte if chr(byte) == UNPINNED[0] else 0
-    for byte in range(256)
-)
-"""Each digit as ``x``, so that a gap's dots stand out, and any other character as 0."""
+_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(UNPINNED)})*")
+"""Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`UNPINNED`."""
 
 
 class PinnedRun(NamedTuple):
@@ -131,12 +126,10 @@ class PinCoverage:
         where = f"the robot-state run from cycle {run.cycle}"
         if block.cycle < self._start or (self._pinned == 0 and block.cycle != run.cycle):
             return f"{where} has its digests of cycle {block.cycle} out of place"
-        cycles = len(block.tags) // TAG_CHARS
-        tagged = _tagged(block.tags)
-        if tagged is None or not 0 < cycles <= CYCLES_PER_BLOCK:
+        if not (_TAGS.fullmatch(block.tags) and 0 < block.cycles <= CYCLES_PER_BLOCK):
             return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
-        self._start = block.cycle + cycles
-        self._pinned += tagged
+        self._start = block.cycle + block.cycles
+        self._pinned += block.cycles - block.tags.count(UNPINNED)
         return None
 
     def _close(self) -> str | None:
@@ -150,17 +143,3 @@ class PinCoverage:
         if self._pinned != run.cycles:
             return f"{where} says {run.cycles} cycles, its digests pin {self._pinned}"
         return None
-
-
-def _tagged(tags: str) -> int | None:
-    """How many cycles ``tags`` pin, if they are tags of :data:`TAG_CHARS` base64 digits,
-    or :data:`UNPINNED`, one after another: read as bytes (a regular expression saying
-    so, or a translation of the characters as text, costs ten times as much)."""
-    if len(tags) % TAG_CHARS or not tags.isascii():
-        return None
-    marks = tags.encode().translate(_MARKS)
-    if 0 in marks:  # a character neither a digit nor a dot (an int: a byte found at once)
-        return None
-    if marks[::2] != marks[1::2]:  # a tag's two characters: both dots or neither
-        return None
-    return marks.count(_DIGIT) // TAG_CHARS

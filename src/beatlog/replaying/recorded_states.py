@@ -9,11 +9,32 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import msgspec
+
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import EMPTY_LIST, CycleRecord
+from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord
 from beatlog.log.payload import decode_part, decode_state_changes
 
-__all__ = ["RecordedStates"]
+__all__ = ["RecordedStates", "recorded_changes"]
+
+
+def recorded_changes(
+    path: Path, raw: msgspec.Raw, cycle: int, catalogue: int
+) -> list[StateChangeRecord]:
+    """The state changes recorded in ``cycle``, decoded.
+
+    :raises beatlog.errors.CorruptLogError: they are damaged, or one names a behavior
+        past the catalogue's ``catalogue`` behaviors.
+    """
+    changes = decode_part(path, raw, decode_state_changes, "state changes", cycle)
+    for index, _, _ in changes:
+        if not 0 <= index < catalogue:
+            raise CorruptLogError(
+                path,
+                f"damaged state changes in cycle {cycle}: behavior #{index} is not in the "
+                f"catalogue of {catalogue}",
+            )
+    return changes
 
 
 class RecordedStates:
@@ -34,16 +55,10 @@ class RecordedStates:
         last, cycle = self._last, self._cycle
         for record in batch:
             if record.state_changes != EMPTY_LIST:
-                changes = decode_part(
-                    self._path, record.state_changes, decode_state_changes, "state changes", cycle
+                changes = recorded_changes(
+                    self._path, record.state_changes, cycle, len(self._behaviors)
                 )
                 for index, _, after in changes:
-                    if not 0 <= index < len(self._behaviors):
-                        raise CorruptLogError(
-                            self._path,
-                            f"damaged state changes in cycle {cycle}: behavior #{index} is "
-                            f"not in the catalogue of {len(self._behaviors)}",
-                        )
                     last[index] = after
             cycle += 1
         self._cycle = cycle

@@ -1,29 +1,24 @@
 """A replay session: open and check a log once, step a system through it once, and hand
-every cycle to the observers that gather what they need from it.
+every cycle to the observers that gather what they need from it (the verdict, traces,
+the fields read, timelines, a failed DTC's details), the way py_trees hangs visitors
+off one tick loop.
 
-The verdict, traces, the fields read, timelines and a failed DTC's details are
-observers of one session, the way py_trees hangs visitors off one tick loop: none of
-them opens a log or steps a system on its own. The verdict (a :class:`Judge`) judges
-most cycles from the replayed state changes alone, on the hot path; the others take
-each cycle's full outcome. Stepping stops for good when no observer needs more
-replayed cycles (a replay cannot resume once skipped); the recording alone goes on to
-the observers that still read it, and reading stops when none does, or at the end of
-the log where a judge must see every byte of it.
+The verdict (a :class:`Judge`) judges most cycles from the replayed state changes
+alone, on the hot path. Stepping stops for good when no observer needs more replayed
+cycles; reading stops when none reads on, or at the log's end where a judge must see
+every byte of it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from pathlib import Path
 from typing import Any, Protocol, TypedDict, Unpack
 
-from beatlog.errors import WindowError
 from beatlog.log.files import Closing
 from beatlog.log.format import CycleRecord, StateChangeRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
-from beatlog.model.cycle import CycleExecutor
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
 from beatlog.replaying.core import AGREED, CycleOutcome, Replayer
@@ -35,15 +30,14 @@ from beatlog.replaying.setup import built_for_replay
 
 __all__ = [
     "BatchReader",
+    "Calling",
     "FieldsRead",
     "Judge",
     "Observer",
     "ReadTracker",
     "ReplayOptions",
     "ReplaySession",
-    "check_window",
     "fields_read",
-    "through",
 ]
 
 
@@ -89,7 +83,22 @@ class Judge(Protocol):
         """Judge the cycle replayed last, the ``index``-th of its batch, which did not
         agree at once: ``changes`` is what :attr:`~beatlog.replaying.core.Replayer.advance`
         returned, ``outcome`` the cycle's outcome where other observers asked for it.
-        Where judging stops, the observer that follows replay past that cycle."""
+        Where judging stops, the observer that follows replay past that cycle, which
+        alone the session goes on for: the others take the cycles up to that one."""
+
+
+class Calling:
+    """A callback as an observer: given every cycle's outcome."""
+
+    replaying = reading = True
+
+    def __init__(self, call: Callable[[CycleOutcome], object]) -> None:
+        self._call = call
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        """Hand the callback the cycle's outcome."""
+        if outcome is not None:
+            self._call(outcome)
 
 
 class ReadTracker:
@@ -128,9 +137,7 @@ class FieldsRead:
     def replaying(self) -> bool:
         return not self._lost and self._next <= self.cycle
 
-    @property
-    def reading(self) -> bool:
-        return self.replaying
+    reading = replaying
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         if outcome is None:
@@ -163,27 +170,17 @@ class ReplaySession(Closing):
     """A log opened and checked once, and a system set up to replay it; a context manager.
 
     Building one reads the header, builds the system where it is given its factory
-    (handed the recorded set-up draws, :mod:`beatlog.replaying.setup`; a
-    :class:`~beatlog.replaying.setup.SetupDrawError` where it draws otherwise) and
-    checks that the log fits the system (:mod:`beatlog.replaying.fit`), its robot-state
-    fields renamed and converted by ``migration``; ``state_pins``, an approved
-    baseline's robot states, are what perception must rebuild in their cycles.
-    :meth:`run` steps through the log for its observers.
-    Without a system, nothing is replayed: the observers read the recording alone.
-    ``break_at`` stops in the debugger just before the behaviors update in that cycle.
-    ``living`` replay goes on where the behaviors draw otherwise than recorded
-    (:meth:`~beatlog.replaying.random.ReplayRandom.live`; ``rename`` maps a recorded
-    behavior's name to its name now), as it does judged against an approved baseline.
+    (:mod:`beatlog.replaying.setup`) and checks that the log fits it
+    (:mod:`beatlog.replaying.fit`); the ``options`` go to its
+    :class:`~beatlog.replaying.core.Replayer`. :meth:`run` steps through the log for
+    its observers. Without a system, nothing is replayed: the observers read the
+    recording alone.
 
-    ``fresh_from`` (a cycle) starts the behaviors from rest there: the system is built
-    as for the log's start and first updates in that cycle, at the cycle number and
-    robot time recorded for it, its BS_t found against the behavior states recorded
-    before it (:meth:`~beatlog.model.cycle.CycleExecutor.assume`); the cycles before it
-    are skimmed (read and checked as
-    :meth:`~beatlog.log.reader.SessionLogReader.batches` skims them, their state
-    changes decoded), not replayed, and no observer gets them.
-
-    The verdict (:func:`beatlog.replaying.judge.replay`) is the session's :class:`Judge`.
+    ``fresh_from`` (a cycle) starts the behaviors from rest there: the system first
+    updates in that cycle, at the cycle number and robot time recorded for it, its BS_t
+    found against the behavior states recorded before it
+    (:meth:`~beatlog.model.cycle.CycleExecutor.assume`); the cycles before it are read
+    and checked, not replayed, and no observer gets them.
     """
 
     def __init__(
@@ -250,7 +247,7 @@ class ReplaySession(Closing):
                     follower = verdict(index, record, changes, None)
                     if follower is not None:
                         verdict = None
-                        watching.append(follower)
+                        watching = [follower]
                         start = index + 1
                         break
                 else:
@@ -278,30 +275,20 @@ class ReplaySession(Closing):
                     follower = verdict(index, record, changes, outcome)
                     if follower is not None:
                         verdict = None
-                        watching.append(follower)
+                        watching = [follower]  # the others saw the cycle that stops it
 
     def _batches(self) -> Iterator[Sequence[CycleRecord]]:
-        """The log's batches, from the fresh start on where there is one."""
+        """The log's batches, from the fresh start on where there is one: there the
+        clock is set to the robot time recorded before it, and the behavior states
+        recorded then assumed, once they are known (its batch read)."""
         if not self.fresh_from or self.replayer is None:
-            return self.reader.batches()
-        recorded = RecordedStates(self.reader.path, self.reader.header.behaviors)
-        batches = self.reader.batches(self.fresh_from, recorded.take)
-        return self._from_rest(batches, self.replayer.executor, recorded)
-
-    def _from_rest(
-        self,
-        batches: Iterator[Sequence[CycleRecord]],
-        executor: CycleExecutor,
-        recorded: RecordedStates,
-    ) -> Iterator[Sequence[CycleRecord]]:
-        """``batches``, from the fresh start on, with ``executor``'s clock set to the
-        robot time recorded before it and the behavior states recorded there assumed,
-        once they are known (its batch read)."""
-        first = True
-        for batch in batches:
-            if first:
-                first = False
-                now_ns = self.reader.robot_time_ns - sum([c.heartbeat_ns for c in batch])
+            yield from self.reader.batches()
+            return
+        executor, reader = self.replayer.executor, self.reader
+        recorded = RecordedStates(reader.path, reader.header.behaviors)
+        for number, batch in enumerate(reader.batches(self.fresh_from, recorded.take)):
+            if not number:
+                now_ns = reader.robot_time_ns - sum([c.heartbeat_ns for c in batch])
                 executor.clock.now_ns = executor.context.time_ns = now_ns
                 executor.assume(recorded.by_position(executor.behavior_ids, self._rename))
             yield batch
@@ -343,36 +330,6 @@ def _read_by(
         for reader in readers:
             reader.read(batch)
         yield batch
-
-
-def through(
-    batches: Iterator[Sequence[CycleRecord]],
-    end_cycle: int | None,
-    reached: Callable[[], None],
-    first: int = 0,
-) -> Iterator[Sequence[CycleRecord]]:
-    """``batches``, cycle ``first`` on, up to cycle ``end_cycle`` (None: all of them):
-    the one that holds it is cut after it, and none is read after it (a window's end,
-    see :func:`beatlog.replaying.judge.replay`); ``reached`` is called once it is."""
-    for batch in batches:
-        if end_cycle is not None and first + len(batch) > end_cycle:
-            reached()
-            yield batch[: end_cycle + 1 - first]
-            return
-        yield batch
-        first += len(batch)
-
-
-def check_window(where: Path, cycles: int, start_cycle: int, end_cycle: int | None) -> None:
-    """Refuse a window that a log read to its end with ``cycles`` cycles does not hold;
-    ``where`` (the spec that set it, or the log) is what the error names.
-
-    :raises beatlog.errors.WindowError: it starts or ends past the last cycle.
-    """
-    for key, cycle in (("end_cycle", end_cycle), ("start_cycle", start_cycle or None)):
-        if cycle is not None and cycle >= cycles:
-            last = f"{cycle} is past the log's last cycle ({cycles - 1})"
-            raise WindowError(where, f"{key} {last}")
 
 
 def fields_read(

@@ -1,11 +1,11 @@
-"""Draws at set-up in replay: the system is built after the log's header is read, its
-factory handed a source that serves the recorded set-up draws
-(:mod:`beatlog.model.setup`).
+"""The system replay builds: by default the one the log's header records, and built
+after the header is read, its factory handed a source that serves the recorded set-up
+draws (:mod:`beatlog.model.setup`).
 
-They are checked as a cycle's draws are: a draw too many, too few, of another kind or
-with other parameters is a divergence at set-up (:class:`SetupDrawError`), before
-cycle 0. In living replay too: an approved baseline holds no set-up draws, so a change
-to them needs a new recording.
+The set-up draws are checked as a cycle's draws are: a draw too many, too few, of
+another kind or with other parameters is a divergence at set-up
+(:class:`SetupDrawError`), before cycle 0. In living replay too: an approved baseline
+holds no set-up draws, so a change to them needs a new recording.
 """
 
 from __future__ import annotations
@@ -14,13 +14,14 @@ from pathlib import Path
 
 from beatlog.errors import BeatlogError, CorruptLogError, SystemLoadError
 from beatlog.log.format import SessionHeader
+from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.draws import recorded_draw_problem
 from beatlog.model.setup import SystemFactory, build_system
+from beatlog.project.config import vouched_system
 from beatlog.replaying.random import RandomMismatch, ReplayRandom
-from beatlog.replaying.verdict import DivergenceKind
 
-__all__ = ["SetupDrawError", "built_for_replay"]
+__all__ = ["SetupDrawError", "built_for_replay", "recorded_system"]
 
 
 class SetupDrawError(BeatlogError):
@@ -35,7 +36,6 @@ class SetupDrawError(BeatlogError):
         super().__init__(f"{path}: {problem}")
         self.path = path
         self.problem = problem
-        self.kind = DivergenceKind.SETUP
         self.recorded_system = recorded_system
         """The ``module:factory`` the log's header records, for a reproduce command."""
 
@@ -84,3 +84,19 @@ def built_for_replay(
             path, f"at set-up, the system's factory {problem}", recorded_system=header.system
         )
     return built
+
+
+def recorded_system(log: str | Path, *, project: Path | None = None) -> str:
+    """The system reference the log's header records (``beatlog record --system-ref``),
+    once the project vouches for it: bytes from a log never choose code on their own.
+
+    ``project`` is a folder of the project whose ``[tool.beatlog] systems`` must list
+    the reference (the working directory by default; a spec's folder for a spec), see
+    :func:`beatlog.project.config.vouched_system`.
+
+    :raises beatlog.errors.SystemLoadError: the log records none, or one the project
+        does not list.
+    """
+    with SessionLogReader(log) as reader:
+        reference = reader.header.system
+    return vouched_system(log, reference, project=Path.cwd() if project is None else project)

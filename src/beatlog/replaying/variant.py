@@ -38,15 +38,16 @@ from beatlog.replaying.fit.migration import StateMigration
 from beatlog.replaying.invariants import InvariantChecker
 from beatlog.replaying.outcome import draw_reports
 from beatlog.replaying.perturbation import Perturber, Variant, variant_key
-from beatlog.replaying.session import Observer, ReplaySession, check_window, through
-from beatlog.replaying.verdict import Checked, Divergence, DivergenceKind, ReplayResult
+from beatlog.replaying.session import Observer, ReplaySession
+from beatlog.replaying.verdict import Checked, Divergence, ReplayResult, log_ended
+from beatlog.replaying.window import Window
 
 __all__ = ["replay_variant"]
 
 
 class _Ended:
-    """What follows a variant's replay past its end: nothing (the log is read on, to
-    its end, for damage)."""
+    """What follows a variant's replay past the cycle that fails it: nothing (the log is
+    read on, to its end, for damage)."""
 
     replaying = reading = False
 
@@ -54,66 +55,51 @@ class _Ended:
         """Nothing to take."""
 
 
-class _WhileJudged:
-    """An observer of a variant's replay for as long as the variant is judged: the
-    cycles of its window up to the one that fails it, that one included."""
+class _InWindow:
+    """An observer of a variant's replay that takes its window's cycles alone."""
 
-    def __init__(self, observer: Observer, judge: _VariantJudge) -> None:
+    def __init__(self, observer: Observer, start: int) -> None:
         self._observer = observer
-        self._judge = judge
+        self._start = start
 
     @property
     def replaying(self) -> bool:
-        return self._judge.divergence is None and self._observer.replaying
+        return self._observer.replaying
 
     @property
     def reading(self) -> bool:
-        return self._judge.divergence is None and self._observer.reading
+        return self._observer.reading
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
-        if outcome is None or outcome.cycle >= self._judge.start_cycle:
+        if outcome is None or outcome.cycle >= self._start:
             self._observer.add(record, outcome)
 
 
 class _VariantJudge:
     """Judges a variant's cycles for a replay session: every cycle replayed, its
-    records perturbed, until behavior code raises or an invariant does not hold; in a
-    window from ``start_cycle`` to ``end_cycle``, the cycles before it must only not
-    raise, and none after it is read."""
+    records perturbed, until behavior code raises or an invariant does not hold; the
+    cycles before the ``window`` must only not raise, and none after it is read."""
 
     def __init__(
         self,
         replayer: Replayer,
         perturber: Perturber,
         invariants: InvariantChecker | None,
-        *,
-        start_cycle: int = 0,
-        end_cycle: int | None = None,
+        window: Window,
     ) -> None:
         self._replayer = replayer
         self._perturber = perturber
         self._invariants = invariants
-        self._first = replayer.executor.context.cycle + 1
-        self.start_cycle = start_cycle
-        self._end = end_cycle
-        self.start_ns = 0
-        """Robot time where the window starts."""
-        self.window_closed = False
-        """Whether the log's batches stopped at the window's end, the rest unread."""
+        self._window = window
         self.divergence: Divergence | None = None
         self.changes = self.outputs = self.draws = 0
-        """What the behaviors did in the cycles that went cleanly."""
+        """What the behaviors did in the window's cycles that went cleanly."""
 
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches up to the window's end, perturbed."""
-        if self._end is not None:
-            batches = through(batches, self._end, self._close, self._first)
-        if not self._perturber.rewrites:
-            return batches
-        return self._perturber.records(batches, self._first)
-
-    def _close(self) -> None:
-        self.window_closed = True
+        first = self._replayer.executor.context.cycle + 1
+        batches = self._window.batches(batches, self._replayer)
+        return self._perturber.records(batches, first) if self._perturber.rewrites else batches
 
     def judge(
         self,
@@ -126,24 +112,19 @@ class _VariantJudge:
         hold in it; else count what it did. Before the window only raising fails."""
         replayer = self._replayer
         context = replayer.executor.context
-        before = context.cycle < self.start_cycle
-        if context.cycle == self.start_cycle:
-            self.start_ns = context.time_ns - context.dt_ns
         if changes is None and replayer.raised is not None:
             self.divergence = self._raised(outcome or replayer.outcome())
             return _Ended()
+        if context.cycle < self._window.start:
+            return None
         stepped = replayer.stepped  # a cycle that drew otherwise than recorded counts too
-        if stepped is not None and not before:
+        if stepped is not None:
             self.changes += len(stepped)
             self.outputs += len(context.outputs)
             self.draws += len(replayer.random.drawn)
-        if before:
-            return None
         if self._invariants is not None:
             self.divergence = self._invariants.check(outcome or replayer.outcome())
-            if self.divergence is not None:
-                return _Ended()
-        return None
+        return None if self.divergence is None else _Ended()
 
     def _raised(self, outcome: CycleOutcome) -> Divergence:
         """The divergence of a cycle whose behavior code (or perception) raised."""
@@ -153,11 +134,8 @@ class _VariantJudge:
         failure = outcome.perception_failure or outcome.failure  # as stop() headlines them
         assert failure is not None
         names = replayer.executor.behavior_ids
-        before = (
-            f"before the window (cycle {self.start_cycle} on): "
-            if outcome.cycle < self.start_cycle
-            else ""
-        )
+        start = self._window.start
+        before = f"before the window (cycle {start} on): " if outcome.cycle < start else ""
         return Divergence(
             kind=stop.kind,
             cycle=outcome.cycle,
@@ -210,6 +188,7 @@ def replay_variant(
         cycle.
     """
     migration = migration or StateMigration()
+    window = Window(start_cycle, end_cycle, fresh=fresh_start)
     started = time.perf_counter()
     with ReplaySession(
         log,
@@ -217,13 +196,12 @@ def replay_variant(
         perception=perception,
         migration=migration,
         living=True,
-        fresh_from=start_cycle if fresh_start else 0,
+        fresh_from=window.fresh_from,
     ) as session:
         reader = session.reader
         replayer = session.replayer
         assert replayer is not None  # a session with a system replays
-        key = log_key(reader.header)
-        replayer.random.live(variant_key(key, variant.number))
+        replayer.random.live(variant_key(log_key(reader.header), variant.number))
         perturber = Perturber(
             variant,
             reader.header,
@@ -233,41 +211,27 @@ def replay_variant(
             start_cycle=start_cycle,
         )
         checker = InvariantChecker(invariants, system) if invariants else None
-        judge = _VariantJudge(
-            replayer, perturber, checker, start_cycle=start_cycle, end_cycle=end_cycle
-        )
-        watching = [_WhileJudged(factory(reader), judge) for factory in observers]
-        session.run(watching, judge=judge)
+        judge = _VariantJudge(replayer, perturber, checker, window)
+        session.run([_InWindow(factory(reader), start_cycle) for factory in observers], judge=judge)
         context = replayer.executor.context
-        status = None if judge.window_closed else reader.status
+        status = None if window.closed else reader.status
         divergence = judge.divergence
-        if divergence is None and status is not None and status.complete:
-            check_window(where or reader.path, status.cycles, start_cycle, end_cycle)
-        if (
-            divergence is None
-            and status is not None
-            and not status.complete
-            and not allow_truncated
+        where = where or reader.path
+        if divergence is None and window.ended_early(
+            status, where, allow_truncated=allow_truncated
         ):
-            divergence = Divergence(
-                kind=DivergenceKind.LOG_ENDED,
-                cycle=min(context.cycle + 1, status.cycles),
-                time_ns=context.time_ns,
-                message=f"the log ends early ({status.describe()}); if the session ended "
-                "there (a crash), accept what it holds with --allow-truncated "
-                "(in a spec: allow_truncated = true)",
-            )
+            assert status is not None  # a log that ended early says how
+            divergence = log_ended(status, context.cycle + 1, context.time_ns)
         wall = time.perf_counter() - started
     return ReplayResult(
         log=Path(log),
         ok=divergence is None,
         cycles=max(0, context.cycle + 1 - start_cycle),
         checked=Checked(judge.changes, judge.outputs, judge.draws, replayer.samples_perceived),
-        robot_time_ns=max(0, context.time_ns - judge.start_ns),
+        robot_time_ns=max(0, context.time_ns - window.start_ns),
         wall_time_s=wall,
         status=status,
         divergence=divergence,
         divergent_cycles=0 if divergence is None else 1,
         reproduce=reproduce,
-        notes=(),
     )

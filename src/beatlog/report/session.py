@@ -22,12 +22,18 @@ from beatlog.report.console import plain_text, render_outcome
 from beatlog.report.suite import SuiteReport
 from beatlog.suite.coverage import cache_path, recall, suite_coverage
 from beatlog.suite.junit import write_junit
-from beatlog.suite.last_failed import last_failed_path, remember_failed
 from beatlog.suite.maintenance import find_orphans, update_baselines, write_failed_variants
-from beatlog.suite.options import SuiteOptions
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.selection import Selection, check_break_at, fleet_of, select_suite
+from beatlog.suite.selection import (
+    Selection,
+    SuiteOptions,
+    check_break_at,
+    fleet_of,
+    last_failed_path,
+    remember_failed,
+    select_suite,
+)
 
 if TYPE_CHECKING:
     from beatlog.analysis.recorded import RecordedChanges
@@ -202,7 +208,7 @@ def conclude(
     measured = suite_coverage(ran, recorded or {})
     warnings = report.warnings
     if root is not None:
-        warning = recall(measured, cache_path(root), {spec.id: spec.name for spec in found}).warning
+        warning = recall(measured, cache_path(root), {spec.id: spec.name for spec in found})
         warnings += () if warning is None else (warning,)
     report = dataclasses.replace(
         report, coverage=measured, shows_coverage=coverage, warnings=warnings

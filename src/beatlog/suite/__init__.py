@@ -16,19 +16,19 @@ if TYPE_CHECKING:
     from beatlog.suite.cluster import DaskExecutor as DaskExecutor
     from beatlog.suite.discovery import discover_specs as discover_specs
     from beatlog.suite.discovery import select_specs as select_specs
-    from beatlog.suite.fleet import fleet_specs as fleet_specs
     from beatlog.suite.junit import write_junit as write_junit
     from beatlog.suite.maintenance import Decision as Decision
     from beatlog.suite.maintenance import approve as approve
     from beatlog.suite.maintenance import decide as decide
     from beatlog.suite.maintenance import update_baselines as update_baselines
-    from beatlog.suite.options import SuiteOptions as SuiteOptions
+    from beatlog.suite.parallel import Shard as Shard
     from beatlog.suite.parallel import run_suite as run_suite
+    from beatlog.suite.parallel import shard as shard
     from beatlog.suite.runner import SpecOutcome as SpecOutcome
     from beatlog.suite.runner import Verdict as Verdict
     from beatlog.suite.runner import run_spec as run_spec
-    from beatlog.suite.sharding import Shard as Shard
-    from beatlog.suite.sharding import shard as shard
+    from beatlog.suite.selection import SuiteOptions as SuiteOptions
+    from beatlog.suite.selection import fleet_specs as fleet_specs
     from beatlog.suite.spec import SPEC_SUFFIX as SPEC_SUFFIX
     from beatlog.suite.spec import DtcSpec as DtcSpec
     from beatlog.suite.spec import load_spec as load_spec

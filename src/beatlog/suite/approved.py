@@ -23,7 +23,7 @@ from beatlog.replaying.judge import replay as judge
 from beatlog.replaying.verdict import ReplayResult
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
-__all__ = ["Approved", "approved_baseline", "approved_baselines", "replay"]
+__all__ = ["Approved", "approved_baseline", "approved_baselines", "approved_for", "replay"]
 
 
 class Approved(NamedTuple):
@@ -41,33 +41,37 @@ class Approved(NamedTuple):
         )
 
 
-def _names(spec: Path, log: Path) -> bool:
-    """Whether the spec file at ``spec`` names ``log`` (a spec that does not parse names
-    nothing here; it is an error where it is run)."""
-    try:
-        named = tomllib.loads(spec.read_text(encoding="utf-8")).get("log")
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
-        return False
-    return isinstance(named, str) and (spec.parent / named).resolve() == log.resolve()
+def approved_for(baseline: Baseline, log: Path, digest: str | None = None) -> Baseline:
+    """``baseline``, checked to be made from the recording ``log`` (whose SHA-256 is
+    ``digest`` where it was taken as the log was read, else taken from the file).
 
-
-def _naming(log: Path) -> list[Path]:
-    """The spec files beside ``log`` that name it."""
-    return [spec for spec in sorted(log.parent.glob(f"*{SPEC_SUFFIX}")) if _names(spec, log)]
-
-
-def _approved(spec_file: Path, log: Path) -> Approved:
-    """The spec at ``spec_file`` with its approved baseline, made from ``log``.
-
-    :raises beatlog.errors.BaselineError: the baseline was approved for another recording.
+    :raises beatlog.errors.BaselineError: it was approved for another recording.
     """
-    spec = load_spec(spec_file)
-    baseline = read_baseline(expected_path(spec.path))
-    if baseline.log_digest != log_digest(log):
+    if baseline.log_digest != (digest or log_digest(log)):
         raise BaselineError(
             baseline.path, f"approved for another recording than {log.name}; delete it"
         )
-    return Approved(spec, baseline)
+    return baseline
+
+
+def _naming(log: Path) -> list[Path]:
+    """The spec files beside ``log`` that name it (a spec that does not parse names
+    nothing here; it is an error where it is run)."""
+    naming = []
+    for spec in sorted(log.parent.glob(f"*{SPEC_SUFFIX}")):
+        try:
+            named = tomllib.loads(spec.read_text(encoding="utf-8")).get("log")
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            continue
+        if isinstance(named, str) and (spec.parent / named).resolve() == log.resolve():
+            naming.append(spec)
+    return naming
+
+
+def _approved(spec_file: Path, log: Path) -> Approved:
+    """The spec at ``spec_file`` with its approved baseline, made from ``log``."""
+    spec = load_spec(spec_file)
+    return Approved(spec, approved_for(read_baseline(expected_path(spec.path)), log))
 
 
 def approved_baselines(log: str | Path) -> list[Approved]:
@@ -82,11 +86,10 @@ def approved_baselines(log: str | Path) -> list[Approved]:
 
 def approved_baseline(log: str | Path, system: object = None) -> Approved | None:
     """The approved baseline of the spec beside ``log`` that names it, if there is one;
-    where several name it, of the one whose ``system`` is ``system`` (a
-    ``module:factory`` reference; a system object matches none of them).
+    where several name it, of the one whose ``system`` is ``system`` (a ``module:factory``).
 
-    :raises beatlog.errors.BaselineError: as :func:`approved_baselines`, or several specs
-        name the log, one with an approved baseline, and ``system`` does not tell which.
+    :raises beatlog.errors.BaselineError: as :func:`approved_baselines`, or ``system``
+        does not tell which of several specs it is.
     :raises beatlog.errors.SpecError: a spec that names it is not a valid spec.
     """
     path = Path(log)
@@ -112,11 +115,9 @@ def replay(
     approved: bool = True,
     **options: Any,
 ) -> ReplayResult:
-    """Replay ``log`` as :func:`beatlog.replaying.judge.replay` does (the same options), and
-    judge it against the approved baseline of the spec beside it that names it, with
-    that spec's comparison, when there is one and neither ``expected`` nor
-    ``comparison`` is given; ``approved=False`` judges against the recording. The
-    result's notes say which baseline was used.
+    """Replay ``log`` as :func:`beatlog.replaying.judge.replay` does, judged against the
+    approved baseline of the spec beside it that names it, with its comparison, unless
+    ``expected`` or ``comparison`` is given or ``approved`` is False; the notes say so.
     """
     found = (
         approved_baseline(log, system)

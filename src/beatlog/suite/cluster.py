@@ -1,33 +1,21 @@
 """Suites on a Dask cluster: ``beatlog test --dask ADDRESS`` (or ``--dask local:N``).
 
-One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec`, the function the
-local runner's workers run, and sends back its :class:`~beatlog.suite.runner.SpecOutcome`
-as it is; outcomes stream back as they complete, to the same progress bar and reports.
-Tasks are submitted as outcomes come, two a cluster thread ahead of them, so the
-files they ship are read, and held here and by the scheduler, for those DTCs alone.
-A spec travels with absolute paths to a cluster of this machine's (``local``); to
-another (an address), with the files of this machine its replay reads (:func:`packed`):
-its spec's approved baseline, its log where it is a local file, and its project's
-``pyproject.toml``, with their paths relative to the project's root (a file outside it
-goes under ``outside/``), written into a folder of the worker's in the same places
-(:func:`unpacked`), so the workers need no filesystem shared with this one. A log behind
-a URL (a spec's, or a fleet's) is copied by the worker that replays it, and by no other
-process (see :mod:`beatlog.suite.remote`), into its machine's cache of logs; a task also
-fetches the log of the DTC its worker is likely to replay next (the one as many DTCs
-further on as the cluster has threads) while it replays its own
-(:func:`~beatlog.suite.prefetch.fetch_ahead`). Code is not shipped: the system's package
-must be installed on the workers, as it is here (or they share the spec's folder, from
-which its code also imports); a worker without it makes the DTC an error that says so
+One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec` and sends back its
+outcome; outcomes stream back as they complete, to the same progress bar and reports.
+Tasks are submitted as outcomes come, two a cluster thread ahead of them, so the files
+they ship are held for those DTCs alone. A spec travels with absolute paths to a
+cluster of this machine's (``local``); to another, with the files of this machine its
+replay reads (:func:`packed`: its baseline, its local log, its project's
+``pyproject.toml``), written into a folder of the worker's in the same places
+(:func:`unpacked`). A log behind a URL is copied by the worker that replays it, which
+also fetches ahead the log it is likely to replay next. Code is not shipped: a worker
+without the system's package makes the DTC an error that says so
 (:func:`missing_system`).
 
-A worker that dies while it replays a DTC (a crash, the machine lost) does not lose the
-DTC: the scheduler runs it again on another worker, up to its ``allowed-failures``
-(``distributed.scheduler.allowed-failures``, 3 by default), and the outcome counts the
-retries; past them the DTC is an error. The retries are counted here from the
-scheduler's own events (a worker removed while it was replaying the DTC), which reach
-this client before the DTC's outcome does: an outcome costs no request of its own. A
-cluster of one's own is best run with
-:data:`ONE_DTC_PER_THREAD`. Needs ``pip install "beatlog[dask]"``.
+A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs it
+again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
+outcome counts the retries (:class:`WorkerDeaths`); past them the DTC is an error.
+Needs ``pip install "beatlog[dask]"``.
 """
 
 from __future__ import annotations
@@ -35,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import dataclasses
+import importlib.util
 import itertools
 import logging
 import re
@@ -43,18 +32,17 @@ import tempfile
 import time
 import uuid
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
-from beatlog.log.files import Closing
+from beatlog.log.files import Closing, project_root
 from beatlog.project.usercode import importable_near
-from beatlog.suite.prefetch import fetch_ahead, wait_for
-from beatlog.suite.remote import Listed
+from beatlog.suite.parallel import longest_first
+from beatlog.suite.remote import Listed, fetch_ahead, wait_for
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
-from beatlog.suite.sharding import longest_first
-from beatlog.suite.shipping import Packed, as_here, missing_system, packed, unpacked
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -80,19 +68,16 @@ it was replaying with it (with Dask's default, 1.1, a worker of one thread also 
 the next DTC, which would count as retried too)."""
 
 _IN_FLIGHT_PER_THREAD = 2
-"""How many DTCs a run keeps submitted for each thread of the cluster: each thread has
-the next at hand, and the files that DTCs ship (a local log, a baseline) are held, here
-and by the scheduler, for that many alone, however long the suite."""
+"""How many DTCs a run keeps submitted for each thread of the cluster."""
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
+_OUTSIDE = "outside"
 
 
 class DaskExecutor(Closing):
     """A connection to a Dask cluster that runs suites, one task per DTC (an
-    :data:`~beatlog.suite.parallel.Executor` for :func:`~beatlog.suite.parallel.run_suite`).
-
-    ``address`` is a scheduler's (``tcp://host:8786``), or ``local`` for a cluster of
-    worker processes on this machine, one per core, or ``local:N`` for N of them, closed
-    with the executor.
+    :data:`~beatlog.suite.parallel.Executor`): a scheduler's ``address``
+    (``tcp://host:8786``), or ``local`` (``local:N``) for worker processes on this
+    machine, one per core (N), closed with the executor.
 
     :raises ClusterError: the address is not one, or no scheduler answers there within
         ``distributed.comm.timeouts.connect``.
@@ -149,7 +134,11 @@ class DaskExecutor(Closing):
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
         threads = max(1, sum(self._client.nthreads().values()))
-        ahead = [_ahead(spec) for spec in ordered[threads:]] + [None] * min(threads, len(ordered))
+        # the log a worker's thread is likely to replay next, fetched ahead: a URL's
+        ahead = [
+            None if spec.log_url is None else (spec.log_url, spec.listed_log)
+            for spec in ordered[threads:]
+        ] + [None] * min(threads, len(ordered))
         waiting = iter(zip(ordered, ahead, strict=True))
         pending: dict[str, tuple[Future[SpecOutcome], DtcSpec]] = {}
 
@@ -159,7 +148,9 @@ class DaskExecutor(Closing):
             if not chosen:
                 return []
             keys = [f"dtc-{spec.name}-{uuid.uuid4().hex}" for spec, _ in chosen]
-            sent = [self._sent(spec) for spec, _ in chosen]
+            sent = [
+                packed(_absolute(spec)) if self._ships else _absolute(spec) for spec, _ in chosen
+            ]
             later = [next_ for _, next_ in chosen]
             futures: list[Future[SpecOutcome]] = self._client.map(  # one message for all
                 _replayed, sent, later, options=options, key=keys, pure=False
@@ -178,11 +169,6 @@ class DaskExecutor(Closing):
         finally:
             self._client.cancel([future for future, _ in pending.values()], force=True)
 
-    def _sent(self, spec: DtcSpec) -> DtcSpec | Packed:
-        """The spec as its task carries it: with the files it reads, to a cluster that
-        does not share this machine's."""
-        return packed(_absolute(spec)) if self._ships else _absolute(spec)
-
     def _outcome(self, future: Future[SpecOutcome], spec: DtcSpec) -> SpecOutcome:
         """The outcome of a completed task, told as a local run tells it, with the
         times the DTC was run again because its worker died."""
@@ -194,7 +180,7 @@ class DaskExecutor(Closing):
             tries = exc.allowed_failures + 1
             problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
             return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
-        return _as_given(outcome, spec, self._deaths.count(str(future.key)))
+        return _as_given(outcome, spec, self._deaths[str(future.key)])
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
@@ -207,36 +193,25 @@ class DaskExecutor(Closing):
             self._cluster.close()
 
 
-class WorkerDeaths:
-    """How many workers died while running each task, counted from the scheduler's
-    events of the topic ``all`` as the scheduler counts them (a task's ``suspicious``):
-    a worker removed unexpectedly (not retired nor closed on purpose) counts once for
-    each task it was running. The scheduler sends the event before it runs the task
-    again, on the same stream as the task's result, so a result always finds its count.
-    """
-
-    def __init__(self) -> None:
-        self._counts: collections.Counter[str] = collections.Counter()
+class WorkerDeaths(collections.Counter[str]):
+    """How many workers died while running each task, by its key, counted from the
+    scheduler's events of the topic ``all`` as the scheduler counts them (a task's
+    ``suspicious``): a worker removed unexpectedly counts once for each task it was
+    running. The scheduler sends the event before it runs the task again, on the same
+    stream as the task's result, so a result always finds its count."""
 
     def seen(self, event: tuple[float, Any]) -> None:
         """Take one event ``(time, message)`` of the topic ``all``."""
         _, message = event
-        if not isinstance(message, dict) or message.get("action") != "remove-worker":
-            return
-        if message.get("expected"):
-            return
-        self._counts.update(str(key) for key in message.get("processing-tasks", ()))
-
-    def count(self, key: str) -> int:
-        """How many workers died while running the task ``key``."""
-        return self._counts[key]
+        removed = isinstance(message, dict) and message.get("action") == "remove-worker"
+        if removed and not message.get("expected"):  # not retired nor closed on purpose
+            self.update(str(key) for key in message.get("processing-tasks", ()))
 
 
 def _handshake(address: str) -> None:
-    """Connect to ``address`` and exchange Dask's handshake, all within
-    ``distributed.comm.timeouts.connect``: a client's own connection waits for the
-    handshake without end, so a server that is not a Dask scheduler (a dashboard's
-    port, a web server) would hang the run, or answer with bytes it cannot decode.
+    """Connect to ``address`` and exchange Dask's handshake within
+    ``distributed.comm.timeouts.connect``: a client's own connection waits for it
+    without end, so a server that is not a Dask scheduler would hang the run.
 
     :raises ClusterError: no scheduler answers there in time, or what answers is not one.
     """
@@ -263,19 +238,12 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
-def _ahead(spec: DtcSpec) -> tuple[str, Listed | None] | None:
-    """What a worker needs to fetch the spec's log ahead: its URL and what its listing
-    said of it; None for a local log."""
-    return None if spec.log_url is None else (spec.log_url, spec.listed_log)
-
-
 def _replayed(
     sent: DtcSpec | Packed, ahead: tuple[str, Listed | None] | None, *, options: SpecOptions
 ) -> SpecOutcome:
-    """On a worker: :func:`run_spec` of the DTC sent, with the files shipped with it
-    where it was packed, while the log of ``ahead`` (a URL, and what its listing said of
-    it), the DTC this worker's thread is likely to replay next, is fetched into the
-    machine's cache."""
+    """On a worker: :func:`run_spec` of the DTC sent, with its files where it was
+    packed, while the log of ``ahead``, which this thread likely replays next, is
+    fetched into the machine's cache."""
     if ahead is not None:
         fetch_ahead(*ahead)
     if isinstance(sent, DtcSpec):
@@ -298,10 +266,9 @@ def _replayed(
 def _waited(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
     """:func:`run_spec`, after the log this process is fetching ahead for the DTC, if it
     is, the time waited for it counted as waiting for storage."""
-    if spec.log_url is None:
-        return run_spec(spec, options)
     asked = time.perf_counter()
-    wait_for(spec.log_url)
+    if spec.log_url is not None:
+        wait_for(spec.log_url)
     waited = time.perf_counter() - asked
     outcome = run_spec(spec, options)
     if outcome.storage_wait_s is None:
@@ -330,3 +297,77 @@ def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
             error = error.replace(str(absolute), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
     return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
+
+
+@dataclass(frozen=True)
+class Packed:
+    """A DTC with its paths relative to its project's root, and the files it reads, by
+    those paths."""
+
+    spec: DtcSpec
+    files: dict[str, bytes]
+    root: str
+    """The project's root here, where the relative paths start."""
+    spec_file: Path | None
+    """The spec file here, whose folder and project root the DTC's code also imports
+    from where the worker shares them (None for a fleet log)."""
+
+
+def packed(spec: DtcSpec) -> Packed:
+    """``spec`` with the files of this machine its replay reads (its baseline, its log
+    if local, its project's ``pyproject.toml``), where they exist; a fleet's log reads
+    only its own."""
+    folder = spec.path.absolute().parent
+    root = project_root(folder) or folder
+    files: dict[str, bytes] = {}
+    read = [] if spec.spec_file is None else [root / "pyproject.toml", expected_path(spec.path)]
+    for path in read if spec.log_url is not None else [*read, spec.log]:
+        if path.is_file():
+            files[_relative(path, root).as_posix()] = path.read_bytes()
+    log = spec.log if spec.log_url is not None else _relative(spec.log, root)
+    relative = dataclasses.replace(spec, path=_relative(spec.path, root), log=log)
+    here = None if spec.spec_file is None else spec.spec_file.absolute()
+    return Packed(relative, files, str(root), here)
+
+
+def unpacked(shipped: Packed, folder: Path) -> DtcSpec:
+    """Write the shipped files into ``folder`` and return the DTC with its paths there."""
+    for name, data in shipped.files.items():
+        path = folder / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+    spec = shipped.spec
+    log = spec.log if spec.log_url is not None else folder / spec.log
+    return dataclasses.replace(spec, path=folder / spec.path, log=log)
+
+
+def as_here(text: str, shipped: Packed, folder: Path) -> str:
+    """``text`` (a message) with the paths of the files unpacked into ``folder`` named
+    as they are on the machine that packed them."""
+    text = text.replace(f"{folder / _OUTSIDE}", "")
+    return text.replace(str(folder), shipped.root)
+
+
+def missing_system(spec: DtcSpec, where: str) -> str | None:
+    """Why the DTC cannot run at ``where`` (a worker): its system's (or perception
+    step's) package is not installed there; None where it is, or the log names it."""
+    for reference in (spec.system, spec.perception):
+        if reference is None:
+            continue
+        package = reference.partition(":")[0].partition(".")[0]
+        if importlib.util.find_spec(package) is None:
+            return (
+                f"the worker {where} has no package {package!r} ({reference}): "
+                "install the system's package on the cluster's workers"
+            )
+    return None
+
+
+def _relative(path: Path, root: Path) -> Path:
+    """Where ``path`` goes in the worker's folder: its place under the project's root,
+    or under ``outside/`` by its absolute path where it lies elsewhere."""
+    absolute = path.absolute()
+    try:
+        return absolute.resolve().relative_to(root.resolve())
+    except ValueError:
+        return Path(_OUTSIDE, *absolute.parts[1:])

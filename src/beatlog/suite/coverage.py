@@ -1,27 +1,22 @@
 """A suite's transition coverage, from its specs: what each DTC's recording exercises,
-and what earlier coverage runs saw: the states and transitions each behavior reached.
+and what earlier coverage runs saw: the states and transitions each behavior reached,
+which catches a state no DTC reaches today (a DTC deleted, a recording replaced).
 
-A state reached by no DTC today may only be one that no behavior declares; remembering
-what earlier runs saw catches it anyway (a DTC deleted, a recording replaced). Like
-pytest's ``.pytest_cache``, the memory lives in a cache folder at the project root
-(the nearest ``pyproject.toml``, else the suite's folder), ``.beatlog_cache``, which
-ignores itself in git (:func:`cache_file`, :func:`read_cached`, :func:`write_cached`,
-which :mod:`beatlog.suite.last_failed` shares). Its file ``coverage.json`` keeps each
-system's behaviors apart and names DTCs by their ids; it is small and bounded (at most
-:data:`MAX_STATES` states and :data:`MAX_TRANSITIONS` transitions per behavior, each with
-up to :data:`MAX_DTCS` DTC ids) and is checked on loading: a damaged or foreign file is
-ignored with a warning, never a crash. Delete the folder to forget.
-
-A version 1 file, written before systems were told apart, is read too: each behavior it
-remembers counts for a behavior of that name in any system, until a run covers one,
-and each DTC name for the DTCs of the suite that have it.
+Like pytest's ``.pytest_cache``, the memory lives in ``.beatlog_cache`` at the project
+root (else the suite's folder), which ignores itself in git (:func:`cache_file`,
+:func:`read_cached`, :func:`write_cached`, which ``--lf`` shares). Its ``coverage.json``
+keeps each system's behaviors apart, names DTCs by their ids, is bounded
+(:data:`MAX_STATES`, :data:`MAX_TRANSITIONS`, :data:`MAX_DTCS`) and is checked on
+loading: a damaged or foreign file is ignored with a warning. Delete the folder to
+forget. A version 1 file, from before systems were told apart, is read too: each
+behavior counts for one of its name in any system until a run covers it, and each DTC
+name for the suite's DTCs of that name.
 """
 
 from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -44,7 +39,6 @@ __all__ = [
     "MAX_STATES",
     "MAX_SYSTEMS",
     "MAX_TRANSITIONS",
-    "Recall",
     "cache_file",
     "cache_path",
     "read_cached",
@@ -58,13 +52,10 @@ __all__ = [
 def suite_coverage(
     specs: Sequence[DtcSpec], recorded: Mapping[str, RecordedChanges] | None = None
 ) -> SuiteCoverage:
-    """The coverage of ``specs``: the state changes their logs recorded (from
-    ``recorded``, by spec id, where their run gathered them; else read from the logs),
-    with each behavior's first and declared states from a fresh system of each spec,
-    system by system (a spec's ``system``, else the one its log records). A log that
-    cannot be read (damaged, not a log, behind a URL that cannot be copied) counts
-    nothing: its DTC's verdict says what is wrong, and the other logs still count. DTCs
-    are known by their ids, and named as the specs' labels say."""
+    """The coverage of ``specs``, system by system: the state changes their logs
+    recorded (from ``recorded``, by spec id, where their run gathered them), with each
+    behavior's first and declared states from a fresh system. A log that cannot be read
+    counts nothing: its DTC's verdict says what is wrong."""
     coverage = cover_changes(_dtcs(specs, unreadable=set(), recorded=recorded or {}))
     coverage.labels = {spec.id: spec.label for spec in specs}
     return coverage
@@ -78,14 +69,14 @@ def _dtcs(
     recorded: Mapping[str, RecordedChanges],
 ) -> Iterator[tuple[str, str, list[TracedChange], int, System | None]]:
     """Each readable spec's id and system, the state changes its log recorded and its
-    cycles (from ``recorded``, else read from the log, one behind a URL copied for as
-    long as it is read), and a fresh system when ``systems`` (None where none can be
-    built); the paths of the specs whose log cannot be read go to ``unreadable``."""
+    cycles, and a fresh system when ``systems`` (None where none can be built); the
+    paths of the specs whose log cannot be read go to ``unreadable``."""
     for spec in specs:
         changes = recorded.get(spec.id)
         if changes is None:
             try:
-                changes = _read(spec)
+                with spec.readable_log() as log:
+                    changes = read_changes(log)
             except (LogError, RemoteLogError):
                 unreadable.add(spec.path)
                 continue
@@ -101,19 +92,11 @@ def _dtcs(
         yield spec.id, spec.system or changes.system, changes.changes, changes.cycles, system
 
 
-def _read(spec: DtcSpec) -> RecordedChanges:
-    """The state changes ``spec``'s log recorded, read from it."""
-    with spec.readable_log() as log:
-        return read_changes(log)
-
-
 def select_exercising(specs: Sequence[DtcSpec], behavior: str) -> list[DtcSpec]:
-    """The specs whose recordings change ``behavior``'s state (read from the logs alone:
-    no system is built), and those whose log cannot be read, so that their verdicts say
-    what is wrong with it.
+    """The specs whose recordings change ``behavior``'s state (no system is built), and
+    those whose log cannot be read, so that their verdicts say what is wrong with it.
 
-    :raises beatlog.errors.OptionError: none does and every log could be read; the
-        message names the behaviors whose states they change.
+    :raises beatlog.errors.OptionError: none does and every log could be read.
     """
     unreadable: set[Path] = set()
     coverage = cover_changes(_dtcs(specs, unreadable=unreadable, systems=False, recorded={}))
@@ -170,14 +153,6 @@ class _MemoryV1(msgspec.Struct, forbid_unknown_fields=True, tag_field="version",
     behaviors: Behaviors
 
 
-@dataclass(frozen=True)
-class Recall:
-    """What remembering did: the cache file, and a warning when it could not be used."""
-
-    path: Path
-    warning: str | None = None
-
-
 def cache_file(suite: Path, name: str) -> Path:
     """The file ``name`` of the cache folder of the suite at ``suite`` (a spec or a
     folder of specs): at its project root, else in its folder."""
@@ -191,10 +166,8 @@ def cache_path(suite: Path) -> Path:
 
 
 def read_cached(path: Path, kind: Any, what: str) -> tuple[Any, str | None]:
-    """The JSON document of type ``kind`` in the cache file at ``path``, or None when
-    there is none or it cannot be read or trusted (too large, damaged, foreign: ``what``
-    it is not), with a warning then saying why and that it is ignored.
-    """
+    """The JSON document of type ``kind`` in the cache file at ``path``, or None with a
+    warning where it cannot be read or trusted (too large, damaged, not ``what``)."""
     if not path.exists():
         return None, None
     problem = irregular_file_problem(path)
@@ -211,12 +184,9 @@ def read_cached(path: Path, kind: Any, what: str) -> tuple[Any, str | None]:
 
 
 def write_cached(path: Path, document: object) -> None:
-    """Write a JSON document to the cache file at ``path``, whole or not at all; the
-    cache folder, made when missing, ignores itself in git and tells backup tools it is
-    a cache.
-
-    :raises OSError: it cannot be written.
-    """
+    """Write a JSON document to the cache file at ``path``, whole or not at all (else an
+    :class:`OSError`); the cache folder, made when missing, ignores itself in git and
+    tells backup tools it is a cache."""
     folder = path.parent
     if not folder.is_dir():
         folder.mkdir(parents=True)
@@ -226,10 +196,10 @@ def write_cached(path: Path, document: object) -> None:
         file.write(msgspec.json.format(msgspec.json.encode(document)) + b"\n")
 
 
-def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> Recall:
+def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> str | None:
     """Mark on ``coverage`` what earlier runs saw (from the file at ``path``), then
     remember what this run saw too. A file that cannot be read or trusted is ignored,
-    one that cannot be written left as it is; either way the warning says why.
+    one that cannot be written left as it is; either way a warning says why.
 
     Only what concerns this run is marked: the behaviors its DTCs have, and of those
     the states and transitions that a DTC reached before which ran now, or which the
@@ -259,7 +229,7 @@ def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> Rec
         write_cached(path, _merged(earlier, coverage))
     except OSError as exc:
         warning = warning or f"{path}: cannot write: {exc.strerror or exc}; nothing remembered"
-    return Recall(path, warning)
+    return warning
 
 
 def _name_remembered(coverage: SuiteCoverage, suite: Mapping[str, str]) -> None:

@@ -2,13 +2,11 @@
 its id from the rootdir pytest would take, and the specs a ``-k`` expression and tags
 select, as pytest selects their items.
 
-A ``-k`` word matches a DTC when it is a substring of one of the names pytest gives its
-item, ignoring case: the DTC's name, its spec file's name, the folders between the
-rootdir and the spec, its tags and the ``dtc`` marker, as pytest's ``-k`` matches a
-test's name, its parents' names and its keywords; so ``beatlog test -k EXPR`` selects
-the DTCs that ``pytest -k EXPR`` runs. pytest is not needed: its matcher is private
-(``_pytest.mark.expression``) and beatlog does not depend on pytest, so
-:class:`KeywordExpression` is a small parser of the same grammar::
+A ``-k`` word matches a DTC when it is a case-insensitive substring of one of the names
+pytest gives its item: the DTC's name, its spec file's name, the folders between the
+rootdir and the spec, its tags and the ``dtc`` marker; so ``beatlog test -k EXPR``
+selects the DTCs that ``pytest -k EXPR`` runs. pytest's matcher is private and beatlog
+does not depend on pytest, so :class:`KeywordExpression` parses the same grammar::
 
     expression := term ("or" term)*
     term       := factor ("and" factor)*
@@ -32,10 +30,9 @@ __all__ = ["KeywordExpression", "discover_specs", "distinguished", "select_specs
 
 
 def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
-    """Every spec in the given files and folders (recursively), sorted by path, with ids
-    from ``rootdir`` (by default, the one :func:`find_rootdir` finds for ``paths``).
-    Specs may share a name; a spec file holds one DTC and is loaded once, so no two have
-    one id."""
+    """Every spec in the given files and folders (recursively, hidden folders such as
+    ``.git`` left out), each loaded once, sorted by path, with ids from ``rootdir`` (by
+    default, the one :func:`find_rootdir` finds for ``paths``)."""
     paths = list(paths)
     found: list[Path] = []
     for given in map(Path, paths):
@@ -43,7 +40,8 @@ def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) 
             found.extend(
                 path
                 for path in given.rglob(f"*{SPEC_SUFFIX}")
-                if path.is_file() and not _hidden(path.relative_to(given))
+                if path.is_file()
+                and not any(part.startswith(".") for part in path.relative_to(given).parts[:-1])
             )
         elif given.name.endswith(SPEC_SUFFIX):
             found.append(given)
@@ -67,11 +65,6 @@ def distinguished(specs: Iterable[DtcSpec]) -> list[DtcSpec]:
     return [dataclasses.replace(spec, named_by_id=counts[spec.name] > 1) for spec in specs]
 
 
-def _hidden(relative: Path) -> bool:
-    """Whether a path found under a folder lies in a hidden folder (.git, .venv, ...)."""
-    return any(part.startswith(".") for part in relative.parts[:-1])
-
-
 def select_specs(
     specs: Sequence[DtcSpec],
     *,
@@ -79,14 +72,9 @@ def select_specs(
     tags: Sequence[str] = (),
     rootdir: Path | None = None,
 ) -> list[DtcSpec]:
-    """Specs that match ``pattern`` and carry every tag in ``tags``.
-
-    ``pattern`` is a ``-k`` expression as pytest reads it (``touch or pat``): each word
-    a case-insensitive substring of one of the names pytest matches for the DTC: its
-    name, its spec file's name, the folders from ``rootdir`` down to it, its tags, and
-    the ``dtc`` marker (see :class:`KeywordExpression`). ``rootdir`` is the folder
-    pytest would take for its rootdir (by default, as :func:`find_rootdir` finds it for the
-    specs' own folders).
+    """Specs that match ``pattern``, a ``-k`` expression as pytest reads it (see the
+    module), and carry every tag in ``tags``. ``rootdir`` is the folder pytest would
+    take for its rootdir (by default, as :func:`find_rootdir` finds it for the specs).
     """
     expression = KeywordExpression.parse(pattern or "")
     root = rootdir if rootdir is not None else find_rootdir(spec.path for spec in specs)
@@ -113,6 +101,7 @@ _OPERATORS = frozenset({"and", "or", "not"})
 Match = Callable[[str], bool]
 """Whether a word matches what is being selected."""
 Node = Callable[[Match], bool]
+Combine = Callable[[Iterable[bool]], bool]
 
 
 @dataclass(frozen=True)
@@ -174,16 +163,17 @@ class _Parser:
         return False
 
     def expression(self) -> Node:
-        terms = [self.term()]
-        while self.take("or"):
-            terms.append(self.term())
-        return terms[0] if len(terms) == 1 else lambda match: any(t(match) for t in terms)
+        return self.chain("or", self.term, any)
 
     def term(self) -> Node:
-        factors = [self.factor()]
-        while self.take("and"):
-            factors.append(self.factor())
-        return factors[0] if len(factors) == 1 else lambda match: all(f(match) for f in factors)
+        return self.chain("and", self.factor, all)
+
+    def chain(self, word: str, operand: Callable[[], Node], combine: Combine) -> Node:
+        """Operands joined by ``word`` (``or``, ``and``), one node if there is one."""
+        nodes = [operand()]
+        while self.take(word):
+            nodes.append(operand())
+        return nodes[0] if len(nodes) == 1 else lambda match: combine(n(match) for n in nodes)
 
     def factor(self) -> Node:
         if self.take("not"):

@@ -1,15 +1,10 @@
-"""JUnit XML for CI systems: one testcase per DTC, failures with the first divergence,
-errors with the traceback of the user's code when it raised. Written whole or not at all.
-A testcase is named after its DTC, or by the DTC's id where another DTC of the run has
-its name.
-
-A DTC that ran carries what its replay checked as properties: ``beatlog_cycles``,
-``beatlog_state_changes``, ``beatlog_outputs``, ``beatlog_draws``, ``beatlog_samples``
-(the names the pytest plugin gives them too).
-
-A DTC whose determinism audit found something gets a failure of its own, typed
-``determinism audit``, that lists the findings. A DTC run again because the worker
-replaying it died gets a ``flakyError`` per retry, as Maven Surefire writes reruns.
+"""JUnit XML for CI systems, written whole or not at all: one testcase per DTC (named
+by its id where another DTC of the run has its name), failures with the first
+divergence, errors with the traceback of the user's code when it raised. A DTC that ran
+carries what its replay checked as properties (``beatlog_cycles``,
+``beatlog_state_changes``..., as the pytest plugin names them); one whose determinism
+audit found something gets a failure typed ``determinism audit``; one run again because
+its worker died gets a ``flakyError`` per retry, as Maven Surefire writes reruns.
 """
 
 from __future__ import annotations

@@ -2,27 +2,15 @@
 a rerun, an audit or a DTC run again on a cluster's worker does not download its log
 again.
 
-An entry is keyed by what the storage says of the object: its URL and its ETag where it
-gives one (S3, GCS, most web servers), which changes whenever the object does; else,
-a weaker key, its URL, size and time of last change (``Last-Modified``, ``mtime``),
-which misses a change that keeps the size within the same second. An object that says
-neither is never cached. A changed object has a new key, so it is downloaded again.
-
-Each entry's name holds its size and SHA-256 digest, checked before every use: an entry
-damaged on disk is removed and the log downloaded again, never replayed. Entries are
-written whole before they get their name (a hard link to the finished copy), and used
-through a hard link of their own, so the processes of a machine share the cache without
-waiting on one another: one that removes an entry never pulls it from under another that
-uses it. Only two that fetch the same object at once wait, the second for the first's
-copy (a lock of that object alone, an empty file in ``fetching``), so it is downloaded
-once.
-
-A copy in use (being downloaded, or replayed) lies in a folder of its own, which its
-process holds locked (``flock``) until it removes it. A process killed meanwhile leaves
-its folder, whose lock the system releases: the next process to use the cache removes
-it, so a partial copy is never replayed nor keeps its disk space. A folder without its
-lock (its process killed in the instant between making the folder and locking it) is
-removed once a minute old.
+An entry is keyed by the object's URL and ETag where the storage gives one, else by its
+URL, size and time of last change; an object that says neither is never cached. Each
+entry's name holds its size and SHA-256 digest, checked before every use: a damaged
+entry is removed and the log downloaded again, never replayed. Entries are written whole
+before they get their name and used through hard links of their own, so one process
+that removes an entry never pulls it from under another; two that fetch the same object
+at once share one download (a lock of that object alone, in ``fetching``). A copy in
+use lies in a folder its process holds locked (``flock``): one a killed process left is
+removed by the next process to use the cache, so a partial copy is never replayed.
 
 The cache lives in ``BEATLOG_CACHE_DIR`` (the user's cache folder's ``beatlog/logs``
 unless set) and holds ``BEATLOG_CACHE_MAX_BYTES`` bytes at most (:data:`MAX_CACHE_BYTES`
@@ -103,11 +91,8 @@ def cached_copy(
 ) -> Iterator[Path]:
     """A copy of the log behind ``url`` named ``name``, on this machine until the block
     ends: the cache's where it holds a sound one for the object ``info`` describes, else
-    one that ``fetch`` writes to the path it is given (then kept in the cache).
-
-    :raises RemoteLogError: ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0;
-        and what ``fetch`` raises.
-    """
+    one that ``fetch`` writes to the path it is given (then kept in the cache). Raises
+    what ``fetch`` raises, and :class:`RemoteLogError` for a bad cache bound."""
     bound = _max_bytes(url)
     key = cache_key(url, info)
     if bound == 0 or key is None:
@@ -133,9 +118,7 @@ def cached_copy(
 @contextlib.contextmanager
 def _fetching(folder: Path, key: str) -> Iterator[None]:
     """Hold the lock of fetching the object of ``key`` until the block ends: a process
-    that fetches an object another one of the machine is fetching (a log fetched ahead
-    by one worker and replayed by another) waits for that copy instead of downloading
-    it again."""
+    that fetches an object another one is fetching waits for that copy."""
     folder.mkdir(exist_ok=True)
     lock = folder / key
     held = os.open(lock, os.O_WRONLY | os.O_CREAT, 0o600)
@@ -175,10 +158,8 @@ def _remove_abandoned(in_use: Path) -> None:
 
 
 def _abandoned(folder: Path) -> bool:
-    """Whether no process holds ``folder``, a folder of copies in use.
-
-    :raises FileNotFoundError: the folder is gone.
-    """
+    """Whether no process holds ``folder``, a folder of copies in use (raises
+    :class:`FileNotFoundError` where it is gone)."""
     try:
         owner = os.open(folder / _OWNER, os.O_RDONLY)
     except FileNotFoundError:
@@ -229,10 +210,7 @@ def _keep(entries: Path, key: str, copy: Path, bound: int) -> None:
 
 def _link(source: Path, target: Path) -> None:
     """``target`` as a hard link to ``source``, or, on a filesystem without links, a
-    copy written whole before it gets its name.
-
-    :raises FileExistsError: ``target`` exists.
-    """
+    copy written whole before it gets its name (:class:`FileExistsError` if it exists)."""
     try:
         os.link(source, target)
     except (FileExistsError, FileNotFoundError):
@@ -253,10 +231,8 @@ def _digest(path: Path) -> str:
 
 
 def _max_bytes(url: str) -> int:
-    """The most bytes the cache holds.
-
-    :raises RemoteLogError: ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0.
-    """
+    """The most bytes the cache holds; a :class:`RemoteLogError` where
+    ``BEATLOG_CACHE_MAX_BYTES`` holds no whole number from 0."""
     text = os.environ.get(CACHE_MAX_BYTES_VARIABLE, "").strip()
     if not text:
         return MAX_CACHE_BYTES

@@ -14,7 +14,6 @@ from __future__ import annotations
 import contextlib
 import difflib
 from collections.abc import Iterable, Sequence
-from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -99,8 +98,7 @@ class PendingUpdate:
 
 def write_failed_variants(outcomes: Iterable[SpecOutcome]) -> list[Path]:
     """Write every variant of ``outcomes`` that failed, and has no spec of its own yet,
-    as a spec beside its DTC (:func:`~beatlog.suite.variants.write_variant_spec`); the
-    paths written. Unlike a pending baseline, it is written in CI too.
+    as a spec beside its DTC, in CI too; the paths written.
 
     :raises beatlog.errors.SpecError: one cannot be written; those before it stay.
     """
@@ -118,12 +116,10 @@ def update_baselines(
 ) -> list[PendingUpdate]:
     """Apply an update mode to a suite's outcomes; what was done, in outcome order.
 
-    In :attr:`UpdateMode.NEW` every failure that carries a new expectation (the suite
-    was run in that mode) gets it written to its pending file, and a passing DTC's
-    stale pending file is removed; accepted baselines are never touched, and the DTCs
-    of fleet logs (no spec file) and variants have none. In :attr:`UpdateMode.NONE` nothing is done.
-    When ``CI`` is set nothing is written: each failure whose new expectation was traced
-    is reported :attr:`UpdateAction.WITHHELD`.
+    In :attr:`UpdateMode.NEW` every failure that carries a new expectation gets it
+    written to its pending file, and a passing DTC's stale pending file is removed;
+    accepted baselines are never touched, and fleet logs and variants have none. When
+    ``CI`` is set nothing is written: each such failure is :attr:`UpdateAction.WITHHELD`.
 
     :raises BaselineError: a pending file cannot be written (a full disk); those
         written before it stay, each whole.
@@ -138,7 +134,8 @@ def update_baselines(
             continue
         pending = pending_path(spec.path)
         if update is not None:
-            with _replayed_log(spec, outcome) as log:
+            kept = outcome.recording  # the log as its run read it, if kept
+            with contextlib.nullcontext(kept) if kept is not None else spec.readable_log() as log:
                 weighed = _weigh(spec, log, update)[2]
             action = UpdateAction.WITHHELD if ci else UpdateAction.WRITTEN
             if not ci:
@@ -203,11 +200,9 @@ def pending_specs(paths: Sequence[Path]) -> list[DtcSpec]:
 
 
 def decide(spec: DtcSpec, decision: Decision | str) -> None:
-    """Accept or reject the pending baseline of ``spec``, or leave it (skip).
-
-    Accepting checks the pending file first: a damaged one, or one made from another
-    recording than the spec's, raises :class:`BaselineError` and changes nothing.
-    Accepting or rejecting raises :class:`~beatlog.errors.CiWriteError` when ``CI`` is set.
+    """Accept or reject the pending baseline of ``spec``, or leave it (skip). A damaged
+    pending file, or one made from another recording, is a :class:`BaselineError` and
+    changes nothing; with ``CI`` set a decision is a :class:`~beatlog.errors.CiWriteError`.
     """
     decision = Decision.parse(decision)
     if decision is Decision.SKIP:
@@ -226,10 +221,8 @@ def decide(spec: DtcSpec, decision: Decision | str) -> None:
 
 
 def approve(paths: Sequence[Path]) -> list[tuple[DtcSpec, Shift]]:
-    """Accept the pending baseline of every spec given (or found in the folders given);
-    the specs approved, each with what its new baseline lost and gained against the
-    one it replaced (none when nothing is pending). ``CI`` set is a
-    :class:`~beatlog.errors.CiWriteError`."""
+    """Accept the pending baseline of every spec given (or found in the folders given),
+    as :func:`decide` does; the specs approved, each with what it lost and gained."""
     require_writable()
     approved = []
     for spec in pending_specs(paths):
@@ -278,11 +271,9 @@ class PendingDiff:
 
 def pending_diff(spec: DtcSpec) -> PendingDiff:
     """Compare the pending baseline of ``spec`` with its approved one, or with its
-    recording when none is approved yet. Robot-state pins, state changes and output
-    changes interleave by cycle, as baseline files hold them; the robot states
-    perception now rebuilds otherwise are also summed up run by run, with the values
-    that differ in each run's first cycle as recorded and rebuilt; what the pending
-    baseline loses and gains is weighed (:func:`~beatlog.analysis.shift.shift`)."""
+    recording when none is approved yet, interleaved by cycle as baseline files hold
+    them; with the robot states perception now rebuilds otherwise, run by run, and what
+    the pending baseline loses and gains."""
     expected = expected_path(spec.path)
     pending = read_baseline(pending_path(spec.path)).expectation
     with spec.readable_log() as log:
@@ -305,13 +296,6 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         whole.baseline.draws,
         whole.baseline.open_loop,
     )
-
-
-def _replayed_log(spec: DtcSpec, outcome: SpecOutcome) -> AbstractContextManager[LogSource]:
-    """The log of ``spec`` as its run kept it in memory, else a readable copy of it."""
-    if outcome.recording is not None:
-        return contextlib.nullcontext(outcome.recording)
-    return spec.readable_log()
 
 
 def _weigh(

@@ -1,21 +1,34 @@
 """Runs DTC suites: specs replayed here and, with more than one job, in worker processes
-as well (:mod:`beatlog.suite.worker`); all cores by default. Each spec runs with
-:func:`~beatlog.suite.runner.run_spec`."""
+as well (:mod:`beatlog.suite.worker`), all cores by default; and splits a suite into
+shards for a CI matrix: N jobs that each run ``--shard I/N`` cover every DTC once. Both
+spread the DTCs by their logs' recorded cycles, the longest first (a log that cannot be
+read cheaply counts 0; its run says what is wrong), or, where a log lies behind a URL,
+by every log's size as its listing or filesystem gives it, no log downloaded. A shard
+depends only on the specs' paths and these weights, so every job computes the same
+split; a size that cannot be had fails it (a job must not guess what others may not).
+"""
 
 from __future__ import annotations
 
 import collections
+import heapq
 import queue
+import re
 import threading
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 from beatlog.baseline.policy import SpecOptions, UpdateMode
+from beatlog.errors import OptionError, RemoteLogError
+from beatlog.log.files import irregular_file_problem
+from beatlog.log.reader import recorded_cycles
+from beatlog.suite.remote import log_size
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, suite_auditors
-from beatlog.suite.sharding import longest_first
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.worker import Worker
 
-__all__ = ["Executor", "run_suite"]
+__all__ = ["Executor", "Shard", "longest_first", "run_suite", "shard", "split"]
 
 Executor = Callable[[Sequence[DtcSpec], SpecOptions, Callable[[SpecOutcome], bool]], None]
 """Runs specs somewhere else than this machine's worker processes (a Dask cluster, see
@@ -38,20 +51,14 @@ def run_suite(
     executor: Executor | None = None,
 ) -> list[SpecOutcome]:
     """Run every spec, ``jobs`` at a time, or with ``executor`` (``jobs`` then unused);
-    outcomes in spec order.
+    outcomes in spec order, each as :func:`run_spec` gives it with these options.
 
     With more than one job, this process replays specs too while ``jobs - 1`` worker
     processes start and then take the next spec each as they become free, the longest
-    recording first (:func:`~beatlog.suite.sharding.longest_first`): a suite too
-    small to gain from workers is done before they are ready, and none is slower than
-    with one job. With ``fail_fast`` the first failure or error stops the run: specs not
-    started are not run and the workers are stopped. In :attr:`UpdateMode.NEW` each failure
-    carries its new expectation (nothing is written here: see
-    :mod:`beatlog.suite.maintenance`);
-    with ``audit`` each spec's determinism is audited too; with ``timelines`` its
-    timelines are built for charts; with ``coverage`` the state changes each log
-    recorded come back with its outcome. ``break_at`` and ``break_on_divergence`` stop
-    in the debugger (see :func:`run_spec`); they replay every spec in this process.
+    recording first: a suite too small to gain from workers is done before they are
+    ready. With ``fail_fast`` the first failure or error stops the run: specs not
+    started are not run and the workers are stopped. Break points replay every spec in
+    this process.
     """
     update = UpdateMode.parse(update)
     outcomes: dict[str, SpecOutcome] = {}
@@ -89,13 +96,10 @@ def _run_with_workers(
     options: SpecOptions,
     done: Callable[[SpecOutcome], bool],
 ) -> None:
-    """Run the specs here and in ``workers`` worker processes until ``done`` says stop.
-
-    One thread per worker hands it the next spec once it is ready and free. On leaving,
-    Ctrl-C included, the specs not started are dropped, the workers are stopped (see
-    :meth:`Worker.stop`), and the outcomes that had come back by then are still given
-    to ``done``.
-    """
+    """Run the specs here and in ``workers`` worker processes until ``done`` says stop,
+    one thread per worker handing it the next spec. On leaving, Ctrl-C included, the
+    specs not started are dropped, the workers are stopped, and the outcomes that had
+    come back by then still go to ``done``."""
     pending = collections.deque(longest_first(specs))  # work spread by cycles
     answers: queue.Queue[Answer] = queue.Queue()
     pool: list[Worker] = []
@@ -157,3 +161,94 @@ def _feed(
             answers.put(worker.run(spec, options))
     except BaseException as exc:  # the runner raises it, unless it is leaving anyway
         answers.put(exc)
+
+
+_SIZE_REQUESTS = 16
+"""How many sizes of logs behind URLs are asked for at once, where no listing gave them."""
+
+
+@dataclass(frozen=True)
+class Shard:
+    """Shard ``index`` of ``count`` (1-based, as in ``--shard 2/4``)."""
+
+    index: int
+    count: int
+
+    @classmethod
+    def parse(cls, text: str) -> Shard:
+        """The shard written ``I/N``; anything else raises :class:`OptionError`."""
+        match = re.fullmatch(r"\s*(\d+)\s*/\s*(\d+)\s*", text)
+        if match is None:
+            raise OptionError(f"expected a shard I/N such as 2/4, got {text!r}")
+        index, count = int(match[1]), int(match[2])
+        if count < 1:
+            raise OptionError(f"shard {text!r}: N must be at least 1")
+        if not 1 <= index <= count:
+            raise OptionError(f"shard {text!r}: I must be from 1 to {count}")
+        return cls(index, count)
+
+    def __str__(self) -> str:
+        return f"{self.index}/{self.count}"
+
+
+def split(specs: Sequence[DtcSpec], count: int) -> list[list[DtcSpec]]:
+    """The specs in ``count`` shards balanced by recorded cycles, each in path order: no
+    shard has more cycles than another by more than the longest recording's.
+
+    :raises RemoteLogError: the size of a log behind a URL cannot be had.
+    """
+    if count < 1:
+        raise ValueError(f"a suite splits into at least 1 shard, not {count}")
+    shards: list[list[DtcSpec]] = [[] for _ in range(count)]
+    loads = [(0, index) for index in range(count)]
+    for spec, weight in _weighed(sorted(specs, key=lambda spec: spec.path), strict=True):
+        load, index = heapq.heappop(loads)
+        shards[index].append(spec)
+        heapq.heappush(loads, (load + weight, index))
+    return [sorted(chosen, key=lambda spec: spec.path) for chosen in shards]
+
+
+def longest_first(specs: Sequence[DtcSpec]) -> list[DtcSpec]:
+    """The specs by recorded cycles, the longest first (in the order given on a tie):
+    the order in which a pool of workers that each take the next one finishes soonest."""
+    return [spec for spec, _ in _weighed(specs, strict=False)]
+
+
+def _weighed(specs: Sequence[DtcSpec], *, strict: bool) -> list[tuple[DtcSpec, int]]:
+    """Each spec with its log's recorded cycles (0 where they cannot be read cheaply),
+    or with its log's size when one lies behind a URL, the longest first; a stable
+    sort, so ties keep their order. ``strict``: a size that cannot be had raises."""
+    if any(spec.log_url is not None for spec in specs):
+        with ThreadPoolExecutor(_SIZE_REQUESTS) as pool:  # waits, not work: one at a time is slow
+            sizes = list(pool.map(lambda spec: _size(spec, strict=strict), specs))
+        weights = list(zip(specs, sizes, strict=True))
+    else:
+        weights = [(spec, recorded_cycles(spec.log) or 0) for spec in specs]
+    return sorted(weights, key=lambda weighed: -weighed[1])
+
+
+def _size(spec: DtcSpec, *, strict: bool) -> int:
+    """The size in bytes of the spec's log, here or behind its URL; 0 where unknown."""
+    if spec.log_url is None:
+        return spec.log.stat().st_size if irregular_file_problem(spec.log) is None else 0
+    if spec.log_size is not None:
+        return spec.log_size
+    try:
+        return log_size(spec.log_url) or 0
+    except RemoteLogError:
+        if strict:
+            raise
+        return 0
+
+
+def shard(specs: Sequence[DtcSpec], index: int, count: int) -> list[DtcSpec]:
+    """The specs of shard ``index`` of ``count`` (1-based) of :func:`split`. The shards
+    past the number of specs are empty, so the split is computed over that many alone:
+    a matrix of ``--shard I/1000000`` costs what its suite does.
+
+    :raises RemoteLogError: the size of a log behind a URL cannot be had.
+    """
+    if not 1 <= index <= count:
+        raise ValueError(f"shard {index} of {count}: the index must be from 1 to {count}")
+    used = min(count, len(specs))
+    return split(specs, used)[index - 1] if index <= used else []

@@ -4,19 +4,17 @@
 The reader needs a regular, seekable file, so the process that reads a log behind a
 URL copies it whole onto its own machine first (:func:`fetched_log`), and removes the
 copy when done, interrupted or not. The copy is kept in the machine's cache of logs
-(:mod:`beatlog.suite.log_cache`, filled ahead by :mod:`beatlog.suite.prefetch`), so a
-log unchanged since is not downloaded again. A log a listing found (a fleet's) comes
-with its size and ETag (:class:`Listed`): its download is then one request, nothing
-asked before it, and a copy in the cache none, the ETag saying whether it changed.
+(:mod:`beatlog.suite.log_cache`), which a cluster's worker fills ahead
+(:func:`fetch_ahead`). A log a listing found comes with its size and ETag
+(:class:`Listed`): its download is then one request, and a copy in the cache none.
 
-A download is bounded. It may hold ``BEATLOG_URL_MAX_BYTES`` bytes at most
-(:data:`MAX_LOG_BYTES` unless set). Over ``http(s)`` a server must connect, and send
-each next bytes, within ``BEATLOG_URL_TIMEOUT`` seconds (:data:`TIMEOUT_S` unless set),
-and answer a size or a listing whole within it. Once a download of any scheme has run
-that long it must average :data:`MIN_RATE` bytes a second, so that a trickle ends too.
-A download that does not end cleanly (cut off, a size other than the one listed, or a
-server that says neither its length nor where its body ends) is an error: no partial
-copy reaches the reader.
+A download is bounded: ``BEATLOG_URL_MAX_BYTES`` bytes at most (:data:`MAX_LOG_BYTES`
+unless set). Over ``http(s)`` a server must connect, send each next bytes, and answer a
+size or a listing whole within ``BEATLOG_URL_TIMEOUT`` seconds (:data:`TIMEOUT_S` unless
+set); once a download of any scheme has run that long it must average
+:data:`MIN_RATE` bytes a second. A download that does not end cleanly (cut off, a size
+other than the one listed, or a body whose end the server does not say) is an error:
+no partial copy reaches the reader.
 """
 
 from __future__ import annotations
@@ -26,6 +24,7 @@ import math
 import os
 import re
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path, PurePosixPath
@@ -43,6 +42,7 @@ __all__ = [
     "TIMEOUT_S",
     "TIMEOUT_VARIABLE",
     "Listed",
+    "fetch_ahead",
     "fetched_log",
     "http_quoted",
     "is_url",
@@ -50,19 +50,17 @@ __all__ = [
     "named_as_given",
     "url_filesystem",
     "url_name",
+    "wait_for",
 ]
 
 MAX_LOG_BYTES = 256 << 20
 """The largest log copied from a URL, unless ``BEATLOG_URL_MAX_BYTES`` says otherwise:
 about two days of the reference dog's recording."""
 MAX_BYTES_VARIABLE = "BEATLOG_URL_MAX_BYTES"
-"""The environment variable that sets the largest log copied from a URL, in bytes."""
 TIMEOUT_S = 30.0
 """How long a server may keep a download waiting, unless ``BEATLOG_URL_TIMEOUT`` says
-otherwise."""
+otherwise (in seconds)."""
 TIMEOUT_VARIABLE = "BEATLOG_URL_TIMEOUT"
-"""The environment variable that sets how long a server may keep a download waiting,
-in seconds."""
 MIN_RATE = 64 << 10
 """Bytes a second a download must average once it has run longer than its timeout."""
 PROGRESS_BYTES = 8 << 20
@@ -71,7 +69,9 @@ Number = TypeVar("Number", int, float)
 _URL = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _BLOCK = 1 << 20
 _HTTP = ("http", "https")
-_S3 = ("s3", "s3a")
+_fetching_lock = threading.Lock()
+_fetching: dict[str, threading.Thread] = {}
+"""The logs this process fetches ahead, by URL."""
 
 
 class Listed(NamedTuple):
@@ -95,7 +95,7 @@ def url_name(url: str) -> str:
     as the server names the file), unless decoding would make it no plain file name."""
     split = urlsplit(url)
     name = PurePosixPath(split.path).name or "log.beatlog"
-    if split.scheme in ("http", "https"):
+    if split.scheme in _HTTP:
         decoded = unquote(name)
         if decoded not in (".", "..") and not {"/", "\0"} & set(decoded):
             return decoded
@@ -107,29 +107,39 @@ def http_quoted(url: str) -> str:
     (``with space*.beatlog`` as ``with%20space*.beatlog``); glob characters and escapes
     already written stay. Other URLs are returned as they are."""
     split = urlsplit(url)
-    if split.scheme not in ("http", "https"):
+    if split.scheme not in _HTTP:
         return url
     return urlunsplit(split._replace(path=quote(split.path, safe="/%*?[]!:@&=+$,;~")))
 
 
 def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
     """The fsspec filesystem behind ``url``, and the URL's path on it; over ``http(s)``
-    each request (a size, a listing) ends within ``BEATLOG_URL_TIMEOUT``, but for a
-    download (``streaming``), whose own bounds end it.
+    each request but a download (``streaming``) ends within ``BEATLOG_URL_TIMEOUT``.
 
-    :raises RemoteLogError: fsspec is not installed, or knows no such URL (an unknown
-        scheme, or one whose backend's package is missing), or ``BEATLOG_URL_TIMEOUT``
-        holds no number.
+    :raises RemoteLogError: fsspec, or the URL's backend, is not installed, the scheme
+        is unknown, or ``BEATLOG_URL_TIMEOUT`` holds no number.
     """
     try:
         from fsspec.core import url_to_fs  # noqa: PLC0415 - an optional dependency
     except ModuleNotFoundError:
         raise RemoteLogError(url, 'a URL needs fsspec (pip install "beatlog[fleet]")') from None
+    scheme = urlsplit(url).scheme
     try:
         options: dict[str, Any] = {}
-        if urlsplit(url).scheme in _HTTP:
-            options["client_kwargs"] = _http_client_options(url, streaming=streaming)
-        if urlsplit(url).scheme in _S3:
+        if scheme in _HTTP:
+            from aiohttp import ClientTimeout  # noqa: PLC0415 - fsspec's HTTP dependency
+            from fsspec.config import conf  # noqa: PLC0415 - an optional dependency
+
+            configured = conf.get(scheme, {}).get("client_kwargs", {})
+            timeout = _timeout(url)
+            waited = ClientTimeout(  # connect, and send the next bytes, within the timeout
+                total=None if streaming else timeout,
+                connect=timeout,
+                sock_connect=timeout,
+                sock_read=timeout,
+            )
+            options["client_kwargs"] = {**configured, "timeout": waited}
+        if scheme in ("s3", "s3a"):
             options["local_expiry_check"] = True  # a download's ETag checked against ours
         filesystem, path = url_to_fs(url, **options)
     except (ImportError, ValueError) as exc:  # ImportError: a backend's package
@@ -142,29 +152,76 @@ def fetched_log(
     url: str, max_bytes: int | None = None, *, progress: bool = False, listed: Listed | None = None
 ) -> Iterator[Path]:
     """A copy of the log behind ``url`` on this machine, under the URL's file name,
-    removed on exit (an exception, Ctrl-C included, is an exit); the machine's cache of
-    logs gives it where it holds the object as it is now.
-
-    ``max_bytes`` bounds the copy (``BEATLOG_URL_MAX_BYTES``, or :data:`MAX_LOG_BYTES`,
-    unless given). With ``progress``, a download past :data:`PROGRESS_BYTES` shows a bar
-    on stderr where stderr is a terminal. ``listed``: what the listing that found the
-    log said of it; then the storage is asked nothing but the download itself, and
-    nothing at all where the cache holds the object of that ETag.
+    removed on exit, Ctrl-C included; the cache's where it holds the object as it is.
+    ``max_bytes`` bounds it (by default ``BEATLOG_URL_MAX_BYTES``); with ``progress``, a
+    long download shows a bar on a terminal's stderr; with ``listed``, the storage is
+    asked nothing but the download, and nothing where the cache holds that ETag.
 
     :raises RemoteLogError: the URL needs fsspec, or the log cannot be copied (missing,
-        unreachable, too slow, cut off) or is larger than the bound; or a bound's
-        environment variable holds no number.
+        unreachable, too slow, cut off, too large), or a bound's variable is no number.
     """
     if max_bytes is None:
         max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
     timeout = _timeout(url)
     filesystem, path = url_filesystem(url, streaming=True)
-    info = _described(filesystem, path, url) if listed is None else _as_info(listed)
+    if listed is None:
+        with _answering(url, "cannot copy"):
+            info: dict[str, Any] = filesystem.info(path)
+    else:
+        info = {"size": listed.size, "ETag": listed.etag}
+    size: int | None = info.get("size")
+    too_big = (
+        f"larger than the {max_bytes} bytes a log behind a URL may have ({MAX_BYTES_VARIABLE})"
+    )
 
     def fetch(copy: Path) -> None:
-        with _progress_bar(url_name(url), shown=progress) as meter:
-            bounds = _Bounds(max_bytes, timeout, meter)
-            _copy(filesystem, path, copy, url, bounds, info=info)
+        """Copy the log whole within the bounds, or raise. Opened with its size, where
+        known, it asks the storage nothing first; with its ETag, a download of an object
+        changed since is refused by the backends that check it (s3fs, told to)."""
+        from fsspec.spec import AbstractBufferedFile  # noqa: PLC0415 - an optional dependency
+
+        if size is not None and size > max_bytes:
+            raise RemoteLogError(url, too_big)
+        # Over HTTP a stream (block_size=0): a server need not serve the byte ranges that
+        # fsspec's random-access HTTP file asks for (Python's own http.server does not).
+        protocols = filesystem.protocol
+        streamed = set(_HTTP) & set((protocols,) if isinstance(protocols, str) else protocols)
+        opened = ({"block_size": 0} if streamed else {}) | ({} if size is None else {"size": size})
+        started, copied = time.monotonic(), 0
+        with (
+            _progress_bar(url_name(url), shown=progress) as meter,
+            _answering(url, "cannot copy"),
+            filesystem.open(path, "rb", **opened) as source,
+            copy.open("wb") as target,
+        ):
+            if isinstance(source, AbstractBufferedFile):  # asks for these before reading
+                source.details = {"name": path, **info}  # unless told
+            response = getattr(source, "r", None)  # fsspec's HTTP stream: aiohttp's response
+            if (
+                size is None
+                and response is not None
+                and response.content_length is None
+                and "chunked" not in response.headers.get("Transfer-Encoding", "").lower()
+            ):
+                raise RemoteLogError(
+                    url,
+                    "the server sent neither its length nor a chunked body: "
+                    "a download cut off could not be told from the whole log",
+                )
+            while block := source.read(_BLOCK):
+                copied += len(block)
+                if copied > max_bytes:  # a size the listing got wrong, or none
+                    raise RemoteLogError(url, too_big)
+                if time.monotonic() - started > timeout + copied / MIN_RATE:
+                    raise RemoteLogError(
+                        url,
+                        f"too slow: a download must average {MIN_RATE >> 10} KiB/s past "
+                        f"its first {timeout:g} s ({TIMEOUT_VARIABLE})",
+                    )
+                target.write(block)
+                meter(copied, size)
+        if size is not None and copied != size:
+            raise RemoteLogError(url, f"download cut off or changed: {copied} of its {size} bytes")
 
     with cached_copy(url, info, url_name(url), fetch) as copy:
         yield copy
@@ -177,155 +234,75 @@ def named_as_given(text: str, copy: str | Path, url: str) -> str:
 
 
 def log_size(url: str) -> int | None:
-    """The size in bytes of the log behind ``url``, as its filesystem lists it (an HTTP
-    ``HEAD``, an object's metadata): nothing of the log is read. None where the
-    filesystem does not say.
-
-    :raises RemoteLogError: the URL needs fsspec, or the log is missing or unreachable.
-    """
+    """The size in bytes of the log behind ``url`` as its filesystem lists it, nothing of
+    the log read; None where it does not say (else :class:`RemoteLogError`)."""
     filesystem, path = url_filesystem(url)
-    try:
+    with _answering(url, "cannot read its size"):
         size = filesystem.size(path)
-    except FileNotFoundError as exc:
-        raise _not_found(url, exc, "cannot read its size") from None
-    except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise _failed(url, exc, "cannot read its size") from None
     return None if size is None else int(size)
 
 
-def _described(filesystem: Any, path: str, url: str) -> dict[str, Any]:
-    """What the storage says of the log at ``path`` (its size, ETag, time of change).
+def fetch_ahead(url: str, listed: Listed | None = None) -> None:
+    """Start copying the log behind ``url`` (which a listing described as ``listed``, if
+    given) into this machine's cache in the background, unless this process is already
+    at it (:func:`wait_for` waits for it), so that fetching overlaps replaying. A log
+    that cannot be fetched is left to the DTC's own copy, which says what is wrong."""
 
-    :raises RemoteLogError: the log is missing or unreachable.
+    def fetch() -> None:
+        try:
+            with fetched_log(url, listed=listed):
+                pass
+        except RemoteLogError:
+            pass  # the DTC's own copy says what is wrong
+        finally:
+            with _fetching_lock:
+                del _fetching[url]
+
+    with _fetching_lock:
+        if url not in _fetching:
+            _fetching[url] = threading.Thread(target=fetch, name="beatlog-fetch", daemon=True)
+            _fetching[url].start()
+
+
+def wait_for(url: str) -> None:
+    """Return once this process is no longer fetching ``url`` ahead."""
+    with _fetching_lock:
+        thread = _fetching.get(url)
+    if thread is not None:
+        thread.join()
+
+
+@contextlib.contextmanager
+def _answering(url: str, doing: str) -> Iterator[None]:
+    """Turn what the storage of ``url`` raises in the block into one line.
+
+    :raises RemoteLogError: the log is missing or unreachable, or the block raised one.
     """
     try:
-        info: dict[str, Any] = filesystem.info(path)
-    except FileNotFoundError as exc:
-        raise _not_found(url, exc, "cannot copy") from None
-    except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise _failed(url, exc, "cannot copy") from None
-    return info
-
-
-def _as_info(listed: Listed) -> dict[str, Any]:
-    """What a listing said of a log, as fsspec's ``info()`` says it."""
-    return {"size": listed.size, "ETag": listed.etag}
-
-
-class _Bounds(NamedTuple):
-    """What a download may take (bytes, and seconds of waiting), and what to tell of its
-    progress (the bytes copied so far and the size, None where unknown)."""
-
-    max_bytes: int
-    timeout: float
-    meter: Callable[[int, int | None], None]
-
-
-def _copy(
-    filesystem: Any, path: str, copy: Path, url: str, bounds: _Bounds, *, info: dict[str, Any]
-) -> None:
-    """Copy one remote log, which its filesystem describes by ``info``, whole within
-    ``bounds``, or raise. Where ``info`` gives its size, the file is opened with it, so
-    that opening asks the storage nothing; where it gives its ETag, a download of an
-    object that has changed since is refused, by the backends that check it (s3fs, told
-    to check the ETag each answer carries)."""
-    from fsspec.spec import AbstractBufferedFile  # noqa: PLC0415 - an optional dependency
-
-    size: int | None = info.get("size")
-    too_big = (
-        f"larger than the {bounds.max_bytes} bytes a log behind a URL may have "
-        f"({MAX_BYTES_VARIABLE})"
-    )
-    try:
-        started = time.monotonic()
-        if size is not None and size > bounds.max_bytes:
-            raise RemoteLogError(url, too_big)
-        copied = 0
-        opened = _streamed(filesystem) | ({} if size is None else {"size": size})
-        with (
-            filesystem.open(path, "rb", **opened) as source,
-            copy.open("wb") as target,
-        ):
-            if isinstance(source, AbstractBufferedFile):  # asks for these before reading
-                source.details = {"name": path, **info}  # unless told
-            if size is None:
-                _check_framed(url, source)
-            while block := source.read(_BLOCK):
-                copied += len(block)
-                if copied > bounds.max_bytes:  # a size the listing got wrong, or none
-                    raise RemoteLogError(url, too_big)
-                if time.monotonic() - started > bounds.timeout + copied / MIN_RATE:
-                    raise RemoteLogError(
-                        url,
-                        f"too slow: a download must average {MIN_RATE >> 10} KiB/s past "
-                        f"its first {bounds.timeout:g} s ({TIMEOUT_VARIABLE})",
-                    )
-                target.write(block)
-                bounds.meter(copied, size)
-        if size is not None and copied != size:
-            raise RemoteLogError(url, f"download cut off or changed: {copied} of its {size} bytes")
-    except FileNotFoundError as exc:
-        raise _not_found(url, exc, "cannot copy") from None
+        yield
     except RemoteLogError:
         raise
+    except FileNotFoundError as exc:
+        cause = exc.__cause__  # fsspec's HTTP says so of a server it cannot reach
+        if (
+            cause is None
+            or isinstance(cause, FileNotFoundError)
+            or getattr(cause, "status", 0) == 404
+        ):
+            raise RemoteLogError(url, "no such log") from None
+        raise _failed(url, cause, doing) from None
     except Exception as exc:  # backends' errors (aiohttp, botocore) share no base
-        raise _failed(url, exc, "cannot copy") from None
-
-
-def _check_framed(url: str, source: Any) -> None:
-    """Refuse an HTTP response whose body ends where the connection does: neither its
-    length nor chunks say where it ends, so a cut could not be told from the end."""
-    response = getattr(source, "r", None)  # fsspec's HTTP stream: aiohttp's response
-    if response is None or response.content_length is not None:
-        return
-    if "chunked" not in response.headers.get("Transfer-Encoding", "").lower():
-        raise RemoteLogError(
-            url,
-            "the server sent neither its length nor a chunked body: "
-            "a download cut off could not be told from the whole log",
-        )
-
-
-def _streamed(filesystem: Any) -> dict[str, Any]:
-    """How to open a file of ``filesystem`` to read it once from start to end: over HTTP
-    as a stream (``block_size=0``), since a server need not serve byte ranges (Python's
-    own ``http.server`` does not), which fsspec's random-access HTTP file asks for."""
-    protocols = filesystem.protocol
-    protocols = (protocols,) if isinstance(protocols, str) else protocols
-    return {"block_size": 0} if set(_HTTP) & set(protocols) else {}
-
-
-def _http_client_options(url: str, *, streaming: bool) -> dict[str, Any]:
-    """The options of fsspec's HTTP sessions: those fsspec is configured with, and
-    aiohttp's timeouts: connect within ``BEATLOG_URL_TIMEOUT``, never wait longer for
-    the next bytes, and, unless ``streaming``, end within it."""
-    from aiohttp import ClientTimeout  # noqa: PLC0415 - fsspec's HTTP dependency
-    from fsspec.config import conf  # noqa: PLC0415 - an optional dependency
-
-    timeout = _timeout(url)
-    total = None if streaming else timeout
-    configured = conf.get(urlsplit(url).scheme, {}).get("client_kwargs", {})
-    return {
-        **configured,
-        "timeout": ClientTimeout(
-            total=total, connect=timeout, sock_connect=timeout, sock_read=timeout
-        ),
-    }
+        raise _failed(url, exc, doing) from None
 
 
 def _timeout(url: str) -> float:
-    """How long a server may keep a download of ``url`` waiting, in seconds.
-
-    :raises RemoteLogError: ``BEATLOG_URL_TIMEOUT`` is set to no number above 0.
-    """
+    """How long a server may keep a download of ``url`` waiting, in seconds."""
     return _bound(url, TIMEOUT_VARIABLE, TIMEOUT_S, float, "a number of seconds")
 
 
 def _bound(url: str, variable: str, default: Number, kind: type[Number], what: str) -> Number:
-    """A bound from the environment variable ``variable``, ``default`` where unset.
-
-    :raises RemoteLogError: the variable is set to no such number above 0.
-    """
+    """A bound from the environment variable ``variable``, ``default`` where unset; a
+    :class:`RemoteLogError` where it is set to no such number above 0."""
     text = os.environ.get(variable, "").strip()
     if not text:
         return default
@@ -387,12 +364,3 @@ def _failed(url: str, exc: BaseException, doing: str) -> RemoteLogError:
             url, f"{doing}: no answer for {_timeout(url):g} s ({TIMEOUT_VARIABLE})"
         )
     return RemoteLogError(url, f"{doing}: {first_line(exc)}")
-
-
-def _not_found(url: str, exc: FileNotFoundError, doing: str) -> RemoteLogError:
-    """A log not found, or, where the filesystem says so of a server it cannot reach
-    (fsspec's HTTP does), what stopped it."""
-    cause = exc.__cause__
-    if cause is None or isinstance(cause, FileNotFoundError) or getattr(cause, "status", 0) == 404:
-        return RemoteLogError(url, "no such log")
-    return _failed(url, cause, doing)

@@ -17,20 +17,18 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.analysis.recorded import RecordedChanges
-from beatlog.analysis.trace import ReplayedTrace
 from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
 from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
-from beatlog.errors import BaselineError, BeatlogError, RemoteLogError
+from beatlog.errors import BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
 from beatlog.replaying.debugger import break_on_divergence, unreached_break
 from beatlog.replaying.expectation import Expectation
-from beatlog.replaying.judge import recorded_system, replay
+from beatlog.replaying.judge import replay
 from beatlog.replaying.random import ReplayRandom
-from beatlog.replaying.setup import built_for_replay
+from beatlog.replaying.setup import built_for_replay, recorded_system
 from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
-from beatlog.suite.remote import named_as_given
-from beatlog.suite.repeats import repeat_note
+from beatlog.suite.approved import approved_for
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.variants import importable_invariants, replay_variant_of
 
@@ -40,7 +38,7 @@ if TYPE_CHECKING:
     from beatlog.audit.replays import Auditors, AuditReport
     from beatlog.log.reader import SessionLogReader
 
-__all__ = ["SpecOutcome", "Verdict", "run_spec", "suite_auditors"]
+__all__ = ["SpecOutcome", "Verdict", "repeat_note", "run_spec", "suite_auditors"]
 
 
 class Verdict(StrEnum):
@@ -67,37 +65,31 @@ class SpecOutcome:
     baseline: Path | None = None
     """The approved baseline judged against, when there is one."""
     update: Expectation | None = None
-    """The new expected state changes, outputs and (from samples) robot states, when run
-    in :attr:`UpdateMode.NEW` and the DTC failed."""
+    """The new expectation, when run in :attr:`UpdateMode.NEW` and the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
     """The determinism audit, when one was asked for and the DTC could run."""
     timelines: tuple[Timeline, ...] = ()
-    """Timelines of what it did (a close-up of the first divergence, if any, then the
-    whole session), gathered where it was judged, when the suite was run with
-    ``timelines``; reports draw them."""
+    """Timelines of what it did, when the suite was run with ``timelines``."""
     error_traceback: str | None = None
     """The traceback of the user's code behind the error, when their code raised it."""
     retries: int = 0
-    """How many times the DTC was run again because the process running it died (a
-    cluster's worker, see :mod:`beatlog.suite.cluster`)."""
+    """How many times the DTC was run again because the cluster's worker running it
+    died."""
     log_digest: str | None = None
     """The SHA-256 of the log replayed, with an :attr:`update`: the pending baseline is
     written where the log may not be (behind a URL)."""
     open_loop: tuple[int, int] | None = None
     """Where the approved baseline says the behaviors left the recording (cycle, robot
-    time in ns): from there the recorded world no longer answers to them."""
+    time in ns)."""
     storage_wait_s: float | None = None
-    """For a log behind a URL: the seconds spent waiting for its copy (a download, or
-    the cache) before the replay could start; None for a log of this machine."""
+    """For a log behind a URL: the seconds its copy took (a download, or the cache)."""
     recorded: RecordedChanges | None = None
-    """The state changes its log recorded, when run with ``coverage`` and its log could
-    be read to the end."""
+    """The state changes its log recorded, when run with ``coverage`` (and read whole)."""
     recording: Recording | None = None
     """Its log as the verdict's replay read it, with an :attr:`update`, where it is small
-    enough to keep: the pending baseline is weighed against it without reading the
-    file again (:mod:`beatlog.suite.maintenance`)."""
+    enough to keep: the pending baseline is weighed against it, not the file again."""
 
     @property
     def verdict_label(self) -> str:
@@ -125,64 +117,43 @@ def run_spec(
     spec: DtcSpec, options: SpecOptions | None = None, *, auditors: Auditors | None = None
 ) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
-    if it has one. ``options`` may ask for more: in :attr:`UpdateMode.NEW` a failure
-    also traces the new state changes and outputs (nothing is written here: see
-    :mod:`beatlog.suite.maintenance`), with ``audit`` its determinism is audited, with
-    ``timelines`` what it did is charted: a passing DTC from the verdict's own replay, a
-    failing one from the one more replay its details take. A failed DTC is replayed
-    once more, against a fresh system, to see that its first divergence repeats: where
-    it does not, a note says so and points to the audit. The log is opened and read
-    once: the verdict's replay takes its digest (which must be its approved baseline's)
-    and keeps its bytes (:class:`~beatlog.log.recording.Recording`), which the details
-    and the repeat replay from memory; a log too large to keep
-    (:data:`~beatlog.log.recording.KEPT_BYTES`) is not replayed a third time to see
-    that its failure repeats, and its details read it again. The outcome's wall time is
-    the replay's alone. The result's reproduce command is ``beatlog test SPEC``, which
-    judges exactly as this run did. The spec's references also import from its folder
-    and its project root (:func:`beatlog.project.usercode.importable_near`). The options' break
-    points stop in the debugger as ``beatlog replay --break-at`` and
-    ``--break-on-divergence`` do (:mod:`beatlog.replaying.debugger`); a break past the end
-    of the log is noted in the result. A variant is replayed perturbed, judged alone.
-    A log behind a URL is copied here first (the time waited for it is the outcome's
-    ``storage_wait_s``), and the copy removed after; one that cannot be copied is an
-    error of the DTC. The audit runs in ``auditors``' interpreters
-    (see :func:`suite_auditors`), else in interpreters of its own."""
+    if it has one; its outcome, whose wall time is the replay's alone. ``options`` may
+    ask for a failure's new expectation, an audit (in ``auditors``' interpreters),
+    timelines and break points. The log is read once: the verdict's replay takes its
+    digest and keeps its bytes, from which a failure's details and a repeat replay come
+    (:func:`repeat_note`); a log too large to keep is read again for the details, and
+    not repeated. A log behind a URL is copied here first."""
     with importable_near(spec.spec_file):
         try:
-            with contextlib.ExitStack() as copied:
-                asked = time.perf_counter()
-                log = copied.enter_context(spec.readable_log())
+            asked = time.perf_counter()
+            with spec.readable_log() as log:
                 waited = time.perf_counter() - asked
                 outcome = _run_spec(
                     dataclasses.replace(spec, log=log), options or SpecOptions(), auditors
                 )
         except RemoteLogError as exc:
             return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
-        if spec.log_url is None:
-            return outcome
-        outcome = dataclasses.replace(outcome, storage_wait_s=waited)
-        return _named_as_given(outcome, spec, str(log), spec.log_url)
-
-
-def _named_as_given(outcome: SpecOutcome, spec: DtcSpec, copy: str, url: str) -> SpecOutcome:
-    """The outcome of replaying a copy of a log behind a URL, with the spec as given and
-    the URL where its error named the copy."""
-    result = outcome.result
+    if spec.log_url is None:
+        return outcome
+    result, error = outcome.result, outcome.error
     if result is not None:
-        result = dataclasses.replace(result, log=spec.log, url=url)
-    error = None if outcome.error is None else named_as_given(outcome.error, copy, url)
-    return dataclasses.replace(outcome, spec=spec, result=result, error=error)
+        result = dataclasses.replace(result, log=spec.log, url=spec.log_url)
+    return dataclasses.replace(
+        outcome,
+        spec=spec,
+        result=result,
+        error=None if error is None else error.replace(str(log), spec.log_url),
+        storage_wait_s=waited,
+    )
 
 
 def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) -> SpecOutcome:
-    update, audit, timelines = options.update, options.audit, options.timelines
     started = time.perf_counter()
     baseline = expected_path(spec.path)
     log = Recording(spec.log)
     try:
-        approved = None
-        if spec.source is None and spec.variant is None and baseline.exists():
-            approved = read_baseline(baseline)
+        own = spec.source is None and spec.variant is None  # fleet logs and variants: none
+        approved = read_baseline(baseline) if own and baseline.exists() else None
         expected = None if approved is None else approved.stream
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
         if spec.variant is not None:  # no baseline; judged by not raising, and no more
@@ -211,14 +182,15 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             result = judged(
                 system,
                 break_at=options.break_at,
-                observers=[_charting(system, approved, charts)] if timelines else (),
+                observers=[_charting(system, approved, charts)] if options.timelines else (),
                 readers=[functools.partial(_kept, recorded)] if options.coverage else (),
             )
-        except BeatlogError:
-            if log.digest is not None:  # the baseline's own error, if it is not this log's
-                _approved_for(approved, baseline, log)
+        except BeatlogError:  # a baseline of another log says so, not what it made fail
+            if approved is not None and log.digest is not None:
+                approved_for(approved, log.path, log.digest)
             raise
-        _approved_for(approved, baseline, log)
+        if approved is not None:  # made from this log, as the replay read it
+            approved_for(approved, log.path, log.digest)
         wall = time.perf_counter() - started
         divergence = result.divergence
         notes = result.notes + unreached_break(options.break_at, result)
@@ -231,35 +203,31 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             and not options.verdict_only
         ):
             notes += repeat_note(divergence, judged(system).divergence, _rerun(spec, "--audit"))
-        updating = update is UpdateMode.NEW and divergence is not None
+        updating = options.update is UpdateMode.NEW
         refused = refusal(divergence) if updating and divergence is not None else None
         details = _details(spec, log, system, divergence, approved, trace=updating, options=options)
         if divergence is not None and details is not None:
             divergence = dataclasses.replace(divergence, fields_read=details.fields_read)
         if spec.system is None:  # the log named it: say which, on every run
-            notes = (
-                *notes,
-                f"replayed against {system}, which its log records and the project lists",
-            )
+            notes += (f"replayed against {system}, which its log records and the project lists",)
         result = dataclasses.replace(
             result, divergence=divergence, reproduce=_rerun(spec), notes=notes
         )
         changes = digest = None
         if details is not None and details.trace is not None and refused is None:
-            changes, refused = _new_expectation(details.trace)
-            digest = None if changes is None else log.digest or log_digest(spec.log)
-        report = None
-        if audit:
-            from beatlog.audit.replays import audit as audit_replay  # noqa: PLC0415 - only when auditing
-
-            report = audit_replay(
-                spec.log,
-                system,
-                allow_truncated=spec.allow_truncated,
-                migration=spec.migration,
-                auditors=auditors,
+            if details.trace.stopped is not None:
+                refused = f"replay cannot go on past {details.trace.stopped}: re-record the session"
+            else:
+                changes = details.trace.expectation
+                digest = log.digest or log_digest(spec.log)
+        report = _audited(spec, system, auditors) if options.audit else None
+        drawn: tuple[Timeline, ...] = ()
+        if charts:
+            drawn = (
+                details.timelines
+                if details is not None and details.timelines
+                else (charts[0].timeline(None),)
             )
-        drawn = _timelines(charts, details)
     except BeatlogError as exc:
         wall = time.perf_counter() - started
         return SpecOutcome(
@@ -283,19 +251,28 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     )
 
 
-def _approved_for(approved: Baseline | None, baseline: Path, log: Recording) -> None:
-    """Refuse an ``approved`` baseline made from another recording than ``log``: its
-    digest, taken as the replay read the log (or, where the replay stopped short of the
-    log's end, from the file), must be the baseline's.
+def repeat_note(first: Divergence, again: Divergence | None, audit: str) -> tuple[str, ...]:
+    """The note on a failure that a second replay, of a fresh system in this process,
+    does not repeat (``again`` is its first divergence, compared by cycle, kind and what
+    replay did there, as text so that a NaN equals itself): the behaviors depend on
+    something besides their log, which the audit (the command ``audit``) names."""
 
-    :raises beatlog.errors.BaselineError: it was approved for another recording.
-    """
-    if approved is None:
-        return
-    if approved.log_digest != (log.digest or log_digest(log.path)):
-        raise BaselineError(
-            baseline, f"approved for another recording than {log.path.name}; delete it"
-        )
+    def seen(divergence: Divergence) -> tuple[object, ...]:
+        done = (divergence.actual, divergence.actual_outputs, divergence.random_drawn)
+        return divergence.cycle, divergence.kind, repr(done)
+
+    if again is not None and seen(first) == seen(again):
+        return ()
+    if again is None:
+        how = f"fails at cycle {first.cycle} in one run and passes in the next"
+    elif again.cycle != first.cycle:
+        how = f"fails at a different cycle each run ({first.cycle}, then {again.cycle})"
+    else:
+        how = f"fails otherwise each run at cycle {first.cycle}"
+    return (
+        f"{how} on unchanged code: the behaviors are not deterministic; run "
+        f"`{audit}` to find the call",
+    )
 
 
 def _rerun(spec: DtcSpec, *options: str) -> str:
@@ -314,10 +291,9 @@ def _rerun(spec: DtcSpec, *options: str) -> str:
 def _charting(
     system: str, approved: Baseline | None, charts: list[TimelineCollector]
 ) -> Callable[[SessionLogReader], TimelineCollector]:
-    """What builds a timeline collector of the verdict's replay from the log it opens
-    (kept in ``charts``), against the ``approved`` baseline (read whole): its lanes
-    start from the states of a system built as the replayed one is, set-up draws and
-    all."""
+    """What builds a timeline collector of the verdict's replay (kept in ``charts``),
+    against the ``approved`` baseline: its lanes start from the states of a system
+    built as the replayed one is, set-up draws and all."""
     from beatlog.analysis.timeline import TimelineCollector  # noqa: PLC0415 - when charting
 
     override = None if approved is None else approved.expectation.changes_override()
@@ -335,15 +311,6 @@ def _kept(kept: list[RecordedChanges], reader: SessionLogReader) -> RecordedChan
     """A reader of what the log recorded, kept in ``kept``."""
     kept.append(RecordedChanges(reader))
     return kept[-1]
-
-
-def _timelines(charts: list[TimelineCollector], details: Details | None) -> tuple[Timeline, ...]:
-    """The DTC's timelines: from the details of a failure, else from the verdict's replay."""
-    if not charts:
-        return ()
-    if details is not None and details.timelines:
-        return details.timelines
-    return (charts[0].timeline(None),)
 
 
 def _details(
@@ -381,12 +348,17 @@ def _details(
     )
 
 
-def _new_expectation(trace: ReplayedTrace) -> tuple[Expectation | None, str | None]:
-    """The whole new trace of state changes and outputs, or why the recording cannot
-    give one."""
-    if trace.stopped is not None:
-        return None, f"replay cannot go on past {trace.stopped}: re-record the session"
-    return trace.expectation, None
+def _audited(spec: DtcSpec, system: str, auditors: Auditors | None) -> AuditReport:
+    """The determinism audit of the DTC, in ``auditors``' interpreters if given."""
+    from beatlog.audit.replays import audit  # noqa: PLC0415 - only when auditing
+
+    return audit(
+        spec.log,
+        system,
+        allow_truncated=spec.allow_truncated,
+        migration=spec.migration,
+        auditors=auditors,
+    )
 
 
 def suite_auditors(options: SpecOptions) -> AbstractContextManager[Auditors | None]:

@@ -1,37 +1,29 @@
 """Shrinking a failing DTC: the shortest window of cycles, and the fewest perturbations,
 that still fail the same way, written as a spec of their own.
 
-A DTC that fails at cycle 9400 of a 17.5-minute session replays 9400 cycles and reads
-the whole log each time it is run. :func:`shrink` cuts it down by delta debugging on
-the spec's data, each try a replay that stops at its window's end:
+:func:`shrink` cuts a failing DTC down by delta debugging on the spec's data, each try a
+replay that stops at its window's end: the window ends where the DTC failed; its
+perturbations (the spec's ``[variants]`` table) are taken out one at a time, each kept
+out where the DTC still fails the same way; its start is the latest that still fails the
+same way, stepped back from the failing cycle in doubling strides, then bisected. First
+from a fresh start (the behaviors from rest there, the cycles before it not replayed),
+then with the cycles before it replayed as recorded, rebuilding the behaviors' state;
+the fresh start is kept unless the failure needs so long a history that its window
+costs about as much as replaying up to the other's.
 
-* the window ends where the DTC failed (no cycle after the failure is needed);
-* its perturbations (the spec's ``[variants]`` table: other random draws, heartbeat
-  jitter, noise per robot-state field, samples dropped or delayed) are taken out one
-  at a time, each kept out where the DTC still fails the same way;
-* its start is the latest that still fails the same way: stepped back from the
-  failing cycle in doubling strides, then bisected. First from a fresh start (the
-  behaviors from rest there, the cycles before it not replayed: the window then costs
-  its own cycles alone), moved back as far as the history the failure needs; then
-  with the cycles before it replayed as recorded and unjudged, rebuilding the
-  behaviors' state. The fresh start is kept unless the failure needs so long a history
-  that its window costs about as much as replaying up to the other's.
-
-"The same way" is the same kind of divergence in the same behavior (for an invariant,
-the same invariant), wherever in the window it comes; from a fresh start, in the
-cycle where the spec fails, since one that fails earlier fails for want of the
-history it left out. The result is written beside
-the spec as ``<stem>.shrunk.dtc.toml``, named ``<name>-shrunk``, with the same log (no
-copy), its window (``start_cycle``, ``end_cycle``) and the perturbations left; an
-approved baseline of the spec is copied beside it, so that it is judged as the tries
-were.
+"The same way" is the same kind of divergence in the same behavior (or invariant),
+wherever in the window it comes; from a fresh start, in the cycle where the spec fails,
+since one that fails earlier fails for want of the history it left out. The result is
+written beside the spec as ``<stem>.shrunk.dtc.toml``, named ``<name>-shrunk``, with the
+same log, its window and the perturbations left, and a copy of the spec's approved
+baseline, so that it is judged as the tries were.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import shutil
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -42,27 +34,9 @@ from beatlog.errors import BeatlogError, SpecError
 from beatlog.log.files import replacing
 from beatlog.replaying.verdict import Divergence, DivergenceKind
 from beatlog.suite.runner import Verdict, run_spec
-from beatlog.suite.spec import read_spec_data, spec_from_data
-from beatlog.suite.spec_writing import spec_toml
+from beatlog.suite.spec import read_spec_data, spec_from_data, spec_toml
 
-__all__ = [
-    "Attempt",
-    "NothingToShrinkError",
-    "Shrunk",
-    "shrink",
-    "shrunk_path",
-]
-
-SHRUNK_SUFFIX = ".shrunk" + SPEC_SUFFIX
-
-PERTURBATIONS = "variants"
-"""The spec's table of perturbations: each of its keys but ``count`` is one, and each
-field of its tables (``noise``)."""
-
-_NOT_PERTURBATIONS = frozenset({"count"})
-
-FRESH = "fresh_start"
-"""The spec's key for a window whose behaviors start from rest."""
+__all__ = ["Attempt", "NothingToShrinkError", "Shrunk", "shrink", "shrunk_path"]
 
 
 class NothingToShrinkError(BeatlogError):
@@ -125,15 +99,14 @@ class Shrunk:
 
 def shrunk_path(spec: Path) -> Path:
     """Where the shrunk spec of the spec at ``spec`` is written."""
-    name = spec.name
-    stem = name[: -len(SPEC_SUFFIX)] if name.endswith(SPEC_SUFFIX) else spec.stem
-    return spec.with_name(stem + SHRUNK_SUFFIX)
+    stem = spec.name.removesuffix(SPEC_SUFFIX) if spec.name.endswith(SPEC_SUFFIX) else spec.stem
+    return spec.with_name(f"{stem}.shrunk{SPEC_SUFFIX}")
 
 
 def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -> Shrunk:
     """Shrink the failing DTC of the spec at ``spec`` (see the module) and write the
-    result beside it; ``progress`` is told of every replay tried. Each replay stops at
-    its window's end; none is judged otherwise than ``beatlog test`` judges the spec.
+    result beside it; ``progress`` is told of every replay tried, each judged as
+    ``beatlog test`` judges the spec.
 
     :raises NothingToShrinkError: the spec passes.
     :raises beatlog.errors.SpecError: the spec cannot be read, or fails only because
@@ -148,7 +121,7 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
         raise NothingToShrinkError(f"{spec}: nothing to shrink: it passes")
     if first.kind is DivergenceKind.LOG_ENDED:
         raise SpecError(spec, "fails only because its log was cut off: no window repeats that")
-    before = _perturbations(data)
+    before = _perturbations(data.get("variants", {}))
     if not search.fails(search.start, first.cycle):
         raise SpecError(
             spec,
@@ -161,12 +134,12 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
     shrunk = shrunk_path(spec)
     name = f"{data['name']}-shrunk"
     written = {
-        **{key: value for key, value in data.items() if key not in (PERTURBATIONS, FRESH)},
+        **{key: value for key, value in data.items() if key not in ("variants", "fresh_start")},
         "name": name,
         "start_cycle": search.start,
         "end_cycle": search.end,
-        **({FRESH: True} if search.fresh else {}),
-        **({PERTURBATIONS: kept} if PERTURBATIONS in data else {}),
+        **({"fresh_start": True} if search.fresh else {}),
+        **({"variants": kept} if "variants" in data else {}),
     }
     spec_from_data(shrunk, written)  # what is written loads
     _write(spec, shrunk, spec_toml(written))
@@ -183,15 +156,14 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
         fresh_start=search.fresh,
         cycles_before=first.cycle + 1,
         perturbations_before=before,
-        perturbations=_perturbations({PERTURBATIONS: kept}),
+        perturbations=_perturbations(kept),
         replays=search.replays,
     )
 
 
 class _Search:
     """The tries of one shrink: each replays the spec's data with a window and
-    perturbations, stopping at the window's end, and says whether it failed the same
-    way as the spec (:meth:`first`)."""
+    perturbations, and says whether it failed the same way as the spec."""
 
     def __init__(
         self, path: Path, data: Mapping[str, Any], progress: Callable[[Attempt], object] | None
@@ -203,23 +175,16 @@ class _Search:
         self.start = given.start_cycle
         self.end: int | None = given.end_cycle
         self.fresh = given.fresh_start
-        self.perturbations: dict[str, Any] = dict(data.get(PERTURBATIONS, {}))
+        self.perturbations: dict[str, Any] = dict(data.get("variants", {}))
         self.replays = 0
         self._same: tuple[DivergenceKind, str | None, str | None] | None = None
         self.failure: Divergence
 
     def first(self) -> Divergence | None:
         """Replay the spec as given: its failure, which the tries must repeat, or None."""
-        divergence = self._replay(self.start, self.end, self.perturbations, fresh=self.fresh)
-        self._tell(
-            self.start,
-            self.end,
-            self.perturbations,
-            failed=divergence is not None,
-            fresh=self.fresh,
-        )
+        divergence = self._replay(self.start, self.end, self.perturbations, self.fresh)
         if divergence is not None:
-            self._same = _way(divergence)
+            self._same = divergence.kind, divergence.behavior, divergence.invariant
             self.failure = divergence
         return divergence
 
@@ -231,37 +196,15 @@ class _Search:
         *,
         fresh: bool | None = None,
     ) -> bool:
-        """Whether the spec fails the same way in the window ``start``-``end`` with
-        ``perturbations`` (by default, those kept so far): in the window, not before it.
-        From a ``fresh`` start (by default, as kept so far) it must fail in the cycle
-        the spec failed in last: one that fails earlier fails for want of the history
-        the fresh start left out."""
+        """Whether the spec fails the same way in the window ``start``-``end``, not
+        before it, with ``perturbations`` (by default, those kept so far); from a
+        ``fresh`` start (by default, as kept so far), in the cycle it failed in last."""
         kept = self.perturbations if perturbations is None else perturbations
         fresh = self.fresh if fresh is None else fresh
-        divergence = self._replay(start, end, kept, fresh=fresh)
-        failed = (
-            divergence is not None
-            and divergence.cycle >= start
-            and _way(divergence) == self._same
-            and (not fresh or divergence.cycle == self.failure.cycle)
-        )
-        self._tell(start, end, kept, failed=failed, fresh=fresh)
-        if failed and divergence is not None:
+        divergence = self._replay(start, end, kept, fresh, same=True)
+        if divergence is not None:
             self.failure = divergence
-        return failed
-
-    def _tell(
-        self,
-        start: int,
-        end: int | None,
-        perturbations: Mapping[str, Any],
-        *,
-        failed: bool,
-        fresh: bool,
-    ) -> None:
-        if self._progress is not None:
-            kept = len(_perturbations({PERTURBATIONS: perturbations}))
-            self._progress(Attempt(start, end, kept, failed, self.replays, fresh))
+        return divergence is not None
 
     def fewest(self, given: tuple[str, ...]) -> dict[str, Any]:
         """Take out each perturbation in turn, keeping it out where the spec still fails
@@ -278,10 +221,7 @@ class _Search:
         """The window's start: the latest that fails the same way from a fresh start,
         found first (its tries cost their windows alone), then the latest after it that
         fails with the cycles before it replayed. The fresh start is kept where the
-        cycles it leaves unreplayed outnumber the cycles it judges beyond the other's
-        window: a failure that needs a long history (a behavior that wears out on its
-        300th approach) keeps replaying it, one that needs a short one starts fresh
-        before it."""
+        cycles it leaves unreplayed outnumber those it judges beyond the other's."""
         end = self.failure.cycle
         known = self.fresh and self.start > 0
         fresh = self._latest(end, max(self.start, 1), fresh=True, known=known)
@@ -300,11 +240,9 @@ class _Search:
         self, end: int, lowest: int, *, fresh: bool, known: bool
     ) -> tuple[int, Divergence] | None:
         """The latest start from ``lowest`` to ``end`` whose window fails the same way
-        from a ``fresh`` start or not, and its failure; None where none does: stepped
-        back from the end in doubling strides (the end, one before, three before,
-        seven...) until one fails, then bisected between it and the earliest that
-        passed. ``known``: ``lowest`` fails so, as the failure kept so far says, and is
-        not tried again."""
+        from a ``fresh`` start or not, and its failure (None where none does): stepped
+        back in doubling strides until one fails, then bisected. ``known``: ``lowest``
+        fails so, and is not tried again."""
         if lowest > end:
             return None
         passed, stride, candidate = end + 1, 1, end
@@ -324,17 +262,24 @@ class _Search:
         return failing, found
 
     def _replay(
-        self, start: int, end: int | None, perturbations: Mapping[str, Any], *, fresh: bool
+        self,
+        start: int,
+        end: int | None,
+        perturbations: Mapping[str, Any],
+        fresh: bool,
+        *,
+        same: bool = False,
     ) -> Divergence | None:
         """The divergence of one replay of the spec's data with this window, from a
-        ``fresh`` start or not."""
-        data = {**self._data, "start_cycle": start, FRESH: fresh}
+        ``fresh`` start or not, told to ``progress``; with ``same``, only one that
+        fails the same way (see :meth:`fails`)."""
+        data = {**self._data, "start_cycle": start, "fresh_start": fresh}
         if end is None:
             data.pop("end_cycle", None)
         else:
             data["end_cycle"] = end
-        if PERTURBATIONS in self._data:
-            data[PERTURBATIONS] = dict(perturbations)
+        if "variants" in self._data:
+            data["variants"] = dict(perturbations)
         spec = dataclasses.replace(spec_from_data(self._path, data), allow_empty=True)
         self.replays += 1
         outcome = run_spec(spec, SpecOptions(verdict_only=True))
@@ -343,30 +288,31 @@ class _Search:
             cannot.user_traceback = outcome.error_traceback
             raise cannot
         assert outcome.result is not None  # a verdict that is no error has its result
-        return outcome.result.divergence
+        divergence = outcome.result.divergence
+        if same and not (
+            divergence is not None
+            and divergence.cycle >= start
+            and (divergence.kind, divergence.behavior, divergence.invariant) == self._same
+            and (not fresh or divergence.cycle == self.failure.cycle)
+        ):
+            divergence = None
+        if self._progress is not None:
+            kept = len(_perturbations(perturbations))
+            self._progress(Attempt(start, end, kept, divergence is not None, self.replays, fresh))
+        return divergence
 
 
-def _way(divergence: Divergence) -> tuple[DivergenceKind, str | None, str | None]:
-    """How a DTC fails, as shrinking keeps it: the kind of divergence, its behavior and
-    its invariant."""
-    return divergence.kind, divergence.behavior, divergence.invariant
-
-
-def _perturbations(data: Mapping[str, Any]) -> tuple[str, ...]:
-    """The perturbations a spec's data declares, by name: each key of its ``[variants]``
-    table but ``count`` that is on (``draws = true``, a bound above 0), and each field of
-    its ``noise`` with a bound above 0 (``noise.battery``)."""
-    return tuple(_named(data.get(PERTURBATIONS, {})))
-
-
-def _named(table: Mapping[str, Any]) -> Iterator[str]:
+def _perturbations(table: Mapping[str, Any]) -> tuple[str, ...]:
+    """The perturbations a ``[variants]`` table declares, by name: each of its keys but
+    ``count`` that is on (``draws = true``, a bound above 0), and each field of its
+    ``noise`` with a bound above 0 (``noise.battery``)."""
+    named: list[str] = []
     for key, value in table.items():
-        if key in _NOT_PERTURBATIONS:
-            continue
         if isinstance(value, Mapping):
-            yield from (f"{key}.{field}" for field, bound in value.items() if bound)
-        elif value:
-            yield key
+            named.extend(f"{key}.{field}" for field, bound in value.items() if bound)
+        elif value and key != "count":
+            named.append(key)
+    return tuple(named)
 
 
 def _without(table: Mapping[str, Any], name: str) -> dict[str, Any]:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from pathlib import Path
 
 from beatlog.errors import SpecError, SystemLoadError
@@ -18,23 +18,14 @@ from beatlog.project.usercode import load_invariant, load_perception, load_syste
 from beatlog.replaying.perturbation import Perturbations, Variant
 from beatlog.replaying.variant import replay_variant
 from beatlog.replaying.verdict import ReplayResult, reproduce_command
-from beatlog.suite.spec import DtcSpec
-from beatlog.suite.spec_writing import spec_text, toml_string
+from beatlog.suite.spec import DtcSpec, spec_toml
 
-__all__ = [
-    "importable_invariants",
-    "replay_variant_of",
-    "variant_spec_text",
-    "with_variants",
-    "write_variant_spec",
-]
+__all__ = ["importable_invariants", "replay_variant_of", "with_variants", "write_variant_spec"]
 
 
 def replay_variant_of(spec: DtcSpec, system: str) -> ReplayResult:
-    """Replay variant ``spec`` of a DTC against ``system`` (``module:factory``) as a
-    suite does (:func:`~beatlog.replaying.variant.replay_variant`): perturbed, judged by
-    its behaviors not raising and its invariants; its reproduce command runs its own
-    spec."""
+    """Replay variant ``spec`` of a DTC against ``system`` (``module:factory``):
+    perturbed, judged by its behaviors not raising and its invariants."""
     assert spec.variant is not None  # a variant's
     perception = None if spec.perception is None else load_perception(spec.perception)
     return replay_variant(
@@ -74,69 +65,36 @@ def with_variants(specs: Iterable[DtcSpec], count: int | None = None) -> list[Dt
     return run
 
 
-def variant_spec_text(spec: DtcSpec) -> str:
-    """The spec of variant ``spec`` of a DTC: its log (no copy), system, invariants,
-    window, number and perturbations, all of them, so that it reproduces whatever the
-    original spec or the project say later."""
-    assert spec.variant is not None  # a variant's
-    assert spec.perturbations is not None
-    base = spec.name.removesuffix(f"[variant-{spec.variant}]")
-    log = spec.log_url or os.path.relpath(spec.log, spec.path.parent)
-    text = spec_text(
-        name=f"{base}-variant-{spec.variant}",
-        purpose=f"Variant {spec.variant} of {base}, which failed: {spec.purpose}",
-        procedure=spec.procedure,
-        log=Path(log).as_posix() if spec.log_url is None else log,
-        system=spec.system,
-        tags=spec.tags,
-        perception=spec.perception,
-        invariants=spec.invariants,
-    )
-    renames, conversions = spec.migration.renames, spec.migration.conversions
-    extra = [
-        *(["allow_truncated = true"] if spec.allow_truncated else []),
-        *([f"field_renames = {_table(renames)}"] if renames else []),
-        *([f"field_conversions = {_table(conversions)}"] if conversions else []),
-        *([f"start_cycle = {spec.start_cycle}"] if spec.start_cycle else []),
-        *([] if spec.end_cycle is None else [f"end_cycle = {spec.end_cycle}"]),
-        *(["fresh_start = true"] if spec.fresh_start else []),
-        f"variant = {spec.variant}",
-        "",
-        "[variants]",
-        *_perturbations(spec.perturbations),
-    ]
-    return text + "\n".join(extra) + "\n"
-
-
-def _perturbations(perturbations: Perturbations) -> list[str]:
-    """A ``[variants]`` table's keys for ``perturbations``, every one (no count)."""
-    return [
-        f"draws = {'true' if perturbations.draws else 'false'}",
-        f"heartbeat_jitter = {perturbations.heartbeat_jitter!r}",
-        f"noise = {_table(perturbations.noise)}",
-        f"drop_samples = {perturbations.drop_samples!r}",
-        f"delay_samples = {perturbations.delay_samples!r}",
-    ]
-
-
-def _table(table: Mapping[str, object]) -> str:
-    """An inline TOML table of strings or numbers, its keys quoted."""
-    items = ", ".join(
-        f"{toml_string(key)} = {toml_string(value) if isinstance(value, str) else repr(value)}"
-        for key, value in table.items()
-    )
-    return "{ " + items + " }" if items else "{}"
-
-
 def write_variant_spec(spec: DtcSpec) -> Path:
-    """Write variant ``spec`` of a DTC as a spec beside the original
-    (:attr:`~beatlog.suite.spec.DtcSpec.own_spec`); its path.
+    """Write variant ``spec`` of a DTC as a spec beside the original, its path: with all
+    it replays with, so that it reproduces whatever the original or the project say later.
 
     :raises beatlog.errors.SpecError: it cannot be written.
     """
+    assert spec.variant is not None  # a variant's
+    assert spec.perturbations is not None
+    base = spec.name.removesuffix(f"[variant-{spec.variant}]")
+    data = {
+        "name": f"{base}-variant-{spec.variant}",
+        "purpose": f"Variant {spec.variant} of {base}, which failed: {spec.purpose}",
+        "procedure": spec.procedure,
+        "log": spec.log_url or Path(os.path.relpath(spec.log, spec.path.parent)).as_posix(),
+        "system": spec.system,
+        "perception": spec.perception,
+        "tags": spec.tags,
+        "invariants": spec.invariants,
+        "allow_truncated": spec.allow_truncated,
+        "start_cycle": spec.start_cycle,
+        "end_cycle": spec.end_cycle,
+        "fresh_start": spec.fresh_start,
+        "variant": spec.variant,
+        "field_renames": dict(spec.migration.renames),
+        "field_conversions": dict(spec.migration.conversions),
+        "variants": dataclasses.asdict(spec.perturbations),
+    }
     path = spec.own_spec
     try:
-        path.write_text(variant_spec_text(spec), encoding="utf-8")
+        path.write_text(spec_toml(data), "utf-8")
     except OSError as exc:
         raise SpecError(path, f"cannot write: {exc.strerror}") from None
     return path
@@ -144,8 +102,7 @@ def write_variant_spec(spec: DtcSpec) -> Path:
 
 def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
     """The spec's invariants, each imported once here, so that one that does not import
-    is an error naming where it is listed: the spec (the DTC's error names it) or its
-    project's ``pyproject.toml``. Each replay then imports its own.
+    is an error naming where it is listed: the spec or its ``pyproject.toml``.
 
     :raises beatlog.errors.SystemLoadError: one does not import, or is no invariant.
     """

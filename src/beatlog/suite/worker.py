@@ -3,8 +3,9 @@
 ``python -m beatlog.suite.worker`` is a worker's side; :class:`Worker` is the runner's
 handle on one. A worker imports only what replay needs (not the CLI, not rich, the
 audit only when auditing) and lives as long as its suite, so its start-up is paid once.
-Specs and outcomes travel pickled over two pipes of their own: the worker's stdout and
-stderr stay the runner's, for what behaviors print.
+Specs and outcomes travel pickled over two pipes of their own (an outcome holds the
+outputs behaviors gave, any Python object, which no schema encoding carries); the
+worker's stdout and stderr stay the runner's, for what behaviors print.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import sys
 import traceback
 import warnings
 from types import FrameType
-from typing import IO, TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any, cast
 
 from beatlog.log.files import Closing
 
@@ -66,10 +67,7 @@ class Worker(Closing):
         self._stopped = False
 
     def wait_ready(self) -> None:
-        """Block until the worker has started and waits for specs.
-
-        :raises WorkerLostError: the worker ended first.
-        """
+        """Block until the worker waits for specs (:class:`WorkerLostError` if it ended)."""
         if not self._ready:
             self._receive()
             self._ready = True
@@ -90,8 +88,7 @@ class Worker(Closing):
         answer = self._receive()
         if isinstance(answer, BaseException):
             raise answer
-        outcome: SpecOutcome = answer
-        return outcome
+        return cast("SpecOutcome", answer)
 
     def _receive(self) -> Any:
         try:
@@ -151,17 +148,6 @@ def serve(tasks: IO[bytes], answers: IO[bytes]) -> None:
             answers.flush()
 
 
-def _leave_interrupts() -> None:
-    """Workers leave Ctrl-C to the runner, which stops them with SIGTERM: that unwinds
-    the worker's work as Ctrl-C would, without a traceback from each.
-
-    A handler that does nothing, not ``SIG_IGN``, so that the processes a worker
-    starts (audit replays) are not born deaf to Ctrl-C.
-    """
-    signal.signal(signal.SIGINT, _do_nothing)
-    signal.signal(signal.SIGTERM, _interrupt)
-
-
 def _do_nothing(signum: int, frame: FrameType | None) -> None:
     """A signal handler that lets the signal pass."""
 
@@ -177,24 +163,24 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
 
 def main() -> None:
     """``python -m beatlog.suite.worker TASKS ANSWERS PATH...``: the pipes' descriptors and
-    the runner's ``sys.path``."""
-    _leave_interrupts()
+    the runner's ``sys.path``. Workers leave Ctrl-C to the runner, which stops them with
+    SIGTERM: that unwinds the worker's work as Ctrl-C would, without a traceback from
+    each (a handler that does nothing, not ``SIG_IGN``, so that the processes a worker
+    starts, audit replays, are not born deaf to Ctrl-C)."""
+    signal.signal(signal.SIGINT, _do_nothing)
+    signal.signal(signal.SIGTERM, _interrupt)
     tasks, answers, *path = sys.argv[1:]
     sys.path[:] = path
     try:
         with os.fdopen(int(tasks), "rb") as inbox, os.fdopen(int(answers), "wb") as outbox:
             serve(inbox, outbox)
-    except KeyboardInterrupt:  # stopped: what it did has unwound
-        _end_stopped()
-
-
-def _end_stopped() -> None:
-    """End a stopped worker at once, its work unwound: a download it stopped can leave a
-    read scheduled on fsspec's event-loop thread and never started, which the
-    interpreter's usual ending would report as a coroutine never awaited."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(0)
+    except KeyboardInterrupt:
+        # Stopped, its work unwound: end at once, since a download it stopped can leave a
+        # read scheduled on fsspec's event-loop thread and never started, which the
+        # interpreter's usual ending would report as a coroutine never awaited.
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(0)
 
 
 if __name__ == "__main__":

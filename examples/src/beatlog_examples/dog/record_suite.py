@@ -20,7 +20,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from beatlog.suite import spec_writing
+from beatlog.suite import spec
 from beatlog.suite.spec import SPEC_SUFFIX
 from beatlog_examples.dog import SUITE_DIR, invariants
 from beatlog_examples.dog.robot import PERCEPTION_REF, SYSTEM_REF, record_live
@@ -32,7 +32,7 @@ __all__ = ["main", "spec_text"]
 
 def spec_text(scenario: Scenario, log: str) -> str:
     """The ``*.dtc.toml`` for a scenario's recording."""
-    return spec_writing.spec_text(
+    return spec.spec_text(
         name=scenario.name,
         purpose=scenario.purpose,
         procedure=scenario.procedure(),

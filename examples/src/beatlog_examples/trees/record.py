@@ -24,7 +24,7 @@ import numpy as np
 from beatlog import Recorder
 from beatlog.errors import LogExistsError
 from beatlog.model.context import Outputs
-from beatlog.suite import spec_writing
+from beatlog.suite import spec
 from beatlog.suite.spec import SPEC_SUFFIX
 from beatlog_examples.trees import SUITE_DIR
 from beatlog_examples.trees.patrol import PatrolState, system
@@ -145,7 +145,7 @@ def record(log: Path, scenario: Scenario, *, overwrite: bool = False) -> int:
 
 def spec_text(scenario: Scenario, log: str) -> str:
     """The ``*.dtc.toml`` for a scenario's recording."""
-    return spec_writing.spec_text(
+    return spec.spec_text(
         name=scenario.name,
         purpose=scenario.purpose,
         procedure=scenario.procedure(),

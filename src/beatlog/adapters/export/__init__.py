@@ -1,79 +1,13 @@
 """Export a session log for viewers and for analysis; only the log is read, no code runs
-(unless a system is given to replay, for its first divergence). The output's suffix
-names the format (``.mcap``, ``.parquet``, ``.csv``) unless one is asked for, and a
-format the suffix contradicts is refused before anything is written.
+(unless a system is given to replay, for its first divergence).
 
-**MCAP for Foxglove and Lichtblick.** A ``.beatlog`` is MCAP, but its msgpack payloads
-are not an encoding those viewers decode. The export writes message encoding ``json``
-and schema encoding ``jsonschema``, one schema per channel (behavior channels share
-one), each message stamped with the recording's start (the header's ``start_time_ns``,
-Unix ns) plus the robot time at the end of its cycle, and sequence-numbered with its
-cycle; a ``beatlog`` metadata record holds the header, says so, and says how the log
-ends (``complete`` or ``truncated at cycle N: ...``). Both viewers read a JSON schema
-with one parser (``parseJsonSchema`` in their ``mcap-support`` package), which takes
-only an object with ``properties`` whose every field has one ``type``: boolean, string
-(base64 with ``contentEncoding``), number, integer, an object with its own
-``properties`` or an array of one of those.
-Every schema here keeps to that, so every field is a typed field in the viewers'
-message paths and plots, and every message validates against its schema:
-
-- ``/robot_state``: RS_t, every cycle, as the header's robot-state schema declares
-  it, every ``$ref`` inlined: numbers, integers, booleans and strings (an enum of
-  strings or integers is one too), nested structs as objects, lists of those as
-  arrays. What the viewers cannot type (a map, tuple, union, a list of lists or of
-  nullables, a type inside itself) is a string of its JSON text. A null is left out.
-  A log whose header declares no object is typed from a read of its fields.
-- ``/behaviors/<name>``: a behavior's state after cycle 0, then after each change,
-  as a string: the state as it prints (``idle``), or its JSON text if it is no
-  string (``3``, ``true``). Before its first change a behavior's state is the
-  ``before`` of that change; a behavior that never changes in the log has no known
-  state and shows ``null``.
-- ``/state_changes``: one Foxglove ``foxglove.Log`` message per change (INFO,
-  ``avoid: idle -> turning``, the behavior as ``name``), for the Log panel. The
-  schema is Foxglove's except ``level``: an integer here, not a ``oneOf`` of the
-  level constants, which Lichtblick's parser refuses in releases that predate its
-  enum support.
-- ``/outputs``: the outputs of every cycle, each output a field typed as a first read
-  of the log finds it (number, integer, boolean or string); an output whose values
-  are lists, maps or of mixed types is a string of JSON text.
-- ``/random_numbers``: the draws of each cycle that drew any: actor and kind, value
-  and params as JSON text (a numpy array draw is dtype, shape and base64 bytes).
-- ``/heartbeat``: HB_t of every cycle.
-- ``/samples/<sensor>``: in a log recorded with samples, each raw sample (its stamp
-  and value), typed as a first read of the log finds the sensor's values: maps with
-  string keys as objects, lists as arrays, what the viewers cannot type as JSON text.
-- ``/tf``: where the robot state has number fields ``x``, ``y`` and ``heading``,
-  ``yaw`` or ``theta`` (radians, counter-clockwise; ``z`` too if it has one), at its
-  top level or in an object field ``pose``, the robot's pose each cycle as Foxglove's
-  ``foxglove.FrameTransform`` from ``odom`` to ``base_link``, for the 3D panel (none
-  in a cycle where one of them is NaN or ±inf).
-- ``/divergence``: with a system, one message at its first divergence from the log
-  (``behavior`` empty when it concerns none; expected and actual state changes as
-  lists of behavior, before and after strings).
-
-JSON holds no NaN or infinity, and a plot's number field cannot hold a string: a
-float field that is NaN or ±inf is left out of that message (a gap in a plot) and
-listed in the message's ``non_finite`` string array as ``path=value``
-(``distance=NaN``, ``pose.x=Infinity``, ``outputs.speed=-Infinity``). An array of
-numbers that holds one anywhere in the log is, in that export, an array of the
-numbers' texts (``["0.5", "NaN"]``): no schema can be an array of numbers for the
-viewers and allow a null or a string in it for a validator. Inside JSON text they
-are the strings ``"NaN"``, ``"Infinity"`` and ``"-Infinity"``, and bytes are base64.
-
-**Tables** (Parquet, which needs the ``export`` extra, or CSV): one row per cycle
-with ``cycle``, ``time_ns``, ``heartbeat_ns`` (robot time), one column per
-robot-state field (``a.b`` for a nested struct's field), ``behavior.<name>`` (its
-state after the cycle, as on the behavior channels; null while unknown),
-``out.<name>`` and ``draws`` (how many random numbers the cycle drew). The columns'
-types come from the header's robot-state schema and the behavior catalogue, so every
-log of a system has the same Parquet schema, whatever its values: a number is a
-double, an integer an int64, a list of those a list, a behavior's state a string; a
-map, union or list of structs is JSON text. Outputs are typed from a read of the log
-(numbers as doubles; lists, maps and mixed types as JSON text), and a log whose
-header declares no object has its fields typed so too. The Parquet metadata holds
-the header and how the log ends, as the MCAP's does (keys ``beatlog.<name>``).
-Floats stay floats: Parquet keeps NaN and ±inf, CSV writes ``nan``, ``inf`` and
-``-inf``; in CSV a list or map is its JSON text.
+MCAP with JSON messages and JSON schemas (:mod:`.viewer`) is what Foxglove and
+Lichtblick decode, which a ``.beatlog``'s msgpack payloads are not: every schema keeps
+to the one shape their parser reads, so every field is typed for their panels and
+plots. A table (:mod:`.tables`, Parquet or CSV) has one row per cycle, its columns
+typed by the header and the behavior catalogue, so every log of a system has the same
+schema. The channels, columns and how NaN, bytes and untyped values are written:
+the how-to guide "Export to Foxglove, Lichtblick, Parquet".
 """
 
 from __future__ import annotations
@@ -82,10 +16,11 @@ from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
 
-from beatlog.adapters.export.reading import Session, decoded_cycles, first_read, replacing_output
+from beatlog.adapters.export.reading import Session, decoded_cycles, first_read
 from beatlog.adapters.export.tables import pyarrow_modules, write_table
 from beatlog.adapters.export.viewer import write_mcap
 from beatlog.errors import ExportError
+from beatlog.log.files import replacing
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.replaying.judge import replay
@@ -208,13 +143,16 @@ def export(
         else replay(log, system, allow_truncated=True, allow_empty=True, explain=False)
     )
     first = first_read(log)
-    with SessionLogReader(log) as reader, replacing_output(output) as part:
-        session = Session(log, reader.header, decoded_cycles(reader), first)
-        if chosen is ExportFormat.MCAP:
-            write_mcap(part, session, replayed)
-        else:
-            write_table(part, session, as_csv=chosen is ExportFormat.CSV)
-        status = reader.status
+    try:
+        with SessionLogReader(log) as reader, replacing(output) as file:
+            session = Session(log, reader.header, decoded_cycles(reader), first)
+            if chosen is ExportFormat.MCAP:
+                write_mcap(file, session, replayed)
+            else:
+                write_table(file, session, as_csv=chosen is ExportFormat.CSV)
+            status = reader.status
+    except OSError as exc:
+        raise ExportError(f"{output}: cannot write: {exc.strerror or exc}") from None
     return ExportResult(
         log=log,
         output=output,

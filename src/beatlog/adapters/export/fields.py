@@ -27,17 +27,15 @@ __all__ = [
     "Kind",
     "add_types",
     "array_field",
-    "find_non_finite_arrays",
-    "holds_number_arrays",
     "inferred",
     "json_text",
     "json_type",
     "merged",
-    "numbers_as_text",
     "object_field",
     "state_text",
     "too_deep",
     "typed_object",
+    "with_number_texts",
     "written_object",
     "written_value",
 ]
@@ -202,70 +200,38 @@ def json_type(value: Any) -> str:
     return "string" if isinstance(value, str) else "json"
 
 
-def add_types(types: dict[str, str | None], values: Mapping[str, Any]) -> None:
-    """Merge the types of ``values`` into ``types``: integers and floats make a number,
-    any other mix is JSON text; a field that is always null stays None."""
+def add_types(fields: dict[str, Field | None], values: Mapping[str, Any]) -> None:
+    """Merge the types of ``values`` into ``fields`` (see :func:`merged`: integers and
+    floats make a number, any other mix is JSON text); one always null stays None."""
     for name, value in values.items():
-        seen = types.get(name)
-        if value is None:
-            types.setdefault(name, None)
-        elif seen is None:
-            types[name] = json_type(value)
-        elif seen != "json":
-            kind = json_type(value)
-            if kind != seen:
-                types[name] = "number" if {kind, seen} == {"integer", "number"} else "json"
+        typed = None if value is None else BY_TYPE[json_type(value)]
+        fields[name] = merged(fields.get(name), typed)
 
 
-def typed_object(types: Mapping[str, str | None]) -> Field:
+def typed_object(fields: Mapping[str, Field | None]) -> Field:
     """An object of the fields a first read of the log found, typed as it found them."""
-    return object_field({name: BY_TYPE[kind or "json"] for name, kind in types.items()})
+    return object_field({name: field or BY_TYPE["json"] for name, field in fields.items()})
 
 
-def _path(within: str, name: str) -> str:
-    return f"{within}.{name}" if within else name
-
-
-def holds_number_arrays(field: Field) -> bool:
-    if field.kind is Kind.OBJECT:
-        return any(holds_number_arrays(inner) for inner in field.fields.values())
-    items = field.items
-    return items is not None and (items.kind is Kind.NUMBER or holds_number_arrays(items))
-
-
-def find_non_finite_arrays(field: Field, value: Any, path: str, found: set[str]) -> None:
-    """Add to ``found`` the path of each array of numbers in ``value`` holding a NaN or ±inf."""
+def with_number_texts(field: Field, value: Any) -> Field:
+    """``field`` with each array of numbers that holds a NaN or ±inf in ``value`` made an
+    array of their texts, which JSON can hold with NaN and ±inf in it."""
     if field.kind is Kind.OBJECT and isinstance(value, dict):
-        for name, inner in field.fields.items():
-            if name in value:
-                find_non_finite_arrays(inner, value[name], _path(path, name), found)
-    elif field.items is not None and isinstance(value, list):
-        if field.items.kind is Kind.NUMBER:
-            if any(isinstance(item, float) and not math.isfinite(item) for item in value):
-                found.add(path)
-        elif field.items.kind is Kind.OBJECT:
-            for item in value:
-                find_non_finite_arrays(field.items, item, f"{path}[]", found)
-
-
-def numbers_as_text(field: Field, paths: frozenset[str], path: str = "") -> Field:
-    """``field`` with each array of numbers at one of ``paths`` made an array of their
-    texts, which JSON can hold with NaN and ±inf in it."""
-    if not paths:
-        return field
-    if field.kind is Kind.OBJECT:
-        return object_field(
-            {
-                name: numbers_as_text(inner, paths, _path(path, name))
-                for name, inner in field.fields.items()
-            }
-        )
+        changed = {
+            name: texts
+            for name, inner in field.fields.items()
+            if name in value and (texts := with_number_texts(inner, value[name])) is not inner
+        }
+        return object_field({**field.fields, **changed}) if changed else field
     items = field.items
-    if items is not None and items.kind is Kind.NUMBER and path in paths:
-        return array_field(_NUMBER_TEXT)
-    if items is not None and items.kind is Kind.OBJECT:
-        return array_field(numbers_as_text(items, paths, f"{path}[]"))
-    return field
+    if items is None or not isinstance(value, list):
+        return field
+    if items.kind is Kind.NUMBER:
+        finite = all(not isinstance(item, float) or math.isfinite(item) for item in value)
+        return field if finite else array_field(_NUMBER_TEXT)
+    for item in value if items.kind is Kind.OBJECT else ():
+        items = with_number_texts(items, item)
+    return field if items is field.items else array_field(items)
 
 
 def inferred(value: Any, log: Path, cycle: int) -> Field | None:

@@ -6,7 +6,6 @@ header does not declare, and the metadata every export carries."""
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -19,22 +18,15 @@ from beatlog.adapters.export.fields import (
     Kind,
     add_types,
     array_field,
-    find_non_finite_arrays,
-    holds_number_arrays,
     inferred,
     json_type,
     merged,
     object_field,
     typed_object,
+    with_number_texts,
 )
-from beatlog.errors import CorruptLogError, ExportError
-from beatlog.log.format import (
-    DECODE_ERRORS,
-    EMPTY_LIST,
-    Draw,
-    SessionHeader,
-    StateChangeRecord,
-)
+from beatlog.errors import CorruptLogError
+from beatlog.log.format import DECODE_ERRORS, Draw, SessionHeader, StateChangeRecord
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState
 from beatlog.model.inbox import Sample
@@ -47,7 +39,6 @@ __all__ = [
     "decoded_cycles",
     "first_read",
     "log_metadata",
-    "replacing_output",
     "states_after",
 ]
 
@@ -75,15 +66,15 @@ class FirstRead(NamedTuple):
     initial: Mapping[str, BehaviorState]
     """Each catalogue behavior's state at the start: the ``before`` of its first change
     (None for a behavior that never changes in the log)."""
-    output_types: Mapping[str, str | None]
-    """Each output's JSON-schema type over the whole log (see ``add_types``)."""
+    output_types: Mapping[str, Field | None]
+    """Each output's field over the whole log (see ``add_types``)."""
     status: LogStatus
     """How the log ends."""
     robot_state: Field
     """The robot state's fields: as the header declares them, else as the log holds them."""
-    non_finite_arrays: frozenset[str]
-    """The robot-state arrays of numbers that hold a NaN or ±inf somewhere in the log, as
-    paths (``ranges``, ``pose.cov``, ``blips[].values``)."""
+    viewed_state: Field
+    """The robot state as the viewers get it: its arrays of numbers that hold a NaN or
+    ±inf somewhere in the log are arrays of their texts."""
     samples: Mapping[str, Field | None]
     """Each sensor's sample values as the log holds them (None: only nulls)."""
 
@@ -109,14 +100,10 @@ def decoded_cycles(reader: SessionLogReader) -> Iterator[Cycle]:
         time_ns += record.heartbeat_ns
         try:
             state = decode_map(record.robot_state)
-            changes = (
-                [] if record.state_changes == EMPTY_LIST else decode_changes(record.state_changes)
-            )
-            draws = (
-                [] if record.random_numbers == EMPTY_LIST else decode_draws(record.random_numbers)
-            )
+            changes = decode_changes(record.state_changes)
+            draws = decode_draws(record.random_numbers)
             outputs = decode_map(record.outputs)
-            samples = [] if record.samples == EMPTY_LIST else decode_samples(record.samples)
+            samples = decode_samples(record.samples)
         except DECODE_ERRORS as exc:
             raise CorruptLogError(reader.path, f"damaged cycle {number}: {exc}") from None
         yield Cycle(
@@ -206,20 +193,19 @@ def first_read(log: Path) -> FirstRead:
     with SessionLogReader(log) as reader:
         header = reader.header
         states: dict[str, BehaviorState] = header.initial_states_by_name()
-        output_types: dict[str, str | None] = {}
+        output_types: dict[str, Field | None] = {}
         declared = declared_object(header.robot_state_schema, log)
-        state_types: dict[str, str | None] = {}
-        scan = declared is not None and holds_number_arrays(declared)
-        non_finite: set[str] = set()
+        viewed = declared
+        state_types: dict[str, Field | None] = {}
         samples: dict[str, Field | None] = {}
         for cycle in decoded_cycles(reader):
             for change in cycle.changes:
                 states.setdefault(change.behavior, change.before)
             add_types(output_types, cycle.outputs)
-            if declared is None:
+            if viewed is None:
                 add_types(state_types, cycle.robot_state)
-            elif scan:
-                find_non_finite_arrays(declared, cycle.robot_state, "", non_finite)
+            else:
+                viewed = with_number_texts(viewed, cycle.robot_state)
             for sample in cycle.samples:
                 samples[sample.sensor] = merged(
                     samples.get(sample.sensor), inferred(sample.value, log, cycle.number)
@@ -227,7 +213,7 @@ def first_read(log: Path) -> FirstRead:
         initial = {name: states.get(name) for name in header.behaviors}
         robot_state = typed_object(state_types) if declared is None else declared
         return FirstRead(
-            initial, output_types, reader.status, robot_state, frozenset(non_finite), samples
+            initial, output_types, reader.status, robot_state, viewed or robot_state, samples
         )
 
 
@@ -236,22 +222,6 @@ def states_after(states: dict[str, BehaviorState], changes: Sequence[StateChange
     for change in changes:
         if change.behavior in states:
             states[change.behavior] = change.after
-
-
-@contextmanager
-def replacing_output(output: Path) -> Iterator[Path]:
-    """A file to write next to ``output``, moved over it when the block completes."""
-    part = output.with_name(f".{output.name}.part")
-    try:
-        yield part
-        part.replace(output)
-    except OSError as exc:
-        raise ExportError(f"{output}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        part.unlink(missing_ok=True)
-
-
-# JSON
 
 
 def log_metadata(session: Session) -> dict[str, str]:

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import base64
 import csv
+import io
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from beatlog.adapters.export.fields import BASE64, BY_TYPE, Field, Kind, json_text, state_text
 from beatlog.adapters.export.reading import Session, log_metadata, states_after
@@ -17,10 +18,9 @@ __all__ = ["pyarrow_modules", "write_table"]
 
 
 _FIRST_COLUMNS = ("cycle", "time_ns", "heartbeat_ns")
-_DRAWS_COLUMN = "draws"
 
 
-def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
+def write_table(file: IO[bytes], session: Session, *, as_csv: bool) -> None:
     """One row per cycle, as CSV or else Parquet, the columns typed by the robot-state
     schema, the catalogue and the outputs' types, so every log of a system has the same
     columns of the same types."""
@@ -29,7 +29,7 @@ def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
     state_columns = _state_columns(first.robot_state.fields)
     behavior_columns = {name: f"behavior.{name}" for name in session.header.behaviors}
     output_columns = {name: f"out.{name}" for name in first.output_types}
-    others = [*_FIRST_COLUMNS, *behavior_columns.values(), *output_columns.values(), _DRAWS_COLUMN]
+    others = [*_FIRST_COLUMNS, *behavior_columns.values(), *output_columns.values(), "draws"]
     clash = next((name for name in state_columns if name in others), None)
     if clash is not None:
         raise ExportError(
@@ -40,13 +40,13 @@ def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
         **dict.fromkeys(_FIRST_COLUMNS, BY_TYPE["integer"]),
         **{column: field for column, (_, field) in state_columns.items()},
         **dict.fromkeys(behavior_columns.values(), BY_TYPE["string"]),
-        **{
-            column: BY_TYPE["number" if kind == "integer" else kind or "json"]
-            for column, kind in zip(
-                output_columns.values(), first.output_types.values(), strict=True
-            )
+        **{  # an output of integers is doubles: another log may hold floats
+            f"out.{name}": BY_TYPE["number"]
+            if field == BY_TYPE["integer"]
+            else field or BY_TYPE["json"]
+            for name, field in first.output_types.items()
         },
-        _DRAWS_COLUMN: BY_TYPE["integer"],
+        "draws": BY_TYPE["integer"],
     }
     values: dict[str, list[Any]] = {column: [] for column in columns}
     for cycle in session.cycles:
@@ -61,15 +61,15 @@ def write_table(part: Path, session: Session, *, as_csv: bool) -> None:
             values[column].append(None if state is None else state_text(state))
         for name, column in output_columns.items():
             values[column].append(cycle.outputs.get(name))
-        values[_DRAWS_COLUMN].append(len(cycle.draws))
+        values["draws"].append(len(cycle.draws))
     if as_csv:
-        with part.open("w", encoding="utf-8", newline="") as file:
-            table = csv.writer(file)
+        with io.TextIOWrapper(file, encoding="utf-8", newline="") as text:
+            table = csv.writer(text)
             table.writerow(columns)
             for number, row in enumerate(zip(*values.values(), strict=True)):
                 table.writerow([_cell(value, log, f"cycle {number}") for value in row])
         return
-    _write_parquet(part, session, columns, values)
+    _write_parquet(file, session, columns, values)
 
 
 def _state_columns(
@@ -97,7 +97,10 @@ def _at(value: Any, keys: Sequence[str]) -> Any:
 
 
 def _write_parquet(
-    part: Path, session: Session, columns: Mapping[str, Field], values: Mapping[str, list[Any]]
+    file: IO[bytes],
+    session: Session,
+    columns: Mapping[str, Field],
+    values: Mapping[str, list[Any]],
 ) -> None:
     """Parquet with an Arrow schema from ``columns`` and the log described in its metadata."""
     pa, parquet = pyarrow_modules()
@@ -122,7 +125,7 @@ def _write_parquet(
         [pa.field(column, array.type) for column, array in zip(columns, arrays, strict=True)],
         metadata=metadata,
     )
-    parquet.write_table(pa.Table.from_arrays(arrays, schema=schema), part)
+    parquet.write_table(pa.Table.from_arrays(arrays, schema=schema), file)
 
 
 def _arrow_type(pa: Any, field: Field) -> tuple[Any, bool]:

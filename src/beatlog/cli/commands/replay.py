@@ -112,7 +112,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
 
     from beatlog.replaying.debugger import beyond_the_log, break_on_divergence, unreached_break
     from beatlog.replaying.fit.migration import StateMigration
-    from beatlog.replaying.judge import recorded_system
+    from beatlog.replaying.setup import recorded_system
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
     from beatlog.suite.remote import named_as_given

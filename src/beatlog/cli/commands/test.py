@@ -163,7 +163,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     shown as it comes, then the session's report and its counts; exit 5 when nothing
     is selected, as pytest does."""
     from beatlog.report.session import SuiteSession
-    from beatlog.suite.options import SuiteOptions
+    from beatlog.suite.selection import SuiteOptions
 
     # each of the suite's options from the option of the same name
     given = {field.name: getattr(args, field.name) for field in dataclasses.fields(SuiteOptions)}

@@ -42,11 +42,9 @@ _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 """A TOML key that needs no quotes."""
 
 
-@functools.lru_cache(maxsize=64)
-def _schema_of(state_type: type[Any]) -> dict[str, Any]:
-    """The JSON schema of a system's robot state type, made once per type (7 ms at 1,000
-    fields): a suite replays many logs against one robot. Read only, never changed."""
-    return state_schema(state_type)
+_schema_of = functools.lru_cache(maxsize=64)(state_schema)
+"""The JSON schema of a system's robot state type, made once per type (7 ms at 1,000
+fields): a suite replays many logs against one robot. Read only, never changed."""
 
 
 def check_fit(
@@ -71,12 +69,13 @@ def check_fit(
             recorded = renamed_schema(recorded, migration.renames)
         differences = field_differences(recorded, current, frozenset(migration.conversions))
         same_fields = schema_fields(recorded).keys() == schema_fields(current).keys()
-        problems = [_message(found) for found in differences if found.kind in PROBLEMS]
+        problems = _problems(differences)
         hints = _hints(differences, recorded, current) if problems else ""
     except (RecursionError, TypeError, KeyError, AttributeError) as exc:
         raise CorruptLogError(path, f"damaged robot-state schema in the header: {exc!r}") from None
-    was = _short_name(header.robot_state_type)
-    now = _short_name(state_type_name(system.robot_state))
+    # the types' names without their modules: what stays when a class moves
+    was = header.robot_state_type.rsplit(".", 1)[-1]
+    now = state_type_name(system.robot_state).rsplit(".", 1)[-1]
     if was != now and not (same_fields and not problems):
         foreign = _foreign(header, differences, recorded, current, (was, now))
         if foreign:
@@ -126,13 +125,8 @@ def _foreign(
 
 def period_note(header: SessionHeader, system: System) -> str | None:
     """A note on a log recorded at another heartbeat period than the one the system
-    declares (its ``period_ns``), or None.
-
-    Replay hands the behaviors the recorded heartbeats: the DTC still checks exactly what
-    they do on the recorded beats, so it is no failure, but the recording no longer
-    answers to the robot as it runs (a beat of 30 ms where it now beats every 20), which
-    is open loop from the first cycle.
-    """
+    declares (its ``period_ns``), or None: no failure, since the behaviors replay the
+    recorded beats, but open loop from the first cycle."""
     declared = getattr(system, "period_ns", None)
     if not isinstance(declared, int) or declared == header.period_ns:
         return None
@@ -263,15 +257,18 @@ def _toml_key(name: str) -> str:
     return name if _BARE_KEY.fullmatch(name) else json.dumps(name)
 
 
-def _message(difference: FieldDifference) -> str:
-    name = difference.path
-    if difference.kind == "gone":
-        return f"field {name!r} is gone"
-    if difference.kind == "required":
-        return f"field {name!r} is new and has no default"
-    return f"field {name!r} was {_describe(difference.recorded)}, is now " + _describe(
-        difference.current
-    )
+def _problems(differences: list[FieldDifference]) -> list[str]:
+    """The differences that keep a state from loading, each in words."""
+    said = {"gone": "is gone", "required": "is new and has no default"}
+    return [
+        f"field {found.path!r} "
+        + (
+            said.get(found.kind)
+            or f"was {_describe(found.recorded)}, is now {_describe(found.current)}"
+        )
+        for found in differences
+        if found.kind in PROBLEMS
+    ]
 
 
 def check_catalogue(
@@ -324,16 +321,7 @@ def check_state_fields(
 
 def state_differences(recorded: dict[str, Any], current: dict[str, Any]) -> list[str]:
     """What keeps a state recorded with schema ``recorded`` from loading as ``current``."""
-    return [
-        _message(difference)
-        for difference in field_differences(recorded, current, frozenset())
-        if difference.kind in PROBLEMS
-    ]
-
-
-def _short_name(type_name: str) -> str:
-    """A robot state type's name without its module: what stays when the class moves."""
-    return type_name.rsplit(".", 1)[-1]
+    return _problems(field_differences(recorded, current, frozenset()))
 
 
 def _listed(names: Sequence[str]) -> str:

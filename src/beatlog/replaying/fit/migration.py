@@ -1,19 +1,11 @@
 """Robot-state fields renamed or retyped since a recording, and how its RS_t still replay.
 
-Recordings are immutable. When a field of the robot state is renamed since
-(``knee_mean`` became ``knee_avg``) or retyped, a :class:`StateMigration` says how the
-recorded values reach today's fields: ``renames`` maps a recorded name to the current
-one, ``conversions`` names, per current field, the ``module:function`` that turns a
-recorded value into the field's new type. A field of a nested struct is named by its
-dotted path (``pose.x``). Both are the user's word (a spec, the project's
-``pyproject.toml``, ``beatlog replay --rename-field``), never the log's: a conversion is
-imported only from a reference the user gave.
-
-The fit check (:func:`beatlog.replaying.fit.check.check_fit`) checks a migration against the log
-and the system. A renamed field of the robot state itself costs nothing per cycle: the
-type RS_t is decoded with reads it under its recorded name. A converted field, or one
-with renamed fields inside, is decoded as recorded and turned into the system's type as
-each cycle is decoded (:class:`StateConverter`).
+Recordings are immutable: a :class:`StateMigration` says how the recorded values reach
+today's fields. It is the user's word (a spec, ``pyproject.toml``, ``beatlog replay
+--rename-field``), never the log's: a conversion is imported only from a reference the
+user gave. A renamed field of the robot state itself costs nothing per cycle (RS_t is
+decoded under its recorded name); a converted field, or one with renamed fields inside,
+is turned into the system's type as each cycle is decoded (:class:`StateConverter`).
 """
 
 from __future__ import annotations
@@ -66,9 +58,12 @@ class StateMigration:
 
     def arguments(self) -> tuple[str, ...]:
         """The ``beatlog replay`` options that give this migration."""
-        return (
-            *_options("--rename-field", self.renames),
-            *_options("--convert-field", self.conversions),
+        options = (("--rename-field", self.renames), ("--convert-field", self.conversions))
+        return tuple(
+            word
+            for option, pairs in options
+            for name, value in pairs.items()
+            for word in (option, f"{name}={value}")
         )
 
 
@@ -94,12 +89,6 @@ def _prefixes(parts: list[str]) -> Iterator[str]:
         yield ".".join(parts[:end])
 
 
-def _options(option: str, pairs: Mapping[str, str]) -> Iterator[str]:
-    for name, value in pairs.items():
-        yield option
-        yield f"{name}={value}"
-
-
 @dataclass
 class _Fix:
     """What becomes of one recorded value: its current name, its conversion, and the
@@ -112,10 +101,7 @@ class _Fix:
 
     def apply(self, value: Any, path: str) -> Any:
         """The recorded ``value`` converted, or with its inner fields renamed and
-        converted.
-
-        :raises beatlog.errors.ConversionError: the conversion raised.
-        """
+        converted; a :class:`~beatlog.errors.ConversionError` where the conversion raised."""
         if self.convert is not None:
             try:
                 return self.convert(value)
@@ -160,11 +146,7 @@ class StateConverter:
         """The fields (attribute names) it converts."""
 
     def __call__(self, state: Any) -> None:
-        """Convert the fields of ``state`` in place.
-
-        :raises beatlog.errors.ConversionError: a conversion raised, or a value does not fit its
-            field's type once converted.
-        """
+        """Convert the fields of ``state`` in place, as :meth:`value` converts each."""
         for attribute in self._fields:
             setattr(state, attribute, self.value(attribute, getattr(state, attribute)))
 

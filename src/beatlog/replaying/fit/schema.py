@@ -1,9 +1,7 @@
-"""Robot-state schemas: how the recorded one and the system's differ, field by field (a
-field gone, retyped or new, nested structs compared through, and whether a type holds
-another's values: the same type, or a wider one), which the fit check
-(:mod:`beatlog.replaying.fit.check`) words; and the system's robot state type as the log's
-cycles must hold it (:func:`recorded_state_type`), so that a cycle filled in with
-defaults or holding a field nobody declared is caught while it is decoded.
+"""Robot-state schemas: how the recorded one and the system's differ, field by field,
+for the fit check to word; and the type the log's cycles must fit
+(:func:`recorded_state_type`), so that a cycle missing a field or holding one nobody
+declared is caught while it is decoded.
 """
 
 from __future__ import annotations
@@ -233,13 +231,11 @@ def recorded_state_type(
     the header's schema records is required and no field the type lacks is allowed.
 
     A subclass of ``state_type`` under the same name, so that msgspec checks each RS_t
-    while decoding it; a state decoded with it becomes an instance of ``state_type``
-    itself by setting its ``__class__``. Fields the type gained since the recording keep
-    their defaults, as do all where the type omits defaults when encoding, and a
-    positional field after an optional one. A field ``migration`` renames is read under
-    its recorded name, and one it converts (or maps inside) as the log holds it, for a
-    :class:`~beatlog.replaying.fit.migration.StateConverter` to convert. The log must fit the
-    system (:func:`~beatlog.replaying.fit.check.check_fit`).
+    while decoding it. Fields gained since the recording keep their defaults, as do all
+    where the type omits defaults, and a positional field after an optional one. A field
+    ``migration`` renames is read under its recorded name, one it converts (or maps
+    inside) as the log holds it. The log must fit the system
+    (:func:`~beatlog.replaying.fit.check.check_fit`).
     """
     if not (isinstance(state_type, type) and issubclass(state_type, msgspec.Struct)):
         return state_type
@@ -279,7 +275,12 @@ def _checking_type(
         if optional and is_positional and not required:
             optional_before = True
         if required or name != field.encode_name or kind is not field.type:
-            default = _default(field) if optional and not required else {}
+            if not optional or required:
+                default: dict[str, Any] = {}
+            elif field.default_factory is not msgspec.NODEFAULT:
+                default = {"default_factory": field.default_factory}
+            else:
+                default = {"default": field.default}
             spec = msgspec.field(name=name, **default)
             (positional if is_positional else keywords).append((field.name, kind, spec))
     strict: type[Any] = state_type
@@ -297,10 +298,3 @@ def _checking_type(
             tag=config.tag,
         )
     return strict
-
-
-def _default(field: msgspec.structs.FieldInfo) -> dict[str, Any]:
-    """The default of an optional field, as :func:`msgspec.field` takes it."""
-    if field.default_factory is not msgspec.NODEFAULT:
-        return {"default_factory": field.default_factory}
-    return {"default": field.default}

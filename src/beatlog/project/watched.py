@@ -1,25 +1,7 @@
-"""What a leak watch watches: the calls that read the wall clock or a global random number
-generator, and numpy's global generator.
-
-Watched: ``time.time``, ``monotonic``, ``perf_counter``, ``process_time``,
-``thread_time``, ``clock_gettime`` and their ``_ns`` forms; ``now``, ``utcnow`` and
-``today`` of ``datetime.datetime`` and ``datetime.date``; every method of the global
-``random`` instance (``random.random``, ``random.choice``, ``random.seed``, ...);
-numpy's global generator (``np.random.rand``, ``np.random.seed``, ..., reported as
-``numpy.random`` once per line of user code that moved it, so not at all in a system
-with no user code; a legacy ``np.random.normal`` that returns its cached second value
-moves nothing and goes uncounted); ``os.urandom``
-(so ``secrets`` too); ``uuid.uuid1`` and ``uuid.uuid4``. Not watched: the forms of
-``time.localtime``, ``gmtime``, ``ctime`` and ``strftime`` that read the clock when
-given no time (their arguments are invisible to a profile hook), unseeded private
-generators of the standard library (``random.Random()``), other threads, and the
-clock reads of the ``logging`` package (record timestamps reach no decision).
-
-A numpy generator the system's set-up seeds from the OS (``np.random.default_rng()``,
-``np.random.Generator(np.random.PCG64())``, ``np.random.RandomState()``, made in a
-factory, a behavior's ``__init__`` or a behavior module) is watched as the global one
-is, by :class:`PrivateGenerator`, once it is found in the system built (up to
-:data:`SEARCHED` objects from it): one seeded by the user is no leak.
+"""What a leak watch watches: the calls that read the wall clock or a global random
+number generator, numpy's global generator, and the numpy generators a system's set-up
+seeded from the OS (:class:`PrivateGenerator`); the list, and what goes unseen, is in
+the how-to guide "Audit determinism".
 """
 
 from __future__ import annotations
@@ -44,7 +26,6 @@ __all__ = [
     "GlobalNumpyGenerator",
     "PrivateGenerator",
     "builtin_call",
-    "marked",
     "python_calls",
     "screened_builtins",
 ]
@@ -76,6 +57,8 @@ class _Marked:
     """A generator watched by a mark of its state: :meth:`moved` says whether the mark
     changed since the last call."""
 
+    name: str
+    """How findings name it."""
     _mark: object
 
     def _read(self) -> object:
@@ -93,6 +76,8 @@ class _Marked:
 class GlobalNumpyGenerator(_Marked):
     """Notices when numpy's global generator draws, is seeded or is replaced; never,
     where numpy is not installed."""
+
+    name = "numpy.random"
 
     def __init__(self) -> None:
         self._legacy: Any = None  # behind np.random.rand & co
@@ -128,15 +113,6 @@ class GlobalNumpyGenerator(_Marked):
             address = bit_generator.ctypes.state_address
             self._key0 = ctypes.c_uint32.from_address(address)
             self._position = ctypes.c_int.from_address(address + _MT19937_POSITION)
-
-
-def marked(generator: GlobalNumpyGenerator | None) -> GlobalNumpyGenerator:
-    """A watcher of numpy's global generator, marked where it stands now: draws between
-    updates are the framework's or the test's."""
-    if generator is None:
-        return GlobalNumpyGenerator()
-    generator.moved()
-    return generator
 
 
 def builtin_call(function: Any) -> str | None:

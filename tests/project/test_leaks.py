@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 
 import beatlog
-from beatlog.audit.leaks import Finding, LeakScreen, LeakWatch, built_watched
 from beatlog.model.context import Context
 from beatlog.model.random import RecordingRandom
+from beatlog.project.leaks import Finding, LeakScreen, LeakWatch, built_watched
 from tests.conftest import Near, Probe, RecordFn, probe_system
 from tests.systems import (
     Disciplined,

@@ -1,17 +1,13 @@
 """Catches behavior code reading the wall clock or a global random number generator.
 
-A :class:`LeakWatch` is entered around a system's update in an audited replay. Its
-profile hook sees every call of a builtin and of a Python function, so it catches
-``time.monotonic`` or ``random.choice`` however a behavior module bound them
-(``from time import monotonic`` included). numpy's compiled functions are invisible to
-profiling, so a trace hook follows the lines of user code instead and notices when
-numpy's global generator moved, or a generator of the system's own that its set-up
-seeded from the OS (:func:`built_watched` finds them). Every call is attributed to the
-nearest frame of user code: not beatlog's own, not the standard library, not an
-installed package (:class:`Origins` tells them apart); or, when no user code is on the
-way (a system that is itself an installed package), to the nearest frame of a package.
-
-What is watched, and what not: :mod:`beatlog.audit.watched`.
+A :class:`LeakWatch` entered around a system's update sees, through a profile hook,
+every call of a builtin and of a Python function, however a behavior module bound it
+(``from time import monotonic`` too). numpy's compiled functions are invisible to it,
+so a trace hook follows the lines of user code and notices when numpy's global
+generator moved, or an unseeded one of the system's own (:func:`built_watched`). Each
+call is put on the nearest frame of user code (not beatlog's, the standard library's
+or an installed package's: :class:`Origins`), or of a package where no user code led
+there. What is watched, and what not: :mod:`beatlog.project.watched`.
 """
 
 from __future__ import annotations
@@ -31,12 +27,11 @@ from pathlib import Path
 from types import CodeType, FrameType
 from typing import Any, TypeVar
 
-from beatlog.audit.watched import (
+from beatlog.project.watched import (
     ENTROPY_READ,
     GlobalNumpyGenerator,
     PrivateGenerator,
     builtin_call,
-    marked,
     python_calls,
     screened_builtins,
 )
@@ -57,15 +52,8 @@ class Origin(enum.Enum):
     """beatlog itself or the standard library."""
 
 
-_BEATLOG_DIR = str(Path(__file__).resolve().parent.parent) + os.sep
-
-
-def _prefixes(*paths: str) -> tuple[str, ...]:
+def _folders(*paths: str) -> tuple[str, ...]:
     return tuple(str(Path(path).resolve()) + os.sep for path in paths if path)
-
-
-def _package_dir(module: Any) -> str:
-    return str(Path(module.__file__).resolve().parent) + os.sep
 
 
 class Origins:
@@ -73,19 +61,18 @@ class Origins:
 
     def __init__(self) -> None:
         paths = sysconfig.get_paths()
-        self._beatlog = _BEATLOG_DIR
-        self._libraries = _prefixes(
+        (self._beatlog,) = _folders(str(Path(__file__).parent.parent))
+        self._libraries = _folders(
             paths["purelib"], paths["platlib"], *site.getsitepackages(), site.getusersitepackages()
         )
-        self._stdlib = _prefixes(paths["stdlib"], paths["platstdlib"])
-        self._logging = _package_dir(logging)
+        self._stdlib = _folders(paths["stdlib"], paths["platstdlib"])
+        (self._logging,) = _folders(str(Path(logging.__file__).parent))
         self._known: dict[str, Origin] = {}
 
     def of(self, code: CodeType) -> Origin:
-        filename = code.co_filename
-        origin = self._known.get(filename)
+        origin = self._known.get(code.co_filename)
         if origin is None:
-            origin = self._known[filename] = self._classify(filename)
+            origin = self._known[code.co_filename] = self._classify(code.co_filename)
         return origin
 
     def _classify(self, filename: str) -> Origin:
@@ -96,9 +83,7 @@ class Origins:
             return Origin.EXEMPT
         if path.startswith(self._libraries):
             return Origin.LIBRARY
-        if path.startswith(self._stdlib):
-            return Origin.EXEMPT
-        return Origin.USER
+        return Origin.EXEMPT if path.startswith(self._stdlib) else Origin.USER
 
     def is_logging(self, code: CodeType) -> bool:
         return code.co_filename.startswith(self._logging)
@@ -136,7 +121,35 @@ def _site(where: Where) -> str:
     return f"{code.co_filename}:{line} in {code.co_qualname}"
 
 
-class LeakWatch:
+class _Watch:
+    """What a watch and a screen share: numpy's global generator and the system's own
+    unseeded ones (:attr:`generators`, from :func:`built_watched`), marked where they
+    stand on entering (draws between updates are the framework's or the test's), and
+    whether one moved inside (:attr:`numpy_moved`)."""
+
+    def __init__(self) -> None:
+        self._numpy: GlobalNumpyGenerator | None = None
+        self.generators: Sequence[PrivateGenerator] = ()
+        self.numpy_moved = False
+
+    def _mark(self) -> None:
+        if self._numpy is None:
+            self._numpy = GlobalNumpyGenerator()
+        for generator in (self._numpy, *self.generators):
+            generator.moved()
+
+    def _check_moved(self) -> None:
+        assert self._numpy is not None
+        moved = [generator.moved() for generator in (self._numpy, *self.generators)]
+        self.numpy_moved = self.numpy_moved or any(moved)
+
+    def findings(self) -> list[Finding]:
+        """What was caught so far, in the order first seen (a screen catches nothing:
+        it only says whether a watch is needed)."""
+        return []
+
+
+class LeakWatch(_Watch):
     """Counts wall-clock reads and global random calls made by code called inside it.
 
     Enter it around each update of the system under test; calls made directly by the
@@ -147,32 +160,24 @@ class LeakWatch:
     """
 
     def __init__(self, *, lines: bool = True) -> None:
+        super().__init__()
         self._lines = lines
-        self.numpy_moved = False
-        """Whether numpy's global generator moved inside the watch (with ``lines`` off)."""
         self._origins = Origins()
         self._python_calls = python_calls()
         self._counts: collections.Counter[tuple[str, str, str | None]] = collections.Counter()
-        self._numpy: GlobalNumpyGenerator | None = None
-        self.generators: Sequence[PrivateGenerator] = ()
-        """The system's own unseeded generators, watched as numpy's global one is
-        (:func:`built_watched`)."""
         self._boundary: FrameType | None = None
         self._inside: FrameType | None = None
         self._where: Where | None = None
         self._saved: tuple[Any, Any] = (None, None)
 
     def findings(self) -> list[Finding]:
-        """What was caught so far, in the order first seen."""
         return [
             Finding(call, site, count, via) for (call, site, via), count in self._counts.items()
         ]
 
     def __enter__(self) -> LeakWatch:
         self._boundary = sys._getframe(1)  # the frame that runs the update
-        self._numpy = marked(self._numpy)
-        for generator in self.generators:
-            generator.moved()
+        self._mark()
         self._inside = None
         self._where = None
         self._saved = (sys.getprofile(), sys.gettrace())
@@ -186,9 +191,8 @@ class LeakWatch:
         sys.setprofile(profile)
         sys.settrace(trace)
         self._boundary = None
-        if not self._lines and self._numpy is not None:
-            moved = [self._numpy.moved(), *(generator.moved() for generator in self.generators)]
-            self.numpy_moved = self.numpy_moved or any(moved)
+        if not self._lines:
+            self._check_moved()
 
     def _profile(self, frame: FrameType, event: str, arg: Any) -> None:
         if event == "c_call":
@@ -225,15 +229,14 @@ class LeakWatch:
             self._where = (frame.f_code, frame.f_lineno)
         elif event == "return":
             self._check_numpy()
-            if frame.f_back is not None:
-                self._where = self._nearest(frame.f_back)
+            if frame.f_back is not None:  # the nearest user frame, else a package's
+                site, via = self._culprit(frame.f_back)
+                self._where = via or site
         return self._trace_lines
 
     def _check_numpy(self) -> None:
         assert self._numpy is not None
-        if self._numpy.moved() and self._where is not None:
-            self._counts["numpy.random", _site(self._where), None] += 1
-        for generator in self.generators:
+        for generator in (self._numpy, *self.generators):
             if generator.moved() and self._where is not None:
                 self._counts[generator.name, _site(self._where), None] += 1
 
@@ -243,11 +246,6 @@ class LeakWatch:
         site, via = self._culprit(caller)
         if site is not None:
             self._counts[call, _site(site), None if via is None else _site(via)] += 1
-
-    def _nearest(self, frame: FrameType | None) -> Where | None:
-        """The nearest user frame below the boundary, else the nearest installed package's."""
-        site, via = self._culprit(frame)
-        return via or site
 
     def _culprit(self, frame: FrameType | None) -> tuple[Where | None, Where | None]:
         """The line that made the call (the nearest frame of user code or of an installed
@@ -265,7 +263,7 @@ class LeakWatch:
         return site, None
 
 
-class LeakScreen:
+class LeakScreen(_Watch):
     """A cheap first look: does code called inside it make any call a :class:`LeakWatch`
     counts, or move numpy's global generator?
 
@@ -277,26 +275,17 @@ class LeakScreen:
     """
 
     def __init__(self) -> None:
+        super().__init__()
         self._profiler = cProfile.Profile()
-        self._numpy: GlobalNumpyGenerator | None = None
-        self.generators: Sequence[PrivateGenerator] = ()
-        """The system's own unseeded generators, screened as numpy's global one is."""
-        self.numpy_moved = False
-        """Whether numpy's global generator, or one of :attr:`generators`, moved inside
-        the screen."""
 
     def __enter__(self) -> LeakScreen:
-        self._numpy = marked(self._numpy)
-        for generator in self.generators:
-            generator.moved()
+        self._mark()
         self._profiler.enable()
         return self
 
     def __exit__(self, *exc_info: object) -> None:
         self._profiler.disable()
-        assert self._numpy is not None
-        moved = [self._numpy.moved(), *(generator.moved() for generator in self.generators)]
-        self.numpy_moved = self.numpy_moved or any(moved)
+        self._check_moved()
 
     @property
     def suspicious(self) -> bool:
@@ -309,10 +298,6 @@ class LeakScreen:
             entry.code in builtins if isinstance(entry.code, str) else entry.code in calls
             for entry in self._profiler.getstats()
         )
-
-    def findings(self) -> list[Finding]:
-        """None: a screen only says whether a watch is needed."""
-        return []
 
 
 def built_watched(build: Callable[[], T]) -> tuple[T, list[PrivateGenerator]]:
