@@ -19,7 +19,7 @@ from beatlog.analysis.timeline import (
     TimelineCollector,
     build_timeline,
 )
-from beatlog.errors import FieldError, NotABeatlogError
+from beatlog.errors import CorruptLogError, FieldError, NotABeatlogError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.replaying.core import Replayer
@@ -33,6 +33,7 @@ from tests.conftest import (
     first_cycle_below,
     probe_system,
 )
+from tests.factories import rewrite_cycle
 from tests.systems import Fragile, record_moody
 
 
@@ -234,6 +235,17 @@ def test_a_field_that_cannot_be_drawn_is_bad_input_naming_the_log(
 def test_a_missing_log_is_bad_input(tmp_path: Path) -> None:
     with pytest.raises(NotABeatlogError, match="no such file"):
         build_timeline(tmp_path / "lost.beatlog")
+
+
+def test_a_damaged_robot_state_is_bad_input_naming_its_cycle(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    log = rewrite_cycle(  # cycle 7's robot state an array
+        record_probe(60), tmp_path / "damaged.beatlog", 7, lambda p: [p[0], [1, 2], *p[2:]]
+    )
+
+    with pytest.raises(CorruptLogError, match=r"damaged robot state in cycle 7: "):
+        build_timeline(log)
 
 
 def test_a_long_session_is_downsampled_to_a_few_points_per_pixel(record_probe: RecordFn) -> None:

@@ -9,8 +9,7 @@ from pathlib import Path
 from beatlog import replay
 from beatlog.analysis.timeline import build_timeline
 from beatlog.record.recorder import Recorder
-from beatlog.report.palette import PALETTE, state_key, state_styles
-from beatlog.report.svg import svg_chart, timeline_states
+from beatlog.report.svg import PALETTE, state_key, state_styles, svg_chart
 from tests.conftest import PERIOD_NS, Probe, RecordFn, probe_system
 from tests.systems import HOSTILE, TEX, hostile_system, moody_system, record_moody
 from tests.text import svg_texts
@@ -90,7 +89,7 @@ def test_every_bar_of_a_state_carries_its_class(record_probe: RecordFn) -> None:
 
     svg = svg_chart(timeline)
 
-    states = timeline_states(timeline)
+    states = timeline.states()
     assert {"far", "near"} <= set(states)
     classes = set(re.findall(r'class="(s-[0-9a-f]{8})"', svg))
     assert classes == {state_key(label) for label in states}

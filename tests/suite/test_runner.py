@@ -16,7 +16,7 @@ from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
 from beatlog.replaying.verdict import Checked, Divergence, DivergenceKind
-from beatlog.report.figures import dtc_charts
+from beatlog.report.html import dtc_charts
 from beatlog.suite.maintenance import PendingUpdate, UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict, repeat_note, run_spec

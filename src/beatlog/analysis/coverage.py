@@ -1,21 +1,13 @@
 """Transition coverage of a suite: which behavior states and transitions its DTCs exercise.
 
-The paper's DTCs protect what the recorded sessions exercised and nothing else. This
-module reads the state changes each DTC's log recorded (or its approved baseline)
-and gathers, per behavior, the states reached and the (before → after) transitions
-taken, with how many DTCs and cycles. States a behavior declares (a ``states``
-attribute: an Enum or a sequence) but no DTC reaches are listed as unreached, and so
-are states and transitions earlier runs saw (see :mod:`beatlog.suite.coverage`)
-that no DTC reaches now.
-
-A transition here is a behavior's state at one heartbeat and its state at the next, as
-the log holds them, which reports call a change between heartbeats: a state passed
-through within one heartbeat is not logged (2 → 3 → 1 shows as 2 → 1).
-
-Behaviors are kept system by system: two robots of one repository may each have an
-``avoid``, and what one robot's DTCs reach says nothing of the other's. A DTC's system
-is the ``module:factory`` it replays against (where its spec names none, the one its
-log records, or its robot-state type: :attr:`~beatlog.analysis.recorded.RecordedChanges.system`).
+DTCs protect what the recorded sessions exercised and nothing else. Per behavior, the
+states reached and the (before → after) transitions taken, with their DTCs and cycles;
+declared states (a ``states`` attribute: an Enum or a sequence) that no DTC reaches, and
+states earlier runs saw (:mod:`beatlog.suite.coverage`), are listed as unreached. A
+transition is a behavior's state at one heartbeat and at the next, as the log holds them:
+2 → 3 → 1 within one heartbeat shows as 2 → 1. Behaviors are kept system by system (two
+robots may each have an ``avoid``); a DTC's system is the ``module:factory`` it replays
+against (:attr:`~beatlog.analysis.recorded.RecordedChanges.system`).
 """
 
 from __future__ import annotations

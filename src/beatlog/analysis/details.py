@@ -1,13 +1,8 @@
-"""The details of a failed DTC, gathered in one more replay however many are asked for.
-
-The verdict's replay stops at the first divergence. Reports want more: the robot-state
-fields the behaviors read in the diverging cycle, the whole new trace for
-re-baselining, and timelines for charts. :func:`replay_details` replays the log once
-more in one :class:`~beatlog.replaying.session.ReplaySession` whose observers gather
-them all: however many are asked for, they cost one replay (a failed DTC is replayed
-once more besides, up to its first divergence, to see that it repeats). Given the
-:class:`~beatlog.log.recording.Recording` the verdict's replay kept, it replays the
-bytes kept in memory: the file is not read again.
+"""The details of a failed DTC, gathered in one more replay however many are asked for:
+the robot-state fields the behaviors read in the diverging cycle, the whole new trace
+for re-baselining, and timelines for charts (the verdict's replay stops at the first
+divergence). Given the :class:`~beatlog.log.recording.Recording` the verdict's replay
+kept, the file is not read again.
 """
 
 from __future__ import annotations
@@ -15,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
-from beatlog.analysis.timeline import Timeline, TimelineCollector, close_up_window
+from beatlog.analysis.timeline import CLOSE_UP_NS, Timeline, TimelineCollector
 from beatlog.analysis.trace import ReplayedTrace, TraceCollector
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
@@ -54,20 +49,13 @@ def replay_details(
     migration: StateMigration | None = None,
     fresh_from: int = 0,
 ) -> Details:
-    """Replay ``log`` on a fresh ``system`` (or one its factory builds) once, gathering
-    what is asked for.
+    """Replay ``log`` once on a fresh ``system`` (or one its factory builds), gathering
+    what is asked for, until nothing asked for needs more.
 
-    ``divergence`` is the verdict's; the fields read are those of its cycle.
-    ``expected`` stands in for the recorded state changes in the timelines, in the
-    cycles it holds (an approved baseline). With a ``perception`` step, each robot state
-    is rebuilt from the logged samples, as the verdict's replay did, and with a
-    ``migration`` the log's robot-state fields are renamed and converted as they were
-    there. ``living`` replay goes on where the behaviors draw otherwise than recorded
-    (as the verdict's does against an approved baseline, and as a trace for a new
-    baseline must); ``rename`` maps a recorded behavior's name to its name now.
-    ``fresh_from`` starts the behaviors from rest in that cycle, as a window's fresh
-    start does (:class:`~beatlog.replaying.session.ReplaySession`).
-    Stepping stops as soon as nothing asked for needs more.
+    ``divergence`` is the verdict's (the fields read are those of its cycle);
+    ``expected`` stands in for the recorded state changes in the timelines (an approved
+    baseline). ``perception``, ``living``, ``rename``, ``migration`` and ``fresh_from``
+    replay as the verdict's replay did (:class:`~beatlog.replaying.session.ReplaySession`).
     """
     diverged_at = (
         None
@@ -90,7 +78,7 @@ def replay_details(
         charts: list[TimelineCollector] = []
         if timelines:
             if divergence is not None:  # the close-up first
-                window = close_up_window(divergence)
+                window = (divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS)
                 charts.append(
                     TimelineCollector(session.reader, built, expected=expected, window_ns=window)
                 )

@@ -107,18 +107,14 @@ class Lanes:
         self._grid = grid
         self._catalogue = list(header.behaviors)
         self._override = expected
-        self._expected: dict[str, _Lane] = {}
-        self._actual: dict[str, _Lane] = {}
         recorded = header.initial_states_by_name()
-        initial: dict[str, BehaviorState] = {}
-        self._names: list[str] = []
-        if system is not None:
-            initial = {name: b.state for name, b in system.behaviors.items()}
-            self._actual = {name: _Lane(state, grid) for name, state in initial.items()}
-            self._names = list(system.behaviors)
-        for name in [*self._catalogue, *initial]:
-            if name not in self._expected:
-                self._expected[name] = _Lane(recorded.get(name, initial.get(name)), grid)
+        initial = {} if system is None else {n: b.state for n, b in system.behaviors.items()}
+        self._names = list(initial)
+        self._actual = {name: _Lane(state, grid) for name, state in initial.items()}
+        self._expected = {
+            name: _Lane(recorded.get(name, initial.get(name)), grid)
+            for name in dict.fromkeys([*self._catalogue, *initial])
+        }
         self._stopped_ns: int | None = None
         grid.on_widen.append(self._refold)
 

@@ -22,12 +22,8 @@ __all__ = ["RecordedChanges", "named_changes", "read_changes"]
 
 class RecordedChanges:
     """The state changes a log recorded, named by its behavior catalogue, and its cycles,
-    gathered from its batches in order (:meth:`read`).
-
-    ``system`` is the system it was recorded with as coverage names it: the
-    ``module:factory`` its header records (:attr:`reference`), or its robot-state type
-    where it records none.
-    """
+    gathered from its batches in order (:meth:`read`); ``system`` names its system for
+    coverage: the ``module:factory`` its header records, else its robot-state type."""
 
     def __init__(self, reader: SessionLogReader) -> None:
         header = reader.header

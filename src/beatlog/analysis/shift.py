@@ -2,12 +2,10 @@
 recorded): the state changes, outputs and draws it loses, those it gains, and how much
 of the session stays closed loop.
 
-A reviewer approves a pending baseline from this, so each loss is kept apart, to be
-named in its own words (:mod:`beatlog.report.baselines`), never folded into a count: a
-change that stops a behavior acting leaves the suite testing less. A state change is
-matched with one of its behavior and transition in its own cycle, else with the next
-left over, in order: one that happens in another cycle now has *moved*; only those
-left without a counterpart are lost or new.
+Each loss is kept apart, to be named to the reviewer in its own words, never folded
+into a count. A state change is matched with one of its behavior and transition in its
+own cycle, else with the next left over (it has *moved*); those left without a
+counterpart are lost or new.
 """
 
 from __future__ import annotations

@@ -103,18 +103,16 @@ class Sampler:
     def add(self, record: CycleRecord, time_ns: int) -> None:
         if self._fields is None:
             self._start(self._decoded(record))
-        if not self._grid.contains(time_ns):
-            self._seen += 1
-            return
-        self.cycles += 1
+        inside = self._grid.contains(time_ns)
+        if inside:
+            self.cycles += 1
+        if inside and self._buckets:
+            values = msgspec.structs.astuple(self._decoded(record))
+            index = self._grid.index(time_ns)
+            for buckets, value in zip(self._buckets, values, strict=True):
+                if isinstance(value, int | float):
+                    buckets.add(index, time_ns, float(value))
         self._seen += 1
-        if not self._buckets:
-            return
-        values = msgspec.structs.astuple(self._decoded(record))
-        index = self._grid.index(time_ns)
-        for buckets, value in zip(self._buckets, values, strict=True):
-            if isinstance(value, int | float):
-                buckets.add(index, time_ns, float(value))
 
     def _decoded(self, record: CycleRecord) -> Any:
         try:
@@ -157,15 +155,10 @@ class Sampler:
         return list(dict.fromkeys(self._asked))
 
     def signals(self) -> tuple[Signal, ...]:
-        result = []
+        """Each field's points so far."""
+        signals = []
         for name, flag, buckets in zip(self._fields or (), self._flags, self._buckets, strict=True):
             points = buckets.points()
-            result.append(
-                Signal(
-                    name,
-                    tuple(time_ns for time_ns, _ in points),
-                    tuple(value for _, value in points),
-                    flag,
-                )
-            )
-        return tuple(result)
+            times = tuple(time_ns for time_ns, _ in points)
+            signals.append(Signal(name, times, tuple(value for _, value in points), flag))
+        return tuple(signals)

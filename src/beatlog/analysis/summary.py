@@ -1,8 +1,8 @@
 """What a session log holds, in figures: for ``beatlog show`` and for people reading logs.
 
-The log is streamed in bounded memory. The exact 99th percentile of the heartbeat
+The log is streamed in bounded memory: the exact 99th percentile of the heartbeat
 intervals comes from a count of each distinct interval while there are few of them,
-and otherwise from a second pass that keeps only the largest 1 %.
+else from a second pass.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -124,10 +124,8 @@ def summarize(path: str | Path) -> LogSummary:
         cycles=cycles,
         robot_time_ns=robot_time_ns,
         heartbeat_mean_ms=robot_time_ns / cycles / 1e6 if cycles else 0.0,
-        heartbeat_p99_ms=(
-            _p99_of_counts(intervals, cycles)
-            if intervals is not None
-            else _p99(_intervals(path, cycles), cycles)
+        heartbeat_p99_ms=_p99(
+            _intervals(path, cycles) if intervals is None else intervals.elements(), cycles
         )
         / 1e6,
         heartbeat_max_ms=longest / 1e6,
@@ -150,24 +148,9 @@ def _intervals(path: str | Path, cycles: int) -> Iterator[int]:
                 return
 
 
-def _rank(count: int) -> int:
-    """The 1-based rank of the nearest-rank 99th percentile among ``count`` values."""
-    return math.ceil(0.99 * count)
-
-
-def _p99_of_counts(intervals: Counter[int], count: int) -> int:
-    """The nearest-rank 99th percentile from how often each interval occurred."""
-    seen = 0
-    for interval in sorted(intervals):
-        seen += intervals[interval]
-        if seen >= _rank(count):
-            return interval
-    return 0
-
-
-def _p99(intervals: Iterator[int], count: int) -> int:
-    """The nearest-rank 99th percentile, keeping only the largest 1 % in memory."""
+def _p99(intervals: Iterable[int], count: int) -> int:
+    """The nearest-rank 99th percentile of ``count`` intervals, keeping only the largest
+    1 % in memory."""
     if count == 0:
         return 0
-    largest = heapq.nlargest(count - _rank(count) + 1, intervals)
-    return largest[-1]
+    return heapq.nlargest(count - math.ceil(0.99 * count) + 1, intervals)[-1]

@@ -1,17 +1,10 @@
-"""Timelines for reports: when each behavior was in which state, recorded and replayed.
+"""Timelines for charts: when each behavior was in which state, recorded and replayed,
+and a few numeric robot-state fields, kept in memory that does not grow with the session.
 
-A :class:`TimelineCollector` is fed a session's cycles one by one (with the replay
-core's outcomes, when a system is replayed) and keeps, in memory that does not grow
-with the session, what a chart of it needs: every behavior's states as recorded (or as
-an approved baseline has them) and as replayed, and the minimum and maximum of a few
-numeric robot-state fields. Robot time is cut into a fixed number of buckets; when the
-session outgrows them, neighbouring buckets are merged and each bucket covers twice
-as long, and state changes shorter than a bucket are folded into one flickering
-interval. A suite run feeds a collector from the verdict's own replay;
-:func:`build_timeline` reads a log once for ``beatlog plot``. Without a system only
-the log is read: no code runs. The buckets are a :class:`~beatlog.analysis.grid.TimeGrid`;
-the lanes and signals kept in them come from :mod:`beatlog.analysis.lanes` and
-:mod:`beatlog.analysis.signals`.
+Robot time is cut into buckets (:class:`~beatlog.analysis.grid.TimeGrid`) that widen as
+the session outgrows them; lanes (:mod:`~beatlog.analysis.lanes`) fold state changes
+shorter than a bucket into one flickering interval, and signals
+(:mod:`~beatlog.analysis.signals`) keep each bucket's minimum and maximum.
 """
 
 from __future__ import annotations
@@ -45,7 +38,6 @@ __all__ = [
     "Timeline",
     "TimelineCollector",
     "build_timeline",
-    "close_up_window",
 ]
 
 CLOSE_UP_NS = 3_000_000_000
@@ -60,6 +52,10 @@ class Mark(NamedTuple):
     cycle: int
     time_ns: int
     kind: DivergenceKind
+
+    def describe(self) -> str:
+        """How a chart marks it: ``first divergence: cycle 21, t = 0.660 s (outputs)``."""
+        return f"first divergence: cycle {self.cycle}, t = {self.time_ns / 1e9:.3f} s ({self.kind})"
 
 
 @dataclass(frozen=True)
@@ -81,6 +77,16 @@ class Timeline:
     """Actual intervals end here: the session's end, or where replay could not go on."""
     divergence: Mark | None
 
+    @property
+    def title(self) -> str:
+        """A chart's title where none is given."""
+        return f"{self.log.name}: {self.cycles} cycles"
+
+    def states(self) -> list[str]:
+        """The states of the lanes (as charts name them), in order of first appearance."""
+        intervals = (i for lane in self.lanes for i in (*lane.expected, *lane.actual))
+        return list(dict.fromkeys(str(interval.state) for interval in intervals))
+
     def rows(self) -> list[tuple[str, tuple[Interval, ...], bool]]:
         """A chart's rows, top to bottom: each lane as recorded, then as replayed (when
         replayed); each with its label, its intervals and whether it is the replayed one."""
@@ -90,12 +96,6 @@ class Timeline:
             if self.replayed:
                 rows.append(("replayed", lane.actual, True))
         return rows
-
-
-def close_up_window(divergence: Divergence) -> tuple[int, int]:
-    """The robot time a report's close-up shows: :data:`CLOSE_UP_NS` either side of
-    the first divergence."""
-    return divergence.time_ns - CLOSE_UP_NS, divergence.time_ns + CLOSE_UP_NS
 
 
 def build_timeline(
@@ -108,17 +108,15 @@ def build_timeline(
     max_points: int = BUCKETS,
     window_ns: tuple[int, int] | None = None,
 ) -> Timeline:
-    """The timeline of ``log``, replayed against ``system`` if one is given.
+    """The timeline of ``log`` (read once, for ``beatlog plot``), replayed against
+    ``system`` if one is given; without one no code runs.
 
-    ``fields`` names the robot-state fields to sample (default: the first
-    :data:`DEFAULT_FIELDS` numeric ones). ``expected`` replaces the recorded state
-    changes in the cycles it holds (cycle to changes, e.g. an approved baseline's
-    :meth:`~beatlog.replaying.expectation.Expectation.changes_override`). ``divergence`` is the
-    verdict's first divergence, marked on the chart. Robot time is kept in
-    ``max_points`` buckets (see :class:`TimelineCollector`), so a chart stays small.
-    The actual lanes end where replay cannot go on (an exception, a random-number
-    mismatch). ``window_ns`` (start, end) keeps only that stretch of robot time, for a
-    close-up.
+    ``fields`` names the robot-state fields to draw (default: the first
+    :data:`DEFAULT_FIELDS` numeric ones); ``expected`` stands in for the recorded state
+    changes in the cycles it holds (an approved baseline's); ``divergence``, the
+    verdict's, is marked. Robot time is kept in ``max_points`` buckets; ``window_ns``
+    (start, end) keeps only that stretch, for a close-up. The replayed lanes end where
+    replay cannot go on.
 
     :raises beatlog.errors.LogError: the log cannot be read or does not fit the system.
     :raises beatlog.errors.FieldError: a named field is missing or not a number.
@@ -140,17 +138,10 @@ def build_timeline(
 
 
 class TimelineCollector:
-    """Gathers, cycle by cycle, the timeline of a session or of ``window_ns`` of it: the
-    expected state changes from the record (or ``expected``, a baseline), the actual
-    ones from the replay core's outcomes, and the numeric robot-state fields.
-
-    Its memory is bounded by ``buckets``, not by the session's length: robot time is
-    cut into at most that many buckets, which double in length (neighbours merged)
-    whenever the session outgrows them; a signal keeps each bucket's minimum and
-    maximum, and a lane folds runs of intervals shorter than a bucket into one
-    flickering interval, so it holds at most ``2 * buckets + 1`` intervals. A window
-    (a close-up) has its bucket length fixed by its span from the start.
-    """
+    """Gathers, cycle by cycle, the timeline of a session or of ``window_ns`` of it, from
+    the records and (when replaying) the replay core's outcomes. It holds at most
+    ``buckets`` per signal and ``2 * buckets + 1`` intervals per lane, however long the
+    session; a window's buckets are fixed by its span."""
 
     def __init__(
         self,

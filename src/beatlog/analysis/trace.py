@@ -16,8 +16,8 @@ from typing import Any, NamedTuple
 
 import msgspec
 
-from beatlog.analysis.recorded import read_changes
-from beatlog.log.format import EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.analysis.recorded import named_changes, read_changes
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
@@ -46,7 +46,6 @@ __all__ = [
     "recorded_states",
     "recorded_trace",
     "replayed_trace",
-    "today_trace",
     "whole_trace",
 ]
 
@@ -101,82 +100,46 @@ def recorded_trace(log: LogSource) -> list[TracedChange]:
 
 def recorded_outputs(log: LogSource) -> list[TracedOutput]:
     """The outputs the log recorded, as the cycles where a field changed value."""
-    tracker = OutputTracker()
-    changes: list[TracedOutput] = []
-    with SessionLogReader(log) as reader:
-        for cycle, time_ns, _, outputs in _with_outputs(reader):
-            changes.extend(tracker.observe(cycle, time_ns, outputs))
-    return changes
-
-
-def _with_outputs(
-    reader: SessionLogReader,
-) -> Iterator[tuple[int, int, CycleRecord, dict[str, Any]]]:
-    """Each cycle of a log: its number, robot time, record and recorded outputs."""
-    time_ns = 0
-    for cycle, record in enumerate(_records(reader)):
-        time_ns += record.heartbeat_ns
-        outputs = (
-            {}
-            if record.outputs == EMPTY_MAP
-            else decode_part(reader.path, record.outputs, decode_outputs, "outputs", cycle)
-        )
-        yield cycle, time_ns, record, outputs
+    return list(whole_trace(None, log).outputs)
 
 
 def whole_trace(
-    expectation: Expectation, log: LogSource, rename: Callable[[str], str] = str
+    baseline: Expectation | None, log: LogSource, rename: Callable[[str], str] = str
 ) -> WholeTrace:
-    """The state changes and outputs of an approved baseline as a whole trace: its
-    departures applied to the ones ``log`` recorded (behaviors named as ``rename`` names
-    them now)."""
-    override = expectation.changes_override() or {}
-    lines = itertools.groupby(expectation.outputs, key=lambda o: o.cycle)
+    """What replay judges ``log`` against, as a whole trace: the departures of its
+    approved ``baseline`` applied to what the log recorded, or (None) the recording's
+    own state changes and outputs; behaviors are named as ``rename`` names them now."""
+    baseline = Expectation(()) if baseline is None else baseline
+    override = baseline.changes_override() or {}
+    lines = itertools.groupby(baseline.outputs, key=lambda o: o.cycle)
     line = next(lines, None)
     held: dict[str, Any] = {}
     changes: list[TracedChange] = []
     outputs: list[TracedOutput] = []
     tracker = OutputTracker()
-    recorded = recorded_trace(log)
-    by_cycle: dict[int, list[TracedChange]] = {}
-    for traced in recorded:
-        by_cycle.setdefault(traced.cycle, []).append(traced)
+    time_ns = 0
     with SessionLogReader(log) as reader:
-        for cycle, time_ns, _, values in _with_outputs(reader):
+        path, names = reader.path, reader.header.behaviors
+        for cycle, record in enumerate(_records(reader)):
+            time_ns += record.heartbeat_ns
             if cycle in override:
                 changes.extend(TracedChange(cycle, time_ns, c) for c in override[cycle])
-            else:
+            elif record.state_changes != EMPTY_LIST:
+                recorded = named_changes(path, record.state_changes, names, cycle)
                 changes.extend(
-                    TracedChange(cycle, time_ns, _renamed(c.change, rename))
-                    for c in by_cycle.get(cycle, ())
+                    TracedChange(cycle, time_ns, c._replace(behavior=rename(c.behavior)))
+                    for c in recorded
                 )
             if line is not None and line[0] == cycle:
                 hold(held, line[1])
                 line = next(lines, None)
+            values = (
+                {}
+                if record.outputs == EMPTY_MAP
+                else decode_part(path, record.outputs, decode_outputs, "outputs", cycle)
+            )
             outputs.extend(tracker.observe(cycle, time_ns, apply_outputs(values, held)))
-    return WholeTrace(tuple(changes), tuple(outputs), expectation)
-
-
-def today_trace(
-    approved: Expectation | None, log: LogSource, rename: Callable[[str], str] = str
-) -> WholeTrace:
-    """What replay judges ``log`` against today, as a whole trace: its ``approved``
-    baseline's (:func:`whole_trace`), else the recording's state changes (behaviors
-    named as ``rename`` names them now) and outputs."""
-    if approved is not None:
-        return whole_trace(approved, log, rename)
-    return WholeTrace(
-        tuple(
-            TracedChange(c.cycle, c.time_ns, _renamed(c.change, rename))
-            for c in recorded_trace(log)
-        ),
-        tuple(recorded_outputs(log)),
-        Expectation(()),
-    )
-
-
-def _renamed(change: StateChange, rename: Callable[[str], str]) -> StateChange:
-    return change._replace(behavior=rename(change.behavior))
+    return WholeTrace(tuple(changes), tuple(outputs), baseline)
 
 
 def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[str, Any]]:

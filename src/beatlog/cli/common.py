@@ -1,16 +1,23 @@
-"""What the subcommands share: the exit codes, the one-line error, and the session logs
-and outputs they name."""
+"""What the subcommands share: a parser whose errors are one line and exit code 2, the
+arguments they take, the exit codes, the one-line error, the session logs and outputs
+they name, and the progress bar."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
-import functools
 import sys
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING, NoReturn, TypeVar
 
 from beatlog.errors import BeatlogError, OptionError
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from beatlog.suite.parallel import Shard
 
 __all__ = [
     "EXIT_CODES",
@@ -20,9 +27,23 @@ __all__ = [
     "EXIT_OK",
     "EXIT_TERMINATED",
     "EXIT_USAGE",
+    "Parser",
+    "add_factory",
+    "add_invariants",
+    "add_log",
+    "add_output",
+    "add_paths",
     "check_output",
+    "count",
+    "cycle_number",
+    "field_pair",
+    "positive_float",
+    "positive_int",
     "print_error",
+    "progress",
     "readable",
+    "references",
+    "shard",
 ]
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
@@ -53,12 +74,11 @@ def check_output(output: Path) -> None:
 
 
 @contextlib.contextmanager
-def readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
+def readable(args: argparse.Namespace) -> Iterator[str | None]:
     """``args.log`` as a file of this machine while the block runs: a log behind a URL
-    is copied once (:func:`beatlog.suite.remote.fetched_log`, with a progress bar on a
-    terminal) and ``args.log`` names the copy, which is removed after. The block is
-    given a function that names the copy by its URL in a text, and errors raised in it
-    are named so too; None for a local log."""
+    is copied once (with a progress bar on a terminal), ``args.log`` names the copy,
+    which is removed after, and errors raised in the block name it by its URL. The
+    block is given the URL; None for a local log."""
     from beatlog.suite.remote import fetched_log, is_url, named_as_given
 
     url = str(args.log)
@@ -68,7 +88,135 @@ def readable(args: argparse.Namespace) -> Iterator[Callable[[str], str] | None]:
     with fetched_log(url, progress=True) as copy:
         args.log = copy
         try:
-            yield functools.partial(named_as_given, copy=copy, url=url)
+            yield url
         except BeatlogError as exc:
             exc.args = (named_as_given(str(exc), copy, url),)
             raise
+
+
+def progress(console: Console, *figures: str, hidden: bool = False) -> Progress:
+    """A transient progress bar: what runs, the bar, ``figures`` (templates of the
+    task's fields) and the time taken; drawn only where it can be redrawn (a terminal:
+    no blank line left behind) and not ``hidden``."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        *map(TextColumn, figures),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal or hidden,
+    )
+
+
+Number = TypeVar("Number", int, float)
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line and exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        raise OptionError(f"{message} (see '{self.prog} --help')")
+
+
+def add_log(parser: argparse.ArgumentParser, doing: str) -> None:
+    """The session log a command reads (``doing`` says what it does with it)."""
+    parser.add_argument("log", help=f"the session log (.beatlog) to {doing}: a path or a URL")
+
+
+def add_paths(parser: argparse.ArgumentParser, what: str) -> None:
+    """The specs or folders a command works on, the current folder by default."""
+    parser.add_argument(
+        "paths",
+        nargs="*",
+        type=Path,
+        default=[Path()],
+        help=f"{what} (default: the current folder)",
+    )
+
+
+def add_output(parser: argparse.ArgumentParser, what: str) -> None:
+    """The file a command writes, ``-o FILE``; ``what`` says what it is."""
+    parser.add_argument("-o", "--output", required=True, type=Path, metavar="FILE", help=what)
+
+
+def add_factory(
+    parser: argparse.ArgumentParser, option: str, what: str, *, required: bool = False
+) -> None:
+    """An option naming the user's code as ``MODULE:FACTORY`` (a system, a perception step)."""
+    parser.add_argument(option, required=required, metavar="MODULE:FACTORY", help=what)
+
+
+def add_invariants(parser: argparse.ArgumentParser, doing: str) -> None:
+    """``--invariants``: the invariants to check in each cycle, as ``MODULE:ATTRIBUTE``
+    references, comma-separated or the option repeated."""
+    parser.add_argument(
+        "--invariants",
+        action="extend",
+        type=references,
+        default=[],
+        metavar="MODULE:ATTRIBUTE[,...]",
+        help=f"invariants to check in each cycle {doing} (functions, or classes "
+        "instantiated afresh); comma-separated, or repeat the option",
+    )
+
+
+def references(text: str) -> list[str]:
+    """Comma-separated ``module:attribute`` references."""
+    found = [reference.strip() for reference in text.split(",")]
+    for reference in found:
+        module, _, attribute = reference.partition(":")
+        if not (module and attribute):
+            raise argparse.ArgumentTypeError(f"expected MODULE:ATTRIBUTE, got {reference!r}")
+    return found
+
+
+def shard(text: str) -> Shard:
+    """``I/N``: one shard of a suite."""
+    from beatlog.suite.parallel import Shard
+
+    try:
+        return Shard.parse(text)
+    except OptionError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def cycle_number(text: str) -> int:
+    """A cycle of a log: 0 or more."""
+    return _number(text, int, "a cycle number", zero=True)
+
+
+def count(text: str) -> int:
+    """How many of something: a whole number, 0 or more."""
+    return _number(text, int, "a whole number", zero=True)
+
+
+def positive_float(text: str) -> float:
+    """A number above 0."""
+    return _number(text, float, "a number")
+
+
+def positive_int(text: str) -> int:
+    """A whole number above 0."""
+    return _number(text, int, "a whole number")
+
+
+def _number(text: str, kind: Callable[[str], Number], what: str, *, zero: bool = False) -> Number:
+    """``text`` as a ``kind`` above 0, or (``zero``) 0 or more."""
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
+    if value < 0 or not (zero or value > 0):
+        raise argparse.ArgumentTypeError(f"must be {'0 or more' if zero else 'positive'}: {text!r}")
+    return value
+
+
+def field_pair(text: str) -> tuple[str, str]:
+    """``NAME=VALUE`` of ``--rename-field`` and ``--convert-field``, split."""
+    name, sep, value = text.partition("=")
+    if not (sep and name and value):
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE: {text!r}")
+    return name, value

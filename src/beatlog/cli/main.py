@@ -1,18 +1,9 @@
 """The ``beatlog`` command: a thin shell over the library.
 
-The subcommands are listed once, in :data:`beatlog.cli.commands.COMMANDS`; each imports
-what it uses when it runs, so that ``beatlog --help`` loads neither the engines nor
-rich. This module is the entry point: it builds the parser from that table (each
-subcommand with a ``--help`` page that says what it does and ends with the exit codes),
-parses the command line, runs the subcommand, and turns what stops it into an exit code.
-
-Exit codes: 0 pass, 1 a replay diverged or a recording failed, 2 usage error or bad
-input (one line on stderr naming the file and the problem, never a traceback; with
-``--verbose`` the traceback of the user's code that failed comes first), 130
-interrupted (Ctrl-C, or quitting the debugger at a break: what was complete is printed,
-no report is half written), 143
-terminated (SIGTERM: stopped as Ctrl-C stops it, temporary copies of logs behind URLs
-removed).
+It builds the parser from :data:`beatlog.cli.commands.COMMANDS` (each subcommand's
+``--help`` page ends with the exit codes, :data:`~beatlog.cli.common.EXIT_CODES`), runs
+the subcommand, and turns what stops it into an exit code: a :class:`BeatlogError` into
+one line on stderr and 2, Ctrl-C into 130, SIGTERM into 143.
 """
 
 from __future__ import annotations
@@ -27,13 +18,13 @@ from collections.abc import Iterator, Sequence
 from types import FrameType
 
 from beatlog._version import __version__
-from beatlog.cli.arguments import Parser
 from beatlog.cli.commands import COMMANDS
 from beatlog.cli.common import (
     EXIT_CODES,
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
     EXIT_USAGE,
+    Parser,
     print_error,
 )
 from beatlog.errors import BeatlogError
@@ -52,8 +43,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
             console = Console(soft_wrap=True)  # long commands stay one line, for copy and paste
             command = COMMANDS[args.command]
-            if command.runs_user_code:
-                _import_from_working_directory()
+            if command.runs_user_code and not {"", os.getcwd()} & set(sys.path):
+                # MODULE:FACTORY names a module of the working directory, as with python -m
+                # (the console script's sys.path starts with its own bin directory)
+                sys.path.insert(0, os.getcwd())
             return command.run(args, console)
         except BeatlogError as exc:
             print_error(str(exc), exc.user_traceback if verbose else None)
@@ -79,30 +72,16 @@ def build_parser() -> argparse.ArgumentParser:
     parser.set_defaults(beatlog_parser=parser)  # for ``beatlog help``, which prints its pages
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for name, command in COMMANDS.items():
-        common = Parser(add_help=False)
-        common.add_argument("-v", "--verbose", action="store_true", help=command.verbose)
         subcommand = commands.add_parser(
             name,
-            parents=[common],
             help=command.help,
             description=command.help[0].upper() + command.help[1:] + ".",
             epilog=EXIT_CODES,
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
+        subcommand.add_argument("-v", "--verbose", action="store_true", help=command.verbose)
         command.add_arguments(subcommand)
     return parser
-
-
-def _import_from_working_directory() -> None:
-    """Let MODULE:FACTORY name a module of the working directory, as ``python -m`` does.
-
-    The console script's ``sys.path`` starts with its own bin directory, so without
-    this ``beatlog replay x.beatlog --system tests.robot:system`` (the reproduce
-    command replay prints) fails to import from a project's root.
-    """
-    cwd = os.getcwd()
-    if "" not in sys.path and cwd not in sys.path:
-        sys.path.insert(0, cwd)
 
 
 def _interruption(stop: KeyboardInterrupt) -> str:

@@ -104,8 +104,8 @@ class DtcItem(pytest.Item):
 
     def runtest(self) -> None:
         """Fail with the DTC's first divergence, and with what its audit found."""
-        from beatlog.report.audit import render_audit  # noqa: PLC0415 - see the imports
         from beatlog.report.console import plain_text  # noqa: PLC0415
+        from beatlog.report.suite import render_audit  # noqa: PLC0415 - see the imports
 
         outcome = self.outcome
         assert outcome is not None, "setup judges the DTC"

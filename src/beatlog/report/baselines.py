@@ -211,24 +211,20 @@ def _run_line(run: RebuiltRun) -> Text:
     )
 
 
-def _loop_line(diff: PendingDiff) -> Text:
-    """``open loop since cycle 291 (8.760 s): closed loop for 291 of 1164 cycles (25 %)``."""
-    closed = closed_loop_text(diff.shift)
-    if diff.open_loop is None:
-        return Text(closed)
-    return Text(f"{open_loop_text(diff.open_loop)}: {closed}", style="yellow")
-
-
 def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> RenderableType:
     """The pending expectation against today's, at most ``max_lines`` lines of diff."""
     spec = diff.spec
+    # open loop since cycle 291 (8.760 s): closed loop for 291 of 1164 cycles (25 %)
+    loop = Text(closed_loop_text(diff.shift))
+    if diff.open_loop is not None:
+        loop = Text(f"{open_loop_text(diff.open_loop)}: {loop}", style="yellow")
     parts: list[RenderableType] = [
         Rule(f"{spec.name} ({spec.path})"),
         Text(
             f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} "
             f"pending: {_counts(diff.shift, '')}"
         ),
-        _loop_line(diff),
+        loop,
         *render_losses(diff.shift, "lost: "),
         *(_run_line(run) for run in diff.rebuilt_runs[:_MAX_RUNS]),
         *(

@@ -15,10 +15,9 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from beatlog.analysis.timeline import Interval, Signal, Timeline
+from beatlog.analysis.timeline import Timeline
 from beatlog.errors import OptionError
-from beatlog.report.palette import PALETTE, state_label
-from beatlog.report.svg import timeline_states
+from beatlog.report.svg import PALETTE
 
 __all__ = [
     "CHART_FORMATS",
@@ -57,87 +56,79 @@ def _rows(timeline: Timeline) -> int:
 def draw_timeline(timeline: Timeline, *, title: str | None = None) -> Figure:
     """The chart as a matplotlib figure of :func:`chart_size`."""
     with rc_context({"text.parse_math": False}):  # a "$" in a name is text, not TeX
-        return _draw(timeline, title)
-
-
-def _draw(timeline: Timeline, title: str | None) -> Figure:
-    width, height = chart_size(timeline)
-    figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI, layout="constrained")
-    lanes_px = _rows(timeline) * _ROW_PX + 30
-    axes = figure.subplots(
-        1 + len(timeline.signals),
-        1,
-        sharex=True,
-        squeeze=False,
-        height_ratios=[lanes_px] + [_SIGNAL_PX] * len(timeline.signals),
-    )[:, 0]
-    start_s = timeline.start_ns / 1e9
-    end_s = max(timeline.end_ns / 1e9, start_s + 1e-3)
-    colors = _state_colors(timeline)
-    _draw_lanes(axes[0], timeline, colors, end_s - start_s)
-    for ax, signal in zip(axes[1:], timeline.signals, strict=True):
-        ax.plot(
-            [t / 1e9 for t in signal.time_ns], signal.value, drawstyle="steps-post", linewidth=1
-        )
-        ax.set_ylabel(signal.field, rotation=0, ha="right", va="center")
-        ax.grid(True, alpha=0.3)
-        _value_axis(ax, signal)
-    mark = timeline.divergence
-    if mark is not None and timeline.start_ns <= mark.time_ns <= timeline.end_ns:
-        for ax in axes:
-            ax.axvline(mark.time_ns / 1e9, color=_DIVERGENCE_COLOR, linewidth=1.5)
-        axes[0].plot(
-            mark.time_ns / 1e9,
-            0.6,
-            marker="v",
-            markersize=9,
-            color=_DIVERGENCE_COLOR,
-            clip_on=False,
-        )
-        axes[0].set_title(
-            f"first divergence: cycle {mark.cycle}, t = {mark.time_ns / 1e9:.3f} s "
-            f"({mark.kind.value})",
-            loc="right",
-            color=_DIVERGENCE_COLOR,
-            fontsize=10,
-        )
-    axes[-1].set_xlim(start_s, end_s)
-    axes[-1].set_xlabel("robot time (s)")
-    figure.suptitle(title or f"{timeline.log.name}: {timeline.cycles} cycles")
-    handles = [Patch(facecolor=color, label=label) for label, color in colors.items()]
-    if handles:
-        figure.legend(
-            handles=handles[:_MAX_LEGEND],
-            loc="outside lower center",
-            ncols=min(len(handles), 8),
-            fontsize=8,
-            title="behavior states",
-            title_fontsize=8,
-        )
-    return figure
-
-
-def _value_axis(ax: Axes, signal: Signal) -> None:
-    """A flag is drawn as 0 and 1, labelled False and True."""
-    if signal.flag:
-        ax.set_yticks([0, 1], ["False", "True"])
-        ax.set_ylim(-0.15, 1.15)
-
-
-def _state_colors(timeline: Timeline) -> dict[str, Any]:
-    """One color per state name, in order of first appearance, the same in every lane."""
-    labels = timeline_states(timeline)
-    return {label: PALETTE[index % len(PALETTE)] for index, label in enumerate(labels)}
+        width, height = chart_size(timeline)
+        figure = Figure(figsize=(width / DPI, height / DPI), dpi=DPI, layout="constrained")
+        lanes_px = _rows(timeline) * _ROW_PX + 30
+        axes = figure.subplots(
+            1 + len(timeline.signals),
+            1,
+            sharex=True,
+            squeeze=False,
+            height_ratios=[lanes_px] + [_SIGNAL_PX] * len(timeline.signals),
+        )[:, 0]
+        start_s = timeline.start_ns / 1e9
+        end_s = max(timeline.end_ns / 1e9, start_s + 1e-3)
+        # one colour per state, in order of first appearance, the same in every lane
+        colors = {label: PALETTE[n % len(PALETTE)] for n, label in enumerate(timeline.states())}
+        _draw_lanes(axes[0], timeline, colors, end_s - start_s)
+        for ax, signal in zip(axes[1:], timeline.signals, strict=True):
+            ax.plot(
+                [t / 1e9 for t in signal.time_ns], signal.value, drawstyle="steps-post", linewidth=1
+            )
+            ax.set_ylabel(signal.field, rotation=0, ha="right", va="center")
+            ax.grid(True, alpha=0.3)
+            if signal.flag:  # drawn as 0 and 1, labelled False and True
+                ax.set_yticks([0, 1], ["False", "True"])
+                ax.set_ylim(-0.15, 1.15)
+        mark = timeline.divergence
+        if mark is not None and timeline.start_ns <= mark.time_ns <= timeline.end_ns:
+            for ax in axes:
+                ax.axvline(mark.time_ns / 1e9, color=_DIVERGENCE_COLOR, linewidth=1.5)
+            axes[0].plot(
+                mark.time_ns / 1e9,
+                0.6,
+                marker="v",
+                markersize=9,
+                color=_DIVERGENCE_COLOR,
+                clip_on=False,
+            )
+            axes[0].set_title(mark.describe(), loc="right", color=_DIVERGENCE_COLOR, fontsize=10)
+        axes[-1].set_xlim(start_s, end_s)
+        axes[-1].set_xlabel("robot time (s)")
+        figure.suptitle(title or timeline.title)
+        handles = [Patch(facecolor=color, label=label) for label, color in colors.items()]
+        if handles:
+            figure.legend(
+                handles=handles[:_MAX_LEGEND],
+                loc="outside lower center",
+                ncols=min(len(handles), 8),
+                fontsize=8,
+                title="behavior states",
+                title_fontsize=8,
+            )
+        return figure
 
 
 def _draw_lanes(ax: Axes, timeline: Timeline, colors: dict[str, Any], duration_s: float) -> None:
-    ticks: list[float] = []
-    labels: list[str] = []
     rows = timeline.rows()
-    for row, (label, intervals, replayed) in enumerate(rows):
-        _draw_row(ax, -row, intervals, colors, duration_s)
-        ticks.append(-row)
-        labels.append(label)
+    for row, (_, intervals, replayed) in enumerate(rows):
+        for flickering in (False, True):
+            chosen = [i for i in intervals if (i.flicker > 0) is flickering]
+            if not chosen:
+                continue
+            ax.broken_barh(
+                [(i.start_ns / 1e9, (i.end_ns - i.start_ns) / 1e9) for i in chosen],
+                (-row - 0.4, 0.8),
+                facecolors=[colors[str(i.state)] for i in chosen],
+                edgecolors="white" if flickering else "none",
+                hatch="////" if flickering else None,
+            )
+        for interval in intervals:
+            width_s = (interval.end_ns - interval.start_ns) / 1e9
+            if width_s >= _LABEL_SHARE * duration_s and not interval.flicker:
+                middle = interval.start_ns / 1e9 + width_s / 2
+                state = str(interval.state)
+                ax.text(middle, -row, state, ha="center", va="center", fontsize=7, clip_on=True)
         if replayed and timeline.replayed_until_ns < timeline.end_ns:
             start = timeline.replayed_until_ns / 1e9
             ax.broken_barh(
@@ -147,37 +138,9 @@ def _draw_lanes(ax: Axes, timeline: Timeline, colors: dict[str, Any], duration_s
                 edgecolors=_NOT_REPLAYED_COLOR,
                 hatch="xx",
             )
-    ax.set_yticks(ticks, labels, fontsize=8)
+    ax.set_yticks([-row for row in range(len(rows))], [label for label, _, _ in rows], fontsize=8)
     ax.set_ylim(-max(len(rows), 1) + 0.4, 0.6)
     ax.set_title("behavior states", loc="left", fontsize=10)
-
-
-def _draw_row(
-    ax: Axes, y: float, intervals: tuple[Interval, ...], colors: dict[str, Any], duration_s: float
-) -> None:
-    for flickering in (False, True):
-        chosen = [i for i in intervals if (i.flicker > 0) is flickering]
-        if not chosen:
-            continue
-        ax.broken_barh(
-            [(i.start_ns / 1e9, (i.end_ns - i.start_ns) / 1e9) for i in chosen],
-            (y - 0.4, 0.8),
-            facecolors=[colors[state_label(i.state)] for i in chosen],
-            edgecolors="white" if flickering else "none",
-            hatch="////" if flickering else None,
-        )
-    for interval in intervals:
-        width_s = (interval.end_ns - interval.start_ns) / 1e9
-        if width_s >= _LABEL_SHARE * duration_s and not interval.flicker:
-            ax.text(
-                interval.start_ns / 1e9 + width_s / 2,
-                y,
-                state_label(interval.state),
-                ha="center",
-                va="center",
-                fontsize=7,
-                clip_on=True,
-            )
 
 
 def chart_format(path: str | Path) -> str:

@@ -7,6 +7,7 @@ import io
 import json
 from collections import Counter
 from collections.abc import Sequence
+from itertools import zip_longest
 from typing import Any
 
 from rich.console import Console, Group, RenderableType
@@ -41,6 +42,7 @@ SUMMARY_COLUMNS = ("DTC", "verdict", "cycles", "robot time", "wall", "first dive
 LEGEND = "beatlog help WORD explains a word above, e.g. beatlog help open-loop"
 """The line under a suite's summary table: where its words are explained, offline."""
 
+_OLDER_FORMAT = " (older: replays with the integrity checks it supports)"
 MEASURABLE_S = 0.001
 """The shortest wall time a replay's figures report, and compute a speed-up from."""
 
@@ -55,11 +57,7 @@ def _timed(result: ReplayResult) -> str:
     if result.robot_time_ns <= 0:
         return took
     speedup = result.speedup
-    return (
-        f"{took} ({speedup:,.0f}× real time)"
-        if speedup >= 10
-        else f"{took} ({speedup:.2g}× real time)"
-    )
+    return f"{took} ({format(speedup, ',.0f' if speedup >= 10 else '.2g')}× real time)"
 
 
 def _checked_text(result: ReplayResult) -> str:
@@ -181,21 +179,13 @@ def _rename_proposal(renames: dict[str, str]) -> Text:
     )
 
 
-def _side_by_side(
-    what: str,
-    expected: Any,
-    actual: Any,
-) -> Table:
+def _side_by_side(what: str, expected: Sequence[Any], actual: Sequence[Any]) -> Table:
     table = Table(title=what, title_justify="left", expand=True)
     table.add_column("recorded", style="green", ratio=1)
     table.add_column("replayed", style="red", ratio=1)
-    rows = max(len(expected), len(actual))
-    for row in range(rows):
-        want = str(expected[row]) if row < len(expected) else ""
-        got = str(actual[row]) if row < len(actual) else ""
-        table.add_row(Text(want or "—"), Text(got or "—"), style=None if want == got else "bold")
-    if not rows:
-        table.add_row("—", "—")
+    rows = zip_longest(map(str, expected), map(str, actual), fillvalue="—")
+    for want, got in [*rows] or [("—", "—")]:
+        table.add_row(Text(want), Text(got), style=None if want == got else "bold")
     return table
 
 
@@ -218,7 +208,7 @@ def _context(divergence: Divergence) -> Table:
 
 
 def _values(title: str, values: dict[str, Any]) -> Table:
-    """Named values, one a row: what an invariant saw."""
+    """Named values, one a row: what an invariant saw, a robot state."""
     table = Table(title=title, title_justify="left", show_header=False, expand=True)
     table.add_column("name", style="cyan")
     table.add_column("value")
@@ -233,11 +223,7 @@ def _robot_state(state: dict[str, Any], read: Sequence[str]) -> Table:
     """RS_t: the fields the behaviors read in the cycle when known, else all of them."""
     shown = [name for name in read if name in state] or list(state)
     title = "robot state RS_t" + (", fields read in this cycle" if read else "")
-    table = Table(title=title, title_justify="left", show_header=False, expand=True)
-    table.add_column("field", style="cyan")
-    table.add_column("value")
-    for name in shown:
-        table.add_row(name, Text(repr(state[name])))
+    table = _values(title, {name: state[name] for name in shown})
     if len(shown) < len(state):
         hidden = len(state) - len(shown)
         more = f"{plural(hidden, 'more field')} not read"
@@ -255,7 +241,12 @@ def render_summary(summary: LogSummary) -> RenderableType:
     overruns = "unknown (no end record)" if summary.end is None else str(summary.end.overruns)
     rows = [
         ("log", summary.log_name),
-        ("format", _format_version(summary.format_version)),
+        (
+            "format",
+            f"version {summary.format_version}"
+            # every integrity check of the current format, else those it supports
+            + ("" if summary.format_version >= COLUMNS_SINCE else _OLDER_FORMAT),
+        ),
         ("status", summary.status.describe()),
         ("robot", header.robot_id),
         ("software", header.software_version),
@@ -292,12 +283,6 @@ def render_summary(summary: LogSummary) -> RenderableType:
     for index, (name, count) in enumerate(summary.transitions.items()):
         behaviors.add_row(str(index), Text(name), str(count))
     return Group(about, behaviors)
-
-
-def _format_version(version: int) -> str:
-    if version >= COLUMNS_SINCE:  # every integrity check of the current format
-        return f"version {version}"
-    return f"version {version} (older: replays with the integrity checks it supports)"
 
 
 def _counts(counts: dict[str, int]) -> str:

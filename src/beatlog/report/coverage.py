@@ -7,7 +7,7 @@ import html
 from rich.table import Table
 from rich.text import Text
 
-from beatlog.analysis.coverage import BehaviorCoverage, SuiteCoverage
+from beatlog.analysis.coverage import SuiteCoverage
 from beatlog.report.counts import plural
 
 __all__ = ["BETWEEN_HEARTBEATS", "coverage_html", "render_coverage"]
@@ -23,34 +23,6 @@ BETWEEN_HEARTBEATS = (
 so a pair is no transition the code need have."""
 
 
-def _states(cover: BehaviorCoverage) -> str:
-    return ", ".join(
-        f"{state} ({plural(len(seen.dtcs), 'DTC')}, {plural(seen.cycles, 'cycle')})"
-        for state, seen in cover.states.items()
-    )
-
-
-def _transitions(cover: BehaviorCoverage) -> str:
-    return "; ".join(
-        f"{before} → {after} ×{seen.cycles} in {plural(len(seen.dtcs), 'DTC')}"
-        for (before, after), seen in cover.transitions.items()
-    )
-
-
-def _unreached(coverage: SuiteCoverage, cover: BehaviorCoverage) -> str:
-    """Declared states no DTC reaches, then states earlier runs saw that none reaches now."""
-    return ", ".join(
-        [
-            *cover.unreached,
-            *(
-                f"{state} (seen before in "
-                f"{', '.join(map(coverage.label, dtcs)) or 'an earlier run'})"
-                for state, dtcs in cover.no_longer_reached.items()
-            ),
-        ]
-    )
-
-
 def _columns(coverage: SuiteCoverage) -> list[str]:
     """The table's columns, led by the system when the run covers more than one."""
     several = ["system"] if len(coverage.systems) > 1 else []
@@ -58,18 +30,29 @@ def _columns(coverage: SuiteCoverage) -> list[str]:
 
 
 def _rows(coverage: SuiteCoverage) -> list[list[str]]:
-    """One row per behavior, under :func:`_columns`."""
-    several = len(coverage.systems) > 1
-    return [
-        [
-            *([cover.system] if several else []),
-            cover.behavior,
-            _states(cover),
-            _transitions(cover) or "none",
-            _unreached(coverage, cover),
-        ]
-        for cover in coverage.behaviors
-    ]
+    """One row per behavior, under :func:`_columns`: its states reached, its changes
+    between heartbeats, the declared states no DTC reaches, then the states earlier runs
+    saw that none reaches now."""
+    rows = []
+    for cover in coverage.behaviors:
+        states = (
+            f"{state} ({plural(len(seen.dtcs), 'DTC')}, {plural(seen.cycles, 'cycle')})"
+            for state, seen in cover.states.items()
+        )
+        changes = (
+            f"{before} → {after} ×{seen.cycles} in {plural(len(seen.dtcs), 'DTC')}"
+            for (before, after), seen in cover.transitions.items()
+        )
+        gone = (
+            f"{state} (seen before in {', '.join(map(coverage.label, dtcs)) or 'an earlier run'})"
+            for state, dtcs in cover.no_longer_reached.items()
+        )
+        system = [cover.system] if len(coverage.systems) > 1 else []
+        unreached = ", ".join([*cover.unreached, *gone])
+        rows.append(
+            [*system, cover.behavior, ", ".join(states), "; ".join(changes) or "none", unreached]
+        )
+    return rows
 
 
 _RATIOS = {"states reached": 2, CHANGES: 3, "unreached": 2}

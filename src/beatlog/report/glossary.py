@@ -1,9 +1,5 @@
-"""The words beatlog prints, each with what it means: the one glossary that ``beatlog help
-TERM`` prints from and the documentation's glossary page is generated from.
-
-The entries live in ``glossary.toml`` beside this module (plain text a reviewer reads and
-a contributor extends); a term is looked up by its words in any case, with hyphens or
-underscores for spaces (``open-loop`` finds *open loop*), or by one of its aliases.
+"""The words beatlog prints, each with what it means (``glossary.toml`` beside this
+module): ``beatlog help TERM`` prints from it and the docs' glossary page is made from it.
 """
 
 from __future__ import annotations

@@ -1,28 +1,28 @@
 """Writes a suite's outcomes as one self-contained HTML page: no scripts, no network.
 
-A summary table on top, then one section per DTC: its verdict, the first divergence
-(cycle, time, what changed, the command that reruns just that DTC) and its timeline
-chart as inline SVG, with the details below. Every piece of user data (names,
-messages, states, values) is escaped.
+A summary table, then a section per DTC: its verdict, first divergence and rerun
+command, its charts as inline SVG, and the details. All user data is escaped.
 """
 
 from __future__ import annotations
 
 import html
 from collections.abc import Iterable, Sequence
+from itertools import zip_longest
 from pathlib import Path
+from typing import NamedTuple
 
 from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
+from beatlog.analysis.timeline import Timeline
 from beatlog.log.files import replacing
 from beatlog.replaying.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
-from beatlog.report.figures import Chart, dtc_charts
-from beatlog.report.palette import state_styles
+from beatlog.report.svg import state_styles, svg_chart
 from beatlog.suite.runner import SpecOutcome
 
-__all__ = ["render_html", "write_html"]
+__all__ = ["Chart", "dtc_charts", "render_html", "write_html"]
 
 _CSS = """
 body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 1260px;
@@ -52,6 +52,34 @@ dl.facts { display: grid; grid-template-columns: max-content auto; gap: 0.1em 1e
 dl.facts dt { color: #666; }
 dl.facts dd { margin: 0; }
 """
+
+
+class Chart(NamedTuple):
+    """One drawn chart of a DTC."""
+
+    svg: str
+    """The ``<svg>`` element."""
+    states: tuple[str, ...]
+    """The state labels it shows, in order of first appearance (the page colours them)."""
+    caption: str
+
+
+def dtc_charts(name: str, timelines: Sequence[Timeline]) -> tuple[Chart, ...]:
+    """The charts of the DTC ``name``: every timeline but the last is a close-up of
+    the first divergence."""
+    charts = []
+    for index, timeline in enumerate(timelines):
+        start_s, end_s = timeline.start_ns / 1e9, timeline.end_ns / 1e9
+        if index < len(timelines) - 1:
+            title = f"{name}: close-up of the first divergence, {start_s:.3f}–{end_s:.3f} s"
+        else:
+            title = f"{name}: the whole session, {timeline.cycles:,} cycles, {end_s:.1f} s"
+        caption = "Behavior states as recorded and as replayed, with robot-state fields" + (
+            "; the red line marks the first divergence." if timeline.divergence else "."
+        )
+        svg = svg_chart(timeline, title=title)
+        charts.append(Chart(svg, tuple(timeline.states()), caption))
+    return tuple(charts)
 
 
 def write_html(
@@ -86,9 +114,11 @@ def render_html(
         '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
         f"<title>{_e(title)}: {_e(counts)}</title>",
-        f"<style>{_CSS}{_state_styles(charts)}</style></head><body>",
+        f"<style>{_CSS}{state_styles(s for drawn in charts for c in drawn for s in c.states)}"
+        "</style></head><body>",
         f"<h1>{_e(title)}</h1>",
-        f'<p class="counts">{_e(counts)}, {_cycles(outcomes)} cycles replayed '
+        f'<p class="counts">{_e(counts)}, {sum(o.result.cycles for o in outcomes if o.result):,} '
+        "cycles replayed "
         f"(beatlog {_e(__version__)})</p>",
         _summary_table(outcomes),
     ]
@@ -102,18 +132,9 @@ def render_html(
     return "\n".join(parts)
 
 
-def _state_styles(charts: Sequence[Sequence[Chart]]) -> str:
-    """One colour per state in every chart of the page, by first appearance in it."""
-    return state_styles(label for drawn in charts for chart in drawn for label in chart.states)
-
-
 def _e(value: object) -> str:
     """Escape any value for element content and quoted attributes."""
     return html.escape(str(value), quote=True)
-
-
-def _cycles(outcomes: Sequence[SpecOutcome]) -> str:
-    return f"{sum(o.result.cycles for o in outcomes if o.result):,}"
 
 
 def _summary_table(outcomes: Sequence[SpecOutcome]) -> str:
@@ -121,10 +142,9 @@ def _summary_table(outcomes: Sequence[SpecOutcome]) -> str:
     for index, outcome in enumerate(outcomes, start=1):
         result = outcome.result
         divergence = result.divergence if result else None
+        first = outcome.error or ""
         if divergence is not None:
             first = f"cycle {divergence.cycle}, t = {divergence.time_s:.3f} s, {divergence.kind}"
-        else:
-            first = outcome.error or ""
         rows.append(
             _row(
                 [
@@ -164,7 +184,10 @@ def _section(index: int, outcome: SpecOutcome, charts: Sequence[Chart]) -> str:
             parts.append(f'<pre class="traceback">{_e(outcome.error_traceback)}</pre>')
     elif result.divergence is not None:
         parts.append(_divergence(result.divergence, rerun))
-    parts.extend(_figure(chart) for chart in charts)
+    parts.extend(
+        f'<figure class="timeline">{chart.svg}<figcaption>{_e(chart.caption)}</figcaption></figure>'
+        for chart in charts
+    )
     if result is not None and result.divergence is not None:
         parts.append(_details(result.divergence))
     facts = [
@@ -185,12 +208,6 @@ def _section(index: int, outcome: SpecOutcome, charts: Sequence[Chart]) -> str:
     items = "".join(f"<dt>{_e(name)}</dt><dd>{_e(value)}</dd>" for name, value in facts)
     parts.append(f'<dl class="facts">{items}</dl></section>')
     return "\n".join(parts)
-
-
-def _figure(chart: Chart) -> str:
-    return (
-        f'<figure class="timeline">{chart.svg}<figcaption>{_e(chart.caption)}</figcaption></figure>'
-    )
 
 
 def _divergence(divergence: Divergence, rerun: str) -> str:
@@ -246,11 +263,11 @@ def _side_by_side(
     expected: Sequence[StateChange | DrawReport | str],
     actual: Sequence[StateChange | DrawReport | str],
 ) -> str:
-    rows = []
-    for row in range(max(len(expected), len(actual), 1)):
-        want = str(expected[row]) if row < len(expected) else "—"
-        got = str(actual[row]) if row < len(actual) else "—"
-        rows.append(_row([_e(want), _e(got)], css="" if want == got else "differs"))
+    pairs = [*zip_longest(map(str, expected), map(str, actual), fillvalue="—")]
+    rows = [
+        _row([_e(want), _e(got)], css="" if want == got else "differs")
+        for want, got in pairs or [("—", "—")]
+    ]
     head = _row(["recorded", "replayed"], cell="th")
     return f"<table><caption>{_e(what)}</caption>{head}{''.join(rows)}</table>"
 

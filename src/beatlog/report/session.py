@@ -1,12 +1,7 @@
 """One suite session for every shell: select the DTCs, run them, update their baselines,
-then report: orphaned baselines, the transition coverage and its memory, JUnit,
-coverage JSON and HTML. What it did comes back as a
-:class:`~beatlog.report.suite.SuiteReport`, which builds lines and never prints:
-``beatlog test`` prints them, and the pytest plugin, which runs each DTC as a test
-item, ends its run with :func:`conclude` as ``beatlog test`` does.
-
-It sits above the suite (:mod:`beatlog.suite`) and the other reports, which it puts
-together; the shells sit above it."""
+then write the reports (JUnit, coverage JSON, HTML). What it did comes back as a
+:class:`~beatlog.report.suite.SuiteReport`, which never prints; the pytest plugin ends
+its run with :func:`conclude`, as ``beatlog test`` does."""
 
 from __future__ import annotations
 
@@ -49,10 +44,9 @@ __all__ = ["SuiteSession", "conclude", "prepare_report"]
 
 
 class SuiteSession:
-    """A suite run as ``beatlog test`` makes it. Made from its options, it selects the
-    DTCs and refuses, before anything runs, a report it could not write and break
-    points the selection cannot take; :meth:`run` runs the DTCs, :meth:`finish` updates
-    their baselines and writes the reports.
+    """A suite run as ``beatlog test`` makes it: made, it selects the DTCs and refuses
+    a report it could not write or break points the selection cannot take;
+    :meth:`run` runs them, :meth:`finish` updates their baselines and writes reports.
 
     :raises EmptySelectionError: DTC specs are found, and none is selected.
     :raises OptionError: a report cannot be written, nothing is found, or the break
@@ -203,13 +197,11 @@ def conclude(
     recorded: Mapping[str, RecordedChanges] | None = None,
 ) -> SuiteReport:
     """The end of a suite session whose DTCs ``ran``: ``report`` with the orphaned
-    baselines under ``orphans_in`` and, where asked for, the transition coverage of the
-    DTCs, shown or written as JSON. The coverage is marked with what earlier runs saw,
-    and remembered for the next, in the coverage memory of ``root``'s project (a
-    fleet run's, without ``root``, is not remembered); ``found`` names every DTC of the
-    suite, run or not; ``recorded`` holds, by DTC id, the state changes their logs
-    recorded where the run gathered them (the others' logs are read for them). Nothing
-    more is written once a report could not be."""
+    baselines under ``orphans_in`` and, where asked for, the transition coverage, shown
+    or written as JSON, marked with what earlier runs saw and remembered for the next in
+    ``root``'s coverage memory (none without ``root``). ``found`` is every DTC of the
+    suite, run or not; ``recorded`` the state changes the run gathered, by DTC id (the
+    other logs are read). Nothing more is written once a report could not be."""
     report = dataclasses.replace(report, orphans=tuple(find_orphans(orphans_in)))
     if report.error is not None or not (coverage or coverage_json is not None):
         return report

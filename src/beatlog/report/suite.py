@@ -1,30 +1,31 @@
-"""What a suite session did, as the lines a shell shows: the summary table, the notes
-of the passing DTCs, the determinism audit, what updating the baselines did, orphaned
-baselines, the transition coverage and the closing counts. It never prints:
-``beatlog test`` prints the lines, the pytest plugin writes them in its summary."""
+"""What a suite session did, as the lines a shell shows (the summary table, notes, the
+determinism audit, baseline updates, orphans, coverage and closing counts); it never
+prints."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from rich.console import RenderableType
+from rich.console import Group, RenderableType
+from rich.table import Table
 from rich.text import Text
 
 from beatlog.report.baselines import render_orphans, render_stale, render_updates
 from beatlog.report.console import plain_text, render_suite
-from beatlog.report.counts import verdict_counts
+from beatlog.report.counts import plural, verdict_counts
 from beatlog.report.coverage import render_coverage
 from beatlog.suite.runner import SpecOutcome, Verdict
 
 if TYPE_CHECKING:
     from beatlog.analysis.coverage import SuiteCoverage
+    from beatlog.audit.replays import AuditReport
     from beatlog.baseline.policy import StaleSuite
     from beatlog.suite.maintenance import PendingUpdate
 
-__all__ = ["NAMED_IN_NOTES", "SuiteReport", "plain_lines", "variant_lines"]
+__all__ = ["NAMED_IN_NOTES", "SuiteReport", "plain_lines", "render_audit", "variant_lines"]
 
 NAMED_IN_NOTES = 5
 """DTCs named in a note before the rest are counted."""
@@ -97,8 +98,6 @@ class SuiteReport:
         lines: list[RenderableType] = [render_suite(self.outcomes, every=every)]
         lines.extend(self.note_lines())
         if self.audited:
-            from beatlog.report.audit import render_audit  # noqa: PLC0415 - the audit's
-
             lines.append(render_audit(self.outcomes))
         return lines
 
@@ -107,14 +106,10 @@ class SuiteReport:
         stale."""
         return [
             *render_updates(self.updates),
-            *self.variant_lines(),
+            *variant_lines(self.variant_specs),
             *self.orphan_lines(),
             *render_stale(self.stale),
         ]
-
-    def variant_lines(self) -> list[Text]:
-        """One line per spec written for a failing variant."""
-        return variant_lines(self.variant_specs)
 
     def note_lines(self) -> list[Text]:
         """What the passing DTCs' replays note (a failure's report has its own), one
@@ -142,20 +137,16 @@ class SuiteReport:
             return []
         return [render_coverage(self.coverage)]
 
-    def counts(self) -> str:
-        """``2 passed, 1 failed``, then the errors and the DTCs not run."""
-        return verdict_counts(
+    def closing_line(self) -> str:
+        """``2 passed, 1 failed`` (then the errors, the DTCs not run and those open
+        loop), with how long the run took and the cycles it replayed."""
+        counts = verdict_counts(
             (outcome.verdict for outcome in self.outcomes),
             not_run=self.not_run,
             open_loop=sum(outcome.open_loop is not None for outcome in self.outcomes),
         )
-
-    def closing_line(self) -> str:
-        """The counts, with how long the run took and the cycles it replayed."""
         cycles = self.cycles
-        return (
-            f"{self.counts()} in {self.wall_s:.2f} s ({cycles:,} cycle{'' if cycles == 1 else 's'})"
-        )
+        return f"{counts} in {self.wall_s:.2f} s ({cycles:,} cycle{'' if cycles == 1 else 's'})"
 
 
 def variant_lines(written: Iterable[Path]) -> list[Text]:
@@ -176,3 +167,54 @@ def plain_lines(lines: Iterable[RenderableType]) -> list[str]:
         else:
             plain.extend(plain_text(line).splitlines())
     return plain
+
+
+def render_audit(outcomes: Sequence[SpecOutcome]) -> RenderableType:
+    """The findings of every audited DTC that has any, and a line counting them."""
+    audited = [(outcome, outcome.audit) for outcome in outcomes if outcome.audit is not None]
+    unsound = [(outcome, report) for outcome, report in audited if not report.ok]
+    parts: list[RenderableType] = [
+        Group(
+            Text.assemble(
+                ("AUDIT ", "bold yellow"), f"{outcome.spec.label} ({outcome.spec.origin})"
+            ),
+            _findings(report),
+        )
+        for outcome, report in unsound
+    ]
+    problems = sum(outcome.audit_findings for outcome, _ in unsound)
+    if problems:
+        parts.append(
+            Text(
+                f"determinism audit: {plural(problems, 'finding')} "
+                f"in {len(unsound)} of {plural(len(audited), 'DTC')}",
+                style="bold yellow",
+            )
+        )
+    elif audited:
+        seeds = " and ".join(str(run.hash_seed) for run in audited[0][1].runs)
+        parts.append(
+            Text(
+                f"determinism audit: no findings in {plural(len(audited), 'DTC')} "
+                f"(each replayed with PYTHONHASHSEED={seeds})",
+                style="green",
+            )
+        )
+    return Group(*parts)
+
+
+def _findings(report: AuditReport) -> RenderableType:
+    """One audit's findings as a table of call, site and count, then any hash seed problem."""
+    parts: list[RenderableType] = []
+    if report.findings:
+        table = Table()
+        table.add_column("call", style="yellow")
+        table.add_column("site")
+        table.add_column("calls", justify="right")
+        for finding in report.findings:
+            site = finding.site if finding.via is None else f"{finding.site}\nfrom {finding.via}"
+            table.add_row(finding.call, site, f"{finding.count:,}")
+        parts.append(table)
+    if report.hash_seed_dependence is not None:
+        parts.append(Text(report.hash_seed_dependence, style="yellow"))
+    return Group(*parts)

@@ -1,24 +1,67 @@
 """Draws a timeline as an ``<svg>`` element for the HTML report, with nothing but strings.
 
-The same chart as :mod:`beatlog.report.chart` draws with matplotlib for ``beatlog
-plot``: behavior lanes (recorded vs replayed) over robot-state signals, the first
-divergence marked; but in a few milliseconds instead of most of a second, so a suite's
-workers draw their DTCs' charts as they judge them. Every text is escaped, the markup
-has no ids (charts share a page freely) and each bar carries its state's class
-(:func:`beatlog.report.palette.state_key`) so the page colours a state alike in every
-chart.
+The chart :mod:`beatlog.report.chart` draws with matplotlib, in milliseconds instead of
+most of a second. Every text is escaped, the markup has no ids (charts share a page) and
+each bar carries its state's class (:func:`state_key`): an HTML report's stylesheet
+gives each state one colour by its first appearance in the report (:func:`state_styles`),
+so a state looks the same in every chart; a chart alone falls back to a colour chosen by
+its key.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable
 from html import escape
 
-from beatlog.analysis.timeline import Interval, Signal, Timeline
-from beatlog.report.palette import fallback_color, state_key, state_label
+from beatlog.analysis.timeline import Signal, Timeline
 
-__all__ = ["WIDTH_PX", "svg_chart", "timeline_states"]
+__all__ = ["PALETTE", "WIDTH_PX", "fallback_color", "state_key", "state_styles", "svg_chart"]
+
+PALETTE = (
+    "#1f77b4",
+    "#aec7e8",
+    "#ff7f0e",
+    "#ffbb78",
+    "#2ca02c",
+    "#98df8a",
+    "#d62728",
+    "#ff9896",
+    "#9467bd",
+    "#c5b0d5",
+    "#8c564b",
+    "#c49c94",
+    "#e377c2",
+    "#f7b6d2",
+    "#7f7f7f",
+    "#c7c7c7",
+    "#bcbd22",
+    "#dbdb8d",
+    "#17becf",
+    "#9edae5",
+)
+"""matplotlib's ``tab20``: ten hues, each dark and light."""
+
+
+def state_key(label: str) -> str:
+    """A CSS class for a state label, the same in every process and run: ``s-`` and hex."""
+    return "s-" + hashlib.blake2b(label.encode(), digest_size=4).hexdigest()
+
+
+def fallback_color(label: str) -> str:
+    """The colour a state has by its key alone, where no stylesheet says otherwise."""
+    return PALETTE[int(state_key(label)[2:], 16) % len(PALETTE)]
+
+
+def state_styles(labels: Iterable[str]) -> str:
+    """CSS rules giving each state (in order of first appearance) the next palette colour."""
+    ordered = dict.fromkeys(labels)
+    return "".join(
+        f".{state_key(label)}{{fill:{PALETTE[index % len(PALETTE)]}}}"
+        for index, label in enumerate(ordered)
+    )
+
 
 WIDTH_PX = 1200
 _LEFT = 200
@@ -39,19 +82,9 @@ _NOT_REPLAYED = "#bbbbbb"
 _FONT = 'font-family="sans-serif"'
 
 
-def timeline_states(timeline: Timeline) -> list[str]:
-    """The state labels of a timeline's lanes, in order of first appearance."""
-    labels = dict.fromkeys(
-        state_label(interval.state)
-        for lane in timeline.lanes
-        for interval in (*lane.expected, *lane.actual)
-    )
-    return list(labels)
-
-
 def svg_chart(timeline: Timeline, *, title: str | None = None) -> str:
     """The timeline as an inline ``<svg>`` element, the same for the same timeline."""
-    return _Drawing(timeline).draw(title or f"{timeline.log.name}: {timeline.cycles} cycles")
+    return _Drawing(timeline).draw(title or timeline.title)
 
 
 class _Drawing:
@@ -67,19 +100,13 @@ class _Drawing:
     def draw(self, title: str) -> str:
         timeline = self.timeline
         add = self.parts.append
-        add(f'<text x="{WIDTH_PX / 2}" y="22" text-anchor="middle" font-size="15" {_FONT}>')
-        add(f"{_text(title)}</text>")
+        add(_label(WIDTH_PX / 2, 22, title, 15, "middle"))
         mark = timeline.divergence
         if mark is not None:
-            add(
-                f'<text x="{WIDTH_PX - _RIGHT}" y="44" text-anchor="end" font-size="12" '
-                f'fill="{_DIVERGENCE}" {_FONT}>first divergence: cycle {mark.cycle}, '
-                f"t = {mark.time_ns / 1e9:.3f} s ({_text(mark.kind.value)})</text>"
-            )
-        add(f'<text x="{_LEFT}" y="44" font-size="12" {_FONT}>behavior states</text>')
+            add(_label(WIDTH_PX - _RIGHT, 44, mark.describe(), 12, "end", fill=_DIVERGENCE))
+        add(_label(_LEFT, 44, "behavior states", 12))
         top = 54
-        lanes_bottom = self._lanes(top)
-        bottom = lanes_bottom
+        bottom = self._lanes(top)
         for signal in timeline.signals:
             bottom = self._signal(signal, bottom + _SIGNAL_GAP)
         if mark is not None and timeline.start_ns <= mark.time_ns <= timeline.end_ns:
@@ -104,11 +131,19 @@ class _Drawing:
         rows = timeline.rows()
         for row, (label, intervals, replayed) in enumerate(rows):
             y = top + row * _ROW
-            add(
-                f'<text x="{_LEFT - 6}" y="{y + _ROW / 2 + 4}" text-anchor="end" '
-                f'font-size="11" {_FONT}>{_text(label)}</text>'
-            )
-            self._bars(intervals, y + (_ROW - _BAR) / 2)
+            add(_label(_LEFT - 6, y + _ROW / 2 + 4, label, 11, "end"))
+            bar_y = y + (_ROW - _BAR) / 2
+            for interval in intervals:
+                x = self.x(interval.start_ns)
+                width = self.x(interval.end_ns) - x
+                state = str(interval.state)
+                flicker = ' fill-opacity="0.45"' if interval.flicker else ""
+                add(
+                    f'<rect x="{x:.1f}" y="{bar_y}" width="{max(width, 0.3):.1f}" height="{_BAR}" '
+                    f'class="{state_key(state)}" fill="{fallback_color(state)}"{flicker}/>'
+                )
+                if width >= _LABEL_SHARE * _PLOT and not interval.flicker:
+                    add(_label(f"{x + width / 2:.1f}", bar_y + _BAR / 2 + 3, state, 9, "middle"))
             if replayed and timeline.replayed_until_ns < timeline.end_ns:
                 x = self.x(timeline.replayed_until_ns)
                 add(
@@ -116,29 +151,8 @@ class _Drawing:
                     f'width="{self.x(timeline.end_ns) - x:.1f}" height="{_BAR}" '
                     f'fill="{_NOT_REPLAYED}" fill-opacity="0.4"/>'
                 )
-        bottom = top + max(len(rows), 1) * _ROW
-        add(
-            f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{bottom - top}" '
-            'fill="none" stroke="#888"/>'
-        )
-        return bottom
-
-    def _bars(self, intervals: Sequence[Interval], y: float) -> None:
-        add = self.parts.append
-        for interval in intervals:
-            x = self.x(interval.start_ns)
-            width = self.x(interval.end_ns) - x
-            label = state_label(interval.state)
-            flicker = ' fill-opacity="0.45"' if interval.flicker else ""
-            add(
-                f'<rect x="{x:.1f}" y="{y}" width="{max(width, 0.3):.1f}" height="{_BAR}" '
-                f'class="{state_key(label)}" fill="{fallback_color(label)}"{flicker}/>'
-            )
-            if width >= _LABEL_SHARE * _PLOT and not interval.flicker:
-                add(
-                    f'<text x="{x + width / 2:.1f}" y="{y + _BAR / 2 + 3}" text-anchor="middle" '
-                    f'font-size="9" {_FONT}>{_text(label)}</text>'
-                )
+        add(_frame(top, max(len(rows), 1) * _ROW))
+        return top + max(len(rows), 1) * _ROW
 
     def _signal(self, signal: Signal, top: int) -> int:
         add = self.parts.append
@@ -149,19 +163,10 @@ class _Drawing:
         def y(value: float) -> float:
             return bottom - (value - low) / (high - low) * height
 
-        add(
-            f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{height}" '
-            'fill="none" stroke="#888"/>'
-        )
-        add(
-            f'<text x="{_LEFT - 50}" y="{top + height / 2 + 4}" text-anchor="end" '
-            f'font-size="11" {_FONT}>{_text(signal.field)}</text>'
-        )
+        add(_frame(top, height))
+        add(_label(_LEFT - 50, top + height / 2 + 4, signal.field, 11, "end"))
         for value, label in ticks:
-            add(
-                f'<text x="{_LEFT - 4}" y="{y(value) + 3:.1f}" text-anchor="end" '
-                f'font-size="9" {_FONT}>{_text(label)}</text>'
-            )
+            add(_label(_LEFT - 4, f"{y(value) + 3:.1f}", label, 9, "end"))
             add(
                 f'<line x1="{_LEFT}" y1="{y(value):.1f}" x2="{_LEFT + _PLOT}" '
                 f'y2="{y(value):.1f}" stroke="#ddd"/>'
@@ -180,18 +185,12 @@ class _Drawing:
         for tick in _ticks(self.start_s, end_s, 10):
             x = _LEFT + (tick - self.start_s) / self.span_s * _PLOT
             add(f'<line x1="{x:.1f}" y1="{top}" x2="{x:.1f}" y2="{top + 4}" stroke="#444"/>')
-            add(
-                f'<text x="{x:.1f}" y="{top + 16}" text-anchor="middle" font-size="10" '
-                f"{_FONT}>{tick:g}</text>"
-            )
-        add(
-            f'<text x="{_LEFT + _PLOT / 2}" y="{top + 32}" text-anchor="middle" '
-            f'font-size="11" {_FONT}>robot time (s)</text>'
-        )
+            add(_label(f"{x:.1f}", top + 16, f"{tick:g}", 10, "middle"))
+        add(_label(_LEFT + _PLOT / 2, top + 32, "robot time (s)", 11, "middle"))
         return top + 40
 
     def _legend(self, top: int) -> int:
-        labels = timeline_states(self.timeline)[:_MAX_LEGEND]
+        labels = self.timeline.states()[:_MAX_LEGEND]
         add = self.parts.append
         width = _PLOT / _LEGEND_COLUMNS
         for index, label in enumerate(labels):
@@ -201,7 +200,7 @@ class _Drawing:
                 f'<rect x="{x:.1f}" y="{y}" width="12" height="12" '
                 f'class="{state_key(label)}" fill="{fallback_color(label)}"/>'
             )
-            add(f'<text x="{x + 16:.1f}" y="{y + 10}" font-size="10" {_FONT}>{_text(label)}</text>')
+            add(_label(f"{x + 16:.1f}", y + 10, label, 10))
         rows = -(-len(labels) // _LEGEND_COLUMNS)
         return top + rows * _LEGEND_ROW + 6
 
@@ -230,5 +229,16 @@ def _ticks(low: float, high: float, count: int) -> list[float]:
     return [round(index * step, 10) for index in range(first, math.floor(high / step) + 1)]
 
 
-def _text(value: str) -> str:
-    return escape(value, quote=False)
+def _label(x: object, y: object, text: str, size: int, anchor: str = "", *, fill: str = "") -> str:
+    """A ``<text>`` of ``text``, escaped, at ``x`` and ``y`` (as given)."""
+    anchor = f' text-anchor="{anchor}"' if anchor else ""
+    fill = f' fill="{fill}"' if fill else ""
+    text = escape(text, quote=False)
+    return f'<text x="{x}" y="{y}"{anchor} font-size="{size}"{fill} {_FONT}>{text}</text>'
+
+
+def _frame(top: int, height: int) -> str:
+    """The frame of a strip of the chart."""
+    return (
+        f'<rect x="{_LEFT}" y="{top}" width="{_PLOT}" height="{height}" fill="none" stroke="#888"/>'
+    )

@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 from beatlog.analysis.recorded import read_changes
 from beatlog.analysis.shift import Shift, shift
-from beatlog.analysis.trace import WholeTrace, recorded_states, today_trace, whole_trace
+from beatlog.analysis.trace import WholeTrace, recorded_states, whole_trace
 from beatlog.baseline.file import (
     EXPECTED_SUFFIX,
     PENDING_SUFFIX,
@@ -305,7 +305,7 @@ def _weigh(
     as whole traces, and what ``pending`` loses and gains against today's."""
     expected = expected_path(spec.path)
     approved = read_baseline(expected).expectation if expected.exists() else None
-    today = today_trace(approved, log, spec.comparison.rename)
+    today = whole_trace(approved, log, spec.comparison.rename)
     whole = whole_trace(pending, log, spec.comparison.rename)
     weighed = shift(
         (today.changes, today.outputs),

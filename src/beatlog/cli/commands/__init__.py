@@ -1,5 +1,5 @@
-"""The subcommands of ``beatlog``, one module each (the baseline commands share
-:mod:`~beatlog.cli.commands.baselines`), listed once in :data:`COMMANDS`: the
+"""The subcommands of ``beatlog``, a module for each job (those of one log, of
+baselines, of new logs share one), listed once in :data:`COMMANDS`: the
 parser is built from the table (:func:`beatlog.cli.main.build_parser`) and the entry
 point runs from it. A module declares its command's arguments (``add_arguments``) and
 carries it out (``run``), importing what it uses when it runs, so that ``beatlog
@@ -8,22 +8,21 @@ carries it out (``run``), importing what it uses when it runs, so that ``beatlog
 from __future__ import annotations
 
 import argparse
+import functools
 from collections.abc import Callable
 from typing import TYPE_CHECKING, NamedTuple
 
 from beatlog.cli.commands import (
     baselines,
     demo,
-    export,
-    import_bag,
-    plot,
+    logs,
     record,
     replay,
-    show,
     shrink,
     test,
 )
 from beatlog.cli.commands import help as helping
+from beatlog.cli.common import add_paths
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -66,7 +65,7 @@ COMMANDS: dict[str, Command] = {
     "review": Command(
         "show each pending baseline change with what it loses, and ask whether to accept, "
         "reject or skip it (and each loss); accepting writes the approved baseline",
-        baselines.add_review_arguments,
+        functools.partial(add_paths, what="specs or folders with pending baselines"),
         baselines.run_review,
     ),
     "approve": Command(
@@ -77,23 +76,29 @@ COMMANDS: dict[str, Command] = {
     ),
     "upgrade-baselines": Command(
         "rewrite baselines of older formats in the current one (recordings are untouched)",
-        baselines.add_upgrade_arguments,
+        functools.partial(
+            add_paths, what="baselines, specs, or folders with approved and pending baselines"
+        ),
         baselines.run_upgrade,
         runs_user_code=False,
     ),
-    "show": Command("describe a session log", show.add_arguments, show.run, runs_user_code=False),
+    "show": Command(
+        "describe a session log", logs.add_show_arguments, logs.run_show, runs_user_code=False
+    ),
     "plot": Command(
-        "draw a timeline chart of a session log (PNG, SVG or PDF)", plot.add_arguments, plot.run
+        "draw a timeline chart of a session log (PNG, SVG or PDF)",
+        logs.add_plot_arguments,
+        logs.run_plot,
     ),
     "export": Command(
         "write a session log as MCAP for Foxglove and Lichtblick, or a table",
-        export.add_arguments,
-        export.run,
+        logs.add_export_arguments,
+        logs.run_export,
     ),
     "import-bag": Command(
         "turn a ROS bag into a session log with samples, replayable at sensor level",
-        import_bag.add_arguments,
-        import_bag.run,
+        record.add_bag_arguments,
+        record.run_bag,
     ),
     "help": Command(
         "show the help of beatlog or of one of its commands, or what a word it prints means",

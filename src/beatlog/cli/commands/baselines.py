@@ -12,20 +12,16 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import add_paths
 from beatlog.cli.common import EXIT_OK
 from beatlog.errors import OptionError
 
 if TYPE_CHECKING:
     from rich.console import Console
-    from rich.text import Text
 
     from beatlog.suite.maintenance import Decision
 
 __all__ = [
     "add_approve_arguments",
-    "add_review_arguments",
-    "add_upgrade_arguments",
     "review",
     "run_approve",
     "run_review",
@@ -35,11 +31,6 @@ __all__ = [
 Ask = Callable[[str], str]
 """Asks the reviewer a question (its choices shown in it) and returns the answer typed."""
 _CHOICES = "[a]ccept/[r]eject/[s]kip"
-
-
-def add_review_arguments(review: argparse.ArgumentParser) -> None:
-    """The arguments of ``beatlog review``."""
-    add_paths(review, "specs or folders with pending baselines")
 
 
 def run_review(args: argparse.Namespace, console: Console) -> int:
@@ -70,12 +61,12 @@ def review(
     )
 
     specs = pending_specs(paths)
-    _print_lines(render_orphans(find_orphans(paths)), console)
+    for line in render_orphans(find_orphans(paths)):
+        console.print(line, highlight=False)
     if not specs:
         console.print("nothing pending")
         return 0, 0, 0
-    if ask is None:
-        ask = _prompt(console) if sys.stdin.isatty() else _piped(console)
+    ask = ask or _asking(console)
     decided = dict.fromkeys(Decision, 0)
     for spec in specs:
         diff = pending_diff(spec)
@@ -113,37 +104,26 @@ def _decision(ask: Ask, question: str, console: Console) -> Decision:
             console.print(str(exc), style="yellow")
 
 
-def _prompt(console: Console) -> Ask:
-    """Ask at the terminal; the end of input answers nothing."""
+def _asking(console: Console) -> Ask:
+    """Ask at a terminal by prompting, else read the next answer from standard input (a
+    pipe), showing the question and the answer as a terminal would; the end of input
+    answers nothing."""
     from rich.markup import escape
     from rich.prompt import Prompt
 
-    def ask(question: str) -> str:
-        try:
-            # the question escaped, or rich reads its brackets as styles
-            return Prompt.ask(escape(question), console=console)
-        except EOFError:
-            return ""
-
-    return ask
-
-
-def _piped(console: Console) -> Ask:
-    """Read the next answer from standard input (not a terminal), showing the question
-    and the answer as a terminal would; none left answers nothing."""
+    terminal = sys.stdin.isatty()
 
     def ask(question: str) -> str:
+        if terminal:
+            try:  # the question escaped, or rich reads its brackets as styles
+                return Prompt.ask(escape(question), console=console)
+            except EOFError:
+                return ""
         answer = sys.stdin.readline().strip()
         console.print(f"{question}: {answer}".rstrip(), markup=False, highlight=False)
         return answer
 
     return ask
-
-
-def _print_lines(lines: Sequence[Text], console: Console) -> None:
-    """Each line on its own, as it is (no markup or highlighting read into paths)."""
-    for line in lines:
-        console.print(line, highlight=False)
 
 
 def add_approve_arguments(approve: argparse.ArgumentParser) -> None:
@@ -165,13 +145,9 @@ def run_approve(args: argparse.Namespace, console: Console) -> int:
         console.print("nothing pending to approve", highlight=False)
     for spec, weighed in approved:
         console.print(f"[green]approved[/] {spec.name}: {expected_path(spec.path)}")
-        _print_lines(render_losses(weighed, f"  accepted loss in {spec.name}: "), console)
+        for line in render_losses(weighed, f"  accepted loss in {spec.name}: "):
+            console.print(line, highlight=False)
     return EXIT_OK
-
-
-def add_upgrade_arguments(upgrade: argparse.ArgumentParser) -> None:
-    """The arguments of ``beatlog upgrade-baselines``."""
-    add_paths(upgrade, "baselines, specs, or folders with approved and pending baselines")
 
 
 def run_upgrade(args: argparse.Namespace, console: Console) -> int:

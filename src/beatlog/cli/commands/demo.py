@@ -6,16 +6,13 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import positive_float
+from beatlog.cli.common import positive_float
 from beatlog.errors import BeatlogError
 
 if TYPE_CHECKING:
     from rich.console import Console
 
-__all__ = ["DEMO_ENTRY_POINTS", "add_arguments", "run"]
-
-DEMO_ENTRY_POINTS = "beatlog.demo"
-"""The entry point group of the package whose demo `beatlog demo` runs."""
+__all__ = ["add_arguments", "run"]
 
 
 def add_arguments(demo: argparse.ArgumentParser) -> None:
@@ -38,7 +35,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     """Run the demo a package registered under the ``beatlog.demo`` entry point group."""
     from importlib.metadata import entry_points
 
-    demos = entry_points(group=DEMO_ENTRY_POINTS)
+    demos = entry_points(group="beatlog.demo")
     if not demos:
         raise BeatlogError(
             "beatlog demo needs the example robots: pip install beatlog-examples "

@@ -1,23 +1,33 @@
-"""``beatlog record``: run a robot in real time and record a session log."""
+"""The commands that write a new session log: ``beatlog record`` runs a robot in real
+time and records its session; ``beatlog import-bag`` turns a ROS bag into a log,
+replayable at sensor level. Neither overwrites a log without ``--force``."""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import add_factory, add_invariants, positive_float
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK, check_output
+from beatlog.cli.common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    add_factory,
+    add_invariants,
+    check_output,
+    positive_float,
+    progress,
+)
 from beatlog.errors import BeatlogError, LogExistsError, OptionError
 
 if TYPE_CHECKING:
     from rich.console import Console
-    from rich.progress import Progress
 
     from beatlog.model.behavior import System
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["add_arguments", "add_bag_arguments", "run", "run_bag"]
 
 
 def add_arguments(record: argparse.ArgumentParser) -> None:
@@ -75,17 +85,16 @@ def run(args: argparse.Namespace, console: Console) -> int:
     robot = load_robot(args.robot, random=random)  # its system's set-up draws from it
     if args.system_ref:
         load_system(args.system_ref)  # replay will need it: a typo is found now, not then
-    certify = None
+    certify: Callable[[RandomSource], System] | None = None
     if args.certify:  # the system replay will use, else the recorded one from a new robot
-
-        def recorded(random: RandomSource) -> System:
-            return load_robot(args.robot, random=random).system
-
-        certify = functools.partial(load_system, args.system_ref) if args.system_ref else recorded
+        certify = (
+            functools.partial(load_system, args.system_ref)
+            if args.system_ref
+            else lambda random: load_robot(args.robot, random=random).system
+        )
     output: Path = args.output
-    check_output(output)
     interrupted = False
-    try:
+    with _new_log(output, "; recordings are immutable"):
         recording = Recorder(
             output,
             robot.system,
@@ -100,19 +109,15 @@ def run(args: argparse.Namespace, console: Console) -> int:
             certify=certify,
             invariants=args.invariants,
         )
-    except LogExistsError:
-        raise OptionError(
-            f"{output}: already exists; recordings are immutable (use --force)"
-        ) from None
     with recording as recorder:
         try:
-            with _progress(console) as progress:
+            with progress(console, "{task.completed} cycles") as bar:
                 total = int(args.duration * 1e3 / args.period_ms)
-                task = progress.add_task("recording", total=total)
+                task = bar.add_task("recording", total=total)
                 recorder.run(
                     robot,
                     duration_s=args.duration,
-                    on_cycle=lambda cycles: progress.update(task, completed=cycles),
+                    on_cycle=lambda cycles: bar.update(task, completed=cycles),
                 )
         except KeyboardInterrupt:  # the log is closed as it is; say what it holds
             interrupted = True
@@ -151,15 +156,76 @@ def _write_failure(log: Path, error: str) -> str:
     return f"recording failed at cycle {kept}: {error} (the log is valid up to there)"
 
 
-def _progress(console: Console) -> Progress:
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+@contextlib.contextmanager
+def _new_log(output: Path, why: str = "") -> Iterator[None]:
+    """Refuse a log to write before any work (:func:`check_output`), and one that
+    exists, without ``--force``, in one line that says ``why``."""
+    check_output(output)
+    try:
+        yield
+    except LogExistsError:
+        raise OptionError(f"{output}: already exists{why} (use --force)") from None
 
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed} cycles"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
+
+def add_bag_arguments(bag: argparse.ArgumentParser) -> None:
+    """The options of ``beatlog import-bag``."""
+    bag.add_argument("bag", type=Path, help="the rosbag2 folder (mcap or sqlite3), or its file")
+    bag.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
+    add_factory(bag, "--system", "system factory", required=True)
+    add_factory(
+        bag,
+        "--perception",
+        "the perception step folding each heartbeat's messages into the robot state",
+        required=True,
     )
+    beats = bag.add_mutually_exclusive_group()
+    beats.add_argument(
+        "--period-ms",
+        type=positive_float,
+        help="a heartbeat every this many ms from the first message imported (default: 30)",
+    )
+    beats.add_argument(
+        "--clock-topic",
+        metavar="TOPIC",
+        help="a heartbeat at each message on this topic instead",
+    )
+    bag.add_argument(
+        "--topic",
+        action="append",
+        dest="topics",
+        default=[],
+        metavar="TOPIC",
+        help="import this topic (repeatable; default: every topic)",
+    )
+    bag.add_argument(
+        "--spec",
+        type=Path,
+        metavar="FILE",
+        help="also write a DTC spec (*.dtc.toml) that replays the log at sensor level",
+    )
+    bag.add_argument("--seed", type=int, help="seed of the random source (default: fresh)")
+    bag.add_argument("--force", action="store_true", help="overwrite an existing log and spec")
+
+
+def run_bag(args: argparse.Namespace, console: Console) -> int:
+    """Import the bag (and write its spec); what was imported."""
+    from beatlog.adapters.rosbag import import_bag
+
+    output: Path = args.output
+    with _new_log(output):
+        if args.spec is not None and args.spec.exists() and not args.force:
+            raise OptionError(f"{args.spec}: already exists (use --force)")
+        imported = import_bag(
+            args.bag,
+            output,
+            system=args.system,
+            perception=args.perception,
+            period_ns=None if args.period_ms is None else round(args.period_ms * 1e6),
+            clock_topic=args.clock_topic,
+            topics=args.topics,
+            spec=args.spec,
+            seed=args.seed,
+            overwrite=args.force,
+        )
+    console.print(imported.describe(), markup=False, highlight=False)
+    return EXIT_OK

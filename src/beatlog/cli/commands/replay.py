@@ -7,14 +7,16 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.arguments import (
+from beatlog.cli.common import (
+    EXIT_FAILED,
+    EXIT_OK,
     add_factory,
     add_invariants,
     add_log,
     cycle_number,
     field_pair,
+    readable,
 )
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK, readable
 from beatlog.errors import OptionError
 
 if TYPE_CHECKING:
@@ -108,23 +110,24 @@ def run(args: argparse.Namespace, console: Console) -> int:
 
     import msgspec
 
-    from beatlog.replaying.debugger import break_on_divergence, unreached_break
+    from beatlog.replaying.debugger import beyond_the_log, break_on_divergence, unreached_break
     from beatlog.replaying.fit.migration import StateMigration
     from beatlog.replaying.setup import recorded_system
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
+    from beatlog.suite.remote import named_as_given
 
-    given = args.log
     if args.end_cycle is not None and args.start_cycle > args.end_cycle:
         raise OptionError(f"--start-cycle {args.start_cycle} is after --end-cycle {args.end_cycle}")
-    with readable(args) as named:
-        if args.break_at is not None:
-            _check_break(args.break_at, Path(args.log))
+    with readable(args) as url:
+        problem = None if args.break_at is None else beyond_the_log(args.break_at, Path(args.log))
+        if problem is not None:  # a break past the end of the log, as its end record counts
+            raise OptionError(f"--break-at {args.break_at}: {problem}")
         system = args.system
         if system is None:
             system = recorded_system(args.log)
             print(
-                f"beatlog: replaying against {system}, as recorded in {given} "
+                f"beatlog: replaying against {system}, as recorded in {url or args.log} "
                 "and listed in the project's [tool.beatlog] systems",
                 file=sys.stderr,
             )
@@ -147,20 +150,11 @@ def run(args: argparse.Namespace, console: Console) -> int:
                 result, lambda cycle: replay(args.log, system, break_at=cycle, **options)
             )
         result = dataclasses.replace(result, notes=result.notes + notes)
-    if named is not None:
-        result = dataclasses.replace(result, url=given, reproduce=named(result.reproduce))
+    if url is not None:
+        reproduce = named_as_given(result.reproduce, args.log, url)
+        result = dataclasses.replace(result, url=url, reproduce=reproduce)
     if args.json:
         sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
     else:
         console.print(render_replay(result))
     return EXIT_OK if result.ok else EXIT_FAILED
-
-
-def _check_break(break_at: int, log: Path) -> None:
-    """A break past the end of the log, as its end record counts its cycles, is a usage
-    error before anything replays."""
-    from beatlog.replaying.debugger import beyond_the_log
-
-    problem = beyond_the_log(break_at, log)
-    if problem is not None:
-        raise OptionError(f"--break-at {break_at}: {problem}")

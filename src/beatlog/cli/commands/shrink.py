@@ -7,11 +7,10 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from beatlog.cli.common import EXIT_FAILED, EXIT_OK
+from beatlog.cli.common import EXIT_FAILED, EXIT_OK, progress
 
 if TYPE_CHECKING:
     from rich.console import Console
-    from rich.progress import Progress
 
     from beatlog.suite.shrink import Shrunk
 
@@ -31,7 +30,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
     """Shrink the spec; what it found in a few lines, or one line where it passes."""
     from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink
 
-    with _progress(console) as bar:
+    with progress(console, "{task.completed} replays", "{task.fields[window]}") as bar:
         task = bar.add_task(f"shrinking {args.spec.name}", total=None, window="")
 
         def tried(attempt: Attempt) -> None:
@@ -52,47 +51,20 @@ def run(args: argparse.Namespace, console: Console) -> int:
 def _report(shrunk: Shrunk, console: Console) -> None:
     """What the shrink found: the failure, the window against the cycles before, the
     perturbations left, the replays tried and the spec written."""
-    where = (
-        f" {shrunk.invariant}"
-        if shrunk.invariant
-        else f" in {shrunk.behavior}"
-        if shrunk.behavior
-        else ""
-    )
-    kept = f" ({', '.join(shrunk.perturbations)})" if shrunk.perturbations else ""
+    where = f" {shrunk.invariant}" if shrunk.invariant else ""
+    where = where or (f" in {shrunk.behavior}" if shrunk.behavior else "")
     start = shrunk.start_cycle
-    before = (
-        ", fresh start" if shrunk.fresh_start else f", {start} replayed before it" if start else ""
-    )
+    before = f", {start} replayed before it" if start else ""
     lines = [
         f"shrunk {shrunk.kind.value}{where} at cycle {shrunk.cycle}: "
-        f"{shrunk.cycles_before} cycles to the failure -> window {start}-"
-        f"{shrunk.end_cycle} ({shrunk.cycles_judged} judged{before})",
-        *(
-            [
-                f"perturbations: {len(shrunk.perturbations_before)} -> "
-                f"{len(shrunk.perturbations)}{kept}"
-            ]
-            if shrunk.perturbations_before
-            else []
-        ),
+        f"{shrunk.cycles_before} cycles to the failure -> window {start}-{shrunk.end_cycle} "
+        f"({shrunk.cycles_judged} judged{', fresh start' if shrunk.fresh_start else before})",
         f"replays tried: {shrunk.replays}",
         f"wrote {shrunk.path} (beatlog test {shrunk.path})",
     ]
+    if shrunk.perturbations_before:
+        kept = f" ({', '.join(shrunk.perturbations)})" if shrunk.perturbations else ""
+        before_after = f"{len(shrunk.perturbations_before)} -> {len(shrunk.perturbations)}"
+        lines.insert(1, f"perturbations: {before_after}{kept}")
     for line in lines:
         console.print(line, highlight=False, markup=False)
-
-
-def _progress(console: Console) -> Progress:
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed} replays"),
-        TextColumn("{task.fields[window]}"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-        disable=not console.is_terminal,  # a bar only where it can be redrawn, no blank line
-    )

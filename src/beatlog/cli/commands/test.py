@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -11,23 +12,23 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.baseline.policy import UpdateMode
-from beatlog.cli.arguments import (
+from beatlog.cli.common import (
+    EXIT_NOTHING_SELECTED,
     add_factory,
     add_paths,
     count,
     cycle_number,
     positive_int,
+    print_error,
+    progress,
     shard,
 )
-from beatlog.cli.common import EXIT_NOTHING_SELECTED, print_error
 from beatlog.errors import EmptySelectionError, OptionError
 
 if TYPE_CHECKING:
     from rich.console import Console
-    from rich.progress import Progress
 
     from beatlog.suite.runner import SpecOutcome
-    from beatlog.suite.selection import SuiteOptions
 
 __all__ = ["add_arguments", "run"]
 
@@ -52,7 +53,7 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
     )
     test.add_argument(
         "-k",
-        dest="select",
+        dest="pattern",
         metavar="EXPRESSION",
         help="only DTCs matching this expression, as pytest's -k: words matched against "
         "names and tags, with and, or, not and parentheses (e.g. -k 'touch or pat'); "
@@ -61,7 +62,9 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
     test.add_argument(
         "--tag",
         action="append",
+        dest="tags",
         default=[],
+        metavar="TAG",
         help="only DTCs with this tag; given more than once, only DTCs with every tag given",
     )
     test.add_argument(
@@ -155,48 +158,31 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
     )
 
 
-def _options(args: argparse.Namespace) -> SuiteOptions:
-    from beatlog.suite.selection import SuiteOptions
-
-    return SuiteOptions(
-        paths=tuple(args.paths),
-        pattern=args.select,
-        tags=tuple(args.tag),
-        behavior=args.behavior,
-        shard=args.shard,
-        logs=args.logs,
-        system=args.system,
-        perception=args.perception,
-        jobs=args.jobs,
-        dask=args.dask,
-        fail_fast=args.fail_fast,
-        last_failed=args.last_failed,
-        update=args.update,
-        audit=args.audit,
-        coverage=args.coverage,
-        coverage_json=args.coverage_json,
-        junit_xml=args.junit_xml,
-        html=args.html,
-        break_at=args.break_at,
-        break_on_divergence=args.break_on_divergence,
-        variants=args.variants,
-    )
-
-
 def run(args: argparse.Namespace, console: Console) -> int:
     """Run the suite with a progress bar, each failure (every DTC with ``--verbose``)
     shown as it comes, then the session's report and its counts; exit 5 when nothing
     is selected, as pytest does."""
     from beatlog.report.session import SuiteSession
+    from beatlog.suite.selection import SuiteOptions
 
+    # each of the suite's options from the option of the same name
+    given = {field.name: getattr(args, field.name) for field in dataclasses.fields(SuiteOptions)}
     try:
-        session = SuiteSession(_options(args))
+        session = SuiteSession(
+            SuiteOptions(**given | {"paths": tuple(args.paths), "tags": tuple(args.tags)})
+        )
     except EmptySelectionError as exc:
         print_error(str(exc))
         return EXIT_NOTHING_SELECTED
     if session.selection.note is not None:
         console.print(session.selection.note, markup=False, highlight=False)
-    progress = _progress(console, breaking=session.options.breaking)
+    # no bar under a debugger
+    bar = progress(
+        console,
+        "{task.completed}/{task.total} DTCs",
+        "{task.fields[rate]}",
+        hidden=session.options.breaking,
+    )
     started = time.perf_counter()
     cycles = 0
 
@@ -204,11 +190,11 @@ def run(args: argparse.Namespace, console: Console) -> int:
         nonlocal cycles
         cycles += outcome.result.cycles if outcome.result else 0
         rate = f"{cycles / max(time.perf_counter() - started, 1e-9):,.0f} cycles/s"
-        progress.update(task, advance=1, rate=rate)
-        _show(outcome, progress.console, verbose=args.verbose)
+        bar.update(task, advance=1, rate=rate)
+        _show(outcome, bar.console, verbose=args.verbose)
 
-    with progress:
-        task = progress.add_task("replaying", total=len(session.specs), rate="")
+    with bar:
+        task = bar.add_task("replaying", total=len(session.specs), rate="")
         ran = session.run(on_outcome)
     for line in ran.summary(every=args.verbose):
         console.print(line)
@@ -225,22 +211,6 @@ def run(args: argparse.Namespace, console: Console) -> int:
     if report.interrupted is not None:
         raise report.interrupted
     return report.exit_code
-
-
-def _progress(console: Console, *, breaking: bool) -> Progress:
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.completed}/{task.total} DTCs"),
-        TextColumn("{task.fields[rate]}"),
-        TimeElapsedColumn(),
-        console=console,
-        transient=True,
-        # a bar only where it can be redrawn (no blank line), and never under a debugger
-        disable=not console.is_terminal or breaking,
-    )
 
 
 def _show(outcome: SpecOutcome, console: Console, *, verbose: bool) -> None:

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from beatlog.audit.replays import AuditReport, Finding, SeedRun
-from beatlog.report.audit import render_audit
 from beatlog.report.console import plain_text
+from beatlog.report.suite import render_audit
 from beatlog.suite.runner import SpecOutcome, run_spec
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
