@@ -8,7 +8,7 @@ from pathlib import Path
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
-from beatlog.replaying.verdict import Checked
+from beatlog.replaying.verdict import Checked, DivergenceKind
 from beatlog.report.console import (
     MAX_LISTED,
     plain_text,
@@ -274,3 +274,18 @@ def test_an_invariant_that_does_not_hold_shows_what_it_saw(record_probe: RecordF
     assert "behavior states after the update" in lines
     assert table_row(text, "near") == ["near", "'near'"]
     assert table_row(text, "speed") == ["speed", "0.0"]
+
+
+def test_outputs_that_differ_only_in_bits_are_shown_side_by_side(record_probe: RecordFn) -> None:
+    result = replay(record_probe(300), probe_system(threshold=0.6))
+    assert result.divergence is not None
+    bits_only = dataclasses.replace(
+        result.divergence,
+        kind=DivergenceKind.OUTPUTS,
+        expected_outputs={"speed": 0.0},
+        actual_outputs={"speed": -0.0},
+    )
+
+    text = plain_text(render_replay(dataclasses.replace(result, divergence=bits_only)), width=100)
+
+    assert table_row(text, "speed = 0.0") == ["speed = 0.0", "speed = -0.0"]

@@ -149,8 +149,11 @@ def _divergence(divergence: Divergence) -> RenderableType:
         parts.append(
             _side_by_side("behavior state changes", divergence.expected, divergence.actual)
         )
-    completed = divergence.kind in (DivergenceKind.STATE_CHANGES, DivergenceKind.OUTPUTS)
-    if completed and divergence.expected_outputs != divergence.actual_outputs:
+    # Outputs are judged bit for bit: 0.0 and -0.0 differ though they compare equal.
+    if divergence.kind is DivergenceKind.OUTPUTS or (
+        divergence.kind is DivergenceKind.STATE_CHANGES
+        and divergence.expected_outputs != divergence.actual_outputs
+    ):
         parts.append(_side_by_side("outputs", *divergence.output_sides))
     if divergence.random_recorded or divergence.random_drawn:
         parts.append(
