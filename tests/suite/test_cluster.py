@@ -23,10 +23,12 @@ from distributed import Client, LocalCluster
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.cli.main import main
 from beatlog.suite.cluster import (
+    FETCHED_AHEAD,
     ONE_DTC_PER_THREAD,
     DaskExecutor,
     WorkerDeaths,
     as_here,
+    fetched_ahead,
     missing_system,
     packed,
     unpacked,
@@ -36,7 +38,7 @@ from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.selection import fleet_specs
-from beatlog.suite.spec import load_spec
+from beatlog.suite.spec import DtcSpec, load_spec
 from tests.commands import Run, assert_error, assert_error_matching, closing_counts
 from tests.conftest import RecordFn
 from tests.served import LogServer
@@ -596,3 +598,26 @@ def test_a_fleet_log_ships_alone(checkout: Path) -> None:
     shipped = packed(spec)
 
     assert list(shipped.files) == ["logs/walk.beatlog"]
+
+
+@pytest.mark.parametrize(("dtcs", "threads"), [(0, 2), (1, 2), (3, 2), (40, 2), (41, 3), (9, 16)])
+def test_each_url_log_past_the_first_of_each_thread_is_fetched_ahead_by_one_task(
+    tmp_path: Path, dtcs: int, threads: int
+) -> None:
+    ordered = [
+        DtcSpec(tmp_path, f"d{n}", "", (), Path(f"d{n}.beatlog"), None, log_url=f"s3://b/d{n}")
+        if n % 5
+        else DtcSpec(tmp_path, f"d{n}", "", (), tmp_path / f"d{n}.beatlog", None)
+        for n in range(dtcs)
+    ]
+
+    ahead = fetched_ahead(ordered, threads)
+
+    fetched = [url for urls in ahead for url, _ in urls]
+    assert sorted(fetched) == sorted(
+        spec.log_url for spec in ordered[threads:] if spec.log_url is not None
+    )
+    at = {spec.log_url: index for index, spec in enumerate(ordered)}
+    for index, urls in enumerate(ahead):
+        assert len(urls) <= FETCHED_AHEAD
+        assert all(at[url] > index for url, _ in urls)  # a later DTC's, never its own

@@ -8,7 +8,7 @@ cluster of this machine's (``local``); to another, with the files of this machin
 replay reads (:func:`packed`: its baseline, its local log, its project's
 ``pyproject.toml``), written into a folder of the worker's in the same places
 (:func:`unpacked`). A log behind a URL is copied by the worker that replays it, which
-also fetches ahead the log it is likely to replay next. Code is not shipped: a worker
+also fetches ahead the logs it is likely to replay next. Code is not shipped: a worker
 without the system's package makes the DTC an error that says so
 (:func:`missing_system`).
 
@@ -51,11 +51,13 @@ if TYPE_CHECKING:
     from beatlog.baseline.policy import SpecOptions
 
 __all__ = [
+    "FETCHED_AHEAD",
     "ONE_DTC_PER_THREAD",
     "DaskExecutor",
     "Packed",
     "WorkerDeaths",
     "as_here",
+    "fetched_ahead",
     "missing_system",
     "packed",
     "unpacked",
@@ -69,6 +71,9 @@ the next DTC, which would count as retried too)."""
 
 _IN_FLIGHT_PER_THREAD = 2
 """How many DTCs a run keeps submitted for each thread of the cluster."""
+FETCHED_AHEAD = 4
+"""How many DTCs ahead of the one it replays a worker's thread has the URL logs
+fetched: enough to hide a request's latency behind replays shorter than it."""
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
 _OUTSIDE = "outside"
 
@@ -134,12 +139,7 @@ class DaskExecutor(Closing):
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
         threads = max(1, sum(self._client.nthreads().values()))
-        # the log a worker's thread is likely to replay next, fetched ahead: a URL's
-        ahead = [
-            None if spec.log_url is None else (spec.log_url, spec.listed_log)
-            for spec in ordered[threads:]
-        ] + [None] * min(threads, len(ordered))
-        waiting = iter(zip(ordered, ahead, strict=True))
+        waiting = iter(zip(ordered, fetched_ahead(ordered, threads), strict=True))
         pending: dict[str, tuple[Future[SpecOutcome], DtcSpec]] = {}
 
         def submit(count: int) -> list[Future[SpecOutcome]]:
@@ -245,14 +245,30 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
+def fetched_ahead(
+    ordered: Sequence[DtcSpec], threads: int
+) -> list[list[tuple[str, Listed | None]]]:
+    """For each DTC in the order run, the URL logs (and what their listing said) its
+    task fetches ahead while it replays: those :data:`FETCHED_AHEAD` DTCs further on
+    for its thread (as many DTCs on as the cluster has threads), each log by one task
+    alone: a thread's first task starts them all, each later one the last."""
+    urls = [None if spec.log_url is None else (spec.log_url, spec.listed_log) for spec in ordered]
+    ahead: list[list[tuple[str, Listed | None]]] = []
+    for index in range(len(ordered)):
+        steps = range(1, FETCHED_AHEAD + 1) if index < threads else (FETCHED_AHEAD,)
+        later = (index + threads * step for step in steps)
+        ahead.append([url for at in later if at < len(urls) and (url := urls[at]) is not None])
+    return ahead
+
+
 def _replayed(
-    sent: DtcSpec | Packed, ahead: tuple[str, Listed | None] | None, *, options: SpecOptions
+    sent: DtcSpec | Packed, ahead: list[tuple[str, Listed | None]], *, options: SpecOptions
 ) -> SpecOutcome:
     """On a worker: :func:`run_spec` of the DTC sent, with its files where it was
-    packed, while the log of ``ahead``, which this thread likely replays next, is
+    packed, while the logs ``ahead``, which this thread likely replays later, are
     fetched into the machine's cache."""
-    if ahead is not None:
-        fetch_ahead(*ahead)
+    for url, listed in ahead:
+        fetch_ahead(url, listed)
     if isinstance(sent, DtcSpec):
         return _waited(sent, options)
     with (
