@@ -47,7 +47,6 @@ __all__ = [
     "CYCLES_PER_BLOCK",
     "MAX_GAP",
     "TAG_CHARS",
-    "TAG_SHIFT",
     "UNPINNED",
     "DigestBlock",
     "PinChecker",
@@ -159,7 +158,7 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         start = end
 
 
-TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
+_TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
 """A digest shifted right by this many bits is its tag's bits."""
 _GAP = 0xFF
 """What :data:`_SIXES` makes of a gap's characters."""
@@ -184,7 +183,7 @@ class PinChecker:
     def __init__(self, pins: StatePins | None = None, *, pinned: bool | None = None) -> None:
         self.tags: dict[int, int] = {}
         """The tag of each pinned cycle added and not forgotten: the first 12 bits of
-        its digest (:data:`TAG_SHIFT`)."""
+        its digest (:data:`_TAG_SHIFT`)."""
         self._blocks: deque[tuple[int, int, int]] = deque()
         """The blocks added and not forgotten, in cycle order: the cycle after each, and
         its first and last pinned cycles."""
@@ -267,12 +266,8 @@ class PinChecker:
 
         :raises KeyError: ``cycle`` is not pinned.
         """
-        return self.judge_digest(cycle, state_number(encoded))
-
-    def judge_digest(self, cycle: int, digest: int) -> str | None:
-        """:meth:`mismatch` for the rebuilt state's ``digest``
-        (:data:`~beatlog.replaying.state_digests.state_number`)."""
-        if digest >> TAG_SHIFT != self.tags[cycle]:
+        digest = state_number(encoded)
+        if digest >> _TAG_SHIFT != self.tags[cycle]:
             self._found[cycle] = "by its digest"  # reported here, not again for the block
             return "by its digest"
         if cycle in self._firsts:

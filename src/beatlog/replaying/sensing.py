@@ -58,7 +58,10 @@ class Perceiver:
         self._robot_state = robot_state
         self._reader = reader
         self._encode = encode
-        self._pins = state_pins
+        self._pins = state_pins or PinChecker()
+        self._pinned = self._pins.tags
+        """The pinned cycles (:attr:`PinChecker.tags`, kept up to date as replay reads
+        the baseline): none without pins."""
         self._migrated = migrated
 
     def perceive(self, record: CycleRecord, recorded: Any, cycle: int) -> Sensed:
@@ -90,9 +93,8 @@ class Perceiver:
             encoded = None
         except msgspec.ValidationError:  # or what the log cannot give back as its type
             encoded = None
-        pins = self._pins
-        if pins is not None and cycle in pins:  # pinned: the approved state is expected
-            differs = encoded is None or pins.mismatch(cycle, encoded) is not None
+        if cycle in self._pinned:  # the approved state is expected
+            differs = encoded is None or self._pins.mismatch(cycle, encoded) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
             if differs and encoded is not None and self._migrated:
