@@ -171,11 +171,10 @@ def test_no_import_runs_up_the_layers_or_across_one() -> None:
     assert upward == []
 
 
-ONE_IDEA = {"replaying/judge.py", "replaying/view.py", "baseline/read.py"}
+ONE_IDEA = {"replaying/judge.py", "replaying/view.py"}
 """Modules past 400 lines that each hold one idea whole, folded rather than cut in two:
-the judge (the verdict, the first divergence written up, what follows it), the views
-of a robot state over a format-3 log (the views and the batches they read) and the
-reading of a baseline's lines (each alone, and the common ones a block at a time)."""
+the judge (the verdict, the first divergence written up, what follows it) and the views
+of a robot state over a format-3 log (the views and the batches they read)."""
 
 
 def test_every_module_is_under_400_lines() -> None:
