@@ -72,6 +72,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import itertools
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -86,10 +87,8 @@ from beatlog.replaying.expectation import (
     Expectation,
     ExpectedPart,
     ExpectedStream,
-    TracedChange,
-    TracedOutput,
 )
-from beatlog.replaying.pins import DigestBlock, PinCoverage, PinnedRun, StatePins
+from beatlog.replaying.pins import PinCoverage, StatePins
 
 __all__ = [
     "BLOCK_BYTES",
@@ -150,26 +149,16 @@ class Baseline:
 
     @property
     def expectation(self) -> Expectation:
-        """The whole expectation, read again into memory (for a review, a diff)."""
-        changes: list[TracedChange] = []
-        quiet: list[tuple[int, int]] = []
-        outputs: list[TracedOutput] = []
-        runs: list[PinnedRun] = []
-        blocks: list[DigestBlock] = []
-        for part in self.stream.parts():
-            changes.extend(part.changes)
-            quiet.extend(part.quiet)
-            outputs.extend(part.outputs)
-            runs.extend(part.runs)
-            blocks.extend(part.blocks)
-        stream = self.stream
+        """The whole expectation, in memory (for a review, a diff)."""
+        parts = list(self.stream.parts())
+        chain = itertools.chain.from_iterable
         return Expectation(
-            tuple(changes),
-            tuple(outputs),
-            StatePins(tuple(runs), tuple(blocks)),
-            stream.draws,
-            stream.open_loop,
-            tuple(quiet),
+            tuple(chain(part.changes for part in parts)),
+            tuple(chain(part.outputs for part in parts)),
+            StatePins(tuple(chain(p.runs for p in parts)), tuple(chain(p.blocks for p in parts))),
+            self.stream.draws,
+            self.stream.open_loop,
+            tuple(chain(part.quiet for part in parts)),
         )
 
 
