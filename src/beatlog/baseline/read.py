@@ -327,7 +327,7 @@ def _common_lines(
 
 def _picked(columns: list[_Column], where: list[int], *which: int) -> list[list[Any]]:
     """The columns ``which`` of the lines ``where``."""
-    return [[columns[column][index] for index in where] for column in which]
+    return [list(map(columns[column].__getitem__, where)) for column in which]
 
 
 def _outputs(columns: list[_Column], where: list[int]) -> list[Any]:
@@ -390,7 +390,7 @@ _states = functools.partial(_listed, msgspec.json.Decoder(list[str | int | bool 
 
 
 def _times_ns(seconds: list[str]) -> list[int]:
-    return [_time_ns(time) for time in seconds]
+    return [round(float(time) * 1e9) for time in seconds]  # as _time_ns reads each
 
 
 def _records(record: type[_Record], *fields: Iterable[Any]) -> list[_Record]:
