@@ -143,8 +143,8 @@ class Baseline:
     log_digest: str
     """The SHA-256 of the recording (:func:`log_digest`)."""
     stream: ExpectedStream
-    """What replay judges against, its lines of cycles those read first or, past a block,
-    read afresh from the file a block at a time: replay holds no more of it than a
+    """What replay judges against: the lines of cycles of a file of one block as read, a
+    longer file's read afresh a block at a time, so replay holds no more of it than a
     block."""
 
     @property

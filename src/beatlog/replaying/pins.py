@@ -183,7 +183,7 @@ class PinChecker:
     def __init__(self, pins: StatePins | None = None, *, pinned: bool | None = None) -> None:
         self.tags: dict[int, int] = {}
         """The tag of each pinned cycle added and not forgotten: the first 12 bits of
-        its digest (:data:`_TAG_SHIFT`)."""
+        its digest."""
         self._blocks: deque[tuple[int, int, int]] = deque()
         """The blocks added and not forgotten, in cycle order: the cycle after each, and
         its first and last pinned cycles."""
