@@ -5,8 +5,9 @@ from __future__ import annotations
 import dataclasses
 import struct
 import tracemalloc
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import msgspec
 import pytest
@@ -14,6 +15,7 @@ import pytest
 from beatlog.baseline.file import expected_path, log_digest, pending_path, read_baseline
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError
+from beatlog.log.files import read_text_blocks
 from beatlog.replaying.expectation import (
     ABSENT,
     AS_RECORDED,
@@ -490,8 +492,9 @@ def test_an_older_baseline_is_refused_naming_the_command_that_upgrades_it(
 
 
 def test_a_baseline_changed_after_it_was_read_is_an_error_when_replay_reads_it(
-    tmp_path: Path,
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 64)  # read again past a block
     path = baseline_file(tmp_path, 7, '      12     0.360  "avoid": "off" -> "turning"')
     baseline = read_baseline(path)
     baseline_file(tmp_path, 7, '      12     0.360  "escape": "off" -> "on"')
@@ -500,3 +503,22 @@ def test_a_baseline_changed_after_it_was_read_is_an_error_when_replay_reads_it(
         list(baseline.stream.parts())
 
     assert str(raised.value) == f"{path}: changed while it was read: run again"
+
+
+def test_a_baseline_of_one_block_is_read_once(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = _big_baseline(tmp_path, 10)
+    opened: list[Path] = []
+
+    def counted(path: Path, **options: Any) -> Iterator[str]:
+        opened.append(path)
+        return read_text_blocks(path, **options)
+
+    monkeypatch.setattr("beatlog.baseline.file.read_text_blocks", counted)
+    baseline = read_baseline(path)
+    replayed = [line for part in baseline.stream.parts() for line in part.outputs]
+
+    assert len(replayed) == 20
+    assert replayed == list(baseline.expectation.outputs)
+    assert opened == [path]

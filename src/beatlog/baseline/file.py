@@ -72,6 +72,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import itertools
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -86,10 +87,8 @@ from beatlog.replaying.expectation import (
     Expectation,
     ExpectedPart,
     ExpectedStream,
-    TracedChange,
-    TracedOutput,
 )
-from beatlog.replaying.pins import DigestBlock, PinCoverage, PinnedRun, StatePins
+from beatlog.replaying.pins import PinCoverage, StatePins
 
 __all__ = [
     "BLOCK_BYTES",
@@ -136,38 +135,30 @@ _KINDS = ("output", "state change", f"'{QUIET}'")
 @dataclass(frozen=True)
 class Baseline:
     """A baseline file: the recording it was made from and what replay judges against,
-    read as replay reads it (:attr:`stream`): its lines of cycles are read from the
-    file each time they are asked for, so the file must stay where it is."""
+    read as replay reads it (:attr:`stream`): the lines of cycles of a file longer than a
+    block are read from it each time they are asked for, so the file must stay where it
+    is."""
 
     path: Path
     log_digest: str
     """The SHA-256 of the recording (:func:`log_digest`)."""
     stream: ExpectedStream
-    """What replay judges against, its lines of cycles read afresh from the file a block
-    at a time: replay holds no more of it than a block."""
+    """What replay judges against: the lines of cycles of a file of one block as read, a
+    longer file's read afresh a block at a time, so replay holds no more of it than a
+    block."""
 
     @property
     def expectation(self) -> Expectation:
-        """The whole expectation, read again into memory (for a review, a diff)."""
-        changes: list[TracedChange] = []
-        quiet: list[tuple[int, int]] = []
-        outputs: list[TracedOutput] = []
-        runs: list[PinnedRun] = []
-        blocks: list[DigestBlock] = []
-        for part in self.stream.parts():
-            changes.extend(part.changes)
-            quiet.extend(part.quiet)
-            outputs.extend(part.outputs)
-            runs.extend(part.runs)
-            blocks.extend(part.blocks)
-        stream = self.stream
+        """The whole expectation, in memory (for a review, a diff)."""
+        parts = list(self.stream.parts())
+        chain = itertools.chain.from_iterable
         return Expectation(
-            tuple(changes),
-            tuple(outputs),
-            StatePins(tuple(runs), tuple(blocks)),
-            stream.draws,
-            stream.open_loop,
-            tuple(quiet),
+            tuple(chain(part.changes for part in parts)),
+            tuple(chain(part.outputs for part in parts)),
+            StatePins(tuple(chain(p.runs for p in parts)), tuple(chain(p.blocks for p in parts))),
+            self.stream.draws,
+            self.stream.open_loop,
+            tuple(chain(part.quiet for part in parts)),
         )
 
 
@@ -220,28 +211,36 @@ def upgrade_hint(path: Path, version: int) -> str:
 
 def read_baseline(path: Path) -> Baseline:
     """Read and check a baseline file, a block of lines at a time (:data:`BLOCK_BYTES`),
-    keeping what applies to the whole session; its lines of cycles are read again, the
-    same way, as replay needs them (:attr:`Baseline.stream`). Anything else, a file of
-    an older format included, raises :class:`BaselineError` naming the line (or the
-    command that upgrades it)."""
+    keeping what applies to the whole session, and the lines of cycles of a file of one
+    block as read; a longer file's are read again, the same way, as replay needs them
+    (:attr:`Baseline.stream`). Anything else, a file of an older format included,
+    raises :class:`BaselineError` naming the line (or the command that upgrades it)."""
     reading = _Reading(path)
     draws: list[DrawRule] = []
     departs = pinned = False
     behaviors: dict[str, None] = {}
+    kept: list[ExpectedPart] | None = []  # the first block's lines, while it is the only one
     for found in reading.parts():
         draws.extend(found.draws)
         departs = departs or bool(found.changes or found.quiet or found.outputs)
         pinned = pinned or bool(found.blocks)
         behaviors.update(dict.fromkeys(traced.change.behavior for traced in found.changes))
+        kept = [_part(found)] if kept == [] else None
     stream = ExpectedStream(
         tuple(draws),
         reading.open_loop,
         departs=departs,
         pinned=pinned,
         behaviors=tuple(behaviors),
-        parts=functools.partial(_parts, path, frozenset(behaviors)),
+        parts=functools.partial(_parts, path, frozenset(behaviors))
+        if kept is None
+        else functools.partial(iter, kept),
     )
     return Baseline(path, reading.digest, stream)
+
+
+def _part(found: ParsedLines) -> ExpectedPart:
+    return ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
 
 
 def _parts(path: Path, behaviors: frozenset[str]) -> Iterator[ExpectedPart]:
@@ -254,7 +253,7 @@ def _parts(path: Path, behaviors: frozenset[str]) -> Iterator[ExpectedPart]:
     for found in _Reading(path).parts():
         if not {traced.change.behavior for traced in found.changes} <= behaviors:
             raise BaselineError(path, "changed while it was read: run again")
-        yield ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
+        yield _part(found)
 
 
 class _Reading:
@@ -348,8 +347,7 @@ class _Reading:
         self._lasts = [
             cycles[-1] if cycles else last for cycles, last in zip(listed, lasts, strict=True)
         ]
-        part = ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
-        self._last = max(self._last, part.last)
+        self._last = max(self._last, _part(found).last)
         problem = self._coverage.add(found.runs, found.blocks)
         if problem is not None:
             raise BaselineError(path, problem)

@@ -12,13 +12,13 @@ once, each line to the value it reads to alone (:func:`parse_line`).
 from __future__ import annotations
 
 import bisect
+import functools
 import json
 import re
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from itertools import compress, repeat
-from operator import itemgetter
-from typing import Any, NamedTuple, TypeVar
+from itertools import compress
+from typing import Any, TypeVar
 
 import msgspec
 
@@ -61,17 +61,6 @@ _DIGESTS = re.compile(
 _JSON = json.JSONDecoder()
 _OTHER_BREAKS = "\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
 """What :meth:`str.splitlines` breaks lines at besides a line feed."""
-_CYCLES = msgspec.json.Decoder(tuple[int, ...])
-
-
-class _OpenLoop(NamedTuple):
-    cycle: int
-    time_ns: int
-
-
-class _Quiet(NamedTuple):
-    cycle: int
-    time_ns: int
 
 
 @dataclass
@@ -88,14 +77,11 @@ class ParsedLines:
 
     def read_common(self, text: str, start: int) -> Iterator[tuple[int, str]]:
         """Read the lines of the most common shapes at once, and yield each other line but
-        empty ones with its number (``text``: lines each ended by a line feed alone, the
-        last perhaps not, as :func:`line_feeds` gives them, numbered from ``start``), in
-        order: comments, and lines for :meth:`add`, each to be read or skipped before the
-        next is asked for, so that the lines of each kind are kept in the order of the file.
-
-        When a line of a common shape does not read (a value that is no JSON, a block of
-        digests without as many tags as it says), every line is yielded, to be read one
-        by one and refused at the right line.
+        empty ones with its number (``text`` as :func:`line_feeds` gives it, numbered from
+        ``start``), in order, each to be read (:meth:`add`) or skipped before the next is
+        asked for, so that the lines of each kind are kept in the order of the file. When
+        a line of a common shape does not read, every line is yielded, to be refused at
+        the right line.
         """
         common = _common_lines(text)
         if common is None:
@@ -121,37 +107,34 @@ class ParsedLines:
         :raises ValueError: the line is not one that format holds, or a second
             ``open loop`` line.
         """
-        parsed = _parse_draw(line) if line[:6] == "draws " else parse_line(line)
-        if isinstance(parsed, _OpenLoop):
-            if self.open_loop is not None:
-                raise ValueError("a second 'open loop' line")
-            self.open_loop = (parsed.cycle, parsed.time_ns)
-        elif isinstance(parsed, _Quiet):
-            self.quiet.append((parsed.cycle, parsed.time_ns))
-        elif isinstance(parsed, DrawRule):
-            self.draws.append(parsed)
-        elif isinstance(parsed, TracedOutput):
+        if line[:6] == "draws ":
+            self.draws.append(_parse_draw(line))
+            return
+        parsed = parse_line(line)
+        if isinstance(parsed, TracedOutput):
             self.outputs.append(parsed)
+        elif isinstance(parsed, TracedChange):
+            self.changes.append(parsed)
         elif isinstance(parsed, PinnedRun):
             self.runs.append(parsed)
         elif isinstance(parsed, DigestBlock):
             self.blocks.append(parsed)
+        elif parsed[2] == QUIET:
+            self.quiet.append(parsed[:2])
+        elif self.open_loop is not None:
+            raise ValueError("a second 'open loop' line")
         else:
-            self.changes.append(parsed)
+            self.open_loop = parsed[:2]
 
 
 def line_feeds(block: str) -> tuple[str, int]:
-    """A block of whole lines, each ended by a line feed alone (the last perhaps not),
-    as :meth:`str.splitlines` breaks them, for :meth:`ParsedLines.read_common`, and how
-    many lines it holds: a block with no other line breaks is kept whole, not cut into
-    a string a line."""
+    """A block of whole lines as :meth:`str.splitlines` breaks them, each ended by a line
+    feed alone (the last perhaps not), for :meth:`ParsedLines.read_common`, and how many
+    lines it holds."""
     if any(other in block for other in _OTHER_BREAKS):
         lines = block.splitlines()
         return "\n".join(lines) + "\n", len(lines)
     return block, block.count("\n") + (block[-1:] not in ("\n", ""))
-
-
-_Line = TracedChange | TracedOutput | PinnedRun | DigestBlock | DrawRule | _OpenLoop | _Quiet
 
 
 def _parse_draw(line: str) -> DrawRule:
@@ -178,17 +161,8 @@ def _parse_draw(line: str) -> DrawRule:
         behavior,
         None if recorded == NONE else recorded,
         None if asked == NONE else asked,
-        _cycles(cycles),
+        tuple(map(int, cycles.split())),
     )
-
-
-def _cycles(numbers: str) -> tuple[int, ...]:
-    """The cycles of a draws line, as :func:`int` reads each: at once as JSON, unless
-    they are not JSON (a leading zero, digits other than ASCII)."""
-    try:
-        return _CYCLES.decode(f"[{numbers.replace(' ', ',')}]")
-    except ValueError:
-        return tuple(map(int, numbers.split()))
 
 
 def _time_ns(seconds: str) -> int:
@@ -196,8 +170,11 @@ def _time_ns(seconds: str) -> int:
     return round(float(seconds) * 1e9)
 
 
-def parse_line(line: str) -> _Line:
-    """A line of the cycle columns."""
+def parse_line(
+    line: str,
+) -> TracedChange | TracedOutput | PinnedRun | DigestBlock | tuple[int, int, str]:
+    """A line of the cycle columns; an ``open loop`` or quiet line as its cycle, time and
+    text."""
     found = _CHANGE_LINE.fullmatch(line)
     if found is None:
         raise ValueError(
@@ -205,10 +182,8 @@ def parse_line(line: str) -> _Line:
             "'CYCLE TIME output \"field\" = VALUE' or 'CYCLE TIME robot_state ...'"
         )
     cycle, time_ns, text = int(found["cycle"]), _time_ns(found["time"]), found["change"]
-    if text == OPEN_LOOP:
-        return _OpenLoop(cycle, time_ns)
-    if text == QUIET:
-        return _Quiet(cycle, time_ns)
+    if text in (OPEN_LOOP, QUIET):
+        return cycle, time_ns, text
     if text.startswith(OUTPUT):
         name, value = _parse_value(text[len(OUTPUT) :])
         return TracedOutput(cycle, time_ns, name, value)
@@ -293,9 +268,6 @@ def _expect(text: str, position: int, separator: str) -> int:
     return position + len(separator)
 
 
-_INTS = msgspec.json.Decoder(list[int])
-_NAMES = msgspec.json.Decoder(list[str])
-_STATES = msgspec.json.Decoder(list[str | int | bool | None])
 _PLAIN = r'"[^"\\\x00-\x1f]*"'
 """A JSON string without escapes or control characters: it reads as what it quotes."""
 _VALUE = rf"[-+.0-9A-Za-z]+|{_PLAIN}"
@@ -311,10 +283,8 @@ _COMMON = re.compile(
     rf"|({QUIET})"
     r")\n|(.*)\n"
 )
-"""A line of the most common shapes, an output, a block of digests, a
-state change or a quiet cycle, with plain names and JSON scalars for values (read at once
-by :func:`_common_lines`, as :func:`parse_line` reads each),
-else any line."""
+"""A line of the most common shapes (an output, a block of digests, a state change or a
+quiet cycle, with plain names and JSON scalars for values), else any line."""
 _CYCLE, _TIME, _NAME, _VALUE_TEXT, _WORD, _COUNT, _DIGEST, _TAGS = range(8)
 _BEHAVIOR, _BEFORE, _AFTER = range(8, 11)
 _QUIET, _OTHER = 11, 12
@@ -355,19 +325,16 @@ def _common_lines(
     return len(indices), [(index, other[index]) for index in compress(indices, other)], kinds
 
 
-def _picked(columns: list[_Column], where: list[int], *which: int) -> list[Sequence[Any]]:
-    """The columns ``which`` of the lines ``where`` (at least one), each taken at once."""
-    if len(where) == 1:
-        return [(columns[column][where[0]],) for column in which]
-    take = itemgetter(*where)  # a tuple of as many, as there are two or more
-    return [take(columns[column]) for column in which]
+def _picked(columns: list[_Column], where: list[int], *which: int) -> list[list[Any]]:
+    """The columns ``which`` of the lines ``where``."""
+    return [list(map(columns[column].__getitem__, where)) for column in which]
 
 
 def _outputs(columns: list[_Column], where: list[int]) -> list[Any]:
     cycles, times, names, value, word = _picked(
         columns, where, _CYCLE, _TIME, _NAME, _VALUE_TEXT, _WORD
     )
-    values = iter(_decoded(filter(None, value)))
+    values = iter(_JSON.raw_decode("[" + ",".join(filter(None, value)) + "]")[0])
     said = [_WORDS[text] if text else next(values) for text in word]
     return _records(
         TracedOutput,
@@ -382,11 +349,9 @@ def _blocks(columns: list[_Column], where: list[int]) -> list[Any]:
     cycles, times, counts, digests, tags = _picked(
         columns, where, _CYCLE, _TIME, _COUNT, _DIGEST, _TAGS
     )
-    if list(map(len, tags)) != [TAG_CHARS * count for count in _listed(_INTS, counts)]:
+    if list(map(len, tags)) != [TAG_CHARS * count for count in _ints(counts)]:
         raise ValueError("a block of digests holds not as many tags as it says")
-    return _records(
-        DigestBlock, _listed(_INTS, cycles), _times_ns(times), tags, map(bytes.fromhex, digests)
-    )
+    return _records(DigestBlock, _ints(cycles), _times_ns(times), tags, map(bytes.fromhex, digests))
 
 
 def _changes(columns: list[_Column], where: list[int]) -> list[Any]:
@@ -394,20 +359,17 @@ def _changes(columns: list[_Column], where: list[int]) -> list[Any]:
         columns, where, _CYCLE, _TIME, _BEHAVIOR, _BEFORE, _AFTER
     )
     changes = _records(
-        StateChange,
-        _shared(behaviors, _names),
-        _shared(before, _states),
-        _shared(after, _states),
+        StateChange, _shared(behaviors, _names), _shared(before, _states), _shared(after, _states)
     )
     return _records(TracedChange, _shared(cycles, _ints), _shared(times, _times_ns), changes)
 
 
 def _quiet(columns: list[_Column], where: list[int]) -> list[Any]:
     cycles, times = _picked(columns, where, _CYCLE, _TIME)
-    return list(zip(_listed(_INTS, cycles), _times_ns(times), strict=True))
+    return list(zip(_ints(cycles), _times_ns(times), strict=True))
 
 
-def _shared(texts: Sequence[str], read: Callable[[Sequence[str]], list[Any]]) -> list[Any]:
+def _shared(texts: list[str], read: Callable[[list[str]], list[Any]]) -> list[Any]:
     """The values of ``texts`` as ``read`` reads them, each distinct text read once: the
     lines of one cycle, or naming one field, behavior or state, hold one object for it,
     not one each (in a big baseline they would cost more than the values)."""
@@ -416,47 +378,21 @@ def _shared(texts: Sequence[str], read: Callable[[Sequence[str]], list[Any]]) ->
     return [values[text] for text in texts]
 
 
-def _ints(texts: Sequence[str]) -> list[int]:
-    return _listed(_INTS, texts)
-
-
-def _names(texts: Sequence[str]) -> list[str]:
-    return _listed(_NAMES, texts)
-
-
-def _states(texts: Sequence[str]) -> list[Any]:
-    return _listed(_STATES, texts)
-
-
-def _listed(decoder: msgspec.json.Decoder[list[Any]], values: Sequence[str]) -> list[Any]:
-    """JSON values, each one whole, read at once by ``decoder``: plain strings, integers
-    and flags, each to what :data:`_JSON` reads it to (msgspec reads them for a third
-    of the instructions)."""
+def _listed(decoder: msgspec.json.Decoder[list[Any]], values: list[str]) -> list[Any]:
+    """JSON values, each one whole (plain strings, integers and flags), read at once, each
+    to what :data:`_JSON` reads it to."""
     return decoder.decode("[" + ",".join(values) + "]")
 
 
-def _times_ns(seconds: Sequence[str]) -> list[int]:
-    """Robot times in seconds, with three decimals, in nanoseconds, as a line alone reads
-    each (``round(float(seconds) * 1e9)``: under 10**6 s, the float is within 0.13 ns of
-    the time, and rounds to it for each of the 10**9 times, checked one by one). Read at
-    once, as JSON integers: each time's milliseconds, without leading zeros, and six
-    zeros; one by one where one has them still (0 s, or a time written ``00.030``)."""
-    text = "," + ",".join(seconds)
-    for under_a_second in (",0.00", ",0.0", ",0."):
-        text = text.replace(under_a_second, ",")
-    try:
-        return _INTS.decode(f"[{text[1:].replace('.', '').replace(',', '000000,')}000000]")
-    except ValueError:
-        return [int(time.replace(".", "")) * 1_000_000 for time in seconds]
+_ints = functools.partial(_listed, msgspec.json.Decoder(list[int]))
+_names = functools.partial(_listed, msgspec.json.Decoder(list[str]))
+_states = functools.partial(_listed, msgspec.json.Decoder(list[str | int | bool | None]))
 
 
-def _decoded(values: Iterable[str]) -> list[Any]:
-    """JSON values, each one whole, read at once: each as :data:`_JSON` reads it alone."""
-    decoded: list[Any] = _JSON.raw_decode("[" + ",".join(values) + "]")[0]
-    return decoded
+def _times_ns(seconds: list[str]) -> list[int]:
+    return [round(float(time) * 1e9) for time in seconds]  # as _time_ns reads each
 
 
 def _records(record: type[_Record], *fields: Iterable[Any]) -> list[_Record]:
-    """A ``record`` (a NamedTuple) of each row of ``fields``, made at once, as
-    ``record._make`` makes one."""
-    return list(map(tuple.__new__, repeat(record), zip(*fields, strict=True)))
+    """A ``record`` (a NamedTuple) of each row of ``fields``."""
+    return [record(*row) for row in zip(*fields, strict=True)]

@@ -29,7 +29,6 @@ import struct
 from collections import deque
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from operator import add
 from typing import Any, NamedTuple
 
 from beatlog.replaying.compare import Comparison
@@ -47,9 +46,7 @@ from beatlog.replaying.state_digests import DIGEST_BYTES, block_digest, state_nu
 __all__ = [
     "CYCLES_PER_BLOCK",
     "MAX_GAP",
-    "NOT_PINNED",
     "TAG_CHARS",
-    "TAG_SHIFT",
     "UNPINNED",
     "DigestBlock",
     "PinChecker",
@@ -161,21 +158,10 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         start = end
 
 
+_TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
+"""A digest shifted right by this many bits is its tag's bits."""
 _GAP = 0xFF
 """What :data:`_SIXES` makes of a gap's characters."""
-TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
-"""A digest shifted right by this many bits is its tag's bits."""
-_TAG_BITS = (1 << 6 * TAG_CHARS) - 1
-_OPENS = 1 << 6 * TAG_CHARS
-"""Marks the tag of a block's first pinned cycle (:attr:`PinChecker.tags`)."""
-_CLOSES = 2 << 6 * TAG_CHARS
-"""Marks the tag of a block's last pinned cycle."""
-NOT_PINNED = (_GAP << 6) + _GAP
-"""In :attr:`PinChecker.tags`, a cycle not pinned: a gap's two characters read as a tag,
-above any tag however marked."""
-_HIGH = [six << 6 for six in range(256)]
-"""The bits a tag's first character stands for, by the six bits :data:`_SIXES` makes of
-it: a tag is ``_HIGH[first] + second``."""
 _SIXES = bytes.maketrans(
     f"{BASE64_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(BASE64_DIGITS)), _GAP])
 )
@@ -185,36 +171,30 @@ bits of its digest (:func:`_tag`), high six first."""
 
 class PinChecker:
     """Judges the robot states perception rebuilds against :class:`StatePins`, one
-    pinned cycle after another, in cycle order.
+    pinned cycle after another, in cycle order: a pinned cycle by its tag, a block by
+    its digest at its last pinned cycle.
 
-    It costs a digest and a few look-ups a pinned cycle: each block's tags are read
-    into :attr:`tags` when it is added, in C, and a block's digest is checked at its
-    last pinned cycle. The replay core's perception step inlines the common case of
-    :meth:`mismatch` (:attr:`tags`, :attr:`digest`, :attr:`digests`) and leaves the
-    rest to :meth:`judge_digest`. Replay adds a baseline's pins as it reads them
-    (:meth:`add`), and forgets those of the cycles it has judged (:meth:`forget`), so
-    that it holds the pins of the cycles at hand, however many the baseline has.
-    ``pinned`` says whether the baseline pins any robot state at all.
+    Replay adds a baseline's pins as it reads them (:meth:`add`), and forgets those of
+    the cycles it has judged (:meth:`forget`), so that it holds the pins of the cycles at
+    hand, however many the baseline has. ``pinned`` says whether the baseline pins any
+    robot state at all.
     """
 
     def __init__(self, pins: StatePins | None = None, *, pinned: bool | None = None) -> None:
-        self.digest = state_number
-        """A rebuilt state's digest, of its bytes as a log encodes them."""
-        self._block_digest = block_digest
         self.tags: dict[int, int] = {}
-        """By cycle, the pinned ones added and not forgotten: a pinned cycle's tag (the
-        first 12 bits of its digest, :data:`TAG_SHIFT`), marked above those bits where
-        a block opens or closes; :data:`NOT_PINNED` or more for a gap. A digest whose
-        tag is the cycle's, unmarked, agrees and goes on :attr:`digests`; any other is
-        for :meth:`judge_digest`."""
+        """The tag of each pinned cycle added and not forgotten: the first 12 bits of
+        its digest."""
+        self._blocks: deque[tuple[int, int, int]] = deque()
+        """The blocks added and not forgotten, in cycle order: the cycle after each, and
+        its first and last pinned cycles."""
+        self._firsts: set[int] = set()
+        """The first pinned cycle of each block."""
         self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
         """Each block by its last pinned cycle, where its digest is checked, with its
         first pinned cycle and how many it pins."""
-        self._blocks: deque[DigestBlock] = deque()
-        """The blocks added and not forgotten, in cycle order."""
-        self.digests: list[int] = []
-        """The digests of the cycles judged since the last block opened whose tags
-        agreed, in cycle order: checked with the block's digest where it closes."""
+        self._digests: list[int] = []
+        """The digests of the cycles judged since the last block opened that agreed with
+        their tags, in cycle order: checked with the block's digest where it closes."""
         self._opened = -1
         """The first pinned cycle of the block they are of."""
         self._found: dict[int, str] = {}
@@ -231,34 +211,35 @@ class PinChecker:
         for run in runs:
             self._runs.append(run)
             self._starts.append(run.cycle)
-        tags = self.tags
         for block in blocks:
-            self._blocks.append(block)
             sixes = block.tags.encode().translate(_SIXES)
-            tags.update(
-                zip(
+            pinned = {
+                cycle: high << 6 | low
+                for cycle, high, low in zip(
                     range(block.cycle, block.cycle + block.cycles),
-                    map(add, map(_HIGH.__getitem__, sixes[::2]), sixes[1::2]),
+                    sixes[::2],
+                    sixes[1::2],
                     strict=True,
                 )
-            )
-            first = block.cycle + (len(block.tags) - len(block.tags.lstrip(UNPINNED))) // TAG_CHARS
-            final = block.cycle + len(block.tags.rstrip(UNPINNED)) // TAG_CHARS - 1
-            if first > final:  # no cycle pinned (a baseline's coverage check refuses it)
+                if high != _GAP
+            }
+            if not pinned:  # no cycle pinned (a baseline's coverage check refuses it)
                 continue
-            tags[first] |= _OPENS
-            tags[final] |= _CLOSES
-            pinned = block.cycles - block.tags.count(UNPINNED)  # tags come in pairs
-            self._finals[final] = (block, first, pinned)
+            self.tags.update(pinned)
+            first, final = min(pinned), max(pinned)
+            self._blocks.append((block.cycle + block.cycles, first, final))
+            self._firsts.add(first)
+            self._finals[final] = (block, first, len(pinned))
 
     def forget(self, before: int) -> None:
         """Forget the pins of the blocks and runs that end before cycle ``before``."""
-        blocks, tags, finals = self._blocks, self.tags, self._finals
-        while blocks and blocks[0].cycle + blocks[0].cycles <= before:
-            block = blocks.popleft()
-            for cycle in range(block.cycle, block.cycle + block.cycles):
+        blocks, tags = self._blocks, self.tags
+        while blocks and blocks[0][0] <= before:
+            _, first, final = blocks.popleft()
+            for cycle in range(first, final + 1):
                 tags.pop(cycle, None)
-                finals.pop(cycle, None)
+            self._firsts.discard(first)
+            self._finals.pop(final, None)
         ended = bisect.bisect_left([run.last for run in self._runs], before)
         if ended:
             del self._runs[:ended], self._starts[:ended]
@@ -266,10 +247,10 @@ class PinChecker:
     @property
     def cycles(self) -> frozenset[int]:
         """The pinned cycles added and not forgotten."""
-        return frozenset(cycle for cycle, tag in self.tags.items() if tag < NOT_PINNED)
+        return frozenset(self.tags)
 
     def __contains__(self, cycle: object) -> bool:
-        return isinstance(cycle, int) and self.tags.get(cycle, NOT_PINNED) < NOT_PINNED
+        return cycle in self.tags
 
     def run_at(self, cycle: int) -> PinnedRun:
         """The run a pinned cycle is in."""
@@ -285,26 +266,15 @@ class PinChecker:
 
         :raises KeyError: ``cycle`` is not pinned.
         """
-        if cycle not in self:
-            raise KeyError(cycle)
-        digest = self.digest(encoded)
-        if digest >> TAG_SHIFT == self.tags[cycle]:  # agrees, inside its block
-            self.digests.append(digest)
-            return None
-        return self.judge_digest(cycle, digest)
-
-    def judge_digest(self, cycle: int, digest: int) -> str | None:
-        """:meth:`mismatch` for the ``digest`` of pinned ``cycle`` where its tag is not
-        the cycle's unmarked tag: a block opens or closes there, or it differs."""
-        tag = self.tags[cycle]
-        if digest >> TAG_SHIFT != tag & _TAG_BITS:
+        digest = state_number(encoded)
+        if digest >> _TAG_SHIFT != self.tags[cycle]:
             self._found[cycle] = "by its digest"  # reported here, not again for the block
             return "by its digest"
-        if tag & _OPENS:
+        if cycle in self._firsts:
             self._opened = cycle
-            self.digests.clear()
-        self.digests.append(digest)
-        return self._block_mismatch(cycle) if tag & _CLOSES else None
+            self._digests.clear()
+        self._digests.append(digest)
+        return self._block_mismatch(cycle) if cycle in self._finals else None
 
     def found(self, cycle: int, encoded: bytes) -> str | None:
         """How the robot state of a pinned ``cycle`` was found to differ when it was
@@ -318,11 +288,11 @@ class PinChecker:
         digest: None when it agrees, or when not every pinned cycle of it was judged,
         each agreeing with its tag (one that disagreed was reported in its own cycle)."""
         block, first, pinned = self._finals[final]
-        digests = self.digests
+        digests = self._digests
         agreed = self._opened == first and len(digests) == pinned
         packed = struct.pack(f">{pinned}Q", *digests) if agreed else b""
         digests.clear()
-        if not agreed or self._block_digest(packed) == block.digest:
+        if not agreed or block_digest(packed) == block.digest:
             return None
         found = self._found[final] = f"by the digest of cycles {block.cycle}–{final}"
         return found

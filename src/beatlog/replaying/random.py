@@ -142,15 +142,9 @@ class ReplayRandom(RandomSource):
         for index in range(start, len(self.recorded)):
             if used is None or not used[index]:
                 draw = self.recorded[index]
-                name = self._recorded_name(draw.actor)
+                name = _name(self._recorded_now, draw.actor)
                 self.differences.append(DrawDifference(name, _request(draw), None))
         return self.differences
-
-    def _recorded_name(self, actor: int) -> str:
-        if actor < 0:
-            return "system"
-        names = self._recorded_now
-        return names[actor] if actor < len(names) else f"#{actor}"
 
     def _strict(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
         """The recorded draw, checked against the request: any difference is a mismatch."""
@@ -190,7 +184,7 @@ class ReplayRandom(RandomSource):
             self._follow_no_more()
         assert self._used is not None
         match = self._match(actor, name)
-        behavior = self._name_now(actor)
+        behavior = _name(self._names_now, actor)
         if match is None:
             value = self._fresh_value(name, params, None, behavior, actor)
             asked = Draw(actor, name, value, params)
@@ -237,13 +231,6 @@ class ReplayRandom(RandomSource):
         if same is not None or name not in SCALAR_VALUES:
             return same
         return next((index for index in left if _luck(self.recorded[index]) is not None), None)
-
-    def _name_now(self, actor: int) -> str:
-        """A behavior's name now, by its index."""
-        if actor < 0:
-            return "system"
-        names = self._names_now
-        return names[actor] if actor < len(names) else f"#{actor}"
 
     def _fresh_value(
         self, name: str, params: tuple[Any, ...], draw: Draw | None, behavior: str, actor: int
@@ -305,6 +292,13 @@ class ReplayRandom(RandomSource):
                 f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
             )
         return array
+
+
+def _name(names: Sequence[str], actor: int) -> str:
+    """A behavior's name by its index among ``names``; -1 is the system."""
+    if actor < 0:
+        return "system"
+    return names[actor] if actor < len(names) else f"#{actor}"
 
 
 def _asks(draw: Draw, kind: str, params: tuple[Any, ...]) -> bool:

@@ -15,7 +15,7 @@ from beatlog.log.format import CycleRecord
 from beatlog.model.perception import Perception, PerceptionTypeError
 from beatlog.replaying.cycle_reader import CycleReader
 from beatlog.replaying.outcome import Sensed
-from beatlog.replaying.pins import NOT_PINNED, TAG_SHIFT, PinChecker
+from beatlog.replaying.pins import PinChecker
 
 __all__ = ["UNREAD", "Perceiver"]
 
@@ -58,13 +58,10 @@ class Perceiver:
         self._robot_state = robot_state
         self._reader = reader
         self._encode = encode
-        pins = state_pins or PinChecker()  # what a pinned cycle asks, looked up once
-        self._tags = pins.tags
-        """The pins' tags by cycle (:attr:`PinChecker.tags`, kept up to date as replay
-        reads the baseline): none without pins."""
-        self._digest = pins.digest
-        self._digests = pins.digests
-        self._judge_digest = pins.judge_digest
+        self._pins = state_pins or PinChecker()
+        self._pinned = self._pins.tags
+        """The pinned cycles (:attr:`PinChecker.tags`, kept up to date as replay reads
+        the baseline): none without pins."""
         self._migrated = migrated
 
     def perceive(self, record: CycleRecord, recorded: Any, cycle: int) -> Sensed:
@@ -96,17 +93,8 @@ class Perceiver:
             encoded = None
         except msgspec.ValidationError:  # or what the log cannot give back as its type
             encoded = None
-        tag = self._tags.get(cycle, NOT_PINNED)
-        if tag < NOT_PINNED:  # pinned: the approved state is expected
-            if encoded is None:
-                differs = True
-            else:  # PinChecker.mismatch, its common case inlined: the hot path
-                digest = self._digest(encoded)
-                if digest >> TAG_SHIFT == tag:
-                    self._digests.append(digest)
-                    differs = False
-                else:
-                    differs = self._judge_digest(cycle, digest) is not None
+        if cycle in self._pinned:  # the approved state is expected
+            differs = encoded is None or self._pins.mismatch(cycle, encoded) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
             if differs and encoded is not None and self._migrated:
