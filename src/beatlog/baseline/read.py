@@ -275,9 +275,8 @@ _VALUE = rf"[-+.0-9A-Za-z]+|{_PLAIN}"
 by line): one value, as it holds no comma, bracket or space outside quotes."""
 _STATE = rf"-?[0-9]+|[a-z]+|{_PLAIN}"
 """Likewise a JSON integer, literal or plain string, the values a state takes."""
-# Speed: the common lines read at once, not line by line, halve a replay judged against
-# a big baseline (16 MiB of outputs: 4.1 s of CPU against 8.9 s); tests/baseline/
-# test_read.py pins every common shape against parse_line, line by line.
+# Speed: read at once, a 16 MiB baseline of outputs is judged in 4.1 s of CPU, against
+# 8.9 s line by line; tests/baseline/test_read.py pins each shape against parse_line.
 _COMMON = re.compile(
     r" *([0-9]+) +([0-9]{1,6}\.[0-9]{3}) +(?:"
     rf"output ({_PLAIN}) (?:= ({_VALUE})|(absent|{AS_RECORDED_TEXT}))"
