@@ -288,8 +288,7 @@ _COMMON = re.compile(
 """A line of the most common shapes (an output, a block of digests, a state change or a
 quiet cycle, with plain names and JSON scalars for values), else any line."""
 _CYCLE, _TIME, _NAME, _VALUE_TEXT, _WORD, _COUNT, _DIGEST, _TAGS = range(8)
-_BEHAVIOR, _BEFORE, _AFTER = range(8, 11)
-_QUIET, _OTHER = 11, 12
+_BEHAVIOR, _BEFORE, _AFTER, _QUIET, _OTHER = range(8, 13)
 _GROUPS = 14
 """What :meth:`re.Pattern.split` gives of each line: the text before it (none), and
 each group of :data:`_COMMON` (None where it took no part)."""
