@@ -5,12 +5,10 @@ from __future__ import annotations
 import os
 import struct
 import zlib
-from io import BytesIO
 from pathlib import Path
-from typing import IO
+from typing import IO, cast
 
 import msgspec
-from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, ChunkIndex, Footer, Message
@@ -23,7 +21,7 @@ from beatlog.log.container import (
     RECORD_HEAD,
     SUMMARY_RECORDS,
     RecordDamageError,
-    check_chunk_bounds,
+    read_record,
     split_records,
     unpack_chunk,
 )
@@ -64,13 +62,13 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     opcode, length = struct.unpack_from("<BQ", tail)
     if (opcode, length, tail[FOOTER_RECORD:]) != (Opcode.FOOTER, FOOTER_BYTES, MAGIC):
         return None
-    summary_start = Footer.read(ReadDataStream(BytesIO(tail[RECORD_HEAD:]))).summary_start
+    footer = cast("Footer", read_record(Opcode.FOOTER, tail[RECORD_HEAD:FOOTER_RECORD]))
+    summary_start = footer.summary_start
     if not len(MAGIC) < summary_start <= footer_at or footer_at - summary_start > MAX_CHUNK_BYTES:
         return None
     file.seek(summary_start)
     section = file.read(footer_at - summary_start)
-    footer = tail[:FOOTER_RECORD]
-    if zlib.crc32(footer[:-4], zlib.crc32(section)) != int.from_bytes(footer[-4:], "little"):
+    if zlib.crc32(tail[: FOOTER_RECORD - 4], zlib.crc32(section)) != footer.summary_crc:
         return None
     summary = split_records(section, SUMMARY_RECORDS, "the summary")
     ends = {r.id for r in summary if isinstance(r, Channel) and r.topic == END_TOPIC}
@@ -89,8 +87,7 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     opcode, length = struct.unpack("<BQ", file.read(RECORD_HEAD))
     if opcode != Opcode.CHUNK or length > 2 * MAX_CHUNK_BYTES:
         return None
-    chunk = Chunk.read(ReadDataStream(BytesIO(file.read(length))))
-    check_chunk_bounds(chunk)
+    chunk = cast("Chunk", read_record(opcode, file.read(length)))
     records = split_records(unpack_chunk(chunk), CHUNK_RECORDS, "a chunk")
     end = [r for r in records if isinstance(r, Message) and r.channel_id in ends]
     if len(end) != 1:

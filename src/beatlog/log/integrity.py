@@ -17,7 +17,6 @@ from io import BytesIO
 from pathlib import Path
 from typing import IO
 
-from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.records import (
@@ -40,8 +39,6 @@ from beatlog.log.container import (
     RECORD_HEAD,
     SUMMARY_RECORDS,
     RecordDamageError,
-    check_chunk_bounds,
-    read_chunk,
     read_record,
     split_records,
     summary_crc,
@@ -214,25 +211,20 @@ class RecordStream(Closing):
             )
 
     def _parse(self, opcode: int, body: bytes, offset: int) -> list[McapRecord]:
-        if opcode == Opcode.CHUNK:
-            chunk = read_chunk(body)
-            self._chunks.append((offset, RECORD_HEAD + len(body)))
-            return self._chunk_records(chunk)
         if opcode == Opcode.MESSAGE_INDEX:  # an index into a chunk just read: not needed
             return []
-        if opcode == Opcode.FOOTER:
-            self.footer = Footer.read(ReadDataStream(BytesIO(body)))
+        record = read_record(opcode, body)
+        if isinstance(record, Footer):
+            self.footer = record
             return []
-        return [read_record(opcode, body)]
-
-    def _chunk_records(self, chunk: Chunk) -> list[McapRecord]:
-        """Open a chunk within the bounds, the file's included, and split it into its
-        records."""
-        check_chunk_bounds(chunk)
-        self._expanded += chunk.uncompressed_size
+        if not isinstance(record, Chunk):
+            return [record]
+        self._chunks.append((offset, RECORD_HEAD + len(body)))
+        data = unpack_chunk(record)
+        self._expanded += len(data)
         if self._expanded > MAX_EXPANSION * self.size + MAX_CHUNK_BYTES:
             raise RecordDamageError("chunks decompress to implausibly much data (a zip bomb?)")
-        return split_records(unpack_chunk(chunk), CHUNK_RECORDS, "a chunk")
+        return split_records(data, CHUNK_RECORDS, "a chunk")
 
     def check_summary(
         self,
