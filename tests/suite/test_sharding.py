@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import OptionError, RemoteLogError
-from beatlog.log.reader import recorded_cycles
+from beatlog.log.index import recorded_cycles
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.sharding import Shard, longest_first, shard, split
 from beatlog.suite.spec import DtcSpec

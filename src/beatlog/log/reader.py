@@ -9,6 +9,7 @@ record, if any, counts exactly the cycles read. The records come checked from
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,9 +35,6 @@ from beatlog.log.format import (
     cycles_record,
     schema_name,
 )
-
-# Re-exported where it was defined before the log package was split by job.
-from beatlog.log.index import recorded_cycles as recorded_cycles  # noqa: PLC0414
 from beatlog.log.integrity import IndexDamageError, RecordStream, TruncatedError
 from beatlog.log.limits import MAX_SCHEMA_BYTES
 from beatlog.log.payload import BatchDecoding, decode_payload, decoded_version
@@ -100,10 +98,12 @@ class SessionLogReader(Closing):
         self._topics: dict[str, int] = {}
         self._schemas: dict[int, Schema] = {}
         self._cycles = 0
-        self._robot_time_ns = 0
-        self._end: SessionEnd | None = None
+        self.robot_time_ns = 0
+        """The robot time of the cycles read so far: the sum of their heartbeat intervals."""
+        self.end: SessionEnd | None = None
+        """The end record, once read: the recording closed cleanly."""
         self._status: LogStatus | None = None
-        self._messages_read: dict[int, int] = {}
+        self._messages_read: Counter[int] = Counter()
         self._messages = self._topic_messages()
         try:
             self.header = self._read_header()
@@ -112,7 +112,6 @@ class SessionLogReader(Closing):
             raise
         self.format_version = self.header.format_version
         self._decoding = BatchDecoding(self.path, self.header)
-        self._batch_decoder: Any = self._decoding.decoder
 
     @property
     def status(self) -> LogStatus:
@@ -120,16 +119,6 @@ class SessionLogReader(Closing):
         if self._status is None:
             raise RuntimeError("the log's status is known only after reading all its cycles")
         return self._status
-
-    @property
-    def robot_time_ns(self) -> int:
-        """The robot time of the cycles read so far: the sum of their heartbeat intervals."""
-        return self._robot_time_ns
-
-    @property
-    def end(self) -> SessionEnd | None:
-        """The end record, if the recording closed cleanly."""
-        return self._end
 
     def batches(
         self, start: int = 0, skimmed: Callable[[list[CycleRecord]], object] | None = None
@@ -149,10 +138,10 @@ class SessionLogReader(Closing):
                 if self._cycles >= start:
                     yield self._batch(message)
                     continue
-                first, time_ns = self._cycles, self._robot_time_ns
+                first, time_ns = self._cycles, self.robot_time_ns
                 batch = self._batch(message, skim=True)
                 if self._cycles > start:  # it holds ``start``: read again, whole
-                    self._cycles, self._robot_time_ns = first, time_ns
+                    self._cycles, self.robot_time_ns = first, time_ns
                     batch = self._batch(message)
                 if skimmed is not None:
                     skimmed(batch[: start - first])
@@ -164,19 +153,16 @@ class SessionLogReader(Closing):
                 raise CorruptLogError(self.path, "a second session header")
 
     def decode_states(self, state_type: type[Any]) -> None:
-        """Decode each cycle's RS_t into ``state_type`` from the next batch on, with the
-        batch itself: the records' ``robot_state`` is then the decoded state, not its bytes,
-        and their ``samples`` are checked against the header (:func:`samples_shape`), not
-        kept. In format 3 (robot states by field) it is the batch's
-        :class:`~beatlog.log.columns.StateColumns` instead, to decode only the fields
-        read (the replay core does: :mod:`beatlog.replaying.view`).
+        """Decode each cycle's RS_t into ``state_type`` from the next batch on, in the
+        same pass as its batch (format 3: the batch's
+        :class:`~beatlog.log.columns.StateColumns`, to decode only the fields read), and
+        check its samples against the header instead of keeping them.
 
-        Decoding in the same pass as the batch reads every robot state once instead of
-        skipping it and decoding it again. A robot state that does not fit the type is a
+        A robot state that does not fit the type is a
         :class:`~beatlog.errors.SchemaMismatchError` naming its cycle; samples the header
         does not declare are a :class:`~beatlog.errors.CorruptLogError` naming it.
         """
-        self._batch_decoder = self._decoding.decode_states(state_type)
+        self._decoding.decode_states(state_type)
 
     def cycles(self) -> Iterator[CycleRecord]:
         """Yield every cycle in order."""
@@ -229,9 +215,9 @@ class SessionLogReader(Closing):
         """Decode one cycles message and check it continues exactly where the last ended;
         skimmed, with its cycles' parts left undecoded (see :meth:`batches`)."""
         where = f"the batch after cycle {self._cycles}"
-        decoder = self._decoding.skimming if skim else self._batch_decoder
+        decode = self._decoding.skim if skim else self._decoding.decode
         try:
-            decoded = decoder.decode(message.data)
+            decoded = decode(message.data)
         except DECODE_ERRORS as exc:  # skimmed, its raw decoding fails as well: damage
             raise self._decoding.problem(message.data, where, self._cycles, exc) from None
         if isinstance(decoded, CycleBatch | ColumnBatch):
@@ -250,15 +236,15 @@ class SessionLogReader(Closing):
             batch = decoded
         if not batch:
             raise CorruptLogError(self.path, f"{where} is empty")
-        if message.log_time != self._robot_time_ns + batch[0].heartbeat_ns:
+        if message.log_time != self.robot_time_ns + batch[0].heartbeat_ns:
             raise CorruptLogError(
                 self.path,
                 f"cycles out of order: {where} is stamped {message.log_time} ns of robot "
-                f"time, not {self._robot_time_ns + batch[0].heartbeat_ns} "
+                f"time, not {self.robot_time_ns + batch[0].heartbeat_ns} "
                 "(a chunk missing, repeated or moved)",
             )
         self._cycles += len(batch)
-        self._robot_time_ns += sum([cycle.heartbeat_ns for cycle in batch])
+        self.robot_time_ns += sum([cycle.heartbeat_ns for cycle in batch])
         return batch
 
     def _read_end(self, message: Message) -> None:
@@ -267,14 +253,14 @@ class SessionLogReader(Closing):
             raise CorruptLogError(
                 self.path, "the end record is not stamped with the session's robot time"
             )
-        if (end.cycles, end.robot_time_ns) != (self._cycles, self._robot_time_ns):
+        if (end.cycles, end.robot_time_ns) != (self._cycles, self.robot_time_ns):
             raise CorruptLogError(
                 self.path,
                 f"the end record counts {end.cycles} cycles and {end.robot_time_ns} ns of "
                 f"robot time, but the log holds {self._cycles} cycles and "
-                f"{self._robot_time_ns} ns",
+                f"{self.robot_time_ns} ns",
             )
-        self._end = end
+        self.end = end
 
     def _topic_messages(self) -> Iterator[tuple[str, Message]]:
         """Messages with their channel's topic, in the order the format requires.
@@ -293,8 +279,7 @@ class SessionLogReader(Closing):
                         )
                     if ended:
                         raise CorruptLogError(self.path, "a message after the end record")
-                    count = self._messages_read.get(channel.id, 0)
-                    self._messages_read[channel.id] = count + 1
+                    self._messages_read[channel.id] += 1
                     ended = channel.topic == END_TOPIC
                     yield channel.topic, record
                 elif isinstance(record, Schema):
@@ -313,20 +298,16 @@ class SessionLogReader(Closing):
         if footer.summary_crc != self._stream.summary_crc:
             self._index_damage("the summary does not match its CRC in the footer")
             return
-        self._check_summary()
-        if self._end is None:
+        self._stream.check_summary(self._channels, self._schemas, self._messages_read)
+        if self.end is None:
             self._status = LogStatus(False, self._cycles, "the log has no end record")
         else:
             self._status = LogStatus(True, self._cycles)
 
-    def _check_summary(self) -> None:
-        """The summary must describe exactly the data read, channels and schemas included."""
-        self._stream.check_summary(self._channels, self._schemas, self._messages_read)
-
     def _index_damage(self, problem: str) -> None:
         """The summary or footer is damaged: after intact cycles and end record, the
         status of a reader tolerating that, else an error."""
-        if self._end is None:
+        if self.end is None:
             raise CorruptLogError(self.path, problem)
         if not self._tolerate_damaged_index:
             raise CorruptLogError(self.path, _index_damaged(problem))
