@@ -35,7 +35,7 @@ from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import state_change_finder, state_reader
+from beatlog.model.cycle import find_changes, state_reader
 from beatlog.model.random import Draw
 from beatlog.replaying.random import ReplayRandom
 from beatlog.replaying.view import StateViews
@@ -148,7 +148,6 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
     random.bind(context)
     read_states = state_reader(list(system.behaviors.values()))
     states = read_states()
-    find_changes = state_change_finder(len(states))
     encode = payload_encoder().encode
     decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     raw = msgspec.Raw

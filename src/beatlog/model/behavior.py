@@ -94,20 +94,12 @@ class CataloguedSystem(Generic[RS]):
         *,
         period_ns: int | None = None,
     ) -> None:
-        self._robot_state = robot_state
-        self._catalogue = catalogue
+        self.robot_state = robot_state
+        """The robot state type the behaviors read."""
+        self.behaviors = catalogue
+        """The behaviors in catalogue order, each by its name."""
         self.period_ns = period_ns
         """The heartbeat period the behaviors are written for, in ns; None: not declared."""
-
-    @property
-    def robot_state(self) -> type[RS]:
-        """The robot state type the behaviors read."""
-        return self._robot_state
-
-    @property
-    def behaviors(self) -> Mapping[str, Behavior]:
-        """The behaviors in catalogue order, each by its name."""
-        return self._catalogue
 
 
 class PriorityArbiter(CataloguedSystem[RS]):

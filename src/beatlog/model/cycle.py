@@ -17,13 +17,12 @@ from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
 __all__ = [
-    "ChangeFinder",
     "CycleExecutor",
     "DrawReport",
     "Pause",
     "StateChange",
     "Update",
-    "state_change_finder",
+    "find_changes",
     "state_reader",
 ]
 
@@ -31,8 +30,6 @@ Update = Callable[[Any, Context], None]
 """A system's update: the behaviors step from RS_t with the context of the cycle."""
 Pause = Callable[[Update, Any, Context], None]
 """Takes the place of one update: given it, RS_t and the context, it must run it."""
-ChangeFinder = Callable[[list[BehaviorState], list[BehaviorState]], list[StateChangeRecord]]
-"""Given the states read now and those seen last, BS_t (:func:`state_change_finder`)."""
 
 
 class StateChange(NamedTuple):
@@ -79,24 +76,18 @@ def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorSta
     return read
 
 
-def state_change_finder(size: int) -> ChangeFinder:
-    """A function ``find(now, seen)`` that, given the states of a catalogue of ``size``
-    behaviors read now and those seen last (both in catalogue order), returns BS_t: a
-    ``(index, before, after)`` for each state that is another object and not equal to
-    the one seen, in catalogue order. It sets those, and only those, in ``seen``: a state
+def find_changes(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
+    """BS_t, given the states of a catalogue read now and those seen last (both in
+    catalogue order): a ``(index, before, after)`` for each state that is another object
+    and not equal to the one seen. It sets those, and only those, in ``seen``: a state
     equal to the one seen but another object leaves the one seen in place (``1``, then
     ``True``, then ``2`` is one change, from ``1`` to ``2``)."""
-
-    def find(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
-        found: list[StateChangeRecord] = []
-        for index in range(size):
-            state, last = now[index], seen[index]
-            if state is not last and state != last:
-                found.append((index, last, state))
-                seen[index] = state
-        return found
-
-    return find
+    found: list[StateChangeRecord] = []
+    for index, (state, last) in enumerate(zip(now, seen, strict=True)):
+        if state is not last and state != last:
+            found.append((index, last, state))
+            seen[index] = state
+    return found
 
 
 class CycleExecutor:
@@ -108,7 +99,6 @@ class CycleExecutor:
         self.behavior_ids = list(catalogue)
         self._read_states = state_reader(list(catalogue.values()))
         self._states = self._read_states()
-        self._find_changes = state_change_finder(len(self._states))
         self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
@@ -128,7 +118,7 @@ class CycleExecutor:
         states = self._states
         if now == states:  # the common case, compared in C: same objects or equal values
             return []
-        return self._find_changes(now, states)
+        return find_changes(now, states)
 
     def assume(self, states: Mapping[int, BehaviorState]) -> None:
         """Take ``states`` (by catalogue position) as the behaviors' states seen last:
