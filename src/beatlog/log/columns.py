@@ -1,23 +1,18 @@
 """The columnar layout of format 3: a batch's robot states stored field by field.
 
 The writer turns consecutive encoded cycles into
-:class:`~beatlog.log.format.ColumnBatch` messages (:func:`column_batches`): the cycle
-records without their robot states, and each robot-state field's values, in cycle
-order, in a column of its own. A reader opens a batch as
-:class:`StateColumns`, which checks the batch's column table on opening and decodes a
-column only when asked for it: a replay whose behaviors read 30 of 1,000 fields decodes
-30 columns, or those 30 fields of each cycle as one array (:meth:`StateColumns.rows`).
-The values are the bytes the writer was given, so a robot state put back together
-(:meth:`StateColumns.raw_states`) is byte for byte the one a format-2 log holds.
+:class:`~beatlog.log.format.ColumnBatch` messages (:func:`column_batches`): the records
+without their robot states, and each robot-state field's values in a column of its own.
+A reader opens a batch as :class:`StateColumns`, which checks its column table and
+decodes a column only when asked for it: a replay whose behaviors read 30 of 1,000
+fields decodes 30 columns. A robot state put back together is byte for byte the one a
+format-2 log holds.
 
-A column of values all encoded in the same width (a float field: 9 bytes each) is
-stored byte-split: byte 0 of every value, then byte 1 of every value, and so on, so that
-the chunk's zstd finds a float column's marker and exponent bytes side by side (the
-reason format 3 is no larger than format 2 at any width). A log whose header names no
-robot-state fields keeps its robot states in the cycle records, as format 2 does: the
-recorder names them for a state of at least
-:data:`COLUMNS_FROM` fields, since decoding a narrower state whole costs less than
-opening its columns when the behaviors read a few dozen fields.
+A column of values of one width (a float field: 9 bytes each) is stored byte-split
+(byte 0 of every value, then byte 1, ...), so that zstd finds a float column's marker
+and exponent bytes side by side. A log whose header names no robot-state fields keeps
+its robot states in the records, as format 2 does: the recorder names them for a state
+of at least :data:`COLUMNS_FROM` fields.
 """
 
 from __future__ import annotations
@@ -84,12 +79,11 @@ def column_batches(
     header_fields: Sequence[str] = (),
 ) -> list[tuple[int, ColumnBatch]]:
     """Batches of format 3 from consecutive cycles' records (each encoded with a nil robot
-    state) and robot states (each encoded whole, a map of named fields), with where each
-    starts among them.
+    state) and robot states (each a map of named fields), with where each starts.
 
-    A batch holds states of the same fields in the same order; a state of other fields
-    (a type that omits defaults) starts the next. A batch of the ``header_fields`` names
-    none; states of no field at all stay in their records.
+    A batch holds states of the same fields in the same order (a type that omits
+    defaults may change them); one of the ``header_fields`` names none; states of no
+    field at all stay in their records.
 
     :raises msgspec.DecodeError: a robot state is not a map of named fields.
     """
@@ -153,14 +147,9 @@ class StateColumns:
     """One format-3 batch, its columns decoded only when asked for.
 
     Opening checks, without decoding a value, that each column holds exactly one value
-    a cycle: the column table has a width and a size per field and no field twice, the
-    sizes add up to the data, a column of values of one width takes that width times
-    the cycles (a table already seen is checked once: ``checked`` keeps each one's
-    column ends), and a column of
-    values of varied width walks through as many values as there are cycles. A value's
-    type is checked when its column is decoded: replay decodes the fields its behaviors
-    read, anything that shows whole states decodes them all; the chunk's CRC covers
-    every byte. Robot-state columns are numbered from 0 in :attr:`names` order.
+    a cycle (a column table already seen is checked once: ``checked`` keeps each one's
+    column ends); a value's type is checked when its column is decoded. Robot-state
+    columns are numbered from 0 in :attr:`names` order.
 
     :raises beatlog.errors.CorruptLogError: a column does not hold one value a cycle.
     """
@@ -235,8 +224,7 @@ class StateColumns:
 
     def unsplit(self, indices: Iterable[int]) -> None:
         """Make the columns ``indices`` msgpack arrays (:meth:`encoded`) at once: the
-        byte-split ones of one width take that many strided copies all together, not
-        that many each (a copy costs about as much for 30 columns as for one)."""
+        byte-split ones of one width un-split together, a strided copy a byte."""
         data = self._data
         widths = self.widths
         ends = self._ends
@@ -266,10 +254,8 @@ class StateColumns:
         """Each cycle of the batch as one msgpack array of its values in the columns
         ``fixed`` (each of values of one width), then ``varied`` (of varied width).
 
-        A column of one width is ``width`` planes of a byte a cycle (one if not split),
-        so with the columns laid end to end after the array head's bytes (a plane each),
-        a cycle's values are one strided slice however many columns there are. A value
-        of varied width is found by walking its column, and joined on.
+        With the planes of the ``fixed`` columns laid end to end after the array head's,
+        a cycle's values are one strided slice.
 
         :raises msgspec.DecodeError: a column of varied width is damaged.
         """
@@ -306,8 +292,7 @@ class StateColumns:
             ) from None
 
     def values(self, index: int, decode: Callable[[Any], list[Any]], type_name: str) -> list[Any]:
-        """A robot-state column's values decoded with ``decode`` (for a list of the
-        field's type).
+        """A robot-state column's values decoded with ``decode``.
 
         :raises beatlog.errors.SchemaMismatchError: a value does not fit the field's type
             (the message names its cycle and the field).
@@ -363,20 +348,17 @@ class StateColumns:
         :raises beatlog.errors.CorruptLogError: a column is damaged.
         """
         columns = self._raw_columns()
-        if not columns:
-            return [msgspec.Raw(b"\x80")] * self.count
-        encode = _ENCODER.encode
-        names = self.names or ()
-        rows = zip(*columns, strict=True)
-        return [msgspec.Raw(encode(dict(zip(names, row, strict=True)))) for row in rows]
+        rows = zip(*columns, strict=True) if columns else [()] * self.count
+        return [self._whole(row) for row in rows]
 
     def raw_state(self, cycle: int) -> msgspec.Raw:
         """RS_t of ``cycle`` (one of the batch's) encoded whole, as a format-2 log holds it.
 
         :raises beatlog.errors.CorruptLogError: a column is damaged.
         """
-        at = cycle - self.first_cycle
-        values = [column[at] for column in self._raw_columns()]
+        return self._whole([column[cycle - self.first_cycle] for column in self._raw_columns()])
+
+    def _whole(self, values: Sequence[msgspec.Raw]) -> msgspec.Raw:
         return msgspec.Raw(_ENCODER.encode(dict(zip(self.names or (), values, strict=True))))
 
 

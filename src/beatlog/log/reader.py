@@ -53,9 +53,9 @@ _SCHEMAS = {
 class LogStatus:
     """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles.
 
-    A complete log with a ``problem`` has its index (the summary and footer after its
-    cycles) damaged and every cycle intact: only a reader told to tolerate that reports
-    it. A dataclass rather than a tuple, so that ``replay --json`` names its fields.
+    A complete log with a ``problem`` has its index damaged and every cycle intact (only
+    a reader told to tolerate that reports it). A dataclass, so that ``replay --json``
+    names its fields.
     """
 
     complete: bool
@@ -75,17 +75,13 @@ def _index_damaged(problem: str) -> str:
 
 
 class SessionLogReader(Closing):
-    """Streams the cycles of one ``.beatlog`` file; a context manager.
+    """Streams the cycles of one ``.beatlog`` file, in order, none missing or repeated;
+    a context manager. The header is read and checked on opening; once iteration ends,
+    :attr:`status` says whether the log was complete.
 
-    The header is read and checked on opening. Iterate :meth:`batches` (fastest) or
-    :meth:`cycles`; when iteration ends, :attr:`status` says whether the log was
-    complete. Every cycle yielded is in order, none missing or repeated.
-
-    Damage in the index after the cycles (the summary section and the footer, checked
-    against the footer's summary CRC) is a :class:`~beatlog.errors.CorruptLogError`
-    even when every cycle and the end record read back intact, unless
-    ``tolerate_damaged_index``: the status then says so (for people looking at a log).
-
+    Damage in the index after the cycles (the summary and the footer) is a
+    :class:`~beatlog.errors.CorruptLogError` even when every cycle and the end record
+    read back intact, unless ``tolerate_damaged_index``: the status then says so.
     Given a :class:`~beatlog.log.recording.Recording`, the first reader to reach the end
     of the file takes its digest and keeps its bytes, and readers after it read those.
     """
@@ -123,15 +119,12 @@ class SessionLogReader(Closing):
     def batches(
         self, start: int = 0, skimmed: Callable[[list[CycleRecord]], object] | None = None
     ) -> Iterator[list[CycleRecord]]:
-        """Yield the cycles in the batches they were written in, each checked in place,
-        from cycle ``start`` on: the batch that holds it is cut there.
+        """Yield the cycles in the batches they were written in, each checked, from cycle
+        ``start`` on: the batch that holds it is cut there.
 
-        The cycles before ``start`` are skimmed, not yielded: read and checked as every
-        batch is (each chunk's bounds and CRC, each batch in order, stamped with its
-        robot time, each cycle a record of the format's shape), their parts (robot
-        state, state changes, draws, outputs, samples) left undecoded, and a format-3
-        batch's robot-state columns unchecked; ``skimmed`` is handed them, a batch at a
-        time. :attr:`robot_time_ns` counts them all the same.
+        The cycles before ``start`` are skimmed: checked as every batch is, but their
+        parts (and a format-3 batch's columns) left undecoded, and handed to ``skimmed``
+        a batch at a time instead of yielded. :attr:`robot_time_ns` counts them too.
         """
         for topic, message in self._messages:
             if topic == CYCLES_TOPIC:
@@ -263,11 +256,8 @@ class SessionLogReader(Closing):
         self.end = end
 
     def _topic_messages(self) -> Iterator[tuple[str, Message]]:
-        """Messages with their channel's topic, in the order the format requires.
-
-        The header comes first, then cycles, then at most one end record and nothing
-        after it. Sets the status when the records end.
-        """
+        """Messages with their channel's topic, in the order the format requires (the
+        header, cycles, at most one end record); sets the status when the records end."""
         ended = False
         try:
             for record in self._stream.records():

@@ -90,8 +90,10 @@ class SessionLogWriter(Closing):
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self.error: BaseException | None = None
         self.cycles_written = 0
-        self._cycles_queued = 0
-        self._robot_time_ns = 0
+        self.cycles_appended = 0
+        """Cycles taken by :meth:`append` so far (written, or queued to be)."""
+        self.robot_time_ns = 0
+        """The sum of the heartbeat intervals of the cycles appended so far."""
         self._closed = False
         self._columns = header.format_version >= COLUMNS_SINCE
         self._state_fields = header.state_fields
@@ -169,36 +171,21 @@ class SessionLogWriter(Closing):
         """
         if self.error is not None:
             return
-        if self._by_field:
-            encoded = self._encoder.encode(state)
-            record = self._encoder.encode(CycleEntry(hb_ns, None, changes, draws, outputs, samples))
-            payload: Any = (record, encoded)
-            size = len(record) + len(encoded)
-        else:
-            payload = self._encoder.encode(
-                CycleEntry(hb_ns, state, changes, draws, outputs, samples)
-            )
-            size = len(payload)
+        by_field = self._by_field
+        entry = CycleEntry(hb_ns, None if by_field else state, changes, draws, outputs, samples)
+        record = self._encoder.encode(entry)
+        payload: Any = (record, self._encoder.encode(state)) if by_field else record
+        size = len(record) + (len(payload[1]) if by_field else 0)
         if size > MAX_CYCLE_BYTES:
             self.error = LogError(
                 self.path or "<output>",
-                f"cycle {self._cycles_queued} is {size} bytes; the most a cycle may "
+                f"cycle {self.cycles_appended} is {size} bytes; the most a cycle may "
                 f"hold is {MAX_CYCLE_BYTES} (keep the robot state light)",
             )
             return
-        self._cycles_queued += 1
-        self._robot_time_ns += hb_ns
-        self._queue.put((self._robot_time_ns, payload, size))
-
-    @property
-    def cycles_appended(self) -> int:
-        """Cycles taken by :meth:`append` so far (written, or queued to be)."""
-        return self._cycles_queued
-
-    @property
-    def robot_time_ns(self) -> int:
-        """The sum of the heartbeat intervals of the cycles appended so far."""
-        return self._robot_time_ns
+        self.cycles_appended += 1
+        self.robot_time_ns += hb_ns
+        self._queue.put((self.robot_time_ns, payload, size))
 
     def close(self, end: SessionEnd | None = None) -> None:
         """Write what is queued and the end record, then finish and close the file."""
@@ -229,12 +216,11 @@ class SessionLogWriter(Closing):
             pending_bytes += size
             if flush_at is None:
                 flush_at = time_ns + self._flush_interval_ns
-            if len(pending) >= self._batch_cycles or pending_bytes >= BATCH_BYTES:
+            due = time_ns >= flush_at
+            if due or len(pending) >= self._batch_cycles or pending_bytes >= BATCH_BYTES:
                 self._guard(self._write_batch, pending)
                 pending_bytes = 0
-            if time_ns >= flush_at:
-                self._guard(self._write_batch, pending)
-                pending_bytes = 0
+            if due:
                 self._guard(self._flush)
                 flush_at = time_ns + self._flush_interval_ns
         self._guard(self._write_batch, pending)
