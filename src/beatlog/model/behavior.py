@@ -141,32 +141,21 @@ class PriorityArbiter(CataloguedSystem[RS]):
     def update(self, state: RS, context: Context) -> None:
         """Step every behavior in priority order and emit the winner's outputs (each
         output's winner's, ``per_output``)."""
-        if self.per_output:
-            self._update_per_output(state, context)
-            return
-        winner: PlainBehavior[RS] | None = None
-        command: Outputs | None = None
-        for actor, behavior in enumerate(self._children, start=1):
-            context.actor = actor
-            proposal = behavior.step(state, context)
-            if winner is None and proposal is not None:
-                winner, command = behavior, proposal
-        context.actor = 0
-        self.state = "idle" if winner is None else winner.name
-        if command:
-            context.outputs.update(command)
-
-    def _update_per_output(self, state: RS, context: Context) -> None:
         command: Outputs = {}
-        winners: dict[str, str] = {}
+        winner: str | None = None
+        winners: dict[str, str] = {}  # per output: each output's winner
         for actor, behavior in enumerate(self._children, start=1):
             context.actor = actor
             proposal = behavior.step(state, context)
-            for output, value in (proposal or {}).items():
-                if output not in command:
-                    command[output] = value
-                    winners[output] = behavior.name
+            if self.per_output:
+                for output, value in (proposal or {}).items():
+                    if output not in command:
+                        command[output] = value
+                        winners[output] = behavior.name
+            elif winner is None and proposal is not None:
+                winner, command = behavior.name, proposal
         context.actor = 0
-        owned = [f"{output}: {winners[output]}" for output in sorted(winners)]
-        self.state = ", ".join(owned) if owned else "idle"
+        if self.per_output:
+            winner = ", ".join(f"{output}: {winners[output]}" for output in sorted(winners)) or None
+        self.state = "idle" if winner is None else winner
         context.outputs.update(command)
