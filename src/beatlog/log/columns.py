@@ -118,12 +118,9 @@ def column_batches(
 
 def _with_state(record: bytes, state: bytes) -> msgspec.Raw:
     """A record encoded with a nil robot state, holding ``state`` instead."""
-    parts = _PARTS(record)
+    parts = _RAWS(record)
     parts[1] = msgspec.Raw(state)
     return msgspec.Raw(_ENCODER.encode(parts))
-
-
-_PARTS = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode
 
 
 def _same_fields(one: dict[str, Any], other: dict[str, Any]) -> bool:

@@ -74,7 +74,9 @@ class RecordStream(Closing):
 
     def __init__(self, source: Path | Recording) -> None:
         self.path = Path(source)
-        self._recording = source if isinstance(source, Recording) and source.streaming else None
+        self._recording = (
+            source if isinstance(source, Recording) and source.digest is None else None
+        )
         if self._recording is not None:
             self._recording.start()
         self.file, self.size = self._open(source)

@@ -49,21 +49,20 @@ class _ReadCycleRecord(CycleRecord, forbid_unknown_fields=True):
     defines is damaged, not cut short (the writer's own records stay as they are)."""
 
 
-def _as_read(name: str, batch: type[msgspec.Struct], *fields: tuple[str, Any, Any]) -> Any:
-    """A cycles message of type ``batch`` as the reader decodes it: nothing after its
-    cycles (its columns, in format 3), each cycle as read, ``fields`` as given."""
-    return msgspec.defstruct(
-        name,
-        [("cycles", list[_ReadCycleRecord]), *fields],
-        bases=(batch,),
-        array_like=True,
-        forbid_unknown_fields=True,
-    )
+class _ReadCycleBatch(CycleBatch, forbid_unknown_fields=True):
+    """A format-2 cycles message as the reader decodes it: nothing after its cycles."""
+
+    cycles: list[_ReadCycleRecord]  # type: ignore[assignment]
 
 
-_ReadCycleBatch = _as_read("_ReadCycleBatch", CycleBatch)
-_ReadColumnBatch = _as_read("_ReadColumnBatch", ColumnBatch, ("data", memoryview, memoryview(b"")))
-"""Its columns' ``data`` is a view of the message, not a copy (most of a wide log's bytes)."""
+class _ReadColumnBatch(ColumnBatch, forbid_unknown_fields=True):
+    """A format-3 cycles message as the reader decodes it: nothing after its columns."""
+
+    cycles: list[_ReadCycleRecord]  # type: ignore[assignment]
+    data: memoryview = memoryview(b"")  # type: ignore[assignment]
+    """A view of the message, not a copy (most of a wide log's bytes)."""
+
+
 _NIL = msgspec.Raw(b"\xc0")
 _COLUMN_BATCHES = msgspec.msgpack.Decoder(_ReadColumnBatch)
 _CYCLE_BATCHES = msgspec.msgpack.Decoder(_ReadCycleBatch)

@@ -51,12 +51,6 @@ class Recording(os.PathLike[str]):
         """What a copy in another process holds: no read under way."""
         return {**self.__dict__, "_hash": None, "_pieces": None, "_read": 0}
 
-    @property
-    def streaming(self) -> bool:
-        """Whether a read of the file is under way, or has yet to start, that will take
-        the digest (no read has reached the end yet)."""
-        return self.digest is None
-
     def start(self) -> None:
         """A read of the file from its first byte begins: hashing and keeping start over."""
         self._hash = hashlib.sha256()

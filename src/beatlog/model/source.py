@@ -175,12 +175,10 @@ class RandomSource(ABC):
         ``range(a)`` for an int ``a`` (numpy's ``choice``), with the probabilities ``p``
         where given; with ``size``, an array of them, without repeats unless ``replace``.
 
-        The pick is drawn as ``choice(n)``; with ``p``, as ``random()``, the weights
-        then picking by their cumulative sums (as numpy does), so replay checks the
-        draw and applies the weights asked for now. With ``size``: ``integers_array(0,
-        n, size)``, or ``uniform_array(0.0, 1.0, size)`` with ``p``; without
-        ``replace``, ``uniform_array(0.0, 1.0, [n])``, a key per element, the smallest
-        ``size`` of them picked (keys scaled by ``p`` where given).
+        The pick is drawn as ``choice(n)``, or ``random()`` with ``p`` (the weights are
+        applied to it, so replay applies the weights asked for now); with ``size``, as
+        ``integers_array`` or ``uniform_array``; without ``replace``, a uniform key per
+        element, the smallest ``size`` picked (keys scaled by ``p`` where given).
         """
         population: Any = a
         try:
