@@ -81,7 +81,7 @@ class RecordStream(Closing):
             self._recording.start()
         self.file, self.size = self._open(source)
         self.footer: Footer | None = None
-        self.summary_crc = 0
+        self._summary_crc = 0
         self._chunks: list[tuple[int, int]] = []
         self._expanded = 0
         self._summary_start = 0
@@ -131,11 +131,10 @@ class RecordStream(Closing):
         return file, size
 
     def records(self) -> Iterator[McapRecord]:
-        """The container's records in file order, up to the footer."""
+        """The container's records in file order, up to the footer (the summary checked
+        against its CRC there)."""
         size = self.size
         offset = len(MAGIC)
-        first = True
-        summary = False
         allowed = DATA_RECORDS | {Opcode.FOOTER}
         while self.footer is None:
             head = self._read(RECORD_HEAD)
@@ -150,10 +149,10 @@ class RecordStream(Closing):
             if end > size:
                 if opcode in KNOWN_OPCODES and length <= MAX_RECORD_BYTES:
                     raise TruncatedError(f"the last record is cut off at byte {offset}")
-                raise self._damaged_record(f"damaged record at byte {offset}", summary=summary)
+                raise self._damaged_record(f"damaged record at byte {offset}")
             body = self._read(length)
             try:
-                if not first and opcode not in allowed:
+                if offset > len(MAGIC) and opcode not in allowed:
                     raise RecordDamageError(f"unexpected record (opcode {opcode:#x})")
                 records = self._parse(opcode, body, offset)
             except (RecordDamageError, McapError, *DECODE_ERRORS, ValueError, struct.error) as exc:
@@ -165,17 +164,15 @@ class RecordStream(Closing):
                         "(power loss?)"
                     ) from None
                 problem = f"damaged record at byte {offset}: {exc}"
-                raise self._damaged_record(problem, summary=summary) from None
-            if first:
+                raise self._damaged_record(problem) from None
+            if offset == len(MAGIC):
                 self._check_profile(records)
-                first = False
             if opcode == Opcode.DATA_END:
                 allowed = SUMMARY_RECORDS | {Opcode.FOOTER}
                 self._summary_start = end
-                summary = True
-            elif summary:
+            elif self._summary_start:
                 self._summary.extend(records)
-                self.summary_crc = summary_crc(head, body, self.summary_crc)
+                self._summary_crc = summary_crc(head, body, self._summary_crc)
             else:
                 yield from records
             offset = end
@@ -183,11 +180,15 @@ class RecordStream(Closing):
             raise IndexDamageError("damaged or extra bytes after the log's footer")
         if self._recording is not None:
             self._recording.ended(size)
+        if self.footer.summary_crc != self._summary_crc:
+            raise IndexDamageError("the summary does not match its CRC in the footer")
 
-    def _damaged_record(self, problem: str, *, summary: bool) -> Exception:
+    def _damaged_record(self, problem: str) -> Exception:
         """A record not as written: damage to the index in the summary section, else a
         corrupt log."""
-        return IndexDamageError(problem) if summary else CorruptLogError(self.path, problem)
+        if self._summary_start:
+            return IndexDamageError(problem)
+        return CorruptLogError(self.path, problem)
 
     def _zero_filled_from(self, start: int) -> bool:
         """Whether every byte from ``start`` to the end of the file is zero (power loss)."""
