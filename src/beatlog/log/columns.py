@@ -213,11 +213,8 @@ class StateColumns:
     def encoded(self, index: int) -> bytes:
         """A column as one msgpack array of the batch's values, un-split (once; kept for
         the batch)."""
-        found = self._encoded.get(index)
-        if found is None:
-            self.unsplit((index,))
-            found = self._encoded[index]
-        return found
+        self.unsplit((index,))
+        return self._encoded[index]
 
     def unsplit(self, indices: Iterable[int]) -> None:
         """Make the columns ``indices`` msgpack arrays (:meth:`encoded`) at once: the

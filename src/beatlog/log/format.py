@@ -15,7 +15,6 @@ state changes and outputs byte for byte, without decoding them, when they match.
 
 from __future__ import annotations
 
-import functools
 import re
 from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, NamedTuple
@@ -203,30 +202,7 @@ class Draw(NamedTuple):
 
     def call(self) -> str:
         """The request as code, e.g. ``uniform(2.0, 5.0)``."""
-        params = self.params
-        if _PLAIN_PARAMS.issuperset(map(type, params)):  # the usual: one text per request
-            try:
-                return _plain_call(self.kind, _encode_plain(params))
-            except OverflowError:  # an int past 64 bits
-                pass
-        return _call(self.kind, params)
-
-
-_PLAIN_PARAMS = frozenset({int, float})
-_encode_plain = msgspec.msgpack.Encoder().encode
-"""Plain numbers as msgpack, bit for bit: an int and a float, or 0.0 and -0.0, differ."""
-_decode_plain = msgspec.msgpack.Decoder(tuple[int | float, ...]).decode
-
-
-def _call(kind: str, params: Sequence[Any]) -> str:
-    return f"{kind}({', '.join(map(repr, params))})"
-
-
-@functools.lru_cache(maxsize=1024)
-def _plain_call(kind: str, params: bytes) -> str:
-    """:meth:`Draw.call` of a request of plain numbers, by their exact bytes: living
-    replay writes each request it compares, and formatting floats is what costs."""
-    return _call(kind, _decode_plain(params))
+        return f"{self.kind}({', '.join(map(repr, self.params))})"
 
 
 class CycleEntry(msgspec.Struct, array_like=True):

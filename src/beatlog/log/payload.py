@@ -138,12 +138,10 @@ class BatchDecoding:
         self._checked: dict[tuple[bytes, bytes, int], list[int]] = {}
 
     def records(self, batch: ColumnBatch) -> list[CycleRecord]:
-        """The cycles of a format-3 batch, its column table checked (:class:`StateColumns`).
-
-        Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it; once
-        :meth:`decode_states` was called, RS_t decoded where the batch's records hold
-        the robot states, else the batch's :class:`StateColumns`, for the replay core
-        to decode the fields the behaviors read.
+        """The cycles of a format-3 batch, its column table checked (:class:`StateColumns`):
+        each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it, or
+        once :meth:`decode_states` was called, decoded (or the batch's
+        :class:`StateColumns`, where it stores them by field).
 
         :raises beatlog.errors.CorruptLogError: a robot state stored by field is also
             in its record, or one stored in the records is missing.
