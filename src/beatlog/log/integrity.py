@@ -63,13 +63,11 @@ class IndexDamageError(Exception):
 class RecordStream(Closing):
     """The records of one ``.beatlog`` file in file order, chunks opened and checked.
 
-    Opening checks that the path is a regular file holding an MCAP container (a FIFO or
-    a device could block or never end). Iterating :meth:`records` yields the data
-    section's records; the summary section is kept for :meth:`check_summary`.
-
-    Given a :class:`~beatlog.log.recording.Recording`, it reads the bytes the recording
-    keeps, once a read has kept them; else it reads the file and hands the recording
-    every byte, in order, for its digest and its copy.
+    Opening checks that the path is a regular file (a FIFO or a device could block or
+    never end) holding an MCAP container. :meth:`records` yields the data section's
+    records; the summary section is kept for :meth:`check_summary`. A
+    :class:`~beatlog.log.recording.Recording` is read from the bytes it keeps, or else
+    handed every byte read, for its digest and its copy.
     """
 
     def __init__(self, source: Path | Recording) -> None:

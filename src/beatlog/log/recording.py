@@ -1,11 +1,9 @@
 """A session log read once: its SHA-256 taken as its bytes stream past, and the bytes
 kept in memory (up to a bound) for whatever looks at it again.
 
-A DTC's verdict reads its log to the end, byte for byte (:mod:`beatlog.log.integrity`).
-Given a :class:`Recording` instead of a path, that one read also hashes every byte,
-in file order, for the digest that binds a baseline to its recording, and keeps them,
-so that the details of a failure, the check that it repeats and the weighing of a
-pending baseline replay the same bytes from memory: the file is opened once.
+The verdict's read of a :class:`Recording` hashes every byte for the digest that binds
+a baseline to its recording, and keeps them, so that the details of a failure and the
+weighing of a pending baseline replay the same bytes: the file is opened once.
 """
 
 from __future__ import annotations

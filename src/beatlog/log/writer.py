@@ -1,14 +1,11 @@
 """Writes a session log from a background thread so the control loop never waits on disk.
 
-The control thread encodes each cycle into immutable bytes (a few microseconds) and
-queues them. The writer thread batches cycles into messages (in format 3, robot states
-stored by field: :mod:`beatlog.log.columns`) and closes an MCAP chunk
-at least once per flush interval of robot time, so a recorder killed mid-session
-leaves a log that is readable up to its last flushed cycle, and the same session
-gives the same bytes on any machine. A write failure stops the writing, never the
-robot: it is kept in :attr:`SessionLogWriter.error` and the log stays valid up to
-the failure. A log file whose header cannot be written (a full disk) is removed: a
-recording leaves a valid log or nothing.
+The control thread encodes each cycle and queues it; the writer thread batches cycles
+into messages and closes a chunk at least once per flush interval of robot time, so a
+recorder killed mid-session leaves a log readable up to its last flush, and the same
+session gives the same bytes on any machine. A write failure stops the writing, never
+the robot (:attr:`SessionLogWriter.error`); a log whose header cannot be written is
+removed: a recording leaves a valid log or nothing.
 """
 
 from __future__ import annotations

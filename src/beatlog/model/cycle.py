@@ -23,7 +23,7 @@ __all__ = [
     "StateChange",
     "Update",
     "find_changes",
-    "state_reader",
+    "read_states",
 ]
 
 Update = Callable[[Any, Context], None]
@@ -66,14 +66,9 @@ class DrawReport(NamedTuple):
         return asked if self.value is None else f"{asked} = {_SHORT.repr(self.value)}"
 
 
-def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
-    """A function that reads every behavior's state, in catalogue order."""
-    catalogue = tuple(behaviors)
-
-    def read() -> list[BehaviorState]:
-        return [behavior.state for behavior in catalogue]
-
-    return read
+def read_states(behaviors: Sequence[Behavior]) -> list[BehaviorState]:
+    """Every behavior's state as it is now, in catalogue order."""
+    return [behavior.state for behavior in behaviors]
 
 
 def find_changes(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
@@ -97,8 +92,8 @@ class CycleExecutor:
         self.system = system
         catalogue = system.behaviors
         self.behavior_ids = list(catalogue)
-        self._read_states = state_reader(list(catalogue.values()))
-        self._states = self._read_states()
+        self._behaviors = tuple(catalogue.values())
+        self._states = read_states(self._behaviors)
         self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
@@ -114,7 +109,7 @@ class CycleExecutor:
         if context.outputs:
             context.outputs = {}
         self._update(state, context)
-        now = self._read_states()
+        now = read_states(self._behaviors)
         states = self._states
         if now == states:  # the common case, compared in C: same objects or equal values
             return []
