@@ -17,8 +17,6 @@ of at least :data:`COLUMNS_FROM` fields.
 
 from __future__ import annotations
 
-import functools
-import operator
 import re
 import struct
 from collections.abc import Callable, Iterable, Sequence
@@ -217,32 +215,22 @@ class StateColumns:
         return self._encoded[index]
 
     def unsplit(self, indices: Iterable[int]) -> None:
-        """Make the columns ``indices`` msgpack arrays (:meth:`encoded`) at once: the
-        byte-split ones of one width un-split together, a strided copy a byte."""
-        data = self._data
-        widths = self.widths
-        ends = self._ends
-        head = array_head(self.count)
-        split: dict[int, dict[int, int]] = {}  # by width: each column's start by index
+        """Make the columns ``indices`` msgpack arrays (:meth:`encoded`), a byte-split
+        one put back together a byte of its values at a time."""
+        count = self.count
+        head = array_head(count)
         for index in indices:
             if index in self._encoded:
                 continue
-            width = widths[index]
-            start = ends[index - 1] if index else 0
+            width = self.widths[index]
+            start = self._ends[index - 1] if index else 0
+            column: Any = self._data[start : self._ends[index]]
             if width > 1:
-                split.setdefault(width, {})[index] = start
-            else:
-                self._encoded[index] = head + data[start : ends[index]]
-        join = bytearray().join  # a bytearray is copied into place without a copy of it
-        for width, starts in split.items():
-            size = width * self.count
-            blocks = [slice(start, start + size) for start in starts.values()]
-            group = join(operator.itemgetter(*blocks, slice(0, 0))(data))
-            values = bytearray(size * len(starts))
-            for byte, planes in enumerate(_planes(len(starts), width, self.count)):
-                values[byte::width] = join(planes(group))
-            for at, index in enumerate(starts):
-                self._encoded[index] = head + values[at * size : (at + 1) * size]
+                values = bytearray(len(column))
+                for byte in range(width):
+                    values[byte::width] = column[byte * count : (byte + 1) * count]
+                column = values
+            self._encoded[index] = head + column
 
     def rows(self, fixed: Sequence[int], varied: Sequence[int] = ()) -> list[bytes]:
         """Each cycle of the batch as one msgpack array of its values in the columns
@@ -308,19 +296,13 @@ class StateColumns:
     def decoded(
         self, indices: list[int], decoders: list[Callable[[Any], list[Any]]], type_name: str
     ) -> list[list[Any]]:
-        """The columns ``indices`` decoded, each with its decoder, as :meth:`values` does
-        one: un-split together first (:meth:`unsplit`).
+        """The columns ``indices`` decoded, each with its decoder, as :meth:`values` does.
 
         :raises beatlog.errors.SchemaMismatchError: a value does not fit its field's type.
         :raises beatlog.errors.CorruptLogError: a column is damaged.
         """
-        self.unsplit(indices)
-        encoded = self._encoded
-        columns = list(zip(indices, decoders, strict=True))
-        try:
-            return [decode(encoded[index]) for index, decode in columns]
-        except (msgspec.ValidationError, *DECODE_ERRORS):  # found again, to say where
-            return [self.values(index, decode, type_name) for index, decode in columns]
+        columns = zip(indices, decoders, strict=True)
+        return [self.values(index, decode, type_name) for index, decode in columns]
 
     def _cycle(self, exc: Exception) -> int:
         """The cycle a decoding error points at (the batch's first when it says none)."""
@@ -354,21 +336,6 @@ class StateColumns:
 
     def _whole(self, values: Sequence[msgspec.Raw]) -> msgspec.Raw:
         return msgspec.Raw(_ENCODER.encode(dict(zip(self.names or (), values, strict=True))))
-
-
-@functools.lru_cache(maxsize=256)
-def _planes(columns: int, width: int, count: int) -> list[Callable[[Any], Any]]:
-    """For ``columns`` byte-split columns of ``count`` ``width``-byte values laid end to
-    end, a getter per byte of a value: it takes that byte's plane of every column, in
-    order. Made once per shape, whichever columns of a batch are gathered."""
-    starts = range(0, columns * width * count, width * count)
-    return [
-        operator.itemgetter(
-            *[slice(start + byte * count, start + (byte + 1) * count) for start in starts],
-            slice(0, 0),  # so that one column's getter also gives a tuple
-        )
-        for byte in range(width)
-    ]
 
 
 _RAWS = msgspec.msgpack.Decoder(list[msgspec.Raw]).decode

@@ -148,13 +148,10 @@ class SessionLogReader(Closing):
     def decode_states(self, state_type: type[Any]) -> None:
         """Decode each cycle's RS_t into ``state_type`` from the next batch on, in the
         same pass as its batch (format 3: the batch's
-        :class:`~beatlog.log.columns.StateColumns`, to decode only the fields read), and
-        check its samples against the header instead of keeping them.
-
-        A robot state that does not fit the type is a
-        :class:`~beatlog.errors.SchemaMismatchError` naming its cycle; samples the header
-        does not declare are a :class:`~beatlog.errors.CorruptLogError` naming it.
-        """
+        :class:`~beatlog.log.columns.StateColumns`), and check its samples against the
+        header instead of keeping them: one that does not fit is then a
+        :class:`~beatlog.errors.SchemaMismatchError` (samples: a damaged log) naming its
+        cycle."""
         self._decoding.decode_states(state_type)
 
     def cycles(self) -> Iterator[CycleRecord]:
