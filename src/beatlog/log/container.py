@@ -9,7 +9,6 @@ format defines it is a :class:`RecordDamageError`.
 from __future__ import annotations
 
 import struct
-import threading
 import zlib
 from io import BytesIO
 from typing import Any
@@ -121,9 +120,6 @@ def summary_crc(head: bytes, body: bytes, crc: int) -> int:
     return zlib.crc32(body, crc)
 
 
-_THREAD = threading.local()
-
-
 def unpack_chunk(chunk: Chunk) -> bytes:
     """The data of a chunk within its bounds (a compression the format allows, at most
     one chunk's size), decompressed and checked against its CRC.
@@ -138,10 +134,8 @@ def unpack_chunk(chunk: Chunk) -> bytes:
         raise RecordDamageError(f"a chunk claims {size} bytes uncompressed")
     data = chunk.data
     if chunk.compression == "zstd":
-        if not hasattr(_THREAD, "zstd"):  # one decompressor a thread: none serves two at once
-            _THREAD.zstd = zstandard.ZstdDecompressor()
         try:
-            data = _THREAD.zstd.stream_reader(data).read(size + 1)
+            data = zstandard.ZstdDecompressor().stream_reader(data).read(size + 1)
         except zstandard.ZstdError as exc:
             raise RecordDamageError(f"chunk does not decompress: {exc}") from None
     if len(data) != size:

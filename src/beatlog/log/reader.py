@@ -65,13 +65,9 @@ class LogStatus:
     def describe(self) -> str:
         """One line for people: "complete", "index damaged, data intact" and why, or
         where and why the log was truncated."""
-        if self.complete:
-            return "complete" if self.problem is None else _index_damaged(self.problem)
-        return f"truncated at cycle {self.cycles}: {self.problem}"
-
-
-def _index_damaged(problem: str) -> str:
-    return f"index damaged, data intact: {problem}"
+        if not self.complete:
+            return f"truncated at cycle {self.cycles}: {self.problem}"
+        return "complete" if self.problem is None else f"index damaged, data intact: {self.problem}"
 
 
 class SessionLogReader(Closing):
@@ -289,11 +285,12 @@ class SessionLogReader(Closing):
     def _index_damage(self, problem: str) -> None:
         """The summary or footer is damaged: after intact cycles and end record, the
         status of a reader tolerating that, else an error."""
+        status = LogStatus(True, self._cycles, problem)
         if self.end is None:
             raise CorruptLogError(self.path, problem)
         if not self._tolerate_damaged_index:
-            raise CorruptLogError(self.path, _index_damaged(problem))
-        self._status = LogStatus(True, self._cycles, problem)
+            raise CorruptLogError(self.path, status.describe())
+        self._status = status
 
     def _defined_before(
         self, what: str, known: Schema | Channel | None, record: Schema | Channel
