@@ -135,7 +135,10 @@ class _Values(msgspec.Struct, array_like=True, gc=False):
 _WALK = msgspec.msgpack.Decoder(_Values).decode
 _CHECKED_TABLES = 256
 """Column tables (widths, sizes, cycles) a reader remembers as checked, with where each
-column ends: consecutive batches of one robot mostly share theirs."""
+column ends: consecutive batches of one robot mostly share theirs. Checking each table
+afresh costs 12 % more instructions on a whole replay of 10 behaviors reading 3 fields
+each of a 1,000-field robot state (183.6 M against 163.3 M for 600 cycles; 1.5 % at
+100 behaviors)."""
 
 
 class StateColumns:
