@@ -122,11 +122,8 @@ def summary_crc(head: bytes, body: bytes, crc: int) -> int:
 
 def unpack_chunk(chunk: Chunk) -> bytes:
     """The data of a chunk within its bounds (a compression the format allows, at most
-    one chunk's size), decompressed and checked against its CRC.
-
-    The CRC is always checked: beatlog's writer always computes it, so a stored 0
-    is not "no CRC" but must match, like any other value.
-    """
+    one chunk's size), decompressed and checked against its CRC, always: the writer
+    always writes one, so a stored 0 is not "no CRC" but must match."""
     size = chunk.uncompressed_size
     if chunk.compression not in _COMPRESSIONS:
         raise RecordDamageError(f"unknown chunk compression {chunk.compression!r}")

@@ -6,7 +6,7 @@ import os
 import struct
 import zlib
 from pathlib import Path
-from typing import IO, cast
+from typing import IO
 
 import msgspec
 from mcap.exceptions import McapError
@@ -15,13 +15,10 @@ from mcap.records import Channel, Chunk, ChunkIndex, Footer, Message
 
 from beatlog.log.container import (
     CHUNK_RECORDS,
-    FOOTER_BYTES,
     FOOTER_RECORD,
     MAGIC,
-    RECORD_HEAD,
     SUMMARY_RECORDS,
     RecordDamageError,
-    read_record,
     split_records,
     unpack_chunk,
 )
@@ -57,10 +54,10 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
         return None
     file.seek(footer_at)
     tail = file.read(FOOTER_RECORD + len(MAGIC))
-    opcode, length = struct.unpack_from("<BQ", tail)
-    if (opcode, length, tail[FOOTER_RECORD:]) != (Opcode.FOOTER, FOOTER_BYTES, MAGIC):
+    if tail[FOOTER_RECORD:] != MAGIC:
         return None
-    footer = cast("Footer", read_record(Opcode.FOOTER, tail[RECORD_HEAD:FOOTER_RECORD]))
+    (footer,) = split_records(tail[:FOOTER_RECORD], frozenset({Opcode.FOOTER}), "the footer")
+    assert isinstance(footer, Footer)
     summary_start = footer.summary_start
     if not len(MAGIC) < summary_start <= footer_at or footer_at - summary_start > MAX_CHUNK_BYTES:
         return None
@@ -72,7 +69,7 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     ends = {r.id for r in summary if isinstance(r, Channel) and r.topic == END_TOPIC}
     # A chunk holds at most MAX_CHUNK_BYTES, and compression never doubles it.
     holding = [
-        r.chunk_start_offset
+        (r.chunk_start_offset, r.chunk_length)
         for r in summary
         if isinstance(r, ChunkIndex)
         and not ends.isdisjoint(r.message_index_offsets)
@@ -81,11 +78,9 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     ]
     if len(ends) != 1 or len(holding) != 1:
         return None
-    file.seek(holding[0])
-    opcode, length = struct.unpack("<BQ", file.read(RECORD_HEAD))
-    if opcode != Opcode.CHUNK or length > 2 * MAX_CHUNK_BYTES:
-        return None
-    chunk = cast("Chunk", read_record(opcode, file.read(length)))
+    file.seek(holding[0][0])
+    (chunk,) = split_records(file.read(holding[0][1]), frozenset({Opcode.CHUNK}), "a chunk")
+    assert isinstance(chunk, Chunk)
     records = split_records(unpack_chunk(chunk), CHUNK_RECORDS, "a chunk")
     end = [r for r in records if isinstance(r, Message) and r.channel_id in ends]
     if len(end) != 1:

@@ -116,12 +116,9 @@ def decoded_version(path: Path, data: bytes) -> int:
 
 
 class BatchDecoding:
-    """How the cycles messages of one log decode, and what is wrong with one that does not.
-
-    :attr:`decode` turns a message into a :class:`CycleBatch` (a bare list of cycle
-    records in format 1) of records with their parts as raw msgpack, until
-    :meth:`decode_states` makes it decode each RS_t with its batch.
-    """
+    """How the cycles messages of one log decode (:attr:`decode`: into batches of records
+    whose parts are raw msgpack, until :meth:`decode_states`), and what is wrong with
+    one that does not."""
 
     def __init__(self, path: Path, header: SessionHeader) -> None:
         self.path = path

@@ -162,10 +162,8 @@ class SessionLogWriter(Closing):
     ) -> None:
         """Queue one cycle, encoded now so later mutation of its parts cannot change it;
         ``state`` is RS_t, or its encoding as a :class:`msgspec.Raw` (the recorder's).
-
-        Never blocks and never raises for an I/O problem; after a write failure the
-        cycle is dropped and :attr:`error` says why.
-        """
+        Never blocks nor raises for an I/O problem: after a write failure the cycle is
+        dropped and :attr:`error` says why."""
         if self.error is not None:
             return
         by_field = self._by_field
@@ -195,12 +193,8 @@ class SessionLogWriter(Closing):
             self._file.close()
 
     def _run(self) -> None:
-        """Batch cycles, and close a chunk whenever a flush interval of robot time passed.
-
-        Batches and chunks depend only on the cycles, never on the wall clock, so the
-        same session gives the same records (and, with the same start time in its
-        header, the same bytes).
-        """
+        """Batch cycles, and close a chunk whenever a flush interval of robot time passed:
+        never by the wall clock, so the same session gives the same bytes."""
         pending: list[tuple[int, Any, int]] = []
         pending_bytes = 0
         flush_at: int | None = None

@@ -125,12 +125,8 @@ class CycleExecutor:
 
     def pause_next_update(self, pause: Pause) -> None:
         """Hand the next cycle's update to ``pause``, once: :meth:`step` advances the
-        context to the cycle (``cycle``, ``time_ns``, ``dt_ns`` as the behaviors will see
-        them), then calls ``pause(update, state, context)``, which must run the update.
-
-        The replay debugger stops there, one call from the system's update; every other
-        cycle runs as before, at no cost.
-        """
+        context to the cycle, then calls ``pause(update, state, context)``, which must run
+        the update (the replay debugger stops there, one call from the system's update)."""
         update = self._update
 
         def paused(state: Any, context: Context) -> None:

@@ -36,14 +36,9 @@ __all__ = [
 
 class RecordingRandom(RandomSource):
     """Draws from a counter-based source keyed by its seed and keeps every value drawn
-    in the current cycle.
-
-    The session's n-th draw has the luck of the place ``(0, "", n)`` in the log keyed by
-    the seed (:meth:`~beatlog.model.luck.FreshLuck.luck`), and the value of its request with
-    that luck (:func:`~beatlog.model.luck.scalar_value`): pure Python, the same for the
-    same seed on every machine. An array draw seeds numpy's PCG64 from its place
-    (:func:`~beatlog.model.luck.array_value`); only array draws need numpy.
-    """
+    in the current cycle: the session's n-th draw is its request's value with the luck
+    of the place ``(0, "", n)`` (:class:`~beatlog.model.luck.FreshLuck`), the same for
+    the same seed on every machine."""
 
     def __init__(self, seed: int | None = None) -> None:
         super().__init__()
