@@ -237,10 +237,9 @@ class StateColumns:
 
     def rows(self, fixed: Sequence[int], varied: Sequence[int] = ()) -> list[bytes]:
         """Each cycle of the batch as one msgpack array of its values in the columns
-        ``fixed`` (each of values of one width), then ``varied`` (of varied width).
-
-        With the planes of the ``fixed`` columns laid end to end after the array head's,
-        a cycle's values are one strided slice.
+        ``fixed`` (each of values of one width), then ``varied`` (of varied width): with
+        the ``fixed`` columns' planes laid end to end, a cycle's values are one strided
+        slice.
 
         :raises msgspec.DecodeError: a column of varied width is damaged.
         """

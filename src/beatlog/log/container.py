@@ -79,11 +79,8 @@ _RECORD_TYPES: dict[int, type[McapRecord]] = {
 
 
 class RecordDamageError(Exception):
-    """A record is not what the writer writes; corrupt unless it is the last.
-
-    Internal to the log package: readers turn it into a
-    :class:`~beatlog.errors.LogError` naming the file, or a truncation.
-    """
+    """A record is not what the writer writes; the log package's readers turn it into a
+    :class:`~beatlog.errors.LogError` naming the file, or a truncation where it is last."""
 
 
 class _Fields(ReadDataStream):

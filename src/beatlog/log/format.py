@@ -31,7 +31,6 @@ from beatlog.log.limits import (
 )
 
 __all__ = [
-    "CHANNEL_TOPICS",
     "COLUMNS_SINCE",
     "CYCLES_TOPIC",
     "CYCLE_BATCH_SINCE",
@@ -79,7 +78,6 @@ SCHEMA_ENCODING = "jsonschema"
 HEADER_TOPIC = "/beatlog/header"
 CYCLES_TOPIC = "/beatlog/cycles"
 END_TOPIC = "/beatlog/end"
-CHANNEL_TOPICS = (HEADER_TOPIC, CYCLES_TOPIC, END_TOPIC)
 
 DECODE_ERRORS = (msgspec.DecodeError, RecursionError)
 """What decoding a damaged or hostile payload may raise (msgpack nested too deep included)."""
