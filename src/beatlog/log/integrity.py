@@ -72,11 +72,10 @@ class RecordStream(Closing):
 
     def __init__(self, source: Path | Recording) -> None:
         self.path = Path(source)
-        self._recording = (
-            source if isinstance(source, Recording) and source.digest is None else None
-        )
-        if self._recording is not None:
-            self._recording.start()
+        self._recording: Recording | None = None
+        if isinstance(source, Recording) and source.digest is None:  # no read has ended
+            self._recording = source
+            source.start()
         self.file, self.size = self._open(source)
         self.footer: Footer | None = None
         self._summary_crc = 0

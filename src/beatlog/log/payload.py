@@ -85,13 +85,9 @@ def decode_payload(path: Path, data: bytes, kind: type[T], what: str) -> T:
         raise CorruptLogError(path, f"damaged {what}: {exc}") from None
 
 
-decode_state_changes: Callable[[bytes | msgspec.Raw], list[StateChangeRecord]] = (
-    msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
-)
+decode_state_changes = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
 """A cycle record's state changes (its ``state_changes`` part), decoded."""
-decode_outputs: Callable[[bytes | msgspec.Raw], dict[str, Any]] = msgspec.msgpack.Decoder(
-    dict[str, Any]
-).decode
+decode_outputs = msgspec.msgpack.Decoder(dict[str, Any]).decode
 """A cycle record's outputs (its ``outputs`` part), decoded."""
 
 
