@@ -229,8 +229,7 @@ class SessionLogWriter(Closing):
         if not pending:
             return
         if self._by_field:
-            records = [payload[0] for _, payload, _ in pending]
-            states = [payload[1] for _, payload, _ in pending]
+            records, states = zip(*[payload for _, payload, _ in pending], strict=True)
             batches = column_batches(self.cycles_written, records, states, self._state_fields)
             messages = [(pending[start][0], self._encoder.encode(b)) for start, b in batches]
         else:  # records that hold their robot states: the same bytes in formats 2 and 3
@@ -248,12 +247,8 @@ class SessionLogWriter(Closing):
 
     def _finish(self, end: SessionEnd | None) -> None:
         if end is not None:
-            self._mcap.add_message(
-                self._channels[END_TOPIC],
-                end.robot_time_ns,
-                self._encoder.encode(end),
-                end.robot_time_ns,
-            )
+            at = end.robot_time_ns
+            self._mcap.add_message(self._channels[END_TOPIC], at, self._encoder.encode(end), at)
         self._mcap.finish()  # type: ignore[no-untyped-call]
         self._file.flush()
         if self._fsync:
