@@ -96,19 +96,18 @@ def column_batches(
         if not names:  # no field to store by: the states stay in their records
             held = zip(records[start:end], states[start:end], strict=True)
             cycles: list[Any] = [_with_state(record, state) for record, state in held]
-            batches.append((start, ColumnBatch(first_cycle + start, cycles)))
-            start = end
-            continue
-        values = zip(*[row.values() for row in rows[start:end]], strict=True)
-        columns = [encode_column(column) for column in values]
-        batch = ColumnBatch(
-            first_cycle + start,
-            [msgspec.Raw(record) for record in records[start:end]],  # type: ignore[misc]
-            [] if names == header else names,
-            bytes([column.width for column in columns]),
-            struct.pack(f"<{len(columns)}I", *[len(column.data) for column in columns]),
-            b"".join([column.data for column in columns]),
-        )
+            batch = ColumnBatch(first_cycle + start, cycles)
+        else:
+            values = zip(*[row.values() for row in rows[start:end]], strict=True)
+            columns = [encode_column(column) for column in values]
+            batch = ColumnBatch(
+                first_cycle + start,
+                [msgspec.Raw(record) for record in records[start:end]],  # type: ignore[misc]
+                [] if names == header else names,
+                bytes([column.width for column in columns]),
+                struct.pack(f"<{len(columns)}I", *[len(column.data) for column in columns]),
+                b"".join([column.data for column in columns]),
+            )
         batches.append((start, batch))
         start = end
     return batches
