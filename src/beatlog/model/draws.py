@@ -104,25 +104,14 @@ def pack_array(array: npt.NDArray[Any]) -> tuple[str, list[int], bytes]:
 def plain_value(draw: Draw) -> Any:
     """A draw's value as plain Python, for reports: an array draw's as nested lists
     (as recorded where those do not make an array). Needs no numpy."""
-    if draw.value is not None and draw.kind in ARRAY_KINDS:
-        try:
-            return _nested_lists(draw.value)
-        except (ValueError, TypeError, KeyError, struct.error):
-            return draw.value
-    return draw.value
-
-
-def _nested_lists(value: Any) -> Any:
-    """An array draw's recorded ``[dtype, shape, bytes]`` as numpy's ``tolist`` gives it,
-    read in pure Python."""
-    dtype, shape, data = value
-    if not _is_shape(shape) or len(data) != 8 * prod(shape):
-        raise ValueError(f"{len(data)} bytes do not make shape {shape!r}")
-    items = list(struct.unpack(f"<{prod(shape)}{_STRUCT_CODES[dtype]}", data))
-    return _nest(items, list(shape))
+    if draw.kind not in ARRAY_KINDS or _array_problem(draw.kind, draw.value, ()) is not None:
+        return draw.value
+    dtype, shape, data = draw.value
+    return _nest(list(struct.unpack(f"<{prod(shape)}{_STRUCT_CODES[dtype]}", data)), list(shape))
 
 
 def _nest(items: list[Any], shape: list[int]) -> Any:
+    """``items`` as numpy's ``tolist`` gives an array of ``shape``."""
     if not shape:
         return items[0]
     if len(shape) == 1:
