@@ -46,7 +46,6 @@ __all__ = [
     "RecordDamageError",
     "read_record",
     "split_records",
-    "summary_crc",
     "unpack_chunk",
 ]
 
@@ -106,15 +105,6 @@ def read_record(opcode: int, body: bytes) -> McapRecord:
     if stream.count != len(body):
         raise RecordDamageError(f"a record has {len(body) - stream.count} extra bytes")
     return record
-
-
-def summary_crc(head: bytes, body: bytes, crc: int) -> int:
-    """The summary CRC so far, given one more record after the data section: all of it,
-    or of the footer the fields before the CRC itself (as MCAP defines it)."""
-    crc = zlib.crc32(head, crc)
-    if head[0] == Opcode.FOOTER:
-        return zlib.crc32(body[: FOOTER_BYTES - 4], crc)
-    return zlib.crc32(body, crc)
 
 
 def unpack_chunk(chunk: Chunk) -> bytes:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import struct
+import zlib
 from collections.abc import Iterator
 from io import BytesIO
 from pathlib import Path
@@ -34,6 +35,7 @@ from beatlog.errors import CorruptLogError, NotABeatlogError
 from beatlog.log.container import (
     CHUNK_RECORDS,
     DATA_RECORDS,
+    FOOTER_BYTES,
     KNOWN_OPCODES,
     MAGIC,
     RECORD_HEAD,
@@ -41,7 +43,6 @@ from beatlog.log.container import (
     RecordDamageError,
     read_record,
     split_records,
-    summary_crc,
     unpack_chunk,
 )
 from beatlog.log.files import Closing, irregular_file_problem
@@ -167,9 +168,10 @@ class RecordStream(Closing):
             if opcode == Opcode.DATA_END:
                 allowed = SUMMARY_RECORDS | {Opcode.FOOTER}
                 self._summary_start = end
-            elif self._summary_start:
+            elif self._summary_start:  # the summary CRC covers the footer but its CRC
                 self._summary.extend(records)
-                self._summary_crc = summary_crc(head, body, self._summary_crc)
+                covered = body[: FOOTER_BYTES - 4] if opcode == Opcode.FOOTER else body
+                self._summary_crc = zlib.crc32(covered, zlib.crc32(head, self._summary_crc))
             else:
                 yield from records
             offset = end
