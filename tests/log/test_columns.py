@@ -12,8 +12,8 @@ import msgspec
 import pytest
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.columns import StateColumns, column_batches, encode_column
-from beatlog.log.format import Column, CycleEntry, payload_encoder
+from beatlog.log.columns import Column, StateColumns, column_batches, encode_column
+from beatlog.log.format import CycleEntry, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from tests.chunked import read_all
 from tests.columned import (

@@ -22,16 +22,17 @@ import struct
 from collections.abc import Callable, Iterable, Sequence
 from itertools import accumulate
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import msgspec
 
 from beatlog.errors import CorruptLogError, SchemaMismatchError
-from beatlog.log.format import DECODE_ERRORS, Column, ColumnBatch
+from beatlog.log.format import DECODE_ERRORS, ColumnBatch
 from beatlog.log.limits import MAX_VALUE_WIDTH
 
 __all__ = [
     "COLUMNS_FROM",
+    "Column",
     "StateColumns",
     "array_head",
     "column_batches",
@@ -42,6 +43,15 @@ COLUMNS_FROM = 100
 """The fewest fields a robot state has for the recorder to have it stored by field:
 with 30 fields read, replay by field costs a little less than from the records at 100
 fields, and a little more at 80."""
+
+
+class Column(NamedTuple):
+    """One robot-state field's values, one a cycle, as bytes (``docs/format.md``)."""
+
+    width: int
+    """0: the values' msgpack encodings back to back; W > 0: each value is W bytes,
+    stored byte-split (byte 0 of every value, then byte 1 of every value, ...)."""
+    data: bytes
 
 
 def array_head(count: int) -> bytes:

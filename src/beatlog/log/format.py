@@ -27,7 +27,6 @@ from beatlog.log.limits import (
     MAX_NAME_LENGTH,
     MAX_SETUP_DRAWS,
     MAX_TEXT_LENGTH,
-    MAX_VALUE_WIDTH,
 )
 
 __all__ = [
@@ -45,7 +44,6 @@ __all__ = [
     "PROFILE",
     "SCHEMA_ENCODING",
     "SETUP_DRAWS_SINCE",
-    "Column",
     "ColumnBatch",
     "CycleBatch",
     "CycleEntry",
@@ -243,15 +241,6 @@ class CycleBatch(msgspec.Struct, array_like=True):
     cycles: list[CycleRecord]
 
 
-class Column(msgspec.Struct, array_like=True):
-    """One robot-state field's values, one a cycle, as bytes (format 3; ``docs/format.md``)."""
-
-    width: Annotated[int, msgspec.Meta(ge=0, le=MAX_VALUE_WIDTH)]
-    """0: the values' msgpack encodings back to back; W > 0: each value is W bytes,
-    stored byte-split (byte 0 of every value, then byte 1 of every value, ...)."""
-    data: bytes
-
-
 class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
     """One cycles message of format 3: robot states stored by field (``docs/format.md``)."""
 
@@ -262,7 +251,7 @@ class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
     """The field each robot-state column holds, in order; empty: the header's; None: the
     records hold the robot states, as in format 2, and there are no columns."""
     widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)] = b""
-    """Each column's :attr:`Column.width`, a byte each."""
+    """Each column's width, a byte each (:class:`~beatlog.log.columns.Column`)."""
     sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)] = b""
     """Each column's size in ``data``, 4 bytes each (little-endian)."""
     data: bytes = b""
