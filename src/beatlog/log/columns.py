@@ -287,8 +287,7 @@ class StateColumns:
     def values(self, index: int, decode: Callable[[Any], list[Any]], type_name: str) -> list[Any]:
         """A robot-state column's values decoded with ``decode``.
 
-        :raises beatlog.errors.SchemaMismatchError: a value does not fit the field's type
-            (the message names its cycle and the field).
+        :raises beatlog.errors.SchemaMismatchError: a value does not fit the field's type.
         :raises beatlog.errors.CorruptLogError: the column is damaged.
         """
         try:
@@ -307,11 +306,8 @@ class StateColumns:
     def decoded(
         self, indices: list[int], decoders: list[Callable[[Any], list[Any]]], type_name: str
     ) -> list[list[Any]]:
-        """The columns ``indices`` decoded, each with its decoder, as :meth:`values` does.
-
-        :raises beatlog.errors.SchemaMismatchError: a value does not fit its field's type.
-        :raises beatlog.errors.CorruptLogError: a column is damaged.
-        """
+        """The columns ``indices`` decoded, each with its decoder, as :meth:`values` decodes
+        (and refuses) one."""
         columns = zip(indices, decoders, strict=True)
         return [self.values(index, decode, type_name) for index, decode in columns]
 

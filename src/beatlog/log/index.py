@@ -31,12 +31,10 @@ __all__ = ["recorded_cycles"]
 
 def recorded_cycles(path: str | Path) -> int | None:
     """The cycles the end record of a closed log counts, or None where there is none to
-    read cheaply: the log was cut off, is damaged, or is no session log.
-
-    Only the footer, the summary (checked against its CRC) and the chunk that holds the
-    end record are read, each within the bounds of :mod:`beatlog.log.limits`: a cost
-    that does not grow with the recording, for planning work such as sharding a suite.
-    """
+    read cheaply (the log was cut off, is damaged, or is no session log). Only the
+    footer, the summary (checked against its CRC) and the chunk that holds the end
+    record are read, each within the bounds of :mod:`beatlog.log.limits`: a cost that
+    does not grow with the recording, for planning work such as sharding a suite."""
     path = Path(path)
     if irregular_file_problem(path) is not None:
         return None

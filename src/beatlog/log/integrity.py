@@ -2,10 +2,8 @@
 
 A log cut off by kill -9 or power loss reads up to its last complete record and ends
 in a :class:`TruncatedError` saying where; damage to the index after the cycles (the
-summary section, the footer, the closing magic) is an :class:`IndexDamageError`;
-anything else not as the writer writes it is a :class:`~beatlog.errors.LogError`
-naming the file. What the records mean is the reader's job
-(:mod:`beatlog.log.reader`); ``docs/format.md`` lists every check.
+summary, the footer, the closing magic) is an :class:`IndexDamageError`; anything else
+not as the writer writes it is a :class:`~beatlog.errors.LogError` naming the file.
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
 """Decoding a session log's payloads: the header, the end record and batches of cycles.
 
-Payloads are decoded only with msgspec, so nothing in a log can execute code. A payload
-that does not decode is an error naming the file and, for a batch, the cycle at fault:
-a :class:`~beatlog.errors.CorruptLogError` for damage, a
-:class:`~beatlog.errors.SchemaMismatchError` for a robot state that does not fit its type.
+Payloads are decoded only with msgspec, so nothing in a log can execute code. One that
+does not decode is a :class:`~beatlog.errors.CorruptLogError` (a robot state that does
+not fit its type: a :class:`~beatlog.errors.SchemaMismatchError`) naming the file and,
+for a batch, the cycle at fault.
 """
 
 from __future__ import annotations

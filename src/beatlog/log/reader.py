@@ -2,9 +2,7 @@
 
 The header comes first and must describe a log this beatlog reads; the cycles follow
 in order, none missing or repeated, each batch stamped with its robot time; an end
-record, if any, counts exactly the cycles read. The records come checked from
-:mod:`beatlog.log.integrity` (which says how the file ends), the payloads decoded by
-:mod:`beatlog.log.payload`. ``docs/format.md`` lists every check.
+record, if any, counts exactly the cycles read (``docs/format.md`` lists every check).
 """
 
 from __future__ import annotations
@@ -51,12 +49,10 @@ _SCHEMAS = {
 
 @dataclass(frozen=True)
 class LogStatus:
-    """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles.
-
-    A complete log with a ``problem`` has its index damaged and every cycle intact (only
-    a reader told to tolerate that reports it). A dataclass, so that ``replay --json``
-    names its fields.
-    """
+    """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles; a
+    complete log with a ``problem`` has its index damaged and every cycle intact (only a
+    reader told to tolerate that reports it). A dataclass: ``replay --json`` names its
+    fields."""
 
     complete: bool
     cycles: int
@@ -75,11 +71,10 @@ class SessionLogReader(Closing):
     a context manager. The header is read and checked on opening; once iteration ends,
     :attr:`status` says whether the log was complete.
 
-    Damage in the index after the cycles (the summary and the footer) is a
-    :class:`~beatlog.errors.CorruptLogError` even when every cycle and the end record
-    read back intact, unless ``tolerate_damaged_index``: the status then says so.
-    Given a :class:`~beatlog.log.recording.Recording`, the first reader to reach the end
-    of the file takes its digest and keeps its bytes, and readers after it read those.
+    Damage in the index after the cycles is a :class:`~beatlog.errors.CorruptLogError`
+    even when every cycle and the end record read back intact, unless
+    ``tolerate_damaged_index``: the status then says so. Given a
+    :class:`~beatlog.log.recording.Recording`, the log is read once (its digest taken).
     """
 
     def __init__(self, path: LogSource, *, tolerate_damaged_index: bool = False) -> None:
@@ -142,12 +137,10 @@ class SessionLogReader(Closing):
                 raise CorruptLogError(self.path, "a second session header")
 
     def decode_states(self, state_type: type[Any]) -> None:
-        """Decode each cycle's RS_t into ``state_type`` from the next batch on, in the
-        same pass as its batch (format 3: the batch's
-        :class:`~beatlog.log.columns.StateColumns`), and check its samples against the
-        header instead of keeping them: one that does not fit is then a
-        :class:`~beatlog.errors.SchemaMismatchError` (samples: a damaged log) naming its
-        cycle."""
+        """Decode each cycle's RS_t into ``state_type`` from the next batch on, with its
+        batch (format 3: the batch's :class:`~beatlog.log.columns.StateColumns`), and
+        check its samples against the header: one that does not fit is a
+        :class:`~beatlog.errors.SchemaMismatchError` (samples: damage) naming its cycle."""
         self._decoding.decode_states(state_type)
 
     def cycles(self) -> Iterator[CycleRecord]:

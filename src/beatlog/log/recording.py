@@ -22,12 +22,9 @@ hashed as it streams, but looked at again from its file."""
 
 @dataclass(eq=False)
 class Recording(os.PathLike[str]):
-    """A log at ``path``, read once: whatever reads it first (a
-    :class:`~beatlog.log.integrity.RecordStream`) hashes its bytes and keeps up to
-    ``keep`` of them; readers after it read those bytes instead of the file.
-
-    It stands for its path wherever one is wanted (``os.fspath``, ``Path(recording)``).
-    """
+    """A log at ``path``, read once: whatever reads it first hashes its bytes and keeps
+    up to ``keep`` of them for the readers after it. It stands for its path wherever one
+    is wanted (``os.fspath``, ``Path(recording)``)."""
 
     path: Path
     keep: int = KEPT_BYTES

@@ -56,8 +56,7 @@ class SessionLogWriter(Closing):
     """Writes one session log; use it as a context manager or call :meth:`close`.
 
     :param overwrite: replace a log already at ``output``; without it an existing file
-        is left untouched and :class:`~beatlog.errors.LogExistsError` names it, since
-        recordings are immutable.
+        is left untouched (recordings are immutable): :class:`~beatlog.errors.LogExistsError`.
     :param flush_interval_s: a chunk is closed and flushed at least this often, in robot
         time (the ``time_ns`` given to :meth:`append`).
     :param fsync: also fsync the file at each flush (survives power loss, costs I/O).

@@ -43,11 +43,8 @@ class Behavior(Protocol):
 @runtime_checkable
 class System(Protocol):
     """The behavior software under test: what record and replay drive, cycle by cycle.
-
-    A system may also declare ``period_ns``, the heartbeat period its behaviors are
-    written for (as :class:`CataloguedSystem` does): a log recorded at another period
-    then replays with a note saying so.
-    """
+    It may declare ``period_ns``, the heartbeat period its behaviors are written for: a
+    log recorded at another period then replays with a note saying so."""
 
     @property
     def robot_state(self) -> type[msgspec.Struct]:

@@ -116,10 +116,9 @@ class CycleExecutor:
         return find_changes(now, states)
 
     def assume(self, states: Mapping[int, BehaviorState]) -> None:
-        """Take ``states`` (by catalogue position) as the behaviors' states seen last:
-        the next cycle's BS_t is found against them. A fresh start in replay assumes the
-        states the recording has there, so that a behavior whose fresh state is the
-        recorded one shows no change, and one whose state is not, does."""
+        """Take ``states`` (by catalogue position) as the behaviors' states seen last: a
+        fresh start in replay assumes the recorded ones, so that only a behavior whose
+        fresh state is not the recorded one shows a change in the next cycle's BS_t."""
         for index, state in states.items():
             self._states[index] = state
 
