@@ -9,8 +9,7 @@ msgpack-encoded with msgspec (``docs/format.md`` is the full specification):
   list of :class:`CycleRecord` in format 1; one record per heartbeat, in order.
 - ``/beatlog/end``: one :class:`SessionEnd`, written when the recording closes.
 
-Each cycle keeps its parts as raw msgpack so the replay engine can compare behavior
-state changes and outputs byte for byte, without decoding them, when they match.
+Each cycle keeps its parts as raw msgpack: replay compares them byte for byte.
 """
 
 from __future__ import annotations

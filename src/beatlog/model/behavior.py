@@ -107,12 +107,11 @@ class PriorityArbiter(CataloguedSystem[RS]):
     when none asks), so a change of control is a state change in the log. Its
     catalogue holds the arbiter first, then its behaviors from highest to lowest priority.
 
-    With ``per_output``, each output is arbitrated on its own, as subsumption arbitrates
-    each actuator: it goes to the highest-priority behavior that proposes it, so a
-    longitudinal behavior (``acceleration``) and a lateral one (``steering``) each keep
-    control of their own output. The state then names each output's winner, by output
-    (``"acceleration: follow, steering: keep_lane"``; ``"idle"`` when none proposes one).
-    ``period_ns`` declares the heartbeat period the behaviors are written for.
+    With ``per_output``, each output goes to the highest-priority behavior that proposes
+    it, as subsumption arbitrates each actuator (a longitudinal and a lateral behavior
+    each keep their own), and the state names each output's winner
+    (``"acceleration: follow, steering: keep_lane"``). ``period_ns`` declares the
+    heartbeat period the behaviors are written for.
     """
 
     def __init__(
@@ -138,21 +137,32 @@ class PriorityArbiter(CataloguedSystem[RS]):
     def update(self, state: RS, context: Context) -> None:
         """Step every behavior in priority order and emit the winner's outputs (each
         output's winner's, ``per_output``)."""
-        command: Outputs = {}
-        winner: str | None = None
-        winners: dict[str, str] = {}  # per output: each output's winner
+        if self.per_output:
+            self._update_per_output(state, context)
+            return
+        winner: PlainBehavior[RS] | None = None
+        command: Outputs | None = None
         for actor, behavior in enumerate(self._children, start=1):
             context.actor = actor
             proposal = behavior.step(state, context)
-            if self.per_output:
-                for output, value in (proposal or {}).items():
-                    if output not in command:
-                        command[output] = value
-                        winners[output] = behavior.name
-            elif winner is None and proposal is not None:
-                winner, command = behavior.name, proposal
+            if winner is None and proposal is not None:
+                winner, command = behavior, proposal
         context.actor = 0
-        if self.per_output:
-            winner = ", ".join(f"{output}: {winners[output]}" for output in sorted(winners)) or None
-        self.state = "idle" if winner is None else winner
+        self.state = "idle" if winner is None else winner.name
+        if command:
+            context.outputs.update(command)
+
+    def _update_per_output(self, state: RS, context: Context) -> None:
+        command: Outputs = {}
+        winners: dict[str, str] = {}
+        for actor, behavior in enumerate(self._children, start=1):
+            context.actor = actor
+            proposal = behavior.step(state, context)
+            for output, value in (proposal or {}).items():
+                if output not in command:
+                    command[output] = value
+                    winners[output] = behavior.name
+        context.actor = 0
+        owned = [f"{output}: {winners[output]}" for output in sorted(winners)]
+        self.state = ", ".join(owned) if owned else "idle"
         context.outputs.update(command)

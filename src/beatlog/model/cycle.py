@@ -72,11 +72,10 @@ def read_states(behaviors: Sequence[Behavior]) -> list[BehaviorState]:
 
 
 def find_changes(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
-    """BS_t, given the states of a catalogue read now and those seen last (both in
-    catalogue order): a ``(index, before, after)`` for each state that is another object
-    and not equal to the one seen. It sets those, and only those, in ``seen``: a state
-    equal to the one seen but another object leaves the one seen in place (``1``, then
-    ``True``, then ``2`` is one change, from ``1`` to ``2``)."""
+    """BS_t, given the states of a catalogue read now and those seen last, in catalogue
+    order: an ``(index, before, after)`` for each state not equal to the one seen, set in
+    ``seen``; an equal one leaves the one seen in place (``1``, then ``True``, then ``2``
+    is one change, from ``1`` to ``2``)."""
     found: list[StateChangeRecord] = []
     for index, (state, last) in enumerate(zip(now, seen, strict=True)):
         if state is not last and state != last:

@@ -71,10 +71,9 @@ class Place(NamedTuple):
 
 
 class FreshLuck:
-    """The fresh luck of one log's places, keyed by ``key`` (its first 64 bytes): a
-    place's seed is the BLAKE2b digest, 8 bytes, keyed so, of ``cycle``, ``behavior`` and
-    ``call`` as text, each ended by a NUL but the last. A source that draws many keeps
-    one: the key is hashed once."""
+    """The fresh luck of one log's places, keyed by ``key`` (its first 64 bytes, hashed
+    once): a place's seed is the 8-byte BLAKE2b digest, keyed so, of ``cycle``,
+    ``behavior`` and ``call`` as text, each ended by a NUL but the last."""
 
     __slots__ = ("_keyed",)
 
