@@ -12,8 +12,8 @@ import msgspec
 import pytest
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.columns import StateColumns, column_batches, encode_column
-from beatlog.log.format import Column, payload_encoder
+from beatlog.log.columns import Column, StateColumns, column_batches, encode_column
+from beatlog.log.format import CycleEntry, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from tests.chunked import read_all
 from tests.columned import (
@@ -95,6 +95,27 @@ def test_a_column_of_one_width_is_stored_byte_split() -> None:
     values = [msgspec.msgpack.encode(v) for v in (1.5, -2.0)]
     assert encode_column(values) == Column(9, bytes([0xCB, 0xCB, 0x3F, 0xC0, 0xF8, 0, *[0] * 12]))
     assert encode_column([b"\x01", b"\xcd\x01\x00"]) == Column(0, b"\x01\xcd\x01\x00")
+
+
+def test_a_column_table_checked_before_opens_a_batch_as_one_checked_afresh() -> None:
+    """A reader remembers the column tables it checked (a speed trick, measured where
+    it is defined): a batch of a table seen before opens as it would unremembered, and
+    one whose data the table does not describe is refused all the same."""
+    encode = payload_encoder().encode
+    records = [encode(CycleEntry(PERIOD_NS, None, [], [], {}, [])) for _ in range(16)]
+    states = [encode(Pose(t / 3, -t / 7)) for t in range(16)]
+    ((_, first),) = column_batches(0, records[:8], states[:8])
+    ((_, second),) = column_batches(8, records[8:], states[8:])
+    checked: dict[tuple[bytes, bytes, int], list[int]] = {}
+    StateColumns(Path("v3.beatlog"), first, [], checked)
+    assert len(checked) == 1
+    remembered = StateColumns(Path("v3.beatlog"), second, [], checked)
+    afresh = StateColumns(Path("v3.beatlog"), second, [], None)
+    assert [remembered.encoded(i) for i in (0, 1)] == [afresh.encoded(i) for i in (0, 1)]
+    cut = msgspec.structs.replace(second, data=second.data[:-1])
+    for tables in (checked, None):
+        with pytest.raises(CorruptLogError, match="its columns take 144 bytes, not the 143"):
+            StateColumns(Path("v3.beatlog"), cut, [], tables)
 
 
 @pytest.mark.parametrize(

@@ -12,10 +12,12 @@ import msgspec
 import pytest
 
 from beatlog.log.format import (
-    CHANNEL_TOPICS,
+    CYCLES_TOPIC,
     EMPTY_LIST,
     EMPTY_MAP,
+    END_TOPIC,
     FORMAT_VERSION,
+    HEADER_TOPIC,
     CycleRecord,
     Draw,
     SessionHeader,
@@ -184,8 +186,9 @@ def test_a_header_with_a_field_added_later_in_the_same_version_still_reads() -> 
 
 
 def test_the_three_channels_have_distinct_beatlog_topics() -> None:
-    assert len(set(CHANNEL_TOPICS)) == 3
-    assert all(topic.startswith("/beatlog/") for topic in CHANNEL_TOPICS)
+    topics = (HEADER_TOPIC, CYCLES_TOPIC, END_TOPIC)
+    assert len(set(topics)) == 3
+    assert all(topic.startswith("/beatlog/") for topic in topics)
 
 
 @pytest.mark.parametrize(

@@ -10,7 +10,7 @@ import pytest
 
 from beatlog.model.behavior import Behavior, BehaviorState
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import CycleExecutor, Update, state_change_finder, state_reader
+from beatlog.model.cycle import CycleExecutor, Update, find_changes, read_states
 from beatlog.model.random import Draw, RecordingRandom
 from tests.conftest import PERIOD_NS, Probe
 
@@ -165,14 +165,14 @@ class Computed:
         return "high" if self.level > 1 else "low"
 
 
-def test_the_state_reader_reads_every_state_in_catalogue_order_as_it_is_now() -> None:
+def test_the_states_are_read_in_catalogue_order_as_they_are_now() -> None:
     first, second, computed = Flag("idle"), Flag(3), Computed()
-    read = state_reader([first, second, computed])
-    assert read() == ["idle", 3, "low"]
+    behaviors: list[Behavior] = [first, second, computed]
+    assert read_states(behaviors) == ["idle", 3, "low"]
     first.state, computed.level = None, 2
-    assert read() == [None, 3, "high"]
-    assert read() is not read()  # a new list each time
-    assert state_reader([])() == []
+    assert read_states(behaviors) == [None, 3, "high"]
+    assert read_states(behaviors) is not read_states(behaviors)  # a new list each time
+    assert read_states([]) == []
 
 
 @pytest.mark.parametrize("size", [4, 32, 33, 100])
@@ -186,18 +186,17 @@ def test_the_finder_reports_each_change_in_catalogue_order_and_keeps_what_it_saw
         now[index] = f"busy {index}"
     now[1] = "".join(["id", "le"])  # equal to the one seen, another object
 
-    changes = state_change_finder(size)(now, seen)
+    changes = find_changes(now, seen)
 
     assert changes == [(index, "idle", f"busy {index}") for index in changed]
     assert seen == now
     assert seen[1] is not now[1]  # the state seen first is kept
-    assert state_change_finder(size)(now, seen) == []
+    assert find_changes(now, seen) == []
 
 
 def test_a_state_equal_to_the_one_seen_is_no_change_and_the_one_seen_stays() -> None:
     seen: list[BehaviorState] = [1]
-    find = state_change_finder(1)
-    assert find([True], seen) == []
-    (change,) = find([2], seen)
+    assert find_changes([True], seen) == []
+    (change,) = find_changes([2], seen)
     assert change == (0, 1, 2)
     assert type(change[1]) is int  # the 1 seen first, not the True seen since

@@ -17,7 +17,6 @@ from beatlog.model.luck import (
     Luck,
     Place,
     array_value,
-    fresh_luck,
     scalar_luck,
     scalar_value,
 )
@@ -106,8 +105,7 @@ def test_a_places_seed_is_its_keyed_blake2b_whichever_way_it_is_asked(key: bytes
     keyed = hashlib.blake2b(b"517\x00escape\x002", key=key[:64], digest_size=8).digest()
     fresh = FreshLuck(key)
 
-    assert place.seed(key) == fresh.seed(place) == keyed
-    assert fresh_luck(key, place) == fresh.luck(place)
+    assert fresh.seed(place) == keyed
     assert fresh.luck(place).u == (int.from_bytes(keyed, "little") >> 11) * 2.0**-53
 
 
@@ -115,23 +113,23 @@ def test_fresh_luck_is_keyed_by_the_log_and_the_place() -> None:
     place = Place(cycle=517, behavior="escape", call=0)
 
     lucks = {
-        fresh_luck(KEY, place),
-        fresh_luck(KEY, place._replace(cycle=518)),
-        fresh_luck(KEY, place._replace(behavior="wander")),
-        fresh_luck(KEY, place._replace(call=1)),
-        fresh_luck(b"another log", place),
+        FreshLuck(KEY).luck(place),
+        FreshLuck(KEY).luck(place._replace(cycle=518)),
+        FreshLuck(KEY).luck(place._replace(behavior="wander")),
+        FreshLuck(KEY).luck(place._replace(call=1)),
+        FreshLuck(b"another log").luck(place),
     }
 
     assert len(lucks) == 5
-    assert fresh_luck(KEY, place) == fresh_luck(KEY, Place(517, "escape", 0))
+    assert FreshLuck(KEY).luck(place) == FreshLuck(KEY).luck(Place(517, "escape", 0))
     assert all(0.0 <= luck.u < 1.0 for luck in lucks)
 
 
 @pytest.mark.parametrize("hash_seed", ["0", "1", "random"])
 def test_fresh_luck_is_the_same_under_any_hash_seed(hash_seed: str) -> None:
     code = (
-        "from beatlog.model.luck import Place, fresh_luck;"
-        "print(repr(fresh_luck(b'a log', Place(517, 'escape', 0)).u))"
+        "from beatlog.model.luck import FreshLuck, Place;"
+        "print(repr(FreshLuck(b'a log').luck(Place(517, 'escape', 0)).u))"
     )
     run = subprocess.run(
         [sys.executable, "-c", code],
@@ -141,12 +139,12 @@ def test_fresh_luck_is_the_same_under_any_hash_seed(hash_seed: str) -> None:
         env={"PYTHONHASHSEED": hash_seed, "PATH": ""},
     )
 
-    assert float(run.stdout) == fresh_luck(KEY, Place(517, "escape", 0)).u
+    assert float(run.stdout) == FreshLuck(KEY).luck(Place(517, "escape", 0)).u
 
 
 def test_an_array_keeps_its_luck_element_by_element_and_grows_fresh() -> None:
     old = np.array([1.0, 2.0, 3.0])
-    seed = Place(3, "scan", 0).seed(KEY)
+    seed = FreshLuck(KEY).seed(Place(3, "scan", 0))
 
     same = array_value(
         "uniform_array", (0.0, 4.0, [3]), ("uniform_array", (0.0, 4.0, [3]), old), seed
@@ -169,7 +167,7 @@ def test_an_array_keeps_its_luck_element_by_element_and_grows_fresh() -> None:
 
 def test_a_normal_array_scales_its_deviates() -> None:
     old = np.array([-1.0, 0.5])
-    seed = Place(3, "scan", 0).seed(KEY)
+    seed = FreshLuck(KEY).seed(Place(3, "scan", 0))
 
     value = array_value(
         "normal_array", (1.0, 2.0, [2]), ("normal_array", (0.0, 1.0, [2]), old), seed
@@ -180,7 +178,7 @@ def test_a_normal_array_scales_its_deviates() -> None:
 
 def test_an_integer_array_keeps_its_share_of_the_range() -> None:
     old = np.array([0, 9], dtype="<i8")
-    seed = Place(3, "scan", 0).seed(KEY)
+    seed = FreshLuck(KEY).seed(Place(3, "scan", 0))
 
     value = array_value("integers_array", (0, 20, [2]), ("integers_array", (0, 10, [2]), old), seed)
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import OptionError, RemoteLogError
-from beatlog.log.reader import recorded_cycles
+from beatlog.log.index import recorded_cycles
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.parallel import Shard, longest_first, run_suite, shard, split
 from beatlog.suite.runner import SpecOutcome, Verdict

@@ -2,8 +2,8 @@
 package costs next to nothing (``import beatlog`` pulls in neither numpy nor rich).
 
 A package lists each public name once, in its ``if TYPE_CHECKING:`` block, as
-``from module import Name as Name``: type checkers and the documentation read the
-block, and :func:`lazy_names` reads it at run time for where each name lives.
+``from module import Name as Name``, read by type checkers, the documentation and,
+at run time, :func:`lazy_names`.
 """
 
 from __future__ import annotations

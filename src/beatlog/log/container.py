@@ -1,28 +1,28 @@
 """Byte-level reading of a session log's MCAP container: records, chunks, the summary.
 
 All reading of the container's bytes happens here, with the ``mcap`` package's record
-types and ``struct`` for the records read once a batch. The container knows nothing of
-payload encodings (:mod:`beatlog.log.payload`) nor of what makes a log whole
-(:mod:`beatlog.log.integrity`); a record not as the format defines it is a
-:class:`RecordDamageError`.
+types. The container knows nothing of payload encodings (:mod:`beatlog.log.payload`)
+nor of what makes a log whole (:mod:`beatlog.log.integrity`); a record not as the
+format defines it is a :class:`RecordDamageError`.
 """
 
 from __future__ import annotations
 
 import struct
-import threading
 import zlib
 from io import BytesIO
-from typing import cast
+from typing import Any
 
 import zstandard
 from mcap.data_stream import ReadDataStream
+from mcap.exceptions import EndOfFile
 from mcap.opcode import Opcode
 from mcap.records import (
     Channel,
     Chunk,
     ChunkIndex,
     DataEnd,
+    Footer,
     Header,
     McapRecord,
     Message,
@@ -44,12 +44,8 @@ __all__ = [
     "RECORD_HEAD",
     "SUMMARY_RECORDS",
     "RecordDamageError",
-    "check_chunk_bounds",
-    "read_chunk",
-    "read_chunk_index",
     "read_record",
     "split_records",
-    "summary_crc",
     "unpack_chunk",
 ]
 
@@ -66,132 +62,64 @@ SUMMARY_RECORDS = frozenset(
 )
 CHUNK_RECORDS = frozenset({Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE})
 _COMPRESSIONS = ("", "zstd")
+_RECORD_TYPES: dict[int, type[McapRecord]] = {
+    Opcode.HEADER: Header,
+    Opcode.CHUNK: Chunk,
+    Opcode.CHUNK_INDEX: ChunkIndex,
+    Opcode.MESSAGE: Message,
+    Opcode.MESSAGE_INDEX: MessageIndex,
+    Opcode.DATA_END: DataEnd,
+    Opcode.SCHEMA: Schema,
+    Opcode.CHANNEL: Channel,
+    Opcode.STATISTICS: Statistics,
+    Opcode.SUMMARY_OFFSET: SummaryOffset,
+    Opcode.FOOTER: Footer,
+}
 
 
 class RecordDamageError(Exception):
-    """A record is not what the writer writes; corrupt unless it is the last.
+    """A record is not what the writer writes; the log package's readers turn it into a
+    :class:`~beatlog.errors.LogError` naming the file, or a truncation where it is last."""
 
-    Internal to the log package: readers turn it into a
-    :class:`~beatlog.errors.LogError` naming the file, or a truncation.
-    """
+
+class _Fields(ReadDataStream):
+    """A record's body read field by field, each field whole: one cut short is damage."""
+
+    def read(self, length: int) -> bytes:
+        try:
+            data = super().read(length)
+        except EndOfFile:
+            data = b""
+        if len(data) != length:
+            raise RecordDamageError(f"a record's field of {length} bytes is cut off")
+        return data
 
 
 def read_record(opcode: int, body: bytes) -> McapRecord:
-    """A top-level record other than a chunk, a message index or the footer."""
-    if opcode == Opcode.CHUNK_INDEX:
-        return read_chunk_index(body)
-    reader = _TOP_LEVEL.get(Opcode(opcode)) if opcode in KNOWN_OPCODES else None
-    if reader is None:
+    """The record of ``opcode`` whose body is exactly ``body``."""
+    kind: Any = _RECORD_TYPES.get(opcode)
+    if kind is None:
         raise RecordDamageError(f"unknown record opcode {opcode:#x}")
-    record: McapRecord = reader(ReadDataStream(BytesIO(body)))
+    stream = _Fields(BytesIO(body))
+    record: McapRecord = kind.read(stream, len(body)) if kind is Message else kind.read(stream)
+    if stream.count != len(body):
+        raise RecordDamageError(f"a record has {len(body) - stream.count} extra bytes")
     return record
 
 
-def summary_crc(head: bytes, body: bytes, crc: int) -> int:
-    """The summary CRC so far, given one more record after the data section: all of it,
-    or of the footer the fields before the CRC itself (as MCAP defines it)."""
-    crc = zlib.crc32(head, crc)
-    if head[0] == Opcode.FOOTER:
-        return zlib.crc32(body[: FOOTER_BYTES - 4], crc)
-    return zlib.crc32(body, crc)
-
-
-_CHUNK_HEAD = struct.Struct("<QQQII")
-"""A chunk's fixed fields: start and end time, uncompressed size and CRC, the length
-of its compression's name."""
-
-
-def read_chunk(body: bytes) -> Chunk:
-    """A chunk record's fields, read with ``struct`` (the hot path: one per batch)."""
-    start, end, size, crc, name_length = _CHUNK_HEAD.unpack_from(body)
-    at = _CHUNK_HEAD.size + name_length
-    compression = str(body[_CHUNK_HEAD.size : at], "utf-8")
-    (length,) = struct.unpack_from("<Q", body, at)
-    # Not copied (a chunk is most of a log's bytes): a view, which every reader of a
-    # chunk's data reads as it reads bytes.
-    data = cast("bytes", memoryview(body)[at + 8 :])
-    if len(data) != length:
-        raise RecordDamageError(
-            f"a chunk holds {len(data)} bytes of records where it declares {length}"
-        )
-    return Chunk(
-        compression=compression,
-        data=data,
-        message_end_time=end,
-        message_start_time=start,
-        uncompressed_crc=crc,
-        uncompressed_size=size,
-    )
-
-
-_INDEX_HEAD = struct.Struct("<QQQQI")
-"""A chunk index's first fields: start and end time, the chunk's offset and length, the
-length of its message index offsets."""
-_INDEX_OFFSET = struct.Struct("<HQ")
-_INDEX_TAIL = struct.Struct("<QI")
-_INDEX_SIZES = struct.Struct("<QQ")
-
-
-def read_chunk_index(body: bytes) -> ChunkIndex:
-    """A chunk index record's fields, read with ``struct`` (the summary holds one a chunk)."""
-    start, end, chunk_at, chunk_length, offsets_length = _INDEX_HEAD.unpack_from(body)
-    at = _INDEX_HEAD.size
-    if offsets_length % _INDEX_OFFSET.size:
-        raise RecordDamageError("a chunk index with a damaged message index offset")
-    offsets = dict(_INDEX_OFFSET.iter_unpack(body[at : at + offsets_length]))
-    at += offsets_length
-    index_length, name_length = _INDEX_TAIL.unpack_from(body, at)
-    at += _INDEX_TAIL.size
-    compression = str(body[at : at + name_length], "utf-8")
-    at += name_length
-    compressed, uncompressed = _INDEX_SIZES.unpack_from(body, at)
-    if at + _INDEX_SIZES.size != len(body):
-        raise RecordDamageError(
-            f"a chunk index has {len(body) - at - _INDEX_SIZES.size} extra bytes"
-        )
-    return ChunkIndex(
-        message_index_offsets=offsets,
-        chunk_start_offset=chunk_at,
-        chunk_length=chunk_length,
-        compression=compression,
-        compressed_size=compressed,
-        message_end_time=end,
-        message_index_length=index_length,
-        message_start_time=start,
-        uncompressed_size=uncompressed,
-    )
-
-
-def check_chunk_bounds(chunk: Chunk) -> None:
-    """A chunk must use a compression the format allows and stay within one chunk's size."""
+def unpack_chunk(chunk: Chunk) -> bytes:
+    """The data of a chunk within its bounds (a compression the format allows, at most
+    one chunk's size), decompressed and checked against its CRC, always: the writer
+    always writes one, so a stored 0 is not "no CRC" but must match."""
+    size = chunk.uncompressed_size
     if chunk.compression not in _COMPRESSIONS:
         raise RecordDamageError(f"unknown chunk compression {chunk.compression!r}")
-    if chunk.uncompressed_size > MAX_CHUNK_BYTES:
-        raise RecordDamageError(f"a chunk claims {chunk.uncompressed_size} bytes uncompressed")
-
-
-_THREAD = threading.local()
-
-
-def _decompressor() -> zstandard.ZstdDecompressor:
-    """This thread's zstd decompressor (one may not serve two threads at once)."""
-    found: zstandard.ZstdDecompressor | None = getattr(_THREAD, "decompressor", None)
-    if found is None:
-        found = _THREAD.decompressor = zstandard.ZstdDecompressor()
-    return found
-
-
-def unpack_chunk(chunk: Chunk) -> bytes:
-    """The data of a chunk within its bounds, decompressed and checked against its CRC.
-
-    The CRC is always checked: beatlog's writer always computes it, so a stored 0
-    is not "no CRC" but must match, like any other value.
-    """
-    size = chunk.uncompressed_size
+    if size > MAX_CHUNK_BYTES:
+        raise RecordDamageError(f"a chunk claims {size} bytes uncompressed")
     data = chunk.data
     if chunk.compression == "zstd":
         try:
-            data = _decompressor().stream_reader(data).read(size + 1)
+            data = zstandard.ZstdDecompressor().stream_reader(data).read(size + 1)
         except zstandard.ZstdError as exc:
             raise RecordDamageError(f"chunk does not decompress: {exc}") from None
     if len(data) != size:
@@ -206,7 +134,6 @@ def split_records(data: bytes, allowed: frozenset[int], where: str) -> list[Mcap
     in ``allowed``."""
     records: list[McapRecord] = []
     position = 0
-    view = cast("bytes", memoryview(data))  # a message's payload is a view, not a copy
     while position < len(data):
         if position + RECORD_HEAD > len(data):
             raise RecordDamageError(f"a record inside {where} is cut off")
@@ -215,35 +142,5 @@ def split_records(data: bytes, allowed: frozenset[int], where: str) -> list[Mcap
         position = start + length
         if opcode not in allowed or position > len(data):
             raise RecordDamageError(f"a damaged record inside {where} (opcode {opcode:#x})")
-        if opcode == Opcode.MESSAGE:  # the common case, read without a stream
-            if length < _MESSAGE_HEAD.size:
-                raise RecordDamageError(f"a message inside {where} is cut off")
-            channel, sequence, log_time, publish_time = _MESSAGE_HEAD.unpack_from(data, start)
-            body = view[start + _MESSAGE_HEAD.size : position]
-            records.append(Message(channel, log_time, body, publish_time, sequence))
-            continue
-        if opcode == Opcode.CHUNK_INDEX:  # one a chunk
-            records.append(read_chunk_index(data[start:position]))
-            continue
-        stream = ReadDataStream(BytesIO(data[start:position]))
-        records.append(_TOP_LEVEL[Opcode(opcode)](stream))
-        if stream.count != length:
-            raise RecordDamageError(
-                f"a record inside {where} has {length - stream.count} extra bytes"
-            )
+        records.append(read_record(opcode, data[start:position]))
     return records
-
-
-_MESSAGE_HEAD = struct.Struct("<HIQQ")
-"""A message record's fixed fields: channel id, sequence, log time, publish time."""
-
-
-_TOP_LEVEL = {
-    Opcode.HEADER: Header.read,
-    Opcode.MESSAGE_INDEX: MessageIndex.read,
-    Opcode.DATA_END: DataEnd.read,
-    Opcode.SCHEMA: Schema.read,
-    Opcode.CHANNEL: Channel.read,
-    Opcode.STATISTICS: Statistics.read,
-    Opcode.SUMMARY_OFFSET: SummaryOffset.read,
-}

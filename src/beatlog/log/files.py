@@ -28,11 +28,8 @@ ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
 
 
 def irregular_file_problem(path: Path) -> str | None:
-    """Why ``path`` cannot be read as a file, or None when it is a regular file.
-
-    A FIFO, socket or device could block a reader forever or never end, so they are
-    refused before anything opens them.
-    """
+    """Why ``path`` cannot be read as a file, or None when it is a regular file: a FIFO,
+    socket or device could block a reader or never end, so it is refused unopened."""
     try:
         mode = os.stat(path).st_mode
     except FileNotFoundError:

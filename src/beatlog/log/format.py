@@ -9,13 +9,11 @@ msgpack-encoded with msgspec (``docs/format.md`` is the full specification):
   list of :class:`CycleRecord` in format 1; one record per heartbeat, in order.
 - ``/beatlog/end``: one :class:`SessionEnd`, written when the recording closes.
 
-Each cycle keeps its parts as raw msgpack so the replay engine can compare behavior
-state changes and outputs byte for byte, without decoding them, when they match.
+Each cycle keeps its parts as raw msgpack: replay compares them byte for byte.
 """
 
 from __future__ import annotations
 
-import functools
 import re
 from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, NamedTuple
@@ -28,11 +26,9 @@ from beatlog.log.limits import (
     MAX_NAME_LENGTH,
     MAX_SETUP_DRAWS,
     MAX_TEXT_LENGTH,
-    MAX_VALUE_WIDTH,
 )
 
 __all__ = [
-    "CHANNEL_TOPICS",
     "COLUMNS_SINCE",
     "CYCLES_TOPIC",
     "CYCLE_BATCH_SINCE",
@@ -47,7 +43,6 @@ __all__ = [
     "PROFILE",
     "SCHEMA_ENCODING",
     "SETUP_DRAWS_SINCE",
-    "Column",
     "ColumnBatch",
     "CycleBatch",
     "CycleEntry",
@@ -80,7 +75,6 @@ SCHEMA_ENCODING = "jsonschema"
 HEADER_TOPIC = "/beatlog/header"
 CYCLES_TOPIC = "/beatlog/cycles"
 END_TOPIC = "/beatlog/end"
-CHANNEL_TOPICS = (HEADER_TOPIC, CYCLES_TOPIC, END_TOPIC)
 
 DECODE_ERRORS = (msgspec.DecodeError, RecursionError)
 """What decoding a damaged or hostile payload may raise (msgpack nested too deep included)."""
@@ -203,30 +197,7 @@ class Draw(NamedTuple):
 
     def call(self) -> str:
         """The request as code, e.g. ``uniform(2.0, 5.0)``."""
-        params = self.params
-        if _PLAIN_PARAMS.issuperset(map(type, params)):  # the usual: one text per request
-            try:
-                return _plain_call(self.kind, _encode_plain(params))
-            except OverflowError:  # an int past 64 bits
-                pass
-        return _call(self.kind, params)
-
-
-_PLAIN_PARAMS = frozenset({int, float})
-_encode_plain = msgspec.msgpack.Encoder().encode
-"""Plain numbers as msgpack, bit for bit: an int and a float, or 0.0 and -0.0, differ."""
-_decode_plain = msgspec.msgpack.Decoder(tuple[int | float, ...]).decode
-
-
-def _call(kind: str, params: Sequence[Any]) -> str:
-    return f"{kind}({', '.join(map(repr, params))})"
-
-
-@functools.lru_cache(maxsize=1024)
-def _plain_call(kind: str, params: bytes) -> str:
-    """:meth:`Draw.call` of a request of plain numbers, by their exact bytes: living
-    replay writes each request it compares, and formatting floats is what costs."""
-    return _call(kind, _decode_plain(params))
+        return f"{self.kind}({', '.join(map(repr, self.params))})"
 
 
 class CycleEntry(msgspec.Struct, array_like=True):
@@ -269,15 +240,6 @@ class CycleBatch(msgspec.Struct, array_like=True):
     cycles: list[CycleRecord]
 
 
-class Column(msgspec.Struct, array_like=True):
-    """One robot-state field's values, one a cycle, as bytes (format 3; ``docs/format.md``)."""
-
-    width: Annotated[int, msgspec.Meta(ge=0, le=MAX_VALUE_WIDTH)]
-    """0: the values' msgpack encodings back to back; W > 0: each value is W bytes,
-    stored byte-split (byte 0 of every value, then byte 1 of every value, ...)."""
-    data: bytes
-
-
 class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
     """One cycles message of format 3: robot states stored by field (``docs/format.md``)."""
 
@@ -288,7 +250,7 @@ class ColumnBatch(msgspec.Struct, array_like=True, omit_defaults=True):
     """The field each robot-state column holds, in order; empty: the header's; None: the
     records hold the robot states, as in format 2, and there are no columns."""
     widths: Annotated[bytes, msgspec.Meta(max_length=MAX_FIELDS)] = b""
-    """Each column's :attr:`Column.width`, a byte each."""
+    """Each column's width, a byte each (:class:`~beatlog.log.columns.Column`)."""
     sizes: Annotated[bytes, msgspec.Meta(max_length=4 * MAX_FIELDS)] = b""
     """Each column's size in ``data``, 4 bytes each (little-endian)."""
     data: bytes = b""

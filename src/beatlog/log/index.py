@@ -5,25 +5,20 @@ from __future__ import annotations
 import os
 import struct
 import zlib
-from io import BytesIO
 from pathlib import Path
 from typing import IO
 
 import msgspec
-from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.records import Channel, Chunk, ChunkIndex, Footer, Message
 
 from beatlog.log.container import (
     CHUNK_RECORDS,
-    FOOTER_BYTES,
     FOOTER_RECORD,
     MAGIC,
-    RECORD_HEAD,
     SUMMARY_RECORDS,
     RecordDamageError,
-    check_chunk_bounds,
     split_records,
     unpack_chunk,
 )
@@ -36,14 +31,10 @@ __all__ = ["recorded_cycles"]
 
 def recorded_cycles(path: str | Path) -> int | None:
     """The cycles the end record of a closed log counts, or None where there is none to
-    read cheaply: the log was cut off, is damaged, or is no session log.
-
-    Only the footer, the summary section (checked against the footer's CRC) and the
-    chunk that holds the end record are read, each within the bounds of
-    :mod:`beatlog.log.limits`: a cost that does not grow with the recording, for
-    planning work such as splitting a suite into shards. Nothing else is checked;
-    judging a log is :class:`~beatlog.log.reader.SessionLogReader`'s job.
-    """
+    read cheaply (the log was cut off, is damaged, or is no session log). Only the
+    footer, the summary (checked against its CRC) and the chunk that holds the end
+    record are read, each within the bounds of :mod:`beatlog.log.limits`: a cost that
+    does not grow with the recording, for planning work such as sharding a suite."""
     path = Path(path)
     if irregular_file_problem(path) is not None:
         return None
@@ -61,22 +52,22 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
         return None
     file.seek(footer_at)
     tail = file.read(FOOTER_RECORD + len(MAGIC))
-    opcode, length = struct.unpack_from("<BQ", tail)
-    if (opcode, length, tail[FOOTER_RECORD:]) != (Opcode.FOOTER, FOOTER_BYTES, MAGIC):
+    if tail[FOOTER_RECORD:] != MAGIC:
         return None
-    summary_start = Footer.read(ReadDataStream(BytesIO(tail[RECORD_HEAD:]))).summary_start
+    (footer,) = split_records(tail[:FOOTER_RECORD], frozenset({Opcode.FOOTER}), "the footer")
+    assert isinstance(footer, Footer)
+    summary_start = footer.summary_start
     if not len(MAGIC) < summary_start <= footer_at or footer_at - summary_start > MAX_CHUNK_BYTES:
         return None
     file.seek(summary_start)
     section = file.read(footer_at - summary_start)
-    footer = tail[:FOOTER_RECORD]
-    if zlib.crc32(footer[:-4], zlib.crc32(section)) != int.from_bytes(footer[-4:], "little"):
+    if zlib.crc32(tail[: FOOTER_RECORD - 4], zlib.crc32(section)) != footer.summary_crc:
         return None
     summary = split_records(section, SUMMARY_RECORDS, "the summary")
     ends = {r.id for r in summary if isinstance(r, Channel) and r.topic == END_TOPIC}
     # A chunk holds at most MAX_CHUNK_BYTES, and compression never doubles it.
     holding = [
-        r.chunk_start_offset
+        (r.chunk_start_offset, r.chunk_length)
         for r in summary
         if isinstance(r, ChunkIndex)
         and not ends.isdisjoint(r.message_index_offsets)
@@ -85,12 +76,9 @@ def _end_record_cycles(file: IO[bytes], size: int) -> int | None:
     ]
     if len(ends) != 1 or len(holding) != 1:
         return None
-    file.seek(holding[0])
-    opcode, length = struct.unpack("<BQ", file.read(RECORD_HEAD))
-    if opcode != Opcode.CHUNK or length > 2 * MAX_CHUNK_BYTES:
-        return None
-    chunk = Chunk.read(ReadDataStream(BytesIO(file.read(length))))
-    check_chunk_bounds(chunk)
+    file.seek(holding[0][0])
+    (chunk,) = split_records(file.read(holding[0][1]), frozenset({Opcode.CHUNK}), "a chunk")
+    assert isinstance(chunk, Chunk)
     records = split_records(unpack_chunk(chunk), CHUNK_RECORDS, "a chunk")
     end = [r for r in records if isinstance(r, Message) and r.channel_id in ends]
     if len(end) != 1:

@@ -2,22 +2,20 @@
 
 A log cut off by kill -9 or power loss reads up to its last complete record and ends
 in a :class:`TruncatedError` saying where; damage to the index after the cycles (the
-summary section, the footer, the closing magic) is an :class:`IndexDamageError`;
-anything else not as the writer writes it is a :class:`~beatlog.errors.LogError`
-naming the file. What the records mean is the reader's job
-(:mod:`beatlog.log.reader`); ``docs/format.md`` lists every check.
+summary, the footer, the closing magic) is an :class:`IndexDamageError`; anything else
+not as the writer writes it is a :class:`~beatlog.errors.LogError` naming the file.
 """
 
 from __future__ import annotations
 
 import os
 import struct
+import zlib
 from collections.abc import Iterator
 from io import BytesIO
 from pathlib import Path
 from typing import IO
 
-from mcap.data_stream import ReadDataStream
 from mcap.exceptions import McapError
 from mcap.opcode import Opcode
 from mcap.records import (
@@ -35,16 +33,14 @@ from beatlog.errors import CorruptLogError, NotABeatlogError
 from beatlog.log.container import (
     CHUNK_RECORDS,
     DATA_RECORDS,
+    FOOTER_BYTES,
     KNOWN_OPCODES,
     MAGIC,
     RECORD_HEAD,
     SUMMARY_RECORDS,
     RecordDamageError,
-    check_chunk_bounds,
-    read_chunk,
     read_record,
     split_records,
-    summary_crc,
     unpack_chunk,
 )
 from beatlog.log.files import Closing, irregular_file_problem
@@ -66,23 +62,22 @@ class IndexDamageError(Exception):
 class RecordStream(Closing):
     """The records of one ``.beatlog`` file in file order, chunks opened and checked.
 
-    Opening checks that the path is a regular file holding an MCAP container (a FIFO or
-    a device could block or never end). Iterating :meth:`records` yields the data
-    section's records; the summary section is kept for :meth:`check_summary`.
-
-    Given a :class:`~beatlog.log.recording.Recording`, it reads the bytes the recording
-    keeps, once a read has kept them; else it reads the file and hands the recording
-    every byte, in order, for its digest and its copy.
+    Opening checks that the path is a regular file (a FIFO or a device could block or
+    never end) holding an MCAP container. :meth:`records` yields the data section's
+    records; the summary section is kept for :meth:`check_summary`. A
+    :class:`~beatlog.log.recording.Recording` is read from the bytes it keeps, or else
+    handed every byte read, for its digest and its copy.
     """
 
     def __init__(self, source: Path | Recording) -> None:
         self.path = Path(source)
-        self._recording = source if isinstance(source, Recording) and source.streaming else None
-        if self._recording is not None:
-            self._recording.start()
+        self._recording: Recording | None = None
+        if isinstance(source, Recording) and source.digest is None:  # no read has ended
+            self._recording = source
+            source.start()
         self.file, self.size = self._open(source)
         self.footer: Footer | None = None
-        self.summary_crc = 0
+        self._summary_crc = 0
         self._chunks: list[tuple[int, int]] = []
         self._expanded = 0
         self._summary_start = 0
@@ -132,11 +127,10 @@ class RecordStream(Closing):
         return file, size
 
     def records(self) -> Iterator[McapRecord]:
-        """The container's records in file order, up to the footer."""
+        """The container's records in file order, up to the footer (the summary checked
+        against its CRC there)."""
         size = self.size
         offset = len(MAGIC)
-        first = True
-        summary = False
         allowed = DATA_RECORDS | {Opcode.FOOTER}
         while self.footer is None:
             head = self._read(RECORD_HEAD)
@@ -151,10 +145,10 @@ class RecordStream(Closing):
             if end > size:
                 if opcode in KNOWN_OPCODES and length <= MAX_RECORD_BYTES:
                     raise TruncatedError(f"the last record is cut off at byte {offset}")
-                raise self._damaged_record(f"damaged record at byte {offset}", summary=summary)
+                raise self._damaged_record(f"damaged record at byte {offset}")
             body = self._read(length)
             try:
-                if not first and opcode not in allowed:
+                if offset > len(MAGIC) and opcode not in allowed:
                     raise RecordDamageError(f"unexpected record (opcode {opcode:#x})")
                 records = self._parse(opcode, body, offset)
             except (RecordDamageError, McapError, *DECODE_ERRORS, ValueError, struct.error) as exc:
@@ -166,17 +160,16 @@ class RecordStream(Closing):
                         "(power loss?)"
                     ) from None
                 problem = f"damaged record at byte {offset}: {exc}"
-                raise self._damaged_record(problem, summary=summary) from None
-            if first:
+                raise self._damaged_record(problem) from None
+            if offset == len(MAGIC):
                 self._check_profile(records)
-                first = False
             if opcode == Opcode.DATA_END:
                 allowed = SUMMARY_RECORDS | {Opcode.FOOTER}
                 self._summary_start = end
-                summary = True
-            elif summary:
+            elif self._summary_start:  # the summary CRC covers the footer but its CRC
                 self._summary.extend(records)
-                self.summary_crc = summary_crc(head, body, self.summary_crc)
+                covered = body[: FOOTER_BYTES - 4] if opcode == Opcode.FOOTER else body
+                self._summary_crc = zlib.crc32(covered, zlib.crc32(head, self._summary_crc))
             else:
                 yield from records
             offset = end
@@ -184,11 +177,15 @@ class RecordStream(Closing):
             raise IndexDamageError("damaged or extra bytes after the log's footer")
         if self._recording is not None:
             self._recording.ended(size)
+        if self.footer.summary_crc != self._summary_crc:
+            raise IndexDamageError("the summary does not match its CRC in the footer")
 
-    def _damaged_record(self, problem: str, *, summary: bool) -> Exception:
+    def _damaged_record(self, problem: str) -> Exception:
         """A record not as written: damage to the index in the summary section, else a
         corrupt log."""
-        return IndexDamageError(problem) if summary else CorruptLogError(self.path, problem)
+        if self._summary_start:
+            return IndexDamageError(problem)
+        return CorruptLogError(self.path, problem)
 
     def _zero_filled_from(self, start: int) -> bool:
         """Whether every byte from ``start`` to the end of the file is zero (power loss)."""
@@ -214,25 +211,20 @@ class RecordStream(Closing):
             )
 
     def _parse(self, opcode: int, body: bytes, offset: int) -> list[McapRecord]:
-        if opcode == Opcode.CHUNK:
-            chunk = read_chunk(body)
-            self._chunks.append((offset, RECORD_HEAD + len(body)))
-            return self._chunk_records(chunk)
         if opcode == Opcode.MESSAGE_INDEX:  # an index into a chunk just read: not needed
             return []
-        if opcode == Opcode.FOOTER:
-            self.footer = Footer.read(ReadDataStream(BytesIO(body)))
+        record = read_record(opcode, body)
+        if isinstance(record, Footer):
+            self.footer = record
             return []
-        return [read_record(opcode, body)]
-
-    def _chunk_records(self, chunk: Chunk) -> list[McapRecord]:
-        """Open a chunk within the bounds, the file's included, and split it into its
-        records."""
-        check_chunk_bounds(chunk)
-        self._expanded += chunk.uncompressed_size
+        if not isinstance(record, Chunk):
+            return [record]
+        self._chunks.append((offset, RECORD_HEAD + len(body)))
+        data = unpack_chunk(record)
+        self._expanded += len(data)
         if self._expanded > MAX_EXPANSION * self.size + MAX_CHUNK_BYTES:
             raise RecordDamageError("chunks decompress to implausibly much data (a zip bomb?)")
-        return split_records(unpack_chunk(chunk), CHUNK_RECORDS, "a chunk")
+        return split_records(data, CHUNK_RECORDS, "a chunk")
 
     def check_summary(
         self,

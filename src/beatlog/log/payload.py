@@ -1,9 +1,9 @@
 """Decoding a session log's payloads: the header, the end record and batches of cycles.
 
-Payloads are decoded only with msgspec, so nothing in a log can execute code. A payload
-that does not decode is an error naming the file and, for a batch, the cycle at fault:
-a :class:`~beatlog.errors.CorruptLogError` for damage, a
-:class:`~beatlog.errors.SchemaMismatchError` for a robot state that does not fit its type.
+Payloads are decoded only with msgspec, so nothing in a log can execute code. One that
+does not decode is a :class:`~beatlog.errors.CorruptLogError` (a robot state that does
+not fit its type: a :class:`~beatlog.errors.SchemaMismatchError`) naming the file and,
+for a batch, the cycle at fault.
 """
 
 from __future__ import annotations
@@ -49,21 +49,20 @@ class _ReadCycleRecord(CycleRecord, forbid_unknown_fields=True):
     defines is damaged, not cut short (the writer's own records stay as they are)."""
 
 
-def _as_read(name: str, batch: type[msgspec.Struct], *fields: tuple[str, Any, Any]) -> Any:
-    """A cycles message of type ``batch`` as the reader decodes it: nothing after its
-    cycles (its columns, in format 3), each cycle as read, ``fields`` as given."""
-    return msgspec.defstruct(
-        name,
-        [("cycles", list[_ReadCycleRecord]), *fields],
-        bases=(batch,),
-        array_like=True,
-        forbid_unknown_fields=True,
-    )
+class _ReadCycleBatch(CycleBatch, forbid_unknown_fields=True):
+    """A format-2 cycles message as the reader decodes it: nothing after its cycles."""
+
+    cycles: list[_ReadCycleRecord]  # type: ignore[assignment]
 
 
-_ReadCycleBatch = _as_read("_ReadCycleBatch", CycleBatch)
-_ReadColumnBatch = _as_read("_ReadColumnBatch", ColumnBatch, ("data", memoryview, memoryview(b"")))
-"""Its columns' ``data`` is a view of the message, not a copy (most of a wide log's bytes)."""
+class _ReadColumnBatch(ColumnBatch, forbid_unknown_fields=True):
+    """A format-3 cycles message as the reader decodes it: nothing after its columns."""
+
+    cycles: list[_ReadCycleRecord]  # type: ignore[assignment]
+    data: memoryview = memoryview(b"")  # type: ignore[assignment]
+    """A view of the message, not a copy (most of a wide log's bytes)."""
+
+
 _NIL = msgspec.Raw(b"\xc0")
 _COLUMN_BATCHES = msgspec.msgpack.Decoder(_ReadColumnBatch)
 _CYCLE_BATCHES = msgspec.msgpack.Decoder(_ReadCycleBatch)
@@ -86,13 +85,9 @@ def decode_payload(path: Path, data: bytes, kind: type[T], what: str) -> T:
         raise CorruptLogError(path, f"damaged {what}: {exc}") from None
 
 
-decode_state_changes: Callable[[bytes | msgspec.Raw], list[StateChangeRecord]] = (
-    msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
-)
+decode_state_changes = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
 """A cycle record's state changes (its ``state_changes`` part), decoded."""
-decode_outputs: Callable[[bytes | msgspec.Raw], dict[str, Any]] = msgspec.msgpack.Decoder(
-    dict[str, Any]
-).decode
+decode_outputs = msgspec.msgpack.Decoder(dict[str, Any]).decode
 """A cycle record's outputs (its ``outputs`` part), decoded."""
 
 
@@ -116,35 +111,10 @@ def decoded_version(path: Path, data: bytes) -> int:
     return decode_payload(path, data, _Versioned, "session header").format_version
 
 
-class _ByShape:
-    """Decodes a format-3 cycles message: one of 2 items (records that hold their robot
-    states, as the writer writes them) with ``rows``, any other with the decoder
-    ``by_field`` makes (made on first need: a log of narrow states never needs it)."""
-
-    def __init__(
-        self,
-        rows: msgspec.msgpack.Decoder[Any],
-        by_field: Callable[[], msgspec.msgpack.Decoder[Any]],
-    ) -> None:
-        self._rows = rows.decode
-        self._make_by_field = by_field
-        self._by_field: Callable[[bytes], Any] | None = None
-
-    def decode(self, data: bytes) -> Any:
-        if data[:1] == b"\x92":
-            return self._rows(data)
-        if self._by_field is None:
-            self._by_field = self._make_by_field().decode
-        return self._by_field(data)
-
-
 class BatchDecoding:
-    """How the cycles messages of one log decode, and what is wrong with one that does not.
-
-    :attr:`decoder` decodes a message into a :class:`CycleBatch` (a bare list of cycle
-    records in format 1) of records with their parts as raw msgpack;
-    :meth:`decode_states` gives one that decodes each RS_t with its batch.
-    """
+    """How the cycles messages of one log decode (:attr:`decode`: into batches of records
+    whose parts are raw msgpack, until :meth:`decode_states`), and what is wrong with
+    one that does not."""
 
     def __init__(self, path: Path, header: SessionHeader) -> None:
         self.path = path
@@ -152,45 +122,37 @@ class BatchDecoding:
         self._batched = header.format_version >= CYCLE_BATCH_SINCE
         self.columns = header.format_version >= COLUMNS_SINCE
         """Whether the log stores robot states by field (format 3): :meth:`records`."""
-        self.decoder: Any = (
-            _COLUMN_BATCHES if self.columns else _CYCLE_BATCHES if self._batched else _RECORDS
-        )
-        self.skimming: Any = self.decoder
-        """Decodes a message as :attr:`decoder` first does: every part of its records
-        left as raw msgpack, and a format-3 batch's columns unread."""
+        decoder = _COLUMN_BATCHES if self.columns else _CYCLE_BATCHES if self._batched else _RECORDS
+        self.skim: Callable[[bytes], Any] = decoder.decode
+        """Decodes a message with every part of its records left as raw msgpack, and a
+        format-3 batch's columns unread."""
+        self.decode: Callable[[bytes], Any] = self.skim
         self._state_type: type[Any] | None = None
         self._checked: dict[tuple[bytes, bytes, int], list[int]] = {}
-        self._nil: Any = _NIL
-        """A robot state stored by field, as the records hold it."""
 
     def records(self, batch: ColumnBatch) -> list[CycleRecord]:
-        """The cycles of a format-3 batch, its column table checked
-        (:class:`StateColumns`).
-
-        Each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it; once
-        :meth:`decode_states` was called, RS_t decoded where the batch's records hold
-        the robot states, else the batch's :class:`StateColumns`, for the replay core
-        to decode the fields the behaviors read.
+        """The cycles of a format-3 batch, its column table checked (:class:`StateColumns`):
+        each record's ``robot_state`` is RS_t encoded whole, as format 2 holds it, or
+        once :meth:`decode_states` was called, decoded (or the batch's
+        :class:`StateColumns`, where it stores them by field).
 
         :raises beatlog.errors.CorruptLogError: a robot state stored by field is also
             in its record, or one stored in the records is missing.
         """
         records: list[CycleRecord] = batch.cycles
-        nil: Any = self._nil
+        decoded = self._state_type is not None
         if batch.state_fields is None:
-            held: list[Any] = [r.robot_state for r in records] if nil is None else []
+            held: list[Any] = [r.robot_state for r in records] if decoded else []
             if None in held:
-                at = held.index(None)
                 raise SchemaMismatchError(
                     self.path,
-                    f"robot state of cycle {batch.first_cycle + at} does not fit "
-                    f"{getattr(self._state_type, '__name__', self._state_type)}: it is nil",
+                    f"robot state of cycle {batch.first_cycle + held.index(None)} does not "
+                    f"fit {getattr(self._state_type, '__name__', self._state_type)}: it is nil",
                 )
             return records
         columns = StateColumns(self.path, batch, self.header.state_fields, self._checked)
-        states: list[Any] = (
-            columns.raw_states() if self._state_type is None else [columns] * len(records)
-        )
+        states: list[Any] = [columns] * len(records) if decoded else columns.raw_states()
+        nil = None if decoded else _NIL
         for offset, (record, state) in enumerate(zip(records, states, strict=True)):
             if record.robot_state != nil:
                 raise CorruptLogError(
@@ -201,28 +163,20 @@ class BatchDecoding:
             record.robot_state = state
         return records
 
-    def decode_states(self, state_type: type[Any]) -> Any:
-        """Make :attr:`decoder` one that decodes each cycle's RS_t into ``state_type`` and
-        checks its samples against the header (:func:`samples_shape`), and return it.
-
-        In format 3 robot states stored by field stay in their columns
-        (:meth:`records`).
-        """
+    def decode_states(self, state_type: type[Any]) -> None:
+        """Make :attr:`decode` decode each cycle's RS_t into ``state_type`` and check its
+        samples against the header (:func:`samples_shape`); in format 3 robot states
+        stored by field stay in their columns (:meth:`records`)."""
         self._state_type = state_type
-        self._nil = None
-        batch = self._decoded_batch(state_type, _ReadCycleBatch)
-        if self.columns:
-            # A batch whose records hold their states (2 items, as the writer writes it)
-            # is a format-2 batch; another may hold nil states, checked as it is read.
-            self.decoder = _ByShape(
-                msgspec.msgpack.Decoder(batch),
-                lambda: msgspec.msgpack.Decoder(
-                    self._decoded_batch(state_type | None, _ReadColumnBatch)
-                ),
-            )
-            return self.decoder
-        self.decoder = msgspec.msgpack.Decoder(batch)
-        return self.decoder
+        rows = msgspec.msgpack.Decoder(self._decoded_batch(state_type, _ReadCycleBatch)).decode
+        if not self.columns:
+            self.decode = rows
+            return
+        # A batch whose records hold their states (2 items, as the writer writes it) is
+        # a format-2 batch; another may hold nil states, checked as it is read.
+        batch = self._decoded_batch(state_type | None, _ReadColumnBatch)
+        by_field = msgspec.msgpack.Decoder(batch).decode
+        self.decode = lambda data: rows(data) if data[:1] == b"\x92" else by_field(data)
 
     def _decoded_batch(self, state_type: Any, base: Any) -> Any:
         """A cycles message (a ``base``) with each RS_t decoded as ``state_type`` and
@@ -236,10 +190,7 @@ class BatchDecoding:
         if not self._batched:
             return list[record]
         return msgspec.defstruct(
-            "DecodedCycleBatch",
-            [("cycles", list[record])],
-            bases=(base,),
-            array_like=True,
+            "DecodedCycleBatch", [("cycles", list[record])], bases=(base,), array_like=True
         )
 
     def problem(self, data: bytes, where: str, first_cycle: int, exc: Exception) -> Exception:
@@ -247,28 +198,19 @@ class BatchDecoding:
         batch itself is, or (when robot states are decoded with it) a cycle's robot state
         does not fit its type or its samples are not what the header declares."""
         try:
-            decoded = self.skimming.decode(data)
+            decoded = self.skim(data)
         except DECODE_ERRORS as damage:
             return self._damaged_cycle(data, first_cycle) or CorruptLogError(
                 self.path, f"damaged {where}: {damage}"
             )
         records: list[Any] = decoded if isinstance(decoded, list) else decoded.cycles
         by_field = isinstance(decoded, ColumnBatch) and decoded.state_fields is not None
-        damaged = CorruptLogError(self.path, f"damaged {where}: {exc}")
-        return self._misfit(records, first_cycle, damaged, states=not by_field)
-
-    def _misfit(
-        self, records: list[CycleRecord], first_cycle: int, otherwise: Exception, *, states: bool
-    ) -> Exception:
-        """The first cycle whose robot state (where ``states``: the records hold them) does
-        not fit the type robot states are decoded into, or whose samples are not what the
-        header declares; else ``otherwise``."""
         state_type = self._state_type
         assert state_type is not None  # raw records decoded: the states did not
         samples = samples_shape(self.header)
         for index, record in enumerate(records):
             try:
-                if states:
+                if not by_field:
                     msgspec.msgpack.decode(record.robot_state, type=state_type)
             except DECODE_ERRORS as misfit:
                 return SchemaMismatchError(
@@ -285,7 +227,7 @@ class BatchDecoding:
                     f"damaged samples in cycle {first_cycle + index}: the header declares "
                     f"{logged}: {misfit}",
                 )
-        return otherwise
+        return CorruptLogError(self.path, f"damaged {where}: {exc}")
 
     def _damaged_cycle(self, data: bytes, first_cycle: int) -> CorruptLogError | None:
         """The first cycle of a batch that is not a cycle record, when the batch holds an

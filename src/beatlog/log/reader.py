@@ -2,13 +2,12 @@
 
 The header comes first and must describe a log this beatlog reads; the cycles follow
 in order, none missing or repeated, each batch stamped with its robot time; an end
-record, if any, counts exactly the cycles read. The records come checked from
-:mod:`beatlog.log.integrity` (which says how the file ends), the payloads decoded by
-:mod:`beatlog.log.payload`. ``docs/format.md`` lists every check.
+record, if any, counts exactly the cycles read (``docs/format.md`` lists every check).
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,9 +33,6 @@ from beatlog.log.format import (
     cycles_record,
     schema_name,
 )
-
-# Re-exported where it was defined before the log package was split by job.
-from beatlog.log.index import recorded_cycles as recorded_cycles  # noqa: PLC0414
 from beatlog.log.integrity import IndexDamageError, RecordStream, TruncatedError
 from beatlog.log.limits import MAX_SCHEMA_BYTES
 from beatlog.log.payload import BatchDecoding, decode_payload, decoded_version
@@ -53,12 +49,10 @@ _SCHEMAS = {
 
 @dataclass(frozen=True)
 class LogStatus:
-    """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles.
-
-    A complete log with a ``problem`` has its index (the summary and footer after its
-    cycles) damaged and every cycle intact: only a reader told to tolerate that reports
-    it. A dataclass rather than a tuple, so that ``replay --json`` names its fields.
-    """
+    """How a log ended: closed cleanly, or truncated after ``cycles`` complete cycles; a
+    complete log with a ``problem`` has its index damaged and every cycle intact (only a
+    reader told to tolerate that reports it). A dataclass: ``replay --json`` names its
+    fields."""
 
     complete: bool
     cycles: int
@@ -67,29 +61,20 @@ class LogStatus:
     def describe(self) -> str:
         """One line for people: "complete", "index damaged, data intact" and why, or
         where and why the log was truncated."""
-        if self.complete:
-            return "complete" if self.problem is None else _index_damaged(self.problem)
-        return f"truncated at cycle {self.cycles}: {self.problem}"
-
-
-def _index_damaged(problem: str) -> str:
-    return f"index damaged, data intact: {problem}"
+        if not self.complete:
+            return f"truncated at cycle {self.cycles}: {self.problem}"
+        return "complete" if self.problem is None else f"index damaged, data intact: {self.problem}"
 
 
 class SessionLogReader(Closing):
-    """Streams the cycles of one ``.beatlog`` file; a context manager.
+    """Streams the cycles of one ``.beatlog`` file, in order, none missing or repeated;
+    a context manager. The header is read and checked on opening; once iteration ends,
+    :attr:`status` says whether the log was complete.
 
-    The header is read and checked on opening. Iterate :meth:`batches` (fastest) or
-    :meth:`cycles`; when iteration ends, :attr:`status` says whether the log was
-    complete. Every cycle yielded is in order, none missing or repeated.
-
-    Damage in the index after the cycles (the summary section and the footer, checked
-    against the footer's summary CRC) is a :class:`~beatlog.errors.CorruptLogError`
+    Damage in the index after the cycles is a :class:`~beatlog.errors.CorruptLogError`
     even when every cycle and the end record read back intact, unless
-    ``tolerate_damaged_index``: the status then says so (for people looking at a log).
-
-    Given a :class:`~beatlog.log.recording.Recording`, the first reader to reach the end
-    of the file takes its digest and keeps its bytes, and readers after it read those.
+    ``tolerate_damaged_index``: the status then says so. Given a
+    :class:`~beatlog.log.recording.Recording`, the log is read once (its digest taken).
     """
 
     def __init__(self, path: LogSource, *, tolerate_damaged_index: bool = False) -> None:
@@ -100,10 +85,12 @@ class SessionLogReader(Closing):
         self._topics: dict[str, int] = {}
         self._schemas: dict[int, Schema] = {}
         self._cycles = 0
-        self._robot_time_ns = 0
-        self._end: SessionEnd | None = None
+        self.robot_time_ns = 0
+        """The robot time of the cycles read so far: the sum of their heartbeat intervals."""
+        self.end: SessionEnd | None = None
+        """The end record, once read: the recording closed cleanly."""
         self._status: LogStatus | None = None
-        self._messages_read: dict[int, int] = {}
+        self._messages_read: Counter[int] = Counter()
         self._messages = self._topic_messages()
         try:
             self.header = self._read_header()
@@ -112,7 +99,6 @@ class SessionLogReader(Closing):
             raise
         self.format_version = self.header.format_version
         self._decoding = BatchDecoding(self.path, self.header)
-        self._batch_decoder: Any = self._decoding.decoder
 
     @property
     def status(self) -> LogStatus:
@@ -121,38 +107,25 @@ class SessionLogReader(Closing):
             raise RuntimeError("the log's status is known only after reading all its cycles")
         return self._status
 
-    @property
-    def robot_time_ns(self) -> int:
-        """The robot time of the cycles read so far: the sum of their heartbeat intervals."""
-        return self._robot_time_ns
-
-    @property
-    def end(self) -> SessionEnd | None:
-        """The end record, if the recording closed cleanly."""
-        return self._end
-
     def batches(
         self, start: int = 0, skimmed: Callable[[list[CycleRecord]], object] | None = None
     ) -> Iterator[list[CycleRecord]]:
-        """Yield the cycles in the batches they were written in, each checked in place,
-        from cycle ``start`` on: the batch that holds it is cut there.
+        """Yield the cycles in the batches they were written in, each checked, from cycle
+        ``start`` on: the batch that holds it is cut there.
 
-        The cycles before ``start`` are skimmed, not yielded: read and checked as every
-        batch is (each chunk's bounds and CRC, each batch in order, stamped with its
-        robot time, each cycle a record of the format's shape), their parts (robot
-        state, state changes, draws, outputs, samples) left undecoded, and a format-3
-        batch's robot-state columns unchecked; ``skimmed`` is handed them, a batch at a
-        time. :attr:`robot_time_ns` counts them all the same.
+        The cycles before ``start`` are skimmed: checked as every batch is, but their
+        parts (and a format-3 batch's columns) left undecoded, and handed to ``skimmed``
+        a batch at a time instead of yielded. :attr:`robot_time_ns` counts them too.
         """
         for topic, message in self._messages:
             if topic == CYCLES_TOPIC:
                 if self._cycles >= start:
                     yield self._batch(message)
                     continue
-                first, time_ns = self._cycles, self._robot_time_ns
+                first, time_ns = self._cycles, self.robot_time_ns
                 batch = self._batch(message, skim=True)
                 if self._cycles > start:  # it holds ``start``: read again, whole
-                    self._cycles, self._robot_time_ns = first, time_ns
+                    self._cycles, self.robot_time_ns = first, time_ns
                     batch = self._batch(message)
                 if skimmed is not None:
                     skimmed(batch[: start - first])
@@ -164,19 +137,11 @@ class SessionLogReader(Closing):
                 raise CorruptLogError(self.path, "a second session header")
 
     def decode_states(self, state_type: type[Any]) -> None:
-        """Decode each cycle's RS_t into ``state_type`` from the next batch on, with the
-        batch itself: the records' ``robot_state`` is then the decoded state, not its bytes,
-        and their ``samples`` are checked against the header (:func:`samples_shape`), not
-        kept. In format 3 (robot states by field) it is the batch's
-        :class:`~beatlog.log.columns.StateColumns` instead, to decode only the fields
-        read (the replay core does: :mod:`beatlog.replaying.view`).
-
-        Decoding in the same pass as the batch reads every robot state once instead of
-        skipping it and decoding it again. A robot state that does not fit the type is a
-        :class:`~beatlog.errors.SchemaMismatchError` naming its cycle; samples the header
-        does not declare are a :class:`~beatlog.errors.CorruptLogError` naming it.
-        """
-        self._batch_decoder = self._decoding.decode_states(state_type)
+        """Decode each cycle's RS_t into ``state_type`` from the next batch on, with its
+        batch (format 3: the batch's :class:`~beatlog.log.columns.StateColumns`), and
+        check its samples against the header: one that does not fit is a
+        :class:`~beatlog.errors.SchemaMismatchError` (samples: damage) naming its cycle."""
+        self._decoding.decode_states(state_type)
 
     def cycles(self) -> Iterator[CycleRecord]:
         """Yield every cycle in order."""
@@ -229,9 +194,9 @@ class SessionLogReader(Closing):
         """Decode one cycles message and check it continues exactly where the last ended;
         skimmed, with its cycles' parts left undecoded (see :meth:`batches`)."""
         where = f"the batch after cycle {self._cycles}"
-        decoder = self._decoding.skimming if skim else self._batch_decoder
+        decode = self._decoding.skim if skim else self._decoding.decode
         try:
-            decoded = decoder.decode(message.data)
+            decoded = decode(message.data)
         except DECODE_ERRORS as exc:  # skimmed, its raw decoding fails as well: damage
             raise self._decoding.problem(message.data, where, self._cycles, exc) from None
         if isinstance(decoded, CycleBatch | ColumnBatch):
@@ -250,15 +215,15 @@ class SessionLogReader(Closing):
             batch = decoded
         if not batch:
             raise CorruptLogError(self.path, f"{where} is empty")
-        if message.log_time != self._robot_time_ns + batch[0].heartbeat_ns:
+        if message.log_time != self.robot_time_ns + batch[0].heartbeat_ns:
             raise CorruptLogError(
                 self.path,
                 f"cycles out of order: {where} is stamped {message.log_time} ns of robot "
-                f"time, not {self._robot_time_ns + batch[0].heartbeat_ns} "
+                f"time, not {self.robot_time_ns + batch[0].heartbeat_ns} "
                 "(a chunk missing, repeated or moved)",
             )
         self._cycles += len(batch)
-        self._robot_time_ns += sum([cycle.heartbeat_ns for cycle in batch])
+        self.robot_time_ns += sum([cycle.heartbeat_ns for cycle in batch])
         return batch
 
     def _read_end(self, message: Message) -> None:
@@ -267,21 +232,18 @@ class SessionLogReader(Closing):
             raise CorruptLogError(
                 self.path, "the end record is not stamped with the session's robot time"
             )
-        if (end.cycles, end.robot_time_ns) != (self._cycles, self._robot_time_ns):
+        if (end.cycles, end.robot_time_ns) != (self._cycles, self.robot_time_ns):
             raise CorruptLogError(
                 self.path,
                 f"the end record counts {end.cycles} cycles and {end.robot_time_ns} ns of "
                 f"robot time, but the log holds {self._cycles} cycles and "
-                f"{self._robot_time_ns} ns",
+                f"{self.robot_time_ns} ns",
             )
-        self._end = end
+        self.end = end
 
     def _topic_messages(self) -> Iterator[tuple[str, Message]]:
-        """Messages with their channel's topic, in the order the format requires.
-
-        The header comes first, then cycles, then at most one end record and nothing
-        after it. Sets the status when the records end.
-        """
+        """Messages with their channel's topic, in the order the format requires (the
+        header, cycles, at most one end record); sets the status when the records end."""
         ended = False
         try:
             for record in self._stream.records():
@@ -293,8 +255,7 @@ class SessionLogReader(Closing):
                         )
                     if ended:
                         raise CorruptLogError(self.path, "a message after the end record")
-                    count = self._messages_read.get(channel.id, 0)
-                    self._messages_read[channel.id] = count + 1
+                    self._messages_read[channel.id] += 1
                     ended = channel.topic == END_TOPIC
                     yield channel.topic, record
                 elif isinstance(record, Schema):
@@ -308,29 +269,21 @@ class SessionLogReader(Closing):
         except IndexDamageError as damage:
             self._index_damage(str(damage))
             return
-        footer = self._stream.footer
-        assert footer is not None  # the records end with the footer
-        if footer.summary_crc != self._stream.summary_crc:
-            self._index_damage("the summary does not match its CRC in the footer")
-            return
-        self._check_summary()
-        if self._end is None:
+        self._stream.check_summary(self._channels, self._schemas, self._messages_read)
+        if self.end is None:
             self._status = LogStatus(False, self._cycles, "the log has no end record")
         else:
             self._status = LogStatus(True, self._cycles)
 
-    def _check_summary(self) -> None:
-        """The summary must describe exactly the data read, channels and schemas included."""
-        self._stream.check_summary(self._channels, self._schemas, self._messages_read)
-
     def _index_damage(self, problem: str) -> None:
         """The summary or footer is damaged: after intact cycles and end record, the
         status of a reader tolerating that, else an error."""
-        if self._end is None:
+        status = LogStatus(True, self._cycles, problem)
+        if self.end is None:
             raise CorruptLogError(self.path, problem)
         if not self._tolerate_damaged_index:
-            raise CorruptLogError(self.path, _index_damaged(problem))
-        self._status = LogStatus(True, self._cycles, problem)
+            raise CorruptLogError(self.path, status.describe())
+        self._status = status
 
     def _defined_before(
         self, what: str, known: Schema | Channel | None, record: Schema | Channel

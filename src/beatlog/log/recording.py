@@ -1,11 +1,9 @@
 """A session log read once: its SHA-256 taken as its bytes stream past, and the bytes
 kept in memory (up to a bound) for whatever looks at it again.
 
-A DTC's verdict reads its log to the end, byte for byte (:mod:`beatlog.log.integrity`).
-Given a :class:`Recording` instead of a path, that one read also hashes every byte,
-in file order, for the digest that binds a baseline to its recording, and keeps them,
-so that the details of a failure, the check that it repeats and the weighing of a
-pending baseline replay the same bytes from memory: the file is opened once.
+The verdict's read of a :class:`Recording` hashes every byte for the digest that binds
+a baseline to its recording, and keeps them, so that the details of a failure and the
+weighing of a pending baseline replay the same bytes: the file is opened once.
 """
 
 from __future__ import annotations
@@ -24,12 +22,9 @@ hashed as it streams, but looked at again from its file."""
 
 @dataclass(eq=False)
 class Recording(os.PathLike[str]):
-    """A log at ``path``, read once: whatever reads it first (a
-    :class:`~beatlog.log.integrity.RecordStream`) hashes its bytes and keeps up to
-    ``keep`` of them; readers after it read those bytes instead of the file.
-
-    It stands for its path wherever one is wanted (``os.fspath``, ``Path(recording)``).
-    """
+    """A log at ``path``, read once: whatever reads it first hashes its bytes and keeps
+    up to ``keep`` of them for the readers after it. It stands for its path wherever one
+    is wanted (``os.fspath``, ``Path(recording)``)."""
 
     path: Path
     keep: int = KEPT_BYTES
@@ -50,12 +45,6 @@ class Recording(os.PathLike[str]):
     def __getstate__(self) -> dict[str, object]:
         """What a copy in another process holds: no read under way."""
         return {**self.__dict__, "_hash": None, "_pieces": None, "_read": 0}
-
-    @property
-    def streaming(self) -> bool:
-        """Whether a read of the file is under way, or has yet to start, that will take
-        the digest (no read has reached the end yet)."""
-        return self.digest is None
 
     def start(self) -> None:
         """A read of the file from its first byte begins: hashing and keeping start over."""

@@ -1,14 +1,11 @@
 """Writes a session log from a background thread so the control loop never waits on disk.
 
-The control thread encodes each cycle into immutable bytes (a few microseconds) and
-queues them. The writer thread batches cycles into messages (in format 3, robot states
-stored by field: :mod:`beatlog.log.columns`) and closes an MCAP chunk
-at least once per flush interval of robot time, so a recorder killed mid-session
-leaves a log that is readable up to its last flushed cycle, and the same session
-gives the same bytes on any machine. A write failure stops the writing, never the
-robot: it is kept in :attr:`SessionLogWriter.error` and the log stays valid up to
-the failure. A log file whose header cannot be written (a full disk) is removed: a
-recording leaves a valid log or nothing.
+The control thread encodes each cycle and queues it; the writer thread batches cycles
+into messages and closes a chunk at least once per flush interval of robot time, so a
+recorder killed mid-session leaves a log readable up to its last flush, and the same
+session gives the same bytes on any machine. A write failure stops the writing, never
+the robot (:attr:`SessionLogWriter.error`); a log whose header cannot be written is
+removed: a recording leaves a valid log or nothing.
 """
 
 from __future__ import annotations
@@ -59,8 +56,7 @@ class SessionLogWriter(Closing):
     """Writes one session log; use it as a context manager or call :meth:`close`.
 
     :param overwrite: replace a log already at ``output``; without it an existing file
-        is left untouched and :class:`~beatlog.errors.LogExistsError` names it, since
-        recordings are immutable.
+        is left untouched (recordings are immutable): :class:`~beatlog.errors.LogExistsError`.
     :param flush_interval_s: a chunk is closed and flushed at least this often, in robot
         time (the ``time_ns`` given to :meth:`append`).
     :param fsync: also fsync the file at each flush (survives power loss, costs I/O).
@@ -90,8 +86,10 @@ class SessionLogWriter(Closing):
         self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
         self.error: BaseException | None = None
         self.cycles_written = 0
-        self._cycles_queued = 0
-        self._robot_time_ns = 0
+        self.cycles_appended = 0
+        """Cycles taken by :meth:`append` so far (written, or queued to be)."""
+        self.robot_time_ns = 0
+        """The sum of the heartbeat intervals of the cycles appended so far."""
         self._closed = False
         self._columns = header.format_version >= COLUMNS_SINCE
         self._state_fields = header.state_fields
@@ -163,42 +161,25 @@ class SessionLogWriter(Closing):
     ) -> None:
         """Queue one cycle, encoded now so later mutation of its parts cannot change it;
         ``state`` is RS_t, or its encoding as a :class:`msgspec.Raw` (the recorder's).
-
-        Never blocks and never raises for an I/O problem; after a write failure the
-        cycle is dropped and :attr:`error` says why.
-        """
+        Never blocks nor raises for an I/O problem: after a write failure the cycle is
+        dropped and :attr:`error` says why."""
         if self.error is not None:
             return
-        if self._by_field:
-            encoded = self._encoder.encode(state)
-            record = self._encoder.encode(CycleEntry(hb_ns, None, changes, draws, outputs, samples))
-            payload: Any = (record, encoded)
-            size = len(record) + len(encoded)
-        else:
-            payload = self._encoder.encode(
-                CycleEntry(hb_ns, state, changes, draws, outputs, samples)
-            )
-            size = len(payload)
+        by_field = self._by_field
+        entry = CycleEntry(hb_ns, None if by_field else state, changes, draws, outputs, samples)
+        record = self._encoder.encode(entry)
+        payload: Any = (record, self._encoder.encode(state)) if by_field else record
+        size = len(record) + (len(payload[1]) if by_field else 0)
         if size > MAX_CYCLE_BYTES:
             self.error = LogError(
                 self.path or "<output>",
-                f"cycle {self._cycles_queued} is {size} bytes; the most a cycle may "
+                f"cycle {self.cycles_appended} is {size} bytes; the most a cycle may "
                 f"hold is {MAX_CYCLE_BYTES} (keep the robot state light)",
             )
             return
-        self._cycles_queued += 1
-        self._robot_time_ns += hb_ns
-        self._queue.put((self._robot_time_ns, payload, size))
-
-    @property
-    def cycles_appended(self) -> int:
-        """Cycles taken by :meth:`append` so far (written, or queued to be)."""
-        return self._cycles_queued
-
-    @property
-    def robot_time_ns(self) -> int:
-        """The sum of the heartbeat intervals of the cycles appended so far."""
-        return self._robot_time_ns
+        self.cycles_appended += 1
+        self.robot_time_ns += hb_ns
+        self._queue.put((self.robot_time_ns, payload, size))
 
     def close(self, end: SessionEnd | None = None) -> None:
         """Write what is queued and the end record, then finish and close the file."""
@@ -211,12 +192,8 @@ class SessionLogWriter(Closing):
             self._file.close()
 
     def _run(self) -> None:
-        """Batch cycles, and close a chunk whenever a flush interval of robot time passed.
-
-        Batches and chunks depend only on the cycles, never on the wall clock, so the
-        same session gives the same records (and, with the same start time in its
-        header, the same bytes).
-        """
+        """Batch cycles, and close a chunk whenever a flush interval of robot time passed:
+        never by the wall clock, so the same session gives the same bytes."""
         pending: list[tuple[int, Any, int]] = []
         pending_bytes = 0
         flush_at: int | None = None
@@ -229,12 +206,11 @@ class SessionLogWriter(Closing):
             pending_bytes += size
             if flush_at is None:
                 flush_at = time_ns + self._flush_interval_ns
-            if len(pending) >= self._batch_cycles or pending_bytes >= BATCH_BYTES:
+            due = time_ns >= flush_at
+            if due or len(pending) >= self._batch_cycles or pending_bytes >= BATCH_BYTES:
                 self._guard(self._write_batch, pending)
                 pending_bytes = 0
-            if time_ns >= flush_at:
-                self._guard(self._write_batch, pending)
-                pending_bytes = 0
+            if due:
                 self._guard(self._flush)
                 flush_at = time_ns + self._flush_interval_ns
         self._guard(self._write_batch, pending)
@@ -252,8 +228,7 @@ class SessionLogWriter(Closing):
         if not pending:
             return
         if self._by_field:
-            records = [payload[0] for _, payload, _ in pending]
-            states = [payload[1] for _, payload, _ in pending]
+            records, states = zip(*[payload for _, payload, _ in pending], strict=True)
             batches = column_batches(self.cycles_written, records, states, self._state_fields)
             messages = [(pending[start][0], self._encoder.encode(b)) for start, b in batches]
         else:  # records that hold their robot states: the same bytes in formats 2 and 3
@@ -271,12 +246,8 @@ class SessionLogWriter(Closing):
 
     def _finish(self, end: SessionEnd | None) -> None:
         if end is not None:
-            self._mcap.add_message(
-                self._channels[END_TOPIC],
-                end.robot_time_ns,
-                self._encoder.encode(end),
-                end.robot_time_ns,
-            )
+            at = end.robot_time_ns
+            self._mcap.add_message(self._channels[END_TOPIC], at, self._encoder.encode(end), at)
         self._mcap.finish()  # type: ignore[no-untyped-call]
         self._file.flush()
         if self._fsync:

@@ -43,11 +43,8 @@ class Behavior(Protocol):
 @runtime_checkable
 class System(Protocol):
     """The behavior software under test: what record and replay drive, cycle by cycle.
-
-    A system may also declare ``period_ns``, the heartbeat period its behaviors are
-    written for (as :class:`CataloguedSystem` does): a log recorded at another period
-    then replays with a note saying so.
-    """
+    It may declare ``period_ns``, the heartbeat period its behaviors are written for: a
+    log recorded at another period then replays with a note saying so."""
 
     @property
     def robot_state(self) -> type[msgspec.Struct]:
@@ -94,20 +91,12 @@ class CataloguedSystem(Generic[RS]):
         *,
         period_ns: int | None = None,
     ) -> None:
-        self._robot_state = robot_state
-        self._catalogue = catalogue
+        self.robot_state = robot_state
+        """The robot state type the behaviors read."""
+        self.behaviors = catalogue
+        """The behaviors in catalogue order, each by its name."""
         self.period_ns = period_ns
         """The heartbeat period the behaviors are written for, in ns; None: not declared."""
-
-    @property
-    def robot_state(self) -> type[RS]:
-        """The robot state type the behaviors read."""
-        return self._robot_state
-
-    @property
-    def behaviors(self) -> Mapping[str, Behavior]:
-        """The behaviors in catalogue order, each by its name."""
-        return self._catalogue
 
 
 class PriorityArbiter(CataloguedSystem[RS]):
@@ -118,12 +107,11 @@ class PriorityArbiter(CataloguedSystem[RS]):
     when none asks), so a change of control is a state change in the log. Its
     catalogue holds the arbiter first, then its behaviors from highest to lowest priority.
 
-    With ``per_output``, each output is arbitrated on its own, as subsumption arbitrates
-    each actuator: it goes to the highest-priority behavior that proposes it, so a
-    longitudinal behavior (``acceleration``) and a lateral one (``steering``) each keep
-    control of their own output. The state then names each output's winner, by output
-    (``"acceleration: follow, steering: keep_lane"``; ``"idle"`` when none proposes one).
-    ``period_ns`` declares the heartbeat period the behaviors are written for.
+    With ``per_output``, each output goes to the highest-priority behavior that proposes
+    it, as subsumption arbitrates each actuator (a longitudinal and a lateral behavior
+    each keep their own), and the state names each output's winner
+    (``"acceleration: follow, steering: keep_lane"``). ``period_ns`` declares the
+    heartbeat period the behaviors are written for.
     """
 
     def __init__(

@@ -29,12 +29,9 @@ class SimulatedHeartbeat:
 
 
 class LiveHeartbeat:
-    """Signals each main cycle on a fixed monotonic grid and measures the real interval.
-
-    Beats are due at ``start + k * period``. A cycle that overruns its period is counted
-    and the clock resumes at the next grid point still in the future, so a slow cycle
-    never shifts the later beats (no drift).
-    """
+    """Signals each main cycle on a fixed monotonic grid (``start + k * period``) and
+    measures the real interval; a cycle that overruns is counted and the clock resumes at
+    the next grid point still ahead, so a slow cycle never shifts later beats."""
 
     def __init__(self, period_ns: int = DEFAULT_PERIOD_NS) -> None:
         if period_ns <= 0:

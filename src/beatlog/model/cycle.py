@@ -17,22 +17,19 @@ from beatlog.model.context import Context
 from beatlog.model.random import RandomSource
 
 __all__ = [
-    "ChangeFinder",
     "CycleExecutor",
     "DrawReport",
     "Pause",
     "StateChange",
     "Update",
-    "state_change_finder",
-    "state_reader",
+    "find_changes",
+    "read_states",
 ]
 
 Update = Callable[[Any, Context], None]
 """A system's update: the behaviors step from RS_t with the context of the cycle."""
 Pause = Callable[[Update, Any, Context], None]
 """Takes the place of one update: given it, RS_t and the context, it must run it."""
-ChangeFinder = Callable[[list[BehaviorState], list[BehaviorState]], list[StateChangeRecord]]
-"""Given the states read now and those seen last, BS_t (:func:`state_change_finder`)."""
 
 
 class StateChange(NamedTuple):
@@ -69,34 +66,22 @@ class DrawReport(NamedTuple):
         return asked if self.value is None else f"{asked} = {_SHORT.repr(self.value)}"
 
 
-def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
-    """A function that reads every behavior's state, in catalogue order."""
-    catalogue = tuple(behaviors)
-
-    def read() -> list[BehaviorState]:
-        return [behavior.state for behavior in catalogue]
-
-    return read
+def read_states(behaviors: Sequence[Behavior]) -> list[BehaviorState]:
+    """Every behavior's state as it is now, in catalogue order."""
+    return [behavior.state for behavior in behaviors]
 
 
-def state_change_finder(size: int) -> ChangeFinder:
-    """A function ``find(now, seen)`` that, given the states of a catalogue of ``size``
-    behaviors read now and those seen last (both in catalogue order), returns BS_t: a
-    ``(index, before, after)`` for each state that is another object and not equal to
-    the one seen, in catalogue order. It sets those, and only those, in ``seen``: a state
-    equal to the one seen but another object leaves the one seen in place (``1``, then
-    ``True``, then ``2`` is one change, from ``1`` to ``2``)."""
-
-    def find(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
-        found: list[StateChangeRecord] = []
-        for index in range(size):
-            state, last = now[index], seen[index]
-            if state is not last and state != last:
-                found.append((index, last, state))
-                seen[index] = state
-        return found
-
-    return find
+def find_changes(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
+    """BS_t, given the states of a catalogue read now and those seen last, in catalogue
+    order: an ``(index, before, after)`` for each state not equal to the one seen, set in
+    ``seen``; an equal one leaves the one seen in place (``1``, then ``True``, then ``2``
+    is one change, from ``1`` to ``2``)."""
+    found: list[StateChangeRecord] = []
+    for index, (state, last) in enumerate(zip(now, seen, strict=True)):
+        if state is not last and state != last:
+            found.append((index, last, state))
+            seen[index] = state
+    return found
 
 
 class CycleExecutor:
@@ -106,9 +91,8 @@ class CycleExecutor:
         self.system = system
         catalogue = system.behaviors
         self.behavior_ids = list(catalogue)
-        self._read_states = state_reader(list(catalogue.values()))
-        self._states = self._read_states()
-        self._find_changes = state_change_finder(len(self._states))
+        self._behaviors = tuple(catalogue.values())
+        self._states = read_states(self._behaviors)
         self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
@@ -124,28 +108,23 @@ class CycleExecutor:
         if context.outputs:
             context.outputs = {}
         self._update(state, context)
-        now = self._read_states()
+        now = read_states(self._behaviors)
         states = self._states
         if now == states:  # the common case, compared in C: same objects or equal values
             return []
-        return self._find_changes(now, states)
+        return find_changes(now, states)
 
     def assume(self, states: Mapping[int, BehaviorState]) -> None:
-        """Take ``states`` (by catalogue position) as the behaviors' states seen last:
-        the next cycle's BS_t is found against them. A fresh start in replay assumes the
-        states the recording has there, so that a behavior whose fresh state is the
-        recorded one shows no change, and one whose state is not, does."""
+        """Take ``states`` (by catalogue position) as the behaviors' states seen last: a
+        fresh start in replay assumes the recorded ones, so that only a behavior whose
+        fresh state is not the recorded one shows a change in the next cycle's BS_t."""
         for index, state in states.items():
             self._states[index] = state
 
     def pause_next_update(self, pause: Pause) -> None:
         """Hand the next cycle's update to ``pause``, once: :meth:`step` advances the
-        context to the cycle (``cycle``, ``time_ns``, ``dt_ns`` as the behaviors will see
-        them), then calls ``pause(update, state, context)``, which must run the update.
-
-        The replay debugger stops there, one call from the system's update; every other
-        cycle runs as before, at no cost.
-        """
+        context to the cycle, then calls ``pause(update, state, context)``, which must run
+        the update (the replay debugger stops there, one call from the system's update)."""
         update = self._update
 
         def paused(state: Any, context: Context) -> None:

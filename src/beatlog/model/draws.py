@@ -56,37 +56,28 @@ class DrawKind(StrEnum):
     """A numpy array of ints in [low, high)."""
 
 
-ARRAY_KINDS = frozenset(
-    {DrawKind.UNIFORM_ARRAY.value, DrawKind.NORMAL_ARRAY.value, DrawKind.INTEGERS_ARRAY.value}
-)
-_encode_params = payload_encoder().encode
 SCALAR_VALUES: dict[str, type[int | float]] = {
-    DrawKind.RANDOM.value: float,
-    DrawKind.UNIFORM.value: float,
-    DrawKind.GAUSS.value: float,
-    DrawKind.RANDINT.value: int,
-    DrawKind.CHOICE.value: int,
+    **dict.fromkeys(("random", "uniform", "gauss"), float),
+    **dict.fromkeys(("randint", "choice"), int),
 }
 """The type of value each scalar kind of draw is recorded with."""
 _ARRAY_DTYPES = {
-    DrawKind.UNIFORM_ARRAY.value: "<f8",
-    DrawKind.NORMAL_ARRAY.value: "<f8",
-    DrawKind.INTEGERS_ARRAY.value: "<i8",
+    **dict.fromkeys(("uniform_array", "normal_array"), "<f8"),
+    "integers_array": "<i8",
 }
+"""The dtype each kind of array draw is recorded with (8 bytes an element)."""
+ARRAY_KINDS = frozenset(_ARRAY_DTYPES)
 _STRUCT_CODES = {"<f8": "d", "<i8": "q"}
 """The :mod:`struct` code of each array draw's dtype, to read one without numpy."""
-"""The dtype each kind of array draw is recorded with (8 bytes an element)."""
 _PARAMS = {
-    DrawKind.RANDOM.value: 0,
-    DrawKind.UNIFORM.value: 2,
-    DrawKind.GAUSS.value: 2,
-    DrawKind.RANDINT.value: 2,
-    DrawKind.CHOICE.value: 1,
+    **dict.fromkeys(SCALAR_VALUES, 2),
+    "random": 0,
+    "choice": 1,
     **dict.fromkeys(_ARRAY_DTYPES, 3),
 }
 """How many parameters each kind of draw records (none in format 1)."""
+_encode_params = payload_encoder().encode
 _NUMBERS = frozenset({int, float})
-_CHOICE = DrawKind.CHOICE.value
 
 
 def same_params(recorded: Sequence[Any], asked: Sequence[Any]) -> bool:
@@ -113,25 +104,14 @@ def pack_array(array: npt.NDArray[Any]) -> tuple[str, list[int], bytes]:
 def plain_value(draw: Draw) -> Any:
     """A draw's value as plain Python, for reports: an array draw's as nested lists
     (as recorded where those do not make an array). Needs no numpy."""
-    if draw.value is not None and draw.kind in ARRAY_KINDS:
-        try:
-            return _nested_lists(draw.value)
-        except (ValueError, TypeError, KeyError, struct.error):
-            return draw.value
-    return draw.value
-
-
-def _nested_lists(value: Any) -> Any:
-    """An array draw's recorded ``[dtype, shape, bytes]`` as numpy's ``tolist`` gives it,
-    read in pure Python."""
-    dtype, shape, data = value
-    if not _is_shape(shape) or len(data) != 8 * prod(shape):
-        raise ValueError(f"{len(data)} bytes do not make shape {shape!r}")
-    items = list(struct.unpack(f"<{prod(shape)}{_STRUCT_CODES[dtype]}", data))
-    return _nest(items, list(shape))
+    if draw.kind not in ARRAY_KINDS or _array_problem(draw.kind, draw.value, ()) is not None:
+        return draw.value
+    dtype, shape, data = draw.value
+    return _nest(list(struct.unpack(f"<{prod(shape)}{_STRUCT_CODES[dtype]}", data)), list(shape))
 
 
 def _nest(items: list[Any], shape: list[int]) -> Any:
+    """``items`` as numpy's ``tolist`` gives an array of ``shape``."""
     if not shape:
         return items[0]
     if len(shape) == 1:
@@ -162,7 +142,7 @@ def recorded_draw_problem(draw: Draw, behaviors: int) -> str | None:
         return _array_problem(kind, value, params)
     if value.__class__ is not scalar:
         return f"{kind} recorded {value!r}, not {'an int' if scalar is int else 'a float'}"
-    if kind == _CHOICE and params and not 0 <= value < params[0]:
+    if kind == "choice" and params and not 0 <= value < params[0]:
         return f"choice recorded index {value} of {params[0]} items"
     return None
 

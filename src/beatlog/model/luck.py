@@ -37,7 +37,6 @@ __all__ = [
     "Luck",
     "Place",
     "array_value",
-    "fresh_luck",
     "scalar_luck",
     "scalar_value",
 ]
@@ -70,16 +69,11 @@ class Place(NamedTuple):
     call: int
     """How many draws the behavior made before this one in the cycle."""
 
-    def seed(self, key: bytes) -> bytes:
-        """Eight bytes for this place in the log keyed by ``key``."""
-        return FreshLuck(key).seed(self)
-
 
 class FreshLuck:
-    """The fresh luck of one log's places, keyed by ``key`` (its first 64 bytes): a
-    place's seed is the BLAKE2b digest, 8 bytes, keyed so, of ``cycle``, ``behavior`` and
-    ``call`` as text, each ended by a NUL but the last. A source that draws many keeps
-    one: the key is hashed once."""
+    """The fresh luck of one log's places, keyed by ``key`` (its first 64 bytes, hashed
+    once): a place's seed is the 8-byte BLAKE2b digest, keyed so, of ``cycle``,
+    ``behavior`` and ``call`` as text, each ended by a NUL but the last."""
 
     __slots__ = ("_keyed",)
 
@@ -96,12 +90,6 @@ class FreshLuck:
         """The luck of a draw the recording does not have, at ``place``: its seed as a
         float in [0, 1), 53 bits, as generators make them."""
         return Luck((int.from_bytes(self.seed(place), "little") >> 11) * _TINY)
-
-
-def fresh_luck(key: bytes, place: Place) -> Luck:
-    """The luck of a draw the recording does not have, at ``place`` in the log ``key``
-    (:meth:`FreshLuck.luck`)."""
-    return FreshLuck(key).luck(place)
 
 
 def _clamped(u: float) -> float:

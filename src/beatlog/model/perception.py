@@ -18,11 +18,9 @@ __all__ = ["Perception", "PerceptionTypeError", "perception_problem"]
 
 
 class Perception(Protocol):
-    """Builds RS_t from RS_t-1 (None before the first cycle) and the cycle's samples.
-
-    Replayed sample values come back from the log as msgpack decodes them: tuples as
-    lists, numpy values as plain numbers and lists.
-    """
+    """Builds RS_t from RS_t-1 (None before the first cycle) and the cycle's samples;
+    replayed sample values come back as msgpack decodes them (tuples and numpy values as
+    plain lists and numbers)."""
 
     def __call__(self, previous: Any | None, samples: Sequence[Sample], /) -> Any: ...
 

@@ -1,15 +1,10 @@
-"""The random source: the only randomness behaviors use.
+"""The random source that records: the only randomness behaviors use, live.
 
-Live, it draws from a counter-based source keyed by its seed and records every value
-(RN_t) with what was asked for (the kind and its parameters). Scalar draws are pure
-Python; only array draws need numpy (``pip install "beatlog[arrays]"``), imported where
-they are made or replayed. In replay it hands back the recorded values; drawing more,
-fewer, a different kind or with different parameters than was recorded is a divergence
-that names the cycle and the behavior.
-
-This module holds the recording source; the interface behaviors draw from
-(:mod:`.source`) and the draws' kinds and values (:mod:`.draws`) are importable from
-here too. The replaying source is replay's (:mod:`beatlog.replaying.random`).
+It draws from a counter-based source keyed by its seed and records every value (RN_t)
+with what was asked for (the kind and its parameters); in replay the recorded values
+are handed back (:mod:`beatlog.replaying.random`), and drawing more, fewer, another kind
+or other parameters is a divergence. Only array draws need numpy. The interface
+behaviors draw from (:mod:`.source`) and the draws' kinds are importable from here too.
 """
 
 from __future__ import annotations
@@ -41,14 +36,9 @@ __all__ = [
 
 class RecordingRandom(RandomSource):
     """Draws from a counter-based source keyed by its seed and keeps every value drawn
-    in the current cycle.
-
-    The session's n-th draw has the luck of the place ``(0, "", n)`` in the log keyed by
-    the seed (:func:`~beatlog.model.luck.fresh_luck`), and the value of its request with
-    that luck (:func:`~beatlog.model.luck.scalar_value`): pure Python, the same for the
-    same seed on every machine. An array draw seeds numpy's PCG64 from its place
-    (:func:`~beatlog.model.luck.array_value`); only array draws need numpy.
-    """
+    in the current cycle: the session's n-th draw is its request's value with the luck
+    of the place ``(0, "", n)`` (:class:`~beatlog.model.luck.FreshLuck`), the same for
+    the same seed on every machine."""
 
     def __init__(self, seed: int | None = None) -> None:
         super().__init__()

@@ -3,12 +3,9 @@ desired speed picked in ``__init__``), draws from the random source its system's
 factory is handed.
 
 A system factory that takes a keyword parameter ``random`` is called with the session's
-:class:`~beatlog.model.source.RandomSource` and may draw from it while it builds the
-system, in either dialect (``random.Random``'s or a numpy ``Generator``'s). Recording
-keeps those draws in the log's header (the set-up draws, the system's); replay builds
-the system after reading the header, handing the factory a source that serves them
-back and checks them as it does a cycle's (:mod:`beatlog.replaying.setup`). A factory
-without the parameter is called with no argument, as before.
+:class:`~beatlog.model.source.RandomSource`. Recording keeps what it draws in the log's
+header; replay hands the factory a source that serves them back and checks them as it
+does a cycle's (:mod:`beatlog.replaying.setup`).
 """
 
 from __future__ import annotations

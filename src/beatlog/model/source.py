@@ -2,15 +2,12 @@
 attributed to the behavior that makes it (:class:`~beatlog.model.random.RecordingRandom`
 live, :class:`~beatlog.replaying.random.ReplayRandom` in replay).
 
-It speaks both dialects of Python code that draws: :class:`random.Random`'s
-(``random()``, ``uniform(a, b)``, ``gauss``, ``randint``, ``choice(seq)``) and numpy's
-:class:`numpy.random.Generator`'s (``random(size)``, ``uniform(low, high, size)``,
-``normal``, ``integers``, ``choice(a, size, replace, p)``), so code written for either
-takes a behavior's ``context.random`` unchanged. A numpy-style call is recorded as the
-draw of the same distribution in the log's kinds (``integers(0, 10)`` as
-``randint(0, 9)``, ``normal(size=3)`` as ``normal_array(0.0, 1.0, [3])``), and checked
-in replay like any other; only calls with a ``size`` (and ``integers``, whose scalar
-is numpy's) need numpy.
+It speaks both dialects of Python code that draws, :class:`random.Random`'s and numpy's
+:class:`numpy.random.Generator`'s, so code written for either takes a behavior's
+``context.random`` unchanged. A numpy-style call is recorded as the draw of the same
+distribution in the log's kinds (``integers(0, 10)`` as ``randint(0, 9)``,
+``normal(size=3)`` as ``normal_array(0.0, 1.0, [3])``); only calls with a ``size``
+(and ``integers``, whose scalar is numpy's) need numpy.
 """
 
 from __future__ import annotations
@@ -175,12 +172,10 @@ class RandomSource(ABC):
         ``range(a)`` for an int ``a`` (numpy's ``choice``), with the probabilities ``p``
         where given; with ``size``, an array of them, without repeats unless ``replace``.
 
-        The pick is drawn as ``choice(n)``; with ``p``, as ``random()``, the weights
-        then picking by their cumulative sums (as numpy does), so replay checks the
-        draw and applies the weights asked for now. With ``size``: ``integers_array(0,
-        n, size)``, or ``uniform_array(0.0, 1.0, size)`` with ``p``; without
-        ``replace``, ``uniform_array(0.0, 1.0, [n])``, a key per element, the smallest
-        ``size`` of them picked (keys scaled by ``p`` where given).
+        The pick is drawn as ``choice(n)``, or ``random()`` with ``p`` (the weights are
+        applied to it, so replay applies the weights asked for now); with ``size``, as
+        ``integers_array`` or ``uniform_array``; without ``replace``, a uniform key per
+        element, the smallest ``size`` picked (keys scaled by ``p`` where given).
         """
         population: Any = a
         try:

@@ -18,7 +18,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, Any, Literal
 
-from beatlog.log.reader import recorded_cycles
+from beatlog.log.index import recorded_cycles
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -129,7 +129,7 @@ def _quits() -> tuple[type[BaseException], ...]:
 
 def beyond_the_log(break_at: int, log: Path) -> str | None:
     """Why a break at cycle ``break_at`` cannot be reached in ``log``, where its end record
-    counts too few cycles (read cheaply: :func:`~beatlog.log.reader.recorded_cycles`)."""
+    counts too few cycles (read cheaply: :func:`~beatlog.log.index.recorded_cycles`)."""
     cycles = recorded_cycles(log)
     if cycles is None or break_at < cycles:
         return None

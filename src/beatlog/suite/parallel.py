@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import OptionError, RemoteLogError
 from beatlog.log.files import irregular_file_problem
-from beatlog.log.reader import recorded_cycles
+from beatlog.log.index import recorded_cycles
 from beatlog.suite.remote import log_size
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, suite_auditors
 from beatlog.suite.spec import DtcSpec
