@@ -12,7 +12,9 @@ the key it may mean. The project's ``[tool.beatlog]`` holds what applies to ever
 (:mod:`beatlog.project.config`), a spec's own coming on top; a spec written for a
 failing variant (``variant = N``) replays with its own ``[variants]`` alone. A DTC is
 identified as pytest identifies a test: its spec's path from the rootdir, ``::`` and
-its name (``robots/dog/dtc/dock.dtc.toml::dock``).
+its name (``robots/dog/dtc/dock.dtc.toml::dock``). A ``module:factory`` (``system``,
+``perception``) names a callable that takes no arguments and builds a fresh system (or
+perception step) each time it is called, or the object itself when it is not callable.
 """
 
 from __future__ import annotations
