@@ -14,6 +14,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Iterator, Sequence
 from types import FrameType
 
@@ -52,6 +53,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             print_error(str(exc), exc.user_traceback if verbose else None)
             return EXIT_USAGE
         except KeyboardInterrupt as stop:
+            # what the interruption abandoned (an async download's read) is not the user's
+            warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
             if terminated.is_set():
                 print("beatlog: terminated", file=sys.stderr)
                 return EXIT_TERMINATED
