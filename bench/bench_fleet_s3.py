@@ -36,6 +36,7 @@ from beatlog.suite.cluster import DaskExecutor
 from beatlog.suite.parallel import longest_first
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.selection import fleet_specs
+from beatlog.suite.spec import DtcSpec
 from beatlog_examples.rover import record_lockstep
 
 BUCKET = "fleet"
@@ -167,7 +168,7 @@ def _cpu(who: int) -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def replay_cpu(specs: list[Any]) -> float:
+def replay_cpu(specs: list[DtcSpec]) -> float:
     """The CPU seconds of replaying ``specs`` one after another in this process, from
     the machine's cache of logs: the fleet's replay CPU, without a cluster."""
     started = time.process_time()
