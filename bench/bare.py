@@ -37,8 +37,8 @@ from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.cycle import find_changes, read_states
 from beatlog.model.random import Draw
-from beatlog.replaying.random import ReplayRandom
-from beatlog.replaying.view import StateViews
+from beatlog.replay.random import ReplayRandom
+from beatlog.replay.view import StateViews
 
 __all__ = [
     "BareInputs",

@@ -32,7 +32,7 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
-from beatlog.replaying.expectation import TracedOutput
+from beatlog.replay.expectation import TracedOutput
 
 PERIOD_NS = 30_000_000
 FIELDS = 16
@@ -103,7 +103,7 @@ _CHILD = """
 import json, resource, sys, time
 sys.path.insert(0, {here!r})
 from beatlog.baseline.file import read_baseline
-from beatlog.replaying.judge import replay
+from beatlog.replay.judge import replay
 what, log, baseline = sys.argv[1:]
 started = time.process_time()
 figures = {{}}

@@ -36,8 +36,8 @@ from beatlog_examples.rover import record_lockstep, system
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the tests' crafted logs
 from tests import crafting
 
-replay_module: Any = importlib.import_module("beatlog.replaying.judge")
-"""The module (``beatlog.replaying.judge`` the attribute is the function of that name)."""
+replay_module: Any = importlib.import_module("beatlog.replay.judge")
+"""The module (``beatlog.replay.judge`` the attribute is the function of that name)."""
 
 DURATION_S = 1050.0
 """The paper's 17.5 minutes: 35,000 cycles at 30 ms."""

@@ -54,8 +54,8 @@ from beatlog.log.format import SessionEnd
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.writer import SessionLogWriter
 from beatlog.project.usercode import load_system
-from beatlog.replaying.core import CycleOutcome
-from beatlog.replaying.judge import replay
+from beatlog.replay.core import CycleOutcome
+from beatlog.replay.judge import replay
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite

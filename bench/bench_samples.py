@@ -31,7 +31,7 @@ import msgspec
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.inbox import Sample
 from beatlog.project.usercode import load_perception, load_system
-from beatlog.replaying.judge import replay
+from beatlog.replay.judge import replay
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.spec import DtcSpec
 from beatlog_examples.dog import SUITE_DIR

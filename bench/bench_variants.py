@@ -35,9 +35,9 @@ from typing import Any
 from beatlog.model.behavior import PriorityArbiter, System
 from beatlog.model.context import Context
 from beatlog.project.usercode import load_perception, load_system
-from beatlog.replaying.judge import replay
-from beatlog.replaying.perturbation import Perturbations, Variant
-from beatlog.replaying.variant import replay_variant
+from beatlog.replay.judge import replay
+from beatlog.replay.perturbation import Perturbations, Variant
+from beatlog.replay.variant import replay_variant
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.spec import DtcSpec
 from beatlog_examples.dog import SUITE_DIR

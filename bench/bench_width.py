@@ -503,7 +503,7 @@ def read_split(log: Path, behaviors: int, fields: int, rounds: int) -> Figures:
 
     Chunks alone: zstd decompression, CRC. Batches: read with RS_t kept as bytes
     (msgspec skips it), decoded whole into the robot state type, into the checking type
-    replay decodes with (:func:`~beatlog.replaying.fit.schema.recorded_state_type`), and into a
+    replay decodes with (:func:`~beatlog.replay.fit.schema.recorded_state_type`), and into a
     narrow struct of the fields read (unknown fields skipped). Robot states alone, their
     bytes taken out beforehand: decoded whole, narrow, as an untyped dict; the same
     values encoded as an array (a positional encoding, which the format does not have)
@@ -516,7 +516,7 @@ def read_split(log: Path, behaviors: int, fields: int, rounds: int) -> Figures:
     from mcap.records import Chunk  # noqa: PLC0415
     from mcap.stream_reader import StreamReader  # noqa: PLC0415
 
-    from beatlog.replaying.fit.schema import recorded_state_type  # noqa: PLC0415
+    from beatlog.replay.fit.schema import recorded_state_type  # noqa: PLC0415
 
     with log.open("rb") as file:
         chunks = [r for r in StreamReader(file, emit_chunks=True).records if isinstance(r, Chunk)]

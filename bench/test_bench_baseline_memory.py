@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from beatlog.baseline.file import read_baseline
-from beatlog.replaying.judge import replay
+from beatlog.replay.judge import replay
 from bench_baseline_memory import FIELDS, record, wide_system_retuned, write_big_baseline
 
 

@@ -28,9 +28,9 @@ from beatlog.log.format import (
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
-from beatlog.replaying.pins import RebuiltState
-from beatlog.replaying.state_digests import state_digest
-from beatlog.replaying.verdict import Checked
+from beatlog.replay.pins import RebuiltState
+from beatlog.replay.state_digests import state_digest
+from beatlog.replay.verdict import Checked
 from tests.crafting import FORMAT_1_CHANNELS, Message, craft_log, top_level_records
 
 MAGIC_LENGTH = 8

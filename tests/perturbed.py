@@ -8,10 +8,10 @@ from typing import Any, NamedTuple
 
 from beatlog.log.format import CycleRecord
 from beatlog.model.behavior import System
-from beatlog.replaying.core import CycleOutcome
-from beatlog.replaying.perturbation import Perturbations, Variant
-from beatlog.replaying.variant import replay_variant
-from beatlog.replaying.verdict import ReplayResult
+from beatlog.replay.core import CycleOutcome
+from beatlog.replay.perturbation import Perturbations, Variant
+from beatlog.replay.variant import replay_variant
+from beatlog.replay.verdict import ReplayResult
 from tests.conftest import probe_system
 
 PERTURBED = Perturbations(heartbeat_jitter=0.002, noise={"distance": 0.05})

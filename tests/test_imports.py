@@ -24,7 +24,7 @@ PACKAGES = [
     "beatlog.log",
     "beatlog.model",
     "beatlog.record",
-    "beatlog.replaying",
+    "beatlog.replay",
     "beatlog.report",
     "beatlog.suite",
 ]
@@ -59,7 +59,7 @@ def test_scalar_draws_load_no_numpy() -> None:
 def test_the_command_loads_no_engine_before_it_knows_the_subcommand() -> None:
     modules = modules_after("import beatlog.cli.main")
 
-    assert "beatlog.replaying.judge" not in modules
+    assert "beatlog.replay.judge" not in modules
     assert "msgspec" not in modules
 
 
@@ -73,12 +73,19 @@ def test_every_public_name_of_a_package_is_there_when_asked_for(package: str) ->
         module.nothing  # noqa: B018
 
 
-def test_beatlog_replay_is_the_function_and_only_that() -> None:
+def test_beatlog_replay_is_the_subpackage_and_called_replays_a_log() -> None:
     script = (
-        "import importlib.util, sys, beatlog.replaying.judge\n"
+        "import sys, types, beatlog, beatlog.replay as subpackage\n"
         "from beatlog import replay\n"
-        "assert replay is beatlog.replay is sys.modules['beatlog.suite.approved'].replay\n"
-        "assert importlib.util.find_spec('beatlog.replay') is None\n"
+        "assert replay is beatlog.replay is subpackage is sys.modules['beatlog.replay']\n"
+        "assert isinstance(replay, types.ModuleType) and replay.Divergence\n"
+        "assert 'beatlog.suite.approved' not in sys.modules\n"
+        "try:\n"
+        "    replay('missing.beatlog', 'tests.conftest:probe_system')\n"
+        "except beatlog.BeatlogError as error:\n"
+        "    assert 'missing.beatlog' in str(error), error\n"
+        "else:\n"
+        "    raise AssertionError('replayed a missing log')\n"
     )
 
     subprocess.run([sys.executable, "-c", script], check=True)
@@ -89,7 +96,7 @@ LAYERS = [
     {"log"},
     {"model"},
     {"project"},
-    {"replaying"},
+    {"replay"},
     {"analysis"},
     {"audit", "record"},
     {"baseline"},

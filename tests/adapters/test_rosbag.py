@@ -22,7 +22,7 @@ from beatlog.analysis.summary import summarize
 from beatlog.errors import BagError, LogExistsError, OptionError, SpecError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.inbox import Sample
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
 from tests.bags import (

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from beatlog.analysis.recorded import RecordedChanges, read_changes
 from beatlog.log.reader import SessionLogReader
-from beatlog.replaying.expectation import TracedChange
-from beatlog.replaying.judge import replay
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.expectation import TracedChange
+from beatlog.replay.judge import replay
+from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system
 
 

@@ -4,9 +4,9 @@ with their cycles, never folded into a count; a change that only moves is no los
 from __future__ import annotations
 
 from beatlog.analysis.shift import Loss, LossKind, shift
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import ABSENT, TracedChange, TracedOutput
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.expectation import ABSENT, TracedChange, TracedOutput
+from beatlog.replay.verdict import StateChange
 
 ESCAPES = [
     TracedChange(291, 0, StateChange("escape", "idle", "backing")),

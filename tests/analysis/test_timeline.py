@@ -22,8 +22,8 @@ from beatlog.analysis.timeline import (
 from beatlog.errors import CorruptLogError, FieldError, NotABeatlogError
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter
-from beatlog.replaying.core import Replayer
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.core import Replayer
+from beatlog.replay.verdict import DivergenceKind
 from tests.conftest import (
     PERIOD_NS,
     Near,

@@ -9,8 +9,8 @@ import numpy as np
 
 from beatlog import replay
 from beatlog.analysis.trace import recorded_outputs, recorded_trace, replayed_trace, whole_trace
-from beatlog.replaying.expectation import ABSENT, Expectation, OutputTracker, TracedOutput
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.expectation import ABSENT, Expectation, OutputTracker, TracedOutput
+from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
 from tests.specs import CHANGED
 

@@ -15,8 +15,8 @@ import pytest
 
 from beatlog.audit.replays import Auditors, AuditReport, Finding, audit
 from beatlog.errors import BeatlogError
-from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.fit.migration import StateMigration
+from beatlog.replay.verdict import DivergenceKind
 from beatlog_examples.rover import record_lockstep
 from tests.conftest import RecordFn
 from tests.systems import (

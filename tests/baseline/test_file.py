@@ -16,15 +16,15 @@ from beatlog.baseline.file import expected_path, log_digest, pending_path, read_
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError
 from beatlog.log.files import read_text_blocks
-from beatlog.replaying.expectation import (
+from beatlog.replay.expectation import (
     ABSENT,
     AS_RECORDED,
     Expectation,
     TracedChange,
     TracedOutput,
 )
-from beatlog.replaying.pins import StatePins
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.pins import StatePins
+from beatlog.replay.verdict import StateChange
 from tests.factories import rebuilt_states, speed_state
 from tests.specs import baseline_file
 

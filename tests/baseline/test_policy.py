@@ -15,7 +15,7 @@ from beatlog.baseline.policy import (
     stale_suite,
 )
 from beatlog.errors import CiWriteError, OptionError
-from beatlog.replaying.verdict import Divergence, DivergenceKind
+from beatlog.replay.verdict import Divergence, DivergenceKind
 
 
 @pytest.mark.parametrize("mode", list(UpdateMode))

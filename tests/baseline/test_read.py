@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from beatlog.baseline.read import ParsedLines, line_feeds, parse_line
-from beatlog.replaying.draws import DrawRule
+from beatlog.replay.draws import DrawRule
 
 _COMMON = [
     '      33     1.022  output "happiness" = 49',

@@ -13,15 +13,15 @@ from beatlog.baseline.file import expected_path, log_digest, pending_path, read_
 from beatlog.baseline.upgrade import Upgraded, upgrade_baseline, upgrade_baselines
 from beatlog.baseline.write import COLUMNS, format_lines, write_baseline
 from beatlog.errors import BaselineError
-from beatlog.replaying.expectation import (
+from beatlog.replay.expectation import (
     ABSENT,
     AS_RECORDED,
     Expectation,
     TracedChange,
     TracedOutput,
 )
-from beatlog.replaying.pins import StatePins
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.pins import StatePins
+from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn
 from tests.factories import rebuilt_states, speed_state
 from tests.specs import BASELINE_MAGIC, baseline_file

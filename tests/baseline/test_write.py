@@ -11,7 +11,7 @@ import pytest
 from beatlog.baseline.file import log_digest, pending_path, read_baseline
 from beatlog.baseline.write import COMPRESS_BYTES, HEADER, write_baseline
 from beatlog.log.files import ZSTD_MAGIC
-from beatlog.replaying.expectation import Expectation, TracedOutput
+from beatlog.replay.expectation import Expectation, TracedOutput
 from tests.commands import Beatlog
 from tests.specs import write_spec
 from tests.systems import record_headway

@@ -15,7 +15,7 @@ from beatlog.errors import CorruptLogError, LogError, NotABeatlogError
 from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, SessionHeader
 from beatlog.log.limits import MAX_BEHAVIORS, MAX_CHUNK_BYTES, MAX_NAME_LENGTH
 from beatlog.log.reader import LogStatus, SessionLogReader
-from beatlog.replaying.judge import replay
+from beatlog.replay.judge import replay
 from beatlog_examples.dog import SUITE_DIR
 from tests.conftest import RecordFn, probe_system
 from tests.crafting import (

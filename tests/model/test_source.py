@@ -15,7 +15,7 @@ from beatlog.model.random import (
     RecordingRandom,
     recorded_draw_problem,
 )
-from beatlog.replaying.random import ReplayRandom
+from beatlog.replay.random import ReplayRandom
 from tests.factories import through_log
 
 

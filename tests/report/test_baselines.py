@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from beatlog.analysis.shift import Loss, LossKind, Shift
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.verdict import FieldDifference
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.verdict import FieldDifference
 from beatlog.report.baselines import (
     loss_text,
     render_orphans,

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from beatlog import replay
 from beatlog.analysis.summary import summarize
-from beatlog.replaying.verdict import Checked, DivergenceKind
+from beatlog.replay.verdict import Checked, DivergenceKind
 from beatlog.report.console import (
     MAX_LISTED,
     plain_text,

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.report import glossary
 from beatlog.report.console import SUMMARY_COLUMNS
 from beatlog.suite.runner import Verdict

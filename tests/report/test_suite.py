@@ -11,7 +11,7 @@ from rich.text import Text
 
 from beatlog import replay
 from beatlog.record.recorder import Recorder
-from beatlog.replaying.verdict import ReplayResult
+from beatlog.replay.verdict import ReplayResult
 from beatlog.report.console import plain_text
 from beatlog.report.suite import NAMED_IN_NOTES, SuiteReport, plain_lines
 from beatlog.suite.runner import SpecOutcome, Verdict

@@ -12,7 +12,7 @@ import pytest
 from beatlog.baseline.file import expected_path, pending_path, read_baseline
 from beatlog.baseline.policy import UpdateMode
 from beatlog.errors import BaselineError, CiWriteError, OptionError
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite.maintenance import (
     Decision,
     UpdateAction,

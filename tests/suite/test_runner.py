@@ -15,7 +15,7 @@ from beatlog.baseline.file import expected_path
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.model.behavior import PriorityArbiter
 from beatlog.model.context import Context
-from beatlog.replaying.verdict import Checked, Divergence, DivergenceKind
+from beatlog.replay.verdict import Checked, Divergence, DivergenceKind
 from beatlog.report.html import dtc_charts
 from beatlog.suite.maintenance import PendingUpdate, UpdateAction, approve, update_baselines
 from beatlog.suite.parallel import run_suite

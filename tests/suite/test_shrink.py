@@ -10,8 +10,8 @@ import pytest
 from beatlog.baseline.file import expected_path
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.errors import BeatlogError
-from beatlog.replaying.perturbation import Perturbations
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.perturbation import Perturbations
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.runner import run_spec
 from beatlog.suite.shrink import Attempt, NothingToShrinkError, shrink, shrunk_path

@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 from beatlog.errors import SpecError
-from beatlog.replaying.compare import Comparison
-from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.perturbation import Perturbations
+from beatlog.replay.compare import Comparison
+from beatlog.replay.fit.migration import StateMigration
+from beatlog.replay.perturbation import Perturbations
 from beatlog.suite.spec import load_spec, read_spec_data, spec_from_data, spec_text, spec_toml
 from tests.conftest import RecordFn
 from tests.specs import PROBE, write_spec

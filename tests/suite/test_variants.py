@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec

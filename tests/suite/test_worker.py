@@ -38,7 +38,7 @@ def test_a_worker_imports_only_what_replay_needs(
     assert outcome.verdict is Verdict.PASSED
     [(pid, modules)] = imported(meeting).items()
     assert pid != os.getpid()
-    assert "beatlog.replaying.judge" in modules
+    assert "beatlog.replay.judge" in modules
     for name in NOT_FOR_REPLAY:
         assert [m for m in modules if m == name or m.startswith(f"{name}.")] == [], name
 

@@ -12,7 +12,7 @@ from rich.rule import Rule
 
 from beatlog.analysis.summary import summarize
 from beatlog.record.recorder import Recorder
-from beatlog.replaying.judge import replay
+from beatlog.replay.judge import replay
 from beatlog.report.console import render_replay, render_suite, render_summary
 from beatlog.report.counts import verdict_counts
 from beatlog.suite.discovery import discover_specs

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.replaying.perturbation import Perturbations
+from beatlog.replay.perturbation import Perturbations
 from beatlog.suite.spec import load_spec
 from beatlog_examples.dog import SUITE_DIR, invariants
 from beatlog_examples.dog.record_suite import main, spec_text

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from beatlog.model.behavior import System
-from beatlog.replaying.expectation import TracedChange
+from beatlog.replay.expectation import TracedChange
 
 __all__ = [
     "BehaviorCoverage",

@@ -16,9 +16,9 @@ from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
-from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.session import FieldsRead, ReplaySession
-from beatlog.replaying.verdict import Divergence, DivergenceKind, StateChange
+from beatlog.replay.fit.migration import StateMigration
+from beatlog.replay.session import FieldsRead, ReplaySession
+from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
 __all__ = ["Details", "replay_details"]
 
@@ -55,7 +55,7 @@ def replay_details(
     ``divergence`` is the verdict's (the fields read are those of its cycle);
     ``expected`` stands in for the recorded state changes in the timelines (an approved
     baseline). ``perception``, ``living``, ``rename``, ``migration`` and ``fresh_from``
-    replay as the verdict's replay did (:class:`~beatlog.replaying.session.ReplaySession`).
+    replay as the verdict's replay did (:class:`~beatlog.replay.session.ReplaySession`).
     """
     diverged_at = (
         None

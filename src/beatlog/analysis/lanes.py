@@ -11,8 +11,8 @@ from beatlog.analysis.grid import TimeGrid
 from beatlog.analysis.recorded import named_changes
 from beatlog.log.format import EMPTY_LIST, CycleRecord, SessionHeader
 from beatlog.model.behavior import BehaviorState, System
-from beatlog.replaying.core import CycleOutcome
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.core import CycleOutcome
+from beatlog.replay.verdict import StateChange
 
 __all__ = ["Lanes"]
 

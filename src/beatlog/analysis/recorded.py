@@ -14,8 +14,8 @@ from beatlog.log.format import EMPTY_LIST, CycleRecord
 from beatlog.log.payload import decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
-from beatlog.replaying.expectation import TracedChange
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.expectation import TracedChange
+from beatlog.replay.verdict import StateChange
 
 __all__ = ["RecordedChanges", "named_changes", "read_changes"]
 

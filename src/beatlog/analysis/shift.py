@@ -16,9 +16,9 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import NamedTuple
 
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import ABSENT, TracedChange, TracedOutput
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.expectation import ABSENT, TracedChange, TracedOutput
+from beatlog.replay.verdict import StateChange
 
 __all__ = ["Loss", "LossKind", "Shift", "Trace", "shift"]
 

@@ -23,9 +23,9 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.setup import SystemFactory
 from beatlog.project.usercode import load_system
-from beatlog.replaying.core import CycleOutcome
-from beatlog.replaying.session import ReplaySession
-from beatlog.replaying.verdict import Divergence, DivergenceKind, StateChange
+from beatlog.replay.core import CycleOutcome
+from beatlog.replay.session import ReplaySession
+from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
 __all__ = [
     "BUCKETS",

@@ -22,21 +22,21 @@ from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
-from beatlog.replaying.compare import WHOLE_STATE, state_fields
-from beatlog.replaying.core import CycleOutcome, Replayer
-from beatlog.replaying.departures import DepartureCollector, apply_outputs, hold
-from beatlog.replaying.draws import DrawRule, draw_rules
-from beatlog.replaying.expectation import (
+from beatlog.replay.compare import WHOLE_STATE, state_fields
+from beatlog.replay.core import CycleOutcome, Replayer
+from beatlog.replay.departures import DepartureCollector, apply_outputs, hold
+from beatlog.replay.draws import DrawRule, draw_rules
+from beatlog.replay.expectation import (
     Expectation,
     OutputTracker,
     TracedChange,
     TracedOutput,
 )
-from beatlog.replaying.pins import RebuiltState, StatePins, rebuilt_otherwise
-from beatlog.replaying.random import DrawDifference
-from beatlog.replaying.session import ReplaySession
-from beatlog.replaying.state_digests import state_digest
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise
+from beatlog.replay.random import DrawDifference
+from beatlog.replay.session import ReplaySession
+from beatlog.replay.state_digests import state_digest
+from beatlog.replay.verdict import StateChange
 
 __all__ = [
     "ReplayedTrace",
@@ -144,7 +144,7 @@ def whole_trace(
 
 def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[str, Any]]:
     """The robot states the log recorded in ``cycles``, as fields (see
-    :func:`~beatlog.replaying.compare.state_fields`); read without the system."""
+    :func:`~beatlog.replay.compare.state_fields`); read without the system."""
     found: dict[int, dict[str, Any]] = {}
     if not cycles:
         return found
@@ -180,7 +180,7 @@ def replayed_trace(
 class TraceCollector:
     """Gathers a whole-session trace from the replay core's outcomes, up to the cycle
     where replay cannot go on (an exception, a random-number problem: the replayer's
-    :meth:`~beatlog.replaying.core.Replayer.stop`)."""
+    :meth:`~beatlog.replay.core.Replayer.stop`)."""
 
     def __init__(self, replayer: Replayer, rename: Callable[[str], str] = str) -> None:
         self._names = replayer.executor.behavior_ids

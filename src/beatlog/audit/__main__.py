@@ -31,8 +31,8 @@ from beatlog.model.context import Context
 from beatlog.model.source import RandomSource
 from beatlog.project.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.project.usercode import load_system
-from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.judge import replay
+from beatlog.replay.fit.migration import StateMigration
+from beatlog.replay.judge import replay
 
 __all__ = ["main"]
 

@@ -28,8 +28,8 @@ import msgspec
 from beatlog.errors import BeatlogError
 from beatlog.log.files import Closing
 from beatlog.project.leaks import Finding
-from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.fit.migration import StateMigration
+from beatlog.replay.verdict import DivergenceKind
 
 __all__ = ["AuditReport", "Auditors", "Finding", "SeedRun", "audit"]
 

@@ -4,7 +4,7 @@ against after an intended change, in one current file format (:mod:`.file`, read
 (:mod:`.upgrade`), and when baselines may be written and go stale (:mod:`.policy`).
 
 The per-cycle parts replay itself checks (the robot-state pins, approved draws, held
-outputs and departures) live with the replay core, in :mod:`beatlog.replaying`, a layer
+outputs and departures) live with the replay core, in :mod:`beatlog.replay`, a layer
 below; the re-baselining workflow over a suite's specs (update, review, approve) lives
 in :mod:`beatlog.suite.maintenance`. The names are imported on first use.
 """

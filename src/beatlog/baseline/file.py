@@ -5,7 +5,7 @@ change on purpose, the new state changes and outputs go to a *pending* file besi
 spec (``NAME.dtc.pending``), are reviewed, and once approved become the *expected*
 file (``NAME.dtc.expected``) that replay judges against instead of the recording.
 The recording is always beside it, so a baseline holds only where the behaviors
-depart from it (:mod:`beatlog.replaying.departures`), in plain text, a state change or
+depart from it (:mod:`beatlog.replay.departures`), in plain text, a state change or
 output a line, and the robot states perception rebuilds a few characters a cycle: a
 re-baseline reads as a diff in code review::
 
@@ -36,13 +36,13 @@ behaviors do not notice (perception rebuilds other robot states, draws differ to
 effect) has no such lines.
 
 The robot-state lines pin, for sensor-level replay, the states the perception step
-rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replaying.pins`): a line per
+rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replay.pins`): a line per
 run of such cycles (short gaps rebuilt as recorded included) names the fields that
 differ and their values in its first cycle, for review; then a line per block of up to
 64 of its cycles gives, after the count of cycles, the hex digest of the block and two
 base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
 gap): XXH64 of the state as the log encodes it
-(:func:`~beatlog.replaying.state_digests.state_digest`), and of its pinned cycles'
+(:func:`~beatlog.replay.state_digests.state_digest`), and of its pinned cycles'
 digests end to end for the block. Replay judges a pinned cycle's whole rebuilt state
 by its digest, bit for bit, and any other cycle against the recording. Behavior names,
 states and values are JSON, floats written so they read back bit for bit (``NaN``, ``Infinity``,
@@ -52,7 +52,7 @@ baseline never evaluates anything, and a file larger than :data:`MAX_BASELINE_BY
 is refused.
 
 A ``draws`` line approves draws that replay makes otherwise than recorded, in the
-cycles listed (a cycle once per draw; :mod:`beatlog.replaying.draws`): a recorded request
+cycles listed (a cycle once per draw; :mod:`beatlog.replay.draws`): a recorded request
 re-mapped to the one asked for now, a new draw (``-`` for the recorded side) or a
 recorded one left unused (``-`` for the asked side). A baseline is judged in living
 replay, cycle by cycle: any other draw made otherwise, or an approved one not made,
@@ -82,13 +82,13 @@ from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import (
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.expectation import (
     Expectation,
     ExpectedPart,
     ExpectedStream,
 )
-from beatlog.replaying.pins import PinCoverage, StatePins
+from beatlog.replay.pins import PinCoverage, StatePins
 
 __all__ = [
     "BLOCK_BYTES",

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, NamedTuple
 from beatlog.errors import CiWriteError, OptionError
 
 if TYPE_CHECKING:
-    from beatlog.replaying.verdict import Divergence
+    from beatlog.replay.verdict import Divergence
 
 __all__ = [
     "SpecOptions",
@@ -131,7 +131,7 @@ def refusal(divergence: Divergence) -> str | None:
     or an invariant that does not hold, is a bug; a log that ended early, perception
     that built nothing or set-up draws made otherwise (a baseline holds none) need
     fixing or a new recording."""
-    from beatlog.replaying.verdict import DivergenceKind  # noqa: PLC0415 - the CLI starts without it
+    from beatlog.replay.verdict import DivergenceKind  # noqa: PLC0415 - the CLI starts without it
 
     kind = divergence.kind
     if kind is DivergenceKind.EXCEPTION:

@@ -33,16 +33,16 @@ from beatlog.baseline.write import (
     RUN_FIRST,
 )
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import (
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.expectation import (
     ABSENT,
     AS_RECORDED,
     TracedChange,
     TracedOutput,
 )
-from beatlog.replaying.pins import TAG_CHARS, DigestBlock, PinnedRun
-from beatlog.replaying.state_digests import DIGEST_BYTES
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
+from beatlog.replay.state_digests import DIGEST_BYTES
+from beatlog.replay.verdict import StateChange
 
 __all__ = ["ParsedLines", "line_feeds", "parse_line"]
 

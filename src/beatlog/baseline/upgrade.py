@@ -41,8 +41,8 @@ from beatlog.baseline.file import (
 from beatlog.baseline.write import HEADER, OUTPUT, QUIET, ROBOT_STATE, write_baseline
 from beatlog.errors import BaselineError
 from beatlog.log.files import read_text_blocks, replacing
-from beatlog.replaying.departures import OutputDepartures
-from beatlog.replaying.expectation import AS_RECORDED, Expectation, TracedChange, TracedOutput
+from beatlog.replay.departures import OutputDepartures
+from beatlog.replay.expectation import AS_RECORDED, Expectation, TracedChange, TracedOutput
 
 __all__ = ["Recordings", "Upgraded", "baseline_files", "upgrade_baseline", "upgrade_baselines"]
 

@@ -17,15 +17,15 @@ import msgspec
 
 from beatlog.errors import BaselineError
 from beatlog.log.files import replacing
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import (
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.expectation import (
     ABSENT,
     AS_RECORDED,
     Expectation,
     TracedChange,
     TracedOutput,
 )
-from beatlog.replaying.pins import StatePins
+from beatlog.replay.pins import StatePins
 
 __all__ = [
     "AS_RECORDED_TEXT",

@@ -90,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _interruption(stop: KeyboardInterrupt) -> str:
     """What stopped the command: Ctrl-C, or the debugger quit at a break (which says so).
     Nothing is imported on the way out: a break imported the debugger where there was one."""
-    debugger = sys.modules.get("beatlog.replaying.debugger")
+    debugger = sys.modules.get("beatlog.replay.debugger")
     if debugger is not None and isinstance(stop, debugger.DebuggerQuit):
         return str(stop)
     return "interrupted"

@@ -2,7 +2,7 @@
 
 It draws from a counter-based source keyed by its seed and records every value (RN_t)
 with what was asked for (the kind and its parameters); in replay the recorded values
-are handed back (:mod:`beatlog.replaying.random`), and drawing more, fewer, another kind
+are handed back (:mod:`beatlog.replay.random`), and drawing more, fewer, another kind
 or other parameters is a divergence. Only array draws need numpy. The interface
 behaviors draw from (:mod:`.source`) and the draws' kinds are importable from here too.
 """

@@ -5,7 +5,7 @@ factory is handed.
 A system factory that takes a keyword parameter ``random`` is called with the session's
 :class:`~beatlog.model.source.RandomSource`. Recording keeps what it draws in the log's
 header; replay hands the factory a source that serves them back and checks them as it
-does a cycle's (:mod:`beatlog.replaying.setup`).
+does a cycle's (:mod:`beatlog.replay.setup`).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The random source behaviors draw from: the only randomness they use, each draw
 attributed to the behavior that makes it (:class:`~beatlog.model.random.RecordingRandom`
-live, :class:`~beatlog.replaying.random.ReplayRandom` in replay).
+live, :class:`~beatlog.replay.random.ReplayRandom` in replay).
 
 It speaks both dialects of Python code that draws, :class:`random.Random`'s and numpy's
 :class:`numpy.random.Generator`'s, so code written for either takes a behavior's

@@ -43,7 +43,7 @@ _FIELD_TABLES = frozenset({"field_renames", "field_conversions"})
 
 class VariantsConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """A ``[variants]`` table: how many variants of a DTC run and what they perturb
-    (:class:`~beatlog.replaying.variant.Perturbations`); a key left out is the
+    (:class:`~beatlog.replay.variant.Perturbations`); a key left out is the
     project's, or the default. A spec's comes on top of the project's."""
 
     count: Annotated[int, msgspec.Meta(ge=0)] | None = None

@@ -96,7 +96,7 @@ def load_factory(reference: str, *, random: RandomSource | None = None) -> Any:
 def load_conversion(reference: str) -> Callable[[Any], Any]:
     """Import the function a ``module:function`` reference names, without calling it: a
     robot-state field's conversion from its recorded type (see
-    :class:`beatlog.replaying.fit.migration.StateMigration`)."""
+    :class:`beatlog.replay.fit.migration.StateMigration`)."""
     function = _attribute(reference, "module:function, e.g. mypkg.compat:percent")
     if not callable(function):
         raise SystemLoadError(f"{reference!r}: {type(function).__name__} is not a function")

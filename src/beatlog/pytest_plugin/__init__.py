@@ -7,7 +7,7 @@ each variant it declares is a test of its own (``dock[variant-3]``). A DTC is ju
 its item's setup: one that cannot run (``beatlog test``'s error) is an ERROR, one that
 diverges fails. The options of the ``beatlog`` group do what ``beatlog test``'s do (see
 :func:`pytest_addoption`); the break points stop as ``beatlog replay``'s do
-(:mod:`beatlog.replaying.debugger`), with pytest's pdb built on its debugger so that
+(:mod:`beatlog.replay.debugger`), with pytest's pdb built on its debugger so that
 quitting ends the session, and need the DTCs run in this process (no ``-n``).
 """
 
@@ -33,7 +33,7 @@ from beatlog.suite.spec import SPEC_SUFFIX
 
 if TYPE_CHECKING:
     from beatlog.model.behavior import System
-    from beatlog.replaying.verdict import ReplayResult
+    from beatlog.replay.verdict import ReplayResult
 
 # The engines and reports are imported where a DTC runs or the summary is written: every
 # pytest process loads this plugin (each xdist worker too), most of them to run no DTC.
@@ -121,7 +121,7 @@ def pytest_configure(config: pytest.Config) -> None:
                 "run without pytest-xdist's -n (or with -n 0)"
             )
         if config.option.usepdb_cls is None:  # pytest's pdb, quitting wherever it stops
-            config.option.usepdb_cls = ("beatlog.replaying.debugger", "Debugger")
+            config.option.usepdb_cls = ("beatlog.replay.debugger", "Debugger")
     coverage = config.getoption("beatlog_coverage")
     coverage_json = config.getoption("beatlog_coverage_json")
     worker = hasattr(config, "workerinput")  # an xdist worker's run
@@ -165,7 +165,7 @@ def beatlog_replay(request: pytest.FixtureRequest) -> Callable[..., ReplayResult
 
     def run(log: str | Path, system: System | str, **options: Any) -> ReplayResult:
         from beatlog.project.usercode import importable_near  # noqa: PLC0415
-        from beatlog.replaying.judge import replay  # noqa: PLC0415 - see the imports
+        from beatlog.replay.judge import replay  # noqa: PLC0415 - see the imports
 
         try:
             with importable_near(request.path), quitting_as_pytest():

@@ -25,7 +25,7 @@ from beatlog.suite.variants import with_variants
 
 if TYPE_CHECKING:
     from beatlog.analysis.recorded import RecordedChanges
-    from beatlog.replaying.verdict import ReplayResult
+    from beatlog.replay.verdict import ReplayResult
     from beatlog.report.suite import SuiteReport
     from beatlog.suite.runner import SpecOutcome, Verdict
 
@@ -137,7 +137,7 @@ def quitting_as_pytest() -> Iterator[None]:
     try:
         yield
     except KeyboardInterrupt as stop:
-        from beatlog.replaying.debugger import DebuggerQuit  # noqa: PLC0415 - see the imports
+        from beatlog.replay.debugger import DebuggerQuit  # noqa: PLC0415 - see the imports
 
         if isinstance(stop, DebuggerQuit):
             pytest.exit("Quitting debugger")

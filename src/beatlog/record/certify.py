@@ -15,8 +15,8 @@ from pathlib import Path
 
 from beatlog.model.setup import SystemFactory
 from beatlog.project.leaks import Finding, LeakWatch
-from beatlog.replaying.judge import replay
-from beatlog.replaying.verdict import ReplayResult
+from beatlog.replay.judge import replay
+from beatlog.replay.verdict import ReplayResult
 
 __all__ = ["Certificate", "certify"]
 

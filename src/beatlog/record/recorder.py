@@ -35,7 +35,7 @@ from beatlog.model.state import state_fields, state_schema, state_type_name
 if TYPE_CHECKING:
     from beatlog.model.invariant import Invariant
     from beatlog.record.certify import Certificate
-    from beatlog.replaying.invariants import InvariantChecker, Violation
+    from beatlog.replay.invariants import InvariantChecker, Violation
 
 __all__ = ["MAX_VIOLATIONS", "RecordSummary", "Recorder", "software_version"]
 
@@ -150,7 +150,7 @@ class Recorder:
         asked for (``certify``)."""
         self._checker: InvariantChecker | None = None
         if invariants:  # replay's checker: the same invariants, the same cycles
-            from beatlog.replaying.invariants import InvariantChecker  # noqa: PLC0415
+            from beatlog.replay.invariants import InvariantChecker  # noqa: PLC0415
 
             self._checker = InvariantChecker(invariants, system)
         self.violations: list[Violation] = []

@@ -17,7 +17,7 @@ from rich.text import Text
 
 from beatlog.analysis.summary import LogSummary
 from beatlog.log.format import COLUMNS_SINCE
-from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult
+from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult
 from beatlog.report.counts import plural
 from beatlog.suite.runner import SpecOutcome, Verdict
 

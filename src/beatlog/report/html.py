@@ -16,7 +16,7 @@ from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
 from beatlog.analysis.timeline import Timeline
 from beatlog.log.files import replacing
-from beatlog.replaying.verdict import Divergence, DrawReport, StateChange
+from beatlog.replay.verdict import Divergence, DrawReport, StateChange
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
 from beatlog.report.svg import state_styles, svg_chart

@@ -19,8 +19,8 @@ from beatlog.baseline.file import Baseline, expected_path, log_digest, read_base
 from beatlog.errors import BaselineError
 from beatlog.model.behavior import System
 from beatlog.model.setup import SystemFactory
-from beatlog.replaying.judge import replay as judge
-from beatlog.replaying.verdict import ReplayResult
+from beatlog.replay.judge import replay as judge
+from beatlog.replay.verdict import ReplayResult
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
 
 __all__ = ["Approved", "approved_baseline", "approved_baselines", "approved_for", "replay"]
@@ -115,7 +115,7 @@ def replay(
     approved: bool = True,
     **options: Any,
 ) -> ReplayResult:
-    """Replay ``log`` as :func:`beatlog.replaying.judge.replay` does, judged against the
+    """Replay ``log`` as :func:`beatlog.replay.judge.replay` does, judged against the
     approved baseline of the spec beside it that names it, with its comparison, unless
     ``expected`` or ``comparison`` is given or ``approved`` is False; the notes say so.
     """

@@ -30,7 +30,7 @@ from beatlog.log.limits import MAX_BEHAVIORS, MAX_NAME_LENGTH, MAX_TEXT_LENGTH
 from beatlog.model.behavior import System
 from beatlog.project.config import vouched_system
 from beatlog.project.usercode import load_system
-from beatlog.replaying.expectation import TracedChange
+from beatlog.replay.expectation import TracedChange
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec
 
 __all__ = [

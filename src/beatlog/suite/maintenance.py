@@ -35,10 +35,10 @@ from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError, OptionError
 from beatlog.log.recording import LogSource
-from beatlog.replaying.draws import DrawRule
-from beatlog.replaying.expectation import Expectation
-from beatlog.replaying.pins import StatePins
-from beatlog.replaying.verdict import FieldDifference
+from beatlog.replay.draws import DrawRule
+from beatlog.replay.expectation import Expectation
+from beatlog.replay.pins import StatePins
+from beatlog.replay.verdict import FieldDifference
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec

@@ -22,12 +22,12 @@ from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
 from beatlog.errors import BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
-from beatlog.replaying.debugger import break_on_divergence, unreached_break
-from beatlog.replaying.expectation import Expectation
-from beatlog.replaying.judge import replay
-from beatlog.replaying.random import ReplayRandom
-from beatlog.replaying.setup import built_for_replay, recorded_system
-from beatlog.replaying.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
+from beatlog.replay.debugger import break_on_divergence, unreached_break
+from beatlog.replay.expectation import Expectation
+from beatlog.replay.judge import replay
+from beatlog.replay.random import ReplayRandom
+from beatlog.replay.setup import built_for_replay, recorded_system
+from beatlog.replay.verdict import Divergence, DivergenceKind, ReplayResult, reproduce_command
 from beatlog.suite.approved import approved_for
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.variants import importable_invariants, replay_variant_of

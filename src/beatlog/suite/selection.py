@@ -33,7 +33,7 @@ from beatlog.errors import (
 )
 from beatlog.log.limits import MAX_TEXT_LENGTH
 from beatlog.project.usercode import importable_near, load_perception, load_system
-from beatlog.replaying.debugger import beyond_the_log
+from beatlog.replay.debugger import beyond_the_log
 from beatlog.suite.coverage import Text, cache_file, read_cached, select_exercising, write_cached
 from beatlog.suite.discovery import discover_specs, distinguished, select_specs
 from beatlog.suite.parallel import Shard, shard

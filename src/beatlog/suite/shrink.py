@@ -32,7 +32,7 @@ from beatlog.baseline.file import SPEC_SUFFIX, expected_path
 from beatlog.baseline.policy import SpecOptions
 from beatlog.errors import BeatlogError, SpecError
 from beatlog.log.files import replacing
-from beatlog.replaying.verdict import Divergence, DivergenceKind
+from beatlog.replay.verdict import Divergence, DivergenceKind
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import read_spec_data, spec_from_data, spec_toml
 

@@ -46,9 +46,9 @@ from beatlog.project.config import (
     project_config,
     variants_table,
 )
-from beatlog.replaying.compare import Comparison
-from beatlog.replaying.fit.migration import StateMigration
-from beatlog.replaying.perturbation import Perturbations, declared
+from beatlog.replay.compare import Comparison
+from beatlog.replay.fit.migration import StateMigration
+from beatlog.replay.perturbation import Perturbations, declared
 from beatlog.suite.remote import Listed, fetched_log, is_url, url_name
 
 __all__ = [

@@ -15,9 +15,9 @@ from beatlog.errors import SpecError, SystemLoadError
 from beatlog.log.files import project_root
 from beatlog.project.config import project_config
 from beatlog.project.usercode import load_invariant, load_perception, load_system
-from beatlog.replaying.perturbation import Perturbations, Variant
-from beatlog.replaying.variant import replay_variant
-from beatlog.replaying.verdict import ReplayResult, reproduce_command
+from beatlog.replay.perturbation import Perturbations, Variant
+from beatlog.replay.variant import replay_variant
+from beatlog.replay.verdict import ReplayResult, reproduce_command
 from beatlog.suite.spec import DtcSpec, spec_toml
 
 __all__ = ["importable_invariants", "replay_variant_of", "with_variants", "write_variant_spec"]

@@ -115,7 +115,7 @@ def test_a_log_never_chooses_the_code_replay_imports(
         f"in {tmp_path / 'pyproject.toml'}",
     )
     assert not (tmp_path / "sprung").exists()
-    assert set(sys.modules) - imported <= {"beatlog.replaying.judge", "beatlog.report.console"}
+    assert set(sys.modules) - imported <= {"beatlog.replay.judge", "beatlog.report.console"}
     assert list(temporary.iterdir()) == []
 
 

@@ -23,8 +23,8 @@ from beatlog.errors import ExportError
 from beatlog.log.files import replacing
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import System
-from beatlog.replaying.judge import replay
-from beatlog.replaying.verdict import Divergence
+from beatlog.replay.judge import replay
+from beatlog.replay.verdict import Divergence
 
 __all__ = ["ExportFormat", "ExportResult", "export", "export_format"]
 

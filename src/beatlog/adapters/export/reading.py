@@ -30,7 +30,7 @@ from beatlog.log.format import DECODE_ERRORS, Draw, SessionHeader, StateChangeRe
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState
 from beatlog.model.inbox import Sample
-from beatlog.replaying.verdict import StateChange
+from beatlog.replay.verdict import StateChange
 
 __all__ = [
     "Cycle",

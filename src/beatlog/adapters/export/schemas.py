@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from beatlog.adapters.export.fields import JSON_TEXT, NON_FINITE, NON_FINITE_SCHEMA, Field
-from beatlog.replaying.verdict import DivergenceKind
+from beatlog.replay.verdict import DivergenceKind
 
 __all__ = [
     "BEHAVIOR_SCHEMA",

@@ -37,7 +37,7 @@ from beatlog.adapters.export.schemas import (
     sample_schema,
 )
 from beatlog.errors import CorruptLogError, ExportError
-from beatlog.replaying.verdict import Divergence, ReplayResult, StateChange
+from beatlog.replay.verdict import Divergence, ReplayResult, StateChange
 
 __all__ = ["write_mcap"]
 

@@ -75,7 +75,7 @@ def run_plot(args: argparse.Namespace, console: Console) -> int:
     except ModuleNotFoundError:
         raise OptionError('plot needs matplotlib (pip install "beatlog[plot]")') from None
     from beatlog.analysis.timeline import build_timeline
-    from beatlog.replaying.judge import replay
+    from beatlog.replay.judge import replay
     from beatlog.report.chart import chart_format, write_chart
 
     chart_format(args.output)  # an unknown suffix is refused before anything runs

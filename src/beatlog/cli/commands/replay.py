@@ -110,9 +110,9 @@ def run(args: argparse.Namespace, console: Console) -> int:
 
     import msgspec
 
-    from beatlog.replaying.debugger import beyond_the_log, break_on_divergence, unreached_break
-    from beatlog.replaying.fit.migration import StateMigration
-    from beatlog.replaying.setup import recorded_system
+    from beatlog.replay.debugger import beyond_the_log, break_on_divergence, unreached_break
+    from beatlog.replay.fit.migration import StateMigration
+    from beatlog.replay.setup import recorded_system
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
     from beatlog.suite.remote import named_as_given

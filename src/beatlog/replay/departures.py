@@ -1,0 +1,161 @@
+"""Where the behaviors depart from the recording: what a baseline holds since format 5.
+
+The recording always lies beside its baseline, so a baseline holds only where the
+approved state changes and outputs differ from the recorded ones: a cycle's own state
+changes (none, where it is *quiet*), and an output field's approved value from a cycle
+on, until it is :data:`~beatlog.replay.expectation.AS_RECORDED` again.
+:class:`DepartureCollector` finds them as a trace replays; replay applies them as it
+reads the recorded cycles (:mod:`beatlog.replay.expected`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import msgspec
+
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.replay.core import actor_name
+from beatlog.replay.expectation import (
+    ABSENT,
+    AS_RECORDED,
+    Expectation,
+    TracedChange,
+    TracedOutput,
+)
+from beatlog.replay.verdict import StateChange
+
+__all__ = ["DepartureCollector", "OutputDepartures", "apply_outputs", "hold"]
+
+
+class OutputDepartures:
+    """Turns each cycle's outputs, recorded and replayed, into the output lines of
+    departures: a line wherever a field's held value no longer gives the one replayed
+    (bit for bit, as :class:`~beatlog.replay.expectation.OutputTracker` compares)."""
+
+    def __init__(self) -> None:
+        self._sorted = msgspec.msgpack.Encoder(enc_hook=payload_encoder().enc_hook, order="sorted")
+        self._held: dict[str, bytes | None] = {}
+        """The fields that depart, each with its value held (None: held absent)."""
+
+    def observe(
+        self,
+        cycle: int,
+        time_ns: int,
+        recorded: Mapping[str, Any],
+        outputs: Mapping[str, Any],
+    ) -> list[TracedOutput]:
+        """The lines a cycle needs: ``recorded`` and ``outputs`` as they read back from
+        a log (numpy arrays as lists)."""
+        encode = self._sorted.encode
+        held = self._held
+        lines: list[TracedOutput] = []
+        for name in sorted(recorded.keys() | outputs.keys() | held.keys()):
+            now = encode(outputs[name]) if name in outputs else None
+            was = encode(recorded[name]) if name in recorded else None
+            if held.get(name, was) == now:
+                continue
+            if was == now:
+                del held[name]
+                lines.append(TracedOutput(cycle, time_ns, name, AS_RECORDED))
+            else:
+                held[name] = now
+                lines.append(TracedOutput(cycle, time_ns, name, outputs.get(name, ABSENT)))
+        return lines
+
+    @property
+    def departing(self) -> bool:
+        """Whether a field holds a value other than the recorded one now."""
+        return bool(self._held)
+
+
+def hold(held: dict[str, Any], lines: Iterable[TracedOutput]) -> None:
+    """Take a cycle's output lines of departures into ``held``, the values that stand in
+    for the recorded ones from then on."""
+    for line in lines:
+        if line.value is AS_RECORDED:
+            held.pop(line.field, None)
+        else:
+            held[line.field] = line.value
+
+
+def apply_outputs(recorded: dict[str, Any], held: Mapping[str, Any]) -> dict[str, Any]:
+    """A cycle's recorded outputs with the held values of departing fields in place
+    (:data:`~beatlog.replay.expectation.ABSENT` ones removed); ``recorded`` is changed."""
+    for name, value in held.items():
+        if value is ABSENT:
+            recorded.pop(name, None)
+        else:
+            recorded[name] = value
+    return recorded
+
+
+class DepartureCollector:
+    """Gathers a session's departures from the recording, cycle by cycle, as a trace
+    replays it: ``names`` are the system's behaviors, ``recorded_names`` the log's in
+    the names they have now."""
+
+    def __init__(self, names: list[str], recorded_names: list[str]) -> None:
+        self._names = names
+        self._recorded_names = recorded_names
+        self._encode = payload_encoder().encode
+        self._changes: list[TracedChange] = []
+        self._quiet: list[tuple[int, int]] = []
+        self._outputs: list[TracedOutput] = []
+        self._output_departures = OutputDepartures()
+        self._first: tuple[int, int] | None = None
+
+    def add(
+        self,
+        record: CycleRecord,
+        cycle: int,
+        time_ns: int,
+        changes: Iterable[tuple[int, Any, Any]],
+        outputs: Mapping[str, Any],
+    ) -> None:
+        """Add a cycle: its record and the state changes and outputs replayed in it."""
+        changes = list(changes)
+        departed = False
+        if self._changes_depart(record.state_changes, changes):
+            departed = True
+            names = self._names
+            self._changes.extend(
+                TracedChange(cycle, time_ns, StateChange(names[i], before, after))
+                for i, before, after in changes
+            )
+            if not changes:
+                self._quiet.append((cycle, time_ns))
+        encoded = EMPTY_MAP if not outputs else msgspec.Raw(self._encode(outputs))
+        if record.outputs != encoded or self._output_departures.departing:
+            lines = self._output_departures.observe(
+                cycle,
+                time_ns,
+                msgspec.msgpack.decode(record.outputs),
+                msgspec.msgpack.decode(encoded),
+            )
+            departed = departed or bool(lines)
+            self._outputs.extend(lines)
+        if departed and self._first is None:
+            self._first = (cycle, time_ns)
+
+    def _changes_depart(self, recorded: msgspec.Raw, changes: list[tuple[int, Any, Any]]) -> bool:
+        """Whether the state changes replayed are not the recorded ones (as a set)."""
+        if not changes and recorded == EMPTY_LIST:
+            return False
+        encode, names, then = self._encode, self._names, self._recorded_names
+        was = {
+            (actor_name(then, i), encode(b), encode(a))
+            for i, b, a in msgspec.msgpack.decode(recorded)
+        }
+        return was != {(names[i], encode(b), encode(a)) for i, b, a in changes}
+
+    def departures(self) -> Expectation:
+        """The departures gathered so far, as a baseline holds them (no robot states
+        pinned, no draws approved: those are gathered apart)."""
+        return Expectation(
+            tuple(self._changes),
+            tuple(self._outputs),
+            open_loop=self._first,
+            quiet=tuple(self._quiet),
+        )

@@ -1,0 +1,193 @@
+"""Invariants checked in every cycle a replay steps (or a recorder records), each handed
+a :class:`~beatlog.model.invariant.Cycle`: RS_t as the behaviors saw it, every
+behavior's state after the update, BS_t, the outputs and the draws. Only cycles whose
+update completed are checked; one that did not is a divergence of its own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from operator import attrgetter
+from types import MappingProxyType
+from typing import Any, NamedTuple
+
+from beatlog.log.format import CycleRecord, Draw, StateChangeRecord
+from beatlog.model.behavior import System
+from beatlog.model.invariant import Cycle, Invariant
+from beatlog.project.usercode import load_invariant, user_traceback
+from beatlog.replay.compare import state_fields
+from beatlog.replay.outcome import CycleOutcome, draw_reports
+from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
+
+__all__ = ["InvariantChecker", "Violation", "invariant_name"]
+
+_NO_OUTPUTS: MappingProxyType[str, Any] = MappingProxyType({})
+_STATE = attrgetter("state")
+
+
+class _States(Mapping[str, Any]):
+    """Every behavior's state as read after a cycle's update, by name: read in one go,
+    looked up by name only as an invariant asks (a replay checks every cycle)."""
+
+    __slots__ = ("_at", "_values")
+
+    def __init__(self, at: Mapping[str, int], values: tuple[Any, ...]) -> None:
+        self._at = at
+        self._values = values
+
+    def __getitem__(self, name: str) -> Any:
+        return self._values[self._at[name]]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._at)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+
+class Violation(NamedTuple):
+    """An invariant that did not hold in a cycle, or whose own code raised."""
+
+    invariant: str
+    cycle: Cycle
+    message: str
+    """Why: the assertion's message, or what the invariant's code raised."""
+    failure: BaseException | None = None
+    """What the invariant's own code raised (not an ``AssertionError``), if it did."""
+
+    def __str__(self) -> str:
+        return f"cycle {self.cycle.cycle}, t = {self.cycle.time:.3f} s: {self.message}"
+
+
+def invariant_name(invariant: object) -> str:
+    """An invariant as reports name it: its function's or its class's name."""
+    name = getattr(invariant, "__name__", None)
+    return name if isinstance(name, str) else type(invariant).__name__
+
+
+class InvariantChecker:
+    """Checks ``invariants`` in each cycle of ``system``: for the verdict's judge, which
+    checks each cycle with it so that the earliest failure is the verdict; for a
+    recorder; or as an observer of a replay session that keeps the first violation.
+
+    Each invariant is a callable, a class (instantiated here, afresh for each checker,
+    so that one that looks across cycles starts clean) or a ``module:attribute``
+    reference to either, imported as a spec's ``system`` is.
+
+    :raises beatlog.errors.SystemLoadError: a reference does not import, or names
+        something that is not callable, or a class that cannot be built.
+    """
+
+    def __init__(self, invariants: Iterable[Invariant | type | str], system: System) -> None:
+        built = [load_invariant(item) if isinstance(item, str) else item for item in invariants]
+        self.invariants: list[tuple[str, Invariant]] = [
+            (invariant_name(item), item() if isinstance(item, type) else item) for item in built
+        ]
+        catalogue = system.behaviors
+        self._names = list(catalogue)
+        self._at = {name: index for index, name in enumerate(self._names)}
+        self._behaviors = list(catalogue.values())
+        self.violation: Divergence | None = None
+        """The first violation seen as an observer, if any."""
+
+    @property
+    def replaying(self) -> bool:
+        """Whether it still needs cycles replayed (and read): until the first violation."""
+        return self.violation is None
+
+    reading = replaying
+
+    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
+        """Check the cycle replayed (nothing where it was not replayed)."""
+        if outcome is not None and self.violation is None:
+            self.violation = self.check(outcome)
+
+    def check(self, outcome: CycleOutcome) -> Divergence | None:
+        """The first invariant that does not hold in a replayed cycle, as a divergence;
+        None where all hold, or the update did not complete."""
+        if outcome.changes is None or outcome.failure is not None:
+            return None
+        cycle = self.cycle(
+            outcome.cycle,
+            time_ns=outcome.time_ns,
+            dt_ns=outcome.record.heartbeat_ns,
+            state=outcome.state,
+            changes=outcome.changes,
+            outputs=outcome.outputs,
+            draws=outcome.drawn,
+        )
+        violations = self.violated(cycle, first=True)
+        return divergence(violations[0]) if violations else None
+
+    def cycle(
+        self,
+        number: int,
+        *,
+        time_ns: int,
+        dt_ns: int,
+        state: Any,
+        changes: Sequence[StateChangeRecord],
+        outputs: dict[str, Any],
+        draws: Sequence[Draw],
+    ) -> Cycle:
+        """A cycle as the invariants see it, the behaviors' states read now."""
+        names = self._names
+        return Cycle(
+            number,
+            time_ns,
+            dt_ns,
+            state,
+            _States(self._at, tuple(map(_STATE, self._behaviors))),
+            tuple(StateChange(names[index], before, after) for index, before, after in changes)
+            if changes
+            else (),
+            MappingProxyType(outputs) if outputs else _NO_OUTPUTS,
+            tuple(draw_reports(draws, names)) if draws else (),
+        )
+
+    def violated(self, cycle: Cycle, *, first: bool = False) -> list[Violation]:
+        """The invariants that do not hold in ``cycle``, in order (only the first, if
+        ``first``): each raised ``AssertionError``, returned a false value other than
+        None, or raised anything else (its own failure)."""
+        found: list[Violation] = []
+        for name, invariant in self.invariants:
+            try:
+                held = invariant(cycle)
+            except AssertionError as exc:
+                message = " ".join(str(exc).split()) or "its assertion failed"
+                found.append(Violation(name, cycle, f"invariant {name} does not hold: {message}"))
+            except (Exception, SystemExit) as exc:  # the invariant's own code failing
+                what = " ".join(str(exc).split())
+                message = f"invariant {name} raised {type(exc).__name__}" + (
+                    f": {what}" if what else ""
+                )
+                found.append(Violation(name, cycle, message, exc))
+            else:
+                if held is None or held:
+                    continue
+                found.append(
+                    Violation(name, cycle, f"invariant {name} does not hold: it returned {held!r}")
+                )
+            if first:
+                break
+        return found
+
+
+def divergence(violation: Violation) -> Divergence:
+    """A violation as the verdict reports it: the invariant, its message, and the values
+    it saw (robot state, behavior states, state changes, outputs and draws)."""
+    cycle = violation.cycle
+    failure = violation.failure
+    return Divergence(
+        kind=DivergenceKind.INVARIANT,
+        cycle=cycle.cycle,
+        time_ns=cycle.time_ns,
+        message=violation.message,
+        actual=cycle.changes,
+        actual_outputs=dict(cycle.outputs),
+        robot_state=state_fields(cycle.robot_state),
+        random_drawn=cycle.draws,
+        traceback=None if failure is None else user_traceback(failure),
+        invariant=violation.invariant,
+        states=dict(cycle.states),
+    )

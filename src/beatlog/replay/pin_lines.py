@@ -1,0 +1,145 @@
+"""Robot-state pins as a baseline's lines hold them (:class:`PinnedRun`,
+:class:`DigestBlock`), and the check, as a baseline is read, that the blocks cover
+their runs in order (:class:`PinCoverage`).
+"""
+
+from __future__ import annotations
+
+import heapq
+import re
+import string
+from collections.abc import Iterable
+from typing import Any, NamedTuple
+
+__all__ = [
+    "BASE64_DIGITS",
+    "CYCLES_PER_BLOCK",
+    "TAG_CHARS",
+    "UNPINNED",
+    "DigestBlock",
+    "PinCoverage",
+    "PinnedRun",
+]
+
+TAG_CHARS = 2
+"""A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
+CYCLES_PER_BLOCK = 64
+"""The most cycles one block (one line of a baseline) spans."""
+UNPINNED = ".."
+"""The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
+BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
+"""The base64 digits, in the order of the six bits each stands for."""
+_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(UNPINNED)})*")
+"""Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`UNPINNED`."""
+
+
+class PinnedRun(NamedTuple):
+    """Cycles in which perception rebuilds the robot state otherwise than recorded, from
+    ``cycle`` to ``last`` with gaps (as recorded) of at most
+    :data:`~beatlog.replay.pins.MAX_GAP` cycles: what a review needs of them."""
+
+    cycle: int
+    """The first of them."""
+    time_ns: int
+    last: int
+    """The last of them."""
+    cycles: int
+    """How many are pinned: ``last - cycle + 1`` less the gaps."""
+    fields: tuple[str, ...]
+    """The fields that differ from the recording in any of them, sorted."""
+    first: dict[str, Any]
+    """The fields that differ in the first cycle, with their rebuilt values."""
+
+
+class DigestBlock(NamedTuple):
+    """Up to :data:`CYCLES_PER_BLOCK` consecutive cycles of a run: a tag each
+    (:data:`UNPINNED` for a gap), and the digest of the pinned ones' whole digests."""
+
+    cycle: int
+    """The first of them, a pinned one."""
+    time_ns: int
+    tags: str
+    """:data:`TAG_CHARS` a cycle, in cycle order."""
+    digest: bytes
+
+    @property
+    def cycles(self) -> int:
+        """How many cycles the block spans."""
+        return len(self.tags) // TAG_CHARS
+
+    def tag(self, offset: int) -> str:
+        """The tag of the block's cycle ``cycle + offset``."""
+        return self.tags[offset * TAG_CHARS : (offset + 1) * TAG_CHARS]
+
+    @property
+    def pinned(self) -> list[int]:
+        """The offsets of the cycles it pins (not gaps)."""
+        return [offset for offset in range(self.cycles) if self.tag(offset) != UNPINNED]
+
+
+class PinCoverage:
+    """Checks that blocks of digests cover their runs, in order, as a baseline is read:
+    a part of its runs and blocks at a time (:meth:`add`), then :meth:`end`. Each says
+    why they do not, if they do not."""
+
+    def __init__(self) -> None:
+        self._run: PinnedRun | None = None
+        """The run whose blocks are read now."""
+        self._start = 0
+        """The cycle its next block starts at."""
+        self._pinned = 0
+        """How many cycles its blocks pinned so far."""
+
+    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> str | None:
+        """Take the next runs and blocks, those of a part of a baseline."""
+        lines: Iterable[tuple[int, int, int, PinnedRun | DigestBlock]] = heapq.merge(
+            ((run.cycle, 0, index, run) for index, run in enumerate(runs)),
+            ((block.cycle, 1, index, block) for index, block in enumerate(blocks)),
+        )
+        for *_, line in lines:
+            problem = self._open(line) if isinstance(line, PinnedRun) else self._block(line)
+            if problem is not None:
+                return problem
+        return None
+
+    def end(self) -> str | None:
+        """Take the end of the baseline."""
+        return self._close()
+
+    def _open(self, run: PinnedRun) -> str | None:
+        where = f"the robot-state run from cycle {run.cycle}"
+        after = self._start if self._run is None else self._run.last + 1
+        if run.cycle < after or run.last < run.cycle:
+            return f"{where} is out of order"
+        problem = self._close()
+        if problem is not None:
+            return problem
+        if not run.first or not set(run.first) <= set(run.fields):
+            return f"{where} names no fields that differ in its first cycle"
+        self._run, self._start, self._pinned = run, run.cycle, 0
+        return None
+
+    def _block(self, block: DigestBlock) -> str | None:
+        run = self._run
+        if run is None or block.cycle > run.last:
+            return f"the digests from cycle {block.cycle} are in no robot-state run"
+        where = f"the robot-state run from cycle {run.cycle}"
+        if block.cycle < self._start or (self._pinned == 0 and block.cycle != run.cycle):
+            return f"{where} has its digests of cycle {block.cycle} out of place"
+        if not (_TAGS.fullmatch(block.tags) and 0 < block.cycles <= CYCLES_PER_BLOCK):
+            return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
+        self._start = block.cycle + block.cycles
+        self._pinned += block.cycles - block.tags.count(UNPINNED)
+        return None
+
+    def _close(self) -> str | None:
+        """Check the run read last, and leave it."""
+        run, self._run = self._run, None
+        if run is None:
+            return None
+        where = f"the robot-state run from cycle {run.cycle}"
+        if self._start != run.last + 1:
+            return f"{where} has digests that do not end at its last cycle, {run.last}"
+        if self._pinned != run.cycles:
+            return f"{where} says {run.cycles} cycles, its digests pin {self._pinned}"
+        return None

@@ -1,0 +1,298 @@
+"""Robot states pinned by digest: what an approved perception change rebuilds, compactly.
+
+In sensor-level replay an intended perception change (a constant retuned) rebuilds
+RS_t otherwise than recorded, often in nearly every cycle. A baseline pins those
+states without copying them: for each run of cycles in which perception rebuilds
+otherwise, gaps of up to :data:`MAX_GAP` cycles rebuilt as recorded included
+(:class:`PinnedRun`, naming the fields that differ from the recording and giving their
+rebuilt values in its first cycle, for review), blocks of up to
+:data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
+digest of the block.
+
+A cycle's :func:`~beatlog.replay.state_digests.state_digest` is the XXH64 digest (seed
+0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
+system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
+of any field counts, and the replay core, which encodes each rebuilt state to compare it
+with the recorded one, digests the same bytes. Its first 12 bits, as two base64
+characters, are the cycle's tag: a state that differs from the approved one is caught in
+its own cycle, except once in 4,096; the block's digest, of its pinned cycles' whole
+digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
+characters a cycle keep the pins of a perception retuned for every cycle near 3.2 bytes
+a cycle, a small fraction of the log; a whole digest a cycle would take 11 characters.
+"""
+
+from __future__ import annotations
+
+import base64
+import bisect
+import struct
+from collections import deque
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+from beatlog.replay.compare import Comparison
+from beatlog.replay.pin_lines import (
+    BASE64_DIGITS,
+    CYCLES_PER_BLOCK,
+    TAG_CHARS,
+    UNPINNED,
+    DigestBlock,
+    PinCoverage,
+    PinnedRun,
+)
+from beatlog.replay.state_digests import DIGEST_BYTES, block_digest, state_number
+
+__all__ = [
+    "CYCLES_PER_BLOCK",
+    "MAX_GAP",
+    "TAG_CHARS",
+    "UNPINNED",
+    "DigestBlock",
+    "PinChecker",
+    "PinCoverage",
+    "PinnedRun",
+    "RebuiltState",
+    "StatePins",
+    "rebuilt_otherwise",
+]
+
+MAX_GAP = 16
+"""The most cycles perception may rebuild as recorded inside one run: a gap costs a
+tag each, a new run a line of names and values."""
+_EXACT = Comparison()
+
+
+def rebuilt_otherwise(recorded: Mapping[str, Any], rebuilt: Mapping[str, Any]) -> dict[str, Any]:
+    """The fields of a rebuilt robot state that differ from the recorded one, bit for
+    bit, with their rebuilt values (a field the rebuilt state lacks is left out)."""
+    return {
+        name: rebuilt[name]
+        for name in _EXACT.state_differences(recorded, rebuilt)
+        if name in rebuilt
+    }
+
+
+class RebuiltState(NamedTuple):
+    """A cycle in which perception rebuilt the robot state otherwise than recorded, as a
+    trace collects it."""
+
+    cycle: int
+    time_ns: int
+    fields: dict[str, Any]
+    """The fields that differ from the recording, with their rebuilt values."""
+    digest: bytes
+    """The :func:`~beatlog.replay.state_digests.state_digest` of the whole rebuilt state."""
+
+
+@dataclass(frozen=True)
+class StatePins:
+    """The robot states a baseline pins by digest: runs, and the blocks that cover them.
+
+    :raises ValueError: the blocks do not cover the runs, in order.
+    """
+
+    runs: tuple[PinnedRun, ...] = ()
+    blocks: tuple[DigestBlock, ...] = ()
+
+    def __post_init__(self) -> None:
+        coverage = PinCoverage()
+        problem = coverage.add(self.runs, self.blocks) or coverage.end()
+        if problem is not None:
+            raise ValueError(problem)
+
+    @classmethod
+    def from_rebuilt(cls, states: Iterable[RebuiltState]) -> StatePins:
+        """Pin the rebuilt states a trace collected (in cycle order, digested by
+        :func:`~beatlog.replay.state_digests.state_digest`)."""
+        runs: list[PinnedRun] = []
+        blocks: list[DigestBlock] = []
+        for run in _runs(states):
+            head, tail = run[0], run[-1]
+            fields = sorted({name for state in run for name in state.fields})
+            runs.append(
+                PinnedRun(
+                    head.cycle, head.time_ns, tail.cycle, len(run), tuple(fields), head.fields
+                )
+            )
+            blocks.extend(_blocks(run))
+        return cls(tuple(runs), tuple(blocks))
+
+    @property
+    def cycles(self) -> int:
+        """How many cycles are pinned."""
+        return sum(run.cycles for run in self.runs)
+
+
+def _tag(digest: bytes) -> str:
+    return base64.b64encode(digest[:3]).decode()[:TAG_CHARS]
+
+
+def _runs(states: Iterable[RebuiltState]) -> Iterator[list[RebuiltState]]:
+    """The states in runs whose gaps are at most :data:`MAX_GAP` cycles."""
+    run: list[RebuiltState] = []
+    for state in states:
+        if run and state.cycle - run[-1].cycle - 1 > MAX_GAP:
+            yield run
+            run = []
+        run.append(state)
+    if run:
+        yield run
+
+
+def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
+    """A run's blocks: each starts at a pinned cycle and spans at most
+    :data:`CYCLES_PER_BLOCK`, ending at the last pinned cycle it reaches."""
+    start = 0
+    while start < len(run):
+        first = run[start].cycle
+        end = start
+        while end < len(run) and run[end].cycle < first + CYCLES_PER_BLOCK:
+            end += 1
+        chunk = run[start:end]
+        tags = [UNPINNED] * (chunk[-1].cycle - first + 1)
+        for state in chunk:
+            tags[state.cycle - first] = _tag(state.digest)
+        digest = block_digest(b"".join(state.digest for state in chunk))
+        yield DigestBlock(first, run[start].time_ns, "".join(tags), digest)
+        start = end
+
+
+_TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
+"""A digest shifted right by this many bits is its tag's bits."""
+_GAP = 0xFF
+"""What :data:`_SIXES` makes of a gap's characters."""
+_SIXES = bytes.maketrans(
+    f"{BASE64_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(BASE64_DIGITS)), _GAP])
+)
+"""Each tag character as the six bits it stands for: a cycle's tag is the first 12
+bits of its digest (:func:`_tag`), high six first."""
+
+
+class PinChecker:
+    """Judges the robot states perception rebuilds against :class:`StatePins`, one
+    pinned cycle after another, in cycle order: a pinned cycle by its tag, a block by
+    its digest at its last pinned cycle.
+
+    Replay adds a baseline's pins as it reads them (:meth:`add`), and forgets those of
+    the cycles it has judged (:meth:`forget`), so that it holds the pins of the cycles at
+    hand, however many the baseline has. ``pinned`` says whether the baseline pins any
+    robot state at all.
+    """
+
+    def __init__(self, pins: StatePins | None = None, *, pinned: bool | None = None) -> None:
+        self.tags: dict[int, int] = {}
+        """The tag of each pinned cycle added and not forgotten: the first 12 bits of
+        its digest."""
+        self._blocks: deque[tuple[int, int, int]] = deque()
+        """The blocks added and not forgotten, in cycle order: the cycle after each, and
+        its first and last pinned cycles."""
+        self._firsts: set[int] = set()
+        """The first pinned cycle of each block."""
+        self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
+        """Each block by its last pinned cycle, where its digest is checked, with its
+        first pinned cycle and how many it pins."""
+        self._digests: list[int] = []
+        """The digests of the cycles judged since the last block opened that agreed with
+        their tags, in cycle order: checked with the block's digest where it closes."""
+        self._opened = -1
+        """The first pinned cycle of the block they are of."""
+        self._found: dict[int, str] = {}
+        """How the cycles found to differ were found to."""
+        self._runs: list[PinnedRun] = []
+        self._starts: list[int] = []
+        if pins is not None:
+            self.add(pins.runs, pins.blocks)
+        self.pinned = bool(self.tags) if pinned is None else pinned
+
+    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> None:
+        """Add the runs and blocks of the cycles that follow those added (read and
+        checked as a baseline's are)."""
+        for run in runs:
+            self._runs.append(run)
+            self._starts.append(run.cycle)
+        for block in blocks:
+            sixes = block.tags.encode().translate(_SIXES)
+            pinned = {
+                cycle: high << 6 | low
+                for cycle, high, low in zip(
+                    range(block.cycle, block.cycle + block.cycles),
+                    sixes[::2],
+                    sixes[1::2],
+                    strict=True,
+                )
+                if high != _GAP
+            }
+            if not pinned:  # no cycle pinned (a baseline's coverage check refuses it)
+                continue
+            self.tags.update(pinned)
+            first, final = min(pinned), max(pinned)
+            self._blocks.append((block.cycle + block.cycles, first, final))
+            self._firsts.add(first)
+            self._finals[final] = (block, first, len(pinned))
+
+    def forget(self, before: int) -> None:
+        """Forget the pins of the blocks and runs that end before cycle ``before``."""
+        blocks, tags = self._blocks, self.tags
+        while blocks and blocks[0][0] <= before:
+            _, first, final = blocks.popleft()
+            for cycle in range(first, final + 1):
+                tags.pop(cycle, None)
+            self._firsts.discard(first)
+            self._finals.pop(final, None)
+        ended = bisect.bisect_left([run.last for run in self._runs], before)
+        if ended:
+            del self._runs[:ended], self._starts[:ended]
+
+    @property
+    def cycles(self) -> frozenset[int]:
+        """The pinned cycles added and not forgotten."""
+        return frozenset(self.tags)
+
+    def __contains__(self, cycle: object) -> bool:
+        return cycle in self.tags
+
+    def run_at(self, cycle: int) -> PinnedRun:
+        """The run a pinned cycle is in."""
+        return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
+
+    def mismatch(self, cycle: int, encoded: bytes) -> str | None:
+        """Judge the robot state rebuilt in pinned ``cycle`` (``encoded`` as a log would),
+        each pinned cycle once, in cycle order: how it was found to differ from the
+        approved one, ``"by its digest"`` (its tag), or ``"by the digest of cycles
+        A–B"`` (its block's, checked at the block's last pinned cycle when every pinned
+        cycle of the block was judged, each agreeing with its tag); None when it
+        agrees. :meth:`found` asks again.
+
+        :raises KeyError: ``cycle`` is not pinned.
+        """
+        digest = state_number(encoded)
+        if digest >> _TAG_SHIFT != self.tags[cycle]:
+            self._found[cycle] = "by its digest"  # reported here, not again for the block
+            return "by its digest"
+        if cycle in self._firsts:
+            self._opened = cycle
+            self._digests.clear()
+        self._digests.append(digest)
+        return self._block_mismatch(cycle) if cycle in self._finals else None
+
+    def found(self, cycle: int, encoded: bytes) -> str | None:
+        """How the robot state of a pinned ``cycle`` was found to differ when it was
+        judged; one not judged yet is judged now (:meth:`mismatch`)."""
+        if cycle in self._found:
+            return self._found[cycle]
+        return self.mismatch(cycle, encoded)
+
+    def _block_mismatch(self, final: int) -> str | None:
+        """How the block closing at pinned cycle ``final`` was found to differ by its
+        digest: None when it agrees, or when not every pinned cycle of it was judged,
+        each agreeing with its tag (one that disagreed was reported in its own cycle)."""
+        block, first, pinned = self._finals[final]
+        digests = self._digests
+        agreed = self._opened == first and len(digests) == pinned
+        packed = struct.pack(f">{pinned}Q", *digests) if agreed else b""
+        digests.clear()
+        if not agreed or block_digest(packed) == block.digest:
+            return None
+        found = self._found[final] = f"by the digest of cycles {block.cycle}–{final}"
+        return found

@@ -1,0 +1,119 @@
+"""Held outputs: each recorded cycle's outputs with the held values in place, bit for
+bit as applying them to the decoded outputs gives, repeated outputs decoded once."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+from typing import Any
+
+import msgspec
+import pytest
+
+from beatlog.errors import CorruptLogError
+from beatlog.log import payload
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.replay import held_outputs
+from beatlog.replay.departures import apply_outputs
+from beatlog.replay.expectation import ABSENT, AS_RECORDED, TracedOutput
+from beatlog.replay.held_outputs import HeldOutputs
+
+LOG = Path("walk.beatlog")
+ENCODE = payload_encoder().encode
+
+
+def as_logged(outputs: dict[str, Any]) -> msgspec.Raw:
+    return msgspec.Raw(ENCODE(outputs))
+
+
+RECORDED = [
+    as_logged({"happiness": 41, "motion": "walk", "speed": 0.15, "turn": 0.024}),
+    as_logged({"happiness": 41, "motion": "walk", "speed": 0.15, "turn": 0.024}),
+    as_logged({"happiness": -7, "motion": "walk", "speed": float("nan"), "turn": -0.0}),
+    as_logged({"happiness": 300, "motion": "lie"}),
+    as_logged({"speed": [0.1, 0.2], "turn": True, "motion": None}),
+    msgspec.Raw(b"\x81\xa5speed\xca" + struct.pack(">f", 0.5)),  # a float32
+    msgspec.Raw(b"\x82\xa5speed\x01\xa5speed\x02"),  # a field twice
+    EMPTY_MAP,
+]
+"""Recorded outputs, one a cycle."""
+
+HELD: list[list[tuple[str, Any]]] = [
+    [],
+    [("turn", 0.0)],
+    [("happiness", 47), ("turn", 0.0)],
+    [("turn", ABSENT)],
+    [("turn", AS_RECORDED), ("speed", ABSENT), ("motion", "run")],
+    [("speed", 0.0), ("wag", [1, 2]), ("sound", "woof")],  # fields the recording lacks
+    [("wag", AS_RECORDED), ("happiness", AS_RECORDED), ("motion", AS_RECORDED)],
+]
+"""The output lines of one cycle after another."""
+
+
+def records(outputs: list[msgspec.Raw]) -> list[CycleRecord]:
+    return [
+        CycleRecord(30 * cycle, EMPTY_MAP, EMPTY_LIST, EMPTY_LIST, raw, EMPTY_LIST)
+        for cycle, raw in enumerate(outputs)
+    ]
+
+
+def lines(held: list[tuple[str, Any]]) -> list[TracedOutput]:
+    return [TracedOutput(0, 0, field, value) for field, value in held]
+
+
+def test_held_values_in_place_bit_for_bit_as_applying_them_gives() -> None:
+    outputs = HeldOutputs(LOG)
+    held: dict[str, Any] = {}
+    got, wanted = [], []
+    for changes in HELD:
+        outputs.hold(lines(changes))
+        for field, value in changes:
+            if value is AS_RECORDED:
+                held.pop(field, None)
+            else:
+                held[field] = value
+        cycles = records(RECORDED)
+        outputs.put(cycles[:3], 0)
+        outputs.put(cycles[3:], 3)
+        got.append([bytes(record.outputs) for record in cycles])
+        wanted.append(
+            [ENCODE(apply_outputs(msgspec.msgpack.decode(raw), held)) for raw in RECORDED]
+        )
+    assert got == wanted
+
+
+def test_outputs_recorded_again_are_not_decoded_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    decoded: list[bytes] = []
+
+    def decode(data: bytes | msgspec.Raw) -> dict[str, Any]:
+        decoded.append(bytes(data))
+        return payload.decode_outputs(data)
+
+    monkeypatch.setattr(held_outputs, "decode_outputs", decode)
+    outputs = HeldOutputs(LOG)
+    outputs.hold(lines([("turn", 0.0)]))
+    outputs.put(records(RECORDED[:2]), 0)
+    outputs.put(records(RECORDED[1:3]), 2)
+    outputs.hold(lines([("turn", 0.5)]))
+    outputs.put(records(RECORDED[2:3]), 4)
+
+    assert decoded == [bytes(RECORDED[n]) for n in (0, 2, 2)]
+
+
+def test_whether_a_field_holds_a_value() -> None:
+    outputs = HeldOutputs(LOG)
+    assert [
+        outputs.hold(lines([("turn", 0.0)])),
+        outputs.hold(lines([("speed", ABSENT)])),
+        outputs.hold(lines([("turn", AS_RECORDED)])),
+        outputs.hold(lines([("speed", AS_RECORDED)])),
+    ] == [True, True, True, False]
+
+
+def test_damaged_outputs_are_an_error_in_their_cycle() -> None:
+    outputs = HeldOutputs(LOG)
+    outputs.hold(lines([("turn", 0.0)]))
+    damaged = records([RECORDED[0], RECORDED[2], msgspec.Raw(b"\x82\xa5speed\xcb\x00")])
+    with pytest.raises(CorruptLogError) as raised:
+        outputs.put(damaged, 10)
+    assert str(raised.value) == f"{LOG}: damaged outputs in cycle 12: Input data was truncated"
