@@ -15,7 +15,7 @@ from __future__ import annotations
 import enum
 import json
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -117,10 +117,7 @@ class SuiteCoverage:
         """The coverage of ``system``'s behavior ``name`` (created empty if the suite
         never saw it)."""
         behaviors = self.systems.setdefault(system, {})
-        found = behaviors.get(name)
-        if found is None:
-            found = behaviors[name] = BehaviorCoverage(name, system)
-        return found
+        return behaviors.setdefault(name, BehaviorCoverage(name, system))
 
     @property
     def behaviors(self) -> list[BehaviorCoverage]:
@@ -196,37 +193,25 @@ def cover_changes(
     changes still counts its cycles there) and its declared states."""
     suite = SuiteCoverage()
     for dtc, name, changes, cycles, system in dtcs:
+        suite.dtcs.append(dtc)
         initial = {} if system is None else {n: b.state for n, b in system.behaviors.items()}
-        _add(suite, dtc, name, changes, cycles=cycles, initial=initial)
+        by_behavior: dict[str, list[TracedChange]] = defaultdict(list)
+        for traced in changes:
+            by_behavior[traced.change.behavior].append(traced)
+        for behavior in dict.fromkeys([*initial, *by_behavior]):
+            own = by_behavior.get(behavior, [])
+            cover = suite.behavior(name, behavior)
+            state = initial[behavior] if behavior in initial else own[0].change.before
+            since = 0
+            for traced in own:
+                change = traced.change
+                cover.states.setdefault(_key(state), Seen()).add(dtc, traced.cycle - since)
+                edge = (_key(change.before), _key(change.after))
+                cover.transitions.setdefault(edge, Seen()).add(dtc, 1)
+                state, since = change.after, traced.cycle
+            cover.states.setdefault(_key(state), Seen()).add(dtc, cycles - since)
         for behavior, states in ({} if system is None else declared_states(system)).items():
-            cover_ = suite.behavior(name, behavior)
-            cover_.declared = tuple(dict.fromkeys([*cover_.declared, *states]))
+            cover = suite.behavior(name, behavior)
+            cover.declared = tuple(dict.fromkeys([*cover.declared, *states]))
     suite.dtcs = list(dict.fromkeys(suite.dtcs))
     return suite
-
-
-def _add(
-    suite: SuiteCoverage,
-    dtc: str,
-    system: str,
-    changes: Sequence[TracedChange],
-    *,
-    cycles: int,
-    initial: Mapping[str, Any],
-) -> None:
-    suite.dtcs.append(dtc)
-    by_behavior: dict[str, list[TracedChange]] = defaultdict(list)
-    for traced in changes:
-        by_behavior[traced.change.behavior].append(traced)
-    for behavior in dict.fromkeys([*initial, *by_behavior]):
-        own = by_behavior.get(behavior, [])
-        cover_ = suite.behavior(system, behavior)
-        state = initial[behavior] if behavior in initial else own[0].change.before
-        since = 0
-        for traced in own:
-            change = traced.change
-            cover_.states.setdefault(_key(state), Seen()).add(dtc, traced.cycle - since)
-            edge = (_key(change.before), _key(change.after))
-            cover_.transitions.setdefault(edge, Seen()).add(dtc, 1)
-            state, since = change.after, traced.cycle
-        cover_.states.setdefault(_key(state), Seen()).add(dtc, cycles - since)

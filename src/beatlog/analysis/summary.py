@@ -8,6 +8,7 @@ else from a second pass.
 from __future__ import annotations
 
 import heapq
+import itertools
 import math
 from collections import Counter
 from collections.abc import Iterable, Iterator
@@ -139,13 +140,7 @@ def summarize(path: str | Path) -> LogSummary:
 def _intervals(path: str | Path, cycles: int) -> Iterator[int]:
     """The first ``cycles`` heartbeat intervals, read again."""
     with SessionLogReader(path, tolerate_damaged_index=True) as reader:
-        read = 0
-        for batch in reader.batches():
-            for cycle in batch[: cycles - read]:
-                yield cycle.heartbeat_ns
-            read += len(batch)
-            if read >= cycles:
-                return
+        yield from (cycle.heartbeat_ns for cycle in itertools.islice(reader.cycles(), cycles))
 
 
 def _p99(intervals: Iterable[int], count: int) -> int:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-from collections.abc import Callable, Collection, Iterator
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -120,7 +120,7 @@ def whole_trace(
     time_ns = 0
     with SessionLogReader(log) as reader:
         path, names = reader.path, reader.header.behaviors
-        for cycle, record in enumerate(_records(reader)):
+        for cycle, record in enumerate(reader.cycles()):
             time_ns += record.heartbeat_ns
             if cycle in override:
                 changes.extend(TracedChange(cycle, time_ns, c) for c in override[cycle])
@@ -150,7 +150,7 @@ def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[
         return found
     last = max(cycles)
     with SessionLogReader(log) as reader:
-        for cycle, record in enumerate(_records(reader)):
+        for cycle, record in enumerate(reader.cycles()):
             if cycle > last:
                 break
             if cycle in cycles:
@@ -200,13 +200,10 @@ class TraceCollector:
 
     @property
     def replaying(self) -> bool:
-        """Whether the trace goes on (replay has not stopped)."""
+        """Whether the trace goes on, and needs more cycles (replay has not stopped)."""
         return self.stopped is None
 
-    @property
-    def reading(self) -> bool:
-        """Whether the trace needs more cycles."""
-        return self.stopped is None
+    reading = replaying
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         """Add the next cycle's outcome (ignored once the trace has stopped)."""
@@ -222,10 +219,12 @@ class TraceCollector:
             for i, before, after in outcome.changes or ()
         )
         self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
-        if outcome.perception_differs:
-            rebuilt = _rebuilt_otherwise(outcome, self._encode)
-            if rebuilt is not None:
-                self._states.append(rebuilt)
+        if outcome.perception_differs:  # pinned where it differs from the recorded bit for bit
+            state = outcome.state
+            fields = rebuilt_otherwise(state_fields(outcome.recorded_state), state_fields(state))
+            if fields:
+                digest = state_digest(self._encode(state))
+                self._states.append(RebuiltState(outcome.cycle, outcome.time_ns, fields, digest))
         if outcome.draw_differences:
             self._draws.extend((outcome.cycle, d) for d in outcome.draw_differences)
         self._departures.add(
@@ -244,19 +243,3 @@ class TraceCollector:
             draw_rules(self._draws),
             self._departures.departures(),
         )
-
-
-def _rebuilt_otherwise(
-    outcome: CycleOutcome, encode: Callable[[Any], bytes]
-) -> RebuiltState | None:
-    """The robot state perception rebuilt, when it differs from the recorded one bit
-    for bit: the fields that differ and the whole state's digest."""
-    rebuilt = state_fields(outcome.state)
-    fields = rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt)
-    if not fields:
-        return None
-    return RebuiltState(outcome.cycle, outcome.time_ns, fields, state_digest(encode(outcome.state)))
-
-
-def _records(reader: SessionLogReader) -> Iterator[CycleRecord]:
-    return itertools.chain.from_iterable(reader.batches())
