@@ -3,6 +3,7 @@ read from the log without running any code."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -29,57 +30,49 @@ class Signal(NamedTuple):
     """Whether the field is a boolean, drawn as 0 (False) and 1 (True)."""
 
 
+Point = tuple[int, float]
+"""A robot time and a field's value then."""
+
+
+def _value(point: Point) -> float:
+    return point[1]
+
+
 class _Buckets:
-    """One signal's minimum and maximum (with their robot times) in each bucket."""
+    """One signal's lowest and highest point in each bucket (None where it has none)."""
 
     def __init__(self, grid: TimeGrid) -> None:
-        count = grid.count
-        self.low = [float("inf")] * count
-        self.low_ns = [0] * count
-        self.high = [float("-inf")] * count
-        self.high_ns = [0] * count
-        self._used = 0
-        """Buckets up to here may hold values: those past it need no merging."""
+        self.kept: list[tuple[Point, Point] | None] = [None] * grid.count
 
     def add(self, index: int, time_ns: int, value: float) -> None:
-        if index >= self._used:
-            self._used = index + 1
-        if value < self.low[index]:
-            self.low[index] = value
-            self.low_ns[index] = time_ns
-        if value > self.high[index]:
-            self.high[index] = value
-            self.high_ns[index] = time_ns
+        point, kept = (time_ns, value), self.kept[index]
+        if kept is None:
+            self.kept[index] = (point, point)
+        else:  # on a tie the earlier point stays
+            self.kept[index] = (min(kept[0], point, key=_value), max(kept[1], point, key=_value))
 
     def merge(self, factor: int) -> None:
         """Merge each run of ``factor`` neighbours into one: the buckets grew as long."""
-        count = self._used
-        self._used = -(-count // factor)
-        for target in range(count):
-            low, low_ns, high, high_ns = float("inf"), 0, float("-inf"), 0
-            for source in range(target * factor, min((target + 1) * factor, count)):
-                if self.low[source] < low:
-                    low, low_ns = self.low[source], self.low_ns[source]
-                if self.high[source] > high:
-                    high, high_ns = self.high[source], self.high_ns[source]
-            self.low[target], self.low_ns[target] = low, low_ns
-            self.high[target], self.high_ns[target] = high, high_ns
+        kept = self.kept
+        merged = [_merged(kept[start : start + factor]) for start in range(0, len(kept), factor)]
+        self.kept = merged + [None] * (len(kept) - len(merged))
 
-    def points(self) -> list[tuple[int, float]]:
-        """Each bucket's minimum and maximum, in time order, each point once."""
-        points: list[tuple[int, float]] = []
-        for low, low_ns, high, high_ns in zip(
-            self.low, self.low_ns, self.high, self.high_ns, strict=True
-        ):
-            if low > high:  # no number in this bucket
-                continue
-            pair = (
-                [(low_ns, low), (high_ns, high)]
-                if low_ns <= high_ns
-                else [(high_ns, high), (low_ns, low)]
-            )
-            points.extend(pair if pair[0] != pair[1] else pair[:1])
+    def points(self) -> list[Point]:
+        """Each bucket's lowest and highest point, in time order, each point once."""
+        points: list[Point] = []
+        for kept in self.kept:
+            if kept is not None:
+                first, last = sorted(kept, key=lambda point: point[0])
+                points.extend([first] if first == last else [first, last])
         return points
+
+
+def _merged(buckets: list[tuple[Point, Point] | None]) -> tuple[Point, Point] | None:
+    """The lowest and highest point of neighbouring buckets: the first of equal ones."""
+    held = [bucket for bucket in buckets if bucket is not None]
+    if not held:
+        return None
+    return min((low for low, _ in held), key=_value), max((high for _, high in held), key=_value)
 
 
 class Sampler:
@@ -98,7 +91,7 @@ class Sampler:
 
     @property
     def held(self) -> int:
-        return sum(len(buckets.low) for buckets in self._buckets)
+        return sum(len(buckets.kept) for buckets in self._buckets)
 
     def add(self, record: CycleRecord, time_ns: int) -> None:
         if self._fields is None:
@@ -110,7 +103,7 @@ class Sampler:
             values = msgspec.structs.astuple(self._decoded(record))
             index = self._grid.index(time_ns)
             for buckets, value in zip(self._buckets, values, strict=True):
-                if isinstance(value, int | float):
+                if isinstance(value, int | float) and not math.isnan(value):  # NaN: no point
                     buckets.add(index, time_ns, float(value))
         self._seen += 1
 
