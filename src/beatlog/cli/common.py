@@ -183,35 +183,33 @@ def shard(text: str) -> Shard:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def cycle_number(text: str) -> int:
-    """A cycle of a log: 0 or more."""
-    return _number(text, int, "a cycle number", zero=True)
+def _number(
+    kind: Callable[[str], Number], what: str, *, zero: bool = False
+) -> Callable[[str], Number]:
+    """An option's type: ``kind`` above 0, or (``zero``) 0 or more."""
+
+    def parse(text: str) -> Number:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
+        if value < 0 or not (zero or value > 0):
+            raise argparse.ArgumentTypeError(
+                f"must be {'0 or more' if zero else 'positive'}: {text!r}"
+            )
+        return value
+
+    return parse
 
 
-def count(text: str) -> int:
-    """How many of something: a whole number, 0 or more."""
-    return _number(text, int, "a whole number", zero=True)
-
-
-def positive_float(text: str) -> float:
-    """A number above 0."""
-    return _number(text, float, "a number")
-
-
-def positive_int(text: str) -> int:
-    """A whole number above 0."""
-    return _number(text, int, "a whole number")
-
-
-def _number(text: str, kind: Callable[[str], Number], what: str, *, zero: bool = False) -> Number:
-    """``text`` as a ``kind`` above 0, or (``zero``) 0 or more."""
-    try:
-        value = kind(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
-    if value < 0 or not (zero or value > 0):
-        raise argparse.ArgumentTypeError(f"must be {'0 or more' if zero else 'positive'}: {text!r}")
-    return value
+cycle_number = _number(int, "a cycle number", zero=True)
+"""A cycle of a log: 0 or more."""
+count = _number(int, "a whole number", zero=True)
+"""How many of something: a whole number, 0 or more."""
+positive_float = _number(float, "a number")
+"""A number above 0."""
+positive_int = _number(int, "a whole number")
+"""A whole number above 0."""
 
 
 def field_pair(text: str) -> tuple[str, str]:
