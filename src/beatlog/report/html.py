@@ -17,6 +17,7 @@ from beatlog.analysis.coverage import SuiteCoverage
 from beatlog.analysis.timeline import Timeline
 from beatlog.log.files import replacing
 from beatlog.replay.verdict import Divergence, DrawReport, StateChange
+from beatlog.report.console import SUMMARY_COLUMNS
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
 from beatlog.report.svg import state_styles, svg_chart
@@ -158,7 +159,7 @@ def _summary_table(outcomes: Sequence[SpecOutcome]) -> str:
                 css=outcome.verdict.value,
             )
         )
-    head = _row(["DTC", "verdict", "cycles", "robot time", "wall", "first divergence"], cell="th")
+    head = _row(SUMMARY_COLUMNS, cell="th")
     return f'<table class="suite"><thead>{head}</thead><tbody>{"".join(rows)}</tbody></table>'
 
 

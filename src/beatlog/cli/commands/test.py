@@ -217,6 +217,7 @@ def _show(outcome: SpecOutcome, console: Console, *, verbose: bool) -> None:
     """A DTC's outcome as it comes: an error on stderr, a failure (any, with
     ``verbose``) in full, and a retry."""
     from beatlog.report.console import render_outcome
+    from beatlog.report.counts import plural
     from beatlog.suite.runner import Verdict
 
     if outcome.verdict is Verdict.ERROR:
@@ -227,9 +228,5 @@ def _show(outcome: SpecOutcome, console: Console, *, verbose: bool) -> None:
     elif outcome.verdict is Verdict.FAILED or verbose:
         console.print(render_outcome(outcome))
     if outcome.retries:
-        console.print(
-            f"retried {outcome.spec.label}: the worker replaying it died "
-            f"({outcome.retries} time{'s' if outcome.retries > 1 else ''})",
-            markup=False,
-            highlight=False,
-        )
+        died = f"the worker replaying it died ({plural(outcome.retries, 'time')})"
+        console.print(f"retried {outcome.spec.label}: {died}", markup=False, highlight=False)
