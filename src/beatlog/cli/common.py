@@ -33,7 +33,6 @@ __all__ = [
     "add_log",
     "add_output",
     "add_paths",
-    "check_output",
     "count",
     "cycle_number",
     "field_pair",
@@ -63,14 +62,6 @@ def print_error(problem: str, user_traceback: str | None = None) -> None:
     if user_traceback:
         sys.stderr.write(user_traceback)
     print(f"beatlog: error: {problem}", file=sys.stderr)
-
-
-def check_output(output: Path) -> None:
-    """Refuse a log to write before any work: its folder is missing, or it is a folder."""
-    if not output.parent.is_dir():
-        raise OptionError(f"{output}: directory {output.parent} does not exist")
-    if output.is_dir():
-        raise OptionError(f"{output}: is a directory")
 
 
 @contextlib.contextmanager

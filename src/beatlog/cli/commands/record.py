@@ -16,7 +16,6 @@ from beatlog.cli.common import (
     EXIT_OK,
     add_factory,
     add_invariants,
-    check_output,
     positive_float,
     progress,
 )
@@ -158,9 +157,12 @@ def _write_failure(log: Path, error: str) -> str:
 
 @contextlib.contextmanager
 def _new_log(output: Path, why: str = "") -> Iterator[None]:
-    """Refuse a log to write before any work (:func:`check_output`), and one that
-    exists, without ``--force``, in one line that says ``why``."""
-    check_output(output)
+    """Refuse a log to write before any work: its folder is missing, it is a folder, or
+    it exists (without ``--force``: in one line that says ``why``)."""
+    if not output.parent.is_dir():
+        raise OptionError(f"{output}: directory {output.parent} does not exist")
+    if output.is_dir():
+        raise OptionError(f"{output}: is a directory")
     try:
         yield
     except LogExistsError:
