@@ -347,8 +347,9 @@ def render_suite(outcomes: Sequence[SpecOutcome], *, every: bool = False) -> Ren
 
 def plain_text(renderable: RenderableType, *, width: int = 100) -> str:
     """A renderable as plain text, for JUnit reports and pytest failure messages."""
+    text = io.StringIO()
     console = Console(
-        file=io.StringIO(), width=width, color_system=None, force_terminal=False, soft_wrap=True
+        file=text, width=width, color_system=None, force_terminal=False, soft_wrap=True
     )
     console.print(renderable)
-    return console.file.getvalue()  # type: ignore[attr-defined, no-any-return]
+    return text.getvalue()
