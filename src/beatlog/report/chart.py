@@ -53,7 +53,7 @@ def _rows(timeline: Timeline) -> int:
     return max(len(timeline.lanes) * (2 if timeline.replayed else 1), 1)
 
 
-def draw_timeline(timeline: Timeline, *, title: str | None = None) -> Figure:
+def draw_timeline(timeline: Timeline) -> Figure:
     """The chart as a matplotlib figure of :func:`chart_size`."""
     with rc_context({"text.parse_math": False}):  # a "$" in a name is text, not TeX
         width, height = chart_size(timeline)
@@ -95,7 +95,7 @@ def draw_timeline(timeline: Timeline, *, title: str | None = None) -> Figure:
             axes[0].set_title(mark.describe(), loc="right", color=_DIVERGENCE_COLOR, fontsize=10)
         axes[-1].set_xlim(start_s, end_s)
         axes[-1].set_xlabel("robot time (s)")
-        figure.suptitle(title or timeline.title)
+        figure.suptitle(timeline.title)
         handles = [Patch(facecolor=color, label=label) for label, color in colors.items()]
         if handles:
             figure.legend(
@@ -156,10 +156,10 @@ def chart_format(path: str | Path) -> str:
     return suffix
 
 
-def write_chart(timeline: Timeline, path: str | Path, *, title: str | None = None) -> None:
+def write_chart(timeline: Timeline, path: str | Path) -> None:
     """Draw the timeline into a file of :func:`chart_size` in the format its suffix names.
 
     :raises beatlog.errors.OptionError: the suffix names no format of :data:`CHART_FORMATS`.
     :raises OSError: the file cannot be written.
     """
-    draw_timeline(timeline, title=title).savefig(path, format=chart_format(path), dpi=DPI)
+    draw_timeline(timeline).savefig(path, format=chart_format(path), dpi=DPI)

@@ -23,7 +23,10 @@ from beatlog.report.coverage import coverage_html
 from beatlog.report.svg import state_styles, svg_chart
 from beatlog.suite.runner import SpecOutcome
 
-__all__ = ["Chart", "dtc_charts", "render_html", "write_html"]
+__all__ = ["Chart", "dtc_charts", "write_html"]
+
+_TITLE = "beatlog DTC report"
+"""The report's title, in its head and atop its page."""
 
 _CSS = """
 body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 1260px;
@@ -84,27 +87,13 @@ def dtc_charts(name: str, timelines: Sequence[Timeline]) -> tuple[Chart, ...]:
 
 
 def write_html(
-    outcomes: Sequence[SpecOutcome],
-    path: str | Path,
-    *,
-    title: str = "beatlog DTC report",
-    coverage: SuiteCoverage | None = None,
+    outcomes: Sequence[SpecOutcome], path: str | Path, *, coverage: SuiteCoverage | None = None
 ) -> None:
-    """Write the report of ``outcomes`` to ``path`` (UTF-8), whole or not at all.
+    """Write the report of ``outcomes`` to ``path`` (UTF-8), whole or not at all: a
+    summary, a section per DTC, then the coverage if given.
 
     :raises OSError: the file cannot be written.
     """
-    with replacing(Path(path)) as file:
-        file.write(render_html(outcomes, title=title, coverage=coverage).encode())
-
-
-def render_html(
-    outcomes: Sequence[SpecOutcome],
-    *,
-    title: str = "beatlog DTC report",
-    coverage: SuiteCoverage | None = None,
-) -> str:
-    """The report as a string: a summary, a section per DTC, then the coverage if given."""
     counts = verdict_counts(
         (outcome.verdict for outcome in outcomes),
         open_loop=sum(outcome.open_loop is not None for outcome in outcomes),
@@ -114,10 +103,10 @@ def render_html(
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        f"<title>{_e(title)}: {_e(counts)}</title>",
+        f"<title>{_TITLE}: {_e(counts)}</title>",
         f"<style>{_CSS}{state_styles(s for drawn in charts for c in drawn for s in c.states)}"
         "</style></head><body>",
-        f"<h1>{_e(title)}</h1>",
+        f"<h1>{_TITLE}</h1>",
         f'<p class="counts">{_e(counts)}, {sum(o.result.cycles for o in outcomes if o.result):,} '
         "cycles replayed "
         f"(beatlog {_e(__version__)})</p>",
@@ -130,7 +119,8 @@ def render_html(
     if coverage is not None:
         parts.append(coverage_html(coverage))
     parts.append("</body></html>\n")
-    return "\n".join(parts)
+    with replacing(Path(path)) as file:
+        file.write("\n".join(parts).encode())
 
 
 def _e(value: object) -> str:
