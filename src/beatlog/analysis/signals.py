@@ -30,11 +30,11 @@ class Signal(NamedTuple):
     """Whether the field is a boolean, drawn as 0 (False) and 1 (True)."""
 
 
-Point = tuple[int, float]
+_Point = tuple[int, float]
 """A robot time and a field's value then."""
 
 
-def _value(point: Point) -> float:
+def _value(point: _Point) -> float:
     return point[1]
 
 
@@ -42,7 +42,7 @@ class _Buckets:
     """One signal's lowest and highest point in each bucket (None where it has none)."""
 
     def __init__(self, grid: TimeGrid) -> None:
-        self.kept: list[tuple[Point, Point] | None] = [None] * grid.count
+        self.kept: list[tuple[_Point, _Point] | None] = [None] * grid.count
 
     def add(self, index: int, time_ns: int, value: float) -> None:
         point, kept = (time_ns, value), self.kept[index]
@@ -52,27 +52,23 @@ class _Buckets:
             self.kept[index] = (min(kept[0], point, key=_value), max(kept[1], point, key=_value))
 
     def merge(self, factor: int) -> None:
-        """Merge each run of ``factor`` neighbours into one: the buckets grew as long."""
-        kept = self.kept
-        merged = [_merged(kept[start : start + factor]) for start in range(0, len(kept), factor)]
-        self.kept = merged + [None] * (len(kept) - len(merged))
+        """Merge each run of ``factor`` neighbours into one, keeping the first of equal
+        points: the buckets grew as long."""
+        kept, self.kept = self.kept, []
+        for start in range(0, len(kept), factor):
+            held = [bucket for bucket in kept[start : start + factor] if bucket is not None]
+            lows, highs = [low for low, _ in held], [high for _, high in held]
+            self.kept.append((min(lows, key=_value), max(highs, key=_value)) if held else None)
+        self.kept += [None] * (len(kept) - len(self.kept))
 
-    def points(self) -> list[Point]:
+    def points(self) -> list[_Point]:
         """Each bucket's lowest and highest point, in time order, each point once."""
-        points: list[Point] = []
+        points: list[_Point] = []
         for kept in self.kept:
             if kept is not None:
                 first, last = sorted(kept, key=lambda point: point[0])
                 points.extend([first] if first == last else [first, last])
         return points
-
-
-def _merged(buckets: list[tuple[Point, Point] | None]) -> tuple[Point, Point] | None:
-    """The lowest and highest point of neighbouring buckets: the first of equal ones."""
-    held = [bucket for bucket in buckets if bucket is not None]
-    if not held:
-        return None
-    return min((low for low, _ in held), key=_value), max((high for _, high in held), key=_value)
 
 
 class Sampler:
