@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import pickle
 from collections.abc import Sequence
+from math import nan
 from pathlib import Path
 
 import pytest
@@ -246,6 +247,25 @@ def test_a_damaged_robot_state_is_bad_input_naming_its_cycle(
 
     with pytest.raises(CorruptLogError, match=r"damaged robot state in cycle 7: "):
         build_timeline(log)
+
+
+def test_a_value_that_is_not_a_number_is_no_point_of_its_signal(
+    record_probe: RecordFn, tmp_path: Path
+) -> None:
+    log = rewrite_cycle(  # cycle 7's distance NaN
+        record_probe(60),
+        tmp_path / "nan.beatlog",
+        7,
+        lambda p: [p[0], p[1] | {"distance": nan}, *p[2:]],
+    )
+
+    for buckets in (60, 4):  # a bucket a cycle, and buckets merged as the session grew
+        distance = build_timeline(log, max_points=buckets).signals[0]
+        assert cycle_times(60)[7] not in distance.time_ns
+        assert all(value == value for value in distance.value)  # NaN is not itself
+    assert build_timeline(log).signals[0].value == tuple(
+        value for cycle, value in enumerate(distances(60)) if cycle != 7
+    )
 
 
 def test_a_long_session_is_downsampled_to_a_few_points_per_pixel(record_probe: RecordFn) -> None:
