@@ -36,8 +36,7 @@ table { border-collapse: collapse; margin: 0.6em 0; }
 th, td { border: 1px solid #ddd; padding: 0.2em 0.6em; text-align: left; vertical-align: top; }
 th { background: #f4f4f4; }
 caption { text-align: left; font-weight: 600; padding: 0.3em 0; }
-td.number { text-align: right; }
-code, pre, td.value { font-family: ui-monospace, monospace; font-size: 13px; }
+code, pre, .value { font-family: ui-monospace, monospace; font-size: 13px; }
 pre { background: #f8f8f8; padding: 0.6em; overflow-x: auto; }
 section.dtc { border-top: 3px solid #ccc; margin-top: 2em; padding-top: 0.5em; }
 section.failed { border-color: #d62728; }
