@@ -22,7 +22,7 @@ from beatlog.cli.commands import (
     test,
 )
 from beatlog.cli.commands import help as helping
-from beatlog.cli.common import add_paths
+from beatlog.cli.common import add_log, add_paths
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -83,7 +83,10 @@ COMMANDS: dict[str, Command] = {
         runs_user_code=False,
     ),
     "show": Command(
-        "describe a session log", logs.add_show_arguments, logs.run_show, runs_user_code=False
+        "describe a session log",
+        functools.partial(add_log, doing="describe"),
+        logs.run_show,
+        runs_user_code=False,
     ),
     "plot": Command(
         "draw a timeline chart of a session log (PNG, SVG or PDF)",

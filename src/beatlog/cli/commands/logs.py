@@ -17,7 +17,6 @@ __all__ = [
     "EXPORT_FORMATS",
     "add_export_arguments",
     "add_plot_arguments",
-    "add_show_arguments",
     "run_export",
     "run_plot",
     "run_show",
@@ -26,11 +25,6 @@ __all__ = [
 EXPORT_FORMATS = ("mcap", "parquet", "csv")
 """``beatlog export --format`` (:class:`beatlog.adapters.export.ExportFormat`), here so
 that parsing the command line imports nothing heavy."""
-
-
-def add_show_arguments(show: argparse.ArgumentParser) -> None:
-    """The arguments of ``beatlog show``."""
-    add_log(show, "describe")
 
 
 def run_show(args: argparse.Namespace, console: Console) -> int:
