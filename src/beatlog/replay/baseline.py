@@ -149,10 +149,6 @@ class Baseline:
         mapping holds; None where the recording's hold in every cycle."""
         return None if self.as_recorded else changes_by_cycle(self.changes, self.quiet)
 
-    def changes_by_cycle(self) -> dict[int, list[StateChange]]:
-        """The state changes grouped by cycle."""
-        return changes_by_cycle(self.changes, ())
-
     def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
         """Each cycle where an output changes, with every output field from then on."""
         current: dict[str, Any] = {}
