@@ -66,7 +66,7 @@ def changed(tmp_path: Path, log: Path) -> DtcSpec:
 
 @pytest.fixture
 def pending(changed: DtcSpec) -> DtcSpec:
-    """The changed spec with its new expectation pending."""
+    """The changed spec with its new baseline pending."""
     update_baselines(run(changed), UpdateMode.NEW)
     return changed
 

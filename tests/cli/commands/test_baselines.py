@@ -187,7 +187,7 @@ def test_review_accepts_or_rejects_what_the_reviewer_says(
 
     counts = review([spec.parent], Console(width=200), ask=ask)
 
-    assert questions == ["accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip"]
+    assert questions == ["accept the new baseline of avoid-pole? [a]ccept/[r]eject/[s]kip"]
     assert counts == ((1, 0, 0) if accepted else (0, 1, 0))
     assert not pending_path(spec).exists()
     assert expected_path(spec).exists() is accepted
@@ -341,9 +341,7 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
         rest = terminal.type("A", until="accepted")
         code = terminal.program.wait(timeout=60)
 
-    assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip:" in whole_lines(
-        first
-    )
+    assert "accept the new baseline of avoid-pole? [a]ccept/[r]eject/[s]kip:" in whole_lines(first)
     assert "maybe" in whole_lines(again)
     assert f"accepted {expected_path(spec)}" in whole_lines(rest)
     assert code == 0
@@ -400,7 +398,7 @@ def test_review_asks_about_each_loss_in_its_own_words_and_shows_piped_answers(
     lines = whole_lines(run.out)
     assert [f"lost: {ARBITER_LOST}", f"lost: {NEAR_LOST}"] == lines[3:5]
     last = "y" if accepted else ""
-    asked = lines.index("accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip: a")
+    asked = lines.index("accept the new baseline of avoid-pole? [a]ccept/[r]eject/[s]kip: a")
     assert lines[asked + 1 : asked + 4] == [
         f"{ARBITER_LOST}: accept this loss? [y/N]: y",
         f"{NEAR_LOST}: accept this loss? [y/N]: {last}".rstrip(),

@@ -71,7 +71,7 @@ def review(
     for spec in specs:
         diff = pending_diff(spec)
         console.print(render_pending_diff(diff), highlight=False)
-        decision = _decision(ask, f"accept the new expectation of {spec.name}?", console)
+        decision = _decision(ask, f"accept the new baseline of {spec.name}?", console)
         kept = decision is not Decision.ACCEPT or all(
             ask(f"{loss_text(loss)}: accept this loss? [y/N]").strip().lower() in ("y", "yes")
             for loss in diff.shift.losses
