@@ -26,8 +26,8 @@ def stands() -> tuple[int, str]:
 def test_numpys_global_generator_moves_exactly_when_its_whole_state_changes() -> None:
     steps: list[Callable[[], object]] = [
         lambda: None,
-        lambda: np.random.rand(),
-        lambda: np.random.rand(311),  # 622 words: the key's last ones
+        np.random.rand,
+        lambda: np.random.rand(311),  # with the draw before, the key's 624 words
         lambda: np.random.randint(0, 2**31, size=2),  # the key regenerated
         lambda: np.random.rand(624),  # a whole key's length
         lambda: np.random.seed(3),
