@@ -44,14 +44,14 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
         f"accept with beatlog approve {spec}"
     ) in whole_lines(updated.out)
     assert not expected_path(spec).exists()
-    pending = read_baseline(pending_path(spec)).expectation  # read before approve moves it
+    pending = read_baseline(pending_path(spec)).whole  # read before approve moves it
     assert any(change.cycle == FIRST_CHANGED_CYCLE for change in pending.changes)
 
     approved = beatlog("approve", spec)
     assert approved.code == 0
     assert f"approved avoid-pole: {expected_path(spec)}" in whole_lines(approved.out)
     assert not pending_path(spec).exists()
-    assert read_baseline(expected_path(spec)).expectation.changes == pending.changes
+    assert read_baseline(expected_path(spec)).whole.changes == pending.changes
 
     rerun = beatlog("test", spec)
     assert rerun.code == 0, rerun.out
@@ -480,7 +480,7 @@ def test_each_older_baseline_is_named_as_it_is_upgraded(beatlog: Beatlog, tmp_pa
         "",
     )
     assert (again.code, again.out) == (0, "no baseline of an older format\n")
-    assert read_baseline(first).expectation.quiet == ((15, 450_000_000),)
+    assert read_baseline(first).whole.quiet == ((15, 450_000_000),)
 
 
 def test_a_damaged_baseline_is_one_line_and_exit_2(beatlog: Beatlog, tmp_path: Path) -> None:

@@ -26,7 +26,7 @@ from beatlog.adapters.export.fields import (
     with_number_texts,
 )
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import DECODE_ERRORS, Draw, SessionHeader, StateChangeRecord
+from beatlog.log.format import DECODE_ERRORS, Draw, LoggedStateChange, SessionHeader
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState
 from beatlog.model.inbox import Sample
@@ -94,7 +94,7 @@ def decoded_cycles(reader: SessionLogReader) -> Iterator[Cycle]:
     damage."""
     names = reader.header.behaviors
     decode_map = msgspec.msgpack.Decoder(dict[str, Any], ext_hook=_no_extension).decode
-    decode_changes = msgspec.msgpack.Decoder(list[StateChangeRecord], ext_hook=_no_extension).decode
+    decode_changes = msgspec.msgpack.Decoder(list[LoggedStateChange], ext_hook=_no_extension).decode
     decode_draws = msgspec.msgpack.Decoder(list[Draw], ext_hook=_no_extension).decode
     decode_samples = msgspec.msgpack.Decoder(list[Sample], ext_hook=_no_extension).decode
     time_ns = 0

@@ -42,7 +42,7 @@ def run_review(args: argparse.Namespace, console: Console) -> int:
 def review(
     paths: Sequence[Path], console: Console, *, ask: Ask | None = None
 ) -> tuple[int, int, int]:
-    """Show each pending change against the current expectation, with what it loses,
+    """Show each pending change against the current baseline, with what it loses,
     and let the reviewer accept or reject it: at a terminal by prompting (``a``, ``r`` or
     ``s`` will do), else by reading one answer a line from standard input (a pipe; none
     left means skip), each question and answer shown. Accepting a change that loses
