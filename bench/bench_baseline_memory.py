@@ -32,7 +32,7 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter
 from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
-from beatlog.replay.expectation import TracedOutput
+from beatlog.replay.baseline import TracedOutput
 
 PERIOD_NS = 30_000_000
 FIELDS = 16
@@ -115,7 +115,7 @@ elif what == "read":
     figures["lines"] = sum(len(part.outputs) for part in read.stream.parts())
 else:
     read = read_baseline(__import__("pathlib").Path(baseline))
-    result = replay(log, "bench_baseline_memory:wide_system_retuned", expected=read.stream)
+    result = replay(log, "bench_baseline_memory:wide_system_retuned", baseline=read.stream)
     figures["ok"] = result.ok
     figures["cycles"] = result.cycles
 figures["cpu_s"] = time.process_time() - started

@@ -110,7 +110,7 @@ def _rerecorded(spec: DtcSpec, folder: Path) -> DtcSpec:
     result = replay(
         spec.log,
         system,
-        expected=read_baseline(expected).expectation if expected.exists() else None,
+        baseline=read_baseline(expected).whole if expected.exists() else None,
         comparison=spec.comparison,
         perception=spec.perception,
         observe=keep,
@@ -205,9 +205,9 @@ def _passes(rerecorded: bool, times: int, changes: Sequence[Change], prepared: P
         def one_pass(which: list[DtcSpec]) -> None:
             for spec in which:
                 expected = expected_path(spec.path)
-                baseline = read_baseline(expected).expectation if expected.exists() else None
+                baseline = read_baseline(expected).whole if expected.exists() else None
                 result = replay(
-                    spec.log, spec.system, expected=baseline, perception=spec.perception
+                    spec.log, spec.system, baseline=baseline, perception=spec.perception
                 )
                 assert result.ok, result.divergence
 

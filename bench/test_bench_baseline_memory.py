@@ -16,7 +16,7 @@ def test_the_retuned_follower_passes_against_the_baseline_written(tmp_path: Path
     write_big_baseline(path, log, 120)
 
     baseline = read_baseline(path)
-    result = replay(log, wide_system_retuned(), expected=baseline.stream)
+    result = replay(log, wide_system_retuned(), baseline=baseline.stream)
 
     assert (result.ok, result.cycles) == (True, 120)
-    assert len(baseline.expectation.outputs) == 120 * FIELDS
+    assert len(baseline.whole.outputs) == 120 * FIELDS

@@ -73,6 +73,23 @@ def test_every_public_name_of_a_package_is_there_when_asked_for(package: str) ->
         module.nothing  # noqa: B018
 
 
+@pytest.mark.parametrize(
+    ("package", "name", "old"),
+    [
+        ("beatlog.replay", "Baseline", "Expectation"),
+        ("beatlog.baseline", "BaselineFile", "Baseline"),
+    ],
+)
+def test_the_baseline_has_one_public_name_whole_and_one_as_a_file(
+    package: str, name: str, old: str
+) -> None:
+    module = importlib.import_module(package)
+
+    assert name in module.__all__
+    with pytest.raises(AttributeError):
+        getattr(module, old)
+
+
 def test_beatlog_replay_is_the_subpackage_and_called_replays_a_log() -> None:
     script = (
         "import sys, types, beatlog, beatlog.replay as subpackage\n"

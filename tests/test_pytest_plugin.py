@@ -346,7 +346,7 @@ def test_update_writes_the_pending_baseline_of_a_failing_dtc_but_never_in_ci(
             "2 DTCs: 1 passed, 1 failed",
         ]
     )
-    pending = read_baseline(pending_path(spec)).expectation
+    pending = read_baseline(pending_path(spec)).whole
     assert (len(pending.changes), len(pending.outputs or ())) == (10, 8)
     assert not expected_path(spec).exists()
     pending_path(spec).replace(expected_path(spec))

@@ -1622,6 +1622,46 @@ def test_a_sample_nested_too_deep_is_one_line(beatlog: Beatlog, tmp_path: Path) 
     assert not output.exists()
 
 
+def one_cycle_log(path: Path, record: list[Any]) -> Path:
+    """A complete log of the one cycle ``record``."""
+    batch = LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, [record]]))
+    return craft_log(path, [header_message(), batch, end_message(1)])
+
+
+@pytest.mark.parametrize("suffix", [".mcap", ".parquet", ".csv"])
+def test_a_msgpack_extension_in_a_cycle_is_damage_in_one_line(
+    beatlog: Beatlog, tmp_path: Path, suffix: str
+) -> None:
+    foreign = msgspec.msgpack.Ext(1, b"xx")
+    log = one_cycle_log(tmp_path / "ext.beatlog", cycle(outputs={"speed": foreign}))
+    output = tmp_path / f"ext{suffix}"
+
+    run = beatlog("export", log, "-o", output)
+
+    assert_error(run, f"{log}: damaged cycle 0: a msgpack extension (type 1), which no log holds")
+    assert not output.exists()
+
+
+def test_a_map_keyed_by_bytes_is_json_text_keyed_by_the_keys_json_text(tmp_path: Path) -> None:
+    log = one_cycle_log(tmp_path / "keys.beatlog", cycle(outputs={"seen": {b"\x01": 2}}))
+
+    export(log, tmp_path / "keys.mcap")
+
+    (message,) = read_exported(tmp_path / "keys.mcap").messages["/outputs"]
+    assert json.loads(message.value["outputs"]["seen"]) == {'"AQ=="': 2}  # the key's JSON text
+
+
+def test_outputs_nested_too_deep_for_json_are_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
+    deep = msgspec.Raw(b"\x91" * 700 + b"\xc0")  # a list in a list ... 700 deep
+    log = one_cycle_log(tmp_path / "deep.beatlog", cycle(outputs={"plan": deep}))
+    output = tmp_path / "deep.mcap"
+
+    run = beatlog("export", log, "-o", output)
+
+    assert_error(run, f"{log}: cycle 0 cannot be written as JSON: nested too deep")
+    assert not output.exists()
+
+
 def test_a_log_of_array_draws_exports_without_numpy(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -247,3 +247,22 @@ def test_importing_beatlog_does_not_import_py_trees() -> None:
         [sys.executable, "-c", script], capture_output=True, text=True, check=True
     )
     assert done.stdout.strip() == "False"
+
+
+def test_a_weighted_pick_in_a_tick_is_cpythons_on_the_random_source() -> None:
+    picks: list[list[str]] = []
+
+    class Picker(py_trees.behaviour.Behaviour):
+        def update(self) -> Status:
+            as_py_trees_sees_it = vars(py_trees.behaviours)["random"]
+            picks.append(as_py_trees_sees_it.choices("abc", [1.0, 0.0, 3.0], k=4))
+            with pytest.raises(ValueError, match="number of weights does not match"):
+                as_py_trees_sees_it.choices("abc", [1.0])
+            return Status.SUCCESS
+
+    source = RecordingRandom(seed=8)
+    executor = CycleExecutor(TreeSystem(lambda: Picker("Picker"), robot_state=PatrolState), source)
+    executor.step(PERIOD_NS, PatrolState())
+
+    draws = [draw.value for draw in source.take()]
+    assert picks == [["a" if value * 4 < 1 else "c" for value in draws]]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from beatlog.analysis.recorded import RecordedChanges, read_changes
 from beatlog.log.reader import SessionLogReader
-from beatlog.replay.expectation import TracedChange
+from beatlog.replay.baseline import TracedStateChange
 from beatlog.replay.judge import replay
 from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system
@@ -22,9 +22,9 @@ def test_a_log_read_alone_gives_its_changes_named_with_their_cycles_and_times(
     )
     assert len(recorded.changes) == 45
     assert recorded.changes[:3] == [
-        TracedChange(0, 30_000_000, StateChange("arbiter", "idle", "dice")),
-        TracedChange(0, 30_000_000, StateChange("dice", "even", "odd")),
-        TracedChange(10, 330_010_000, StateChange("dice", "odd", "even")),
+        TracedStateChange(0, 30_000_000, StateChange("arbiter", "idle", "dice")),
+        TracedStateChange(0, 30_000_000, StateChange("dice", "even", "odd")),
+        TracedStateChange(10, 330_010_000, StateChange("dice", "odd", "even")),
     ]
 
 

@@ -4,18 +4,18 @@ with their cycles, never folded into a count; a change that only moves is no los
 from __future__ import annotations
 
 from beatlog.analysis.shift import Loss, LossKind, shift
+from beatlog.replay.baseline import ABSENT, TracedOutput, TracedStateChange
 from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import ABSENT, TracedChange, TracedOutput
 from beatlog.replay.verdict import StateChange
 
 ESCAPES = [
-    TracedChange(291, 0, StateChange("escape", "idle", "backing")),
-    TracedChange(325, 0, StateChange("escape", "backing", "turning")),
-    TracedChange(367, 0, StateChange("escape", "turning", "idle")),
+    TracedStateChange(291, 0, StateChange("escape", "idle", "backing")),
+    TracedStateChange(325, 0, StateChange("escape", "backing", "turning")),
+    TracedStateChange(367, 0, StateChange("escape", "turning", "idle")),
 ]
 WANDERS = [
-    TracedChange(10, 0, StateChange("wander", "left", "right")),
-    TracedChange(50, 0, StateChange("wander", "right", "left")),
+    TracedStateChange(10, 0, StateChange("wander", "left", "right")),
+    TracedStateChange(50, 0, StateChange("wander", "right", "left")),
 ]
 
 
@@ -43,7 +43,7 @@ def test_state_changes_that_no_longer_happen_are_losses_of_their_behavior() -> N
 
 def test_a_behavior_that_still_acts_is_not_silent_and_new_changes_are_no_loss() -> None:
     fewer = [*WANDERS, ESCAPES[0], ESCAPES[2]._replace(cycle=300)]
-    extra = TracedChange(500, 0, StateChange("escape", "idle", "backing"))
+    extra = TracedStateChange(500, 0, StateChange("escape", "idle", "backing"))
 
     weighed = shift(([*WANDERS, *ESCAPES], []), ([*fewer, extra], []), cycles=583, open_loop=None)
 
@@ -65,7 +65,7 @@ def test_draws_left_unused_already_approved_are_no_new_loss() -> None:
 
 def test_a_state_change_still_in_its_cycle_is_matched_there_before_any_is_moved() -> None:
     backing = StateChange("escape", "idle", "backing")
-    twice = [TracedChange(100, 0, backing), TracedChange(500, 0, backing)]
+    twice = [TracedStateChange(100, 0, backing), TracedStateChange(500, 0, backing)]
 
     weighed = shift((twice, []), (twice[1:], []), cycles=600, open_loop=100)
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from beatlog import replay
 from beatlog.analysis.trace import recorded_outputs, recorded_trace, replayed_trace, whole_trace
-from beatlog.replay.expectation import ABSENT, Expectation, OutputTracker, TracedOutput
+from beatlog.replay.baseline import ABSENT, Baseline, OutputTracker, TracedOutput
 from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn, probe_system, probe_system_renamed
 from tests.specs import CHANGED
@@ -84,29 +84,12 @@ def test_replaying_the_recorded_system_gives_the_recorded_outputs(record_probe: 
     assert any(o.value is ABSENT for o in recorded)  # near wins: no "time" output
 
 
-def test_an_expectation_gives_every_output_of_the_cycles_where_one_changes() -> None:
-    expectation = Expectation(
-        (),
-        (
-            TracedOutput(0, 30, "speed", 0.5),
-            TracedOutput(0, 30, "turn", 1),
-            TracedOutput(7, 240, "turn", ABSENT),
-            TracedOutput(9, 300, "speed", 0.25),
-        ),
-    )
-    assert list(expectation.outputs_by_cycle()) == [
-        (0, {"speed": 0.5, "turn": 1}),
-        (7, {"speed": 0.5}),
-        (9, {"speed": 0.25}),
-    ]
-
-
 def test_departures_applied_to_the_recording_give_back_the_whole_trace(
     record_probe: RecordFn,
 ) -> None:
     log = record_probe(300)
     replayed = replayed_trace(log, probe_system(threshold=0.6), living=True)
-    departures = replayed.expectation
+    departures = replayed.baseline
 
     whole = whole_trace(departures, log)
 
@@ -117,5 +100,15 @@ def test_departures_applied_to_the_recording_give_back_the_whole_trace(
 
 def test_a_trace_as_recorded_departs_nowhere(record_probe: RecordFn) -> None:
     replayed = replayed_trace(record_probe(300), probe_system(), living=True)
-    assert replayed.departures == Expectation(())
-    assert replayed.expectation.as_recorded
+    assert replayed.baseline == Baseline(())
+
+
+def test_a_trace_is_the_baseline_that_approves_it_draws_included(record_probe: RecordFn) -> None:
+    log = record_probe(100)
+    drawing_more = probe_system(draws=2)
+
+    replayed = replayed_trace(log, drawing_more, living=True)
+
+    assert replayed.stopped is None
+    assert [rule.behavior for rule in replayed.baseline.draws] == ["dice"]
+    assert replay(log, probe_system(draws=2), baseline=replayed.baseline).ok

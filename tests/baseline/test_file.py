@@ -16,12 +16,12 @@ from beatlog.baseline.file import expected_path, log_digest, pending_path, read_
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError
 from beatlog.log.files import read_text_blocks
-from beatlog.replay.expectation import (
+from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
-    Expectation,
-    TracedChange,
+    Baseline,
     TracedOutput,
+    TracedStateChange,
 )
 from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
@@ -29,10 +29,10 @@ from tests.factories import rebuilt_states, speed_state
 from tests.specs import baseline_file
 
 CHANGES = (
-    TracedChange(0, 30_000_000, StateChange("arbiter", "idle", "wander")),
-    TracedChange(12, 360_012_000, StateChange("avoid", "off", "turning")),
-    TracedChange(12, 360_012_000, StateChange('odd "name": ->', 3, None)),
-    TracedChange(4001, 120_030_000_000, StateChange("dock ü", True, False)),
+    TracedStateChange(0, 30_000_000, StateChange("arbiter", "idle", "wander")),
+    TracedStateChange(12, 360_012_000, StateChange("avoid", "off", "turning")),
+    TracedStateChange(12, 360_012_000, StateChange('odd "name": ->', 3, None)),
+    TracedStateChange(4001, 120_030_000_000, StateChange("dock ü", True, False)),
 )
 
 
@@ -43,37 +43,37 @@ def log(tmp_path: Path) -> Path:
     return path
 
 
-def baseline_of(log: Path, path: Path, expectation: Expectation) -> Path:
-    """``expectation`` written to ``path`` as the baseline of spec ``a``, recorded as ``log``."""
+def baseline_of(log: Path, path: Path, baseline: Baseline) -> Path:
+    """``baseline`` written to ``path`` as the baseline of spec ``a``, recorded as ``log``."""
     write_baseline(
-        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
+        path, spec_name="a", log_name=log.name, digest=log_digest(log), baseline=baseline
     )
     return path
 
 
 def test_a_baseline_reads_back_what_was_written(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    baseline_of(log, path, Expectation(CHANGES, ()))
+    baseline_of(log, path, Baseline(CHANGES, ()))
 
     baseline = read_baseline(path)
 
     assert baseline.log_digest == log_digest(log)
-    assert [(c.cycle, c.change) for c in baseline.expectation.changes] == [
+    assert [(c.cycle, c.change) for c in baseline.whole.changes] == [
         (c.cycle, c.change) for c in CHANGES
     ]
-    assert [c.time_ns for c in baseline.expectation.changes] == [
+    assert [c.time_ns for c in baseline.whole.changes] == [
         30_000_000,
         360_000_000,
         360_000_000,
         120_030_000_000,
     ]
-    assert baseline.expectation.changes_by_cycle()[12] == [CHANGES[1].change, CHANGES[2].change]
+    assert (baseline.whole.changes_override() or {})[12] == [CHANGES[1].change, CHANGES[2].change]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.dtc.expected", "session.beatlog"]
 
 
 def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.pending"
-    baseline_of(log, path, Expectation(CHANGES[:2], ()))
+    baseline_of(log, path, Baseline(CHANGES[:2], ()))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -87,8 +87,8 @@ def test_a_baseline_is_one_readable_line_per_state_change(tmp_path: Path, log: P
 
 def test_an_empty_baseline_is_valid(tmp_path: Path, log: Path) -> None:
     path = tmp_path / "a.dtc.expected"
-    baseline_of(log, path, Expectation((), ()))
-    assert read_baseline(path).expectation.changes == ()
+    baseline_of(log, path, Baseline((), ()))
+    assert read_baseline(path).whole.changes == ()
 
 
 @pytest.mark.parametrize(
@@ -188,12 +188,12 @@ def test_an_output_value_reads_back_bit_for_bit(
 ) -> None:
     path = tmp_path / "a.dtc.expected"
     outputs = (TracedOutput(5, 180_000_000, "motor", value),)
-    baseline_of(log, path, Expectation((), outputs))
+    baseline_of(log, path, Baseline((), outputs))
 
     assert path.read_text(encoding="utf-8").splitlines()[-1] == (
         f'       5     0.180  output "motor" = {written}'
     )
-    (traced,) = read_baseline(path).expectation.outputs or ()
+    (traced,) = read_baseline(path).whole.outputs or ()
     assert (traced.cycle, traced.field) == (5, "motor")
     assert _bits(traced.value) == _bits(value)
 
@@ -205,7 +205,7 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         TracedOutput(12, 360_012_000, "speed", 0.0),
         TracedOutput(13, 390_000_000, "speed", ABSENT),
     )
-    baseline_of(log, path, Expectation(CHANGES[:2], outputs))
+    baseline_of(log, path, Baseline(CHANGES[:2], outputs))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -217,8 +217,8 @@ def test_output_changes_interleave_with_state_changes_by_cycle(tmp_path: Path, l
         '      13     0.390  output "speed" absent',
     ]
     baseline = read_baseline(path)
-    assert baseline.expectation.outputs is not None
-    assert [(o.cycle, o.field, o.value) for o in baseline.expectation.outputs] == [
+    assert baseline.whole.outputs is not None
+    assert [(o.cycle, o.field, o.value) for o in baseline.whole.outputs] == [
         (0, "speed", 0.5),
         (12, "speed", 0.0),
         (13, "speed", ABSENT),
@@ -232,9 +232,8 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
     pins = StatePins.from_rebuilt(rebuilt_states(states))
     outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
-    changes = (TracedChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
-    expectation = Expectation(changes, outputs, state_pins=pins)
-    baseline_of(log, path, expectation)
+    changes = (TracedStateChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
+    baseline_of(log, path, Baseline(changes, outputs, state_pins=pins))
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -246,8 +245,7 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
         '      12     0.012  "avoid": "off" -> "turning"',
         '      12     0.012  output "speed" = 0.0',
     ]
-    baseline = read_baseline(path)
-    assert baseline.expectation.state_pins == pins
+    assert read_baseline(path).whole.state_pins == pins
 
 
 def test_a_baselines_robot_states_read_back_pinned_by_their_digests(
@@ -257,7 +255,7 @@ def test_a_baselines_robot_states_read_back_pinned_by_their_digests(
     pins = StatePins.from_rebuilt(rebuilt_states(states))
     path = baseline_file(tmp_path, 7, *format_lines((), (), state_pins=pins))
 
-    assert read_baseline(path).expectation.state_pins == pins
+    assert read_baseline(path).whole.state_pins == pins
 
 
 RUN = "robot_state otherwise in 7..7 (1 cycle)"
@@ -348,13 +346,13 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
         TracedOutput(13, 390_000_000, "turn", ABSENT),
         TracedOutput(20, 600_000_000, "speed", AS_RECORDED),
     )
-    expectation = Expectation(
+    baseline = Baseline(
         CHANGES[1:2],
         outputs,
         open_loop=(12, 360_012_000),
         quiet=((15, 450_000_000),),
     )
-    baseline_of(log, path, expectation)
+    baseline_of(log, path, baseline)
 
     assert path.read_text(encoding="utf-8").splitlines()[-6:] == [
         "      12     0.360  open loop",
@@ -364,9 +362,9 @@ def test_departures_read_back_with_quiet_cycles_and_outputs_as_recorded_again(
         "      15     0.450  no state changes",
         '      20     0.600  output "speed" as recorded',
     ]
-    read = read_baseline(path).expectation
+    read = read_baseline(path).whole
     assert read == dataclasses.replace(
-        expectation,
+        baseline,
         changes=(CHANGES[1]._replace(time_ns=360_000_000),),
         open_loop=(12, 360_000_000),
         outputs=(outputs[0]._replace(time_ns=360_000_000), *outputs[1:]),
@@ -468,8 +466,8 @@ def test_a_line_of_an_earlier_cycle_than_a_block_before_is_refused(
 
 
 def test_the_lines_of_a_big_baseline_share_their_names_and_cycles(tmp_path: Path) -> None:
-    expectation = read_baseline(_big_baseline(tmp_path, 300)).expectation
-    outputs, changes = expectation.outputs or (), expectation.changes
+    baseline = read_baseline(_big_baseline(tmp_path, 300)).whole
+    outputs, changes = baseline.outputs or (), baseline.changes
 
     assert all(output.field is outputs[0].field for output in outputs[::2])
     assert all(output.time_ns is outputs[0].time_ns for output in outputs[:2])
@@ -520,5 +518,5 @@ def test_a_baseline_of_one_block_is_read_once(
     replayed = [line for part in baseline.stream.parts() for line in part.outputs]
 
     assert len(replayed) == 20
-    assert replayed == list(baseline.expectation.outputs)
+    assert replayed == list(baseline.whole.outputs)
     assert opened == [path]

@@ -13,12 +13,12 @@ from beatlog.baseline.file import expected_path, log_digest, pending_path, read_
 from beatlog.baseline.upgrade import Upgraded, upgrade_baseline, upgrade_baselines
 from beatlog.baseline.write import COLUMNS, format_lines, write_baseline
 from beatlog.errors import BaselineError
-from beatlog.replay.expectation import (
+from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
-    Expectation,
-    TracedChange,
+    Baseline,
     TracedOutput,
+    TracedStateChange,
 )
 from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
@@ -26,8 +26,8 @@ from tests.conftest import RecordFn
 from tests.factories import rebuilt_states, speed_state
 from tests.specs import BASELINE_MAGIC, baseline_file
 
-DEPARTURES = Expectation(
-    (TracedChange(12, 360_000_000, StateChange("avoid", "off", "turning")),),
+DEPARTURES = Baseline(
+    (TracedStateChange(12, 360_000_000, StateChange("avoid", "off", "turning")),),
     (
         TracedOutput(12, 360_000_000, "speed", 0.0),
         TracedOutput(13, 390_000_000, "turn", ABSENT),
@@ -38,10 +38,10 @@ DEPARTURES = Expectation(
 )
 
 
-def written(path: Path, log: Path, expectation: Expectation, version: int) -> Path:
-    """``expectation`` written in format 7, its first line then that of ``version``."""
+def written(path: Path, log: Path, baseline: Baseline, version: int) -> Path:
+    """``baseline`` written in format 7, its first line then that of ``version``."""
     write_baseline(
-        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
+        path, spec_name="a", log_name=log.name, digest=log_digest(log), baseline=baseline
     )
     lines = path.read_text(encoding="utf-8").splitlines()
     path.write_text("\n".join([BASELINE_MAGIC[version], *lines[1:]]) + "\n", encoding="utf-8")
@@ -63,7 +63,7 @@ def test_a_format_5_or_6_baseline_is_rewritten_in_format_7_once(
     current = written(tmp_path / "b.dtc.expected", log, DEPARTURES, 7).read_text(encoding="utf-8")
 
     assert upgrade_baseline(path) == Upgraded(path, version)
-    assert read_baseline(path).expectation == DEPARTURES
+    assert read_baseline(path).whole == DEPARTURES
     assert path.read_text(encoding="utf-8") == current
     assert upgrade_baseline(path) is None
     assert path.read_text(encoding="utf-8") == current
@@ -83,7 +83,7 @@ def test_every_baseline_under_a_folder_or_beside_a_spec_is_upgraded(
         Upgraded(pending, 5),
     ]
     assert upgrade_baselines([tmp_path]) == [Upgraded(deep, 5)]
-    assert read_baseline(current).expectation == DEPARTURES
+    assert read_baseline(current).whole == DEPARTURES
 
 
 def test_damage_in_an_older_baseline_is_refused_naming_the_file_and_line(
@@ -134,7 +134,7 @@ def test_a_format_4_baseline_as_recorded_upgrades_to_no_departures(tmp_path: Pat
     path = baseline_file(tmp_path, 4, "state changes and outputs as recorded", spec=True)
 
     assert upgrade_baseline(path) == Upgraded(path, 4)
-    assert read_baseline(path).expectation.as_recorded
+    assert read_baseline(path).whole.as_recorded
 
 
 def test_a_whole_trace_upgrades_to_where_it_departs_from_the_recording(
@@ -162,7 +162,7 @@ def test_a_whole_trace_upgrades_to_where_it_departs_from_the_recording(
     )
 
     assert upgrade_baseline(path) == Upgraded(path, 2)
-    read = read_baseline(path).expectation
+    read = read_baseline(path).whole
     assert [cycle for cycle, _ in read.quiet] == [gone]
     assert [(c.cycle, c.change) for c in read.changes] == [
         (c.cycle, c.change) for c in trace if c.cycle == changed.cycle
@@ -184,8 +184,8 @@ def test_a_whole_trace_needs_its_own_recording_beside_it(tmp_path: Path) -> None
 
 def test_robot_states_pinned_by_format_6_digests_are_kept(tmp_path: Path, log: Path) -> None:
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
-    pinned = Expectation((), state_pins=StatePins.from_rebuilt(rebuilt_states(states)))
+    pinned = Baseline((), state_pins=StatePins.from_rebuilt(rebuilt_states(states)))
     path = written(tmp_path / "a.dtc.expected", log, pinned, 6)
 
     assert upgrade_baseline(path) == Upgraded(path, 6)
-    assert read_baseline(path).expectation == pinned
+    assert read_baseline(path).whole == pinned

@@ -11,7 +11,7 @@ import pytest
 from beatlog.baseline.file import log_digest, pending_path, read_baseline
 from beatlog.baseline.write import COMPRESS_BYTES, HEADER, write_baseline
 from beatlog.log.files import ZSTD_MAGIC
-from beatlog.replay.expectation import Expectation, TracedOutput
+from beatlog.replay.baseline import Baseline, TracedOutput
 from tests.commands import Beatlog
 from tests.specs import write_spec
 from tests.systems import record_headway
@@ -24,27 +24,27 @@ about 7 bytes of information, the cycle and time columns about one more (written
 text, the line costs 56)."""
 
 
-def _written(folder: Path, cycles: int) -> tuple[Path, Expectation]:
+def _written(folder: Path, cycles: int) -> tuple[Path, Baseline]:
     log = folder / "a.beatlog"
     log.write_bytes(b"a recording")
     outputs = tuple(TracedOutput(c, c * 30_000_000, "accel", c / 7) for c in range(cycles))
-    expectation = Expectation((), outputs, open_loop=(0, 0))
+    baseline = Baseline((), outputs, open_loop=(0, 0))
     path = folder / "a.dtc.expected"
     write_baseline(
-        path, spec_name="a", log_name=log.name, digest=log_digest(log), expectation=expectation
+        path, spec_name="a", log_name=log.name, digest=log_digest(log), baseline=baseline
     )
-    return path, expectation
+    return path, baseline
 
 
 def test_a_short_baseline_is_plain_text_and_a_long_one_one_zstd_frame(tmp_path: Path) -> None:
     (tmp_path / "short").mkdir()
     (tmp_path / "long").mkdir()
     short, _ = _written(tmp_path / "short", 10)
-    long, expectation = _written(tmp_path / "long", COMPRESS_BYTES // 40)
+    long, baseline = _written(tmp_path / "long", COMPRESS_BYTES // 40)
 
     assert short.read_text(encoding="utf-8").startswith(HEADER + "\n")
     assert long.read_bytes().startswith(ZSTD_MAGIC)
-    assert read_baseline(long).expectation == expectation
+    assert read_baseline(long).whole == baseline
 
 
 @pytest.mark.usefixtures("outside_ci")
@@ -57,5 +57,5 @@ def test_a_retune_that_departs_in_every_cycle_writes_a_compact_baseline(
     assert beatlog("test", "--update", spec).code == 1
 
     pending = read_baseline(pending_path(spec))
-    assert len(pending.expectation.outputs) == CYCLES, "the output departs in every cycle"
+    assert len(pending.whole.outputs) == CYCLES, "the output departs in every cycle"
     assert pending_path(spec).stat().st_size < BYTES_A_CYCLE * CYCLES

@@ -37,8 +37,8 @@ def spec(tmp_path: Path, record_probe: RecordFn, beatlog: Beatlog) -> Path:
 
 def test_update_and_approve_pin_the_outputs(spec: Path) -> None:
     baseline = read_baseline(expected_path(spec))
-    assert baseline.expectation.outputs is not None
-    assert {traced.field for traced in baseline.expectation.outputs} == {"speed", "time"}
+    assert baseline.whole.outputs is not None
+    assert {traced.field for traced in baseline.whole.outputs} == {"speed", "time"}
     lines = expected_path(spec).read_text(encoding="utf-8").splitlines()
     assert lines[0] == "# beatlog expected departures from the recording, format 7"
     # Only where the outputs depart from the recording, and where they follow it again.
@@ -107,7 +107,7 @@ def test_a_format_1_baseline_is_upgraded_to_judge_outputs_against_the_recording(
     path = expected_path(spec)
     lines = path.read_text(encoding="utf-8").splitlines()
     log = spec.parent.parent / "probe.beatlog"
-    approved = read_baseline(path).expectation
+    approved = read_baseline(path).whole
     trace = whole_trace(approved, log)
     path.write_text(  # a format 1 file held the whole trace of state changes, and no outputs
         "\n".join(["# beatlog expected state changes, format 1", *lines[1:3]])
@@ -127,7 +127,7 @@ def test_a_format_1_baseline_is_upgraded_to_judge_outputs_against_the_recording(
         f"run 'beatlog upgrade-baselines {path}' to rewrite it in format 7\n"
     )
     assert (upgraded.code, upgraded.out) == (0, f"upgraded {path}: format 1 -> 7\n")
-    upgrade = read_baseline(path).expectation
+    upgrade = read_baseline(path).whole
     assert (upgrade.changes, upgrade.quiet, upgrade.outputs) == (
         approved.changes,
         approved.quiet,
@@ -137,7 +137,7 @@ def test_a_format_1_baseline_is_upgraded_to_judge_outputs_against_the_recording(
     assert run.code == 1
     assert "outputs differ from the approved baseline" in whole_lines(run.out)
     assert beatlog("approve", spec).code == 0
-    assert read_baseline(path).expectation.outputs == approved.outputs
+    assert read_baseline(path).whole.outputs == approved.outputs
     assert beatlog("test", spec).code == 0
 
 
@@ -146,7 +146,7 @@ def test_a_format_4_baseline_of_the_whole_trace_upgrades_to_the_same_departures(
 ) -> None:
     path = expected_path(spec)
     departures = path.read_text(encoding="utf-8")
-    approved = read_baseline(path).expectation
+    approved = read_baseline(path).whole
     trace = whole_trace(approved, spec.parent.parent / "probe.beatlog")
     lines = format_lines(trace.changes, trace.outputs, open_loop=trace.baseline.open_loop)
     path.write_text(
@@ -165,7 +165,7 @@ def test_a_format_4_baseline_of_the_whole_trace_upgrades_to_the_same_departures(
     run = beatlog("upgrade-baselines", path)
 
     assert (run.code, run.out) == (0, f"upgraded {path}: format 4 -> 7\n")
-    assert read_baseline(path).expectation == approved
+    assert read_baseline(path).whole == approved
     assert path.read_text(encoding="utf-8") == departures
     assert beatlog("test", spec).code == 0
     again = beatlog("upgrade-baselines", path)

@@ -18,7 +18,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.record.recorder import Recorder
-from beatlog.replay.core import AGREED, CycleOutcome, Expected, Replayer
+from beatlog.replay.core import AGREED, ByteCheck, CycleOutcome, Replayer
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.judge import replay
 from beatlog.replay.random import DrawDifference
@@ -114,7 +114,7 @@ def test_a_cycle_agrees_at_once_exactly_where_its_bytes_are_the_ones_expected(
     record_probe: RecordFn, name: str
 ) -> None:
     core, records = replayer(record_probe(120), SYSTEMS[name]())
-    core.expect(Expected(None, payload_encoder(), judged=False))
+    core.check_bytes(ByteCheck(None, payload_encoder(), judged=False))
     answers = []
     for record in records:
         changes = core.advance(record)
@@ -132,7 +132,7 @@ def test_no_cycle_agrees_at_once_where_the_verdict_judges_every_cycle_whole(
     record_probe: RecordFn,
 ) -> None:
     core, records = replayer(record_probe(120), probe_system())
-    core.expect(Expected(None, payload_encoder(), judged=True))
+    core.check_bytes(ByteCheck(None, payload_encoder(), judged=True))
 
     answers = [core.advance(record) for record in records]
 
@@ -278,7 +278,9 @@ def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
     with SessionLogReader(log) as reader:
         core = Replayer(probe_system(draws=2), reader.header, reader.path, living=True)
         records = list(reader.cycles())
-    core.expect(Expected(None, payload_encoder(), False, None if approved is None else approves))
+    core.check_bytes(
+        ByteCheck(None, payload_encoder(), False, None if approved is None else approves)
+    )
     answers = []
     for record in records:
         changes = core.advance(record)

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from beatlog.replay.baseline import ABSENT, AS_RECORDED, TracedOutput
 from beatlog.replay.departures import OutputDepartures, apply_outputs, hold
-from beatlog.replay.expectation import ABSENT, AS_RECORDED, TracedOutput
 
 RECORDED: list[dict[str, Any]] = [
     {"speed": 0.5, "turn": 0.1},

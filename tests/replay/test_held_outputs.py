@@ -14,8 +14,8 @@ from beatlog.errors import CorruptLogError
 from beatlog.log import payload
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.replay import held_outputs
+from beatlog.replay.baseline import ABSENT, AS_RECORDED, TracedOutput
 from beatlog.replay.departures import apply_outputs
-from beatlog.replay.expectation import ABSENT, AS_RECORDED, TracedOutput
 from beatlog.replay.held_outputs import HeldOutputs
 
 LOG = Path("walk.beatlog")

@@ -35,8 +35,8 @@ from beatlog.model.context import Context, Outputs
 from beatlog.model.state import RobotState
 from beatlog.record.recorder import Recorder
 from beatlog.replay import core, judge
+from beatlog.replay.baseline import Baseline, TracedStateChange
 from beatlog.replay.compare import Comparison
-from beatlog.replay.expectation import Expectation, TracedChange
 from beatlog.replay.fit.check import check_fit
 from beatlog.replay.verdict import Checked
 from tests.conftest import (
@@ -492,9 +492,9 @@ def test_an_output_tolerance_accepts_a_small_drift(record_probe: RecordFn) -> No
 
 def test_an_approved_baseline_replaces_the_recorded_state_changes(record_probe: RecordFn) -> None:
     log = record_probe(300)
-    baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
-    assert replay(log, probe_system(threshold=0.6), expected=baseline).ok
-    old = replay(log, probe_system(), expected=baseline)
+    baseline = replayed_trace(log, probe_system(threshold=0.6)).baseline
+    assert replay(log, probe_system(threshold=0.6), baseline=baseline).ok
+    old = replay(log, probe_system(), baseline=baseline)
     assert old.divergence is not None
     assert old.divergence.message == "behavior state changes differ from the approved baseline"
     assert old.divergence.cycle == first_cycle_below(0.6)
@@ -503,9 +503,9 @@ def test_an_approved_baseline_replaces_the_recorded_state_changes(record_probe: 
 def test_a_baseline_naming_unknown_behaviors_fails_naming_them(record_probe: RecordFn) -> None:
     log = record_probe(50)
     trace = replayed_trace(log, probe_system())
-    ghost = TracedChange(3, 0, StateChange("ghost", "a", "b"))
-    baseline = Expectation((ghost, *trace.changes), trace.outputs)
-    result = replay(log, probe_system(), expected=baseline)
+    ghost = TracedStateChange(3, 0, StateChange("ghost", "a", "b"))
+    baseline = Baseline((ghost, *trace.changes), trace.outputs)
+    result = replay(log, probe_system(), baseline=baseline)
     assert result.divergence is not None
     assert result.divergence.cycle == 3
     assert StateChange("ghost", "a", "b") in result.divergence.expected
@@ -526,10 +526,10 @@ def geared_system(threshold: float = 0.6) -> PriorityArbiter[Probe]:
 
 def test_an_approved_baseline_still_pins_the_outputs(record_probe: RecordFn) -> None:
     log = record_probe(300)
-    baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
+    baseline = replayed_trace(log, probe_system(threshold=0.6)).baseline
     assert len(baseline.outputs or ()) == 12
 
-    result = replay(log, geared_system(), expected=baseline)
+    result = replay(log, geared_system(), baseline=baseline)
 
     divergence = result.divergence
     assert divergence is not None
@@ -542,15 +542,15 @@ def test_an_approved_baseline_still_pins_the_outputs(record_probe: RecordFn) -> 
 
 def test_a_baseline_s_outputs_are_judged_with_the_spec_allowances(record_probe: RecordFn) -> None:
     log = record_probe(300)
-    baseline = replayed_trace(log, probe_system(threshold=0.6)).expectation
+    baseline = replayed_trace(log, probe_system(threshold=0.6)).baseline
     for allowance in (Comparison(ignore_fields=("sp*",)), Comparison(tolerance={"speed": 0.1})):
-        result = replay(log, geared_system(), expected=baseline, comparison=allowance)
+        result = replay(log, geared_system(), baseline=baseline, comparison=allowance)
         assert (result.ok, result.divergence, result.counts) == (
             True,
             None,
             {"cycles": 300, "state_changes": 45, "outputs": 423, "draws": 60, "samples": 0},
         )
-    tight = replay(log, geared_system(), expected=baseline, comparison=Comparison(
+    tight = replay(log, geared_system(), baseline=baseline, comparison=Comparison(
         tolerance={"speed": 0.01}
     ))  # fmt: skip
     assert tight.divergence is not None
@@ -565,9 +565,9 @@ def test_outputs_reported_in_another_order_match_the_baseline(record_probe: Reco
             return dict(reversed(outputs.items()))
 
     log = record_probe(100)
-    baseline = replayed_trace(log, probe_system()).expectation
+    baseline = replayed_trace(log, probe_system()).baseline
     system = PriorityArbiter([Near(), Reordered()], robot_state=Probe)
-    assert replay(log, system, expected=baseline).ok
+    assert replay(log, system, baseline=baseline).ok
 
 
 def test_the_reproduce_command_carries_the_replay_options(tmp_path: Path) -> None:
@@ -1022,12 +1022,12 @@ def test_a_fresh_start_is_judged_against_an_approved_baseline_from_its_own_cycle
     record_probe: RecordFn,
 ) -> None:
     log = record_probe(300)
-    baseline = replayed_trace(log, probe_system_changed()).expectation
+    baseline = replayed_trace(log, probe_system_changed()).baseline
 
     result = replay(
         log,
         probe_system_changed(),
-        expected=baseline,
+        baseline=baseline,
         start_cycle=150,
         end_cycle=299,
         fresh_start=True,

@@ -239,12 +239,12 @@ def test_a_spec_names_its_perception_and_the_suite_replays_from_samples(tmp_path
 def test_a_pinned_robot_state_one_ulp_off_diverges_in_its_cycle_alone(tmp_path: Path) -> None:
     log = record_with_samples(tmp_path / "samples.beatlog")
     spec = write_spec(tmp_path, "sensors", log, perception=CHANGED)
-    expected = run_spec(load_spec(spec), SpecOptions(update=UpdateMode.NEW)).update
-    assert expected is not None
-    assert replay(log, probe_system(), perception=changed_perception(), expected=expected).ok
+    baseline = run_spec(load_spec(spec), SpecOptions(update=UpdateMode.NEW)).update
+    assert baseline is not None
+    assert replay(log, probe_system(), perception=changed_perception(), baseline=baseline).ok
 
     result = replay(
-        log, probe_system(), perception=one_ulp_perception(), expected=expected, keep_going=True
+        log, probe_system(), perception=one_ulp_perception(), baseline=baseline, keep_going=True
     )
 
     assert result.divergent_cycles == 1

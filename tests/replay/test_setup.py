@@ -16,7 +16,7 @@ from beatlog.model.behavior import System
 from beatlog.model.random import RecordingRandom
 from beatlog.model.source import RandomSource
 from beatlog.record.recorder import Recorder
-from beatlog.replay.expectation import Expectation
+from beatlog.replay.baseline import Baseline
 from beatlog.replay.setup import SetupDrawError
 from beatlog.replay.verdict import DivergenceKind
 from tests.conftest import PERIOD_NS, Probe, probe_system
@@ -95,7 +95,7 @@ def test_an_old_log_without_set_up_draws_replays_against_a_factory(tmp_path: Pat
 
 def test_living_replay_refuses_a_change_to_the_set_up_draws(tmp_path: Path) -> None:
     log = record_driver(tmp_path / "driver.beatlog")
-    divergence = replay(log, driver_system_drawing_more, expected=Expectation(())).divergence
+    divergence = replay(log, driver_system_drawing_more, baseline=Baseline(())).divergence
     assert divergence is not None
     assert divergence.kind is DivergenceKind.SETUP
     assert refusal(divergence) == (

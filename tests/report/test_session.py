@@ -92,7 +92,7 @@ def test_a_full_disk_stops_the_update_in_one_line_keeping_what_was_written_whole
     unwritten = pending_path(specs / "later-change.dtc.toml")
     assert report.error == f"{unwritten}: cannot write: No space left on device"
     assert report.exit_code == 2
-    assert read_baseline(written).expectation.changes
+    assert read_baseline(written).whole.changes
     assert sorted(path.name for path in specs.iterdir() if "pending" in path.name) == [written.name]
 
 

@@ -114,8 +114,8 @@ def test_show_and_test_name_the_approved_baseline_and_where_it_goes_open_loop(
     monkeypatch.setenv("COLUMNS", "200")
     approved = approved_baseline(log)
     assert approved is not None
-    assert approved.baseline.expectation.open_loop is not None
-    cycle, time_ns = approved.baseline.expectation.open_loop
+    assert approved.baseline.whole.open_loop is not None
+    cycle, time_ns = approved.baseline.whole.open_loop
 
     main(["show", str(log)])
     shown = capsys.readouterr().out

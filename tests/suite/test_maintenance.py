@@ -66,7 +66,7 @@ def changed(tmp_path: Path, log: Path) -> DtcSpec:
 
 @pytest.fixture
 def pending(changed: DtcSpec) -> DtcSpec:
-    """The changed spec with its new expectation pending."""
+    """The changed spec with its new baseline pending."""
     update_baselines(run(changed), UpdateMode.NEW)
     return changed
 
@@ -83,8 +83,8 @@ def test_a_failure_writes_its_new_expectation_to_the_pending_file_only(
     written = read_baseline(update.path)
     assert update.shift is not None
     assert (update.shift.lost, update.shift.gained, update.shift.moved) == (0, 0, 12)
-    assert update.shift.open_loop == written.expectation.open_loop[0]  # type: ignore[index]
-    assert update.output_changes == len(written.expectation.outputs or ())
+    assert update.shift.open_loop == written.whole.open_loop[0]  # type: ignore[index]
+    assert update.output_changes == len(written.whole.outputs or ())
     assert not expected_path(changed.path).exists()
 
 
@@ -148,14 +148,14 @@ def test_a_failure_never_overwrites_the_approved_baseline(pending: DtcSpec, log:
 
 @pytest.mark.parametrize("decision", list(Decision))
 def test_each_decision_does_what_it_says(pending: DtcSpec, decision: Decision) -> None:
-    waiting = read_baseline(pending_path(pending.path)).expectation  # read before it moves
+    waiting = read_baseline(pending_path(pending.path)).whole  # read before it moves
 
     decide(pending, decision.value)
 
     assert pending_path(pending.path).exists() is (decision is Decision.SKIP)
     assert expected_path(pending.path).exists() is (decision is Decision.ACCEPT)
     if decision is Decision.ACCEPT:
-        assert read_baseline(expected_path(pending.path)).expectation.changes == waiting.changes
+        assert read_baseline(expected_path(pending.path)).whole.changes == waiting.changes
 
 
 def test_an_unknown_decision_names_the_decisions_there_are(pending: DtcSpec) -> None:

@@ -184,9 +184,19 @@ class BagMessages:
         except Exception as exc:  # rosbags reading a damaged file raises anything
             raise BagError(self.bag, f"damaged: {_reason(exc)}") from None
         counted = {connection.topic: self.counted[connection.topic] for connection in connections}
-        shortfall = _shortfall(read, counted)
-        if shortfall is not None:
-            raise BagError(self.bag, f"{shortfall}; {self._damaged()}")
+        differ = [
+            f"topic {topic}: {read[topic]} of {count}"
+            for topic, count in sorted(counted.items())
+            if read[topic] != count
+        ]
+        if differ:  # every message the metadata counts is read, and no more
+            have, want = sum(read.values()), sum(counted.values())
+            lead = (
+                f"read {have} of the {want} messages its metadata counts"
+                if have < want
+                else f"read {have} messages where its metadata counts {want}"
+            )
+            raise BagError(self.bag, f"{lead} ({', '.join(differ)}); {self._damaged()}")
 
     def _deserialize(self, connection: Connection, raw: bytes, *, first: bool) -> object:
         """The message ``raw`` on ``connection``; a topic whose first message does not
@@ -229,25 +239,6 @@ class BagMessages:
         if self.bag.is_dir():
             return "the bag is damaged, or its metadata.yaml does not match its storage files"
         return "the bag is damaged"
-
-
-def _shortfall(read: Counter[str], counted: dict[str, int]) -> str | None:
-    """How the messages read on each topic differ from the counts of the bag's metadata,
-    or None when every topic has its count."""
-    differ = [
-        f"topic {topic}: {read[topic]} of {count}"
-        for topic, count in sorted(counted.items())
-        if read[topic] != count
-    ]
-    if not differ:
-        return None
-    have, want = sum(read.values()), sum(counted.values())
-    lead = (
-        f"read {have} of the {want} messages its metadata counts"
-        if have < want
-        else f"read {have} messages where its metadata counts {want}"
-    )
-    return f"{lead} ({', '.join(differ)})"
 
 
 def _plain(value: Any) -> Any:

@@ -15,9 +15,7 @@ as the modules do otherwise. py_trees' blackboard is global to the process: buil
 
 from __future__ import annotations
 
-import bisect
 import functools
-import itertools
 import random as stdlib_random
 import threading
 import time as wall_clock
@@ -231,16 +229,17 @@ def _choices(
     cum_weights: Sequence[float] | None = None,
     k: int = 1,
 ) -> list[Any]:
-    """``random.choices`` on beatlog's random source, picking as CPython does."""
-    if cum_weights is None:
-        if weights is None:
-            return [source.choice(population) for _ in range(k)]
-        cum_weights = list(itertools.accumulate(weights))
-    total = cum_weights[-1] + 0.0
-    last = len(population) - 1
-    return [
-        population[bisect.bisect(cum_weights, source.random() * total, 0, last)] for _ in range(k)
-    ]
+    """``random.choices`` on beatlog's random source: CPython's own, on the source's
+    ``random()``, except that an unweighted pick is a ``choice`` of the source."""
+    if weights is None and cum_weights is None:
+        return [source.choice(population) for _ in range(k)]
+    return stdlib_random.Random.choices(
+        source,  # type: ignore[arg-type]  # it draws only by the source's random()
+        population,
+        weights,
+        cum_weights=cum_weights,
+        k=k,
+    )
 
 
 for _module, _name, _stand_in in (

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from beatlog.model.behavior import System
-from beatlog.replay.expectation import TracedChange
+from beatlog.replay.baseline import TracedStateChange
 
 __all__ = [
     "BehaviorCoverage",
@@ -183,7 +183,7 @@ def declared_states(system: System) -> dict[str, tuple[str, ...]]:
 
 
 def cover_changes(
-    dtcs: Iterable[tuple[str, str, Sequence[TracedChange], int, System | None]],
+    dtcs: Iterable[tuple[str, str, Sequence[TracedStateChange], int, System | None]],
 ) -> SuiteCoverage:
     """The coverage of DTCs given as (id, the name of their system, the state changes
     their log recorded, its cycles, a fresh system or None), as a log's
@@ -195,7 +195,7 @@ def cover_changes(
     for dtc, name, changes, cycles, system in dtcs:
         suite.dtcs.append(dtc)
         initial = {} if system is None else {n: b.state for n, b in system.behaviors.items()}
-        by_behavior: dict[str, list[TracedChange]] = defaultdict(list)
+        by_behavior: dict[str, list[TracedStateChange]] = defaultdict(list)
         for traced in changes:
             by_behavior[traced.change.behavior].append(traced)
         for behavior in dict.fromkeys([*initial, *by_behavior]):

@@ -14,7 +14,7 @@ from beatlog.log.format import EMPTY_LIST, CycleRecord
 from beatlog.log.payload import decode_part, decode_state_changes
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
-from beatlog.replay.expectation import TracedChange
+from beatlog.replay.baseline import TracedStateChange
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["RecordedChanges", "named_changes", "read_changes"]
@@ -30,7 +30,7 @@ class RecordedChanges:
         self.reference = header.system
         """The ``module:factory`` the header records, if any."""
         self.system = header.system or header.robot_state_type
-        self.changes: list[TracedChange] = []
+        self.changes: list[TracedStateChange] = []
         self.cycles = 0
         self._names = header.behaviors
         self._path = reader.path
@@ -46,7 +46,7 @@ class RecordedChanges:
             self._time_ns += record.heartbeat_ns
             if record.state_changes != EMPTY_LIST:
                 changes.extend(
-                    TracedChange(self.cycles, self._time_ns, change)
+                    TracedStateChange(self.cycles, self._time_ns, change)
                     for change in named_changes(
                         self._path, record.state_changes, names, self.cycles
                     )

@@ -1,4 +1,4 @@
-"""What an intended change does to a DTC against today's expectation (approved, else
+"""What an intended change does to a DTC against today's baseline (approved, else
 recorded): the state changes, outputs and draws it loses, those it gains, and how much
 of the session stays closed loop.
 
@@ -16,13 +16,13 @@ from dataclasses import dataclass
 from enum import StrEnum
 from typing import NamedTuple
 
+from beatlog.replay.baseline import ABSENT, TracedOutput, TracedStateChange
 from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import ABSENT, TracedChange, TracedOutput
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["Loss", "LossKind", "Shift", "Trace", "shift"]
 
-Trace = tuple[Sequence[TracedChange], Sequence[TracedOutput]]
+Trace = tuple[Sequence[TracedStateChange], Sequence[TracedOutput]]
 """A whole trace: every state change and the outputs (as the cycles where a field changed)."""
 
 
@@ -38,7 +38,7 @@ class LossKind(StrEnum):
 
 
 class Loss(NamedTuple):
-    """Something today's expectation has that a new one no longer has."""
+    """Something today's baseline has that a new one no longer has."""
 
     kind: LossKind
     name: str
@@ -46,14 +46,14 @@ class Loss(NamedTuple):
     cycles: tuple[int, ...]
     """Where it happens today (a state change or draw: once each)."""
     silent: bool = False
-    """State changes: the behavior never changes state in the new expectation."""
+    """State changes: the behavior never changes state in the new baseline."""
     request: str | None = None
     """Draws: the recorded request, as code."""
 
 
 @dataclass(frozen=True)
 class Shift:
-    """What a new expectation loses and gains against today's."""
+    """What a new baseline loses and gains against today's."""
 
     losses: tuple[Loss, ...]
     lost: int
@@ -65,11 +65,11 @@ class Shift:
     cycles: int
     """The cycles of the session."""
     open_loop: int | None
-    """The first cycle where the new expectation leaves the recording, if it does."""
+    """The first cycle where the new baseline leaves the recording, if it does."""
 
     @property
     def closed_loop(self) -> int:
-        """The cycles before the new expectation leaves the recording."""
+        """The cycles before the new baseline leaves the recording."""
         return self.cycles if self.open_loop is None else min(self.open_loop, self.cycles)
 
 
@@ -115,7 +115,7 @@ def shift(
     return Shift(tuple(losses), lost, gained, moved, cycles, open_loop)
 
 
-def _occurrences(changes: Iterable[TracedChange]) -> dict[str, dict[StateChange, list[int]]]:
+def _occurrences(changes: Iterable[TracedStateChange]) -> dict[str, dict[StateChange, list[int]]]:
     """The cycles of each behavior's state changes, by transition, in order."""
     found: dict[str, dict[StateChange, list[int]]] = {}
     for traced in changes:

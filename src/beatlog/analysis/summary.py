@@ -22,9 +22,9 @@ from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
     Draw,
+    LoggedStateChange,
     SessionEnd,
     SessionHeader,
-    StateChangeRecord,
 )
 from beatlog.log.reader import LogStatus, SessionLogReader
 
@@ -80,7 +80,7 @@ class _Sensor(msgspec.Struct, array_like=True):
 def summarize(path: str | Path) -> LogSummary:
     """Read a whole log and gather its figures; a log whose cycles read back intact but
     whose index is damaged has figures, and a status that says so."""
-    changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
+    changes_decoder = msgspec.msgpack.Decoder(list[LoggedStateChange])
     draws_decoder = msgspec.msgpack.Decoder(list[Draw])
     cycles = longest = late = 0
     intervals: Counter[int] | None = Counter()

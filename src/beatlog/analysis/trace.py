@@ -22,16 +22,16 @@ from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
+from beatlog.replay.baseline import (
+    Baseline,
+    OutputTracker,
+    TracedOutput,
+    TracedStateChange,
+)
 from beatlog.replay.compare import WHOLE_STATE, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.departures import DepartureCollector, apply_outputs, hold
-from beatlog.replay.draws import DrawRule, draw_rules
-from beatlog.replay.expectation import (
-    Expectation,
-    OutputTracker,
-    TracedChange,
-    TracedOutput,
-)
+from beatlog.replay.draws import draw_rules
 from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise
 from beatlog.replay.random import DrawDifference
 from beatlog.replay.session import ReplaySession
@@ -54,7 +54,7 @@ __all__ = [
 class ReplayedTrace:
     """The state changes and outputs a system makes over a whole session log."""
 
-    changes: tuple[TracedChange, ...]
+    changes: tuple[TracedStateChange, ...]
     cycles: int
     """Cycles replayed."""
     stopped: str | None
@@ -62,25 +62,17 @@ class ReplayedTrace:
     random numbers the log does not have), or None when it replayed every cycle."""
     outputs: tuple[TracedOutput, ...] = ()
     """The outputs, as the cycles where a field changed value."""
-    state_pins: StatePins = field(default_factory=StatePins)
-    """In sensor-level replay, the robot states perception rebuilt otherwise than
-    recorded, pinned by digest in each cycle where it did."""
-    draws: tuple[DrawRule, ...] = ()
-    """In living replay, the draws made otherwise than recorded."""
-    departures: Expectation = field(default_factory=lambda: Expectation(()))
-    """Where the state changes and outputs depart from the recording's."""
+    baseline: Baseline = field(default_factory=lambda: Baseline(()))
+    """This trace as a baseline holds it: where its state changes and outputs depart
+    from the recording's; in sensor-level replay, the robot states perception rebuilt
+    otherwise than recorded, pinned by digest; in living replay, the draws made
+    otherwise than recorded."""
 
     @property
     def open_loop(self) -> tuple[int, int] | None:
         """The first cycle (and its robot time) whose state changes or outputs differ
         from the recording's."""
-        return self.departures.open_loop
-
-    @property
-    def expectation(self) -> Expectation:
-        """This trace as the expectation a baseline pins: where it departs from the
-        recording."""
-        return dataclasses.replace(self.departures, state_pins=self.state_pins, draws=self.draws)
+        return self.baseline.open_loop
 
 
 class WholeTrace(NamedTuple):
@@ -88,12 +80,12 @@ class WholeTrace(NamedTuple):
     (or the recording) has them, for review: ``baseline`` is the rest it approves
     (robot-state pins, draws, where it goes open loop)."""
 
-    changes: tuple[TracedChange, ...]
+    changes: tuple[TracedStateChange, ...]
     outputs: tuple[TracedOutput, ...]
-    baseline: Expectation
+    baseline: Baseline
 
 
-def recorded_trace(log: LogSource) -> list[TracedChange]:
+def recorded_trace(log: LogSource) -> list[TracedStateChange]:
     """Every state change the log recorded, named by the log's behavior catalogue."""
     return read_changes(log).changes
 
@@ -104,17 +96,17 @@ def recorded_outputs(log: LogSource) -> list[TracedOutput]:
 
 
 def whole_trace(
-    baseline: Expectation | None, log: LogSource, rename: Callable[[str], str] = str
+    baseline: Baseline | None, log: LogSource, rename: Callable[[str], str] = str
 ) -> WholeTrace:
     """What replay judges ``log`` against, as a whole trace: the departures of its
     approved ``baseline`` applied to what the log recorded, or (None) the recording's
     own state changes and outputs; behaviors are named as ``rename`` names them now."""
-    baseline = Expectation(()) if baseline is None else baseline
+    baseline = Baseline(()) if baseline is None else baseline
     override = baseline.changes_override() or {}
     lines = itertools.groupby(baseline.outputs, key=lambda o: o.cycle)
     line = next(lines, None)
     held: dict[str, Any] = {}
-    changes: list[TracedChange] = []
+    changes: list[TracedStateChange] = []
     outputs: list[TracedOutput] = []
     tracker = OutputTracker()
     time_ns = 0
@@ -123,11 +115,11 @@ def whole_trace(
         for cycle, record in enumerate(reader.cycles()):
             time_ns += record.heartbeat_ns
             if cycle in override:
-                changes.extend(TracedChange(cycle, time_ns, c) for c in override[cycle])
+                changes.extend(TracedStateChange(cycle, time_ns, c) for c in override[cycle])
             elif record.state_changes != EMPTY_LIST:
                 recorded = named_changes(path, record.state_changes, names, cycle)
                 changes.extend(
-                    TracedChange(cycle, time_ns, c._replace(behavior=rename(c.behavior)))
+                    TracedStateChange(cycle, time_ns, c._replace(behavior=rename(c.behavior)))
                     for c in recorded
                 )
             if line is not None and line[0] == cycle:
@@ -189,7 +181,7 @@ class TraceCollector:
         self._departures = DepartureCollector(
             self._names, [rename(name) for name in replayer.header.behaviors]
         )
-        self._changes: list[TracedChange] = []
+        self._changes: list[TracedStateChange] = []
         self._outputs: list[TracedOutput] = []
         self._states: list[RebuiltState] = []
         self._draws: list[tuple[int, DrawDifference]] = []
@@ -215,7 +207,7 @@ class TraceCollector:
             return
         names = self._names
         self._changes.extend(
-            TracedChange(outcome.cycle, outcome.time_ns, StateChange(names[i], before, after))
+            TracedStateChange(outcome.cycle, outcome.time_ns, StateChange(names[i], before, after))
             for i, before, after in outcome.changes or ()
         )
         self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
@@ -239,7 +231,9 @@ class TraceCollector:
             self._cycles,
             self.stopped,
             tuple(self._outputs),
-            StatePins.from_rebuilt(self._states),
-            draw_rules(self._draws),
-            self._departures.departures(),
+            dataclasses.replace(
+                self._departures.departures(),
+                state_pins=StatePins.from_rebuilt(self._states),
+                draws=draw_rules(self._draws),
+            ),
         )

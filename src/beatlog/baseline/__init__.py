@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
-    from beatlog.baseline.file import Baseline as Baseline
+    from beatlog.baseline.file import BaselineFile as BaselineFile
     from beatlog.baseline.file import expected_path as expected_path
     from beatlog.baseline.file import pending_path as pending_path
     from beatlog.baseline.file import read_baseline as read_baseline

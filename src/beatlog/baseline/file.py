@@ -82,12 +82,8 @@ from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
+from beatlog.replay.baseline import Baseline, BaselinePart, BaselineStream
 from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import (
-    Expectation,
-    ExpectedPart,
-    ExpectedStream,
-)
 from beatlog.replay.pins import PinCoverage, StatePins
 
 __all__ = [
@@ -97,7 +93,7 @@ __all__ = [
     "OLD_HEADERS",
     "PENDING_SUFFIX",
     "SPEC_SUFFIX",
-    "Baseline",
+    "BaselineFile",
     "expected_path",
     "log_digest",
     "pending_path",
@@ -133,26 +129,26 @@ _KINDS = ("output", "state change", f"'{QUIET}'")
 
 
 @dataclass(frozen=True)
-class Baseline:
-    """A baseline file: the recording it was made from and what replay judges against,
-    read as replay reads it (:attr:`stream`): the lines of cycles of a file longer than a
-    block are read from it each time they are asked for, so the file must stay where it
-    is."""
+class BaselineFile:
+    """A baseline file, read: the recording it was made from and the baseline it holds,
+    as replay reads it (:attr:`stream`) or whole (:attr:`whole`): the lines of cycles of
+    a file longer than a block are read from it each time they are asked for, so the
+    file must stay where it is."""
 
     path: Path
     log_digest: str
     """The SHA-256 of the recording (:func:`log_digest`)."""
-    stream: ExpectedStream
-    """What replay judges against: the lines of cycles of a file of one block as read, a
+    stream: BaselineStream
+    """The baseline as replay reads it: the lines of cycles of a file of one block as read, a
     longer file's read afresh a block at a time, so replay holds no more of it than a
     block."""
 
     @property
-    def expectation(self) -> Expectation:
-        """The whole expectation, in memory (for a review, a diff)."""
+    def whole(self) -> Baseline:
+        """The whole baseline, in memory (for a review, a diff)."""
         parts = list(self.stream.parts())
         chain = itertools.chain.from_iterable
-        return Expectation(
+        return Baseline(
             tuple(chain(part.changes for part in parts)),
             tuple(chain(part.outputs for part in parts)),
             StatePins(tuple(chain(p.runs for p in parts)), tuple(chain(p.blocks for p in parts))),
@@ -209,24 +205,24 @@ def upgrade_hint(path: Path, version: int) -> str:
     )
 
 
-def read_baseline(path: Path) -> Baseline:
+def read_baseline(path: Path) -> BaselineFile:
     """Read and check a baseline file, a block of lines at a time (:data:`BLOCK_BYTES`),
     keeping what applies to the whole session, and the lines of cycles of a file of one
     block as read; a longer file's are read again, the same way, as replay needs them
-    (:attr:`Baseline.stream`). Anything else, a file of an older format included,
+    (:attr:`BaselineFile.stream`). Anything else, a file of an older format included,
     raises :class:`BaselineError` naming the line (or the command that upgrades it)."""
     reading = _Reading(path)
     draws: list[DrawRule] = []
     departs = pinned = False
     behaviors: dict[str, None] = {}
-    kept: list[ExpectedPart] | None = []  # the first block's lines, while it is the only one
+    kept: list[BaselinePart] | None = []  # the first block's lines, while it is the only one
     for found in reading.parts():
         draws.extend(found.draws)
         departs = departs or bool(found.changes or found.quiet or found.outputs)
         pinned = pinned or bool(found.blocks)
         behaviors.update(dict.fromkeys(traced.change.behavior for traced in found.changes))
         kept = [_part(found)] if kept == [] else None
-    stream = ExpectedStream(
+    stream = BaselineStream(
         tuple(draws),
         reading.open_loop,
         departs=departs,
@@ -236,14 +232,14 @@ def read_baseline(path: Path) -> Baseline:
         if kept is None
         else functools.partial(iter, kept),
     )
-    return Baseline(path, reading.digest, stream)
+    return BaselineFile(path, reading.digest, stream)
 
 
-def _part(found: ParsedLines) -> ExpectedPart:
-    return ExpectedPart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
+def _part(found: ParsedLines) -> BaselinePart:
+    return BaselinePart(found.changes, found.quiet, found.outputs, found.runs, found.blocks)
 
 
-def _parts(path: Path, behaviors: frozenset[str]) -> Iterator[ExpectedPart]:
+def _parts(path: Path, behaviors: frozenset[str]) -> Iterator[BaselinePart]:
     """The lines of cycles of the baseline at ``path``, read and checked a block at a
     time; their state changes name only ``behaviors``, as when it was first read.
 

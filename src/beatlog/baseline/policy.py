@@ -2,7 +2,7 @@
 and when approved baselines have gone stale: the project's limits on open loop.
 
 Like vcrpy's record modes, the update mode is a str Enum: ``"none"`` (the default)
-never writes, ``"new"`` writes the new expectation of each failing DTC to its pending
+never writes, ``"new"`` writes the new baseline of each failing DTC to its pending
 file for review. Whatever the mode, nothing is written when the ``CI`` environment
 variable is set: a CI run judges against the committed baselines, it never makes them.
 
@@ -44,7 +44,7 @@ class UpdateMode(StrEnum):
     NONE = "none"
     """Write nothing: a failing DTC only fails. The safe default, and CI's."""
     NEW = "new"
-    """Write the new expectation of each failing DTC to its pending file, for review and
+    """Write the new baseline of each failing DTC to its pending file, for review and
     approval; a passing DTC's stale pending file is removed."""
 
     @classmethod

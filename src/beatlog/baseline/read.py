@@ -33,13 +33,13 @@ from beatlog.baseline.write import (
     RUN_FIRST,
 )
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import (
+from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
-    TracedChange,
     TracedOutput,
+    TracedStateChange,
 )
+from beatlog.replay.draws import DrawRule
 from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
 from beatlog.replay.state_digests import DIGEST_BYTES
 from beatlog.replay.verdict import StateChange
@@ -67,7 +67,7 @@ _OTHER_BREAKS = "\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
 class ParsedLines:
     """The lines of a baseline file read so far, by kind."""
 
-    changes: list[TracedChange] = field(default_factory=list)
+    changes: list[TracedStateChange] = field(default_factory=list)
     outputs: list[TracedOutput] = field(default_factory=list)
     runs: list[PinnedRun] = field(default_factory=list)
     blocks: list[DigestBlock] = field(default_factory=list)
@@ -113,7 +113,7 @@ class ParsedLines:
         parsed = parse_line(line)
         if isinstance(parsed, TracedOutput):
             self.outputs.append(parsed)
-        elif isinstance(parsed, TracedChange):
+        elif isinstance(parsed, TracedStateChange):
             self.changes.append(parsed)
         elif isinstance(parsed, PinnedRun):
             self.runs.append(parsed)
@@ -172,7 +172,7 @@ def _time_ns(seconds: str) -> int:
 
 def parse_line(
     line: str,
-) -> TracedChange | TracedOutput | PinnedRun | DigestBlock | tuple[int, int, str]:
+) -> TracedStateChange | TracedOutput | PinnedRun | DigestBlock | tuple[int, int, str]:
     """A line of the cycle columns; an ``open loop`` or quiet line as its cycle, time and
     text."""
     found = _CHANGE_LINE.fullmatch(line)
@@ -189,7 +189,7 @@ def parse_line(
         return TracedOutput(cycle, time_ns, name, value)
     if text.startswith(ROBOT_STATE):
         return _parse_pin(text[len(ROBOT_STATE) :], cycle, time_ns)
-    return TracedChange(cycle, time_ns, _parse_change(text))
+    return TracedStateChange(cycle, time_ns, _parse_change(text))
 
 
 def _parse_value(text: str) -> tuple[str, Any]:
@@ -362,7 +362,7 @@ def _changes(columns: list[_Column], where: list[int]) -> list[Any]:
     changes = _records(
         StateChange, _shared(behaviors, _names), _shared(before, _states), _shared(after, _states)
     )
-    return _records(TracedChange, _shared(cycles, _ints), _shared(times, _times_ns), changes)
+    return _records(TracedStateChange, _shared(cycles, _ints), _shared(times, _times_ns), changes)
 
 
 def _quiet(columns: list[_Column], where: list[int]) -> list[Any]:

@@ -41,8 +41,8 @@ from beatlog.baseline.file import (
 from beatlog.baseline.write import HEADER, OUTPUT, QUIET, ROBOT_STATE, write_baseline
 from beatlog.errors import BaselineError
 from beatlog.log.files import read_text_blocks, replacing
+from beatlog.replay.baseline import AS_RECORDED, Baseline, TracedOutput, TracedStateChange
 from beatlog.replay.departures import OutputDepartures
-from beatlog.replay.expectation import AS_RECORDED, Expectation, TracedChange, TracedOutput
 
 __all__ = ["Recordings", "Upgraded", "baseline_files", "upgrade_baseline", "upgrade_baselines"]
 
@@ -130,7 +130,7 @@ def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | 
         with replacing(scratch) as file:
             file.write(translated.encode())
         read = read_baseline(scratch)
-        expectation = read.expectation  # read whole before the scratch file goes
+        baseline = read.whole  # read whole before the scratch file goes
     except BaselineError as exc:
         raise BaselineError(path, exc.problem.replace(str(scratch), str(path))) from None
     finally:
@@ -140,15 +140,15 @@ def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | 
         log = recordings(path, log_name)
         if not log.is_file() or log_digest(log) != read.log_digest:
             raise BaselineError(path, f"its recording {log} is not as it was: {_RE_APPROVE}")
-        expectation = _departures(path, version, log, expectation)
+        baseline = _departures(path, version, log, baseline)
     elif as_recorded:
-        expectation = _as_recorded(path, expectation)
+        baseline = _as_recorded(path, baseline)
     write_baseline(
         path,
         spec_name=spec_name,
         log_name=log_name,
         digest=read.log_digest,
-        expectation=expectation,
+        baseline=baseline,
     )
     return Upgraded(path, version)
 
@@ -166,16 +166,16 @@ def _names(lines: Sequence[str]) -> tuple[str, str]:
     return spec, log.rpartition(" sha256 ")[0]
 
 
-def _as_recorded(path: Path, expectation: Expectation) -> Expectation:
+def _as_recorded(path: Path, baseline: Baseline) -> Baseline:
     """A format 4 baseline of the line ``state changes and outputs as recorded``."""
-    if expectation.changes or expectation.outputs or expectation.open_loop or expectation.quiet:
+    if baseline.changes or baseline.outputs or baseline.open_loop or baseline.quiet:
         raise BaselineError(
             path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
         )
-    return expectation
+    return baseline
 
 
-def _departures(path: Path, version: int, log: Path, whole: Expectation) -> Expectation:
+def _departures(path: Path, version: int, log: Path, whole: Baseline) -> Baseline:
     """Where a whole trace of format ``version`` departs from the recording ``log``."""
     if whole.quiet or any(line.value is AS_RECORDED for line in whole.outputs or ()):
         said = QUIET if whole.quiet else f"{OUTPUT}... as recorded"
@@ -192,13 +192,13 @@ def _departures(path: Path, version: int, log: Path, whole: Expectation) -> Expe
 
 
 def _change_departures(
-    whole: Sequence[TracedChange], recorded: Sequence[TracedChange]
-) -> tuple[tuple[TracedChange, ...], tuple[tuple[int, int], ...]]:
+    whole: Sequence[TracedStateChange], recorded: Sequence[TracedStateChange]
+) -> tuple[tuple[TracedStateChange, ...], tuple[tuple[int, int], ...]]:
     """The cycles whose state changes in ``whole`` are not the recorded ones (as a set):
     the trace's, or quiet where it has none."""
     mine = _by_cycle(whole)
     theirs = _by_cycle(recorded)
-    changes: list[TracedChange] = []
+    changes: list[TracedStateChange] = []
     quiet: list[tuple[int, int]] = []
     for cycle in sorted(mine.keys() | theirs.keys()):
         here, there = mine.get(cycle, []), theirs.get(cycle, [])
@@ -211,14 +211,14 @@ def _change_departures(
     return tuple(changes), tuple(quiet)
 
 
-def _by_cycle(traced: Iterable[TracedChange]) -> dict[int, list[TracedChange]]:
-    grouped: dict[int, list[TracedChange]] = {}
+def _by_cycle(traced: Iterable[TracedStateChange]) -> dict[int, list[TracedStateChange]]:
+    grouped: dict[int, list[TracedStateChange]] = {}
     for line in traced:
         grouped.setdefault(line.cycle, []).append(line)
     return grouped
 
 
-def _key(traced: TracedChange) -> tuple[str, str, str]:
+def _key(traced: TracedStateChange) -> tuple[str, str, str]:
     change = traced.change
     return change.behavior, json.dumps(change.before), json.dumps(change.after)
 
@@ -228,8 +228,8 @@ def _output_departures(
 ) -> tuple[TracedOutput, ...]:
     """The output lines of departures: where a field of the trace's outputs holds another
     value than the recorded one (both as compact changes), or follows it again."""
-    mine = dict(Expectation((), tuple(whole)).outputs_by_cycle())
-    theirs = dict(Expectation((), tuple(recorded)).outputs_by_cycle())
+    mine = dict(Baseline((), tuple(whole)).outputs_by_cycle())
+    theirs = dict(Baseline((), tuple(recorded)).outputs_by_cycle())
     times = {line.cycle: line.time_ns for line in (*whole, *recorded)}
     departures = OutputDepartures()
     held: dict[str, Any] = {}

@@ -17,14 +17,14 @@ import msgspec
 
 from beatlog.errors import BaselineError
 from beatlog.log.files import replacing
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import (
+from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
-    Expectation,
-    TracedChange,
+    Baseline,
     TracedOutput,
+    TracedStateChange,
 )
+from beatlog.replay.draws import DrawRule
 from beatlog.replay.pins import StatePins
 
 __all__ = [
@@ -81,7 +81,7 @@ at zstd's default level, its speed (some 100 MB a second)."""
 
 
 def format_lines(
-    changes: Iterable[TracedChange],
+    changes: Iterable[TracedStateChange],
     outputs: Iterable[TracedOutput] | None = None,
     state_pins: StatePins | None = None,
     *,
@@ -102,7 +102,7 @@ def format_lines(
     return [line for _, _, line in keyed]
 
 
-def _change_line(traced: TracedChange) -> str:
+def _change_line(traced: TracedStateChange) -> str:
     cycle, time_ns, change = traced
     return (
         f"{_columns(cycle, time_ns)}{json.dumps(change.behavior)}: "
@@ -175,7 +175,7 @@ def write_baseline(
     spec_name: str,
     log_name: str,
     digest: str,
-    expectation: Expectation,
+    baseline: Baseline,
 ) -> None:
     """Write a baseline file atomically: readers see the old file or the new one.
     ``log_name`` and ``digest`` (:func:`~beatlog.baseline.file.log_digest`) bind it to
@@ -188,14 +188,14 @@ def write_baseline(
         HEADER,
         f"# spec {spec_name}",
         f"# log {log_name} sha256 {digest}",
-        *map(draw_line, expectation.draws),
+        *map(draw_line, baseline.draws),
         COLUMNS,
         *format_lines(
-            expectation.changes,
-            expectation.outputs or (),
-            state_pins=expectation.state_pins,
-            open_loop=expectation.open_loop,
-            quiet=expectation.quiet,
+            baseline.changes,
+            baseline.outputs or (),
+            state_pins=baseline.state_pins,
+            open_loop=baseline.open_loop,
+            quiet=baseline.quiet,
         ),
     ]
     text = ("\n".join(lines) + "\n").encode()

@@ -48,9 +48,9 @@ __all__ = [
     "CycleEntry",
     "CycleRecord",
     "Draw",
+    "LoggedStateChange",
     "SessionEnd",
     "SessionHeader",
-    "StateChangeRecord",
     "cycles_record",
     "payload_encoder",
     "samples_shape",
@@ -181,8 +181,9 @@ class SessionHeader(msgspec.Struct, kw_only=True):
         return dict(zip(self.behaviors, self.initial_states, strict=False))
 
 
-StateChangeRecord = tuple[int, Any, Any]
-"""A behavior state change as logged: (catalogue index, before, after)."""
+LoggedStateChange = tuple[int, Any, Any]
+"""A behavior state change as a cycle's record logs it: (catalogue index, before, after);
+``beatlog.StateChange`` names the behavior instead."""
 
 
 class Draw(NamedTuple):
@@ -206,7 +207,7 @@ class CycleEntry(msgspec.Struct, array_like=True):
 
     heartbeat_ns: int
     robot_state: Any
-    state_changes: Sequence[StateChangeRecord]
+    state_changes: Sequence[LoggedStateChange]
     random_numbers: Sequence[Draw]
     outputs: Mapping[str, Any]
     samples: Sequence[Any]

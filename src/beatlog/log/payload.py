@@ -23,8 +23,8 @@ from beatlog.log.format import (
     ColumnBatch,
     CycleBatch,
     CycleRecord,
+    LoggedStateChange,
     SessionHeader,
-    StateChangeRecord,
     samples_shape,
 )
 
@@ -85,7 +85,7 @@ def decode_payload(path: Path, data: bytes, kind: type[T], what: str) -> T:
         raise CorruptLogError(path, f"damaged {what}: {exc}") from None
 
 
-decode_state_changes = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
+decode_state_changes = msgspec.msgpack.Decoder(list[LoggedStateChange]).decode
 """A cycle record's state changes (its ``state_changes`` part), decoded."""
 decode_outputs = msgspec.msgpack.Decoder(dict[str, Any]).decode
 """A cycle record's outputs (its ``outputs`` part), decoded."""

@@ -10,7 +10,7 @@ import reprlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
 
-from beatlog.log.format import StateChangeRecord
+from beatlog.log.format import LoggedStateChange
 from beatlog.model.behavior import Behavior, BehaviorState, System
 from beatlog.model.clock import SimulatedHeartbeat
 from beatlog.model.context import Context
@@ -33,7 +33,8 @@ Pause = Callable[[Update, Any, Context], None]
 
 
 class StateChange(NamedTuple):
-    """A behavior's state change in one cycle (an entry of BS_t), by the behavior's name."""
+    """A behavior's state change in one cycle (an entry of BS_t), by the behavior's name
+    (a :data:`~beatlog.log.format.LoggedStateChange` names it by catalogue index)."""
 
     behavior: str
     before: Any
@@ -71,12 +72,12 @@ def read_states(behaviors: Sequence[Behavior]) -> list[BehaviorState]:
     return [behavior.state for behavior in behaviors]
 
 
-def find_changes(now: list[BehaviorState], seen: list[BehaviorState]) -> list[StateChangeRecord]:
+def find_changes(now: list[BehaviorState], seen: list[BehaviorState]) -> list[LoggedStateChange]:
     """BS_t, given the states of a catalogue read now and those seen last, in catalogue
     order: an ``(index, before, after)`` for each state not equal to the one seen, set in
     ``seen``; an equal one leaves the one seen in place (``1``, then ``True``, then ``2``
     is one change, from ``1`` to ``2``)."""
-    found: list[StateChangeRecord] = []
+    found: list[LoggedStateChange] = []
     for index, (state, last) in enumerate(zip(now, seen, strict=True)):
         if state is not last and state != last:
             found.append((index, last, state))
@@ -98,7 +99,7 @@ class CycleExecutor:
         self.context = Context(random)
         random.bind(self.context)
 
-    def step(self, interval_ns: int, state: Any) -> list[StateChangeRecord]:
+    def step(self, interval_ns: int, state: Any) -> list[LoggedStateChange]:
         """Run cycle t: advance time by HB_t, update from RS_t, return BS_t."""
         context = self.context
         context.cycle += 1

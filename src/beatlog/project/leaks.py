@@ -128,20 +128,13 @@ class _Watch:
     whether one moved inside (:attr:`numpy_moved`)."""
 
     def __init__(self) -> None:
-        self._numpy: GlobalNumpyGenerator | None = None
+        self._numpy = GlobalNumpyGenerator()
         self.generators: Sequence[PrivateGenerator] = ()
         self.numpy_moved = False
 
-    def _mark(self) -> None:
-        if self._numpy is None:
-            self._numpy = GlobalNumpyGenerator()
-        for generator in (self._numpy, *self.generators):
-            generator.moved()
-
-    def _check_moved(self) -> None:
-        assert self._numpy is not None
-        moved = [generator.moved() for generator in (self._numpy, *self.generators)]
-        self.numpy_moved = self.numpy_moved or any(moved)
+    def _moved(self) -> list[str]:
+        """The generators that moved since last asked, each marked where it stands now."""
+        return [g.name for g in (self._numpy, *self.generators) if g.moved()]
 
     def findings(self) -> list[Finding]:
         """What was caught so far, in the order first seen (a screen catches nothing:
@@ -177,7 +170,7 @@ class LeakWatch(_Watch):
 
     def __enter__(self) -> LeakWatch:
         self._boundary = sys._getframe(1)  # the frame that runs the update
-        self._mark()
+        self._moved()
         self._inside = None
         self._where = None
         self._saved = (sys.getprofile(), sys.gettrace())
@@ -192,7 +185,7 @@ class LeakWatch(_Watch):
         sys.settrace(trace)
         self._boundary = None
         if not self._lines:
-            self._check_moved()
+            self.numpy_moved |= bool(self._moved())
 
     def _profile(self, frame: FrameType, event: str, arg: Any) -> None:
         if event == "c_call":
@@ -235,10 +228,9 @@ class LeakWatch(_Watch):
         return self._trace_lines
 
     def _check_numpy(self) -> None:
-        assert self._numpy is not None
-        for generator in (self._numpy, *self.generators):
-            if generator.moved() and self._where is not None:
-                self._counts[generator.name, _site(self._where), None] += 1
+        for name in self._moved():
+            if self._where is not None:
+                self._counts[name, _site(self._where), None] += 1
 
     def _count(self, call: str, caller: FrameType) -> None:
         if self._origins.is_logging(caller.f_code):
@@ -279,13 +271,13 @@ class LeakScreen(_Watch):
         self._profiler = cProfile.Profile()
 
     def __enter__(self) -> LeakScreen:
-        self._mark()
+        self._moved()
         self._profiler.enable()
         return self
 
     def __exit__(self, *exc_info: object) -> None:
         self._profiler.disable()
-        self._check_moved()
+        self.numpy_moved |= bool(self._moved())
 
     @property
     def suspicious(self) -> bool:

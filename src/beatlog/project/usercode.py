@@ -48,22 +48,22 @@ __all__ = [
     "user_traceback",
 ]
 
-_PACKAGE_DIR = str(Path(__file__).parent.parent) + os.sep
-_IMPORTLIB_DIR = str(Path(importlib.__file__).parent)
+_NOT_USERS = (
+    str(Path(__file__).parent.parent) + os.sep,  # beatlog's own
+    str(Path(importlib.__file__).parent),  # the import machinery's
+    "<frozen importlib",
+)
 
 
-def _is_users(frame: traceback.FrameSummary) -> bool:
-    """beatlog's own frames and the import machinery's are not the user's."""
-    filename = frame.filename
-    if filename.startswith(("<frozen importlib", _IMPORTLIB_DIR)):
-        return False
-    return not filename.startswith(_PACKAGE_DIR)
+def _user_frames(exc: BaseException) -> list[traceback.FrameSummary]:
+    """The frames of ``exc``'s traceback in the user's code."""
+    frames = traceback.extract_tb(exc.__traceback__)
+    return [frame for frame in frames if not frame.filename.startswith(_NOT_USERS)]
 
 
 def user_traceback(exc: BaseException) -> str:
     """The traceback with beatlog's own frames left out, so it starts in the user's code."""
-    frames = [frame for frame in traceback.extract_tb(exc.__traceback__) if _is_users(frame)]
-    lines = ["Traceback (most recent call last):\n", *traceback.format_list(frames)]
+    lines = ["Traceback (most recent call last):\n", *traceback.format_list(_user_frames(exc))]
     lines.extend(traceback.format_exception_only(exc))
     return "".join(lines)
 
@@ -73,7 +73,7 @@ def failure_site(exc: BaseException) -> str | None:
     where a syntax error is; None when no user frame is known."""
     if isinstance(exc, SyntaxError) and exc.filename and exc.lineno:
         return f"line {exc.lineno} of {exc.filename}"
-    frames = [frame for frame in traceback.extract_tb(exc.__traceback__) if _is_users(frame)]
+    frames = _user_frames(exc)
     if not frames:
         return None
     return f"line {frames[-1].lineno} of {frames[-1].filename}"

@@ -49,7 +49,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
         const=UpdateMode.NEW.value,
         default=UpdateMode.NONE.value,
         dest="beatlog_update",
-        help="write the new expectation of each failing DTC to its pending baseline for "
+        help="write what each failing DTC now does as its pending baseline, for "
         "review (beatlog review, beatlog approve); never when CI is set",
     )
     group.addoption(

@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING
 from beatlog.log._lazy import lazy_names
 
 if TYPE_CHECKING:
+    from beatlog.replay.baseline import Baseline as Baseline
     from beatlog.replay.compare import Comparison as Comparison
-    from beatlog.replay.expectation import Expectation as Expectation
     from beatlog.replay.fit.migration import StateMigration as StateMigration
     from beatlog.replay.verdict import Checked as Checked
     from beatlog.replay.verdict import Divergence as Divergence

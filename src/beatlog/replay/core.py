@@ -23,8 +23,8 @@ from beatlog.log.format import (
     EMPTY_LIST,
     EMPTY_MAP,
     CycleRecord,
+    LoggedStateChange,
     SessionHeader,
-    StateChangeRecord,
     payload_encoder,
 )
 from beatlog.model.behavior import System
@@ -35,17 +35,17 @@ from beatlog.replay.draws import log_key
 from beatlog.replay.fit.check import check_fit
 from beatlog.replay.fit.migration import StateConverter, StateMigration
 from beatlog.replay.fit.schema import recorded_state_type
-from beatlog.replay.outcome import AGREED, CycleOutcome, Expected, Sensed, Stop, actor_name
+from beatlog.replay.outcome import AGREED, ByteCheck, CycleOutcome, Sensed, Stop, actor_name
 from beatlog.replay.pins import PinChecker
 from beatlog.replay.random import RandomMismatch, ReplayRandom
 from beatlog.replay.sensing import UNREAD, Perceiver
 from beatlog.replay.view import StateViews
 
-__all__ = ["AGREED", "CycleOutcome", "Expected", "Replayer", "Stop", "actor_name"]
+__all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Replayer", "Stop", "actor_name"]
 
 
 Observe = Callable[[Any], Any]
-Advance = Callable[[CycleRecord | None], "list[StateChangeRecord] | None"]
+Advance = Callable[[CycleRecord | None], "list[LoggedStateChange] | None"]
 
 
 class Replayer:
@@ -128,9 +128,9 @@ class Replayer:
         """What takes the place of RS_t before the behaviors see it while set (a
         variant's noise); the outcome holds what the behaviors saw."""
         self._last: tuple[
-            CycleRecord, Any, list[StateChangeRecord] | None, BaseException | None, Sensed | None
+            CycleRecord, Any, list[LoggedStateChange] | None, BaseException | None, Sensed | None
         ]
-        self._expected: Expected | None = None
+        self._check: ByteCheck | None = None
         self._agreed = (0, 0, 0)
         self.advance: Advance = self._stepper()
         """Replay the next cycle; :meth:`outcome` then tells everything about it.
@@ -138,7 +138,7 @@ class Replayer:
         It returns BS'_t, the replayed state changes, when the cycle went cleanly (the
         update completed, drew as recorded and, in sensor-level replay, ran on a robot
         state rebuilt as recorded), else None; :data:`AGREED` where it also replayed the
-        bytes expected of it (:meth:`expect`).
+        bytes expected of it (:meth:`check_bytes`).
 
         :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
             damaged or do not fit the system.
@@ -149,28 +149,28 @@ class Replayer:
         """The samples the perception step was given so far, every cycle's."""
         return 0 if self._perceiver is None else self._perceiver.samples_perceived
 
-    def expect(self, expected: Expected) -> None:
+    def check_bytes(self, check: ByteCheck) -> None:
         """Before the first cycle: compare each cycle that goes cleanly with its
         record, byte for byte, and answer :data:`AGREED` where they agree."""
-        self._expected = expected
+        self._check = check
         self.advance = self._stepper()
 
     @property
     def agreed(self) -> tuple[int, int, int]:
-        """What the cycles that agreed at once (:meth:`expect`) held: state changes,
+        """What the cycles that agreed at once (:meth:`check_bytes`) held: state changes,
         outputs and draws."""
         self.advance(None)  # the stepping loop keeps them; sent None, it hands them over
         return self._agreed
 
-    def agrees(self, record: CycleRecord, changes: list[StateChangeRecord]) -> bool:
+    def agrees(self, record: CycleRecord, changes: list[LoggedStateChange]) -> bool:
         """Whether ``changes`` and the outputs of the cycle replayed last are the bytes
-        its ``record`` expects (:meth:`expect`): the hot loop's check.
+        its ``record`` expects (:meth:`check_bytes`): the hot loop's check.
 
         :raises msgspec.EncodeError: they cannot be logged (or a ``TypeError`` or
             ``ValueError`` from an encoding hook).
         """
-        assert self._expected is not None  # only an expectation says what agrees
-        positions = self._expected.positions
+        assert self._check is not None  # only a byte check says what agrees
+        positions = self._check.positions
         outputs = self.executor.context.outputs
         return (
             record.state_changes == EMPTY_LIST
@@ -184,7 +184,7 @@ class Replayer:
         ) and (
             record.outputs == EMPTY_MAP
             if not outputs
-            else record.outputs == msgspec.Raw(self._expected.outputs.encode(outputs))
+            else record.outputs == msgspec.Raw(self._check.outputs.encode(outputs))
         )
 
     def _stepper(self) -> Advance:
@@ -233,7 +233,7 @@ class Replayer:
         return self._last[3] if sensed is None or sensed.failure is None else sensed.failure
 
     @property
-    def stepped(self) -> list[StateChangeRecord] | None:
+    def stepped(self) -> list[LoggedStateChange] | None:
         """BS'_t of the cycle replayed last where its update completed, whether or not it
         drew as recorded (:attr:`advance` answers None for a cycle that drew otherwise);
         None where it did not complete."""
@@ -246,7 +246,7 @@ class Replayer:
 
     def _stepping(  # noqa: PLR0915 - the hot loop, inlined on purpose
         self,
-    ) -> Generator[list[StateChangeRecord] | None, CycleRecord | None, NoReturn]:
+    ) -> Generator[list[LoggedStateChange] | None, CycleRecord | None, NoReturn]:
         """The one loop that steps the system through the log: sent a cycle's record, it
         replays the cycle and answers as :attr:`advance` does.
 
@@ -271,12 +271,12 @@ class Replayer:
         # A state decoded as the checking subclass becomes the system's, its fields
         # converted where a migration converts them.
         adopt = self._views.adopt if checking is not self.system.robot_state else None
-        expected = self._expected
+        check = self._check
         agrees = self.agrees
-        compares = expected is not None and not expected.judged
-        approves = None if expected is None else expected.draws
+        compares = check is not None and not check.judged
+        approves = None if check is None else check.draws
         changed = reported = drawn = 0
-        changes: list[StateChangeRecord] | None = None
+        changes: list[LoggedStateChange] | None = None
         while True:
             record = yield changes
             if record is None:  # asked what the cycles that agreed held

@@ -3,9 +3,9 @@
 The recording always lies beside its baseline, so a baseline holds only where the
 approved state changes and outputs differ from the recorded ones: a cycle's own state
 changes (none, where it is *quiet*), and an output field's approved value from a cycle
-on, until it is :data:`~beatlog.replay.expectation.AS_RECORDED` again.
+on, until it is :data:`~beatlog.replay.baseline.AS_RECORDED` again.
 :class:`DepartureCollector` finds them as a trace replays; replay applies them as it
-reads the recorded cycles (:mod:`beatlog.replay.expected`).
+reads the recorded cycles (:mod:`beatlog.replay.baseline_records`).
 """
 
 from __future__ import annotations
@@ -16,14 +16,14 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
-from beatlog.replay.core import actor_name
-from beatlog.replay.expectation import (
+from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
-    Expectation,
-    TracedChange,
+    Baseline,
     TracedOutput,
+    TracedStateChange,
 )
+from beatlog.replay.core import actor_name
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["DepartureCollector", "OutputDepartures", "apply_outputs", "hold"]
@@ -32,7 +32,7 @@ __all__ = ["DepartureCollector", "OutputDepartures", "apply_outputs", "hold"]
 class OutputDepartures:
     """Turns each cycle's outputs, recorded and replayed, into the output lines of
     departures: a line wherever a field's held value no longer gives the one replayed
-    (bit for bit, as :class:`~beatlog.replay.expectation.OutputTracker` compares)."""
+    (bit for bit, as :class:`~beatlog.replay.baseline.OutputTracker` compares)."""
 
     def __init__(self) -> None:
         self._sorted = msgspec.msgpack.Encoder(enc_hook=payload_encoder().enc_hook, order="sorted")
@@ -82,7 +82,7 @@ def hold(held: dict[str, Any], lines: Iterable[TracedOutput]) -> None:
 
 def apply_outputs(recorded: dict[str, Any], held: Mapping[str, Any]) -> dict[str, Any]:
     """A cycle's recorded outputs with the held values of departing fields in place
-    (:data:`~beatlog.replay.expectation.ABSENT` ones removed); ``recorded`` is changed."""
+    (:data:`~beatlog.replay.baseline.ABSENT` ones removed); ``recorded`` is changed."""
     for name, value in held.items():
         if value is ABSENT:
             recorded.pop(name, None)
@@ -100,7 +100,7 @@ class DepartureCollector:
         self._names = names
         self._recorded_names = recorded_names
         self._encode = payload_encoder().encode
-        self._changes: list[TracedChange] = []
+        self._changes: list[TracedStateChange] = []
         self._quiet: list[tuple[int, int]] = []
         self._outputs: list[TracedOutput] = []
         self._output_departures = OutputDepartures()
@@ -121,7 +121,7 @@ class DepartureCollector:
             departed = True
             names = self._names
             self._changes.extend(
-                TracedChange(cycle, time_ns, StateChange(names[i], before, after))
+                TracedStateChange(cycle, time_ns, StateChange(names[i], before, after))
                 for i, before, after in changes
             )
             if not changes:
@@ -150,10 +150,10 @@ class DepartureCollector:
         }
         return was != {(names[i], encode(b), encode(a)) for i, b, a in changes}
 
-    def departures(self) -> Expectation:
+    def departures(self) -> Baseline:
         """The departures gathered so far, as a baseline holds them (no robot states
         pinned, no draws approved: those are gathered apart)."""
-        return Expectation(
+        return Baseline(
             tuple(self._changes),
             tuple(self._outputs),
             open_loop=self._first,

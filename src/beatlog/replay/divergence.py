@@ -14,15 +14,15 @@ from typing import Any
 
 import msgspec
 
-from beatlog.log.format import CycleRecord, StateChangeRecord, payload_encoder
+from beatlog.log.format import CycleRecord, LoggedStateChange, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.model.perception import PerceptionTypeError
 from beatlog.project.usercode import user_traceback
+from beatlog.replay.baseline import BaselineStream
+from beatlog.replay.baseline_records import BaselineRecords
 from beatlog.replay.compare import Comparison, state_fields
-from beatlog.replay.core import CycleOutcome, Expected, Replayer
+from beatlog.replay.core import ByteCheck, CycleOutcome, Replayer
 from beatlog.replay.draws import DrawLedger, Unapproved
-from beatlog.replay.expectation import ExpectedStream
-from beatlog.replay.expected import ExpectedRecords
 from beatlog.replay.outcome import draw_reports
 from beatlog.replay.pins import rebuilt_otherwise
 from beatlog.replay.recorded_states import recorded_changes
@@ -39,7 +39,7 @@ __all__ = ["DivergenceWriter", "Follower", "propose_renames"]
 
 class DivergenceWriter:
     """What is expected of the cycles of ``replayer``'s replay (the recording, or the
-    ``expected`` baseline: its state changes and outputs, the draws it approves, the
+    approved ``baseline``: its state changes and outputs, the draws it approves, the
     robot states it pins), and the write-up of the first that differs, with up to
     ``context`` cycles either side; a cycle before ``start`` is before the window."""
 
@@ -47,7 +47,7 @@ class DivergenceWriter:
         self,
         replayer: Replayer,
         comparison: Comparison,
-        expected: ExpectedStream | None,
+        baseline: BaselineStream | None,
         *,
         start: int,
         context: int,
@@ -56,28 +56,28 @@ class DivergenceWriter:
         self._start, self._context = start, context
         behaviors = replayer.header.behaviors
         self._pins = replayer.state_pins if replayer.perception is not None else None
-        self._ledger = None if expected is None else DrawLedger(expected.draws)
+        self._ledger = None if baseline is None else DrawLedger(baseline.draws)
         self.records = None
         """The recorded cycles as the baseline expects them (None: as recorded)."""
-        if expected is not None:
-            self.records = ExpectedRecords(expected, behaviors, comparison.rename, self._pins)
+        if baseline is not None:
+            self.records = BaselineRecords(baseline, behaviors, comparison.rename, self._pins)
         self.names = list(behaviors) if self.records is None else self.records.names
         """The catalogue of behaviors the expected state changes name."""
-        departs = expected is not None and expected.departs
+        departs = baseline is not None and baseline.departs
         self._against = "the approved baseline" if departs else "the recording"
         self._encoder = payload_encoder()
         self._batches: deque[Sequence[CycleRecord]] = deque(maxlen=context + 1)
         """The last batches: they hold the cycles before a divergence (none is empty)."""
         self._before: list[ContextRow] = []
 
-    def expect(self, *, judged: bool) -> None:
+    def check_bytes(self, *, judged: bool) -> None:
         """Have the replay core compare each cycle with the bytes expected of it
-        (:class:`~beatlog.replay.core.Expected`; ``judged``: none agrees at once)."""
+        (:class:`~beatlog.replay.core.ByteCheck`; ``judged``: none agrees at once)."""
         names, at = self.replayer.executor.behavior_ids, dict[str, int]()
         for position, name in enumerate(self.names):
             at.setdefault(self.comparison.rename(name), position)
-        self.replayer.expect(
-            Expected(
+        self.replayer.check_bytes(
+            ByteCheck(
                 None if names == self.names else [at.get(name, -1) for name in names],
                 self._encoder,
                 judged,
@@ -99,7 +99,7 @@ class DivergenceWriter:
         recorded = recorded_changes(replayer.path, raw_changes, cycle, len(names))
         return [renamed(StateChange(names[i], before, after)) for i, before, after in recorded]
 
-    def _actual(self, changes: list[StateChangeRecord]) -> list[StateChange]:
+    def _actual(self, changes: list[LoggedStateChange]) -> list[StateChange]:
         """State changes the behaviors made, by name."""
         names = self.replayer.executor.behavior_ids
         return [StateChange(names[i], before, after) for i, before, after in changes]
@@ -110,7 +110,7 @@ class DivergenceWriter:
         cycle = replayer.executor.context.cycle
         return decode_part(replayer.path, raw_outputs, decode_outputs, "outputs", cycle)
 
-    def agrees(self, record: CycleRecord, changes: list[StateChangeRecord]) -> bool:
+    def agrees(self, record: CycleRecord, changes: list[LoggedStateChange]) -> bool:
         """Whether the state changes and outputs of the cycle replayed last match its
         ``record`` by the comparison (state changes as a set, allowances applied).
 

@@ -18,8 +18,8 @@ import msgspec
 from beatlog.errors import CorruptLogError
 from beatlog.log.format import DECODE_ERRORS, EMPTY_MAP, CycleRecord, payload_encoder
 from beatlog.log.payload import decode_outputs
+from beatlog.replay.baseline import ABSENT, TracedOutput
 from beatlog.replay.departures import hold
-from beatlog.replay.expectation import ABSENT, TracedOutput
 
 __all__ = ["HeldOutputs"]
 

@@ -11,7 +11,7 @@ from operator import attrgetter
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from beatlog.log.format import CycleRecord, Draw, StateChangeRecord
+from beatlog.log.format import CycleRecord, Draw, LoggedStateChange
 from beatlog.model.behavior import System
 from beatlog.model.invariant import Cycle, Invariant
 from beatlog.project.usercode import load_invariant, user_traceback
@@ -126,7 +126,7 @@ class InvariantChecker:
         time_ns: int,
         dt_ns: int,
         state: Any,
-        changes: Sequence[StateChangeRecord],
+        changes: Sequence[LoggedStateChange],
         outputs: dict[str, Any],
         draws: Sequence[Draw],
     ) -> Cycle:

@@ -17,7 +17,7 @@ from pathlib import Path
 import msgspec
 
 from beatlog.errors import EmptyCheckError
-from beatlog.log.format import CycleRecord, StateChangeRecord
+from beatlog.log.format import CycleRecord, LoggedStateChange
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
@@ -25,10 +25,10 @@ from beatlog.model.invariant import Invariant
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
 from beatlog.project.usercode import load_perception, load_system
+from beatlog.replay.baseline import Baseline, BaselineStream
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.divergence import DivergenceWriter, Follower
-from beatlog.replay.expectation import Expectation, ExpectedStream
 from beatlog.replay.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.invariants import InvariantChecker
@@ -63,7 +63,7 @@ def replay(
     allow_empty: bool = False,
     context_cycles: int = 5,
     comparison: Comparison | None = None,
-    expected: Expectation | ExpectedStream | None = None,
+    baseline: Baseline | BaselineStream | None = None,
     explain: bool = True,
     perception: Perception | str | None = None,
     break_at: int | None = None,
@@ -89,13 +89,13 @@ def replay(
     (:class:`~beatlog.replay.verdict.Checked`) is no pass unless ``allow_empty``.
 
     ``comparison`` says what counts as the same (renames, ignored behaviors and output
-    fields, tolerances; exact by default). ``expected`` is an approved baseline to judge
+    fields, tolerances; exact by default). ``baseline`` is an approved baseline to judge
     against instead of the recording (read alongside the log when it is an
-    :class:`~beatlog.replay.expectation.ExpectedStream`): its state changes, outputs,
+    :class:`~beatlog.replay.baseline.BaselineStream`): its state changes, outputs,
     approved draws and pinned robot states. Given a ``module:factory`` reference and
     ``explain``, the divergence names the robot-state fields the behaviors read in its
     cycle (one more replay, of a fresh system). The result's reproduce command replays
-    with these options but ``comparison`` and ``expected``, which a spec carries.
+    with these options but ``comparison`` and ``baseline``, which a spec carries.
 
     ``perception`` (a perception step, or a ``module:factory`` that builds one) turns on
     sensor-level replay when the log holds samples: RS_t is rebuilt from each cycle's
@@ -139,8 +139,8 @@ def replay(
         perception = load_perception(perception)
     comparison = comparison or Comparison()
     migration = migration or StateMigration()
-    if isinstance(expected, Expectation):
-        expected = expected.stream()
+    if isinstance(baseline, Baseline):
+        baseline = baseline.stream()
     window = Window(start_cycle, end_cycle, fresh=fresh_start)
     named = [invariant for invariant in invariants if isinstance(invariant, str)]
     started = time.perf_counter()  # the replay's wall time counts opening and checking the log
@@ -167,9 +167,9 @@ def replay(
             perception=perception,
             break_at=break_at,
             migration=migration,
-            living=expected is not None,
+            living=baseline is not None,
             rename=comparison.rename,
-            state_pins=None if expected is None else PinChecker(pinned=expected.pinned),
+            state_pins=None if baseline is None else PinChecker(pinned=baseline.pinned),
             fresh_from=window.fresh_from,
         )
     except SetupDrawError as diverged:  # no cycle replayed
@@ -191,7 +191,7 @@ def replay(
         judge = CycleJudge(
             replayer,
             comparison=comparison,
-            expected=expected,
+            baseline=baseline,
             window=window,
             invariants=checker,
             keep_going=keep_going,
@@ -239,7 +239,7 @@ def replay(
 class CycleJudge:
     """The verdict as a replay session's :class:`~beatlog.replay.session.Judge`: judges
     the cycles that do not agree at once (:meth:`judge`, the hot path) against the
-    recording or the ``expected`` baseline, and the ``invariants`` in every cycle (none
+    recording or the approved ``baseline``, and the ``invariants`` in every cycle (none
     then agrees at once), writes up the first divergence and counts those that diverge.
     """
 
@@ -248,7 +248,7 @@ class CycleJudge:
         replayer: Replayer,
         *,
         comparison: Comparison,
-        expected: ExpectedStream | None,
+        baseline: BaselineStream | None,
         window: Window,
         invariants: InvariantChecker | None,
         keep_going: bool,
@@ -261,7 +261,7 @@ class CycleJudge:
         self.replayer, self.window = replayer, window
         self._invariants, self._keep_going = invariants, keep_going
         self._writer = DivergenceWriter(
-            replayer, comparison, expected, start=window.start, context=context
+            replayer, comparison, baseline, start=window.start, context=context
         )
         self.divergence: Divergence | None = None
         self.divergent_cycles = 0
@@ -273,7 +273,7 @@ class CycleJudge:
         agreed at once the replay core counts), and samples of those that diverged."""
         self.cycles = self.robot_time_ns = 0  # judged, known at the end, as is checked
         self.checked = Checked()
-        self._writer.expect(judged=invariants is not None)
+        self._writer.check_bytes(judged=invariants is not None)
 
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches, with an approved baseline's state changes and outputs in
@@ -290,7 +290,7 @@ class CycleJudge:
         self,
         index: int,
         record: CycleRecord,
-        changes: list[StateChangeRecord] | None,
+        changes: list[LoggedStateChange] | None,
         outcome: CycleOutcome | None,
     ) -> Follower | None:
         """Judge a cycle that did not agree at once, the ``index``-th of its batch: it

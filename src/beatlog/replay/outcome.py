@@ -9,7 +9,7 @@ from typing import Any, NamedTuple
 
 import msgspec
 
-from beatlog.log.format import CycleRecord, StateChangeRecord
+from beatlog.log.format import CycleRecord, LoggedStateChange
 from beatlog.model.context import Outputs
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import perception_problem
@@ -17,15 +17,15 @@ from beatlog.model.random import Draw, plain_value
 from beatlog.replay.random import DrawDifference, RandomMismatch
 from beatlog.replay.verdict import DivergenceKind, DrawReport
 
-__all__ = ["AGREED", "CycleOutcome", "Expected", "Sensed", "Stop", "actor_name", "draw_reports"]
+__all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Sensed", "Stop", "actor_name", "draw_reports"]
 
 
-AGREED: list[StateChangeRecord] = []
+AGREED: list[LoggedStateChange] = []
 """What :attr:`~beatlog.replay.core.Replayer.advance` answers for a cycle that replayed
-the bytes expected of it (:class:`Expected`): the one object, never another list."""
+the bytes expected of it (:class:`ByteCheck`): the one object, never another list."""
 
 
-class Expected(NamedTuple):
+class ByteCheck(NamedTuple):
     """What a cycle must replay, byte for byte, to agree with its record at once: the
     verdict's hot path, in the replay core."""
 
@@ -54,7 +54,7 @@ class CycleOutcome(NamedTuple):
     decoded where the reader decoded it with the batch)."""
     state: Any
     """RS_t as the behaviors saw it."""
-    changes: list[StateChangeRecord] | None
+    changes: list[LoggedStateChange] | None
     """BS'_t, the replayed state changes; None when the update did not complete."""
     outputs: Outputs
     """The replayed outputs (as far as the update got)."""

@@ -12,7 +12,7 @@ from typing import Any
 import msgspec
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord
+from beatlog.log.format import EMPTY_LIST, CycleRecord, LoggedStateChange
 from beatlog.log.payload import decode_part, decode_state_changes
 
 __all__ = ["RecordedStates", "recorded_changes"]
@@ -20,7 +20,7 @@ __all__ = ["RecordedStates", "recorded_changes"]
 
 def recorded_changes(
     path: Path, raw: msgspec.Raw, cycle: int, catalogue: int
-) -> list[StateChangeRecord]:
+) -> list[LoggedStateChange]:
     """The state changes recorded in ``cycle``, decoded.
 
     :raises beatlog.errors.CorruptLogError: they are damaged, or one names a behavior

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Protocol, TypedDict, Unpack
 
 from beatlog.log.files import Closing
-from beatlog.log.format import CycleRecord, StateChangeRecord
+from beatlog.log.format import CycleRecord, LoggedStateChange
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
@@ -77,7 +77,7 @@ class Judge(Protocol):
         self,
         index: int,
         record: CycleRecord,
-        changes: list[StateChangeRecord] | None,
+        changes: list[LoggedStateChange] | None,
         outcome: CycleOutcome | None,
     ) -> Observer | None:
         """Judge the cycle replayed last, the ``index``-th of its batch, which did not
@@ -295,7 +295,7 @@ class ReplaySession(Closing):
 
     def _standing_in(
         self, record: CycleRecord, tracker: ReadTracker
-    ) -> list[StateChangeRecord] | None:
+    ) -> list[LoggedStateChange] | None:
         """Replay the next cycle with ``tracker`` standing in for its robot state."""
         assert self.replayer is not None  # only a replay has a robot state to stand in for
         self.replayer.observe = tracker.stand_in

@@ -24,7 +24,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
-from beatlog.log.format import CycleRecord, StateChangeRecord
+from beatlog.log.format import CycleRecord, LoggedStateChange
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
@@ -105,7 +105,7 @@ class _VariantJudge:
         self,
         index: int,
         record: CycleRecord,
-        changes: list[StateChangeRecord] | None,
+        changes: list[LoggedStateChange] | None,
         outcome: CycleOutcome | None,
     ) -> Observer | None:
         """Judge the cycle replayed last: its behaviors raised, or an invariant does not

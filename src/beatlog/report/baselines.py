@@ -1,5 +1,5 @@
 """The re-baselining workflow for people: what an update did, orphaned baselines, and a
-pending expectation as a coloured diff. Lines only; the CLI and the pytest plugin show them."""
+pending baseline as a coloured diff. Lines only; the CLI and the pytest plugin show them."""
 
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ _SHOWN_CYCLES = 10
 def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
     """One line per pending file written, refused or removed, saying how to go on, and
     under a pending file a line per loss; one line for all the failures whose
-    expectation ``CI`` withheld."""
+    new baseline ``CI`` withheld."""
     lines: list[Text] = []
     if any(update.action is UpdateAction.WITHHELD for update in updates):
         lines.append(Text("CI is set: no pending baselines written", style="yellow"))
@@ -212,7 +212,7 @@ def _run_line(run: RebuiltRun) -> Text:
 
 
 def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> RenderableType:
-    """The pending expectation against today's, at most ``max_lines`` lines of diff."""
+    """The pending baseline against today's, at most ``max_lines`` lines of diff."""
     spec = diff.spec
     # open loop since cycle 291 (8.760 s): closed loop for 291 of 1164 cycles (25 %)
     loop = Text(closed_loop_text(diff.shift))

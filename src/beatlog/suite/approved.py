@@ -15,7 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
+from beatlog.baseline.file import BaselineFile, expected_path, log_digest, read_baseline
 from beatlog.errors import BaselineError
 from beatlog.model.behavior import System
 from beatlog.model.setup import SystemFactory
@@ -30,7 +30,7 @@ class Approved(NamedTuple):
     """A log's approved baseline and the spec it belongs to."""
 
     spec: DtcSpec
-    baseline: Baseline
+    baseline: BaselineFile
 
     @property
     def note(self) -> str:
@@ -41,7 +41,7 @@ class Approved(NamedTuple):
         )
 
 
-def approved_for(baseline: Baseline, log: Path, digest: str | None = None) -> Baseline:
+def approved_for(baseline: BaselineFile, log: Path, digest: str | None = None) -> BaselineFile:
     """``baseline``, checked to be made from the recording ``log`` (whose SHA-256 is
     ``digest`` where it was taken as the log was read, else taken from the file).
 
@@ -117,11 +117,11 @@ def replay(
 ) -> ReplayResult:
     """Replay ``log`` as :func:`beatlog.replay.judge.replay` does, judged against the
     approved baseline of the spec beside it that names it, with its comparison, unless
-    ``expected`` or ``comparison`` is given or ``approved`` is False; the notes say so.
+    ``baseline`` or ``comparison`` is given or ``approved`` is False; the notes say so.
     """
     found = (
         approved_baseline(log, system)
-        if approved and options.get("expected") is None and options.get("comparison") is None
+        if approved and options.get("baseline") is None and options.get("comparison") is None
         else None
     )
     if found is None:
@@ -132,7 +132,7 @@ def replay(
     result = judge(
         log,
         system,
-        expected=found.baseline.stream,
+        baseline=found.baseline.stream,
         comparison=found.spec.comparison,
         **options,
     )

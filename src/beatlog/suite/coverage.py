@@ -30,7 +30,7 @@ from beatlog.log.limits import MAX_BEHAVIORS, MAX_NAME_LENGTH, MAX_TEXT_LENGTH
 from beatlog.model.behavior import System
 from beatlog.project.config import vouched_system
 from beatlog.project.usercode import load_system
-from beatlog.replay.expectation import TracedChange
+from beatlog.replay.baseline import TracedStateChange
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec
 
 __all__ = [
@@ -67,7 +67,7 @@ def _dtcs(
     unreadable: set[Path],
     systems: bool = True,
     recorded: Mapping[str, RecordedChanges],
-) -> Iterator[tuple[str, str, list[TracedChange], int, System | None]]:
+) -> Iterator[tuple[str, str, list[TracedStateChange], int, System | None]]:
     """Each readable spec's id and system, the state changes its log recorded and its
     cycles, and a fresh system when ``systems`` (None where none can be built); the
     paths of the specs whose log cannot be read go to ``unreadable``."""

@@ -1,7 +1,7 @@
 """The re-baselining workflow: update, review, approve, and the orphans left behind.
 
 A run in :attr:`UpdateMode.NEW <beatlog.baseline.policy.UpdateMode.NEW>` writes each
-failing DTC's new expectation to its pending file (:func:`update_baselines`); a
+failing DTC's new baseline to its pending file (:func:`update_baselines`); a
 reviewer reads it as a diff (:func:`pending_diff`) and decides (:func:`decide`), or
 accepts everything pending at once (:func:`approve`). An accepted baseline is never
 overwritten by a failure, a pending file must come from the recording the spec names,
@@ -35,8 +35,8 @@ from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError, OptionError
 from beatlog.log.recording import LogSource
+from beatlog.replay.baseline import Baseline
 from beatlog.replay.draws import DrawRule
-from beatlog.replay.expectation import Expectation
 from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import FieldDifference
 from beatlog.suite.discovery import discover_specs
@@ -64,9 +64,9 @@ class UpdateAction(StrEnum):
     """What updating did with one DTC's pending baseline."""
 
     WRITTEN = "written"
-    """The failure's new expectation went to its pending file."""
+    """The failure's new baseline went to its pending file."""
     WITHHELD = "withheld"
-    """The failure has a new expectation, but ``CI`` is set: nothing was written."""
+    """The failure has a new baseline, but ``CI`` is set: nothing was written."""
     REFUSED = "refused"
     """The divergence cannot be re-baselined (the session must be re-recorded)."""
     REMOVED = "removed"
@@ -82,16 +82,16 @@ class PendingUpdate:
     path: Path
     """The pending file."""
     shift: Shift | None = None
-    """What the expectation written (or withheld) loses and gains against today's."""
+    """What the baseline written (or withheld) loses and gains against today's."""
     output_changes: int = 0
-    """Output changes in the expectation written (or withheld)."""
+    """Output changes in the baseline written (or withheld)."""
     reason: str | None = None
     """Why the update was refused."""
     robot_state_cycles: int = 0
-    """Cycles whose robot state the expectation pins (perception rebuilt it otherwise
+    """Cycles whose robot state the baseline pins (perception rebuilt it otherwise
     than recorded)."""
     draws: tuple[DrawRule, ...] = ()
-    """The draws the expectation lets replay make otherwise than recorded."""
+    """The draws the baseline lets replay make otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
     """Where the behaviors leave the recording (cycle, robot time in ns), if they do."""
 
@@ -116,7 +116,7 @@ def update_baselines(
 ) -> list[PendingUpdate]:
     """Apply an update mode to a suite's outcomes; what was done, in outcome order.
 
-    In :attr:`UpdateMode.NEW` every failure that carries a new expectation gets it
+    In :attr:`UpdateMode.NEW` every failure that carries a new baseline gets it
     written to its pending file, and a passing DTC's stale pending file is removed;
     accepted baselines are never touched, and fleet logs and variants have none. When
     ``CI`` is set nothing is written: each such failure is :attr:`UpdateAction.WITHHELD`.
@@ -144,7 +144,7 @@ def update_baselines(
                     spec_name=spec.name,
                     log_name=spec.log_url or spec.log.name,
                     digest=outcome.log_digest or log_digest(spec.log),
-                    expectation=update,
+                    baseline=update,
                 )
             done.append(
                 PendingUpdate(
@@ -174,7 +174,7 @@ class Decision(StrEnum):
     """A reviewer's answer about one pending baseline."""
 
     ACCEPT = "accept"
-    """The pending expectation becomes the approved baseline."""
+    """The pending baseline becomes the approved baseline."""
     REJECT = "reject"
     """The pending file is deleted; the approved baseline, if any, stays."""
     SKIP = "skip"
@@ -248,7 +248,7 @@ class RebuiltRun(NamedTuple):
 
 @dataclass(frozen=True)
 class PendingDiff:
-    """A pending expectation as a unified diff against today's: approved, else recorded."""
+    """A pending baseline as a unified diff against today's: approved, else recorded."""
 
     spec: DtcSpec
     source: str
@@ -260,7 +260,7 @@ class PendingDiff:
     lines: tuple[str, ...]
     """The diff: changed cycles with a line of context either side."""
     shift: Shift
-    """What the pending baseline loses and gains against today's expectation."""
+    """What the pending baseline loses and gains against today's baseline."""
     rebuilt_runs: tuple[RebuiltRun, ...] = ()
     """The runs of cycles in which perception now rebuilds the robot state otherwise."""
     draws: tuple[DrawRule, ...] = ()
@@ -275,7 +275,7 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
     them; with the robot states perception now rebuilds otherwise, run by run, and what
     the pending baseline loses and gains."""
     expected = expected_path(spec.path)
-    pending = read_baseline(pending_path(spec.path)).expectation
+    pending = read_baseline(pending_path(spec.path)).whole
     with spec.readable_log() as log:
         today, whole, weighed = _weigh(spec, log, pending)
         source = (
@@ -299,12 +299,12 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
 
 
 def _weigh(
-    spec: DtcSpec, log: LogSource, pending: Expectation
+    spec: DtcSpec, log: LogSource, pending: Baseline
 ) -> tuple[WholeTrace, WholeTrace, Shift]:
-    """Today's expectation of ``spec`` (approved, else recorded) and ``pending``, both
+    """Today's baseline of ``spec`` (approved, else recorded) and ``pending``, both
     as whole traces, and what ``pending`` loses and gains against today's."""
     expected = expected_path(spec.path)
-    approved = read_baseline(expected).expectation if expected.exists() else None
+    approved = read_baseline(expected).whole if expected.exists() else None
     today = whole_trace(approved, log, spec.comparison.rename)
     whole = whole_trace(pending, log, spec.comparison.rename)
     weighed = shift(

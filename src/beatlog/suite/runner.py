@@ -17,13 +17,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.analysis.recorded import RecordedChanges
-from beatlog.baseline.file import Baseline, expected_path, log_digest, read_baseline
+from beatlog.baseline.file import BaselineFile, expected_path, log_digest, read_baseline
 from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
 from beatlog.errors import BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception, load_system
+from beatlog.replay.baseline import Baseline
 from beatlog.replay.debugger import break_on_divergence, unreached_break
-from beatlog.replay.expectation import Expectation
 from beatlog.replay.judge import replay
 from beatlog.replay.random import ReplayRandom
 from beatlog.replay.setup import built_for_replay, recorded_system
@@ -64,8 +64,8 @@ class SpecOutcome:
     wall_time_s: float
     baseline: Path | None = None
     """The approved baseline judged against, when there is one."""
-    update: Expectation | None = None
-    """The new expectation, when run in :attr:`UpdateMode.NEW` and the DTC failed."""
+    update: Baseline | None = None
+    """The new baseline, when run in :attr:`UpdateMode.NEW` and the DTC failed."""
     update_refused: str | None = None
     """Why a failed DTC cannot be re-baselined (it needs a new recording)."""
     audit: AuditReport | None = None
@@ -118,7 +118,7 @@ def run_spec(
 ) -> SpecOutcome:
     """Replay one spec's log against its system, judged against its approved baseline
     if it has one; its outcome, whose wall time is the replay's alone. ``options`` may
-    ask for a failure's new expectation, an audit (in ``auditors``' interpreters),
+    ask for a failure's new baseline, an audit (in ``auditors``' interpreters),
     timelines and break points. The log is read once: the verdict's replay takes its
     digest and keeps its bytes, from which a failure's details and a repeat replay come
     (:func:`repeat_note`); a log too large to keep is read again for the details, and
@@ -154,7 +154,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
     try:
         own = spec.source is None and spec.variant is None  # fleet logs and variants: none
         approved = read_baseline(baseline) if own and baseline.exists() else None
-        expected = None if approved is None else approved.stream
+        stream = None if approved is None else approved.stream
         system = spec.system or recorded_system(spec.log, project=spec.path.parent)
         if spec.variant is not None:  # no baseline; judged by not raising, and no more
             result = replay_variant_of(spec, system)
@@ -166,7 +166,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             allow_truncated=spec.allow_truncated,
             allow_empty=spec.allow_empty,
             comparison=spec.comparison,
-            expected=expected,
+            baseline=stream,
             explain=False,
             perception=spec.perception,
             migration=spec.migration,
@@ -218,7 +218,7 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
             if details.trace.stopped is not None:
                 refused = f"replay cannot go on past {details.trace.stopped}: re-record the session"
             else:
-                changes = details.trace.expectation
+                changes = details.trace.baseline
                 digest = log.digest or log_digest(spec.log)
         report = _audited(spec, system, auditors) if options.audit else None
         drawn: tuple[Timeline, ...] = ()
@@ -239,13 +239,13 @@ def _run_spec(spec: DtcSpec, options: SpecOptions, auditors: Auditors | None) ->
         result,
         None,
         wall,
-        baseline=baseline if expected is not None else None,
+        baseline=baseline if stream is not None else None,
         update=changes,
         update_refused=refused,
         audit=report,
         timelines=drawn,
         log_digest=digest,
-        open_loop=None if expected is None else expected.open_loop,
+        open_loop=None if stream is None else stream.open_loop,
         recorded=recorded[0] if recorded else None,
         recording=None if changes is None or log.data is None else log,
     )
@@ -289,14 +289,14 @@ def _rerun(spec: DtcSpec, *options: str) -> str:
 
 
 def _charting(
-    system: str, approved: Baseline | None, charts: list[TimelineCollector]
+    system: str, approved: BaselineFile | None, charts: list[TimelineCollector]
 ) -> Callable[[SessionLogReader], TimelineCollector]:
     """What builds a timeline collector of the verdict's replay (kept in ``charts``),
     against the ``approved`` baseline: its lanes start from the states of a system
     built as the replayed one is, set-up draws and all."""
     from beatlog.analysis.timeline import TimelineCollector  # noqa: PLC0415 - when charting
 
-    override = None if approved is None else approved.expectation.changes_override()
+    override = None if approved is None else approved.whole.changes_override()
     factory = functools.partial(load_system, system)
 
     def chart(reader: SessionLogReader) -> TimelineCollector:
@@ -318,7 +318,7 @@ def _details(
     log: Recording,
     system: str,
     divergence: Divergence | None,
-    approved: Baseline | None,
+    approved: BaselineFile | None,
     *,
     trace: bool,
     options: SpecOptions,
@@ -336,9 +336,7 @@ def _details(
         trace=trace,
         timelines=options.timelines,
         expected=(  # read whole for the timelines alone
-            None
-            if approved is None or not options.timelines
-            else approved.expectation.changes_override()
+            None if approved is None or not options.timelines else approved.whole.changes_override()
         ),
         perception=None if spec.perception is None else load_perception(spec.perception),
         living=trace or approved is not None,

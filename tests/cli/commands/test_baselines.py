@@ -44,14 +44,14 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
         f"accept with beatlog approve {spec}"
     ) in whole_lines(updated.out)
     assert not expected_path(spec).exists()
-    pending = read_baseline(pending_path(spec)).expectation  # read before approve moves it
+    pending = read_baseline(pending_path(spec)).whole  # read before approve moves it
     assert any(change.cycle == FIRST_CHANGED_CYCLE for change in pending.changes)
 
     approved = beatlog("approve", spec)
     assert approved.code == 0
     assert f"approved avoid-pole: {expected_path(spec)}" in whole_lines(approved.out)
     assert not pending_path(spec).exists()
-    assert read_baseline(expected_path(spec)).expectation.changes == pending.changes
+    assert read_baseline(expected_path(spec)).whole.changes == pending.changes
 
     rerun = beatlog("test", spec)
     assert rerun.code == 0, rerun.out
@@ -187,7 +187,7 @@ def test_review_accepts_or_rejects_what_the_reviewer_says(
 
     counts = review([spec.parent], Console(width=200), ask=ask)
 
-    assert questions == ["accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip"]
+    assert questions == ["accept the new baseline of avoid-pole? [a]ccept/[r]eject/[s]kip"]
     assert counts == ((1, 0, 0) if accepted else (0, 1, 0))
     assert not pending_path(spec).exists()
     assert expected_path(spec).exists() is accepted
@@ -341,9 +341,7 @@ def test_review_at_a_terminal_asks_again_until_an_answer_names_a_decision(
         rest = terminal.type("A", until="accepted")
         code = terminal.program.wait(timeout=60)
 
-    assert "accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip:" in whole_lines(
-        first
-    )
+    assert "accept the new baseline of avoid-pole? [a]ccept/[r]eject/[s]kip:" in whole_lines(first)
     assert "maybe" in whole_lines(again)
     assert f"accepted {expected_path(spec)}" in whole_lines(rest)
     assert code == 0
@@ -400,7 +398,7 @@ def test_review_asks_about_each_loss_in_its_own_words_and_shows_piped_answers(
     lines = whole_lines(run.out)
     assert [f"lost: {ARBITER_LOST}", f"lost: {NEAR_LOST}"] == lines[3:5]
     last = "y" if accepted else ""
-    asked = lines.index("accept the new expectation of avoid-pole? [a]ccept/[r]eject/[s]kip: a")
+    asked = lines.index("accept the new baseline of avoid-pole? [a]ccept/[r]eject/[s]kip: a")
     assert lines[asked + 1 : asked + 4] == [
         f"{ARBITER_LOST}: accept this loss? [y/N]: y",
         f"{NEAR_LOST}: accept this loss? [y/N]: {last}".rstrip(),
@@ -480,7 +478,7 @@ def test_each_older_baseline_is_named_as_it_is_upgraded(beatlog: Beatlog, tmp_pa
         "",
     )
     assert (again.code, again.out) == (0, "no baseline of an older format\n")
-    assert read_baseline(first).expectation.quiet == ((15, 450_000_000),)
+    assert read_baseline(first).whole.quiet == ((15, 450_000_000),)
 
 
 def test_a_damaged_baseline_is_one_line_and_exit_2(beatlog: Beatlog, tmp_path: Path) -> None:

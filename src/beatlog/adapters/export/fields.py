@@ -41,6 +41,9 @@ __all__ = [
 ]
 
 
+_JSON = msgspec.json.Encoder()
+
+
 def _jsonable(value: Any) -> Any:
     """``value`` with NaN and ±inf as strings and map keys as strings; JSON encodes the
     rest (bytes as base64)."""
@@ -50,15 +53,12 @@ def _jsonable(value: Any) -> Any:
         return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
     if isinstance(value, dict):
         return {
-            key if isinstance(key, str) else json.dumps(_jsonable(key)): _jsonable(item)
+            key if isinstance(key, str) else _JSON.encode(_jsonable(key)).decode(): _jsonable(item)
             for key, item in value.items()
         }
     if isinstance(value, list | tuple):
         return [_jsonable(item) for item in value]
     return value
-
-
-_JSON = msgspec.json.Encoder()
 
 
 def json_text(value: Any, log: Path, where: str) -> bytes:

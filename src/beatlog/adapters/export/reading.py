@@ -26,7 +26,7 @@ from beatlog.adapters.export.fields import (
     with_number_texts,
 )
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import DECODE_ERRORS, Draw, SessionHeader, StateChangeRecord
+from beatlog.log.format import DECODE_ERRORS, Draw, LoggedStateChange, SessionHeader
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState
 from beatlog.model.inbox import Sample
@@ -90,11 +90,13 @@ class Session(NamedTuple):
 
 
 def decoded_cycles(reader: SessionLogReader) -> Iterator[Cycle]:
+    """The log's cycles, decoded; a msgpack extension, which beatlog never writes, is
+    damage."""
     names = reader.header.behaviors
-    decode_map = msgspec.msgpack.Decoder(dict[str, Any]).decode
-    decode_changes = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
-    decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
-    decode_samples = msgspec.msgpack.Decoder(list[Sample]).decode
+    decode_map = msgspec.msgpack.Decoder(dict[str, Any], ext_hook=_no_extension).decode
+    decode_changes = msgspec.msgpack.Decoder(list[LoggedStateChange], ext_hook=_no_extension).decode
+    decode_draws = msgspec.msgpack.Decoder(list[Draw], ext_hook=_no_extension).decode
+    decode_samples = msgspec.msgpack.Decoder(list[Sample], ext_hook=_no_extension).decode
     time_ns = 0
     for number, record in enumerate(reader.cycles()):
         time_ns += record.heartbeat_ns
@@ -116,6 +118,10 @@ def decoded_cycles(reader: SessionLogReader) -> Iterator[Cycle]:
             outputs,
             samples,
         )
+
+
+def _no_extension(code: int, data: memoryview) -> Any:
+    raise msgspec.DecodeError(f"a msgpack extension (type {code}), which no log holds")
 
 
 def _name(catalogue: Sequence[str], index: int) -> str:

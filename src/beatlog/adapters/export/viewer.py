@@ -195,7 +195,12 @@ def write_mcap(file: IO[bytes], session: Session, replayed: ReplayResult | None)
     writer.add_metadata("beatlog", {**log_metadata(session), "log_time": _LOG_TIME})
     mcap = _Mcap(writer, session, replayed)
     for cycle in session.cycles:
-        mcap.write(cycle)
+        try:
+            mcap.write(cycle)
+        except RecursionError:  # a value nested deeper than its JSON text can be written
+            raise CorruptLogError(
+                session.log, f"cycle {cycle.number} cannot be written as JSON: nested too deep"
+            ) from None
     writer.finish()  # type: ignore[no-untyped-call]
 
 

@@ -42,7 +42,7 @@ def run_review(args: argparse.Namespace, console: Console) -> int:
 def review(
     paths: Sequence[Path], console: Console, *, ask: Ask | None = None
 ) -> tuple[int, int, int]:
-    """Show each pending change against the current expectation, with what it loses,
+    """Show each pending change against the current baseline, with what it loses,
     and let the reviewer accept or reject it: at a terminal by prompting (``a``, ``r`` or
     ``s`` will do), else by reading one answer a line from standard input (a pipe; none
     left means skip), each question and answer shown. Accepting a change that loses
@@ -71,7 +71,7 @@ def review(
     for spec in specs:
         diff = pending_diff(spec)
         console.print(render_pending_diff(diff), highlight=False)
-        decision = _decision(ask, f"accept the new expectation of {spec.name}?", console)
+        decision = _decision(ask, f"accept the new baseline of {spec.name}?", console)
         kept = decision is not Decision.ACCEPT or all(
             ask(f"{loss_text(loss)}: accept this loss? [y/N]").strip().lower() in ("y", "yes")
             for loss in diff.shift.losses

@@ -1,4 +1,4 @@
-"""Expected records: a baseline's departures put into the recorded cycles as replay
+"""Baseline records: a baseline's departures put into the recorded cycles as replay
 reads them, batch by batch, wherever in a batch they start or end."""
 
 from __future__ import annotations
@@ -11,15 +11,15 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
-from beatlog.replay.expectation import (
+from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
-    Expectation,
-    ExpectedPart,
-    TracedChange,
+    Baseline,
+    BaselinePart,
     TracedOutput,
+    TracedStateChange,
 )
-from beatlog.replay.expected import ExpectedRecords
+from beatlog.replay.baseline_records import BaselineRecords
 from beatlog.replay.verdict import StateChange
 
 ENCODE = payload_encoder().encode
@@ -42,11 +42,11 @@ def output(cycle: int, field: str, value: Any) -> TracedOutput:
     return TracedOutput(cycle, 30 * cycle, field, value)
 
 
-BASELINE = Expectation(
+BASELINE = Baseline(
     changes=(
-        TracedChange(1, 30, StateChange("avoid", "idle", "turning")),
-        TracedChange(4, 120, StateChange("avoid", "turning", "idle")),
-        TracedChange(4, 120, StateChange("wander", "walk", "sit")),
+        TracedStateChange(1, 30, StateChange("avoid", "idle", "turning")),
+        TracedStateChange(4, 120, StateChange("avoid", "turning", "idle")),
+        TracedStateChange(4, 120, StateChange("wander", "walk", "sit")),
     ),
     outputs=(
         output(2, "speed", 0.0),
@@ -61,7 +61,7 @@ BASELINE = Expectation(
 
 
 def test_departures_stand_in_for_the_recording_in_their_cycles_only() -> None:
-    expected = ExpectedRecords(BASELINE.stream(), NAMES, lambda name: name, None)
+    expected = BaselineRecords(BASELINE.stream(), NAMES, lambda name: name, None)
     batches = [
         [recorded(cycle) for cycle in cycles] for cycles in ([0, 1, 2], [3], [4, 5, 6, 7], [8, 9])
     ]
@@ -101,14 +101,14 @@ def test_the_baseline_is_read_alongside_the_log_a_part_at_a_time() -> None:
     lines = [output(cycle, "turn", float(-cycle)) for cycle in range(100)]
     pulled: list[int] = []
 
-    def parts() -> Iterator[ExpectedPart]:
+    def parts() -> Iterator[BaselinePart]:
         for line in lines:  # a part a cycle, the last cycle's split in two
             pulled.append(line.cycle)
-            yield ExpectedPart((), (), (line,), (), ())
-        yield ExpectedPart((), (), (output(99, "speed", 1.5),), (), ())
+            yield BaselinePart((), (), (line,), (), ())
+        yield BaselinePart((), (), (output(99, "speed", 1.5),), (), ())
 
-    stream = dataclasses.replace(Expectation((), tuple(lines)).stream(), parts=parts)
-    expected = ExpectedRecords(stream, NAMES, lambda name: name, None)
+    stream = dataclasses.replace(Baseline((), tuple(lines)).stream(), parts=parts)
+    expected = BaselineRecords(stream, NAMES, lambda name: name, None)
     batches = [[recorded(c) for c in range(start, start + 10)] for start in range(0, 100, 10)]
     read = []
     for batch in expected.batches(iter(batches), Path("walk.beatlog")):

@@ -1,4 +1,4 @@
-"""The recorded cycles as an approved baseline expects them: :class:`ExpectedRecords`
+"""The recorded cycles as an approved baseline expects them: :class:`BaselineRecords`
 puts its state changes and outputs, encoded as a log would, in each record replay reads
 where the behaviors depart from the recording, so that the judge compares bytes as ever.
 It reads the baseline alongside the log, a part at a time, and hands its robot-state
@@ -15,10 +15,10 @@ from typing import Any
 
 import msgspec
 
-from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord, payload_encoder
-from beatlog.replay.expectation import (
-    ExpectedPart,
-    ExpectedStream,
+from beatlog.log.format import EMPTY_LIST, CycleRecord, LoggedStateChange, payload_encoder
+from beatlog.replay.baseline import (
+    BaselinePart,
+    BaselineStream,
     TracedOutput,
     changes_by_cycle,
 )
@@ -26,7 +26,7 @@ from beatlog.replay.held_outputs import HeldOutputs
 from beatlog.replay.pins import PinChecker
 from beatlog.replay.verdict import StateChange
 
-__all__ = ["ExpectedRecords"]
+__all__ = ["BaselineRecords"]
 
 _CYCLE = attrgetter("cycle")
 _FIRST = itemgetter(0)
@@ -34,7 +34,7 @@ _ALL = 1 << 62
 """Past any cycle: every part is read."""
 
 
-class ExpectedRecords:
+class BaselineRecords:
     """An approved baseline's state changes and outputs, encoded to stand in for the
     recorded ones, cycle by cycle, and its robot-state pins handed to ``pins``.
 
@@ -46,7 +46,7 @@ class ExpectedRecords:
 
     def __init__(
         self,
-        expected: ExpectedStream,
+        baseline: BaselineStream,
         recorded_names: Sequence[str],
         rename: Callable[[str], str],
         pins: PinChecker | None,
@@ -56,13 +56,13 @@ class ExpectedRecords:
         index: dict[str, int] = {}
         for position, name in enumerate(names):
             index.setdefault(rename(name), position)
-        for behavior in expected.behaviors:
+        for behavior in baseline.behaviors:
             if behavior not in index:
                 index[behavior] = len(names)
                 names.append(behavior)
         self.names = names
         self._index = index
-        self._expected = expected
+        self._baseline = baseline
         self._pins = pins
         self._changes: deque[tuple[int, list[StateChange]]] = deque()
         """The state changes of the cycles read and not yet handed on, by cycle."""
@@ -73,12 +73,12 @@ class ExpectedRecords:
 
     def _encode_changes(self, changes: list[StateChange]) -> msgspec.Raw:
         index = self._index
-        records: list[StateChangeRecord] = [
+        records: list[LoggedStateChange] = [
             (index[behavior], before, after) for behavior, before, after in changes
         ]
         return msgspec.Raw(self._encoder.encode(records)) if records else EMPTY_LIST
 
-    def _read_to(self, parts: Iterator[ExpectedPart], end: int) -> None:
+    def _read_to(self, parts: Iterator[BaselinePart], end: int) -> None:
         """Read parts until every line of a cycle before ``end`` is read."""
         while self._read < end:
             part = next(parts, None)
@@ -102,7 +102,7 @@ class ExpectedRecords:
         state changes and outputs in place of the recorded ones (``path`` names the log
         in errors), the baseline read alongside: what it expects of the cycles before
         ``first`` is read past, the output values it holds from them kept."""
-        parts = self._expected.parts()
+        parts = self._baseline.parts()
         self._read = -1
         queued_changes, queued_lines = self._changes, self._lines
         held = HeldOutputs(path)

@@ -1,8 +1,9 @@
-"""What replay judges against: an approved baseline (:class:`Expectation`), where the
-behaviors depart from the recording, read a part at a time in cycle order
-(:class:`ExpectedStream`) so that a big baseline is judged in bounded memory; and the
-traces it is made from, an output traced only where its value changes
-(:class:`OutputTracker`).
+"""The baseline as replay judges against it: where the behaviors depart from the
+recording, whole in memory (:class:`Baseline`) or read a part at a time in cycle order
+(:class:`BaselineStream`) so that a big one is judged in bounded memory; and the lines it
+is made of, behavior state changes and outputs traced at a cycle, an output only where
+its value changes (:class:`OutputTracker`). :mod:`beatlog.baseline` reads and writes its
+file.
 """
 
 from __future__ import annotations
@@ -24,20 +25,20 @@ from beatlog.replay.verdict import StateChange
 __all__ = [
     "ABSENT",
     "AS_RECORDED",
-    "Expectation",
-    "ExpectedPart",
-    "ExpectedStream",
+    "Baseline",
+    "BaselinePart",
+    "BaselineStream",
     "OutputTracker",
-    "TracedChange",
     "TracedOutput",
+    "TracedStateChange",
     "changes_by_cycle",
 ]
 
 _CYCLE = attrgetter("cycle")
 
 
-class TracedChange(NamedTuple):
-    """A state change at a cycle of the session."""
+class TracedStateChange(NamedTuple):
+    """A :class:`StateChange` traced at a cycle of the session, and its robot time."""
 
     cycle: int
     time_ns: int
@@ -45,7 +46,7 @@ class TracedChange(NamedTuple):
 
 
 def changes_by_cycle(
-    changes: Iterable[TracedChange], quiet: Iterable[tuple[int, int]]
+    changes: Iterable[TracedStateChange], quiet: Iterable[tuple[int, int]]
 ) -> dict[int, list[StateChange]]:
     """State changes grouped by cycle, a ``quiet`` cycle (and robot time) with none."""
     grouped: dict[int, list[StateChange]] = {}
@@ -110,9 +111,9 @@ class OutputTracker:
 
 
 @dataclass(frozen=True)
-class Expectation:
-    """What replay judges against instead of the recording: an approved baseline, where
-    the behaviors depart from the recording.
+class Baseline:
+    """A baseline, whole in memory: what replay judges against instead of the recording
+    once approved, where the behaviors depart from it.
 
     In a cycle that ``changes`` or ``quiet`` lists, its state changes stand in for the
     recorded ones (none, in a quiet cycle), and any other cycle's are as recorded; an
@@ -127,7 +128,7 @@ class Expectation:
     the recorded world no longer answers to what the behaviors do.
     """
 
-    changes: tuple[TracedChange, ...]
+    changes: tuple[TracedStateChange, ...]
     outputs: tuple[TracedOutput, ...] = ()
     state_pins: StatePins = field(default_factory=StatePins)
     draws: tuple[DrawRule, ...] = ()
@@ -148,10 +149,6 @@ class Expectation:
         mapping holds; None where the recording's hold in every cycle."""
         return None if self.as_recorded else changes_by_cycle(self.changes, self.quiet)
 
-    def changes_by_cycle(self) -> dict[int, list[StateChange]]:
-        """The state changes grouped by cycle."""
-        return changes_by_cycle(self.changes, ())
-
     def outputs_by_cycle(self) -> Iterator[tuple[int, dict[str, Any]]]:
         """Each cycle where an output changes, with every output field from then on."""
         current: dict[str, Any] = {}
@@ -163,11 +160,11 @@ class Expectation:
                     current[change.field] = change.value
             yield cycle, dict(current)
 
-    def stream(self) -> ExpectedStream:
-        """This expectation as replay reads it: in one part."""
+    def stream(self) -> BaselineStream:
+        """This baseline as replay reads it: in one part."""
         pins = self.state_pins
-        part = ExpectedPart(self.changes, self.quiet, self.outputs, pins.runs, pins.blocks)
-        return ExpectedStream(
+        part = BaselinePart(self.changes, self.quiet, self.outputs, pins.runs, pins.blocks)
+        return BaselineStream(
             self.draws,
             self.open_loop,
             departs=not self.as_recorded,
@@ -177,11 +174,11 @@ class Expectation:
         )
 
 
-class ExpectedPart(NamedTuple):
-    """Some of an expectation's lines of cycles, each kind in cycle order: a part of an
-    :class:`ExpectedStream`, whose next part has none of an earlier cycle than these."""
+class BaselinePart(NamedTuple):
+    """Some of a baseline's lines of cycles, each kind in cycle order: a part of a
+    :class:`BaselineStream`, whose next part has none of an earlier cycle than these."""
 
-    changes: Sequence[TracedChange]
+    changes: Sequence[TracedStateChange]
     quiet: Sequence[tuple[int, int]]
     outputs: Sequence[TracedOutput]
     runs: Sequence[PinnedRun]
@@ -196,8 +193,8 @@ class ExpectedPart(NamedTuple):
 
 
 @dataclass(frozen=True)
-class ExpectedStream:
-    """An expectation as replay reads it, alongside the log: what applies to the whole
+class BaselineStream:
+    """A baseline as replay reads it, alongside the log: what applies to the whole
     session, and its lines of cycles read afresh a part at a time, in cycle order
     (:attr:`parts`), so that replay holds no more of a big baseline than a part and the
     cycles of the log's batch it judges.
@@ -212,5 +209,5 @@ class ExpectedStream:
     departs: bool
     pinned: bool
     behaviors: tuple[str, ...]
-    parts: Callable[[], Iterator[ExpectedPart]]
+    parts: Callable[[], Iterator[BaselinePart]]
     """Each call reads the lines afresh, from the first."""
