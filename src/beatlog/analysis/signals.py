@@ -30,44 +30,39 @@ class Signal(NamedTuple):
     """Whether the field is a boolean, drawn as 0 (False) and 1 (True)."""
 
 
-_Point = tuple[int, float]
-"""A robot time and a field's value then."""
-
-
-def _value(point: _Point) -> float:
-    return point[1]
-
-
 class _Buckets:
-    """One signal's lowest and highest point in each bucket (None where it has none)."""
+    """One signal's lowest and highest value in each bucket, each with its robot time:
+    ``[low_ns, low, high_ns, high]``, or None where the bucket holds no number."""
 
     def __init__(self, grid: TimeGrid) -> None:
-        self.kept: list[tuple[_Point, _Point] | None] = [None] * grid.count
+        self.kept: list[list[Any] | None] = [None] * grid.count
 
     def add(self, index: int, time_ns: int, value: float) -> None:
-        point, kept = (time_ns, value), self.kept[index]
+        kept = self.kept[index]
         if kept is None:
-            self.kept[index] = (point, point)
-        else:  # on a tie the earlier point stays
-            self.kept[index] = (min(kept[0], point, key=_value), max(kept[1], point, key=_value))
+            if not math.isnan(value):  # NaN is no point, and compares as neither low nor high
+                self.kept[index] = [time_ns, value, time_ns, value]
+        elif value < kept[1]:  # on a tie the earlier point stays
+            kept[0:2] = time_ns, value
+        elif value > kept[3]:
+            kept[2:4] = time_ns, value
 
     def merge(self, factor: int) -> None:
-        """Merge each run of ``factor`` neighbours into one, keeping the first of equal
-        points: the buckets grew as long."""
-        kept, self.kept = self.kept, []
-        for start in range(0, len(kept), factor):
-            held = [bucket for bucket in kept[start : start + factor] if bucket is not None]
-            lows, highs = [low for low, _ in held], [high for _, high in held]
-            self.kept.append((min(lows, key=_value), max(highs, key=_value)) if held else None)
-        self.kept += [None] * (len(kept) - len(self.kept))
+        """Merge each run of ``factor`` neighbours into one: the buckets grew as long."""
+        kept, self.kept = self.kept, [None] * len(self.kept)
+        for index, bucket in enumerate(kept):
+            if bucket is not None:
+                self.add(index // factor, bucket[0], bucket[1])
+                self.add(index // factor, bucket[2], bucket[3])
 
-    def points(self) -> list[_Point]:
-        """Each bucket's lowest and highest point, in time order, each point once."""
-        points: list[_Point] = []
+    def points(self) -> list[tuple[int, float]]:
+        """Each bucket's lowest and highest value with its robot time, in time order, each
+        point once."""
+        points: list[tuple[int, float]] = []
         for kept in self.kept:
             if kept is not None:
-                first, last = sorted(kept, key=lambda point: point[0])
-                points.extend([first] if first == last else [first, last])
+                low, high = (kept[0], kept[1]), (kept[2], kept[3])
+                points.extend([low] if low == high else sorted([low, high]))
         return points
 
 
@@ -99,7 +94,7 @@ class Sampler:
             values = msgspec.structs.astuple(self._decoded(record))
             index = self._grid.index(time_ns)
             for buckets, value in zip(self._buckets, values, strict=True):
-                if isinstance(value, int | float) and not math.isnan(value):  # NaN: no point
+                if isinstance(value, int | float):
                     buckets.add(index, time_ns, float(value))
         self._seen += 1
 
