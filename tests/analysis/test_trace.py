@@ -105,7 +105,7 @@ def test_departures_applied_to_the_recording_give_back_the_whole_trace(
     record_probe: RecordFn,
 ) -> None:
     log = record_probe(300)
-    replayed = replayed_trace(log, probe_system(threshold=0.6), living=True)
+    replayed = replayed_trace(log, probe_system(threshold=0.6), match_draws=True)
     departures = replayed.expectation
 
     whole = whole_trace(departures, log)
@@ -116,6 +116,6 @@ def test_departures_applied_to_the_recording_give_back_the_whole_trace(
 
 
 def test_a_trace_as_recorded_departs_nowhere(record_probe: RecordFn) -> None:
-    replayed = replayed_trace(record_probe(300), probe_system(), living=True)
+    replayed = replayed_trace(record_probe(300), probe_system(), match_draws=True)
     assert replayed.departures == Expectation(())
     assert replayed.expectation.as_recorded

@@ -25,7 +25,7 @@ from beatlog.model.behavior import System
 from beatlog.replay.compare import WHOLE_STATE, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.departures import DepartureCollector, apply_outputs, hold
-from beatlog.replay.draws import DrawRule, draw_rules
+from beatlog.replay.draws import ApprovedDraws, DrawMadeOtherwise, approved_draws
 from beatlog.replay.expectation import (
     Expectation,
     OutputTracker,
@@ -33,7 +33,6 @@ from beatlog.replay.expectation import (
     TracedOutput,
 )
 from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise
-from beatlog.replay.random import DrawDifference
 from beatlog.replay.session import ReplaySession
 from beatlog.replay.state_digests import state_digest
 from beatlog.replay.verdict import StateChange
@@ -65,8 +64,8 @@ class ReplayedTrace:
     state_pins: StatePins = field(default_factory=StatePins)
     """In sensor-level replay, the robot states perception rebuilt otherwise than
     recorded, pinned by digest in each cycle where it did."""
-    draws: tuple[DrawRule, ...] = ()
-    """In living replay, the draws made otherwise than recorded."""
+    draws: tuple[ApprovedDraws, ...] = ()
+    """In replay matching draws, the draws made otherwise than recorded."""
     departures: Expectation = field(default_factory=lambda: Expectation(()))
     """Where the state changes and outputs depart from the recording's."""
 
@@ -162,15 +161,19 @@ def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[
 
 
 def replayed_trace(
-    log: str | Path, system: System, *, living: bool = False, rename: Callable[[str], str] = str
+    log: str | Path,
+    system: System,
+    *,
+    match_draws: bool = False,
+    rename: Callable[[str], str] = str,
 ) -> ReplayedTrace:
     """Replay every cycle of ``log`` on ``system`` and collect its state changes.
 
     Replay uses the recording's heartbeats, robot states and random numbers; it stops
-    early when the behaviors raise or, unless ``living``, draw random numbers the log
+    early when the behaviors raise or, unless ``match_draws``, draw random numbers the log
     does not have (``rename`` maps a recorded behavior's name to its name now).
     """
-    with ReplaySession(log, system, living=living, rename=rename) as session:
+    with ReplaySession(log, system, match_draws=match_draws, rename=rename) as session:
         assert session.replayer is not None  # a session with a system replays
         tracer = TraceCollector(session.replayer, rename)
         session.run([tracer])
@@ -192,7 +195,7 @@ class TraceCollector:
         self._changes: list[TracedChange] = []
         self._outputs: list[TracedOutput] = []
         self._states: list[RebuiltState] = []
-        self._draws: list[tuple[int, DrawDifference]] = []
+        self._draws: list[tuple[int, DrawMadeOtherwise]] = []
         self._tracker = OutputTracker()
         self._cycles = 0
         self.stopped: str | None = None
@@ -226,8 +229,8 @@ class TraceCollector:
             rebuilt = _rebuilt_otherwise(outcome, self._encode)
             if rebuilt is not None:
                 self._states.append(rebuilt)
-        if outcome.draw_differences:
-            self._draws.extend((outcome.cycle, d) for d in outcome.draw_differences)
+        if outcome.draws_otherwise:
+            self._draws.extend((outcome.cycle, d) for d in outcome.draws_otherwise)
         self._departures.add(
             outcome.record, outcome.cycle, outcome.time_ns, outcome.changes or (), outcome.outputs
         )
@@ -241,7 +244,7 @@ class TraceCollector:
             self.stopped,
             tuple(self._outputs),
             StatePins.from_rebuilt(self._states),
-            draw_rules(self._draws),
+            approved_draws(self._draws),
             self._departures.departures(),
         )
 

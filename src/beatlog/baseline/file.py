@@ -54,8 +54,8 @@ is refused.
 A ``draws`` line approves draws that replay makes otherwise than recorded, in the
 cycles listed (a cycle once per draw; :mod:`beatlog.replay.draws`): a recorded request
 re-mapped to the one asked for now, a new draw (``-`` for the recorded side) or a
-recorded one left unused (``-`` for the asked side). A baseline is judged in living
-replay, cycle by cycle: any other draw made otherwise, or an approved one not made,
+recorded one left unused (``-`` for the asked side). A baseline is judged in replay
+matching draws, cycle by cycle: any other draw made otherwise, or an approved one not made,
 diverges in its cycle.
 
 A baseline whose text is longer than
@@ -82,7 +82,7 @@ from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     Expectation,
     ExpectedPart,
@@ -216,7 +216,7 @@ def read_baseline(path: Path) -> Baseline:
     (:attr:`Baseline.stream`). Anything else, a file of an older format included,
     raises :class:`BaselineError` naming the line (or the command that upgrades it)."""
     reading = _Reading(path)
-    draws: list[DrawRule] = []
+    draws: list[ApprovedDraws] = []
     departs = pinned = False
     behaviors: dict[str, None] = {}
     kept: list[ExpectedPart] | None = []  # the first block's lines, while it is the only one

@@ -33,7 +33,7 @@ from beatlog.baseline.write import (
     RUN_FIRST,
 )
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     ABSENT,
     AS_RECORDED,
@@ -71,7 +71,7 @@ class ParsedLines:
     outputs: list[TracedOutput] = field(default_factory=list)
     runs: list[PinnedRun] = field(default_factory=list)
     blocks: list[DigestBlock] = field(default_factory=list)
-    draws: list[DrawRule] = field(default_factory=list)
+    draws: list[ApprovedDraws] = field(default_factory=list)
     quiet: list[tuple[int, int]] = field(default_factory=list)
     open_loop: tuple[int, int] | None = None
 
@@ -137,7 +137,7 @@ def line_feeds(block: str) -> tuple[str, int]:
     return block, block.count("\n") + (block[-1:] not in ("\n", ""))
 
 
-def _parse_draw(line: str) -> DrawRule:
+def _parse_draw(line: str) -> ApprovedDraws:
     head = _DRAW_HEAD.match(line)
     rest = line[head.end() :] if head else ""
     split = rest.rfind(_IN_CYCLES)  # the only one that numbers may follow
@@ -157,7 +157,7 @@ def _parse_draw(line: str) -> DrawRule:
     recorded, asked = rest[:arrow], rest[arrow + len(_TO) : split]
     if recorded == asked:
         raise ValueError(f"a draw of {asked} as recorded is no difference")
-    return DrawRule(
+    return ApprovedDraws(
         behavior,
         None if recorded == NONE else recorded,
         None if asked == NONE else asked,

@@ -17,7 +17,7 @@ import msgspec
 
 from beatlog.errors import BaselineError
 from beatlog.log.files import replacing
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     ABSENT,
     AS_RECORDED,
@@ -162,7 +162,7 @@ def format_value(value: Any) -> str:
     return MSGPACK + _SORTED.encode(value).hex()
 
 
-def draw_line(rule: DrawRule) -> str:
+def draw_line(rule: ApprovedDraws) -> str:
     """``draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97``."""
     recorded, asked = rule.recorded or NONE, rule.asked or NONE
     cycles = " ".join(map(str, rule.cycles))

@@ -16,7 +16,7 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
-from beatlog.replay.core import actor_name
+from beatlog.model.cycle import actor_name
 from beatlog.replay.expectation import (
     ABSENT,
     AS_RECORDED,

@@ -20,10 +20,10 @@ from beatlog.model.perception import PerceptionTypeError
 from beatlog.project.usercode import user_traceback
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Expected, Replayer
-from beatlog.replay.draws import DrawLedger, Unapproved
+from beatlog.replay.draws import DrawApprovals, UnapprovedDraw
 from beatlog.replay.expectation import ExpectedStream
 from beatlog.replay.expected import ExpectedRecords
-from beatlog.replay.outcome import draw_reports
+from beatlog.replay.outcome import named_draws
 from beatlog.replay.pins import rebuilt_otherwise
 from beatlog.replay.recorded_states import recorded_changes
 from beatlog.replay.verdict import (
@@ -56,7 +56,7 @@ class DivergenceWriter:
         self._start, self._context = start, context
         behaviors = replayer.header.behaviors
         self._pins = replayer.state_pins if replayer.perception is not None else None
-        self._ledger = None if expected is None else DrawLedger(expected.draws)
+        self._approved_draws = None if expected is None else DrawApprovals(expected.draws)
         self.records = None
         """The recorded cycles as the baseline expects them (None: as recorded)."""
         if expected is not None:
@@ -81,7 +81,7 @@ class DivergenceWriter:
                 None if names == self.names else [at.get(name, -1) for name in names],
                 self._encoder,
                 judged,
-                None if self._ledger is None else self._ledger.approves,
+                None if self._approved_draws is None else self._approved_draws.approves,
             )
         )
 
@@ -131,10 +131,10 @@ class DivergenceWriter:
         perceived = self.replayer.perception is not None and outcome.perception_differs
         if perceived and self._state_differences(outcome):
             return False
-        differences = outcome.draw_differences
-        if self._ledger is None:
+        differences = outcome.draws_otherwise
+        if self._approved_draws is None:
             return not differences
-        return self._ledger.check(outcome.cycle, differences or ()) is None
+        return self._approved_draws.check(outcome.cycle, differences or ()) is None
 
     def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
@@ -175,7 +175,7 @@ class DivergenceWriter:
         record = outcome.record
         expected = tuple(self._expected(record.state_changes))
         expected_outputs = self._outputs(record.outputs)
-        recorded = tuple(draw_reports(outcome.recorded_draws, self.replayer.header.behaviors))
+        recorded = tuple(named_draws(outcome.recorded_draws, self.replayer.header.behaviors))
         if violation is not None:
             return dataclasses.replace(
                 violation,
@@ -196,7 +196,7 @@ class DivergenceWriter:
             )
         if outcome.cycle < self._start:
             message = f"before the window (cycle {self._start} on): {message}"
-        completed = outcome.failure is None and outcome.draw_problem is None
+        completed = outcome.failure is None and outcome.refused_draw is None
         return Divergence(
             kind=kind,
             cycle=outcome.cycle,
@@ -209,7 +209,7 @@ class DivergenceWriter:
             actual_outputs=dict(outcome.outputs) if completed else {},
             robot_state=state_fields(outcome.state),
             random_recorded=recorded,
-            random_drawn=tuple(draw_reports(outcome.drawn, self.replayer.executor.behavior_ids)),
+            random_drawn=tuple(named_draws(outcome.drawn, self.replayer.executor.behavior_ids)),
             traceback=None if failure is None else user_traceback(failure),
             perception=differences,
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
@@ -225,8 +225,12 @@ class DivergenceWriter:
         """Why a cycle differs: its kind, message and behavior, and what raised in it
         whose traceback the divergence shows."""
         stop = self.replayer.stop(outcome)
-        draws = outcome.draw_differences or ()
-        unapproved = None if self._ledger is None else self._ledger.check(outcome.cycle, draws)
+        draws = outcome.draws_otherwise or ()
+        unapproved = (
+            None
+            if self._approved_draws is None
+            else self._approved_draws.check(outcome.cycle, draws)
+        )
         if stop is not None and stop.kind is DivergenceKind.PERCEPTION:
             problem = outcome.perception_failure
             shown = None if isinstance(problem, PerceptionTypeError) else problem
@@ -236,7 +240,7 @@ class DivergenceWriter:
             return DivergenceKind.PERCEPTION, message, None, None
         if stop is not None and stop.kind is not DivergenceKind.RANDOM_UNDERDRAWN:
             return *stop, outcome.failure
-        if unapproved is not None and unapproved.made and unapproved.difference.asked:
+        if unapproved is not None and unapproved.made and unapproved.draw.asked:
             return *_unapproved(unapproved), None
         if not self.comparison.changes_agree(expected, actual):
             # The first behavior difference is the headline, even when the changed
@@ -369,7 +373,7 @@ def propose_renames(
     return {old: new for old, new in forward.items() if old != new}
 
 
-def _unapproved(unapproved: Unapproved) -> tuple[DivergenceKind, str, str]:
+def _unapproved(unapproved: UnapprovedDraw) -> tuple[DivergenceKind, str, str]:
     """How a draw made otherwise than recorded, and not as approved, diverges."""
     (behavior, recorded, asked), made, elsewhere = unapproved
     if not made:

@@ -17,7 +17,7 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.log.format import payload_encoder
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.pins import DigestBlock, PinnedRun, StatePins
 from beatlog.replay.verdict import StateChange
 
@@ -122,7 +122,7 @@ class Expectation:
     perception change rebuilds, by digest, in the cycles where they differ from the
     recorded RS_t (none: perception rebuilds the recording). ``draws`` are the draws
     replay may make otherwise than recorded (:mod:`beatlog.replay.draws`); a baseline
-    is judged in living replay, so any other difference diverges. ``open_loop`` is the
+    is judged in replay matching draws, so any other difference diverges. ``open_loop`` is the
     first cycle whose state changes or outputs left the recording's, if any: from there
     the recorded world no longer answers to what the behaviors do.
     """
@@ -130,7 +130,7 @@ class Expectation:
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] = ()
     state_pins: StatePins = field(default_factory=StatePins)
-    draws: tuple[DrawRule, ...] = ()
+    draws: tuple[ApprovedDraws, ...] = ()
     open_loop: tuple[int, int] | None = None
     """The cycle and robot time (ns) where the behaviors left the recording."""
     quiet: tuple[tuple[int, int], ...] = ()
@@ -207,7 +207,7 @@ class ExpectedStream:
     changes give, in the order they first appear.
     """
 
-    draws: tuple[DrawRule, ...]
+    draws: tuple[ApprovedDraws, ...]
     open_loop: tuple[int, int] | None
     departs: bool
     pinned: bool

@@ -167,7 +167,7 @@ def replay(
             perception=perception,
             break_at=break_at,
             migration=migration,
-            living=expected is not None,
+            match_draws=expected is not None,
             rename=comparison.rename,
             state_pins=None if expected is None else PinChecker(pinned=expected.pinned),
             fresh_from=window.fresh_from,

@@ -160,7 +160,7 @@ class ReplayOptions(TypedDict, total=False):
 
     perception: Perception | None
     break_at: int | None
-    living: bool
+    match_draws: bool
     rename: Callable[[str], str]
     migration: StateMigration | None
     state_pins: PinChecker | None

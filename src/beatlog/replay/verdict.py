@@ -9,14 +9,14 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from beatlog.log.reader import LogStatus
-from beatlog.model.cycle import DrawReport, StateChange
+from beatlog.model.cycle import Draw, StateChange
 
 __all__ = [
     "Checked",
     "ContextRow",
     "Divergence",
     "DivergenceKind",
-    "DrawReport",
+    "Draw",
     "FieldDifference",
     "ReplayResult",
     "StateChange",
@@ -106,8 +106,8 @@ class Divergence:
     expected_outputs: dict[str, Any] = field(default_factory=dict)
     actual_outputs: dict[str, Any] = field(default_factory=dict)
     robot_state: dict[str, Any] = field(default_factory=dict)
-    random_recorded: tuple[DrawReport, ...] = ()
-    random_drawn: tuple[DrawReport, ...] = ()
+    random_recorded: tuple[Draw, ...] = ()
+    random_drawn: tuple[Draw, ...] = ()
     traceback: str | None = None
     context: tuple[ContextRow, ...] = ()
     """The cycles before and after the divergence that changed any behavior state."""

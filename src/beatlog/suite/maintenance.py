@@ -35,7 +35,7 @@ from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError, OptionError
 from beatlog.log.recording import LogSource
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import Expectation
 from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import FieldDifference
@@ -90,7 +90,7 @@ class PendingUpdate:
     robot_state_cycles: int = 0
     """Cycles whose robot state the expectation pins (perception rebuilt it otherwise
     than recorded)."""
-    draws: tuple[DrawRule, ...] = ()
+    draws: tuple[ApprovedDraws, ...] = ()
     """The draws the expectation lets replay make otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
     """Where the behaviors leave the recording (cycle, robot time in ns), if they do."""
@@ -263,7 +263,7 @@ class PendingDiff:
     """What the pending baseline loses and gains against today's expectation."""
     rebuilt_runs: tuple[RebuiltRun, ...] = ()
     """The runs of cycles in which perception now rebuilds the robot state otherwise."""
-    draws: tuple[DrawRule, ...] = ()
+    draws: tuple[ApprovedDraws, ...] = ()
     """The draws the pending baseline lets replay make otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
     """Where, pending, the behaviors leave the recording (cycle, robot time in ns)."""

@@ -341,7 +341,7 @@ def _details(
             else approved.expectation.changes_override()
         ),
         perception=None if spec.perception is None else load_perception(spec.perception),
-        living=trace or approved is not None,
+        match_draws=trace or approved is not None,
         rename=spec.comparison.rename,
         migration=spec.migration,
         fresh_from=spec.start_cycle if spec.fresh_start else 0,
