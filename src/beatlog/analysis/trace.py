@@ -22,6 +22,7 @@ from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
+from beatlog.replay.approved_states import ApprovedStates, RebuiltState, rebuilt_otherwise
 from beatlog.replay.compare import WHOLE_STATE, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.departures import DepartureCollector, apply_outputs, hold
@@ -32,7 +33,6 @@ from beatlog.replay.expectation import (
     TracedChange,
     TracedOutput,
 )
-from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise
 from beatlog.replay.session import ReplaySession
 from beatlog.replay.state_digests import state_digest
 from beatlog.replay.verdict import StateChange
@@ -61,7 +61,7 @@ class ReplayedTrace:
     random numbers the log does not have), or None when it replayed every cycle."""
     outputs: tuple[TracedOutput, ...] = ()
     """The outputs, as the cycles where a field changed value."""
-    state_pins: StatePins = field(default_factory=StatePins)
+    approved_states: ApprovedStates = field(default_factory=ApprovedStates)
     """In sensor-level replay, the robot states perception rebuilt otherwise than
     recorded, pinned by digest in each cycle where it did."""
     draws: tuple[ApprovedDraws, ...] = ()
@@ -79,7 +79,9 @@ class ReplayedTrace:
     def expectation(self) -> Expectation:
         """This trace as the expectation a baseline pins: where it departs from the
         recording."""
-        return dataclasses.replace(self.departures, state_pins=self.state_pins, draws=self.draws)
+        return dataclasses.replace(
+            self.departures, approved_states=self.approved_states, draws=self.draws
+        )
 
 
 class WholeTrace(NamedTuple):
@@ -243,7 +245,7 @@ class TraceCollector:
             self._cycles,
             self.stopped,
             tuple(self._outputs),
-            StatePins.from_rebuilt(self._states),
+            ApprovedStates.from_rebuilt(self._states),
             approved_draws(self._draws),
             self._departures.departures(),
         )

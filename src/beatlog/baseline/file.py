@@ -36,7 +36,7 @@ behaviors do not notice (perception rebuilds other robot states, draws differ to
 effect) has no such lines.
 
 The robot-state lines pin, for sensor-level replay, the states the perception step
-rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replay.pins`): a line per
+rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replay.approved_states`): a line per
 run of such cycles (short gaps rebuilt as recorded included) names the fields that
 differ and their values in its first cycle, for review; then a line per block of up to
 64 of its cycles gives, after the count of cycles, the hex digest of the block and two
@@ -82,13 +82,13 @@ from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
+from beatlog.replay.approved_states import ApprovedStates, DigestCoverage
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     Expectation,
     ExpectedPart,
     ExpectedStream,
 )
-from beatlog.replay.pins import PinCoverage, StatePins
 
 __all__ = [
     "BLOCK_BYTES",
@@ -155,7 +155,9 @@ class Baseline:
         return Expectation(
             tuple(chain(part.changes for part in parts)),
             tuple(chain(part.outputs for part in parts)),
-            StatePins(tuple(chain(p.runs for p in parts)), tuple(chain(p.blocks for p in parts))),
+            ApprovedStates(
+                tuple(chain(p.runs for p in parts)), tuple(chain(p.blocks for p in parts))
+            ),
             self.stream.draws,
             self.stream.open_loop,
             tuple(chain(part.quiet for part in parts)),
@@ -265,7 +267,7 @@ class _Reading:
         self.digest = ""
         """The log's digest, from the ``# log`` line."""
         self.open_loop: tuple[int, int] | None = None
-        self._coverage = PinCoverage()
+        self._coverage = DigestCoverage()
         self._last = -1
         """The last cycle of the lines read."""
         self._lasts = [-1, -1, -1]

@@ -33,6 +33,7 @@ from beatlog.baseline.write import (
     RUN_FIRST,
 )
 from beatlog.log.format import DECODE_ERRORS
+from beatlog.replay.approved_states import TAG_CHARS, ApprovedRun, DigestBlock
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     ABSENT,
@@ -40,7 +41,6 @@ from beatlog.replay.expectation import (
     TracedChange,
     TracedOutput,
 )
-from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
 from beatlog.replay.state_digests import DIGEST_BYTES
 from beatlog.replay.verdict import StateChange
 
@@ -69,7 +69,7 @@ class ParsedLines:
 
     changes: list[TracedChange] = field(default_factory=list)
     outputs: list[TracedOutput] = field(default_factory=list)
-    runs: list[PinnedRun] = field(default_factory=list)
+    runs: list[ApprovedRun] = field(default_factory=list)
     blocks: list[DigestBlock] = field(default_factory=list)
     draws: list[ApprovedDraws] = field(default_factory=list)
     quiet: list[tuple[int, int]] = field(default_factory=list)
@@ -115,7 +115,7 @@ class ParsedLines:
             self.outputs.append(parsed)
         elif isinstance(parsed, TracedChange):
             self.changes.append(parsed)
-        elif isinstance(parsed, PinnedRun):
+        elif isinstance(parsed, ApprovedRun):
             self.runs.append(parsed)
         elif isinstance(parsed, DigestBlock):
             self.blocks.append(parsed)
@@ -172,7 +172,7 @@ def _time_ns(seconds: str) -> int:
 
 def parse_line(
     line: str,
-) -> TracedChange | TracedOutput | PinnedRun | DigestBlock | tuple[int, int, str]:
+) -> TracedChange | TracedOutput | ApprovedRun | DigestBlock | tuple[int, int, str]:
     """A line of the cycle columns; an ``open loop`` or quiet line as its cycle, time and
     text."""
     found = _CHANGE_LINE.fullmatch(line)
@@ -188,7 +188,7 @@ def parse_line(
         name, value = _parse_value(text[len(OUTPUT) :])
         return TracedOutput(cycle, time_ns, name, value)
     if text.startswith(ROBOT_STATE):
-        return _parse_pin(text[len(ROBOT_STATE) :], cycle, time_ns)
+        return _parse_state(text[len(ROBOT_STATE) :], cycle, time_ns)
     return TracedChange(cycle, time_ns, _parse_change(text))
 
 
@@ -218,7 +218,7 @@ def _decode_value(value_text: str) -> Any:
     return value
 
 
-def _parse_pin(text: str, cycle: int, time_ns: int) -> PinnedRun | DigestBlock:
+def _parse_state(text: str, cycle: int, time_ns: int) -> ApprovedRun | DigestBlock:
     """A robot-state line: a run of pinned cycles, or a block of their digests."""
     block = _DIGESTS.fullmatch(text.rstrip())
     if block is not None:
@@ -243,7 +243,7 @@ def _parse_pin(text: str, cycle: int, time_ns: int) -> PinnedRun | DigestBlock:
         raise ValueError("the first cycle's values must be a JSON object")
     if int(run["first"]) != cycle:
         raise ValueError(f"a run of cycles from {run['first']} on a line of cycle {cycle}")
-    return PinnedRun(cycle, time_ns, int(run["last"]), int(run["cycles"]), tuple(fields), first)
+    return ApprovedRun(cycle, time_ns, int(run["last"]), int(run["cycles"]), tuple(fields), first)
 
 
 def _parse_change(text: str) -> StateChange:

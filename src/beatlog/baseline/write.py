@@ -17,6 +17,7 @@ import msgspec
 
 from beatlog.errors import BaselineError
 from beatlog.log.files import replacing
+from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     ABSENT,
@@ -25,7 +26,6 @@ from beatlog.replay.expectation import (
     TracedChange,
     TracedOutput,
 )
-from beatlog.replay.pins import StatePins
 
 __all__ = [
     "AS_RECORDED_TEXT",
@@ -83,7 +83,7 @@ at zstd's default level, its speed (some 100 MB a second)."""
 def format_lines(
     changes: Iterable[TracedChange],
     outputs: Iterable[TracedOutput] | None = None,
-    state_pins: StatePins | None = None,
+    approved_states: ApprovedStates | None = None,
     *,
     open_loop: tuple[int, int] | None = None,
     quiet: Iterable[tuple[int, int]] = (),
@@ -92,7 +92,7 @@ def format_lines(
     cycle, as baseline files hold them: in each cycle in that order, as replay meets
     them, after the line that says the behaviors left the recording there
     (``open_loop``). ``quiet`` cycles lost their recorded state changes."""
-    keyed = [(cycle, 0, line) for cycle, line in _pin_lines(state_pins or StatePins())]
+    keyed = [(cycle, 0, line) for cycle, line in _state_lines(approved_states or ApprovedStates())]
     if open_loop is not None:
         keyed.append((open_loop[0], -1, _columns(*open_loop) + OPEN_LOOP))
     keyed.extend((c.cycle, 1, _change_line(c)) for c in changes)
@@ -122,11 +122,11 @@ def _output_line(traced: TracedOutput) -> str:
     return f"{_columns(cycle, time_ns)}{OUTPUT}{json.dumps(name)} {what}"
 
 
-def _pin_lines(pins: StatePins) -> list[tuple[int, str]]:
+def _state_lines(approved: ApprovedStates) -> list[tuple[int, str]]:
     """A line per run of pinned robot states, then one per block of their digests: in
     cycle order, each run's line comes before its first block's."""
     lines = []
-    for run in pins.runs:
+    for run in approved.runs:
         fields = ", ".join(json.dumps(name) for name in run.fields)
         lines.append(
             (
@@ -142,7 +142,7 @@ def _pin_lines(pins: StatePins) -> list[tuple[int, str]]:
             f"{_columns(block.cycle, block.time_ns)}{ROBOT_STATE}digests {block.cycles} "
             f"{block.digest.hex()} {block.tags}",
         )
-        for block in pins.blocks
+        for block in approved.blocks
     )
     return lines
 
@@ -193,7 +193,7 @@ def write_baseline(
         *format_lines(
             expectation.changes,
             expectation.outputs or (),
-            state_pins=expectation.state_pins,
+            approved_states=expectation.approved_states,
             open_loop=expectation.open_loop,
             quiet=expectation.quiet,
         ),

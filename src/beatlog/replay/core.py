@@ -30,13 +30,13 @@ from beatlog.log.format import (
 from beatlog.model.behavior import System
 from beatlog.model.cycle import CycleExecutor, actor_name
 from beatlog.model.perception import Perception
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.draws import log_key
 from beatlog.replay.fit.check import check_fit
 from beatlog.replay.fit.migration import StateConverter, StateMigration
 from beatlog.replay.fit.schema import recorded_state_type
 from beatlog.replay.outcome import AGREED, CycleOutcome, Expected, Sensed, Stop
-from beatlog.replay.pins import PinChecker
 from beatlog.replay.random import RefusedDraw, ReplayRandom
 from beatlog.replay.sensing import UNREAD, Perceiver
 from beatlog.replay.view import StateViews
@@ -74,7 +74,7 @@ class Replayer:
         match_draws: bool = False,
         rename: Callable[[str], str] = str,
         migration: StateMigration | None = None,
-        state_pins: PinChecker | None = None,
+        approved_states: ApprovedStateChecker | None = None,
         random: ReplayRandom | None = None,
     ) -> None:
         migration = migration or StateMigration()
@@ -100,7 +100,7 @@ class Replayer:
             self.random.match_draws(log_key(header))
         self.perception = perception if header.samples_logged else None
         """The perception step in use: None unless the log holds samples."""
-        self.state_pins = state_pins
+        self.approved_states = approved_states
         """The robot states an approved baseline pins by digest: in their cycles the
         rebuilt state is judged against them, not the recorded one."""
         self._encode = payload_encoder().encode
@@ -117,7 +117,7 @@ class Replayer:
                 system.robot_state,
                 self._reader,
                 self._encode,
-                state_pins=state_pins,
+                approved_states=approved_states,
                 migrated=bool(migration),
             )
         )

@@ -18,13 +18,13 @@ from beatlog.log.format import CycleRecord, StateChangeRecord, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.model.perception import PerceptionTypeError
 from beatlog.project.usercode import user_traceback
+from beatlog.replay.approved_states import rebuilt_otherwise
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import CycleOutcome, Expected, Replayer
 from beatlog.replay.draws import DrawApprovals, UnapprovedDraw
 from beatlog.replay.expectation import ExpectedStream
 from beatlog.replay.expected import ExpectedRecords
 from beatlog.replay.outcome import named_draws
-from beatlog.replay.pins import rebuilt_otherwise
 from beatlog.replay.recorded_states import recorded_changes
 from beatlog.replay.verdict import (
     ContextRow,
@@ -39,9 +39,9 @@ __all__ = ["DivergenceWriter", "Follower", "propose_renames"]
 
 class DivergenceWriter:
     """What is expected of the cycles of ``replayer``'s replay (the recording, or the
-    ``expected`` baseline: its state changes and outputs, the draws it approves, the
-    robot states it pins), and the write-up of the first that differs, with up to
-    ``context`` cycles either side; a cycle before ``start`` is before the window."""
+    ``expected`` baseline: its state changes and outputs, the draws and robot states it
+    approves), and the write-up of the first that differs, with up to ``context``
+    cycles either side; a cycle before ``start`` is before the window."""
 
     def __init__(
         self,
@@ -55,12 +55,12 @@ class DivergenceWriter:
         self.replayer, self.comparison = replayer, comparison
         self._start, self._context = start, context
         behaviors = replayer.header.behaviors
-        self._pins = replayer.state_pins if replayer.perception is not None else None
+        self._states = replayer.approved_states if replayer.perception is not None else None
         self._approved_draws = None if expected is None else DrawApprovals(expected.draws)
         self.records = None
         """The recorded cycles as the baseline expects them (None: as recorded)."""
         if expected is not None:
-            self.records = ExpectedRecords(expected, behaviors, comparison.rename, self._pins)
+            self.records = ExpectedRecords(expected, behaviors, comparison.rename, self._states)
         self.names = list(behaviors) if self.records is None else self.records.names
         """The catalogue of behaviors the expected state changes name."""
         departs = expected is not None and expected.departs
@@ -138,17 +138,17 @@ class DivergenceWriter:
 
     def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
-        tolerance: expected is the recorded RS_t or, in a cycle the baseline pins, its
-        digest (the fields named then differ from the recording now or did in the
+        tolerance: expected is the recorded RS_t or, in a cycle of an approved robot
+        state, its digest (the fields named then differ from the recording now or did in the
         baseline's run of cycles)."""
         expected, actual = state_fields(outcome.recorded_state), state_fields(outcome.state)
-        pins = self._pins
-        if pins is None or outcome.cycle not in pins:
+        approved = self._states
+        if approved is None or outcome.cycle not in approved:
             named = set(self.comparison.state_differences(expected, actual))
-        elif pins.found(outcome.cycle, self._state_bytes(outcome.state)) is None:
+        elif approved.found(outcome.cycle, self._state_bytes(outcome.state)) is None:
             return ()
         else:
-            named = {*pins.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
+            named = {*approved.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
         return tuple(
             FieldDifference(name, expected.get(name), actual.get(name))
             for name in dict.fromkeys([*expected, *actual])
@@ -267,17 +267,17 @@ class DivergenceWriter:
         self, outcome: CycleOutcome, differences: tuple[FieldDifference, ...]
     ) -> str:
         """Why the robot state rebuilt in a cycle is not the one expected."""
-        pins = self._pins
-        if pins is None or outcome.cycle not in pins:
+        approved = self._states
+        if approved is None or outcome.cycle not in approved:
             names = ", ".join(d.field for d in differences)
-            against = " from the approved baseline" if pins and pins.pinned else ""
+            against = " from the approved baseline" if approved and approved.pinned else ""
             return f"the robot state rebuilt from the samples differs{against} in {names}"
-        run = pins.run_at(outcome.cycle)
+        run = approved.run_at(outcome.cycle)
         rebuilt = state_fields(outcome.state)
         now = list(rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt))
         return (
             "the robot state rebuilt from the samples differs from the approved baseline "
-            f"{pins.found(outcome.cycle, self._state_bytes(outcome.state))}; "
+            f"{approved.found(outcome.cycle, self._state_bytes(outcome.state))}; "
             "it differs from the recording in "
             f"{', '.join(now) or 'no field'}, the approved one in {', '.join(run.fields)} "
             f"(cycles {run.cycle}–{run.last})"

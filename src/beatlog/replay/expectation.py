@@ -17,8 +17,8 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.log.format import payload_encoder
+from beatlog.replay.approved_states import ApprovedRun, ApprovedStates, DigestBlock
 from beatlog.replay.draws import ApprovedDraws
-from beatlog.replay.pins import DigestBlock, PinnedRun, StatePins
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
@@ -118,7 +118,7 @@ class Expectation:
     recorded ones (none, in a quiet cycle), and any other cycle's are as recorded; an
     output field holds the value an output line gives it (:data:`ABSENT` included) from
     that cycle on, whatever was recorded, until a line gives it :data:`AS_RECORDED`
-    again. ``state_pins`` pins, for sensor-level replay, the robot states an intended
+    again. ``approved_states`` are, for sensor-level replay, the robot states an intended
     perception change rebuilds, by digest, in the cycles where they differ from the
     recorded RS_t (none: perception rebuilds the recording). ``draws`` are the draws
     replay may make otherwise than recorded (:mod:`beatlog.replay.draws`); a baseline
@@ -129,7 +129,7 @@ class Expectation:
 
     changes: tuple[TracedChange, ...]
     outputs: tuple[TracedOutput, ...] = ()
-    state_pins: StatePins = field(default_factory=StatePins)
+    approved_states: ApprovedStates = field(default_factory=ApprovedStates)
     draws: tuple[ApprovedDraws, ...] = ()
     open_loop: tuple[int, int] | None = None
     """The cycle and robot time (ns) where the behaviors left the recording."""
@@ -165,13 +165,13 @@ class Expectation:
 
     def stream(self) -> ExpectedStream:
         """This expectation as replay reads it: in one part."""
-        pins = self.state_pins
-        part = ExpectedPart(self.changes, self.quiet, self.outputs, pins.runs, pins.blocks)
+        approved = self.approved_states
+        part = ExpectedPart(self.changes, self.quiet, self.outputs, approved.runs, approved.blocks)
         return ExpectedStream(
             self.draws,
             self.open_loop,
             departs=not self.as_recorded,
-            pinned=bool(pins.blocks),
+            pinned=bool(approved.blocks),
             behaviors=tuple(dict.fromkeys(c.change.behavior for c in self.changes)),
             parts=lambda: iter((part,)),
         )
@@ -184,7 +184,7 @@ class ExpectedPart(NamedTuple):
     changes: Sequence[TracedChange]
     quiet: Sequence[tuple[int, int]]
     outputs: Sequence[TracedOutput]
-    runs: Sequence[PinnedRun]
+    runs: Sequence[ApprovedRun]
     blocks: Sequence[DigestBlock]
 
     @property

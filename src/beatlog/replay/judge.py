@@ -25,6 +25,7 @@ from beatlog.model.invariant import Invariant
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
 from beatlog.project.usercode import load_perception, load_system
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.divergence import DivergenceWriter, Follower
@@ -32,7 +33,6 @@ from beatlog.replay.expectation import Expectation, ExpectedStream
 from beatlog.replay.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.invariants import InvariantChecker
-from beatlog.replay.pins import PinChecker
 from beatlog.replay.session import BatchReader, Calling, Observer, ReplaySession, fields_read
 from beatlog.replay.setup import SetupDrawError, recorded_system
 from beatlog.replay.verdict import (
@@ -169,7 +169,9 @@ def replay(
             migration=migration,
             match_draws=expected is not None,
             rename=comparison.rename,
-            state_pins=None if expected is None else PinChecker(pinned=expected.pinned),
+            approved_states=None
+            if expected is None
+            else ApprovedStateChecker(pinned=expected.pinned),
             fresh_from=window.fresh_from,
         )
     except SetupDrawError as diverged:  # no cycle replayed

@@ -1,7 +1,8 @@
-"""How a baseline's pins digest robot states (:mod:`beatlog.replay.pins`): XXH64,
-seed 0, of a state as a log encodes it, and of a block's states' digests end to end.
+"""How a baseline's approved robot states are digested
+(:mod:`beatlog.replay.approved_states`): XXH64, seed 0, of a state as a log encodes it,
+and of a block's states' digests end to end.
 
-The pins guard against accidental change, not a hostile baseline (which could pin
+The digests guard against accidental change, not a hostile baseline (which could pin
 anything), so a fast non-cryptographic digest serves. XXH64, not XXH3: XXH3 digests a
 state this long with vector instructions (AVX2, AVX-512), which leave a replay around
 them slower than their count of instructions says: a re-baselined perception change

@@ -1,12 +1,12 @@
-"""The pins' lines checked as a baseline is read, a part at a time: a run's blocks may
-come in the parts after its own, and what does not hold together is found wherever
-the parts are cut."""
+"""The approved robot states' lines checked as a baseline is read, a part at a time: a
+run's blocks may come in the parts after its own, and what does not hold together is
+found wherever the parts are cut."""
 
 from __future__ import annotations
 
-from beatlog.replay.pin_lines import DigestBlock, PinCoverage, PinnedRun
+from beatlog.replay.approved_state_lines import ApprovedRun, DigestBlock, DigestCoverage
 
-RUN = PinnedRun(10, 0, 140, 131, ("speed",), {"speed": 1.0})
+RUN = ApprovedRun(10, 0, 140, 131, ("speed",), {"speed": 1.0})
 BLOCKS = [
     DigestBlock(10, 0, "AA" * 64, bytes(8)),
     DigestBlock(74, 0, "AA" * 64, bytes(8)),
@@ -14,8 +14,8 @@ BLOCKS = [
 ]
 
 
-def _problem(*parts: tuple[list[PinnedRun], list[DigestBlock]]) -> str | None:
-    coverage = PinCoverage()
+def _problem(*parts: tuple[list[ApprovedRun], list[DigestBlock]]) -> str | None:
+    coverage = DigestCoverage()
     for runs, blocks in parts:
         problem = coverage.add(runs, blocks)
         if problem is not None:

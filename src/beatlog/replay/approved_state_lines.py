@@ -1,6 +1,6 @@
-"""Robot-state pins as a baseline's lines hold them (:class:`PinnedRun`,
+"""Approved robot states as a baseline's lines hold them (:class:`ApprovedRun`,
 :class:`DigestBlock`), and the check, as a baseline is read, that the blocks cover
-their runs in order (:class:`PinCoverage`).
+their runs in order (:class:`DigestCoverage`).
 """
 
 from __future__ import annotations
@@ -14,29 +14,29 @@ from typing import Any, NamedTuple
 __all__ = [
     "BASE64_DIGITS",
     "CYCLES_PER_BLOCK",
+    "GAP_TAG",
     "TAG_CHARS",
-    "UNPINNED",
+    "ApprovedRun",
     "DigestBlock",
-    "PinCoverage",
-    "PinnedRun",
+    "DigestCoverage",
 ]
 
 TAG_CHARS = 2
 """A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
 CYCLES_PER_BLOCK = 64
 """The most cycles one block (one line of a baseline) spans."""
-UNPINNED = ".."
+GAP_TAG = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
 BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
 """The base64 digits, in the order of the six bits each stands for."""
-_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(UNPINNED)})*")
-"""Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`UNPINNED`."""
+_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
+"""Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`GAP_TAG`."""
 
 
-class PinnedRun(NamedTuple):
+class ApprovedRun(NamedTuple):
     """Cycles in which perception rebuilds the robot state otherwise than recorded, from
     ``cycle`` to ``last`` with gaps (as recorded) of at most
-    :data:`~beatlog.replay.pins.MAX_GAP` cycles: what a review needs of them."""
+    :data:`~beatlog.replay.approved_states.MAX_GAP` cycles: what a review needs of them."""
 
     cycle: int
     """The first of them."""
@@ -53,7 +53,7 @@ class PinnedRun(NamedTuple):
 
 class DigestBlock(NamedTuple):
     """Up to :data:`CYCLES_PER_BLOCK` consecutive cycles of a run: a tag each
-    (:data:`UNPINNED` for a gap), and the digest of the pinned ones' whole digests."""
+    (:data:`GAP_TAG` for a gap), and the digest of the pinned ones' whole digests."""
 
     cycle: int
     """The first of them, a pinned one."""
@@ -74,30 +74,30 @@ class DigestBlock(NamedTuple):
     @property
     def pinned(self) -> list[int]:
         """The offsets of the cycles it pins (not gaps)."""
-        return [offset for offset in range(self.cycles) if self.tag(offset) != UNPINNED]
+        return [offset for offset in range(self.cycles) if self.tag(offset) != GAP_TAG]
 
 
-class PinCoverage:
+class DigestCoverage:
     """Checks that blocks of digests cover their runs, in order, as a baseline is read:
     a part of its runs and blocks at a time (:meth:`add`), then :meth:`end`. Each says
     why they do not, if they do not."""
 
     def __init__(self) -> None:
-        self._run: PinnedRun | None = None
+        self._run: ApprovedRun | None = None
         """The run whose blocks are read now."""
         self._start = 0
         """The cycle its next block starts at."""
         self._pinned = 0
         """How many cycles its blocks pinned so far."""
 
-    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> str | None:
+    def add(self, runs: Iterable[ApprovedRun], blocks: Iterable[DigestBlock]) -> str | None:
         """Take the next runs and blocks, those of a part of a baseline."""
-        lines: Iterable[tuple[int, int, int, PinnedRun | DigestBlock]] = heapq.merge(
+        lines: Iterable[tuple[int, int, int, ApprovedRun | DigestBlock]] = heapq.merge(
             ((run.cycle, 0, index, run) for index, run in enumerate(runs)),
             ((block.cycle, 1, index, block) for index, block in enumerate(blocks)),
         )
         for *_, line in lines:
-            problem = self._open(line) if isinstance(line, PinnedRun) else self._block(line)
+            problem = self._open(line) if isinstance(line, ApprovedRun) else self._block(line)
             if problem is not None:
                 return problem
         return None
@@ -106,7 +106,7 @@ class PinCoverage:
         """Take the end of the baseline."""
         return self._close()
 
-    def _open(self, run: PinnedRun) -> str | None:
+    def _open(self, run: ApprovedRun) -> str | None:
         where = f"the robot-state run from cycle {run.cycle}"
         after = self._start if self._run is None else self._run.last + 1
         if run.cycle < after or run.last < run.cycle:
@@ -129,7 +129,7 @@ class PinCoverage:
         if not (_TAGS.fullmatch(block.tags) and 0 < block.cycles <= CYCLES_PER_BLOCK):
             return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
         self._start = block.cycle + block.cycles
-        self._pinned += block.cycles - block.tags.count(UNPINNED)
+        self._pinned += block.cycles - block.tags.count(GAP_TAG)
         return None
 
     def _close(self) -> str | None:
