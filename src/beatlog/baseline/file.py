@@ -321,7 +321,7 @@ class _Reading:
         """Check a block's lines against the format's rules, and those before them.
 
         :raises BaselineError: lines out of cycle order, a cycle both quiet and with
-            state changes, a second ``open loop`` line, or robot-state pins that do not
+            state changes, a second ``open loop`` line, or approved robot states that do not
             hold together.
         """
         path = self.path

@@ -1,4 +1,4 @@
-"""A baseline file, written: its header, draws, state changes, outputs, robot-state pins.
+"""A baseline file, written: its header, draws, state changes, outputs, robot states.
 
 Each line of the cycle columns starts with the cycle and its robot time in seconds;
 behavior names, states and values are JSON, floats written so they read back bit for

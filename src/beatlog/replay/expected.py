@@ -17,6 +17,7 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord, payload_encoder
+from beatlog.replay.approved_outputs import ApprovedOutputs
 from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.expectation import (
     ExpectedPart,
@@ -24,7 +25,6 @@ from beatlog.replay.expectation import (
     TracedOutput,
     changes_by_cycle,
 )
-from beatlog.replay.held_outputs import HeldOutputs
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["ExpectedRecords"]
@@ -106,7 +106,7 @@ class ExpectedRecords:
         parts = self._expected.parts()
         self._read = -1
         queued_changes, queued_lines = self._changes, self._lines
-        held = HeldOutputs(path)
+        outputs = ApprovedOutputs(path)
         holding = False
         cycle = first
         if first:
@@ -114,7 +114,7 @@ class ExpectedRecords:
             while queued_changes and queued_changes[0][0] < first:
                 queued_changes.popleft()
             while queued_lines and queued_lines[0][0] < first:
-                holding = held.hold(queued_lines.popleft()[1])
+                holding = outputs.hold(queued_lines.popleft()[1])
         for batch in batches:
             start, end = cycle, cycle + len(batch)
             self._read_to(parts, end)
@@ -130,14 +130,14 @@ class ExpectedRecords:
                 lines[at] = cycle_lines
             for event in sorted(changes.keys() | lines.keys()):
                 if holding:
-                    held.put(batch[start - cycle : event - cycle], start)
+                    outputs.put(batch[start - cycle : event - cycle], start)
                 if event in changes:
                     batch[event - cycle].state_changes = changes[event]
                 if event in lines:
-                    holding = held.hold(lines[event])
+                    holding = outputs.hold(lines[event])
                 start = event
             if holding:
-                held.put(batch[start - cycle :] if start > cycle else batch, start)
+                outputs.put(batch[start - cycle :] if start > cycle else batch, start)
             cycle = end
             yield batch
 

@@ -1,4 +1,4 @@
-"""Held outputs: each recorded cycle's outputs with the held values in place, bit for
+"""Approved outputs: each recorded cycle's outputs with the held values in place, bit for
 bit as applying them to the decoded outputs gives, repeated outputs decoded once."""
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ import pytest
 from beatlog.errors import CorruptLogError
 from beatlog.log import payload
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
-from beatlog.replay import held_outputs
+from beatlog.replay import approved_outputs
+from beatlog.replay.approved_outputs import ApprovedOutputs
 from beatlog.replay.departures import apply_outputs
 from beatlog.replay.expectation import ABSENT, AS_RECORDED, TracedOutput
-from beatlog.replay.held_outputs import HeldOutputs
 
 LOG = Path("walk.beatlog")
 ENCODE = payload_encoder().encode
@@ -62,7 +62,7 @@ def lines(held: list[tuple[str, Any]]) -> list[TracedOutput]:
 
 
 def test_held_values_in_place_bit_for_bit_as_applying_them_gives() -> None:
-    outputs = HeldOutputs(LOG)
+    outputs = ApprovedOutputs(LOG)
     held: dict[str, Any] = {}
     got, wanted = [], []
     for changes in HELD:
@@ -89,8 +89,8 @@ def test_outputs_recorded_again_are_not_decoded_again(monkeypatch: pytest.Monkey
         decoded.append(bytes(data))
         return payload.decode_outputs(data)
 
-    monkeypatch.setattr(held_outputs, "decode_outputs", decode)
-    outputs = HeldOutputs(LOG)
+    monkeypatch.setattr(approved_outputs, "decode_outputs", decode)
+    outputs = ApprovedOutputs(LOG)
     outputs.hold(lines([("turn", 0.0)]))
     outputs.put(records(RECORDED[:2]), 0)
     outputs.put(records(RECORDED[1:3]), 2)
@@ -101,7 +101,7 @@ def test_outputs_recorded_again_are_not_decoded_again(monkeypatch: pytest.Monkey
 
 
 def test_whether_a_field_holds_a_value() -> None:
-    outputs = HeldOutputs(LOG)
+    outputs = ApprovedOutputs(LOG)
     assert [
         outputs.hold(lines([("turn", 0.0)])),
         outputs.hold(lines([("speed", ABSENT)])),
@@ -111,7 +111,7 @@ def test_whether_a_field_holds_a_value() -> None:
 
 
 def test_damaged_outputs_are_an_error_in_their_cycle() -> None:
-    outputs = HeldOutputs(LOG)
+    outputs = ApprovedOutputs(LOG)
     outputs.hold(lines([("turn", 0.0)]))
     damaged = records([RECORDED[0], RECORDED[2], msgspec.Raw(b"\x82\xa5speed\xcb\x00")])
     with pytest.raises(CorruptLogError) as raised:

@@ -1,10 +1,11 @@
-"""The held values of departing output fields, put into the recorded cycles' outputs.
+"""Approved outputs: the values a baseline's output lines give, put into the recorded
+cycles' outputs.
 
 Against a baseline of departures (:mod:`beatlog.replay.departures`), an output field
 that departs holds its approved value from a cycle on, whatever was recorded.
-:class:`HeldOutputs` puts them into a run of records at a time: most cycles repeat the
-last one's recorded outputs and take its expected ones; the others are decoded, given
-the held values and encoded again.
+:class:`ApprovedOutputs` puts them into a run of records at a time: most cycles repeat
+the last one's recorded outputs and take its expected ones; the others are decoded,
+given the approved values and encoded again.
 """
 
 from __future__ import annotations
@@ -21,12 +22,12 @@ from beatlog.log.payload import decode_outputs
 from beatlog.replay.departures import hold
 from beatlog.replay.expectation import ABSENT, TracedOutput
 
-__all__ = ["HeldOutputs"]
+__all__ = ["ApprovedOutputs"]
 
 
-class HeldOutputs:
-    """The values departing output fields hold, from a baseline's output lines, put
-    into the recorded cycles' outputs (``path`` names the log in errors)."""
+class ApprovedOutputs:
+    """The approved values departing output fields hold, from a baseline's output lines,
+    put into the recorded cycles' outputs (``path`` names the log in errors)."""
 
     def __init__(self, path: Path) -> None:
         self._path = path
