@@ -1,10 +1,17 @@
 """The approved robot states' lines checked as a baseline is read, a part at a time: a
 run's blocks may come in the parts after its own, and what does not hold together is
-found wherever the parts are cut."""
+found wherever the parts are cut; a robot state's digest counts every bit of the state
+as a log encodes it, by XXH64."""
 
 from __future__ import annotations
 
-from beatlog.replay.approved_state_lines import ApprovedRun, DigestBlock, DigestCoverage
+from beatlog.replay.approved_state_lines import (
+    ApprovedRun,
+    DigestBlock,
+    DigestCoverage,
+    state_digest,
+)
+from tests.factories import encoded
 
 RUN = ApprovedRun(10, 0, 140, 131, ("speed",), {"speed": 1.0})
 BLOCKS = [
@@ -42,3 +49,15 @@ def test_a_block_in_no_run_or_out_of_place_is_found_in_its_part() -> None:
     assert _problem(([RUN], BLOCKS[:2]), ([], BLOCKS[1:])) == (
         "the robot-state run from cycle 10 has its digests of cycle 74 out of place"
     )
+
+
+def test_a_digest_counts_every_bit_of_the_state_as_a_log_encodes_it() -> None:
+    assert state_digest(encoded({"a": 1, "b": 0.5})) == state_digest(encoded({"a": 1, "b": 0.5}))
+    assert state_digest(encoded({"a": 0.0})) != state_digest(encoded({"a": -0.0}))
+    assert state_digest(encoded({"a": 1})) != state_digest(encoded({"a": 1.0}))
+    assert len(state_digest(b"")) == 8
+
+
+def test_a_digest_is_xxh64_as_its_specification_gives_it() -> None:
+    # the empty input's XXH64 (seed 0), from the xxHash specification's test vectors
+    assert state_digest(b"") == bytes.fromhex("ef46db3751d8e999")

@@ -269,10 +269,10 @@ def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
     record_probe: RecordFn, approved: bool | None
 ) -> None:
     log = record_probe(60)  # a die rolled every fifth cycle
-    asked: list[tuple[int, list[str]]] = []
+    asked: list[tuple[int, list[DrawMadeOtherwise]]] = []
 
-    def approves(cycle: int, differences: Sequence[DrawMadeOtherwise]) -> bool:
-        asked.append((cycle, [str(difference) for difference in differences]))
+    def approves(cycle: int, made: Sequence[DrawMadeOtherwise]) -> bool:
+        asked.append((cycle, list(made)))
         return bool(approved)
 
     with SessionLogReader(log) as reader:
@@ -288,7 +288,7 @@ def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
 
     rolled = [cycle for cycle, _, _ in answers if cycle % 5 == 0]
     assert [cycle for cycle, _ in asked] == ([] if approved is None else rolled)
-    assert {differences[0] for _, differences in asked} <= {"dice: new randint(1, 6)"}
+    assert {made[0] for _, made in asked} <= {DrawMadeOtherwise("dice", None, "randint(1, 6)")}
     agreed = [cycle for cycle, at_once, _ in answers if at_once and cycle % 5 == 0]
     same = [cycle for cycle, _, same in answers if same and cycle % 5 == 0]
     assert agreed == (same if approved else [])

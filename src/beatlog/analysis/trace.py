@@ -22,6 +22,7 @@ from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
+from beatlog.replay.approved_state_lines import state_digest
 from beatlog.replay.approved_states import ApprovedStates, RebuiltState, rebuilt_otherwise
 from beatlog.replay.compare import WHOLE_STATE, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
@@ -34,7 +35,6 @@ from beatlog.replay.expectation import (
     TracedOutput,
 )
 from beatlog.replay.session import ReplaySession
-from beatlog.replay.state_digests import state_digest
 from beatlog.replay.verdict import StateChange
 
 __all__ = [

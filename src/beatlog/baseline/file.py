@@ -42,7 +42,7 @@ differ and their values in its first cycle, for review; then a line per block of
 64 of its cycles gives, after the count of cycles, the hex digest of the block and two
 base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
 gap): XXH64 of the state as the log encodes it
-(:func:`~beatlog.replay.state_digests.state_digest`), and of its pinned cycles'
+(:func:`~beatlog.replay.approved_state_lines.state_digest`), and of its pinned cycles'
 digests end to end for the block. Replay judges a pinned cycle's whole rebuilt state
 by its digest, bit for bit, and any other cycle against the recording. Behavior names,
 states and values are JSON, floats written so they read back bit for bit (``NaN``, ``Infinity``,

@@ -33,6 +33,7 @@ from beatlog.baseline.write import (
     RUN_FIRST,
 )
 from beatlog.log.format import DECODE_ERRORS
+from beatlog.replay.approved_state_lines import DIGEST_BYTES
 from beatlog.replay.approved_states import TAG_CHARS, ApprovedRun, DigestBlock
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
@@ -41,7 +42,6 @@ from beatlog.replay.expectation import (
     TracedChange,
     TracedOutput,
 )
-from beatlog.replay.state_digests import DIGEST_BYTES
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["ParsedLines", "line_feeds", "parse_line"]

@@ -1,6 +1,13 @@
 """Approved robot states as a baseline's lines hold them (:class:`ApprovedRun`,
-:class:`DigestBlock`), and the check, as a baseline is read, that the blocks cover
-their runs in order (:class:`DigestCoverage`).
+:class:`DigestBlock`), how a state is digested (:func:`state_digest`), and the check, as
+a baseline is read, that the blocks cover their runs in order (:class:`DigestCoverage`).
+
+A state's digest is XXH64, seed 0, of the state as a log encodes it; a block's, of its
+states' digests end to end. The digests guard against accidental change, not a hostile
+baseline (which could pin anything), so a fast non-cryptographic digest serves. XXH64,
+not XXH3: XXH3 digests a state this long with vector instructions (AVX2, AVX-512), which
+leave a replay around them slower than their count of instructions says: a re-baselined
+perception change costs more CPU with XXH3 than with XXH64 in about as many instructions.
 """
 
 from __future__ import annotations
@@ -11,16 +18,28 @@ import string
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
+import xxhash
+
 __all__ = [
     "BASE64_DIGITS",
     "CYCLES_PER_BLOCK",
+    "DIGEST_BYTES",
     "GAP_TAG",
     "TAG_CHARS",
     "ApprovedRun",
     "DigestBlock",
     "DigestCoverage",
+    "block_digest",
+    "state_digest",
+    "state_number",
 ]
 
+DIGEST_BYTES = 8
+"""The size of a cycle's state digest and of a block's digest."""
+state_number = xxhash.xxh64_intdigest
+"""A state's digest as an unsigned 64-bit int, as the replay core compares it."""
+block_digest = xxhash.xxh64_digest
+"""A block's digest, of its pinned states' digests, eight bytes each, end to end."""
 TAG_CHARS = 2
 """A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
 CYCLES_PER_BLOCK = 64
@@ -31,6 +50,12 @@ BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits 
 """The base64 digits, in the order of the six bits each stands for."""
 _TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
 """Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`GAP_TAG`."""
+
+
+def state_digest(encoded: bytes) -> bytes:
+    """The digest of a robot state as a log encodes it
+    (:func:`~beatlog.log.format.payload_encoder`), bit for bit: eight bytes, big-endian."""
+    return xxhash.xxh64_digest(encoded)
 
 
 class ApprovedRun(NamedTuple):
@@ -66,15 +91,6 @@ class DigestBlock(NamedTuple):
     def cycles(self) -> int:
         """How many cycles the block spans."""
         return len(self.tags) // TAG_CHARS
-
-    def tag(self, offset: int) -> str:
-        """The tag of the block's cycle ``cycle + offset``."""
-        return self.tags[offset * TAG_CHARS : (offset + 1) * TAG_CHARS]
-
-    @property
-    def pinned(self) -> list[int]:
-        """The offsets of the cycles it pins (not gaps)."""
-        return [offset for offset in range(self.cycles) if self.tag(offset) != GAP_TAG]
 
 
 class DigestCoverage:

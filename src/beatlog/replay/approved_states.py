@@ -9,7 +9,7 @@ rebuilt values in its first cycle, for review), blocks of up to
 :data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
 digest of the block.
 
-A cycle's :func:`~beatlog.replay.state_digests.state_digest` is the XXH64 digest (seed
+A cycle's :func:`~beatlog.replay.approved_state_lines.state_digest` is the XXH64 digest (seed
 0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
 system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
 of any field counts, and the replay core, which encodes each rebuilt state to compare it
@@ -34,14 +34,16 @@ from typing import Any, NamedTuple
 from beatlog.replay.approved_state_lines import (
     BASE64_DIGITS,
     CYCLES_PER_BLOCK,
+    DIGEST_BYTES,
     GAP_TAG,
     TAG_CHARS,
     ApprovedRun,
     DigestBlock,
     DigestCoverage,
+    block_digest,
+    state_number,
 )
 from beatlog.replay.compare import Comparison
-from beatlog.replay.state_digests import DIGEST_BYTES, block_digest, state_number
 
 __all__ = [
     "CYCLES_PER_BLOCK",
@@ -82,7 +84,7 @@ class RebuiltState(NamedTuple):
     fields: dict[str, Any]
     """The fields that differ from the recording, with their rebuilt values."""
     digest: bytes
-    """The :func:`~beatlog.replay.state_digests.state_digest` of the whole rebuilt state."""
+    """The :func:`~beatlog.replay.approved_state_lines.state_digest` of the whole rebuilt state."""
 
 
 @dataclass(frozen=True)
@@ -105,7 +107,7 @@ class ApprovedStates:
     @classmethod
     def from_rebuilt(cls, states: Iterable[RebuiltState]) -> ApprovedStates:
         """Pin the rebuilt states a trace collected (in cycle order, digested by
-        :func:`~beatlog.replay.state_digests.state_digest`)."""
+        :func:`~beatlog.replay.approved_state_lines.state_digest`)."""
         runs: list[ApprovedRun] = []
         blocks: list[DigestBlock] = []
         for run in _runs(states):
@@ -246,11 +248,6 @@ class ApprovedStateChecker:
         ended = bisect.bisect_left([run.last for run in self._runs], before)
         if ended:
             del self._runs[:ended], self._starts[:ended]
-
-    @property
-    def cycles(self) -> frozenset[int]:
-        """The pinned cycles added and not forgotten."""
-        return frozenset(self.tags)
 
     def __contains__(self, cycle: object) -> bool:
         return cycle in self.tags

@@ -42,13 +42,6 @@ class DrawMadeOtherwise(NamedTuple):
     asked: str | None
     """The request now; None for a recorded draw left unused."""
 
-    def __str__(self) -> str:
-        if self.recorded is None:
-            return f"{self.behavior}: new {self.asked}"
-        if self.asked is None:
-            return f"{self.behavior}: {self.recorded} left unused"
-        return f"{self.behavior}: {self.recorded} -> {self.asked}"
-
 
 class ApprovedDraws(NamedTuple):
     """Draws of one behavior made otherwise than recorded, in one way, in ``cycles``: a
@@ -112,8 +105,6 @@ class DrawApprovals:
             for cycle in line.cycles:
                 self._by_cycle[cycle][line.draw] += 1
         self._approved = frozenset(line.draw for line in approved)
-        self.cycles = frozenset(self._by_cycle)
-        """The cycles where the baseline holds draws made otherwise than recorded."""
 
     def approves(self, cycle: int, made: Sequence[DrawMadeOtherwise]) -> bool:
         """Whether the draws a cycle ``made`` otherwise are exactly the approved ones

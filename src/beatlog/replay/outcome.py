@@ -112,15 +112,15 @@ class CycleOutcome(NamedTuple):
             failure = self.failure
             message = f"{behavior} raised {type(failure).__name__}: {failure}"
             return Stop(DivergenceKind.EXCEPTION, message, behavior)
-        mismatch = self.refused_draw
-        if mismatch is not None:
+        refused = self.refused_draw
+        if refused is not None:
             kind = (
                 DivergenceKind.RANDOM_OVERDRAWN
-                if mismatch.overdrawn
+                if refused.overdrawn
                 else DivergenceKind.RANDOM_MISMATCH
             )
-            behavior = actor_name(names, mismatch.actor)
-            return Stop(kind, f"{behavior} {mismatch.problem}", behavior)
+            behavior = actor_name(names, refused.actor)
+            return Stop(kind, f"{behavior} {refused.problem}", behavior)
         if self.underdrawn:
             drawn, recorded = len(self.drawn), len(self.recorded_draws)
             missing = self.recorded_draws[drawn]

@@ -32,8 +32,6 @@ from beatlog.replay.draws import DrawMadeOtherwise
 
 __all__ = ["RefusedDraw", "ReplayRandom"]
 
-_RANDOM = DrawKind.RANDOM.value
-
 
 class RefusedDraw(BaseException):
     """A draw refused: raised inside behavior code when a replayed draw does not match
@@ -302,6 +300,4 @@ def _request(draw: DrawRecord) -> str:
 
 def _quantile(draw: DrawRecord) -> Quantile | None:
     """The quantile of a recorded scalar draw, where it can be known."""
-    if draw.kind == _RANDOM:
-        return scalar_quantile(draw.kind, draw.value, ())
-    return scalar_quantile(draw.kind, draw.value, draw.params) if draw.params else None
+    return scalar_quantile(draw.kind, draw.value, draw.params)

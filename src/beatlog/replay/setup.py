@@ -69,8 +69,8 @@ def built_for_replay(
     problem: str | None
     try:
         built = build_system(system, random)
-    except RefusedDraw as mismatch:
-        problem = mismatch.problem
+    except RefusedDraw as refused:
+        problem = refused.problem
     else:
         problem = None if random.refused is None else random.refused.problem  # swallowed
     drawn = len(random.drawn)
