@@ -9,14 +9,11 @@ from typing import Any
 
 import pytest
 
+from beatlog.replay.approved_state_lines import CYCLES_PER_BLOCK, GAP_TAG, ApprovedRun, DigestBlock
 from beatlog.replay.approved_states import (
-    CYCLES_PER_BLOCK,
-    GAP_TAG,
     MAX_GAP,
-    ApprovedRun,
     ApprovedStateChecker,
     ApprovedStates,
-    DigestBlock,
     rebuilt_otherwise,
 )
 from tests.factories import encoded, rebuilt_states, speed_state

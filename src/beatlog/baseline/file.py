@@ -82,7 +82,8 @@ from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
-from beatlog.replay.approved_states import ApprovedStates, DigestCoverage
+from beatlog.replay.approved_state_lines import DigestCoverage
+from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     Expectation,

@@ -33,8 +33,7 @@ from beatlog.baseline.write import (
     RUN_FIRST,
 )
 from beatlog.log.format import DECODE_ERRORS
-from beatlog.replay.approved_state_lines import DIGEST_BYTES
-from beatlog.replay.approved_states import TAG_CHARS, ApprovedRun, DigestBlock
+from beatlog.replay.approved_state_lines import DIGEST_BYTES, TAG_CHARS, ApprovedRun, DigestBlock
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.expectation import (
     ABSENT,

@@ -46,15 +46,9 @@ from beatlog.replay.approved_state_lines import (
 from beatlog.replay.compare import Comparison
 
 __all__ = [
-    "CYCLES_PER_BLOCK",
-    "GAP_TAG",
     "MAX_GAP",
-    "TAG_CHARS",
-    "ApprovedRun",
     "ApprovedStateChecker",
     "ApprovedStates",
-    "DigestBlock",
-    "DigestCoverage",
     "RebuiltState",
     "rebuilt_otherwise",
 ]

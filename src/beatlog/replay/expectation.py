@@ -17,7 +17,8 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.log.format import payload_encoder
-from beatlog.replay.approved_states import ApprovedRun, ApprovedStates, DigestBlock
+from beatlog.replay.approved_state_lines import ApprovedRun, DigestBlock
+from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.verdict import StateChange
 

@@ -17,8 +17,8 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord, StateChangeRecord, payload_encoder
-from beatlog.replay.approved_outputs import ApprovedOutputs
 from beatlog.replay.approved_states import ApprovedStateChecker
+from beatlog.replay.departures import ApprovedOutputs
 from beatlog.replay.expectation import (
     ExpectedPart,
     ExpectedStream,
