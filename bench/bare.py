@@ -36,7 +36,7 @@ from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
 from beatlog.model.cycle import find_changes, read_states
-from beatlog.model.random import DrawRecord
+from beatlog.model.random import Draw
 from beatlog.replay.random import ReplayRandom
 from beatlog.replay.view import StateViews
 
@@ -110,7 +110,7 @@ class BareInputs:
 def load_bare_inputs(path: Path, robot_state: type[msgspec.Struct]) -> BareInputs:
     """Decode every cycle's HB, RS and RN from the log, before any timing."""
     decode_state = msgspec.msgpack.Decoder(robot_state).decode
-    decode_draws = msgspec.msgpack.Decoder(list[DrawRecord]).decode
+    decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     inputs = BareInputs([], [], [])
     with SessionLogReader(path) as reader:
         for record in reader.cycles():
@@ -149,7 +149,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
     behaviors = tuple(system.behaviors.values())
     states = read_states(behaviors)
     encode = payload_encoder().encode
-    decode_draws = msgspec.msgpack.Decoder(list[DrawRecord]).decode
+    decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     raw = msgspec.Raw
     now_ns = failed = 0
     with SessionLogReader(path) as reader:

@@ -24,7 +24,7 @@ from beatlog.log.format import (
     END_TOPIC,
     HEADER_TOPIC,
     CycleRecord,
-    DrawRecord,
+    Draw,
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
@@ -274,9 +274,9 @@ def rebuilt_states(states: dict[int, dict[str, Any]]) -> list[RebuiltState]:
     ]
 
 
-def through_log(draws: list[DrawRecord]) -> list[DrawRecord]:
+def through_log(draws: list[Draw]) -> list[Draw]:
     """What replay sees: the draws after msgpack encoding and decoding."""
-    return msgspec.msgpack.decode(msgspec.msgpack.encode(draws), type=list[DrawRecord])
+    return msgspec.msgpack.decode(msgspec.msgpack.encode(draws), type=list[Draw])
 
 
 def opened_logs(monkeypatch: pytest.MonkeyPatch) -> list[str]:

@@ -28,7 +28,7 @@ from mcap.records import Message as McapMessage
 from mcap.stream_reader import StreamReader
 
 from beatlog.log import SessionEnd, SessionHeader, SessionLogWriter
-from beatlog.log.format import CYCLES_TOPIC, SETUP_DRAWS_SINCE, DrawRecord
+from beatlog.log.format import CYCLES_TOPIC, SETUP_DRAWS_SINCE, Draw
 from tests.conformance.format3 import DAMAGES, damaged, header, written
 from tests.crafting import (
     FORMAT_1_CHANNELS,
@@ -334,8 +334,8 @@ def format_3(folder: Path) -> dict[str, tuple[bytes, dict[str, Any]]]:
 
 
 SETUP_DRAWS = [
-    DrawRecord(-1, "uniform", 2.75, (2.0, 5.0)),
-    DrawRecord(-1, "normal_array", ["<f8", [2], struct.pack("<2d", 1.5, -0.5)], (0.0, 1.0, [2])),
+    Draw(-1, "uniform", 2.75, (2.0, 5.0)),
+    Draw(-1, "normal_array", ["<f8", [2], struct.pack("<2d", 1.5, -0.5)], (0.0, 1.0, [2])),
 ]
 """The set-up draws of the format-4 case: what its system drew while it was built."""
 

@@ -19,7 +19,7 @@ from beatlog.log.format import (
     FORMAT_VERSION,
     HEADER_TOPIC,
     CycleRecord,
-    DrawRecord,
+    Draw,
     SessionHeader,
 )
 from beatlog.log.reader import SessionLogReader
@@ -209,9 +209,7 @@ def test_the_three_channels_have_distinct_beatlog_topics() -> None:
 def test_a_draw_writes_its_request_exactly_as_code_every_time(
     params: tuple[Any, ...], text: str
 ) -> None:
-    DrawRecord(
-        0, "uniform", 0.5, (0.0, 1.0)
-    ).call()  # equal as numbers to some above, written first
-    draws = [DrawRecord(0, "uniform", 0.5, params), DrawRecord(1, "uniform", 0.7, params)]
+    Draw(0, "uniform", 0.5, (0.0, 1.0)).call()  # equal as numbers to some above, written first
+    draws = [Draw(0, "uniform", 0.5, params), Draw(1, "uniform", 0.7, params)]
 
     assert [draw.call() for draw in draws] == [text, text]

@@ -11,7 +11,7 @@ import pytest
 from beatlog.model.behavior import Behavior, BehaviorState
 from beatlog.model.context import Context, Outputs
 from beatlog.model.cycle import CycleExecutor, Update, find_changes, read_states
-from beatlog.model.random import DrawRecord, RecordingRandom
+from beatlog.model.random import Draw, RecordingRandom
 from tests.conftest import PERIOD_NS, Probe
 
 
@@ -132,7 +132,7 @@ def test_random_numbers_drawn_in_a_cycle_come_from_the_source_the_executor_was_g
     changes = CycleExecutor(panel, random).step(PERIOD_NS, Probe())
 
     (draw,) = random.take()
-    assert draw == DrawRecord(2, "randint", draw.value, (1, 6))
+    assert draw == Draw(2, "randint", draw.value, (1, 6))
     assert changes == [(2, "idle", draw.value)]
 
 

@@ -13,7 +13,7 @@ import pytest
 from beatlog.cli.main import main
 from beatlog.log.reader import SessionLogReader
 from beatlog.model import behavior
-from beatlog.model.random import DrawRecord
+from beatlog.model.random import Draw
 from beatlog.replay import debugger
 from beatlog.replay.debugger import DebuggerQuit
 from beatlog.replay.judge import replay
@@ -67,7 +67,7 @@ def test_break_at_stops_before_the_update_with_the_cycle_at_hand(
                 ("near", "near", "far"),
                 ("dice", "odd", "even"),
             ],
-            "recorded_draws": [DrawRecord(actor=2, kind="randint", value=4, params=(1, 6))],
+            "recorded_draws": [Draw(actor=2, kind="randint", value=4, params=(1, 6))],
             "system": system,
         }
     ]

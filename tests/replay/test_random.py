@@ -11,15 +11,13 @@ import numpy as np
 import pytest
 
 from beatlog.model.context import Context
-from beatlog.model.random import DrawRecord, RandomSource, RecordingRandom
+from beatlog.model.random import Draw, RandomSource, RecordingRandom
 from beatlog.replay.draws import DrawMadeOtherwise
 from beatlog.replay.random import RefusedDraw, ReplayRandom
 from tests.factories import through_log
 
 
-def matching(
-    recorded: list[DrawRecord], names: tuple[str, ...] = ("wander", "escape")
-) -> ReplayRandom:
+def matching(recorded: list[Draw], names: tuple[str, ...] = ("wander", "escape")) -> ReplayRandom:
     """A replay matching draws source for one cycle of ``recorded`` draws, behaviors ``names``."""
     source = ReplayRandom()
     context = Context(source)
@@ -43,9 +41,7 @@ def drawing_as(source: ReplayRandom, actor: int) -> ReplayRandom:
 
 
 def test_matching_draws_hands_back_the_recording_while_it_is_followed() -> None:
-    source = matching(
-        [DrawRecord(0, "uniform", 1.2, (0.8, 1.6)), DrawRecord(1, "randint", 3, (1, 6))]
-    )
+    source = matching([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
 
     first = drawing_as(source, 0).uniform(0.8, 1.6)
     second = drawing_as(source, 1).randint(1, 6)
@@ -55,7 +51,7 @@ def test_matching_draws_hands_back_the_recording_while_it_is_followed() -> None:
 
 
 def test_matching_draws_re_maps_a_retuned_request_at_the_same_quantile() -> None:
-    source = matching([DrawRecord(0, "uniform", 1.25, (1.0, 2.0))])
+    source = matching([Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     value = drawing_as(source, 0).uniform(2.0, 6.0)
 
@@ -67,10 +63,10 @@ def test_matching_draws_re_maps_a_retuned_request_at_the_same_quantile() -> None
 
 
 def test_matching_draws_gives_a_new_draw_a_fresh_quantile_and_drops_an_unused_one() -> None:
-    source = matching([DrawRecord(0, "uniform", 1.25, (1.0, 2.0))])
+    source = matching([Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     value = drawing_as(source, 1).gauss(0.0, 1.0)
-    again = matching([DrawRecord(0, "uniform", 1.25, (1.0, 2.0))])
+    again = matching([Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     assert drawing_as(again, 1).gauss(0.0, 1.0) == value
     assert source.settle() == [
@@ -80,9 +76,7 @@ def test_matching_draws_gives_a_new_draw_a_fresh_quantile_and_drops_an_unused_on
 
 
 def test_matching_draws_matches_each_behaviors_draws_whatever_the_order() -> None:
-    source = matching(
-        [DrawRecord(0, "uniform", 1.2, (0.8, 1.6)), DrawRecord(1, "randint", 3, (1, 6))]
-    )
+    source = matching([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
 
     second = drawing_as(source, 1).randint(1, 6)
     first = drawing_as(source, 0).uniform(0.8, 1.6)
@@ -92,7 +86,7 @@ def test_matching_draws_matches_each_behaviors_draws_whatever_the_order() -> Non
 
 
 def test_matching_draws_credits_a_draw_to_the_behavior_that_drew_it() -> None:
-    source = matching([DrawRecord(0, "randint", 3, (1, 6))])
+    source = matching([Draw(0, "randint", 3, (1, 6))])
 
     drawing_as(source, 1).randint(1, 6)
 
@@ -103,9 +97,7 @@ def test_matching_draws_credits_a_draw_to_the_behavior_that_drew_it() -> None:
 
 
 def test_matching_draws_prefers_a_recorded_draw_of_the_same_kind() -> None:
-    source = matching(
-        [DrawRecord(0, "gauss", 0.5, (0.0, 1.0)), DrawRecord(0, "uniform", 1.25, (1.0, 2.0))]
-    )
+    source = matching([Draw(0, "gauss", 0.5, (0.0, 1.0)), Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     value = drawing_as(source, 0).uniform(1.0, 2.0)
 
@@ -114,7 +106,7 @@ def test_matching_draws_prefers_a_recorded_draw_of_the_same_kind() -> None:
 
 
 def test_matching_draws_maps_another_scalar_kind_by_quantile() -> None:
-    source = matching([DrawRecord(0, "uniform", 5.0, (0.0, 10.0))])
+    source = matching([Draw(0, "uniform", 5.0, (0.0, 10.0))])
 
     value = drawing_as(source, 0).randint(0, 9)
 
@@ -123,7 +115,7 @@ def test_matching_draws_maps_another_scalar_kind_by_quantile() -> None:
 
 
 def test_matching_draws_never_maps_a_scalar_to_an_array() -> None:
-    source = matching([DrawRecord(0, "uniform", 5.0, (0.0, 10.0))])
+    source = matching([Draw(0, "uniform", 5.0, (0.0, 10.0))])
 
     array = drawing_as(source, 0).uniform_array(0.0, 10.0, 3)
 
@@ -139,14 +131,14 @@ def test_matching_draws_of_a_behavior_gone_leaves_its_draws_unused() -> None:
     source.bind(Context(source))
     source.expect_actors(("wander", "gone"), ("wander",))
     source.match_draws(b"a log")
-    source.load(through_log([DrawRecord(1, "uniform", 1.25, (1.0, 2.0))]))
+    source.load(through_log([Draw(1, "uniform", 1.25, (1.0, 2.0))]))
 
     assert source.settle() == [DrawMadeOtherwise("gone", "uniform(1.0, 2.0)", None)]
 
 
 def test_drawing_more_than_recorded_is_a_mismatch() -> None:
     player = ReplayRandom()
-    player.load([DrawRecord(0, "uniform", 0.5)])
+    player.load([Draw(0, "uniform", 0.5)])
     player.uniform(0, 1)
     with pytest.raises(RefusedDraw) as caught:
         player.uniform(0, 1)
@@ -158,7 +150,7 @@ def test_drawing_more_than_recorded_is_a_mismatch() -> None:
 
 def test_drawing_another_kind_is_a_mismatch() -> None:
     player = ReplayRandom()
-    player.load([DrawRecord(0, "gauss", 0.5)])
+    player.load([Draw(0, "gauss", 0.5)])
     with pytest.raises(RefusedDraw, match=r"called uniform\(0, 1\) where gauss was recorded"):
         player.uniform(0, 1)
     assert player.refused is not None
@@ -166,12 +158,12 @@ def test_drawing_another_kind_is_a_mismatch() -> None:
         "called uniform(0, 1) where gauss was recorded",
         False,
     )
-    assert player.drawn == [DrawRecord(-1, "uniform", None, (0, 1))]
+    assert player.drawn == [Draw(-1, "uniform", None, (0, 1))]
 
 
 def test_drawing_another_kind_names_both_requests() -> None:
     player = ReplayRandom()
-    player.load([DrawRecord(0, "uniform", 0.5, (2.0, 5.0))])
+    player.load([Draw(0, "uniform", 0.5, (2.0, 5.0))])
     with pytest.raises(RefusedDraw) as caught:
         player.gauss(0.0, 0.4)
     assert caught.value.problem == "called gauss(0.0, 0.4) where uniform(2.0, 5.0) was recorded"
@@ -323,12 +315,12 @@ def test_the_same_parameters_replay_the_recorded_value() -> None:
 
 def test_a_format_1_draw_has_no_parameters_and_is_checked_for_kind_only() -> None:
     player = ReplayRandom()
-    player.load([DrawRecord(0, "uniform", 0.25)])
+    player.load([Draw(0, "uniform", 0.25)])
     assert player.uniform(2.5, 5.0) == 0.25
 
 
 def test_a_recorded_choice_must_fit_the_sequence() -> None:
     player = ReplayRandom()
-    player.load([DrawRecord(0, "choice", 5)])
+    player.load([Draw(0, "choice", 5)])
     with pytest.raises(RefusedDraw, match="out of range"):
         player.choice([1, 2])

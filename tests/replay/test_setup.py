@@ -11,7 +11,7 @@ from beatlog import replay
 from beatlog.analysis.timeline import build_timeline
 from beatlog.baseline.policy import refusal
 from beatlog.errors import CorruptLogError, SystemLoadError
-from beatlog.log.format import DrawRecord
+from beatlog.log.format import Draw
 from beatlog.model.behavior import System
 from beatlog.model.random import RecordingRandom
 from beatlog.model.source import RandomSource
@@ -103,7 +103,7 @@ def test_matching_draws_refuses_a_change_to_the_set_up_draws(tmp_path: Path) -> 
     )
 
 
-def record_set_up(path: Path, draw: DrawRecord) -> Path:
+def record_set_up(path: Path, draw: Draw) -> Path:
     """A log of one cycle of the probe whose header holds ``draw`` as its set-up draw."""
     random = RecordingRandom(seed=3)
     random.draws.append(draw)
@@ -113,7 +113,7 @@ def record_set_up(path: Path, draw: DrawRecord) -> Path:
 
 
 def test_a_damaged_set_up_draw_is_refused(tmp_path: Path) -> None:
-    log = record_set_up(tmp_path / "damaged.beatlog", DrawRecord(-1, "uniform", "fast", (2.0, 3.0)))
+    log = record_set_up(tmp_path / "damaged.beatlog", Draw(-1, "uniform", "fast", (2.0, 3.0)))
     with pytest.raises(CorruptLogError, match="damaged set-up draw 1: uniform recorded 'fast'"):
         replay(log, lambda random: probe_system())
 

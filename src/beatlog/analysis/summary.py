@@ -20,7 +20,7 @@ from beatlog.errors import CorruptLogError
 from beatlog.log.format import (
     DECODE_ERRORS,
     EMPTY_LIST,
-    DrawRecord,
+    Draw,
     SessionEnd,
     SessionHeader,
     StateChangeRecord,
@@ -80,7 +80,7 @@ def summarize(path: str | Path) -> LogSummary:
     """Read a whole log and gather its figures; a log whose cycles read back intact but
     whose index is damaged has figures, and a status that says so."""
     changes_decoder = msgspec.msgpack.Decoder(list[StateChangeRecord])
-    draws_decoder = msgspec.msgpack.Decoder(list[DrawRecord])
+    draws_decoder = msgspec.msgpack.Decoder(list[Draw])
     cycles = longest = late = 0
     intervals: Counter[int] | None = Counter()
     transitions = Counter[int]()

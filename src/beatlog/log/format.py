@@ -47,7 +47,7 @@ __all__ = [
     "CycleBatch",
     "CycleEntry",
     "CycleRecord",
-    "DrawRecord",
+    "Draw",
     "SessionEnd",
     "SessionHeader",
     "StateChangeRecord",
@@ -138,7 +138,7 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     header names them, batches store robot states by field, and a batch of states of
     exactly these fields names none (:class:`ColumnBatch`)."""
     setup_draws: (
-        Annotated[list[DrawRecord], msgspec.Meta(max_length=MAX_SETUP_DRAWS)] | msgspec.UnsetType
+        Annotated[list[Draw], msgspec.Meta(max_length=MAX_SETUP_DRAWS)] | msgspec.UnsetType
     ) = msgspec.UNSET
     """The random numbers the system drew while its factory built it, before cycle 0
     (format 4), each the system's (actor -1): replay builds the system with them. Unset
@@ -172,7 +172,7 @@ class SessionHeader(msgspec.Struct, kw_only=True):
                 return f"set-up draw {number} is behavior #{draw.actor}'s, not the system's"
         return None
 
-    def drawn_at_setup(self) -> list[DrawRecord]:
+    def drawn_at_setup(self) -> list[Draw]:
         """The set-up draws, in the order drawn; none where the header holds none."""
         return [] if isinstance(self.setup_draws, msgspec.UnsetType) else self.setup_draws
 
@@ -185,10 +185,10 @@ StateChangeRecord = tuple[int, Any, Any]
 """A behavior state change as logged: (catalogue index, before, after)."""
 
 
-class DrawRecord(NamedTuple):
-    """A random draw as the log records it (an entry of RN_t): who drew it (a catalogue
-    index, -1 for the system), what kind, the value, and the parameters asked for (empty
-    in format-1 logs, which recorded none)."""
+class Draw(NamedTuple):
+    """One random number drawn in a cycle: who drew it (a catalogue index, -1 for the
+    system), what kind, the value, and the parameters asked for (empty in format-1
+    logs, which recorded none)."""
 
     actor: int
     kind: str
@@ -207,7 +207,7 @@ class CycleEntry(msgspec.Struct, array_like=True):
     heartbeat_ns: int
     robot_state: Any
     state_changes: Sequence[StateChangeRecord]
-    random_numbers: Sequence[DrawRecord]
+    random_numbers: Sequence[Draw]
     outputs: Mapping[str, Any]
     samples: Sequence[Any]
 

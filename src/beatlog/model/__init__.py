@@ -14,7 +14,7 @@ from beatlog.model.behavior import (
 from beatlog.model.clock import DEFAULT_PERIOD_NS, LiveHeartbeat, SimulatedHeartbeat
 from beatlog.model.context import Context, Outputs
 from beatlog.model.inbox import Sample, SensorInbox
-from beatlog.model.random import DrawKind, DrawRecord, RandomSource, RecordingRandom
+from beatlog.model.random import Draw, DrawKind, RandomSource, RecordingRandom
 from beatlog.model.state import RobotState
 
 __all__ = [
@@ -22,8 +22,8 @@ __all__ = [
     "Behavior",
     "BehaviorState",
     "Context",
+    "Draw",
     "DrawKind",
-    "DrawRecord",
     "LiveHeartbeat",
     "Outputs",
     "PlainBehavior",

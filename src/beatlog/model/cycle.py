@@ -18,8 +18,8 @@ from beatlog.model.random import RandomSource
 
 __all__ = [
     "CycleExecutor",
-    "Draw",
     "Pause",
+    "RandomDraw",
     "StateChange",
     "Update",
     "actor_name",
@@ -49,10 +49,9 @@ _SHORT = reprlib.Repr()
 _SHORT.maxlist = 3
 
 
-class Draw(NamedTuple):
+class RandomDraw(NamedTuple):
     """A random draw as reports and invariants show it: by the name of the behavior that
-    drew it, its value as plain Python (a :class:`~beatlog.log.format.DrawRecord` is
-    the log's)."""
+    drew it, its value as plain Python (the log's is a :class:`~beatlog.log.format.Draw`)."""
 
     behavior: str
     kind: str

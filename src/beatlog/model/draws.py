@@ -17,7 +17,7 @@ from numbers import Real
 from typing import TYPE_CHECKING, Any
 
 from beatlog.errors import NumpyMissingError
-from beatlog.log.format import DrawRecord, payload_encoder
+from beatlog.log.format import Draw, payload_encoder
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -101,7 +101,7 @@ def pack_array(array: npt.NDArray[Any]) -> tuple[str, list[int], bytes]:
     return (little.dtype.str, list(array.shape), little.tobytes())
 
 
-def plain_value(draw: DrawRecord) -> Any:
+def plain_value(draw: Draw) -> Any:
     """A draw's value as plain Python, for reports: an array draw's as nested lists
     (as recorded where those do not make an array). Needs no numpy."""
     if draw.kind not in ARRAY_KINDS or _array_problem(draw.kind, draw.value, ()) is not None:
@@ -120,7 +120,7 @@ def _nest(items: list[Any], shape: list[int]) -> Any:
     return [_nest(items[i * step : (i + 1) * step], shape[1:]) for i in range(shape[0])]
 
 
-def recorded_draw_problem(draw: DrawRecord, behaviors: int) -> str | None:
+def recorded_draw_problem(draw: Draw, behaviors: int) -> str | None:
     """What makes a draw read from a log one that no recording writes, or None: an actor
     outside the catalogue of ``behaviors`` (-1, the system, is in), an unknown kind, a
     value or parameters not of the kind's types, an array whose bytes do not make its

@@ -12,7 +12,7 @@ from __future__ import annotations
 import secrets
 from typing import Any
 
-from beatlog.log.format import DrawRecord
+from beatlog.log.format import Draw
 from beatlog.model.draws import (
     SCALAR_VALUES,
     DrawKind,
@@ -25,8 +25,8 @@ from beatlog.model.quantiles import FreshQuantiles, Place, array_value, scalar_v
 from beatlog.model.source import RandomSource
 
 __all__ = [
+    "Draw",
     "DrawKind",
-    "DrawRecord",
     "RandomSource",
     "RecordingRandom",
     "plain_value",
@@ -45,9 +45,9 @@ class RecordingRandom(RandomSource):
         self.seed = seed if seed is not None else secrets.randbits(63)
         self._fresh = FreshQuantiles(str(self.seed).encode())
         self._count = 0
-        self.draws: list[DrawRecord] = []
+        self.draws: list[Draw] = []
 
-    def take(self) -> list[DrawRecord]:
+    def take(self) -> list[Draw]:
         """Hand over this cycle's draws (RN_t) and start an empty list for the next."""
         draws, self.draws = self.draws, []
         return draws
@@ -60,12 +60,12 @@ class RecordingRandom(RandomSource):
     def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
         quantile = self._fresh.quantile(self._place())
         value = SCALAR_VALUES[kind.value](scalar_value(kind.value, params, quantile))
-        self.draws.append(DrawRecord(self._actor, kind.value, value, params))
+        self.draws.append(Draw(self._actor, kind.value, value, params))
         return value
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
         need_numpy()
         params = (a, b, list(shape))
         array = array_value(kind.value, params, None, self._fresh.seed(self._place()))
-        self.draws.append(DrawRecord(self._actor, kind.value, pack_array(array), params))
+        self.draws.append(Draw(self._actor, kind.value, pack_array(array), params))
         return array

@@ -13,7 +13,7 @@ from beatlog.errors import CorruptLogError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import DECODE_ERRORS, CycleRecord, SessionHeader, samples_shape
 from beatlog.model.inbox import Sample
-from beatlog.model.random import DrawRecord, recorded_draw_problem
+from beatlog.model.random import Draw, recorded_draw_problem
 from beatlog.replay.view import StateViews
 
 __all__ = ["CycleReader"]
@@ -27,7 +27,7 @@ class CycleReader:
         self.header = header
         self.path = path
         self._views = views
-        self._draws = msgspec.msgpack.Decoder(list[DrawRecord]).decode
+        self._draws = msgspec.msgpack.Decoder(list[Draw]).decode
         self._samples = msgspec.msgpack.Decoder(list[Sample]).decode
         self._samples_shape = msgspec.msgpack.Decoder(samples_shape(header)).decode
 
@@ -66,7 +66,7 @@ class CycleReader:
             ) from None
         return state
 
-    def draws(self, record: CycleRecord, cycle: int) -> list[DrawRecord]:
+    def draws(self, record: CycleRecord, cycle: int) -> list[Draw]:
         """RN_t, each draw one a recording makes (:func:`recorded_draw_problem`)."""
         try:
             draws = self._draws(record.random_numbers)

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from beatlog.model.behavior import BehaviorState, System
     from beatlog.model.context import Context
     from beatlog.model.cycle import Update
-    from beatlog.model.random import DrawRecord
+    from beatlog.model.random import Draw
     from beatlog.replay.verdict import ReplayResult
 
 __all__ = [
@@ -70,7 +70,7 @@ def pause(
     log: Path,
     recorded_state: Any,
     recorded_changes: list[tuple[str, BehaviorState, BehaviorState]],
-    recorded_draws: list[DrawRecord],
+    recorded_draws: list[Draw],
 ) -> None:
     """Stop in the debugger on the line that updates the behaviors, then update them.
 

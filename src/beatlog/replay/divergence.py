@@ -24,7 +24,7 @@ from beatlog.replay.core import CycleOutcome, Expected, Replayer
 from beatlog.replay.draws import DrawApprovals, UnapprovedDraw
 from beatlog.replay.expectation import ExpectedStream
 from beatlog.replay.expected import ExpectedRecords
-from beatlog.replay.outcome import named_draws
+from beatlog.replay.outcome import random_draws
 from beatlog.replay.recorded_states import recorded_changes
 from beatlog.replay.verdict import (
     ContextRow,
@@ -175,7 +175,7 @@ class DivergenceWriter:
         record = outcome.record
         expected = tuple(self._expected(record.state_changes))
         expected_outputs = self._outputs(record.outputs)
-        recorded = tuple(named_draws(outcome.recorded_draws, self.replayer.header.behaviors))
+        recorded = tuple(random_draws(outcome.recorded_draws, self.replayer.header.behaviors))
         if violation is not None:
             return dataclasses.replace(
                 violation,
@@ -209,7 +209,7 @@ class DivergenceWriter:
             actual_outputs=dict(outcome.outputs) if completed else {},
             robot_state=state_fields(outcome.state),
             random_recorded=recorded,
-            random_drawn=tuple(named_draws(outcome.drawn, self.replayer.executor.behavior_ids)),
+            random_drawn=tuple(random_draws(outcome.drawn, self.replayer.executor.behavior_ids)),
             traceback=None if failure is None else user_traceback(failure),
             perception=differences,
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),

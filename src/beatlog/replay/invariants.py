@@ -11,12 +11,12 @@ from operator import attrgetter
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from beatlog.log.format import CycleRecord, DrawRecord, StateChangeRecord
+from beatlog.log.format import CycleRecord, Draw, StateChangeRecord
 from beatlog.model.behavior import System
 from beatlog.model.invariant import Cycle, Invariant
 from beatlog.project.usercode import load_invariant, user_traceback
 from beatlog.replay.compare import state_fields
-from beatlog.replay.outcome import CycleOutcome, named_draws
+from beatlog.replay.outcome import CycleOutcome, random_draws
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
 __all__ = ["InvariantChecker", "Violation", "invariant_name"]
@@ -128,7 +128,7 @@ class InvariantChecker:
         state: Any,
         changes: Sequence[StateChangeRecord],
         outputs: dict[str, Any],
-        draws: Sequence[DrawRecord],
+        draws: Sequence[Draw],
     ) -> Cycle:
         """A cycle as the invariants see it, the behaviors' states read now."""
         names = self._names
@@ -142,7 +142,7 @@ class InvariantChecker:
             if changes
             else (),
             MappingProxyType(outputs) if outputs else _NO_OUTPUTS,
-            tuple(named_draws(draws, names)) if draws else (),
+            tuple(random_draws(draws, names)) if draws else (),
         )
 
     def violated(self, cycle: Cycle, *, first: bool = False) -> list[Violation]:

@@ -14,12 +14,12 @@ from beatlog.model.context import Outputs
 from beatlog.model.cycle import actor_name
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import perception_problem
-from beatlog.model.random import DrawRecord, plain_value
+from beatlog.model.random import Draw, plain_value
 from beatlog.replay.draws import DrawMadeOtherwise
 from beatlog.replay.random import RefusedDraw
-from beatlog.replay.verdict import DivergenceKind, Draw
+from beatlog.replay.verdict import DivergenceKind, RandomDraw
 
-__all__ = ["AGREED", "CycleOutcome", "Expected", "Sensed", "Stop", "named_draws"]
+__all__ = ["AGREED", "CycleOutcome", "Expected", "Sensed", "Stop", "random_draws"]
 
 
 AGREED: list[StateChangeRecord] = []
@@ -60,8 +60,8 @@ class CycleOutcome(NamedTuple):
     """BS'_t, the replayed state changes; None when the update did not complete."""
     outputs: Outputs
     """The replayed outputs (as far as the update got)."""
-    recorded_draws: Sequence[DrawRecord]
-    drawn: Sequence[DrawRecord]
+    recorded_draws: Sequence[Draw]
+    drawn: Sequence[Draw]
     """The random numbers the behaviors drew, with what they asked for; a draw refused
     as not the one recorded is the last, with no value."""
     refused_draw: RefusedDraw | None
@@ -153,9 +153,9 @@ class Sensed(NamedTuple):
     samples: Sequence[Sample]
 
 
-def named_draws(draws: Sequence[DrawRecord], names: Sequence[str]) -> list[Draw]:
+def random_draws(draws: Sequence[Draw], names: Sequence[str]) -> list[RandomDraw]:
     """Draws as reports show them, each by the name (of ``names``) of the behavior that drew it."""
     return [
-        Draw(actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
+        RandomDraw(actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
         for d in draws
     ]

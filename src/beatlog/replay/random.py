@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from beatlog.log.format import DrawRecord
+from beatlog.log.format import Draw
 from beatlog.model.cycle import actor_name
 from beatlog.model.draws import (
     ARRAY_KINDS,
@@ -60,8 +60,8 @@ class ReplayRandom(RandomSource):
 
     def __init__(self) -> None:
         super().__init__()
-        self.recorded: Sequence[DrawRecord] = ()
-        self.drawn: list[DrawRecord] = []
+        self.recorded: Sequence[Draw] = ()
+        self.drawn: list[Draw] = []
         self.refused: RefusedDraw | None = None
         self.matching = False
         """Whether draws made otherwise than recorded go on (:meth:`match_draws`)."""
@@ -111,7 +111,7 @@ class ReplayRandom(RandomSource):
         self.matching = True
         self._fresh = FreshQuantiles(key)
 
-    def load(self, recorded: Sequence[DrawRecord]) -> None:
+    def load(self, recorded: Sequence[Draw]) -> None:
         """Set the draws recorded for the next cycle."""
         self.recorded = recorded
         if self.drawn:
@@ -141,7 +141,7 @@ class ReplayRandom(RandomSource):
         actor = self._actor
         name = kind._value_
         if index >= len(self.recorded):
-            asked = DrawRecord(actor, name, None, params)
+            asked = Draw(actor, name, None, params)
             self._fail(
                 f"called {asked.call()} (#{index + 1}) but only {index} were recorded",
                 actor,
@@ -150,12 +150,12 @@ class ReplayRandom(RandomSource):
             )
         draw = self.recorded[index]
         if not _asks(draw, name, params):
-            asked = DrawRecord(actor, name, None, params)
+            asked = Draw(actor, name, None, params)
             recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
             self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
         if self._actors is not None and draw.actor != actor:
             self._check_actor(draw, actor, kind, params)
-        self.drawn.append(DrawRecord(actor, name, draw.value, params))
+        self.drawn.append(Draw(actor, name, draw.value, params))
         return draw.value
 
     def _matched(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
@@ -168,7 +168,7 @@ class ReplayRandom(RandomSource):
             if index < len(self.recorded):
                 draw = self.recorded[index]
                 if _asks(draw, name, params) and self._owner(draw.actor) == actor:
-                    self.drawn.append(DrawRecord(actor, name, draw.value, params))
+                    self.drawn.append(Draw(actor, name, draw.value, params))
                     return draw.value
             self._follow_no_more()
         assert self._used is not None
@@ -176,21 +176,21 @@ class ReplayRandom(RandomSource):
         behavior = actor_name(self._names_now, actor)
         if match is None:
             value = self._fresh_value(name, params, None, behavior, actor)
-            asked = DrawRecord(actor, name, value, params)
+            asked = Draw(actor, name, value, params)
             self.made_otherwise.append(DrawMadeOtherwise(behavior, None, asked.call()))
         else:
             self._used[match] = True
             draw = self.recorded[match]
             if _asks(draw, name, params):
                 value = draw.value  # as recorded, in another place
-                asked = DrawRecord(actor, name, value, params)
+                asked = Draw(actor, name, value, params)
             else:
                 quantile = None if name in ARRAY_KINDS else _quantile(draw)
                 if quantile is None:
                     value = self._fresh_value(name, params, draw, behavior, actor)
                 else:
                     value = scalar_value(name, params, quantile)
-                asked = DrawRecord(actor, name, value, params)
+                asked = Draw(actor, name, value, params)
                 self.made_otherwise.append(
                     DrawMadeOtherwise(behavior, _request(draw), asked.call())
                 )
@@ -224,7 +224,7 @@ class ReplayRandom(RandomSource):
         return next((index for index in left if _quantile(self.recorded[index]) is not None), None)
 
     def _fresh_value(
-        self, name: str, params: tuple[Any, ...], draw: DrawRecord | None, behavior: str, actor: int
+        self, name: str, params: tuple[Any, ...], draw: Draw | None, behavior: str, actor: int
     ) -> Any:
         """The value of a request at a fresh quantile, keyed by its place; an array's at
         the quantiles of the recorded ``draw`` where it has one."""
@@ -237,9 +237,7 @@ class ReplayRandom(RandomSource):
             return pack_array(array_value(name, params, old, self._fresh.seed(place)))
         return scalar_value(name, params, self._fresh.quantile(place))
 
-    def _check_actor(
-        self, draw: DrawRecord, actor: int, kind: DrawKind, params: tuple[Any, ...]
-    ) -> None:
+    def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
         """Refuse a draw the recording credits to another behavior (by its name now)."""
         assert self._actors is not None
         recorded = draw.actor
@@ -252,13 +250,13 @@ class ReplayRandom(RandomSource):
         else:
             return
         if expected is not None and expected != actor:
-            asked = DrawRecord(actor, kind.value, None, params)
+            asked = Draw(actor, kind.value, None, params)
             self._fail(
                 f"called {asked.call()}, which {who} drew in the recording", actor, asked=asked
             )
 
     def _fail(
-        self, problem: str, actor: int, *, overdrawn: bool = False, asked: DrawRecord | None = None
+        self, problem: str, actor: int, *, overdrawn: bool = False, asked: Draw | None = None
     ) -> None:
         """Refuse a draw: raise (and remember) it; ``asked`` is kept among those drawn,
         with no value, so reports show what was asked for."""
@@ -287,17 +285,17 @@ class ReplayRandom(RandomSource):
         return array
 
 
-def _asks(draw: DrawRecord, kind: str, params: tuple[Any, ...]) -> bool:
+def _asks(draw: Draw, kind: str, params: tuple[Any, ...]) -> bool:
     """Whether a recorded draw is what is asked for: its kind, and its parameters where
     it recorded them (format 1 recorded none)."""
     return draw.kind == kind and (not draw.params or same_params(draw.params, params))
 
 
-def _request(draw: DrawRecord) -> str:
+def _request(draw: Draw) -> str:
     """A recorded draw's request as code; the kind alone where format 1 recorded none."""
     return draw.call() if draw.params else draw.kind
 
 
-def _quantile(draw: DrawRecord) -> Quantile | None:
+def _quantile(draw: Draw) -> Quantile | None:
     """The quantile of a recorded scalar draw, where it can be known."""
     return scalar_quantile(draw.kind, draw.value, draw.params)

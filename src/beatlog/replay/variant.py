@@ -36,7 +36,7 @@ from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.draws import log_key
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.invariants import InvariantChecker
-from beatlog.replay.outcome import named_draws
+from beatlog.replay.outcome import random_draws
 from beatlog.replay.perturbation import Perturber, Variant, variant_key
 from beatlog.replay.session import Observer, ReplaySession
 from beatlog.replay.verdict import Checked, Divergence, ReplayResult, log_ended
@@ -143,7 +143,7 @@ class _VariantJudge:
             message=before + stop.message,
             behavior=stop.behavior,
             robot_state=state_fields(outcome.state),
-            random_drawn=tuple(named_draws(outcome.drawn, names)),
+            random_drawn=tuple(random_draws(outcome.drawn, names)),
             traceback=user_traceback(failure),
         )
 

@@ -26,7 +26,7 @@ from beatlog.adapters.export.fields import (
     with_number_texts,
 )
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import DECODE_ERRORS, DrawRecord, SessionHeader, StateChangeRecord
+from beatlog.log.format import DECODE_ERRORS, Draw, SessionHeader, StateChangeRecord
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.behavior import BehaviorState
 from beatlog.model.inbox import Sample
@@ -55,7 +55,7 @@ class Cycle(NamedTuple):
     heartbeat_ns: int
     robot_state: dict[str, Any]
     changes: list[StateChange]
-    draws: list[tuple[str, DrawRecord]]
+    draws: list[tuple[str, Draw]]
     outputs: dict[str, Any]
     samples: list[Sample]
 
@@ -93,7 +93,7 @@ def decoded_cycles(reader: SessionLogReader) -> Iterator[Cycle]:
     names = reader.header.behaviors
     decode_map = msgspec.msgpack.Decoder(dict[str, Any]).decode
     decode_changes = msgspec.msgpack.Decoder(list[StateChangeRecord]).decode
-    decode_draws = msgspec.msgpack.Decoder(list[DrawRecord]).decode
+    decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     decode_samples = msgspec.msgpack.Decoder(list[Sample]).decode
     time_ns = 0
     for number, record in enumerate(reader.cycles()):
