@@ -182,7 +182,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
                     if outputs
                     else record.outputs != EMPTY_MAP
                 )
-                failed += random.mismatch is not None or len(random.drawn) != len(random.recorded)
+                failed += random.refused is not None or len(random.drawn) != len(random.recorded)
     if failed:
         raise AssertionError(f"{path}: {failed} cycles failed the checked loop")
     return system

@@ -28,8 +28,8 @@ from beatlog.log.format import (
     payload_encoder,
 )
 from beatlog.log.reader import SessionLogReader
-from beatlog.replay.pins import RebuiltState
-from beatlog.replay.state_digests import state_digest
+from beatlog.replay.approved_state_lines import state_digest
+from beatlog.replay.approved_states import RebuiltState
 from beatlog.replay.verdict import Checked
 from tests.crafting import FORMAT_1_CHANNELS, Message, craft_log, top_level_records
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from beatlog.analysis.shift import Loss, LossKind, shift
 from beatlog.replay.baseline import ABSENT, TracedOutput, TracedStateChange
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.verdict import StateChange
 
 ESCAPES = [
@@ -22,7 +22,7 @@ WANDERS = [
 def test_state_changes_that_no_longer_happen_are_losses_of_their_behavior() -> None:
     moved = [c._replace(cycle=c.cycle + 1) for c in WANDERS]
     turned = [TracedOutput(291, 0, "turn", 0.5), TracedOutput(400, 0, "turn", ABSENT)]
-    unused = DrawRule("escape", "choice(2)", None, (325,))
+    unused = ApprovedDraws("escape", "choice(2)", None, (325,))
 
     weighed = shift(
         ([*WANDERS, *ESCAPES], [TracedOutput(0, 0, "speed", 0.2), *turned]),
@@ -53,7 +53,7 @@ def test_a_behavior_that_still_acts_is_not_silent_and_new_changes_are_no_loss() 
 
 
 def test_draws_left_unused_already_approved_are_no_new_loss() -> None:
-    unused = DrawRule("escape", "choice(2)", None, (325,))
+    unused = ApprovedDraws("escape", "choice(2)", None, (325,))
 
     weighed = shift(
         (ESCAPES, []), (ESCAPES, []), cycles=400, open_loop=None,

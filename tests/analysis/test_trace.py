@@ -88,7 +88,7 @@ def test_departures_applied_to_the_recording_give_back_the_whole_trace(
     record_probe: RecordFn,
 ) -> None:
     log = record_probe(300)
-    replayed = replayed_trace(log, probe_system(threshold=0.6), living=True)
+    replayed = replayed_trace(log, probe_system(threshold=0.6), match_draws=True)
     departures = replayed.baseline
 
     whole = whole_trace(departures, log)
@@ -99,16 +99,5 @@ def test_departures_applied_to_the_recording_give_back_the_whole_trace(
 
 
 def test_a_trace_as_recorded_departs_nowhere(record_probe: RecordFn) -> None:
-    replayed = replayed_trace(record_probe(300), probe_system(), living=True)
+    replayed = replayed_trace(record_probe(300), probe_system(), match_draws=True)
     assert replayed.baseline == Baseline(())
-
-
-def test_a_trace_is_the_baseline_that_approves_it_draws_included(record_probe: RecordFn) -> None:
-    log = record_probe(100)
-    drawing_more = probe_system(draws=2)
-
-    replayed = replayed_trace(log, drawing_more, living=True)
-
-    assert replayed.stopped is None
-    assert [rule.behavior for rule in replayed.baseline.draws] == ["dice"]
-    assert replay(log, probe_system(draws=2), baseline=replayed.baseline).ok

@@ -16,6 +16,7 @@ from beatlog.baseline.file import expected_path, log_digest, pending_path, read_
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError
 from beatlog.log.files import read_text_blocks
+from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
@@ -23,7 +24,6 @@ from beatlog.replay.baseline import (
     TracedOutput,
     TracedStateChange,
 )
-from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
 from tests.factories import rebuilt_states, speed_state
 from tests.specs import baseline_file
@@ -230,10 +230,11 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
 ) -> None:
     path = tmp_path / "a.dtc.pending"
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
-    pins = StatePins.from_rebuilt(rebuilt_states(states))
+    approved = ApprovedStates.from_rebuilt(rebuilt_states(states))
     outputs = (TracedOutput(12, 12_000_000, "speed", 0.0),)
     changes = (TracedStateChange(12, 12_000_000, StateChange("avoid", "off", "turning")),)
-    baseline_of(log, path, Baseline(changes, outputs, state_pins=pins))
+    expectation = Baseline(changes, outputs, approved_states=approved)
+    baseline_of(log, path, expectation)
 
     lines = path.read_text(encoding="utf-8").splitlines()
 
@@ -245,17 +246,18 @@ def test_pinned_robot_states_come_first_in_their_cycle_and_read_back(
         '      12     0.012  "avoid": "off" -> "turning"',
         '      12     0.012  output "speed" = 0.0',
     ]
-    assert read_baseline(path).whole.state_pins == pins
+    baseline = read_baseline(path)
+    assert baseline.whole.approved_states == approved
 
 
 def test_a_baselines_robot_states_read_back_pinned_by_their_digests(
     tmp_path: Path,
 ) -> None:
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16, 40)}
-    pins = StatePins.from_rebuilt(rebuilt_states(states))
-    path = baseline_file(tmp_path, 7, *format_lines((), (), state_pins=pins))
+    approved = ApprovedStates.from_rebuilt(rebuilt_states(states))
+    path = baseline_file(tmp_path, 7, *format_lines((), (), approved_states=approved))
 
-    assert read_baseline(path).whole.state_pins == pins
+    assert read_baseline(path).whole.approved_states == approved
 
 
 RUN = "robot_state otherwise in 7..7 (1 cycle)"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from beatlog.baseline.read import ParsedLines, line_feeds, parse_line
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 
 _COMMON = [
     '      33     1.022  output "happiness" = 49',
@@ -152,19 +152,25 @@ def test_robot_times_under_a_second_read_at_once_as_each_alone(first: int) -> No
     [
         (
             'draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97 240',
-            DrawRule("wander", "uniform(0.8, 1.6)", "uniform(0.7, 1.5)", (12, 97, 240)),
+            ApprovedDraws("wander", "uniform(0.8, 1.6)", "uniform(0.7, 1.5)", (12, 97, 240)),
         ),
         (
             'draws "a -> b": - -> x in cycles y -> z in cycles 0 007 \u0661\u0662',
-            DrawRule("a -> b", None, "x in cycles y -> z", (0, 7, 12)),
+            ApprovedDraws("a -> b", None, "x in cycles y -> z", (0, 7, 12)),
         ),
-        ('draws "e\\u00e9": random() -> - in cycles 5', DrawRule("eé", "random()", None, (5,))),
-        ('draws "w": a -> b in cycles 1 in cycles 2', DrawRule("w", "a", "b in cycles 1", (2,))),
-        ('draws "a\\"b": x -> y in cycles 1', DrawRule('a"b', "x", "y", (1,))),
-        ('draws "a\\\\": "x" -> y in cycles 1', DrawRule("a\\", '"x"', "y", (1,))),
+        (
+            'draws "e\\u00e9": random() -> - in cycles 5',
+            ApprovedDraws("eé", "random()", None, (5,)),
+        ),
+        (
+            'draws "w": a -> b in cycles 1 in cycles 2',
+            ApprovedDraws("w", "a", "b in cycles 1", (2,)),
+        ),
+        ('draws "a\\"b": x -> y in cycles 1', ApprovedDraws('a"b', "x", "y", (1,))),
+        ('draws "a\\\\": "x" -> y in cycles 1', ApprovedDraws("a\\", '"x"', "y", (1,))),
     ],
 )
-def test_a_draws_line_reads_whole(line: str, rule: DrawRule) -> None:
+def test_a_draws_line_reads_whole(line: str, rule: ApprovedDraws) -> None:
     found = ParsedLines()
 
     found.add(line)

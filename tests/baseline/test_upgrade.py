@@ -13,6 +13,7 @@ from beatlog.baseline.file import expected_path, log_digest, pending_path, read_
 from beatlog.baseline.upgrade import Upgraded, upgrade_baseline, upgrade_baselines
 from beatlog.baseline.write import COLUMNS, format_lines, write_baseline
 from beatlog.errors import BaselineError
+from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
@@ -20,7 +21,6 @@ from beatlog.replay.baseline import (
     TracedOutput,
     TracedStateChange,
 )
-from beatlog.replay.pins import StatePins
 from beatlog.replay.verdict import StateChange
 from tests.conftest import RecordFn
 from tests.factories import rebuilt_states, speed_state
@@ -121,8 +121,10 @@ def test_robot_states_pinned_by_blake2b_are_left_to_re_approve(
     tmp_path: Path, log: Path, version: int
 ) -> None:
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
-    pins = StatePins.from_rebuilt(rebuilt_states(states))
-    path = baseline_file(tmp_path, version, COLUMNS, *format_lines((), (), state_pins=pins))
+    approved = ApprovedStates.from_rebuilt(rebuilt_states(states))
+    path = baseline_file(
+        tmp_path, version, COLUMNS, *format_lines((), (), approved_states=approved)
+    )
     text = path.read_text(encoding="utf-8")
 
     with pytest.raises(BaselineError, match=f"pinned as format {version} pinned them: re-approve"):
@@ -184,7 +186,7 @@ def test_a_whole_trace_needs_its_own_recording_beside_it(tmp_path: Path) -> None
 
 def test_robot_states_pinned_by_format_6_digests_are_kept(tmp_path: Path, log: Path) -> None:
     states = {cycle: speed_state(cycle) for cycle in (12, 13, 16)}
-    pinned = Baseline((), state_pins=StatePins.from_rebuilt(rebuilt_states(states)))
+    pinned = Baseline((), approved_states=ApprovedStates.from_rebuilt(rebuilt_states(states)))
     path = written(tmp_path / "a.dtc.expected", log, pinned, 6)
 
     assert upgrade_baseline(path) == Upgraded(path, 6)

@@ -73,12 +73,12 @@ def test_update_pins_the_rebuilt_robot_states_and_review_shows_them(
         f"otherwise in {LONG} cycles): review with beatlog review {spec}, accept with beatlog "
         f"approve {spec}"
     ) in whole_lines(update.out)
-    pins = read_baseline(pending_path(spec)).whole.state_pins
-    assert pins.cycles == LONG
-    assert [(run.cycle, run.last, run.fields) for run in pins.runs] == [
+    approved = read_baseline(pending_path(spec)).whole.approved_states
+    assert approved.cycles == LONG
+    assert [(run.cycle, run.last, run.fields) for run in approved.runs] == [
         (first, last, ("distance",)) for first, last in RUNS
     ]
-    assert pins.runs[0].first == {"distance": 1.1}
+    assert approved.runs[0].first == {"distance": 1.1}
 
     waiting = pending_path(spec).read_bytes()
     monkeypatch.setattr("sys.stdin", io.StringIO("accept\n"))
@@ -175,7 +175,7 @@ def test_a_retuned_perception_pins_a_long_log_in_a_few_bytes_a_cycle(
     lines = pending_path(spec).read_text(encoding="utf-8").splitlines(keepends=True)
     pinned = [line for line in lines if "robot_state" in line and not line.startswith("#")]
 
-    assert read_baseline(pending_path(spec)).whole.state_pins.cycles == 1000
+    assert read_baseline(pending_path(spec)).whole.approved_states.cycles == 1000
     assert len(pinned) == 1 + 16  # a run of 1,000 cycles: 64 a line
     assert sum(len(line.encode()) for line in pinned) <= 3.2 * 1000
 

@@ -7,7 +7,7 @@ from types import MappingProxyType
 import pytest
 
 import beatlog
-from beatlog.model.cycle import DrawReport, StateChange
+from beatlog.model.cycle import RandomDraw, StateChange
 from beatlog.model.invariant import Cycle
 
 
@@ -20,7 +20,7 @@ def a_cycle() -> Cycle:
         states=MappingProxyType({"near": "near"}),
         changes=(StateChange("near", "far", "near"),),
         outputs=MappingProxyType({"speed": 0.0}),
-        draws=(DrawReport("dice", "randint", 4, "randint(1, 6)"),),
+        draws=(RandomDraw("dice", "randint", 4, "randint(1, 6)"),),
     )
 
 

@@ -60,7 +60,7 @@ def test_replay_returns_exactly_what_was_recorded() -> None:
         else:
             assert got == want
             assert type(got) is type(want)
-    assert player.mismatch is None
+    assert player.refused is None
     assert len(player.drawn) == len(player.recorded)
 
 

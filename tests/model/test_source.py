@@ -73,7 +73,7 @@ def test_numpy_code_replays_the_values_it_drew() -> None:
     replayed = driving_code(player)
 
     assert [recorded_draw_problem(draw, 0) for draw in draws] == [None] * len(draws)
-    assert player.mismatch is None
+    assert player.refused is None
     assert len(player.drawn) == len(draws)
     for want, got in zip(live, replayed, strict=True):
         assert _kind_of(got) == _kind_of(want)

@@ -19,9 +19,9 @@ from beatlog.model.behavior import BehaviorState, PriorityArbiter, System
 from beatlog.model.context import Context, Outputs
 from beatlog.record.recorder import Recorder
 from beatlog.replay.core import AGREED, ByteCheck, CycleOutcome, Replayer
+from beatlog.replay.draws import DrawMadeOtherwise
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.judge import replay
-from beatlog.replay.random import DrawDifference
 from beatlog.replay.session import ReplaySession
 from tests.conftest import PERIOD_NS, Near, Probe, RecordFn, probe_system
 from tests.systems import (
@@ -57,7 +57,7 @@ def replayer(log: Path, system: System) -> tuple[Replayer, list[CycleRecord]]:
 
 def seen(outcome: CycleOutcome) -> tuple[Any, ...]:
     """An outcome's fields, with what was raised by its type and message."""
-    problem = outcome.draw_problem
+    problem = outcome.refused_draw
     return (
         outcome.cycle,
         outcome.time_ns,
@@ -158,14 +158,14 @@ def test_a_cycle_after_a_draw_too_many_starts_clean(record_probe: RecordFn) -> N
     core, records = replayer(record_probe(10), probe_system(every=3))
     results = [(core.advance(record), core.outcome()) for record in records[:5]]
     assert [changes is not None for changes, _ in results] == [True, True, True, False, True]
-    problem = results[3][1].draw_problem
+    problem = results[3][1].refused_draw
     assert problem is not None
     assert (problem.problem, problem.actor, problem.overdrawn) == (
         "called randint(1, 6) (#1) but only 0 were recorded",
         2,
         True,
     )
-    assert results[4][1].draw_problem is None
+    assert results[4][1].refused_draw is None
 
 
 def test_the_behaviors_see_a_retyped_field_converted(record_probe: RecordFn) -> None:
@@ -241,22 +241,22 @@ def test_a_field_renamed_inside_a_struct_reaches_the_behaviors(tmp_path: Path) -
     assert seen[:4] == [PxPose(1.0, 0.0), PxPose(1.0, 1.0), PxPose(1.0, 2.0), PxPose(-1.0, 3.0)]
 
 
-def test_a_fresh_array_draw_in_living_replay_without_numpy_names_the_log_and_the_extra(
+def test_a_fresh_array_draw_in_replay_matching_draws_without_numpy_names_the_log_and_the_extra(
     record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     log = record_probe(10)
     with SessionLogReader(log) as reader:
-        living = Replayer(
+        matching = Replayer(
             PriorityArbiter([Near(), Scatter()], robot_state=Probe),
             reader.header,
             reader.path,
-            living=True,
+            match_draws=True,
         )
         first = next(reader.cycles())
     monkeypatch.setitem(sys.modules, "numpy", None)
 
     with pytest.raises(NumpyMissingError) as raised:
-        living.advance(first)
+        matching.advance(first)
 
     assert str(raised.value) == (
         f"{log}: array draws (uniform_array, normal_array, integers_array) need numpy: "
@@ -269,14 +269,14 @@ def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
     record_probe: RecordFn, approved: bool | None
 ) -> None:
     log = record_probe(60)  # a die rolled every fifth cycle
-    asked: list[tuple[int, list[str]]] = []
+    asked: list[tuple[int, list[DrawMadeOtherwise]]] = []
 
-    def approves(cycle: int, differences: Sequence[DrawDifference]) -> bool:
-        asked.append((cycle, [str(difference) for difference in differences]))
+    def approves(cycle: int, made: Sequence[DrawMadeOtherwise]) -> bool:
+        asked.append((cycle, list(made)))
         return bool(approved)
 
     with SessionLogReader(log) as reader:
-        core = Replayer(probe_system(draws=2), reader.header, reader.path, living=True)
+        core = Replayer(probe_system(draws=2), reader.header, reader.path, match_draws=True)
         records = list(reader.cycles())
     core.check_bytes(
         ByteCheck(None, payload_encoder(), False, None if approved is None else approves)
@@ -290,7 +290,7 @@ def test_a_cycle_whose_draws_differ_agrees_at_once_only_where_they_are_approved(
 
     rolled = [cycle for cycle, _, _ in answers if cycle % 5 == 0]
     assert [cycle for cycle, _ in asked] == ([] if approved is None else rolled)
-    assert {differences[0] for _, differences in asked} <= {"dice: new randint(1, 6)"}
+    assert {made[0] for _, made in asked} <= {DrawMadeOtherwise("dice", None, "randint(1, 6)")}
     agreed = [cycle for cycle, at_once, _ in answers if at_once and cycle % 5 == 0]
     same = [cycle for cycle, _, same in answers if same and cycle % 5 == 0]
     assert agreed == (same if approved else [])

@@ -1,12 +1,23 @@
 """Departures from the recording: an output line only where a field's value must change
-to give the one replayed, and applying them to the recording gives it back."""
+to give the one replayed, and applying them to the recording gives it back; approved
+outputs put into each recorded cycle's outputs bit for bit as applying them to the
+decoded outputs gives, repeated outputs decoded once."""
 
 from __future__ import annotations
 
+import struct
+from pathlib import Path
 from typing import Any
 
+import msgspec
+import pytest
+
+from beatlog.errors import CorruptLogError
+from beatlog.log import payload
+from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.replay import departures
 from beatlog.replay.baseline import ABSENT, AS_RECORDED, TracedOutput
-from beatlog.replay.departures import OutputDepartures, apply_outputs, hold
+from beatlog.replay.departures import ApprovedOutputs, OutputDepartures, apply_outputs, hold
 
 RECORDED: list[dict[str, Any]] = [
     {"speed": 0.5, "turn": 0.1},
@@ -26,7 +37,7 @@ REPLAYED: list[dict[str, Any]] = [
 ]
 
 
-def departures() -> list[TracedOutput]:
+def departure_lines() -> list[TracedOutput]:
     found = OutputDepartures()
     return [
         line
@@ -36,7 +47,7 @@ def departures() -> list[TracedOutput]:
 
 
 def test_a_line_only_where_a_field_departs_or_follows_the_recording_again() -> None:
-    assert departures() == [
+    assert departure_lines() == [
         TracedOutput(1, 30, "speed", 0.0),
         TracedOutput(3, 90, "speed", AS_RECORDED),
         TracedOutput(4, 120, "turn", ABSENT),
@@ -45,7 +56,7 @@ def test_a_line_only_where_a_field_departs_or_follows_the_recording_again() -> N
 
 
 def test_the_lines_applied_to_the_recording_give_the_outputs_replayed() -> None:
-    lines = departures()
+    lines = departure_lines()
     held: dict[str, Any] = {}
     rebuilt = []
     for cycle, recorded in enumerate(RECORDED):
@@ -53,3 +64,102 @@ def test_the_lines_applied_to_the_recording_give_the_outputs_replayed() -> None:
         rebuilt.append(apply_outputs(dict(recorded), held))
     assert rebuilt == REPLAYED
     assert str(rebuilt[-1]["turn"]) == "-0.0"
+
+
+LOG = Path("walk.beatlog")
+ENCODE = payload_encoder().encode
+
+
+def as_logged(outputs: dict[str, Any]) -> msgspec.Raw:
+    return msgspec.Raw(ENCODE(outputs))
+
+
+LOGGED = [
+    as_logged({"happiness": 41, "motion": "walk", "speed": 0.15, "turn": 0.024}),
+    as_logged({"happiness": 41, "motion": "walk", "speed": 0.15, "turn": 0.024}),
+    as_logged({"happiness": -7, "motion": "walk", "speed": float("nan"), "turn": -0.0}),
+    as_logged({"happiness": 300, "motion": "lie"}),
+    as_logged({"speed": [0.1, 0.2], "turn": True, "motion": None}),
+    msgspec.Raw(b"\x81\xa5speed\xca" + struct.pack(">f", 0.5)),  # a float32
+    msgspec.Raw(b"\x82\xa5speed\x01\xa5speed\x02"),  # a field twice
+    EMPTY_MAP,
+]
+"""Recorded outputs, one a cycle, as logged."""
+
+HELD: list[list[tuple[str, Any]]] = [
+    [],
+    [("turn", 0.0)],
+    [("happiness", 47), ("turn", 0.0)],
+    [("turn", ABSENT)],
+    [("turn", AS_RECORDED), ("speed", ABSENT), ("motion", "run")],
+    [("speed", 0.0), ("wag", [1, 2]), ("sound", "woof")],  # fields the recording lacks
+    [("wag", AS_RECORDED), ("happiness", AS_RECORDED), ("motion", AS_RECORDED)],
+]
+"""The output lines of one cycle after another."""
+
+
+def records(outputs: list[msgspec.Raw]) -> list[CycleRecord]:
+    return [
+        CycleRecord(30 * cycle, EMPTY_MAP, EMPTY_LIST, EMPTY_LIST, raw, EMPTY_LIST)
+        for cycle, raw in enumerate(outputs)
+    ]
+
+
+def output_lines(held: list[tuple[str, Any]]) -> list[TracedOutput]:
+    return [TracedOutput(0, 0, field, value) for field, value in held]
+
+
+def test_held_values_in_place_bit_for_bit_as_applying_them_gives() -> None:
+    outputs = ApprovedOutputs(LOG)
+    held: dict[str, Any] = {}
+    got, wanted = [], []
+    for changes in HELD:
+        outputs.hold(output_lines(changes))
+        for field, value in changes:
+            if value is AS_RECORDED:
+                held.pop(field, None)
+            else:
+                held[field] = value
+        cycles = records(LOGGED)
+        outputs.put(cycles[:3], 0)
+        outputs.put(cycles[3:], 3)
+        got.append([bytes(record.outputs) for record in cycles])
+        wanted.append([ENCODE(apply_outputs(msgspec.msgpack.decode(raw), held)) for raw in LOGGED])
+    assert got == wanted
+
+
+def test_outputs_recorded_again_are_not_decoded_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    decoded: list[bytes] = []
+
+    def decode(data: bytes | msgspec.Raw) -> dict[str, Any]:
+        decoded.append(bytes(data))
+        return payload.decode_outputs(data)
+
+    monkeypatch.setattr(departures, "decode_outputs", decode)
+    outputs = ApprovedOutputs(LOG)
+    outputs.hold(output_lines([("turn", 0.0)]))
+    outputs.put(records(LOGGED[:2]), 0)
+    outputs.put(records(LOGGED[1:3]), 2)
+    outputs.hold(output_lines([("turn", 0.5)]))
+    outputs.put(records(LOGGED[2:3]), 4)
+
+    assert decoded == [bytes(LOGGED[n]) for n in (0, 2, 2)]
+
+
+def test_whether_a_field_holds_a_value() -> None:
+    outputs = ApprovedOutputs(LOG)
+    assert [
+        outputs.hold(output_lines([("turn", 0.0)])),
+        outputs.hold(output_lines([("speed", ABSENT)])),
+        outputs.hold(output_lines([("turn", AS_RECORDED)])),
+        outputs.hold(output_lines([("speed", AS_RECORDED)])),
+    ] == [True, True, True, False]
+
+
+def test_damaged_outputs_are_an_error_in_their_cycle() -> None:
+    outputs = ApprovedOutputs(LOG)
+    outputs.hold(output_lines([("turn", 0.0)]))
+    damaged = records([LOGGED[0], LOGGED[2], msgspec.Raw(b"\x82\xa5speed\xcb\x00")])
+    with pytest.raises(CorruptLogError) as raised:
+        outputs.put(damaged, 10)
+    assert str(raised.value) == f"{LOG}: damaged outputs in cycle 12: Input data was truncated"

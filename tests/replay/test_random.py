@@ -1,6 +1,6 @@
 """The replaying random source hands back the recorded draws and refuses any other: more,
-fewer, another kind or other parameters. In living replay it goes on where the behaviors
-ask for other draws than were recorded, and notes each difference."""
+fewer, another kind or other parameters. Matching draws, it goes on where the behaviors
+ask for other draws than were recorded, and notes each draw made otherwise."""
 
 from __future__ import annotations
 
@@ -12,25 +12,26 @@ import pytest
 
 from beatlog.model.context import Context
 from beatlog.model.random import Draw, RandomSource, RecordingRandom
-from beatlog.replay.random import DrawDifference, RandomMismatch, ReplayRandom
+from beatlog.replay.draws import DrawMadeOtherwise
+from beatlog.replay.random import RefusedDraw, ReplayRandom
 from tests.factories import through_log
 
 
-def living(recorded: list[Draw], names: tuple[str, ...] = ("wander", "escape")) -> ReplayRandom:
-    """A living replay source for one cycle of ``recorded`` draws, behaviors ``names``."""
+def matching(recorded: list[Draw], names: tuple[str, ...] = ("wander", "escape")) -> ReplayRandom:
+    """A replay matching draws source for one cycle of ``recorded`` draws, behaviors ``names``."""
     source = ReplayRandom()
     context = Context(source)
     source.bind(context)
     context.cycle = 517
     source.expect_actors(names, names)
-    source.live(b"a log")
+    source.match_draws(b"a log")
     source.load(through_log(recorded))
     CONTEXTS[source] = context
     return source
 
 
 CONTEXTS: dict[ReplayRandom, Context] = {}
-"""The context each :func:`living` source is bound to."""
+"""The context each :func:`matching` source is bound to."""
 
 
 def drawing_as(source: ReplayRandom, actor: int) -> ReplayRandom:
@@ -39,8 +40,8 @@ def drawing_as(source: ReplayRandom, actor: int) -> ReplayRandom:
     return source
 
 
-def test_living_replay_hands_back_the_recording_while_it_is_followed() -> None:
-    source = living([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
+def test_matching_draws_hands_back_the_recording_while_it_is_followed() -> None:
+    source = matching([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
 
     first = drawing_as(source, 0).uniform(0.8, 1.6)
     second = drawing_as(source, 1).randint(1, 6)
@@ -49,31 +50,33 @@ def test_living_replay_hands_back_the_recording_while_it_is_followed() -> None:
     assert source.settle() == []
 
 
-def test_living_replay_re_maps_a_retuned_request_with_the_same_luck() -> None:
-    source = living([Draw(0, "uniform", 1.25, (1.0, 2.0))])
+def test_matching_draws_re_maps_a_retuned_request_at_the_same_quantile() -> None:
+    source = matching([Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     value = drawing_as(source, 0).uniform(2.0, 6.0)
 
     assert value == 3.0
-    assert source.settle() == [DrawDifference("wander", "uniform(1.0, 2.0)", "uniform(2.0, 6.0)")]
-    assert source.mismatch is None
+    assert source.settle() == [
+        DrawMadeOtherwise("wander", "uniform(1.0, 2.0)", "uniform(2.0, 6.0)")
+    ]
+    assert source.refused is None
 
 
-def test_living_replay_gives_a_new_draw_fresh_luck_and_drops_an_unused_one() -> None:
-    source = living([Draw(0, "uniform", 1.25, (1.0, 2.0))])
+def test_matching_draws_gives_a_new_draw_a_fresh_quantile_and_drops_an_unused_one() -> None:
+    source = matching([Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     value = drawing_as(source, 1).gauss(0.0, 1.0)
-    again = living([Draw(0, "uniform", 1.25, (1.0, 2.0))])
+    again = matching([Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     assert drawing_as(again, 1).gauss(0.0, 1.0) == value
     assert source.settle() == [
-        DrawDifference("escape", None, "gauss(0.0, 1.0)"),
-        DrawDifference("wander", "uniform(1.0, 2.0)", None),
+        DrawMadeOtherwise("escape", None, "gauss(0.0, 1.0)"),
+        DrawMadeOtherwise("wander", "uniform(1.0, 2.0)", None),
     ]
 
 
-def test_living_replay_matches_each_behaviors_draws_whatever_the_order() -> None:
-    source = living([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
+def test_matching_draws_matches_each_behaviors_draws_whatever_the_order() -> None:
+    source = matching([Draw(0, "uniform", 1.2, (0.8, 1.6)), Draw(1, "randint", 3, (1, 6))])
 
     second = drawing_as(source, 1).randint(1, 6)
     first = drawing_as(source, 0).uniform(0.8, 1.6)
@@ -82,62 +85,62 @@ def test_living_replay_matches_each_behaviors_draws_whatever_the_order() -> None
     assert source.settle() == []
 
 
-def test_living_replay_credits_a_draw_to_the_behavior_that_drew_it() -> None:
-    source = living([Draw(0, "randint", 3, (1, 6))])
+def test_matching_draws_credits_a_draw_to_the_behavior_that_drew_it() -> None:
+    source = matching([Draw(0, "randint", 3, (1, 6))])
 
     drawing_as(source, 1).randint(1, 6)
 
     assert source.settle() == [
-        DrawDifference("escape", None, "randint(1, 6)"),
-        DrawDifference("wander", "randint(1, 6)", None),
+        DrawMadeOtherwise("escape", None, "randint(1, 6)"),
+        DrawMadeOtherwise("wander", "randint(1, 6)", None),
     ]
 
 
-def test_living_replay_prefers_a_recorded_draw_of_the_same_kind() -> None:
-    source = living([Draw(0, "gauss", 0.5, (0.0, 1.0)), Draw(0, "uniform", 1.25, (1.0, 2.0))])
+def test_matching_draws_prefers_a_recorded_draw_of_the_same_kind() -> None:
+    source = matching([Draw(0, "gauss", 0.5, (0.0, 1.0)), Draw(0, "uniform", 1.25, (1.0, 2.0))])
 
     value = drawing_as(source, 0).uniform(1.0, 2.0)
 
     assert value == 1.25
-    assert source.settle() == [DrawDifference("wander", "gauss(0.0, 1.0)", None)]
+    assert source.settle() == [DrawMadeOtherwise("wander", "gauss(0.0, 1.0)", None)]
 
 
-def test_living_replay_maps_another_scalar_kind_by_quantile() -> None:
-    source = living([Draw(0, "uniform", 5.0, (0.0, 10.0))])
+def test_matching_draws_maps_another_scalar_kind_by_quantile() -> None:
+    source = matching([Draw(0, "uniform", 5.0, (0.0, 10.0))])
 
     value = drawing_as(source, 0).randint(0, 9)
 
     assert value == 5
-    assert source.settle() == [DrawDifference("wander", "uniform(0.0, 10.0)", "randint(0, 9)")]
+    assert source.settle() == [DrawMadeOtherwise("wander", "uniform(0.0, 10.0)", "randint(0, 9)")]
 
 
-def test_living_replay_never_maps_a_scalar_to_an_array() -> None:
-    source = living([Draw(0, "uniform", 5.0, (0.0, 10.0))])
+def test_matching_draws_never_maps_a_scalar_to_an_array() -> None:
+    source = matching([Draw(0, "uniform", 5.0, (0.0, 10.0))])
 
     array = drawing_as(source, 0).uniform_array(0.0, 10.0, 3)
 
     assert array.shape == (3,)
     assert source.settle() == [
-        DrawDifference("wander", None, "uniform_array(0.0, 10.0, [3])"),
-        DrawDifference("wander", "uniform(0.0, 10.0)", None),
+        DrawMadeOtherwise("wander", None, "uniform_array(0.0, 10.0, [3])"),
+        DrawMadeOtherwise("wander", "uniform(0.0, 10.0)", None),
     ]
 
 
-def test_living_replay_of_a_behavior_gone_leaves_its_draws_unused() -> None:
+def test_matching_draws_of_a_behavior_gone_leaves_its_draws_unused() -> None:
     source = ReplayRandom()
     source.bind(Context(source))
     source.expect_actors(("wander", "gone"), ("wander",))
-    source.live(b"a log")
+    source.match_draws(b"a log")
     source.load(through_log([Draw(1, "uniform", 1.25, (1.0, 2.0))]))
 
-    assert source.settle() == [DrawDifference("gone", "uniform(1.0, 2.0)", None)]
+    assert source.settle() == [DrawMadeOtherwise("gone", "uniform(1.0, 2.0)", None)]
 
 
 def test_drawing_more_than_recorded_is_a_mismatch() -> None:
     player = ReplayRandom()
     player.load([Draw(0, "uniform", 0.5)])
     player.uniform(0, 1)
-    with pytest.raises(RandomMismatch) as caught:
+    with pytest.raises(RefusedDraw) as caught:
         player.uniform(0, 1)
     assert (caught.value.problem, caught.value.overdrawn) == (
         "called uniform(0, 1) (#2) but only 1 were recorded",
@@ -148,10 +151,10 @@ def test_drawing_more_than_recorded_is_a_mismatch() -> None:
 def test_drawing_another_kind_is_a_mismatch() -> None:
     player = ReplayRandom()
     player.load([Draw(0, "gauss", 0.5)])
-    with pytest.raises(RandomMismatch, match=r"called uniform\(0, 1\) where gauss was recorded"):
+    with pytest.raises(RefusedDraw, match=r"called uniform\(0, 1\) where gauss was recorded"):
         player.uniform(0, 1)
-    assert player.mismatch is not None
-    assert (player.mismatch.problem, player.mismatch.overdrawn) == (
+    assert player.refused is not None
+    assert (player.refused.problem, player.refused.overdrawn) == (
         "called uniform(0, 1) where gauss was recorded",
         False,
     )
@@ -161,7 +164,7 @@ def test_drawing_another_kind_is_a_mismatch() -> None:
 def test_drawing_another_kind_names_both_requests() -> None:
     player = ReplayRandom()
     player.load([Draw(0, "uniform", 0.5, (2.0, 5.0))])
-    with pytest.raises(RandomMismatch) as caught:
+    with pytest.raises(RefusedDraw) as caught:
         player.gauss(0.0, 0.4)
     assert caught.value.problem == "called gauss(0.0, 0.4) where uniform(2.0, 5.0) was recorded"
 
@@ -171,7 +174,7 @@ def test_a_swallowed_mismatch_is_still_remembered() -> None:
     player.load([])
     with contextlib.suppress(BaseException):  # a careless behavior swallowing everything
         player.random()
-    assert player.mismatch is not None
+    assert player.refused is not None
 
 
 def test_an_array_of_another_shape_is_a_mismatch() -> None:
@@ -179,7 +182,7 @@ def test_an_array_of_another_shape_is_a_mismatch() -> None:
     recorder.uniform_array(0, 1, 3)
     player = ReplayRandom()
     player.load(through_log(recorder.take()))
-    with pytest.raises(RandomMismatch, match=r"uniform_array\(0, 1, \[4\]\) where .*\[3\]"):
+    with pytest.raises(RefusedDraw, match=r"uniform_array\(0, 1, \[4\]\) where .*\[3\]"):
         player.uniform_array(0, 1, 4)
 
 
@@ -188,7 +191,7 @@ def test_a_format_1_array_of_another_shape_is_still_a_mismatch() -> None:
     recorder.uniform_array(0, 1, 3)
     player = ReplayRandom()
     player.load([draw._replace(params=()) for draw in through_log(recorder.take())])
-    with pytest.raises(RandomMismatch, match="shape"):
+    with pytest.raises(RefusedDraw, match="shape"):
         player.uniform_array(0, 1, 4)
 
 
@@ -266,7 +269,7 @@ def test_a_draw_asked_with_other_parameters_is_a_mismatch(
     recorded(recorder)
     player = ReplayRandom()
     player.load(through_log(recorder.take()))
-    with pytest.raises(RandomMismatch) as raised:
+    with pytest.raises(RefusedDraw) as raised:
         replayed(player)
     assert message in raised.value.problem
 
@@ -298,7 +301,7 @@ def test_the_same_numbers_asked_for_replay(
     player = ReplayRandom()
     player.load(through_log(recorder.take()))
     replayed(player)
-    assert player.mismatch is None
+    assert player.refused is None
     assert len(player.drawn) == 1
 
 
@@ -319,5 +322,5 @@ def test_a_format_1_draw_has_no_parameters_and_is_checked_for_kind_only() -> Non
 def test_a_recorded_choice_must_fit_the_sequence() -> None:
     player = ReplayRandom()
     player.load([Draw(0, "choice", 5)])
-    with pytest.raises(RandomMismatch, match="out of range"):
+    with pytest.raises(RefusedDraw, match="out of range"):
         player.choice([1, 2])

@@ -93,7 +93,7 @@ def test_an_old_log_without_set_up_draws_replays_against_a_factory(tmp_path: Pat
     assert replay(log, lambda random: probe_system()).ok  # takes the source, draws nothing
 
 
-def test_living_replay_refuses_a_change_to_the_set_up_draws(tmp_path: Path) -> None:
+def test_matching_draws_refuses_a_change_to_the_set_up_draws(tmp_path: Path) -> None:
     log = record_driver(tmp_path / "driver.beatlog")
     divergence = replay(log, driver_system_drawing_more, baseline=Baseline(())).divergence
     assert divergence is not None

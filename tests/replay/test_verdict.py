@@ -15,7 +15,7 @@ from beatlog.replay.verdict import (
     ContextRow,
     Divergence,
     DivergenceKind,
-    DrawReport,
+    RandomDraw,
     ReplayResult,
     StateChange,
     reproduce_command,
@@ -63,10 +63,10 @@ def test_a_state_change_reads_as_behavior_before_and_after() -> None:
 
 
 def test_a_drawn_number_reads_as_behavior_request_and_value() -> None:
-    assert str(DrawReport("dice", "randint", 4, "randint(1, 6)")) == "dice: randint(1, 6) = 4"
-    assert str(DrawReport("wander", "uniform", 0.25)) == "wander: uniform = 0.25"
-    assert str(DrawReport("wander", "uniform", None, "uniform(2, 5)")) == "wander: uniform(2, 5)"
-    long = DrawReport("noise", "normal_array", [[0.5] * 40] * 3, "normal_array(0.0, 1.0, [3, 40])")
+    assert str(RandomDraw("dice", "randint", 4, "randint(1, 6)")) == "dice: randint(1, 6) = 4"
+    assert str(RandomDraw("wander", "uniform", 0.25)) == "wander: uniform = 0.25"
+    assert str(RandomDraw("wander", "uniform", None, "uniform(2, 5)")) == "wander: uniform(2, 5)"
+    long = RandomDraw("noise", "normal_array", [[0.5] * 40] * 3, "normal_array(0.0, 1.0, [3, 40])")
     assert str(long).startswith("noise: normal_array(0.0, 1.0, [3, 40]) = [[0.5, 0.5, ")
     assert len(str(long)) < 120
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from beatlog.analysis.shift import Loss, LossKind, Shift
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.verdict import FieldDifference
 from beatlog.report.baselines import (
     loss_text,
@@ -135,8 +135,8 @@ def test_a_pending_update_counts_and_names_what_it_loses_and_how_much_stays_clos
 def test_the_review_names_each_loss_and_the_draws_it_does_not_name() -> None:
     lost = Shift(ESCAPE_LOST, 3, 0, 0, 1164, 291)
     draws = (
-        DrawRule("escape", "choice(2)", None, (325,)),
-        DrawRule("wander", "uniform(0.8, 1.6)", "uniform(0.7, 1.5)", (12,)),
+        ApprovedDraws("escape", "choice(2)", None, (325,)),
+        ApprovedDraws("wander", "uniform(0.8, 1.6)", "uniform(0.7, 1.5)", (12,)),
     )
     diff = PendingDiff(
         SPEC,

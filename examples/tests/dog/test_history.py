@@ -1,5 +1,5 @@
 """The dog's own history: every intended change kept by re-baselining, never by a new
-recording, and a bug planted afterwards caught (the living-suite promise)."""
+recording, and a bug planted afterwards caught (the promise of a suite that lives)."""
 
 from __future__ import annotations
 

@@ -44,7 +44,7 @@ def replay_details(
     timelines: bool = False,
     expected: Mapping[int, Sequence[StateChange]] | None = None,
     perception: Perception | None = None,
-    living: bool = False,
+    match_draws: bool = False,
     rename: Callable[[str], str] = str,
     migration: StateMigration | None = None,
     fresh_from: int = 0,
@@ -54,7 +54,7 @@ def replay_details(
 
     ``divergence`` is the verdict's (the fields read are those of its cycle);
     ``expected`` stands in for the recorded state changes in the timelines (an approved
-    baseline). ``perception``, ``living``, ``rename``, ``migration`` and ``fresh_from``
+    baseline). ``perception``, ``match_draws``, ``rename``, ``migration`` and ``fresh_from``
     replay as the verdict's replay did (:class:`~beatlog.replay.session.ReplaySession`).
     """
     diverged_at = (
@@ -67,7 +67,7 @@ def replay_details(
         log,
         system,
         perception=perception,
-        living=living,
+        match_draws=match_draws,
         rename=rename,
         migration=migration,
         fresh_from=fresh_from,

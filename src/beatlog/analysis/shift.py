@@ -17,7 +17,7 @@ from enum import StrEnum
 from typing import NamedTuple
 
 from beatlog.replay.baseline import ABSENT, TracedOutput, TracedStateChange
-from beatlog.replay.draws import DrawRule
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["Loss", "LossKind", "Shift", "Trace", "shift"]
@@ -79,8 +79,8 @@ def shift(
     *,
     cycles: int,
     open_loop: int | None,
-    draws_before: Iterable[DrawRule] = (),
-    draws_after: Iterable[DrawRule] = (),
+    draws_before: Iterable[ApprovedDraws] = (),
+    draws_after: Iterable[ApprovedDraws] = (),
 ) -> Shift:
     """How the whole trace ``after`` differs from ``before``, with the draws each lets
     replay make otherwise than recorded; ``cycles`` is the session's length and

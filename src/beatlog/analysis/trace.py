@@ -22,6 +22,8 @@ from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.log.reader import SessionLogReader
 from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
+from beatlog.replay.approved_state_lines import state_digest
+from beatlog.replay.approved_states import ApprovedStates, RebuiltState, rebuilt_otherwise
 from beatlog.replay.baseline import (
     Baseline,
     OutputTracker,
@@ -31,11 +33,8 @@ from beatlog.replay.baseline import (
 from beatlog.replay.compare import WHOLE_STATE, state_fields
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.departures import DepartureCollector, apply_outputs, hold
-from beatlog.replay.draws import draw_rules
-from beatlog.replay.pins import RebuiltState, StatePins, rebuilt_otherwise
-from beatlog.replay.random import DrawDifference
+from beatlog.replay.draws import DrawMadeOtherwise, approved_draws
 from beatlog.replay.session import ReplaySession
-from beatlog.replay.state_digests import state_digest
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
@@ -65,8 +64,8 @@ class ReplayedTrace:
     baseline: Baseline = field(default_factory=lambda: Baseline(()))
     """This trace as a baseline holds it: where its state changes and outputs depart
     from the recording's; in sensor-level replay, the robot states perception rebuilt
-    otherwise than recorded, pinned by digest; in living replay, the draws made
-    otherwise than recorded."""
+    otherwise than recorded, approved by digest; in replay matching draws, the draws
+    made otherwise than recorded."""
 
     @property
     def open_loop(self) -> tuple[int, int] | None:
@@ -154,15 +153,19 @@ def recorded_states(log: str | Path, cycles: Collection[int]) -> dict[int, dict[
 
 
 def replayed_trace(
-    log: str | Path, system: System, *, living: bool = False, rename: Callable[[str], str] = str
+    log: str | Path,
+    system: System,
+    *,
+    match_draws: bool = False,
+    rename: Callable[[str], str] = str,
 ) -> ReplayedTrace:
     """Replay every cycle of ``log`` on ``system`` and collect its state changes.
 
     Replay uses the recording's heartbeats, robot states and random numbers; it stops
-    early when the behaviors raise or, unless ``living``, draw random numbers the log
+    early when the behaviors raise or, unless ``match_draws``, draw random numbers the log
     does not have (``rename`` maps a recorded behavior's name to its name now).
     """
-    with ReplaySession(log, system, living=living, rename=rename) as session:
+    with ReplaySession(log, system, match_draws=match_draws, rename=rename) as session:
         assert session.replayer is not None  # a session with a system replays
         tracer = TraceCollector(session.replayer, rename)
         session.run([tracer])
@@ -184,7 +187,7 @@ class TraceCollector:
         self._changes: list[TracedStateChange] = []
         self._outputs: list[TracedOutput] = []
         self._states: list[RebuiltState] = []
-        self._draws: list[tuple[int, DrawDifference]] = []
+        self._draws: list[tuple[int, DrawMadeOtherwise]] = []
         self._tracker = OutputTracker()
         self._cycles = 0
         self.stopped: str | None = None
@@ -211,14 +214,14 @@ class TraceCollector:
             for i, before, after in outcome.changes or ()
         )
         self._outputs.extend(self._tracker.observe(outcome.cycle, outcome.time_ns, outcome.outputs))
-        if outcome.perception_differs:  # pinned where it differs from the recorded bit for bit
+        if outcome.perception_differs:  # approved where it differs from the recorded bit for bit
             state = outcome.state
             fields = rebuilt_otherwise(state_fields(outcome.recorded_state), state_fields(state))
             if fields:
                 digest = state_digest(self._encode(state))
                 self._states.append(RebuiltState(outcome.cycle, outcome.time_ns, fields, digest))
-        if outcome.draw_differences:
-            self._draws.extend((outcome.cycle, d) for d in outcome.draw_differences)
+        if outcome.draws_otherwise:
+            self._draws.extend((outcome.cycle, d) for d in outcome.draws_otherwise)
         self._departures.add(
             outcome.record, outcome.cycle, outcome.time_ns, outcome.changes or (), outcome.outputs
         )
@@ -233,7 +236,7 @@ class TraceCollector:
             tuple(self._outputs),
             dataclasses.replace(
                 self._departures.departures(),
-                state_pins=StatePins.from_rebuilt(self._states),
-                draws=draw_rules(self._draws),
+                approved_states=ApprovedStates.from_rebuilt(self._states),
+                draws=approved_draws(self._draws),
             ),
         )

@@ -3,8 +3,8 @@ against after an intended change, in one current file format (:mod:`.file`, read
 :mod:`.read`, written by :mod:`.write`), the command that rewrites older files in it
 (:mod:`.upgrade`), and when baselines may be written and go stale (:mod:`.policy`).
 
-The per-cycle parts replay itself checks (the robot-state pins, approved draws, held
-outputs and departures) live with the replay core, in :mod:`beatlog.replay`, a layer
+The per-cycle parts replay itself checks (the approved robot states, draws and outputs,
+and departures) live with the replay core, in :mod:`beatlog.replay`, a layer
 below; the re-baselining workflow over a suite's specs (update, review, approve) lives
 in :mod:`beatlog.suite.maintenance`. The names are imported on first use.
 """

@@ -36,13 +36,13 @@ behaviors do not notice (perception rebuilds other robot states, draws differ to
 effect) has no such lines.
 
 The robot-state lines pin, for sensor-level replay, the states the perception step
-rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replay.pins`): a line per
+rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replay.approved_states`): a line per
 run of such cycles (short gaps rebuilt as recorded included) names the fields that
 differ and their values in its first cycle, for review; then a line per block of up to
 64 of its cycles gives, after the count of cycles, the hex digest of the block and two
 base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
 gap): XXH64 of the state as the log encodes it
-(:func:`~beatlog.replay.state_digests.state_digest`), and of its pinned cycles'
+(:func:`~beatlog.replay.approved_state_lines.state_digest`), and of its pinned cycles'
 digests end to end for the block. Replay judges a pinned cycle's whole rebuilt state
 by its digest, bit for bit, and any other cycle against the recording. Behavior names,
 states and values are JSON, floats written so they read back bit for bit (``NaN``, ``Infinity``,
@@ -54,8 +54,8 @@ is refused.
 A ``draws`` line approves draws that replay makes otherwise than recorded, in the
 cycles listed (a cycle once per draw; :mod:`beatlog.replay.draws`): a recorded request
 re-mapped to the one asked for now, a new draw (``-`` for the recorded side) or a
-recorded one left unused (``-`` for the asked side). A baseline is judged in living
-replay, cycle by cycle: any other draw made otherwise, or an approved one not made,
+recorded one left unused (``-`` for the asked side). A baseline is judged in replay
+matching draws, cycle by cycle: any other draw made otherwise, or an approved one not made,
 diverges in its cycle.
 
 A baseline whose text is longer than
@@ -82,9 +82,14 @@ from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import irregular_file_problem, read_text_blocks
-from beatlog.replay.baseline import Baseline, BaselinePart, BaselineStream
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.pins import PinCoverage, StatePins
+from beatlog.replay.approved_state_lines import DigestCoverage
+from beatlog.replay.approved_states import ApprovedStates
+from beatlog.replay.baseline import (
+    Baseline,
+    BaselinePart,
+    BaselineStream,
+)
+from beatlog.replay.draws import ApprovedDraws
 
 __all__ = [
     "BLOCK_BYTES",
@@ -151,7 +156,9 @@ class BaselineFile:
         return Baseline(
             tuple(chain(part.changes for part in parts)),
             tuple(chain(part.outputs for part in parts)),
-            StatePins(tuple(chain(p.runs for p in parts)), tuple(chain(p.blocks for p in parts))),
+            ApprovedStates(
+                tuple(chain(p.runs for p in parts)), tuple(chain(p.blocks for p in parts))
+            ),
             self.stream.draws,
             self.stream.open_loop,
             tuple(chain(part.quiet for part in parts)),
@@ -212,7 +219,7 @@ def read_baseline(path: Path) -> BaselineFile:
     (:attr:`BaselineFile.stream`). Anything else, a file of an older format included,
     raises :class:`BaselineError` naming the line (or the command that upgrades it)."""
     reading = _Reading(path)
-    draws: list[DrawRule] = []
+    draws: list[ApprovedDraws] = []
     departs = pinned = False
     behaviors: dict[str, None] = {}
     kept: list[BaselinePart] | None = []  # the first block's lines, while it is the only one
@@ -261,7 +268,7 @@ class _Reading:
         self.digest = ""
         """The log's digest, from the ``# log`` line."""
         self.open_loop: tuple[int, int] | None = None
-        self._coverage = PinCoverage()
+        self._coverage = DigestCoverage()
         self._last = -1
         """The last cycle of the lines read."""
         self._lasts = [-1, -1, -1]
@@ -315,7 +322,7 @@ class _Reading:
         """Check a block's lines against the format's rules, and those before them.
 
         :raises BaselineError: lines out of cycle order, a cycle both quiet and with
-            state changes, a second ``open loop`` line, or robot-state pins that do not
+            state changes, a second ``open loop`` line, or approved robot states that do not
             hold together.
         """
         path = self.path

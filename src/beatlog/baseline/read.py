@@ -33,15 +33,14 @@ from beatlog.baseline.write import (
     RUN_FIRST,
 )
 from beatlog.log.format import DECODE_ERRORS
+from beatlog.replay.approved_state_lines import DIGEST_BYTES, TAG_CHARS, ApprovedRun, DigestBlock
 from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
     TracedOutput,
     TracedStateChange,
 )
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.pins import TAG_CHARS, DigestBlock, PinnedRun
-from beatlog.replay.state_digests import DIGEST_BYTES
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["ParsedLines", "line_feeds", "parse_line"]
@@ -69,9 +68,9 @@ class ParsedLines:
 
     changes: list[TracedStateChange] = field(default_factory=list)
     outputs: list[TracedOutput] = field(default_factory=list)
-    runs: list[PinnedRun] = field(default_factory=list)
+    runs: list[ApprovedRun] = field(default_factory=list)
     blocks: list[DigestBlock] = field(default_factory=list)
-    draws: list[DrawRule] = field(default_factory=list)
+    draws: list[ApprovedDraws] = field(default_factory=list)
     quiet: list[tuple[int, int]] = field(default_factory=list)
     open_loop: tuple[int, int] | None = None
 
@@ -115,7 +114,7 @@ class ParsedLines:
             self.outputs.append(parsed)
         elif isinstance(parsed, TracedStateChange):
             self.changes.append(parsed)
-        elif isinstance(parsed, PinnedRun):
+        elif isinstance(parsed, ApprovedRun):
             self.runs.append(parsed)
         elif isinstance(parsed, DigestBlock):
             self.blocks.append(parsed)
@@ -137,7 +136,7 @@ def line_feeds(block: str) -> tuple[str, int]:
     return block, block.count("\n") + (block[-1:] not in ("\n", ""))
 
 
-def _parse_draw(line: str) -> DrawRule:
+def _parse_draw(line: str) -> ApprovedDraws:
     head = _DRAW_HEAD.match(line)
     rest = line[head.end() :] if head else ""
     split = rest.rfind(_IN_CYCLES)  # the only one that numbers may follow
@@ -157,7 +156,7 @@ def _parse_draw(line: str) -> DrawRule:
     recorded, asked = rest[:arrow], rest[arrow + len(_TO) : split]
     if recorded == asked:
         raise ValueError(f"a draw of {asked} as recorded is no difference")
-    return DrawRule(
+    return ApprovedDraws(
         behavior,
         None if recorded == NONE else recorded,
         None if asked == NONE else asked,
@@ -172,7 +171,7 @@ def _time_ns(seconds: str) -> int:
 
 def parse_line(
     line: str,
-) -> TracedStateChange | TracedOutput | PinnedRun | DigestBlock | tuple[int, int, str]:
+) -> TracedStateChange | TracedOutput | ApprovedRun | DigestBlock | tuple[int, int, str]:
     """A line of the cycle columns; an ``open loop`` or quiet line as its cycle, time and
     text."""
     found = _CHANGE_LINE.fullmatch(line)
@@ -188,7 +187,7 @@ def parse_line(
         name, value = _parse_value(text[len(OUTPUT) :])
         return TracedOutput(cycle, time_ns, name, value)
     if text.startswith(ROBOT_STATE):
-        return _parse_pin(text[len(ROBOT_STATE) :], cycle, time_ns)
+        return _parse_state(text[len(ROBOT_STATE) :], cycle, time_ns)
     return TracedStateChange(cycle, time_ns, _parse_change(text))
 
 
@@ -218,7 +217,7 @@ def _decode_value(value_text: str) -> Any:
     return value
 
 
-def _parse_pin(text: str, cycle: int, time_ns: int) -> PinnedRun | DigestBlock:
+def _parse_state(text: str, cycle: int, time_ns: int) -> ApprovedRun | DigestBlock:
     """A robot-state line: a run of pinned cycles, or a block of their digests."""
     block = _DIGESTS.fullmatch(text.rstrip())
     if block is not None:
@@ -243,7 +242,7 @@ def _parse_pin(text: str, cycle: int, time_ns: int) -> PinnedRun | DigestBlock:
         raise ValueError("the first cycle's values must be a JSON object")
     if int(run["first"]) != cycle:
         raise ValueError(f"a run of cycles from {run['first']} on a line of cycle {cycle}")
-    return PinnedRun(cycle, time_ns, int(run["last"]), int(run["cycles"]), tuple(fields), first)
+    return ApprovedRun(cycle, time_ns, int(run["last"]), int(run["cycles"]), tuple(fields), first)
 
 
 def _parse_change(text: str) -> StateChange:

@@ -1,4 +1,4 @@
-"""A baseline file, written: its header, draws, state changes, outputs, robot-state pins.
+"""A baseline file, written: its header, draws, state changes, outputs, robot states.
 
 Each line of the cycle columns starts with the cycle and its robot time in seconds;
 behavior names, states and values are JSON, floats written so they read back bit for
@@ -17,6 +17,7 @@ import msgspec
 
 from beatlog.errors import BaselineError
 from beatlog.log.files import replacing
+from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
@@ -24,8 +25,7 @@ from beatlog.replay.baseline import (
     TracedOutput,
     TracedStateChange,
 )
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.pins import StatePins
+from beatlog.replay.draws import ApprovedDraws
 
 __all__ = [
     "AS_RECORDED_TEXT",
@@ -83,7 +83,7 @@ at zstd's default level, its speed (some 100 MB a second)."""
 def format_lines(
     changes: Iterable[TracedStateChange],
     outputs: Iterable[TracedOutput] | None = None,
-    state_pins: StatePins | None = None,
+    approved_states: ApprovedStates | None = None,
     *,
     open_loop: tuple[int, int] | None = None,
     quiet: Iterable[tuple[int, int]] = (),
@@ -92,7 +92,7 @@ def format_lines(
     cycle, as baseline files hold them: in each cycle in that order, as replay meets
     them, after the line that says the behaviors left the recording there
     (``open_loop``). ``quiet`` cycles lost their recorded state changes."""
-    keyed = [(cycle, 0, line) for cycle, line in _pin_lines(state_pins or StatePins())]
+    keyed = [(cycle, 0, line) for cycle, line in _state_lines(approved_states or ApprovedStates())]
     if open_loop is not None:
         keyed.append((open_loop[0], -1, _columns(*open_loop) + OPEN_LOOP))
     keyed.extend((c.cycle, 1, _change_line(c)) for c in changes)
@@ -122,11 +122,11 @@ def _output_line(traced: TracedOutput) -> str:
     return f"{_columns(cycle, time_ns)}{OUTPUT}{json.dumps(name)} {what}"
 
 
-def _pin_lines(pins: StatePins) -> list[tuple[int, str]]:
+def _state_lines(approved: ApprovedStates) -> list[tuple[int, str]]:
     """A line per run of pinned robot states, then one per block of their digests: in
     cycle order, each run's line comes before its first block's."""
     lines = []
-    for run in pins.runs:
+    for run in approved.runs:
         fields = ", ".join(json.dumps(name) for name in run.fields)
         lines.append(
             (
@@ -142,7 +142,7 @@ def _pin_lines(pins: StatePins) -> list[tuple[int, str]]:
             f"{_columns(block.cycle, block.time_ns)}{ROBOT_STATE}digests {block.cycles} "
             f"{block.digest.hex()} {block.tags}",
         )
-        for block in pins.blocks
+        for block in approved.blocks
     )
     return lines
 
@@ -162,7 +162,7 @@ def format_value(value: Any) -> str:
     return MSGPACK + _SORTED.encode(value).hex()
 
 
-def draw_line(rule: DrawRule) -> str:
+def draw_line(rule: ApprovedDraws) -> str:
     """``draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97``."""
     recorded, asked = rule.recorded or NONE, rule.asked or NONE
     cycles = " ".join(map(str, rule.cycles))
@@ -193,7 +193,7 @@ def write_baseline(
         *format_lines(
             baseline.changes,
             baseline.outputs or (),
-            state_pins=baseline.state_pins,
+            approved_states=baseline.approved_states,
             open_loop=baseline.open_loop,
             quiet=baseline.quiet,
         ),

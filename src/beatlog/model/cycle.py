@@ -18,10 +18,11 @@ from beatlog.model.random import RandomSource
 
 __all__ = [
     "CycleExecutor",
-    "DrawReport",
     "Pause",
+    "RandomDraw",
     "StateChange",
     "Update",
+    "actor_name",
     "find_changes",
     "read_states",
 ]
@@ -49,15 +50,15 @@ _SHORT = reprlib.Repr()
 _SHORT.maxlist = 3
 
 
-class DrawReport(NamedTuple):
-    """A random number drawn in a cycle, with the behavior that drew it, as reports and
-    invariants see it."""
+class RandomDraw(NamedTuple):
+    """A random draw as reports and invariants show it: by the name of the behavior that
+    drew it, its value as plain Python (the log's is a :class:`~beatlog.log.format.Draw`)."""
 
     behavior: str
     kind: str
     value: Any
-    """The value as plain Python (an array as nested lists); None for a draw refused
-    because it was not the one recorded."""
+    """An array as nested lists; None for a draw refused because it was not the one
+    recorded."""
     call: str = ""
     """The request as code (``uniform(2.0, 5.0)``); empty where the log recorded none
     (format 1)."""
@@ -65,6 +66,13 @@ class DrawReport(NamedTuple):
     def __str__(self) -> str:
         asked = f"{self.behavior}: {self.call or self.kind}"
         return asked if self.value is None else f"{asked} = {_SHORT.repr(self.value)}"
+
+
+def actor_name(names: Sequence[str], actor: int) -> str:
+    """A behavior by its catalogue index (``system`` for -1, ``#N`` past the catalogue)."""
+    if actor < 0:
+        return "system"
+    return names[actor] if actor < len(names) else f"#{actor}"
 
 
 def read_states(behaviors: Sequence[Behavior]) -> list[BehaviorState]:

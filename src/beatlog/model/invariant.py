@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
-from beatlog.model.cycle import DrawReport, StateChange
+from beatlog.model.cycle import RandomDraw, StateChange
 
 __all__ = ["Cycle", "Invariant"]
 
@@ -38,7 +38,7 @@ class Cycle(NamedTuple):
     """BS_t: the behaviors' state changes in this cycle."""
     outputs: Mapping[str, Any]
     """What the behaviors reported this cycle, e.g. motor commands."""
-    draws: tuple[DrawReport, ...]
+    draws: tuple[RandomDraw, ...]
     """The random numbers drawn this cycle, each with the behavior that drew it."""
 
     @property

@@ -21,7 +21,7 @@ from beatlog.model.draws import (
     plain_value,
     recorded_draw_problem,
 )
-from beatlog.model.luck import FreshLuck, Place, array_value, scalar_value
+from beatlog.model.quantiles import FreshQuantiles, Place, array_value, scalar_value
 from beatlog.model.source import RandomSource
 
 __all__ = [
@@ -36,14 +36,14 @@ __all__ = [
 
 class RecordingRandom(RandomSource):
     """Draws from a counter-based source keyed by its seed and keeps every value drawn
-    in the current cycle: the session's n-th draw is its request's value with the luck
-    of the place ``(0, "", n)`` (:class:`~beatlog.model.luck.FreshLuck`), the same for
-    the same seed on every machine."""
+    in the current cycle: the session's n-th draw is its request's value at the quantile
+    of the place ``(0, "", n)`` (:class:`~beatlog.model.quantiles.FreshQuantiles`), the
+    same for the same seed on every machine."""
 
     def __init__(self, seed: int | None = None) -> None:
         super().__init__()
         self.seed = seed if seed is not None else secrets.randbits(63)
-        self._fresh = FreshLuck(str(self.seed).encode())
+        self._fresh = FreshQuantiles(str(self.seed).encode())
         self._count = 0
         self.draws: list[Draw] = []
 
@@ -58,8 +58,8 @@ class RecordingRandom(RandomSource):
         return Place(0, "", self._count - 1)
 
     def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
-        luck = self._fresh.luck(self._place())
-        value = SCALAR_VALUES[kind.value](scalar_value(kind.value, params, luck))
+        quantile = self._fresh.quantile(self._place())
+        value = SCALAR_VALUES[kind.value](scalar_value(kind.value, params, quantile))
         self.draws.append(Draw(self._actor, kind.value, value, params))
         return value
 

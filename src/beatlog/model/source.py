@@ -209,9 +209,9 @@ class RandomSource(ABC):
         elif weights is None:
             indices = self._drawn_array(DrawKind.INTEGERS_ARRAY, 0, count, shape)
         else:
-            lucks = self._drawn_array(DrawKind.UNIFORM_ARRAY, 0.0, 1.0, shape)
+            quantiles = self._drawn_array(DrawKind.UNIFORM_ARRAY, 0.0, 1.0, shape)
             cumulative = np.cumsum(weights)
-            at = np.searchsorted(cumulative / cumulative[-1], lucks, side="right")
+            at = np.searchsorted(cumulative / cumulative[-1], quantiles, side="right")
             indices = np.minimum(at, np.flatnonzero(weights)[-1])
         return indices if population is None else np.asarray(population)[indices]
 
@@ -273,9 +273,9 @@ def _weights(p: Any, count: int) -> list[float]:
     return weights
 
 
-def _weighted(weights: list[float], luck: float) -> int:
-    """The element whose share of the cumulative ``weights`` holds ``luck``; never one
+def _weighted(weights: list[float], quantile: float) -> int:
+    """The element whose share of the cumulative ``weights`` holds ``quantile``; never one
     of weight 0."""
     cumulative = list(accumulate(weights))
-    index = bisect_right(cumulative, luck * cumulative[-1])
+    index = bisect_right(cumulative, quantile * cumulative[-1])
     return index if index < len(weights) else max(i for i, w in enumerate(weights) if w > 0)

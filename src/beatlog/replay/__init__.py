@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from beatlog.replay.verdict import Checked as Checked
     from beatlog.replay.verdict import Divergence as Divergence
     from beatlog.replay.verdict import DivergenceKind as DivergenceKind
-    from beatlog.replay.verdict import DrawReport as DrawReport
+    from beatlog.replay.verdict import RandomDraw as RandomDraw
     from beatlog.replay.verdict import ReplayResult as ReplayResult
     from beatlog.replay.verdict import StateChange as StateChange
 

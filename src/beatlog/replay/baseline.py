@@ -18,8 +18,9 @@ from typing import Any, NamedTuple
 import msgspec
 
 from beatlog.log.format import payload_encoder
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.pins import DigestBlock, PinnedRun, StatePins
+from beatlog.replay.approved_state_lines import ApprovedRun, DigestBlock
+from beatlog.replay.approved_states import ApprovedStates
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.verdict import StateChange
 
 __all__ = [
@@ -119,19 +120,19 @@ class Baseline:
     recorded ones (none, in a quiet cycle), and any other cycle's are as recorded; an
     output field holds the value an output line gives it (:data:`ABSENT` included) from
     that cycle on, whatever was recorded, until a line gives it :data:`AS_RECORDED`
-    again. ``state_pins`` pins, for sensor-level replay, the robot states an intended
+    again. ``approved_states`` are, for sensor-level replay, the robot states an intended
     perception change rebuilds, by digest, in the cycles where they differ from the
     recorded RS_t (none: perception rebuilds the recording). ``draws`` are the draws
     replay may make otherwise than recorded (:mod:`beatlog.replay.draws`); a baseline
-    is judged in living replay, so any other difference diverges. ``open_loop`` is the
+    is judged in replay matching draws, so any other difference diverges. ``open_loop`` is the
     first cycle whose state changes or outputs left the recording's, if any: from there
     the recorded world no longer answers to what the behaviors do.
     """
 
     changes: tuple[TracedStateChange, ...]
     outputs: tuple[TracedOutput, ...] = ()
-    state_pins: StatePins = field(default_factory=StatePins)
-    draws: tuple[DrawRule, ...] = ()
+    approved_states: ApprovedStates = field(default_factory=ApprovedStates)
+    draws: tuple[ApprovedDraws, ...] = ()
     open_loop: tuple[int, int] | None = None
     """The cycle and robot time (ns) where the behaviors left the recording."""
     quiet: tuple[tuple[int, int], ...] = ()
@@ -162,13 +163,13 @@ class Baseline:
 
     def stream(self) -> BaselineStream:
         """This baseline as replay reads it: in one part."""
-        pins = self.state_pins
-        part = BaselinePart(self.changes, self.quiet, self.outputs, pins.runs, pins.blocks)
+        approved = self.approved_states
+        part = BaselinePart(self.changes, self.quiet, self.outputs, approved.runs, approved.blocks)
         return BaselineStream(
             self.draws,
             self.open_loop,
             departs=not self.as_recorded,
-            pinned=bool(pins.blocks),
+            pinned=bool(approved.blocks),
             behaviors=tuple(dict.fromkeys(c.change.behavior for c in self.changes)),
             parts=lambda: iter((part,)),
         )
@@ -181,7 +182,7 @@ class BaselinePart(NamedTuple):
     changes: Sequence[TracedStateChange]
     quiet: Sequence[tuple[int, int]]
     outputs: Sequence[TracedOutput]
-    runs: Sequence[PinnedRun]
+    runs: Sequence[ApprovedRun]
     blocks: Sequence[DigestBlock]
 
     @property
@@ -204,7 +205,7 @@ class BaselineStream:
     changes give, in the order they first appear.
     """
 
-    draws: tuple[DrawRule, ...]
+    draws: tuple[ApprovedDraws, ...]
     open_loop: tuple[int, int] | None
     departs: bool
     pinned: bool

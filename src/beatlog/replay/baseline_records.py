@@ -1,8 +1,9 @@
 """The recorded cycles as an approved baseline expects them: :class:`BaselineRecords`
 puts its state changes and outputs, encoded as a log would, in each record replay reads
 where the behaviors depart from the recording, so that the judge compares bytes as ever.
-It reads the baseline alongside the log, a part at a time, and hands its robot-state
-pins to the replay's :class:`~beatlog.replay.pins.PinChecker` the same way.
+It reads the baseline alongside the log, a part at a time, and hands its approved robot
+states to the replay's :class:`~beatlog.replay.approved_states.ApprovedStateChecker` the
+same way.
 """
 
 from __future__ import annotations
@@ -16,14 +17,14 @@ from typing import Any
 import msgspec
 
 from beatlog.log.format import EMPTY_LIST, CycleRecord, LoggedStateChange, payload_encoder
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.baseline import (
     BaselinePart,
     BaselineStream,
     TracedOutput,
     changes_by_cycle,
 )
-from beatlog.replay.held_outputs import HeldOutputs
-from beatlog.replay.pins import PinChecker
+from beatlog.replay.departures import ApprovedOutputs
 from beatlog.replay.verdict import StateChange
 
 __all__ = ["BaselineRecords"]
@@ -36,7 +37,7 @@ _ALL = 1 << 62
 
 class BaselineRecords:
     """An approved baseline's state changes and outputs, encoded to stand in for the
-    recorded ones, cycle by cycle, and its robot-state pins handed to ``pins``.
+    recorded ones, cycle by cycle, and its approved robot states handed to ``approved``.
 
     ``recorded_names`` is the log's behavior catalogue and ``rename`` maps a recorded
     name to its name now. :attr:`names` is the catalogue the expected state changes are
@@ -49,7 +50,7 @@ class BaselineRecords:
         baseline: BaselineStream,
         recorded_names: Sequence[str],
         rename: Callable[[str], str],
-        pins: PinChecker | None,
+        approved: ApprovedStateChecker | None,
     ) -> None:
         self._encoder = payload_encoder()
         names = list(recorded_names)
@@ -63,7 +64,7 @@ class BaselineRecords:
         self.names = names
         self._index = index
         self._baseline = baseline
-        self._pins = pins
+        self._approved_states = approved
         self._changes: deque[tuple[int, list[StateChange]]] = deque()
         """The state changes of the cycles read and not yet handed on, by cycle."""
         self._lines: deque[tuple[int, list[TracedOutput]]] = deque()
@@ -91,8 +92,8 @@ class BaselineRecords:
                 self._lines,
                 ((cycle, list(lines)) for cycle, lines in itertools.groupby(part.outputs, _CYCLE)),
             )
-            if self._pins is not None:
-                self._pins.add(part.runs, part.blocks)
+            if self._approved_states is not None:
+                self._approved_states.add(part.runs, part.blocks)
             self._read = max(self._read, part.last)
 
     def batches(
@@ -105,7 +106,7 @@ class BaselineRecords:
         parts = self._baseline.parts()
         self._read = -1
         queued_changes, queued_lines = self._changes, self._lines
-        held = HeldOutputs(path)
+        outputs = ApprovedOutputs(path)
         holding = False
         cycle = first
         if first:
@@ -113,12 +114,12 @@ class BaselineRecords:
             while queued_changes and queued_changes[0][0] < first:
                 queued_changes.popleft()
             while queued_lines and queued_lines[0][0] < first:
-                holding = held.hold(queued_lines.popleft()[1])
+                holding = outputs.hold(queued_lines.popleft()[1])
         for batch in batches:
             start, end = cycle, cycle + len(batch)
             self._read_to(parts, end)
-            if self._pins is not None:
-                self._pins.forget(start)
+            if self._approved_states is not None:
+                self._approved_states.forget(start)
             changes: dict[int, msgspec.Raw] = {}
             while queued_changes and queued_changes[0][0] < end:
                 at, cycle_changes = queued_changes.popleft()
@@ -129,14 +130,14 @@ class BaselineRecords:
                 lines[at] = cycle_lines
             for event in sorted(changes.keys() | lines.keys()):
                 if holding:
-                    held.put(batch[start - cycle : event - cycle], start)
+                    outputs.put(batch[start - cycle : event - cycle], start)
                 if event in changes:
                     batch[event - cycle].state_changes = changes[event]
                 if event in lines:
-                    holding = held.hold(lines[event])
+                    holding = outputs.hold(lines[event])
                 start = event
             if holding:
-                held.put(batch[start - cycle :] if start > cycle else batch, start)
+                outputs.put(batch[start - cycle :] if start > cycle else batch, start)
             cycle = end
             yield batch
 

@@ -28,20 +28,20 @@ from beatlog.log.format import (
     payload_encoder,
 )
 from beatlog.model.behavior import System
-from beatlog.model.cycle import CycleExecutor
+from beatlog.model.cycle import CycleExecutor, actor_name
 from beatlog.model.perception import Perception
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.draws import log_key
 from beatlog.replay.fit.check import check_fit
 from beatlog.replay.fit.migration import StateConverter, StateMigration
 from beatlog.replay.fit.schema import recorded_state_type
-from beatlog.replay.outcome import AGREED, ByteCheck, CycleOutcome, Sensed, Stop, actor_name
-from beatlog.replay.pins import PinChecker
-from beatlog.replay.random import RandomMismatch, ReplayRandom
+from beatlog.replay.outcome import AGREED, ByteCheck, CycleOutcome, Sensed, Stop
+from beatlog.replay.random import RefusedDraw, ReplayRandom
 from beatlog.replay.sensing import UNREAD, Perceiver
 from beatlog.replay.view import StateViews
 
-__all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Replayer", "Stop", "actor_name"]
+__all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Replayer", "Stop"]
 
 
 Observe = Callable[[Any], Any]
@@ -71,10 +71,10 @@ class Replayer:
         *,
         perception: Perception | None = None,
         break_at: int | None = None,
-        living: bool = False,
+        match_draws: bool = False,
         rename: Callable[[str], str] = str,
         migration: StateMigration | None = None,
-        state_pins: PinChecker | None = None,
+        approved_states: ApprovedStateChecker | None = None,
         random: ReplayRandom | None = None,
     ) -> None:
         migration = migration or StateMigration()
@@ -91,16 +91,16 @@ class Replayer:
         self.random = ReplayRandom() if random is None else random
         """The random source: ``random``, the one the system drew its set-up from, if given."""
         self.executor = CycleExecutor(system, self.random)
-        self.living = living
+        self.match_draws = match_draws
         """Whether replay goes on when the behaviors draw otherwise than recorded
-        (:meth:`~beatlog.replay.random.ReplayRandom.live`); ``rename`` maps a recorded
+        (:meth:`~beatlog.replay.random.ReplayRandom.match_draws`); ``rename`` maps a recorded
         behavior's name to its name now, matching each behavior's draws."""
-        if living:
+        if match_draws:
             self.random.expect_actors(header.behaviors, self.executor.behavior_ids, rename)
-            self.random.live(log_key(header))
+            self.random.match_draws(log_key(header))
         self.perception = perception if header.samples_logged else None
         """The perception step in use: None unless the log holds samples."""
-        self.state_pins = state_pins
+        self.approved_states = approved_states
         """The robot states an approved baseline pins by digest: in their cycles the
         rebuilt state is judged against them, not the recorded one."""
         self._encode = payload_encoder().encode
@@ -117,7 +117,7 @@ class Replayer:
                 system.robot_state,
                 self._reader,
                 self._encode,
-                state_pins=state_pins,
+                approved_states=approved_states,
                 migrated=bool(migration),
             )
         )
@@ -206,10 +206,10 @@ class Replayer:
             context.outputs,
             random.recorded,
             random.drawn,
-            random.mismatch,
+            random.refused,
             failure,
             context.actor,
-            draw_differences=tuple(random.differences) if self.living else None,
+            draws_otherwise=tuple(random.made_otherwise) if self.match_draws else None,
         )
         if sensed is None:
             return outcome
@@ -258,7 +258,7 @@ class Replayer:
         random = self.random
         load = random.load
         settle = random.settle
-        living = self.living
+        match_draws = self.match_draws
         read_state = self._reader.state
         decode_draws = self._reader.draws
         break_at = self.break_at
@@ -305,12 +305,7 @@ class Replayer:
             draws = record.random_numbers
             # Load RN_t, unless there is none and nothing is left of the last cycle's (a
             # draw is kept only when one was recorded; a draw too many leaves a mismatch).
-            if (
-                draws != EMPTY_LIST
-                or random.recorded
-                or random.drawn
-                or random.mismatch is not None
-            ):
+            if draws != EMPTY_LIST or random.recorded or random.drawn or random.refused is not None:
                 load(() if draws == EMPTY_LIST else decode_draws(record, context.cycle + 1))
             perturb = self.perturb
             if perturb is not None:
@@ -318,7 +313,7 @@ class Replayer:
             failure = None
             try:
                 changes = step(record.heartbeat_ns, state if observe is None else observe(state))
-            except RandomMismatch:
+            except RefusedDraw:
                 changes = None
             except NumpyMissingError:
                 raise NumpyMissingError(self.path) from None
@@ -328,9 +323,9 @@ class Replayer:
                 changes = None
                 failure = exc
             self._last = (record, state, changes, failure, sensed)
-            if random.mismatch is not None:
+            if random.refused is not None:
                 drew_otherwise = True
-            elif living:  # a cycle that neither drew nor had draws recorded has none to settle
+            elif match_draws:  # a cycle that neither drew nor had draws recorded has none to settle
                 differences = settle() if random.recorded or random.drawn else ()
                 drew_otherwise = bool(differences) and not (
                     approves is not None and approves(context.cycle, differences)

@@ -5,17 +5,24 @@ approved state changes and outputs differ from the recorded ones: a cycle's own 
 changes (none, where it is *quiet*), and an output field's approved value from a cycle
 on, until it is :data:`~beatlog.replay.baseline.AS_RECORDED` again.
 :class:`DepartureCollector` finds them as a trace replays; replay applies them as it
-reads the recorded cycles (:mod:`beatlog.replay.baseline_records`).
+reads the recorded cycles (:mod:`beatlog.replay.baseline_records`), the approved outputs a run
+of records at a time (:class:`ApprovedOutputs`): most cycles repeat the last one's
+recorded outputs and take its expected ones; the others are decoded, given the approved
+values and encoded again.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import msgspec
 
-from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.errors import CorruptLogError
+from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.log.payload import decode_outputs
+from beatlog.model.cycle import actor_name
 from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
@@ -23,10 +30,9 @@ from beatlog.replay.baseline import (
     TracedOutput,
     TracedStateChange,
 )
-from beatlog.replay.core import actor_name
 from beatlog.replay.verdict import StateChange
 
-__all__ = ["DepartureCollector", "OutputDepartures", "apply_outputs", "hold"]
+__all__ = ["ApprovedOutputs", "DepartureCollector", "OutputDepartures", "apply_outputs", "hold"]
 
 
 class OutputDepartures:
@@ -159,3 +165,54 @@ class DepartureCollector:
             open_loop=self._first,
             quiet=tuple(self._quiet),
         )
+
+
+class ApprovedOutputs:
+    """The approved values departing output fields hold, from a baseline's output lines,
+    put into the recorded cycles' outputs (``path`` names the log in errors)."""
+
+    def __init__(self, path: Path) -> None:
+        self._path = path
+        self._encode = payload_encoder().encode
+        self._held: dict[str, Any] = {}
+        self._values: dict[str, Any] = {}
+        """The held values of the fields output, in the order they were held."""
+        self._absent: tuple[str, ...] = ()
+        """The fields held absent."""
+        self._last: tuple[msgspec.Raw | None, msgspec.Raw] = (None, EMPTY_MAP)
+        """The last cycle's recorded outputs and expected ones: most cycles repeat them."""
+
+    def hold(self, lines: Iterable[TracedOutput]) -> bool:
+        """Take a cycle's output lines; whether any field holds a value now."""
+        held = self._held
+        hold(held, lines)
+        self._values = {name: value for name, value in held.items() if value is not ABSENT}
+        self._absent = tuple(name for name, value in held.items() if value is ABSENT)
+        self._last = (None, EMPTY_MAP)
+        return bool(held)
+
+    def put(self, records: Sequence[CycleRecord], cycle: int) -> None:
+        """Put the expected outputs into ``records``, cycles ``cycle`` on, in place of
+        the recorded ones.
+
+        :raises beatlog.errors.CorruptLogError: a cycle's outputs are damaged.
+        """
+        recorded, expected = self._last
+        values, absent, encode = self._values, self._absent, self._encode
+        for record in records:
+            outputs = record.outputs
+            if outputs != recorded:
+                recorded = outputs
+                try:
+                    decoded = decode_outputs(outputs)
+                except DECODE_ERRORS as exc:
+                    at = cycle + next(i for i, damaged in enumerate(records) if damaged is record)
+                    raise CorruptLogError(
+                        self._path, f"damaged outputs in cycle {at}: {exc}"
+                    ) from None
+                decoded.update(values)
+                for name in absent:
+                    decoded.pop(name, None)
+                expected = msgspec.Raw(encode(decoded)) if decoded else EMPTY_MAP
+            record.outputs = expected
+        self._last = (recorded, expected)

@@ -18,13 +18,13 @@ from beatlog.log.format import CycleRecord, LoggedStateChange, payload_encoder
 from beatlog.log.payload import decode_outputs, decode_part
 from beatlog.model.perception import PerceptionTypeError
 from beatlog.project.usercode import user_traceback
+from beatlog.replay.approved_states import rebuilt_otherwise
 from beatlog.replay.baseline import BaselineStream
 from beatlog.replay.baseline_records import BaselineRecords
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import ByteCheck, CycleOutcome, Replayer
-from beatlog.replay.draws import DrawLedger, Unapproved
-from beatlog.replay.outcome import draw_reports
-from beatlog.replay.pins import rebuilt_otherwise
+from beatlog.replay.draws import DrawApprovals, UnapprovedDraw
+from beatlog.replay.outcome import random_draws
 from beatlog.replay.recorded_states import recorded_changes
 from beatlog.replay.verdict import (
     ContextRow,
@@ -39,9 +39,9 @@ __all__ = ["DivergenceWriter", "Follower", "propose_renames"]
 
 class DivergenceWriter:
     """What is expected of the cycles of ``replayer``'s replay (the recording, or the
-    approved ``baseline``: its state changes and outputs, the draws it approves, the
-    robot states it pins), and the write-up of the first that differs, with up to
-    ``context`` cycles either side; a cycle before ``start`` is before the window."""
+    ``expected`` baseline: its state changes and outputs, the draws and robot states it
+    approves), and the write-up of the first that differs, with up to ``context``
+    cycles either side; a cycle before ``start`` is before the window."""
 
     def __init__(
         self,
@@ -55,12 +55,12 @@ class DivergenceWriter:
         self.replayer, self.comparison = replayer, comparison
         self._start, self._context = start, context
         behaviors = replayer.header.behaviors
-        self._pins = replayer.state_pins if replayer.perception is not None else None
-        self._ledger = None if baseline is None else DrawLedger(baseline.draws)
+        self._states = replayer.approved_states if replayer.perception is not None else None
+        self._approved_draws = None if baseline is None else DrawApprovals(baseline.draws)
         self.records = None
         """The recorded cycles as the baseline expects them (None: as recorded)."""
         if baseline is not None:
-            self.records = BaselineRecords(baseline, behaviors, comparison.rename, self._pins)
+            self.records = BaselineRecords(baseline, behaviors, comparison.rename, self._states)
         self.names = list(behaviors) if self.records is None else self.records.names
         """The catalogue of behaviors the expected state changes name."""
         departs = baseline is not None and baseline.departs
@@ -81,7 +81,7 @@ class DivergenceWriter:
                 None if names == self.names else [at.get(name, -1) for name in names],
                 self._encoder,
                 judged,
-                None if self._ledger is None else self._ledger.approves,
+                None if self._approved_draws is None else self._approved_draws.approves,
             )
         )
 
@@ -131,24 +131,24 @@ class DivergenceWriter:
         perceived = self.replayer.perception is not None and outcome.perception_differs
         if perceived and self._state_differences(outcome):
             return False
-        differences = outcome.draw_differences
-        if self._ledger is None:
+        differences = outcome.draws_otherwise
+        if self._approved_draws is None:
             return not differences
-        return self._ledger.check(outcome.cycle, differences or ()) is None
+        return self._approved_draws.check(outcome.cycle, differences or ()) is None
 
     def _state_differences(self, outcome: CycleOutcome) -> tuple[FieldDifference, ...]:
         """The robot-state fields perception rebuilt otherwise than expected, beyond their
-        tolerance: expected is the recorded RS_t or, in a cycle the baseline pins, its
-        digest (the fields named then differ from the recording now or did in the
+        tolerance: expected is the recorded RS_t or, in a cycle of an approved robot
+        state, its digest (the fields named then differ from the recording now or did in the
         baseline's run of cycles)."""
         expected, actual = state_fields(outcome.recorded_state), state_fields(outcome.state)
-        pins = self._pins
-        if pins is None or outcome.cycle not in pins:
+        approved = self._states
+        if approved is None or outcome.cycle not in approved:
             named = set(self.comparison.state_differences(expected, actual))
-        elif pins.found(outcome.cycle, self._state_bytes(outcome.state)) is None:
+        elif approved.found(outcome.cycle, self._state_bytes(outcome.state)) is None:
             return ()
         else:
-            named = {*pins.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
+            named = {*approved.run_at(outcome.cycle).fields, *rebuilt_otherwise(expected, actual)}
         return tuple(
             FieldDifference(name, expected.get(name), actual.get(name))
             for name in dict.fromkeys([*expected, *actual])
@@ -175,7 +175,7 @@ class DivergenceWriter:
         record = outcome.record
         expected = tuple(self._expected(record.state_changes))
         expected_outputs = self._outputs(record.outputs)
-        recorded = tuple(draw_reports(outcome.recorded_draws, self.replayer.header.behaviors))
+        recorded = tuple(random_draws(outcome.recorded_draws, self.replayer.header.behaviors))
         if violation is not None:
             return dataclasses.replace(
                 violation,
@@ -196,7 +196,7 @@ class DivergenceWriter:
             )
         if outcome.cycle < self._start:
             message = f"before the window (cycle {self._start} on): {message}"
-        completed = outcome.failure is None and outcome.draw_problem is None
+        completed = outcome.failure is None and outcome.refused_draw is None
         return Divergence(
             kind=kind,
             cycle=outcome.cycle,
@@ -209,7 +209,7 @@ class DivergenceWriter:
             actual_outputs=dict(outcome.outputs) if completed else {},
             robot_state=state_fields(outcome.state),
             random_recorded=recorded,
-            random_drawn=tuple(draw_reports(outcome.drawn, self.replayer.executor.behavior_ids)),
+            random_drawn=tuple(random_draws(outcome.drawn, self.replayer.executor.behavior_ids)),
             traceback=None if failure is None else user_traceback(failure),
             perception=differences,
             samples=tuple((sample.sensor, sample.value) for sample in outcome.samples),
@@ -225,8 +225,12 @@ class DivergenceWriter:
         """Why a cycle differs: its kind, message and behavior, and what raised in it
         whose traceback the divergence shows."""
         stop = self.replayer.stop(outcome)
-        draws = outcome.draw_differences or ()
-        unapproved = None if self._ledger is None else self._ledger.check(outcome.cycle, draws)
+        draws = outcome.draws_otherwise or ()
+        unapproved = (
+            None
+            if self._approved_draws is None
+            else self._approved_draws.check(outcome.cycle, draws)
+        )
         if stop is not None and stop.kind is DivergenceKind.PERCEPTION:
             problem = outcome.perception_failure
             shown = None if isinstance(problem, PerceptionTypeError) else problem
@@ -236,7 +240,7 @@ class DivergenceWriter:
             return DivergenceKind.PERCEPTION, message, None, None
         if stop is not None and stop.kind is not DivergenceKind.RANDOM_UNDERDRAWN:
             return *stop, outcome.failure
-        if unapproved is not None and unapproved.made and unapproved.difference.asked:
+        if unapproved is not None and unapproved.made and unapproved.draw.asked:
             return *_unapproved(unapproved), None
         if not self.comparison.changes_agree(expected, actual):
             # The first behavior difference is the headline, even when the changed
@@ -263,17 +267,17 @@ class DivergenceWriter:
         self, outcome: CycleOutcome, differences: tuple[FieldDifference, ...]
     ) -> str:
         """Why the robot state rebuilt in a cycle is not the one expected."""
-        pins = self._pins
-        if pins is None or outcome.cycle not in pins:
+        approved = self._states
+        if approved is None or outcome.cycle not in approved:
             names = ", ".join(d.field for d in differences)
-            against = " from the approved baseline" if pins and pins.pinned else ""
+            against = " from the approved baseline" if approved and approved.pinned else ""
             return f"the robot state rebuilt from the samples differs{against} in {names}"
-        run = pins.run_at(outcome.cycle)
+        run = approved.run_at(outcome.cycle)
         rebuilt = state_fields(outcome.state)
         now = list(rebuilt_otherwise(state_fields(outcome.recorded_state), rebuilt))
         return (
             "the robot state rebuilt from the samples differs from the approved baseline "
-            f"{pins.found(outcome.cycle, self._state_bytes(outcome.state))}; "
+            f"{approved.found(outcome.cycle, self._state_bytes(outcome.state))}; "
             "it differs from the recording in "
             f"{', '.join(now) or 'no field'}, the approved one in {', '.join(run.fields)} "
             f"(cycles {run.cycle}–{run.last})"
@@ -369,7 +373,7 @@ def propose_renames(
     return {old: new for old, new in forward.items() if old != new}
 
 
-def _unapproved(unapproved: Unapproved) -> tuple[DivergenceKind, str, str]:
+def _unapproved(unapproved: UnapprovedDraw) -> tuple[DivergenceKind, str, str]:
     """How a draw made otherwise than recorded, and not as approved, diverges."""
     (behavior, recorded, asked), made, elsewhere = unapproved
     if not made:

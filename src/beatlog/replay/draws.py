@@ -1,10 +1,11 @@
-"""Draws an approved baseline lets replay make otherwise than recorded.
+"""Random draws made otherwise than recorded, and those an approved baseline approves.
 
-In living replay (:meth:`~beatlog.replay.random.ReplayRandom.live`) each draw made
-otherwise is a :class:`~beatlog.replay.random.DrawDifference`. A baseline approves
-them as rules, one line each with the cycles where they happen: what a reviewer wants
-to read. The verdict judges each cycle's differences exactly (:class:`DrawLedger`): one
-that no rule approves in that cycle, or an approved one not made, diverges there.
+Replay that matches draws (:meth:`~beatlog.replay.random.ReplayRandom.match_draws`)
+goes on past a draw made otherwise: each is a :class:`DrawMadeOtherwise`, re-mapped,
+new or left unused. A baseline approves them as :class:`ApprovedDraws`, one line each
+with the cycles where they happen: what a reviewer wants to read. The verdict judges
+each cycle's draws made otherwise exactly (:class:`DrawApprovals`): one not approved in
+that cycle, or an approved one not made, is an :class:`UnapprovedDraw` and diverges there.
 """
 
 from __future__ import annotations
@@ -17,13 +18,34 @@ from typing import NamedTuple
 import msgspec
 
 from beatlog.log.format import SessionHeader
-from beatlog.replay.random import DrawDifference
 
-__all__ = ["DrawLedger", "DrawRule", "Unapproved", "draw_rules", "log_key"]
+__all__ = [
+    "ApprovedDraws",
+    "DrawApprovals",
+    "DrawMadeOtherwise",
+    "UnapprovedDraw",
+    "approved_draws",
+    "log_key",
+]
 
 
-class DrawRule(NamedTuple):
-    """Draws of one behavior made otherwise than recorded, in one way, in ``cycles``."""
+class DrawMadeOtherwise(NamedTuple):
+    """A draw that replay matching draws made otherwise than recorded: re-mapped, new,
+    or a recorded one left unused."""
+
+    behavior: str
+    """The behavior that drew it (that drew it in the recording, for one left unused),
+    by its name now."""
+    recorded: str | None
+    """The recorded request as code (``uniform(0.8, 1.6)``; the kind alone in format 1);
+    None for a new draw."""
+    asked: str | None
+    """The request now; None for a recorded draw left unused."""
+
+
+class ApprovedDraws(NamedTuple):
+    """Draws of one behavior made otherwise than recorded, in one way, in ``cycles``: a
+    baseline's ``draws`` line."""
 
     behavior: str
     recorded: str | None
@@ -34,9 +56,9 @@ class DrawRule(NamedTuple):
     """The cycles of the draws, in order, a cycle once per draw."""
 
     @property
-    def difference(self) -> DrawDifference:
-        """The difference this rule approves."""
-        return DrawDifference(self.behavior, self.recorded, self.asked)
+    def draw(self) -> DrawMadeOtherwise:
+        """The draw made otherwise that these approve."""
+        return DrawMadeOtherwise(self.behavior, self.recorded, self.asked)
 
     def __str__(self) -> str:
         times = len(self.cycles)
@@ -48,69 +70,67 @@ class DrawRule(NamedTuple):
         return f"{self.behavior}: {self.recorded} -> {self.asked}, {times} draw{many} re-mapped"
 
 
-def draw_rules(differences: Iterable[tuple[int, DrawDifference]]) -> tuple[DrawRule, ...]:
-    """The rules that approve exactly ``differences`` (each with its cycle): one per kind
-    of difference, in a stable order (by behavior, then request)."""
-    cycles: defaultdict[DrawDifference, list[int]] = defaultdict(list)
-    for cycle, difference in differences:
-        cycles[difference].append(cycle)
+def approved_draws(made: Iterable[tuple[int, DrawMadeOtherwise]]) -> tuple[ApprovedDraws, ...]:
+    """The lines that approve exactly the draws ``made`` otherwise (each with its cycle):
+    one per way, in a stable order (by behavior, then request)."""
+    cycles: defaultdict[DrawMadeOtherwise, list[int]] = defaultdict(list)
+    for cycle, draw in made:
+        cycles[draw].append(cycle)
     return tuple(
-        DrawRule(*difference, tuple(sorted(cycles[difference])))
-        for difference in sorted(
-            cycles, key=lambda d: (d.behavior, d.recorded or "", d.asked or "")
-        )
+        ApprovedDraws(*draw, tuple(sorted(cycles[draw])))
+        for draw in sorted(cycles, key=lambda d: (d.behavior, d.recorded or "", d.asked or ""))
     )
 
 
-class Unapproved(NamedTuple):
-    """A cycle's draw that differs from what the approved baseline holds."""
+class UnapprovedDraw(NamedTuple):
+    """A cycle's draw made otherwise that the approved baseline does not hold there, or
+    one it holds there that replay did not make."""
 
-    difference: DrawDifference
+    draw: DrawMadeOtherwise
     made: bool
     """Whether replay made it (else the baseline holds it and replay did not)."""
     approved_elsewhere: bool
     """Whether the baseline approves it in other cycles."""
 
 
-class DrawLedger:
-    """The draws an approved baseline's rules allow, cycle by cycle."""
+class DrawApprovals:
+    """The draws made otherwise that a baseline's :class:`ApprovedDraws` allow, cycle
+    by cycle."""
 
-    def __init__(self, rules: Iterable[DrawRule]) -> None:
-        rules = list(rules)
-        self._by_cycle: defaultdict[int, Counter[DrawDifference]] = defaultdict(Counter)
-        """Each cycle's approved differences, with how many of each."""
-        for rule in rules:
-            for cycle in rule.cycles:
-                self._by_cycle[cycle][rule.difference] += 1
-        self._approved = frozenset(rule.difference for rule in rules)
-        self.cycles = frozenset(self._by_cycle)
-        """The cycles where the baseline holds draws made otherwise than recorded."""
+    def __init__(self, approved: Iterable[ApprovedDraws]) -> None:
+        approved = list(approved)
+        self._by_cycle: defaultdict[int, Counter[DrawMadeOtherwise]] = defaultdict(Counter)
+        """Each cycle's approved draws, with how many of each."""
+        for line in approved:
+            for cycle in line.cycles:
+                self._by_cycle[cycle][line.draw] += 1
+        self._approved = frozenset(line.draw for line in approved)
 
-    def approves(self, cycle: int, differences: Sequence[DrawDifference]) -> bool:
-        """Whether a cycle's differences are exactly the approved ones (:meth:`check`
-        finds none)."""
-        if len(differences) == 1:  # the usual
-            return self._by_cycle.get(cycle) == {differences[0]: 1}
-        return Counter(differences) == self._by_cycle.get(cycle, Counter())
+    def approves(self, cycle: int, made: Sequence[DrawMadeOtherwise]) -> bool:
+        """Whether the draws a cycle ``made`` otherwise are exactly the approved ones
+        (:meth:`check` finds none)."""
+        if len(made) == 1:  # the usual
+            return self._by_cycle.get(cycle) == {made[0]: 1}
+        return Counter(made) == self._by_cycle.get(cycle, Counter())
 
-    def check(self, cycle: int, differences: Sequence[DrawDifference]) -> Unapproved | None:
-        """The first of a cycle's differences the baseline does not hold there, or the
-        first it holds there that replay did not make; None when they are exactly the
-        approved ones."""
+    def check(self, cycle: int, made: Sequence[DrawMadeOtherwise]) -> UnapprovedDraw | None:
+        """The first of the draws a cycle ``made`` otherwise that the baseline does not
+        hold there, or the first it holds there that replay did not make; None when
+        they are exactly the approved ones."""
         allowed = self._by_cycle.get(cycle, Counter())
-        made = Counter(differences)
-        for difference in differences:
-            if made[difference] > allowed[difference]:
-                return Unapproved(difference, True, difference in self._approved)
-        for difference, times in allowed.items():
-            if made[difference] < times:
-                return Unapproved(difference, False, True)
+        counts = Counter(made)
+        for draw in made:
+            if counts[draw] > allowed[draw]:
+                return UnapprovedDraw(draw, True, draw in self._approved)
+        for draw, times in allowed.items():
+            if counts[draw] < times:
+                return UnapprovedDraw(draw, False, True)
         return None
 
 
 def log_key(header: SessionHeader) -> bytes:
-    """What keys the fresh draws of living replay: the recording's identity (robot,
-    software, start time, seed), so that two sessions get different fresh luck and the
-    same session always the same."""
+    """What keys the fresh draws of replay matching draws: the recording's identity
+    (robot, software, start time, seed), so that two sessions get different fresh
+    quantiles and the same session always the same."""
     identity = [header.robot_id, header.software_version, header.start_time_ns, header.random_seed]
     return hashlib.blake2b(msgspec.msgpack.encode(identity), digest_size=32).digest()

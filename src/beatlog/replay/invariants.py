@@ -16,7 +16,7 @@ from beatlog.model.behavior import System
 from beatlog.model.invariant import Cycle, Invariant
 from beatlog.project.usercode import load_invariant, user_traceback
 from beatlog.replay.compare import state_fields
-from beatlog.replay.outcome import CycleOutcome, draw_reports
+from beatlog.replay.outcome import CycleOutcome, random_draws
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
 __all__ = ["InvariantChecker", "Violation", "invariant_name"]
@@ -142,7 +142,7 @@ class InvariantChecker:
             if changes
             else (),
             MappingProxyType(outputs) if outputs else _NO_OUTPUTS,
-            tuple(draw_reports(draws, names)) if draws else (),
+            tuple(random_draws(draws, names)) if draws else (),
         )
 
     def violated(self, cycle: Cycle, *, first: bool = False) -> list[Violation]:

@@ -25,6 +25,7 @@ from beatlog.model.invariant import Invariant
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
 from beatlog.project.usercode import load_perception, load_system
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.baseline import Baseline, BaselineStream
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome, Replayer
@@ -32,7 +33,6 @@ from beatlog.replay.divergence import DivergenceWriter, Follower
 from beatlog.replay.fit.check import check_catalogue, check_state_fields, period_note
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.invariants import InvariantChecker
-from beatlog.replay.pins import PinChecker
 from beatlog.replay.session import BatchReader, Calling, Observer, ReplaySession, fields_read
 from beatlog.replay.setup import SetupDrawError, recorded_system
 from beatlog.replay.verdict import (
@@ -167,9 +167,11 @@ def replay(
             perception=perception,
             break_at=break_at,
             migration=migration,
-            living=baseline is not None,
+            match_draws=baseline is not None,
             rename=comparison.rename,
-            state_pins=None if baseline is None else PinChecker(pinned=baseline.pinned),
+            approved_states=None
+            if baseline is None
+            else ApprovedStateChecker(pinned=baseline.pinned),
             fresh_from=window.fresh_from,
         )
     except SetupDrawError as diverged:  # no cycle replayed

@@ -11,13 +11,15 @@ import msgspec
 
 from beatlog.log.format import CycleRecord, LoggedStateChange
 from beatlog.model.context import Outputs
+from beatlog.model.cycle import actor_name
 from beatlog.model.inbox import Sample
 from beatlog.model.perception import perception_problem
 from beatlog.model.random import Draw, plain_value
-from beatlog.replay.random import DrawDifference, RandomMismatch
-from beatlog.replay.verdict import DivergenceKind, DrawReport
+from beatlog.replay.draws import DrawMadeOtherwise
+from beatlog.replay.random import RefusedDraw
+from beatlog.replay.verdict import DivergenceKind, RandomDraw
 
-__all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Sensed", "Stop", "actor_name", "draw_reports"]
+__all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Sensed", "Stop", "random_draws"]
 
 
 AGREED: list[LoggedStateChange] = []
@@ -37,9 +39,9 @@ class ByteCheck(NamedTuple):
     judged: bool
     """Whether the verdict judges every cycle whole, whatever its bytes: it checks
     invariants in each, so none agrees at once."""
-    draws: Callable[[int, Sequence[DrawDifference]], bool] | None = None
-    """In living replay against a baseline, whether it approves a cycle's draws made
-    otherwise than recorded, exactly (:meth:`~beatlog.replay.draws.DrawLedger.approves`):
+    draws: Callable[[int, Sequence[DrawMadeOtherwise]], bool] | None = None
+    """In replay matching draws against a baseline, whether it approves a cycle's draws
+    made otherwise than recorded, exactly (:meth:`~beatlog.replay.draws.DrawApprovals.approves`):
     a cycle that drew only as approved goes on to the byte comparison."""
 
 
@@ -62,7 +64,7 @@ class CycleOutcome(NamedTuple):
     drawn: Sequence[Draw]
     """The random numbers the behaviors drew, with what they asked for; a draw refused
     as not the one recorded is the last, with no value."""
-    draw_problem: RandomMismatch | None
+    refused_draw: RefusedDraw | None
     """A draw that did not match the recording (another kind or request, or one too many)."""
     failure: BaseException | None
     """What the behavior code raised (including ``SystemExit``), if it did."""
@@ -77,14 +79,15 @@ class CycleOutcome(NamedTuple):
     recorded RS_t, so replay can go on)."""
     samples: Sequence[Sample] = ()
     """In sensor-level replay, the samples of the cycle."""
-    draw_differences: Sequence[DrawDifference] | None = None
-    """In living replay (:meth:`~beatlog.replay.random.ReplayRandom.live`), the draws made
-    otherwise than recorded, which replay went on with; None in strict replay."""
+    draws_otherwise: Sequence[DrawMadeOtherwise] | None = None
+    """In replay matching draws (:meth:`~beatlog.replay.random.ReplayRandom.match_draws`),
+    the draws made otherwise than recorded, which replay went on with; None in strict
+    replay."""
 
     @property
     def underdrawn(self) -> bool:
         """Whether fewer random numbers were drawn than were recorded (strict replay)."""
-        return self.draw_differences is None and len(self.drawn) < len(self.recorded_draws)
+        return self.draws_otherwise is None and len(self.drawn) < len(self.recorded_draws)
 
     @property
     def completed(self) -> bool:
@@ -92,8 +95,8 @@ class CycleOutcome(NamedTuple):
         recorded numbers."""
         return (
             self.changes is not None
-            and self.draw_problem is None
-            and (self.draw_differences is not None or len(self.drawn) == len(self.recorded_draws))
+            and self.refused_draw is None
+            and (self.draws_otherwise is not None or len(self.drawn) == len(self.recorded_draws))
         )
 
     def stop(self, names: Sequence[str], recorded_names: Sequence[str]) -> Stop | None:
@@ -109,15 +112,15 @@ class CycleOutcome(NamedTuple):
             failure = self.failure
             message = f"{behavior} raised {type(failure).__name__}: {failure}"
             return Stop(DivergenceKind.EXCEPTION, message, behavior)
-        mismatch = self.draw_problem
-        if mismatch is not None:
+        refused = self.refused_draw
+        if refused is not None:
             kind = (
                 DivergenceKind.RANDOM_OVERDRAWN
-                if mismatch.overdrawn
+                if refused.overdrawn
                 else DivergenceKind.RANDOM_MISMATCH
             )
-            behavior = actor_name(names, mismatch.actor)
-            return Stop(kind, f"{behavior} {mismatch.problem}", behavior)
+            behavior = actor_name(names, refused.actor)
+            return Stop(kind, f"{behavior} {refused.problem}", behavior)
         if self.underdrawn:
             drawn, recorded = len(self.drawn), len(self.recorded_draws)
             missing = self.recorded_draws[drawn]
@@ -150,16 +153,9 @@ class Sensed(NamedTuple):
     samples: Sequence[Sample]
 
 
-def actor_name(names: Sequence[str], actor: int) -> str:
-    """A behavior by its catalogue index (``system`` for -1, ``#N`` past the catalogue)."""
-    if actor < 0:
-        return "system"
-    return names[actor] if actor < len(names) else f"#{actor}"
-
-
-def draw_reports(draws: Sequence[Draw], names: Sequence[str]) -> list[DrawReport]:
-    """Draws as reports show them, each with the behavior (of ``names``) that drew it."""
+def random_draws(draws: Sequence[Draw], names: Sequence[str]) -> list[RandomDraw]:
+    """Draws as reports show them, each by the name (of ``names``) of the behavior that drew it."""
     return [
-        DrawReport(actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
+        RandomDraw(actor_name(names, d.actor), d.kind, plain_value(d), d.call() if d.params else "")
         for d in draws
     ]

@@ -1,13 +1,15 @@
 """The random source of replay: it hands back the values recorded in RN_t; drawing more,
-fewer, a different kind or with different parameters than was recorded is a mismatch
-that names the behavior, or, in living replay, a difference noted for the verdict."""
+fewer, a different kind or with different parameters than was recorded is a draw refused
+that names the behavior, or, in replay matching draws, a draw made otherwise noted for
+the verdict."""
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 from beatlog.log.format import Draw
+from beatlog.model.cycle import actor_name
 from beatlog.model.draws import (
     ARRAY_KINDS,
     SCALAR_VALUES,
@@ -17,40 +19,26 @@ from beatlog.model.draws import (
     same_params,
     unpack_array,
 )
-from beatlog.model.luck import FreshLuck, Luck, Place, array_value, scalar_luck, scalar_value
+from beatlog.model.quantiles import (
+    FreshQuantiles,
+    Place,
+    Quantile,
+    array_value,
+    scalar_quantile,
+    scalar_value,
+)
 from beatlog.model.source import RandomSource
+from beatlog.replay.draws import DrawMadeOtherwise
 
-__all__ = ["DrawDifference", "RandomMismatch", "ReplayRandom"]
-
-_RANDOM = DrawKind.RANDOM.value
-
-
-class DrawDifference(NamedTuple):
-    """A draw that living replay made otherwise than recorded (see
-    :meth:`ReplayRandom.live`): re-mapped, new, or a recorded one left unused."""
-
-    behavior: str
-    """The behavior that drew it (that drew it in the recording, for one left unused),
-    by its name now."""
-    recorded: str | None
-    """The recorded request as code (``uniform(0.8, 1.6)``; the kind alone in format 1);
-    None for a draw the recording does not have."""
-    asked: str | None
-    """The request now; None for a recorded draw left unused."""
-
-    def __str__(self) -> str:
-        if self.recorded is None:
-            return f"{self.behavior}: new {self.asked}"
-        if self.asked is None:
-            return f"{self.behavior}: {self.recorded} left unused"
-        return f"{self.behavior}: {self.recorded} -> {self.asked}"
+__all__ = ["RefusedDraw", "ReplayRandom"]
 
 
-class RandomMismatch(BaseException):
-    """Raised inside behavior code when a replayed draw does not match the recording.
+class RefusedDraw(BaseException):
+    """A draw refused: raised inside behavior code when a replayed draw does not match
+    the recording.
 
     It derives from BaseException so that a behavior's ``except Exception`` cannot
-    swallow it; the source also remembers the mismatch in case it is swallowed anyway.
+    swallow it; the source also remembers the draw refused in case it is swallowed anyway.
     """
 
     def __init__(self, problem: str, actor: int, *, overdrawn: bool) -> None:
@@ -65,27 +53,27 @@ class ReplayRandom(RandomSource):
 
     Parameters are compared exactly, as numbers (``uniform(2, 5)`` asks for what
     ``uniform(2.0, 5.0)`` does, and draws the same); a format-1 draw, which recorded
-    none, is checked for count and kind only. In *living* replay (:meth:`live`) a draw
-    that differs is no mismatch: replay goes on with a value as lucky as the recorded
-    one, and the difference is noted for the verdict to judge (:meth:`settle`).
+    none, is checked for count and kind only. Replay matching draws
+    (:meth:`match_draws`) refuses none: a draw made otherwise goes on with a value at
+    the recorded one's quantile, and is noted for the verdict to judge (:meth:`settle`).
     """
 
     def __init__(self) -> None:
         super().__init__()
         self.recorded: Sequence[Draw] = ()
         self.drawn: list[Draw] = []
-        self.mismatch: RandomMismatch | None = None
-        self.living = False
-        """Whether draws that differ from the recording go on (:meth:`live`)."""
-        self.differences: list[DrawDifference] = []
-        """In living replay, the cycle's draws made otherwise than recorded."""
+        self.refused: RefusedDraw | None = None
+        self.matching = False
+        """Whether draws made otherwise than recorded go on (:meth:`match_draws`)."""
+        self.made_otherwise: list[DrawMadeOtherwise] = []
+        """In replay matching draws, the cycle's draws made otherwise than recorded."""
         self._actors: Sequence[int | None] | None = None
         self._recorded_names: Sequence[str] = ()
         self._names_now: Sequence[str] = ()
         self._recorded_now: Sequence[str] = ()
-        self._fresh = FreshLuck(b"")
+        self._fresh = FreshQuantiles(b"")
         self._used: list[bool] | None = None
-        """In living replay, once a draw differed: which recorded draws are taken."""
+        """In replay matching draws, once a draw differed: which recorded draws are taken."""
         self._owner_of: dict[int, int | None] | None = None
         """The behavior each recorded actor is now, by its index (None: one the system
         no longer has), once :meth:`expect_actors` says so; the system stays -1."""
@@ -101,7 +89,7 @@ class ReplayRandom(RandomSource):
         """Check which behavior draws, too: ``recorded`` is the log's catalogue,
         ``system`` the system's, and ``rename`` maps a recorded name to its name now. A
         draw recorded by a behavior the system no longer has is checked for kind and
-        parameters only (in living replay, it is left unused)."""
+        parameters only (in replay matching draws, it is left unused)."""
         ids = {name: index for index, name in enumerate(system)}
         self._actors = [ids.get(rename(name)) for name in recorded]
         self._owner_of = {-1: -1, **dict(enumerate(self._actors))}
@@ -109,45 +97,46 @@ class ReplayRandom(RandomSource):
         self._names_now = system
         self._recorded_now = [rename(name) for name in recorded]
 
-    def live(self, key: bytes) -> None:
+    def match_draws(self, key: bytes) -> None:
         """Go on when the behaviors ask for other draws than were recorded.
 
         A behavior's draws are matched with the draws it made in the recording, in
         order, a request of the same kind first: a recorded draw asked for with other
-        parameters (or, where sound, as another kind) gives the value with its luck
-        (:mod:`beatlog.model.luck`); a request with no recorded draw left gets a fresh
-        one keyed by ``key`` (the log) and its place; recorded draws left over are
-        dropped. Each is a :class:`DrawDifference`. Same log, same code: same draws.
+        parameters (or, where sound, as another kind) gives the value at its quantile
+        (:mod:`beatlog.model.quantiles`); a request with no recorded draw left gets a
+        fresh one keyed by ``key`` (the log) and its place; recorded draws left over are
+        dropped. Each is a :class:`~beatlog.replay.draws.DrawMadeOtherwise`. Same log,
+        same code: same draws.
         """
-        self.living = True
-        self._fresh = FreshLuck(key)
+        self.matching = True
+        self._fresh = FreshQuantiles(key)
 
     def load(self, recorded: Sequence[Draw]) -> None:
         """Set the draws recorded for the next cycle."""
         self.recorded = recorded
         if self.drawn:
             self.drawn = []
-        if self.differences:
-            self.differences = []
+        if self.made_otherwise:
+            self.made_otherwise = []
         self._used = None
-        self.mismatch = None
+        self.refused = None
 
-    def settle(self) -> list[DrawDifference]:
-        """In living replay, once the cycle's update is over: its differences, the
-        recorded draws left unused among them."""
+    def settle(self) -> list[DrawMadeOtherwise]:
+        """In replay matching draws, once the cycle's update is over: its draws made
+        otherwise, the recorded draws left unused among them."""
         used = self._used
         if used is None and len(self.drawn) >= len(self.recorded):  # drew as recorded
-            return self.differences
+            return self.made_otherwise
         start = len(self.drawn) if used is None else 0
         for index in range(start, len(self.recorded)):
             if used is None or not used[index]:
                 draw = self.recorded[index]
-                name = _name(self._recorded_now, draw.actor)
-                self.differences.append(DrawDifference(name, _request(draw), None))
-        return self.differences
+                name = actor_name(self._recorded_now, draw.actor)
+                self.made_otherwise.append(DrawMadeOtherwise(name, _request(draw), None))
+        return self.made_otherwise
 
     def _strict(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
-        """The recorded draw, checked against the request: any difference is a mismatch."""
+        """The recorded draw, checked against the request: any difference is refused."""
         index = len(self.drawn)
         actor = self._actor
         name = kind._value_
@@ -169,9 +158,9 @@ class ReplayRandom(RandomSource):
         self.drawn.append(Draw(actor, name, draw.value, params))
         return draw.value
 
-    def _living(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
-        """A draw in living replay: the recorded one while the cycle follows the
-        recording, else the behavior's match (:meth:`live`)."""
+    def _matched(self, kind: DrawKind, params: tuple[Any, ...]) -> Any:
+        """A draw in replay matching draws: the recorded one while the cycle follows
+        the recording, else the behavior's match (:meth:`match_draws`)."""
         name = kind._value_
         actor = self._actor
         if self._used is None:
@@ -184,11 +173,11 @@ class ReplayRandom(RandomSource):
             self._follow_no_more()
         assert self._used is not None
         match = self._match(actor, name)
-        behavior = _name(self._names_now, actor)
+        behavior = actor_name(self._names_now, actor)
         if match is None:
             value = self._fresh_value(name, params, None, behavior, actor)
             asked = Draw(actor, name, value, params)
-            self.differences.append(DrawDifference(behavior, None, asked.call()))
+            self.made_otherwise.append(DrawMadeOtherwise(behavior, None, asked.call()))
         else:
             self._used[match] = True
             draw = self.recorded[match]
@@ -196,13 +185,15 @@ class ReplayRandom(RandomSource):
                 value = draw.value  # as recorded, in another place
                 asked = Draw(actor, name, value, params)
             else:
-                luck = None if name in ARRAY_KINDS else _luck(draw)
-                if luck is None:
+                quantile = None if name in ARRAY_KINDS else _quantile(draw)
+                if quantile is None:
                     value = self._fresh_value(name, params, draw, behavior, actor)
                 else:
-                    value = scalar_value(name, params, luck)
+                    value = scalar_value(name, params, quantile)
                 asked = Draw(actor, name, value, params)
-                self.differences.append(DrawDifference(behavior, _request(draw), asked.call()))
+                self.made_otherwise.append(
+                    DrawMadeOtherwise(behavior, _request(draw), asked.call())
+                )
         self.drawn.append(asked)
         return value
 
@@ -220,7 +211,7 @@ class ReplayRandom(RandomSource):
 
     def _match(self, actor: int, name: str) -> int | None:
         """The behavior's first recorded draw left of the kind asked for; for a scalar
-        with none, its first left of another kind whose luck is known (re-mapped)."""
+        with none, its first left of another kind whose quantile is known (re-mapped)."""
         assert self._used is not None
         left = [
             index
@@ -230,13 +221,13 @@ class ReplayRandom(RandomSource):
         same = next((index for index in left if self.recorded[index].kind == name), None)
         if same is not None or name not in SCALAR_VALUES:
             return same
-        return next((index for index in left if _luck(self.recorded[index]) is not None), None)
+        return next((index for index in left if _quantile(self.recorded[index]) is not None), None)
 
     def _fresh_value(
         self, name: str, params: tuple[Any, ...], draw: Draw | None, behavior: str, actor: int
     ) -> Any:
-        """The value of a request with fresh luck, keyed by its place; an array's with
-        the luck of the recorded ``draw`` where it has one."""
+        """The value of a request at a fresh quantile, keyed by its place; an array's at
+        the quantiles of the recorded ``draw`` where it has one."""
         cycle = self._context.cycle if self._context is not None else -1
         place = Place(cycle, behavior, [draw.actor for draw in self.drawn].count(actor))
         if name in ARRAY_KINDS:
@@ -244,7 +235,7 @@ class ReplayRandom(RandomSource):
             if draw is not None and draw.params:
                 old = (draw.kind, draw.params, unpack_array(draw.value))
             return pack_array(array_value(name, params, old, self._fresh.seed(place)))
-        return scalar_value(name, params, self._fresh.luck(place))
+        return scalar_value(name, params, self._fresh.quantile(place))
 
     def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
         """Refuse a draw the recording credits to another behavior (by its name now)."""
@@ -267,15 +258,15 @@ class ReplayRandom(RandomSource):
     def _fail(
         self, problem: str, actor: int, *, overdrawn: bool = False, asked: Draw | None = None
     ) -> None:
-        """Raise (and remember) a mismatch; ``asked``, a draw refused, is kept among those
-        drawn, with no value, so reports show what was asked for."""
+        """Refuse a draw: raise (and remember) it; ``asked`` is kept among those drawn,
+        with no value, so reports show what was asked for."""
         if asked is not None:
             self.drawn.append(asked)
-        self.mismatch = RandomMismatch(problem, actor, overdrawn=overdrawn)
-        raise self.mismatch
+        self.refused = RefusedDraw(problem, actor, overdrawn=overdrawn)
+        raise self.refused
 
     def _scalar(self, kind: DrawKind, a: float, b: float, params: tuple[Any, ...]) -> Any:
-        value = self._living(kind, params) if self.living else self._strict(kind, params)
+        value = self._matched(kind, params) if self.matching else self._strict(kind, params)
         if kind is DrawKind.CHOICE and not 0 <= value < b:
             self._fail(
                 f"recorded choice index {value} is out of range for {int(b)} items", self._actor
@@ -283,22 +274,15 @@ class ReplayRandom(RandomSource):
         return value
 
     def _array(self, kind: DrawKind, a: float, b: float, shape: tuple[int, ...]) -> Any:
-        need_numpy()  # before a fresh draw of living replay, too
+        need_numpy()  # before a fresh draw of replay matching draws, too
         params = (a, b, list(shape))
-        draw = self._living if self.living else self._strict
+        draw = self._matched if self.matching else self._strict
         array = unpack_array(draw(kind, params))
         if array.shape != shape:
             self._fail(
                 f"drew {kind.value} of shape {shape} where {array.shape} was recorded", self._actor
             )
         return array
-
-
-def _name(names: Sequence[str], actor: int) -> str:
-    """A behavior's name by its index among ``names``; -1 is the system."""
-    if actor < 0:
-        return "system"
-    return names[actor] if actor < len(names) else f"#{actor}"
 
 
 def _asks(draw: Draw, kind: str, params: tuple[Any, ...]) -> bool:
@@ -312,8 +296,6 @@ def _request(draw: Draw) -> str:
     return draw.call() if draw.params else draw.kind
 
 
-def _luck(draw: Draw) -> Luck | None:
-    """The luck of a recorded scalar draw, where it can be known."""
-    if draw.kind == _RANDOM:
-        return scalar_luck(draw.kind, draw.value, ())
-    return scalar_luck(draw.kind, draw.value, draw.params) if draw.params else None
+def _quantile(draw: Draw) -> Quantile | None:
+    """The quantile of a recorded scalar draw, where it can be known."""
+    return scalar_quantile(draw.kind, draw.value, draw.params)

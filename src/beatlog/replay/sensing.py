@@ -1,6 +1,6 @@
 """Sensor-level replay: each cycle's robot state rebuilt from its logged samples by the
 perception step, and compared with the one expected (the recorded RS_t, or the one an
-approved baseline pins). The replay core (:mod:`beatlog.replay.core`) runs it in the
+approved baseline approves). The replay core (:mod:`beatlog.replay.core`) runs it in the
 cycles of a log that holds samples."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import msgspec
 from beatlog.errors import BeatlogError
 from beatlog.log.format import CycleRecord
 from beatlog.model.perception import Perception, PerceptionTypeError
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.cycle_reader import CycleReader
 from beatlog.replay.outcome import Sensed
-from beatlog.replay.pins import PinChecker
 
 __all__ = ["UNREAD", "Perceiver"]
 
@@ -28,7 +28,7 @@ class Perceiver:
     """Rebuilds each cycle's robot state with ``perception``, from the state it rebuilt
     last and the cycle's samples, and says whether it differs from the one expected.
 
-    ``state_pins`` are the robot states an approved baseline pins by digest: in their
+    ``approved_states`` are the robot states an approved baseline holds by digest: in their
     cycles the rebuilt state is judged against them, not the recorded one. ``migrated``
     says the log recorded RS_t under other names or types than ``robot_state``'s, so
     that the same state holds other bytes.
@@ -41,7 +41,7 @@ class Perceiver:
         reader: CycleReader,
         encode: Callable[[Any], bytes],
         *,
-        state_pins: PinChecker | None,
+        approved_states: ApprovedStateChecker | None,
         migrated: bool,
     ) -> None:
         self.perception = perception
@@ -58,10 +58,10 @@ class Perceiver:
         self._robot_state = robot_state
         self._reader = reader
         self._encode = encode
-        self._pins = state_pins or PinChecker()
-        self._pinned = self._pins.tags
-        """The pinned cycles (:attr:`PinChecker.tags`, kept up to date as replay reads
-        the baseline): none without pins."""
+        self._approved_states = approved_states or ApprovedStateChecker()
+        self._approved_cycles = self._approved_states.tags
+        """The cycles of approved robot states (:attr:`ApprovedStateChecker.tags`, kept up
+        to date as replay reads the baseline): none without a baseline that has them."""
         self._migrated = migrated
 
     def perceive(self, record: CycleRecord, recorded: Any, cycle: int) -> Sensed:
@@ -93,8 +93,8 @@ class Perceiver:
             encoded = None
         except msgspec.ValidationError:  # or what the log cannot give back as its type
             encoded = None
-        if cycle in self._pinned:  # the approved state is expected
-            differs = encoded is None or self._pins.mismatch(cycle, encoded) is not None
+        if cycle in self._approved_cycles:  # the approved state is expected
+            differs = encoded is None or self._approved_states.mismatch(cycle, encoded) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state
             if differs and encoded is not None and self._migrated:

@@ -21,9 +21,9 @@ from beatlog.log.recording import LogSource
 from beatlog.model.behavior import System
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.core import AGREED, CycleOutcome, Replayer
 from beatlog.replay.fit.migration import StateMigration
-from beatlog.replay.pins import PinChecker
 from beatlog.replay.random import ReplayRandom
 from beatlog.replay.recorded_states import RecordedStates
 from beatlog.replay.setup import built_for_replay
@@ -160,10 +160,10 @@ class ReplayOptions(TypedDict, total=False):
 
     perception: Perception | None
     break_at: int | None
-    living: bool
+    match_draws: bool
     rename: Callable[[str], str]
     migration: StateMigration | None
-    state_pins: PinChecker | None
+    approved_states: ApprovedStateChecker | None
 
 
 class ReplaySession(Closing):

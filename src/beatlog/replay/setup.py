@@ -4,7 +4,7 @@ draws (:mod:`beatlog.model.setup`).
 
 The set-up draws are checked as a cycle's draws are: a draw too many, too few, of
 another kind or with other parameters is a divergence at set-up
-(:class:`SetupDrawError`), before cycle 0. In living replay too: an approved baseline
+(:class:`SetupDrawError`), before cycle 0. In replay matching draws too: an approved baseline
 holds no set-up draws, so a change to them needs a new recording.
 """
 
@@ -19,7 +19,7 @@ from beatlog.model.behavior import System
 from beatlog.model.draws import recorded_draw_problem
 from beatlog.model.setup import SystemFactory, build_system
 from beatlog.project.config import vouched_system
-from beatlog.replay.random import RandomMismatch, ReplayRandom
+from beatlog.replay.random import RefusedDraw, ReplayRandom
 
 __all__ = ["SetupDrawError", "built_for_replay", "recorded_system"]
 
@@ -69,10 +69,10 @@ def built_for_replay(
     problem: str | None
     try:
         built = build_system(system, random)
-    except RandomMismatch as mismatch:
-        problem = mismatch.problem
+    except RefusedDraw as refused:
+        problem = refused.problem
     else:
-        problem = None if random.mismatch is None else random.mismatch.problem  # swallowed
+        problem = None if random.refused is None else random.refused.problem  # swallowed
     drawn = len(random.drawn)
     if problem is None and drawn < len(recorded):
         problem = (

@@ -36,7 +36,7 @@ from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.draws import log_key
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.invariants import InvariantChecker
-from beatlog.replay.outcome import draw_reports
+from beatlog.replay.outcome import random_draws
 from beatlog.replay.perturbation import Perturber, Variant, variant_key
 from beatlog.replay.session import Observer, ReplaySession
 from beatlog.replay.verdict import Checked, Divergence, ReplayResult, log_ended
@@ -143,7 +143,7 @@ class _VariantJudge:
             message=before + stop.message,
             behavior=stop.behavior,
             robot_state=state_fields(outcome.state),
-            random_drawn=tuple(draw_reports(outcome.drawn, names)),
+            random_drawn=tuple(random_draws(outcome.drawn, names)),
             traceback=user_traceback(failure),
         )
 
@@ -195,13 +195,13 @@ def replay_variant(
         system,
         perception=perception,
         migration=migration,
-        living=True,
+        match_draws=True,
         fresh_from=window.fresh_from,
     ) as session:
         reader = session.reader
         replayer = session.replayer
         assert replayer is not None  # a session with a system replays
-        replayer.random.live(variant_key(log_key(reader.header), variant.number))
+        replayer.random.match_draws(variant_key(log_key(reader.header), variant.number))
         perturber = Perturber(
             variant,
             reader.header,

@@ -9,15 +9,15 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from beatlog.log.reader import LogStatus
-from beatlog.model.cycle import DrawReport, StateChange
+from beatlog.model.cycle import RandomDraw, StateChange
 
 __all__ = [
     "Checked",
     "ContextRow",
     "Divergence",
     "DivergenceKind",
-    "DrawReport",
     "FieldDifference",
+    "RandomDraw",
     "ReplayResult",
     "StateChange",
     "log_ended",
@@ -106,8 +106,8 @@ class Divergence:
     expected_outputs: dict[str, Any] = field(default_factory=dict)
     actual_outputs: dict[str, Any] = field(default_factory=dict)
     robot_state: dict[str, Any] = field(default_factory=dict)
-    random_recorded: tuple[DrawReport, ...] = ()
-    random_drawn: tuple[DrawReport, ...] = ()
+    random_recorded: tuple[RandomDraw, ...] = ()
+    random_drawn: tuple[RandomDraw, ...] = ()
     traceback: str | None = None
     context: tuple[ContextRow, ...] = ()
     """The cycles before and after the divergence that changed any behavior state."""

@@ -16,7 +16,7 @@ from beatlog._version import __version__
 from beatlog.analysis.coverage import SuiteCoverage
 from beatlog.analysis.timeline import Timeline
 from beatlog.log.files import replacing
-from beatlog.replay.verdict import Divergence, DrawReport, StateChange
+from beatlog.replay.verdict import Divergence, RandomDraw, StateChange
 from beatlog.report.console import SUMMARY_COLUMNS
 from beatlog.report.counts import verdict_counts
 from beatlog.report.coverage import coverage_html
@@ -250,8 +250,8 @@ def _values(caption: str, values: dict[str, object]) -> str:
 
 def _side_by_side(
     what: str,
-    expected: Sequence[StateChange | DrawReport | str],
-    actual: Sequence[StateChange | DrawReport | str],
+    expected: Sequence[StateChange | RandomDraw | str],
+    actual: Sequence[StateChange | RandomDraw | str],
 ) -> str:
     pairs = [*zip_longest(map(str, expected), map(str, actual), fillvalue="—")]
     rows = [

@@ -35,9 +35,9 @@ from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError, OptionError
 from beatlog.log.recording import LogSource
+from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.baseline import Baseline
-from beatlog.replay.draws import DrawRule
-from beatlog.replay.pins import StatePins
+from beatlog.replay.draws import ApprovedDraws
 from beatlog.replay.verdict import FieldDifference
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.runner import SpecOutcome, Verdict
@@ -90,7 +90,7 @@ class PendingUpdate:
     robot_state_cycles: int = 0
     """Cycles whose robot state the baseline pins (perception rebuilt it otherwise
     than recorded)."""
-    draws: tuple[DrawRule, ...] = ()
+    draws: tuple[ApprovedDraws, ...] = ()
     """The draws the baseline lets replay make otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
     """Where the behaviors leave the recording (cycle, robot time in ns), if they do."""
@@ -153,7 +153,7 @@ def update_baselines(
                     pending,
                     weighed,
                     len(update.outputs or ()),
-                    robot_state_cycles=update.state_pins.cycles,
+                    robot_state_cycles=update.approved_states.cycles,
                     draws=update.draws,
                     open_loop=update.open_loop,
                 )
@@ -263,7 +263,7 @@ class PendingDiff:
     """What the pending baseline loses and gains against today's baseline."""
     rebuilt_runs: tuple[RebuiltRun, ...] = ()
     """The runs of cycles in which perception now rebuilds the robot state otherwise."""
-    draws: tuple[DrawRule, ...] = ()
+    draws: tuple[ApprovedDraws, ...] = ()
     """The draws the pending baseline lets replay make otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
     """Where, pending, the behaviors leave the recording (cycle, robot time in ns)."""
@@ -281,9 +281,9 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         source = (
             f"approved ({expected.name})" if expected.exists() else f"recorded ({spec.log.name})"
         )
-        runs = _rebuilt_runs(log, whole.baseline.state_pins)
-    old = format_lines(today.changes, today.outputs, today.baseline.state_pins)
-    new = format_lines(whole.changes, whole.outputs, whole.baseline.state_pins)
+        runs = _rebuilt_runs(log, whole.baseline.approved_states)
+    old = format_lines(today.changes, today.outputs, today.baseline.approved_states)
+    new = format_lines(whole.changes, whole.outputs, whole.baseline.approved_states)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
     return PendingDiff(
         spec,
@@ -318,9 +318,9 @@ def _weigh(
     return today, whole, weighed
 
 
-def _rebuilt_runs(log: Path, pins: StatePins) -> tuple[RebuiltRun, ...]:
+def _rebuilt_runs(log: Path, approved: ApprovedStates) -> tuple[RebuiltRun, ...]:
     """The runs a pending file pins, with their first cycles' values as recorded."""
-    recorded = recorded_states(log, {run.cycle for run in pins.runs})
+    recorded = recorded_states(log, {run.cycle for run in approved.runs})
     return tuple(
         RebuiltRun(
             run.fields,
@@ -332,7 +332,7 @@ def _rebuilt_runs(log: Path, pins: StatePins) -> tuple[RebuiltRun, ...]:
                 for name, value in run.first.items()
             ),
         )
-        for run in pins.runs
+        for run in approved.runs
     )
 
 

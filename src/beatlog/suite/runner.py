@@ -339,7 +339,7 @@ def _details(
             None if approved is None or not options.timelines else approved.whole.changes_override()
         ),
         perception=None if spec.perception is None else load_perception(spec.perception),
-        living=trace or approved is not None,
+        match_draws=trace or approved is not None,
         rename=spec.comparison.rename,
         migration=spec.migration,
         fresh_from=spec.start_cycle if spec.fresh_start else 0,

@@ -7,7 +7,7 @@ one of them by re-baselining (``beatlog test --update``, then review), with no n
 recording, and still catches a bug planted afterwards (:data:`PLANTED_BUG`).
 :func:`changed_dog` writes the dog's replay side (behaviors, perception) with some of
 them applied as a package of its own, so that each step of the history can be
-imported beside the others; ``bench/bench_living.py`` and the examples' tests replay
+imported beside the others; ``bench/bench_intended_changes.py`` and the examples' tests replay
 the committed suite against it.
 """
 

@@ -1,15 +1,15 @@
-"""Robot states pinned by digest: what an approved perception change rebuilds, compactly.
+"""Approved robot states: what an approved perception change rebuilds, pinned by digest.
 
 In sensor-level replay an intended perception change (a constant retuned) rebuilds
 RS_t otherwise than recorded, often in nearly every cycle. A baseline pins those
 states without copying them: for each run of cycles in which perception rebuilds
 otherwise, gaps of up to :data:`MAX_GAP` cycles rebuilt as recorded included
-(:class:`PinnedRun`, naming the fields that differ from the recording and giving their
+(:class:`ApprovedRun`, naming the fields that differ from the recording and giving their
 rebuilt values in its first cycle, for review), blocks of up to
 :data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
 digest of the block.
 
-A cycle's :func:`~beatlog.replay.state_digests.state_digest` is the XXH64 digest (seed
+A cycle's :func:`~beatlog.replay.approved_state_lines.state_digest` is the XXH64 digest (seed
 0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
 system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
 of any field counts, and the replay core, which encodes each rebuilt state to compare it
@@ -17,7 +17,7 @@ with the recorded one, digests the same bytes. Its first 12 bits, as two base64
 characters, are the cycle's tag: a state that differs from the approved one is caught in
 its own cycle, except once in 4,096; the block's digest, of its pinned cycles' whole
 digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
-characters a cycle keep the pins of a perception retuned for every cycle near 3.2 bytes
+characters a cycle keep the approved states of a perception retuned for every cycle near 3.2 bytes
 a cycle, a small fraction of the log; a whole digest a cycle would take 11 characters.
 """
 
@@ -31,29 +31,25 @@ from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
-from beatlog.replay.compare import Comparison
-from beatlog.replay.pin_lines import (
+from beatlog.replay.approved_state_lines import (
     BASE64_DIGITS,
     CYCLES_PER_BLOCK,
+    DIGEST_BYTES,
+    GAP_TAG,
     TAG_CHARS,
-    UNPINNED,
+    ApprovedRun,
     DigestBlock,
-    PinCoverage,
-    PinnedRun,
+    DigestCoverage,
+    block_digest,
+    state_number,
 )
-from beatlog.replay.state_digests import DIGEST_BYTES, block_digest, state_number
+from beatlog.replay.compare import Comparison
 
 __all__ = [
-    "CYCLES_PER_BLOCK",
     "MAX_GAP",
-    "TAG_CHARS",
-    "UNPINNED",
-    "DigestBlock",
-    "PinChecker",
-    "PinCoverage",
-    "PinnedRun",
+    "ApprovedStateChecker",
+    "ApprovedStates",
     "RebuiltState",
-    "StatePins",
     "rebuilt_otherwise",
 ]
 
@@ -82,36 +78,37 @@ class RebuiltState(NamedTuple):
     fields: dict[str, Any]
     """The fields that differ from the recording, with their rebuilt values."""
     digest: bytes
-    """The :func:`~beatlog.replay.state_digests.state_digest` of the whole rebuilt state."""
+    """The :func:`~beatlog.replay.approved_state_lines.state_digest` of the whole rebuilt state."""
 
 
 @dataclass(frozen=True)
-class StatePins:
-    """The robot states a baseline pins by digest: runs, and the blocks that cover them.
+class ApprovedStates:
+    """The robot states a baseline approves, pinned by digest: runs, and the blocks that
+    cover them.
 
     :raises ValueError: the blocks do not cover the runs, in order.
     """
 
-    runs: tuple[PinnedRun, ...] = ()
+    runs: tuple[ApprovedRun, ...] = ()
     blocks: tuple[DigestBlock, ...] = ()
 
     def __post_init__(self) -> None:
-        coverage = PinCoverage()
+        coverage = DigestCoverage()
         problem = coverage.add(self.runs, self.blocks) or coverage.end()
         if problem is not None:
             raise ValueError(problem)
 
     @classmethod
-    def from_rebuilt(cls, states: Iterable[RebuiltState]) -> StatePins:
+    def from_rebuilt(cls, states: Iterable[RebuiltState]) -> ApprovedStates:
         """Pin the rebuilt states a trace collected (in cycle order, digested by
-        :func:`~beatlog.replay.state_digests.state_digest`)."""
-        runs: list[PinnedRun] = []
+        :func:`~beatlog.replay.approved_state_lines.state_digest`)."""
+        runs: list[ApprovedRun] = []
         blocks: list[DigestBlock] = []
         for run in _runs(states):
             head, tail = run[0], run[-1]
             fields = sorted({name for state in run for name in state.fields})
             runs.append(
-                PinnedRun(
+                ApprovedRun(
                     head.cycle, head.time_ns, tail.cycle, len(run), tuple(fields), head.fields
                 )
             )
@@ -150,7 +147,7 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         while end < len(run) and run[end].cycle < first + CYCLES_PER_BLOCK:
             end += 1
         chunk = run[start:end]
-        tags = [UNPINNED] * (chunk[-1].cycle - first + 1)
+        tags = [GAP_TAG] * (chunk[-1].cycle - first + 1)
         for state in chunk:
             tags[state.cycle - first] = _tag(state.digest)
         digest = block_digest(b"".join(state.digest for state in chunk))
@@ -163,24 +160,26 @@ _TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
 _GAP = 0xFF
 """What :data:`_SIXES` makes of a gap's characters."""
 _SIXES = bytes.maketrans(
-    f"{BASE64_DIGITS}{UNPINNED[0]}".encode(), bytes([*range(len(BASE64_DIGITS)), _GAP])
+    f"{BASE64_DIGITS}{GAP_TAG[0]}".encode(), bytes([*range(len(BASE64_DIGITS)), _GAP])
 )
 """Each tag character as the six bits it stands for: a cycle's tag is the first 12
 bits of its digest (:func:`_tag`), high six first."""
 
 
-class PinChecker:
-    """Judges the robot states perception rebuilds against :class:`StatePins`, one
+class ApprovedStateChecker:
+    """Judges the robot states perception rebuilds against :class:`ApprovedStates`, one
     pinned cycle after another, in cycle order: a pinned cycle by its tag, a block by
     its digest at its last pinned cycle.
 
-    Replay adds a baseline's pins as it reads them (:meth:`add`), and forgets those of
-    the cycles it has judged (:meth:`forget`), so that it holds the pins of the cycles at
-    hand, however many the baseline has. ``pinned`` says whether the baseline pins any
+    Replay adds a baseline's approved states as it reads them (:meth:`add`), and forgets
+    those of the cycles it has judged (:meth:`forget`), so that it holds those of the
+    cycles at hand, however many the baseline has. ``pinned`` says whether the baseline pins any
     robot state at all.
     """
 
-    def __init__(self, pins: StatePins | None = None, *, pinned: bool | None = None) -> None:
+    def __init__(
+        self, approved: ApprovedStates | None = None, *, pinned: bool | None = None
+    ) -> None:
         self.tags: dict[int, int] = {}
         """The tag of each pinned cycle added and not forgotten: the first 12 bits of
         its digest."""
@@ -191,7 +190,7 @@ class PinChecker:
         """The first pinned cycle of each block."""
         self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
         """Each block by its last pinned cycle, where its digest is checked, with its
-        first pinned cycle and how many it pins."""
+        first pinned cycle and how many cycles it pins."""
         self._digests: list[int] = []
         """The digests of the cycles judged since the last block opened that agreed with
         their tags, in cycle order: checked with the block's digest where it closes."""
@@ -199,13 +198,13 @@ class PinChecker:
         """The first pinned cycle of the block they are of."""
         self._found: dict[int, str] = {}
         """How the cycles found to differ were found to."""
-        self._runs: list[PinnedRun] = []
+        self._runs: list[ApprovedRun] = []
         self._starts: list[int] = []
-        if pins is not None:
-            self.add(pins.runs, pins.blocks)
+        if approved is not None:
+            self.add(approved.runs, approved.blocks)
         self.pinned = bool(self.tags) if pinned is None else pinned
 
-    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> None:
+    def add(self, runs: Iterable[ApprovedRun], blocks: Iterable[DigestBlock]) -> None:
         """Add the runs and blocks of the cycles that follow those added (read and
         checked as a baseline's are)."""
         for run in runs:
@@ -232,7 +231,7 @@ class PinChecker:
             self._finals[final] = (block, first, len(pinned))
 
     def forget(self, before: int) -> None:
-        """Forget the pins of the blocks and runs that end before cycle ``before``."""
+        """Forget the blocks and runs that end before cycle ``before``."""
         blocks, tags = self._blocks, self.tags
         while blocks and blocks[0][0] <= before:
             _, first, final = blocks.popleft()
@@ -244,15 +243,10 @@ class PinChecker:
         if ended:
             del self._runs[:ended], self._starts[:ended]
 
-    @property
-    def cycles(self) -> frozenset[int]:
-        """The pinned cycles added and not forgotten."""
-        return frozenset(self.tags)
-
     def __contains__(self, cycle: object) -> bool:
         return cycle in self.tags
 
-    def run_at(self, cycle: int) -> PinnedRun:
+    def run_at(self, cycle: int) -> ApprovedRun:
         """The run a pinned cycle is in."""
         return self._runs[bisect.bisect_right(self._starts, cycle) - 1]
 

@@ -9,15 +9,15 @@ new recording), ``beatlog test`` again (all pass), then a bug is planted on top
 
 The CPU columns are the CPU time of replaying the re-baselined suite against the
 changed dog, one job, in this process, medians of three alternated rounds, over two
-others: the committed suite against the dog as recorded (what living replay and its
-pins cost, beside whatever the change itself costs the behaviors), and the suite as if
-re-recorded (what living replay and its baselines alone cost): each log written anew
-from the re-baselined replay's own cycles (heartbeats, samples, the robot states
-perception rebuilt, the draws made, state changes and outputs), as a new recording
+others: the committed suite against the dog as recorded (what matching draws and the
+approved robot states cost, beside whatever the change itself costs the behaviors), and
+the suite as if re-recorded (what matching draws and the baselines alone cost): each
+log written anew from the re-baselined replay's own cycles (heartbeats, samples, the
+robot states perception rebuilt, the draws made, state changes and outputs), as a new recording
 would hold them had the world answered as recorded, and replayed strictly, with no
 baseline.
 
-Run it as ``python bench/bench_living.py [--json FILE]``; about seven minutes on 2
+Run it as ``python bench/bench_intended_changes.py [--json FILE]``; about seven minutes on 2
 cores. Nothing here asserts anything: it reports.
 
 For instruction counts, ``--passes rebaselined|rerecorded --times N`` re-baselines the
@@ -71,7 +71,7 @@ def _specs(folder: Path, suite: Path, changes: Sequence[Change]) -> list[DtcSpec
     """The suite's specs pointed at a dog with ``changes`` applied (a package of its own)."""
     global _STEPS  # noqa: PLW0603 - one package name per step, in one process
     _STEPS += 1
-    system = changed_dog(folder, f"dog_living_{_STEPS}", changes)
+    system = changed_dog(folder, f"dog_changed_{_STEPS}", changes)
     package = system.partition(":")[0]
     for spec in SUITE_DIR.glob("*.dtc.toml"):
         text = spec.read_text(encoding="utf-8")

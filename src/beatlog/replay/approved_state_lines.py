@@ -1,6 +1,13 @@
-"""Robot-state pins as a baseline's lines hold them (:class:`PinnedRun`,
-:class:`DigestBlock`), and the check, as a baseline is read, that the blocks cover
-their runs in order (:class:`PinCoverage`).
+"""Approved robot states as a baseline's lines hold them (:class:`ApprovedRun`,
+:class:`DigestBlock`), how a state is digested (:func:`state_digest`), and the check, as
+a baseline is read, that the blocks cover their runs in order (:class:`DigestCoverage`).
+
+A state's digest is XXH64, seed 0, of the state as a log encodes it; a block's, of its
+states' digests end to end. The digests guard against accidental change, not a hostile
+baseline (which could pin anything), so a fast non-cryptographic digest serves. XXH64,
+not XXH3: XXH3 digests a state this long with vector instructions (AVX2, AVX-512), which
+leave a replay around them slower than their count of instructions says: a re-baselined
+perception change costs more CPU with XXH3 than with XXH64 in about as many instructions.
 """
 
 from __future__ import annotations
@@ -11,32 +18,50 @@ import string
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
+import xxhash
+
 __all__ = [
     "BASE64_DIGITS",
     "CYCLES_PER_BLOCK",
+    "DIGEST_BYTES",
+    "GAP_TAG",
     "TAG_CHARS",
-    "UNPINNED",
+    "ApprovedRun",
     "DigestBlock",
-    "PinCoverage",
-    "PinnedRun",
+    "DigestCoverage",
+    "block_digest",
+    "state_digest",
+    "state_number",
 ]
 
+DIGEST_BYTES = 8
+"""The size of a cycle's state digest and of a block's digest."""
+state_number = xxhash.xxh64_intdigest
+"""A state's digest as an unsigned 64-bit int, as the replay core compares it."""
+block_digest = xxhash.xxh64_digest
+"""A block's digest, of its pinned states' digests, eight bytes each, end to end."""
 TAG_CHARS = 2
 """A cycle's tag: the first 12 bits of its digest, as two base64 characters."""
 CYCLES_PER_BLOCK = 64
 """The most cycles one block (one line of a baseline) spans."""
-UNPINNED = ".."
+GAP_TAG = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
 BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
 """The base64 digits, in the order of the six bits each stands for."""
-_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(UNPINNED)})*")
-"""Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`UNPINNED`."""
+_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
+"""Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`GAP_TAG`."""
 
 
-class PinnedRun(NamedTuple):
+def state_digest(encoded: bytes) -> bytes:
+    """The digest of a robot state as a log encodes it
+    (:func:`~beatlog.log.format.payload_encoder`), bit for bit: eight bytes, big-endian."""
+    return xxhash.xxh64_digest(encoded)
+
+
+class ApprovedRun(NamedTuple):
     """Cycles in which perception rebuilds the robot state otherwise than recorded, from
     ``cycle`` to ``last`` with gaps (as recorded) of at most
-    :data:`~beatlog.replay.pins.MAX_GAP` cycles: what a review needs of them."""
+    :data:`~beatlog.replay.approved_states.MAX_GAP` cycles: what a review needs of them."""
 
     cycle: int
     """The first of them."""
@@ -53,7 +78,7 @@ class PinnedRun(NamedTuple):
 
 class DigestBlock(NamedTuple):
     """Up to :data:`CYCLES_PER_BLOCK` consecutive cycles of a run: a tag each
-    (:data:`UNPINNED` for a gap), and the digest of the pinned ones' whole digests."""
+    (:data:`GAP_TAG` for a gap), and the digest of the pinned ones' whole digests."""
 
     cycle: int
     """The first of them, a pinned one."""
@@ -67,37 +92,28 @@ class DigestBlock(NamedTuple):
         """How many cycles the block spans."""
         return len(self.tags) // TAG_CHARS
 
-    def tag(self, offset: int) -> str:
-        """The tag of the block's cycle ``cycle + offset``."""
-        return self.tags[offset * TAG_CHARS : (offset + 1) * TAG_CHARS]
 
-    @property
-    def pinned(self) -> list[int]:
-        """The offsets of the cycles it pins (not gaps)."""
-        return [offset for offset in range(self.cycles) if self.tag(offset) != UNPINNED]
-
-
-class PinCoverage:
+class DigestCoverage:
     """Checks that blocks of digests cover their runs, in order, as a baseline is read:
     a part of its runs and blocks at a time (:meth:`add`), then :meth:`end`. Each says
     why they do not, if they do not."""
 
     def __init__(self) -> None:
-        self._run: PinnedRun | None = None
+        self._run: ApprovedRun | None = None
         """The run whose blocks are read now."""
         self._start = 0
         """The cycle its next block starts at."""
         self._pinned = 0
         """How many cycles its blocks pinned so far."""
 
-    def add(self, runs: Iterable[PinnedRun], blocks: Iterable[DigestBlock]) -> str | None:
+    def add(self, runs: Iterable[ApprovedRun], blocks: Iterable[DigestBlock]) -> str | None:
         """Take the next runs and blocks, those of a part of a baseline."""
-        lines: Iterable[tuple[int, int, int, PinnedRun | DigestBlock]] = heapq.merge(
+        lines: Iterable[tuple[int, int, int, ApprovedRun | DigestBlock]] = heapq.merge(
             ((run.cycle, 0, index, run) for index, run in enumerate(runs)),
             ((block.cycle, 1, index, block) for index, block in enumerate(blocks)),
         )
         for *_, line in lines:
-            problem = self._open(line) if isinstance(line, PinnedRun) else self._block(line)
+            problem = self._open(line) if isinstance(line, ApprovedRun) else self._block(line)
             if problem is not None:
                 return problem
         return None
@@ -106,7 +122,7 @@ class PinCoverage:
         """Take the end of the baseline."""
         return self._close()
 
-    def _open(self, run: PinnedRun) -> str | None:
+    def _open(self, run: ApprovedRun) -> str | None:
         where = f"the robot-state run from cycle {run.cycle}"
         after = self._start if self._run is None else self._run.last + 1
         if run.cycle < after or run.last < run.cycle:
@@ -129,7 +145,7 @@ class PinCoverage:
         if not (_TAGS.fullmatch(block.tags) and 0 < block.cycles <= CYCLES_PER_BLOCK):
             return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
         self._start = block.cycle + block.cycles
-        self._pinned += block.cycles - block.tags.count(UNPINNED)
+        self._pinned += block.cycles - block.tags.count(GAP_TAG)
         return None
 
     def _close(self) -> str | None:
