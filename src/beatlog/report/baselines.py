@@ -219,7 +219,7 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
     if diff.open_loop is not None:
         loop = Text(f"{open_loop_text(diff.open_loop)}: {loop}", style="yellow")
     parts: list[RenderableType] = [
-        Rule(f"{spec.name} ({spec.path})"),
+        Rule(Text(f"{spec.name} ({spec.path})")),
         Text(
             f"{diff.old_lines} state and output changes {diff.source} → {diff.new_lines} "
             f"pending: {_counts(diff.shift, '')}"

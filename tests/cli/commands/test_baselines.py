@@ -61,6 +61,22 @@ def test_update_writes_a_pending_file_and_approve_makes_it_the_baseline(
     ]
 
 
+def test_review_and_approve_print_a_path_with_brackets_as_it_is(
+    beatlog: Beatlog, tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(300)
+    spec = write_spec(tmp_path / "[red]specs[/]", "avoid-pole", log, CHANGED)
+    other = write_spec(tmp_path / "[bold]more", "avoid-pole", log, CHANGED)
+    assert beatlog("test", "--update", spec, other).code == 1
+    monkeypatch.setattr("sys.stdin", io.StringIO("a\n"))
+
+    reviewed = beatlog("review", spec)
+    approved = beatlog("approve", other)
+
+    assert f"accepted {expected_path(spec)}" in whole_lines(reviewed.out)
+    assert f"approved avoid-pole: {expected_path(other)}" in whole_lines(approved.out)
+
+
 def test_an_update_on_a_full_disk_is_one_line_and_exit_2(
     beatlog: Beatlog, spec: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

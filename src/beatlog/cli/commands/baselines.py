@@ -49,6 +49,8 @@ def review(
     something asks about each loss in its own words; one not accepted leaves the change
     pending. Expected and pending files whose spec is gone are named first. Returns
     (accepted, rejected, left)."""
+    from rich.markup import escape
+
     from beatlog.baseline.file import expected_path
     from beatlog.baseline.policy import require_writable
     from beatlog.report.baselines import loss_text, render_orphans, render_pending_diff
@@ -83,12 +85,14 @@ def review(
         decide(spec, decision)
         decided[decision] += 1
         if decision is Decision.ACCEPT:
-            console.print(f"[green]accepted[/] {expected_path(spec.path)}")
+            console.print(f"[green]accepted[/] {escape(str(expected_path(spec.path)))}")
         elif decision is Decision.REJECT:
-            console.print(f"[red]rejected[/] {spec.name}: pending file removed")
+            console.print(f"[red]rejected[/] {escape(spec.name)}: pending file removed")
         else:
             why = "" if kept else "a loss was not accepted; "
-            console.print(f"left pending: {why}accept with [bold]beatlog approve {spec.path}[/]")
+            console.print(
+                f"left pending: {why}accept with [bold]beatlog approve {escape(str(spec.path))}[/]"
+            )
     return decided[Decision.ACCEPT], decided[Decision.REJECT], decided[Decision.SKIP]
 
 
@@ -136,6 +140,8 @@ def add_approve_arguments(approve: argparse.ArgumentParser) -> None:
 def run_approve(args: argparse.Namespace, console: Console) -> int:
     """Accept every pending baseline under the paths without asking, naming each and each
     loss it accepts."""
+    from rich.markup import escape
+
     from beatlog.baseline.file import expected_path
     from beatlog.report.baselines import render_losses
     from beatlog.suite.maintenance import approve
@@ -144,7 +150,9 @@ def run_approve(args: argparse.Namespace, console: Console) -> int:
     if not approved:
         console.print("nothing pending to approve", highlight=False)
     for spec, weighed in approved:
-        console.print(f"[green]approved[/] {spec.name}: {expected_path(spec.path)}")
+        console.print(
+            f"[green]approved[/] {escape(spec.name)}: {escape(str(expected_path(spec.path)))}"
+        )
         for line in render_losses(weighed, f"  accepted loss in {spec.name}: "):
             console.print(line, highlight=False)
     return EXIT_OK
@@ -152,6 +160,8 @@ def run_approve(args: argparse.Namespace, console: Console) -> int:
 
 def run_upgrade(args: argparse.Namespace, console: Console) -> int:
     """Upgrade each older baseline given, naming each and the format it had."""
+    from rich.markup import escape
+
     from beatlog.baseline.upgrade import upgrade_baselines
     from beatlog.baseline.write import FORMAT
 
@@ -159,7 +169,9 @@ def run_upgrade(args: argparse.Namespace, console: Console) -> int:
     if not upgraded:
         console.print("no baseline of an older format", highlight=False)
     for path, version in upgraded:
-        console.print(f"[green]upgraded[/] {path}: format {version} -> {FORMAT}", highlight=False)
+        console.print(
+            f"[green]upgraded[/] {escape(str(path))}: format {version} -> {FORMAT}", highlight=False
+        )
     return EXIT_OK
 
 
