@@ -124,8 +124,12 @@ def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | 
         if not log.is_file() or log_digest(log) != read.log_digest:
             raise BaselineError(path, f"its recording {log} is not as it was: {_RE_APPROVE}")
         baseline = _departures(path, version, log, baseline)
-    elif as_recorded:
-        baseline = _as_recorded(path, baseline)
+    elif as_recorded and (
+        baseline.changes or baseline.outputs or baseline.open_loop or baseline.quiet
+    ):
+        raise BaselineError(
+            path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
+        )
     write_baseline(
         path,
         spec_name=spec_name,
@@ -147,15 +151,6 @@ def _names(lines: Sequence[str]) -> tuple[str, str]:
     spec = next((line[len("# spec ") :] for line in lines if line.startswith("# spec ")), "")
     log = next((line[len("# log ") :] for line in lines if line.startswith("# log ")), "")
     return spec, log.rpartition(" sha256 ")[0]
-
-
-def _as_recorded(path: Path, baseline: Baseline) -> Baseline:
-    """A format 4 baseline of the line ``state changes and outputs as recorded``."""
-    if baseline.changes or baseline.outputs or baseline.open_loop or baseline.quiet:
-        raise BaselineError(
-            path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
-        )
-    return baseline
 
 
 def _departures(path: Path, version: int, log: Path, whole: Baseline) -> Baseline:
