@@ -139,6 +139,15 @@ def test_a_format_4_baseline_as_recorded_upgrades_to_no_departures(tmp_path: Pat
     assert read_baseline(path).whole.as_recorded
 
 
+def test_a_format_4_baseline_as_recorded_that_pins_a_change_is_refused(tmp_path: Path) -> None:
+    as_recorded = "state changes and outputs as recorded"
+    change = '      3     0.090  "avoid": "idle" -> "turning"'
+    path = baseline_file(tmp_path, 4, as_recorded, change, spec=True)
+
+    with pytest.raises(BaselineError, match="as recorded', yet it pins state changes"):
+        upgrade_baseline(path)
+
+
 def test_a_whole_trace_upgrades_to_where_it_departs_from_the_recording(
     tmp_path: Path, record_probe: RecordFn
 ) -> None:

@@ -13,7 +13,7 @@ import pytest
 
 from beatlog.errors import CorruptLogError
 from beatlog.log.columns import Column, StateColumns, column_batches, encode_column
-from beatlog.log.format import CycleEntry, payload_encoder
+from beatlog.log.format import payload_encoder
 from beatlog.log.reader import SessionLogReader
 from tests.chunked import read_all
 from tests.columned import (
@@ -102,7 +102,7 @@ def test_a_column_table_checked_before_opens_a_batch_as_one_checked_afresh() -> 
     it is defined): a batch of a table seen before opens as it would unremembered, and
     one whose data the table does not describe is refused all the same."""
     encode = payload_encoder().encode
-    records = [encode(CycleEntry(PERIOD_NS, None, [], [], {}, [])) for _ in range(16)]
+    records = [encode((PERIOD_NS, None, [], [], {}, [])) for _ in range(16)]
     states = [encode(Pose(t / 3, -t / 7)) for t in range(16)]
     ((_, first),) = column_batches(0, records[:8], states[:8])
     ((_, second),) = column_batches(8, records[8:], states[8:])

@@ -1,68 +1,13 @@
 """Approved baselines: where replay may depart from the recording after an intended change.
 
 Recordings are immutable: when behaviors (or, in sensor-level replay, perception)
-change on purpose, the new state changes and outputs go to a *pending* file beside the
-spec (``NAME.dtc.pending``), are reviewed, and once approved become the *expected*
-file (``NAME.dtc.expected``) that replay judges against instead of the recording.
-The recording is always beside it, so a baseline holds only where the behaviors
-depart from it (:mod:`beatlog.replay.departures`), in plain text, a state change or
-output a line, and the robot states perception rebuilds a few characters a cycle: a
-re-baseline reads as a diff in code review::
-
-    # beatlog expected departures from the recording, format 7
-    # spec avoid-pole
-    # log avoid-pole.beatlog sha256 5f0c...
-    draws "wander": uniform(0.8, 1.6) -> uniform(0.7, 1.5) in cycles 12 97 240
-    draws "escape": - -> uniform(4.0, 8.0) in cycles 12 12
-    #  cycle      time  "behavior": before -> after | no state changes | output ...
-          12     0.360  open loop
-          12     0.360  robot_state otherwise in 12..16 (3 cycles): ["range"], first {"range": 0.55}
-          12     0.360  robot_state digests 5 45b024220a80a3e9 Zsc2....aF
-          12     0.360  "avoid": "idle" -> "turning"
-          12     0.360  output "speed" = 0.0
-          30     0.900  no state changes
-          40     1.200  output "turn" absent
-          52     1.560  output "speed" as recorded
-
-A cycle with state-change lines has those state changes instead of the recorded ones;
-``no state changes`` says the recorded ones are gone and none stand in; any other
-cycle's are as recorded. An output line gives a field the value it holds from that
-cycle on, whatever was recorded (``absent``: the field is not output), until ``as
-recorded`` gives it back to the recording. So the lines start at the cycle the
-``open loop`` line names, the first where the behaviors leave the recording: from
-there the recorded world (RS_t, samples) no longer answers to what the changed
-behaviors do, and the session is worth recording again when convenient. A change the
-behaviors do not notice (perception rebuilds other robot states, draws differ to no
-effect) has no such lines.
-
-The robot-state lines pin, for sensor-level replay, the states the perception step
-rebuilds otherwise than the recorded RS_t (see :mod:`beatlog.replay.approved_states`): a line per
-run of such cycles (short gaps rebuilt as recorded included) names the fields that
-differ and their values in its first cycle, for review; then a line per block of up to
-64 of its cycles gives, after the count of cycles, the hex digest of the block and two
-base64 characters a cycle, the start of that cycle's digest (``..`` for a cycle in a
-gap): XXH64 of the state as the log encodes it
-(:func:`~beatlog.replay.approved_state_lines.state_digest`), and of its pinned cycles'
-digests end to end for the block. Replay judges a pinned cycle's whole rebuilt state
-by its digest, bit for bit, and any other cycle against the recording. Behavior names,
-states and values are JSON, floats written so they read back bit for bit (``NaN``, ``Infinity``,
-``-Infinity``, ``-0.0`` included); a value JSON cannot hold exactly (a NaN with a
-payload, bytes) is written as ``msgpack:HEX``, its msgpack encoding. Loading a
-baseline never evaluates anything, and a file larger than :data:`MAX_BASELINE_BYTES`
-is refused.
-
-A ``draws`` line approves draws that replay makes otherwise than recorded, in the
-cycles listed (a cycle once per draw; :mod:`beatlog.replay.draws`): a recorded request
-re-mapped to the one asked for now, a new draw (``-`` for the recorded side) or a
-recorded one left unused (``-`` for the asked side). A baseline is judged in replay
-matching draws, cycle by cycle: any other draw made otherwise, or an approved one not made,
-diverges in its cycle.
-
-A baseline whose text is longer than
-:data:`~beatlog.baseline.write.COMPRESS_BYTES` (a change that departs in nearly every
-cycle, such as a retuned output) is written as one zstd frame of that text, a sixth
-of its size or less; it is read as the text it holds, which may not be longer than
-:data:`MAX_BASELINE_BYTES` either. Format 7 is format 6 and its compression.
+change on purpose, the new departures go to a *pending* file beside the spec
+(``NAME.dtc.pending``), are reviewed, and once approved become the *expected* file
+(``NAME.dtc.expected``) that replay judges against instead of the recording. A baseline
+is plain text, a line per departure (a state change, an output, draws made otherwise,
+robot states perception rebuilds, pinned by digest), so a re-baseline reads as a diff
+in code review; a long one is one zstd frame of that text. Loading a baseline never
+evaluates anything. ``docs/reference/baseline-format.md`` is the full specification.
 
 A baseline is read in this format alone: a file of an older one is refused, naming
 the command that rewrites it in this one (:mod:`beatlog.baseline.upgrade`).
@@ -104,7 +49,7 @@ __all__ = [
     "pending_path",
     "read_baseline",
     "spec_path",
-    "upgrade_hint",
+    "text_blocks",
 ]
 
 SPEC_SUFFIX = ".dtc.toml"
@@ -126,7 +71,6 @@ OLD_HEADERS = {
     "# beatlog expected state changes, format 1": 1,
 }
 """The first lines of the older formats, each with its number: read only to upgrade."""
-UPGRADE_COMMAND = "beatlog upgrade-baselines"
 _LOG_LINE = re.compile(r"# log (?P<name>.+) sha256 (?P<digest>[0-9a-f]{64})")
 _NOT_A_BASELINE = "not a beatlog baseline (its first line is not the header)"
 _KINDS = ("output", "state change", f"'{QUIET}'")
@@ -194,21 +138,22 @@ def log_digest(log: Path) -> str:
     problem = irregular_file_problem(log)
     if problem is not None:
         raise NotABeatlogError(log, problem)
-    digest = hashlib.sha256()
     try:
         with log.open("rb") as file:
-            for block in iter(lambda: file.read(1 << 20), b""):
-                digest.update(block)
+            return hashlib.file_digest(file, "sha256").hexdigest()
     except OSError as exc:
         raise BaselineError(log, f"cannot read: {exc.strerror or exc}") from None
-    return digest.hexdigest()
 
 
-def upgrade_hint(path: Path, version: int) -> str:
-    """What an older baseline's error says: its format, and the command that rewrites it."""
-    return (
-        f"a format {version} baseline: run '{UPGRADE_COMMAND} {path}' to rewrite it in "
-        f"format {FORMAT}"
+def text_blocks(path: Path) -> Iterator[str]:
+    """The text of the baseline file at ``path`` in blocks of whole lines
+    (:func:`~beatlog.log.files.read_text_blocks`, at most :data:`MAX_BASELINE_BYTES`)."""
+    return read_text_blocks(
+        path,
+        limit=MAX_BASELINE_BYTES,
+        kind="baseline",
+        error=BaselineError,
+        block_bytes=BLOCK_BYTES,
     )
 
 
@@ -282,18 +227,16 @@ class _Reading:
         path = self.path
         started = False
         number = 1
-        for block in read_text_blocks(
-            path,
-            limit=MAX_BASELINE_BYTES,
-            kind="baseline",
-            error=BaselineError,
-            block_bytes=BLOCK_BYTES,
-        ):
+        for block in text_blocks(path):
             text, count = line_feeds(block)
             if not started:
                 first, _, text = text.partition("\n")
                 if first in OLD_HEADERS:
-                    raise BaselineError(path, upgrade_hint(path, OLD_HEADERS[first]))
+                    raise BaselineError(
+                        path,
+                        f"a format {OLD_HEADERS[first]} baseline: run 'beatlog upgrade-baselines "
+                        f"{path}' to rewrite it in format {FORMAT}",
+                    )
                 if first != HEADER:
                     raise BaselineError(path, _NOT_A_BASELINE)
                 started, number, count = True, 2, count - 1

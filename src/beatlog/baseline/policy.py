@@ -117,13 +117,11 @@ def stale_suite(
     the limits: none of them more open loop than ``max_share``, no more than ``max_dtcs``
     open loop at all (None: no limit); None when they are within them."""
     ranked = sorted((dtc for dtc in shares if dtc[1] > 0), key=lambda dtc: -dtc[1])
-    over = [dtc for dtc in ranked if max_share is not None and dtc[1] > max_share]
-    extra = 0 if max_dtcs is None else max(0, len(ranked) - len(over) - max_dtcs)
-    rest = [dtc for dtc in ranked if dtc not in over][:extra]
-    if not over and not rest:
+    over = sum(max_share is not None and share > max_share for _, share in ranked)
+    extra = 0 if max_dtcs is None else max(0, len(ranked) - over - max_dtcs)
+    if not over and not extra:
         return None
-    chosen = tuple(dtc for dtc in ranked if dtc in over or dtc in rest)
-    return StaleSuite(len(ranked), len(over), chosen, max_share, max_dtcs)
+    return StaleSuite(len(ranked), over, tuple(ranked[: over + extra]), max_share, max_dtcs)
 
 
 def refusal(divergence: Divergence) -> str | None:

@@ -1,20 +1,12 @@
-"""Baselines of older formats rewritten in the current one: the one place they are read.
+"""Baselines of older formats rewritten in the current one: the one place they are read
+(``docs/reference/baseline-format.md`` says what each held).
 
-Each older format is read as a translation of its lines into format 7's. Format 5
-and 6 files hold format 7's lines under another first line (format 7 compresses a
-long baseline). Formats 1 to 4 held the whole trace of state changes and outputs, not
-where it departs from the recording (or, in format 4, the line ``state changes and
-outputs as recorded``); their lines are format 7's, and the recording (the one its
-``# log`` line names, found by its spec, and bound by its digest) gives the
-departures: a cycle whose state changes differ lists the trace's (or none, quiet), an
-output field that differs holds the trace's value. Format 1 pinned no outputs, so its
-outputs are the recording's.
-
-Robot states pinned before format 6 (format 3 by field values, formats 4 and 5 by a
-keyed BLAKE2b of each state) are not translated: only perception rebuilding them again
-gives their digests as format 6 and 7 pin them, so such a file is refused, to be
-re-approved from its recording. A file is rewritten atomically, and only once it reads
-back in the current format.
+Format 5 and 6 files hold format 7's lines under another first line. Formats 1 to 4
+held the whole trace of state changes and outputs: the recording its ``# log`` line
+names, bound by its digest, turns that into its departures. Robot states pinned before
+format 6 are not translated (only perception rebuilding them gives their digests): such
+a file is refused, to be re-approved from its recording. A file is rewritten
+atomically, and only once it reads back in the current format.
 """
 
 from __future__ import annotations
@@ -27,9 +19,7 @@ from typing import Any, NamedTuple
 
 from beatlog.analysis.trace import recorded_outputs, recorded_trace
 from beatlog.baseline.file import (
-    BLOCK_BYTES,
     EXPECTED_SUFFIX,
-    MAX_BASELINE_BYTES,
     OLD_HEADERS,
     PENDING_SUFFIX,
     SPEC_SUFFIX,
@@ -37,10 +27,11 @@ from beatlog.baseline.file import (
     log_digest,
     pending_path,
     read_baseline,
+    text_blocks,
 )
 from beatlog.baseline.write import HEADER, OUTPUT, QUIET, ROBOT_STATE, write_baseline
 from beatlog.errors import BaselineError
-from beatlog.log.files import read_text_blocks, replacing
+from beatlog.log.files import replacing
 from beatlog.replay.baseline import AS_RECORDED, Baseline, TracedOutput, TracedStateChange
 from beatlog.replay.departures import OutputDepartures
 
@@ -104,15 +95,7 @@ def upgrade_baselines(paths: Sequence[Path], recordings: Recordings = beside) ->
 def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | None:
     """Rewrite a baseline of an older format in the current one; None if it is of the
     current format already (it is read whole, so damage is still refused)."""
-    text = "".join(
-        read_text_blocks(
-            path,
-            limit=MAX_BASELINE_BYTES,
-            kind="baseline",
-            error=BaselineError,
-            block_bytes=BLOCK_BYTES,
-        )
-    )
+    text = "".join(text_blocks(path))
     first, _, body = text.partition("\n")
     version = OLD_HEADERS.get(first)
     if version is None:
@@ -141,8 +124,12 @@ def upgrade_baseline(path: Path, recordings: Recordings = beside) -> Upgraded | 
         if not log.is_file() or log_digest(log) != read.log_digest:
             raise BaselineError(path, f"its recording {log} is not as it was: {_RE_APPROVE}")
         baseline = _departures(path, version, log, baseline)
-    elif as_recorded:
-        baseline = _as_recorded(path, baseline)
+    elif as_recorded and (
+        baseline.changes or baseline.outputs or baseline.open_loop or baseline.quiet
+    ):
+        raise BaselineError(
+            path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
+        )
     write_baseline(
         path,
         spec_name=spec_name,
@@ -164,15 +151,6 @@ def _names(lines: Sequence[str]) -> tuple[str, str]:
     spec = next((line[len("# spec ") :] for line in lines if line.startswith("# spec ")), "")
     log = next((line[len("# log ") :] for line in lines if line.startswith("# log ")), "")
     return spec, log.rpartition(" sha256 ")[0]
-
-
-def _as_recorded(path: Path, baseline: Baseline) -> Baseline:
-    """A format 4 baseline of the line ``state changes and outputs as recorded``."""
-    if baseline.changes or baseline.outputs or baseline.open_loop or baseline.quiet:
-        raise BaselineError(
-            path, f"'{_AS_RECORDED}', yet it pins state changes, outputs or an open loop"
-        )
-    return baseline
 
 
 def _departures(path: Path, version: int, log: Path, whole: Baseline) -> Baseline:

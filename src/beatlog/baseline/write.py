@@ -2,8 +2,8 @@
 
 Each line of the cycle columns starts with the cycle and its robot time in seconds;
 behavior names, states and values are JSON, floats written so they read back bit for
-bit, and a value JSON cannot hold exactly is ``msgpack:HEX``. The format is specified
-in :mod:`beatlog.baseline.file`; :mod:`beatlog.baseline.read` reads it.
+bit, and a value JSON cannot hold exactly is ``msgpack:HEX``
+(``docs/reference/baseline-format.md``); :mod:`beatlog.baseline.read` reads it.
 """
 
 from __future__ import annotations
@@ -74,10 +74,6 @@ COLUMNS = (
 )
 """The comment that heads the cycle columns."""
 _SORTED = msgspec.msgpack.Encoder(order="sorted")
-_LEVELS = ((1 << 20, 19), (1 << 62, 3))
-"""zstd's level for text of up to so many bytes: a baseline is written once and read
-often, so up to a megabyte (half a second) as small as zstd makes it, and a bigger one
-at zstd's default level, its speed (some 100 MB a second)."""
 
 
 def format_lines(
@@ -202,7 +198,9 @@ def write_baseline(
     if len(text) > COMPRESS_BYTES:
         import zstandard  # noqa: PLC0415 - only a long baseline needs it
 
-        level = next(level for size, level in _LEVELS if len(text) <= size)
+        # Written once and read often: up to a megabyte (half a second) as small as zstd
+        # makes it, a bigger one at zstd's default level, its speed (some 100 MB a second).
+        level = 19 if len(text) <= 1 << 20 else 3
         text = zstandard.ZstdCompressor(level=level).compress(text)
     try:
         with replacing(path) as file:

@@ -100,7 +100,7 @@ def column_batches(
     batches: list[tuple[int, ColumnBatch]] = []
     start = 0
     for end in range(1, len(rows) + 1):
-        if end < len(rows) and _same_fields(rows[end], rows[start]):
+        if end < len(rows) and list(rows[end]) == list(rows[start]):
             continue
         names = list(rows[start])
         if not names:  # no field to store by: the states stay in their records
@@ -128,10 +128,6 @@ def _with_state(record: bytes, state: bytes) -> msgspec.Raw:
     parts = _RAWS(record)
     parts[1] = msgspec.Raw(state)
     return msgspec.Raw(_ENCODER.encode(parts))
-
-
-def _same_fields(one: dict[str, Any], other: dict[str, Any]) -> bool:
-    return len(one) == len(other) and all(map(str.__eq__, one, other))
 
 
 _AT = re.compile(r"at `\$\[(\d+)\]")

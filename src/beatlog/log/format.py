@@ -15,7 +15,6 @@ Each cycle keeps its parts as raw msgpack: replay compares them byte for byte.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping, Sequence
 from typing import Annotated, Any, NamedTuple
 
 import msgspec
@@ -45,7 +44,6 @@ __all__ = [
     "SETUP_DRAWS_SINCE",
     "ColumnBatch",
     "CycleBatch",
-    "CycleEntry",
     "CycleRecord",
     "Draw",
     "LoggedStateChange",
@@ -199,18 +197,6 @@ class Draw(NamedTuple):
     def call(self) -> str:
         """The request as code, e.g. ``uniform(2.0, 5.0)``."""
         return f"{self.kind}({', '.join(map(repr, self.params))})"
-
-
-class CycleEntry(msgspec.Struct, array_like=True):
-    """One cycle as the recorder hands it to the writer: it encodes to exactly the
-    bytes a :class:`CycleRecord` decodes, field for field."""
-
-    heartbeat_ns: int
-    robot_state: Any
-    state_changes: Sequence[LoggedStateChange]
-    random_numbers: Sequence[Draw]
-    outputs: Mapping[str, Any]
-    samples: Sequence[Any]
 
 
 class CycleRecord(msgspec.Struct, array_like=True):

@@ -266,24 +266,19 @@ class SessionLogReader(Closing):
             self._status = LogStatus(False, self._cycles, str(cut))
             self._stream.finish()
             return
-        except IndexDamageError as damage:
-            self._index_damage(str(damage))
+        except IndexDamageError as damage:  # after intact cycles: tolerated, or an error
+            if self.end is None:
+                raise CorruptLogError(self.path, str(damage)) from None
+            status = LogStatus(True, self._cycles, str(damage))
+            if not self._tolerate_damaged_index:
+                raise CorruptLogError(self.path, status.describe()) from None
+            self._status = status
             return
         self._stream.check_summary(self._channels, self._schemas, self._messages_read)
         if self.end is None:
             self._status = LogStatus(False, self._cycles, "the log has no end record")
         else:
             self._status = LogStatus(True, self._cycles)
-
-    def _index_damage(self, problem: str) -> None:
-        """The summary or footer is damaged: after intact cycles and end record, the
-        status of a reader tolerating that, else an error."""
-        status = LogStatus(True, self._cycles, problem)
-        if self.end is None:
-            raise CorruptLogError(self.path, problem)
-        if not self._tolerate_damaged_index:
-            raise CorruptLogError(self.path, status.describe())
-        self._status = status
 
     def _defined_before(
         self, what: str, known: Schema | Channel | None, record: Schema | Channel

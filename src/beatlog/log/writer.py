@@ -35,7 +35,6 @@ from beatlog.log.format import (
     SCHEMA_ENCODING,
     ColumnBatch,
     CycleBatch,
-    CycleEntry,
     SessionEnd,
     SessionHeader,
     payload_encoder,
@@ -166,7 +165,8 @@ class SessionLogWriter(Closing):
         if self.error is not None:
             return
         by_field = self._by_field
-        entry = CycleEntry(hb_ns, None if by_field else state, changes, draws, outputs, samples)
+        # The fields of a CycleRecord, in order: an array of them is the record's bytes.
+        entry = (hb_ns, None if by_field else state, changes, draws, outputs, samples)
         record = self._encoder.encode(entry)
         payload: Any = (record, self._encoder.encode(state)) if by_field else record
         size = len(record) + (len(payload[1]) if by_field else 0)
