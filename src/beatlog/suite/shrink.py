@@ -65,13 +65,8 @@ class Shrunk:
     path: Path
     """The shrunk spec written."""
     name: str
-    kind: DivergenceKind
-    behavior: str | None
-    """The behavior the failure concerns, if any."""
-    invariant: str | None
-    """The invariant that did not hold, in an invariant's failure."""
-    cycle: int
-    """The cycle where the shrunk spec fails."""
+    failure: Divergence
+    """How the shrunk spec fails: the same way as the spec, in its window."""
     start_cycle: int
     end_cycle: int
     fresh_start: bool
@@ -143,14 +138,10 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
     }
     spec_from_data(shrunk, written)  # what is written loads
     _write(spec, shrunk, spec_toml(written))
-    last = search.failure
     return Shrunk(
         path=shrunk,
         name=name,
-        kind=last.kind,
-        behavior=last.behavior,
-        invariant=last.invariant,
-        cycle=last.cycle,
+        failure=search.failure,
         start_cycle=search.start,
         end_cycle=search.end,
         fresh_start=search.fresh,
