@@ -26,7 +26,7 @@ from typing import NoReturn
 from beatlog.errors import OptionError, SpecError
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, find_rootdir, load_spec
 
-__all__ = ["KeywordExpression", "discover_specs", "distinguished", "select_specs"]
+__all__ = ["KeywordExpression", "discover_specs", "distinguished", "files_under", "select_specs"]
 
 
 def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
@@ -37,12 +37,7 @@ def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) 
     found: list[Path] = []
     for given in map(Path, paths):
         if given.is_dir():
-            found.extend(
-                path
-                for path in given.rglob(f"*{SPEC_SUFFIX}")
-                if path.is_file()
-                and not any(part.startswith(".") for part in path.relative_to(given).parts[:-1])
-            )
+            found.extend(files_under(given, SPEC_SUFFIX))
         elif given.name.endswith(SPEC_SUFFIX):
             found.append(given)
         elif not given.exists():
@@ -55,6 +50,17 @@ def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) 
         unique.setdefault(path.resolve(), path)
     root = find_rootdir(paths) if rootdir is None else rootdir
     return [load_spec(path, rootdir=root) for path in sorted(unique.values())]
+
+
+def files_under(folder: Path, suffix: str) -> list[Path]:
+    """The files under ``folder`` whose names end in ``suffix``, those in hidden folders
+    (``.git``, ``.venv``) left out."""
+    return [
+        path
+        for path in folder.rglob(f"*{suffix}")
+        if path.is_file()
+        and not any(part.startswith(".") for part in path.relative_to(folder).parts[:-1])
+    ]
 
 
 def distinguished(specs: Iterable[DtcSpec]) -> list[DtcSpec]:

@@ -38,7 +38,7 @@ from beatlog.log.recording import LogSource
 from beatlog.replay.approved_state_lines import ApprovedRun
 from beatlog.replay.baseline import Baseline
 from beatlog.replay.draws import ApprovedDraws
-from beatlog.suite.discovery import discover_specs
+from beatlog.suite.discovery import discover_specs, files_under
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.variants import write_variant_spec
@@ -308,13 +308,13 @@ def _weigh(
 
 def find_orphans(folders: Iterable[Path]) -> list[Path]:
     """Expected and pending files under ``folders`` whose spec no longer exists."""
-    orphans: set[Path] = set()
-    for folder in folders:
-        if not folder.is_dir():
-            continue
-        for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
-            for path in folder.rglob(f"*{suffix}"):
-                hidden = any(p.startswith(".") for p in path.relative_to(folder).parts[:-1])
-                if path.is_file() and not hidden and not spec_path(path).is_file():
-                    orphans.add(path)
-    return sorted(orphans)
+    return sorted(
+        {
+            path
+            for folder in folders
+            if folder.is_dir()
+            for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX)
+            for path in files_under(folder, suffix)
+            if not spec_path(path).is_file()
+        }
+    )
