@@ -9,6 +9,7 @@ import pytest
 
 from beatlog.analysis.shift import Loss, LossKind, Shift
 from beatlog.replay.approved_state_lines import ApprovedRun
+from beatlog.replay.baseline import Baseline, TracedOutput
 from beatlog.replay.draws import ApprovedDraws
 from beatlog.report.baselines import (
     loss_text,
@@ -48,10 +49,15 @@ LINES = {
 }
 
 
+def outputs(count: int) -> tuple[TracedOutput, ...]:
+    """``count`` changes of an output field."""
+    return tuple(TracedOutput(cycle, cycle, "turn", cycle) for cycle in range(count))
+
+
 @pytest.mark.parametrize("action", list(UpdateAction))
 def test_each_update_action_is_one_line(action: UpdateAction) -> None:
     reason = "re-record the session" if action is UpdateAction.REFUSED else None
-    update = PendingUpdate(SPEC, action, PENDING, CLOSED, 5, reason)
+    update = PendingUpdate(SPEC, action, PENDING, CLOSED, Baseline((), outputs(5)), reason)
 
     assert [line.plain for line in render_updates([update])] == [LINES[action]]
 
@@ -129,9 +135,8 @@ def test_each_loss_is_said_in_its_own_words() -> None:
 
 def test_a_pending_update_counts_and_names_what_it_loses_and_how_much_stays_closed_loop() -> None:
     lost = Shift(ESCAPE_LOST, 3, 0, 1, 1164, 291)
-    update = PendingUpdate(
-        SPEC, UpdateAction.WRITTEN, PENDING, lost, 4, open_loop=(291, 8_760_000_000)
-    )
+    baseline = Baseline((), outputs(4), open_loop=(291, 8_760_000_000))
+    update = PendingUpdate(SPEC, UpdateAction.WRITTEN, PENDING, lost, baseline)
 
     lines = [line.plain for line in render_updates([update])]
 

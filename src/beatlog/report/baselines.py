@@ -15,6 +15,7 @@ from beatlog.analysis.shift import Loss, LossKind, Shift
 from beatlog.baseline.file import pending_path
 from beatlog.baseline.policy import StaleSuite
 from beatlog.replay.approved_state_lines import ApprovedRun
+from beatlog.replay.baseline import Baseline
 from beatlog.report.counts import plural
 from beatlog.suite.approved import Approved
 from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
@@ -51,8 +52,7 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
             lines.append(
                 Text.assemble(
                     ("pending", "cyan"),
-                    f" {update.path} ({_counts(update.shift)}{update.output_changes} output "
-                    f"changes{_fields(update)}): review with ",
+                    f" {update.path} ({_counts(update.shift)}{_fields(update)}): review with ",
                     (f"beatlog review {spec.path}", "bold"),
                     ", accept with ",
                     (f"beatlog approve {spec.path}", "bold"),
@@ -119,14 +119,17 @@ def closed_loop_text(weighed: Shift) -> str:
 
 
 def _fields(update: PendingUpdate) -> str:
-    count = update.robot_state_cycles
+    """``4 output changes, 60 draws made otherwise, open loop since cycle 291 ...``."""
+    baseline = update.baseline or Baseline(())
+    count, loop = baseline.approved_states.cycles, baseline.open_loop
     rebuilt = f", robot state rebuilt otherwise in {plural(count, 'cycle')}" if count else ""
-    drawn = sum(len(rule.cycles) for rule in update.draws)
+    drawn = sum(len(rule.cycles) for rule in baseline.draws)
     return (
-        rebuilt
+        f"{len(baseline.outputs)} output changes"
+        + rebuilt
         + (f", {plural(drawn, 'draw')} made otherwise" if drawn else "")
-        + (f", {open_loop_text(update.open_loop)}" if update.open_loop else "")
-        + (f", {closed_loop_text(update.shift)}" if update.shift and update.open_loop else "")
+        + (f", {open_loop_text(loop)}" if loop else "")
+        + (f", {closed_loop_text(update.shift)}" if update.shift and loop else "")
     )
 
 

@@ -81,17 +81,10 @@ class PendingUpdate:
     """The pending file."""
     shift: Shift | None = None
     """What the baseline written (or withheld) loses and gains against today's."""
-    output_changes: int = 0
-    """Output changes in the baseline written (or withheld)."""
+    baseline: Baseline | None = None
+    """The baseline written (or withheld)."""
     reason: str | None = None
     """Why the update was refused."""
-    robot_state_cycles: int = 0
-    """Cycles whose robot state the baseline pins (perception rebuilt it otherwise
-    than recorded)."""
-    draws: tuple[ApprovedDraws, ...] = ()
-    """The draws the baseline lets replay make otherwise than recorded."""
-    open_loop: tuple[int, int] | None = None
-    """Where the behaviors leave the recording (cycle, robot time in ns), if they do."""
 
 
 def write_failed_variants(outcomes: Iterable[SpecOutcome]) -> list[Path]:
@@ -144,18 +137,7 @@ def update_baselines(
                     digest=outcome.log_digest or log_digest(spec.log),
                     baseline=update,
                 )
-            done.append(
-                PendingUpdate(
-                    spec,
-                    action,
-                    pending,
-                    weighed,
-                    len(update.outputs or ()),
-                    robot_state_cycles=update.approved_states.cycles,
-                    draws=update.draws,
-                    open_loop=update.open_loop,
-                )
-            )
+            done.append(PendingUpdate(spec, action, pending, weighed, update))
         elif ci:
             continue
         elif outcome.update_refused is not None:
