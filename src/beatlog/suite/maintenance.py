@@ -164,9 +164,7 @@ class Decision(StrEnum):
     def parse(cls, value: Decision | str) -> Decision:
         """The decision named by ``value`` or by its start (``a``, ``rej``), in any case;
         anything else raises :class:`OptionError` listing the decisions there are."""
-        if isinstance(value, Decision):
-            return value
-        word = value.strip().lower()
+        word = value.strip().lower()  # a Decision is its own word
         found = [decision for decision in cls if word and decision.value.startswith(word)]
         if len(found) != 1:
             valid = ", ".join(repr(decision.value) for decision in cls)

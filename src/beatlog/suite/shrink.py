@@ -176,7 +176,6 @@ class _Search:
         divergence = self._replay(self.start, self.end, self.perturbations, self.fresh)
         if divergence is not None:
             self._same = divergence.kind, divergence.behavior, divergence.invariant
-            self.failure = divergence
         return divergence
 
     def fails(
@@ -192,10 +191,7 @@ class _Search:
         ``fresh`` start (by default, as kept so far), in the cycle it failed in last."""
         kept = self.perturbations if perturbations is None else perturbations
         fresh = self.fresh if fresh is None else fresh
-        divergence = self._replay(start, end, kept, fresh, same=True)
-        if divergence is not None:
-            self.failure = divergence
-        return divergence is not None
+        return self._replay(start, end, kept, fresh, same=True) is not None
 
     def fewest(self, given: tuple[str, ...]) -> dict[str, Any]:
         """Take out each perturbation in turn, keeping it out where the spec still fails
@@ -262,8 +258,8 @@ class _Search:
         same: bool = False,
     ) -> Divergence | None:
         """The divergence of one replay of the spec's data with this window, from a
-        ``fresh`` start or not, told to ``progress``; with ``same``, only one that
-        fails the same way (see :meth:`fails`)."""
+        ``fresh`` start or not, told to ``progress`` and kept as :attr:`failure`; with
+        ``same``, only one that fails the same way (see :meth:`fails`)."""
         data = {**self._data, "start_cycle": start, "fresh_start": fresh}
         if end is None:
             data.pop("end_cycle", None)
@@ -287,6 +283,8 @@ class _Search:
             and (not fresh or divergence.cycle == self.failure.cycle)
         ):
             divergence = None
+        if divergence is not None:
+            self.failure = divergence
         if self._progress is not None:
             kept = len(_perturbations(perturbations))
             self._progress(Attempt(start, end, kept, divergence is not None, self.replays, fresh))
