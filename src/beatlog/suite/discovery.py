@@ -100,8 +100,9 @@ def _keywords(spec: DtcSpec, root: Path) -> list[str]:
     return [spec.name, path.name, *folders, *spec.tags, "dtc"]
 
 
-_TOKEN = re.compile(r"\s*([()]|[\w:+\-.\[\]\\/]+)")
-"""A parenthesis or a word; words take the characters pytest's ``-k`` takes."""
+_TOKEN = re.compile(r"([()]|[\w:+\-.\[\]\\/]+)|(\S)")
+"""A parenthesis or a word (words take the characters pytest's ``-k`` takes), or
+another character, which none may hold."""
 _OPERATORS = frozenset({"and", "or", "not", ")"})
 """The tokens that cannot stand where a word is expected."""
 
@@ -130,14 +131,11 @@ class KeywordExpression:
 
 
 def _tokens(text: str) -> list[str]:
-    tokens: list[str] = []
-    position = 0
-    while position < len(text.rstrip()):
-        found = _TOKEN.match(text, position)
-        if found is None:
-            raise OptionError(f"-k {text!r}: unexpected character {text[position:].lstrip()[0]!r}")
-        tokens.append(found.group(1))
-        position = found.end()
+    tokens = []
+    for token, other in _TOKEN.findall(text):
+        if other:
+            raise OptionError(f"-k {text!r}: unexpected character {other!r}")
+        tokens.append(token)
     return tokens
 
 
