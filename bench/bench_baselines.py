@@ -76,7 +76,7 @@ def weigh(suite: Path, jobs: int) -> list[Weight]:
     outcomes = run_suite(specs, jobs=jobs, update=UpdateMode.NEW)
     weights = []
     for update in update_baselines(outcomes, UpdateMode.NEW):
-        if update.action is not UpdateAction.WRITTEN:
+        if update.action is not UpdateAction.WRITTEN or update.baseline is None:
             continue
         pending = pending_path(update.spec.path)
         text = "".join(
@@ -100,7 +100,7 @@ def weigh(suite: Path, jobs: int) -> list[Weight]:
                 pending.stat().st_size,
                 len(text.encode()),
                 pins,
-                update.robot_state_cycles,
+                update.baseline.approved_states.cycles,
             )
         )
     return weights

@@ -165,9 +165,9 @@ def main() -> None:
         shrinking = time.process_time() - started
         how = "fresh start" if shrunk.fresh_start else f"{shrunk.start_cycle} replayed before it"
         print(
-            f"{args.cycles} cycles, {system}: fails at cycle {shrunk.cycle}; shrunk to window "
-            f"{shrunk.start_cycle}-{shrunk.end_cycle} ({how}) in {shrunk.replays} replays, "
-            f"{shrinking:.2f} s CPU"
+            f"{args.cycles} cycles, {system}: fails at cycle {shrunk.failure.cycle}; "
+            f"shrunk to window {shrunk.start_cycle}-{shrunk.end_cycle} ({how}) "
+            f"in {shrunk.replays} replays, {shrinking:.2f} s CPU"
         )
         original, small = load_spec(spec), load_spec(shrunk.path)
         times: dict[str, list[float]] = {"original": [], "shrunk": [], "floor": []}

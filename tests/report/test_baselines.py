@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 
 from beatlog.analysis.shift import Loss, LossKind, Shift
+from beatlog.replay.approved_state_lines import ApprovedRun
+from beatlog.replay.baseline import Baseline, TracedOutput
 from beatlog.replay.draws import ApprovedDraws
-from beatlog.replay.verdict import FieldDifference
 from beatlog.report.baselines import (
     loss_text,
     render_orphans,
@@ -17,7 +18,7 @@ from beatlog.report.baselines import (
     render_updates,
 )
 from beatlog.report.console import plain_text
-from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
+from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
 from beatlog.suite.spec import DtcSpec
 
 SPEC = DtcSpec(
@@ -48,10 +49,15 @@ LINES = {
 }
 
 
+def outputs(count: int) -> tuple[TracedOutput, ...]:
+    """``count`` changes of an output field."""
+    return tuple(TracedOutput(cycle, cycle, "turn", cycle) for cycle in range(count))
+
+
 @pytest.mark.parametrize("action", list(UpdateAction))
 def test_each_update_action_is_one_line(action: UpdateAction) -> None:
     reason = "re-record the session" if action is UpdateAction.REFUSED else None
-    update = PendingUpdate(SPEC, action, PENDING, CLOSED, 5, reason)
+    update = PendingUpdate(SPEC, action, PENDING, CLOSED, Baseline((), outputs(5)), reason)
 
     assert [line.plain for line in render_updates([update])] == [LINES[action]]
 
@@ -87,10 +93,21 @@ def test_a_long_diff_is_cut_and_says_where_the_rest_is() -> None:
 
 
 def test_the_runs_of_rebuilt_robot_states_are_summed_up_a_line_each_up_to_twenty() -> None:
-    first = (FieldDifference("speed", 0.04, 0.041), FieldDifference("heading", 1.5, -0.0))
-    runs = [RebuiltRun(("heading", "speed"), 517, 4999, 4483, first)]
-    runs += [RebuiltRun(("speed",), 6000 + n, 6000 + n, 1, first[:1]) for n in range(21)]
-    diff = PendingDiff(SPEC, "recorded (probe.beatlog)", 0, 0, (), CLOSED, rebuilt_runs=tuple(runs))
+    runs = [
+        ApprovedRun(517, 0, 4999, 4483, ("heading", "speed"), {"speed": 0.041, "heading": -0.0})
+    ]
+    runs += [ApprovedRun(6000 + n, 0, 6000 + n, 1, ("speed",), {"speed": 0.041}) for n in range(21)]
+    recorded = {run.cycle: {"speed": 0.04, "heading": 1.5} for run in runs}
+    diff = PendingDiff(
+        SPEC,
+        "recorded (probe.beatlog)",
+        0,
+        0,
+        (),
+        CLOSED,
+        rebuilt_runs=tuple(runs),
+        recorded=recorded,
+    )
 
     lines = plain_text(render_pending_diff(diff)).splitlines()
 
@@ -118,9 +135,8 @@ def test_each_loss_is_said_in_its_own_words() -> None:
 
 def test_a_pending_update_counts_and_names_what_it_loses_and_how_much_stays_closed_loop() -> None:
     lost = Shift(ESCAPE_LOST, 3, 0, 1, 1164, 291)
-    update = PendingUpdate(
-        SPEC, UpdateAction.WRITTEN, PENDING, lost, 4, open_loop=(291, 8_760_000_000)
-    )
+    baseline = Baseline((), outputs(4), open_loop=(291, 8_760_000_000))
+    update = PendingUpdate(SPEC, UpdateAction.WRITTEN, PENDING, lost, baseline)
 
     lines = [line.plain for line in render_updates([update])]
 

@@ -12,7 +12,7 @@ import beatlog
 from beatlog.baseline.policy import UpdateMode
 from beatlog.cli.main import main
 from beatlog.errors import BaselineError
-from beatlog.suite.approved import approved_baseline
+from beatlog.suite.approved import approved_baseline, approved_baselines
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
@@ -72,6 +72,13 @@ def test_a_log_no_spec_names_is_judged_against_its_recording(
     write_spec(tmp_path, "elsewhere", record_probe(300, name="named.beatlog"))
 
     assert approved_baseline(other) is None
+
+
+def test_a_spec_beside_the_log_that_cannot_be_read_names_nothing(log: Path) -> None:
+    (log.parent / "broken.dtc.toml").write_text('log = "probe.beatlog"\n[[', encoding="utf-8")
+    (log.parent / "huge.dtc.toml").write_bytes(b"#" * (1 << 21))
+
+    assert [found.spec.name for found in approved_baselines(log)] == ["avoid-pole"]
 
 
 def test_a_baseline_approved_for_another_recording_is_an_error(

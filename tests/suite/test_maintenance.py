@@ -84,7 +84,8 @@ def test_a_failure_writes_its_new_expectation_to_the_pending_file_only(
     assert update.shift is not None
     assert (update.shift.lost, update.shift.gained, update.shift.moved) == (0, 0, 12)
     assert update.shift.open_loop == written.whole.open_loop[0]  # type: ignore[index]
-    assert update.output_changes == len(written.whole.outputs or ())
+    assert update.baseline is not None
+    assert len(update.baseline.outputs) == len(written.whole.outputs)
     assert not expected_path(changed.path).exists()
 
 

@@ -26,7 +26,6 @@ from beatlog.suite.selection import (
     FLEET_PURPOSE,
     SuiteOptions,
     check_break_at,
-    check_references,
     fleet_of,
     fleet_specs,
     last_failed_path,
@@ -474,10 +473,11 @@ def test_code_beside_fleet_logs_is_never_imported(logs: Path) -> None:
     planted = logs / "planted_beside_logs"
     planted.mkdir()
     (planted / "__init__.py").write_text("raise SystemExit('planted code ran')\n")
+    fleet = SuiteOptions(logs=f"{logs}/*.beatlog", system="planted_beside_logs:system")
     [spec] = fleet_specs(f"{logs}/*.beatlog", system="planted_beside_logs:system")
 
-    with pytest.raises(SystemLoadError, match="cannot import planted_beside_logs"):
-        check_references(spec)
+    with pytest.raises(SystemLoadError, match=r"^--system .*cannot import planted_beside_logs"):
+        fleet_of(fleet)
     [outcome] = run_suite([spec])
 
     assert outcome.verdict is Verdict.ERROR

@@ -39,12 +39,12 @@ def test_a_failing_dtc_shrinks_to_a_window_that_ends_where_it_fails(weary: Path)
     shrunk = shrink(weary)
 
     assert shrunk.path == shrunk_path(weary) == weary.with_name("weary.shrunk.dtc.toml")
-    assert (shrunk.kind, shrunk.behavior, shrunk.invariant) == (
+    assert (shrunk.failure.kind, shrunk.failure.behavior, shrunk.failure.invariant) == (
         DivergenceKind.EXCEPTION,
         "near",
         None,
     )
-    assert shrunk.cycle == shrunk.end_cycle == WORN_OUT_CYCLE
+    assert shrunk.failure.cycle == shrunk.end_cycle == WORN_OUT_CYCLE
     assert 0 < shrunk.start_cycle <= shrunk.end_cycle
     assert shrunk.cycles_before == WORN_OUT_CYCLE + 1
     assert shrunk.perturbations_before == shrunk.perturbations == ()
@@ -74,7 +74,11 @@ def test_a_variant_failing_for_a_short_history_starts_fresh_where_that_begins(
 
     shrunk = shrink(spec)
 
-    assert (shrunk.cycle, shrunk.end_cycle, shrunk.fresh_start) == (worn_out, worn_out, True)
+    assert (shrunk.failure.cycle, shrunk.end_cycle, shrunk.fresh_start) == (
+        worn_out,
+        worn_out,
+        True,
+    )
     last_near = max(t for t, d in enumerate(distances(100)) if d < 0.5)
     assert shrunk.start_cycle == 1000 + last_near  # a fresh near takes it for the first approach
     assert shrunk.cycles_replayed < worn_out - 1000
@@ -88,7 +92,7 @@ def test_a_failure_that_does_not_depend_on_history_starts_fresh_at_the_failing_c
 
     shrunk = shrink(spec)
 
-    assert (shrunk.kind, shrunk.behavior, shrunk.cycle) == (
+    assert (shrunk.failure.kind, shrunk.failure.behavior, shrunk.failure.cycle) == (
         DivergenceKind.EXCEPTION,
         "dice",
         cycle,
@@ -130,8 +134,11 @@ def test_a_failing_invariant_keeps_the_cycles_it_looks_across(
 
     shrunk = shrink(spec)
 
-    assert (shrunk.kind, shrunk.invariant) == (DivergenceKind.INVARIANT, "NeverLingers")
-    assert shrunk.cycle == shrunk.end_cycle == first_near + LINGER
+    assert (shrunk.failure.kind, shrunk.failure.invariant) == (
+        DivergenceKind.INVARIANT,
+        "NeverLingers",
+    )
+    assert shrunk.failure.cycle == shrunk.end_cycle == first_near + LINGER
     assert shrunk.start_cycle <= first_near  # the cycles it looks across, from rest
     assert shrunk.fresh_start
     assert shrunk.cycles_replayed < first_near + LINGER + 1
@@ -160,7 +167,7 @@ def test_a_dtc_judged_against_its_approved_baseline_is_shrunk_with_a_copy_of_it(
     assert (failure.kind, failure.behavior, failure.cycle) == (
         DivergenceKind.EXCEPTION,
         "near",
-        shrunk.cycle,
+        shrunk.failure.cycle,
     )
 
 
@@ -191,7 +198,7 @@ def test_a_failing_variant_keeps_only_the_perturbations_it_needs(
 
     shrunk = shrink(spec)
 
-    assert (shrunk.kind, shrunk.behavior) == (DivergenceKind.EXCEPTION, "near")
+    assert (shrunk.failure.kind, shrunk.failure.behavior) == (DivergenceKind.EXCEPTION, "near")
     assert shrunk.perturbations_before == (
         "draws",
         "heartbeat_jitter",
@@ -199,7 +206,7 @@ def test_a_failing_variant_keeps_only_the_perturbations_it_needs(
         "noise.reading",
     )
     assert shrunk.perturbations == ("noise.distance",)
-    assert shrunk.cycle == shrunk.end_cycle
+    assert shrunk.failure.cycle == shrunk.end_cycle
     written = load_spec(shrunk.path)
     assert written.variant == 1
     assert written.perturbations == Perturbations(draws=False, noise={"distance": 0.3})
@@ -210,7 +217,7 @@ def test_a_failing_variant_keeps_only_the_perturbations_it_needs(
     assert (failure.kind, failure.behavior, failure.cycle) == (
         DivergenceKind.EXCEPTION,
         "near",
-        shrunk.cycle,
+        shrunk.failure.cycle,
     )
 
 
@@ -230,9 +237,12 @@ def test_a_variant_failing_an_invariant_keeps_the_same_invariant_failing(
 
     shrunk = shrink(spec)
 
-    assert (shrunk.kind, shrunk.invariant) == (DivergenceKind.INVARIANT, "never_negative")
+    assert (shrunk.failure.kind, shrunk.failure.invariant) == (
+        DivergenceKind.INVARIANT,
+        "never_negative",
+    )
     assert shrunk.perturbations == ("noise.distance",)
-    assert shrunk.start_cycle == shrunk.end_cycle == shrunk.cycle  # a cycle's noise alone
+    assert shrunk.start_cycle == shrunk.end_cycle == shrunk.failure.cycle  # a cycle's noise alone
 
 
 def test_a_spec_that_passes_has_nothing_to_shrink(tmp_path: Path, record_probe: RecordFn) -> None:

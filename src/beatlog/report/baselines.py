@@ -4,7 +4,7 @@ pending baseline as a coloured diff. Lines only; the CLI and the pytest plugin s
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from rich.console import Group, RenderableType
@@ -14,9 +14,11 @@ from rich.text import Text
 from beatlog.analysis.shift import Loss, LossKind, Shift
 from beatlog.baseline.file import pending_path
 from beatlog.baseline.policy import StaleSuite
+from beatlog.replay.approved_state_lines import ApprovedRun
+from beatlog.replay.baseline import Baseline
 from beatlog.report.counts import plural
 from beatlog.suite.approved import Approved
-from beatlog.suite.maintenance import PendingDiff, PendingUpdate, RebuiltRun, UpdateAction
+from beatlog.suite.maintenance import PendingDiff, PendingUpdate, UpdateAction
 
 __all__ = [
     "closed_loop_text",
@@ -50,8 +52,7 @@ def render_updates(updates: Sequence[PendingUpdate]) -> list[Text]:
             lines.append(
                 Text.assemble(
                     ("pending", "cyan"),
-                    f" {update.path} ({_counts(update.shift)}{update.output_changes} output "
-                    f"changes{_fields(update)}): review with ",
+                    f" {update.path} ({_counts(update.shift)}{_fields(update)}): review with ",
                     (f"beatlog review {spec.path}", "bold"),
                     ", accept with ",
                     (f"beatlog approve {spec.path}", "bold"),
@@ -118,14 +119,17 @@ def closed_loop_text(weighed: Shift) -> str:
 
 
 def _fields(update: PendingUpdate) -> str:
-    count = update.robot_state_cycles
+    """``4 output changes, 60 draws made otherwise, open loop since cycle 291 ...``."""
+    baseline = update.baseline or Baseline(())
+    count, loop = baseline.approved_states.cycles, baseline.open_loop
     rebuilt = f", robot state rebuilt otherwise in {plural(count, 'cycle')}" if count else ""
-    drawn = sum(len(rule.cycles) for rule in update.draws)
+    drawn = sum(len(rule.cycles) for rule in baseline.draws)
     return (
-        rebuilt
+        f"{len(baseline.outputs)} output changes"
+        + rebuilt
         + (f", {plural(drawn, 'draw')} made otherwise" if drawn else "")
-        + (f", {open_loop_text(update.open_loop)}" if update.open_loop else "")
-        + (f", {closed_loop_text(update.shift)}" if update.shift and update.open_loop else "")
+        + (f", {open_loop_text(loop)}" if loop else "")
+        + (f", {closed_loop_text(update.shift)}" if update.shift and loop else "")
     )
 
 
@@ -189,24 +193,24 @@ def _value(value: object) -> str:
     return json.dumps(value, default=repr)
 
 
-def _run_line(run: RebuiltRun) -> Text:
+def _run_line(run: ApprovedRun, recorded: Mapping[str, object]) -> Text:
     """``robot state "speed" rebuilt otherwise in cycles 517–4999 (4483 cycles), first:
-    "speed" 0.04 → 0.041``."""
+    "speed" 0.04 → 0.041``, from the robot state ``recorded`` in its first cycle."""
     first: list[str | tuple[str, str]] = []
-    for difference in run.first:
+    for name, rebuilt in run.first.items():
         first.extend(
             [
                 ", " if first else "",
-                f"{json.dumps(difference.field)} ",
-                (_value(difference.recorded), "red"),
+                f"{json.dumps(name)} ",
+                (_value(recorded.get(name)), "red"),
                 " → ",
-                (_value(difference.rebuilt), "green"),
+                (_value(rebuilt), "green"),
             ]
         )
     return Text.assemble(
         ("robot state ", "cyan"),
         f"{', '.join(json.dumps(name) for name in run.fields)} rebuilt otherwise in cycles "
-        f"{run.first_cycle}–{run.last_cycle} ({plural(run.cycles, 'cycle')}), first: ",
+        f"{run.cycle}–{run.last} ({plural(run.cycles, 'cycle')}), first: ",
         *first,
     )
 
@@ -226,7 +230,10 @@ def render_pending_diff(diff: PendingDiff, *, max_lines: int = 200) -> Renderabl
         ),
         loop,
         *render_losses(diff.shift, "lost: "),
-        *(_run_line(run) for run in diff.rebuilt_runs[:_MAX_RUNS]),
+        *(
+            _run_line(run, diff.recorded.get(run.cycle, {}))
+            for run in diff.rebuilt_runs[:_MAX_RUNS]
+        ),
         *(
             Text.assemble(("draws ", "cyan"), str(rule))
             for rule in diff.draws

@@ -10,18 +10,17 @@ it, the one whose ``system`` is the system replayed is its spec.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from beatlog.baseline.file import BaselineFile, expected_path, log_digest, read_baseline
-from beatlog.errors import BaselineError
+from beatlog.errors import BaselineError, SpecError
 from beatlog.model.behavior import System
 from beatlog.model.setup import SystemFactory
 from beatlog.replay.judge import replay as judge
 from beatlog.replay.verdict import ReplayResult
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, load_spec, read_spec_data
 
 __all__ = ["Approved", "approved_baseline", "approved_baselines", "approved_for", "replay"]
 
@@ -60,8 +59,8 @@ def _naming(log: Path) -> list[Path]:
     naming = []
     for spec in sorted(log.parent.glob(f"*{SPEC_SUFFIX}")):
         try:
-            named = tomllib.loads(spec.read_text(encoding="utf-8")).get("log")
-        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            named = read_spec_data(spec).get("log")
+        except SpecError:
             continue
         if isinstance(named, str) and (spec.parent / named).resolve() == log.resolve():
             naming.append(spec)

@@ -206,7 +206,9 @@ def recall(coverage: SuiteCoverage, path: Path, suite: Mapping[str, str]) -> str
     suite no longer holds (deleted, renamed). ``suite`` maps every DTC of the suite,
     run or not, from its id to its name: a DTC left out by ``-k``, ``--behavior`` or
     ``--shard`` did not lose what it reached. Everything stays remembered."""
-    earlier, warning = _load(path, suite)
+    earlier, warning = read_cached(path, _Memory | _MemoryV1, "a beatlog coverage memory")
+    if not isinstance(earlier, _Memory):
+        earlier = _Memory(systems={}) if earlier is None else _upgraded(earlier, suite)
     ran = set(coverage.dtcs)
 
     def concerns(dtcs: Sequence[str]) -> bool:
@@ -244,13 +246,6 @@ def _name_remembered(coverage: SuiteCoverage, suite: Mapping[str, str]) -> None:
                 name = suite.get(dtc) or dtc.partition(f"{SPEC_SUFFIX}::")[2] or dtc
                 shared = names[name] > (dtc in suite)
                 coverage.labels[dtc] = dtc if shared else name
-
-
-def _load(path: Path, suite: Mapping[str, str]) -> tuple[_Memory, str | None]:
-    memory, warning = read_cached(path, _Memory | _MemoryV1, "a beatlog coverage memory")
-    if memory is None:
-        return _Memory(systems={}), warning
-    return (memory if isinstance(memory, _Memory) else _upgraded(memory, suite)), None
 
 
 def _upgraded(memory: _MemoryV1, suite: Mapping[str, str]) -> _Memory:

@@ -26,7 +26,7 @@ from typing import NoReturn
 from beatlog.errors import OptionError, SpecError
 from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, find_rootdir, load_spec
 
-__all__ = ["KeywordExpression", "discover_specs", "distinguished", "select_specs"]
+__all__ = ["KeywordExpression", "discover_specs", "distinguished", "files_under", "select_specs"]
 
 
 def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
@@ -37,12 +37,7 @@ def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) 
     found: list[Path] = []
     for given in map(Path, paths):
         if given.is_dir():
-            found.extend(
-                path
-                for path in given.rglob(f"*{SPEC_SUFFIX}")
-                if path.is_file()
-                and not any(part.startswith(".") for part in path.relative_to(given).parts[:-1])
-            )
+            found.extend(files_under(given, SPEC_SUFFIX))
         elif given.name.endswith(SPEC_SUFFIX):
             found.append(given)
         elif not given.exists():
@@ -55,6 +50,17 @@ def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) 
         unique.setdefault(path.resolve(), path)
     root = find_rootdir(paths) if rootdir is None else rootdir
     return [load_spec(path, rootdir=root) for path in sorted(unique.values())]
+
+
+def files_under(folder: Path, suffix: str) -> list[Path]:
+    """The files under ``folder`` whose names end in ``suffix``, those in hidden folders
+    (``.git``, ``.venv``) left out."""
+    return [
+        path
+        for path in folder.rglob(f"*{suffix}")
+        if path.is_file()
+        and not any(part.startswith(".") for part in path.relative_to(folder).parts[:-1])
+    ]
 
 
 def distinguished(specs: Iterable[DtcSpec]) -> list[DtcSpec]:
@@ -94,14 +100,11 @@ def _keywords(spec: DtcSpec, root: Path) -> list[str]:
     return [spec.name, path.name, *folders, *spec.tags, "dtc"]
 
 
-_TOKEN = re.compile(r"\s*(?:(\()|(\))|([\w:+\-.\[\]\\/]+))")
-"""A parenthesis or a word; words take the characters pytest's ``-k`` takes."""
-_OPERATORS = frozenset({"and", "or", "not"})
-
-Match = Callable[[str], bool]
-"""Whether a word matches what is being selected."""
-Node = Callable[[Match], bool]
-Combine = Callable[[Iterable[bool]], bool]
+_TOKEN = re.compile(r"([()]|[\w:+\-.\[\]\\/]+)|(\S)")
+"""A parenthesis or a word (words take the characters pytest's ``-k`` takes), or
+another character, which none may hold."""
+_OPERATORS = frozenset({"and", "or", "not", ")"})
+"""The tokens that cannot stand where a word is expected."""
 
 
 @dataclass(frozen=True)
@@ -109,85 +112,74 @@ class KeywordExpression:
     """A parsed ``-k`` expression; :meth:`matches` tells whether a DTC is selected."""
 
     text: str
-    _evaluate: Node
+    tokens: tuple[str, ...]
 
     @classmethod
     def parse(cls, text: str) -> KeywordExpression:
         """Parse ``text``; a malformed expression raises :class:`OptionError` in one line."""
-        tokens = _tokens(text)
-        if not tokens:
-            return cls(text, lambda match: True)
-        parser = _Parser(text, tokens)
-        node = parser.expression()
-        if parser.position < len(tokens):
-            parser.fail(f"unexpected {tokens[parser.position]!r}")
-        return cls(text, node)
+        parsed = cls(text, tuple(_tokens(text)))
+        parsed.matches(())  # a malformed expression fails here, before any DTC is matched
+        return parsed
 
     def matches(self, names: Iterable[str]) -> bool:
         """Whether a DTC that pytest knows by these names (its own, its file's and
         folders', its tags and markers) is selected."""
         haystack = [name.lower() for name in names]
-        return self._evaluate(lambda word: any(word.lower() in item for item in haystack))
+        return _evaluate(
+            self.text, list(self.tokens), lambda word: any(word.lower() in i for i in haystack)
+        )
 
 
 def _tokens(text: str) -> list[str]:
-    tokens: list[str] = []
-    position = 0
-    while position < len(text.rstrip()):
-        found = _TOKEN.match(text, position)
-        if found is None:
-            raise OptionError(f"-k {text!r}: unexpected character {text[position:].lstrip()[0]!r}")
-        tokens.append(found.group(found.lastindex or 0))
-        position = found.end()
+    tokens = []
+    for token, other in _TOKEN.findall(text):
+        if other:
+            raise OptionError(f"-k {text!r}: unexpected character {other!r}")
+        tokens.append(token)
     return tokens
 
 
-class _Parser:
-    """Recursive descent over the tokens, building a function of the word matcher."""
+def _evaluate(text: str, tokens: list[str], match: Callable[[str], bool]) -> bool:
+    """The value of the expression ``text``, of ``tokens``, with ``match`` telling
+    whether a word matches: recursive descent over the grammar (see the module)."""
+    rest = tokens[::-1]
 
-    def __init__(self, text: str, tokens: list[str]) -> None:
-        self.text = text
-        self.tokens = tokens
-        self.position = 0
+    def fail(problem: str) -> NoReturn:
+        raise OptionError(f"-k {text!r}: {problem}")
 
-    def fail(self, problem: str) -> NoReturn:
-        raise OptionError(f"-k {self.text!r}: {problem}")
+    def take(token: str) -> bool:
+        taken = bool(rest) and rest[-1] == token
+        if taken:
+            rest.pop()
+        return taken
 
-    def peek(self) -> str | None:
-        return self.tokens[self.position] if self.position < len(self.tokens) else None
+    def expression() -> bool:
+        values = [term()]
+        while take("or"):
+            values.append(term())
+        return any(values)
 
-    def take(self, token: str) -> bool:
-        if self.peek() == token:
-            self.position += 1
-            return True
-        return False
+    def term() -> bool:
+        values = [factor()]
+        while take("and"):
+            values.append(factor())
+        return all(values)
 
-    def expression(self) -> Node:
-        return self.chain("or", self.term, any)
+    def factor() -> bool:
+        if take("not"):
+            return not factor()
+        if take("("):
+            value = expression()
+            if not take(")"):
+                fail("a '(' is not closed")
+            return value
+        if not rest:
+            fail("ends where a word was expected")
+        if rest[-1] in _OPERATORS:
+            fail(f"expected a word, got {rest[-1]!r}")
+        return match(rest.pop())
 
-    def term(self) -> Node:
-        return self.chain("and", self.factor, all)
-
-    def chain(self, word: str, operand: Callable[[], Node], combine: Combine) -> Node:
-        """Operands joined by ``word`` (``or``, ``and``), one node if there is one."""
-        nodes = [operand()]
-        while self.take(word):
-            nodes.append(operand())
-        return nodes[0] if len(nodes) == 1 else lambda match: combine(n(match) for n in nodes)
-
-    def factor(self) -> Node:
-        if self.take("not"):
-            inner = self.factor()
-            return lambda match: not inner(match)
-        if self.take("("):
-            inner = self.expression()
-            if not self.take(")"):
-                self.fail("a '(' is not closed")
-            return inner
-        token = self.peek()
-        if token is None:
-            self.fail("ends where a word was expected")
-        if token in _OPERATORS | {")"}:
-            self.fail(f"expected a word, got {token!r}")
-        self.position += 1
-        return lambda match: match(token)
+    value = expression() if rest else True
+    if rest:
+        fail(f"unexpected {rest[-1]!r}")
+    return value

@@ -50,9 +50,6 @@ CACHE_MAX_BYTES_VARIABLE = "BEATLOG_CACHE_MAX_BYTES"
 """The environment variable that sets the most bytes the cache holds (0: no cache)."""
 _ETAGS = ("ETag", "etag")
 _CHANGE_TIMES = ("mtime", "LastModified", "Last-Modified", "last_modified", "updated", "created")
-_ENTRIES = "entries"
-_IN_USE = "in-use"
-_FETCHING = "fetching"
 _OWNER = "owner"
 """The file in a folder of copies in use that its process holds locked."""
 _UNLOCKED_GRACE_S = 60.0
@@ -100,15 +97,15 @@ def cached_copy(
             fetch(Path(folder, name))
             yield Path(folder, name)
         return
-    entries = cache_folder() / _ENTRIES
-    in_use = cache_folder() / _IN_USE
+    root = cache_folder()
+    entries, in_use = root / "entries", root / "in-use"
     entries.mkdir(parents=True, exist_ok=True)
     in_use.mkdir(parents=True, exist_ok=True)
     _remove_abandoned(in_use)
     with _owned_folder(in_use) as folder:
         copy = folder / name
         if not _used(entries, key, copy):
-            with _fetching(cache_folder() / _FETCHING, key):
+            with _fetching(root / "fetching", key):
                 if not _used(entries, key, copy):  # another process's fetch came first
                     fetch(copy)
                     _keep(entries, key, copy, bound)

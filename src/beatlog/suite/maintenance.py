@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import contextlib
 import difflib
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any
 
 from beatlog.analysis.recorded import read_changes
 from beatlog.analysis.shift import Shift, shift
@@ -35,11 +35,10 @@ from beatlog.baseline.policy import UpdateMode, in_ci, require_writable
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError, OptionError
 from beatlog.log.recording import LogSource
-from beatlog.replay.approved_states import ApprovedStates
+from beatlog.replay.approved_state_lines import ApprovedRun
 from beatlog.replay.baseline import Baseline
 from beatlog.replay.draws import ApprovedDraws
-from beatlog.replay.verdict import FieldDifference
-from beatlog.suite.discovery import discover_specs
+from beatlog.suite.discovery import discover_specs, files_under
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.spec import DtcSpec
 from beatlog.suite.variants import write_variant_spec
@@ -48,7 +47,6 @@ __all__ = [
     "Decision",
     "PendingDiff",
     "PendingUpdate",
-    "RebuiltRun",
     "UpdateAction",
     "approve",
     "decide",
@@ -83,17 +81,10 @@ class PendingUpdate:
     """The pending file."""
     shift: Shift | None = None
     """What the baseline written (or withheld) loses and gains against today's."""
-    output_changes: int = 0
-    """Output changes in the baseline written (or withheld)."""
+    baseline: Baseline | None = None
+    """The baseline written (or withheld)."""
     reason: str | None = None
     """Why the update was refused."""
-    robot_state_cycles: int = 0
-    """Cycles whose robot state the baseline pins (perception rebuilt it otherwise
-    than recorded)."""
-    draws: tuple[ApprovedDraws, ...] = ()
-    """The draws the baseline lets replay make otherwise than recorded."""
-    open_loop: tuple[int, int] | None = None
-    """Where the behaviors leave the recording (cycle, robot time in ns), if they do."""
 
 
 def write_failed_variants(outcomes: Iterable[SpecOutcome]) -> list[Path]:
@@ -146,18 +137,7 @@ def update_baselines(
                     digest=outcome.log_digest or log_digest(spec.log),
                     baseline=update,
                 )
-            done.append(
-                PendingUpdate(
-                    spec,
-                    action,
-                    pending,
-                    weighed,
-                    len(update.outputs or ()),
-                    robot_state_cycles=update.approved_states.cycles,
-                    draws=update.draws,
-                    open_loop=update.open_loop,
-                )
-            )
+            done.append(PendingUpdate(spec, action, pending, weighed, update))
         elif ci:
             continue
         elif outcome.update_refused is not None:
@@ -184,9 +164,7 @@ class Decision(StrEnum):
     def parse(cls, value: Decision | str) -> Decision:
         """The decision named by ``value`` or by its start (``a``, ``rej``), in any case;
         anything else raises :class:`OptionError` listing the decisions there are."""
-        if isinstance(value, Decision):
-            return value
-        word = value.strip().lower()
+        word = value.strip().lower()  # a Decision is its own word
         found = [decision for decision in cls if word and decision.value.startswith(word)]
         if len(found) != 1:
             valid = ", ".join(repr(decision.value) for decision in cls)
@@ -232,20 +210,6 @@ def approve(paths: Sequence[Path]) -> list[tuple[DtcSpec, Shift]]:
     return approved
 
 
-class RebuiltRun(NamedTuple):
-    """Cycles in which the perception of a pending baseline rebuilds the robot state
-    otherwise than recorded (a run of them, with short gaps rebuilt as recorded)."""
-
-    fields: tuple[str, ...]
-    """The fields that differ from the recording in any of them."""
-    first_cycle: int
-    last_cycle: int
-    cycles: int
-    """How many of the cycles from first to last differ."""
-    first: tuple[FieldDifference, ...]
-    """The fields that differ in the first cycle: recorded and rebuilt."""
-
-
 @dataclass(frozen=True)
 class PendingDiff:
     """A pending baseline as a unified diff against today's: approved, else recorded."""
@@ -261,8 +225,10 @@ class PendingDiff:
     """The diff: changed cycles with a line of context either side."""
     shift: Shift
     """What the pending baseline loses and gains against today's baseline."""
-    rebuilt_runs: tuple[RebuiltRun, ...] = ()
+    rebuilt_runs: tuple[ApprovedRun, ...] = ()
     """The runs of cycles in which perception now rebuilds the robot state otherwise."""
+    recorded: Mapping[int, Mapping[str, Any]] = field(default_factory=dict)
+    """The robot state recorded in each run's first cycle, as fields."""
     draws: tuple[ApprovedDraws, ...] = ()
     """The draws the pending baseline lets replay make otherwise than recorded."""
     open_loop: tuple[int, int] | None = None
@@ -281,7 +247,8 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         source = (
             f"approved ({expected.name})" if expected.exists() else f"recorded ({spec.log.name})"
         )
-        runs = _rebuilt_runs(log, whole.baseline.approved_states)
+        runs = whole.baseline.approved_states.runs
+        recorded = recorded_states(log, {run.cycle for run in runs})
     old = format_lines(today.changes, today.outputs, today.baseline.approved_states)
     new = format_lines(whole.changes, whole.outputs, whole.baseline.approved_states)
     diff = difflib.unified_diff(old, new, source, "pending", n=1, lineterm="")
@@ -293,6 +260,7 @@ def pending_diff(spec: DtcSpec) -> PendingDiff:
         tuple(diff),
         weighed,
         runs,
+        recorded,
         whole.baseline.draws,
         whole.baseline.open_loop,
     )
@@ -318,33 +286,15 @@ def _weigh(
     return today, whole, weighed
 
 
-def _rebuilt_runs(log: Path, approved: ApprovedStates) -> tuple[RebuiltRun, ...]:
-    """The runs a pending file pins, with their first cycles' values as recorded."""
-    recorded = recorded_states(log, {run.cycle for run in approved.runs})
-    return tuple(
-        RebuiltRun(
-            run.fields,
-            run.cycle,
-            run.last,
-            run.cycles,
-            tuple(
-                FieldDifference(name, recorded.get(run.cycle, {}).get(name), value)
-                for name, value in run.first.items()
-            ),
-        )
-        for run in approved.runs
-    )
-
-
 def find_orphans(folders: Iterable[Path]) -> list[Path]:
     """Expected and pending files under ``folders`` whose spec no longer exists."""
-    orphans: set[Path] = set()
-    for folder in folders:
-        if not folder.is_dir():
-            continue
-        for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX):
-            for path in folder.rglob(f"*{suffix}"):
-                hidden = any(p.startswith(".") for p in path.relative_to(folder).parts[:-1])
-                if path.is_file() and not hidden and not spec_path(path).is_file():
-                    orphans.add(path)
-    return sorted(orphans)
+    return sorted(
+        {
+            path
+            for folder in folders
+            if folder.is_dir()
+            for suffix in (EXPECTED_SUFFIX, PENDING_SUFFIX)
+            for path in files_under(folder, suffix)
+            if not spec_path(path).is_file()
+        }
+    )

@@ -32,7 +32,7 @@ from beatlog.errors import (
     SystemLoadError,
 )
 from beatlog.log.limits import MAX_TEXT_LENGTH
-from beatlog.project.usercode import importable_near, load_perception, load_system
+from beatlog.project.usercode import load_perception, load_system
 from beatlog.replay.debugger import beyond_the_log
 from beatlog.suite.coverage import Text, cache_file, read_cached, select_exercising, write_cached
 from beatlog.suite.discovery import discover_specs, distinguished, select_specs
@@ -48,7 +48,6 @@ __all__ = [
     "Selection",
     "SuiteOptions",
     "check_break_at",
-    "check_references",
     "fleet_of",
     "fleet_specs",
     "last_failed_path",
@@ -161,13 +160,27 @@ class Selection:
 
 
 def fleet_of(options: SuiteOptions) -> list[DtcSpec] | None:
-    """The DTCs of a fleet run's logs (:func:`fleet_specs`), their system checked once
-    (:func:`check_references`); None without ``logs``."""
+    """The DTCs of a fleet run's logs (:func:`fleet_specs`); None without ``logs``. Every
+    log of a fleet names the same system (and perception step): it is built once here,
+    so that one that cannot be built is one error of the run.
+
+    :raises SystemLoadError: it cannot be built; the message starts with its option.
+    """
     if options.logs is None:
         return None
     assert options.system is not None, "SuiteOptions checks it"
     fleet = fleet_specs(options.logs, system=options.system, perception=options.perception)
-    check_references(fleet[0])
+    references = (
+        ("--system", options.system, load_system),
+        ("--perception", options.perception, load_perception),
+    )
+    for option, reference, load in references:  # none from beside the logs (never trusted)
+        if reference is None:
+            continue
+        try:
+            load(reference)
+        except SystemLoadError as exc:
+            raise SystemLoadError(f"{option} {exc}", user_traceback=exc.user_traceback) from None
     return fleet
 
 
@@ -275,28 +288,6 @@ def fleet_specs(pattern: str, *, system: str, perception: str | None = None) -> 
             )
         )
     return specs
-
-
-def check_references(spec: DtcSpec) -> None:
-    """Build the system (and perception step) of a fleet's DTC once: every log of a
-    fleet names the same ones, so one that cannot be built is one error of the run.
-
-    :raises SystemLoadError: it cannot be built; the message starts with its option.
-    """
-    references = (
-        ("--system", spec.system, load_system),
-        ("--perception", spec.perception, load_perception),
-    )
-    with importable_near(spec.spec_file):
-        for option, reference, load in references:
-            if reference is None:
-                continue
-            try:
-                load(reference)
-            except SystemLoadError as exc:
-                raise SystemLoadError(
-                    f"{option} {exc}", user_traceback=exc.user_traceback
-                ) from None
 
 
 def last_failed_path(root: Path) -> Path:

@@ -65,13 +65,8 @@ class Shrunk:
     path: Path
     """The shrunk spec written."""
     name: str
-    kind: DivergenceKind
-    behavior: str | None
-    """The behavior the failure concerns, if any."""
-    invariant: str | None
-    """The invariant that did not hold, in an invariant's failure."""
-    cycle: int
-    """The cycle where the shrunk spec fails."""
+    failure: Divergence
+    """How the shrunk spec fails: the same way as the spec, in its window."""
     start_cycle: int
     end_cycle: int
     fresh_start: bool
@@ -143,14 +138,10 @@ def shrink(spec: Path, *, progress: Callable[[Attempt], object] | None = None) -
     }
     spec_from_data(shrunk, written)  # what is written loads
     _write(spec, shrunk, spec_toml(written))
-    last = search.failure
     return Shrunk(
         path=shrunk,
         name=name,
-        kind=last.kind,
-        behavior=last.behavior,
-        invariant=last.invariant,
-        cycle=last.cycle,
+        failure=search.failure,
         start_cycle=search.start,
         end_cycle=search.end,
         fresh_start=search.fresh,
@@ -185,7 +176,6 @@ class _Search:
         divergence = self._replay(self.start, self.end, self.perturbations, self.fresh)
         if divergence is not None:
             self._same = divergence.kind, divergence.behavior, divergence.invariant
-            self.failure = divergence
         return divergence
 
     def fails(
@@ -201,10 +191,7 @@ class _Search:
         ``fresh`` start (by default, as kept so far), in the cycle it failed in last."""
         kept = self.perturbations if perturbations is None else perturbations
         fresh = self.fresh if fresh is None else fresh
-        divergence = self._replay(start, end, kept, fresh, same=True)
-        if divergence is not None:
-            self.failure = divergence
-        return divergence is not None
+        return self._replay(start, end, kept, fresh, same=True) is not None
 
     def fewest(self, given: tuple[str, ...]) -> dict[str, Any]:
         """Take out each perturbation in turn, keeping it out where the spec still fails
@@ -271,8 +258,8 @@ class _Search:
         same: bool = False,
     ) -> Divergence | None:
         """The divergence of one replay of the spec's data with this window, from a
-        ``fresh`` start or not, told to ``progress``; with ``same``, only one that
-        fails the same way (see :meth:`fails`)."""
+        ``fresh`` start or not, told to ``progress`` and kept as :attr:`failure`; with
+        ``same``, only one that fails the same way (see :meth:`fails`)."""
         data = {**self._data, "start_cycle": start, "fresh_start": fresh}
         if end is None:
             data.pop("end_cycle", None)
@@ -296,6 +283,8 @@ class _Search:
             and (not fresh or divergence.cycle == self.failure.cycle)
         ):
             divergence = None
+        if divergence is not None:
+            self.failure = divergence
         if self._progress is not None:
             kept = len(_perturbations(perturbations))
             self._progress(Attempt(start, end, kept, divergence is not None, self.replays, fresh))

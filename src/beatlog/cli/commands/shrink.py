@@ -51,12 +51,13 @@ def run(args: argparse.Namespace, console: Console) -> int:
 def _report(shrunk: Shrunk, console: Console) -> None:
     """What the shrink found: the failure, the window against the cycles before, the
     perturbations left, the replays tried and the spec written."""
-    where = f" {shrunk.invariant}" if shrunk.invariant else ""
-    where = where or (f" in {shrunk.behavior}" if shrunk.behavior else "")
+    failure = shrunk.failure
+    where = f" {failure.invariant}" if failure.invariant else ""
+    where = where or (f" in {failure.behavior}" if failure.behavior else "")
     start = shrunk.start_cycle
     before = f", {start} replayed before it" if start else ""
     lines = [
-        f"shrunk {shrunk.kind.value}{where} at cycle {shrunk.cycle}: "
+        f"shrunk {failure.kind.value}{where} at cycle {failure.cycle}: "
         f"{shrunk.cycles_before} cycles to the failure -> window {start}-{shrunk.end_cycle} "
         f"({shrunk.cycles_judged} judged{', fresh start' if shrunk.fresh_start else before})",
         f"replays tried: {shrunk.replays}",
