@@ -83,10 +83,12 @@ fetched, at least (whole tasks: a task of several DTCs has the next one's fetche
 enough to hide a request's latency behind replays shorter than it."""
 TASK_BYTES = 256 << 10
 """The most bytes of logs a task of several DTCs replays; a log this big or bigger is a
-task of its own. A task costs a cluster about 10 ms of CPU whatever it runs (its
-scheduling, messages and results), and a replay about 1 ms a KiB of log (35 ms for
-100 KiB): a task of 256 KiB of small logs replays for a quarter of a second or more,
-over 20 times its own cost, and still brings its first outcomes back within a second."""
+task of its own. Measured on a local cluster, a task costs about 10 ms of CPU whatever it
+runs (its scheduling, messages and result), and a small log's replay about 1 ms a KiB
+(8 ms for 3 s of a rover's recording, 8.4 KiB; 100 ms for 4 minutes, 287 KiB): 256 KiB
+of small logs replay for about a quarter of a second, so their task's own cost is 4 %
+of it, while a task still ends often enough for outcomes to stream back and for the
+threads to finish together (a quarter of a second apart at most)."""
 TASKS_PER_THREAD = 4
 """The fewest tasks a cluster thread gets where DTCs are packed together: enough that
 threads finishing at different times even out, and that all stay busy to the end."""
