@@ -199,9 +199,9 @@ class DaskExecutor(Closing):
                 outcomes = self._outcomes(future, result, task)
                 future.release()  # now, not as the next completes: a worker lost meanwhile
                 # would have the scheduler run the task again for a result no one wants
-                if outcomes is None:  # its workers died: its DTCs run again one a task
-                    deaths = self._deaths[str(future.key)]
-                    waiting.extendleft(_Task([spec], [], deaths) for spec in reversed(task.specs))
+                if isinstance(outcomes, int):  # its workers died: its DTCs again, one a task
+                    again = (_Task([spec], [], outcomes) for spec in reversed(task.specs))
+                    waiting.extendleft(again)
                     completed.update(submit(len(task.specs)))
                     continue
                 for outcome in outcomes:
@@ -213,16 +213,16 @@ class DaskExecutor(Closing):
 
     def _outcomes(
         self, future: Future[list[SpecOutcome]], result: Any, task: _Task
-    ) -> list[SpecOutcome] | None:
+    ) -> list[SpecOutcome] | int:
         """The outcomes of a completed task from its ``result`` (a failed task's is
         ``(type, exception, traceback)``, a cancelled one's the exception), told as a
         local run tells them, with the times each DTC was run again because its worker
-        died; None for a task of several DTCs whose workers kept dying, to be run again
-        one DTC a task."""
+        died; for a task of several DTCs whose workers kept dying, how many died, its
+        DTCs to be run again one a task."""
         from distributed import KilledWorker  # noqa: PLC0415 - with the client's package
 
-        deaths = task.deaths + self._deaths[str(future.key)]
         if future.status == "finished":
+            deaths = task.deaths + self._deaths[str(future.key)]
             return [
                 _as_given(outcome, spec, deaths)
                 for outcome, spec in zip(result, task.specs, strict=True)
@@ -230,10 +230,11 @@ class DaskExecutor(Closing):
         exc = result[1].with_traceback(result[2]) if isinstance(result, tuple) else result
         if not isinstance(exc, KilledWorker):
             raise exc
+        died = task.deaths + exc.allowed_failures + 1
         if len(task.specs) > 1:
-            return None
-        problem = f"{deaths} workers died while replaying it (a crash, or a machine lost)"
-        return [SpecOutcome(task.specs[0], Verdict.ERROR, None, problem, 0.0, retries=deaths - 1)]
+            return died
+        problem = f"{died} workers died while replaying it (a crash, or a machine lost)"
+        return [SpecOutcome(task.specs[0], Verdict.ERROR, None, problem, 0.0, retries=died - 1)]
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
