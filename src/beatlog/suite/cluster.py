@@ -97,7 +97,7 @@ _OUTSIDE = "outside"
 
 
 class DaskExecutor(Closing):
-    """A connection to a Dask cluster that runs suites, one task per DTC (an
+    """A connection to a Dask cluster that runs suites, a few DTCs a task (an
     :data:`~beatlog.suite.parallel.Executor`): a scheduler's ``address``
     (``tcp://host:8786``), or ``local`` (``local:N``) for worker processes on this
     machine, one per core (N), closed with the executor.
