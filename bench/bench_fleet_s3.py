@@ -212,8 +212,8 @@ def main() -> None:
             f"{idle['client']:.3g} s, workers' CPU {idle['workers']:.3g} s",
             file=out,
         )
-        for run in ("first run", "rerun"):
-            figures = run_fleet(args.workers, delayed)
+        runs = {run: run_fleet(args.workers, delayed) for run in ("first run", "rerun")}
+        for run, figures in runs.items():
             print(run + ": " + ", ".join(f"{k} {v:.3g}" for k, v in figures.items()), file=out)
         specs = fleet_specs(f"s3://{BUCKET}/fleet/*.beatlog", system=ROVER)
         cpu = replay_cpu(specs)
@@ -222,6 +222,14 @@ def main() -> None:
             f"sum / workers {cpu / args.workers:.3g} s",
             file=out,
         )
+        for run, figures in runs.items():
+            whole = figures["start-up s"] + figures["fleet wall s after submission"]
+            target = 1.3 * cpu / args.workers + figures["start-up s"]
+            print(
+                f"{run}: start-up and fleet {whole:.3g} s against 1.3 x replay CPU / workers "
+                f"+ start-up {target:.3g} s ({'met' if whole <= target else 'not met'})",
+                file=out,
+            )
         print(out.getvalue(), end="")
 
 

@@ -18,19 +18,22 @@ from pathlib import Path
 
 import dask
 import pytest
-from distributed import Client, LocalCluster
+from distributed import Client, LocalCluster, get_task_stream
 
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.cli.main import main
 from beatlog.suite.cluster import (
     FETCHED_AHEAD,
     ONE_DTC_PER_THREAD,
+    TASK_BYTES,
+    TASKS_PER_THREAD,
     DaskExecutor,
     WorkerDeaths,
     as_here,
     fetched_ahead,
     missing_system,
     packed,
+    tasks,
     unpacked,
 )
 from beatlog.suite.discovery import discover_specs
@@ -42,7 +45,7 @@ from beatlog.suite.spec import DtcSpec, load_spec
 from tests.commands import Run, assert_error, assert_error_matching, closing_counts
 from tests.conftest import RecordFn
 from tests.served import LogServer
-from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, write_spec
+from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 from tests.text import table_row, whole_lines
 
 DYING = "tests.conftest:dying_system"
@@ -600,18 +603,23 @@ def test_a_fleet_log_ships_alone(checkout: Path) -> None:
     assert list(shipped.files) == ["logs/walk.beatlog"]
 
 
+def url_specs(folder: Path, count: int) -> list[DtcSpec]:
+    """``count`` DTCs, every fifth of a local log, the others of a log behind a URL."""
+    return [
+        DtcSpec(folder, f"d{n}", "", (), Path(f"d{n}.beatlog"), None, log_url=f"s3://b/d{n}")
+        if n % 5
+        else DtcSpec(folder, f"d{n}", "", (), folder / f"d{n}.beatlog", None)
+        for n in range(count)
+    ]
+
+
 @pytest.mark.parametrize(("dtcs", "threads"), [(0, 2), (1, 2), (3, 2), (40, 2), (41, 3), (9, 16)])
 def test_each_url_log_past_the_first_of_each_thread_is_fetched_ahead_by_one_task(
     tmp_path: Path, dtcs: int, threads: int
 ) -> None:
-    ordered = [
-        DtcSpec(tmp_path, f"d{n}", "", (), Path(f"d{n}.beatlog"), None, log_url=f"s3://b/d{n}")
-        if n % 5
-        else DtcSpec(tmp_path, f"d{n}", "", (), tmp_path / f"d{n}.beatlog", None)
-        for n in range(dtcs)
-    ]
+    ordered = url_specs(tmp_path, dtcs)
 
-    ahead = fetched_ahead(ordered, threads)
+    ahead = fetched_ahead([[spec] for spec in ordered], threads)
 
     fetched = [url for urls in ahead for url, _ in urls]
     assert sorted(fetched) == sorted(
@@ -621,3 +629,146 @@ def test_each_url_log_past_the_first_of_each_thread_is_fetched_ahead_by_one_task
     for index, urls in enumerate(ahead):
         assert len(urls) <= FETCHED_AHEAD
         assert all(at[url] > index for url, _ in urls)  # a later DTC's, never its own
+
+
+@pytest.mark.parametrize(("sizes", "threads"), [([3] * 7 + [1] * 40, 2), ([1] * 100, 3)])
+def test_a_task_of_several_dtcs_has_the_next_of_its_thread_fetched_and_its_own(
+    tmp_path: Path, sizes: list[int], threads: int
+) -> None:
+    ordered = url_specs(tmp_path, len(sizes))
+    grouped = [[ordered[index] for index in task] for task in tasks(sizes, threads)]
+
+    ahead = fetched_ahead(grouped, threads)
+
+    firsts = {grouped[index][0].log_url for index in range(min(threads, len(grouped)))}
+    fetched = [url for urls in ahead for url, _ in urls]
+    assert sorted(fetched) == sorted(
+        spec.log_url for spec in ordered if spec.log_url is not None and spec.log_url not in firsts
+    )
+    task_of = {spec.log_url: index for index, task in enumerate(grouped) for spec in task}
+    for index, urls in enumerate(ahead):
+        later = [task_of[url] for url, _ in urls]
+        assert all(at % threads == index % threads for at in later)  # by its own thread
+        own = [at for at in later if at == index]
+        assert not own or index < threads  # only a thread's first task fetches its own
+        assert all(at <= index + threads * FETCHED_AHEAD for at in later)
+        if index + threads < len(grouped):  # the next task of its thread is fetched by now
+            assert {task_of[url] for urls in ahead[: index + 1] for url, _ in urls} >= {
+                at
+                for at in range(index % threads, index + threads + 1, threads)
+                if any(spec.log_url for spec in grouped[at])
+            } - {index % threads}
+
+
+SMALL, BIG = 10_000, TASK_BYTES
+
+
+@pytest.mark.parametrize(
+    ("sizes", "threads"),
+    [
+        ([], 2),
+        ([SMALL] * 3, 2),
+        ([BIG * 2, BIG, BIG - 1, *[SMALL] * 200, None, *[SMALL] * 50], 2),
+        ([SMALL] * 1000, 2),
+        ([SMALL] * 1000, 160),
+        ([BIG + 1, None, *[SMALL] * 400, None, *[1] * 300, 0, 0], 4),
+        ([BIG // 2 + 1] * 64, 1),
+    ],
+)
+def test_tasks_hold_every_dtc_once_in_order_within_their_bounds(
+    sizes: list[int | None], threads: int
+) -> None:
+    grouped = tasks(sizes, threads)
+
+    assert [index for task in grouped for index in task] == list(range(len(sizes)))
+    assert all(len(task) == 1 for task in grouped[:threads])  # its first outcome soon
+    most = max(1, len(sizes) // (threads * TASKS_PER_THREAD))
+    for task in grouped:
+        weights = [sizes[index] for index in task]
+        if len(task) > 1:
+            assert None not in weights
+            assert sum(weight or 0 for weight in weights) <= TASK_BYTES
+            assert len(task) <= most
+            assert all((weight or 0) < TASK_BYTES for weight in weights)
+
+
+@pytest.mark.parametrize(
+    ("sizes", "threads", "expected"),
+    [
+        (  # a thread's first alone, big and unknown alone, small ones packed up to the
+            # bytes or the count
+            [BIG + 1, None, 100_000, 100_000, 100_000, *[1_000] * 13],
+            1,
+            [1, 1, 2, 4, 4, 4, 2],
+        ),
+        ([SMALL] * 1000, 2, [1, 1] + [26] * 38 + [10]),  # 26 logs fill a task's bytes
+        ([1] * 1000, 2, [1, 1] + [125] * 7 + [123]),  # four tasks a thread, at least
+        ([SMALL] * 3, 2, [1] * 3),  # too few to pack: every thread busy
+        ([SMALL] * 1000, 160, [1] * 1000),
+    ],
+)
+def test_big_dtcs_run_alone_and_small_ones_are_packed(
+    sizes: list[int | None], threads: int, expected: list[int]
+) -> None:
+    assert [len(task) for task in tasks(sizes, threads)] == expected
+
+
+@pytest.fixture
+def many(tmp_path: Path, record_probe: RecordFn) -> Path:
+    """Twenty-four DTCs of one short log, the fifth replaying a changed system and the
+    tenth a system that cannot be built: on two threads, tasks of three DTCs."""
+    log = record_probe(40)
+    folder = tmp_path / "many"
+    for index in range(24):
+        system = {4: CHANGED, 9: "tests.conftest:broken_probe"}.get(index, PROBE)
+        write_spec(folder, f"dtc-{index:02}", log, system)
+    return folder
+
+
+def test_each_dtc_of_a_task_of_several_gets_its_own_verdict(
+    beatlog: Callable[..., Run], cluster: str, many: Path, tmp_path: Path
+) -> None:
+    local = beatlog("test", many, "-j", "1", "--junit-xml", tmp_path / "local.xml")
+    with (
+        Client(cluster, set_as_default=False) as watcher,
+        get_task_stream(client=watcher) as stream,
+    ):
+        remote = beatlog("test", many, "--dask", cluster, "--junit-xml", tmp_path / "dask.xml")
+
+    assert remote.code == local.code == 2
+    assert closing_counts(remote.out) == closing_counts(local.out) == "22 passed, 1 failed, 1 error"
+    assert junit_cases(tmp_path / "dask.xml") == junit_cases(tmp_path / "local.xml")
+    assert "the arena map is missing" in remote.err
+    ran = [str(task["key"]) for task in stream.data if str(task["key"]).startswith("dtc-")]
+    assert len(ran) < 24  # several DTCs a task
+
+
+@pytest.mark.slow  # 2 s or more: CI's slow run has it
+def test_a_dtc_that_kills_the_workers_of_its_task_loses_no_other_dtcs_outcome(
+    beatlog: Callable[..., Run], tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(40)
+    folder = tmp_path / "many"
+    for index in range(16):  # on two threads, tasks of two DTCs after each thread's first
+        write_spec(folder, f"dtc-{index:02}", log, DYING if index == 4 else PROBE)
+
+    with (
+        dask.config.set(ONE_DTC_PER_THREAD),
+        LocalCluster(
+            n_workers=2,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.CRITICAL,
+            scheduler_kwargs={"allowed_failures": 0},  # a task is lost with its first worker
+        ) as fragile,
+    ):
+        run = beatlog("test", folder, "--dask", fragile.scheduler_address)
+
+    assert run.code == 2
+    assert run.err == (
+        f"beatlog: error: dtc-04 ({folder / 'dtc-04.dtc.toml'}): 2 workers died "
+        "while replaying it (a crash, or a machine lost)\n"
+    )
+    assert closing_counts(run.out) == "15 passed, 0 failed, 1 error"
+    assert "retried dtc-05: the worker replaying it died (1 time)" in whole_lines(run.out)

@@ -22,6 +22,7 @@ from beatlog.suite.log_cache import (
     CACHE_MAX_BYTES_VARIABLE,
     cache_folder,
     cache_key,
+    holds,
 )
 from beatlog.suite.remote import Listed, fetched_log
 from tests.conftest import RecordFn
@@ -156,6 +157,25 @@ def test_a_log_larger_than_the_cache_is_not_kept(
 
     assert served.downloads("dock.beatlog") == 2
     assert list((log_cache / "entries").iterdir()) == []
+
+
+def test_the_cache_holds_a_listed_object_once_fetched_and_not_once_changed(
+    served: LogServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+    size = (served.folder / "dock.beatlog").stat().st_size
+    listed = {"size": size, "ETag": "v1"}
+    before = holds(url, listed)
+
+    fetched(url, size)
+
+    assert (before, holds(url, listed), holds(url, {**listed, "ETag": "v2"})) == (
+        False,
+        True,
+        False,
+    )
+    monkeypatch.setenv(CACHE_MAX_BYTES_VARIABLE, "0")
+    assert not holds(url, listed)
 
 
 def test_a_cache_of_0_bytes_is_none(

@@ -1,9 +1,11 @@
 """Suites on a Dask cluster: ``beatlog test --dask ADDRESS`` (or ``--dask local:N``).
 
-One Dask task per DTC runs :func:`beatlog.suite.runner.run_spec` and sends back its
-outcome; outcomes stream back as they complete, to the same progress bar and reports.
-Tasks are submitted as outcomes come, two a cluster thread ahead of them, so the files
-they ship are held for those DTCs alone. A spec travels with absolute paths to a
+Each Dask task runs :func:`beatlog.suite.runner.run_spec` for a few DTCs in the order
+run (:func:`tasks`: a big DTC alone, small ones together, so that a cluster's cost of a
+task does not swamp their replays) and sends back their outcomes; outcomes stream back
+as tasks complete, each DTC's to the same progress bar and reports. Tasks are submitted
+as outcomes come, two a cluster thread ahead of them, so the files they ship are held
+for those DTCs alone. A spec travels with absolute paths to a
 cluster of this machine's (``local``); to another, with the files of this machine its
 replay reads (:func:`packed`: its baseline, its local log, its project's
 ``pyproject.toml``), written into a folder of the worker's in the same places
@@ -12,9 +14,10 @@ also fetches ahead the logs it is likely to replay next. Code is not shipped: a 
 without the system's package makes the DTC an error that says so
 (:func:`missing_system`).
 
-A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs it
-again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
-outcome counts the retries (:class:`WorkerDeaths`); past them the DTC is an error.
+A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs its
+task again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
+outcome counts the retries (:class:`WorkerDeaths`); past them a task of several DTCs is
+run again one DTC a task, so that only the DTC that kills its workers is an error.
 Needs ``pip install "beatlog[dask]"``.
 """
 
@@ -53,6 +56,8 @@ if TYPE_CHECKING:
 __all__ = [
     "FETCHED_AHEAD",
     "ONE_DTC_PER_THREAD",
+    "TASKS_PER_THREAD",
+    "TASK_BYTES",
     "DaskExecutor",
     "Packed",
     "WorkerDeaths",
@@ -60,6 +65,7 @@ __all__ = [
     "fetched_ahead",
     "missing_system",
     "packed",
+    "tasks",
     "unpacked",
 ]
 
@@ -70,16 +76,28 @@ it was replaying with it (with Dask's default, 1.1, a worker of one thread also 
 the next DTC, which would count as retried too)."""
 
 _IN_FLIGHT_PER_THREAD = 2
-"""How many DTCs a run keeps submitted for each thread of the cluster."""
+"""How many tasks a run keeps submitted for each thread of the cluster."""
 FETCHED_AHEAD = 4
-"""How many DTCs ahead of the one it replays a worker's thread has the URL logs
-fetched: enough to hide a request's latency behind replays shorter than it."""
+"""How many DTCs ahead of the task it replays a worker's thread has the URL logs
+fetched, at least (whole tasks: a task of several DTCs has the next one's fetched):
+enough to hide a request's latency behind replays shorter than it."""
+TASK_BYTES = 256 << 10
+"""The most bytes of logs a task of several DTCs replays; a log this big or bigger is a
+task of its own. Measured on a local cluster, a task costs about 10 ms of CPU whatever it
+runs (its scheduling, messages and result), and a small log's replay about 1 ms a KiB
+(8 ms for 3 s of a rover's recording, 8.4 KiB; 100 ms for 4 minutes, 287 KiB): 256 KiB
+of small logs replay for about a quarter of a second, so their task's own cost is 4 %
+of it, while a task still ends often enough for outcomes to stream back and for the
+threads to finish together (a quarter of a second apart at most)."""
+TASKS_PER_THREAD = 4
+"""The fewest tasks a cluster thread gets where DTCs are packed together: enough that
+threads finishing at different times even out, and that all stay busy to the end."""
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
 _OUTSIDE = "outside"
 
 
 class DaskExecutor(Closing):
-    """A connection to a Dask cluster that runs suites, one task per DTC (an
+    """A connection to a Dask cluster that runs suites, a few DTCs a task (an
     :data:`~beatlog.suite.parallel.Executor`): a scheduler's ``address``
     (``tcp://host:8786``), or ``local`` (``local:N``) for worker processes on this
     machine, one per core (N), closed with the executor.
@@ -132,62 +150,91 @@ class DaskExecutor(Closing):
         options: SpecOptions,
         done: Callable[[SpecOutcome], bool],
     ) -> None:
-        """Submit one task per spec and give each outcome to ``done`` as it completes,
-        until ``done`` says stop or none is left. On leaving, Ctrl-C included, the tasks
-        not complete are cancelled."""
+        """Submit the specs in :func:`tasks` and give each outcome to ``done`` as its task
+        completes, until ``done`` says stop or none is left. On leaving, Ctrl-C included,
+        the tasks not complete are cancelled."""
         from distributed import as_completed  # noqa: PLC0415 - with the client's package
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
         threads = max(1, sum(self._client.nthreads().values()))
-        waiting = iter(zip(ordered, fetched_ahead(ordered, threads), strict=True))
-        pending: dict[str, tuple[Future[SpecOutcome], DtcSpec]] = {}
+        grouped = [
+            [ordered[index] for index in task]
+            for task in tasks([_log_bytes(spec) for spec in ordered], threads)
+        ]
+        ahead = fetched_ahead(grouped, threads)
+        waiting = collections.deque(map(_Task, grouped, ahead))
+        pending: dict[str, tuple[Future[list[SpecOutcome]], _Task]] = {}
 
-        def submit(count: int) -> list[Future[SpecOutcome]]:
-            """Submit the next ``count`` DTCs, reading the files they ship only now."""
-            chosen = list(itertools.islice(waiting, count))
+        def submit(count: int) -> list[Future[list[SpecOutcome]]]:
+            """Submit the next ``count`` tasks, reading the files they ship only now."""
+            chosen = [waiting.popleft() for _ in range(min(count, len(waiting)))]
             if not chosen:
                 return []
-            keys = [f"dtc-{spec.name}-{uuid.uuid4().hex}" for spec, _ in chosen]
+            keys = [f"dtc-{task.specs[0].name}-{uuid.uuid4().hex}" for task in chosen]
             sent = [
-                packed(_absolute(spec)) if self._ships else _absolute(spec) for spec, _ in chosen
+                [packed(_absolute(spec)) if self._ships else _absolute(spec) for spec in task.specs]
+                for task in chosen
             ]
-            later = [next_ for _, next_ in chosen]
-            futures: list[Future[SpecOutcome]] = self._client.map(  # one message for all
-                _replayed, sent, later, options=options, key=keys, pure=False
+            futures: list[Future[list[SpecOutcome]]] = self._client.map(  # one message for all
+                _replayed,
+                sent,
+                [task.ahead for task in chosen],
+                options=options,
+                key=keys,
+                pure=False,
             )
-            for future, (spec, _) in zip(futures, chosen, strict=True):
-                pending[str(future.key)] = (future, spec)
+            for future, task in zip(futures, chosen, strict=True):
+                pending[str(future.key)] = (future, task)
             return futures
 
         completed = as_completed(
             submit(_IN_FLIGHT_PER_THREAD * threads),
             loop=self._client.loop,
-            with_results=True,  # gathered as they complete: no round trip a DTC here
+            with_results=True,  # gathered as they complete: no round trip a task here
             raise_errors=False,
         )
         try:
             for future, result in completed:
-                _, spec = pending.pop(str(future.key))
-                if done(self._outcome(future, result, spec)):
-                    return
+                _, task = pending.pop(str(future.key))
+                outcomes = self._outcomes(future, result, task)
+                future.release()  # now, not as the next completes: a worker lost meanwhile
+                # would have the scheduler run the task again for a result no one wants
+                if isinstance(outcomes, int):  # its workers died: its DTCs again, one a task
+                    again = (_Task([spec], [], outcomes) for spec in reversed(task.specs))
+                    waiting.extendleft(again)
+                    completed.update(submit(len(task.specs)))
+                    continue
+                for outcome in outcomes:
+                    if done(outcome):
+                        return
                 completed.update(submit(1))
         finally:
             self._client.cancel([future for future, _ in pending.values()], force=True)
 
-    def _outcome(self, future: Future[SpecOutcome], result: Any, spec: DtcSpec) -> SpecOutcome:
-        """The outcome of a completed task from its ``result`` (a failed task's is
+    def _outcomes(
+        self, future: Future[list[SpecOutcome]], result: Any, task: _Task
+    ) -> list[SpecOutcome] | int:
+        """The outcomes of a completed task from its ``result`` (a failed task's is
         ``(type, exception, traceback)``, a cancelled one's the exception), told as a
-        local run tells it, with the times the DTC was run again because its worker died."""
+        local run tells them, with the times each DTC was run again because its worker
+        died; for a task of several DTCs whose workers kept dying, how many died, its
+        DTCs to be run again one a task."""
         from distributed import KilledWorker  # noqa: PLC0415 - with the client's package
 
         if future.status == "finished":
-            return _as_given(result, spec, self._deaths[str(future.key)])
+            deaths = task.deaths + self._deaths[str(future.key)]
+            return [
+                _as_given(outcome, spec, deaths)
+                for outcome, spec in zip(result, task.specs, strict=True)
+            ]
         exc = result[1].with_traceback(result[2]) if isinstance(result, tuple) else result
         if not isinstance(exc, KilledWorker):
             raise exc
-        tries = exc.allowed_failures + 1
-        problem = f"{tries} workers died while replaying it (a crash, or a machine lost)"
-        return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=tries - 1)
+        died = task.deaths + exc.allowed_failures + 1
+        if len(task.specs) > 1:
+            return died
+        problem = f"{died} workers died while replaying it (a crash, or a machine lost)"
+        return [SpecOutcome(task.specs[0], Verdict.ERROR, None, problem, 0.0, retries=died - 1)]
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
@@ -245,30 +292,77 @@ def _handshake(address: str) -> None:
     raise ClusterError(f"--dask {address}: cannot reach the cluster: {problem}")
 
 
+@dataclass(frozen=True)
+class _Task:
+    """The DTCs of one task, in the order run, with the URL logs it fetches ahead for
+    later tasks, and how many workers died while running these DTCs in an earlier task."""
+
+    specs: list[DtcSpec]
+    ahead: list[tuple[str, Listed | None]]
+    deaths: int = 0
+
+
+def tasks(sizes: Sequence[int | None], threads: int) -> list[range]:
+    """The DTCs, given by their logs' sizes in bytes in the order run (None: not known),
+    as the tasks of a cluster of ``threads`` threads: runs of DTCs in that order, each
+    DTC once. The first task of each thread holds one DTC, whose outcome then comes back
+    as soon as a replay allows; after them a log of :data:`TASK_BYTES` or more, or of no
+    known size, is a task alone, and smaller ones are packed together up to that many
+    bytes, and no more of them than leaves each thread :data:`TASKS_PER_THREAD` tasks."""
+    most = max(1, len(sizes) // (threads * TASKS_PER_THREAD))
+    grouped: list[range] = []
+    start = carried = 0
+    for index, size in enumerate(sizes):
+        weight = TASK_BYTES if size is None else size
+        full = index - start >= most or carried >= TASK_BYTES or carried + weight > TASK_BYTES
+        if index > start and (full or len(grouped) < threads):
+            grouped.append(range(start, index))
+            start, carried = index, 0
+        carried += weight
+    if start < len(sizes):
+        grouped.append(range(start, len(sizes)))
+    return grouped
+
+
 def fetched_ahead(
-    ordered: Sequence[DtcSpec], threads: int
+    grouped: Sequence[Sequence[DtcSpec]], threads: int
 ) -> list[list[tuple[str, Listed | None]]]:
-    """For each DTC in the order run, the URL logs (and what their listing said) its
-    task fetches ahead while it replays: those :data:`FETCHED_AHEAD` DTCs further on
-    for its thread (as many DTCs on as the cluster has threads), each log by one task
-    alone: a thread's first task starts them all, each later one the last."""
-    urls = [None if spec.log_url is None else (spec.log_url, spec.listed_log) for spec in ordered]
-    ahead: list[list[tuple[str, Listed | None]]] = []
-    for index in range(len(ordered)):
-        steps = range(1, FETCHED_AHEAD + 1) if index < threads else (FETCHED_AHEAD,)
-        later = (index + threads * step for step in steps)
-        ahead.append([url for at in later if at < len(urls) and (url := urls[at]) is not None])
+    """For each task in the order run, the URL logs (and what their listing said) it
+    fetches ahead while it replays, each log by one task alone. A thread is taken to
+    run every ``threads``-th task: each of its tasks has the logs of its next tasks
+    fetched, as many as hold :data:`FETCHED_AHEAD` DTCs; its first one, the logs of its
+    own DTCs after the first too."""
+    ahead: list[list[tuple[str, Listed | None]]] = [[] for _ in grouped]
+    for first in range(min(threads, len(grouped))):
+        own = range(first, len(grouped), threads)  # this thread's tasks
+        stream = [
+            None if spec.log_url is None else (spec.log_url, spec.listed_log)
+            for at in own
+            for spec in grouped[at]
+        ]
+        ends = list(itertools.accumulate(len(grouped[at]) for at in own))
+        fetched = 1  # the thread's first DTC copies its own log
+        for step, at in enumerate(own):
+            wanted = ends[step] + FETCHED_AHEAD
+            until = next((end for end in ends[step + 1 :] if end >= wanted), len(stream))
+            ahead[at] = [url for url in stream[fetched:until] if url is not None]
+            fetched = until
     return ahead
 
 
 def _replayed(
-    sent: DtcSpec | Packed, ahead: list[tuple[str, Listed | None]], *, options: SpecOptions
-) -> SpecOutcome:
-    """On a worker: :func:`run_spec` of the DTC sent, with its files where it was
-    packed, while the logs ``ahead``, which this thread likely replays later, are
-    fetched into the machine's cache."""
+    sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]], *, options: SpecOptions
+) -> list[SpecOutcome]:
+    """On a worker: the outcomes of the DTCs of a task, in turn, while the logs
+    ``ahead``, which this thread likely replays later, are fetched into the machine's
+    cache."""
     for url, listed in ahead:
         fetch_ahead(url, listed)
+    return [_replayed_one(each, options) for each in sent]
+
+
+def _replayed_one(sent: DtcSpec | Packed, options: SpecOptions) -> SpecOutcome:
+    """:func:`run_spec` of the DTC sent, with its files where it was packed."""
     if isinstance(sent, DtcSpec):
         return _waited(sent, options)
     with (
@@ -297,6 +391,17 @@ def _waited(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
     if outcome.storage_wait_s is None:
         return outcome
     return dataclasses.replace(outcome, storage_wait_s=outcome.storage_wait_s + waited)
+
+
+def _log_bytes(spec: DtcSpec) -> int | None:
+    """The size of the spec's log as its listing or this machine's filesystem gives it,
+    nothing asked of a storage; None where neither does."""
+    if spec.log_url is not None:
+        return spec.log_size
+    try:
+        return spec.log.stat().st_size
+    except OSError:
+        return None
 
 
 def _absolute(spec: DtcSpec) -> DtcSpec:

@@ -39,6 +39,7 @@ __all__ = [
     "cache_folder",
     "cache_key",
     "cached_copy",
+    "holds",
 ]
 
 MAX_CACHE_BYTES = 4 << 30
@@ -80,6 +81,15 @@ def cache_folder() -> Path:
     import platformdirs  # noqa: PLC0415 - with fsspec, in the fleet extra
 
     return Path(platformdirs.user_cache_dir("beatlog"), "logs")
+
+
+def holds(url: str, info: Mapping[str, Any]) -> bool:
+    """Whether the cache has an entry for the object behind ``url`` that ``info``
+    describes, unchecked: a cheap look before fetching it ahead (its use checks it)."""
+    key = cache_key(url, info)
+    if key is None or _max_bytes(url) == 0:
+        return False
+    return any((cache_folder() / _ENTRIES).glob(f"{key}.*"))
 
 
 @contextlib.contextmanager

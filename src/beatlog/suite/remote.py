@@ -32,7 +32,7 @@ from typing import Any, NamedTuple, TypeVar
 from urllib.parse import quote, unquote, urlsplit, urlunsplit
 
 from beatlog.errors import RemoteLogError, first_line
-from beatlog.suite.log_cache import cached_copy
+from beatlog.suite.log_cache import cached_copy, holds
 
 __all__ = [
     "MAX_BYTES_VARIABLE",
@@ -81,6 +81,10 @@ class Listed(NamedTuple):
     """Its size in bytes."""
     etag: str
     """Its ETag, which changes whenever the object does."""
+
+    def info(self) -> dict[str, Any]:
+        """What was listed, as fsspec's ``info()`` says it."""
+        return {"size": self.size, "ETag": self.etag}
 
 
 def is_url(text: str) -> bool:
@@ -168,7 +172,7 @@ def fetched_log(
         with _answering(url, "cannot copy"):
             info: dict[str, Any] = filesystem.info(path)
     else:
-        info = {"size": listed.size, "ETag": listed.etag}
+        info = listed.info()
     size: int | None = info.get("size")
     too_big = (
         f"larger than the {max_bytes} bytes a log behind a URL may have ({MAX_BYTES_VARIABLE})"
@@ -244,9 +248,12 @@ def log_size(url: str) -> int | None:
 
 def fetch_ahead(url: str, listed: Listed | None = None) -> None:
     """Start copying the log behind ``url`` (which a listing described as ``listed``, if
-    given) into this machine's cache in the background, unless this process is already
-    at it (:func:`wait_for` waits for it), so that fetching overlaps replaying. A log
-    that cannot be fetched is left to the DTC's own copy, which says what is wrong."""
+    given) into this machine's cache in the background, unless the cache has it, as the
+    listing described it, or this process is already at it (:func:`wait_for` waits for
+    it), so that fetching overlaps replaying. A log that cannot be fetched is left to
+    the DTC's own copy, which says what is wrong."""
+    if listed is not None and holds(url, listed.info()):
+        return
 
     def fetch() -> None:
         try:
