@@ -89,7 +89,7 @@ def holds(url: str, info: Mapping[str, Any]) -> bool:
     key = cache_key(url, info)
     if key is None or _max_bytes(url) == 0:
         return False
-    return any((cache_folder() / _ENTRIES).glob(f"{key}.*"))
+    return any((cache_folder() / "entries").glob(f"{key}.*"))
 
 
 @contextlib.contextmanager
