@@ -232,28 +232,15 @@ class ReplaySession(Closing):
             batches = judge.batches(batches)
         advance, outcome_of = replayer.advance, replayer.outcome
         verdict = None if judge is None else judge.judge
-        stand_in_at = -1 if fields_read is None else fields_read.cycle
-        context = replayer.executor.context
-        agreed = AGREED
+        if fields_read is not None:
+            context, tracker, at = replayer.executor.context, fields_read.tracker, fields_read.cycle
+            replayer.observe = lambda state: (
+                tracker.stand_in(state) if context.cycle + 1 == at else state
+            )
         replaying = True
         observing = False
         for batch in batches:
-            start = 0
-            if verdict is not None and not watching:  # the verdict alone: the hot path
-                for index, record in enumerate(batch):
-                    changes = advance(record)
-                    if changes is agreed:
-                        continue
-                    follower = verdict(index, record, changes, None)
-                    if follower is not None:
-                        verdict = None
-                        watching = [follower]
-                        start = index + 1
-                        break
-                else:
-                    continue
-            for index in range(start, len(batch)):
-                record = batch[index]
+            for index, record in enumerate(batch):
                 if watching:
                     watching = [observer for observer in watching if observer.reading]
                     observing = replaying and any(observer.replaying for observer in watching)
@@ -264,14 +251,11 @@ class ReplaySession(Closing):
                     for observer in watching:
                         observer.add(record, None)
                     continue
-                if context.cycle + 1 == stand_in_at and fields_read is not None:
-                    changes = self._standing_in(record, fields_read.tracker)
-                else:
-                    changes = advance(record)
+                changes = advance(record)
                 outcome = outcome_of() if observing else None
                 for observer in watching:
                     observer.add(record, outcome)
-                if verdict is not None and changes is not agreed:
+                if verdict is not None and changes is not AGREED:
                     follower = verdict(index, record, changes, outcome)
                     if follower is not None:
                         verdict = None
@@ -292,17 +276,6 @@ class ReplaySession(Closing):
                 executor.clock.now_ns = executor.context.time_ns = now_ns
                 executor.assume(recorded.by_position(executor.behavior_ids, self._rename))
             yield batch
-
-    def _standing_in(
-        self, record: CycleRecord, tracker: ReadTracker
-    ) -> list[LoggedStateChange] | None:
-        """Replay the next cycle with ``tracker`` standing in for its robot state."""
-        assert self.replayer is not None  # only a replay has a robot state to stand in for
-        self.replayer.observe = tracker.stand_in
-        try:
-            return self.replayer.advance(record)
-        finally:
-            self.replayer.observe = None
 
     def close(self) -> None:
         """Close the log."""
