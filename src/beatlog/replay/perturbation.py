@@ -130,11 +130,6 @@ class Perturber:
         if self._noise:
             replayer.perturb = self.noisy
 
-    @property
-    def rewrites(self) -> bool:
-        """Whether the records are rewritten, or their batches' noise drawn, at all."""
-        return bool(self._jitter_ns or self._draws or self._drop or self._delay or self._noise)
-
     def records(
         self, batches: Iterator[Sequence[CycleRecord]], first: int
     ) -> Iterator[Sequence[CycleRecord]]:

@@ -99,7 +99,7 @@ class _VariantJudge:
         """The log's batches up to the window's end, perturbed."""
         first = self._replayer.executor.context.cycle + 1
         batches = self._window.batches(batches, self._replayer)
-        return self._perturber.records(batches, first) if self._perturber.rewrites else batches
+        return self._perturber.records(batches, first)
 
     def judge(
         self,
