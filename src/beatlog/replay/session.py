@@ -66,9 +66,10 @@ class BatchReader(Protocol):
 
 class Judge(Protocol):
     """The verdict, as a replay session hands it the cycles: the replay core compares
-    each cycle with the bytes it expects (:meth:`~beatlog.replay.core.Replayer.expect`),
-    and the judge judges the cycles that did not agree at once, building a cycle's full
-    outcome only where it does not agree at all (the hot path)."""
+    each cycle with the bytes expected of it
+    (:meth:`~beatlog.replay.core.Replayer.check_bytes`), and the judge judges the cycles
+    that did not agree at once, building a cycle's full outcome only where it does not
+    agree at all."""
 
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches as it judges them."""
@@ -81,7 +82,7 @@ class Judge(Protocol):
         outcome: CycleOutcome | None,
     ) -> Observer | None:
         """Judge the cycle replayed last, the ``index``-th of its batch, which did not
-        agree at once: ``changes`` is what :attr:`~beatlog.replay.core.Replayer.advance`
+        agree at once: ``changes`` is what :meth:`~beatlog.replay.core.Replayer.advance`
         returned, ``outcome`` the cycle's outcome where other observers asked for it.
         Where judging stops, the observer that follows replay past that cycle, which
         alone the session goes on for: the others take the cycles up to that one."""
@@ -225,19 +226,21 @@ class ReplaySession(Closing):
             batches = _read_by(readers, batches)
         to_end = judge is not None or bool(readers)
         replayer = self.replayer
-        if replayer is None:  # the recording alone (a judge needs a system to judge)
-            _read(watching, batches, to_end=to_end)
-            return
-        if judge is not None:
-            batches = judge.batches(batches)
-        advance, outcome_of = replayer.advance, replayer.outcome
-        verdict = None if judge is None else judge.judge
-        if fields_read is not None:
-            context, tracker, at = replayer.executor.context, fields_read.tracker, fields_read.cycle
-            replayer.observe = lambda state: (
-                tracker.stand_in(state) if context.cycle + 1 == at else state
-            )
-        replaying = True
+        verdict = None  # without a system, the recording alone: nothing to judge
+        if replayer is not None:
+            advance, outcome_of = replayer.advance, replayer.outcome
+            if judge is not None:
+                batches, verdict = judge.batches(batches), judge.judge
+            if fields_read is not None:
+                context, tracker, at = (
+                    replayer.executor.context,
+                    fields_read.tracker,
+                    fields_read.cycle,
+                )
+                replayer.observe = lambda state: (
+                    tracker.stand_in(state) if context.cycle + 1 == at else state
+                )
+        replaying = replayer is not None
         observing = False
         for batch in batches:
             for index, record in enumerate(batch):
@@ -280,19 +283,6 @@ class ReplaySession(Closing):
     def close(self) -> None:
         """Close the log."""
         self.reader.close()
-
-
-def _read(
-    observers: list[Observer], batches: Iterator[Sequence[CycleRecord]], *, to_end: bool
-) -> None:
-    """Hand the recording alone to ``observers`` while they read it (or to its end)."""
-    for batch in batches:
-        for record in batch:
-            observers = [observer for observer in observers if observer.reading]
-            if not observers and not to_end:
-                return
-            for observer in observers:
-                observer.add(record, None)
 
 
 def _read_by(
