@@ -138,27 +138,3 @@ def test_nothing_but_the_replay_session_steps_the_replay_core() -> None:
     }
 
     assert sorted(stepping) == ["replay/session.py"]
-
-
-@pytest.mark.parametrize(
-    ("threshold", "draws", "keep_going"),
-    [(0.5, 1, False), (0.6, 1, False), (0.6, 1, True), (0.5, 2, False)],
-    ids=["passes", "diverges", "keeps-going", "draws-otherwise"],
-)
-def test_the_verdict_alone_judges_as_it_does_beside_an_observer(
-    record_probe: RecordFn, threshold: float, draws: int, keep_going: bool
-) -> None:
-    """The session's hot path (the verdict alone) and its loop for observers agree."""
-    log = record_probe(300)
-
-    alone = replay(log, probe_system(threshold, draws=draws), keep_going=keep_going)
-    observed = replay(
-        log, probe_system(threshold, draws=draws), keep_going=keep_going, observe=lambda o: None
-    )
-
-    assert (alone.ok, alone.divergence, alone.divergent_cycles, alone.counts) == (
-        observed.ok,
-        observed.divergence,
-        observed.divergent_cycles,
-        observed.counts,
-    )
