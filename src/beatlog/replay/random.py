@@ -112,10 +112,8 @@ class ReplayRandom(RandomSource):
     def load(self, recorded: Sequence[Draw]) -> None:
         """Set the draws recorded for the next cycle."""
         self.recorded = recorded
-        if self.drawn:
-            self.drawn = []
-        if self.made_otherwise:
-            self.made_otherwise = []
+        self.drawn = []
+        self.made_otherwise = []
         self._used = None
         self.refused = None
 
