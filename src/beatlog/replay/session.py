@@ -232,11 +232,8 @@ class ReplaySession(Closing):
             if judge is not None:
                 batches, verdict = judge.batches(batches), judge.judge
             if fields_read is not None:
-                context, tracker, at = (
-                    replayer.executor.context,
-                    fields_read.tracker,
-                    fields_read.cycle,
-                )
+                context = replayer.executor.context
+                tracker, at = fields_read.tracker, fields_read.cycle
                 replayer.observe = lambda state: (
                     tracker.stand_in(state) if context.cycle + 1 == at else state
                 )
