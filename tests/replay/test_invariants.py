@@ -11,9 +11,7 @@ import pytest
 from beatlog.errors import SystemLoadError
 from beatlog.model.invariant import Cycle
 from beatlog.replay.core import Replayer
-from beatlog.replay.invariants import InvariantChecker
 from beatlog.replay.judge import replay
-from beatlog.replay.session import ReplaySession
 from beatlog.replay.verdict import DivergenceKind, StateChange
 from tests.conftest import Probe, RecordFn, distances, probe_system, probe_system_changed
 from tests.specs import FIRST_CHANGED_CYCLE
@@ -216,16 +214,6 @@ def test_only_a_replay_with_invariants_builds_the_outcome_of_every_cycle(
     replay(log, probe_system(), invariants=[stops_when_near])
 
     assert (without, len(built) - without) == (0, 300)
-
-
-def test_the_checker_observes_a_session_without_a_verdict(log: Path) -> None:
-    checker = InvariantChecker([never_close], system := probe_system())
-
-    with ReplaySession(log, system) as session:
-        session.run([checker])
-
-    assert checker.violation is not None
-    assert (checker.violation.cycle, checker.replaying) == (FIRST_CLOSE, False)
 
 
 def test_an_invariant_that_does_not_import_is_a_load_error(log: Path) -> None:

@@ -1067,3 +1067,27 @@ def test_a_log_cut_off_before_a_fresh_start_ends_where_it_was_cut(
 
     assert result.divergence is not None
     assert (result.divergence.kind, result.divergence.cycle) == (DivergenceKind.LOG_ENDED, cycles)
+
+
+@pytest.mark.parametrize(
+    ("threshold", "draws", "keep_going"),
+    [(0.5, 1, False), (0.6, 1, False), (0.6, 1, True), (0.5, 2, False)],
+    ids=["passes", "diverges", "keeps-going", "draws-otherwise"],
+)
+def test_robot_states_decoded_with_their_batch_judge_as_decoded_cycle_by_cycle(
+    record_probe: RecordFn, threshold: float, draws: int, keep_going: bool
+) -> None:
+    """Without observers the reader decodes RS_t with each batch; with one, cycle by cycle."""
+    log = record_probe(300)
+
+    alone = replay(log, probe_system(threshold, draws=draws), keep_going=keep_going)
+    observed = replay(
+        log, probe_system(threshold, draws=draws), keep_going=keep_going, observe=lambda o: None
+    )
+
+    assert (alone.ok, alone.divergence, alone.divergent_cycles, alone.counts) == (
+        observed.ok,
+        observed.divergence,
+        observed.divergent_cycles,
+        observed.counts,
+    )

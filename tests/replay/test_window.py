@@ -10,6 +10,7 @@ import pytest
 from beatlog.errors import WindowError
 from beatlog.log.reader import LogStatus
 from beatlog.replay.session import ReplaySession
+from beatlog.replay.verdict import DivergenceKind
 from beatlog.replay.window import Window
 from tests.conftest import RecordFn, probe_system
 
@@ -54,11 +55,13 @@ def test_a_log_cut_short_ends_early_unless_allowed_and_a_window_past_it_is_refus
     cut_short = LogStatus(complete=False, cycles=50)
     where = Path("dock.dtc.toml")
 
-    assert Window().ended_early(cut_short, where, allow_truncated=False)
-    assert not Window().ended_early(cut_short, where, allow_truncated=True)
-    assert not Window(0, 10).ended_early(None, where, allow_truncated=False)
+    ended = Window().log_ended(cut_short, where, 70, 0, allow_truncated=False)
+    assert ended is not None
+    assert (ended.kind, ended.cycle) == (DivergenceKind.LOG_ENDED, 50)
+    assert Window().log_ended(cut_short, where, 50, 0, allow_truncated=True) is None
+    assert Window(0, 10).log_ended(None, where, 11, 0, allow_truncated=False) is None
     with pytest.raises(WindowError, match="start_cycle 60 is past the log's last cycle"):
-        Window(60).ended_early(cut_short, where, allow_truncated=True)
+        Window(60).log_ended(cut_short, where, 50, 0, allow_truncated=True)
 
 
 @pytest.mark.parametrize(

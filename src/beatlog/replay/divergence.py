@@ -332,9 +332,7 @@ class Follower:
 
     def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
         """Take the next cycle past the divergence."""
-        if not self.reading or outcome is None:
-            return
-        if outcome.changes is None or outcome.failure is not None:
+        if outcome is None or outcome.changes is None or outcome.failure is not None:
             self.suspect = self.replaying = self.reading = False
             return
         self.rows.append(self._row(outcome))

@@ -6,12 +6,11 @@ update completed are checked; one that did not is a divergence of its own.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
-from operator import attrgetter
+from collections.abc import Iterable, Sequence
 from types import MappingProxyType
 from typing import Any, NamedTuple
 
-from beatlog.log.format import CycleRecord, Draw, LoggedStateChange
+from beatlog.log.format import Draw, LoggedStateChange
 from beatlog.model.behavior import System
 from beatlog.model.invariant import Cycle, Invariant
 from beatlog.project.usercode import load_invariant, user_traceback
@@ -19,30 +18,7 @@ from beatlog.replay.compare import state_fields
 from beatlog.replay.outcome import CycleOutcome, random_draws
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
 
-__all__ = ["InvariantChecker", "Violation", "invariant_name"]
-
-_NO_OUTPUTS: MappingProxyType[str, Any] = MappingProxyType({})
-_STATE = attrgetter("state")
-
-
-class _States(Mapping[str, Any]):
-    """Every behavior's state as read after a cycle's update, by name: read in one go,
-    looked up by name only as an invariant asks (a replay checks every cycle)."""
-
-    __slots__ = ("_at", "_values")
-
-    def __init__(self, at: Mapping[str, int], values: tuple[Any, ...]) -> None:
-        self._at = at
-        self._values = values
-
-    def __getitem__(self, name: str) -> Any:
-        return self._values[self._at[name]]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._at)
-
-    def __len__(self) -> int:
-        return len(self._values)
+__all__ = ["InvariantChecker", "Violation"]
 
 
 class Violation(NamedTuple):
@@ -59,16 +35,10 @@ class Violation(NamedTuple):
         return f"cycle {self.cycle.cycle}, t = {self.cycle.time:.3f} s: {self.message}"
 
 
-def invariant_name(invariant: object) -> str:
-    """An invariant as reports name it: its function's or its class's name."""
-    name = getattr(invariant, "__name__", None)
-    return name if isinstance(name, str) else type(invariant).__name__
-
-
 class InvariantChecker:
     """Checks ``invariants`` in each cycle of ``system``: for the verdict's judge, which
-    checks each cycle with it so that the earliest failure is the verdict; for a
-    recorder; or as an observer of a replay session that keeps the first violation.
+    checks each cycle with it so that the earliest failure is the verdict, and for a
+    recorder.
 
     Each invariant is a callable, a class (instantiated here, afresh for each checker,
     so that one that looks across cycles starts clean) or a ``module:attribute``
@@ -80,27 +50,13 @@ class InvariantChecker:
 
     def __init__(self, invariants: Iterable[Invariant | type | str], system: System) -> None:
         built = [load_invariant(item) if isinstance(item, str) else item for item in invariants]
-        self.invariants: list[tuple[str, Invariant]] = [
-            (invariant_name(item), item() if isinstance(item, type) else item) for item in built
-        ]
-        catalogue = system.behaviors
-        self._names = list(catalogue)
-        self._at = {name: index for index, name in enumerate(self._names)}
-        self._behaviors = list(catalogue.values())
-        self.violation: Divergence | None = None
-        """The first violation seen as an observer, if any."""
-
-    @property
-    def replaying(self) -> bool:
-        """Whether it still needs cycles replayed (and read): until the first violation."""
-        return self.violation is None
-
-    reading = replaying
-
-    def add(self, record: CycleRecord, outcome: CycleOutcome | None) -> None:
-        """Check the cycle replayed (nothing where it was not replayed)."""
-        if outcome is not None and self.violation is None:
-            self.violation = self.check(outcome)
+        self.invariants: list[tuple[str, Invariant]] = []
+        for item in built:
+            name = getattr(item, "__name__", None)  # a function's or a class's name
+            name = name if isinstance(name, str) else type(item).__name__
+            self.invariants.append((name, item() if isinstance(item, type) else item))
+        self._behaviors = system.behaviors
+        self._names = list(self._behaviors)
 
     def check(self, outcome: CycleOutcome) -> Divergence | None:
         """The first invariant that does not hold in a replayed cycle, as a divergence;
@@ -137,12 +93,10 @@ class InvariantChecker:
             time_ns,
             dt_ns,
             state,
-            _States(self._at, tuple(map(_STATE, self._behaviors))),
-            tuple(StateChange(names[index], before, after) for index, before, after in changes)
-            if changes
-            else (),
-            MappingProxyType(outputs) if outputs else _NO_OUTPUTS,
-            tuple(random_draws(draws, names)) if draws else (),
+            MappingProxyType({name: b.state for name, b in self._behaviors.items()}),
+            tuple(StateChange(names[index], before, after) for index, before, after in changes),
+            MappingProxyType(outputs),
+            tuple(random_draws(draws, names)),
         )
 
     def violated(self, cycle: Cycle, *, first: bool = False) -> list[Violation]:

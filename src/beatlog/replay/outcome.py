@@ -85,11 +85,6 @@ class CycleOutcome(NamedTuple):
     replay."""
 
     @property
-    def underdrawn(self) -> bool:
-        """Whether fewer random numbers were drawn than were recorded (strict replay)."""
-        return self.draws_otherwise is None and len(self.drawn) < len(self.recorded_draws)
-
-    @property
     def completed(self) -> bool:
         """Whether the update ran to its end and, in strict replay, drew exactly the
         recorded numbers."""
@@ -121,7 +116,7 @@ class CycleOutcome(NamedTuple):
             )
             behavior = actor_name(names, refused.actor)
             return Stop(kind, f"{behavior} {refused.problem}", behavior)
-        if self.underdrawn:
+        if self.draws_otherwise is None and len(self.drawn) < len(self.recorded_draws):
             drawn, recorded = len(self.drawn), len(self.recorded_draws)
             missing = self.recorded_draws[drawn]
             behavior = actor_name(recorded_names, missing.actor)

@@ -130,11 +130,6 @@ class Perturber:
         if self._noise:
             replayer.perturb = self.noisy
 
-    @property
-    def rewrites(self) -> bool:
-        """Whether the records are rewritten, or their batches' noise drawn, at all."""
-        return bool(self._jitter_ns or self._draws or self._drop or self._delay or self._noise)
-
     def records(
         self, batches: Iterator[Sequence[CycleRecord]], first: int
     ) -> Iterator[Sequence[CycleRecord]]:
@@ -220,10 +215,7 @@ class Perturber:
         for (name, path), offset in zip(noise, self._offsets[at : at + len(noise)], strict=True):
             top = path[0]
             value = moved[top] if top in moved else getattr(state, top)
-            if value.__class__ is float and len(path) == 1:  # the common case, at once
-                moved[top] = value + offset
-            else:
-                moved[top] = self._offset(value, path[1:], name, offset)
+            moved[top] = self._offset(value, path[1:], name, offset)
         return msgspec.structs.replace(state, **moved)
 
     def _offset(self, value: Any, path: tuple[str, ...], name: str, offset: float) -> Any:

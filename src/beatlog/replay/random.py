@@ -67,7 +67,6 @@ class ReplayRandom(RandomSource):
         """Whether draws made otherwise than recorded go on (:meth:`match_draws`)."""
         self.made_otherwise: list[DrawMadeOtherwise] = []
         """In replay matching draws, the cycle's draws made otherwise than recorded."""
-        self._actors: Sequence[int | None] | None = None
         self._recorded_names: Sequence[str] = ()
         self._names_now: Sequence[str] = ()
         self._recorded_now: Sequence[str] = ()
@@ -91,11 +90,10 @@ class ReplayRandom(RandomSource):
         draw recorded by a behavior the system no longer has is checked for kind and
         parameters only (in replay matching draws, it is left unused)."""
         ids = {name: index for index, name in enumerate(system)}
-        self._actors = [ids.get(rename(name)) for name in recorded]
-        self._owner_of = {-1: -1, **dict(enumerate(self._actors))}
         self._recorded_names = recorded
         self._names_now = system
         self._recorded_now = [rename(name) for name in recorded]
+        self._owner_of = {-1: -1, **{i: ids.get(name) for i, name in enumerate(self._recorded_now)}}
 
     def match_draws(self, key: bytes) -> None:
         """Go on when the behaviors ask for other draws than were recorded.
@@ -114,10 +112,8 @@ class ReplayRandom(RandomSource):
     def load(self, recorded: Sequence[Draw]) -> None:
         """Set the draws recorded for the next cycle."""
         self.recorded = recorded
-        if self.drawn:
-            self.drawn = []
-        if self.made_otherwise:
-            self.made_otherwise = []
+        self.drawn = []
+        self.made_otherwise = []
         self._used = None
         self.refused = None
 
@@ -151,9 +147,9 @@ class ReplayRandom(RandomSource):
         draw = self.recorded[index]
         if not _asks(draw, name, params):
             asked = Draw(actor, name, None, params)
-            recorded = draw.call() if draw.params else draw.kind  # format 1 recorded no params
+            recorded = _request(draw)
             self._fail(f"called {asked.call()} where {recorded} was recorded", actor, asked=asked)
-        if self._actors is not None and draw.actor != actor:
+        if self._owner_of is not None and draw.actor != actor:
             self._check_actor(draw, actor, kind, params)
         self.drawn.append(Draw(actor, name, draw.value, params))
         return draw.value
@@ -239,17 +235,9 @@ class ReplayRandom(RandomSource):
 
     def _check_actor(self, draw: Draw, actor: int, kind: DrawKind, params: tuple[Any, ...]) -> None:
         """Refuse a draw the recording credits to another behavior (by its name now)."""
-        assert self._actors is not None
-        recorded = draw.actor
-        if recorded < 0:
-            expected: int | None = -1
-            who = "the system"
-        elif recorded < len(self._actors):
-            expected = self._actors[recorded]
-            who = self._recorded_names[recorded]
-        else:
-            return
+        expected = self._owner(draw.actor)
         if expected is not None and expected != actor:
+            who = "the system" if draw.actor < 0 else self._recorded_names[draw.actor]
             asked = Draw(actor, kind.value, None, params)
             self._fail(
                 f"called {asked.call()}, which {who} drew in the recording", actor, asked=asked

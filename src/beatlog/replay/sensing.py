@@ -89,10 +89,8 @@ class Perceiver:
         try:
             encoded = self._encode(rebuilt)
             self.seen = self._as_logged(encoded)
-        except (TypeError, msgspec.EncodeError):  # perception built something unloggable
-            encoded = None
-        except msgspec.ValidationError:  # or what the log cannot give back as its type
-            encoded = None
+        except (TypeError, msgspec.EncodeError, msgspec.ValidationError):
+            encoded = None  # perception built something unloggable, or not as its type
         if cycle in self._approved_cycles:  # the approved state is expected
             differs = encoded is None or self._approved_states.mismatch(cycle, encoded) is not None
         else:

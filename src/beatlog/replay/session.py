@@ -66,9 +66,10 @@ class BatchReader(Protocol):
 
 class Judge(Protocol):
     """The verdict, as a replay session hands it the cycles: the replay core compares
-    each cycle with the bytes it expects (:meth:`~beatlog.replay.core.Replayer.expect`),
-    and the judge judges the cycles that did not agree at once, building a cycle's full
-    outcome only where it does not agree at all (the hot path)."""
+    each cycle with the bytes expected of it
+    (:meth:`~beatlog.replay.core.Replayer.check_bytes`), and the judge judges the cycles
+    that did not agree at once, building a cycle's full outcome only where it does not
+    agree at all."""
 
     def batches(self, batches: Iterator[Sequence[CycleRecord]]) -> Iterator[Sequence[CycleRecord]]:
         """The log's batches as it judges them."""
@@ -225,35 +226,21 @@ class ReplaySession(Closing):
             batches = _read_by(readers, batches)
         to_end = judge is not None or bool(readers)
         replayer = self.replayer
-        if replayer is None:  # the recording alone (a judge needs a system to judge)
-            _read(watching, batches, to_end=to_end)
-            return
-        if judge is not None:
-            batches = judge.batches(batches)
-        advance, outcome_of = replayer.advance, replayer.outcome
-        verdict = None if judge is None else judge.judge
-        stand_in_at = -1 if fields_read is None else fields_read.cycle
-        context = replayer.executor.context
-        agreed = AGREED
-        replaying = True
+        verdict = None  # without a system, the recording alone: nothing to judge
+        if replayer is not None:
+            advance, outcome_of = replayer.advance, replayer.outcome
+            if judge is not None:
+                batches, verdict = judge.batches(batches), judge.judge
+            if fields_read is not None:
+                context = replayer.executor.context
+                tracker, at = fields_read.tracker, fields_read.cycle
+                replayer.observe = lambda state: (
+                    tracker.stand_in(state) if context.cycle + 1 == at else state
+                )
+        replaying = replayer is not None
         observing = False
         for batch in batches:
-            start = 0
-            if verdict is not None and not watching:  # the verdict alone: the hot path
-                for index, record in enumerate(batch):
-                    changes = advance(record)
-                    if changes is agreed:
-                        continue
-                    follower = verdict(index, record, changes, None)
-                    if follower is not None:
-                        verdict = None
-                        watching = [follower]
-                        start = index + 1
-                        break
-                else:
-                    continue
-            for index in range(start, len(batch)):
-                record = batch[index]
+            for index, record in enumerate(batch):
                 if watching:
                     watching = [observer for observer in watching if observer.reading]
                     observing = replaying and any(observer.replaying for observer in watching)
@@ -264,14 +251,11 @@ class ReplaySession(Closing):
                     for observer in watching:
                         observer.add(record, None)
                     continue
-                if context.cycle + 1 == stand_in_at and fields_read is not None:
-                    changes = self._standing_in(record, fields_read.tracker)
-                else:
-                    changes = advance(record)
+                changes = advance(record)
                 outcome = outcome_of() if observing else None
                 for observer in watching:
                     observer.add(record, outcome)
-                if verdict is not None and changes is not agreed:
+                if verdict is not None and changes is not AGREED:
                     follower = verdict(index, record, changes, outcome)
                     if follower is not None:
                         verdict = None
@@ -293,33 +277,9 @@ class ReplaySession(Closing):
                 executor.assume(recorded.by_position(executor.behavior_ids, self._rename))
             yield batch
 
-    def _standing_in(
-        self, record: CycleRecord, tracker: ReadTracker
-    ) -> list[LoggedStateChange] | None:
-        """Replay the next cycle with ``tracker`` standing in for its robot state."""
-        assert self.replayer is not None  # only a replay has a robot state to stand in for
-        self.replayer.observe = tracker.stand_in
-        try:
-            return self.replayer.advance(record)
-        finally:
-            self.replayer.observe = None
-
     def close(self) -> None:
         """Close the log."""
         self.reader.close()
-
-
-def _read(
-    observers: list[Observer], batches: Iterator[Sequence[CycleRecord]], *, to_end: bool
-) -> None:
-    """Hand the recording alone to ``observers`` while they read it (or to its end)."""
-    for batch in batches:
-        for record in batch:
-            observers = [observer for observer in observers if observer.reading]
-            if not observers and not to_end:
-                return
-            for observer in observers:
-                observer.add(record, None)
 
 
 def _read_by(

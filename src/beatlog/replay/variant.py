@@ -39,7 +39,7 @@ from beatlog.replay.invariants import InvariantChecker
 from beatlog.replay.outcome import random_draws
 from beatlog.replay.perturbation import Perturber, Variant, variant_key
 from beatlog.replay.session import Observer, ReplaySession
-from beatlog.replay.verdict import Checked, Divergence, ReplayResult, log_ended
+from beatlog.replay.verdict import Checked, Divergence, ReplayResult
 from beatlog.replay.window import Window
 
 __all__ = ["replay_variant"]
@@ -99,7 +99,7 @@ class _VariantJudge:
         """The log's batches up to the window's end, perturbed."""
         first = self._replayer.executor.context.cycle + 1
         batches = self._window.batches(batches, self._replayer)
-        return self._perturber.records(batches, first) if self._perturber.rewrites else batches
+        return self._perturber.records(batches, first)
 
     def judge(
         self,
@@ -217,11 +217,10 @@ def replay_variant(
         status = None if window.closed else reader.status
         divergence = judge.divergence
         where = where or reader.path
-        if divergence is None and window.ended_early(
-            status, where, allow_truncated=allow_truncated
-        ):
-            assert status is not None  # a log that ended early says how
-            divergence = log_ended(status, context.cycle + 1, context.time_ns)
+        if divergence is None:
+            divergence = window.log_ended(
+                status, where, context.cycle + 1, context.time_ns, allow_truncated=allow_truncated
+            )
         wall = time.perf_counter() - started
     return ReplayResult(
         log=Path(log),

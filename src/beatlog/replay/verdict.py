@@ -20,7 +20,6 @@ __all__ = [
     "RandomDraw",
     "ReplayResult",
     "StateChange",
-    "log_ended",
     "reproduce_command",
 ]
 
@@ -31,18 +30,6 @@ def reproduce_command(*argv: str | Path) -> str:
     The one builder of the ``reproduce:`` commands that reports print.
     """
     return shlex.join(["beatlog", *map(str, argv)])
-
-
-def log_ended(status: LogStatus, cycle: int, time_ns: int) -> Divergence:
-    """The divergence of a log that stopped before the recording closed it, replay having
-    got to ``cycle`` at ``time_ns`` (a fresh start's, if it stopped before that)."""
-    return Divergence(
-        kind=DivergenceKind.LOG_ENDED,
-        cycle=min(cycle, status.cycles),
-        time_ns=time_ns,
-        message=f"the log ends early ({status.describe()}); if the session ended there (a "
-        "crash), accept what it holds with --allow-truncated (in a spec: allow_truncated = true)",
-    )
 
 
 class DivergenceKind(StrEnum):

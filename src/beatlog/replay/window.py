@@ -13,6 +13,7 @@ from beatlog.errors import WindowError
 from beatlog.log.format import CycleRecord
 from beatlog.log.reader import LogStatus
 from beatlog.replay.core import Replayer
+from beatlog.replay.verdict import Divergence, DivergenceKind
 
 __all__ = ["Window"]
 
@@ -30,7 +31,7 @@ class Window:
         """Whether the batches stopped at the window's end, the rest of the log unread."""
         self.start_ns = 0
         """Robot time where the window opens."""
-        self.before = (0, 0, 0, 0)
+        self.before = [0, 0, 0, 0]
         """What the replay core counted before the window opened (state changes, outputs
         and draws of the cycles that agreed at once, samples perceived): not judged."""
 
@@ -50,29 +51,44 @@ class Window:
                 if self.start > at:
                     yield kept[: self.start - at]
                 self.start_ns = replayer.executor.clock.now_ns
-                self.before = (*replayer.agreed, replayer.samples_perceived)
+                self.before = [*replayer.agreed, replayer.samples_perceived]
                 kept = kept[self.start - at :]
             yield kept
             if self.closed:
                 return
 
-    def ended_early(self, status: LogStatus | None, where: Path, *, allow_truncated: bool) -> bool:
-        """Whether the log ended before the recording closed it (``status``; None: the
-        window closed before the log's end) where that is not allowed; else refuse a
-        window that the log does not hold, ``where`` (the spec that set it, or the log)
-        named.
+    def log_ended(
+        self,
+        status: LogStatus | None,
+        where: Path,
+        cycle: int,
+        time_ns: int,
+        *,
+        allow_truncated: bool,
+    ) -> Divergence | None:
+        """The divergence of a log that stopped before the recording closed it (``status``;
+        None: the window closed before the log's end) where that is not allowed, replay
+        having got to ``cycle`` at ``time_ns``; else refuse a window that the log does not
+        hold, ``where`` (the spec that set it, or the log) named.
 
         :raises beatlog.errors.WindowError: it starts or ends past the last cycle.
         """
         if status is None:
-            return False
+            return None
         if not status.complete and not allow_truncated:
-            return True
-        for key, cycle in (("end_cycle", self.end), ("start_cycle", self.start or None)):
-            if cycle is not None and cycle >= status.cycles:
-                last = f"{cycle} is past the log's last cycle ({status.cycles - 1})"
-                raise WindowError(where, f"{key} {last}")
-        return False
+            return Divergence(
+                kind=DivergenceKind.LOG_ENDED,
+                cycle=min(cycle, status.cycles),
+                time_ns=time_ns,
+                message=f"the log ends early ({status.describe()}); if the session ended there "
+                "(a crash), accept what it holds with --allow-truncated (in a spec: "
+                "allow_truncated = true)",
+            )
+        for key, last in (("end_cycle", self.end), ("start_cycle", self.start or None)):
+            if last is not None and last >= status.cycles:
+                past = f"{last} is past the log's last cycle ({status.cycles - 1})"
+                raise WindowError(where, f"{key} {past}")
+        return None
 
     def arguments(self) -> list[str]:
         """The options of a ``beatlog replay`` command that set this window."""
