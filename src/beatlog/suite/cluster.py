@@ -4,15 +4,10 @@ Each Dask task runs :func:`beatlog.suite.runner.run_spec` for a few DTCs in the 
 run (:func:`tasks`: a big DTC alone, small ones together, so that a cluster's cost of a
 task does not swamp their replays) and sends back their outcomes; outcomes stream back
 as tasks complete, each DTC's to the same progress bar and reports. Tasks are submitted
-as outcomes come, two a cluster thread ahead of them, so the files they ship are held
-for those DTCs alone. A spec travels with absolute paths to a
-cluster of this machine's (``local``); to another, with the files of this machine its
-replay reads (:func:`packed`: its baseline, its local log, its project's
-``pyproject.toml``), written into a folder of the worker's in the same places
-(:func:`unpacked`). A log behind a URL is copied by the worker that replays it, which
-also fetches ahead the logs it is likely to replay next. Code is not shipped: a worker
-without the system's package makes the DTC an error that says so
-(:func:`missing_system`).
+as outcomes come, two a cluster thread ahead of them, so the files they ship
+(:mod:`beatlog.suite.shipping`) are held for those DTCs alone. A log behind a URL is
+copied by the worker that replays it, which also fetches ahead the logs it is likely to
+replay next (:func:`fetched_ahead`).
 
 A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs its
 task again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
@@ -26,26 +21,21 @@ from __future__ import annotations
 import asyncio
 import collections
 import dataclasses
-import importlib.util
 import itertools
 import logging
 import re
-import socket
-import tempfile
-import time
 import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
-from beatlog.log.files import Closing, project_root
-from beatlog.project.usercode import importable_near
+from beatlog.log.files import Closing
 from beatlog.suite.parallel import longest_first
-from beatlog.suite.remote import Listed, fetch_ahead, wait_for
-from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
+from beatlog.suite.remote import Listed
+from beatlog.suite.runner import SpecOutcome, Verdict
+from beatlog.suite.shipping import packed, replayed
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -59,14 +49,9 @@ __all__ = [
     "TASKS_PER_THREAD",
     "TASK_BYTES",
     "DaskExecutor",
-    "Packed",
     "WorkerDeaths",
-    "as_here",
     "fetched_ahead",
-    "missing_system",
-    "packed",
     "tasks",
-    "unpacked",
 ]
 
 ONE_DTC_PER_THREAD = {"distributed.scheduler.worker-saturation": 1.0}
@@ -93,7 +78,6 @@ TASKS_PER_THREAD = 4
 """The fewest tasks a cluster thread gets where DTCs are packed together: enough that
 threads finishing at different times even out, and that all stay busy to the end."""
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
-_OUTSIDE = "outside"
 
 
 class DaskExecutor(Closing):
@@ -176,7 +160,7 @@ class DaskExecutor(Closing):
                 for task in chosen
             ]
             futures: list[Future[list[SpecOutcome]]] = self._client.map(  # one message for all
-                _replayed,
+                replayed,
                 sent,
                 [task.ahead for task in chosen],
                 options=options,
@@ -350,49 +334,6 @@ def fetched_ahead(
     return ahead
 
 
-def _replayed(
-    sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]], *, options: SpecOptions
-) -> list[SpecOutcome]:
-    """On a worker: the outcomes of the DTCs of a task, in turn, while the logs
-    ``ahead``, which this thread likely replays later, are fetched into the machine's
-    cache."""
-    for url, listed in ahead:
-        fetch_ahead(url, listed)
-    return [_replayed_one(each, options) for each in sent]
-
-
-def _replayed_one(sent: DtcSpec | Packed, options: SpecOptions) -> SpecOutcome:
-    """:func:`run_spec` of the DTC sent, with its files where it was packed."""
-    if isinstance(sent, DtcSpec):
-        return _waited(sent, options)
-    with (
-        tempfile.TemporaryDirectory(prefix="beatlog-dtc-") as name,
-        importable_near(sent.spec_file),  # where the worker shares the spec's folder
-    ):
-        folder = Path(name)
-        spec = unpacked(sent, folder)
-        problem = missing_system(spec, socket.gethostname())
-        if problem is not None:
-            return SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0)
-        outcome = _waited(spec, options)
-    if outcome.error is None:
-        return outcome
-    return dataclasses.replace(outcome, error=as_here(outcome.error, sent, folder))
-
-
-def _waited(spec: DtcSpec, options: SpecOptions) -> SpecOutcome:
-    """:func:`run_spec`, after the log this process is fetching ahead for the DTC, if it
-    is, the time waited for it counted as waiting for storage."""
-    asked = time.perf_counter()
-    if spec.log_url is not None:
-        wait_for(spec.log_url)
-    waited = time.perf_counter() - asked
-    outcome = run_spec(spec, options)
-    if outcome.storage_wait_s is None:
-        return outcome
-    return dataclasses.replace(outcome, storage_wait_s=outcome.storage_wait_s + waited)
-
-
 def _log_bytes(spec: DtcSpec) -> int | None:
     """The size of the spec's log as its listing or this machine's filesystem gives it,
     nothing asked of a storage; None where neither does."""
@@ -425,77 +366,3 @@ def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
             error = error.replace(str(absolute), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
     return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
-
-
-@dataclass(frozen=True)
-class Packed:
-    """A DTC with its paths relative to its project's root, and the files it reads, by
-    those paths."""
-
-    spec: DtcSpec
-    files: dict[str, bytes]
-    root: str
-    """The project's root here, where the relative paths start."""
-    spec_file: Path | None
-    """The spec file here, whose folder and project root the DTC's code also imports
-    from where the worker shares them (None for a fleet log)."""
-
-
-def packed(spec: DtcSpec) -> Packed:
-    """``spec`` with the files of this machine its replay reads (its baseline, its log
-    if local, its project's ``pyproject.toml``), where they exist; a fleet's log reads
-    only its own."""
-    folder = spec.path.absolute().parent
-    root = project_root(folder) or folder
-    files: dict[str, bytes] = {}
-    read = [] if spec.spec_file is None else [root / "pyproject.toml", expected_path(spec.path)]
-    for path in read if spec.log_url is not None else [*read, spec.log]:
-        if path.is_file():
-            files[_relative(path, root).as_posix()] = path.read_bytes()
-    log = spec.log if spec.log_url is not None else _relative(spec.log, root)
-    relative = dataclasses.replace(spec, path=_relative(spec.path, root), log=log)
-    here = None if spec.spec_file is None else spec.spec_file.absolute()
-    return Packed(relative, files, str(root), here)
-
-
-def unpacked(shipped: Packed, folder: Path) -> DtcSpec:
-    """Write the shipped files into ``folder`` and return the DTC with its paths there."""
-    for name, data in shipped.files.items():
-        path = folder / name
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_bytes(data)
-    spec = shipped.spec
-    log = spec.log if spec.log_url is not None else folder / spec.log
-    return dataclasses.replace(spec, path=folder / spec.path, log=log)
-
-
-def as_here(text: str, shipped: Packed, folder: Path) -> str:
-    """``text`` (a message) with the paths of the files unpacked into ``folder`` named
-    as they are on the machine that packed them."""
-    text = text.replace(f"{folder / _OUTSIDE}", "")
-    return text.replace(str(folder), shipped.root)
-
-
-def missing_system(spec: DtcSpec, where: str) -> str | None:
-    """Why the DTC cannot run at ``where`` (a worker): its system's (or perception
-    step's) package is not installed there; None where it is, or the log names it."""
-    for reference in (spec.system, spec.perception):
-        if reference is None:
-            continue
-        package = reference.partition(":")[0].partition(".")[0]
-        if importlib.util.find_spec(package) is None:
-            return (
-                f"the worker {where} has no package {package!r} ({reference}): "
-                "install the system's package on the cluster's workers"
-            )
-    return None
-
-
-def _relative(path: Path, root: Path) -> Path:
-    """Where ``path`` goes in the worker's folder: its place under the project's root,
-    or under ``outside/`` by its absolute path where it lies elsewhere."""
-    absolute = path.absolute()
-    try:
-        return absolute.resolve().relative_to(root.resolve())
-    except ValueError:
-        return Path(_OUTSIDE, *absolute.parts[1:])

@@ -1,0 +1,81 @@
+"""What a DTC takes to a Dask worker that does not share this machine's files: its
+baseline, its local log and its project's ``pyproject.toml``, unpacked in the worker's
+folder, messages naming them as here, and one line for a worker without the system."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from beatlog.baseline.policy import UpdateMode
+from beatlog.suite.maintenance import approve, update_baselines
+from beatlog.suite.parallel import run_suite
+from beatlog.suite.runner import Verdict, run_spec
+from beatlog.suite.selection import fleet_specs
+from beatlog.suite.shipping import as_here, missing_system, packed, unpacked
+from beatlog.suite.spec import load_spec
+from tests.conftest import RecordFn
+from tests.specs import CHANGED, write_spec
+
+
+@pytest.fixture
+def checkout(tmp_path: Path, record_probe: RecordFn) -> Path:
+    """A project whose spec replays a changed system against its approved baseline."""
+    (tmp_path / "checkout" / "logs").mkdir(parents=True)
+    (tmp_path / "checkout" / "pyproject.toml").write_text("[project]\nname = 'robot'\n")
+    log = record_probe(120, name="checkout/logs/walk.beatlog")
+    spec = write_spec(tmp_path / "checkout" / "dtc", "walk", log, CHANGED)
+    update_baselines(run_suite([load_spec(spec)], update=UpdateMode.NEW), UpdateMode.NEW)
+    approve([spec])
+    return tmp_path / "checkout"
+
+
+def test_a_dtc_shipped_elsewhere_is_judged_against_its_baseline_as_here(
+    checkout: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    shipped = packed(load_spec(checkout / "dtc" / "walk.dtc.toml"))
+    shutil.rmtree(checkout)
+    (tmp_path / "worker").mkdir()
+    monkeypatch.chdir(tmp_path / "worker")
+
+    spec = unpacked(shipped, tmp_path / "worker")
+    outcome = run_spec(spec)
+
+    assert sorted(shipped.files) == [
+        "dtc/walk.dtc.expected",
+        "logs/walk.beatlog",
+        "pyproject.toml",
+    ]
+    assert outcome.verdict is Verdict.PASSED, outcome.error
+    assert outcome.baseline == tmp_path / "worker" / "dtc" / "walk.dtc.expected"
+
+
+def test_a_message_names_the_shipped_files_as_they_are_here(checkout: Path, tmp_path: Path) -> None:
+    shipped = packed(load_spec(checkout / "dtc" / "walk.dtc.toml"))
+    worker = tmp_path / "worker"
+
+    message = f"{worker / 'logs' / 'walk.beatlog'}: cut off"
+
+    assert as_here(message, shipped, worker) == f"{checkout / 'logs' / 'walk.beatlog'}: cut off"
+
+
+def test_a_worker_without_the_systems_package_is_one_line(
+    checkout: Path,
+) -> None:
+    spec = load_spec(write_spec(checkout / "dtc", "lost", Path("x.beatlog"), "robotcode:system"))
+
+    assert missing_system(spec, "host-3") == (
+        "the worker host-3 has no package 'robotcode' (robotcode:system): "
+        "install the system's package on the cluster's workers"
+    )
+    assert missing_system(load_spec(checkout / "dtc" / "walk.dtc.toml"), "host-3") is None
+
+
+def test_a_fleet_log_ships_alone(checkout: Path) -> None:
+    [spec] = fleet_specs(f"{checkout}/logs/*.beatlog", system=CHANGED)
+
+    shipped = packed(spec)
+
+    assert list(shipped.files) == ["logs/walk.beatlog"]
