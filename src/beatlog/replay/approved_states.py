@@ -217,7 +217,7 @@ class ApprovedStateChecker:
             if not pinned:  # no cycle pinned (a baseline's coverage check refuses it)
                 continue
             self.tags.update(pinned)
-            first, final = min(pinned), max(pinned)
+            first, final = next(iter(pinned)), next(reversed(pinned))  # in cycle order
             self._blocks.append((block.cycle + block.cycles, first, final))
             self._firsts.add(first)
             self._finals[final] = (block, first, len(pinned))

@@ -11,7 +11,7 @@ that cycle, or an approved one not made, is an :class:`UnapprovedDraw` and diver
 from __future__ import annotations
 
 import hashlib
-from collections import Counter, defaultdict
+from collections import defaultdict
 from collections.abc import Iterable, Sequence
 from typing import NamedTuple
 
@@ -118,12 +118,14 @@ class DrawApprovals:
         hold there, or the first it holds there that replay did not make; None when
         they are exactly the approved ones."""
         allowed = self._by_cycle.get(cycle, {})
-        counts = Counter(made)
+        counts: dict[DrawMadeOtherwise, int] = {}
+        for draw in made:
+            counts[draw] = counts.get(draw, 0) + 1
         for draw in made:
             if counts[draw] > allowed.get(draw, 0):
                 return UnapprovedDraw(draw, True, draw in self._approved)
         for draw, times in allowed.items():
-            if counts[draw] < times:
+            if counts.get(draw, 0) < times:
                 return UnapprovedDraw(draw, False, True)
         return None
 
