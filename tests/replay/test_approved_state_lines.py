@@ -5,6 +5,8 @@ as a log encodes it, by XXH64."""
 
 from __future__ import annotations
 
+import pytest
+
 from beatlog.replay.approved_state_lines import (
     ApprovedRun,
     DigestBlock,
@@ -61,3 +63,51 @@ def test_a_digest_counts_every_bit_of_the_state_as_a_log_encodes_it() -> None:
 def test_a_digest_is_xxh64_as_its_specification_gives_it() -> None:
     # the empty input's XXH64 (seed 0), from the xxHash specification's test vectors
     assert state_digest(b"") == bytes.fromhex("ef46db3751d8e999")
+
+
+def _run(cycle: int, last: int, cycles: int) -> ApprovedRun:
+    return ApprovedRun(cycle, 0, last, cycles, ("speed",), {"speed": 1.0})
+
+
+def _block(cycle: int, tags: str) -> DigestBlock:
+    return DigestBlock(cycle, 0, tags, bytes(8))
+
+
+@pytest.mark.parametrize(
+    ("runs", "blocks", "problem"),
+    [
+        ((_run(0, 1, 2),), (), "the robot-state run from cycle 0 has digests that do not end"),
+        ((_run(0, 1, 2),), (_block(1, "AA"),), "has its digests of cycle 1 out of place"),
+        ((_run(0, 1, 2),), (_block(0, "AAAA"),), None),
+        ((_run(0, 1, 3),), (_block(0, "AAAA"),), "says 3 cycles, its digests pin 2"),
+        ((_run(0, 2, 2),), (_block(0, "AA..AA"),), None),
+        ((_run(0, 1, 2),), (_block(0, "AAAAAA"),), "do not end at its last cycle, 1"),
+        ((_run(0, 1, 2),), (_block(0, "AA"), _block(0, "AA")), "digests of cycle 0 out of place"),
+        ((_run(0, 0, 1),), (_block(0, "A."),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 1, 2),), (_block(0, "A..A"),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1),), (_block(0, "AAA"),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1),), (_block(0, "A-"),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1),), (_block(0, "A\x00"),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1),), (_block(0, "A\u00e9"),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 1, 2),), (_block(0, "x.xA"),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1),), (_block(0, ""),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1),), (_block(0, "AA" * 65),), "has not 1 to 64 tags from cycle 0"),
+        ((_run(0, 0, 1), _run(0, 0, 1)), (_block(0, "AA"),), "from cycle 0 is out of order"),
+        ((_run(0, 0, 1),), (_block(0, "AA"), _block(5, "AA")), "from cycle 5 are in no robot"),
+        (
+            (ApprovedRun(0, 0, 0, 1, ("speed",), {"heading": 1.0}),),
+            (_block(0, "AA"),),
+            "names no fields that differ in its first cycle",
+        ),
+    ],
+)
+def test_blocks_must_cover_their_runs(
+    runs: tuple[ApprovedRun, ...], blocks: tuple[DigestBlock, ...], problem: str | None
+) -> None:
+    found = _problem((list(runs), list(blocks)))
+
+    if problem is None:
+        assert found is None
+    else:
+        assert found is not None
+        assert problem in found

@@ -7,8 +7,6 @@ import itertools
 import math
 from typing import Any
 
-import pytest
-
 from beatlog.replay.approved_state_lines import CYCLES_PER_BLOCK, GAP_TAG, ApprovedRun, DigestBlock
 from beatlog.replay.approved_states import (
     MAX_GAP,
@@ -212,44 +210,6 @@ def _run(cycle: int, last: int, cycles: int) -> ApprovedRun:
 
 def _block(cycle: int, tags: str) -> DigestBlock:
     return DigestBlock(cycle, 0, tags, bytes(8))
-
-
-@pytest.mark.parametrize(
-    ("runs", "blocks", "problem"),
-    [
-        ((_run(0, 1, 2),), (), "the robot-state run from cycle 0 has digests that do not end"),
-        ((_run(0, 1, 2),), (_block(1, "AA"),), "has its digests of cycle 1 out of place"),
-        ((_run(0, 1, 2),), (_block(0, "AAAA"),), None),
-        ((_run(0, 1, 3),), (_block(0, "AAAA"),), "says 3 cycles, its digests pin 2"),
-        ((_run(0, 2, 2),), (_block(0, "AA..AA"),), None),
-        ((_run(0, 1, 2),), (_block(0, "AAAAAA"),), "do not end at its last cycle, 1"),
-        ((_run(0, 1, 2),), (_block(0, "AA"), _block(0, "AA")), "digests of cycle 0 out of place"),
-        ((_run(0, 0, 1),), (_block(0, "A."),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 1, 2),), (_block(0, "A..A"),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 0, 1),), (_block(0, "AAA"),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 0, 1),), (_block(0, "A-"),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 0, 1),), (_block(0, "A\x00"),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 0, 1),), (_block(0, "A\u00e9"),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 1, 2),), (_block(0, "x.xA"),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 0, 1),), (_block(0, ""),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 0, 1),), (_block(0, "AA" * 65),), "has not 1 to 64 tags from cycle 0"),
-        ((_run(0, 0, 1), _run(0, 0, 1)), (_block(0, "AA"),), "from cycle 0 is out of order"),
-        ((_run(0, 0, 1),), (_block(0, "AA"), _block(5, "AA")), "from cycle 5 are in no robot"),
-        (
-            (ApprovedRun(0, 0, 0, 1, ("speed",), {"heading": 1.0}),),
-            (_block(0, "AA"),),
-            "names no fields that differ in its first cycle",
-        ),
-    ],
-)
-def test_blocks_must_cover_their_runs(
-    runs: tuple[ApprovedRun, ...], blocks: tuple[DigestBlock, ...], problem: str | None
-) -> None:
-    if problem is None:
-        assert ApprovedStates(runs, blocks).runs == runs
-        return
-    with pytest.raises(ValueError, match=problem):
-        ApprovedStates(runs, blocks)
 
 
 def test_an_approved_state_at_a_far_cycle_costs_no_more_than_a_near_one() -> None:

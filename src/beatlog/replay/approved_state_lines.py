@@ -142,10 +142,11 @@ class DigestCoverage:
         where = f"the robot-state run from cycle {run.cycle}"
         if block.cycle < self._start or (self._pinned == 0 and block.cycle != run.cycle):
             return f"{where} has its digests of cycle {block.cycle} out of place"
-        if not (_TAGS.fullmatch(block.tags) and 0 < block.cycles <= CYCLES_PER_BLOCK):
+        cycles = block.cycles
+        if not (_TAGS.fullmatch(block.tags) and 0 < cycles <= CYCLES_PER_BLOCK):
             return f"{where} has not 1 to {CYCLES_PER_BLOCK} tags from cycle {block.cycle}"
-        self._start = block.cycle + block.cycles
-        self._pinned += block.cycles - block.tags.count(GAP_TAG)
+        self._start = block.cycle + cycles
+        self._pinned += cycles - block.tags.count(GAP_TAG)
         return None
 
     def _close(self) -> str | None:
