@@ -16,6 +16,7 @@ import math
 import os
 import random
 import secrets
+import signal
 import time
 import uuid
 from collections.abc import Sequence
@@ -297,6 +298,12 @@ def scripted_system(headings: list[str]) -> PriorityArbiter[Probe]:
 def exiting_system() -> PriorityArbiter[Probe]:
     """A factory that ends the interpreter at once: the audit's replay dies without an answer."""
     os._exit(70)
+
+
+def interrupted_system() -> PriorityArbiter[Probe]:
+    """A factory whose interpreter gets Ctrl-C (SIGINT) before the process auditing it."""
+    os.kill(os.getpid(), signal.SIGINT)
+    raise AssertionError("SIGINT did not end the interpreter")
 
 
 class Gambler:

@@ -191,6 +191,15 @@ def test_a_replay_that_dies_is_a_loud_error(auditors: Auditors, tmp_path: Path) 
         audit(log, f"{SYSTEMS}:exiting_system", auditors=auditors)
 
 
+def test_ctrl_c_that_reaches_a_replay_first_is_ctrl_c_here(
+    auditors: Auditors, tmp_path: Path
+) -> None:
+    log = record_session(tmp_path / "leaky.beatlog", leaky_system())
+
+    with pytest.raises(KeyboardInterrupt):
+        audit(log, f"{SYSTEMS}:interrupted_system", auditors=auditors)
+
+
 @pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_replays_that_differ_by_an_unseeded_global_generator_say_so(
     auditors: Auditors, tmp_path: Path

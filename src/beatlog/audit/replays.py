@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -223,8 +224,10 @@ class _Auditor:
             raise self._crashed()
         return msgspec.json.decode(line, type=Answer)
 
-    def _crashed(self) -> RuntimeError:
+    def _crashed(self) -> BaseException:
         code = self._process.wait()
+        if code == -signal.SIGINT:  # Ctrl-C reached the interpreter before this process
+            return KeyboardInterrupt()
         self._errors.seek(0)
         return RuntimeError(
             f"the audit replay with PYTHONHASHSEED={self.hash_seed} crashed (exit {code}):\n"
