@@ -4,8 +4,10 @@ again.
 
 An entry is keyed by the object's URL and ETag where the storage gives one, else by its
 URL, size and time of last change; an object that says neither is never cached. Each
-entry's name holds its size and SHA-256 digest, checked before every use: a damaged
-entry is removed and the log downloaded again, never replayed. Entries are written whole
+entry lies in a folder of its key's own (``entries/KEY/``: finding it reads that folder
+alone, however many logs the cache holds), and its name holds its size and SHA-256
+digest, checked before every use: a damaged entry is removed and the log downloaded
+again, never replayed. Entries are written whole
 before they get their name and used through hard links of their own, so one process
 that removes an entry never pulls it from under another; two that fetch the same object
 at once share one download (a lock of that object alone, in ``fetching``). A copy in
@@ -89,7 +91,7 @@ def holds(url: str, info: Mapping[str, Any]) -> bool:
     key = cache_key(url, info)
     if key is None or _max_bytes(url) == 0:
         return False
-    return any((cache_folder() / "entries").glob(f"{key}.*"))
+    return bool(_entries_of(cache_folder() / "entries" / key))
 
 
 @contextlib.contextmanager
@@ -180,10 +182,19 @@ def _abandoned(folder: Path) -> bool:
     return True
 
 
+def _entries_of(folder: Path) -> list[Path]:
+    """The entries in ``folder``, a key's, without the copies being written there; none
+    where it is no folder."""
+    try:
+        return [entry for entry in folder.iterdir() if not entry.name.startswith(".")]
+    except (FileNotFoundError, NotADirectoryError):
+        return []
+
+
 def _used(entries: Path, key: str, copy: Path) -> bool:
     """Whether a sound entry of ``key`` is now at ``copy``; damaged ones are removed."""
-    for entry in entries.glob(f"{key}.*"):
-        _, size, digest = entry.name.split(".", 2)
+    for entry in _entries_of(entries / key):
+        size, _, digest = entry.name.partition(".")
         with contextlib.suppress(FileNotFoundError):  # another process removed it
             _link(entry, copy)
             if copy.stat().st_size == int(size) and _digest(copy) == digest:
@@ -200,18 +211,24 @@ def _keep(entries: Path, key: str, copy: Path, bound: int) -> None:
     size = copy.stat().st_size
     if size > bound:
         return
-    with contextlib.suppress(FileExistsError):  # another process kept the same copy
-        _link(copy, entries / f"{key}.{size}.{_digest(copy)}")
+    # FileExistsError: another process kept the same copy; FileNotFoundError: another
+    # removed the key's folder as it emptied it, and this copy goes unkept
+    with contextlib.suppress(FileExistsError, FileNotFoundError):
+        (entries / key).mkdir(exist_ok=True)
+        _link(copy, entries / key / f"{size}.{_digest(copy)}")
     kept = []
-    for entry in entries.iterdir():
-        with contextlib.suppress(FileNotFoundError):
-            status = entry.stat()
-            kept.append((status.st_mtime, status.st_size, entry))
+    for folder in entries.iterdir():
+        for entry in _entries_of(folder):
+            with contextlib.suppress(FileNotFoundError):
+                status = entry.stat()
+                kept.append((status.st_mtime, status.st_size, entry))
     total = sum(size for _, size, _ in kept)
     for _, size, entry in sorted(kept):
         if total <= bound:
             break
         entry.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # another entry of its key came meanwhile
+            entry.parent.rmdir()
         total -= size
 
 
