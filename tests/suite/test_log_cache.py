@@ -109,7 +109,7 @@ def test_a_damaged_cache_entry_is_fetched_again_never_replayed(
 ) -> None:
     url = f"{served.url}/dock.beatlog"
     whole = fetched(url)
-    [entry] = (log_cache / "entries").glob("*/*")
+    [entry] = (log_cache / "entries").iterdir()
     damaged = bytearray(entry.read_bytes())
     damaged[len(damaged) // 2] ^= 0xFF
     entry.write_bytes(damaged)
@@ -123,7 +123,7 @@ def test_a_damaged_cache_entry_is_fetched_again_never_replayed(
 def test_a_cut_cache_entry_is_fetched_again(served: LogServer, log_cache: Path) -> None:
     url = f"{served.url}/dock.beatlog"
     whole = fetched(url)
-    [entry] = (log_cache / "entries").glob("*/*")
+    [entry] = (log_cache / "entries").iterdir()
     entry.write_bytes(whole[:100])
 
     assert fetched(url) == whole
@@ -156,7 +156,7 @@ def test_a_log_larger_than_the_cache_is_not_kept(
     fetched(f"{served.url}/dock.beatlog")
 
     assert served.downloads("dock.beatlog") == 2
-    assert list((log_cache / "entries").glob("*/*")) == []
+    assert list((log_cache / "entries").iterdir()) == []
 
 
 def test_the_cache_holds_a_listed_object_once_fetched_and_not_once_changed(
@@ -209,7 +209,7 @@ def test_the_copy_in_use_is_gone_after_the_block_and_the_entry_stays(
 
     assert not copy.exists()
     assert list((log_cache / "in-use").iterdir()) == []
-    assert len(list((log_cache / "entries").glob("*/*"))) == 1
+    assert len(list((log_cache / "entries").iterdir())) == 1
 
 
 def test_the_cache_is_in_the_users_cache_folder_unless_set(
