@@ -68,6 +68,7 @@ NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
 a nanny to restart a worker that died, or for a scheduler's workers to join it."""
 _WORKERS_ASKED_EVERY_S = 1.0
+_ANSWER_S = 5.0
 _IN_FLIGHT_PER_THREAD = 2
 """How many tasks a run keeps submitted for each thread of the cluster."""
 FETCHED_AHEAD = 4
@@ -157,11 +158,12 @@ class DaskExecutor(Closing):
         ahead = fetched_ahead(grouped, threads)
         waiting = collections.deque(map(_Task, grouped, ahead))
         pending: dict[str, tuple[Future[list[SpecOutcome]], _Task]] = {}
+        ended, lost = threading.Event(), threading.Event()
 
         def submit(count: int) -> list[Future[list[SpecOutcome]]]:
             """Submit the next ``count`` tasks, reading the files they ship only now."""
             chosen = [waiting.popleft() for _ in range(min(count, len(waiting)))]
-            if not chosen:
+            if not chosen or lost.is_set():  # the cluster has no workers: nothing more
                 return []
             keys = [f"dtc-{task.specs[0].name}-{uuid.uuid4().hex}" for task in chosen]
             sent = [
@@ -187,20 +189,18 @@ class DaskExecutor(Closing):
             raise_errors=False,
         )
         told = 0
-        ended, lost = threading.Event(), threading.Event()
         lookout = threading.Thread(
-            target=self._look_out, args=(completed, ended, lost), name="beatlog-lookout"
+            target=self._look_out,
+            args=(completed, ended, lost),
+            name="beatlog-lookout",
+            daemon=True,
         )
         lookout.start()
         try:
             for future, result in completed:
                 _, task = pending.pop(str(future.key))
                 if lost.is_set() and future.status != "finished":
-                    raise ClusterError(
-                        f"--dask {self._address}: the cluster has had no workers for "
-                        f"{NO_WORKERS_S:g} s (all lost, none restarted): "
-                        f"{len(specs) - told} of {len(specs)} DTCs not run"
-                    )
+                    continue  # cancelled by the lookout: the outcomes that came still count
                 outcomes = self._outcomes(future, result, task)
                 future.release()  # now, not as the next completes: a worker lost meanwhile
                 # would have the scheduler run the task again for a result no one wants
@@ -214,6 +214,12 @@ class DaskExecutor(Closing):
                     if done(outcome):
                         return
                 completed.update(submit(1))
+            if lost.is_set() and told < len(specs):
+                raise ClusterError(
+                    f"--dask {self._address}: the cluster has had no workers for "
+                    f"{NO_WORKERS_S:g} s (all lost, none restarted): "
+                    f"{len(specs) - told} of {len(specs)} DTCs not run"
+                )
         finally:
             ended.set()
             lookout.join()
@@ -222,12 +228,13 @@ class DaskExecutor(Closing):
     def _look_out(self, completed: Any, ended: threading.Event, lost: threading.Event) -> None:
         """Until ``ended``, ask the cluster every second how many workers it has; once it
         has had none for :data:`NO_WORKERS_S`, set ``lost`` and cancel the futures that
-        ``completed`` (an ``as_completed``) waits for, which then come back cancelled."""
+        ``completed`` (an ``as_completed``) waits for, which then come back cancelled. A
+        scheduler that does not answer within a few seconds counts as having none."""
         since = time.monotonic()
         while not ended.wait(_WORKERS_ASKED_EVERY_S):
             try:
-                workers = bool(self._client.nthreads())
-            except Exception:  # a scheduler that does not answer has none for this run
+                workers = bool(self._client.nthreads(callback_timeout=_ANSWER_S))
+            except Exception:  # Dask's errors share no base: no answer, none for this run
                 workers = False
             if workers:
                 since = time.monotonic()
