@@ -9,7 +9,10 @@ import logging
 import os
 import re
 import shutil
+import signal
 import socket
+import subprocess
+import sys
 import threading
 import tracemalloc
 import xml.etree.ElementTree as ET
@@ -22,8 +25,11 @@ from distributed import Client, LocalCluster, get_task_stream
 
 from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
+from beatlog.errors import ClusterError
+from beatlog.suite import cluster as cluster_module
 from beatlog.suite.cluster import (
     FETCHED_AHEAD,
+    NO_WORKERS_S,
     ONE_DTC_PER_THREAD,
     TASK_BYTES,
     TASKS_PER_THREAD,
@@ -386,6 +392,78 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
         ("a-quick", "passed", None),
         ("b-waits", "passed", None),
     ]
+
+
+@pytest.fixture
+def no_workers() -> Iterator[str]:
+    """The address of a scheduler that has no workers."""
+    with (
+        dask.config.set(ONE_DTC_PER_THREAD),
+        LocalCluster(
+            n_workers=0, processes=True, dashboard_address=":0", silence_logs=logging.CRITICAL
+        ) as empty,
+    ):
+        yield empty.scheduler_address
+
+
+def test_a_cluster_that_never_has_a_worker_ends_the_run_in_one_line(
+    beatlog: Callable[..., Run],
+    no_workers: str,
+    suite: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    assert NO_WORKERS_S == 60
+    monkeypatch.setattr(cluster_module, "NO_WORKERS_S", 0.5)
+
+    run = beatlog("test", suite, "--dask", no_workers)
+
+    assert_error(
+        run,
+        f"--dask {no_workers}: the cluster has had no workers for 0.5 s "
+        "(all lost, none restarted): 3 of 3 DTCs not run",
+    )
+
+
+@pytest.mark.slow  # a worker process of its own: 2 s or more
+def test_a_cluster_whose_workers_are_all_killed_ends_the_run_after_the_outcomes_so_far(
+    no_workers: str, tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(cluster_module, "NO_WORKERS_S", 0.5)
+    log = record_probe(60)
+    waiting = write_waiting(tmp_path / "suite", tmp_path / "never-released")
+    write_spec(tmp_path / "suite", "a-quick", log)
+    write_spec(tmp_path / "suite", "b-waits", log, waiting)
+    paths = os.pathsep.join([str(Path.cwd()), str(tmp_path / "suite"), *sys.path])
+    worker = subprocess.Popen(  # no nanny: killed, it is not restarted
+        [sys.executable, "-m", "distributed.cli.dask_worker", no_workers, "--no-nanny"],
+        env={**os.environ, "PYTHONPATH": paths},
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    seen: list[SpecOutcome] = []
+
+    def kill_the_worker(outcome: SpecOutcome) -> bool:
+        seen.append(outcome)
+        worker.send_signal(signal.SIGKILL)
+        return False
+
+    try:
+        with Client(no_workers, set_as_default=False) as watcher:
+            watcher.wait_for_workers(1, timeout=60)
+        with (
+            DaskExecutor(no_workers) as executor,
+            pytest.raises(ClusterError) as raised,
+        ):
+            executor(discover_specs([tmp_path / "suite"]), SpecOptions(), kill_the_worker)
+    finally:
+        worker.kill()
+        worker.wait()
+
+    assert [(o.spec.name, o.verdict) for o in seen] == [("a-quick", Verdict.PASSED)]
+    assert str(raised.value) == (
+        f"--dask {no_workers}: the cluster has had no workers for 0.5 s "
+        "(all lost, none restarted): 1 of 2 DTCs not run"
+    )
 
 
 def unused_port() -> int:

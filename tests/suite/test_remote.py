@@ -315,6 +315,18 @@ def test_a_listed_log_is_one_request_and_none_once_in_the_cache(served: LogServe
     assert served.requests == {"GET /dock.beatlog": 1}
 
 
+def test_a_listed_log_in_the_cache_needs_no_package_of_its_storage(
+    served: LogServer, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    url, whole = f"{served.url}/dock.beatlog", (served.folder / "dock.beatlog").read_bytes()
+    with fetched_log(url, listed=listed(served, "dock.beatlog", '"v1"')):
+        pass
+    monkeypatch.setitem(sys.modules, "aiohttp", None)  # what fsspec's HTTP needs
+
+    with fetched_log(url, listed=listed(served, "dock.beatlog", '"v1"')) as copy:
+        assert copy.read_bytes() == whole
+
+
 def test_a_log_listed_with_another_etag_is_fetched_again(served: LogServer) -> None:
     url = f"{served.url}/dock.beatlog"
     with fetched_log(url, listed=listed(served, "dock.beatlog", '"v1"')):

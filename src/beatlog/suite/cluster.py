@@ -12,7 +12,10 @@ replay next (:func:`fetched_ahead`).
 A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs its
 task again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
 outcome counts the retries (:class:`WorkerDeaths`); past them a task of several DTCs is
-run again one DTC a task, so that only the DTC that kills its workers is an error.
+run again one DTC a task, so that only the DTC that kills its workers is an error. A
+cluster left with no workers at all (every one lost and none restarted, or none ever
+joined) for :data:`NO_WORKERS_S` ends the run with a :class:`ClusterError`, after the
+outcomes that came before: its tasks would wait for a worker without end.
 Needs ``pip install "beatlog[dask]"``.
 """
 
@@ -20,22 +23,22 @@ from __future__ import annotations
 
 import asyncio
 import collections
-import dataclasses
 import itertools
 import logging
 import re
+import threading
+import time
 import uuid
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from beatlog.baseline.file import expected_path
 from beatlog.errors import ClusterError, first_line
 from beatlog.log.files import Closing
 from beatlog.suite.parallel import longest_first
 from beatlog.suite.remote import Listed
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.shipping import packed, replayed
+from beatlog.suite.shipping import absolute, as_given, packed, replayed
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -45,6 +48,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FETCHED_AHEAD",
+    "NO_WORKERS_S",
     "ONE_DTC_PER_THREAD",
     "TASKS_PER_THREAD",
     "TASK_BYTES",
@@ -60,6 +64,11 @@ worker is sent no more DTCs than it has threads, so one that dies takes only the
 it was replaying with it (with Dask's default, 1.1, a worker of one thread also holds
 the next DTC, which would count as retried too)."""
 
+NO_WORKERS_S = 60.0
+"""How long a run waits on a cluster with no workers before it ends: long enough for
+a nanny to restart a worker that died, or for a scheduler's workers to join it."""
+_WORKERS_ASKED_EVERY_S = 1.0
+_ANSWER_S = 5.0
 _IN_FLIGHT_PER_THREAD = 2
 """How many tasks a run keeps submitted for each thread of the cluster."""
 FETCHED_AHEAD = 4
@@ -103,6 +112,7 @@ class DaskExecutor(Closing):
             raise ClusterError(
                 f"--dask {address}: expected local, or local:N with N worker processes from 1"
             )
+        self._address = address
         self._cluster: LocalCluster | None = None
         self._ships = local is None  # a cluster of this machine shares its files
         self._deaths = WorkerDeaths()
@@ -148,15 +158,16 @@ class DaskExecutor(Closing):
         ahead = fetched_ahead(grouped, threads)
         waiting = collections.deque(map(_Task, grouped, ahead))
         pending: dict[str, tuple[Future[list[SpecOutcome]], _Task]] = {}
+        ended, lost = threading.Event(), threading.Event()
 
         def submit(count: int) -> list[Future[list[SpecOutcome]]]:
             """Submit the next ``count`` tasks, reading the files they ship only now."""
             chosen = [waiting.popleft() for _ in range(min(count, len(waiting)))]
-            if not chosen:
+            if not chosen or lost.is_set():  # the cluster has no workers: nothing more
                 return []
             keys = [f"dtc-{task.specs[0].name}-{uuid.uuid4().hex}" for task in chosen]
             sent = [
-                [packed(_absolute(spec)) if self._ships else _absolute(spec) for spec in task.specs]
+                [packed(absolute(spec)) if self._ships else absolute(spec) for spec in task.specs]
                 for task in chosen
             ]
             futures: list[Future[list[SpecOutcome]]] = self._client.map(  # one message for all
@@ -177,9 +188,19 @@ class DaskExecutor(Closing):
             with_results=True,  # gathered as they complete: no round trip a task here
             raise_errors=False,
         )
+        told = 0
+        lookout = threading.Thread(
+            target=self._look_out,
+            args=(completed, ended, lost),
+            name="beatlog-lookout",
+            daemon=True,
+        )
+        lookout.start()
         try:
             for future, result in completed:
                 _, task = pending.pop(str(future.key))
+                if lost.is_set() and future.status != "finished":
+                    continue  # cancelled by the lookout: the outcomes that came still count
                 outcomes = self._outcomes(future, result, task)
                 future.release()  # now, not as the next completes: a worker lost meanwhile
                 # would have the scheduler run the task again for a result no one wants
@@ -189,11 +210,40 @@ class DaskExecutor(Closing):
                     completed.update(submit(len(task.specs)))
                     continue
                 for outcome in outcomes:
+                    told += 1
                     if done(outcome):
                         return
                 completed.update(submit(1))
+            if lost.is_set() and told < len(specs):
+                raise ClusterError(
+                    f"--dask {self._address}: the cluster has had no workers for "
+                    f"{NO_WORKERS_S:g} s (all lost, none restarted): "
+                    f"{len(specs) - told} of {len(specs)} DTCs not run"
+                )
         finally:
+            ended.set()
+            lookout.join()
             self._client.cancel([future for future, _ in pending.values()], force=True)
+
+    def _look_out(self, completed: Any, ended: threading.Event, lost: threading.Event) -> None:
+        """Until ``ended``, ask the cluster every second how many workers it has; once it
+        has had none for :data:`NO_WORKERS_S`, set ``lost`` and cancel the futures that
+        ``completed`` (an ``as_completed``) waits for, which then come back cancelled. A
+        scheduler that does not answer within a few seconds counts as having none."""
+        since = time.monotonic()
+        while not ended.wait(_WORKERS_ASKED_EVERY_S):
+            try:
+                workers = bool(self._client.nthreads(callback_timeout=_ANSWER_S))
+            except Exception:  # Dask's errors share no base: no answer, none for this run
+                workers = False
+            if workers:
+                since = time.monotonic()
+            elif time.monotonic() - since >= NO_WORKERS_S:
+                lost.set()
+                with completed.lock:
+                    waited = list(completed.futures)
+                self._client.cancel(waited, force=True)
+                return
 
     def _outcomes(
         self, future: Future[list[SpecOutcome]], result: Any, task: _Task
@@ -208,7 +258,7 @@ class DaskExecutor(Closing):
         if future.status == "finished":
             deaths = task.deaths + self._deaths[str(future.key)]
             return [
-                _as_given(outcome, spec, deaths)
+                as_given(outcome, spec, deaths)
                 for outcome, spec in zip(result, task.specs, strict=True)
             ]
         exc = result[1].with_traceback(result[2]) if isinstance(result, tuple) else result
@@ -343,26 +393,3 @@ def _log_bytes(spec: DtcSpec) -> int | None:
         return spec.log.stat().st_size
     except OSError:
         return None
-
-
-def _absolute(spec: DtcSpec) -> DtcSpec:
-    """The spec with absolute paths, for a worker whose working folder is not ours (a
-    log behind a URL is named by its URL alone)."""
-    log = spec.log if spec.log_url is not None else spec.log.absolute()
-    return dataclasses.replace(spec, path=spec.path.absolute(), log=log)
-
-
-def _as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
-    """A worker's outcome with the spec as given here (relative paths stay relative):
-    the same log, error, rerun command and baseline as a local run's."""
-    sent = _absolute(spec)
-    outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
-    result = outcome.result
-    if result is not None:
-        result = dataclasses.replace(result, log=spec.log, reproduce=outcome.reproduce)
-    error = outcome.error
-    if error is not None:
-        for absolute, given in ((sent.log, spec.log), (sent.path, spec.path)):
-            error = error.replace(str(absolute), str(given))
-    baseline = None if outcome.baseline is None else expected_path(spec.path)
-    return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)

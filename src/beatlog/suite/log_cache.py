@@ -5,12 +5,14 @@ again.
 An entry is keyed by the object's URL and ETag where the storage gives one, else by its
 URL, size and time of last change; an object that says neither is never cached. Each
 entry's name holds its size and SHA-256 digest, checked before every use: a damaged
-entry is removed and the log downloaded again, never replayed. Entries are written whole
-before they get their name and used through hard links of their own, so one process
-that removes an entry never pulls it from under another; two that fetch the same object
-at once share one download (a lock of that object alone, in ``fetching``). A copy in
-use lies in a folder its process holds locked (``flock``): one a killed process left is
-removed by the next process to use the cache, so a partial copy is never replayed.
+entry is removed and the log downloaded again, never replayed. A link of the key's in
+``index`` names its entry: finding it lists no folder, however many logs the cache
+holds. Entries are written whole before they get their name and used through hard links
+of their own, so one process that removes an entry never pulls it from under another;
+two that fetch the same object at once share one download (a lock of that object alone,
+in ``fetching``). A copy in use lies in a folder its process holds locked (``flock``):
+one a killed process left is removed by the next process to use the cache, so a partial
+copy is never replayed.
 
 The cache lives in ``BEATLOG_CACHE_DIR`` (the user's cache folder's ``beatlog/logs``
 unless set) and holds ``BEATLOG_CACHE_MAX_BYTES`` bytes at most (:data:`MAX_CACHE_BYTES`
@@ -25,6 +27,7 @@ import hashlib
 import os
 import shutil
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
@@ -51,6 +54,8 @@ CACHE_MAX_BYTES_VARIABLE = "BEATLOG_CACHE_MAX_BYTES"
 """The environment variable that sets the most bytes the cache holds (0: no cache)."""
 _ETAGS = ("ETag", "etag")
 _CHANGE_TIMES = ("mtime", "LastModified", "Last-Modified", "last_modified", "updated", "created")
+_INDEX = "index"
+"""The folder of links, one a key, each naming the key's entry."""
 _OWNER = "owner"
 """The file in a folder of copies in use that its process holds locked."""
 _UNLOCKED_GRACE_S = 60.0
@@ -89,7 +94,7 @@ def holds(url: str, info: Mapping[str, Any]) -> bool:
     key = cache_key(url, info)
     if key is None or _max_bytes(url) == 0:
         return False
-    return any((cache_folder() / "entries").glob(f"{key}.*"))
+    return any(entry.exists() for entry in _entries_of(cache_folder() / "entries", key))
 
 
 @contextlib.contextmanager
@@ -180,9 +185,18 @@ def _abandoned(folder: Path) -> bool:
     return True
 
 
+def _entries_of(entries: Path, key: str) -> list[Path]:
+    """The entry of ``key`` in ``entries`` as its link in the index names it (none
+    where it has none): found without listing the entries, however many there are."""
+    try:
+        return [entries / os.readlink(entries.parent / _INDEX / key)]
+    except OSError:  # no link: never kept, or removed
+        return []
+
+
 def _used(entries: Path, key: str, copy: Path) -> bool:
     """Whether a sound entry of ``key`` is now at ``copy``; damaged ones are removed."""
-    for entry in entries.glob(f"{key}.*"):
+    for entry in _entries_of(entries, key):
         _, size, digest = entry.name.split(".", 2)
         with contextlib.suppress(FileNotFoundError):  # another process removed it
             _link(entry, copy)
@@ -200,8 +214,15 @@ def _keep(entries: Path, key: str, copy: Path, bound: int) -> None:
     size = copy.stat().st_size
     if size > bound:
         return
+    name = f"{key}.{size}.{_digest(copy)}"
     with contextlib.suppress(FileExistsError):  # another process kept the same copy
-        _link(copy, entries / f"{key}.{size}.{_digest(copy)}")
+        _link(copy, entries / name)
+    index = entries.parent / _INDEX
+    index.mkdir(exist_ok=True)
+    link = index / f".{key}.{os.getpid()}.{threading.get_ident()}"
+    link.unlink(missing_ok=True)
+    os.symlink(name, link)
+    link.replace(index / key)  # whole, or not at all
     kept = []
     for entry in entries.iterdir():
         with contextlib.suppress(FileNotFoundError):
@@ -212,6 +233,7 @@ def _keep(entries: Path, key: str, copy: Path, bound: int) -> None:
         if total <= bound:
             break
         entry.unlink(missing_ok=True)
+        (entries.parent / _INDEX / entry.name.partition(".")[0]).unlink(missing_ok=True)
         total -= size
 
 

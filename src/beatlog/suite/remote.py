@@ -167,8 +167,8 @@ def fetched_log(
     if max_bytes is None:
         max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
     timeout = _timeout(url)
-    filesystem, path = url_filesystem(url, streaming=True)
     if listed is None:
+        filesystem, path = url_filesystem(url, streaming=True)
         with _answering(url, "cannot copy"):
             info: dict[str, Any] = filesystem.info(path)
     else:
@@ -181,9 +181,12 @@ def fetched_log(
     def fetch(copy: Path) -> None:
         """Copy the log whole within the bounds, or raise. Opened with its size, where
         known, it asks the storage nothing first; with its ETag, a download of an object
-        changed since is refused by the backends that check it (s3fs, told to)."""
+        changed since is refused by the backends that check it (s3fs, told to). The
+        storage's filesystem is opened only here: a listed log in the cache needs none
+        (nor its package's imports, s3fs's a second of CPU)."""
         from fsspec.spec import AbstractBufferedFile  # noqa: PLC0415 - an optional dependency
 
+        filesystem, path = url_filesystem(url, streaming=True)
         if size is not None and size > max_bytes:
             raise RemoteLogError(url, too_big)
         # Over HTTP a stream (block_size=0): a server need not serve the byte ranges that

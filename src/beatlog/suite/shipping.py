@@ -4,7 +4,8 @@ A spec travels with absolute paths to a cluster of this machine's; to another, w
 files of this machine its replay reads (:func:`packed`: its baseline, its local log, its
 project's ``pyproject.toml``), written into a folder of the worker's in the same places
 (:func:`unpacked`). Code is not shipped: a worker without the system's package makes the
-DTC an error that says so (:func:`missing_system`). A task's body is :func:`replayed`.
+DTC an error that says so (:func:`missing_system`). A task's body is :func:`replayed`;
+its outcomes are told with the spec as given here (:func:`as_given`).
 """
 
 from __future__ import annotations
@@ -28,7 +29,16 @@ from beatlog.suite.spec import DtcSpec
 if TYPE_CHECKING:
     from beatlog.baseline.policy import SpecOptions
 
-__all__ = ["Packed", "as_here", "missing_system", "packed", "replayed", "unpacked"]
+__all__ = [
+    "Packed",
+    "absolute",
+    "as_given",
+    "as_here",
+    "missing_system",
+    "packed",
+    "replayed",
+    "unpacked",
+]
 
 _OUTSIDE = "outside"
 
@@ -148,3 +158,26 @@ def _relative(path: Path, root: Path) -> Path:
         return absolute.resolve().relative_to(root.resolve())
     except ValueError:
         return Path(_OUTSIDE, *absolute.parts[1:])
+
+
+def absolute(spec: DtcSpec) -> DtcSpec:
+    """The spec with absolute paths, for a worker whose working folder is not ours (a
+    log behind a URL is named by its URL alone)."""
+    log = spec.log if spec.log_url is not None else spec.log.absolute()
+    return dataclasses.replace(spec, path=spec.path.absolute(), log=log)
+
+
+def as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
+    """A worker's outcome with the spec as given here (relative paths stay relative):
+    the same log, error, rerun command and baseline as a local run's."""
+    sent = absolute(spec)
+    outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
+    result = outcome.result
+    if result is not None:
+        result = dataclasses.replace(result, log=spec.log, reproduce=outcome.reproduce)
+    error = outcome.error
+    if error is not None:
+        for there, given in ((sent.log, spec.log), (sent.path, spec.path)):
+            error = error.replace(str(there), str(given))
+    baseline = None if outcome.baseline is None else expected_path(spec.path)
+    return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
