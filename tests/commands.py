@@ -140,6 +140,17 @@ def live_members(group: int) -> list[int]:
     return members
 
 
+AS_AT_A_TERMINAL = (
+    "import runpy, signal, sys\n"
+    "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+    "sys.argv[0] = 'beatlog'\n"
+    "runpy.run_module('beatlog.cli.main', run_name='__main__', alter_sys=True)\n"
+)
+"""``python -m beatlog.cli.main`` with Ctrl-C turned into ``KeyboardInterrupt``, as in a
+command started at a terminal, even where the tests run in the background (whose
+commands inherit SIGINT ignored, and would ignore the Ctrl-C a test presses)."""
+
+
 def signalled(
     args: Sequence[str | Path],
     ready: Callable[[], bool],
@@ -153,7 +164,7 @@ def signalled(
     sends Ctrl-C), and collect how it ended; a command that hangs, or leaves processes
     of its group running, fails the test."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "beatlog.cli.main", *(str(arg) for arg in args)],
+        [sys.executable, "-c", AS_AT_A_TERMINAL, *(str(arg) for arg in args)],
         cwd=ROOT,
         env=env,
         stdout=subprocess.PIPE,
