@@ -5,7 +5,9 @@ nested too deep), for testing whatever reads session logs.
 :func:`craft_log` writes an MCAP file shaped like a session log with whatever channels
 and messages it is given; the ``*_message`` functions build the messages beatlog's
 writer would write; :func:`top_level_records` and the chunk functions cut the file's
-bytes. Nothing here checks what it builds: that is the reader's job.
+bytes. :func:`write_chunked_log` writes a log in many small chunks for the log tests
+to cut and damage, and :func:`read_all` reads one back. Nothing here checks what it
+builds: that is the reader's job.
 """
 
 from __future__ import annotations
@@ -28,13 +30,19 @@ from beatlog.log.format import (
     MESSAGE_ENCODING,
     PROFILE,
     SCHEMA_ENCODING,
+    CycleRecord,
     SessionEnd,
     SessionHeader,
     cycles_record,
     schema_name,
 )
+from beatlog.log.reader import LogStatus, SessionLogReader
+from beatlog.log.recording import LogSource
+from beatlog.log.writer import SessionLogWriter
+from tests.conftest import PERIOD_NS, Probe
 
 __all__ = [
+    "CYCLES",
     "FORMAT_1_CHANNELS",
     "FORMAT_2_CHANNELS",
     "PERIOD_NS",
@@ -42,26 +50,29 @@ __all__ = [
     "Channel",
     "Gauge",
     "Message",
+    "Original",
     "Record",
     "channels",
     "chunks",
     "craft_log",
+    "cut_points",
     "cycle",
     "cycle_messages",
     "deeply_nested",
     "drop_chunk",
+    "encoded",
     "end_message",
     "header_message",
+    "read_all",
     "repeat_chunk",
     "replace_chunk_content",
     "session_header",
     "standard_messages",
     "swap_chunks",
     "top_level_records",
+    "write",
+    "write_chunked_log",
 ]
-
-PERIOD_NS = 30_000_000
-"""The heartbeat of crafted logs: every cycle is one period long."""
 
 
 class Gauge(msgspec.Struct, kw_only=True):
@@ -268,3 +279,56 @@ def replace_chunk_content(
 def deeply_nested(depth: int = 100_000) -> msgspec.Raw:
     """A msgpack value nested ``depth`` arrays deep."""
     return msgspec.Raw(b"\x91" * depth + b"\xc0")
+
+
+# a log in many small chunks for the log tests to cut and damage, and reading logs back
+
+CYCLES = 200
+CYCLES_PER_CHUNK = 10
+
+
+def write_chunked_log(path: Path, cycles: int = CYCLES) -> Path:
+    """A complete log in many small chunks: the header, one chunk per 10 cycles, the end."""
+    writer = SessionLogWriter(
+        path,
+        session_header(behaviors=["near"]),
+        batch_cycles=CYCLES_PER_CHUNK,
+        chunk_size=1,
+        flush_interval_s=60.0,
+    )
+    for t in range(cycles):
+        changes = [(0, "far", "near")] if t % 7 == 0 else []
+        draws = [(0, "random", t / cycles)] if t % 3 == 0 else []
+        state = Probe(distance=1.0 - t / cycles, reading=float(t))
+        writer.append(PERIOD_NS + t, state, changes, draws, {"t": t})
+    writer.close(SessionEnd(cycles=cycles, robot_time_ns=cycles * PERIOD_NS + sum(range(cycles))))
+    return path
+
+
+class Original(NamedTuple):
+    data: bytes
+    cycles: list[bytes]
+    """Each cycle encoded, to compare byte for byte."""
+    header_end: int
+    cycle_chunks: list[Record]
+    footer: Record
+
+
+def read_all(path: LogSource) -> tuple[list[CycleRecord], LogStatus]:
+    with SessionLogReader(path) as reader:
+        cycles = list(reader.cycles())
+        return cycles, reader.status
+
+
+def encoded(cycles: list[CycleRecord]) -> list[bytes]:
+    return [msgspec.msgpack.encode(cycle) for cycle in cycles]
+
+
+def write(path: Path, data: bytes) -> Path:
+    path.write_bytes(data)
+    return path
+
+
+def cut_points(first: int, last: int, count: int = 40) -> list[int]:
+    """``count`` offsets spread evenly from ``first`` to ``last``, both included."""
+    return [first + (last - first) * i // (count - 1) for i in range(count)]

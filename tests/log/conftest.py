@@ -6,15 +6,16 @@ import pytest
 from mcap.opcode import Opcode
 
 from beatlog.log.reader import LogStatus
-from tests.chunked import (
+from tests.crafting import (
     CYCLES,
     CYCLES_PER_CHUNK,
     Original,
+    chunks,
     encoded,
     read_all,
+    top_level_records,
     write_chunked_log,
 )
-from tests.crafting import chunks, top_level_records
 
 
 @pytest.fixture(scope="module")

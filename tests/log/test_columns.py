@@ -15,7 +15,6 @@ from beatlog.errors import CorruptLogError
 from beatlog.log.columns import Column, StateColumns, column_batches, encode_column
 from beatlog.log.format import payload_encoder
 from beatlog.log.reader import SessionLogReader
-from tests.chunked import read_all
 from tests.columned import (
     Damage,
     foreign_value,
@@ -25,6 +24,7 @@ from tests.columned import (
     write_states,
 )
 from tests.conftest import PERIOD_NS
+from tests.crafting import read_all
 
 
 class Pose(msgspec.Struct):

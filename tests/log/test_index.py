@@ -9,8 +9,16 @@ from mcap.opcode import Opcode
 
 from beatlog.errors import CorruptLogError
 from beatlog.log.index import recorded_cycles
-from tests.chunked import CYCLES, Original, cut_points, read_all, write, write_chunked_log
-from tests.crafting import chunks, top_level_records
+from tests.crafting import (
+    CYCLES,
+    Original,
+    chunks,
+    cut_points,
+    read_all,
+    top_level_records,
+    write,
+    write_chunked_log,
+)
 from tests.factories import MAGIC_LENGTH, RECORD_HEAD
 
 

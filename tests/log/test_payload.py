@@ -11,7 +11,6 @@ import pytest
 from beatlog.errors import CorruptLogError, SchemaMismatchError
 from beatlog.log.format import CYCLES_TOPIC, FORMAT_VERSION, CycleRecord
 from beatlog.log.reader import LogStatus, SessionLogReader
-from tests.chunked import read_all
 from tests.conftest import PERIOD_NS
 from tests.crafting import (
     FORMAT_1_CHANNELS,
@@ -22,6 +21,7 @@ from tests.crafting import (
     cycle,
     end_message,
     header_message,
+    read_all,
     standard_messages,
 )
 

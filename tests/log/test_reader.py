@@ -20,18 +20,21 @@ from beatlog.errors import (
 from beatlog.log.format import FORMAT_VERSION, CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
-from tests.chunked import (
+from tests.columned import write_states
+from tests.conftest import PERIOD_NS, Probe, RecordFn
+from tests.crafting import (
     CYCLES,
     CYCLES_PER_CHUNK,
     Original,
+    craft_log,
     cut_points,
     encoded,
+    header_message,
     read_all,
+    session_header,
+    top_level_records,
     write,
 )
-from tests.columned import write_states
-from tests.conftest import PERIOD_NS, Probe, RecordFn
-from tests.crafting import craft_log, header_message, session_header, top_level_records
 from tests.factories import MAGIC_LENGTH, PROBE_CYCLE_DAMAGE, RECORD_HEAD, rewrite_cycle
 
 CHUNK_DATA_START = RECORD_HEAD + 8 + 8 + 8 + 4 + 4 + len("zstd") + 8

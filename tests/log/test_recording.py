@@ -9,7 +9,7 @@ from pathlib import Path
 
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.recording import Recording
-from tests.chunked import Original, encoded, read_all, write
+from tests.crafting import Original, encoded, read_all, write
 
 
 def test_a_read_to_the_end_takes_the_digest_of_every_byte_and_keeps_them(

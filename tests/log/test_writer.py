@@ -18,9 +18,8 @@ from beatlog.errors import LogError, LogExistsError
 from beatlog.log.format import CycleRecord, SessionEnd
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.log.writer import SessionLogWriter
-from tests.chunked import read_all
 from tests.conftest import PERIOD_NS, Probe
-from tests.crafting import session_header
+from tests.crafting import read_all, session_header
 from tests.factories import fill_the_disk
 
 if TYPE_CHECKING:
