@@ -47,6 +47,26 @@ def test_robot_states_decoded_with_their_batches_are_the_states_the_bytes_hold(
     assert all(isinstance(cycle, CycleRecord) for cycle in decoded)
 
 
+class _Level(msgspec.Struct):
+    """Gauge's robot state read as another type with its one field."""
+
+    level: float
+
+
+def test_each_reader_decodes_into_its_own_state_type_however_many_came_before(
+    tmp_path: Path,
+) -> None:
+    log = craft_log(tmp_path / "gauge.beatlog", standard_messages(5))
+
+    read = []
+    for state_type in (Gauge, _Level, Gauge, _Level):
+        with SessionLogReader(log) as reader:
+            reader.decode_states(state_type)
+            read.append([type(cycle.robot_state) for cycle in reader.cycles()])
+
+    assert read == [[Gauge] * 5, [_Level] * 5, [Gauge] * 5, [_Level] * 5]
+
+
 def test_a_robot_state_that_does_not_fit_its_type_is_named_by_its_cycle(tmp_path: Path) -> None:
     cycles = [cycle() for _ in range(10)]
     cycles[7] = cycle(state={"level": "full"})
