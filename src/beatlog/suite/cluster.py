@@ -52,6 +52,7 @@ __all__ = [
     "ONE_DTC_PER_THREAD",
     "TASKS_PER_THREAD",
     "TASK_BYTES",
+    "UNPROFILED",
     "DaskExecutor",
     "WorkerDeaths",
     "fetched_ahead",
@@ -63,6 +64,12 @@ ONE_DTC_PER_THREAD = {"distributed.scheduler.worker-saturation": 1.0}
 worker is sent no more DTCs than it has threads, so one that dies takes only the DTCs
 it was replaying with it (with Dask's default, 1.1, a worker of one thread also holds
 the next DTC, which would count as retried too)."""
+
+UNPROFILED = {"distributed.worker.profile.enabled": False}
+"""The workers' setting of the cluster ``local`` starts, worth setting on a cluster's own
+workers too: Dask's profiler, which samples a worker's threads every 10 ms for the
+dashboard's profile page, costs 0.5-0.9 ms of CPU a DTC of a 3-s rover log, whose replay
+takes 3-5 ms (``bench/bench_fleet_s3.py``)."""
 
 NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
@@ -122,7 +129,7 @@ class DaskExecutor(Closing):
                 self._client = Client(address, set_as_default=False)
             else:
                 workers = None if local.group(1) is None else int(local.group(1))
-                with dask.config.set(ONE_DTC_PER_THREAD):
+                with dask.config.set(ONE_DTC_PER_THREAD | UNPROFILED):
                     self._cluster = LocalCluster(
                         n_workers=workers,
                         threads_per_worker=1,
