@@ -25,6 +25,7 @@ import contextlib
 import fcntl
 import hashlib
 import os
+import re
 import shutil
 import tempfile
 import threading
@@ -55,6 +56,8 @@ CACHE_MAX_BYTES_VARIABLE = "BEATLOG_CACHE_MAX_BYTES"
 _ETAGS = ("ETag", "etag")
 _CHANGE_TIMES = ("mtime", "LastModified", "Last-Modified", "last_modified", "updated", "created")
 _INDEX = "index"
+_ENTRY = re.compile(r"^[0-9a-f]{64}\.([0-9]+)\.[0-9a-f]{64}$", re.MULTILINE)
+"""An entry's name, ``KEY.SIZE.DIGEST``: its size is read from it."""
 """The folder of links, one a key, each naming the key's entry."""
 _OWNER = "owner"
 """The file in a folder of copies in use that its process holds locked."""
@@ -223,12 +226,15 @@ def _keep(entries: Path, key: str, copy: Path, bound: int) -> None:
     link.unlink(missing_ok=True)
     os.symlink(name, link)
     link.replace(index / key)  # whole, or not at all
+    names = os.listdir(entries)
+    total = sum(map(int, _ENTRY.findall("\n".join(names))))
+    if total <= bound:  # the sizes are in the names: nothing read but the folder
+        return
     kept = []
-    for entry in entries.iterdir():
+    for name in names:
         with contextlib.suppress(FileNotFoundError):
-            status = entry.stat()
-            kept.append((status.st_mtime, status.st_size, entry))
-    total = sum(size for _, size, _ in kept)
+            status = (entries / name).stat()
+            kept.append((status.st_mtime, status.st_size, entries / name))
     for _, size, entry in sorted(kept):
         if total <= bound:
             break
