@@ -8,8 +8,6 @@ from __future__ import annotations
 import logging
 import os
 import re
-import shutil
-import signal
 import socket
 import subprocess
 import sys
@@ -25,12 +23,10 @@ from distributed import Client, LocalCluster, get_task_stream
 
 from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
-from beatlog.errors import ClusterError
 from beatlog.suite import cluster as cluster_module
 from beatlog.suite.cluster import (
     FETCHED_AHEAD,
     NO_WORKERS_S,
-    ONE_DTC_PER_THREAD,
     TASK_BYTES,
     TASKS_PER_THREAD,
     DaskExecutor,
@@ -56,7 +52,6 @@ def cluster() -> Iterator[str]:
     """A cluster of two worker processes, shared by this module's tests; a DTC whose
     worker dies is run again once, then is an error."""
     with (
-        dask.config.set(ONE_DTC_PER_THREAD),
         LocalCluster(
             n_workers=2,
             threads_per_worker=1,
@@ -355,28 +350,26 @@ def test_ctrl_c_cancels_the_tasks_not_complete(
 def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
     tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    release = tmp_path / "release"
-    waiting = write_waiting(tmp_path / "code", release)  # installed on the workers alone
+    (tmp_path / "code").mkdir()  # installed on the workers alone
+    (tmp_path / "code" / "removing.py").write_text(
+        "import shutil\n"
+        "from tests.conftest import probe_system\n\n\n"
+        "def system():\n"
+        f"    shutil.rmtree({str(tmp_path / 'checkout')!r})  # before the replay reads a file\n"
+        "    return probe_system()\n",
+        encoding="utf-8",
+    )
     (tmp_path / "checkout").mkdir()
     log = record_probe(60, name="checkout/walk.beatlog")
     write_spec(tmp_path / "checkout", "a-quick", log)
-    write_spec(tmp_path / "checkout", "b-waits", log, waiting)  # on the scheduler, sent
+    write_spec(tmp_path / "checkout", "b-removes", log, "removing:system")
     specs = discover_specs([tmp_path / "checkout"])
     outcomes: list[SpecOutcome] = []
-
-    def checkout_gone(outcome: SpecOutcome) -> bool:
-        """Once the first DTC is judged, the checkout is no more."""
-        outcomes.append(outcome)
-        if not release.exists():
-            shutil.rmtree(tmp_path / "checkout")
-            release.touch()
-        return False
 
     (tmp_path / "elsewhere").mkdir()
     monkeypatch.chdir(tmp_path / "elsewhere")
     monkeypatch.syspath_prepend(tmp_path / "code")  # workers start with this sys.path
     with (
-        dask.config.set(ONE_DTC_PER_THREAD),
         LocalCluster(
             n_workers=1,
             threads_per_worker=1,
@@ -386,11 +379,12 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
         ) as elsewhere,
         DaskExecutor(elsewhere.scheduler_address) as executor,
     ):
-        executor(specs, SpecOptions(), checkout_gone)
+        executor(specs, SpecOptions(), lambda outcome: outcomes.append(outcome) is not None)
 
+    assert not (tmp_path / "checkout").exists()
     assert sorted((o.spec.name, o.verdict.value, o.error) for o in outcomes) == [
         ("a-quick", "passed", None),
-        ("b-waits", "passed", None),
+        ("b-removes", "passed", None),
     ]
 
 
@@ -398,7 +392,6 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
 def no_workers() -> Iterator[str]:
     """The address of a scheduler that has no workers."""
     with (
-        dask.config.set(ONE_DTC_PER_THREAD),
         LocalCluster(
             n_workers=0, processes=True, dashboard_address=":0", silence_logs=logging.CRITICAL
         ) as empty,
@@ -426,43 +419,43 @@ def test_a_cluster_that_never_has_a_worker_ends_the_run_in_one_line(
 
 @pytest.mark.slow  # a worker process of its own: 2 s or more
 def test_a_cluster_whose_workers_are_all_killed_ends_the_run_after_the_outcomes_so_far(
-    no_workers: str, tmp_path: Path, record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+    beatlog: Callable[..., Run],
+    no_workers: str,
+    tmp_path: Path,
+    record_probe: RecordFn,
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     monkeypatch.setattr(cluster_module, "NO_WORKERS_S", 0.5)
-    log = record_probe(60)
-    waiting = write_waiting(tmp_path / "suite", tmp_path / "never-released")
-    write_spec(tmp_path / "suite", "a-quick", log)
-    write_spec(tmp_path / "suite", "b-waits", log, waiting)
-    paths = os.pathsep.join([str(Path.cwd()), str(tmp_path / "suite"), *sys.path])
+    write_spec(tmp_path / "suite", "a-quick", record_probe(120))  # longer: it runs first
+    (tmp_path / "suite" / "dying_later.py").write_text(  # once a-quick's outcome is fetched
+        "import os\nimport time\n\n\ndef system():\n    time.sleep(2)\n    os._exit(3)\n"
+    )
+    write_spec(
+        tmp_path / "suite", "b-kills", record_probe(60, name="short.beatlog"), "dying_later:system"
+    )
     worker = subprocess.Popen(  # no nanny: killed, it is not restarted
         [sys.executable, "-m", "distributed.cli.dask_worker", no_workers, "--no-nanny"],
-        env={**os.environ, "PYTHONPATH": paths},
+        env={
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join([str(Path.cwd()), str(tmp_path / "suite"), *sys.path]),
+        },
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
-    seen: list[SpecOutcome] = []
-
-    def kill_the_worker(outcome: SpecOutcome) -> bool:
-        seen.append(outcome)
-        worker.send_signal(signal.SIGKILL)
-        return False
-
     try:
         with Client(no_workers, set_as_default=False) as watcher:
             watcher.wait_for_workers(1, timeout=60)
-        with (
-            DaskExecutor(no_workers) as executor,
-            pytest.raises(ClusterError) as raised,
-        ):
-            executor(discover_specs([tmp_path / "suite"]), SpecOptions(), kill_the_worker)
+        run = beatlog("test", tmp_path / "suite", "--dask", no_workers)
     finally:
         worker.kill()
         worker.wait()
 
-    assert [(o.spec.name, o.verdict) for o in seen] == [("a-quick", Verdict.PASSED)]
-    assert str(raised.value) == (
-        f"--dask {no_workers}: the cluster has had no workers for 0.5 s "
-        "(all lost, none restarted): 1 of 2 DTCs not run"
+    assert run.code == 2, run
+    assert table_row(run.out, "a-quick")[1:2] == ["passed"], run
+    assert "b-kills" not in run.out
+    assert run.err == (
+        f"beatlog: error: --dask {no_workers}: the cluster has had no workers for 0.5 s "
+        "(all lost, none restarted): 1 of 2 DTCs not run\n"
     )
 
 
@@ -761,7 +754,6 @@ def test_a_dtc_that_kills_the_workers_of_its_task_loses_no_other_dtcs_outcome(
         write_spec(folder, f"dtc-{index:02}", log, DYING if index == 4 else PROBE)
 
     with (
-        dask.config.set(ONE_DTC_PER_THREAD),
         LocalCluster(
             n_workers=2,
             threads_per_worker=1,

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from beatlog.baseline.policy import open_loop_share, stale_suite
-from beatlog.errors import OptionError, SpecError
+from beatlog.errors import ClusterError, OptionError, SpecError
 from beatlog.log.files import write_json
 from beatlog.project.config import ProjectConfig, project_config
 from beatlog.report.console import plain_text, render_outcome
@@ -71,6 +71,7 @@ class SuiteSession:
         self._outcomes: dict[str, SpecOutcome] = {}
         self._wall_s = 0.0
         self._interrupted: KeyboardInterrupt | None = None
+        self._lost: str | None = None
 
     @property
     def specs(self) -> list[DtcSpec]:
@@ -85,8 +86,9 @@ class SuiteSession:
     def run(self, on_outcome: Callable[[SpecOutcome], object] | None = None) -> SuiteReport:
         """Run the DTCs (see :func:`~beatlog.suite.parallel.run_suite`), each outcome given
         to ``on_outcome`` as it comes; what ran, before anything is updated or written.
-        A run stopped by Ctrl-C or by quitting the debugger at a break keeps what was
-        complete: its report says what stopped it, and no report file is written."""
+        A run stopped by Ctrl-C, by quitting the debugger at a break or by losing its
+        cluster keeps what was complete: its report says what stopped it, and nothing is
+        updated or written."""
         options = self.options
 
         def done(outcome: SpecOutcome) -> None:
@@ -112,6 +114,8 @@ class SuiteSession:
                 )
         except KeyboardInterrupt as stop:
             self._interrupted = stop
+        except ClusterError as lost:  # the outcomes that came before still count
+            self._lost = str(lost)
         self._wall_s = time.perf_counter() - started
         return self._ran()
 
@@ -122,6 +126,7 @@ class SuiteSession:
             wall_s=self._wall_s,
             audited=self.options.audit,
             interrupted=self._interrupted,
+            error=self._lost,
         )
 
     def finish(self) -> SuiteReport:
@@ -130,7 +135,7 @@ class SuiteSession:
         report says why), and remember which DTCs failed, for ``--lf``; what the
         session did."""
         options, outcomes, report = self.options, self.outcomes, self._ran()
-        if report.interrupted is not None:
+        if report.interrupted is not None or report.error is not None:
             return report
         try:
             updates = tuple(update_baselines(outcomes, options.update))

@@ -60,7 +60,9 @@ class SuiteReport:
     written: tuple[Path, ...] = ()
     """The report files written."""
     error: str | None = None
-    """Why a report file could not be written; those after it were not written either."""
+    """What ended the session with an error: a report file that could not be written
+    (those after it were not written either), or the cluster lost (the outcomes are
+    those that came before, and nothing is updated or written)."""
     interrupted: KeyboardInterrupt | None = None
     """What stopped the run (Ctrl-C, or quitting the debugger at a break): the outcomes
     are those complete by then, and no report file is written."""

@@ -4,8 +4,9 @@ Each Dask task runs :func:`beatlog.suite.runner.run_spec` for a few DTCs in the 
 run (:func:`tasks`: a big DTC alone, small ones together, so that a cluster's cost of a
 task does not swamp their replays) and sends back their outcomes; outcomes stream back
 as tasks complete, each DTC's to the same progress bar and reports. Tasks are submitted
-as outcomes come, two a cluster thread ahead of them, so the files they ship
-(:mod:`beatlog.suite.shipping`) are held for those DTCs alone. A log behind a URL is
+as outcomes come, one a cluster thread, so the files they ship
+(:mod:`beatlog.suite.shipping`) are held for those DTCs alone, and a worker holds no
+task but the one each of its threads runs. A log behind a URL is
 copied by the worker that replays it, which also fetches ahead the logs it is likely to
 replay next (:func:`fetched_ahead`).
 
@@ -49,7 +50,6 @@ if TYPE_CHECKING:
 __all__ = [
     "FETCHED_AHEAD",
     "NO_WORKERS_S",
-    "ONE_DTC_PER_THREAD",
     "TASKS_PER_THREAD",
     "TASK_BYTES",
     "UNPROFILED",
@@ -59,25 +59,23 @@ __all__ = [
     "tasks",
 ]
 
-ONE_DTC_PER_THREAD = {"distributed.scheduler.worker-saturation": 1.0}
-"""The scheduler's setting for DTC suites, and that of the cluster ``local`` starts: a
-worker is sent no more DTCs than it has threads, so one that dies takes only the DTCs
-it was replaying with it (with Dask's default, 1.1, a worker of one thread also holds
-the next DTC, which would count as retried too)."""
-
 UNPROFILED = {"distributed.worker.profile.enabled": False}
 """The workers' setting of the cluster ``local`` starts, worth setting on a cluster's own
 workers too: Dask's profiler, which samples a worker's threads every 10 ms for the
 dashboard's profile page, costs 0.5-0.9 ms of CPU a DTC of a 3-s rover log, whose replay
-takes 3-5 ms (``bench/bench_fleet_s3.py``)."""
+takes 3-5 ms."""
 
 NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
 a nanny to restart a worker that died, or for a scheduler's workers to join it."""
 _WORKERS_ASKED_EVERY_S = 1.0
 _ANSWER_S = 5.0
-_IN_FLIGHT_PER_THREAD = 2
-"""How many tasks a run keeps submitted for each thread of the cluster."""
+_IN_FLIGHT_PER_THREAD = 1
+"""How many tasks a run keeps submitted for each thread of the cluster: one, the next
+submitted once its outcomes are in. Dask sends a worker every task it is given at once
+(tasks that are not many of a kind are not queued on the scheduler), so with more a
+worker also holds tasks it has not started, and a DTC that kills it would take their
+DTCs, or the news of one it has just finished, with it."""
 FETCHED_AHEAD = 4
 """How many DTCs ahead of the task it replays a worker's thread has the URL logs
 fetched, at least (whole tasks: a task of several DTCs has the next one's fetched):
@@ -129,7 +127,7 @@ class DaskExecutor(Closing):
                 self._client = Client(address, set_as_default=False)
             else:
                 workers = None if local.group(1) is None else int(local.group(1))
-                with dask.config.set(ONE_DTC_PER_THREAD | UNPROFILED):
+                with dask.config.set(UNPROFILED):
                     self._cluster = LocalCluster(
                         n_workers=workers,
                         threads_per_worker=1,
@@ -165,28 +163,38 @@ class DaskExecutor(Closing):
         ahead = fetched_ahead(grouped, threads)
         waiting = collections.deque(map(_Task, grouped, ahead))
         pending: dict[str, tuple[Future[list[SpecOutcome]], _Task]] = {}
+        guard = threading.Lock()  # of pending and lost, which the lookout sets
         ended, lost = threading.Event(), threading.Event()
+
+        def waited(*, losing: bool = False) -> list[Future[list[SpecOutcome]]]:
+            """The futures submitted whose outcomes have not come; ``losing``, with the
+            cluster marked lost, so that no more are submitted."""
+            with guard:
+                if losing:
+                    lost.set()
+                return [future for future, _ in pending.values()]
 
         def submit(count: int) -> list[Future[list[SpecOutcome]]]:
             """Submit the next ``count`` tasks, reading the files they ship only now."""
             chosen = [waiting.popleft() for _ in range(min(count, len(waiting)))]
-            if not chosen or lost.is_set():  # the cluster has no workers: nothing more
-                return []
             keys = [f"dtc-{task.specs[0].name}-{uuid.uuid4().hex}" for task in chosen]
             sent = [
                 [packed(absolute(spec)) if self._ships else absolute(spec) for spec in task.specs]
                 for task in chosen
             ]
-            futures: list[Future[list[SpecOutcome]]] = self._client.map(  # one message for all
-                replayed,
-                sent,
-                [task.ahead for task in chosen],
-                options=options,
-                key=keys,
-                pure=False,
-            )
-            for future, task in zip(futures, chosen, strict=True):
-                pending[str(future.key)] = (future, task)
+            with guard:
+                if not chosen or lost.is_set():  # the cluster has no workers: nothing more
+                    return []
+                futures: list[Future[list[SpecOutcome]]] = self._client.map(  # one message
+                    replayed,
+                    sent,
+                    [task.ahead for task in chosen],
+                    options=options,
+                    key=keys,
+                    pure=False,
+                )
+                for future, task in zip(futures, chosen, strict=True):
+                    pending[str(future.key)] = (future, task)
             return futures
 
         completed = as_completed(
@@ -198,14 +206,15 @@ class DaskExecutor(Closing):
         told = 0
         lookout = threading.Thread(
             target=self._look_out,
-            args=(completed, ended, lost),
+            args=(waited, ended),
             name="beatlog-lookout",
             daemon=True,
         )
         lookout.start()
         try:
             for future, result in completed:
-                _, task = pending.pop(str(future.key))
+                with guard:
+                    _, task = pending.pop(str(future.key))
                 if lost.is_set() and future.status != "finished":
                     continue  # cancelled by the lookout: the outcomes that came still count
                 outcomes = self._outcomes(future, result, task)
@@ -214,7 +223,7 @@ class DaskExecutor(Closing):
                 if isinstance(outcomes, int):  # its workers died: its DTCs again, one a task
                     again = (_Task([spec], [], outcomes) for spec in reversed(task.specs))
                     waiting.extendleft(again)
-                    completed.update(submit(len(task.specs)))
+                    completed.update(submit(1))
                     continue
                 for outcome in outcomes:
                     told += 1
@@ -230,13 +239,13 @@ class DaskExecutor(Closing):
         finally:
             ended.set()
             lookout.join()
-            self._client.cancel([future for future, _ in pending.values()], force=True)
+            self._client.cancel(waited(), force=True)
 
-    def _look_out(self, completed: Any, ended: threading.Event, lost: threading.Event) -> None:
+    def _look_out(self, waited: Callable[..., list[Future[Any]]], ended: threading.Event) -> None:
         """Until ``ended``, ask the cluster every second how many workers it has; once it
-        has had none for :data:`NO_WORKERS_S`, set ``lost`` and cancel the futures that
-        ``completed`` (an ``as_completed``) waits for, which then come back cancelled. A
-        scheduler that does not answer within a few seconds counts as having none."""
+        has had none for :data:`NO_WORKERS_S`, cancel the futures ``waited(losing=True)``
+        gives, which then come back cancelled. A scheduler that does not answer within a
+        few seconds counts as having none."""
         since = time.monotonic()
         while not ended.wait(_WORKERS_ASKED_EVERY_S):
             try:
@@ -246,10 +255,7 @@ class DaskExecutor(Closing):
             if workers:
                 since = time.monotonic()
             elif time.monotonic() - since >= NO_WORKERS_S:
-                lost.set()
-                with completed.lock:
-                    waited = list(completed.futures)
-                self._client.cancel(waited, force=True)
+                self._client.cancel(waited(losing=True), force=True)
                 return
 
     def _outcomes(
