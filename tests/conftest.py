@@ -208,7 +208,10 @@ def alone_system() -> PriorityArbiter[Probe]:
 
 
 def dying_system() -> PriorityArbiter[Probe]:
-    """A system factory that ends its process at once, as a crash would."""
+    """A system factory that ends its process, as a crash would, a second into its set-up:
+    by then what its worker did before has reached the scheduler (Dask's messages go out
+    every few milliseconds, a crash at once could take the news of a finished DTC along)."""
+    time.sleep(1)
     os._exit(3)
 
 

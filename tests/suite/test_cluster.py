@@ -427,18 +427,10 @@ def test_a_cluster_whose_workers_are_all_killed_ends_the_run_after_the_outcomes_
 ) -> None:
     monkeypatch.setattr(cluster_module, "NO_WORKERS_S", 0.5)
     write_spec(tmp_path / "suite", "a-quick", record_probe(120))  # longer: it runs first
-    (tmp_path / "suite" / "dying_later.py").write_text(  # once a-quick's outcome is fetched
-        "import os\nimport time\n\n\ndef system():\n    time.sleep(2)\n    os._exit(3)\n"
-    )
-    write_spec(
-        tmp_path / "suite", "b-kills", record_probe(60, name="short.beatlog"), "dying_later:system"
-    )
+    write_spec(tmp_path / "suite", "b-kills", record_probe(60, name="short.beatlog"), DYING)
     worker = subprocess.Popen(  # no nanny: killed, it is not restarted
         [sys.executable, "-m", "distributed.cli.dask_worker", no_workers, "--no-nanny"],
-        env={
-            **os.environ,
-            "PYTHONPATH": os.pathsep.join([str(Path.cwd()), str(tmp_path / "suite"), *sys.path]),
-        },
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(Path.cwd()), *sys.path])},
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
