@@ -84,19 +84,25 @@ class RecordDamageError(Exception):
 
 class _Fields(ReadDataStream):
     """A record's body read field by field, each field whole: one cut short is damage.
-    Read from the body's bytes in place, a field one unpack: a log's records are read
-    in Python, and this is most of the cost of opening a short log."""
+    Read from the body's bytes in place, one unpack a field: a log's records are read
+    in Python, about a third of the CPU of opening and reading a short log."""
 
     def __init__(self, body: bytes) -> None:
         super().__init__(BytesIO())
         self._body = body
+        self._position = 0
+
+    @property
+    def count(self) -> int:
+        """How many bytes of the body have been read."""
+        return self._position
 
     def _take(self, length: int) -> int:
         """Where the next ``length`` bytes start, once they are known to be there."""
-        start = self._count
+        start = self._position
         if start + length > len(self._body):
             raise RecordDamageError(f"a record's field of {length} bytes is cut off")
-        self._count = start + length
+        self._position = start + length
         return start
 
     def read(self, length: int) -> bytes:
