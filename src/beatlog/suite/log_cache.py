@@ -155,11 +155,11 @@ class _OwnFolder:
     its own there, named as the log is; a numbered folder holds one copy at a time and
     is used again once that copy is removed."""
 
-    # Made once a process, not once a copy: with a folder made, locked and removed for
-    # each copy, a cache hit of a 3-s rover log (8.6 KiB) took 1.05 ms of CPU and 3.7 ms
-    # of wall time, against 0.27 and 0.40 ms so (1,000 hits in one process, each a
-    # cached_copy of its own URL under one ETag, its fetch never called; 2 shared
-    # cores): the 0.8 ms saved is a quarter of such a DTC's CPU in run_spec.
+    # Made once a process, not once a copy: a folder made, locked and removed for each
+    # copy cost a cache hit of a 3-s rover log (8.6 KiB) 1.0-1.3 ms of CPU and 3.7-4.0 ms
+    # of wall time, against 0.26-0.28 ms and 0.3-0.5 ms so (1,000 hits in one process,
+    # each a cached_copy of its own URL under one ETag; 2 shared cores); run_spec of such
+    # a DTC went from 5.3-6.3 to 3.7-4.1 ms of CPU and from 9-10 to 4 ms of wall time.
 
     def __init__(self, in_use: Path) -> None:
         in_use.mkdir(parents=True, exist_ok=True)
