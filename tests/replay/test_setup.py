@@ -17,6 +17,7 @@ from beatlog.model.random import RecordingRandom
 from beatlog.model.source import RandomSource
 from beatlog.record.recorder import Recorder
 from beatlog.replay.baseline import Baseline
+from beatlog.replay.session import ReplaySession
 from beatlog.replay.setup import SetupDrawError
 from beatlog.replay.verdict import DivergenceKind
 from tests.conftest import PERIOD_NS, Probe, probe_system
@@ -40,6 +41,15 @@ def test_a_system_whose_factory_draws_at_set_up_replays_clean(tmp_path: Path) ->
 def test_a_reference_to_a_factory_that_draws_at_set_up_replays_clean(tmp_path: Path) -> None:
     log = record_driver(tmp_path / "driver.beatlog")
     assert replay(log, "tests.systems:driver_system").ok
+
+
+def test_a_replay_session_builds_the_system_a_reference_names_handing_it_the_draws(
+    tmp_path: Path,
+) -> None:
+    log = record_driver(tmp_path / "driver.beatlog")
+    with ReplaySession(log, "tests.systems:driver_system") as session:
+        assert session.replayer is not None
+        assert len(session.replayer.random.drawn) == 2  # served the recorded set-up draws
 
 
 def test_a_draw_too_many_at_set_up_is_a_set_up_divergence(tmp_path: Path) -> None:

@@ -208,8 +208,23 @@ def test_the_copy_in_use_is_gone_after_the_block_and_the_entry_stays(
         assert copy.name == "dock.beatlog"
 
     assert not copy.exists()
-    assert list((log_cache / "in-use").iterdir()) == []
+    [folder] = in_use(log_cache)  # this process's, which it holds while it lives
+    assert list(folder.glob("*/*")) == []
     assert len(list((log_cache / "entries").iterdir())) == 1
+
+
+def test_copies_of_one_log_at_once_in_one_process_are_its_own_each(
+    served: LogServer, log_cache: Path
+) -> None:
+    url = f"{served.url}/dock.beatlog"
+    with fetched_log(url) as first, fetched_log(url) as second:
+        assert first != second
+        assert first.name == second.name == "dock.beatlog"
+        first.unlink()
+        assert second.read_bytes() == (served.folder / "dock.beatlog").read_bytes()
+    with fetched_log(url) as again:
+        assert again.parent == first.parent  # a folder of its process's, used again
+    assert len(in_use(log_cache)) == 1
 
 
 def test_the_cache_is_in_the_users_cache_folder_unless_set(
@@ -228,15 +243,15 @@ import sys, threading
 from beatlog.suite import remote
 listed = remote.Listed(int(sys.argv[2]), "v1") if len(sys.argv) > 2 else None
 with remote.fetched_log(sys.argv[1], **({} if listed is None else {"listed": listed})) as copy:
-    print(copy.parent, flush=True)
+    print(copy.parent.parent, flush=True)
     threading.Event().wait()
 """
 
 
 @contextlib.contextmanager
 def holding(url: str) -> Iterator[tuple[subprocess.Popen[str], Path]]:
-    """Another process that holds a copy of the log behind ``url`` until killed, and the
-    folder of its copy."""
+    """Another process that holds a copy of the log behind ``url`` until killed, and its
+    folder of copies in use."""
     with subprocess.Popen(
         [sys.executable, "-c", HOLD, url], stdout=subprocess.PIPE, text=True
     ) as process:
@@ -257,7 +272,7 @@ def test_the_folder_of_a_process_killed_while_fetching_is_removed_never_replayed
     stalled = f"{served.url}/stall/dock.beatlog"  # promises the log, never sends it
     size = str((served.folder / "dock.beatlog").stat().st_size)
     with subprocess.Popen([sys.executable, "-c", HOLD, stalled, size]) as process:
-        while not list((log_cache / "in-use").glob("*/dock.beatlog")):
+        while not list((log_cache / "in-use").glob("*/*/dock.beatlog")):
             assert process.poll() is None
             time.sleep(0.05)
         process.kill()
@@ -266,7 +281,7 @@ def test_the_folder_of_a_process_killed_while_fetching_is_removed_never_replayed
     whole = fetched(f"{served.url}/dock.beatlog")
 
     assert whole == (served.folder / "dock.beatlog").read_bytes()
-    assert in_use(log_cache) == []
+    assert left not in in_use(log_cache)
     assert not left.exists()
 
 
@@ -281,7 +296,8 @@ def test_the_folder_of_a_process_killed_while_replaying_is_removed(
 
     fetched(url)
 
-    assert in_use(log_cache) == []
+    assert folder not in in_use(log_cache)
+    assert not folder.exists()
     assert served.downloads("dock.beatlog") == 1
 
 
@@ -290,24 +306,25 @@ def test_the_folder_of_a_live_process_is_kept(served: LogServer, log_cache: Path
     with holding(url) as (_, folder):
         fetched(url)
 
-        assert in_use(log_cache) == [folder]
-        assert (folder / "dock.beatlog").read_bytes() == fetched(url)
+        assert folder in in_use(log_cache)
+        [copy] = folder.glob("*/dock.beatlog")
+        assert copy.read_bytes() == fetched(url)
 
 
 def test_a_folder_in_use_without_its_lock_is_removed_once_a_minute_old(
     served: LogServer, log_cache: Path
 ) -> None:
-    url = f"{served.url}/dock.beatlog"
-    fetched(url)  # makes the cache's folders
+    fetched(f"{served.url}/dock.beatlog")  # makes the cache's folders and this process's
+    [mine] = in_use(log_cache)
     old, new = log_cache / "in-use" / "old", log_cache / "in-use" / "new"
     for folder in (old, new):
         folder.mkdir()
         (folder / "dock.beatlog").write_bytes(b"partial")
     os.utime(old, (old.stat().st_atime, old.stat().st_mtime - 61))
 
-    fetched(url)
+    fetched(f"{served.url}/yard.beatlog")  # a download
 
-    assert in_use(log_cache) == [new]
+    assert in_use(log_cache) == sorted([mine, new])
 
 
 def test_a_log_another_process_is_fetching_is_waited_for_not_fetched_again(
@@ -318,7 +335,7 @@ def test_a_log_another_process_is_fetching_is_waited_for_not_fetched_again(
     copies: list[bytes] = []
     with subprocess.Popen([sys.executable, "-c", HOLD, url, str(size)]) as process:
         try:
-            while not list((log_cache / "in-use").glob("*/dock.beatlog")):
+            while not list((log_cache / "in-use").glob("*/*/dock.beatlog")):
                 assert process.poll() is None
                 time.sleep(0.05)
             here = threading.Thread(target=lambda: copies.append(fetched(url, size)))

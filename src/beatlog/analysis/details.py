@@ -37,7 +37,7 @@ class Details:
 
 def replay_details(
     log: LogSource,
-    system: System | SystemFactory,
+    system: System | SystemFactory | str,
     divergence: Divergence | None,
     *,
     trace: bool = False,
@@ -49,8 +49,8 @@ def replay_details(
     migration: StateMigration | None = None,
     fresh_from: int = 0,
 ) -> Details:
-    """Replay ``log`` once on a fresh ``system`` (or one its factory builds), gathering
-    what is asked for, until nothing asked for needs more.
+    """Replay ``log`` once on a fresh ``system`` (or one its factory or reference builds),
+    gathering what is asked for, until nothing asked for needs more.
 
     ``divergence`` is the verdict's (the fields read are those of its cycle);
     ``expected`` stands in for the recorded state changes in the timelines (an approved

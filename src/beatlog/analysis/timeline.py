@@ -9,7 +9,6 @@ shorter than a bucket into one flickering interval, and signals
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +21,6 @@ from beatlog.log.format import CycleRecord
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.setup import SystemFactory
-from beatlog.project.usercode import load_system
 from beatlog.replay.core import CycleOutcome
 from beatlog.replay.session import ReplaySession
 from beatlog.replay.verdict import Divergence, DivergenceKind, StateChange
@@ -121,8 +119,6 @@ def build_timeline(
     :raises beatlog.errors.LogError: the log cannot be read or does not fit the system.
     :raises beatlog.errors.FieldError: a named field is missing or not a number.
     """
-    if isinstance(system, str):
-        system = functools.partial(load_system, system)
     with ReplaySession(log, system) as session:
         replayer = session.replayer
         collector = TimelineCollector(

@@ -15,7 +15,6 @@ from typing import Any
 
 import zstandard
 from mcap.data_stream import ReadDataStream
-from mcap.exceptions import EndOfFile
 from mcap.opcode import Opcode
 from mcap.records import (
     Channel,
@@ -62,6 +61,7 @@ SUMMARY_RECORDS = frozenset(
 )
 CHUNK_RECORDS = frozenset({Opcode.SCHEMA, Opcode.CHANNEL, Opcode.MESSAGE})
 _COMPRESSIONS = ("", "zstd")
+_U16, _U32, _U64 = struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
 _RECORD_TYPES: dict[int, type[McapRecord]] = {
     Opcode.HEADER: Header,
     Opcode.CHUNK: Chunk,
@@ -83,16 +83,46 @@ class RecordDamageError(Exception):
 
 
 class _Fields(ReadDataStream):
-    """A record's body read field by field, each field whole: one cut short is damage."""
+    """A record's body read field by field, each field whole: one cut short is damage.
+    Read from the body's bytes in place, one unpack a field: a log's records are read
+    in Python, about a third of the CPU of opening and reading a short log."""
+
+    def __init__(self, body: bytes) -> None:
+        super().__init__(BytesIO())
+        self._body = body
+        self._position = 0
+
+    @property
+    def count(self) -> int:
+        """How many bytes of the body have been read."""
+        return self._position
+
+    def _take(self, length: int) -> int:
+        """Where the next ``length`` bytes start, once they are known to be there."""
+        start = self._position
+        if start + length > len(self._body):
+            raise RecordDamageError(f"a record's field of {length} bytes is cut off")
+        self._position = start + length
+        return start
 
     def read(self, length: int) -> bytes:
-        try:
-            data = super().read(length)
-        except EndOfFile:
-            data = b""
-        if len(data) != length:
-            raise RecordDamageError(f"a record's field of {length} bytes is cut off")
-        return data
+        start = self._take(length)
+        return self._body[start : start + length]
+
+    def read1(self) -> int:
+        return int(self._body[self._take(1)])
+
+    def read2(self) -> int:
+        return int(_U16.unpack_from(self._body, self._take(2))[0])
+
+    def read4(self) -> int:
+        return int(_U32.unpack_from(self._body, self._take(4))[0])
+
+    def read8(self) -> int:
+        return int(_U64.unpack_from(self._body, self._take(8))[0])
+
+    def read_prefixed_string(self) -> str:
+        return str(self.read(self.read4()), "utf-8")
 
 
 def read_record(opcode: int, body: bytes) -> McapRecord:
@@ -100,7 +130,7 @@ def read_record(opcode: int, body: bytes) -> McapRecord:
     kind: Any = _RECORD_TYPES.get(opcode)
     if kind is None:
         raise RecordDamageError(f"unknown record opcode {opcode:#x}")
-    stream = _Fields(BytesIO(body))
+    stream = _Fields(body)
     record: McapRecord = kind.read(stream, len(body)) if kind is Message else kind.read(stream)
     if stream.count != len(body):
         raise RecordDamageError(f"a record has {len(body) - stream.count} extra bytes")

@@ -8,7 +8,6 @@ differ by the spec's comparison. The first cycle that still differs is the diver
 from __future__ import annotations
 
 import dataclasses
-import functools
 import os
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -24,7 +23,7 @@ from beatlog.model.behavior import System
 from beatlog.model.invariant import Invariant
 from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
-from beatlog.project.usercode import load_perception, load_system
+from beatlog.project.usercode import load_perception
 from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.baseline import Baseline, BaselineStream
 from beatlog.replay.compare import Comparison
@@ -131,8 +130,6 @@ def replay(
     if system is None:
         system = recorded_system(Path(log))
     reference = system if isinstance(system, str) else None
-    if isinstance(system, str):
-        system = functools.partial(load_system, system)
     perception_reference = perception if isinstance(perception, str) else None
     if isinstance(perception, str):
         perception = load_perception(perception)
@@ -216,9 +213,8 @@ def replay(
     if divergence is None and not allow_empty and not checked.anything:
         raise EmptyCheckError(reader.path, _nothing_checked(judge.cycles))
     if explain and reference and divergence and divergence.kind is not DivergenceKind.LOG_ENDED:
-        factory = functools.partial(load_system, reference)
         read = fields_read(
-            log, factory, divergence.cycle, migration=migration, fresh_from=window.fresh_from
+            log, reference, divergence.cycle, migration=migration, fresh_from=window.fresh_from
         )
         divergence = dataclasses.replace(divergence, fields_read=read)
     no_samples = NO_SAMPLES if perception is not None and replayer.perception is None else ""

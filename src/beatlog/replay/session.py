@@ -170,9 +170,9 @@ class ReplayOptions(TypedDict, total=False):
 class ReplaySession(Closing):
     """A log opened and checked once, and a system set up to replay it; a context manager.
 
-    Building one reads the header, builds the system where it is given its factory
-    (:mod:`beatlog.replay.setup`) and checks that the log fits it
-    (:mod:`beatlog.replay.fit`); the ``options`` go to its
+    Building one reads the header, builds the system where it is given its factory or
+    its ``module:factory`` reference (:mod:`beatlog.replay.setup`) and checks that the
+    log fits it (:mod:`beatlog.replay.fit`); the ``options`` go to its
     :class:`~beatlog.replay.core.Replayer`. :meth:`run` steps through the log for
     its observers. Without a system, nothing is replayed: the observers read the
     recording alone.
@@ -187,7 +187,7 @@ class ReplaySession(Closing):
     def __init__(
         self,
         log: LogSource,
-        system: System | SystemFactory | None,
+        system: System | SystemFactory | str | None,
         *,
         fresh_from: int = 0,
         **options: Unpack[ReplayOptions],
@@ -294,16 +294,16 @@ def _read_by(
 
 def fields_read(
     log: LogSource,
-    system: System | SystemFactory,
+    system: System | SystemFactory | str,
     cycle: int,
     *,
     migration: StateMigration | None = None,
     fresh_from: int = 0,
 ) -> tuple[str, ...]:
-    """The robot-state fields a fresh ``system`` (or one its factory builds) reads in
-    ``cycle`` of ``log``, in order
-    (see :class:`FieldsRead`), the log's fields renamed and converted by ``migration``;
-    from rest at ``fresh_from`` (see :class:`ReplaySession`)."""
+    """The robot-state fields a fresh ``system`` (or one its factory or reference builds)
+    reads in ``cycle`` of ``log``, in order (see :class:`FieldsRead`), the log's fields
+    renamed and converted by ``migration``; from rest at ``fresh_from`` (see
+    :class:`ReplaySession`)."""
     reads = FieldsRead(cycle)
     with ReplaySession(log, system, migration=migration, fresh_from=fresh_from) as session:
         session.run([], fields_read=reads)

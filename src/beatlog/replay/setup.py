@@ -19,6 +19,7 @@ from beatlog.model.behavior import System
 from beatlog.model.draws import recorded_draw_problem
 from beatlog.model.setup import SystemFactory, build_system
 from beatlog.project.config import vouched_system
+from beatlog.project.usercode import load_system
 from beatlog.replay.random import RefusedDraw, ReplayRandom
 
 __all__ = ["SetupDrawError", "built_for_replay", "recorded_system"]
@@ -41,10 +42,14 @@ class SetupDrawError(BeatlogError):
 
 
 def built_for_replay(
-    system: System | SystemFactory, header: SessionHeader, path: Path, random: ReplayRandom
+    system: System | SystemFactory | str,
+    header: SessionHeader,
+    path: Path,
+    random: ReplayRandom,
 ) -> System:
     """The system to replay the log of ``header`` against: ``system`` itself, or what the
-    factory ``system`` builds from ``random`` serving the recorded set-up draws.
+    factory ``system`` (or the ``module:factory`` reference ``system``) builds from
+    ``random`` serving the recorded set-up draws.
 
     :raises beatlog.errors.CorruptLogError: a set-up draw is one no recording makes.
     :raises beatlog.errors.SystemLoadError: the log holds set-up draws and ``system`` is
@@ -56,7 +61,7 @@ def built_for_replay(
         damage = recorded_draw_problem(draw, len(header.behaviors))
         if damage is not None:
             raise CorruptLogError(path, f"damaged set-up draw {number}: {damage}")
-    if isinstance(system, System):
+    if not isinstance(system, str) and isinstance(system, System):
         if recorded:
             raise SystemLoadError(
                 f"{path}: its system drew {len(recorded)} random "
@@ -68,7 +73,11 @@ def built_for_replay(
     random.load(recorded)
     problem: str | None
     try:
-        built = build_system(system, random)
+        built = (
+            load_system(system, random=random)
+            if isinstance(system, str)
+            else build_system(system, random)
+        )
     except RefusedDraw as refused:
         problem = refused.problem
     else:

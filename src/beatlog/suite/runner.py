@@ -21,7 +21,7 @@ from beatlog.baseline.file import BaselineFile, expected_path, log_digest, read_
 from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
 from beatlog.errors import BeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
-from beatlog.project.usercode import importable_near, load_perception, load_system
+from beatlog.project.usercode import importable_near, load_perception
 from beatlog.replay.baseline import Baseline
 from beatlog.replay.debugger import break_on_divergence, unreached_break
 from beatlog.replay.judge import replay
@@ -297,10 +297,9 @@ def _charting(
     from beatlog.analysis.timeline import TimelineCollector  # noqa: PLC0415 - when charting
 
     override = None if approved is None else approved.whole.changes_override()
-    factory = functools.partial(load_system, system)
 
     def chart(reader: SessionLogReader) -> TimelineCollector:
-        built = built_for_replay(factory, reader.header, reader.path, ReplayRandom())
+        built = built_for_replay(system, reader.header, reader.path, ReplayRandom())
         charts.append(TimelineCollector(reader, built, expected=override))
         return charts[-1]
 
@@ -331,7 +330,7 @@ def _details(
 
     return replay_details(
         log,
-        functools.partial(load_system, system),
+        system,
         divergence,
         trace=trace,
         timelines=options.timelines,

@@ -106,6 +106,8 @@ def importable_invariants(spec: DtcSpec) -> tuple[str, ...]:
 
     :raises beatlog.errors.SystemLoadError: one does not import, or is no invariant.
     """
+    if not spec.invariants:  # a fleet log's DTC, or a spec that names none
+        return spec.invariants
     folder = spec.path.resolve().parent
     project = project_config(folder).invariants if spec.source is None else []
     for reference in spec.invariants:
