@@ -60,34 +60,23 @@ __all__ = [
 ]
 
 UNPROFILED = {"distributed.worker.profile.enabled": False}
-"""The workers' setting of the cluster ``local`` starts, worth setting on a cluster's own
-workers too: Dask's profiler, which samples a worker's threads every 10 ms for the
-dashboard's profile page, costs 0.5-0.9 ms of CPU a DTC of a 3-s rover log, whose replay
-takes 3-5 ms."""
+"""The workers' setting of the cluster ``local`` starts, worth a cluster's own too: Dask's
+profiler, sampling a worker's threads every 10 ms for its dashboard, costs 0.5-0.9 ms of
+CPU a DTC of a 3-s rover log, whose replay takes 3 ms."""
 
 NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
 a nanny to restart a worker that died, or for a scheduler's workers to join it."""
 _WORKERS_ASKED_EVERY_S = 1.0
 _ANSWER_S = 5.0
-_IN_FLIGHT_PER_THREAD = 1
-"""How many tasks a run keeps submitted for each thread of the cluster: one, the next
-submitted once its outcomes are in. Dask sends a worker every task it is given at once
-(tasks that are not many of a kind are not queued on the scheduler), so with more a
-worker also holds tasks it has not started, and a DTC that kills it would take their
-DTCs, or the news of one it has just finished, with it."""
 FETCHED_AHEAD = 4
-"""How many DTCs ahead of the task it replays a worker's thread has the URL logs
-fetched, at least (whole tasks: a task of several DTCs has the next one's fetched):
-enough to hide a request's latency behind replays shorter than it."""
+"""How many DTCs ahead of the task it replays a worker's thread has the URL logs fetched,
+at least (whole tasks): enough to hide a request's latency behind replays shorter than it."""
 TASK_BYTES = 256 << 10
 """The most bytes of logs a task of several DTCs replays; a log this big or bigger is a
-task of its own. Measured on a local cluster, a task costs about 10 ms of CPU whatever it
-runs (its scheduling, messages and result), and a small log's replay about 1 ms a KiB
-(8 ms for 3 s of a rover's recording, 8.4 KiB; 100 ms for 4 minutes, 287 KiB): 256 KiB
-of small logs replay for about a quarter of a second, so their task's own cost is 4 %
-of it, while a task still ends often enough for outcomes to stream back and for the
-threads to finish together (a quarter of a second apart at most)."""
+task of its own. A task costs a cluster about 10 ms of CPU whatever it runs, and a
+small log replays at about 0.35 ms a KiB: 256 KiB replay for about 90 ms, and a task
+still ends often enough for outcomes to stream back and threads to finish together."""
 TASKS_PER_THREAD = 4
 """The fewest tasks a cluster thread gets where DTCs are packed together: enough that
 threads finishing at different times even out, and that all stay busy to the end."""
@@ -198,7 +187,9 @@ class DaskExecutor(Closing):
             return futures
 
         completed = as_completed(
-            submit(_IN_FLIGHT_PER_THREAD * threads),
+            # One task a thread, the next once its outcomes are in: Dask sends a worker every
+            # task it gets at once, and one that a DTC kills takes those it holds with it.
+            submit(threads),
             loop=self._client.loop,
             with_results=True,  # gathered as they complete: no round trip a task here
             raise_errors=False,
