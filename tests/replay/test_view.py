@@ -155,6 +155,28 @@ def test_an_attribute_the_state_lacks_is_missing_from_its_view_as_from_the_state
     assert (view.reach, hasattr(view, "nope")) == (arm(3).reach, False)
 
 
+def test_a_field_read_before_its_view_holds_it_reads_as_once_held(by_field: Path) -> None:
+    """A field a view does not hold is read through its class (for speed), one it holds
+    from the view itself: pinned to each other and to the state decoded whole, in every
+    cycle, each field read first there."""
+    fields = Arm.__struct_fields__
+    unheld, held = [], []
+    with SessionLogReader(by_field) as reader:
+        reader.decode_states(Arm)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                views = StateViews(Arm, Arm, by_field)
+                first = views.view(columns, cycle)
+                assert not {*fields} & {*type(first).__struct_fields__}
+                unheld.append([getattr(first, name) for name in fields])
+                again = views.view(columns, cycle)
+                assert {*fields} <= {*type(again).__struct_fields__}
+                held.append([getattr(again, name) for name in fields])
+                assert full_state(first) == full_state(again) == arm(cycle)
+    assert unheld == held == [[getattr(arm(t), name) for name in fields] for t in range(300)]
+
+
 def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
     by_field: Path, tmp_path: Path
 ) -> None:
