@@ -359,3 +359,42 @@ def test_batches_of_other_fields_in_columns_of_the_same_widths_read_each_their_o
                 read.append((view.a, view.b))
     assert names == [(["a"], b"\x09"), (["b"], b"\x09")] * 2
     assert read == [(sparse(t).a, sparse(t).b) for t in range(32)]
+
+
+class Tagged(RobotState):
+    """A robot state whose text fields are of one width in some batches, not in others."""
+
+    a: float = 0.0
+    label: str = ""
+    note: str = ""
+
+
+def tagged(t: int) -> Tagged:
+    """Empty texts in the first 8 cycles (a batch), texts of varied width in the next 8,
+    and so on."""
+    if t // 8 % 2 == 0:
+        return Tagged(a=t + 0.5)
+    return Tagged(a=t + 0.5, label="x" * (t % 3), note="y" * (t % 2))
+
+
+def test_a_batch_laid_out_as_an_earlier_one_is_laid_out_as_afresh(tmp_path: Path) -> None:
+    """Views of a batch are laid out once per layout of the batches (for speed): pinned to
+    the layout made afresh for each batch, through batches of two layouts in turn."""
+    log = write_states(tmp_path / "tagged.beatlog", [tagged(t) for t in range(32)], by_field=True)
+    fields = Tagged.__struct_fields__
+    kept, afresh, read = [], [], []
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Tagged)
+        views = StateViews(Tagged, Tagged, log)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                view = views.view(columns, cycle)
+                read.append(tuple(getattr(view, name) for name in fields))
+            kept.append(views.layout(columns, fields))
+            fresh = StateViews(Tagged, Tagged, log)
+            fresh.view(columns, columns.first_cycle)
+            afresh.append(fresh.layout(columns, fields))
+    assert kept == afresh
+    assert len({(tuple(made.columns), made.rest) for made in kept}) == 2
+    assert read == [tuple(getattr(tagged(t), name) for name in fields) for t in range(32)]
