@@ -177,6 +177,36 @@ def test_a_field_read_before_its_view_holds_it_reads_as_once_held(by_field: Path
     assert unheld == held == [[getattr(arm(t), name) for name in fields] for t in range(300)]
 
 
+def read_views(log: Path, state_type: type[Any], fields: list[str]) -> list[list[Any]]:
+    """``fields`` of every cycle of ``log``, read from views of ``state_type``."""
+    with SessionLogReader(log) as reader:
+        reader.decode_states(state_type)
+        views = StateViews(state_type, state_type, log)
+        read = []
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                view = views.view(columns, cycle)
+                read.append([getattr(view, name) for name in fields])
+        return read
+
+
+def test_views_of_a_type_read_alike_the_first_time_in_a_process_and_after(
+    by_field: Path,
+) -> None:
+    """What the views of a robot state type are made of is made once a process (for
+    speed): pinned, views made from it read as the first ones made, and views of another
+    type of the same name read its own fields."""
+    fields = ["reach", "label", "joints"]
+    first = msgspec.defstruct("Arm", [], bases=(Arm,), kw_only=True, module=__name__)
+    other = msgspec.defstruct(
+        "Arm", [("added", int, 7)], bases=(Arm,), kw_only=True, module=__name__
+    )
+    made, again = read_views(by_field, first, fields), read_views(by_field, first, fields)
+    assert made == again == [[getattr(arm(t), name) for name in fields] for t in range(300)]
+    assert read_views(by_field, other, [*fields, "added"]) == [[*row, 7] for row in made]
+
+
 def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
     by_field: Path, tmp_path: Path
 ) -> None:
