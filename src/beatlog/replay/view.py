@@ -130,7 +130,7 @@ class StateViews:
         self.path = path
         self.convert = convert
         self.shape = _shape(system_type, checking)
-        """What views of these types share in a process: their fields, classes, decoders."""
+        """What views of these types share in a process: their fields and classes."""
         self.fields = self.shape.fields
         self.read: dict[str, None] = {}
         """The fields read so far, in the order first read: each view holds them."""
@@ -355,7 +355,6 @@ class _Shape:
                     if not name.startswith(("__", "_beatlog")) and name not in self.fields
                 )
         self._views: dict[tuple[tuple[str, ...], ...], tuple[type[Any], Callable[..., Any]]] = {}
-        self._decoders: dict[str, Callable[[bytes], list[Any]]] = {}
 
     def view_class(
         self, in_rows: tuple[str, ...], rest: tuple[str, ...]
@@ -388,10 +387,8 @@ class _Shape:
 
     def decoder(self, name: str) -> Callable[[bytes], list[Any]]:
         """What decodes a column of field ``name`` (a msgpack array) as the field's type."""
-        if name not in self._decoders:
-            kind = self.fields[name].type
-            self._decoders[name] = msgspec.msgpack.Decoder(list[kind]).decode  # type: ignore[valid-type]
-        return self._decoders[name]
+        kind = self.fields[name].type
+        return msgspec.msgpack.Decoder(list[kind]).decode  # type: ignore[valid-type]
 
 
 _SHAPES: dict[tuple[type[Any], type[Any]], _Shape] = {}
