@@ -194,9 +194,9 @@ def read_views(log: Path, state_type: type[Any], fields: list[str]) -> list[list
 def test_views_of_a_type_read_alike_the_first_time_in_a_process_and_after(
     by_field: Path,
 ) -> None:
-    """What the views of a robot state type are made of is made once a process (for
-    speed): pinned, views made from it read as the first ones made, and views of another
-    type of the same name read its own fields."""
+    """What the views of a robot state type are made of (their fields and classes) is
+    made once a process (for speed): pinned, views made from it read as the first ones
+    made, and views of another type of the same name read its own fields."""
     fields = ["reach", "label", "joints"]
     first = msgspec.defstruct("Arm", [], bases=(Arm,), kw_only=True, module=__name__)
     other = msgspec.defstruct(
