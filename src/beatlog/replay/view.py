@@ -72,7 +72,7 @@ class _View(msgspec.Struct, array_like=True, gc=False, weakref=False):
 
 # A class attribute for each field not held rather than a ``__getattr__`` on the views,
 # which makes every attribute read dearer: buys 6.6 % of a whole replay of the dog's
-# 3,000 cycles stored by field (289.0 M -> 270.0 M instructions; 1.6 % of the 1,000-field
+# 3,000 cycles stored by field (289.0 M -> 270.0 M instructions; 1.8 % of the 1,000-field
 # state's) (PYTHONHASHSEED=0 setarch -R valgrind --tool=cachegrind --cache-sim=no python
 # bench/replay_instructions.py LOG beatlog_examples.dog:system replay 0|1, the difference).
 class _Unheld:
@@ -183,8 +183,8 @@ class StateViews:
         decoded a cycle at a time (those of one width first, in column order), the others
         a column at a time; where most are of varied width, all a column at a time, which
         costs less."""
-        # Made once per batch layout, not for every batch: buys 4.4 % of a whole replay of
-        # a 1,000-field state stored by field, 30 fields read (577.3 M -> 552.0 M
+        # Made once per batch layout, not for every batch: buys 3.1 % of a whole replay of
+        # a 1,000-field state stored by field, 30 fields read (568.5 M -> 550.9 M
         # instructions; 2.9 % of the dog's) (PYTHONHASHSEED=0 setarch -R valgrind
         # --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
         # bench_width:system_10x1000 replay 0|1, the difference).
@@ -363,7 +363,7 @@ class _Shape:
         decodes one from an array of the values of ``in_rows`` (each as its field's
         type), ``rest`` set after; without ``in_rows``, views are made positionally."""
         # Kept as long as the shape, so made once a process: of the 4.3 % the shape's
-        # cache buys (:func:`_shape`), the classes are 2.2 % (564.2 M -> 552.0 M).
+        # cache buys (:func:`_shape`), the classes are 2.1 % (563.0 M -> 550.9 M).
         found = self._views.get((in_rows, rest))
         if found is None:
             held = {*in_rows, *rest}
@@ -397,7 +397,7 @@ _SHAPES: dict[tuple[type[Any], type[Any]], _Shape] = {}
 
 
 # Made once a process, not once a replay, with the views' classes it keeps: buys 4.3 % of
-# a whole replay of a 1,000-field state stored by field, 30 fields read (576.9 M -> 552.0 M
+# a whole replay of a 1,000-field state stored by field, 30 fields read (575.7 M -> 550.9 M
 # instructions; 2.3 % of the dog's) (PYTHONHASHSEED=0 setarch -R valgrind
 # --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
 # bench_width:system_10x1000 replay 0|1, the difference).

@@ -42,8 +42,8 @@ _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 """A TOML key that needs no quotes."""
 
 
-# Made once per type, not once a replay: buys 8.1 % of a whole replay of a 1,000-field
-# state stored by field (600.4 M -> 552.0 M instructions) (PYTHONHASHSEED=0 setarch -R
+# Made once per type, not once a replay: buys 8.3 % of a whole replay of a 1,000-field
+# state stored by field (601.0 M -> 550.9 M instructions) (PYTHONHASHSEED=0 setarch -R
 # valgrind --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
 # bench_width:system_10x1000 replay 0|1, the difference).
 _schema_of = functools.lru_cache(maxsize=64)(state_schema)
