@@ -248,6 +248,12 @@ def maker(behaviors: int, fields: int) -> Callable[[], System]:
     return functools.partial(wide_system, behaviors, fields)
 
 
+def system_10x1000() -> System:
+    """The 10 x 1,000 cell's system, for ``replay_instructions.py LOG
+    bench_width:system_10x1000`` on a log :func:`record` made of that cell."""
+    return wide_system(10, 1000)
+
+
 # -- recording ----------------------------------------------------------------------------
 
 

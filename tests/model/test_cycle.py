@@ -200,3 +200,29 @@ def test_a_state_equal_to_the_one_seen_is_no_change_and_the_one_seen_stays() -> 
     (change,) = find_changes([2], seen)
     assert change == (0, 1, 2)
     assert type(change[1]) is int  # the 1 seen first, not the True seen since
+
+
+def test_each_cycle_reports_what_the_finder_finds_of_the_same_states() -> None:
+    """The executor skips the finder where the states compare equal as a list: pinned to
+    the finder itself over cycles that change nothing, change a state to an equal value
+    (another object, another type), swap two states, and set a state to None twice."""
+    script: list[dict[str, BehaviorState]] = [
+        {},
+        {"first": "near"},
+        {"first": "".join(["ne", "ar"])},
+        {"first": "idle", "third": "near"},  # swapped: the same states in other places
+        {"second": 1},
+        {"second": True},
+        {"third": None},
+        {"third": None},
+        {},
+    ]
+    panel = Panel(script)
+    executor = CycleExecutor(panel, RecordingRandom(seed=1))
+    seen = read_states(list(panel.flags.values()))
+    stepped, found = [], []
+    for _ in script:
+        stepped.append(executor.step(PERIOD_NS, Probe()))
+        found.append(find_changes(read_states(list(panel.flags.values())), seen))
+    assert stepped == found
+    assert [len(changes) for changes in stepped] == [0, 1, 0, 2, 1, 0, 1, 0, 0]

@@ -155,6 +155,58 @@ def test_an_attribute_the_state_lacks_is_missing_from_its_view_as_from_the_state
     assert (view.reach, hasattr(view, "nope")) == (arm(3).reach, False)
 
 
+def test_a_field_read_before_its_view_holds_it_reads_as_once_held(by_field: Path) -> None:
+    """A field a view does not hold is read through its class (for speed), one it holds
+    from the view itself: pinned to each other and to the state decoded whole, in every
+    cycle, each field read first there."""
+    fields = Arm.__struct_fields__
+    unheld, held = [], []
+    with SessionLogReader(by_field) as reader:
+        reader.decode_states(Arm)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                views = StateViews(Arm, Arm, by_field)
+                first = views.view(columns, cycle)
+                assert not {*fields} & {*type(first).__struct_fields__}
+                unheld.append([getattr(first, name) for name in fields])
+                again = views.view(columns, cycle)
+                assert {*fields} <= {*type(again).__struct_fields__}
+                held.append([getattr(again, name) for name in fields])
+                assert full_state(first) == full_state(again) == arm(cycle)
+    assert unheld == held == [[getattr(arm(t), name) for name in fields] for t in range(300)]
+
+
+def read_views(log: Path, state_type: type[Any], fields: list[str]) -> list[list[Any]]:
+    """``fields`` of every cycle of ``log``, read from views of ``state_type``."""
+    with SessionLogReader(log) as reader:
+        reader.decode_states(state_type)
+        views = StateViews(state_type, state_type, log)
+        read = []
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                view = views.view(columns, cycle)
+                read.append([getattr(view, name) for name in fields])
+        return read
+
+
+def test_views_of_a_type_read_alike_the_first_time_in_a_process_and_after(
+    by_field: Path,
+) -> None:
+    """What the views of a robot state type are made of (their fields and classes) is
+    made once a process (for speed): pinned, views made from it read as the first ones
+    made, and views of another type of the same name read its own fields."""
+    fields = ["reach", "label", "joints"]
+    first = msgspec.defstruct("Arm", [], bases=(Arm,), kw_only=True, module=__name__)
+    other = msgspec.defstruct(
+        "Arm", [("added", int, 7)], bases=(Arm,), kw_only=True, module=__name__
+    )
+    made, again = read_views(by_field, first, fields), read_views(by_field, first, fields)
+    assert made == again == [[getattr(arm(t), name) for name in fields] for t in range(300)]
+    assert read_views(by_field, other, [*fields, "added"]) == [[*row, 7] for row in made]
+
+
 def test_an_unread_column_short_of_a_value_is_still_a_damaged_log(
     by_field: Path, tmp_path: Path
 ) -> None:
@@ -337,3 +389,42 @@ def test_batches_of_other_fields_in_columns_of_the_same_widths_read_each_their_o
                 read.append((view.a, view.b))
     assert names == [(["a"], b"\x09"), (["b"], b"\x09")] * 2
     assert read == [(sparse(t).a, sparse(t).b) for t in range(32)]
+
+
+class Tagged(RobotState):
+    """A robot state whose text fields are of one width in some batches, not in others."""
+
+    a: float = 0.0
+    label: str = ""
+    note: str = ""
+
+
+def tagged(t: int) -> Tagged:
+    """Empty texts in the first 8 cycles (a batch), texts of varied width in the next 8,
+    and so on."""
+    if t // 8 % 2 == 0:
+        return Tagged(a=t + 0.5)
+    return Tagged(a=t + 0.5, label="x" * (t % 3), note="y" * (t % 2))
+
+
+def test_a_batch_laid_out_as_an_earlier_one_is_laid_out_as_afresh(tmp_path: Path) -> None:
+    """Views of a batch are laid out once per layout of the batches (for speed): pinned to
+    the layout made afresh for each batch, through batches of two layouts in turn."""
+    log = write_states(tmp_path / "tagged.beatlog", [tagged(t) for t in range(32)], by_field=True)
+    fields = Tagged.__struct_fields__
+    kept, afresh, read = [], [], []
+    with SessionLogReader(log) as reader:
+        reader.decode_states(Tagged)
+        views = StateViews(Tagged, Tagged, log)
+        for batch in reader.batches():
+            columns: Any = batch[0].robot_state
+            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
+                view = views.view(columns, cycle)
+                read.append(tuple(getattr(view, name) for name in fields))
+            kept.append(views.layout(columns, fields))
+            fresh = StateViews(Tagged, Tagged, log)
+            fresh.view(columns, columns.first_cycle)
+            afresh.append(fresh.layout(columns, fields))
+    assert kept == afresh
+    assert len({(tuple(made.columns), made.rest) for made in kept}) == 2
+    assert read == [tuple(getattr(tagged(t), name) for name in fields) for t in range(32)]

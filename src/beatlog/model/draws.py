@@ -8,7 +8,6 @@ numpy (``pip install "beatlog[arrays]"``) only to be unpacked into one.
 from __future__ import annotations
 
 import struct
-import sys
 from collections.abc import Sequence
 from enum import StrEnum
 from importlib.util import find_spec
@@ -172,7 +171,7 @@ def _array_problem(kind: str, value: Any, params: tuple[Any, ...]) -> str | None
 def need_numpy() -> None:
     """Make sure numpy, which array draws need (only they do), is installed; where it
     is not, an error that says how to install it."""
-    if sys.modules.get("numpy") is None and find_spec("numpy") is None:
+    if find_spec("numpy") is None:
         raise NumpyMissingError
 
 

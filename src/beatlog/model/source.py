@@ -33,7 +33,6 @@ __all__ = ["RandomSource", "Size"]
 T = TypeVar("T")
 Size = int | Sequence[int]
 """numpy's ``size``: an array's shape, or its length."""
-_PLAIN = frozenset({int, float})
 
 
 class Stepping(Protocol):
@@ -253,8 +252,6 @@ def _index(value: Any) -> int:
 
 def _number(value: Any) -> Any:
     """A bound as the log records it: a Python int or float."""
-    if value.__class__ in _PLAIN:
-        return value
     if isinstance(value, Integral):
         return operator.index(value)
     if isinstance(value, Real):

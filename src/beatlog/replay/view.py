@@ -70,10 +70,14 @@ class _View(msgspec.Struct, array_like=True, gc=False, weakref=False):
     __hash__ = None  # type: ignore[assignment]
 
 
+# A class attribute for each field not held rather than a ``__getattr__`` on the views,
+# which makes every attribute read dearer: buys 6.6 % of a whole replay of the dog's
+# 3,000 cycles stored by field (289.0 M -> 270.0 M instructions; 1.8 % of the 1,000-field
+# state's) (PYTHONHASHSEED=0 setarch -R valgrind --tool=cachegrind --cache-sim=no python
+# bench/replay_instructions.py LOG beatlog_examples.dog:system replay 0|1, the difference).
 class _Unheld:
     """A field a view does not hold, as an attribute of its class: read, it is decoded
-    from its column (and held from the next batch on). A class attribute rather than a
-    ``__getattr__``, which would make every attribute read look for it first."""
+    from its column (and held from the next batch on)."""
 
     __slots__ = ("name",)
 
@@ -126,7 +130,7 @@ class StateViews:
         self.path = path
         self.convert = convert
         self.shape = _shape(system_type, checking)
-        """What views of these types share in a process: their fields, classes, decoders."""
+        """What views of these types share in a process: their fields and classes."""
         self.fields = self.shape.fields
         self.read: dict[str, None] = {}
         """The fields read so far, in the order first read: each view holds them."""
@@ -179,6 +183,11 @@ class StateViews:
         decoded a cycle at a time (those of one width first, in column order), the others
         a column at a time; where most are of varied width, all a column at a time, which
         costs less."""
+        # Made once per batch layout, not for every batch: buys 3.1 % of a whole replay of
+        # a 1,000-field state stored by field, 30 fields read (568.5 M -> 550.9 M
+        # instructions; 2.9 % of the dog's) (PYTHONHASHSEED=0 setarch -R valgrind
+        # --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
+        # bench_width:system_10x1000 replay 0|1, the difference).
         index = self.index
         found = self._layouts.get((columns.widths, held))
         if found is None:
@@ -346,7 +355,6 @@ class _Shape:
                     if not name.startswith(("__", "_beatlog")) and name not in self.fields
                 )
         self._views: dict[tuple[tuple[str, ...], ...], tuple[type[Any], Callable[..., Any]]] = {}
-        self._decoders: dict[str, Callable[[bytes], list[Any]]] = {}
 
     def view_class(
         self, in_rows: tuple[str, ...], rest: tuple[str, ...]
@@ -354,6 +362,8 @@ class _Shape:
         """The class of views holding the fields ``in_rows`` and ``rest``, and what
         decodes one from an array of the values of ``in_rows`` (each as its field's
         type), ``rest`` set after; without ``in_rows``, views are made positionally."""
+        # Kept as long as the shape, so made once a process: of the 4.3 % the shape's
+        # cache buys (:func:`_shape`), the classes are 2.1 % (563.0 M -> 550.9 M).
         found = self._views.get((in_rows, rest))
         if found is None:
             held = {*in_rows, *rest}
@@ -379,15 +389,18 @@ class _Shape:
 
     def decoder(self, name: str) -> Callable[[bytes], list[Any]]:
         """What decodes a column of field ``name`` (a msgpack array) as the field's type."""
-        if name not in self._decoders:
-            kind = self.fields[name].type
-            self._decoders[name] = msgspec.msgpack.Decoder(list[kind]).decode  # type: ignore[valid-type]
-        return self._decoders[name]
+        kind = self.fields[name].type
+        return msgspec.msgpack.Decoder(list[kind]).decode  # type: ignore[valid-type]
 
 
 _SHAPES: dict[tuple[type[Any], type[Any]], _Shape] = {}
 
 
+# Made once a process, not once a replay, with the views' classes it keeps: buys 4.3 % of
+# a whole replay of a 1,000-field state stored by field, 30 fields read (575.7 M -> 550.9 M
+# instructions; 2.3 % of the dog's) (PYTHONHASHSEED=0 setarch -R valgrind
+# --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
+# bench_width:system_10x1000 replay 0|1, the difference).
 def _shape(system_type: type[Any], checking: type[Any]) -> _Shape:
     """The :class:`_Shape` of the pair, made on first need (at most 64 kept)."""
     found = _SHAPES.get((system_type, checking))

@@ -24,6 +24,7 @@ from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, pr
 from tests.crafting import session_header
 from tests.systems import (
     Centimetred,
+    PxPose,
     PxPosed,
     Ranged,
     probe_system_centimetred,
@@ -386,6 +387,27 @@ def misfit(recorded: type[msgspec.Struct], current: type[msgspec.Struct], **migr
     message = str(raised.value)
     assert message.startswith(head)
     return message.removeprefix(head)
+
+
+def test_a_state_type_fits_each_time_as_it_fitted_the_first() -> None:
+    """A system's robot state schema is made once per type (for speed) and shared by
+    every check: pinned, checks that rename a field, nested or not, or that fail answer
+    alike the first time and after."""
+    ranged = msgspec.defstruct(  # types new to the process: their first check makes it
+        "Ranged", [("range", float, 1.0), ("reading", float, 0.0)], bases=(RobotState,)
+    )
+    posed = msgspec.defstruct(
+        "PxPosed",
+        [("pose", PxPose, msgspec.field(default_factory=lambda: PxPose(0.0, 0.0)))],
+        bases=(RobotState,),
+    )
+    answers = []
+    for _ in range(2):
+        fit(Probe, ranged, renames={"distance": "range"})
+        fit(WithPose, posed, renames={"pose.x": "pose.px"})
+        answers.append([misfit(Probe, ranged), misfit(WithPose, posed), misfit(Probe, posed)])
+    assert answers[0] == answers[1]
+    assert [answer.count("in its place") for answer in answers[0]] == [1, 1, 0]
 
 
 def test_a_field_renamed_since_is_bad_input_that_proposes_the_rename(
