@@ -6,12 +6,10 @@ A format-3 batch stores each robot-state field's values in a column of their own
 first read later is decoded then (its column, once per batch) and held from the next
 batch on, so decoding follows the fields read, not the width of the state.
 
-What a behavior can rely on (README, "Wide robot states"): reading any field gives the
-recorded value, its type checked as it is decoded; ``isinstance(state, YourState)``
-holds and ``state.__class__`` is your type; your type's methods and properties work.
-Equality, ``repr``, copying and pickling act on the whole state. Anything else that
-needs the whole struct (encoding it, :func:`msgspec.structs.asdict`, ``replace``,
-``type(state) is YourState``) takes :func:`full_state` first.
+What a behavior can rely on (the how-to "Wide robot states"): a field reads as recorded,
+its type checked; ``isinstance(state, YourState)`` holds and its methods work; equality,
+``repr``, copying and pickling act on the whole state. Anything else that needs the whole
+struct (encoding, ``asdict``, ``replace``, ``type(state) is``) takes :func:`full_state`.
 """
 
 from __future__ import annotations
@@ -70,11 +68,8 @@ class _View(msgspec.Struct, array_like=True, gc=False, weakref=False):
     __hash__ = None  # type: ignore[assignment]
 
 
-# A class attribute for each field not held rather than a ``__getattr__`` on the views,
-# which makes every attribute read dearer: buys 6.6 % of a whole replay of the dog's
-# 3,000 cycles stored by field (289.0 M -> 270.0 M instructions; 1.8 % of the 1,000-field
-# state's) (PYTHONHASHSEED=0 setarch -R valgrind --tool=cachegrind --cache-sim=no python
-# bench/replay_instructions.py LOG beatlog_examples.dog:system replay 0|1, the difference).
+# A class attribute, not a ``__getattr__`` that makes every read dearer: 6.6 % of a whole
+# replay of the dog stored by field (289.0 -> 270.0 M instructions, cachegrind).
 class _Unheld:
     """A field a view does not hold, as an attribute of its class: read, it is decoded
     from its column (and held from the next batch on)."""
@@ -183,11 +178,8 @@ class StateViews:
         decoded a cycle at a time (those of one width first, in column order), the others
         a column at a time; where most are of varied width, all a column at a time, which
         costs less."""
-        # Made once per batch layout, not for every batch: buys 3.1 % of a whole replay of
-        # a 1,000-field state stored by field, 30 fields read (568.5 M -> 550.9 M
-        # instructions; 2.9 % of the dog's) (PYTHONHASHSEED=0 setarch -R valgrind
-        # --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
-        # bench_width:system_10x1000 replay 0|1, the difference).
+        # Once a layout, not a batch: 3.1 % of a whole replay of 1,000 fields stored by
+        # field, 30 read (568.5 -> 550.9 M instructions, cachegrind); 2.9 % of the dog's.
         index = self.index
         found = self._layouts.get((columns.widths, held))
         if found is None:
@@ -362,8 +354,7 @@ class _Shape:
         """The class of views holding the fields ``in_rows`` and ``rest``, and what
         decodes one from an array of the values of ``in_rows`` (each as its field's
         type), ``rest`` set after; without ``in_rows``, views are made positionally."""
-        # Kept as long as the shape, so made once a process: of the 4.3 % the shape's
-        # cache buys (:func:`_shape`), the classes are 2.1 % (563.0 M -> 550.9 M).
+        # Kept with the shape, made once a process: 2.1 % of its 4.3 % (563.0 -> 550.9 M).
         found = self._views.get((in_rows, rest))
         if found is None:
             held = {*in_rows, *rest}
@@ -394,13 +385,10 @@ class _Shape:
 
 
 _SHAPES: dict[tuple[type[Any], type[Any]], _Shape] = {}
+"""Shapes made once a process, not once a replay, with the classes they keep: 4.3 % of a
+whole replay of 1,000 fields stored by field (575.7 -> 550.9 M instructions)."""
 
 
-# Made once a process, not once a replay, with the views' classes it keeps: buys 4.3 % of
-# a whole replay of a 1,000-field state stored by field, 30 fields read (575.7 M -> 550.9 M
-# instructions; 2.3 % of the dog's) (PYTHONHASHSEED=0 setarch -R valgrind
-# --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
-# bench_width:system_10x1000 replay 0|1, the difference).
 def _shape(system_type: type[Any], checking: type[Any]) -> _Shape:
     """The :class:`_Shape` of the pair, made on first need (at most 64 kept)."""
     found = _SHAPES.get((system_type, checking))
