@@ -120,10 +120,8 @@ class CycleExecutor:
         now = read_states(self._behaviors)
         states = self._states
         # Most cycles change nothing: the lists compared in C, not the finder's loop; buys
-        # 14 % of a whole replay of the rover's 35,000 cycles (1,508 M -> 1,300 M
-        # instructions: PYTHONHASHSEED=0 setarch -R valgrind --tool=cachegrind
-        # --cache-sim=no python bench/replay_instructions.py LOG
-        # beatlog_examples.rover:system replay 0|1, the difference of the counts).
+        # 14 % of a whole replay of the rover's 35,000 cycles (1,508 -> 1,300 M
+        # instructions, cachegrind).
         if now == states:
             return []
         return find_changes(now, states)

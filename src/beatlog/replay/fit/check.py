@@ -43,9 +43,7 @@ _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
 # Made once per type, not once a replay: buys 8.3 % of a whole replay of a 1,000-field
-# state stored by field (601.0 M -> 550.9 M instructions) (PYTHONHASHSEED=0 setarch -R
-# valgrind --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
-# bench_width:system_10x1000 replay 0|1, the difference).
+# state stored by field (601.0 -> 550.9 M instructions, cachegrind).
 _schema_of = functools.lru_cache(maxsize=64)(state_schema)
 """The JSON schema of a system's robot state type, made once per type: a suite replays
 many logs against one robot. Read only, never changed."""

@@ -251,9 +251,7 @@ def recorded_state_type(
 
 # Made once, not once a replay (and so the views' shapes and the batch decoders made for
 # it once too): buys 19 % of a whole replay of a 1,000-field state stored by field
-# (682.9 M -> 550.9 M instructions) (PYTHONHASHSEED=0 setarch -R valgrind
-# --tool=cachegrind --cache-sim=no python bench/replay_instructions.py LOG
-# bench_width:system_10x1000 replay 0|1, the difference).
+# (682.9 -> 550.9 M instructions, cachegrind).
 @functools.lru_cache(maxsize=64)
 def _checking_type(
     state_type: type[msgspec.Struct],
