@@ -653,7 +653,7 @@ def test_a_task_of_several_dtcs_has_the_next_of_its_thread_fetched_and_its_own(
             } - {index % threads}
 
 
-SMALL, BIG = 10_000, TASK_BYTES
+SMALL, MID, BIG = TASK_BYTES // 26, TASK_BYTES * 2 // 5, TASK_BYTES
 
 
 @pytest.mark.parametrize(
@@ -690,7 +690,7 @@ def test_tasks_hold_every_dtc_once_in_order_within_their_bounds(
     [
         (  # a thread's first alone, big and unknown alone, small ones packed up to the
             # bytes or the count
-            [BIG + 1, None, 100_000, 100_000, 100_000, *[1_000] * 13],
+            [BIG + 1, None, MID, MID, MID, *[1_000] * 13],
             1,
             [1, 1, 2, 4, 4, 4, 2],
         ),

@@ -72,11 +72,12 @@ _ANSWER_S = 5.0
 FETCHED_AHEAD = 4
 """How many DTCs ahead of the task it replays a worker's thread has the URL logs fetched,
 at least (whole tasks): enough to hide a request's latency behind replays shorter than it."""
-TASK_BYTES = 256 << 10
+TASK_BYTES = 1 << 20
 """The most bytes of logs a task of several DTCs replays; a log this big or bigger is a
-task of its own. A task costs a cluster about 10 ms of CPU whatever it runs, and a
-small log replays at about 0.35 ms a KiB: 256 KiB replay for about 90 ms, and a task
-still ends often enough for outcomes to stream back and threads to finish together."""
+task of its own. A task costs a cluster about 10 ms of CPU, and its thread waits for the
+next (one a thread is submitted) for as long; a small log replays at about 0.35 ms a KiB:
+1 MiB replays for about 350 ms, and a task still ends often enough for outcomes to
+stream back and threads to finish together."""
 TASKS_PER_THREAD = 4
 """The fewest tasks a cluster thread gets where DTCs are packed together: enough that
 threads finishing at different times even out, and that all stay busy to the end."""
@@ -212,15 +213,12 @@ class DaskExecutor(Closing):
                 future.release()  # now, not as the next completes: a worker lost meanwhile
                 # would have the scheduler run the task again for a result no one wants
                 if isinstance(outcomes, int):  # its workers died: its DTCs again, one a task
-                    again = (_Task([spec], [], outcomes) for spec in reversed(task.specs))
-                    waiting.extendleft(again)
-                    completed.update(submit(1))
-                    continue
-                for outcome in outcomes:
+                    waiting.extendleft(_Task([s], [], outcomes) for s in reversed(task.specs))
+                completed.update(submit(1))  # before the outcomes: the thread waits for it
+                for outcome in () if isinstance(outcomes, int) else outcomes:
                     told += 1
                     if done(outcome):
                         return
-                completed.update(submit(1))
             if lost.is_set() and told < len(specs):
                 raise ClusterError(
                     f"--dask {self._address}: the cluster has had no workers for "
