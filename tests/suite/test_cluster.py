@@ -366,6 +366,10 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
     specs = discover_specs([tmp_path / "checkout"])
     outcomes: list[SpecOutcome] = []
 
+    def kept(outcome: SpecOutcome) -> bool:
+        outcomes.append(outcome)
+        return False
+
     (tmp_path / "elsewhere").mkdir()
     monkeypatch.chdir(tmp_path / "elsewhere")
     monkeypatch.syspath_prepend(tmp_path / "code")  # workers start with this sys.path
@@ -379,7 +383,7 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
         ) as elsewhere,
         DaskExecutor(elsewhere.scheduler_address) as executor,
     ):
-        executor(specs, SpecOptions(), lambda outcome: outcomes.append(outcome) is not None)
+        executor(specs, SpecOptions(), kept)
 
     assert not (tmp_path / "checkout").exists()
     assert sorted((o.spec.name, o.verdict.value, o.error) for o in outcomes) == [
