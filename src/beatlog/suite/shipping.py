@@ -48,10 +48,11 @@ def replayed(
 ) -> list[SpecOutcome]:
     """On a worker: the outcomes of the DTCs of a task, in turn, while the logs
     ``ahead``, which this thread likely replays later, are fetched into the machine's
-    cache."""
+    cache from the end of the first on (its own log's download goes first)."""
+    first = _replayed_one(sent[0], options)
     for url, listed in ahead:
         fetch_ahead(url, listed)
-    return [_replayed_one(each, options) for each in sent]
+    return [first, *(_replayed_one(each, options) for each in sent[1:])]
 
 
 def _replayed_one(sent: DtcSpec | Packed, options: SpecOptions) -> SpecOutcome:
