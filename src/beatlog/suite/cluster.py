@@ -188,7 +188,7 @@ class DaskExecutor(Closing):
             return futures
 
         completed = as_completed(
-            # One task a thread, the next once its outcomes are in: Dask sends a worker every
+            # One task a thread, the next as each completes: Dask sends a worker every
             # task it gets at once, and one that a DTC kills takes those it holds with it.
             submit(threads),
             loop=self._client.loop,
