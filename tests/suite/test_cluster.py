@@ -51,17 +51,22 @@ DYING = "tests.conftest:dying_system"
 def cluster() -> Iterator[str]:
     """A cluster of two worker processes, shared by this module's tests; a DTC whose
     worker dies is run again once, then is an error."""
-    with (
-        LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",  # no fixed port: runs side by side never clash
-            silence_logs=logging.CRITICAL,
-            scheduler_kwargs={"allowed_failures": 1},
-        ) as local,
-    ):
+    with local_cluster(2, allowed_failures=1) as local:
         yield local.scheduler_address
+
+
+def local_cluster(workers: int, *, allowed_failures: int = 3) -> LocalCluster:
+    """A cluster of ``workers`` worker processes of one thread each, on no fixed port (runs
+    side by side never clash), quiet; a task whose workers die ``allowed_failures`` + 1
+    times is an error."""
+    return LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=":0",
+        silence_logs=logging.CRITICAL,
+        scheduler_kwargs={"allowed_failures": allowed_failures},
+    )
 
 
 @pytest.fixture
@@ -373,16 +378,7 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
     (tmp_path / "elsewhere").mkdir()
     monkeypatch.chdir(tmp_path / "elsewhere")
     monkeypatch.syspath_prepend(tmp_path / "code")  # workers start with this sys.path
-    with (
-        LocalCluster(
-            n_workers=1,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            silence_logs=logging.CRITICAL,
-        ) as elsewhere,
-        DaskExecutor(elsewhere.scheduler_address) as executor,
-    ):
+    with local_cluster(1) as elsewhere, DaskExecutor(elsewhere.scheduler_address) as executor:
         executor(specs, SpecOptions(), kept)
 
     assert not (tmp_path / "checkout").exists()
@@ -395,11 +391,7 @@ def test_a_suite_runs_on_workers_that_do_not_share_its_folder(
 @pytest.fixture
 def no_workers() -> Iterator[str]:
     """The address of a scheduler that has no workers."""
-    with (
-        LocalCluster(
-            n_workers=0, processes=True, dashboard_address=":0", silence_logs=logging.CRITICAL
-        ) as empty,
-    ):
+    with local_cluster(0) as empty:
         yield empty.scheduler_address
 
 
@@ -749,16 +741,7 @@ def test_a_dtc_that_kills_the_workers_of_its_task_loses_no_other_dtcs_outcome(
     for index in range(16):  # on two threads, tasks of two DTCs after each thread's first
         write_spec(folder, f"dtc-{index:02}", log, DYING if index == 4 else PROBE)
 
-    with (
-        LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=":0",
-            silence_logs=logging.CRITICAL,
-            scheduler_kwargs={"allowed_failures": 0},  # a task is lost with its first worker
-        ) as fragile,
-    ):
+    with local_cluster(2, allowed_failures=0) as fragile:  # a task lost with its first worker
         run = beatlog("test", folder, "--dask", fragile.scheduler_address)
 
     assert run.code == 2
