@@ -16,28 +16,19 @@ import tracemalloc
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import dask
 import pytest
-from distributed import Client, LocalCluster, get_task_stream
+from distributed import Client, LocalCluster, Scheduler, SchedulerPlugin, get_task_stream
 
 from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
 from beatlog.suite import cluster as cluster_module
-from beatlog.suite.cluster import (
-    FETCHED_AHEAD,
-    NO_WORKERS_S,
-    TASK_BYTES,
-    TASKS_PER_THREAD,
-    DaskExecutor,
-    WorkerDeaths,
-    fetched_ahead,
-    tasks,
-)
+from beatlog.suite.cluster import NO_WORKERS_S, DaskExecutor, WorkerDeaths
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.selection import fleet_specs
-from beatlog.suite.spec import DtcSpec
 from tests.commands import Run, assert_error, assert_error_matching, closing_counts
 from tests.conftest import RecordFn
 from tests.served import LogServer
@@ -592,116 +583,6 @@ def test_local_logs_are_read_for_the_cluster_only_as_their_dtcs_are_submitted(
     assert peak < 40 << 20, f"{peak >> 20} MiB held to ship 200 MiB of logs"
 
 
-def url_specs(folder: Path, count: int) -> list[DtcSpec]:
-    """``count`` DTCs, every fifth of a local log, the others of a log behind a URL."""
-    return [
-        DtcSpec(folder, f"d{n}", "", (), Path(f"d{n}.beatlog"), None, log_url=f"s3://b/d{n}")
-        if n % 5
-        else DtcSpec(folder, f"d{n}", "", (), folder / f"d{n}.beatlog", None)
-        for n in range(count)
-    ]
-
-
-@pytest.mark.parametrize(("dtcs", "threads"), [(0, 2), (1, 2), (3, 2), (40, 2), (41, 3), (9, 16)])
-def test_each_url_log_past_the_first_of_each_thread_is_fetched_ahead_by_one_task(
-    tmp_path: Path, dtcs: int, threads: int
-) -> None:
-    ordered = url_specs(tmp_path, dtcs)
-
-    ahead = fetched_ahead([[spec] for spec in ordered], threads)
-
-    fetched = [url for urls in ahead for url, _ in urls]
-    assert sorted(fetched) == sorted(
-        spec.log_url for spec in ordered[threads:] if spec.log_url is not None
-    )
-    at = {spec.log_url: index for index, spec in enumerate(ordered)}
-    for index, urls in enumerate(ahead):
-        assert len(urls) <= FETCHED_AHEAD
-        assert all(at[url] > index for url, _ in urls)  # a later DTC's, never its own
-
-
-@pytest.mark.parametrize(("sizes", "threads"), [([3] * 7 + [1] * 40, 2), ([1] * 100, 3)])
-def test_a_task_of_several_dtcs_has_the_next_of_its_thread_fetched_and_its_own(
-    tmp_path: Path, sizes: list[int], threads: int
-) -> None:
-    ordered = url_specs(tmp_path, len(sizes))
-    grouped = [[ordered[index] for index in task] for task in tasks(sizes, threads)]
-
-    ahead = fetched_ahead(grouped, threads)
-
-    firsts = {grouped[index][0].log_url for index in range(min(threads, len(grouped)))}
-    fetched = [url for urls in ahead for url, _ in urls]
-    assert sorted(fetched) == sorted(
-        spec.log_url for spec in ordered if spec.log_url is not None and spec.log_url not in firsts
-    )
-    task_of = {spec.log_url: index for index, task in enumerate(grouped) for spec in task}
-    for index, urls in enumerate(ahead):
-        later = [task_of[url] for url, _ in urls]
-        assert all(at % threads == index % threads for at in later)  # by its own thread
-        own = [at for at in later if at == index]
-        assert not own or index < threads  # only a thread's first task fetches its own
-        assert all(at <= index + threads * FETCHED_AHEAD for at in later)
-        if index + threads < len(grouped):  # the next task of its thread is fetched by now
-            assert {task_of[url] for urls in ahead[: index + 1] for url, _ in urls} >= {
-                at
-                for at in range(index % threads, index + threads + 1, threads)
-                if any(spec.log_url for spec in grouped[at])
-            } - {index % threads}
-
-
-SMALL, MID, BIG = TASK_BYTES // 26, TASK_BYTES * 2 // 5, TASK_BYTES
-
-
-@pytest.mark.parametrize(
-    ("sizes", "threads"),
-    [
-        ([], 2),
-        ([SMALL] * 3, 2),
-        ([BIG * 2, BIG, BIG - 1, *[SMALL] * 200, None, *[SMALL] * 50], 2),
-        ([SMALL] * 1000, 2),
-        ([SMALL] * 1000, 160),
-        ([BIG + 1, None, *[SMALL] * 400, None, *[1] * 300, 0, 0], 4),
-        ([BIG // 2 + 1] * 64, 1),
-    ],
-)
-def test_tasks_hold_every_dtc_once_in_order_within_their_bounds(
-    sizes: list[int | None], threads: int
-) -> None:
-    grouped = tasks(sizes, threads)
-
-    assert [index for task in grouped for index in task] == list(range(len(sizes)))
-    assert all(len(task) == 1 for task in grouped[:threads])  # its first outcome soon
-    most = max(1, len(sizes) // (threads * TASKS_PER_THREAD))
-    for task in grouped:
-        weights = [sizes[index] for index in task]
-        if len(task) > 1:
-            assert None not in weights
-            assert sum(weight or 0 for weight in weights) <= TASK_BYTES
-            assert len(task) <= most
-            assert all((weight or 0) < TASK_BYTES for weight in weights)
-
-
-@pytest.mark.parametrize(
-    ("sizes", "threads", "expected"),
-    [
-        (  # a thread's first alone, big and unknown alone, small ones packed up to the
-            # bytes or the count
-            [BIG + 1, None, MID, MID, MID, *[1_000] * 13],
-            1,
-            [1, 1, 2, 4, 4, 4, 2],
-        ),
-        ([SMALL] * 1000, 2, [1, 1] + [26] * 38 + [10]),  # 26 logs fill a task's bytes
-        ([1] * 1000, 2, [1, 1] + [125] * 7 + [123]),  # four tasks a thread, at least
-        ([SMALL] * 3, 2, [1] * 3),  # too few to pack: every thread busy
-        ([SMALL] * 1000, 160, [1] * 1000),
-    ],
-)
-def test_big_dtcs_run_alone_and_small_ones_are_packed(
-    sizes: list[int | None], threads: int, expected: list[int]
-) -> None:
-    assert [len(task) for task in tasks(sizes, threads)] == expected
-
-
 @pytest.fixture
 def many(tmp_path: Path, record_probe: RecordFn) -> Path:
     """Twenty-four DTCs of one short log, the fifth replaying a changed system and the
@@ -730,6 +611,47 @@ def test_each_dtc_of_a_task_of_several_gets_its_own_verdict(
     assert "the arena map is missing" in remote.err
     ran = [str(task["key"]) for task in stream.data if str(task["key"]).startswith("dtc-")]
     assert len(ran) < 24  # several DTCs a task
+
+
+class MostHeld(SchedulerPlugin):
+    """On a scheduler: the most DTC tasks one worker has held at once, run or queued."""
+
+    name = "most-held"
+
+    def __init__(self) -> None:
+        self.most = 0
+        self.workers: dict[str, Any] = {}
+
+    async def start(self, scheduler: Scheduler) -> None:
+        self.workers = scheduler.workers
+
+    def transition(self, key: object, start: str, finish: str, *args: Any, **kwargs: Any) -> None:
+        if finish == "processing":
+            held = (
+                sum(str(task.key).startswith("dtc-") for task in worker.processing)
+                for worker in self.workers.values()
+            )
+            self.most = max(self.most, *held)
+
+
+def most_held(dask_scheduler: Scheduler) -> int:
+    """On the scheduler: what its :class:`MostHeld` saw."""
+    return dask_scheduler.plugins[MostHeld.name].most  # type: ignore[attr-defined, no-any-return]
+
+
+def test_a_worker_is_sent_no_task_but_the_one_its_thread_runs(
+    beatlog: Callable[..., Run], cluster: str, many: Path
+) -> None:
+    with Client(cluster, set_as_default=False) as watcher:
+        watcher.register_plugin(MostHeld())
+        try:
+            run = beatlog("test", many, "--dask", cluster)
+            held = watcher.run_on_scheduler(most_held)
+        finally:
+            watcher.unregister_scheduler_plugin(MostHeld.name)
+
+    assert closing_counts(run.out) == "22 passed, 1 failed, 1 error"
+    assert held == 1  # the next of its thread is submitted once it ends
 
 
 @pytest.mark.slow  # 2 s or more: CI's slow run has it

@@ -1,14 +1,12 @@
 """Suites on a Dask cluster: ``beatlog test --dask ADDRESS`` (or ``--dask local:N``).
 
 Each Dask task runs :func:`beatlog.suite.runner.run_spec` for a few DTCs in the order
-run (:func:`tasks`: a big DTC alone, small ones together, so that a cluster's cost of a
-task does not swamp their replays) and sends back their outcomes; outcomes stream back
-as tasks complete, each DTC's to the same progress bar and reports. Tasks are submitted
-as outcomes come, one a cluster thread, so the files they ship
-(:mod:`beatlog.suite.shipping`) are held for those DTCs alone, and a worker holds no
-task but the one each of its threads runs. A log behind a URL is
-copied by the worker that replays it, which also fetches ahead the logs it is likely to
-replay next (:func:`fetched_ahead`).
+run (:mod:`beatlog.suite.packing`) and sends back their outcomes; outcomes stream back as
+tasks complete, each DTC's to the same progress bar and reports. Tasks are submitted as
+tasks end, one a cluster thread, so the files they ship (:mod:`beatlog.suite.shipping`)
+are held for those DTCs alone, and a worker holds no task but the one each of its
+threads runs. A log behind a URL is copied by the worker that replays it, which also
+fetches ahead the logs it is likely to replay next.
 
 A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs its
 task again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
@@ -24,7 +22,6 @@ from __future__ import annotations
 
 import asyncio
 import collections
-import itertools
 import logging
 import re
 import threading
@@ -36,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 from beatlog.errors import ClusterError, first_line
 from beatlog.log.files import Closing
+from beatlog.suite.packing import fetched_ahead, tasks
 from beatlog.suite.parallel import longest_first
 from beatlog.suite.remote import Listed
 from beatlog.suite.runner import SpecOutcome, Verdict
@@ -47,17 +45,7 @@ if TYPE_CHECKING:
 
     from beatlog.baseline.policy import SpecOptions
 
-__all__ = [
-    "FETCHED_AHEAD",
-    "NO_WORKERS_S",
-    "TASKS_PER_THREAD",
-    "TASK_BYTES",
-    "UNPROFILED",
-    "DaskExecutor",
-    "WorkerDeaths",
-    "fetched_ahead",
-    "tasks",
-]
+__all__ = ["NO_WORKERS_S", "UNPROFILED", "DaskExecutor", "WorkerDeaths"]
 
 UNPROFILED = {"distributed.worker.profile.enabled": False}
 """The workers' setting of the cluster ``local`` starts, worth a cluster's own too: Dask's
@@ -69,18 +57,6 @@ NO_WORKERS_S = 60.0
 a nanny to restart a worker that died, or for a scheduler's workers to join it."""
 _WORKERS_ASKED_EVERY_S = 1.0
 _ANSWER_S = 5.0
-FETCHED_AHEAD = 4
-"""How many DTCs ahead of the task it replays a worker's thread has the URL logs fetched,
-at least (whole tasks): enough to hide a request's latency behind replays shorter than it."""
-TASK_BYTES = 1 << 20
-"""The most bytes of logs a task of several DTCs replays; a log this big or bigger is a
-task of its own. A task costs a cluster about 10 ms of CPU, and its thread waits for the
-next (one a thread is submitted) for as long; a small log replays at about 0.35 ms a KiB:
-1 MiB replays for about 350 ms, and a task still ends often enough for outcomes to
-stream back and threads to finish together."""
-TASKS_PER_THREAD = 4
-"""The fewest tasks a cluster thread gets where DTCs are packed together: enough that
-threads finishing at different times even out, and that all stay busy to the end."""
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
 
 
@@ -139,9 +115,9 @@ class DaskExecutor(Closing):
         options: SpecOptions,
         done: Callable[[SpecOutcome], bool],
     ) -> None:
-        """Submit the specs in :func:`tasks` and give each outcome to ``done`` as its task
-        completes, until ``done`` says stop or none is left. On leaving, Ctrl-C included,
-        the tasks not complete are cancelled."""
+        """Submit the specs in :func:`~beatlog.suite.packing.tasks` and give each outcome to
+        ``done`` as its task completes, until ``done`` says stop or none is left. On
+        leaving, Ctrl-C included, the tasks not complete are cancelled."""
         from distributed import as_completed  # noqa: PLC0415 - with the client's package
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
@@ -187,14 +163,11 @@ class DaskExecutor(Closing):
                     pending[str(future.key)] = (future, task)
             return futures
 
-        completed = as_completed(
-            # One task a thread, the next as each completes: Dask sends a worker every
-            # task it gets at once, and one that a DTC kills takes those it holds with it.
-            submit(threads),
-            loop=self._client.loop,
-            with_results=True,  # gathered as they complete: no round trip a task here
-            raise_errors=False,
-        )
+        # One task a thread, the next as each ends: Dask sends a worker every task it
+        # gets at once, and one that a DTC kills takes those it holds with it. A task's end
+        # is heard at once, its outcomes fetched after the next task is submitted: from a
+        # worker busy with that one they come 50-150 ms later.
+        completed = as_completed(submit(threads), loop=self._client.loop)
         told = 0
         lookout = threading.Thread(
             target=self._look_out,
@@ -204,21 +177,23 @@ class DaskExecutor(Closing):
         )
         lookout.start()
         try:
-            for future, result in completed:
+            for batch in completed.batches():
                 with guard:
-                    _, task = pending.pop(str(future.key))
-                if lost.is_set() and future.status != "finished":
-                    continue  # cancelled by the lookout: the outcomes that came still count
-                outcomes = self._outcomes(future, result, task)
-                future.release()  # now, not as the next completes: a worker lost meanwhile
-                # would have the scheduler run the task again for a result no one wants
-                if isinstance(outcomes, int):  # its workers died: its DTCs again, one a task
-                    waiting.extendleft(_Task([s], [], outcomes) for s in reversed(task.specs))
-                completed.update(submit(1))  # before the outcomes: the thread waits for it
-                for outcome in () if isinstance(outcomes, int) else outcomes:
+                    ran = [pending[str(future.key)][1] for future in batch]
+                died = list(map(self._died, batch, ran))
+                for task, deaths in zip(reversed(ran), reversed(died), strict=True):
+                    if deaths and len(task.specs) > 1:  # its DTCs again, one a task
+                        waiting.extendleft(_Task([s], [], deaths) for s in reversed(task.specs))
+                completed.update(submit(len(batch)))  # before the outcomes: threads wait
+                for outcome in self._outcomes(batch, ran, died):
                     told += 1
                     if done(outcome):
                         return
+                with guard:
+                    for future in batch:
+                        del pending[str(future.key)]
+                        future.release()  # now, not as the next completes: a worker lost
+                        # would have the scheduler run the task again for no one
             if lost.is_set() and told < len(specs):
                 raise ClusterError(
                     f"--dask {self._address}: the cluster has had no workers for "
@@ -247,30 +222,48 @@ class DaskExecutor(Closing):
                 self._client.cancel(waited(losing=True), force=True)
                 return
 
-    def _outcomes(
-        self, future: Future[list[SpecOutcome]], result: Any, task: _Task
-    ) -> list[SpecOutcome] | int:
-        """The outcomes of a completed task from its ``result`` (a failed task's is
-        ``(type, exception, traceback)``, a cancelled one's the exception), told as a
-        local run tells them, with the times each DTC was run again because its worker
-        died; for a task of several DTCs whose workers kept dying, how many died, its
-        DTCs to be run again one a task."""
+    def _died(self, future: Future[list[SpecOutcome]], task: _Task) -> int:
+        """How many workers died while replaying the DTCs of a task that ended, in all,
+        where its last ones did (past ``allowed-failures``); 0 where it did not fail, or
+        was cancelled (the cluster lost).
+
+        :raises Exception: what the task raised, a worker's death aside."""
         from distributed import KilledWorker  # noqa: PLC0415 - with the client's package
 
-        if future.status == "finished":
-            deaths = task.deaths + self._deaths[str(future.key)]
-            return [
-                as_given(outcome, spec, deaths)
-                for outcome, spec in zip(result, task.specs, strict=True)
-            ]
-        exc = result[1].with_traceback(result[2]) if isinstance(result, tuple) else result
+        if future.status != "error":
+            return 0
+        exc = future.exception()
         if not isinstance(exc, KilledWorker):
-            raise exc
-        died = task.deaths + exc.allowed_failures + 1
-        if len(task.specs) > 1:
-            return died
-        problem = f"{died} workers died while replaying it (a crash, or a machine lost)"
-        return [SpecOutcome(task.specs[0], Verdict.ERROR, None, problem, 0.0, retries=died - 1)]
+            raise exc.with_traceback(future.traceback())
+        return task.deaths + exc.allowed_failures + 1
+
+    def _outcomes(
+        self, batch: list[Future[list[SpecOutcome]]], ran: list[_Task], died: list[int]
+    ) -> list[SpecOutcome]:
+        """The outcomes of the tasks of ``batch`` (the tasks ``ran``, whose workers
+        ``died``), fetched from their workers in one round trip (none of a batch the
+        lookout cancelled), told as a local run tells them, with the times each DTC was
+        run again because its worker died; an error for a DTC alone whose workers kept
+        dying."""
+        from distributed import CancelledError  # noqa: PLC0415 - with the client's package
+
+        finished = [future for future in batch if future.status == "finished"]
+        try:
+            results = dict(zip(finished, self._client.gather(finished), strict=True))
+        except CancelledError:  # the cluster was lost meanwhile
+            return []
+        outcomes: list[SpecOutcome] = []
+        for future, task, deaths in zip(batch, ran, died, strict=True):
+            if future in results:
+                retries = task.deaths + self._deaths[str(future.key)]
+                outcomes += map(as_given, results[future], task.specs, [retries] * len(task.specs))
+            elif deaths and len(task.specs) == 1:
+                problem = f"{deaths} workers died while replaying it (a crash, or a machine lost)"
+                spec = task.specs[0]
+                outcomes.append(
+                    SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=deaths - 1)
+                )
+        return outcomes
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
@@ -336,54 +329,6 @@ class _Task:
     specs: list[DtcSpec]
     ahead: list[tuple[str, Listed | None]]
     deaths: int = 0
-
-
-def tasks(sizes: Sequence[int | None], threads: int) -> list[range]:
-    """The DTCs, given by their logs' sizes in bytes in the order run (None: not known),
-    as the tasks of a cluster of ``threads`` threads: runs of DTCs in that order, each
-    DTC once. The first task of each thread holds one DTC, whose outcome then comes back
-    as soon as a replay allows; after them a log of :data:`TASK_BYTES` or more, or of no
-    known size, is a task alone, and smaller ones are packed together up to that many
-    bytes, and no more of them than leaves each thread :data:`TASKS_PER_THREAD` tasks."""
-    most = max(1, len(sizes) // (threads * TASKS_PER_THREAD))
-    grouped: list[range] = []
-    start = carried = 0
-    for index, size in enumerate(sizes):
-        weight = TASK_BYTES if size is None else size
-        full = index - start >= most or carried >= TASK_BYTES or carried + weight > TASK_BYTES
-        if index > start and (full or len(grouped) < threads):
-            grouped.append(range(start, index))
-            start, carried = index, 0
-        carried += weight
-    if start < len(sizes):
-        grouped.append(range(start, len(sizes)))
-    return grouped
-
-
-def fetched_ahead(
-    grouped: Sequence[Sequence[DtcSpec]], threads: int
-) -> list[list[tuple[str, Listed | None]]]:
-    """For each task in the order run, the URL logs (and what their listing said) it
-    fetches ahead while it replays, each log by one task alone. A thread is taken to
-    run every ``threads``-th task: each of its tasks has the logs of its next tasks
-    fetched, as many as hold :data:`FETCHED_AHEAD` DTCs; its first one, the logs of its
-    own DTCs after the first too."""
-    ahead: list[list[tuple[str, Listed | None]]] = [[] for _ in grouped]
-    for first in range(min(threads, len(grouped))):
-        own = range(first, len(grouped), threads)  # this thread's tasks
-        stream = [
-            None if spec.log_url is None else (spec.log_url, spec.listed_log)
-            for at in own
-            for spec in grouped[at]
-        ]
-        ends = list(itertools.accumulate(len(grouped[at]) for at in own))
-        fetched = 1  # the thread's first DTC copies its own log
-        for step, at in enumerate(own):
-            wanted = ends[step] + FETCHED_AHEAD
-            until = next((end for end in ends[step + 1 :] if end >= wanted), len(stream))
-            ahead[at] = [url for url in stream[fetched:until] if url is not None]
-            fetched = until
-    return ahead
 
 
 def _log_bytes(spec: DtcSpec) -> int | None:
