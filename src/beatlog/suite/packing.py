@@ -42,10 +42,10 @@ def tasks(sizes: Sequence[int | None], threads: int) -> list[range]:
     DTC once. The first task of each thread holds one DTC, whose outcome then comes back
     as soon as a replay allows; after them a log of :data:`TASK_BYTES` or more, or of no
     known size, is a task alone, and smaller ones are packed together: no more of them
-    than leaves each thread :data:`TASKS_PER_THREAD` tasks, and up to a share of the
-    bytes not yet in a task, at most :data:`TASK_BYTES` and at least
-    :data:`TASK_BYTES_AT_THE_END`, so that tasks shrink toward the end and the threads,
-    each two tasks ahead, finish together."""
+    than leaves each thread :data:`TASKS_PER_THREAD` tasks, and up to half a thread's
+    share of the bytes not yet in a task, at most :data:`TASK_BYTES` and at least
+    :data:`TASK_BYTES_AT_THE_END`, so that tasks shrink toward the end and the threads
+    finish together."""
     most = max(1, len(sizes) // (threads * TASKS_PER_THREAD))
     weights = [TASK_BYTES if size is None else size for size in sizes]
     left = sum(weights)
