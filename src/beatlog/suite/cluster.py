@@ -126,8 +126,7 @@ class DaskExecutor(Closing):
             [ordered[index] for index in task]
             for task in tasks([_log_bytes(spec) for spec in ordered], threads)
         ]
-        ahead = fetched_ahead(grouped, threads)
-        waiting = collections.deque(map(_Task, grouped, ahead))
+        waiting = collections.deque(map(_Task, grouped, fetched_ahead(grouped, threads)))
         pending: dict[str, tuple[Future[list[SpecOutcome]], _Task]] = {}
         guard = threading.Lock()  # of pending and lost, which the lookout sets
         ended, lost = threading.Event(), threading.Event()
@@ -168,6 +167,7 @@ class DaskExecutor(Closing):
         # is heard at once, its outcomes fetched after the next task is submitted: from a
         # worker busy with that one they come 50-150 ms later.
         completed = as_completed(submit(threads), loop=self._client.loop)
+        replaced: set[str] = set()  # the tasks whose thread has its next
         told = 0
         lookout = threading.Thread(
             target=self._look_out,
@@ -181,16 +181,18 @@ class DaskExecutor(Closing):
                 with guard:
                     ran = [pending[str(future.key)][1] for future in batch]
                 died = list(map(self._died, batch, ran))
-                for task, deaths in zip(reversed(ran), reversed(died), strict=True):
-                    if deaths and len(task.specs) > 1:  # its DTCs again, one a task
-                        waiting.extendleft(_Task([s], [], deaths) for s in reversed(task.specs))
-                completed.update(submit(len(batch)))  # before the outcomes: threads wait
-                for outcome in self._outcomes(batch, ran, died):
+                waiting.extendleft(reversed(_one_a_task(ran, died)))  # run first
+                fresh = {str(future.key) for future in batch} - replaced
+                completed.update(submit(len(fresh)))  # before the outcomes: threads wait
+                replaced |= fresh
+                outcomes, again = self._outcomes(batch, ran, died)
+                completed.update(again)  # a worker died holding their outcomes: wait again
+                for outcome in outcomes:
                     told += 1
                     if done(outcome):
                         return
                 with guard:
-                    for future in batch:
+                    for future in set(batch) - set(again):
                         del pending[str(future.key)]
                         future.release()  # now, not as the next completes: a worker lost
                         # would have the scheduler run the task again for no one
@@ -239,19 +241,22 @@ class DaskExecutor(Closing):
 
     def _outcomes(
         self, batch: list[Future[list[SpecOutcome]]], ran: list[_Task], died: list[int]
-    ) -> list[SpecOutcome]:
+    ) -> tuple[list[SpecOutcome], list[Future[list[SpecOutcome]]]]:
         """The outcomes of the tasks of ``batch`` (the tasks ``ran``, whose workers
-        ``died``), fetched from their workers in one round trip (none of a batch the
-        lookout cancelled), told as a local run tells them, with the times each DTC was
-        run again because its worker died; an error for a DTC alone whose workers kept
-        dying."""
+        ``died``), fetched from their workers in one round trip, told as a local run tells
+        them, with the times each DTC was run again because its worker died; an error for a
+        DTC alone whose workers kept dying. None of a batch the lookout cancelled; and the
+        futures to wait for again where a worker holding outcomes died before they were
+        fetched, and the task run again failed."""
         from distributed import CancelledError  # noqa: PLC0415 - with the client's package
 
-        finished = [future for future in batch if future.status == "finished"]
+        fetched = [future for future in batch if future.status not in ("error", "cancelled")]
         try:
-            results = dict(zip(finished, self._client.gather(finished), strict=True))
+            results = dict(zip(fetched, self._client.gather(fetched), strict=True))
         except CancelledError:  # the cluster was lost meanwhile
-            return []
+            return [], []
+        except Exception:  # Dask's errors share no base: one of them failed on its way
+            return [], fetched
         outcomes: list[SpecOutcome] = []
         for future, task, deaths in zip(batch, ran, died, strict=True):
             if future in results:
@@ -263,7 +268,7 @@ class DaskExecutor(Closing):
                 outcomes.append(
                     SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=deaths - 1)
                 )
-        return outcomes
+        return outcomes, []
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
@@ -329,6 +334,17 @@ class _Task:
     specs: list[DtcSpec]
     ahead: list[tuple[str, Listed | None]]
     deaths: int = 0
+
+
+def _one_a_task(ran: list[_Task], died: list[int]) -> list[_Task]:
+    """The DTCs of the tasks ``ran`` of several DTCs whose workers kept dying (``died``
+    times in all), each a task of its own, to be run again."""
+    return [
+        _Task([spec], [], deaths)
+        for task, deaths in zip(ran, died, strict=True)
+        if deaths and len(task.specs) > 1
+        for spec in task.specs
+    ]
 
 
 def _log_bytes(spec: DtcSpec) -> int | None:
