@@ -11,6 +11,7 @@ removed: a recording leaves a valid log or nothing.
 from __future__ import annotations
 
 import contextlib
+import inspect
 import os
 import queue
 import stat
@@ -257,16 +258,24 @@ class SessionLogWriter(Closing):
 def record_schema(record: type[msgspec.Struct], *, described: bool) -> bytes:
     """The JSON schema of a record type as a log embeds it: from format 3 on, its layout
     without the descriptions (``docs/format.md`` says what each field means), which
-    every log would otherwise carry twice."""
-    schema = msgspec.json.schema(record)
-    return msgspec.json.encode(schema if described else _undescribed(schema))
+    every log would otherwise carry twice; before, with them, each docstring cleaned as
+    :func:`inspect.cleandoc` cleans it, so that the bytes do not depend on the msgspec
+    that made the schema (0.23 cleans docstrings itself, earlier ones did not)."""
+    return msgspec.json.encode(_descriptions(msgspec.json.schema(record), kept=described))
 
 
-def _undescribed(node: Any) -> Any:
+def _descriptions(node: Any, *, kept: bool) -> Any:
+    """A JSON schema with its descriptions cleaned (``kept``) or left out."""
     if isinstance(node, dict):
-        return {key: _undescribed(value) for key, value in node.items() if key != "description"}
+        return {
+            key: inspect.cleandoc(value)
+            if key == "description" and isinstance(value, str)
+            else _descriptions(value, kept=kept)
+            for key, value in node.items()
+            if kept or key != "description" or not isinstance(value, str)
+        }
     if isinstance(node, list):
-        return [_undescribed(value) for value in node]
+        return [_descriptions(value, kept=kept) for value in node]
     return node
 
 
