@@ -12,6 +12,7 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 import tracemalloc
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator
@@ -25,7 +26,7 @@ from distributed import Client, LocalCluster, Scheduler, SchedulerPlugin, get_ta
 from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
 from beatlog.suite import cluster as cluster_module
-from beatlog.suite.cluster import NO_WORKERS_S, DaskExecutor, WorkerDeaths
+from beatlog.suite.cluster import NO_WORKERS_S, THREADS_ASKED_EVERY_S, DaskExecutor, WorkerDeaths
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.selection import fleet_specs
@@ -614,12 +615,13 @@ def test_each_dtc_of_a_task_of_several_gets_its_own_verdict(
 
 
 class MostHeld(SchedulerPlugin):
-    """On a scheduler: the most DTC tasks one worker has held at once, run or queued."""
+    """On a scheduler: the most DTC tasks one worker has held at once, run or queued, and
+    the most all its workers have."""
 
     name = "most-held"
 
     def __init__(self) -> None:
-        self.most = 0
+        self.most = (0, 0)
         self.workers: dict[str, Any] = {}
 
     async def start(self, scheduler: Scheduler) -> None:
@@ -627,15 +629,15 @@ class MostHeld(SchedulerPlugin):
 
     def transition(self, key: object, start: str, finish: str, *args: Any, **kwargs: Any) -> None:
         if finish == "processing":
-            held = (
+            held = [
                 sum(str(task.key).startswith("dtc-") for task in worker.processing)
                 for worker in self.workers.values()
-            )
-            self.most = max(self.most, *held)
+            ]
+            self.most = (max(self.most[0], *held), max(self.most[1], sum(held)))
 
 
-def most_held(dask_scheduler: Scheduler) -> int:
-    """On the scheduler: what its :class:`MostHeld` saw."""
+def most_held(dask_scheduler: Scheduler) -> tuple[int, int]:
+    """On the scheduler: what its :class:`MostHeld` saw, one worker's and all's."""
     return dask_scheduler.plugins[MostHeld.name].most  # type: ignore[attr-defined, no-any-return]
 
 
@@ -651,7 +653,37 @@ def test_a_worker_is_sent_no_task_but_the_one_its_thread_runs(
             watcher.unregister_scheduler_plugin(MostHeld.name)
 
     assert closing_counts(run.out) == "22 passed, 1 failed, 1 error"
-    assert held == 1  # the next of its thread is submitted once it ends
+    assert held == (1, 2)  # the next of its thread is submitted once it ends
+
+
+@pytest.mark.slow  # a worker started during the run: 5 s or more
+def test_a_worker_that_joins_during_a_run_gets_tasks_of_it(
+    beatlog: Callable[..., Run], tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log, release = record_probe(60), tmp_path / "release"
+    waiting = write_waiting(tmp_path / "suite", release)  # until the second worker is up
+    for index in range(12):  # on one thread: the first alone, then tasks of three
+        write_spec(tmp_path / "suite", f"d{index:02}", log, waiting)
+
+    with local_cluster(1) as elastic, Client(elastic, set_as_default=False) as watcher:
+        watcher.register_plugin(MostHeld())
+
+        def grow() -> None:
+            elastic.scale(2)
+            watcher.wait_for_workers(2)
+            time.sleep(2 * THREADS_ASKED_EVERY_S)  # the run has heard of it
+            release.touch()
+
+        grower = threading.Thread(target=grow)
+        grower.start()
+        try:
+            run = beatlog("test", tmp_path / "suite", "--dask", elastic.scheduler_address)
+        finally:
+            grower.join()
+        held = watcher.run_on_scheduler(most_held)
+
+    assert closing_counts(run.out) == "12 passed, 0 failed"
+    assert held == (1, 2)  # both workers replayed, one task each
 
 
 @pytest.mark.slow  # 2 s or more: CI's slow run has it

@@ -3,10 +3,11 @@
 Each Dask task runs :func:`beatlog.suite.runner.run_spec` for a few DTCs in the order
 run (:mod:`beatlog.suite.packing`) and sends back their outcomes; outcomes stream back as
 tasks complete, each DTC's to the same progress bar and reports. Tasks are submitted as
-tasks end, one a cluster thread, so the files they ship (:mod:`beatlog.suite.shipping`)
-are held for those DTCs alone, and a worker holds no task but the one each of its
-threads runs. A log behind a URL is copied by the worker that replays it, which also
-fetches ahead the logs it is likely to replay next.
+tasks end, one a cluster thread (of the workers there are: a worker that joins during a
+run gets tasks of it), so the files they ship (:mod:`beatlog.suite.shipping`) are held
+for those DTCs alone, and a worker holds no task but the one each of its threads runs.
+A log behind a URL is copied by the worker that replays it, which also fetches ahead the
+logs it is likely to replay next.
 
 A worker that dies while it replays a DTC does not lose the DTC: the scheduler runs its
 task again on another worker, up to ``distributed.scheduler.allowed-failures``, and the
@@ -45,7 +46,7 @@ if TYPE_CHECKING:
 
     from beatlog.baseline.policy import SpecOptions
 
-__all__ = ["NO_WORKERS_S", "UNPROFILED", "DaskExecutor", "WorkerDeaths"]
+__all__ = ["NO_WORKERS_S", "THREADS_ASKED_EVERY_S", "UNPROFILED", "DaskExecutor", "WorkerDeaths"]
 
 UNPROFILED = {"distributed.worker.profile.enabled": False}
 """The workers' setting of the cluster ``local`` starts, worth a cluster's own too: Dask's
@@ -55,7 +56,10 @@ CPU a DTC of a 3-s rover log, whose replay takes 3 ms."""
 NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
 a nanny to restart a worker that died, or for a scheduler's workers to join it."""
-_WORKERS_ASKED_EVERY_S = 1.0
+THREADS_ASKED_EVERY_S = 1.0
+"""How often a run asks the cluster how many threads its workers have: a worker that
+joins gets tasks from the next one that ends after, and one that leaves takes its
+thread's share with it."""
 _ANSWER_S = 5.0
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
 
@@ -87,6 +91,7 @@ class DaskExecutor(Closing):
         self._cluster: LocalCluster | None = None
         self._ships = local is None  # a cluster of this machine shares its files
         self._deaths = WorkerDeaths()
+        self._threads = 1  # the cluster's threads when the lookout last asked
         try:
             if local is None:
                 _handshake(address)
@@ -121,7 +126,7 @@ class DaskExecutor(Closing):
         from distributed import as_completed  # noqa: PLC0415 - with the client's package
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
-        threads = max(1, sum(self._client.nthreads().values()))
+        self._threads = threads = max(1, sum(self._client.nthreads().values()))
         grouped = [
             [ordered[index] for index in task]
             for task in tasks([_log_bytes(spec) for spec in ordered], threads)
@@ -167,7 +172,6 @@ class DaskExecutor(Closing):
         # is heard at once, its outcomes fetched after the next task is submitted: from a
         # worker busy with that one they come 50-150 ms later.
         completed = as_completed(submit(threads), loop=self._client.loop)
-        replaced: set[str] = set()  # the tasks whose thread has its next
         told = 0
         lookout = threading.Thread(
             target=self._look_out,
@@ -182,9 +186,8 @@ class DaskExecutor(Closing):
                     ran = [pending[str(future.key)][1] for future in batch]
                 died = list(map(self._died, batch, ran))
                 waiting.extendleft(reversed(_one_a_task(ran, died)))  # run first
-                fresh = {str(future.key) for future in batch} - replaced
-                completed.update(submit(len(fresh)))  # before the outcomes: threads wait
-                replaced |= fresh
+                running = len(pending) - len(batch)  # one a thread, as workers come and go
+                completed.update(submit(max(1, self._threads) - running))  # before outcomes
                 outcomes, again = self._outcomes(batch, ran, died)
                 completed.update(again)  # a worker died holding their outcomes: wait again
                 for outcome in outcomes:
@@ -208,17 +211,18 @@ class DaskExecutor(Closing):
             self._client.cancel(waited(), force=True)
 
     def _look_out(self, waited: Callable[..., list[Future[Any]]], ended: threading.Event) -> None:
-        """Until ``ended``, ask the cluster every second how many workers it has; once it
-        has had none for :data:`NO_WORKERS_S`, cancel the futures ``waited(losing=True)``
-        gives, which then come back cancelled. A scheduler that does not answer within a
-        few seconds counts as having none."""
+        """Until ``ended``, ask the cluster every second how many threads its workers have,
+        so that a run keeps as many tasks submitted; once it has had no workers for
+        :data:`NO_WORKERS_S`, cancel the futures ``waited(losing=True)`` gives, which then
+        come back cancelled. A scheduler that does not answer within a few seconds counts
+        as having none."""
         since = time.monotonic()
-        while not ended.wait(_WORKERS_ASKED_EVERY_S):
+        while not ended.wait(THREADS_ASKED_EVERY_S):
             try:
-                workers = bool(self._client.nthreads(callback_timeout=_ANSWER_S))
+                self._threads = sum(self._client.nthreads(callback_timeout=_ANSWER_S).values())
             except Exception:  # Dask's errors share no base: no answer, none for this run
-                workers = False
-            if workers:
+                self._threads = 0
+            if self._threads:
                 since = time.monotonic()
             elif time.monotonic() - since >= NO_WORKERS_S:
                 self._client.cancel(waited(losing=True), force=True)
