@@ -58,8 +58,7 @@ NO_WORKERS_S = 60.0
 a nanny to restart a worker that died, or for a scheduler's workers to join it."""
 THREADS_ASKED_EVERY_S = 1.0
 """How often a run asks the cluster how many threads its workers have: a worker that
-joins gets tasks from the next one that ends after, and one that leaves takes its
-thread's share with it."""
+joins gets tasks from the next one that ends after."""
 _ANSWER_S = 5.0
 _LOCAL = re.compile(r"local(?::([1-9][0-9]*))?")
 
@@ -91,7 +90,7 @@ class DaskExecutor(Closing):
         self._cluster: LocalCluster | None = None
         self._ships = local is None  # a cluster of this machine shares its files
         self._deaths = WorkerDeaths()
-        self._threads = 1  # the cluster's threads when the lookout last asked
+        self._threads = self._most_threads = 1  # when the lookout last asked; the most
         try:
             if local is None:
                 _handshake(address)
@@ -126,7 +125,7 @@ class DaskExecutor(Closing):
         from distributed import as_completed  # noqa: PLC0415 - with the client's package
 
         ordered = longest_first(specs)  # the scheduler starts them in this order
-        self._threads = threads = max(1, sum(self._client.nthreads().values()))
+        threads = self._threads = self._most_threads = max(1, sum(self._client.nthreads().values()))
         grouped = [
             [ordered[index] for index in task]
             for task in tasks([_log_bytes(spec) for spec in ordered], threads)
@@ -172,6 +171,7 @@ class DaskExecutor(Closing):
         # is heard at once, its outcomes fetched after the next task is submitted: from a
         # worker busy with that one they come 50-150 ms later.
         completed = as_completed(submit(threads), loop=self._client.loop)
+        replaced: set[str] = set()  # the tasks whose thread has its next
         told = 0
         lookout = threading.Thread(
             target=self._look_out,
@@ -186,8 +186,9 @@ class DaskExecutor(Closing):
                     ran = [pending[str(future.key)][1] for future in batch]
                 died = list(map(self._died, batch, ran))
                 waiting.extendleft(reversed(_one_a_task(ran, died)))  # run first
-                running = len(pending) - len(batch)  # one a thread, as workers come and go
-                completed.update(submit(max(1, self._threads) - running))  # before outcomes
+                fresh = {str(future.key) for future in batch} - replaced
+                completed.update(submit(len(fresh) + self._joined()))  # before the outcomes
+                replaced |= fresh
                 outcomes, again = self._outcomes(batch, ran, died)
                 completed.update(again)  # a worker died holding their outcomes: wait again
                 for outcome in outcomes:
@@ -212,7 +213,7 @@ class DaskExecutor(Closing):
 
     def _look_out(self, waited: Callable[..., list[Future[Any]]], ended: threading.Event) -> None:
         """Until ``ended``, ask the cluster every second how many threads its workers have,
-        so that a run keeps as many tasks submitted; once it has had no workers for
+        for the workers that join (:meth:`_joined`); once it has had no workers for
         :data:`NO_WORKERS_S`, cancel the futures ``waited(losing=True)`` gives, which then
         come back cancelled. A scheduler that does not answer within a few seconds counts
         as having none."""
@@ -227,6 +228,14 @@ class DaskExecutor(Closing):
             elif time.monotonic() - since >= NO_WORKERS_S:
                 self._client.cancel(waited(losing=True), force=True)
                 return
+
+    def _joined(self) -> int:
+        """How many threads the cluster has gained past the most it had before, for as
+        many more tasks: a worker that joins during a run gets tasks of it. A worker that
+        dies or leaves changes nothing: the workers left, or one restarted, take its task."""
+        joined = max(0, self._threads - self._most_threads)
+        self._most_threads += joined
+        return joined
 
     def _died(self, future: Future[list[SpecOutcome]], task: _Task) -> int:
         """How many workers died while replaying the DTCs of a task that ended, in all,
