@@ -265,11 +265,11 @@ class DaskExecutor(Closing):
 
         fetched = [future for future in batch if future.status not in ("error", "cancelled")]
         try:
-            results = dict(zip(fetched, self._client.gather(fetched), strict=True))
+            results, again = dict(zip(fetched, self._client.gather(fetched), strict=True)), []
         except CancelledError:  # the cluster was lost meanwhile
             return [], []
         except Exception:  # Dask's errors share no base: one of them failed on its way
-            return [], fetched
+            results, again = {}, fetched
         outcomes: list[SpecOutcome] = []
         for future, task, deaths in zip(batch, ran, died, strict=True):
             if future in results:
@@ -281,7 +281,7 @@ class DaskExecutor(Closing):
                 outcomes.append(
                     SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=deaths - 1)
                 )
-        return outcomes, []
+        return outcomes, again
 
     def close(self) -> None:
         """Close the connection, and the local cluster if this executor started one."""
