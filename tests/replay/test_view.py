@@ -4,6 +4,7 @@ that decodes a field's column the first time it is read, and behaves as the stat
 from __future__ import annotations
 
 import copy
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -177,18 +178,24 @@ def test_a_field_read_before_its_view_holds_it_reads_as_once_held(by_field: Path
     assert unheld == held == [[getattr(arm(t), name) for name in fields] for t in range(300)]
 
 
-def read_views(log: Path, state_type: type[Any], fields: list[str]) -> list[list[Any]]:
-    """``fields`` of every cycle of ``log``, read from views of ``state_type``."""
+def viewed_batches(
+    log: Path, state_type: type[Any], fields: Sequence[str]
+) -> Iterator[tuple[StateViews, Any, list[list[Any]]]]:
+    """Each batch of ``log`` as views of ``state_type`` read it: the views, the batch's
+    columns, and ``fields`` of each of its cycles."""
     with SessionLogReader(log) as reader:
         reader.decode_states(state_type)
         views = StateViews(state_type, state_type, log)
-        read = []
         for batch in reader.batches():
             columns: Any = batch[0].robot_state
-            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
-                view = views.view(columns, cycle)
-                read.append([getattr(view, name) for name in fields])
-        return read
+            cycles = range(columns.first_cycle, columns.first_cycle + len(batch))
+            rows = [[getattr(views.view(columns, t), name) for name in fields] for t in cycles]
+            yield views, columns, rows
+
+
+def read_views(log: Path, state_type: type[Any], fields: list[str]) -> list[list[Any]]:
+    """``fields`` of every cycle of ``log``, read from views of ``state_type``."""
+    return [row for _, _, rows in viewed_batches(log, state_type, fields) for row in rows]
 
 
 def test_views_of_a_type_read_alike_the_first_time_in_a_process_and_after(
@@ -280,15 +287,10 @@ def test_views_hold_the_recorded_states_however_they_are_decoded(
     by_field: Path, fields: list[str], layout: tuple[list[int], list[int], tuple[str, ...]]
 ) -> None:
     read, layouts = [], set()
-    with SessionLogReader(by_field) as reader:
-        reader.decode_states(Arm)
-        views = StateViews(Arm, Arm, by_field)
-        for batch in reader.batches():
-            columns: Any = batch[0].robot_state
-            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
-                read.append([getattr(views.view(columns, cycle), name) for name in fields])
-            made = views.layout(columns, tuple(fields))
-            layouts.add((tuple(made.columns), tuple(made.varied), made.rest))
+    for views, columns, rows in viewed_batches(by_field, Arm, fields):
+        read += rows
+        made = views.layout(columns, tuple(fields))
+        layouts.add((tuple(made.columns), tuple(made.varied), made.rest))
     assert read == [[getattr(arm(t), name) for name in fields] for t in range(300)]
     assert layouts == {(tuple(layout[0]), tuple(layout[1]), layout[2])}
 
@@ -412,19 +414,14 @@ def test_a_batch_laid_out_as_an_earlier_one_is_laid_out_as_afresh(tmp_path: Path
     the layout made afresh for each batch, through batches of two layouts in turn."""
     log = write_states(tmp_path / "tagged.beatlog", [tagged(t) for t in range(32)], by_field=True)
     fields = Tagged.__struct_fields__
-    kept, afresh, read = [], [], []
-    with SessionLogReader(log) as reader:
-        reader.decode_states(Tagged)
-        views = StateViews(Tagged, Tagged, log)
-        for batch in reader.batches():
-            columns: Any = batch[0].robot_state
-            for cycle in range(columns.first_cycle, columns.first_cycle + len(batch)):
-                view = views.view(columns, cycle)
-                read.append(tuple(getattr(view, name) for name in fields))
-            kept.append(views.layout(columns, fields))
-            fresh = StateViews(Tagged, Tagged, log)
-            fresh.view(columns, columns.first_cycle)
-            afresh.append(fresh.layout(columns, fields))
+    kept, afresh = [], []
+    read: list[tuple[Any, ...]] = []
+    for views, columns, rows in viewed_batches(log, Tagged, fields):
+        read += map(tuple, rows)
+        kept.append(views.layout(columns, fields))
+        fresh = StateViews(Tagged, Tagged, log)
+        fresh.view(columns, columns.first_cycle)
+        afresh.append(fresh.layout(columns, fields))
     assert kept == afresh
     assert len({(tuple(made.columns), made.rest) for made in kept}) == 2
     assert read == [tuple(getattr(tagged(t), name) for name in fields) for t in range(32)]
