@@ -35,6 +35,7 @@ from tests.conftest import RecordFn
 from tests.served import LogServer
 from tests.specs import CHANGED, FIRST_CHANGED_CYCLE, PROBE, write_spec
 from tests.text import table_row, whole_lines
+from tests.workers import DyingWhenFetched
 
 DYING = "tests.conftest:dying_system"
 
@@ -234,23 +235,26 @@ def test_retries_are_counted_from_the_workers_removed_unexpectedly_while_running
     assert [deaths[key] for key in ("dtc-a", "dtc-b", "dtc-c", "dtc-d")] == [2, 1, 0, 0]
 
 
-def write_dying_once(folder: Path, marker: Path) -> str:
+def write_dying_once(folder: Path, marker: Path, *, first: bool = True) -> str:
     """A system module beside the specs whose factory ends its process the first time
-    (``marker`` then exists) and builds the probe system after."""
+    (``marker`` then exists) and builds the probe system after; or, not ``first``, builds
+    it the first time and ends its process every time after."""
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "dying_once.py").write_text(
+    name = "dying_once" if first else "built_once"
+    (folder / f"{name}.py").write_text(
         "import os\n"
         "from pathlib import Path\n"
         "from tests.conftest import probe_system\n\n\n"
         "def system():\n"
         f"    marker = Path({str(marker)!r})\n"
-        "    if not marker.exists():\n"
-        "        marker.touch()\n"
+        "    seen = marker.exists()\n"
+        "    marker.touch()\n"
+        f"    if seen is {not first}:\n"
         "        os._exit(3)\n"
         "    return probe_system()\n",
         encoding="utf-8",
     )
-    return "dying_once:system"
+    return f"{name}:system"
 
 
 def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
@@ -705,3 +709,50 @@ def test_a_dtc_that_kills_the_workers_of_its_task_loses_no_other_dtcs_outcome(
     )
     assert closing_counts(run.out) == "15 passed, 0 failed, 1 error"
     assert "retried dtc-05: the worker replaying it died (1 time)" in whole_lines(run.out)
+
+
+@pytest.mark.slow  # a cluster of its own, and a worker restarted: 5 s or more
+def test_a_worker_that_dies_holding_outcomes_not_yet_fetched_loses_none(
+    beatlog: Callable[..., Run], many: Path, tmp_path: Path
+) -> None:
+    local = beatlog("test", many, "-j", "1", "--junit-xml", tmp_path / "local.xml")
+    marker = tmp_path / "fetched"
+    with local_cluster(2) as cluster, Client(cluster, set_as_default=False) as watcher:
+        watcher.register_plugin(DyingWhenFetched(marker))
+        remote = beatlog(
+            "test", many, "--dask", cluster.scheduler_address, "--junit-xml", tmp_path / "dask.xml"
+        )
+
+    assert marker.exists()
+    assert remote.code == local.code == 2
+    assert closing_counts(remote.out) == closing_counts(local.out) == "22 passed, 1 failed, 1 error"
+    # the DTCs of the next task its thread had begun are run again, and the report says so
+    retried = [name for name, tags in junit_cases(tmp_path / "dask.xml") if "flakyError" in tags]
+    assert len(retried) <= 3  # tasks of three DTCs
+    assert [
+        (name, [tag for tag in tags if tag != "flakyError"])
+        for name, tags in junit_cases(tmp_path / "dask.xml")
+    ] == junit_cases(tmp_path / "local.xml")
+
+
+@pytest.mark.slow  # a cluster of its own, and a worker restarted: 5 s or more
+def test_a_dtc_whose_outcomes_were_lost_and_whose_replay_again_kills_its_worker_is_an_error(
+    beatlog: Callable[..., Run], tmp_path: Path, record_probe: RecordFn
+) -> None:
+    folder = tmp_path / "suite"
+    write_spec(
+        folder, "again", record_probe(40), write_dying_once(folder, tmp_path / "built", first=False)
+    )
+    with (
+        local_cluster(2, allowed_failures=0) as fragile,
+        Client(fragile, set_as_default=False) as watcher,
+    ):
+        watcher.register_plugin(DyingWhenFetched(tmp_path / "fetched"))
+        run = beatlog("test", folder, "--dask", fragile.scheduler_address)
+
+    assert run.code == 2
+    assert run.err == (
+        f"beatlog: error: again ({folder / 'again.dtc.toml'}): 1 worker died "
+        "while replaying it (a crash, or a machine lost)\n"
+    )
+    assert closing_counts(run.out) == "0 passed, 0 failed, 1 error"

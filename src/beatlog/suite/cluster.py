@@ -276,7 +276,8 @@ class DaskExecutor(Closing):
                 retries = task.deaths + self._deaths[str(future.key)]
                 outcomes += map(as_given, results[future], task.specs, [retries] * len(task.specs))
             elif deaths and len(task.specs) == 1:
-                problem = f"{deaths} workers died while replaying it (a crash, or a machine lost)"
+                workers = f"{deaths} worker{'' if deaths == 1 else 's'}"
+                problem = f"{workers} died while replaying it (a crash, or a machine lost)"
                 spec = task.specs[0]
                 outcomes.append(
                     SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0, retries=deaths - 1)
