@@ -649,6 +649,7 @@ def test_a_worker_is_sent_no_task_but_the_one_its_thread_runs(
     beatlog: Callable[..., Run], cluster: str, many: Path
 ) -> None:
     with Client(cluster, set_as_default=False) as watcher:
+        watcher.wait_for_workers(2)  # a worker a test before killed is back
         watcher.register_plugin(MostHeld())
         try:
             run = beatlog("test", many, "--dask", cluster)

@@ -218,10 +218,12 @@ def _weighed(specs: Sequence[DtcSpec], *, strict: bool) -> list[tuple[DtcSpec, i
     """Each spec with its log's recorded cycles (0 where they cannot be read cheaply),
     or with its log's size when one lies behind a URL, the longest first; a stable
     sort, so ties keep their order. ``strict``: a size that cannot be had raises."""
-    if any(spec.log_url is not None for spec in specs):
+    if any(spec.log_url is not None and spec.log_size is None for spec in specs):
         with ThreadPoolExecutor(_SIZE_REQUESTS) as pool:  # waits, not work: one at a time is slow
             sizes = list(pool.map(lambda spec: _size(spec, strict=strict), specs))
         weights = list(zip(specs, sizes, strict=True))
+    elif any(spec.log_url is not None for spec in specs):  # a listing gave every URL's size
+        weights = [(spec, _size(spec, strict=strict)) for spec in specs]
     else:
         weights = [(spec, recorded_cycles(spec.log) or 0) for spec in specs]
     return sorted(weights, key=lambda weighed: -weighed[1])

@@ -171,13 +171,13 @@ def absolute(spec: DtcSpec) -> DtcSpec:
 def as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
     """A worker's outcome with the spec as given here (relative paths stay relative):
     the same log, error, rerun command and baseline as a local run's."""
-    sent = absolute(spec)
     outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
     result = outcome.result
     if result is not None:
         result = dataclasses.replace(result, log=spec.log, reproduce=outcome.reproduce)
     error = outcome.error
     if error is not None:
+        sent = absolute(spec)
         for there, given in ((sent.log, spec.log), (sent.path, spec.path)):
             error = error.replace(str(there), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
