@@ -282,6 +282,17 @@ def test_a_dtc_whose_worker_dies_is_retried_and_the_report_says_so(
     assert rows == [("passed", "unlucky", "passed (retried 1×)", "120")]
 
 
+def assert_workers_died(run: Run, spec: Path, workers: str) -> None:
+    """The run ends in exit code 2 and one line: the DTC of ``spec`` is an error, its
+    ``workers`` (``2 workers``) having died while replaying it."""
+    name = spec.name.removesuffix(".dtc.toml")
+    assert run.code == 2
+    assert run.err == (
+        f"beatlog: error: {name} ({spec}): {workers} died while replaying it "
+        "(a crash, or a machine lost)\n"
+    )
+
+
 @pytest.mark.slow  # 2 s or more: CI's slow run has it
 def test_a_dtc_whose_workers_keep_dying_is_an_error_never_lost(
     beatlog: Callable[..., Run], cluster: str, tmp_path: Path, record_probe: RecordFn
@@ -292,11 +303,7 @@ def test_a_dtc_whose_workers_keep_dying_is_an_error_never_lost(
 
     run = beatlog("test", tmp_path / "suite", "--dask", cluster)
 
-    assert run.code == 2
-    assert run.err == (
-        f"beatlog: error: doomed ({tmp_path / 'suite' / 'doomed.dtc.toml'}): 2 workers died "
-        "while replaying it (a crash, or a machine lost)\n"
-    )
+    assert_workers_died(run, tmp_path / "suite" / "doomed.dtc.toml", "2 workers")
     assert closing_counts(run.out) == "1 passed, 0 failed, 1 error"
 
 
@@ -703,11 +710,7 @@ def test_a_dtc_that_kills_the_workers_of_its_task_loses_no_other_dtcs_outcome(
     with local_cluster(2, allowed_failures=0) as fragile:  # a task lost with its first worker
         run = beatlog("test", folder, "--dask", fragile.scheduler_address)
 
-    assert run.code == 2
-    assert run.err == (
-        f"beatlog: error: dtc-04 ({folder / 'dtc-04.dtc.toml'}): 2 workers died "
-        "while replaying it (a crash, or a machine lost)\n"
-    )
+    assert_workers_died(run, folder / "dtc-04.dtc.toml", "2 workers")
     assert closing_counts(run.out) == "15 passed, 0 failed, 1 error"
     assert "retried dtc-05: the worker replaying it died (1 time)" in whole_lines(run.out)
 
@@ -751,9 +754,5 @@ def test_a_dtc_whose_outcomes_were_lost_and_whose_replay_again_kills_its_worker_
         watcher.register_plugin(DyingWhenFetched(tmp_path / "fetched"))
         run = beatlog("test", folder, "--dask", fragile.scheduler_address)
 
-    assert run.code == 2
-    assert run.err == (
-        f"beatlog: error: again ({folder / 'again.dtc.toml'}): 1 worker died "
-        "while replaying it (a crash, or a machine lost)\n"
-    )
+    assert_workers_died(run, folder / "again.dtc.toml", "1 worker")
     assert closing_counts(run.out) == "0 passed, 0 failed, 1 error"
