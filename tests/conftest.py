@@ -207,6 +207,24 @@ def alone_system() -> PriorityArbiter[Probe]:
     return meeting_system(processes=1)
 
 
+def crashing_system() -> PriorityArbiter[Probe]:
+    """The probe system, except that the first one a suite worker process builds ends that
+    process, as a crash would (exit 3), marked by a file ``crashed`` in the folder
+    ``$BEATLOG_TEST_MEETING`` names; the runner's own process waits for that crash first
+    (up to a minute), so that a worker is the one that crashes."""
+    crashed = Path(os.environ[MEETING]) / "crashed"
+    if getattr(sys.modules["__main__"].__spec__, "name", None) == "beatlog.suite.worker":
+        try:
+            os.close(os.open(crashed, os.O_CREAT | os.O_EXCL))
+        except FileExistsError:
+            return probe_system()
+        os._exit(3)
+    deadline = time.monotonic() + 60
+    while not crashed.exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return probe_system()
+
+
 def dying_system() -> PriorityArbiter[Probe]:
     """A system factory that ends its process, as a crash would, a second into its set-up:
     by then what its worker did before has reached the scheduler (Dask's messages go out

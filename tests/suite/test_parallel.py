@@ -175,6 +175,21 @@ CYCLES = {
 }
 
 
+def test_a_dtc_that_crashes_its_worker_process_is_an_error_and_the_others_run_on(
+    tmp_path: Path, log: Path, meeting: Path
+) -> None:
+    suite = [written_dtc(tmp_path, name, log, "tests.conftest:crashing_system") for name in "abcd"]
+
+    outcomes = run_suite(suite, jobs=2)
+
+    assert (meeting / "crashed").exists()
+    crashed = [outcome for outcome in outcomes if outcome.verdict is Verdict.ERROR]
+    assert [outcome.error for outcome in crashed] == [
+        "the worker process ended (exit 3) while replaying it (a crash, or the process killed)"
+    ]
+    assert [outcome.verdict for outcome in outcomes].count(Verdict.PASSED) == 3
+
+
 @pytest.fixture
 def suite(tmp_path: Path, record_probe: RecordFn) -> list[DtcSpec]:
     """Twelve DTCs whose recordings last from 5 to 300 cycles."""

@@ -26,7 +26,7 @@ from beatlog.log.index import recorded_cycles
 from beatlog.suite.remote import log_size
 from beatlog.suite.runner import SpecOutcome, Verdict, run_spec, suite_auditors
 from beatlog.suite.spec import DtcSpec
-from beatlog.suite.worker import Worker
+from beatlog.suite.worker import Worker, WorkerLostError
 
 __all__ = ["Executor", "Shard", "longest_first", "run_suite", "shard", "split"]
 
@@ -150,7 +150,9 @@ def _feed(
     answers: queue.Queue[Answer],
 ) -> None:
     """Once the worker is ready, hand it the pending specs one at a time until none is
-    left; every outcome, or why there is none, goes to ``answers``."""
+    left; every outcome, or why there is none, goes to ``answers``. A worker that crashes
+    while replaying a DTC makes that DTC an error, and its share of the DTCs left goes to
+    the other workers and this process."""
     try:
         worker.wait_ready()
         while True:
@@ -158,7 +160,13 @@ def _feed(
                 spec = pending.popleft()
             except IndexError:
                 return
-            answers.put(worker.run(spec, options))
+            try:
+                answers.put(worker.run(spec, options))
+            except WorkerLostError as exc:  # the DTC's code crashed it: the others run on
+                if not worker.stopped:
+                    problem = f"{exc} while replaying it (a crash, or the process killed)"
+                    answers.put(SpecOutcome(spec, Verdict.ERROR, None, problem, 0.0))
+                return
     except BaseException as exc:  # the runner raises it, unless it is leaving anyway
         answers.put(exc)
 

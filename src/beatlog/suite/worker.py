@@ -21,6 +21,7 @@ import warnings
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any, cast
 
+from beatlog.errors import BeatlogError
 from beatlog.log.files import Closing
 
 if TYPE_CHECKING:
@@ -38,7 +39,7 @@ STOP_S = 5.0
 close a log) before it is killed; a busy machine needs more than a second or two."""
 
 
-class WorkerLostError(RuntimeError):
+class WorkerLostError(BeatlogError):
     """A worker process ended without answering: it crashed or was killed."""
 
 
@@ -98,7 +99,13 @@ class Worker(Closing):
 
     def _lost(self) -> WorkerLostError:
         code = self._process.wait()
-        return WorkerLostError(f"a suite worker ended without answering (exit {code})")
+        how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exit {code}"
+        return WorkerLostError(f"the worker process ended ({how})")
+
+    @property
+    def stopped(self) -> bool:
+        """Whether the worker was asked to stop (:meth:`stop`): its end is then no crash."""
+        return self._stopped
 
     def stop(self) -> None:
         """Ask the worker to stop, whatever it is doing: its work unwinds as at Ctrl-C
