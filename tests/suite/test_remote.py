@@ -116,8 +116,11 @@ def temporary(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return folder
 
 
-def test_a_log_larger_than_the_bound_is_refused(memory: str) -> None:
-    with pytest.raises(RemoteLogError) as raised, fetched_log(memory, max_bytes=100):
+def test_a_log_larger_than_the_bound_is_refused(
+    memory: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv(MAX_BYTES_VARIABLE, "100")
+    with pytest.raises(RemoteLogError) as raised, fetched_log(memory):
         pass
 
     assert str(raised.value) == (

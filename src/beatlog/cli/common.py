@@ -70,7 +70,7 @@ def readable(args: argparse.Namespace) -> Iterator[str | None]:
     is copied once (with a progress bar on a terminal), ``args.log`` names the copy,
     which is removed after, and errors raised in the block name it by its URL. The
     block is given the URL; None for a local log."""
-    from beatlog.suite.remote import fetched_log, is_url, named_as_given
+    from beatlog.suite.remote import fetched_log, is_url
 
     url = str(args.log)
     if not is_url(url):
@@ -81,7 +81,7 @@ def readable(args: argparse.Namespace) -> Iterator[str | None]:
         try:
             yield url
         except BeatlogError as exc:
-            exc.args = (named_as_given(str(exc), copy, url),)
+            exc.args = (str(exc).replace(str(copy), url),)
             raise
 
 

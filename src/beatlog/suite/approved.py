@@ -31,14 +31,6 @@ class Approved(NamedTuple):
     spec: DtcSpec
     baseline: BaselineFile
 
-    @property
-    def note(self) -> str:
-        """What the verdict was judged against, for the reader."""
-        return (
-            f"judged against the approved baseline {self.baseline.path.name}, "
-            f"as beatlog test {self.spec.path} judges it"
-        )
-
 
 def approved_for(baseline: BaselineFile, log: Path, digest: str | None = None) -> BaselineFile:
     """``baseline``, checked to be made from the recording ``log`` (whose SHA-256 is
@@ -135,4 +127,8 @@ def replay(
         comparison=found.spec.comparison,
         **options,
     )
-    return replace(result, notes=(found.note, *result.notes))
+    note = (
+        f"judged against the approved baseline {found.baseline.path.name}, "
+        f"as beatlog test {found.spec.path} judges it"
+    )
+    return replace(result, notes=(note, *result.notes))

@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from collections import Counter
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
@@ -117,69 +117,57 @@ class KeywordExpression:
     @classmethod
     def parse(cls, text: str) -> KeywordExpression:
         """Parse ``text``; a malformed expression raises :class:`OptionError` in one line."""
-        parsed = cls(text, tuple(_tokens(text)))
+        found = _TOKEN.findall(text)
+        if other := next((other for _, other in found if other), None):
+            raise OptionError(f"-k {text!r}: unexpected character {other!r}")
+        parsed = cls(text, tuple(token for token, _ in found))
         parsed.matches(())  # a malformed expression fails here, before any DTC is matched
         return parsed
 
     def matches(self, names: Iterable[str]) -> bool:
         """Whether a DTC that pytest knows by these names (its own, its file's and
-        folders', its tags and markers) is selected."""
+        folders', its tags and markers) is selected: recursive descent over the grammar
+        (see the module)."""
         haystack = [name.lower() for name in names]
-        return _evaluate(
-            self.text, list(self.tokens), lambda word: any(word.lower() in i for i in haystack)
-        )
+        rest = list(self.tokens[::-1])
 
+        def fail(problem: str) -> NoReturn:
+            raise OptionError(f"-k {self.text!r}: {problem}")
 
-def _tokens(text: str) -> list[str]:
-    tokens = []
-    for token, other in _TOKEN.findall(text):
-        if other:
-            raise OptionError(f"-k {text!r}: unexpected character {other!r}")
-        tokens.append(token)
-    return tokens
+        def take(token: str) -> bool:
+            taken = bool(rest) and rest[-1] == token
+            if taken:
+                rest.pop()
+            return taken
 
+        def expression() -> bool:
+            values = [term()]
+            while take("or"):
+                values.append(term())
+            return any(values)
 
-def _evaluate(text: str, tokens: list[str], match: Callable[[str], bool]) -> bool:
-    """The value of the expression ``text``, of ``tokens``, with ``match`` telling
-    whether a word matches: recursive descent over the grammar (see the module)."""
-    rest = tokens[::-1]
+        def term() -> bool:
+            values = [factor()]
+            while take("and"):
+                values.append(factor())
+            return all(values)
 
-    def fail(problem: str) -> NoReturn:
-        raise OptionError(f"-k {text!r}: {problem}")
+        def factor() -> bool:
+            if take("not"):
+                return not factor()
+            if take("("):
+                value = expression()
+                if not take(")"):
+                    fail("a '(' is not closed")
+                return value
+            if not rest:
+                fail("ends where a word was expected")
+            if rest[-1] in _OPERATORS:
+                fail(f"expected a word, got {rest[-1]!r}")
+            word = rest.pop().lower()
+            return any(word in name for name in haystack)
 
-    def take(token: str) -> bool:
-        taken = bool(rest) and rest[-1] == token
-        if taken:
-            rest.pop()
-        return taken
-
-    def expression() -> bool:
-        values = [term()]
-        while take("or"):
-            values.append(term())
-        return any(values)
-
-    def term() -> bool:
-        values = [factor()]
-        while take("and"):
-            values.append(factor())
-        return all(values)
-
-    def factor() -> bool:
-        if take("not"):
-            return not factor()
-        if take("("):
-            value = expression()
-            if not take(")"):
-                fail("a '(' is not closed")
-            return value
-        if not rest:
-            fail("ends where a word was expected")
-        if rest[-1] in _OPERATORS:
-            fail(f"expected a word, got {rest[-1]!r}")
-        return match(rest.pop())
-
-    value = expression() if rest else True
-    if rest:
-        fail(f"unexpected {rest[-1]!r}")
-    return value
+        value = expression() if rest else True
+        if rest:
+            fail(f"unexpected {rest[-1]!r}")
+        return value

@@ -59,9 +59,9 @@ CACHE_MAX_BYTES_VARIABLE = "BEATLOG_CACHE_MAX_BYTES"
 _ETAGS = ("ETag", "etag")
 _CHANGE_TIMES = ("mtime", "LastModified", "Last-Modified", "last_modified", "updated", "created")
 _INDEX = "index"
+"""The folder of links, one a key, each naming the key's entry."""
 _ENTRY = re.compile(r"^[0-9a-f]{64}\.([0-9]+)\.[0-9a-f]{64}$", re.MULTILINE)
 """An entry's name, ``KEY.SIZE.DIGEST``: its size is read from it."""
-"""The folder of links, one a key, each naming the key's entry."""
 _OWNER = "owner"
 """The file in a folder of copies in use that its process holds locked."""
 _UNLOCKED_GRACE_S = 60.0
@@ -103,7 +103,8 @@ def holds(url: str, info: Mapping[str, Any]) -> bool:
     key = cache_key(url, info)
     if key is None or _max_bytes(url) == 0:
         return False
-    return any(entry.exists() for entry in _entries_of(cache_folder() / "entries", key))
+    entry = _entry(cache_folder() / "entries", key)
+    return entry is not None and entry.exists()
 
 
 @contextlib.contextmanager
@@ -228,26 +229,28 @@ def _abandoned(folder: Path) -> bool:
     return True
 
 
-def _entries_of(entries: Path, key: str) -> list[Path]:
-    """The entry of ``key`` in ``entries`` as its link in the index names it (none
+def _entry(entries: Path, key: str) -> Path | None:
+    """The entry of ``key`` in ``entries`` as its link in the index names it (None
     where it has none): found without listing the entries, however many there are."""
     try:
-        return [entries / os.readlink(entries.parent / _INDEX / key)]
+        return entries / os.readlink(entries.parent / _INDEX / key)
     except OSError:  # no link: never kept, or removed
-        return []
+        return None
 
 
 def _used(entries: Path, key: str, copy: Path) -> bool:
-    """Whether a sound entry of ``key`` is now at ``copy``; damaged ones are removed."""
-    for entry in _entries_of(entries, key):
-        _, size, digest = entry.name.split(".", 2)
-        with contextlib.suppress(FileNotFoundError):  # another process removed it
-            _link(entry, copy)
-            if copy.stat().st_size == int(size) and _digest(copy) == digest:
-                os.utime(entry)  # recently used: the last to go
-                return True
-            entry.unlink(missing_ok=True)
-        copy.unlink(missing_ok=True)
+    """Whether a sound entry of ``key`` is now at ``copy``; a damaged one is removed."""
+    entry = _entry(entries, key)
+    if entry is None:
+        return False
+    _, size, digest = entry.name.split(".", 2)
+    with contextlib.suppress(FileNotFoundError):  # another process removed it
+        _link(entry, copy)
+        if copy.stat().st_size == int(size) and _digest(copy) == digest:
+            os.utime(entry)  # recently used: the last to go
+            return True
+        entry.unlink(missing_ok=True)
+    copy.unlink(missing_ok=True)
     return False
 
 

@@ -47,7 +47,6 @@ __all__ = [
     "http_quoted",
     "is_url",
     "log_size",
-    "named_as_given",
     "url_filesystem",
     "url_name",
     "wait_for",
@@ -153,19 +152,18 @@ def url_filesystem(url: str, *, streaming: bool = False) -> tuple[Any, str]:
 
 @contextlib.contextmanager
 def fetched_log(
-    url: str, max_bytes: int | None = None, *, progress: bool = False, listed: Listed | None = None
+    url: str, *, progress: bool = False, listed: Listed | None = None
 ) -> Iterator[Path]:
     """A copy of the log behind ``url`` on this machine, under the URL's file name,
     removed on exit, Ctrl-C included; the cache's where it holds the object as it is.
-    ``max_bytes`` bounds it (by default ``BEATLOG_URL_MAX_BYTES``); with ``progress``, a
-    long download shows a bar on a terminal's stderr; with ``listed``, the storage is
-    asked nothing but the download, and nothing where the cache holds that ETag.
+    With ``progress``, a long download shows a bar on a terminal's stderr; with
+    ``listed``, the storage is asked nothing but the download, and nothing where the
+    cache holds that ETag.
 
     :raises RemoteLogError: the URL needs fsspec, or the log cannot be copied (missing,
         unreachable, too slow, cut off, too large), or a bound's variable is no number.
     """
-    if max_bytes is None:
-        max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
+    max_bytes = _bound(url, MAX_BYTES_VARIABLE, MAX_LOG_BYTES, int, "a number of bytes")
     timeout = _timeout(url)
     if listed is None:
         filesystem, path = url_filesystem(url, streaming=True)
@@ -232,12 +230,6 @@ def fetched_log(
 
     with cached_copy(url, info, url_name(url), fetch) as copy:
         yield copy
-
-
-def named_as_given(text: str, copy: str | Path, url: str) -> str:
-    """``text`` (a message, a command) with the copy of a log behind ``url``, which
-    :func:`fetched_log` made and removes, named by the URL instead."""
-    return text.replace(str(copy), url)
 
 
 def log_size(url: str) -> int | None:
@@ -338,7 +330,6 @@ def _progress_bar(name: str, *, shown: bool) -> Iterator[Callable[[int, int | No
         BarColumn,
         DownloadColumn,
         Progress,
-        TaskID,
         TextColumn,
         TimeRemainingColumn,
         TransferSpeedColumn,
@@ -353,18 +344,19 @@ def _progress_bar(name: str, *, shown: bool) -> Iterator[Callable[[int, int | No
         console=Console(stderr=True),
         transient=True,
     )
-    with contextlib.ExitStack() as shown_while:
-        tasks: list[TaskID] = []
 
-        def meter(copied: int, size: int | None) -> None:
-            if not tasks:
-                if copied < PROGRESS_BYTES:
-                    return
-                shown_while.enter_context(bar)
-                tasks.append(bar.add_task(name, total=size))
-            bar.update(tasks[0], completed=copied)
+    def meter(copied: int, size: int | None) -> None:
+        if not bar.tasks:
+            if copied < PROGRESS_BYTES:
+                return
+            bar.start()
+            bar.add_task(name, total=size)
+        bar.update(bar.task_ids[0], completed=copied)
 
+    try:
         yield meter
+    finally:
+        bar.stop()
 
 
 def _failed(url: str, exc: BaseException, doing: str) -> RemoteLogError:

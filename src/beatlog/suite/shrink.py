@@ -173,7 +173,7 @@ class _Search:
 
     def first(self) -> Divergence | None:
         """Replay the spec as given: its failure, which the tries must repeat, or None."""
-        divergence = self._replay(self.start, self.end, self.perturbations, self.fresh)
+        divergence = self._replay(self.start, self.end)
         if divergence is not None:
             self._same = divergence.kind, divergence.behavior, divergence.invariant
         return divergence
@@ -189,9 +189,7 @@ class _Search:
         """Whether the spec fails the same way in the window ``start``-``end``, not
         before it, with ``perturbations`` (by default, those kept so far); from a
         ``fresh`` start (by default, as kept so far), in the cycle it failed in last."""
-        kept = self.perturbations if perturbations is None else perturbations
-        fresh = self.fresh if fresh is None else fresh
-        return self._replay(start, end, kept, fresh, same=True) is not None
+        return self._replay(start, end, perturbations, fresh, same=True) is not None
 
     def fewest(self, given: tuple[str, ...]) -> dict[str, Any]:
         """Take out each perturbation in turn, keeping it out where the spec still fails
@@ -252,14 +250,16 @@ class _Search:
         self,
         start: int,
         end: int | None,
-        perturbations: Mapping[str, Any],
-        fresh: bool,
+        perturbations: Mapping[str, Any] | None = None,
+        fresh: bool | None = None,
         *,
         same: bool = False,
     ) -> Divergence | None:
         """The divergence of one replay of the spec's data with this window, from a
         ``fresh`` start or not, told to ``progress`` and kept as :attr:`failure`; with
         ``same``, only one that fails the same way (see :meth:`fails`)."""
+        perturbations = self.perturbations if perturbations is None else perturbations
+        fresh = self.fresh if fresh is None else fresh
         data = {**self._data, "start_cycle": start, "fresh_start": fresh}
         if end is None:
             data.pop("end_cycle", None)

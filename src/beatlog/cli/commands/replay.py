@@ -115,7 +115,6 @@ def run(args: argparse.Namespace, console: Console) -> int:
     from beatlog.replay.setup import recorded_system
     from beatlog.report.console import render_replay
     from beatlog.suite.approved import replay
-    from beatlog.suite.remote import named_as_given
 
     if args.end_cycle is not None and args.start_cycle > args.end_cycle:
         raise OptionError(f"--start-cycle {args.start_cycle} is after --end-cycle {args.end_cycle}")
@@ -151,7 +150,7 @@ def run(args: argparse.Namespace, console: Console) -> int:
             )
         result = dataclasses.replace(result, notes=result.notes + notes)
     if url is not None:
-        reproduce = named_as_given(result.reproduce, args.log, url)
+        reproduce = result.reproduce.replace(str(args.log), url)
         result = dataclasses.replace(result, url=url, reproduce=reproduce)
     if args.json:
         sys.stdout.write(msgspec.json.encode(result, enc_hook=str).decode() + "\n")
