@@ -84,8 +84,9 @@ class RecordDamageError(Exception):
 
 class _Fields(ReadDataStream):
     """A record's body read field by field, each field whole: one cut short is damage.
-    Read from the body's bytes in place, one unpack a field: a log's records are read
-    in Python, about a third of the CPU of opening and reading a short log."""
+    Read in place, one unpack a field: mcap's own stream over a copy of the body makes a
+    whole replay of a 100- to 10,000-cycle log 4 to 7 % slower (tests/log/test_container.py
+    pins the two alike)."""
 
     def __init__(self, body: bytes) -> None:
         super().__init__(BytesIO())
