@@ -22,10 +22,8 @@ import tempfile
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from beatlog.baseline.file import BLOCK_BYTES, MAX_BASELINE_BYTES, pending_path
+from beatlog.baseline.file import pending_path, text_blocks
 from beatlog.baseline.policy import UpdateMode
-from beatlog.errors import BaselineError
-from beatlog.log.files import read_text_blocks
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.maintenance import UpdateAction, update_baselines
 from beatlog.suite.parallel import run_suite
@@ -79,15 +77,7 @@ def weigh(suite: Path, jobs: int) -> list[Weight]:
         if update.action is not UpdateAction.WRITTEN or update.baseline is None:
             continue
         pending = pending_path(update.spec.path)
-        text = "".join(
-            read_text_blocks(
-                pending,
-                limit=MAX_BASELINE_BYTES,
-                kind="baseline",
-                error=BaselineError,
-                block_bytes=BLOCK_BYTES,
-            )
-        )
+        text = "".join(text_blocks(pending))
         pins = sum(
             len(line.encode())
             for line in text.splitlines(keepends=True)

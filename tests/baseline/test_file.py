@@ -7,15 +7,20 @@ import struct
 import tracemalloc
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
 
 import msgspec
 import pytest
+import zstandard
 
-from beatlog.baseline.file import expected_path, log_digest, pending_path, read_baseline
+from beatlog.baseline.file import (
+    expected_path,
+    log_digest,
+    pending_path,
+    read_baseline,
+    text_blocks,
+)
 from beatlog.baseline.write import format_lines, write_baseline
 from beatlog.errors import BaselineError
-from beatlog.log.files import read_text_blocks
 from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.baseline import (
     ABSENT,
@@ -511,14 +516,52 @@ def test_a_baseline_of_one_block_is_read_once(
     path = _big_baseline(tmp_path, 10)
     opened: list[Path] = []
 
-    def counted(path: Path, **options: Any) -> Iterator[str]:
+    def counted(path: Path) -> Iterator[str]:
         opened.append(path)
-        return read_text_blocks(path, **options)
+        return text_blocks(path)
 
-    monkeypatch.setattr("beatlog.baseline.file.read_text_blocks", counted)
+    monkeypatch.setattr("beatlog.baseline.file.text_blocks", counted)
     baseline = read_baseline(path)
     replayed = [line for part in baseline.stream.parts() for line in part.outputs]
 
     assert len(replayed) == 20
     assert replayed == list(baseline.whole.outputs)
     assert opened == [path]
+
+
+@pytest.fixture
+def small_blocks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Baselines read 64 bytes at a time."""
+    monkeypatch.setattr("beatlog.baseline.file.BLOCK_BYTES", 64)
+
+
+def test_a_zstd_frame_is_read_as_the_text_it_holds_a_block_at_a_time(
+    tmp_path: Path, small_blocks: None
+) -> None:
+    text = "".join(f"line {n}\n" for n in range(100))
+    path = tmp_path / "a.dtc.expected"
+    path.write_bytes(zstandard.ZstdCompressor().compress(text.encode()))
+
+    assert "".join(text_blocks(path)) == text
+
+
+def test_damaged_zstd_data_is_an_error_naming_the_file(tmp_path: Path, small_blocks: None) -> None:
+    path = tmp_path / "a.dtc.expected"
+    path.write_bytes(zstandard.ZstdCompressor().compress(b"line\n" * 100)[:-8] + bytes(8))
+
+    with pytest.raises(BaselineError, match=r"a.dtc.expected: cannot read: damaged zstd data"):
+        "".join(text_blocks(path))
+
+
+def test_a_small_zstd_frame_of_too_much_text_is_refused_as_it_is_read(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr("beatlog.baseline.file.MAX_BASELINE_BYTES", 10_000)
+    path = tmp_path / "a.dtc.expected"
+    path.write_bytes(zstandard.ZstdCompressor().compress(b"0" * 100_000))
+
+    assert path.stat().st_size < 1_000
+    with pytest.raises(BaselineError) as raised:
+        "".join(text_blocks(path))
+
+    assert str(raised.value) == f"{path}: holds more than 10000 bytes of text; not a baseline"

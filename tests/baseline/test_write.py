@@ -8,9 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from beatlog.baseline.file import log_digest, pending_path, read_baseline
+from beatlog.baseline.file import ZSTD_MAGIC, log_digest, pending_path, read_baseline
 from beatlog.baseline.write import COMPRESS_BYTES, HEADER, write_baseline
-from beatlog.log.files import ZSTD_MAGIC
 from beatlog.replay.baseline import Baseline, TracedOutput
 from tests.commands import Beatlog
 from tests.specs import write_spec

@@ -8,14 +8,12 @@ import socket
 from pathlib import Path
 
 import pytest
-import zstandard
 
-from beatlog.errors import BaselineError, SpecError
+from beatlog.errors import SpecError
 from beatlog.log.files import (
     Closing,
     irregular_file_problem,
     read_small_text,
-    read_text_blocks,
     replacing,
 )
 
@@ -162,36 +160,3 @@ def test_a_block_that_raises_still_closes_and_the_error_goes_on() -> None:
     with pytest.raises(ValueError, match="boom"), held:
         raise ValueError("boom")
     assert held.closed == 1
-
-
-def _blocks(path: Path, limit: int = 1 << 20) -> str:
-    return "".join(
-        read_text_blocks(path, limit=limit, kind="baseline", error=BaselineError, block_bytes=64)
-    )
-
-
-def test_a_zstd_frame_is_read_as_the_text_it_holds_a_block_at_a_time(tmp_path: Path) -> None:
-    text = "".join(f"line {n}\n" for n in range(100))
-    path = tmp_path / "a.dtc.expected"
-    path.write_bytes(zstandard.ZstdCompressor().compress(text.encode()))
-
-    assert _blocks(path) == text
-
-
-def test_damaged_zstd_data_is_an_error_naming_the_file(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_bytes(zstandard.ZstdCompressor().compress(b"line\n" * 100)[:-8] + bytes(8))
-
-    with pytest.raises(BaselineError, match=r"a.dtc.expected: cannot read: damaged zstd data"):
-        _blocks(path)
-
-
-def test_a_small_zstd_frame_of_too_much_text_is_refused_as_it_is_read(tmp_path: Path) -> None:
-    path = tmp_path / "a.dtc.expected"
-    path.write_bytes(zstandard.ZstdCompressor().compress(b"0" * 100_000))
-
-    assert path.stat().st_size < 1_000
-    with pytest.raises(BaselineError) as raised:
-        _blocks(path, limit=10_000)
-
-    assert str(raised.value) == f"{path}: holds more than 10000 bytes of text; not a baseline"

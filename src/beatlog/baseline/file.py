@@ -22,11 +22,12 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO
 
 from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
-from beatlog.log.files import irregular_file_problem, read_text_blocks
+from beatlog.log.files import check_size, irregular_file_problem
 from beatlog.replay.approved_state_lines import DigestCoverage
 from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.baseline import (
@@ -43,6 +44,7 @@ __all__ = [
     "OLD_HEADERS",
     "PENDING_SUFFIX",
     "SPEC_SUFFIX",
+    "ZSTD_MAGIC",
     "BaselineFile",
     "expected_path",
     "log_digest",
@@ -59,6 +61,8 @@ EXPECTED_SUFFIX = ".dtc.expected"
 PENDING_SUFFIX = ".dtc.pending"
 MAX_BASELINE_BYTES = 1 << 28
 """A baseline is a line per change; a file bigger than this is not one."""
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+"""How a zstd frame starts: a baseline that does is the text it holds, compressed."""
 BLOCK_BYTES = 1 << 20
 """How much of a baseline is read at a time: reading holds a block of its text, and
 what its lines read to, not the whole file's text."""
@@ -146,15 +150,46 @@ def log_digest(log: Path) -> str:
 
 
 def text_blocks(path: Path) -> Iterator[str]:
-    """The text of the baseline file at ``path`` in blocks of whole lines
-    (:func:`~beatlog.log.files.read_text_blocks`, at most :data:`MAX_BASELINE_BYTES`)."""
-    return read_text_blocks(
-        path,
-        limit=MAX_BASELINE_BYTES,
-        kind="baseline",
-        error=BaselineError,
-        block_bytes=BLOCK_BYTES,
-    )
+    """The text of the baseline file at ``path`` in blocks of whole lines of about
+    :data:`BLOCK_BYTES`, so that a long one is read in bounded memory; a file of zstd
+    frames is read as the text they hold, refused once it holds more than
+    :data:`MAX_BASELINE_BYTES`."""
+    limit = MAX_BASELINE_BYTES
+    check_size(path, limit=limit, kind="baseline", error=BaselineError)
+    read = 0
+    damaged: tuple[type[Exception], ...] = ()
+    try:
+        with path.open("rb") as raw:
+            file: IO[bytes] = raw
+            if raw.read(len(ZSTD_MAGIC)) == ZSTD_MAGIC:
+                import zstandard  # noqa: PLC0415 - only a compressed baseline needs it
+
+                damaged = (zstandard.ZstdError,)
+                file = zstandard.ZstdDecompressor().stream_reader(raw, read_across_frames=True)
+            raw.seek(0)
+            rest = b""
+            while block := file.read(BLOCK_BYTES):
+                if read + len(rest) + len(block) > limit:
+                    raise BaselineError(
+                        path, f"holds more than {limit} bytes of text; not a baseline"
+                    )
+                end = block.rfind(b"\n") + 1
+                if not end:  # a line longer than a block: read on to its end
+                    rest += block
+                    continue
+                text, rest = rest + block[:end], block[end:]
+                yield text.decode("utf-8")
+                read += len(text)
+            if rest:
+                yield rest.decode("utf-8")
+    except OSError as exc:
+        raise BaselineError(path, f"cannot read: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise BaselineError(
+            path, f"cannot read: {exc.reason} at byte {read + exc.start} (not UTF-8 text)"
+        ) from None
+    except damaged as exc:
+        raise BaselineError(path, f"cannot read: damaged zstd data ({exc})") from None
 
 
 def read_baseline(path: Path) -> BaselineFile:
