@@ -36,6 +36,9 @@ __all__ = [
 
 DIGEST_BYTES = 8
 """The size of a cycle's state digest and of a block's digest."""
+state_digest = xxhash.xxh64_digest
+"""The digest of a robot state as a log encodes it
+(:func:`~beatlog.log.format.payload_encoder`), bit for bit: eight bytes, big-endian."""
 state_number = xxhash.xxh64_intdigest
 """A state's digest as an unsigned 64-bit int, as the replay core compares it."""
 block_digest = xxhash.xxh64_digest
@@ -50,12 +53,6 @@ BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits 
 """The base64 digits, in the order of the six bits each stands for."""
 _TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
 """Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`GAP_TAG`."""
-
-
-def state_digest(encoded: bytes) -> bytes:
-    """The digest of a robot state as a log encodes it
-    (:func:`~beatlog.log.format.payload_encoder`), bit for bit: eight bytes, big-endian."""
-    return xxhash.xxh64_digest(encoded)
 
 
 class ApprovedRun(NamedTuple):
