@@ -1,9 +1,8 @@
 """Departures from the recording: an output line only where a field's value must change
 to give the one replayed, and applying them to the recording gives it back; approved
 outputs put into each recorded cycle's outputs bit for bit as applying them to the
-decoded outputs gives, repeated outputs decoded once; a baseline's departures put into
-the recorded cycles as replay reads them, batch by batch, wherever in a batch they start
-or end."""
+decoded outputs gives; a baseline's departures put into the recorded cycles as replay
+reads them, batch by batch, wherever in a batch they start or end."""
 
 from __future__ import annotations
 
@@ -17,9 +16,7 @@ import msgspec
 import pytest
 
 from beatlog.errors import CorruptLogError
-from beatlog.log import payload
 from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
-from beatlog.replay import departures
 from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
@@ -144,24 +141,6 @@ def test_held_values_in_place_bit_for_bit_as_applying_them_gives() -> None:
         got.append([bytes(record.outputs) for record in cycles])
         wanted.append([ENCODE(apply_outputs(msgspec.msgpack.decode(raw), held)) for raw in LOGGED])
     assert got == wanted
-
-
-def test_outputs_recorded_again_are_not_decoded_again(monkeypatch: pytest.MonkeyPatch) -> None:
-    decoded: list[bytes] = []
-
-    def decode(data: bytes | msgspec.Raw) -> dict[str, Any]:
-        decoded.append(bytes(data))
-        return payload.decode_outputs(data)
-
-    monkeypatch.setattr(departures, "decode_outputs", decode)
-    outputs = ApprovedOutputs(LOG)
-    outputs.hold(output_lines([("turn", 0.0)]))
-    outputs.put(records(LOGGED[:2]), 0)
-    outputs.put(records(LOGGED[1:3]), 2)
-    outputs.hold(output_lines([("turn", 0.5)]))
-    outputs.put(records(LOGGED[2:3]), 4)
-
-    assert decoded == [bytes(LOGGED[n]) for n in (0, 2, 2)]
 
 
 def test_whether_a_field_holds_a_value() -> None:

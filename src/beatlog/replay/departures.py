@@ -6,9 +6,7 @@ changes (none, where it is *quiet*), and an output field's approved value from a
 on, until it is :data:`~beatlog.replay.baseline.AS_RECORDED` again.
 :class:`DepartureCollector` finds them as a trace replays; :class:`BaselineRecords`
 puts them, encoded as a log would, into the recorded cycles replay reads, so that the
-judge compares bytes as ever, the approved outputs a run of records at a time
-(:class:`ApprovedOutputs`): most cycles repeat the last one's recorded outputs and take
-its expected ones; the others are decoded, given the approved values and encoded again.
+judge compares bytes as ever (the approved outputs by :class:`ApprovedOutputs`).
 """
 
 from __future__ import annotations
@@ -196,15 +194,10 @@ class ApprovedOutputs:
         self._path = path
         self._encode = payload_encoder().encode
         self._held: dict[str, Any] = {}
-        self._last: tuple[msgspec.Raw | None, msgspec.Raw] = (None, EMPTY_MAP)
-        """The last cycle's recorded outputs and expected ones: most cycles repeat them,
-        and are not decoded and encoded again (that would cost 2.3 % more instructions
-        of the dog's re-baselined suite)."""
 
     def hold(self, lines: Iterable[TracedOutput]) -> bool:
         """Take a cycle's output lines; whether any field holds a value now."""
         hold(self._held, lines)
-        self._last = (None, EMPTY_MAP)
         return bool(self._held)
 
     def put(self, records: Sequence[CycleRecord], cycle: int) -> None:
@@ -213,23 +206,13 @@ class ApprovedOutputs:
 
         :raises beatlog.errors.CorruptLogError: a cycle's outputs are damaged.
         """
-        recorded, expected = self._last
-        held, encode = self._held, self._encode
-        for record in records:
-            outputs = record.outputs
-            if outputs != recorded:
-                recorded = outputs
-                try:
-                    decoded = decode_outputs(outputs)
-                except DECODE_ERRORS as exc:
-                    at = cycle + next(i for i, damaged in enumerate(records) if damaged is record)
-                    raise CorruptLogError(
-                        self._path, f"damaged outputs in cycle {at}: {exc}"
-                    ) from None
-                apply_outputs(decoded, held)
-                expected = msgspec.Raw(encode(decoded)) if decoded else EMPTY_MAP
-            record.outputs = expected
-        self._last = (recorded, expected)
+        for at, record in enumerate(records, cycle):
+            try:
+                decoded = decode_outputs(record.outputs)
+            except DECODE_ERRORS as exc:
+                raise CorruptLogError(self._path, f"damaged outputs in cycle {at}: {exc}") from None
+            apply_outputs(decoded, self._held)
+            record.outputs = msgspec.Raw(self._encode(decoded)) if decoded else EMPTY_MAP
 
 
 _CYCLE = attrgetter("cycle")
