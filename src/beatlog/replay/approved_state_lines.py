@@ -2,8 +2,11 @@
 :class:`DigestBlock`), how a state is digested (:func:`state_digest`), and the check, as
 a baseline is read, that the blocks cover their runs in order (:class:`DigestCoverage`).
 
-A state's digest is XXH64, seed 0, of the state as a log encodes it; a block's, of its
-states' digests end to end. The digests guard against accidental change, not a hostile
+A state's digest is XXH64, seed 0, eight bytes big-endian, of the state as a log
+encodes it (msgpack of the system's robot-state type, its fields in their order, floats
+as 64-bit IEEE), so any bit of any field counts, and the replay core, which encodes each
+rebuilt state to compare it with the recorded one, digests the same bytes; a block's, of
+its states' digests end to end. The digests guard against accidental change, not a hostile
 baseline (which could pin anything), so a fast non-cryptographic digest serves. XXH64,
 not XXH3: XXH3 digests a state this long with vector instructions (AVX2, AVX-512), which
 leave a replay around them slower than their count of instructions says: a re-baselined

@@ -9,16 +9,12 @@ rebuilt values in its first cycle, for review), blocks of up to
 :data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
 digest of the block.
 
-A cycle's :func:`~beatlog.replay.approved_state_lines.state_digest` is the XXH64 digest (seed
-0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
-system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
-of any field counts, and the replay core, which encodes each rebuilt state to compare it
-with the recorded one, digests the same bytes. Its first 12 bits, as two base64
-characters, are the cycle's tag: a state that differs from the approved one is caught in
-its own cycle, except once in 4,096; the block's digest, of its pinned cycles' whole
-digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
-characters a cycle keep the approved states of a perception retuned for every cycle near 3.2 bytes
-a cycle, a small fraction of the log; a whole digest a cycle would take 11 characters.
+A cycle's tag is the first 12 bits of its state's digest
+(:func:`~beatlog.replay.approved_state_lines.state_digest`), as two base64 characters:
+a state that differs from the approved one is caught in its own cycle, except once in
+4,096; the block's digest, of its pinned cycles' whole digests, then catches it at the
+block's last pinned cycle (missed once in 2**64). Two characters a cycle keep a
+perception retuned for every cycle near 3.2 bytes a cycle; a whole digest would take 11.
 """
 
 from __future__ import annotations
