@@ -291,29 +291,21 @@ class BaselineRecords:
         ``first`` is read past, the output values it holds from them kept."""
         parts = self._baseline.parts()
         self._read = -1
-        queued_changes, queued_lines = self._changes, self._lines
         outputs = ApprovedOutputs(path)
         holding = False
         cycle = first
         if first:
             self._read_to(parts, first)
-            while queued_changes and queued_changes[0][0] < first:
-                queued_changes.popleft()
-            while queued_lines and queued_lines[0][0] < first:
-                holding = outputs.hold(queued_lines.popleft()[1])
+            _take(self._changes, first)
+            for held in _take(self._lines, first).values():
+                holding = outputs.hold(held)
         for batch in batches:
             start, end = cycle, cycle + len(batch)
             self._read_to(parts, end)
             if self._approved_states is not None:
                 self._approved_states.forget(start)
-            changes: dict[int, msgspec.Raw] = {}
-            while queued_changes and queued_changes[0][0] < end:
-                at, cycle_changes = queued_changes.popleft()
-                changes[at] = self._encode_changes(cycle_changes)
-            lines: dict[int, list[TracedOutput]] = {}
-            while queued_lines and queued_lines[0][0] < end:
-                at, cycle_lines = queued_lines.popleft()
-                lines[at] = cycle_lines
+            changes = {at: self._encode_changes(c) for at, c in _take(self._changes, end).items()}
+            lines = _take(self._lines, end)
             for event in sorted(changes.keys() | lines.keys()):
                 if holding:
                     outputs.put(batch[start - cycle : event - cycle], start)
@@ -336,3 +328,12 @@ def _queue(queue: deque[tuple[int, list[Any]]], by_cycle: Iterable[tuple[int, li
             queue[-1][1].extend(lines)
         else:
             queue.append((cycle, lines))
+
+
+def _take(queue: deque[tuple[int, list[Any]]], end: int) -> dict[int, list[Any]]:
+    """The lines queued of the cycles before ``end``, by cycle, taken off ``queue``."""
+    taken = {}
+    while queue and queue[0][0] < end:
+        at, lines = queue.popleft()
+        taken[at] = lines
+    return taken
