@@ -17,14 +17,12 @@ from __future__ import annotations
 
 import heapq
 import re
-import string
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
 import xxhash
 
 __all__ = [
-    "BASE64_DIGITS",
     "CYCLES_PER_BLOCK",
     "DIGEST_BYTES",
     "GAP_TAG",
@@ -34,7 +32,6 @@ __all__ = [
     "DigestCoverage",
     "block_digest",
     "state_digest",
-    "state_number",
 ]
 
 DIGEST_BYTES = 8
@@ -42,8 +39,6 @@ DIGEST_BYTES = 8
 state_digest = xxhash.xxh64_digest
 """The digest of a robot state as a log encodes it
 (:func:`~beatlog.log.format.payload_encoder`), bit for bit: eight bytes, big-endian."""
-state_number = xxhash.xxh64_intdigest
-"""A state's digest as an unsigned 64-bit int, as the replay core compares it."""
 block_digest = xxhash.xxh64_digest
 """A block's digest, of its pinned states' digests, eight bytes each, end to end."""
 TAG_CHARS = 2
@@ -52,9 +47,7 @@ CYCLES_PER_BLOCK = 64
 """The most cycles one block (one line of a baseline) spans."""
 GAP_TAG = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
-BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
-"""The base64 digits, in the order of the six bits each stands for."""
-_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
+_TAGS = re.compile(rf"(?:[A-Za-z0-9+/]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
 """Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`GAP_TAG`."""
 
 
