@@ -409,11 +409,6 @@ def tagged(t: int) -> Tagged:
     return Tagged(a=t + 0.5, label="x" * (t % 3), note="y" * (t % 2))
 
 
-def laid_out(layout: Any) -> tuple[Any, ...]:
-    """A layout with its view class as the fields it holds."""
-    return (*layout[:3], layout.view.__struct_fields__)
-
-
 def test_a_batch_laid_out_as_an_earlier_one_is_laid_out_as_afresh(tmp_path: Path) -> None:
     """Views of a batch are laid out once per layout of the batches (for speed): pinned to
     the layout made afresh for each batch, through batches of two layouts in turn."""
@@ -423,10 +418,10 @@ def test_a_batch_laid_out_as_an_earlier_one_is_laid_out_as_afresh(tmp_path: Path
     read: list[tuple[Any, ...]] = []
     for views, columns, rows in viewed_batches(log, Tagged, fields):
         read += map(tuple, rows)
-        kept.append(laid_out(views.layout(columns, fields)))
+        kept.append(views.layout(columns, fields))
         fresh = StateViews(Tagged, Tagged, log)
         fresh.view(columns, columns.first_cycle)
-        afresh.append(laid_out(fresh.layout(columns, fields)))
+        afresh.append(fresh.layout(columns, fields))
     assert kept == afresh
-    assert len({(tuple(columns), rest) for columns, _, rest, _ in kept}) == 2
+    assert len({(tuple(made.columns), made.rest) for made in kept}) == 2
     assert read == [tuple(getattr(tagged(t), name) for name in fields) for t in range(32)]
