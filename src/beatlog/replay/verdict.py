@@ -66,6 +66,9 @@ class FieldDifference(NamedTuple):
     recorded: Any
     rebuilt: Any
 
+    def __str__(self) -> str:
+        return f"{self.field}: recorded {self.recorded!r}, rebuilt {self.rebuilt!r}"
+
 
 class ContextRow(NamedTuple):
     """One cycle around a divergence: what was recorded and what replay did."""
