@@ -2,8 +2,11 @@
 :class:`DigestBlock`), how a state is digested (:func:`state_digest`), and the check, as
 a baseline is read, that the blocks cover their runs in order (:class:`DigestCoverage`).
 
-A state's digest is XXH64, seed 0, of the state as a log encodes it; a block's, of its
-states' digests end to end. The digests guard against accidental change, not a hostile
+A state's digest is XXH64, seed 0, eight bytes big-endian, of the state as a log
+encodes it (msgpack of the system's robot-state type, its fields in their order, floats
+as 64-bit IEEE), so any bit of any field counts, and the replay core, which encodes each
+rebuilt state to compare it with the recorded one, digests the same bytes; a block's, of
+its states' digests end to end. The digests guard against accidental change, not a hostile
 baseline (which could pin anything), so a fast non-cryptographic digest serves. XXH64,
 not XXH3: XXH3 digests a state this long with vector instructions (AVX2, AVX-512), which
 leave a replay around them slower than their count of instructions says: a re-baselined
@@ -14,14 +17,12 @@ from __future__ import annotations
 
 import heapq
 import re
-import string
 from collections.abc import Iterable
 from typing import Any, NamedTuple
 
 import xxhash
 
 __all__ = [
-    "BASE64_DIGITS",
     "CYCLES_PER_BLOCK",
     "DIGEST_BYTES",
     "GAP_TAG",
@@ -31,13 +32,13 @@ __all__ = [
     "DigestCoverage",
     "block_digest",
     "state_digest",
-    "state_number",
 ]
 
 DIGEST_BYTES = 8
 """The size of a cycle's state digest and of a block's digest."""
-state_number = xxhash.xxh64_intdigest
-"""A state's digest as an unsigned 64-bit int, as the replay core compares it."""
+state_digest = xxhash.xxh64_digest
+"""The digest of a robot state as a log encodes it
+(:func:`~beatlog.log.format.payload_encoder`), bit for bit: eight bytes, big-endian."""
 block_digest = xxhash.xxh64_digest
 """A block's digest, of its pinned states' digests, eight bytes each, end to end."""
 TAG_CHARS = 2
@@ -46,16 +47,8 @@ CYCLES_PER_BLOCK = 64
 """The most cycles one block (one line of a baseline) spans."""
 GAP_TAG = ".."
 """The tag of a cycle in a gap: judged against the recording, as any cycle not pinned."""
-BASE64_DIGITS = string.ascii_uppercase + string.ascii_lowercase + string.digits + "+/"
-"""The base64 digits, in the order of the six bits each stands for."""
-_TAGS = re.compile(rf"(?:[{re.escape(BASE64_DIGITS)}]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
+_TAGS = re.compile(rf"(?:[A-Za-z0-9+/]{{{TAG_CHARS}}}|{re.escape(GAP_TAG)})*")
 """Tags one after another: each :data:`TAG_CHARS` base64 digits, or :data:`GAP_TAG`."""
-
-
-def state_digest(encoded: bytes) -> bytes:
-    """The digest of a robot state as a log encodes it
-    (:func:`~beatlog.log.format.payload_encoder`), bit for bit: eight bytes, big-endian."""
-    return xxhash.xxh64_digest(encoded)
 
 
 class ApprovedRun(NamedTuple):

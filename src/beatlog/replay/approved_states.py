@@ -9,38 +9,31 @@ rebuilt values in its first cycle, for review), blocks of up to
 :data:`CYCLES_PER_BLOCK` cycles (:class:`DigestBlock`) hold a tag per cycle and a
 digest of the block.
 
-A cycle's :func:`~beatlog.replay.approved_state_lines.state_digest` is the XXH64 digest (seed
-0, eight bytes big-endian) of the rebuilt state as a log encodes it (msgpack of the
-system's robot-state type, its fields in their order, floats as 64-bit IEEE), so any bit
-of any field counts, and the replay core, which encodes each rebuilt state to compare it
-with the recorded one, digests the same bytes. Its first 12 bits, as two base64
-characters, are the cycle's tag: a state that differs from the approved one is caught in
-its own cycle, except once in 4,096; the block's digest, of its pinned cycles' whole
-digests, then catches it at the block's last pinned cycle (missed once in 2**64). Two
-characters a cycle keep the approved states of a perception retuned for every cycle near 3.2 bytes
-a cycle, a small fraction of the log; a whole digest a cycle would take 11 characters.
+A cycle's tag is the first 12 bits of its state's digest
+(:func:`~beatlog.replay.approved_state_lines.state_digest`), as two base64 characters:
+a state that differs from the approved one is caught in its own cycle, except once in
+4,096; the block's digest, of its pinned cycles' whole digests, then catches it at the
+block's last pinned cycle (missed once in 2**64). Two characters a cycle keep a
+perception retuned for every cycle near 3.2 bytes a cycle; a whole digest would take 11.
 """
 
 from __future__ import annotations
 
 import base64
 import bisect
-import struct
 from collections import deque
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 from beatlog.replay.approved_state_lines import (
-    BASE64_DIGITS,
     CYCLES_PER_BLOCK,
-    DIGEST_BYTES,
     GAP_TAG,
     TAG_CHARS,
     ApprovedRun,
     DigestBlock,
     block_digest,
-    state_number,
+    state_digest,
 )
 from beatlog.replay.compare import Comparison
 
@@ -114,6 +107,7 @@ class ApprovedStates:
 
 
 def _tag(digest: bytes) -> str:
+    """A cycle's tag: the first 12 bits of its state's digest, as base64 characters."""
     return base64.b64encode(digest[:3]).decode()[:TAG_CHARS]
 
 
@@ -147,17 +141,6 @@ def _blocks(run: list[RebuiltState]) -> Iterator[DigestBlock]:
         start = end
 
 
-_TAG_SHIFT = 8 * DIGEST_BYTES - 6 * TAG_CHARS
-"""A digest shifted right by this many bits is its tag's bits."""
-_GAP = 0xFF
-"""What :data:`_SIXES` makes of a gap's characters."""
-_SIXES = bytes.maketrans(
-    f"{BASE64_DIGITS}{GAP_TAG[0]}".encode(), bytes([*range(len(BASE64_DIGITS)), _GAP])
-)
-"""Each tag character as the six bits it stands for: a cycle's tag is the first 12
-bits of its digest (:func:`_tag`), high six first."""
-
-
 class ApprovedStateChecker:
     """Judges the robot states perception rebuilds against :class:`ApprovedStates`, one
     pinned cycle after another, in cycle order: a pinned cycle by its tag, a block by
@@ -172,9 +155,8 @@ class ApprovedStateChecker:
     def __init__(
         self, approved: ApprovedStates | None = None, *, pinned: bool | None = None
     ) -> None:
-        self.tags: dict[int, int] = {}
-        """The tag of each pinned cycle added and not forgotten: the first 12 bits of
-        its digest."""
+        self.tags: dict[int, str] = {}
+        """The tag of each pinned cycle added and not forgotten."""
         self._blocks: deque[tuple[int, int, int]] = deque()
         """The blocks added and not forgotten, in cycle order: the cycle after each, and
         its first and last pinned cycles."""
@@ -183,7 +165,7 @@ class ApprovedStateChecker:
         self._finals: dict[int, tuple[DigestBlock, int, int]] = {}
         """Each block by its last pinned cycle, where its digest is checked, with its
         first pinned cycle and how many cycles it pins."""
-        self._digests: list[int] = []
+        self._digests: list[bytes] = []
         """The digests of the cycles judged since the last block opened that agreed with
         their tags, in cycle order: checked with the block's digest where it closes."""
         self._opened = -1
@@ -203,16 +185,10 @@ class ApprovedStateChecker:
             self._runs.append(run)
             self._starts.append(run.cycle)
         for block in blocks:
-            sixes = block.tags.encode().translate(_SIXES)
             pinned = {
-                cycle: high << 6 | low
-                for cycle, high, low in zip(
-                    range(block.cycle, block.cycle + block.cycles),
-                    sixes[::2],
-                    sixes[1::2],
-                    strict=True,
-                )
-                if high != _GAP
+                block.cycle + at // TAG_CHARS: tag
+                for at in range(0, len(block.tags), TAG_CHARS)
+                if (tag := block.tags[at : at + TAG_CHARS]) != GAP_TAG
             }
             if not pinned:  # no cycle pinned (a baseline's coverage check refuses it)
                 continue
@@ -252,8 +228,8 @@ class ApprovedStateChecker:
 
         :raises KeyError: ``cycle`` is not pinned.
         """
-        digest = state_number(encoded)
-        if digest >> _TAG_SHIFT != self.tags[cycle]:
+        digest = state_digest(encoded)
+        if _tag(digest) != self.tags[cycle]:
             self._found[cycle] = "by its digest"  # reported here, not again for the block
             return "by its digest"
         if cycle in self._firsts:
@@ -276,7 +252,7 @@ class ApprovedStateChecker:
         block, first, pinned = self._finals[final]
         digests = self._digests
         agreed = self._opened == first and len(digests) == pinned
-        packed = struct.pack(f">{pinned}Q", *digests) if agreed else b""
+        packed = b"".join(digests) if agreed else b""
         digests.clear()
         if not agreed or block_digest(packed) == block.digest:
             return None

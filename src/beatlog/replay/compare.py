@@ -135,20 +135,13 @@ def _differing(
 ) -> list[str]:
     """The fields on one side only, or whose values differ bit for bit or, where
     ``tolerances`` gives one, by more than their tolerance."""
-    differing = []
-    for name in dict.fromkeys([*expected, *actual]):
-        tolerance = tolerances.get(name)
-        if (
-            name not in expected
-            or name not in actual
-            or (
-                _SORTED.encode(expected[name]) != _SORTED.encode(actual[name])
-                if tolerance is None
-                else not _within(expected[name], actual[name], tolerance)
-            )
-        ):
-            differing.append(name)
-    return differing
+    return [
+        name
+        for name in dict.fromkeys([*expected, *actual])
+        if name not in expected
+        or name not in actual
+        or not _within(expected[name], actual[name], tolerances.get(name))
+    ]
 
 
 def _by_behavior(changes: Iterable[StateChange]) -> dict[str, list[StateChange]]:
@@ -158,7 +151,11 @@ def _by_behavior(changes: Iterable[StateChange]) -> dict[str, list[StateChange]]
     return grouped
 
 
-def _within(expected: Any, actual: Any, tolerance: float) -> bool:
+def _within(expected: Any, actual: Any, tolerance: float | None) -> bool:
+    """Whether the values are the same bit for bit or, given a ``tolerance``, within it
+    (lists of numbers element by element)."""
+    if tolerance is None:
+        return _SORTED.encode(expected) == _SORTED.encode(actual)
     if isinstance(expected, Sequence) and not isinstance(expected, str):
         return (
             isinstance(actual, Sequence)

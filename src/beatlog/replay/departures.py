@@ -4,35 +4,54 @@ The recording always lies beside its baseline, so a baseline holds only where th
 approved state changes and outputs differ from the recorded ones: a cycle's own state
 changes (none, where it is *quiet*), and an output field's approved value from a cycle
 on, until it is :data:`~beatlog.replay.baseline.AS_RECORDED` again.
-:class:`DepartureCollector` finds them as a trace replays; replay applies them as it
-reads the recorded cycles (:mod:`beatlog.replay.baseline_records`), the approved outputs a run
-of records at a time (:class:`ApprovedOutputs`): most cycles repeat the last one's
-recorded outputs and take its expected ones; the others are decoded, given the approved
-values and encoded again.
+:class:`DepartureCollector` finds them as a trace replays; :class:`BaselineRecords`
+puts them, encoded as a log would, into the recorded cycles replay reads, so that the
+judge compares bytes as ever (the approved outputs by :class:`ApprovedOutputs`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+import itertools
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from operator import attrgetter, itemgetter
 from pathlib import Path
 from typing import Any
 
 import msgspec
 
 from beatlog.errors import CorruptLogError
-from beatlog.log.format import DECODE_ERRORS, EMPTY_LIST, EMPTY_MAP, CycleRecord, payload_encoder
+from beatlog.log.format import (
+    DECODE_ERRORS,
+    EMPTY_LIST,
+    EMPTY_MAP,
+    CycleRecord,
+    LoggedStateChange,
+    payload_encoder,
+)
 from beatlog.log.payload import decode_outputs
 from beatlog.model.cycle import actor_name
+from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.baseline import (
     ABSENT,
     AS_RECORDED,
     Baseline,
+    BaselinePart,
+    BaselineStream,
     TracedOutput,
     TracedStateChange,
+    changes_by_cycle,
 )
 from beatlog.replay.verdict import StateChange
 
-__all__ = ["ApprovedOutputs", "DepartureCollector", "OutputDepartures", "apply_outputs", "hold"]
+__all__ = [
+    "ApprovedOutputs",
+    "BaselineRecords",
+    "DepartureCollector",
+    "OutputDepartures",
+    "apply_outputs",
+    "hold",
+]
 
 
 class OutputDepartures:
@@ -175,23 +194,11 @@ class ApprovedOutputs:
         self._path = path
         self._encode = payload_encoder().encode
         self._held: dict[str, Any] = {}
-        self._values: dict[str, Any] = {}
-        """The held values of the fields output, in the order they were held."""
-        self._absent: tuple[str, ...] = ()
-        """The fields held absent."""
-        self._last: tuple[msgspec.Raw | None, msgspec.Raw] = (None, EMPTY_MAP)
-        """The last cycle's recorded outputs and expected ones: most cycles repeat them,
-        and are not decoded and encoded again (that would cost 2.3 % more instructions
-        of the dog's re-baselined suite)."""
 
     def hold(self, lines: Iterable[TracedOutput]) -> bool:
         """Take a cycle's output lines; whether any field holds a value now."""
-        held = self._held
-        hold(held, lines)
-        self._values = {name: value for name, value in held.items() if value is not ABSENT}
-        self._absent = tuple(name for name, value in held.items() if value is ABSENT)
-        self._last = (None, EMPTY_MAP)
-        return bool(held)
+        hold(self._held, lines)
+        return bool(self._held)
 
     def put(self, records: Sequence[CycleRecord], cycle: int) -> None:
         """Put the expected outputs into ``records``, cycles ``cycle`` on, in place of
@@ -199,22 +206,134 @@ class ApprovedOutputs:
 
         :raises beatlog.errors.CorruptLogError: a cycle's outputs are damaged.
         """
-        recorded, expected = self._last
-        values, absent, encode = self._values, self._absent, self._encode
-        for record in records:
-            outputs = record.outputs
-            if outputs != recorded:
-                recorded = outputs
-                try:
-                    decoded = decode_outputs(outputs)
-                except DECODE_ERRORS as exc:
-                    at = cycle + next(i for i, damaged in enumerate(records) if damaged is record)
-                    raise CorruptLogError(
-                        self._path, f"damaged outputs in cycle {at}: {exc}"
-                    ) from None
-                decoded.update(values)
-                for name in absent:
-                    decoded.pop(name, None)
-                expected = msgspec.Raw(encode(decoded)) if decoded else EMPTY_MAP
-            record.outputs = expected
-        self._last = (recorded, expected)
+        for at, record in enumerate(records, cycle):
+            try:
+                decoded = decode_outputs(record.outputs)
+            except DECODE_ERRORS as exc:
+                raise CorruptLogError(self._path, f"damaged outputs in cycle {at}: {exc}") from None
+            apply_outputs(decoded, self._held)
+            record.outputs = msgspec.Raw(self._encode(decoded)) if decoded else EMPTY_MAP
+
+
+_CYCLE = attrgetter("cycle")
+_FIRST = itemgetter(0)
+_ALL = 1 << 62
+"""Past any cycle: every part is read."""
+
+
+class BaselineRecords:
+    """An approved baseline's state changes and outputs, encoded to stand in for the
+    recorded ones, cycle by cycle, and its approved robot states handed to ``approved``.
+
+    ``recorded_names`` is the log's behavior catalogue and ``rename`` maps a recorded
+    name to its name now. :attr:`names` is the catalogue the expected state changes are
+    encoded by: the log's (the other cycles keep the recorded bytes); behaviors the
+    baseline names but that catalogue lacks get indices past it.
+    """
+
+    def __init__(
+        self,
+        baseline: BaselineStream,
+        recorded_names: Sequence[str],
+        rename: Callable[[str], str],
+        approved: ApprovedStateChecker | None,
+    ) -> None:
+        self._encoder = payload_encoder()
+        names = list(recorded_names)
+        index: dict[str, int] = {}
+        for position, name in enumerate(names):
+            index.setdefault(rename(name), position)
+        for behavior in baseline.behaviors:
+            if behavior not in index:
+                index[behavior] = len(names)
+                names.append(behavior)
+        self.names = names
+        self._index = index
+        self._baseline = baseline
+        self._approved_states = approved
+        self._changes: deque[tuple[int, list[StateChange]]] = deque()
+        """The state changes of the cycles read and not yet handed on, by cycle."""
+        self._lines: deque[tuple[int, list[TracedOutput]]] = deque()
+        """Likewise the output lines."""
+        self._read = -1
+        """The last cycle of the parts read: every line of an earlier one is read."""
+
+    def _encode_changes(self, changes: list[StateChange]) -> msgspec.Raw:
+        index = self._index
+        records: list[LoggedStateChange] = [
+            (index[behavior], before, after) for behavior, before, after in changes
+        ]
+        return msgspec.Raw(self._encoder.encode(records)) if records else EMPTY_LIST
+
+    def _read_to(self, parts: Iterator[BaselinePart], end: int) -> None:
+        """Read parts until every line of a cycle before ``end`` is read."""
+        while self._read < end:
+            part = next(parts, None)
+            if part is None:
+                self._read = _ALL
+                return
+            grouped = changes_by_cycle(part.changes, part.quiet)
+            _queue(self._changes, sorted(grouped.items(), key=_FIRST))
+            _queue(
+                self._lines,
+                ((cycle, list(lines)) for cycle, lines in itertools.groupby(part.outputs, _CYCLE)),
+            )
+            if self._approved_states is not None:
+                self._approved_states.add(part.runs, part.blocks)
+            self._read = max(self._read, part.last)
+
+    def batches(
+        self, batches: Iterator[Sequence[CycleRecord]], path: Any, first: int = 0
+    ) -> Iterator[Sequence[CycleRecord]]:
+        """The log's batches, cycle ``first`` on (a fresh start's), with the expected
+        state changes and outputs in place of the recorded ones (``path`` names the log
+        in errors), the baseline read alongside: what it expects of the cycles before
+        ``first`` is read past, the output values it holds from them kept."""
+        parts = self._baseline.parts()
+        self._read = -1
+        outputs = ApprovedOutputs(path)
+        holding = False
+        cycle = first
+        if first:
+            self._read_to(parts, first)
+            _take(self._changes, first)
+            for held in _take(self._lines, first).values():
+                holding = outputs.hold(held)
+        for batch in batches:
+            start, end = cycle, cycle + len(batch)
+            self._read_to(parts, end)
+            if self._approved_states is not None:
+                self._approved_states.forget(start)
+            changes = {at: self._encode_changes(c) for at, c in _take(self._changes, end).items()}
+            lines = _take(self._lines, end)
+            for event in sorted(changes.keys() | lines.keys()):
+                if holding:
+                    outputs.put(batch[start - cycle : event - cycle], start)
+                if event in changes:
+                    batch[event - cycle].state_changes = changes[event]
+                if event in lines:
+                    holding = outputs.hold(lines[event])
+                start = event
+            if holding:
+                outputs.put(batch[start - cycle :] if start > cycle else batch, start)
+            cycle = end
+            yield batch
+
+
+def _queue(queue: deque[tuple[int, list[Any]]], by_cycle: Iterable[tuple[int, list[Any]]]) -> None:
+    """Queue the lines of each cycle, those of the cycle queued last joining its own
+    (a part may end within a cycle's lines)."""
+    for cycle, lines in by_cycle:
+        if queue and queue[-1][0] == cycle:
+            queue[-1][1].extend(lines)
+        else:
+            queue.append((cycle, lines))
+
+
+def _take(queue: deque[tuple[int, list[Any]]], end: int) -> dict[int, list[Any]]:
+    """The lines queued of the cycles before ``end``, by cycle, taken off ``queue``."""
+    taken = {}
+    while queue and queue[0][0] < end:
+        at, lines = queue.popleft()
+        taken[at] = lines
+    return taken

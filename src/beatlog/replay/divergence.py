@@ -20,12 +20,12 @@ from beatlog.model.perception import PerceptionTypeError
 from beatlog.project.usercode import user_traceback
 from beatlog.replay.approved_states import rebuilt_otherwise
 from beatlog.replay.baseline import BaselineStream
-from beatlog.replay.baseline_records import BaselineRecords
 from beatlog.replay.compare import Comparison, state_fields
 from beatlog.replay.core import ByteCheck, CycleOutcome, Replayer
+from beatlog.replay.cycle_reader import recorded_changes
+from beatlog.replay.departures import BaselineRecords
 from beatlog.replay.draws import DrawApprovals, UnapprovedDraw
 from beatlog.replay.outcome import random_draws
-from beatlog.replay.recorded_states import recorded_changes
 from beatlog.replay.verdict import (
     ContextRow,
     Divergence,

@@ -11,7 +11,7 @@ that cycle, or an approved one not made, is an :class:`UnapprovedDraw` and diver
 from __future__ import annotations
 
 import hashlib
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Iterable, Sequence
 from typing import NamedTuple
 
@@ -98,15 +98,13 @@ class DrawApprovals:
     by cycle."""
 
     def __init__(self, approved: Iterable[ApprovedDraws]) -> None:
-        self._by_cycle: dict[int, dict[DrawMadeOtherwise, int]] = {}
+        self._by_cycle: defaultdict[int, Counter[DrawMadeOtherwise]] = defaultdict(Counter)
         """Each cycle's approved draws, with how many of each."""
         self._approved: set[DrawMadeOtherwise] = set()
         for line in approved:
-            draw = line.draw
-            self._approved.add(draw)
+            self._approved.add(line.draw)
             for cycle in line.cycles:
-                counts = self._by_cycle.setdefault(cycle, {})
-                counts[draw] = counts.get(draw, 0) + 1
+                self._by_cycle[cycle][line.draw] += 1
 
     def approves(self, cycle: int, made: Sequence[DrawMadeOtherwise]) -> bool:
         """Whether the draws a cycle ``made`` otherwise are exactly the approved ones
@@ -117,15 +115,13 @@ class DrawApprovals:
         """The first of the draws a cycle ``made`` otherwise that the baseline does not
         hold there, or the first it holds there that replay did not make; None when
         they are exactly the approved ones."""
-        allowed = self._by_cycle.get(cycle, {})
-        counts: dict[DrawMadeOtherwise, int] = {}
+        allowed = self._by_cycle.get(cycle, Counter())
+        counts = Counter(made)
         for draw in made:
-            counts[draw] = counts.get(draw, 0) + 1
-        for draw in made:
-            if counts[draw] > allowed.get(draw, 0):
+            if counts[draw] > allowed[draw]:
                 return UnapprovedDraw(draw, True, draw in self._approved)
         for draw, times in allowed.items():
-            if counts.get(draw, 0) < times:
+            if counts[draw] < times:
                 return UnapprovedDraw(draw, False, True)
         return None
 

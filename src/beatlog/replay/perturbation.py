@@ -51,8 +51,8 @@ class Perturbations:
     heartbeat_jitter: float = 0.0
     """The +- bound, in seconds, on the offset added to each HB_t (which stays >= 1 ns)."""
     noise: Mapping[str, float] = field(default_factory=dict)
-    """The +- bound on the offset added to each numeric robot-state field named (dotted
-    paths for fields of nested structs)."""
+    """The +- bound on the uniform offset added to each numeric robot-state field named
+    (dotted paths for fields of nested structs; an integer field's offset rounded)."""
     drop_samples: float = 0.0
     """Sensor-level replay: the share of samples dropped."""
     delay_samples: float = 0.0

@@ -59,9 +59,6 @@ class Perceiver:
         self._reader = reader
         self._encode = encode
         self._approved_states = approved_states or ApprovedStateChecker()
-        self._approved_cycles = self._approved_states.tags
-        """The cycles of approved robot states (:attr:`ApprovedStateChecker.tags`, kept up
-        to date as replay reads the baseline): none without a baseline that has them."""
         self._migrated = migrated
 
     def perceive(self, record: CycleRecord, recorded: Any, cycle: int) -> Sensed:
@@ -91,7 +88,7 @@ class Perceiver:
             self.seen = self._as_logged(encoded)
         except (TypeError, msgspec.EncodeError, msgspec.ValidationError):
             encoded = None  # perception built something unloggable, or not as its type
-        if cycle in self._approved_cycles:  # the approved state is expected
+        if cycle in self._approved_states:  # the approved state is expected
             differs = encoded is None or self._approved_states.mismatch(cycle, encoded) is not None
         else:
             differs = encoded is None or msgspec.Raw(encoded) != record.robot_state

@@ -23,9 +23,9 @@ from beatlog.model.perception import Perception
 from beatlog.model.setup import SystemFactory
 from beatlog.replay.approved_states import ApprovedStateChecker
 from beatlog.replay.core import AGREED, CycleOutcome, Replayer
+from beatlog.replay.cycle_reader import RecordedStates
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.random import ReplayRandom
-from beatlog.replay.recorded_states import RecordedStates
 from beatlog.replay.setup import built_for_replay
 
 __all__ = [

@@ -1,21 +1,9 @@
 """Variants of a recording: the log replayed with deterministic perturbations
-(:mod:`beatlog.replay.perturbation`), judged by the behaviors not raising and by the
-invariants, never by equality with the recording.
-
-Variant n of a log perturbs what the behaviors get, each value from numbers keyed by
-the log, n and the batch of the log its cycle is in:
-
-- random draws: every draw is fresh, keyed by (log, n) and its place, instead of the
-  recorded one;
-- robot-state noise: each field named (a dotted path for a field of a nested struct) gets
-  a uniform offset within its +- bound; an integer field a rounded one;
-- heartbeat jitter: each HB_t moves by a uniform offset within the bound, and stays at
-  least 1 ns;
-- for sensor-level replay (a perception step, a log recorded with samples): each sample
-  is dropped, or delayed to the next cycle, with the share given.
-
-A variant replays every cycle, up to the first where behavior code raises or an
-invariant does not hold.
+(:class:`~beatlog.replay.perturbation.Perturbations`: fresh random draws, robot-state
+noise, heartbeat jitter, samples dropped or delayed), each value from numbers keyed by
+the log, the variant's number and the cycle's batch. A variant is judged by the behaviors
+not raising and by the invariants, never by equality with the recording: it replays
+every cycle, up to the first where behavior code raises or an invariant does not hold.
 """
 
 from __future__ import annotations

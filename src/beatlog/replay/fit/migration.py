@@ -10,6 +10,7 @@ is turned into the system's type as each cycle is decoded (:class:`StateConverte
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -85,8 +86,7 @@ def _mapped(name: str, renames: Mapping[str, str]) -> str:
 
 def _prefixes(parts: list[str]) -> Iterator[str]:
     """``a``, ``a.b``, ``a.b.c`` for the parts of ``a.b.c``."""
-    for end in range(1, len(parts) + 1):
-        yield ".".join(parts[:end])
+    return itertools.accumulate(parts, lambda path, part: f"{path}.{part}")
 
 
 @dataclass
