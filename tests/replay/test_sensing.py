@@ -4,13 +4,18 @@ from __future__ import annotations
 
 import inspect
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
+import msgspec
 import pytest
 
 from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.cli.main import main
 from beatlog.errors import FieldError
+from beatlog.log.columns import StateColumns
+from beatlog.log.reader import SessionLogReader
+from beatlog.model.inbox import Sample
 from beatlog.model.perception import Perception
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome
@@ -19,7 +24,7 @@ from beatlog.replay.judge import NO_SAMPLES, replay
 from beatlog.replay.verdict import Divergence, DivergenceKind, FieldDifference
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.spec import load_spec
-from tests.conftest import distances, probe_system
+from tests.conftest import PERIOD_NS, Probe, distances, probe_system
 from tests.factories import logged_counts
 from tests.perceptions import (
     CHANGED,
@@ -29,6 +34,7 @@ from tests.perceptions import (
     nudged_perception,
     numpy_perception,
     one_ulp_perception,
+    perceive,
     perception,
     ranged_perception,
     record_with_samples,
@@ -329,3 +335,62 @@ def test_a_spec_tolerates_robot_state_fields(tmp_path: Path) -> None:
         f"{log}: robot-state tolerance for 'speed': the recorded robot state "
         "tests.conftest.Probe has no such field (it has distance, reading)"
     )
+
+
+def failing_every_third_and_shifting_every_fifth(
+    previous: Probe | None, samples: Sequence[Sample]
+) -> Probe:
+    """The probe's perception, except that it raises in every third cycle and reads the
+    range 0.5 long in every fifth (of the others)."""
+    cycle = samples[0].stamp_ns // PERIOD_NS
+    if cycle % 3 == 0:
+        raise ValueError("no range sensor")
+    state = perceive(previous, samples)
+    if cycle % 5 == 0:
+        return Probe(distance=state.distance + 0.5, reading=state.reading)
+    return state
+
+
+def decoded_states(log: Path) -> list[Probe]:
+    """Every recorded RS_t of ``log``, each decoded by msgspec from the bytes its cycle
+    holds: the plain twin of the lazy decode in sensor-level replay."""
+    with SessionLogReader(log) as reader:
+        return [
+            msgspec.msgpack.decode(
+                record.robot_state.raw_state(cycle)
+                if isinstance(record.robot_state, StateColumns)
+                else record.robot_state,
+                type=Probe,
+            )
+            for cycle, record in enumerate(reader.cycles())
+        ]
+
+
+@pytest.mark.parametrize("by_field", [False, True], ids=["in-records", "by-field"])
+def test_the_recorded_state_decoded_only_where_needed_is_the_one_every_cycle_holds(
+    tmp_path: Path, by_field: bool
+) -> None:
+    """The core decodes a cycle's recorded RS_t in sensor-level replay only where the
+    rebuilt one differs or perception fails (a measured speed trick): there it is the
+    state the log holds, as decoding every cycle gives it."""
+    log = record_with_samples(tmp_path / "samples.beatlog", by_field=by_field)
+    seen: list[CycleOutcome] = []
+
+    replay(
+        log,
+        probe_system(),
+        perception=failing_every_third_and_shifting_every_fifth,
+        keep_going=True,
+        observe=seen.append,
+    )
+
+    recorded = decoded_states(log)
+    assert len(seen) == len(recorded) == 300
+    failed = [outcome for outcome in seen if outcome.perception_failure is not None]
+    shifted = [outcome for outcome in seen if outcome.perception_differs]
+    assert [outcome.cycle for outcome in failed] == list(range(0, 300, 3))
+    assert [outcome.cycle for outcome in shifted] == [c for c in range(5, 300, 5) if c % 3]
+    for outcome in failed:  # the behaviors ran on the recorded state
+        assert outcome.state == outcome.recorded_state == recorded[outcome.cycle]
+    for outcome in shifted:
+        assert outcome.recorded_state == recorded[outcome.cycle] != outcome.state
