@@ -21,7 +21,14 @@ from typing import Any
 
 import dask
 import pytest
-from distributed import Client, LocalCluster, Scheduler, SchedulerPlugin, get_task_stream
+from distributed import (
+    Client,
+    Future,
+    LocalCluster,
+    Scheduler,
+    SchedulerPlugin,
+    get_task_stream,
+)
 
 from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
@@ -352,6 +359,44 @@ def test_ctrl_c_cancels_the_tasks_not_complete(
             assert watcher.run_on_scheduler(dtc_tasks) == 0
         finally:
             release.touch()
+
+
+def running_dtc_tasks(dask_scheduler: Scheduler) -> list[str]:
+    """On the scheduler: the keys of the DTC tasks its workers are running."""
+    return [
+        str(key)
+        for key, task in dask_scheduler.tasks.items()
+        if str(key).startswith("dtc-") and task.state == "processing"
+    ]
+
+
+def test_a_dtc_whose_task_is_cancelled_on_the_cluster_is_never_a_pass(
+    beatlog: Callable[..., Run], cluster: str, tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log, release = record_probe(60), tmp_path / "release"
+    write_spec(tmp_path / "suite", "waits", log, write_waiting(tmp_path / "suite", release))
+
+    def cancel_from_another_client() -> None:
+        with Client(cluster, set_as_default=False) as other:
+            deadline = time.monotonic() + 60
+            while not (keys := other.run_on_scheduler(running_dtc_tasks)):
+                assert time.monotonic() < deadline
+                time.sleep(0.05)
+            other.cancel([Future(key, other) for key in keys], force=True)
+
+    canceller = threading.Thread(target=cancel_from_another_client)
+    canceller.start()
+    try:
+        run = beatlog("test", tmp_path / "suite", "--dask", cluster)
+    finally:
+        canceller.join()
+        release.touch()
+
+    assert run.code == 2, run
+    assert run.err == (
+        f"beatlog: error: --dask {cluster}: their tasks were cancelled on the cluster (by "
+        "another client, or a scheduler that restarted): 1 of 1 DTCs not run\n"
+    )
 
 
 @pytest.mark.slow

@@ -200,16 +200,23 @@ class DaskExecutor(Closing):
                         del pending[str(future.key)]
                         future.release()  # now, not as the next completes: a worker lost
                         # would have the scheduler run the task again for no one
-            if lost.is_set() and told < len(specs):
-                raise ClusterError(
-                    f"--dask {self._address}: the cluster has had no workers for "
-                    f"{NO_WORKERS_S:g} s (all lost, none restarted): "
-                    f"{len(specs) - told} of {len(specs)} DTCs not run"
-                )
+            if told < len(specs):  # never a pass: a DTC was not run
+                raise self._not_run(len(specs) - told, len(specs), lost=lost.is_set())
         finally:
             ended.set()
             lookout.join()
             self._client.cancel(waited(), force=True)
+
+    def _not_run(self, missing: int, total: int, *, lost: bool) -> ClusterError:
+        """The error of a run that ended with ``missing`` of its ``total`` DTCs not run:
+        the cluster ``lost`` every worker, or their tasks were cancelled on it."""
+        why = (
+            f"the cluster has had no workers for {NO_WORKERS_S:g} s (all lost, none restarted)"
+            if lost
+            else "their tasks were cancelled on the cluster (by another client, or a "
+            "scheduler that restarted)"
+        )
+        return ClusterError(f"--dask {self._address}: {why}: {missing} of {total} DTCs not run")
 
     def _look_out(self, waited: Callable[..., list[Future[Any]]], ended: threading.Event) -> None:
         """Until ``ended``, ask the cluster every second how many threads its workers have,
