@@ -314,11 +314,11 @@ def test_a_dtc_whose_workers_keep_dying_is_an_error_never_lost(
     assert closing_counts(run.out) == "1 passed, 0 failed, 1 error"
 
 
-def write_waiting(folder: Path, release: Path) -> str:
-    """A system module beside the specs whose factory waits until ``release`` exists
-    (a minute at most)."""
+def write_waiting(folder: Path, release: Path, name: str = "waiting") -> str:
+    """A system module ``name`` beside the specs whose factory waits until ``release``
+    exists (a minute at most); a worker keeps the module it imported first by that name."""
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "waiting.py").write_text(
+    (folder / f"{name}.py").write_text(
         "import time\n"
         "from pathlib import Path\n"
         "from tests.conftest import probe_system\n\n\n"
@@ -329,7 +329,7 @@ def write_waiting(folder: Path, release: Path) -> str:
         "    return probe_system()\n",
         encoding="utf-8",
     )
-    return "waiting:system"
+    return f"{name}:system"
 
 
 def dtc_tasks(dask_scheduler: object) -> int:
@@ -374,7 +374,8 @@ def test_a_dtc_whose_task_is_cancelled_on_the_cluster_is_never_a_pass(
     beatlog: Callable[..., Run], cluster: str, tmp_path: Path, record_probe: RecordFn
 ) -> None:
     log, release = record_probe(60), tmp_path / "release"
-    write_spec(tmp_path / "suite", "waits", log, write_waiting(tmp_path / "suite", release))
+    waiting = write_waiting(tmp_path / "suite", release, "waiting_to_be_cancelled")
+    write_spec(tmp_path / "suite", "waits", log, waiting)
 
     def cancel_from_another_client() -> None:
         with Client(cluster, set_as_default=False) as other:
