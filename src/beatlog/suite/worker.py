@@ -99,8 +99,10 @@ class Worker(Closing):
 
     def _lost(self) -> WorkerLostError:
         code = self._process.wait()
-        how = f"killed by {signal.Signals(-code).name}" if code < 0 else f"exit {code}"
-        return WorkerLostError(f"the worker process ended ({how})")
+        if code >= 0:
+            return WorkerLostError(f"the worker process ended (exit {code})")
+        name = next((known.name for known in signal.Signals if known == -code), f"signal {-code}")
+        return WorkerLostError(f"the worker process ended (killed by {name})")
 
     @property
     def stopped(self) -> bool:
