@@ -88,14 +88,18 @@ def replacing(path: Path) -> Iterator[IO[bytes]]:
 
 
 def write_json(path: Path, document: object) -> None:
-    """Write a JSON document for tools, whole or not at all."""
+    """Write a JSON document for tools, whole or not at all.
+
+    :raises OSError: the path cannot be written.
+    """
     with replacing(path) as file:
         file.write(json.dumps(document, indent=2).encode() + b"\n")
 
 
 class Closing:
     """A context manager for an object with :meth:`close`: the ``with`` block ends by
-    closing it, whether the block raised or not."""
+    closing it, whether the block raised or not. One shape for everything beatlog opens
+    and must close."""
 
     def close(self) -> None:
         """Release what the object holds (a file, a thread, a process)."""
