@@ -24,11 +24,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
 
+from beatlog.baseline.digests import DigestCoverage
 from beatlog.baseline.read import ParsedLines, line_feeds
 from beatlog.baseline.write import FORMAT, HEADER, QUIET
 from beatlog.errors import BaselineError, NotABeatlogError
 from beatlog.log.files import check_size, irregular_file_problem
-from beatlog.replay.approved_state_lines import DigestCoverage
 from beatlog.replay.approved_states import ApprovedStates
 from beatlog.replay.baseline import (
     Baseline,
