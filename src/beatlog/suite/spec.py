@@ -20,7 +20,6 @@ perception step) each time it is called, or the object itself when it is not cal
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 import os
 import tomllib
@@ -31,6 +30,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import msgspec
+import tomli_w
 
 from beatlog.baseline.file import SPEC_SUFFIX
 from beatlog.errors import SpecError
@@ -60,7 +60,6 @@ __all__ = [
     "spec_from_data",
     "spec_text",
     "spec_toml",
-    "toml_string",
 ]
 
 MAX_SPEC_BYTES = 1 << 20
@@ -317,59 +316,23 @@ def spec_text(
 ) -> str:
     """A new spec as TOML text, for tools that write one beside a recording (``beatlog
     import-bag --spec``, a suite's recording script); ``log`` is relative to the spec."""
-    text = (
-        spec_toml({"name": name, "purpose": purpose})
-        + _toml_lines("procedure", procedure)
-        + spec_toml({"log": log, "system": system, "perception": perception, "tags": list(tags)})
+    return spec_toml(
+        {
+            "name": name,
+            "purpose": purpose,
+            "procedure": list(procedure),
+            "log": log,
+            "system": system,
+            "perception": perception,
+            "tags": list(tags),
+            "invariants": list(invariants) or None,
+            "variants": variants,
+        }
     )
-    if checked := list(invariants):
-        text += _toml_lines("invariants", checked)
-    return text + ("" if variants is None else spec_toml({"variants": variants}))
 
 
 def spec_toml(data: Mapping[str, Any]) -> str:
     """A spec's data (strings, numbers, booleans, arrays and tables of them, as
     :func:`read_spec_data` reads them) as TOML text: its keys first, then its tables;
     a key of None is left out."""
-    tables = {key: value for key, value in data.items() if isinstance(value, Mapping)}
-    lines = [
-        f"{_toml_key(key)} = {_toml_value(value)}"
-        for key, value in data.items()
-        if key not in tables and value is not None
-    ]
-    for name, table in tables.items():
-        lines.extend(["", f"[{_toml_key(name)}]"])
-        lines.extend(f"{_toml_key(key)} = {_toml_value(value)}" for key, value in table.items())
-    return "\n".join(lines) + "\n"
-
-
-def _toml_lines(key: str, items: Iterable[str]) -> str:
-    """A TOML array of strings, one a line."""
-    return f"{key} = [\n" + "".join(f"    {toml_string(item)},\n" for item in items) + "]\n"
-
-
-def _toml_key(key: str) -> str:
-    """A TOML key: bare where TOML allows it, else quoted."""
-    bare = key and all(c.isascii() and (c.isalnum() or c in "-_") for c in key)
-    return key if bare else toml_string(key)
-
-
-def _toml_value(value: object) -> str:
-    """A TOML value of a spec's data: inline tables within its tables."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int | float):
-        return repr(value)  # TOML spells inf and nan as Python does
-    if isinstance(value, str):
-        return toml_string(value)
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(map(_toml_value, value)) + "]"
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_toml_key(key)} = {_toml_value(item)}" for key, item in value.items())
-        return "{ " + items + " }" if items else "{}"
-    raise TypeError(f"no TOML for {value!r}")
-
-
-def toml_string(text: str) -> str:
-    """A TOML basic string: JSON's escapes, and DEL escaped too (TOML forbids it bare)."""
-    return json.dumps(text, ensure_ascii=False).replace("\x7f", "\\u007f")
+    return tomli_w.dumps({key: value for key, value in data.items() if value is not None})
