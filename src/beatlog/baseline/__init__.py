@@ -1,7 +1,8 @@
 """Everything a baseline is: the approved departures from a recording that replay judges
 against after an intended change, in one current file format (:mod:`.file`, read by
-:mod:`.read`, its digests checked by :mod:`.digests`, written by :mod:`.write`), the command that rewrites older files in it
-(:mod:`.upgrade`), and when baselines may be written and go stale (:mod:`.policy`).
+:mod:`.read`, its digests checked by :mod:`.digests`, written by :mod:`.write`), the
+command that rewrites older files in it (:mod:`.upgrade`), and when baselines may be
+written and go stale (:mod:`.policy`).
 
 The per-cycle parts replay itself checks (the approved robot states, draws and outputs,
 and departures) live with the replay core, in :mod:`beatlog.replay`, a layer
