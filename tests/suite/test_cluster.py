@@ -33,7 +33,13 @@ from distributed import (
 from beatlog.baseline.policy import SpecOptions
 from beatlog.cli.main import main
 from beatlog.suite import cluster as cluster_module
-from beatlog.suite.cluster import NO_WORKERS_S, THREADS_ASKED_EVERY_S, DaskExecutor, WorkerDeaths
+from beatlog.suite.cluster import (
+    CLUSTER_SETTINGS,
+    NO_WORKERS_S,
+    THREADS_ASKED_EVERY_S,
+    DaskExecutor,
+    WorkerDeaths,
+)
 from beatlog.suite.discovery import discover_specs
 from beatlog.suite.runner import SpecOutcome, Verdict
 from beatlog.suite.selection import fleet_specs
@@ -59,14 +65,15 @@ def local_cluster(workers: int, *, allowed_failures: int = 3) -> LocalCluster:
     """A cluster of ``workers`` worker processes of one thread each, on no fixed port (runs
     side by side never clash), quiet; a task whose workers die ``allowed_failures`` + 1
     times is an error."""
-    return LocalCluster(
-        n_workers=workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=":0",
-        silence_logs=logging.CRITICAL,
-        scheduler_kwargs={"allowed_failures": allowed_failures},
-    )
+    with dask.config.set(CLUSTER_SETTINGS):  # as the guide advises for a cluster's own
+        return LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+            silence_logs=logging.CRITICAL,
+            scheduler_kwargs={"allowed_failures": allowed_failures},
+        )
 
 
 @pytest.fixture

@@ -46,12 +46,23 @@ if TYPE_CHECKING:
 
     from beatlog.baseline.policy import SpecOptions
 
-__all__ = ["NO_WORKERS_S", "THREADS_ASKED_EVERY_S", "UNPROFILED", "DaskExecutor", "WorkerDeaths"]
+__all__ = [
+    "CLUSTER_SETTINGS",
+    "NO_WORKERS_S",
+    "THREADS_ASKED_EVERY_S",
+    "DaskExecutor",
+    "WorkerDeaths",
+]
 
-UNPROFILED = {"distributed.worker.profile.enabled": False}
-"""The workers' setting of the cluster ``local`` starts, worth a cluster's own too: Dask's
+CLUSTER_SETTINGS = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.scheduler.worker-saturation": 1.0,
+}
+"""The settings of the cluster ``local`` starts, worth a cluster's own too. Dask's
 profiler, sampling a worker's threads every 10 ms for its dashboard, costs 0.5-0.9 ms of
-CPU a DTC of a 3-s rover log, whose replay takes 3 ms."""
+CPU a DTC of a 3-s rover log, whose replay takes 3 ms. A saturation of 1 gives a worker
+no task beyond one a thread, also while another worker restarts (Dask's 1.1 gives a
+worker of one thread two): a DTC that kills its worker takes no waiting task with it."""
 
 NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
@@ -97,7 +108,7 @@ class DaskExecutor(Closing):
                 self._client = Client(address, set_as_default=False)
             else:
                 workers = None if local.group(1) is None else int(local.group(1))
-                with dask.config.set(UNPROFILED):
+                with dask.config.set(CLUSTER_SETTINGS):
                     self._cluster = LocalCluster(
                         n_workers=workers,
                         threads_per_worker=1,
