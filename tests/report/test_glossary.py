@@ -45,6 +45,9 @@ PRINTED = [
     "does not hold",
     "invariant violation",
     # beatlog show
+    "behaviors",
+    "id",
+    "recording",
     "format",
     "status",
     "complete",
