@@ -25,6 +25,18 @@ def test_help_prints_the_page_help_does(
     assert capsys.readouterr().out == page
 
 
+def test_the_help_of_dask_says_what_the_workers_need_as_the_fleet_guide_does(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with pytest.raises(SystemExit):
+        main(["help", "test"])
+    page = " ".join(capsys.readouterr().out.split())
+
+    assert "each task carries the logs and baselines it reads" in page
+    assert "the workers need the system's package installed" in page
+    assert "filesystem the workers share" not in page
+
+
 def test_help_of_a_word_prints_its_glossary_entry(beatlog: Beatlog) -> None:
     run = beatlog("help", "open-loop")
 
