@@ -27,7 +27,7 @@ from tests.commands import (
 )
 from tests.conftest import RecordFn, broken_probe
 from tests.crafting import session_header
-from tests.specs import PROBE
+from tests.specs import PROBE, write_spec
 from tests.text import frames
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
@@ -74,6 +74,10 @@ def directory(tmp_path: Path) -> Path:
     return path
 
 
+def spec(tmp_path: Path) -> Path:
+    return write_spec(tmp_path, "walk", "walk.beatlog")
+
+
 BAD_LOGS = [
     pytest.param(missing, "no such file", id="missing"),
     pytest.param(empty, "empty file", id="empty"),
@@ -83,6 +87,7 @@ BAD_LOGS = [
     ),
     pytest.param(cut_before_header, "cut off before its session header", id="cut-before-header"),
     pytest.param(directory, "is a directory, not a session log", id="directory"),
+    pytest.param(spec, "a DTC spec, not a session log (beatlog test runs it)", id="spec"),
 ]
 
 
