@@ -158,7 +158,8 @@ def test_a_dtc_that_cannot_run_is_an_error_exit_2(
 
     assert run.code == 2
     assert run.err == (
-        f"beatlog: error: lost ({lost}): {lost.parent / '..' / 'lost.beatlog'}: no such file\n"
+        f"beatlog: error: lost ({lost}): {lost.parent / '..' / 'lost.beatlog'}: no such file"
+        " (a spec's log is relative to its folder)\n"
     )
     assert re.search(r"lost\s+│ error\s+│\s+— │ —", run.out)
     assert_counts(run, "1 passed, 1 failed, 1 error", 300 + FIRST_CHANGED_CYCLE + 1)
