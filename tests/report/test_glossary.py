@@ -107,6 +107,8 @@ PRINTED = [
     "unreached",
     "seen before",
     "audit",
+    "determinism audit",
+    "PYTHONHASHSEED",
     "certified",
     "not certified",
     "fails at a different cycle each run",
