@@ -245,6 +245,8 @@ def test_the_console_script_reports_a_missing_file_in_one_line(tmp_path: Path) -
 
 # the help pages
 
+RUN_NO_USER_CODE = ["show", "upgrade-baselines", "help"]
+"""The commands whose ``--verbose`` would do nothing: they never import the user's code."""
 SUBCOMMANDS = [
     "record",
     "replay",
@@ -324,13 +326,22 @@ def test_the_top_level_help_ends_with_the_exit_codes(capsys: pytest.CaptureFixtu
     assert capsys.readouterr().out.rstrip().endswith(EXIT_CODES.rstrip())
 
 
-@pytest.mark.parametrize("command", [name for name in SUBCOMMANDS if name != "test"])
+@pytest.mark.parametrize(
+    "command", [name for name in SUBCOMMANDS if name not in {"test", *RUN_NO_USER_CODE}]
+)
 def test_verbose_says_what_it_does_for_the_command_at_hand(
     command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert verbose_help(command, capsys) == (
         "also print the traceback of user code that failed to load"
     )
+
+
+@pytest.mark.parametrize("command", RUN_NO_USER_CODE)
+def test_a_command_that_runs_no_user_code_offers_no_verbose(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert "--verbose" not in help_page(command, capsys)
 
 
 def test_test_verbose_lists_every_dtc(capsys: pytest.CaptureFixture[str]) -> None:
