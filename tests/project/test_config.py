@@ -92,7 +92,7 @@ def test_systems_that_are_not_a_list_of_strings_name_the_key(tmp_path: Path) -> 
         project_config(tmp_path)
 
     assert str(raised.value) == (
-        f"{pyproject}: key 'tool.beatlog.systems': expected an array, got a string"
+        f"{pyproject}: key 'tool.beatlog.systems': expected a list, got a string"
     )
 
 
@@ -200,7 +200,7 @@ def test_the_invariants_of_every_spec_are_read_from_the_project(tmp_path: Path) 
     ("value", "problem"),
     [
         ('["robot.checks"]', "invariants[0]': expected module:attribute, got 'robot.checks'"),
-        ('"robot.checks:never_fall"', "invariants': expected an array, got a string"),
+        ('"robot.checks:never_fall"', "invariants': expected a list, got a string"),
     ],
 )
 def test_bad_invariants_name_the_pyproject_and_the_key(

@@ -247,7 +247,7 @@ TOML_TYPES = {
     "int": "an integer",
     "float": "a number",
     "bool": "true or false",
-    "array": "an array",
+    "array": "a list",
     "object": "a table",
 }
 """msgspec's names of types, in the words of the TOML a user wrote."""
