@@ -601,7 +601,7 @@ def test_a_bad_spec_is_one_line_naming_the_file_and_key(
 
     run = beatlog_test(specs)
 
-    assert_error(run, f"{bad}: key 'tags': expected `array`, got `str`")
+    assert_error(run, f"{bad}: key 'tags': expected a list, got a string")
 
 
 def test_a_path_that_does_not_exist_is_one_line(beatlog_test: BeatlogTest, tmp_path: Path) -> None:
