@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from beatlog.cli.common import EXIT_CODES
+
 ROOT = Path(__file__).parent.parent
 
 
@@ -97,3 +99,12 @@ def test_no_docstring_cites_benchmarks_or_example_logs() -> None:
     ]
 
     assert found == []
+
+
+def test_the_exit_codes_page_has_every_code_the_help_pages_end_with() -> None:
+    page = (ROOT / "docs" / "reference" / "exit-codes.md").read_text(encoding="utf-8")
+    printed = re.findall(r"^  (\d+) ", EXIT_CODES, re.MULTILINE)
+    listed = re.findall(r"^\| \*\*(\d+)\*\* \|", page, re.MULTILINE)
+
+    assert len(printed) >= 6
+    assert listed == printed

@@ -91,10 +91,20 @@ def test_the_planted_bug_is_caught_where_the_heater_first_turns_on_inside_its_ba
     assert divergence.actual_outputs == {"heater": 0.6}
 
 
-def test_python_m_records_the_thermostat(tmp_path: Path) -> None:
+def test_python_m_records_the_thermostat_once_and_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     log = tmp_path / "thermostat.beatlog"
 
     main(["-o", str(log), "--hours", "0.5", "--seed", "1"])
+    with pytest.raises(SystemExit) as again:
+        main(["-o", str(log), "--hours", "0.5", "--seed", "1"])
+
+    assert again.value.code == 2
+    assert capsys.readouterr() == (
+        f"wrote {log}\n",
+        f"{log}: exists already; give a new file name\n",
+    )
 
     result = replay(log, system())
     assert (result.ok, result.divergence, result.counts) == (

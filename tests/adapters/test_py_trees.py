@@ -81,6 +81,18 @@ def leaf(name: str) -> py_trees.behaviour.Behaviour:
     return py_trees.behaviours.Success(name)
 
 
+def test_a_built_tree_in_place_of_its_builder_is_refused_saying_which_it_takes() -> None:
+    built = py_trees.composites.Sequence("Rover", memory=False, children=[leaf("Wait")])
+
+    with pytest.raises(TypeError) as raised:
+        TreeSystem(built, robot_state=PatrolState)  # type: ignore[arg-type]  # the slip
+
+    assert str(raised.value) == (
+        "TreeSystem takes the function that builds the tree, not the tree 'Rover' built: "
+        "each replay builds its own (TreeSystem(tree, ...))"
+    )
+
+
 def test_siblings_of_the_same_name_are_numbered_and_separators_escaped() -> None:
     def build() -> py_trees.behaviour.Behaviour:
         return py_trees.composites.Sequence(

@@ -27,7 +27,7 @@ from tests.commands import (
 )
 from tests.conftest import RecordFn, broken_probe
 from tests.crafting import session_header
-from tests.specs import PROBE
+from tests.specs import PROBE, write_spec
 from tests.text import frames
 
 pytestmark = pytest.mark.usefixtures("wide_plain_console")
@@ -74,6 +74,10 @@ def directory(tmp_path: Path) -> Path:
     return path
 
 
+def spec(tmp_path: Path) -> Path:
+    return write_spec(tmp_path, "walk", "walk.beatlog")
+
+
 BAD_LOGS = [
     pytest.param(missing, "no such file", id="missing"),
     pytest.param(empty, "empty file", id="empty"),
@@ -83,6 +87,7 @@ BAD_LOGS = [
     ),
     pytest.param(cut_before_header, "cut off before its session header", id="cut-before-header"),
     pytest.param(directory, "is a directory, not a session log", id="directory"),
+    pytest.param(spec, "a DTC spec, not a session log (beatlog test runs it)", id="spec"),
 ]
 
 
@@ -240,6 +245,8 @@ def test_the_console_script_reports_a_missing_file_in_one_line(tmp_path: Path) -
 
 # the help pages
 
+RUN_NO_USER_CODE = ["show", "upgrade-baselines", "help"]
+"""The commands whose ``--verbose`` would do nothing: they never import the user's code."""
 SUBCOMMANDS = [
     "record",
     "replay",
@@ -319,13 +326,22 @@ def test_the_top_level_help_ends_with_the_exit_codes(capsys: pytest.CaptureFixtu
     assert capsys.readouterr().out.rstrip().endswith(EXIT_CODES.rstrip())
 
 
-@pytest.mark.parametrize("command", [name for name in SUBCOMMANDS if name != "test"])
+@pytest.mark.parametrize(
+    "command", [name for name in SUBCOMMANDS if name not in {"test", *RUN_NO_USER_CODE}]
+)
 def test_verbose_says_what_it_does_for_the_command_at_hand(
     command: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     assert verbose_help(command, capsys) == (
         "also print the traceback of user code that failed to load"
     )
+
+
+@pytest.mark.parametrize("command", RUN_NO_USER_CODE)
+def test_a_command_that_runs_no_user_code_offers_no_verbose(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert "--verbose" not in help_page(command, capsys)
 
 
 def test_test_verbose_lists_every_dtc(capsys: pytest.CaptureFixture[str]) -> None:

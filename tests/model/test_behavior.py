@@ -129,3 +129,21 @@ def test_one_winner_takes_every_output_by_default() -> None:
     arbiter.update(Level(level=1), context)
 
     assert (arbiter.state, context.outputs) == ("follow", {"acceleration": 1.0})
+
+
+@pytest.mark.parametrize("per_output", [False, True])
+@pytest.mark.parametrize("bare", [1.0, 0.0, "left"])
+def test_a_step_that_returns_a_bare_value_is_named_with_what_it_should_return(
+    bare: object, per_output: bool
+) -> None:
+    returns_bare = Proposes("turn", 0, {})
+    returns_bare.outputs = bare  # type: ignore[assignment]  # the slip under test
+    arbiter = PriorityArbiter([returns_bare], robot_state=Level, per_output=per_output)
+
+    with pytest.raises(TypeError) as raised:
+        arbiter.update(Level(), Context(RecordingRandom(seed=0)))
+
+    assert str(raised.value) == (
+        f"behavior 'turn': step returned {bare!r}; it returns the outputs it asks for, "
+        "a dict such as {'turn': 1.0}, or None"
+    )

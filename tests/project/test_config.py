@@ -92,7 +92,7 @@ def test_systems_that_are_not_a_list_of_strings_name_the_key(tmp_path: Path) -> 
         project_config(tmp_path)
 
     assert str(raised.value) == (
-        f"{pyproject}: key 'tool.beatlog.systems': expected `array`, got `str`"
+        f"{pyproject}: key 'tool.beatlog.systems': expected a list, got a string"
     )
 
 
@@ -169,10 +169,10 @@ def test_the_open_loop_limits_are_read_from_the_project(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("line", "problem"),
     [
-        ("max_open_loop_share = 1.5", "max_open_loop_share': expected `float` <= 1.0"),
-        ('max_open_loop_share = "half"', "max_open_loop_share': expected `float`, got `str`"),
-        ("max_open_loop_dtcs = -1", "max_open_loop_dtcs': expected `int` >= 0"),
-        ("max_open_loop_dtcs = 2.5", "max_open_loop_dtcs': expected `int`, got `float`"),
+        ("max_open_loop_share = 1.5", "max_open_loop_share': expected a number <= 1.0"),
+        ('max_open_loop_share = "half"', "max_open_loop_share': expected a number, got a string"),
+        ("max_open_loop_dtcs = -1", "max_open_loop_dtcs': expected an integer >= 0"),
+        ("max_open_loop_dtcs = 2.5", "max_open_loop_dtcs': expected an integer, got a number"),
     ],
 )
 def test_bad_open_loop_limits_name_the_pyproject_and_the_key(
@@ -200,7 +200,7 @@ def test_the_invariants_of_every_spec_are_read_from_the_project(tmp_path: Path) 
     ("value", "problem"),
     [
         ('["robot.checks"]', "invariants[0]': expected module:attribute, got 'robot.checks'"),
-        ('"robot.checks:never_fall"', "invariants': expected `array`, got `str`"),
+        ('"robot.checks:never_fall"', "invariants': expected a list, got a string"),
     ],
 )
 def test_bad_invariants_name_the_pyproject_and_the_key(
@@ -229,8 +229,8 @@ def test_the_variants_of_every_spec_are_read_from_the_project(tmp_path: Path) ->
 @pytest.mark.parametrize(
     ("line", "problem"),
     [
-        ("count = -1", "variants.count': expected `int` >= 0"),
-        ("delay_samples = 2.0", "variants.delay_samples': expected `float` <= 1.0"),
+        ("count = -1", "variants.count': expected an integer >= 0"),
+        ("delay_samples = 2.0", "variants.delay_samples': expected a number <= 1.0"),
         ("draw = true", "variants': object contains unknown field `draw`"),
     ],
 )

@@ -45,6 +45,9 @@ PRINTED = [
     "does not hold",
     "invariant violation",
     # beatlog show
+    "behaviors",
+    "id",
+    "recording",
     "format",
     "status",
     "complete",
@@ -104,6 +107,8 @@ PRINTED = [
     "unreached",
     "seen before",
     "audit",
+    "determinism audit",
+    "PYTHONHASHSEED",
     "certified",
     "not certified",
     "fails at a different cycle each run",

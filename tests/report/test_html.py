@@ -102,7 +102,7 @@ def test_the_report_opens_with_the_counts_and_a_row_per_dtc(report: Report) -> N
     assert re.findall(r"<td>([^<]*)</td></tr>", summary) == [
         "",
         f"cycle {failed.divergence.cycle}, t = {failed.divergence.time_s:.3f} s, state changes",
-        f"{lost}: no such file",
+        f"{lost}: no such file (a spec&#x27;s log is relative to its folder)",
         "",
     ]
 
@@ -208,7 +208,10 @@ def test_an_error_says_why_and_draws_nothing(report: Report) -> None:
     error = section(report.page, 3)
 
     lost = report.path.parent / "lost.beatlog"
-    assert f'<p class="error">{lost}: no such file</p>' in whole_lines(error)
+    assert (
+        f'<p class="error">{lost}: no such file (a spec&#x27;s log is relative to its folder)</p>'
+        in whole_lines(error)
+    )
     assert "<svg" not in error
 
 

@@ -112,7 +112,9 @@ def test_an_error_carries_the_reason_the_dtc_could_not_run(
     error = case.find("error")
     assert error is not None
     assert case.find("failure") is None
-    assert error.get("message") == f"{outcomes[2].spec.log}: no such file"
+    assert error.get("message") == (
+        f"{outcomes[2].spec.log}: no such file (a spec's log is relative to its folder)"
+    )
     assert error.text == error.get("message")
 
 

@@ -103,14 +103,18 @@ def test_a_dtc_whose_system_draws_at_set_up_passes_and_fails_at_set_up(
     )
 
 
-def test_a_missing_log_is_an_error_not_a_failure(tmp_path: Path) -> None:
+def test_a_missing_log_is_an_error_that_says_where_a_spec_s_log_is_looked_for(
+    tmp_path: Path,
+) -> None:
     spec = written_dtc(tmp_path, "lost", tmp_path / "lost.beatlog")
 
     outcome = run_spec(spec)
 
     assert outcome.verdict is Verdict.ERROR
     assert outcome.result is None
-    assert outcome.error == f"{tmp_path / 'lost.beatlog'}: no such file"
+    assert outcome.error == (
+        f"{tmp_path / 'lost.beatlog'}: no such file (a spec's log is relative to its folder)"
+    )
 
 
 def test_a_window_past_the_logs_end_is_an_error_of_the_spec(tmp_path: Path, log: Path) -> None:

@@ -90,6 +90,29 @@ def test_a_selection_of_nothing_is_an_option_error(specs: Path, tmp_path: Path) 
     assert str(unfound.value) == f"no DTC specs to run in {empty} (looked for *.dtc.toml)"
 
 
+def test_a_folder_without_specs_names_a_misnamed_spec_else_a_log_without_one(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    log = record_probe(10)
+    (tmp_path / "pyproject.toml").write_text("[tool.ruff]\nline-length = 100\n")
+    misnamed = write_spec(tmp_path, "walk", log).rename(tmp_path / "walk.toml")
+
+    with pytest.raises(OptionError) as spec_misnamed:
+        select_suite(SuiteOptions(paths=(tmp_path,)))
+    misnamed.unlink()
+    with pytest.raises(OptionError) as log_alone:
+        select_suite(SuiteOptions(paths=(tmp_path,)))
+
+    assert str(spec_misnamed.value) == (
+        f"no DTC specs to run in {tmp_path} (looked for *.dtc.toml; "
+        f"{misnamed} is not one, a spec's name ends in .dtc.toml)"
+    )
+    assert str(log_alone.value) == (
+        f"no DTC specs to run in {tmp_path} (looked for *.dtc.toml; {log} has none: "
+        "a NAME.dtc.toml beside it makes it a DTC, see beatlog help spec)"
+    )
+
+
 def test_a_fleet_run_selects_its_logs_without_a_rootdir(record_probe: RecordFn) -> None:
     log = record_probe(30)
     options = SuiteOptions(logs=str(log), system=PROBE)

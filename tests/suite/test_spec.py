@@ -110,16 +110,21 @@ def test_every_required_key_must_be_there(tmp_path: Path, key: str) -> None:
 @pytest.mark.parametrize(
     ("key", "value", "where", "problem"),
     [
-        ("procedure", "Drive toward the pole.", "key 'procedure'", "expected `array`, got `str`"),
+        (
+            "procedure",
+            "Drive toward the pole.",
+            "key 'procedure'",
+            "expected a list, got a string",
+        ),
         (
             "procedure",
             ["Drive toward the pole.", 30],
             "key 'procedure[1]'",
-            "expected `str`, got `int`",
+            "expected a string, got an integer",
         ),
-        ("tags", "obstacles", "key 'tags'", "expected `array`, got `str`"),
-        ("allow_truncated", "yes", "key 'allow_truncated'", "expected `bool`, got `str`"),
-        ("allow_empty", 1, "key 'allow_empty'", "expected `bool`, got `int`"),
+        ("tags", "obstacles", "key 'tags'", "expected a list, got a string"),
+        ("allow_truncated", "yes", "key 'allow_truncated'", "expected true or false, got a string"),
+        ("allow_empty", 1, "key 'allow_empty'", "expected true or false, got an integer"),
     ],
     ids=[
         "procedure-as-string",
@@ -199,8 +204,8 @@ def test_without_a_window_a_spec_judges_every_cycle(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("window", "problem"),
     [
-        ({"start_cycle": -1}, "key 'start_cycle': expected `int` >= 0"),
-        ({"end_cycle": -3}, "key 'end_cycle': expected `int` >= 0"),
+        ({"start_cycle": -1}, "key 'start_cycle': expected an integer >= 0"),
+        ({"end_cycle": -3}, "key 'end_cycle': expected an integer >= 0"),
         ({"start_cycle": 61, "end_cycle": 60}, "key 'start_cycle': 61 is after end_cycle 60"),
     ],
 )
@@ -248,7 +253,7 @@ def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
     [
         ({"tolerance": {"speed": -1.0}},
          "key 'tolerance.speed': expected a finite number >= 0, got -1.0"),
-        ({"tolerance": {"speed": "tiny"}}, "key 'tolerance.*': expected `float`, got `str`"),
+        ({"tolerance": {"speed": "tiny"}}, "key 'tolerance.*': expected a number, got a string"),
         ({"robot_state_tolerance": {"distance": -1e-3}},
          "key 'robot_state_tolerance.distance': expected a finite number >= 0, got -0.001"),
         ({"robot_state_tolerance": {"distance": float("nan")}},
@@ -256,13 +261,14 @@ def test_by_default_a_spec_compares_exactly(tmp_path: Path) -> None:
         ({"robot_state_tolerance": {"distance": float("inf")}},
          "key 'robot_state_tolerance.distance': expected a finite number >= 0, got inf"),
         ({"robot_state_tolerance": {"distance": "tiny"}},
-         "key 'robot_state_tolerance.*': expected `float`, got `str`"),
+         "key 'robot_state_tolerance.*': expected a number, got a string"),
         ({"renames": {"a": "c", "b": "c"}}, "key 'renames': 'a' and 'b' are both renamed to 'c'"),
-        ({"renames": {"a": 1}}, "key 'renames.*': expected `str`, got `int`"),
-        ({"ignore_behaviors": "dice"}, "key 'ignore_behaviors': expected `array`, got `str`"),
+        ({"renames": {"a": 1}}, "key 'renames.*': expected a string, got an integer"),
+        ({"ignore_behaviors": "dice"}, "key 'ignore_behaviors': expected a list, got a string"),
         ({"field_renames": {"a": "c", "b": "c"}},
          "key 'field_renames': 'a' and 'b' are both renamed to 'c'"),
-        ({"field_renames": {"pose": {"x": 1}}}, "key 'field_renames.*': expected `str`, got `int`"),
+        ({"field_renames": {"pose": {"x": 1}}},
+         "key 'field_renames.*': expected a string, got an integer"),
         ({"field_conversions": {"battery": "percent"}},
          "key 'field_conversions.battery': expected module:function, got 'percent'"),
     ],
@@ -341,7 +347,7 @@ def test_bad_project_renames_name_the_pyproject(tmp_path: Path) -> None:
     with pytest.raises(SpecError) as raised:
         load_spec(path)
     assert str(raised.value) == (
-        f"{pyproject}: key 'tool.beatlog.renames': expected `object`, got `int`"
+        f"{pyproject}: key 'tool.beatlog.renames': expected a table, got an integer"
     )
 
 
@@ -469,12 +475,12 @@ def test_a_variants_own_spec_ignores_the_projects_variants(tmp_path: Path) -> No
         ({"variants": {"heartbeat_jitter": float("inf")}},
          "key 'variants.heartbeat_jitter': expected a finite number >= 0, got inf"),
         ({"variants": {"heartbeat_jitter": -0.001}},
-         "key 'variants.heartbeat_jitter': expected `float` >= 0.0"),
+         "key 'variants.heartbeat_jitter': expected a number >= 0.0"),
         ({"variants": {"drop_samples": 1.5}},
-         "key 'variants.drop_samples': expected `float` <= 1.0"),
-        ({"variants": {"count": -1}}, "key 'variants.count': expected `int` >= 0"),
+         "key 'variants.drop_samples': expected a number <= 1.0"),
+        ({"variants": {"count": -1}}, "key 'variants.count': expected an integer >= 0"),
         ({"variants": {"jitter": 0.1}}, "key 'variants': object contains unknown field `jitter`"),
-        ({"variant": 0}, "key 'variant': expected `int` >= 1"),
+        ({"variant": 0}, "key 'variant': expected an integer >= 1"),
     ],
     ids=["negative-noise", "nan-noise", "infinite-jitter", "negative-jitter", "share-above-one",
          "negative-count", "unknown-key", "variant-zero"],

@@ -79,6 +79,11 @@ class TreeSystem(CataloguedSystem[RS]):
         robot_state: type[RS],
         blackboard: Sequence[str] = (),
     ) -> None:
+        if isinstance(build, py_trees.behaviour.Behaviour):  # BehaviourTree(root)'s habit
+            raise TypeError(
+                f"TreeSystem takes the function that builds the tree, not the tree "
+                f"{build.name!r} built: each replay builds its own (TreeSystem(tree, ...))"
+            )
         py_trees.blackboard.Blackboard.clear()
         self._writer = py_trees.blackboard.Client(name="beatlog")
         self._writer.register_key(ROBOT_STATE_KEY, access=py_trees.common.Access.WRITE)

@@ -69,10 +69,15 @@ def readable(args: argparse.Namespace) -> Iterator[str | None]:
     """``args.log`` as a file of this machine while the block runs: a log behind a URL
     is copied once (with a progress bar on a terminal), ``args.log`` names the copy,
     which is removed after, and errors raised in the block name it by its URL. The
-    block is given the URL; None for a local log."""
+    block is given the URL; None for a local log. A spec given for a log is refused
+    with the command that runs it."""
+    from beatlog.baseline.file import SPEC_SUFFIX
+    from beatlog.errors import NotABeatlogError
     from beatlog.suite.remote import fetched_log, is_url
 
     url = str(args.log)
+    if url.endswith(SPEC_SUFFIX):
+        raise NotABeatlogError(url, "a DTC spec, not a session log (beatlog test runs it)")
     if not is_url(url):
         yield None
         return

@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"beatlog {__version__}")
-    parser.set_defaults(beatlog_parser=parser)  # for ``beatlog help``, which prints its pages
+    parser.set_defaults(beatlog_parser=parser, verbose=False)  # beatlog help prints its pages
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for name, command in COMMANDS.items():
         subcommand = commands.add_parser(
@@ -82,7 +82,8 @@ def build_parser() -> argparse.ArgumentParser:
             epilog=EXIT_CODES,
             formatter_class=argparse.RawDescriptionHelpFormatter,
         )
-        subcommand.add_argument("-v", "--verbose", action="store_true", help=command.verbose)
+        if command.verbose is not None:
+            subcommand.add_argument("-v", "--verbose", action="store_true", help=command.verbose)
         command.add_arguments(subcommand)
     return parser
 

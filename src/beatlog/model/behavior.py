@@ -146,7 +146,7 @@ class PriorityArbiter(CataloguedSystem[RS]):
             context.actor = actor
             proposal = behavior.step(state, context)
             if winner is None and proposal is not None:
-                winner, command = behavior, proposal
+                winner, command = behavior, _outputs(behavior, proposal)
         context.actor = 0
         self.state = "idle" if winner is None else winner.name
         if command:
@@ -158,7 +158,7 @@ class PriorityArbiter(CataloguedSystem[RS]):
         for actor, behavior in enumerate(self._children, start=1):
             context.actor = actor
             proposal = behavior.step(state, context)
-            for output, value in (proposal or {}).items():
+            for output, value in ({} if proposal is None else _outputs(behavior, proposal)).items():
                 if output not in command:
                     command[output] = value
                     winners[output] = behavior.name
@@ -166,3 +166,15 @@ class PriorityArbiter(CataloguedSystem[RS]):
         owned = [f"{output}: {winners[output]}" for output in sorted(winners)]
         self.state = ", ".join(owned) if owned else "idle"
         context.outputs.update(command)
+
+
+def _outputs(behavior: PlainBehavior[Any], proposal: object) -> Outputs:
+    """What a behavior's step asked for, which must be a dict of outputs (None, asking for
+    nothing, is sorted out before): else a TypeError naming the behavior, for a step that
+    returns a bare value such as ``1.0`` (which ``0.0`` would otherwise silently win with)."""
+    if not isinstance(proposal, dict):
+        raise TypeError(
+            f"behavior {behavior.name!r}: step returned {proposal!r}; "
+            "it returns the outputs it asks for, a dict such as {'turn': 1.0}, or None"
+        )
+    return proposal

@@ -242,12 +242,25 @@ def keys_problem(
     return "; ".join(problems) or None
 
 
+TOML_TYPES = {
+    "str": "a string",
+    "int": "an integer",
+    "float": "a number",
+    "bool": "true or false",
+    "array": "a list",
+    "object": "a table",
+}
+"""msgspec's names of types, in the words of the TOML a user wrote."""
+
+
 def explain_validation(message: str, prefix: str = "") -> str:
-    """Turn msgspec's ``... - at `$.key[0]` `` into ``key 'key[0]': ...``."""
+    """Turn msgspec's ``... - at `$.key[0]` `` into ``key 'key[0]': ...``, its types in
+    TOML's words (``expected a table, got an integer``)."""
     match = re.fullmatch(r"(.*) - at `\$\.?(.*)`", message)
     if match:
         problem, key = match.groups()
         problem = problem.replace(" | null`", "`")  # an optional key: TOML has no null
+        problem = re.sub(r"`(\w+)`", lambda type_: TOML_TYPES.get(type_[1], type_[0]), problem)
         key = key.replace("[...]", ".*")  # a value of a table
         return f"key {prefix + key!r}: {problem[0].lower()}{problem[1:]}"
     unknown = re.fullmatch(r"Object contains unknown field `(.*)`", message)

@@ -54,8 +54,10 @@ def _index() -> dict[str, Entry]:
 
 def lookup(words: str) -> Entry | None:
     """The entry for ``words`` (its term or an alias, in any case; ``-`` or ``_`` for a
-    space), or None."""
-    return _index().get(_key(words))
+    space; a plural such as the ``behaviors`` heading of ``beatlog show`` by its
+    singular), or None."""
+    key = _key(words)
+    return _index().get(key) or _index().get(key.removesuffix("s"))
 
 
 def near(words: str) -> list[str]:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import tomllib
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -24,9 +25,16 @@ from pathlib import Path
 from typing import NoReturn
 
 from beatlog.errors import OptionError, SpecError
-from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, find_rootdir, load_spec
+from beatlog.suite.spec import MAX_SPEC_BYTES, SPEC_SUFFIX, DtcSpec, find_rootdir, load_spec
 
-__all__ = ["KeywordExpression", "discover_specs", "distinguished", "files_under", "select_specs"]
+__all__ = [
+    "KeywordExpression",
+    "discover_specs",
+    "distinguished",
+    "files_under",
+    "no_specs_found",
+    "select_specs",
+]
 
 
 def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) -> list[DtcSpec]:
@@ -50,6 +58,36 @@ def discover_specs(paths: Iterable[str | Path], *, rootdir: Path | None = None) 
         unique.setdefault(path.resolve(), path)
     root = find_rootdir(paths) if rootdir is None else rootdir
     return [load_spec(path, rootdir=root) for path in sorted(unique.values())]
+
+
+def no_specs_found(paths: Sequence[Path]) -> str:
+    """That ``paths`` hold no spec, with what they hold instead that a newcomer meant as
+    one: a spec named ``*.toml`` without ``.dtc``, or a log with no spec beside it."""
+    folders = [path for path in paths if path.is_dir()]
+    misnamed = sorted(
+        path for folder in folders for path in files_under(folder, ".toml") if _names_a_log(path)
+    )
+    logs = sorted(path for folder in folders for path in files_under(folder, ".beatlog"))
+    found = (
+        f"; {misnamed[0]} is not one, a spec's name ends in {SPEC_SUFFIX}"
+        if misnamed
+        else f"; {logs[0]} has none: a NAME{SPEC_SUFFIX} beside it makes it a DTC, see "
+        "beatlog help spec"
+        if logs
+        else ""
+    )
+    where = " ".join(map(str, paths))
+    return f"no DTC specs to run in {where} (looked for *{SPEC_SUFFIX}{found})"
+
+
+def _names_a_log(toml: Path) -> bool:
+    """Whether a small TOML file has a spec's ``log`` key."""
+    try:
+        if toml.stat().st_size > MAX_SPEC_BYTES:
+            return False
+        return "log" in tomllib.loads(toml.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
 
 
 def files_under(folder: Path, suffix: str) -> list[Path]:

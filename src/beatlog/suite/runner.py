@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING
 from beatlog.analysis.recorded import RecordedChanges
 from beatlog.baseline.file import BaselineFile, expected_path, log_digest, read_baseline
 from beatlog.baseline.policy import SpecOptions, UpdateMode, refusal
-from beatlog.errors import BeatlogError, RemoteLogError
+from beatlog.errors import BeatlogError, NotABeatlogError, RemoteLogError
 from beatlog.log.recording import Recording
 from beatlog.project.usercode import importable_near, load_perception
 from beatlog.replay.baseline import Baseline
@@ -131,7 +131,7 @@ def run_spec(
                 outcome = _run_spec(
                     dataclasses.replace(spec, log=log), options or SpecOptions(), auditors
                 )
-        except RemoteLogError as exc:
+        except (NotABeatlogError, RemoteLogError) as exc:
             return SpecOutcome(spec, Verdict.ERROR, None, str(exc), 0.0)
     if spec.log_url is None:
         return outcome

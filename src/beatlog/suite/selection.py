@@ -35,7 +35,7 @@ from beatlog.log.limits import MAX_TEXT_LENGTH
 from beatlog.project.usercode import load_perception, load_system
 from beatlog.replay.debugger import beyond_the_log
 from beatlog.suite.coverage import Text, cache_file, read_cached, select_exercising, write_cached
-from beatlog.suite.discovery import discover_specs, distinguished, select_specs
+from beatlog.suite.discovery import discover_specs, distinguished, no_specs_found, select_specs
 from beatlog.suite.parallel import Shard, shard
 from beatlog.suite.remote import http_quoted, is_url, url_filesystem, url_name
 from beatlog.suite.runner import SpecOutcome, Verdict
@@ -204,7 +204,7 @@ def select_suite(options: SuiteOptions, fleet: list[DtcSpec] | None = None) -> S
             raise EmptySelectionError(
                 f"none of the {len(found)} DTC specs in {where} match -k/--tag"
             )
-        raise OptionError(f"no DTC specs to run in {where} (looked for *.dtc.toml)")
+        raise OptionError(no_specs_found(options.paths))
     note = None
     if options.last_failed and rootdir is not None:
         specs, note = rerun_failed(specs, last_failed_path(rootdir))

@@ -33,7 +33,7 @@ import msgspec
 import tomli_w
 
 from beatlog.baseline.file import SPEC_SUFFIX
-from beatlog.errors import SpecError
+from beatlog.errors import NotABeatlogError, SpecError
 from beatlog.log.files import project_root, read_small_text
 from beatlog.project.config import (
     VariantsConfig,
@@ -178,8 +178,14 @@ class DtcSpec:
 
     def readable_log(self) -> AbstractContextManager[Path]:
         """The log as a file of this machine: its own, or a copy of the one behind its
-        URL, removed when the block ends (else :class:`~beatlog.errors.RemoteLogError`)."""
+        URL, removed when the block ends (else :class:`~beatlog.errors.RemoteLogError`).
+        A spec's own log that is missing raises :class:`~beatlog.errors.NotABeatlogError`
+        saying where it was looked for, the slip of a spec moved away from its log."""
         if self.log_url is None:
+            if self.spec_file is not None and not self.log.exists():
+                raise NotABeatlogError(
+                    self.log, "no such file (a spec's log is relative to its folder)"
+                )
             return contextlib.nullcontext(self.log)
         return fetched_log(self.log_url, listed=self.listed_log)
 

@@ -465,7 +465,7 @@ def test_a_bad_open_loop_limit_is_a_one_line_error(beatlog: Beatlog, spec: Path)
 
     assert_error(
         beatlog("test", spec),
-        f"{pyproject}: key 'tool.beatlog.max_open_loop_dtcs': expected `int` >= 0",
+        f"{pyproject}: key 'tool.beatlog.max_open_loop_dtcs': expected an integer >= 0",
     )
 
 

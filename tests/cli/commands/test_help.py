@@ -25,6 +25,23 @@ def test_help_prints_the_page_help_does(
     assert capsys.readouterr().out == page
 
 
+@pytest.mark.parametrize(
+    ("command", "said"),
+    [
+        ("test", "each task carries the logs and baselines it reads"),  # --dask, as the guide
+        ("test", "the workers need the system's package installed"),
+        ("import-bag", "or a ROS 1 .bag"),
+    ],
+)
+def test_a_help_page_says_what_its_guide_says(
+    command: str, said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit):
+        main(["help", command])
+
+    assert said in " ".join(capsys.readouterr().out.split())
+
+
 def test_help_of_a_word_prints_its_glossary_entry(beatlog: Beatlog) -> None:
     run = beatlog("help", "open-loop")
 

@@ -158,7 +158,8 @@ def test_a_dtc_that_cannot_run_is_an_error_exit_2(
 
     assert run.code == 2
     assert run.err == (
-        f"beatlog: error: lost ({lost}): {lost.parent / '..' / 'lost.beatlog'}: no such file\n"
+        f"beatlog: error: lost ({lost}): {lost.parent / '..' / 'lost.beatlog'}: no such file"
+        " (a spec's log is relative to its folder)\n"
     )
     assert re.search(r"lost\s+│ error\s+│\s+— │ —", run.out)
     assert_counts(run, "1 passed, 1 failed, 1 error", 300 + FIRST_CHANGED_CYCLE + 1)
@@ -600,7 +601,7 @@ def test_a_bad_spec_is_one_line_naming_the_file_and_key(
 
     run = beatlog_test(specs)
 
-    assert_error(run, f"{bad}: key 'tags': expected `array`, got `str`")
+    assert_error(run, f"{bad}: key 'tags': expected a list, got a string")
 
 
 def test_a_path_that_does_not_exist_is_one_line(beatlog_test: BeatlogTest, tmp_path: Path) -> None:

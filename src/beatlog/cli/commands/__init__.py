@@ -40,8 +40,8 @@ class Command(NamedTuple):
     """Carries the command out; its exit code."""
     runs_user_code: bool = True
     """Whether it imports the user's code (``module:factory``)."""
-    verbose: str = "also print the traceback of user code that failed to load"
-    """What ``--verbose`` does for it."""
+    verbose: str | None = "also print the traceback of user code that failed to load"
+    """What ``--verbose`` does for it; None where it would do nothing (no ``-v``)."""
 
 
 COMMANDS: dict[str, Command] = {
@@ -81,12 +81,14 @@ COMMANDS: dict[str, Command] = {
         ),
         baselines.run_upgrade,
         runs_user_code=False,
+        verbose=None,
     ),
     "show": Command(
         "describe a session log",
         functools.partial(add_log, doing="describe"),
         logs.run_show,
         runs_user_code=False,
+        verbose=None,
     ),
     "plot": Command(
         "draw a timeline chart of a session log (PNG, SVG or PDF)",
@@ -108,6 +110,7 @@ COMMANDS: dict[str, Command] = {
         lambda parser: helping.add_arguments(parser, topics=COMMANDS),
         helping.run,
         runs_user_code=False,
+        verbose=None,
     ),
     "demo": Command(
         "record and replay the robot dog, then its suite",

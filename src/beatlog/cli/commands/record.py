@@ -171,7 +171,9 @@ def _new_log(output: Path, why: str = "") -> Iterator[None]:
 
 def add_bag_arguments(bag: argparse.ArgumentParser) -> None:
     """The options of ``beatlog import-bag``."""
-    bag.add_argument("bag", type=Path, help="the rosbag2 folder (mcap or sqlite3), or its file")
+    bag.add_argument(
+        "bag", type=Path, help="the ROS 2 bag folder (mcap or sqlite3) or its file, or a ROS 1 .bag"
+    )
     bag.add_argument("-o", "--output", required=True, type=Path, help="the .beatlog to write")
     add_factory(bag, "--system", "system factory", required=True)
     add_factory(

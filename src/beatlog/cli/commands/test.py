@@ -48,7 +48,8 @@ def add_arguments(test: argparse.ArgumentParser) -> None:
         metavar="ADDRESS",
         help="run the DTCs on the Dask cluster whose scheduler is at ADDRESS "
         "(tcp://host:8786), or on one started here with local or local:N worker processes; "
-        'specs on a filesystem the workers share (pip install "beatlog[dask]"); '
+        "each task carries the logs and baselines it reads, and the workers need the "
+        'system\'s package installed (pip install "beatlog[dask]"); '
         "a cluster that cannot be reached exits 2",
     )
     test.add_argument(
