@@ -10,16 +10,15 @@ verdict, traces, timelines and the audit all consume these outcomes.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Generator
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import msgspec
 
 from beatlog.errors import BeatlogError, NumpyMissingError
 from beatlog.log.columns import StateColumns
 from beatlog.log.format import (
-    COLUMNS_SINCE,
     EMPTY_LIST,
     EMPTY_MAP,
     CycleRecord,
@@ -45,7 +44,6 @@ __all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Replayer", "Stop"]
 
 
 Observe = Callable[[Any], Any]
-Advance = Callable[[CycleRecord], "list[LoggedStateChange] | None"]
 
 
 class Replayer:
@@ -58,7 +56,7 @@ class Replayer:
     header declares, or it is a :class:`~beatlog.errors.LogError` naming the cycle, after
     which the replayer cannot go on.
 
-    :attr:`advance` replays a cycle and says only whether it went cleanly, all the
+    :meth:`advance` replays a cycle and says only whether it went cleanly, all the
     verdict needs of a cycle that matches; :meth:`outcome` tells everything about it.
     """
 
@@ -133,13 +131,6 @@ class Replayer:
         self.agreed = [0, 0, 0]
         """What the cycles that agreed at once (:meth:`check_bytes`) held: state changes,
         outputs and draws."""
-        self.advance: Advance = self._stepper()
-        """Replay the next cycle: BS'_t, the replayed state changes, when it went cleanly
-        (the update completed, drew as recorded and, in sensor-level replay, ran on a
-        robot state rebuilt as recorded), else None; :data:`AGREED` where it also replayed
-        the bytes expected of it (:meth:`check_bytes`). A
-        :class:`~beatlog.errors.LogError` where RS_t or RN_t is damaged or does not fit.
-        """
 
     @property
     def samples_perceived(self) -> int:
@@ -150,11 +141,10 @@ class Replayer:
         """Before the first cycle: compare each cycle that goes cleanly with its
         record, byte for byte, and answer :data:`AGREED` where they agree."""
         self._check = check
-        self.advance = self._stepper()
 
     def agrees(self, record: CycleRecord, changes: list[LoggedStateChange]) -> bool:
         """Whether ``changes`` and the outputs of the cycle replayed last are the bytes
-        its ``record`` expects (:meth:`check_bytes`): the hot loop's check.
+        its ``record`` expects (:meth:`check_bytes`): each cycle's check.
 
         :raises msgspec.EncodeError: they cannot be logged (or a ``TypeError`` or
             ``ValueError`` from an encoding hook).
@@ -176,11 +166,6 @@ class Replayer:
             if not outputs
             else record.outputs == msgspec.Raw(self._check.outputs.encode(outputs))
         )
-
-    def _stepper(self) -> Advance:
-        stepping = self._stepping()
-        next(stepping)
-        return stepping.send
 
     def outcome(self) -> CycleOutcome:
         """Everything about the cycle replayed last."""
@@ -225,7 +210,7 @@ class Replayer:
     @property
     def stepped(self) -> list[LoggedStateChange] | None:
         """BS'_t of the cycle replayed last where its update completed, whether or not it
-        drew as recorded (:attr:`advance` answers None for a cycle that drew otherwise);
+        drew as recorded (:meth:`advance` answers None for a cycle that drew otherwise);
         None where it did not complete."""
         return self._last[2]
 
@@ -234,109 +219,96 @@ class Replayer:
         (:meth:`~beatlog.replay.outcome.CycleOutcome.stop`)."""
         return outcome.stop(self.executor.behavior_ids, self.header.behaviors)
 
-    def _stepping(  # noqa: PLR0915 - the hot loop, inlined on purpose
+    def advance(  # noqa: PLR0915 - one cycle's replay, step by step
         self,
-    ) -> Generator[list[LoggedStateChange] | None, CycleRecord, NoReturn]:
-        """The one loop that steps the system through the log: sent a cycle's record, it
-        replays the cycle and answers as :attr:`advance` does.
+        record: CycleRecord,
+    ) -> list[LoggedStateChange] | None:
+        """Replay the next cycle, ``record``'s: BS'_t, the replayed state changes, when it
+        went cleanly (the update completed, drew as recorded and, in sensor-level replay,
+        ran on a robot state rebuilt as recorded), else None; :data:`AGREED` where it also
+        replayed the bytes expected of it (:meth:`check_bytes`).
 
-        A coroutine, so that what every cycle needs is looked up once, not every cycle.
+        :raises beatlog.errors.LogError: RS_t or RN_t is damaged or does not fit.
         """
-        # Measured: a whole rover replay takes 3.6 % fewer instructions than with a plain
-        # method reading these each cycle (37,252 a cycle against 38,637).
         executor = self.executor
         context = executor.context
-        step = executor.step
         random = self.random
-        load = random.load
-        settle = random.settle
-        match_draws = self.match_draws
-        read_state = self._reader.state
-        decode_draws = self._reader.draws
-        break_at = self.break_at
         perceiver = self._perceiver
-        raw = msgspec.Raw
-        # Format 3: RS_t may come as its batch's columns (never in an older log).
-        columns = StateColumns if self.header.format_version >= COLUMNS_SINCE else None
-        view = self._views.view
-        checking = self.state_type
-        # A state decoded as the checking subclass becomes the system's, its fields
-        # converted where a migration converts them.
-        adopt = self._views.adopt if checking is not self.system.robot_state else None
+        cycle = context.cycle + 1
+        state: Any = UNREAD
+        # Sensor-level replay decodes the recorded RS_t only where it is needed: the
+        # rebuilt one encodes to other bytes, perception fails, or a break. A sensor-level
+        # replay of the dog's wall-follow takes 6.0 % fewer instructions than decoding it
+        # every cycle (334.5 M against 356.0 M, cachegrind).
+        if perceiver is None or cycle == self.break_at:
+            state = record.robot_state  # decoded with the batch, or still bytes
+            kind = state.__class__
+            if kind is msgspec.Raw:
+                state = self._reader.state(record, cycle)
+            elif kind is StateColumns:  # format 3 by field: a view of the batch's columns
+                state = self._views.view(state, cycle)
+            elif kind is self.state_type and kind is not self.system.robot_state:
+                # decoded as the checking subclass: made the system's, its fields
+                # converted where a migration converts them
+                self._views.adopt(state, cycle)
+        if cycle == self.break_at:
+            self._pause(cycle, state, record)
+        if perceiver is None:
+            sensed = None
+        else:
+            sensed = perceiver.perceive(record, state, cycle)
+            state = perceiver.seen
+        draws = record.random_numbers
+        # Load RN_t, unless there is none and nothing is left of the last cycle's (a draw
+        # is kept only when one was recorded; a draw too many leaves a mismatch).
+        if draws != EMPTY_LIST or random.recorded or random.drawn or random.refused is not None:
+            random.load(() if draws == EMPTY_LIST else self._reader.draws(record, cycle))
+        if self.perturb is not None:
+            state = self.perturb(state)
+        failure = None
+        changes: list[LoggedStateChange] | None
+        try:
+            changes = executor.step(
+                record.heartbeat_ns, state if self.observe is None else self.observe(state)
+            )
+        except RefusedDraw:
+            changes = None
+        except NumpyMissingError:
+            raise NumpyMissingError(self.path) from None
+        except BeatlogError:
+            raise
+        except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
+            changes = None
+            failure = exc
+        self._last = (record, state, changes, failure, sensed)
         check = self._check
-        agrees = self.agrees
-        compares = check is not None and not check.judged
-        approves = None if check is None else check.draws
-        agreed = self.agreed
-        changes: list[LoggedStateChange] | None = None
-        while True:
-            record = yield changes
-            observe = self.observe
-            state: Any = UNREAD
-            # Sensor-level replay decodes the recorded RS_t only where it is needed:
-            # the rebuilt one encodes to other bytes, perception fails, or a break. A
-            # sensor-level replay of the dog's wall-follow takes 6.0 % fewer instructions
-            # than decoding it every cycle (334.5 M against 356.0 M, cachegrind).
-            if perceiver is None or context.cycle + 1 == break_at:
-                state = record.robot_state  # decoded with the batch, or still bytes
-                kind = state.__class__
-                if kind is raw:
-                    state = read_state(record, context.cycle + 1)
-                elif kind is columns:  # format 3 by field: a view of the batch's columns
-                    state = view(state, context.cycle + 1)
-                elif adopt is not None and kind is checking:
-                    adopt(state, context.cycle + 1)
-            if context.cycle + 1 == break_at:
-                self._pause(context.cycle + 1, state, record)
-            if perceiver is None:
-                sensed = None
-            else:
-                sensed = perceiver.perceive(record, state, context.cycle + 1)
-                state = perceiver.seen
-            draws = record.random_numbers
-            # Load RN_t, unless there is none and nothing is left of the last cycle's (a
-            # draw is kept only when one was recorded; a draw too many leaves a mismatch).
-            if draws != EMPTY_LIST or random.recorded or random.drawn or random.refused is not None:
-                load(() if draws == EMPTY_LIST else decode_draws(record, context.cycle + 1))
-            perturb = self.perturb
-            if perturb is not None:
-                state = perturb(state)
-            failure = None
-            try:
-                changes = step(record.heartbeat_ns, state if observe is None else observe(state))
-            except RefusedDraw:
-                changes = None
-            except NumpyMissingError:
-                raise NumpyMissingError(self.path) from None
-            except BeatlogError:
-                raise
-            except (Exception, SystemExit) as exc:  # behavior code failing is an outcome
-                changes = None
-                failure = exc
-            self._last = (record, state, changes, failure, sensed)
-            if random.refused is not None:
-                drew_otherwise = True
-            elif match_draws:  # a cycle that neither drew nor had draws recorded has none to settle
-                differences = settle() if random.recorded or random.drawn else ()
-                drew_otherwise = bool(differences) and not (
-                    approves is not None and approves(context.cycle, differences)
-                )
-            else:
-                drew_otherwise = len(random.drawn) != len(random.recorded)
-            if changes is not None and (
-                drew_otherwise
-                or (sensed is not None and (sensed.differs or sensed.failure is not None))
-            ):
-                changes = None
-            if compares and changes is not None:
-                try:
-                    if agrees(record, changes):
-                        agreed[0] += len(changes)
-                        agreed[1] += len(context.outputs)
-                        agreed[2] += len(random.recorded)  # an agreeing cycle drew them all
-                        changes = AGREED
-                except (TypeError, ValueError, msgspec.EncodeError):
-                    pass  # cannot be logged: the verdict says so
+        if random.refused is not None:
+            drew_otherwise = True
+        elif self.match_draws:
+            # a cycle that neither drew nor had draws recorded has none to settle
+            differences = random.settle() if random.recorded or random.drawn else ()
+            drew_otherwise = bool(differences) and not (
+                check is not None
+                and check.draws is not None
+                and check.draws(context.cycle, differences)
+            )
+        else:
+            drew_otherwise = len(random.drawn) != len(random.recorded)
+        if changes is None or drew_otherwise:
+            return None
+        if sensed is not None and (sensed.differs or sensed.failure is not None):
+            return None
+        if check is None or check.judged:
+            return changes
+        try:
+            if not self.agrees(record, changes):
+                return changes
+        except (TypeError, ValueError, msgspec.EncodeError):
+            return changes  # cannot be logged: the verdict says so
+        self.agreed[0] += len(changes)
+        self.agreed[1] += len(context.outputs)
+        self.agreed[2] += len(random.recorded)  # an agreeing cycle drew them all
+        return AGREED
 
     def _pause(self, cycle: int, robot_state: Any, record: CycleRecord) -> None:
         """The replay debugger: stop in ``cycle`` just before the behaviors update, once

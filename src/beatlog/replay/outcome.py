@@ -23,7 +23,7 @@ __all__ = ["AGREED", "ByteCheck", "CycleOutcome", "Sensed", "Stop", "random_draw
 
 
 AGREED: list[LoggedStateChange] = []
-"""What :attr:`~beatlog.replay.core.Replayer.advance` answers for a cycle that replayed
+"""What :meth:`~beatlog.replay.core.Replayer.advance` answers for a cycle that replayed
 the bytes expected of it (:class:`ByteCheck`): the one object, never another list."""
 
 

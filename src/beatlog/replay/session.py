@@ -82,7 +82,7 @@ class Judge(Protocol):
         outcome: CycleOutcome | None,
     ) -> Observer | None:
         """Judge the cycle replayed last, the ``index``-th of its batch, which did not
-        agree at once: ``changes`` is what :attr:`~beatlog.replay.core.Replayer.advance`
+        agree at once: ``changes`` is what :meth:`~beatlog.replay.core.Replayer.advance`
         returned, ``outcome`` the cycle's outcome where other observers asked for it.
         Where judging stops, the observer that follows replay past that cycle, which
         alone the session goes on for: the others take the cycles up to that one."""
