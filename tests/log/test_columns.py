@@ -118,6 +118,31 @@ def test_a_column_table_checked_before_opens_a_batch_as_one_checked_afresh() -> 
             StateColumns(Path("v3.beatlog"), cut, [], tables)
 
 
+class Labels(msgspec.Struct):
+    """Two texts: columns of values of varied width."""
+
+    a: str
+    b: str
+
+
+def test_a_column_table_of_the_same_widths_and_other_sizes_opens_as_its_own() -> None:
+    """A remembered column table is one of the same widths, sizes and cycles: a batch of
+    the same widths, its columns of other sizes, opens as it would unremembered."""
+    encode = payload_encoder().encode
+    records = [encode((PERIOD_NS, None, [], [], {}, [])) for _ in range(16)]
+    first_labels = [Labels("x" * (t % 2), "y" * (t % 3)) for t in range(8)]
+    states = [encode(s) for s in [*first_labels, *(Labels(s.b, s.a) for s in first_labels)]]
+    ((_, first),) = column_batches(0, records[:8], states[:8])
+    ((_, second),) = column_batches(8, records[8:], states[8:])
+    assert (first.widths, len(first.data)) == (second.widths, len(second.data))
+    assert first.sizes != second.sizes
+    checked: dict[tuple[bytes, bytes, int], list[int]] = {}
+    StateColumns(Path("v3.beatlog"), first, [], checked)
+    remembered = StateColumns(Path("v3.beatlog"), second, [], checked)
+    afresh = StateColumns(Path("v3.beatlog"), second, [], None)
+    assert [remembered.encoded(i) for i in (0, 1)] == [afresh.encoded(i) for i in (0, 1)]
+
+
 @pytest.mark.parametrize(
     ("damage", "words"),
     [

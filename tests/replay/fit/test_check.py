@@ -392,9 +392,12 @@ def misfit(recorded: type[msgspec.Struct], current: type[msgspec.Struct], **migr
 def test_a_state_type_fits_each_time_as_it_fitted_the_first() -> None:
     """A system's robot state schema is made once per type (for speed) and shared by
     every check: pinned, checks that rename a field, nested or not, or that fail answer
-    alike the first time and after."""
+    alike the first time and after, and a type of another's name checks its own fields."""
     ranged = msgspec.defstruct(  # types new to the process: their first check makes it
         "Ranged", [("range", float, 1.0), ("reading", float, 0.0)], bases=(RobotState,)
+    )
+    named_alike = msgspec.defstruct(
+        "Ranged", [("distance", float, 1.0), ("reading", float, 0.0)], bases=(RobotState,)
     )
     posed = msgspec.defstruct(
         "PxPosed",
@@ -405,6 +408,7 @@ def test_a_state_type_fits_each_time_as_it_fitted_the_first() -> None:
     for _ in range(2):
         fit(Probe, ranged, renames={"distance": "range"})
         fit(WithPose, posed, renames={"pose.x": "pose.px"})
+        fit(Probe, named_alike)
         answers.append([misfit(Probe, ranged), misfit(WithPose, posed), misfit(Probe, posed)])
     assert answers[0] == answers[1]
     assert [answer.count("in its place") for answer in answers[0]] == [1, 1, 0]
