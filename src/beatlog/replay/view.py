@@ -181,7 +181,8 @@ class StateViews:
         a column at a time; where most are of varied width, all a column at a time, which
         costs less."""
         # Once a layout, not a batch: 3.2 % of a whole replay of 1,000 fields stored by
-        # field, 30 read, 3,000 cycles (569.6 -> 551.6 M instructions, cachegrind).
+        # field, 30 read, 3,000 cycles (569.6 -> 551.6 M instructions, cachegrind); 2.9 %
+        # of the dog's wall-follow stored by field (158.6 -> 154.0 M).
         index = self.index
         found = self._layouts.get((columns.widths, held))
         if found is None:
