@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import re
-import tomllib
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -25,7 +24,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from beatlog.errors import OptionError, SpecError
-from beatlog.suite.spec import MAX_SPEC_BYTES, SPEC_SUFFIX, DtcSpec, find_rootdir, load_spec
+from beatlog.suite.spec import SPEC_SUFFIX, DtcSpec, find_rootdir, load_spec, read_spec_data
 
 __all__ = [
     "KeywordExpression",
@@ -81,12 +80,11 @@ def no_specs_found(paths: Sequence[Path]) -> str:
 
 
 def _names_a_log(toml: Path) -> bool:
-    """Whether a small TOML file has a spec's ``log`` key."""
+    """Whether a TOML file reads as a spec's data (a small regular file) with its
+    ``log`` key."""
     try:
-        if toml.stat().st_size > MAX_SPEC_BYTES:
-            return False
-        return "log" in tomllib.loads(toml.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return "log" in read_spec_data(toml)
+    except (SpecError, OSError):
         return False
 
 
