@@ -16,6 +16,7 @@ import os
 import random
 import time
 import uuid
+import warnings
 from collections.abc import Mapping
 from types import CodeType, ModuleType
 from typing import Any
@@ -161,10 +162,14 @@ def screened_builtins() -> frozenset[str]:
     calls += [(private.random, ()), (private.getrandbits, (1,)), (os.urandom, (1,))]
     calls += [(dt.datetime.now, ()), (dt.datetime.utcnow, ()), (dt.date.today, ())]
     profiler = cProfile.Profile()
-    for call, arguments in calls:
-        profiler.enable()
-        call(*arguments)
-        profiler.disable()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # utcnow, from Python 3.12
+        for call, arguments in calls:
+            profiler.enable()
+            try:
+                call(*arguments)
+            finally:
+                profiler.disable()
     return frozenset(
         entry.code
         for entry in profiler.getstats()

@@ -60,6 +60,11 @@ class Debugger(pdb.Pdb):
         except _quits():
             raise DebuggerQuit from None
 
+    def set_stepinstr(self) -> None:
+        """Stop on the line after ``set_trace``, the one that updates the behaviors, as
+        before Python 3.13, whose ``set_trace`` stops on its own line by this call."""
+        self.set_step()
+
 
 def pause(
     update: Update,

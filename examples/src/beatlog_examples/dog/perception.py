@@ -81,7 +81,9 @@ def perceive(previous: DogState | None, samples: Sequence[Sample]) -> DogState:
                 fields["speed"] + SPEED_SMOOTHING * (value - fields["speed"]), 3
             )
         elif sensor == "joints":
-            fields["knee_mean"] = round(sum(value[1::2]) / 4, 2)
+            # added left to right, not by sum(): Python 3.12 sums floats more exactly,
+            # which would round some means the other way than the logs recorded them
+            fields["knee_mean"] = round((value[1] + value[3] + value[5] + value[7]) / 4, 2)
         elif sensor == "battery":
             fields.update(battery=value[0], charging=value[1])
         elif sensor == "beacon":
