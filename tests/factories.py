@@ -41,7 +41,9 @@ def as_format_1(log: Path, path: Path) -> Path:
     """The session of a format-2 ``log`` written again as format 1 wrote it: bare
     arrays of cycles, draws without their parameters."""
     with SessionLogReader(log) as reader:
-        header = msgspec.structs.replace(reader.header, format_version=1)
+        header = msgspec.structs.replace(
+            reader.header, format_version=1, python_version=msgspec.UNSET
+        )
         batches = []
         robot_time = 0
         for batch in reader.batches():

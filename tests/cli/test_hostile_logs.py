@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import platform
 import subprocess
 import sys
 from collections.abc import Callable
@@ -137,6 +138,18 @@ def test_show_says_which_format_version_a_log_is(tmp_path: Path, beatlog: Beatlo
     code, out, _ = beatlog("show", current)
     assert code == 0
     assert ["format", "version", str(FORMAT_VERSION)] in [line.split() for line in out.splitlines()]
+
+
+def test_show_says_which_python_a_log_was_recorded_under(
+    tmp_path: Path, beatlog: Beatlog, record_probe: RecordFn
+) -> None:
+    older = craft_log(tmp_path / "older.beatlog", standard_messages(5))
+
+    recorded = [line.split() for line in beatlog("show", record_probe(5)).out.splitlines()]
+    unknown = [line.split() for line in beatlog("show", older).out.splitlines()]
+
+    assert ["under", "Python", platform.python_version()] in [line[-3:] for line in recorded]
+    assert not any("Python" in line for line in unknown)
 
 
 @pytest.mark.parametrize("name", PROBE_CYCLE_DAMAGE)

@@ -323,6 +323,14 @@ def test_msgpack_nested_deep_in_any_header_field_is_a_corrupt_log(
             {"format_version": 3, "setup_draws": [[-1, "uniform", 2.5, [2.0, 3.0]]]},
             "set-up draws in a log of format 3",
         ),
+        (
+            {"format_version": 4, "python_version": "3.12.1"},
+            "a Python version in a log of format 4",
+        ),
+        (
+            {"python_version": "3" * 1000},
+            f"Expected `str` of length <= {MAX_NAME_LENGTH} - at `$.python_version`",
+        ),
     ],
     ids=[
         "version-0",
@@ -336,6 +344,8 @@ def test_msgpack_nested_deep_in_any_header_field_is_a_corrupt_log(
         "negative-start",
         "set-up-draw-of-a-behavior",
         "set-up-draws-in-format-3",
+        "python-version-in-format-4",
+        "long-python-version",
     ],
 )
 def test_header_fields_out_of_bounds_are_refused(

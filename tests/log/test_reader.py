@@ -366,6 +366,7 @@ def test_a_reader_tolerating_a_damaged_index_still_refuses_damaged_cycles(
         ("system", "robot:system\n"),
         ("robot_state_type", "Probe\x9b31m"),
         ("behaviors", ["avoid", "wander\r"]),
+        ("python_version", "3.12\x1b[2J"),
     ],
 )
 def test_a_header_name_with_control_characters_is_a_corrupt_log(

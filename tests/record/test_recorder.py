@@ -6,6 +6,7 @@ import enum
 import errno
 import io
 import os
+import platform
 import re
 import sys
 import time
@@ -20,7 +21,7 @@ import pytest
 from beatlog import replay
 from beatlog.analysis.summary import summarize
 from beatlog.errors import LogExistsError, NumpyMissingError, SchemaMismatchError
-from beatlog.log.format import SETUP_DRAWS_SINCE
+from beatlog.log.format import FORMAT_VERSION, SETUP_DRAWS_SINCE
 from beatlog.log.reader import LogStatus, SessionLogReader
 from beatlog.model.clock import LiveHeartbeat
 from beatlog.model.context import Outputs
@@ -341,7 +342,7 @@ def test_the_draws_a_system_made_while_it_was_built_are_its_set_up_draws(
             (-1, "normal_array(2.0, 0.5, [2])"),
         ]
         assert header.random_seed == 5
-        assert header.format_version == SETUP_DRAWS_SINCE
+        assert header.format_version >= SETUP_DRAWS_SINCE
 
 
 def test_a_recorder_takes_a_seed_or_a_random_source_not_both(tmp_path: Path) -> None:
@@ -394,3 +395,11 @@ def test_a_recorder_checks_nothing_unless_asked(tmp_path: Path) -> None:
         recorder.step(PERIOD_NS, Probe(distance=0.1))
 
     assert recorder.violations == []
+
+
+def test_the_header_names_the_python_the_session_was_recorded_under(tmp_path: Path) -> None:
+    with Recorder(tmp_path / "p.beatlog", probe_system()) as recorder:
+        recorder.step(PERIOD_NS, Probe())
+    with SessionLogReader(tmp_path / "p.beatlog") as reader:
+        assert reader.header.recorded_python() == platform.python_version()
+        assert reader.format_version == FORMAT_VERSION

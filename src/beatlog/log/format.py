@@ -40,6 +40,7 @@ __all__ = [
     "MESSAGE_ENCODING",
     "OLDEST_FORMAT_VERSION",
     "PROFILE",
+    "PYTHON_VERSION_SINCE",
     "SCHEMA_ENCODING",
     "SETUP_DRAWS_SINCE",
     "ColumnBatch",
@@ -55,7 +56,7 @@ __all__ = [
     "schema_name",
 ]
 
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 """Raised whenever a change would make older readers misread a log."""
 OLDEST_FORMAT_VERSION = 1
 """The oldest format version this beatlog still reads (and replays)."""
@@ -66,6 +67,9 @@ COLUMNS_SINCE = 3
 SETUP_DRAWS_SINCE = 4
 """From this version on, the header holds the draws the system made while it was built
 (:attr:`SessionHeader.setup_draws`)."""
+PYTHON_VERSION_SINCE = 5
+"""From this version on, the header names the Python the session was recorded under
+(:attr:`SessionHeader.python_version`)."""
 
 PROFILE = "beatlog"
 MESSAGE_ENCODING = "msgpack"
@@ -142,6 +146,10 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     (format 4), each the system's (actor -1): replay builds the system with them. Unset
     (and not written) where it drew none, so a header without them has the bytes of
     format 3; :meth:`drawn_at_setup` reads them either way."""
+    python_version: Name | msgspec.UnsetType = msgspec.UNSET
+    """The Python the session was recorded under, e.g. ``3.12.1`` (format 5): a float
+    ``sum()``, for one, adds otherwise from 3.12 on, so a replay under another minor
+    version may diverge. Unset in older logs."""
 
     def problem(self) -> str | None:
         """What makes this header unreadable beyond its field bounds, or None."""
@@ -151,6 +159,7 @@ class SessionHeader(msgspec.Struct, kw_only=True):
             "beatlog_version": self.beatlog_version,
             "system": self.system,
             "robot_state_type": self.robot_state_type,
+            "python_version": self.recorded_python() or "",
             **{f"behavior {index}": name for index, name in enumerate(self.behaviors)},
         }
         for field, name in named.items():
@@ -165,6 +174,8 @@ class SessionHeader(msgspec.Struct, kw_only=True):
         setup_draws = self.drawn_at_setup()
         if setup_draws and self.format_version < SETUP_DRAWS_SINCE:
             return f"set-up draws in a log of format {self.format_version}"
+        if self.recorded_python() is not None and self.format_version < PYTHON_VERSION_SINCE:
+            return f"a Python version in a log of format {self.format_version}"
         for number, draw in enumerate(setup_draws, 1):
             if draw.actor != -1:
                 return f"set-up draw {number} is behavior #{draw.actor}'s, not the system's"
@@ -173,6 +184,10 @@ class SessionHeader(msgspec.Struct, kw_only=True):
     def drawn_at_setup(self) -> list[Draw]:
         """The set-up draws, in the order drawn; none where the header holds none."""
         return [] if isinstance(self.setup_draws, msgspec.UnsetType) else self.setup_draws
+
+    def recorded_python(self) -> str | None:
+        """The Python version the session was recorded under; None where unknown."""
+        return None if isinstance(self.python_version, msgspec.UnsetType) else self.python_version
 
     def initial_states_by_name(self) -> dict[str, Any]:
         """The recorded state before cycle 0 of each behavior, by name (empty when unknown)."""

@@ -8,6 +8,7 @@ samples into the robot state, step, act. Like py_trees' ``tick`` and ``tick_tock
 from __future__ import annotations
 
 import logging
+import platform
 import subprocess
 import time
 from collections.abc import Callable, Sequence
@@ -177,6 +178,7 @@ class Recorder:
             setup_draws=setup_draws,
             samples_logged=log_samples,
             flush_interval_ns=int(flush_interval_s * 1e9),
+            python_version=platform.python_version(),
         )
         self._writer = SessionLogWriter(
             path, header, overwrite=overwrite, flush_interval_s=flush_interval_s, fsync=fsync

@@ -29,7 +29,12 @@ from beatlog.replay.baseline import Baseline, BaselineStream
 from beatlog.replay.compare import Comparison
 from beatlog.replay.core import CycleOutcome, Replayer
 from beatlog.replay.divergence import DivergenceWriter, Follower
-from beatlog.replay.fit.check import check_catalogue, check_state_fields, period_note
+from beatlog.replay.fit.check import (
+    check_catalogue,
+    check_state_fields,
+    period_note,
+    python_note,
+)
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.invariants import InvariantChecker
 from beatlog.replay.session import BatchReader, Calling, Observer, ReplaySession, fields_read
@@ -218,7 +223,12 @@ def replay(
         )
         divergence = dataclasses.replace(divergence, fields_read=read)
     no_samples = NO_SAMPLES if perception is not None and replayer.perception is None else ""
-    notes = (period_note(reader.header, replayer.system), no_samples, window.note())
+    notes = (
+        period_note(reader.header, replayer.system),
+        no_samples,
+        window.note(),
+        python_note(reader.header, diverged=divergence is not None),
+    )
     return ReplayResult(
         log=Path(log),
         ok=divergence is None,

@@ -254,7 +254,11 @@ def render_summary(summary: LogSummary) -> RenderableType:
         ("robot", header.robot_id),
         ("software", header.software_version),
         ("system", header.system or "(not recorded)"),
-        ("recorded", f"{started:%Y-%m-%d %H:%M:%S} UTC with beatlog {header.beatlog_version}"),
+        (
+            "recorded",
+            f"{started:%Y-%m-%d %H:%M:%S} UTC with beatlog {header.beatlog_version}"
+            + ("" if (python := header.recorded_python()) is None else f" under Python {python}"),
+        ),
         ("duration", f"{summary.robot_time_ns / 1e9:.3f} s robot time"),
         ("cycles", str(summary.cycles)),
         (

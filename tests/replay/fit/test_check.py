@@ -3,6 +3,7 @@ and its behaviors."""
 
 from __future__ import annotations
 
+import platform
 from pathlib import Path
 from typing import Any, Literal
 
@@ -193,6 +194,46 @@ def test_a_log_recorded_at_the_systems_heartbeat_period_has_no_note(
     same = PriorityArbiter([Near(), Dice()], robot_state=Probe, period_ns=PERIOD_NS)
 
     assert replay(log, same).notes == ()
+
+
+def test_a_diverged_replay_under_another_python_than_the_recording_says_so(
+    record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(300)
+    recorded = platform.python_version()
+    monkeypatch.setattr(platform, "python_version", lambda: "3.99.0")
+
+    result = replay(log, probe_system(threshold=0.6))
+
+    assert not result.ok
+    assert result.notes == (
+        f"recorded under Python {recorded}, replayed under 3.99.0: Python may compute "
+        "otherwise across versions (3.12 adds floats in sum() more exactly), so replay "
+        "under the robot's Python to tell a change of code from a change of Python",
+    )
+
+
+def test_a_diverged_replay_under_the_recordings_python_minor_has_no_python_note(
+    record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(300)
+    major, minor, _ = platform.python_version_tuple()
+    monkeypatch.setattr(platform, "python_version", lambda: f"{major}.{minor}.999")
+
+    result = replay(log, probe_system(threshold=0.6))
+
+    assert (result.ok, result.notes) == (False, ())
+
+
+def test_a_passing_replay_under_another_python_has_no_python_note(
+    record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(300)
+    monkeypatch.setattr(platform, "python_version", lambda: "3.99.0")
+
+    result = replay(log, probe_system())
+
+    assert (result.ok, result.notes) == (True, ())
 
 
 def test_a_state_that_gained_a_field_with_a_default_still_replays(record_probe: RecordFn) -> None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import difflib
 import functools
 import json
+import platform
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -34,6 +35,7 @@ __all__ = [
     "check_fit",
     "check_state_fields",
     "period_note",
+    "python_note",
     "state_differences",
 ]
 
@@ -138,6 +140,24 @@ def period_note(header: SessionHeader, system: System) -> str | None:
         "heartbeats, so this DTC runs open loop from cycle 0 (record it again at the new "
         "period)"
     )
+
+
+def python_note(header: SessionHeader, *, diverged: bool) -> str | None:
+    """A note on a diverged replay under another Python minor version than the session
+    was recorded under, which may compute floats otherwise; None otherwise."""
+    recorded = header.recorded_python()
+    replaying = platform.python_version()
+    if not diverged or recorded is None or _minor(recorded) == _minor(replaying):
+        return None
+    return (
+        f"recorded under Python {recorded}, replayed under {replaying}: Python may compute "
+        "otherwise across versions (3.12 adds floats in sum() more exactly), so replay "
+        "under the robot's Python to tell a change of code from a change of Python"
+    )
+
+
+def _minor(version: str) -> str:
+    return ".".join(version.split(".")[:2])
 
 
 def _check_migration(
