@@ -121,7 +121,7 @@ LAYERS = [
     {"report"},
     {"adapters", "pytest_plugin"},
     {"cli"},
-    {"__init__"},
+    {"__init__", "__main__"},
 ]
 """beatlog's parts (its subpackages and top-level modules), from the ground up: a part
 imports its own modules and those of the layers below it, never one above or beside.
@@ -130,7 +130,7 @@ the user's project (its configuration, its code and the leak watch over that cod
 record engine and the determinism audit both replay under that watch, neither knowing
 the other; the reports render what suites and replays give, and the suite session puts
 suites and reports together for the shells (the CLI, the pytest plugin);
-``beatlog/__init__`` is the API."""
+``beatlog/__init__`` is the API, ``beatlog/__main__`` the command."""
 
 SOURCE = Path(beatlog.__file__).parent
 

@@ -229,9 +229,11 @@ def test_a_system_in_the_working_directory_can_be_named(
     assert run.out.startswith("PASS")
 
 
-def test_the_console_script_reports_a_missing_file_in_one_line(tmp_path: Path) -> None:
+@pytest.mark.parametrize("way", ["console script", "python -m beatlog"])
+def test_the_command_reports_a_missing_file_in_one_line(tmp_path: Path, way: str) -> None:
     script = shutil.which("beatlog", path=str(Path(sys.executable).parent))
-    command = [script] if script else [sys.executable, "-m", "beatlog.cli.main"]
+    assert script is not None
+    command = [script] if way == "console script" else [sys.executable, "-m", "beatlog"]
     log = tmp_path / "missing.beatlog"
 
     done = subprocess.run(
