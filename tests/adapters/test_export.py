@@ -12,6 +12,7 @@ import csv
 import functools
 import json
 import math
+import platform
 import re
 import sys
 from pathlib import Path
@@ -832,6 +833,7 @@ def test_a_truncated_log_is_exported_up_to_its_last_cycle(beatlog: Beatlog, tmp_
             "format_version": str(FORMAT_VERSION),
             "robot_id": "bench",
             "software_version": "test",
+            "python_version": "unknown",
             "system": "",
             "robot_state_type": "tests.crafting.Gauge",
             "period_ns": str(PERIOD_NS),
@@ -908,6 +910,7 @@ def test_messages_are_stamped_with_the_recording_start_plus_robot_time(
             "format_version": str(FORMAT_VERSION),
             "robot_id": "robot",
             "software_version": "test",
+            "python_version": platform.python_version(),
             "system": "tests.conftest:probe_system",
             "robot_state_type": header.robot_state_type,
             "period_ns": str(header.period_ns),
@@ -1361,6 +1364,7 @@ def test_parquet_metadata_names_the_log_and_where_it_ends(tmp_path: Path) -> Non
         "beatlog.format_version": str(FORMAT_VERSION),
         "beatlog.robot_id": "bench",
         "beatlog.software_version": "test",
+        "beatlog.python_version": "unknown",
         "beatlog.system": "",
         "beatlog.robot_state_type": "tests.crafting.Gauge",
         "beatlog.period_ns": str(PERIOD_NS),

@@ -238,6 +238,7 @@ def log_metadata(session: Session) -> dict[str, str]:
         "format_version": str(header.format_version),
         "robot_id": header.robot_id,
         "software_version": header.software_version,
+        "python_version": header.recorded_python() or "unknown",
         "system": header.system,
         "robot_state_type": header.robot_state_type,
         "period_ns": str(header.period_ns),
