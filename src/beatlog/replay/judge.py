@@ -227,7 +227,10 @@ def replay(
         period_note(reader.header, replayer.system),
         no_samples,
         window.note(),
-        python_note(reader.header, diverged=divergence is not None),
+        python_note(
+            reader.header,
+            diverged=divergence is not None and divergence.kind is not DivergenceKind.LOG_ENDED,
+        ),
     )
     return ReplayResult(
         log=Path(log),

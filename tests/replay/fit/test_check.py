@@ -225,6 +225,20 @@ def test_a_diverged_replay_under_the_recordings_python_minor_has_no_python_note(
     assert (result.ok, result.notes) == (False, ())
 
 
+def test_a_log_that_ends_early_under_another_python_has_no_python_note(
+    record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    log = record_probe(300)
+    cut = log.with_name("cut.beatlog")
+    cut.write_bytes(log.read_bytes()[:-200])
+    monkeypatch.setattr(platform, "python_version", lambda: "3.99.0")
+
+    result = replay(cut, probe_system())
+
+    assert result.divergence is not None
+    assert (result.divergence.kind, result.notes) == (DivergenceKind.LOG_ENDED, ())
+
+
 def test_a_passing_replay_under_another_python_has_no_python_note(
     record_probe: RecordFn, monkeypatch: pytest.MonkeyPatch
 ) -> None:
