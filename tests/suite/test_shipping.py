@@ -4,17 +4,26 @@ folder, messages naming them as here, and one line for a worker without the syst
 
 from __future__ import annotations
 
+import pickle
 import shutil
 from pathlib import Path
 
 import pytest
 
-from beatlog.baseline.policy import UpdateMode
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.selection import fleet_specs
-from beatlog.suite.shipping import as_here, missing_system, packed, unpacked
+from beatlog.suite.shipping import (
+    absolute,
+    as_here,
+    missing_system,
+    packed,
+    received,
+    replayed,
+    unpacked,
+)
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, write_spec
@@ -79,3 +88,15 @@ def test_a_fleet_log_ships_alone(checkout: Path) -> None:
     shipped = packed(spec)
 
     assert list(shipped.files) == ["logs/walk.beatlog"]
+
+
+def test_a_tasks_outcomes_come_back_without_their_specs(checkout: Path) -> None:
+    given = load_spec(checkout / "dtc" / "walk.dtc.toml")
+
+    sent = replayed([absolute(given)], [], options=SpecOptions())
+
+    with pytest.raises(pickle.UnpicklingError):  # the client's own specs complete them
+        pickle.loads(sent)
+    [outcome] = received(sent, [given])
+    assert outcome.spec is given
+    assert outcome.verdict is Verdict.PASSED, outcome.error

@@ -38,7 +38,7 @@ from beatlog.suite.packing import fetched_ahead, tasks
 from beatlog.suite.parallel import longest_first
 from beatlog.suite.remote import Listed
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.shipping import absolute, as_given, packed, replayed
+from beatlog.suite.shipping import absolute, as_given, packed, received, replayed
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -142,11 +142,11 @@ class DaskExecutor(Closing):
             for task in tasks([_log_bytes(spec) for spec in ordered], threads)
         ]
         waiting = collections.deque(map(_Task, grouped, fetched_ahead(grouped, threads)))
-        pending: dict[str, tuple[Future[list[SpecOutcome]], _Task]] = {}
+        pending: dict[str, tuple[Future[bytes], _Task]] = {}
         guard = threading.Lock()  # of pending and lost, which the lookout sets
         ended, lost = threading.Event(), threading.Event()
 
-        def waited(*, losing: bool = False) -> list[Future[list[SpecOutcome]]]:
+        def waited(*, losing: bool = False) -> list[Future[bytes]]:
             """The futures submitted whose outcomes have not come; ``losing``, with the
             cluster marked lost, so that no more are submitted."""
             with guard:
@@ -154,7 +154,7 @@ class DaskExecutor(Closing):
                     lost.set()
                 return [future for future, _ in pending.values()]
 
-        def submit(count: int) -> list[Future[list[SpecOutcome]]]:
+        def submit(count: int) -> list[Future[bytes]]:
             """Submit the next ``count`` tasks, reading the files they ship only now."""
             chosen = [waiting.popleft() for _ in range(min(count, len(waiting)))]
             keys = [f"dtc-{task.specs[0].name}-{uuid.uuid4().hex}" for task in chosen]
@@ -165,7 +165,7 @@ class DaskExecutor(Closing):
             with guard:
                 if not chosen or lost.is_set():  # the cluster has no workers: nothing more
                     return []
-                futures: list[Future[list[SpecOutcome]]] = self._client.map(  # one message
+                futures: list[Future[bytes]] = self._client.map(  # one message
                     replayed,
                     sent,
                     [task.ahead for task in chosen],
@@ -255,7 +255,7 @@ class DaskExecutor(Closing):
         self._most_threads += joined
         return joined
 
-    def _died(self, future: Future[list[SpecOutcome]], task: _Task) -> int:
+    def _died(self, future: Future[bytes], task: _Task) -> int:
         """How many workers died while replaying the DTCs of a task that ended, in all,
         where its last ones did (past ``allowed-failures``); 0 where it did not fail, or
         was cancelled (the cluster lost).
@@ -271,8 +271,8 @@ class DaskExecutor(Closing):
         return task.deaths + exc.allowed_failures + 1
 
     def _outcomes(
-        self, batch: list[Future[list[SpecOutcome]]], ran: list[_Task], died: list[int]
-    ) -> tuple[list[SpecOutcome], list[Future[list[SpecOutcome]]]]:
+        self, batch: list[Future[bytes]], ran: list[_Task], died: list[int]
+    ) -> tuple[list[SpecOutcome], list[Future[bytes]]]:
         """The outcomes of the tasks of ``batch`` (the tasks ``ran``, whose workers
         ``died``), fetched from their workers in one round trip, told as a local run tells
         them, with the times each DTC was run again because its worker died; an error for a
@@ -292,7 +292,8 @@ class DaskExecutor(Closing):
         for future, task, deaths in zip(batch, ran, died, strict=True):
             if future in results:
                 retries = task.deaths + self._deaths[str(future.key)]
-                outcomes += map(as_given, results[future], task.specs, [retries] * len(task.specs))
+                given = received(results[future], task.specs)
+                outcomes += map(as_given, given, task.specs, [retries] * len(task.specs))
             elif deaths and len(task.specs) == 1:
                 workers = f"{deaths} worker{'' if deaths == 1 else 's'}"
                 problem = f"{workers} died while replaying it (a crash, or a machine lost)"

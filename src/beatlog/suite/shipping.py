@@ -4,20 +4,23 @@ A spec travels with absolute paths to a cluster of this machine's; to another, w
 files of this machine its replay reads (:func:`packed`: its baseline, its local log, its
 project's ``pyproject.toml``), written into a folder of the worker's in the same places
 (:func:`unpacked`). Code is not shipped: a worker without the system's package makes the
-DTC an error that says so (:func:`missing_system`). A task's body is :func:`replayed`;
-its outcomes are told with the spec as given here (:func:`as_given`).
+DTC an error that says so (:func:`missing_system`). A task's body is :func:`replayed`,
+whose outcomes come back in one pickle without their specs (:func:`received` gives them
+the specs as given here); they are told with the spec as given here (:func:`as_given`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import io
+import pickle
 import socket
 import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import IO, TYPE_CHECKING
 
 from beatlog.baseline.file import expected_path
 from beatlog.log.files import project_root
@@ -27,6 +30,8 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from beatlog.baseline.policy import SpecOptions
 
 __all__ = [
@@ -36,6 +41,7 @@ __all__ = [
     "as_here",
     "missing_system",
     "packed",
+    "received",
     "replayed",
     "unpacked",
 ]
@@ -45,14 +51,48 @@ _OUTSIDE = "outside"
 
 def replayed(
     sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]], *, options: SpecOptions
-) -> list[SpecOutcome]:
+) -> bytes:
     """On a worker: the outcomes of the DTCs of a task, in turn, while the logs
     ``ahead``, which this thread likely replays later, are fetched into the machine's
-    cache from the end of the first on (its own log's download goes first)."""
+    cache from the end of the first on (its own log's download goes first); pickled
+    whole, each outcome's spec by its place alone (:func:`received`)."""
     first = _replayed_one(sent[0], options)
     for url, listed in ahead:
         fetch_ahead(url, listed)
-    return [first, *(_replayed_one(each, options) for each in sent[1:])]
+    outcomes = [first, *(_replayed_one(each, options) for each in sent[1:])]
+    data = io.BytesIO()
+    _Sending(data, outcomes).dump(outcomes)
+    return data.getvalue()
+
+
+def received(data: bytes, specs: Sequence[DtcSpec]) -> list[SpecOutcome]:
+    """The outcomes :func:`replayed` sent for a task of ``specs``, each with its spec as
+    given here: the client has its own, and a spec unpickled costs more than the rest
+    of a passing DTC's outcome."""
+    outcomes: list[SpecOutcome] = _Receiving(data, specs).load()
+    return outcomes
+
+
+class _Sending(pickle.Pickler):
+    """Pickles a task's outcomes with the spec of each by its place among them."""
+
+    def __init__(self, file: IO[bytes], outcomes: list[SpecOutcome]) -> None:
+        super().__init__(file, pickle.HIGHEST_PROTOCOL)
+        self._places = {id(outcome.spec): place for place, outcome in enumerate(outcomes)}
+
+    def persistent_id(self, obj: object) -> int | None:
+        return self._places.get(id(obj)) if isinstance(obj, DtcSpec) else None
+
+
+class _Receiving(pickle.Unpickler):
+    """Unpickles what :class:`_Sending` pickled, each spec the one of its place here."""
+
+    def __init__(self, data: bytes, specs: Sequence[DtcSpec]) -> None:
+        super().__init__(io.BytesIO(data))
+        self._specs = specs
+
+    def persistent_load(self, pid: int) -> DtcSpec:
+        return self._specs[pid]
 
 
 def _replayed_one(sent: DtcSpec | Packed, options: SpecOptions) -> SpecOutcome:
