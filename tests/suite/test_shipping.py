@@ -22,6 +22,7 @@ from beatlog.suite.shipping import (
     packed,
     received,
     replayed,
+    shipped,
     unpacked,
 )
 from beatlog.suite.spec import load_spec
@@ -93,10 +94,20 @@ def test_a_fleet_log_ships_alone(checkout: Path) -> None:
 def test_a_tasks_outcomes_come_back_without_their_specs(checkout: Path) -> None:
     given = load_spec(checkout / "dtc" / "walk.dtc.toml")
 
-    sent = replayed([absolute(given)], [], options=SpecOptions())
+    sent = replayed(shipped([absolute(given)], []), options=SpecOptions())
 
     with pytest.raises(pickle.UnpicklingError):  # the client's own specs complete them
         pickle.loads(sent)
     [outcome] = received(sent, [given])
     assert outcome.spec is given
+    assert outcome.verdict is Verdict.PASSED, outcome.error
+
+
+def test_a_task_travels_as_bytes_its_worker_alone_unpickles(checkout: Path) -> None:
+    given = load_spec(checkout / "dtc" / "walk.dtc.toml")
+
+    task = shipped([packed(absolute(given))], [])
+
+    assert isinstance(task, bytes)  # what Dask's scheduler passes on unopened
+    [outcome] = received(replayed(task, options=SpecOptions()), [given])
     assert outcome.verdict is Verdict.PASSED, outcome.error

@@ -38,7 +38,15 @@ from beatlog.suite.packing import fetched_ahead, tasks
 from beatlog.suite.parallel import longest_first
 from beatlog.suite.remote import Listed
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.shipping import absolute, as_given, packed, received, replayed
+from beatlog.suite.shipping import (
+    Packed,
+    absolute,
+    as_given,
+    packed,
+    received,
+    replayed,
+    shipped,
+)
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -158,17 +166,13 @@ class DaskExecutor(Closing):
             """Submit the next ``count`` tasks, reading the files they ship only now."""
             chosen = [waiting.popleft() for _ in range(min(count, len(waiting)))]
             keys = [f"dtc-{task.specs[0].name}-{uuid.uuid4().hex}" for task in chosen]
-            sent = [
-                [packed(absolute(spec)) if self._ships else absolute(spec) for spec in task.specs]
-                for task in chosen
-            ]
+            sent = [shipped(list(map(self._sent, task.specs)), task.ahead) for task in chosen]
             with guard:
                 if not chosen or lost.is_set():  # the cluster has no workers: nothing more
                     return []
                 futures: list[Future[bytes]] = self._client.map(  # one message
                     replayed,
                     sent,
-                    [task.ahead for task in chosen],
                     options=options,
                     key=keys,
                     pure=False,
@@ -217,6 +221,11 @@ class DaskExecutor(Closing):
             ended.set()
             lookout.join()
             self._client.cancel(waited(), force=True)
+
+    def _sent(self, spec: DtcSpec) -> DtcSpec | Packed:
+        """The spec as its worker gets it: with absolute paths, and with the files it
+        reads where the cluster is not of this machine."""
+        return packed(absolute(spec)) if self._ships else absolute(spec)
 
     def _not_run(self, missing: int, total: int, *, lost: bool) -> ClusterError:
         """The error of a run that ended with ``missing`` of its ``total`` DTCs not run:

@@ -4,9 +4,11 @@ A spec travels with absolute paths to a cluster of this machine's; to another, w
 files of this machine its replay reads (:func:`packed`: its baseline, its local log, its
 project's ``pyproject.toml``), written into a folder of the worker's in the same places
 (:func:`unpacked`). Code is not shipped: a worker without the system's package makes the
-DTC an error that says so (:func:`missing_system`). A task's body is :func:`replayed`,
-whose outcomes come back in one pickle without their specs (:func:`received` gives them
-the specs as given here); they are told with the spec as given here (:func:`as_given`).
+DTC an error that says so (:func:`missing_system`). A task travels in one pickle
+(:func:`shipped`), which Dask's scheduler passes on unopened; its body is
+:func:`replayed`, whose outcomes come back in one pickle without their specs
+(:func:`received` gives them the specs as given here); they are told with the spec as
+given here (:func:`as_given`).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, TYPE_CHECKING
+from typing import IO, TYPE_CHECKING, cast
 
 from beatlog.baseline.file import expected_path
 from beatlog.log.files import project_root
@@ -43,19 +45,29 @@ __all__ = [
     "packed",
     "received",
     "replayed",
+    "shipped",
     "unpacked",
 ]
 
 _OUTSIDE = "outside"
 
 
-def replayed(
-    sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]], *, options: SpecOptions
-) -> bytes:
-    """On a worker: the outcomes of the DTCs of a task, in turn, while the logs
-    ``ahead``, which this thread likely replays later, are fetched into the machine's
-    cache from the end of the first on (its own log's download goes first); pickled
-    whole, each outcome's spec by its place alone (:func:`received`)."""
+_Task = tuple[list["DtcSpec | Packed"], list[tuple[str, "Listed | None"]]]
+
+
+def shipped(sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]]) -> bytes:
+    """A task for :func:`replayed`: its DTCs as sent, and the logs behind URLs it fetches
+    ahead, in one pickle. Dask's scheduler passes bytes on as they are, where it would
+    unpickle each spec and pickle it again for the worker."""
+    return pickle.dumps((sent, ahead), pickle.HIGHEST_PROTOCOL)
+
+
+def replayed(task: bytes, *, options: SpecOptions) -> bytes:
+    """On a worker: the outcomes of the DTCs of a task (:func:`shipped`), in turn, while
+    the logs it fetches ahead, which this thread likely replays later, are fetched into
+    the machine's cache from the end of the first on (its own log's download goes
+    first); pickled whole, each outcome's spec by its place alone (:func:`received`)."""
+    sent, ahead = cast("_Task", pickle.loads(task))  # noqa: S301 - from the suite's client
     first = _replayed_one(sent[0], options)
     for url, listed in ahead:
         fetch_ahead(url, listed)
