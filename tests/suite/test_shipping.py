@@ -17,6 +17,7 @@ from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.selection import fleet_specs
 from beatlog.suite.shipping import (
     absolute,
+    as_given,
     as_here,
     missing_system,
     packed,
@@ -111,3 +112,12 @@ def test_a_task_travels_as_bytes_its_worker_alone_unpickles(checkout: Path) -> N
     assert isinstance(task, bytes)  # what Dask's scheduler passes on unopened
     [outcome] = received(replayed(task, options=SpecOptions()), [given])
     assert outcome.verdict is Verdict.PASSED, outcome.error
+
+
+def test_a_fleet_logs_outcome_is_told_as_it_came_but_for_its_retries(checkout: Path) -> None:
+    [given] = fleet_specs(f"{checkout}/logs/*.beatlog", system=CHANGED)
+    [outcome] = received(replayed(shipped([absolute(given)], []), options=SpecOptions()), [given])
+
+    assert as_given(outcome, 0) is outcome  # nothing of it named otherwise here: no copy
+    assert as_given(outcome, 2).retries == 2
+    assert as_given(outcome, 2).result == outcome.result

@@ -301,8 +301,9 @@ class DaskExecutor(Closing):
         for future, task, deaths in zip(batch, ran, died, strict=True):
             if future in results:
                 retries = task.deaths + self._deaths[str(future.key)]
-                given = received(results[future], task.specs)
-                outcomes += map(as_given, given, task.specs, [retries] * len(task.specs))
+                outcomes += [
+                    as_given(outcome, retries) for outcome in received(results[future], task.specs)
+                ]
             elif deaths and len(task.specs) == 1:
                 workers = f"{deaths} worker{'' if deaths == 1 else 's'}"
                 problem = f"{workers} died while replaying it (a crash, or a machine lost)"

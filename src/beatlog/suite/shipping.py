@@ -220,17 +220,30 @@ def absolute(spec: DtcSpec) -> DtcSpec:
     return dataclasses.replace(spec, path=spec.path.absolute(), log=log)
 
 
-def as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
-    """A worker's outcome with the spec as given here (relative paths stay relative):
-    the same log, error, rerun command and baseline as a local run's."""
-    outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
+def as_given(outcome: SpecOutcome, retries: int) -> SpecOutcome:
+    """A worker's outcome, which :func:`received` gave its spec as given here, told as a
+    local run tells it (relative paths stay relative): the same log, error, rerun command
+    and baseline as a local run's, with the times its DTC was run again (``retries``).
+    Copied only where one of them differs: a passing fleet log's outcome comes as is."""
+    spec = outcome.spec
     result = outcome.result
     if result is not None:
-        result = dataclasses.replace(result, log=spec.log, reproduce=outcome.reproduce)
+        reproduce = outcome.reproduce
+        if result.log != spec.log or result.reproduce != reproduce:
+            result = dataclasses.replace(result, log=spec.log, reproduce=reproduce)
     error = outcome.error
     if error is not None:
         sent = absolute(spec)
         for there, given in ((sent.log, spec.log), (sent.path, spec.path)):
             error = error.replace(str(there), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
-    return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
+    if (
+        result is outcome.result
+        and error == outcome.error
+        and baseline == outcome.baseline
+        and retries == outcome.retries
+    ):
+        return outcome
+    return dataclasses.replace(
+        outcome, result=result, error=error, baseline=baseline, retries=retries
+    )
