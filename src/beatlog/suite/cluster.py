@@ -65,12 +65,20 @@ __all__ = [
 CLUSTER_SETTINGS = {
     "distributed.worker.profile.enabled": False,
     "distributed.scheduler.worker-saturation": 1.0,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.admin.system-monitor.disk": False,
 }
 """The settings of the cluster ``local`` starts, worth a cluster's own too. Dask's
 profiler, sampling a worker's threads every 10 ms for its dashboard, costs 0.5-0.9 ms of
 CPU a DTC of a 3-s rover log, whose replay takes 3 ms. A saturation of 1 gives a worker
 no task beyond one a thread, also while another worker restarts (Dask's 1.1 gives a
-worker of one thread two): a DTC that kills its worker takes no waiting task with it."""
+worker of one thread two): a DTC that kills its worker takes no waiting task with it.
+Each process's check that its event loop is not blocked once a second (Dask's: every
+20 ms, only to log a warning), and the dashboard's samples of CPU and memory every 5 s
+with no disk counters (Dask's: every 0.5 s), cut what a cluster of two workers costs
+while it runs from 50-60 ms of CPU a second to about 18 ms in the client's process, and
+from 20 to 7 ms in each worker's."""
 
 NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
