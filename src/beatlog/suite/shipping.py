@@ -7,8 +7,8 @@ project's ``pyproject.toml``), written into a folder of the worker's in the same
 DTC an error that says so (:func:`missing_system`). A task travels in one pickle
 (:func:`shipped`), which Dask's scheduler passes on unopened; its body is
 :func:`replayed`, whose outcomes come back in one pickle without their specs
-(:func:`received` gives them the specs as given here); they are told with the spec as
-given here (:func:`as_given`).
+(:func:`received` puts back the specs as given here), to be told as a local run tells
+them (:func:`as_given`).
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ __all__ = [
 _OUTSIDE = "outside"
 
 
-_Task = tuple[list["DtcSpec | Packed"], list[tuple[str, "Listed | None"]]]
+_Shipment = tuple[list["DtcSpec | Packed"], list[tuple[str, "Listed | None"]]]
 
 
 def shipped(sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]]) -> bytes:
@@ -67,7 +67,7 @@ def replayed(task: bytes, *, options: SpecOptions) -> bytes:
     the logs it fetches ahead, which this thread likely replays later, are fetched into
     the machine's cache from the end of the first on (its own log's download goes
     first); pickled whole, each outcome's spec by its place alone (:func:`received`)."""
-    sent, ahead = cast("_Task", pickle.loads(task))  # noqa: S301 - from the suite's client
+    sent, ahead = cast("_Shipment", pickle.loads(task))  # noqa: S301 - from the suite's client
     first = _replayed_one(sent[0], options)
     for url, listed in ahead:
         fetch_ahead(url, listed)
