@@ -76,6 +76,17 @@ def local_cluster(workers: int, *, allowed_failures: int = 3) -> LocalCluster:
         )
 
 
+def test_a_local_clusters_processes_check_their_event_loops_once_a_second(cluster: str) -> None:
+    def every_ms(dask_scheduler: Any = None, dask_worker: Any = None) -> list[float]:
+        callbacks = (dask_scheduler or dask_worker).periodic_callbacks
+        return [callbacks["tick"].callback_time, callbacks["monitor"].callback_time]
+
+    with Client(cluster, set_as_default=False) as client:
+        every = [client.run_on_scheduler(every_ms), *client.run(every_ms).values()]
+
+    assert every == [[1000, 5000]] * 3  # Dask's 20 and 500 ms cost idle workers 2/3 of their CPU
+
+
 @pytest.fixture
 def beatlog(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch

@@ -4,17 +4,28 @@ folder, messages naming them as here, and one line for a worker without the syst
 
 from __future__ import annotations
 
+import pickle
 import shutil
 from pathlib import Path
 
 import pytest
 
-from beatlog.baseline.policy import UpdateMode
+from beatlog.baseline.policy import SpecOptions, UpdateMode
 from beatlog.suite.maintenance import approve, update_baselines
 from beatlog.suite.parallel import run_suite
 from beatlog.suite.runner import Verdict, run_spec
 from beatlog.suite.selection import fleet_specs
-from beatlog.suite.shipping import as_here, missing_system, packed, unpacked
+from beatlog.suite.shipping import (
+    absolute,
+    as_given,
+    as_here,
+    missing_system,
+    packed,
+    received,
+    replayed,
+    shipped,
+    unpacked,
+)
 from beatlog.suite.spec import load_spec
 from tests.conftest import RecordFn
 from tests.specs import CHANGED, write_spec
@@ -79,3 +90,34 @@ def test_a_fleet_log_ships_alone(checkout: Path) -> None:
     shipped = packed(spec)
 
     assert list(shipped.files) == ["logs/walk.beatlog"]
+
+
+def test_a_tasks_outcomes_come_back_without_their_specs(checkout: Path) -> None:
+    given = load_spec(checkout / "dtc" / "walk.dtc.toml")
+
+    sent = replayed(shipped([absolute(given)], []), options=SpecOptions())
+
+    with pytest.raises(pickle.UnpicklingError):  # the client's own specs complete them
+        pickle.loads(sent)
+    [outcome] = received(sent, [given])
+    assert outcome.spec is given
+    assert outcome.verdict is Verdict.PASSED, outcome.error
+
+
+def test_a_task_travels_as_bytes_its_worker_alone_unpickles(checkout: Path) -> None:
+    given = load_spec(checkout / "dtc" / "walk.dtc.toml")
+
+    task = shipped([packed(absolute(given))], [])
+
+    assert isinstance(task, bytes)  # what Dask's scheduler passes on unopened
+    [outcome] = received(replayed(task, options=SpecOptions()), [given])
+    assert outcome.verdict is Verdict.PASSED, outcome.error
+
+
+def test_a_fleet_logs_outcome_is_told_as_it_came_but_for_its_retries(checkout: Path) -> None:
+    [given] = fleet_specs(f"{checkout}/logs/*.beatlog", system=CHANGED)
+    [outcome] = received(replayed(shipped([absolute(given)], []), options=SpecOptions()), [given])
+
+    assert as_given(outcome, 0) is outcome  # nothing of it named otherwise here: no copy
+    assert as_given(outcome, 2).retries == 2
+    assert as_given(outcome, 2).result == outcome.result

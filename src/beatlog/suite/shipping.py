@@ -4,20 +4,25 @@ A spec travels with absolute paths to a cluster of this machine's; to another, w
 files of this machine its replay reads (:func:`packed`: its baseline, its local log, its
 project's ``pyproject.toml``), written into a folder of the worker's in the same places
 (:func:`unpacked`). Code is not shipped: a worker without the system's package makes the
-DTC an error that says so (:func:`missing_system`). A task's body is :func:`replayed`;
-its outcomes are told with the spec as given here (:func:`as_given`).
+DTC an error that says so (:func:`missing_system`). A task travels in one pickle
+(:func:`shipped`), which Dask's scheduler passes on unopened; its body is
+:func:`replayed`, whose outcomes come back in one pickle without their specs
+(:func:`received` puts back the specs as given here), to be told as a local run tells
+them (:func:`as_given`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import importlib.util
+import io
+import pickle
 import socket
 import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import IO, TYPE_CHECKING, cast
 
 from beatlog.baseline.file import expected_path
 from beatlog.log.files import project_root
@@ -27,6 +32,8 @@ from beatlog.suite.runner import SpecOutcome, Verdict, run_spec
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from beatlog.baseline.policy import SpecOptions
 
 __all__ = [
@@ -36,23 +43,68 @@ __all__ = [
     "as_here",
     "missing_system",
     "packed",
+    "received",
     "replayed",
+    "shipped",
     "unpacked",
 ]
 
 _OUTSIDE = "outside"
 
 
-def replayed(
-    sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]], *, options: SpecOptions
-) -> list[SpecOutcome]:
-    """On a worker: the outcomes of the DTCs of a task, in turn, while the logs
-    ``ahead``, which this thread likely replays later, are fetched into the machine's
-    cache from the end of the first on (its own log's download goes first)."""
+_Shipment = tuple[list["DtcSpec | Packed"], list[tuple[str, "Listed | None"]]]
+
+
+def shipped(sent: list[DtcSpec | Packed], ahead: list[tuple[str, Listed | None]]) -> bytes:
+    """A task for :func:`replayed`: its DTCs as sent, and the logs behind URLs it fetches
+    ahead, in one pickle. Dask's scheduler passes bytes on as they are, where it would
+    unpickle each spec and pickle it again for the worker."""
+    return pickle.dumps((sent, ahead), pickle.HIGHEST_PROTOCOL)
+
+
+def replayed(task: bytes, *, options: SpecOptions) -> bytes:
+    """On a worker: the outcomes of the DTCs of a task (:func:`shipped`), in turn, while
+    the logs it fetches ahead, which this thread likely replays later, are fetched into
+    the machine's cache from the end of the first on (its own log's download goes
+    first); pickled whole, each outcome's spec by its place alone (:func:`received`)."""
+    sent, ahead = cast("_Shipment", pickle.loads(task))  # noqa: S301 - from the suite's client
     first = _replayed_one(sent[0], options)
     for url, listed in ahead:
         fetch_ahead(url, listed)
-    return [first, *(_replayed_one(each, options) for each in sent[1:])]
+    outcomes = [first, *(_replayed_one(each, options) for each in sent[1:])]
+    data = io.BytesIO()
+    _Sending(data, outcomes).dump(outcomes)
+    return data.getvalue()
+
+
+def received(data: bytes, specs: Sequence[DtcSpec]) -> list[SpecOutcome]:
+    """The outcomes :func:`replayed` sent for a task of ``specs``, each with its spec as
+    given here: the client has its own, and a spec unpickled costs more than the rest
+    of a passing DTC's outcome."""
+    outcomes: list[SpecOutcome] = _Receiving(data, specs).load()
+    return outcomes
+
+
+class _Sending(pickle.Pickler):
+    """Pickles a task's outcomes with the spec of each by its place among them."""
+
+    def __init__(self, file: IO[bytes], outcomes: list[SpecOutcome]) -> None:
+        super().__init__(file, pickle.HIGHEST_PROTOCOL)
+        self._places = {id(outcome.spec): place for place, outcome in enumerate(outcomes)}
+
+    def persistent_id(self, obj: object) -> int | None:
+        return self._places.get(id(obj)) if isinstance(obj, DtcSpec) else None
+
+
+class _Receiving(pickle.Unpickler):
+    """Unpickles what :class:`_Sending` pickled, each spec the one of its place here."""
+
+    def __init__(self, data: bytes, specs: Sequence[DtcSpec]) -> None:
+        super().__init__(io.BytesIO(data))
+        self._specs = specs
+
+    def persistent_load(self, pid: int) -> DtcSpec:
+        return self._specs[pid]
 
 
 def _replayed_one(sent: DtcSpec | Packed, options: SpecOptions) -> SpecOutcome:
@@ -168,17 +220,30 @@ def absolute(spec: DtcSpec) -> DtcSpec:
     return dataclasses.replace(spec, path=spec.path.absolute(), log=log)
 
 
-def as_given(outcome: SpecOutcome, spec: DtcSpec, retries: int) -> SpecOutcome:
-    """A worker's outcome with the spec as given here (relative paths stay relative):
-    the same log, error, rerun command and baseline as a local run's."""
-    outcome = dataclasses.replace(outcome, spec=spec, retries=retries)
+def as_given(outcome: SpecOutcome, retries: int) -> SpecOutcome:
+    """A worker's outcome, which :func:`received` gave its spec as given here, told as a
+    local run tells it (relative paths stay relative): the same log, error, rerun command
+    and baseline as a local run's, with the times its DTC was run again (``retries``).
+    Copied only where one of them differs: a passing fleet log's outcome comes as is."""
+    spec = outcome.spec
     result = outcome.result
     if result is not None:
-        result = dataclasses.replace(result, log=spec.log, reproduce=outcome.reproduce)
+        reproduce = outcome.reproduce
+        if result.log != spec.log or result.reproduce != reproduce:
+            result = dataclasses.replace(result, log=spec.log, reproduce=reproduce)
     error = outcome.error
     if error is not None:
         sent = absolute(spec)
         for there, given in ((sent.log, spec.log), (sent.path, spec.path)):
             error = error.replace(str(there), str(given))
     baseline = None if outcome.baseline is None else expected_path(spec.path)
-    return dataclasses.replace(outcome, result=result, error=error, baseline=baseline)
+    if (
+        result is outcome.result
+        and error == outcome.error
+        and baseline == outcome.baseline
+        and retries == outcome.retries
+    ):
+        return outcome
+    return dataclasses.replace(
+        outcome, result=result, error=error, baseline=baseline, retries=retries
+    )
