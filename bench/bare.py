@@ -35,7 +35,7 @@ from beatlog.log.format import EMPTY_LIST, EMPTY_MAP, payload_encoder
 from beatlog.log.reader import SessionLogReader
 from beatlog.model.behavior import System
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import find_changes, read_states
+from beatlog.model.cycle import find_changes, state_reader
 from beatlog.model.random import Draw
 from beatlog.replay.random import ReplayRandom
 from beatlog.replay.view import StateViews
@@ -146,8 +146,8 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
     random = ReplayRandom()
     context = Context(random)
     random.bind(context)
-    behaviors = tuple(system.behaviors.values())
-    states = read_states(behaviors)
+    read_states = state_reader(tuple(system.behaviors.values()))
+    states = read_states()
     encode = payload_encoder().encode
     decode_draws = msgspec.msgpack.Decoder(list[Draw]).decode
     raw = msgspec.Raw
@@ -170,7 +170,7 @@ def run_checked(path: Path, make_system: Callable[[], System]) -> System:
                 if state.__class__ is StateColumns:  # format 3: a view of the columns
                     state = view(state, context.cycle)
                 update(state, context)
-                now = read_states(behaviors)
+                now = read_states()
                 if now != states:
                     changes = find_changes(now, states)
                     failed += record.state_changes != raw(encode(changes))

@@ -10,7 +10,7 @@ import pytest
 
 from beatlog.model.behavior import Behavior, BehaviorState
 from beatlog.model.context import Context, Outputs
-from beatlog.model.cycle import CycleExecutor, Update, find_changes, read_states
+from beatlog.model.cycle import CycleExecutor, Update, find_changes, state_reader
 from beatlog.model.random import Draw, RecordingRandom
 from tests.conftest import PERIOD_NS, Probe
 
@@ -167,12 +167,37 @@ class Computed:
 
 def test_the_states_are_read_in_catalogue_order_as_they_are_now() -> None:
     first, second, computed = Flag("idle"), Flag(3), Computed()
-    behaviors: list[Behavior] = [first, second, computed]
-    assert read_states(behaviors) == ["idle", 3, "low"]
+    read = state_reader([first, second, computed])
+    assert read() == ["idle", 3, "low"]
     first.state, computed.level = None, 2
-    assert read_states(behaviors) == [None, 3, "high"]
-    assert read_states(behaviors) is not read_states(behaviors)  # a new list each time
-    assert read_states([]) == []
+    assert read() == [None, 3, "high"]
+    assert read() is not read()  # a new list each time
+    assert state_reader([])() == []
+
+
+class Slotted:
+    __slots__ = ("state",)
+
+    def __init__(self, state: BehaviorState) -> None:
+        self.state = state
+
+
+@pytest.mark.parametrize("size", [1, 2, 17, 300])
+def test_the_written_out_reader_reads_what_a_loop_over_the_catalogue_reads(size: int) -> None:
+    """The reader's source is written out for the catalogue's size (a speed trick): pinned
+    to a plain loop over catalogues of every kind of state, changing between reads."""
+    kinds = (Flag, Slotted)
+    behaviors: list[Behavior] = [
+        Computed() if index % 3 == 2 else kinds[index % 3](index) for index in range(size)
+    ]
+    read = state_reader(behaviors)
+    for level in range(3):
+        for index, behavior in enumerate(behaviors):
+            if isinstance(behavior, Computed):
+                behavior.level = level
+            elif index % 2 == level % 2:
+                behavior.state = f"{index} at {level}"  # type: ignore[misc]
+        assert read() == [behavior.state for behavior in behaviors]
 
 
 @pytest.mark.parametrize("size", [4, 32, 33, 100])
@@ -219,10 +244,11 @@ def test_each_cycle_reports_what_the_finder_finds_of_the_same_states() -> None:
     ]
     panel = Panel(script)
     executor = CycleExecutor(panel, RecordingRandom(seed=1))
-    seen = read_states(list(panel.flags.values()))
+    read = state_reader(list(panel.flags.values()))
+    seen = read()
     stepped, found = [], []
     for _ in script:
         stepped.append(executor.step(PERIOD_NS, Probe()))
-        found.append(find_changes(read_states(list(panel.flags.values())), seen))
+        found.append(find_changes(read(), seen))
     assert stepped == found
     assert [len(changes) for changes in stepped] == [0, 1, 0, 2, 1, 0, 1, 0, 0]

@@ -6,6 +6,7 @@ and diffs every behavior's state in catalogue order, giving BS_t.
 
 from __future__ import annotations
 
+import functools
 import reprlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NamedTuple
@@ -24,7 +25,7 @@ __all__ = [
     "Update",
     "actor_name",
     "find_changes",
-    "read_states",
+    "state_reader",
 ]
 
 Update = Callable[[Any, Context], None]
@@ -75,9 +76,35 @@ def actor_name(names: Sequence[str], actor: int) -> str:
     return names[actor] if actor < len(names) else f"#{actor}"
 
 
-def read_states(behaviors: Sequence[Behavior]) -> list[BehaviorState]:
-    """Every behavior's state as it is now, in catalogue order."""
-    return [behavior.state for behavior in behaviors]
+def state_reader(behaviors: Sequence[Behavior]) -> Callable[[], list[BehaviorState]]:
+    """A function that reads every behavior's state as it is now, in catalogue order,
+    into a new list: ``[behaviors[0].state, behaviors[1].state, ...]``, read every cycle.
+
+    Its source is written out for the catalogue's size (as :mod:`dataclasses` writes an
+    ``__init__``), so that each behavior's state is read by an attribute access of its
+    own, which the interpreter specialises for that behavior's class; one access in a
+    loop sees every class of the catalogue and stays generic. A whole replay of the
+    rover's 35,000 cycles takes 6.2 % fewer instructions with it than with a loop
+    (1,275.4 M against 1,359.4 M, cachegrind); the loop is its differential test's.
+    """
+    read: Callable[[], list[BehaviorState]] = _reader_binder(len(behaviors))(*behaviors)
+    return read
+
+
+@functools.lru_cache(maxsize=16)
+def _reader_binder(size: int) -> Callable[..., Callable[[], list[BehaviorState]]]:
+    """:func:`state_reader`'s code for a catalogue of ``size``, compiled once per size."""
+    names = [f"b{index}" for index in range(size)]
+    source = (
+        f"def bind({', '.join(names)}):\n"
+        f"    def read():\n"
+        f"        return [{', '.join(f'{name}.state' for name in names)}]\n"
+        f"    return read\n"
+    )
+    namespace: dict[str, Any] = {}
+    exec(source, namespace)  # noqa: S102 - our own source, of names b0, b1, ... only
+    bind: Callable[..., Callable[[], list[BehaviorState]]] = namespace["bind"]
+    return bind
 
 
 def find_changes(now: list[BehaviorState], seen: list[BehaviorState]) -> list[LoggedStateChange]:
@@ -100,8 +127,8 @@ class CycleExecutor:
         self.system = system
         catalogue = system.behaviors
         self.behavior_ids = list(catalogue)
-        self._behaviors = tuple(catalogue.values())
-        self._states = read_states(self._behaviors)
+        self._read_states = state_reader(tuple(catalogue.values()))
+        self._states = self._read_states()
         self._update: Update = system.update
         self.clock = SimulatedHeartbeat()
         self.context = Context(random)
@@ -117,7 +144,7 @@ class CycleExecutor:
         if context.outputs:
             context.outputs = {}
         self._update(state, context)
-        now = read_states(self._behaviors)
+        now = self._read_states()
         states = self._states
         # Most cycles change nothing: the lists compared in C, not the finder's loop; buys
         # 13 % of a whole replay of the rover's 35,000 cycles (1,541 -> 1,335 M
