@@ -168,6 +168,21 @@ def test_a_cycle_after_a_draw_too_many_starts_clean(record_probe: RecordFn) -> N
     assert results[4][1].refused_draw is None
 
 
+def test_the_behaviors_see_each_robot_state_as_the_systems_type_itself(
+    record_probe: RecordFn,
+) -> None:
+    """RS_t decoded as the checking subclass (every field the log records required) is
+    made the system's type before the behaviors see it, where nothing is converted."""
+    seen: list[Any] = []
+    result = replay(
+        record_probe(40), probe_system(), invariants=[lambda cycle: seen.append(cycle.robot_state)]
+    )
+
+    assert result.ok
+    assert {type(state) for state in seen} == {Probe}
+    assert [state.distance for state in seen[:2]] == [1.0, 0.98]
+
+
 def test_the_behaviors_see_a_retyped_field_converted(record_probe: RecordFn) -> None:
     log = record_probe(120)
     migration = StateMigration(conversions={"distance": "tests.systems:centimetres"})
