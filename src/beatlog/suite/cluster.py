@@ -38,15 +38,7 @@ from beatlog.suite.packing import fetched_ahead, tasks
 from beatlog.suite.parallel import longest_first
 from beatlog.suite.remote import Listed
 from beatlog.suite.runner import SpecOutcome, Verdict
-from beatlog.suite.shipping import (
-    Packed,
-    absolute,
-    as_given,
-    packed,
-    received,
-    replayed,
-    shipped,
-)
+from beatlog.suite.shipping import Packed, absolute, as_given, packed, received, replayed, shipped
 from beatlog.suite.spec import DtcSpec
 
 if TYPE_CHECKING:
@@ -69,16 +61,12 @@ CLUSTER_SETTINGS = {
     "distributed.admin.system-monitor.interval": "5s",
     "distributed.admin.system-monitor.disk": False,
 }
-"""The settings of the cluster ``local`` starts, worth a cluster's own too. Dask's
-profiler, sampling a worker's threads every 10 ms for its dashboard, costs 0.5-0.9 ms of
-CPU a DTC of a 3-s rover log, whose replay takes 3 ms. A saturation of 1 gives a worker
-no task beyond one a thread, also while another worker restarts (Dask's 1.1 gives a
-worker of one thread two): a DTC that kills its worker takes no waiting task with it.
-Each process's check that its event loop is not blocked once a second (Dask's: every
-20 ms, only to log a warning), and the dashboard's samples of CPU and memory every 5 s
-with no disk counters (Dask's: every 0.5 s), cut what a cluster of two workers costs
-while it runs from 50-60 ms of CPU a second to about 18 ms in the client's process, and
-from 20 to 7 ms in each worker's."""
+"""The settings of the cluster ``local`` starts, worth a cluster's own too. The profiler
+(every 10 ms) costs 0.5-0.9 ms of CPU a DTC of a 3-s rover log, which replays in 3 ms; the
+event-loop check every 20 ms and dashboard samples every 0.5 s cost each process 13-40 ms
+a second. A saturation of 1 gives a worker no task beyond one a thread, also while
+another restarts (Dask's 1.1 gives a worker of one thread two): a DTC that kills its
+worker takes no waiting task with it."""
 
 NO_WORKERS_S = 60.0
 """How long a run waits on a cluster with no workers before it ends: long enough for
