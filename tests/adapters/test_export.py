@@ -15,6 +15,7 @@ import math
 import platform
 import re
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal, NamedTuple
 
@@ -50,7 +51,14 @@ from tests.bags import (
 from tests.commands import Beatlog, assert_error, assert_error_matching, cannot_import
 from tests.conftest import PERIOD_NS, Dice, Near, Probe, RecordFn, distances, probe_system
 from tests.crafting import Message as LogMessage
-from tests.crafting import craft_log, cycle, cycle_messages, end_message, header_message
+from tests.crafting import (
+    craft_log,
+    cycle,
+    cycle_messages,
+    deeply_nested,
+    end_message,
+    header_message,
+)
 from tests.marks import one_by_default
 from tests.perceptions import record_with_samples
 from tests.systems import record_scatter
@@ -1607,6 +1615,12 @@ def test_a_log_time_past_what_mcap_can_stamp_is_one_line(beatlog: Beatlog, tmp_p
     assert not output.exists()
 
 
+def one_cycle_log(path: Path, record: list[Any], **header: Any) -> Path:
+    """A complete log of the one cycle ``record``, its header changed by ``header``."""
+    batch = LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, [record]]))
+    return craft_log(path, [header_message(**header), batch, end_message(1)])
+
+
 # How deep a value may nest before reading or writing it runs out of recursion depends on
 # the interpreter (Python 3.12 reads deeper than 3.11), so these walk depths across both
 # bounds: each export writes its file or refuses in one line, and some depth passes the
@@ -1615,45 +1629,32 @@ NESTINGS = (500, 700, 1000, 1200, 1500, 3000, 100_000)
 READER_REFUSES = "damaged the batch after cycle 0: maximum recursion depth exceeded"
 
 
-def exported_or_refused(beatlog: Beatlog, log: Path, output: Path) -> str:
-    """``export`` of ``log`` to ``output``: "" when it wrote the file, or the one line of
-    its refusal, having left no file."""
-    run = beatlog("export", log, "-o", output)
-    if run.code == 0:
-        assert output.exists()
-        return ""
-    assert (run.code, run.out, run.err.count("\n")) == (2, "", 1), run
-    assert not output.exists()
-    return run.err.removeprefix(f"beatlog: error: {log}: ").rstrip()
+def refusals_across_nestings(
+    beatlog: Beatlog, tmp_path: Path, log_of: Callable[[Path, msgspec.Raw], Path]
+) -> set[str]:
+    """What ``export`` said of the log ``log_of`` writes holding a value nested each of
+    :data:`NESTINGS` deep, up to any " while ...": "" where it wrote the file, or the one
+    line of its refusal, having left no file."""
+    refusals = set()
+    for depth in NESTINGS:
+        log = log_of(tmp_path / f"deep{depth}.beatlog", deeply_nested(depth))
+        output = tmp_path / f"deep{depth}.mcap"
+        run = beatlog("export", log, "-o", output)
+        assert (run.code, run.out, run.err.count("\n")) in [(0, run.out, 0), (2, "", 1)], run
+        assert output.exists() is (run.code == 0)
+        refusal = run.err.removeprefix(f"beatlog: error: {log}: ").rstrip()
+        refusals.add(refusal.split(" while ")[0])
+    return refusals
 
 
 def test_a_sample_nested_too_deep_is_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
-    refusals = set()
-    for depth in NESTINGS:
-        deep = msgspec.Raw(b"\x91" * depth + b"\xc0")  # a list in a list ... depth deep
-        records = [cycle(samples=[["sonar", 0, deep]])]
-        log = craft_log(
-            tmp_path / f"deep{depth}.beatlog",
-            [
-                header_message(samples_logged=True),
-                LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, records])),
-                end_message(1),
-            ],
-        )
-        refusals.add(exported_or_refused(beatlog, log, tmp_path / f"deep{depth}.mcap"))
+    def log_of(path: Path, deep: msgspec.Raw) -> Path:
+        return one_cycle_log(path, cycle(samples=[["sonar", 0, deep]]), samples_logged=True)
+
+    refusals = refusals_across_nestings(beatlog, tmp_path, log_of)
 
     assert "a sample of cycle 0 is nested too deep" in refusals
-    assert {refusal.split(" while ")[0] for refusal in refusals} <= {
-        "",
-        "a sample of cycle 0 is nested too deep",
-        READER_REFUSES,
-    }
-
-
-def one_cycle_log(path: Path, record: list[Any]) -> Path:
-    """A complete log of the one cycle ``record``."""
-    batch = LogMessage(CYCLES_TOPIC, PERIOD_NS, msgspec.msgpack.encode([0, [record]]))
-    return craft_log(path, [header_message(), batch, end_message(1)])
+    assert refusals <= {"", "a sample of cycle 0 is nested too deep", READER_REFUSES}
 
 
 @pytest.mark.parametrize("suffix", [".mcap", ".parquet", ".csv"])
@@ -1680,18 +1681,13 @@ def test_a_map_keyed_by_bytes_is_json_text_keyed_by_the_keys_json_text(tmp_path:
 
 
 def test_outputs_nested_too_deep_for_json_are_one_line(beatlog: Beatlog, tmp_path: Path) -> None:
-    refusals = set()
-    for depth in NESTINGS:
-        deep = msgspec.Raw(b"\x91" * depth + b"\xc0")  # a list in a list ... depth deep
-        log = one_cycle_log(tmp_path / f"deep{depth}.beatlog", cycle(outputs={"plan": deep}))
-        refusals.add(exported_or_refused(beatlog, log, tmp_path / f"deep{depth}.mcap"))
+    def log_of(path: Path, deep: msgspec.Raw) -> Path:
+        return one_cycle_log(path, cycle(outputs={"plan": deep}))
+
+    refusals = refusals_across_nestings(beatlog, tmp_path, log_of)
 
     assert "cycle 0 cannot be written as JSON: nested too deep" in refusals
-    assert {refusal.split(" while ")[0] for refusal in refusals} <= {
-        "",
-        "cycle 0 cannot be written as JSON: nested too deep",
-        READER_REFUSES,
-    }
+    assert refusals <= {"", "cycle 0 cannot be written as JSON: nested too deep", READER_REFUSES}
 
 
 def test_a_log_of_array_draws_exports_without_numpy(
