@@ -233,6 +233,12 @@ def dying_system() -> PriorityArbiter[Probe]:
     os._exit(3)
 
 
+def interrupted_system() -> PriorityArbiter[Probe]:
+    """A system factory interrupted as Ctrl-C interrupts a process, which reaches a
+    worker through the audit interpreters it started."""
+    raise KeyboardInterrupt
+
+
 BREAKS: list[dict[str, Any]] = []
 """What :func:`record_breakpoint` saw at each stop of the replay debugger."""
 

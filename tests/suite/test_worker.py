@@ -79,3 +79,12 @@ def test_a_worker_that_dies_is_reported_not_waited_for(
 
     with Worker() as worker, pytest.raises(WorkerLostError, match=r"\(exit 3\)"):
         worker.run(dying, SpecOptions())
+
+
+def test_a_worker_interrupted_by_ctrl_c_interrupts_its_runner(
+    tmp_path: Path, record_probe: RecordFn
+) -> None:
+    interrupted = spec(tmp_path, "stopped", record_probe(30), "tests.conftest:interrupted_system")
+
+    with Worker() as worker, pytest.raises(KeyboardInterrupt):
+        worker.run(interrupted, SpecOptions())

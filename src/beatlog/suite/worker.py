@@ -37,6 +37,9 @@ _READY = b"ready"
 STOP_S = 5.0
 """How long a worker asked to stop may take to unwind its work (remove a download's copy,
 close a log) before it is killed; a busy machine needs more than a second or two."""
+INTERRUPTED = 128 + signal.SIGINT
+"""A worker's exit code when its work was interrupted: stopped by its runner, or Ctrl-C
+reached a process it started (an audit interpreter) before it reached the runner."""
 
 
 class WorkerLostError(BeatlogError):
@@ -78,6 +81,7 @@ class Worker(Closing):
         :func:`~beatlog.suite.runner.run_spec`.
 
         :raises WorkerLostError: the worker ended before it answered.
+        :raises KeyboardInterrupt: Ctrl-C interrupted the worker's work.
         :raises RuntimeError: ``run_spec`` raised in the worker (a programming error).
         """
         self.wait_ready()
@@ -97,8 +101,10 @@ class Worker(Closing):
         except EOFError:
             raise self._lost() from None
 
-    def _lost(self) -> WorkerLostError:
+    def _lost(self) -> BaseException:
         code = self._process.wait()
+        if code == INTERRUPTED and not self._stopped:  # Ctrl-C, on its way to the runner
+            return KeyboardInterrupt()
         if code >= 0:
             return WorkerLostError(f"the worker process ended (exit {code})")
         name = next((known.name for known in signal.Signals if known == -code), f"signal {-code}")
@@ -184,12 +190,13 @@ def main() -> None:
         with os.fdopen(int(tasks), "rb") as inbox, os.fdopen(int(answers), "wb") as outbox:
             serve(inbox, outbox)
     except KeyboardInterrupt:
-        # Stopped, its work unwound: end at once, since a download it stopped can leave a
-        # read scheduled on fsspec's event-loop thread and never started, which the
-        # interpreter's usual ending would report as a coroutine never awaited.
+        # Stopped, or Ctrl-C reached an audit interpreter first; its work unwound. End at
+        # once, since a download it stopped can leave a read scheduled on fsspec's
+        # event-loop thread and never started, which the interpreter's usual ending would
+        # report as a coroutine never awaited.
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(0)
+        os._exit(INTERRUPTED)
 
 
 if __name__ == "__main__":
