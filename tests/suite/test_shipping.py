@@ -4,6 +4,7 @@ folder, messages naming them as here, and one line for a worker without the syst
 
 from __future__ import annotations
 
+import dataclasses
 import pickle
 import shutil
 from pathlib import Path
@@ -90,6 +91,19 @@ def test_a_fleet_log_ships_alone(checkout: Path) -> None:
     shipped = packed(spec)
 
     assert list(shipped.files) == ["logs/walk.beatlog"]
+
+
+def test_a_fleet_log_behind_a_url_goes_as_it_is_and_a_local_one_with_absolute_paths(
+    checkout: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(checkout)
+    [local] = fleet_specs("logs/*.beatlog", system=CHANGED)
+    url = "s3://fleet/logs/walk.beatlog"
+    behind_url = dataclasses.replace(local, log=Path("walk.beatlog"), source=url, log_url=url)
+
+    assert absolute(behind_url) is behind_url  # it reads no file here
+    sent = absolute(local)
+    assert (sent.path, sent.log) == (checkout / "logs/walk.beatlog",) * 2
 
 
 def test_a_tasks_outcomes_come_back_without_their_specs(checkout: Path) -> None:

@@ -215,7 +215,10 @@ def _relative(path: Path, root: Path) -> Path:
 
 def absolute(spec: DtcSpec) -> DtcSpec:
     """The spec with absolute paths, for a worker whose working folder is not ours (a
-    log behind a URL is named by its URL alone)."""
+    log behind a URL is named by its URL alone); a fleet's log behind a URL, which reads
+    no file here, as it is."""
+    if spec.log_url is not None and spec.spec_file is None:
+        return spec
     log = spec.log if spec.log_url is not None else spec.log.absolute()
     return dataclasses.replace(spec, path=spec.path.absolute(), log=log)
 
