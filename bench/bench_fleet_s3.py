@@ -10,7 +10,9 @@ worker timed it) against the fleet's wall time per worker, the time the DTCs spe
 waiting for storage, the server's requests by method a log, and the bytes of logs the
 server sent; then the same run again on a fresh cluster, which must fetch no log again
 (the machine's cache of logs) nor ask the server anything of one, ``--reruns`` times,
-each against the replays' CPU in one process measured just before and just after it.
+each against the replays' CPU in one process measured just before and just after it, and
+against the wall time of the same replays in W processes at once without a cluster (what
+the cores give when all of them replay: shared caches, clocks and threads of one core).
 
 Needs ``pip install s3fs "moto[server]"``. Run it as ``python bench/bench_fleet_s3.py
 [--logs N] [--workers W] [--latency-ms L] [--seconds S] [--reruns R]``.
@@ -22,6 +24,7 @@ import argparse
 import collections
 import io
 import logging
+import multiprocessing
 import os
 import resource
 import statistics
@@ -29,6 +32,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -178,6 +182,24 @@ def replay_cpu(specs: list[DtcSpec]) -> float:
     return time.process_time() - started
 
 
+def _replayed(specs: list[DtcSpec]) -> None:
+    """Replay ``specs`` one after another in this process; each must pass."""
+    for spec in specs:
+        assert run_spec(spec, SpecOptions()).verdict is Verdict.PASSED
+
+
+def parallel_wall(specs: list[DtcSpec], workers: int) -> float:
+    """The wall seconds of replaying ``specs`` in ``workers`` processes at once, from the
+    machine's cache of logs, without a cluster: what the cores give when all replay
+    (shared caches and clocks), after each process has replayed one DTC to warm up."""
+    chunks = [specs[start::workers] for start in range(workers)]
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        list(pool.map(_replayed, [chunk[:1] for chunk in chunks]))
+        started = time.perf_counter()
+        list(pool.map(_replayed, chunks))
+        return time.perf_counter() - started
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--logs", type=int, default=1000, help="logs in the fleet")
@@ -217,15 +239,20 @@ def main() -> None:
         runs = {"first run": run_fleet(args.workers, delayed)}
         specs = fleet_specs(f"s3://{BUCKET}/fleet/*.beatlog", system=ROVER)
         cpus = [replay_cpu(specs)]  # before and after each rerun: the machine's speed drifts
+        walls = [parallel_wall(specs, args.workers)]
         for rerun in range(1, args.reruns + 1):
             runs[f"rerun {rerun}"] = run_fleet(args.workers, delayed)
             cpus.append(replay_cpu(specs))
+            walls.append(parallel_wall(specs, args.workers))
         for run, figures in runs.items():
             print(run + ": " + ", ".join(f"{k} {v:.3g}" for k, v in figures.items()), file=out)
         print(
             "replays in one process, from the cache, before and after each rerun: "
             + ", ".join(f"{cpu / len(specs) * 1000:.3g}" for cpu in cpus)
-            + " ms CPU a DTC",
+            + " ms CPU a DTC; in "
+            + f"{args.workers} processes at once, without a cluster: "
+            + ", ".join(f"{wall:.3g}" for wall in walls)
+            + " s wall",
             file=out,
         )
         for rerun in range(1, args.reruns + 1):
@@ -235,8 +262,10 @@ def main() -> None:
             whole = figures["start-up s"] + fleet
             target = 1.3 * cpu / args.workers + figures["start-up s"]
             ratio = fleet / (cpu / args.workers)
+            parallel = (walls[rerun - 1] + walls[rerun]) / 2
             print(
-                f"rerun {rerun}: fleet wall / (replay CPU / workers) {ratio:.3g}; "
+                f"rerun {rerun}: fleet wall / (replay CPU / workers) {ratio:.3g}, "
+                f"/ the replays in {args.workers} processes at once {fleet / parallel:.3g}; "
                 f"start-up and fleet {whole:.3g} s against 1.3 x replay CPU / workers + start-up "
                 f"{target:.3g} s ({'met' if whole <= target else 'not met'})",
                 file=out,
