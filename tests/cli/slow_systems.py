@@ -6,6 +6,7 @@ Each process that steps one creates a file named after its pid in the folder tha
 
 from __future__ import annotations
 
+import asyncio
 import os
 import time
 from pathlib import Path
@@ -43,3 +44,15 @@ def slow_system() -> SlowArbiter:
 def slow_in_audit_system() -> SlowArbiter:
     """Replays at full speed, but slowly in the audit's fresh interpreters."""
     return SlowArbiter(only_in_audit=True)
+
+
+def abandoning_system() -> SlowArbiter:
+    """Waits for Ctrl-C holding a coroutine it never awaits, and drops it as the
+    interruption unwinds, as a download that Ctrl-C stops drops fsspec's read."""
+    abandoned = asyncio.sleep(0)
+    try:
+        (Path(os.environ[MARKERS]) / str(os.getpid())).touch()
+        time.sleep(60)
+    finally:
+        del abandoned
+    return SlowArbiter()

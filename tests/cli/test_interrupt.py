@@ -25,6 +25,7 @@ from tests.text import table_row, whole_lines
 
 SLOW = "tests.cli.slow_systems:slow_system"
 SLOW_IN_AUDIT = "tests.cli.slow_systems:slow_in_audit_system"
+ABANDONING = "tests.cli.slow_systems:abandoning_system"
 
 
 @pytest.fixture
@@ -157,6 +158,14 @@ def test_ctrl_c_stops_a_replay(
 
     assert_stopped(run)
     assert run.out == ""
+
+
+def test_ctrl_c_warns_of_nothing_it_abandoned(
+    press_ctrl_c: Callable[..., Run], record_probe: RecordFn, markers: Path
+) -> None:
+    run = press_ctrl_c(["replay", record_probe(30), "--system", ABANDONING], marked(markers))
+
+    assert (run.code, run.err) == (130, "beatlog: interrupted\n")
 
 
 @pytest.mark.slow  # 2 s or more: CI's slow run has it

@@ -29,6 +29,7 @@ from beatlog.log.format import payload_encoder
 from beatlog.model.behavior import System
 from beatlog.model.context import Context
 from beatlog.model.source import RandomSource
+from beatlog.project.interpreters import take_ctrl_c
 from beatlog.project.leaks import LeakScreen, LeakWatch, built_watched
 from beatlog.project.usercode import load_system
 from beatlog.replay.fit.migration import StateMigration
@@ -118,6 +119,7 @@ def _replay(request: Request, watch: LeakWatch | LeakScreen | None) -> Answer:
 def main() -> None:
     """Replay each request read from stdin and answer each as a JSON line on stdout."""
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+    take_ctrl_c()
     lifeline, *path = sys.argv[1:]
     sys.path[:] = path
     threading.Thread(target=_exit_when_orphaned, args=(int(lifeline),), daemon=True).start()

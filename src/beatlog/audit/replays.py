@@ -28,6 +28,7 @@ import msgspec
 
 from beatlog.errors import BeatlogError
 from beatlog.log.files import Closing
+from beatlog.project.interpreters import start_interpreter
 from beatlog.project.leaks import Finding
 from beatlog.replay.fit.migration import StateMigration
 from beatlog.replay.verdict import DivergenceKind
@@ -193,8 +194,9 @@ class _Auditor:
         lifeline, self._held = os.pipe()
         self._errors: IO[bytes] = tempfile.TemporaryFile(mode="a+b")  # noqa: SIM115 - closed by close()
         try:
-            self._process = subprocess.Popen(
-                [sys.executable, "-m", "beatlog.audit", str(lifeline), *sys.path],
+            self._process = start_interpreter(
+                "beatlog.audit",
+                [str(lifeline), *sys.path],
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
                 stderr=self._errors,

@@ -36,7 +36,7 @@ __all__ = ["EXIT_CODES", "build_parser", "main"]
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the exit code (the console script exits with it)."""
     verbose = False
-    with _terminated_as_interrupted() as terminated:
+    with _signals_as_interrupts() as terminated:
         try:
             args = build_parser().parse_args(argv)
             verbose = args.verbose
@@ -53,8 +53,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             print_error(str(exc), exc.user_traceback if verbose else None)
             return EXIT_USAGE
         except KeyboardInterrupt as stop:
-            # what the interruption abandoned (an async download's read) is not the user's
-            warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
             if terminated.is_set():
                 print("beatlog: terminated", file=sys.stderr)
                 return EXIT_TERMINATED
@@ -98,25 +96,34 @@ def _interruption(stop: KeyboardInterrupt) -> str:
 
 
 @contextlib.contextmanager
-def _terminated_as_interrupted() -> Iterator[threading.Event]:
+def _signals_as_interrupts() -> Iterator[threading.Event]:
     """While the block runs, SIGTERM stops the command as Ctrl-C does (a
     ``KeyboardInterrupt``, so what it holds is cleaned up: a log closed, downloaded
-    copies removed); the event given is set once it came. Only the main thread can
-    handle signals: elsewhere SIGTERM is left as it is."""
+    copies removed); the event given is set once it came. From either signal on, what
+    the interruption abandons (an async download's read, scheduled and never started)
+    is not the user's: no warning of a coroutine never awaited, also while the block
+    unwinds. Only the main thread can handle signals: elsewhere they are left as they
+    are, and so is a Ctrl-C this process was started deaf to."""
     terminated = threading.Event()
     if threading.current_thread() is not threading.main_thread():
         yield terminated
         return
 
     def interrupt(signum: int, frame: FrameType | None) -> None:
-        terminated.set()
+        warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
+        if signum == signal.SIGTERM:
+            terminated.set()
         raise KeyboardInterrupt
 
-    previous = signal.signal(signal.SIGTERM, interrupt)
+    handled = [signal.SIGTERM]
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        handled.append(signal.SIGINT)
+    previous = {signum: signal.signal(signum, interrupt) for signum in handled}
     try:
         yield terminated
     finally:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
 
 
 if __name__ == "__main__":

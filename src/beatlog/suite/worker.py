@@ -23,6 +23,7 @@ from typing import IO, TYPE_CHECKING, Any, cast
 
 from beatlog.errors import BeatlogError
 from beatlog.log.files import Closing
+from beatlog.project.interpreters import start_interpreter, take_ctrl_c
 
 if TYPE_CHECKING:
     from beatlog.audit.replays import Auditors
@@ -54,8 +55,9 @@ class Worker(Closing):
         task_read, task_write = os.pipe()
         answer_read, answer_write = os.pipe()
         try:
-            self._process = subprocess.Popen(
-                [sys.executable, "-m", __name__, str(task_read), str(answer_write), *sys.path],
+            self._process = start_interpreter(
+                __name__,
+                [str(task_read), str(answer_write), *sys.path],
                 pass_fds=(task_read, answer_write),
             )
         except BaseException:
@@ -184,6 +186,7 @@ def main() -> None:
     starts, audit replays, are not born deaf to Ctrl-C)."""
     signal.signal(signal.SIGINT, _do_nothing)
     signal.signal(signal.SIGTERM, _interrupt)
+    take_ctrl_c()
     tasks, answers, *path = sys.argv[1:]
     sys.path[:] = path
     try:
