@@ -108,6 +108,21 @@ def test_ctrl_c_stops_a_suite_and_prints_what_is_complete(
     assert closing_counts(run.out) == "1 passed, 1 failed, 2 not run"
 
 
+@pytest.mark.slow  # a local cluster starts in seconds: CI's slow run has it
+@pytest.mark.parametrize("when", ["starting", "replaying"])
+def test_ctrl_c_stops_a_suite_on_a_local_cluster_in_one_line(
+    suite: Path, markers: Path, tmp_path: Path, when: str
+) -> None:
+    scratch = tmp_path / "scratch"  # where the cluster's workers make their folders
+    scratch.mkdir()
+    env = {**os.environ, MARKERS: str(markers), "TMPDIR": str(scratch)}
+    ready = marked(markers, 2) if when == "replaying" else lambda: any(scratch.rglob("worker-*"))
+
+    run = signalled(["test", "--dask", "local:2", suite], ready, signal.SIGINT, env=env, group=True)
+
+    assert (run.code, run.err) == (130, "beatlog: interrupted\n")
+
+
 @pytest.mark.parametrize("jobs", ["1", pytest.param("2", marks=pytest.mark.slow)])
 def test_ctrl_c_stops_the_audit_interpreters(
     press_ctrl_c: Callable[..., Run],

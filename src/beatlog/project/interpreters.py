@@ -1,17 +1,22 @@
 """The interpreters beatlog starts to run the user's code in (suite workers, audit
-replays), and how Ctrl-C meets them. Each is born with Ctrl-C held back and takes it only
-once it has said what Ctrl-C does there (:func:`take_ctrl_c`): a Ctrl-C pressed while
-one is still importing neither ends it with a traceback nor goes unheard; it waits."""
+replays, a local Dask cluster's processes), and how Ctrl-C meets them. Each is born with
+Ctrl-C held back: ours take it once they have said what Ctrl-C does there
+(:func:`take_ctrl_c`), so a Ctrl-C pressed while one is still importing neither ends it
+with a traceback nor goes unheard; a local cluster's leave it to this process, which
+stops them (:func:`ctrl_c_deferred`)."""
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import subprocess
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
+from types import FrameType
 from typing import Any
 
-__all__ = ["start_interpreter", "take_ctrl_c"]
+__all__ = ["ctrl_c_deferred", "start_interpreter", "take_ctrl_c"]
 
 
 def start_interpreter(module: str, args: Sequence[str], **popen: Any) -> subprocess.Popen[bytes]:
@@ -30,3 +35,43 @@ def take_ctrl_c() -> None:
     """In an interpreter :func:`start_interpreter` started, once its SIGINT handler is set:
     let Ctrl-C reach it, one pressed while it started included."""
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+@contextlib.contextmanager
+def ctrl_c_deferred() -> Iterator[None]:
+    """While the block runs, the processes it starts (through the threads it starts too)
+    are born with Ctrl-C blocked, leaving it to this process; and a Ctrl-C or SIGTERM
+    that comes meanwhile stops this process only as the block ends, as it would have then.
+    For a start-up that, cut half-way, leaves what cannot be closed (a local Dask
+    cluster's). A second one does not wait. Only the main thread handles signals:
+    elsewhere the processes are born deaf all the same, and signals come as they come."""
+    from multiprocessing import resource_tracker  # noqa: PLC0415 - not in the replay's workers
+
+    resource_tracker.ensure_running()  # its first start unblocks Ctrl-C in its thread
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    if threading.current_thread() is not threading.main_thread():
+        try:
+            yield
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        return
+    came: list[int] = []
+
+    def restore() -> None:
+        for signum, handler in previous.items():
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+
+    def defer(signum: int, frame: FrameType | None) -> None:
+        came.append(signum)
+        if len(came) > 1:  # asked again: no more waiting
+            restore()
+            signal.raise_signal(signum)
+
+    previous = {signum: signal.signal(signum, defer) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)  # one held back comes now, deferred
+        restore()
+        if len(came) == 1:
+            signal.raise_signal(came[0])

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 from beatlog.errors import ClusterError, first_line
 from beatlog.log.files import Closing
+from beatlog.project.interpreters import ctrl_c_deferred
 from beatlog.suite.packing import fetched_ahead, tasks
 from beatlog.suite.parallel import longest_first
 from beatlog.suite.remote import Listed
@@ -112,7 +113,7 @@ class DaskExecutor(Closing):
                 self._client = Client(address, set_as_default=False)
             else:
                 workers = None if local.group(1) is None else int(local.group(1))
-                with dask.config.set(CLUSTER_SETTINGS):
+                with dask.config.set(CLUSTER_SETTINGS), ctrl_c_deferred():
                     self._cluster = LocalCluster(
                         n_workers=workers,
                         threads_per_worker=1,
@@ -122,11 +123,12 @@ class DaskExecutor(Closing):
                     )
                 self._client = Client(self._cluster, set_as_default=False)
             self._client.subscribe_topic("all", self._deaths.seen)
-        except (OSError, ValueError) as exc:  # TimeoutError is an OSError
+        except BaseException as exc:  # Ctrl-C too: what was started is stopped
             self.close()
-            raise ClusterError(
-                f"--dask {address}: cannot reach the cluster: {first_line(exc)}"
-            ) from None
+            if isinstance(exc, OSError | ValueError):  # TimeoutError is an OSError
+                problem = f"cannot reach the cluster: {first_line(exc)}"
+                raise ClusterError(f"--dask {address}: {problem}") from None
+            raise
 
     def __call__(
         self,
