@@ -14,7 +14,6 @@ import os
 import signal
 import sys
 import threading
-import warnings
 from collections.abc import Iterator, Sequence
 from types import FrameType
 
@@ -29,6 +28,7 @@ from beatlog.cli.common import (
     print_error,
 )
 from beatlog.errors import BeatlogError
+from beatlog.project.interpreters import quiet_abandoned_reads
 
 __all__ = ["EXIT_CODES", "build_parser", "main"]
 
@@ -110,7 +110,7 @@ def _signals_as_interrupts() -> Iterator[threading.Event]:
         return
 
     def interrupt(signum: int, frame: FrameType | None) -> None:
-        warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
+        quiet_abandoned_reads()
         if signum == signal.SIGTERM:
             terminated.set()
         raise KeyboardInterrupt

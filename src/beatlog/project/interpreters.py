@@ -12,11 +12,22 @@ import signal
 import subprocess
 import sys
 import threading
+import warnings
 from collections.abc import Iterator, Sequence
 from types import FrameType
 from typing import Any
 
-__all__ = ["ctrl_c_deferred", "start_interpreter", "take_ctrl_c"]
+__all__ = ["ctrl_c_deferred", "quiet_abandoned_reads", "start_interpreter", "take_ctrl_c"]
+
+
+@contextlib.contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """While the block runs, this thread holds SIGINT back (one that comes for it waits)."""
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 def start_interpreter(module: str, args: Sequence[str], **popen: Any) -> subprocess.Popen[bytes]:
@@ -24,17 +35,21 @@ def start_interpreter(module: str, args: Sequence[str], **popen: Any) -> subproc
     :class:`subprocess.Popen`, born with SIGINT blocked (a child inherits the blocked
     signals of the thread that starts it). This process still gets a Ctrl-C meanwhile:
     only this thread holds it back, and only until the child is started."""
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
+    with _sigint_blocked():
         return subprocess.Popen([sys.executable, "-m", module, *args], **popen)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 def take_ctrl_c() -> None:
     """In an interpreter :func:`start_interpreter` started, once its SIGINT handler is set:
     let Ctrl-C reach it, one pressed while it started included."""
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def quiet_abandoned_reads() -> None:
+    """From now on, no warning of a coroutine never awaited: once Ctrl-C or SIGTERM has
+    come, what the interruption abandons (an async download's read, scheduled and never
+    started) is not the user's. Called by the handler, before the interruption unwinds."""
+    warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
 
 
 @contextlib.contextmanager
@@ -48,12 +63,9 @@ def ctrl_c_deferred() -> Iterator[None]:
     from multiprocessing import resource_tracker  # noqa: PLC0415 - not in the replay's workers
 
     resource_tracker.ensure_running()  # its first start unblocks Ctrl-C in its thread
-    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     if threading.current_thread() is not threading.main_thread():
-        try:
+        with _sigint_blocked():
             yield
-        finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, held)
         return
     came: list[int] = []
 
@@ -69,9 +81,9 @@ def ctrl_c_deferred() -> Iterator[None]:
 
     previous = {signum: signal.signal(signum, defer) for signum in (signal.SIGINT, signal.SIGTERM)}
     try:
-        yield
+        with _sigint_blocked():  # one held back comes as the block ends, deferred
+            yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)  # one held back comes now, deferred
         restore()
         if len(came) == 1:
             signal.raise_signal(came[0])

@@ -17,13 +17,12 @@ import signal
 import subprocess
 import sys
 import traceback
-import warnings
 from types import FrameType
 from typing import IO, TYPE_CHECKING, Any, cast
 
 from beatlog.errors import BeatlogError
 from beatlog.log.files import Closing
-from beatlog.project.interpreters import start_interpreter, take_ctrl_c
+from beatlog.project.interpreters import quiet_abandoned_reads, start_interpreter, take_ctrl_c
 
 if TYPE_CHECKING:
     from beatlog.audit.replays import Auditors
@@ -174,7 +173,7 @@ def _interrupt(signum: int, frame: FrameType | None) -> None:
     the signal again lets the worker unwind. A download it stops (fsspec's HTTP reads
     are coroutines) is dropped unawaited, which is what stopping means: not a warning."""
     signal.signal(signum, _do_nothing)
-    warnings.filterwarnings("ignore", "coroutine .* was never awaited", RuntimeWarning)
+    quiet_abandoned_reads()
     raise KeyboardInterrupt
 
 
